@@ -1,0 +1,38 @@
+"""The exception hierarchy of uqguide.
+
+Every error uqguide raises on purpose derives from :class:`UqguideError`; ``cli.py`` maps
+:class:`ConfigError` (bad user input) to exit code 2 and other :class:`UqguideError` to 1.
+"""
+
+from __future__ import annotations
+
+
+class UqguideError(Exception):
+    """Base class of every error uqguide raises on purpose."""
+
+
+class ConfigError(UqguideError):
+    """The user's input (config file, command-line value) is invalid.
+
+    The message names the field path, the value given and what is allowed, on one line.
+    """
+
+    def __init__(self, message: str, *, field: str | None = None) -> None:
+        super().__init__(message)
+        self.field = field
+
+
+class ModelError(UqguideError):
+    """A model was used against its contract (wrong input shape, unknown input or output name).
+
+    A sample whose integration fails is *not* a ModelError: it is flagged in
+    ``ModelOutput.failed`` with a reason.
+    """
+
+
+class MethodError(UqguideError):
+    """A propagation method cannot produce statistics (e.g. too many failed runs for a PCE)."""
+
+
+class ResultError(UqguideError):
+    """A result file or baseline is missing, corrupt, or does not match what was asked of it."""

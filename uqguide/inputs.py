@@ -1,0 +1,203 @@
+"""Uncertain inputs: marginal distributions, the joint distribution and the map from the unit cube.
+
+Each input is independent unless the config gives a correlation matrix for a group of normal
+inputs (uq-methods.md section 2). Designs are drawn on the unit hypercube and mapped to physical
+values by the inverse CDF of each marginal; a correlated normal group is mapped through the
+Cholesky factor of its correlation matrix (the Nataf map, exact for normals).
+
+The chaospy joint distribution (``InputSpace.joint``) is what the PCE methods build their
+orthogonal polynomials and quadrature on.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Annotated, Literal, Union
+
+import chaospy
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
+from scipy import special, stats
+
+
+class _Marginal(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = Field(min_length=1)
+
+    def to_chaospy(self) -> chaospy.Distribution:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def moments(self) -> tuple[float, float]:  # pragma: no cover - abstract
+        """Mean and standard deviation."""
+        raise NotImplementedError
+
+
+class Normal(_Marginal):
+    """Normal ``N(mean, std^2)``."""
+
+    dist: Literal["normal"]
+    mean: float = 0.0
+    std: PositiveFloat
+
+    def to_chaospy(self) -> chaospy.Distribution:
+        return chaospy.Normal(self.mean, self.std)
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        return self.mean + self.std * special.ndtri(u)
+
+    def moments(self) -> tuple[float, float]:
+        return self.mean, self.std
+
+
+class Uniform(_Marginal):
+    """Uniform on ``[low, high]``."""
+
+    dist: Literal["uniform"]
+    low: float
+    high: float
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Uniform:
+        if not self.high > self.low:
+            raise ValueError(f"high must be greater than low, got low={self.low}, high={self.high}")
+        return self
+
+    def to_chaospy(self) -> chaospy.Distribution:
+        return chaospy.Uniform(self.low, self.high)
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        return self.low + (self.high - self.low) * u
+
+    def moments(self) -> tuple[float, float]:
+        return 0.5 * (self.low + self.high), (self.high - self.low) / np.sqrt(12.0)
+
+
+class LogNormal(_Marginal):
+    """Lognormal: ``exp(N(mu, sigma^2))``; ``mu`` and ``sigma`` are those of the logarithm."""
+
+    dist: Literal["lognormal"]
+    mu: float = 0.0
+    sigma: PositiveFloat
+
+    def to_chaospy(self) -> chaospy.Distribution:
+        return chaospy.LogNormal(self.mu, self.sigma)
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        return np.exp(self.mu + self.sigma * special.ndtri(u))
+
+    def moments(self) -> tuple[float, float]:
+        m = np.exp(self.mu + self.sigma**2 / 2)
+        return float(m), float(m * np.sqrt(np.expm1(self.sigma**2)))
+
+
+class TruncNormal(_Marginal):
+    """Normal ``N(mean, std^2)`` truncated to ``[low, high]``."""
+
+    dist: Literal["truncnormal"]
+    mean: float = 0.0
+    std: PositiveFloat
+    low: float
+    high: float
+
+    @model_validator(mode="after")
+    def _ordered(self) -> TruncNormal:
+        if not self.high > self.low:
+            raise ValueError(f"high must be greater than low, got low={self.low}, high={self.high}")
+        return self
+
+    def _scipy(self):
+        a, b = (self.low - self.mean) / self.std, (self.high - self.mean) / self.std
+        return stats.truncnorm(a, b, loc=self.mean, scale=self.std)
+
+    def to_chaospy(self) -> chaospy.Distribution:
+        return chaospy.TruncNormal(self.low, self.high, self.mean, self.std)
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        return self._scipy().ppf(u)
+
+    def moments(self) -> tuple[float, float]:
+        d = self._scipy()
+        return float(d.mean()), float(d.std())
+
+
+Marginal = Annotated[Union[Normal, Uniform, LogNormal, TruncNormal], Field(discriminator="dist")]
+DISTRIBUTIONS = ("normal", "uniform", "lognormal", "truncnormal")
+
+
+@dataclass(frozen=True)
+class CorrelatedGroup:
+    """Normal inputs (by index into the space) with a correlation matrix."""
+
+    index: tuple[int, ...]
+    matrix: np.ndarray  # (g, g), symmetric positive definite, unit diagonal
+
+
+class InputSpace:
+    """The uncertain inputs of a run, in config order.
+
+    Parameters
+    ----------
+    marginals : sequence of marginal specs
+        One per input; their ``name`` are the model's input names.
+    groups : sequence of CorrelatedGroup, optional
+        Correlated groups of normal inputs.
+    """
+
+    def __init__(self, marginals: Sequence[_Marginal], groups: Sequence[CorrelatedGroup] = ()):
+        self.marginals = tuple(marginals)
+        self.groups = tuple(groups)
+        self._chol = [np.linalg.cholesky(g.matrix) for g in self.groups]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(m.name for m in self.marginals)
+
+    @property
+    def dim(self) -> int:
+        return len(self.marginals)
+
+    @property
+    def independent(self) -> bool:
+        return not self.groups
+
+    @property
+    def joint(self) -> chaospy.Distribution:
+        """The chaospy joint distribution (``chaospy.J`` of the marginals; MvNormal for groups)."""
+        if self.independent:
+            return chaospy.J(*[m.to_chaospy() for m in self.marginals])
+        parts: list[chaospy.Distribution] = []
+        order: list[int] = []
+        grouped = {i for g in self.groups for i in g.index}
+        for g in self.groups:
+            ms = [self.marginals[i] for i in g.index]
+            mean = np.array([m.mean for m in ms])  # type: ignore[attr-defined]
+            std = np.array([m.std for m in ms])  # type: ignore[attr-defined]
+            parts.append(chaospy.MvNormal(mean, g.matrix * np.outer(std, std)))
+            order.extend(g.index)
+        for i, m in enumerate(self.marginals):
+            if i not in grouped:
+                parts.append(m.to_chaospy())
+                order.append(i)
+        if order != sorted(order):
+            raise ValueError("correlated groups must list consecutive inputs in config order")
+        return chaospy.J(*parts)
+
+    def from_unit(self, u: np.ndarray) -> np.ndarray:
+        """Map points of the unit hypercube ``u (n, d)`` to physical inputs ``x (n, d)``."""
+        u = np.asarray(u, dtype=float)
+        x = np.empty_like(u)
+        for j, m in enumerate(self.marginals):
+            x[:, j] = m.ppf(u[:, j])
+        for g, L in zip(self.groups, self._chol):
+            idx = list(g.index)
+            ms = [self.marginals[i] for i in idx]
+            mean = np.array([m.mean for m in ms])  # type: ignore[attr-defined]
+            std = np.array([m.std for m in ms])  # type: ignore[attr-defined]
+            z = special.ndtri(u[:, idx]) @ L.T
+            x[:, idx] = mean + std * z
+        return x

@@ -1,0 +1,136 @@
+"""The method contract: how a propagation method turns model runs into statistics.
+
+A method works in phases, so a design can be stored, run elsewhere and resumed:
+
+1. :meth:`Method.design` gives the runs to make (inputs ``x (n, d)`` plus whatever the method
+   needs later, e.g. quadrature weights);
+2. the driver (:func:`uqguide.propagate.propagate`) evaluates the model on the design;
+3. :meth:`Method.refine` may ask for more runs (sequential designs); the driver evaluates them
+   and calls it again until it returns ``None``;
+4. :meth:`Method.estimate` gives the statistics and diagnostics.
+
+Methods never know which model they run: they see the :class:`~uqguide.inputs.InputSpace` and the
+:class:`~uqguide.models.base.ModelOutput`.
+
+A new method is one module with a ``Settings`` class and a ``Method`` subclass, plus one line in
+:mod:`uqguide.registry`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..inputs import InputSpace
+from ..models.base import ModelOutput
+from ..stats import OutputStats
+
+
+class MethodSettings(BaseModel):
+    """Settings of a method from the config (``methods:`` list entry, less ``name``).
+
+    ``label`` names the method's row in tables and its group in the result file; it defaults to
+    the method's name and must be unique within a config.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")
+
+
+@dataclass
+class Design:
+    """The runs a method asks for.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n, d)
+        Inputs in physical units, columns in the order of ``InputSpace.names``.
+    data : dict
+        Whatever the method needs in ``estimate`` (unit-cube points, quadrature weights, ...).
+    """
+
+    x: np.ndarray
+    data: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_runs(self) -> int:
+        return int(self.x.shape[0])
+
+
+@dataclass
+class Estimate:
+    """The statistics a method produced, with its diagnostics.
+
+    Attributes
+    ----------
+    method : str
+        Registered method name.
+    label : str
+        The config's label of this method entry.
+    stats : dict of str to OutputStats
+        Per output name.
+    diagnostics : dict
+        Counters and quality figures: ``n_runs``, ``n_failed``, and method-specific ones
+        (``loo_error``, ``degree``, ``n_terms``, ``n_components``, ...). Values are numbers,
+        strings or small arrays.
+    scalar_names : list of str
+        Names ``output[component]`` of the stacked scalar vector.
+    scalar_mean, scalar_cov : ndarray, shape (m,), (m, m)
+        Joint mean and covariance of all scalar outputs stacked (uq-methods.md section 3).
+    """
+
+    method: str
+    label: str
+    stats: dict[str, OutputStats]
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+    scalar_names: list[str] = field(default_factory=list)
+    scalar_mean: np.ndarray | None = None
+    scalar_cov: np.ndarray | None = None
+
+
+class Method(ABC):
+    """A propagation method. ``__init__`` only stores the validated settings."""
+
+    name: ClassVar[str]
+    summary: ClassVar[str]
+    Settings: ClassVar[type[MethodSettings]] = MethodSettings
+
+    def __init__(self, settings: MethodSettings | dict[str, Any] | None = None) -> None:
+        if settings is None:
+            settings = self.Settings()
+        elif not isinstance(settings, MethodSettings):
+            settings = self.Settings(**settings)
+        self.settings = settings
+
+    @property
+    def label(self) -> str:
+        return self.settings.label or self.name
+
+    @abstractmethod
+    def design(self, space: InputSpace, seed: int) -> Design:
+        """The initial runs to make.
+
+        Parameters
+        ----------
+        space : InputSpace
+        seed : int
+            Root seed of the run; the method derives its own streams from it.
+        """
+
+    def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
+        """An enlarged design after seeing ``outputs`` of ``design`` (default: none).
+
+        Returns ``None`` when no more runs are needed, or a new Design whose ``x`` starts with
+        the rows of ``design.x`` unchanged and appends the new runs; the driver evaluates only
+        the appended rows and calls ``refine`` again with the concatenated outputs.
+        """
+        return None
+
+    @abstractmethod
+    def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
+        """Statistics of every output in ``outputs`` from the runs of ``design``."""

@@ -1,0 +1,1 @@
+"""Models: the contract (``base``), analytic benchmarks, simulators, and user callables."""
