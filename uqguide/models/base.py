@@ -151,6 +151,37 @@ class ModelOutput:
         )
 
 
+@dataclass(frozen=True)
+class ReportRow:
+    """One line of a nominal run's report: the model's figure beside the paper's.
+
+    Attributes
+    ----------
+    quantity : str
+        What is reported, e.g. ``"time to 50 m"`` (prefix a group such as a controller name
+        with ``"GMM-NTSMC: "`` where one model reports several cases).
+    unit : str
+    value : float or str
+        The model's figure (a string for yes/no or categorical outcomes).
+    paper : float or str or None
+        The paper's figure, where it gives one.
+    tolerance : str
+        The acceptance tolerance from the spec (``"1%"``, ``"15 s"``, ``"not asserted"``...).
+    ok : bool or None
+        Whether ``value`` is within ``tolerance`` of ``paper`` (None: not checked).
+    note : str
+        Why a figure is not reproduced, or how it was computed.
+    """
+
+    quantity: str
+    unit: str
+    value: float | str
+    paper: float | str | None = None
+    tolerance: str = ""
+    ok: bool | None = None
+    note: str = ""
+
+
 class Model(ABC):
     """A deterministic model vectorised over a batch of samples.
 
@@ -193,6 +224,15 @@ class Model(ABC):
         outputs : frozenset of str
             Names of the outputs asked for; others may be left out (saves memory and time).
         """
+
+    def nominal_report(self) -> list[ReportRow]:
+        """Run the nominal (deterministic) scenario and report its headline figures beside the
+        paper's (``uqguide simulate``). Models without a paper scenario do not override this."""
+        raise NotImplementedError(f"model '{self.name}' has no nominal scenario to report")
+
+    def nominal_figures(self, out_dir: str) -> list[str]:
+        """Write the nominal scenario's figures (PNG) into ``out_dir``; return their paths."""
+        return []
 
     # ------------------------------------------------------------------ public API
     def input_names(self) -> tuple[str, ...]:

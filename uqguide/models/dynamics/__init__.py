@@ -1,0 +1,1 @@
+"""Shared dynamics: relative orbital motion, attitude kinematics, integrators."""
