@@ -93,13 +93,17 @@ def covariance(y: np.ndarray) -> np.ndarray:
 
 
 def bootstrap_intervals(
-    y: np.ndarray, n_resamples: int = 200, seed: int = 0, level: float = 0.95, block: int = 25
+    y: np.ndarray, n_resamples: int = 200, seed: int = 0, level: float = 0.95,
+    block: int = 25, max_bytes: int = 256 * 2**20,
 ) -> dict[str, np.ndarray]:
     """Percentile-bootstrap intervals of mean, std, skewness and kurtosis.
 
-    Vectorised: each block of resamples is a matrix of multiplicities ``c (b, n)`` and the
+    Vectorised: a block of resamples is a matrix of multiplicities ``c (b, n)`` and the
     resampled power sums are matrix products ``c @ d**p`` of the data centred at the full-sample
-    mean (centring keeps the raw-to-central conversion well conditioned).
+    mean (centring keeps the raw-to-central conversion well conditioned). Columns (time steps x
+    components) are processed in blocks so the powers of the data stay under ``max_bytes``; the
+    multiplicities of resample block ``j`` come from the stream ``(seed, j)``, so every column
+    sees the same resamples.
 
     Parameters
     ----------
@@ -107,6 +111,8 @@ def bootstrap_intervals(
     n_resamples : int
     seed : int
         Seed of the resampling; fixed so the same data give the same intervals.
+    level : float
+        Coverage of the intervals.
 
     Returns
     -------
@@ -115,47 +121,53 @@ def bootstrap_intervals(
     """
     n = y.shape[0]
     shape = y.shape[1:]
-    d = (y - y.mean(axis=0)).reshape(n, -1)
-    d2 = d * d
-    powers = (d, d2, d2 * d, d2 * d2)
-    rng = np.random.default_rng(seed)
-    out = {k: np.empty((n_resamples, d.shape[1])) for k in STAT_NAMES}
-    full_mean = y.mean(axis=0).reshape(-1)
-    for start in range(0, n_resamples, block):
-        b = min(block, n_resamples - start)
-        idx = rng.integers(0, n, size=(b, n)) + (np.arange(b) * n)[:, None]
-        counts = np.bincount(idx.ravel(), minlength=b * n).reshape(b, n).astype(float)
-        m1, m2, m3, m4 = (counts @ p / n for p in powers)
-        mu2 = m2 - m1**2
-        mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
-        mu4 = m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4
-        mean = full_mean + m1
-        std, skew, kurt = _shape_moments(mean, mu2, mu3, mu4)
-        sl = slice(start, start + b)
-        out["mean"][sl], out["std"][sl], out["skewness"][sl], out["kurtosis"][sl] = (
-            mean, std, skew, kurt)
+    flat = y.reshape(n, -1)
+    m = flat.shape[1]
+    full_mean = flat.mean(axis=0)
+    cols = max(1, int(max_bytes // (4 * 8 * n)))
     alpha = (1.0 - level) / 2
-    res = {}
-    for k, v in out.items():
-        if np.isnan(v).any():
-            lo_hi = _nan_safe_percentile(v, alpha)
-        else:
-            lo_hi = np.percentile(v, [100 * alpha, 100 * (1 - alpha)], axis=0)
-        res[k] = lo_hi.reshape((2,) + shape)
-    return res
+    res = {k: np.empty((2, m)) for k in STAT_NAMES}
+    for c0 in range(0, m, cols):
+        sl_c = slice(c0, min(m, c0 + cols))
+        d = flat[:, sl_c] - full_mean[sl_c]
+        d2 = d * d
+        powers = (d, d2, d2 * d, d2 * d2)
+        draws = {k: np.empty((n_resamples, d.shape[1])) for k in STAT_NAMES}
+        for j, r0 in enumerate(range(0, n_resamples, block)):
+            b = min(block, n_resamples - r0)
+            rng = np.random.default_rng([seed, j])
+            idx = rng.integers(0, n, size=(b, n)) + (np.arange(b) * n)[:, None]
+            counts = np.bincount(idx.ravel(), minlength=b * n).reshape(b, n).astype(float)
+            m1, m2, m3, m4 = (counts @ p / n for p in powers)
+            mu2 = m2 - m1**2
+            mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
+            mu4 = m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4
+            mean = full_mean[sl_c] + m1
+            std, skew, kurt = _shape_moments(mean, mu2, mu3, mu4)
+            sl_r = slice(r0, r0 + b)
+            draws["mean"][sl_r], draws["std"][sl_r] = mean, std
+            draws["skewness"][sl_r], draws["kurtosis"][sl_r] = skew, kurt
+        for k, v in draws.items():
+            res[k][:, sl_c] = _nan_safe_percentile(v, alpha)
+    return {k: v.reshape((2,) + shape) for k, v in res.items()}
 
 
 def _nan_safe_percentile(v: np.ndarray, alpha: float) -> np.ndarray:
-    # Columns that are NaN in every resample (zero variance) stay NaN without a warning.
+    """Percentiles over resamples (axis 0), ignoring NaN resamples; all-NaN columns stay NaN."""
+    q = [100 * alpha, 100 * (1 - alpha)]
+    nan = np.isnan(v)
+    if not nan.any():
+        return np.percentile(v, q, axis=0)
     res = np.full((2, v.shape[1]), np.nan)
-    ok = ~np.isnan(v).all(axis=0)
+    ok = ~nan.all(axis=0)
     if ok.any():
-        res[:, ok] = np.nanpercentile(v[:, ok], [100 * alpha, 100 * (1 - alpha)], axis=0)
+        res[:, ok] = np.nanpercentile(v[:, ok], q, axis=0)
     return res
 
 
 def sample_statistics(
-    y: np.ndarray, *, bootstrap: int = 200, seed: int = 0, level: float = 0.95
+    y: np.ndarray, *, bootstrap: int = 200, seed: int = 0, level: float = 0.95,
+    ci_index: np.ndarray | None = None,
 ) -> OutputStats:
     """Statistics of samples ``y (n, ..., k)`` over the first axis.
 
@@ -167,6 +179,10 @@ def sample_statistics(
         Number of bootstrap resamples for the intervals (0: no intervals).
     seed : int
         Seed of the bootstrap.
+    ci_index : ndarray of int, optional
+        For a time series, the time indices at which to bootstrap (the intervals are NaN at the
+        other steps); default all steps. The bootstrap costs ``2 * bootstrap * n`` flops per
+        power, column and resample, so a 1e5-sample series is bootstrapped where it is reported.
     """
     y = np.asarray(y, dtype=float)
     n = y.shape[0]
@@ -177,7 +193,15 @@ def sample_statistics(
     std, skew, kurt = _shape_moments(mean, mu2, mu3, mu4)
     ci: dict[str, np.ndarray] = {}
     if bootstrap > 0 and n > 1:
-        ci = bootstrap_intervals(y, bootstrap, seed, level)
+        if ci_index is None or y.ndim != 3:
+            ci = bootstrap_intervals(y, bootstrap, seed, level)
+        else:
+            idx = np.unique(np.asarray(ci_index, dtype=int))
+            part = bootstrap_intervals(y[:, idx], bootstrap, seed, level)
+            for k, v in part.items():
+                full = np.full((2,) + y.shape[1:], np.nan)
+                full[:, idx] = v
+                ci[k] = full
     return OutputStats(
         mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=covariance(y), n_used=n,
         moments_method="sample", sem=std / np.sqrt(n), ci=ci,

@@ -99,6 +99,9 @@ class Method(ABC):
     name: ClassVar[str]
     summary: ClassVar[str]
     Settings: ClassVar[type[MethodSettings]] = MethodSettings
+    #: The run's report times [s] (set from the config): where a method that must economise
+    #: (e.g. Monte Carlo bootstrap intervals of long series) concentrates its effort.
+    report_times: tuple[float, ...] | None = None
 
     def __init__(self, settings: MethodSettings | dict[str, Any] | None = None) -> None:
         if settings is None:

@@ -1,0 +1,19 @@
+"""Small user functions for the callable-model tests."""
+
+import numpy as np
+
+
+def sqrt_of_x(x):
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(x[:, 0])
+
+
+def raise_if_large(x):
+    if (x[:, 0] > 0.999).any():
+        raise ValueError("value above 0.999 in this chunk")
+    return 2 * x[:, 0]
+
+
+def series_and_scalar(x):
+    t = np.linspace(0.0, 1.0, 5)
+    return {"time": t, "path": x[:, :1] * t[None, :], "total": x.sum(axis=1)}

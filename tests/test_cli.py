@@ -1,0 +1,76 @@
+"""The command line: outputs, files and exit codes."""
+
+from __future__ import annotations
+
+import numpy as np
+from click.testing import CliRunner
+
+from uqguide.cli import main
+from uqguide.registry import MODELS
+from uqguide.result import read_hdf5
+
+
+def test_run_prints_tables_and_writes_files(write_config, lognormal_config, tmp_path):
+    path = write_config(lognormal_config, "logn.yaml")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", str(path), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "Cost" in res.output and "y [1] (scalar)" in res.output
+    for f in ("logn.h5", "logn_stats.csv", "logn_cost.csv", "logn_summary.md"):
+        assert (out / f).is_file()
+    assert f"wrote {out / 'logn.h5'}" in res.output
+
+
+def test_same_config_and_seed_twice_identical_and_seed_override(write_config, lognormal_config,
+                                                                tmp_path):
+    path = write_config(lognormal_config)
+    runner = CliRunner()
+    for d in ("a", "b"):
+        assert runner.invoke(main, ["run", str(path), "--out", str(tmp_path / d)]).exit_code == 0
+    assert runner.invoke(main, ["run", str(path), "--out", str(tmp_path / "c"),
+                                "--seed", "99"]).exit_code == 0
+    a, b, c = (read_hdf5(tmp_path / d / "config.h5").run("mc") for d in "abc")
+    for k in ("mean", "std", "skewness", "kurtosis"):
+        np.testing.assert_array_equal(a.estimate.stats["y"].stat(k), b.estimate.stats["y"].stat(k))
+    assert a.estimate.stats["y"].mean[0] != c.estimate.stats["y"].mean[0]
+    assert read_hdf5(tmp_path / "c" / "config.h5").config["seed"] == 99
+
+
+def test_models_lists_every_registered_model():
+    res = CliRunner().invoke(main, ["models"])
+    assert res.exit_code == 0, res.output
+    for name in MODELS:
+        assert f"\n{name}: " in "\n" + res.output
+
+
+def test_simulate_without_a_paper_scenario_is_exit_2(write_config, lognormal_config):
+    res = CliRunner().invoke(main, ["simulate", str(write_config(lognormal_config))])
+    assert res.exit_code == 2
+    assert "model 'lognormal' has no nominal scenario" in res.stderr
+
+
+def test_callable_model_with_series_runs_through_the_cli(write_config, tmp_path):
+    cfg = {
+        "model": {"name": "callable", "function": "tests.fixtures_models:series_and_scalar",
+                  "inputs": ["a", "b"],
+                  "outputs": [{"name": "path", "kind": "series"}, "total"]},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                   {"name": "b", "dist": "normal", "std": 2.0}],
+        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 2000}],
+        "seed": 1,
+    }
+    res = CliRunner().invoke(main, ["run", str(write_config(cfg)), "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    r = read_hdf5(tmp_path / "config.h5")
+    s = r.run("mc").estimate.stats
+    # total = a + b: std sqrt(5) within 4 SE (SE of std for a Gaussian: std / sqrt(2n))
+    assert abs(s["total"].std[0] - np.sqrt(5)) < 4 * np.sqrt(5) / np.sqrt(2 * 2000)
+    np.testing.assert_allclose(s["path"].std[:, 0], r.time * s["path"].std[-1, 0], rtol=1e-12)
+
+
+def test_callable_model_that_cannot_be_imported_is_exit_2(write_config):
+    cfg = {"model": {"name": "callable", "function": "nosuchpkg.mod:f", "inputs": ["a"]},
+           "inputs": [], "methods": [{"name": "monte_carlo", "n_samples": 1}]}
+    res = CliRunner().invoke(main, ["validate", str(write_config(cfg))])
+    assert res.exit_code == 2
+    assert res.stderr.startswith("error: model.function: cannot import module 'nosuchpkg.mod'")

@@ -1,0 +1,114 @@
+"""Every config error path: exit code 2, one line naming the field, the value and what is
+allowed, no traceback, nothing written."""
+
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from uqguide.cli import main
+
+GOOD = """
+model: {name: lognormal, a: [0.3, 0.2]}
+inputs:
+  - {name: x1, dist: normal, mean: 0.0, std: 1.0}
+  - {name: x2, dist: normal, mean: 0.0, std: 1.0}
+methods:
+  - {name: monte_carlo, label: mc, n_samples: 100}
+seed: 1
+"""
+
+# (defect, replacement applied to GOOD, the exact first line of stderr after "error: ")
+CASES = [
+    ("unknown_top_key", ("seed: 1", "seed: 1\nsede: 2"),
+     "sede: unknown key (did you mean 'seed'?); allowed keys: name, description, model, "
+     "inputs, correlations, outputs, report_times, methods, reference, seed, batch_size"),
+    ("seed_wrong_type", ("seed: 1", "seed: abc"),
+     "seed: Input should be a valid integer, unable to parse string as an integer (got 'abc')"),
+    ("seed_negative", ("seed: 1", "seed: -4"),
+     "seed: Input should be greater than or equal to 0 (got -4)"),
+    ("unknown_model", ("name: lognormal", "name: lognormall"),
+     "model.name: unknown model 'lognormall' (did you mean 'lognormal'?); allowed: borehole, "
+     "callable, {models}"),
+    ("unknown_model_param", ("a: [0.3, 0.2]", "a: [0.3, 0.2], b: 1"),
+     "model.b: unknown key; allowed keys: name, a"),
+    ("model_param_wrong_type", ("a: [0.3, 0.2]", "a: seven"),
+     "model.a: Input should be a valid list (got 'seven')"),
+    ("unknown_method", ("name: monte_carlo", "name: monte_carl"),
+     "methods[0].name: unknown method 'monte_carl' (did you mean 'monte_carlo'?); allowed: "
+     "{methods}"),
+    ("nonpositive_samples", ("n_samples: 100", "n_samples: 0"),
+     "methods[0].n_samples: Input should be greater than or equal to 1 (got 0)"),
+    ("unknown_sampling", ("n_samples: 100", "n_samples: 100, sampling: halton"),
+     "methods[0].sampling: Input should be 'random', 'lhs' or 'sobol' (got 'halton')"),
+    ("unknown_distribution", ("dist: normal, mean: 0.0, std: 1.0}\n  - {name: x2",
+                              "dist: gauss, mean: 0.0, std: 1.0}\n  - {name: x2"),
+     "inputs[0].dist: unknown distribution (got 'gauss'); allowed: normal, uniform, lognormal, "
+     "truncnormal"),
+    ("nonpositive_sigma", ("std: 1.0}\n  - {name: x2", "std: -1.5}\n  - {name: x2"),
+     "inputs[0].std: Input should be greater than 0 (got -1.5)"),
+    ("missing_sigma", ("mean: 0.0, std: 1.0}\n  - {name: x2", "mean: 0.0}\n  - {name: x2"),
+     "inputs[0].std: required field is missing"),
+    ("missing_methods", ("methods:\n  - {name: monte_carlo, label: mc, n_samples: 100}\n", ""),
+     "methods: required field is missing"),
+    ("unknown_input", ("{name: x2,", "{name: x9,"),
+     "inputs[1].name: model 'lognormal' has no input 'x9'; allowed: x1, x2"),
+    ("duplicate_input", ("{name: x2,", "{name: x1,"),
+     "inputs[1].name: 'x1' is already inputs[0]"),
+    ("unknown_output", ("seed: 1", "seed: 1\noutputs: [yy]"),
+     "outputs[0]: model 'lognormal' has no output 'yy' (did you mean 'y'?); allowed: y"),
+    ("reference_not_a_label", ("seed: 1", "seed: 1\nreference: mc2"),
+     "reference: 'mc2' is not a method label (did you mean 'mc'?); allowed: mc"),
+    ("duplicate_label", ("n_samples: 100}", "n_samples: 100}\n  - {name: monte_carlo, "
+                         "label: mc, n_samples: 10}"),
+     "methods[1].label: 'mc' is used twice; give each method a unique label"),
+    ("uniform_reversed", ("dist: normal, mean: 0.0, std: 1.0}\n  - {name: x2",
+                          "dist: uniform, low: 2, high: 1}\n  - {name: x2"),
+     "inputs[0]: high must be greater than low, got low=2.0, high=1.0"),
+    ("negative_report_time", ("seed: 1", "seed: 1\nreport_times: [0, -3]"),
+     "report_times[1]: must be a finite time >= 0 s (got -3.0)"),
+    ("correlation_not_pd", ("seed: 1", "seed: 1\ncorrelations:\n  - {inputs: [x1, x2], "
+                            "matrix: [[1, 2], [2, 1]]}"),
+     "correlations[0].matrix: must be positive definite"),
+]
+
+
+@pytest.mark.parametrize("defect,edit,message", CASES, ids=[c[0] for c in CASES])
+def test_config_error_exit_2_with_one_clear_line(write_config, tmp_path, defect, edit, message):
+    from uqguide.registry import METHODS, MODELS
+
+    old, new = edit
+    assert old in GOOD, f"test case {defect} does not apply"
+    path = write_config(GOOD.replace(old, new, 1))
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["run", str(path), "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    expected = message.format(
+        models=", ".join(m for m in sorted(MODELS) if m not in ("borehole", "callable")),
+        methods=", ".join(sorted(METHODS)))
+    assert result.stderr.strip().splitlines() == [f"error: {expected}"]
+    assert "Traceback" not in result.output
+    assert not out.exists(), "a failed validation must not write anything"
+
+
+@pytest.mark.parametrize("text,message", [
+    ("model: {name: lognormal\n", "invalid YAML at line 2, column 1"),
+    ("- just\n- a list\n", "the config must be a mapping"),
+])
+def test_unreadable_configs_exit_2(write_config, text, message):
+    result = CliRunner().invoke(main, ["validate", str(write_config(text))])
+    assert result.exit_code == 2
+    assert message in result.stderr
+    assert "Traceback" not in result.output
+
+
+def test_missing_file_exit_2(tmp_path):
+    result = CliRunner().invoke(main, ["validate", str(tmp_path / "nope.yaml")])
+    assert result.exit_code == 2
+    assert result.stderr.strip() == f"error: {tmp_path / 'nope.yaml'}: config file not found"
+
+
+def test_good_config_validates(write_config):
+    result = CliRunner().invoke(main, ["validate", str(write_config(GOOD))])
+    assert result.exit_code == 0, result.output
+    assert "OK — model lognormal, 2 uncertain inputs (x1, x2)" in result.output

@@ -1,0 +1,316 @@
+"""The run configuration: YAML validated into typed objects before anything runs.
+
+Every error is a :class:`~uqguide.errors.ConfigError` with one line that names the field path
+(``methods[1].n_samples``), the value given and what is allowed. Unknown keys are errors.
+
+Layout (all values SI)::
+
+    model:               # registered model name + any fields of that model's Params
+      name: ftcapn
+      gravity: none
+    inputs:              # uncertain inputs (may be empty for `uqguide simulate`)
+      - {name: dx, dist: normal, mean: 0.0, std: 1.5}
+    correlations:        # optional: groups of normal inputs with a correlation matrix
+      - {inputs: [dx, dy], matrix: [[1, 0.5], [0.5, 1]]}
+    outputs: [omega_s, zem]      # optional; default: the model's default outputs
+    report_times: [0, 20, 40]    # optional [s]: times shown in printed tables
+    methods:             # one or more; each a registered method name + its settings
+      - {name: monte_carlo, label: mc1000, n_samples: 1000, sampling: random}
+    reference: mc1000    # optional: label of the reference method of the cost table
+    seed: 12345          # root seed of every random stream of the run
+    batch_size: 10000    # samples per model call (memory only: never changes the numbers)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from .errors import ConfigError
+from .inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
+from .methods.base import Method
+from .models.base import Model
+from .registry import did_you_mean, method_class, model_class
+
+
+class CorrelationSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    inputs: list[str] = Field(min_length=2)
+    matrix: list[list[float]]
+
+
+class RawConfig(BaseModel):
+    """The config file's top level, before model- and method-specific validation."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str | None = None
+    description: str | None = None
+    model: dict[str, Any]
+    inputs: list[Marginal] = Field(default_factory=list)
+    correlations: list[CorrelationSpec] = Field(default_factory=list)
+    outputs: list[str] | None = Field(default=None, min_length=1)
+    report_times: list[float] | None = None
+    methods: list[dict[str, Any]] = Field(min_length=1)
+    reference: str | None = None
+    seed: int = Field(default=0, ge=0, lt=2**63)
+    batch_size: int = Field(default=10_000, ge=1, le=10_000_000)
+
+
+@dataclass
+class RunConfig:
+    """A validated configuration, ready to run.
+
+    Attributes
+    ----------
+    model : Model
+    space : InputSpace
+    outputs : tuple of str
+    methods : list of Method
+    raw : RawConfig
+        The validated file content (its ``model_dump`` is the resolved config written to results).
+    source : str
+        Path of the config file, or ``"<dict>"``.
+    """
+
+    model: Model
+    space: InputSpace
+    outputs: tuple[str, ...]
+    methods: list[Method]
+    raw: RawConfig
+    source: str = "<dict>"
+
+    @property
+    def seed(self) -> int:
+        return self.raw.seed
+
+    @property
+    def reference(self) -> str | None:
+        return self.raw.reference
+
+    @property
+    def report_times(self) -> list[float] | None:
+        return self.raw.report_times
+
+    @property
+    def name(self) -> str:
+        if self.raw.name:
+            return self.raw.name
+        return Path(self.source).stem if self.source != "<dict>" else "run"
+
+    def resolved(self) -> dict[str, Any]:
+        """The config with every default filled in (what the run really used)."""
+        d = self.raw.model_dump(mode="json")
+        d["model"] = {"name": self.model.name, **self.model.params.model_dump(mode="json")}
+        d["outputs"] = list(self.outputs)
+        d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")} for m in self.methods]
+        for m, entry in zip(self.methods, d["methods"]):
+            entry["label"] = m.label
+        return d
+
+    def with_seed(self, seed: int) -> RunConfig:
+        return validate_config({**self.raw.model_dump(mode="python"), "seed": seed}, self.source)
+
+
+# ---------------------------------------------------------------------------- error messages
+def _path(prefix: str, loc: tuple[Any, ...]) -> str:
+    out = prefix
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif part in DISTRIBUTIONS or part in ("function-after", "function-before"):
+            continue  # pydantic's discriminated-union branch names are not fields of the file
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str] | None = None,
+                     source: str = "") -> ConfigError:
+    """One ConfigError line from pydantic's first error: path, value, what is allowed."""
+    e = err.errors(include_url=False)[0]
+    path = _path(prefix, tuple(e["loc"]))
+    where = f"{source}: " if source else ""
+    if e["type"] == "extra_forbidden":
+        key = str(e["loc"][-1])
+        hint = did_you_mean(key, allowed_keys) if allowed_keys else ""
+        allowed = f"; allowed keys: {', '.join(allowed_keys)}" if allowed_keys else ""
+        return ConfigError(f"{where}{path}: unknown key{hint}{allowed}", field=path)
+    if e["type"] == "missing":
+        return ConfigError(f"{where}{path}: required field is missing", field=path)
+    if e["type"] in ("union_tag_invalid", "union_tag_not_found"):
+        tag = e.get("input", {}).get("dist") if isinstance(e.get("input"), dict) else None
+        hint = did_you_mean(tag, list(DISTRIBUTIONS)) if isinstance(tag, str) else ""
+        got = f"got {tag!r}" if tag is not None else "missing"
+        return ConfigError(
+            f"{where}{path}.dist: unknown distribution ({got}){hint}; allowed: "
+            f"{', '.join(DISTRIBUTIONS)}", field=f"{path}.dist")
+    msg = e["msg"].replace("Value error, ", "")
+    if isinstance(e.get("input"), dict):
+        # A check across several fields: its message names the values itself.
+        return ConfigError(f"{where}{path}: {msg}", field=path)
+    return ConfigError(f"{where}{path}: {msg} (got {_short(e.get('input'))})", field=path)
+
+
+def _fields(model: type[BaseModel]) -> list[str]:
+    return list(model.model_fields)
+
+
+# ---------------------------------------------------------------------------- loading
+def load_yaml(path: str | Path) -> dict[str, Any]:
+    """Read a YAML config file into a mapping; ConfigError on I/O or syntax problems."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: config file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{p}: cannot read config file ({exc})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ConfigError(f"{p}: invalid YAML{where}: {problem}") from None
+    if not isinstance(data, dict):
+        raise ConfigError(
+            f"{p}: the config must be a mapping with keys model, inputs, methods, ...; "
+            f"got {type(data).__name__}")
+    return data
+
+
+def load_config(path: str | Path) -> RunConfig:
+    """Read and validate a config file."""
+    return validate_config(load_yaml(path), str(path))
+
+
+def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfig:
+    """Validate a config mapping into a :class:`RunConfig` (model, inputs, methods resolved)."""
+    try:
+        raw = RawConfig.model_validate(dict(data))
+    except ValidationError as err:
+        raise _from_validation(err, "", _fields(RawConfig)) from None
+
+    model = _build_model(raw.model)
+    space = _build_space(raw, model)
+    outputs = _resolve_outputs(raw, model)
+    methods = _build_methods(raw)
+    labels = [m.label for m in methods]
+    for i, lab in enumerate(labels):
+        if labels.index(lab) != i:
+            raise ConfigError(
+                f"methods[{i}].label: {lab!r} is used twice; give each method a unique label",
+                field=f"methods[{i}].label")
+    if raw.reference is not None and raw.reference not in labels:
+        raise ConfigError(
+            f"reference: {raw.reference!r} is not a method label"
+            f"{did_you_mean(raw.reference, labels)}; allowed: {', '.join(labels)}",
+            field="reference")
+    if raw.report_times is not None:
+        for i, t in enumerate(raw.report_times):
+            if not np.isfinite(t) or t < 0:
+                raise ConfigError(
+                    f"report_times[{i}]: must be a finite time >= 0 s (got {t!r})",
+                    field=f"report_times[{i}]")
+    return RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
+                     source=source)
+
+
+def _build_model(section: dict[str, Any]) -> Model:
+    if "name" not in section:
+        raise ConfigError("model.name: required field is missing", field="model.name")
+    cls = model_class(section["name"], "model.name")
+    params = {k: v for k, v in section.items() if k != "name"}
+    try:
+        return cls(cls.Params.model_validate(params))
+    except ValidationError as err:
+        raise _from_validation(err, "model", ["name", *_fields(cls.Params)]) from None
+
+
+def _build_space(raw: RawConfig, model: Model) -> InputSpace:
+    accepted = list(model.input_names())
+    seen: dict[str, int] = {}
+    for i, m in enumerate(raw.inputs):
+        if m.name not in accepted:
+            raise ConfigError(
+                f"inputs[{i}].name: model '{model.name}' has no input {m.name!r}"
+                f"{did_you_mean(m.name, accepted)}; allowed: {', '.join(accepted)}",
+                field=f"inputs[{i}].name")
+        if m.name in seen:
+            raise ConfigError(
+                f"inputs[{i}].name: {m.name!r} is already inputs[{seen[m.name]}]",
+                field=f"inputs[{i}].name")
+        seen[m.name] = i
+    groups = []
+    for g, spec in enumerate(raw.correlations):
+        idx = []
+        for j, name in enumerate(spec.inputs):
+            if name not in seen:
+                raise ConfigError(
+                    f"correlations[{g}].inputs[{j}]: {name!r} is not an uncertain input of this "
+                    f"config", field=f"correlations[{g}].inputs[{j}]")
+            if not isinstance(raw.inputs[seen[name]], Normal):
+                raise ConfigError(
+                    f"correlations[{g}].inputs[{j}]: {name!r} must be a normal input to be "
+                    f"correlated (got {raw.inputs[seen[name]].dist})",
+                    field=f"correlations[{g}].inputs[{j}]")
+            idx.append(seen[name])
+        C = np.asarray(spec.matrix, dtype=float)
+        k = len(idx)
+        field = f"correlations[{g}].matrix"
+        if C.shape != (k, k):
+            raise ConfigError(f"{field}: must be {k}x{k} (got shape {C.shape})", field=field)
+        if not np.allclose(C, C.T) or not np.allclose(np.diag(C), 1.0):
+            raise ConfigError(f"{field}: must be symmetric with a unit diagonal", field=field)
+        if np.linalg.eigvalsh(C).min() <= 0:
+            raise ConfigError(f"{field}: must be positive definite", field=field)
+        if sorted(idx) != list(range(min(idx), min(idx) + k)) or idx != sorted(idx):
+            raise ConfigError(
+                f"correlations[{g}].inputs: correlated inputs must be consecutive in the inputs "
+                f"list and in the same order (got {spec.inputs})", field=f"correlations[{g}].inputs")
+        groups.append(CorrelatedGroup(tuple(idx), C))
+    return InputSpace(raw.inputs, groups)
+
+
+def _resolve_outputs(raw: RawConfig, model: Model) -> tuple[str, ...]:
+    if raw.outputs is None:
+        return model.default_outputs()
+    names = [o.name for o in model.outputs()]
+    for i, name in enumerate(raw.outputs):
+        if name not in names:
+            raise ConfigError(
+                f"outputs[{i}]: model '{model.name}' has no output {name!r}"
+                f"{did_you_mean(name, names)}; allowed: {', '.join(names)}",
+                field=f"outputs[{i}]")
+    return tuple(dict.fromkeys(raw.outputs))
+
+
+def _build_methods(raw: RawConfig) -> list[Method]:
+    methods = []
+    for i, entry in enumerate(raw.methods):
+        if "name" not in entry:
+            raise ConfigError(f"methods[{i}].name: required field is missing",
+                              field=f"methods[{i}].name")
+        cls = method_class(entry["name"], f"methods[{i}].name")
+        settings = {k: v for k, v in entry.items() if k != "name"}
+        try:
+            method = cls(cls.Settings.model_validate(settings))
+        except ValidationError as err:
+            raise _from_validation(err, f"methods[{i}]", ["name", *_fields(cls.Settings)]) from None
+        method.report_times = tuple(raw.report_times) if raw.report_times else None
+        methods.append(method)
+    return methods
+

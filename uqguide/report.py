@@ -1,0 +1,231 @@
+"""Tables of a result: the cost table and the statistics table (uq-methods.md section 5).
+
+``statistics_table`` is the long form (one row per output, component, time, method and
+statistic) written to CSV; the printed and Markdown forms are pivots of it. Beside every value it
+gives the reference method's value, the relative difference and whether the value lies inside
+the reference's 95% interval (bootstrap for std, skewness, kurtosis; ``mean +- 1.96 sem`` for the
+mean), so a reader sees whether a difference is larger than the reference's own noise.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .result import Result
+from .stats import STAT_NAMES, OutputStats
+
+#: Relative differences of a series over time ignore steps where the reference's magnitude is
+#: below this fraction of its peak: a ratio to a value that crosses zero means nothing.
+REL_FLOOR = 1e-3
+
+
+def report_indices(result: Result, n_default: int = 5) -> np.ndarray:
+    """Grid indices of the report times (nearest step) plus the last step."""
+    t = result.time
+    if t.size == 0:
+        return np.zeros(0, dtype=int)
+    if result.report_times:
+        idx = [int(np.argmin(np.abs(t - rt))) for rt in result.report_times]
+    else:
+        idx = list(np.linspace(0, t.size - 1, n_default).round().astype(int))
+    return np.unique(np.append(idx, t.size - 1))
+
+
+def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:
+    if stat in s.ci:
+        lo, hi = s.ci[stat][(0, *where)], s.ci[stat][(1, *where)]
+        return float(lo), float(hi)
+    if stat == "mean" and s.sem is not None:
+        m, e = s.mean[where], s.sem[where]
+        return float(m - 1.96 * e), float(m + 1.96 * e)
+    return float("nan"), float("nan")
+
+
+def cost_table(result: Result) -> pd.DataFrame:
+    """One row per method: runs, failures, wall times and method diagnostics."""
+    rows = []
+    for r in result.runs:
+        d = r.estimate.diagnostics
+        extra = {k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components") if k in d}
+        rows.append({
+            "label": r.label, "method": r.estimate.method, "runs": r.n_runs,
+            "failed": r.n_failed, "model_s": round(r.model_seconds, 3),
+            "fit_s": round(r.fit_seconds, 3), **extra,
+            "reference": "yes" if r.label == result.reference else "",
+        })
+    return pd.DataFrame(rows)
+
+
+def statistics_table(result: Result) -> pd.DataFrame:
+    """Long-form statistics at the report times (series) and for every scalar output."""
+    ref = result.run(result.reference) if result.reference else None
+    idx = report_indices(result)
+    rows = []
+    for o in result.outputs:
+        for r in result.runs:
+            s = r.estimate.stats.get(o.name)
+            if s is None:
+                continue
+            rs = ref.estimate.stats.get(o.name) if ref is not None else None
+            places = [((i, c), float(result.time[i])) for i in idx for c in range(o.k)] \
+                if o.kind == "series" else [((c,), float("nan")) for c in range(o.k)]
+            for where, t in places:
+                comp = o.components[where[-1]]
+                for stat in STAT_NAMES:
+                    v = float(s.stat(stat)[where])
+                    lo, hi = _interval(s, stat, where)
+                    row = {"output": o.name, "component": comp, "unit": o.unit, "time": t,
+                           "label": r.label, "stat": stat, "value": v, "ci_low": lo,
+                           "ci_high": hi}
+                    if rs is not None:
+                        rv = float(rs.stat(stat)[where])
+                        rlo, rhi = _interval(rs, stat, where)
+                        # A relative difference to a reference that is within its own noise of
+                        # zero (a skewness of a near-Gaussian output) means nothing: NaN there,
+                        # and the absolute difference says the rest.
+                        noisy = np.isfinite(rlo) and abs(rv) <= 0.5 * (rhi - rlo)
+                        row.update(ref_value=rv, abs_diff=v - rv,
+                                   rel_diff=(v - rv) / abs(rv) if rv and not noisy
+                                   else float("nan"),
+                                   in_ref_ci=bool(rlo <= v <= rhi) if np.isfinite(rlo) else None)
+                    rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def series_agreement(result: Result) -> pd.DataFrame:
+    """Per series output and method: the largest relative difference of mean and std over time.
+
+    The relative difference at a step is ``|value - ref| / |ref|``, over the steps where
+    ``|ref|`` is at least ``REL_FLOOR`` of its peak over time.
+    """
+    if not result.reference:
+        return pd.DataFrame()
+    ref = result.run(result.reference)
+    rows = []
+    for o in result.outputs:
+        if o.kind != "series":
+            continue
+        rs = ref.estimate.stats.get(o.name)
+        for r in result.runs:
+            s = r.estimate.stats.get(o.name)
+            if r is ref or s is None or rs is None:
+                continue
+            row = {"output": o.name, "label": r.label}
+            for stat in ("mean", "std"):
+                a, b = s.stat(stat), rs.stat(stat)
+                mag = np.abs(b)
+                keep = mag >= REL_FLOOR * np.nanmax(mag, axis=0, keepdims=True)
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    rel = np.where(keep, np.abs(a - b) / np.where(keep, mag, 1.0), np.nan)
+                i = int(np.nanargmax(rel.max(axis=-1))) if np.isfinite(rel).any() else 0
+                row[f"max_rel_{stat}"] = float(np.nanmax(rel)) if np.isfinite(rel).any() \
+                    else float("nan")
+                row[f"at_t_{stat}"] = float(result.time[i])
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+# ---------------------------------------------------------------------------- text forms
+def _fmt(v: float) -> str:
+    if v is None or (isinstance(v, float) and not np.isfinite(v)):
+        return "nan"
+    a = abs(v)
+    return f"{v:.4g}" if (a == 0 or 1e-3 <= a < 1e5) else f"{v:.3e}"
+
+
+def _wide(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
+    """One row per (time, component, label); a column per statistic with its interval."""
+    rows = []
+    keys = ["time", "component", "label"]
+    for key, g in stats.groupby(keys, sort=False, dropna=False):
+        row = dict(zip(keys, key))
+        for _, s in g.iterrows():
+            cell = _fmt(s["value"])
+            if np.isfinite(s["ci_low"]):
+                cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
+            if with_ref and s["label"] != stats.attrs.get("reference"):
+                rd, ad = s.get("rel_diff"), s.get("abs_diff")
+                flag = {True: "in", False: "OUT", None: "?"}[s.get("in_ref_ci")]
+                if rd is not None and np.isfinite(rd):
+                    cell += f" ({100 * rd:+.1f}%, {flag})"
+                elif ad is not None and np.isfinite(ad):
+                    cell += f" ({ad:+.2g}, {flag})"
+            row[s["stat"]] = cell
+        rows.append(row)
+    df = pd.DataFrame(rows)
+    if df["time"].isna().all():
+        df = df.drop(columns="time")
+    else:
+        df["time"] = df["time"].map(lambda t: f"{t:g}")
+    if (df["component"] == "").all():
+        df = df.drop(columns="component")
+    return df
+
+
+def render_text(result: Result) -> str:
+    """The console form: the cost table, then each output's statistics at the report times."""
+    parts = ["Cost", cost_table(result).to_string(index=False)]
+    stats = statistics_table(result)
+    stats.attrs["reference"] = result.reference
+    with_ref = result.reference is not None and len(result.runs) > 1
+    for o in result.outputs:
+        sub = stats[stats["output"] == o.name]
+        if sub.empty:
+            continue
+        kind = "at report times" if o.kind == "series" else "(scalar)"
+        parts += ["", f"{o.name} [{o.unit}] {kind}: {o.description}",
+                  _wide(sub, with_ref).to_string(index=False)]
+    agree = series_agreement(result)
+    if not agree.empty:
+        parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
+                  f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
+    if with_ref:
+        parts += ["", "Values: estimate [95% interval] (difference from the reference, inside or "
+                  "OUTside the reference's 95% interval)."]
+    failed = [r for r in result.runs if r.n_failed]
+    for r in failed:
+        parts += [f"{r.label}: {r.n_failed} of {r.n_runs} runs failed "
+                  f"({r.estimate.diagnostics.get('failure_reasons', '')})"]
+    return "\n".join(parts)
+
+
+def to_markdown(df: pd.DataFrame) -> str:
+    """A GitHub-flavoured Markdown table (no extra dependency)."""
+    cols = [str(c) for c in df.columns]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    for _, row in df.iterrows():
+        cells = [_fmt(v) if isinstance(v, float) else str(v) for v in row.tolist()]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def render_markdown(result: Result) -> str:
+    stats = statistics_table(result)
+    stats.attrs["reference"] = result.reference
+    with_ref = result.reference is not None and len(result.runs) > 1
+    parts = [f"# {result.name}: model `{result.model}`", "", "## Cost", "",
+             to_markdown(cost_table(result))]
+    for o in result.outputs:
+        sub = stats[stats["output"] == o.name]
+        if not sub.empty:
+            parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
+                      to_markdown(_wide(sub, with_ref))]
+    agree = series_agreement(result)
+    if not agree.empty:
+        parts += ["", "## Series agreement with the reference", "", to_markdown(agree)]
+    return "\n".join(parts) + "\n"
+
+
+def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
+    """Write ``<stem>_stats.csv``, ``<stem>_cost.csv`` and ``<stem>_summary.md``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",
+             out_dir / f"{stem}_summary.md"]
+    statistics_table(result).to_csv(paths[0], index=False)
+    cost_table(result).to_csv(paths[1], index=False)
+    paths[2].write_text(render_markdown(result), encoding="utf-8")
+    return paths
+

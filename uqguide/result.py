@@ -1,0 +1,294 @@
+"""The Result of a run and its HDF5 form.
+
+Layout of a result file (format 1; every array SI, time axis first for series)::
+
+    /                       attrs: format, uqguide_version, created_utc, name, model, seed,
+                                   reference, config_yaml (resolved config), wall_seconds,
+                                   versions_json (python and library versions)
+    /time                   (T,) time grid [s] (empty for models without series)
+    /inputs/names           (d,) uncertain input names, config order
+    /report_times           (r,) [s], where the config gives them
+    /outputs/<name>         attrs: kind (series|scalar), unit, description, components
+    /methods/<label>        attrs: method, n_runs, n_failed, model_seconds, fit_seconds,
+                                   wall_seconds, diagnostics_json
+      stats/<output>/mean, std, skewness, kurtosis     (T, k) or (k,)
+      stats/<output>/cov                               (T, k, k) or (k, k)
+      stats/<output>/sem                               sample methods only
+      stats/<output>/ci_<stat>                         (2, ...) 95% interval (low, high)
+      stats/<output>/sobol_first, sobol_total          (..., k, d), PCE only
+                     attrs: n_used, moments_method
+      scalar_joint/names, mean, cov                    all scalar outputs stacked
+      samples/x (n, d), failed (n,), reasons (n,), scalars/<output> (n, k)
+
+The file is written to a temporary name in the same folder and renamed into place, so a file
+with the final name is always complete.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import platform
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+import yaml
+
+from . import __version__
+from .errors import ResultError
+from .methods.base import Estimate
+from .models.base import OutputInfo
+from .stats import STAT_NAMES, OutputStats
+
+FORMAT = 1
+
+
+@dataclass
+class MethodRun:
+    """One method's estimate with the runs behind it.
+
+    Attributes
+    ----------
+    estimate : Estimate
+    x : ndarray, shape (n, d)
+        Inputs of every model run.
+    scalars : dict of str to ndarray, shape (n, k)
+        Scalar outputs of every run (NaN or garbage where ``failed``).
+    failed : ndarray of bool, shape (n,)
+    reasons : ndarray of object, shape (n,)
+    time : ndarray, shape (T,)
+    n_runs : int
+    model_seconds, fit_seconds, wall_seconds : float
+    """
+
+    estimate: Estimate
+    x: np.ndarray
+    scalars: dict[str, np.ndarray]
+    failed: np.ndarray
+    reasons: np.ndarray
+    time: np.ndarray
+    n_runs: int
+    model_seconds: float
+    fit_seconds: float
+    wall_seconds: float
+
+    @property
+    def label(self) -> str:
+        return self.estimate.label
+
+    @property
+    def n_failed(self) -> int:
+        return int(np.sum(self.failed))
+
+
+@dataclass
+class Result:
+    """Statistics of every method of a run, with the resolved config and provenance."""
+
+    name: str
+    model: str
+    input_names: list[str]
+    outputs: list[OutputInfo]
+    time: np.ndarray
+    runs: list[MethodRun]
+    reference: str | None = None
+    report_times: list[float] | None = None
+    config: dict[str, Any] = field(default_factory=dict)
+    provenance: dict[str, Any] = field(default_factory=dict)
+
+    def run(self, label: str) -> MethodRun:
+        for r in self.runs:
+            if r.label == label:
+                return r
+        raise ResultError(f"no method labelled {label!r} in this result; "
+                          f"it has: {', '.join(r.label for r in self.runs)}")
+
+    def output(self, name: str) -> OutputInfo:
+        for o in self.outputs:
+            if o.name == name:
+                return o
+        raise ResultError(f"no output {name!r} in this result")
+
+
+def provenance() -> dict[str, Any]:
+    """Versions and host facts that explain where a result's numbers came from."""
+    import chaospy
+    import scipy
+
+    versions = {
+        "uqguide": __version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "chaospy": chaospy.__version__ if hasattr(chaospy, "__version__") else "unknown",
+        "h5py": h5py.__version__,
+    }
+    try:
+        import numba
+
+        versions["numba"] = numba.__version__
+    except ImportError:  # pragma: no cover - numba is a dependency, but the numpy path works alone
+        pass
+    return {
+        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "versions": versions,
+        "platform": platform.platform(),
+    }
+
+
+# ---------------------------------------------------------------------------- writing
+def _write_stats(g: h5py.Group, s: OutputStats) -> None:
+    for name in STAT_NAMES:
+        g.create_dataset(name, data=s.stat(name))
+    g.create_dataset("cov", data=s.cov)
+    if s.sem is not None:
+        g.create_dataset("sem", data=s.sem)
+    for name, ci in s.ci.items():
+        g.create_dataset(f"ci_{name}", data=ci)
+    if s.sobol_first is not None:
+        g.create_dataset("sobol_first", data=s.sobol_first)
+    if s.sobol_total is not None:
+        g.create_dataset("sobol_total", data=s.sobol_total)
+    g.attrs["n_used"] = s.n_used
+    g.attrs["moments_method"] = s.moments_method
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return str(obj)
+
+
+def write_hdf5(result: Result, path: str | Path) -> Path:
+    """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = FORMAT
+            f.attrs["uqguide_version"] = __version__
+            f.attrs["name"] = result.name
+            f.attrs["model"] = result.model
+            f.attrs["seed"] = int(result.config.get("seed", 0))
+            f.attrs["reference"] = result.reference or ""
+            f.attrs["config_yaml"] = yaml.safe_dump(result.config, sort_keys=False)
+            f.attrs["created_utc"] = result.provenance.get("created_utc", "")
+            f.attrs["wall_seconds"] = float(result.provenance.get("wall_seconds", 0.0))
+            f.attrs["versions_json"] = json.dumps(result.provenance.get("versions", {}))
+            # HDF5 lists groups alphabetically: keep the config's method order explicitly.
+            f.attrs["method_order"] = json.dumps([r.label for r in result.runs])
+            f.create_dataset("time", data=result.time)
+            f.create_dataset("inputs/names", data=np.array(result.input_names, dtype="S"))
+            if result.report_times:
+                f.create_dataset("report_times", data=np.asarray(result.report_times))
+            for o in result.outputs:
+                g = f.create_group(f"outputs/{o.name}")
+                g.attrs.update(kind=o.kind, unit=o.unit, description=o.description,
+                               components=json.dumps(list(o.components)))
+            for r in result.runs:
+                _write_run(f.create_group(f"methods/{r.label}"), r)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _write_run(g: h5py.Group, r: MethodRun) -> None:
+    e = r.estimate
+    g.attrs.update(method=e.method, n_runs=r.n_runs, n_failed=r.n_failed,
+                   model_seconds=r.model_seconds, fit_seconds=r.fit_seconds,
+                   wall_seconds=r.wall_seconds,
+                   diagnostics_json=json.dumps(e.diagnostics, default=_json_default))
+    for name, s in e.stats.items():
+        _write_stats(g.create_group(f"stats/{name}"), s)
+    if e.scalar_names and e.scalar_mean is not None:
+        j = g.create_group("scalar_joint")
+        j.create_dataset("names", data=np.array(e.scalar_names, dtype="S"))
+        j.create_dataset("mean", data=e.scalar_mean)
+        j.create_dataset("cov", data=e.scalar_cov)
+    s = g.create_group("samples")
+    s.create_dataset("x", data=r.x, compression="gzip" if r.x.size > 4096 else None)
+    s.create_dataset("failed", data=r.failed)
+    s.create_dataset("reasons", data=np.array([str(v) for v in r.reasons], dtype="S"))
+    for name, y in r.scalars.items():
+        s.create_dataset(f"scalars/{name}", data=y,
+                         compression="gzip" if y.size > 4096 else None)
+
+
+# ---------------------------------------------------------------------------- reading
+def _read_stats(g: h5py.Group) -> OutputStats:
+    ci = {k[3:]: g[k][()] for k in g if k.startswith("ci_")}
+    return OutputStats(
+        mean=g["mean"][()], std=g["std"][()], skewness=g["skewness"][()],
+        kurtosis=g["kurtosis"][()], cov=g["cov"][()], n_used=int(g.attrs["n_used"]),
+        moments_method=str(g.attrs["moments_method"]),
+        sem=g["sem"][()] if "sem" in g else None, ci=ci,
+        sobol_first=g["sobol_first"][()] if "sobol_first" in g else None,
+        sobol_total=g["sobol_total"][()] if "sobol_total" in g else None,
+    )
+
+
+def read_hdf5(path: str | Path) -> Result:
+    """Read a result file written by :func:`write_hdf5`; ResultError if it is not one."""
+    path = Path(path)
+    if not path.is_file():
+        raise ResultError(f"{path}: result file not found")
+    try:
+        with h5py.File(path, "r") as f:
+            if int(f.attrs.get("format", -1)) != FORMAT:
+                raise ResultError(f"{path}: not a uqguide result file (format "
+                                  f"{f.attrs.get('format')!r}, expected {FORMAT})")
+            outputs = [
+                OutputInfo(name, str(g.attrs["kind"]), str(g.attrs["unit"]),  # type: ignore[arg-type]
+                           str(g.attrs["description"]),
+                           tuple(json.loads(g.attrs["components"])))
+                for name, g in f["outputs"].items()
+            ]
+            runs = []
+            order = json.loads(f.attrs.get("method_order", "[]")) or list(f["methods"])
+            for label in order:
+                g = f["methods"][label]
+                stats = {name: _read_stats(sg) for name, sg in g["stats"].items()}
+                joint = g.get("scalar_joint")
+                est = Estimate(
+                    method=str(g.attrs["method"]), label=label, stats=stats,
+                    diagnostics=json.loads(g.attrs["diagnostics_json"]),
+                    scalar_names=[b.decode() for b in joint["names"][()]] if joint else [],
+                    scalar_mean=joint["mean"][()] if joint else None,
+                    scalar_cov=joint["cov"][()] if joint else None,
+                )
+                s = g["samples"]
+                runs.append(MethodRun(
+                    estimate=est, x=s["x"][()],
+                    scalars={k: v[()] for k, v in s.get("scalars", {}).items()},
+                    failed=s["failed"][()], reasons=np.array(
+                        [b.decode() for b in s["reasons"][()]], dtype=object),
+                    time=f["time"][()], n_runs=int(g.attrs["n_runs"]),
+                    model_seconds=float(g.attrs["model_seconds"]),
+                    fit_seconds=float(g.attrs["fit_seconds"]),
+                    wall_seconds=float(g.attrs["wall_seconds"]),
+                ))
+            config = yaml.safe_load(f.attrs["config_yaml"])
+            return Result(
+                name=str(f.attrs["name"]), model=str(f.attrs["model"]),
+                input_names=[b.decode() for b in f["inputs/names"][()]],
+                outputs=outputs, time=f["time"][()], runs=runs,
+                reference=str(f.attrs["reference"]) or None,
+                report_times=list(f["report_times"][()]) if "report_times" in f else None,
+                config=config,
+                provenance={"created_utc": str(f.attrs["created_utc"]),
+                            "wall_seconds": float(f.attrs["wall_seconds"]),
+                            "versions": json.loads(f.attrs["versions_json"])},
+            )
+    except ResultError:
+        raise
+    except (OSError, KeyError, ValueError) as exc:
+        raise ResultError(f"{path}: unreadable or incomplete result file ({exc})") from None
