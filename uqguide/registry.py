@@ -24,6 +24,7 @@ MODELS: dict[str, str] = {
     "borehole": "uqguide.models.benchmarks:Borehole",
     "callable": "uqguide.models.callable:CallableModel",
     "ftcapn": "uqguide.models.ftcapn:FTCAPN",
+    "ft_as": "uqguide.models.ft_as:FTAS",
 }
 
 METHODS: dict[str, str] = {
