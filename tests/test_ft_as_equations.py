@@ -197,8 +197,8 @@ def test_relative_kinematics_match_absolute_propagation():
 
     ya = x.copy()
     ya[0, SIGMA_E] = sig_bn0
-    h = 0.1
-    for i in range(2000):
+    h = 0.2  # RK4 local error ~ (|omega| h)^5 ~ 1e-13 per step; 1000 steps stay below 1e-9
+    for i in range(1000):
         t = i * h
         for f, name in ((f_err, "e"), (f_abs, "a")):
             y = x if name == "e" else ya

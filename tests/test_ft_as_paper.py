@@ -1,0 +1,129 @@
+"""The paper's comparison (ft-as-controller.md sections 11-13) reproduced by the ``ft_as`` model.
+
+The full reproduction (h = 0.01 s, T = 3000 s, five controllers in one batch) costs about 5 s
+in the compiled kernel, so it runs in the default suite. Tolerances are the spec's: accuracy
+bounds x3, orderings with a 10 % margin, section 12.2 values within x3 (accuracies) and 10 %
+(settling times, delta-v).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from uqguide.models.ft_as import FTAS
+from uqguide.models.ft_as.model import Variant
+from uqguide.models.ft_as.report import nominal_runs
+
+
+@pytest.fixture(scope="module")
+def paper():
+    model = FTAS()
+    rows = model.nominal_report()
+    variants, res = nominal_runs(model)
+    return {r.quantity: r for r in rows}, {v.label: i for i, v in enumerate(variants)}, res
+
+
+def test_observer_converges_within_5s_C1(paper):
+    rows, idx, res = paper
+    for lab in ("FT-AS", "Case 1", "Case 2"):
+        t = res.settle["eps1"][idx[lab], 1]  # |eps1| <= 1e-3
+        assert t <= 5.0, lab
+        assert t == pytest.approx(2.4, rel=0.10)  # spec 12.2
+    # the literal FT-AS cannot: its FT-DO sees the unsaturated command (spec 8.1)
+    assert not res.settled("eps1")[idx["FT-AS literal"], 1]
+
+
+def test_final_accuracies_C2_C4(paper):
+    rows, idx, res = paper
+    bounds = {"FT-AS": (2e-4, 1e-4), "Case 1": (5e-3, 1e-4), "Case 2": (0.5, 2e-3)}
+    for lab, (b_r, b_s) in bounds.items():
+        assert res.final_max["r_e"][idx[lab]].max() <= 3 * b_r, lab
+        assert res.final_max["sigma_e"][idx[lab]].max() <= 3 * b_s, lab
+    # literal FT-AS diverges in position (documented behaviour, spec 13)
+    assert np.linalg.norm(res.records["r_e"][idx["FT-AS literal"], -1]) > 1e3
+
+
+def test_velocity_claims_C3(paper):
+    rows, idx, res = paper
+    fv = [res.final_max["v_e"][idx[lab]].max() for lab in ("FT-AS", "Case 1", "Case 2")]
+    assert max(fv) / min(fv) <= 3.0
+    tv = {lab: res.settle["v_e"][idx[lab], 0] for lab in ("FT-AS", "Case 1", "Case 2")}
+    assert 1.1 * tv["FT-AS"] < tv["Case 2"] and 1.1 * tv["Case 1"] < tv["Case 2"]
+
+
+def test_inputs_C5(paper):
+    rows, idx, res = paper
+    lim = np.array([2.0, 2.0, 2.0, 1.0, 1.0, 1.0])
+    for lab in ("FT-AS", "FT-AS-P", "Case 2"):
+        assert np.all(res.peak_applied[idx[lab]] <= lim), lab
+    i1 = idx["Case 1"]
+    assert res.peak_applied[i1, :3].max() > 2.0  # exceeds initially: 3008 N in the spec
+    assert res.peak_applied[i1, :3].max() == pytest.approx(3008.0, rel=0.01)
+    assert np.all(res.peak_late[i1] <= lim)  # then within (after 300 s)
+
+
+def test_sliding_variables_C6(paper):
+    rows, idx, res = paper
+    st = {lab: res.settle["s_trans"][idx[lab], 0] for lab in ("FT-AS", "Case 1", "Case 2")}
+    assert st["Case 2"] > 1.1 * max(st["FT-AS"], st["Case 1"])
+    assert 1 / 3 <= st["FT-AS"] / st["Case 1"] <= 3  # "~", factor 3
+    # s4..6: at the spec's h = 0.05 s Case 2 is the slowest by far (128 s vs 57-59 s)
+    assert rows["C6 s4..6: FT-AS < Case 2 (h = 0.05 s)"].ok is True
+    # Case 1 < FT-AS holds, but by 2-3 %, not the 10 % margin: reported, not claimed
+    sr = {lab: res.settle["s_rot"][idx[lab], 0] for lab in ("FT-AS", "Case 1")}
+    assert sr["Case 1"] < sr["FT-AS"]
+    assert rows["C6 s4..6: Case 1 < FT-AS (h = 0.01 s)"].ok is False
+
+
+def test_spec_reference_table_12_2(paper):
+    rows, idx, res = paper
+    spec_rows = [r for q, r in rows.items() if "spec 12.2" in q]
+    assert len(spec_rows) == 4 * 7
+    failing = [r.quantity for r in spec_rows if r.ok is not True]
+    assert failing == []
+
+
+def test_report_rows_are_checked_where_a_tolerance_exists(paper):
+    rows, idx, res = paper
+    known_deviations = {  # documented in the report notes and the final report
+        "C6 s4..6: Case 1 < FT-AS (h = 0.01 s)",
+        "C6 s4..6: FT-AS < Case 2 (h = 0.01 s)",
+        "C6 s4..6: Case 1 < FT-AS (h = 0.05 s)",
+    }
+    bad = [q for q, r in rows.items() if r.ok is False and q not in known_deviations]
+    assert bad == []
+
+
+def test_coarse_profile_of_section_13():
+    # spec section 13 integration test: h = 0.1 s, T = 3000 s, one batch of all configurations
+    model = FTAS({"step": 0.1})
+    variants = [
+        Variant("literal", "ft_as", False),
+        Variant("FT-AS-P", "ft_as", False, 0.01),
+        Variant("FT-AS-A", "ft_as", True),
+        Variant("Case 1", "case1"),
+        Variant("Case 2", "case2"),
+    ]
+    res = model.run(model.nominal_values(5), variants, ("r_e",))
+    assert np.linalg.norm(res.records["r_e"][0, -1]) > 1e3
+    assert np.all(res.final_max["r_e"][1:].max(axis=1) < 1e-3)
+    assert np.all(res.final_max["sigma_e"][1:].max(axis=1) < 2e-4)
+    assert res.settle["eps1"][2, 1] <= 5.0
+    lim = np.array([2.0, 2.0, 2.0, 1.0, 1.0, 1.0])
+    assert np.all(res.peak_applied[[0, 1, 2, 4]] <= lim)
+
+
+def test_convergence_time_versus_initial_state_C7():
+    # spec 12.5: Case 1 settles in 534-745 s for 0.1-4x the paper's IC; saturated controllers
+    # slow down with the IC (an authority limit, so the paper's claim fails for them).
+    model = FTAS({"step": 0.1, "duration": 4000.0})
+    scales = np.array([0.1, 1.0, 4.0])
+    vals = model.nominal_values(6)
+    vals["initial_error_scale"] = np.tile(scales, 2)
+    variants = [Variant("Case 1", "case1")] * 3 + [Variant("FT-AS", "ft_as", True)] * 3
+    res = model.run(vals, variants)
+    t_case1 = res.settle["r_e"][:3, 4]
+    assert np.all((t_case1 > 0.9 * 534) & (t_case1 < 1.1 * 745))
+    t_ftas = res.settle["r_e"][3:, 4]
+    assert t_ftas[0] < t_ftas[1] < t_ftas[2]
