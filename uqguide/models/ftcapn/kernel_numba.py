@@ -19,6 +19,8 @@ from .layout import (
     S_DV, S_OMEGA, S_POS, S_R, S_RDOT, S_S, S_SPEED, S_VEL, S_W, ST_NONFINITE, ST_OK, ST_TMAX,
 )
 
+EPS = float(np.finfo(np.float64).eps)
+
 
 @njit(cache=True, error_model="numpy")
 def _record(buf, i, k0, k1, col, st, R, Rdot, om, s, ac, acr, act, dv):
@@ -121,7 +123,9 @@ def _newton_cross(D, lo, hi, rs2, out):
         new = tau - F / dF if dF != 0.0 else 0.5 * (lo + hi)
         if not (lo <= new <= hi):
             new = 0.5 * (lo + hi)
-        if abs(new - tau) <= 1e-15 * (1.0 + abs(tau)):
+        # F is resolved to a few ulps of r_stop^2: stop there, or at round-off step/bracket
+        tol = 1e-15 * (1.0 + abs(tau))
+        if abs(new - tau) <= tol or hi - lo <= tol or abs(F) <= 8.0 * EPS * rs2:
             tau = new
             break
         tau = new
@@ -146,7 +150,8 @@ def _newton_min(D, hi, out):
         new = tau - G / dG if dG > 0.0 else 0.5 * (lo + hi)
         if not (lo <= new <= hi):
             new = 0.5 * (lo + hi)
-        if abs(new - tau) <= 1e-15 * (1.0 + abs(tau)):
+        tol = 1e-15 * (1.0 + abs(tau))
+        if abs(new - tau) <= tol or hi - lo <= tol:
             tau = new
             break
         tau = new

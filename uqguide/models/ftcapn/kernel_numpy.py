@@ -38,8 +38,9 @@ from .layout import (
     S_DV, S_OMEGA, S_POS, S_R, S_RDOT, S_S, S_SPEED, S_VEL, S_W, ST_NONFINITE, ST_OK, ST_TMAX,
 )
 
-CHUNK = 2048
-"""Samples per chunk: ~40 work arrays of this length stay in the L2 cache."""
+CHUNK = 8192
+"""Samples per chunk. Measured on a 2-core EPYC: 512 -> 20k, 2048 -> 34k, 8192 -> 41k
+samples/s (per-call overhead dominates below ~4k; ~40 work arrays of 64 kB stay in cache)."""
 
 
 def _derivatives(X: np.ndarray, f: np.ndarray, nm: float) -> np.ndarray:
@@ -90,7 +91,11 @@ def _newton_cross(D: np.ndarray, lo: np.ndarray, hi: np.ndarray, rs2: float) -> 
         with np.errstate(divide="ignore", invalid="ignore"):
             new = np.where(dF != 0.0, tau - F / dF, 0.5 * (lo + hi))
         new = np.where((lo <= new) & (new <= hi), new, 0.5 * (lo + hi))
-        conv = np.abs(new - tau) <= 1e-15 * (1.0 + np.abs(tau))
+        # F is resolved to a few ulps of r_stop^2 (|r| to ~1e-14 m): stop there, or when the
+        # step or the bracket is at round-off level
+        tol = 1e-15 * (1.0 + np.abs(tau))
+        conv = ((np.abs(new - tau) <= tol) | (hi - lo <= tol)
+                | (np.abs(F) <= 8.0 * np.finfo(float).eps * rs2))
         tau = np.where(done, tau, new)
         done |= conv
         if done.all():
@@ -115,7 +120,8 @@ def _newton_min(D: np.ndarray, hi: float) -> np.ndarray:
         with np.errstate(divide="ignore", invalid="ignore"):
             new = np.where(dG > 0.0, tau - G / dG, 0.5 * (lo + hi_))
         new = np.where((lo <= new) & (new <= hi_), new, 0.5 * (lo + hi_))
-        conv = np.abs(new - tau) <= 1e-15 * (1.0 + np.abs(tau))
+        tol = 1e-15 * (1.0 + np.abs(tau))
+        conv = (np.abs(new - tau) <= tol) | (hi_ - lo <= tol)
         tau = np.where(done, tau, new)
         done |= conv
         if done.all():
@@ -294,7 +300,9 @@ def _simulate_chunk(idx, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, stat
             z = np.zeros(idx.size)
             ac, acr, act, acn = np.zeros((3, idx.size)), z, z, z
         if j <= K:
-            _record(buf, idx, j, col, X, R, Rdot, om, s, ac, acr, act, dv)
+            # a slice while no sample of the chunk has stopped: no fancy-index scatter
+            rows = slice(idx[0], idx[-1] + 1) if idx[-1] - idx[0] + 1 == idx.size else idx
+            _record(buf, rows, j, col, X, R, Rdot, om, s, ac, acr, act, dv)
         if j >= max_steps:
             sc[idx, K_TFAIL] = t
             finish(np.ones(idx.size, dtype=bool))
