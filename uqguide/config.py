@@ -19,6 +19,8 @@ Layout (all values SI)::
     reference: mc1000    # optional: label of the reference method of the cost table
     seed: 12345          # root seed of every random stream of the run
     batch_size: 10000    # samples per model call (memory only: never changes the numbers)
+    max_failed_fraction: 0.01    # failure budget per method: above it `uqguide run` exits 1
+    pce_failure_policy: fail     # quadrature PCE with failed runs: fail | regression
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import yaml
@@ -62,6 +64,15 @@ class RawConfig(BaseModel):
     reference: str | None = None
     seed: int = Field(default=0, ge=0, lt=2**63)
     batch_size: int = Field(default=10_000, ge=1, le=10_000_000)
+    #: Largest share of a method's runs that may fail before ``uqguide run`` exits 1 (the
+    #: result is still written, for inspection). 1%: statistics of the survivors are biased
+    #: wherever failures correlate with the inputs (they always do), most of all the tails
+    #: (kurtosis); above 1% a GNC campaign should look at why before trusting them.
+    max_failed_fraction: float = Field(default=0.01, ge=0.0, le=1.0)
+    #: A quadrature PCE (tensor, Smolyak) needs every node: ``fail`` (default) stops the method
+    #: with the failed nodes named; ``regression`` fits the coefficients by least squares on
+    #: the surviving nodes, with a warning and a diagnostics entry.
+    pce_failure_policy: Literal["fail", "regression"] = "fail"
 
 
 @dataclass
@@ -311,6 +322,7 @@ def _build_methods(raw: RawConfig) -> list[Method]:
         except ValidationError as err:
             raise _from_validation(err, f"methods[{i}]", ["name", *_fields(cls.Settings)]) from None
         method.report_times = tuple(raw.report_times) if raw.report_times else None
+        method.failure_policy = raw.pce_failure_policy
         methods.append(method)
     return methods
 

@@ -1,20 +1,33 @@
 """The driver: design -> evaluate -> refine -> estimate, for every method of a config.
 
 ``run(load_config(path))`` is the whole of ``uqguide run`` less the printing and the writing.
+
+Evaluation goes chunk by chunk through an executor (:mod:`uqguide.execution`); finished chunks
+are checkpointed as they arrive when a :class:`~uqguide.checkpoint.RunStore` is given (and
+taken from it on resume), and folded **in chunk order** whatever order they finish in, so the
+numbers do not depend on the executor, the worker count or interruptions. A method with a
+reducer (Monte Carlo) is folded chunk by chunk into summaries (bounded memory); the others get
+every output of every run and may refine their design.
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from collections import Counter
+from typing import Any
 
 import numpy as np
 
+from .checkpoint import RunInterrupted, RunStore
 from .config import RunConfig
-from .execution import SerialExecutor, Timing
+from .errors import UqguideError
+from .execution import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, ModelHandle,
+                        SerialExecutor, Task, Timing, common_grid)
 from .inputs import InputSpace
 from .methods.base import Design, Method
 from .models.base import Model, ModelOutput
+from .progress import Progress
 from .result import MethodRun, Result, provenance
 
 log = logging.getLogger(__name__)
@@ -24,9 +37,87 @@ log = logging.getLogger(__name__)
 MAX_REFINEMENTS = 100
 
 
+class _Stage:
+    """Evaluates the rows of one design stage chunk by chunk and folds them in order."""
+
+    def __init__(self, method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
+                 executor: Executor, batch_size: int, store: RunStore | None,
+                 progress: Progress, timing: Timing) -> None:
+        self.method, self.model, self.space, self.outputs = method, model, space, outputs
+        self.executor, self.batch_size, self.store = executor, batch_size, store
+        self.progress, self.timing = progress, timing
+
+    def tasks(self, n: int) -> list[Task]:
+        return [Task(i, a, b) for i, (a, b) in
+                enumerate(self.method.chunk_bounds(n, self.batch_size))]
+
+    def run(self, x: np.ndarray, stage: int, tasks: list[Task], reducer: Any
+            ) -> tuple[ModelOutput, Any]:
+        """Outputs of the rows ``x`` (scalars only when reduced) and the folded summaries."""
+        label = self.method.label
+        pending: dict[int, ChunkResult] = {}
+        for t in tasks:
+            r = self.store.load(label, stage, t) if self.store else None
+            if r is not None:
+                pending[t.index] = r
+                self.progress.restored(t.n, r.n_failed)
+        todo = [t for t in tasks if t.index not in pending]
+        if len(pending):
+            log.info("%s: %d of %d chunks restored from the checkpoint", label, len(pending),
+                     len(tasks))
+        job = ChunkJob(ModelHandle(self.model), tuple(self.space.names), self.outputs,
+                       self.batch_size, reducer)
+        parts: list[ModelOutput] = []
+        acc = None
+        nxt = 0
+
+        def fold_ready() -> None:
+            nonlocal nxt, acc
+            while nxt in pending:
+                r = pending.pop(nxt)
+                self.timing.model_seconds += r.model_seconds
+                self.timing.n_runs += r.task.n
+                if reducer is not None:
+                    acc = self.method.fold(acc, r.summary)
+                parts.append(r.output())
+                nxt += 1
+
+        fold_ready()
+        results = self.executor.map_chunks(job, todo, x) if todo else iter(())
+        try:
+            for r in results:
+                if self.store is not None:
+                    self.store.save(label, stage, r)
+                self.progress.advance(r.task.n, r.n_failed)
+                pending[r.task.index] = r
+                fold_ready()
+        finally:
+            close = getattr(results, "close", None)
+            if close is not None:
+                close()
+        fold_ready()
+        return ModelOutput.concatenate(common_grid(parts)), acc
+
+
 def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
-              seed: int, executor: SerialExecutor | None = None) -> MethodRun:
+              seed: int, executor: Executor | None = None, *, batch_size: int | None = None,
+              store: RunStore | None = None, progress: Progress | None = None,
+              design: Design | None = None) -> MethodRun:
     """Run one method on one model.
+
+    Parameters
+    ----------
+    executor : Executor, optional
+        Where chunks run (default: this process).
+    batch_size : int, optional
+        Samples per model call when the executor does not set it (default 10000).
+    store : RunStore, optional
+        Checkpoint: finished chunks are saved there, and chunks found there are not re-run.
+    progress : Progress, optional
+        Counters (and display) of the whole run.
+    design : Design, optional
+        The method's initial design when already made (``run`` makes them all first, to
+        know the total work).
 
     Returns
     -------
@@ -34,23 +125,39 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         The estimate, the runs' inputs, scalar outputs and failure mask, and the wall times.
     """
     executor = executor or SerialExecutor()
+    bs = executor.batch_size or batch_size or DEFAULT_BATCH_SIZE
+    progress = progress or Progress()
     timing = Timing()
     t_start = time.perf_counter()
-    design = method.design(space, seed)
-    log.info("%s: %d runs in the initial design", method.label, design.n_runs)
-    out = executor.evaluate(model, design.x, space.names, outputs, timing)
-    for _ in range(MAX_REFINEMENTS):
-        bigger = method.refine(space, design, out)
-        if bigger is None:
-            break
-        new_x = _appended_rows(design, bigger)
-        log.info("%s: %d more runs (sequential design)", method.label, new_x.shape[0])
-        more = executor.evaluate(model, new_x, space.names, outputs, timing)
-        design, out = bigger, ModelOutput.concatenate([out, more])
-    else:
-        log.warning("%s: stopped after %d refinements", method.label, MAX_REFINEMENTS)
+    if design is None:
+        design = method.design(space, seed)
+    stage = _Stage(method, model, space, outputs, executor, bs, store, progress, timing)
+    tasks = stage.tasks(design.n_runs)
+    if not progress.chunks_total:  # called alone, not from run()
+        progress.plan(len(tasks), design.n_runs)
+    progress.start(method.label)
+    log.info("%s: %d runs in the initial design (%d chunks)", method.label, design.n_runs,
+             len(tasks))
+    reducer = method.reducer(space, design)
+    out, acc = stage.run(design.x, 0, tasks, reducer)
+    if reducer is None:
+        for k in range(1, MAX_REFINEMENTS + 1):
+            bigger = method.refine(space, design, out)
+            if bigger is None:
+                break
+            new_x = _appended_rows(design, bigger)
+            log.info("%s: %d more runs (sequential design)", method.label, new_x.shape[0])
+            more_tasks = stage.tasks(new_x.shape[0])
+            progress.plan(len(more_tasks), new_x.shape[0])
+            more, _ = stage.run(new_x, k, more_tasks, None)
+            design, out = bigger, ModelOutput.concatenate(common_grid([out, more]))
+        else:
+            log.warning("%s: stopped after %d refinements", method.label, MAX_REFINEMENTS)
     t_fit = time.perf_counter()
-    estimate = method.estimate(space, design, out)
+    if reducer is None:
+        estimate = method.estimate(space, design, out)
+    else:
+        estimate = method.estimate_reduced(space, design, out, acc)
     fit_seconds = time.perf_counter() - t_fit
     return MethodRun(
         estimate=estimate,
@@ -73,14 +180,51 @@ def _appended_rows(old: Design, new: Design) -> np.ndarray:
     return new.x[n_old:]
 
 
-def run(config: RunConfig, executor: SerialExecutor | None = None) -> Result:
-    """Run every method of a validated config; the Result holds all their statistics."""
+def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore | None = None,
+        progress: Progress | None = None) -> Result:
+    """Run every method of a validated config; the Result holds all their statistics.
+
+    Parameters
+    ----------
+    config : RunConfig
+    executor : Executor, optional
+        Default: this process, in calls of the config's ``batch_size``.
+    store : RunStore, optional
+        Checkpoint folder (see :mod:`uqguide.checkpoint`).
+    progress : Progress, optional
+        Where progress is shown (default: counted, not shown).
+
+    Raises
+    ------
+    RunInterrupted
+        On Ctrl-C (KeyboardInterrupt): chunks in flight are dropped; those done are in
+        ``store``.
+    """
     executor = executor or SerialExecutor(config.raw.batch_size)
+    progress = progress or Progress()
     t0 = time.perf_counter()
     runs = []
-    for method in config.methods:
-        runs.append(propagate(method, config.model, config.space, config.outputs, config.seed,
-                              executor))
+    try:
+        designs = []
+        for method in config.methods:
+            t_design = time.perf_counter()
+            design = method.design(config.space, config.seed)
+            designs.append((design, time.perf_counter() - t_design))
+            bs = executor.batch_size or config.raw.batch_size
+            progress.plan(len(method.chunk_bounds(design.n_runs, bs)), design.n_runs)
+        for method, (design, design_seconds) in zip(config.methods, designs):
+            r = propagate(method, config.model, config.space, config.outputs, config.seed,
+                          executor, batch_size=config.raw.batch_size, store=store,
+                          progress=progress, design=design)
+            r.wall_seconds += design_seconds
+            runs.append(r)
+    except KeyboardInterrupt as exc:
+        executor.abort()
+        if isinstance(exc, RunInterrupted):
+            raise
+        raise RunInterrupted(progress.chunks_done, progress.chunks_total) from None
+    finally:
+        progress.close()
     time_grid = next((r.time for r in runs if r.time.size), np.zeros(0))
     return Result(
         name=config.name,
@@ -94,3 +238,20 @@ def run(config: RunConfig, executor: SerialExecutor | None = None) -> Result:
         config=config.resolved(),
         provenance={**provenance(), "wall_seconds": time.perf_counter() - t0},
     )
+
+
+def check_failure_budget(result: Result, max_failed_fraction: float) -> None:
+    """Raise UqguideError (exit 1) when a method's share of failed runs exceeds the budget.
+
+    The message names each method over budget, its counts and its most common reasons.
+    """
+    over = []
+    for r in result.runs:
+        if r.n_runs and r.n_failed / r.n_runs > max_failed_fraction:
+            reasons = Counter(str(v) for v in r.reasons[r.failed]).most_common(2)
+            why = "; ".join(f"{k} ({c})" for k, c in reasons)
+            over.append(f"{r.label}: {r.n_failed} of {r.n_runs} runs failed "
+                        f"({100 * r.n_failed / r.n_runs:.3g}%: {why})")
+    if over:
+        raise UqguideError(f"{'; '.join(over)}; above max_failed_fraction = "
+                           f"{max_failed_fraction:g}")

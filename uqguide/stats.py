@@ -206,3 +206,172 @@ def sample_statistics(
         mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=covariance(y), n_used=n,
         moments_method="sample", sem=std / np.sqrt(n), ci=ci,
     )
+
+
+# ---------------------------------------------------------------------------- streaming form
+# Monte Carlo at scale never holds every sample of a time series: each chunk of samples is
+# reduced to mergeable sums where it is evaluated, and the sums are merged in chunk order.
+@dataclass
+class MomentSums:
+    """Mergeable moment sums of (possibly weighted) samples: count, mean, central sums.
+
+    For samples ``y_i`` with weights ``w_i`` (1 for plain samples)::
+
+        n = sum w_i,  mean = sum w_i y_i / n,  m_p = sum w_i (y_i - mean)^p  (p = 2, 3, 4),
+        cm = sum w_i (y_i - mean)(y_i - mean)^T   (comoments, optional)
+
+    Two summaries of disjoint sample sets merge exactly (up to rounding) by the pairwise
+    formulas of Chan, Golub & LeVeque (1979) and Pébay (2008, Sandia SAND2008-6212, eqs 3.1
+    and 3.2, which hold for real weights), so statistics of any number of chunks come out of
+    one pass over the chunks without keeping the samples. The merge is not associative in
+    floating point: merging in a fixed (chunk) order makes the result independent of which
+    process reduced which chunk.
+
+    Attributes
+    ----------
+    n : float or ndarray, shape (B, 1)
+        Total weight (sample count); ``(B, 1)`` for ``B`` bootstrap resamples.
+    mean, m2, m3, m4 : ndarray, shape (..., k) or (B, c)
+    cm : ndarray, shape (..., k, k), optional
+    """
+
+    n: float | np.ndarray
+    mean: np.ndarray
+    m2: np.ndarray
+    m3: np.ndarray
+    m4: np.ndarray
+    cm: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, y: np.ndarray, comoments: bool = True) -> MomentSums:
+        """Sums of plain samples ``y (n, ..., k)`` over the first axis (two-pass)."""
+        y = np.asarray(y, dtype=float)
+        n = y.shape[0]
+        if n == 0:
+            z = np.zeros(y.shape[1:])
+            cm = np.zeros(y.shape[1:] + y.shape[-1:]) if comoments else None
+            return cls(0.0, z, z.copy(), z.copy(), z.copy(), cm)
+        mean = y.mean(axis=0)
+        d = y - mean
+        d2 = d * d
+        cm = np.einsum("n...i,n...j->...ij", d, d) if comoments else None
+        return cls(float(n), mean, d2.sum(axis=0), (d2 * d).sum(axis=0), (d2 * d2).sum(axis=0),
+                   cm)
+
+    @classmethod
+    def weighted(cls, y: np.ndarray, w: np.ndarray) -> MomentSums:
+        """Sums of ``y (n, c)`` under ``B`` weight vectors ``w (B, n)``: fields ``(B, c)``.
+
+        The weighted power sums are matrix products of the weights with the powers of ``y``
+        centred at its plain mean (centring keeps the conversion to central sums well
+        conditioned), converted to central sums about each resample's own weighted mean.
+        """
+        y = np.asarray(y, dtype=float)
+        B = w.shape[0]
+        if y.shape[0] == 0:
+            z = np.zeros((B, y.shape[1]))
+            return cls(np.zeros((B, 1)), z, z.copy(), z.copy(), z.copy())
+        c = y.mean(axis=0)
+        d = y - c
+        d2 = d * d
+        W = w.sum(axis=1, keepdims=True)
+        p1, p2, p3, p4 = (w @ p for p in (d, d2, d2 * d, d2 * d2))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            a = np.where(W > 0, p1 / np.where(W > 0, W, 1.0), 0.0)  # weighted mean - c
+        m2 = p2 - a * p1
+        m3 = p3 - 3 * a * p2 + 2 * a * a * p1
+        m4 = p4 - 4 * a * p3 + 6 * a * a * p2 - 3 * a**3 * p1
+        return cls(W, c + a, m2, m3, m4)
+
+    def merge(self, other: MomentSums) -> MomentSums:
+        """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2)."""
+        na, nb = self.n, other.n
+        if np.ndim(na) == 0 and np.ndim(nb) == 0:
+            # Whole-chunk sums: an empty side is the other side exactly.
+            if nb == 0:
+                return self
+            if na == 0:
+                return other
+        n = na + nb
+        safe = np.where(n > 0, n, 1.0)
+        delta = other.mean - self.mean
+        fa, fb = na / safe, nb / safe
+        mean = self.mean + delta * fb
+        d2 = delta * delta
+        nab = na * nb / safe
+        m2 = self.m2 + other.m2 + d2 * nab
+        m3 = (self.m3 + other.m3 + d2 * delta * nab * (fa - fb)
+              + 3 * delta * (fa * other.m2 - fb * self.m2))
+        m4 = (self.m4 + other.m4 + d2 * d2 * nab * (fa * fa - fa * fb + fb * fb)
+              + 6 * d2 * (fa * fa * other.m2 + fb * fb * self.m2)
+              + 4 * delta * (fa * other.m3 - fb * self.m3))
+        cm = None
+        if self.cm is not None and other.cm is not None:
+            cm = self.cm + other.cm + np.einsum("...i,...j->...ij", delta, delta) * nab
+        return MomentSums(n, mean, m2, m3, m4, cm)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The fields as named arrays (for storage); inverse of :meth:`from_arrays`."""
+        d = {"n": np.asarray(self.n, dtype=float), "mean": self.mean, "m2": self.m2,
+             "m3": self.m3, "m4": self.m4}
+        if self.cm is not None:
+            d["cm"] = self.cm
+        return d
+
+    @classmethod
+    def from_arrays(cls, d: dict[str, np.ndarray]) -> MomentSums:
+        n = d["n"]
+        return cls(float(n) if n.ndim == 0 else n, d["mean"], d["m2"], d["m3"], d["m4"],
+                   d.get("cm"))
+
+    def central_moments(self):
+        """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            inv = np.where(np.asarray(self.n) > 0, 1.0 / np.asarray(self.n), np.nan)
+        return self.mean, self.m2 * inv, self.m3 * inv, self.m4 * inv
+
+
+def statistics_from_sums(
+    sums: MomentSums, boot: MomentSums | None = None, ci_index: np.ndarray | None = None,
+    level: float = 0.95,
+) -> OutputStats:
+    """OutputStats from merged :class:`MomentSums` (the streaming form of
+    :func:`sample_statistics`).
+
+    Parameters
+    ----------
+    sums : MomentSums
+        Plain sums of the output, fields ``(..., k)``, comoments ``(..., k, k)``.
+    boot : MomentSums, optional
+        Poisson-bootstrap sums ``(B, c)`` of the columns the intervals are wanted at: every
+        column of the output flattened, or, for a time series, the time steps ``ci_index``
+        flattened ``(len(ci_index) * k)``. Intervals are NaN at the other steps.
+    ci_index : ndarray of int, optional
+        Time indices of the bootstrap columns of a series output.
+    level : float
+        Coverage of the percentile intervals.
+    """
+    n = int(round(float(sums.n)))
+    shape = sums.mean.shape
+    if n == 0:
+        nan = np.full(shape, np.nan)
+        return OutputStats(nan, nan, nan, nan, np.full(shape + shape[-1:], np.nan), 0)
+    mean, mu2, mu3, mu4 = sums.central_moments()
+    std, skew, kurt = _shape_moments(mean, mu2, mu3, mu4)
+    cov = sums.cm / n if sums.cm is not None else np.full(shape + shape[-1:], np.nan)
+    ci: dict[str, np.ndarray] = {}
+    if boot is not None and n > 1:
+        bm, b2, b3, b4 = boot.central_moments()
+        bstd, bskew, bkurt = _shape_moments(bm, b2, b3, b4)
+        alpha = (1.0 - level) / 2
+        draws = {"mean": bm, "std": bstd, "skewness": bskew, "kurtosis": bkurt}
+        for name, v in draws.items():
+            q = _nan_safe_percentile(v, alpha)
+            if ci_index is None:
+                ci[name] = q.reshape((2,) + shape)
+            else:
+                full = np.full((2,) + shape, np.nan)
+                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
+                ci[name] = full
+    return OutputStats(mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=cov, n_used=n,
+                       moments_method="sample", sem=std / np.sqrt(n), ci=ci)

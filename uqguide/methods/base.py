@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -102,6 +102,11 @@ class Method(ABC):
     #: The run's report times [s] (set from the config): where a method that must economise
     #: (e.g. Monte Carlo bootstrap intervals of long series) concentrates its effort.
     report_times: tuple[float, ...] | None = None
+    #: What a method whose design needs every run (quadrature) does when runs failed (set from
+    #: the config's ``pce_failure_policy``): ``"fail"`` raises MethodError naming the failed
+    #: runs; ``"regression"`` fits the coefficients by least squares on the surviving nodes,
+    #: logs a warning and says so in the diagnostics. Sampling methods ignore it.
+    failure_policy: Literal["fail", "regression"] = "fail"
 
     def __init__(self, settings: MethodSettings | dict[str, Any] | None = None) -> None:
         if settings is None:
@@ -137,3 +142,29 @@ class Method(ABC):
     @abstractmethod
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
         """Statistics of every output in ``outputs`` from the runs of ``design``."""
+
+    # ------------------------------------------------------------------ execution hooks
+    def chunk_bounds(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
+        """How ``n_runs`` new rows of a design split into chunks ``[start, stop)``: the unit of
+        work of the executors and of checkpoints (default: ``batch_size`` slices). A method
+        that reduces chunks (:meth:`reducer`) splits where its statistics need it."""
+        return [(s, min(n_runs, s + batch_size)) for s in range(0, max(n_runs, 1), batch_size)]
+
+    def reducer(self, space: InputSpace, design: Design) -> Any:
+        """A picklable ``f(out: ModelOutput, chunk_index) -> dict of arrays`` that reduces a
+        chunk where it ran, or ``None`` (default) to bring back every output of every run.
+
+        A method with a reducer does not refine, and is estimated by :meth:`fold` (driver, in
+        chunk order) and :meth:`estimate_reduced`, so time series never travel or stay.
+        """
+        return None
+
+    def fold(self, acc: Any, summary: dict[str, np.ndarray]) -> Any:
+        """Merge one chunk's summary into the accumulator (``acc`` is None at the start)."""
+        raise NotImplementedError(f"method '{self.name}' has no reducer")
+
+    def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
+                         acc: Any) -> Estimate:
+        """Statistics from the folded summaries; ``runs`` has the per-sample scalars, the
+        failure mask and the time grid, but no series."""
+        raise NotImplementedError(f"method '{self.name}' has no reducer")

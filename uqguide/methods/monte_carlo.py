@@ -11,6 +11,19 @@ independent randomised replicate); keep ``chunk_size`` a power of two for Sobol'
 
 Statistics are the population estimators of uq-methods.md section 3 over the runs that did not
 fail; failed runs are counted and their reasons tallied in the diagnostics.
+
+Statistics are computed in streaming form, always (one code path, whatever the size or the
+executor): each chunk is reduced where it ran to mergeable sums (count, mean, central moment
+sums up to the 4th, comoments; :class:`~uqguide.stats.MomentSums`) and the chunks are merged
+in chunk order, so a 1e6-sample run never holds its time series, and the numbers do not depend
+on which process reduced which chunk. Per-sample scalar outputs are kept (they are small).
+The bootstrap intervals are a **Poisson bootstrap** (Hanley & MacGibbon 2006; Chamandy et al.
+2012): resample ``b`` gives sample ``i`` of chunk ``c`` the weight ``w_bi ~ Poisson(1)`` from the
+stream ``(boot_seed, c)``, so the weighted sums of a resample are chunk-additive and merge like
+the plain ones. For large ``n`` it has the multinomial bootstrap's distribution (a multinomial
+``(n, 1/n)`` count is asymptotically ``Poisson(1)``); failed runs get weight 0. Intervals of a
+series are computed at the report times and the last step (``bootstrap_times: report``) or at
+every step (``all``: costs ``4 B T k`` multiply-adds per sample).
 """
 
 from __future__ import annotations
@@ -25,10 +38,12 @@ import numpy as np
 from pydantic import Field
 from scipy.stats import qmc
 
+from ..errors import MethodError
 from ..inputs import InputSpace
 from ..models.base import ModelOutput
-from ..stats import covariance, sample_statistics
+from ..stats import MomentSums, statistics_from_sums
 from .base import Design, Estimate, Method, MethodSettings
+from .mc_reduce import MonteCarloReducer, ci_index, split_summary, stack_scalars
 
 log = logging.getLogger(__name__)
 
@@ -90,7 +105,8 @@ def unit_samples(d: int, n: int, sampling: str, chunk_size: int,
 
 
 class MonteCarlo(Method):
-    """Monte Carlo sampling with sample-moment statistics and bootstrap intervals."""
+    """Monte Carlo sampling with streaming sample-moment statistics and Poisson-bootstrap
+    intervals."""
 
     name = "monte_carlo"
     summary = "Monte Carlo: random, Latin hypercube or scrambled Sobol' samples; sample moments"
@@ -107,54 +123,70 @@ class MonteCarlo(Method):
                         .generate_state(1)[0])
         return Design(x=x, data={"boot_seed": boot_seed})
 
-    def _ci_index(self, time_grid: np.ndarray) -> np.ndarray | None:
-        if self.settings.bootstrap_times == "all" or time_grid.size == 0:
-            return None
-        times = list(self.report_times or [])
-        idx = [int(np.argmin(np.abs(time_grid - t))) for t in times]
-        idx.append(time_grid.size - 1)
-        return np.unique(idx)
+    # ------------------------------------------------------------------ streaming estimate
+    def chunk_bounds(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
+        """The random-stream chunks: statistics are reduced per chunk, so the split is part of
+        the numbers (``chunk_size``), never the executor's or ``batch_size``'s choice."""
+        c = self.settings.chunk_size
+        return [(s, min(n_runs, s + c)) for s in range(0, max(n_runs, 1), c)]
+
+    def reducer(self, space: InputSpace, design: Design) -> MonteCarloReducer:
+        return MonteCarloReducer(self.settings.bootstrap, int(design.data.get("boot_seed", 0)),
+                                 self.report_times, self.settings.bootstrap_times)
+
+    def fold(self, acc: dict[tuple[str, str], MomentSums] | None,
+             summary: dict[str, np.ndarray]) -> dict[tuple[str, str], MomentSums]:
+        acc = {} if acc is None else acc
+        for key, sums in split_summary(summary).items():
+            acc[key] = acc[key].merge(sums) if key in acc else sums
+        return acc
 
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
+        """Statistics of in-memory outputs: reduced chunk by chunk exactly as the executors
+        do, so this gives the numbers of a streamed run bit for bit."""
+        reduce = self.reducer(space, design)
+        acc = None
+        for i, (a, b) in enumerate(self.chunk_bounds(outputs.n, self.settings.chunk_size)):
+            acc = self.fold(acc, reduce(outputs.subset(np.arange(a, b)), i))
+        runs = ModelOutput(time=outputs.time, scalars=outputs.scalars, failed=outputs.failed,
+                           reasons=outputs.reasons)
+        return self.estimate_reduced(space, design, runs, acc)
+
+    def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
+                         acc: dict[tuple[str, str], MomentSums] | None) -> Estimate:
         t0 = time.perf_counter()
-        ok = ~outputs.failed
-        n_failed = int(outputs.failed.sum())
+        n_failed = int(runs.failed.sum())
+        reasons = Counter(r for r in runs.reasons[runs.failed])
+        tally = "; ".join(f"{r} ({c})" for r, c in reasons.most_common())
         if n_failed:
             log.warning("%s: %d of %d runs failed; statistics use the other %d",
-                        self.label, n_failed, outputs.n, outputs.n - n_failed)
-        B, seed = self.settings.bootstrap, design.data.get("boot_seed", 0)
-        ci_index = self._ci_index(outputs.time)
+                        self.label, n_failed, runs.n, runs.n - n_failed)
+        if not acc:
+            raise MethodError(f"{self.label}: every one of the {runs.n} runs failed, no "
+                              f"statistics ({tally})")
         stats = {}
-        for name, y in outputs.series.items():
-            stats[name] = sample_statistics(y[ok], bootstrap=B, seed=seed, ci_index=ci_index)
-        for name, y in outputs.scalars.items():
-            stats[name] = sample_statistics(y[ok], bootstrap=B, seed=seed)
-        names, stacked = _stack_scalars(outputs, ok)
-        reasons = Counter(r for r in outputs.reasons[outputs.failed])
+        for (kind, name), sums in acc.items():
+            if kind != "m" or name == "":
+                continue
+            is_series = sums.mean.ndim == 2
+            idx = ci_index(runs.time, self.report_times, self.settings.bootstrap_times) \
+                if is_series else None
+            stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx)
+        names, _ = stack_scalars(runs.scalars, ~runs.failed)
+        joint = acc.get(("j", ""))
+        n_ok = runs.n - n_failed
         diagnostics = {
-            "n_runs": outputs.n,
+            "n_runs": runs.n,
             "n_failed": n_failed,
-            "failure_reasons": "; ".join(f"{r} ({c})" for r, c in reasons.most_common()),
+            "failure_reasons": tally,
             "sampling": self.settings.sampling,
-            "bootstrap": B,
+            "bootstrap": self.settings.bootstrap,
+            "bootstrap_kind": "poisson",
             "fit_seconds": time.perf_counter() - t0,
         }
         return Estimate(
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
             scalar_names=names,
-            scalar_mean=stacked.mean(axis=0) if stacked.size else None,
-            scalar_cov=covariance(stacked) if stacked.size else None,
+            scalar_mean=joint.mean if (names and joint is not None and n_ok) else None,
+            scalar_cov=joint.cm / n_ok if (names and joint is not None and n_ok) else None,
         )
-
-
-def _stack_scalars(outputs: ModelOutput, ok: np.ndarray) -> tuple[list[str], np.ndarray]:
-    """All scalar outputs of the good runs side by side ``(n_ok, m)`` with their names."""
-    names: list[str] = []
-    cols = []
-    for name, y in outputs.scalars.items():
-        k = y.shape[1]
-        names += [name] if k == 1 else [f"{name}[{j}]" for j in range(k)]
-        cols.append(y[ok])
-    if not cols:
-        return names, np.empty((int(ok.sum()), 0))
-    return names, np.concatenate(cols, axis=1)

@@ -1,0 +1,62 @@
+"""Small user functions for the execution, resume and failure tests (not collected)."""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+
+def flaky(x):
+    """``y = a + b^2`` and a series ``a t``; fails on about 5% of samples, two ways:
+    ``a > 1.96`` (2.5% of a standard normal) raises, ``a < -1.96`` gives NaN."""
+    a, b = x[:, 0], x[:, 1]
+    if (a > 1.96).any():
+        raise ValueError("a above 1.96")
+    t = np.linspace(0.0, 2.0, 9)
+    y = a + b**2
+    y = np.where(a < -1.96, np.nan, y)
+    return {"time": t, "path": a[:, None] * t[None, :] + b[:, None], "y": y, "ab": x[:, :2]}
+
+
+def clean(x):
+    """:func:`flaky` without its failures (the statistics of the rest come from this)."""
+    a, b = x[:, 0], x[:, 1]
+    t = np.linspace(0.0, 2.0, 9)
+    return {"time": t, "path": a[:, None] * t[None, :] + b[:, None], "y": a + b**2,
+            "ab": x[:, :2]}
+
+
+def crash_worker(x):
+    """Kills its process (as a segfault would) when a sample has ``a > 2.5``; only for
+    worker processes."""
+    if (x[:, 0] > 2.5).any():
+        os._exit(3)
+    return x[:, 0] + x[:, 1]
+
+
+def slow_sum(x):
+    """``a + b`` after a pause (0.15 s a call), logging each call to $UQGUIDE_TEST_CALL_LOG."""
+    log = os.environ.get("UQGUIDE_TEST_CALL_LOG")
+    if log:
+        with open(log, "a") as f:
+            f.write(f"{x.shape[0]}\n")
+    time.sleep(0.15)
+    return x[:, 0] + x[:, 1]
+
+
+_calls = {"n": 0}
+
+
+def ctrl_c_on_third_call(x):
+    """``a + b``; the third call (and every later one while armed) acts as a Ctrl-C."""
+    _calls["n"] += 1
+    if os.environ.get("UQGUIDE_TEST_ARM_CTRL_C") == "1" and _calls["n"] >= 3:
+        raise KeyboardInterrupt
+    return x[:, 0] + x[:, 1]
+
+
+def clean_sum(x):
+    """``a + b``."""
+    return x[:, 0] + x[:, 1]

@@ -1,0 +1,117 @@
+"""Executors: the same numbers in this process, in a process pool and on a Dask cluster;
+a crashed worker fails its chunk only."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from uqguide.config import validate_config
+from uqguide.execution import DaskExecutor, ProcessExecutor, SerialExecutor
+from uqguide.propagate import run
+
+FLAKY = {
+    "model": {"name": "callable", "function": "tests.failing_models:flaky", "inputs": ["a", "b"],
+              "outputs": [{"name": "path", "kind": "series"}, "y",
+                          {"name": "ab", "components": 2}]},
+    "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+               {"name": "b", "dist": "lognormal", "mu": 0.0, "sigma": 0.5}],
+    # 7 chunks (the last one short), model calls of 300 samples inside each
+    "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 6500, "chunk_size": 1000,
+                 "bootstrap": 50}],
+    "report_times": [0.5],
+    "batch_size": 300,
+    "max_failed_fraction": 0.1,
+    "seed": 3,
+}
+
+
+def _arrays(result):
+    """Every number of the method's result: statistics, intervals, joint, samples."""
+    r = result.run("mc")
+    e = r.estimate
+    out = {"x": r.x, "failed": r.failed, "scalar_mean": e.scalar_mean,
+           "scalar_cov": e.scalar_cov, "reasons": np.array([str(v) for v in r.reasons])}
+    out.update({f"scalars/{k}": v for k, v in r.scalars.items()})
+    for name, s in e.stats.items():
+        for k in ("mean", "std", "skewness", "kurtosis", "cov", "sem"):
+            out[f"{name}/{k}"] = getattr(s, k)
+        out.update({f"{name}/ci_{k}": v for k, v in s.ci.items()})
+    return out
+
+
+def _assert_identical(a, b):
+    assert a.keys() == b.keys()
+    for k in a:
+        nan_ok = a[k] is not None and np.asarray(a[k]).dtype.kind == "f"
+        assert np.array_equal(a[k], b[k], equal_nan=nan_ok), k
+
+
+@pytest.fixture(scope="module")
+def serial_result():
+    return run(validate_config(FLAKY))
+
+
+def test_serial_process_pool_and_dask_give_identical_statistics(serial_result):
+    from distributed import Client, LocalCluster
+
+    cfg = validate_config(FLAKY)
+    serial = _arrays(serial_result)
+    assert 0 < serial["failed"].sum() < 0.1 * 6500  # the chunks hold both kinds of failure
+    pool = ProcessExecutor(2)
+    try:
+        _assert_identical(serial, _arrays(run(cfg, pool)))
+    finally:
+        pool.close()
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        assert len(client.nthreads()) == 2
+        _assert_identical(serial, _arrays(run(cfg, DaskExecutor(client=client))))
+
+
+def test_batch_size_does_not_change_a_number(serial_result):
+    other = run(validate_config(FLAKY), SerialExecutor(batch_size=77))
+    _assert_identical(_arrays(serial_result), _arrays(other))
+
+
+def test_estimate_on_outputs_in_memory_equals_the_streamed_estimate(serial_result):
+    # The Method contract's estimate(outputs) reduces chunk by chunk like the executors: one
+    # code path, the same bits.
+    cfg = validate_config(FLAKY)
+    method = cfg.methods[0]
+    design = method.design(cfg.space, cfg.seed)
+    out = SerialExecutor(300).evaluate(cfg.model, design.x, cfg.space.names, cfg.outputs)
+    e = method.estimate(cfg.space, design, out)
+    s = serial_result.run("mc").estimate
+    for name in ("path", "y", "ab"):
+        for k in ("mean", "std", "skewness", "kurtosis", "cov"):
+            assert np.array_equal(getattr(e.stats[name], k), getattr(s.stats[name], k),
+                                  equal_nan=True)
+        assert np.array_equal(e.stats[name].ci["kurtosis"], s.stats[name].ci["kurtosis"],
+                              equal_nan=True)
+
+
+def test_a_crashed_worker_fails_its_chunk_and_the_pool_goes_on():
+    cfg = validate_config({
+        "model": {"name": "callable", "function": "tests.failing_models:crash_worker",
+                  "inputs": ["a", "b"], "outputs": ["y"]},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                   {"name": "b", "dist": "normal", "std": 1.0}],
+        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 2000,
+                     "chunk_size": 250, "bootstrap": 0}],
+        "seed": 5,
+    })
+    pool = ProcessExecutor(2)
+    try:
+        r = run(cfg, pool).run("mc")
+    finally:
+        pool.close()
+    chunks = r.x[:, 0].reshape(8, 250)
+    bad = (chunks > 2.5).any(axis=1)
+    assert 0 < bad.sum() < 8  # some chunks kill their worker, not all
+    np.testing.assert_array_equal(r.failed.reshape(8, 250).all(axis=1), bad)
+    np.testing.assert_array_equal(r.failed.reshape(8, 250).any(axis=1), bad)
+    assert all(str(v).startswith("worker process crashed") for v in r.reasons[r.failed])
+    ok = ~r.failed
+    np.testing.assert_array_equal(r.scalars["y"][ok, 0], r.x[ok, 0] + r.x[ok, 1])
+    assert r.estimate.stats["y"].n_used == ok.sum()

@@ -1,0 +1,304 @@
+"""Checkpoints: a run folder that survives a crash, a kill or Ctrl-C, and ``--resume``.
+
+Layout, next to the result file (``<out>/<name>.run/``)::
+
+    manifest.jsonl          append-only, one JSON object a line, flushed and fsynced:
+                            line 1 the run's identity (resolved config, uqguide version, model
+                            name and a hash of its code); then one line per finished chunk
+                            {"kind": "chunk", "label", "stage", "index", "start", "stop",
+                             "file", "n_failed"}
+    <label>.s<stage>.c<index>.npz
+                            one chunk's per-sample failure mask, reasons, scalar outputs, and
+                            either its series or its method's summary (Monte Carlo sums);
+                            written to a temporary name, fsynced, renamed into place, and only
+                            then listed in the manifest
+
+So a chunk listed in the manifest is complete on disk, whatever killed the run and when; a
+torn last manifest line (killed while appending) is ignored and its chunk re-run. Chunks are
+pure functions of the resolved config (their seeds come from the config's seed and the method
+label), so a resumed run gives the statistics of an uninterrupted one bit for bit.
+
+``--resume`` refuses (ConfigError, exit 2) when the config, the uqguide version or the model's
+code differ from the run's: the stored chunks would mix two different experiments. The model's
+code is the source of the module defining its class (the whole package folder for a simulator
+package such as ``uqguide.models.ftcapn``) and, for a ``callable`` model, the user function's
+module; a code change elsewhere (a shared helper module) is not seen.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import importlib
+import inspect
+import json
+import logging
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import __version__
+from .errors import ConfigError
+from .execution import ChunkResult, Task
+from .models.base import Model
+
+log = logging.getLogger(__name__)
+
+FORMAT = 1
+MANIFEST = "manifest.jsonl"
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """The run was stopped (Ctrl-C) after ``n_done`` of ``n_total`` chunks; the chunks done are
+    checkpointed when the run has a run folder. A KeyboardInterrupt, so that nothing catching
+    ``Exception`` swallows it."""
+
+    def __init__(self, n_done: int, n_total: int) -> None:
+        super().__init__(f"interrupted: {n_done} of {n_total} chunks done")
+        self.n_done = n_done
+        self.n_total = n_total
+
+
+def run_dir(out_dir: str | Path, name: str) -> Path:
+    """The run folder of the result ``<out_dir>/<name>.h5``."""
+    return Path(out_dir) / f"{name}.run"
+
+
+# ---------------------------------------------------------------------------- identity
+def model_code_hash(model: Model) -> str:
+    """SHA-256 of the source that defines ``model`` (see the module docstring)."""
+    files = _source_files(type(model))
+    function = getattr(model.params, "function", None)
+    if model.name == "callable" and isinstance(function, str):
+        try:
+            files += [Path(inspect.getfile(importlib.import_module(function.partition(":")[0])))]
+        except (ImportError, TypeError, OSError):
+            pass
+    h = hashlib.sha256(str(getattr(model, "version", "")).encode())
+    for f in sorted(set(files)):
+        h.update(f.name.encode())
+        try:
+            h.update(f.read_bytes())
+        except OSError:
+            h.update(b"<unreadable>")
+    return h.hexdigest()
+
+
+def _source_files(cls: type) -> list[Path]:
+    try:
+        path = Path(inspect.getfile(cls))
+    except (TypeError, OSError):
+        return []
+    module = cls.__module__
+    # A simulator package (uqguide.models.<pkg>.<module>) is hashed whole; a module directly
+    # in uqguide.models (the benchmarks) alone, so editing one model leaves the others' runs.
+    parts = module.split(".")
+    if len(parts) >= 4 and parts[:2] == ["uqguide", "models"] and path.parent.name == parts[2]:
+        return sorted(path.parent.glob("*.py"))
+    if path.name == "__init__.py":
+        return sorted(path.parent.glob("*.py"))
+    return [path]
+
+
+def run_identity(resolved_config: dict[str, Any], model: Model) -> dict[str, Any]:
+    """What must not change between a run and its resumption."""
+    return {"config": resolved_config, "uqguide": __version__, "model": model.name,
+            "model_code": model_code_hash(model)}
+
+
+def _first_difference(a: Any, b: Any, path: str = "") -> str | None:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in list(a) + [k for k in b if k not in a]:
+            sub = f"{path}.{k}" if path else str(k)
+            if k not in a or k not in b:
+                return sub
+            d = _first_difference(a[k], b[k], sub)
+            if d:
+                return d
+        return None
+    if isinstance(a, list) and isinstance(b, list):
+        for i, (x, y) in enumerate(zip(a, b)):
+            d = _first_difference(x, y, f"{path}[{i}]")
+            if d:
+                return d
+        return None if len(a) == len(b) else path
+    return None if a == b else path
+
+
+def _lookup(d: Any, path: str) -> Any:
+    import re
+
+    for part in re.findall(r"[^.\[\]]+|\[\d+\]", path):
+        try:
+            d = d[int(part[1:-1])] if part.startswith("[") else d[part]
+        except (KeyError, IndexError, TypeError):
+            return "<absent>"
+    return d
+
+
+# ---------------------------------------------------------------------------- the store
+class RunStore:
+    """A run folder (see the module docstring). Only the driver process writes it."""
+
+    def __init__(self, path: Path, identity: dict[str, Any]) -> None:
+        self.path = path
+        self.identity = identity
+        self._entries: dict[tuple[str, int, int], dict[str, Any]] = {}
+
+    # -------------------------------------------------------------- opening
+    @classmethod
+    def open(cls, path: str | Path, identity: dict[str, Any], resume: bool,
+             resume_hint: str = "uqguide run CONFIG --resume") -> RunStore:
+        """Open the run folder ``path`` for a fresh run or (``resume``) to continue it.
+
+        Raises
+        ------
+        ConfigError
+            ``resume`` and the folder belongs to another config / code version; or not
+            ``resume`` and the folder holds finished chunks (they are not thrown away silently).
+        """
+        path = Path(path)
+        store = cls(path, identity)
+        header, entries = _read_manifest(path / MANIFEST)
+        if header is not None and resume:
+            store._check_same_run(header)
+            store._entries = entries
+            log.info("resuming %s: %d chunks already done", path, len(entries))
+            return store
+        if entries and not resume:
+            raise ConfigError(
+                f"{path} holds an unfinished run ({len(entries)} chunks done); continue it "
+                f"with `{resume_hint}`, or delete the folder to start over", field="resume")
+        if resume:
+            log.info("nothing to resume at %s: starting a fresh run", path)
+        if path.exists():
+            shutil.rmtree(path)
+        path.mkdir(parents=True)
+        store._append({"kind": "header", "format": FORMAT,
+                       "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(
+                           timespec="seconds"), **identity})
+        return store
+
+    def _check_same_run(self, header: dict[str, Any]) -> None:
+        where = f"cannot resume {self.path}"
+        tail = "; start over with another --out, or delete the folder"
+        if header.get("format") != FORMAT:
+            raise ConfigError(f"{where}: written by an incompatible uqguide (run folder "
+                              f"format {header.get('format')!r}){tail}", field="resume")
+        old, new = header.get("config", {}), self.identity["config"]
+        diff = _first_difference(old, new)
+        if diff is not None:
+            raise ConfigError(
+                f"{where}: the config changed since the run started ({diff}: "
+                f"{_lookup(old, diff)!r} -> {_lookup(new, diff)!r}){tail}", field=diff)
+        if header.get("uqguide") != self.identity["uqguide"]:
+            raise ConfigError(
+                f"{where}: it was started by uqguide {header.get('uqguide')}, this is "
+                f"{self.identity['uqguide']}{tail}", field="resume")
+        if header.get("model_code") != self.identity["model_code"]:
+            raise ConfigError(
+                f"{where}: the code of model '{self.identity['model']}' changed since the run "
+                f"started{tail}", field="model.name")
+
+    # -------------------------------------------------------------- chunks
+    @property
+    def n_done(self) -> int:
+        return len(self._entries)
+
+    def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
+        """The stored result of a chunk, or None when it is not (validly) stored."""
+        e = self._entries.get((label, stage, task.index))
+        if e is None:
+            return None
+        if (e["start"], e["stop"]) != (task.start, task.stop):
+            log.warning("%s: chunk %d of %s has other bounds than stored; re-running it",
+                        self.path, task.index, label)
+            return None
+        try:
+            return _read_chunk(self.path / e["file"], task)
+        except (OSError, ValueError, KeyError) as exc:
+            log.warning("%s: cannot read %s (%s); re-running the chunk", self.path, e["file"], exc)
+            return None
+
+    def save(self, label: str, stage: int, result: ChunkResult) -> None:
+        """Write one chunk atomically, then list it in the manifest."""
+        t = result.task
+        name = f"{label}.s{stage}.c{t.index:06d}.npz"
+        _write_chunk(self.path / name, result)
+        entry = {"kind": "chunk", "label": label, "stage": stage, "index": t.index,
+                 "start": t.start, "stop": t.stop, "file": name, "n_failed": result.n_failed}
+        self._append(entry)
+        self._entries[(label, stage, t.index)] = entry
+
+    def remove(self) -> None:
+        """Delete the folder (after the result file is written: it holds everything)."""
+        shutil.rmtree(self.path, ignore_errors=True)
+
+    def _append(self, obj: dict[str, Any]) -> None:
+        with open(self.path / MANIFEST, "a", encoding="utf-8") as f:
+            f.write(json.dumps(obj, sort_keys=True) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+
+
+def _read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[tuple[str, int, int], Any]]:
+    if not path.is_file():
+        return None, {}
+    header = None
+    entries: dict[tuple[str, int, int], dict[str, Any]] = {}
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            obj = json.loads(line)
+        except json.JSONDecodeError:
+            continue  # a line torn by a kill while it was appended: its chunk is re-run
+        if obj.get("kind") == "header":
+            header = obj
+        elif obj.get("kind") == "chunk":
+            entries[(obj["label"], int(obj["stage"]), int(obj["index"]))] = obj
+    return header, entries
+
+
+# ---------------------------------------------------------------------------- chunk files
+def _write_chunk(path: Path, r: ChunkResult) -> None:
+    arrays: dict[str, np.ndarray] = {
+        "task": np.array([r.task.index, r.task.start, r.task.stop], dtype=np.int64),
+        "model_seconds": np.array(r.model_seconds),
+        "failed": r.failed,
+        "reasons": np.array([str(v) for v in r.reasons], dtype=str),
+        "time": r.time,
+    }
+    arrays.update({f"scalar.{k}": v for k, v in r.scalars.items()})
+    arrays.update({f"series.{k}": v for k, v in r.series.items()})
+    arrays.update({f"summary.{k}": v for k, v in r.summary.items()})
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as f:
+            np.savez(f, **arrays)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    dir_fd = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(dir_fd)  # the rename itself must survive a power cut before the manifest line
+    finally:
+        os.close(dir_fd)
+
+
+def _read_chunk(path: Path, task: Task) -> ChunkResult:
+    with np.load(path, allow_pickle=False) as z:
+        data = {k: z[k] for k in z.files}
+    if tuple(int(v) for v in data["task"]) != (task.index, task.start, task.stop):
+        raise ValueError("chunk file does not match its manifest entry")
+    pick = {p: {k[len(p) + 1:]: v for k, v in data.items() if k.startswith(p + ".")}
+            for p in ("scalar", "series", "summary")}
+    return ChunkResult(
+        task=task, failed=data["failed"].astype(bool),
+        reasons=np.array(data["reasons"].tolist(), dtype=object).reshape(-1),
+        time=data["time"], scalars=pick["scalar"], series=pick["series"],
+        summary=pick["summary"], model_seconds=float(data["model_seconds"]))

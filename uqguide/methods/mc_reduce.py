@@ -1,0 +1,90 @@
+"""The Monte Carlo chunk reduction, which runs in worker processes (kept apart from
+:mod:`uqguide.methods.monte_carlo` so that a worker imports numpy and uqguide's statistics,
+not scipy's samplers and chaospy: a process pool starts in a fraction of the time).
+
+See :mod:`uqguide.methods.monte_carlo` for the statistics, the chunk order and the Poisson
+bootstrap.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..models.base import ModelOutput
+from ..stats import MomentSums
+
+
+def ci_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
+             bootstrap_times: str) -> np.ndarray | None:
+    """Time indices where a series gets bootstrap intervals: the steps nearest the report
+    times and the last step (``None``: every step)."""
+    if bootstrap_times == "all" or time_grid.size == 0:
+        return None
+    idx = [int(np.argmin(np.abs(time_grid - t))) for t in (report_times or ())]
+    idx.append(time_grid.size - 1)
+    return np.unique(idx)
+
+
+@dataclass(frozen=True)
+class MonteCarloReducer:
+    """Reduces one chunk of Monte Carlo runs to mergeable sums (runs in the worker).
+
+    Summary keys are ``"m:<field>:<output>"`` (plain sums with comoments),
+    ``"b:<field>:<output>"`` (Poisson-bootstrap sums of the interval columns) and
+    ``"j:<field>:"`` (all scalar outputs stacked, for their joint covariance).
+    """
+
+    bootstrap: int
+    boot_seed: int
+    report_times: tuple[float, ...] | None
+    bootstrap_times: str
+
+    def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:
+        ok = ~out.failed
+        m = out.n
+        summary: dict[str, np.ndarray] = {}
+        w = None
+        if self.bootstrap > 0:
+            # Weights for every run of the chunk (failed ones then dropped), so a sample's
+            # weights do not depend on which other samples failed.
+            rng = np.random.default_rng([self.boot_seed, index])
+            w = rng.poisson(1.0, size=(self.bootstrap, m)).astype(float)[:, ok]
+        idx = ci_index(out.time, self.report_times, self.bootstrap_times)
+        for name, y in [*out.series.items(), *out.scalars.items()]:
+            y_ok = y[ok]
+            _put(summary, "m", name, MomentSums.of(y_ok))
+            if w is not None:
+                cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
+                _put(summary, "b", name, MomentSums.weighted(cols.reshape(cols.shape[0], -1), w))
+        _, stacked = stack_scalars(out.scalars, ok)
+        _put(summary, "j", "", MomentSums.of(stacked))
+        return summary
+
+
+def _put(summary: dict[str, np.ndarray], kind: str, name: str, sums: MomentSums) -> None:
+    for f, v in sums.arrays().items():
+        summary[f"{kind}:{f}:{name}"] = v
+
+
+def split_summary(summary: dict[str, np.ndarray]) -> dict[tuple[str, str], MomentSums]:
+    groups: dict[tuple[str, str], dict[str, np.ndarray]] = {}
+    for key, v in summary.items():
+        kind, f, name = key.split(":", 2)
+        groups.setdefault((kind, name), {})[f] = v
+    return {k: MomentSums.from_arrays(g) for k, g in groups.items()}
+
+
+def stack_scalars(scalars: dict[str, np.ndarray], ok: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """All scalar outputs of the good runs side by side ``(n_ok, m)`` with their names."""
+    names: list[str] = []
+    cols = []
+    for name, y in scalars.items():
+        k = y.shape[1]
+        names += [name] if k == 1 else [f"{name}[{j}]" for j in range(k)]
+        cols.append(y[ok])
+    if not cols:
+        return names, np.empty((int(ok.sum()), 0))
+    return names, np.concatenate(cols, axis=1)
+
