@@ -242,12 +242,13 @@ def _rhs(t, X, dX, u_app, u_obs, du, m_off, inertia_err, a_f, a_tau, omega_chi, 
         n_t = math.sqrt(e1[0] ** 2 + e1[1] ** 2 + e1[2] ** 2 + e1[3] ** 2 + e1[4] ** 2 + e1[5] ** 2)
         n_r = n_t
     lam1, lam2, lam3, p = c[K_LAM1], c[K_LAM2], c[K_LAM3], c[K_OBS_P]
+    # gain of unit(eps1): lam1 |eps1|^(1/2) + lam2 |eps1|^p, once per norm (pow is costly)
+    g_t = lam1 * math.sqrt(n_t) + lam2 * n_t**p
+    g_r = g_t if n_r == n_t else lam1 * math.sqrt(n_r) + lam2 * n_r**p
     for i in range(6):
         nrm = n_t if i < 3 else n_r
         unit = e1[i] / nrm if nrm > 0.0 else 0.0
-        dX[12 + i] = (
-            -lam1 * unit * math.sqrt(nrm) - lam2 * unit * nrm**p + X[18 + i] + v6[i]
-        )
+        dX[12 + i] = -(g_t if i < 3 else g_r) * unit + X[18 + i] + v6[i]
         dX[18 + i] = -lam3 * unit
     # Case 2 auxiliary system (section 8.3); du = 0 for the other controllers
     _apply_M(du, G, J0i, c[K_M0], v6)

@@ -225,7 +225,11 @@ def _c6_rows(res: RunResult, idx: dict[str, int], note: str) -> list[ReportRow]:
                   f"> {max(st['FT-AS'], st['Case 1']):.0f}", "10 % margin",
                   st["Case 2"] > 1.1 * max(st["FT-AS"], st["Case 1"]), detail_t),
         ReportRow(f"C6 s4..6: Case 1 < FT-AS ({note})", "s", sr["Case 1"], f"< {sr['FT-AS']:.1f}",
-                  "10 % margin", 1.1 * sr["Case 1"] < sr["FT-AS"], detail_r),
+                  "10 % margin", 1.1 * sr["Case 1"] < sr["FT-AS"],
+                  detail_r + "; the torque stays below 1 N m (peak ~0.7), so FT-AS and Case 1 "
+                  "attitude loops are nearly the same system"),
         ReportRow(f"C6 s4..6: FT-AS < Case 2 ({note})", "s", sr["FT-AS"], f"< {sr['Case 2']:.1f}",
-                  "10 % margin", 1.1 * sr["FT-AS"] < sr["Case 2"], detail_r),
+                  "10 % margin", 1.1 * sr["FT-AS"] < sr["Case 2"],
+                  detail_r + "; the spec measured C6 at h = 0.05 s, where Case 2 lingers near "
+                  "|s| = 1e-3 (128 s); at h = 0.01 s it crosses at once"),
     ]  # fmt: skip

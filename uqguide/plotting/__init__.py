@@ -1,0 +1,1 @@
+"""Plots of nominal runs and propagation results (matplotlib, Agg backend)."""
