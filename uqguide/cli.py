@@ -56,10 +56,23 @@ def main(verbose: int) -> None:
               help="Folder for the HDF5 result and the CSV / Markdown tables.")
 @click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=None,
               help="Override the config's seed.")
+@click.option("--workers", type=click.IntRange(1, 4096), default=None,
+              help="Evaluate chunks in a pool of N local worker processes (same numbers).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Evaluate chunks on a Dask cluster, e.g. tcp://host:8786 (same numbers).")
+@click.option("--scheduler-file", type=click.Path(dir_okay=False, path_type=Path),
+              default=None, help="Dask scheduler file (dask scheduler --scheduler-file).")
+@click.option("--resume", is_flag=True,
+              help="Continue an interrupted run from its checkpoint (<out>/<name>.run).")
 @_handle_errors
-def run(config: Path, out_dir: Path, seed: int | None) -> None:
+def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
+        scheduler: str | None, scheduler_file: Path | None, resume: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
+    from .checkpoint import RunInterrupted, RunStore, run_dir, run_identity
     from .config import load_config
+    from .execution import make_executor
+    from .progress import Progress
+    from .propagate import check_failure_budget
     from .propagate import run as run_config
     from .report import render_text, write_tables
     from .result import write_hdf5
@@ -67,14 +80,29 @@ def run(config: Path, out_dir: Path, seed: int | None) -> None:
     cfg = load_config(config)
     if seed is not None:
         cfg = cfg.with_seed(seed)
-    result = run_config(cfg)
+    again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
+        "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")
+    store = RunStore.open(run_dir(out_dir, cfg.name), run_identity(cfg.resolved(), cfg.model),
+                          resume, again)
+    executor = make_executor(workers, scheduler,
+                             str(scheduler_file) if scheduler_file else None)
+    try:
+        result = run_config(cfg, executor, store=store, progress=Progress(sys.stderr))
+    except RunInterrupted as exc:
+        click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume with "
+                   f"`{again}`", err=True)
+        sys.exit(130)
+    finally:
+        executor.close()
     click.echo(render_text(result))
     h5 = write_hdf5(result, out_dir / f"{cfg.name}.h5")
     tables = write_tables(result, out_dir, cfg.name)
+    store.remove()  # the result file holds everything the chunks did
     click.echo("")
     click.echo(f"wrote {h5}")
     for p in tables:
         click.echo(f"wrote {p}")
+    check_failure_budget(result, cfg.raw.max_failed_fraction)
 
 
 @main.command()
