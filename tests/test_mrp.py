@@ -37,9 +37,8 @@ def test_kinematics_matrix_dot_is_the_derivative(sigma, sigma_dot):
     # central difference along sigma + t sigma_dot: G is quadratic in sigma, so the central
     # difference is exact up to rounding (~1e-16 / d)
     d = 1e-4
-    fd = (mrp.kinematics_matrix(sigma + d * sigma_dot) - mrp.kinematics_matrix(sigma - d * sigma_dot)) / (
-        2 * d
-    )
+    G_plus = mrp.kinematics_matrix(sigma + d * sigma_dot)
+    fd = (G_plus - mrp.kinematics_matrix(sigma - d * sigma_dot)) / (2 * d)
     np.testing.assert_allclose(mrp.kinematics_matrix_dot(sigma, sigma_dot), fd, atol=1e-10)
 
 

@@ -48,7 +48,9 @@ def nominal_figures(model: FTAS, out_dir: str) -> list[str]:
     os.makedirs(out_dir, exist_ok=True)
     t = res.time
     p = model.params
-    subtitle = f"h = {p.step:g} s, switch units: {p.switch_units}, Case 2 omega_chi = {p.omega_chi:g}"
+    subtitle = (
+        f"h = {p.step:g} s, switch units: {p.switch_units}, Case 2 omega_chi = {p.omega_chi:g}"
+    )
     paths = [
         _observer(res, idx["FT-AS"], t, out_dir, subtitle),
         _sliding(res, idx, t, out_dir, subtitle),
@@ -70,7 +72,8 @@ def _observer(res, i: int, t: np.ndarray, out_dir: str, subtitle: str) -> str:
     sel = t <= 60.0
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
     labels = (("x", "y", "z"), ("1", "2", "3"))
-    for row, (key, name) in enumerate((("eps1", "eps_1 = psi_1 - e_2"), ("eps2", "eps_2 = psi_2 - d"))):
+    rows = (("eps1", "eps_1 = psi_1 - e_2"), ("eps2", "eps_2 = psi_2 - d"))
+    for row, (key, name) in enumerate(rows):
         for col, (sl, unit) in enumerate(((slice(0, 3), "m/s" if row == 0 else "m/s^2"),
                                           (slice(3, 6), "1/s" if row == 0 else "1/s^2"))):
             ax = axes[row, col]

@@ -286,7 +286,11 @@ def observer_rhs(
     """
     unit, nrm = observer_unit(psi1 - e2, gains.obs_per_channel)
     d1 = (
-        -gains.lam1 * unit * np.sqrt(nrm) - gains.lam2 * unit * nrm**gains.obs_p + psi2 + h + M_u_obs
+        -gains.lam1 * unit * np.sqrt(nrm)
+        - gains.lam2 * unit * nrm**gains.obs_p
+        + psi2
+        + h
+        + M_u_obs
     )
     return d1, -gains.lam3 * unit
 

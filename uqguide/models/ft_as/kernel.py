@@ -380,9 +380,12 @@ def simulate(x0, mass_off, inertia_err, force_amp, torque_amp, ctrl, obs_applied
     X, Xs = np.empty(36), np.empty(36)
     k1, k2, k3, k4 = np.empty(36), np.empty(36), np.empty(36), np.empty(36)
     G, Gi, C = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    e1, e2, h, v6, z1, z2, hbar = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
-    u_c, u_app, u_obs, du, s = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
-    s_true, env_lo, env_hi, dobs, dm = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    six = np.empty((16, 6))  # scratch 6-vectors, one row each
+    e1, e2, h, v6 = six[0], six[1], six[2], six[3]
+    z1, z2, hbar, u_c = six[4], six[5], six[6], six[7]
+    u_app, u_obs, du, s = six[8], six[9], six[10], six[11]
+    s_true, env_lo, env_hi, dobs = six[12], six[13], six[14], six[15]
+    dm = np.empty(6)
     w3, a3 = np.empty(3), np.empty(3)
     norms = np.empty(7)
     for i in range(n):
@@ -502,7 +505,8 @@ def simulate(x0, mass_off, inertia_err, force_amp, torque_amp, ctrl, obs_applied
             if ks == n_steps:
                 break
             # --- classical RK4 with held inputs (section 9 step 3)
-            mo, ie, af, at, oc = mass_off[i], inertia_err[i], force_amp[i], torque_amp[i], omega_chi[i]
+            mo, ie, oc = mass_off[i], inertia_err[i], omega_chi[i]
+            af, at = force_amp[i], torque_amp[i]
             _rhs(t, X, k1, u_app, u_obs, du, mo, ie, af, at, oc, c, J0, J0i, P, Q, G, Gi, C,
                  e1, e2, h, w3, v6, a3)  # fmt: skip
             for q in range(36):

@@ -94,7 +94,7 @@ class FTAS(Model):
             InputInfo(f"domega0_{a}", "rad/s", f"offset of omega_e(0), body {a}", 0.0) for a in XYZ
         ]
         ins += [
-            InputInfo("mass_offset", "kg", "constant error of the true mass beyond Delta m(t)", 0.0),
+            InputInfo("mass_offset", "kg", "constant true-mass error beyond Delta m(t)", 0.0),
             InputInfo(
                 "inertia_scale_error", "1", "true J = J0 (1 + x) + Delta J(t)", 0.0
             ),
@@ -252,7 +252,8 @@ class FTAS(Model):
                 series[name] = np.linalg.norm(res.records[_NORMS[name][0]], axis=-1, keepdims=True)
             elif name in _PEAKS:
                 sl = _PEAKS[name][0]
-                lo, hi = res.records["u_applied_min"][..., sl], res.records["u_applied_max"][..., sl]
+                lo = res.records["u_applied_min"][..., sl]
+                hi = res.records["u_applied_max"][..., sl]
                 series[name] = np.maximum(np.abs(lo), np.abs(hi))
         scalar_values = {
             "delta_v": res.impulse[:, :3].sum(axis=1, keepdims=True) / m0,

@@ -162,8 +162,9 @@ def nominal_report(model: FTAS) -> list[ReportRow]:
         i = idx[lab]
         for part, sl, unit in (("force", slice(0, 3), "N"), ("torque", slice(3, 6), "N m")):
             pk = float(res.peak_applied[i, sl].max())
+            within = bool(np.all(res.peak_applied[i] <= lim))
             rows.append(ReportRow(f"{lab}: C5 peak applied {part}", unit, pk, float(lim[sl][0]),
-                                  "<= limit", bool(np.all(res.peak_applied[i] <= lim))))  # fmt: skip
+                                  "<= limit", within))  # fmt: skip
     i1 = idx["Case 1"]
     pk_f = float(res.peak_applied[i1, :3].max())
     rows.append(ReportRow("Case 1: C5 peak force (exceeds initially)", "N", pk_f, "> 2", "> limit",

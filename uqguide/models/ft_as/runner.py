@@ -29,6 +29,7 @@ SETTLE_TOLERANCES: dict[str, tuple[float, ...]] = {
     "s_rot": (1e-3,),
 }
 assert tuple(SETTLE_TOLERANCES) == kernel.SETTLE_QUANTITIES
+FINAL_QUANTITIES = ("r_e", "v_e", "sigma_e", "omega_e")  # rows of the kernel's final_max
 
 
 @dataclass(frozen=True)
@@ -196,7 +197,7 @@ def run_batch(
         time=np.arange(n_rec) * every * timing.step,
         records=records,
         settle={q: settle[:, qi, : len(v)] for qi, (q, v) in enumerate(SETTLE_TOLERANCES.items())},
-        final_max={q: final_max[:, qi] for qi, q in enumerate(("r_e", "v_e", "sigma_e", "omega_e"))},
+        final_max={q: final_max[:, qi] for qi, q in enumerate(FINAL_QUANTITIES)},
         peak_applied=peak_app,
         peak_command=peak_cmd,
         peak_late=peak_late,

@@ -115,7 +115,7 @@ def mass_true(t: np.ndarray | float, m0: float, offset: np.ndarray | float = 0.0
 
 
 def inertia_delta_diag(t: np.ndarray | float) -> np.ndarray:
-    """Diagonal of ``Delta J(t) = diag(0.1 + 0.01 sin(k 0.1 t)), k = 1, 2, 3`` [kg m^2], (..., 3)."""
+    """Diagonal of ``Delta J(t) = diag(0.1 + 0.01 sin(0.1 k t))``, k = 1..3 [kg m^2], (..., 3)."""
     t = np.asarray(t, dtype=float)[..., None]
     return 0.1 + 0.01 * np.sin(np.array([0.1, 0.2, 0.3]) * t)
 
