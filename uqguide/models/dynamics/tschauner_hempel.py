@@ -1,0 +1,239 @@
+"""Tschauner-Hempel linearised relative motion about an elliptical chief orbit.
+
+LVLH frame (gmm-controllers.md section 2, ambiguity A5): origin at the chief, ``x`` radial
+outward, ``y`` along-track, ``z`` along the orbit normal. The relative position ``r`` [m] of a
+deputy obeys ([W 1-5], [C 1-3] with the spec's corrections)
+
+.. math:: \\ddot r = A(f) r + B(f) \\dot r + u,
+
+    A = [[w^2 + 2k, wd, 0], [-wd, w^2 - k, 0], [0, 0, -k]],
+    B = [[0, 2w, 0], [-2w, 0, 0], [0, 0, 0]],
+
+with ``k = mu / r_c^3``, ``w = df/dt`` and ``wd = dw/dt`` of the chief's true anomaly ``f``.
+
+Corrections to the printed papers (gmm-controllers.md A2, A3): the (1, 1) entry is ``w^2 + 2k``
+(printed ``wd^2 + 2k``) and ``wd = -2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^3`` (printed with a
+plus sign and exponent 3/2; kept behind ``printed_omega_dot=True`` for comparison).
+
+The chief orbit is common to a whole batch of deputies, so the sampled-data simulator does not
+integrate ``f`` per sample: :func:`rk4_transition` applies classical RK4 to the linear plant
+(state ``[r, v]`` and a control held over the step) once, to the identity, and returns the
+exact linear maps that RK4 realises; propagating a batch is then one matrix product per
+sub-step. Because RK4 is linear in the state for a linear plant, this is the same arithmetic
+as running RK4 on every sample (up to floating-point summation order).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+MU_EARTH = 3.986e14
+"""Earth's gravitational parameter [m^3/s^2] as used by both GMM papers ([W] 4.1, [C] 2.3)."""
+
+
+@dataclass(frozen=True)
+class ChiefOrbit:
+    """Keplerian orbit of the chief.
+
+    Attributes
+    ----------
+    a : float
+        Semi-major axis [m].
+    e : float
+        Eccentricity, ``0 <= e < 1``.
+    f0 : float
+        True anomaly at ``t = 0`` [rad] ([W] does not publish it; spec A4: 0).
+    mu : float
+        Gravitational parameter [m^3/s^2].
+    """
+
+    a: float
+    e: float
+    f0: float = 0.0
+    mu: float = MU_EARTH
+
+    def __post_init__(self) -> None:
+        if not self.a > 0:
+            raise ValueError(f"the semi-major axis must be positive, got a = {self.a} m")
+        if not 0 <= self.e < 1:
+            raise ValueError(f"the eccentricity must be in [0, 1) for a closed orbit, got {self.e}")
+
+    @property
+    def mean_motion(self) -> float:
+        """``n = sqrt(mu / a^3)`` [rad/s]."""
+        return float(np.sqrt(self.mu / self.a**3))
+
+    def radius(self, f: np.ndarray | float) -> np.ndarray:
+        """Chief orbit radius ``r_c = a (1 - e^2) / (1 + e cos f)`` [m]."""
+        return self.a * (1 - self.e**2) / (1 + self.e * np.cos(f))
+
+    def omega(self, f: np.ndarray | float) -> np.ndarray:
+        """Orbit (LVLH) angular rate ``df/dt = n (1 + e cos f)^2 / (1 - e^2)^{3/2}`` [rad/s] ([W 4])."""
+        return self.mean_motion * (1 + self.e * np.cos(f)) ** 2 / (1 - self.e**2) ** 1.5
+
+    def omega_dot(self, f: np.ndarray | float, printed: bool = False) -> np.ndarray:
+        """Orbit angular acceleration [rad/s^2].
+
+        ``-2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^3`` (spec A3). With ``printed=True`` the
+        form printed in [W 5] / [C 3], ``+2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^{3/2}``.
+        """
+        n2 = self.mean_motion**2
+        core = 2 * n2 * self.e * np.sin(f) * (1 + self.e * np.cos(f)) ** 3
+        if printed:
+            return core / (1 - self.e**2) ** 1.5
+        return -core / (1 - self.e**2) ** 3
+
+
+class RelativePlant(Protocol):
+    """A linear relative-motion plant ``r'' = A(t, f) r + B(t, f) r' + u`` on a shared orbit.
+
+    Implemented by :class:`LVLHPlant`; a body-frame plant of a spinning chief (spec section 3)
+    has the same interface with time-dependent matrices.
+    """
+
+    orbit: ChiefOrbit
+
+    def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
+        """``A`` and ``B``, each (3, 3), at time ``t`` [s] and chief true anomaly ``f`` [rad]."""
+        ...
+
+
+@dataclass(frozen=True)
+class LVLHPlant:
+    """Tschauner-Hempel plant in LVLH axes (spec section 2).
+
+    Attributes
+    ----------
+    orbit : ChiefOrbit
+    printed_omega_dot : bool
+        Use the papers' printed ``dw/dt`` (wrong sign and exponent) instead of the correct one.
+    """
+
+    orbit: ChiefOrbit
+    printed_omega_dot: bool = False
+
+    def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
+        """``A(f)``, ``B(f)`` of [W 2-3] (corrected), each (3, 3); ``t`` is unused (LVLH)."""
+        w = float(self.orbit.omega(f))
+        wd = float(self.orbit.omega_dot(f, printed=self.printed_omega_dot))
+        k = self.orbit.mu / float(self.orbit.radius(f)) ** 3
+        A = np.array([[w * w + 2 * k, wd, 0.0], [-wd, w * w - k, 0.0], [0.0, 0.0, -k]])
+        B = np.array([[0.0, 2 * w, 0.0], [-2 * w, 0.0, 0.0], [0.0, 0.0, 0.0]])
+        return A, B
+
+
+def _augmented(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """The (9, 9) matrix of ``d/dt [r, v, u] = [v, A r + B v + u, 0]``."""
+    F = np.zeros((9, 9))
+    F[0:3, 3:6] = np.eye(3)
+    F[3:6, 0:3] = A
+    F[3:6, 3:6] = B
+    F[3:6, 6:9] = np.eye(3)
+    return F
+
+
+@dataclass(frozen=True)
+class StepMaps:
+    """Linear maps realised by RK4 over one control period with a held control.
+
+    Attributes
+    ----------
+    phi : ndarray, shape (n_sub, 6, 6)
+        ``x(t0 + (j+1) h) = phi[j] x(t0) + gam[j] u`` for sub-step ``j``, ``h = dt / n_sub``.
+    gam : ndarray, shape (n_sub, 6, 3)
+    f_end : float
+        Chief true anomaly at the end of the period [rad].
+    """
+
+    phi: np.ndarray
+    gam: np.ndarray
+    f_end: float
+
+
+def rk4_transition(plant: RelativePlant, t0: float, f0: float, dt: float, n_sub: int) -> StepMaps:
+    """Maps of ``n_sub`` classical RK4 sub-steps over ``[t0, t0 + dt]`` with the control held.
+
+    The true anomaly is integrated by the same RK4 (``df/dt = w(f)``) and the plant matrices
+    are evaluated at every stage time and stage anomaly, exactly as an RK4 of the coupled state
+    ``(r, v, f)`` would (spec section 8).
+
+    Parameters
+    ----------
+    plant : RelativePlant
+    t0 : float
+        Start of the period [s].
+    f0 : float
+        True anomaly at ``t0`` [rad].
+    dt : float
+        Control period [s].
+    n_sub : int
+        RK4 sub-steps per period.
+
+    Returns
+    -------
+    StepMaps
+    """
+    h = dt / n_sub
+    orbit = plant.orbit
+    X = np.eye(9)
+    phis = np.empty((n_sub, 6, 6))
+    gams = np.empty((n_sub, 6, 3))
+    t, f = t0, f0
+    for j in range(n_sub):
+        k1f = float(orbit.omega(f))
+        f2 = f + 0.5 * h * k1f
+        k2f = float(orbit.omega(f2))
+        f3 = f + 0.5 * h * k2f
+        k3f = float(orbit.omega(f3))
+        f4 = f + h * k3f
+        k4f = float(orbit.omega(f4))
+        F1 = _augmented(*plant.matrices(t, f))
+        F2 = _augmented(*plant.matrices(t + 0.5 * h, f2))
+        F3 = _augmented(*plant.matrices(t + 0.5 * h, f3))
+        F4 = _augmented(*plant.matrices(t + h, f4))
+        K1 = F1 @ X
+        K2 = F2 @ (X + 0.5 * h * K1)
+        K3 = F3 @ (X + 0.5 * h * K2)
+        K4 = F4 @ (X + h * K3)
+        X = X + (h / 6.0) * (K1 + 2 * K2 + 2 * K3 + K4)
+        f = f + (h / 6.0) * (k1f + 2 * k2f + 2 * k3f + k4f)
+        t = t + h
+        phis[j] = X[0:6, 0:6]
+        gams[j] = X[0:6, 6:9]
+    return StepMaps(phi=phis, gam=gams, f_end=f)
+
+
+def propagate_free(
+    plant: RelativePlant, x0: np.ndarray, t_f: float, dt: float, n_sub: int = 1
+) -> np.ndarray:
+    """Unforced propagation of a batch of states (``u = 0``).
+
+    Parameters
+    ----------
+    plant : RelativePlant
+    x0 : ndarray, shape (n, 6)
+        Initial states ``[r (m), v (m/s)]`` at ``t = 0`` (true anomaly ``plant.orbit.f0``).
+    t_f : float
+        Final time [s], a multiple of ``dt``.
+    dt, n_sub : float, int
+        Step [s] and RK4 sub-steps per step.
+
+    Returns
+    -------
+    ndarray, shape (n, N + 1, 6)
+        States at ``t = 0, dt, ..., t_f``.
+    """
+    n_steps = int(round(t_f / dt))
+    x = np.asarray(x0, dtype=float)
+    out = np.empty((x.shape[0], n_steps + 1, 6))
+    out[:, 0] = x
+    f = plant.orbit.f0
+    for k in range(n_steps):
+        maps = rk4_transition(plant, k * dt, f, dt, n_sub)
+        x = x @ maps.phi[-1].T
+        f = maps.f_end
+        out[:, k + 1] = x
+    return out

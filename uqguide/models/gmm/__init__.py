@@ -1,0 +1,1 @@
+"""Potentials, geometry, point clouds and controllers for GMM-based proximity operations."""

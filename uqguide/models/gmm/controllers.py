@@ -1,0 +1,184 @@
+"""Sliding-mode proximity controllers of [W]: APF-TSMC, GMM-TSMC, GMM-NTSMC (spec 7.1-7.3).
+
+Every law cancels the modelled plant terms ``-A r - B r'`` (evaluated at the sample time,
+spec A34) and imposes the reaching law ([W 12])
+
+.. math:: \\dot S = -\\lambda_1 S - \\lambda_2 \\,\\mathrm{sig}^\\alpha(S)
+
+on a sliding variable built from the potential's gradient ``g = grad_r phi``:
+
+* TSMC ([W 29-32], App. A2/A3): ``S = k_s g + e'``,
+  ``u = -k_s H r' - A r - B r' - lambda1 S - lambda2 sig^a(S)``. APF-TSMC and GMM-TSMC differ
+  only in the potential (classical APF obstacle vs GMM kernels).
+* NTSMC ([W 10-16]): ``S = k_s g + xi0 e + xi1 sig^tau(e) + xi2 sig^{p/q}(e')``,
+  ``u = (q/p) xi2^-1 |e'|^{1-p/q} o [-k_s H r' - lambda1 S - lambda2 sig^a(S) - xi0 e'
+  - tau xi1 |e|^{tau-1} o e'] - A r - B r'``.
+
+The goal is constant (``r_f' = r_f'' = 0`` in every published scenario), so the ``H_f r_f'``
+and ``r_f''`` terms of the papers vanish. Gains are diagonal and stored as 3-vectors.
+
+The NTSMC factor ``|e'|^{1-p/q}`` is zero where an error-rate component is zero, and then the
+law cannot move that axis (spec A17, the "stall"); ``eps > 0`` replaces it by
+``max(|e'_i|, eps)^{1-p/q}``. ``eps = 0`` is the law as published.
+
+All controllers are callables on batches: ``u = ctl.command(r, v, A, B)`` with ``r, v`` of
+shape (n, 3) and the plant matrices (3, 3) shared by the batch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .potential import AttractRepulsePotential
+
+
+def sig(x: np.ndarray, a: float) -> np.ndarray:
+    """Sign-preserving power ``sign(x) |x|^a``, element-wise ([W 13])."""
+    return np.sign(x) * np.abs(x) ** a
+
+
+def _vec3(name: str, value: np.ndarray | float) -> np.ndarray:
+    v = np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy()
+    if np.any(v <= 0):
+        raise ValueError(f"the gain {name} must be positive definite (all diagonal entries > 0)")
+    return v
+
+
+@dataclass(frozen=True)
+class ReachingLaw:
+    """``S' = -lambda1 S - lambda2 sig^alpha(S)`` ([W 12]).
+
+    Attributes
+    ----------
+    lambda1, lambda2 : ndarray, shape (3,)
+        Diagonal gains [1/s] and [unit(S)^(1-alpha)/s].
+    alpha : float
+        Exponent, ``0 < alpha < 1``.
+    """
+
+    lambda1: np.ndarray
+    lambda2: np.ndarray
+    alpha: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "lambda1", _vec3("lambda1", self.lambda1))
+        object.__setattr__(self, "lambda2", _vec3("lambda2", self.lambda2))
+        if not 0 < self.alpha < 1:
+            raise ValueError(f"the reaching-law exponent alpha must be in (0, 1), got {self.alpha}")
+
+    def rate(self, S: np.ndarray) -> np.ndarray:
+        """``S'`` for ``S`` of shape (n, 3)."""
+        return -self.lambda1 * S - self.lambda2 * sig(S, self.alpha)
+
+
+@dataclass(frozen=True)
+class TSMC:
+    """Terminal sliding-mode control with a potential-gradient surface (APF-TSMC / GMM-TSMC).
+
+    Attributes
+    ----------
+    potential : AttractRepulsePotential
+    r_f : ndarray, shape (3,)
+        Goal position [m] (at rest).
+    k_s : ndarray, shape (3,)
+        Diagonal surface gain [1/s].
+    reaching : ReachingLaw
+    """
+
+    potential: AttractRepulsePotential
+    r_f: np.ndarray
+    k_s: np.ndarray
+    reaching: ReachingLaw
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "r_f", np.asarray(self.r_f, dtype=float))
+        object.__setattr__(self, "k_s", _vec3("k_s", self.k_s))
+
+    def sliding(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``S = k_s g + e'`` [m/s], shape (n, 3) ([W 29, 31])."""
+        return self.k_s * self.potential.derivatives(r, self.r_f).g + v
+
+    def command(self, r: np.ndarray, v: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
+        """Commanded acceleration [m/s^2], shape (n, 3) ([W 30, 32])."""
+        d = self.potential.derivatives(r, self.r_f)
+        S = self.k_s * d.g + v
+        Hv = np.einsum("nij,nj->ni", d.H, v)
+        return -self.k_s * Hv - r @ A.T - v @ B.T + self.reaching.rate(S)
+
+
+@dataclass(frozen=True)
+class NTSMC:
+    """Nonsingular terminal sliding-mode control with the GMM potential ([W 10-16]).
+
+    Attributes
+    ----------
+    potential : AttractRepulsePotential
+    r_f : ndarray, shape (3,)
+        Goal [m] (at rest).
+    k_s : ndarray, shape (3,)
+        Diagonal surface gain [1/s].
+    reaching : ReachingLaw
+    xi0 : float
+        Linear error gain [1/s] (``0 < xi0 < 1``).
+    xi1 : ndarray, shape (3,)
+        Gain of ``sig^tau(e)``.
+    xi2 : ndarray, shape (3,)
+        Gain of ``sig^{p/q}(e')``; must be invertible.
+    tau : float
+        ``tau > 1``.
+    p, q : int
+        Positive odd integers, ``p < q``.
+    eps : float
+        Floor [m/s] on ``|e'_i|`` in the factor ``|e'|^{1-p/q}`` (0: as published, spec A17).
+    """
+
+    potential: AttractRepulsePotential
+    r_f: np.ndarray
+    k_s: np.ndarray
+    reaching: ReachingLaw
+    xi0: float
+    xi1: np.ndarray
+    xi2: np.ndarray
+    tau: float
+    p: int
+    q: int
+    eps: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "r_f", np.asarray(self.r_f, dtype=float))
+        for name in ("k_s", "xi1", "xi2"):
+            object.__setattr__(self, name, _vec3(name, getattr(self, name)))
+        if not (self.p > 0 and self.q > 0 and self.p % 2 == 1 and self.q % 2 == 1 and self.p < self.q):
+            raise ValueError(f"p and q must be positive odd integers with p < q, got {self.p}, {self.q}")
+        if not self.tau > 1:
+            raise ValueError(f"tau must be greater than 1, got {self.tau}")
+        if self.eps < 0:
+            raise ValueError(f"the stall floor eps must be >= 0 m/s, got {self.eps}")
+
+    @property
+    def rho(self) -> float:
+        """``p / q``."""
+        return self.p / self.q
+
+    def sliding(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``S`` of [W 10], shape (n, 3)."""
+        e = r - self.r_f
+        g = self.potential.derivatives(r, self.r_f).g
+        return self.k_s * g + self.xi0 * e + self.xi1 * sig(e, self.tau) + self.xi2 * sig(v, self.rho)
+
+    def command(self, r: np.ndarray, v: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
+        """Commanded acceleration [m/s^2], shape (n, 3) ([W 14])."""
+        e = r - self.r_f
+        d = self.potential.derivatives(r, self.r_f)
+        S = self.k_s * d.g + self.xi0 * e + self.xi1 * sig(e, self.tau) + self.xi2 * sig(v, self.rho)
+        Hv = np.einsum("nij,nj->ni", d.H, v)
+        bracket = (
+            -self.k_s * Hv
+            + self.reaching.rate(S)
+            - self.xi0 * v
+            - self.tau * self.xi1 * np.abs(e) ** (self.tau - 1) * v
+        )
+        gain = (self.q / self.p) / self.xi2 * np.maximum(np.abs(v), self.eps) ** (1 - self.rho)
+        return gain * bracket - r @ A.T - v @ B.T

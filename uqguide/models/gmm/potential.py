@@ -1,0 +1,131 @@
+"""Attract/repulse potential of the GMM papers and its derivatives (gmm-controllers.md 6.2).
+
+.. math:: \\varphi(r; r_f) = \\tfrac12 e^T P e + \\tfrac12 q V(r), \\quad e = r - r_f, \\; q = e^T M e,
+
+([W 9] with the GMM kernels, [W 28] with the classical APF obstacle, [C 17-19]). The repulsive
+term is multiplied by ``q`` so that it vanishes at the goal. Derivatives (``P``, ``M``
+symmetric):
+
+* ``g   = grad_r phi      = P e + V M e + 1/2 q grad V``                      ([W 25])
+* ``H   = hess_rr phi     = P + V M + (M e) grad V^T + grad V (M e)^T + 1/2 q hess V`` ([W 26])
+* ``H_f = d g / d r_f     = -P - V M - grad V (M e)^T``    (printed [W 27] has a sign and
+  transpose error, spec A19)
+* ``Gamma(y) = D3 phi[y, y] = 2 (grad V . y) M y + (y^T hess V y) M e + 2 (e^T M y) hess V y
+  + (y^T M y) grad V + 1/2 q D3V[y, y]``  (the corrected [C 24], spec A23)
+
+``Gamma(y)`` equals ``(dH/dt) y`` along ``r' = y`` for a constant goal; it is used by the
+fixed-time controller of [C].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .gauss_sum import GaussSum
+
+
+@dataclass(frozen=True)
+class PotentialDerivatives:
+    """Derivatives of ``phi`` at a batch of points.
+
+    Attributes
+    ----------
+    g : ndarray, shape (n, 3)
+        Gradient w.r.t. ``r`` [m].
+    H : ndarray, shape (n, 3, 3)
+        Hessian w.r.t. ``r`` [-].
+    H_f : ndarray, shape (n, 3, 3)
+        ``d g / d r_f`` [-].
+    gamma : ndarray, shape (n, 3) or None
+        ``D3 phi[y, y]`` [1/m * (unit of y)^2] when ``y`` was given.
+    V : ndarray, shape (n,)
+        The Gaussian-sum value.
+    """
+
+    g: np.ndarray
+    H: np.ndarray
+    H_f: np.ndarray
+    gamma: np.ndarray | None
+    V: np.ndarray
+
+
+@dataclass(frozen=True)
+class AttractRepulsePotential:
+    """``phi = 1/2 e^T P e + 1/2 (e^T M e) V(r)``.
+
+    Attributes
+    ----------
+    P : ndarray, shape (3, 3)
+        Attraction gain [-], symmetric positive definite.
+    M : ndarray, shape (3, 3)
+        Repulsion gain [-], symmetric positive definite.
+    V : GaussSum
+        Repulsive kernels (GMM or APF obstacles).
+    """
+
+    P: np.ndarray
+    M: np.ndarray
+    V: GaussSum
+
+    def __post_init__(self) -> None:
+        P = np.asarray(self.P, dtype=float)
+        M = np.asarray(self.M, dtype=float)
+        for name, A in (("P", P), ("M", M)):
+            if A.shape != (3, 3) or not np.allclose(A, A.T):
+                raise ValueError(f"the gain {name} must be a symmetric 3x3 matrix")
+        object.__setattr__(self, "P", P)
+        object.__setattr__(self, "M", M)
+
+    def phi(self, r: np.ndarray, r_f: np.ndarray) -> np.ndarray:
+        """``phi(r; r_f)``, shape (n,), for ``r`` (n, 3) and ``r_f`` (3,) or (n, 3) [m]."""
+        r = np.asarray(r, dtype=float)
+        e = r - r_f
+        Pe = e @ self.P.T
+        Me = e @ self.M.T
+        return 0.5 * np.sum(e * Pe, axis=-1) + 0.5 * np.sum(e * Me, axis=-1) * self.V.value(r)
+
+    def derivatives(
+        self, r: np.ndarray, r_f: np.ndarray, y: np.ndarray | None = None
+    ) -> PotentialDerivatives:
+        """Gradient, Hessian, ``d g / d r_f`` and (given ``y``) ``D3 phi[y, y]``.
+
+        Parameters
+        ----------
+        r : ndarray, shape (n, 3)
+            Positions [m].
+        r_f : ndarray, shape (3,) or (n, 3)
+            Goal [m].
+        y : ndarray, shape (n, 3), optional
+            Direction (a velocity, for ``(dH/dt) y``).
+        """
+        r = np.asarray(r, dtype=float)
+        e = r - r_f
+        d = self.V.derivatives(r, y)
+        Me = e @ self.M.T
+        q = np.sum(e * Me, axis=-1)
+        V = d.value[:, None, None]
+        outer_gMe = d.grad[:, :, None] * Me[:, None, :]  # grad V (M e)^T
+        g = e @ self.P.T + d.value[:, None] * Me + 0.5 * q[:, None] * d.grad
+        H = (
+            self.P
+            + V * self.M
+            + np.swapaxes(outer_gMe, 1, 2)
+            + outer_gMe
+            + 0.5 * q[:, None, None] * d.hess
+        )
+        H_f = -self.P - V * self.M - outer_gMe
+        gamma = None
+        if y is not None:
+            y = np.asarray(y, dtype=float)
+            My = y @ self.M.T
+            hy = np.einsum("nij,nj->ni", d.hess, y)
+            gamma = (
+                2 * np.sum(d.grad * y, axis=-1)[:, None] * My
+                + np.sum(y * hy, axis=-1)[:, None] * Me
+                + 2 * np.sum(e * My, axis=-1)[:, None] * hy
+                + np.sum(y * My, axis=-1)[:, None] * d.grad
+                + 0.5 * q[:, None] * d.third
+            )
+        return PotentialDerivatives(g=g, H=H, H_f=H_f, gamma=gamma, V=d.value)
