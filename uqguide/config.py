@@ -210,12 +210,16 @@ def load_config(path: str | Path) -> RunConfig:
 
 def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfig:
     """Validate a config mapping into a :class:`RunConfig` (model, inputs, methods resolved)."""
+    nan_at = _find_nan(data)
+    if nan_at is not None:
+        raise ConfigError(f"{nan_at}: must be a number, not NaN", field=nan_at)
     try:
         raw = RawConfig.model_validate(dict(data))
     except ValidationError as err:
         raise _from_validation(err, "", _fields(RawConfig)) from None
 
     model = _build_model(raw.model)
+    _check_finite_parameters(raw)
     space = _build_space(raw, model)
     outputs = _resolve_outputs(raw, model)
     methods = _build_methods(raw)
@@ -238,6 +242,36 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
                     field=f"report_times[{i}]")
     return RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
                      source=source)
+
+
+def _find_nan(node: Any, path: str = "") -> str | None:
+    """Path of the first NaN in the config (never a meaningful setting; YAML spells it .nan)."""
+    if isinstance(node, float) and node != node:
+        return path or "<top>"
+    if isinstance(node, Mapping):
+        for k, v in node.items():
+            found = _find_nan(v, f"{path}.{k}" if path else str(k))
+            if found:
+                return found
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            found = _find_nan(v, f"{path}[{i}]")
+            if found:
+                return found
+    return None
+
+
+def _check_finite_parameters(raw: RawConfig) -> None:
+    """Distribution parameters must be finite; a truncated normal's bounds may be infinite
+    (one-sided truncation)."""
+    for i, m in enumerate(raw.inputs):
+        for name, value in m.model_dump().items():
+            if not isinstance(value, float) or np.isfinite(value):
+                continue
+            if m.dist == "truncnormal" and name in ("low", "high"):
+                continue
+            raise ConfigError(f"inputs[{i}].{name}: must be a finite number (got {value!r})",
+                              field=f"inputs[{i}].{name}")
 
 
 def _build_model(section: dict[str, Any]) -> Model:

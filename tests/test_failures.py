@@ -1,0 +1,115 @@
+"""Per-sample failures: exact counts and reasons, statistics of the rest, the failure budget,
+the PCE failure policy setting."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from uqguide.cli import main
+from uqguide.config import validate_config
+from uqguide.propagate import run
+from uqguide.result import read_hdf5
+from uqguide.stats import sample_statistics
+
+N = 4000
+
+
+def _config(function: str, **top) -> dict:
+    return {
+        "model": {"name": "callable", "function": function, "inputs": ["a", "b"],
+                  "outputs": [{"name": "path", "kind": "series"}, "y",
+                              {"name": "ab", "components": 2}]},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                   {"name": "b", "dist": "uniform", "low": -1.0, "high": 1.0}],
+        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": N, "chunk_size": 1000,
+                     "bootstrap": 0}],
+        "batch_size": 250,
+        "seed": 21,
+        **top,
+    }
+
+
+def test_five_percent_failures_exact_counts_and_statistics_of_the_rest():
+    cfg = validate_config(_config("tests.failing_models:flaky", max_failed_fraction=0.1))
+    r = run(cfg).run("mc")
+    a = r.x[:, 0]
+    raised, nan = a > 1.96, a < -1.96  # P = 2.5% each
+    np.testing.assert_array_equal(r.failed, raised | nan)
+    assert r.n_failed == int((raised | nan).sum())
+    assert 0.03 < r.n_failed / N < 0.07  # about 5%: binomial sd 0.35% at n = 4000
+    assert set(r.reasons[raised]) == {"ValueError: a above 1.96"}
+    assert set(r.reasons[nan]) == {"non-finite output value"}
+    assert set(r.reasons[~r.failed]) == {""}
+    assert f"ValueError: a above 1.96 ({raised.sum()})" in r.estimate.diagnostics[
+        "failure_reasons"]
+
+    # A clean run on the rest: the failure-free function on the surviving inputs, statistics by
+    # the in-memory two-pass estimators. The streamed ones differ only by rounding: sums of
+    # n = 3800 terms in another order (relative error <= n * eps ~ 1e-12) and 3 Pébay merges.
+    keep = ~r.failed
+    clean = validate_config(_config("tests.failing_models:clean")).model
+    out = clean.evaluate(r.x[keep], ["a", "b"], ["path", "y", "ab"])
+    for name in ("path", "y", "ab"):
+        y = out.series[name] if name in out.series else out.scalars[name]
+        ref = sample_statistics(y, bootstrap=0)
+        got = r.estimate.stats[name]
+        assert got.n_used == keep.sum()
+        for k in ("mean", "std", "cov"):
+            np.testing.assert_allclose(getattr(got, k), getattr(ref, k), rtol=1e-11,
+                                       atol=1e-13, err_msg=f"{name} {k}")
+        # skewness and kurtosis: the same relative error carried through mu3 / sigma^3
+        # (near-zero skewness needs an absolute floor)
+        np.testing.assert_allclose(got.skewness, ref.skewness, rtol=1e-9, atol=1e-11)
+        np.testing.assert_allclose(got.kurtosis, ref.kurtosis, rtol=1e-9)
+        if name in out.scalars:  # the per-sample scalars kept are the model's values
+            np.testing.assert_array_equal(r.scalars[name][keep], out.scalars[name])
+    np.testing.assert_allclose(r.estimate.scalar_cov,
+                               np.cov(np.column_stack([out.scalars["y"], out.scalars["ab"]]).T,
+                                      ddof=0), rtol=1e-11, atol=1e-13)
+
+
+def test_failure_budget_exceeded_is_exit_1_with_the_result_written(write_config, tmp_path):
+    path = write_config(_config("tests.failing_models:flaky"), "flaky.yaml")
+    res = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path)])
+    assert res.exit_code == 1
+    r = read_hdf5(tmp_path / "flaky.h5").run("mc")  # written, for inspection
+    raised = int((r.x[:, 0] > 1.96).sum())
+    nan = int((r.x[:, 0] < -1.96).sum())
+    assert res.stderr.strip().splitlines()[-1] == (
+        f"error: mc: {raised + nan} of {N} runs failed ({100 * (raised + nan) / N:.3g}%: "
+        f"ValueError: a above 1.96 ({raised}); non-finite output value ({nan})); above "
+        f"max_failed_fraction = 0.01")
+    assert "Traceback" not in res.output
+    ok = CliRunner().invoke(main, ["run", str(write_config(
+        _config("tests.failing_models:flaky", max_failed_fraction=0.1), "ok.yaml")),
+        "--out", str(tmp_path)])
+    assert ok.exit_code == 0, ok.output
+
+
+def test_a_model_breaking_its_contract_is_not_a_sample_failure(write_config, tmp_path):
+    cfg = _config("tests.failing_models:clean_sum")  # an array, where series need a dict
+    res = CliRunner().invoke(main, ["run", str(write_config(cfg)), "--out", str(tmp_path)])
+    assert res.exit_code == 1
+    assert res.stderr.strip() == "error: a function with series outputs must return a dict"
+    assert not (tmp_path / "config.h5").exists()
+
+
+@pytest.mark.parametrize("policy", [None, "fail", "regression"])
+def test_pce_failure_policy_reaches_every_method(policy):
+    cfg = _config("tests.failing_models:clean")
+    if policy:
+        cfg["pce_failure_policy"] = policy
+    c = validate_config(cfg)
+    assert [m.failure_policy for m in c.methods] == [policy or "fail"]
+    assert c.resolved()["pce_failure_policy"] == (policy or "fail")
+
+
+def test_pce_failure_policy_is_checked(write_config):
+    text = yaml.safe_dump(_config("tests.failing_models:clean", pce_failure_policy="refit"))
+    res = CliRunner().invoke(main, ["validate", str(write_config(text))])
+    assert res.exit_code == 2
+    assert res.stderr.strip() == ("error: pce_failure_policy: Input should be 'fail' or "
+                                  "'regression' (got 'refit')")
