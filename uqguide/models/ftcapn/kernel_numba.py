@@ -1,9 +1,9 @@
-"""FTCAPN closed loop, compiled with Numba: one sample at a time, all its steps in registers.
+"""FTCAPN closed loop, compiled with Numba.
 
 Same algorithm and same arrays as :mod:`.kernel_numpy` (the reference; see it for the
-equations); the test suite checks that both give the same numbers to ~1e-9 relative. The loop
-is sample-major, so a sample's state stays in registers and its rows of ``buf`` are written
-contiguously; that is what makes it ~15x faster than the time-major NumPy version.
+equations); the test suite checks that both give the same numbers to ~1e-9 relative. Blocks of
+64 samples run in parallel threads; within a block the samples advance in lockstep, which keeps
+the work of a block in the L1 cache and lets the CPU overlap the samples' dependency chains.
 """
 
 from __future__ import annotations
@@ -23,8 +23,9 @@ EPS = float(np.finfo(np.float64).eps)
 
 
 @njit(cache=True, error_model="numpy")
-def _record(buf, i, k0, k1, col, st, R, Rdot, om, s, ac, acr, act, dv):
-    """Write the grid rows ``k0 .. k1-1`` of sample ``i`` (same values on every row)."""
+def _record(buf, i, k0, k1, col, x, y, z, vx, vy, vz, R, Rdot, om, s, a0, a1, a2, acr, act, dv):
+    """Write the grid rows ``k0 .. k1-1`` of sample ``i`` (same values on every row). Scalars,
+    not array rows: a row view costs an atomic reference-count pair in the hot loop."""
     for k in range(k0, k1):
         c = col[S_OMEGA]
         if c >= 0:
@@ -32,9 +33,9 @@ def _record(buf, i, k0, k1, col, st, R, Rdot, om, s, ac, acr, act, dv):
         c = col[S_W]
         if c >= 0:
             R2 = R * R
-            buf[c, i, k] = (st[1] * st[5] - st[2] * st[4]) / R2
-            buf[c + 1, i, k] = (st[2] * st[3] - st[0] * st[5]) / R2
-            buf[c + 2, i, k] = (st[0] * st[4] - st[1] * st[3]) / R2
+            buf[c, i, k] = (y * vz - z * vy) / R2
+            buf[c + 1, i, k] = (z * vx - x * vz) / R2
+            buf[c + 2, i, k] = (x * vy - y * vx) / R2
         c = col[S_R]
         if c >= 0:
             buf[c, i, k] = R
@@ -46,9 +47,9 @@ def _record(buf, i, k0, k1, col, st, R, Rdot, om, s, ac, acr, act, dv):
             buf[c, i, k] = s
         c = col[S_AC]
         if c >= 0:
-            buf[c, i, k] = ac[0]
-            buf[c + 1, i, k] = ac[1]
-            buf[c + 2, i, k] = ac[2]
+            buf[c, i, k] = a0
+            buf[c + 1, i, k] = a1
+            buf[c + 2, i, k] = a2
         c = col[S_ACLOS]
         if c >= 0:
             buf[c, i, k] = acr
@@ -59,17 +60,17 @@ def _record(buf, i, k0, k1, col, st, R, Rdot, om, s, ac, acr, act, dv):
             buf[c, i, k] = dv
         c = col[S_POS]
         if c >= 0:
-            buf[c, i, k] = st[0]
-            buf[c + 1, i, k] = st[1]
-            buf[c + 2, i, k] = st[2]
+            buf[c, i, k] = x
+            buf[c + 1, i, k] = y
+            buf[c + 2, i, k] = z
         c = col[S_VEL]
         if c >= 0:
-            buf[c, i, k] = st[3]
-            buf[c + 1, i, k] = st[4]
-            buf[c + 2, i, k] = st[5]
+            buf[c, i, k] = vx
+            buf[c + 1, i, k] = vy
+            buf[c + 2, i, k] = vz
         c = col[S_SPEED]
         if c >= 0:
-            buf[c, i, k] = math.sqrt(st[3] * st[3] + st[4] * st[4] + st[5] * st[5])
+            buf[c, i, k] = math.sqrt(vx * vx + vy * vy + vz * vz)
 
 
 @njit(cache=True, error_model="numpy")
@@ -159,7 +160,11 @@ def _newton_min(D, hi, out):
 
 
 BLOCK = 64
-"""Samples per parallel task: large enough to amortise the scratch arrays."""
+"""Samples per parallel task; they advance in lockstep (see :func:`_simulate_block`)."""
+
+# per-sample scalars of a block, columns of ``lane (BLOCK, N_LANE)``
+L_DV, L_ACMAX, L_TSURF, L_TSET, L_PABS, L_POM, L_THR, L_ACR, L_ACT, L_ACN = range(10)
+N_LANE = 10
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
@@ -167,7 +172,7 @@ def simulate_numba(r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
     """Run the batch; arguments and outputs as :func:`.kernel_numpy.simulate_numpy`.
 
     Blocks of ``BLOCK`` samples run in parallel (``numba.set_num_threads`` sets how many
-    threads); each sample runs all its steps before the next one starts.
+    threads).
     """
     n = r0.shape[0]
     for b in prange((n + BLOCK - 1) // BLOCK):
@@ -176,41 +181,91 @@ def simulate_numba(r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
 
 
 @njit(cache=True, error_model="numpy")
+def _finish(i, lane_row, code, sc, status):
+    status[i] = code
+    sc[i, K_DV] = lane_row[L_DV]
+    sc[i, K_TSURF] = lane_row[L_TSURF]
+    sc[i, K_TSETTLE] = lane_row[L_TSET]
+    sc[i, K_ACMAX] = lane_row[L_ACMAX]
+
+
+@njit(cache=True, error_model="numpy")
+def _stop_in_step(i, j, hi, st_row, f, ac_row, lr, p, bR_i, K, col, buf, sc, D, ev):
+    """The sample crosses r_stop inside step ``j`` (before ``t_j + hi``): locate the crossing,
+    record the stop state on the rest of the grid, write its scalars."""
+    c_, delta, dt, rstop, nm = p[P_C], p[P_DELTA], p[P_DT], p[P_RSTOP], p[P_NMEAN]
+    t = j * dt
+    _derivatives(st_row, f, nm, D)
+    tau = _newton_cross(D, 0.0, hi, rstop * rstop, ev)
+    _eval(D, tau, ev)
+    for q in range(6):
+        st_row[q] = ev[q]
+    lr[L_DV] += lr[L_ACN] * tau
+    lr[L_ACMAX] = max(lr[L_ACMAX], lr[L_ACN])
+    R = math.sqrt(st_row[0] * st_row[0] + st_row[1] * st_row[1] + st_row[2] * st_row[2])
+    iR = 1.0 / R
+    Rdot = (st_row[0] * st_row[3] + st_row[1] * st_row[4] + st_row[2] * st_row[5]) * iR
+    vpx = st_row[3] - Rdot * (st_row[0] * iR)
+    vpy = st_row[4] - Rdot * (st_row[1] * iR)
+    vpz = st_row[5] - Rdot * (st_row[2] * iR)
+    om = math.sqrt(vpx * vpx + vpy * vpy + vpz * vpz) * iR
+    s = c_ * (R + bR_i) + Rdot
+    pa, po, thr = lr[L_PABS], lr[L_POM], lr[L_THR]
+    if lr[L_TSURF] != lr[L_TSURF] and abs(s) <= delta:
+        lr[L_TSURF] = t + tau * (pa - delta) / (pa - abs(s))
+    if om > thr:
+        lr[L_TSET] = np.nan
+    elif po > thr:
+        lr[L_TSET] = t + tau * (po - thr) / (po - om)
+    if j + 1 <= K:
+        _record(buf, i, j + 1, K + 1, col, st_row[0], st_row[1], st_row[2], st_row[3],
+                st_row[4], st_row[5], R, Rdot, om, s, ac_row[0], ac_row[1], ac_row[2],
+                lr[L_ACR], lr[L_ACT], lr[L_DV])
+    sc[i, K_TSTOP] = t + tau
+    for q in range(3):
+        sc[i, K_RS + q] = st_row[q]
+        sc[i, K_VS + q] = st_row[3 + q]
+
+
+@njit(cache=True, error_model="numpy")
 def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
+    """Samples ``i0 .. i1-1`` in lockstep: the inner loop runs over the samples, so the long
+    dependency chain of one sample's step (sqrt, division, pow) overlaps with the others'
+    (measured 1.6x faster than finishing one sample before starting the next)."""
     c_, eps, beta, eta, Nn = p[P_C], p[P_EPS], p[P_BETA], p[P_ETA], p[P_N]
     asat, delta, dt, rstop = p[P_ASAT], p[P_DELTA], p[P_DT], p[P_RSTOP]
     nm, settle, control = p[P_NMEAN], p[P_SETTLE], p[P_CONTROL] != 0.0
     rs2 = rstop * rstop
     hdt = 0.5 * dt
     idelta = 1.0 / delta
-    st = np.empty(6)
+    m = i1 - i0
+    st = np.empty((m, 6))
+    ac = np.zeros((m, 3))
+    lane = np.zeros((m, N_LANE))
+    running = np.ones(m, dtype=np.bool_)
     nx = np.empty(6)
     f = np.empty(3)
-    ac = np.zeros(3)
     D = np.zeros((5, 6))
     ev = np.empty(12)
     nan = np.nan
-    for i in range(i0, i1):
+    for l in range(m):
+        i = i0 + l
         for q in range(3):
-            st[q] = r0[i, q]
-            st[3 + q] = v0[i, q]
+            st[l, q] = r0[i, q]
+            st[l, 3 + q] = v0[i, q]
         sc[i, :] = nan
-        dv = 0.0
-        acmax = 0.0
-        t_surf = nan
-        t_set = nan
-        prev_abs_s = 0.0
-        prev_om = 0.0
-        thr = 0.0
-        ac[:] = 0.0
-        acr = 0.0
-        act = 0.0
-        acn = 0.0
-        code = ST_TMAX
-        j = 0
-        while True:
-            t = j * dt
-            x, y, z, vx, vy, vz = st[0], st[1], st[2], st[3], st[4], st[5]
+        lane[l, L_TSURF] = nan
+        lane[l, L_TSET] = nan
+    for j in range(max_steps + 1):
+        t = j * dt
+        n_running = 0
+        for l in range(m):
+            if not running[l]:
+                continue
+            n_running += 1
+            i = i0 + l
+            x, y, z = st[l, 0], st[l, 1], st[l, 2]
+            vx, vy, vz = st[l, 3], st[l, 4], st[l, 5]
             R = math.sqrt(x * x + y * y + z * z)
             iR = 1.0 / R
             Rdot = (x * vx + y * vy + z * vz) * iR
@@ -223,29 +278,34 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
             s = c_ * Rm + Rdot
             abs_s = abs(s)
             if j == 0:
-                thr = settle * om
+                lane[l, L_THR] = settle * om
                 if abs_s <= delta:
-                    t_surf = 0.0
-                if om <= thr:
-                    t_set = 0.0
+                    lane[l, L_TSURF] = 0.0
+                if om <= lane[l, L_THR]:
+                    lane[l, L_TSET] = 0.0
                 if R <= rstop:
                     # Already inside the stop range: stopped at t = 0, no control applied.
-                    _record(buf, i, 0, K + 1, col, st, R, Rdot, om, s, ac, 0.0, 0.0, 0.0)
+                    _record(buf, i, 0, K + 1, col, x, y, z, vx, vy, vz, R, Rdot, om, s,
+                            0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
                     sc[i, K_TSTOP] = 0.0
                     for q in range(3):
-                        sc[i, K_RS + q] = st[q]
-                        sc[i, K_VS + q] = st[3 + q]
-                    code = ST_OK
-                    break
+                        sc[i, K_RS + q] = st[l, q]
+                        sc[i, K_VS + q] = st[l, 3 + q]
+                    _finish(i, lane[l], ST_OK, sc, status)
+                    running[l] = False
+                    continue
             else:
-                if t_surf != t_surf and abs_s <= delta:
-                    t_surf = t - dt + dt * (prev_abs_s - delta) / (prev_abs_s - abs_s)
+                if lane[l, L_TSURF] != lane[l, L_TSURF] and abs_s <= delta:
+                    pa = lane[l, L_PABS]
+                    lane[l, L_TSURF] = t - dt + dt * (pa - delta) / (pa - abs_s)
+                thr = lane[l, L_THR]
+                po = lane[l, L_POM]
                 if om > thr:
-                    t_set = nan
-                elif prev_om > thr:
-                    t_set = t - dt + dt * (prev_om - thr) / (prev_om - om)
-            prev_abs_s = abs_s
-            prev_om = om
+                    lane[l, L_TSET] = nan
+                elif po > thr:
+                    lane[l, L_TSET] = t - dt + dt * (po - thr) / (po - om)
+            lane[l, L_PABS] = abs_s
+            lane[l, L_POM] = om
             if control:
                 if abs_s < delta:
                     sg = s * idelta
@@ -260,92 +320,74 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
                 if Vt > 0.0:
                     act = -Nn * Rdot * omm
                     iV = act / Vt
-                    ac[0] = acr * erx + iV * vpx
-                    ac[1] = acr * ery + iV * vpy
-                    ac[2] = acr * erz + iV * vpz
+                    ac[l, 0] = acr * erx + iV * vpx
+                    ac[l, 1] = acr * ery + iV * vpy
+                    ac[l, 2] = acr * erz + iV * vpz
                 else:
                     act = 0.0
-                    ac[0] = acr * erx
-                    ac[1] = acr * ery
-                    ac[2] = acr * erz
-                acn = math.sqrt(acr * acr + act * act)
+                    ac[l, 0] = acr * erx
+                    ac[l, 1] = acr * ery
+                    ac[l, 2] = acr * erz
+                lane[l, L_ACR] = acr
+                lane[l, L_ACT] = act
+                lane[l, L_ACN] = math.sqrt(acr * acr + act * act)
             if j <= K:
-                _record(buf, i, j, j + 1, col, st, R, Rdot, om, s, ac, acr, act, dv)
+                _record(buf, i, j, j + 1, col, x, y, z, vx, vy, vz, R, Rdot, om, s,
+                        ac[l, 0], ac[l, 1], ac[l, 2], lane[l, L_ACR], lane[l, L_ACT],
+                        lane[l, L_DV])
             if j >= max_steps:
                 sc[i, K_TFAIL] = t
-                code = ST_TMAX
-                break
-            f[0] = at[i, 0] - ac[0]
-            f[1] = at[i, 1] - ac[1]
-            f[2] = at[i, 2] - ac[2]
+                _finish(i, lane[l], ST_TMAX, sc, status)
+                running[l] = False
+                continue
+            fx = at[i, 0] - ac[l, 0]
+            fy = at[i, 1] - ac[l, 1]
+            fz = at[i, 2] - ac[l, 2]
             if nm == 0.0:
-                for q in range(3):
-                    nx[q] = st[q] + dt * (st[3 + q] + hdt * f[q])
-                    nx[3 + q] = st[3 + q] + dt * f[q]
+                n0 = x + dt * (vx + hdt * fx)
+                n1 = y + dt * (vy + hdt * fy)
+                n2 = z + dt * (vz + hdt * fz)
+                n3 = vx + dt * fx
+                n4 = vy + dt * fy
+                n5 = vz + dt * fz
             else:
-                _derivatives(st, f, nm, D)
-                _eval(D, dt, ev)
                 for q in range(6):
-                    nx[q] = ev[q]
-            finite = True
-            for q in range(6):
-                if not math.isfinite(nx[q]):
-                    finite = False
-            if not finite:
+                    nx[q] = st[l, q]
+                f[0], f[1], f[2] = fx, fy, fz
+                _derivatives(nx, f, nm, D)
+                _eval(D, dt, ev)
+                n0, n1, n2, n3, n4, n5 = ev[0], ev[1], ev[2], ev[3], ev[4], ev[5]
+            Rn2 = n0 * n0 + n1 * n1 + n2 * n2
+            # one test for all six: a NaN or infinity anywhere makes the sum non-finite
+            if not math.isfinite(Rn2 + n3 * n3 + n4 * n4 + n5 * n5):
                 sc[i, K_TFAIL] = t + dt
-                code = ST_NONFINITE
                 for k in range(j + 1, K + 1):
                     for q in range(buf.shape[0]):
                         buf[q, i, k] = nan
-                break
-            Rn2 = nx[0] * nx[0] + nx[1] * nx[1] + nx[2] * nx[2]
+                _finish(i, lane[l], ST_NONFINITE, sc, status)
+                running[l] = False
+                continue
             cross = Rn2 <= rs2
             hi = dt
-            if not cross and Rdot < 0.0 and (nx[0] * nx[3] + nx[1] * nx[4] + nx[2] * nx[5]) > 0.0:
+            if cross or (Rdot < 0.0 and (n0 * n3 + n1 * n4 + n2 * n5) > 0.0):
+                f[0], f[1], f[2] = fx, fy, fz
+            if not cross and Rdot < 0.0 and (n0 * n3 + n1 * n4 + n2 * n5) > 0.0:
                 # The range has a minimum inside the step: a pass that may dip below r_stop.
-                _derivatives(st, f, nm, D)
+                _derivatives(st[l], f, nm, D)
                 tm = _newton_min(D, dt, ev)
                 _eval(D, tm, ev)
                 if ev[0] ** 2 + ev[1] ** 2 + ev[2] ** 2 <= rs2:
                     cross = True
                     hi = tm
             if cross:
-                _derivatives(st, f, nm, D)
-                tau = _newton_cross(D, 0.0, hi, rs2, ev)
-                _eval(D, tau, ev)
-                for q in range(6):
-                    st[q] = ev[q]
-                dv += acn * tau
-                acmax = max(acmax, acn)
-                R = math.sqrt(st[0] * st[0] + st[1] * st[1] + st[2] * st[2])
-                iR = 1.0 / R
-                Rdot = (st[0] * st[3] + st[1] * st[4] + st[2] * st[5]) * iR
-                vpx = st[3] - Rdot * (st[0] * iR)
-                vpy = st[4] - Rdot * (st[1] * iR)
-                vpz = st[5] - Rdot * (st[2] * iR)
-                om = math.sqrt(vpx * vpx + vpy * vpy + vpz * vpz) * iR
-                s = c_ * (R + bR[i]) + Rdot
-                if t_surf != t_surf and abs(s) <= delta:
-                    t_surf = t + tau * (prev_abs_s - delta) / (prev_abs_s - abs(s))
-                if om > thr:
-                    t_set = nan
-                elif prev_om > thr:
-                    t_set = t + tau * (prev_om - thr) / (prev_om - om)
-                if j + 1 <= K:
-                    _record(buf, i, j + 1, K + 1, col, st, R, Rdot, om, s, ac, acr, act, dv)
-                sc[i, K_TSTOP] = t + tau
-                for q in range(3):
-                    sc[i, K_RS + q] = st[q]
-                    sc[i, K_VS + q] = st[3 + q]
-                code = ST_OK
-                break
-            dv += acn * dt
-            acmax = max(acmax, acn)
-            for q in range(6):
-                st[q] = nx[q]
-            j += 1
-        status[i] = code
-        sc[i, K_DV] = dv
-        sc[i, K_TSURF] = t_surf
-        sc[i, K_TSETTLE] = t_set
-        sc[i, K_ACMAX] = acmax
+                _stop_in_step(i, j, hi, st[l], f, ac[l], lane[l], p, bR[i], K, col, buf, sc, D,
+                              ev)
+                _finish(i, lane[l], ST_OK, sc, status)
+                running[l] = False
+                continue
+            lane[l, L_DV] += lane[l, L_ACN] * dt
+            lane[l, L_ACMAX] = max(lane[l, L_ACMAX], lane[l, L_ACN])
+            st[l, 0], st[l, 1], st[l, 2] = n0, n1, n2
+            st[l, 3], st[l, 4], st[l, 5] = n3, n4, n5
+        if n_running == 0:
+            break
