@@ -257,3 +257,15 @@ def test_parameters_are_validated():
         FTCAPN({"eta": 1.5})
     with pytest.raises(ValidationError):
         FTCAPN({"gain": 1.0})
+
+
+def test_closed_loop_run_still_running_at_t_max_fails_with_reason():
+    m = model(t_max=40.0, t_final=40.0)
+    out = m.evaluate(np.zeros((3, 1)), ["dx"], ["R", "t_stop", "zem", "dv_total"])
+    assert out.failed.all()
+    assert set(out.reasons) == {"range did not reach r_stop = 50 m within t_max = 40 s"}
+    for v in out.scalars.values():
+        assert np.isnan(v).all()
+    # the series up to t_max are a valid record of the run (still closing at 40 s)
+    R = out.series["R"][0, :, 0]
+    assert np.isfinite(R).all() and np.all(np.diff(R) < 0) and R[-1] > 50.0

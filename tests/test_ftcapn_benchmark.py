@@ -1,0 +1,48 @@
+"""benchmarks/throughput.py: one tiny FTCAPN row, case discovery and the command line."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "throughput.py"
+
+
+@pytest.fixture(scope="module")
+def tp():
+    spec = importlib.util.spec_from_file_location("throughput", PATH)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_ftcapn_case_runs_and_formats(tp):
+    case = next(c for c in tp.discover_cases() if c["model"] == "ftcapn")
+    case = {**case, "params": {"kernel": "numpy"}}
+    row = tp.run_case(case, 64, bootstrap=20)
+    assert row["runs"] == 64 and row["failed"] == 0 and row["batch"] == 64
+    assert row["wall_s"] == pytest.approx(row["sim_s"] + row["stats_s"], rel=1e-9)
+    assert row["samples_per_s"] == pytest.approx(64 / row["wall_s"])
+    assert row["peak_mb"] > 0
+    text = tp.format_table([row])
+    assert "ftcapn table3" in text and "samples/s" in text.splitlines()[0]
+
+
+def test_cases_modules_are_discovered(tp, tmp_path, monkeypatch):
+    extra = tmp_path / "cases_extra.py"
+    extra.write_text("CASES = [{'label': 'x', 'model': 'ishigami', 'params': {}, 'inputs': [], "
+                     "'outputs': [], 'batches': [10]}]\n")
+    monkeypatch.setattr(tp, "HERE", tmp_path)
+    labels = [c["label"] for c in tp.discover_cases()]
+    assert labels[0] == "ftcapn table3" and "x" in labels
+
+
+def test_command_line_filters_and_overrides(tp, capsys):
+    assert tp.main(["--model", "ftcapn", "--batches", "32", "--param", "kernel=numpy",
+                    "--bootstrap", "0", "--no-memory"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 3 and out[2].split()[:3] == ["ftcapn", "table3", "ftcapn"]
+    with pytest.raises(SystemExit):
+        tp.main(["--model", "no_such_model"])
