@@ -269,3 +269,31 @@ def test_closed_loop_run_still_running_at_t_max_fails_with_reason():
     # the series up to t_max are a valid record of the run (still closing at 40 s)
     R = out.series["R"][0, :, 0]
     assert np.isfinite(R).all() and np.all(np.diff(R) < 0) and R[-1] > 50.0
+
+
+@pytest.mark.parametrize("gravity", ["none", "hill"])
+def test_stop_state_is_the_closed_form_motion_of_the_last_step(gravity):
+    """From the last grid state before the stop, the held command (ZOH) and the target
+    acceleration give the motion inside the step in closed form (a parabola, or forced CW):
+    it must reach the recorded stop state at the recorded stop time."""
+    m = model(gravity=gravity, t_final=100.0)  # the grid covers every stop of this batch
+    rng = np.random.default_rng(8)
+    x = rng.normal(size=(10, 11)) * [15, 15, 15, 3, 3, 3, 1e-5, 5, 0.1, 0.1, 0.1]
+    out = m.evaluate(x, [i.name for i in m.inputs()],
+                     ["r", "v", "a_c", "t_stop", "r_at_stop", "v_at_stop"])
+    at = x[:, 8:11] @ m.initial_los_frame()
+    assert not out.failed.any()
+    t_stop = out.scalars["t_stop"][:, 0]
+    k = np.floor(t_stop / m.params.dt).astype(int)  # last grid point before the stop
+    rows = np.arange(10)
+    r, v = out.series["r"][rows, k], out.series["v"][rows, k]
+    f = at - out.series["a_c"][rows, k]
+    tau = t_stop - out.time[k]
+    assert np.all((tau > 0) & (tau <= m.params.dt))
+    if gravity == "none":
+        r_s, v_s = r + v * tau[:, None] + 0.5 * f * tau[:, None] ** 2, v + f * tau[:, None]
+    else:
+        r_s, v_s = cw_propagate(r, v, m.mean_motion, tau, f)
+    assert np.allclose(out.scalars["r_at_stop"], r_s, rtol=0, atol=1e-9)
+    assert np.allclose(out.scalars["v_at_stop"], v_s, rtol=0, atol=1e-11)
+    assert np.allclose(np.linalg.norm(r_s, axis=1), 50.0, rtol=0, atol=1e-8)
