@@ -99,3 +99,20 @@ def test_progress_lines_off_a_terminal_and_a_bar_on_one():
     assert term.getvalue().startswith("\r[--------------------] mc 0/4 chunks")
     assert "\r[#####---------------] mc 1/4 chunks  200/400 runs  0 failed" in term.getvalue()
     assert term.getvalue().endswith("\n")
+
+
+def test_poisson1_weights_have_the_poisson_pmf():
+    # 1.6e6 draws: each frequency within 5 binomial standard errors sqrt(p (1 - p) / N) of
+    # e^-1 / k!, and the draws are those of inverting the CDF of the same uniforms.
+    import math
+
+    from uqguide.methods.mc_reduce import _POISSON1_CDF, poisson1
+
+    w = poisson1(np.random.default_rng(8), (200, 8000))
+    N = w.size
+    freq = np.bincount(w.astype(int).ravel(), minlength=8) / N
+    for k in range(8):
+        p = math.exp(-1.0) / math.factorial(k)
+        assert abs(freq[k] - p) < 5 * math.sqrt(p * (1 - p) / N), (k, freq[k], p)
+    u = np.random.default_rng(8).random((200, 8000))
+    np.testing.assert_array_equal(w, np.searchsorted(_POISSON1_CDF, u, side="right"))

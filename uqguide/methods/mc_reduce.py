@@ -8,12 +8,31 @@ bootstrap.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..models.base import ModelOutput
 from ..stats import MomentSums
+
+
+# CDF of Poisson(1) at k = 0..19 (the mass beyond 19 is 1.9e-19, below double resolution).
+_POISSON1_CDF = np.cumsum([math.exp(-1.0) / math.factorial(k) for k in range(20)])
+
+
+def poisson1(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    """Poisson(1) counts as floats, by inverting the CDF of uniforms: ``k`` is the number of
+    CDF values ``<= u`` (exact up to the resolution of the uniforms; a few times faster than
+    ``rng.poisson`` for lambda = 1: one comparison pass per reachable ``k``)."""
+    u = rng.random(shape)
+    w = np.zeros(shape, dtype=np.uint8)
+    top = u.max(initial=0.0)
+    for c in _POISSON1_CDF:
+        if c > top:
+            break
+        w += u >= c
+    return w.astype(float)
 
 
 def ci_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
@@ -50,14 +69,25 @@ class MonteCarloReducer:
             # Weights for every run of the chunk (failed ones then dropped), so a sample's
             # weights do not depend on which other samples failed.
             rng = np.random.default_rng([self.boot_seed, index])
-            w = rng.poisson(1.0, size=(self.bootstrap, m)).astype(float)[:, ok]
+            w = poisson1(rng, (self.bootstrap, m))[:, ok]
         idx = ci_index(out.time, self.report_times, self.bootstrap_times)
+        blocks, spans = [], []
         for name, y in [*out.series.items(), *out.scalars.items()]:
             y_ok = y[ok]
             _put(summary, "m", name, MomentSums.of(y_ok))
-            if w is not None:
-                cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
-                _put(summary, "b", name, MomentSums.weighted(cols.reshape(cols.shape[0], -1), w))
+            cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
+            blocks.append(cols.reshape(cols.shape[0], -1))
+            spans.append((name, blocks[-1].shape[1]))
+        if w is not None and blocks:
+            # One weighted reduction of every interval column side by side: a few large
+            # matrix products instead of one small product per output and power.
+            boot = MomentSums.weighted(np.concatenate(blocks, axis=1), w)
+            c0 = 0
+            for name, c in spans:
+                sl = slice(c0, c0 + c)
+                _put(summary, "b", name, MomentSums(boot.n, boot.mean[:, sl], boot.m2[:, sl],
+                                                    boot.m3[:, sl], boot.m4[:, sl]))
+                c0 += c
         _, stacked = stack_scalars(out.scalars, ok)
         _put(summary, "j", "", MomentSums.of(stacked))
         return summary
