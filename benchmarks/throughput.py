@@ -5,7 +5,8 @@ compute ``uqguide.stats.sample_statistics`` of every requested series (bootstrap
 report times and the last step, as the Monte Carlo method does) and of the scalar outputs
 stacked into one vector (one set of bootstrap resamples for all of them).
 Prints one table row per (case, batch): samples/s, model runs, failures, simulation and
-statistics seconds, wall seconds and the peak traced memory (tracemalloc: NumPy buffers and
+statistics seconds, wall seconds, CPU seconds of the process (all threads; on a shared machine
+the wall time depends on the other jobs, the CPU time much less) and the peak traced memory (tracemalloc: NumPy buffers and
 Python objects; memory allocated inside compiled kernels is not traced).
 
 Cases are dicts with keys ``label``, ``model`` (registered name), ``params`` (model parameters),
@@ -99,6 +100,7 @@ def run_case(case: dict[str, Any], n: int, seed: int = 1, bootstrap: int = BOOTS
     model.evaluate(x[:2], space.names, outputs)  # JIT compilation, nominal grid, caches
     if memory:
         tracemalloc.start()
+    c0 = time.process_time()
     t0 = time.perf_counter()
     out = model.evaluate(x, space.names, outputs)
     t1 = time.perf_counter()
@@ -112,25 +114,27 @@ def run_case(case: dict[str, Any], n: int, seed: int = 1, bootstrap: int = BOOTS
         stacked = np.concatenate([y[keep] for y in out.scalars.values()], axis=1)
         sample_statistics(stacked, bootstrap=bootstrap, seed=seed)
     t2 = time.perf_counter()
+    c2 = time.process_time()
     peak = tracemalloc.get_traced_memory()[1] / 2**20 if memory else float("nan")
     if memory:
         tracemalloc.stop()
     return {
         "label": case["label"], "model": case["model"], "batch": n,
         "samples_per_s": n / (t2 - t0), "runs": n, "failed": int(out.failed.sum()),
-        "sim_s": t1 - t0, "stats_s": t2 - t1, "wall_s": t2 - t0, "peak_mb": peak,
+        "sim_s": t1 - t0, "stats_s": t2 - t1, "wall_s": t2 - t0, "cpu_s": c2 - c0,
+        "peak_mb": peak,
     }
 
 
 def format_table(rows: list[dict[str, Any]]) -> str:
     head = (f"{'case':<24} {'model':<12} {'batch':>8} {'samples/s':>10} {'runs':>8} "
-            f"{'failed':>6} {'sim s':>7} {'stats s':>7} {'wall s':>7} {'peak MB':>8}")
+            f"{'failed':>6} {'sim s':>7} {'stats s':>7} {'wall s':>7} {'cpu s':>7} {'peak MB':>8}")
     lines = [head, "-" * len(head)]
     for r in rows:
         lines.append(
             f"{r['label']:<24} {r['model']:<12} {r['batch']:>8d} {r['samples_per_s']:>10.0f} "
             f"{r['runs']:>8d} {r['failed']:>6d} {r['sim_s']:>7.3f} {r['stats_s']:>7.3f} "
-            f"{r['wall_s']:>7.3f} {r['peak_mb']:>8.1f}")
+            f"{r['wall_s']:>7.3f} {r['cpu_s']:>7.3f} {r['peak_mb']:>8.1f}")
     return "\n".join(lines)
 
 

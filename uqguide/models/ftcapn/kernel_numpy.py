@@ -314,8 +314,9 @@ def _simulate_chunk(idx, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, stat
             Xn[3:6] = X[3:6] + dt * f
         else:
             Xn, _, _ = _eval(_derivatives(X, f, nm), dt)
-        bad = ~np.isfinite(Xn).all(axis=0)
         Rn2 = _dot(Xn[0:3], Xn[0:3])
+        # one test for all six components (as the numba kernel): NaN or inf makes the sum so
+        bad = ~np.isfinite(Rn2 + _dot(Xn[3:6], Xn[3:6]))
         cross = (Rn2 <= rs2) & ~bad
         hi = np.full(idx.size, dt)
         pass_ = ~cross & ~bad & (Rdot < 0.0) & (_dot(Xn[0:3], Xn[3:6]) > 0.0)

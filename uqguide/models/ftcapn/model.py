@@ -267,7 +267,8 @@ class FTCAPN(Model):
             import numba
 
             before = numba.get_num_threads()
-            numba.set_num_threads(p.threads or numba.config.NUMBA_NUM_THREADS)
+            most = numba.config.NUMBA_NUM_THREADS
+            numba.set_num_threads(min(p.threads, most) if p.threads else most)
             try:
                 kernel(*args)
             finally:
