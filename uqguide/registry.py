@@ -25,6 +25,7 @@ MODELS: dict[str, str] = {
     "callable": "uqguide.models.callable:CallableModel",
     "ftcapn": "uqguide.models.ftcapn:FTCAPN",
     "ft_as": "uqguide.models.ft_as:FTAS",
+    "gmm_ftc": "uqguide.models.gmm_ftc:GMMFTC",
 }
 
 METHODS: dict[str, str] = {

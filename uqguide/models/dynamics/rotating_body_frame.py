@@ -1,0 +1,401 @@
+"""Relative motion in the body frame of a target spinning on an elliptical orbit ([C] eqs 1-9).
+
+Frames (gmm-controllers.md sections 2-3). LVLH ``l``: origin at the target, ``x`` radial
+outward, ``y`` along-track, ``z`` orbit normal. Body ``b``: the target's axes, spinning relative
+to LVLH at the constant rate ``w`` (body components, [C] Table 5: ``(0, 0, 0.05) rad/s``).
+The attitude (body -> LVLH) is ``C(t) = C0 exp(t [w x])`` with ``C0 = I`` in [C]:
+``r_l = C r_b``, ``r_l' = C (r_b' + w x r_b)``.
+
+Substituting into the Tschauner-Hempel plant ``r_l'' = A(f) r_l + B(f) r_l' + u_l`` ([C 1-3])
+gives the body-frame plant (spec section 3, the corrected [C 7])
+
+.. math::
+    \\ddot r_b = A_{21} r_b + A_{22} \\dot r_b + u_b,
+    \\quad A_{21} = C^T A C + C^T B C [w\\times] - [\\dot w\\times] - [w\\times]^2,
+    \\quad A_{22} = C^T B C - 2 [w\\times],
+
+with ``u_b = C^T u_l`` the same physical thrust in body components. The printed [C 7] lost its
+minus signs and uses ``A C`` and ``B`` for ``C^T A C`` and ``C^T B C``; its sign-restored form
+``A21 = A C + B [w x] - [wd x] - [w x]^2``, ``A22 = B - 2 [w x]`` is kept behind
+``printed=True`` for comparison (spec A20).
+
+Batching. The target orbit is common to a batch; the spin rate may differ per sample (a
+dispersed rotation rate). Matrices therefore carry a leading axis of size ``m``, 1 when the spin
+is common (they then broadcast against ``(n, 3)`` states at no cost) or ``n``. The true anomaly
+is the exact Kepler solution, so the orbit quantities are evaluated once on the half-step grid
+that classical RK4 needs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .tschauner_hempel import ChiefOrbit
+
+
+def skew(x: np.ndarray) -> np.ndarray:
+    """``[x x]`` with ``[x x] y = x cross y``; ``x`` (..., 3) -> (..., 3, 3)."""
+    x = np.asarray(x, dtype=float)
+    S = np.zeros(x.shape[:-1] + (3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -x[..., 2], x[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = x[..., 2], -x[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -x[..., 1], x[..., 0]
+    return S
+
+
+def true_anomaly(orbit: ChiefOrbit, t: np.ndarray) -> np.ndarray:
+    """Exact true anomaly ``f(t)`` [rad] of the target from Kepler's equation.
+
+    Parameters
+    ----------
+    orbit : ChiefOrbit
+        ``f(0) = orbit.f0``.
+    t : ndarray, shape (T,)
+        Times [s].
+
+    Returns
+    -------
+    ndarray, shape (T,)
+        ``f`` continuous in ``t`` (not wrapped), so ``f(t) - f0`` is the swept angle.
+    """
+    e = orbit.e
+    t = np.asarray(t, dtype=float)
+    # f - E = 2 atan(beta sin E / (1 - beta cos E)) is continuous in E (no quadrant wrap), so
+    # f stays continuous over revolutions; beta = e / (1 + sqrt(1 - e^2)).
+    beta = e / (1 + np.sqrt(1 - e * e))
+    f0 = orbit.f0
+    E0 = f0 - 2.0 * np.arctan2(beta * np.sin(f0), 1 + beta * np.cos(f0))
+    M = E0 - e * np.sin(E0) + orbit.mean_motion * t
+    E = np.array(M, dtype=float)
+    # Newton on E - e sin E = M converges quadratically from E = M for e < 1; 50 iterations
+    # is a cap, the loop exits after 3-5 for the near-circular orbits of the papers.
+    for _ in range(50):
+        dE = (E - e * np.sin(E) - M) / (1 - e * np.cos(E))
+        E -= dE
+        if np.max(np.abs(dE), initial=0.0) < 1e-15:
+            break
+    return E + 2.0 * np.arctan2(beta * np.sin(E), 1 - beta * np.cos(E))
+
+
+def lvlh_matrices(
+    orbit: ChiefOrbit, f: np.ndarray, printed_omega_dot: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """Tschauner-Hempel ``A(f)``, ``B(f)`` ([C 2-3], corrected as spec section 2).
+
+    Parameters
+    ----------
+    orbit : ChiefOrbit
+    f : ndarray, shape (T,)
+        True anomalies [rad].
+    printed_omega_dot : bool
+        Use the printed ``dw/dt`` (wrong sign and exponent, spec A3).
+
+    Returns
+    -------
+    A, B : ndarray, shape (T, 3, 3)
+        [1/s^2] and [1/s].
+    """
+    f = np.atleast_1d(np.asarray(f, dtype=float))
+    w = orbit.omega(f)
+    wd = orbit.omega_dot(f, printed=printed_omega_dot)
+    k = orbit.mu / orbit.radius(f) ** 3
+    A = np.zeros(f.shape + (3, 3))
+    A[:, 0, 0] = w * w + 2 * k
+    A[:, 0, 1] = wd
+    A[:, 1, 0] = -wd
+    A[:, 1, 1] = w * w - k
+    A[:, 2, 2] = -k
+    B = np.zeros(f.shape + (3, 3))
+    B[:, 0, 1] = 2 * w
+    B[:, 1, 0] = -2 * w
+    return A, B
+
+
+def spin_attitude(w: np.ndarray, t: float, C0: np.ndarray | None = None) -> np.ndarray:
+    """Body -> LVLH attitude ``C(t) = C0 exp(t [w x])`` of a constant spin (Rodrigues).
+
+    Parameters
+    ----------
+    w : ndarray, shape (m, 3)
+        Spin rate of the body relative to LVLH, body components [rad/s].
+    t : float
+        Time [s].
+    C0 : ndarray, shape (3, 3), optional
+        Attitude at ``t = 0`` (identity by default, [C] Table 5).
+
+    Returns
+    -------
+    ndarray, shape (m, 3, 3)
+        Proper orthogonal matrices.
+    """
+    w = np.atleast_2d(np.asarray(w, dtype=float))
+    rate = np.linalg.norm(w, axis=1)
+    axis = w / np.where(rate > 0, rate, 1.0)[:, None]
+    angle = rate * t
+    K = skew(axis)
+    C = (
+        np.eye(3)
+        + np.sin(angle)[:, None, None] * K
+        + (1 - np.cos(angle))[:, None, None] * (K @ K)
+    )
+    return C if C0 is None else np.asarray(C0, dtype=float) @ C
+
+
+def body_frame_matrices(
+    A: np.ndarray,
+    B: np.ndarray,
+    C: np.ndarray,
+    w: np.ndarray,
+    w_dot: np.ndarray | None = None,
+    printed: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``A21``, ``A22`` of the body-frame plant (spec section 3, corrected [C 7]).
+
+    Parameters
+    ----------
+    A, B : ndarray, shape (3, 3)
+        LVLH plant matrices at the current true anomaly.
+    C : ndarray, shape (m, 3, 3)
+        Body -> LVLH attitude.
+    w : ndarray, shape (m, 3)
+        Body rate relative to LVLH, body components [rad/s].
+    w_dot : ndarray, shape (m, 3), optional
+        Its body-frame derivative [rad/s^2] (0 in [C]).
+    printed : bool
+        The sign-restored printed [C 7] (``A C``, ``B`` unrotated) instead of the correct form.
+
+    Returns
+    -------
+    A21 : ndarray, shape (m, 3, 3)  [1/s^2]
+    A22 : ndarray, shape (m, 3, 3)  [1/s]
+    """
+    W = skew(w)
+    W2 = _mm(W, W)
+    if printed:
+        Ab, Bb = _mm(A, C), np.broadcast_to(B, C.shape)
+    else:
+        Ct = np.swapaxes(C, -1, -2)
+        Ab, Bb = _mm(_mm(Ct, A), C), _mm(_mm(Ct, B), C)
+    A21 = Ab + _mm(Bb, W) - W2
+    if w_dot is not None:
+        A21 = A21 - skew(w_dot)
+    return A21, Bb - 2.0 * W
+
+
+def body_to_lvlh(
+    C: np.ndarray, w: np.ndarray, r_b: np.ndarray, v_b: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Position and velocity in LVLH from the body frame ([C 4-5]).
+
+    ``r_l = C r_b``, ``v_l = C (v_b + w x r_b)`` (``v`` are frame derivatives in each frame).
+
+    Parameters
+    ----------
+    C : ndarray, shape (m, 3, 3)
+    w : ndarray, shape (m, 3)  [rad/s]
+    r_b, v_b : ndarray, shape (n, 3)  [m], [m/s]   (``m`` is 1 or ``n``)
+
+    Returns
+    -------
+    r_l, v_l : ndarray, shape (n, 3)
+    """
+    r_l = rotate(C, r_b)
+    v_l = rotate(C, v_b + np.cross(w, r_b))
+    return r_l, v_l
+
+
+def lvlh_to_body(
+    C: np.ndarray, w: np.ndarray, r_l: np.ndarray, v_l: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of :func:`body_to_lvlh`: ``r_b = C^T r_l``, ``v_b = C^T v_l - w x r_b``."""
+    Ct = np.swapaxes(C, -1, -2)
+    r_b = rotate(Ct, r_l)
+    return r_b, rotate(Ct, v_l) - np.cross(w, r_b)
+
+
+def rotate(C: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``C x`` for ``C`` (m, 3, 3), ``m`` in {1, n}, and vectors ``x`` (n, 3).
+
+    Element-wise products summed in a fixed order, so a sample gives bit-identical results in a
+    batch with per-sample matrices and alone (a BLAS product may reorder the sums)."""
+    return np.sum(C * x[:, None, :], axis=-1)
+
+
+def _mm(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Batched 3x3 product ``A @ B`` in a fixed summation order (see :func:`rotate`)."""
+    return np.sum(A[..., :, :, None] * B[..., None, :, :], axis=-2)
+
+
+def eq32_acceleration(w: np.ndarray, r_b: np.ndarray, v_b: np.ndarray, u_b: np.ndarray
+                      ) -> np.ndarray:
+    """``u + 2 w x v_b + w x (w x r_b)`` of [C 32], body components [m/s^2].
+
+    The difference between the relative accelerations seen in LVLH and in the body frame, not
+    a different thrust (spec section 3, A24): a diagnostic to compare with [C] Fig. 11 once
+    rotated to LVLH. The physical thrust in LVLH is ``C u_b``.
+    """
+    return u_b + 2.0 * np.cross(w, v_b) + np.cross(w, np.cross(w, r_b))
+
+
+@dataclass(frozen=True)
+class RotatingBodyFrame:
+    """Body-frame plant of a target spinning at a constant rate on an elliptical orbit.
+
+    Attributes
+    ----------
+    orbit : ChiefOrbit
+        Target orbit, common to the batch.
+    w : ndarray, shape (m, 3)
+        Spin rate(s) relative to LVLH, body components [rad/s]; ``m = 1`` (common) or ``n``.
+    C0 : ndarray, shape (3, 3)
+        Attitude at ``t = 0``.
+    printed : bool
+        Use the printed [C 7] form (:func:`body_frame_matrices`).
+    printed_omega_dot : bool
+        Use the printed ``dw/dt`` of the orbit (spec A3).
+    """
+
+    orbit: ChiefOrbit
+    w: np.ndarray
+    C0: np.ndarray = field(default_factory=lambda: np.eye(3))
+    printed: bool = False
+    printed_omega_dot: bool = False
+
+    def __post_init__(self) -> None:
+        w = np.atleast_2d(np.asarray(self.w, dtype=float))
+        if w.ndim != 2 or w.shape[1] != 3:
+            raise ValueError(f"the spin rate must have shape (m, 3), got {w.shape}")
+        C0 = np.asarray(self.C0, dtype=float)
+        if C0.shape != (3, 3) or not np.allclose(C0 @ C0.T, np.eye(3), atol=1e-12):
+            raise ValueError("the initial attitude C0 must be a 3x3 rotation matrix")
+        object.__setattr__(self, "w", w)
+        object.__setattr__(self, "C0", C0)
+
+    def attitude(self, t: float) -> np.ndarray:
+        """``C(t)`` (m, 3, 3), body -> LVLH."""
+        return spin_attitude(self.w, t, self.C0)
+
+    def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
+        """``A21``, ``A22`` at time ``t`` [s] and true anomaly ``f`` [rad], each (3, 3).
+
+        The :class:`~uqguide.models.dynamics.tschauner_hempel.RelativePlant` interface (one
+        common spin rate, ``m = 1``), so the shared RK4 maps apply to this plant too.
+        """
+        if self.w.shape[0] != 1:
+            raise ValueError("matrices(t, f) needs one common spin rate; use stage_matrices")
+        A, B = lvlh_matrices(self.orbit, np.array([f]), self.printed_omega_dot)
+        A21, A22 = body_frame_matrices(A[0], B[0], self.attitude(t), self.w, printed=self.printed)
+        return A21[0], A22[0]
+
+    def stage_schedule(self, n_steps: int, h: float) -> StageSchedule:
+        """Orbit matrices at the RK4 stage times ``k h / 2``, ``k = 0 .. 2 n_steps``."""
+        times = 0.5 * h * np.arange(2 * n_steps + 1)
+        f = true_anomaly(self.orbit, times)
+        A, B = lvlh_matrices(self.orbit, f, self.printed_omega_dot)
+        return StageSchedule(h=h, times=times, f=f, A=A, B=B)
+
+    def matrices_at(self, schedule: StageSchedule, j: int) -> tuple[np.ndarray, np.ndarray]:
+        """``A21``, ``A22`` (m, 3, 3) at the half-step grid point ``j`` of ``schedule``."""
+        C = self.attitude(schedule.times[j])
+        return body_frame_matrices(schedule.A[j], schedule.B[j], C, self.w, printed=self.printed)
+
+
+@dataclass(frozen=True)
+class StageSchedule:
+    """The target orbit's LVLH matrices on the half-step grid (common to a batch).
+
+    Attributes
+    ----------
+    h : float
+        Integration step [s].
+    times : ndarray, shape (2 N + 1,)
+        ``j h / 2`` [s].
+    f : ndarray, shape (2 N + 1,)
+        Exact true anomaly [rad].
+    A, B : ndarray, shape (2 N + 1, 3, 3)
+    """
+
+    h: float
+    times: np.ndarray
+    f: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+
+
+def _accel(A21: np.ndarray, A22: np.ndarray, r: np.ndarray, v: np.ndarray, u: np.ndarray
+           ) -> np.ndarray:
+    return rotate(A21, r) + rotate(A22, v) + u
+
+
+def rk4_step(
+    x: np.ndarray,
+    u: np.ndarray,
+    m0: tuple[np.ndarray, np.ndarray],
+    m_half: tuple[np.ndarray, np.ndarray],
+    m1: tuple[np.ndarray, np.ndarray],
+    h: float,
+) -> np.ndarray:
+    """One classical RK4 step of ``[r, v]' = [v, A21 r + A22 v + u]`` with ``u`` held.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 6)
+        ``[r (m), v (m/s)]`` in the body frame.
+    u : ndarray, shape (n, 3)
+        Thrust acceleration, body components [m/s^2], constant over the step (ZOH).
+    m0, m_half, m1 : tuple of ndarray, each (m, 3, 3)
+        ``(A21, A22)`` at the step's start, middle and end.
+    h : float
+        Step [s].
+
+    Returns
+    -------
+    ndarray, shape (n, 6)
+    """
+    r, v = x[:, :3], x[:, 3:]
+    k1r, k1v = v, _accel(*m0, r, v, u)
+    r2, v2 = r + 0.5 * h * k1r, v + 0.5 * h * k1v
+    k2r, k2v = v2, _accel(*m_half, r2, v2, u)
+    r3, v3 = r + 0.5 * h * k2r, v + 0.5 * h * k2v
+    k3r, k3v = v3, _accel(*m_half, r3, v3, u)
+    r4, v4 = r + h * k3r, v + h * k3v
+    k4r, k4v = v4, _accel(*m1, r4, v4, u)
+    out = np.empty_like(x)
+    out[:, :3] = r + (h / 6.0) * (k1r + 2 * k2r + 2 * k3r + k4r)
+    out[:, 3:] = v + (h / 6.0) * (k1v + 2 * k2v + 2 * k3v + k4v)
+    return out
+
+
+def propagate_free(frame: RotatingBodyFrame, x0: np.ndarray, t_f: float, h: float
+                   ) -> np.ndarray:
+    """Unforced body-frame propagation of a batch (RK4, step ``h``).
+
+    Parameters
+    ----------
+    frame : RotatingBodyFrame
+    x0 : ndarray, shape (n, 6)
+        Body-frame ``[r, v]`` at ``t = 0``.
+    t_f, h : float
+        Final time and step [s] (``t_f`` a multiple of ``h``).
+
+    Returns
+    -------
+    ndarray, shape (n, N + 1, 6)
+        States at ``k h``.
+    """
+    n_steps = int(round(t_f / h))
+    sched = frame.stage_schedule(n_steps, h)
+    x = np.array(x0, dtype=float)
+    out = np.empty((x.shape[0], n_steps + 1, 6))
+    out[:, 0] = x
+    zero = np.zeros((x.shape[0], 3))
+    m_start = frame.matrices_at(sched, 0)
+    for k in range(n_steps):
+        m_half = frame.matrices_at(sched, 2 * k + 1)
+        m_end = frame.matrices_at(sched, 2 * k + 2)
+        x = rk4_step(x, zero, m_start, m_half, m_end, h)
+        m_start = m_end
+        out[:, k + 1] = x
+    return out

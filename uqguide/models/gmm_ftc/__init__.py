@@ -1,0 +1,11 @@
+"""GMM-FTC proximity to a rotating, complex-shaped target (Chen et al. 2020; gmm-controllers.md).
+
+``target`` holds the target's geometry, point cloud and GMMs (published Table 2, shipped fit),
+``law`` the fixed-time controller (eqs 20-31, eq 36 bound), ``closed_loop`` the sampled-data
+simulation with its metrics, ``noise`` the keyed thruster-error streams, ``model`` the
+registered model and ``report`` the nominal scenario beside the paper.
+"""
+
+from .model import GMMFTC, GMMFTCParams
+
+__all__ = ["GMMFTC", "GMMFTCParams"]
