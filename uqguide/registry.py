@@ -30,6 +30,9 @@ MODELS: dict[str, str] = {
 
 METHODS: dict[str, str] = {
     "monte_carlo": "uqguide.methods.monte_carlo:MonteCarlo",
+    "pce_tensor": "uqguide.methods.pce_tensor:TensorPCE",
+    "pce_smolyak": "uqguide.methods.pce_smolyak:SmolyakPCE",
+    "pce_adaptive": "uqguide.methods.pce_adaptive:AdaptivePCE",
 }
 
 

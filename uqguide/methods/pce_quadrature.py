@@ -1,0 +1,172 @@
+"""What the quadrature PCE methods share (full tensor, spec 4.2; Smolyak, spec 4.3).
+
+Both run the model once at each node of a quadrature grid on the germ (:mod:`uqguide.pce.germ`),
+project every output column on the orthonormal basis (one expansion per time step and
+component: the projection is linear, so all columns go at once) and take the statistics from
+the coefficients (:mod:`uqguide.pce.moments`). They make no sequential runs.
+
+Failed runs: a projection needs the output at every node. With the config's
+``pce_failure_policy: fail`` (default, :attr:`Method.failure_policy`) a failed run is a
+:class:`~uqguide.errors.MethodError` naming the count and reasons. With ``regression`` the
+coefficients are fitted by least squares on the surviving nodes instead, on the grid's basis
+cut to the terms the surviving nodes can determine (:func:`identifiable_terms`: in graded order,
+each term kept if it is not a combination of the lower ones on those nodes, at most one term
+per node); a warning is logged and the diagnostics say ``coefficients: regression`` and how
+many terms were kept.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from abc import abstractmethod
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from ..errors import MethodError
+from ..inputs import InputSpace
+from ..models.base import ModelOutput
+from ..pce import basis, moments
+from ..pce.design import SURROGATE_STREAM, stream
+from ..pce.expansion import Expansion
+from ..pce.germ import Germ
+from ..pce.outputs import failure_summary, joint_scalar_moments, output_columns
+from ..pce.pca import constant_columns
+from ..pce.projection import project
+from ..pce.quadrature import Grid, union_basis
+from .base import Design, Estimate, Method, MethodSettings
+
+log = logging.getLogger(__name__)
+
+#: Largest grid a quadrature method builds (runs); beyond it the settings are surely a mistake.
+MAX_NODES = 2_000_000
+
+
+def identifiable_terms(psi: np.ndarray, tol: float = 1e-8) -> np.ndarray:
+    """Columns of ``psi (n, P)`` kept greedily in order while they add to the span.
+
+    A column is kept when its part orthogonal to the kept ones has a norm above ``tol`` times
+    its own; at most ``n`` columns are kept. Lost nodes can make terms indistinguishable (with
+    ``x1`` left at two values, ``x1^2`` is a combination of ``1`` and ``x1``): a least-squares
+    fit must not share a coefficient between them.
+    """
+    n = psi.shape[0]
+    q = np.zeros((n, 0))
+    keep = []
+    for j in range(psi.shape[1]):
+        if len(keep) == n:
+            break
+        a = psi[:, j]
+        v = a - q @ (q.T @ a)
+        v -= q @ (q.T @ v)
+        rho = np.linalg.norm(v)
+        if rho > tol * max(np.linalg.norm(a), 1e-300):
+            q = np.column_stack([q, v / rho])
+            keep.append(j)
+    return np.asarray(keep, dtype=int)
+
+
+class QuadratureSettings(MethodSettings):
+    """Settings shared by the quadrature PCE methods.
+
+    Attributes
+    ----------
+    surrogate_draws : int
+        Surrogate samples for skewness and kurtosis where the exact rule is too large
+        (:mod:`uqguide.pce.moments`).
+    """
+
+    surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
+
+
+class QuadraturePCE(Method):
+    """Pseudo-spectral PCE on a quadrature grid; subclasses choose the grid."""
+
+    Settings = QuadratureSettings
+    settings: QuadratureSettings
+
+    @abstractmethod
+    def _grid(self, germ: Germ) -> Grid:
+        """The quadrature grid for these settings (raises ConfigError on impossible ones)."""
+
+    @abstractmethod
+    def _grid_diagnostics(self, grid: Grid) -> dict[str, Any]:
+        """What the grid is (rule, level, ...), for the diagnostics."""
+
+    def _checked_grid(self, germ: Germ) -> Grid:
+        grid = self._grid(germ)
+        if grid.n_nodes > MAX_NODES:
+            raise MethodError(
+                f"{self.label}: the grid has {grid.n_nodes} nodes (more than {MAX_NODES}); "
+                f"lower the number of nodes or the level")
+        return grid
+
+    def design(self, space: InputSpace, seed: int) -> Design:
+        germ = Germ.of(space)
+        grid = self._checked_grid(germ)
+        draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
+        log.info("%s: %d model runs (%s)", self.label, grid.n_nodes,
+                 ", ".join(f"{k}={v}" for k, v in self._grid_diagnostics(grid).items()))
+        return Design(x=germ.to_physical(grid.xi), data={"xi": grid.xi, "draw_seed": draw_seed})
+
+    def _fitter(self, germ: Germ, grid: Grid, outputs: ModelOutput
+                ) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+        """Rows used, basis ``alpha (P, d)`` and ``f(y (n_rows, m)) -> coef (P, m)`` under the
+        failure policy (module docstring)."""
+        n_failed = int(outputs.failed.sum())
+        alpha = union_basis(grid)
+        if not n_failed:
+            return np.arange(outputs.n), alpha, lambda y: project(germ, grid, y)[1]
+        what = (f"{self.label}: {n_failed} of {outputs.n} quadrature runs failed "
+                f"({failure_summary(outputs)})")
+        if self.failure_policy != "regression":
+            raise MethodError(f"{what}; a quadrature PCE needs every node (set "
+                              f"pce_failure_policy: regression to fit on the others)")
+        rows = np.flatnonzero(~outputs.failed)
+        if rows.size == 0:
+            raise MethodError(f"{what}; no run is left to fit on")
+        keep = identifiable_terms(basis.evaluate(germ, alpha, grid.xi[rows]))
+        alpha = alpha[keep]
+        log.warning("%s; fitting %d of the grid's terms by least squares on the %d others",
+                    what, alpha.shape[0], rows.size)
+        psi = basis.evaluate(germ, alpha, grid.xi[rows])
+        return rows, alpha, lambda y: np.linalg.lstsq(psi, y, rcond=None)[0]
+
+    def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
+        t0 = time.perf_counter()
+        germ = Germ.of(space)
+        grid = self._checked_grid(germ)
+        if outputs.n != grid.n_nodes or design.n_runs != grid.n_nodes or not np.allclose(
+                design.data.get("xi", grid.xi), grid.xi, rtol=0, atol=1e-12):
+            raise MethodError(
+                f"{self.label}: the design ({design.n_runs} runs, {outputs.n} outputs) is not "
+                f"this method's {grid.n_nodes}-node grid")
+        rows, alpha, fit = self._fitter(germ, grid, outputs)
+        seed = design.data.get("draw_seed", 0)
+        stats, scalars = {}, []
+        for col in output_columns(outputs, rows):
+            coef = fit(col.y)
+            coef[1:, constant_columns(col.y)] = 0.0  # runs that all agree: exactly constant
+            exp = Expansion(germ, alpha, coef, col.shape)
+            stats[col.name] = moments.output_statistics(
+                exp, n_runs=rows.size, n_draws=self.settings.surrogate_draws, seed=seed)
+            if col.kind == "scalar":
+                scalars.append((col.name, exp))
+        names, s_mean, s_cov = joint_scalar_moments(scalars)
+        diagnostics: dict[str, Any] = {
+            "n_runs": outputs.n,
+            "n_failed": int(outputs.failed.sum()),
+            "failure_reasons": failure_summary(outputs),
+            "coefficients": "projection" if rows.size == outputs.n else "regression",
+            **self._grid_diagnostics(grid),
+            # One basis serves every output and time step: its largest total degree and size.
+            "degree": int(alpha.sum(axis=1).max()),
+            "n_terms": int(alpha.shape[0]),
+            "moments_method": ", ".join(sorted({s.moments_method for s in stats.values()})),
+        }
+        diagnostics["fit_seconds"] = time.perf_counter() - t0
+        return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
+                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov)

@@ -1,0 +1,51 @@
+"""Experimental designs on the unit cube for regression PCE, deterministic from the seed.
+
+- ``"sobol"``: one scrambled Sobol' sequence; the initial design is its first ``N`` points and
+  each enrichment takes the next ones, so the final design is a prefix of a single low-discrepancy
+  sequence whatever the enrichment history (drawn by ``random_base2`` and cut, which avoids
+  scipy's warning about non-power-of-two sizes).
+- ``"lhs"``: a Latin hypercube per batch (the initial design, then each enrichment batch from
+  its own stream); the union is not a Latin hypercube but every batch is stratified.
+
+Streams: ``SeedSequence([seed, crc32(label), stream, batch])``, the same root as the Monte Carlo
+method's (a run's seed and a stable hash of the method's label), so adding a method to a config
+does not change another's numbers.
+"""
+
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+from scipy.stats import qmc
+
+_U_EPS = 2.0**-53  # a coordinate of exactly 0 or 1 would map to an infinite normal input
+
+DESIGN_STREAM, SURROGATE_STREAM = 0, 1
+
+
+def stream(seed: int, label: str, kind: int, batch: int = 0) -> np.random.SeedSequence:
+    """The SeedSequence of one use (``kind``: design or surrogate draws) of a method entry."""
+    return np.random.SeedSequence([int(seed), zlib.crc32(label.encode()), kind, batch])
+
+
+def unit_design(d: int, start: int, stop: int, sampling: str, seed: int, label: str,
+                batch: int = 0) -> np.ndarray:
+    """Rows ``start..stop-1`` of the method's design on the open unit cube, ``(stop-start, d)``.
+
+    For ``"sobol"`` the rows are those of the one scrambled sequence; for ``"lhs"`` the rows form
+    a new Latin hypercube drawn from stream ``batch``.
+    """
+    n = stop - start
+    if n <= 0:
+        return np.empty((0, d))
+    if sampling == "sobol":
+        rng = np.random.default_rng(stream(seed, label, DESIGN_STREAM))
+        power = int(np.ceil(np.log2(max(stop, 1))))
+        u = qmc.Sobol(d=d, scramble=True, seed=rng).random_base2(power)[start:stop]
+    elif sampling == "lhs":
+        rng = np.random.default_rng(stream(seed, label, DESIGN_STREAM, batch))
+        u = qmc.LatinHypercube(d=d, seed=rng).random(n)
+    else:
+        raise ValueError(f"unknown sampling '{sampling}' (sobol or lhs)")
+    return np.clip(u, _U_EPS, 1 - _U_EPS)

@@ -1,0 +1,81 @@
+"""From model outputs to expansion columns, and from fitted expansions to an Estimate.
+
+Every output of the model contract is handled the same way by the PCE methods: a time series
+``(n, T, k)`` or a scalar ``(n, k)`` output is flattened to ``m = T k`` (or ``k``) columns,
+fitted, and its statistics are reshaped back to ``(T, k)`` or ``(k,)``. The scalar outputs'
+expansions are put on one shared basis so the joint covariance of all scalars stacked (spec
+section 3) follows from the coefficients too.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..models.base import ModelOutput
+from .expansion import Expansion
+
+
+@dataclass
+class OutputColumns:
+    """One output's runs as columns: ``y (n, m)`` and the shape ``(T, k)`` or ``(k,)``."""
+
+    name: str
+    kind: str
+    y: np.ndarray
+    shape: tuple[int, ...]
+
+
+def output_columns(outputs: ModelOutput,
+                   rows: np.ndarray | slice = slice(None)) -> list[OutputColumns]:
+    """Series then scalar outputs of the selected runs, flattened to columns."""
+    cols = []
+    for name, y in outputs.series.items():
+        y = np.asarray(y[rows], dtype=float)
+        cols.append(OutputColumns(name, "series", y.reshape(y.shape[0], -1), y.shape[1:]))
+    for name, y in outputs.scalars.items():
+        y = np.asarray(y[rows], dtype=float)
+        cols.append(OutputColumns(name, "scalar", y, y.shape[1:]))
+    return cols
+
+
+def failure_summary(outputs: ModelOutput) -> str:
+    """``"reason (count); ..."`` of the failed runs, most frequent first."""
+    reasons = Counter(str(r) for r in outputs.reasons[outputs.failed])
+    return "; ".join(f"{r} ({c})" for r, c in reasons.most_common())
+
+
+def scalar_names(name: str, k: int) -> list[str]:
+    """Names of a scalar output's components in the stacked vector (as Monte Carlo names them)."""
+    return [name] if k == 1 else [f"{name}[{j}]" for j in range(k)]
+
+
+def joint_scalar_moments(
+    expansions: list[tuple[str, Expansion]]
+) -> tuple[list[str], np.ndarray | None, np.ndarray | None]:
+    """Names, mean ``(s,)`` and covariance ``(s, s)`` of all scalar outputs stacked.
+
+    The expansions may use different multi-index sets (adaptive PCE): their coefficients are
+    scattered onto the union, where ``cov = sum_{alpha != 0} c_alpha c_alpha^T`` (eq 22).
+    """
+    if not expansions:
+        return [], None, None
+    union: dict[tuple[int, ...], int] = {}
+    for _, e in expansions:
+        for a in map(tuple, e.alpha.tolist()):
+            union.setdefault(a, len(union))
+    names: list[str] = []
+    blocks = []
+    for name, e in expansions:
+        c = np.zeros((len(union), e.n_columns))
+        rows = [union[a] for a in map(tuple, e.alpha.tolist())]
+        c[rows] = e.coef
+        blocks.append(c)
+        names += scalar_names(name, e.n_columns)
+    coef = np.concatenate(blocks, axis=1)
+    r0 = union[(0,) * expansions[0][1].alpha.shape[1]]
+    mean = coef[r0]
+    dev = np.delete(coef, r0, axis=0)
+    return names, mean, dev.T @ dev
