@@ -17,7 +17,7 @@ from typing import Any
 import click
 
 from . import __version__
-from .errors import ConfigError, UqguideError
+from .errors import ConfigError, ResultError, UqguideError
 
 
 def _handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -64,9 +64,13 @@ def main(verbose: int) -> None:
               default=None, help="Dask scheduler file (dask scheduler --scheduler-file).")
 @click.option("--resume", is_flag=True,
               help="Continue an interrupted run from its checkpoint (<out>/<name>.run).")
+@click.option("--check", "check_path", type=click.Path(dir_okay=False, path_type=Path),
+              default=None, help="Then check the statistics against this baseline JSON "
+                                 "(exit 1 on a regression, 2 if it is unusable).")
 @_handle_errors
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
-        scheduler: str | None, scheduler_file: Path | None, resume: bool) -> None:
+        scheduler: str | None, scheduler_file: Path | None, resume: bool,
+        check_path: Path | None) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .checkpoint import RunInterrupted, RunStore, run_dir, run_identity
     from .config import load_config
@@ -80,6 +84,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     cfg = load_config(config)
     if seed is not None:
         cfg = cfg.with_seed(seed)
+    baseline = _gate_preflight(check_path, cfg) if check_path else None
     again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
         "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")
     store = RunStore.open(run_dir(out_dir, cfg.name), run_identity(cfg.resolved(), cfg.model),
@@ -103,6 +108,8 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     for p in tables:
         click.echo(f"wrote {p}")
     check_failure_budget(result, cfg.raw.max_failed_fraction)
+    if check_path:
+        _gate_verdict(result, baseline, check_path)
 
 
 @main.command()
@@ -169,6 +176,137 @@ def methods() -> None:
             click.echo("")
         click.echo(f"{n}: {cls.summary}")
         click.echo(describe_settings(cls.Settings))
+
+
+# ---------------------------------------------------------------------------- regression gate
+def _unusable_input_is_2(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """A result or baseline that cannot be read or compared (ResultError): exit code 2."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except ResultError as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(2)
+
+    return wrapper
+
+
+@_unusable_input_is_2
+def _gate_preflight(path: Path, cfg: Any) -> Any:
+    """The baseline of ``run --check``, matched to the config before anything runs."""
+    from .gate import check_compatible, read_baseline
+
+    baseline = read_baseline(path)
+    check_compatible(baseline, cfg.model.name, {m.label: m.name for m in cfg.methods},
+                     {o: cfg.model.output_info(o) for o in cfg.outputs}, str(path))
+    return baseline
+
+
+@_unusable_input_is_2
+def _gate_verdict(result: Any, baseline: Any, path: Path, sigmas: float | None = None,
+                  pce_rtol: float | None = None, show_all: bool = False) -> None:
+    """Print the check of ``result`` against ``baseline``; exit 1 on a regression."""
+    from .gate import DEFAULT_SIGMAS, check_result
+
+    report = check_result(result, baseline, sigmas or DEFAULT_SIGMAS, pce_rtol, str(path))
+    click.echo(report.render(show_all))
+    if not report.passed:
+        sys.exit(1)
+
+
+_RESULT_ARG = click.argument("result_path", metavar="RESULT",
+                             type=click.Path(dir_okay=False, path_type=Path))
+
+
+@main.command()
+@_RESULT_ARG
+@click.option("--baseline", "baseline_path", required=True,
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="Baseline JSON written by `uqguide baseline`.")
+@click.option("--sigmas", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Monte Carlo tolerance in combined standard errors [default: 4].")
+@click.option("--pce-rtol", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Relative tolerance of PCE statistics [default: the baseline's].")
+@click.option("--all", "show_all", is_flag=True,
+              help="List every compared statistic, not only the failing ones.")
+@_handle_errors
+@_unusable_input_is_2
+def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol: float | None,
+          show_all: bool) -> None:
+    """Compare the statistics of RESULT with a baseline.
+
+    Exit 0 when every statistic is within tolerance, 1 on a regression (the failing quantities
+    are listed with value, baseline and tolerance), 2 when RESULT or the baseline is unusable.
+    """
+    from .gate import read_baseline
+    from .result import read_hdf5
+
+    baseline = read_baseline(baseline_path)
+    _gate_verdict(read_hdf5(result_path), baseline, baseline_path, sigmas, pce_rtol, show_all)
+
+
+@main.command()
+@_RESULT_ARG
+@click.option("-o", "--output", "out_path", required=True,
+              type=click.Path(dir_okay=False, path_type=Path), help="Baseline JSON to write.")
+@click.option("--pce-rtol", type=click.FloatRange(min=0, min_open=True), default=0.02,
+              show_default=True, help="Relative tolerance of PCE statistics, stored in it.")
+@click.option("--force", is_flag=True, help="Replace an existing baseline (on purpose).")
+@_handle_errors
+@_unusable_input_is_2
+def baseline(result_path: Path, out_path: Path, pce_rtol: float, force: bool) -> None:
+    """Write the baseline of RESULT: its statistics, their uncertainties, config and versions."""
+    from .gate import write_baseline
+    from .result import read_hdf5
+
+    if out_path.exists() and not force:
+        raise ConfigError(f"{out_path}: baseline exists; baselines change only on purpose: "
+                          f"pass --force to replace it")
+    click.echo(f"wrote {write_baseline(read_hdf5(result_path), out_path, pce_rtol)}")
+
+
+@main.command()
+@_RESULT_ARG
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=None, help="Folder of the PNG figures [default: RESULT's folder/figures].")
+@_handle_errors
+@_unusable_input_is_2
+def plot(result_path: Path, out_dir: Path | None) -> None:
+    """PNG figures of RESULT: statistics over time, scalar histograms, the cost table."""
+    from .plots import write_figures
+    from .result import read_hdf5
+
+    result = read_hdf5(result_path)
+    for f in write_figures(result, out_dir or result_path.parent / "figures"):
+        click.echo(f"wrote {f.path}")
+
+
+@main.command()
+@_RESULT_ARG
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=None, help="Folder of the report [default: RESULT's folder]; the "
+                                 "figures go into its figures/ subfolder.")
+@click.option("--baseline", "baseline_path", type=click.Path(dir_okay=False, path_type=Path),
+              default=None, help="Also include the regression check against this baseline.")
+@_handle_errors
+@_unusable_input_is_2
+def report(result_path: Path, out_dir: Path | None, baseline_path: Path | None) -> None:
+    """A Markdown report of RESULT embedding its figures and tables."""
+    from .gate import check_result, read_baseline
+    from .report_document import write_report
+    from .result import read_hdf5
+
+    result = read_hdf5(result_path)
+    check_report = None
+    if baseline_path is not None:
+        check_report = check_result(result, read_baseline(baseline_path),
+                                    source=str(baseline_path))
+    path, figures = write_report(result, out_dir or result_path.parent, check_report)
+    for f in figures:
+        click.echo(f"wrote {f.path}")
+    click.echo(f"wrote {path}")
 
 
 if __name__ == "__main__":  # pragma: no cover

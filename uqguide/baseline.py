@@ -1,0 +1,279 @@
+"""Baselines of the regression gate: what a result's statistics were, as a JSON file.
+
+A baseline is written from a result on purpose (``uqguide baseline RESULT -o B.json``). It holds,
+per method label, per output, per point (each report time and the last step of a series, as
+:func:`uqguide.report.report_indices` picks them; the value of a scalar), per component: the mean,
+std, skewness and kurtosis, and for sample (Monte Carlo) estimates the standard error of each
+(:func:`standard_error`); plus the relative tolerance of PCE statistics, the resolved config, the
+library versions and the creation date. ``null`` stands for NaN.
+
+The file is JSON with every container of plain values on one line (one line per point), so a
+baseline that changes on purpose shows in a diff as the points that moved. Numbers are written
+with the shortest repr that reads back to the same double: a re-run of the same config and seed
+compares exactly.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from . import __version__
+from .errors import ResultError
+from .models.base import OutputInfo
+from .report import report_indices
+from .result import Result
+from .stats import STAT_NAMES, OutputStats
+
+BASELINE_FORMAT = "uqguide-baseline"
+BASELINE_VERSION = 1
+DEFAULT_PCE_RTOL = 0.02
+#: Half-width of a 95% normal interval in standard errors.
+Z95 = 1.959963984540054
+#: How a baseline output's statistics are judged: by standard errors (sample estimates) or by a
+#: relative tolerance (PCE: exact or surrogate-sampled moments).
+SAMPLE, RELATIVE = "standard_error", "relative_tolerance"
+
+
+# ---------------------------------------------------------------------------- file schema
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BaselinePoint(_Strict):
+    """One time point (or the scalar value) of one component; ``None`` stands for NaN."""
+
+    at: Literal["report", "end", "scalar"]
+    time: float | None
+    component: str
+    mean: float | None
+    std: float | None
+    skewness: float | None
+    kurtosis: float | None
+    mean_se: float | None = None
+    std_se: float | None = None
+    skewness_se: float | None = None
+    kurtosis_se: float | None = None
+
+
+class BaselineOutput(_Strict):
+    kind: Literal["series", "scalar"]
+    unit: str
+    components: list[str]
+    uncertainty: Literal["standard_error", "relative_tolerance"]
+    moments_method: str
+    n_used: int
+    points: list[BaselinePoint]
+
+
+class BaselineMethod(_Strict):
+    method: str
+    n_runs: int
+    n_failed: int
+    outputs: dict[str, BaselineOutput]
+
+
+class BaselineTolerances(_Strict):
+    pce_rtol: float
+    note: str = ""
+
+
+class Baseline(_Strict):
+    """A baseline file, validated. Build one with :func:`make_baseline`."""
+
+    format: Literal["uqguide-baseline"]
+    format_version: Literal[1]
+    name: str
+    model: str
+    created_utc: str
+    uqguide_version: str
+    result_created_utc: str = ""
+    versions: dict[str, str]
+    tolerances: BaselineTolerances
+    methods: dict[str, BaselineMethod]
+    config: dict[str, Any]
+
+
+# ---------------------------------------------------------------------------- extraction
+def _uncertainty_kind(s: OutputStats) -> str:
+    return SAMPLE if s.moments_method == "sample" else RELATIVE
+
+
+def standard_error(s: OutputStats, stat: str, where: tuple[int, ...]) -> float:
+    """Standard error of a sample statistic at ``where`` (module docstring for the formulas)."""
+    n = max(int(s.n_used), 1)
+    if stat == "mean" and s.sem is not None:
+        return float(s.sem[where])
+    ci = s.ci.get(stat)
+    if ci is not None:
+        lo, hi = float(ci[(0, *where)]), float(ci[(1, *where)])
+        if math.isfinite(lo) and math.isfinite(hi):
+            return (hi - lo) / (2.0 * Z95)
+    std = float(s.std[where])
+    normal_theory = {"mean": std / math.sqrt(n), "std": std / math.sqrt(2 * n),
+                     "skewness": math.sqrt(6.0 / n), "kurtosis": math.sqrt(24.0 / n)}
+    return normal_theory[stat]
+
+
+def _num(v: float) -> float | None:
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _point_places(result: Result, o: OutputInfo) -> list[tuple[str, float | None, int | None]]:
+    """``(at, time, step index)`` of the points a baseline keeps for output ``o``."""
+    if o.kind == "scalar":
+        return [("scalar", None, None)]
+    idx = report_indices(result)
+    last = result.time.size - 1
+    return [("end" if i == last else "report", float(result.time[i]), int(i)) for i in idx]
+
+
+def _points(result: Result, o: OutputInfo, s: OutputStats) -> list[dict[str, Any]]:
+    sample = _uncertainty_kind(s) == SAMPLE
+    pts = []
+    for at, t, i in _point_places(result, o):
+        for c, comp in enumerate(o.components):
+            where = (c,) if i is None else (i, c)
+            p: dict[str, Any] = {"at": at, "time": t, "component": comp}
+            for stat in STAT_NAMES:
+                p[stat] = _num(s.stat(stat)[where])
+            if sample:
+                for stat in STAT_NAMES:
+                    p[f"{stat}_se"] = _num(standard_error(s, stat, where))
+            pts.append(p)
+    return pts
+
+
+def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL) -> dict[str, Any]:
+    """The baseline of ``result`` as a JSON-ready mapping (see the module docstring)."""
+    if not pce_rtol > 0:
+        raise ValueError(f"pce_rtol must be > 0 (got {pce_rtol})")
+    methods: dict[str, Any] = {}
+    for r in result.runs:
+        outs: dict[str, Any] = {}
+        for o in result.outputs:
+            s = r.estimate.stats.get(o.name)
+            if s is None:
+                continue
+            outs[o.name] = {
+                "kind": o.kind, "unit": o.unit, "components": list(o.components),
+                "uncertainty": _uncertainty_kind(s), "moments_method": s.moments_method,
+                "n_used": int(s.n_used), "points": _points(result, o, s),
+            }
+        methods[r.label] = {"method": r.estimate.method, "n_runs": int(r.n_runs),
+                            "n_failed": int(r.n_failed), "outputs": outs}
+    return {
+        "format": BASELINE_FORMAT,
+        "format_version": BASELINE_VERSION,
+        "name": result.name,
+        "model": result.model,
+        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "uqguide_version": __version__,
+        "result_created_utc": str(result.provenance.get("created_utc", "")),
+        "versions": {k: str(v) for k, v in result.provenance.get("versions", {}).items()},
+        "tolerances": {
+            "pce_rtol": float(pce_rtol),
+            "note": "Monte Carlo statistics are checked against k combined standard errors "
+                    "(the *_se values; k given to `uqguide check --sigmas`, default 4); PCE "
+                    "statistics against pce_rtol of their scale. null means NaN.",
+        },
+        "methods": methods,
+        "config": result.config,
+    }
+
+
+# ---------------------------------------------------------------------------- JSON files
+def _is_scalar(v: Any) -> bool:
+    return v is None or isinstance(v, (str, int, float, bool))
+
+
+def _json_text(obj: Any, level: int = 0) -> str:
+    """JSON with containers of scalars on one line (one line per point: readable diffs)."""
+    pad, inner = "  " * level, "  " * (level + 1)
+    if isinstance(obj, dict):
+        if not obj:
+            return "{}"
+        if all(_is_scalar(v) for v in obj.values()):
+            return json.dumps(obj, allow_nan=False)
+        body = ",\n".join(f"{inner}{json.dumps(str(k))}: {_json_text(v, level + 1)}"
+                          for k, v in obj.items())
+        return "{\n" + body + "\n" + pad + "}"
+    if isinstance(obj, (list, tuple)):
+        if all(_is_scalar(v) for v in obj):
+            return json.dumps(list(obj), allow_nan=False)
+        return "[\n" + ",\n".join(inner + _json_text(v, level + 1) for v in obj) + "\n" + pad + "]"
+    return json.dumps(obj, allow_nan=False)
+
+
+def to_jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return to_jsonable(obj.item())
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    return obj
+
+
+def write_baseline(result: Result, path: str | Path,
+                   pce_rtol: float = DEFAULT_PCE_RTOL) -> Path:
+    """Write the baseline of ``result`` to ``path`` (temporary file, then an atomic rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = _json_text(to_jsonable(make_baseline(result, pce_rtol))) + "\n"
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def parse_baseline(data: Any, source: str = "<baseline>") -> Baseline:
+    """Validate a decoded baseline mapping; ResultError naming the first problem."""
+    if not isinstance(data, dict) or data.get("format") != BASELINE_FORMAT:
+        raise ResultError(f"{source}: not a uqguide baseline (expected a JSON object with "
+                          f"\"format\": \"{BASELINE_FORMAT}\"; write one with "
+                          f"`uqguide baseline RESULT -o FILE`)")
+    version = data.get("format_version")
+    if version != BASELINE_VERSION:
+        raise ResultError(f"{source}: baseline format_version {version!r} is not supported "
+                          f"(this uqguide reads {BASELINE_VERSION}); regenerate it with "
+                          f"`uqguide baseline`")
+    try:
+        return Baseline.model_validate(data)
+    except ValidationError as err:
+        e = err.errors(include_url=False)[0]
+        where = ".".join(str(p) for p in e["loc"])
+        raise ResultError(f"{source}: invalid baseline at {where}: {e['msg']}") from None
+
+
+def read_baseline(path: str | Path) -> Baseline:
+    """Read and validate a baseline file; ResultError if it is missing, corrupt or not one."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ResultError(f"{path}: baseline file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ResultError(f"{path}: cannot read baseline file ({exc})") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ResultError(f"{path}: baseline is not valid JSON (line {exc.lineno}, column "
+                          f"{exc.colno}: {exc.msg})") from None
+    return parse_baseline(data, str(path))

@@ -1,0 +1,371 @@
+"""Figures of a result: statistics over time, scalar distributions and the cost of each method.
+
+- :func:`series_figure`: one figure per time-series output component, in four panels like the
+  paper's Figs 6-17 (mean with a +-1 std band, std, skewness, non-excess kurtosis), one line per
+  method; Monte Carlo estimates carry their 95% bootstrap intervals as bars at the report times.
+- :func:`scalar_figure`: per scalar output, a histogram of every Monte Carlo method's samples
+  (``MethodRun.scalars``, failed runs left out) with, for each PCE method, a density curve.
+  A PCE result stores its moments, not samples of its surrogate, so the curve is the density
+  those moments imply: a Pearson type III (shifted gamma) density with the PCE's mean, std and
+  skewness (its kurtosis is then ``3 + 1.5 skewness^2``), which keeps the one-sided shape of a
+  miss distance where a Gaussian would not; the legend says so. A method run that carries
+  surrogate draws (an optional ``surrogate_scalars`` mapping output -> ``(m, k)`` array) is drawn
+  from those draws instead. The runs of a PCE design are never histogrammed: quadrature nodes
+  are not samples of the output's distribution.
+- :func:`cost_figure`: the cost table (:func:`uqguide.report.cost_table`) as bars and a table.
+
+Figures are built on :class:`matplotlib.figure.Figure` without ``pyplot``: no global state, no
+display needed, nothing to close. Axis labels carry the output's SI unit.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import textwrap
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from scipy import stats as sps
+
+from .models.base import OutputInfo
+from .report import cost_table
+from .result import MethodRun, Result
+
+log = logging.getLogger(__name__)
+
+METHOD_SHORT = {"monte_carlo": "MC", "pce_tensor": "tensor PCE", "pce_smolyak": "Smolyak PCE",
+                "pce_adaptive": "adaptive PCE"}
+#: Method colours (tab10 without its grey); the reference method is drawn in black.
+_COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+            "#bcbd22", "#17becf"]
+DPI = 130
+
+
+@dataclass(frozen=True)
+class FigureFile:
+    """A written figure: its path, what it shows (``series``, ``scalar``, ``cost``) and of what."""
+
+    path: Path
+    kind: str
+    output: str = ""
+    component: str = ""
+
+
+def unit_label(unit: str) -> str:
+    """``[unit]`` for axis labels; ``[-]`` for a dimensionless quantity."""
+    return "[-]" if unit in ("", "1", "-") else f"[{unit}]"
+
+
+def method_label(r: MethodRun) -> str:
+    short = METHOD_SHORT.get(r.estimate.method, r.estimate.method)
+    return f"{r.label} ({short}, {r.n_runs} runs)"
+
+
+def _is_sample(r: MethodRun, output: str) -> bool:
+    s = r.estimate.stats.get(output)
+    return s is not None and s.moments_method == "sample"
+
+
+def _styles(result: Result) -> dict[str, dict]:
+    """Line style per method label: reference black and thick, sample methods solid, PCE dashed."""
+    styles, k = {}, 0
+    for r in result.runs:
+        sample = r.estimate.method == "monte_carlo"
+        if r.label == result.reference:
+            styles[r.label] = {"color": "black", "lw": 2.2, "ls": "-"}
+            continue
+        styles[r.label] = {"color": _COLOURS[k % len(_COLOURS)], "lw": 1.6,
+                           "ls": "-" if sample else ("--", "-.", ":")[k % 3]}
+        k += 1
+    return styles
+
+
+def _comp_suffix(o: OutputInfo, c: int) -> str:
+    return f"[{o.components[c]}]" if o.components[c] else ""
+
+
+# ---------------------------------------------------------------------------- time series
+def series_figure(result: Result, output: str, component: int = 0) -> Figure:
+    """Mean +- std, std, skewness and kurtosis over time of one series output component.
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+        Name of a ``series`` output.
+    component : int
+        Index into the output's components.
+    """
+    o = result.output(output)
+    name = f"{o.name}{_comp_suffix(o, component)}"
+    u = unit_label(o.unit)
+    t = result.time
+    fig = Figure(figsize=(11.0, 7.8), layout="constrained")
+    (ax_m, ax_s), (ax_g, ax_k) = fig.subplots(2, 2, sharex=True)
+    styles = _styles(result)
+    handles, labels = [], []
+    span = float(t[-1] - t[0]) if t.size > 1 else 1.0
+    n_ci = 0
+    for r in result.runs:
+        s = r.estimate.stats.get(output)
+        if s is None:
+            continue
+        st = styles[r.label]
+        dodge = 0.006 * span * n_ci
+        n_ci += bool(s.ci)
+        mean, std = s.mean[:, component], s.std[:, component]
+        # Light fills overlap into grey where methods agree; thin edges keep each band visible.
+        ax_m.fill_between(t, mean - std, mean + std, color=st["color"], alpha=0.07, lw=0)
+        for edge in (mean - std, mean + std):
+            ax_m.plot(t, edge, color=st["color"], lw=0.7, ls=st["ls"], alpha=0.7)
+        (h,) = ax_m.plot(t, mean, **st)
+        ax_s.plot(t, std, **st)
+        ax_g.plot(t, s.skewness[:, component], **st)
+        ax_k.plot(t, s.kurtosis[:, component], **st)
+        for ax, stat in ((ax_m, "mean"), (ax_s, "std"), (ax_g, "skewness"), (ax_k, "kurtosis")):
+            ci = s.ci.get(stat)
+            if ci is None:
+                continue
+            lo, hi = ci[0][:, component], ci[1][:, component]
+            val = s.stat(stat)[:, component]
+            ok = np.isfinite(lo) & np.isfinite(hi) & np.isfinite(val)
+            if ok.any():
+                # Bars of several methods at one report time are dodged sideways to stay apart.
+                ax.errorbar(t[ok] + dodge, val[ok], yerr=[np.maximum(val[ok] - lo[ok], 0),
+                                                  np.maximum(hi[ok] - val[ok], 0)],
+                            fmt="none", ecolor=st["color"], elinewidth=1.2, capsize=3)
+        handles.append(h)
+        labels.append(method_label(r))
+    g0 = ax_g.axhline(0.0, color="grey", ls=":", lw=1.2)
+    ax_k.axhline(3.0, color="grey", ls=":", lw=1.2)
+    ax_m.set(title="Mean, shaded: mean $\\pm$ 1 std", ylabel=f"{name} {u}")
+    ax_s.set(title="Standard deviation", ylabel=f"std of {name} {u}")
+    ax_g.set(title="Skewness", ylabel=f"skewness of {name} [-]", xlabel="time [s]")
+    ax_k.set(title="Kurtosis (non-excess)", ylabel=f"kurtosis of {name} [-]", xlabel="time [s]")
+    for ax in (ax_m, ax_s, ax_g, ax_k):
+        ax.grid(True, alpha=0.3)
+        ax.set_xlim(t[0] - 0.01 * span, t[-1] + 0.03 * span)
+    fig.suptitle(f"{result.name}: {name} {u} over time\n{_wrap(o.description, 110)}",
+                 fontsize=12)
+    fig.legend(handles + [g0], labels + ["Gaussian (skewness 0, kurtosis 3)"],
+               loc="outside lower center", ncol=min(3, len(handles) + 1), fontsize=9,
+               title="Bars: 95% bootstrap intervals of Monte Carlo estimates at the report "
+                     "times", title_fontsize=8)
+    return fig
+
+
+# ---------------------------------------------------------------------------- scalars
+def _plot_range(samples: list[np.ndarray]) -> tuple[float, float, int]:
+    """x range of the histograms: the pooled samples' 0.1-99.9% quantiles (heavy tails would
+    squash the body), widened to the full range when that costs little; and the clipped count."""
+    pooled = np.concatenate(samples)
+    lo, hi = np.quantile(pooled, [0.001, 0.999])
+    full_lo, full_hi = float(pooled.min()), float(pooled.max())
+    if full_hi - full_lo <= 1.5 * (hi - lo):
+        lo, hi = full_lo, full_hi
+    if hi <= lo:
+        lo, hi = lo - 0.5 * max(abs(lo), 1e-12), hi + 0.5 * max(abs(hi), 1e-12)
+    outside = int(np.sum((pooled < lo) | (pooled > hi)))
+    return float(lo), float(hi), outside
+
+
+def _bins(y: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Bin edges on ``[lo, hi]``: Freedman-Diaconis for this sample, 10 to 70 bins (a small
+    sample gets coarse bins rather than a comb of empty ones)."""
+    inside = y[(y >= lo) & (y <= hi)]
+    n = 10
+    if inside.size > 1:
+        n = np.histogram_bin_edges(inside, bins="fd", range=(lo, hi)).size - 1
+    return np.linspace(lo, hi, int(np.clip(n, 10, 70)) + 1)
+
+
+def _wrap(text: str, width: float) -> str:
+    return textwrap.fill(text, width=int(width))
+
+
+def _moment_density(mean: float, std: float, skew: float) -> sps.rv_continuous | None:
+    if not (np.isfinite(mean) and np.isfinite(std) and std > 0):
+        return None
+    return sps.pearson3(skew if np.isfinite(skew) else 0.0, loc=mean, scale=std)
+
+
+def _stats_text(mean: float, std: float, skew: float, kurt: float) -> str:
+    return f"mean {mean:.4g}, std {std:.4g}, skew {skew:.3g}, kurt {kurt:.3g}"
+
+
+def scalar_figure(result: Result, output: str) -> Figure:
+    """Histograms of the Monte Carlo samples of a scalar output, with each PCE's density.
+
+    One panel per component; module docstring for what the PCE curve is.
+    """
+    o = result.output(output)
+    k = o.k
+    ncols = min(k, 3)
+    nrows = -(-k // ncols)
+    width = 5.6 * ncols + (2.0 if ncols == 1 else 1.0)
+    fig = Figure(figsize=(width, 4.6 * nrows + 1.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False)).ravel()
+    styles = _styles(result)
+    u = unit_label(o.unit)
+    notes = set()
+    for c in range(k):
+        ax = axes[c]
+        name = f"{o.name}{_comp_suffix(o, c)}"
+        samples = {}
+        for r in result.runs:
+            if _is_sample(r, output) and output in r.scalars:
+                y = np.asarray(r.scalars[output])[~np.asarray(r.failed, bool), c]
+                y = y[np.isfinite(y)]
+                if y.size:
+                    samples[r.label] = y
+        draws = {}
+        for r in result.runs:
+            extra = getattr(r, "surrogate_scalars", None) or {}
+            if not _is_sample(r, output) and output in extra:
+                draws[r.label] = np.asarray(extra[output])[:, c]
+        densities = {}
+        for r in result.runs:
+            s = r.estimate.stats.get(output)
+            if s is None or _is_sample(r, output) or r.label in draws:
+                continue
+            dist = _moment_density(float(s.mean[c]), float(s.std[c]), float(s.skewness[c]))
+            if dist is not None:
+                densities[r.label] = dist
+        pooled = list(samples.values()) + list(draws.values())
+        if pooled:
+            lo, hi, outside = _plot_range(pooled)
+        else:
+            pts = [d.ppf([0.001, 0.999]) for d in densities.values()]
+            lo, hi, outside = (float(np.min(pts)), float(np.max(pts)), 0) if pts else (0, 1, 0)
+        ref = result.reference if result.reference in samples else \
+            max(samples, key=lambda lab: samples[lab].size, default=None)
+        xs = np.linspace(lo, hi, 400)
+        for r in result.runs:
+            s = r.estimate.stats.get(output)
+            if s is None:
+                continue
+            st = styles[r.label]
+            text = _stats_text(float(s.mean[c]), float(s.std[c]), float(s.skewness[c]),
+                               float(s.kurtosis[c]))
+            if r.label in samples:
+                y = samples[r.label]
+                bins = _bins(y, lo, hi)
+                if r.label == ref:
+                    ax.hist(y, bins=bins, density=True, color=st["color"], alpha=0.25)
+                ax.hist(y, bins=bins, density=True, histtype="step", color=st["color"],
+                        lw=st["lw"], label=f"{method_label(r)} histogram: {text}")
+            elif r.label in draws:
+                kde = sps.gaussian_kde(draws[r.label])
+                ax.plot(xs, kde(xs), color=st["color"], ls=st["ls"], lw=2.0,
+                        label=f"{method_label(r)} surrogate density: {text}")
+            elif r.label in densities:
+                ax.plot(xs, densities[r.label].pdf(xs), color=st["color"], ls=st["ls"], lw=2.0,
+                        label=f"{method_label(r)}*: {text}")
+                notes.add("* density implied by the PCE's mean, std and skewness (Pearson III); "
+                          "the result holds no surrogate samples")
+        ax.set(xlabel=f"{name} {u}", ylabel=f"probability density [1/{o.unit}]"
+               if o.unit not in ("", "1", "-") else "probability density [-]",
+               title=name if k > 1 else None, xlim=(lo, hi))
+        ax.grid(True, alpha=0.3)
+        if outside:
+            ax.text(0.99, 0.97, f"{outside} samples outside the axis\n(0.1-99.9% quantiles shown)",
+                    transform=ax.transAxes, ha="right", va="top", fontsize=8, color="dimgrey")
+    for ax in axes[k:]:
+        ax.set_visible(False)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.suptitle(f"{result.name}: distribution of {o.name} {u}\n"
+                 f"{_wrap(o.description, 10 * width)}", fontsize=12)
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", ncol=1, fontsize=9,
+                   title="; ".join(sorted(notes)) or None, title_fontsize=8)
+    return fig
+
+
+# ---------------------------------------------------------------------------- cost
+def cost_figure(result: Result) -> Figure:
+    """Model runs and wall seconds per method (log scales), above the cost table."""
+    df = cost_table(result)
+    labels = [method_label(r) for r in result.runs]
+    n = len(labels)
+    fig = Figure(figsize=(11.0, 3.2 + 0.45 * n + 0.35 * n), layout="constrained")
+    gs = fig.add_gridspec(2, 2, height_ratios=[1.0 + 0.35 * n, 0.4 + 0.3 * n])
+    ax_runs, ax_time = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1], sharey=None)
+    ax_tab = fig.add_subplot(gs[1, :])
+    ypos = np.arange(n)[::-1]
+    runs = df["runs"].to_numpy(dtype=float)
+    colours = [_styles(result)[r.label]["color"] for r in result.runs]
+    ax_runs.barh(ypos, runs, color=colours, alpha=0.8)
+    for y, v in zip(ypos, runs):
+        ax_runs.text(v, y, f" {int(v)}", va="center", fontsize=9)
+    ax_runs.set(xscale="log", xlabel="model runs [-]", title="Model runs",
+                yticks=ypos, yticklabels=labels, xlim=(0.8, runs.max() * 8))
+    model_s = df["model_s"].to_numpy(dtype=float)
+    fit_s = df["fit_s"].to_numpy(dtype=float)
+    h = 0.38
+    ax_time.barh(ypos + h / 2, np.maximum(model_s, 1e-4), height=h, color="#4c72b0",
+                 label="model runs")
+    ax_time.barh(ypos - h / 2, np.maximum(fit_s, 1e-4), height=h, color="#dd8452",
+                 label="fitting / statistics")
+    for y, a, b in zip(ypos, model_s, fit_s):
+        ax_time.text(max(a, 1e-4), y + h / 2, f" {a:.3g}", va="center", fontsize=8)
+        ax_time.text(max(b, 1e-4), y - h / 2, f" {b:.3g}", va="center", fontsize=8)
+    top = max(float(np.max(model_s)), float(np.max(fit_s)), 1e-3)
+    ax_time.set(xscale="log", xlabel="wall time [s]", title="Wall time", yticks=ypos,
+                yticklabels=[r.label for r in result.runs], xlim=(1e-4, top * 20))
+    ax_time.legend(fontsize=8, loc="lower right")
+    for ax in (ax_runs, ax_time):
+        ax.grid(True, axis="x", alpha=0.3)
+    ax_tab.axis("off")
+    cells = [[_cell(v) for v in row] for row in df.itertuples(index=False)]
+    tab = ax_tab.table(cellText=cells, colLabels=[str(c) for c in df.columns], loc="center",
+                       cellLoc="center")
+    tab.auto_set_font_size(False)
+    tab.set_fontsize(9)
+    tab.auto_set_column_width(list(range(len(df.columns))))
+    tab.scale(1.0, 1.4)
+    fig.suptitle(f"{result.name}: cost of each method (model {result.model}; model_s, fit_s: "
+                 f"wall seconds)", fontsize=12)
+    return fig
+
+
+def _cell(v: object) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}" if np.isfinite(v) else ""
+    return str(v)
+
+
+# ---------------------------------------------------------------------------- files
+def _safe(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
+
+
+def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[FigureFile]:
+    """Write every figure of ``result`` as PNG into ``out_dir``.
+
+    Files: ``<name>_<output>[_<component>].png`` per series output component,
+    ``<name>_<output>_hist.png`` per scalar output, ``<name>_cost.png``.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = _safe(result.name)
+    files = []
+    for o in result.outputs:
+        if not any(o.name in r.estimate.stats for r in result.runs):
+            continue
+        if o.kind == "series" and result.time.size:
+            for c, comp in enumerate(o.components):
+                path = out / f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}.png"
+                series_figure(result, o.name, c).savefig(path, dpi=dpi)
+                files.append(FigureFile(path, "series", o.name, comp))
+        elif o.kind == "scalar":
+            path = out / f"{stem}_{_safe(o.name)}_hist.png"
+            scalar_figure(result, o.name).savefig(path, dpi=dpi)
+            files.append(FigureFile(path, "scalar", o.name))
+    path = out / f"{stem}_cost.png"
+    cost_figure(result).savefig(path, dpi=dpi)
+    files.append(FigureFile(path, "cost"))
+    log.info("wrote %d figures into %s", len(files), out)
+    return files
