@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .potential import AttractRepulsePotential
+from .potential import AttractRepulsePotential, matvec
 
 
 def sig(x: np.ndarray, a: float) -> np.ndarray:
@@ -104,8 +104,7 @@ class TSMC:
         """Commanded acceleration [m/s^2], shape (n, 3) ([W 30, 32])."""
         d = self.potential.derivatives(r, self.r_f)
         S = self.k_s * d.g + v
-        Hv = np.einsum("nij,nj->ni", d.H, v)
-        return -self.k_s * Hv - r @ A.T - v @ B.T + self.reaching.rate(S)
+        return -self.k_s * matvec(d.H, v) - matvec(A, r) - matvec(B, v) + self.reaching.rate(S)
 
 
 @dataclass(frozen=True)
@@ -173,12 +172,11 @@ class NTSMC:
         e = r - self.r_f
         d = self.potential.derivatives(r, self.r_f)
         S = self.k_s * d.g + self.xi0 * e + self.xi1 * sig(e, self.tau) + self.xi2 * sig(v, self.rho)
-        Hv = np.einsum("nij,nj->ni", d.H, v)
         bracket = (
-            -self.k_s * Hv
+            -self.k_s * matvec(d.H, v)
             + self.reaching.rate(S)
             - self.xi0 * v
             - self.tau * self.xi1 * np.abs(e) ** (self.tau - 1) * v
         )
         gain = (self.q / self.p) / self.xi2 * np.maximum(np.abs(v), self.eps) ** (1 - self.rho)
-        return gain * bracket - r @ A.T - v @ B.T
+        return gain * bracket - matvec(A, r) - matvec(B, v)
