@@ -115,3 +115,29 @@ def test_a_crashed_worker_fails_its_chunk_and_the_pool_goes_on():
     ok = ~r.failed
     np.testing.assert_array_equal(r.scalars["y"][ok, 0], r.x[ok, 0] + r.x[ok, 1])
     assert r.estimate.stats["y"].n_used == ok.sum()
+
+
+def test_cli_workers_gives_the_serial_result_and_executor_options_are_checked(write_config,
+                                                                              tmp_path):
+    import yaml
+    from click.testing import CliRunner
+
+    from uqguide.cli import main
+    from uqguide.result import read_hdf5
+
+    cfg = dict(FLAKY, methods=[dict(FLAKY["methods"][0], n_samples=2500)])
+    path = write_config(yaml.safe_dump(cfg), "flaky.yaml")
+    runner = CliRunner()
+    serial = runner.invoke(main, ["run", str(path), "--out", str(tmp_path / "s")])
+    pooled = runner.invoke(main, ["run", str(path), "--out", str(tmp_path / "p"),
+                                  "--workers", "2"])
+    assert serial.exit_code == 0 and pooled.exit_code == 0, (serial.output, pooled.output)
+    _assert_identical(_arrays(read_hdf5(tmp_path / "s" / "flaky.h5")),
+                      _arrays(read_hdf5(tmp_path / "p" / "flaky.h5")))
+    both = runner.invoke(main, ["run", str(path), "--workers", "2", "--scheduler",
+                                "tcp://127.0.0.1:1"])
+    assert both.exit_code == 2
+    assert both.stderr.strip() == ("error: --workers: not used with a Dask scheduler (the "
+                                   "cluster has its own workers)")
+    zero = runner.invoke(main, ["run", str(path), "--workers", "0"])
+    assert zero.exit_code == 2 and "Invalid value for '--workers'" in zero.stderr

@@ -87,11 +87,11 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     baseline = _gate_preflight(check_path, cfg) if check_path else None
     again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
         "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")
-    store = RunStore.open(run_dir(out_dir, cfg.name), run_identity(cfg.resolved(), cfg.model),
-                          resume, again)
     executor = make_executor(workers, scheduler,
                              str(scheduler_file) if scheduler_file else None)
     try:
+        store = RunStore.open(run_dir(out_dir, cfg.name),
+                              run_identity(cfg.resolved(), cfg.model), resume, again)
         result = run_config(cfg, executor, store=store, progress=Progress(sys.stderr))
     except RunInterrupted as exc:
         click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume with "
