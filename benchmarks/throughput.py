@@ -60,7 +60,9 @@ CASES: list[dict[str, Any]] = [
         "model": "ftcapn",
         "params": {},
         "inputs": FTCAPN_TABLE3,
-        "outputs": [],  # the model's defaults: omega_s, R and the stop scalars
+        # the LOS-rate series of the paper's Figures 6-17 and the default scalars at the stop
+        "outputs": ["omega_s", "t_stop", "Rdot_stop", "speed_stop", "dv_total", "zem_eq15",
+                    "zem"],
         "report_times": [0.0, 20.0, 40.0, 60.0],
         "batches": [1_000, 10_000, 100_000],
     },
