@@ -193,3 +193,36 @@ def test_manifest_lines_and_chunk_files(tmp_path):
         (0, 0, 100), (1, 100, 200), (2, 200, 300)]
     assert sorted(p.name for p in (tmp_path / "r.run").iterdir()) == [
         "manifest.jsonl", "mc.s0.c000000.npz", "mc.s0.c000001.npz", "mc.s0.c000002.npz"]
+
+
+def test_ctrl_c_with_worker_processes_exits_130_without_traceback(tmp_path):
+    # A real SIGINT to the whole process group, as a terminal's Ctrl-C: the workers ignore it
+    # (from birth), the driver stops them, reports and leaves a resumable run.
+    cfg = tmp_path / "slow.yaml"
+    cfg.write_text(yaml.safe_dump(_config("tests.failing_models:slow_sum")))
+    out = tmp_path / "out"
+    manifest = out / "slow.run" / "manifest.jsonl"
+    proc = subprocess.Popen([sys.executable, "-m", "uqguide.cli", "run", str(cfg), "--out",
+                             str(out), "--workers", "2"], cwd=ROOT,
+                            env={**os.environ, "PYTHONPATH": str(ROOT)},
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            start_new_session=True)
+    deadline = time.monotonic() + 60
+    while _chunk_lines(manifest) < 3 and time.monotonic() < deadline:
+        assert proc.poll() is None, proc.stderr.read().decode()
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    err = err.decode()
+    done = _chunk_lines(manifest)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    assert err.strip().splitlines()[-1] == (
+        f"interrupted: {done} of 20 chunks done; resume with `uqguide run {cfg} --resume "
+        f"--out {out}`")
+    res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out), "--resume"])
+    assert res.exit_code == 0, res.output
+    fast = tmp_path / "ref.yaml"
+    fast.write_text(yaml.safe_dump(_config("tests.failing_models:clean_sum")))
+    assert CliRunner().invoke(main, ["run", str(fast), "--out", str(tmp_path)]).exit_code == 0
+    _assert_same(_stats(tmp_path / "ref.h5"), _stats(out / "slow.h5"))

@@ -34,10 +34,12 @@ from __future__ import annotations
 import logging
 import multiprocessing
 import signal
+import threading
 import time
 from collections.abc import Collection, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -338,6 +340,21 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+@contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """Ignore SIGINT while worker processes are started, so they inherit the ignore from birth
+    (Python keeps an inherited SIG_IGN) and a Ctrl-C during their start-up cannot kill them
+    with a traceback."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 class _WindowedExecutor:
     """Shared loop of the pool executors: at most ``window`` chunks in flight (bounds what
     waits in memory and lets Ctrl-C stop quickly), results yielded as they complete."""
@@ -415,7 +432,14 @@ class ProcessExecutor(_WindowedExecutor):
         self._pool = None
 
     def _submit(self, job: ChunkJob, task: Task, x: np.ndarray) -> Future:
-        return self._get_pool().submit(run_chunk, job, task, x)
+        with _sigint_ignored():  # a submit may start worker processes
+            return self._get_pool().submit(run_chunk, job, task, x)
+
+    def _cancel(self, futures: list[Any]) -> None:
+        # Not cancelled one by one: on Ctrl-C abort() ends the workers, and Python 3.11's pool
+        # then fails on futures already cancelled (InvalidStateError in its manager thread);
+        # otherwise close() cancels what is left.
+        pass
 
     def _wait_some(self, futures: list[Future]) -> list[Future]:
         done, _ = wait(futures, return_when=FIRST_COMPLETED)
