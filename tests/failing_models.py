@@ -60,3 +60,11 @@ def ctrl_c_on_third_call(x):
 def clean_sum(x):
     """``a + b``."""
     return x[:, 0] + x[:, 1]
+
+
+def linear_raises_above(x):
+    """``y = a + 2 b``; raises when a sample has ``a > 1.5`` (the outer Gauss-Hermite node
+    ``a = sqrt(3)`` of a 3-point rule)."""
+    if (x[:, 0] > 1.5).any():
+        raise RuntimeError("solver diverged")
+    return x[:, 0] + 2 * x[:, 1]

@@ -113,3 +113,31 @@ def test_pce_failure_policy_is_checked(write_config):
     assert res.exit_code == 2
     assert res.stderr.strip() == ("error: pce_failure_policy: Input should be 'fail' or "
                                   "'regression' (got 'refit')")
+
+
+def test_pce_failure_policy_end_to_end(write_config, tmp_path):
+    # 3 x 3 Gauss-Hermite nodes; the 3 with a = sqrt(3) raise. Default: the method fails
+    # (exit 1) naming the failed runs. regression: a least-squares fit on the 6 others, exact
+    # for this linear model (mean 0, std sqrt(1 + 4)).
+    cfg = {
+        "model": {"name": "callable", "function": "tests.failing_models:linear_raises_above",
+                  "inputs": ["a", "b"], "outputs": ["y"]},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                   {"name": "b", "dist": "normal", "std": 1.0}],
+        "methods": [{"name": "pce_tensor", "label": "pt", "m": 3}],
+        "max_failed_fraction": 0.5,
+    }
+    res = CliRunner().invoke(main, ["run", str(write_config(cfg, "f.yaml")), "--out",
+                                    str(tmp_path)])
+    assert res.exit_code == 1
+    assert res.stderr.strip().splitlines()[-1].startswith(
+        "error: pt: 3 of 9 quadrature runs failed (")
+    assert "set pce_failure_policy: regression" in res.stderr
+    cfg["pce_failure_policy"] = "regression"
+    res = CliRunner().invoke(main, ["run", str(write_config(cfg, "r.yaml")), "--out",
+                                    str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    r = read_hdf5(tmp_path / "r.h5").run("pt")
+    assert r.n_failed == 3
+    s = r.estimate.stats["y"]
+    np.testing.assert_allclose([s.mean[0], s.std[0]], [0.0, np.sqrt(5.0)], atol=1e-10)
