@@ -124,3 +124,17 @@ def test_relative_plant_interface_matches_stage_matrices():
     B21, B22 = frame.matrices_at(sched, 7)
     np.testing.assert_allclose(A21, B21[0], atol=1e-18)
     np.testing.assert_allclose(A22, B22[0], atol=1e-18)
+
+
+@pytest.mark.parametrize("printed", [False, True])
+def test_stage_operator_equals_its_matrices(printed):
+    """The matrix-free A21 r + A22 v of the simulator equals the matrices of the corrected (or
+    printed) [C 7], per sample spin rates included."""
+    rng = np.random.default_rng(8)
+    w = rng.normal(0, 0.05, (4, 3))
+    frame = RotatingBodyFrame(ORBIT_C, w, printed=printed)
+    stage = frame.stage_at(frame.stage_schedule(50, 0.1), 77)
+    r, v = rng.normal(0, 5, (4, 3)), rng.normal(0, 0.1, (4, 3))
+    A21, A22 = stage.matrices()
+    ref = np.einsum("nij,nj->ni", A21, r) + np.einsum("nij,nj->ni", A22, v)
+    np.testing.assert_allclose(stage.apply(r, v), ref, rtol=1e-12, atol=1e-17)

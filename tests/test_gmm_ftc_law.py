@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from uqguide.models.dynamics.rotating_body_frame import RotatingBodyFrame
+from uqguide.models.dynamics.rotating_body_frame import LinearStage, RotatingBodyFrame
 from uqguide.models.dynamics.tschauner_hempel import ChiefOrbit
 from uqguide.models.gmm.controllers import sig
 from uqguide.models.gmm.potential import AttractRepulsePotential
@@ -57,7 +57,7 @@ def test_closed_loop_identities(floor):
     base = np.array([[3.0, 0.0, 0.2], [1.0, 0.4, -0.3], [5.5, 0.0, 0.8], [0.3, 2.0, 0.0]])
     r = base + rng.uniform(-0.3, 0.3, base.shape) * [0.5, 0.1, 0.5] + [0, 0.05, 0]
     v = rng.normal(0, 0.05, r.shape)
-    cmd = law.command(r, v, A21, A22)
+    cmd = law.command(r, v, LinearStage(A21, A22))
     assert not cmd.guarded.any()
     dt = 1e-4  # central difference: truncation dt^2 |s'''| / 6, rounding eps |s| / dt ~ 1e-11
     xp = _flow(np.hstack([r, v]), cmd.u, A21, A22, dt)
@@ -81,8 +81,9 @@ def test_command_cancels_plant_at_the_goal():
     spec A21)."""
     law = _law(k_s=[3e-4, 1e-4, 1e-4], floor=0.0)
     frame = RotatingBodyFrame(ChiefOrbit(6878.14e3, 0.01), np.array([[0.0, 0.0, 0.05]]))
-    A21, A22 = frame.matrices_at(frame.stage_schedule(5, 0.1), 3)
-    cmd = law.command(law.r_f[None, :], np.zeros((1, 3)), A21, A22)
+    stage = frame.stage_at(frame.stage_schedule(5, 0.1), 3)
+    A21, _ = stage.matrices()
+    cmd = law.command(law.r_f[None, :], np.zeros((1, 3)), stage)
     np.testing.assert_allclose(cmd.s2, 0.0, atol=1e-15)
     np.testing.assert_allclose(cmd.u[0], -A21[0] @ law.r_f, rtol=1e-12)
 
@@ -90,7 +91,7 @@ def test_command_cancels_plant_at_the_goal():
 def test_singular_guard_replaces_the_jacobian():
     law = _law(k_s=[1e3, 1e3, 1e3], floor=0.0)
     r = np.array([[2.5886, 0.0005, 0.1]])  # inside the +x inner panel sheet
-    cmd = law.command(r, np.zeros((1, 3)), np.zeros((3, 3)), np.zeros((3, 3)))
+    cmd = law.command(r, np.zeros((1, 3)), LinearStage(np.zeros((3, 3)), np.zeros((3, 3))))
     d = law.potential.derivatives(r, law.r_f)
     singular = abs(np.linalg.det(np.eye(3) + law.gains.k_s[:, None] * d.H[0])) < law.det_guard
     assert cmd.guarded[0] == singular

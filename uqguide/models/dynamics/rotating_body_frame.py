@@ -29,6 +29,7 @@ that classical RK4 needs.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -43,6 +44,18 @@ def skew(x: np.ndarray) -> np.ndarray:
     S[..., 1, 0], S[..., 1, 2] = x[..., 2], -x[..., 0]
     S[..., 2, 0], S[..., 2, 1] = -x[..., 1], x[..., 0]
     return S
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` for broadcastable (..., 3) arrays (``np.cross`` without its axis handling,
+    which dominated the per-step cost of small batches)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
 
 
 def true_anomaly(orbit: ChiefOrbit, t: np.ndarray) -> np.ndarray:
@@ -215,11 +228,13 @@ def lvlh_to_body(
     return r_b, rotate(Ct, v_l) - np.cross(w, r_b)
 
 
-def rotate(C: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``C x`` for ``C`` (m, 3, 3), ``m`` in {1, n}, and vectors ``x`` (n, 3).
+def rotate(C: np.ndarray, x: np.ndarray, transpose: bool = False) -> np.ndarray:
+    """``C x`` (or ``C^T x``) for ``C`` (m, 3, 3), ``m`` in {1, n}, and vectors ``x`` (n, 3).
 
     Element-wise products summed in a fixed order, so a sample gives bit-identical results in a
     batch with per-sample matrices and alone (a BLAS product may reorder the sums)."""
+    if transpose:
+        return np.sum(C * x[:, :, None], axis=-2)
     return np.sum(C * x[:, None, :], axis=-1)
 
 
@@ -237,6 +252,59 @@ def eq32_acceleration(w: np.ndarray, r_b: np.ndarray, v_b: np.ndarray, u_b: np.n
     rotated to LVLH. The physical thrust in LVLH is ``C u_b``.
     """
     return u_b + 2.0 * np.cross(w, v_b) + np.cross(w, np.cross(w, r_b))
+
+
+@dataclass(frozen=True)
+class BodyFrameStage:
+    """The body-frame plant at one instant, applied to states without forming ``A21``, ``A22``.
+
+    ``A21 r + A22 v = C^T (A C r + B C (v + w x r)) - w x (w x r) - 2 w x v`` (the corrected
+    [C 7], :func:`body_frame_matrices`; ``w' = 0``); with ``printed=True`` the sign-restored
+    printed form ``A C r + B (v + w x r) - w x (w x r) - 2 w x v``.
+
+    Attributes
+    ----------
+    A, B : ndarray, shape (3, 3)
+        LVLH Tschauner-Hempel matrices at the instant.
+    C : ndarray, shape (m, 3, 3)
+        Body -> LVLH attitude(s).
+    w : ndarray, shape (m, 3)
+        Spin rate(s), body components [rad/s].
+    printed : bool
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    w: np.ndarray
+    printed: bool = False
+
+    def apply(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``A21 r + A22 v`` [m/s^2] for ``r, v`` (n, 3) (``m`` = 1 or ``n``)."""
+        wr = cross(self.w, r)
+        frame = -cross(self.w, wr) - 2.0 * cross(self.w, v)
+        A, B = self.A[None], self.B[None]
+        if self.printed:
+            return rotate(A, rotate(self.C, r)) + rotate(B, v + wr) + frame
+        lvlh = rotate(A, rotate(self.C, r)) + rotate(B, rotate(self.C, v + wr))
+        return rotate(self.C, lvlh, transpose=True) + frame
+
+    def matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        """``A21``, ``A22`` (m, 3, 3) of :func:`body_frame_matrices`."""
+        return body_frame_matrices(self.A, self.B, self.C, self.w, printed=self.printed)
+
+
+@dataclass(frozen=True)
+class LinearStage:
+    """A plant given by its matrices, ``A21 r + A22 v`` (each (3, 3) or (m, 3, 3))."""
+
+    A21: np.ndarray
+    A22: np.ndarray
+
+    def apply(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
+        A21 = np.asarray(self.A21, dtype=float).reshape(-1, 3, 3)
+        A22 = np.asarray(self.A22, dtype=float).reshape(-1, 3, 3)
+        return rotate(A21, r) + rotate(A22, v)
 
 
 @dataclass(frozen=True)
@@ -296,10 +364,14 @@ class RotatingBodyFrame:
         A, B = lvlh_matrices(self.orbit, f, self.printed_omega_dot)
         return StageSchedule(h=h, times=times, f=f, A=A, B=B)
 
+    def stage_at(self, schedule: StageSchedule, j: int) -> BodyFrameStage:
+        """The plant at the half-step grid point ``j`` of ``schedule``."""
+        return BodyFrameStage(schedule.A[j], schedule.B[j], self.attitude(schedule.times[j]),
+                              self.w, self.printed)
+
     def matrices_at(self, schedule: StageSchedule, j: int) -> tuple[np.ndarray, np.ndarray]:
         """``A21``, ``A22`` (m, 3, 3) at the half-step grid point ``j`` of ``schedule``."""
-        C = self.attitude(schedule.times[j])
-        return body_frame_matrices(schedule.A[j], schedule.B[j], C, self.w, printed=self.printed)
+        return self.stage_at(schedule, j).matrices()
 
 
 @dataclass(frozen=True)
@@ -324,19 +396,14 @@ class StageSchedule:
     B: np.ndarray
 
 
-def _accel(A21: np.ndarray, A22: np.ndarray, r: np.ndarray, v: np.ndarray, u: np.ndarray
-           ) -> np.ndarray:
-    return rotate(A21, r) + rotate(A22, v) + u
+class Stage(Protocol):
+    def apply(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``A21 r + A22 v`` (n, 3)."""
+        ...
 
 
-def rk4_step(
-    x: np.ndarray,
-    u: np.ndarray,
-    m0: tuple[np.ndarray, np.ndarray],
-    m_half: tuple[np.ndarray, np.ndarray],
-    m1: tuple[np.ndarray, np.ndarray],
-    h: float,
-) -> np.ndarray:
+def rk4_step(x: np.ndarray, u: np.ndarray, s0: Stage, s_half: Stage, s1: Stage, h: float
+             ) -> np.ndarray:
     """One classical RK4 step of ``[r, v]' = [v, A21 r + A22 v + u]`` with ``u`` held.
 
     Parameters
@@ -345,8 +412,8 @@ def rk4_step(
         ``[r (m), v (m/s)]`` in the body frame.
     u : ndarray, shape (n, 3)
         Thrust acceleration, body components [m/s^2], constant over the step (ZOH).
-    m0, m_half, m1 : tuple of ndarray, each (m, 3, 3)
-        ``(A21, A22)`` at the step's start, middle and end.
+    s0, s_half, s1 : Stage
+        The plant at the step's start, middle and end (:class:`BodyFrameStage`).
     h : float
         Step [s].
 
@@ -355,13 +422,13 @@ def rk4_step(
     ndarray, shape (n, 6)
     """
     r, v = x[:, :3], x[:, 3:]
-    k1r, k1v = v, _accel(*m0, r, v, u)
+    k1r, k1v = v, s0.apply(r, v) + u
     r2, v2 = r + 0.5 * h * k1r, v + 0.5 * h * k1v
-    k2r, k2v = v2, _accel(*m_half, r2, v2, u)
+    k2r, k2v = v2, s_half.apply(r2, v2) + u
     r3, v3 = r + 0.5 * h * k2r, v + 0.5 * h * k2v
-    k3r, k3v = v3, _accel(*m_half, r3, v3, u)
+    k3r, k3v = v3, s_half.apply(r3, v3) + u
     r4, v4 = r + h * k3r, v + h * k3v
-    k4r, k4v = v4, _accel(*m1, r4, v4, u)
+    k4r, k4v = v4, s1.apply(r4, v4) + u
     out = np.empty_like(x)
     out[:, :3] = r + (h / 6.0) * (k1r + 2 * k2r + 2 * k3r + k4r)
     out[:, 3:] = v + (h / 6.0) * (k1v + 2 * k2v + 2 * k3v + k4v)
@@ -391,10 +458,10 @@ def propagate_free(frame: RotatingBodyFrame, x0: np.ndarray, t_f: float, h: floa
     out = np.empty((x.shape[0], n_steps + 1, 6))
     out[:, 0] = x
     zero = np.zeros((x.shape[0], 3))
-    m_start = frame.matrices_at(sched, 0)
+    m_start = frame.stage_at(sched, 0)
     for k in range(n_steps):
-        m_half = frame.matrices_at(sched, 2 * k + 1)
-        m_end = frame.matrices_at(sched, 2 * k + 2)
+        m_half = frame.stage_at(sched, 2 * k + 1)
+        m_end = frame.stage_at(sched, 2 * k + 2)
         x = rk4_step(x, zero, m_start, m_half, m_end, h)
         m_start = m_end
         out[:, k + 1] = x

@@ -219,14 +219,14 @@ def run_closed_loop(
     failed = np.zeros(n, dtype=bool)
     k_check = int(np.ceil(st.t_check / dt - 1e-9))
 
-    m_start = plant.matrices_at(sched, 0)
+    m_start = plant.stage_at(sched, 0)
     # a diverging sample is flagged (failed), not warned about at every step
     with np.errstate(all="ignore"):
         for k in range(N + 1):
             j0 = 2 * k * st.n_sub
             r, v = x[:, :3], x[:, 3:]
-            ctl_m = m_start if controller_plant is None else controller_plant.matrices_at(sched, j0)
-            cmd = law.command(r, v, *ctl_m)
+            ctl = m_start if controller_plant is None else controller_plant.stage_at(sched, j0)
+            cmd = law.command(r, v, ctl)
             u = cmd.u
             nonfinite = ~np.all(np.isfinite(u), axis=1)
             if nonfinite.any():
@@ -279,8 +279,8 @@ def run_closed_loop(
             delta_v += u_norm * dt
             for s in range(st.n_sub):
                 j = j0 + 2 * s
-                m_half = plant.matrices_at(sched, j + 1)
-                m_end = plant.matrices_at(sched, j + 2)
+                m_half = plant.stage_at(sched, j + 1)
+                m_end = plant.stage_at(sched, j + 2)
                 x_new = rk4_step(x, u, m_start, m_half, m_end, h)
                 p0, p1 = x[:, :3], x_new[:, :3]
                 d_new = point_box_distance(p1, s_lo, s_hi)

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..dynamics.rotating_body_frame import Stage
 from ..gmm.controllers import sig
 from ..gmm.potential import AttractRepulsePotential
 
@@ -156,12 +157,12 @@ class GMMFTCLaw:
         Hv = np.einsum("nij,nj->ni", d.H, v)
         return s1, v + gn.alpha1 * s1 + gn.beta1 * s1**3 + gn.k_s * Hv
 
-    def command(self, r: np.ndarray, v: np.ndarray, A21: np.ndarray, A22: np.ndarray
-                ) -> FTCCommand:
-        """GMM-FTC command for states ``r, v`` (n, 3) and plant ``A21, A22`` ((m, 3, 3), m = 1, n).
+    def command(self, r: np.ndarray, v: np.ndarray, plant: Stage) -> FTCCommand:
+        """GMM-FTC command for states ``r, v`` (n, 3).
 
-        The plant matrices are those the controller believes (evaluated at the sample time,
-        spec A34).
+        ``plant.apply(r, v)`` is the ``A21 r + A22 v`` the controller believes, evaluated at the
+        sample time (spec A34): a :class:`~uqguide.models.dynamics.rotating_body_frame.
+        BodyFrameStage`, or a ``LinearStage`` of given matrices.
         """
         gn = self.gains
         d = self.potential.derivatives(r, self.r_f, v)
@@ -178,10 +179,5 @@ class GMMFTCLaw:
         rhs = (-gn.lambda1 * sig(s2, gn.zeta1) - gn.lambda2 * sig(s2, gn.zeta2)
                - lam_y2 - gn.k_s * d.gamma)
         acc = np.linalg.solve(J, rhs[..., None])[..., 0]
-        plant = _apply(A21, r) + _apply(A22, v)
-        return FTCCommand(u=acc - plant, s1=s1, s2=s2, guarded=guarded)
+        return FTCCommand(u=acc - plant.apply(r, v), s1=s1, s2=s2, guarded=guarded)
 
-
-def _apply(M: np.ndarray, x: np.ndarray) -> np.ndarray:
-    # fixed summation order: bit-identical alone and in a batch (see dynamics.rotate)
-    return np.sum(np.asarray(M)[..., :, :] * x[:, None, :], axis=-1)
