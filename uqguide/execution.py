@@ -564,7 +564,7 @@ class DaskExecutor(_WindowedExecutor):
 
 
 def make_executor(workers: int | None = None, scheduler: str | None = None,
-                  scheduler_file: str | None = None) -> SerialExecutor | ProcessExecutor | DaskExecutor:
+                  scheduler_file: str | None = None) -> Executor:
     """The executor the command line asked for: Dask if a scheduler is given, a process pool
     for ``workers >= 1``, else this process."""
     if scheduler and scheduler_file:
