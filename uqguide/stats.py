@@ -11,6 +11,16 @@ Conventions, for an output ``y`` of k components at one time:
 
 Arrays of a time-series output carry the time axis first: ``mean (T, k)``, ``cov (T, k, k)``.
 A scalar output has no time axis: ``mean (k,)``, ``cov (k, k)``.
+
+Two forms of the same estimators:
+
+- in memory (:func:`sample_statistics`, :func:`bootstrap_intervals`): all samples at once,
+  multinomial bootstrap; used where the samples are at hand (PCE surrogate draws, tests);
+- streaming (:class:`MomentSums`, :func:`statistics_from_sums`): per-chunk sums merged in a
+  fixed chunk order (Chan et al. 1979, Pébay 2008) and a Poisson bootstrap whose resamples are
+  chunk-additive; Monte Carlo always uses this form, so a 1e6-sample run never holds its time
+  series and gives the same bits on any executor. Both agree to rounding on the moments; the
+  two bootstraps agree in distribution for large ``n``.
 """
 
 from __future__ import annotations
