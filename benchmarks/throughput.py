@@ -6,8 +6,9 @@ report times and the last step, as the Monte Carlo method does) and of the scala
 stacked into one vector (one set of bootstrap resamples for all of them).
 Prints one table row per (case, batch): samples/s, model runs, failures, simulation and
 statistics seconds, wall seconds, CPU seconds of the process (all threads; on a shared machine
-the wall time depends on the other jobs, the CPU time much less) and the peak traced memory (tracemalloc: NumPy buffers and
-Python objects; memory allocated inside compiled kernels is not traced).
+the wall time depends on the other jobs, the CPU time much less) and the peak traced memory
+(tracemalloc, in a second untimed run of the same batch: NumPy buffers and Python objects;
+memory allocated inside compiled kernels is not traced).
 
 Cases are dicts with keys ``label``, ``model`` (registered name), ``params`` (model parameters),
 ``inputs`` (marginal dicts as in a config's ``inputs``), ``outputs`` (list; empty: the model's
