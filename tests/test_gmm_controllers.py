@@ -22,7 +22,8 @@ PLANT = LVLHPlant(ChiefOrbit(6778.1336e3, 0.01))
 def _potentials() -> dict[str, AttractRepulsePotential]:
     return {
         # variance floor 0.09 m^2 (the F configurations): GMM terms act over metres
-        "gmm": AttractRepulsePotential(P_W, M_W, WANG2022_PUBLISHED.with_variance_floor(0.09).to_gauss_sum()),
+        "gmm": AttractRepulsePotential(
+            P_W, M_W, WANG2022_PUBLISHED.with_variance_floor(0.09).to_gauss_sum()),
         "apf": AttractRepulsePotential(P_W, M_W, GaussSum.from_apf([0.1], [[0, 0, 0]], [5.5e-4 * np.eye(3)], [1.0])),
     }
 

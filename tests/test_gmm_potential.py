@@ -21,7 +21,8 @@ def _random_spd(rng: np.random.Generator, scale: float) -> np.ndarray:
 
 def _random_mixture(rng: np.random.Generator, K: int = 4) -> Mixture:
     w = rng.uniform(0.5, 1.5, K)
-    return Mixture(w / w.sum(), rng.uniform(-3, 3, (K, 3)), np.array([_random_spd(rng, 2.0) for _ in range(K)]))
+    covs = np.array([_random_spd(rng, 2.0) for _ in range(K)])
+    return Mixture(w / w.sum(), rng.uniform(-3, 3, (K, 3)), covs)
 
 
 def _sets(rng: np.random.Generator) -> dict[str, tuple[AttractRepulsePotential, np.ndarray, float]]:
@@ -30,7 +31,8 @@ def _sets(rng: np.random.Generator) -> dict[str, tuple[AttractRepulsePotential, 
     # away from the published 3 mm sheets the GMM underflows to 0; the variance floor of the
     # F configurations (sigma >= 0.3 m) gives thick kernels of the same layout
     floored = AttractRepulsePotential(P_W, M_W, WANG2022_PUBLISHED.with_variance_floor(0.09).to_gauss_sum())
-    apf = AttractRepulsePotential(P_W, M_W, GaussSum.from_apf([0.1], [[0, 0, 0]], [5.5e-4 * np.eye(3)], [1.0]))
+    apf_kernel = GaussSum.from_apf([0.1], [[0, 0, 0]], [5.5e-4 * np.eye(3)], [1.0])
+    apf = AttractRepulsePotential(P_W, M_W, apf_kernel)
     full = AttractRepulsePotential(_random_spd(rng, 0.05), _random_spd(rng, 0.7),
                                    _random_mixture(rng).to_gauss_sum("3d"))
     thick = rng.uniform(-12, 12, (20, 3))

@@ -84,17 +84,14 @@ def _cross_section(ax, geometry: ChiefGeometry, k: int, runs: dict[str, SampledR
         near = (r[:, a] >= lo[a] - 0.5) & (r[:, a] <= hi[a] + 0.5)
         rr = np.where(near[:, None], r, np.nan)
         ax.plot(rr[:, b], rr[:, c], "--" if run.hits[0].any() else "-", color=COLORS.get(name))
-    half = max(1.5, 2 * float(np.max(np.abs(clear_span(runs, k)))), 0.6 * float(max(hi[b] - lo[b], hi[c] - lo[c])))
+    # zoom: twice the largest closest approach, at least the part's cross-section and 1.5 m
+    closest = max(float(run.clearance[0, k]) for run in runs.values())
+    half = max(1.5, 2 * closest, 0.6 * float(max(hi[b] - lo[b], hi[c] - lo[c])))
     ax.set(xlim=(centre[b] - half, centre[b] + half), ylim=(centre[c] - half, centre[c] + half),
            xlabel=f"{_AXIS[b]} (m)", ylabel=f"{_AXIS[c]} (m)")
     ax.set_aspect("equal")
     ax.text(0.02, 0.02, f"paths with {_AXIS[a]} in [{lo[a] - 0.5:g}, {hi[a] + 0.5:g}] m",
             transform=ax.transAxes, fontsize=8)
-
-
-def clear_span(runs: dict[str, SampledRun], k: int) -> np.ndarray:
-    """Closest clearance of each run to part ``k`` [m] (sets the zoom of the cross-section)."""
-    return np.array([run.clearance[0, k] for run in runs.values()])
 
 
 def _legend_label(name: str, geometry: ChiefGeometry, run: SampledRun) -> str:

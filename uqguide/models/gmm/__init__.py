@@ -1,1 +1,15 @@
-"""Potentials, geometry, point clouds and controllers for GMM-based proximity operations."""
+"""Potentials, geometry, point clouds and controllers for GMM-based proximity operations.
+
+Generic building blocks (gmm-controllers.md section 14), shared by the [W] model
+(:mod:`uqguide.models.gmm_proximity`) and the [C] model (:mod:`uqguide.models.gmm_ftc`):
+
+- :mod:`.gauss_sum`: ``V(r) = sum c_j exp(-1/2 d^T L d)`` with gradient, Hessian and third-
+  derivative contraction (GMM kernels and classical APF obstacles);
+- :mod:`.potential`: the attract/repulse potential ``1/2 e^T P e + 1/2 (e^T M e) V`` and its
+  derivatives ``g, H, H_f, Gamma``;
+- :mod:`.geometry`: box-built chiefs, clearance, penetration, swept-segment collisions;
+- :mod:`.point_cloud`, :mod:`.mixture`: surface samples, mixtures (published sets), k-means + EM;
+- :mod:`.controllers`: reaching law, TSMC (APF/GMM) and NTSMC laws;
+- :mod:`.sampled_sim`: the batched sampled-data closed loop on a linear relative plant;
+- :mod:`.claims`: the [W] paper's claims as checks.
+"""
