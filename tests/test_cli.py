@@ -74,3 +74,19 @@ def test_callable_model_that_cannot_be_imported_is_exit_2(write_config):
     res = CliRunner().invoke(main, ["validate", str(write_config(cfg))])
     assert res.exit_code == 2
     assert res.stderr.startswith("error: model.function: cannot import module 'nosuchpkg.mod'")
+
+
+def test_reference_with_zero_variance_output_prints_without_a_verdict(write_config, tmp_path):
+    # an output constant over every run (e.g. 'collided' = 0 in every MC run) has no reference
+    # interval: the table shows '?' instead of crashing
+    cfg = {
+        "model": {"name": "linear_gaussian", "coefficients": [[1.0, 0.0], [0.0, 0.0]]},
+        "inputs": [{"name": "x1", "dist": "normal", "std": 1.0}],
+        "methods": [{"name": "monte_carlo", "label": "ref", "n_samples": 200},
+                    {"name": "monte_carlo", "label": "other", "n_samples": 100}],
+        "reference": "ref",
+        "seed": 1,
+    }
+    res = CliRunner().invoke(main, ["run", str(write_config(cfg)), "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    assert "(+0, ?)" in res.output

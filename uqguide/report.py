@@ -120,10 +120,11 @@ def series_agreement(result: Result) -> pd.DataFrame:
                 keep = mag >= REL_FLOOR * np.nanmax(mag, axis=0, keepdims=True)
                 with np.errstate(invalid="ignore", divide="ignore"):
                     rel = np.where(keep, np.abs(a - b) / np.where(keep, mag, 1.0), np.nan)
-                i = int(np.nanargmax(rel.max(axis=-1))) if np.isfinite(rel).any() else 0
-                row[f"max_rel_{stat}"] = float(np.nanmax(rel)) if np.isfinite(rel).any() \
-                    else float("nan")
-                row[f"at_t_{stat}"] = float(result.time[i])
+                finite = np.where(np.isfinite(rel), rel, -np.inf)
+                t_idx, _ = np.unravel_index(int(np.argmax(finite)), finite.shape)
+                has = bool(np.isfinite(rel).any())
+                row[f"max_rel_{stat}"] = float(finite[t_idx].max()) if has else float("nan")
+                row[f"at_t_{stat}"] = float(result.time[t_idx]) if has else float("nan")
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -148,7 +149,9 @@ def _wide(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
                 cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
             if with_ref and s["label"] != stats.attrs.get("reference"):
                 rd, ad = s.get("rel_diff"), s.get("abs_diff")
-                flag = {True: "in", False: "OUT", None: "?"}[s.get("in_ref_ci")]
+                inside = s.get("in_ref_ci")
+                # pandas stores a missing verdict (no reference interval) as None or NaN
+                flag = "?" if inside is None or inside != inside else ("in" if inside else "OUT")
                 if rd is not None and np.isfinite(rd):
                     cell += f" ({100 * rd:+.1f}%, {flag})"
                 elif ad is not None and np.isfinite(ad):
