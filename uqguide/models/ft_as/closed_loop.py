@@ -354,19 +354,11 @@ def closed_loop_rhs(
     return dX
 
 
-def rk4_step(
-    t: float, X: np.ndarray, dt: float, batch: Batch, gains: Gains, plant: Plant
-) -> tuple[np.ndarray, HeldInputs]:
-    """One sampled-data step: controller at ``t``, classical RK4 with held inputs, then the
-    MRP shadow guard and the optional ``psi2`` box (section 9).
-
-    Returns
-    -------
-    X_next : ndarray, shape (n, 36)
-    held : HeldInputs
-        The inputs applied over the step.
-    """
-    held = controller(t, X, batch, gains, plant)
+def rk4_advance(
+    t: float, X: np.ndarray, dt: float, held: HeldInputs, batch: Batch, gains: Gains, plant: Plant
+) -> np.ndarray:
+    """Classical RK4 over one step with the held inputs, then the MRP shadow guard and the
+    optional ``psi2`` box (section 9 steps 3-4), (n, 36)."""
     k1 = closed_loop_rhs(t, X, held, batch, gains, plant)
     k2 = closed_loop_rhs(t + dt / 2, X + dt / 2 * k1, held, batch, gains, plant)
     k3 = closed_loop_rhs(t + dt / 2, X + dt / 2 * k2, held, batch, gains, plant)
@@ -375,4 +367,19 @@ def rk4_step(
     Xn[:, SIGMA_E] = mrp.shadow(Xn[:, SIGMA_E])
     bound = batch.psi2_bound[:, None]
     Xn[:, PSI2] = np.clip(Xn[:, PSI2], -bound, bound)
-    return Xn, held
+    return Xn
+
+
+def rk4_step(
+    t: float, X: np.ndarray, dt: float, batch: Batch, gains: Gains, plant: Plant
+) -> tuple[np.ndarray, HeldInputs]:
+    """One sampled-data step: controller at ``t``, then :func:`rk4_advance` (section 9).
+
+    Returns
+    -------
+    X_next : ndarray, shape (n, 36)
+    held : HeldInputs
+        The inputs applied over the step.
+    """
+    held = controller(t, X, batch, gains, plant)
+    return rk4_advance(t, X, dt, held, batch, gains, plant), held

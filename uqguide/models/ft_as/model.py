@@ -220,7 +220,7 @@ class FTAS(Model):
         """Integrate one run per variant with the given input values (timing overrides allowed)."""
         p = self.params
         batch = self.make_batch(values, variants)
-        return run_batch(batch, p.plant(), p.gains(), p.timing(**timing), record)
+        return run_batch(batch, p.plant(), p.gains(), p.timing(**timing), record, p.kernel)
 
     def _evaluate(
         self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]

@@ -52,6 +52,9 @@ class FTASParams(ModelParams):
     omega_chi: PositiveFloat = Field(
         default=0.05, description="Case 2 compensator natural frequency [rad/s] ([A14])"
     )
+    kernel: Literal["numba", "numpy"] = Field(
+        default="numba", description="compiled kernel, or the (slow) numpy whole-run reference"
+    )
     # --- integration (section 9)
     step: PositiveFloat = Field(default=0.01, description="RK4 / ZOH step [s]")
     duration: PositiveFloat = Field(default=3000.0, description="horizon [s]")

@@ -1,7 +1,8 @@
 """Run a batch of FT-AS closed loops through the compiled kernel and collect the results.
 
 :func:`run_batch` is the one entry point used by the model, the report and the tests: it packs
-the constants, allocates the recording and metric arrays, calls ``kernel.simulate`` and
+the constants, allocates the recording and metric arrays, calls ``kernel.simulate`` (or the
+numpy reference ``reference_run.simulate`` when asked) and
 returns a :class:`RunResult` with named arrays.
 """
 
@@ -117,8 +118,9 @@ def run_batch(
     gains: Gains,
     timing: Timing,
     record: Iterable[str] = (),
+    kernel_name: str = "numba",
 ) -> RunResult:
-    """Integrate ``batch`` with the numba kernel.
+    """Integrate ``batch`` with the numba kernel (or its numpy reference).
 
     Parameters
     ----------
@@ -129,6 +131,9 @@ def run_batch(
     timing : Timing
     record : iterable of str
         Groups of ``kernel.RECORD_GROUPS`` to record on the output grid.
+    kernel_name : {"numba", "numpy"}
+        ``numpy``: the whole-run reference of ``reference_run.py`` (same numbers to rounding,
+        ~100x slower for small batches).
 
     Returns
     -------
@@ -153,39 +158,49 @@ def run_batch(
     failed = np.zeros(n, dtype=np.bool_)
     P, Q = plant.reference.basis()
     t0 = time.perf_counter()
-    kernel.simulate(
-        np.ascontiguousarray(batch.x0, dtype=float),
-        np.asarray(batch.mass_offset, dtype=float),
-        np.asarray(batch.inertia_scale_error, dtype=float),
-        np.asarray(batch.force_amp, dtype=float),
-        np.asarray(batch.torque_amp, dtype=float),
-        np.asarray(batch.controller, dtype=np.int64),
-        np.asarray(batch.observer_on_applied, dtype=np.bool_),
-        np.asarray(batch.psi2_bound, dtype=float),
-        np.asarray(batch.omega_chi, dtype=float),
-        np.asarray(batch.switch_input, dtype=np.bool_),
-        pack_constants(plant, gains),
-        np.ascontiguousarray(plant.J0, dtype=float),
-        np.ascontiguousarray(plant.J0_inv),
-        P,
-        Q,
-        np.asarray(plant.limits, dtype=float),
-        float(timing.step),
-        n_steps,
-        every,
-        timing.first_step_at(timing.duration - timing.final_window),
-        timing.first_step_at(timing.late_time),
-        tols,
-        rec,
-        offsets,
-        settle,
-        final_max,
-        peak_app,
-        peak_cmd,
-        peak_late,
-        impulse,
-        failed,
-    )
+    final_start = timing.first_step_at(timing.duration - timing.final_window)
+    late_start = timing.first_step_at(timing.late_time)
+    if kernel_name == "numpy":
+        from . import reference_run
+
+        reference_run.simulate(
+            batch, plant, gains, float(timing.step), n_steps, every, final_start, late_start,
+            tols, rec, offsets, settle, final_max, peak_app, peak_cmd, peak_late, impulse, failed,
+        )  # fmt: skip
+    else:
+        kernel.simulate(
+            np.ascontiguousarray(batch.x0, dtype=float),
+            np.asarray(batch.mass_offset, dtype=float),
+            np.asarray(batch.inertia_scale_error, dtype=float),
+            np.asarray(batch.force_amp, dtype=float),
+            np.asarray(batch.torque_amp, dtype=float),
+            np.asarray(batch.controller, dtype=np.int64),
+            np.asarray(batch.observer_on_applied, dtype=np.bool_),
+            np.asarray(batch.psi2_bound, dtype=float),
+            np.asarray(batch.omega_chi, dtype=float),
+            np.asarray(batch.switch_input, dtype=np.bool_),
+            pack_constants(plant, gains),
+            np.ascontiguousarray(plant.J0, dtype=float),
+            np.ascontiguousarray(plant.J0_inv),
+            P,
+            Q,
+            np.asarray(plant.limits, dtype=float),
+            float(timing.step),
+            n_steps,
+            every,
+            final_start,
+            late_start,
+            tols,
+            rec,
+            offsets,
+            settle,
+            final_max,
+            peak_app,
+            peak_cmd,
+            peak_late,
+            impulse,
+            failed,
+        )
     wall = time.perf_counter() - t0
     log.debug("ft_as kernel: %d runs x %d steps in %.2f s", n, n_steps, wall)
     records = {
