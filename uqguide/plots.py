@@ -315,7 +315,9 @@ def cost_figure(result: Result) -> Figure:
     top = max(float(np.max(model_s)), float(np.max(fit_s)), 1e-3)
     ax_time.set(xscale="log", xlabel="wall time [s]", title="Wall time", yticks=ypos,
                 yticklabels=[r.label for r in result.runs], xlim=(1e-4, top * 20))
-    ax_time.legend(fontsize=8, loc="lower right")
+    # Below the axis: inside it, the legend would cover the labels of the longest bars.
+    ax_time.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2,
+                   frameon=False)
     for ax in (ax_runs, ax_time):
         ax.grid(True, axis="x", alpha=0.3)
     ax_tab.axis("off")

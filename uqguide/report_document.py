@@ -38,25 +38,26 @@ def _inputs_table(result: Result) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _sobol_table(result: Result) -> pd.DataFrame:
-    """First-order and total Sobol' indices per input of every scalar output (and every series
-    at its last step), for each method that gives them."""
-    rows = []
+def _sobol_tables(result: Result) -> dict[str, pd.DataFrame]:
+    """Per scalar output component (and series at its last step): one row per input, the
+    first-order and total Sobol' indices of every method that gives them side by side."""
+    tables: dict[str, pd.DataFrame] = {}
     for o in result.outputs:
-        for r in result.runs:
-            s = r.estimate.stats.get(o.name)
-            if s is None or s.sobol_first is None or s.sobol_total is None:
-                continue
-            first = s.sobol_first[-1] if o.kind == "series" else s.sobol_first
-            total = s.sobol_total[-1] if o.kind == "series" else s.sobol_total
-            for c, comp in enumerate(o.components):
-                for j, name in enumerate(result.input_names):
-                    rows.append({
-                        "output": o.name + (f"[{comp}]" if comp else "")
-                        + (" (last step)" if o.kind == "series" else ""),
-                        "label": r.label, "input": name,
-                        "first-order": float(first[c, j]), "total": float(total[c, j])})
-    return pd.DataFrame(rows)
+        for c, comp in enumerate(o.components):
+            cols: dict[str, list[float]] = {}
+            for r in result.runs:
+                s = r.estimate.stats.get(o.name)
+                if s is None or s.sobol_first is None or s.sobol_total is None:
+                    continue
+                first = s.sobol_first[-1] if o.kind == "series" else s.sobol_first
+                total = s.sobol_total[-1] if o.kind == "series" else s.sobol_total
+                cols[f"{r.label} first-order"] = [float(v) for v in first[c]]
+                cols[f"{r.label} total"] = [float(v) for v in total[c]]
+            if cols:
+                key = f"{o.name}{f'[{comp}]' if comp else ''}" + \
+                    (" at the last step" if o.kind == "series" else "")
+                tables[key] = pd.DataFrame({"input": result.input_names, **cols})
+    return tables
 
 
 def _img(path: Path, base: Path, alt: str) -> str:
@@ -118,10 +119,11 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
                   "Largest relative difference of the mean and the std over time (steps where "
                   "the reference is below 1e-3 of its peak are left out), and when it occurs.",
                   "", to_markdown(agree)]
-    sobol = _sobol_table(result)
-    if not sobol.empty:
-        parts += ["", "## Sensitivity (Sobol' indices from the PCE coefficients)", "",
-                  to_markdown(sobol)]
+    sobol = _sobol_tables(result)
+    if sobol:
+        parts += ["", "## Sensitivity (Sobol' indices from the PCE coefficients)"]
+        for key, df in sobol.items():
+            parts += ["", f"{key}:", "", to_markdown(df)]
     if check is not None:
         parts += ["", "## Regression check", "", check.summary()]
         rows = check.failures
