@@ -222,7 +222,9 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         executor.abort()
         if isinstance(exc, RunInterrupted):
             raise
-        raise RunInterrupted(progress.chunks_done, progress.chunks_total) from None
+        # The store's count: a chunk saved just before the interrupt may not be counted yet.
+        done = store.n_done if store is not None else progress.chunks_done
+        raise RunInterrupted(done, progress.chunks_total) from None
     finally:
         progress.close()
     time_grid = next((r.time for r in runs if r.time.size), np.zeros(0))
