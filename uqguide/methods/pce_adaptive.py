@@ -45,7 +45,9 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any, Literal
 
 import numpy as np
@@ -54,12 +56,12 @@ from pydantic import Field, model_validator
 from ..errors import MethodError
 from ..inputs import InputSpace
 from ..models.base import ModelOutput
-from ..pce import moments
 from ..pce.basis import hyperbolic_indices
+from ..pce.derived import DerivedOutput
 from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
-from ..pce.outputs import OutputColumns, failure_summary, joint_scalar_moments, output_columns
+from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.pca import principal_components
 from ..pce.sparse_regression import fit_columns
 from .base import Design, Estimate, Method, MethodSettings
@@ -137,6 +139,9 @@ class AdaptivePCE(Method):
     summary = "adaptive sparse PCE: LARS + corrected LOO, degree adaptivity, sequential design"
     Settings = AdaptivePCESettings
     settings: AdaptivePCESettings
+    #: Outputs computed from other outputs' surrogates (:mod:`uqguide.pce.derived`), set by the
+    #: driver from the model; their carriers must be among the evaluated outputs.
+    derived_outputs: Mapping[str, DerivedOutput] = MappingProxyType({})
 
     # ------------------------------------------------------------------ design sizes
     def initial_size(self, d: int) -> int:
@@ -192,14 +197,10 @@ class AdaptivePCE(Method):
         s = self.settings
         fits = self._fit(space, design, outputs)
         n_ok = int((~outputs.failed).sum())
-        stats, scalars = {}, []
-        for f in fits:
-            stats[f.columns.name] = moments.output_statistics(
-                f.expansion, n_runs=n_ok, n_draws=s.surrogate_draws,
-                seed=design.data.get("draw_seed", 0))
-            if f.columns.kind == "scalar":
-                scalars.append((f.columns.name, f.expansion))
-        names, s_mean, s_cov = joint_scalar_moments(scalars)
+        stats, names, s_mean, s_cov, extra = assemble(
+            [(f.columns, f.expansion) for f in fits], self.derived_outputs, outputs,
+            n_runs=n_ok, n_draws=s.surrogate_draws, seed=design.data.get("draw_seed", 0),
+            label=self.label)
         worst = max((f.loo for f in fits), default=0.0)
         if worst > s.target_loo:
             log.warning("%s: LOO error %.2e is above the target %.0e after %d runs (budget %d)",
@@ -219,6 +220,7 @@ class AdaptivePCE(Method):
             "n_terms": max((f.n_terms for f in fits), default=0),
             "n_components": max((f.n_components or 0 for f in fits), default=0),
             "moments_method": ", ".join(sorted({st.moments_method for st in stats.values()})),
+            **extra,
         }
         for f in fits:
             diagnostics[f"loo_error.{f.columns.name}"] = f.loo
@@ -243,7 +245,8 @@ class AdaptivePCE(Method):
                 f"({failure_summary(outputs)}); a regression PCE needs at least {_MIN_RUNS}")
         germ = Germ.of(space)
         xi = germ.from_unit(design.data["u"][ok])
-        return [self._fit_output(germ, xi, col) for col in output_columns(outputs, ok)]
+        return [self._fit_output(germ, xi, col) for col in output_columns(outputs, ok)
+                if col.name not in self.derived_outputs]
 
     def _fit_output(self, germ: Germ, xi: np.ndarray, col: OutputColumns) -> _OutputFit:
         s = self.settings

@@ -20,7 +20,8 @@ from __future__ import annotations
 import logging
 import time
 from abc import abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -29,11 +30,12 @@ from pydantic import Field
 from ..errors import MethodError
 from ..inputs import InputSpace
 from ..models.base import ModelOutput
-from ..pce import basis, moments
+from ..pce import basis
+from ..pce.derived import DerivedOutput
 from ..pce.design import SURROGATE_STREAM, stream
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
-from ..pce.outputs import failure_summary, joint_scalar_moments, output_columns
+from ..pce.outputs import assemble, failure_summary, output_columns
 from ..pce.pca import constant_columns
 from ..pce.projection import project
 from ..pce.quadrature import Grid, union_basis
@@ -87,6 +89,9 @@ class QuadraturePCE(Method):
 
     Settings = QuadratureSettings
     settings: QuadratureSettings
+    #: Outputs computed from other outputs' surrogates (:mod:`uqguide.pce.derived`), set by the
+    #: driver from the model; their carriers must be among the evaluated outputs.
+    derived_outputs: Mapping[str, DerivedOutput] = MappingProxyType({})
 
     @abstractmethod
     def _grid(self, germ: Germ) -> Grid:
@@ -146,16 +151,16 @@ class QuadraturePCE(Method):
                 f"this method's {grid.n_nodes}-node grid")
         rows, alpha, fit = self._fitter(germ, grid, outputs)
         seed = design.data.get("draw_seed", 0)
-        stats, scalars = {}, []
+        fitted = []
         for col in output_columns(outputs, rows):
+            if col.name in self.derived_outputs:
+                continue  # computed from its carriers' surrogates below
             coef = fit(col.y)
             coef[1:, constant_columns(col.y)] = 0.0  # runs that all agree: exactly constant
-            exp = Expansion(germ, alpha, coef, col.shape)
-            stats[col.name] = moments.output_statistics(
-                exp, n_runs=rows.size, n_draws=self.settings.surrogate_draws, seed=seed)
-            if col.kind == "scalar":
-                scalars.append((col.name, exp))
-        names, s_mean, s_cov = joint_scalar_moments(scalars)
+            fitted.append((col, Expansion(germ, alpha, coef, col.shape)))
+        stats, names, s_mean, s_cov, extra = assemble(
+            fitted, self.derived_outputs, outputs, n_runs=rows.size,
+            n_draws=self.settings.surrogate_draws, seed=seed, label=self.label)
         diagnostics: dict[str, Any] = {
             "n_runs": outputs.n,
             "n_failed": int(outputs.failed.sum()),
@@ -166,6 +171,7 @@ class QuadraturePCE(Method):
             "degree": int(alpha.sum(axis=1).max()),
             "n_terms": int(alpha.shape[0]),
             "moments_method": ", ".join(sorted({s.moments_method for s in stats.values()})),
+            **extra,
         }
         diagnostics["fit_seconds"] = time.perf_counter() - t0
         return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,

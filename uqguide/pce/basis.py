@@ -139,14 +139,16 @@ def evaluate(germ: Germ, alpha: np.ndarray, xi: np.ndarray) -> np.ndarray:
     """
     xi = np.atleast_2d(np.asarray(xi, dtype=float))
     n, P = xi.shape[0], alpha.shape[0]
-    psi = np.ones((n, P))
+    # Built term by term (rows) and transposed at the end: each variable multiplies only the
+    # terms that involve it (a sparse basis has few per variable), on contiguous rows.
+    psi_t = np.ones((P, n))
     for j in range(alpha.shape[1]):
-        pj = int(alpha[:, j].max(initial=0))
-        if pj == 0:
+        rows = np.flatnonzero(alpha[:, j])
+        if rows.size == 0:
             continue
-        phi = univariate(germ.kind(j), xi[:, j], pj)  # (pj + 1, n)
-        psi *= phi[alpha[:, j]].T
-    return psi
+        phi = univariate(germ.kind(j), xi[:, j], int(alpha[rows, j].max()))  # (p_j + 1, n)
+        psi_t[rows] *= phi[alpha[rows, j]]
+    return psi_t.T
 
 
 def index_lookup(alpha: np.ndarray) -> dict[tuple[int, ...], int]:

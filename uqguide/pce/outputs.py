@@ -10,11 +10,16 @@ section 3) follows from the coefficients too.
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import MethodError
 from ..models.base import ModelOutput
+from ..stats import OutputStats
+from . import moments
+from .derived import DerivedOutput, derived_statistics
 from .expansion import Expansion
 
 
@@ -79,3 +84,64 @@ def joint_scalar_moments(
     mean = coef[r0]
     dev = np.delete(coef, r0, axis=0)
     return names, mean, dev.T @ dev
+
+
+def assemble(
+    fitted: list[tuple[OutputColumns, Expansion]], derived: Mapping[str, DerivedOutput],
+    outputs: ModelOutput, *, n_runs: int, n_draws: int, seed: int, label: str,
+) -> tuple[dict[str, OutputStats], list[str], np.ndarray | None, np.ndarray | None,
+           dict[str, object]]:
+    """Statistics of every output, and the stacked scalars' joint moments.
+
+    Parameters
+    ----------
+    fitted : list of (OutputColumns, Expansion)
+        The outputs fitted directly.
+    derived : mapping of str to DerivedOutput
+        Outputs computed from fitted carriers (:mod:`uqguide.pce.derived`).
+    outputs : ModelOutput
+        The runs (for the order of the scalar outputs).
+    n_runs : int
+        Runs behind the fits.
+    n_draws, seed : int
+        Surrogate draws, where moments are sampled.
+    label : str
+        The method's label, for messages.
+
+    Returns
+    -------
+    stats, scalar_names, scalar_mean, scalar_cov, diagnostics
+    """
+    stats = {}
+    expansions = {}
+    scalars = []
+    for col, exp in fitted:
+        stats[col.name] = moments.output_statistics(exp, n_runs=n_runs, n_draws=n_draws,
+                                                    seed=seed)
+        expansions[col.name] = exp
+        if col.kind == "scalar":
+            scalars.append((col.name, exp))
+    names, s_mean, s_cov = joint_scalar_moments(scalars)
+    diag: dict[str, object] = {}
+    if not derived:
+        return stats, names, s_mean, s_cov, diag
+    for name, dv in derived.items():
+        missing = [c for c in dv.carriers if c not in expansions]
+        if missing:
+            raise MethodError(f"{label}: output '{name}' is derived from "
+                              f"{', '.join(dv.carriers)}, but the runs have no "
+                              f"{', '.join(missing)}")
+    order = [nm for nm in outputs.scalars if nm in expansions or nm in derived]
+    order += [nm for nm, dv in derived.items() if dv.kind == "scalar" and nm not in order]
+    d_stats, joint, n_invalid = derived_statistics(
+        next(iter(expansions.values())).germ, expansions, derived, scalar_order=order,
+        n_draws=n_draws, seed=seed, n_runs=n_runs)
+    stats.update(d_stats)
+    if joint is not None:
+        names = [s for nm in order for s in scalar_names(nm, stats[nm].mean.shape[-1])]
+        s_mean, s_cov = joint
+        diag["scalar_moments"] = "surrogate-sampling"
+    diag["derived"] = ", ".join(f"{nm} from {'+'.join(dv.carriers)}"
+                                for nm, dv in derived.items())
+    diag["derived_invalid_draws"] = n_invalid
+    return stats, names, s_mean, s_cov, diag

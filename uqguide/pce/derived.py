@@ -1,0 +1,162 @@
+"""Derived outputs: non-smooth functions of smooth outputs, through the surrogate.
+
+A miss distance is the norm of a miss vector; the vector is a smooth function of the inputs, its
+norm has a cone where the vector passes through zero. A polynomial chaos converges fast on the
+vector and slowly, with wild tails, on the norm: on the FTCAPN Table 4 case a 300-run adaptive
+PCE of the closest-approach ZEM itself has a LOO error of 3e-2 and a kurtosis of ~1000 (the Monte
+Carlo value is 3.56), while PCEs of the stop state ``r, v`` reach LOO errors of 1e-4 to 1e-5.
+
+So an output can be *derived*: the model names the smooth outputs it is computed from (its
+*carriers*) and gives the deterministic map; a PCE method fits the carriers and gets the derived
+output's statistics by sampling the carriers' surrogates jointly (same germ draws) and applying
+the map to every draw. The statistics are ``"surrogate-sampling"`` ones (population moments of
+the draws); Sobol' indices are not available for them (``None``).
+
+A draw where the map returns a non-finite value (a surrogate state the map cannot handle) is
+left out and counted.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..stats import OutputStats, _shape_moments
+from .expansion import Expansion
+from .germ import Germ
+
+_U_EPS = 2.0**-53
+_CHUNK = 65_536
+
+
+@dataclass(frozen=True)
+class DerivedOutput:
+    """An output computed from other outputs and the inputs.
+
+    Attributes
+    ----------
+    carriers : tuple of str
+        The (smooth) outputs it is computed from; the model must return them.
+    kind : {"scalar", "series"}
+        Kind of the derived output.
+    function : callable
+        ``function(carriers, inputs) -> y``: ``carriers`` maps each carrier's name to its values
+        ``(n, k_c)`` (scalar) or ``(n, T, k_c)`` (series), ``inputs`` maps each uncertain
+        input's name to its physical values ``(n,)``; ``y`` is ``(n, k)`` or ``(n, T, k)``.
+    """
+
+    carriers: tuple[str, ...]
+    function: Callable[[Mapping[str, np.ndarray], Mapping[str, np.ndarray]], np.ndarray]
+    kind: str = "scalar"
+
+
+@dataclass
+class _Sums:
+    """Shifted power sums of one output's draws (shift: the first chunk's mean)."""
+
+    shift: np.ndarray
+    s: list[np.ndarray]
+    cross: np.ndarray
+    n: int = 0
+
+
+def derived_statistics(
+    germ: Germ, expansions: Mapping[str, Expansion], derived: Mapping[str, DerivedOutput], *,
+    scalar_order: list[str], n_draws: int, seed: int | np.random.SeedSequence, n_runs: int,
+) -> tuple[dict[str, OutputStats], tuple[np.ndarray, np.ndarray] | None, int]:
+    """Statistics of the derived outputs by sampling their carriers' surrogates.
+
+    Parameters
+    ----------
+    germ : Germ
+    expansions : mapping of str to Expansion
+        The fitted outputs, carriers among them.
+    derived : mapping of str to DerivedOutput
+    scalar_order : list of str
+        Names of the scalar outputs (fitted or derived) in the order of the stacked vector;
+        when a derived output is among them, their joint mean and covariance are sampled too.
+    n_draws : int
+    seed : int or SeedSequence
+    n_runs : int
+        Model runs behind the expansions (``n_used``).
+
+    Returns
+    -------
+    stats : dict of str to OutputStats
+    joint : (mean (s,), cov (s, s)) or None
+        The stacked scalars' joint moments, sampled, when ``scalar_order`` has a derived output.
+    n_invalid : int
+        Draws left out because a derived value was not finite.
+    """
+    rng = np.random.default_rng(seed)
+    d = germ.dim
+    joint_wanted = any(nm in derived for nm in scalar_order)
+    sums: dict[str, _Sums] = {}
+    shapes: dict[str, tuple[int, ...]] = {}
+    n_invalid = 0
+    for start in range(0, n_draws, _CHUNK):
+        u = np.clip(rng.random((min(_CHUNK, n_draws - start), d)), _U_EPS, 1 - _U_EPS)
+        xi = germ.from_unit(u)
+        x = germ.to_physical(xi)
+        inputs = {name: x[:, j] for j, name in enumerate(germ.space.names)}
+        values: dict[str, np.ndarray] = {}
+        needed = {c for dv in derived.values() for c in dv.carriers}
+        if joint_wanted:
+            needed |= {nm for nm in scalar_order if nm not in derived}
+        for name in needed:
+            e = expansions[name]
+            values[name] = e.evaluate(xi).reshape((xi.shape[0],) + e.shape)
+        for name, dv in derived.items():
+            y = np.asarray(dv.function({c: values[c] for c in dv.carriers}, inputs), float)
+            values[name] = y if y.ndim > 1 else y[:, None]
+        ok = np.ones(xi.shape[0], dtype=bool)
+        for name in derived:
+            ok &= np.isfinite(values[name].reshape(xi.shape[0], -1)).all(axis=1)
+        n_invalid += int((~ok).sum())
+        groups = {name: values[name][ok] for name in derived}
+        if joint_wanted:
+            groups["\0joint"] = np.concatenate(
+                [values[nm][ok].reshape(int(ok.sum()), -1) for nm in scalar_order], axis=1)
+        for name, y in groups.items():
+            shapes.setdefault(name, y.shape[1:])
+            _accumulate(sums, name, y)
+    stats = {name: _stats(sums[name], shapes[name], n_runs) for name in derived}
+    joint = None
+    if joint_wanted:
+        j = sums["\0joint"]
+        mean = j.shift + j.s[0] / j.n
+        dev = j.s[0] / j.n
+        joint = (mean, j.cross / j.n - np.outer(dev, dev))
+    return stats, joint, n_invalid
+
+
+def _accumulate(sums: dict[str, _Sums], name: str, y: np.ndarray) -> None:
+    """Add draws ``y (n, ..., k)`` to the shifted power sums and the per-step cross products."""
+    if name not in sums:
+        shift = y.mean(axis=0) if y.shape[0] else np.zeros(y.shape[1:])
+        k = y.shape[-1]
+        sums[name] = _Sums(shift, [np.zeros(y.shape[1:]) for _ in range(4)],
+                           np.zeros(y.shape[1:] + (k,)))
+    acc = sums[name]
+    z = y - acc.shift
+    z2 = z * z
+    for i, p in enumerate((z, z2, z2 * z, z2 * z2)):
+        acc.s[i] += p.sum(axis=0)
+    acc.cross += np.einsum("n...i,n...j->...ij", z, z)
+    acc.n += y.shape[0]
+
+
+def _stats(acc: _Sums, shape: tuple[int, ...], n_runs: int) -> OutputStats:
+    n = max(acc.n, 1)
+    s1, s2, s3, s4 = (s / n for s in acc.s)
+    mean = acc.shift + s1
+    mu2 = s2 - s1**2
+    mu3 = s3 - 3 * s1 * s2 + 2 * s1**3
+    mu4 = s4 - 4 * s1 * s3 + 6 * s1**2 * s2 - 3 * s1**4
+    std, skew, kurt = _shape_moments(mean, mu2, mu3, mu4)
+    cov = acc.cross / n - np.einsum("...i,...j->...ij", s1, s1)
+    return OutputStats(mean=mean.reshape(shape), std=std.reshape(shape),
+                       skewness=skew.reshape(shape), kurtosis=kurt.reshape(shape), cov=cov,
+                       n_used=int(n_runs), moments_method="surrogate-sampling")
