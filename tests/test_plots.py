@@ -174,3 +174,16 @@ def test_plot_and_report_commands_on_an_ftcapn_result(write_config, tmp_path):
     assert "## Regression check" in text and "PASS: " in text
     res = runner.invoke(main, ["plot", str(tmp_path / "missing.h5")])
     assert res.exit_code == 2 and "result file not found" in res.stderr
+
+
+def test_single_run_figures_say_there_is_no_spread():
+    cfg = {"model": {"name": "linear_gaussian", "n_times": 5},
+           "inputs": [{"name": "x1", "dist": "normal", "std": 1.0}],
+           "methods": [{"name": "monte_carlo", "label": "nominal", "n_samples": 1}]}
+    r = run(validate_config(cfg))
+    fig = series_figure(r, "ramp", 0)
+    assert "undefined: the std is zero\n(every run agrees)" in _texts(fig)
+    fig = scalar_figure(r, "y")
+    (label,) = [t.get_text() for t in fig.legends[0].get_texts()][:1]
+    assert label.startswith("nominal (MC, 1 run): single value ")
+    assert fig.axes[0].get_ylabel() == "single value (no spread)"

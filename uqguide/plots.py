@@ -61,7 +61,7 @@ def unit_label(unit: str) -> str:
 
 def method_label(r: MethodRun) -> str:
     short = METHOD_SHORT.get(r.estimate.method, r.estimate.method)
-    return f"{r.label} ({short}, {r.n_runs} runs)"
+    return f"{r.label} ({short}, {r.n_runs} run{'' if r.n_runs == 1 else 's'})"
 
 
 def _is_sample(r: MethodRun, output: str) -> bool:
@@ -145,6 +145,10 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
     ax_s.set(title="Standard deviation", ylabel=f"std of {name} {u}")
     ax_g.set(title="Skewness", ylabel=f"skewness of {name} [-]", xlabel="time [s]")
     ax_k.set(title="Kurtosis (non-excess)", ylabel=f"kurtosis of {name} [-]", xlabel="time [s]")
+    for ax in (ax_g, ax_k):
+        if not any(np.isfinite(ln.get_ydata()).any() for ln in ax.get_lines()[:-1]):
+            ax.text(0.5, 0.6, "undefined: the std is zero\n(every run agrees)",
+                    transform=ax.transAxes, ha="center", va="center", color="dimgrey")
     for ax in (ax_m, ax_s, ax_g, ax_k):
         ax.grid(True, alpha=0.3)
         ax.set_xlim(t[0] - 0.01 * span, t[-1] + 0.03 * span)
@@ -250,7 +254,12 @@ def scalar_figure(result: Result, output: str) -> Figure:
             st = styles[r.label]
             text = _stats_text(float(s.mean[c]), float(s.std[c]), float(s.skewness[c]),
                                float(s.kurtosis[c]))
-            if r.label in samples:
+            if r.label in samples and np.ptp(samples[r.label]) == 0:
+                # One run, or runs that all agree: a histogram of one value says nothing.
+                ax.axvline(samples[r.label][0], color=st["color"], lw=st["lw"], ls=st["ls"],
+                           label=f"{method_label(r)}: single value "
+                                 f"{samples[r.label][0]:.4g} (no spread)")
+            elif r.label in samples:
                 y = samples[r.label]
                 bins = _bins(y, lo, hi)
                 if r.label == ref:
@@ -270,6 +279,9 @@ def scalar_figure(result: Result, output: str) -> Figure:
                if o.unit not in ("", "1", "-") else "probability density [-]",
                title=name if k > 1 else None, xlim=(lo, hi))
         ax.grid(True, alpha=0.3)
+        if samples and not draws and not densities and \
+                all(np.ptp(y) == 0 for y in samples.values()):
+            ax.set(ylabel="single value (no spread)", yticks=[])
         if outside:
             ax.text(0.99, 0.97, f"{outside} samples outside the axis\n(0.1-99.9% quantiles shown)",
                     transform=ax.transAxes, ha="right", va="top", fontsize=8, color="dimgrey")
