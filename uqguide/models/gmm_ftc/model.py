@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -54,6 +54,8 @@ from .target import target_geometry, target_mixture
 log = logging.getLogger(__name__)
 
 Vec3 = tuple[float, float, float]
+Positive = Annotated[float, Field(gt=0.0)]
+PosVec3 = tuple[Positive, Positive, Positive]
 XYZ = ("x", "y", "z")
 PARTS = ("body", "panel+x", "panel-x", "antenna+y", "antenna-y")
 
@@ -149,16 +151,18 @@ class GMMFTCParams(ModelParams):
     v0: Vec3 = Field((0.0, 0.0, 0.0), description="initial body-frame velocity [m/s] "
                      "(co-rotating start, A35)")
     r_f: Vec3 = Field((2.0, 1.0, 0.0), description="goal, body frame [m] (at rest)")
-    # GMM-FTC gains, [C] Table 3
-    alpha1: Vec3 = (0.3, 0.3, 0.3)
-    beta1: Vec3 = (0.01, 0.01, 0.01)
-    zeta1: float = Field(0.6, gt=0.0, lt=1.0)
-    zeta2: float = Field(1.5, gt=1.0)
-    lambda1: Vec3 = (0.05, 0.05, 0.05)
-    lambda2: Vec3 = (0.01, 0.01, 0.01)
-    k_s: Vec3 = (3e-4, 1e-4, 1e-4)
-    M: Vec3 = Field((0.6, 0.6, 0.4), description="repulsion gain, diagonal")
-    P: Vec3 = Field((0.8, 0.8, 0.8), description="attraction gain, diagonal")
+    # GMM-FTC gains, [C] Table 3 (diagonal matrices as 3-vectors)
+    alpha1: PosVec3 = Field((0.3, 0.3, 0.3), description="s1 linear gain, diagonal [1/s]")
+    beta1: PosVec3 = Field((0.01, 0.01, 0.01), description="s1 cubic gain, diagonal "
+                           "[1/(m^2 s)]")
+    zeta1: float = Field(0.6, gt=0.0, lt=1.0, description="reaching-law exponent < 1")
+    zeta2: float = Field(1.5, gt=1.0, description="reaching-law exponent > 1")
+    lambda1: PosVec3 = Field((0.05, 0.05, 0.05), description="gain of sig^zeta1(s2), diagonal")
+    lambda2: PosVec3 = Field((0.01, 0.01, 0.01), description="gain of sig^zeta2(s2), diagonal")
+    k_s: PosVec3 = Field((3e-4, 1e-4, 1e-4), description="weight of the potential gradient in "
+                         "s1, diagonal")
+    M: PosVec3 = Field((0.6, 0.6, 0.4), description="repulsion gain, diagonal")
+    P: PosVec3 = Field((0.8, 0.8, 0.8), description="attraction gain, diagonal")
     # target shape
     gmm: Literal["published", "fitted"] = Field(
         "published", description="'published': [C] Table 2; 'fitted': the shipped EM fit")
