@@ -28,7 +28,7 @@ from .expansion import Expansion
 from .germ import Germ
 
 _U_EPS = 2.0**-53
-_CHUNK = 65_536
+_CHUNK_FLOATS = 2**22  # draws per chunk x values per draw: about 32 MB per array
 
 
 @dataclass(frozen=True)
@@ -96,8 +96,11 @@ def derived_statistics(
     sums: dict[str, _Sums] = {}
     shapes: dict[str, tuple[int, ...]] = {}
     n_invalid = 0
-    for start in range(0, n_draws, _CHUNK):
-        u = np.clip(rng.random((min(_CHUNK, n_draws - start), d)), _U_EPS, 1 - _U_EPS)
+    width = sum(e.n_columns for e in expansions.values()) + sum(
+        expansions[c].n_columns for dv in derived.values() for c in dv.carriers)
+    chunk = max(256, _CHUNK_FLOATS // max(width, 1))
+    for start in range(0, n_draws, chunk):
+        u = np.clip(rng.random((min(chunk, n_draws - start), d)), _U_EPS, 1 - _U_EPS)
         xi = germ.from_unit(u)
         x = germ.to_physical(xi)
         inputs = {name: x[:, j] for j, name in enumerate(germ.space.names)}
