@@ -159,7 +159,8 @@ def test_plot_and_report_commands_on_an_ftcapn_result(write_config, tmp_path):
     res = runner.invoke(main, ["plot", str(h5)])
     assert res.exit_code == 0, res.output
     written = [Path(line[6:]) for line in res.output.splitlines()]
-    assert [p.name for p in written] == ["ft_omega_s.png", "ft_zem_hist.png", "ft_cost.png"]
+    # figures follow the config's output order (zem, then omega_s), then the cost table
+    assert [p.name for p in written] == ["ft_zem_hist.png", "ft_omega_s.png", "ft_cost.png"]
     assert all(p.parent == tmp_path / "figures" and p.is_file() for p in written)
     b = tmp_path / "b.json"
     assert runner.invoke(main, ["baseline", str(h5), "-o", str(b)]).exit_code == 0

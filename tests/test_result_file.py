@@ -33,6 +33,7 @@ def test_round_trip_is_exact_and_keeps_method_order(result, tmp_path):
     path = write_hdf5(result, tmp_path / "r.h5")
     back = read_hdf5(path)
     assert [r.label for r in back.runs] == ["mc_b", "mc_a"]
+    assert [o.name for o in back.outputs] == ["y", "ramp"]  # config order, not alphabetical
     assert back.reference == "mc_b" and back.model == "linear_gaussian"
     np.testing.assert_array_equal(back.time, result.time)
     for a, b in zip(result.runs, back.runs):

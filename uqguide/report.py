@@ -137,7 +137,7 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}" if (a == 0 or 1e-3 <= a < 1e5) else f"{v:.3e}"
 
 
-def _wide(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
+def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
     """One row per (time, component, label); a column per statistic with its interval."""
     rows = []
     keys = ["time", "component", "label"]
@@ -180,7 +180,7 @@ def render_text(result: Result) -> str:
             continue
         kind = "at report times" if o.kind == "series" else "(scalar)"
         parts += ["", f"{o.name} [{o.unit}] {kind}: {o.description}",
-                  _wide(sub, with_ref).to_string(index=False)]
+                  wide_table(sub, with_ref).to_string(index=False)]
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
@@ -215,7 +215,7 @@ def render_markdown(result: Result) -> str:
         sub = stats[stats["output"] == o.name]
         if not sub.empty:
             parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
-                      to_markdown(_wide(sub, with_ref))]
+                      to_markdown(wide_table(sub, with_ref))]
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", "## Series agreement with the reference", "", to_markdown(agree)]

@@ -20,7 +20,7 @@ import yaml
 
 from .gate import CheckReport
 from .plots import FigureFile, write_figures
-from .report import _wide, cost_table, series_agreement, statistics_table, to_markdown
+from .report import wide_table, cost_table, series_agreement, statistics_table, to_markdown
 from .result import Result
 
 log = logging.getLogger(__name__)
@@ -112,7 +112,7 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
                 parts += ["", _img(f.path, base, alt)]
         head = "Statistics at the report times and the last step:" if o.kind == "series" \
             else "Statistics:"
-        parts += ["", head, "", to_markdown(_wide(sub, with_ref))]
+        parts += ["", head, "", to_markdown(wide_table(sub, with_ref))]
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", f"## Series over the whole grid against `{result.reference}`", "",

@@ -184,6 +184,7 @@ def write_hdf5(result: Result, path: str | Path) -> Path:
             f.attrs["versions_json"] = json.dumps(result.provenance.get("versions", {}))
             # HDF5 lists groups alphabetically: keep the config's method order explicitly.
             f.attrs["method_order"] = json.dumps([r.label for r in result.runs])
+            f.attrs["output_order"] = json.dumps([o.name for o in result.outputs])
             f.create_dataset("time", data=result.time)
             f.create_dataset("inputs/names", data=np.array(result.input_names, dtype="S"))
             if result.report_times:
@@ -246,11 +247,12 @@ def read_hdf5(path: str | Path) -> Result:
             if int(f.attrs.get("format", -1)) != FORMAT:
                 raise ResultError(f"{path}: not a uqguide result file (format "
                                   f"{f.attrs.get('format')!r}, expected {FORMAT})")
+            out_order = json.loads(f.attrs.get("output_order", "[]")) or list(f["outputs"])
             outputs = [
                 OutputInfo(name, str(g.attrs["kind"]), str(g.attrs["unit"]),  # type: ignore[arg-type]
                            str(g.attrs["description"]),
                            tuple(json.loads(g.attrs["components"])))
-                for name, g in f["outputs"].items()
+                for name, g in ((n, f["outputs"][n]) for n in out_order)
             ]
             runs = []
             order = json.loads(f.attrs.get("method_order", "[]")) or list(f["methods"])
