@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 import signal
 import threading
 import time
@@ -340,6 +341,14 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _init_worker(threads: int) -> None:
+    """Worker start: ignore SIGINT and cap compiled kernels' threads at the worker's share of
+    the cores (N workers each running an all-core numba kernel would oversubscribe the machine).
+    Numba reads the variable when first imported, which in a spawned worker is after this."""
+    _ignore_sigint()
+    os.environ.setdefault("NUMBA_NUM_THREADS", str(threads))
+
+
 @contextmanager
 def _sigint_ignored() -> Iterator[None]:
     """Ignore SIGINT while worker processes are started, so they inherit the ignore from birth
@@ -422,8 +431,9 @@ class ProcessExecutor(_WindowedExecutor):
 
     def _get_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
+            threads = max(1, (os.cpu_count() or 1) // self.workers)
             self._pool = ProcessPoolExecutor(self.workers, mp_context=self._ctx,
-                                             initializer=_ignore_sigint)
+                                             initializer=_init_worker, initargs=(threads,))
         return self._pool
 
     def _rebuild(self) -> None:
