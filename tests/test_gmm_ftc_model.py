@@ -198,7 +198,6 @@ def test_spin_rate_knowledge_error_leaves_an_offset():
     assert e_known[0, 0] < 1e-4 < e_unknown[0, 0]
 
 
-@pytest.mark.slow
 def test_model_variants_change_the_path_as_the_spec_reports():
     """Spec 11: the controller using the printed [C 7] moves the path by 1.2e-3 m, the 2pi
     normaliser by 1.2e-7 m, dropping the GMM (k_s -> 0) by 6.6e-4 m (one significant digit);

@@ -186,10 +186,6 @@ def run_closed_loop(
     rec_s2 = np.empty((n, T))
     rec_dv = np.empty((n, T))
 
-    def last_time(last_bad: np.ndarray) -> np.ndarray:
-        # first sample time after the last violation; t_final when violated at the end
-        return np.minimum((last_bad + 1) * dt, st.t_final)
-
     P = len(geometry.parts)
     s_lo, s_hi = geometry.skeleton_lo, geometry.skeleton_hi
     c_lo, c_hi = geometry.collision_lo, geometry.collision_hi
@@ -310,16 +306,43 @@ def run_closed_loop(
         log.warning("%d non-finite GMM-FTC commands were replaced by 0", int(n_bad.sum()))
     if n_guarded.any():
         log.info("singular I + k_s H guarded %d times", int(n_guarded.sum()))
+    scalars = scalar_results(
+        bad={"bad_e": bad_e, "bad_settle": bad_settle, "bad_v": bad_v, "bad_s2": bad_s2,
+             "bad_speed": bad_speed, "bad_u": bad_u},
+        dt=dt, t_final=st.t_final, n_steps=N, pos_final=pos_final, speed_final=speed_final,
+        speed_max=speed_max, speed_axes=speed_axes, u_max=u_max, u_conv=u_conv, u_lo=u_lo, u_hi=u_hi,
+        u_last=rec["u"][:, -1], delta_v=delta_v, clearance=clearance, penetration=penetration,
+        hits=hits, range_min=range_min, n_guarded=n_guarded.astype(float),
+        n_nonfinite=n_bad.astype(float))
+    return LoopRun(time=np.arange(T) * dt * st.record_every, goal=law.r_f, s2=rec_s2,
+                   dv_cum=rec_dv, scalars=scalars, failed=failed, **rec)
+
+
+
+def scalar_results(*, bad: dict[str, np.ndarray], dt: float, t_final: float, n_steps: int,
+                   pos_final: np.ndarray, speed_final: np.ndarray, speed_max: np.ndarray,
+                   speed_axes: np.ndarray, u_max: np.ndarray, u_conv: np.ndarray,
+                   u_lo: np.ndarray, u_hi: np.ndarray, u_last: np.ndarray,
+                   delta_v: np.ndarray, clearance: np.ndarray, penetration: np.ndarray,
+                   hits: np.ndarray, range_min: np.ndarray, n_guarded: np.ndarray,
+                   n_nonfinite: np.ndarray) -> dict[str, np.ndarray]:
+    """The ``scalars`` of a :class:`LoopRun` from the per-sample accumulators (both kernels).
+
+    ``bad`` holds, per threshold, the index of the last control step that violated it (-1:
+    none); the time after which it holds is the next sample time, ``t_final`` when violated at
+    the end (censored).
+    """
+    t = {k: np.minimum((np.asarray(v) + 1) * dt, t_final) for k, v in bad.items()}
+    converged = np.asarray(bad["bad_e"]) < n_steps
     span = np.where(np.isfinite(u_hi - u_lo), u_hi - u_lo, np.nan)
-    converged = bad_e < N
-    scalars = {
-        "t_converge": last_time(bad_e),
+    return {
+        "t_converge": t["bad_e"],
         "converged": converged.astype(float),
-        "t_settle": last_time(bad_settle),
-        "t_converge_vel": last_time(bad_v),
-        "t_reach_s2": last_time(bad_s2),
-        "t_speed_below": last_time(bad_speed),
-        "t_u_below": last_time(bad_u),
+        "t_settle": t["bad_settle"],
+        "t_converge_vel": t["bad_v"],
+        "t_reach_s2": t["bad_s2"],
+        "t_speed_below": t["bad_speed"],
+        "t_u_below": t["bad_u"],
         "pos_error_final": pos_final,
         "speed_final": speed_final,
         "speed_max": speed_max,
@@ -327,7 +350,7 @@ def run_closed_loop(
         "u_max": u_max,
         "u_max_converged": np.where(converged, u_conv, np.nan),
         "u_spread_final": np.linalg.norm(span, axis=1),
-        "u_final": np.linalg.norm(rec["u"][:, -1], axis=1),
+        "u_final": np.linalg.norm(u_last, axis=1),
         "delta_v": delta_v,
         "clearance_parts": clearance,
         "min_clearance": clearance.min(axis=1),
@@ -335,8 +358,6 @@ def run_closed_loop(
         "hits": hits,
         "collided": hits.any(axis=1).astype(float),
         "range_min": range_min,
-        "n_guarded": n_guarded.astype(float),
-        "n_nonfinite": n_bad.astype(float),
+        "n_guarded": n_guarded,
+        "n_nonfinite": n_nonfinite,
     }
-    return LoopRun(time=np.arange(T) * dt * st.record_every, goal=law.r_f, s2=rec_s2, dv_cum=rec_dv,
-                   scalars=scalars, failed=failed, **rec)

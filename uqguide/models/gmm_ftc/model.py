@@ -187,6 +187,9 @@ class GMMFTCParams(ModelParams):
         "true", description="spin rate in the controller's model: the actual one or spin_rate")
     controller_model: Literal["corrected", "printed"] = Field(
         "corrected", description="body-frame model the controller cancels (A20)")
+    kernel: Literal["auto", "numpy", "numba"] = Field(
+        "auto", description="'numba' (compiled), 'numpy' (reference) or 'auto' (numba when "
+                            "importable)")
     # claim thresholds, [C] 4.2
     converge_tol: float = Field(1e-4, gt=0.0, description="position convergence [m]")
     settle_tol: float = Field(1e-2, gt=0.0, description="coarse position settling [m] "
@@ -278,8 +281,9 @@ class GMMFTC(Model):
             noise_keys = noise.sample_keys(p.noise_seed, np.stack(list(col.values()), axis=1))
         geometry = target_geometry(p.panel_half_thickness, p.antenna_half_width,
                                    p.body_tolerance)
-        return run_closed_loop(plant, controller_plant, self.law(), geometry, x0, st,
-                               thrust_scale=scale, noise_keys=noise_keys)
+        runner = _resolve_kernel(p.kernel)
+        return runner(plant, controller_plant, self.law(), geometry, x0, st,
+                      thrust_scale=scale, noise_keys=noise_keys)
 
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]
                   ) -> ModelOutput:
@@ -296,6 +300,20 @@ class GMMFTC(Model):
         from ...plotting.gmm_ftc import nominal_figures
 
         return nominal_figures(self, out_dir)
+
+
+def _resolve_kernel(name: str):
+    """The closed-loop runner: the compiled kernel or the NumPy reference."""
+    if name in ("auto", "numba"):
+        try:
+            from .kernel_numba import run_closed_loop_numba
+        except ImportError:
+            if name == "numba":
+                raise
+            log.info("numba not importable: using the NumPy GMM-FTC closed loop")
+        else:
+            return run_closed_loop_numba
+    return run_closed_loop
 
 
 def los_rate(r: np.ndarray, v: np.ndarray) -> np.ndarray:
