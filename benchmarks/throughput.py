@@ -149,7 +149,7 @@ def format_table(rows: list[dict[str, Any]]) -> str:
     lines = [head, "-" * len(head)]
     for r in rows:
         lines.append(
-            f"{r['label']:<24} {r['model']:<12} {r['batch']:>8d} {r['samples_per_s']:>10.0f} "
+            f"{r['label']:<24} {r['model']:<12} {r['batch']:>8d} {r['samples_per_s']:>10.4g} "
             f"{r['runs']:>8d} {r['failed']:>6d} {r['sim_s']:>7.3f} {r['stats_s']:>7.3f} "
             f"{r['wall_s']:>7.3f} {r['cpu_s']:>7.3f} {r['peak_mb']:>8.1f}")
     return "\n".join(lines)
