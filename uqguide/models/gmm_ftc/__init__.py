@@ -2,7 +2,8 @@
 
 ``target`` holds the target's geometry, point cloud and GMMs (published Table 2, shipped fit),
 ``law`` the fixed-time controller (eqs 20-31, eq 36 bound), ``closed_loop`` the sampled-data
-simulation with its metrics, ``noise`` the keyed thruster-error streams, ``model`` the
+simulation with its metrics (NumPy reference), ``kernel_numba`` the same loop compiled,
+``noise`` the keyed thruster-error streams, ``model`` the
 registered model and ``report`` the nominal scenario beside the paper.
 """
 

@@ -1,5 +1,8 @@
 """Sampled-data GMM-FTC closed loop around the spinning target, vectorised over a batch.
 
+This NumPy loop is the reference implementation; :mod:`.kernel_numba` runs the same
+arithmetic compiled (the model's default) and is tested against it.
+
 Spec section 8 with the [C] settings: at ``t_k = k dt`` (``dt = 0.1 s``, [C] 4.2) the law
 computes ``u_k`` from the sampled body-frame state and the plant matrices at ``t_k``; the thrust
 is corrupted (per-sample per-axis scale, per-period +-5 % noise) and held over
