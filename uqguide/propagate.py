@@ -125,6 +125,8 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         The estimate, the runs' inputs, scalar outputs and failure mask, and the wall times.
     """
     executor = executor or SerialExecutor()
+    requested = outputs
+    outputs = _attach_derivations(method, model, outputs)
     bs = executor.batch_size or batch_size or DEFAULT_BATCH_SIZE
     progress = progress or Progress()
     timing = Timing()
@@ -159,10 +161,12 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     else:
         estimate = method.estimate_reduced(space, design, out, acc)
     fit_seconds = time.perf_counter() - t_fit
+    # carriers evaluated only for a derivation are not part of the result
+    estimate.stats = {k: v for k, v in estimate.stats.items() if k in requested}
     return MethodRun(
         estimate=estimate,
         x=design.x,
-        scalars=dict(out.scalars),
+        scalars={k: v for k, v in out.scalars.items() if k in requested},
         failed=out.failed,
         reasons=out.reasons,
         time=out.time,
@@ -171,6 +175,23 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         fit_seconds=fit_seconds,
         wall_seconds=time.perf_counter() - t_start,
     )
+
+
+def _attach_derivations(method: Method, model: Model, outputs: tuple[str, ...]
+                        ) -> tuple[str, ...]:
+    """Give a surrogate method the model's derivations of the requested outputs.
+
+    A method that can use them has a ``derived_outputs`` attribute (the PCE methods): it fits
+    the carriers and gets the derived output through their surrogates. The carriers are then
+    evaluated too; the returned tuple is the outputs to evaluate. Sampling methods use the
+    model's own values and are left alone.
+    """
+    if not hasattr(method, "derived_outputs"):
+        return outputs
+    derived = {k: d for k, d in model.derived_outputs().items() if k in outputs}
+    method.derived_outputs = derived  # type: ignore[attr-defined]
+    carriers = [c for d in derived.values() for c in d.carriers if c not in outputs]
+    return outputs + tuple(dict.fromkeys(carriers))
 
 
 def _appended_rows(old: Design, new: Design) -> np.ndarray:

@@ -18,7 +18,7 @@ A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class, ``
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar, Literal
 
@@ -152,6 +152,31 @@ class ModelOutput:
 
 
 @dataclass(frozen=True)
+class DerivedOutput:
+    """How a model computes a non-smooth output from smooth ones (its *carriers*).
+
+    A miss distance is the norm of a miss vector: the vector is smooth in the inputs, its norm
+    has a cone where the vector passes through zero, on which a polynomial surrogate converges
+    badly. A surrogate method may fit the carriers instead and apply ``function`` to draws of
+    their surrogates (:mod:`uqguide.pce.derived`); sampling methods just use the model's value.
+
+    Attributes
+    ----------
+    carriers : tuple of str
+        The (smooth) outputs it is computed from; the model must offer them.
+    function : callable
+        ``function(carriers, inputs) -> y``: ``carriers`` maps each carrier's name to its values
+        ``(n, k_c)`` (scalar) or ``(n, T, k_c)`` (series), ``inputs`` maps each uncertain
+        input's name to its physical values ``(n,)``; ``y`` is ``(n, k)`` or ``(n, T, k)``.
+    kind : {"scalar", "series"}
+    """
+
+    carriers: tuple[str, ...]
+    function: Callable[[Mapping[str, np.ndarray], Mapping[str, np.ndarray]], np.ndarray]
+    kind: str = "scalar"
+
+
+@dataclass(frozen=True)
 class ReportRow:
     """One line of a nominal run's report: the model's figure beside the paper's.
 
@@ -229,6 +254,10 @@ class Model(ABC):
         """Run the nominal (deterministic) scenario and report its headline figures beside the
         paper's (``uqguide simulate``). Models without a paper scenario do not override this."""
         raise NotImplementedError(f"model '{self.name}' has no nominal scenario to report")
+
+    def derived_outputs(self) -> Mapping[str, DerivedOutput]:
+        """Outputs this model computes from smoother carrier outputs (default: none)."""
+        return {}
 
     def nominal_figures(self, out_dir: str) -> list[str]:
         """Write the nominal scenario's figures (PNG) into ``out_dir``; return their paths."""

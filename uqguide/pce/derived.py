@@ -23,33 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..models.base import DerivedOutput
 from ..stats import OutputStats, _shape_moments
 from .expansion import Expansion
 from .germ import Germ
 
 _U_EPS = 2.0**-53
 _CHUNK_FLOATS = 2**22  # draws per chunk x values per draw: about 32 MB per array
-
-
-@dataclass(frozen=True)
-class DerivedOutput:
-    """An output computed from other outputs and the inputs.
-
-    Attributes
-    ----------
-    carriers : tuple of str
-        The (smooth) outputs it is computed from; the model must return them.
-    kind : {"scalar", "series"}
-        Kind of the derived output.
-    function : callable
-        ``function(carriers, inputs) -> y``: ``carriers`` maps each carrier's name to its values
-        ``(n, k_c)`` (scalar) or ``(n, T, k_c)`` (series), ``inputs`` maps each uncertain
-        input's name to its physical values ``(n,)``; ``y`` is ``(n, k)`` or ``(n, T, k)``.
-    """
-
-    carriers: tuple[str, ...]
-    function: Callable[[Mapping[str, np.ndarray], Mapping[str, np.ndarray]], np.ndarray]
-    kind: str = "scalar"
 
 
 @dataclass

@@ -34,7 +34,8 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from ..base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo, ReportRow
+from ..base import (DerivedOutput, InputInfo, Model, ModelOutput, ModelParams, OutputInfo,
+                    ReportRow)
 from ..dynamics.hill import MU_EARTH, mean_motion
 from . import layout as L
 from .drift import miss_hill, miss_parabola
@@ -208,6 +209,31 @@ class FTCAPN(Model):
             raise ValueError("the nominal initial LOS rate is zero: e_theta, e_w undefined")
         ew = w / np.linalg.norm(w)
         return np.stack([np.cross(ew, er), er, ew])
+
+    def derived_outputs(self) -> dict[str, DerivedOutput]:
+        """``zem`` and ``zem_eq15`` from the stop state ``r_at_stop, v_at_stop`` (and the target
+        maneuver inputs): both are non-smooth functions (a norm, an absolute value) of a smooth
+        state, so a surrogate method fits the state and applies these maps to its draws."""
+        frame = self.initial_los_frame()
+        gravity, n_mean = self.params.gravity, self.mean_motion
+
+        def zem(carriers: Mapping[str, np.ndarray], inputs: Mapping[str, np.ndarray]):
+            r, v = carriers["r_at_stop"], carriers["v_at_stop"]
+            at = np.stack([np.broadcast_to(inputs.get(k, 0.0), (r.shape[0],))
+                           for k in ("at_theta", "at_r", "at_w")], axis=1) @ frame
+            miss = miss_hill(r, v, at, n_mean)[0] if gravity == "hill" \
+                else miss_parabola(r, v, at)[0]
+            return miss[:, None]
+
+        def zem_eq15(carriers: Mapping[str, np.ndarray], inputs: Mapping[str, np.ndarray]):
+            r, v = carriers["r_at_stop"], carriers["v_at_stop"]
+            R = np.linalg.norm(r, axis=1)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                rdot = np.einsum("ij,ij->i", r, v) / R
+                return (np.linalg.norm(np.cross(r, v), axis=1) / np.abs(rdot))[:, None]
+
+        carriers = ("r_at_stop", "v_at_stop")
+        return {"zem": DerivedOutput(carriers, zem), "zem_eq15": DerivedOutput(carriers, zem_eq15)}
 
     @property
     def t_final(self) -> float:
