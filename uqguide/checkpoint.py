@@ -206,7 +206,10 @@ class RunStore:
     # -------------------------------------------------------------- chunks
     @property
     def n_done(self) -> int:
-        return len(self._entries)
+        """Chunks listed in the manifest on disk: what a resume will find. Read from the file,
+        not the in-memory list, because an interrupt can land between a chunk's manifest line
+        and its bookkeeping here."""
+        return len(_read_manifest(self.path / MANIFEST)[1])
 
     def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
         """The stored result of a chunk, or None when it is not (validly) stored."""
