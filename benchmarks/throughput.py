@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import subprocess
 import sys
 import time
 import tracemalloc
@@ -163,6 +164,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="override a model parameter (YAML value), e.g. kernel=numpy")
     ap.add_argument("--bootstrap", type=int, default=BOOTSTRAP, help="bootstrap resamples")
     ap.add_argument("--no-memory", action="store_true", help="do not trace memory")
+    ap.add_argument("--no-scale", action="store_true",
+                    help="skip the 1e6-sample FTCAPN runs on 1 and 2 processes (benchmarks/scale.py)")
     args = ap.parse_args(argv)
     overrides = {}
     for item in args.param:
@@ -180,6 +183,11 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(run_case(case, n, bootstrap=args.bootstrap, memory=not args.no_memory))
             print(format_table(rows[-1:]).splitlines()[-1], file=sys.stderr, flush=True)
     print(format_table(rows))
+    if not args.no_scale and (not args.model or "ftcapn" in args.model):
+        # The campaign-scale figures (1e6 samples: wall time, peak memory, 2-process speed-up)
+        # run in fresh processes so their memory peaks are their own.
+        print("", flush=True)
+        subprocess.run([sys.executable, str(Path(__file__).with_name("scale.py"))], check=False)
     return 0
 
 
