@@ -40,7 +40,7 @@ def test_cases_modules_are_discovered(tp, tmp_path, monkeypatch):
 
 
 def test_command_line_filters_and_overrides(tp, capsys):
-    assert tp.main(["--model", "ftcapn", "--batches", "32", "--param", "kernel=numpy",
+    assert tp.main(["--no-scale", "--model", "ftcapn", "--batches", "32", "--param", "kernel=numpy",
                     "--bootstrap", "0", "--no-memory"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert len(out) == 3 and out[2].split()[:3] == ["ftcapn", "table3", "ftcapn"]
