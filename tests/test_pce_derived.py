@@ -43,9 +43,10 @@ N_DRAWS = 200_000
 
 
 def _rayleigh_reference():
-    """Rayleigh(1) moments and the standard errors of their estimators from N_DRAWS draws
-    (skewness / kurtosis: sqrt(Var(Z^3) / n), sqrt(Var(Z^4) / n) of the standardised Z, which
-    ignores the estimated normalisation and so overstates the error a little)."""
+    """Rayleigh(1) moments and the standard errors of their estimators from N_DRAWS random
+    draws (skewness / kurtosis: sqrt(Var(Z^3) / n), sqrt(Var(Z^4) / n) of the standardised Z,
+    which ignores the estimated normalisation and so overstates the error a little). The
+    methods draw scrambled Sobol' points, whose errors are smaller still: a bound."""
     r = sps.rayleigh()
     m, s = r.mean(), r.std()
     z = [r.expect(lambda v, k=k: ((v - m) / s) ** k) for k in range(9)]

@@ -86,7 +86,10 @@ class AdaptivePCESettings(MethodSettings):
         Hyperbolic truncation ``||alpha||_q <= p`` (paper: 0.5; 1 is total degree).
     target_loo : float
         Corrected LOO error (relative to the variance) at which the degree search and the
-        enrichment stop. 1e-5: the surrogate leaves 0.001% of the variance unexplained.
+        enrichment stop. 1e-8 by default: raising the degree costs no model run, so the search
+        normally runs until the error rises (only nearly polynomial outputs reach 1e-8), and
+        a given budget is spent unless the output is that smooth. A looser target (1e-4:
+        0.01% of the variance unexplained) saves runs where second moments are enough.
     max_runs : int, optional
         Budget of model runs, enrichment included (default: ``n_samples``, no enrichment).
     enrich : bool
@@ -102,7 +105,7 @@ class AdaptivePCESettings(MethodSettings):
     degree_min: int = Field(default=2, ge=1, le=30)
     degree_max: int = Field(default=6, ge=1, le=30)
     q_norm: float = Field(default=0.5, gt=0.0, le=1.0)
-    target_loo: float = Field(default=1e-5, gt=0.0, lt=1.0)
+    target_loo: float = Field(default=1e-8, gt=0.0, lt=1.0)
     max_runs: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000)
     enrich: bool = True
     variance_fraction: float = Field(default=0.9999, gt=0.0, le=1.0)

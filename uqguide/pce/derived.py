@@ -9,8 +9,10 @@ Carlo value is 3.56), while PCEs of the stop state ``r, v`` reach LOO errors of 
 So an output can be *derived*: the model names the smooth outputs it is computed from (its
 *carriers*) and gives the deterministic map; a PCE method fits the carriers and gets the derived
 output's statistics by sampling the carriers' surrogates jointly (same germ draws) and applying
-the map to every draw. The statistics are ``"surrogate-sampling"`` ones (population moments of
-the draws); Sobol' indices are not available for them (``None``).
+the map to every draw (``n_draws`` scrambled Sobol' germ points, as
+:func:`uqguide.pce.moments.central_moments_sampled`). The statistics are
+``"surrogate-sampling"`` ones (population moments of the draws); Sobol' indices are not
+available for them (``None``).
 
 A draw where the map returns a non-finite value (a surrogate state the map cannot handle) is
 left out and counted.
@@ -25,10 +27,10 @@ import numpy as np
 
 from ..models.base import DerivedOutput
 from ..stats import OutputStats, _shape_moments
+from .design import sobol_draws
 from .expansion import Expansion
 from .germ import Germ
 
-_U_EPS = 2.0**-53
 _CHUNK_FLOATS = 2**22  # draws per chunk x values per draw: about 32 MB per array
 
 
@@ -70,7 +72,6 @@ def derived_statistics(
     n_invalid : int
         Draws left out because a derived value was not finite.
     """
-    rng = np.random.default_rng(seed)
     d = germ.dim
     joint_wanted = any(nm in derived for nm in scalar_order)
     sums: dict[str, _Sums] = {}
@@ -79,8 +80,7 @@ def derived_statistics(
     width = sum(e.n_columns for e in expansions.values()) + sum(
         expansions[c].n_columns for dv in derived.values() for c in dv.carriers)
     chunk = max(256, _CHUNK_FLOATS // max(width, 1))
-    for start in range(0, n_draws, chunk):
-        u = np.clip(rng.random((min(chunk, n_draws - start), d)), _U_EPS, 1 - _U_EPS)
+    for u in sobol_draws(d, n_draws, seed, chunk):
         xi = germ.from_unit(u)
         x = germ.to_physical(xi)
         inputs = {name: x[:, j] for j, name in enumerate(germ.space.names)}

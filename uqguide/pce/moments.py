@@ -6,12 +6,13 @@
 
   * ``"exact"``: a Gauss rule of ``2 p_j + 1`` nodes in every germ variable ``j`` the expansion
     uses (``p_j`` its largest degree there) integrates ``(y - mean)^4``, of degree ``4 p_j``,
-    exactly; chosen when that tensor grid has at most ``max_exact_points`` nodes (d = 7 inputs
-    of degree 1 need 3^7 = 2187 nodes, 3 inputs of degree 6 need 13^3 = 2197);
-  * ``"surrogate-sampling"``: otherwise the surrogate is sampled with ``n_draws`` fixed-seed germ
-    draws (default 10^6; cheap, the surrogate is a polynomial), and skewness / kurtosis are the
-    population estimators of those draws. Their sampling error is that of ``n_draws`` samples
-    of the surrogate (about ``sqrt(6 / n_draws)`` for a near-Gaussian skewness).
+    exactly; chosen when that tensor grid has at most ``max_exact_points`` nodes (default
+    2^20; 7 inputs of degree 1 need 3^7 = 2187 nodes, 3 inputs of degree 6 need 13^3 = 2197);
+  * ``"surrogate-sampling"``: otherwise the surrogate is sampled at ``n_draws`` (rounded up to a
+    power of two; default 10^6 -> 2^20) fixed-seed scrambled Sobol' germ points (cheap, the
+    surrogate is a polynomial), and skewness / kurtosis are the population estimators of those
+    draws. Being quasi-random, their error is far below the ``sqrt(6 / n_draws)`` of a random
+    sample of a near-Gaussian skewness.
 
 - Sobol' indices from the coefficients: first order of input i: the variance of the terms in
   ``xi_i`` alone; total: of all terms involving ``xi_i`` (Sudret 2008).
@@ -26,10 +27,10 @@ import numpy as np
 
 from ..stats import OutputStats, _shape_moments
 from . import basis
+from .design import sobol_draws
 from .expansion import Expansion
 from .quadrature import gauss_rule
 
-_U_EPS = 2.0**-53
 _CHUNK_FLOATS = 2**22  # rows per chunk x (terms + columns) stay near 32 MB
 
 EXACT, SAMPLED = "exact", "surrogate-sampling"
@@ -90,19 +91,20 @@ def central_moments_exact(exp: Expansion) -> tuple[np.ndarray, np.ndarray, np.nd
 def central_moments_sampled(
     exp: Expansion, n_draws: int, seed: int | np.random.SeedSequence
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Central moments 2-4 ``(m,)`` of ``n_draws`` fixed-seed surrogate samples (population).
+    """Central moments 2-4 ``(m,)`` of the surrogate at ``n_draws`` (rounded up to a power of
+    two) scrambled Sobol' germ points: population moments of the draws.
 
-    The draws are the same whatever the chunking: rows of one ``Generator`` stream.
+    The draws are the same whatever the chunking (one Sobol' sequence, see
+    :func:`uqguide.pce.design.sobol_draws`).
     """
     exp = exp.trimmed()
-    rng = np.random.default_rng(seed)
     d = exp.alpha.shape[1]
     sums = [np.zeros(exp.n_columns) for _ in range(4)]
-    step = _chunk_rows(exp)
-    for start in range(0, n_draws, step):
-        u = np.clip(rng.random((min(step, n_draws - start), d)), _U_EPS, 1 - _U_EPS)
+    n = 0
+    for u in sobol_draws(d, n_draws, seed, _chunk_rows(exp)):
         _accumulate(exp, exp.germ.from_unit(u), None, sums)
-    s1, s2, s3, s4 = (s / n_draws for s in sums)
+        n += u.shape[0]
+    s1, s2, s3, s4 = (s / n for s in sums)
     mu2 = s2 - s1**2
     mu3 = s3 - 3 * s1 * s2 + 2 * s1**3
     mu4 = s4 - 4 * s1 * s3 + 6 * s1**2 * s2 - 3 * s1**4
@@ -125,7 +127,7 @@ def sobol_indices(exp: Expansion) -> tuple[np.ndarray, np.ndarray]:
 
 def output_statistics(
     exp: Expansion, *, n_runs: int, n_draws: int = 1_000_000,
-    seed: int | np.random.SeedSequence = 0, max_exact_points: int = 250_000,
+    seed: int | np.random.SeedSequence = 0, max_exact_points: int = 1 << 20,
     moments: str = "auto",
 ) -> OutputStats:
     """The :class:`OutputStats` of an expansion.
