@@ -5,7 +5,8 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from hypothesis import given, settings
+import pytest
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from uqguide.inputs import InputSpace, Uniform
@@ -91,12 +92,15 @@ def test_exact_rule_size_and_fallback_to_sampling():
 
 @settings(max_examples=8, deadline=None, derandomize=True)
 @given(coef=st.lists(st.floats(-1.0, 1.0), min_size=9, max_size=9),
-       uniform=st.booleans())
-def test_exact_and_sampled_skewness_kurtosis_agree(coef, uniform):
+       uniform=st.booleans(), sampling=st.sampled_from(["random", "sobol"]))
+def test_exact_and_sampled_skewness_kurtosis_agree(coef, uniform, sampling):
     """Property: for any degree-3 PCE in two inputs, the exact skewness and kurtosis equal the
-    expectation of the sampled ones. Checked against 16 independent replicates of 25,000
-    draws: the replicates' mean must be within 5 standard errors (their own spread / 4) of
-    the exact value (|t_15| > 5 has probability 1.6e-4)."""
+    expectation of the sampled ones (random or scrambled Sobol' draws). Checked against 16
+    independent replicates (seeds) of 2^15 draws: the replicates' mean must be within 5
+    standard errors (their own spread / 4) of the exact value (|t_15| > 5 has probability
+    1.6e-4). Heavy-tailed cases (exact kurtosis above 10) are left out: the spread of a sampled
+    kurtosis depends on the 8th moment, and 2^15 draws under-represent such tails (the
+    replicates are then skewed and biased low, and a t-test does not apply)."""
     c = np.array([0.3] + coef)
     if np.sum(c[1:] ** 2) < 0.05:
         c[1] = 0.5  # keep the variance away from zero, where both are undefined
@@ -104,9 +108,10 @@ def test_exact_and_sampled_skewness_kurtosis_agree(coef, uniform):
              if uniform else normal_space(2))
     exp = _expansion(space, basis.hyperbolic_indices(2, 3, 1.0), c)
     exact = moments.output_statistics(exp, n_runs=1, moments="exact")
+    assume(exact.kurtosis[0] < 10.0)
     reps = []
     for r in range(16):
-        mu2, mu3, mu4 = moments.central_moments_sampled(exp, 25_000, seed=r)
+        mu2, mu3, mu4 = moments.central_moments_sampled(exp, 2**15, seed=r, sampling=sampling)
         reps.append([mu3[0] / mu2[0] ** 1.5, mu4[0] / mu2[0] ** 2])
     reps = np.array(reps)
     se = reps.std(axis=0, ddof=1) / 4.0
@@ -115,9 +120,10 @@ def test_exact_and_sampled_skewness_kurtosis_agree(coef, uniform):
     assert np.all(np.abs(got - want) <= 5 * se + 1e-12), (got, want, se)
 
 
-def test_sampled_moments_do_not_depend_on_chunking(monkeypatch):
+@pytest.mark.parametrize("sampling", ["random", "sobol"])
+def test_sampled_moments_do_not_depend_on_chunking(monkeypatch, sampling):
     exp = _expansion(normal_space(2), basis.hyperbolic_indices(2, 2, 1.0), np.arange(6.0))
-    a = moments.central_moments_sampled(exp, 5000, seed=4)
+    a = moments.central_moments_sampled(exp, 5000, seed=4, sampling=sampling)
     monkeypatch.setattr(moments, "_CHUNK_FLOATS", 3000)
-    b = moments.central_moments_sampled(exp, 5000, seed=4)
+    b = moments.central_moments_sampled(exp, 5000, seed=4, sampling=sampling)
     np.testing.assert_allclose(a, b, rtol=1e-12)

@@ -22,7 +22,7 @@ import time
 from abc import abstractmethod
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -77,11 +77,15 @@ class QuadratureSettings(MethodSettings):
     Attributes
     ----------
     surrogate_draws : int
-        Surrogate samples for skewness and kurtosis where the exact rule is too large
-        (:mod:`uqguide.pce.moments`).
+        Surrogate samples for skewness and kurtosis where the exact rule is too large, and for
+        derived outputs (:mod:`uqguide.pce.moments`).
+    surrogate_sampling : {"random", "sobol"}
+        Those samples: pseudo-random, or scrambled Sobol' (error about ``1 / n`` instead of
+        ``1 / sqrt(n)`` on a polynomial; ``surrogate_draws`` rounded up to a power of two).
     """
 
     surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
+    surrogate_sampling: Literal["random", "sobol"] = "random"
 
 
 class QuadraturePCE(Method):
@@ -160,7 +164,8 @@ class QuadraturePCE(Method):
             fitted.append((col, Expansion(germ, alpha, coef, col.shape)))
         stats, names, s_mean, s_cov, extra = assemble(
             fitted, self.derived_outputs, outputs, n_runs=rows.size,
-            n_draws=self.settings.surrogate_draws, seed=seed, label=self.label)
+            n_draws=self.settings.surrogate_draws, seed=seed, label=self.label,
+            sampling=self.settings.surrogate_sampling)
         diagnostics: dict[str, Any] = {
             "n_runs": outputs.n,
             "n_failed": int(outputs.failed.sum()),

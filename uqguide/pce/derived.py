@@ -9,7 +9,7 @@ Carlo value is 3.56), while PCEs of the stop state ``r, v`` reach LOO errors of 
 So an output can be *derived*: the model names the smooth outputs it is computed from (its
 *carriers*) and gives the deterministic map; a PCE method fits the carriers and gets the derived
 output's statistics by sampling the carriers' surrogates jointly (same germ draws) and applying
-the map to every draw (``n_draws`` scrambled Sobol' germ points, as
+the map to every draw (``n_draws`` germ draws, as
 :func:`uqguide.pce.moments.central_moments_sampled`). The statistics are
 ``"surrogate-sampling"`` ones (population moments of the draws); Sobol' indices are not
 available for them (``None``).
@@ -20,14 +20,14 @@ left out and counted.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..models.base import DerivedOutput
 from ..stats import OutputStats, _shape_moments
-from .design import sobol_draws
+from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
 
@@ -47,6 +47,7 @@ class _Sums:
 def derived_statistics(
     germ: Germ, expansions: Mapping[str, Expansion], derived: Mapping[str, DerivedOutput], *,
     scalar_order: list[str], n_draws: int, seed: int | np.random.SeedSequence, n_runs: int,
+    sampling: str = "random",
 ) -> tuple[dict[str, OutputStats], tuple[np.ndarray, np.ndarray] | None, int]:
     """Statistics of the derived outputs by sampling their carriers' surrogates.
 
@@ -63,6 +64,8 @@ def derived_statistics(
     seed : int or SeedSequence
     n_runs : int
         Model runs behind the expansions (``n_used``).
+    sampling : {"random", "sobol"}
+        The draws (:func:`uqguide.pce.design.surrogate_draws`).
 
     Returns
     -------
@@ -80,7 +83,7 @@ def derived_statistics(
     width = sum(e.n_columns for e in expansions.values()) + sum(
         expansions[c].n_columns for dv in derived.values() for c in dv.carriers)
     chunk = max(256, _CHUNK_FLOATS // max(width, 1))
-    for u in sobol_draws(d, n_draws, seed, chunk):
+    for u in surrogate_draws(d, n_draws, seed, chunk, sampling):
         xi = germ.from_unit(u)
         x = germ.to_physical(xi)
         inputs = {name: x[:, j] for j, name in enumerate(germ.space.names)}

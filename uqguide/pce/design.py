@@ -52,21 +52,30 @@ def unit_design(d: int, start: int, stop: int, sampling: str, seed: int, label: 
     return np.clip(u, _U_EPS, 1 - _U_EPS)
 
 
-def sobol_draws(d: int, n: int, seed: int | np.random.SeedSequence, chunk: int
-                ) -> Iterator[np.ndarray]:
-    """Scrambled Sobol' points on the open unit cube in chunks, for sampling a surrogate.
+def surrogate_draws(d: int, n: int, seed: int | np.random.SeedSequence, chunk: int,
+                    sampling: str = "random") -> Iterator[np.ndarray]:
+    """Points on the open unit cube, in chunks, for sampling a surrogate.
 
-    ``n`` is rounded up to a power of two (the balance of a Sobol' set) and so is ``chunk``
-    (down), so the points are those of one sequence whatever the chunking. For a polynomial
-    surrogate the error of a sampled moment falls about as ``1 / n`` (randomised quasi-Monte
-    Carlo) instead of ``1 / sqrt(n)``.
+    - ``"random"``: ``n`` rows of one ``numpy`` Generator stream (the same rows whatever the
+      chunking); the error of a sampled moment falls as ``1 / sqrt(n)``.
+    - ``"sobol"``: scrambled Sobol' points, ``n`` rounded up to a power of two (the balance of a
+      Sobol' set) and chunks of a power of two, so the points are those of one sequence
+      whatever the chunking. For a polynomial surrogate the error of a sampled moment falls
+      about as ``1 / n`` (randomised quasi-Monte Carlo).
 
     Yields
     ------
     ndarray, shape (m, d)
     """
+    rng = np.random.default_rng(seed)
+    if sampling == "random":
+        for start in range(0, n, max(1, chunk)):
+            yield np.clip(rng.random((min(chunk, n - start), d)), _U_EPS, 1 - _U_EPS)
+        return
+    if sampling != "sobol":
+        raise ValueError(f"unknown surrogate sampling '{sampling}' (random or sobol)")
     total = 1 << max(0, int(np.ceil(np.log2(max(n, 1)))))
     step = 1 << max(0, int(np.floor(np.log2(max(1, min(chunk, total))))))
-    sampler = qmc.Sobol(d=d, scramble=True, seed=np.random.default_rng(seed))
+    sampler = qmc.Sobol(d=d, scramble=True, seed=rng)
     for _ in range(total // step):
         yield np.clip(sampler.random(step), _U_EPS, 1 - _U_EPS)

@@ -7,12 +7,13 @@
   * ``"exact"``: a Gauss rule of ``2 p_j + 1`` nodes in every germ variable ``j`` the expansion
     uses (``p_j`` its largest degree there) integrates ``(y - mean)^4``, of degree ``4 p_j``,
     exactly; chosen when that tensor grid has at most ``max_exact_points`` nodes (default
-    2^20; 7 inputs of degree 1 need 3^7 = 2187 nodes, 3 inputs of degree 6 need 13^3 = 2197);
-  * ``"surrogate-sampling"``: otherwise the surrogate is sampled at ``n_draws`` (rounded up to a
-    power of two; default 10^6 -> 2^20) fixed-seed scrambled Sobol' germ points (cheap, the
-    surrogate is a polynomial), and skewness / kurtosis are the population estimators of those
-    draws. Being quasi-random, their error is far below the ``sqrt(6 / n_draws)`` of a random
-    sample of a near-Gaussian skewness.
+    250,000; 7 inputs of degree 1 need 3^7 = 2187 nodes, 3 inputs of degree 6 need 13^3);
+  * ``"surrogate-sampling"``: otherwise the surrogate is sampled with ``n_draws`` fixed-seed
+    germ draws (default 10^6; cheap, the surrogate is a polynomial), and skewness / kurtosis
+    are the population estimators of those draws. Random draws (default) err like a sample of
+    that size (``sqrt(6 / n)`` for a near-Gaussian skewness: 2.4e-3 at 10^6); scrambled
+    Sobol' draws (``sampling="sobol"``, ``n`` rounded up to a power of two) err about as
+    ``1 / n`` on a polynomial.
 
 - Sobol' indices from the coefficients: first order of input i: the variance of the terms in
   ``xi_i`` alone; total: of all terms involving ``xi_i`` (Sudret 2008).
@@ -27,7 +28,7 @@ import numpy as np
 
 from ..stats import OutputStats, _shape_moments
 from . import basis
-from .design import sobol_draws
+from .design import surrogate_draws
 from .expansion import Expansion
 from .quadrature import gauss_rule
 
@@ -89,19 +90,18 @@ def central_moments_exact(exp: Expansion) -> tuple[np.ndarray, np.ndarray, np.nd
 
 
 def central_moments_sampled(
-    exp: Expansion, n_draws: int, seed: int | np.random.SeedSequence
+    exp: Expansion, n_draws: int, seed: int | np.random.SeedSequence, sampling: str = "random"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Central moments 2-4 ``(m,)`` of the surrogate at ``n_draws`` (rounded up to a power of
-    two) scrambled Sobol' germ points: population moments of the draws.
-
-    The draws are the same whatever the chunking (one Sobol' sequence, see
-    :func:`uqguide.pce.design.sobol_draws`).
+    """Central moments 2-4 ``(m,)`` of the surrogate at ``n_draws`` fixed-seed germ draws
+    (``sampling``: ``"random"`` or scrambled ``"sobol"`` points, see
+    :func:`uqguide.pce.design.surrogate_draws`): population moments of the draws, the same
+    whatever the chunking.
     """
     exp = exp.trimmed()
     d = exp.alpha.shape[1]
     sums = [np.zeros(exp.n_columns) for _ in range(4)]
     n = 0
-    for u in sobol_draws(d, n_draws, seed, _chunk_rows(exp)):
+    for u in surrogate_draws(d, n_draws, seed, _chunk_rows(exp), sampling):
         _accumulate(exp, exp.germ.from_unit(u), None, sums)
         n += u.shape[0]
     s1, s2, s3, s4 = (s / n for s in sums)
@@ -127,8 +127,8 @@ def sobol_indices(exp: Expansion) -> tuple[np.ndarray, np.ndarray]:
 
 def output_statistics(
     exp: Expansion, *, n_runs: int, n_draws: int = 1_000_000,
-    seed: int | np.random.SeedSequence = 0, max_exact_points: int = 1 << 20,
-    moments: str = "auto",
+    seed: int | np.random.SeedSequence = 0, max_exact_points: int = 250_000,
+    moments: str = "auto", sampling: str = "random",
 ) -> OutputStats:
     """The :class:`OutputStats` of an expansion.
 
@@ -145,6 +145,8 @@ def output_statistics(
         Largest exact Gauss grid (module docstring) before sampling is used instead.
     moments : {"auto", "exact", "surrogate-sampling"}
         ``"auto"``: exact where the grid is at most ``max_exact_points`` nodes.
+    sampling : {"random", "sobol"}
+        Surrogate draws when sampled (:func:`uqguide.pce.design.surrogate_draws`).
     """
     mean, cov = mean_and_cov(exp)
     var = (exp.coef[1:] ** 2).sum(axis=0)
@@ -153,7 +155,7 @@ def output_statistics(
     if moments == EXACT:
         mu2, mu3, mu4 = central_moments_exact(exp)
     else:
-        mu2, mu3, mu4 = central_moments_sampled(exp, n_draws, seed)
+        mu2, mu3, mu4 = central_moments_sampled(exp, n_draws, seed, sampling)
     # The reported std is the exact one, and it decides which columns have zero variance (with
     # the threshold of uqguide.stats, so PCE and Monte Carlo agree on what is "zero").
     zeros = np.zeros_like(var)

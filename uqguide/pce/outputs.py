@@ -89,6 +89,7 @@ def joint_scalar_moments(
 def assemble(
     fitted: list[tuple[OutputColumns, Expansion]], derived: Mapping[str, DerivedOutput],
     outputs: ModelOutput, *, n_runs: int, n_draws: int, seed: int, label: str,
+    sampling: str = "random",
 ) -> tuple[dict[str, OutputStats], list[str], np.ndarray | None, np.ndarray | None,
            dict[str, object]]:
     """Statistics of every output, and the stacked scalars' joint moments.
@@ -105,6 +106,8 @@ def assemble(
         Runs behind the fits.
     n_draws, seed : int
         Surrogate draws, where moments are sampled.
+    sampling : {"random", "sobol"}
+        Kind of surrogate draws (:func:`uqguide.pce.design.surrogate_draws`).
     label : str
         The method's label, for messages.
 
@@ -117,7 +120,7 @@ def assemble(
     scalars = []
     for col, exp in fitted:
         stats[col.name] = moments.output_statistics(exp, n_runs=n_runs, n_draws=n_draws,
-                                                    seed=seed)
+                                                    seed=seed, sampling=sampling)
         expansions[col.name] = exp
         if col.kind == "scalar":
             scalars.append((col.name, exp))
@@ -135,7 +138,7 @@ def assemble(
     order += [nm for nm, dv in derived.items() if dv.kind == "scalar" and nm not in order]
     d_stats, joint, n_invalid = derived_statistics(
         next(iter(expansions.values())).germ, expansions, derived, scalar_order=order,
-        n_draws=n_draws, seed=seed, n_runs=n_runs)
+        n_draws=n_draws, seed=seed, n_runs=n_runs, sampling=sampling)
     stats.update(d_stats)
     if joint is not None:
         names = [s for nm in order for s in scalar_names(nm, stats[nm].mean.shape[-1])]
