@@ -30,6 +30,8 @@ def test_pce_gets_the_miss_distance_through_the_stop_state_surrogate():
     apce, mc = result.run("apce"), result.run("mc")
     # only the requested outputs reach the result, though the carriers were evaluated
     assert set(apce.estimate.stats) == {"zem", "t_stop"} == set(apce.scalars)
+    assert sorted(n.split("[")[0] for n in apce.estimate.scalar_names) == ["t_stop", "zem"]
+    assert apce.estimate.scalar_cov.shape == (2, 2)
     assert apce.estimate.stats["zem"].moments_method == "surrogate-sampling"
     assert mc.estimate.stats["zem"].moments_method == "sample"
     # the surrogate-sampled moments agree with MC within 4 of MC's standard errors
