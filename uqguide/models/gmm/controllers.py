@@ -39,7 +39,8 @@ def sig(x: np.ndarray, a: float) -> np.ndarray:
     return np.sign(x) * np.abs(x) ** a
 
 
-def _vec3(name: str, value: np.ndarray | float) -> np.ndarray:
+def positive_diagonal(name: str, value: np.ndarray | float) -> np.ndarray:
+    """A diagonal gain as a 3-vector (a scalar is broadcast); ValueError unless all > 0."""
     v = np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy()
     if np.any(v <= 0):
         raise ValueError(f"the gain {name} must be positive definite (all diagonal entries > 0)")
@@ -63,8 +64,8 @@ class ReachingLaw:
     alpha: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "lambda1", _vec3("lambda1", self.lambda1))
-        object.__setattr__(self, "lambda2", _vec3("lambda2", self.lambda2))
+        object.__setattr__(self, "lambda1", positive_diagonal("lambda1", self.lambda1))
+        object.__setattr__(self, "lambda2", positive_diagonal("lambda2", self.lambda2))
         if not 0 < self.alpha < 1:
             raise ValueError(f"the reaching-law exponent alpha must be in (0, 1), got {self.alpha}")
 
@@ -94,7 +95,7 @@ class TSMC:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "r_f", np.asarray(self.r_f, dtype=float))
-        object.__setattr__(self, "k_s", _vec3("k_s", self.k_s))
+        object.__setattr__(self, "k_s", positive_diagonal("k_s", self.k_s))
 
     def sliding(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
         """``S = k_s g + e'`` [m/s], shape (n, 3) ([W 29, 31])."""
@@ -148,7 +149,7 @@ class NTSMC:
     def __post_init__(self) -> None:
         object.__setattr__(self, "r_f", np.asarray(self.r_f, dtype=float))
         for name in ("k_s", "xi1", "xi2"):
-            object.__setattr__(self, name, _vec3(name, getattr(self, name)))
+            object.__setattr__(self, name, positive_diagonal(name, getattr(self, name)))
         if not (self.p > 0 and self.q > 0 and self.p % 2 == 1 and self.q % 2 == 1 and self.p < self.q):
             raise ValueError(f"p and q must be positive odd integers with p < q, got {self.p}, {self.q}")
         if not self.tau > 1:

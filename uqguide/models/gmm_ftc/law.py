@@ -34,15 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dynamics.rotating_body_frame import Stage
-from ..gmm.controllers import sig
+from ..gmm.controllers import positive_diagonal, sig
 from ..gmm.potential import AttractRepulsePotential
-
-
-def _diag3(name: str, value: np.ndarray | float) -> np.ndarray:
-    v = np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy()
-    if np.any(v <= 0):
-        raise ValueError(f"the gain {name} must be positive definite (all diagonal entries > 0)")
-    return v
 
 
 @dataclass(frozen=True)
@@ -72,7 +65,7 @@ class FTCGains:
 
     def __post_init__(self) -> None:
         for name in ("alpha1", "beta1", "lambda1", "lambda2", "k_s"):
-            object.__setattr__(self, name, _diag3(name, getattr(self, name)))
+            object.__setattr__(self, name, positive_diagonal(name, getattr(self, name)))
         if not 0 < self.zeta1 < 1:
             raise ValueError(f"zeta1 must be in (0, 1), got {self.zeta1}")
         if not self.zeta2 > 1:
