@@ -10,17 +10,15 @@ accumulated per step) integrated by the compiled kernel for the whole batch at o
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
-DISPERSION = [
-    {"name": "dr0_x", "dist": "normal", "mean": 0.0, "std": 50.0},
-    {"name": "dr0_y", "dist": "normal", "mean": 0.0, "std": 50.0},
-    {"name": "dr0_z", "dist": "normal", "mean": 0.0, "std": 50.0},
-    {"name": "mass_offset", "dist": "uniform", "low": -30.0, "high": 30.0},
-    {"name": "inertia_scale_error", "dist": "uniform", "low": -0.1, "high": 0.1},
-    {"name": "force_disturbance_amplitude", "dist": "uniform", "low": 0.0, "high": 0.01},
-]
-OUTPUTS = ["delta_v", "settle_r_e", "r_e_norm", "sigma_e_norm"]  # as the config
+from uqguide.config import load_yaml
+
+# the inputs and outputs of the shipped dispersion config, read from it so they cannot drift
+_CONFIG = load_yaml(Path(__file__).resolve().parents[1] / "configs" / "ft_as_dispersion.yaml")
+DISPERSION = _CONFIG["inputs"]
+OUTPUTS = _CONFIG["outputs"]
 
 CASES: list[dict[str, Any]] = [
     {

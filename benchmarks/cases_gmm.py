@@ -17,13 +17,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import yaml
+from uqguide.config import load_yaml
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
 
 def _case(label: str, config: str, batches: list[int]) -> dict[str, Any]:
-    raw = yaml.safe_load((CONFIGS / config).read_text())
+    raw = load_yaml(CONFIGS / config)
     return {
         "label": label,
         "model": raw["model"]["name"],

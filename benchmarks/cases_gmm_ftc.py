@@ -14,22 +14,15 @@ reference (one Python-level step per control period for the whole batch).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
-DISPERSION = [
-    {"name": "dx0", "dist": "normal", "mean": 0.0, "std": 2.0},
-    {"name": "dy0", "dist": "normal", "mean": 0.0, "std": 2.0},
-    {"name": "dz0", "dist": "normal", "mean": 0.0, "std": 2.0},
-    {"name": "dvx0", "dist": "normal", "mean": 0.0, "std": 0.02},
-    {"name": "dvy0", "dist": "normal", "mean": 0.0, "std": 0.02},
-    {"name": "dvz0", "dist": "normal", "mean": 0.0, "std": 0.02},
-    {"name": "dw_z", "dist": "normal", "mean": 0.0, "std": 0.005},
-    {"name": "thrust_scale_x", "dist": "uniform", "low": 0.95, "high": 1.05},
-    {"name": "thrust_scale_y", "dist": "uniform", "low": 0.95, "high": 1.05},
-    {"name": "thrust_scale_z", "dist": "uniform", "low": 0.95, "high": 1.05},
-]
-OUTPUTS = ["collided", "min_clearance", "t_converge", "t_settle", "pos_error_final", "delta_v",
-           "speed_max", "u_max", "pos_error_norm", "range", "los_rate"]
+from uqguide.config import load_yaml
+
+# the inputs and outputs of configs/gmm_ftc_dispersion.yaml, read from it so they cannot drift
+_CONFIG = load_yaml(Path(__file__).resolve().parents[1] / "configs" / "gmm_ftc_dispersion.yaml")
+DISPERSION = _CONFIG["inputs"]
+OUTPUTS = _CONFIG["outputs"]
 
 CASES: list[dict[str, Any]] = [
     {

@@ -40,21 +40,15 @@ import numpy as np
 import yaml
 from pydantic import TypeAdapter
 
+from uqguide.config import load_yaml
 from uqguide.inputs import InputSpace, Marginal
 from uqguide.registry import model_class
 from uqguide.stats import sample_statistics
 
 HERE = Path(__file__).resolve().parent
 
-FTCAPN_TABLE3 = [
-    {"name": "dx", "dist": "normal", "mean": 0.0, "std": 1.5},
-    {"name": "dy", "dist": "normal", "mean": 0.0, "std": 1.5},
-    {"name": "dz", "dist": "normal", "mean": 0.0, "std": 1.5},
-    {"name": "dvx", "dist": "normal", "mean": 0.0, "std": 0.3},
-    {"name": "dvy", "dist": "normal", "mean": 0.0, "std": 0.3},
-    {"name": "dvz", "dist": "normal", "mean": 0.0, "std": 0.3},
-    {"name": "b_w", "dist": "normal", "mean": 0.0, "std": 1e-5},
-]
+# the inputs of configs/ftcapn_table3.yaml, read from it so they cannot drift
+FTCAPN_TABLE3 = load_yaml(HERE.parent / "configs" / "ftcapn_table3.yaml")["inputs"]
 
 CASES: list[dict[str, Any]] = [
     {
