@@ -19,6 +19,14 @@ Usage::
     python scripts/reproduce_results.py                      # every config (long: 1e5-run MC)
     python scripts/reproduce_results.py ftcapn_table3 ...    # only these
     python scripts/reproduce_results.py --skip-existing      # keep results already there
+    python scripts/reproduce_results.py --check              # compare the nominal studies
+
+``--check`` writes nothing: it reruns each nominal study (``uqguide simulate``) and compares
+it with the committed ``results/<name>/<name>.txt`` row by row. A row marked reproducible must
+keep its verdict and its value within 1 % (the bound ``tests/test_roundoff_robustness.py``
+holds such rows to under round-off; strings must be equal); chaotic rows are listed, not
+compared. Exit 1 on a mismatch. The Monte Carlo and PCE studies are statistics, checked
+through the regression gate by their golden versions (``tests/test_golden.py``).
 """
 
 from __future__ import annotations
@@ -98,6 +106,49 @@ def reproduce_one(cfg: RunConfig, out: Path) -> list[str]:
     return notes
 
 
+def _committed_rows(path: Path) -> dict[str, tuple[str, str, str]]:
+    """quantity -> (value, check, kind) from a committed ``uqguide simulate`` table."""
+    lines = path.read_text(encoding="utf-8").splitlines()
+    head = next(i for i, ln in enumerate(lines) if ln.startswith("quantity"))
+    spans, start = [], 0
+    for dashes in lines[head + 1].split("  "):
+        spans.append((start, start + len(dashes)))
+        start += len(dashes) + 2
+    rows = {}
+    for ln in lines[head + 2:]:
+        if not ln.strip():
+            break
+        cells = [ln[a:b].strip() for a, b in spans]
+        rows[cells[0]] = (cells[2], cells[5], cells[6] if len(cells) > 6 else "")
+    return rows
+
+
+def check_nominal(cfg: RunConfig, committed: Path) -> list[str]:
+    """Mismatches of the reproducible rows of a fresh nominal report against ``committed``."""
+    from uqguide.describe import _cell
+
+    old = _committed_rows(committed)
+    bad = []
+    for r in cfg.model.nominal_report():
+        if r.kind != "reproducible":
+            continue
+        if r.quantity not in old:
+            bad.append(f"{r.quantity}: not in {committed.name}")
+            continue
+        value, check, _ = old[r.quantity]
+        verdict = {True: "ok", False: "MISS", None: "—"}[r.ok]
+        same = value == _cell(r.value)
+        if not same and isinstance(r.value, float):
+            try:
+                same = abs(float(value) - r.value) <= 1e-2 * abs(r.value) + 1e-12
+            except ValueError:
+                same = False
+        if not same or verdict != check:
+            bad.append(f"{r.quantity}: committed {value} ({check}), now {_cell(r.value)} "
+                       f"({verdict})")
+    return bad
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("names", nargs="*", help="config names (default: every configs/*.yaml)")
@@ -105,9 +156,25 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "results", help="results folder")
     ap.add_argument("--skip-existing", action="store_true",
                     help="skip a config whose results/<name>/ already has its report or .txt")
+    ap.add_argument("--check", action="store_true",
+                    help="compare fresh nominal reports with the committed ones; write nothing")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
     configs = sorted(args.configs.glob("*.yaml"))
+    if args.check:
+        mismatched = 0
+        for path in configs:
+            cfg = load_config(path)
+            committed = args.out / path.stem / f"{path.stem}.txt"
+            if cfg.space.dim or not committed.is_file() or (args.names and path.stem
+                                                             not in args.names):
+                continue
+            bad = check_nominal(cfg, committed)
+            mismatched += len(bad)
+            print(f"{path.stem}: {'every reproducible row matches' if not bad else ''}")
+            for b in bad:
+                print(f"  MISMATCH {b}")
+        return 1 if mismatched else 0
     if args.names:
         known = {p.stem: p for p in configs}
         unknown = [n for n in args.names if n not in known]

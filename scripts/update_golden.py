@@ -15,11 +15,20 @@ Usage::
 Before overwriting a baseline the script prints the gate's verdict of the new run against the
 old baseline, so the commit that changes a baseline can say what moved and why. Configs whose
 model or methods are not registered are skipped with a message.
+
+Every baseline is written with its round-off ensemble: the config is rerun ``ROUNDOFF_MEMBERS``
+times with every model input moved by 1e-12 relative (``UQGUIDE_PERTURB``, a different
+direction each time), as another CPU would move it. A statistic that moves by more than a
+quarter of its gate tolerance in any of them would make the gate's verdict depend on the CPU:
+the baseline marks it chaotic, with the range it took, and the gate reports it without checking
+it (an adaptive PCE of a study whose runs cross a non-smooth boundary is the case seen: its term
+selection flips).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -30,11 +39,55 @@ ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = ROOT / "tests" / "golden"
 sys.path.insert(0, str(ROOT))
 
+from uqguide.baseline import StatKey, parse_baseline  # noqa: E402
+from uqguide.baseline import make_baseline, to_jsonable  # noqa: E402
 from uqguide.config import load_config  # noqa: E402
 from uqguide.errors import UqguideError  # noqa: E402
 from uqguide.gate import check_result, read_baseline, write_baseline  # noqa: E402
+from uqguide.models.roundoff import MEMBER_ENV, PERTURB_ENV, ROUNDOFF  # noqa: E402
 from uqguide.propagate import run  # noqa: E402
 from uqguide.registry import METHODS, MODELS  # noqa: E402
+from uqguide.result import Result  # noqa: E402
+
+ROUNDOFF_MEMBERS = 4
+"""Perturbed reruns of each golden config when its baseline is written."""
+CHAOS_SHARE = 0.25
+"""A statistic moving by more than this share of its tolerance under round-off is chaotic."""
+
+
+def roundoff_ranges(path: Path, result: Result) -> dict[StatKey, list[float | None]]:
+    """The chaotic statistics of ``result`` and their ranges over the round-off ensemble."""
+    base = parse_baseline(to_jsonable(make_baseline(result)))
+    values: dict[StatKey, list[float]] = {}
+    saved = {k: os.environ.get(k) for k in (PERTURB_ENV, MEMBER_ENV)}
+    try:
+        for member in range(1, ROUNDOFF_MEMBERS + 1):
+            os.environ[PERTURB_ENV] = f"{ROUNDOFF:g}"
+            os.environ[MEMBER_ENV] = str(member)
+            report = check_result(run(load_config(path)), base)
+            for r in report.rows:
+                key = (r.label, r.output, _at(base, r), r.time, r.component, r.stat)
+                values.setdefault(key, [r.baseline]).append(r.value)
+                if not r.skipped and abs(r.difference) > CHAOS_SHARE * r.tolerance:
+                    values[key].append(float("inf"))  # marks it chaotic
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+    out: dict[StatKey, list[float | None]] = {}
+    for key, vals in values.items():
+        if float("inf") in vals:
+            finite = [v for v in vals if v != float("inf")]
+            out[key] = [min(finite), max(finite)]
+    return out
+
+
+def _at(baseline, row) -> str:
+    """The point kind (report, end, scalar) of a gate row."""
+    bo = baseline.methods[row.label].outputs[row.output]
+    return next(p.at for p in bo.points if p.time == row.time)
 
 
 def baseline_path(config: Path) -> Path:
@@ -92,7 +145,14 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print(f"{path.stem}: new baseline")
         if not args.dry_run:
-            write_baseline(result, bpath)
+            ranges = roundoff_ranges(path, result)
+            if ranges:
+                print(f"{path.stem}: {len(ranges)} statistics chaotic under round-off (not "
+                      "checked by the gate): " + ", ".join(
+                          f"{k[0]} {k[5]} of {k[1]}" + (f" at {k[3]:g} s" if k[3] is not None
+                                                        else "") for k in sorted(
+                              ranges, key=str))[:2000])
+            write_baseline(result, bpath, roundoff=ranges)
             print(f"wrote {bpath.relative_to(ROOT)} ({seconds:.1f} s run)")
     return status
 

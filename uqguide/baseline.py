@@ -61,6 +61,10 @@ class BaselinePoint(_Strict):
     std_se: float | None = None
     skewness_se: float | None = None
     kurtosis_se: float | None = None
+    #: Statistics that are chaotic under round-off, with the range [low, high] they took over
+    #: the round-off ensemble the baseline was written with (``scripts/update_golden.py``);
+    #: the gate reports them and does not check them.
+    roundoff: dict[str, list[float | None]] = {}
 
 
 class BaselineOutput(_Strict):
@@ -136,7 +140,12 @@ def _point_places(result: Result, o: OutputInfo) -> list[tuple[str, float | None
     return [("end" if i == last else "report", float(result.time[i]), int(i)) for i in idx]
 
 
-def _points(result: Result, o: OutputInfo, s: OutputStats) -> list[dict[str, Any]]:
+#: Key of one statistic of a baseline: (label, output, at, time, component, statistic).
+StatKey = tuple[str, str, str, "float | None", str, str]
+
+
+def _points(result: Result, o: OutputInfo, s: OutputStats, label: str = "",
+            roundoff: dict[StatKey, list[float | None]] | None = None) -> list[dict[str, Any]]:
     sample = _uncertainty_kind(s) == SAMPLE
     pts = []
     for at, t, i in _point_places(result, o):
@@ -148,12 +157,21 @@ def _points(result: Result, o: OutputInfo, s: OutputStats) -> list[dict[str, Any
             if sample:
                 for stat in STAT_NAMES:
                     p[f"{stat}_se"] = _num(standard_error(s, stat, where))
+            chaotic = {stat: rng for stat in STAT_NAMES
+                       if (rng := (roundoff or {}).get((label, o.name, at, t, comp, stat)))}
+            if chaotic:
+                p["roundoff"] = chaotic
             pts.append(p)
     return pts
 
 
-def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL) -> dict[str, Any]:
-    """The baseline of ``result`` as a JSON-ready mapping (see the module docstring)."""
+def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
+                  roundoff: dict[StatKey, list[float | None]] | None = None) -> dict[str, Any]:
+    """The baseline of ``result`` as a JSON-ready mapping (see the module docstring).
+
+    ``roundoff`` marks statistics as chaotic under round-off, with their range over a
+    round-off ensemble (``scripts/update_golden.py`` measures it).
+    """
     if not pce_rtol > 0:
         raise ValueError(f"pce_rtol must be > 0 (got {pce_rtol})")
     methods: dict[str, Any] = {}
@@ -166,7 +184,7 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL) -> dict[st
             outs[o.name] = {
                 "kind": o.kind, "unit": o.unit, "components": list(o.components),
                 "uncertainty": _uncertainty_kind(s), "moments_method": s.moments_method,
-                "n_used": int(s.n_used), "points": _points(result, o, s),
+                "n_used": int(s.n_used), "points": _points(result, o, s, r.label, roundoff),
             }
         methods[r.label] = {"method": r.estimate.method, "n_runs": int(r.n_runs),
                             "n_failed": int(r.n_failed), "outputs": outs}
@@ -227,12 +245,12 @@ def to_jsonable(obj: Any) -> Any:
     return obj
 
 
-def write_baseline(result: Result, path: str | Path,
-                   pce_rtol: float = DEFAULT_PCE_RTOL) -> Path:
+def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_PCE_RTOL,
+                   roundoff: dict[StatKey, list[float | None]] | None = None) -> Path:
     """Write the baseline of ``result`` to ``path`` (temporary file, then an atomic rename)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = _json_text(to_jsonable(make_baseline(result, pce_rtol))) + "\n"
+    text = _json_text(to_jsonable(make_baseline(result, pce_rtol, roundoff))) + "\n"
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         tmp.write_text(text, encoding="utf-8")

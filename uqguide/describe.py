@@ -45,15 +45,21 @@ def _cell(v: object) -> str:
 
 def format_report(model_name: str, rows: list[ReportRow]) -> str:
     """The nominal run's figures beside the paper's, as an aligned text table."""
-    header = ("quantity", "unit", "model", "paper", "tolerance", "check")
+    header = ("quantity", "unit", "model", "paper", "tolerance", "check", "kind")
     body = [(r.quantity, r.unit, _cell(r.value), _cell(r.paper), r.tolerance,
-             {True: "ok", False: "MISS", None: "—"}[r.ok]) for r in rows]
+             {True: "ok", False: "MISS", None: "—"}[r.ok], r.kind) for r in rows]
     widths = [max(len(h), *(len(b[i]) for b in body)) if body else len(h)
               for i, h in enumerate(header)]
     fmt = "  ".join(f"{{:<{w}}}" for w in widths)
     lines = [f"Nominal run of model '{model_name}' beside the paper", fmt.format(*header),
              fmt.format(*("-" * w for w in widths))]
     lines += [fmt.format(*b) for b in body]
+    chaotic = [(r.quantity, r.statistic) for r in rows if r.statistic]
+    if chaotic:
+        lines.append("")
+        lines.append("chaotic rows (they move by more than their tolerance when the inputs move "
+                     "by round-off) show a robust statistic:")
+        lines += [f"robust — {q}: {s}" for q, s in chaotic]
     notes = [(r.quantity, r.note) for r in rows if r.note]
     if notes:
         lines.append("")

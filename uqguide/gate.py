@@ -155,7 +155,10 @@ class CheckReport:
         labels = ", ".join(dict.fromkeys(r.label for r in self.rows))
         how = (f"Monte Carlo: {self.sigmas:g} combined standard errors; "
                f"PCE: {100 * self.pce_rtol:g}% relative")
-        skipped = f"; {n_skip} skipped (std ~ 0)" if n_skip else ""
+        n_chaos = sum(r.note.startswith("skipped: chaotic") for r in self.rows)
+        parts = [f"{n_skip - n_chaos} skipped (std ~ 0)"] if n_skip > n_chaos else []
+        parts += [f"{n_chaos} not checked (chaotic under round-off)"] if n_chaos else []
+        skipped = "; " + ", ".join(parts) if parts else ""
         if self.passed:
             return (f"PASS: {n} statistics of '{self.name}' ({labels}) within tolerance of "
                     f"baseline {self.baseline_source} ({how}){skipped}")
@@ -319,6 +322,12 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
                 continue
             a = float(s.stat(stat)[where])
             row.value = a
+            if stat in p.roundoff:
+                lo, hi = (math.nan if v is None else v for v in p.roundoff[stat])
+                row.passed = True
+                row.note = (f"skipped: chaotic under round-off (took {_fmt(lo)} .. {_fmt(hi)} "
+                            "when the baseline's inputs moved by 1e-12)")
+                continue
             if stat in ("skewness", "kurtosis") and not (std_a > zero_std and std_b > zero_std):
                 row.passed, row.note = True, "skipped: std ~ 0 (ratio of round-off)"
                 continue

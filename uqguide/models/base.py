@@ -26,6 +26,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from ..errors import ModelError
+from .roundoff import apply_env
 
 OutputKind = Literal["series", "scalar"]
 
@@ -196,6 +197,15 @@ class ReportRow:
         Whether ``value`` is within ``tolerance`` of ``paper`` (None: not checked).
     note : str
         Why a figure is not reproduced, or how it was computed.
+    kind : {"reproducible", "chaotic", "timing"}
+        *reproducible*: the figure moves by less than its tolerance when the inputs move by
+        round-off. *chaotic*: it does not (a final-window maximum of a chattering loop, a
+        diverged state), so ``value`` is a robust statistic named in ``statistic``, and ``ok``
+        judges that statistic (:mod:`uqguide.models.roundoff`). *timing*: a measurement of the
+        machine (wall time), never checked.
+    statistic : str
+        For a chaotic row, what ``value`` is, e.g. ``"median of 5 runs under 1e-12 input
+        perturbations; range [a, b]"``.
     """
 
     quantity: str
@@ -205,6 +215,8 @@ class ReportRow:
     tolerance: str = ""
     ok: bool | None = None
     note: str = ""
+    kind: Literal["reproducible", "chaotic", "timing"] = "reproducible"
+    statistic: str = ""
 
 
 class Model(ABC):
@@ -276,6 +288,11 @@ class Model(ABC):
             f"it has: {', '.join(o.name for o in self.outputs())}"
         )
 
+    def nominal_values(self, n: int = 1) -> dict[str, np.ndarray]:
+        """Every input at its nominal value, arrays of length ``n`` (moved by round-off when
+        ``UQGUIDE_PERTURB`` asks, as :meth:`evaluate` does; see :mod:`.roundoff`)."""
+        return apply_env({i.name: np.full(n, i.nominal) for i in self.inputs()})
+
     def default_outputs(self) -> tuple[str, ...]:
         return tuple(o.name for o in self.outputs() if o.default)
 
@@ -322,7 +339,7 @@ class Model(ABC):
         values = {nm: np.full(n, info.nominal) for nm, info in known.items()}
         for j, nm in enumerate(input_names):
             values[nm] = x[:, j]
-        out = self._evaluate(values, n, wanted)
+        out = self._evaluate(apply_env(values), n, wanted)
         self._check_output(out, n, wanted)
         return out
 

@@ -327,9 +327,6 @@ class GMMProximity(Model):
                            failed=failed, reasons=reasons)
 
     # ------------------------------------------------------------------ nominal scenario
-    def nominal_values(self, n: int = 1) -> dict[str, np.ndarray]:
-        return {i.name: np.full(n, i.nominal) for i in self.inputs()}
-
     def nominal_runs(self, record_every: int = 1) -> dict[str, SampledRun]:
         """The nominal run of each of the three controllers, keyed by display name."""
         vals = self.nominal_values()

@@ -281,10 +281,6 @@ class FTAS(Model):
             reasons=failure_reasons(res.failed, "state became non-finite (closed loop diverged)"),
         )
 
-    def nominal_values(self, n: int) -> dict[str, np.ndarray]:
-        """Every input at its nominal value, arrays of length ``n``."""
-        return {i.name: np.full(n, i.nominal) for i in self.inputs()}
-
     # ------------------------------------------------------------------ paper comparison
     def nominal_report(self) -> list[ReportRow]:
         """Claims C1-C6 of the paper (spec section 11) and the spec's 12.2 reference values."""

@@ -6,15 +6,28 @@ statement C1-C6 becomes rows with the paper's figure, the spec's tolerance (accu
 orderings with a 10 % margin, "~" within a factor 3) and a pass flag; the spec's section 12.2
 reference values (prototype at h = 0.01 s) are reported beside them. Claim C6 was measured by
 the spec at h = 0.05 s, so it is also evaluated on a second run at that step.
+
+Chaotic rows. The final-window maxima of the chattering loops (``final max|r_e,k|``, ``|v_e,k|``,
+``|sigma_e,k|``, ``|omega_e,k|``), the late input peaks and the literal FT-AS's diverged state
+amplify the last bit of the inputs: a 1e-12 relative change of the force-disturbance amplitude
+moves FT-AS-P's final max|sigma_e,k| from 1.1e-7 to 2.3e-8, and two CPUs differ the same way.
+Those rows therefore show the median over :data:`ROUNDOFF_MEMBERS` + 1 runs (the unperturbed
+one and runs whose inputs moved by 1e-12 relative, :mod:`uqguide.models.roundoff`) with the
+range in the row's ``statistic``. Their check uses the whole ensemble (see ``Verdict``): a bound
+must hold for every run, a reference figure must lie within its factor of the range. Every other
+row is reproducible: ``tests/test_ft_as_paper.py`` checks that it moves by less than a tenth of
+its tolerance across the same ensemble.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..base import ReportRow
+from ..roundoff import ROUNDOFF, Spread, perturb
 from .runner import RunResult
 
 if TYPE_CHECKING:
@@ -37,6 +50,7 @@ PAPER_BOUNDS = {
 }
 TABLE_1_R_E0 = (275.683, 374.962, -182.762)  # m, printed to 1 mm
 TABLE_1_V_E0 = (0.1858, -0.1769, -0.0827)  # m/s, printed to 0.1 mm/s
+ROUNDOFF_MEMBERS = 6  # perturbed runs beside the unperturbed one for the chaotic rows
 REFERENCE_STEP = 0.01  # s, step of the spec's section 12.2 values
 C6_STEP = 0.05  # s, step at which the spec measured claim C6
 
@@ -75,6 +89,67 @@ def nominal_runs(model: FTAS) -> tuple[list[Variant], RunResult]:
     return variants, res
 
 
+def roundoff_runs(model: FTAS) -> list[RunResult]:
+    """The comparison batch again, once per round-off member ``1 .. ROUNDOFF_MEMBERS``, with
+    every input moved by 1e-12 relative (recording r_e and v_e at the start and the end only);
+    one kernel call for all members, cached on the model like :func:`nominal_runs`."""
+    cached = getattr(model, "_roundoff_cache", None)
+    if cached is not None:
+        return cached
+    variants = report_variants()
+    n = len(variants)
+    members = [perturb(model.nominal_values(n), ROUNDOFF, member=m)
+               for m in range(1, ROUNDOFF_MEMBERS + 1)]
+    values = {k: np.concatenate([m[k] for m in members]) for k in members[0]}
+    res = model.run(values, variants * ROUNDOFF_MEMBERS, ("r_e", "v_e"),
+                    output_interval=model.params.duration)
+    runs = [res.take(slice(m * n, (m + 1) * n)) for m in range(ROUNDOFF_MEMBERS)]
+    model._roundoff_cache = runs  # type: ignore[attr-defined]
+    return runs
+
+
+class ChaoticFigures:
+    """Chaotic figures of the comparison over the round-off ensemble (module docstring)."""
+
+    def __init__(self, runs: list[RunResult]) -> None:
+        self.runs = runs  # the unperturbed batch first
+
+    def spread(self, figure: Callable[[RunResult], float]) -> Spread:
+        return Spread.of(np.array([figure(r) for r in self.runs]))
+
+    def row(self, quantity: str, unit: str, figure: Callable[[RunResult], float],
+            paper: float | str | None, tolerance: str, check: Verdict,
+            note: str = "") -> ReportRow:
+        """A chaotic row: the median of ``figure`` over the ensemble, judged by ``check``."""
+        sp = self.spread(figure)
+        rule, verdict = check
+        stat = sp.describe() + (f"; check: {rule}" if rule else "")
+        return ReportRow(quantity, unit, float(sp.median), paper, tolerance, verdict(sp), note,
+                         kind="chaotic", statistic=stat)
+
+
+# How a chaotic row is judged: a one-sided claim must hold for every run of the ensemble (the
+# worst case over round-off); a reference figure, itself one draw of the spec's prototype, must
+# lie within the factor of the ensemble's range. Either fails on another CPU only if every
+# member falls on the wrong side: for FT-AS-P's final max|sigma_e,k| (a quarter of 40 runs lie
+# above 3 x 2.3e-8) that is 0.25^7 ~ 6e-5 with 7 members.
+Verdict = tuple[str, Callable[[Spread], "bool | None"]]
+UNCHECKED: Verdict = ("", lambda sp: None)
+
+
+def at_most(bound: float) -> Verdict:
+    return "every run", lambda sp: bool(float(sp.high) <= bound)
+
+
+def above(bound: float) -> Verdict:
+    return "every run", lambda sp: bool(float(sp.low) > bound)
+
+
+def within_factor_of_range(ref: float, factor: float = 3.0) -> Verdict:
+    return (f"the reference within x{factor:g} of the range",
+            lambda sp: bool(float(sp.low) / factor <= ref <= factor * float(sp.high)))
+
+
 def _fmt_settle(res: RunResult, q: str, ti: int, i: int) -> float | str:
     v = float(res.settle[q][i, ti])
     return v if v < res.timing.duration - 0.5 * res.timing.step else "not settled"
@@ -88,11 +163,35 @@ def nominal_report(model: FTAS) -> list[ReportRow]:
     """Rows for claims C1-C6 and the spec's 12.2 reference values (see module docstring)."""
     p = model.params
     variants, res = nominal_runs(model)
+    chaos = ChaoticFigures([res, *roundoff_runs(model)])
+    rows = report_rows(model, res, chaos)
+    # C6: sliding-variable convergence at the spec's h = 0.05 s as well
+    idx = {v.label: i for i, v in enumerate(variants)}
+    if abs(p.step - C6_STEP) > 1e-12:
+        c6_variants = [variants[idx[lab]] for lab in ("FT-AS", "Case 1", "Case 2")]
+        c6 = model.run(model.nominal_values(3), c6_variants, (), step=C6_STEP)
+        c6_rows = _c6_rows(c6, {"FT-AS": 0, "Case 1": 1, "Case 2": 2}, f"h = {C6_STEP:g} s")
+        at = next(k for k, r in enumerate(rows) if r.quantity.startswith("C6")) + 4
+        rows[at:at] = c6_rows
+    return rows
+
+
+def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[ReportRow]:
+    """The report's rows from the comparison batch ``res``; chaotic rows come from ``chaos``.
+
+    Reproducible rows read ``res`` only, so evaluating this on another member of the round-off
+    ensemble shows how far each of them moves (``tests/test_ft_as_paper.py``).
+    """
+    p = model.params
+    variants = report_variants()
     idx = {v.label: i for i, v in enumerate(variants)}
     h = p.step
     at_ref = abs(h - REFERENCE_STEP) < 1e-12 and p.duration == 3000.0
     step_note = f"h = {h:g} s, T = {p.duration:g} s, omega_chi = {p.omega_chi:g} rad/s"
     rows: list[ReportRow] = []
+
+    def final(q: str, i: int) -> Callable[[RunResult], float]:
+        return lambda r: float(r.final_max[q][i].max())
 
     # Table 1: initial errors from the orbital elements
     r0 = res.records["r_e"][idx["FT-AS"], 0]
@@ -120,36 +219,38 @@ def nominal_report(model: FTAS) -> list[ReportRow]:
             "and cannot converge while saturated (spec 8.1, C1)",
         ))  # fmt: skip
 
-    # C2 and C4: final accuracies
+    # C2 and C4: final accuracies (chaotic: final-window maxima of chattering loops)
     for lab in ("FT-AS", "FT-AS-P", "Case 1", "Case 2"):
         i = idx[lab]
         b_r, b_s, b_w = PAPER_BOUNDS[lab]
-        fr = float(res.final_max["r_e"][i].max())
-        fs = float(res.final_max["sigma_e"][i].max())
-        fw = float(res.final_max["omega_e"][i].max())
-        rows.append(ReportRow(f"{lab}: C2 final max|r_e,k|", "m", fr, b_r, "<= bound x3",
-                              fr <= 3 * b_r, step_note))  # fmt: skip
-        rows.append(ReportRow(f"{lab}: C4 final max|sigma_e,k|", "1", fs, b_s, "<= bound x3",
-                              fs <= 3 * b_s, step_note))  # fmt: skip
-        rows.append(ReportRow(
-            f"{lab}: C4 final max|omega_e,k|", "rad/s", fw, b_w, "not asserted", None,
-            "step-limited: floor ~5e-4 h rad/s (spec 11, C4)",
+        rows.append(chaos.row(f"{lab}: C2 final max|r_e,k|", "m", final("r_e", i), b_r,
+                              "<= bound x3", at_most(3 * b_r), step_note))
+        rows.append(chaos.row(f"{lab}: C4 final max|sigma_e,k|", "1", final("sigma_e", i), b_s,
+                              "<= bound x3", at_most(3 * b_s), step_note))
+        rows.append(chaos.row(
+            f"{lab}: C4 final max|omega_e,k|", "rad/s", final("omega_e", i), b_w,
+            "not asserted", UNCHECKED, "step-limited: floor ~5e-4 h rad/s (spec 11, C4)",
         ))  # fmt: skip
     i_lit = idx["FT-AS literal"]
-    r_lit = float(np.linalg.norm(res.records["r_e"][i_lit, -1]))
-    rows.append(ReportRow(
-        "FT-AS literal: |r_e(T)| (documented divergence)", "m", r_lit, "> 1e3", "> 1e3 m",
-        r_lit > 1e3, "windup of psi2 under saturation (spec 8.1, 13); peak command "
+    rows.append(chaos.row(
+        "FT-AS literal: |r_e(T)| (documented divergence)", "m",
+        lambda r: float(np.linalg.norm(r.records["r_e"][i_lit, -1])), "> 1e3", "> 1e3 m",
+        above(1e3), "windup of psi2 under saturation (spec 8.1, 13); peak command "
         f"{res.peak_command[i_lit, :3].max():.3g} N",
     ))  # fmt: skip
 
     # C3: velocity accuracy similar; FT-AS and Case 1 faster than Case 2
-    fv = {lab: float(res.final_max["v_e"][idx[lab]].max()) for lab in ("FT-AS", "Case 1", "Case 2")}
-    ratio = max(fv.values()) / min(fv.values())
-    rows.append(ReportRow("C3 final max|v_e,k| spread (max/min of 3 controllers)", "1", ratio,
-                          "similar", "<= 3", ratio <= 3.0,
+    three = ("FT-AS", "Case 1", "Case 2")
+
+    def v_spread(r: RunResult) -> float:
+        fv = [float(r.final_max["v_e"][idx[lab]].max()) for lab in three]
+        return max(fv) / min(fv)
+
+    fv = {lab: float(chaos.spread(final("v_e", idx[lab])).median) for lab in three}
+    rows.append(chaos.row("C3 final max|v_e,k| spread (max/min of 3 controllers)", "1", v_spread,
+                          "similar", "<= 3", at_most(3.0),
                           ", ".join(f"{k} {v:.2g} m/s" for k, v in fv.items())))  # fmt: skip
-    tv = {lab: float(res.settle["v_e"][idx[lab], 0]) for lab in ("FT-AS", "Case 1", "Case 2")}
+    tv = {lab: float(res.settle["v_e"][idx[lab], 0]) for lab in three}
     for lab in ("FT-AS", "Case 1"):
         rows.append(ReportRow(
             f"C3 T(|v_e| <= 1e-3): {lab} < Case 2", "s", tv[lab], f"< {tv['Case 2']:.0f}",
@@ -170,46 +271,45 @@ def nominal_report(model: FTAS) -> list[ReportRow]:
     rows.append(ReportRow("Case 1: C5 peak force (exceeds initially)", "N", pk_f, "> 2", "> limit",
                           pk_f > p.force_limit, "spec prototype: 3008 N at t ~ 0"))  # fmt: skip
     for part, sl in (("force", slice(0, 3)), ("torque", slice(3, 6))):
-        pk = float(res.peak_late[i1, sl].max())
-        rows.append(ReportRow(
+        cap = float(lim[sl][0])
+        rows.append(chaos.row(
             f"Case 1: C5 peak {part} after {p.late_time:g} s (within later)",
-            "N" if part == "force" else "N m", pk, float(lim[sl][0]), "<= limit",
-            pk <= lim[sl][0] if h <= REFERENCE_STEP else None,
+            "N" if part == "force" else "N m",
+            lambda r, sl=sl: float(r.peak_late[i1, sl].max()), cap, "<= limit",
+            at_most(cap) if h <= REFERENCE_STEP else UNCHECKED,
             "" if h <= REFERENCE_STEP else "chatter grows with h; asserted at h <= 0.01 s",
         ))  # fmt: skip
 
-    # C6: sliding-variable convergence, here and at the spec's h = 0.05 s
+    # C6: sliding-variable convergence at the model's step (h = 0.05 s: nominal_report)
     rows += _c6_rows(res, idx, f"h = {h:g} s")
-    if abs(h - C6_STEP) > 1e-12:
-        c6_variants = [variants[idx[lab]] for lab in ("FT-AS", "Case 1", "Case 2")]
-        c6 = model.run(model.nominal_values(3), c6_variants, (), step=C6_STEP)
-        rows += _c6_rows(c6, {"FT-AS": 0, "Case 1": 1, "Case 2": 2}, f"h = {C6_STEP:g} s")
 
     # Section 12.2 reference values (prototype, h = 0.01 s)
     for lab, ref in SPEC_12_2.items():
         i = idx[lab]
+
+        ref_note = "" if at_ref else "reference is for h = 0.01 s, T = 3000 s"
+        for q, unit, k in (("r_e", "m", 0), ("sigma_e", "1", 1), ("omega_e", "rad/s", 2)):
+            rows.append(chaos.row(f"{lab}: spec 12.2 final max|{q},k|", unit, final(q, i), ref[k],
+                                  "x3", within_factor_of_range(ref[k]) if at_ref else UNCHECKED,
+                                  ref_note))
         vals = [
-            ("final max|r_e,k|", "m", float(res.final_max["r_e"][i].max()), ref[0], "x3"),
-            ("final max|sigma_e,k|", "1", float(res.final_max["sigma_e"][i].max()), ref[1], "x3"),
-            ("final max|omega_e,k|", "rad/s", float(res.final_max["omega_e"][i].max()), ref[2],
-             "x3"),
-            ("T(|r_e| <= 2e-4 m)", "s", _fmt_settle(res, "r_e", 4, i), ref[3], "10%"),
-            ("T(|sigma_e| <= 1e-4)", "s", _fmt_settle(res, "sigma_e", 3, i), ref[4], "10%"),
-            ("T(|eps1| <= 1e-3)", "s", _fmt_settle(res, "eps1", 1, i), ref[5], "10%"),
-            ("delta-v", "m/s", float(res.impulse[i, :3].sum() / p.mass), ref[6], "10%"),
+            ("T(|r_e| <= 2e-4 m)", "s", _fmt_settle(res, "r_e", 4, i), ref[3]),
+            ("T(|sigma_e| <= 1e-4)", "s", _fmt_settle(res, "sigma_e", 3, i), ref[4]),
+            ("T(|eps1| <= 1e-3)", "s", _fmt_settle(res, "eps1", 1, i), ref[5]),
+            ("delta-v", "m/s", float(res.impulse[i, :3].sum() / p.mass), ref[6]),
         ]  # fmt: skip
-        for name, unit, val, r, tol in vals:
+        for name, unit, val, r in vals:
             if not at_ref or isinstance(val, str):
                 ok = None if not at_ref else False
-            elif tol == "x3":
-                ok = r / 3.0 <= val <= 3.0 * r
             else:
                 ok = _within(val, r, 0.10)
-            rows.append(ReportRow(f"{lab}: spec 12.2 {name}", unit, val, r, tol, ok,
-                                  "" if at_ref else "reference is for h = 0.01 s, T = 3000 s"))
-        rows.append(ReportRow(f"{lab}: angular impulse", "N m s", float(res.impulse[i, 3:].sum())))
+            rows.append(ReportRow(f"{lab}: spec 12.2 {name}", unit, val, r, "10%", ok, ref_note))
+        rows.append(chaos.row(  # the integral of a chattering torque: moves ~2 % (FT-AS-P)
+            f"{lab}: angular impulse", "N m s", lambda r, i=i: float(r.impulse[i, 3:].sum()),
+            None, "", UNCHECKED))
     rows.append(ReportRow("wall time per run (kernel)", "s", res.wall_time / len(variants),
-                          note=f"{len(variants)} runs in one batch, {step_note}"))  # fmt: skip
+                          note=f"{len(variants)} runs in one batch, {step_note}",
+                          kind="timing"))  # fmt: skip
     return rows
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..kernels import choose
 from . import kernel
 from .setup import Batch, Gains, Plant, pack_constants
 
@@ -107,6 +108,23 @@ class RunResult:
     wall_time: float = 0.0
     extra: dict[str, object] = field(default_factory=dict)
 
+    def take(self, index: slice | np.ndarray) -> RunResult:
+        """The runs selected by ``index`` (a slice or an index array over the batch)."""
+        return RunResult(
+            time=self.time,
+            records={k: v[index] for k, v in self.records.items()},
+            settle={k: v[index] for k, v in self.settle.items()},
+            final_max={k: v[index] for k, v in self.final_max.items()},
+            peak_applied=self.peak_applied[index],
+            peak_command=self.peak_command[index],
+            peak_late=self.peak_late[index],
+            impulse=self.impulse[index],
+            failed=self.failed[index],
+            timing=self.timing,
+            wall_time=self.wall_time,
+            extra=self.extra,
+        )
+
     def settled(self, quantity: str) -> np.ndarray:
         """(n, n_tol) True where the norm ended below the tolerance before the horizon."""
         return self.settle[quantity] < self.timing.duration - 0.5 * self.timing.step
@@ -160,7 +178,7 @@ def run_batch(
     t0 = time.perf_counter()
     final_start = timing.first_step_at(timing.duration - timing.final_window)
     late_start = timing.first_step_at(timing.late_time)
-    if kernel_name == "numpy":
+    if choose(kernel_name, "ft_as") == "numpy":
         from . import reference_run
 
         reference_run.simulate(

@@ -37,6 +37,7 @@ from pydantic import Field, model_validator
 from ..base import (DerivedOutput, InputInfo, Model, ModelOutput, ModelParams, OutputInfo,
                     ReportRow)
 from ..dynamics.hill import MU_EARTH, mean_motion
+from ..kernels import choose
 from . import layout as L
 from .drift import miss_hill, miss_parabola
 
@@ -156,15 +157,11 @@ class FTCAPNParams(ModelParams):
 
 
 def _resolve_kernel(name: str):
-    if name in ("auto", "numba"):
-        try:
-            from .kernel_numba import simulate_numba
-        except ImportError:
-            if name == "numba":
-                raise
-            log.info("numba not importable: using the NumPy FTCAPN kernel")
-        else:
-            return simulate_numba
+    """The closed loop: the compiled kernel or the NumPy reference (see ``models.kernels``)."""
+    if choose(name, "ftcapn") == "numba":
+        from .kernel_numba import simulate_numba
+
+        return simulate_numba
     from .kernel_numpy import simulate_numpy
 
     return simulate_numpy

@@ -27,8 +27,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
+
+from ..kernels import njit
 
 
 @dataclass(frozen=True)
@@ -173,7 +174,7 @@ class GaussSum:
         return GaussSumDerivatives(value, grad, hess, third if want_third else None)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _gauss_sum_kernel(
     r: np.ndarray, y: np.ndarray, c: np.ndarray, mu: np.ndarray, L: np.ndarray, want_third: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled

@@ -29,10 +29,10 @@ import logging
 from dataclasses import dataclass
 from typing import Protocol
 
-import numba
 import numpy as np
 
 from ..dynamics.tschauner_hempel import RelativePlant, rk4_transition
+from ..kernels import njit
 from .geometry import ChiefGeometry
 
 log = logging.getLogger(__name__)
@@ -322,7 +322,7 @@ def simulate(
     )
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _advance(
     x: np.ndarray,
     u: np.ndarray,

@@ -18,6 +18,8 @@ import math
 import numba as nb
 import numpy as np
 
+from ..kernels import njit
+
 SCALAR_COLUMNS: tuple[str, ...] = (
     "bad_e", "bad_settle", "bad_v", "bad_s2", "bad_speed", "bad_u", "pos_error_final",
     "speed_final", "speed_max", "speed_max_x", "speed_max_y", "speed_max_z", "u_max", "u_conv",
@@ -36,7 +38,7 @@ _S11 = np.uint64(11)
 _ONE = np.uint64(1)
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _uniform(key: np.uint64, element: int) -> float:  # pragma: no cover - compiled
     # element `element` of the SplitMix64 stream `key` (noise.uniform, same bits)
     z = key + (np.uint64(element) + _ONE) * _GAMMA
@@ -46,7 +48,7 @@ def _uniform(key: np.uint64, element: int) -> float:  # pragma: no cover - compi
     return float(z >> _S11) * 2.0**-53
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _attitude(w: np.ndarray, t: float, C0: np.ndarray, C: np.ndarray) -> None:  # pragma: no cover
     # C = C0 exp(t [w x]) (Rodrigues)
     rate = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
@@ -65,26 +67,26 @@ def _attitude(w: np.ndarray, t: float, C0: np.ndarray, C: np.ndarray) -> None:  
             C[a, b] = C0[a, 0] * R[0, b] + C0[a, 1] * R[1, b] + C0[a, 2] * R[2, b]
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _mv(M: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
     for a in range(3):
         out[a] = M[a, 0] * x[0] + M[a, 1] * x[1] + M[a, 2] * x[2]
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _mtv(M: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
     for a in range(3):
         out[a] = M[0, a] * x[0] + M[1, a] * x[1] + M[2, a] * x[2]
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _cross(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
     out[0] = a[1] * b[2] - a[2] * b[1]
     out[1] = a[2] * b[0] - a[0] * b[2]
     out[2] = a[0] * b[1] - a[1] * b[0]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _plant(A: np.ndarray, B: np.ndarray, C: np.ndarray, w: np.ndarray, printed: bool,
            r: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
     # A21 r + A22 v = C^T (A C r + B C (v + w x r)) - w x (w x r) - 2 w x v   (corrected [C 7])
@@ -118,7 +120,7 @@ def _plant(A: np.ndarray, B: np.ndarray, C: np.ndarray, w: np.ndarray, printed: 
             out[a] = t2[a] - wwr[a] - 2.0 * wv[a]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _sig(x: float, a: float) -> float:  # pragma: no cover
     if x > 0.0:
         return x**a
@@ -127,7 +129,7 @@ def _sig(x: float, a: float) -> float:  # pragma: no cover
     return 0.0
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _law(r, v, r_f, P, M, c, mu, L, alpha1, beta1, lam1, lam2, zeta1, zeta2, k_s, det_guard,
          plant_acc, u, s2):  # pragma: no cover
     """GMM-FTC command u (and s2); returns 1 if the Jacobian was guarded."""
@@ -224,7 +226,7 @@ def _law(r, v, r_f, P, M, c, mu, L, alpha1, beta1, lam1, lam2, zeta1, zeta2, k_s
     return guarded
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _box_distance(p, lo, hi) -> float:  # pragma: no cover
     s = 0.0
     for a in range(3):
@@ -233,7 +235,7 @@ def _box_distance(p, lo, hi) -> float:  # pragma: no cover
     return math.sqrt(s)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _depth(p, lo, hi) -> float:  # pragma: no cover
     d = np.inf
     for a in range(3):
@@ -241,7 +243,7 @@ def _depth(p, lo, hi) -> float:  # pragma: no cover
     return max(d, 0.0)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _segment_hits(p0, p1, lo, hi) -> bool:  # pragma: no cover
     # slab test of gmm.geometry.segment_box_hits
     t_enter = -np.inf
@@ -258,7 +260,7 @@ def _segment_hits(p0, p1, lo, hi) -> bool:  # pragma: no cover
     return t_enter <= t_exit and t_exit >= 0.0 and t_enter <= 1.0
 
 
-@nb.njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True)
 def simulate(x0, W, Wc, C0, ctl_separate, plant_printed, ctl_printed, times, A_st, B_st,
              r_f, P, M, c, mu, L, alpha1, beta1, lam1, lam2, zeta1, zeta2, k_s, det_guard,
              scale, noise_w, keys, s_lo, s_hi, c_lo, c_hi, is_solid, reach,

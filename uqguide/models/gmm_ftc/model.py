@@ -46,6 +46,7 @@ from ..base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo, Repor
 from ..dynamics.rotating_body_frame import RotatingBodyFrame
 from ..dynamics.tschauner_hempel import ChiefOrbit
 from ..gmm.potential import AttractRepulsePotential
+from ..kernels import choose
 from . import noise
 from .closed_loop import LoopRun, LoopSettings, run_closed_loop
 from .law import FTCGains, GMMFTCLaw
@@ -303,16 +304,11 @@ class GMMFTC(Model):
 
 
 def _resolve_kernel(name: str):
-    """The closed-loop runner: the compiled kernel or the NumPy reference."""
-    if name in ("auto", "numba"):
-        try:
-            from .kernel_numba import run_closed_loop_numba
-        except ImportError:
-            if name == "numba":
-                raise
-            log.info("numba not importable: using the NumPy GMM-FTC closed loop")
-        else:
-            return run_closed_loop_numba
+    """The closed-loop runner: the compiled kernel or the NumPy reference (``models.kernels``)."""
+    if choose(name, "gmm_ftc") == "numba":
+        from .kernel_numba import run_closed_loop_numba
+
+        return run_closed_loop_numba
     return run_closed_loop
 
 

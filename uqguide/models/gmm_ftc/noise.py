@@ -7,7 +7,11 @@ axes, periods and runs.
 A model must be a function of its inputs (uq-methods.md 1): the same sample must give the same
 outputs whatever batch or chunk it is evaluated in. So the errors are not drawn from a
 generator shared by the batch; each sample owns a SplitMix64 stream (Steele, Lea & Flood 2014)
-whose key is a hash of the noise seed and the sample's input values, and the error of period
+whose key is a hash of the noise seed and the sample's input values rounded to single precision
+(a key from the full double would hand a sample a new noise history whenever its inputs move by
+round-off, e.g. another CPU's last bit of an inverse CDF; single precision moves only when a
+value lies within round-off of a float32 rounding boundary, about 1 in 1e5 for a 1e-12 move),
+and the error of period
 ``k``, axis ``i`` is element ``3 k + i`` of that stream. SplitMix64 outputs are a bijective
 mix of ``key + j * gamma``, so the element is computed directly from its index, vectorised over
 the batch, with no per-sample generator objects.
@@ -37,17 +41,18 @@ def sample_keys(seed: int, values: np.ndarray) -> np.ndarray:
     seed : int
         Noise seed (a model parameter), ``0 <= seed < 2**64``.
     values : ndarray, shape (n, d)
-        The sample's inputs (all of them, nominal ones included).
+        The sample's inputs (all of them, nominal ones included); only their single-precision
+        roundings enter the key.
 
     Returns
     -------
     ndarray of uint64, shape (n,)
     """
-    values = np.ascontiguousarray(values, dtype=np.float64)
-    n = values.shape[0]
+    single = np.ascontiguousarray(values, dtype=np.float32)
+    n = single.shape[0]
     with np.errstate(over="ignore"):
         key = np.full(n, _mix(np.uint64(seed) + _GAMMA), dtype=np.uint64)
-        for col in values.view(np.uint64).T:
+        for col in single.view(np.uint32).T.astype(np.uint64):
             key = _mix(key ^ col + _GAMMA)
     return key
 

@@ -41,7 +41,7 @@ def nominal_runs(model: GMMFTC) -> tuple[LoopRun, LoopRun | None]:
     cached = getattr(model, "_nominal_runs", None)
     if cached is not None:
         return cached
-    values = {i.name: np.array([i.nominal]) for i in model.inputs()}
+    values = model.nominal_values(1)
     fine = replace(model.settings(thrust_noise=0.0), record_every=1)
     clean = model.simulate(values, 1, settings=fine)
     noisy = None

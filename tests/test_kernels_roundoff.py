@@ -1,0 +1,113 @@
+"""Kernel choice, the kernel cache and compile notice, and round-off perturbations."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uqguide.errors import ConfigError
+from uqguide.models import kernels, roundoff
+from uqguide.models.ftcapn import FTCAPN
+
+
+def test_environment_forces_the_kernel(monkeypatch):
+    monkeypatch.setenv(kernels.KERNEL_ENV, "numpy")
+    assert kernels.choose("numba", "ftcapn") == "numpy"
+    assert kernels.choose("auto", "ftcapn") == "numpy"
+    monkeypatch.setenv(kernels.KERNEL_ENV, "fortran")
+    with pytest.raises(ConfigError, match="UQGUIDE_KERNEL must be 'numpy' or 'numba'; got"):
+        kernels.choose("auto", "ftcapn")
+    monkeypatch.delenv(kernels.KERNEL_ENV)
+    assert kernels.choose("numpy", "ftcapn") == "numpy"
+    assert kernels.choose("auto", "ftcapn") == "numba"
+
+
+def test_forced_numpy_kernel_gives_the_compiled_numbers_to_roundoff(monkeypatch):
+    model = FTCAPN()
+    compiled = model.nominal()
+    monkeypatch.setenv(kernels.KERNEL_ENV, "numpy")
+    reference = model.nominal()
+    for k, v in compiled.scalars.items():
+        np.testing.assert_allclose(reference.scalars[k], v, rtol=1e-9, err_msg=k)
+
+
+def test_cache_falls_back_to_a_user_folder_when_the_package_is_read_only(tmp_path, monkeypatch):
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    blocked = tmp_path / "pkg"
+    blocked.mkdir()
+    (blocked / "models").write_text("a file where the package's folder would be")
+    assert kernels.cache_dir(blocked) == tmp_path / "xdg" / "uqguide" / "numba"
+    writable = tmp_path / "pkg2"
+    assert kernels.cache_dir(writable) is None  # numba's default, beside the source
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
+    assert kernels.cache_dir(blocked) == tmp_path / "mine"
+
+
+def test_kernel_family_names_the_simulator():
+    assert kernels._kernel_family("uqguide.models.ftcapn.kernel_numba") == "ftcapn"
+    assert kernels._kernel_family("uqguide.models.gmm.gauss_sum") == "gmm"
+    assert kernels._kernel_family("mypackage.kernel") is None
+
+
+def test_first_compile_says_so_once_and_a_cached_run_is_silent(tmp_path):
+    # An empty cache folder is a fresh install: the first process compiles and says so on
+    # stderr, once for the ftcapn kernel however many functions it compiles; the second
+    # process loads the machine code from the cache and prints nothing.
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop(kernels.KERNEL_ENV, None)
+    code = ("from uqguide.models.ftcapn import FTCAPN; "
+            "assert not FTCAPN().nominal().failed[0]")
+    first = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                           text=True, check=True)
+    lines = [ln for ln in first.stderr.splitlines() if "compiling" in ln]
+    assert lines == ["uqguide: compiling the ftcapn kernel (once per install; later runs load "
+                     "it from the cache)"]
+    assert any(Path(tmp_path / "cache").rglob("*.nbi"))
+    second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                            text=True, check=True)
+    assert "compiling" not in second.stderr
+
+
+def test_perturbation_is_relative_deterministic_and_differs_per_member():
+    values = {"mass": np.full(4, 70.0), "offset": np.zeros(4)}
+    a = roundoff.perturb(values, 1e-12, member=1)
+    b = roundoff.perturb(values, 1e-12, member=1)
+    c = roundoff.perturb(values, 1e-12, member=2)
+    np.testing.assert_array_equal(a["mass"], b["mass"])
+    assert not np.array_equal(a["mass"], c["mass"])
+    rel = np.abs(a["mass"] / 70.0 - 1.0)
+    assert np.all(rel <= 1e-12 + 1e-16) and np.all(rel > 0)
+    np.testing.assert_array_equal(a["offset"], 0.0)  # an exact zero is exact on every CPU
+    same = roundoff.perturb(values, 0.0)
+    np.testing.assert_array_equal(same["mass"], values["mass"])
+
+
+def test_environment_perturbs_every_evaluation(monkeypatch):
+    monkeypatch.delenv(roundoff.PERTURB_ENV, raising=False)
+    model = FTCAPN()
+    x = np.array([[1.0, -2.0, 0.5]])
+    names = ["dx", "dy", "dz"]
+    base = model.evaluate(x, names, ["zem"]).scalars["zem"]
+    monkeypatch.setenv(roundoff.PERTURB_ENV, "1e-12")
+    moved = model.evaluate(x, names, ["zem"]).scalars["zem"]
+    assert not np.array_equal(base, moved)
+    np.testing.assert_allclose(moved, base, rtol=1e-6)
+    monkeypatch.setenv(roundoff.PERTURB_ENV, "0.1")
+    with pytest.raises(ConfigError, match=r"UQGUIDE_PERTURB must be a number in \[0, 1e-6\]"):
+        model.evaluate(x, names, ["zem"])
+
+
+def test_spread_summarises_an_ensemble():
+    sp = roundoff.Spread.of(np.array([[1.0, 5.0], [3.0, 4.0], [2.0, 6.0]]))
+    np.testing.assert_array_equal(sp.median, [2.0, 5.0])
+    np.testing.assert_array_equal(sp.low, [1.0, 4.0])
+    np.testing.assert_array_equal(sp.high, [3.0, 6.0])
+    assert sp.members == 3
+    assert sp.describe(1) == ("median of 3 runs under 1e-12 input perturbations; "
+                              "range [4, 6]")

@@ -1,0 +1,188 @@
+"""Compiled kernels: which one runs, where its machine code is cached, and saying when it compiles.
+
+Every simulator with a compiled (numba) closed loop also keeps a NumPy reference of the same
+loop. The two differ by round-off only, as two CPUs do, which makes the reference the cheapest
+way to ask whether a reported figure survives round-off (``UQGUIDE_KERNEL=numpy``, see
+:func:`choose`).
+
+Kernel modules decorate with :func:`njit` from here rather than ``numba.njit`` so that, before
+the first decorator runs,
+
+- the on-disk cache lives where it can be written: numba's default is the ``__pycache__`` folder
+  beside the source, which a system-wide or read-only ``site-packages`` does not allow; then the
+  cache goes to ``$XDG_CACHE_HOME/uqguide/numba`` (``~/.cache/uqguide/numba``), and to a folder in
+  the temporary directory when even that cannot be written (``NUMBA_CACHE_DIR`` set by the user
+  always wins);
+- a compile that misses the cache prints one line on stderr ("compiling the ftcapn kernel (once
+  per install)"), because the first run of a fresh install spends seconds there in silence.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Literal
+
+KERNEL_ENV = "UQGUIDE_KERNEL"
+"""Environment variable that forces every model's kernel: ``numpy`` or ``numba``."""
+
+KernelChoice = Literal["numba", "numpy"]
+_PACKAGE_DIR = Path(__file__).resolve().parents[1]
+
+
+def kernel_override() -> KernelChoice | None:
+    """The kernel forced by ``UQGUIDE_KERNEL`` (None when unset or empty).
+
+    Raises
+    ------
+    ConfigError
+        When the variable holds anything but ``numpy`` or ``numba``.
+    """
+    value = os.environ.get(KERNEL_ENV, "").strip().lower()
+    if not value:
+        return None
+    if value not in ("numpy", "numba"):
+        from ..errors import ConfigError
+
+        raise ConfigError(
+            f"environment variable {KERNEL_ENV} must be 'numpy' or 'numba'; got {value!r}",
+            field=KERNEL_ENV,
+        )
+    return value  # type: ignore[return-value]
+
+
+def numba_available() -> bool:
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def choose(requested: str, model: str) -> KernelChoice:
+    """The kernel a model runs: ``UQGUIDE_KERNEL`` if set, else ``requested``.
+
+    Parameters
+    ----------
+    requested : {"auto", "numba", "numpy"}
+        The model's ``kernel`` parameter; ``auto`` is numba when it is importable.
+    model : str
+        The model's name, for the error message.
+
+    Raises
+    ------
+    ConfigError
+        ``numba`` asked for (by the parameter or the environment) but not importable.
+    """
+    forced = kernel_override()
+    want = forced or requested
+    if want == "numpy":
+        return "numpy"
+    if numba_available():
+        return "numba"
+    if want == "numba":
+        from ..errors import ConfigError
+
+        source = KERNEL_ENV if forced else f"model.kernel of {model}"
+        raise ConfigError(f"{source} asks for the numba kernel, but numba is not importable; "
+                          "use 'numpy' or 'auto'", field=source)
+    return "numpy"
+
+
+# ---------------------------------------------------------------------------- the cache
+def _writable(folder: Path) -> bool:
+    # os.access answers for the real uid, and root passes it everywhere; creating a file is
+    # the only test that also sees read-only mounts.
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError:
+        return False
+    return True
+
+
+def cache_dir(package_dir: Path = _PACKAGE_DIR) -> Path | None:
+    """Where compiled kernels are cached; None means numba's default (beside the source).
+
+    ``package_dir`` is the installed ``uqguide`` folder (a parameter so that tests can point it
+    at a read-only folder).
+    """
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return Path(os.environ["NUMBA_CACHE_DIR"])
+    if _writable(package_dir / "models" / "__pycache__"):
+        return None
+    xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    for candidate in (Path(xdg) / "uqguide" / "numba",
+                      Path(tempfile.gettempdir()) / f"uqguide-numba-{os.getuid()}"):
+        if _writable(candidate):
+            return candidate
+    return None
+
+
+# ---------------------------------------------------------------------------- compile notice
+_announced: set[str] = set()
+_lock = threading.Lock()
+
+
+def _kernel_family(module: str) -> str | None:
+    """``uqguide.models.ftcapn.kernel_numba`` -> ``ftcapn``; None outside uqguide's models."""
+    parts = module.split(".")
+    if len(parts) >= 3 and parts[:2] == ["uqguide", "models"]:
+        return parts[2]
+    return None
+
+
+def _on_compile(event: Any) -> None:
+    dispatcher = (event.data or {}).get("dispatcher")
+    family = _kernel_family(getattr(getattr(dispatcher, "py_func", None), "__module__", ""))
+    if family is None:
+        return
+    with _lock:
+        if family in _announced:
+            return
+        _announced.add(family)
+    print(f"uqguide: compiling the {family} kernel (once per install; later runs load it from "
+          "the cache)", file=sys.stderr, flush=True)
+
+
+_configured = False
+
+
+def _configure_numba() -> None:
+    global _configured
+    if _configured:
+        return
+    import numba
+    from numba.core import event
+
+    where = cache_dir()
+    if where is not None:
+        numba.config.CACHE_DIR = str(where)
+    event.register("numba:compile", _listener_class()())
+    _configured = True
+
+
+def njit(*args: Any, **kwargs: Any) -> Callable[..., Any]:
+    """``numba.njit`` with uqguide's cache location and compile notice (module docstring)."""
+    _configure_numba()
+    import numba
+
+    return numba.njit(*args, **kwargs)
+
+
+def _listener_class() -> type:
+    from numba.core import event
+
+    class CompileListener(event.Listener):
+        def on_start(self, ev: Any) -> None:
+            _on_compile(ev)
+
+        def on_end(self, ev: Any) -> None:
+            pass
+
+    return CompileListener
