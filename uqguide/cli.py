@@ -147,6 +147,23 @@ def simulate(config: Path, fig_dir: Path | None) -> None:
             click.echo(f"wrote {p}")
 
 
+@main.command("configs")
+@click.option("--copy", "copy", nargs=2, type=(str, click.Path(file_okay=False, path_type=Path)),
+              default=None, metavar="NAME DIR", help="Copy the shipped study NAME into DIR.")
+@_handle_errors
+def configs_command(copy: tuple[str, Path] | None) -> None:
+    """List the shipped studies (run one with `uqguide run NAME`), or copy one out to edit."""
+    from .catalog import copy_study, studies
+
+    if copy is not None:
+        click.echo(f"wrote {copy_study(copy[0], copy[1])}")
+        return
+    listed = studies()
+    width = max(len(s.name) for s in listed)
+    for s in listed:
+        click.echo(f"{s.name:<{width}}  {s.description}")
+
+
 @main.command()
 @click.argument("name", required=False)
 @_handle_errors

@@ -204,7 +204,11 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
 
 
 def load_config(path: str | Path) -> RunConfig:
-    """Read and validate a config file."""
+    """Read and validate a config file, or the shipped study of that name (``ftcapn_table3``;
+    see :mod:`uqguide.catalog`)."""
+    from .catalog import resolve
+
+    path = resolve(path)
     return validate_config(load_yaml(path), str(path))
 
 
