@@ -205,10 +205,11 @@ class AdaptivePCE(Method):
         s = self.settings
         fits = self._fit(space, design, outputs)
         n_ok = int((~outputs.failed).sum())
-        stats, names, s_mean, s_cov, extra = assemble(
+        stats, names, s_mean, s_cov, extra, events = assemble(
             [(f.columns, f.expansion) for f in fits], self.derived_outputs, outputs,
             n_runs=n_ok, n_draws=s.surrogate_draws, seed=design.data.get("draw_seed", 0),
-            label=self.label, sampling=s.surrogate_sampling)
+            label=self.label, sampling=s.surrogate_sampling,
+            levels=self.quantile_levels, events=self.events, components=self.components)
         worst = max((f.loo for f in fits), default=0.0)
         if worst > s.target_loo:
             log.warning("%s: LOO error %.2e is above the target %.0e after %d runs (budget %d)",
@@ -239,7 +240,7 @@ class AdaptivePCE(Method):
         diagnostics["fit_seconds"] = (design.data.get("fit_seconds", 0.0)
                                       + time.perf_counter() - t0)
         return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov)
+                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
 
     # ------------------------------------------------------------------ fitting
     def _fit(self, space: InputSpace, design: Design, outputs: ModelOutput) -> list[_OutputFit]:
