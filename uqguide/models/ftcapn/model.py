@@ -371,3 +371,10 @@ class FTCAPN(Model):
         from .report import nominal_figures
 
         return nominal_figures(self, out_dir)
+
+    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
+                       stem: str) -> list[str]:
+        """The chaser's path relative to the target (``-r``, Table-2 axes) for one sample."""
+        from .report import sample_trajectory_figure
+
+        return [sample_trajectory_figure(self, out, out_dir, stem)]
