@@ -21,6 +21,9 @@ Layout (all values SI)::
     batch_size: 10000    # samples per model call (memory only: never changes the numbers)
     max_failed_fraction: 0.01    # failure budget per method: above it `uqguide run` exits 1
     pce_failure_policy: fail     # quadrature PCE with failed runs: fail | regression
+    quantiles: 3sigma            # optional: quantile levels in (0, 1), or 3sigma
+    events:                      # optional: events on scalar outputs (below: y < b, above: y > a)
+      - {name: collision, output: collided, above: 0.5}
 """
 
 from __future__ import annotations
@@ -234,10 +237,11 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     methods = _build_methods(raw)
     levels = resolve_levels(raw.quantiles)
     comps = {o: tuple(model.output_info(o).components) for o in outputs}
-    for m in methods:
+    for i, m in enumerate(methods):
         m.quantile_levels = levels
         m.events = tuple(raw.events)
         m.components = comps
+        m.check(i)
     labels = [m.label for m in methods]
     for i, lab in enumerate(labels):
         if labels.index(lab) != i:

@@ -48,9 +48,18 @@ def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:
 def cost_table(result: Result) -> pd.DataFrame:
     """One row per method: runs, failures, wall times and method diagnostics."""
     rows = []
+    # a rare-event method's event is shown for every method that estimates it: the cost of
+    # its probability and coefficient of variation side by side
+    rare = list(dict.fromkeys(r.estimate.diagnostics["event"] for r in result.runs
+                              if "event" in r.estimate.diagnostics))
     for r in result.runs:
         d = r.estimate.diagnostics
-        extra = {k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components") if k in d}
+        extra = {k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components", "levels")
+                 if k in d}
+        for name in rare:
+            ev = r.estimate.events.get(name)
+            extra[f"P({name})"] = ev.probability if ev else float("nan")
+            extra[f"cov({name})"] = ev.cov if ev else float("nan")
         rows.append({
             "label": r.label, "method": r.estimate.method, "runs": r.n_runs,
             "failed": r.n_failed, "model_s": round(r.model_seconds, 3),
@@ -241,7 +250,8 @@ def render_text(result: Result) -> str:
                   wide_table(sub, with_ref).to_string(index=False)]
     events = events_table(result)
     if not events.empty:
-        parts += ["", "Events (Clopper-Pearson 95% intervals; surrogate: over its draws only)",
+        parts += ["", "Events (95% intervals: Clopper-Pearson over model runs; surrogate: over its "
+                  "draws only; subset: lognormal from its CoV upper bound, in = final level)",
                   events_text(events).to_string(index=False)]
     agree = series_agreement(result)
     if not agree.empty:

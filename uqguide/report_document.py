@@ -118,7 +118,8 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
     if not events.empty:
         parts += ["", "## Events", "", "Probability of each event with its 95% interval "
                   "(Clopper-Pearson over model runs; for a PCE over its surrogate draws only: "
-                  "the surrogate's own error is not in it).", "",
+                  "the surrogate's own error is not in it; subset simulation: lognormal from "
+                  "its CoV upper bound, in / used = its final level).", "",
                   to_markdown(events_text(events))]
     agree = series_agreement(result)
     if not agree.empty:

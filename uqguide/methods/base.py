@@ -129,6 +129,10 @@ class Method(ABC):
     def label(self) -> str:
         return self.settings.label or self.name
 
+    def check(self, index: int) -> None:
+        """Checks of the settings against the rest of the config (events, outputs), after
+        those are set; raise ConfigError naming ``methods[index].<field>``. Default: none."""
+
     @abstractmethod
     def design(self, space: InputSpace, seed: int) -> Design:
         """The initial runs to make.
