@@ -109,3 +109,22 @@ def test_bad_quantile_levels_name_the_field(value, field):
     with pytest.raises(ConfigError) as exc:
         _lognormal(10, quantiles=value)
     assert exc.value.field == field
+
+
+def test_envelope_figure_and_events_section_are_written(tmp_path):
+    from uqguide.plots import write_figures
+    from uqguide.report import render_markdown
+
+    cfg = validate_config({
+        "model": {"name": "linear_gaussian"},
+        "inputs": [{"name": f"x{i}", "dist": "normal", "mean": 0.0, "std": 1.0}
+                   for i in (1, 2, 3)],
+        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 3000,
+                     "bootstrap": 20}],
+        "quantiles": "3sigma", "events": [{"name": "hi", "output": "y", "component": "y1",
+                                           "above": 3.0}]})
+    res = run(cfg)
+    kinds = [(f.kind, f.output, f.component) for f in write_figures(res, tmp_path)]
+    assert ("envelope", "ramp", "y1") in kinds and ("envelope", "ramp", "y2") in kinds
+    md = render_markdown(res)
+    assert "## Events" in md and "y[y1] > 3" in md and "q0.99865" in md
