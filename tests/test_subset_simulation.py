@@ -78,6 +78,22 @@ def test_cost_table_shows_probability_and_cov_beside_monte_carlo():
     assert np.isnan(table.loc["mc", "cov(far)"])
 
 
+def test_a_result_with_subset_simulation_reads_back_and_replays(tmp_path):
+    from click.testing import CliRunner
+
+    from uqguide.cli import main
+    from uqguide.result import read_hdf5, write_hdf5
+
+    res = run(_config(n_per_level=100))
+    h5 = write_hdf5(res, tmp_path / "r.h5")
+    back = read_hdf5(h5).run("sus")
+    assert back.estimate.events == res.run("sus").estimate.events
+    assert back.estimate.stats == {}
+    out = CliRunner().invoke(main, ["replay", str(h5), "--label", "sus", "--worst", "y",
+                                    "--out", str(tmp_path / "rp")])
+    assert out.exit_code == 0 and "bit for bit" in out.output, out.output
+
+
 def test_unknown_event_and_bad_sizes_name_the_field():
     with pytest.raises(ConfigError) as exc:
         _config(event="near")

@@ -216,6 +216,7 @@ def _write_run(g: h5py.Group, r: MethodRun) -> None:
                    model_seconds=r.model_seconds, fit_seconds=r.fit_seconds,
                    wall_seconds=r.wall_seconds,
                    diagnostics_json=json.dumps(e.diagnostics, default=_json_default))
+    g.create_group("stats")  # empty for a method without moments (subset simulation)
     for name, s in e.stats.items():
         _write_stats(g.create_group(f"stats/{name}"), s)
     if e.scalar_names and e.scalar_mean is not None:
@@ -272,7 +273,7 @@ def read_hdf5(path: str | Path) -> Result:
             order = json.loads(f.attrs.get("method_order", "[]")) or list(f["methods"])
             for label in order:
                 g = f["methods"][label]
-                stats = {name: _read_stats(sg) for name, sg in g["stats"].items()}
+                stats = {name: _read_stats(sg) for name, sg in g.get("stats", {}).items()}
                 joint = g.get("scalar_joint")
                 est = Estimate(
                     method=str(g.attrs["method"]), label=label, stats=stats,
