@@ -24,6 +24,12 @@ the plain ones. For large ``n`` it has the multinomial bootstrap's distribution 
 ``(n, 1/n)`` count is asymptotically ``Poisson(1)``); failed runs get weight 0. Intervals of a
 series are computed at the report times and the last step (``bootstrap_times: report``) or at
 every step (``all``: costs ``4 B T k`` multiply-adds per sample).
+
+Quantiles (the config's ``quantiles``) are order statistics with distribution-free intervals
+(:mod:`uqguide.quantiles`): scalars from the kept per-sample values; series from each chunk's
+values at every step (at the report times and the last step above
+:data:`~uqguide.methods.mc_reduce.QUANTILE_ALL_FLOATS`), concatenated in chunk order. Events
+(the config's ``events``) are counted over the good runs with Clopper-Pearson intervals.
 """
 
 from __future__ import annotations
