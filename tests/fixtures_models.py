@@ -17,3 +17,8 @@ def raise_if_large(x):
 def series_and_scalar(x):
     t = np.linspace(0.0, 1.0, 5)
     return {"time": t, "path": x[:, :1] * t[None, :], "total": x.sum(axis=1)}
+
+
+def indicator(x):
+    """A 0/1 output: no gradation for subset simulation's intermediate levels."""
+    return (x[:, 0] > 2.0).astype(float)

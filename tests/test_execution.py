@@ -23,6 +23,9 @@ FLAKY = {
     "batch_size": 300,
     "max_failed_fraction": 0.1,
     "seed": 3,
+    # order statistics and event counts must be worker-independent too
+    "quantiles": [0.01, 0.5, 0.99],
+    "events": [{"name": "high", "output": "ab", "component": 1, "above": 1.5}],
 }
 
 
@@ -37,6 +40,9 @@ def _arrays(result):
         for k in ("mean", "std", "skewness", "kurtosis", "cov", "sem"):
             out[f"{name}/{k}"] = getattr(s, k)
         out.update({f"{name}/ci_{k}": v for k, v in s.ci.items()})
+        out[f"{name}/quantiles"], out[f"{name}/ci_quantiles"] = s.quantiles, s.ci_quantiles
+    out.update({f"event/{k}": np.array([v.probability, *v.ci, v.n_in, v.n_used])
+                for k, v in e.events.items()})
     return out
 
 
@@ -88,6 +94,8 @@ def test_estimate_on_outputs_in_memory_equals_the_streamed_estimate(serial_resul
             assert np.array_equal(getattr(e.stats[name], k), getattr(s.stats[name], k),
                                   equal_nan=True)
         assert np.array_equal(e.stats[name].ci["kurtosis"], s.stats[name].ci["kurtosis"],
+                              equal_nan=True)
+        assert np.array_equal(e.stats[name].ci_quantiles, s.stats[name].ci_quantiles,
                               equal_nan=True)
 
 

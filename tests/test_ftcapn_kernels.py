@@ -15,15 +15,17 @@ pytest.importorskip("numba")
 SIGMA_TABLE4_11 = [15, 15, 15, 3, 3, 3, 1e-5, 5, 0.1, 0.1, 0.1]
 
 
-@pytest.mark.parametrize("gravity", ["none", "hill"])
-def test_numba_equals_numpy(gravity):
+@pytest.mark.parametrize("gravity, frame", [("none", "initial"), ("hill", "initial"),
+                                            ("none", "rotating"), ("hill", "rotating")])
+def test_numba_equals_numpy(gravity, frame):
     rng = np.random.default_rng(11)
     x = rng.normal(size=(300, 11)) * SIGMA_TABLE4_11
     x[0] = 0.0  # the nominal run
     x[1, 6] = np.nan  # a non-finite failure
     res = {}
     for kernel in ("numpy", "numba"):
-        m = FTCAPN({"kernel": kernel, "gravity": gravity, "t_max": 120.0})
+        m = FTCAPN({"kernel": kernel, "gravity": gravity, "t_max": 120.0,
+                    "maneuver_frame": frame})
         names = [i.name for i in m.inputs()]
         res[kernel] = m.evaluate(x, names, [o.name for o in m.outputs()])
     a, b = res["numpy"], res["numba"]

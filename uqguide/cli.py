@@ -326,5 +326,44 @@ def report(result_path: Path, out_dir: Path | None, baseline_path: Path | None) 
     click.echo(f"wrote {path}")
 
 
+@main.command()
+@_RESULT_ARG
+@click.option("--label", required=True, help="Method label of the sample (e.g. mc1e4).")
+@click.option("--sample", type=int, default=None, help="Sample number (0-based).")
+@click.option("--worst", default=None, metavar="OUTPUT",
+              help="The sample with the largest value of this scalar output.")
+@click.option("--lowest", is_flag=True, help="With --worst: the smallest value instead.")
+@click.option("--component", default=None, help="With --worst: component of the output.")
+@click.option("--event", default=None, metavar="NAME",
+              help="The first sample in this event of the config.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=None, help="Folder of the histories and figures [default: RESULT's "
+                                 "folder/replay].")
+@_handle_errors
+@_unusable_input_is_2
+def replay(result_path: Path, label: str, sample: int | None, worst: str | None,
+           lowest: bool, component: str | None, event: str | None,
+           out_dir: Path | None) -> None:
+    """Rerun one sample of RESULT: its scalars (bit for bit), histories and figures.
+
+    Exit 0 when the replayed scalars equal the stored ones bit for bit, 1 when they differ (the
+    code or a dependency changed since RESULT was written), 2 on bad input.
+    """
+    from .replay import render, replay as replay_sample, write_replay
+    from .result import read_hdf5
+
+    result = read_hdf5(result_path)
+    rep, cfg = replay_sample(result, label, sample=sample, worst=worst, lowest=lowest,
+                             event=event, component=component)
+    click.echo(render(rep))
+    for p in write_replay(rep, cfg, result.name, out_dir or result_path.parent / "replay"):
+        click.echo(f"wrote {p}")
+    bad = rep.mismatches()
+    if bad:
+        raise UqguideError(f"replayed scalars differ from the stored ones: {', '.join(bad)} "
+                           f"(code or dependency changed since the result was written?)")
+    click.echo("replayed scalars equal the stored ones bit for bit")
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -21,6 +21,9 @@ Layout (all values SI)::
     batch_size: 10000    # samples per model call (memory only: never changes the numbers)
     max_failed_fraction: 0.01    # failure budget per method: above it `uqguide run` exits 1
     pce_failure_policy: fail     # quadrature PCE with failed runs: fail | regression
+    quantiles: 3sigma            # optional: quantile levels in (0, 1), or 3sigma
+    events:                      # optional: events on scalar outputs (below: y < b, above: y > a)
+      - {name: collision, output: collided, above: 0.5}
 """
 
 from __future__ import annotations
@@ -35,6 +38,8 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from .errors import ConfigError
+from .events import EventSpec, component_index
+from .quantiles import resolve_levels
 from .inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
 from .methods.base import Method
 from .models.base import Model
@@ -73,6 +78,10 @@ class RawConfig(BaseModel):
     #: with the failed nodes named; ``regression`` fits the coefficients by least squares on
     #: the surviving nodes, with a warning and a diagnostics entry.
     pce_failure_policy: Literal["fail", "regression"] = "fail"
+    #: Quantile levels in (0, 1), or ``3sigma`` (the median and the 3-sigma envelope).
+    quantiles: list[float] | str | None = None
+    #: Events on scalar outputs whose probabilities every method reports.
+    events: list[EventSpec] = Field(default_factory=list)
 
 
 @dataclass
@@ -136,7 +145,8 @@ def _path(prefix: str, loc: tuple[Any, ...]) -> str:
     for part in loc:
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in DISTRIBUTIONS or part in ("function-after", "function-before"):
+        elif part in DISTRIBUTIONS or part in ("function-after", "function-before", "str") \
+                or str(part).startswith("list["):
             continue  # pydantic's discriminated-union branch names are not fields of the file
         else:
             out += f".{part}" if out else str(part)
@@ -226,7 +236,16 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     _check_finite_parameters(raw)
     space = _build_space(raw, model)
     outputs = _resolve_outputs(raw, model)
+    _check_quantiles(raw)
+    _check_events(raw, model, outputs)
     methods = _build_methods(raw)
+    levels = resolve_levels(raw.quantiles)
+    comps = {o: tuple(model.output_info(o).components) for o in outputs}
+    for i, m in enumerate(methods):
+        m.quantile_levels = levels
+        m.events = tuple(raw.events)
+        m.components = comps
+        m.check(i)
     labels = [m.label for m in methods]
     for i, lab in enumerate(labels):
         if labels.index(lab) != i:
@@ -246,6 +265,47 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
                     field=f"report_times[{i}]")
     return RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
                      source=source)
+
+
+def _check_quantiles(raw: RawConfig) -> None:
+    if isinstance(raw.quantiles, str) and raw.quantiles != "3sigma":
+        raise ConfigError(f"quantiles: give a list of levels in (0, 1) or 3sigma (got "
+                          f"{raw.quantiles!r})", field="quantiles")
+    if isinstance(raw.quantiles, list):
+        if not raw.quantiles:
+            raise ConfigError("quantiles: give at least one level, or 3sigma (got [])",
+                              field="quantiles")
+        for i, p in enumerate(raw.quantiles):
+            if not 0.0 < p < 1.0:
+                raise ConfigError(f"quantiles[{i}]: must be a probability strictly between 0 "
+                                  f"and 1 (got {p!r})", field=f"quantiles[{i}]")
+
+
+def _check_events(raw: RawConfig, model: Model, outputs: tuple[str, ...]) -> None:
+    seen: set[str] = set()
+    for i, e in enumerate(raw.events):
+        if e.name in seen:
+            raise ConfigError(f"events[{i}].name: {e.name!r} is used twice; give each event a "
+                              f"unique name", field=f"events[{i}].name")
+        seen.add(e.name)
+        if e.output not in outputs:
+            raise ConfigError(
+                f"events[{i}].output: {e.output!r} is not among the config's outputs"
+                f"{did_you_mean(e.output, list(outputs))}; allowed: {', '.join(outputs)}",
+                field=f"events[{i}].output")
+        info = model.output_info(e.output)
+        if info.kind != "scalar":
+            raise ConfigError(f"events[{i}].output: {e.output!r} is a time series; an event is "
+                              f"defined on a scalar output", field=f"events[{i}].output")
+        try:
+            component_index(e, tuple(info.components))
+        except ValueError as exc:
+            raise ConfigError(f"events[{i}].component: {exc}",
+                              field=f"events[{i}].component") from None
+        thr = e.threshold()
+        if not np.isfinite(thr):
+            raise ConfigError(f"events[{i}]: the threshold must be finite (got {thr!r})",
+                              field=f"events[{i}]")
 
 
 def _find_nan(node: Any, path: str = "") -> str | None:

@@ -161,6 +161,69 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
     return fig
 
 
+def has_quantiles(result: Result, output: str) -> bool:
+    return any(r.estimate.stats.get(output) is not None
+               and r.estimate.stats[output].quantiles is not None for r in result.runs)
+
+
+def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
+    """Quantile envelopes over time of one series output component, per method.
+
+    The band is the outermost pair of quantile levels (with ``quantiles: 3sigma`` the 0.135%
+    and 99.865% quantiles: the distribution-free 3-sigma envelope), the line the median (or the
+    middle level); thin dotted lines are the outer quantiles' 95% intervals (order statistics;
+    where too few runs bound a tail the line is left out). Beside it, dashed, mean +- k std
+    with the k a Gaussian gives the outer levels: where the two disagree the output is not
+    Gaussian. Steps without quantiles (above the memory cap: report times only) show as
+    markers.
+    """
+    o = result.output(output)
+    name = f"{o.name}{_comp_suffix(o, component)}"
+    u = unit_label(o.unit)
+    t = result.time
+    fig = Figure(figsize=(10.0, 5.6), layout="constrained")
+    ax = fig.add_subplot()
+    styles = _styles(result)
+    title_levels = ""
+    for r in result.runs:
+        s = r.estimate.stats.get(output)
+        if s is None or s.quantiles is None:
+            continue
+        st = styles[r.label]
+        lv = s.quantile_levels
+        lo_i, hi_i, mid_i = 0, len(lv) - 1, int(np.argmin(np.abs(np.asarray(lv) - 0.5)))
+        q = s.quantiles[:, :, component]
+        ci = s.ci_quantiles[:, :, :, component]
+        ok = np.isfinite(q[lo_i]) & np.isfinite(q[hi_i])
+        dense = ok.sum() > 2 and ok.all()
+        mark = {} if dense else {"marker": "o", "ms": 4}
+        if dense:
+            ax.fill_between(t, q[lo_i], q[hi_i], color=st["color"], alpha=0.12, lw=0)
+        for i in (lo_i, hi_i):
+            ax.plot(t[ok], q[i][ok], color=st["color"], lw=1.1, ls=st["ls"], **mark)
+            for end in (0, 1):
+                e = ci[end, i]
+                fine = ok & np.isfinite(e)
+                if fine.any():
+                    ax.plot(t[fine], e[fine], color=st["color"], lw=0.6, ls=":")
+        ax.plot(t[ok], q[mid_i][ok], color=st["color"], lw=1.8, ls=st["ls"],
+                label=f"{method_label(r)}: q{lv[mid_i]:g} and q{lv[lo_i]:g}-q{lv[hi_i]:g}",
+                **mark)
+        if lv[lo_i] < 0.5 < lv[hi_i]:
+            k = float(sps.norm.isf(lv[lo_i]))
+            m, sd = s.mean[:, component], s.std[:, component]
+            ax.plot(t, m - k * sd, color=st["color"], lw=0.8, ls="--", alpha=0.7)
+            ax.plot(t, m + k * sd, color=st["color"], lw=0.8, ls="--", alpha=0.7,
+                    label=f"{r.label}: mean $\\pm$ {k:.3g} std (Gaussian reading)")
+        title_levels = f"{lv[lo_i]:g} to {lv[hi_i]:g}"
+    ax.set(xlabel="time [s]", ylabel=f"{name} {u}",
+           title=f"{result.name}: {name}, quantile envelope {title_levels}\n(dotted: 95% "
+                 f"intervals of the outer quantiles, where the runs bound them)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    return fig
+
+
 # ---------------------------------------------------------------------------- scalars
 def _plot_range(samples: list[np.ndarray]) -> tuple[float, float, int]:
     """x range of the histograms: the pooled samples' 0.1-99.9% quantiles (heavy tails would
@@ -374,6 +437,11 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
                 path = out / f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}.png"
                 series_figure(result, o.name, c).savefig(path, dpi=dpi)
                 files.append(FigureFile(path, "series", o.name, comp))
+                if has_quantiles(result, o.name):
+                    path = out / (f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
+                                  f"_envelope.png")
+                    envelope_figure(result, o.name, c).savefig(path, dpi=dpi)
+                    files.append(FigureFile(path, "envelope", o.name, comp))
         elif o.kind == "scalar":
             path = out / f"{stem}_{_safe(o.name)}_hist.png"
             scalar_figure(result, o.name).savefig(path, dpi=dpi)

@@ -34,6 +34,7 @@ METHODS: dict[str, str] = {
     "pce_tensor": "uqguide.methods.pce_tensor:TensorPCE",
     "pce_smolyak": "uqguide.methods.pce_smolyak:SmolyakPCE",
     "pce_adaptive": "uqguide.methods.pce_adaptive:AdaptivePCE",
+    "subset_simulation": "uqguide.methods.subset_simulation:SubsetSimulation",
 }
 
 

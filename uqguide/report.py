@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from .result import Result
+from .quantiles import level_name
 from .stats import STAT_NAMES, OutputStats
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
@@ -47,9 +48,18 @@ def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:
 def cost_table(result: Result) -> pd.DataFrame:
     """One row per method: runs, failures, wall times and method diagnostics."""
     rows = []
+    # a rare-event method's event is shown for every method that estimates it: the cost of
+    # its probability and coefficient of variation side by side
+    rare = list(dict.fromkeys(r.estimate.diagnostics["event"] for r in result.runs
+                              if "event" in r.estimate.diagnostics))
     for r in result.runs:
         d = r.estimate.diagnostics
-        extra = {k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components") if k in d}
+        extra = {k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components", "levels")
+                 if k in d}
+        for name in rare:
+            ev = r.estimate.events.get(name)
+            extra[f"P({name})"] = ev.probability if ev else float("nan")
+            extra[f"cov({name})"] = ev.cov if ev else float("nan")
         rows.append({
             "label": r.label, "method": r.estimate.method, "runs": r.n_runs,
             "failed": r.n_failed, "model_s": round(r.model_seconds, 3),
@@ -92,7 +102,62 @@ def statistics_table(result: Result) -> pd.DataFrame:
                                    else float("nan"),
                                    in_ref_ci=bool(rlo <= v <= rhi) if np.isfinite(rlo) else None)
                     rows.append(row)
+                rows += _quantile_rows(o, r.label, s, rs, where, comp, t)
     return pd.DataFrame(rows)
+
+
+def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where: tuple,
+                   comp: str, t: float) -> list[dict]:
+    """Rows of the quantiles at one place (none where they were not computed), compared with
+    the reference's quantile of the same level and its distribution-free interval."""
+    if s.quantiles is None:
+        return []
+    ref_levels = list(rs.quantile_levels) if rs is not None and rs.quantiles is not None else []
+    rows = []
+    for i, p in enumerate(s.quantile_levels):
+        v = float(s.quantiles[(i, *where)])
+        if np.isnan(v):
+            continue
+        row = {"output": o.name, "component": comp, "unit": o.unit, "time": t, "label": label,
+               "stat": level_name(p), "value": v,
+               "ci_low": float(s.ci_quantiles[(0, i, *where)]),
+               "ci_high": float(s.ci_quantiles[(1, i, *where)])}
+        if p in ref_levels:
+            j = ref_levels.index(p)
+            rv = float(rs.quantiles[(j, *where)])
+            rlo, rhi = (float(rs.ci_quantiles[(k, j, *where)]) for k in (0, 1))
+            if not np.isnan(rv):
+                # as for the moments: no relative difference to a value within its own
+                # interval of zero (a median near 0)
+                noisy = np.isfinite(rhi - rlo) and abs(rv) <= 0.5 * (rhi - rlo)
+                row.update(ref_value=rv, abs_diff=v - rv,
+                           rel_diff=(v - rv) / abs(rv) if rv and not noisy else float("nan"),
+                           in_ref_ci=bool(rlo <= v <= rhi))
+        rows.append(row)
+    return rows
+
+
+def events_table(result: Result) -> pd.DataFrame:
+    """One row per method and event: probability, 95% interval, counts and estimator."""
+    rows = []
+    for r in result.runs:
+        for name, ev in r.estimate.events.items():
+            rows.append({"event": name, "definition": ev.definition, "label": r.label,
+                         "probability": ev.probability, "ci_low": ev.ci[0],
+                         "ci_high": ev.ci[1], "n_in": ev.n_in, "n_used": ev.n_used,
+                         "cov": ev.cov, "estimator": ev.estimator})
+    return pd.DataFrame(rows)
+
+
+def events_text(df: pd.DataFrame) -> pd.DataFrame:
+    out = df[["event", "definition", "label"]].copy()
+    out["probability [95% interval]"] = [
+        f"{_fmt(p)} [{_fmt(lo)}, {_fmt(hi)}]"
+        for p, lo, hi in zip(df["probability"], df["ci_low"], df["ci_high"])]
+    out["in / used"] = [f"{a} / {b}" for a, b in zip(df["n_in"], df["n_used"])]
+    out["cov"] = df["cov"].map(_fmt)
+    out["estimator"] = df["estimator"]
+    return out
 
 
 def series_agreement(result: Result) -> pd.DataFrame:
@@ -131,8 +196,10 @@ def series_agreement(result: Result) -> pd.DataFrame:
 
 # ---------------------------------------------------------------------------- text forms
 def _fmt(v: float) -> str:
-    if v is None or (isinstance(v, float) and not np.isfinite(v)):
+    if v is None or (isinstance(v, float) and np.isnan(v)):
         return "nan"
+    if isinstance(v, float) and np.isinf(v):
+        return "inf" if v > 0 else "-inf"
     a = abs(v)
     return f"{v:.4g}" if (a == 0 or 1e-3 <= a < 1e5) else f"{v:.3e}"
 
@@ -145,7 +212,7 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
         row = dict(zip(keys, key))
         for _, s in g.iterrows():
             cell = _fmt(s["value"])
-            if np.isfinite(s["ci_low"]):
+            if not np.isnan(s["ci_low"]):
                 cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
             if with_ref and s["label"] != stats.attrs.get("reference"):
                 rd, ad = s.get("rel_diff"), s.get("abs_diff")
@@ -181,6 +248,11 @@ def render_text(result: Result) -> str:
         kind = "at report times" if o.kind == "series" else "(scalar)"
         parts += ["", f"{o.name} [{o.unit}] {kind}: {o.description}",
                   wide_table(sub, with_ref).to_string(index=False)]
+    events = events_table(result)
+    if not events.empty:
+        parts += ["", "Events (95% intervals: Clopper-Pearson over model runs; surrogate: over its "
+                  "draws only; subset: lognormal from its CoV upper bound, in = final level)",
+                  events_text(events).to_string(index=False)]
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
@@ -216,6 +288,9 @@ def render_markdown(result: Result) -> str:
         if not sub.empty:
             parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
                       to_markdown(wide_table(sub, with_ref))]
+    events = events_table(result)
+    if not events.empty:
+        parts += ["", "## Events", "", to_markdown(events_text(events))]
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", "## Series agreement with the reference", "", to_markdown(agree)]
@@ -228,6 +303,10 @@ def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
     paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",
              out_dir / f"{stem}_summary.md"]
     statistics_table(result).to_csv(paths[0], index=False)
+    events = events_table(result)
+    if not events.empty:
+        paths.append(out_dir / f"{stem}_events.csv")
+        events.to_csv(paths[-1], index=False)
     cost_table(result).to_csv(paths[1], index=False)
     paths[2].write_text(render_markdown(result), encoding="utf-8")
     return paths

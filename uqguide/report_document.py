@@ -20,7 +20,8 @@ import yaml
 
 from .gate import CheckReport
 from .plots import FigureFile, write_figures
-from .report import wide_table, cost_table, series_agreement, statistics_table, to_markdown
+from .report import (cost_table, events_table, events_text, series_agreement, statistics_table,
+                     to_markdown, wide_table)
 from .result import Result
 
 log = logging.getLogger(__name__)
@@ -113,6 +114,13 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
         head = "Statistics at the report times and the last step:" if o.kind == "series" \
             else "Statistics:"
         parts += ["", head, "", to_markdown(wide_table(sub, with_ref))]
+    events = events_table(result)
+    if not events.empty:
+        parts += ["", "## Events", "", "Probability of each event with its 95% interval "
+                  "(Clopper-Pearson over model runs; for a PCE over its surrogate draws only: "
+                  "the surrogate's own error is not in it; subset simulation: lognormal from "
+                  "its CoV upper bound, in / used = its final level).", "",
+                  to_markdown(events_text(events))]
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", f"## Series over the whole grid against `{result.reference}`", "",

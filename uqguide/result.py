@@ -16,7 +16,10 @@ Layout of a result file (format 1; every array SI, time axis first for series)::
       stats/<output>/sem                               sample methods only
       stats/<output>/ci_<stat>                         (2, ...) 95% interval (low, high)
       stats/<output>/sobol_first, sobol_total          (..., k, d), PCE only
+      stats/<output>/quantiles (q, ...) attrs: levels; ci_quantiles (2, q, ...)
                      attrs: n_used, moments_method
+      events/<name>     attrs: definition, probability, ci_low, ci_high, n_in, n_used,
+                               estimator (count | surrogate | subset), cov
       scalar_joint/names, mean, cov                    all scalar outputs stacked
       samples/x (n, d), failed (n,), reasons (n,), scalars/<output> (n, k)
 
@@ -40,6 +43,7 @@ import yaml
 
 from . import __version__
 from .errors import ResultError
+from .events import EventEstimate
 from .methods.base import Estimate
 from .models.base import OutputInfo
 from .stats import STAT_NAMES, OutputStats
@@ -153,6 +157,10 @@ def _write_stats(g: h5py.Group, s: OutputStats) -> None:
         g.create_dataset("sobol_first", data=s.sobol_first)
     if s.sobol_total is not None:
         g.create_dataset("sobol_total", data=s.sobol_total)
+    if s.quantiles is not None:
+        g.create_dataset("quantiles", data=s.quantiles)
+        g.create_dataset("ci_quantiles", data=s.ci_quantiles)
+        g["quantiles"].attrs["levels"] = np.asarray(s.quantile_levels, dtype=float)
     g.attrs["n_used"] = s.n_used
     g.attrs["moments_method"] = s.moments_method
 
@@ -208,6 +216,7 @@ def _write_run(g: h5py.Group, r: MethodRun) -> None:
                    model_seconds=r.model_seconds, fit_seconds=r.fit_seconds,
                    wall_seconds=r.wall_seconds,
                    diagnostics_json=json.dumps(e.diagnostics, default=_json_default))
+    g.create_group("stats")  # empty for a method without moments (subset simulation)
     for name, s in e.stats.items():
         _write_stats(g.create_group(f"stats/{name}"), s)
     if e.scalar_names and e.scalar_mean is not None:
@@ -215,6 +224,8 @@ def _write_run(g: h5py.Group, r: MethodRun) -> None:
         j.create_dataset("names", data=np.array(e.scalar_names, dtype="S"))
         j.create_dataset("mean", data=e.scalar_mean)
         j.create_dataset("cov", data=e.scalar_cov)
+    for name, ev in e.events.items():
+        g.create_group(f"events/{name}").attrs.update(ev.as_dict())
     s = g.create_group("samples")
     s.create_dataset("x", data=r.x, compression="gzip" if r.x.size > 4096 else None)
     s.create_dataset("failed", data=r.failed)
@@ -226,7 +237,8 @@ def _write_run(g: h5py.Group, r: MethodRun) -> None:
 
 # ---------------------------------------------------------------------------- reading
 def _read_stats(g: h5py.Group) -> OutputStats:
-    ci = {k[3:]: g[k][()] for k in g if k.startswith("ci_")}
+    ci = {k[3:]: g[k][()] for k in g if k.startswith("ci_") and k != "ci_quantiles"}
+    q = g.get("quantiles")
     return OutputStats(
         mean=g["mean"][()], std=g["std"][()], skewness=g["skewness"][()],
         kurtosis=g["kurtosis"][()], cov=g["cov"][()], n_used=int(g.attrs["n_used"]),
@@ -234,6 +246,9 @@ def _read_stats(g: h5py.Group) -> OutputStats:
         sem=g["sem"][()] if "sem" in g else None, ci=ci,
         sobol_first=g["sobol_first"][()] if "sobol_first" in g else None,
         sobol_total=g["sobol_total"][()] if "sobol_total" in g else None,
+        quantile_levels=tuple(float(p) for p in q.attrs["levels"]) if q is not None else None,
+        quantiles=q[()] if q is not None else None,
+        ci_quantiles=g["ci_quantiles"][()] if q is not None else None,
     )
 
 
@@ -258,7 +273,7 @@ def read_hdf5(path: str | Path) -> Result:
             order = json.loads(f.attrs.get("method_order", "[]")) or list(f["methods"])
             for label in order:
                 g = f["methods"][label]
-                stats = {name: _read_stats(sg) for name, sg in g["stats"].items()}
+                stats = {name: _read_stats(sg) for name, sg in g.get("stats", {}).items()}
                 joint = g.get("scalar_joint")
                 est = Estimate(
                     method=str(g.attrs["method"]), label=label, stats=stats,
@@ -266,6 +281,8 @@ def read_hdf5(path: str | Path) -> Result:
                     scalar_names=[b.decode() for b in joint["names"][()]] if joint else [],
                     scalar_mean=joint["mean"][()] if joint else None,
                     scalar_cov=joint["cov"][()] if joint else None,
+                    events={name: EventEstimate.from_dict(name, dict(eg.attrs))
+                            for name, eg in g.get("events", {}).items()},
                 )
                 s = g["samples"]
                 runs.append(MethodRun(

@@ -52,6 +52,12 @@ class OutputStats:
         95% interval (low, high) per statistic name, where known.
     sobol_first, sobol_total : ndarray, shape (..., k, d), optional
         Sobol' indices per input (PCE only).
+    quantile_levels : tuple of float, optional
+        Probabilities of the quantiles (the config's ``quantiles``).
+    quantiles : ndarray, shape (q, ..., k), optional
+        Quantiles at those levels (NaN at time steps where none were computed).
+    ci_quantiles : ndarray, shape (2, q, ..., k), optional
+        Their 95% intervals (order statistics; ``-inf`` / ``inf``: unbounded end).
     """
 
     mean: np.ndarray
@@ -65,6 +71,9 @@ class OutputStats:
     ci: dict[str, np.ndarray] = field(default_factory=dict)
     sobol_first: np.ndarray | None = None
     sobol_total: np.ndarray | None = None
+    quantile_levels: tuple[float, ...] | None = None
+    quantiles: np.ndarray | None = None
+    ci_quantiles: np.ndarray | None = None
 
     def stat(self, name: str) -> np.ndarray:
         if name not in STAT_NAMES:

@@ -25,6 +25,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from ..events import EventEstimate, EventSpec
 from ..inputs import InputSpace
 from ..models.base import ModelOutput
 from ..stats import OutputStats
@@ -82,6 +83,8 @@ class Estimate:
         Names ``output[component]`` of the stacked scalar vector.
     scalar_mean, scalar_cov : ndarray, shape (m,), (m, m)
         Joint mean and covariance of all scalar outputs stacked (uq-methods.md section 3).
+    events : dict of str to EventEstimate
+        Probability of each of the config's events.
     """
 
     method: str
@@ -91,6 +94,7 @@ class Estimate:
     scalar_names: list[str] = field(default_factory=list)
     scalar_mean: np.ndarray | None = None
     scalar_cov: np.ndarray | None = None
+    events: dict[str, EventEstimate] = field(default_factory=dict)
 
 
 class Method(ABC):
@@ -107,6 +111,12 @@ class Method(ABC):
     #: runs; ``"regression"`` fits the coefficients by least squares on the surviving nodes,
     #: logs a warning and says so in the diagnostics. Sampling methods ignore it.
     failure_policy: Literal["fail", "regression"] = "fail"
+    #: The config's quantile levels (None: no quantiles) and events (set from the config).
+    quantile_levels: tuple[float, ...] | None = None
+    events: tuple[EventSpec, ...] = ()
+    #: Components of every output the method may see (name -> component names; from the
+    #: config), for the events on multi-component outputs.
+    components: dict[str, tuple[str, ...]] = {}
 
     def __init__(self, settings: MethodSettings | dict[str, Any] | None = None) -> None:
         if settings is None:
@@ -118,6 +128,10 @@ class Method(ABC):
     @property
     def label(self) -> str:
         return self.settings.label or self.name
+
+    def check(self, index: int) -> None:
+        """Checks of the settings against the rest of the config (events, outputs), after
+        those are set; raise ConfigError naming ``methods[index].<field>``. Default: none."""
 
     @abstractmethod
     def design(self, space: InputSpace, seed: int) -> Design:

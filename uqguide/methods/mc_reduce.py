@@ -46,19 +46,40 @@ def ci_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
     return np.unique(idx)
 
 
+#: Quantiles of a series are exact at every step while the kept values (runs x steps x
+#: components over all series outputs) stay below this many floats (256 MiB); above it, at the
+#: report times and the last step only. Fixed by the config (sample count, grid, outputs), so
+#: the choice never depends on the chunking or the workers.
+QUANTILE_ALL_FLOATS = 2**25
+
+
+def quantile_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
+                   n_total: int, width: int) -> np.ndarray | None:
+    """Time indices where series keep their values for quantiles (``None``: every step).
+
+    ``width`` is the number of components of all series outputs together."""
+    if n_total * time_grid.size * max(width, 1) <= QUANTILE_ALL_FLOATS:
+        return None
+    return ci_index(time_grid, report_times, "report")
+
+
 @dataclass(frozen=True)
 class MonteCarloReducer:
     """Reduces one chunk of Monte Carlo runs to mergeable sums (runs in the worker).
 
     Summary keys are ``"m:<field>:<output>"`` (plain sums with comoments),
     ``"b:<field>:<output>"`` (Poisson-bootstrap sums of the interval columns) and
-    ``"j:<field>:"`` (all scalar outputs stacked, for their joint covariance).
+    ``"j:<field>:"`` (all scalar outputs stacked, for their joint covariance) and, when
+    quantiles are asked for, ``"q::<output>"``: the good runs' values of each series at the
+    quantile steps (:func:`quantile_index`), merged by concatenation in chunk order.
     """
 
     bootstrap: int
     boot_seed: int
     report_times: tuple[float, ...] | None
     bootstrap_times: str
+    quantiles: bool = False
+    n_total: int = 0
 
     def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:
         ok = ~out.failed
@@ -90,6 +111,11 @@ class MonteCarloReducer:
                 c0 += c
         _, stacked = stack_scalars(out.scalars, ok)
         _put(summary, "j", "", MomentSums.of(stacked))
+        if self.quantiles and out.series:
+            width = sum(y.shape[2] for y in out.series.values())
+            q_idx = quantile_index(out.time, self.report_times, self.n_total, width)
+            for name, y in out.series.items():
+                summary[f"q::{name}"] = y[ok] if q_idx is None else y[ok][:, q_idx]
         return summary
 
 
@@ -99,8 +125,11 @@ def _put(summary: dict[str, np.ndarray], kind: str, name: str, sums: MomentSums)
 
 
 def split_summary(summary: dict[str, np.ndarray]) -> dict[tuple[str, str], MomentSums]:
+    """The moment sums of a chunk summary by ``(kind, output)`` (quantile values left out)."""
     groups: dict[tuple[str, str], dict[str, np.ndarray]] = {}
     for key, v in summary.items():
+        if key.startswith("q:"):
+            continue
         kind, f, name = key.split(":", 2)
         groups.setdefault((kind, name), {})[f] = v
     return {k: MomentSums.from_arrays(g) for k, g in groups.items()}

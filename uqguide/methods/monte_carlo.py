@@ -24,6 +24,12 @@ the plain ones. For large ``n`` it has the multinomial bootstrap's distribution 
 ``(n, 1/n)`` count is asymptotically ``Poisson(1)``); failed runs get weight 0. Intervals of a
 series are computed at the report times and the last step (``bootstrap_times: report``) or at
 every step (``all``: costs ``4 B T k`` multiply-adds per sample).
+
+Quantiles (the config's ``quantiles``) are order statistics with distribution-free intervals
+(:mod:`uqguide.quantiles`): scalars from the kept per-sample values; series from each chunk's
+values at every step (at the report times and the last step above
+:data:`~uqguide.methods.mc_reduce.QUANTILE_ALL_FLOATS`), concatenated in chunk order. Events
+(the config's ``events``) are counted over the good runs with Clopper-Pearson intervals.
 """
 
 from __future__ import annotations
@@ -41,7 +47,9 @@ from scipy.stats import qmc
 from ..errors import MethodError
 from ..inputs import InputSpace
 from ..models.base import ModelOutput
-from ..stats import MomentSums, statistics_from_sums
+from ..events import count_events
+from ..quantiles import order_statistic_quantiles
+from ..stats import MomentSums, OutputStats, statistics_from_sums
 from .base import Design, Estimate, Method, MethodSettings
 from .mc_reduce import MonteCarloReducer, ci_index, split_summary, stack_scalars
 
@@ -132,13 +140,20 @@ class MonteCarlo(Method):
 
     def reducer(self, space: InputSpace, design: Design) -> MonteCarloReducer:
         return MonteCarloReducer(self.settings.bootstrap, int(design.data.get("boot_seed", 0)),
-                                 self.report_times, self.settings.bootstrap_times)
+                                 self.report_times, self.settings.bootstrap_times,
+                                 quantiles=self.quantile_levels is not None,
+                                 n_total=design.n_runs)
 
-    def fold(self, acc: dict[tuple[str, str], MomentSums] | None,
-             summary: dict[str, np.ndarray]) -> dict[tuple[str, str], MomentSums]:
+    def fold(self, acc: dict | None, summary: dict[str, np.ndarray]) -> dict:
+        """Merge a chunk: moment sums by Chan's formulas, series values for the quantiles
+        by concatenation (both in chunk order)."""
         acc = {} if acc is None else acc
         for key, sums in split_summary(summary).items():
             acc[key] = acc[key].merge(sums) if key in acc else sums
+        for key, v in summary.items():
+            if key.startswith("q:"):
+                k = ("q", key.split(":", 2)[2])
+                acc.setdefault(k, []).append(v)
         return acc
 
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
@@ -172,6 +187,14 @@ class MonteCarlo(Method):
             idx = ci_index(runs.time, self.report_times, self.settings.bootstrap_times) \
                 if is_series else None
             stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx)
+            if self.quantile_levels is not None:
+                kept = acc.get(("q", name)) or [np.empty((0,) + sums.mean.shape)]
+                values = np.concatenate(kept, axis=0) if is_series else \
+                    runs.scalars[name][~runs.failed]
+                _put_quantiles(stats[name], values, self.quantile_levels, runs.time,
+                               self.report_times)
+        events = count_events(list(self.events), runs.scalars, ~runs.failed, self.components) \
+            if self.events else {}
         names, _ = stack_scalars(runs.scalars, ~runs.failed)
         joint = acc.get(("j", ""))
         n_ok = runs.n - n_failed
@@ -189,4 +212,19 @@ class MonteCarlo(Method):
             scalar_names=names,
             scalar_mean=joint.mean if (names and joint is not None and n_ok) else None,
             scalar_cov=joint.cm / n_ok if (names and joint is not None and n_ok) else None,
+            events=events,
         )
+
+
+def _put_quantiles(st: OutputStats, values: np.ndarray, levels: tuple[float, ...],
+                   time_grid: np.ndarray, report_times: tuple[float, ...] | None) -> None:
+    """Order-statistic quantiles of ``values`` (scalar ``(n, k)``, or series ``(n, t, k)`` at
+    every step or at the quantile steps) into ``st``, NaN at the steps not kept."""
+    q, ci = order_statistic_quantiles(values, levels)
+    if values.ndim == 3 and values.shape[1] != time_grid.size:
+        full_q = np.full((len(levels), time_grid.size, values.shape[2]), np.nan)
+        full_ci = np.full((2,) + full_q.shape, np.nan)
+        idx = ci_index(time_grid, report_times, "report")
+        full_q[:, idx], full_ci[:, :, idx] = q, ci
+        q, ci = full_q, full_ci
+    st.quantile_levels, st.quantiles, st.ci_quantiles = tuple(levels), q, ci

@@ -57,8 +57,10 @@ from ..errors import MethodError
 from ..inputs import InputSpace
 from ..models.base import ModelOutput
 from ..pce.basis import hyperbolic_indices
+from ..events import EventEstimate
 from ..pce.derived import DerivedOutput
-from ..pce.design import SURROGATE_STREAM, stream, unit_design
+from ..pce.tails import control_variate_events, surrogate_values
+from ..pce.design import SURROGATE_STREAM, VALIDATION_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
@@ -102,6 +104,11 @@ class AdaptivePCESettings(MethodSettings):
     surrogate_sampling : {"random", "sobol"}
         Those samples: pseudo-random, or scrambled Sobol' (error about ``1 / n`` instead of
         ``1 / sqrt(n)`` on a polynomial; ``surrogate_draws`` rounded up to a power of two).
+    validation_runs : int
+        Model runs at independent random inputs after the fit (not used by it): the config's
+        events get the control-variate correction of the surrogate's probability
+        (:func:`uqguide.pce.tails.control_variate_events`) and the diagnostics the validation
+        error of each scalar output. 0: none.
     """
 
     n_samples: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000)
@@ -115,6 +122,7 @@ class AdaptivePCESettings(MethodSettings):
     variance_fraction: float = Field(default=0.9999, gt=0.0, le=1.0)
     surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
     surrogate_sampling: Literal["random", "sobol"] = "random"
+    validation_runs: int = Field(default=0, ge=0, le=10_000_000)
 
     @model_validator(mode="after")
     def _consistent(self) -> AdaptivePCESettings:
@@ -178,6 +186,21 @@ class AdaptivePCE(Method):
             "fit_seconds": 0.0, "loo_history": np.zeros(0)})
 
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
+        """Enrich while the LOO error is above target and the budget allows; then, once, add
+        the validation runs (when asked for)."""
+        if "n_fit" in design.data:
+            return None
+        bigger = self._enrich(space, design, outputs)
+        if bigger is not None or not self.settings.validation_runs:
+            return bigger
+        nv = self.settings.validation_runs
+        rng = np.random.default_rng(stream(design.data["seed"], self.label, VALIDATION_STREAM))
+        u_v = np.clip(rng.random((nv, space.dim)), 2.0**-53, 1 - 2.0**-53)
+        log.info("%s: %d validation runs", self.label, nv)
+        data = dict(design.data, n_fit=design.n_runs, u_validation=u_v)
+        return Design(x=np.vstack([design.x, space.from_unit(u_v)]), data=data)
+
+    def _enrich(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         s, d, n = self.settings, space.dim, design.n_runs
         budget = self.budget(d)
         if not s.enrich or n >= budget:
@@ -203,12 +226,23 @@ class AdaptivePCE(Method):
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
         t0 = time.perf_counter()
         s = self.settings
+        validation = None
+        if "n_fit" in design.data:
+            n_fit = int(design.data["n_fit"])
+            validation = outputs.subset(np.arange(n_fit, outputs.n))
+            outputs = outputs.subset(np.arange(n_fit))
+            design = Design(x=design.x[:n_fit], data=design.data)
         fits = self._fit(space, design, outputs)
         n_ok = int((~outputs.failed).sum())
-        stats, names, s_mean, s_cov, extra = assemble(
+        stats, names, s_mean, s_cov, extra, events = assemble(
             [(f.columns, f.expansion) for f in fits], self.derived_outputs, outputs,
             n_runs=n_ok, n_draws=s.surrogate_draws, seed=design.data.get("draw_seed", 0),
-            label=self.label, sampling=s.surrogate_sampling)
+            label=self.label, sampling=s.surrogate_sampling,
+            levels=self.quantile_levels, events=self.events, components=self.components)
+        val_diag: dict[str, Any] = {}
+        if validation is not None:
+            events, val_diag = self._validate(space, fits, design.data["u_validation"],
+                                              validation, events)
         worst = max((f.loo for f in fits), default=0.0)
         if worst > s.target_loo:
             log.warning("%s: LOO error %.2e is above the target %.0e after %d runs (budget %d)",
@@ -228,7 +262,7 @@ class AdaptivePCE(Method):
             "n_terms": max((f.n_terms for f in fits), default=0),
             "n_components": max((f.n_components or 0 for f in fits), default=0),
             "moments_method": ", ".join(sorted({st.moments_method for st in stats.values()})),
-            **extra,
+            **extra, **val_diag,
         }
         for f in fits:
             diagnostics[f"loo_error.{f.columns.name}"] = f.loo
@@ -239,7 +273,27 @@ class AdaptivePCE(Method):
         diagnostics["fit_seconds"] = (design.data.get("fit_seconds", 0.0)
                                       + time.perf_counter() - t0)
         return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov)
+                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
+
+    def _validate(self, space: InputSpace, fits: list[_OutputFit], u_v: np.ndarray,
+                   validation: ModelOutput, events: dict[str, EventEstimate]
+                   ) -> tuple[dict[str, EventEstimate], dict[str, Any]]:
+        """Control-variate events and each scalar output's relative RMS validation error."""
+        expansions = {f.columns.name: f.expansion for f in fits}
+        germ = Germ.of(space)
+        ok = ~validation.failed
+        names = [n for n in validation.scalars if n in expansions or n in self.derived_outputs]
+        sur = {n: surrogate_values(germ, expansions, self.derived_outputs, n, u_v)
+               for n in names}
+        diag: dict[str, Any] = {"n_validation": int(validation.n),
+                                "n_validation_failed": int(validation.failed.sum())}
+        for n in names:
+            y = np.asarray(validation.scalars[n], dtype=float)[ok]
+            err = np.sqrt(np.mean((sur[n][ok] - y) ** 2)) / max(float(y.std()), 1e-300)
+            diag[f"validation_error.{n}"] = float(err)
+        cv = control_variate_events(events, self.events, self.components, validation.scalars,
+                                    sur, ok)
+        return {**events, **cv}, diag
 
     # ------------------------------------------------------------------ fitting
     def _fit(self, space: InputSpace, design: Design, outputs: ModelOutput) -> list[_OutputFit]:

@@ -162,10 +162,11 @@ class QuadraturePCE(Method):
             coef = fit(col.y)
             coef[1:, constant_columns(col.y)] = 0.0  # runs that all agree: exactly constant
             fitted.append((col, Expansion(germ, alpha, coef, col.shape)))
-        stats, names, s_mean, s_cov, extra = assemble(
+        stats, names, s_mean, s_cov, extra, events = assemble(
             fitted, self.derived_outputs, outputs, n_runs=rows.size,
             n_draws=self.settings.surrogate_draws, seed=seed, label=self.label,
-            sampling=self.settings.surrogate_sampling)
+            sampling=self.settings.surrogate_sampling,
+            levels=self.quantile_levels, events=self.events, components=self.components)
         diagnostics: dict[str, Any] = {
             "n_runs": outputs.n,
             "n_failed": int(outputs.failed.sum()),
@@ -180,4 +181,4 @@ class QuadraturePCE(Method):
         }
         diagnostics["fit_seconds"] = time.perf_counter() - t0
         return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov)
+                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)

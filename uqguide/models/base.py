@@ -275,6 +275,20 @@ class Model(ABC):
         """Write the nominal scenario's figures (PNG) into ``out_dir``; return their paths."""
         return []
 
+    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
+                       stem: str) -> list[str]:
+        """Figures of one sample's run (``uqguide replay``) beyond the generic time histories:
+        its trajectory, with the scene's geometry where the model has one. ``out`` holds every
+        output of the sample, ``values`` every input (nominal where not uncertain). Default:
+        none."""
+        return []
+
+    def full_values(self, x: np.ndarray, input_names: Sequence[str]) -> dict[str, float]:
+        """Every input's value for one sample ``x (d,)`` (nominal where not given)."""
+        vals = {i.name: float(i.nominal) for i in self.inputs()}
+        vals.update({nm: float(v) for nm, v in zip(input_names, x)})
+        return vals
+
     # ------------------------------------------------------------------ public API
     def input_names(self) -> tuple[str, ...]:
         return tuple(i.name for i in self.inputs())

@@ -387,6 +387,18 @@ class GMMProximity(Model):
                                   c.measured))
         return rows
 
+    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
+                       stem: str) -> list[str]:
+        """One replayed sample's path around the chief with its geometry (the layout of the
+        paper's Fig. 4), recorded at every control step."""
+        from ..plotting.gmm import plot_trajectories
+
+        vals = {k: np.array([v], dtype=float) for k, v in values.items()}
+        run = self.run(vals, 1, record_every=1)
+        name = CONTROLLER_LABEL[self.params.controller]
+        return [plot_trajectories({name: run}, self.geometry(), np.asarray(self.params.r_f),
+                                  out_dir, filename=f"{stem}_trajectory.png")]
+
     def nominal_figures(self, out_dir: str) -> list[str]:
         """The paper's Fig. 4 (trajectories around the chief) and Fig. 5 (delta-v over time)."""
         from ..plotting.gmm import plot_delta_v, plot_trajectories

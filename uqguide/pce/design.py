@@ -22,7 +22,7 @@ from scipy.stats import qmc
 
 _U_EPS = 2.0**-53  # a coordinate of exactly 0 or 1 would map to an infinite normal input
 
-DESIGN_STREAM, SURROGATE_STREAM = 0, 1
+DESIGN_STREAM, SURROGATE_STREAM, VALIDATION_STREAM = 0, 1, 2
 
 
 def stream(seed: int, label: str, kind: int, batch: int = 0) -> np.random.SeedSequence:

@@ -21,6 +21,8 @@ from ..stats import OutputStats
 from . import moments
 from .derived import DerivedOutput, derived_statistics
 from .expansion import Expansion
+from .tails import surrogate_tails
+from ..events import EventEstimate, EventSpec
 
 
 @dataclass
@@ -89,9 +91,10 @@ def joint_scalar_moments(
 def assemble(
     fitted: list[tuple[OutputColumns, Expansion]], derived: Mapping[str, DerivedOutput],
     outputs: ModelOutput, *, n_runs: int, n_draws: int, seed: int, label: str,
-    sampling: str = "random",
+    sampling: str = "random", levels: tuple[float, ...] | None = None,
+    events: tuple[EventSpec, ...] = (), components: Mapping[str, tuple[str, ...]] | None = None,
 ) -> tuple[dict[str, OutputStats], list[str], np.ndarray | None, np.ndarray | None,
-           dict[str, object]]:
+           dict[str, object], dict[str, EventEstimate]]:
     """Statistics of every output, and the stacked scalars' joint moments.
 
     Parameters
@@ -110,10 +113,12 @@ def assemble(
         Kind of surrogate draws (:func:`uqguide.pce.design.surrogate_draws`).
     label : str
         The method's label, for messages.
+    levels, events, components
+        Quantile levels and events, from surrogate draws (:mod:`uqguide.pce.tails`).
 
     Returns
     -------
-    stats, scalar_names, scalar_mean, scalar_cov, diagnostics
+    stats, scalar_names, scalar_mean, scalar_cov, diagnostics, events
     """
     stats = {}
     expansions = {}
@@ -127,7 +132,8 @@ def assemble(
     names, s_mean, s_cov = joint_scalar_moments(scalars)
     diag: dict[str, object] = {}
     if not derived:
-        return stats, names, s_mean, s_cov, diag
+        return stats, names, s_mean, s_cov, diag, _tails(
+            stats, expansions, derived, levels, events, components, n_draws, seed, sampling)
     for name, dv in derived.items():
         missing = [c for c in dv.carriers if c not in expansions]
         if missing:
@@ -147,4 +153,23 @@ def assemble(
     diag["derived"] = ", ".join(f"{nm} from {'+'.join(dv.carriers)}"
                                 for nm, dv in derived.items())
     diag["derived_invalid_draws"] = n_invalid
-    return stats, names, s_mean, s_cov, diag
+    return stats, names, s_mean, s_cov, diag, _tails(
+        stats, expansions, derived, levels, events, components, n_draws, seed, sampling)
+
+
+def _tails(stats: dict[str, OutputStats], expansions: dict[str, Expansion],
+           derived: Mapping[str, DerivedOutput], levels: tuple[float, ...] | None,
+           events: tuple[EventSpec, ...], components: Mapping[str, tuple[str, ...]] | None,
+           n_draws: int, seed: int, sampling: str) -> dict[str, EventEstimate]:
+    """Quantiles into ``stats`` and the events' probabilities, from surrogate draws."""
+    if (levels is None and not events) or not expansions:
+        return {}
+    germ = next(iter(expansions.values())).germ
+    quantiles, ev = surrogate_tails(germ, expansions, derived, levels=levels, events=events,
+                                    components=components or {}, n_draws=n_draws, seed=seed,
+                                    sampling=sampling)
+    for name, (q, ci) in quantiles.items():
+        if name in stats:
+            stats[name].quantile_levels, stats[name].quantiles = levels, q
+            stats[name].ci_quantiles = ci
+    return ev

@@ -152,7 +152,7 @@ def plot_trajectories(runs: dict[str, SampledRun], geometry: ChiefGeometry, goal
     axes[2].set_aspect("equal")
     for ax in axes:
         ax.grid(alpha=0.3)
-    fig.suptitle("Deputy paths: APF-TSMC, GMM-TSMC, GMM-NTSMC (dashed: collided)")
+    fig.suptitle(f"Deputy paths: {', '.join(runs)} (dashed: collided)")
     fig.legend(loc="lower center", ncol=len(runs), fontsize=9, frameon=False)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     path = os.path.join(out_dir, filename)

@@ -17,7 +17,7 @@ from ..kernels import njit
 
 from .layout import (
     K_ACMAX, K_DV, K_RS, K_TFAIL, K_TSETTLE, K_TSTOP, K_TSURF, K_VS, P_ASAT, P_BETA, P_C,
-    P_CONTROL, P_DELTA, P_DT, P_EPS, P_ETA, P_N, P_NMEAN, P_RSTOP, P_SETTLE, S_AC, S_ACLOS,
+    P_CONTROL, P_DELTA, P_ROTATING, P_DT, P_EPS, P_ETA, P_N, P_NMEAN, P_RSTOP, P_SETTLE, S_AC, S_ACLOS,
     S_DV, S_OMEGA, S_POS, S_R, S_RDOT, S_S, S_SPEED, S_VEL, S_W, ST_NONFINITE, ST_OK, ST_TMAX,
 )
 
@@ -237,6 +237,7 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
     c_, eps, beta, eta, Nn = p[P_C], p[P_EPS], p[P_BETA], p[P_ETA], p[P_N]
     asat, delta, dt, rstop = p[P_ASAT], p[P_DELTA], p[P_DT], p[P_RSTOP]
     nm, settle, control = p[P_NMEAN], p[P_SETTLE], p[P_CONTROL] != 0.0
+    rotating = p[P_ROTATING] != 0.0
     rs2 = rstop * rstop
     hdt = 0.5 * dt
     idelta = 1.0 / delta
@@ -342,9 +343,22 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
                 _finish(i, lane[l], ST_TMAX, sc, status)
                 running[l] = False
                 continue
-            fx = at[i, 0] - ac[l, 0]
-            fy = at[i, 1] - ac[l, 1]
-            fz = at[i, 2] - ac[l, 2]
+            if rotating:
+                # components along e_theta, e_r, e_w of this step's LOS frame (e_w = e_r x
+                # e_theta); without a transverse velocity only the radial part is defined
+                a_t, a_r, a_w = at[i, 0], at[i, 1], at[i, 2]
+                tx, ty, tz = a_r * erx, a_r * ery, a_r * erz
+                if Vt > 0.0:
+                    iVt = 1.0 / Vt
+                    etx, ety, etz = vpx * iVt, vpy * iVt, vpz * iVt
+                    tx += a_t * etx + a_w * (ery * etz - erz * ety)
+                    ty += a_t * ety + a_w * (erz * etx - erx * etz)
+                    tz += a_t * etz + a_w * (erx * ety - ery * etx)
+            else:
+                tx, ty, tz = at[i, 0], at[i, 1], at[i, 2]
+            fx = tx - ac[l, 0]
+            fy = ty - ac[l, 1]
+            fz = tz - ac[l, 2]
             if nm == 0.0:
                 n0 = x + dt * (vx + hdt * fx)
                 n1 = y + dt * (vy + hdt * fy)

@@ -12,6 +12,8 @@ Per step ``j`` (time ``t_j = j dt``), for every sample still running:
        u = clip(-c Rdot - eps sgn_d(s) - beta |s|^eta sgn_d(s) - R_m omega_m^2, +-A_sat)
        a_c = -u e_r - N Rdot omega_m e_theta           (zero transverse part if omega_s = 0)
 
+   The target's acceleration ``at`` is a fixed vector, or (``P_ROTATING``) its components
+   along ``e_theta, e_r, e_w`` of the step's true LOS frame, held over the step like the command.
 4. Zero-order hold over the step, RK4 on ``r'' = a_t - a_c + g(r, v)``. For this linear system
    with constant forcing RK4 *is* the degree-4 Taylor polynomial of the exact flow, computed
    from the state derivatives ``D_k`` (:func:`_derivatives`); with ``g = 0`` it is the exact
@@ -34,7 +36,7 @@ import numpy as np
 
 from .layout import (
     K_ACMAX, K_DV, K_RS, K_TFAIL, K_TSETTLE, K_TSTOP, K_TSURF, K_VS, P_ASAT, P_BETA, P_C,
-    P_CONTROL, P_DELTA, P_DT, P_EPS, P_ETA, P_N, P_NMEAN, P_RSTOP, P_SETTLE, S_AC, S_ACLOS,
+    P_CONTROL, P_DELTA, P_ROTATING, P_DT, P_EPS, P_ETA, P_N, P_NMEAN, P_RSTOP, P_SETTLE, S_AC, S_ACLOS,
     S_DV, S_OMEGA, S_POS, S_R, S_RDOT, S_S, S_SPEED, S_VEL, S_W, ST_NONFINITE, ST_OK, ST_TMAX,
 )
 
@@ -216,6 +218,7 @@ def _simulate_chunk(idx, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, stat
     c_, eps, beta, eta, Nn = p[P_C], p[P_EPS], p[P_BETA], p[P_ETA], p[P_N]
     asat, delta, dt, rstop = p[P_ASAT], p[P_DELTA], p[P_DT], p[P_RSTOP]
     nm, settle, control = p[P_NMEAN], p[P_SETTLE], p[P_CONTROL] != 0.0
+    rotating = p[P_ROTATING] != 0.0
     rs2 = rstop * rstop
     hdt = 0.5 * dt
     m = idx.shape[0]
@@ -307,7 +310,16 @@ def _simulate_chunk(idx, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, stat
             sc[idx, K_TFAIL] = t
             finish(np.ones(idx.size, dtype=bool))
             break
-        f = at - ac
+        if rotating:
+            # components along e_theta, e_r, e_w of this step's LOS frame (e_w = e_r x
+            # e_theta); without a transverse velocity only the radial part is defined
+            with np.errstate(divide="ignore", invalid="ignore"):
+                et = np.where(Vt > 0.0, vp * (1.0 / Vt), 0.0)
+            ew = np.stack([er[1] * et[2] - er[2] * et[1], er[2] * et[0] - er[0] * et[2],
+                           er[0] * et[1] - er[1] * et[0]])
+            f = (at[1] * er + (at[0] * et + at[2] * ew)) - ac
+        else:
+            f = at - ac
         if nm == 0.0:
             Xn = np.empty_like(X)
             Xn[0:3] = X[0:3] + dt * (X[3:6] + hdt * f)

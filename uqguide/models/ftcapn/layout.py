@@ -18,7 +18,10 @@ import numpy as np
 P_C, P_EPS, P_BETA, P_ETA, P_N, P_ASAT, P_DELTA, P_DT, P_RSTOP, P_NMEAN, P_SETTLE, P_CONTROL = (
     range(12)
 )
-N_PARAMS = 12
+#: 1: ``at`` holds the target maneuver's components along the current (rotating) LOS frame
+#: ``e_theta, e_r, e_w``, applied per step (held over it); 0: ``at`` is a fixed vector.
+P_ROTATING = 12
+N_PARAMS = 13
 
 # ---- time series: (name, number of components); the order fixes the S_* indices
 SERIES_LAYOUT: tuple[tuple[str, int], ...] = (

@@ -14,10 +14,15 @@ Decisions where spec and paper are silent (each a parameter or documented here):
   they are minus an error of the chaser's position/velocity; for the zero-mean symmetric
   dispersions of Tables 3-4 the two readings give the same statistics.
 - The target maneuver (section 4.4, "projected into three directions along the axis of LOS
-  coordinates") is a constant acceleration with components ``at_theta, at_r, at_w`` along
-  ``e_theta, e_r, e_w`` of the *nominal initial* LOS frame, fixed in the simulation axes for the
-  whole run and for the whole batch (it is a property of the target, not of the chaser's
-  initial error). Table 4 as counted by section 4.4 (9 inputs) disperses ``at_theta`` only.
+  coordinates") has components ``at_theta, at_r, at_w``; two readings (``maneuver_frame``):
+  ``initial`` (default): along ``e_theta, e_r, e_w`` of the *nominal initial* LOS frame, a
+  constant vector fixed in the simulation axes for the whole run and the whole batch (a
+  property of the target, not of the chaser's initial error); ``rotating``: along the
+  *current* true LOS frame of each sample, re-evaluated every control step and held over it
+  like the command. After the stop (the ZEM drift) the rotating maneuver is frozen at the stop
+  state's LOS frame (the drift lasts seconds; the map stays a function of the stop state, so
+  the PCE's derived ZEM uses it as it is). Table 4 as counted by section 4.4 (9 inputs)
+  disperses ``at_theta`` only.
 - ``b_w`` is added to the LOS-rate magnitude and ``b_R`` to the range, both constant per sample
   (measurement biases); the true ``Rdot`` enters ``s`` (the paper lists no range-rate error).
 - ``gravity: hill`` adds the CW terms; the drift after the stop then also follows CW.
@@ -99,10 +104,10 @@ INPUT_INFO: tuple[InputInfo, ...] = (
     InputInfo("dvz", "m/s", "initial velocity error added to v0 (z)"),
     InputInfo("b_w", "rad/s", "LOS-rate measurement bias, added to omega_s"),
     InputInfo("b_R", "m", "range measurement bias, added to R"),
-    InputInfo("at_theta", "m/s^2", "target acceleration along e_theta of the nominal initial "
-              "LOS frame (constant)"),
-    InputInfo("at_r", "m/s^2", "target acceleration along e_r of the nominal initial LOS frame"),
-    InputInfo("at_w", "m/s^2", "target acceleration along e_w of the nominal initial LOS frame"),
+    InputInfo("at_theta", "m/s^2", "target acceleration along e_theta of the LOS frame "
+              "(nominal initial or rotating: maneuver_frame)"),
+    InputInfo("at_r", "m/s^2", "target acceleration along e_r of the LOS frame (maneuver_frame)"),
+    InputInfo("at_w", "m/s^2", "target acceleration along e_w of the LOS frame (maneuver_frame)"),
 )
 
 KernelName = Literal["auto", "numpy", "numba"]
@@ -138,6 +143,10 @@ class FTCAPNParams(ModelParams):
     control: bool = Field(True, description="False: free drift (for checks against closed forms)")
     los_settle_fraction: float = Field(
         0.05, gt=0.0, lt=1.0, description="threshold of t_los_settle, fraction of omega_s(0)")
+    maneuver_frame: Literal["initial", "rotating"] = Field(
+        "initial", description="target maneuver components along the nominal initial LOS "
+                               "frame (fixed vector) or along each sample's current LOS frame "
+                               "(rotating; frozen at the stop for the ZEM drift)")
     kernel: KernelName = Field("auto", description="'numba' (compiled), 'numpy' (reference) or "
                                                    "'auto' (numba when importable)")
     threads: int = Field(
@@ -154,6 +163,18 @@ class FTCAPNParams(ModelParams):
         if math.hypot(*self.chaser_position) <= 0.0:
             raise ValueError("chaser_position must be non-zero (the range would be zero)")
         return self
+
+
+def los_frames(r: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rows ``e_theta, e_r, e_w`` ``(n, 3, 3)`` of the true LOS frames of states ``r, v (n, 3)``
+    (``e_theta, e_w`` zero where there is no transverse velocity, as in the kernels)."""
+    R = np.linalg.norm(r, axis=1, keepdims=True)
+    er = r / R
+    vp = v - np.einsum("ij,ij->i", v, er)[:, None] * er
+    Vt = np.linalg.norm(vp, axis=1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        et = np.where(Vt > 0.0, vp / Vt, 0.0)
+    return np.stack([et, er, np.cross(er, et)], axis=1)
 
 
 def _resolve_kernel(name: str):
@@ -207,17 +228,29 @@ class FTCAPN(Model):
         ew = w / np.linalg.norm(w)
         return np.stack([np.cross(ew, er), er, ew])
 
+    def drift_maneuver(self, comps: np.ndarray, r: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """The target's acceleration ``(n, 3)`` during the drift after the stop from its
+        components ``(n, 3)`` (theta, r, w) and the stop state ``r, v (n, 3)``."""
+        if not np.any(comps):
+            return np.zeros_like(comps, dtype=float)
+        F = self.initial_los_frame()[None] if self.params.maneuver_frame == "initial" \
+            else los_frames(r, v)
+        # written out (not a matrix product): a row's bits must not depend on the batch it is
+        # in, so a replayed sample reproduces its stored scalars exactly
+        return (comps[:, 0, None] * F[:, 0] + comps[:, 1, None] * F[:, 1]) \
+            + comps[:, 2, None] * F[:, 2]
+
     def derived_outputs(self) -> dict[str, DerivedOutput]:
         """``zem`` and ``zem_eq15`` from the stop state ``r_at_stop, v_at_stop`` (and the target
         maneuver inputs): both are non-smooth functions (a norm, an absolute value) of a smooth
         state, so a surrogate method fits the state and applies these maps to its draws."""
-        frame = self.initial_los_frame()
         gravity, n_mean = self.params.gravity, self.mean_motion
 
         def zem(carriers: Mapping[str, np.ndarray], inputs: Mapping[str, np.ndarray]):
             r, v = carriers["r_at_stop"], carriers["v_at_stop"]
-            at = np.stack([np.broadcast_to(inputs.get(k, 0.0), (r.shape[0],))
-                           for k in ("at_theta", "at_r", "at_w")], axis=1) @ frame
+            comps = np.stack([np.broadcast_to(inputs.get(k, 0.0), (r.shape[0],))
+                              for k in ("at_theta", "at_r", "at_w")], axis=1)
+            at = self.drift_maneuver(comps, r, v)
             miss = miss_hill(r, v, at, n_mean)[0] if gravity == "hill" \
                 else miss_parabola(r, v, at)[0]
             return miss[:, None]
@@ -269,7 +302,10 @@ class FTCAPN(Model):
         r0n, v0n = self.initial_state()
         r0 = r0n + x[:, 0:3]
         v0 = v0n + x[:, 3:6]
-        at = x[:, 8:11] @ self.initial_los_frame() if np.any(x[:, 8:11]) else np.zeros((n, 3))
+        rotating = p.maneuver_frame == "rotating"
+        # the kernel's at: a fixed vector, or the components along the current LOS frame
+        at = np.ascontiguousarray(x[:, 8:11]) if rotating else \
+            self.drift_maneuver(x[:, 8:11], r0, v0)
         time = self.time_grid() if grid_end is None else np.array([0.0])
         K = time.shape[0] - 1
         max_steps = math.ceil(p.t_max / p.dt - 1e-9)
@@ -279,9 +315,9 @@ class FTCAPN(Model):
         status = np.empty(n, dtype=np.int8)
         prm = np.zeros(L.N_PARAMS)
         prm[[L.P_C, L.P_EPS, L.P_BETA, L.P_ETA, L.P_N, L.P_ASAT, L.P_DELTA, L.P_DT, L.P_RSTOP,
-             L.P_NMEAN, L.P_SETTLE, L.P_CONTROL]] = [
+             L.P_NMEAN, L.P_SETTLE, L.P_CONTROL, L.P_ROTATING]] = [
             p.c, p.eps, p.beta, p.eta, p.N, p.A_sat, p.delta, p.dt, p.r_stop, self.mean_motion,
-            p.los_settle_fraction, float(p.control)]
+            p.los_settle_fraction, float(p.control), float(rotating)]
         args = (np.ascontiguousarray(r0), np.ascontiguousarray(v0), np.ascontiguousarray(at),
                 np.ascontiguousarray(x[:, 7]), np.ascontiguousarray(x[:, 6]), prm, K, max_steps,
                 col, buf, sc, status)
@@ -310,15 +346,16 @@ class FTCAPN(Model):
         reasons[status == L.ST_TMAX] = (
             f"range did not reach r_stop = {p.r_stop:g} m within t_max = {p.t_max:g} s")
         reasons[status == L.ST_NONFINITE] = "non-finite state: the integration diverged"
-        scalars = self._scalars(sc, at, outputs)
+        scalars = self._scalars(sc, x[:, 8:11], outputs)
         for v in scalars.values():
             v[failed] = np.nan
         return ModelOutput(time=time, series=series, scalars=scalars, failed=failed,
                            reasons=reasons)
 
-    def _scalars(self, sc: np.ndarray, at: np.ndarray, outputs: frozenset[str]
+    def _scalars(self, sc: np.ndarray, comps: np.ndarray, outputs: frozenset[str]
                  ) -> dict[str, np.ndarray]:
-        """Scalar outputs ``(n, k)`` from the kernel's per-sample results ``sc``."""
+        """Scalar outputs ``(n, k)`` from the kernel's per-sample results ``sc`` and the
+        maneuver components ``comps (n, 3)``."""
         r = sc[:, L.K_RS:L.K_RS + 3]
         v = sc[:, L.K_VS:L.K_VS + 3]
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -342,10 +379,11 @@ class FTCAPN(Model):
             miss = np.full(r.shape[0], np.nan)
             t_miss = np.full(r.shape[0], np.nan)
             if ok.any():
+                at = self.drift_maneuver(comps[ok], r[ok], v[ok])
                 if self.params.gravity == "hill":
-                    m, t = miss_hill(r[ok], v[ok], at[ok], self.mean_motion)
+                    m, t = miss_hill(r[ok], v[ok], at, self.mean_motion)
                 else:
-                    m, t = miss_parabola(r[ok], v[ok], at[ok])
+                    m, t = miss_parabola(r[ok], v[ok], at)
                 miss[ok], t_miss[ok] = m, t
             if "zem" in outputs:
                 out["zem"] = miss[:, None]
@@ -368,3 +406,10 @@ class FTCAPN(Model):
         from .report import nominal_figures
 
         return nominal_figures(self, out_dir)
+
+    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
+                       stem: str) -> list[str]:
+        """The chaser's path relative to the target (``-r``, Table-2 axes) for one sample."""
+        from .report import sample_trajectory_figure
+
+        return [sample_trajectory_figure(self, out, out_dir, stem)]

@@ -114,3 +114,45 @@ def nominal_figures(model: FTCAPN, out_dir: str) -> list[str]:
         fig.savefig(path, dpi=100, bbox_inches="tight")
         paths.append(path)
     return paths
+
+
+def sample_trajectory_figure(model: FTCAPN, out, out_dir: str, stem: str) -> str:
+    """One replayed sample: the chaser's path relative to the target (3-D and two planes),
+    and its range and LOS rate against time, with the stop marked."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    os.makedirs(out_dir, exist_ok=True)
+    r = -out.series["r"][0]  # chaser relative to target
+    t = out.time
+    t_stop = float(out.scalars["t_stop"][0, 0])
+    fig = Figure(figsize=(12, 8), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax3 = fig.add_subplot(2, 2, 1, projection="3d")
+    ax3.plot(*r.T, lw=1.4)
+    ax3.scatter([0], [0], [0], c="m", marker="*", s=80)
+    ax3.set(xlabel="x [m]", ylabel="y [m]", zlabel="z [m]",
+            title="chaser relative to target (target at the star)")
+    ax_xz = fig.add_subplot(2, 2, 2)
+    ax_xz.plot(r[:, 0], r[:, 2], lw=1.4)
+    ax_xz.scatter([0], [0], c="m", marker="*", s=80)
+    ax_xz.set(xlabel="x [m]", ylabel="z [m]", title="x-z plane")
+    ax_xz.set_aspect("equal", adjustable="datalim")
+    ax_r = fig.add_subplot(2, 2, 3)
+    ax_r.semilogy(t, out.series["R"][0, :, 0])
+    ax_r.set(xlabel="time [s]", ylabel="range R [m]")
+    ax_w = fig.add_subplot(2, 2, 4)
+    ax_w.plot(t, out.series["omega_s"][0, :, 0])
+    ax_w.set(xlabel="time [s]", ylabel="LOS rate omega_s [rad/s]")
+    for ax in (ax_xz, ax_r, ax_w):
+        ax.grid(True, alpha=0.3)
+    for ax in (ax_r, ax_w):
+        if np.isfinite(t_stop):
+            ax.axvline(t_stop, color="grey", ls=":", label=f"stop {t_stop:.2f} s")
+            ax.legend(fontsize=8)
+    zem = float(out.scalars["zem"][0, 0])
+    fig.suptitle(f"FTCAPN sample {stem}: zem {zem:.4g} m, maneuver frame "
+                 f"{getattr(model.params, 'maneuver_frame', 'initial')}")
+    path = os.path.join(out_dir, f"{stem}_trajectory.png")
+    fig.savefig(path, dpi=100)
+    return path

@@ -1,0 +1,150 @@
+"""Events (``collision: min_clearance below 0``) and their probabilities with intervals.
+
+A config declares events on scalar outputs::
+
+    events:
+      - {name: collision, output: min_clearance, below: 0.0}
+      - {name: late, output: t_stop, above: 150}
+
+``below: b`` is the event ``y < b``, ``above: a`` is ``y > a`` (strict: a value exactly at the
+threshold is outside). A multi-component output names its component (``component: x`` or an
+index). Failed runs are left out of both counts (their values are not known).
+
+Monte Carlo reports ``k`` of ``n`` with the Clopper-Pearson (exact binomial) 95% interval:
+0 of ``n`` gives ``[0, 1 - 0.025^(1/n)]`` (about ``3.69 / n``), never ``[0, 0]``. PCE methods
+report the surrogate's probability over its draws; that interval covers only the draws'
+sampling error, not the surrogate's own (which a smooth surrogate of an indicator can make
+large: it has no error bar short of a validation set).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from scipy import stats as _st
+
+LEVEL = 0.95
+
+
+class EventSpec(BaseModel):
+    """One event of the config's ``events`` list."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")
+    output: str
+    component: int | str | None = None
+    below: float | None = None
+    above: float | None = None
+
+    @model_validator(mode="after")
+    def _one_threshold(self) -> EventSpec:
+        if (self.below is None) == (self.above is None):
+            raise ValueError(f"event {self.name!r}: give exactly one of below, above "
+                             f"(got below={self.below}, above={self.above})")
+        return self
+
+    def describe(self) -> str:
+        comp = f"[{self.component}]" if self.component is not None else ""
+        op, thr = ("<", self.below) if self.below is not None else (">", self.above)
+        return f"{self.output}{comp} {op} {thr:g}"
+
+    def threshold(self) -> float:
+        return float(self.below if self.below is not None else self.above)
+
+    def severity(self, values: np.ndarray) -> np.ndarray:
+        """``g`` with the event ``g > 0`` (for level sets): ``y - a`` or ``b - y``."""
+        return values - self.threshold() if self.above is not None else self.threshold() - values
+
+    def indicator(self, values: np.ndarray) -> np.ndarray:
+        """Boolean ``(n,)``: the event for the component's values ``(n,)``."""
+        return self.severity(values) > 0
+
+
+def component_index(spec: EventSpec, components: tuple[str, ...]) -> int:
+    """Column of the event's component (0 for a one-component output)."""
+    c = spec.component
+    if c is None:
+        if len(components) > 1:
+            raise ValueError(f"output {spec.output!r} has components {', '.join(components)}: "
+                             f"name one with component")
+        return 0
+    if isinstance(c, int):
+        if not 0 <= c < len(components):
+            raise ValueError(f"component {c} is out of range 0..{len(components) - 1}")
+        return c
+    if c not in components:
+        raise ValueError(f"output {spec.output!r} has no component {c!r}; allowed: "
+                         f"{', '.join(components)}")
+    return components.index(c)
+
+
+def clopper_pearson(k: int, n: int, level: float = LEVEL) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) two-sided interval of a binomial proportion ``k / n``.
+
+    Coverage is at least ``level`` for every true probability (conservative); ``[0, upper]``
+    for ``k = 0`` and ``[lower, 1]`` for ``k = n``.
+    """
+    if n <= 0:
+        return float("nan"), float("nan")
+    a = (1.0 - level) / 2.0
+    lo = 0.0 if k == 0 else float(_st.beta.ppf(a, k, n - k + 1))
+    hi = 1.0 if k == n else float(_st.beta.ppf(1.0 - a, k + 1, n - k))
+    return lo, hi
+
+
+@dataclass
+class EventEstimate:
+    """The probability of one event by one method.
+
+    Attributes
+    ----------
+    name, definition : str
+    probability : float
+    ci : (float, float)
+        95% interval (see ``interval``).
+    n_in, n_used : int
+        Runs (or draws) in the event, and behind the estimate.
+    estimator : str
+        ``"count"`` (model runs, Clopper-Pearson), ``"surrogate"`` (PCE draws, Clopper-Pearson
+        of the draws only) or ``"subset"`` (subset simulation; lognormal interval from its CoV).
+    cov : float
+        Coefficient of variation of the estimate (NaN where not estimated).
+    """
+
+    name: str
+    definition: str
+    probability: float
+    ci: tuple[float, float]
+    n_in: int
+    n_used: int
+    estimator: str
+    cov: float = float("nan")
+
+    def as_dict(self) -> dict[str, object]:
+        return {"definition": self.definition, "probability": self.probability,
+                "ci_low": self.ci[0], "ci_high": self.ci[1], "n_in": self.n_in,
+                "n_used": self.n_used, "estimator": self.estimator, "cov": self.cov}
+
+    @classmethod
+    def from_dict(cls, name: str, d: dict) -> EventEstimate:
+        return cls(name, str(d["definition"]), float(d["probability"]),
+                   (float(d["ci_low"]), float(d["ci_high"])), int(d["n_in"]),
+                   int(d["n_used"]), str(d["estimator"]), float(d.get("cov", float("nan"))))
+
+
+def count_events(specs: list[EventSpec], scalars: dict[str, np.ndarray], ok: np.ndarray,
+                 components: dict[str, tuple[str, ...]], estimator: str = "count"
+                 ) -> dict[str, EventEstimate]:
+    """Events counted over the runs (or draws) ``ok`` of per-sample scalars ``(n, k)``."""
+    out = {}
+    for s in specs:
+        y = scalars[s.output][ok, component_index(s, components[s.output])]
+        k, n = int(np.count_nonzero(s.indicator(y))), int(y.shape[0])
+        p = k / n if n else float("nan")
+        cov = float(np.sqrt((1 - p) / (n * p))) if 0 < p else float("nan")
+        out[s.name] = EventEstimate(s.name, s.describe(), p, clopper_pearson(k, n), k, n,
+                                    estimator, cov)
+    return out
