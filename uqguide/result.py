@@ -117,6 +117,20 @@ class Result:
                 return o
         raise ResultError(f"no output {name!r} in this result")
 
+    def to_xarray(self, label: str | None = None) -> Any:
+        """The statistics as an ``xarray.Dataset``: of method ``label``, or of every method
+        along a ``method`` dimension (see :mod:`uqguide.frames`; needs ``uqguide[xarray]``)."""
+        from .frames import to_xarray
+
+        return to_xarray(self, label)
+
+    def to_dataframe(self, output: str) -> Any:
+        """Every statistic of ``output`` at every time step as a tidy ``pandas.DataFrame``
+        (columns method, time, component, statistic, value, ci_low, ci_high)."""
+        from .frames import to_dataframe
+
+        return to_dataframe(self, output)
+
 
 def provenance() -> dict[str, Any]:
     """Versions and host facts that explain where a result's numbers came from."""
