@@ -127,7 +127,10 @@ class RunConfig:
 
     def resolved(self) -> dict[str, Any]:
         """The config with every default filled in (what the run really used)."""
-        d = self.raw.model_dump(mode="json")
+        # the raw model section may hold a function object (callable model from Python): the
+        # model's own params serialise it
+        rest = self.raw.model_dump(mode="json", exclude={"model"})
+        d = {k: rest.get(k) for k in RawConfig.model_fields if k in rest or k == "model"}
         d["model"] = {"name": self.model.name, **self.model.params.model_dump(mode="json")}
         d["outputs"] = list(self.outputs)
         d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")} for m in self.methods]
@@ -232,7 +235,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     except ValidationError as err:
         raise _from_validation(err, "", _fields(RawConfig)) from None
 
-    model = _build_model(raw.model)
+    model = _build_model(raw.model, str(Path(source).parent) if source != "<dict>" else None)
     _check_finite_parameters(raw)
     space = _build_space(raw, model)
     outputs = _resolve_outputs(raw, model)
@@ -338,13 +341,14 @@ def _check_finite_parameters(raw: RawConfig) -> None:
                               field=f"inputs[{i}].{name}")
 
 
-def _build_model(section: dict[str, Any]) -> Model:
+def _build_model(section: dict[str, Any], config_dir: str | None = None) -> Model:
     if "name" not in section:
         raise ConfigError("model.name: required field is missing", field="model.name")
     cls = model_class(section["name"], "model.name")
     params = {k: v for k, v in section.items() if k != "name"}
     try:
-        return cls(cls.Params.model_validate(params))
+        # config_dir: where a callable model's module is looked for first
+        return cls(cls.Params.model_validate(params, context={"config_dir": config_dir}))
     except ValidationError as err:
         raise _from_validation(err, "model", ["name", *_fields(cls.Params)]) from None
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .failures import failure_table
 from .result import Result
 from .quantiles import level_name
 from .stats import STAT_NAMES, OutputStats
@@ -260,10 +261,10 @@ def render_text(result: Result) -> str:
     if with_ref:
         parts += ["", "Values: estimate [95% interval] (difference from the reference, inside or "
                   "OUTside the reference's 95% interval)."]
-    failed = [r for r in result.runs if r.n_failed]
-    for r in failed:
-        parts += [f"{r.label}: {r.n_failed} of {r.n_runs} runs failed "
-                  f"({r.estimate.diagnostics.get('failure_reasons', '')})"]
+    failures = failure_table(result)
+    if not failures.empty:
+        parts += ["", "Failed runs (excluded from the statistics)",
+                  failures.to_string(index=False)]
     return "\n".join(parts)
 
 
