@@ -28,7 +28,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from . import __version__
 from .errors import ResultError
 from .models.base import OutputInfo
-from .report import report_indices
+from .report_times import report_indices
 from .result import Result
 from .stats import STAT_NAMES, OutputStats
 

@@ -17,23 +17,12 @@ import pandas as pd
 from .failures import failure_table
 from .result import Result
 from .quantiles import level_name
+from .report_times import report_indices  # noqa: F401 - imported from here by others
 from .stats import STAT_NAMES, OutputStats
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
 #: below this fraction of its peak: a ratio to a value that crosses zero means nothing.
 REL_FLOOR = 1e-3
-
-
-def report_indices(result: Result, n_default: int = 5) -> np.ndarray:
-    """Grid indices of the report times (nearest step) plus the last step."""
-    t = result.time
-    if t.size == 0:
-        return np.zeros(0, dtype=int)
-    if result.report_times:
-        idx = [int(np.argmin(np.abs(t - rt))) for rt in result.report_times]
-    else:
-        idx = list(np.linspace(0, t.size - 1, n_default).round().astype(int))
-    return np.unique(np.append(idx, t.size - 1))
 
 
 def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:

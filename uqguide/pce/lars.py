@@ -22,8 +22,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from sklearn.exceptions import ConvergenceWarning
-from sklearn.linear_model import lars_path
 
 _DEGENERATE = 1e-10  # relative norm below which a new column adds nothing to the span
 
@@ -58,6 +56,9 @@ def lars_order(psi: np.ndarray, y: np.ndarray, max_steps: int) -> np.ndarray:
     usable = np.flatnonzero(norms > _DEGENERATE * np.sqrt(psi.shape[0]))
     if usable.size == 0 or max_steps < 1:
         return np.zeros(0, dtype=int)
+    from sklearn.exceptions import ConvergenceWarning  # here: scikit-learn imports scipy.stats
+    from sklearn.linear_model import lars_path
+
     with warnings.catch_warnings():
         # LARS stops early on degenerate or exhausted paths; the LOO score below decides anyway.
         warnings.simplefilter("ignore", ConvergenceWarning)
