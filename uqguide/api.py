@@ -110,7 +110,7 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     True
     """
     from .execution import make_executor
-    from .progress import Progress
+    from .progress_display import make_progress
     from .propagate import run as _run
 
     cfg = load_config(config)
@@ -120,7 +120,7 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     try:
         import sys
 
-        result = _run(cfg, executor, progress=Progress(sys.stderr) if progress else None)
+        result = _run(cfg, executor, progress=make_progress(sys.stderr, not progress))
     finally:
         if executor is not None:
             executor.close()

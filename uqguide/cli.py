@@ -67,15 +67,16 @@ def main(verbose: int) -> None:
 @click.option("--check", "check_path", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Then check the statistics against this baseline JSON "
                                  "(exit 1 on a regression, 2 if it is unusable).")
+@click.option("-q", "--quiet", is_flag=True, help="No progress display on stderr.")
 @_handle_errors
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, resume: bool,
-        check_path: Path | None) -> None:
+        check_path: Path | None, quiet: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .checkpoint import RunInterrupted, RunStore, run_dir, run_identity
     from .config import load_config
     from .execution import make_executor
-    from .progress import Progress
+    from .progress_display import make_progress
     from .propagate import check_failure_budget
     from .propagate import run as run_config
     from .report import render_text, write_tables
@@ -92,7 +93,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     try:
         store = RunStore.open(run_dir(out_dir, cfg.name),
                               run_identity(cfg.resolved(), cfg.model), resume, again)
-        result = run_config(cfg, executor, store=store, progress=Progress(sys.stderr))
+        result = run_config(cfg, executor, store=store, progress=make_progress(sys.stderr, quiet))
     except RunInterrupted as exc:
         click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume with "
                    f"`{again}`", err=True)

@@ -141,10 +141,12 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     log.info("%s: %d runs in the initial design (%d chunks)", method.label, design.n_runs,
              len(tasks))
     reducer = method.reducer(space, design)
+    method.on_phase = progress.phase
     out, acc = stage.run(design.x, 0, tasks, reducer)
     if reducer is None:
         for k in range(1, MAX_REFINEMENTS + 1):
             bigger = method.refine(space, design, out)
+            progress.phase("")
             if bigger is None:
                 break
             new_x = _appended_rows(design, bigger)
@@ -156,10 +158,13 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         else:
             log.warning("%s: stopped after %d refinements", method.label, MAX_REFINEMENTS)
     t_fit = time.perf_counter()
+    progress.phase("estimating")
     if reducer is None:
         estimate = method.estimate(space, design, out)
     else:
         estimate = method.estimate_reduced(space, design, out, acc)
+    progress.phase("")
+    method.on_phase = None
     fit_seconds = time.perf_counter() - t_fit
     # carriers evaluated only for a derivation are not part of the result
     estimate.stats = {k: v for k, v in estimate.stats.items() if k in requested}
