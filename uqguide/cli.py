@@ -79,12 +79,14 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .progress_display import make_progress
     from .propagate import check_failure_budget
     from .propagate import run as run_config
+    from .report_times import check_config_report_times
     from .report import render_text, write_tables
     from .result import write_hdf5
 
     cfg = load_config(config)
     if seed is not None:
         cfg = cfg.with_seed(seed)
+    check_config_report_times(cfg)  # before a run folder is made
     baseline = _gate_preflight(check_path, cfg) if check_path else None
     again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
         "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")

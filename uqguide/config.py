@@ -164,9 +164,19 @@ def _short(value: Any) -> str:
 def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str] | None = None,
                      source: str = "") -> ConfigError:
     """One ConfigError line from pydantic's first error: path, value, what is allowed."""
-    e = err.errors(include_url=False)[0]
-    path = _path(prefix, tuple(e["loc"]))
+    errors = err.errors(include_url=False)
+    e = errors[0]
     where = f"{source}: " if source else ""
+    misspelt = _misspelt_required(errors)
+    if misspelt is not None:
+        # A misspelt required key is both "missing" and "unknown": name the key typed.
+        e, close = misspelt
+        path = _path(prefix, tuple(e["loc"]))
+        allowed = (f"; allowed keys: {', '.join(allowed_keys)}"
+                   if allowed_keys and len(e["loc"]) == 1 else "")
+        return ConfigError(f"{where}{path}: unknown key (did you mean '{close}'?){allowed}",
+                           field=path)
+    path = _path(prefix, tuple(e["loc"]))
     if e["type"] == "extra_forbidden":
         key = str(e["loc"][-1])
         hint = did_you_mean(key, allowed_keys) if allowed_keys else ""
@@ -186,6 +196,23 @@ def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str] 
         # A check across several fields: its message names the values itself.
         return ConfigError(f"{where}{path}: {msg}", field=path)
     return ConfigError(f"{where}{path}: {msg} (got {_short(e.get('input'))})", field=path)
+
+
+def _misspelt_required(errors: list[Any]) -> tuple[Any, str] | None:
+    """The unknown-key error whose key is close to a missing required field beside it, with
+    that field's name."""
+    import difflib
+
+    for x in errors:
+        if x["type"] != "extra_forbidden":
+            continue
+        parent = tuple(x["loc"][:-1])
+        missing = [str(m["loc"][-1]) for m in errors
+                   if m["type"] == "missing" and tuple(m["loc"][:-1]) == parent]
+        close = difflib.get_close_matches(str(x["loc"][-1]), missing, n=1)
+        if close:
+            return x, close[0]
+    return None
 
 
 def _fields(model: type[BaseModel]) -> list[str]:

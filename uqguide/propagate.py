@@ -28,6 +28,7 @@ from .inputs import InputSpace
 from .methods.base import Design, Method
 from .models.base import Model, ModelOutput
 from .progress import Progress
+from .report_times import check_config_report_times
 from .result import MethodRun, Result, provenance
 
 log = logging.getLogger(__name__)
@@ -232,6 +233,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         On Ctrl-C (KeyboardInterrupt): chunks in flight are dropped; those done are in
         ``store``.
     """
+    check_config_report_times(config)
     executor = executor or SerialExecutor(config.raw.batch_size)
     progress = progress or Progress()
     t0 = time.perf_counter()

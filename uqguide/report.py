@@ -247,14 +247,24 @@ def render_text(result: Result) -> str:
     if not agree.empty:
         parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
                   f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
-    if with_ref:
-        parts += ["", "Values: estimate [95% interval] (difference from the reference, inside or "
-                  "OUTside the reference's 95% interval)."]
+    if any(r.estimate.stats for r in result.runs):
+        parts += ["", interval_legend(with_ref)]
     failures = failure_table(result)
     if not failures.empty:
         parts += ["", "Failed runs (excluded from the statistics)",
                   failures.to_string(index=False)]
     return "\n".join(parts)
+
+
+def interval_legend(with_reference: bool) -> str:
+    """What the brackets and flags of the statistics tables mean (printed with every table)."""
+    text = ("Values: estimate [95% interval]: Monte Carlo moments by Poisson bootstrap (the "
+            "mean by +-1.96 standard errors where it has no bootstrap), quantiles by order "
+            "statistics; PCE values carry none (their error is the surrogate's, see loo_error).")
+    if with_reference:
+        text += (" (difference from the reference, inside or OUTside the reference's 95% "
+                 "interval).")
+    return text
 
 
 def to_markdown(df: pd.DataFrame) -> str:
@@ -278,6 +288,8 @@ def render_markdown(result: Result) -> str:
         if not sub.empty:
             parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
                       to_markdown(wide_table(sub, with_ref))]
+    if any(r.estimate.stats for r in result.runs):
+        parts += ["", interval_legend(with_ref)]
     events = events_table(result)
     if not events.empty:
         parts += ["", "## Events", "", to_markdown(events_text(events))]

@@ -41,7 +41,9 @@ class MethodSettings(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")
+    label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$",
+                              description="name of the method's rows in the tables and of its "
+                                          "group in the result file (default: the method's name)")
 
 
 @dataclass
