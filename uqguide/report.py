@@ -69,6 +69,29 @@ def cost_table(result: Result) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) -> bool | None:
+    """Whether two estimates agree: their difference lies within the 95% interval of the
+    difference, both estimates' errors combined (None when neither has an interval).
+
+    Each 95% half-width is taken on the side facing the other estimate (``1.96 se`` for a
+    symmetric interval), so the difference's half-width is ``sqrt(u_a^2 + u_b^2)``. An estimate
+    without an interval (a PCE's moment) counts as exact: it then has to lie in the other's
+    interval. Judging a candidate against the reference's interval alone would call a
+    consistent 1000-run Monte Carlo "out" of a 1e5-run reference whenever its own error is the
+    larger one.
+    """
+    def half(x: float, a: float, b: float, towards: float) -> float:
+        w = (b - x) if towards > x else (x - a)
+        return float(w) if np.isfinite(w) else 0.0
+
+    if not (np.isfinite(lo) or np.isfinite(rlo)):
+        return None
+    if not (np.isfinite(v) and np.isfinite(rv)):
+        return None
+    width = float(np.hypot(half(v, lo, hi, rv), half(rv, rlo, rhi, v)))
+    return bool(abs(v - rv) <= width)
+
+
 def statistics_table(result: Result) -> pd.DataFrame:
     """Long-form statistics at the report times (series) and for every scalar output."""
     ref = result.run(result.reference) if result.reference else None
@@ -100,7 +123,7 @@ def statistics_table(result: Result) -> pd.DataFrame:
                         row.update(ref_value=rv, abs_diff=v - rv,
                                    rel_diff=(v - rv) / abs(rv) if rv and not noisy
                                    else float("nan"),
-                                   in_ref_ci=bool(rlo <= v <= rhi) if np.isfinite(rlo) else None)
+                                   agrees=agrees(v, lo, hi, rv, rlo, rhi))
                     rows.append(row)
                 rows += _quantile_rows(o, r.label, s, rs, where, comp, t)
     return pd.DataFrame(rows)
@@ -132,7 +155,7 @@ def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where:
                 noisy = np.isfinite(rhi - rlo) and abs(rv) <= 0.5 * (rhi - rlo)
                 row.update(ref_value=rv, abs_diff=v - rv,
                            rel_diff=(v - rv) / abs(rv) if rv and not noisy else float("nan"),
-                           in_ref_ci=bool(rlo <= v <= rhi))
+                           agrees=agrees(v, lo, hi, rv, rlo, rhi))
         rows.append(row)
     return rows
 
@@ -216,7 +239,7 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
                 cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
             if with_ref and s["label"] != stats.attrs.get("reference"):
                 rd, ad = s.get("rel_diff"), s.get("abs_diff")
-                inside = s.get("in_ref_ci")
+                inside = s.get("agrees")
                 # pandas stores a missing verdict (no reference interval) as None or NaN
                 flag = "?" if inside is None or inside != inside else ("in" if inside else "OUT")
                 if rd is not None and np.isfinite(rd):
@@ -258,8 +281,9 @@ def render_text(result: Result) -> str:
         parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
                   f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
     if with_ref:
-        parts += ["", "Values: estimate [95% interval] (difference from the reference, inside or "
-                  "OUTside the reference's 95% interval)."]
+        parts += ["", "Values: estimate [95% interval] (difference from the reference; in: within "
+                  "the 95% interval of the difference, both estimates' errors combined; OUT: "
+                  "beyond it)."]
     failed = [r for r in result.runs if r.n_failed]
     for r in failed:
         parts += [f"{r.label}: {r.n_failed} of {r.n_runs} runs failed "

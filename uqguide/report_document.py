@@ -99,8 +99,9 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
     parts += ["", "## Outputs", "",
               "Statistics are the population (1/n) moments; kurtosis is non-excess (a Gaussian "
               "has 3). Table cells: estimate [95% interval]"
-              + (" (difference from the reference, inside or OUTside the reference's 95% "
-                 "interval)." if with_ref else ".")]
+              + (" (difference from the reference; in: within the 95% interval of the "
+                 "difference, both estimates' errors combined; OUT: beyond it)." if with_ref
+                 else ".")]
     for o in result.outputs:
         sub = stats[stats["output"] == o.name] if not stats.empty else stats
         if sub.empty:
