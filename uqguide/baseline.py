@@ -18,14 +18,13 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
-import os
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from . import __version__
+from . import __version__, atomic
 from .errors import ResultError
 from .models.base import OutputInfo
 from .report import report_indices
@@ -233,14 +232,7 @@ def write_baseline(result: Result, path: str | Path,
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     text = _json_text(to_jsonable(make_baseline(result, pce_rtol))) + "\n"
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
+    return atomic.write_text(path, text)
 
 
 def parse_baseline(data: Any, source: str = "<baseline>") -> Baseline:

@@ -2,7 +2,8 @@
 
 Exit codes: 0 success; 1 a run that could not produce its result (UqguideError); 2 bad input
 (ConfigError, or a usage error caught by click) with one line naming the field, the value and
-what is allowed, and no traceback.
+what is allowed, and no traceback; 130 stopped by SIGINT (Ctrl-C) or SIGTERM, at any moment
+(:mod:`uqguide.interrupts`).
 """
 
 from __future__ import annotations
@@ -41,11 +42,28 @@ def _setup_logging(verbose: int) -> None:
                         stream=sys.stderr)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Group(click.Group):
+    """The command group: a SIGINT or SIGTERM anywhere in a command is exit 130, one line."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt as exc:
+            from .interrupts import EXIT_INTERRUPTED, Terminated
+
+            what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+            click.echo(f"{what}; nothing was left half-written", err=True)
+            raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="uqguide")
 @click.option("-v", "--verbose", count=True, help="More log lines on stderr (-v info, -vv debug).")
 def main(verbose: int) -> None:
     """Uncertainty propagation through closed-loop spacecraft guidance simulations."""
+    from .interrupts import install
+
+    install()
     _setup_logging(verbose)
 
 
@@ -75,11 +93,13 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .checkpoint import RunInterrupted, RunStore, run_dir, run_identity
     from .config import load_config
     from .execution import make_executor
+    from .interrupts import EXIT_INTERRUPTED, deferred
     from .progress import Progress
     from .propagate import check_failure_budget
     from .propagate import run as run_config
     from .report import render_text, write_tables
     from .result import write_hdf5
+    from .runlock import RunLock
 
     cfg = load_config(config)
     if seed is not None:
@@ -87,22 +107,33 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     baseline = _gate_preflight(check_path, cfg) if check_path else None
     again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
         "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")
-    executor = make_executor(workers, scheduler,
-                             str(scheduler_file) if scheduler_file else None)
-    try:
-        store = RunStore.open(run_dir(out_dir, cfg.name),
-                              run_identity(cfg.resolved(), cfg.model), resume, again)
-        result = run_config(cfg, executor, store=store, progress=Progress(sys.stderr))
-    except RunInterrupted as exc:
-        click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume with "
-                   f"`{again}`", err=True)
-        sys.exit(130)
-    finally:
-        executor.close()
+    folder = run_dir(out_dir, cfg.name)  # inside out_dir: the name is a plain file name
+    with RunLock(folder):
+        executor = make_executor(workers, scheduler,
+                                 str(scheduler_file) if scheduler_file else None)
+        try:
+            store = RunStore.open(folder, run_identity(cfg.resolved(), cfg.model), resume,
+                                  again)
+            result = run_config(cfg, executor, store=store, progress=Progress(sys.stderr))
+        except RunInterrupted as exc:
+            click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume with "
+                       f"`{again}`", err=True)
+            sys.exit(EXIT_INTERRUPTED)
+        finally:
+            executor.close()
+        try:
+            # Each file whole or absent; a signal here stops the run after the file being
+            # written, and the run folder stays until every file is written (resumable).
+            with deferred():
+                h5 = write_hdf5(result, out_dir / f"{cfg.name}.h5")
+            with deferred():
+                tables = write_tables(result, out_dir, cfg.name)
+        except KeyboardInterrupt:
+            click.echo(f"interrupted while writing the result; resume with `{again}`",
+                       err=True)
+            sys.exit(EXIT_INTERRUPTED)
+        store.remove()  # the result file holds everything the chunks did
     click.echo(render_text(result))
-    h5 = write_hdf5(result, out_dir / f"{cfg.name}.h5")
-    tables = write_tables(result, out_dir, cfg.name)
-    store.remove()  # the result file holds everything the chunks did
     click.echo("")
     click.echo(f"wrote {h5}")
     for p in tables:

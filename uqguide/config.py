@@ -25,6 +25,7 @@ Layout (all values SI)::
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +33,7 @@ from typing import Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from .errors import ConfigError
 from .inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
@@ -46,6 +47,24 @@ class CorrelationSpec(BaseModel):
 
     inputs: list[str] = Field(min_length=2)
     matrix: list[list[float]]
+
+
+#: What a run name may be: it names files inside ``--out`` (result, tables, run folder), so
+#: never a path, never ``.`` or ``..``.
+RUN_NAME = re.compile(r"^[A-Za-z0-9_.\-]{1,200}$")
+RUN_NAME_RULE = ("a plain file name of 1 to 200 letters, digits, '_', '.' or '-' (no path "
+                 "separators, not '.' or '..')")
+
+
+def is_run_name(name: str) -> bool:
+    return bool(RUN_NAME.match(name)) and set(name) != {"."}
+
+
+def check_run_name(name: str) -> str:
+    """``name`` if it is a valid run name, else ConfigError (field ``name``)."""
+    if not isinstance(name, str) or not is_run_name(name):
+        raise ConfigError(f"name: must be {RUN_NAME_RULE} (got {_short(name)})", field="name")
+    return name
 
 
 class RawConfig(BaseModel):
@@ -73,6 +92,13 @@ class RawConfig(BaseModel):
     #: with the failed nodes named; ``regression`` fits the coefficients by least squares on
     #: the surviving nodes, with a warning and a diagnostics entry.
     pce_failure_policy: Literal["fail", "regression"] = "fail"
+
+    @field_validator("name")
+    @classmethod
+    def _plain_name(cls, v: str | None) -> str | None:
+        if v is not None and not is_run_name(v):
+            raise ValueError(f"must be {RUN_NAME_RULE}")
+        return v
 
 
 @dataclass
@@ -114,7 +140,11 @@ class RunConfig:
     def name(self) -> str:
         if self.raw.name:
             return self.raw.name
-        return Path(self.source).stem if self.source != "<dict>" else "run"
+        if self.source == "<dict>":
+            return "run"
+        # The file's stem, made a plain name (a name must never leave --out).
+        stem = re.sub(r"[^A-Za-z0-9_.\-]", "_", Path(self.source).stem)[:200]
+        return stem if is_run_name(stem) else "run"
 
     def resolved(self) -> dict[str, Any]:
         """The config with every default filled in (what the run really used)."""

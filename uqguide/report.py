@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from . import atomic
 from .result import Result
 from .stats import STAT_NAMES, OutputStats
 
@@ -227,8 +228,9 @@ def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",
              out_dir / f"{stem}_summary.md"]
-    statistics_table(result).to_csv(paths[0], index=False)
-    cost_table(result).to_csv(paths[1], index=False)
-    paths[2].write_text(render_markdown(result), encoding="utf-8")
+    # Each file whole or absent (temporary file, then rename): never a 0-byte table.
+    atomic.write_with(paths[0], lambda p: statistics_table(result).to_csv(p, index=False))
+    atomic.write_with(paths[1], lambda p: cost_table(result).to_csv(p, index=False))
+    atomic.write_text(paths[2], render_markdown(result))
     return paths
 

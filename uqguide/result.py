@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
-import os
 import platform
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,7 +37,7 @@ import h5py
 import numpy as np
 import yaml
 
-from . import __version__
+from . import __version__, atomic
 from .errors import ResultError
 from .methods.base import Estimate
 from .models.base import OutputInfo
@@ -169,37 +168,36 @@ def write_hdf5(result: Result, path: str | Path) -> Path:
     """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
+    with atomic.atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
-            f.attrs["format"] = FORMAT
-            f.attrs["uqguide_version"] = __version__
-            f.attrs["name"] = result.name
-            f.attrs["model"] = result.model
-            f.attrs["seed"] = int(result.config.get("seed", 0))
-            f.attrs["reference"] = result.reference or ""
-            f.attrs["config_yaml"] = yaml.safe_dump(result.config, sort_keys=False)
-            f.attrs["created_utc"] = result.provenance.get("created_utc", "")
-            f.attrs["wall_seconds"] = float(result.provenance.get("wall_seconds", 0.0))
-            f.attrs["versions_json"] = json.dumps(result.provenance.get("versions", {}))
-            # HDF5 lists groups alphabetically: keep the config's method order explicitly.
-            f.attrs["method_order"] = json.dumps([r.label for r in result.runs])
-            f.attrs["output_order"] = json.dumps([o.name for o in result.outputs])
-            f.create_dataset("time", data=result.time)
-            f.create_dataset("inputs/names", data=np.array(result.input_names, dtype="S"))
-            if result.report_times:
-                f.create_dataset("report_times", data=np.asarray(result.report_times))
-            for o in result.outputs:
-                g = f.create_group(f"outputs/{o.name}")
-                g.attrs.update(kind=o.kind, unit=o.unit, description=o.description,
-                               components=json.dumps(list(o.components)))
-            for r in result.runs:
-                _write_run(f.create_group(f"methods/{r.label}"), r)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+            _fill(f, result)
     return path
+
+
+def _fill(f: h5py.File, result: Result) -> None:
+    f.attrs["format"] = FORMAT
+    f.attrs["uqguide_version"] = __version__
+    f.attrs["name"] = result.name
+    f.attrs["model"] = result.model
+    f.attrs["seed"] = int(result.config.get("seed", 0))
+    f.attrs["reference"] = result.reference or ""
+    f.attrs["config_yaml"] = yaml.safe_dump(result.config, sort_keys=False)
+    f.attrs["created_utc"] = result.provenance.get("created_utc", "")
+    f.attrs["wall_seconds"] = float(result.provenance.get("wall_seconds", 0.0))
+    f.attrs["versions_json"] = json.dumps(result.provenance.get("versions", {}))
+    # HDF5 lists groups alphabetically: keep the config's method order explicitly.
+    f.attrs["method_order"] = json.dumps([r.label for r in result.runs])
+    f.attrs["output_order"] = json.dumps([o.name for o in result.outputs])
+    f.create_dataset("time", data=result.time)
+    f.create_dataset("inputs/names", data=np.array(result.input_names, dtype="S"))
+    if result.report_times:
+        f.create_dataset("report_times", data=np.asarray(result.report_times))
+    for o in result.outputs:
+        g = f.create_group(f"outputs/{o.name}")
+        g.attrs.update(kind=o.kind, unit=o.unit, description=o.description,
+                       components=json.dumps(list(o.components)))
+    for r in result.runs:
+        _write_run(f.create_group(f"methods/{r.label}"), r)
 
 
 def _write_run(g: h5py.Group, r: MethodRun) -> None:

@@ -1,0 +1,236 @@
+"""Fault reproducers (issue 15): runs that must not corrupt each other, escape --out, hang, sink
+on one bad sample, exhaust memory, ignore Ctrl-C, leave half-written files, or pass a gate that
+checks nothing. Each test is a reproducer of one failure mode, kept small and quick; none
+asserts a timing."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from uqguide.cli import main
+from uqguide.result import read_hdf5
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+
+
+def _config(function: str = "tests.failing_models:clean_sum", n: int = 400, chunk: int = 50,
+            seed: int = 11, **top) -> dict:
+    return {
+        "model": {"name": "callable", "function": function, "inputs": ["a", "b"],
+                  "outputs": ["y"]},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                   {"name": "b", "dist": "uniform", "low": 0.0, "high": 2.0}],
+        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": n, "chunk_size": chunk,
+                     "bootstrap": 0}],
+        "seed": seed, **top,
+    }
+
+
+def _write(path: Path, cfg: dict) -> Path:
+    path.write_text(yaml.safe_dump(cfg))
+    return path
+
+
+def _invoke(*args: str):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def _chunk_lines(manifest: Path) -> list[dict]:
+    if not manifest.is_file():
+        return []
+    out = []
+    for line in manifest.read_text().splitlines():
+        try:
+            obj = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if obj.get("kind") == "chunk":
+            out.append(obj)
+    return out
+
+
+def _start_slow_run(cfg: Path, out: Path, extra_env: dict | None = None, *args: str):
+    env = {**ENV, **(extra_env or {})}
+    return subprocess.Popen([sys.executable, "-m", "uqguide.cli", "run", str(cfg), "--out",
+                             str(out), *args], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+
+
+def _wait_for_chunks(proc, manifest: Path, n: int, timeout: float = 60) -> None:
+    deadline = time.monotonic() + timeout
+    while len(_chunk_lines(manifest)) < n:
+        assert proc.poll() is None, proc.stderr.read().decode()
+        assert time.monotonic() < deadline, "the run made no progress"
+        time.sleep(0.05)
+
+
+def _stop(proc, sig=signal.SIGKILL) -> None:
+    if proc.poll() is None:
+        proc.send_signal(sig)
+    proc.communicate(timeout=30)
+
+
+# ---------------------------------------------------------------------------- 1. run folder
+def test_a_second_run_into_the_same_folder_is_refused_naming_the_owner(tmp_path):
+    cfg = _write(tmp_path / "slow.yaml", _config("tests.failing_models:slow_sum", n=2000,
+                                                 chunk=100))
+    out = tmp_path / "out"
+    first = _start_slow_run(cfg, out)
+    try:
+        _wait_for_chunks(first, out / "slow.run" / "manifest.jsonl", 1)
+        second = _invoke("run", cfg, "--out", out)
+        assert second.exit_code == 2, second.output
+        assert f"pid {first.pid}" in second.output and "in use" in second.output
+        assert second.exception is None or isinstance(second.exception, SystemExit)
+        resumed = _invoke("run", cfg, "--out", out, "--resume")
+        assert resumed.exit_code == 2, resumed.output
+        # the first run's folder is intact and still growing
+        assert (out / "slow.run" / "manifest.jsonl").is_file()
+    finally:
+        _stop(first)
+
+
+def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_message(tmp_path, caplog):
+    cfg = _write(tmp_path / "c.yaml", _config())
+    out = tmp_path / "out"
+    out.mkdir()
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    (out / "c.run.lock").write_text(f"pid {dead} on host elsewhere\n")
+    res = _invoke("run", cfg, "--out", out)
+    assert res.exit_code == 0, res.output
+    assert f"taking over the lock of a run that is gone (pid {dead}" in caplog.text
+    assert not (out / "c.run.lock").exists() and not (out / "c.run").exists()
+
+
+def _interrupted_run(tmp_path: Path, seed: int, sub: str) -> tuple[Path, Path]:
+    """A run of 8 chunks stopped by SIGKILL after at least 3 chunks (its folder is left)."""
+    cfg = _write(tmp_path / f"mix{sub}.yaml",
+                 {**_config("tests.failing_models:slow_sum", n=800, chunk=100, seed=seed),
+                  "name": "mix"})
+    out = tmp_path / sub
+    p = _start_slow_run(cfg, out)
+    _wait_for_chunks(p, out / "mix.run" / "manifest.jsonl", 3)
+    _stop(p)
+    return cfg, out / "mix.run"
+
+
+def test_chunks_of_another_seed_are_refused_on_resume(tmp_path):
+    """Issue 15 item 1: seed-11 chunks folded into a seed-12 resume exited 0 with wrong
+    statistics. Both ways of mixing them in (manifest lines of the other run; chunk files of
+    the other run under this run's manifest lines) must end in a clean refusal."""
+    _, run11 = _interrupted_run(tmp_path, 11, "a")
+    cfg12, run12 = _interrupted_run(tmp_path, 12, "b")
+    own = _chunk_lines(run12 / "manifest.jsonl")
+    foreign = _chunk_lines(run11 / "manifest.jsonl")
+    header = (run12 / "manifest.jsonl").read_text().splitlines()[0]
+
+    # (a) the other run's chunk lines and files, appended as a concurrent run would have
+    for e in foreign:
+        (run12 / e["file"]).write_bytes((run11 / e["file"]).read_bytes())
+    (run12 / "manifest.jsonl").write_text(
+        "\n".join([header] + [json.dumps(e) for e in foreign]) + "\n")
+    res = _invoke("run", cfg12, "--out", run12.parent, "--resume")
+    assert res.exit_code == 2, res.output
+    assert "belongs to another run" in res.output
+    assert not (run12.parent / "mix.h5").exists()
+
+    # (b) this run's manifest lines, the other run's chunk files under their names
+    fake = [{**e, "run": own[0]["run"]} for e in foreign]
+    (run12 / "manifest.jsonl").write_text(
+        "\n".join([header] + [json.dumps(e) for e in fake]) + "\n")
+    res = _invoke("run", cfg12, "--out", run12.parent, "--resume")
+    assert res.exit_code == 2, res.output
+    assert "belongs to another run" in res.output
+    assert not (run12.parent / "mix.h5").exists()
+
+
+def test_resume_after_a_kill_still_completes(tmp_path):
+    cfg, run = _interrupted_run(tmp_path, 5, "k")
+    res = _invoke("run", cfg, "--out", run.parent, "--resume")
+    assert res.exit_code == 0, res.output
+    assert read_hdf5(run.parent / "mix.h5").run("mc").n_runs == 800
+    assert not run.exists()
+
+
+# ---------------------------------------------------------------------------- 2. names
+@pytest.mark.parametrize("name", ["/elsewhere/victim", "../../evil", "a/b", "..", ".",
+                                  "evil\x00name", "spaced name", ""])
+def test_a_name_that_is_not_a_plain_file_name_is_exit_2(tmp_path, name):
+    victim = tmp_path / "elsewhere"
+    (victim / "victim.run").mkdir(parents=True)
+    (victim / "victim.run" / "keep.txt").write_text("mine")
+    cfg = _config()
+    cfg["name"] = name.replace("/elsewhere", str(victim))
+    path = tmp_path / "c.yaml"
+    path.write_text(json.dumps(cfg))  # JSON is YAML, and keeps the NUL byte escaped
+    out = tmp_path / "sub" / "out"
+    res = _invoke("run", path, "--out", out)
+    assert res.exit_code == 2, res.output
+    assert res.output.startswith("error: ") and "name" in res.output, res.output
+    assert "Traceback" not in res.output
+    assert (victim / "victim.run" / "keep.txt").read_text() == "mine"
+    written = [p for p in tmp_path.rglob("*") if p.suffix in (".h5", ".csv", ".md")]
+    assert written == []
+
+
+def test_a_config_file_name_is_made_a_plain_name(tmp_path):
+    path = _write(tmp_path / "my run (v2).yaml", _config(n=100))
+    out = tmp_path / "out"
+    res = _invoke("run", path, "--out", out)
+    assert res.exit_code == 0, res.output
+    assert (out / "my_run__v2_.h5").is_file()
+
+
+def test_a_folder_at_the_run_path_that_is_not_a_run_folder_is_not_deleted(tmp_path):
+    cfg = _write(tmp_path / "c.yaml", _config(n=100))
+    out = tmp_path / "out"
+    (out / "c.run").mkdir(parents=True)
+    (out / "c.run" / "thesis.tex").write_text("years of work")
+    res = _invoke("run", cfg, "--out", out)
+    assert res.exit_code == 2, res.output
+    assert "not a uqguide run folder" in res.output
+    assert (out / "c.run" / "thesis.tex").read_text() == "years of work"
+
+
+# ---------------------------------------------------------------------------- 3. all-failed
+def test_a_chunk_in_which_every_sample_fails_is_counted():
+    """Chunks of 1 sample of a model failing for |a| > 1.96 (raises above, NaN below): every
+    failure is a chunk failing whole. Every failure is counted with its reason, the statistics are those of
+    the rest."""
+    from uqguide.config import validate_config
+    from uqguide.propagate import run
+
+    cfg = _config("tests.failing_models:flaky", n=600, chunk=1, seed=3)
+    cfg["model"]["outputs"] = ["y", {"name": "path", "kind": "series"}]
+    r = run(validate_config(cfg)).runs[0]
+    a = r.x[:, 0]
+    bad = np.abs(a) > 1.96
+    assert (a > 1.96).any() and (a < -1.96).any(), "the seed must give both failures"
+    np.testing.assert_array_equal(r.failed, bad)
+    assert r.estimate.diagnostics["n_failed"] == bad.sum()
+    assert set(r.reasons[a > 1.96]) == {"ValueError: a above 1.96"}
+    ok = ~bad
+    y = a[ok] + r.x[ok, 1] ** 2
+    np.testing.assert_allclose(r.estimate.stats["y"].mean, [y.mean()], rtol=1e-12)
+
+
+def test_every_chunk_failing_is_a_clean_exit_1(tmp_path):
+    cfg = _config("tests.failing_models:linear_raises_above", n=20, chunk=4)
+    cfg["inputs"][0] = {"name": "a", "dist": "uniform", "low": 2.0, "high": 3.0}
+    res = _invoke("run", _write(tmp_path / "c.yaml", cfg), "--out", tmp_path / "o")
+    assert res.exit_code == 1, res.output
+    assert "every one of the 20 runs failed" in res.output
+    assert "Traceback" not in res.output
