@@ -234,3 +234,150 @@ def test_every_chunk_failing_is_a_clean_exit_1(tmp_path):
     assert res.exit_code == 1, res.output
     assert "every one of the 20 runs failed" in res.output
     assert "Traceback" not in res.output
+
+
+# ---------------------------------------------------------------------------- 7. the gate
+@pytest.fixture(scope="module")
+def gate_cases(tmp_path_factory):
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import fuzz_gate
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    return fuzz_gate.build_cases(tmp_path_factory.mktemp("gate"))
+
+
+GATE_SAMPLE = ["baseline: untouched", "baseline: methods empty", "baseline: mc outputs empty",
+               "baseline: points empty", "baseline: unknown component",
+               "baseline: series time null", "baseline: mean_se negative",
+               "baseline: mean_se huge", "baseline: mean_se loosened 10x",
+               "baseline: pce_rtol negative", "baseline: mean shifted 8 se",
+               "baseline file: deep nesting", "check --sigmas inf", "check --sigmas nan",
+               "check --pce-rtol nan", "result: config_yaml not yaml (check)",
+               "result: config_yaml alias bomb (check)", "result: stats wrong shape (check)",
+               "result: config_yaml not yaml (plot)", "result: config_yaml not yaml (report)",
+               "result truncated (check)"]
+
+
+@pytest.mark.parametrize("name", GATE_SAMPLE)
+def test_the_gate_cannot_be_fooled_or_crashed(gate_cases, name):
+    """A sample of benchmarks/fuzz_gate.py (run whole: 121 cases): an unusable input is exit
+    2 with one error line, a real regression exit 1, never a traceback or 'PASS: 0'."""
+    case = next(c for c in gate_cases if c.name == name)
+    res = CliRunner().invoke(main, case.args)
+    assert res.exception is None or isinstance(res.exception, SystemExit), res.exception
+    assert res.exit_code == case.expect, res.output
+    assert "PASS: 0 statistics" not in res.output
+    if case.expect == 2:
+        assert res.stderr.strip().splitlines()[-1].startswith(("error:", "Error:")), res.stderr
+
+
+# ---------------------------------------------------------------------------- 8. loading
+BOMB = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
+    f"{c}: &{c} [{', '.join(['*' + p] * 9)}]\n" for p, c in zip("abcdefgh", "bcdefghi"))
+
+
+@pytest.mark.parametrize("text, message", [
+    (BOMB, "anchor &a is not allowed"),
+    ("model: &m {name: lognormal}\nother: *m\n", "anchor &m is not allowed"),
+    ("model: {name: lognormal}\nmodel: {name: ishigami}\nmethods: []\n",
+     "duplicate key 'model' (first at line 1)"),
+    ("model: " + "[" * 100_000 + "]" * 100_000 + "\n", "nested deeper than 32 levels"),
+    ("model: {name: lognormal}\nname: a\x00b\n", "NUL"),
+    ("a: [*a]\n", "alias *a is not allowed"),
+])
+def test_yaml_that_would_explode_is_a_one_line_exit_2(tmp_path, text, message):
+    p = tmp_path / "bad.yaml"
+    p.write_text(text)
+    res = _invoke("validate", p)
+    assert res.exit_code == 2, res.output
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {p}: invalid YAML"), lines
+    assert message in lines[0]
+
+
+def test_a_config_file_over_1_mb_is_refused_before_parsing(tmp_path):
+    p = tmp_path / "big.yaml"
+    p.write_text("description: '" + "x" * 1_100_000 + "'\n")
+    res = _invoke("validate", p)
+    assert res.exit_code == 2 and "allowed at most 1000000" in res.output, res.output
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda c: c.__setitem__("correlations", [{"inputs": ["a", "b"],
+                                               "matrix": [[1, 0.5], [0.5]]}]),
+     "correlations[0].matrix: must be 2x2"),
+    (lambda c: c.__setitem__("description", "x\x00y"), "description: must not contain a NUL"),
+])
+def test_ragged_or_nul_values_are_exit_2(tmp_path, edit, field):
+    cfg = _config()
+    cfg["inputs"][1] = {"name": "b", "dist": "normal", "std": 1.0}
+    edit(cfg)
+    p = tmp_path / "c.yaml"
+    p.write_text(json.dumps(cfg))
+    res = _invoke("validate", p)
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip().startswith(f"error: {field}"), res.stderr
+
+
+# ---------------------------------------------------------------------------- 5. budgets
+def _ftcapn(n: int, **model) -> dict:
+    raw = yaml.safe_load((ROOT / "configs" / "ftcapn_table3.yaml").read_text())
+    raw.pop("reference", None)
+    raw["model"].update(model)
+    raw["methods"] = [{"name": "monte_carlo", "label": "mc", "n_samples": n}]
+    return raw
+
+
+def test_validate_prints_runs_and_memory_of_a_1e8_sample_run(tmp_path):
+    res = _invoke("validate", _write(tmp_path / "big.yaml", _ftcapn(100_000_000)))
+    assert res.exit_code == 0, res.output
+    assert "mc: 100,000,000 model runs x 800 steps" in res.output
+    assert "estimated peak memory" in res.output
+
+
+def test_a_run_over_max_memory_exits_2_before_allocating(tmp_path):
+    cfg = {**_ftcapn(100_000_000), "max_memory": "2 GB"}
+    res = _invoke("run", _write(tmp_path / "big.yaml", cfg), "--out", tmp_path / "o")
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip().splitlines()[-1].startswith(
+        "error: max_memory: this run needs an estimated")
+    assert not (tmp_path / "o").exists()  # refused before any folder, lock or design
+
+
+@pytest.mark.parametrize("model, message", [
+    ({"dt": 1e-9}, "model.dt: 1e-09 gives 4e+11 steps per run (t_max / dt); allowed at most "
+                   "max_steps = 1e+07"),
+])
+def test_a_step_that_would_run_for_ever_is_refused(tmp_path, model, message):
+    res = _invoke("validate", _write(tmp_path / "c.yaml", _ftcapn(100, **model)))
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip() == f"error: {message} (raise max_steps to run it anyway)"
+
+
+def test_a_tensor_grid_too_large_to_build_is_refused_by_validate(tmp_path):
+    raw = _ftcapn(100)
+    raw["methods"] = [{"name": "pce_tensor", "m": 3}]  # 7 inputs: 3^7 = 2187 runs
+    assert _invoke("validate", _write(tmp_path / "ok.yaml", raw)).exit_code == 0
+    raw["methods"] = [{"name": "pce_tensor", "m": 6}]  # 6^7 runs: its 6^7 x 6^7 basis
+    res = _invoke("validate", _write(tmp_path / "mem.yaml", raw))
+    assert res.exit_code == 2 and "error: max_memory: " in res.output, res.output
+    raw["methods"] = [{"name": "pce_tensor", "m": 20}]
+    res = _invoke("validate", _write(tmp_path / "c.yaml", raw))
+    assert res.exit_code == 2
+    assert res.stderr.strip().startswith("error: methods[0].m: pce_tensor with m = 20 on 7 "
+                                         "inputs is 1.28e+09 runs; allowed at most 2000000")
+
+
+def test_the_design_is_made_per_chunk_and_identical_to_the_whole_one():
+    from uqguide.config import validate_config
+    from uqguide.methods.base import GeneratedRows
+    from uqguide.methods.monte_carlo import method_seed, unit_samples
+
+    cfg = validate_config({**_config(n=1000, chunk=128), "correlations": []})
+    m = cfg.methods[0]
+    d = m.design(cfg.space, cfg.seed)
+    assert isinstance(d.x, GeneratedRows)
+    whole = cfg.space.from_unit(unit_samples(2, 1000, "random", 128, method_seed(cfg.seed, "mc")))
+    np.testing.assert_array_equal(np.asarray(d.x), whole)
+    np.testing.assert_array_equal(d.x[300:700], whole[300:700])

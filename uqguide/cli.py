@@ -90,6 +90,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, resume: bool,
         check_path: Path | None) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
+    from .budget import check_memory, estimate
     from .checkpoint import RunInterrupted, RunStore, run_dir, run_identity
     from .config import load_config
     from .execution import make_executor
@@ -107,32 +108,40 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     baseline = _gate_preflight(check_path, cfg) if check_path else None
     again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
         "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")
-    folder = run_dir(out_dir, cfg.name)  # inside out_dir: the name is a plain file name
-    with RunLock(folder):
-        executor = make_executor(workers, scheduler,
-                                 str(scheduler_file) if scheduler_file else None)
-        try:
-            store = RunStore.open(folder, run_identity(cfg.resolved(), cfg.model), resume,
-                                  again)
-            result = run_config(cfg, executor, store=store, progress=Progress(sys.stderr))
-        except RunInterrupted as exc:
-            click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume with "
-                       f"`{again}`", err=True)
-            sys.exit(EXIT_INTERRUPTED)
-        finally:
-            executor.close()
-        try:
-            # Each file whole or absent; a signal here stops the run after the file being
-            # written, and the run folder stays until every file is written (resumable).
-            with deferred():
-                h5 = write_hdf5(result, out_dir / f"{cfg.name}.h5")
-            with deferred():
-                tables = write_tables(result, out_dir, cfg.name)
-        except KeyboardInterrupt:
-            click.echo(f"interrupted while writing the result; resume with `{again}`",
-                       err=True)
-            sys.exit(EXIT_INTERRUPTED)
-        store.remove()  # the result file holds everything the chunks did
+    executor = make_executor(workers, scheduler,
+                             str(scheduler_file) if scheduler_file else None)
+    try:
+        budget = estimate(cfg, workers or 1)
+        click.echo("budget:", err=True)
+        for line in budget.lines():
+            click.echo(line, err=True)
+        check_memory(budget)  # before anything is allocated
+        folder = run_dir(out_dir, cfg.name)  # inside out_dir: the name is a plain file name
+        with RunLock(folder):
+            try:
+                store = RunStore.open(folder, run_identity(cfg.resolved(), cfg.model), resume,
+                                      again)
+                result = run_config(cfg, executor, store=store, progress=Progress(sys.stderr))
+            except RunInterrupted as exc:
+                click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume "
+                           f"with `{again}`", err=True)
+                sys.exit(EXIT_INTERRUPTED)
+            finally:
+                executor.close()
+            try:
+                # Each file whole or absent; a signal here stops the run after the file being
+                # written, and the run folder stays until every file is written (resumable).
+                with deferred():
+                    h5 = write_hdf5(result, out_dir / f"{cfg.name}.h5")
+                with deferred():
+                    tables = write_tables(result, out_dir, cfg.name)
+            except KeyboardInterrupt:
+                click.echo(f"interrupted while writing the result; resume with `{again}`",
+                           err=True)
+                sys.exit(EXIT_INTERRUPTED)
+            store.remove()  # the result file holds everything the chunks did
+    finally:
+        executor.close()
     click.echo(render_text(result))
     click.echo("")
     click.echo(f"wrote {h5}")
@@ -147,7 +156,11 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
 @_handle_errors
 def validate(config: Path) -> None:
-    """Check CONFIG without running anything."""
+    """Check CONFIG without running anything; print its runs and estimated peak memory.
+
+    A ``callable`` model's module is imported (its code runs): treat a config like code.
+    """
+    from .budget import check_memory, estimate
     from .config import load_config
 
     cfg = load_config(config)
@@ -155,6 +168,11 @@ def validate(config: Path) -> None:
     click.echo(f"{config}: OK — model {cfg.model.name}, {cfg.space.dim} uncertain inputs "
                f"({', '.join(cfg.space.names) or 'none'}), outputs {', '.join(cfg.outputs)}, "
                f"methods {methods}, seed {cfg.seed}")
+    budget = estimate(cfg)
+    click.echo("budget (serial run):")
+    for line in budget.lines():
+        click.echo(line)
+    check_memory(budget)
 
 
 @main.command()
@@ -241,11 +259,31 @@ def _gate_verdict(result: Any, baseline: Any, path: Path, sigmas: float | None =
     """Print the check of ``result`` against ``baseline``; exit 1 on a regression."""
     from .gate import DEFAULT_SIGMAS, check_result
 
-    report = check_result(result, baseline, sigmas or DEFAULT_SIGMAS, pce_rtol, str(path))
+    report = check_result(result, baseline, DEFAULT_SIGMAS if sigmas is None else sigmas,
+                          pce_rtol, str(path))
     click.echo(report.render(show_all))
     if not report.passed:
         sys.exit(1)
 
+
+class _PositiveFinite(click.ParamType):
+    """A float that is finite and > 0 (click's FloatRange lets inf and nan through)."""
+
+    name = "float"
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> float:
+        import math
+
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            v = math.nan
+        if not (math.isfinite(v) and v > 0):
+            self.fail(f"must be a finite number > 0 (got {value!r})", param, ctx)
+        return v
+
+
+POSITIVE_FINITE = _PositiveFinite()
 
 _RESULT_ARG = click.argument("result_path", metavar="RESULT",
                              type=click.Path(dir_okay=False, path_type=Path))
@@ -256,9 +294,9 @@ _RESULT_ARG = click.argument("result_path", metavar="RESULT",
 @click.option("--baseline", "baseline_path", required=True,
               type=click.Path(dir_okay=False, path_type=Path),
               help="Baseline JSON written by `uqguide baseline`.")
-@click.option("--sigmas", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--sigmas", type=POSITIVE_FINITE, default=None,
               help="Monte Carlo tolerance in combined standard errors [default: 4].")
-@click.option("--pce-rtol", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--pce-rtol", type=POSITIVE_FINITE, default=None,
               help="Relative tolerance of PCE statistics [default: the baseline's].")
 @click.option("--all", "show_all", is_flag=True,
               help="List every compared statistic, not only the failing ones.")
@@ -282,7 +320,7 @@ def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol
 @_RESULT_ARG
 @click.option("-o", "--output", "out_path", required=True,
               type=click.Path(dir_okay=False, path_type=Path), help="Baseline JSON to write.")
-@click.option("--pce-rtol", type=click.FloatRange(min=0, min_open=True), default=0.02,
+@click.option("--pce-rtol", type=POSITIVE_FINITE, default=0.02,
               show_default=True, help="Relative tolerance of PCE statistics, stored in it.")
 @click.option("--force", is_flag=True, help="Replace an existing baseline (on purpose).")
 @_handle_errors

@@ -92,6 +92,20 @@ class RawConfig(BaseModel):
     #: with the failed nodes named; ``regression`` fits the coefficients by least squares on
     #: the surviving nodes, with a warning and a diagnostics entry.
     pce_failure_policy: Literal["fail", "regression"] = "fail"
+    #: Integration steps one model run may take (a dt of 1e-9 s would run for ever).
+    max_steps: int = Field(default=10_000_000, ge=1, le=10**12)
+    #: Largest estimated peak memory of a run ("8 GB", or bytes); default half the machine's
+    #: memory, decided when the run starts (so a config means the same on every machine).
+    max_memory: int | float | str | None = None
+
+    @field_validator("max_memory")
+    @classmethod
+    def _memory(cls, v: Any) -> Any:
+        if v is not None:
+            from .budget import parse_bytes
+
+            parse_bytes(v)
+        return v
 
     @field_validator("name")
     @classmethod
@@ -135,6 +149,14 @@ class RunConfig:
     @property
     def report_times(self) -> list[float] | None:
         return self.raw.report_times
+
+    @property
+    def max_memory(self) -> int:
+        """Bytes a run may plan to use (the config's ``max_memory`` or half the machine's)."""
+        from .budget import default_max_memory, parse_bytes
+
+        v = self.raw.max_memory
+        return default_max_memory() if v is None else parse_bytes(v)
 
     @property
     def name(self) -> str:
@@ -211,16 +233,26 @@ def _fields(model: type[BaseModel]) -> list[str]:
 
 # ---------------------------------------------------------------------------- loading
 def load_yaml(path: str | Path) -> dict[str, Any]:
-    """Read a YAML config file into a mapping; ConfigError on I/O or syntax problems."""
+    """Read a YAML config file into a mapping; ConfigError on I/O or syntax problems, and on
+    what :mod:`uqguide.safe_yaml` refuses (aliases, duplicate keys, deep nesting, a file
+    over 1 MB)."""
+    from .safe_yaml import MAX_BYTES, safe_load
+
     p = Path(path)
     try:
+        size = p.stat().st_size
+        if size > MAX_BYTES:
+            raise ConfigError(f"{p}: config file is {size} bytes; allowed at most {MAX_BYTES} "
+                              f"(a config is a few kB: is this the right file?)")
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError(f"{p}: config file not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{p}: is a folder, not a config file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{p}: cannot read config file ({exc})") from None
     try:
-        data = yaml.safe_load(text)
+        data = safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
@@ -243,6 +275,9 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     nan_at = _find_nan(data)
     if nan_at is not None:
         raise ConfigError(f"{nan_at}: must be a number, not NaN", field=nan_at)
+    nul_at = _find_nul(data)
+    if nul_at is not None:
+        raise ConfigError(f"{nul_at}: must not contain a NUL character", field=nul_at)
     try:
         raw = RawConfig.model_validate(dict(data))
     except ValidationError as err:
@@ -270,8 +305,17 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
                 raise ConfigError(
                     f"report_times[{i}]: must be a finite time >= 0 s (got {t!r})",
                     field=f"report_times[{i}]")
-    return RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
-                     source=source)
+    cfg = RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
+                    source=source)
+    from .budget import check_steps
+
+    check_steps(cfg)
+    for i, m in enumerate(methods):
+        try:
+            m.plan(space)
+        except ConfigError as exc:  # a grid too large to build, refused before it is built
+            raise ConfigError(f"methods[{i}].{exc}", field=f"methods[{i}].{exc.field}") from None
+    return cfg
 
 
 def _find_nan(node: Any, path: str = "") -> str | None:
@@ -286,6 +330,26 @@ def _find_nan(node: Any, path: str = "") -> str | None:
     elif isinstance(node, list):
         for i, v in enumerate(node):
             found = _find_nan(v, f"{path}[{i}]")
+            if found:
+                return found
+    return None
+
+
+def _find_nul(node: Any, path: str = "") -> str | None:
+    """Path of the first string (value or key) holding a NUL character."""
+    if isinstance(node, str):
+        return (path or "<top>") if "\x00" in node else None
+    if isinstance(node, Mapping):
+        for k, v in node.items():
+            sub = f"{path}.{k}" if path else str(k)
+            if isinstance(k, str) and "\x00" in k:
+                return sub.replace("\x00", "\\0")
+            found = _find_nul(v, sub)
+            if found:
+                return found
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            found = _find_nul(v, f"{path}[{i}]")
             if found:
                 return found
     return None
@@ -343,11 +407,15 @@ def _build_space(raw: RawConfig, model: Model) -> InputSpace:
                     f"correlated (got {raw.inputs[seen[name]].dist})",
                     field=f"correlations[{g}].inputs[{j}]")
             idx.append(seen[name])
-        C = np.asarray(spec.matrix, dtype=float)
         k = len(idx)
         field = f"correlations[{g}].matrix"
-        if C.shape != (k, k):
-            raise ConfigError(f"{field}: must be {k}x{k} (got shape {C.shape})", field=field)
+        lengths = [len(row) for row in spec.matrix]
+        if len(lengths) != k or any(n != k for n in lengths):
+            raise ConfigError(f"{field}: must be {k}x{k} (got {len(lengths)} rows of lengths "
+                              f"{lengths[:8]})", field=field)
+        C = np.asarray(spec.matrix, dtype=float)
+        if not np.isfinite(C).all():
+            raise ConfigError(f"{field}: entries must be finite numbers", field=field)
         if not np.allclose(C, C.T) or not np.allclose(np.diag(C), 1.0):
             raise ConfigError(f"{field}: must be symmetric with a unit diagonal", field=field)
         if np.linalg.eigvalsh(C).min() <= 0:

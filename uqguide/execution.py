@@ -570,6 +570,7 @@ class DaskExecutor(_WindowedExecutor):
 
     def close(self) -> None:
         if self._own:
+            self._own = False  # once: close() may be called again on the way out
             self.client.close()
 
 

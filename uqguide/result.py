@@ -39,7 +39,7 @@ import yaml
 
 from . import __version__, atomic
 from .errors import ResultError
-from .methods.base import Estimate
+from .methods.base import Estimate, GeneratedRows
 from .models.base import OutputInfo
 from .stats import STAT_NAMES, OutputStats
 
@@ -214,7 +214,15 @@ def _write_run(g: h5py.Group, r: MethodRun) -> None:
         j.create_dataset("mean", data=e.scalar_mean)
         j.create_dataset("cov", data=e.scalar_cov)
     s = g.create_group("samples")
-    s.create_dataset("x", data=r.x, compression="gzip" if r.x.size > 4096 else None)
+    x = r.x
+    gz = "gzip" if x.size > 4096 else None
+    if isinstance(x, GeneratedRows):  # written chunk by chunk: never held whole
+        ds = s.create_dataset("x", shape=x.shape, dtype="f8", compression=gz,
+                              chunks=(min(max(x.n, 1), 65536), max(x.d, 1)) if x.size else None)
+        for start, rows in x.chunks():
+            ds[start:start + rows.shape[0]] = rows
+    else:
+        s.create_dataset("x", data=x, compression=gz)
     s.create_dataset("failed", data=r.failed)
     s.create_dataset("reasons", data=np.array([str(v) for v in r.reasons], dtype="S"))
     for name, y in r.scalars.items():
@@ -276,8 +284,8 @@ def read_hdf5(path: str | Path) -> Result:
                     fit_seconds=float(g.attrs["fit_seconds"]),
                     wall_seconds=float(g.attrs["wall_seconds"]),
                 ))
-            config = yaml.safe_load(f.attrs["config_yaml"])
-            return Result(
+            config = _config_from_yaml(f.attrs["config_yaml"], path)
+            result = Result(
                 name=str(f.attrs["name"]), model=str(f.attrs["model"]),
                 input_names=[b.decode() for b in f["inputs/names"][()]],
                 outputs=outputs, time=f["time"][()], runs=runs,
@@ -290,5 +298,61 @@ def read_hdf5(path: str | Path) -> Result:
             )
     except ResultError:
         raise
-    except (OSError, KeyError, ValueError) as exc:
-        raise ResultError(f"{path}: unreadable or incomplete result file ({exc})") from None
+    except (OSError, KeyError, ValueError, TypeError, IndexError, AttributeError,
+            RecursionError) as exc:
+        raise ResultError(f"{path}: unreadable or incomplete result file "
+                          f"({type(exc).__name__}: {exc})") from None
+    _check_result(result, path)
+    return result
+
+
+def _config_from_yaml(text: Any, path: Path) -> dict[str, Any]:
+    from .safe_yaml import YamlLimitError, safe_load
+
+    try:
+        config = safe_load(str(text))
+    except (yaml.YAMLError, YamlLimitError) as exc:
+        raise ResultError(f"{path}: its config_yaml is not a readable config "
+                          f"({str(exc).splitlines()[0]})") from None
+    if not isinstance(config, dict):
+        raise ResultError(f"{path}: its config_yaml is not a mapping (got "
+                          f"{type(config).__name__})")
+    return config
+
+
+def _check_result(r: Result, path: Path) -> None:
+    """ResultError unless every array has the shape its output says (a file edited or
+    written by something else must not reach the gate, the plots or the report)."""
+    bad = None
+    if r.time.ndim != 1:
+        bad = f"time has shape {r.time.shape}, expected (T,)"
+    names = {o.name: o for o in r.outputs}
+    for run in r.runs:
+        if bad:
+            break
+        n = run.x.shape[0] if run.x.ndim == 2 else -1
+        if run.x.ndim != 2 or run.x.shape[1] != len(r.input_names):
+            bad = f"{run.label}: samples/x has shape {run.x.shape}, expected (n, {len(r.input_names)})"
+        elif run.failed.shape != (n,) or run.reasons.shape != (n,):
+            bad = f"{run.label}: samples/failed or reasons do not have {n} rows"
+        for name, s in run.estimate.stats.items():
+            if bad:
+                break
+            o = names.get(name)
+            if o is None:
+                bad = f"{run.label}: statistics of '{name}', which is not an output of the file"
+                break
+            want = (r.time.size, o.k) if o.kind == "series" else (o.k,)
+            for stat in STAT_NAMES:
+                arr = np.asarray(s.stat(stat))
+                if arr.shape != want or arr.dtype.kind not in "fiu":
+                    bad = (f"{run.label}/{name}: {stat} has shape {arr.shape} and type "
+                           f"{arr.dtype}, expected {want} numbers")
+                    break
+            if not bad and s.sem is not None and np.shape(s.sem) != want:
+                bad = f"{run.label}/{name}: sem has shape {np.shape(s.sem)}, expected {want}"
+            for stat, ci in s.ci.items():
+                if not bad and np.shape(ci) != (2, *want):
+                    bad = f"{run.label}/{name}: ci_{stat} has shape {np.shape(ci)}"
+    if bad:
+        raise ResultError(f"{path}: inconsistent result file ({bad})")

@@ -94,6 +94,29 @@ class OutputInfo:
         return len(self.components)
 
 
+@dataclass(frozen=True)
+class StepCount:
+    """How much one run of a time-stepping model computes, from its parameters alone (the
+    budgets of :mod:`uqguide.budget` are checked with it before anything runs).
+
+    Attributes
+    ----------
+    steps : float
+        Integration steps of one run (sub-steps included).
+    grid : float
+        Points of the output time grid of one run.
+    field : str
+        The parameter that sets the step (named in a refusal), e.g. ``"dt"``.
+    formula : str
+        How ``steps`` follows from the parameters, e.g. ``"t_max / dt"``.
+    """
+
+    steps: float
+    grid: float
+    field: str
+    formula: str
+
+
 @dataclass
 class ModelOutput:
     """What a model returns for a batch of ``n`` samples.
@@ -266,6 +289,10 @@ class Model(ABC):
     # ------------------------------------------------------------------ public API
     def input_names(self) -> tuple[str, ...]:
         return tuple(i.name for i in self.inputs())
+
+    def step_count(self) -> StepCount | None:
+        """Steps and output grid points of one run (None: the model does not time-step)."""
+        return None
 
     def output_info(self, name: str) -> OutputInfo:
         for o in self.outputs():
