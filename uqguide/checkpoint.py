@@ -290,6 +290,12 @@ class RunStore:
         if self.path.is_dir() and not self.path.is_symlink():
             header, _ = _read_manifest(self.path / MANIFEST)
             if header is not None and header.get("run_id") == self.run_id:
+                # The manifest last: a removal cut short leaves a folder that still says whose
+                # it is (its missing chunks are re-run), never anonymous chunk files.
+                for p in self.path.iterdir():
+                    if p.name != MANIFEST:
+                        p.unlink(missing_ok=True)
+                (self.path / MANIFEST).unlink(missing_ok=True)
                 shutil.rmtree(self.path, ignore_errors=True)
 
     def _append(self, obj: dict[str, Any]) -> None:
@@ -342,7 +348,9 @@ def _remove_run_folder(path: Path, header: dict[str, Any] | None) -> None:
         path.rmdir()
         return
     foreign = [n for n in names if not _RUN_FILE.match(n)]
-    if header is None or "format" not in header or foreign:
+    anonymous = (header is None or "format" not in header) and any(
+        n.endswith(".npz") for n in names)  # chunk files without a manifest saying whose
+    if foreign or anonymous:
         what = f"it holds {foreign[0]!r}" if foreign else "it has no uqguide manifest"
         raise ConfigError(f"{path} is not a uqguide run folder ({what}); refusing to delete "
                           f"it: move it, or give this run another --out or name", field="out")

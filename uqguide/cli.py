@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -19,6 +20,7 @@ import click
 
 from . import __version__
 from .errors import ConfigError, ResultError, UqguideError
+from .interrupts import EXIT_INTERRUPTED, ignore_signals, install
 
 
 def _handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -42,18 +44,40 @@ def _setup_logging(verbose: int) -> None:
                         stream=sys.stderr)
 
 
+def _interrupted(exc: KeyboardInterrupt) -> None:
+    from .interrupts import Terminated
+
+    what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+    try:
+        click.echo(f"{what}; nothing was left half-written", err=True)
+    except KeyboardInterrupt:  # a second Ctrl-C while saying so
+        pass
+
+
 class _Group(click.Group):
     """The command group: a SIGINT or SIGTERM anywhere in a command is exit 130, one line."""
 
     def invoke(self, ctx: click.Context) -> Any:
+        from .interrupts import EXIT_INTERRUPTED
+
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt as exc:
-            from .interrupts import EXIT_INTERRUPTED, Terminated
-
-            what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
-            click.echo(f"{what}; nothing was left half-written", err=True)
+            _interrupted(exc)
             raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+
+    def main(self, *args: Any, **kwargs: Any) -> Any:
+        # Also around click's own parsing and exit, where click would print "Aborted!", exit 1.
+        from .interrupts import EXIT_INTERRUPTED, install, restore
+
+        previous = install()
+        try:
+            return super().main(*args, **kwargs)
+        except KeyboardInterrupt as exc:
+            _interrupted(exc)
+            sys.exit(EXIT_INTERRUPTED)
+        finally:
+            restore(previous)  # called in-process (tests, CliRunner): leave the caller's
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -61,9 +85,6 @@ class _Group(click.Group):
 @click.option("-v", "--verbose", count=True, help="More log lines on stderr (-v info, -vv debug).")
 def main(verbose: int) -> None:
     """Uncertainty propagation through closed-loop spacecraft guidance simulations."""
-    from .interrupts import install
-
-    install()
     _setup_logging(verbose)
 
 
@@ -139,7 +160,8 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
                 click.echo(f"interrupted while writing the result; resume with `{again}`",
                            err=True)
                 sys.exit(EXIT_INTERRUPTED)
-            store.remove()  # the result file holds everything the chunks did
+            with deferred():
+                store.remove()  # the result file holds everything the chunks did
     finally:
         executor.close()
     click.echo(render_text(result))
@@ -378,5 +400,33 @@ def report(result_path: Path, out_dir: Path | None, baseline_path: Path | None) 
     click.echo(f"wrote {path}")
 
 
+def entry() -> None:
+    """The ``uqguide`` program: :func:`main`, then signals ignored while the interpreter exits
+    (the command is over, its files written or refused: a late Ctrl-C has nothing to stop and
+    must not turn a finished run into a killed one)."""
+    install()  # first thing: a Ctrl-C from here on is exit 130
+    try:
+        main()
+    except SystemExit as exc:
+        if exc.code != EXIT_INTERRUPTED:
+            raise
+        # A Ctrl-C that landed inside a C extension's PyRun_String (Cython module imports do
+        # that) leaves CPython's "unhandled KeyboardInterrupt" flag set, and the interpreter
+        # would then kill itself with SIGINT at exit even though the interrupt was handled.
+        # Everything is written or refused and the lock released: leave with 130 directly.
+        ignore_signals()
+        import atexit
+
+        atexit._run_exitfuncs()  # multiprocessing's clean-up, logging's flush
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(EXIT_INTERRUPTED)
+    finally:
+        ignore_signals()
+
+
 if __name__ == "__main__":  # pragma: no cover
-    main()
+    entry()

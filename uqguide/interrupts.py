@@ -15,6 +15,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
+from typing import Any
 
 #: Exit code of a run stopped by SIGINT or SIGTERM (128 + SIGINT, as shells report Ctrl-C).
 EXIT_INTERRUPTED = 130
@@ -40,13 +41,33 @@ def _raise(signum: int) -> None:
     raise KeyboardInterrupt
 
 
-def install() -> None:
-    """Route SIGINT and SIGTERM to :class:`KeyboardInterrupt` (main thread only)."""
+def install() -> dict[int, Any]:
+    """Route SIGINT and SIGTERM to :class:`KeyboardInterrupt` (main thread only; a signal the
+    process was started ignoring stays ignored). Returns the handlers replaced, for
+    :func:`restore`."""
+    previous: dict[int, Any] = {}
     if threading.current_thread() is not threading.main_thread():
-        return
+        return previous
     for sig in (signal.SIGINT, signal.SIGTERM):
-        if signal.getsignal(sig) is not signal.SIG_IGN:
+        old = signal.getsignal(sig)
+        if old is not signal.SIG_IGN:
+            previous[sig] = old
             signal.signal(sig, _handler)
+    return previous
+
+
+def restore(previous: dict[int, Any]) -> None:
+    """Put back the handlers :func:`install` replaced."""
+    if threading.current_thread() is threading.main_thread():
+        for sig, old in previous.items():
+            signal.signal(sig, old if old is not None else signal.SIG_DFL)
+
+
+def ignore_signals() -> None:
+    """Ignore SIGINT and SIGTERM from now on (the command has finished)."""
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
 
 
 @contextmanager

@@ -115,15 +115,20 @@ class Result:
 
 def provenance() -> dict[str, Any]:
     """Versions and host facts that explain where a result's numbers came from."""
-    import chaospy
     import scipy
+    from importlib.metadata import PackageNotFoundError, version
 
+    try:
+        # From the installed metadata: importing chaospy for its version costs a second.
+        chaospy_version = version("chaospy")
+    except PackageNotFoundError:  # pragma: no cover
+        chaospy_version = "unknown"
     versions = {
         "uqguide": __version__,
         "python": platform.python_version(),
         "numpy": np.__version__,
         "scipy": scipy.__version__,
-        "chaospy": chaospy.__version__ if hasattr(chaospy, "__version__") else "unknown",
+        "chaospy": chaospy_version,
         "h5py": h5py.__version__,
     }
     try:

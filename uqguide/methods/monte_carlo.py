@@ -36,7 +36,6 @@ from typing import Literal
 
 import numpy as np
 from pydantic import Field
-from scipy.stats import qmc
 
 from ..errors import MethodError
 from ..inputs import InputSpace
@@ -97,8 +96,12 @@ def unit_chunk(d: int, n: int, sampling: str, chunk_size: int, seed: np.random.S
     if sampling == "random":
         u = rng.random((m, d))
     elif sampling == "lhs":
+        from scipy.stats import qmc  # slow to import: only LHS and Sobol' need it
+
         u = qmc.LatinHypercube(d=d, seed=rng).random(m)
     else:
+        from scipy.stats import qmc
+
         # Draw the next power of two and keep the first m: a prefix of a scrambled Sobol'
         # sequence, which avoids scipy's balance warning for non-powers of two.
         p = int(np.ceil(np.log2(max(m, 1))))
