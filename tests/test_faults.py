@@ -456,3 +456,66 @@ def test_stale_temporary_files_of_dead_processes_are_removed(tmp_path):
     res = _invoke("run", cfg, "--out", out)
     assert res.exit_code == 0, res.output
     assert not any(p.exists() for p in stale) and alive.exists()
+
+
+# ---------------------------------------------------------------------------- 4. hangs, crashes
+def _one_sample_above(n: int, chunk: int, seed: int) -> tuple[float, int]:
+    """A threshold that exactly one sample's ``a`` exceeds, and that sample's row."""
+    from uqguide.config import validate_config
+
+    c = validate_config(_config(n=n, chunk=chunk, seed=seed))
+    a = np.asarray(c.methods[0].design(c.space, c.seed).x)[:, 0]
+    top = np.sort(a)[-2:]
+    return float(top.mean()), int(np.argmax(a))
+
+
+@pytest.mark.parametrize("kind, workers", [("hang", None), ("crash", 2)])
+def test_a_hanging_or_crashing_sample_costs_exactly_one_sample(tmp_path, monkeypatch, kind,
+                                                               workers):
+    n, chunk = 32, 8
+    threshold, row = _one_sample_above(n, chunk, 11)
+    monkeypatch.setenv(f"UQGUIDE_TEST_{kind.upper()}_ABOVE", str(threshold))
+    cfg = _config(f"tests.failing_models:{kind}_above", n=n, chunk=chunk, timeout_s=2,
+                  batch_size=chunk, max_failed_fraction=0.5)
+    args = ["run", _write(tmp_path / "c.yaml", cfg), "--out", tmp_path / "o"]
+    res = _invoke(*args, *(["--workers", str(workers)] if workers else []))
+    assert res.exit_code == 0, res.output
+    r = read_hdf5(tmp_path / "o" / "c.h5").run("mc")
+    assert r.n_failed == 1 and r.failed[row], r.reasons[r.failed]
+    reason = str(r.reasons[row])
+    assert ("timeout_s = 2 s" in reason) if kind == "hang" else ("crashed" in reason), reason
+    ok = ~r.failed
+    np.testing.assert_array_equal(r.scalars["y"][ok, 0], r.x[ok, 0] + r.x[ok, 1])
+
+
+def test_a_sample_that_kills_its_worker_fails_alone_without_a_timeout(tmp_path, monkeypatch):
+    n, chunk = 32, 16
+    threshold, row = _one_sample_above(n, chunk, 11)
+    monkeypatch.setenv("UQGUIDE_TEST_CRASH_ABOVE", str(threshold))
+    cfg = _config("tests.failing_models:crash_above", n=n, chunk=chunk, max_failed_fraction=0.5)
+    res = _invoke("run", _write(tmp_path / "c.yaml", cfg), "--out", tmp_path / "o",
+                  "--workers", "2")
+    assert res.exit_code == 0, res.output
+    r = read_hdf5(tmp_path / "o" / "c.h5").run("mc")
+    assert r.n_failed == 1 and r.failed[row]
+
+
+# ---------------------------------------------------------------------------- 6. orphans
+def test_workers_die_with_a_killed_driver(tmp_path):
+    """SIGKILL of the driver (the out-of-memory killer's way): its workers end too, and the
+    caller's pipes close (communicate() returns) instead of being held for ever."""
+    cfg = _write(tmp_path / "slow.yaml", _config("tests.failing_models:slow_sum", n=4000,
+                                                 chunk=100))
+    p = _start_slow_run(cfg, tmp_path / "o", None, "--workers", "2")
+    _wait_for_chunks(p, tmp_path / "o" / "slow.run" / "manifest.jsonl", 2)
+    children = subprocess.run(["pgrep", "-P", str(p.pid)], capture_output=True,
+                              text=True).stdout.split()
+    assert children, "the pool has workers"
+    p.kill()
+    p.communicate(timeout=30)  # hangs here if a worker still holds the pipes
+    deadline = time.monotonic() + 30
+    while any(Path(f"/proc/{c}").exists() and "Z" not in
+              Path(f"/proc/{c}/stat").read_text().split()[2] for c in children if
+              Path(f"/proc/{c}/stat").exists()):
+        assert time.monotonic() < deadline, "workers outlived their driver"
+        time.sleep(0.1)

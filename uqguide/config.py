@@ -97,6 +97,10 @@ class RawConfig(BaseModel):
     #: Largest estimated peak memory of a run ("8 GB", or bytes); default half the machine's
     #: memory, decided when the run starts (so a config means the same on every machine).
     max_memory: int | float | str | None = None
+    #: Seconds one model call may take (None: no limit). Set, every call runs in a guard
+    #: process; a call over time is killed and bisected, so a hanging sample fails alone.
+    #: A call is ``batch_size`` samples (chunk rows at most): size it for that.
+    timeout_s: float | None = Field(default=None, gt=0.0, le=1e6)
 
     @field_validator("max_memory")
     @classmethod
