@@ -33,9 +33,11 @@ from typing import Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
+                      model_validator)
 
 from .errors import ConfigError
+from .strict import no_bool_numbers
 from .inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
 from .methods.base import Method
 from .models.base import Model
@@ -101,6 +103,8 @@ class RawConfig(BaseModel):
     #: process; a call over time is killed and bisected, so a hanging sample fails alone.
     #: A call is ``batch_size`` samples (chunk rows at most): size it for that.
     timeout_s: float | None = Field(default=None, gt=0.0, le=1e6)
+
+    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
     @field_validator("max_memory")
     @classmethod
@@ -378,9 +382,26 @@ def _build_model(section: dict[str, Any]) -> Model:
     cls = model_class(section["name"], "model.name")
     params = {k: v for k, v in section.items() if k != "name"}
     try:
-        return cls(cls.Params.model_validate(params))
+        validated = cls.Params.model_validate(params)
     except ValidationError as err:
         raise _from_validation(err, "model", ["name", *_fields(cls.Params)]) from None
+    bad = _find_infinite(validated.model_dump(), "model")
+    if bad is not None:
+        raise ConfigError(f"{bad[0]}: must be a finite number (got {bad[1]!r})", field=bad[0])
+    return cls(validated)
+
+
+def _find_infinite(node: Any, path: str) -> tuple[str, float] | None:
+    """The first infinite number among a model's parameters (no model takes one)."""
+    if isinstance(node, float) and not np.isfinite(node):
+        return path, node
+    items = node.items() if isinstance(node, dict) else enumerate(node) \
+        if isinstance(node, (list, tuple)) else ()
+    for k, v in items:
+        found = _find_infinite(v, f"{path}[{k}]" if isinstance(k, int) else f"{path}.{k}")
+        if found:
+            return found
+    return None
 
 
 def _build_space(raw: RawConfig, model: Model) -> InputSpace:

@@ -20,6 +20,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
 from scipy import special
 
+from .strict import no_bool_numbers
+
 if TYPE_CHECKING:
     import chaospy
 
@@ -36,6 +38,8 @@ class _Marginal(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     name: str = Field(min_length=1)
+
+    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
     def to_chaospy(self) -> chaospy.Distribution:  # pragma: no cover - abstract
         raise NotImplementedError

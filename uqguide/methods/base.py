@@ -23,7 +23,9 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ..strict import no_bool_numbers
 
 from ..inputs import InputSpace
 from ..models.base import ModelOutput
@@ -40,6 +42,8 @@ class MethodSettings(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")
+
+    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
 
 class GeneratedRows:

@@ -23,7 +23,9 @@ from dataclasses import dataclass, field
 from typing import ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, model_validator
+
+from ..strict import no_bool_numbers
 
 from ..errors import ModelError
 
@@ -38,6 +40,8 @@ class ModelParams(BaseModel):
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
 
 @dataclass(frozen=True)
