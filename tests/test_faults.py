@@ -330,7 +330,9 @@ def _ftcapn(n: int, **model) -> dict:
 
 
 def test_validate_prints_runs_and_memory_of_a_1e8_sample_run(tmp_path):
-    res = _invoke("validate", _write(tmp_path / "big.yaml", _ftcapn(100_000_000)))
+    text = yaml.safe_dump(_ftcapn(12345)).replace("n_samples: 12345", "n_samples: 1e8")
+    (tmp_path / "big.yaml").write_text(text)  # 1e8 as written: a YAML 1.2 float
+    res = _invoke("validate", tmp_path / "big.yaml")
     assert res.exit_code == 0, res.output
     assert "mc: 100,000,000 model runs x 800 steps" in res.output
     assert "estimated peak memory" in res.output

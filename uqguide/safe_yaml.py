@@ -15,6 +15,7 @@ Every refusal is :class:`YamlLimitError` (a ``yaml.YAMLError``) with the line an
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import yaml
@@ -81,6 +82,14 @@ class ConfigLoader(yaml.SafeLoader):
                     key_node.start_mark)
             seen[key] = key_node.start_mark
         return super().construct_mapping(node, deep=deep)
+
+
+# YAML 1.2 floats without a dot or an exponent sign (``1e8``, ``1.5e3``): YAML 1.1, and so PyYAML, reads them as
+# strings, and ``n_samples: 1e8`` would be refused as "not an integer".
+ConfigLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+.0123456789"))
 
 
 def safe_load(text: str, max_bytes: int = MAX_BYTES) -> Any:
