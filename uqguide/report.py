@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from . import atomic
 from .result import Result
 from .quantiles import level_name
 from .stats import STAT_NAMES, OutputStats
@@ -155,7 +156,7 @@ def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where:
                 noisy = np.isfinite(rhi - rlo) and abs(rv) <= 0.5 * (rhi - rlo)
                 row.update(ref_value=rv, abs_diff=v - rv,
                            rel_diff=(v - rv) / abs(rv) if rv and not noisy else float("nan"),
-                           agrees=agrees(v, lo, hi, rv, rlo, rhi))
+                           agrees=agrees(v, row["ci_low"], row["ci_high"], rv, rlo, rhi))
         rows.append(row)
     return rows
 
@@ -326,12 +327,13 @@ def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",
              out_dir / f"{stem}_summary.md"]
-    statistics_table(result).to_csv(paths[0], index=False)
+    # Each file whole or absent (temporary file, then rename): never a 0-byte table.
+    atomic.write_with(paths[0], lambda p: statistics_table(result).to_csv(p, index=False))
     events = events_table(result)
     if not events.empty:
         paths.append(out_dir / f"{stem}_events.csv")
-        events.to_csv(paths[-1], index=False)
-    cost_table(result).to_csv(paths[1], index=False)
-    paths[2].write_text(render_markdown(result), encoding="utf-8")
+        atomic.write_with(paths[-1], lambda p: events.to_csv(p, index=False))
+    atomic.write_with(paths[1], lambda p: cost_table(result).to_csv(p, index=False))
+    atomic.write_text(paths[2], render_markdown(result))
     return paths
 

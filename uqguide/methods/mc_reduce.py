@@ -85,6 +85,10 @@ class MonteCarloReducer:
         ok = ~out.failed
         m = out.n
         summary: dict[str, np.ndarray] = {}
+        if not ok.any():
+            # Nothing to sum: an empty summary merges as the identity (its failures are
+            # counted from the chunk's mask), and an all-failed chunk may carry no time grid.
+            return summary
         w = None
         if self.bootstrap > 0:
             # Weights for every run of the chunk (failed ones then dropped), so a sample's
@@ -97,7 +101,7 @@ class MonteCarloReducer:
             y_ok = y[ok]
             _put(summary, "m", name, MomentSums.of(y_ok))
             cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
-            blocks.append(cols.reshape(cols.shape[0], -1))
+            blocks.append(cols.reshape(cols.shape[0], int(np.prod(cols.shape[1:]))))
             spans.append((name, blocks[-1].shape[1]))
         if w is not None and blocks:
             # One weighted reduction of every interval column side by side: a few large
