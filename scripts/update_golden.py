@@ -81,6 +81,15 @@ def roundoff_ranges(path: Path, result: Result) -> dict[StatKey, list[float | No
         if float("inf") in vals:
             finite = [v for v in vals if v != float("inf")]
             out[key] = [min(finite), max(finite)]
+    # An output whose other statistics the gate skips anyway (skewness and kurtosis of a zero
+    # spread) would be left with nothing to check: the baseline leaves the whole output out.
+    skipped = {(r.label, r.output, _at(base, r), r.time, r.component, r.stat)
+               for r in check_result(result, base).rows if r.skipped}
+    for label, output in {(k[0], k[1]) for k in out}:
+        keys = [k for k in values if k[:2] == (label, output)]
+        if all(k in out or k in skipped for k in keys):
+            for k in keys:
+                out.setdefault(k, [values[k][0], values[k][0]])
     return out
 
 

@@ -68,3 +68,20 @@ def linear_raises_above(x):
     if (x[:, 0] > 1.5).any():
         raise RuntimeError("solver diverged")
     return x[:, 0] + 2 * x[:, 1]
+
+
+def hang_above(x):
+    """``a + b``; a call holding a sample with ``a > $UQGUIDE_TEST_HANG_ABOVE`` never returns
+    (a solver stuck in a loop)."""
+    if (x[:, 0] > float(os.environ.get("UQGUIDE_TEST_HANG_ABOVE", "inf"))).any():
+        while True:
+            time.sleep(60)
+    return x[:, 0] + x[:, 1]
+
+
+def crash_above(x):
+    """``a + b``; a call holding a sample with ``a > $UQGUIDE_TEST_CRASH_ABOVE`` kills its
+    process (as a segfault would)."""
+    if (x[:, 0] > float(os.environ.get("UQGUIDE_TEST_CRASH_ABOVE", "inf"))).any():
+        os._exit(3)
+    return x[:, 0] + x[:, 1]

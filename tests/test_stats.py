@@ -72,3 +72,19 @@ def test_affine_map_of_moments(scale, shift):
     np.testing.assert_allclose(b.std, scale * a.std, rtol=1e-9)
     np.testing.assert_allclose(b.skewness, a.skewness, rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(b.kurtosis, a.kurtosis, rtol=1e-6)
+
+
+def test_agreement_combines_both_estimates_errors():
+    # Two Monte Carlo means of the same quantity, 1000 and 1e5 runs: their difference is
+    # within the combined interval although the small run's value lies outside the large
+    # run's own interval (the verdict the old flag got wrong).
+    from uqguide.report import agrees
+
+    assert agrees(8.593, 8.24, 9.035, 8.808, 8.766, 8.848) is True
+    assert not 8.766 <= 8.593 <= 8.848
+    # a PCE moment has no interval: it must lie within the reference's own
+    assert agrees(8.831, float("nan"), float("nan"), 8.808, 8.766, 8.848) is True
+    assert agrees(8.90, float("nan"), float("nan"), 8.808, 8.766, 8.848) is False
+    # 0.61 apart, beyond the combined half-width sqrt(0.40^2 + 0.042^2) = 0.40: OUT
+    assert agrees(8.20, 7.80, 8.60, 8.808, 8.766, 8.848) is False
+    assert agrees(1.0, float("nan"), float("nan"), 1.1, float("nan"), float("nan")) is None

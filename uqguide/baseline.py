@@ -18,14 +18,13 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
-import os
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from . import __version__
+from . import __version__, atomic
 from .errors import ResultError
 from .models.base import OutputInfo
 from .report_times import report_indices
@@ -66,6 +65,28 @@ class BaselinePoint(_Strict):
     #: the gate reports them and does not check them.
     roundoff: dict[str, list[float | None]] = {}
 
+    @field_validator("time", "mean", "std", "skewness", "kurtosis", "mean_se", "std_se",
+                     "skewness_se", "kurtosis_se", mode="before")
+    @classmethod
+    def _number(cls, v: Any) -> Any:
+        if isinstance(v, bool):
+            raise ValueError(f"must be a number or null, not a boolean (got {v!r})")
+        return v
+
+    @field_validator("time", "mean", "std", "skewness", "kurtosis")
+    @classmethod
+    def _finite(cls, v: float | None) -> float | None:
+        if v is not None and not math.isfinite(v):
+            raise ValueError(f"must be a finite number or null (got {v!r})")
+        return v
+
+    @field_validator("std", "mean_se", "std_se", "skewness_se", "kurtosis_se")
+    @classmethod
+    def _error(cls, v: float | None) -> float | None:
+        if v is not None and not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"must be a finite number >= 0 or null (got {v!r})")
+        return v
+
 
 class BaselineOutput(_Strict):
     kind: Literal["series", "scalar"]
@@ -73,20 +94,70 @@ class BaselineOutput(_Strict):
     components: list[str]
     uncertainty: Literal["standard_error", "relative_tolerance"]
     moments_method: str
-    n_used: int
-    points: list[BaselinePoint]
+    n_used: int = Field(ge=0)
+    points: list[BaselinePoint] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> BaselineOutput:
+        """A baseline that cannot be compared is refused here, not at check time."""
+        if not self.components or len(set(self.components)) != len(self.components):
+            raise ValueError(f"components must be a non-empty list of distinct names "
+                             f"(got {self.components})")
+        sample = self.uncertainty == SAMPLE
+        if sample != (self.moments_method == "sample"):
+            raise ValueError(f"uncertainty {self.uncertainty!r} does not fit moments_method "
+                             f"{self.moments_method!r}")
+        if sample and self.n_used < 1:
+            raise ValueError(f"n_used must be >= 1 for sample statistics (got {self.n_used})")
+        for i, p in enumerate(self.points):
+            where = f"points[{i}]"
+            if p.component not in self.components:
+                raise ValueError(f"{where}.component {p.component!r} is not one of "
+                                 f"{self.components}")
+            if self.kind == "scalar" and (p.at != "scalar" or p.time is not None):
+                raise ValueError(f"{where}: a scalar output's point has at 'scalar' and time "
+                                 f"null (got at {p.at!r}, time {p.time!r})")
+            if self.kind == "series" and (p.at == "scalar" or p.time is None or p.time < 0):
+                raise ValueError(f"{where}: a series output's point has at 'report' or 'end' "
+                                 f"and a time >= 0 (got at {p.at!r}, time {p.time!r})")
+            if p.mean is None and p.std is None:
+                raise ValueError(f"{where}: mean and std are both null: nothing to check")
+            if sample and p.std is not None:
+                # The standard error of the mean is std / sqrt(n_used) (stats.py): a baseline
+                # whose error bars were loosened by hand no longer fits its own numbers.
+                sem = p.std / math.sqrt(self.n_used)
+                if p.mean_se is None or abs(p.mean_se - sem) > 1e-6 * sem + 1e-300:
+                    raise ValueError(f"{where}.mean_se must be std / sqrt(n_used) = {sem:.6g} "
+                                     f"(got {p.mean_se!r})")
+                for stat in ("std", "skewness", "kurtosis"):
+                    if getattr(p, stat) is not None and getattr(p, f"{stat}_se") is None:
+                        raise ValueError(f"{where}.{stat}_se: missing for a sample statistic")
+        return self
 
 
 class BaselineMethod(_Strict):
     method: str
-    n_runs: int
-    n_failed: int
-    outputs: dict[str, BaselineOutput]
+    n_runs: int = Field(ge=0)
+    n_failed: int = Field(ge=0)
+    outputs: dict[str, BaselineOutput] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _counts(self) -> BaselineMethod:
+        if self.n_failed > self.n_runs:
+            raise ValueError(f"n_failed ({self.n_failed}) exceeds n_runs ({self.n_runs})")
+        return self
 
 
 class BaselineTolerances(_Strict):
     pce_rtol: float
     note: str = ""
+
+    @field_validator("pce_rtol")
+    @classmethod
+    def _rtol(cls, v: float) -> float:
+        if not (math.isfinite(v) and 0 < v <= 1):
+            raise ValueError(f"must be a finite number in (0, 1] (got {v!r})")
+        return v
 
 
 class Baseline(_Strict):
@@ -101,7 +172,7 @@ class Baseline(_Strict):
     result_created_utc: str = ""
     versions: dict[str, str]
     tolerances: BaselineTolerances
-    methods: dict[str, BaselineMethod]
+    methods: dict[str, BaselineMethod] = Field(min_length=1)
     config: dict[str, Any]
 
 
@@ -172,20 +243,29 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
     ``roundoff`` marks statistics as chaotic under round-off, with their range over a
     round-off ensemble (``scripts/update_golden.py`` measures it).
     """
-    if not pce_rtol > 0:
-        raise ValueError(f"pce_rtol must be > 0 (got {pce_rtol})")
+    if not (math.isfinite(pce_rtol) and 0 < pce_rtol <= 1):
+        raise ResultError(f"--pce-rtol: must be a finite number in (0, 1] (got {pce_rtol!r})")
     methods: dict[str, Any] = {}
+    left_out: list[str] = []
     for r in result.runs:
         outs: dict[str, Any] = {}
         for o in result.outputs:
             s = r.estimate.stats.get(o.name)
             if s is None:
                 continue
+            points = _points(result, o, s, r.label, roundoff)
+            if roundoff and all(set(STAT_NAMES) <= set(p.get("roundoff", {})) for p in points):
+                left_out.append(f"{r.label}/{o.name} (nothing checkable: chaotic under "
+                                "round-off, or the moments of a zero spread)")
+                continue
             outs[o.name] = {
                 "kind": o.kind, "unit": o.unit, "components": list(o.components),
                 "uncertainty": _uncertainty_kind(s), "moments_method": s.moments_method,
-                "n_used": int(s.n_used), "points": _points(result, o, s, r.label, roundoff),
+                "n_used": int(s.n_used), "points": points,
             }
+        if not outs:  # a method without moments (subset simulation): nothing to gate
+            left_out.append(f"{r.label} (no statistic to check)")
+            continue
         methods[r.label] = {"method": r.estimate.method, "n_runs": int(r.n_runs),
                             "n_failed": int(r.n_failed), "outputs": outs}
     return {
@@ -201,7 +281,8 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
             "pce_rtol": float(pce_rtol),
             "note": "Monte Carlo statistics are checked against k combined standard errors "
                     "(the *_se values; k given to `uqguide check --sigmas`, default 4); PCE "
-                    "statistics against pce_rtol of their scale. null means NaN.",
+                    "statistics against pce_rtol of their scale. null means NaN."
+                    + (" Left out: " + "; ".join(left_out) + "." if left_out else ""),
         },
         "methods": methods,
         "config": result.config,
@@ -251,14 +332,7 @@ def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_P
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     text = _json_text(to_jsonable(make_baseline(result, pce_rtol, roundoff))) + "\n"
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
+    return atomic.write_text(path, text)
 
 
 def parse_baseline(data: Any, source: str = "<baseline>") -> Baseline:
@@ -277,21 +351,42 @@ def parse_baseline(data: Any, source: str = "<baseline>") -> Baseline:
     except ValidationError as err:
         e = err.errors(include_url=False)[0]
         where = ".".join(str(p) for p in e["loc"])
-        raise ResultError(f"{source}: invalid baseline at {where}: {e['msg']}") from None
+        msg = e["msg"].replace("Value error, ", "")
+        got = "" if isinstance(e.get("input"), (dict, list)) else f" (got {e.get('input')!r:.60})"
+        raise ResultError(f"{source}: invalid baseline at {where or 'top level'}: "
+                          f"{msg}{got}") from None
+    except RecursionError:
+        raise ResultError(f"{source}: baseline nested too deeply") from None
+
+
+#: A baseline holds a few numbers per report point: 50 MB is far beyond any real one.
+MAX_BASELINE_BYTES = 50_000_000
+
+
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a JSON number (a baseline writes NaN as null)")
 
 
 def read_baseline(path: str | Path) -> Baseline:
     """Read and validate a baseline file; ResultError if it is missing, corrupt or not one."""
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_BASELINE_BYTES:
+            raise ResultError(f"{path}: baseline is {size} bytes; a baseline is at most "
+                              f"{MAX_BASELINE_BYTES} (is this a baseline?)")
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ResultError(f"{path}: baseline file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ResultError(f"{path}: cannot read baseline file ({exc})") from None
     try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except RecursionError:
+        raise ResultError(f"{path}: baseline is nested too deeply to be one") from None
+    except ValueError as exc:
+        if not isinstance(exc, json.JSONDecodeError):
+            raise ResultError(f"{path}: baseline is not valid JSON ({exc})") from None
         raise ResultError(f"{path}: baseline is not valid JSON (line {exc.lineno}, column "
                           f"{exc.colno}: {exc.msg})") from None
     return parse_baseline(data, str(path))

@@ -4,14 +4,15 @@ Layout, next to the result file (``<out>/<name>.run/``)::
 
     manifest.jsonl          append-only, one JSON object a line, flushed and fsynced:
                             line 1 the run's identity (resolved config, uqguide version, model
-                            name and a hash of its code); then one line per finished chunk
-                            {"kind": "chunk", "label", "stage", "index", "start", "stop",
-                             "file", "n_failed"}
+                            name and a hash of its code) and ``run_id``, the SHA-256 of that
+                            identity; then one line per finished chunk
+                            {"kind": "chunk", "run", "label", "stage", "index", "start",
+                             "stop", "file", "n_failed"}
     <label>.s<stage>.c<index>.npz
-                            one chunk's per-sample failure mask, reasons, scalar outputs, and
-                            either its series or its method's summary (Monte Carlo sums);
-                            written to a temporary name, fsynced, renamed into place, and only
-                            then listed in the manifest
+                            one chunk's run id, label, stage and bounds, its per-sample failure
+                            mask, reasons, scalar outputs, and either its series or its
+                            method's summary (Monte Carlo sums); written to a temporary name,
+                            fsynced, renamed into place, and only then listed in the manifest
 
 So a chunk listed in the manifest is complete on disk, whatever killed the run and when; a
 torn last manifest line (killed while appending) is ignored and its chunk re-run. Chunks are
@@ -19,7 +20,11 @@ pure functions of the resolved config (their seeds come from the config's seed a
 label), so a resumed run gives the statistics of an uninterrupted one bit for bit.
 
 ``--resume`` refuses (ConfigError, exit 2) when the config, the uqguide version or the model's
-code differ from the run's: the stored chunks would mix two different experiments. The model's
+code differ from the run's: the stored chunks would mix two different experiments. Each chunk
+carries the run id (in its manifest line and in its file): a chunk of another run (another
+seed, config or code) is refused, never folded in. The folder is used under the run's lock
+(:mod:`uqguide.runlock`), and is deleted only when its manifest identifies it as a uqguide run
+folder: a folder of anything else at that path is refused, not removed. The model's
 code is the source of the module defining its class (the whole package folder for a simulator
 package such as ``uqguide.models.ftcapn``) and, for a ``callable`` model, the user function's
 module; a code change elsewhere (a shared helper module) is not seen.
@@ -34,13 +39,16 @@ import inspect
 import json
 import logging
 import os
+import re
 import shutil
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from . import __version__
+from .atomic import atomic_path, clean_stale_temps
 from .errors import ConfigError
 from .execution import ChunkResult, Task
 from .models.base import Model
@@ -60,11 +68,6 @@ class RunInterrupted(KeyboardInterrupt):
         super().__init__(f"interrupted: {n_done} of {n_total} chunks done")
         self.n_done = n_done
         self.n_total = n_total
-
-
-def run_dir(out_dir: str | Path, name: str) -> Path:
-    """The run folder of the result ``<out_dir>/<name>.h5``."""
-    return Path(out_dir) / f"{name}.run"
 
 
 # ---------------------------------------------------------------------------- identity
@@ -104,9 +107,25 @@ def _source_files(cls: type) -> list[Path]:
 
 
 def run_identity(resolved_config: dict[str, Any], model: Model) -> dict[str, Any]:
-    """What must not change between a run and its resumption."""
-    return {"config": resolved_config, "uqguide": __version__, "model": model.name,
-            "model_code": model_code_hash(model)}
+    """What must not change between a run and its resumption, with its hash ``run_id``."""
+    identity = {"config": resolved_config, "uqguide": __version__, "model": model.name,
+                "model_code": model_code_hash(model)}
+    return {**identity, "run_id": identity_hash(identity)}
+
+
+def identity_hash(identity: dict[str, Any]) -> str:
+    """SHA-256 of a run identity (its canonical JSON, without a ``run_id`` key)."""
+    core = {k: v for k, v in identity.items() if k != "run_id"}
+    text = json.dumps(core, sort_keys=True, default=str, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def run_dir(out_dir: str | Path, name: str) -> Path:
+    """The run folder of the result ``<out_dir>/<name>.h5`` (ConfigError for a name that is
+    not a plain file name: the folder must lie inside ``out_dir``)."""
+    from .config import check_run_name
+
+    return Path(out_dir) / f"{check_run_name(name)}.run"
 
 
 def _first_difference(a: Any, b: Any, path: str = "") -> str | None:
@@ -145,27 +164,37 @@ class RunStore:
 
     def __init__(self, path: Path, identity: dict[str, Any]) -> None:
         self.path = path
+        if "run_id" not in identity:
+            identity = {**identity, "run_id": identity_hash(identity)}
         self.identity = identity
+        self.run_id: str = identity["run_id"]
         self._entries: dict[tuple[str, int, int], dict[str, Any]] = {}
 
     # -------------------------------------------------------------- opening
     @classmethod
     def open(cls, path: str | Path, identity: dict[str, Any], resume: bool,
              resume_hint: str = "uqguide run CONFIG --resume") -> RunStore:
-        """Open the run folder ``path`` for a fresh run or (``resume``) to continue it.
+        """Open the run folder ``path`` for a fresh run or (``resume``) to continue it. The
+        caller holds the folder's :class:`~uqguide.runlock.RunLock` (``uqguide run`` does).
 
         Raises
         ------
         ConfigError
             ``resume`` and the folder belongs to another config / code version; or not
-            ``resume`` and the folder holds finished chunks (they are not thrown away silently).
+            ``resume`` and the folder holds finished chunks (they are not thrown away silently);
+            or the path is something other than a uqguide run folder (it is not deleted).
         """
         path = Path(path)
         store = cls(path, identity)
+        if path.is_symlink() or (path.exists() and not path.is_dir()):
+            raise ConfigError(f"{path} exists and is not a uqguide run folder; refusing to "
+                              f"replace it (move it, or give this run another --out or name)",
+                              field="out")
         header, entries = _read_manifest(path / MANIFEST)
         if header is not None and resume:
             store._check_same_run(header)
             store._entries = entries
+            clean_stale_temps(path)
             log.info("resuming %s: %d chunks already done", path, len(entries))
             return store
         if entries and not resume:
@@ -175,7 +204,7 @@ class RunStore:
         if resume:
             log.info("nothing to resume at %s: starting a fresh run", path)
         if path.exists():
-            shutil.rmtree(path)
+            _remove_run_folder(path, header)
         path.mkdir(parents=True)
         store._append({"kind": "header", "format": FORMAT,
                        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(
@@ -202,6 +231,9 @@ class RunStore:
             raise ConfigError(
                 f"{where}: the code of model '{self.identity['model']}' changed since the run "
                 f"started{tail}", field="model.name")
+        if header.get("run_id") != self.run_id:
+            raise ConfigError(f"{where}: its run id {str(header.get('run_id'))[:12]} is not "
+                              f"this run's ({self.run_id[:12]}){tail}", field="resume")
 
     # -------------------------------------------------------------- chunks
     @property
@@ -216,29 +248,55 @@ class RunStore:
         e = self._entries.get((label, stage, task.index))
         if e is None:
             return None
+        if e.get("run") != self.run_id:
+            raise ConfigError(
+                f"cannot resume {self.path}: chunk {task.index} of {label} ({e.get('file')}) "
+                f"belongs to another run (run id {str(e.get('run'))[:12]}, this run "
+                f"{self.run_id[:12]}); delete the folder to start over", field="resume")
         if (e["start"], e["stop"]) != (task.start, task.stop):
             log.warning("%s: chunk %d of %s has other bounds than stored; re-running it",
                         self.path, task.index, label)
             return None
         try:
-            return _read_chunk(self.path / e["file"], task)
+            r = _read_chunk(self.path / e["file"], task)
+        except ForeignChunk as exc:
+            raise ConfigError(f"cannot resume {self.path}: {e['file']} {exc} (this run "
+                              f"{self.run_id[:12]}, {label} stage {stage}); delete the "
+                              f"folder to start over", field="resume") from None
         except (OSError, ValueError, KeyError) as exc:
             log.warning("%s: cannot read %s (%s); re-running the chunk", self.path, e["file"], exc)
             return None
+        if r.run_id != self.run_id or r.label != label or r.stage != stage:
+            raise ConfigError(
+                f"cannot resume {self.path}: {e['file']} belongs to another run or method "
+                f"(run id {r.run_id[:12]}, {r.label} stage {r.stage}; this run "
+                f"{self.run_id[:12]}, {label} stage {stage}); delete the folder to start over",
+                field="resume")
+        return r.result
 
     def save(self, label: str, stage: int, result: ChunkResult) -> None:
         """Write one chunk atomically, then list it in the manifest."""
         t = result.task
         name = f"{label}.s{stage}.c{t.index:06d}.npz"
-        _write_chunk(self.path / name, result)
-        entry = {"kind": "chunk", "label": label, "stage": stage, "index": t.index,
+        _write_chunk(self.path / name, result, self.run_id, label, stage)
+        entry = {"kind": "chunk", "run": self.run_id, "label": label, "stage": stage,
+                 "index": t.index,
                  "start": t.start, "stop": t.stop, "file": name, "n_failed": result.n_failed}
         self._append(entry)
         self._entries[(label, stage, t.index)] = entry
 
     def remove(self) -> None:
         """Delete the folder (after the result file is written: it holds everything)."""
-        shutil.rmtree(self.path, ignore_errors=True)
+        if self.path.is_dir() and not self.path.is_symlink():
+            header, _ = _read_manifest(self.path / MANIFEST)
+            if header is not None and header.get("run_id") == self.run_id:
+                # The manifest last: a removal cut short leaves a folder that still says whose
+                # it is (its missing chunks are re-run), never anonymous chunk files.
+                for p in self.path.iterdir():
+                    if p.name != MANIFEST:
+                        p.unlink(missing_ok=True)
+                (self.path / MANIFEST).unlink(missing_ok=True)
+                shutil.rmtree(self.path, ignore_errors=True)
 
     def _append(self, obj: dict[str, Any]) -> None:
         with open(self.path / MANIFEST, "a", encoding="utf-8") as f:
@@ -248,25 +306,74 @@ class RunStore:
 
 
 def _read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[tuple[str, int, int], Any]]:
-    if not path.is_file():
+    """The header (the first one) and the chunk lines of a manifest. A second header of another
+    run makes the header ``{"run_id": "<mixed>"}``: such a folder is never resumed."""
+    if not path.is_file() or path.is_symlink():
         return None, {}
     header = None
     entries: dict[tuple[str, int, int], dict[str, Any]] = {}
-    for line in path.read_text(encoding="utf-8").splitlines():
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None, {}
+    for line in text.splitlines():
         try:
             obj = json.loads(line)
         except json.JSONDecodeError:
             continue  # a line torn by a kill while it was appended: its chunk is re-run
+        if not isinstance(obj, dict):
+            continue
         if obj.get("kind") == "header":
-            header = obj
+            if header is None:
+                header = obj
+            elif obj.get("run_id") != header.get("run_id"):
+                header = {**header, "run_id": "<mixed>", "format": header.get("format")}
         elif obj.get("kind") == "chunk":
-            entries[(obj["label"], int(obj["stage"]), int(obj["index"]))] = obj
+            try:
+                entries[(str(obj["label"]), int(obj["stage"]), int(obj["index"]))] = obj
+            except (KeyError, TypeError, ValueError):
+                continue
     return header, entries
 
 
+#: What a run folder holds: anything else in it means it is not (only) ours.
+_RUN_FILE = re.compile(r"^(manifest\.jsonl|[A-Za-z0-9_.\-]+\.s\d+\.c\d+\.npz|\..+\.\d+\.tmp)$")
+
+
+def _remove_run_folder(path: Path, header: dict[str, Any] | None) -> None:
+    """Delete a run folder, but only one that uqguide's manifest identifies and that holds
+    nothing but a run folder's files; an empty folder is removed too."""
+    names = [p.name for p in path.iterdir()]
+    if not names:
+        path.rmdir()
+        return
+    foreign = [n for n in names if not _RUN_FILE.match(n)]
+    anonymous = (header is None or "format" not in header) and any(
+        n.endswith(".npz") for n in names)  # chunk files without a manifest saying whose
+    if foreign or anonymous:
+        what = f"it holds {foreign[0]!r}" if foreign else "it has no uqguide manifest"
+        raise ConfigError(f"{path} is not a uqguide run folder ({what}); refusing to delete "
+                          f"it: move it, or give this run another --out or name", field="out")
+    shutil.rmtree(path)
+
+
 # ---------------------------------------------------------------------------- chunk files
-def _write_chunk(path: Path, r: ChunkResult) -> None:
+class ForeignChunk(ValueError):
+    """A chunk file written by another run."""
+
+
+@dataclass
+class _StoredChunk:
+    result: ChunkResult
+    run_id: str
+    label: str
+    stage: int
+
+
+def _write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int) -> None:
     arrays: dict[str, np.ndarray] = {
+        "run_id": np.array(run_id), "label": np.array(label),
+        "stage": np.array(stage, dtype=np.int64),
         "task": np.array([r.task.index, r.task.start, r.task.stop], dtype=np.int64),
         "model_seconds": np.array(r.model_seconds),
         "failed": r.failed,
@@ -276,32 +383,24 @@ def _write_chunk(path: Path, r: ChunkResult) -> None:
     arrays.update({f"scalar.{k}": v for k, v in r.scalars.items()})
     arrays.update({f"series.{k}": v for k, v in r.series.items()})
     arrays.update({f"summary.{k}": v for k, v in r.summary.items()})
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
+    # fsynced file and folder: the rename must survive a power cut before the manifest line
+    with atomic_path(path, clean=False) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    dir_fd = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)  # the rename itself must survive a power cut before the manifest line
-    finally:
-        os.close(dir_fd)
 
 
-def _read_chunk(path: Path, task: Task) -> ChunkResult:
+def _read_chunk(path: Path, task: Task) -> _StoredChunk:
     with np.load(path, allow_pickle=False) as z:
         data = {k: z[k] for k in z.files}
+    if "run_id" not in data:
+        raise ForeignChunk("carries no run id (written by an older uqguide or another tool)")
     if tuple(int(v) for v in data["task"]) != (task.index, task.start, task.stop):
         raise ValueError("chunk file does not match its manifest entry")
     pick = {p: {k[len(p) + 1:]: v for k, v in data.items() if k.startswith(p + ".")}
             for p in ("scalar", "series", "summary")}
-    return ChunkResult(
+    return _StoredChunk(run_id=str(data["run_id"]), label=str(data["label"]),
+                        stage=int(data["stage"]), result=ChunkResult(
         task=task, failed=data["failed"].astype(bool),
         reasons=np.array(data["reasons"].tolist(), dtype=object).reshape(-1),
         time=data["time"], scalars=pick["scalar"], series=pick["series"],
-        summary=pick["summary"], model_seconds=float(data["model_seconds"]))
+        summary=pick["summary"], model_seconds=float(data["model_seconds"])))

@@ -2,13 +2,15 @@
 
 Exit codes: 0 success; 1 a run that could not produce its result (UqguideError); 2 bad input
 (ConfigError, or a usage error caught by click) with one line naming the field, the value and
-what is allowed, and no traceback.
+what is allowed, and no traceback; 130 stopped by SIGINT (Ctrl-C) or SIGTERM, at any moment
+(:mod:`uqguide.interrupts`).
 """
 
 from __future__ import annotations
 
 import functools
 import logging
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -18,6 +20,7 @@ import click
 
 from . import __version__
 from .errors import ConfigError, ResultError, UqguideError
+from .interrupts import EXIT_INTERRUPTED, ignore_signals, install
 
 
 def _handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -41,7 +44,61 @@ def _setup_logging(verbose: int) -> None:
                         stream=sys.stderr)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+def _interrupted(exc: KeyboardInterrupt) -> None:
+    from .interrupts import Terminated
+
+    what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+    try:
+        click.echo(f"{what}; nothing was left half-written", err=True)
+    except KeyboardInterrupt:  # a second Ctrl-C while saying so
+        pass
+
+
+def _wrapped_interrupt(exc: BaseException) -> KeyboardInterrupt | None:
+    """The KeyboardInterrupt an exception wraps, if any: a Ctrl-C that lands while Python
+    creates a class (an import in progress) reaches us as ``RuntimeError: Error calling
+    __set_name__``, caused by the interrupt."""
+    seen = exc.__cause__ or exc.__context__
+    while seen is not None:
+        if isinstance(seen, KeyboardInterrupt):
+            return seen
+        seen = seen.__cause__ or seen.__context__
+    return None
+
+
+class _Group(click.Group):
+    """The command group: a SIGINT or SIGTERM anywhere in a command is exit 130, one line."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        from .interrupts import EXIT_INTERRUPTED
+
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt as exc:
+            _interrupted(exc)
+            raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+        except Exception as exc:
+            interrupt = _wrapped_interrupt(exc)
+            if interrupt is None:
+                raise
+            _interrupted(interrupt)
+            raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+
+    def main(self, *args: Any, **kwargs: Any) -> Any:
+        # Also around click's own parsing and exit, where click would print "Aborted!", exit 1.
+        from .interrupts import EXIT_INTERRUPTED, install, restore
+
+        previous = install()
+        try:
+            return super().main(*args, **kwargs)
+        except KeyboardInterrupt as exc:
+            _interrupted(exc)
+            sys.exit(EXIT_INTERRUPTED)
+        finally:
+            restore(previous)  # called in-process (tests, CliRunner): leave the caller's
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="uqguide")
 @click.option("-v", "--verbose", count=True, help="More log lines on stderr (-v info, -vv debug).")
 def main(verbose: int) -> None:
@@ -67,21 +124,25 @@ def main(verbose: int) -> None:
 @click.option("--check", "check_path", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Then check the statistics against this baseline JSON "
                                  "(exit 1 on a regression, 2 if it is unusable).")
-@click.option("-q", "--quiet", is_flag=True, help="No progress display on stderr.")
+@click.option("-q", "--quiet", is_flag=True,
+              help="No progress display (and no budget lines) on stderr.")
 @_handle_errors
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, resume: bool,
         check_path: Path | None, quiet: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
+    from .budget import check_memory, estimate
     from .checkpoint import RunInterrupted, RunStore, run_dir, run_identity
     from .config import load_config
     from .execution import make_executor
+    from .interrupts import EXIT_INTERRUPTED, deferred
     from .progress_display import make_progress
     from .propagate import check_failure_budget
     from .propagate import run as run_config
     from .report_times import check_config_report_times
     from .report import render_text, write_tables
     from .result import write_hdf5
+    from .runlock import RunLock
 
     cfg = load_config(config)
     if seed is not None:
@@ -93,19 +154,41 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     executor = make_executor(workers, scheduler,
                              str(scheduler_file) if scheduler_file else None)
     try:
-        store = RunStore.open(run_dir(out_dir, cfg.name),
-                              run_identity(cfg.resolved(), cfg.model), resume, again)
-        result = run_config(cfg, executor, store=store, progress=make_progress(sys.stderr, quiet))
-    except RunInterrupted as exc:
-        click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume with "
-                   f"`{again}`", err=True)
-        sys.exit(130)
+        budget = estimate(cfg, workers or 1)
+        if not quiet:
+            click.echo("budget:", err=True)
+            for line in budget.lines():
+                click.echo(line, err=True)
+        check_memory(budget)  # before anything is allocated
+        folder = run_dir(out_dir, cfg.name)  # inside out_dir: the name is a plain file name
+        with RunLock(folder):
+            try:
+                store = RunStore.open(folder, run_identity(cfg.resolved(), cfg.model), resume,
+                                      again)
+                result = run_config(cfg, executor, store=store,
+                                    progress=make_progress(sys.stderr, quiet))
+            except RunInterrupted as exc:
+                click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume "
+                           f"with `{again}`", err=True)
+                sys.exit(EXIT_INTERRUPTED)
+            finally:
+                executor.close()
+            try:
+                # Each file whole or absent; a signal here stops the run after the file being
+                # written, and the run folder stays until every file is written (resumable).
+                with deferred():
+                    h5 = write_hdf5(result, out_dir / f"{cfg.name}.h5")
+                with deferred():
+                    tables = write_tables(result, out_dir, cfg.name)
+            except KeyboardInterrupt:
+                click.echo(f"interrupted while writing the result; resume with `{again}`",
+                           err=True)
+                sys.exit(EXIT_INTERRUPTED)
+            with deferred():
+                store.remove()  # the result file holds everything the chunks did
     finally:
         executor.close()
     click.echo(render_text(result))
-    h5 = write_hdf5(result, out_dir / f"{cfg.name}.h5")
-    tables = write_tables(result, out_dir, cfg.name)
-    store.remove()  # the result file holds everything the chunks did
     click.echo("")
     click.echo(f"wrote {h5}")
     for p in tables:
@@ -119,7 +202,11 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
 @_handle_errors
 def validate(config: Path) -> None:
-    """Check CONFIG without running anything."""
+    """Check CONFIG without running anything; print its runs and estimated peak memory.
+
+    A ``callable`` model's module is imported (its code runs): treat a config like code.
+    """
+    from .budget import check_memory, estimate
     from .config import load_config
 
     cfg = load_config(config)
@@ -127,6 +214,11 @@ def validate(config: Path) -> None:
     click.echo(f"{config}: OK — model {cfg.model.name}, {cfg.space.dim} uncertain inputs "
                f"({', '.join(cfg.space.names) or 'none'}), outputs {', '.join(cfg.outputs)}, "
                f"methods {methods}, seed {cfg.seed}")
+    budget = estimate(cfg)
+    click.echo("budget (serial run):")
+    for line in budget.lines():
+        click.echo(line)
+    check_memory(budget)
 
 
 @main.command()
@@ -230,11 +322,31 @@ def _gate_verdict(result: Any, baseline: Any, path: Path, sigmas: float | None =
     """Print the check of ``result`` against ``baseline``; exit 1 on a regression."""
     from .gate import DEFAULT_SIGMAS, check_result
 
-    report = check_result(result, baseline, sigmas or DEFAULT_SIGMAS, pce_rtol, str(path))
+    report = check_result(result, baseline, DEFAULT_SIGMAS if sigmas is None else sigmas,
+                          pce_rtol, str(path))
     click.echo(report.render(show_all))
     if not report.passed:
         sys.exit(1)
 
+
+class _PositiveFinite(click.ParamType):
+    """A float that is finite and > 0 (click's FloatRange lets inf and nan through)."""
+
+    name = "float"
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> float:
+        import math
+
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            v = math.nan
+        if not (math.isfinite(v) and v > 0):
+            self.fail(f"must be a finite number > 0 (got {value!r})", param, ctx)
+        return v
+
+
+POSITIVE_FINITE = _PositiveFinite()
 
 _RESULT_ARG = click.argument("result_path", metavar="RESULT",
                              type=click.Path(dir_okay=False, path_type=Path))
@@ -245,9 +357,9 @@ _RESULT_ARG = click.argument("result_path", metavar="RESULT",
 @click.option("--baseline", "baseline_path", required=True,
               type=click.Path(dir_okay=False, path_type=Path),
               help="Baseline JSON written by `uqguide baseline`.")
-@click.option("--sigmas", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--sigmas", type=POSITIVE_FINITE, default=None,
               help="Monte Carlo tolerance in combined standard errors [default: 4].")
-@click.option("--pce-rtol", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--pce-rtol", type=POSITIVE_FINITE, default=None,
               help="Relative tolerance of PCE statistics [default: the baseline's].")
 @click.option("--all", "show_all", is_flag=True,
               help="List every compared statistic, not only the failing ones.")
@@ -271,7 +383,7 @@ def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol
 @_RESULT_ARG
 @click.option("-o", "--output", "out_path", required=True,
               type=click.Path(dir_okay=False, path_type=Path), help="Baseline JSON to write.")
-@click.option("--pce-rtol", type=click.FloatRange(min=0, min_open=True), default=0.02,
+@click.option("--pce-rtol", type=POSITIVE_FINITE, default=0.02,
               show_default=True, help="Relative tolerance of PCE statistics, stored in it.")
 @click.option("--force", is_flag=True, help="Replace an existing baseline (on purpose).")
 @_handle_errors
@@ -368,5 +480,33 @@ def replay(result_path: Path, label: str, sample: int | None, worst: str | None,
     click.echo("replayed scalars equal the stored ones bit for bit")
 
 
+def entry() -> None:
+    """The ``uqguide`` program: :func:`main`, then signals ignored while the interpreter exits
+    (the command is over, its files written or refused: a late Ctrl-C has nothing to stop and
+    must not turn a finished run into a killed one)."""
+    install()  # first thing: a Ctrl-C from here on is exit 130
+    try:
+        main()
+    except SystemExit as exc:
+        if exc.code != EXIT_INTERRUPTED:
+            raise
+        # A Ctrl-C that landed inside a C extension's PyRun_String (Cython module imports do
+        # that) leaves CPython's "unhandled KeyboardInterrupt" flag set, and the interpreter
+        # would then kill itself with SIGINT at exit even though the interrupt was handled.
+        # Everything is written or refused and the lock released: leave with 130 directly.
+        ignore_signals()
+        import atexit
+
+        atexit._run_exitfuncs()  # multiprocessing's clean-up, logging's flush
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(EXIT_INTERRUPTED)
+    finally:
+        ignore_signals()
+
+
 if __name__ == "__main__":  # pragma: no cover
-    main()
+    entry()

@@ -28,6 +28,7 @@ Layout (all values SI)::
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,11 +36,13 @@ from typing import Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
+                      model_validator)
 
 from .errors import ConfigError
 from .events import EventSpec, component_index
 from .quantiles import resolve_levels
+from .strict import no_bool_numbers
 from .inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
 from .methods.base import Method
 from .models.base import Model
@@ -51,6 +54,24 @@ class CorrelationSpec(BaseModel):
 
     inputs: list[str] = Field(min_length=2)
     matrix: list[list[float]]
+
+
+#: What a run name may be: it names files inside ``--out`` (result, tables, run folder), so
+#: never a path, never ``.`` or ``..``.
+RUN_NAME = re.compile(r"^[A-Za-z0-9_.\-]{1,200}$")
+RUN_NAME_RULE = ("a plain file name of 1 to 200 letters, digits, '_', '.' or '-' (no path "
+                 "separators, not '.' or '..')")
+
+
+def is_run_name(name: str) -> bool:
+    return bool(RUN_NAME.match(name)) and set(name) != {"."}
+
+
+def check_run_name(name: str) -> str:
+    """``name`` if it is a valid run name, else ConfigError (field ``name``)."""
+    if not isinstance(name, str) or not is_run_name(name):
+        raise ConfigError(f"name: must be {RUN_NAME_RULE} (got {_short(name)})", field="name")
+    return name
 
 
 class RawConfig(BaseModel):
@@ -82,6 +103,33 @@ class RawConfig(BaseModel):
     quantiles: list[float] | str | None = None
     #: Events on scalar outputs whose probabilities every method reports.
     events: list[EventSpec] = Field(default_factory=list)
+    #: Integration steps one model run may take (a dt of 1e-9 s would run for ever).
+    max_steps: int = Field(default=10_000_000, ge=1, le=10**12)
+    #: Largest estimated peak memory of a run ("8 GB", or bytes); default half the machine's
+    #: memory, decided when the run starts (so a config means the same on every machine).
+    max_memory: int | float | str | None = None
+    #: Seconds one model call may take (None: no limit). Set, every call runs in a guard
+    #: process; a call over time is killed and bisected, so a hanging sample fails alone.
+    #: A call is ``batch_size`` samples (chunk rows at most): size it for that.
+    timeout_s: float | None = Field(default=None, gt=0.0, le=1e6)
+
+    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
+
+    @field_validator("max_memory")
+    @classmethod
+    def _memory(cls, v: Any) -> Any:
+        if v is not None:
+            from .budget import parse_bytes
+
+            parse_bytes(v)
+        return v
+
+    @field_validator("name")
+    @classmethod
+    def _plain_name(cls, v: str | None) -> str | None:
+        if v is not None and not is_run_name(v):
+            raise ValueError(f"must be {RUN_NAME_RULE}")
+        return v
 
 
 @dataclass
@@ -120,10 +168,22 @@ class RunConfig:
         return self.raw.report_times
 
     @property
+    def max_memory(self) -> int:
+        """Bytes a run may plan to use (the config's ``max_memory`` or half the machine's)."""
+        from .budget import default_max_memory, parse_bytes
+
+        v = self.raw.max_memory
+        return default_max_memory() if v is None else parse_bytes(v)
+
+    @property
     def name(self) -> str:
         if self.raw.name:
             return self.raw.name
-        return Path(self.source).stem if self.source != "<dict>" else "run"
+        if self.source == "<dict>":
+            return "run"
+        # The file's stem, made a plain name (a name must never leave --out).
+        stem = re.sub(r"[^A-Za-z0-9_.\-]", "_", Path(self.source).stem)[:200]
+        return stem if is_run_name(stem) else "run"
 
     def resolved(self) -> dict[str, Any]:
         """The config with every default filled in (what the run really used)."""
@@ -221,16 +281,26 @@ def _fields(model: type[BaseModel]) -> list[str]:
 
 # ---------------------------------------------------------------------------- loading
 def load_yaml(path: str | Path) -> dict[str, Any]:
-    """Read a YAML config file into a mapping; ConfigError on I/O or syntax problems."""
+    """Read a YAML config file into a mapping; ConfigError on I/O or syntax problems, and on
+    what :mod:`uqguide.safe_yaml` refuses (aliases, duplicate keys, deep nesting, a file
+    over 1 MB)."""
+    from .safe_yaml import MAX_BYTES, safe_load
+
     p = Path(path)
     try:
+        size = p.stat().st_size
+        if size > MAX_BYTES:
+            raise ConfigError(f"{p}: config file is {size} bytes; allowed at most {MAX_BYTES} "
+                              f"(a config is a few kB: is this the right file?)")
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError(f"{p}: config file not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{p}: is a folder, not a config file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{p}: cannot read config file ({exc})") from None
     try:
-        data = yaml.safe_load(text)
+        data = safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
@@ -257,6 +327,9 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     nan_at = _find_nan(data)
     if nan_at is not None:
         raise ConfigError(f"{nan_at}: must be a number, not NaN", field=nan_at)
+    nul_at = _find_nul(data)
+    if nul_at is not None:
+        raise ConfigError(f"{nul_at}: must not contain a NUL character", field=nul_at)
     try:
         raw = RawConfig.model_validate(dict(data))
     except ValidationError as err:
@@ -293,8 +366,17 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
                 raise ConfigError(
                     f"report_times[{i}]: must be a finite time >= 0 s (got {t!r})",
                     field=f"report_times[{i}]")
-    return RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
-                     source=source)
+    cfg = RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
+                    source=source)
+    from .budget import check_steps
+
+    check_steps(cfg)
+    for i, m in enumerate(methods):
+        try:
+            m.plan(space)
+        except ConfigError as exc:  # a grid too large to build, refused before it is built
+            raise ConfigError(f"methods[{i}].{exc}", field=f"methods[{i}].{exc.field}") from None
+    return cfg
 
 
 def _check_quantiles(raw: RawConfig) -> None:
@@ -355,6 +437,26 @@ def _find_nan(node: Any, path: str = "") -> str | None:
     return None
 
 
+def _find_nul(node: Any, path: str = "") -> str | None:
+    """Path of the first string (value or key) holding a NUL character."""
+    if isinstance(node, str):
+        return (path or "<top>") if "\x00" in node else None
+    if isinstance(node, Mapping):
+        for k, v in node.items():
+            sub = f"{path}.{k}" if path else str(k)
+            if isinstance(k, str) and "\x00" in k:
+                return sub.replace("\x00", "\\0")
+            found = _find_nul(v, sub)
+            if found:
+                return found
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            found = _find_nul(v, f"{path}[{i}]")
+            if found:
+                return found
+    return None
+
+
 def _check_finite_parameters(raw: RawConfig) -> None:
     """Distribution parameters must be finite; a truncated normal's bounds may be infinite
     (one-sided truncation)."""
@@ -375,9 +477,26 @@ def _build_model(section: dict[str, Any], config_dir: str | None = None) -> Mode
     params = {k: v for k, v in section.items() if k != "name"}
     try:
         # config_dir: where a callable model's module is looked for first
-        return cls(cls.Params.model_validate(params, context={"config_dir": config_dir}))
+        validated = cls.Params.model_validate(params, context={"config_dir": config_dir})
     except ValidationError as err:
         raise _from_validation(err, "model", ["name", *_fields(cls.Params)]) from None
+    bad = _find_infinite(validated.model_dump(), "model")
+    if bad is not None:
+        raise ConfigError(f"{bad[0]}: must be a finite number (got {bad[1]!r})", field=bad[0])
+    return cls(validated)
+
+
+def _find_infinite(node: Any, path: str) -> tuple[str, float] | None:
+    """The first infinite number among a model's parameters (no model takes one)."""
+    if isinstance(node, float) and not np.isfinite(node):
+        return path, node
+    items = node.items() if isinstance(node, dict) else enumerate(node) \
+        if isinstance(node, (list, tuple)) else ()
+    for k, v in items:
+        found = _find_infinite(v, f"{path}[{k}]" if isinstance(k, int) else f"{path}.{k}")
+        if found:
+            return found
+    return None
 
 
 def _build_space(raw: RawConfig, model: Model) -> InputSpace:
@@ -408,11 +527,15 @@ def _build_space(raw: RawConfig, model: Model) -> InputSpace:
                     f"correlated (got {raw.inputs[seen[name]].dist})",
                     field=f"correlations[{g}].inputs[{j}]")
             idx.append(seen[name])
-        C = np.asarray(spec.matrix, dtype=float)
         k = len(idx)
         field = f"correlations[{g}].matrix"
-        if C.shape != (k, k):
-            raise ConfigError(f"{field}: must be {k}x{k} (got shape {C.shape})", field=field)
+        lengths = [len(row) for row in spec.matrix]
+        if len(lengths) != k or any(n != k for n in lengths):
+            raise ConfigError(f"{field}: must be {k}x{k} (got {len(lengths)} rows of lengths "
+                              f"{lengths[:8]})", field=field)
+        C = np.asarray(spec.matrix, dtype=float)
+        if not np.isfinite(C).all():
+            raise ConfigError(f"{field}: entries must be finite numbers", field=field)
         if not np.allclose(C, C.T) or not np.allclose(np.diag(C), 1.0):
             raise ConfigError(f"{field}: must be symmetric with a unit diagonal", field=field)
         if np.linalg.eigvalsh(C).min() <= 0:

@@ -22,8 +22,11 @@ Only the driver writes files. Failures never sink a run:
   only on failure: at most ``2 k log2(m)`` calls for ``k`` raising samples of ``m``);
 - a worker process that dies (segfault, ``os._exit``, out-of-memory kill) breaks the pool: the
   chunks in flight are re-run one at a time in a fresh pool; the one that kills its worker again
-  fails whole, with the reason ``"worker process crashed ..."``; the others are kept;
-- on Dask, a chunk whose workers keep dying (``KilledWorker``) fails whole likewise.
+  is re-run here with its model calls in guard processes (:mod:`uqguide.guard`), bisected down
+  to the samples that crash: they fail alone with the reason, the others keep their values;
+- on Dask, a chunk whose workers keep dying (``KilledWorker``) is isolated likewise;
+- with the config's ``timeout_s``, every model call runs in a guard process and a call that
+  does not return in time is killed and bisected the same way: a hanging sample costs itself.
 
 A :class:`~uqguide.errors.ModelError` (a model breaking its own contract) is a bug and
 propagates.
@@ -166,6 +169,11 @@ class ChunkJob:
     outputs: tuple[str, ...]
     batch_size: int
     reducer: Reducer | None = None
+    #: Seconds a model call may take; set, every call runs in a guard process
+    #: (:mod:`uqguide.guard`) and a call that hangs or crashes fails only its samples.
+    timeout_s: float | None = None
+    #: Run the calls in a guard process even without a timeout (crash isolation).
+    guarded: bool = False
 
 
 def run_chunk(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
@@ -174,8 +182,14 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
     model = job.model.model
     m = x.shape[0]
     t0 = time.perf_counter()
-    parts = [evaluate_batch(model, x[s:s + job.batch_size], job.names, job.outputs)
-             for s in range(0, max(m, 1), job.batch_size)]
+    if job.timeout_s is not None or job.guarded:
+        from .guard import guarded_batch
+
+        parts = [guarded_batch(job.model, x[s:s + job.batch_size], job.names, job.outputs,
+                               job.timeout_s) for s in range(0, max(m, 1), job.batch_size)]
+    else:
+        parts = [evaluate_batch(model, x[s:s + job.batch_size], job.names, job.outputs)
+                 for s in range(0, max(m, 1), job.batch_size)]
     out = ModelOutput.concatenate(common_grid(parts))
     seconds = time.perf_counter() - t0
     if job.reducer is None:
@@ -273,14 +287,12 @@ def failed_output(model: Model, n: int, outputs: Collection[str], reason: str,
     )
 
 
-def crashed_chunk(job: ChunkJob, task: Task, reason: str) -> ChunkResult:
-    """The result of a chunk whose worker died: every sample failed, no time grid known."""
-    infos = [job.model.model.output_info(o) for o in job.outputs]
-    return ChunkResult(
-        task, np.ones(task.n, dtype=bool), np.full(task.n, reason, dtype=object), np.zeros(0),
-        scalars={i.name: np.full((task.n, i.k), np.nan) for i in infos if i.kind == "scalar"},
-        series={} if job.reducer is not None else
-        {i.name: np.full((task.n, 0, i.k), np.nan) for i in infos if i.kind == "series"})
+def isolate_crash(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
+    """Re-run a chunk that killed its worker, in this process, its model calls in guard
+    processes bisected down to the samples that crash: they fail alone, with the reason."""
+    from dataclasses import replace
+
+    return run_chunk(replace(job, guarded=True), task, x)
 
 
 # ---------------------------------------------------------------------------- executors
@@ -332,7 +344,9 @@ class SerialExecutor:
         pass
 
     def close(self) -> None:
-        pass
+        from .guard import close_guards
+
+        close_guards()
 
 
 def _ignore_sigint() -> None:
@@ -346,6 +360,9 @@ def _init_worker(threads: int) -> None:
     the cores (N workers each running an all-core numba kernel would oversubscribe the machine).
     Numba reads the variable when first imported, which in a spawned worker is after this."""
     _ignore_sigint()
+    from .guard import die_with_parent
+
+    die_with_parent()  # a driver killed (out of memory) must not leave workers holding its pipes
     os.environ.setdefault("NUMBA_NUM_THREADS", str(threads))
 
 
@@ -479,10 +496,10 @@ class ProcessExecutor(_WindowedExecutor):
             try:
                 yield self._submit(job, t, x[t.start:t.stop]).result()
             except BrokenProcessPool:
-                reason = "worker process crashed while evaluating this chunk (BrokenProcessPool)"
-                log.warning("chunk %d (%d samples): %s", t.index, t.n, reason)
+                log.warning("chunk %d (%d samples) crashed its worker again; finding the "
+                            "sample(s) by bisection in guard processes", t.index, t.n)
                 self._rebuild()
-                yield crashed_chunk(job, t, reason)
+                yield isolate_crash(job, t, x[t.start:t.stop])
 
     def abort(self) -> None:
         if self._pool is not None:
@@ -494,9 +511,12 @@ class ProcessExecutor(_WindowedExecutor):
             self._pool = None
 
     def close(self) -> None:
+        from .guard import close_guards
+
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+        close_guards()
 
 
 class DaskExecutor(_WindowedExecutor):
@@ -559,9 +579,10 @@ class DaskExecutor(_WindowedExecutor):
         try:
             yield fut.result()
         except KilledWorker as exc:
-            reason = f"worker process crashed while evaluating this chunk (KilledWorker: {exc})"
-            log.warning("chunk %d (%d samples): %s", task.index, task.n, reason)
-            yield crashed_chunk(job, task, reason)
+            log.warning("chunk %d (%d samples) keeps killing its workers (%s); finding the "
+                        "sample(s) by bisection in guard processes here", task.index, task.n,
+                        exc)
+            yield isolate_crash(job, task, x[task.start:task.stop])
         finally:
             fut.release()
 
@@ -570,6 +591,7 @@ class DaskExecutor(_WindowedExecutor):
 
     def close(self) -> None:
         if self._own:
+            self._own = False  # once: close() may be called again on the way out
             self.client.close()
 
 

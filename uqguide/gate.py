@@ -341,7 +341,7 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
                 se_b = getattr(p, f"{stat}_se")
                 se_b = math.nan if se_b is None else se_b
                 se_a = standard_error(s, stat, where)
-                comb = math.sqrt(se_a**2 + se_b**2)
+                comb = math.hypot(se_a, se_b)  # no overflow of the squares
                 row.tolerance = max(sigmas * comb, floor) if math.isfinite(comb) else floor
                 row.basis = f"{sigmas:g} x combined SE {_fmt(comb)}" \
                     if row.tolerance > floor else "round-off floor (no spread)"
@@ -359,6 +359,26 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
             else:
                 row.passed = abs(a - b) <= row.tolerance
     return rows
+
+
+def check_tolerance(option: str, value: Any) -> float:
+    """A gate tolerance: a finite number > 0, else ResultError (exit 2) naming the option."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise ResultError(f"{option}: must be a finite number > 0 (got {value!r})")
+    return v
+
+
+def _check_shapes(s: OutputStats, o: OutputInfo, time: np.ndarray, where: str) -> None:
+    want = (time.size, o.k) if o.kind == "series" else (o.k,)
+    for stat in STAT_NAMES:
+        got = np.shape(s.stat(stat))
+        if got != want:
+            raise ResultError(f"result {where}: {stat} has shape {got}, expected {want} "
+                              f"({o.kind} output with {o.k} component(s))")
 
 
 def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIGMAS,
@@ -381,20 +401,30 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
     ResultError
         When the result cannot be compared with this baseline (:func:`check_compatible`).
     """
-    if not sigmas > 0:
-        raise ValueError(f"sigmas must be > 0 (got {sigmas})")
+    check_tolerance("--sigmas", sigmas)
     rtol = baseline.tolerances.pce_rtol if pce_rtol is None else pce_rtol
+    check_tolerance("--pce-rtol", rtol)
+    if not baseline.methods:
+        raise ResultError(f"{source}: the baseline names no method: it would check nothing")
     check_compatible(baseline, result.model, {r.label: r.estimate.method for r in result.runs},
                      {o.name: o for o in result.outputs}, source)
     report = CheckReport(result.name, source, sigmas, rtol)
     for label, bm in baseline.methods.items():
         run: MethodRun = result.run(label)
+        if not bm.outputs:
+            raise ResultError(f"{source}: baseline method '{label}' names no output: it would "
+                              f"check nothing")
         for name, bo in bm.outputs.items():
             s = run.estimate.stats.get(name)
             if s is None:
                 raise ResultError(f"{source}: method '{label}' of the result has no statistics "
                                   f"of output '{name}'")
-            report.rows += _compare_output(label, name, bo.unit, bo, s, result.time, sigmas, rtol)
+            _check_shapes(s, result.output(name), result.time, f"{label}/{name}")
+            rows = _compare_output(label, name, bo.unit, bo, s, result.time, sigmas, rtol)
+            if not any(not r.skipped for r in rows):
+                raise ResultError(f"{source}: baseline method '{label}', output '{name}' has no "
+                                  f"statistic to check")
+            report.rows += rows
         extra = [n for n in run.estimate.stats if n not in bm.outputs]
         if extra:
             report.notes.append(f"{label}: output(s) {', '.join(extra)} not in the baseline, "

@@ -18,16 +18,26 @@ from typing import TYPE_CHECKING, Annotated, Literal, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
 
-# chaospy and scipy.stats are imported where used: `uqguide validate` and the CLI's startup
-# do not pay for them (about 1 s of CPU).
+from .strict import no_bool_numbers
+
 if TYPE_CHECKING:
     import chaospy
+
+
+def _chaospy():
+    # Imported when a PCE needs it: chaospy takes over a second to import, which every
+    # command (and every Ctrl-C window at start-up) would otherwise pay.
+    import chaospy
+
+    return chaospy
 
 
 class _Marginal(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     name: str = Field(min_length=1)
+
+    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
     def to_chaospy(self) -> chaospy.Distribution:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -48,9 +58,7 @@ class Normal(_Marginal):
     std: PositiveFloat
 
     def to_chaospy(self) -> chaospy.Distribution:
-        import chaospy
-
-        return chaospy.Normal(self.mean, self.std)
+        return _chaospy().Normal(self.mean, self.std)
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
         from scipy import special
@@ -75,9 +83,7 @@ class Uniform(_Marginal):
         return self
 
     def to_chaospy(self) -> chaospy.Distribution:
-        import chaospy
-
-        return chaospy.Uniform(self.low, self.high)
+        return _chaospy().Uniform(self.low, self.high)
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
         return self.low + (self.high - self.low) * u
@@ -94,9 +100,7 @@ class LogNormal(_Marginal):
     sigma: PositiveFloat
 
     def to_chaospy(self) -> chaospy.Distribution:
-        import chaospy
-
-        return chaospy.LogNormal(self.mu, self.sigma)
+        return _chaospy().LogNormal(self.mu, self.sigma)
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
         from scipy import special
@@ -124,15 +128,13 @@ class TruncNormal(_Marginal):
         return self
 
     def _scipy(self):
-        from scipy import stats
-
         a, b = (self.low - self.mean) / self.std, (self.high - self.mean) / self.std
+        from scipy import stats  # slow to import: only truncated normals need it
+
         return stats.truncnorm(a, b, loc=self.mean, scale=self.std)
 
     def to_chaospy(self) -> chaospy.Distribution:
-        import chaospy
-
-        return chaospy.TruncNormal(self.low, self.high, self.mean, self.std)
+        return _chaospy().TruncNormal(self.low, self.high, self.mean, self.std)
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
         return self._scipy().ppf(u)
@@ -185,10 +187,8 @@ class InputSpace:
     @property
     def joint(self) -> chaospy.Distribution:
         """The chaospy joint distribution (``chaospy.J`` of the marginals; MvNormal for groups)."""
-        import chaospy
-
         if self.independent:
-            return chaospy.J(*[m.to_chaospy() for m in self.marginals])
+            return _chaospy().J(*[m.to_chaospy() for m in self.marginals])
         parts: list[chaospy.Distribution] = []
         order: list[int] = []
         grouped = {i for g in self.groups for i in g.index}
@@ -196,7 +196,7 @@ class InputSpace:
             ms = [self.marginals[i] for i in g.index]
             mean = np.array([m.mean for m in ms])  # type: ignore[attr-defined]
             std = np.array([m.std for m in ms])  # type: ignore[attr-defined]
-            parts.append(chaospy.MvNormal(mean, g.matrix * np.outer(std, std)))
+            parts.append(_chaospy().MvNormal(mean, g.matrix * np.outer(std, std)))
             order.extend(g.index)
         for i, m in enumerate(self.marginals):
             if i not in grouped:
@@ -204,7 +204,7 @@ class InputSpace:
                 order.append(i)
         if order != sorted(order):
             raise ValueError("correlated groups must list consecutive inputs in config order")
-        return chaospy.J(*parts)
+        return _chaospy().J(*parts)
 
     def from_unit(self, u: np.ndarray) -> np.ndarray:
         """Map points of the unit hypercube ``u (n, d)`` to physical inputs ``x (n, d)``."""

@@ -30,6 +30,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from scipy import stats as sps
 
+from . import atomic
 from .models.base import OutputInfo
 from .report import cost_table
 from .result import MethodRun, Result
@@ -419,6 +420,11 @@ def _safe(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
 
 
+def _save(fig: Figure, path: Path, dpi: int) -> None:
+    """A PNG written whole or not at all (temporary file, then rename)."""
+    atomic.write_with(path, lambda p: fig.savefig(p, dpi=dpi, format="png"))
+
+
 def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[FigureFile]:
     """Write every figure of ``result`` as PNG into ``out_dir``.
 
@@ -435,7 +441,7 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
         if o.kind == "series" and result.time.size:
             for c, comp in enumerate(o.components):
                 path = out / f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}.png"
-                series_figure(result, o.name, c).savefig(path, dpi=dpi)
+                _save(series_figure(result, o.name, c), path, dpi)
                 files.append(FigureFile(path, "series", o.name, comp))
                 if has_quantiles(result, o.name):
                     path = out / (f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
@@ -444,10 +450,10 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
                     files.append(FigureFile(path, "envelope", o.name, comp))
         elif o.kind == "scalar":
             path = out / f"{stem}_{_safe(o.name)}_hist.png"
-            scalar_figure(result, o.name).savefig(path, dpi=dpi)
+            _save(scalar_figure(result, o.name), path, dpi)
             files.append(FigureFile(path, "scalar", o.name))
     path = out / f"{stem}_cost.png"
-    cost_figure(result).savefig(path, dpi=dpi)
+    _save(cost_figure(result), path, dpi)
     files.append(FigureFile(path, "cost"))
     log.info("wrote %d figures into %s", len(files), out)
     return files

@@ -43,10 +43,10 @@ class _Stage:
 
     def __init__(self, method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
                  executor: Executor, batch_size: int, store: RunStore | None,
-                 progress: Progress, timing: Timing) -> None:
+                 progress: Progress, timing: Timing, timeout_s: float | None = None) -> None:
         self.method, self.model, self.space, self.outputs = method, model, space, outputs
         self.executor, self.batch_size, self.store = executor, batch_size, store
-        self.progress, self.timing = progress, timing
+        self.progress, self.timing, self.timeout_s = progress, timing, timeout_s
 
     def tasks(self, n: int) -> list[Task]:
         return [Task(i, a, b) for i, (a, b) in
@@ -67,7 +67,7 @@ class _Stage:
             log.info("%s: %d of %d chunks restored from the checkpoint", label, len(pending),
                      len(tasks))
         job = ChunkJob(ModelHandle(self.model), tuple(self.space.names), self.outputs,
-                       self.batch_size, reducer)
+                       self.batch_size, reducer, timeout_s=self.timeout_s)
         parts: list[ModelOutput] = []
         acc = None
         nxt = 0
@@ -103,7 +103,7 @@ class _Stage:
 def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
               seed: int, executor: Executor | None = None, *, batch_size: int | None = None,
               store: RunStore | None = None, progress: Progress | None = None,
-              design: Design | None = None) -> MethodRun:
+              design: Design | None = None, timeout_s: float | None = None) -> MethodRun:
     """Run one method on one model.
 
     Parameters
@@ -119,6 +119,8 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     design : Design, optional
         The method's initial design when already made (``run`` makes them all first, to
         know the total work).
+    timeout_s : float, optional
+        Seconds a model call may take (:mod:`uqguide.guard`); default no limit.
 
     Returns
     -------
@@ -134,7 +136,8 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     t_start = time.perf_counter()
     if design is None:
         design = method.design(space, seed)
-    stage = _Stage(method, model, space, outputs, executor, bs, store, progress, timing)
+    stage = _Stage(method, model, space, outputs, executor, bs, store, progress, timing,
+                   timeout_s)
     tasks = stage.tasks(design.n_runs)
     if not progress.chunks_total:  # called alone, not from run()
         progress.plan(len(tasks), design.n_runs)
@@ -249,7 +252,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         for method, (design, design_seconds) in zip(config.methods, designs):
             r = propagate(method, config.model, config.space, config.outputs, config.seed,
                           executor, batch_size=config.raw.batch_size, store=store,
-                          progress=progress, design=design)
+                          progress=progress, design=design, timeout_s=config.raw.timeout_s)
             r.wall_seconds += design_seconds
             runs.append(r)
     except KeyboardInterrupt as exc:

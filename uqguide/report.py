@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from . import atomic
 from .failures import failure_table
 from .result import Result
 from .quantiles import level_name
@@ -59,6 +60,29 @@ def cost_table(result: Result) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) -> bool | None:
+    """Whether two estimates agree: their difference lies within the 95% interval of the
+    difference, both estimates' errors combined (None when neither has an interval).
+
+    Each 95% half-width is taken on the side facing the other estimate (``1.96 se`` for a
+    symmetric interval), so the difference's half-width is ``sqrt(u_a^2 + u_b^2)``. An estimate
+    without an interval (a PCE's moment) counts as exact: it then has to lie in the other's
+    interval. Judging a candidate against the reference's interval alone would call a
+    consistent 1000-run Monte Carlo "out" of a 1e5-run reference whenever its own error is the
+    larger one.
+    """
+    def half(x: float, a: float, b: float, towards: float) -> float:
+        w = (b - x) if towards > x else (x - a)
+        return float(w) if np.isfinite(w) else 0.0
+
+    if not (np.isfinite(lo) or np.isfinite(rlo)):
+        return None
+    if not (np.isfinite(v) and np.isfinite(rv)):
+        return None
+    width = float(np.hypot(half(v, lo, hi, rv), half(rv, rlo, rhi, v)))
+    return bool(abs(v - rv) <= width)
+
+
 def statistics_table(result: Result) -> pd.DataFrame:
     """Long-form statistics at the report times (series) and for every scalar output."""
     ref = result.run(result.reference) if result.reference else None
@@ -90,7 +114,7 @@ def statistics_table(result: Result) -> pd.DataFrame:
                         row.update(ref_value=rv, abs_diff=v - rv,
                                    rel_diff=(v - rv) / abs(rv) if rv and not noisy
                                    else float("nan"),
-                                   in_ref_ci=bool(rlo <= v <= rhi) if np.isfinite(rlo) else None)
+                                   agrees=agrees(v, lo, hi, rv, rlo, rhi))
                     rows.append(row)
                 rows += _quantile_rows(o, r.label, s, rs, where, comp, t)
     return pd.DataFrame(rows)
@@ -122,7 +146,7 @@ def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where:
                 noisy = np.isfinite(rhi - rlo) and abs(rv) <= 0.5 * (rhi - rlo)
                 row.update(ref_value=rv, abs_diff=v - rv,
                            rel_diff=(v - rv) / abs(rv) if rv and not noisy else float("nan"),
-                           in_ref_ci=bool(rlo <= v <= rhi))
+                           agrees=agrees(v, row["ci_low"], row["ci_high"], rv, rlo, rhi))
         rows.append(row)
     return rows
 
@@ -206,7 +230,7 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
                 cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
             if with_ref and s["label"] != stats.attrs.get("reference"):
                 rd, ad = s.get("rel_diff"), s.get("abs_diff")
-                inside = s.get("in_ref_ci")
+                inside = s.get("agrees")
                 # pandas stores a missing verdict (no reference interval) as None or NaN
                 flag = "?" if inside is None or inside != inside else ("in" if inside else "OUT")
                 if rd is not None and np.isfinite(rd):
@@ -262,8 +286,8 @@ def interval_legend(with_reference: bool) -> str:
             "mean by +-1.96 standard errors where it has no bootstrap), quantiles by order "
             "statistics; PCE values carry none (their error is the surrogate's, see loo_error).")
     if with_reference:
-        text += (" (difference from the reference, inside or OUTside the reference's 95% "
-                 "interval).")
+        text += (" (difference from the reference; in: within the 95% interval of the "
+                 "difference, both estimates' errors combined; OUT: beyond it).")
     return text
 
 
@@ -304,12 +328,13 @@ def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",
              out_dir / f"{stem}_summary.md"]
-    statistics_table(result).to_csv(paths[0], index=False)
+    # Each file whole or absent (temporary file, then rename): never a 0-byte table.
+    atomic.write_with(paths[0], lambda p: statistics_table(result).to_csv(p, index=False))
     events = events_table(result)
     if not events.empty:
         paths.append(out_dir / f"{stem}_events.csv")
-        events.to_csv(paths[-1], index=False)
-    cost_table(result).to_csv(paths[1], index=False)
-    paths[2].write_text(render_markdown(result), encoding="utf-8")
+        atomic.write_with(paths[-1], lambda p: events.to_csv(p, index=False))
+    atomic.write_with(paths[1], lambda p: cost_table(result).to_csv(p, index=False))
+    atomic.write_text(paths[2], render_markdown(result))
     return paths
 

@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import yaml
 
+from . import atomic
 from .gate import CheckReport
 from .plots import FigureFile, write_figures
 from .report import (cost_table, events_table, events_text, series_agreement, statistics_table,
@@ -99,8 +101,9 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
     parts += ["", "## Outputs", "",
               "Statistics are the population (1/n) moments; kurtosis is non-excess (a Gaussian "
               "has 3). Table cells: estimate [95% interval]"
-              + (" (difference from the reference, inside or OUTside the reference's 95% "
-                 "interval)." if with_ref else ".")]
+              + (" (difference from the reference; in: within the 95% interval of the "
+                 "difference, both estimates' errors combined; OUT: beyond it)." if with_ref
+                 else ".")]
     for o in result.outputs:
         sub = stats[stats["output"] == o.name] if not stats.empty else stats
         if sub.empty:
@@ -174,7 +177,7 @@ def write_report(result: Result, out_dir: str | Path, check: CheckReport | None 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figures = write_figures(result, Path(figure_dir) if figure_dir else out / "figures")
-    path = out / f"{result.name}_report.md"
-    path.write_text(render_report(result, figures, out, check), encoding="utf-8")
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", result.name).strip("_.") or "result"
+    path = atomic.write_text(out / f"{name}_report.md", render_report(result, figures, out, check))
     log.info("wrote %s", path)
     return path, figures

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
-import os
 import platform
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,14 +43,13 @@ import h5py
 import numpy as np
 import yaml
 
-from . import __version__
+from . import __version__, atomic
 from .errors import ResultError
 from .events import EventEstimate
-from .labelled import Variable
-from .methods.base import Estimate
+from .methods.base import Estimate, GeneratedRows
 from .models.base import OutputInfo
 from .result_netcdf import (attach, h5_array, read_method_stats, strings, write_method_stats,
-                            write_scale, write_variable)
+                            write_scale)
 from .stats import STAT_NAMES, OutputStats
 
 FORMAT = 2
@@ -142,15 +140,20 @@ class Result:
 
 def provenance() -> dict[str, Any]:
     """Versions and host facts that explain where a result's numbers came from."""
-    import chaospy
     import scipy
+    from importlib.metadata import PackageNotFoundError, version
 
+    try:
+        # From the installed metadata: importing chaospy for its version costs a second.
+        chaospy_version = version("chaospy")
+    except PackageNotFoundError:  # pragma: no cover
+        chaospy_version = "unknown"
     versions = {
         "uqguide": __version__,
         "python": platform.python_version(),
         "numpy": np.__version__,
         "scipy": scipy.__version__,
-        "chaospy": chaospy.__version__ if hasattr(chaospy, "__version__") else "unknown",
+        "chaospy": chaospy_version,
         "h5py": h5py.__version__,
     }
     try:
@@ -179,38 +182,36 @@ def write_hdf5(result: Result, path: str | Path) -> Path:
     """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
+    with atomic.atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
-            f.attrs["format"] = FORMAT
-            f.attrs["uqguide_version"] = __version__
-            f.attrs["name"] = result.name
-            f.attrs["model"] = result.model
-            f.attrs["seed"] = int(result.config.get("seed", 0))
-            f.attrs["reference"] = result.reference or ""
-            f.attrs["config_yaml"] = yaml.safe_dump(result.config, sort_keys=False)
-            f.attrs["created_utc"] = result.provenance.get("created_utc", "")
-            f.attrs["wall_seconds"] = float(result.provenance.get("wall_seconds", 0.0))
-            f.attrs["versions_json"] = json.dumps(result.provenance.get("versions", {}))
-            # HDF5 lists groups alphabetically: keep the config's method order explicitly.
-            f.attrs["method_order"] = json.dumps([r.label for r in result.runs])
-            f.attrs["output_order"] = json.dumps([o.name for o in result.outputs])
-            write_scale(f, "time", result.time, units="s", long_name="time")
-            write_scale(f, "input", result.input_names, long_name="uncertain input")
-            if result.report_times:
-                write_scale(f, "report_times", np.asarray(result.report_times, dtype=float),
-                            units="s")
-            for o in result.outputs:
-                g = f.create_group(f"outputs/{o.name}")
-                g.attrs.update(kind=o.kind, unit=o.unit, description=o.description,
-                               components=json.dumps(list(o.components)))
-            for r in result.runs:
-                _write_run(f.create_group(f"methods/{r.label}"), r, result)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+            _fill(f, result)
     return path
+
+
+def _fill(f: h5py.File, result: Result) -> None:
+    f.attrs["format"] = FORMAT
+    f.attrs["uqguide_version"] = __version__
+    f.attrs["name"] = result.name
+    f.attrs["model"] = result.model
+    f.attrs["seed"] = int(result.config.get("seed", 0))
+    f.attrs["reference"] = result.reference or ""
+    f.attrs["config_yaml"] = yaml.safe_dump(result.config, sort_keys=False)
+    f.attrs["created_utc"] = result.provenance.get("created_utc", "")
+    f.attrs["wall_seconds"] = float(result.provenance.get("wall_seconds", 0.0))
+    f.attrs["versions_json"] = json.dumps(result.provenance.get("versions", {}))
+    # HDF5 lists groups alphabetically: keep the config's method order explicitly.
+    f.attrs["method_order"] = json.dumps([r.label for r in result.runs])
+    f.attrs["output_order"] = json.dumps([o.name for o in result.outputs])
+    write_scale(f, "time", result.time, units="s", long_name="time")
+    write_scale(f, "input", result.input_names, long_name="uncertain input")
+    if result.report_times:
+        write_scale(f, "report_times", np.asarray(result.report_times, dtype=float), units="s")
+    for o in result.outputs:
+        g = f.create_group(f"outputs/{o.name}")
+        g.attrs.update(kind=o.kind, unit=o.unit, description=o.description,
+                       components=json.dumps(list(o.components)))
+    for r in result.runs:
+        _write_run(f.create_group(f"methods/{r.label}"), r, result)
 
 
 def _write_run(g: h5py.Group, r: MethodRun, result: Result) -> None:
@@ -229,9 +230,17 @@ def _write_run(g: h5py.Group, r: MethodRun, result: Result) -> None:
     for name, ev in e.events.items():
         g.create_group(f"events/{name}").attrs.update(ev.as_dict())
     s = g.create_group("samples")
-    sample = write_scale(s, "sample", np.arange(r.x.shape[0]))
-    write_variable(s, "x", Variable(("sample", "input"), r.x), {**scales, "sample": sample},
-                   compress=True)
+    x = r.x
+    sample = write_scale(s, "sample", np.arange(x.shape[0]))
+    gz = "gzip" if x.size > 4096 else None
+    if isinstance(x, GeneratedRows):  # written chunk by chunk: never held whole
+        ds = s.create_dataset("x", shape=x.shape, dtype="f8", compression=gz,
+                              chunks=(min(max(x.n, 1), 65536), max(x.d, 1)) if x.size else None)
+        for start, rows in x.chunks():
+            ds[start:start + rows.shape[0]] = rows
+    else:
+        ds = s.create_dataset("x", data=x, compression=gz)
+    attach(ds, [sample, scales["input"]])
     attach(s.create_dataset("failed", data=r.failed.astype(np.uint8)), [sample])
     attach(s.create_dataset("reasons", data=h5_array([str(v) for v in r.reasons])), [sample])
     info = {o.name: o for o in result.outputs}
@@ -309,8 +318,8 @@ def read_hdf5(path: str | Path) -> Result:
                     fit_seconds=float(g.attrs["fit_seconds"]),
                     wall_seconds=float(g.attrs["wall_seconds"]),
                 ))
-            config = yaml.safe_load(f.attrs["config_yaml"])
-            return Result(
+            config = _config_from_yaml(f.attrs["config_yaml"], path)
+            result = Result(
                 name=str(f.attrs["name"]), model=str(f.attrs["model"]),
                 input_names=strings(f["inputs/names" if fmt == 1 else "input"][()]),
                 outputs=outputs, time=f["time"][()], runs=runs,
@@ -323,5 +332,61 @@ def read_hdf5(path: str | Path) -> Result:
             )
     except ResultError:
         raise
-    except (OSError, KeyError, ValueError) as exc:
-        raise ResultError(f"{path}: unreadable or incomplete result file ({exc})") from None
+    except (OSError, KeyError, ValueError, TypeError, IndexError, AttributeError,
+            RecursionError) as exc:
+        raise ResultError(f"{path}: unreadable or incomplete result file "
+                          f"({type(exc).__name__}: {exc})") from None
+    _check_result(result, path)
+    return result
+
+
+def _config_from_yaml(text: Any, path: Path) -> dict[str, Any]:
+    from .safe_yaml import YamlLimitError, safe_load
+
+    try:
+        config = safe_load(str(text))
+    except (yaml.YAMLError, YamlLimitError) as exc:
+        raise ResultError(f"{path}: its config_yaml is not a readable config "
+                          f"({str(exc).splitlines()[0]})") from None
+    if not isinstance(config, dict):
+        raise ResultError(f"{path}: its config_yaml is not a mapping (got "
+                          f"{type(config).__name__})")
+    return config
+
+
+def _check_result(r: Result, path: Path) -> None:
+    """ResultError unless every array has the shape its output says (a file edited or
+    written by something else must not reach the gate, the plots or the report)."""
+    bad = None
+    if r.time.ndim != 1:
+        bad = f"time has shape {r.time.shape}, expected (T,)"
+    names = {o.name: o for o in r.outputs}
+    for run in r.runs:
+        if bad:
+            break
+        n = run.x.shape[0] if run.x.ndim == 2 else -1
+        if run.x.ndim != 2 or run.x.shape[1] != len(r.input_names):
+            bad = f"{run.label}: samples/x has shape {run.x.shape}, expected (n, {len(r.input_names)})"
+        elif run.failed.shape != (n,) or run.reasons.shape != (n,):
+            bad = f"{run.label}: samples/failed or reasons do not have {n} rows"
+        for name, s in run.estimate.stats.items():
+            if bad:
+                break
+            o = names.get(name)
+            if o is None:
+                bad = f"{run.label}: statistics of '{name}', which is not an output of the file"
+                break
+            want = (r.time.size, o.k) if o.kind == "series" else (o.k,)
+            for stat in STAT_NAMES:
+                arr = np.asarray(s.stat(stat))
+                if arr.shape != want or arr.dtype.kind not in "fiu":
+                    bad = (f"{run.label}/{name}: {stat} has shape {arr.shape} and type "
+                           f"{arr.dtype}, expected {want} numbers")
+                    break
+            if not bad and s.sem is not None and np.shape(s.sem) != want:
+                bad = f"{run.label}/{name}: sem has shape {np.shape(s.sem)}, expected {want}"
+            for stat, ci in s.ci.items():
+                if not bad and np.shape(ci) != (2, *want):
+                    bad = f"{run.label}/{name}: ci_{stat} has shape {np.shape(ci)}"
+    if bad:
+        raise ResultError(f"{path}: inconsistent result file ({bad})")

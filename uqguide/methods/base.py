@@ -24,7 +24,9 @@ from collections.abc import Callable
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ..strict import no_bool_numbers
 
 from ..events import EventEstimate, EventSpec
 from ..inputs import InputSpace
@@ -45,6 +47,68 @@ class MethodSettings(BaseModel):
                               description="name of the method's rows in the tables and of its "
                                           "group in the result file (default: the method's name)")
 
+    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
+
+
+class GeneratedRows:
+    """Design rows ``(n, d)`` made on demand, chunk by chunk, by a pure function of the chunk
+    number: a design that is never held whole (a 1e8-sample Monte Carlo design would be 5.6 GB).
+
+    Slicing rows (``x[a:b]``) makes only the chunks that cover them; anything else (``np.asarray``,
+    fancy indexing) makes the whole array, for small designs and tests.
+
+    Parameters
+    ----------
+    n, d : int
+        Rows and columns.
+    chunk : int
+        Rows per chunk (the last may be shorter).
+    make : callable
+        ``make(i) -> ndarray (m_i, d)``, the rows ``[i chunk, i chunk + m_i)``.
+    """
+
+    dtype = np.dtype(float)
+    ndim = 2
+
+    def __init__(self, n: int, d: int, chunk: int, make: Any) -> None:
+        self.n, self.d, self.chunk, self._make = n, d, chunk, make
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.n, self.d)
+
+    @property
+    def size(self) -> int:
+        return self.n * self.d
+
+    def __len__(self) -> int:
+        return self.n
+
+    def rows(self, start: int, stop: int) -> np.ndarray:
+        start, stop = max(0, start), min(self.n, stop)
+        if stop <= start:
+            return np.empty((0, self.d))
+        first, last = start // self.chunk, (stop - 1) // self.chunk
+        parts = [self._make(i) for i in range(first, last + 1)]
+        block = parts[0] if len(parts) == 1 else np.concatenate(parts)
+        off = first * self.chunk
+        return block[start - off:stop - off]
+
+    def chunks(self) -> Any:
+        """``(start, rows)`` of every chunk in order."""
+        for i, start in enumerate(range(0, self.n, self.chunk)):
+            yield start, self._make(i)
+
+    def __getitem__(self, key: Any) -> np.ndarray:
+        if isinstance(key, slice) and key.step in (None, 1):
+            start, stop, _ = key.indices(self.n)
+            return self.rows(start, stop)
+        return np.asarray(self)[key]
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        x = self.rows(0, self.n)
+        return x if dtype is None else x.astype(dtype)
+
 
 @dataclass
 class Design:
@@ -52,18 +116,42 @@ class Design:
 
     Attributes
     ----------
-    x : ndarray, shape (n, d)
-        Inputs in physical units, columns in the order of ``InputSpace.names``.
+    x : ndarray or GeneratedRows, shape (n, d)
+        Inputs in physical units, columns in the order of ``InputSpace.names`` (generated per
+        chunk when the method can: :class:`GeneratedRows`).
     data : dict
         Whatever the method needs in ``estimate`` (unit-cube points, quadrature weights, ...).
     """
 
-    x: np.ndarray
+    x: np.ndarray | GeneratedRows
     data: dict[str, Any] = field(default_factory=dict)
 
     @property
     def n_runs(self) -> int:
         return int(self.x.shape[0])
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    """A method's size before it runs.
+
+    Attributes
+    ----------
+    runs : int or None
+        Model runs (at most, for a sequential design); None when only the design knows.
+    chunk : int or None
+        Rows evaluated and held together (Monte Carlo: ``chunk_size``); None: the executor's
+        ``batch_size``.
+    reduced : bool
+        Whether chunks are reduced where they ran (series never kept whole).
+    terms : int
+        Basis terms of a surrogate fitted on all runs (0: none).
+    """
+
+    runs: int | None
+    chunk: int | None = None
+    reduced: bool = False
+    terms: int = 0
 
 
 @dataclass
@@ -167,6 +255,12 @@ class Method(ABC):
     @abstractmethod
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
         """Statistics of every output in ``outputs`` from the runs of ``design``."""
+
+    # ------------------------------------------------------------------ budgets
+    def plan(self, space: InputSpace) -> RunPlan:
+        """What the method will ask for, known before any design is built (for the budgets
+        of :mod:`uqguide.budget`). Default: unknown until the design is built."""
+        return RunPlan(runs=None)
 
     # ------------------------------------------------------------------ execution hooks
     def chunk_bounds(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:

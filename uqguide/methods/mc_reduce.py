@@ -85,6 +85,10 @@ class MonteCarloReducer:
         ok = ~out.failed
         m = out.n
         summary: dict[str, np.ndarray] = {}
+        if not ok.any():
+            # Nothing to sum: an empty summary merges as the identity (its failures are
+            # counted from the chunk's mask), and an all-failed chunk may carry no time grid.
+            return summary
         w = None
         if self.bootstrap > 0:
             # Weights for every run of the chunk (failed ones then dropped), so a sample's

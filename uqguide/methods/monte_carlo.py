@@ -49,7 +49,7 @@ from ..models.base import ModelOutput
 from ..events import count_events
 from ..quantiles import order_statistic_quantiles
 from ..stats import MomentSums, OutputStats, statistics_from_sums
-from .base import Design, Estimate, Method, MethodSettings
+from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
 from .mc_reduce import MonteCarloReducer, ci_index, split_summary, stack_scalars
 
 log = logging.getLogger(__name__)
@@ -89,28 +89,41 @@ def method_seed(seed: int, label: str) -> np.random.SeedSequence:
     return np.random.SeedSequence([seed, zlib.crc32(label.encode())])
 
 
+def chunk_seed(seed: np.random.SeedSequence, i: int) -> np.random.SeedSequence:
+    """Child ``i`` of ``seed``, as ``seed.spawn`` would give it, without spawning the others."""
+    return np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, i),
+                                  pool_size=seed.pool_size)
+
+
+def unit_chunk(d: int, n: int, sampling: str, chunk_size: int, seed: np.random.SeedSequence,
+               i: int) -> np.ndarray:
+    """Chunk ``i`` of the points ``(n, d)`` in the open unit cube: rows
+    ``[i chunk_size, min(n, (i + 1) chunk_size))``, drawn from child ``i`` of ``seed``."""
+    m = min(chunk_size, n - i * chunk_size)
+    rng = np.random.default_rng(chunk_seed(seed, i))
+    if sampling == "random":
+        u = rng.random((m, d))
+    elif sampling == "lhs":
+        from scipy.stats import qmc  # slow to import: only LHS and Sobol' need it
+
+        u = qmc.LatinHypercube(d=d, seed=rng).random(m)
+    else:
+        from scipy.stats import qmc
+
+        # Draw the next power of two and keep the first m: a prefix of a scrambled Sobol'
+        # sequence, which avoids scipy's balance warning for non-powers of two.
+        p = int(np.ceil(np.log2(max(m, 1))))
+        u = qmc.Sobol(d=d, scramble=True, seed=rng).random_base2(p)[:m]
+    return np.clip(u, _U_EPS, 1 - _U_EPS)
+
+
 def unit_samples(d: int, n: int, sampling: str, chunk_size: int,
                  seed: np.random.SeedSequence) -> np.ndarray:
-    """Points ``(n, d)`` in the open unit cube, drawn chunk by chunk from children of ``seed``."""
-    from scipy.stats import qmc  # here: importing scipy.stats costs 0.5 s of CPU
-
-    n_chunks = -(-n // chunk_size)
-    children = seed.spawn(n_chunks)
-    parts = []
-    for i, child in enumerate(children):
-        m = min(chunk_size, n - i * chunk_size)
-        rng = np.random.default_rng(child)
-        if sampling == "random":
-            u = rng.random((m, d))
-        elif sampling == "lhs":
-            u = qmc.LatinHypercube(d=d, seed=rng).random(m)
-        else:
-            # Draw the next power of two and keep the first m: a prefix of a scrambled Sobol'
-            # sequence, which avoids scipy's balance warning for non-powers of two.
-            p = int(np.ceil(np.log2(max(m, 1))))
-            u = qmc.Sobol(d=d, scramble=True, seed=rng).random_base2(p)[:m]
-        parts.append(u)
-    return np.clip(np.concatenate(parts) if parts else np.empty((0, d)), _U_EPS, 1 - _U_EPS)
+    """Points ``(n, d)`` in the open unit cube, drawn chunk by chunk from children of ``seed``
+    (all chunks of :func:`unit_chunk` joined)."""
+    parts = [unit_chunk(d, n, sampling, chunk_size, seed, i)
+             for i in range(-(-n // chunk_size))]
+    return np.concatenate(parts) if parts else np.empty((0, d))
 
 
 class MonteCarlo(Method):
@@ -125,12 +138,23 @@ class MonteCarlo(Method):
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings
         ss = method_seed(seed, self.label)
-        u = unit_samples(space.dim, s.n_samples, s.sampling, s.chunk_size, ss)
-        x = space.from_unit(u) if space.dim else np.empty((s.n_samples, 0))
+        d, n, c = space.dim, s.n_samples, s.chunk_size
+
+        def make(i: int) -> np.ndarray:
+            # One chunk of the design, where and when it is evaluated: never held whole.
+            if not d:
+                return np.empty((min(c, n - i * c), 0))
+            return space.from_unit(unit_chunk(d, n, s.sampling, c, ss, i))
+
+        x = GeneratedRows(n, d, c, make)
         # The bootstrap stream is a fixed function of the same root, kept apart from the design.
         boot_seed = int(np.random.SeedSequence([seed, zlib.crc32(self.label.encode()), 1])
                         .generate_state(1)[0])
         return Design(x=x, data={"boot_seed": boot_seed})
+
+    def plan(self, space: InputSpace) -> RunPlan:
+        s = self.settings
+        return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples), reduced=True)
 
     # ------------------------------------------------------------------ streaming estimate
     def chunk_bounds(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
@@ -178,8 +202,11 @@ class MonteCarlo(Method):
             log.warning("%s: %d of %d runs failed; statistics use the other %d",
                         self.label, n_failed, runs.n, runs.n - n_failed)
         if not acc:
+            from ..failures import render_reasons
+
             raise MethodError(f"{self.label}: every one of the {runs.n} runs failed, no "
-                              f"statistics ({tally})")
+                              f"statistics ({tally})\n\nFailed runs\n"
+                              + render_reasons(self.label, runs.n, runs.reasons[runs.failed]))
         stats = {}
         for (kind, name), sums in acc.items():
             if kind != "m" or name == "":

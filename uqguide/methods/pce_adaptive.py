@@ -66,7 +66,7 @@ from ..pce.germ import Germ
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.pca import principal_components
 from ..pce.sparse_regression import fit_columns
-from .base import Design, Estimate, Method, MethodSettings
+from .base import Design, Estimate, Method, MethodSettings, RunPlan
 
 log = logging.getLogger(__name__)
 
@@ -173,6 +173,14 @@ class AdaptivePCE(Method):
         """Most model runs the method makes for ``d`` inputs."""
         s = self.settings
         return s.max_runs if s.max_runs is not None else self.initial_size(d)
+
+    def plan(self, space: InputSpace) -> RunPlan:
+        from math import comb
+
+        s = self.settings
+        # The candidate basis is at most the total-degree one (a q-norm below 1 prunes it).
+        return RunPlan(runs=self.budget(space.dim), terms=comb(space.dim + s.degree_max,
+                                                               space.dim))
 
     # ------------------------------------------------------------------ phases
     def design(self, space: InputSpace, seed: int) -> Design:

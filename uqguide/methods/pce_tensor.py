@@ -30,7 +30,9 @@ from pydantic import Field
 from ..errors import ConfigError
 from ..pce.germ import Germ
 from ..pce.quadrature import RULE_FAMILIES, Grid, tensor_grid
-from .pce_quadrature import QuadraturePCE, QuadratureSettings
+from ..inputs import InputSpace
+from .base import RunPlan
+from .pce_quadrature import MAX_NODES, QuadraturePCE, QuadratureSettings
 
 
 class TensorPCESettings(QuadratureSettings):
@@ -56,10 +58,22 @@ class TensorPCE(QuadraturePCE):
     Settings = TensorPCESettings
     settings: TensorPCESettings
 
+    def plan(self, space: InputSpace) -> RunPlan:
+        """``m^d`` runs and terms; ConfigError (field ``m``) above ``MAX_NODES``, before any
+        grid is built."""
+        n = self.settings.m ** space.dim
+        if n > MAX_NODES:
+            raise ConfigError(
+                f"m: {self.label} with m = {self.settings.m} on {space.dim} inputs is {n:.3g} "
+                f"runs; allowed at most {MAX_NODES} (lower m, or use pce_smolyak or "
+                f"pce_adaptive)", field="m")
+        return RunPlan(runs=n, terms=n)
+
     def _rule(self) -> str:
         return "gauss" if self.settings.rule == "auto" else self.settings.rule
 
     def _grid(self, germ: Germ) -> Grid:
+        self.plan(germ.space)  # refused before the grid is built: m^d nodes would not fit
         rule = self._rule()
         for j, fam in enumerate(germ.families):
             if fam not in RULE_FAMILIES[rule]:

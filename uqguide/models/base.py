@@ -23,7 +23,9 @@ from dataclasses import dataclass, field
 from typing import ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, model_validator
+
+from ..strict import no_bool_numbers
 
 from ..errors import ModelError
 from .roundoff import apply_env
@@ -39,6 +41,8 @@ class ModelParams(BaseModel):
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
 
 @dataclass(frozen=True)
@@ -93,6 +97,29 @@ class OutputInfo:
     @property
     def k(self) -> int:
         return len(self.components)
+
+
+@dataclass(frozen=True)
+class StepCount:
+    """How much one run of a time-stepping model computes, from its parameters alone (the
+    budgets of :mod:`uqguide.budget` are checked with it before anything runs).
+
+    Attributes
+    ----------
+    steps : float
+        Integration steps of one run (sub-steps included).
+    grid : float
+        Points of the output time grid of one run.
+    field : str
+        The parameter that sets the step (named in a refusal), e.g. ``"dt"``.
+    formula : str
+        How ``steps`` follows from the parameters, e.g. ``"t_max / dt"``.
+    """
+
+    steps: float
+    grid: float
+    field: str
+    formula: str
 
 
 @dataclass
@@ -292,6 +319,10 @@ class Model(ABC):
     # ------------------------------------------------------------------ public API
     def input_names(self) -> tuple[str, ...]:
         return tuple(i.name for i in self.inputs())
+
+    def step_count(self) -> StepCount | None:
+        """Steps and output grid points of one run (None: the model does not time-step)."""
+        return None
 
     def output_info(self, name: str) -> OutputInfo:
         for o in self.outputs():

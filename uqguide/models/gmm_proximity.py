@@ -44,7 +44,8 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from .base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo, ReportRow, failure_reasons
+from .base import (InputInfo, Model, ModelOutput, ModelParams, OutputInfo, ReportRow,
+                   StepCount, failure_reasons)
 from .dynamics.tschauner_hempel import MU_EARTH, ChiefOrbit, LVLHPlant
 from .gmm.claims import APF, GNT, GTS, WANG2022_DV_RATIO, Outcome, evaluate_wang2022_claims
 from .gmm.controllers import NTSMC, TSMC, ReachingLaw
@@ -167,6 +168,11 @@ class GMMProximity(Model):
 
     def inputs(self) -> tuple[InputInfo, ...]:
         return self._INPUTS
+
+    def step_count(self) -> StepCount:
+        p = self.params
+        return StepCount(p.t_f / p.dt * p.n_sub, p.t_f / p.record_interval + 1, "dt",
+                         "t_f / dt x n_sub")
 
     def outputs(self) -> tuple[OutputInfo, ...]:
         parts = self.geometry().names

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..base import InputInfo, Model, ModelOutput, OutputInfo, ReportRow, failure_reasons
+from ..base import (InputInfo, Model, ModelOutput, OutputInfo, ReportRow, StepCount,
+                    failure_reasons)
 from . import scenario
 from .params import FTASParams
 from .runner import SETTLE_TOLERANCES, RunResult, run_batch
@@ -108,6 +109,11 @@ class FTAS(Model):
             ),
         ]  # fmt: skip
         return tuple(ins)
+
+    def step_count(self) -> StepCount:
+        p = self.params
+        return StepCount(p.duration / p.step, p.duration / p.output_interval + 1, "step",
+                         "duration / step")
 
     def outputs(self) -> tuple[OutputInfo, ...]:
         outs = [

@@ -40,7 +40,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ..base import (DerivedOutput, InputInfo, Model, ModelOutput, ModelParams, OutputInfo,
-                    ReportRow)
+                    ReportRow, StepCount)
 from ..dynamics.hill import MU_EARTH, mean_motion
 from ..kernels import choose
 from . import layout as L
@@ -281,6 +281,11 @@ class FTCAPN(Model):
             else:
                 self._t_final = min(p.t_max, math.ceil(t_stop / p.dt - 1e-9) * p.dt)
         return self._t_final
+
+    def step_count(self) -> StepCount:
+        p = self.params
+        end = p.t_final if p.t_final is not None else p.t_max
+        return StepCount(p.t_max / p.dt, end / p.dt + 1, "dt", "t_max / dt")
 
     def time_grid(self) -> np.ndarray:
         """Output time grid ``(T,)`` [s]: ``k dt`` for ``k = 0 .. ceil(t_final / dt)``."""

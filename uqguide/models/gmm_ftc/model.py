@@ -42,7 +42,8 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from ..base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo, ReportRow
+from ..base import (InputInfo, Model, ModelOutput, ModelParams, OutputInfo, ReportRow,
+                    StepCount)
 from ..dynamics.rotating_body_frame import RotatingBodyFrame
 from ..dynamics.tschauner_hempel import ChiefOrbit
 from ..gmm.potential import AttractRepulsePotential
@@ -222,6 +223,10 @@ class GMMFTC(Model):
 
     def inputs(self) -> tuple[InputInfo, ...]:
         return INPUT_INFO
+
+    def step_count(self) -> StepCount:
+        p = self.params
+        return StepCount(p.t_final / p.dt, p.t_final / p.record_dt + 1, "dt", "t_final / dt")
 
     def outputs(self) -> tuple[OutputInfo, ...]:
         return SERIES_INFO + SCALAR_INFO

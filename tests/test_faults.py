@@ -1,0 +1,546 @@
+"""Fault reproducers (issue 15): runs that must not corrupt each other, escape --out, hang, sink
+on one bad sample, exhaust memory, ignore Ctrl-C, leave half-written files, or pass a gate that
+checks nothing. Each test is a reproducer of one failure mode, kept small and quick; none
+asserts a timing."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from uqguide.cli import main
+from uqguide.result import read_hdf5
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+
+
+def _config(function: str = "tests.failing_models:clean_sum", n: int = 400, chunk: int = 50,
+            seed: int = 11, **top) -> dict:
+    return {
+        "model": {"name": "callable", "function": function, "inputs": ["a", "b"],
+                  "outputs": ["y"]},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                   {"name": "b", "dist": "uniform", "low": 0.0, "high": 2.0}],
+        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": n, "chunk_size": chunk,
+                     "bootstrap": 0}],
+        "seed": seed, **top,
+    }
+
+
+def _write(path: Path, cfg: dict) -> Path:
+    path.write_text(yaml.safe_dump(cfg))
+    return path
+
+
+def _invoke(*args: str):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def _chunk_lines(manifest: Path) -> list[dict]:
+    if not manifest.is_file():
+        return []
+    out = []
+    for line in manifest.read_text().splitlines():
+        try:
+            obj = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if obj.get("kind") == "chunk":
+            out.append(obj)
+    return out
+
+
+def _start_slow_run(cfg: Path, out: Path, extra_env: dict | None = None, *args: str):
+    env = {**ENV, **(extra_env or {})}
+    return subprocess.Popen([sys.executable, "-m", "uqguide.cli", "run", str(cfg), "--out",
+                             str(out), *args], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+
+
+def _wait_for_chunks(proc, manifest: Path, n: int, timeout: float = 60) -> None:
+    deadline = time.monotonic() + timeout
+    while len(_chunk_lines(manifest)) < n:
+        assert proc.poll() is None, proc.stderr.read().decode()
+        assert time.monotonic() < deadline, "the run made no progress"
+        time.sleep(0.05)
+
+
+def _stop(proc, sig=signal.SIGKILL) -> None:
+    if proc.poll() is None:
+        proc.send_signal(sig)
+    proc.communicate(timeout=30)
+
+
+# ---------------------------------------------------------------------------- 1. run folder
+def test_a_second_run_into_the_same_folder_is_refused_naming_the_owner(tmp_path):
+    cfg = _write(tmp_path / "slow.yaml", _config("tests.failing_models:slow_sum", n=2000,
+                                                 chunk=100))
+    out = tmp_path / "out"
+    first = _start_slow_run(cfg, out)
+    try:
+        _wait_for_chunks(first, out / "slow.run" / "manifest.jsonl", 1)
+        second = _invoke("run", cfg, "--out", out)
+        assert second.exit_code == 2, second.output
+        assert f"pid {first.pid}" in second.output and "in use" in second.output
+        assert second.exception is None or isinstance(second.exception, SystemExit)
+        resumed = _invoke("run", cfg, "--out", out, "--resume")
+        assert resumed.exit_code == 2, resumed.output
+        # the first run's folder is intact and still growing
+        assert (out / "slow.run" / "manifest.jsonl").is_file()
+    finally:
+        _stop(first)
+
+
+def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_message(tmp_path, caplog):
+    cfg = _write(tmp_path / "c.yaml", _config())
+    out = tmp_path / "out"
+    out.mkdir()
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    (out / "c.run.lock").write_text(f"pid {dead} on host elsewhere\n")
+    res = _invoke("run", cfg, "--out", out)
+    assert res.exit_code == 0, res.output
+    assert f"taking over the lock of a run that is gone (pid {dead}" in caplog.text
+    assert not (out / "c.run.lock").exists() and not (out / "c.run").exists()
+
+
+def _interrupted_run(tmp_path: Path, seed: int, sub: str) -> tuple[Path, Path]:
+    """A run of 8 chunks stopped by SIGKILL after at least 3 chunks (its folder is left)."""
+    cfg = _write(tmp_path / f"mix{sub}.yaml",
+                 {**_config("tests.failing_models:slow_sum", n=800, chunk=100, seed=seed),
+                  "name": "mix"})
+    out = tmp_path / sub
+    p = _start_slow_run(cfg, out)
+    _wait_for_chunks(p, out / "mix.run" / "manifest.jsonl", 3)
+    _stop(p)
+    return cfg, out / "mix.run"
+
+
+def test_chunks_of_another_seed_are_refused_on_resume(tmp_path):
+    """Issue 15 item 1: seed-11 chunks folded into a seed-12 resume exited 0 with wrong
+    statistics. Both ways of mixing them in (manifest lines of the other run; chunk files of
+    the other run under this run's manifest lines) must end in a clean refusal."""
+    _, run11 = _interrupted_run(tmp_path, 11, "a")
+    cfg12, run12 = _interrupted_run(tmp_path, 12, "b")
+    own = _chunk_lines(run12 / "manifest.jsonl")
+    foreign = _chunk_lines(run11 / "manifest.jsonl")
+    header = (run12 / "manifest.jsonl").read_text().splitlines()[0]
+
+    # (a) the other run's chunk lines and files, appended as a concurrent run would have
+    for e in foreign:
+        (run12 / e["file"]).write_bytes((run11 / e["file"]).read_bytes())
+    (run12 / "manifest.jsonl").write_text(
+        "\n".join([header] + [json.dumps(e) for e in foreign]) + "\n")
+    res = _invoke("run", cfg12, "--out", run12.parent, "--resume")
+    assert res.exit_code == 2, res.output
+    assert "belongs to another run" in res.output
+    assert not (run12.parent / "mix.h5").exists()
+
+    # (b) this run's manifest lines, the other run's chunk files under their names
+    fake = [{**e, "run": own[0]["run"]} for e in foreign]
+    (run12 / "manifest.jsonl").write_text(
+        "\n".join([header] + [json.dumps(e) for e in fake]) + "\n")
+    res = _invoke("run", cfg12, "--out", run12.parent, "--resume")
+    assert res.exit_code == 2, res.output
+    assert "belongs to another run" in res.output
+    assert not (run12.parent / "mix.h5").exists()
+
+
+def test_resume_after_a_kill_still_completes(tmp_path):
+    cfg, run = _interrupted_run(tmp_path, 5, "k")
+    res = _invoke("run", cfg, "--out", run.parent, "--resume")
+    assert res.exit_code == 0, res.output
+    assert read_hdf5(run.parent / "mix.h5").run("mc").n_runs == 800
+    assert not run.exists()
+
+
+# ---------------------------------------------------------------------------- 2. names
+@pytest.mark.parametrize("name", ["/elsewhere/victim", "../../evil", "a/b", "..", ".",
+                                  "evil\x00name", "spaced name", ""])
+def test_a_name_that_is_not_a_plain_file_name_is_exit_2(tmp_path, name):
+    victim = tmp_path / "elsewhere"
+    (victim / "victim.run").mkdir(parents=True)
+    (victim / "victim.run" / "keep.txt").write_text("mine")
+    cfg = _config()
+    cfg["name"] = name.replace("/elsewhere", str(victim))
+    path = tmp_path / "c.yaml"
+    path.write_text(json.dumps(cfg))  # JSON is YAML, and keeps the NUL byte escaped
+    out = tmp_path / "sub" / "out"
+    res = _invoke("run", path, "--out", out)
+    assert res.exit_code == 2, res.output
+    assert res.output.startswith("error: ") and "name" in res.output, res.output
+    assert "Traceback" not in res.output
+    assert (victim / "victim.run" / "keep.txt").read_text() == "mine"
+    written = [p for p in tmp_path.rglob("*") if p.suffix in (".h5", ".csv", ".md")]
+    assert written == []
+
+
+def test_a_config_file_name_is_made_a_plain_name(tmp_path):
+    path = _write(tmp_path / "my run (v2).yaml", _config(n=100))
+    out = tmp_path / "out"
+    res = _invoke("run", path, "--out", out)
+    assert res.exit_code == 0, res.output
+    assert (out / "my_run__v2_.h5").is_file()
+
+
+def test_a_folder_at_the_run_path_that_is_not_a_run_folder_is_not_deleted(tmp_path):
+    cfg = _write(tmp_path / "c.yaml", _config(n=100))
+    out = tmp_path / "out"
+    (out / "c.run").mkdir(parents=True)
+    (out / "c.run" / "thesis.tex").write_text("years of work")
+    res = _invoke("run", cfg, "--out", out)
+    assert res.exit_code == 2, res.output
+    assert "not a uqguide run folder" in res.output
+    assert (out / "c.run" / "thesis.tex").read_text() == "years of work"
+
+
+# ---------------------------------------------------------------------------- 3. all-failed
+def test_a_chunk_in_which_every_sample_fails_is_counted():
+    """Chunks of 1 sample of a model failing for |a| > 1.96 (raises above, NaN below): every
+    failure is a chunk failing whole. Every failure is counted with its reason, the statistics are those of
+    the rest."""
+    from uqguide.config import validate_config
+    from uqguide.propagate import run
+
+    cfg = _config("tests.failing_models:flaky", n=600, chunk=1, seed=3)
+    cfg["model"]["outputs"] = ["y", {"name": "path", "kind": "series"}]
+    r = run(validate_config(cfg)).runs[0]
+    a = r.x[:, 0]
+    bad = np.abs(a) > 1.96
+    assert (a > 1.96).any() and (a < -1.96).any(), "the seed must give both failures"
+    np.testing.assert_array_equal(r.failed, bad)
+    assert r.estimate.diagnostics["n_failed"] == bad.sum()
+    assert set(r.reasons[a > 1.96]) == {"ValueError: a above 1.96"}
+    ok = ~bad
+    y = a[ok] + r.x[ok, 1] ** 2
+    np.testing.assert_allclose(r.estimate.stats["y"].mean, [y.mean()], rtol=1e-12)
+
+
+def test_every_chunk_failing_is_a_clean_exit_1(tmp_path):
+    cfg = _config("tests.failing_models:linear_raises_above", n=20, chunk=4)
+    cfg["inputs"][0] = {"name": "a", "dist": "uniform", "low": 2.0, "high": 3.0}
+    res = _invoke("run", _write(tmp_path / "c.yaml", cfg), "--out", tmp_path / "o")
+    assert res.exit_code == 1, res.output
+    assert "every one of the 20 runs failed" in res.output
+    assert "Traceback" not in res.output
+
+
+# ---------------------------------------------------------------------------- 7. the gate
+@pytest.fixture(scope="module")
+def gate_cases(tmp_path_factory):
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import fuzz_gate
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    return fuzz_gate.build_cases(tmp_path_factory.mktemp("gate"))
+
+
+GATE_SAMPLE = ["baseline: untouched", "baseline: methods empty", "baseline: mc outputs empty",
+               "baseline: points empty", "baseline: unknown component",
+               "baseline: series time null", "baseline: mean_se negative",
+               "baseline: mean_se huge", "baseline: mean_se loosened 10x",
+               "baseline: pce_rtol negative", "baseline: mean shifted 8 se",
+               "baseline file: deep nesting", "check --sigmas inf", "check --sigmas nan",
+               "check --pce-rtol nan", "result: config_yaml not yaml (check)",
+               "result: config_yaml alias bomb (check)", "result: stats wrong shape (check)",
+               "result: config_yaml not yaml (plot)", "result: config_yaml not yaml (report)",
+               "result truncated (check)"]
+
+
+@pytest.mark.parametrize("name", GATE_SAMPLE)
+def test_the_gate_cannot_be_fooled_or_crashed(gate_cases, name):
+    """A sample of benchmarks/fuzz_gate.py (run whole: 121 cases): an unusable input is exit
+    2 with one error line, a real regression exit 1, never a traceback or 'PASS: 0'."""
+    case = next(c for c in gate_cases if c.name == name)
+    res = CliRunner().invoke(main, case.args)
+    assert res.exception is None or isinstance(res.exception, SystemExit), res.exception
+    assert res.exit_code == case.expect, res.output
+    assert "PASS: 0 statistics" not in res.output
+    if case.expect == 2:
+        assert res.stderr.strip().splitlines()[-1].startswith(("error:", "Error:")), res.stderr
+
+
+# ---------------------------------------------------------------------------- 8. loading
+BOMB = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
+    f"{c}: &{c} [{', '.join(['*' + p] * 9)}]\n" for p, c in zip("abcdefgh", "bcdefghi"))
+
+
+@pytest.mark.parametrize("text, message", [
+    (BOMB, "anchor &a is not allowed"),
+    ("model: &m {name: lognormal}\nother: *m\n", "anchor &m is not allowed"),
+    ("model: {name: lognormal}\nmodel: {name: ishigami}\nmethods: []\n",
+     "duplicate key 'model' (first at line 1)"),
+    ("model: " + "[" * 100_000 + "]" * 100_000 + "\n", "nested deeper than 32 levels"),
+    ("model: {name: lognormal}\nname: a\x00b\n", "NUL"),
+    ("a: [*a]\n", "alias *a is not allowed"),
+])
+def test_yaml_that_would_explode_is_a_one_line_exit_2(tmp_path, text, message):
+    p = tmp_path / "bad.yaml"
+    p.write_text(text)
+    res = _invoke("validate", p)
+    assert res.exit_code == 2, res.output
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {p}: invalid YAML"), lines
+    assert message in lines[0]
+
+
+def test_a_config_file_over_1_mb_is_refused_before_parsing(tmp_path):
+    p = tmp_path / "big.yaml"
+    p.write_text("description: '" + "x" * 1_100_000 + "'\n")
+    res = _invoke("validate", p)
+    assert res.exit_code == 2 and "allowed at most 1000000" in res.output, res.output
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda c: c.__setitem__("correlations", [{"inputs": ["a", "b"],
+                                               "matrix": [[1, 0.5], [0.5]]}]),
+     "correlations[0].matrix: must be 2x2"),
+    (lambda c: c.__setitem__("description", "x\x00y"), "description: must not contain a NUL"),
+])
+def test_ragged_or_nul_values_are_exit_2(tmp_path, edit, field):
+    cfg = _config()
+    cfg["inputs"][1] = {"name": "b", "dist": "normal", "std": 1.0}
+    edit(cfg)
+    p = tmp_path / "c.yaml"
+    p.write_text(json.dumps(cfg))
+    res = _invoke("validate", p)
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip().startswith(f"error: {field}"), res.stderr
+
+
+# ---------------------------------------------------------------------------- 5. budgets
+def _ftcapn(n: int, **model) -> dict:
+    raw = yaml.safe_load((ROOT / "configs" / "ftcapn_table3.yaml").read_text())
+    raw.pop("reference", None)
+    raw["model"].update(model)
+    raw["methods"] = [{"name": "monte_carlo", "label": "mc", "n_samples": n}]
+    return raw
+
+
+def test_validate_prints_runs_and_memory_of_a_1e8_sample_run(tmp_path):
+    text = yaml.safe_dump(_ftcapn(12345)).replace("n_samples: 12345", "n_samples: 1e8")
+    (tmp_path / "big.yaml").write_text(text)  # 1e8 as written: a YAML 1.2 float
+    res = _invoke("validate", tmp_path / "big.yaml")
+    assert res.exit_code == 0, res.output
+    assert "mc: 100,000,000 model runs x 800 steps" in res.output
+    assert "estimated peak memory" in res.output
+
+
+def test_a_run_over_max_memory_exits_2_before_allocating(tmp_path):
+    cfg = {**_ftcapn(100_000_000), "max_memory": "2 GB"}
+    res = _invoke("run", _write(tmp_path / "big.yaml", cfg), "--out", tmp_path / "o")
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip().splitlines()[-1].startswith(
+        "error: max_memory: this run needs an estimated")
+    assert not (tmp_path / "o").exists()  # refused before any folder, lock or design
+
+
+@pytest.mark.parametrize("model, message", [
+    ({"dt": 1e-9}, "model.dt: 1e-09 gives 4e+11 steps per run (t_max / dt); allowed at most "
+                   "max_steps = 1e+07"),
+])
+def test_a_step_that_would_run_for_ever_is_refused(tmp_path, model, message):
+    res = _invoke("validate", _write(tmp_path / "c.yaml", _ftcapn(100, **model)))
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip() == f"error: {message} (raise max_steps to run it anyway)"
+
+
+def test_a_tensor_grid_too_large_to_build_is_refused_by_validate(tmp_path):
+    raw = _ftcapn(100)
+    raw["methods"] = [{"name": "pce_tensor", "m": 3}]  # 7 inputs: 3^7 = 2187 runs
+    assert _invoke("validate", _write(tmp_path / "ok.yaml", raw)).exit_code == 0
+    raw["methods"] = [{"name": "pce_tensor", "m": 6}]  # 6^7 runs: its 6^7 x 6^7 basis
+    res = _invoke("validate", _write(tmp_path / "mem.yaml", raw))
+    assert res.exit_code == 2 and "error: max_memory: " in res.output, res.output
+    raw["methods"] = [{"name": "pce_tensor", "m": 20}]
+    res = _invoke("validate", _write(tmp_path / "c.yaml", raw))
+    assert res.exit_code == 2
+    assert res.stderr.strip().startswith("error: methods[0].m: pce_tensor with m = 20 on 7 "
+                                         "inputs is 1.28e+09 runs; allowed at most 2000000")
+
+
+def test_the_design_is_made_per_chunk_and_identical_to_the_whole_one():
+    from uqguide.config import validate_config
+    from uqguide.methods.base import GeneratedRows
+    from uqguide.methods.monte_carlo import method_seed, unit_samples
+
+    cfg = validate_config({**_config(n=1000, chunk=128), "correlations": []})
+    m = cfg.methods[0]
+    d = m.design(cfg.space, cfg.seed)
+    assert isinstance(d.x, GeneratedRows)
+    whole = cfg.space.from_unit(unit_samples(2, 1000, "random", 128, method_seed(cfg.seed, "mc")))
+    np.testing.assert_array_equal(np.asarray(d.x), whole)
+    np.testing.assert_array_equal(d.x[300:700], whole[300:700])
+
+
+# ---------------------------------------------------------------------------- 9. interrupts
+def _stats(h5: Path) -> dict[str, np.ndarray]:
+    r = read_hdf5(h5).run("mc")
+    s = r.estimate.stats["y"]
+    return {"mean": s.mean, "std": s.std, "skewness": s.skewness, "kurtosis": s.kurtosis,
+            "x": r.x, "y": r.scalars["y"], "failed": r.failed}
+
+
+def test_sigint_or_sigterm_at_20_random_moments_is_exit_130_and_resumes_identically(tmp_path):
+    """Signals land in the start-up, the chunks, the checkpoint writes, the result files and
+    the clean-up. Every one ends in exit 130 without a traceback, leaves no temporary file, and
+    ``--resume`` gives the uninterrupted run's numbers."""
+    raw = _config("tests.failing_models:slow_sum", n=200, chunk=50)
+    raw["methods"][0]["bootstrap"] = 20
+    cfg = _write(tmp_path / "sig.yaml", raw)
+    ref = _invoke("run", cfg, "--out", tmp_path / "ref")
+    assert ref.exit_code == 0, ref.output
+    expected = _stats(tmp_path / "ref" / "sig.h5")
+
+    t0 = time.monotonic()
+    whole = subprocess.run([sys.executable, "-m", "uqguide.cli", "run", str(cfg), "--out",
+                            str(tmp_path / "timed")], cwd=ROOT, env=ENV, capture_output=True)
+    assert whole.returncode == 0, whole.stderr.decode()
+    span = time.monotonic() - t0
+    # From 0.5 s: before that the interpreter is still starting (Python's own Ctrl-C applies
+    # until uqguide's first line runs).
+    moments = np.random.default_rng(2026).uniform(0.5, max(0.6, 0.9 * span), 20)
+    signals = [signal.SIGTERM if i % 5 == 4 else signal.SIGINT for i in range(20)]
+    codes = []
+    finished = []
+    for wave in range(0, 20, 4):  # four runs at a time (each one's signal at its own moment)
+        procs = []
+        for i in range(wave, wave + 4):
+            procs.append((i, subprocess.Popen(
+                [sys.executable, "-m", "uqguide.cli", "run", str(cfg), "--out",
+                 str(tmp_path / f"o{i}")], cwd=ROOT, env=ENV, stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE), time.monotonic()))
+        for i, p, started in sorted(procs, key=lambda t: moments[t[0]]):
+            time.sleep(max(0.0, started + moments[i] - time.monotonic()))
+            p.send_signal(signals[i])
+        for i, p, _ in procs:
+            finished.append((i, p, *p.communicate(timeout=60)))
+    for i, p, stdout, stderr in finished:
+        at, sig, out = moments[i], signals[i], tmp_path / f"o{i}"
+        codes.append(p.returncode)
+        text = stderr.decode() + stdout.decode()
+        assert "Traceback" not in text and "Aborted" not in text, text
+        if p.returncode == 0:  # (a slow start-up can let a short run finish first)
+            continue
+        assert p.returncode == 130, (at, sig, text)
+        if out.exists():
+            assert not [f for f in out.rglob("*.tmp")], list(out.rglob("*"))
+        res = _invoke("run", cfg, "--out", out, "--resume")
+        assert res.exit_code == 0, res.output
+        got = _stats(out / "sig.h5")
+        for k in expected:
+            np.testing.assert_array_equal(got[k], expected[k], err_msg=f"{k} after {at:.2f} s")
+    assert codes.count(130) >= 15, codes  # nearly every moment falls inside the run
+
+
+def test_stale_temporary_files_of_dead_processes_are_removed(tmp_path):
+    cfg = _write(tmp_path / "c.yaml", _config(n=100))
+    out = tmp_path / "out"
+    (out / "c.run").mkdir(parents=True)
+    dead = int(subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                              capture_output=True, text=True).stdout)
+    stale = [out / f".c.h5.{dead}.tmp", out / f".c_stats.csv.{dead}.tmp"]
+    alive = out / f".c.h5.{os.getppid()}.tmp"  # a live writer's file is left alone
+    for p in [*stale, alive]:
+        p.write_bytes(b"half")
+    res = _invoke("run", cfg, "--out", out)
+    assert res.exit_code == 0, res.output
+    assert not any(p.exists() for p in stale) and alive.exists()
+
+
+# ---------------------------------------------------------------------------- 4. hangs, crashes
+def _one_sample_above(n: int, chunk: int, seed: int) -> tuple[float, int]:
+    """A threshold that exactly one sample's ``a`` exceeds, and that sample's row."""
+    from uqguide.config import validate_config
+
+    c = validate_config(_config(n=n, chunk=chunk, seed=seed))
+    a = np.asarray(c.methods[0].design(c.space, c.seed).x)[:, 0]
+    top = np.sort(a)[-2:]
+    return float(top.mean()), int(np.argmax(a))
+
+
+@pytest.mark.parametrize("kind, workers", [("hang", None), ("crash", 2)])
+def test_a_hanging_or_crashing_sample_costs_exactly_one_sample(tmp_path, monkeypatch, kind,
+                                                               workers):
+    n, chunk = 32, 8
+    threshold, row = _one_sample_above(n, chunk, 11)
+    monkeypatch.setenv(f"UQGUIDE_TEST_{kind.upper()}_ABOVE", str(threshold))
+    cfg = _config(f"tests.failing_models:{kind}_above", n=n, chunk=chunk, timeout_s=2,
+                  batch_size=chunk, max_failed_fraction=0.5)
+    args = ["run", _write(tmp_path / "c.yaml", cfg), "--out", tmp_path / "o"]
+    res = _invoke(*args, *(["--workers", str(workers)] if workers else []))
+    assert res.exit_code == 0, res.output
+    r = read_hdf5(tmp_path / "o" / "c.h5").run("mc")
+    assert r.n_failed == 1 and r.failed[row], r.reasons[r.failed]
+    reason = str(r.reasons[row])
+    assert ("timeout_s = 2 s" in reason) if kind == "hang" else ("crashed" in reason), reason
+    ok = ~r.failed
+    np.testing.assert_array_equal(r.scalars["y"][ok, 0], r.x[ok, 0] + r.x[ok, 1])
+
+
+def test_a_sample_that_kills_its_worker_fails_alone_without_a_timeout(tmp_path, monkeypatch):
+    n, chunk = 32, 16
+    threshold, row = _one_sample_above(n, chunk, 11)
+    monkeypatch.setenv("UQGUIDE_TEST_CRASH_ABOVE", str(threshold))
+    cfg = _config("tests.failing_models:crash_above", n=n, chunk=chunk, max_failed_fraction=0.5)
+    res = _invoke("run", _write(tmp_path / "c.yaml", cfg), "--out", tmp_path / "o",
+                  "--workers", "2")
+    assert res.exit_code == 0, res.output
+    r = read_hdf5(tmp_path / "o" / "c.h5").run("mc")
+    assert r.n_failed == 1 and r.failed[row]
+
+
+# ---------------------------------------------------------------------------- 6. orphans
+def test_workers_die_with_a_killed_driver(tmp_path):
+    """SIGKILL of the driver (the out-of-memory killer's way): its workers end too, and the
+    caller's pipes close (communicate() returns) instead of being held for ever."""
+    cfg = _write(tmp_path / "slow.yaml", _config("tests.failing_models:slow_sum", n=4000,
+                                                 chunk=100))
+    p = _start_slow_run(cfg, tmp_path / "o", None, "--workers", "2")
+    _wait_for_chunks(p, tmp_path / "o" / "slow.run" / "manifest.jsonl", 2)
+    children = subprocess.run(["pgrep", "-P", str(p.pid)], capture_output=True,
+                              text=True).stdout.split()
+    assert children, "the pool has workers"
+    p.kill()
+    p.communicate(timeout=30)  # hangs here if a worker still holds the pipes
+    deadline = time.monotonic() + 30
+    while any(Path(f"/proc/{c}").exists() and "Z" not in
+              Path(f"/proc/{c}/stat").read_text().split()[2] for c in children if
+              Path(f"/proc/{c}/stat").exists()):
+        assert time.monotonic() < deadline, "workers outlived their driver"
+        time.sleep(0.1)
+
+
+# ---------------------------------------------------------------------------- config fuzz
+def test_a_sample_of_the_config_fuzz_is_clean():
+    """20 of benchmarks/fuzz_configs.py's 518 mutations (run whole: every invalid one a clean
+    exit 2, 0 hangs, 0 tracebacks, 0 silent acceptances), each in a forked child killed
+    after 20 s."""
+    import random
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import fuzz_configs
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    ms = fuzz_configs.mutations()
+    assert len(ms) >= 500
+    rng = random.Random(15)
+    sample = [m for m in ms if m.name.startswith(("alias bomb 9^9", "nested brackets 100000",
+                                                  "file of 2 MB"))]
+    sample += rng.sample(ms, 20 - len(sample))
+    outcomes = fuzz_configs.run_all(sample)
+    bad = [(o.m.name, o.verdict, o.stderr[-200:]) for o in outcomes if o.verdict != "ok"]
+    assert not bad, bad

@@ -1,0 +1,119 @@
+"""Files that are complete or absent: every file uqguide writes goes through here.
+
+A file is written to a temporary name in its own folder (``.<name>.<pid>.tmp``), flushed and
+fsynced, then renamed over the final name: whatever kills the writer and when, a file with the
+final name is whole (the old one or the new one), never a 0-byte or torn table. A temporary
+file left by a killed writer is removed by the next write into that folder once its process
+is gone (:func:`clean_stale_temps`).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+log = logging.getLogger(__name__)
+
+_TEMP = re.compile(r"^\..+\.(\d+)\.tmp$")
+
+
+def temp_path(path: Path) -> Path:
+    """The temporary sibling of ``path`` owned by this process."""
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def _fsync_dir(folder: Path) -> None:
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:  # pragma: no cover - a platform without directory fds
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # pragma: no cover
+        pass
+    finally:
+        os.close(fd)
+
+
+@contextmanager
+def atomic_path(path: str | Path, fsync: bool = True, clean: bool = True) -> Iterator[Path]:
+    """Yield a temporary path to write; on success it is renamed to ``path``.
+
+    On any exception (Ctrl-C included) the temporary file is removed and ``path`` is left as
+    it was. Writers that open files by name (HDF5, matplotlib, pandas) write to the yielded
+    path. ``clean``: first remove stale temporary files of dead writers in the folder.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if clean:
+        clean_stale_temps(path.parent)
+    tmp = temp_path(path)
+    try:
+        yield tmp
+        if fsync:
+            with open(tmp, "rb+") as f:
+                os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    if fsync:
+        _fsync_dir(path.parent)
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return path
+
+
+def write_with(path: str | Path, writer: Callable[[Path], object]) -> Path:
+    """Call ``writer(tmp_path)`` and rename its file to ``path`` atomically."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        writer(tmp)
+    return path
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists on this host (permission denied counts as alive)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def clean_stale_temps(folder: str | Path) -> list[Path]:
+    """Remove ``.<name>.<pid>.tmp`` files in ``folder`` whose process is gone; return them.
+
+    Only this naming pattern is touched, and only when its PID is not a live process here.
+    """
+    removed = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for e in entries:
+        m = _TEMP.match(e.name)
+        if not m or int(m.group(1)) == os.getpid() or pid_alive(int(m.group(1))):
+            continue
+        try:
+            if e.is_file(follow_symlinks=False):
+                os.unlink(e.path)
+                removed.append(Path(e.path))
+        except OSError:
+            continue
+    if removed:
+        log.info("removed %d stale temporary file(s) in %s", len(removed), folder)
+    return removed

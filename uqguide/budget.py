@@ -1,0 +1,187 @@
+"""Time and memory budgets, checked before anything runs.
+
+``uqguide validate`` and ``uqguide run`` print, per method, the number of model runs, the
+steps of one run and an estimate of the peak memory of the driver; ``run`` refuses (ConfigError,
+exit 2) an estimate above the config's ``max_memory`` before allocating anything, and the config
+itself is refused when one run would take more than ``max_steps`` integration steps (a ``dt`` of
+1e-9 s would run for ever).
+
+The estimate is an upper bound of what the pipeline holds at once, in bytes:
+
+- **kept per run** (the whole run): per-sample scalar outputs (8 bytes a component), the failure
+  flag and reason (9 bytes), and the inputs (8 bytes an input) of methods that keep their
+  design (PCE; Monte Carlo designs are generated per chunk and never held whole); twice, for
+  the concatenation of the chunks at the end;
+- **per chunk** (transient): the chunk's inputs and time series (``rows x T x k x 8``), four
+  times (model output, joined parts, centred powers of the reduction), and the Poisson
+  bootstrap weights (``B x rows x 8``), per chunk in flight (two per worker, in the workers);
+- **series kept** by a method without a reducer (PCE): ``runs x T x k x 8``, twice;
+- **basis**: a PCE's design matrix ``runs x terms x 8``, three times (matrix, its
+  factorisation, the projection).
+
+``T`` is the model's output grid at its longest (:meth:`Model.step_count`); a model without
+one (the analytic benchmarks, a callable) is counted with its scalar outputs only. The figure
+is a bound for planning, not a measurement: ``benchmarks/scale.py`` measures.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from .errors import ConfigError
+
+if TYPE_CHECKING:
+    from .config import RunConfig
+
+#: Integration steps one run may take unless the config says otherwise.
+DEFAULT_MAX_STEPS = 10_000_000
+#: Share of the machine's physical memory a run may plan to use unless the config says otherwise.
+DEFAULT_MEMORY_SHARE = 0.5
+
+_UNITS = {"": 1, "b": 1, "k": 1e3, "kb": 1e3, "m": 1e6, "mb": 1e6, "g": 1e9, "gb": 1e9,
+          "t": 1e12, "tb": 1e12, "kib": 2**10, "mib": 2**20, "gib": 2**30, "tib": 2**40}
+
+
+def machine_memory() -> int:
+    """Physical memory of this machine in bytes (8 GiB when it cannot be read)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        return 8 * 2**30
+
+
+def default_max_memory() -> int:
+    return int(DEFAULT_MEMORY_SHARE * machine_memory())
+
+
+def parse_bytes(value: Any) -> int:
+    """``2e9``, ``"2 GB"``, ``"512MiB"`` -> bytes; ValueError naming what is allowed."""
+    if isinstance(value, bool):
+        raise ValueError(f"must be a size in bytes or a string like '4 GB' (got {value!r})")
+    if isinstance(value, (int, float)):
+        v = float(value)
+    elif isinstance(value, str):
+        m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([A-Za-z]*)\s*", value)
+        unit = m.group(2).lower() if m else None
+        if not m or unit not in _UNITS:
+            raise ValueError(f"must be a size like '4 GB', '512 MiB' or a number of bytes "
+                             f"(got {value!r})")
+        v = float(m.group(1)) * _UNITS[unit]
+    else:
+        raise ValueError(f"must be a size in bytes or a string like '4 GB' (got {value!r})")
+    if not (math.isfinite(v) and v >= 1e6):
+        raise ValueError(f"must be a finite size of at least 1 MB (got {value!r})")
+    return int(v)
+
+
+def human(n: float) -> str:
+    for unit, f in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= f:
+            return f"{n / f:.3g} {unit}"
+    return f"{n:.0f} B"
+
+
+@dataclass(frozen=True)
+class MethodBudget:
+    label: str
+    runs: int | None
+    steps_per_run: float | None
+    peak_bytes: float | None
+    parts: dict[str, float]
+
+
+@dataclass(frozen=True)
+class Budget:
+    methods: list[MethodBudget]
+    max_memory: int
+    workers: int
+
+    @property
+    def peak_bytes(self) -> float:
+        """Kept data adds up over methods (the result holds them all); transients do not."""
+        kept = sum(m.parts.get("kept", 0.0) + m.parts.get("series kept", 0.0)
+                   for m in self.methods)
+        transient = max((m.parts.get("per chunk", 0.0) + m.parts.get("basis", 0.0)
+                         for m in self.methods), default=0.0)
+        return kept + transient + BASE_BYTES
+
+    def lines(self) -> list[str]:
+        out = []
+        for m in self.methods:
+            runs = "runs unknown until the design is built" if m.runs is None \
+                else f"{m.runs:,} model runs"
+            steps = "" if m.steps_per_run is None else f" x {m.steps_per_run:,.0f} steps"
+            mem = "" if m.peak_bytes is None else f", ~{human(m.peak_bytes)} " + \
+                "(" + ", ".join(f"{k} {human(v)}" for k, v in m.parts.items() if v) + ")"
+            out.append(f"  {m.label}: {runs}{steps}{mem}")
+        out.append(f"  estimated peak memory {human(self.peak_bytes)} of max_memory "
+                   f"{human(self.max_memory)}")
+        return out
+
+
+#: The interpreter, numpy, scipy, chaospy and a compiled kernel, before any data.
+BASE_BYTES = 250e6
+
+
+def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) -> Budget:
+    """The budget of ``cfg`` (module docstring), without building any design."""
+    model = cfg.model
+    count = model.step_count()
+    grid = count.grid if count is not None else 0.0
+    infos = [model.output_info(o) for o in cfg.outputs]
+    k_scalar = sum(i.k for i in infos if i.kind == "scalar")
+    k_series = sum(i.k for i in infos if i.kind == "series")
+    d = cfg.space.dim
+    bs = batch_size or cfg.raw.batch_size
+    in_flight = 1 if workers <= 1 else 2 * workers
+    rows = []
+    for method in cfg.methods:
+        plan = method.plan(cfg.space)
+        if plan.runs is None:
+            rows.append(MethodBudget(method.label, None, count.steps if count else None, None,
+                                     {}))
+            continue
+        n = plan.runs
+        chunk = min(plan.chunk or bs, n)
+        boot = getattr(method.settings, "bootstrap", 0) or 0
+        per_chunk = chunk * (8.0 * d + 4 * 8.0 * grid * k_series + 8.0 * boot + 9.0)
+        parts = {
+            "kept": 2 * n * (8.0 * k_scalar + 9.0 + (0 if plan.reduced else 8.0 * d)),
+            "per chunk": per_chunk * (1 if workers <= 1 else in_flight / 2),
+            "series kept": 0.0 if plan.reduced else 2 * n * 8.0 * grid * k_series,
+            "basis": 3 * 8.0 * n * plan.terms,
+        }
+        rows.append(MethodBudget(method.label, n, count.steps if count else None,
+                                 sum(parts.values()), parts))
+    return Budget(rows, cfg.max_memory, workers)
+
+
+def check_memory(budget: Budget) -> None:
+    """ConfigError (exit 2) when the estimate exceeds ``max_memory``."""
+    if budget.peak_bytes > budget.max_memory:
+        worst = max((m for m in budget.methods if m.peak_bytes is not None),
+                    key=lambda m: m.peak_bytes or 0.0, default=None)
+        who = f" ({worst.label}: {worst.runs:,} runs)" if worst is not None else ""
+        raise ConfigError(
+            f"max_memory: this run needs an estimated {human(budget.peak_bytes)}{who}, more "
+            f"than max_memory = {human(budget.max_memory)}; lower n_samples / chunk_size / the "
+            f"grid, or raise max_memory if the machine has it", field="max_memory")
+
+
+def check_steps(cfg: RunConfig) -> None:
+    """ConfigError when one run of the model would take more than ``max_steps`` steps."""
+    count = cfg.model.step_count()
+    if count is None:
+        return
+    limit = cfg.raw.max_steps
+    for what, v in (("steps", count.steps), ("output grid points", count.grid)):
+        if not math.isfinite(v) or v > limit:
+            value = getattr(cfg.model.params, count.field, None)
+            raise ConfigError(
+                f"model.{count.field}: {value!r} gives {v:.3g} {what} per run "
+                f"({count.formula}); allowed at most max_steps = {limit:.3g} (raise max_steps "
+                f"to run it anyway)", field=f"model.{count.field}")

@@ -1,0 +1,83 @@
+"""Ctrl-C and SIGTERM: one way to stop, at any moment, with exit code 130.
+
+:func:`install` makes SIGINT and SIGTERM raise :class:`KeyboardInterrupt` in the main thread
+(SIGTERM as its subclass :class:`Terminated`), so a run stopped either way leaves the same
+resumable state and the command line exits 130 without a traceback. Inside :func:`deferred`
+(the writing of the result files) a signal is remembered instead and raised when the block
+ends: a file is then written whole, never abandoned half-way by an exception raised inside a
+C library (HDF5), which may swallow it.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from types import FrameType
+from typing import Any
+
+#: Exit code of a run stopped by SIGINT or SIGTERM (128 + SIGINT, as shells report Ctrl-C).
+EXIT_INTERRUPTED = 130
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, delivered like Ctrl-C."""
+
+
+_state = {"depth": 0, "pending": None}
+
+
+def _handler(signum: int, frame: FrameType | None) -> None:
+    if _state["depth"] > 0:
+        _state["pending"] = signum
+        return
+    _raise(signum)
+
+
+def _raise(signum: int) -> None:
+    if signum == signal.SIGTERM:
+        raise Terminated("terminated (SIGTERM)")
+    raise KeyboardInterrupt
+
+
+def install() -> dict[int, Any]:
+    """Route SIGINT and SIGTERM to :class:`KeyboardInterrupt` (main thread only; a signal the
+    process was started ignoring stays ignored). Returns the handlers replaced, for
+    :func:`restore`."""
+    previous: dict[int, Any] = {}
+    if threading.current_thread() is not threading.main_thread():
+        return previous
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        old = signal.getsignal(sig)
+        if old is not signal.SIG_IGN:
+            previous[sig] = old
+            signal.signal(sig, _handler)
+    return previous
+
+
+def restore(previous: dict[int, Any]) -> None:
+    """Put back the handlers :func:`install` replaced."""
+    if threading.current_thread() is threading.main_thread():
+        for sig, old in previous.items():
+            signal.signal(sig, old if old is not None else signal.SIG_DFL)
+
+
+def ignore_signals() -> None:
+    """Ignore SIGINT and SIGTERM from now on (the command has finished)."""
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+
+
+@contextmanager
+def deferred() -> Iterator[None]:
+    """Hold SIGINT / SIGTERM until the block ends, then raise it (KeyboardInterrupt)."""
+    _state["depth"] += 1
+    try:
+        yield
+    finally:
+        _state["depth"] -= 1
+        if _state["depth"] == 0 and _state["pending"] is not None:
+            signum, _state["pending"] = _state["pending"], None
+            _raise(signum)
