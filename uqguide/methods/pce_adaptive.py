@@ -89,8 +89,8 @@ class AdaptivePCESettings(MethodSettings):
         Lowest truncation degree tried (default 1).
     degree_max : int, optional
         Highest truncation degree tried (the paper: 6). Default: the largest whose candidate
-        set has at most three terms per run (:func:`uqguide.pce.sparse_regression.
-        candidate_cap`), up to 25.
+        set has at most five terms per run and 3000 in all (:func:`uqguide.pce.
+        sparse_regression.candidate_cap`), up to 40.
     q_norm : float in (0, 1], optional
         Hyperbolic truncation ``||alpha||_q <= p`` (the paper: 0.5; 1 is total degree).
         Default: chosen per output among 0.5, 0.75 and 1 by corrected LOO.
