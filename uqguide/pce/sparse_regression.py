@@ -164,12 +164,14 @@ def _fit_column(psi: np.ndarray, y: np.ndarray, sets: list[_Candidates], degree_
         while True:
             order = lars.order(steps)
             fits: dict[int, SparseFit] = {}
+            lengths: dict[int, int] = {}
 
             def score(p: int) -> None:
                 if p not in fits and degree_min <= p <= cs.top:
                     path = order[cs.norms[order] <= p * (1 + 1e-12)]
                     hint = max((f.terms.size for f in fits.values()), default=0)
                     fits[p] = corrected_loo_path(sub, y, path, patience=PATIENCE, hint=hint)
+                    lengths[p] = path.size
 
             for p in _degrees(degree_min, cs.top):
                 score(p)
@@ -178,11 +180,26 @@ def _fit_column(psi: np.ndarray, y: np.ndarray, sets: list[_Candidates], degree_
             i = min(range(len(coarse)), key=lambda k: fits[coarse[k]].loo)
             for p in range(coarse[max(i - 1, 0)] + 1, coarse[min(i + 1, len(coarse) - 1)]):
                 score(p)
-            used = min(fits.values(), key=lambda f: f.loo).terms.size
-            want = 3 * used // 2 + PATIENCE  # steps past the best set that are still scored
-            if steps >= limit or order.size < steps or want < steps:
+            # Go on while a degree's path (the LARS order restricted to its candidates, shorter
+            # than the order) ran out while still improving: its best set is near its end and
+            # its candidates are not all in.
+            def unfinished(p: int) -> bool:
+                count = int(np.count_nonzero(cs.norms <= p * (1 + 1e-12)))
+                return (lengths[p] < min(count - 1, n - 2)
+                        and 3 * fits[p].terms.size // 2 + PATIENCE > lengths[p])
+
+            if steps >= limit or order.size < steps or not any(map(unfinished, fits)):
                 break
-            steps = min(limit, max(steps + steps // 2, want + 1))
+            steps = min(limit, 2 * steps)
+        # A degree whose path is still cut short when LARS has used all its steps on the larger
+        # set (few runs, many candidates) gets a LARS of its own, on its own (smaller) set.
+        for p in [p for p in fits if unfinished(p)]:
+            own = np.flatnonzero(cs.norms <= p * (1 + 1e-12))
+            path = LarsPath(sub[:, own], y).order(min(own.size - 1, n - 2))
+            fit = corrected_loo_path(sub[:, own], y, path, patience=PATIENCE,
+                                     hint=fits[p].terms.size)
+            if fit.loo < fits[p].loo:
+                fits[p] = SparseFit(own[fit.terms], fit.coef, fit.loo)
         for p, fit in fits.items():
             size = int(np.count_nonzero(cs.norms <= p * (1 + 1e-12)))
             scored.append((fit.loo, size, SparseFit(cs.cols[fit.terms], fit.coef, fit.loo),
