@@ -29,6 +29,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from . import basis
 from .germ import Germ
@@ -228,6 +229,15 @@ def fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 
     q : float, optional
         q-norm of the hyperbolic truncation; None: the best of :data:`Q_GRID`.
     """
+    # One BLAS thread: the fit is matrix-vector work that threads do not speed up (on a
+    # loaded machine they slowed it tenfold), and a threaded reduction's order, hence its
+    # round-off, would depend on the thread count.
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _fit_columns(germ, xi, y, degree_min, degree_max, q)
+
+
+def _fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, degree_min: int,
+                 degree_max: int | None, q: float | None) -> ColumnsFit:
     d = germ.dim
     union, sets = _candidate_sets(d, xi.shape[0], degree_min, degree_max, q)
     psi = basis.evaluate(germ, union, xi)
