@@ -153,7 +153,8 @@ class AdaptivePCE(Method):
     """Degree-adaptive sparse PCE by least-angle regression, with sequential design."""
 
     name = "pce_adaptive"
-    summary = "adaptive sparse PCE: LARS + corrected LOO, degree adaptivity, sequential design"
+    summary = ("adaptive sparse PCE: LARS + corrected LOO over a (q-norm, degree) grid, "
+               "sequential design")
     Settings = AdaptivePCESettings
     settings: AdaptivePCESettings
     #: Outputs computed from other outputs' surrogates (:mod:`uqguide.pce.derived`), set by the

@@ -48,7 +48,12 @@ CANDIDATES_CAP = 3000
 MAX_CANDIDATES = 20_000
 #: Terms past twice the best set's size a corrected-LOO path goes on scoring.
 PATIENCE = 20
-_FIRST_STEPS = 64  # LARS steps of the first pass
+_FIRST_STEPS = 64  # LARS steps scored first
+#: LARS steps every q-norm gets before only the close rivals of the best go on.
+FIRST_PASS = 256
+#: A degree whose path was cut short gets its own LARS when its error is within this factor
+#: of the best degree's.
+RIVAL = 10.0
 #: Degrees per q-norm scored directly; more are searched on a coarse grid, then refined.
 FULL_DEGREES = 5
 
@@ -148,63 +153,123 @@ def _degrees(lo: int, hi: int) -> list[int]:
     return sorted({int(round(v)) for v in np.linspace(lo, hi, FULL_DEGREES)})
 
 
+class _QSearch:
+    """The degree search of one q-norm for one column: a LARS path on the q-norm's largest set,
+    scored at every degree of the grid by restricting it to the degree's candidates."""
+
+    def __init__(self, psi: np.ndarray, y: np.ndarray, cs: _Candidates, degree_min: int):
+        self.y, self.cs, self.degree_min = y, cs, degree_min
+        self.n = y.size
+        self.sub = psi[:, cs.cols]
+        self.limit = min(cs.cols.size - 1, self.n - 2)
+        self.lars = LarsPath(self.sub, y)
+        self.steps = 0
+        self.fits: dict[int, SparseFit] = {}
+        self.lengths: dict[int, int] = {}
+
+    def count(self, p: int) -> int:
+        return int(np.count_nonzero(self.cs.norms <= p * (1 + 1e-12)))
+
+    @property
+    def best(self) -> float:
+        return min(f.loo for f in self.fits.values())
+
+    def unfinished(self, p: int) -> bool:
+        """Whether degree ``p``'s path (the LARS order restricted to its candidates, shorter
+        than the order) ran out while still improving: its best set near its end, candidates
+        left."""
+        return (self.lengths[p] < min(self.count(p) - 1, self.n - 2)
+                and 3 * self.fits[p].terms.size // 2 + PATIENCE > self.lengths[p])
+
+    def run(self, max_steps: int) -> None:
+        """Advance LARS (doubling its steps, up to ``max_steps``) while the best degree's path
+        is unfinished, and score the grid at each length."""
+        steps = min(self.limit, max(self.steps, _FIRST_STEPS))
+        while True:
+            self._score(steps)
+            p_best = min(self.fits, key=lambda p: self.fits[p].loo)
+            if (steps >= min(self.limit, max_steps) or self.lars.done
+                    or not self.unfinished(p_best)):
+                return
+            want = 3 * self.fits[p_best].terms.size // 2 + PATIENCE + 1
+            steps = min(self.limit, max_steps, max(steps + steps // 2, want))
+
+    def _score(self, steps: int) -> None:
+        """Score the degree grid on the first ``steps`` of the LARS order; once the grid has
+        been scored, longer orders rescore only the best degree and its neighbours."""
+        if steps == self.steps:
+            return
+        self.steps = steps
+        order = self.lars.order(steps)
+        cs = self.cs
+        if self.fits:
+            p_best = min(self.fits, key=lambda p: self.fits[p].loo)
+            for p in (p_best - 1, p_best, p_best + 1):
+                if p in self.fits:
+                    path = order[cs.norms[order] <= p * (1 + 1e-12)]
+                    self.fits[p] = corrected_loo_path(self.sub, self.y, path,
+                                                      patience=PATIENCE,
+                                                      hint=self.fits[p].terms.size)
+                    self.lengths[p] = path.size
+            return
+        fits, lengths = {}, {}
+
+        def score(p: int) -> None:
+            if p not in fits and self.degree_min <= p <= cs.top:
+                path = order[cs.norms[order] <= p * (1 + 1e-12)]
+                hint = max((f.terms.size for f in fits.values()), default=0)
+                fits[p] = corrected_loo_path(self.sub, self.y, path, patience=PATIENCE,
+                                             hint=hint)
+                lengths[p] = path.size
+
+        for p in _degrees(self.degree_min, cs.top):
+            score(p)
+        # Refine between the coarse grid's neighbours of its best degree.
+        coarse = sorted(fits)
+        i = min(range(len(coarse)), key=lambda k: fits[coarse[k]].loo)
+        for p in range(coarse[max(i - 1, 0)] + 1, coarse[min(i + 1, len(coarse) - 1)]):
+            score(p)
+        self.fits, self.lengths = fits, lengths
+
+    def own_lars(self, least: float) -> None:
+        """A degree cut short whose error is within RIVAL of ``least`` gets a LARS of its own,
+        on its own (smaller) set: with few runs and many candidates, LARS on the largest set
+        spends its steps before a low degree's terms are all in."""
+        for p in [p for p in self.fits if self.unfinished(p) and self.fits[p].loo
+                  <= RIVAL * least]:
+            own = np.flatnonzero(self.cs.norms <= p * (1 + 1e-12))
+            sub = self.sub[:, own]
+            path = LarsPath(sub, self.y).order(min(own.size - 1, self.n - 2))
+            fit = corrected_loo_path(sub, self.y, path, patience=PATIENCE,
+                                     hint=self.fits[p].terms.size)
+            if fit.loo < self.fits[p].loo:
+                self.fits[p] = SparseFit(own[fit.terms], fit.coef, fit.loo)
+
+
 def _fit_column(psi: np.ndarray, y: np.ndarray, sets: list[_Candidates], degree_min: int
                 ) -> tuple[SparseFit, float, int]:
     """Best (q, degree) sparse fit of one column, by corrected LOO; its fit, q and degree.
 
-    Within 1% of the least error, the smallest candidate set wins (an exact fit ties at every
-    larger degree).
+    Every q-norm's LARS first runs :data:`FIRST_PASS` steps (or fewer, where its best degree's
+    path is done); only the q-norms within a factor :data:`RIVAL` of the best error then go on
+    to the runs' limit. Within 1% of the least error, the smallest candidate set wins (an exact
+    fit ties at every larger degree).
     """
-    n = y.size
+    searches = [_QSearch(psi, y, cs, degree_min) for cs in sets]
+    for qs in searches:
+        qs.run(FIRST_PASS)
+    least = min(qs.best for qs in searches)
+    for qs in searches:
+        if qs.best <= RIVAL * least:
+            qs.run(y.size)
+    least = min(qs.best for qs in searches)
+    for qs in searches:
+        qs.own_lars(least)
     scored: list[tuple[float, int, SparseFit, float, int]] = []
-    for cs in sets:
-        sub = psi[:, cs.cols]
-        limit = min(cs.cols.size - 1, n - 2)
-        steps = min(limit, _FIRST_STEPS)
-        lars = LarsPath(sub, y)
-        while True:
-            order = lars.order(steps)
-            fits: dict[int, SparseFit] = {}
-            lengths: dict[int, int] = {}
-
-            def score(p: int) -> None:
-                if p not in fits and degree_min <= p <= cs.top:
-                    path = order[cs.norms[order] <= p * (1 + 1e-12)]
-                    hint = max((f.terms.size for f in fits.values()), default=0)
-                    fits[p] = corrected_loo_path(sub, y, path, patience=PATIENCE, hint=hint)
-                    lengths[p] = path.size
-
-            for p in _degrees(degree_min, cs.top):
-                score(p)
-            # Refine between the coarse grid's neighbours of its best degree.
-            coarse = sorted(fits)
-            i = min(range(len(coarse)), key=lambda k: fits[coarse[k]].loo)
-            for p in range(coarse[max(i - 1, 0)] + 1, coarse[min(i + 1, len(coarse) - 1)]):
-                score(p)
-            # Go on while a degree's path (the LARS order restricted to its candidates, shorter
-            # than the order) ran out while still improving: its best set is near its end and
-            # its candidates are not all in.
-            def unfinished(p: int) -> bool:
-                count = int(np.count_nonzero(cs.norms <= p * (1 + 1e-12)))
-                return (lengths[p] < min(count - 1, n - 2)
-                        and 3 * fits[p].terms.size // 2 + PATIENCE > lengths[p])
-
-            if steps >= limit or order.size < steps or not any(map(unfinished, fits)):
-                break
-            steps = min(limit, 2 * steps)
-        # A degree whose path is still cut short when LARS has used all its steps on the larger
-        # set (few runs, many candidates) gets a LARS of its own, on its own (smaller) set.
-        for p in [p for p in fits if unfinished(p)]:
-            own = np.flatnonzero(cs.norms <= p * (1 + 1e-12))
-            path = LarsPath(sub[:, own], y).order(min(own.size - 1, n - 2))
-            fit = corrected_loo_path(sub[:, own], y, path, patience=PATIENCE,
-                                     hint=fits[p].terms.size)
-            if fit.loo < fits[p].loo:
-                fits[p] = SparseFit(own[fit.terms], fit.coef, fit.loo)
-        for p, fit in fits.items():
-            size = int(np.count_nonzero(cs.norms <= p * (1 + 1e-12)))
-            scored.append((fit.loo, size, SparseFit(cs.cols[fit.terms], fit.coef, fit.loo),
-                           cs.q, p))
+    for qs in searches:
+        for p, fit in qs.fits.items():
+            scored.append((fit.loo, qs.count(p),
+                           SparseFit(qs.cs.cols[fit.terms], fit.coef, fit.loo), qs.cs.q, p))
     least = min(s[0] for s in scored)
     near = [s for s in scored if s[0] <= least * 1.01 or s[0] == least]
     _, _, fit, q, p = min(near, key=lambda s: (s[1], s[0]))
