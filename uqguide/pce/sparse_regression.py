@@ -54,6 +54,8 @@ FIRST_PASS = 256
 #: A degree whose path was cut short gets its own LARS when its error is within this factor
 #: of the best degree's.
 RIVAL = 10.0
+#: Work (multiply-adds) of a degree's own LARS that is always affordable.
+OWN_LARS_WORK = 1e8
 #: Degrees per q-norm scored directly; more are searched on a coarse grid, then refined.
 FULL_DEGREES = 5
 
@@ -190,9 +192,21 @@ class _QSearch:
             p_best = min(self.fits, key=lambda p: self.fits[p].loo)
             if (steps >= min(self.limit, max_steps) or self.lars.done
                     or not self.unfinished(p_best)):
-                return
+                break
             want = 3 * self.fits[p_best].terms.size // 2 + PATIENCE + 1
             steps = min(self.limit, max_steps, max(steps + steps // 2, want))
+        # Every degree still cut short is scored once more on the final order (the longer
+        # orders above rescored only the best degree and its neighbours).
+        order = self.lars.order(self.steps)
+        for p in [p for p in self.fits if self.unfinished(p)]:
+            self._rescore(p, order)
+
+    def _rescore(self, p: int, order: np.ndarray) -> None:
+        path = order[self.cs.norms[order] <= p * (1 + 1e-12)]
+        if path.size > self.lengths[p]:
+            self.fits[p] = corrected_loo_path(self.sub, self.y, path, patience=PATIENCE,
+                                              hint=self.fits[p].terms.size)
+            self.lengths[p] = path.size
 
     def _score(self, steps: int) -> None:
         """Score the degree grid on the first ``steps`` of the LARS order; once the grid has
@@ -206,11 +220,7 @@ class _QSearch:
             p_best = min(self.fits, key=lambda p: self.fits[p].loo)
             for p in (p_best - 1, p_best, p_best + 1):
                 if p in self.fits:
-                    path = order[cs.norms[order] <= p * (1 + 1e-12)]
-                    self.fits[p] = corrected_loo_path(self.sub, self.y, path,
-                                                      patience=PATIENCE,
-                                                      hint=self.fits[p].terms.size)
-                    self.lengths[p] = path.size
+                    self._rescore(p, order)
             return
         fits, lengths = {}, {}
 
@@ -233,10 +243,16 @@ class _QSearch:
 
     def own_lars(self, least: float) -> None:
         """A degree cut short whose error is within RIVAL of ``least`` gets a LARS of its own,
-        on its own (smaller) set: with few runs and many candidates, LARS on the largest set
-        spends its steps before a low degree's terms are all in."""
-        for p in [p for p in self.fits if self.unfinished(p) and self.fits[p].loo
-                  <= RIVAL * least]:
+        on its own set, where that is affordable: with few runs and many candidates, LARS on
+        the largest set spends its steps before a low degree's terms are all in."""
+        def affordable(p: int) -> bool:
+            # Half the largest set at most (near the top the shared path serves as well), or
+            # a LARS of ~1e8 multiply-adds (N P min(N, P): all of them at 200 runs).
+            c = self.count(p)
+            return 2 * c <= self.cs.cols.size or self.n * c * min(c, self.n) <= OWN_LARS_WORK
+
+        for p in [p for p in self.fits if self.unfinished(p) and affordable(p)
+                  and self.fits[p].loo <= RIVAL * least]:
             own = np.flatnonzero(self.cs.norms <= p * (1 + 1e-12))
             sub = self.sub[:, own]
             path = LarsPath(sub, self.y).order(min(own.size - 1, self.n - 2))
