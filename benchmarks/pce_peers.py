@@ -31,8 +31,8 @@ Their mean, std, skewness and kurtosis are computed from their coefficients with
 moment rules (:mod:`uqguide.pce.moments`): the table compares the fits, not moment estimators.
 Errors are relative (absolute for a zero reference); each cell is the median over the seeds; "fit
 s" is the median CPU time of the fit (``time.process_time``, BLAS and OpenTURNS limited to one
-thread; model runs excluded, moments included for uqguide). OpenTURNS is optional (``pip install uqguide[peers]``); without it its
-rows are skipped.
+thread; model runs excluded, moments included for uqguide). OpenTURNS is optional
+(``pip install uqguide[peers]``); without it its rows are skipped.
 
     python benchmarks/pce_peers.py [--cases ishigami ...] [--budgets 100 200 500 1000]
                                    [--seeds 1 2 3] [--methods uqguide ot-big ot-loop chaospy-pc]
@@ -265,7 +265,8 @@ def run_openturns(case: Case, seed: int, budget: int, loop: bool
                 break
         (alpha, coef, loo), p = best
     cpu = time.process_time() - t
-    return _germ_moments(germ, alpha, coef), cpu, f"q 0.5 p {p} terms {alpha.shape[0]} LOO {loo:.0e}"
+    info = f"q 0.5 p {p} terms {alpha.shape[0]} LOO {loo:.0e}"
+    return _germ_moments(germ, alpha, coef), cpu, info
 
 
 def run_chaospy(case: Case, seed: int, budget: int) -> tuple[dict[str, float], float, str]:

@@ -26,12 +26,12 @@ Pipeline:
    says which).
 
 Design size. ``n_samples`` defaults to ``max(10 d, 2 P_min)`` (``P_min`` the size of the
-candidate basis at ``degree_min`` and the smallest q-norm tried), capped by ``max_runs``: ten runs per input is the usual
-minimum for a regression PCE to see every input's main effect, and twice the smallest basis
-lets its OLS refit be scored. ``max_runs`` defaults to ``n_samples`` (no enrichment): a config
-that gives ``n_samples: 200`` makes 200 runs; give ``max_runs`` to let the method add points.
-For the paper's Table 4 case (9 inputs), ``max_runs: 300`` starts with 90 runs and grows
-90 -> 135 -> 203 -> 300 while the LOO error stays above the target.
+candidate basis at ``degree_min`` and the smallest q-norm tried), capped by ``max_runs``: ten
+runs per input is the usual minimum for a regression PCE to see every input's main effect, and
+twice the smallest basis lets its OLS refit be scored. ``max_runs`` defaults to ``n_samples``
+(no enrichment): a config that gives ``n_samples: 200`` makes 200 runs; give ``max_runs`` to let
+the method add points. For the paper's Table 4 case (9 inputs), ``max_runs: 300`` starts with 90
+runs and grows 90 -> 135 -> 203 -> 300 while the LOO error stays above the target.
 
 LOO error of an output (diagnostics): the largest component's error for a scalar output; for a
 series, the error relative to the output's total (correlation-scaled) variance, i.e. the

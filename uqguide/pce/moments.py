@@ -16,12 +16,12 @@
       cheap for sparse expansions in many inputs (300 terms in 8 inputs), usable up to
       :data:`uqguide.pce.linearisation.MAX_PRODUCT_TERMS` product terms;
 
-  * ``"surrogate-sampling"``: where neither is usable, the surrogate is sampled with ``n_draws`` fixed-seed
-    germ draws (default 10^6; cheap, the surrogate is a polynomial), and skewness / kurtosis
-    are the population estimators of those draws. Random draws (default) err like a sample of
-    that size (``sqrt(6 / n)`` for a near-Gaussian skewness: 2.4e-3 at 10^6); scrambled
-    Sobol' draws (``sampling="sobol"``, ``n`` rounded up to a power of two) err about as
-    ``1 / n`` on a polynomial.
+  * ``"surrogate-sampling"``: where neither is usable, the surrogate is sampled with ``n_draws``
+    fixed-seed germ draws (default 10^6; cheap, the surrogate is a polynomial), and skewness /
+    kurtosis are the population estimators of those draws. Random draws (default) err like a
+    sample of that size (``sqrt(6 / n)`` for a near-Gaussian skewness: 2.4e-3 at 10^6);
+    scrambled Sobol' draws (``sampling="sobol"``, ``n`` rounded up to a power of two) err about
+    as ``1 / n`` on a polynomial.
 
 - Sobol' indices from the coefficients: first order of input i: the variance of the terms in
   ``xi_i`` alone; total: of all terms involving ``xi_i`` (Sudret 2008).

@@ -6,8 +6,8 @@ candidate sets ``||alpha||_q <= p``:
 
 - **q-norms**: 0.5, 0.75 and 1 (total degree), or the one the configuration fixes;
 - **degrees**: every ``p`` from ``degree_min`` up to the largest degree whose candidate set has
-  at most :func:`candidate_cap` terms (the degree the runs support, up to 40), or ``degree_max`` when the
-  configuration fixes it.
+  at most :func:`candidate_cap` terms (the degree the runs support, up to 40), or
+  ``degree_max`` when the configuration fixes it.
 
 The candidate set is large on purpose: Blatman & Sudret's degree loop stops at the first rise
 of the error, and stalls on plateaus of the q = 0.5 sets before interactions such as
