@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -10,7 +11,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from uqguide.inputs import InputSpace, Uniform
-from uqguide.pce import basis, moments
+from uqguide.pce import basis, linearisation, moments
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import Germ
 from uqguide.pce.outputs import joint_scalar_moments
@@ -83,11 +84,102 @@ def test_zero_variance_gives_nan_silently():
             assert np.isfinite(s.skewness[1]).all() and (s.std[0] == 0).all()
 
 
-def test_exact_rule_size_and_fallback_to_sampling():
+def test_exact_rule_size_and_fallback_to_sampling(monkeypatch):
     exp = _expansion(normal_space(7), basis.hyperbolic_indices(7, 1, 1.0), np.ones(8))
     assert moments.exact_grid_size(exp) == 3**7
+    assert moments.exact_rule(exp) == "linearisation"  # 36 pairs beat 2187 nodes
+    assert moments.output_statistics(exp, n_runs=1, max_exact_points=100).moments_method \
+        == "exact"
+    monkeypatch.setattr(linearisation, "MAX_PRODUCT_TERMS", 10)
     s = moments.output_statistics(exp, n_runs=1, max_exact_points=100, n_draws=5000)
     assert s.moments_method == "surrogate-sampling"
+
+
+def _rule_moments(exp, rule):
+    if rule == "linearisation":
+        return linearisation.central_moments_linearised(exp)
+    return moments.central_moments_exact(exp)
+
+
+def _shape(mu2, mu3, mu4):
+    return mu3 / mu2**1.5, mu4 / mu2**2
+
+
+@pytest.mark.parametrize("rule", ["grid", "linearisation"])
+def test_linear_gaussian_moments_are_exact(rule):
+    """The linear-Gaussian benchmark y = x1 + 2 x2 - 0.5 x3, x ~ N(1, 2^2): Gaussian, so
+    skewness 0 and kurtosis 3; its PCE is exact at degree 1 (coefficients 2 x the weights)."""
+    exp = _expansion(normal_space(3), basis.hyperbolic_indices(3, 1, 1.0),
+                     [1.0 + 2.0 - 0.5, 2.0, 4.0, -1.0])
+    mu2, mu3, mu4 = _rule_moments(exp, rule)
+    skew, kurt = _shape(mu2, mu3, mu4)
+    np.testing.assert_allclose([mu2[0], skew[0], kurt[0]], [4 * 5.25, 0.0, 3.0],
+                               rtol=1e-13, atol=1e-13)
+
+
+def _lognormal_expansion(s, degree):
+    """PCE of exp(s . xi), xi ~ N(0, I): c_alpha = exp(|s|^2 / 2) prod s_j^a_j / sqrt(a_j!)."""
+    d = len(s)
+    alpha = basis.hyperbolic_indices(d, degree, 1.0)
+    fact = np.array([math.factorial(k) for k in range(degree + 1)], float)
+    coef = np.exp(np.sum(np.square(s)) / 2) * np.prod(
+        np.asarray(s) ** alpha / np.sqrt(fact[alpha]), axis=1)
+    return _expansion(normal_space(d), alpha, coef)
+
+
+def _lognormal_shape(s):
+    w = math.exp(float(np.sum(np.square(s))))
+    return (w + 2) * math.sqrt(w - 1), w**4 + 2 * w**3 + 3 * w**2 - 3
+
+
+@pytest.mark.parametrize("rule,s,degree", [
+    ("grid", [0.3, 0.2, 0.1], 14),  # the lognormal benchmark; truncation below 1e-15
+    ("linearisation", [0.3, 0.2, 0.1], 12),  # truncation error 1e-13 on the kurtosis
+    ("linearisation", [0.5], 30),
+])
+def test_lognormal_skewness_kurtosis_match_closed_form(rule, s, degree):
+    exp = _lognormal_expansion(s, degree)
+    skew, kurt = _shape(*_rule_moments(exp, rule))
+    np.testing.assert_allclose([skew[0], kurt[0]], _lognormal_shape(s), rtol=1e-12)
+
+
+@pytest.mark.parametrize("rule", ["grid", "linearisation"])
+def test_products_of_legendre_terms_match_closed_form(rule):
+    """phi_1(x1) phi_2(x2) and phi_2(x1) phi_2(x2), x uniform: with E[phi_1^4] = 9/5,
+    E[phi_2^3] = 2 sqrt(5) / 7, E[phi_2^4] = 15/7 (from E[x^2k] = 1/(2k+1) on U(-1, 1)), the
+    skewness / kurtosis are 0 / 27/7 and 20/49 / 225/49; and their sum (two terms sharing
+    inputs) against a fine tensor Gauss-Legendre rule of the same polynomial."""
+    space = InputSpace([Uniform(name=f"x{i}", dist="uniform", low=-1, high=3) for i in (1, 2)])
+    alpha = [[0, 0], [1, 2], [2, 2]]
+    for coef, want in (([0.5, 1.0, 0.0], [0.0, 27 / 7]), ([0.5, 0.0, 1.0], [20 / 49, 225 / 49])):
+        mu2, mu3, mu4 = _rule_moments(_expansion(space, alpha, coef), rule)
+        np.testing.assert_allclose(mu2, 1.0, rtol=1e-13)
+        np.testing.assert_allclose(np.ravel(_shape(mu2, mu3, mu4)), want, rtol=1e-13,
+                                   atol=1e-14)
+    exp = _expansion(space, alpha, [0.5, 0.7, -1.3])
+    nodes, w = np.polynomial.legendre.leggauss(20)
+    xi = np.stack(np.meshgrid(nodes, nodes, indexing="ij"), axis=-1).reshape(-1, 2)
+    z = exp.evaluate(xi)[:, 0] - 0.5
+    ww = np.outer(w, w).ravel() / 4
+    want = [ww @ z**2, ww @ z**3, ww @ z**4]
+    np.testing.assert_allclose(np.ravel(_rule_moments(exp, rule)), want, rtol=1e-12)
+
+
+def test_linearisation_and_grid_agree_on_random_sparse_expansions():
+    """Both exact rules, on sparse expansions in several germ families at once (normal,
+    uniform and truncated normal)."""
+    from uqguide.inputs import TruncNormal
+    space = InputSpace([Uniform(name="u", dist="uniform", low=0, high=1),
+                        normal_space(1).marginals[0],
+                        TruncNormal(name="t", dist="truncnormal", mean=0.0, std=1.0, low=-1.0,
+                                    high=2.0)])
+    rng = np.random.default_rng(3)
+    alpha = basis.hyperbolic_indices(3, 5, 0.75)
+    keep = np.concatenate([[0], 1 + np.flatnonzero(rng.random(alpha.shape[0] - 1) < 0.5)])
+    coef = rng.normal(size=(keep.size, 3))
+    exp = _expansion(space, alpha[keep], coef, (3,))
+    np.testing.assert_allclose(np.ravel(linearisation.central_moments_linearised(exp)),
+                               np.ravel(moments.central_moments_exact(exp)), rtol=1e-11)
 
 
 @settings(max_examples=8, deadline=None, derandomize=True)

@@ -4,16 +4,24 @@
   c_alpha^T`` over the output's k components (eq 22). Both exact, from the coefficients.
 - third and fourth central moments (skewness, kurtosis: eq 17, non-excess):
 
-  * ``"exact"``: a Gauss rule of ``2 p_j + 1`` nodes in every germ variable ``j`` the expansion
-    uses (``p_j`` its largest degree there) integrates ``(y - mean)^4``, of degree ``4 p_j``,
-    exactly; chosen when that tensor grid has at most ``max_exact_points`` nodes (default
-    250,000; 7 inputs of degree 1 need 3^7 = 2187 nodes, 3 inputs of degree 6 need 13^3);
-  * ``"surrogate-sampling"``: otherwise the surrogate is sampled with ``n_draws`` fixed-seed
-    germ draws (default 10^6; cheap, the surrogate is a polynomial), and skewness / kurtosis
-    are the population estimators of those draws. Random draws (default) err like a sample of
-    that size (``sqrt(6 / n)`` for a near-Gaussian skewness: 2.4e-3 at 10^6); scrambled
-    Sobol' draws (``sampling="sobol"``, ``n`` rounded up to a power of two) err about as
-    ``1 / n`` on a polynomial.
+  * ``"exact"``, by whichever of two exact rules is cheaper for the expansion at hand:
+
+    - a tensor Gauss rule of ``2 p_j + 1`` nodes in every germ variable ``j`` the expansion
+      uses (``p_j`` its largest degree there) integrates ``(y - mean)^4``, of degree ``4 p_j``,
+      exactly; usable when that grid has at most ``max_exact_points`` nodes (default 250,000;
+      7 inputs of degree 1 need 3^7 = 2187 nodes, 3 inputs of degree 12 need 25^3): cheap for
+      few inputs of high degree;
+    - the linearisation of products of the orthonormal basis
+      (:mod:`uqguide.pce.linearisation`), whose cost follows the pairs of retained terms:
+      cheap for sparse expansions in many inputs (300 terms in 8 inputs), usable up to
+      :data:`uqguide.pce.linearisation.MAX_PRODUCT_TERMS` product terms;
+
+  * ``"surrogate-sampling"``: where neither is usable, the surrogate is sampled with ``n_draws``
+    fixed-seed germ draws (default 10^6; cheap, the surrogate is a polynomial), and skewness /
+    kurtosis are the population estimators of those draws. Random draws (default) err like a
+    sample of that size (``sqrt(6 / n)`` for a near-Gaussian skewness: 2.4e-3 at 10^6);
+    scrambled Sobol' draws (``sampling="sobol"``, ``n`` rounded up to a power of two) err about
+    as ``1 / n`` on a polynomial.
 
 - Sobol' indices from the coefficients: first order of input i: the variance of the terms in
   ``xi_i`` alone; total: of all terms involving ``xi_i`` (Sudret 2008).
@@ -27,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..stats import OutputStats, _shape_moments
-from . import basis
+from . import basis, linearisation
 from .design import surrogate_draws
 from .expansion import Expansion
 from .quadrature import gauss_rule
@@ -64,6 +72,25 @@ def exact_grid_size(exp: Expansion) -> int:
     """Nodes of the tensor Gauss grid that integrates the fourth power of ``exp`` exactly."""
     degrees = exp.trimmed().alpha.max(axis=0)
     return int(np.prod(2 * degrees + 1, dtype=float))
+
+
+def exact_rule(exp: Expansion, max_exact_points: int = 250_000) -> str | None:
+    """The cheaper usable exact rule for ``exp`` (``"grid"`` or ``"linearisation"``), or None.
+
+    Costs are counted in multiply-adds: the grid evaluates the basis and the surrogate at every
+    node; the linearisation builds its product terms and multiplies them by every column.
+    """
+    trimmed = exp.trimmed()
+    nodes = exact_grid_size(trimmed)
+    terms = linearisation.product_terms(trimmed)
+    r = trimmed.core.shape[1]
+    m = trimmed.n_columns
+    costs = {}
+    if nodes <= max_exact_points:
+        costs["grid"] = nodes * (trimmed.alpha.shape[0] * (1 + r) + (r + 4) * m)
+    if terms <= linearisation.MAX_PRODUCT_TERMS:
+        costs["linearisation"] = terms * (40 + m)
+    return min(costs, key=costs.get) if costs else None
 
 
 def central_moments_exact(exp: Expansion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -150,10 +177,14 @@ def output_statistics(
     """
     mean, cov = mean_and_cov(exp)
     var = (exp.coef[1:] ** 2).sum(axis=0)
+    rule = exact_rule(exp, max_exact_points) if moments in ("auto", EXACT) else None
     if moments == "auto":
-        moments = EXACT if exact_grid_size(exp) <= max_exact_points else SAMPLED
+        moments = SAMPLED if rule is None else EXACT
     if moments == EXACT:
-        mu2, mu3, mu4 = central_moments_exact(exp)
+        if rule == "linearisation":
+            mu2, mu3, mu4 = linearisation.central_moments_linearised(exp)
+        else:
+            mu2, mu3, mu4 = central_moments_exact(exp)
     else:
         mu2, mu3, mu4 = central_moments_sampled(exp, n_draws, seed, sampling)
     # The reported std is the exact one, and it decides which columns have zero variance (with

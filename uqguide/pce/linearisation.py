@@ -1,0 +1,140 @@
+"""Exact third and fourth moments of a sparse PCE by linearising products of its basis.
+
+For orthonormal univariate polynomials, ``phi_m phi_n = sum_k T[m, n, k] phi_k`` with
+``T[m, n, k] = E[phi_m phi_n phi_k]``, nonzero only for ``|m - n| <= k <= m + n``. The product of
+two multivariate basis terms is then the tensor product of these univariate expansions, so the
+square of the centred surrogate ``z = sum_{alpha != 0} c_alpha psi_alpha`` has the exact expansion
+
+    ``z^2 = sum_g s_g psi_g``,  ``s_g = sum_{a, b} c_a c_b prod_j T_j[a_j, b_j, g_j]``,
+
+and by orthonormality ``E[z^3] = E[z^2 z] = sum_g s_g c_g`` and ``E[z^4] = E[(z^2)^2] =
+sum_g s_g^2``. The cost follows the sparse support (the pairs of retained terms and the few
+``g`` each pair spreads to), not a tensor grid over all inputs: a 300-term expansion in 8 inputs
+has 45,000 pairs where a tensor Gauss grid integrating its fourth power would have 10^8 nodes.
+
+``T`` is computed once per germ kind and degree with a Gauss rule of ``2 p + 1`` nodes (exact for
+the degree-``4 p`` integrand), so the rule holds for every germ family: Hermite (normal,
+lognormal and the whitened members of a correlated normal group), Legendre (uniform) and the
+Stieltjes polynomials of a truncated normal.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from scipy import sparse
+
+from .basis import univariate
+from .expansion import Expansion
+from .quadrature import gauss_rule
+
+#: Product terms (pairs x spread) above which the linearisation is not attempted.
+MAX_PRODUCT_TERMS = 20_000_000
+_CHUNK_FLOATS = 2**22
+_ZERO = 1e-13  # |T| below this is a structural zero (parity), not a coefficient
+
+
+@lru_cache(maxsize=64)
+def triple_products(kind: tuple[str, float, float], p: int) -> np.ndarray:
+    """``T[m, n, k] = E[phi_m phi_n phi_k]`` for ``m, n <= p``, ``k <= 2 p``: ``(p+1, p+1, 2p+1)``.
+
+    Structural zeros (outside ``|m - n| <= k <= m + n``, or of odd parity for a symmetric
+    measure) are set to exactly 0.
+    """
+    nodes, weights = gauss_rule(kind, 2 * p + 1)
+    phi = univariate(kind, nodes, 2 * p)  # (2p + 1, nodes)
+    t = np.einsum("mq,nq,kq,q->mnk", phi[: p + 1], phi[: p + 1], phi, weights)
+    m, n, k = np.meshgrid(np.arange(p + 1), np.arange(p + 1), np.arange(2 * p + 1),
+                          indexing="ij")
+    t[(k < np.abs(m - n)) | (k > m + n) | (np.abs(t) < _ZERO)] = 0.0
+    return t
+
+
+def _supports(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each ``(m, n)``: the count, offset and list of ``k`` with ``T[m, n, k] != 0``."""
+    p1 = t.shape[0]
+    nz = t.reshape(p1 * p1, -1) != 0.0
+    counts = nz.sum(axis=1)
+    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    ks = np.nonzero(nz)[1]
+    return counts, offsets, ks
+
+
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    a, b = np.triu_indices(n)
+    return a, b
+
+
+def product_terms(exp: Expansion) -> int:
+    """Number of (pair, g) entries the linearisation of ``exp``'s square builds."""
+    exp = exp.trimmed()
+    alpha = exp.alpha[1:]
+    if alpha.shape[0] == 0:
+        return 0
+    a, b = _pairs(alpha.shape[0])
+    total = np.ones(a.size)
+    for j in np.flatnonzero(alpha.max(axis=0)):
+        p = int(alpha[:, j].max())
+        counts, _, _ = _supports(triple_products(exp.germ.kind(int(j)), p))
+        total *= counts[alpha[a, j] * (p + 1) + alpha[b, j]]
+    return int(total.sum())
+
+
+def central_moments_linearised(exp: Expansion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Central moments 2-4 ``(m,)`` of the surrogate, exactly (module docstring)."""
+    exp = exp.trimmed()
+    alpha = exp.alpha[1:]
+    coef = exp.coef[1:]  # (P - 1, m): the centred surrogate's coefficients
+    m = exp.n_columns
+    if alpha.shape[0] == 0:
+        z = np.zeros(m)
+        return z, z.copy(), z.copy()
+    a, b = _pairs(alpha.shape[0])
+    # Expand every pair dimension by dimension: entries (pair, partial g code, value).
+    pair = np.arange(a.size)
+    code = np.zeros(a.size, dtype=np.int64)
+    val = np.where(a == b, 1.0, 2.0)  # the (a, b) and (b, a) products together
+    active = np.flatnonzero(alpha.max(axis=0))
+    bases = []
+    for j in active:
+        p = int(alpha[:, j].max())
+        t = triple_products(exp.germ.kind(int(j)), p)
+        counts, offsets, ks = _supports(t)
+        key = alpha[a[pair], j] * (p + 1) + alpha[b[pair], j]
+        rep = counts[key]
+        start = np.repeat(offsets[key], rep)
+        within = np.arange(rep.sum()) - np.repeat(np.cumsum(rep) - rep, rep)
+        k = ks[start + within]
+        pair = np.repeat(pair, rep)
+        key = np.repeat(key, rep)
+        val = np.repeat(val, rep) * t.reshape((p + 1) ** 2, -1)[key, k]
+        code = np.repeat(code, rep) * (2 * p + 1) + k
+        bases.append(2 * p + 1)
+    if np.prod(np.array(bases, dtype=float)) >= 2.0**62:
+        # Too many digits for one integer code: fall back to unique rows of digits.
+        digits = np.stack(np.unravel_index(code, bases), axis=1)  # pragma: no cover
+        _, g = np.unique(digits, axis=0, return_inverse=True)  # pragma: no cover
+    else:
+        _, g = np.unique(code, return_inverse=True)
+    g = g.ravel()
+    n_g = int(g.max()) + 1
+    # The surrogate's own coefficients on the same codes (for E[z^3] = sum s_g c_g).
+    own = np.zeros(alpha.shape[0], dtype=np.int64)
+    for j, base in zip(active, bases):
+        own = own * base + alpha[:, j]
+    codes_sorted = np.unique(code)
+    pos = np.searchsorted(codes_sorted, own)
+    present = (pos < codes_sorted.size) & (codes_sorted[np.minimum(pos, codes_sorted.size - 1)]
+                                            == own)
+    lin = sparse.csr_matrix((val, (g, pair)), shape=(n_g, a.size))  # duplicates summed
+    mu2, mu3, mu4 = np.zeros(m), np.zeros(m), np.zeros(m)
+    step = max(1, _CHUNK_FLOATS // max(a.size, n_g))
+    for c0 in range(0, m, step):
+        cols = slice(c0, min(m, c0 + step))
+        cc = coef[:, cols]
+        s = lin @ (cc[a] * cc[b])  # z^2's coefficients, (n_g, chunk)
+        mu4[cols] = (s * s).sum(axis=0)
+        mu3[cols] = (s[pos[present]] * cc[present]).sum(axis=0)
+        mu2[cols] = (cc * cc).sum(axis=0)
+    return mu2, mu3, mu4
