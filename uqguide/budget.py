@@ -10,8 +10,9 @@ The estimate is an upper bound of what the pipeline holds at once, in bytes:
 
 - **kept per run** (the whole run): per-sample scalar outputs (8 bytes a component), the failure
   flag and reason (9 bytes), and the inputs (8 bytes an input) of methods that keep their
-  design (PCE; Monte Carlo designs are generated per chunk and never held whole); twice, for
-  the concatenation of the chunks at the end;
+  design (PCE; Monte Carlo designs are generated per chunk and never held whole); once for a
+  reduced method (Monte Carlo copies each chunk into arrays allocated once), twice for the
+  others (their chunks are joined at the end);
 - **per chunk** (transient): the chunk's inputs and time series (``rows x T x k x 8``), four
   times (model output, joined parts, centred powers of the reduction), and the Poisson
   bootstrap weights (``B x rows x 8``), per chunk in flight (two per worker, in the workers);
@@ -150,7 +151,9 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
         boot = getattr(method.settings, "bootstrap", 0) or 0
         per_chunk = chunk * (8.0 * d + 4 * 8.0 * grid * k_series + 8.0 * boot + 9.0)
         parts = {
-            "kept": 2 * n * (8.0 * k_scalar + 9.0 + (0 if plan.reduced else 8.0 * d)),
+            # reduced chunks are copied into arrays allocated once; others joined (twice)
+            "kept": (1 if plan.reduced else 2) * n * (8.0 * k_scalar + 9.0 +
+                                                      (0 if plan.reduced else 8.0 * d)),
             "per chunk": per_chunk * (1 if workers <= 1 else in_flight / 2),
             "series kept": 0.0 if plan.reduced else 2 * n * 8.0 * grid * k_series,
             "basis": 3 * 8.0 * n * plan.terms,
