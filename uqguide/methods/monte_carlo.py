@@ -42,7 +42,7 @@ from ..inputs import InputSpace
 from ..models.base import ModelOutput
 from ..stats import MomentSums, statistics_from_sums
 from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
-from .mc_reduce import MonteCarloReducer, ci_index, split_summary, stack_scalars
+from .mc_reduce import MonteCarloReducer, ci_index, scalar_names, split_summary
 
 log = logging.getLogger(__name__)
 
@@ -197,7 +197,7 @@ class MonteCarlo(Method):
             idx = ci_index(runs.time, self.report_times, self.settings.bootstrap_times) \
                 if is_series else None
             stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx)
-        names, _ = stack_scalars(runs.scalars, ~runs.failed)
+        names = scalar_names(runs.scalars)  # (stacking them would copy every value)
         joint = acc.get(("j", ""))
         n_ok = runs.n - n_failed
         diagnostics = {
