@@ -53,8 +53,9 @@ class MethodRun:
     Attributes
     ----------
     estimate : Estimate
-    x : ndarray, shape (n, d)
-        Inputs of every model run.
+    x : ndarray or GeneratedRows, shape (n, d)
+        Inputs of every model run (a Monte Carlo design is generated per chunk on demand:
+        slice it, or ``np.asarray`` it for the whole array).
     scalars : dict of str to ndarray, shape (n, k)
         Scalar outputs of every run (NaN or garbage where ``failed``).
     failed : ndarray of bool, shape (n,)
