@@ -526,7 +526,7 @@ def test_workers_die_with_a_killed_driver(tmp_path):
 
 # ---------------------------------------------------------------------------- config fuzz
 def test_a_sample_of_the_config_fuzz_is_clean():
-    """20 of benchmarks/fuzz_configs.py's 518 mutations (run whole: every invalid one a clean
+    """20 of benchmarks/fuzz_configs.py's 519 mutations (run whole: every invalid one a clean
     exit 2, 0 hangs, 0 tracebacks, 0 silent acceptances), each in a forked child killed
     after 20 s."""
     import random
