@@ -545,3 +545,15 @@ def test_a_sample_of_the_config_fuzz_is_clean():
     outcomes = fuzz_configs.run_all(sample)
     bad = [(o.m.name, o.verdict, o.stderr[-200:]) for o in outcomes if o.verdict != "ok"]
     assert not bad, bad
+
+
+def test_a_smolyak_grid_too_large_to_build_is_refused_by_validate(tmp_path):
+    raw = _ftcapn(100)
+    raw["methods"] = [{"name": "pce_smolyak", "level": 12, "nested": False}]
+    res = _invoke("validate", _write(tmp_path / "c.yaml", raw))
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip().startswith("error: methods[0].level: pce_smolyak with level 12 "
+                                         "on 7 inputs combines ")
+    raw["methods"] = [{"name": "pce_smolyak", "level": 3, "nested": False}]
+    res = _invoke("validate", _write(tmp_path / "ok.yaml", raw))
+    assert res.exit_code == 0 and "pce_smolyak: up to 120 model runs" in res.output, res.output

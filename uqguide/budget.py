@@ -93,6 +93,7 @@ class MethodBudget:
     steps_per_run: float | None
     peak_bytes: float | None
     parts: dict[str, float]
+    exact: bool = True
 
 
 @dataclass(frozen=True)
@@ -114,7 +115,7 @@ class Budget:
         out = []
         for m in self.methods:
             runs = "runs unknown until the design is built" if m.runs is None \
-                else f"{m.runs:,} model runs"
+                else f"{'' if m.exact else 'up to '}{m.runs:,} model runs"
             steps = "" if m.steps_per_run is None else f" x {m.steps_per_run:,.0f} steps"
             mem = "" if m.peak_bytes is None else f", ~{human(m.peak_bytes)} " + \
                 "(" + ", ".join(f"{k} {human(v)}" for k, v in m.parts.items() if v) + ")"
@@ -159,7 +160,7 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
             "basis": 3 * 8.0 * n * plan.terms,
         }
         rows.append(MethodBudget(method.label, n, count.steps if count else None,
-                                 sum(parts.values()), parts))
+                                 sum(parts.values()), parts, plan.exact))
     return Budget(rows, cfg.max_memory, workers)
 
 
