@@ -57,8 +57,9 @@ class MethodRun:
     Attributes
     ----------
     estimate : Estimate
-    x : ndarray, shape (n, d)
-        Inputs of every model run.
+    x : ndarray or GeneratedRows, shape (n, d)
+        Inputs of every model run (a Monte Carlo design is generated per chunk on demand:
+        slice it, or ``np.asarray`` it for the whole array).
     scalars : dict of str to ndarray, shape (n, k)
         Scalar outputs of every run (NaN or garbage where ``failed``).
     failed : ndarray of bool, shape (n,)
@@ -213,6 +214,20 @@ def _fill(f: h5py.File, result: Result) -> None:
         _write_run(f.create_group(f"methods/{r.label}"), r)
 
 
+def _write_reasons(g: h5py.Group, reasons: np.ndarray, block: int = 1 << 20) -> None:
+    """Failure reasons as fixed-width bytes, converted a block at a time (a list of 1e7
+    Python strings would cost more than the result)."""
+    n = len(reasons)
+    width = 1
+    for a in range(0, n, block):
+        width = max([width] + [len(str(v).encode()) for v in set(reasons[a:a + block])])
+    ds = g.create_dataset("reasons", shape=(n,), dtype=f"S{max(width, 1)}",
+                          compression="gzip" if n > 4096 else None)
+    for a in range(0, n, block):
+        ds[a:a + block] = np.array([str(v).encode() for v in reasons[a:a + block]],
+                                   dtype=f"S{max(width, 1)}")
+
+
 def _write_run(g: h5py.Group, r: MethodRun) -> None:
     e = r.estimate
     g.attrs.update(method=e.method, n_runs=r.n_runs, n_failed=r.n_failed,
@@ -240,7 +255,7 @@ def _write_run(g: h5py.Group, r: MethodRun) -> None:
     else:
         s.create_dataset("x", data=x, compression=gz)
     s.create_dataset("failed", data=r.failed)
-    s.create_dataset("reasons", data=np.array([str(v) for v in r.reasons], dtype="S"))
+    _write_reasons(s, r.reasons)
     for name, y in r.scalars.items():
         s.create_dataset(f"scalars/{name}", data=y,
                          compression="gzip" if y.size > 4096 else None)
