@@ -213,16 +213,16 @@ def _result_mutations() -> list[tuple[str, Callable[[object], None], int]]:
         ("method_order unknown label", attr("method_order", '["ghost"]'), 2),
         ("output components not json", lambda h: h["outputs/y"].attrs.__setitem__(
             "components", "{"), 2),
-        ("stats wrong shape", replace("methods/mc/stats/y/mean", np.zeros((3, 3))), 2),
-        ("stats strings", replace("methods/mc/stats/y/std", np.array([b"a"])), 2),
-        ("series stats wrong length", replace("methods/mc/stats/path/std", np.zeros((2, 1))), 2),
+        ("stats wrong shape", replace("methods/mc/y", np.zeros((4, 3, 3))), 2),
+        ("stats strings", replace("methods/mc/y", np.array([b"a"])), 2),
+        ("series stats wrong length", replace("methods/mc/path", np.zeros((4, 2, 1))), 2),
         ("time 2-d", replace("time", np.zeros((2, 2))), 2),
         ("samples x wrong width", replace("methods/mc/samples/x", np.zeros((400, 5))), 2),
         ("failed wrong length", replace("methods/mc/samples/failed", np.zeros(3, bool)), 2),
-        ("stats group gone", delete("methods/mc/stats"), 2),
+        ("stats of an output gone", delete("methods/mc/y"), 2),
         ("samples group gone", delete("methods/mc/samples"), 2),
         ("outputs group gone", delete("outputs"), 2),
-        ("n_used attr gone", lambda h: h["methods/mc/stats/y"].attrs.__delitem__("n_used"), 2),
+        ("n_used attr gone", lambda h: h["methods/mc/y"].attrs.__delitem__("n_used"), 2),
         ("diagnostics not json", lambda h: h["methods/mc"].attrs.__setitem__(
             "diagnostics_json", "{"), 2),
     ]

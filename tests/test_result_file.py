@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import h5py
 import numpy as np
 import pytest
@@ -52,14 +54,63 @@ def test_round_trip_is_exact_and_keeps_method_order(result, tmp_path):
 
 def test_layout_is_as_documented(result, tmp_path):
     path = write_hdf5(result, tmp_path / "r.h5")
+    T = result.time.size
     with h5py.File(path) as f:
-        assert f["methods/mc_b/stats/ramp/mean"].shape == (result.time.size, 2)
-        assert f["methods/mc_b/stats/ramp/cov"].shape == (result.time.size, 2, 2)
-        assert f["methods/mc_b/stats/y/ci_kurtosis"].shape == (2, 2)
+        assert f.attrs["format"] == 2
+        assert f["methods/mc_b/ramp"].shape == (4, T, 2)  # statistic, time, component
+        assert f["methods/mc_b/ramp_cov"].shape == (T, 2, 2)
+        assert f["methods/mc_b/y_ci"].shape == (2, 4, 2)  # bound, statistic, component
         assert f["methods/mc_b/samples/x"].shape == (500, 2)
         assert f["methods/mc_b/samples/scalars/y"].shape == (500, 2)
         assert f["outputs/ramp"].attrs["kind"] == "series"
         assert "n_samples: 500" in f.attrs["config_yaml"]
+        # netCDF-4 conventions: dimension scales, strings as UTF-8
+        assert [d[0].name for d in f["methods/mc_b/ramp"].dims] == [
+            "/methods/mc_b/statistic", "/methods/mc_b/time", "/methods/mc_b/ramp_component"]
+        assert h5py.check_string_dtype(f["input"].dtype).encoding == "utf-8"
+        assert f["methods/mc_b/samples/reasons"].dtype.kind == "O"
+
+
+def test_xarray_opens_a_method_group_with_named_dims_and_the_time(result, tmp_path):
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("h5netcdf")
+    path = write_hdf5(result, tmp_path / "r.h5")
+    with xr.open_dataset(path, group="methods/mc_b", engine="h5netcdf") as ds:
+        assert ds["ramp"].dims == ("statistic", "time", "ramp_component")
+        np.testing.assert_array_equal(ds["time"].values, result.time)
+        assert ds["time"].attrs["units"] == "s"
+        assert list(ds["statistic"].values) == ["mean", "std", "skewness", "kurtosis"]
+        assert list(ds["input"].values) == ["x1", "x2"]
+        assert ds["y_ci"].dims == ("bound", "statistic", "y_component")
+        s = result.run("mc_b").estimate.stats["ramp"]
+        np.testing.assert_array_equal(ds["ramp"].sel(statistic="std").values, s.std)
+        np.testing.assert_array_equal(ds["ramp_sem"].values, s.sem)
+        assert ds["ramp"].attrs["units"] == result.output("ramp").unit
+        # the same as the in-memory Dataset of that method
+        mem = result.to_xarray("mc_b")
+        for name in mem.data_vars:
+            np.testing.assert_array_equal(ds[name].values, mem[name].values)
+    with xr.open_dataset(path, engine="h5netcdf") as root:
+        np.testing.assert_array_equal(root["time"].values, result.time)
+        assert list(root["input"].values) == ["x1", "x2"]
+
+
+def test_format_1_files_still_read():
+    """A file written by uqguide before format 2 (tests/data, made by the format-1 writer)."""
+    back = read_hdf5(Path(__file__).parent / "data" / "result_format1.h5")
+    assert [r.label for r in back.runs] == ["mc", "tensor"]
+    assert back.input_names == ["x1", "x2"]
+    mc, tensor = back.run("mc").estimate, back.run("tensor").estimate
+    assert mc.stats["ramp"].mean.shape == (back.time.size, 2)
+    assert mc.stats["y"].ci["kurtosis"].shape == (2, 2)
+    assert mc.stats["y"].quantile_levels == (0.1, 0.5, 0.9)
+    assert tensor.stats["y"].sobol_first.shape == (2, 2)
+    assert tensor.scalar_names == ["y[0]", "y[1]"]
+    assert back.run("mc").reasons.tolist() == [""] * 200
+    # y = A x, x1 ~ N(0, 1), x2 ~ U(0, 2): the tensor rule's mean is exact, (2, 0)
+    np.testing.assert_allclose(tensor.stats["y"].mean, [2.0, 0.0], atol=1e-12)
+    # and it converts like a new one
+    assert back.to_xarray()["ramp"].dims == ("method", "statistic", "time", "ramp_component")
 
 
 def test_write_is_atomic(result, tmp_path, monkeypatch):

@@ -8,6 +8,26 @@ The package is organised around three abstractions:
   into statistics (Monte Carlo, full-tensor PCE, Smolyak PCE, adaptive sparse PCE);
 - :class:`uqguide.result.Result` holds the statistics, diagnostics and provenance of a run
   and writes them to HDF5.
+
+The Python API (imported on first use, so ``import uqguide`` stays cheap)::
+
+    cfg = uqguide.load_config("ftcapn_table3")          # a file, a shipped study or a dict
+    result = uqguide.run(cfg, workers=2, out="results")  # -> Result
+    result = uqguide.read_result("results/ftcapn_table3.h5")
+    result.to_xarray(), result.to_dataframe("omega_s")
 """
 
+from __future__ import annotations
+
+from typing import Any
+
 __version__ = "0.1.0"
+__all__ = ["load_config", "read_result", "run", "__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in ("load_config", "run", "read_result"):
+        from . import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'uqguide' has no attribute {name!r}")

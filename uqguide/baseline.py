@@ -27,7 +27,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from . import __version__, atomic
 from .errors import ResultError
 from .models.base import OutputInfo
-from .report import report_indices
+from .report_times import report_indices
 from .result import Result
 from .stats import STAT_NAMES, OutputStats
 

@@ -124,19 +124,22 @@ def main(verbose: int) -> None:
 @click.option("--check", "check_path", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Then check the statistics against this baseline JSON "
                                  "(exit 1 on a regression, 2 if it is unusable).")
+@click.option("-q", "--quiet", is_flag=True,
+              help="No progress display (and no budget lines) on stderr.")
 @_handle_errors
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, resume: bool,
-        check_path: Path | None) -> None:
+        check_path: Path | None, quiet: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .budget import check_memory, estimate
     from .checkpoint import RunInterrupted, RunStore, run_dir, run_identity
     from .config import load_config
     from .execution import make_executor
     from .interrupts import EXIT_INTERRUPTED, deferred
-    from .progress import Progress
+    from .progress_display import make_progress
     from .propagate import check_failure_budget
     from .propagate import run as run_config
+    from .report_times import check_config_report_times
     from .report import render_text, write_tables
     from .result import write_hdf5
     from .runlock import RunLock
@@ -144,6 +147,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     cfg = load_config(config)
     if seed is not None:
         cfg = cfg.with_seed(seed)
+    check_config_report_times(cfg)  # before a run folder is made
     baseline = _gate_preflight(check_path, cfg) if check_path else None
     again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
         "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")
@@ -151,16 +155,18 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
                              str(scheduler_file) if scheduler_file else None)
     try:
         budget = estimate(cfg, workers or 1)
-        click.echo("budget:", err=True)
-        for line in budget.lines():
-            click.echo(line, err=True)
+        if not quiet:
+            click.echo("budget:", err=True)
+            for line in budget.lines():
+                click.echo(line, err=True)
         check_memory(budget)  # before anything is allocated
         folder = run_dir(out_dir, cfg.name)  # inside out_dir: the name is a plain file name
         with RunLock(folder):
             try:
                 store = RunStore.open(folder, run_identity(cfg.resolved(), cfg.model), resume,
                                       again)
-                result = run_config(cfg, executor, store=store, progress=Progress(sys.stderr))
+                result = run_config(cfg, executor, store=store,
+                                    progress=make_progress(sys.stderr, quiet))
             except RunInterrupted as exc:
                 click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume "
                            f"with `{again}`", err=True)

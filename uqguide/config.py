@@ -187,7 +187,10 @@ class RunConfig:
 
     def resolved(self) -> dict[str, Any]:
         """The config with every default filled in (what the run really used)."""
-        d = self.raw.model_dump(mode="json")
+        # the raw model section may hold a function object (callable model from Python): the
+        # model's own params serialise it
+        rest = self.raw.model_dump(mode="json", exclude={"model"})
+        d = {k: rest.get(k) for k in RawConfig.model_fields if k in rest or k == "model"}
         d["model"] = {"name": self.model.name, **self.model.params.model_dump(mode="json")}
         d["outputs"] = list(self.outputs)
         d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")} for m in self.methods]
@@ -221,9 +224,19 @@ def _short(value: Any) -> str:
 def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str] | None = None,
                      source: str = "") -> ConfigError:
     """One ConfigError line from pydantic's first error: path, value, what is allowed."""
-    e = err.errors(include_url=False)[0]
-    path = _printable(_path(prefix, tuple(e["loc"])))
+    errors = err.errors(include_url=False)
+    e = errors[0]
     where = f"{source}: " if source else ""
+    misspelt = _misspelt_required(errors)
+    if misspelt is not None:
+        # A misspelt required key is both "missing" and "unknown": name the key typed.
+        e, close = misspelt
+        path = _printable(_path(prefix, tuple(e["loc"])))
+        allowed = (f"; allowed keys: {', '.join(allowed_keys)}"
+                   if allowed_keys and len(e["loc"]) == 1 else "")
+        return ConfigError(f"{where}{path}: unknown key (did you mean '{close}'?){allowed}",
+                           field=path)
+    path = _printable(_path(prefix, tuple(e["loc"])))
     if e["type"] == "extra_forbidden":
         key = str(e["loc"][-1])
         hint = did_you_mean(key, allowed_keys) if allowed_keys else ""
@@ -243,6 +256,23 @@ def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str] 
         # A check across several fields: its message names the values itself.
         return ConfigError(f"{where}{path}: {msg}", field=path)
     return ConfigError(f"{where}{path}: {msg} (got {_short(e.get('input'))})", field=path)
+
+
+def _misspelt_required(errors: list[Any]) -> tuple[Any, str] | None:
+    """The unknown-key error whose key is close to a missing required field beside it, with
+    that field's name."""
+    import difflib
+
+    for x in errors:
+        if x["type"] != "extra_forbidden":
+            continue
+        parent = tuple(x["loc"][:-1])
+        missing = [str(m["loc"][-1]) for m in errors
+                   if m["type"] == "missing" and tuple(m["loc"][:-1]) == parent]
+        close = difflib.get_close_matches(str(x["loc"][-1]), missing, n=1)
+        if close:
+            return x, close[0]
+    return None
 
 
 def _fields(model: type[BaseModel]) -> list[str]:
@@ -306,7 +336,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     except ValidationError as err:
         raise _from_validation(err, "", _fields(RawConfig)) from None
 
-    model = _build_model(raw.model)
+    model = _build_model(raw.model, str(Path(source).parent) if source != "<dict>" else None)
     _check_finite_parameters(raw)
     space = _build_space(raw, model)
     outputs = _resolve_outputs(raw, model)
@@ -451,13 +481,14 @@ def _check_finite_parameters(raw: RawConfig) -> None:
                               field=f"inputs[{i}].{name}")
 
 
-def _build_model(section: dict[str, Any]) -> Model:
+def _build_model(section: dict[str, Any], config_dir: str | None = None) -> Model:
     if "name" not in section:
         raise ConfigError("model.name: required field is missing", field="model.name")
     cls = model_class(section["name"], "model.name")
     params = {k: v for k, v in section.items() if k != "name"}
     try:
-        validated = cls.Params.model_validate(params)
+        # config_dir: where a callable model's module is looked for first
+        validated = cls.Params.model_validate(params, context={"config_dir": config_dir})
     except ValidationError as err:
         raise _from_validation(err, "model", ["name", *_fields(cls.Params)]) from None
     bad = _find_infinite(validated.model_dump(), "model")

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from scipy import stats as _st
 
 LEVEL = 0.95
 
@@ -90,6 +89,8 @@ def clopper_pearson(k: int, n: int, level: float = LEVEL) -> tuple[float, float]
     if n <= 0:
         return float("nan"), float("nan")
     a = (1.0 - level) / 2.0
+    from scipy import stats as _st
+
     lo = 0.0 if k == 0 else float(_st.beta.ppf(a, k, n - k + 1))
     hi = 1.0 if k == n else float(_st.beta.ppf(1.0 - a, k + 1, n - k))
     return lo, hi

@@ -53,10 +53,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from .baseline import (DEFAULT_PCE_RTOL, SAMPLE, Baseline, BaselineOutput, BaselinePoint,
                        to_jsonable, read_baseline, standard_error, write_baseline)
@@ -64,6 +63,9 @@ from .errors import ResultError
 from .models.base import OutputInfo
 from .result import MethodRun, Result
 from .stats import STAT_NAMES, OutputStats
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["DEFAULT_PCE_RTOL", "DEFAULT_SIGMAS", "Baseline", "CheckReport", "CheckRow",
            "check_compatible", "check_result", "config_differences", "read_baseline",
@@ -142,6 +144,8 @@ class CheckReport:
         return not self.failures
 
     def to_frame(self) -> pd.DataFrame:
+        import pandas as pd  # here: `uqguide check` starts without it
+
         return pd.DataFrame([{
             "quantity": r.quantity, "label": r.label, "output": r.output,
             "component": r.component, "time": r.time, "stat": r.stat, "unit": r.unit,
@@ -170,6 +174,8 @@ class CheckReport:
         parts = [self.summary()]
         rows = self.rows if all_rows else self.failures
         if rows:
+            import pandas as pd
+
             df = pd.DataFrame([{
                 "quantity": r.quantity, "unit": _stat_unit(r),
                 "value": _fmt(r.value), "baseline": _fmt(r.baseline),

@@ -12,13 +12,11 @@ orthogonal polynomials and quadrature on.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 from dataclasses import dataclass
-from typing import Annotated, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Literal, Union
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
-from scipy import special
 
 from .strict import no_bool_numbers
 
@@ -63,6 +61,8 @@ class Normal(_Marginal):
         return _chaospy().Normal(self.mean, self.std)
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
+        from scipy import special
+
         return self.mean + self.std * special.ndtri(u)
 
     def moments(self) -> tuple[float, float]:
@@ -103,6 +103,8 @@ class LogNormal(_Marginal):
         return _chaospy().LogNormal(self.mu, self.sigma)
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
+        from scipy import special
+
         return np.exp(self.mu + self.sigma * special.ndtri(u))
 
     def moments(self) -> tuple[float, float]:
@@ -206,6 +208,8 @@ class InputSpace:
 
     def from_unit(self, u: np.ndarray) -> np.ndarray:
         """Map points of the unit hypercube ``u (n, d)`` to physical inputs ``x (n, d)``."""
+        from scipy import special
+
         u = np.asarray(u, dtype=float)
         x = np.empty_like(u)
         for j, m in enumerate(self.marginals):

@@ -56,6 +56,8 @@ class Progress:
         self.runs_done = 0
         self.runs_failed = 0
         self._runs_evaluated = 0
+        #: What runs besides chunks (compiling a kernel, fitting a PCE), shown in the status.
+        self.phase_text = ""
         self._t0 = time.monotonic()
         self._last_show = self._t0
         self._shown = False
@@ -69,7 +71,13 @@ class Progress:
     def start(self, label: str) -> None:
         """The method whose chunks follow (shown in the status)."""
         self.label = label
+        self.phase_text = ""
         self._show(force=self.tty)
+
+    def phase(self, text: str) -> None:
+        """What the run does now besides evaluating chunks (empty: back to chunks)."""
+        self.phase_text = text
+        self._show()
 
     def restored(self, n_runs: int, n_failed: int) -> None:
         """One chunk taken from the checkpoint."""
@@ -79,6 +87,7 @@ class Progress:
 
     def advance(self, n_runs: int, n_failed: int) -> None:
         """One chunk evaluated."""
+        self.phase_text = ""  # a chunk came back: whatever preceded it (a compile) is over
         self.chunks_done += 1
         self.runs_done += n_runs
         self.runs_failed += n_failed
@@ -95,11 +104,12 @@ class Progress:
 
     def status(self) -> str:
         """The status text (without the bar)."""
-        eta = self.eta_seconds()
+        eta = None if self.phase_text else self.eta_seconds()
         return (f"{self.label} {self.chunks_done}/{self.chunks_total} chunks  "
                 f"{self.runs_done:,}/{self.runs_total:,} runs  {self.runs_failed:,} failed  "
                 f"{_hms(time.monotonic() - self._t0)}"
-                + (f"  ETA {_hms(eta)}" if eta is not None else ""))
+                + (f"  ETA {_hms(eta)}" if eta is not None else "")
+                + (f"  {self.phase_text}" if self.phase_text else ""))
 
     def _show(self, force: bool = False) -> None:
         if self.stream is None:

@@ -28,6 +28,7 @@ from .inputs import InputSpace
 from .methods.base import Design, Method
 from .models.base import Model, ModelOutput
 from .progress import Progress
+from .report_times import check_config_report_times
 from .result import MethodRun, Result, provenance
 
 log = logging.getLogger(__name__)
@@ -180,10 +181,12 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     log.info("%s: %d runs in the initial design (%d chunks)", method.label, design.n_runs,
              len(tasks))
     reducer = method.reducer(space, design)
+    method.on_phase = progress.phase
     out, acc = stage.run(design.x, 0, tasks, reducer)
     if reducer is None:
         for k in range(1, MAX_REFINEMENTS + 1):
             bigger = method.refine(space, design, out)
+            progress.phase("")
             if bigger is None:
                 break
             new_x = _appended_rows(design, bigger)
@@ -195,10 +198,13 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         else:
             log.warning("%s: stopped after %d refinements", method.label, MAX_REFINEMENTS)
     t_fit = time.perf_counter()
+    progress.phase("estimating")
     if reducer is None:
         estimate = method.estimate(space, design, out)
     else:
         estimate = method.estimate_reduced(space, design, out, acc)
+    progress.phase("")
+    method.on_phase = None
     fit_seconds = time.perf_counter() - t_fit
     # carriers evaluated only for a derivation are not part of the result
     estimate.stats = {k: v for k, v in estimate.stats.items() if k in requested}
@@ -266,6 +272,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         On Ctrl-C (KeyboardInterrupt): chunks in flight are dropped; those done are in
         ``store``.
     """
+    check_config_report_times(config)
     executor = executor or SerialExecutor(config.raw.batch_size)
     progress = progress or Progress()
     t0 = time.perf_counter()

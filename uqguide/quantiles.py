@@ -16,12 +16,13 @@ union at the end, so the quantiles are exact and do not depend on the chunking o
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats as _st
 
 LEVEL = 0.95
 #: ``quantiles: 3sigma``: the median and the 3-sigma envelope (the probabilities of a
 #: Gaussian's mean -+ 3 std).
-THREE_SIGMA = (float(_st.norm.cdf(-3.0)), 0.5, float(_st.norm.cdf(3.0)))
+#: scipy.stats.norm.cdf(-3), 0.5, norm.cdf(3), as literals so importing this module does not
+#: import scipy.stats (tests/test_startup.py checks them against scipy).
+THREE_SIGMA = (0.0013498980316300933, 0.5, 0.9986501019683699)
 
 
 def resolve_levels(value: list[float] | str | None) -> tuple[float, ...] | None:
@@ -38,6 +39,8 @@ def ranks(n: int, p: float, level: float = LEVEL) -> tuple[int, int, int]:
     ``u`` may be ``n + 1``: unbounded ends)."""
     r = min(max(int(np.ceil(n * p - 1e-12)), 1), n)
     a = (1.0 - level) / 2.0
+    from scipy import stats as _st
+
     lo = int(_st.binom.ppf(a, n, p))
     hi = int(_st.binom.ppf(1.0 - a, n, p)) + 1
     return r, lo, hi
@@ -46,6 +49,8 @@ def ranks(n: int, p: float, level: float = LEVEL) -> tuple[int, int, int]:
 def coverage(n: int, p: float, level: float = LEVEL) -> float:
     """Exact coverage of the interval of :func:`ranks` for any continuous distribution."""
     _, lo, hi = ranks(n, p, level)
+    from scipy import stats as _st
+
     return float(_st.binom.cdf(hi - 1, n, p) - _st.binom.cdf(lo - 1, n, p))
 
 

@@ -15,25 +15,15 @@ import numpy as np
 import pandas as pd
 
 from . import atomic
+from .failures import failure_table
 from .result import Result
 from .quantiles import level_name
+from .report_times import report_indices  # noqa: F401 - imported from here by others
 from .stats import STAT_NAMES, OutputStats
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
 #: below this fraction of its peak: a ratio to a value that crosses zero means nothing.
 REL_FLOOR = 1e-3
-
-
-def report_indices(result: Result, n_default: int = 5) -> np.ndarray:
-    """Grid indices of the report times (nearest step) plus the last step."""
-    t = result.time
-    if t.size == 0:
-        return np.zeros(0, dtype=int)
-    if result.report_times:
-        idx = [int(np.argmin(np.abs(t - rt))) for rt in result.report_times]
-    else:
-        idx = list(np.linspace(0, t.size - 1, n_default).round().astype(int))
-    return np.unique(np.append(idx, t.size - 1))
 
 
 def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:
@@ -281,15 +271,24 @@ def render_text(result: Result) -> str:
     if not agree.empty:
         parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
                   f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
-    if with_ref:
-        parts += ["", "Values: estimate [95% interval] (difference from the reference; in: within "
-                  "the 95% interval of the difference, both estimates' errors combined; OUT: "
-                  "beyond it)."]
-    failed = [r for r in result.runs if r.n_failed]
-    for r in failed:
-        parts += [f"{r.label}: {r.n_failed} of {r.n_runs} runs failed "
-                  f"({r.estimate.diagnostics.get('failure_reasons', '')})"]
+    if any(r.estimate.stats for r in result.runs):
+        parts += ["", interval_legend(with_ref)]
+    failures = failure_table(result)
+    if not failures.empty:
+        parts += ["", "Failed runs (excluded from the statistics)",
+                  failures.to_string(index=False)]
     return "\n".join(parts)
+
+
+def interval_legend(with_reference: bool) -> str:
+    """What the brackets and flags of the statistics tables mean (printed with every table)."""
+    text = ("Values: estimate [95% interval]: Monte Carlo moments by Poisson bootstrap (the "
+            "mean by +-1.96 standard errors where it has no bootstrap), quantiles by order "
+            "statistics; PCE values carry none (their error is the surrogate's, see loo_error).")
+    if with_reference:
+        text += (" (difference from the reference; in: within the 95% interval of the "
+                 "difference, both estimates' errors combined; OUT: beyond it).")
+    return text
 
 
 def to_markdown(df: pd.DataFrame) -> str:
@@ -313,6 +312,8 @@ def render_markdown(result: Result) -> str:
         if not sub.empty:
             parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
                       to_markdown(wide_table(sub, with_ref))]
+    if any(r.estimate.stats for r in result.runs):
+        parts += ["", interval_legend(with_ref)]
     events = events_table(result)
     if not events.empty:
         parts += ["", "## Events", "", to_markdown(events_text(events))]

@@ -1,27 +1,30 @@
 """The Result of a run and its HDF5 form.
 
-Layout of a result file (format 1; every array SI, time axis first for series)::
+Layout of a result file (format 2: netCDF-4 conventions, i.e. HDF5 dimension scales and UTF-8
+strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
 
     /                       attrs: format, uqguide_version, created_utc, name, model, seed,
                                    reference, config_yaml (resolved config), wall_seconds,
                                    versions_json (python and library versions)
-    /time                   (T,) time grid [s] (empty for models without series)
-    /inputs/names           (d,) uncertain input names, config order
+    /time                   (time,) time grid [s] (empty for models without series)
+    /input                  (input,) uncertain input names, config order
     /report_times           (r,) [s], where the config gives them
     /outputs/<name>         attrs: kind (series|scalar), unit, description, components
     /methods/<label>        attrs: method, n_runs, n_failed, model_seconds, fit_seconds,
                                    wall_seconds, diagnostics_json
-      stats/<output>/mean, std, skewness, kurtosis     (T, k) or (k,)
-      stats/<output>/cov                               (T, k, k) or (k, k)
-      stats/<output>/sem                               sample methods only
-      stats/<output>/ci_<stat>                         (2, ...) 95% interval (low, high)
-      stats/<output>/sobol_first, sobol_total          (..., k, d), PCE only
-      stats/<output>/quantiles (q, ...) attrs: levels; ci_quantiles (2, q, ...)
-                     attrs: n_used, moments_method
+      <output>, <output>_cov, _sem, _ci, _sobol_first, _sobol_total, _quantile, _ci_quantile
+                        the variables of :mod:`uqguide.labelled`, e.g. <output> is
+                        (statistic, time, <output>_component); coordinates time, input,
+                        statistic, bound, quantile, <output>_component
       events/<name>     attrs: definition, probability, ci_low, ci_high, n_in, n_used,
                                estimator (count | surrogate | subset), cov
       scalar_joint/names, mean, cov                    all scalar outputs stacked
-      samples/x (n, d), failed (n,), reasons (n,), scalars/<output> (n, k)
+      samples/x (sample, input), failed (sample,) 0/1, reasons (sample,),
+              scalars/<output> (sample, <output>_component)
+
+Format 1 (uqguide before format 2; still read): ``/inputs/names`` and, per method,
+``stats/<output>/{mean, std, skewness, kurtosis, cov, sem, ci_<stat>, sobol_first,
+sobol_total, quantiles, ci_quantiles}`` without dimension scales, strings as bytes.
 
 The file is written to a temporary name in the same folder and renamed into place, so a file
 with the final name is always complete.
@@ -45,9 +48,13 @@ from .errors import ResultError
 from .events import EventEstimate
 from .methods.base import Estimate, GeneratedRows
 from .models.base import OutputInfo
+from .result_netcdf import (UTF8, attach, read_method_stats, strings, write_method_stats,
+                            write_scale)
 from .stats import STAT_NAMES, OutputStats
 
-FORMAT = 1
+FORMAT = 2
+#: Format versions :func:`read_hdf5` reads.
+READABLE_FORMATS = (1, 2)
 
 
 @dataclass
@@ -117,6 +124,20 @@ class Result:
                 return o
         raise ResultError(f"no output {name!r} in this result")
 
+    def to_xarray(self, label: str | None = None) -> Any:
+        """The statistics as an ``xarray.Dataset``: of method ``label``, or of every method
+        along a ``method`` dimension (see :mod:`uqguide.frames`; needs ``uqguide[xarray]``)."""
+        from .frames import to_xarray
+
+        return to_xarray(self, label)
+
+    def to_dataframe(self, output: str) -> Any:
+        """Every statistic of ``output`` at every time step as a tidy ``pandas.DataFrame``
+        (columns method, time, component, statistic, value, ci_low, ci_high)."""
+        from .frames import to_dataframe
+
+        return to_dataframe(self, output)
+
 
 def provenance() -> dict[str, Any]:
     """Versions and host facts that explain where a result's numbers came from."""
@@ -150,26 +171,6 @@ def provenance() -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------------- writing
-def _write_stats(g: h5py.Group, s: OutputStats) -> None:
-    for name in STAT_NAMES:
-        g.create_dataset(name, data=s.stat(name))
-    g.create_dataset("cov", data=s.cov)
-    if s.sem is not None:
-        g.create_dataset("sem", data=s.sem)
-    for name, ci in s.ci.items():
-        g.create_dataset(f"ci_{name}", data=ci)
-    if s.sobol_first is not None:
-        g.create_dataset("sobol_first", data=s.sobol_first)
-    if s.sobol_total is not None:
-        g.create_dataset("sobol_total", data=s.sobol_total)
-    if s.quantiles is not None:
-        g.create_dataset("quantiles", data=s.quantiles)
-        g.create_dataset("ci_quantiles", data=s.ci_quantiles)
-        g["quantiles"].attrs["levels"] = np.asarray(s.quantile_levels, dtype=float)
-    g.attrs["n_used"] = s.n_used
-    g.attrs["moments_method"] = s.moments_method
-
-
 def _json_default(obj: Any) -> Any:
     if isinstance(obj, np.ndarray):
         return obj.tolist()
@@ -202,50 +203,47 @@ def _fill(f: h5py.File, result: Result) -> None:
     # HDF5 lists groups alphabetically: keep the config's method order explicitly.
     f.attrs["method_order"] = json.dumps([r.label for r in result.runs])
     f.attrs["output_order"] = json.dumps([o.name for o in result.outputs])
-    f.create_dataset("time", data=result.time)
-    f.create_dataset("inputs/names", data=np.array(result.input_names, dtype="S"))
+    write_scale(f, "time", result.time, units="s", long_name="time")
+    write_scale(f, "input", result.input_names, long_name="uncertain input")
     if result.report_times:
-        f.create_dataset("report_times", data=np.asarray(result.report_times))
+        write_scale(f, "report_times", np.asarray(result.report_times, dtype=float), units="s")
     for o in result.outputs:
         g = f.create_group(f"outputs/{o.name}")
         g.attrs.update(kind=o.kind, unit=o.unit, description=o.description,
                        components=json.dumps(list(o.components)))
     for r in result.runs:
-        _write_run(f.create_group(f"methods/{r.label}"), r)
+        _write_run(f.create_group(f"methods/{r.label}"), r, result)
 
 
-def _write_reasons(g: h5py.Group, reasons: np.ndarray, block: int = 1 << 20) -> None:
-    """Failure reasons as fixed-width bytes, converted a block at a time (a list of 1e7
-    Python strings would cost more than the result)."""
+def _write_reasons(g: h5py.Group, reasons: np.ndarray, block: int = 1 << 20) -> h5py.Dataset:
+    """Failure reasons as UTF-8 strings (netCDF-4 ``string``), converted a block at a time (a
+    list of 1e7 Python strings would cost more than the result)."""
     n = len(reasons)
-    width = 1
-    for a in range(0, n, block):
-        width = max([width] + [len(str(v).encode()) for v in set(reasons[a:a + block])])
-    ds = g.create_dataset("reasons", shape=(n,), dtype=f"S{max(width, 1)}",
+    ds = g.create_dataset("reasons", shape=(n,), dtype=UTF8,
                           compression="gzip" if n > 4096 else None)
     for a in range(0, n, block):
-        ds[a:a + block] = np.array([str(v).encode() for v in reasons[a:a + block]],
-                                   dtype=f"S{max(width, 1)}")
+        ds[a:a + block] = np.array([str(v) for v in reasons[a:a + block]], dtype=object)
+    return ds
 
 
-def _write_run(g: h5py.Group, r: MethodRun) -> None:
+def _write_run(g: h5py.Group, r: MethodRun, result: Result) -> None:
     e = r.estimate
     g.attrs.update(method=e.method, n_runs=r.n_runs, n_failed=r.n_failed,
                    model_seconds=r.model_seconds, fit_seconds=r.fit_seconds,
                    wall_seconds=r.wall_seconds,
                    diagnostics_json=json.dumps(e.diagnostics, default=_json_default))
-    g.create_group("stats")  # empty for a method without moments (subset simulation)
-    for name, s in e.stats.items():
-        _write_stats(g.create_group(f"stats/{name}"), s)
+    outputs = [o for o in result.outputs if o.name in e.stats or o.name in r.scalars]
+    scales = write_method_stats(g, e.stats, outputs, result.time, result.input_names)
     if e.scalar_names and e.scalar_mean is not None:
         j = g.create_group("scalar_joint")
-        j.create_dataset("names", data=np.array(e.scalar_names, dtype="S"))
-        j.create_dataset("mean", data=e.scalar_mean)
+        names = write_scale(j, "names", e.scalar_names)
+        attach(j.create_dataset("mean", data=e.scalar_mean), [names])
         j.create_dataset("cov", data=e.scalar_cov)
     for name, ev in e.events.items():
         g.create_group(f"events/{name}").attrs.update(ev.as_dict())
     s = g.create_group("samples")
     x = r.x
+    sample = write_scale(s, "sample", np.arange(x.shape[0]))
     gz = "gzip" if x.size > 4096 else None
     if isinstance(x, GeneratedRows):  # written chunk by chunk: never held whole
         ds = s.create_dataset("x", shape=x.shape, dtype="f8", compression=gz,
@@ -253,12 +251,18 @@ def _write_run(g: h5py.Group, r: MethodRun) -> None:
         for start, rows in x.chunks():
             ds[start:start + rows.shape[0]] = rows
     else:
-        s.create_dataset("x", data=x, compression=gz)
-    s.create_dataset("failed", data=r.failed)
-    _write_reasons(s, r.reasons)
+        ds = s.create_dataset("x", data=x, compression=gz)
+    attach(ds, [sample, scales["input"]])
+    attach(s.create_dataset("failed", data=r.failed.astype(np.uint8)), [sample])
+    attach(_write_reasons(s, r.reasons), [sample])
+    info = {o.name: o for o in result.outputs}
     for name, y in r.scalars.items():
-        s.create_dataset(f"scalars/{name}", data=y,
-                         compression="gzip" if y.size > 4096 else None)
+        comp = scales.get(f"{name}_component")
+        d = s.create_dataset(f"scalars/{name}", data=y,
+                             compression="gzip" if y.size > 4096 else None)
+        if comp is not None and info[name].kind == "scalar" and y.ndim == 2 \
+                and y.shape[1] == comp.shape[0]:
+            attach(d, [sample, comp])
 
 
 # ---------------------------------------------------------------------------- reading
@@ -285,9 +289,11 @@ def read_hdf5(path: str | Path) -> Result:
         raise ResultError(f"{path}: result file not found")
     try:
         with h5py.File(path, "r") as f:
-            if int(f.attrs.get("format", -1)) != FORMAT:
+            fmt = int(f.attrs.get("format", -1))
+            if fmt not in READABLE_FORMATS:
                 raise ResultError(f"{path}: not a uqguide result file (format "
-                                  f"{f.attrs.get('format')!r}, expected {FORMAT})")
+                                  f"{f.attrs.get('format')!r}, expected one of "
+                                  f"{', '.join(map(str, READABLE_FORMATS))})")
             out_order = json.loads(f.attrs.get("output_order", "[]")) or list(f["outputs"])
             outputs = [
                 OutputInfo(name, str(g.attrs["kind"]), str(g.attrs["unit"]),  # type: ignore[arg-type]
@@ -299,12 +305,15 @@ def read_hdf5(path: str | Path) -> Result:
             order = json.loads(f.attrs.get("method_order", "[]")) or list(f["methods"])
             for label in order:
                 g = f["methods"][label]
-                stats = {name: _read_stats(sg) for name, sg in g.get("stats", {}).items()}
+                if fmt == 1:
+                    stats = {name: _read_stats(sg) for name, sg in g.get("stats", {}).items()}
+                else:
+                    stats = read_method_stats(g, outputs)
                 joint = g.get("scalar_joint")
                 est = Estimate(
                     method=str(g.attrs["method"]), label=label, stats=stats,
                     diagnostics=json.loads(g.attrs["diagnostics_json"]),
-                    scalar_names=[b.decode() for b in joint["names"][()]] if joint else [],
+                    scalar_names=strings(joint["names"][()]) if joint else [],
                     scalar_mean=joint["mean"][()] if joint else None,
                     scalar_cov=joint["cov"][()] if joint else None,
                     events={name: EventEstimate.from_dict(name, dict(eg.attrs))
@@ -314,8 +323,8 @@ def read_hdf5(path: str | Path) -> Result:
                 runs.append(MethodRun(
                     estimate=est, x=s["x"][()],
                     scalars={k: v[()] for k, v in s.get("scalars", {}).items()},
-                    failed=s["failed"][()], reasons=np.array(
-                        [b.decode() for b in s["reasons"][()]], dtype=object),
+                    failed=s["failed"][()].astype(bool),
+                    reasons=np.array(strings(s["reasons"][()]), dtype=object),
                     time=f["time"][()], n_runs=int(g.attrs["n_runs"]),
                     model_seconds=float(g.attrs["model_seconds"]),
                     fit_seconds=float(g.attrs["fit_seconds"]),
@@ -324,7 +333,7 @@ def read_hdf5(path: str | Path) -> Result:
             config = _config_from_yaml(f.attrs["config_yaml"], path)
             result = Result(
                 name=str(f.attrs["name"]), model=str(f.attrs["model"]),
-                input_names=[b.decode() for b in f["inputs/names"][()]],
+                input_names=strings(f["inputs/names" if fmt == 1 else "input"][()]),
                 outputs=outputs, time=f["time"][()], runs=runs,
                 reference=str(f.attrs["reference"]) or None,
                 report_times=list(f["report_times"][()]) if "report_times" in f else None,

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from collections.abc import Callable
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -42,7 +43,9 @@ class MethodSettings(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")
+    label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$",
+                              description="name of the method's rows in the tables and of its "
+                                          "group in the result file (default: the method's name)")
 
     _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
@@ -208,6 +211,9 @@ class Method(ABC):
     #: Components of every output the method may see (name -> component names; from the
     #: config), for the events on multi-component outputs.
     components: dict[str, tuple[str, ...]] = {}
+    #: Told what a long fit is doing ("fitting zem (2/7)"), for the progress display; set by
+    #: the driver (None: nobody listens).
+    on_phase: Callable[[str], None] | None = None
 
     def __init__(self, settings: MethodSettings | dict[str, Any] | None = None) -> None:
         if settings is None:
@@ -219,6 +225,11 @@ class Method(ABC):
     @property
     def label(self) -> str:
         return self.settings.label or self.name
+
+    def note(self, text: str) -> None:
+        """Say what the fit is doing now (see ``on_phase``)."""
+        if self.on_phase is not None:
+            self.on_phase(text)
 
     def check(self, index: int) -> None:
         """Checks of the settings against the rest of the config (events, outputs), after

@@ -101,6 +101,7 @@ class MonteCarloReducer:
             y_ok = y[ok]
             _put(summary, "m", name, MomentSums.of(y_ok))
             cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
+            # explicit width: reshape(0, -1) is ambiguous for a chunk in which every run failed
             blocks.append(cols.reshape(cols.shape[0], int(np.prod(cols.shape[1:]))))
             spans.append((name, blocks[-1].shape[1]))
         if w is not None and blocks:

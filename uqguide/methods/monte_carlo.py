@@ -202,8 +202,11 @@ class MonteCarlo(Method):
             log.warning("%s: %d of %d runs failed; statistics use the other %d",
                         self.label, n_failed, runs.n, runs.n - n_failed)
         if not acc:
+            from ..failures import render_reasons
+
             raise MethodError(f"{self.label}: every one of the {runs.n} runs failed, no "
-                              f"statistics ({tally})")
+                              f"statistics ({tally})\n\nFailed runs\n"
+                              + render_reasons(self.label, runs.n, runs.reasons[runs.failed]))
         stats = {}
         for (kind, name), sums in acc.items():
             if kind != "m" or name == "":

@@ -262,7 +262,8 @@ class AdaptivePCE(Method):
             [(f.columns, f.expansion) for f in fits], self.derived_outputs, outputs,
             n_runs=n_ok, n_draws=s.surrogate_draws, seed=design.data.get("draw_seed", 0),
             label=self.label, sampling=s.surrogate_sampling,
-            levels=self.quantile_levels, events=self.events, components=self.components)
+            levels=self.quantile_levels, events=self.events, components=self.components,
+            note=self.note)
         val_diag: dict[str, Any] = {}
         if validation is not None:
             events, val_diag = self._validate(space, fits, design.data["u_validation"],
@@ -330,8 +331,12 @@ class AdaptivePCE(Method):
                 f"({failure_summary(outputs)}); a regression PCE needs at least {_MIN_RUNS}")
         germ = Germ.of(space)
         xi = germ.from_unit(design.data["u"][ok])
-        return [self._fit_output(germ, xi, col) for col in output_columns(outputs, ok)
-                if col.name not in self.derived_outputs]
+        cols = [c for c in output_columns(outputs, ok) if c.name not in self.derived_outputs]
+        fits = []
+        for i, col in enumerate(cols):
+            self.note(f"fitting {col.name} ({i + 1}/{len(cols)}, {ok.size} runs)")
+            fits.append(self._fit_output(germ, xi, col))
+        return fits
 
     def _fit_output(self, germ: Germ, xi: np.ndarray, col: OutputColumns) -> _OutputFit:
         s = self.settings

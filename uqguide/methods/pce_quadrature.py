@@ -159,6 +159,7 @@ class QuadraturePCE(Method):
         for col in output_columns(outputs, rows):
             if col.name in self.derived_outputs:
                 continue  # computed from its carriers' surrogates below
+            self.note(f"projecting {col.name}")
             coef = fit(col.y)
             coef[1:, constant_columns(col.y)] = 0.0  # runs that all agree: exactly constant
             fitted.append((col, Expansion(germ, alpha, coef, col.shape)))
@@ -166,7 +167,8 @@ class QuadraturePCE(Method):
             fitted, self.derived_outputs, outputs, n_runs=rows.size,
             n_draws=self.settings.surrogate_draws, seed=seed, label=self.label,
             sampling=self.settings.surrogate_sampling,
-            levels=self.quantile_levels, events=self.events, components=self.components)
+            levels=self.quantile_levels, events=self.events, components=self.components,
+            note=self.note)
         diagnostics: dict[str, Any] = {
             "n_runs": outputs.n,
             "n_failed": int(outputs.failed.sum()),

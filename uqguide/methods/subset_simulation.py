@@ -41,7 +41,6 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field, model_validator
-from scipy import special
 
 from ..errors import ConfigError, MethodError
 from ..events import EventEstimate, EventSpec, component_index
@@ -123,6 +122,8 @@ class SubsetSimulation(Method):
 
     @staticmethod
     def _to_x(space: InputSpace, z: np.ndarray) -> np.ndarray:
+        from scipy import special
+
         return space.from_unit(np.clip(special.ndtr(z), _U_EPS, 1 - _U_EPS))
 
     # ------------------------------------------------------------------ design

@@ -17,17 +17,27 @@ returns either
 - a dict ``{name: array}`` with scalars ``(n,)``/``(n, k)`` and series ``(n, T)``/``(n, T, k)``,
   plus ``"time": (T,)`` when there are series.
 
-A sample with a non-finite output value is flagged as failed, not raised.
+A sample with a non-finite output value is flagged as failed, not raised; a call that raises
+is split until the raising samples fail alone (see :func:`uqguide.execution.evaluate_batch`).
+
+Where the module is found: ``"oscillator:damped"`` is looked up first as ``oscillator.py`` (or a
+package folder ``oscillator/``) in the config file's folder, then in the current folder, then
+on ``sys.path`` like any import, so no ``PYTHONPATH`` is needed for a module beside the config.
+The folder it was found in is kept as ``module_dir`` (in the resolved config, and for worker
+processes). From Python, ``function`` may also be the function object itself.
 """
 
 from __future__ import annotations
 
 import importlib
+import sys
 from collections.abc import Callable, Mapping
-from typing import Literal
+from pathlib import Path
+from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import (BaseModel, ConfigDict, Field, ValidationInfo, field_serializer,
+                      field_validator, model_validator)
 
 from ..errors import ModelError
 from .base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
@@ -40,17 +50,48 @@ class CallableOutput(BaseModel):
     kind: Literal["scalar", "series"] = "scalar"
     components: int = Field(default=1, ge=1)
     unit: str = "1"
+    description: str = ""
+    component_names: list[str] | None = None
+
+    @model_validator(mode="after")
+    def _names(self) -> CallableOutput:
+        if self.component_names is not None and len(self.component_names) != self.components:
+            raise ValueError(f"component_names must have {self.components} names, one per "
+                             f"component (got {self.component_names})")
+        return self
 
 
-def import_function(spec: str) -> Callable[[np.ndarray], object]:
-    """The callable named ``"package.module:function"``; ValueError saying what went wrong."""
+def find_module_dir(spec: str, folders: list[Path]) -> str | None:
+    """The first of ``folders`` holding the top-level module of ``"pkg.module:function"``."""
+    top = spec.partition(":")[0].split(".")[0]
+    if not top:
+        return None
+    for d in folders:
+        if (d / f"{top}.py").is_file() or (d / top / "__init__.py").is_file():
+            return str(d.resolve())
+    return None
+
+
+def import_function(spec: str, module_dir: str | None = None) -> Callable[[np.ndarray], object]:
+    """The callable named ``"package.module:function"`` (imported from ``module_dir`` first
+    when given); ValueError saying what went wrong."""
     module, sep, attr = spec.partition(":")
     if not sep or not module or not attr:
         raise ValueError(f"must be 'package.module:function', got {spec!r}")
     try:
-        obj: object = importlib.import_module(module)
+        if module_dir and module not in sys.modules:
+            sys.path.insert(0, module_dir)
+            try:
+                obj: object = importlib.import_module(module)
+            finally:
+                sys.path.remove(module_dir)
+        else:
+            obj = importlib.import_module(module)
     except Exception as exc:  # noqa: BLE001 - any import failure is the user's to fix
-        raise ValueError(f"cannot import module {module!r} ({type(exc).__name__}: {exc})") from None
+        where = ("; looked in the config's folder and the current folder, then sys.path"
+                 if isinstance(exc, ModuleNotFoundError) and not module_dir else "")
+        raise ValueError(f"cannot import module {module!r} ({type(exc).__name__}: "
+                         f"{exc}){where}") from None
     for part in attr.split("."):
         if not hasattr(obj, part):
             raise ValueError(f"module {module!r} has no attribute {attr!r}")
@@ -61,18 +102,49 @@ def import_function(spec: str) -> Callable[[np.ndarray], object]:
 
 
 class CallableParams(ModelParams):
-    function: str = Field(default="uqguide.models.callable:_example",
-                          description="'package.module:function' taking x (n, d)")
+    module_dir: str | None = Field(
+        default=None, description="folder the module was found in (set by uqguide: the "
+                                  "config's folder or the current folder)")
+    function: str | Callable[..., Any] = Field(
+        default="uqguide.models.callable:_example",
+        description="'module:function' taking x (n, d) (a function object from Python)")
     inputs: list[str] = Field(default=["x1", "x2"], min_length=1,
                               description="names of the columns of x, in order")
     nominal: list[float] | None = Field(default=None,
                                         description="values of inputs not made uncertain")
     outputs: list[str | CallableOutput] = Field(default=["y"], min_length=1)
 
+    @model_validator(mode="before")
+    @classmethod
+    def _locate(cls, data: Any, info: ValidationInfo) -> Any:
+        if isinstance(data, Mapping) and isinstance(data.get("function"), str) \
+                and data.get("module_dir") is None:
+            folders = [Path(p) for p in ((info.context or {}).get("config_dir"),) if p]
+            found = find_module_dir(data["function"], [*folders, Path.cwd()])
+            if found:
+                data = {**data, "module_dir": found}
+        return data
+
+    @field_serializer("function")
+    def _spec(self, v: str | Callable[..., Any]) -> str:
+        return v if isinstance(v, str) else f"{v.__module__}:{v.__qualname__}"
+
+    def spec(self) -> str:
+        """``"module:function"``, also for a function object."""
+        return self._spec(self.function)
+
+    def resolve(self) -> Callable[..., Any]:
+        """The function itself."""
+        if callable(self.function):
+            return self.function
+        return import_function(self.function, self.module_dir)
+
     @field_validator("function")
     @classmethod
-    def _importable(cls, v: str) -> str:
-        import_function(v)
+    def _importable(cls, v: str | Callable[..., Any], info: ValidationInfo
+                    ) -> str | Callable[..., Any]:
+        if isinstance(v, str):
+            import_function(v, info.data.get("module_dir"))
         return v
 
     @model_validator(mode="after")
@@ -106,13 +178,14 @@ class CallableModel(Model):
 
     def outputs(self) -> tuple[OutputInfo, ...]:
         return tuple(
-            OutputInfo(s.name, s.kind, s.unit, f"{s.kind} output of {self.params.function}",
+            OutputInfo(s.name, s.kind, s.unit, s.description or f"{s.kind} output of {self.params.spec()}",
+                       tuple(s.component_names) if s.component_names else
                        tuple(f"{s.name}{j}" for j in range(s.components))
                        if s.components > 1 else ("",))
             for s in self._specs())
 
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]):
-        fn = import_function(self.params.function)
+        fn = self.params.resolve()
         x = np.column_stack([values[name] for name in self.params.inputs])
         raw = fn(x)
         specs = self._specs()
@@ -125,7 +198,7 @@ class CallableModel(Model):
             arr = arr.reshape(n, -1)
             widths = [s.components for s in specs]
             if arr.shape[1] != sum(widths):
-                raise ModelError(f"{self.params.function} returned {arr.shape[1]} columns, "
+                raise ModelError(f"{self.params.spec()} returned {arr.shape[1]} columns, "
                                  f"the config's outputs need {sum(widths)}")
             splits = np.split(arr, np.cumsum(widths)[:-1], axis=1)
             data = {s.name: a for s, a in zip(specs, splits)}
@@ -134,7 +207,7 @@ class CallableModel(Model):
         bad = np.zeros(n, dtype=bool)
         for s in specs:
             if s.name not in data:
-                raise ModelError(f"{self.params.function} did not return output {s.name!r}")
+                raise ModelError(f"{self.params.spec()} did not return output {s.name!r}")
             a = np.asarray(data[s.name], dtype=float)
             if s.kind == "series":
                 a = a.reshape(n, time_grid.shape[0], s.components)

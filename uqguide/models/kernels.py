@@ -127,6 +127,9 @@ def cache_dir(package_dir: Path = _PACKAGE_DIR) -> Path | None:
 # ---------------------------------------------------------------------------- compile notice
 _announced: set[str] = set()
 _lock = threading.Lock()
+#: Where the compile notice goes instead of a plain line on stderr: a progress bar on a terminal
+#: sets it, to print the line above the bar (not across it) and show the compile as its phase.
+notice_sink: Callable[[str], None] | None = None
 
 
 def _kernel_family(module: str) -> str | None:
@@ -146,8 +149,13 @@ def _on_compile(event: Any) -> None:
         if family in _announced:
             return
         _announced.add(family)
-    print(f"uqguide: compiling the {family} kernel (once per install; later runs load it from "
-          "the cache)", file=sys.stderr, flush=True)
+    text = (f"uqguide: compiling the {family} kernel (once per install; later runs load it from "
+            "the cache)")
+    sink = notice_sink
+    if sink is not None:
+        sink(text)
+    else:
+        print(text, file=sys.stderr, flush=True)
 
 
 _configured = False

@@ -22,7 +22,6 @@ from __future__ import annotations
 import itertools
 from functools import lru_cache
 
-import chaospy
 import numpy as np
 
 from .germ import Germ, kind_distribution
@@ -90,6 +89,8 @@ def _recurrence(kind: tuple[str, float, float], degree: int) -> tuple[np.ndarray
     if fam == "uniform":
         k = np.arange(1.0, degree + 1)
         return np.zeros(degree + 1), np.concatenate([[1.0], k**2 / (4 * k**2 - 1)])
+    import chaospy
+
     coeffs, _, _ = chaospy.stieltjes(degree, kind_distribution(kind))
     return np.asarray(coeffs[0, 0], float), np.asarray(coeffs[1, 0], float)
 

@@ -18,7 +18,6 @@ import zlib
 from collections.abc import Iterator
 
 import numpy as np
-from scipy.stats import qmc
 
 _U_EPS = 2.0**-53  # a coordinate of exactly 0 or 1 would map to an infinite normal input
 
@@ -40,6 +39,8 @@ def unit_design(d: int, start: int, stop: int, sampling: str, seed: int, label: 
     n = stop - start
     if n <= 0:
         return np.empty((0, d))
+    from scipy.stats import qmc
+
     if sampling == "sobol":
         rng = np.random.default_rng(stream(seed, label, DESIGN_STREAM))
         power = int(np.ceil(np.log2(max(stop, 1))))
@@ -76,6 +77,8 @@ def surrogate_draws(d: int, n: int, seed: int | np.random.SeedSequence, chunk: i
         raise ValueError(f"unknown surrogate sampling '{sampling}' (random or sobol)")
     total = 1 << max(0, int(np.ceil(np.log2(max(n, 1)))))
     step = 1 << max(0, int(np.floor(np.log2(max(1, min(chunk, total))))))
+    from scipy.stats import qmc
+
     sampler = qmc.Sobol(d=d, scramble=True, seed=rng)
     for _ in range(total // step):
         yield np.clip(sampler.random(step), _U_EPS, 1 - _U_EPS)

@@ -30,10 +30,12 @@ quadrature nodes drawn in the germ describe the same inputs.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import chaospy
 import numpy as np
-from scipy import special, stats
+
+if TYPE_CHECKING:
+    import chaospy
 
 from ..inputs import InputSpace, LogNormal, Normal, TruncNormal, Uniform
 
@@ -90,6 +92,8 @@ class Germ:
 
     def from_unit(self, u: np.ndarray) -> np.ndarray:
         """Germ values ``xi (n, d)`` of unit-cube points ``u (n, d)`` (independent inverse CDFs)."""
+        from scipy import special, stats
+
         u = np.asarray(u, dtype=float)
         xi = np.empty_like(u)
         for j, fam in enumerate(self.families):
@@ -127,6 +131,8 @@ class Germ:
 
 def kind_distribution(kind: tuple[str, float, float]) -> chaospy.Distribution:
     """The chaospy distribution of a germ variable of the given :meth:`Germ.kind`."""
+    import chaospy
+
     fam, a, b = kind
     if fam == NORMAL:
         return chaospy.Normal(0.0, 1.0)

@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import qr, solve_triangular
 
 _DEGENERATE = 1e-10  # relative norm below which a new column adds nothing to the span
 _REFRESH = 8  # LARS steps between exact recomputations of the correlations
@@ -155,6 +154,8 @@ def _path_scores(psi: np.ndarray, y: np.ndarray, cols: np.ndarray, var: float
 
     Returns the kept columns, their scores (``inf`` where undefined), ``R`` and ``Q^T y``.
     """
+    from scipy.linalg import qr, solve_triangular  # here: `uqguide validate` starts without it
+
     n = y.size
     while True:
         a = psi[:, cols]
@@ -216,6 +217,8 @@ def corrected_loo_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray,
             break
         length = min(full.size, max(2 * length, want + 1))
     k = best + 1
+    from scipy.linalg import solve_triangular
+
     coef = solve_triangular(r[:k, :k], qty[:k], lower=False, check_finite=False)
     score = float(loo[best]) if np.isfinite(loo[best]) else float(np.inf)
     return SparseFit(cols[:k].copy(), coef, score)

@@ -10,7 +10,7 @@ section 3) follows from the coefficients too.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -93,6 +93,7 @@ def assemble(
     outputs: ModelOutput, *, n_runs: int, n_draws: int, seed: int, label: str,
     sampling: str = "random", levels: tuple[float, ...] | None = None,
     events: tuple[EventSpec, ...] = (), components: Mapping[str, tuple[str, ...]] | None = None,
+    note: Callable[[str], None] | None = None,
 ) -> tuple[dict[str, OutputStats], list[str], np.ndarray | None, np.ndarray | None,
            dict[str, object], dict[str, EventEstimate]]:
     """Statistics of every output, and the stacked scalars' joint moments.
@@ -123,7 +124,9 @@ def assemble(
     stats = {}
     expansions = {}
     scalars = []
-    for col, exp in fitted:
+    for i, (col, exp) in enumerate(fitted):
+        if note is not None:
+            note(f"surrogate statistics of {col.name} ({i + 1}/{len(fitted)})")
         stats[col.name] = moments.output_statistics(exp, n_runs=n_runs, n_draws=n_draws,
                                                     seed=seed, sampling=sampling)
         expansions[col.name] = exp

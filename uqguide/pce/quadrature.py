@@ -39,10 +39,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from math import comb
 
-import chaospy
 import numpy as np
-from chaospy.quadrature import genz_keister_24
-from scipy.linalg import eigh_tridiagonal
 
 from .basis import graded, index_lookup, recurrence, tensor_indices, univariate
 from .germ import NORMAL, UNIFORM, Germ, kind_distribution
@@ -80,6 +77,8 @@ def gauss_rule(kind: tuple[str, float, float], n: int) -> tuple[np.ndarray, np.n
     alpha, beta = recurrence(kind, n)
     if n == 1:
         return alpha[:1].copy(), np.ones(1)
+    from scipy.linalg import eigh_tridiagonal
+
     nodes, vecs = eigh_tridiagonal(alpha[:n], np.sqrt(beta[1:n]))
     weights = vecs[0] ** 2
     return nodes, weights / weights.sum()
@@ -112,6 +111,9 @@ def rule_1d(germ: Germ, j: int, rule: str, level: int) -> Rule1D:
 
 @lru_cache(maxsize=256)
 def _rule_cached(kind: tuple[str, float, float], rule: str, level: int) -> Rule1D:
+    import chaospy
+    from chaospy.quadrature import genz_keister_24
+
     if rule == "gauss":
         nodes, weights = gauss_rule(kind, level + 1)
     elif rule == "genz_keister":

@@ -1,0 +1,52 @@
+"""Lazy imports: the quick commands do not import chaospy, scipy.stats or pandas (the CPU
+figures are measured by benchmarks/startup.py, not asserted here)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PROBE = """
+import sys
+from uqguide.cli import main
+try:
+    main(sys.argv[1:], prog_name="uqguide")
+except SystemExit:
+    pass
+print("HEAVY:" + ",".join(m for m in ("chaospy", "scipy.stats", "sklearn", "pandas") if m in sys.modules),
+      file=sys.stderr)
+"""
+
+
+def _heavy(*args: str) -> str:
+    p = subprocess.run([sys.executable, "-c", PROBE, *args], capture_output=True, text=True,
+                       cwd=ROOT, timeout=120)
+    assert p.returncode == 0, p.stderr
+    return [ln for ln in p.stderr.splitlines() if ln.startswith("HEAVY:")][-1][len("HEAVY:"):]
+
+
+@pytest.mark.parametrize("args", [
+    ("--help",),
+    ("validate", "configs/ftcapn_table5.yaml"),       # Monte Carlo and adaptive PCE
+    ("validate", "configs/ftcapn_pce_table3.yaml"),   # tensor and Smolyak PCE
+])
+def test_quick_commands_import_no_chaospy_scipy_stats_or_pandas(args):
+    assert _heavy(*args) == ""
+
+
+def test_baseline_and_check_import_none_of_them(tmp_path):
+    base = str(tmp_path / "b.json")
+    assert _heavy("baseline", "tests/data/result_format1.h5", "-o", base) == ""
+    assert _heavy("check", "tests/data/result_format1.h5", "--baseline", base) == ""
+
+
+def test_the_three_sigma_literals_are_scipys():
+    from scipy import stats
+
+    from uqguide.quantiles import THREE_SIGMA
+
+    assert THREE_SIGMA == (float(stats.norm.cdf(-3.0)), 0.5, float(stats.norm.cdf(3.0)))

@@ -1,0 +1,54 @@
+"""The failed runs, tallied by method and reason: the table ``uqguide run`` prints under its
+statistics, and the one it prints when every run of a method failed (no statistics at all)."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from .result import Result
+
+#: Reasons listed per method; the rest are summed into one "other reasons" row.
+MAX_REASONS = 5
+COLUMNS = ["label", "runs", "failed", "share", "reason", "count"]
+
+
+def reason_rows(label: str, n_runs: int, reasons: Iterable[object]) -> list[dict[str, object]]:
+    """Rows of one method's failures: ``reasons`` has one entry per failed run."""
+    tally = Counter(str(v) or "unknown" for v in reasons).most_common()
+    n_failed = sum(c for _, c in tally)
+    shown, rest = tally[:MAX_REASONS], tally[MAX_REASONS:]
+    if rest:
+        shown.append((f"{len(rest)} other reasons", sum(c for _, c in rest)))
+    rows = []
+    for i, (reason, count) in enumerate(shown):
+        first = i == 0
+        rows.append({"label": label if first else "", "runs": str(n_runs) if first else "",
+                     "failed": str(n_failed) if first else "",
+                     "share": f"{100 * n_failed / max(n_runs, 1):.3g}%" if first else "",
+                     "reason": reason, "count": count})
+    return rows
+
+
+def failure_table(result: Result) -> pd.DataFrame:
+    """One row per method and failure reason: label, runs, failed, share, reason, count.
+
+    Empty when no run failed.
+    """
+    import pandas as pd
+
+    rows = [row for r in result.runs if r.n_failed
+            for row in reason_rows(r.label, r.n_runs, r.reasons[r.failed])]
+    return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def render_reasons(label: str, n_runs: int, reasons: Iterable[object]) -> str:
+    """The table of :func:`reason_rows` as text (for a method whose every run failed)."""
+    import pandas as pd
+
+    return pd.DataFrame(reason_rows(label, n_runs, reasons), columns=COLUMNS).to_string(
+        index=False)

@@ -1,0 +1,63 @@
+"""The time steps the tables show: the config's report times on the model's grid.
+
+Kept apart from :mod:`uqguide.report` (pandas) so that ``uqguide baseline`` and ``check`` start
+without importing pandas' table machinery they do not need.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .result import Result
+
+
+def report_indices(result: Result, n_default: int = 5) -> np.ndarray:
+    """Grid indices of the report times (nearest step) plus the last step."""
+    t = result.time
+    if t.size == 0:
+        return np.zeros(0, dtype=int)
+    if result.report_times:
+        idx = [int(np.argmin(np.abs(t - rt))) for rt in result.report_times]
+    else:
+        idx = list(np.linspace(0, t.size - 1, n_default).round().astype(int))
+    return np.unique(np.append(idx, t.size - 1))
+
+
+def check_report_times(report_times: list[float] | tuple[float, ...] | None,
+                       grid: np.ndarray) -> None:
+    """ConfigError naming ``report_times[i]`` when a report time lies outside the time grid
+    (more than half a step beyond either end): it would silently show the nearest step."""
+    from .errors import ConfigError
+
+    if not report_times or grid.size == 0:
+        return
+    half = 0.5 * float(np.min(np.diff(grid))) if grid.size > 1 else 0.0
+    lo, hi = float(grid[0]), float(grid[-1])
+    for i, t in enumerate(report_times):
+        if t < lo - half or t > hi + half:
+            raise ConfigError(
+                f"report_times[{i}]: {t:g} s is outside the model's time grid "
+                f"[{lo:g}, {hi:g}] s; give times within it", field=f"report_times[{i}]")
+
+
+def model_time_grid(model: Any, outputs: tuple[str, ...]) -> np.ndarray:
+    """The time grid of the model's nominal run (empty when it has no series or the run fails)."""
+    series = tuple(o for o in outputs if model.output_info(o).kind == "series")
+    if not series:
+        return np.zeros(0)
+    try:
+        return np.asarray(model.evaluate(np.zeros((1, 0)), [], series).time, dtype=float)
+    except Exception:  # noqa: BLE001 - no grid known: the runs themselves will say what fails
+        return np.zeros(0)
+
+
+def check_config_report_times(config: Any) -> None:
+    """:func:`check_report_times` for a RunConfig, probing its model's grid once per config
+    (the command line checks before it opens a run folder; ``propagate.run`` checks again)."""
+    if not config.report_times or getattr(config, "_report_times_checked", False):
+        return
+    check_report_times(config.report_times, model_time_grid(config.model, config.outputs))
+    config._report_times_checked = True
