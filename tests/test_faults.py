@@ -442,6 +442,7 @@ def test_sigint_or_sigterm_at_20_random_moments_is_exit_130_and_resumes_identica
         got = _stats(out / "sig.h5")
         for k in expected:
             np.testing.assert_array_equal(got[k], expected[k], err_msg=f"{k} after {at:.2f} s")
+    print(f"exit codes at {np.round(np.sort(moments), 2)} s: {sorted(codes)}")
     assert codes.count(130) >= 15, codes  # nearly every moment falls inside the run
 
 
@@ -525,7 +526,7 @@ def test_workers_die_with_a_killed_driver(tmp_path):
 
 # ---------------------------------------------------------------------------- config fuzz
 def test_a_sample_of_the_config_fuzz_is_clean():
-    """20 of benchmarks/fuzz_configs.py's 518 mutations (run whole: every invalid one a clean
+    """20 of benchmarks/fuzz_configs.py's 519 mutations (run whole: every invalid one a clean
     exit 2, 0 hangs, 0 tracebacks, 0 silent acceptances), each in a forked child killed
     after 20 s."""
     import random
@@ -544,3 +545,15 @@ def test_a_sample_of_the_config_fuzz_is_clean():
     outcomes = fuzz_configs.run_all(sample)
     bad = [(o.m.name, o.verdict, o.stderr[-200:]) for o in outcomes if o.verdict != "ok"]
     assert not bad, bad
+
+
+def test_a_smolyak_grid_too_large_to_build_is_refused_by_validate(tmp_path):
+    raw = _ftcapn(100)
+    raw["methods"] = [{"name": "pce_smolyak", "level": 12, "nested": False}]
+    res = _invoke("validate", _write(tmp_path / "c.yaml", raw))
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip().startswith("error: methods[0].level: pce_smolyak with level 12 "
+                                         "on 7 inputs combines ")
+    raw["methods"] = [{"name": "pce_smolyak", "level": 3, "nested": False}]
+    res = _invoke("validate", _write(tmp_path / "ok.yaml", raw))
+    assert res.exit_code == 0 and "pce_smolyak: up to 120 model runs" in res.output, res.output

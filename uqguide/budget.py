@@ -10,8 +10,9 @@ The estimate is an upper bound of what the pipeline holds at once, in bytes:
 
 - **kept per run** (the whole run): per-sample scalar outputs (8 bytes a component), the failure
   flag and reason (9 bytes), and the inputs (8 bytes an input) of methods that keep their
-  design (PCE; Monte Carlo designs are generated per chunk and never held whole); twice, for
-  the concatenation of the chunks at the end;
+  design (PCE; Monte Carlo designs are generated per chunk and never held whole); once for a
+  reduced method (Monte Carlo copies each chunk into arrays allocated once), twice for the
+  others (their chunks are joined at the end);
 - **per chunk** (transient): the chunk's inputs and time series (``rows x T x k x 8``), four
   times (model output, joined parts, centred powers of the reduction), and the Poisson
   bootstrap weights (``B x rows x 8``), per chunk in flight (two per worker, in the workers);
@@ -92,6 +93,7 @@ class MethodBudget:
     steps_per_run: float | None
     peak_bytes: float | None
     parts: dict[str, float]
+    exact: bool = True
 
 
 @dataclass(frozen=True)
@@ -113,7 +115,7 @@ class Budget:
         out = []
         for m in self.methods:
             runs = "runs unknown until the design is built" if m.runs is None \
-                else f"{m.runs:,} model runs"
+                else f"{'' if m.exact else 'up to '}{m.runs:,} model runs"
             steps = "" if m.steps_per_run is None else f" x {m.steps_per_run:,.0f} steps"
             mem = "" if m.peak_bytes is None else f", ~{human(m.peak_bytes)} " + \
                 "(" + ", ".join(f"{k} {human(v)}" for k, v in m.parts.items() if v) + ")"
@@ -150,13 +152,15 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
         boot = getattr(method.settings, "bootstrap", 0) or 0
         per_chunk = chunk * (8.0 * d + 4 * 8.0 * grid * k_series + 8.0 * boot + 9.0)
         parts = {
-            "kept": 2 * n * (8.0 * k_scalar + 9.0 + (0 if plan.reduced else 8.0 * d)),
+            # reduced chunks are copied into arrays allocated once; others joined (twice)
+            "kept": (1 if plan.reduced else 2) * n * (8.0 * k_scalar + 9.0 +
+                                                      (0 if plan.reduced else 8.0 * d)),
             "per chunk": per_chunk * (1 if workers <= 1 else in_flight / 2),
             "series kept": 0.0 if plan.reduced else 2 * n * 8.0 * grid * k_series,
             "basis": 3 * 8.0 * n * plan.terms,
         }
         rows.append(MethodBudget(method.label, n, count.steps if count else None,
-                                 sum(parts.values()), parts))
+                                 sum(parts.values()), parts, plan.exact))
     return Budget(rows, cfg.max_memory, workers)
 
 

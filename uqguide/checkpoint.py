@@ -208,7 +208,7 @@ class RunStore:
         path.mkdir(parents=True)
         store._append({"kind": "header", "format": FORMAT,
                        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(
-                           timespec="seconds"), **identity})
+                           timespec="seconds"), **store.identity})
         return store
 
     def _check_same_run(self, header: dict[str, Any]) -> None:

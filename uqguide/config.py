@@ -231,12 +231,12 @@ def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str] 
     if misspelt is not None:
         # A misspelt required key is both "missing" and "unknown": name the key typed.
         e, close = misspelt
-        path = _path(prefix, tuple(e["loc"]))
+        path = _printable(_path(prefix, tuple(e["loc"])))
         allowed = (f"; allowed keys: {', '.join(allowed_keys)}"
                    if allowed_keys and len(e["loc"]) == 1 else "")
         return ConfigError(f"{where}{path}: unknown key (did you mean '{close}'?){allowed}",
                            field=path)
-    path = _path(prefix, tuple(e["loc"]))
+    path = _printable(_path(prefix, tuple(e["loc"])))
     if e["type"] == "extra_forbidden":
         key = str(e["loc"][-1])
         hint = did_you_mean(key, allowed_keys) if allowed_keys else ""
@@ -325,6 +325,7 @@ def load_config(path: str | Path) -> RunConfig:
 def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfig:
     """Validate a config mapping into a :class:`RunConfig` (model, inputs, methods resolved)."""
     nan_at = _find_nan(data)
+    nan_at = None if nan_at is None else _printable(nan_at)
     if nan_at is not None:
         raise ConfigError(f"{nan_at}: must be a number, not NaN", field=nan_at)
     nul_at = _find_nul(data)
@@ -437,21 +438,31 @@ def _find_nan(node: Any, path: str = "") -> str | None:
     return None
 
 
+def _printable(text: str) -> str:
+    """``text`` with control characters escaped (a message stays one line)."""
+    return text if text.isprintable() else repr(text)[1:-1]
+
+
 def _find_nul(node: Any, path: str = "") -> str | None:
-    """Path of the first string (value or key) holding a NUL character."""
+    """Path of the first string (value or key) holding a NUL character (printable)."""
+    found = _nul_path(node, path)
+    return None if found is None else _printable(found)
+
+
+def _nul_path(node: Any, path: str = "") -> str | None:
     if isinstance(node, str):
         return (path or "<top>") if "\x00" in node else None
     if isinstance(node, Mapping):
         for k, v in node.items():
             sub = f"{path}.{k}" if path else str(k)
             if isinstance(k, str) and "\x00" in k:
-                return sub.replace("\x00", "\\0")
-            found = _find_nul(v, sub)
+                return sub
+            found = _nul_path(v, sub)
             if found:
                 return found
     elif isinstance(node, list):
         for i, v in enumerate(node):
-            found = _find_nul(v, f"{path}[{i}]")
+            found = _nul_path(v, f"{path}[{i}]")
             if found:
                 return found
     return None

@@ -21,7 +21,7 @@ import numpy as np
 
 from .checkpoint import RunInterrupted, RunStore
 from .config import RunConfig
-from .errors import UqguideError
+from .errors import ModelError, UqguideError
 from .execution import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, ModelHandle,
                         SerialExecutor, Task, Timing, common_grid)
 from .inputs import InputSpace
@@ -36,6 +36,37 @@ log = logging.getLogger(__name__)
 #: Refinement rounds after which a method that keeps asking for runs is stopped (a guard
 #: against a method bug; real methods stop by their own budget long before).
 MAX_REFINEMENTS = 100
+
+
+class _Runs:
+    """The per-sample values of reduced chunks (scalars, failure flags, reasons), copied into
+    arrays allocated once for the whole stage: joining a list of chunk arrays at the end would
+    hold every value twice (1 GB at 1e7 samples)."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.failed = np.zeros(n, dtype=bool)
+        self.reasons = np.empty(n, dtype=object)
+        self.scalars: dict[str, np.ndarray] = {}
+        self.time: np.ndarray | None = None
+
+    def add(self, r: ChunkResult) -> None:
+        rows = slice(r.task.start, r.task.stop)
+        self.failed[rows] = r.failed
+        self.reasons[rows] = r.reasons
+        for k, v in r.scalars.items():
+            if k not in self.scalars:
+                self.scalars[k] = np.empty((self.n, *v.shape[1:]), dtype=v.dtype)
+            self.scalars[k][rows] = v
+        if r.time.size:
+            if self.time is None:
+                self.time = r.time
+            elif r.time.shape != self.time.shape or not np.array_equal(r.time, self.time):
+                raise ModelError("chunks of one run must share the time grid")
+
+    def output(self) -> ModelOutput:
+        return ModelOutput(time=self.time if self.time is not None else np.zeros(0),
+                           scalars=self.scalars, failed=self.failed, reasons=self.reasons)
 
 
 class _Stage:
@@ -69,6 +100,7 @@ class _Stage:
         job = ChunkJob(ModelHandle(self.model), tuple(self.space.names), self.outputs,
                        self.batch_size, reducer, timeout_s=self.timeout_s)
         parts: list[ModelOutput] = []
+        kept = _Runs(x.shape[0]) if reducer is not None else None
         acc = None
         nxt = 0
 
@@ -78,9 +110,11 @@ class _Stage:
                 r = pending.pop(nxt)
                 self.timing.model_seconds += r.model_seconds
                 self.timing.n_runs += r.task.n
-                if reducer is not None:
+                if kept is not None:
                     acc = self.method.fold(acc, r.summary)
-                parts.append(r.output())
+                    kept.add(r)
+                else:
+                    parts.append(r.output())
                 nxt += 1
 
         fold_ready()
@@ -97,6 +131,8 @@ class _Stage:
             if close is not None:
                 close()
         fold_ready()
+        if kept is not None:
+            return kept.output(), acc
         return ModelOutput.concatenate(common_grid(parts)), acc
 
 

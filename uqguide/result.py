@@ -48,7 +48,7 @@ from .errors import ResultError
 from .events import EventEstimate
 from .methods.base import Estimate, GeneratedRows
 from .models.base import OutputInfo
-from .result_netcdf import (attach, h5_array, read_method_stats, strings, write_method_stats,
+from .result_netcdf import (UTF8, attach, read_method_stats, strings, write_method_stats,
                             write_scale)
 from .stats import STAT_NAMES, OutputStats
 
@@ -64,8 +64,9 @@ class MethodRun:
     Attributes
     ----------
     estimate : Estimate
-    x : ndarray, shape (n, d)
-        Inputs of every model run.
+    x : ndarray or GeneratedRows, shape (n, d)
+        Inputs of every model run (a Monte Carlo design is generated per chunk on demand:
+        slice it, or ``np.asarray`` it for the whole array).
     scalars : dict of str to ndarray, shape (n, k)
         Scalar outputs of every run (NaN or garbage where ``failed``).
     failed : ndarray of bool, shape (n,)
@@ -214,6 +215,17 @@ def _fill(f: h5py.File, result: Result) -> None:
         _write_run(f.create_group(f"methods/{r.label}"), r, result)
 
 
+def _write_reasons(g: h5py.Group, reasons: np.ndarray, block: int = 1 << 20) -> h5py.Dataset:
+    """Failure reasons as UTF-8 strings (netCDF-4 ``string``), converted a block at a time (a
+    list of 1e7 Python strings would cost more than the result)."""
+    n = len(reasons)
+    ds = g.create_dataset("reasons", shape=(n,), dtype=UTF8,
+                          compression="gzip" if n > 4096 else None)
+    for a in range(0, n, block):
+        ds[a:a + block] = np.array([str(v) for v in reasons[a:a + block]], dtype=object)
+    return ds
+
+
 def _write_run(g: h5py.Group, r: MethodRun, result: Result) -> None:
     e = r.estimate
     g.attrs.update(method=e.method, n_runs=r.n_runs, n_failed=r.n_failed,
@@ -242,7 +254,7 @@ def _write_run(g: h5py.Group, r: MethodRun, result: Result) -> None:
         ds = s.create_dataset("x", data=x, compression=gz)
     attach(ds, [sample, scales["input"]])
     attach(s.create_dataset("failed", data=r.failed.astype(np.uint8)), [sample])
-    attach(s.create_dataset("reasons", data=h5_array([str(v) for v in r.reasons])), [sample])
+    attach(_write_reasons(s, r.reasons), [sample])
     info = {o.name: o for o in result.outputs}
     for name, y in r.scalars.items():
         comp = scales.get(f"{name}_component")

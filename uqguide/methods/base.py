@@ -146,12 +146,15 @@ class RunPlan:
         Whether chunks are reduced where they ran (series never kept whole).
     terms : int
         Basis terms of a surrogate fitted on all runs (0: none).
+    exact : bool
+        Whether ``runs`` and ``terms`` are exact (else upper bounds).
     """
 
     runs: int | None
     chunk: int | None = None
     reduced: bool = False
     terms: int = 0
+    exact: bool = True
 
 
 @dataclass

@@ -140,6 +140,15 @@ def split_summary(summary: dict[str, np.ndarray]) -> dict[tuple[str, str], Momen
     return {k: MomentSums.from_arrays(g) for k, g in groups.items()}
 
 
+def scalar_names(scalars: dict[str, np.ndarray]) -> list[str]:
+    """Names ``output[component]`` of the stacked scalar vector (without stacking anything)."""
+    names: list[str] = []
+    for name, y in scalars.items():
+        k = y.shape[1]
+        names += [name] if k == 1 else [f"{name}[{j}]" for j in range(k)]
+    return names
+
+
 def stack_scalars(scalars: dict[str, np.ndarray], ok: np.ndarray) -> tuple[list[str], np.ndarray]:
     """All scalar outputs of the good runs side by side ``(n_ok, m)`` with their names."""
     names: list[str] = []

@@ -50,7 +50,7 @@ from ..events import count_events
 from ..quantiles import order_statistic_quantiles
 from ..stats import MomentSums, OutputStats, statistics_from_sums
 from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
-from .mc_reduce import MonteCarloReducer, ci_index, split_summary, stack_scalars
+from .mc_reduce import MonteCarloReducer, ci_index, scalar_names, split_summary
 
 log = logging.getLogger(__name__)
 
@@ -223,7 +223,7 @@ class MonteCarlo(Method):
                                self.report_times)
         events = count_events(list(self.events), runs.scalars, ~runs.failed, self.components) \
             if self.events else {}
-        names, _ = stack_scalars(runs.scalars, ~runs.failed)
+        names = scalar_names(runs.scalars)  # (stacking them would copy every value)
         joint = acc.get(("j", ""))
         n_ok = runs.n - n_failed
         diagnostics = {

@@ -188,14 +188,15 @@ class AdaptivePCE(Method):
     def plan(self, space: InputSpace) -> RunPlan:
         from math import comb
 
-        from ..pce.sparse_regression import CANDIDATES_CAP
+        from ..pce.sparse_regression import MAX_CANDIDATES, candidate_cap
 
         s = self.settings
-        # The candidate basis is at most the total-degree one (a q-norm below 1 prunes it);
-        # without degree_max the degree search caps it at CANDIDATES_CAP terms.
-        terms = (comb(space.dim + s.degree_max, space.dim) if s.degree_max is not None
-                 else CANDIDATES_CAP)
-        return RunPlan(runs=self.budget(space.dim), terms=terms)
+        runs = self.budget(space.dim)
+        if s.degree_max is None:  # the union of the q-norms' data-driven candidate sets
+            terms = len(Q_GRID) * candidate_cap(runs)
+        else:  # at most the total-degree basis (a q-norm below 1 prunes it), capped
+            terms = min(comb(space.dim + s.degree_max, space.dim), MAX_CANDIDATES)
+        return RunPlan(runs=runs, terms=terms)
 
     # ------------------------------------------------------------------ phases
     def design(self, space: InputSpace, seed: int) -> Design:

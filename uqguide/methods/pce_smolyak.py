@@ -38,8 +38,10 @@ from pydantic import Field
 
 from ..errors import ConfigError
 from ..pce.germ import NORMAL, UNIFORM, Germ
+from ..inputs import InputSpace
 from ..pce.quadrature import Grid, smolyak_grid
-from .pce_quadrature import QuadraturePCE, QuadratureSettings
+from .base import RunPlan
+from .pce_quadrature import MAX_NODES, QuadraturePCE, QuadratureSettings
 
 _NESTED = {NORMAL: "genz_keister", UNIFORM: "patterson"}
 
@@ -76,6 +78,34 @@ class SmolyakPCE(QuadraturePCE):
         if not self.settings.nested:
             return ["gauss"] * germ.dim
         return [_NESTED.get(f, "gauss") for f in germ.families]
+
+    def plan(self, space: InputSpace) -> RunPlan:
+        """An upper bound of the runs, from the 1-D rule sizes alone (no grid is built): the
+        points of every tensor grid Smolyak combines, shared nodes counted in each. Refused
+        (ConfigError, field ``level``) above ``MAX_NODES``: building the grid would enumerate
+        them all."""
+        from ..pce.quadrature import rule_1d
+
+        germ = Germ.of(space)
+        rules = self._rules(germ)
+        q, d = self.order, germ.dim
+        try:
+            sizes = [[rule_1d(germ, j, rules[j], lv).nodes.size for lv in range(q + 1)]
+                     for j in range(d)]
+        except ValueError as exc:
+            raise ConfigError(f"level: {self.label}: {exc}; use a lower level or nested: "
+                              f"false", field="level") from None
+        # poly[t]: the points of all tensor grids whose levels sum to t (exact integers).
+        poly = [1] + [0] * q
+        for s in sizes:
+            poly = [sum(poly[a] * s[t - a] for a in range(t + 1)) for t in range(q + 1)]
+        bound = sum(poly[max(0, q - d + 1):])
+        if bound > MAX_NODES:
+            raise ConfigError(
+                f"level: {self.label} with level {self.settings.level} on {d} inputs combines "
+                f"{bound:.3g} grid points; allowed at most {MAX_NODES} (lower the level)",
+                field="level")
+        return RunPlan(runs=bound, terms=bound, exact=False)
 
     def _grid(self, germ: Germ) -> Grid:
         try:

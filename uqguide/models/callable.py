@@ -88,7 +88,7 @@ def import_function(spec: str, module_dir: str | None = None) -> Callable[[np.nd
         else:
             obj = importlib.import_module(module)
     except Exception as exc:  # noqa: BLE001 - any import failure is the user's to fix
-        where = (f"; looked in the config's folder and the current folder, then sys.path"
+        where = ("; looked in the config's folder and the current folder, then sys.path"
                  if isinstance(exc, ModuleNotFoundError) and not module_dir else "")
         raise ValueError(f"cannot import module {module!r} ({type(exc).__name__}: "
                          f"{exc}){where}") from None
