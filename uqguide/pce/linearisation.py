@@ -23,7 +23,6 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy import sparse
 
 from .basis import univariate
 from .expansion import Expansion
@@ -127,6 +126,8 @@ def central_moments_linearised(exp: Expansion) -> tuple[np.ndarray, np.ndarray, 
     pos = np.searchsorted(codes_sorted, own)
     present = (pos < codes_sorted.size) & (codes_sorted[np.minimum(pos, codes_sorted.size - 1)]
                                             == own)
+    from scipy import sparse  # here: `uqguide validate` starts without it
+
     lin = sparse.csr_matrix((val, (g, pair)), shape=(n_g, a.size))  # duplicates summed
     mu2, mu3, mu4 = np.zeros(m), np.zeros(m), np.zeros(m)
     step = max(1, _CHUNK_FLOATS // max(a.size, n_g))

@@ -111,15 +111,18 @@ def rule_1d(germ: Germ, j: int, rule: str, level: int) -> Rule1D:
 
 @lru_cache(maxsize=256)
 def _rule_cached(kind: tuple[str, float, float], rule: str, level: int) -> Rule1D:
-    import chaospy
-    from chaospy.quadrature import genz_keister_24
-
+    # chaospy only for the tabulated rules: Gauss rules (and the Smolyak run count that
+    # `uqguide validate` works out from them) do without its 1 s import.
     if rule == "gauss":
         nodes, weights = gauss_rule(kind, level + 1)
     elif rule == "genz_keister":
+        from chaospy.quadrature import genz_keister_24
+
         nodes, weights = genz_keister_24(level)  # standard normal, no CDF round trip
         nodes, weights = np.asarray(nodes, float)[0], np.asarray(weights, float)
     else:
+        import chaospy
+
         growth = rule == "patterson"
         nodes, weights = chaospy.generate_quadrature(
             level, kind_distribution(kind), rule=rule, growth=growth)
