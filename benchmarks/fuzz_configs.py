@@ -108,7 +108,9 @@ def _dump(cfg) -> str:
     return yaml.safe_dump(cfg, sort_keys=False)
 
 
-def mutations(seed: int = 2026) -> list[Mutation]:
+def mutations(seed: int = 2026, heavy: bool = True) -> list[Mutation]:
+    """Every mutation; ``heavy=False`` leaves out the three that take seconds to build (the
+    10 and 50 MB files, 100k inputs)."""
     rng = random.Random(seed)
     out: list[Mutation] = []
     B = bases()
@@ -153,12 +155,14 @@ def mutations(seed: int = 2026) -> list[Mutation]:
             "model:\n", "model:\n  name: lognormal\n", 1), "invalid"))
         del m
     # -- sizes of the file
-    for mb in (1.1, 2, 10, 50):
+    for mb in (1.1, 2, 10, 50) if heavy else (1.1, 2):
         pad = int(mb * 1_000_000)
         out.append(Mutation(f"file of {mb} MB (long string)", _dump(B["callable"]) +
                             "description: '" + "x" * pad + "'\n", "invalid"))
-    out.append(Mutation("file of 5 MB (many inputs)", _dump({**B["lognormal"], "inputs": [
-        {"name": f"x{i}", "dist": "normal", "std": 1.0} for i in range(100_000)]}), "invalid"))
+    if heavy:
+        out.append(Mutation("file of 5 MB (many inputs)", _dump({**B["lognormal"], "inputs": [
+            {"name": f"x{i}", "dist": "normal", "std": 1.0} for i in range(100_000)]}),
+            "invalid"))
     out.append(Mutation("empty file", "", "invalid"))
     out.append(Mutation("only a comment", "# nothing\n", "invalid"))
     out.append(Mutation("a list", "- 1\n- 2\n", "invalid"))
