@@ -214,6 +214,13 @@ def evaluate_batch(model: Model, x: np.ndarray, names: Sequence[str],
     if raised:
         log.warning("model '%s' raised on %d of %d samples of a batch (they fail; first: %s)",
                     model.name, len(raised), x.shape[0], raised[0])
+    return assemble_pieces(model, pieces, outputs)
+
+
+def assemble_pieces(model: Model, pieces: Sequence[ModelOutput | tuple[int, str]],
+                    outputs: Collection[str]) -> ModelOutput:
+    """One batch's output from its evaluated pieces and its failed ones (``(n, reason)``), in
+    order; failed pieces get the grid of an evaluated one (or of a probe run)."""
     grid = next((p.time for p in pieces if isinstance(p, ModelOutput)), None)
     if grid is None and any(model.output_info(o).kind == "series" for o in outputs):
         grid = _probe_grid(model, outputs)

@@ -183,7 +183,7 @@ def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Col
                   timeout_s: float | None) -> Any:
     """``evaluate_batch`` in the guard process, bisected on a timeout or a crash (module
     docstring); the samples that time out or crash alone fail with the reason."""
-    from .execution import failed_output, ModelOutput, _probe_grid
+    from .execution import assemble_pieces
 
     model = handle.model
     guard = guard_for(timeout_s)
@@ -203,10 +203,4 @@ def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Col
         bisect(rows[half:])
 
     bisect(x)
-    grid = next((p.time for p in pieces if isinstance(p, ModelOutput)), None)
-    if grid is None and any(model.output_info(o).kind == "series" for o in outputs):
-        grid = _probe_grid(model, outputs)
-    grid = np.zeros(0) if grid is None else grid
-    parts = [p if isinstance(p, ModelOutput) else failed_output(model, p[0], outputs, p[1], grid)
-             for p in pieces]
-    return ModelOutput.concatenate(parts)
+    return assemble_pieces(model, pieces, outputs)
