@@ -330,12 +330,33 @@ def _ftcapn(n: int, **model) -> dict:
 
 
 def test_validate_prints_runs_and_memory_of_a_1e8_sample_run(tmp_path):
-    text = yaml.safe_dump(_ftcapn(12345)).replace("n_samples: 12345", "n_samples: 1e8")
+    raw = _ftcapn(12345)
+    with_quantiles = yaml.safe_dump(raw).replace("n_samples: 12345", "n_samples: 1e8")
+    raw.pop("quantiles")
+    text = yaml.safe_dump(raw).replace("n_samples: 12345", "n_samples: 1e8")
     (tmp_path / "big.yaml").write_text(text)  # 1e8 as written: a YAML 1.2 float
     res = _invoke("validate", tmp_path / "big.yaml")
     assert res.exit_code == 0, res.output
     assert "mc: 100,000,000 model runs x 800 steps" in res.output
     assert "estimated peak memory" in res.output
+    # exact quantiles would keep 32 GB of series values: refused before anything runs
+    (tmp_path / "bigq.yaml").write_text(with_quantiles)
+    res = _invoke("validate", tmp_path / "bigq.yaml")
+    assert res.exit_code == 2 and "quantiles kept 32 GB" in res.output, res.output
+
+
+def test_the_estimate_counts_the_values_exact_quantiles_keep():
+    # Table 3 asks for quantiles: a 1e7-run Monte Carlo keeps omega_s and R at the 9 report
+    # times and the last step, 2 x 1e7 x 10 x 2 x 8 B = 3.2 GB (measured peak 3.6 GB in all);
+    # without quantiles the same run peaks at 0.81 GB
+    from uqguide.budget import estimate
+    from uqguide.config import validate_config
+
+    raw = _ftcapn(10_000_000)
+    with_q = estimate(validate_config(raw)).methods[0]
+    assert with_q.parts["quantiles kept"] == pytest.approx(2 * 1e7 * 10 * 2 * 8.0)
+    raw.pop("quantiles")
+    assert "quantiles kept" not in estimate(validate_config(raw)).methods[0].parts
 
 
 def test_a_run_over_max_memory_exits_2_before_allocating(tmp_path):

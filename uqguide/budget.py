@@ -17,6 +17,8 @@ The estimate is an upper bound of what the pipeline holds at once, in bytes:
   times (model output, joined parts, centred powers of the reduction), and the Poisson
   bootstrap weights (``B x rows x 8``), per chunk in flight (two per worker, in the workers);
 - **series kept** by a method without a reducer (PCE): ``runs x T x k x 8``, twice;
+- **quantiles kept** by a Monte Carlo method asked for quantiles: ``runs x steps x k x 8``, twice
+  (the steps are the whole grid while that stays under 2^25 floats, else the report times);
 - **basis**: a PCE's design matrix ``runs x terms x 8``, three times (matrix, its
   factorisation, the projection).
 
@@ -106,6 +108,7 @@ class Budget:
     def peak_bytes(self) -> float:
         """Kept data adds up over methods (the result holds them all); transients do not."""
         kept = sum(m.parts.get("kept", 0.0) + m.parts.get("series kept", 0.0)
+                   + m.parts.get("quantiles kept", 0.0)
                    for m in self.methods)
         transient = max((m.parts.get("per chunk", 0.0) + m.parts.get("basis", 0.0)
                          for m in self.methods), default=0.0)
@@ -159,6 +162,14 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
             "series kept": 0.0 if plan.reduced else 2 * n * 8.0 * grid * k_series,
             "basis": 3 * 8.0 * n * plan.terms,
         }
+        if plan.reduced and k_series and getattr(method, "quantile_levels", None) is not None:
+            # exact quantiles keep every good run's series values (at every step while that
+            # stays small, else at the report times and the last step), per chunk and joined
+            from .methods.mc_reduce import QUANTILE_ALL_FLOATS
+
+            steps = grid if n * grid * k_series <= QUANTILE_ALL_FLOATS else \
+                len(cfg.raw.report_times or ()) + 1
+            parts["quantiles kept"] = 2 * n * 8.0 * steps * k_series
         rows.append(MethodBudget(method.label, n, count.steps if count else None,
                                  sum(parts.values()), parts, plan.exact))
     return Budget(rows, cfg.max_memory, workers)
