@@ -29,7 +29,7 @@ Layout (all values SI)::
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -421,21 +421,28 @@ def _check_events(raw: RawConfig, model: Model, outputs: tuple[str, ...]) -> Non
                               field=f"events[{i}]")
 
 
-def _find_nan(node: Any, path: str = "") -> str | None:
-    """Path of the first NaN in the config (never a meaningful setting; YAML spells it .nan)."""
-    if isinstance(node, float) and node != node:
+def _first_path(node: Any, bad: Callable[[Any], bool], path: str = "") -> str | None:
+    """Path of the first value or key of the config for which ``bad`` holds (depth first, a
+    key before its value)."""
+    if bad(node):
         return path or "<top>"
     if isinstance(node, Mapping):
         for k, v in node.items():
-            found = _find_nan(v, f"{path}.{k}" if path else str(k))
+            sub = f"{path}.{k}" if path else str(k)
+            found = sub if bad(k) else _first_path(v, bad, sub)
             if found:
                 return found
     elif isinstance(node, list):
         for i, v in enumerate(node):
-            found = _find_nan(v, f"{path}[{i}]")
+            found = _first_path(v, bad, f"{path}[{i}]")
             if found:
                 return found
     return None
+
+
+def _find_nan(node: Any) -> str | None:
+    """Path of the first NaN in the config (never a meaningful setting; YAML spells it .nan)."""
+    return _first_path(node, lambda v: isinstance(v, float) and v != v)
 
 
 def _printable(text: str) -> str:
@@ -443,29 +450,10 @@ def _printable(text: str) -> str:
     return text if text.isprintable() else repr(text)[1:-1]
 
 
-def _find_nul(node: Any, path: str = "") -> str | None:
+def _find_nul(node: Any) -> str | None:
     """Path of the first string (value or key) holding a NUL character (printable)."""
-    found = _nul_path(node, path)
+    found = _first_path(node, lambda v: isinstance(v, str) and "\x00" in v)
     return None if found is None else _printable(found)
-
-
-def _nul_path(node: Any, path: str = "") -> str | None:
-    if isinstance(node, str):
-        return (path or "<top>") if "\x00" in node else None
-    if isinstance(node, Mapping):
-        for k, v in node.items():
-            sub = f"{path}.{k}" if path else str(k)
-            if isinstance(k, str) and "\x00" in k:
-                return sub
-            found = _nul_path(v, sub)
-            if found:
-                return found
-    elif isinstance(node, list):
-        for i, v in enumerate(node):
-            found = _nul_path(v, f"{path}[{i}]")
-            if found:
-                return found
-    return None
 
 
 def _check_finite_parameters(raw: RawConfig) -> None:
