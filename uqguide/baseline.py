@@ -24,7 +24,8 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from . import __version__, atomic
+from . import atomic
+from ._version import __version__
 from .errors import ResultError
 from .models.base import OutputInfo
 from .report_times import report_indices

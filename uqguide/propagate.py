@@ -207,13 +207,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     method.on_phase = None
     fit_seconds = time.perf_counter() - t_fit
     # carriers evaluated only for a derivation are not part of the result
-    estimate.stats = {k: v for k, v in estimate.stats.items() if k in requested}
-    if estimate.scalar_names and estimate.scalar_mean is not None:
-        keep = [i for i, nm in enumerate(estimate.scalar_names) if nm.split("[")[0] in requested]
-        estimate.scalar_names = [estimate.scalar_names[i] for i in keep]
-        estimate.scalar_mean = estimate.scalar_mean[keep]
-        if estimate.scalar_cov is not None:
-            estimate.scalar_cov = estimate.scalar_cov[np.ix_(keep, keep)]
+    estimate.restrict(requested)
     return MethodRun(
         estimate=estimate,
         x=design.x,

@@ -43,10 +43,11 @@ import h5py
 import numpy as np
 import yaml
 
-from . import __version__, atomic
+from . import atomic
+from ._version import __version__
 from .errors import ResultError
 from .events import EventEstimate
-from .methods.base import Estimate, GeneratedRows
+from .types import Estimate, GeneratedRows, ScalarIndex
 from .models.base import OutputInfo
 from .result_netcdf import (UTF8, attach, read_method_stats, strings, write_method_stats,
                             write_scale)
@@ -313,7 +314,7 @@ def read_hdf5(path: str | Path) -> Result:
                 est = Estimate(
                     method=str(g.attrs["method"]), label=label, stats=stats,
                     diagnostics=json.loads(g.attrs["diagnostics_json"]),
-                    scalar_names=strings(joint["names"][()]) if joint else [],
+                    scalar_index=ScalarIndex.parse(strings(joint["names"][()])) if joint else [],
                     scalar_mean=joint["mean"][()] if joint else None,
                     scalar_cov=joint["cov"][()] if joint else None,
                     events={name: EventEstimate.from_dict(name, dict(eg.attrs))

@@ -30,8 +30,7 @@ from ..strict import no_bool_numbers
 
 from ..events import EventEstimate, EventSpec
 from ..inputs import InputSpace
-from ..models.base import ModelOutput
-from ..stats import OutputStats
+from ..types import Estimate, GeneratedRows, ModelOutput
 
 
 class MethodSettings(BaseModel):
@@ -48,66 +47,6 @@ class MethodSettings(BaseModel):
                                           "group in the result file (default: the method's name)")
 
     _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
-
-
-class GeneratedRows:
-    """Design rows ``(n, d)`` made on demand, chunk by chunk, by a pure function of the chunk
-    number: a design that is never held whole (a 1e8-sample Monte Carlo design would be 5.6 GB).
-
-    Slicing rows (``x[a:b]``) makes only the chunks that cover them; anything else (``np.asarray``,
-    fancy indexing) makes the whole array, for small designs and tests.
-
-    Parameters
-    ----------
-    n, d : int
-        Rows and columns.
-    chunk : int
-        Rows per chunk (the last may be shorter).
-    make : callable
-        ``make(i) -> ndarray (m_i, d)``, the rows ``[i chunk, i chunk + m_i)``.
-    """
-
-    dtype = np.dtype(float)
-    ndim = 2
-
-    def __init__(self, n: int, d: int, chunk: int, make: Any) -> None:
-        self.n, self.d, self.chunk, self._make = n, d, chunk, make
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return (self.n, self.d)
-
-    @property
-    def size(self) -> int:
-        return self.n * self.d
-
-    def __len__(self) -> int:
-        return self.n
-
-    def rows(self, start: int, stop: int) -> np.ndarray:
-        start, stop = max(0, start), min(self.n, stop)
-        if stop <= start:
-            return np.empty((0, self.d))
-        first, last = start // self.chunk, (stop - 1) // self.chunk
-        parts = [self._make(i) for i in range(first, last + 1)]
-        block = parts[0] if len(parts) == 1 else np.concatenate(parts)
-        off = first * self.chunk
-        return block[start - off:stop - off]
-
-    def chunks(self) -> Any:
-        """``(start, rows)`` of every chunk in order."""
-        for i, start in enumerate(range(0, self.n, self.chunk)):
-            yield start, self._make(i)
-
-    def __getitem__(self, key: Any) -> np.ndarray:
-        if isinstance(key, slice) and key.step in (None, 1):
-            start, stop, _ = key.indices(self.n)
-            return self.rows(start, stop)
-        return np.asarray(self)[key]
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        x = self.rows(0, self.n)
-        return x if dtype is None else x.astype(dtype)
 
 
 @dataclass
@@ -155,40 +94,6 @@ class RunPlan:
     reduced: bool = False
     terms: int = 0
     exact: bool = True
-
-
-@dataclass
-class Estimate:
-    """The statistics a method produced, with its diagnostics.
-
-    Attributes
-    ----------
-    method : str
-        Registered method name.
-    label : str
-        The config's label of this method entry.
-    stats : dict of str to OutputStats
-        Per output name.
-    diagnostics : dict
-        Counters and quality figures: ``n_runs``, ``n_failed``, and method-specific ones
-        (``loo_error``, ``degree``, ``n_terms``, ``n_components``, ...). Values are numbers,
-        strings or small arrays.
-    scalar_names : list of str
-        Names ``output[component]`` of the stacked scalar vector.
-    scalar_mean, scalar_cov : ndarray, shape (m,), (m, m)
-        Joint mean and covariance of all scalar outputs stacked (uq-methods.md section 3).
-    events : dict of str to EventEstimate
-        Probability of each of the config's events.
-    """
-
-    method: str
-    label: str
-    stats: dict[str, OutputStats]
-    diagnostics: dict[str, Any] = field(default_factory=dict)
-    scalar_names: list[str] = field(default_factory=list)
-    scalar_mean: np.ndarray | None = None
-    scalar_cov: np.ndarray | None = None
-    events: dict[str, EventEstimate] = field(default_factory=dict)
 
 
 class Method(ABC):

@@ -60,7 +60,7 @@ from pydantic import Field, model_validator
 
 from ..errors import MethodError
 from ..inputs import InputSpace
-from ..models.base import ModelOutput
+from ..types import ModelOutput
 from ..pce.basis import hyperbolic_indices
 from ..events import EventEstimate
 from ..pce.derived import DerivedOutput
@@ -297,7 +297,7 @@ class AdaptivePCE(Method):
         diagnostics["fit_seconds"] = (design.data.get("fit_seconds", 0.0)
                                       + time.perf_counter() - t0)
         return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
+                        scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
 
     def _validate(self, space: InputSpace, fits: list[_OutputFit], u_v: np.ndarray,
                    validation: ModelOutput, events: dict[str, EventEstimate]

@@ -29,7 +29,7 @@ from pydantic import Field
 
 from ..errors import MethodError
 from ..inputs import InputSpace
-from ..models.base import ModelOutput
+from ..types import ModelOutput
 from ..pce import basis
 from ..pce.derived import DerivedOutput
 from ..pce.design import SURROGATE_STREAM, stream
@@ -183,4 +183,4 @@ class QuadraturePCE(Method):
         }
         diagnostics["fit_seconds"] = time.perf_counter() - t0
         return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
+                        scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)

@@ -45,7 +45,7 @@ from pydantic import Field, model_validator
 from ..errors import ConfigError, MethodError
 from ..events import EventEstimate, EventSpec, component_index
 from ..inputs import InputSpace
-from ..models.base import ModelOutput
+from ..types import ModelOutput
 from .base import Design, Estimate, Method, MethodSettings
 
 log = logging.getLogger(__name__)

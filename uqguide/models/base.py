@@ -28,7 +28,11 @@ from pydantic import BaseModel, ConfigDict, model_validator
 from ..strict import no_bool_numbers
 
 from ..errors import ModelError
+from ..types import DerivedOutput, ModelOutput
 from .roundoff import apply_env
+
+__all__ = ["DerivedOutput", "InputInfo", "Model", "ModelOutput", "ModelParams", "OutputInfo",
+           "ReportRow", "StepCount", "failure_reasons"]
 
 OutputKind = Literal["series", "scalar"]
 
@@ -120,88 +124,6 @@ class StepCount:
     grid: float
     field: str
     formula: str
-
-
-@dataclass
-class ModelOutput:
-    """What a model returns for a batch of ``n`` samples.
-
-    Attributes
-    ----------
-    time : ndarray, shape (T,)
-        Time grid [s] shared by the whole batch (empty for models without time series).
-    series : dict of str to ndarray, shape (n, T, k)
-        Time-series outputs. A sample that stops early keeps its last value on the rest of
-        the grid.
-    scalars : dict of str to ndarray, shape (n, k)
-        Scalar outputs.
-    failed : ndarray of bool, shape (n,)
-        True where the sample's evaluation failed; its output values are not to be used.
-    reasons : ndarray of object, shape (n,)
-        Why each failed sample failed (``""`` where it did not).
-    """
-
-    time: np.ndarray
-    series: dict[str, np.ndarray] = field(default_factory=dict)
-    scalars: dict[str, np.ndarray] = field(default_factory=dict)
-    failed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
-    reasons: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
-
-    @property
-    def n(self) -> int:
-        return int(self.failed.shape[0])
-
-    def subset(self, index: np.ndarray) -> ModelOutput:
-        """The outputs of the samples selected by ``index`` (boolean mask or integer array)."""
-        return ModelOutput(
-            time=self.time,
-            series={k: v[index] for k, v in self.series.items()},
-            scalars={k: v[index] for k, v in self.scalars.items()},
-            failed=self.failed[index],
-            reasons=self.reasons[index],
-        )
-
-    @staticmethod
-    def concatenate(parts: Sequence[ModelOutput]) -> ModelOutput:
-        """Join the outputs of consecutive chunks of one batch, in order."""
-        if not parts:
-            raise ModelError("cannot concatenate an empty list of model outputs")
-        first = parts[0]
-        for p in parts[1:]:
-            if p.time.shape != first.time.shape or not np.array_equal(p.time, first.time):
-                raise ModelError("chunks of one run must share the time grid")
-        return ModelOutput(
-            time=first.time,
-            series={k: np.concatenate([p.series[k] for p in parts]) for k in first.series},
-            scalars={k: np.concatenate([p.scalars[k] for p in parts]) for k in first.scalars},
-            failed=np.concatenate([p.failed for p in parts]),
-            reasons=np.concatenate([p.reasons for p in parts]),
-        )
-
-
-@dataclass(frozen=True)
-class DerivedOutput:
-    """How a model computes a non-smooth output from smooth ones (its *carriers*).
-
-    A miss distance is the norm of a miss vector: the vector is smooth in the inputs, its norm
-    has a cone where the vector passes through zero, on which a polynomial surrogate converges
-    badly. A surrogate method may fit the carriers instead and apply ``function`` to draws of
-    their surrogates (:mod:`uqguide.pce.derived`); sampling methods just use the model's value.
-
-    Attributes
-    ----------
-    carriers : tuple of str
-        The (smooth) outputs it is computed from; the model must offer them.
-    function : callable
-        ``function(carriers, inputs) -> y``: ``carriers`` maps each carrier's name to its values
-        ``(n, k_c)`` (scalar) or ``(n, T, k_c)`` (series), ``inputs`` maps each uncertain
-        input's name to its physical values ``(n,)``; ``y`` is ``(n, k)`` or ``(n, T, k)``.
-    kind : {"scalar", "series"}
-    """
-
-    carriers: tuple[str, ...]
-    function: Callable[[Mapping[str, np.ndarray], Mapping[str, np.ndarray]], np.ndarray]
-    kind: str = "scalar"
 
 
 @dataclass(frozen=True)
