@@ -36,7 +36,7 @@ LAYERS: list[tuple[str, ...]] = [
     # 2. the models and the input space they are sampled on
     ("models", "inputs"),
     # 3. surrogate building blocks, describing models and statistics
-    ("pce", "describe", "labelled"),
+    ("pce", "describe", "labelled", "limits"),
     # 4. the methods
     ("methods",),
     # 5. names of models and methods, the shipped studies, configuration and its budgets

@@ -207,7 +207,7 @@ def _point_places(result: Result, o: OutputInfo) -> list[tuple[str, float | None
     """``(at, time, step index)`` of the points a baseline keeps for output ``o``."""
     if o.kind == "scalar":
         return [("scalar", None, None)]
-    idx = report_indices(result)
+    idx = report_indices(result.time, result.report_times)
     last = result.time.size - 1
     return [("end" if i == last else "report", float(result.time[i]), int(i)) for i in idx]
 

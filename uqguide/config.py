@@ -44,6 +44,7 @@ from .events import EventSpec, component_index
 from .quantiles import resolve_levels
 from .strict import no_bool_numbers
 from .inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
+from .limits import check_steps, default_max_memory, parse_bytes
 from .methods.base import Method
 from .models.base import Model
 from .registry import did_you_mean, method_class, model_class
@@ -119,8 +120,6 @@ class RawConfig(BaseModel):
     @classmethod
     def _memory(cls, v: Any) -> Any:
         if v is not None:
-            from .budget import parse_bytes
-
             parse_bytes(v)
         return v
 
@@ -170,8 +169,6 @@ class RunConfig:
     @property
     def max_memory(self) -> int:
         """Bytes a run may plan to use (the config's ``max_memory`` or half the machine's)."""
-        from .budget import default_max_memory, parse_bytes
-
         v = self.raw.max_memory
         return default_max_memory() if v is None else parse_bytes(v)
 
@@ -369,9 +366,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
                     field=f"report_times[{i}]")
     cfg = RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
                     source=source)
-    from .budget import check_steps
-
-    check_steps(cfg)
+    check_steps(model, raw.max_steps)
     for i, m in enumerate(methods):
         try:
             m.plan(space)

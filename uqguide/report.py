@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from . import atomic
-from .failures import failure_table
+from .failures import COLUMNS as FAILURE_COLUMNS, reason_rows
 from .result import Result
 from .quantiles import level_name
 from .report_times import report_indices  # noqa: F401 - imported from here by others
@@ -83,10 +83,20 @@ def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) ->
     return bool(abs(v - rv) <= width)
 
 
+def failure_table(result: Result) -> pd.DataFrame:
+    """One row per method and failure reason: label, runs, failed, share, reason, count.
+
+    Empty when no run failed.
+    """
+    rows = [row for r in result.runs if r.n_failed
+            for row in reason_rows(r.label, r.n_runs, r.reasons[r.failed])]
+    return pd.DataFrame(rows, columns=FAILURE_COLUMNS)
+
+
 def statistics_table(result: Result) -> pd.DataFrame:
     """Long-form statistics at the report times (series) and for every scalar output."""
     ref = result.run(result.reference) if result.reference else None
-    idx = report_indices(result)
+    idx = report_indices(result.time, result.report_times)
     rows = []
     for o in result.outputs:
         for r in result.runs:

@@ -25,7 +25,7 @@ Two forms of the same estimators:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

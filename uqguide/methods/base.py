@@ -28,7 +28,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..strict import no_bool_numbers
 
-from ..events import EventEstimate, EventSpec
+from ..events import EventSpec
 from ..inputs import InputSpace
 from ..types import Estimate, GeneratedRows, ModelOutput
 
