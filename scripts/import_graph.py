@@ -42,13 +42,13 @@ LAYERS: list[tuple[str, ...]] = [
     # 5. names of models and methods, the shipped studies, configuration and its budgets
     ("registry", "catalog", "config", "budget", "report_times"),
     # 6. execution of model runs
-    ("execution", "guard"),
+    ("execution",),
     # 7. results
     ("result", "result_netcdf", "frames", "checkpoint"),
     # 8. the driver, the paper scenarios and what reads results
     ("propagate", "papers", "plotting", "report", "plots", "baseline", "gate", "replay", "testing"),
     # 9. the library's front doors
-    ("api", "report_document", "run_and_write", "progress_display", "__init__"),
+    ("run_and_write", "api", "report_document", "progress_display", "__init__"),
     # 10. the command line
     ("cli", "__main__"),
 ]
