@@ -134,6 +134,7 @@ class MonteCarlo(Method):
     summary = "Monte Carlo: random, Latin hypercube or scrambled Sobol' samples; sample moments"
     Settings = MonteCarloSettings
     settings: MonteCarloSettings
+    reduces_chunks = True
 
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings

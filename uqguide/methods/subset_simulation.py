@@ -93,6 +93,7 @@ class SubsetSimulation(Method):
     summary = "Subset simulation (Au & Beck 2001): a rare event's probability, CoV and interval"
     Settings = SubsetSimulationSettings
     settings: SubsetSimulationSettings
+    refines = True
 
     # ------------------------------------------------------------------ config
     def check(self, index: int) -> None:
