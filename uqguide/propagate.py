@@ -23,7 +23,7 @@ import numpy as np
 
 from .checkpoint import RunInterrupted, RunStore
 from .config import RunConfig
-from .errors import ModelError, UqguideError
+from .errors import MethodError, ModelError, UqguideError
 from .execution import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, ModelHandle,
                         SerialExecutor, Task, Timing, common_grid)
 from .inputs import InputSpace
@@ -185,7 +185,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
              len(tasks))
     reducer = method.reducer(space, design) if method.reduces_chunks else None
     with method.phases_to(progress.phase):
-        estimate, design, out, fit_seconds = _evaluate_and_estimate(
+        estimate, design, out, fit_seconds, failure = _evaluate_and_estimate(
             method, space, design, stage, tasks, reducer, progress, timing)
     # One clock for the fit: the driver's (refinements' fits plus the final estimate).
     estimate.diagnostics["fit_seconds"] = fit_seconds
@@ -202,21 +202,31 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         model_seconds=timing.model_seconds,
         fit_seconds=fit_seconds,
         wall_seconds=time.perf_counter() - t_start,
+        success=not failure,
+        message=failure,
     )
 
 
 def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, stage: _Stage,
                            tasks: list[Task], reducer: Any, progress: Progress, timing: Timing
-                           ) -> tuple[Estimate, Design, ModelOutput, float]:
-    """Evaluate the design (and its refinements), then estimate. Returns the estimate, the
-    final design, the runs' outputs and the seconds spent fitting (in ``refine`` and
-    ``estimate``, outside the model)."""
+                           ) -> tuple[Estimate, Design, ModelOutput, float, str]:
+    """Evaluate the design (and its refinements), then estimate.
+
+    Returns the estimate, the final design, the runs' outputs, the seconds spent fitting (in
+    ``refine`` and ``estimate``, outside the model) and why the method failed ("" when it did
+    not): a method that cannot produce statistics is recorded with its runs, so the other
+    methods of the run still complete.
+    """
     out, acc = stage.run(design.x, 0, tasks, reducer)
     fit_seconds = 0.0
     if method.refines:
         for k in range(1, MAX_REFINEMENTS + 1):
             t0 = time.perf_counter()
-            bigger = method.refine(space, design, out)
+            try:
+                bigger = method.refine(space, design, out)
+            except _METHOD_FAILURES as exc:
+                fit_seconds += time.perf_counter() - t0
+                return _no_estimate(method), design, out, fit_seconds, _why(method, exc)
             fit_seconds += time.perf_counter() - t0
             progress.phase("")
             if bigger is None:
@@ -231,12 +241,33 @@ def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, st
             log.warning("%s: stopped after %d refinements", method.label, MAX_REFINEMENTS)
     t0 = time.perf_counter()
     progress.phase("estimating")
-    if reducer is None:
-        estimate = method.estimate(space, design, out)
-    else:
-        estimate = method.estimate_reduced(space, design, out, acc)
+    failure = ""
+    try:
+        if reducer is None:
+            estimate = method.estimate(space, design, out)
+        else:
+            estimate = method.estimate_reduced(space, design, out, acc)
+    except _METHOD_FAILURES as exc:
+        estimate, failure = _no_estimate(method), _why(method, exc)
     progress.phase("")
-    return estimate, design, out, fit_seconds + time.perf_counter() - t0
+    return estimate, design, out, fit_seconds + time.perf_counter() - t0, failure
+
+
+#: What a method may raise and still leave the run to the other methods: a MethodError (it
+#: cannot produce statistics from these runs) or a numerical failure of its fit. A ModelError
+#: (a model breaking its contract) and a ConfigError stop the run; so does Ctrl-C.
+_METHOD_FAILURES = (MethodError, ArithmeticError, ValueError, np.linalg.LinAlgError)
+
+
+def _no_estimate(method: Method) -> Estimate:
+    return Estimate(method=method.name, label=method.label, stats={})
+
+
+def _why(method: Method, exc: Exception) -> str:
+    if isinstance(exc, MethodError):
+        return str(exc)
+    log.debug("%s failed", method.label, exc_info=exc)
+    return f"{method.label}: {type(exc).__name__}: {exc} (run with -vv for the traceback)"
 
 
 def _in_context(method: Method, model: Model, outputs: tuple[str, ...]
@@ -309,6 +340,9 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         raise RunInterrupted(done, progress.chunks_total) from None
     finally:
         progress.close()
+    if runs and not any(r.success for r in runs):
+        # nothing to report: no result file, the reasons instead
+        raise MethodError("\n".join(r.message for r in runs))
     time_grid = next((r.time for r in runs if r.time.size), np.zeros(0))
     return Result(
         name=config.name,
@@ -322,6 +356,14 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         config=config.resolved(),
         provenance={**provenance(), "wall_seconds": time.perf_counter() - t0},
     )
+
+
+def check_methods(result: Result) -> None:
+    """Raise UqguideError (exit 1) naming each method that produced no statistics (the others
+    are in the result and its tables)."""
+    failed = [r.message for r in result.runs if not r.success]
+    if failed:
+        raise UqguideError("; ".join(failed))
 
 
 def check_failure_budget(result: Result, max_failed_fraction: float) -> None:

@@ -57,7 +57,12 @@ def cost_table(result: Result) -> pd.DataFrame:
             "fit_s": round(r.fit_seconds, 3), **extra,
             "reference": "yes" if r.label == result.reference else "",
         })
-    return pd.DataFrame(rows)
+        if not r.success:
+            rows[-1]["status"] = "FAILED: no statistics"
+    df = pd.DataFrame(rows)
+    if "status" in df:
+        df["status"] = df["status"].fillna("ok")
+    return df
 
 
 def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) -> bool | None:
@@ -283,6 +288,10 @@ def render_text(result: Result) -> str:
                   f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
     if any(r.estimate.stats for r in result.runs):
         parts += ["", interval_legend(with_ref)]
+    broken = [r for r in result.runs if not r.success]
+    if broken:
+        parts += ["", "Methods without statistics (the others completed):"]
+        parts += [f"  {r.label}: {r.message}" for r in broken]
     failures = failure_table(result)
     if not failures.empty:
         parts += ["", "Failed runs (excluded from the statistics)",
