@@ -315,7 +315,7 @@ class AdaptivePCE(Method):
         finish(est, surrogate, space=space, validation=validation,
                u_validation=design.data.get("u_validation"),
                loo={f.columns.name: f.loo for f in fits}, threshold=s.usable_error,
-               seed=int(design.data.get("seed", 0)))
+               seed=int(design.data.get("seed", 0)), n_draws=s.surrogate_draws)
         return est
 
     def _validate(self, space: InputSpace, fits: list[_OutputFit], u_v: np.ndarray,

@@ -207,6 +207,7 @@ class QuadraturePCE(Method):
                               {c.name: c.kind for c, _ in fitted})
         finish(est, surrogate, space=space, validation=validation,
                u_validation=design.data.get("u_validation"), loo={},
-               threshold=self.settings.usable_error, seed=int(design.data.get("seed", 0)))
+               threshold=self.settings.usable_error, seed=int(design.data.get("seed", 0)),
+               n_draws=self.settings.surrogate_draws)
         diagnostics["fit_seconds"] = time.perf_counter() - t0
         return est

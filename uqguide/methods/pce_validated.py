@@ -22,7 +22,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from ..inputs import InputSpace
 from ..pce.surrogate import Surrogate
-from ..pce.validation import USABLE_ERROR, corrected_moments, usable_mask, withdraw
+from ..pce.validation import (USABLE_ERROR, corrected_moments, sampling_se, usable_mask,
+                              validation_unit_rows, withdraw)
 from ..types import Estimate, ModelOutput
 
 log = logging.getLogger(__name__)
@@ -51,6 +52,10 @@ USABLE_FIELD = Field(default=USABLE_ERROR, gt=0.0, le=10.0,
                                  "no moments ('no usable surrogate')")
 
 
+#: Fresh surrogate draws that measure the sampling error of sampled PCE moments.
+SE_DRAWS = 20_000
+
+
 def _values(out: ModelOutput, name: str) -> np.ndarray | None:
     if name in out.series:
         return np.asarray(out.series[name], dtype=float)
@@ -61,7 +66,8 @@ def _values(out: ModelOutput, name: str) -> np.ndarray | None:
 
 def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
            validation: ModelOutput | None, u_validation: np.ndarray | None,
-           loo: Mapping[str, float], threshold: float, seed: int) -> None:
+           loo: Mapping[str, float], threshold: float, seed: int,
+           n_draws: int = 1_000_000) -> None:
     """Keep the surrogate in ``estimate``; validate, correct and judge every output in place.
 
     Parameters
@@ -80,6 +86,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         ``usable_error``.
     seed : int
         Seed of the bootstrap.
+    n_draws : int
+        Surrogate draws behind sampled moments (their sampling error joins the intervals).
     """
     estimate.surrogate = surrogate
     diag = estimate.diagnostics
@@ -95,7 +103,14 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         y = _values(validation, name) if validation is not None else None
         if y is not None and ok is not None and int(ok.sum()) >= 2:
             s = surrogate.at_unit(u_validation[ok], [name])[name].reshape(y[ok].shape)
-            cv = corrected_moments(st, y[ok], s, seed=seed)
+            pce_se = None
+            if st.moments_method == "surrogate-sampling":
+                cols = int(np.prod(y.shape[1:]))
+                m = min(SE_DRAWS, n_draws, max(1000, 2_000_000 // max(cols, 1)))
+                u = validation_unit_rows(seed, f"{estimate.label}/se", m, space.dim)
+                draws = surrogate.at_unit(u, [name])[name].reshape((m,) + y.shape[1:])
+                pce_se = sampling_se(draws, n_draws, seed=seed)
+            cv = corrected_moments(st, y[ok], s, seed=seed, pce_se=pce_se)
             st.corrected, st.corrected_ci = cv.values, cv.ci
             st.validation_error = err = cv.error
             diag[f"validation_error.{name}"] = float(np.max(err)) if err.size else 0.0

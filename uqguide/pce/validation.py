@@ -110,8 +110,30 @@ class Corrected:
     n: int
 
 
+def _moments_of(w: np.ndarray, counts: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
+    """Moments of weighted resamples: ``counts (b, n)`` weights (rows summing to 1)."""
+    z = w - c
+    raw = [counts @ z**p for p in range(1, 5)]
+    return _moments_from_raw(c, *raw)
+
+
+def sampling_se(draws: np.ndarray, n_draws: int, *, n_boot: int = 200,
+                seed: int = 0) -> dict[str, np.ndarray]:
+    """Standard errors of the four moments of ``n_draws`` surrogate draws, from ``m``
+    draws ``(m, ...)`` in hand: the bootstrap standard error scaled by ``sqrt(m / n_draws)``."""
+    m = draws.shape[0]
+    shape = draws.shape[1:]
+    w = draws.reshape(m, -1)
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x5e]))
+    counts = rng.multinomial(m, np.full(m, 1.0 / m), size=n_boot).astype(float) / m
+    bv = _moments_of(w, counts, w.mean(axis=0))
+    scale = np.sqrt(m / max(n_draws, 1))
+    return {k: (np.sqrt(np.nanvar(v, axis=0)) * scale).reshape(shape) for k, v in bv.items()}
+
+
 def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *, n_boot: int = 1000,
-                      seed: int = 0, max_floats: int = 2**24) -> Corrected:
+                      seed: int = 0, max_floats: int = 2**24,
+                      pce_se: dict[str, np.ndarray] | None = None) -> Corrected:
     """Control-variate mean, std, skewness and kurtosis with bootstrap intervals.
 
     Parameters
@@ -126,6 +148,9 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *, n_boot:
         Seed of the resampling (fixed: the same runs give the same intervals).
     max_floats : int
         Columns are bootstrapped in blocks of at most this many resample x column values.
+    pce_se : dict of str to ndarray, shape (...), optional
+        Standard errors of the PCE's own moments where they were sampled
+        (:func:`sampling_se`), added to the interval in quadrature.
 
     Returns
     -------
@@ -159,8 +184,11 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *, n_boot:
         for k, v in bv.items():
             with np.errstate(invalid="ignore"):
                 se = np.sqrt(np.nanvar(v, axis=0)) if np.isfinite(v).any() else np.nan
-            ci[k][0, sl] = values[k][sl] - widen * se
-            ci[k][1, sl] = values[k][sl] + widen * se
+            half = widen * se
+            if pce_se is not None and k in pce_se:
+                half = np.hypot(half, 1.96 * np.asarray(pce_se[k]).reshape(-1)[sl])
+            ci[k][0, sl] = values[k][sl] - half
+            ci[k][1, sl] = values[k][sl] + half
     return Corrected(values={k: v.reshape(shape) for k, v in values.items()},
                      ci={k: v.reshape((2,) + shape) for k, v in ci.items()},
                      error=relative_error(y.reshape(n, -1), s.reshape(n, -1)).reshape(shape),
