@@ -286,6 +286,19 @@ def _surrogate_draws(result: Result, r: MethodRun, output: str,
     return y[np.isfinite(y).all(axis=1)]
 
 
+def _kde(y: np.ndarray, xs: np.ndarray) -> np.ndarray:
+    """Gaussian kernel density of draws ``y`` at ``xs``; a non-negative output whose draws
+    reach down to 0 (a miss distance) is reflected at 0, so the kernel's mass below 0 is not
+    lost: a plain KDE halves the density at the boundary where the output piles up."""
+    plain = sps.gaussian_kde(y)
+    if y.min() >= 0 and y.min() < 0.1 * y.std():
+        both = np.concatenate([y, -y])
+        # the same kernel width as the plain estimate (Scott's rule on y itself)
+        kde = sps.gaussian_kde(both, bw_method=plain.factor * y.std() / both.std())
+        return np.where(xs >= 0, 2 * kde(xs), 0.0)
+    return np.asarray(plain(xs))
+
+
 def _is_binary(samples: dict[str, np.ndarray]) -> bool:
     """Whether every sample of every Monte Carlo method is 0 or 1 (and both occur or not)."""
     return bool(samples) and all(np.isin(y, (0.0, 1.0)).all() for y in samples.values())
@@ -407,8 +420,7 @@ def scalar_figure(result: Result, output: str) -> Figure:
                 ax.hist(y, bins=bins, density=True, histtype="step", color=st["color"],
                         lw=st["lw"], label=f"{method_label(r)} histogram: {text}")
             elif r.label in draws:
-                kde = sps.gaussian_kde(draws[r.label])
-                ax.plot(xs, kde(xs), color=st["color"], ls=st["ls"], lw=2.0,
+                ax.plot(xs, _kde(draws[r.label], xs), color=st["color"], ls=st["ls"], lw=2.0,
                         label=f"{method_label(r)} surrogate density (KDE of "
                               f"{draws[r.label].size:,} draws): {text}")
             elif r.label in densities:
