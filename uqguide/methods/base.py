@@ -161,6 +161,12 @@ class Method(ABC):
     #: Derived outputs are computed from surrogates of their carriers (``context.derived``),
     #: so the carriers are evaluated too.
     uses_derivations: ClassVar[bool] = False
+    #: The design is drawn from the seed (another seed, another design); a quadrature grid is
+    #: not.
+    random_design: ClassVar[bool] = True
+    #: Settings of a small design that still exercises the method (several chunks): what the
+    #: conformance suite (:func:`uqguide.testing.check_method`) runs it with.
+    example_settings: ClassVar[Mapping[str, Any]] = {}
 
     def __init__(self, settings: MethodSettings | dict[str, Any] | None = None,
                  context: RunContext | None = None) -> None:

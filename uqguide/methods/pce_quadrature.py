@@ -93,6 +93,7 @@ class QuadraturePCE(Method):
     settings: QuadratureSettings
     needs_all_runs = True
     uses_derivations = True
+    random_design = False
 
     @abstractmethod
     def _grid(self, germ: Germ) -> Grid:

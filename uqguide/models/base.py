@@ -20,7 +20,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, model_validator
@@ -44,7 +44,8 @@ class ModelParams(BaseModel):
     config is an error, not a silently ignored setting.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # NaN or infinity in a parameter is a config error, never a run that fails on every sample
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
@@ -179,6 +180,9 @@ class Model(ABC):
     name: ClassVar[str]
     summary: ClassVar[str]
     Params: ClassVar[type[ModelParams]] = ModelParams
+    #: A small, cheap configuration (a short horizon) that still runs every part of the model:
+    #: what the conformance suite (:func:`uqguide.testing.check_model`) builds it with.
+    example_params: ClassVar[Mapping[str, Any]] = {}
 
     def __init__(self, params: ModelParams | Mapping[str, object] | None = None) -> None:
         if params is None:
