@@ -26,16 +26,16 @@ from types import MappingProxyType
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field
 
-from ..strict import no_bool_numbers
+from ..strict import StrictModel
 
 from ..events import EventSpec
 from ..inputs import InputSpace
 from ..types import DerivedOutput, Estimate, GeneratedRows, ModelOutput
 
 
-class MethodSettings(BaseModel):
+class MethodSettings(StrictModel):
     """Settings of a method from the config (``methods:`` list entry, less ``name``).
 
     ``label`` names the method's row in tables and its group in the result file; it defaults to
@@ -47,8 +47,6 @@ class MethodSettings(BaseModel):
     label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$",
                               description="name of the method's rows in the tables and of its "
                                           "group in the result file (default: the method's name)")
-
-    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
 
 @dataclass

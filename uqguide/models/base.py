@@ -23,9 +23,9 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, model_validator
+from pydantic import ConfigDict
 
-from ..strict import no_bool_numbers
+from ..strict import StrictModel
 
 from ..errors import ModelError
 from ..types import DerivedOutput, ModelOutput
@@ -37,7 +37,7 @@ __all__ = ["DerivedOutput", "InputInfo", "Model", "ModelOutput", "ModelParams", 
 OutputKind = Literal["series", "scalar"]
 
 
-class ModelParams(BaseModel):
+class ModelParams(StrictModel):
     """Fixed (non-random) parameters of a model, SI units, validated from the config.
 
     Subclasses declare their fields with defaults; unknown keys are rejected so a typo in a
@@ -46,8 +46,6 @@ class ModelParams(BaseModel):
 
     # NaN or infinity in a parameter is a config error, never a run that fails on every sample
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
 
 @dataclass(frozen=True)
