@@ -11,8 +11,11 @@ A model maps a batch of input samples to named outputs, all at once:
 Methods see models only through :meth:`Model.evaluate`, so any model (a built-in simulator, an
 analytic benchmark, a user's Python callable) can be propagated by any method.
 
-A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class, ``inputs()``,
-``outputs()`` and ``_evaluate``; registering it is one line in :mod:`uqguide.registry`.
+A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class (and
+``example_params``, a cheap configuration), ``inputs()``, ``outputs()`` and ``_evaluate``;
+registering it is one line in :mod:`uqguide.registry`, and the conformance suite
+(:func:`uqguide.testing.check_model`) then checks it with no test code. What a paper says about
+a model (its nominal figures and checks) lives in :mod:`uqguide.papers`, not in the model.
 """
 
 from __future__ import annotations
