@@ -37,13 +37,12 @@ from typing import Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
-                      model_validator)
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator)
 
 from .errors import ConfigError
 from .events import EventSpec, component_index
 from .quantiles import resolve_levels
-from .strict import no_bool_numbers
+from .strict import StrictModel
 from .inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
 from .limits import check_steps, default_max_memory, parse_bytes
 from .methods.base import Method, RunContext
@@ -76,7 +75,7 @@ def check_run_name(name: str) -> str:
     return name
 
 
-class RawConfig(BaseModel):
+class RawConfig(StrictModel):
     """The config file's top level, before model- and method-specific validation."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -114,8 +113,6 @@ class RawConfig(BaseModel):
     #: process; a call over time is killed and bisected, so a hanging sample fails alone.
     #: A call is ``batch_size`` samples (chunk rows at most): size it for that.
     timeout_s: float | None = Field(default=None, gt=0.0, le=1e6)
-
-    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
     @field_validator("max_memory")
     @classmethod

@@ -5,15 +5,19 @@ A method works in phases, so a design can be stored, run elsewhere and resumed:
 1. :meth:`Method.design` gives the runs to make (inputs ``x (n, d)`` plus whatever the method
    needs later, e.g. quadrature weights);
 2. the driver (:func:`uqguide.propagate.propagate`) evaluates the model on the design;
-3. :meth:`Method.refine` may ask for more runs (sequential designs); the driver evaluates them
-   and calls it again until it returns ``None``;
-4. :meth:`Method.estimate` gives the statistics and diagnostics.
+3. :meth:`Method.refine` may ask for more runs (sequential designs, :attr:`Method.refines`);
+   the driver evaluates them and calls it again until it returns ``None``;
+4. :meth:`Method.estimate` gives the statistics and diagnostics (or, for a method that
+   :attr:`~Method.reduces_chunks`, :meth:`Method.fold` per chunk and
+   :meth:`Method.estimate_reduced`). A method that cannot produce statistics raises
+   :class:`~uqguide.errors.MethodError`: the run records it and completes the other methods.
 
-Methods never know which model they run: they see the :class:`~uqguide.inputs.InputSpace` and the
-:class:`~uqguide.models.base.ModelOutput`.
+Methods never know which model they run: they see the :class:`~uqguide.inputs.InputSpace`, the
+:class:`~uqguide.types.ModelOutput` and the :class:`RunContext` they were built with.
 
-A new method is one module with a ``Settings`` class and a ``Method`` subclass, plus one line in
-:mod:`uqguide.registry`.
+A new method is one module with a ``Settings`` class and a ``Method`` subclass declaring its
+capability flags and ``example_settings``, plus one line in :mod:`uqguide.registry`; the
+conformance suite (:func:`uqguide.testing.check_method`) then checks it with no test code.
 """
 
 from __future__ import annotations
@@ -26,16 +30,16 @@ from types import MappingProxyType
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field
 
-from ..strict import no_bool_numbers
+from ..strict import StrictModel
 
 from ..events import EventSpec
 from ..inputs import InputSpace
 from ..types import DerivedOutput, Estimate, GeneratedRows, ModelOutput
 
 
-class MethodSettings(BaseModel):
+class MethodSettings(StrictModel):
     """Settings of a method from the config (``methods:`` list entry, less ``name``).
 
     ``label`` names the method's row in tables and its group in the result file; it defaults to
@@ -47,8 +51,6 @@ class MethodSettings(BaseModel):
     label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$",
                               description="name of the method's rows in the tables and of its "
                                           "group in the result file (default: the method's name)")
-
-    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
 
 @dataclass
@@ -161,6 +163,12 @@ class Method(ABC):
     #: Derived outputs are computed from surrogates of their carriers (``context.derived``),
     #: so the carriers are evaluated too.
     uses_derivations: ClassVar[bool] = False
+    #: The design is drawn from the seed (another seed, another design); a quadrature grid is
+    #: not.
+    random_design: ClassVar[bool] = True
+    #: Settings of a small design that still exercises the method (several chunks): what the
+    #: conformance suite (:func:`uqguide.testing.check_method`) runs it with.
+    example_settings: ClassVar[Mapping[str, Any]] = {}
 
     def __init__(self, settings: MethodSettings | dict[str, Any] | None = None,
                  context: RunContext | None = None) -> None:

@@ -135,6 +135,7 @@ class MonteCarlo(Method):
     Settings = MonteCarloSettings
     settings: MonteCarloSettings
     reduces_chunks = True
+    example_settings = {"n_samples": 4096, "chunk_size": 1024, "bootstrap": 100}
 
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings

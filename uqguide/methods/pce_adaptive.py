@@ -175,6 +175,7 @@ class AdaptivePCE(Method):
     settings: AdaptivePCESettings
     refines = True
     uses_derivations = True
+    example_settings = {"n_samples": 40, "max_runs": 60, "degree_max": 3}
 
     # ------------------------------------------------------------------ design sizes
     def initial_size(self, d: int) -> int:

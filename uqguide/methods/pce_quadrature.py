@@ -99,6 +99,7 @@ class QuadraturePCE(Method):
     settings: QuadratureSettings
     needs_all_runs = True
     uses_derivations = True
+    random_design = False
 
     @abstractmethod
     def _grid(self, germ: Germ) -> Grid:

@@ -94,6 +94,7 @@ class SubsetSimulation(Method):
     Settings = SubsetSimulationSettings
     settings: SubsetSimulationSettings
     refines = True
+    example_settings = {"event": "tail", "n_per_level": 500}
 
     # ------------------------------------------------------------------ config
     def check(self, index: int) -> None:
