@@ -4,7 +4,8 @@ holding, whether uqguide flags it, and whether the corrected intervals hold the 
 For each seed, the config's tensor and Smolyak PCEs (with their 100 validation runs) run beside
 a 1e5-run Monte Carlo; over the time steps in ``[--t0, --t1]`` (default 60-78 s) the table gives,
 per PCE and statistic (mean, std): the largest relative error of the PCE value against the MC
-(over the window, and over its steps before the flag), the time from which uqguide flags the PCE ("no usable surrogate from t = ..."), and the share of
+(over the window, and over its steps before the flag), the time from which uqguide flags the
+PCE ("no usable surrogate from t = ..."), and the share of
 steps where the corrected value's 95% interval holds the MC value (``covered``) or where the
 difference lies within both estimates' 95% half-widths in quadrature (``combined``: the report's
 agreement flag; the MC's bootstrap intervals exist at the report times only, so between them

@@ -10,6 +10,7 @@ mean), so a reader sees whether a difference is larger than the reference's own 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -45,8 +46,8 @@ def cost_table(result: Result) -> pd.DataFrame:
                               if "event" in r.estimate.diagnostics))
     for r in result.runs:
         d = r.estimate.diagnostics
-        extra = {k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components", "levels")
-                 if k in d}
+        extra: dict[str, Any] = {k: d[k] for k in ("degree", "n_terms", "loo_error",
+                                                    "n_components", "levels") if k in d}
         if "n_validation" in d:
             extra["validation"] = d["n_validation"]
             errs = [v for k, v in d.items() if k.startswith("validation_error.")]
@@ -101,7 +102,7 @@ def validation_table(result: Result) -> pd.DataFrame:
                 err = float(s.validation_error[where]) if s.validation_error is not None \
                     else float("nan")
                 for stat in STAT_NAMES:
-                    lo, hi = s.corrected_ci[stat][(0, *where)], s.corrected_ci[stat][(1, *where)]
+                    lo, hi = s.corrected_ci[stat][(0,) + where], s.corrected_ci[stat][(1,) + where]
                     rows.append({"label": r.label, "output": o.name,
                                  "component": o.components[where[-1]], "time": t,
                                  "stat": stat, "pce": float(s.stat(stat)[where]),
@@ -177,15 +178,19 @@ def statistics_table(result: Result) -> pd.DataFrame:
             for where, t in places:
                 comp = o.components[where[-1]]
                 usable = True if s.usable is None else bool(s.usable[where])
-                variants = [(r.label, s.stat, lambda st: _interval(s, st, where), usable)]
-                if s.corrected:  # the control-variate estimate, with its own interval
-                    variants.append((f"{r.label}+cv", s.corrected.__getitem__,
-                                     lambda st: (float(s.corrected_ci[st][(0, *where)]),
-                                                 float(s.corrected_ci[st][(1, *where)])), True))
-                for label, get, interval, ok, stat in (
-                        (*va, st) for va in variants for st in STAT_NAMES):
-                    v = float(get(stat)[where])
-                    lo, hi = interval(stat)
+                # the PCE's own value, then a validated PCE's control-variate estimate with its
+                # own interval
+                variants: list[tuple[str, bool]] = [(r.label, usable)]
+                if s.corrected:
+                    variants.append((f"{r.label}+cv", True))
+                for (label, ok), stat in ((va, st) for va in variants for st in STAT_NAMES):
+                    if label == r.label:
+                        v = float(s.stat(stat)[where])
+                        lo, hi = _interval(s, stat, where)
+                    else:
+                        v = float(s.corrected[stat][where])
+                        lo = float(s.corrected_ci[stat][(0,) + where])
+                        hi = float(s.corrected_ci[stat][(1,) + where])
                     row = {"output": o.name, "component": comp, "unit": o.unit, "time": t,
                            "label": label, "stat": stat, "value": v, "ci_low": lo,
                            "ci_high": hi, "usable": ok}

@@ -18,7 +18,9 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
+
+from ..strict import StrictModel
 
 from ..inputs import InputSpace
 from ..pce.surrogate import Surrogate
@@ -29,7 +31,7 @@ from ..types import Estimate, ModelOutput
 log = logging.getLogger(__name__)
 
 
-class ValidationSettings(BaseModel):
+class ValidationSettings(StrictModel):
     """``validation:`` of a PCE method.
 
     Attributes
@@ -101,7 +103,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
     for name, st in estimate.stats.items():
         err = None
         y = _values(validation, name) if validation is not None else None
-        if y is not None and ok is not None and int(ok.sum()) >= 2:
+        if y is not None and ok is not None and u_validation is not None \
+                and int(ok.sum()) >= 2:
             s = surrogate.at_unit(u_validation[ok], [name])[name].reshape(y[ok].shape)
             pce_se = None
             if st.moments_method == "surrogate-sampling":
