@@ -24,7 +24,7 @@ MODELS: dict[str, str] = {
     "borehole": "uqguide.models.benchmarks:Borehole",
     "callable": "uqguide.models.callable:CallableModel",
     "ftcapn": "uqguide.models.ftcapn:FTCAPN",
-    "gmm_proximity": "uqguide.models.gmm_proximity:GMMProximity",
+    "gmm_proximity": "uqguide.models.gmm.model:GMMProximity",
     "ft_as": "uqguide.models.ft_as:FTAS",
     "gmm_ftc": "uqguide.models.gmm_ftc:GMMFTC",
 }

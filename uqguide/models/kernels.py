@@ -93,6 +93,34 @@ def choose(requested: str, model: str) -> KernelChoice:
     return "numpy"
 
 
+def select(requested: str, model: str, compiled: str, reference: str) -> Callable[..., Any]:
+    """The closed-loop function a model runs: its compiled kernel or its NumPy reference.
+
+    Both are named as ``"module:function"`` and imported only when chosen, so that a NumPy run
+    never imports numba nor compiles anything.
+
+    Parameters
+    ----------
+    requested : {"auto", "numba", "numpy"}
+        The model's ``kernel`` parameter (``UQGUIDE_KERNEL`` overrides it, see :func:`choose`).
+    model : str
+        The model's name, for the error message.
+    compiled, reference : str
+        ``"uqguide.models.<pkg>.<module>:<function>"`` of the numba kernel and of the NumPy
+        reference, which take the same arguments and return the same result.
+
+    Returns
+    -------
+    callable
+        The chosen function.
+    """
+    import importlib
+
+    target = compiled if choose(requested, model) == "numba" else reference
+    module, _, function = target.partition(":")
+    return getattr(importlib.import_module(module), function)  # type: ignore[no-any-return]
+
+
 # ---------------------------------------------------------------------------- the cache
 def _writable(folder: Path) -> bool:
     # os.access answers for the real uid, and root passes it everywhere; creating a file is

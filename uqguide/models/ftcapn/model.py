@@ -40,9 +40,9 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ..base import (DerivedOutput, InputInfo, Model, ModelOutput, ModelParams, OutputInfo,
-                    ReportRow, StepCount)
+                    StepCount)
 from ..dynamics.hill import MU_EARTH, mean_motion
-from ..kernels import choose
+from ..kernels import select
 from . import layout as L
 from .drift import miss_hill, miss_parabola
 
@@ -177,17 +177,6 @@ def los_frames(r: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.stack([et, er, np.cross(er, et)], axis=1)
 
 
-def _resolve_kernel(name: str):
-    """The closed loop: the compiled kernel or the NumPy reference (see ``models.kernels``)."""
-    if choose(name, "ftcapn") == "numba":
-        from .kernel_numba import simulate_numba
-
-        return simulate_numba
-    from .kernel_numpy import simulate_numpy
-
-    return simulate_numpy
-
-
 class FTCAPN(Model):
     """FTCAPN closed-loop rendezvous simulator (spec ftcapn.md), vectorised over samples."""
 
@@ -195,6 +184,7 @@ class FTCAPN(Model):
     summary = ("finite-time-convergence augmented proportional navigation, midrange "
                "rendezvous from 5.4 km to 50 m (Wang & Song 2019)")
     Params = FTCAPNParams
+    params: FTCAPNParams
     params: FTCAPNParams
 
     def __init__(self, params=None) -> None:
@@ -326,7 +316,8 @@ class FTCAPN(Model):
         args = (np.ascontiguousarray(r0), np.ascontiguousarray(v0), np.ascontiguousarray(at),
                 np.ascontiguousarray(x[:, 7]), np.ascontiguousarray(x[:, 6]), prm, K, max_steps,
                 col, buf, sc, status)
-        kernel = _resolve_kernel(p.kernel)
+        kernel = select(p.kernel, "ftcapn", "uqguide.models.ftcapn.kernel_numba:simulate_numba",
+                        "uqguide.models.ftcapn.kernel_numpy:simulate_numpy")
         if kernel.__name__ == "simulate_numba":
             import numba
 
@@ -401,20 +392,3 @@ class FTCAPN(Model):
         """The nominal run (every input at its nominal value) with the given outputs (all)."""
         wanted = frozenset(o.name for o in self.outputs()) if outputs is None else outputs
         return self.evaluate(np.zeros((1, 0)), [], wanted)
-
-    def nominal_report(self) -> list[ReportRow]:
-        from .report import nominal_report
-
-        return nominal_report(self)
-
-    def nominal_figures(self, out_dir: str) -> list[str]:
-        from .report import nominal_figures
-
-        return nominal_figures(self, out_dir)
-
-    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
-                       stem: str) -> list[str]:
-        """The chaser's path relative to the target (``-r``, Table-2 axes) for one sample."""
-        from .report import sample_trajectory_figure
-
-        return [sample_trajectory_figure(self, out, out_dir, stem)]

@@ -4,7 +4,7 @@
 ``law`` the fixed-time controller (eqs 20-31, eq 36 bound), ``closed_loop`` the sampled-data
 simulation with its metrics (NumPy reference), ``kernel_numba`` the same loop compiled,
 ``noise`` the keyed thruster-error streams, ``model`` the
-registered model and ``report`` the nominal scenario beside the paper.
+registered model. The nominal scenario beside the paper is :mod:`uqguide.papers.gmm_ftc`.
 """
 
 from .model import GMMFTC, GMMFTCParams

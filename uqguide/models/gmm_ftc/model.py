@@ -42,14 +42,14 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from ..base import (InputInfo, Model, ModelOutput, ModelParams, OutputInfo, ReportRow,
-                    StepCount)
+from ..base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo, StepCount
 from ..dynamics.rotating_body_frame import RotatingBodyFrame
 from ..dynamics.tschauner_hempel import ChiefOrbit
 from ..gmm.potential import AttractRepulsePotential
-from ..kernels import choose
+from ..kernels import select
+from ..time_grid import recording_stride, whole_steps
 from . import noise
-from .closed_loop import LoopRun, LoopSettings, run_closed_loop
+from .closed_loop import LoopRun, LoopSettings
 from .law import FTCGains, GMMFTCLaw
 from .target import target_geometry, target_mixture
 
@@ -201,14 +201,8 @@ class GMMFTCParams(ModelParams):
 
     @model_validator(mode="after")
     def _grid(self) -> GMMFTCParams:
-        n_steps = round(self.t_final / self.dt)
-        every = round(self.record_dt / self.dt)
-        if abs(n_steps * self.dt - self.t_final) > 1e-9 * self.t_final:
-            raise ValueError(f"t_final = {self.t_final} s must be a multiple of dt = {self.dt} s")
-        if every < 1 or abs(every * self.dt - self.record_dt) > 1e-9 * self.record_dt \
-                or n_steps % every:
-            raise ValueError(f"record_dt = {self.record_dt} s must be a multiple of dt = "
-                             f"{self.dt} s dividing t_final = {self.t_final} s")
+        n_steps = whole_steps(self.t_final, self.dt, "t_final")
+        recording_stride(self.record_dt, self.dt, n_steps, "record_dt")
         return self
 
 
@@ -219,6 +213,7 @@ class GMMFTC(Model):
     summary = ("GMM-based fixed-time control approaching a tumbling complex-shaped target in "
                "its body frame (Chen et al. 2020)")
     Params = GMMFTCParams
+    params: GMMFTCParams
     params: GMMFTCParams
 
     def inputs(self) -> tuple[InputInfo, ...]:
@@ -259,7 +254,8 @@ class GMMFTC(Model):
     def simulate(self, values: Mapping[str, np.ndarray], n: int,
                  settings: LoopSettings | None = None, noise_keys: np.ndarray | None = None
                  ) -> LoopRun:
-        """Closed-loop runs for inputs ``values`` (each (n,)); see :func:`run_closed_loop`.
+        """Closed-loop runs for inputs ``values`` (each (n,)); see
+        :func:`.closed_loop.run_closed_loop`.
 
         ``noise_keys`` (n,) overrides the keys derived from ``noise_seed`` and the inputs.
         """
@@ -287,7 +283,9 @@ class GMMFTC(Model):
             noise_keys = noise.sample_keys(p.noise_seed, np.stack(list(col.values()), axis=1))
         geometry = target_geometry(p.panel_half_thickness, p.antenna_half_width,
                                    p.body_tolerance)
-        runner = _resolve_kernel(p.kernel)
+        runner = select(p.kernel, "gmm_ftc",
+                        "uqguide.models.gmm_ftc.kernel_numba:run_closed_loop_numba",
+                        "uqguide.models.gmm_ftc.closed_loop:run_closed_loop")
         return runner(plant, controller_plant, self.law(), geometry, x0, st,
                       thrust_scale=scale, noise_keys=noise_keys)
 
@@ -295,26 +293,6 @@ class GMMFTC(Model):
                   ) -> ModelOutput:
         run = self.simulate(values, n)
         return to_model_output(run, outputs)
-
-    # ------------------------------------------------------------------ nominal scenario
-    def nominal_report(self) -> list[ReportRow]:
-        from .report import nominal_report
-
-        return nominal_report(self)
-
-    def nominal_figures(self, out_dir: str) -> list[str]:
-        from ...plotting.gmm_ftc import nominal_figures
-
-        return nominal_figures(self, out_dir)
-
-
-def _resolve_kernel(name: str):
-    """The closed-loop runner: the compiled kernel or the NumPy reference (``models.kernels``)."""
-    if choose(name, "gmm_ftc") == "numba":
-        from .kernel_numba import run_closed_loop_numba
-
-        return run_closed_loop_numba
-    return run_closed_loop
 
 
 def los_rate(r: np.ndarray, v: np.ndarray) -> np.ndarray:

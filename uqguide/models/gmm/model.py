@@ -44,22 +44,21 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from .base import (InputInfo, Model, ModelOutput, ModelParams, OutputInfo, ReportRow,
-                   StepCount, failure_reasons)
-from .dynamics.tschauner_hempel import MU_EARTH, ChiefOrbit, LVLHPlant
-from .gmm.claims import APF, GNT, GTS, WANG2022_DV_RATIO, Outcome, evaluate_wang2022_claims
-from .gmm.controllers import NTSMC, TSMC, ReachingLaw
-from .gmm.gauss_sum import GaussSum
-from .gmm.geometry import ChiefGeometry, wang2022_chief
-from .gmm.mixture import WANG2022_PUBLISHED, Mixture
-from .gmm.potential import AttractRepulsePotential
-from .gmm.sampled_sim import SampledRun, StepSchedule, build_schedule, simulate
+from ..base import (InputInfo, Model, ModelOutput, ModelParams, OutputInfo, StepCount,
+                   failure_reasons)
+from ..dynamics.tschauner_hempel import MU_EARTH, ChiefOrbit, LVLHPlant
+from ..time_grid import recording_stride, whole_steps
+from .controllers import NTSMC, TSMC, ReachingLaw
+from .gauss_sum import GaussSum
+from .geometry import ChiefGeometry, wang2022_chief
+from .mixture import WANG2022_PUBLISHED, Mixture
+from .potential import AttractRepulsePotential
+from .sampled_sim import SampledRun, StepSchedule, build_schedule, simulate
 
 log = logging.getLogger(__name__)
 
 Vec3 = tuple[float, float, float]
 ControllerName = Literal["gmm_ntsmc", "gmm_tsmc", "apf_tsmc"]
-CONTROLLER_LABEL: dict[str, str] = {"apf_tsmc": APF, "gmm_tsmc": GTS, "gmm_ntsmc": GNT}
 FITTED_FILE = "gmm_wang2022_fitted.npz"
 
 
@@ -113,14 +112,8 @@ class GMMProximityParams(ModelParams):
 
     @model_validator(mode="after")
     def _grid(self) -> GMMProximityParams:
-        steps = self.t_f / self.dt
-        if abs(steps - round(steps)) > 1e-9 * steps:
-            raise ValueError(f"t_f ({self.t_f} s) must be a multiple of dt ({self.dt} s)")
-        every = self.record_interval / self.dt
-        if abs(every - round(every)) > 1e-9 * every or round(steps) % round(every):
-            raise ValueError(
-                f"record_interval ({self.record_interval} s) must be a multiple of dt that "
-                f"divides t_f ({self.t_f} s)")
+        steps = whole_steps(self.t_f, self.dt, "t_f")
+        recording_stride(self.record_interval, self.dt, steps, "record_interval", span_name="t_f")
         if self.p % 2 == 0 or self.q % 2 == 0 or self.p >= self.q:
             raise ValueError(f"p and q must be odd with p < q, got {self.p}, {self.q}")
         return self
@@ -150,6 +143,7 @@ class GMMProximity(Model):
     summary = ("GMM-potential sliding-mode proximity to a box/panel/antenna chief "
                "(Wang et al. 2022): clearance, collision, delta-v, final error")
     Params = GMMProximityParams
+    params: GMMProximityParams
 
     _INPUTS = (
         InputInfo("dx0", "m", "error added to the initial radial position", 0.0),
@@ -331,85 +325,3 @@ class GMMProximity(Model):
         return ModelOutput(time=run.time, series=series,
                            scalars={k: v for k, v in scalars.items() if k in outputs},
                            failed=failed, reasons=reasons)
-
-    # ------------------------------------------------------------------ nominal scenario
-    def nominal_runs(self, record_every: int = 1) -> dict[str, SampledRun]:
-        """The nominal run of each of the three controllers, keyed by display name."""
-        vals = self.nominal_values()
-        return {CONTROLLER_LABEL[c]: self.run(vals, 1, c, record_every=record_every)
-                for c in ("apf_tsmc", "gmm_tsmc", "gmm_ntsmc")}
-
-    def nominal_outcomes(self, runs: dict[str, SampledRun] | None = None) -> dict[str, Outcome]:
-        runs = self.nominal_runs() if runs is None else runs
-        names = self.geometry().names
-        r_f = np.asarray(self.params.r_f)
-        return {
-            label: Outcome(
-                hit_parts=tuple(nm for nm, h in zip(names, run.hits[0]) if h),
-                clearance={nm: float(c) for nm, c in zip(names, run.clearance[0])},
-                penetration=float(run.penetration[0]),
-                delta_v=float(run.delta_v[0]),
-                final_error=float(np.linalg.norm(run.r[0, -1] - r_f)),
-            )
-            for label, run in runs.items()
-        }
-
-    def nominal_report(self) -> list[ReportRow]:
-        """Per controller: collision, clearances, delta-v (and its ratio to APF-TSMC's), final
-        error, beside the paper's statements; then claims W1-W10 (spec 10.1) with verdicts."""
-        out = self.nominal_outcomes()
-        p = self.params
-        rows: list[ReportRow] = []
-        paper_collides = {APF: "yes (antenna)", GTS: "no", GNT: "no"}
-        for label, o in out.items():
-            hit = "yes: " + ", ".join(o.hit_parts) if o.collided else "no"
-            as_paper = (any(h.startswith("antenna") for h in o.hit_parts) if label == APF
-                        else not o.collided)
-            rows.append(ReportRow(f"{label}: collision", "", hit, paper_collides[label],
-                                  "same verdict", as_paper,
-                                  "swept test; panel half-thickness "
-                                  f"{p.panel_half_thickness} m, antenna half-width "
-                                  f"{p.antenna_half_width} m"))
-            rows.append(ReportRow(
-                f"{label}: minimum clearance", "m",
-                min(o.clearance_of("panel"), o.clearance_of("antenna")),
-                note=f"to panels and antennas (zero thickness): antenna "
-                f"{o.clearance_of('antenna'):.4f} m, panel {o.clearance_of('panel'):.4f} m; "
-                f"body penetration {o.penetration:.3f} m"))
-            rows.append(ReportRow(f"{label}: total delta-v", "m/s", o.delta_v,
-                                  note="Fig. 5 gives no number; eq (24)"))
-            if label != APF:
-                ratio = o.delta_v / out[APF].delta_v
-                target = WANG2022_DV_RATIO[label]
-                rows.append(ReportRow(f"{label}: delta-v / APF-TSMC delta-v", "", ratio, target,
-                                      "+-0.05", abs(ratio - target) <= 0.05,
-                                      '"reduce by" reading (A15)'))
-            rows.append(ReportRow(f"{label}: final position error", "m", o.final_error,
-                                  "goal reached", f"< {p.reach_tolerance} m",
-                                  o.final_error < p.reach_tolerance))
-        for c in evaluate_wang2022_claims(out, p.reach_tolerance):
-            rows.append(ReportRow(f"claim {c.id}: {c.statement}", "",
-                                  "holds" if c.holds else "fails", "holds", "", c.holds,
-                                  c.measured))
-        return rows
-
-    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
-                       stem: str) -> list[str]:
-        """One replayed sample's path around the chief with its geometry (the layout of the
-        paper's Fig. 4), recorded at every control step."""
-        from ..plotting.gmm import plot_trajectories
-
-        vals = {k: np.array([v], dtype=float) for k, v in values.items()}
-        run = self.run(vals, 1, record_every=1)
-        name = CONTROLLER_LABEL[self.params.controller]
-        return [plot_trajectories({name: run}, self.geometry(), np.asarray(self.params.r_f),
-                                  out_dir, filename=f"{stem}_trajectory.png")]
-
-    def nominal_figures(self, out_dir: str) -> list[str]:
-        """The paper's Fig. 4 (trajectories around the chief) and Fig. 5 (delta-v over time)."""
-        from ..plotting.gmm import plot_delta_v, plot_trajectories
-
-        runs = self.nominal_runs(record_every=1)
-        geo = self.geometry()
-        goal = np.asarray(self.params.r_f)
-        return [plot_trajectories(runs, geo, goal, out_dir), plot_delta_v(runs, out_dir)]
