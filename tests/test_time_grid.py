@@ -7,6 +7,7 @@ from pydantic import ValidationError
 
 from uqguide.models.ft_as.params import FTASParams
 from uqguide.models.gmm.model import GMMProximityParams
+from uqguide.models.gmm_ftc.closed_loop import LoopSettings
 from uqguide.models.gmm_ftc.model import GMMFTCParams
 from uqguide.models.time_grid import recording_stride, whole_steps
 
@@ -35,7 +36,13 @@ def test_a_stride_must_divide_the_run():
     (lambda: GMMFTCParams(t_final=300.05), "t_final"),
     (lambda: GMMFTCParams(record_dt=0.7), "record_dt"),
     (lambda: FTASParams(duration=3000.005), "duration"),
+    (lambda: LoopSettings(t_final=300.05), "t_final"),
 ])
 def test_every_simulator_refuses_through_the_same_check(params, field):
-    with pytest.raises(ValidationError, match=rf"{field} = \S+ s must "):
+    with pytest.raises((ValidationError, ValueError), match=rf"{field} = \S+ s must "):
         params()
+
+
+def test_the_closed_loop_settings_need_whole_records():
+    with pytest.raises(ValueError, match=r"record_every \* dt = 0.7 s must divide"):
+        LoopSettings(dt=0.1, t_final=300.0, record_every=7)
