@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from uqguide.models.base import Model
-from uqguide.papers import SCENARIOS, NoPaperScenario, nominal_figures, nominal_report, sample_figures
+from uqguide.papers import (SCENARIOS, NoPaperScenario, nominal_figures, nominal_report,
+                            sample_figures)
 from uqguide.registry import MODELS, model_class
 
 
@@ -39,7 +40,8 @@ def test_importing_the_models_pulls_in_neither_papers_nor_matplotlib():
     # the layering the import graph checks statically, checked at run time too
     code = ("import sys, uqguide.registry as r\n"
             "[r.model_class(n) for n in r.MODELS]\n"
-            "bad = sorted(m for m in sys.modules if m.startswith(('uqguide.papers', 'matplotlib')))\n"
+            "bad = sorted(m for m in sys.modules\n"
+            "             if m.startswith(('uqguide.papers', 'matplotlib')))\n"
             "print(bad)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

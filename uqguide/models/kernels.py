@@ -31,6 +31,8 @@ KERNEL_ENV = "UQGUIDE_KERNEL"
 """Environment variable that forces every model's kernel: ``numpy`` or ``numba``."""
 
 KernelChoice = Literal["numba", "numpy"]
+KernelParam = Literal["auto", "numba", "numpy"]
+"""A model's ``kernel`` parameter: ``auto`` is numba when it is importable (:func:`choose`)."""
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
 

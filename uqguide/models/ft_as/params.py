@@ -8,6 +8,7 @@ import numpy as np
 from pydantic import Field, PositiveFloat, model_validator
 
 from ..base import ModelParams
+from ..kernels import KernelParam
 from ..time_grid import whole_steps
 from . import scenario
 from .runner import Timing
@@ -53,8 +54,9 @@ class FTASParams(ModelParams):
     omega_chi: PositiveFloat = Field(
         default=0.05, description="Case 2 compensator natural frequency [rad/s] ([A14])"
     )
-    kernel: Literal["numba", "numpy"] = Field(
-        default="numba", description="compiled kernel, or the (slow) numpy whole-run reference"
+    kernel: KernelParam = Field(
+        default="numba", description="compiled kernel, the (slow) numpy whole-run reference, "
+        "or 'auto' (numba when importable)"
     )
     # --- integration (section 9)
     step: PositiveFloat = Field(default=0.01, description="RK4 / ZOH step [s]")

@@ -1,7 +1,8 @@
 """Potentials, geometry, point clouds and controllers for GMM-based proximity operations.
 
-The [W] model ``gmm_proximity`` (:mod:`.model`, Wang et al. 2022) and the generic building blocks
-(gmm-controllers.md section 14) it shares with the [C] model (:mod:`uqguide.models.gmm_ftc`):
+The [W] model ``gmm_proximity`` (:mod:`.model`, its parameters :mod:`.params`; Wang et al. 2022)
+and the generic building blocks (gmm-controllers.md section 14) it shares with the [C] model
+(:mod:`uqguide.models.gmm_ftc`):
 
 - :mod:`.gauss_sum`: ``V(r) = sum c_j exp(-1/2 d^T L d)`` with gradient, Hessian and third-
   derivative contraction (GMM kernels and classical APF obstacles);
