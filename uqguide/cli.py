@@ -147,7 +147,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .config import load_config
     from .execution import make_executor
     from .progress_display import make_progress
-    from .propagate import check_failure_budget
+    from .propagate import check_failure_budget, check_methods
     from .report import render_text
     from .report_times import check_config_report_times
     from .run_and_write import WriteInterrupted, run_and_write
@@ -182,6 +182,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     click.echo(f"wrote {h5}")
     for p in tables:
         click.echo(f"wrote {p}")
+    check_methods(result)
     check_failure_budget(result, cfg.raw.max_failed_fraction)
     if check_path:
         _gate_verdict(result, baseline, check_path)

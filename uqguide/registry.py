@@ -22,6 +22,7 @@ MODELS: dict[str, str] = {
     "lognormal": "uqguide.models.benchmarks:Lognormal",
     "ishigami": "uqguide.models.benchmarks:Ishigami",
     "borehole": "uqguide.models.benchmarks:Borehole",
+    "sobol_g": "uqguide.models.sobol_g:SobolG",
     "callable": "uqguide.models.callable:CallableModel",
     "ftcapn": "uqguide.models.ftcapn:FTCAPN",
     "gmm_proximity": "uqguide.models.gmm.model:GMMProximity",

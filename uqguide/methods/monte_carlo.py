@@ -134,6 +134,8 @@ class MonteCarlo(Method):
     summary = "Monte Carlo: random, Latin hypercube or scrambled Sobol' samples; sample moments"
     Settings = MonteCarloSettings
     settings: MonteCarloSettings
+    reduces_chunks = True
+    example_settings = {"n_samples": 4096, "chunk_size": 1024, "bootstrap": 100}
 
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings

@@ -93,6 +93,8 @@ class SubsetSimulation(Method):
     summary = "Subset simulation (Au & Beck 2001): a rare event's probability, CoV and interval"
     Settings = SubsetSimulationSettings
     settings: SubsetSimulationSettings
+    refines = True
+    example_settings = {"event": "tail", "n_per_level": 500}
 
     # ------------------------------------------------------------------ config
     def check(self, index: int) -> None:

@@ -11,8 +11,11 @@ A model maps a batch of input samples to named outputs, all at once:
 Methods see models only through :meth:`Model.evaluate`, so any model (a built-in simulator, an
 analytic benchmark, a user's Python callable) can be propagated by any method.
 
-A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class, ``inputs()``,
-``outputs()`` and ``_evaluate``; registering it is one line in :mod:`uqguide.registry`.
+A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class (and
+``example_params``, a cheap configuration), ``inputs()``, ``outputs()`` and ``_evaluate``;
+registering it is one line in :mod:`uqguide.registry`, and the conformance suite
+(:func:`uqguide.testing.check_model`) then checks it with no test code. What a paper says about
+a model (its nominal figures and checks) lives in :mod:`uqguide.papers`, not in the model.
 """
 
 from __future__ import annotations
@@ -20,12 +23,12 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, model_validator
+from pydantic import ConfigDict
 
-from ..strict import no_bool_numbers
+from ..strict import StrictModel
 
 from ..errors import ModelError
 from ..types import DerivedOutput, ModelOutput
@@ -37,16 +40,15 @@ __all__ = ["DerivedOutput", "InputInfo", "Model", "ModelOutput", "ModelParams", 
 OutputKind = Literal["series", "scalar"]
 
 
-class ModelParams(BaseModel):
+class ModelParams(StrictModel):
     """Fixed (non-random) parameters of a model, SI units, validated from the config.
 
     Subclasses declare their fields with defaults; unknown keys are rejected so a typo in a
     config is an error, not a silently ignored setting.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
+    # NaN or infinity in a parameter is a config error, never a run that fails on every sample
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 @dataclass(frozen=True)
@@ -137,6 +139,9 @@ class Model(ABC):
     name: ClassVar[str]
     summary: ClassVar[str]
     Params: ClassVar[type[ModelParams]] = ModelParams
+    #: A small, cheap configuration (a short horizon) that still runs every part of the model:
+    #: what the conformance suite (:func:`uqguide.testing.check_model`) builds it with.
+    example_params: ClassVar[Mapping[str, Any]] = {}
 
     def __init__(self, params: ModelParams | Mapping[str, object] | None = None) -> None:
         if params is None:

@@ -76,6 +76,9 @@ class FTAS(Model):
         "(Wei et al. 2024)"
     )
     Params = FTASParams
+    # 250 steps of 0.02 s: the NumPy reference takes seconds, not hours
+    example_params = {"step": 0.02, "duration": 5.0, "output_interval": 1.0,
+                      "final_window": 2.0, "late_time": 2.0}
     params: FTASParams
 
     # ------------------------------------------------------------------ contract

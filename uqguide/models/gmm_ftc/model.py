@@ -139,6 +139,7 @@ class GMMFTC(Model):
     summary = ("GMM-based fixed-time control approaching a tumbling complex-shaped target in "
                "its body frame (Chen et al. 2020)")
     Params = GMMFTCParams
+    example_params = {"t_final": 20.0}
     params: GMMFTCParams
     params: GMMFTCParams
 
