@@ -96,7 +96,8 @@ def test_fitted_gmm_gives_the_published_outcome():
     # The shipped fit differs from App. A4 by < 1 % (test_gmm_fitting): same verdicts, delta-v
     # within a few mm/s with the floored kernels (the thin published sheets are invisible).
     pub = nominal_outcomes(GMMProximity({**F_FLOOR, "antenna_half_width": 0.3}))
-    fit = nominal_outcomes(GMMProximity({**F_FLOOR, "antenna_half_width": 0.3, "gmm_source": "fitted"}))
+    fit = nominal_outcomes(
+        GMMProximity({**F_FLOOR, "antenna_half_width": 0.3, "gmm_source": "fitted"}))
     for label in pub:
         assert fit[label].hit_parts == pub[label].hit_parts
         assert fit[label].delta_v == pytest.approx(pub[label].delta_v, abs=5e-3)

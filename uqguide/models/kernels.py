@@ -120,7 +120,8 @@ def select(requested: str, model: str, compiled: str, reference: str) -> Callabl
 
     target = compiled if choose(requested, model) == "numba" else reference
     module, _, function = target.partition(":")
-    return getattr(importlib.import_module(module), function)  # type: ignore[no-any-return]
+    chosen: Callable[..., Any] = getattr(importlib.import_module(module), function)
+    return chosen
 
 
 # ---------------------------------------------------------------------------- the cache

@@ -129,7 +129,6 @@ class FTCAPN(Model):
                "rendezvous from 5.4 km to 50 m (Wang & Song 2019)")
     Params = FTCAPNParams
     params: FTCAPNParams
-    params: FTCAPNParams
 
     def __init__(self, params=None) -> None:
         super().__init__(params)

@@ -22,7 +22,8 @@ class GMMProximityParams(ModelParams):
 
     controller: ControllerName = Field("gmm_ntsmc", description="control law ([W] 3, App. A2, A3)")
     gmm_source: Literal["published", "fitted"] = Field(
-        "published", description="App. A4 parameters, or the k-means + EM fit shipped in uqguide/data")
+        "published",
+        description="App. A4 parameters, or the k-means + EM fit shipped in uqguide/data")
     gmm_norm: Literal["2pi", "3d"] = Field("2pi", description="kernel normaliser (spec 5.1, A9)")
     gmm_sigma_floor: float = Field(
         0.0, ge=0.0, description="m; GMM covariance eigenvalues raised to this squared (spec 6.3, "

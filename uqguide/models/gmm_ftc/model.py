@@ -141,7 +141,6 @@ class GMMFTC(Model):
     Params = GMMFTCParams
     example_params = {"t_final": 20.0}
     params: GMMFTCParams
-    params: GMMFTCParams
 
     def inputs(self) -> tuple[InputInfo, ...]:
         return INPUT_INFO

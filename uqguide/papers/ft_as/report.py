@@ -21,6 +21,7 @@ its tolerance across the same ensemble.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -149,6 +150,16 @@ def _fmt_settle(res: RunResult, q: str, ti: int, i: int) -> float | str:
     return v if v < res.timing.duration - 0.5 * res.timing.step else "not settled"
 
 
+def _late_peak(r: RunResult, i: int, sl: slice) -> float:
+    """Largest applied input of run ``i`` on the axes ``sl`` after ``late_time``."""
+    return float(r.peak_late[i, sl].max())
+
+
+def _angular_impulse(r: RunResult, i: int) -> float:
+    """Sum over the body axes of run ``i``'s torque impulse [N m s]."""
+    return float(r.impulse[i, 3:].sum())
+
+
 def _within(value: float, ref: float, rel: float) -> bool:
     return abs(value - ref) <= rel * ref
 
@@ -269,7 +280,7 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
         rows.append(chaos.row(
             f"Case 1: C5 peak {part} after {p.late_time:g} s (within later)",
             "N" if part == "force" else "N m",
-            lambda r, sl=sl: float(r.peak_late[i1, sl].max()), cap, "<= limit",
+            functools.partial(_late_peak, i=i1, sl=sl), cap, "<= limit",
             at_most(cap) if h <= REFERENCE_STEP else UNCHECKED,
             "" if h <= REFERENCE_STEP else "chatter grows with h; asserted at h <= 0.01 s",
         ))  # fmt: skip
@@ -299,7 +310,7 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
                 ok = _within(val, r, 0.10)
             rows.append(ReportRow(f"{lab}: spec 12.2 {name}", unit, val, r, "10%", ok, ref_note))
         rows.append(chaos.row(  # the integral of a chattering torque: moves ~2 % (FT-AS-P)
-            f"{lab}: angular impulse", "N m s", lambda r, i=i: float(r.impulse[i, 3:].sum()),
+            f"{lab}: angular impulse", "N m s", functools.partial(_angular_impulse, i=i),
             None, "", UNCHECKED))
     rows.append(ReportRow("wall time per run (kernel)", "s", res.wall_time / len(variants),
                           note=f"{len(variants)} runs in one batch, {step_note}",

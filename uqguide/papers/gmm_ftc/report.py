@@ -53,8 +53,9 @@ def nominal_runs(model: GMMFTC) -> tuple[LoopRun, LoopRun | None]:
 
 
 def _collisions(run: LoopRun, names: tuple[str, ...]) -> str:
-    hit = np.asarray(run.scalars["hits"]).any(axis=0)
-    return "none" if not hit.any() else ", ".join(n for n, h in zip(names, hit) if h)
+    hits = np.asarray(run.scalars["hits"], dtype=bool)  # (n, parts)
+    hit = [bool(hits[:, k].any()) for k in range(hits.shape[1])]
+    return "none" if not any(hit) else ", ".join(n for n, h in zip(names, hit) if h)
 
 
 def nominal_report(model: GMMFTC) -> list[ReportRow]:
