@@ -19,6 +19,7 @@ PART_COLORS = {"solid": "0.55", "plate": "tab:cyan", "segment": "k"}
 """Colour of each kind of part (body, panel, antenna)."""
 
 _LINE_WIDTH = {"solid": 1.0, "plate": 2.5, "segment": 2.5}
+_SNAPSHOT_WIDTH = {"solid": 1.0, "plate": 1.0, "segment": 2.0}  # many overlaid: thinner
 _BODY_FILL = "0.85"
 
 
@@ -93,5 +94,6 @@ def draw_chief_xy(ax: Any, geometry: ChiefGeometry, rotation: np.ndarray | None 
         if color is None and part.kind == "solid":
             ax.fill(xy[:, 0], xy[:, 1], facecolor=_BODY_FILL, edgecolor="0.3", lw=1.0)
             continue
+        width = _LINE_WIDTH if color is None else _SNAPSHOT_WIDTH
         ax.plot(xy[:, 0], xy[:, 1], color=PART_COLORS[part.kind] if color is None else color,
-                lw=_LINE_WIDTH[part.kind], solid_capstyle="butt")
+                lw=width[part.kind], solid_capstyle="butt")
