@@ -67,7 +67,8 @@ def _schedule(a: float, e: float, f0: float, mu: float, printed: bool, t_f: floa
 
 @lru_cache(maxsize=1)
 def fitted_mixture() -> Mixture:
-    """The k-means + EM fit of the [W] chief shipped as package data (scripts/fit_gmm_wang2022.py)."""
+    """The k-means + EM fit of the [W] chief shipped as package data
+    (scripts/fit_gmm_wang2022.py)."""
     with resources.as_file(resources.files("uqguide") / "data" / FITTED_FILE) as path:
         return Mixture.load(path)
 
@@ -92,9 +93,12 @@ class GMMProximity(Model):
         InputInfo("dvy0", "m/s", "error added to the initial along-track velocity", 0.0),
         InputInfo("dvz0", "m/s", "error added to the initial cross-track velocity", 0.0),
         InputInfo("thrust_scale", "1", "applied / commanded thrust (magnitude error), > 0", 1.0),
-        InputInfo("gmm_shift_x", "m", "controller's chief-position error along x (GMM and APF)", 0.0),
-        InputInfo("gmm_shift_y", "m", "controller's chief-position error along y (GMM and APF)", 0.0),
-        InputInfo("gmm_shift_z", "m", "controller's chief-position error along z (GMM and APF)", 0.0),
+        InputInfo("gmm_shift_x", "m",
+                  "controller's chief-position error along x (GMM and APF)", 0.0),
+        InputInfo("gmm_shift_y", "m",
+                  "controller's chief-position error along y (GMM and APF)", 0.0),
+        InputInfo("gmm_shift_z", "m",
+                  "controller's chief-position error along z (GMM and APF)", 0.0),
         InputInfo("gmm_mean_scale", "1", "scale of the GMM component means about the centre", 1.0),
         InputInfo("gmm_cov_scale", "1", "scale of every GMM covariance", 1.0),
     )
@@ -113,8 +117,10 @@ class GMMProximity(Model):
         return (
             OutputInfo("range", "series", "m", "distance to the chief's centre |r|"),
             OutputInfo("position", "series", "m", "relative position in LVLH", xyz, default=False),
-            OutputInfo("velocity", "series", "m/s", "relative velocity in LVLH", xyz, default=False),
-            OutputInfo("los_rate", "series", "rad/s", "LOS rate |r x v| / |r|^2 (LVLH)", default=False),
+            OutputInfo("velocity", "series", "m/s", "relative velocity in LVLH", xyz,
+                       default=False),
+            OutputInfo("los_rate", "series", "rad/s", "LOS rate |r x v| / |r|^2 (LVLH)",
+                       default=False),
             OutputInfo("position_error", "series", "m", "|r - r_f|", default=False),
             OutputInfo("zem", "series", "m", "zero-effort miss to the goal at t_f", default=False),
             OutputInfo("delta_v_history", "series", "m/s", "accumulated delta-v ([W 24])",
@@ -167,7 +173,8 @@ class GMMProximity(Model):
         p = self.params
         shift = None
         if values is not None:
-            shift = np.stack([values["gmm_shift_x"], values["gmm_shift_y"], values["gmm_shift_z"]], 1)
+            shift = np.stack(
+                [values["gmm_shift_x"], values["gmm_shift_y"], values["gmm_shift_z"]], 1)
         if controller == "apf_tsmc":
             gs = GaussSum.from_apf([p.apf_psi], [p.apf_center], [np.diag(p.apf_n)], [p.apf_sigma])
             if shift is None or not shift.any():
@@ -219,7 +226,8 @@ class GMMProximity(Model):
         )
 
     # ------------------------------------------------------------------ contract
-    def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]) -> ModelOutput:
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
         values = {k: np.asarray(v, dtype=float) for k, v in values.items()}
         invalid = np.zeros(n, dtype=bool)
         for key in ("thrust_scale", "gmm_mean_scale", "gmm_cov_scale"):
