@@ -35,7 +35,7 @@ from ..types import DerivedOutput, ModelOutput
 from .roundoff import apply_env
 
 __all__ = ["DerivedOutput", "InputInfo", "Model", "ModelOutput", "ModelParams", "OutputInfo",
-           "ReportRow", "StepCount", "failure_reasons"]
+           "StepCount", "failure_reasons"]
 
 OutputKind = Literal["series", "scalar"]
 
@@ -128,48 +128,6 @@ class StepCount:
     formula: str
 
 
-@dataclass(frozen=True)
-class ReportRow:
-    """One line of a nominal run's report: the model's figure beside the paper's.
-
-    Attributes
-    ----------
-    quantity : str
-        What is reported, e.g. ``"time to 50 m"`` (prefix a group such as a controller name
-        with ``"GMM-NTSMC: "`` where one model reports several cases).
-    unit : str
-    value : float or str
-        The model's figure (a string for yes/no or categorical outcomes).
-    paper : float or str or None
-        The paper's figure, where it gives one.
-    tolerance : str
-        The acceptance tolerance from the spec (``"1%"``, ``"15 s"``, ``"not asserted"``...).
-    ok : bool or None
-        Whether ``value`` is within ``tolerance`` of ``paper`` (None: not checked).
-    note : str
-        Why a figure is not reproduced, or how it was computed.
-    kind : {"reproducible", "chaotic", "timing"}
-        *reproducible*: the figure moves by less than its tolerance when the inputs move by
-        round-off. *chaotic*: it does not (a final-window maximum of a chattering loop, a
-        diverged state), so ``value`` is a robust statistic named in ``statistic``, and ``ok``
-        judges that statistic (:mod:`uqguide.models.roundoff`). *timing*: a measurement of the
-        machine (wall time), never checked.
-    statistic : str
-        For a chaotic row, what ``value`` is, e.g. ``"median of 5 runs under 1e-12 input
-        perturbations; range [a, b]"``.
-    """
-
-    quantity: str
-    unit: str
-    value: float | str
-    paper: float | str | None = None
-    tolerance: str = ""
-    ok: bool | None = None
-    note: str = ""
-    kind: Literal["reproducible", "chaotic", "timing"] = "reproducible"
-    statistic: str = ""
-
-
 class Model(ABC):
     """A deterministic model vectorised over a batch of samples.
 
@@ -216,26 +174,9 @@ class Model(ABC):
             Names of the outputs asked for; others may be left out (saves memory and time).
         """
 
-    def nominal_report(self) -> list[ReportRow]:
-        """Run the nominal (deterministic) scenario and report its headline figures beside the
-        paper's (``uqguide simulate``). Models without a paper scenario do not override this."""
-        raise NotImplementedError(f"model '{self.name}' has no nominal scenario to report")
-
     def derived_outputs(self) -> Mapping[str, DerivedOutput]:
         """Outputs this model computes from smoother carrier outputs (default: none)."""
         return {}
-
-    def nominal_figures(self, out_dir: str) -> list[str]:
-        """Write the nominal scenario's figures (PNG) into ``out_dir``; return their paths."""
-        return []
-
-    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
-                       stem: str) -> list[str]:
-        """Figures of one sample's run (``uqguide replay``) beyond the generic time histories:
-        its trajectory, with the scene's geometry where the model has one. ``out`` holds every
-        output of the sample, ``values`` every input (nominal where not uncertain). Default:
-        none."""
-        return []
 
     def full_values(self, x: np.ndarray, input_names: Sequence[str]) -> dict[str, float]:
         """Every input's value for one sample ``x (d,)`` (nominal where not given)."""
