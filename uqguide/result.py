@@ -149,10 +149,10 @@ class Result:
             raise ResultError(f"method {label!r} ({est.method}) kept no surrogate; only PCE "
                               f"methods do (and result files from uqguide 0.x before issue 14)")
         if isinstance(s, StoredSurrogate):
+            from .config import validate_config
             from .pce.germ import Germ
-            from .replay import config_of
 
-            cfg = config_of(self)
+            cfg = validate_config(self.config, f"{self.name} (stored config)")
             if list(cfg.space.names) != list(s.inputs):
                 raise ResultError(f"{label}: the surrogate's inputs {s.inputs} are not the "
                                   f"stored config's {list(cfg.space.names)}")
