@@ -98,7 +98,7 @@ def import_function(spec: str, module_dir: str | None = None) -> Callable[[np.nd
         obj = getattr(obj, part)
     if not callable(obj):
         raise ValueError(f"{spec!r} is not callable")
-    return obj  # type: ignore[return-value]
+    return obj
 
 
 class CallableParams(ModelParams):
@@ -167,6 +167,7 @@ class CallableModel(Model):
     name = "callable"
     summary = "a user's vectorised Python function 'package.module:function' of x (n, d)"
     Params = CallableParams
+    params: CallableParams
     example_params = {"function": "uqguide.models.callable:example_function",
                       "inputs": ["a", "b"], "nominal": [1.0, 0.5],
                       "outputs": ["y", {"name": "path", "kind": "series"}]}
@@ -180,14 +181,16 @@ class CallableModel(Model):
                      for j, (n, v) in enumerate(zip(self.params.inputs, nominal)))
 
     def outputs(self) -> tuple[OutputInfo, ...]:
+        spec = self.params.spec()
         return tuple(
-            OutputInfo(s.name, s.kind, s.unit, s.description or f"{s.kind} output of {self.params.spec()}",
+            OutputInfo(s.name, s.kind, s.unit, s.description or f"{s.kind} output of {spec}",
                        tuple(s.component_names) if s.component_names else
                        tuple(f"{s.name}{j}" for j in range(s.components))
                        if s.components > 1 else ("",))
             for s in self._specs())
 
-    def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]):
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
         fn = self.params.resolve()
         x = np.column_stack([values[name] for name in self.params.inputs])
         raw = fn(x)
