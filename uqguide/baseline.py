@@ -189,7 +189,7 @@ def standard_error(s: OutputStats, stat: str, where: tuple[int, ...]) -> float:
         return float(s.sem[where])
     ci = s.ci.get(stat)
     if ci is not None:
-        lo, hi = float(ci[(0, *where)]), float(ci[(1, *where)])
+        lo, hi = float(ci[0][where]), float(ci[1][where])
         if math.isfinite(lo) and math.isfinite(hi):
             return (hi - lo) / (2.0 * Z95)
     std = float(s.std[where])

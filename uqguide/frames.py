@@ -10,7 +10,7 @@ index) is NaN for it. xarray is an optional dependency (``pip install 'uqguide[x
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -135,13 +135,15 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
             (n, s.stat(n), s.ci.get(n)) for n in STAT_NAMES]
         if s.sem is not None:
             rows.append(("sem", s.sem, None))
-        if s.quantiles is not None:
-            rows += [(f"q{p:g}", s.quantiles[j], s.ci_quantiles[:, j])
-                     for j, p in enumerate(s.quantile_levels)]
+        table = s.quantile_table()
+        if table is not None:
+            levels, quantiles, ci_quantiles = table
+            rows += [(f"q{p:g}", quantiles[j], ci_quantiles[:, j])
+                     for j, p in enumerate(levels)]
         for stat, value, ci in rows:
             value = np.asarray(value, dtype=float)
             comp = np.broadcast_to(np.array(info.components, dtype=object), value.shape)
-            cols = {"method": r.label}
+            cols: dict[str, Any] = {"method": r.label}
             if info.kind == "series":
                 cols["time"] = np.broadcast_to(result.time[:, None], value.shape).ravel()
             cols.update(component=comp.ravel(), statistic=stat, value=value.ravel(),

@@ -25,6 +25,7 @@ in their number of components.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -51,8 +52,8 @@ def component_dim(output: str, second: bool = False) -> str:
     return f"{output}_component2" if second else f"{output}_component"
 
 
-def method_variables(stats: dict[str, OutputStats], outputs: list[OutputInfo],
-                     time: np.ndarray, input_names: list[str]
+def method_variables(stats: dict[str, OutputStats], outputs: Sequence[OutputInfo],
+                     time: np.ndarray, input_names: Sequence[str]
                      ) -> tuple[dict[str, np.ndarray], dict[str, Variable]]:
     """Coordinates (dimension -> values) and variables of one method's statistics."""
     coords: dict[str, np.ndarray] = {
@@ -92,20 +93,21 @@ def method_variables(stats: dict[str, OutputStats], outputs: list[OutputInfo],
             v = getattr(s, kind)
             if v is not None:
                 out[f"{o.name}_{kind}"] = Variable((*base, "input"), v, {"units": "1"})
-        if s.quantiles is not None:
-            levels = np.asarray(s.quantile_levels, dtype=float)
+        table = s.quantile_table()
+        if table is not None:
+            levels = np.asarray(table[0], dtype=float)
             if "quantile" in coords and not np.array_equal(coords["quantile"], levels):
                 raise ValueError(f"output {o.name!r} has quantile levels {levels.tolist()}, "
                                  f"another output {coords['quantile'].tolist()}")
             coords["quantile"] = levels
-            out[f"{o.name}_quantile"] = Variable(("quantile", *base), s.quantiles,
+            out[f"{o.name}_quantile"] = Variable(("quantile", *base), table[1],
                                                  {"units": o.unit})
             out[f"{o.name}_ci_quantile"] = Variable(("bound", "quantile", *base),
-                                                    s.ci_quantiles, {"units": o.unit})
+                                                    table[2], {"units": o.unit})
     return coords, out
 
 
-def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: list[OutputInfo]
+def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[OutputInfo]
                          ) -> dict[str, OutputStats]:
     """The inverse of :func:`method_variables`: ``get(name)`` gives an array, ``has(name)``
     whether it exists, ``attrs(name)`` its attributes (a file group or a Dataset alike)."""

@@ -23,6 +23,7 @@ from __future__ import annotations
 import logging
 import re
 import textwrap
+from typing import Any
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -188,16 +189,17 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
     title_levels = ""
     for r in result.runs:
         s = r.estimate.stats.get(output)
-        if s is None or s.quantiles is None:
+        table = s.quantile_table() if s is not None else None
+        if s is None or table is None:
             continue
         st = styles[r.label]
-        lv = s.quantile_levels
+        lv, quantiles, ci_quantiles = table
         lo_i, hi_i, mid_i = 0, len(lv) - 1, int(np.argmin(np.abs(np.asarray(lv) - 0.5)))
-        q = s.quantiles[:, :, component]
-        ci = s.ci_quantiles[:, :, :, component]
+        q = quantiles[:, :, component]
+        ci = ci_quantiles[:, :, :, component]
         ok = np.isfinite(q[lo_i]) & np.isfinite(q[hi_i])
         dense = ok.sum() > 2 and ok.all()
-        mark = {} if dense else {"marker": "o", "ms": 4}
+        mark: dict[str, Any] = {} if dense else {"marker": "o", "ms": 4}
         if dense:
             ax.fill_between(t, q[lo_i], q[hi_i], color=st["color"], alpha=0.12, lw=0)
         for i in (lo_i, hi_i):

@@ -45,8 +45,9 @@ def cost_table(result: Result) -> pd.DataFrame:
                               if "event" in r.estimate.diagnostics))
     for r in result.runs:
         d = r.estimate.diagnostics
-        extra = {k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components", "levels")
-                 if k in d}
+        extra: dict[str, object] = {
+            k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components", "levels")
+            if k in d}
         for name in rare:
             ev = r.estimate.events.get(name)
             extra[f"P({name})"] = ev.probability if ev else float("nan")
@@ -139,29 +140,32 @@ def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where:
                    comp: str, t: float) -> list[dict]:
     """Rows of the quantiles at one place (none where they were not computed), compared with
     the reference's quantile of the same level and its distribution-free interval."""
-    if s.quantiles is None:
+    table = s.quantile_table()
+    if table is None:
         return []
-    ref_levels = list(rs.quantile_levels) if rs is not None and rs.quantiles is not None else []
+    levels, quantiles, ci_quantiles = table
+    ref_table = rs.quantile_table() if rs is not None else None
+    ref_levels = list(ref_table[0]) if ref_table is not None else []
     rows = []
-    for i, p in enumerate(s.quantile_levels):
-        v = float(s.quantiles[i][where])
+    for i, p in enumerate(levels):
+        v = float(quantiles[i][where])
         if np.isnan(v):
             continue
-        row = {"output": o.name, "component": comp, "unit": o.unit, "time": t, "label": label,
-               "stat": level_name(p), "value": v,
-               "ci_low": float(s.ci_quantiles[0, i][where]),
-               "ci_high": float(s.ci_quantiles[1, i][where])}
-        if p in ref_levels:
+        lo, hi = float(ci_quantiles[0, i][where]), float(ci_quantiles[1, i][where])
+        row: dict[str, object] = {"output": o.name, "component": comp, "unit": o.unit,
+                                  "time": t, "label": label, "stat": level_name(p),
+                                  "value": v, "ci_low": lo, "ci_high": hi}
+        if ref_table is not None and p in ref_levels:
             j = ref_levels.index(p)
-            rv = float(rs.quantiles[j][where])
-            rlo, rhi = (float(rs.ci_quantiles[(k, j, *where)]) for k in (0, 1))
+            rv = float(ref_table[1][j][where])
+            rlo, rhi = (float(ref_table[2][k, j][where]) for k in (0, 1))
             if not np.isnan(rv):
                 # as for the moments: no relative difference to a value within its own
                 # interval of zero (a median near 0)
                 noisy = np.isfinite(rhi - rlo) and abs(rv) <= 0.5 * (rhi - rlo)
                 row.update(ref_value=rv, abs_diff=v - rv,
                            rel_diff=(v - rv) / abs(rv) if rv and not noisy else float("nan"),
-                           agrees=agrees(v, row["ci_low"], row["ci_high"], rv, rlo, rhi))
+                           agrees=agrees(v, lo, hi, rv, rlo, rhi))
         rows.append(row)
     return rows
 
@@ -207,7 +211,7 @@ def series_agreement(result: Result) -> pd.DataFrame:
             s = r.estimate.stats.get(o.name)
             if r is ref or s is None or rs is None:
                 continue
-            row = {"output": o.name, "label": r.label}
+            row: dict[str, object] = {"output": o.name, "label": r.label}
             for stat in ("mean", "std"):
                 a, b = s.stat(stat), rs.stat(stat)
                 mag = np.abs(b)

@@ -207,10 +207,37 @@ class OutputStats:
     ci_quantiles: np.ndarray | None = None
 
     def stat(self, name: str) -> np.ndarray:
+        """One of the four moments by name.
+
+        Parameters
+        ----------
+        name : {"mean", "std", "skewness", "kurtosis"}
+
+        Returns
+        -------
+        ndarray, shape (..., k)
+            In the output's unit (skewness and kurtosis: dimensionless).
+        """
         if name not in STAT_NAMES:
             raise KeyError(name)
         value: np.ndarray = getattr(self, name)
         return value
+
+    def quantile_table(self) -> tuple[tuple[float, ...], np.ndarray, np.ndarray] | None:
+        """The quantiles with their levels and intervals, which are set together.
+
+        Returns
+        -------
+        tuple or None
+            ``(levels, quantiles, ci_quantiles)``: the probabilities ``(q,)``, the quantiles
+            ``(q, ..., k)`` and their 95% intervals ``(2, q, ..., k)``, in the output's unit;
+            None where no quantiles were computed.
+        """
+        if self.quantiles is None:
+            return None
+        if self.quantile_levels is None or self.ci_quantiles is None:
+            raise ValueError("quantiles need their levels and intervals (set all three)")
+        return self.quantile_levels, self.quantiles, self.ci_quantiles
 
 
 @dataclass(frozen=True)
