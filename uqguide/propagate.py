@@ -29,7 +29,7 @@ from .execution import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, Mod
 from .inputs import InputSpace
 from .methods.base import Design, Method
 from .models.base import Model
-from .types import Estimate, ModelOutput
+from .types import Estimate, GeneratedRows, ModelOutput
 from .progress import Progress
 from .report_times import check_config_report_times
 from .result import MethodRun, Result, provenance
@@ -86,7 +86,7 @@ class _Stage:
         return [Task(i, a, b) for i, (a, b) in
                 enumerate(self.method.chunk_bounds(n, self.batch_size))]
 
-    def run(self, x: np.ndarray, stage: int, tasks: list[Task], reducer: Any
+    def run(self, x: np.ndarray | GeneratedRows, stage: int, tasks: list[Task], reducer: Any
             ) -> tuple[ModelOutput, Any]:
         """Outputs of the rows ``x`` (scalars only when reduced) and the folded summaries."""
         label = self.method.label

@@ -88,7 +88,7 @@ class MethodRun:
     """
 
     estimate: Estimate
-    x: np.ndarray
+    x: np.ndarray | GeneratedRows
     scalars: dict[str, np.ndarray]
     failed: np.ndarray
     reasons: np.ndarray
@@ -393,7 +393,8 @@ def _check_result(r: Result, path: Path) -> None:
             break
         n = run.x.shape[0] if run.x.ndim == 2 else -1
         if run.x.ndim != 2 or run.x.shape[1] != len(r.input_names):
-            bad = f"{run.label}: samples/x has shape {run.x.shape}, expected (n, {len(r.input_names)})"
+            bad = (f"{run.label}: samples/x has shape {run.x.shape}, "
+                   f"expected (n, {len(r.input_names)})")
         elif run.failed.shape != (n,) or run.reasons.shape != (n,):
             bad = f"{run.label}: samples/failed or reasons do not have {n} rows"
         for name, s in run.estimate.stats.items():

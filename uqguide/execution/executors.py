@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..models.base import Model
-from ..types import ModelOutput
+from ..types import GeneratedRows, ModelOutput
 from .chunks import DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Task, Timing
 from .guard import close_guards
 from .isolation import common_grid
@@ -33,7 +33,7 @@ class Executor(Protocol):
     batch_size: int | None
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
-                   x: np.ndarray) -> Iterator[ChunkResult]: ...
+                   x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]: ...
 
     def abort(self) -> None: ...
 
@@ -54,7 +54,7 @@ class SerialExecutor:
         self.batch_size = batch_size
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
-                   x: np.ndarray) -> Iterator[ChunkResult]:
+                   x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         for t in tasks:
             yield run_chunk(job, t, x[t.start:t.stop])
 
@@ -89,7 +89,7 @@ class _WindowedExecutor:
         raise NotImplementedError
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
-                   x: np.ndarray) -> Iterator[ChunkResult]:
+                   x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         todo = list(tasks)[::-1]
         running: dict[Any, Task] = {}
         try:
@@ -111,7 +111,7 @@ class _WindowedExecutor:
         raise NotImplementedError
 
     def _collect(self, job: ChunkJob, fut: Any, task: Task, running: dict[Any, Task],
-                 x: np.ndarray) -> Iterator[ChunkResult]:
+                 x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         raise NotImplementedError
 
     def _cancel(self, futures: list[Any]) -> None:
@@ -170,7 +170,7 @@ class ProcessExecutor(_WindowedExecutor):
         return sorted(done, key=futures.index)
 
     def _collect(self, job: ChunkJob, fut: Future, task: Task, running: dict[Any, Task],
-                 x: np.ndarray) -> Iterator[ChunkResult]:
+                 x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         try:
             yield fut.result()
             return
@@ -268,7 +268,7 @@ class DaskExecutor(_WindowedExecutor):
         return sorted(done, key=futures.index)
 
     def _collect(self, job: ChunkJob, fut: Any, task: Task, running: dict[Any, Task],
-                 x: np.ndarray) -> Iterator[ChunkResult]:
+                 x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         from distributed import KilledWorker
 
         try:

@@ -40,7 +40,7 @@ def _serve(conn: Any) -> None:
             return
         if msg[0] == "prepare":  # build the model (imports, kernels) outside the timeout
             try:
-                msg[1].model
+                _ = msg[1].model  # the property builds the model
                 conn.send(("ready", None))
             except Exception as exc:  # noqa: BLE001
                 conn.send(("raised", f"{type(exc).__name__}: {exc}"))
