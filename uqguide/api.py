@@ -34,15 +34,16 @@ if TYPE_CHECKING:
     from .result import Result
 
 
-def load_config(config: str | Path | Mapping[str, Any]) -> RunConfig:
+def load_config(config: str | Path | Mapping[str, Any] | RunConfig) -> RunConfig:
     """A validated run configuration.
 
     Parameters
     ----------
-    config : str, Path or mapping
+    config : str, Path, mapping or RunConfig
         A YAML config file, the name of a shipped study (``uqguide configs`` lists them), or
         the same content as a mapping. In a mapping, a ``callable`` model's ``function`` may be
-        a Python function object instead of ``"module:function"``.
+        a Python function object instead of ``"module:function"``. A RunConfig is returned
+        as it is.
 
     Returns
     -------

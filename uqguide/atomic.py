@@ -99,7 +99,7 @@ def clean_stale_temps(folder: str | Path) -> list[Path]:
 
     Only this naming pattern is touched, and only when its PID is not a live process here.
     """
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(os.scandir(folder))
     except OSError:

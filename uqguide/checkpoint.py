@@ -371,7 +371,8 @@ class _StoredChunk:
 
 
 def _write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int) -> None:
-    arrays: dict[str, np.ndarray] = {
+    # Any: np.savez's stub would match a dict of arrays against its allow_pickle flag
+    arrays: dict[str, Any] = {
         "run_id": np.array(run_id), "label": np.array(label),
         "stage": np.array(stage, dtype=np.int64),
         "task": np.array([r.task.index, r.task.start, r.task.stop], dtype=np.int64),

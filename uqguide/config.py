@@ -185,10 +185,12 @@ class RunConfig:
         # the raw model section may hold a function object (callable model from Python): the
         # model's own params serialise it
         rest = self.raw.model_dump(mode="json", exclude={"model"})
-        d = {k: rest.get(k) for k in RawConfig.model_fields if k in rest or k == "model"}
+        d: dict[str, Any] = {k: rest.get(k) for k in RawConfig.model_fields
+                             if k in rest or k == "model"}
         d["model"] = {"name": self.model.name, **self.model.params.model_dump(mode="json")}
         d["outputs"] = list(self.outputs)
-        d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")} for m in self.methods]
+        d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")}
+                        for m in self.methods]
         for m, entry in zip(self.methods, d["methods"]):
             entry["label"] = m.label
         return d
@@ -530,7 +532,8 @@ def _build_space(raw: RawConfig, model: Model) -> InputSpace:
         if sorted(idx) != list(range(min(idx), min(idx) + k)) or idx != sorted(idx):
             raise ConfigError(
                 f"correlations[{g}].inputs: correlated inputs must be consecutive in the inputs "
-                f"list and in the same order (got {spec.inputs})", field=f"correlations[{g}].inputs")
+                f"list and in the same order (got {spec.inputs})",
+                field=f"correlations[{g}].inputs")
         groups.append(CorrelatedGroup(tuple(idx), C))
     return InputSpace(raw.inputs, groups)
 

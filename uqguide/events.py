@@ -51,7 +51,10 @@ class EventSpec(BaseModel):
         return f"{self.output}{comp} {op} {thr:g}"
 
     def threshold(self) -> float:
-        return float(self.below if self.below is not None else self.above)
+        """The event's threshold ``a`` (``below``) or ``b`` (``above``), in the output's unit."""
+        value = self.below if self.below is not None else self.above
+        assert value is not None, "validated: exactly one of below, above"
+        return float(value)
 
     def severity(self, values: np.ndarray) -> np.ndarray:
         """``g`` with the event ``g > 0`` (for level sets): ``y - a`` or ``b - y``."""

@@ -25,12 +25,19 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, delivered like Ctrl-C."""
 
 
-_state = {"depth": 0, "pending": None}
+class _Deferral:
+    """How many :func:`deferred` blocks are open, and the signal held until they close."""
+
+    depth: int = 0
+    pending: int | None = None
+
+
+_state = _Deferral()
 
 
 def _handler(signum: int, frame: FrameType | None) -> None:
-    if _state["depth"] > 0:
-        _state["pending"] = signum
+    if _state.depth > 0:
+        _state.pending = signum
         return
     _raise(signum)
 
@@ -73,11 +80,12 @@ def ignore_signals() -> None:
 @contextmanager
 def deferred() -> Iterator[None]:
     """Hold SIGINT / SIGTERM until the block ends, then raise it (KeyboardInterrupt)."""
-    _state["depth"] += 1
+    _state.depth += 1
     try:
         yield
     finally:
-        _state["depth"] -= 1
-        if _state["depth"] == 0 and _state["pending"] is not None:
-            signum, _state["pending"] = _state["pending"], None
+        _state.depth -= 1
+        signum = _state.pending
+        if _state.depth == 0 and signum is not None:
+            _state.pending = None
             _raise(signum)

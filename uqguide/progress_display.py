@@ -63,7 +63,8 @@ class BarProgress(Progress):
         # A terminal that reports no width (a pseudo-terminal without a size) would get an
         # empty bar from tqdm: give it a fixed width instead.
         try:
-            sized = os.get_terminal_size(self.stream.fileno()).columns > 0
+            sized = (self.stream is not None
+                     and os.get_terminal_size(self.stream.fileno()).columns > 0)
         except (AttributeError, OSError, ValueError):
             sized = False
         self._bar = tqdm(total=self.chunks_total or None, file=self.stream, unit="chunk",

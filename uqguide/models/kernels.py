@@ -170,7 +170,9 @@ def _configure_numba() -> None:
 
     where = cache_dir()
     if where is not None:
-        numba.config.CACHE_DIR = str(where)
+        # numba fills its config module at run time: no declaration for a type checker to see
+        config: Any = numba.config
+        config.CACHE_DIR = str(where)
     event.register("numba:compile", _listener_class()())
     _configured = True
 

@@ -71,7 +71,8 @@ class ChiefOrbit:
         return self.a * (1 - self.e**2) / (1 + self.e * np.cos(f))
 
     def omega(self, f: np.ndarray | float) -> np.ndarray:
-        """Orbit (LVLH) angular rate ``df/dt = n (1 + e cos f)^2 / (1 - e^2)^{3/2}`` [rad/s] ([W 4])."""
+        """Orbit (LVLH) angular rate ``df/dt = n (1 + e cos f)^2 / (1 - e^2)^{3/2}`` [rad/s]
+        ([W 4])."""
         return self.mean_motion * (1 + self.e * np.cos(f)) ** 2 / (1 - self.e**2) ** 1.5
 
     def omega_dot(self, f: np.ndarray | float, printed: bool = False) -> np.ndarray:
