@@ -135,6 +135,16 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
 def read_result(path: str | Path) -> Result:
     """Read a result file (``uqguide run``'s ``<name>.h5``, any format version).
 
+    Parameters
+    ----------
+    path : str or Path
+        The HDF5 result file.
+
+    Returns
+    -------
+    Result
+        Every method's statistics, runs and failures, with the resolved config and provenance.
+
     Raises
     ------
     uqguide.errors.ResultError

@@ -125,6 +125,18 @@ class Result:
     provenance: dict[str, Any] = field(default_factory=dict)
 
     def run(self, label: str) -> MethodRun:
+        """One method's estimate and runs.
+
+        Parameters
+        ----------
+        label : str
+            The method entry's label in the config.
+
+        Returns
+        -------
+        MethodRun
+            ResultError (listing the labels) when there is none of that label.
+        """
         for r in self.runs:
             if r.label == label:
                 return r
@@ -132,6 +144,18 @@ class Result:
                           f"it has: {', '.join(r.label for r in self.runs)}")
 
     def output(self, name: str) -> OutputInfo:
+        """The metadata of one output (kind, unit, components).
+
+        Parameters
+        ----------
+        name : str
+            An output of this result.
+
+        Returns
+        -------
+        OutputInfo
+            ResultError when the result has no such output.
+        """
         for o in self.outputs:
             if o.name == name:
                 return o
@@ -139,21 +163,52 @@ class Result:
 
     def to_xarray(self, label: str | None = None) -> Any:
         """The statistics as an ``xarray.Dataset``: of method ``label``, or of every method
-        along a ``method`` dimension (see :mod:`uqguide.frames`; needs ``uqguide[xarray]``)."""
+        along a ``method`` dimension (see :mod:`uqguide.frames`; needs ``uqguide[xarray]``).
+
+        Parameters
+        ----------
+        label : str, optional
+            One method's label; default all methods.
+
+        Returns
+        -------
+        xarray.Dataset
+            Per output: ``<output>`` (dimensions ``statistic``, ``time`` for a series,
+            ``<output>_component``), its covariance, intervals, Sobol' indices and quantiles
+            where the method gives them; plus ``method`` when all methods are stacked.
+        """
         from .frames import to_xarray
 
         return to_xarray(self, label)
 
     def to_dataframe(self, output: str) -> Any:
-        """Every statistic of ``output`` at every time step as a tidy ``pandas.DataFrame``
-        (columns method, time, component, statistic, value, ci_low, ci_high)."""
+        """Every statistic of ``output`` at every time step as a tidy table.
+
+        Parameters
+        ----------
+        output : str
+            An output of this result.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per value: columns ``method``, ``time`` [s] (series only), ``component``,
+            ``statistic``, ``value`` (in the output's unit), ``ci_low``, ``ci_high``.
+        """
         from .frames import to_dataframe
 
         return to_dataframe(self, output)
 
 
 def provenance() -> dict[str, Any]:
-    """Versions and host facts that explain where a result's numbers came from."""
+    """Versions and host facts that explain where a result's numbers came from.
+
+    Returns
+    -------
+    dict
+        ``created_utc`` (ISO time), ``versions`` (uqguide, Python, NumPy, SciPy, chaospy,
+        h5py, numba) and ``platform``.
+    """
     import scipy
     from importlib.metadata import PackageNotFoundError, version
 
@@ -193,7 +248,19 @@ def _json_default(obj: Any) -> Any:
 
 
 def write_hdf5(result: Result, path: str | Path) -> Path:
-    """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename)."""
+    """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename).
+
+    Parameters
+    ----------
+    result : Result
+    path : str or Path
+        The HDF5 file to write; its folder is created.
+
+    Returns
+    -------
+    Path
+        ``path``, complete: an interrupted write leaves no file under this name.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic.atomic_path(path) as tmp:
@@ -296,7 +363,18 @@ def _read_stats(g: h5py.Group) -> OutputStats:
 
 
 def read_hdf5(path: str | Path) -> Result:
-    """Read a result file written by :func:`write_hdf5`; ResultError if it is not one."""
+    """Read a result file written by :func:`write_hdf5` (any format version).
+
+    Parameters
+    ----------
+    path : str or Path
+        The HDF5 result file.
+
+    Returns
+    -------
+    Result
+        ResultError when the file is missing, not a uqguide result or incomplete.
+    """
     path = Path(path)
     if not path.is_file():
         raise ResultError(f"{path}: result file not found")
