@@ -33,7 +33,24 @@ class Executor(Protocol):
     batch_size: int | None
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
-                   x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]: ...
+                   x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
+        """Evaluate the chunks of a design.
+
+        Parameters
+        ----------
+        job : ChunkJob
+            The model, input names, outputs and reducer every chunk shares.
+        tasks : sequence of Task
+            The chunks: rows ``[start, stop)`` of ``x``.
+        x : ndarray or GeneratedRows, shape (n, d)
+            The design, inputs in SI units; only the chunks' rows are read.
+
+        Yields
+        ------
+        ChunkResult
+            One per task, in the order they complete (the driver folds them by index).
+        """
+        ...
 
     def abort(self) -> None: ...
 
@@ -55,12 +72,31 @@ class SerialExecutor:
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
                    x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
+        """Evaluate the chunks here, in order (see :meth:`Executor.map_chunks`)."""
         for t in tasks:
             yield run_chunk(job, t, x[t.start:t.stop])
 
     def evaluate(self, model: Model, x: np.ndarray, names: Sequence[str],
                  outputs: Collection[str], timing: Timing | None = None) -> ModelOutput:
-        """Evaluate ``model`` on ``x (n, d)`` batch by batch; returns the joined output."""
+        """Evaluate ``model`` batch by batch, samples that raise isolated.
+
+        Parameters
+        ----------
+        model : Model
+        x : ndarray, shape (n, d)
+            Inputs in SI units, column ``j`` for ``names[j]``.
+        names : sequence of str, length d
+            The uncertain inputs.
+        outputs : collection of str
+            Outputs to compute.
+        timing : Timing, optional
+            Incremented by the model seconds and the ``n`` runs.
+
+        Returns
+        -------
+        ModelOutput
+            The ``n`` samples joined in order.
+        """
         bs = self.batch_size or DEFAULT_BATCH_SIZE
         job = ChunkJob(ModelHandle(model), tuple(names), tuple(outputs), bs)
         n = x.shape[0]
@@ -293,7 +329,22 @@ class DaskExecutor(_WindowedExecutor):
 def make_executor(workers: int | None = None, scheduler: str | None = None,
                   scheduler_file: str | None = None) -> Executor:
     """An executor: Dask if a scheduler (address or file) is given, a process pool of
-    ``workers`` processes when ``workers >= 1``, else this process."""
+    ``workers`` processes when ``workers >= 1``, else this process.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Local worker processes.
+    scheduler : str, optional
+        Address of a ``dask.distributed`` scheduler.
+    scheduler_file : str, optional
+        A Dask scheduler file.
+
+    Returns
+    -------
+    Executor
+        To be closed by the caller (``close()``).
+    """
     if scheduler or scheduler_file:
         return DaskExecutor(address=scheduler, scheduler_file=scheduler_file)
     if workers:
