@@ -306,6 +306,12 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
     progress : Progress, optional
         Where progress is shown (default: counted, not shown).
 
+    Returns
+    -------
+    Result
+        One MethodRun per method, in config order; a method that failed is recorded with its
+        runs and ``success=False`` (see :func:`check_methods`).
+
     Raises
     ------
     RunInterrupted
@@ -360,7 +366,12 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
 
 def check_methods(result: Result) -> None:
     """Raise UqguideError (exit 1) naming each method that produced no statistics (the others
-    are in the result and its tables)."""
+    are in the result and its tables).
+
+    Parameters
+    ----------
+    result : Result
+    """
     failed = [r.message for r in result.runs if not r.success]
     if failed:
         raise UqguideError("; ".join(failed))
@@ -370,6 +381,12 @@ def check_failure_budget(result: Result, max_failed_fraction: float) -> None:
     """Raise UqguideError (exit 1) when a method's share of failed runs exceeds the budget.
 
     The message names each method over budget, its counts and its most common reasons.
+
+    Parameters
+    ----------
+    result : Result
+    max_failed_fraction : float
+        Largest share of failed runs allowed per method, in ``[0, 1]``.
     """
     over = []
     for r in result.runs:
