@@ -73,7 +73,19 @@ def _xarray():
 
 
 def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
-    """The statistics of one method as a Dataset (attrs: the method's cost and diagnostics)."""
+    """The statistics of one method as a Dataset (attrs: the method's cost and diagnostics).
+
+    Parameters
+    ----------
+    result : Result
+    run : MethodRun
+        One of ``result.runs``.
+
+    Returns
+    -------
+    xarray.Dataset
+        Variables of :func:`uqguide.labelled.method_variables`; ``time`` in s.
+    """
     xr = _xarray()
     coords, variables = method_variables(run.estimate.stats, result.outputs, result.time,
                                          result.input_names)
@@ -90,7 +102,18 @@ def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
 
 
 def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
-    """The statistics of method ``label``, or of every method along a ``method`` dimension."""
+    """The statistics of method ``label``, or of every method along a ``method`` dimension.
+
+    Parameters
+    ----------
+    result : Result
+    label : str, optional
+        One method; default all, stacked (NaN where a method lacks a variable).
+
+    Returns
+    -------
+    xarray.Dataset
+    """
     xr = _xarray()
     if label is not None:
         return method_dataset(result, result.run(label))
@@ -122,6 +145,16 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
     Columns: ``method``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
     skewness, kurtosis, sem, q<level>), ``value``, ``ci_low``, ``ci_high`` (NaN where the
     method gives no interval).
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+
+    Returns
+    -------
+    pandas.DataFrame
+        Values in the output's unit, time in s.
     """
     import pandas as pd
 

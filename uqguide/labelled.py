@@ -49,13 +49,42 @@ class Variable:
 
 
 def component_dim(output: str, second: bool = False) -> str:
+    """Name of an output's component dimension (the second one of a covariance).
+
+    Parameters
+    ----------
+    output : str
+    second : bool
+
+    Returns
+    -------
+    str
+        ``"<output>_component"`` or ``"<output>_component2"``.
+    """
     return f"{output}_component2" if second else f"{output}_component"
 
 
 def method_variables(stats: dict[str, OutputStats], outputs: Sequence[OutputInfo],
                      time: np.ndarray, input_names: Sequence[str]
                      ) -> tuple[dict[str, np.ndarray], dict[str, Variable]]:
-    """Coordinates (dimension -> values) and variables of one method's statistics."""
+    """Coordinates (dimension -> values) and variables of one method's statistics.
+
+    Parameters
+    ----------
+    stats : dict of str to OutputStats
+        By output name.
+    outputs : sequence of OutputInfo
+    time : ndarray, shape (T,)
+        Time grid [s].
+    input_names : sequence of str, length d
+
+    Returns
+    -------
+    coords : dict of str to ndarray
+        Values of each dimension (``time``, ``statistic``, ``input``, components, ...).
+    variables : dict of str to Variable
+        Per output: moments, covariance, intervals, Sobol' indices, quantiles, with units.
+    """
     coords: dict[str, np.ndarray] = {
         "time": np.asarray(time, dtype=float),
         "input": np.array(input_names, dtype=object),
@@ -109,8 +138,23 @@ def method_variables(stats: dict[str, OutputStats], outputs: Sequence[OutputInfo
 
 def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[OutputInfo]
                          ) -> dict[str, OutputStats]:
-    """The inverse of :func:`method_variables`: ``get(name)`` gives an array, ``has(name)``
-    whether it exists, ``attrs(name)`` its attributes (a file group or a Dataset alike)."""
+    """The inverse of :func:`method_variables` (a file group or a Dataset alike).
+
+    Parameters
+    ----------
+    get : callable
+        ``get(name)``: the variable's array.
+    has : callable
+        ``has(name)``: whether it exists.
+    attrs : callable
+        ``attrs(name)``: its attributes.
+    outputs : sequence of OutputInfo
+
+    Returns
+    -------
+    dict of str to OutputStats
+        By output name, for the outputs that have statistics.
+    """
     stats = {}
     for o in outputs:
         if not has(o.name):
