@@ -57,11 +57,32 @@ class FigureFile:
 
 
 def unit_label(unit: str) -> str:
-    """``[unit]`` for axis labels; ``[-]`` for a dimensionless quantity."""
+    """``[unit]`` for axis labels; ``[-]`` for a dimensionless quantity.
+
+    Parameters
+    ----------
+    unit : str
+        SI unit as the model states it.
+
+    Returns
+    -------
+    str
+    """
     return "[-]" if unit in ("", "1", "-") else f"[{unit}]"
 
 
 def method_label(r: MethodRun) -> str:
+    """A method's legend entry: label, short method name and runs.
+
+    Parameters
+    ----------
+    r : MethodRun
+
+    Returns
+    -------
+    str
+        E.g. ``"mc1000 (MC, 1000 runs)"``.
+    """
     short = METHOD_SHORT.get(r.estimate.method, r.estimate.method)
     return f"{r.label} ({short}, {r.n_runs} run{'' if r.n_runs == 1 else 's'})"
 
@@ -100,6 +121,11 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
         Name of a ``series`` output.
     component : int
         Index into the output's components.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Four panels over time [s], values in the output's unit.
     """
     o = result.output(output)
     name = f"{o.name}{_comp_suffix(o, component)}"
@@ -164,6 +190,17 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
 
 
 def has_quantiles(result: Result, output: str) -> bool:
+    """Whether any method of ``result`` computed quantiles of ``output``.
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+
+    Returns
+    -------
+    bool
+    """
     return any(r.estimate.stats.get(output) is not None
                and r.estimate.stats[output].quantiles is not None for r in result.runs)
 
@@ -178,6 +215,18 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
     with the k a Gaussian gives the outer levels: where the two disagree the output is not
     Gaussian. Steps without quantiles (above the memory cap: report times only) show as
     markers.
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+        Name of a ``series`` output with quantiles.
+    component : int
+        Index into the output's components.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     o = result.output(output)
     name = f"{o.name}{_comp_suffix(o, component)}"
@@ -270,6 +319,16 @@ def scalar_figure(result: Result, output: str) -> Figure:
     """Histograms of the Monte Carlo samples of a scalar output, with each PCE's density.
 
     One panel per component; module docstring for what the PCE curve is.
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+        Name of a ``scalar`` output.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     o = result.output(output)
     k = o.k
@@ -364,7 +423,16 @@ def scalar_figure(result: Result, output: str) -> Figure:
 
 # ---------------------------------------------------------------------------- cost
 def cost_figure(result: Result) -> Figure:
-    """Model runs and wall seconds per method (log scales), above the cost table."""
+    """Model runs and wall seconds per method (log scales), above the cost table.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     df = cost_table(result)
     labels = [method_label(r) for r in result.runs]
     n = len(labels)
@@ -431,7 +499,21 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
     """Write every figure of ``result`` as PNG into ``out_dir``.
 
     Files: ``<name>_<output>[_<component>].png`` per series output component,
-    ``<name>_<output>_hist.png`` per scalar output, ``<name>_cost.png``.
+    ``<name>_<output>_hist.png`` per scalar output, ``<name>_cost.png``; with quantiles also
+    ``<name>_<output>[_<component>]_envelope.png``. Each is written whole or not at all.
+
+    Parameters
+    ----------
+    result : Result
+    out_dir : str or Path
+        Created when missing.
+    dpi : int
+        Resolution.
+
+    Returns
+    -------
+    list of FigureFile
+        Path, kind, output and component of each file.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -448,7 +530,7 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
                 if has_quantiles(result, o.name):
                     path = out / (f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
                                   f"_envelope.png")
-                    envelope_figure(result, o.name, c).savefig(path, dpi=dpi)
+                    _save(envelope_figure(result, o.name, c), path, dpi)
                     files.append(FigureFile(path, "envelope", o.name, comp))
         elif o.kind == "scalar":
             path = out / f"{stem}_{_safe(o.name)}_hist.png"
