@@ -96,7 +96,19 @@ def _allowed(annotation: Any, metadata: list[Any]) -> str:
 
 
 def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
-    """One line per field: name, allowed values, default, unit, one-line meaning."""
+    """One line per field: name, allowed values, default, unit, one-line meaning.
+
+    Parameters
+    ----------
+    settings : type of pydantic.BaseModel
+        A model's ``Params`` or a method's settings class.
+    indent : str
+        Prefix of every line.
+
+    Returns
+    -------
+    str
+    """
     from_doc = _docstring_attributes(settings)
     lines = []
     for fname, f in settings.model_fields.items():
@@ -128,7 +140,17 @@ def _value(v: Any) -> str:
 
 
 def describe_model(cls: type[Model]) -> str:
-    """Name, summary, uncertain inputs, outputs and parameters of a model class."""
+    """Name, summary, uncertain inputs, outputs and parameters of a model class.
+
+    Parameters
+    ----------
+    cls : type of Model
+
+    Returns
+    -------
+    str
+        Text for ``uqguide models NAME``.
+    """
     model = cls()
     lines = [f"{cls.name}: {cls.summary}", " inputs (uncertain; nominal value when not listed):"]
     for i in model.inputs():
@@ -153,7 +175,17 @@ def _cell(v: object) -> str:
 
 
 def format_report(model_name: str, rows: list[ReportRow]) -> str:
-    """The nominal run's figures beside the paper's, as an aligned text table."""
+    """The nominal run's figures beside the paper's, as an aligned text table.
+
+    Parameters
+    ----------
+    model_name : str
+    rows : list of ReportRow
+
+    Returns
+    -------
+    str
+    """
     header = ("quantity", "unit", "model", "paper", "tolerance", "check", "kind")
     body = [(r.quantity, r.unit, _cell(r.value), _cell(r.paper), r.tolerance,
              {True: "ok", False: "MISS", None: "—"}[r.ok], r.kind) for r in rows]

@@ -136,7 +136,19 @@ class BarProgress(Progress):
 
 
 def make_progress(stream: TextIO | None, quiet: bool = False) -> Progress:
-    """The display for ``stream``: a bar on a terminal, plain lines elsewhere, none if quiet."""
+    """The display for ``stream``: a bar on a terminal, plain lines elsewhere, none if quiet.
+
+    Parameters
+    ----------
+    stream : text stream or None
+        Where progress goes (stderr); None shows nothing.
+    quiet : bool
+        Show nothing.
+
+    Returns
+    -------
+    Progress
+    """
     if quiet or stream is None:
         return Progress(None)
     isatty = getattr(stream, "isatty", None)
