@@ -30,7 +30,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "uqguide"
 LAYERS: list[tuple[str, ...]] = [
     # 0. leaves: errors, typed values, small utilities with no uqguide imports of note
     ("errors", "strict", "atomic", "interrupts", "safe_yaml", "failures", "quantiles",
-     "events", "types", "progress", "runlock", "_version"),
+     "events", "types", "progress", "runlock", "_version", "figures"),
     # 1. numerics on arrays
     ("stats",),
     # 2. the models and the input space they are sampled on
@@ -46,7 +46,7 @@ LAYERS: list[tuple[str, ...]] = [
     # 7. results
     ("result", "result_netcdf", "frames", "checkpoint"),
     # 8. the driver, the paper scenarios and what reads results
-    ("propagate", "papers", "plotting", "report", "plots", "baseline", "gate", "replay", "testing"),
+    ("propagate", "papers", "report", "plots", "baseline", "gate", "replay", "testing"),
     # 9. the library's front doors
     ("run_and_write", "api", "report_document", "progress_display", "__init__"),
     # 10. the command line

@@ -219,16 +219,16 @@ def validate(config: Path) -> None:
 def simulate(config: Path, fig_dir: Path | None) -> None:
     """Run CONFIG's model once at its nominal inputs; print its figures beside the paper's."""
     from .config import load_config
-    from .describe import format_report
+    from .papers import NoPaperScenario, format_report, nominal_figures, nominal_report
 
     cfg = load_config(config)
     try:
-        rows = cfg.model.nominal_report()
-    except NotImplementedError as exc:
+        rows = nominal_report(cfg.model)
+    except NoPaperScenario as exc:
         raise ConfigError(f"model.name: {exc}; `uqguide simulate` needs a paper scenario") from None
     click.echo(format_report(cfg.model.name, rows))
     if fig_dir is not None:
-        for p in cfg.model.nominal_figures(str(fig_dir)):
+        for p in nominal_figures(cfg.model, fig_dir):
             click.echo(f"wrote {p}")
 
 

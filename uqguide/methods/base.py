@@ -5,15 +5,19 @@ A method works in phases, so a design can be stored, run elsewhere and resumed:
 1. :meth:`Method.design` gives the runs to make (inputs ``x (n, d)`` plus whatever the method
    needs later, e.g. quadrature weights);
 2. the driver (:func:`uqguide.propagate.propagate`) evaluates the model on the design;
-3. :meth:`Method.refine` may ask for more runs (sequential designs); the driver evaluates them
-   and calls it again until it returns ``None``;
-4. :meth:`Method.estimate` gives the statistics and diagnostics.
+3. :meth:`Method.refine` may ask for more runs (sequential designs, :attr:`Method.refines`);
+   the driver evaluates them and calls it again until it returns ``None``;
+4. :meth:`Method.estimate` gives the statistics and diagnostics (or, for a method that
+   :attr:`~Method.reduces_chunks`, :meth:`Method.fold` per chunk and
+   :meth:`Method.estimate_reduced`). A method that cannot produce statistics raises
+   :class:`~uqguide.errors.MethodError`: the run records it and completes the other methods.
 
-Methods never know which model they run: they see the :class:`~uqguide.inputs.InputSpace` and the
-:class:`~uqguide.models.base.ModelOutput`.
+Methods never know which model they run: they see the :class:`~uqguide.inputs.InputSpace`, the
+:class:`~uqguide.types.ModelOutput` and the :class:`RunContext` they were built with.
 
-A new method is one module with a ``Settings`` class and a ``Method`` subclass, plus one line in
-:mod:`uqguide.registry`.
+A new method is one module with a ``Settings`` class and a ``Method`` subclass declaring its
+capability flags and ``example_settings``, plus one line in :mod:`uqguide.registry`; the
+conformance suite (:func:`uqguide.testing.check_method`) then checks it with no test code.
 """
 
 from __future__ import annotations

@@ -11,8 +11,11 @@ A model maps a batch of input samples to named outputs, all at once:
 Methods see models only through :meth:`Model.evaluate`, so any model (a built-in simulator, an
 analytic benchmark, a user's Python callable) can be propagated by any method.
 
-A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class, ``inputs()``,
-``outputs()`` and ``_evaluate``; registering it is one line in :mod:`uqguide.registry`.
+A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class (and
+``example_params``, a cheap configuration), ``inputs()``, ``outputs()`` and ``_evaluate``;
+registering it is one line in :mod:`uqguide.registry`, and the conformance suite
+(:func:`uqguide.testing.check_model`) then checks it with no test code. What a paper says about
+a model (its nominal figures and checks) lives in :mod:`uqguide.papers`, not in the model.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from ..types import DerivedOutput, ModelOutput
 from .roundoff import apply_env
 
 __all__ = ["DerivedOutput", "InputInfo", "Model", "ModelOutput", "ModelParams", "OutputInfo",
-           "ReportRow", "StepCount", "failure_reasons"]
+           "StepCount", "failure_reasons"]
 
 OutputKind = Literal["series", "scalar"]
 
@@ -125,48 +128,6 @@ class StepCount:
     formula: str
 
 
-@dataclass(frozen=True)
-class ReportRow:
-    """One line of a nominal run's report: the model's figure beside the paper's.
-
-    Attributes
-    ----------
-    quantity : str
-        What is reported, e.g. ``"time to 50 m"`` (prefix a group such as a controller name
-        with ``"GMM-NTSMC: "`` where one model reports several cases).
-    unit : str
-    value : float or str
-        The model's figure (a string for yes/no or categorical outcomes).
-    paper : float or str or None
-        The paper's figure, where it gives one.
-    tolerance : str
-        The acceptance tolerance from the spec (``"1%"``, ``"15 s"``, ``"not asserted"``...).
-    ok : bool or None
-        Whether ``value`` is within ``tolerance`` of ``paper`` (None: not checked).
-    note : str
-        Why a figure is not reproduced, or how it was computed.
-    kind : {"reproducible", "chaotic", "timing"}
-        *reproducible*: the figure moves by less than its tolerance when the inputs move by
-        round-off. *chaotic*: it does not (a final-window maximum of a chattering loop, a
-        diverged state), so ``value`` is a robust statistic named in ``statistic``, and ``ok``
-        judges that statistic (:mod:`uqguide.models.roundoff`). *timing*: a measurement of the
-        machine (wall time), never checked.
-    statistic : str
-        For a chaotic row, what ``value`` is, e.g. ``"median of 5 runs under 1e-12 input
-        perturbations; range [a, b]"``.
-    """
-
-    quantity: str
-    unit: str
-    value: float | str
-    paper: float | str | None = None
-    tolerance: str = ""
-    ok: bool | None = None
-    note: str = ""
-    kind: Literal["reproducible", "chaotic", "timing"] = "reproducible"
-    statistic: str = ""
-
-
 class Model(ABC):
     """A deterministic model vectorised over a batch of samples.
 
@@ -231,16 +192,6 @@ class Model(ABC):
             reasons ``(n,)``; a sample that fails is flagged with its reason, never raised.
         """
 
-    def nominal_report(self) -> list[ReportRow]:
-        """Run the nominal (deterministic) scenario and report its headline figures beside the
-        paper's (``uqguide simulate``). Models without a paper scenario do not override this.
-
-        Returns
-        -------
-        list of ReportRow
-        """
-        raise NotImplementedError(f"model '{self.name}' has no nominal scenario to report")
-
     def derived_outputs(self) -> Mapping[str, DerivedOutput]:
         """Outputs this model computes from smoother carrier outputs (default: none).
 
@@ -250,46 +201,6 @@ class Model(ABC):
             By output name.
         """
         return {}
-
-    def nominal_figures(self, out_dir: str) -> list[str]:
-        """Write the nominal scenario's figures (PNG) into ``out_dir``.
-
-        Parameters
-        ----------
-        out_dir : str
-            An existing folder.
-
-        Returns
-        -------
-        list of str
-            The files written (none by default).
-        """
-        return []
-
-    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
-                       stem: str) -> list[str]:
-        """Figures of one sample's run (``uqguide replay``) beyond the generic time histories:
-        its trajectory, with the scene's geometry where the model has one. ``out`` holds every
-        output of the sample, ``values`` every input (nominal where not uncertain). Default:
-        none.
-
-        Parameters
-        ----------
-        out : ModelOutput
-            One sample (``n = 1``), every output.
-        values : mapping of str to float
-            Every input's value, SI units.
-        out_dir : str
-            An existing folder.
-        stem : str
-            File name prefix.
-
-        Returns
-        -------
-        list of str
-            The files written.
-        """
-        return []
 
     def full_values(self, x: np.ndarray, input_names: Sequence[str]) -> dict[str, float]:
         """Every input's value for one sample (nominal where not given).
