@@ -36,6 +36,10 @@ class _Marginal(StrictModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     name: str = Field(min_length=1)
+    if TYPE_CHECKING:
+        # The discriminator tag: each concrete marginal declares it as its Literal field.
+        # Declared for type checkers only, so pydantic's fields stay those of the subclasses.
+        dist: str
 
     def to_chaospy(self) -> chaospy.Distribution:  # pragma: no cover - abstract
         """The same distribution in chaospy.

@@ -59,7 +59,7 @@ def identifiable_terms(psi: np.ndarray, tol: float = 1e-8) -> np.ndarray:
     """
     n = psi.shape[0]
     q = np.zeros((n, 0))
-    keep = []
+    keep: list[int] = []
     for j in range(psi.shape[1]):
         if len(keep) == n:
             break
@@ -67,7 +67,7 @@ def identifiable_terms(psi: np.ndarray, tol: float = 1e-8) -> np.ndarray:
         v = a - q @ (q.T @ a)
         v -= q @ (q.T @ v)
         rho = np.linalg.norm(v)
-        if rho > tol * max(np.linalg.norm(a), 1e-300):
+        if rho > tol * max(float(np.linalg.norm(a)), 1e-300):
             q = np.column_stack([q, v / rho])
             keep.append(j)
     return np.asarray(keep, dtype=int)

@@ -128,7 +128,9 @@ class RelativePlant(Protocol):
     has the same interface with time-dependent matrices.
     """
 
-    orbit: ChiefOrbit
+    # Read-only, so that frozen dataclasses (LVLHPlant) satisfy the protocol.
+    @property
+    def orbit(self) -> ChiefOrbit: ...
 
     def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
         """The plant's matrices.

@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..kernels import njit
 
@@ -121,7 +122,7 @@ class GaussSum:
 
     @classmethod
     def from_apf(
-        cls, psi: np.ndarray, centers: np.ndarray, N: np.ndarray, sigma: np.ndarray
+        cls, psi: ArrayLike, centers: ArrayLike, N: ArrayLike, sigma: ArrayLike
     ) -> GaussSum:
         """Obstacles ``psi_i exp(-(r - r_obs,i)^T N_i (r - r_obs,i) / sigma_i)`` of [W 28].
 
@@ -138,16 +139,23 @@ class GaussSum:
         """
         N = np.asarray(N, dtype=float)
         sigma = np.asarray(sigma, dtype=float)
-        return cls(np.asarray(psi, dtype=float), centers, 2.0 * N / sigma[:, None, None])
+        return cls(
+            np.asarray(psi, dtype=float),
+            np.asarray(centers, dtype=float),
+            2.0 * N / sigma[:, None, None],
+        )
 
     def _batched(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Parameters with a leading axis of length 1 (shared) or ``n`` (one set per point)."""
         K = self.n_kernels
         out = []
-        for a, core in ((self.c, (K,)), (self.mu, (K, 3)), (self.L, (K, 3, 3))):
-            a = a.reshape((-1,) + core)
+        cores: tuple[tuple[int, ...], ...] = ((K,), (K, 3), (K, 3, 3))
+        for param, core in zip((self.c, self.mu, self.L), cores):
+            a: np.ndarray = param.reshape((-1, *core))
             if a.shape[0] not in (1, n):
-                raise ValueError(f"Gaussian-sum parameters for {a.shape[0]} samples, points for {n}")
+                raise ValueError(
+                    f"Gaussian-sum parameters for {a.shape[0]} samples, points for {n}"
+                )
             out.append(np.ascontiguousarray(a))
         return out[0], out[1], out[2]
 
@@ -212,7 +220,11 @@ def _gauss_sum_kernel(
                 yLy = 0.0
                 ty = 0.0
                 for a in range(3):
-                    Ly[a] = L[iL, k, a, 0] * y[i, 0] + L[iL, k, a, 1] * y[i, 1] + L[iL, k, a, 2] * y[i, 2]
+                    Ly[a] = (
+                        L[iL, k, a, 0] * y[i, 0]
+                        + L[iL, k, a, 1] * y[i, 1]
+                        + L[iL, k, a, 2] * y[i, 2]
+                    )
                     yLy += y[i, a] * Ly[a]
                     ty += th[a] * y[i, a]
                 for a in range(3):

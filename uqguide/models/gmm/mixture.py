@@ -82,12 +82,18 @@ class Mixture:
 
     def save(self, path: str | Path, **metadata: object) -> None:
         """Write to a ``.npz`` file, with scalar/str metadata (provenance of a fit)."""
+        reserved = {"weights", "means", "covariances", "allow_pickle"} & metadata.keys()
+        if reserved:
+            raise ValueError(f"metadata names {sorted(reserved)} are reserved by the .npz layout")
+        arrays = {k: np.asarray(v) for k, v in metadata.items()}
+        # allow_pickle is np.savez's default, spelled out so that no metadata key can take its place
         np.savez(
             path,
+            allow_pickle=True,
             weights=self.weights,
             means=self.means,
             covariances=self.covariances,
-            **{k: np.asarray(v) for k, v in metadata.items()},
+            **arrays,
         )
 
     @classmethod
@@ -173,7 +179,9 @@ def kmeans_partition(points: np.ndarray, means0: np.ndarray) -> Mixture:
     means0 = np.asarray(means0, dtype=float)
     # tol=0: iterate until the labels stop changing, so that the partition is the nearest-centre
     # partition of its own centroids (scikit-learn's default tolerance can stop one step early)
-    km = KMeans(n_clusters=means0.shape[0], init=means0, n_init=1, tol=0.0, max_iter=1000).fit(points)
+    km = KMeans(
+        n_clusters=means0.shape[0], init=means0, n_init=1, tol=0.0, max_iter=1000
+    ).fit(points)
     labels = km.labels_
     K = means0.shape[0]
     weights = np.bincount(labels, minlength=K) / points.shape[0]
@@ -217,10 +225,13 @@ def fit_mixture(
     """
     from sklearn.mixture import GaussianMixture
 
-    if (means0 is None) == (init is None):
-        raise ValueError("give exactly one of means0 (k-means start) or init (EM start)")
     points = np.asarray(points, dtype=float)
-    start = kmeans_partition(points, means0) if init is None else init
+    if means0 is not None and init is None:
+        start = kmeans_partition(points, means0)
+    elif means0 is None and init is not None:
+        start = init
+    else:
+        raise ValueError("give exactly one of means0 (k-means start) or init (EM start)")
     covs0 = start.covariances + reg_covar * np.eye(3)
     gm = GaussianMixture(
         n_components=start.n_components,

@@ -58,6 +58,11 @@ log = logging.getLogger(__name__)
 FITTED_FILE = "gmm_wang2022_fitted.npz"
 
 
+def _gmm_shift(values: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The per-sample translation of the repulsive kernels, shape (n, 3) [m]."""
+    return np.stack([values["gmm_shift_x"], values["gmm_shift_y"], values["gmm_shift_z"]], 1)
+
+
 @lru_cache(maxsize=8)
 def _schedule(a: float, e: float, f0: float, mu: float, printed: bool, t_f: float, dt: float,
               n_sub: int) -> StepSchedule:
@@ -171,19 +176,19 @@ class GMMProximity(Model):
                   n: int = 1) -> GaussSum:
         """The repulsive kernels of ``controller``, per sample when the GMM is perturbed."""
         p = self.params
-        shift = None
-        if values is not None:
-            shift = np.stack(
-                [values["gmm_shift_x"], values["gmm_shift_y"], values["gmm_shift_z"]], 1)
         if controller == "apf_tsmc":
             gs = GaussSum.from_apf([p.apf_psi], [p.apf_center], [np.diag(p.apf_n)], [p.apf_sigma])
-            if shift is None or not shift.any():
+            if values is None:
+                return gs
+            shift = _gmm_shift(values)
+            if not shift.any():
                 return gs
             return GaussSum(gs.c, gs.mu[None] + shift[:, None, :], gs.L)
         gs = self.mixture().to_gauss_sum(p.gmm_norm)
         if values is None or all(np.all(values[k] == n_) for k, n_ in
                                  zip(_PERTURBATION, (0.0, 0.0, 0.0, 1.0, 1.0))):
             return gs
+        shift = _gmm_shift(values)
         s_mu = values["gmm_mean_scale"][:, None, None]
         s_cov = values["gmm_cov_scale"]
         return GaussSum(
@@ -250,7 +255,7 @@ class GMMProximity(Model):
             series["los_rate"] = (np.linalg.norm(np.cross(r, v), axis=2) / rng**2)[..., None]
         if "position_error" in outputs:
             series["position_error"] = np.linalg.norm(r - r_f, axis=2)[..., None]
-        if "zem" in outputs:
+        if run.zem is not None:  # computed exactly when "zem" is requested (run(zem=...))
             series["zem"] = run.zem[..., None]
         if "delta_v_history" in outputs:
             series["delta_v_history"] = run.delta_v_history[..., None]

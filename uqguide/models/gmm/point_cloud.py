@@ -36,9 +36,10 @@ def _rectangle_grid(
 def _solid_faces(part: Part) -> list[tuple[np.ndarray, np.ndarray, tuple[int, int]]]:
     """The six faces of a solid box as degenerate boxes (lo, hi) and their in-plane axes."""
     lo, hi = np.asarray(part.lo, float), np.asarray(part.hi, float)
-    faces = []
+    faces: list[tuple[np.ndarray, np.ndarray, tuple[int, int]]] = []
     for axis in range(3):
-        others = tuple(a for a in range(3) if a != axis)
+        first, second = (a for a in range(3) if a != axis)
+        others = (first, second)
         for value in (hi[axis], lo[axis]):
             flo, fhi = lo.copy(), hi.copy()
             flo[axis] = fhi[axis] = value
@@ -76,8 +77,8 @@ def grid_cloud(geometry: ChiefGeometry, counts: Mapping[str, tuple[int, ...]]) -
             for flo, fhi, axes in _solid_faces(part):
                 chunks.append(_rectangle_grid(flo, fhi, axes, (c[0], c[0])))
         elif part.kind == "plate":
-            axes = tuple(int(a) for a in np.flatnonzero(~part.thin_axes))
-            chunks.append(_rectangle_grid(lo, hi, (axes[0], axes[1]), (c[0], c[1])))
+            in_plane = [int(a) for a in np.flatnonzero(~part.thin_axes)]
+            chunks.append(_rectangle_grid(lo, hi, (in_plane[0], in_plane[1]), (c[0], c[1])))
         else:
             axis = int(np.flatnonzero(~part.thin_axes)[0])
             pts = np.repeat(lo[None, :], c[0], axis=0)

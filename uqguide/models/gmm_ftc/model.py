@@ -163,7 +163,8 @@ class GMMFTC(Model):
         mixture = target_mixture(p.gmm).with_variance_floor(p.variance_floor)
         potential = AttractRepulsePotential(np.diag(p.P), np.diag(p.M),
                                             mixture.to_gauss_sum(p.norm))
-        gains = FTCGains(p.alpha1, p.beta1, p.lambda1, p.lambda2, p.zeta1, p.zeta2, p.k_s)
+        gains = FTCGains(np.asarray(p.alpha1), np.asarray(p.beta1), np.asarray(p.lambda1),
+                         np.asarray(p.lambda2), p.zeta1, p.zeta2, np.asarray(p.k_s))
         return GMMFTCLaw(potential, np.asarray(p.r_f), gains)
 
     def settings(self, thrust_noise: float | None = None) -> LoopSettings:
