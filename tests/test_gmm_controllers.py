@@ -24,7 +24,8 @@ def _potentials() -> dict[str, AttractRepulsePotential]:
         # variance floor 0.09 m^2 (the F configurations): GMM terms act over metres
         "gmm": AttractRepulsePotential(
             P_W, M_W, WANG2022_PUBLISHED.with_variance_floor(0.09).to_gauss_sum()),
-        "apf": AttractRepulsePotential(P_W, M_W, GaussSum.from_apf([0.1], [[0, 0, 0]], [5.5e-4 * np.eye(3)], [1.0])),
+        "apf": AttractRepulsePotential(
+            P_W, M_W, GaussSum.from_apf([0.1], [[0, 0, 0]], [5.5e-4 * np.eye(3)], [1.0])),
     }
 
 
@@ -33,7 +34,8 @@ def _controllers():
     return {
         "apf_tsmc": TSMC(pots["apf"], R_F, K_S, REACH),
         "gmm_tsmc": TSMC(pots["gmm"], R_F, K_S, REACH),
-        "gmm_ntsmc": NTSMC(pots["gmm"], R_F, K_S, REACH, 0.01, [1e-2, 1e-3, 1e-3], [1, 0.8, 0.8], 1.5, 5, 7),
+        "gmm_ntsmc": NTSMC(pots["gmm"], R_F, K_S, REACH, 0.01, [1e-2, 1e-3, 1e-3], [1, 0.8, 0.8],
+                           1.5, 5, 7),
     }
 
 

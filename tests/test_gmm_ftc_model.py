@@ -159,7 +159,8 @@ def test_thrust_scale_offset_matches_steady_state_closed_form():
     d = (A21 @ np.asarray(p.r_f)) * eps / (1 + eps)
     y1 = []
     for i in range(3):
-        def excess(y):
+        # brentq calls excess within this iteration; i is bound anyway so that it cannot drift
+        def excess(y, i=i):
             s1 = (1 + p.k_s[i] * p.P[i]) * y
             s2 = p.alpha1[i] * s1 + p.beta1[i] * s1**3
             return (p.lambda1[i] * np.sign(s2) * abs(s2) ** p.zeta1

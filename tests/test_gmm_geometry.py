@@ -55,18 +55,20 @@ def test_segment_hits_is_symmetric_and_handles_stationary_points():
     fwd = CHIEF.segment_hits(p0, p1)
     np.testing.assert_array_equal(fwd, CHIEF.segment_hits(p1, p0))
     # a degenerate segment hits exactly when its point is inside the collision box
-    inside = np.all((CHIEF.collision_lo <= p0[:, None]) & (p0[:, None] <= CHIEF.collision_hi), axis=2)
+    inside = np.all((CHIEF.collision_lo <= p0[:, None]) & (p0[:, None] <= CHIEF.collision_hi),
+                    axis=2)
     np.testing.assert_array_equal(CHIEF.segment_hits(p0, p0), inside)
     # a dense sampling of each segment never finds a hit the slab test misses
     s = np.linspace(0, 1, 401)[None, :, None]
     pts = p0[:, None] + s * (p1 - p0)[:, None]
-    sampled = np.any(np.all((CHIEF.collision_lo <= pts[:, :, None]) & (pts[:, :, None] <= CHIEF.collision_hi),
-                            axis=3), axis=1)
+    in_box = (CHIEF.collision_lo <= pts[:, :, None]) & (pts[:, :, None] <= CHIEF.collision_hi)
+    sampled = np.any(np.all(in_box, axis=3), axis=1)
     assert not np.any(sampled & ~fwd)
 
 
 def test_clearance_and_penetration_against_analytic_distances():
-    pts = np.array([[8.0, 0.0, 0.0], [8.0, 7.0, 0.0], [0.0, -10.0, 3.5], [-7.5, 0.3, 0.4], [4.0, 0.0, 0.0]])
+    pts = np.array([[8.0, 0.0, 0.0], [8.0, 7.0, 0.0], [0.0, -10.0, 3.5], [-7.5, 0.3, 0.4],
+                    [4.0, 0.0, 0.0]])
     d = CHIEF.clearance(pts)
     body, panel_m, ant_m = 0, 2, 4
     assert d[0, body] == pytest.approx(3.0)
@@ -116,7 +118,8 @@ def test_compiled_period_update_matches_the_numpy_reference():
     np.testing.assert_allclose(clearance, ref_clear, rtol=1e-13, atol=1e-13)
     ref_pen = penetration_depth(pts, CHIEF.skeleton_lo[:1], CHIEF.skeleton_hi[:1]).max(axis=(1, 2))
     np.testing.assert_allclose(penetration, ref_pen, atol=1e-13)
-    ref_hits = segment_box_hits(pts[:, :-1], pts[:, 1:], CHIEF.collision_lo, CHIEF.collision_hi).any(axis=1)
+    ref_hits = segment_box_hits(pts[:, :-1], pts[:, 1:], CHIEF.collision_lo,
+                                CHIEF.collision_hi).any(axis=1)
     np.testing.assert_array_equal(hits, ref_hits)
     assert ref_hits.any() and (~ref_hits).any()
     np.testing.assert_allclose(min_range, np.linalg.norm(pts, axis=2).min(axis=1), rtol=1e-14)
@@ -128,7 +131,8 @@ def test_wang_grid_cloud_has_the_spec_counts_and_face_statistics():
     # -> 237,608; panels 2 * 283 * 141; antennas 2 * 99,000 (spec 4.3: ~515,000)
     assert pts.shape == (237_608 + 2 * 283 * 141 + 2 * 99_000, 3)
     on_axis = (pts[:, 1] == 0) & (pts[:, 2] == 0)  # the +x antenna's root point
-    face = pts[np.isclose(pts[:, 0], 5.0) & (np.abs(pts[:, 1]) <= 5) & (np.abs(pts[:, 2]) <= 5) & ~on_axis]
+    on_face = np.isclose(pts[:, 0], 5.0) & (np.abs(pts[:, 1]) <= 5) & (np.abs(pts[:, 2]) <= 5)
+    face = pts[on_face & ~on_axis]
     assert face.shape[0] == 40_000
     # a 200-point grid on [-5, 5] has variance (10^2 / 12) * 201 / 199 = 8.4171 (spec 4.3)
     assert face[:, 1].var() == pytest.approx(100 / 12 * 201 / 199, rel=1e-12)

@@ -30,7 +30,8 @@ def _sets(rng: np.random.Generator) -> dict[str, tuple[AttractRepulsePotential, 
     wang = AttractRepulsePotential(P_W, M_W, WANG2022_PUBLISHED.to_gauss_sum("2pi"))
     # away from the published 3 mm sheets the GMM underflows to 0; the variance floor of the
     # F configurations (sigma >= 0.3 m) gives thick kernels of the same layout
-    floored = AttractRepulsePotential(P_W, M_W, WANG2022_PUBLISHED.with_variance_floor(0.09).to_gauss_sum())
+    floored = AttractRepulsePotential(
+        P_W, M_W, WANG2022_PUBLISHED.with_variance_floor(0.09).to_gauss_sum())
     apf_kernel = GaussSum.from_apf([0.1], [[0, 0, 0]], [5.5e-4 * np.eye(3)], [1.0])
     apf = AttractRepulsePotential(P_W, M_W, apf_kernel)
     full = AttractRepulsePotential(_random_spd(rng, 0.05), _random_spd(rng, 0.7),
@@ -73,10 +74,12 @@ def test_gradient_hessian_and_goal_derivative_match_finite_differences(case):
     I = np.eye(3)
     g_fd = np.stack([(pot.phi(pts + h * I[a], R_F) - pot.phi(pts - h * I[a], R_F)) / (2 * h)
                      for a in range(3)], axis=1)
-    H_fd = np.stack([(pot.derivatives(pts + h * I[a], R_F).g - pot.derivatives(pts - h * I[a], R_F).g)
-                     / (2 * h) for a in range(3)], axis=2)
-    Hf_fd = np.stack([(pot.derivatives(pts, R_F + h * I[a]).g - pot.derivatives(pts, R_F - h * I[a]).g)
-                      / (2 * h) for a in range(3)], axis=2)
+    H_fd = np.stack([(pot.derivatives(pts + h * I[a], R_F).g
+                      - pot.derivatives(pts - h * I[a], R_F).g) / (2 * h)
+                     for a in range(3)], axis=2)
+    Hf_fd = np.stack([(pot.derivatives(pts, R_F + h * I[a]).g
+                       - pot.derivatives(pts, R_F - h * I[a]).g) / (2 * h)
+                      for a in range(3)], axis=2)
     assert _rel(d.g, g_fd).max() < TOL[case]
     assert _rel(d.H, H_fd).max() < TOL[case]
     assert _rel(d.H_f, Hf_fd).max() < TOL[case]
@@ -97,7 +100,8 @@ def test_third_derivative_contraction_is_the_rate_of_the_hessian(case):
     # H; the difference quotient of H then carries a rounding floor ~ eps |H| |y|^2 / h.
     floor = 1e-15 * np.abs(Hp).max() * np.sum(y * y, axis=1) / h
     err = np.linalg.norm(gamma - fd, axis=1)
-    assert np.all(err <= 10 * TOL[case] * np.linalg.norm(fd, axis=1) + floor)  # 10x: one more derivative
+    # 10x: one more derivative
+    assert np.all(err <= 10 * TOL[case] * np.linalg.norm(fd, axis=1) + floor)
     assert np.linalg.norm(fd, axis=1).max() > 1e3 * floor.max()  # the check is not vacuous
 
 
@@ -108,8 +112,10 @@ def test_gauss_sum_derivatives_match_finite_differences_of_the_value():
     h = 1e-5
     d = gs.derivatives(pts)
     I = np.eye(3)
-    g_fd = np.stack([(gs.value(pts + h * I[a]) - gs.value(pts - h * I[a])) / (2 * h) for a in range(3)], 1)
-    H_fd = np.stack([(gs.derivatives(pts + h * I[a]).grad - gs.derivatives(pts - h * I[a]).grad) / (2 * h)
+    g_fd = np.stack([(gs.value(pts + h * I[a]) - gs.value(pts - h * I[a])) / (2 * h)
+                     for a in range(3)], 1)
+    H_fd = np.stack([(gs.derivatives(pts + h * I[a]).grad
+                      - gs.derivatives(pts - h * I[a]).grad) / (2 * h)
                      for a in range(3)], 2)
     assert _rel(d.grad, g_fd).max() < 1e-6
     assert _rel(d.hess, H_fd).max() < 1e-6
@@ -155,7 +161,8 @@ def test_per_sample_kernels_equal_separate_evaluations():
     for i, s in enumerate(sums):
         di = s.derivatives(pts[i:i + 1], y[i:i + 1])
         for name in ("value", "grad", "hess", "third"):
-            np.testing.assert_allclose(getattr(db, name)[i], getattr(di, name)[0], rtol=1e-14, atol=0)
+            np.testing.assert_allclose(getattr(db, name)[i], getattr(di, name)[0],
+                                       rtol=1e-14, atol=0)
 
 
 def test_variance_floor_raises_small_eigenvalues_only():

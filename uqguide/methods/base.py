@@ -232,7 +232,12 @@ class Method(ABC):
 
     def check(self, index: int) -> None:
         """Checks of the settings against the rest of the config (events, outputs), after
-        those are set; raise ConfigError naming ``methods[index].<field>``. Default: none."""
+        those are set; raise ConfigError naming ``methods[index].<field>``. Default: none.
+
+        A hook that methods override when they have such checks, not an abstract method: most
+        have none.
+        """
+        return None
 
     @abstractmethod
     def design(self, space: InputSpace, seed: int) -> Design:

@@ -150,8 +150,11 @@ class NTSMC:
         object.__setattr__(self, "r_f", np.asarray(self.r_f, dtype=float))
         for name in ("k_s", "xi1", "xi2"):
             object.__setattr__(self, name, positive_diagonal(name, getattr(self, name)))
-        if not (self.p > 0 and self.q > 0 and self.p % 2 == 1 and self.q % 2 == 1 and self.p < self.q):
-            raise ValueError(f"p and q must be positive odd integers with p < q, got {self.p}, {self.q}")
+        odd = self.p % 2 == 1 and self.q % 2 == 1
+        if not (self.p > 0 and self.q > 0 and odd and self.p < self.q):
+            raise ValueError(
+                f"p and q must be positive odd integers with p < q, got {self.p}, {self.q}"
+            )
         if not self.tau > 1:
             raise ValueError(f"tau must be greater than 1, got {self.tau}")
         if self.eps < 0:
@@ -166,13 +169,15 @@ class NTSMC:
         """``S`` of [W 10], shape (n, 3)."""
         e = r - self.r_f
         g = self.potential.derivatives(r, self.r_f).g
-        return self.k_s * g + self.xi0 * e + self.xi1 * sig(e, self.tau) + self.xi2 * sig(v, self.rho)
+        return (self.k_s * g + self.xi0 * e + self.xi1 * sig(e, self.tau)
+                + self.xi2 * sig(v, self.rho))
 
     def command(self, r: np.ndarray, v: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
         """Commanded acceleration [m/s^2], shape (n, 3) ([W 14])."""
         e = r - self.r_f
         d = self.potential.derivatives(r, self.r_f)
-        S = self.k_s * d.g + self.xi0 * e + self.xi1 * sig(e, self.tau) + self.xi2 * sig(v, self.rho)
+        S = (self.k_s * d.g + self.xi0 * e + self.xi1 * sig(e, self.tau)
+             + self.xi2 * sig(v, self.rho))
         bracket = (
             -self.k_s * matvec(d.H, v)
             + self.reaching.rate(S)

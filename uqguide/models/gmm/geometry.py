@@ -50,7 +50,9 @@ class Part:
     def __post_init__(self) -> None:
         extent = np.subtract(self.hi, self.lo)
         if np.any(extent < 0):
-            raise ValueError(f"part {self.name!r}: hi must not be below lo, got {self.lo}, {self.hi}")
+            raise ValueError(
+                f"part {self.name!r}: hi must not be below lo, got {self.lo}, {self.hi}"
+            )
         n_thin = int(np.sum(extent == 0))
         expected = {"solid": 0, "plate": 1, "segment": 2}[self.kind]
         if n_thin != expected:

@@ -1,6 +1,8 @@
 """Attract/repulse potential of the GMM papers and its derivatives (gmm-controllers.md 6.2).
 
-.. math:: \\varphi(r; r_f) = \\tfrac12 e^T P e + \\tfrac12 q V(r), \\quad e = r - r_f, \\; q = e^T M e,
+.. math::
+
+    \\varphi(r; r_f) = \\tfrac12 e^T P e + \\tfrac12 q V(r), \\quad e = r - r_f, \\; q = e^T M e,
 
 ([W 9] with the GMM kernels, [W 28] with the classical APF obstacle, [C 17-19]). The repulsive
 term is multiplied by ``q`` so that it vanishes at the goal. Derivatives (``P``, ``M``
