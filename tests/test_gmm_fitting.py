@@ -82,6 +82,23 @@ def test_kmeans_partition_is_a_nearest_centre_fixed_point():
 def test_fit_needs_exactly_one_start():
     with pytest.raises(ValueError, match="exactly one"):
         fit_mixture(np.zeros((10, 3)))
+    with pytest.raises(ValueError, match="exactly one"):
+        fit_mixture(np.zeros((10, 3)), means0=WANG2022_MEANS0, init=PUB)
+
+
+def test_save_round_trips_and_keeps_metadata_out_of_the_layout(tmp_path):
+    path = tmp_path / "fit.npz"
+    PUB.save(path, source="App. A4", n_points=7)
+    back = Mixture.load(path)
+    np.testing.assert_array_equal(back.covariances, PUB.covariances)
+    with np.load(path) as data:
+        assert str(data["source"]) == "App. A4" and int(data["n_points"]) == 7
+    # a metadata key that np.savez would read as its own flag, or one that would overwrite
+    # the parameters, is refused instead of silently changing the file
+    for key in ("allow_pickle", "weights"):
+        with pytest.raises(ValueError, match="reserved"):
+            PUB.save(tmp_path / "bad.npz", **{key: 1})
+        assert not (tmp_path / "bad.npz").exists()
 
 
 @pytest.mark.slow
