@@ -265,7 +265,8 @@ class _QSearch:
                 if p in self.fits:
                     self._rescore(p, order)
             return
-        fits, lengths = {}, {}
+        fits: dict[int, SparseFit] = {}
+        lengths: dict[int, int] = {}
 
         def score(p: int) -> None:
             if p not in fits and self.degree_min <= p <= cs.top:
