@@ -15,6 +15,14 @@ variable                 dims                                        what
 ``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE)
 ``o_quantile``           (quantile, ..., o_component)                quantiles at the levels
 ``o_ci_quantile``        (bound, quantile, ..., o_component)         their 95% intervals
+``o_corrected``          (statistic, ..., o_component)               a validated PCE's
+                                                                     control-variate moments
+``o_corrected_ci``       (bound, statistic, ..., o_component)        their 95% intervals
+``o_validation_error``   (..., o_component)                          out-of-sample relative
+                                                                     error of the surrogate
+``o_usable``             (..., o_component)                          1 where the surrogate is
+                                                                     usable (else its moments
+                                                                     are NaN)
 =======================  ==========================================  =========================
 
 Coordinates: ``time`` [s], ``input`` (uncertain input names), ``statistic``, ``bound`` (low,
@@ -25,6 +33,7 @@ in their number of components.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -48,13 +57,42 @@ class Variable:
 
 
 def component_dim(output: str, second: bool = False) -> str:
+    """Name of an output's component dimension (the second one of a covariance).
+
+    Parameters
+    ----------
+    output : str
+    second : bool
+
+    Returns
+    -------
+    str
+        ``"<output>_component"`` or ``"<output>_component2"``.
+    """
     return f"{output}_component2" if second else f"{output}_component"
 
 
-def method_variables(stats: dict[str, OutputStats], outputs: list[OutputInfo],
-                     time: np.ndarray, input_names: list[str]
+def method_variables(stats: dict[str, OutputStats], outputs: Sequence[OutputInfo],
+                     time: np.ndarray, input_names: Sequence[str]
                      ) -> tuple[dict[str, np.ndarray], dict[str, Variable]]:
-    """Coordinates (dimension -> values) and variables of one method's statistics."""
+    """Coordinates (dimension -> values) and variables of one method's statistics.
+
+    Parameters
+    ----------
+    stats : dict of str to OutputStats
+        By output name.
+    outputs : sequence of OutputInfo
+    time : ndarray, shape (T,)
+        Time grid [s].
+    input_names : sequence of str, length d
+
+    Returns
+    -------
+    coords : dict of str to ndarray
+        Values of each dimension (``time``, ``statistic``, ``input``, components, ...).
+    variables : dict of str to Variable
+        Per output: moments, covariance, intervals, Sobol' indices, quantiles, with units.
+    """
     coords: dict[str, np.ndarray] = {
         "time": np.asarray(time, dtype=float),
         "input": np.array(input_names, dtype=object),
@@ -92,23 +130,56 @@ def method_variables(stats: dict[str, OutputStats], outputs: list[OutputInfo],
             v = getattr(s, kind)
             if v is not None:
                 out[f"{o.name}_{kind}"] = Variable((*base, "input"), v, {"units": "1"})
-        if s.quantiles is not None:
-            levels = np.asarray(s.quantile_levels, dtype=float)
+        table = s.quantile_table()
+        if table is not None:
+            levels = np.asarray(table[0], dtype=float)
             if "quantile" in coords and not np.array_equal(coords["quantile"], levels):
                 raise ValueError(f"output {o.name!r} has quantile levels {levels.tolist()}, "
                                  f"another output {coords['quantile'].tolist()}")
             coords["quantile"] = levels
-            out[f"{o.name}_quantile"] = Variable(("quantile", *base), s.quantiles,
+            out[f"{o.name}_quantile"] = Variable(("quantile", *base), table[1],
                                                  {"units": o.unit})
             out[f"{o.name}_ci_quantile"] = Variable(("bound", "quantile", *base),
-                                                    s.ci_quantiles, {"units": o.unit})
+                                                    table[2], {"units": o.unit})
+        if s.corrected:
+            out[f"{o.name}_corrected"] = Variable(
+                ("statistic", *base), np.stack([s.corrected[n] for n in STAT_NAMES]),
+                {"units": o.unit, "description": "control-variate estimates (PCE + mean "
+                                                 "model-minus-surrogate on validation runs)"})
+            out[f"{o.name}_corrected_ci"] = Variable(
+                ("bound", "statistic", *base),
+                np.stack([s.corrected_ci[n] for n in STAT_NAMES], axis=1),
+                {"description": "95% bootstrap interval over the validation runs"})
+        if s.validation_error is not None:
+            out[f"{o.name}_validation_error"] = Variable(
+                base, np.asarray(s.validation_error, dtype=float),
+                {"units": "1", "description": "mean squared model-minus-surrogate difference "
+                                              "over the model's variance, validation runs"})
+        if s.usable is not None:
+            out[f"{o.name}_usable"] = Variable(base, np.asarray(s.usable, dtype=np.uint8),
+                                               {"units": "1"})
     return coords, out
 
 
-def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: list[OutputInfo]
+def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[OutputInfo]
                          ) -> dict[str, OutputStats]:
-    """The inverse of :func:`method_variables`: ``get(name)`` gives an array, ``has(name)``
-    whether it exists, ``attrs(name)`` its attributes (a file group or a Dataset alike)."""
+    """The inverse of :func:`method_variables` (a file group or a Dataset alike).
+
+    Parameters
+    ----------
+    get : callable
+        ``get(name)``: the variable's array.
+    has : callable
+        ``has(name)``: whether it exists.
+    attrs : callable
+        ``attrs(name)``: its attributes.
+    outputs : sequence of OutputInfo
+
+    Returns
+    -------
+    dict of str to OutputStats
+        By output name, for the outputs that have statistics.
+    """
     stats = {}
     for o in outputs:
         if not has(o.name):
@@ -131,4 +202,12 @@ def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: list[OutputInf
             quantiles=get(f"{o.name}_quantile") if q else None,
             ci_quantiles=get(f"{o.name}_ci_quantile") if q else None,
         )
+        if has(f"{o.name}_corrected"):
+            cv, cci = get(f"{o.name}_corrected"), get(f"{o.name}_corrected_ci")
+            stats[o.name].corrected = {n: cv[j] for j, n in enumerate(STAT_NAMES)}
+            stats[o.name].corrected_ci = {n: cci[:, j] for j, n in enumerate(STAT_NAMES)}
+        if has(f"{o.name}_validation_error"):
+            stats[o.name].validation_error = get(f"{o.name}_validation_error")
+        if has(f"{o.name}_usable"):
+            stats[o.name].usable = np.asarray(get(f"{o.name}_usable")).astype(bool)
     return stats

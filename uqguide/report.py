@@ -10,6 +10,7 @@ mean), so a reader sees whether a difference is larger than the reference's own 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -37,7 +38,20 @@ def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:
 
 
 def cost_table(result: Result) -> pd.DataFrame:
-    """One row per method: runs, failures, wall times and method diagnostics."""
+    """One row per method: runs, failures, wall times and method diagnostics.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``label``, ``method``, ``runs``, ``failed``, ``model_s``, ``fit_s`` [s],
+        the diagnostics a method has (``degree``, ``n_terms``, ``loo_error``...), each rare
+        event's ``P(name)`` and ``cov(name)``, ``reference``, and ``status`` when a method
+        failed.
+    """
     rows = []
     # a rare-event method's event is shown for every method that estimates it: the cost of
     # its probability and coefficient of variation side by side
@@ -45,8 +59,15 @@ def cost_table(result: Result) -> pd.DataFrame:
                               if "event" in r.estimate.diagnostics))
     for r in result.runs:
         d = r.estimate.diagnostics
-        extra = {k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components", "levels")
-                 if k in d}
+        extra: dict[str, Any] = {k: d[k] for k in ("degree", "n_terms", "loo_error",
+                                                    "n_components", "levels") if k in d}
+        if "n_validation" in d:
+            extra["validation"] = d["n_validation"]
+            errs = [v for k, v in d.items() if k.startswith("validation_error.")]
+            extra["val_error"] = max(errs) if errs else float("nan")
+        unusable = unusable_outputs(d)
+        if unusable:
+            extra["no usable surrogate"] = "; ".join(unusable)
         for name in rare:
             ev = r.estimate.events.get(name)
             extra[f"P({name})"] = ev.probability if ev else float("nan")
@@ -65,6 +86,62 @@ def cost_table(result: Result) -> pd.DataFrame:
     return df
 
 
+def unusable_outputs(diagnostics: dict) -> list[str]:
+    """``"output"`` or ``"output from t = 58 s"`` for every output (span) a PCE withdrew
+    its moments from (:mod:`uqguide.pce.validation`)."""
+    out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
+           if k.startswith("unusable.")]
+    out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
+            if k.startswith("unusable_from.")]
+    return out
+
+
+def validation_table(result: Result) -> pd.DataFrame:
+    """A validated PCE's own value beside its control-variate value and interval, per output,
+    component, statistic (and report time for a series), with the model runs it cost (fit plus
+    validation)."""
+    idx = report_indices(result.time, result.report_times)
+    rows = []
+    for r in result.runs:
+        d = r.estimate.diagnostics
+        for o in result.outputs:
+            s = r.estimate.stats.get(o.name)
+            if s is None or not s.corrected:
+                continue
+            places = [((i, c), float(result.time[i])) for i in idx for c in range(o.k)] \
+                if o.kind == "series" else [((c,), float("nan")) for c in range(o.k)]
+            for where, t in places:
+                usable = True if s.usable is None else bool(s.usable[where])
+                err = float(s.validation_error[where]) if s.validation_error is not None \
+                    else float("nan")
+                for stat in STAT_NAMES:
+                    lo, hi = s.corrected_ci[stat][(0,) + where], s.corrected_ci[stat][(1,) + where]
+                    rows.append({"label": r.label, "output": o.name,
+                                 "component": o.components[where[-1]], "time": t,
+                                 "stat": stat, "pce": float(s.stat(stat)[where]),
+                                 "corrected": float(s.corrected[stat][where]),
+                                 "ci_low": float(lo), "ci_high": float(hi),
+                                 "val_error": err, "usable": usable,
+                                 "runs": f"{r.n_runs - int(d.get('n_validation', 0))}"
+                                         f"+{int(d.get('n_validation', 0))}"})
+    return pd.DataFrame(rows)
+
+
+def validation_text(df: pd.DataFrame) -> pd.DataFrame:
+    out = df[["label", "output", "component", "time", "stat"]].copy()
+    out["PCE"] = [(_fmt(v) if u else "no usable surrogate") for v, u in zip(df["pce"],
+                                                                             df["usable"])]
+    out["corrected [95%]"] = [f"{_fmt(v)} [{_fmt(a)}, {_fmt(b)}]" for v, a, b in
+                              zip(df["corrected"], df["ci_low"], df["ci_high"])]
+    out["val_error"] = df["val_error"].map(_fmt)
+    out["runs (fit+validation)"] = df["runs"]
+    if out["time"].isna().all():
+        out = out.drop(columns="time")
+    if (out["component"] == "").all():
+        out = out.drop(columns="component")
+    return out
+
+
 def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) -> bool | None:
     """Whether two estimates agree: their difference lies within the 95% interval of the
     difference, both estimates' errors combined (None when neither has an interval).
@@ -75,6 +152,18 @@ def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) ->
     interval. Judging a candidate against the reference's interval alone would call a
     consistent 1000-run Monte Carlo "out" of a 1e5-run reference whenever its own error is the
     larger one.
+
+    Parameters
+    ----------
+    v, lo, hi : float
+        One estimate and its 95% interval (NaN: none).
+    rv, rlo, rhi : float
+        The other (the reference) and its interval, in the same unit.
+
+    Returns
+    -------
+    bool or None
+        None when neither estimate has an interval or either value is not finite.
     """
     def half(x: float, a: float, b: float, towards: float) -> float:
         w = (b - x) if towards > x else (x - a)
@@ -91,7 +180,14 @@ def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) ->
 def failure_table(result: Result) -> pd.DataFrame:
     """One row per method and failure reason: label, runs, failed, share, reason, count.
 
-    Empty when no run failed.
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns of :data:`uqguide.failures.COLUMNS`; no rows when no run failed.
     """
     rows = [row for r in result.runs if r.n_failed
             for row in reason_rows(r.label, r.n_runs, r.reasons[r.failed])]
@@ -99,7 +195,19 @@ def failure_table(result: Result) -> pd.DataFrame:
 
 
 def statistics_table(result: Result) -> pd.DataFrame:
-    """Long-form statistics at the report times (series) and for every scalar output."""
+    """Long-form statistics at the report times (series) and for every scalar output.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per output, component, time [s] (NaN for scalars), method and statistic:
+        ``value``, ``ci_low``, ``ci_high`` in the output's ``unit``; against the reference
+        also ``ref_value``, ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`).
+    """
     ref = result.run(result.reference) if result.reference else None
     idx = report_indices(result.time, result.report_times)
     rows = []
@@ -113,12 +221,23 @@ def statistics_table(result: Result) -> pd.DataFrame:
                 if o.kind == "series" else [((c,), float("nan")) for c in range(o.k)]
             for where, t in places:
                 comp = o.components[where[-1]]
-                for stat in STAT_NAMES:
-                    v = float(s.stat(stat)[where])
-                    lo, hi = _interval(s, stat, where)
+                usable = True if s.usable is None else bool(s.usable[where])
+                # the PCE's own value, then a validated PCE's control-variate estimate with its
+                # own interval
+                variants: list[tuple[str, bool]] = [(r.label, usable)]
+                if s.corrected:
+                    variants.append((f"{r.label}+cv", True))
+                for (label, ok), stat in ((va, st) for va in variants for st in STAT_NAMES):
+                    if label == r.label:
+                        v = float(s.stat(stat)[where])
+                        lo, hi = _interval(s, stat, where)
+                    else:
+                        v = float(s.corrected[stat][where])
+                        lo = float(s.corrected_ci[stat][(0,) + where])
+                        hi = float(s.corrected_ci[stat][(1,) + where])
                     row = {"output": o.name, "component": comp, "unit": o.unit, "time": t,
-                           "label": r.label, "stat": stat, "value": v, "ci_low": lo,
-                           "ci_high": hi}
+                           "label": label, "stat": stat, "value": v, "ci_low": lo,
+                           "ci_high": hi, "usable": ok}
                     if rs is not None:
                         rv = float(rs.stat(stat)[where])
                         rlo, rhi = _interval(rs, stat, where)
@@ -139,35 +258,49 @@ def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where:
                    comp: str, t: float) -> list[dict]:
     """Rows of the quantiles at one place (none where they were not computed), compared with
     the reference's quantile of the same level and its distribution-free interval."""
-    if s.quantiles is None:
+    table = s.quantile_table()
+    if table is None:
         return []
-    ref_levels = list(rs.quantile_levels) if rs is not None and rs.quantiles is not None else []
+    levels, quantiles, ci_quantiles = table
+    ref_table = rs.quantile_table() if rs is not None else None
+    ref_levels = list(ref_table[0]) if ref_table is not None else []
     rows = []
-    for i, p in enumerate(s.quantile_levels):
-        v = float(s.quantiles[i][where])
+    for i, p in enumerate(levels):
+        v = float(quantiles[i][where])
         if np.isnan(v):
             continue
-        row = {"output": o.name, "component": comp, "unit": o.unit, "time": t, "label": label,
-               "stat": level_name(p), "value": v,
-               "ci_low": float(s.ci_quantiles[0, i][where]),
-               "ci_high": float(s.ci_quantiles[1, i][where])}
-        if p in ref_levels:
+        lo, hi = float(ci_quantiles[0, i][where]), float(ci_quantiles[1, i][where])
+        row: dict[str, object] = {"output": o.name, "component": comp, "unit": o.unit,
+                                  "time": t, "label": label, "stat": level_name(p),
+                                  "value": v, "ci_low": lo, "ci_high": hi}
+        if ref_table is not None and p in ref_levels:
             j = ref_levels.index(p)
-            rv = float(rs.quantiles[j][where])
-            rlo, rhi = (float(rs.ci_quantiles[(k, j, *where)]) for k in (0, 1))
+            rv = float(ref_table[1][j][where])
+            rlo, rhi = (float(ref_table[2][k, j][where]) for k in (0, 1))
             if not np.isnan(rv):
                 # as for the moments: no relative difference to a value within its own
                 # interval of zero (a median near 0)
                 noisy = np.isfinite(rhi - rlo) and abs(rv) <= 0.5 * (rhi - rlo)
                 row.update(ref_value=rv, abs_diff=v - rv,
                            rel_diff=(v - rv) / abs(rv) if rv and not noisy else float("nan"),
-                           agrees=agrees(v, row["ci_low"], row["ci_high"], rv, rlo, rhi))
+                           agrees=agrees(v, lo, hi, rv, rlo, rhi))
         rows.append(row)
     return rows
 
 
 def events_table(result: Result) -> pd.DataFrame:
-    """One row per method and event: probability, 95% interval, counts and estimator."""
+    """One row per method and event: probability, 95% interval, counts and estimator.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``event``, ``definition``, ``label``, ``probability``, ``ci_low``,
+        ``ci_high``, ``n_in``, ``n_used``, ``cov``, ``estimator``.
+    """
     rows = []
     for r in result.runs:
         for name, ev in r.estimate.events.items():
@@ -179,6 +312,19 @@ def events_table(result: Result) -> pd.DataFrame:
 
 
 def events_text(df: pd.DataFrame) -> pd.DataFrame:
+    """The events table for reading: probability and interval in one column.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        As :func:`events_table` returns it.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``event``, ``definition``, ``label``, ``probability [95% interval]``,
+        ``in / used``, ``cov``, ``estimator`` (text).
+    """
     out = df[["event", "definition", "label"]].copy()
     out["probability [95% interval]"] = [
         f"{_fmt(p)} [{_fmt(lo)}, {_fmt(hi)}]"
@@ -194,6 +340,16 @@ def series_agreement(result: Result) -> pd.DataFrame:
 
     The relative difference at a step is ``|value - ref| / |ref|``, over the steps where
     ``|ref|`` is at least ``REL_FLOOR`` of its peak over time.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``output``, ``label``, ``max_rel_mean``, ``at_t_mean`` [s], ``max_rel_std``,
+        ``at_t_std`` [s]; empty without a reference.
     """
     if not result.reference:
         return pd.DataFrame()
@@ -207,7 +363,7 @@ def series_agreement(result: Result) -> pd.DataFrame:
             s = r.estimate.stats.get(o.name)
             if r is ref or s is None or rs is None:
                 continue
-            row = {"output": o.name, "label": r.label}
+            row: dict[str, object] = {"output": o.name, "label": r.label}
             for stat in ("mean", "std"):
                 a, b = s.stat(stat), rs.stat(stat)
                 mag = np.abs(b)
@@ -234,12 +390,30 @@ def _fmt(v: float) -> str:
 
 
 def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
-    """One row per (time, component, label); a column per statistic with its interval."""
+    """One row per (time, component, label); a column per statistic with its interval.
+
+    Parameters
+    ----------
+    stats : pandas.DataFrame
+        Rows of :func:`statistics_table` (one output); ``stats.attrs["reference"]`` names
+        the reference method.
+    with_ref : bool
+        Add the difference from the reference and its verdict to each cell.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Text cells; the ``time`` and ``component`` columns only where they vary.
+    """
     rows = []
     keys = ["time", "component", "label"]
     for key, g in stats.groupby(keys, sort=False, dropna=False):
         row = dict(zip(keys, key))
         for _, s in g.iterrows():
+            u = s.get("usable")
+            if isinstance(u, (bool, np.bool_)) and not u:
+                row[s["stat"]] = "no usable surrogate"
+                continue
             cell = _fmt(s["value"])
             if not np.isnan(s["ci_low"]):
                 cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
@@ -265,8 +439,23 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
 
 
 def render_text(result: Result) -> str:
-    """The console form: the cost table, then each output's statistics at the report times."""
+    """The console form: the cost table, then each output's statistics at the report times.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    str
+        Cost, statistics, events, series agreement, legend and failures, as plain text.
+    """
     parts = ["Cost", cost_table(result).to_string(index=False)]
+    val = validation_table(result)
+    if not val.empty:
+        parts += ["", "PCE validation (PCE value; control-variate value with its 95% bootstrap "
+                  "interval over the validation runs; val_error: out-of-sample error / variance)",
+                  validation_text(val).to_string(index=False)]
     stats = statistics_table(result)
     stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
@@ -300,10 +489,23 @@ def render_text(result: Result) -> str:
 
 
 def interval_legend(with_reference: bool) -> str:
-    """What the brackets and flags of the statistics tables mean (printed with every table)."""
+    """What the brackets and flags of the statistics tables mean (printed with every table).
+
+    Parameters
+    ----------
+    with_reference : bool
+        Also explain the difference and its in / OUT verdict.
+
+    Returns
+    -------
+    str
+    """
     text = ("Values: estimate [95% interval]: Monte Carlo moments by Poisson bootstrap (the "
             "mean by +-1.96 standard errors where it has no bootstrap), quantiles by order "
-            "statistics; PCE values carry none (their error is the surrogate's, see loo_error).")
+            "statistics; PCE values carry none (their error is the surrogate's, see loo_error); "
+            "label+cv: a validated PCE's control-variate estimate, bootstrap interval over its "
+            "validation runs; 'no usable surrogate': LOO or validation error above the "
+            "method's usable_error.")
     if with_reference:
         text += (" (difference from the reference; in: within the 95% interval of the "
                  "difference, both estimates' errors combined; OUT: beyond it).")
@@ -311,7 +513,17 @@ def interval_legend(with_reference: bool) -> str:
 
 
 def to_markdown(df: pd.DataFrame) -> str:
-    """A GitHub-flavoured Markdown table (no extra dependency)."""
+    """A GitHub-flavoured Markdown table (no extra dependency).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+
+    Returns
+    -------
+    str
+        Header, separator and one line per row; floats to 4 significant digits.
+    """
     cols = [str(c) for c in df.columns]
     lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
     for _, row in df.iterrows():
@@ -321,11 +533,25 @@ def to_markdown(df: pd.DataFrame) -> str:
 
 
 def render_markdown(result: Result) -> str:
+    """The Markdown summary (``<name>_summary.md``): cost, statistics, events and series
+    agreement tables.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    str
+    """
     stats = statistics_table(result)
     stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
     parts = [f"# {result.name}: model `{result.model}`", "", "## Cost", "",
              to_markdown(cost_table(result))]
+    val = validation_table(result)
+    if not val.empty:
+        parts += ["", "## PCE validation", "", to_markdown(validation_text(val))]
     for o in result.outputs:
         sub = stats[stats["output"] == o.name]
         if not sub.empty:
@@ -343,7 +569,22 @@ def render_markdown(result: Result) -> str:
 
 
 def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
-    """Write ``<stem>_stats.csv``, ``<stem>_cost.csv`` and ``<stem>_summary.md``."""
+    """Write ``<stem>_stats.csv``, ``<stem>_cost.csv`` and ``<stem>_summary.md`` (and
+    ``<stem>_events.csv`` when the config has events), each whole or absent.
+
+    Parameters
+    ----------
+    result : Result
+    out_dir : Path
+        Created when missing.
+    stem : str
+        File name prefix (the run's name).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",
              out_dir / f"{stem}_summary.md"]

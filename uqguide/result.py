@@ -19,6 +19,8 @@ strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
       events/<name>     attrs: definition, probability, ci_low, ci_high, n_in, n_used,
                                estimator (count | surrogate | subset), cov
       scalar_joint/names, mean, cov                    all scalar outputs stacked
+      surrogate/        a PCE method's fitted expansions, input-to-germ map and derived
+                        outputs' carriers (:mod:`uqguide.result_surrogate`)
       samples/x (sample, input), failed (sample,) 0/1, reasons (sample,),
               scalars/<output> (sample, <output>_component)
 
@@ -49,6 +51,7 @@ from .errors import ResultError
 from .events import EventEstimate
 from .types import Estimate, GeneratedRows, ScalarIndex
 from .models.base import OutputInfo
+from .result_surrogate import StoredSurrogate, read_surrogate, write_surrogate
 from .result_netcdf import (UTF8, attach, read_method_stats, strings, write_method_stats,
                             write_scale)
 from .stats import STAT_NAMES, OutputStats
@@ -88,7 +91,7 @@ class MethodRun:
     """
 
     estimate: Estimate
-    x: np.ndarray
+    x: np.ndarray | GeneratedRows
     scalars: dict[str, np.ndarray]
     failed: np.ndarray
     reasons: np.ndarray
@@ -125,13 +128,62 @@ class Result:
     provenance: dict[str, Any] = field(default_factory=dict)
 
     def run(self, label: str) -> MethodRun:
+        """One method's estimate and runs.
+
+        Parameters
+        ----------
+        label : str
+            The method entry's label in the config.
+
+        Returns
+        -------
+        MethodRun
+            ResultError (listing the labels) when there is none of that label.
+        """
         for r in self.runs:
             if r.label == label:
                 return r
         raise ResultError(f"no method labelled {label!r} in this result; "
                           f"it has: {', '.join(r.label for r in self.runs)}")
 
+    def surrogate(self, label: str) -> Any:
+        """The PCE surrogate of method ``label``: a vectorised predictor ``f(x (n, d)) ->
+        {output: values (n, T, k) or (n, k)}`` of the physical inputs (config order, SI),
+        :class:`uqguide.pce.surrogate.Surrogate` (``.statistics(name)``, ``.at_unit(u)``).
+
+        A surrogate read from a file gets its germ and the model's derived-output maps from the
+        stored config. ResultError when the method kept no surrogate (sampling methods, files
+        written before surrogates were kept).
+        """
+        est = self.run(label).estimate
+        s = est.surrogate
+        if s is None:
+            raise ResultError(f"method {label!r} ({est.method}) kept no surrogate; only PCE "
+                              f"methods do (and result files from uqguide 0.x before issue 14)")
+        if isinstance(s, StoredSurrogate):
+            from .config import validate_config
+            from .pce.germ import Germ
+
+            cfg = validate_config(self.config, f"{self.name} (stored config)")
+            if list(cfg.space.names) != list(s.inputs):
+                raise ResultError(f"{label}: the surrogate's inputs {s.inputs} are not the "
+                                  f"stored config's {list(cfg.space.names)}")
+            est.surrogate = s = s.resolve(Germ.of(cfg.space), cfg.model.derived_outputs())
+        return s
+
     def output(self, name: str) -> OutputInfo:
+        """The metadata of one output (kind, unit, components).
+
+        Parameters
+        ----------
+        name : str
+            An output of this result.
+
+        Returns
+        -------
+        OutputInfo
+            ResultError when the result has no such output.
+        """
         for o in self.outputs:
             if o.name == name:
                 return o
@@ -139,21 +191,52 @@ class Result:
 
     def to_xarray(self, label: str | None = None) -> Any:
         """The statistics as an ``xarray.Dataset``: of method ``label``, or of every method
-        along a ``method`` dimension (see :mod:`uqguide.frames`; needs ``uqguide[xarray]``)."""
+        along a ``method`` dimension (see :mod:`uqguide.frames`; needs ``uqguide[xarray]``).
+
+        Parameters
+        ----------
+        label : str, optional
+            One method's label; default all methods.
+
+        Returns
+        -------
+        xarray.Dataset
+            Per output: ``<output>`` (dimensions ``statistic``, ``time`` for a series,
+            ``<output>_component``), its covariance, intervals, Sobol' indices and quantiles
+            where the method gives them; plus ``method`` when all methods are stacked.
+        """
         from .frames import to_xarray
 
         return to_xarray(self, label)
 
     def to_dataframe(self, output: str) -> Any:
-        """Every statistic of ``output`` at every time step as a tidy ``pandas.DataFrame``
-        (columns method, time, component, statistic, value, ci_low, ci_high)."""
+        """Every statistic of ``output`` at every time step as a tidy table.
+
+        Parameters
+        ----------
+        output : str
+            An output of this result.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per value: columns ``method``, ``time`` [s] (series only), ``component``,
+            ``statistic``, ``value`` (in the output's unit), ``ci_low``, ``ci_high``.
+        """
         from .frames import to_dataframe
 
         return to_dataframe(self, output)
 
 
 def provenance() -> dict[str, Any]:
-    """Versions and host facts that explain where a result's numbers came from."""
+    """Versions and host facts that explain where a result's numbers came from.
+
+    Returns
+    -------
+    dict
+        ``created_utc`` (ISO time), ``versions`` (uqguide, Python, NumPy, SciPy, chaospy,
+        h5py, numba) and ``platform``.
+    """
     import scipy
     from importlib.metadata import PackageNotFoundError, version
 
@@ -193,7 +276,19 @@ def _json_default(obj: Any) -> Any:
 
 
 def write_hdf5(result: Result, path: str | Path) -> Path:
-    """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename)."""
+    """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename).
+
+    Parameters
+    ----------
+    result : Result
+    path : str or Path
+        The HDF5 file to write; its folder is created.
+
+    Returns
+    -------
+    Path
+        ``path``, complete: an interrupted write leaves no file under this name.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic.atomic_path(path) as tmp:
@@ -252,6 +347,8 @@ def _write_run(g: h5py.Group, r: MethodRun, result: Result) -> None:
         names = write_scale(j, "names", e.scalar_names)
         attach(j.create_dataset("mean", data=e.scalar_mean), [names])
         j.create_dataset("cov", data=e.scalar_cov)
+    if e.surrogate is not None and hasattr(e.surrogate, "expansions"):
+        write_surrogate(g.create_group("surrogate"), e.surrogate)
     for name, ev in e.events.items():
         g.create_group(f"events/{name}").attrs.update(ev.as_dict())
     s = g.create_group("samples")
@@ -296,7 +393,18 @@ def _read_stats(g: h5py.Group) -> OutputStats:
 
 
 def read_hdf5(path: str | Path) -> Result:
-    """Read a result file written by :func:`write_hdf5`; ResultError if it is not one."""
+    """Read a result file written by :func:`write_hdf5` (any format version).
+
+    Parameters
+    ----------
+    path : str or Path
+        The HDF5 result file.
+
+    Returns
+    -------
+    Result
+        ResultError when the file is missing, not a uqguide result or incomplete.
+    """
     path = Path(path)
     if not path.is_file():
         raise ResultError(f"{path}: result file not found")
@@ -329,6 +437,7 @@ def read_hdf5(path: str | Path) -> Result:
                     scalar_index=ScalarIndex.parse(strings(joint["names"][()])) if joint else [],
                     scalar_mean=joint["mean"][()] if joint else None,
                     scalar_cov=joint["cov"][()] if joint else None,
+                    surrogate=read_surrogate(g["surrogate"]) if "surrogate" in g else None,
                     events={name: EventEstimate.from_dict(name, dict(eg.attrs))
                             for name, eg in g.get("events", {}).items()},
                 )
@@ -393,7 +502,8 @@ def _check_result(r: Result, path: Path) -> None:
             break
         n = run.x.shape[0] if run.x.ndim == 2 else -1
         if run.x.ndim != 2 or run.x.shape[1] != len(r.input_names):
-            bad = f"{run.label}: samples/x has shape {run.x.shape}, expected (n, {len(r.input_names)})"
+            bad = (f"{run.label}: samples/x has shape {run.x.shape}, "
+                   f"expected (n, {len(r.input_names)})")
         elif run.failed.shape != (n,) or run.reasons.shape != (n,):
             bad = f"{run.label}: samples/failed or reasons do not have {n} rows"
         for name, s in run.estimate.stats.items():

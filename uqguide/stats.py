@@ -35,8 +35,21 @@ __all__ = ["STAT_NAMES", "MomentSums", "OutputStats", "bootstrap_intervals", "ce
            "covariance", "sample_statistics", "shape_moments", "statistics_from_sums"]
 
 
-def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray):
-    """std, skewness and kurtosis from central moments; NaN where the variance is zero."""
+def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """std, skewness and kurtosis from central moments; NaN where the variance is zero.
+
+    Parameters
+    ----------
+    mean, mu2, mu3, mu4 : ndarray, shape (..., k)
+        Mean and central moments 2-4, in powers of the output's unit.
+
+    Returns
+    -------
+    std, skewness, kurtosis : ndarray, shape (..., k)
+        ``std`` in the output's unit; skewness and (non-excess) kurtosis dimensionless, NaN
+        where the variance is at round-off level relative to the mean.
+    """
     std = np.sqrt(np.maximum(mu2, 0.0))
     # A variance at rounding level relative to the mean is zero for this purpose: samples that
     # all agree (before any dispersion acts) must give NaN, not a huge ratio of round-off.
@@ -48,8 +61,22 @@ def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.nd
     return std, skew, kurt
 
 
-def central_moments(y: np.ndarray, axis: int = 0):
-    """Mean and central moments 2-4 of ``y`` along ``axis`` (population estimators, two-pass)."""
+def central_moments(y: np.ndarray, axis: int = 0
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Mean and central moments 2-4 of ``y`` along ``axis`` (population estimators, two-pass).
+
+    Parameters
+    ----------
+    y : ndarray
+        Samples along ``axis``.
+    axis : int
+        The sample axis.
+
+    Returns
+    -------
+    mean, mu2, mu3, mu4 : ndarray
+        Shape of ``y`` without ``axis``; ``mu_p`` in the p-th power of ``y``'s unit.
+    """
     mean = y.mean(axis=axis)
     d = y - np.expand_dims(mean, axis)
     d2 = d * d
@@ -60,7 +87,18 @@ def central_moments(y: np.ndarray, axis: int = 0):
 
 
 def covariance(y: np.ndarray) -> np.ndarray:
-    """Population covariance of ``y (n, ..., k)`` over the sample axis: shape ``(..., k, k)``."""
+    """Population covariance over the sample axis.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n, ..., k)
+        Samples of a k-component output.
+
+    Returns
+    -------
+    ndarray, shape (..., k, k)
+        In the square of ``y``'s unit (divided by ``n``, not ``n - 1``).
+    """
     d = y - y.mean(axis=0)
     return np.einsum("n...i,n...j->...ij", d, d) / y.shape[0]
 
@@ -156,6 +194,12 @@ def sample_statistics(
         For a time series, the time indices at which to bootstrap (the intervals are NaN at the
         other steps); default all steps. The bootstrap costs ``2 * bootstrap * n`` flops per
         power, column and resample, so a 1e5-sample series is bootstrapped where it is reported.
+
+    Returns
+    -------
+    OutputStats
+        Moments ``(..., k)``, covariance ``(..., k, k)``, the standard error of the mean and
+        the bootstrap intervals ``ci[stat]`` ``(2, ..., k)``; ``moments_method="sample"``.
     """
     y = np.asarray(y, dtype=float)
     n = y.shape[0]
@@ -217,7 +261,20 @@ class MomentSums:
 
     @classmethod
     def of(cls, y: np.ndarray, comoments: bool = True) -> MomentSums:
-        """Sums of plain samples ``y (n, ..., k)`` over the first axis (two-pass)."""
+        """Sums of plain samples over the first axis (two-pass).
+
+        Parameters
+        ----------
+        y : ndarray, shape (n, ..., k)
+            Samples of one output.
+        comoments : bool
+            Also sum the cross products (for the covariance).
+
+        Returns
+        -------
+        MomentSums
+            Fields ``(..., k)``, ``cm`` ``(..., k, k)`` or None.
+        """
         y = np.asarray(y, dtype=float)
         n = y.shape[0]
         if n == 0:
@@ -238,6 +295,18 @@ class MomentSums:
         The weighted power sums are matrix products of the weights with the powers of ``y``
         centred at its plain mean (centring keeps the conversion to central sums well
         conditioned), converted to central sums about each resample's own weighted mean.
+
+        Parameters
+        ----------
+        y : ndarray, shape (n, c)
+            Samples of ``c`` columns.
+        w : ndarray, shape (B, n)
+            Non-negative weights (bootstrap multiplicities) per resample.
+
+        Returns
+        -------
+        MomentSums
+            ``n`` ``(B, 1)`` (total weights), fields ``(B, c)``, no comoments.
         """
         y = np.asarray(y, dtype=float)
         B = w.shape[0]
@@ -257,7 +326,18 @@ class MomentSums:
         return cls(W, c + a, m2, m3, m4)
 
     def merge(self, other: MomentSums) -> MomentSums:
-        """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2)."""
+        """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2).
+
+        Parameters
+        ----------
+        other : MomentSums
+            Sums of the other set, fields of the same shape.
+
+        Returns
+        -------
+        MomentSums
+            The union's sums (comoments only where both sides have them).
+        """
         na, nb = self.n, other.n
         if np.ndim(na) == 0 and np.ndim(nb) == 0:
             # Whole-chunk sums: an empty side is the other side exactly.
@@ -284,7 +364,13 @@ class MomentSums:
         return MomentSums(n, mean, m2, m3, m4, cm)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """The fields as named arrays (for storage); inverse of :meth:`from_arrays`."""
+        """The fields as named arrays (for storage); inverse of :meth:`from_arrays`.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``n``, ``mean``, ``m2``, ``m3``, ``m4`` and ``cm`` where present.
+        """
         d = {"n": np.asarray(self.n, dtype=float), "mean": self.mean, "m2": self.m2,
              "m3": self.m3, "m4": self.m4}
         if self.cm is not None:
@@ -293,12 +379,29 @@ class MomentSums:
 
     @classmethod
     def from_arrays(cls, d: dict[str, np.ndarray]) -> MomentSums:
+        """The sums stored by :meth:`arrays`.
+
+        Parameters
+        ----------
+        d : dict of str to ndarray
+            As :meth:`arrays` returns it.
+
+        Returns
+        -------
+        MomentSums
+        """
         n = d["n"]
         return cls(float(n) if n.ndim == 0 else n, d["mean"], d["m2"], d["m3"], d["m4"],
                    d.get("cm"))
 
-    def central_moments(self):
-        """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0."""
+    def central_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0.
+
+        Returns
+        -------
+        mean, mu2, mu3, mu4 : ndarray
+            Shapes of the fields.
+        """
         with np.errstate(invalid="ignore", divide="ignore"):
             inv = np.where(np.asarray(self.n) > 0, 1.0 / np.asarray(self.n), np.nan)
         return self.mean, self.m2 * inv, self.m3 * inv, self.m4 * inv
@@ -323,6 +426,11 @@ def statistics_from_sums(
         Time indices of the bootstrap columns of a series output.
     level : float
         Coverage of the percentile intervals.
+
+    Returns
+    -------
+    OutputStats
+        As :func:`sample_statistics` gives for the same samples (to round-off).
     """
     n = int(round(float(sums.n)))
     shape = sums.mean.shape
