@@ -282,9 +282,11 @@ def render_text(result: Result) -> str:
 
 def interval_legend(with_reference: bool) -> str:
     """What the brackets and flags of the statistics tables mean (printed with every table)."""
-    text = ("Values: estimate [95% interval]: Monte Carlo moments by Poisson bootstrap (the "
-            "mean by +-1.96 standard errors where it has no bootstrap), quantiles by order "
-            "statistics; PCE values carry none (their error is the surrogate's, see loo_error).")
+    text = ("Values: estimate [95% interval]: Monte Carlo moments by the delta method "
+            "(+-1.96 influence-function standard errors; by Poisson bootstrap with "
+            "intervals: bootstrap, the mean then by +-1.96 standard errors where it has no "
+            "bootstrap), quantiles by order statistics; PCE values carry none (their error is "
+            "the surrogate's, see loo_error).")
     if with_reference:
         text += (" (difference from the reference; in: within the 95% interval of the "
                  "difference, both estimates' errors combined; OUT: beyond it).")
