@@ -380,6 +380,33 @@ class MomentSums:
             cm = np.zeros(y.shape[1:] + y.shape[-1:]) if comoments else None
             hi = np.zeros((4,) + y.shape[1:]) if high else None
             return cls(0.0, z, z.copy(), z.copy(), z.copy(), cm, hi)
+        kernel = _compiled_sums()
+        if kernel is None:
+            return cls._of_numpy(y, comoments, high)
+        column_sums, comoment_sums = kernel
+        shape = y.shape[1:]
+        # explicit width: reshape(n, -1) is ambiguous for zero columns (no scalar outputs)
+        flat = np.ascontiguousarray(y).reshape(n, int(np.prod(shape)))
+        mean_flat, sums = column_sums(flat, high)
+        mean = mean_flat.reshape(shape)
+        m2, m3, m4 = (sums[r].reshape(shape) for r in range(3))
+        cm = None
+        if comoments:
+            k = shape[-1] if shape else 1
+            if k == 1:
+                # sum d d over the samples in order: the same additions as m2's
+                cm = m2[..., None].copy()
+            else:
+                lead = int(np.prod(shape[:-1])) if len(shape) > 1 else 1
+                cm = comoment_sums(flat.reshape(n, lead, k), mean.reshape(lead, k)
+                                   ).reshape(shape + (k,))
+        hi = sums[3:].reshape((4,) + shape) if high else None
+        return cls(float(n), mean, m2, m3, m4, cm, hi)
+
+    @classmethod
+    def _of_numpy(cls, y: np.ndarray, comoments: bool, high: bool) -> MomentSums:
+        """:meth:`of` in NumPy (where numba is not importable; the compiled form's reference)."""
+        n = y.shape[0]
         mean = y.mean(axis=0)
         d = y - mean
         cm = np.einsum("n...i,n...j->...ij", d, d) if comoments else None
@@ -481,6 +508,22 @@ class MomentSums:
         with np.errstate(invalid="ignore", divide="ignore"):
             inv = np.where(np.asarray(self.n) > 0, 1.0 / np.asarray(self.n), np.nan)
         return self.mean, self.m2 * inv, self.m3 * inv, self.m4 * inv
+
+
+_KERNEL: list = []
+
+
+def _compiled_sums():
+    """The compiled column sums (:mod:`uqguide.moment_sums_kernel`), imported on first use so
+    that commands computing no statistics do not load numba; None without numba."""
+    if not _KERNEL:
+        try:
+            from .moment_sums_kernel import column_sums, comoment_sums
+        except ImportError:
+            _KERNEL.append(None)
+        else:
+            _KERNEL.append((column_sums, comoment_sums))
+    return _KERNEL[0]
 
 
 def _merge_order(p: int, a: list[np.ndarray], b: list[np.ndarray], na: float | np.ndarray,
