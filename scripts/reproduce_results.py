@@ -45,8 +45,8 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from update_golden import missing_registrations  # noqa: E402
 
 from uqguide.config import RunConfig, load_config  # noqa: E402
-from uqguide.describe import format_report  # noqa: E402
 from uqguide.errors import UqguideError  # noqa: E402
+from uqguide.papers import format_report, has_scenario, nominal_figures, nominal_report  # noqa: E402
 from uqguide.propagate import run  # noqa: E402
 from uqguide.report import render_text, write_tables  # noqa: E402
 from uqguide.report_document import write_report  # noqa: E402
@@ -83,17 +83,13 @@ def reproduce_one(cfg: RunConfig, out: Path) -> list[str]:
     out.mkdir(parents=True, exist_ok=True)
     name = cfg.name
     notes = []
-    if cfg.space.dim == 0:
-        try:
-            rows = cfg.model.nominal_report()
-        except NotImplementedError:
-            rows = None
-        if rows is not None:
-            (out / f"{name}.txt").write_text(format_report(cfg.model.name, rows) + "\n",
-                                             encoding="utf-8")
-            figures = cfg.model.nominal_figures(str(out / "figures"))
-            return [f"nominal scenario: {len(rows)} headline values beside the paper's, "
-                    f"{len(figures)} plots"]
+    if cfg.space.dim == 0 and has_scenario(cfg.model):
+        rows = nominal_report(cfg.model)
+        (out / f"{name}.txt").write_text(format_report(cfg.model.name, rows) + "\n",
+                                         encoding="utf-8")
+        figures = nominal_figures(cfg.model, out / "figures")
+        return [f"nominal scenario: {len(rows)} headline values beside the paper's, "
+                f"{len(figures)} plots"]
     result = run(cfg)
     (out / f"{name}.txt").write_text(render_text(result) + "\n", encoding="utf-8")
     h5 = write_hdf5(result, out / f"{name}.h5")
@@ -125,11 +121,11 @@ def _committed_rows(path: Path) -> dict[str, tuple[str, str, str]]:
 
 def check_nominal(cfg: RunConfig, committed: Path) -> list[str]:
     """Mismatches of the reproducible rows of a fresh nominal report against ``committed``."""
-    from uqguide.describe import _cell
+    from uqguide.papers.rows import cell_text
 
     old = _committed_rows(committed)
     bad = []
-    for r in cfg.model.nominal_report():
+    for r in nominal_report(cfg.model):
         if r.kind != "reproducible":
             continue
         if r.quantity not in old:
@@ -137,14 +133,14 @@ def check_nominal(cfg: RunConfig, committed: Path) -> list[str]:
             continue
         value, check, _ = old[r.quantity]
         verdict = {True: "ok", False: "MISS", None: "—"}[r.ok]
-        same = value == _cell(r.value)
+        same = value == cell_text(r.value)
         if not same and isinstance(r.value, float):
             try:
                 same = abs(float(value) - r.value) <= 1e-2 * abs(r.value) + 1e-12
             except ValueError:
                 same = False
         if not same or verdict != check:
-            bad.append(f"{r.quantity}: committed {value} ({check}), now {_cell(r.value)} "
+            bad.append(f"{r.quantity}: committed {value} ({check}), now {cell_text(r.value)} "
                        f"({verdict})")
     return bad
 

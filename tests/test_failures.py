@@ -141,3 +141,43 @@ def test_pce_failure_policy_end_to_end(write_config, tmp_path):
     assert r.n_failed == 3
     s = r.estimate.stats["y"]
     np.testing.assert_allclose([s.mean[0], s.std[0]], [0.0, np.sqrt(5.0)], atol=1e-10)
+
+
+def test_one_failing_method_is_recorded_while_the_others_complete(write_config, tmp_path):
+    # The tensor PCE needs every quadrature node and 3 of its 9 raise: it cannot produce
+    # statistics. The Monte Carlo beside it must still complete, be written and be reported;
+    # the run ends with exit 1 naming the method that failed.
+    cfg = {
+        "model": {"name": "callable", "function": "tests.failing_models:linear_raises_above",
+                  "inputs": ["a", "b"], "outputs": ["y"]},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                   {"name": "b", "dist": "normal", "std": 1.0}],
+        "methods": [{"name": "pce_tensor", "label": "pt", "m": 3},
+                    {"name": "monte_carlo", "label": "mc", "n_samples": 2000, "bootstrap": 0}],
+        "max_failed_fraction": 0.5,
+        "seed": 3,
+    }
+    res = CliRunner().invoke(main, ["run", str(write_config(cfg, "two.yaml")), "--out",
+                                    str(tmp_path)])
+    assert res.exit_code == 1
+    assert "Traceback" not in res.output
+    assert res.stderr.strip().splitlines()[-1].startswith(
+        "error: pt: 3 of 9 quadrature runs failed (")
+    assert "Methods without statistics (the others completed):" in res.stdout
+    result = read_hdf5(tmp_path / "two.h5")
+    pt, mc = result.run("pt"), result.run("mc")
+    assert not pt.success and pt.message.startswith("pt: 3 of 9 quadrature runs failed")
+    assert pt.estimate.stats == {} and pt.n_failed == 3 and pt.n_runs == 9
+    assert mc.success and mc.message == ""
+    # y = a + 2 b over the runs that survive (a <= 1.5): a is a normal truncated above 1.5,
+    # mean -phi(1.5) / Phi(1.5); the MC mean lies within 4 of its standard errors of it.
+    from scipy.stats import norm
+
+    s = mc.estimate.stats["y"]
+    exact = -norm.pdf(1.5) / norm.cdf(1.5)
+    assert abs(s.mean[0] - exact) < 4 * s.sem[0]
+    from uqguide.report import cost_table
+
+    table = cost_table(result).set_index("label")
+    assert table.loc["pt", "status"] == "FAILED: no statistics"
+    assert table.loc["mc", "status"] == "ok"

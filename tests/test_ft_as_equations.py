@@ -17,7 +17,6 @@ from uqguide.models.ft_as.setup import (
     SIGMA_E,
     V_E,
     Batch,
-    Gains,
 )
 
 PARAMS = FTASParams()
@@ -100,7 +99,7 @@ def test_sliding_variable_obeys_the_reaching_law(seed):
     # s_dot = -nu2 sig^r2(s) - eta2 sig^rho2(s) exactly; finite difference along e1, e2.
     rng = np.random.default_rng(seed)
     n = 4
-    gains = Gains(gamma=0.0)
+    gains = FTASParams(gamma=0.0).gains()
     x = _random_state(n, rng)
     tr = cl.tracking(50.0, x, PLANT)
     e1 = rng.uniform(-1, 1, (n, 6))
@@ -138,7 +137,7 @@ def test_saturation_bounded_and_identity_near_zero(x):
 
 def test_observer_converges_on_a_known_disturbance():
     # spec test 7: FT-DO alone; e2_dot = d(t) with |d_dot| = 0.01 sqrt(6) < lambda3 = 0.1.
-    gains = Gains()
+    gains = PARAMS.gains()
     k = np.arange(6)
     amp, w = 0.02, 0.5
 

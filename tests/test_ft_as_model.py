@@ -10,7 +10,7 @@ from uqguide.models.ft_as import closed_loop as cl
 from uqguide.models.ft_as.model import Variant
 from uqguide.models.ft_as.params import FTASParams
 from uqguide.models.ft_as.runner import Timing, run_batch
-from uqguide.models.ft_as.setup import CHI1, OMEGA, PSI1, PSI2, R_E, SIGMA_E, V_E, Gains
+from uqguide.models.ft_as.setup import CHI1, OMEGA, PSI1, PSI2, R_E, SIGMA_E, V_E
 from uqguide.registry import model_class
 
 VARIANTS = [
@@ -129,7 +129,7 @@ def test_gains_follow_params():
     g = FTASParams(observer_norm="per_channel", switch_boundary=0.1).gains()
     assert g.obs_per_channel and g.boundary == 0.1
     assert g.a == pytest.approx(1 / 0.9) and g.b == pytest.approx(1.1)
-    assert Gains().c == 0.9
+    assert FTASParams().gains().c == 0.9
 
 
 def test_numpy_whole_run_reference_matches_kernel_metrics():

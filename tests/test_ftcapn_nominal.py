@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
 
 from uqguide.models.ftcapn import FTCAPN
+from uqguide.papers import nominal_figures, nominal_report
 
 
 @pytest.fixture(scope="module")
 def rows():
-    return {r.quantity: r for r in FTCAPN({"kernel": "numpy"}).nominal_report()}
+    return {r.quantity: r for r in nominal_report(FTCAPN({"kernel": "numpy"}))}
 
 
 def test_initial_state_matches_paper(rows):
@@ -51,7 +51,7 @@ def test_eq15_equals_true_miss_for_a_straight_drift():
 
 
 def test_nominal_figures_are_written(tmp_path):
-    paths = FTCAPN({"kernel": "numpy"}).nominal_figures(str(tmp_path))
+    paths = nominal_figures(FTCAPN({"kernel": "numpy"}), tmp_path)
     assert len(paths) == 3
     for p in paths:
         with open(p, "rb") as f:

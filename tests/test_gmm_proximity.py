@@ -11,10 +11,12 @@ from pydantic import ValidationError
 
 from uqguide.config import load_config
 from uqguide.models.dynamics.tschauner_hempel import ChiefOrbit, LVLHPlant, propagate_free
-from uqguide.models.gmm.claims import APF, GNT, GTS, evaluate_wang2022_claims
 from uqguide.models.gmm.mixture import WANG2022_PUBLISHED, Mixture
 from uqguide.models.gmm.sampled_sim import simulate
-from uqguide.models.gmm_proximity import GMMProximity
+from uqguide.models.gmm.model import GMMProximity
+from uqguide.papers import nominal_figures, nominal_report
+from uqguide.papers.gmm_proximity.claims import APF, GNT, GTS, evaluate_wang2022_claims
+from uqguide.papers.gmm_proximity.report import nominal_outcomes
 from uqguide.registry import model_class
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -52,7 +54,7 @@ def test_registered_and_contract_shapes():
 
 def test_literal_scenario_reproduces_the_spec_reference_values():
     # spec 11, "[W], literal configuration": delta-v to 1e-3 m/s, errors to one digit.
-    out = GMMProximity().nominal_outcomes()
+    out = nominal_outcomes(GMMProximity())
     assert out[APF].delta_v == pytest.approx(1.0153, abs=1e-3)
     assert out[GTS].delta_v == pytest.approx(1.7031, abs=1e-3)
     assert out[GNT].delta_v == pytest.approx(2.853, abs=1e-3)
@@ -61,7 +63,7 @@ def test_literal_scenario_reproduces_the_spec_reference_values():
     assert out[GNT].final_error == pytest.approx(9.9e-3, rel=0.05)
     for o in out.values():  # the goal is on the far face: every path crosses panel and body
         assert set(o.hit_parts) == {"body", "panel-y"}
-    published = GMMProximity({"ntsmc_eps": 0.0}).nominal_outcomes()[GNT]
+    published = nominal_outcomes(GMMProximity({"ntsmc_eps": 0.0}))[GNT]
     assert published.delta_v == pytest.approx(1.6770, abs=1e-3)
     assert published.final_error == pytest.approx(0.305, abs=0.005)  # z stalls at z(0) = 0
 
@@ -72,14 +74,14 @@ def test_claims_that_hold_in_each_named_configuration(name):
     # literal reading only W7, W9, W10 hold; W1 (APF-TSMC hits the antenna while the GMM laws
     # avoid it) needs the variance floor and a 0.3 m antenna (F2), where W5 and W7 fail.
     params, holds = NAMED[name]
-    claims = evaluate_wang2022_claims(GMMProximity(params).nominal_outcomes())
+    claims = evaluate_wang2022_claims(nominal_outcomes(GMMProximity(params)))
     assert {c.id for c in claims if c.holds} == holds
 
 
 def test_f2_avoidance_and_delta_v_figures():
     # spec 11: "In F/F2 the GMM controllers pass 0.77-0.81 m from the -x antenna axis versus
     # 0.284 m for APF-TSMC (delta-v 0.764 / 0.694 / 1.546 m/s)".
-    out = GMMProximity({**F_FLOOR, "antenna_half_width": 0.3}).nominal_outcomes()
+    out = nominal_outcomes(GMMProximity({**F_FLOOR, "antenna_half_width": 0.3}))
     assert out[GTS].delta_v == pytest.approx(0.764, abs=1e-3)
     assert out[GNT].delta_v == pytest.approx(0.694, abs=1e-3)
     assert out[APF].delta_v == pytest.approx(1.546, abs=1e-3)
@@ -93,8 +95,9 @@ def test_f2_avoidance_and_delta_v_figures():
 def test_fitted_gmm_gives_the_published_outcome():
     # The shipped fit differs from App. A4 by < 1 % (test_gmm_fitting): same verdicts, delta-v
     # within a few mm/s with the floored kernels (the thin published sheets are invisible).
-    pub = GMMProximity({**F_FLOOR, "antenna_half_width": 0.3}).nominal_outcomes()
-    fit = GMMProximity({**F_FLOOR, "antenna_half_width": 0.3, "gmm_source": "fitted"}).nominal_outcomes()
+    pub = nominal_outcomes(GMMProximity({**F_FLOOR, "antenna_half_width": 0.3}))
+    fit = nominal_outcomes(
+        GMMProximity({**F_FLOOR, "antenna_half_width": 0.3, "gmm_source": "fitted"}))
     for label in pub:
         assert fit[label].hit_parts == pub[label].hit_parts
         assert fit[label].delta_v == pytest.approx(pub[label].delta_v, abs=5e-3)
@@ -177,7 +180,7 @@ def test_delta_v_is_the_applied_thrust_and_saturation_holds():
 
 def test_nominal_report_and_figures(tmp_path):
     model = GMMProximity({**F_FLOOR, "antenna_half_width": 0.3})
-    rows = {r.quantity: r for r in model.nominal_report()}
+    rows = {r.quantity: r for r in nominal_report(model)}
     for label in (APF, GTS, GNT):
         for q in ("collision", "minimum clearance", "total delta-v", "final position error"):
             assert f"{label}: {q}" in rows
@@ -185,7 +188,7 @@ def test_nominal_report_and_figures(tmp_path):
     assert rows[f"{GTS}: collision"].value == "no"
     assert rows["claim W1: APF-TSMC collides with an antenna"].ok
     assert not rows[f"{GTS}: delta-v / APF-TSMC delta-v"].ok  # 0.494 vs 0.44 +- 0.05
-    paths = model.nominal_figures(str(tmp_path))
+    paths = nominal_figures(model, tmp_path)
     assert [Path(p).name for p in paths] == ["gmm_trajectories.png", "gmm_delta_v.png"]
     assert all(Path(p).stat().st_size > 10_000 for p in paths)
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats as sps
 
+from uqguide.methods.base import RunContext
 from uqguide.errors import MethodError
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.methods.pce_smolyak import SmolyakPCE
@@ -62,7 +63,7 @@ def _rayleigh_reference():
     AdaptivePCE({"n_samples": 20, "degree_min": 1, "degree_max": 2,
                  "surrogate_draws": N_DRAWS})], ids=lambda m: m.name)
 def test_distance_from_its_miss_vector(method):
-    method.derived_outputs = {"dist": DIST}
+    method = method.with_context(RunContext(derived={"dist": DIST}))
     est, _ = run_method(method, _Planar(), normal_space(3))
     s = est.stats["dist"]
     assert s.moments_method == "surrogate-sampling" and s.sobol_first is None
@@ -78,7 +79,7 @@ def test_distance_from_its_miss_vector(method):
 
 
 def test_missing_carrier_is_an_error():
-    method = TensorPCE({"m": 2})
-    method.derived_outputs = {"dist": DerivedOutput(("r",), DIST.function)}
+    method = TensorPCE({"m": 2}, RunContext(derived={"dist": DerivedOutput(("r",),
+                                                                           DIST.function)}))
     with pytest.raises(MethodError, match="derived from r, but the runs have no r"):
         run_method(method, _Planar(), normal_space(3))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from uqguide.methods.base import RunContext
 from uqguide.config import load_config
 from uqguide.methods.monte_carlo import MonteCarlo
 from uqguide.methods.pce_adaptive import AdaptivePCE
@@ -47,8 +48,8 @@ def test_table4_zem_inside_the_monte_carlo_interval():
     ref_out = model.evaluate(mc.design(space, cfg.seed).x, space.names, ["zem"])
     ref = sample_statistics(ref_out.scalars["zem"][~ref_out.failed], bootstrap=200, seed=1)
 
-    apce = AdaptivePCE({"max_runs": 300, "degree_min": 2, "degree_max": 6, "q_norm": 0.5})
-    apce.derived_outputs = {"zem": zem_derivation(model)}
+    apce = AdaptivePCE({"max_runs": 300, "degree_min": 2, "degree_max": 6, "q_norm": 0.5},
+                       RunContext(derived={"zem": zem_derivation(model)}))
     est, out = run_method(apce, model, space, seed=cfg.seed,
                           outputs=("zem", "r_at_stop", "v_at_stop"))
     assert out.n <= 300

@@ -63,7 +63,7 @@ def test_joint_scalar_covariance_across_different_bases():
     e1 = _expansion(g, [[0, 0], [1, 0]], [1.0, 2.0])
     e2 = _expansion(g, [[0, 0], [0, 1], [1, 0]], [[5.0, 0.0], [1.0, 1.0], [3.0, -1.0]], (2,))
     names, mean, cov = joint_scalar_moments([("a", e1), ("b", e2)])
-    assert names == ["a", "b[0]", "b[1]"]
+    assert [ix.name for ix in names] == ["a", "b[0]", "b[1]"]
     np.testing.assert_array_equal(mean, [1.0, 5.0, 0.0])
     # a = 1 + 2 x1; b0 = 5 + x2 + 3 x1; b1 = x2 - x1.
     np.testing.assert_allclose(cov, [[4, 6, -2], [6, 10, -2], [-2, -2, 2]])

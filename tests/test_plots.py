@@ -17,7 +17,6 @@ from uqguide.config import validate_config
 from uqguide.plots import _moment_density, cost_figure, scalar_figure, series_figure, write_figures
 from uqguide.propagate import run
 from uqguide.report_document import write_report
-from uqguide.result import write_hdf5
 
 
 def _texts(fig) -> list[str]:

@@ -28,6 +28,7 @@ from uqguide.config import load_config
 from uqguide.gate import check_result, read_baseline
 from uqguide.models.kernels import KERNEL_ENV
 from uqguide.models.roundoff import PERTURB_ENV
+from uqguide.papers import nominal_report
 from uqguide.propagate import run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -80,7 +81,7 @@ NOMINAL_NAMES = sorted(p.stem for p in (ROOT / "configs").glob("*_nominal*.yaml"
 
 
 def _rows(name: str) -> list:
-    return load_config(ROOT / "configs" / f"{name}.yaml").model.nominal_report()
+    return nominal_report(load_config(ROOT / "configs" / f"{name}.yaml").model)
 
 
 @pytest.mark.parametrize(("name", "mode"), _cases(NOMINAL_NAMES))

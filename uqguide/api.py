@@ -24,6 +24,7 @@ Examples
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -117,20 +118,16 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     if seed is not None:
         cfg = cfg.with_seed(seed)
     executor = make_executor(workers) if workers else None
-    try:
-        import sys
+    shown = make_progress(sys.stderr, not progress)
+    if out is not None:
+        from .run_and_write import run_and_write
 
-        result = _run(cfg, executor, progress=make_progress(sys.stderr, not progress))
+        return run_and_write(cfg, out, executor, workers=workers or 1, progress=shown).result
+    try:
+        result = _run(cfg, executor, progress=shown)
     finally:
         if executor is not None:
             executor.close()
-    if out is not None:
-        from .report import write_tables
-        from .result import write_hdf5
-
-        out = Path(out)
-        write_hdf5(result, out / f"{cfg.name}.h5")
-        write_tables(result, out, cfg.name)
     return result
 
 

@@ -24,7 +24,8 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from . import __version__, atomic
+from . import atomic
+from ._version import __version__
 from .errors import ResultError
 from .models.base import OutputInfo
 from .report_times import report_indices
@@ -206,7 +207,7 @@ def _point_places(result: Result, o: OutputInfo) -> list[tuple[str, float | None
     """``(at, time, step index)`` of the points a baseline keeps for output ``o``."""
     if o.kind == "scalar":
         return [("scalar", None, None)]
-    idx = report_indices(result)
+    idx = report_indices(result.time, result.report_times)
     last = result.time.size - 1
     return [("end" if i == last else "report", float(result.time[i]), int(i)) for i in idx]
 

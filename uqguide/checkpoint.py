@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from .atomic import atomic_path, clean_stale_temps
 from .errors import ConfigError
 from .execution import ChunkResult, Task

@@ -18,7 +18,7 @@ from typing import Any
 
 import click
 
-from . import __version__
+from ._version import __version__
 from .errors import ConfigError, ResultError, UqguideError
 from .interrupts import EXIT_INTERRUPTED, ignore_signals, install
 
@@ -106,6 +106,17 @@ def main(verbose: int) -> None:
     _setup_logging(verbose)
 
 
+def _check_executor_flags(workers: int | None, scheduler: str | None,
+                          scheduler_file: Path | None) -> None:
+    """ConfigError (exit 2) for executor options that cannot go together."""
+    if scheduler and scheduler_file:
+        raise ConfigError("--scheduler-file: give either --scheduler or --scheduler-file, "
+                          "not both", field="scheduler_file")
+    if (scheduler or scheduler_file) and workers:
+        raise ConfigError("--workers: not used with a Dask scheduler (the cluster has its "
+                          "own workers)", field="workers")
+
+
 @main.command()
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
@@ -131,19 +142,17 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, resume: bool,
         check_path: Path | None, quiet: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
-    from .budget import check_memory, estimate
-    from .checkpoint import RunInterrupted, RunStore, run_dir, run_identity
+    from .budget import estimate
+    from .checkpoint import RunInterrupted
     from .config import load_config
     from .execution import make_executor
-    from .interrupts import EXIT_INTERRUPTED, deferred
     from .progress_display import make_progress
-    from .propagate import check_failure_budget
-    from .propagate import run as run_config
+    from .propagate import check_failure_budget, check_methods
+    from .report import render_text
     from .report_times import check_config_report_times
-    from .report import render_text, write_tables
-    from .result import write_hdf5
-    from .runlock import RunLock
+    from .run_and_write import WriteInterrupted, run_and_write
 
+    _check_executor_flags(workers, scheduler, scheduler_file)
     cfg = load_config(config)
     if seed is not None:
         cfg = cfg.with_seed(seed)
@@ -151,48 +160,29 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     baseline = _gate_preflight(check_path, cfg) if check_path else None
     again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
         "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")
+    if not quiet:
+        click.echo("budget:", err=True)
+        for line in estimate(cfg, workers or 1).lines():
+            click.echo(line, err=True)
     executor = make_executor(workers, scheduler,
                              str(scheduler_file) if scheduler_file else None)
     try:
-        budget = estimate(cfg, workers or 1)
-        if not quiet:
-            click.echo("budget:", err=True)
-            for line in budget.lines():
-                click.echo(line, err=True)
-        check_memory(budget)  # before anything is allocated
-        folder = run_dir(out_dir, cfg.name)  # inside out_dir: the name is a plain file name
-        with RunLock(folder):
-            try:
-                store = RunStore.open(folder, run_identity(cfg.resolved(), cfg.model), resume,
-                                      again)
-                result = run_config(cfg, executor, store=store,
-                                    progress=make_progress(sys.stderr, quiet))
-            except RunInterrupted as exc:
-                click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume "
-                           f"with `{again}`", err=True)
-                sys.exit(EXIT_INTERRUPTED)
-            finally:
-                executor.close()
-            try:
-                # Each file whole or absent; a signal here stops the run after the file being
-                # written, and the run folder stays until every file is written (resumable).
-                with deferred():
-                    h5 = write_hdf5(result, out_dir / f"{cfg.name}.h5")
-                with deferred():
-                    tables = write_tables(result, out_dir, cfg.name)
-            except KeyboardInterrupt:
-                click.echo(f"interrupted while writing the result; resume with `{again}`",
-                           err=True)
-                sys.exit(EXIT_INTERRUPTED)
-            with deferred():
-                store.remove()  # the result file holds everything the chunks did
-    finally:
-        executor.close()
+        written = run_and_write(cfg, out_dir, executor, workers=workers or 1, resume=resume,
+                                progress=make_progress(sys.stderr, quiet), resume_hint=again)
+    except RunInterrupted as exc:
+        click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume "
+                   f"with `{again}`", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except WriteInterrupted:
+        click.echo(f"interrupted while writing the result; resume with `{again}`", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    result, h5, tables = written.result, written.h5, written.tables
     click.echo(render_text(result))
     click.echo("")
     click.echo(f"wrote {h5}")
     for p in tables:
         click.echo(f"wrote {p}")
+    check_methods(result)
     check_failure_budget(result, cfg.raw.max_failed_fraction)
     if check_path:
         _gate_verdict(result, baseline, check_path)
@@ -229,16 +219,16 @@ def validate(config: Path) -> None:
 def simulate(config: Path, fig_dir: Path | None) -> None:
     """Run CONFIG's model once at its nominal inputs; print its figures beside the paper's."""
     from .config import load_config
-    from .describe import format_report
+    from .papers import NoPaperScenario, format_report, nominal_figures, nominal_report
 
     cfg = load_config(config)
     try:
-        rows = cfg.model.nominal_report()
-    except NotImplementedError as exc:
+        rows = nominal_report(cfg.model)
+    except NoPaperScenario as exc:
         raise ConfigError(f"model.name: {exc}; `uqguide simulate` needs a paper scenario") from None
     click.echo(format_report(cfg.model.name, rows))
     if fig_dir is not None:
-        for p in cfg.model.nominal_figures(str(fig_dir)):
+        for p in nominal_figures(cfg.model, fig_dir):
             click.echo(f"wrote {p}")
 
 

@@ -29,6 +29,7 @@ Layout (all values SI)::
 from __future__ import annotations
 
 import re
+from types import MappingProxyType
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,15 +37,15 @@ from typing import Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
-                      model_validator)
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator)
 
 from .errors import ConfigError
 from .events import EventSpec, component_index
 from .quantiles import resolve_levels
-from .strict import no_bool_numbers
+from .strict import StrictModel
 from .inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
-from .methods.base import Method
+from .limits import check_steps, default_max_memory, parse_bytes
+from .methods.base import Method, RunContext
 from .models.base import Model
 from .registry import did_you_mean, method_class, model_class
 
@@ -74,7 +75,7 @@ def check_run_name(name: str) -> str:
     return name
 
 
-class RawConfig(BaseModel):
+class RawConfig(StrictModel):
     """The config file's top level, before model- and method-specific validation."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -113,14 +114,10 @@ class RawConfig(BaseModel):
     #: A call is ``batch_size`` samples (chunk rows at most): size it for that.
     timeout_s: float | None = Field(default=None, gt=0.0, le=1e6)
 
-    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
-
     @field_validator("max_memory")
     @classmethod
     def _memory(cls, v: Any) -> Any:
         if v is not None:
-            from .budget import parse_bytes
-
             parse_bytes(v)
         return v
 
@@ -170,8 +167,6 @@ class RunConfig:
     @property
     def max_memory(self) -> int:
         """Bytes a run may plan to use (the config's ``max_memory`` or half the machine's)."""
-        from .budget import default_max_memory, parse_bytes
-
         v = self.raw.max_memory
         return default_max_memory() if v is None else parse_bytes(v)
 
@@ -342,13 +337,8 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     outputs = _resolve_outputs(raw, model)
     _check_quantiles(raw)
     _check_events(raw, model, outputs)
-    methods = _build_methods(raw)
-    levels = resolve_levels(raw.quantiles)
-    comps = {o: tuple(model.output_info(o).components) for o in outputs}
+    methods = _build_methods(raw, _run_context(raw, model, outputs))
     for i, m in enumerate(methods):
-        m.quantile_levels = levels
-        m.events = tuple(raw.events)
-        m.components = comps
         m.check(i)
     labels = [m.label for m in methods]
     for i, lab in enumerate(labels):
@@ -369,9 +359,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
                     field=f"report_times[{i}]")
     cfg = RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
                     source=source)
-    from .budget import check_steps
-
-    check_steps(cfg)
+    check_steps(model, raw.max_steps)
     for i, m in enumerate(methods):
         try:
             m.plan(space)
@@ -560,7 +548,22 @@ def _resolve_outputs(raw: RawConfig, model: Model) -> tuple[str, ...]:
     return tuple(dict.fromkeys(raw.outputs))
 
 
-def _build_methods(raw: RawConfig) -> list[Method]:
+def _run_context(raw: RawConfig, model: Model, outputs: tuple[str, ...]) -> RunContext:
+    """What every method of the config is told about the run (:class:`RunContext`)."""
+    return RunContext(
+        report_times=tuple(raw.report_times) if raw.report_times else None,
+        failure_policy=raw.pce_failure_policy,
+        quantile_levels=resolve_levels(raw.quantiles),
+        events=tuple(raw.events),
+        components=MappingProxyType({o: tuple(model.output_info(o).components)
+                                     for o in outputs}),
+        outputs=outputs,
+        derived=MappingProxyType({k: d for k, d in model.derived_outputs().items()
+                                  if k in outputs}),
+    )
+
+
+def _build_methods(raw: RawConfig, context: RunContext) -> list[Method]:
     methods = []
     for i, entry in enumerate(raw.methods):
         if "name" not in entry:
@@ -569,11 +572,9 @@ def _build_methods(raw: RawConfig) -> list[Method]:
         cls = method_class(entry["name"], f"methods[{i}].name")
         settings = {k: v for k, v in entry.items() if k != "name"}
         try:
-            method = cls(cls.Settings.model_validate(settings))
+            method = cls(cls.Settings.model_validate(settings), context)
         except ValidationError as err:
             raise _from_validation(err, f"methods[{i}]", ["name", *_fields(cls.Settings)]) from None
-        method.report_times = tuple(raw.report_times) if raw.report_times else None
-        method.failure_policy = raw.pce_failure_policy
         methods.append(method)
     return methods
 

@@ -1,16 +1,11 @@
-"""The failed runs, tallied by method and reason: the table ``uqguide run`` prints under its
-statistics, and the one it prints when every run of a method failed (no statistics at all)."""
+"""The failed runs, tallied by reason: the rows of the table ``uqguide run`` prints under its
+statistics (:func:`uqguide.report.failure_table`), and the table it prints when every run of a
+method failed (no statistics at all)."""
 
 from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Iterable
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    import pandas as pd
-
-    from .result import Result
 
 #: Reasons listed per method; the rest are summed into one "other reasons" row.
 MAX_REASONS = 5
@@ -32,18 +27,6 @@ def reason_rows(label: str, n_runs: int, reasons: Iterable[object]) -> list[dict
                      "share": f"{100 * n_failed / max(n_runs, 1):.3g}%" if first else "",
                      "reason": reason, "count": count})
     return rows
-
-
-def failure_table(result: Result) -> pd.DataFrame:
-    """One row per method and failure reason: label, runs, failed, share, reason, count.
-
-    Empty when no run failed.
-    """
-    import pandas as pd
-
-    rows = [row for r in result.runs if r.n_failed
-            for row in reason_rows(r.label, r.n_runs, r.reasons[r.failed])]
-    return pd.DataFrame(rows, columns=COLUMNS)
 
 
 def render_reasons(label: str, n_runs: int, reasons: Iterable[object]) -> str:

@@ -9,19 +9,59 @@ index) is NaN for it. xarray is an optional dependency (``pip install 'uqguide[x
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from .errors import ResultError
 from .labelled import method_variables
-from .stats import STAT_NAMES
+from .types import STAT_NAMES, Estimate
 
 if TYPE_CHECKING:
     import pandas as pd
     import xarray as xr
 
-    from .result import MethodRun, Result
+    from .models.base import OutputInfo
+
+
+class MethodRun(Protocol):
+    """What these views read of a method's run (:class:`uqguide.result.MethodRun`); a protocol,
+    so that the result, which offers the views, is not imported by them."""
+
+    @property
+    def label(self) -> str: ...
+    @property
+    def estimate(self) -> Estimate: ...
+    @property
+    def n_runs(self) -> int: ...
+    @property
+    def n_failed(self) -> int: ...
+    @property
+    def model_seconds(self) -> float: ...
+    @property
+    def fit_seconds(self) -> float: ...
+
+
+class Result(Protocol):
+    """What these views read of a :class:`uqguide.result.Result`."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def model(self) -> str: ...
+    @property
+    def reference(self) -> str | None: ...
+    @property
+    def runs(self) -> Sequence[MethodRun]: ...
+    @property
+    def outputs(self) -> Sequence[OutputInfo]: ...
+    @property
+    def time(self) -> np.ndarray: ...
+    @property
+    def input_names(self) -> Sequence[str]: ...
+    def run(self, label: str) -> MethodRun: ...
+    def output(self, name: str) -> OutputInfo: ...
 
 
 def _xarray():

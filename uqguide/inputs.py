@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Annotated, Literal, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, model_validator
+from pydantic import ConfigDict, Field, PositiveFloat, model_validator
 
-from .strict import no_bool_numbers
+from .strict import StrictModel
 
 if TYPE_CHECKING:
     import chaospy
@@ -32,12 +32,10 @@ def _chaospy():
     return chaospy
 
 
-class _Marginal(BaseModel):
+class _Marginal(StrictModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     name: str = Field(min_length=1)
-
-    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
 
     def to_chaospy(self) -> chaospy.Distribution:  # pragma: no cover - abstract
         raise NotImplementedError

@@ -14,8 +14,8 @@
   are not samples of the output's distribution.
 - :func:`cost_figure`: the cost table (:func:`uqguide.report.cost_table`) as bars and a table.
 
-Figures are built on :class:`matplotlib.figure.Figure` without ``pyplot``: no global state, no
-display needed, nothing to close. Axis labels carry the output's SI unit.
+Figures are made and written through :mod:`uqguide.figures` (no ``pyplot``: no global state, no
+display needed, nothing to close). Axis labels carry the output's SI unit.
 """
 
 from __future__ import annotations
@@ -27,10 +27,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 from scipy import stats as sps
 
-from . import atomic
+from .figures import Figure, new_figure, save
 from .models.base import OutputInfo
 from .report import cost_table
 from .result import MethodRun, Result
@@ -104,7 +103,7 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
     name = f"{o.name}{_comp_suffix(o, component)}"
     u = unit_label(o.unit)
     t = result.time
-    fig = Figure(figsize=(11.0, 7.8), layout="constrained")
+    fig = new_figure((11.0, 7.8), layout="constrained")
     (ax_m, ax_s), (ax_g, ax_k) = fig.subplots(2, 2, sharex=True)
     styles = _styles(result)
     handles, labels = [], []
@@ -182,7 +181,7 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
     name = f"{o.name}{_comp_suffix(o, component)}"
     u = unit_label(o.unit)
     t = result.time
-    fig = Figure(figsize=(10.0, 5.6), layout="constrained")
+    fig = new_figure((10.0, 5.6), layout="constrained")
     ax = fig.add_subplot()
     styles = _styles(result)
     title_levels = ""
@@ -274,7 +273,7 @@ def scalar_figure(result: Result, output: str) -> Figure:
     ncols = min(k, 3)
     nrows = -(-k // ncols)
     width = 5.6 * ncols + (2.0 if ncols == 1 else 1.0)
-    fig = Figure(figsize=(width, 4.6 * nrows + 1.6), layout="constrained")
+    fig = new_figure((width, 4.6 * nrows + 1.6), layout="constrained")
     axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False)).ravel()
     styles = _styles(result)
     u = unit_label(o.unit)
@@ -366,7 +365,7 @@ def cost_figure(result: Result) -> Figure:
     df = cost_table(result)
     labels = [method_label(r) for r in result.runs]
     n = len(labels)
-    fig = Figure(figsize=(11.0, 3.2 + 0.45 * n + 0.35 * n), layout="constrained")
+    fig = new_figure((11.0, 3.2 + 0.45 * n + 0.35 * n), layout="constrained")
     gs = fig.add_gridspec(2, 2, height_ratios=[1.0 + 0.35 * n, 0.4 + 0.3 * n])
     ax_runs, ax_time = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1], sharey=None)
     ax_tab = fig.add_subplot(gs[1, :])
@@ -422,7 +421,7 @@ def _safe(text: str) -> str:
 
 def _save(fig: Figure, path: Path, dpi: int) -> None:
     """A PNG written whole or not at all (temporary file, then rename)."""
-    atomic.write_with(path, lambda p: fig.savefig(p, dpi=dpi, format="png"))
+    save(fig, path, dpi=dpi)
 
 
 def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[FigureFile]:
@@ -446,7 +445,7 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
                 if has_quantiles(result, o.name):
                     path = out / (f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
                                   f"_envelope.png")
-                    envelope_figure(result, o.name, c).savefig(path, dpi=dpi)
+                    _save(envelope_figure(result, o.name, c), path, dpi)
                     files.append(FigureFile(path, "envelope", o.name, comp))
         elif o.kind == "scalar":
             path = out / f"{stem}_{_safe(o.name)}_hist.png"

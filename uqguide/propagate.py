@@ -15,18 +15,21 @@ from __future__ import annotations
 import logging
 import time
 from collections import Counter
+from dataclasses import replace
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
 from .checkpoint import RunInterrupted, RunStore
 from .config import RunConfig
-from .errors import ModelError, UqguideError
+from .errors import MethodError, ModelError, UqguideError
 from .execution import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, ModelHandle,
                         SerialExecutor, Task, Timing, common_grid)
 from .inputs import InputSpace
 from .methods.base import Design, Method
-from .models.base import Model, ModelOutput
+from .models.base import Model
+from .types import Estimate, ModelOutput
 from .progress import Progress
 from .report_times import check_config_report_times
 from .result import MethodRun, Result, provenance
@@ -165,7 +168,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     """
     executor = executor or SerialExecutor()
     requested = outputs
-    outputs = _attach_derivations(method, model, outputs)
+    method, outputs = _in_context(method, model, outputs)
     bs = executor.batch_size or batch_size or DEFAULT_BATCH_SIZE
     progress = progress or Progress()
     timing = Timing()
@@ -180,40 +183,14 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     progress.start(method.label)
     log.info("%s: %d runs in the initial design (%d chunks)", method.label, design.n_runs,
              len(tasks))
-    reducer = method.reducer(space, design)
-    method.on_phase = progress.phase
-    out, acc = stage.run(design.x, 0, tasks, reducer)
-    if reducer is None:
-        for k in range(1, MAX_REFINEMENTS + 1):
-            bigger = method.refine(space, design, out)
-            progress.phase("")
-            if bigger is None:
-                break
-            new_x = _appended_rows(design, bigger)
-            log.info("%s: %d more runs (sequential design)", method.label, new_x.shape[0])
-            more_tasks = stage.tasks(new_x.shape[0])
-            progress.plan(len(more_tasks), new_x.shape[0])
-            more, _ = stage.run(new_x, k, more_tasks, None)
-            design, out = bigger, ModelOutput.concatenate(common_grid([out, more]))
-        else:
-            log.warning("%s: stopped after %d refinements", method.label, MAX_REFINEMENTS)
-    t_fit = time.perf_counter()
-    progress.phase("estimating")
-    if reducer is None:
-        estimate = method.estimate(space, design, out)
-    else:
-        estimate = method.estimate_reduced(space, design, out, acc)
-    progress.phase("")
-    method.on_phase = None
-    fit_seconds = time.perf_counter() - t_fit
+    reducer = method.reducer(space, design) if method.reduces_chunks else None
+    with method.phases_to(progress.phase):
+        estimate, design, out, fit_seconds, failure = _evaluate_and_estimate(
+            method, space, design, stage, tasks, reducer, progress, timing)
+    # One clock for the fit: the driver's (refinements' fits plus the final estimate).
+    estimate.diagnostics["fit_seconds"] = fit_seconds
     # carriers evaluated only for a derivation are not part of the result
-    estimate.stats = {k: v for k, v in estimate.stats.items() if k in requested}
-    if estimate.scalar_names and estimate.scalar_mean is not None:
-        keep = [i for i, nm in enumerate(estimate.scalar_names) if nm.split("[")[0] in requested]
-        estimate.scalar_names = [estimate.scalar_names[i] for i in keep]
-        estimate.scalar_mean = estimate.scalar_mean[keep]
-        if estimate.scalar_cov is not None:
-            estimate.scalar_cov = estimate.scalar_cov[np.ix_(keep, keep)]
+    estimate.restrict(requested)
     return MethodRun(
         estimate=estimate,
         x=design.x,
@@ -225,24 +202,87 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         model_seconds=timing.model_seconds,
         fit_seconds=fit_seconds,
         wall_seconds=time.perf_counter() - t_start,
+        success=not failure,
+        message=failure,
     )
 
 
-def _attach_derivations(method: Method, model: Model, outputs: tuple[str, ...]
-                        ) -> tuple[str, ...]:
-    """Give a surrogate method the model's derivations of the requested outputs.
+def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, stage: _Stage,
+                           tasks: list[Task], reducer: Any, progress: Progress, timing: Timing
+                           ) -> tuple[Estimate, Design, ModelOutput, float, str]:
+    """Evaluate the design (and its refinements), then estimate.
 
-    A method that can use them has a ``derived_outputs`` attribute (the PCE methods): it fits
-    the carriers and gets the derived output through their surrogates. The carriers are then
-    evaluated too; the returned tuple is the outputs to evaluate. Sampling methods use the
-    model's own values and are left alone.
+    Returns the estimate, the final design, the runs' outputs, the seconds spent fitting (in
+    ``refine`` and ``estimate``, outside the model) and why the method failed ("" when it did
+    not): a method that cannot produce statistics is recorded with its runs, so the other
+    methods of the run still complete.
     """
-    if not hasattr(method, "derived_outputs"):
-        return outputs
+    out, acc = stage.run(design.x, 0, tasks, reducer)
+    fit_seconds = 0.0
+    if method.refines:
+        for k in range(1, MAX_REFINEMENTS + 1):
+            t0 = time.perf_counter()
+            try:
+                bigger = method.refine(space, design, out)
+            except _METHOD_FAILURES as exc:
+                fit_seconds += time.perf_counter() - t0
+                return _no_estimate(method), design, out, fit_seconds, _why(method, exc)
+            fit_seconds += time.perf_counter() - t0
+            progress.phase("")
+            if bigger is None:
+                break
+            new_x = _appended_rows(design, bigger)
+            log.info("%s: %d more runs (sequential design)", method.label, new_x.shape[0])
+            more_tasks = stage.tasks(new_x.shape[0])
+            progress.plan(len(more_tasks), new_x.shape[0])
+            more, _ = stage.run(new_x, k, more_tasks, None)
+            design, out = bigger, ModelOutput.concatenate(common_grid([out, more]))
+        else:
+            log.warning("%s: stopped after %d refinements", method.label, MAX_REFINEMENTS)
+    t0 = time.perf_counter()
+    progress.phase("estimating")
+    failure = ""
+    try:
+        if reducer is None:
+            estimate = method.estimate(space, design, out)
+        else:
+            estimate = method.estimate_reduced(space, design, out, acc)
+    except _METHOD_FAILURES as exc:
+        estimate, failure = _no_estimate(method), _why(method, exc)
+    progress.phase("")
+    return estimate, design, out, fit_seconds + time.perf_counter() - t0, failure
+
+
+#: What a method may raise and still leave the run to the other methods: a MethodError (it
+#: cannot produce statistics from these runs) or a numerical failure of its fit. A ModelError
+#: (a model breaking its contract) and a ConfigError stop the run; so does Ctrl-C.
+_METHOD_FAILURES = (MethodError, ArithmeticError, ValueError, np.linalg.LinAlgError)
+
+
+def _no_estimate(method: Method) -> Estimate:
+    return Estimate(method=method.name, label=method.label, stats={})
+
+
+def _why(method: Method, exc: Exception) -> str:
+    if isinstance(exc, MethodError):
+        return str(exc)
+    log.debug("%s failed", method.label, exc_info=exc)
+    return f"{method.label}: {type(exc).__name__}: {exc} (run with -vv for the traceback)"
+
+
+def _in_context(method: Method, model: Model, outputs: tuple[str, ...]
+                ) -> tuple[Method, tuple[str, ...]]:
+    """The method in the context of this propagation (its outputs and the model's
+    derivations of them), and the outputs to evaluate: a method that
+    :attr:`~uqguide.methods.base.Method.uses_derivations` needs their carriers too."""
     derived = {k: d for k, d in model.derived_outputs().items() if k in outputs}
-    method.derived_outputs = derived  # type: ignore[attr-defined]
+    context = replace(method.context, outputs=outputs, derived=MappingProxyType(derived))
+    if context != method.context:
+        method = method.with_context(context)
+    if not method.uses_derivations:
+        return method, outputs
     carriers = [c for d in derived.values() for c in d.carriers if c not in outputs]
-    return outputs + tuple(dict.fromkeys(carriers))
+    return method, outputs + tuple(dict.fromkeys(carriers))
 
 
 def _appended_rows(old: Design, new: Design) -> np.ndarray:
@@ -300,6 +340,9 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         raise RunInterrupted(done, progress.chunks_total) from None
     finally:
         progress.close()
+    if runs and not any(r.success for r in runs):
+        # nothing to report: no result file, the reasons instead
+        raise MethodError("\n".join(r.message for r in runs))
     time_grid = next((r.time for r in runs if r.time.size), np.zeros(0))
     return Result(
         name=config.name,
@@ -313,6 +356,14 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         config=config.resolved(),
         provenance={**provenance(), "wall_seconds": time.perf_counter() - t0},
     )
+
+
+def check_methods(result: Result) -> None:
+    """Raise UqguideError (exit 1) naming each method that produced no statistics (the others
+    are in the result and its tables)."""
+    failed = [r.message for r in result.runs if not r.success]
+    if failed:
+        raise UqguideError("; ".join(failed))
 
 
 def check_failure_budget(result: Result, max_failed_fraction: float) -> None:

@@ -22,9 +22,10 @@ MODELS: dict[str, str] = {
     "lognormal": "uqguide.models.benchmarks:Lognormal",
     "ishigami": "uqguide.models.benchmarks:Ishigami",
     "borehole": "uqguide.models.benchmarks:Borehole",
+    "sobol_g": "uqguide.models.sobol_g:SobolG",
     "callable": "uqguide.models.callable:CallableModel",
     "ftcapn": "uqguide.models.ftcapn:FTCAPN",
-    "gmm_proximity": "uqguide.models.gmm_proximity:GMMProximity",
+    "gmm_proximity": "uqguide.models.gmm.model:GMMProximity",
     "ft_as": "uqguide.models.ft_as:FTAS",
     "gmm_ftc": "uqguide.models.gmm_ftc:GMMFTC",
 }

@@ -145,15 +145,13 @@ def write_histories(rep: Replay, path: Path) -> Path:
 
 def history_figure(rep: Replay, result_name: str, path: Path) -> Path:
     """One panel per series output (every component) against time."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from .figures import new_figure, save
 
     series = rep.replayed.series
     n = max(len(series), 1)
     cols = 3 if n > 4 else 2 if n > 1 else 1
     rows = -(-n // cols)
-    fig = Figure(figsize=(4.2 * cols, 2.8 * rows + 0.8), layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = new_figure((4.2 * cols, 2.8 * rows + 0.8), layout="constrained")
     t = rep.replayed.time
     for k, (name, y) in enumerate(series.items()):
         ax = fig.add_subplot(rows, cols, k + 1)
@@ -164,19 +162,19 @@ def history_figure(rep: Replay, result_name: str, path: Path) -> Path:
         if y.shape[2] > 1:
             ax.legend(fontsize=7)
     fig.suptitle(f"{result_name}: {rep.label} sample {rep.index} ({rep.why})", fontsize=10)
-    fig.savefig(path, dpi=100)
-    return path
+    return save(fig, path, dpi=100)
 
 
 def write_replay(rep: Replay, cfg: RunConfig, result_name: str, out_dir: Path) -> list[Path]:
-    """Histories (CSV), the generic history figure and the model's trajectory figures."""
+    """Histories (CSV), the generic history figure and the paper scenario's trajectory figures."""
+    from .papers import sample_figures
+
     out_dir.mkdir(parents=True, exist_ok=True)
     stem = f"{result_name}_{rep.label}_{rep.index}"
     paths = [write_histories(rep, out_dir / f"{stem}_history.csv")]
     if rep.replayed.series:
         paths.append(history_figure(rep, result_name, out_dir / f"{stem}_history.png"))
-    paths += [Path(p) for p in cfg.model.sample_figures(rep.replayed, rep.inputs,
-                                                        str(out_dir), stem)]
+    paths += sample_figures(cfg.model, rep.replayed, rep.inputs, out_dir, stem)
     return paths
 
 

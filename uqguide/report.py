@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from . import atomic
-from .failures import failure_table
+from .failures import COLUMNS as FAILURE_COLUMNS, reason_rows
 from .result import Result
 from .quantiles import level_name
 from .report_times import report_indices  # noqa: F401 - imported from here by others
@@ -28,7 +28,7 @@ REL_FLOOR = 1e-3
 
 def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:
     if stat in s.ci:
-        lo, hi = s.ci[stat][(0, *where)], s.ci[stat][(1, *where)]
+        lo, hi = s.ci[stat][0][where], s.ci[stat][1][where]
         return float(lo), float(hi)
     if stat == "mean" and s.sem is not None:
         m, e = s.mean[where], s.sem[where]
@@ -57,7 +57,12 @@ def cost_table(result: Result) -> pd.DataFrame:
             "fit_s": round(r.fit_seconds, 3), **extra,
             "reference": "yes" if r.label == result.reference else "",
         })
-    return pd.DataFrame(rows)
+        if not r.success:
+            rows[-1]["status"] = "FAILED: no statistics"
+    df = pd.DataFrame(rows)
+    if "status" in df:
+        df["status"] = df["status"].fillna("ok")
+    return df
 
 
 def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) -> bool | None:
@@ -83,10 +88,20 @@ def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) ->
     return bool(abs(v - rv) <= width)
 
 
+def failure_table(result: Result) -> pd.DataFrame:
+    """One row per method and failure reason: label, runs, failed, share, reason, count.
+
+    Empty when no run failed.
+    """
+    rows = [row for r in result.runs if r.n_failed
+            for row in reason_rows(r.label, r.n_runs, r.reasons[r.failed])]
+    return pd.DataFrame(rows, columns=FAILURE_COLUMNS)
+
+
 def statistics_table(result: Result) -> pd.DataFrame:
     """Long-form statistics at the report times (series) and for every scalar output."""
     ref = result.run(result.reference) if result.reference else None
-    idx = report_indices(result)
+    idx = report_indices(result.time, result.report_times)
     rows = []
     for o in result.outputs:
         for r in result.runs:
@@ -129,16 +144,16 @@ def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where:
     ref_levels = list(rs.quantile_levels) if rs is not None and rs.quantiles is not None else []
     rows = []
     for i, p in enumerate(s.quantile_levels):
-        v = float(s.quantiles[(i, *where)])
+        v = float(s.quantiles[i][where])
         if np.isnan(v):
             continue
         row = {"output": o.name, "component": comp, "unit": o.unit, "time": t, "label": label,
                "stat": level_name(p), "value": v,
-               "ci_low": float(s.ci_quantiles[(0, i, *where)]),
-               "ci_high": float(s.ci_quantiles[(1, i, *where)])}
+               "ci_low": float(s.ci_quantiles[0, i][where]),
+               "ci_high": float(s.ci_quantiles[1, i][where])}
         if p in ref_levels:
             j = ref_levels.index(p)
-            rv = float(rs.quantiles[(j, *where)])
+            rv = float(rs.quantiles[j][where])
             rlo, rhi = (float(rs.ci_quantiles[(k, j, *where)]) for k in (0, 1))
             if not np.isnan(rv):
                 # as for the moments: no relative difference to a value within its own
@@ -273,6 +288,10 @@ def render_text(result: Result) -> str:
                   f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
     if any(r.estimate.stats for r in result.runs):
         parts += ["", interval_legend(with_ref)]
+    broken = [r for r in result.runs if not r.success]
+    if broken:
+        parts += ["", "Methods without statistics (the others completed):"]
+        parts += [f"  {r.label}: {r.message}" for r in broken]
     failures = failure_table(result)
     if not failures.empty:
         parts += ["", "Failed runs (excluded from the statistics)",

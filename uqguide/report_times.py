@@ -6,21 +6,20 @@ without importing pandas' table machinery they do not need.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from .result import Result
 
-
-def report_indices(result: Result, n_default: int = 5) -> np.ndarray:
-    """Grid indices of the report times (nearest step) plus the last step."""
-    t = result.time
+def report_indices(t: np.ndarray, report_times: Sequence[float] | None,
+                   n_default: int = 5) -> np.ndarray:
+    """Grid indices of the report times (nearest step) on the grid ``t (T,)`` plus the last
+    step; ``n_default`` evenly spaced steps when there are no report times."""
     if t.size == 0:
         return np.zeros(0, dtype=int)
-    if result.report_times:
-        idx = [int(np.argmin(np.abs(t - rt))) for rt in result.report_times]
+    if report_times:
+        idx = [int(np.argmin(np.abs(t - rt))) for rt in report_times]
     else:
         idx = list(np.linspace(0, t.size - 1, n_default).round().astype(int))
     return np.unique(np.append(idx, t.size - 1))

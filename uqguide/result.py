@@ -11,7 +11,7 @@ strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
     /report_times           (r,) [s], where the config gives them
     /outputs/<name>         attrs: kind (series|scalar), unit, description, components
     /methods/<label>        attrs: method, n_runs, n_failed, model_seconds, fit_seconds,
-                                   wall_seconds, diagnostics_json
+                                   wall_seconds, success, message, diagnostics_json
       <output>, <output>_cov, _sem, _ci, _sobol_first, _sobol_total, _quantile, _ci_quantile
                         the variables of :mod:`uqguide.labelled`, e.g. <output> is
                         (statistic, time, <output>_component); coordinates time, input,
@@ -43,10 +43,11 @@ import h5py
 import numpy as np
 import yaml
 
-from . import __version__, atomic
+from . import atomic
+from ._version import __version__
 from .errors import ResultError
 from .events import EventEstimate
-from .methods.base import Estimate, GeneratedRows
+from .types import Estimate, GeneratedRows, ScalarIndex
 from .models.base import OutputInfo
 from .result_netcdf import (UTF8, attach, read_method_stats, strings, write_method_stats,
                             write_scale)
@@ -73,7 +74,17 @@ class MethodRun:
     reasons : ndarray of object, shape (n,)
     time : ndarray, shape (T,)
     n_runs : int
-    model_seconds, fit_seconds, wall_seconds : float
+    model_seconds : float
+        Seconds in the model, summed over chunks (worker-seconds).
+    fit_seconds : float
+        Seconds the method spent outside the model: refinement fits and the estimate.
+    wall_seconds : float
+        Wall-clock seconds of the whole method, design included.
+    success : bool
+        Whether the method produced statistics; when not, ``estimate`` holds none and
+        ``message`` says why (the runs made are still here, with their failures).
+    message : str
+        Why the method failed ("" when it succeeded).
     """
 
     estimate: Estimate
@@ -86,6 +97,8 @@ class MethodRun:
     model_seconds: float
     fit_seconds: float
     wall_seconds: float
+    success: bool = True
+    message: str = ""
 
     @property
     def label(self) -> str:
@@ -230,7 +243,7 @@ def _write_run(g: h5py.Group, r: MethodRun, result: Result) -> None:
     e = r.estimate
     g.attrs.update(method=e.method, n_runs=r.n_runs, n_failed=r.n_failed,
                    model_seconds=r.model_seconds, fit_seconds=r.fit_seconds,
-                   wall_seconds=r.wall_seconds,
+                   wall_seconds=r.wall_seconds, success=r.success, message=r.message,
                    diagnostics_json=json.dumps(e.diagnostics, default=_json_default))
     outputs = [o for o in result.outputs if o.name in e.stats or o.name in r.scalars]
     scales = write_method_stats(g, e.stats, outputs, result.time, result.input_names)
@@ -313,7 +326,7 @@ def read_hdf5(path: str | Path) -> Result:
                 est = Estimate(
                     method=str(g.attrs["method"]), label=label, stats=stats,
                     diagnostics=json.loads(g.attrs["diagnostics_json"]),
-                    scalar_names=strings(joint["names"][()]) if joint else [],
+                    scalar_index=ScalarIndex.parse(strings(joint["names"][()])) if joint else [],
                     scalar_mean=joint["mean"][()] if joint else None,
                     scalar_cov=joint["cov"][()] if joint else None,
                     events={name: EventEstimate.from_dict(name, dict(eg.attrs))
@@ -329,6 +342,8 @@ def read_hdf5(path: str | Path) -> Result:
                     model_seconds=float(g.attrs["model_seconds"]),
                     fit_seconds=float(g.attrs["fit_seconds"]),
                     wall_seconds=float(g.attrs["wall_seconds"]),
+                    success=bool(g.attrs.get("success", True)),
+                    message=str(g.attrs.get("message", "")),
                 ))
             config = _config_from_yaml(f.attrs["config_yaml"], path)
             result = Result(

@@ -27,65 +27,19 @@ Two forms of the same estimators:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from math import comb
 from statistics import NormalDist
 
 import numpy as np
 
-STAT_NAMES = ("mean", "std", "skewness", "kurtosis")
+from .types import STAT_NAMES, OutputStats
+
+__all__ = ["STAT_NAMES", "MomentSums", "OutputStats", "bootstrap_intervals", "central_moments",
+           "covariance", "sample_statistics", "shape_moments", "statistics_from_sums"]
 
 
-@dataclass
-class OutputStats:
-    """Statistics of one output, from samples or from a surrogate.
-
-    Attributes
-    ----------
-    mean, std, skewness, kurtosis : ndarray, shape (..., k)
-        ``...`` is ``(T,)`` for a time series and empty for a scalar output.
-    cov : ndarray, shape (..., k, k)
-    n_used : int
-        Samples the estimate used (runs that did not fail), or surrogate draws.
-    moments_method : str
-        ``"sample"`` (population estimators on model runs), ``"exact"`` (from PCE
-        coefficients) or ``"surrogate-sampling"`` (sampling a PCE surrogate).
-    sem : ndarray, shape (..., k), optional
-        Standard error of the mean (sample estimates only).
-    ci : dict of str to ndarray, shape (2, ..., k)
-        95% interval (low, high) per statistic name, where known.
-    sobol_first, sobol_total : ndarray, shape (..., k, d), optional
-        Sobol' indices per input (PCE only).
-    quantile_levels : tuple of float, optional
-        Probabilities of the quantiles (the config's ``quantiles``).
-    quantiles : ndarray, shape (q, ..., k), optional
-        Quantiles at those levels (NaN at time steps where none were computed).
-    ci_quantiles : ndarray, shape (2, q, ..., k), optional
-        Their 95% intervals (order statistics; ``-inf`` / ``inf``: unbounded end).
-    """
-
-    mean: np.ndarray
-    std: np.ndarray
-    skewness: np.ndarray
-    kurtosis: np.ndarray
-    cov: np.ndarray
-    n_used: int
-    moments_method: str = "sample"
-    sem: np.ndarray | None = None
-    ci: dict[str, np.ndarray] = field(default_factory=dict)
-    sobol_first: np.ndarray | None = None
-    sobol_total: np.ndarray | None = None
-    quantile_levels: tuple[float, ...] | None = None
-    quantiles: np.ndarray | None = None
-    ci_quantiles: np.ndarray | None = None
-
-    def stat(self, name: str) -> np.ndarray:
-        if name not in STAT_NAMES:
-            raise KeyError(name)
-        return getattr(self, name)
-
-
-def _shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray):
+def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray):
     """std, skewness and kurtosis from central moments; NaN where the variance is zero."""
     std = np.sqrt(np.maximum(mu2, 0.0))
     # A variance at rounding level relative to the mean is zero for this purpose: samples that
@@ -166,7 +120,7 @@ def bootstrap_intervals(
             mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
             mu4 = m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4
             mean = full_mean[sl_c] + m1
-            std, skew, kurt = _shape_moments(mean, mu2, mu3, mu4)
+            std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
             sl_r = slice(r0, r0 + b)
             draws["mean"][sl_r], draws["std"][sl_r] = mean, std
             draws["skewness"][sl_r], draws["kurtosis"][sl_r] = skew, kurt
@@ -300,7 +254,7 @@ def sample_statistics(
         nan = np.full(y.shape[1:], np.nan)
         return OutputStats(nan, nan, nan, nan, np.full(y.shape[1:] + y.shape[-1:], np.nan), 0)
     mean, mu2, mu3, mu4 = central_moments(y)
-    std, skew, kurt = _shape_moments(mean, mu2, mu3, mu4)
+    std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     ci: dict[str, np.ndarray] = {}
     if intervals == "delta" and bootstrap > 0 and n > 1:
         d = y - mean
@@ -571,13 +525,13 @@ def statistics_from_sums(
         nan = np.full(shape, np.nan)
         return OutputStats(nan, nan, nan, nan, np.full(shape + shape[-1:], np.nan), 0)
     mean, mu2, mu3, mu4 = sums.central_moments()
-    std, skew, kurt = _shape_moments(mean, mu2, mu3, mu4)
+    std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     cov = sums.cm / n if sums.cm is not None else np.full(shape + shape[-1:], np.nan)
     ci: dict[str, np.ndarray] = {}
     if boot is None and delta is not None and delta.high is not None and n > 1:
         inv = 1.0 / float(delta.n)
         mus = tuple(m * inv for m in delta.central_sums())
-        dstd, dskew, dkurt = _shape_moments(delta.mean, mus[0], mus[1], mus[2])
+        dstd, dskew, dkurt = shape_moments(delta.mean, mus[0], mus[1], mus[2])
         for name, q in delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level).items():
             if ci_index is None:
                 ci[name] = q.reshape((2,) + shape)
@@ -587,7 +541,7 @@ def statistics_from_sums(
                 ci[name] = full
     if boot is not None and n > 1:
         bm, b2, b3, b4 = boot.central_moments()
-        bstd, bskew, bkurt = _shape_moments(bm, b2, b3, b4)
+        bstd, bskew, bkurt = shape_moments(bm, b2, b3, b4)
         alpha = (1.0 - level) / 2
         draws = {"mean": bm, "std": bstd, "skewness": bskew, "kurtosis": bkurt}
         for name, v in draws.items():
@@ -600,3 +554,7 @@ def statistics_from_sums(
                 ci[name] = full
     return OutputStats(mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=cov, n_used=n,
                        moments_method="sample", sem=std / np.sqrt(n), ci=ci)
+
+
+# The name two PCE modules used before it was public.
+_shape_moments = shape_moments

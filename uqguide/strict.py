@@ -11,6 +11,8 @@ import types
 import typing
 from typing import Any
 
+from pydantic import BaseModel, model_validator
+
 
 def _accepts_bool(annotation: Any) -> bool:
     if annotation is bool or annotation is Any:
@@ -44,3 +46,12 @@ def no_bool_numbers(cls: Any, data: Any) -> Any:
                 not _accepts_bool(field.annotation):
             raise ValueError(f"{name} must be a number, not a boolean (got {v!r})")
     return data
+
+
+class StrictModel(BaseModel):
+    """A pydantic model whose plain-number fields refuse booleans (YAML's ``yes`` is not 1)."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_bool_numbers(cls, data: Any) -> Any:
+        return no_bool_numbers(cls, data)

@@ -5,36 +5,41 @@ A method works in phases, so a design can be stored, run elsewhere and resumed:
 1. :meth:`Method.design` gives the runs to make (inputs ``x (n, d)`` plus whatever the method
    needs later, e.g. quadrature weights);
 2. the driver (:func:`uqguide.propagate.propagate`) evaluates the model on the design;
-3. :meth:`Method.refine` may ask for more runs (sequential designs); the driver evaluates them
-   and calls it again until it returns ``None``;
-4. :meth:`Method.estimate` gives the statistics and diagnostics.
+3. :meth:`Method.refine` may ask for more runs (sequential designs, :attr:`Method.refines`);
+   the driver evaluates them and calls it again until it returns ``None``;
+4. :meth:`Method.estimate` gives the statistics and diagnostics (or, for a method that
+   :attr:`~Method.reduces_chunks`, :meth:`Method.fold` per chunk and
+   :meth:`Method.estimate_reduced`). A method that cannot produce statistics raises
+   :class:`~uqguide.errors.MethodError`: the run records it and completes the other methods.
 
-Methods never know which model they run: they see the :class:`~uqguide.inputs.InputSpace` and the
-:class:`~uqguide.models.base.ModelOutput`.
+Methods never know which model they run: they see the :class:`~uqguide.inputs.InputSpace`, the
+:class:`~uqguide.types.ModelOutput` and the :class:`RunContext` they were built with.
 
-A new method is one module with a ``Settings`` class and a ``Method`` subclass, plus one line in
-:mod:`uqguide.registry`.
+A new method is one module with a ``Settings`` class and a ``Method`` subclass declaring its
+capability flags and ``example_settings``, plus one line in :mod:`uqguide.registry`; the
+conformance suite (:func:`uqguide.testing.check_method`) then checks it with no test code.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from types import MappingProxyType
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field
 
-from ..strict import no_bool_numbers
+from ..strict import StrictModel
 
-from ..events import EventEstimate, EventSpec
+from ..events import EventSpec
 from ..inputs import InputSpace
-from ..models.base import ModelOutput
-from ..stats import OutputStats
+from ..types import DerivedOutput, Estimate, GeneratedRows, ModelOutput
 
 
-class MethodSettings(BaseModel):
+class MethodSettings(StrictModel):
     """Settings of a method from the config (``methods:`` list entry, less ``name``).
 
     ``label`` names the method's row in tables and its group in the result file; it defaults to
@@ -46,68 +51,6 @@ class MethodSettings(BaseModel):
     label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$",
                               description="name of the method's rows in the tables and of its "
                                           "group in the result file (default: the method's name)")
-
-    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
-
-
-class GeneratedRows:
-    """Design rows ``(n, d)`` made on demand, chunk by chunk, by a pure function of the chunk
-    number: a design that is never held whole (a 1e8-sample Monte Carlo design would be 5.6 GB).
-
-    Slicing rows (``x[a:b]``) makes only the chunks that cover them; anything else (``np.asarray``,
-    fancy indexing) makes the whole array, for small designs and tests.
-
-    Parameters
-    ----------
-    n, d : int
-        Rows and columns.
-    chunk : int
-        Rows per chunk (the last may be shorter).
-    make : callable
-        ``make(i) -> ndarray (m_i, d)``, the rows ``[i chunk, i chunk + m_i)``.
-    """
-
-    dtype = np.dtype(float)
-    ndim = 2
-
-    def __init__(self, n: int, d: int, chunk: int, make: Any) -> None:
-        self.n, self.d, self.chunk, self._make = n, d, chunk, make
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return (self.n, self.d)
-
-    @property
-    def size(self) -> int:
-        return self.n * self.d
-
-    def __len__(self) -> int:
-        return self.n
-
-    def rows(self, start: int, stop: int) -> np.ndarray:
-        start, stop = max(0, start), min(self.n, stop)
-        if stop <= start:
-            return np.empty((0, self.d))
-        first, last = start // self.chunk, (stop - 1) // self.chunk
-        parts = [self._make(i) for i in range(first, last + 1)]
-        block = parts[0] if len(parts) == 1 else np.concatenate(parts)
-        off = first * self.chunk
-        return block[start - off:stop - off]
-
-    def chunks(self) -> Any:
-        """``(start, rows)`` of every chunk in order."""
-        for i, start in enumerate(range(0, self.n, self.chunk)):
-            yield start, self._make(i)
-
-    def __getitem__(self, key: Any) -> np.ndarray:
-        if isinstance(key, slice) and key.step in (None, 1):
-            start, stop, _ = key.indices(self.n)
-            return self.rows(start, stop)
-        return np.asarray(self)[key]
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        x = self.rows(0, self.n)
-        return x if dtype is None else x.astype(dtype)
 
 
 @dataclass
@@ -157,79 +100,135 @@ class RunPlan:
     exact: bool = True
 
 
-@dataclass
-class Estimate:
-    """The statistics a method produced, with its diagnostics.
+@dataclass(frozen=True)
+class RunContext:
+    """What a method is told about the run it is part of: given when it is built, never set on
+    it afterwards (:meth:`Method.with_context` makes a new method for a new context).
 
     Attributes
     ----------
-    method : str
-        Registered method name.
-    label : str
-        The config's label of this method entry.
-    stats : dict of str to OutputStats
-        Per output name.
-    diagnostics : dict
-        Counters and quality figures: ``n_runs``, ``n_failed``, and method-specific ones
-        (``loo_error``, ``degree``, ``n_terms``, ``n_components``, ...). Values are numbers,
-        strings or small arrays.
-    scalar_names : list of str
-        Names ``output[component]`` of the stacked scalar vector.
-    scalar_mean, scalar_cov : ndarray, shape (m,), (m, m)
-        Joint mean and covariance of all scalar outputs stacked (uq-methods.md section 3).
-    events : dict of str to EventEstimate
-        Probability of each of the config's events.
+    report_times : tuple of float, optional
+        The run's report times [s]: where a method that must economise (e.g. Monte Carlo
+        bootstrap intervals of long series) concentrates its effort.
+    failure_policy : {"fail", "regression"}
+        What a method whose design needs every run (:attr:`Method.needs_all_runs`) does when
+        runs failed (the config's ``pce_failure_policy``): ``"fail"`` raises MethodError naming
+        the failed runs; ``"regression"`` fits by least squares on the surviving runs, logs a
+        warning and says so in the diagnostics.
+    quantile_levels : tuple of float, optional
+        The config's quantile levels (None: no quantiles).
+    events : tuple of EventSpec
+        The config's events.
+    components : mapping of str to tuple of str
+        Component names of every output the method may see (for events on multi-component
+        outputs).
+    outputs : tuple of str
+        The outputs the result reports (empty: whatever the runs hold).
+    derived : mapping of str to DerivedOutput
+        The model's derivations of reported outputs from smoother carriers; a method with
+        :attr:`Method.uses_derivations` fits the carriers and derives the output from their
+        surrogates, the others use the model's own values.
     """
 
-    method: str
-    label: str
-    stats: dict[str, OutputStats]
-    diagnostics: dict[str, Any] = field(default_factory=dict)
-    scalar_names: list[str] = field(default_factory=list)
-    scalar_mean: np.ndarray | None = None
-    scalar_cov: np.ndarray | None = None
-    events: dict[str, EventEstimate] = field(default_factory=dict)
+    report_times: tuple[float, ...] | None = None
+    failure_policy: Literal["fail", "regression"] = "fail"
+    quantile_levels: tuple[float, ...] | None = None
+    events: tuple[EventSpec, ...] = ()
+    components: Mapping[str, tuple[str, ...]] = field(
+        default_factory=lambda: MappingProxyType({}))
+    outputs: tuple[str, ...] = ()
+    derived: Mapping[str, DerivedOutput] = field(default_factory=lambda: MappingProxyType({}))
 
 
 class Method(ABC):
-    """A propagation method. ``__init__`` only stores the validated settings."""
+    """A propagation method. ``__init__`` only stores the validated settings and the run
+    context; work happens in :meth:`design`, :meth:`refine` and :meth:`estimate`.
+
+    What the driver may do with a method is declared by class flags, never inferred:
+    :attr:`reduces_chunks`, :attr:`refines`, :attr:`needs_all_runs`, :attr:`uses_derivations`.
+    """
 
     name: ClassVar[str]
     summary: ClassVar[str]
     Settings: ClassVar[type[MethodSettings]] = MethodSettings
-    #: The run's report times [s] (set from the config): where a method that must economise
-    #: (e.g. Monte Carlo bootstrap intervals of long series) concentrates its effort.
-    report_times: tuple[float, ...] | None = None
-    #: What a method whose design needs every run (quadrature) does when runs failed (set from
-    #: the config's ``pce_failure_policy``): ``"fail"`` raises MethodError naming the failed
-    #: runs; ``"regression"`` fits the coefficients by least squares on the surviving nodes,
-    #: logs a warning and says so in the diagnostics. Sampling methods ignore it.
-    failure_policy: Literal["fail", "regression"] = "fail"
-    #: The config's quantile levels (None: no quantiles) and events (set from the config).
-    quantile_levels: tuple[float, ...] | None = None
-    events: tuple[EventSpec, ...] = ()
-    #: Components of every output the method may see (name -> component names; from the
-    #: config), for the events on multi-component outputs.
-    components: dict[str, tuple[str, ...]] = {}
-    #: Told what a long fit is doing ("fitting zem (2/7)"), for the progress display; set by
-    #: the driver (None: nobody listens).
-    on_phase: Callable[[str], None] | None = None
+    #: Chunks are reduced where they ran (:meth:`reducer`, :meth:`fold`,
+    #: :meth:`estimate_reduced`): time series never travel or stay. Such a method does not
+    #: refine.
+    reduces_chunks: ClassVar[bool] = False
+    #: The design grows after seeing runs (:meth:`refine`).
+    refines: ClassVar[bool] = False
+    #: Every run of the design is needed (quadrature): failed runs follow the context's
+    #: ``failure_policy``.
+    needs_all_runs: ClassVar[bool] = False
+    #: Derived outputs are computed from surrogates of their carriers (``context.derived``),
+    #: so the carriers are evaluated too.
+    uses_derivations: ClassVar[bool] = False
+    #: The design is drawn from the seed (another seed, another design); a quadrature grid is
+    #: not.
+    random_design: ClassVar[bool] = True
+    #: Settings of a small design that still exercises the method (several chunks): what the
+    #: conformance suite (:func:`uqguide.testing.check_method`) runs it with.
+    example_settings: ClassVar[Mapping[str, Any]] = {}
 
-    def __init__(self, settings: MethodSettings | dict[str, Any] | None = None) -> None:
+    def __init__(self, settings: MethodSettings | dict[str, Any] | None = None,
+                 context: RunContext | None = None) -> None:
         if settings is None:
             settings = self.Settings()
         elif not isinstance(settings, MethodSettings):
             settings = self.Settings(**settings)
         self.settings = settings
+        self.context = context or RunContext()
+        self._listener: Callable[[str], None] | None = None
+
+    def with_context(self, context: RunContext) -> Method:
+        """The same method (same settings) in another run context."""
+        return type(self)(self.settings, context)
 
     @property
     def label(self) -> str:
         return self.settings.label or self.name
 
+    # Read-only views of the context, under the names the methods use.
+    @property
+    def report_times(self) -> tuple[float, ...] | None:
+        return self.context.report_times
+
+    @property
+    def failure_policy(self) -> Literal["fail", "regression"]:
+        return self.context.failure_policy
+
+    @property
+    def quantile_levels(self) -> tuple[float, ...] | None:
+        return self.context.quantile_levels
+
+    @property
+    def events(self) -> tuple[EventSpec, ...]:
+        return self.context.events
+
+    @property
+    def components(self) -> Mapping[str, tuple[str, ...]]:
+        return self.context.components
+
+    @property
+    def derived_outputs(self) -> Mapping[str, DerivedOutput]:
+        """The derivations this method computes from carriers (none unless it
+        :attr:`uses_derivations`)."""
+        return self.context.derived if self.uses_derivations else MappingProxyType({})
+
+    @contextmanager
+    def phases_to(self, listener: Callable[[str], None]) -> Iterator[None]:
+        """Within the block, tell ``listener`` what a long fit is doing ("fitting zem (2/7)"),
+        for the progress display."""
+        self._listener = listener
+        try:
+            yield
+        finally:
+            self._listener = None
+
     def note(self, text: str) -> None:
-        """Say what the fit is doing now (see ``on_phase``)."""
-        if self.on_phase is not None:
-            self.on_phase(text)
+        """Say what the fit is doing now (see :meth:`phases_to`)."""
+        if self._listener is not None:
+            self._listener(text)
 
     def check(self, index: int) -> None:
         """Checks of the settings against the rest of the config (events, outputs), after

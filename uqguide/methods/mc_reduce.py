@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..models.base import ModelOutput
+from ..types import ModelOutput, ScalarIndex
 from ..stats import MomentSums
 
 
@@ -161,13 +161,9 @@ def split_summary(summary: dict[str, np.ndarray]) -> dict[tuple[str, str], Momen
     return {k: MomentSums.from_arrays(g) for k, g in groups.items()}
 
 
-def scalar_names(scalars: dict[str, np.ndarray]) -> list[str]:
-    """Names ``output[component]`` of the stacked scalar vector (without stacking anything)."""
-    names: list[str] = []
-    for name, y in scalars.items():
-        k = y.shape[1]
-        names += [name] if k == 1 else [f"{name}[{j}]" for j in range(k)]
-    return names
+def scalar_names(scalars: dict[str, np.ndarray]) -> list[ScalarIndex]:
+    """The columns of the stacked scalar vector (without stacking anything)."""
+    return ScalarIndex.stacked((name, y.shape[1]) for name, y in scalars.items())
 
 
 def stack_scalars(scalars: dict[str, np.ndarray], ok: np.ndarray) -> tuple[list[str], np.ndarray]:

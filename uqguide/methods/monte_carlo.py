@@ -49,7 +49,7 @@ from pydantic import Field
 
 from ..errors import MethodError
 from ..inputs import InputSpace
-from ..models.base import ModelOutput
+from ..types import ModelOutput
 from ..events import count_events
 from ..quantiles import order_statistic_quantiles
 from ..stats import MomentSums, OutputStats, statistics_from_sums
@@ -143,6 +143,8 @@ class MonteCarlo(Method):
     summary = "Monte Carlo: random, Latin hypercube or scrambled Sobol' samples; sample moments"
     Settings = MonteCarloSettings
     settings: MonteCarloSettings
+    reduces_chunks = True
+    example_settings = {"n_samples": 4096, "chunk_size": 1024, "bootstrap": 100}
 
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings
@@ -253,7 +255,7 @@ class MonteCarlo(Method):
         }
         return Estimate(
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-            scalar_names=names,
+            scalar_index=names,
             scalar_mean=joint.mean if (names and joint is not None and n_ok) else None,
             scalar_cov=joint.cm / n_ok if (names and joint is not None and n_ok) else None,
             events=events,

@@ -50,9 +50,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Mapping
 from dataclasses import dataclass
-from types import MappingProxyType
 from typing import Any, Literal
 
 import numpy as np
@@ -60,10 +58,9 @@ from pydantic import Field, model_validator
 
 from ..errors import MethodError
 from ..inputs import InputSpace
-from ..models.base import ModelOutput
+from ..types import ModelOutput
 from ..pce.basis import hyperbolic_indices
 from ..events import EventEstimate
-from ..pce.derived import DerivedOutput
 from ..pce.tails import control_variate_events, surrogate_values
 from ..pce.design import SURROGATE_STREAM, VALIDATION_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
@@ -165,9 +162,9 @@ class AdaptivePCE(Method):
                "sequential design")
     Settings = AdaptivePCESettings
     settings: AdaptivePCESettings
-    #: Outputs computed from other outputs' surrogates (:mod:`uqguide.pce.derived`), set by the
-    #: driver from the model; their carriers must be among the evaluated outputs.
-    derived_outputs: Mapping[str, DerivedOutput] = MappingProxyType({})
+    refines = True
+    uses_derivations = True
+    example_settings = {"n_samples": 40, "max_runs": 60, "degree_max": 3}
 
     # ------------------------------------------------------------------ design sizes
     def initial_size(self, d: int) -> int:
@@ -297,7 +294,7 @@ class AdaptivePCE(Method):
         diagnostics["fit_seconds"] = (design.data.get("fit_seconds", 0.0)
                                       + time.perf_counter() - t0)
         return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
+                        scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
 
     def _validate(self, space: InputSpace, fits: list[_OutputFit], u_v: np.ndarray,
                    validation: ModelOutput, events: dict[str, EventEstimate]

@@ -20,8 +20,7 @@ from __future__ import annotations
 import logging
 import time
 from abc import abstractmethod
-from collections.abc import Callable, Mapping
-from types import MappingProxyType
+from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
@@ -29,9 +28,8 @@ from pydantic import Field
 
 from ..errors import MethodError
 from ..inputs import InputSpace
-from ..models.base import ModelOutput
+from ..types import ModelOutput
 from ..pce import basis
-from ..pce.derived import DerivedOutput
 from ..pce.design import SURROGATE_STREAM, stream
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
@@ -93,9 +91,9 @@ class QuadraturePCE(Method):
 
     Settings = QuadratureSettings
     settings: QuadratureSettings
-    #: Outputs computed from other outputs' surrogates (:mod:`uqguide.pce.derived`), set by the
-    #: driver from the model; their carriers must be among the evaluated outputs.
-    derived_outputs: Mapping[str, DerivedOutput] = MappingProxyType({})
+    needs_all_runs = True
+    uses_derivations = True
+    random_design = False
 
     @abstractmethod
     def _grid(self, germ: Germ) -> Grid:
@@ -183,4 +181,4 @@ class QuadraturePCE(Method):
         }
         diagnostics["fit_seconds"] = time.perf_counter() - t0
         return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-                        scalar_names=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
+                        scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)

@@ -65,6 +65,7 @@ class SmolyakPCE(QuadraturePCE):
     """Smolyak sparse-grid pseudo-spectral PCE."""
 
     name = "pce_smolyak"
+    example_settings = {"level": 2}
     summary = "Smolyak sparse PCE: sparse-grid runs, Smolyak pseudo-spectral projection (paper 4.3)"
     Settings = SmolyakPCESettings
     settings: SmolyakPCESettings

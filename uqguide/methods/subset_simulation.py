@@ -45,7 +45,7 @@ from pydantic import Field, model_validator
 from ..errors import ConfigError, MethodError
 from ..events import EventEstimate, EventSpec, component_index
 from ..inputs import InputSpace
-from ..models.base import ModelOutput
+from ..types import ModelOutput
 from .base import Design, Estimate, Method, MethodSettings
 
 log = logging.getLogger(__name__)
@@ -93,6 +93,8 @@ class SubsetSimulation(Method):
     summary = "Subset simulation (Au & Beck 2001): a rare event's probability, CoV and interval"
     Settings = SubsetSimulationSettings
     settings: SubsetSimulationSettings
+    refines = True
+    example_settings = {"event": "tail", "n_per_level": 500}
 
     # ------------------------------------------------------------------ config
     def check(self, index: int) -> None:

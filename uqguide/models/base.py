@@ -11,38 +11,44 @@ A model maps a batch of input samples to named outputs, all at once:
 Methods see models only through :meth:`Model.evaluate`, so any model (a built-in simulator, an
 analytic benchmark, a user's Python callable) can be propagated by any method.
 
-A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class, ``inputs()``,
-``outputs()`` and ``_evaluate``; registering it is one line in :mod:`uqguide.registry`.
+A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class (and
+``example_params``, a cheap configuration), ``inputs()``, ``outputs()`` and ``_evaluate``;
+registering it is one line in :mod:`uqguide.registry`, and the conformance suite
+(:func:`uqguide.testing.check_model`) then checks it with no test code. What a paper says about
+a model (its nominal figures and checks) lives in :mod:`uqguide.papers`, not in the model.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Collection, Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import ClassVar, Literal
+from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, model_validator
+from pydantic import ConfigDict
 
-from ..strict import no_bool_numbers
+from ..strict import StrictModel
 
 from ..errors import ModelError
+from ..types import DerivedOutput, ModelOutput
 from .roundoff import apply_env
+
+__all__ = ["DerivedOutput", "InputInfo", "Model", "ModelOutput", "ModelParams", "OutputInfo",
+           "StepCount", "failure_reasons"]
 
 OutputKind = Literal["series", "scalar"]
 
 
-class ModelParams(BaseModel):
+class ModelParams(StrictModel):
     """Fixed (non-random) parameters of a model, SI units, validated from the config.
 
     Subclasses declare their fields with defaults; unknown keys are rejected so a typo in a
     config is an error, not a silently ignored setting.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    _no_bool_numbers = model_validator(mode="before")(classmethod(no_bool_numbers))
+    # NaN or infinity in a parameter is a config error, never a run that fails on every sample
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 @dataclass(frozen=True)
@@ -122,135 +128,6 @@ class StepCount:
     formula: str
 
 
-@dataclass
-class ModelOutput:
-    """What a model returns for a batch of ``n`` samples.
-
-    Attributes
-    ----------
-    time : ndarray, shape (T,)
-        Time grid [s] shared by the whole batch (empty for models without time series).
-    series : dict of str to ndarray, shape (n, T, k)
-        Time-series outputs. A sample that stops early keeps its last value on the rest of
-        the grid.
-    scalars : dict of str to ndarray, shape (n, k)
-        Scalar outputs.
-    failed : ndarray of bool, shape (n,)
-        True where the sample's evaluation failed; its output values are not to be used.
-    reasons : ndarray of object, shape (n,)
-        Why each failed sample failed (``""`` where it did not).
-    """
-
-    time: np.ndarray
-    series: dict[str, np.ndarray] = field(default_factory=dict)
-    scalars: dict[str, np.ndarray] = field(default_factory=dict)
-    failed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
-    reasons: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
-
-    @property
-    def n(self) -> int:
-        return int(self.failed.shape[0])
-
-    def subset(self, index: np.ndarray) -> ModelOutput:
-        """The outputs of the samples selected by ``index`` (boolean mask or integer array)."""
-        return ModelOutput(
-            time=self.time,
-            series={k: v[index] for k, v in self.series.items()},
-            scalars={k: v[index] for k, v in self.scalars.items()},
-            failed=self.failed[index],
-            reasons=self.reasons[index],
-        )
-
-    @staticmethod
-    def concatenate(parts: Sequence[ModelOutput]) -> ModelOutput:
-        """Join the outputs of consecutive chunks of one batch, in order (a single part is
-        returned as it is, not copied)."""
-        if not parts:
-            raise ModelError("cannot concatenate an empty list of model outputs")
-        first = parts[0]
-        if len(parts) == 1:
-            # one part (a chunk evaluated in one model call, the usual case): nothing to join,
-            # and np.concatenate would copy every series of the chunk
-            return first
-        for p in parts[1:]:
-            if p.time.shape != first.time.shape or not np.array_equal(p.time, first.time):
-                raise ModelError("chunks of one run must share the time grid")
-        return ModelOutput(
-            time=first.time,
-            series={k: np.concatenate([p.series[k] for p in parts]) for k in first.series},
-            scalars={k: np.concatenate([p.scalars[k] for p in parts]) for k in first.scalars},
-            failed=np.concatenate([p.failed for p in parts]),
-            reasons=np.concatenate([p.reasons for p in parts]),
-        )
-
-
-@dataclass(frozen=True)
-class DerivedOutput:
-    """How a model computes a non-smooth output from smooth ones (its *carriers*).
-
-    A miss distance is the norm of a miss vector: the vector is smooth in the inputs, its norm
-    has a cone where the vector passes through zero, on which a polynomial surrogate converges
-    badly. A surrogate method may fit the carriers instead and apply ``function`` to draws of
-    their surrogates (:mod:`uqguide.pce.derived`); sampling methods just use the model's value.
-
-    Attributes
-    ----------
-    carriers : tuple of str
-        The (smooth) outputs it is computed from; the model must offer them.
-    function : callable
-        ``function(carriers, inputs) -> y``: ``carriers`` maps each carrier's name to its values
-        ``(n, k_c)`` (scalar) or ``(n, T, k_c)`` (series), ``inputs`` maps each uncertain
-        input's name to its physical values ``(n,)``; ``y`` is ``(n, k)`` or ``(n, T, k)``.
-    kind : {"scalar", "series"}
-    """
-
-    carriers: tuple[str, ...]
-    function: Callable[[Mapping[str, np.ndarray], Mapping[str, np.ndarray]], np.ndarray]
-    kind: str = "scalar"
-
-
-@dataclass(frozen=True)
-class ReportRow:
-    """One line of a nominal run's report: the model's figure beside the paper's.
-
-    Attributes
-    ----------
-    quantity : str
-        What is reported, e.g. ``"time to 50 m"`` (prefix a group such as a controller name
-        with ``"GMM-NTSMC: "`` where one model reports several cases).
-    unit : str
-    value : float or str
-        The model's figure (a string for yes/no or categorical outcomes).
-    paper : float or str or None
-        The paper's figure, where it gives one.
-    tolerance : str
-        The acceptance tolerance from the spec (``"1%"``, ``"15 s"``, ``"not asserted"``...).
-    ok : bool or None
-        Whether ``value`` is within ``tolerance`` of ``paper`` (None: not checked).
-    note : str
-        Why a figure is not reproduced, or how it was computed.
-    kind : {"reproducible", "chaotic", "timing"}
-        *reproducible*: the figure moves by less than its tolerance when the inputs move by
-        round-off. *chaotic*: it does not (a final-window maximum of a chattering loop, a
-        diverged state), so ``value`` is a robust statistic named in ``statistic``, and ``ok``
-        judges that statistic (:mod:`uqguide.models.roundoff`). *timing*: a measurement of the
-        machine (wall time), never checked.
-    statistic : str
-        For a chaotic row, what ``value`` is, e.g. ``"median of 5 runs under 1e-12 input
-        perturbations; range [a, b]"``.
-    """
-
-    quantity: str
-    unit: str
-    value: float | str
-    paper: float | str | None = None
-    tolerance: str = ""
-    ok: bool | None = None
-    note: str = ""
-    kind: Literal["reproducible", "chaotic", "timing"] = "reproducible"
-    statistic: str = ""
-
-
 class Model(ABC):
     """A deterministic model vectorised over a batch of samples.
 
@@ -262,6 +139,9 @@ class Model(ABC):
     name: ClassVar[str]
     summary: ClassVar[str]
     Params: ClassVar[type[ModelParams]] = ModelParams
+    #: A small, cheap configuration (a short horizon) that still runs every part of the model:
+    #: what the conformance suite (:func:`uqguide.testing.check_model`) builds it with.
+    example_params: ClassVar[Mapping[str, Any]] = {}
 
     def __init__(self, params: ModelParams | Mapping[str, object] | None = None) -> None:
         if params is None:
@@ -294,26 +174,9 @@ class Model(ABC):
             Names of the outputs asked for; others may be left out (saves memory and time).
         """
 
-    def nominal_report(self) -> list[ReportRow]:
-        """Run the nominal (deterministic) scenario and report its headline figures beside the
-        paper's (``uqguide simulate``). Models without a paper scenario do not override this."""
-        raise NotImplementedError(f"model '{self.name}' has no nominal scenario to report")
-
     def derived_outputs(self) -> Mapping[str, DerivedOutput]:
         """Outputs this model computes from smoother carrier outputs (default: none)."""
         return {}
-
-    def nominal_figures(self, out_dir: str) -> list[str]:
-        """Write the nominal scenario's figures (PNG) into ``out_dir``; return their paths."""
-        return []
-
-    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
-                       stem: str) -> list[str]:
-        """Figures of one sample's run (``uqguide replay``) beyond the generic time histories:
-        its trajectory, with the scene's geometry where the model has one. ``out`` holds every
-        output of the sample, ``values`` every input (nominal where not uncertain). Default:
-        none."""
-        return []
 
     def full_values(self, x: np.ndarray, input_names: Sequence[str]) -> dict[str, float]:
         """Every input's value for one sample ``x (d,)`` (nominal where not given)."""

@@ -167,6 +167,9 @@ class CallableModel(Model):
     name = "callable"
     summary = "a user's vectorised Python function 'package.module:function' of x (n, d)"
     Params = CallableParams
+    example_params = {"function": "uqguide.models.callable:example_function",
+                      "inputs": ["a", "b"], "nominal": [1.0, 0.5],
+                      "outputs": ["y", {"name": "path", "kind": "series"}]}
 
     def _specs(self) -> list[CallableOutput]:
         return [CallableOutput(name=o) if isinstance(o, str) else o for o in self.params.outputs]
@@ -220,3 +223,11 @@ class CallableModel(Model):
         reasons = np.where(bad, "non-finite output value", "").astype(object)
         return ModelOutput(time=time_grid, series=series, scalars=scalars, failed=bad,
                            reasons=reasons)
+
+
+def example_function(x: np.ndarray) -> dict[str, np.ndarray]:
+    """A callable model's example (its conformance check): ``y = sin a + b^2`` and the series
+    ``path = t y`` on 5 points of [0, 1]."""
+    y = np.sin(x[:, 0]) + x[:, 1] ** 2
+    t = np.linspace(0.0, 1.0, 5)
+    return {"y": y, "path": y[:, None] * t[None, :], "time": t}

@@ -31,6 +31,8 @@ KERNEL_ENV = "UQGUIDE_KERNEL"
 """Environment variable that forces every model's kernel: ``numpy`` or ``numba``."""
 
 KernelChoice = Literal["numba", "numpy"]
+KernelParam = Literal["auto", "numba", "numpy"]
+"""A model's ``kernel`` parameter: ``auto`` is numba when it is importable (:func:`choose`)."""
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
 
@@ -91,6 +93,35 @@ def choose(requested: str, model: str) -> KernelChoice:
         raise ConfigError(f"{source} asks for the numba kernel, but numba is not importable; "
                           "use 'numpy' or 'auto'", field=source)
     return "numpy"
+
+
+def select(requested: str, model: str, compiled: str, reference: str) -> Callable[..., Any]:
+    """The closed-loop function a model runs: its compiled kernel or its NumPy reference.
+
+    Both are named as ``"module:function"`` and imported only when chosen, so that a NumPy run
+    never imports numba nor compiles anything.
+
+    Parameters
+    ----------
+    requested : {"auto", "numba", "numpy"}
+        The model's ``kernel`` parameter (``UQGUIDE_KERNEL`` overrides it, see :func:`choose`).
+    model : str
+        The model's name, for the error message.
+    compiled, reference : str
+        ``"uqguide.models.<pkg>.<module>:<function>"`` of the numba kernel and of the NumPy
+        reference, which take the same arguments and return the same result.
+
+    Returns
+    -------
+    callable
+        The chosen function.
+    """
+    import importlib
+
+    target = compiled if choose(requested, model) == "numba" else reference
+    module, _, function = target.partition(":")
+    chosen: Callable[..., Any] = getattr(importlib.import_module(module), function)
+    return chosen
 
 
 # ---------------------------------------------------------------------------- the cache

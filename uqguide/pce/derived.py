@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..models.base import DerivedOutput
+from ..types import DerivedOutput
 from ..stats import OutputStats, _shape_moments
 from .design import surrogate_draws
 from .expansion import Expansion

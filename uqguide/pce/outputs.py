@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MethodError
-from ..models.base import ModelOutput
+from ..types import ModelOutput, ScalarIndex
 from ..stats import OutputStats
 from . import moments
 from .derived import DerivedOutput, derived_statistics
@@ -54,14 +54,14 @@ def failure_summary(outputs: ModelOutput) -> str:
     return "; ".join(f"{r} ({c})" for r, c in reasons.most_common())
 
 
-def scalar_names(name: str, k: int) -> list[str]:
-    """Names of a scalar output's components in the stacked vector (as Monte Carlo names them)."""
-    return [name] if k == 1 else [f"{name}[{j}]" for j in range(k)]
+def scalar_names(name: str, k: int) -> list[ScalarIndex]:
+    """A scalar output's columns in the stacked vector (as Monte Carlo stacks them)."""
+    return ScalarIndex.of(name, k)
 
 
 def joint_scalar_moments(
     expansions: list[tuple[str, Expansion]]
-) -> tuple[list[str], np.ndarray | None, np.ndarray | None]:
+) -> tuple[list[ScalarIndex], np.ndarray | None, np.ndarray | None]:
     """Names, mean ``(s,)`` and covariance ``(s, s)`` of all scalar outputs stacked.
 
     The expansions may use different multi-index sets (adaptive PCE): their coefficients are
@@ -73,7 +73,7 @@ def joint_scalar_moments(
     for _, e in expansions:
         for a in map(tuple, e.alpha.tolist()):
             union.setdefault(a, len(union))
-    names: list[str] = []
+    names: list[ScalarIndex] = []
     blocks = []
     for name, e in expansions:
         c = np.zeros((len(union), e.n_columns))

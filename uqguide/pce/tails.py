@@ -21,7 +21,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..events import EventEstimate, EventSpec, component_index, count_events
-from ..models.base import DerivedOutput
+from ..types import DerivedOutput
 from ..quantiles import order_statistic_quantiles
 from .design import surrogate_draws
 from .expansion import Expansion

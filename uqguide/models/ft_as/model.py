@@ -13,8 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..base import (InputInfo, Model, ModelOutput, OutputInfo, ReportRow, StepCount,
-                    failure_reasons)
+from ..base import InputInfo, Model, ModelOutput, OutputInfo, StepCount, failure_reasons
 from . import scenario
 from .params import FTASParams
 from .runner import SETTLE_TOLERANCES, RunResult, run_batch
@@ -67,8 +66,8 @@ _PEAKS = {
 class FTAS(Model):
     """FT-AS 6-DOF tracking (FT-DO + FT-NTSM + smooth saturation) and Cases 1-2.
 
-    The controller is chosen by ``Params.controller``; :meth:`nominal_report` runs all of
-    them side by side, as the paper's comparison does.
+    The controller is chosen by ``Params.controller``; the paper scenario
+    (:mod:`uqguide.papers.ft_as`) runs all of them side by side, as the paper's comparison does.
     """
 
     name = "ft_as"
@@ -77,6 +76,9 @@ class FTAS(Model):
         "(Wei et al. 2024)"
     )
     Params = FTASParams
+    # 250 steps of 0.02 s: the NumPy reference takes seconds, not hours
+    example_params = {"step": 0.02, "duration": 5.0, "output_interval": 1.0,
+                      "final_window": 2.0, "late_time": 2.0}
     params: FTASParams
 
     # ------------------------------------------------------------------ contract
@@ -286,19 +288,6 @@ class FTAS(Model):
             failed=res.failed.copy(),
             reasons=failure_reasons(res.failed, "state became non-finite (closed loop diverged)"),
         )
-
-    # ------------------------------------------------------------------ paper comparison
-    def nominal_report(self) -> list[ReportRow]:
-        """Claims C1-C6 of the paper (spec section 11) and the spec's 12.2 reference values."""
-        from .report import nominal_report
-
-        return nominal_report(self)
-
-    def nominal_figures(self, out_dir: str) -> list[str]:
-        """The paper's Figs 5-13 for FT-AS, Case 1 and Case 2 (PNG files in ``out_dir``)."""
-        from ...plotting.ft_as import nominal_figures
-
-        return nominal_figures(self, out_dir)
 
 
 __all__ = ["FTAS", "Variant", "FT_AS"]

@@ -8,6 +8,8 @@ import numpy as np
 from pydantic import Field, PositiveFloat, model_validator
 
 from ..base import ModelParams
+from ..kernels import KernelParam
+from ..time_grid import whole_steps
 from . import scenario
 from .runner import Timing
 from .setup import Gains, Plant
@@ -52,8 +54,9 @@ class FTASParams(ModelParams):
     omega_chi: PositiveFloat = Field(
         default=0.05, description="Case 2 compensator natural frequency [rad/s] ([A14])"
     )
-    kernel: Literal["numba", "numpy"] = Field(
-        default="numba", description="compiled kernel, or the (slow) numpy whole-run reference"
+    kernel: KernelParam = Field(
+        default="numba", description="compiled kernel, the (slow) numpy whole-run reference, "
+        "or 'auto' (numba when importable)"
     )
     # --- integration (section 9)
     step: PositiveFloat = Field(default=0.01, description="RK4 / ZOH step [s]")
@@ -100,9 +103,7 @@ class FTASParams(ModelParams):
         if np.any(np.linalg.eigvalsh(J) <= 0.0):
             raise ValueError("inertia must be positive definite")
         for name in ("duration", "output_interval"):
-            ratio = getattr(self, name) / self.step
-            if abs(ratio - round(ratio)) > 1e-6 * ratio:
-                raise ValueError(f"{name} must be a whole number of steps ({self.step} s)")
+            whole_steps(getattr(self, name), self.step, name, "step", rtol=1e-6)
         if self.output_interval > self.duration or self.final_window > self.duration:
             raise ValueError("output_interval and final_window must not exceed duration")
         if self.m1_over_n1 - self.p1_over_q1 <= 1.0:

@@ -149,7 +149,7 @@ def run_batch(
     timing : Timing
     record : iterable of str
         Groups of ``kernel.RECORD_GROUPS`` to record on the output grid.
-    kernel_name : {"numba", "numpy"}
+    kernel_name : {"numba", "numpy", "auto"}
         ``numpy``: the whole-run reference of ``reference_run.py`` (same numbers to rounding,
         ~100x slower for small batches).
 

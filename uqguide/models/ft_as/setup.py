@@ -31,27 +31,29 @@ N_STATE = 36
 class Gains:
     """Gains of the FT-NTSM law (eq 26-30) and the FT-DO (eq 18-23), section 5.1.
 
-    Ratios such as ``m1n1 = m1/n1`` are used as real exponents with explicit ``sig``
-    powers ([A18]). ``boundary`` > 0 replaces ``sign(s)`` by ``tanh(s / boundary)``
-    (not from the paper).
+    No defaults here: the paper's values are stated once, as the defaults of
+    :class:`~uqguide.models.ft_as.params.FTASParams`, and reach the integrators through
+    ``FTASParams.gains()``. Ratios such as ``m1n1 = m1/n1`` are used as real exponents with
+    explicit ``sig`` powers ([A18]). ``boundary`` > 0 replaces ``sign(s)`` by
+    ``tanh(s / boundary)`` (not from the paper).
     """
 
-    nu1: float = 0.001
-    eta1: float = 0.04
-    nu2: float = 0.01
-    eta2: float = 0.001
-    m1n1: float = 2.0
-    p1q1: float = 0.9
-    m2n2: float = 1.1
-    p2q2: float = 0.6
-    eps: float = 0.01
-    gamma: float = 0.05
-    obs_p: float = 1.2
-    lam1: float = 0.5
-    lam2: float = 0.1
-    lam3: float = 0.1
-    boundary: float = 0.0
-    obs_per_channel: bool = False
+    nu1: float
+    eta1: float
+    nu2: float
+    eta2: float
+    m1n1: float
+    p1q1: float
+    m2n2: float
+    p2q2: float
+    eps: float
+    gamma: float
+    obs_p: float
+    lam1: float
+    lam2: float
+    lam3: float
+    boundary: float
+    obs_per_channel: bool
 
     @property
     def a(self) -> float:

@@ -1,7 +1,8 @@
 """Potentials, geometry, point clouds and controllers for GMM-based proximity operations.
 
-Generic building blocks (gmm-controllers.md section 14), shared by the [W] model
-(:mod:`uqguide.models.gmm_proximity`) and the [C] model (:mod:`uqguide.models.gmm_ftc`):
+The [W] model ``gmm_proximity`` (:mod:`.model`, its parameters :mod:`.params`; Wang et al. 2022)
+and the generic building blocks (gmm-controllers.md section 14) it shares with the [C] model
+(:mod:`uqguide.models.gmm_ftc`):
 
 - :mod:`.gauss_sum`: ``V(r) = sum c_j exp(-1/2 d^T L d)`` with gradient, Hessian and third-
   derivative contraction (GMM kernels and classical APF obstacles);
@@ -10,6 +11,7 @@ Generic building blocks (gmm-controllers.md section 14), shared by the [W] model
 - :mod:`.geometry`: box-built chiefs, clearance, penetration, swept-segment collisions;
 - :mod:`.point_cloud`, :mod:`.mixture`: surface samples, mixtures (published sets), k-means + EM;
 - :mod:`.controllers`: reaching law, TSMC (APF/GMM) and NTSMC laws;
-- :mod:`.sampled_sim`: the batched sampled-data closed loop on a linear relative plant;
-- :mod:`.claims`: the [W] paper's claims as checks.
+- :mod:`.sampled_sim`: the batched sampled-data closed loop on a linear relative plant.
+
+The [W] paper's claims, report and figures are in :mod:`uqguide.papers.gmm_proximity`.
 """

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..dynamics.tschauner_hempel import RelativePlant, rk4_transition
 from ..kernels import njit
+from ..time_grid import whole_steps
 from .geometry import ChiefGeometry
 
 log = logging.getLogger(__name__)
@@ -100,9 +101,7 @@ def build_schedule(plant: RelativePlant, t_f: float, dt: float, n_sub: int) -> S
     n_sub : int
         RK4 sub-steps per period.
     """
-    n_steps = int(round(t_f / dt))
-    if n_steps < 1 or abs(n_steps * dt - t_f) > 1e-9 * max(1.0, t_f):
-        raise ValueError(f"the final time {t_f} s must be a positive multiple of the period {dt} s")
+    n_steps = whole_steps(t_f, dt, "t_f")
     if n_sub < 1:
         raise ValueError(f"n_sub must be at least 1, got {n_sub}")
     f = np.empty(n_steps + 1)

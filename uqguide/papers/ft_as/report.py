@@ -21,17 +21,20 @@ its tolerance across the same ensemble.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..base import ReportRow
-from ..roundoff import ROUNDOFF, Spread, perturb
-from .runner import RunResult
+from ...models.ft_as.model import Variant
+from ...models.ft_as.runner import RunResult
+from ...models.roundoff import ROUNDOFF, Spread, perturb
+from ..cache import per_model
+from ..rows import ReportRow
 
 if TYPE_CHECKING:
-    from .model import FTAS, Variant
+    from ...models.ft_as.model import FTAS
 
 # Spec section 12.2, profile R at h = 0.01 s: final max|r_e,k| [m], max|sigma_e,k|,
 # max|omega_e,k| [rad/s], T(|r_e| <= 2e-4 m), T(|sigma_e| <= 1e-4), T(|eps1| <= 1e-3) [s], dv [m/s].
@@ -57,8 +60,6 @@ C6_STEP = 0.05  # s, step at which the spec measured claim C6
 
 def report_variants() -> list[Variant]:
     """The five configurations of the comparison, in report order."""
-    from .model import Variant
-
     return [
         Variant("FT-AS", "ft_as", observer_on_applied=True),
         Variant("FT-AS-P", "ft_as", observer_on_applied=False, psi2_bound=0.01),
@@ -73,29 +74,24 @@ FIGURE_GROUPS = (
 )  # fmt: skip
 
 
+@per_model
 def nominal_runs(model: FTAS) -> tuple[list[Variant], RunResult]:
-    """The five-configuration nominal batch, recorded every 0.1 s for the figures; cached on
-    the model instance so that the report and the figures share one integration."""
-    cached = getattr(model, "_nominal_cache", None)
-    if cached is not None:
-        return cached
+    """The five-configuration nominal batch, recorded every 0.1 s for the figures; cached per
+    model instance so that the report and the figures share one integration."""
     variants = report_variants()
     p = model.params
     interval = max(1, round(0.1 / p.step)) * p.step
     res = model.run(
         model.nominal_values(len(variants)), variants, FIGURE_GROUPS, output_interval=interval
     )
-    model._nominal_cache = (variants, res)  # type: ignore[attr-defined]
     return variants, res
 
 
+@per_model
 def roundoff_runs(model: FTAS) -> list[RunResult]:
     """The comparison batch again, once per round-off member ``1 .. ROUNDOFF_MEMBERS``, with
     every input moved by 1e-12 relative (recording r_e and v_e at the start and the end only);
-    one kernel call for all members, cached on the model like :func:`nominal_runs`."""
-    cached = getattr(model, "_roundoff_cache", None)
-    if cached is not None:
-        return cached
+    one kernel call for all members, cached per model like :func:`nominal_runs`."""
     variants = report_variants()
     n = len(variants)
     members = [perturb(model.nominal_values(n), ROUNDOFF, member=m)
@@ -104,7 +100,6 @@ def roundoff_runs(model: FTAS) -> list[RunResult]:
     res = model.run(values, variants * ROUNDOFF_MEMBERS, ("r_e", "v_e"),
                     output_interval=model.params.duration)
     runs = [res.take(slice(m * n, (m + 1) * n)) for m in range(ROUNDOFF_MEMBERS)]
-    model._roundoff_cache = runs  # type: ignore[attr-defined]
     return runs
 
 
@@ -153,6 +148,16 @@ def within_factor_of_range(ref: float, factor: float = 3.0) -> Verdict:
 def _fmt_settle(res: RunResult, q: str, ti: int, i: int) -> float | str:
     v = float(res.settle[q][i, ti])
     return v if v < res.timing.duration - 0.5 * res.timing.step else "not settled"
+
+
+def _late_peak(r: RunResult, i: int, sl: slice) -> float:
+    """Largest applied input of run ``i`` on the axes ``sl`` after ``late_time``."""
+    return float(r.peak_late[i, sl].max())
+
+
+def _angular_impulse(r: RunResult, i: int) -> float:
+    """Sum over the body axes of run ``i``'s torque impulse [N m s]."""
+    return float(r.impulse[i, 3:].sum())
 
 
 def _within(value: float, ref: float, rel: float) -> bool:
@@ -275,7 +280,7 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
         rows.append(chaos.row(
             f"Case 1: C5 peak {part} after {p.late_time:g} s (within later)",
             "N" if part == "force" else "N m",
-            lambda r, sl=sl: float(r.peak_late[i1, sl].max()), cap, "<= limit",
+            functools.partial(_late_peak, i=i1, sl=sl), cap, "<= limit",
             at_most(cap) if h <= REFERENCE_STEP else UNCHECKED,
             "" if h <= REFERENCE_STEP else "chatter grows with h; asserted at h <= 0.01 s",
         ))  # fmt: skip
@@ -305,7 +310,7 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
                 ok = _within(val, r, 0.10)
             rows.append(ReportRow(f"{lab}: spec 12.2 {name}", unit, val, r, "10%", ok, ref_note))
         rows.append(chaos.row(  # the integral of a chattering torque: moves ~2 % (FT-AS-P)
-            f"{lab}: angular impulse", "N m s", lambda r, i=i: float(r.impulse[i, 3:].sum()),
+            f"{lab}: angular impulse", "N m s", functools.partial(_angular_impulse, i=i),
             None, "", UNCHECKED))
     rows.append(ReportRow("wall time per run (kernel)", "s", res.wall_time / len(variants),
                           note=f"{len(variants)} runs in one batch, {step_note}",

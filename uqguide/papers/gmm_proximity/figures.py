@@ -11,57 +11,24 @@ that crossed a part (swept test) is drawn dashed and the parts it hit are listed
 
 from __future__ import annotations
 
-import os
+from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING
 
-import matplotlib
+import numpy as np
+from matplotlib.patches import Rectangle
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+from ...figures import new_figure, save
+from ...models.base import ModelOutput
+from ..chief_drawing import PART_COLORS, draw_chief_3d, draw_chief_xy
+from .report import CONTROLLER_LABEL, nominal_runs
 
 if TYPE_CHECKING:
-    from ..models.gmm.geometry import ChiefGeometry, Part
-    from ..models.gmm.sampled_sim import SampledRun
+    from ...models.gmm.geometry import ChiefGeometry
+    from ...models.gmm.model import GMMProximity
+    from ...models.gmm.sampled_sim import SampledRun
 
 COLORS = {"APF-TSMC": "tab:red", "GMM-TSMC": "tab:blue", "GMM-NTSMC": "tab:green"}
-PART_COLORS = {"solid": "0.55", "plate": "tab:cyan", "segment": "k"}
-
-
-def _box_faces(lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray]:
-    """The non-degenerate faces of a box as (4, 3) corner arrays."""
-    faces = []
-    for a in range(3):
-        b, c = [k for k in range(3) if k != a]
-        if lo[b] == hi[b] or lo[c] == hi[c]:
-            continue
-        for v in {lo[a], hi[a]}:
-            quad = np.empty((4, 3))
-            quad[:, a] = v
-            quad[:, b] = [lo[b], hi[b], hi[b], lo[b]]
-            quad[:, c] = [lo[c], lo[c], hi[c], hi[c]]
-            faces.append(quad)
-    return faces
-
-
-def _draw_part_3d(ax, part: Part) -> None:
-    lo, hi = np.asarray(part.lo, float), np.asarray(part.hi, float)
-    if part.kind == "segment":
-        ax.plot(*np.stack([lo, hi]).T, color=PART_COLORS["segment"], lw=3)
-        return
-    alpha = 0.25 if part.kind == "solid" else 0.45
-    ax.add_collection3d(Poly3DCollection(_box_faces(lo, hi), facecolor=PART_COLORS[part.kind],
-                                         edgecolor="0.3", lw=0.5, alpha=alpha))
-
-
-def _draw_part_xy(ax, part: Part) -> None:
-    lo, hi = np.asarray(part.lo, float), np.asarray(part.hi, float)
-    if part.kind == "solid":
-        ax.add_patch(plt.Rectangle(lo[:2], *(hi - lo)[:2], facecolor="0.85", edgecolor="0.3"))
-    else:
-        ax.plot([lo[0], hi[0]], [lo[1], hi[1]], color=PART_COLORS[part.kind],
-                lw=4 if part.kind == "plate" else 2.5, solid_capstyle="butt")
 
 
 _AXIS = "xyz"
@@ -74,9 +41,9 @@ def _cross_section(ax, geometry: ChiefGeometry, k: int, runs: dict[str, SampledR
     a = int(np.argmax(hi - lo))
     b, c = [i for i in range(3) if i != a]
     clo, chi = geometry.collision_lo[k], geometry.collision_hi[k]
-    ax.add_patch(plt.Rectangle((clo[b], clo[c]), chi[b] - clo[b], chi[c] - clo[c],
-                               facecolor=PART_COLORS[part.kind], alpha=0.35, edgecolor="k",
-                               label=None))
+    ax.add_patch(Rectangle((clo[b], clo[c]), chi[b] - clo[b], chi[c] - clo[c],
+                           facecolor=PART_COLORS[part.kind], alpha=0.35, edgecolor="k",
+                           label=None))
     ax.plot([lo[b], hi[b]], [lo[c], hi[c]], "k+-", lw=1, ms=10)  # zero-thickness skeleton
     centre = 0.5 * (lo + hi)
     for name, run in runs.items():
@@ -100,7 +67,7 @@ def _legend_label(name: str, geometry: ChiefGeometry, run: SampledRun) -> str:
 
 
 def plot_trajectories(runs: dict[str, SampledRun], geometry: ChiefGeometry, goal: np.ndarray,
-                      out_dir: str, filename: str = "gmm_trajectories.png") -> str:
+                      out_dir: Path, filename: str = "gmm_trajectories.png") -> Path:
     """Fig. 4: paths of the controllers around the chief; returns the PNG's path.
 
     Parameters
@@ -110,16 +77,20 @@ def plot_trajectories(runs: dict[str, SampledRun], geometry: ChiefGeometry, goal
     geometry : ChiefGeometry
     goal : ndarray, shape (3,)
         Goal position [m].
-    out_dir : str
+    out_dir : Path
+    filename : str
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
-    os.makedirs(out_dir, exist_ok=True)
-    fig = plt.figure(figsize=(13, 10))
+    fig = new_figure((13, 10))
     ax3 = fig.add_subplot(2, 2, 1, projection="3d")
     axes = [fig.add_subplot(2, 2, k) for k in (2, 3, 4)]
-    for part in geometry.parts:
-        _draw_part_3d(ax3, part)
-        for ax in (axes[0], axes[2]):
-            _draw_part_xy(ax, part)
+    draw_chief_3d(ax3, geometry)
+    for ax in (axes[0], axes[2]):
+        draw_chief_xy(ax, geometry)
     start = next(iter(runs.values())).r[0, 0]
     for name, run in runs.items():
         r = run.r[0]
@@ -155,16 +126,14 @@ def plot_trajectories(runs: dict[str, SampledRun], geometry: ChiefGeometry, goal
     fig.suptitle(f"Deputy paths: {', '.join(runs)} (dashed: collided)")
     fig.legend(loc="lower center", ncol=len(runs), fontsize=9, frameon=False)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
-    path = os.path.join(out_dir, filename)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save(fig, out_dir / filename, dpi=110)
 
 
-def plot_delta_v(runs: dict[str, SampledRun], out_dir: str, filename: str = "gmm_delta_v.png") -> str:
+def plot_delta_v(runs: dict[str, SampledRun], out_dir: Path,
+                 filename: str = "gmm_delta_v.png") -> Path:
     """Fig. 5: accumulated delta-v ([W 24]) of each controller over time; returns the path."""
-    os.makedirs(out_dir, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig = new_figure((7, 4.5))
+    ax = fig.add_subplot()
     for name, run in runs.items():
         ax.plot(run.time, run.delta_v_history[0], color=COLORS.get(name),
                 label=f"{name}: {run.delta_v[0]:.3f} m/s")
@@ -172,7 +141,22 @@ def plot_delta_v(runs: dict[str, SampledRun], out_dir: str, filename: str = "gmm
     ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()
-    path = os.path.join(out_dir, filename)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save(fig, out_dir / filename, dpi=110)
+
+
+def nominal_figures(model: GMMProximity, out_dir: Path) -> list[Path]:
+    """The paper's Fig. 4 (trajectories around the chief) and Fig. 5 (delta-v over time)."""
+    runs = nominal_runs(model, record_every=1)
+    goal = np.asarray(model.params.r_f)
+    return [plot_trajectories(runs, model.geometry(), goal, out_dir), plot_delta_v(runs, out_dir)]
+
+
+def sample_figures(model: GMMProximity, out: ModelOutput, values: Mapping[str, float],
+                   out_dir: Path, stem: str) -> list[Path]:
+    """One replayed sample's path around the chief with its geometry (the layout of the
+    paper's Fig. 4), recorded at every control step."""
+    vals = {k: np.array([v], dtype=float) for k, v in values.items()}
+    run = model.run(vals, 1, record_every=1)
+    name = CONTROLLER_LABEL[model.params.controller]
+    return [plot_trajectories({name: run}, model.geometry(), np.asarray(model.params.r_f),
+                              out_dir, filename=f"{stem}_trajectory.png")]

@@ -1,4 +1,4 @@
-"""The FTCAPN nominal run beside the paper's figures (spec ftcapn.md section 6).
+"""The FTCAPN nominal run beside the paper's figures (Wang & Song 2019; spec ftcapn.md section 6).
 
 Tolerances are the spec's; the total delta-v is reported, not checked (the spec explains why the
 paper's 98.5 m/s is not reproduced by this model).
@@ -7,15 +7,14 @@ paper's 98.5 m/s is not reproduced by this model).
 from __future__ import annotations
 
 import math
-import os
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..base import ReportRow
+from ..rows import ReportRow
 
 if TYPE_CHECKING:
-    from .model import FTCAPN
+    from ...models.ftcapn.model import FTCAPN
 
 PAPER = {
     "R0": 5.4e3, "v0": 69.5, "omega0": 1.23e-3, "t_stable": 60.0, "t_stop": 85.0,
@@ -86,73 +85,3 @@ def nominal_report(model: FTCAPN) -> list[ReportRow]:
                   bool(sc["t_surface"] <= bound),
                   f"compared with this model's bound {bound:.1f} s"),
     ]
-
-
-def nominal_figures(model: FTCAPN, out_dir: str) -> list[str]:
-    """LOS rate, range and relative speed of the nominal run against time (paper Figures 3-5),
-    written as PNG files into ``out_dir``; returns their paths."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    out = model.nominal(frozenset(["omega_s", "R", "speed", "t_stop"]))
-    t_stop = float(out.scalars["t_stop"][0, 0])
-    keep = out.time <= t_stop + model.params.dt
-    os.makedirs(out_dir, exist_ok=True)
-    paths = []
-    for name, label, fig_no in (("omega_s", "LOS rate omega_s [rad/s]", 3),
-                                ("speed", "relative speed [m/s]", 4),
-                                ("R", "range R [m]", 5)):
-        fig = Figure(figsize=(6, 4))
-        FigureCanvasAgg(fig)
-        ax = fig.add_subplot()
-        ax.plot(out.time[keep], out.series[name][0, keep, 0])
-        ax.set_xlabel("time [s]")
-        ax.set_ylabel(label)
-        ax.set_title(f"FTCAPN nominal run (paper Figure {fig_no}); stop at {t_stop:.1f} s")
-        ax.grid(True, alpha=0.3)
-        path = os.path.join(out_dir, f"ftcapn_nominal_{name}.png")
-        fig.savefig(path, dpi=100, bbox_inches="tight")
-        paths.append(path)
-    return paths
-
-
-def sample_trajectory_figure(model: FTCAPN, out, out_dir: str, stem: str) -> str:
-    """One replayed sample: the chaser's path relative to the target (3-D and two planes),
-    and its range and LOS rate against time, with the stop marked."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    os.makedirs(out_dir, exist_ok=True)
-    r = -out.series["r"][0]  # chaser relative to target
-    t = out.time
-    t_stop = float(out.scalars["t_stop"][0, 0])
-    fig = Figure(figsize=(12, 8), layout="constrained")
-    FigureCanvasAgg(fig)
-    ax3 = fig.add_subplot(2, 2, 1, projection="3d")
-    ax3.plot(*r.T, lw=1.4)
-    ax3.scatter([0], [0], [0], c="m", marker="*", s=80)
-    ax3.set(xlabel="x [m]", ylabel="y [m]", zlabel="z [m]",
-            title="chaser relative to target (target at the star)")
-    ax_xz = fig.add_subplot(2, 2, 2)
-    ax_xz.plot(r[:, 0], r[:, 2], lw=1.4)
-    ax_xz.scatter([0], [0], c="m", marker="*", s=80)
-    ax_xz.set(xlabel="x [m]", ylabel="z [m]", title="x-z plane")
-    ax_xz.set_aspect("equal", adjustable="datalim")
-    ax_r = fig.add_subplot(2, 2, 3)
-    ax_r.semilogy(t, out.series["R"][0, :, 0])
-    ax_r.set(xlabel="time [s]", ylabel="range R [m]")
-    ax_w = fig.add_subplot(2, 2, 4)
-    ax_w.plot(t, out.series["omega_s"][0, :, 0])
-    ax_w.set(xlabel="time [s]", ylabel="LOS rate omega_s [rad/s]")
-    for ax in (ax_xz, ax_r, ax_w):
-        ax.grid(True, alpha=0.3)
-    for ax in (ax_r, ax_w):
-        if np.isfinite(t_stop):
-            ax.axvline(t_stop, color="grey", ls=":", label=f"stop {t_stop:.2f} s")
-            ax.legend(fontsize=8)
-    zem = float(out.scalars["zem"][0, 0])
-    fig.suptitle(f"FTCAPN sample {stem}: zem {zem:.4g} m, maneuver frame "
-                 f"{getattr(model.params, 'maneuver_frame', 'initial')}")
-    path = os.path.join(out_dir, f"{stem}_trajectory.png")
-    fig.savefig(path, dpi=100)
-    return path

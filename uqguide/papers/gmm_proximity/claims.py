@@ -14,6 +14,9 @@ import numpy as np
 APF, GTS, GNT = "APF-TSMC", "GMM-TSMC", "GMM-NTSMC"
 """Display names of the three controllers of [W]."""
 
+CONTROLLER_LABEL: dict[str, str] = {"apf_tsmc": APF, "gmm_tsmc": GTS, "gmm_ntsmc": GNT}
+"""The model's ``controller`` parameter -> display name."""
+
 WANG2022_DV_RATIO = {GTS: 0.44, GNT: 0.4553}
 """Delta-v of each GMM controller over APF-TSMC's ([W] 4.2, "reduce by 56 % / 54.47 %", A15)."""
 

@@ -39,91 +39,23 @@ import logging
 from collections.abc import Mapping
 from functools import lru_cache
 from importlib import resources
-from typing import Literal
 
 import numpy as np
-from pydantic import Field, model_validator
 
-from .base import (InputInfo, Model, ModelOutput, ModelParams, OutputInfo, ReportRow,
-                   StepCount, failure_reasons)
-from .dynamics.tschauner_hempel import MU_EARTH, ChiefOrbit, LVLHPlant
-from .gmm.claims import APF, GNT, GTS, WANG2022_DV_RATIO, Outcome, evaluate_wang2022_claims
-from .gmm.controllers import NTSMC, TSMC, ReachingLaw
-from .gmm.gauss_sum import GaussSum
-from .gmm.geometry import ChiefGeometry, wang2022_chief
-from .gmm.mixture import WANG2022_PUBLISHED, Mixture
-from .gmm.potential import AttractRepulsePotential
-from .gmm.sampled_sim import SampledRun, StepSchedule, build_schedule, simulate
+from ..base import (InputInfo, Model, ModelOutput, OutputInfo, StepCount,
+                   failure_reasons)
+from ..dynamics.tschauner_hempel import ChiefOrbit, LVLHPlant
+from .controllers import NTSMC, TSMC, ReachingLaw
+from .gauss_sum import GaussSum
+from .geometry import ChiefGeometry, wang2022_chief
+from .mixture import WANG2022_PUBLISHED, Mixture
+from .params import GMMProximityParams
+from .potential import AttractRepulsePotential
+from .sampled_sim import SampledRun, StepSchedule, build_schedule, simulate
 
 log = logging.getLogger(__name__)
 
-Vec3 = tuple[float, float, float]
-ControllerName = Literal["gmm_ntsmc", "gmm_tsmc", "apf_tsmc"]
-CONTROLLER_LABEL: dict[str, str] = {"apf_tsmc": APF, "gmm_tsmc": GTS, "gmm_ntsmc": GNT}
 FITTED_FILE = "gmm_wang2022_fitted.npz"
-
-
-class GMMProximityParams(ModelParams):
-    """The [W] scenario (spec 9.1); SI units. Defaults are the literal reading of the paper."""
-
-    controller: ControllerName = Field("gmm_ntsmc", description="control law ([W] 3, App. A2, A3)")
-    gmm_source: Literal["published", "fitted"] = Field(
-        "published", description="App. A4 parameters, or the k-means + EM fit shipped in uqguide/data")
-    gmm_norm: Literal["2pi", "3d"] = Field("2pi", description="kernel normaliser (spec 5.1, A9)")
-    gmm_sigma_floor: float = Field(
-        0.0, ge=0.0, description="m; GMM covariance eigenvalues raised to this squared (spec 6.3, "
-        "A31; 0 = as published, 0.3 in the spec's F configurations)")
-    mu: float = Field(MU_EARTH, gt=0, description="m^3/s^2")
-    a: float = Field(6778.1336e3, gt=0, description="chief semi-major axis, m")
-    e: float = Field(0.01, ge=0, lt=1, description="chief eccentricity")
-    f0: float = Field(0.0, description="chief true anomaly at t = 0, rad (A4)")
-    printed_omega_dot: bool = Field(False, description="use the papers' printed dw/dt (A3)")
-    r0: Vec3 = Field((1.0, -16.0, 0.0), description="initial position, m (Table 2, literal, A1)")
-    v0: Vec3 = Field((0.0, 0.0, 0.0), description="initial velocity, m/s")
-    r_f: Vec3 = Field((-5.0, -0.913043, -0.304348), description="goal, m ([W 20])")
-    dt: float = Field(1.0, gt=0, description="control period, s ([W 21])")
-    t_f: float = Field(800.0, gt=0, description="final time, s ([W 21])")
-    n_sub: int = Field(10, ge=1, description="RK4 sub-steps per period (spec 8)")
-    deputy_mass: float = Field(50.0, gt=0, description="kg (Table 1)")
-    max_thrust: float = Field(30.0, gt=0, description="N (Table 1)")
-    saturation: Literal["norm", "per_axis", "none"] = Field("norm", description="A13")
-    P: Vec3 = Field((1.2e-2, 1.2e-2, 1.2e-2), description="attraction gain diag ([W 23])")
-    M: Vec3 = Field((0.8, 0.6, 0.4), description="repulsion gain diag ([W 23])")
-    k_s: Vec3 = Field((10.0, 6.0, 8.0), description="surface gain diag ([W 23])")
-    lambda1: Vec3 = Field((1.5e-2, 1.5e-2, 1.5e-2), description="reaching gain diag ([W 23])")
-    lambda2: Vec3 = Field((1e-2, 1e-2, 1e-2), description="reaching gain diag ([W 23])")
-    alpha: float = Field(0.9999, gt=0, lt=1, description="reaching exponent ([W 23])")
-    xi0: float = Field(0.01, gt=0, description="NTSMC ([W 23])")
-    xi1: Vec3 = Field((1e-2, 1e-3, 1e-3), description="NTSMC diag ([W 23])")
-    xi2: Vec3 = Field((1.0, 0.8, 0.8), description="NTSMC diag ([W 23])")
-    tau: float = Field(1.5, gt=1, description="NTSMC ([W 23])")
-    p: int = Field(5, ge=1, description="NTSMC odd exponent numerator ([W 23])")
-    q: int = Field(7, ge=1, description="NTSMC odd exponent denominator ([W 23])")
-    ntsmc_eps: float = Field(1e-6, ge=0, description="m/s, stall floor (A17; 0 = as published)")
-    apf_psi: float = Field(0.1, gt=0, description="APF height ([W 23])")
-    apf_n: Vec3 = Field((5.5e-4, 5.5e-4, 5.5e-4), description="APF shape diag, 1/m^2 ([W 23])")
-    apf_sigma: float = Field(1.0, gt=0, description="APF width ([W 23])")
-    apf_center: Vec3 = Field((0.0, 0.0, 0.0), description="APF obstacle centre, m (A12)")
-    panel_half_thickness: float = Field(0.05, ge=0, description="m (spec 4.2)")
-    antenna_half_width: float = Field(0.10, ge=0, description="m (spec 4.2)")
-    body_tolerance: float = Field(0.01, ge=0, description="allowed body penetration, m (A8)")
-    deputy_radius: float = Field(0.0, ge=0, description="m (a point in [W])")
-    record_interval: float = Field(10.0, gt=0, description="s between recorded series points")
-    reach_tolerance: float = Field(0.05, gt=0, description="m; goal reached (claim W10, A32)")
-
-    @model_validator(mode="after")
-    def _grid(self) -> GMMProximityParams:
-        steps = self.t_f / self.dt
-        if abs(steps - round(steps)) > 1e-9 * steps:
-            raise ValueError(f"t_f ({self.t_f} s) must be a multiple of dt ({self.dt} s)")
-        every = self.record_interval / self.dt
-        if abs(every - round(every)) > 1e-9 * every or round(steps) % round(every):
-            raise ValueError(
-                f"record_interval ({self.record_interval} s) must be a multiple of dt that "
-                f"divides t_f ({self.t_f} s)")
-        if self.p % 2 == 0 or self.q % 2 == 0 or self.p >= self.q:
-            raise ValueError(f"p and q must be odd with p < q, got {self.p}, {self.q}")
-        return self
 
 
 @lru_cache(maxsize=8)
@@ -135,7 +67,8 @@ def _schedule(a: float, e: float, f0: float, mu: float, printed: bool, t_f: floa
 
 @lru_cache(maxsize=1)
 def fitted_mixture() -> Mixture:
-    """The k-means + EM fit of the [W] chief shipped as package data (scripts/fit_gmm_wang2022.py)."""
+    """The k-means + EM fit of the [W] chief shipped as package data
+    (scripts/fit_gmm_wang2022.py)."""
     with resources.as_file(resources.files("uqguide") / "data" / FITTED_FILE) as path:
         return Mixture.load(path)
 
@@ -150,6 +83,7 @@ class GMMProximity(Model):
     summary = ("GMM-potential sliding-mode proximity to a box/panel/antenna chief "
                "(Wang et al. 2022): clearance, collision, delta-v, final error")
     Params = GMMProximityParams
+    params: GMMProximityParams
 
     _INPUTS = (
         InputInfo("dx0", "m", "error added to the initial radial position", 0.0),
@@ -159,9 +93,12 @@ class GMMProximity(Model):
         InputInfo("dvy0", "m/s", "error added to the initial along-track velocity", 0.0),
         InputInfo("dvz0", "m/s", "error added to the initial cross-track velocity", 0.0),
         InputInfo("thrust_scale", "1", "applied / commanded thrust (magnitude error), > 0", 1.0),
-        InputInfo("gmm_shift_x", "m", "controller's chief-position error along x (GMM and APF)", 0.0),
-        InputInfo("gmm_shift_y", "m", "controller's chief-position error along y (GMM and APF)", 0.0),
-        InputInfo("gmm_shift_z", "m", "controller's chief-position error along z (GMM and APF)", 0.0),
+        InputInfo("gmm_shift_x", "m",
+                  "controller's chief-position error along x (GMM and APF)", 0.0),
+        InputInfo("gmm_shift_y", "m",
+                  "controller's chief-position error along y (GMM and APF)", 0.0),
+        InputInfo("gmm_shift_z", "m",
+                  "controller's chief-position error along z (GMM and APF)", 0.0),
         InputInfo("gmm_mean_scale", "1", "scale of the GMM component means about the centre", 1.0),
         InputInfo("gmm_cov_scale", "1", "scale of every GMM covariance", 1.0),
     )
@@ -180,8 +117,10 @@ class GMMProximity(Model):
         return (
             OutputInfo("range", "series", "m", "distance to the chief's centre |r|"),
             OutputInfo("position", "series", "m", "relative position in LVLH", xyz, default=False),
-            OutputInfo("velocity", "series", "m/s", "relative velocity in LVLH", xyz, default=False),
-            OutputInfo("los_rate", "series", "rad/s", "LOS rate |r x v| / |r|^2 (LVLH)", default=False),
+            OutputInfo("velocity", "series", "m/s", "relative velocity in LVLH", xyz,
+                       default=False),
+            OutputInfo("los_rate", "series", "rad/s", "LOS rate |r x v| / |r|^2 (LVLH)",
+                       default=False),
             OutputInfo("position_error", "series", "m", "|r - r_f|", default=False),
             OutputInfo("zem", "series", "m", "zero-effort miss to the goal at t_f", default=False),
             OutputInfo("delta_v_history", "series", "m/s", "accumulated delta-v ([W 24])",
@@ -234,7 +173,8 @@ class GMMProximity(Model):
         p = self.params
         shift = None
         if values is not None:
-            shift = np.stack([values["gmm_shift_x"], values["gmm_shift_y"], values["gmm_shift_z"]], 1)
+            shift = np.stack(
+                [values["gmm_shift_x"], values["gmm_shift_y"], values["gmm_shift_z"]], 1)
         if controller == "apf_tsmc":
             gs = GaussSum.from_apf([p.apf_psi], [p.apf_center], [np.diag(p.apf_n)], [p.apf_sigma])
             if shift is None or not shift.any():
@@ -286,7 +226,8 @@ class GMMProximity(Model):
         )
 
     # ------------------------------------------------------------------ contract
-    def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]) -> ModelOutput:
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
         values = {k: np.asarray(v, dtype=float) for k, v in values.items()}
         invalid = np.zeros(n, dtype=bool)
         for key in ("thrust_scale", "gmm_mean_scale", "gmm_cov_scale"):
@@ -331,85 +272,3 @@ class GMMProximity(Model):
         return ModelOutput(time=run.time, series=series,
                            scalars={k: v for k, v in scalars.items() if k in outputs},
                            failed=failed, reasons=reasons)
-
-    # ------------------------------------------------------------------ nominal scenario
-    def nominal_runs(self, record_every: int = 1) -> dict[str, SampledRun]:
-        """The nominal run of each of the three controllers, keyed by display name."""
-        vals = self.nominal_values()
-        return {CONTROLLER_LABEL[c]: self.run(vals, 1, c, record_every=record_every)
-                for c in ("apf_tsmc", "gmm_tsmc", "gmm_ntsmc")}
-
-    def nominal_outcomes(self, runs: dict[str, SampledRun] | None = None) -> dict[str, Outcome]:
-        runs = self.nominal_runs() if runs is None else runs
-        names = self.geometry().names
-        r_f = np.asarray(self.params.r_f)
-        return {
-            label: Outcome(
-                hit_parts=tuple(nm for nm, h in zip(names, run.hits[0]) if h),
-                clearance={nm: float(c) for nm, c in zip(names, run.clearance[0])},
-                penetration=float(run.penetration[0]),
-                delta_v=float(run.delta_v[0]),
-                final_error=float(np.linalg.norm(run.r[0, -1] - r_f)),
-            )
-            for label, run in runs.items()
-        }
-
-    def nominal_report(self) -> list[ReportRow]:
-        """Per controller: collision, clearances, delta-v (and its ratio to APF-TSMC's), final
-        error, beside the paper's statements; then claims W1-W10 (spec 10.1) with verdicts."""
-        out = self.nominal_outcomes()
-        p = self.params
-        rows: list[ReportRow] = []
-        paper_collides = {APF: "yes (antenna)", GTS: "no", GNT: "no"}
-        for label, o in out.items():
-            hit = "yes: " + ", ".join(o.hit_parts) if o.collided else "no"
-            as_paper = (any(h.startswith("antenna") for h in o.hit_parts) if label == APF
-                        else not o.collided)
-            rows.append(ReportRow(f"{label}: collision", "", hit, paper_collides[label],
-                                  "same verdict", as_paper,
-                                  "swept test; panel half-thickness "
-                                  f"{p.panel_half_thickness} m, antenna half-width "
-                                  f"{p.antenna_half_width} m"))
-            rows.append(ReportRow(
-                f"{label}: minimum clearance", "m",
-                min(o.clearance_of("panel"), o.clearance_of("antenna")),
-                note=f"to panels and antennas (zero thickness): antenna "
-                f"{o.clearance_of('antenna'):.4f} m, panel {o.clearance_of('panel'):.4f} m; "
-                f"body penetration {o.penetration:.3f} m"))
-            rows.append(ReportRow(f"{label}: total delta-v", "m/s", o.delta_v,
-                                  note="Fig. 5 gives no number; eq (24)"))
-            if label != APF:
-                ratio = o.delta_v / out[APF].delta_v
-                target = WANG2022_DV_RATIO[label]
-                rows.append(ReportRow(f"{label}: delta-v / APF-TSMC delta-v", "", ratio, target,
-                                      "+-0.05", abs(ratio - target) <= 0.05,
-                                      '"reduce by" reading (A15)'))
-            rows.append(ReportRow(f"{label}: final position error", "m", o.final_error,
-                                  "goal reached", f"< {p.reach_tolerance} m",
-                                  o.final_error < p.reach_tolerance))
-        for c in evaluate_wang2022_claims(out, p.reach_tolerance):
-            rows.append(ReportRow(f"claim {c.id}: {c.statement}", "",
-                                  "holds" if c.holds else "fails", "holds", "", c.holds,
-                                  c.measured))
-        return rows
-
-    def sample_figures(self, out: ModelOutput, values: Mapping[str, float], out_dir: str,
-                       stem: str) -> list[str]:
-        """One replayed sample's path around the chief with its geometry (the layout of the
-        paper's Fig. 4), recorded at every control step."""
-        from ..plotting.gmm import plot_trajectories
-
-        vals = {k: np.array([v], dtype=float) for k, v in values.items()}
-        run = self.run(vals, 1, record_every=1)
-        name = CONTROLLER_LABEL[self.params.controller]
-        return [plot_trajectories({name: run}, self.geometry(), np.asarray(self.params.r_f),
-                                  out_dir, filename=f"{stem}_trajectory.png")]
-
-    def nominal_figures(self, out_dir: str) -> list[str]:
-        """The paper's Fig. 4 (trajectories around the chief) and Fig. 5 (delta-v over time)."""
-        from ..plotting.gmm import plot_delta_v, plot_trajectories
-
-        runs = self.nominal_runs(record_every=1)
-        geo = self.geometry()
-        goal = np.asarray(self.params.r_f)
-        return [plot_trajectories(runs, geo, goal, out_dir), plot_delta_v(runs, out_dir)]

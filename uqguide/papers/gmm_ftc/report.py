@@ -21,26 +21,26 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..base import ReportRow
-from . import noise
-from .closed_loop import LoopRun
-from .law import fixed_time_bound
+from ...models.gmm_ftc import noise
+from ...models.gmm_ftc.closed_loop import LoopRun
+from ...models.gmm_ftc.law import fixed_time_bound
+from ...models.gmm_ftc.target import target_geometry
+from ..cache import per_model
+from ..rows import ReportRow
 
 if TYPE_CHECKING:
-    from .model import GMMFTC
+    from ...models.gmm_ftc.model import GMMFTC
 
 N_NOISE_SEEDS = 16
 """Noise realisations of the nominal report (as in spec section 11)."""
 
 
+@per_model
 def nominal_runs(model: GMMFTC) -> tuple[LoopRun, LoopRun | None]:
     """The noise-free run (every step recorded) and the noisy batch (``None`` without noise).
 
-    Cached on the model: ``simulate`` asks for the report and the figures of the same runs.
+    Cached per model: ``simulate`` asks for the report and the figures of the same runs.
     """
-    cached = getattr(model, "_nominal_runs", None)
-    if cached is not None:
-        return cached
     values = model.nominal_values(1)
     fine = replace(model.settings(thrust_noise=0.0), record_every=1)
     clean = model.simulate(values, 1, settings=fine)
@@ -49,19 +49,17 @@ def nominal_runs(model: GMMFTC) -> tuple[LoopRun, LoopRun | None]:
         seeds = model.params.noise_seed + np.arange(N_NOISE_SEEDS)
         rep = {k: np.repeat(v, N_NOISE_SEEDS) for k, v in values.items()}
         noisy = model.simulate(rep, N_NOISE_SEEDS, noise_keys=noise.seed_keys(seeds))
-    model._nominal_runs = (clean, noisy)
     return clean, noisy
 
 
 def _collisions(run: LoopRun, names: tuple[str, ...]) -> str:
-    hit = run.scalars["hits"].any(axis=0)
-    return "none" if not hit.any() else ", ".join(n for n, h in zip(names, hit) if h)
+    hits = np.asarray(run.scalars["hits"], dtype=bool)  # (n, parts)
+    hit = [bool(hits[:, k].any()) for k in range(hits.shape[1])]
+    return "none" if not any(hit) else ", ".join(n for n, h in zip(names, hit) if h)
 
 
 def nominal_report(model: GMMFTC) -> list[ReportRow]:
     """Claims C1-C7 (spec 10.2), the eq (36) bound and delta-v beside the paper's figures."""
-    from .target import target_geometry
-
     p = model.params
     clean, noisy = nominal_runs(model)
     sc = {k: np.asarray(v)[0] for k, v in clean.scalars.items()}

@@ -17,54 +17,22 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
-import os
 import signal
-import sys
-import threading
-import time
 from collections.abc import Collection, Sequence
 from typing import Any
 
 import numpy as np
 
-from .errors import ModelError
+from ..errors import ModelError
+from .isolation import assemble_pieces, evaluate_batch
+from .processes import die_with_parent, sigint_ignored
 
 log = logging.getLogger(__name__)
 
 
-# ---------------------------------------------------------------------------- dying with the parent
-def die_with_parent() -> None:
-    """Make this process end when its parent does (call first thing in a child process)."""
-    parent = os.getppid()
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            libc = ctypes.CDLL(None, use_errno=True)
-            PR_SET_PDEATHSIG = 1
-            libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-        except (OSError, AttributeError):  # pragma: no cover - no prctl
-            pass
-    if os.getppid() != parent:  # the parent died before prctl took effect
-        os._exit(1)
-
-    def watch() -> None:
-        # Anywhere prctl is missing (or the parent was a thread that ended): a new parent
-        # means the old one is gone.
-        while True:
-            time.sleep(1.0)
-            if os.getppid() != parent:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="uqguide-parent-watch", daemon=True).start()
-
-
-# ---------------------------------------------------------------------------- the guard process
 def _serve(conn: Any) -> None:
     die_with_parent()
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the driver handles Ctrl-C
-    from .execution import evaluate_batch
-
     while True:
         try:
             msg = conn.recv()
@@ -100,12 +68,10 @@ class Guard:
         self._prepared: Any = None
 
     def _start(self) -> None:
-        from .execution import _sigint_ignored
-
         ctx = multiprocessing.get_context("spawn")
         parent, child = ctx.Pipe()
         proc = ctx.Process(target=_serve, args=(child,), daemon=True, name="uqguide-guard")
-        with _sigint_ignored():
+        with sigint_ignored():
             proc.start()
         child.close()
         self._proc, self._conn = proc, parent
@@ -183,8 +149,6 @@ def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Col
                   timeout_s: float | None) -> Any:
     """``evaluate_batch`` in the guard process, bisected on a timeout or a crash (module
     docstring); the samples that time out or crash alone fail with the reason."""
-    from .execution import assemble_pieces
-
     model = handle.model
     guard = guard_for(timeout_s)
     pieces: list[Any] = []

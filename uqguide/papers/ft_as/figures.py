@@ -13,17 +13,16 @@ FT-AS (the model's default FT-AS-A), Case 1 and Case 2 from one batch recorded e
 
 from __future__ import annotations
 
-import os
+from pathlib import Path
 from typing import TYPE_CHECKING
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from ...figures import Figure, new_figure, save
+from .report import nominal_runs
 
 if TYPE_CHECKING:
-    from ..models.ft_as import FTAS
+    from ...models.ft_as import FTAS
 
 COMPARED = ("FT-AS", "Case 1", "Case 2")
 COLORS = {"FT-AS": "tab:red", "Case 1": "tab:blue", "Case 2": "tab:green"}
@@ -39,13 +38,10 @@ def _floor(x: np.ndarray) -> np.ndarray:
     return np.maximum(x, 1e-14)
 
 
-def nominal_figures(model: FTAS, out_dir: str) -> list[str]:
+def nominal_figures(model: FTAS, out_dir: Path) -> list[Path]:
     """Write the five comparison figures of the nominal scenario; return their paths."""
-    from ..models.ft_as.report import nominal_runs
-
     variants, res = nominal_runs(model)
     idx = {v.label: i for i, v in enumerate(variants)}
-    os.makedirs(out_dir, exist_ok=True)
     t = res.time
     p = model.params
     subtitle = (
@@ -61,16 +57,14 @@ def nominal_figures(model: FTAS, out_dir: str) -> list[str]:
     return paths
 
 
-def _save(fig: plt.Figure, out_dir: str, name: str) -> str:
-    path = os.path.join(out_dir, name)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+def _save(fig: Figure, out_dir: Path, name: str) -> Path:
+    return save(fig, out_dir / name, dpi=110)
 
 
-def _observer(res, i: int, t: np.ndarray, out_dir: str, subtitle: str) -> str:
+def _observer(res, i: int, t: np.ndarray, out_dir: Path, subtitle: str) -> Path:
     sel = t <= 60.0
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    fig = new_figure((11, 7))
+    axes = fig.subplots(2, 2, sharex=True)
     labels = (("x", "y", "z"), ("1", "2", "3"))
     rows = (("eps1", "eps_1 = psi_1 - e_2"), ("eps2", "eps_2 = psi_2 - d"))
     for row, (key, name) in enumerate(rows):
@@ -94,8 +88,9 @@ def _observer(res, i: int, t: np.ndarray, out_dir: str, subtitle: str) -> str:
     return _save(fig, out_dir, "ft_as_observer.png")
 
 
-def _sliding(res, idx, t, out_dir, subtitle) -> str:
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+def _sliding(res, idx, t, out_dir, subtitle) -> Path:
+    fig = new_figure((12, 4.5))
+    axes = fig.subplots(1, 2)
     for ax, sl, title in ((axes[0], slice(0, 3), "|s_1..3| (position, paper Fig 6)"),
                           (axes[1], slice(3, 6), "|s_4..6| (attitude, paper Fig 7)")):  # fmt: skip
         for lab in COMPARED:
@@ -112,8 +107,9 @@ def _sliding(res, idx, t, out_dir, subtitle) -> str:
     return _save(fig, out_dir, "ft_as_sliding.png")
 
 
-def _tracking(res, idx, t, out_dir, subtitle) -> str:
-    fig, axes = plt.subplots(2, 2, figsize=(12, 8))
+def _tracking(res, idx, t, out_dir, subtitle) -> Path:
+    fig = new_figure((12, 8))
+    axes = fig.subplots(2, 2)
     spec = (
         ("r_e", "|r_e| [m]", "paper Fig 8", 0),
         ("v_e", "|v_e| [m/s]", "paper Fig 9", 1),
@@ -137,9 +133,9 @@ def _tracking(res, idx, t, out_dir, subtitle) -> str:
     return _save(fig, out_dir, "ft_as_tracking.png")
 
 
-def _inputs(res, idx, t, out_dir, subtitle, kind, sl, limit, unit) -> str:
-    fig, axes = plt.subplots(3, 2, figsize=(13, 8), sharex="col",
-                             gridspec_kw={"width_ratios": [1, 2]})  # fmt: skip
+def _inputs(res, idx, t, out_dir, subtitle, kind, sl, limit, unit) -> Path:
+    fig = new_figure((13, 8))
+    axes = fig.subplots(3, 2, sharex="col", gridspec_kw={"width_ratios": [1, 2]})
     lo, hi = res.records["u_applied_min"], res.records["u_applied_max"]
     peak = res.peak_applied[idx["Case 1"]][sl].max()
     # a log-like axis only where Case 1 leaves the limits by far (force: 3008 N vs 2 N)

@@ -1,0 +1,131 @@
+"""Every registered model and method against its contract (uqguide.testing), and proof that the
+checks catch what they claim to: broken toys fail them with a message naming the rule."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pytest
+from pydantic import ConfigDict, Field
+
+from uqguide.methods.base import Design
+from uqguide.methods.monte_carlo import MonteCarlo
+from uqguide.models.base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
+from uqguide.registry import METHODS, MODELS, method_class, model_class
+from uqguide.testing import ConformanceError, check_method, check_model
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_every_registered_model_keeps_the_contract(name):
+    check_model(model_class(name))
+
+
+@pytest.mark.parametrize("name", sorted(METHODS))
+def test_every_registered_method_keeps_the_contract(name):
+    check_method(method_class(name))
+
+
+# ---------------------------------------------------------------------------- broken toys
+class _ToyParams(ModelParams):
+    gain: float = Field(default=2.0, allow_inf_nan=False)
+
+
+class _Toy(Model):
+    """``y = gain a + b``, correct; the subclasses below each break one rule."""
+
+    name = "toy"
+    summary = "toy"
+    Params = _ToyParams
+
+    def inputs(self):
+        return (InputInfo("a", "1", "a", 1.0), InputInfo("b", "1", "b", 0.0))
+
+    def outputs(self):
+        return (OutputInfo("y", "scalar", "1", "y"),)
+
+    def _y(self, values: Mapping[str, np.ndarray]) -> np.ndarray:
+        return self.params.gain * values["a"] + values["b"]
+
+    def _evaluate(self, values, n, outputs):
+        return ModelOutput(time=np.zeros(0), scalars={"y": self._y(values)[:, None]},
+                           failed=np.zeros(n, dtype=bool), reasons=np.full(n, "", dtype=object))
+
+
+def test_a_correct_toy_passes():
+    check_model(_Toy)
+
+
+def test_a_model_returning_the_wrong_shape_fails_with_the_shape_named():
+    class WrongShape(_Toy):
+        def _evaluate(self, values, n, outputs):
+            out = super()._evaluate(values, n, outputs)
+            out.scalars["y"] = out.scalars["y"][:, 0]  # (n,) instead of (n, 1)
+            return out
+
+    with pytest.raises(ConformanceError, match=r"model 'toy': shapes: .*'y' has shape \(6,\), "
+                                               r"expected \(6, 1\)"):
+        check_model(WrongShape)
+
+
+def test_a_model_drawing_from_the_global_random_state_fails_determinism():
+    class Noisy(_Toy):
+        def _y(self, values):
+            return super()._y(values) + 1e-3 * np.random.standard_normal(values["a"].shape)
+
+    with pytest.raises(ConformanceError, match="model 'toy': determinism"):
+        check_model(Noisy)
+
+
+def test_a_model_coupling_the_samples_of_a_batch_fails_the_batch_split():
+    class Coupled(_Toy):
+        def _y(self, values):
+            y = super()._y(values)
+            return y - y.mean()  # each sample depends on the others of its batch
+
+    with pytest.raises(ConformanceError, match="model 'toy': batch-split invariance"):
+        check_model(Coupled)
+
+
+def test_a_model_whose_float_parameter_takes_nan_fails():
+    class LaxParams(ModelParams):
+        model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=True)
+        gain: float = 2.0
+
+    class Lax(_Toy):
+        Params = LaxParams
+
+    with pytest.raises(ConformanceError, match="model 'toy': parameters: 'gain' accepts nan"):
+        check_model(Lax)
+
+
+def test_a_failed_sample_without_a_reason_fails():
+    class Silent(_Toy):
+        def _evaluate(self, values, n, outputs):
+            out = super()._evaluate(values, n, outputs)
+            out.failed[0] = True  # no reason given
+            return out
+
+    with pytest.raises(ConformanceError, match="model 'toy': failure mask"):
+        check_model(Silent)
+
+
+def test_a_method_that_ignores_its_seed_fails():
+    class SeedBlind(MonteCarlo):
+        def design(self, space, seed):
+            return super().design(space, 0)
+
+    with pytest.raises(ConformanceError, match="method 'monte_carlo': seeds: seeds 5 and 6 give "
+                                               "the same design"):
+        check_method(SeedBlind, workers=False)
+
+
+def test_a_method_with_a_biased_mean_fails_the_closed_form():
+    class Biased(MonteCarlo):
+        def estimate_reduced(self, space, design: Design, runs, acc):
+            est = super().estimate_reduced(space, design, runs, acc)
+            est.stats["y"].mean = est.stats["y"].mean + 0.5  # 0.5 is ~20 standard errors
+            return est
+
+    with pytest.raises(ConformanceError, match="method 'monte_carlo': closed forms: mean"):
+        check_method(Biased, workers=False)

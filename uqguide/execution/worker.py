@@ -1,0 +1,42 @@
+"""Evaluating one chunk wherever an executor puts it: in model calls of ``batch_size`` samples,
+in guard processes when a timeout or crash isolation asks, then reduced where it ran."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ..types import ModelOutput
+from .chunks import ChunkJob, ChunkResult, Task
+from .guard import guarded_batch
+from .isolation import common_grid, evaluate_batch
+
+
+def run_chunk(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
+    """Evaluate one chunk ``x (m, d)`` in model calls of ``job.batch_size`` samples, then reduce
+    it with ``job.reducer`` when there is one. Runs in whichever process the executor chose."""
+    model = job.model.model
+    m = x.shape[0]
+    t0 = time.perf_counter()
+    if job.timeout_s is not None or job.guarded:
+        parts = [guarded_batch(job.model, x[s:s + job.batch_size], job.names, job.outputs,
+                               job.timeout_s) for s in range(0, max(m, 1), job.batch_size)]
+    else:
+        parts = [evaluate_batch(model, x[s:s + job.batch_size], job.names, job.outputs)
+                 for s in range(0, max(m, 1), job.batch_size)]
+    out = ModelOutput.concatenate(common_grid(parts))
+    seconds = time.perf_counter() - t0
+    if job.reducer is None:
+        return ChunkResult(task, out.failed, out.reasons, out.time, out.scalars, out.series,
+                           model_seconds=seconds)
+    summary = job.reducer(out, task.index)
+    return ChunkResult(task, out.failed, out.reasons, out.time, out.scalars,
+                       summary=summary, model_seconds=seconds)
+
+
+def isolate_crash(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
+    """Re-run a chunk that killed its worker, in this process, its model calls in guard
+    processes bisected down to the samples that crash: they fail alone, with the reason."""
+    return run_chunk(replace(job, guarded=True), task, x)

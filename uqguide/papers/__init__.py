@@ -1,0 +1,128 @@
+"""Paper scenarios: each paper's nominal checks, report rows and figures, on top of the models.
+
+A model simulates; it does not know which paper it reproduces nor how that paper draws it. This
+layer holds, per simulator with a paper behind it, a subpackage with
+
+- ``report.nominal_report(model) -> list[ReportRow]``: the nominal run's figures beside the
+  paper's (``uqguide simulate``);
+- ``figures.nominal_figures(model, out_dir) -> list[Path]``: the paper's figures of that run;
+- optionally ``figures.sample_figures(model, out, values, out_dir, stem) -> list[Path]``: one
+  replayed sample's trajectory (``uqguide replay``).
+
+:data:`SCENARIOS` maps a registered model name to its subpackage; a new paper scenario is one
+subpackage and one line there. Subpackages are imported on first use (matplotlib is slow to
+import and ``uqguide run`` never needs it).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Mapping
+from pathlib import Path
+from types import ModuleType
+
+from ..models.base import Model, ModelOutput
+from .rows import ReportRow, format_report
+
+__all__ = ["SCENARIOS", "NoPaperScenario", "ReportRow", "format_report", "has_scenario",
+           "nominal_figures", "nominal_report", "sample_figures"]
+
+SCENARIOS: dict[str, str] = {
+    "ftcapn": "uqguide.papers.ftcapn",
+    "gmm_proximity": "uqguide.papers.gmm_proximity",
+    "gmm_ftc": "uqguide.papers.gmm_ftc",
+    "ft_as": "uqguide.papers.ft_as",
+}
+"""Registered model name -> the package of its paper scenario."""
+
+
+class NoPaperScenario(LookupError):
+    """The model has no paper scenario (no nominal report, no paper figures)."""
+
+
+def has_scenario(model: Model) -> bool:
+    """Whether ``model`` has a paper scenario in :data:`SCENARIOS`."""
+    return model.name in SCENARIOS
+
+
+def _scenario(model: Model, part: str) -> ModuleType:
+    try:
+        package = SCENARIOS[model.name]
+    except KeyError:
+        raise NoPaperScenario(f"model '{model.name}' has no nominal scenario to report") from None
+    return importlib.import_module(f"{package}.{part}")
+
+
+def nominal_report(model: Model) -> list[ReportRow]:
+    """Run the model's nominal scenario and report its headline figures beside the paper's.
+
+    Parameters
+    ----------
+    model : Model
+        A model whose name is in :data:`SCENARIOS`, with the configured parameters.
+
+    Returns
+    -------
+    list of ReportRow
+        In the order the report prints them.
+
+    Raises
+    ------
+    NoPaperScenario
+        The model has no paper scenario.
+    """
+    rows: list[ReportRow] = _scenario(model, "report").nominal_report(model)
+    return rows
+
+
+def nominal_figures(model: Model, out_dir: str | Path) -> list[Path]:
+    """Write the paper's figures of the nominal scenario (PNG) into ``out_dir``.
+
+    Parameters
+    ----------
+    model : Model
+    out_dir : str or Path
+        Made if missing.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Raises
+    ------
+    NoPaperScenario
+        The model has no paper scenario.
+    """
+    paths: list[Path] = _scenario(model, "figures").nominal_figures(model, Path(out_dir))
+    return paths
+
+
+def sample_figures(model: Model, out: ModelOutput, values: Mapping[str, float],
+                   out_dir: str | Path, stem: str) -> list[Path]:
+    """Figures of one replayed sample beyond the generic time histories (its trajectory, with
+    the scene's geometry where the paper has one); none for a model without a scenario.
+
+    Parameters
+    ----------
+    model : Model
+    out : ModelOutput
+        Every output of the one sample (batch of 1).
+    values : mapping of str to float
+        Every input of the sample (nominal where not uncertain), SI units.
+    out_dir : str or Path
+    stem : str
+        File names start with it.
+
+    Returns
+    -------
+    list of Path
+        The files written (empty without a scenario or a sample figure).
+    """
+    if not has_scenario(model):
+        return []
+    figures = _scenario(model, "figures")
+    if not hasattr(figures, "sample_figures"):
+        return []
+    paths: list[Path] = figures.sample_figures(model, out, values, Path(out_dir), stem)
+    return paths

@@ -1,0 +1,1 @@
+"""The FTCAPN paper (Wang & Song 2019): nominal report (``report``) and figures (``figures``)."""

@@ -1,0 +1,97 @@
+"""A paper scenario's report: rows of the model's figures beside the paper's, and their text table
+(``uqguide simulate``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+__all__ = ["ReportRow", "format_report"]
+
+
+@dataclass(frozen=True)
+class ReportRow:
+    """One line of a nominal run's report: the model's figure beside the paper's.
+
+    Attributes
+    ----------
+    quantity : str
+        What is reported, e.g. ``"time to 50 m"`` (prefix a group such as a controller name
+        with ``"GMM-NTSMC: "`` where one model reports several cases).
+    unit : str
+    value : float or str
+        The model's figure (a string for yes/no or categorical outcomes).
+    paper : float or str or None
+        The paper's figure, where it gives one.
+    tolerance : str
+        The acceptance tolerance from the spec (``"1%"``, ``"15 s"``, ``"not asserted"``...).
+    ok : bool or None
+        Whether ``value`` is within ``tolerance`` of ``paper`` (None: not checked).
+    note : str
+        Why a figure is not reproduced, or how it was computed.
+    kind : {"reproducible", "chaotic", "timing"}
+        *reproducible*: the figure moves by less than its tolerance when the inputs move by
+        round-off. *chaotic*: it does not (a final-window maximum of a chattering loop, a
+        diverged state), so ``value`` is a robust statistic named in ``statistic``, and ``ok``
+        judges that statistic (:mod:`uqguide.models.roundoff`). *timing*: a measurement of the
+        machine (wall time), never checked.
+    statistic : str
+        For a chaotic row, what ``value`` is, e.g. ``"median of 5 runs under 1e-12 input
+        perturbations; range [a, b]"``.
+    """
+
+    quantity: str
+    unit: str
+    value: float | str
+    paper: float | str | None = None
+    tolerance: str = ""
+    ok: bool | None = None
+    note: str = ""
+    kind: Literal["reproducible", "chaotic", "timing"] = "reproducible"
+    statistic: str = ""
+
+
+def cell_text(v: object) -> str:
+    """A report cell: 4 significant digits, scientific notation outside [1e-3, 1e5)."""
+    if v is None:
+        return "—"
+    if isinstance(v, float):
+        a = abs(v)
+        return f"{v:.4g}" if (a == 0 or 1e-3 <= a < 1e5) else f"{v:.3e}"
+    return str(v)
+
+
+def format_report(model_name: str, rows: list[ReportRow]) -> str:
+    """The nominal run's figures beside the paper's, as an aligned text table.
+
+    Parameters
+    ----------
+    model_name : str
+        Named in the title line.
+    rows : list of ReportRow
+
+    Returns
+    -------
+    str
+        The table, then the robust statistics of chaotic rows and the rows' notes.
+    """
+    header = ("quantity", "unit", "model", "paper", "tolerance", "check", "kind")
+    body = [(r.quantity, r.unit, cell_text(r.value), cell_text(r.paper), r.tolerance,
+             {True: "ok", False: "MISS", None: "—"}[r.ok], r.kind) for r in rows]
+    widths = [max(len(h), *(len(b[i]) for b in body)) if body else len(h)
+              for i, h in enumerate(header)]
+    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
+    lines = [f"Nominal run of model '{model_name}' beside the paper", fmt.format(*header),
+             fmt.format(*("-" * w for w in widths))]
+    lines += [fmt.format(*b) for b in body]
+    chaotic = [(r.quantity, r.statistic) for r in rows if r.statistic]
+    if chaotic:
+        lines.append("")
+        lines.append("chaotic rows (they move by more than their tolerance when the inputs move "
+                     "by round-off) show a robust statistic:")
+        lines += [f"robust — {q}: {s}" for q, s in chaotic]
+    notes = [(r.quantity, r.note) for r in rows if r.note]
+    if notes:
+        lines.append("")
+        lines += [f"note — {q}: {n}" for q, n in notes]
+    return "\n".join(lines)

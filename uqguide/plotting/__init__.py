@@ -1,1 +1,0 @@
-"""Plots of nominal runs and propagation results (matplotlib, Agg backend)."""
