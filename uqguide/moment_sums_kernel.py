@@ -6,13 +6,17 @@ these loops read the data twice (mean, then the powers) and keep the sums per co
 loop over the samples is the outer one and each column's sum is accumulated in sample order,
 which is the order of NumPy's ``sum(axis=0)`` on a C-ordered array, so both forms give the
 same sums up to the rounding of the powers (the tests compare them).
+
+``numba.njit`` directly, not :func:`uqguide.models.kernels.njit`: statistics sit below the
+models in the import layers. numba itself falls back to a user-wide cache folder where the
+package's ``__pycache__`` cannot be written.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .models.kernels import njit
+from numba import njit
 
 
 @njit(cache=True, error_model="numpy")

@@ -23,11 +23,12 @@ functions' variance needs the central moments up to the 8th, which the chunks su
 others at the interval columns, so the intervals cost a few power sums instead of ``B``
 weighted ones. ``intervals: bootstrap`` gives instead a **Poisson bootstrap** (Hanley &
 MacGibbon 2006; Chamandy et al. 2012): resample ``b`` gives sample ``i`` of chunk ``c`` the
-weight ``w_bi ~ Poisson(1)`` from the stream ``(boot_seed, c)``, so the weighted sums of a resample are chunk-additive and merge like
-the plain ones. For large ``n`` it has the multinomial bootstrap's distribution (a multinomial
-``(n, 1/n)`` count is asymptotically ``Poisson(1)``); failed runs get weight 0. Intervals of a
-series are computed at the report times and the last step (``bootstrap_times: report``) or at
-every step (``all``: costs ``4 B T k`` multiply-adds per sample).
+weight ``w_bi ~ Poisson(1)`` from the stream ``(boot_seed, c)``, so the weighted sums of a
+resample are chunk-additive and merge like the plain ones. For large ``n`` it has the
+multinomial bootstrap's distribution (a multinomial ``(n, 1/n)`` count is asymptotically
+``Poisson(1)``); failed runs get weight 0. Intervals of a series are computed at the report
+times and the last step (``bootstrap_times: report``) or at every step (``all``; bootstrap:
+``4 B T k`` multiply-adds per sample).
 
 Quantiles (the config's ``quantiles``) are order statistics with distribution-free intervals
 (:mod:`uqguide.quantiles`): scalars from the kept per-sample values; series from each chunk's
