@@ -44,7 +44,7 @@ LAYERS: list[tuple[str, ...]] = [
     # 6. execution of model runs
     ("execution",),
     # 7. results
-    ("result", "result_netcdf", "frames", "checkpoint"),
+    ("result", "result_netcdf", "result_surrogate", "frames", "checkpoint"),
     # 8. the driver, the paper scenarios and what reads results
     ("propagate", "papers", "report", "plots", "baseline", "gate", "replay", "testing"),
     # 9. the library's front doors

@@ -22,3 +22,8 @@ def series_and_scalar(x):
 def indicator(x):
     """A 0/1 output: no gradation for subset simulation's intermediate levels."""
     return (x[:, 0] > 2.0).astype(float)
+
+
+def even_cosine(x):
+    """cos(a) on a symmetric interval: even, so a degree-1 PCE of it is a constant."""
+    return np.cos(x[:, 0])

@@ -83,7 +83,7 @@ def test_scalar_figure_histograms_mc_and_draws_the_pce_moment_density(result):
     labels = [t.get_text() for t in legend.get_texts()]
     assert labels[0].startswith("mc (MC, 2000 runs) histogram: mean ")
     assert labels[2].startswith("apce (adaptive PCE, 100 runs)*: ")
-    assert "the result holds no surrogate samples" in legend.get_title().get_text()
+    assert "the result holds no surrogate" in legend.get_title().get_text()
     # the PCE curve integrates to ~1 over the axis (0.1-99.9% of the samples: nearly all mass)
     curve = ax0.get_lines()[-1]
     x, y = curve.get_xdata(), curve.get_ydata()
@@ -103,7 +103,8 @@ def test_surrogate_draws_are_drawn_as_a_density_when_a_run_has_them(result):
     rng = np.random.default_rng(0)
     pce.surrogate_scalars = {"y": rng.normal(size=(5000, 2))}  # optional attribute of the hook
     labels = [t.get_text() for t in scalar_figure(r, "y").legends[0].get_texts()]
-    assert labels[2].startswith("apce (adaptive PCE, 100 runs) surrogate density: ")
+    assert labels[2].startswith("apce (adaptive PCE, 100 runs) surrogate density (KDE of 5,000 "
+                                "draws): ")
 
 
 def test_cost_figure_shows_every_method(result):

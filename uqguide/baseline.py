@@ -223,6 +223,8 @@ def _points(result: Result, o: OutputInfo, s: OutputStats, label: str = "",
     for at, t, i in _point_places(result, o):
         for c, comp in enumerate(o.components):
             where = (c,) if i is None else (i, c)
+            if s.usable is not None and not bool(np.asarray(s.usable)[where]):
+                continue  # a PCE with no usable surrogate here reports no moments to pin
             p: dict[str, Any] = {"at": at, "time": t, "component": comp}
             for stat in STAT_NAMES:
                 p[stat] = _num(s.stat(stat)[where])
@@ -255,6 +257,9 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
             if s is None:
                 continue
             points = _points(result, o, s, r.label, roundoff)
+            if not points:
+                left_out.append(f"{r.label}/{o.name} (no usable surrogate: no moments)")
+                continue
             if roundoff and all(set(STAT_NAMES) <= set(p.get("roundoff", {})) for p in points):
                 left_out.append(f"{r.label}/{o.name} (nothing checkable: chaotic under "
                                 "round-off, or the moments of a zero spread)")

@@ -15,6 +15,14 @@ variable                 dims                                        what
 ``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE)
 ``o_quantile``           (quantile, ..., o_component)                quantiles at the levels
 ``o_ci_quantile``        (bound, quantile, ..., o_component)         their 95% intervals
+``o_corrected``          (statistic, ..., o_component)               a validated PCE's
+                                                                     control-variate moments
+``o_corrected_ci``       (bound, statistic, ..., o_component)        their 95% intervals
+``o_validation_error``   (..., o_component)                          out-of-sample relative
+                                                                     error of the surrogate
+``o_usable``             (..., o_component)                          1 where the surrogate is
+                                                                     usable (else its moments
+                                                                     are NaN)
 =======================  ==========================================  =========================
 
 Coordinates: ``time`` [s], ``input`` (uncertain input names), ``statistic``, ``bound`` (low,
@@ -102,6 +110,23 @@ def method_variables(stats: dict[str, OutputStats], outputs: list[OutputInfo],
                                                  {"units": o.unit})
             out[f"{o.name}_ci_quantile"] = Variable(("bound", "quantile", *base),
                                                     s.ci_quantiles, {"units": o.unit})
+        if s.corrected:
+            out[f"{o.name}_corrected"] = Variable(
+                ("statistic", *base), np.stack([s.corrected[n] for n in STAT_NAMES]),
+                {"units": o.unit, "description": "control-variate estimates (PCE + mean "
+                                                 "model-minus-surrogate on validation runs)"})
+            out[f"{o.name}_corrected_ci"] = Variable(
+                ("bound", "statistic", *base),
+                np.stack([s.corrected_ci[n] for n in STAT_NAMES], axis=1),
+                {"description": "95% bootstrap interval over the validation runs"})
+        if s.validation_error is not None:
+            out[f"{o.name}_validation_error"] = Variable(
+                base, np.asarray(s.validation_error, dtype=float),
+                {"units": "1", "description": "mean squared model-minus-surrogate difference "
+                                              "over the model's variance, validation runs"})
+        if s.usable is not None:
+            out[f"{o.name}_usable"] = Variable(base, np.asarray(s.usable, dtype=np.uint8),
+                                               {"units": "1"})
     return coords, out
 
 
@@ -131,4 +156,12 @@ def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: list[OutputInf
             quantiles=get(f"{o.name}_quantile") if q else None,
             ci_quantiles=get(f"{o.name}_ci_quantile") if q else None,
         )
+        if has(f"{o.name}_corrected"):
+            cv, cci = get(f"{o.name}_corrected"), get(f"{o.name}_corrected_ci")
+            stats[o.name].corrected = {n: cv[j] for j, n in enumerate(STAT_NAMES)}
+            stats[o.name].corrected_ci = {n: cci[:, j] for j, n in enumerate(STAT_NAMES)}
+        if has(f"{o.name}_validation_error"):
+            stats[o.name].validation_error = get(f"{o.name}_validation_error")
+        if has(f"{o.name}_usable"):
+            stats[o.name].usable = np.asarray(get(f"{o.name}_usable")).astype(bool)
     return stats

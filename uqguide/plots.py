@@ -4,14 +4,16 @@
   paper's Figs 6-17 (mean with a +-1 std band, std, skewness, non-excess kurtosis), one line per
   method; Monte Carlo estimates carry their 95% bootstrap intervals as bars at the report times.
 - :func:`scalar_figure`: per scalar output, a histogram of every Monte Carlo method's samples
-  (``MethodRun.scalars``, failed runs left out) with, for each PCE method, a density curve.
-  A PCE result stores its moments, not samples of its surrogate, so the curve is the density
-  those moments imply: a Pearson type III (shifted gamma) density with the PCE's mean, std and
-  skewness (its kurtosis is then ``3 + 1.5 skewness^2``), which keeps the one-sided shape of a
-  miss distance where a Gaussian would not; the legend says so. A method run that carries
-  surrogate draws (an optional ``surrogate_scalars`` mapping output -> ``(m, k)`` array) is drawn
-  from those draws instead. The runs of a PCE design are never histogrammed: quadrature nodes
-  are not samples of the output's distribution.
+  (``MethodRun.scalars``, failed runs left out) with, for each PCE method, its density: a
+  Gaussian kernel density estimate of :data:`SURROGATE_DRAWS` draws of the PCE surrogate kept
+  in the result (:meth:`uqguide.result.Result.surrogate`; a derived output through its
+  carriers' surrogates), i.e. the surrogate's true shape, bimodal or one-sided as it is. Only
+  a result without a surrogate (written before surrogates were kept) falls back to the
+  density its moments imply (Pearson type III), and the legend says so. A 0/1 output (a
+  collision flag: every sample 0 or 1) is drawn as the probability of 1 per method with its
+  95% interval (Clopper-Pearson for Monte Carlo; a PCE's mean, with its control-variate
+  interval where it was validated), not as a density. The runs of a PCE design are never
+  histogrammed: quadrature nodes are not samples of the output's distribution.
 - :func:`cost_figure`: the cost table (:func:`uqguide.report.cost_table`) as bars and a table.
 
 Figures are made and written through :mod:`uqguide.figures` (no ``pyplot``: no global state, no
@@ -259,6 +261,85 @@ def _moment_density(mean: float, std: float, skew: float) -> sps.rv_continuous |
     return sps.pearson3(skew if np.isfinite(skew) else 0.0, loc=mean, scale=std)
 
 
+#: Surrogate draws behind a PCE's kernel density estimate (fixed seed: the same figure twice).
+SURROGATE_DRAWS = 100_000
+
+
+def _surrogate_draws(result: Result, r: MethodRun, output: str,
+                     n: int = SURROGATE_DRAWS) -> np.ndarray | None:
+    """``(n, k)`` draws of the method's kept surrogate of ``output`` (None: no surrogate)."""
+    from .errors import ConfigError, ResultError
+
+    if r.estimate.surrogate is None:
+        return None
+    try:
+        sur = result.surrogate(r.label)
+    except (ResultError, ConfigError) as exc:
+        log.warning("%s: surrogate not usable for the plot (%s)", r.label, exc)
+        return None
+    if output not in sur.names:
+        return None
+    u = np.random.default_rng(20260101).random((n, len(result.input_names)))
+    y = sur.at_unit(np.clip(u, 2.0**-53, 1 - 2.0**-53), [output])[output]
+    y = np.asarray(y, dtype=float).reshape(n, -1)
+    return y[np.isfinite(y).all(axis=1)]
+
+
+def _kde(y: np.ndarray, xs: np.ndarray) -> np.ndarray:
+    """Gaussian kernel density of draws ``y`` at ``xs``; a non-negative output whose draws
+    reach down to 0 (a miss distance) is reflected at 0, so the kernel's mass below 0 is not
+    lost: a plain KDE halves the density at the boundary where the output piles up."""
+    plain = sps.gaussian_kde(y)
+    if y.min() >= 0 and y.min() < 0.1 * y.std():
+        both = np.concatenate([y, -y])
+        # the same kernel width as the plain estimate (Scott's rule on y itself)
+        kde = sps.gaussian_kde(both, bw_method=plain.factor * y.std() / both.std())
+        return np.where(xs >= 0, 2 * kde(xs), 0.0)
+    return np.asarray(plain(xs))
+
+
+def _is_binary(samples: dict[str, np.ndarray]) -> bool:
+    """Whether every sample of every Monte Carlo method is 0 or 1 (and both occur or not)."""
+    return bool(samples) and all(np.isin(y, (0.0, 1.0)).all() for y in samples.values())
+
+
+def _probability_panel(ax, result: Result, output: str, c: int,
+                       samples: dict[str, np.ndarray], styles: dict) -> None:
+    """P(output = 1) per method with its 95% interval (a 0/1 output is not a density)."""
+    from .events import clopper_pearson
+
+    labels, p, lo, hi, colours = [], [], [], [], []
+    for r in result.runs:
+        s = r.estimate.stats.get(output)
+        if r.label in samples:
+            y = samples[r.label]
+            k = int(y.sum())
+            a, b = clopper_pearson(k, y.size)
+            val = k / y.size
+        elif s is not None:
+            val = float(s.mean[c])
+            if s.corrected:
+                val = float(s.corrected["mean"][c]) if not np.isfinite(val) else val
+                a, b = (float(v) for v in s.corrected_ci["mean"][:, c])
+            else:
+                a = b = val
+        else:
+            continue
+        labels.append(method_label(r))
+        p.append(val)
+        lo.append(val - a if np.isfinite(a) else 0.0)
+        hi.append(b - val if np.isfinite(b) else 0.0)
+        colours.append(styles[r.label]["color"])
+    ypos = np.arange(len(labels))[::-1]
+    ax.barh(ypos, p, xerr=[np.maximum(lo, 0), np.maximum(hi, 0)], color=colours, alpha=0.8,
+            capsize=4)
+    for y, v in zip(ypos, p):
+        ax.text(v, y, f"  {v:.4g}", va="center", fontsize=9)
+    ax.set(yticks=ypos, yticklabels=labels, xlabel=f"P({output} = 1) [-] (95% interval)",
+           xlim=(0, max(1e-3, 1.3 * max([a + b for a, b in zip(p, hi)], default=1.0))))
+    ax.grid(True, axis="x", alpha=0.3)
+
+
 def _stats_text(mean: float, std: float, skew: float, kurt: float) -> str:
     return f"mean {mean:.4g}, std {std:.4g}, skew {skew:.3g}, kurt {kurt:.3g}"
 
@@ -288,11 +369,19 @@ def scalar_figure(result: Result, output: str) -> Figure:
                 y = y[np.isfinite(y)]
                 if y.size:
                     samples[r.label] = y
+        if _is_binary(samples):
+            _probability_panel(ax, result, output, c, samples, styles)
+            ax.set_title(name if k > 1 else None)
+            continue
         draws = {}
         for r in result.runs:
             extra = getattr(r, "surrogate_scalars", None) or {}
             if not _is_sample(r, output) and output in extra:
                 draws[r.label] = np.asarray(extra[output])[:, c]
+            elif not _is_sample(r, output):
+                got = _surrogate_draws(result, r, output)
+                if got is not None and got.shape[0] > 1 and np.ptp(got[:, c]) > 0:
+                    draws[r.label] = got[:, c]
         densities = {}
         for r in result.runs:
             s = r.estimate.stats.get(output)
@@ -330,14 +419,14 @@ def scalar_figure(result: Result, output: str) -> Figure:
                 ax.hist(y, bins=bins, density=True, histtype="step", color=st["color"],
                         lw=st["lw"], label=f"{method_label(r)} histogram: {text}")
             elif r.label in draws:
-                kde = sps.gaussian_kde(draws[r.label])
-                ax.plot(xs, kde(xs), color=st["color"], ls=st["ls"], lw=2.0,
-                        label=f"{method_label(r)} surrogate density: {text}")
+                ax.plot(xs, _kde(draws[r.label], xs), color=st["color"], ls=st["ls"], lw=2.0,
+                        label=f"{method_label(r)} surrogate density (KDE of "
+                              f"{draws[r.label].size:,} draws): {text}")
             elif r.label in densities:
                 ax.plot(xs, densities[r.label].pdf(xs), color=st["color"], ls=st["ls"], lw=2.0,
                         label=f"{method_label(r)}*: {text}")
                 notes.add("* density implied by the PCE's mean, std and skewness (Pearson III); "
-                          "the result holds no surrogate samples")
+                          "the result holds no surrogate")
         ax.set(xlabel=f"{name} {u}", ylabel=f"probability density [1/{o.unit}]"
                if o.unit not in ("", "1", "-") else "probability density [-]",
                title=name if k > 1 else None, xlim=(lo, hi))

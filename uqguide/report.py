@@ -10,6 +10,7 @@ mean), so a reader sees whether a difference is larger than the reference's own 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -45,8 +46,15 @@ def cost_table(result: Result) -> pd.DataFrame:
                               if "event" in r.estimate.diagnostics))
     for r in result.runs:
         d = r.estimate.diagnostics
-        extra = {k: d[k] for k in ("degree", "n_terms", "loo_error", "n_components", "levels")
-                 if k in d}
+        extra: dict[str, Any] = {k: d[k] for k in ("degree", "n_terms", "loo_error",
+                                                    "n_components", "levels") if k in d}
+        if "n_validation" in d:
+            extra["validation"] = d["n_validation"]
+            errs = [v for k, v in d.items() if k.startswith("validation_error.")]
+            extra["val_error"] = max(errs) if errs else float("nan")
+        unusable = unusable_outputs(d)
+        if unusable:
+            extra["no usable surrogate"] = "; ".join(unusable)
         for name in rare:
             ev = r.estimate.events.get(name)
             extra[f"P({name})"] = ev.probability if ev else float("nan")
@@ -63,6 +71,62 @@ def cost_table(result: Result) -> pd.DataFrame:
     if "status" in df:
         df["status"] = df["status"].fillna("ok")
     return df
+
+
+def unusable_outputs(diagnostics: dict) -> list[str]:
+    """``"output"`` or ``"output from t = 58 s"`` for every output (span) a PCE withdrew
+    its moments from (:mod:`uqguide.pce.validation`)."""
+    out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
+           if k.startswith("unusable.")]
+    out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
+            if k.startswith("unusable_from.")]
+    return out
+
+
+def validation_table(result: Result) -> pd.DataFrame:
+    """A validated PCE's own value beside its control-variate value and interval, per output,
+    component, statistic (and report time for a series), with the model runs it cost (fit plus
+    validation)."""
+    idx = report_indices(result.time, result.report_times)
+    rows = []
+    for r in result.runs:
+        d = r.estimate.diagnostics
+        for o in result.outputs:
+            s = r.estimate.stats.get(o.name)
+            if s is None or not s.corrected:
+                continue
+            places = [((i, c), float(result.time[i])) for i in idx for c in range(o.k)] \
+                if o.kind == "series" else [((c,), float("nan")) for c in range(o.k)]
+            for where, t in places:
+                usable = True if s.usable is None else bool(s.usable[where])
+                err = float(s.validation_error[where]) if s.validation_error is not None \
+                    else float("nan")
+                for stat in STAT_NAMES:
+                    lo, hi = s.corrected_ci[stat][(0,) + where], s.corrected_ci[stat][(1,) + where]
+                    rows.append({"label": r.label, "output": o.name,
+                                 "component": o.components[where[-1]], "time": t,
+                                 "stat": stat, "pce": float(s.stat(stat)[where]),
+                                 "corrected": float(s.corrected[stat][where]),
+                                 "ci_low": float(lo), "ci_high": float(hi),
+                                 "val_error": err, "usable": usable,
+                                 "runs": f"{r.n_runs - int(d.get('n_validation', 0))}"
+                                         f"+{int(d.get('n_validation', 0))}"})
+    return pd.DataFrame(rows)
+
+
+def validation_text(df: pd.DataFrame) -> pd.DataFrame:
+    out = df[["label", "output", "component", "time", "stat"]].copy()
+    out["PCE"] = [(_fmt(v) if u else "no usable surrogate") for v, u in zip(df["pce"],
+                                                                             df["usable"])]
+    out["corrected [95%]"] = [f"{_fmt(v)} [{_fmt(a)}, {_fmt(b)}]" for v, a, b in
+                              zip(df["corrected"], df["ci_low"], df["ci_high"])]
+    out["val_error"] = df["val_error"].map(_fmt)
+    out["runs (fit+validation)"] = df["runs"]
+    if out["time"].isna().all():
+        out = out.drop(columns="time")
+    if (out["component"] == "").all():
+        out = out.drop(columns="component")
+    return out
 
 
 def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) -> bool | None:
@@ -113,12 +177,23 @@ def statistics_table(result: Result) -> pd.DataFrame:
                 if o.kind == "series" else [((c,), float("nan")) for c in range(o.k)]
             for where, t in places:
                 comp = o.components[where[-1]]
-                for stat in STAT_NAMES:
-                    v = float(s.stat(stat)[where])
-                    lo, hi = _interval(s, stat, where)
+                usable = True if s.usable is None else bool(s.usable[where])
+                # the PCE's own value, then a validated PCE's control-variate estimate with its
+                # own interval
+                variants: list[tuple[str, bool]] = [(r.label, usable)]
+                if s.corrected:
+                    variants.append((f"{r.label}+cv", True))
+                for (label, ok), stat in ((va, st) for va in variants for st in STAT_NAMES):
+                    if label == r.label:
+                        v = float(s.stat(stat)[where])
+                        lo, hi = _interval(s, stat, where)
+                    else:
+                        v = float(s.corrected[stat][where])
+                        lo = float(s.corrected_ci[stat][(0,) + where])
+                        hi = float(s.corrected_ci[stat][(1,) + where])
                     row = {"output": o.name, "component": comp, "unit": o.unit, "time": t,
-                           "label": r.label, "stat": stat, "value": v, "ci_low": lo,
-                           "ci_high": hi}
+                           "label": label, "stat": stat, "value": v, "ci_low": lo,
+                           "ci_high": hi, "usable": ok}
                     if rs is not None:
                         rv = float(rs.stat(stat)[where])
                         rlo, rhi = _interval(rs, stat, where)
@@ -240,6 +315,10 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
     for key, g in stats.groupby(keys, sort=False, dropna=False):
         row = dict(zip(keys, key))
         for _, s in g.iterrows():
+            u = s.get("usable")
+            if isinstance(u, (bool, np.bool_)) and not u:
+                row[s["stat"]] = "no usable surrogate"
+                continue
             cell = _fmt(s["value"])
             if not np.isnan(s["ci_low"]):
                 cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
@@ -267,6 +346,11 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
 def render_text(result: Result) -> str:
     """The console form: the cost table, then each output's statistics at the report times."""
     parts = ["Cost", cost_table(result).to_string(index=False)]
+    val = validation_table(result)
+    if not val.empty:
+        parts += ["", "PCE validation (PCE value; control-variate value with its 95% bootstrap "
+                  "interval over the validation runs; val_error: out-of-sample error / variance)",
+                  validation_text(val).to_string(index=False)]
     stats = statistics_table(result)
     stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
@@ -305,7 +389,10 @@ def interval_legend(with_reference: bool) -> str:
             "(+-1.96 influence-function standard errors; by Poisson bootstrap with "
             "intervals: bootstrap, the mean then by +-1.96 standard errors where it has no "
             "bootstrap), quantiles by order statistics; PCE values carry none (their error is "
-            "the surrogate's, see loo_error).")
+            "the surrogate's, see loo_error); "
+            "label+cv: a validated PCE's control-variate estimate, bootstrap interval over its "
+            "validation runs; 'no usable surrogate': LOO or validation error above the "
+            "method's usable_error.")
     if with_reference:
         text += (" (difference from the reference; in: within the 95% interval of the "
                  "difference, both estimates' errors combined; OUT: beyond it).")
@@ -328,6 +415,9 @@ def render_markdown(result: Result) -> str:
     with_ref = result.reference is not None and len(result.runs) > 1
     parts = [f"# {result.name}: model `{result.model}`", "", "## Cost", "",
              to_markdown(cost_table(result))]
+    val = validation_table(result)
+    if not val.empty:
+        parts += ["", "## PCE validation", "", to_markdown(validation_text(val))]
     for o in result.outputs:
         sub = stats[stats["output"] == o.name]
         if not sub.empty:

@@ -19,6 +19,8 @@ strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
       events/<name>     attrs: definition, probability, ci_low, ci_high, n_in, n_used,
                                estimator (count | surrogate | subset), cov
       scalar_joint/names, mean, cov                    all scalar outputs stacked
+      surrogate/        a PCE method's fitted expansions, input-to-germ map and derived
+                        outputs' carriers (:mod:`uqguide.result_surrogate`)
       samples/x (sample, input), failed (sample,) 0/1, reasons (sample,),
               scalars/<output> (sample, <output>_component)
 
@@ -49,6 +51,7 @@ from .errors import ResultError
 from .events import EventEstimate
 from .types import Estimate, GeneratedRows, ScalarIndex
 from .models.base import OutputInfo
+from .result_surrogate import StoredSurrogate, read_surrogate, write_surrogate
 from .result_netcdf import (UTF8, attach, read_method_stats, strings, write_method_stats,
                             write_scale)
 from .stats import STAT_NAMES, OutputStats
@@ -130,6 +133,31 @@ class Result:
                 return r
         raise ResultError(f"no method labelled {label!r} in this result; "
                           f"it has: {', '.join(r.label for r in self.runs)}")
+
+    def surrogate(self, label: str) -> Any:
+        """The PCE surrogate of method ``label``: a vectorised predictor ``f(x (n, d)) ->
+        {output: values (n, T, k) or (n, k)}`` of the physical inputs (config order, SI),
+        :class:`uqguide.pce.surrogate.Surrogate` (``.statistics(name)``, ``.at_unit(u)``).
+
+        A surrogate read from a file gets its germ and the model's derived-output maps from the
+        stored config. ResultError when the method kept no surrogate (sampling methods, files
+        written before surrogates were kept).
+        """
+        est = self.run(label).estimate
+        s = est.surrogate
+        if s is None:
+            raise ResultError(f"method {label!r} ({est.method}) kept no surrogate; only PCE "
+                              f"methods do (and result files from uqguide 0.x before issue 14)")
+        if isinstance(s, StoredSurrogate):
+            from .config import validate_config
+            from .pce.germ import Germ
+
+            cfg = validate_config(self.config, f"{self.name} (stored config)")
+            if list(cfg.space.names) != list(s.inputs):
+                raise ResultError(f"{label}: the surrogate's inputs {s.inputs} are not the "
+                                  f"stored config's {list(cfg.space.names)}")
+            est.surrogate = s = s.resolve(Germ.of(cfg.space), cfg.model.derived_outputs())
+        return s
 
     def output(self, name: str) -> OutputInfo:
         for o in self.outputs:
@@ -252,6 +280,8 @@ def _write_run(g: h5py.Group, r: MethodRun, result: Result) -> None:
         names = write_scale(j, "names", e.scalar_names)
         attach(j.create_dataset("mean", data=e.scalar_mean), [names])
         j.create_dataset("cov", data=e.scalar_cov)
+    if e.surrogate is not None and hasattr(e.surrogate, "expansions"):
+        write_surrogate(g.create_group("surrogate"), e.surrogate)
     for name, ev in e.events.items():
         g.create_group(f"events/{name}").attrs.update(ev.as_dict())
     s = g.create_group("samples")
@@ -329,6 +359,7 @@ def read_hdf5(path: str | Path) -> Result:
                     scalar_index=ScalarIndex.parse(strings(joint["names"][()])) if joint else [],
                     scalar_mean=joint["mean"][()] if joint else None,
                     scalar_cov=joint["cov"][()] if joint else None,
+                    surrogate=read_surrogate(g["surrogate"]) if "surrogate" in g else None,
                     events={name: EventEstimate.from_dict(name, dict(eg.attrs))
                             for name, eg in g.get("events", {}).items()},
                 )

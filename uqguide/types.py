@@ -194,6 +194,16 @@ class OutputStats:
         Quantiles at those levels (NaN at time steps where none were computed).
     ci_quantiles : ndarray, shape (2, q, ..., k), optional
         Their 95% intervals (order statistics; ``-inf`` / ``inf``: unbounded end).
+    corrected : dict of str to ndarray, shape (..., k)
+        A validated PCE's control-variate estimates of mean, std, skewness and kurtosis
+        (:mod:`uqguide.pce.validation`); empty without a validation set.
+    corrected_ci : dict of str to ndarray, shape (2, ..., k)
+        Their 95% bootstrap intervals.
+    validation_error : ndarray, shape (..., k), optional
+        The surrogate's out-of-sample relative error on the validation runs.
+    usable : ndarray of bool, shape (..., k), optional
+        Where the surrogate is usable (its error at most the method's ``usable_error``); its
+        own moments are NaN elsewhere. None: not judged (sampling methods).
     """
 
     mean: np.ndarray
@@ -210,6 +220,10 @@ class OutputStats:
     quantile_levels: tuple[float, ...] | None = None
     quantiles: np.ndarray | None = None
     ci_quantiles: np.ndarray | None = None
+    corrected: dict[str, np.ndarray] = field(default_factory=dict)
+    corrected_ci: dict[str, np.ndarray] = field(default_factory=dict)
+    validation_error: np.ndarray | None = None
+    usable: np.ndarray | None = None
 
     def stat(self, name: str) -> np.ndarray:
         if name not in STAT_NAMES:
@@ -281,6 +295,9 @@ class Estimate:
         Joint mean and covariance of all scalar outputs stacked (uq-methods.md section 3).
     events : dict of str to EventEstimate
         Probability of each of the config's events.
+    surrogate : object, optional
+        The fitted surrogate of a PCE method (:class:`uqguide.pce.surrogate.Surrogate`), kept
+        in the result file; None for sampling methods.
     """
 
     method: str
@@ -291,6 +308,7 @@ class Estimate:
     scalar_mean: np.ndarray | None = None
     scalar_cov: np.ndarray | None = None
     events: dict[str, EventEstimate] = field(default_factory=dict)
+    surrogate: Any = None
 
     @property
     def scalar_names(self) -> list[str]:

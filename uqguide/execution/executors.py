@@ -204,7 +204,10 @@ class ProcessExecutor(_WindowedExecutor):
             # end them here (Python >= 3.14 has terminate_workers() for this).
             for p in list(getattr(self._pool, "_processes", {}).values()):
                 p.terminate()
-            self._pool.shutdown(wait=False, cancel_futures=True)
+            # Wait for the pool's manager thread to see its workers gone and release the
+            # queues' semaphores; otherwise an exit right after leaves them to the resource
+            # tracker, which warns on stderr after the interrupted run's last line.
+            self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 
     def close(self) -> None:

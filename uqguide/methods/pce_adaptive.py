@@ -62,13 +62,16 @@ from ..types import ModelOutput
 from ..pce.basis import hyperbolic_indices
 from ..events import EventEstimate
 from ..pce.tails import control_variate_events, surrogate_values
-from ..pce.design import SURROGATE_STREAM, VALIDATION_STREAM, stream, unit_design
+from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.pca import principal_components
 from ..pce.sparse_regression import Q_GRID, fit_columns
+from ..pce.surrogate import Surrogate
+from ..pce.validation import validation_unit_rows
 from .base import Design, Estimate, Method, MethodSettings, RunPlan
+from .pce_validated import USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish
 
 log = logging.getLogger(__name__)
 
@@ -114,6 +117,12 @@ class AdaptivePCESettings(MethodSettings):
         events get the control-variate correction of the surrogate's probability
         (:func:`uqguide.pce.tails.control_variate_events`) and the diagnostics the validation
         error of each scalar output. 0: none.
+    validation : {n_samples: int}, optional
+        The same as ``validation_runs`` (the form every PCE method takes; the larger of the
+        two counts): validation errors per output and time step, control-variate moments
+        with intervals (:mod:`uqguide.methods.pce_validated`).
+    usable_error : float
+        Relative LOO / validation error above which an output reports no PCE moments.
     """
 
     n_samples: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000)
@@ -128,6 +137,8 @@ class AdaptivePCESettings(MethodSettings):
     surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
     surrogate_sampling: Literal["random", "sobol"] = "random"
     validation_runs: int = Field(default=0, ge=0, le=10_000_000)
+    validation: ValidationSettings | None = VALIDATION_FIELD
+    usable_error: float = USABLE_FIELD
 
     @model_validator(mode="after")
     def _consistent(self) -> AdaptivePCESettings:
@@ -177,6 +188,11 @@ class AdaptivePCE(Method):
         n = max(10 * d, 2 * p_min)
         return min(n, s.max_runs) if s.max_runs is not None else n
 
+    def n_validation(self) -> int:
+        """Validation runs after the fit (``validation.n_samples`` or ``validation_runs``)."""
+        v = self.settings.validation
+        return max(v.n_samples if v is not None else 0, self.settings.validation_runs)
+
     def budget(self, d: int) -> int:
         """Most model runs the method makes for ``d`` inputs."""
         s = self.settings
@@ -193,7 +209,7 @@ class AdaptivePCE(Method):
             terms = len(Q_GRID) * candidate_cap(runs)
         else:  # at most the total-degree basis (a q-norm below 1 prunes it), capped
             terms = min(comb(space.dim + s.degree_max, space.dim), MAX_CANDIDATES)
-        return RunPlan(runs=runs, terms=terms)
+        return RunPlan(runs=runs + self.n_validation(), terms=terms)
 
     # ------------------------------------------------------------------ phases
     def design(self, space: InputSpace, seed: int) -> Design:
@@ -212,11 +228,10 @@ class AdaptivePCE(Method):
         if "n_fit" in design.data:
             return None
         bigger = self._enrich(space, design, outputs)
-        if bigger is not None or not self.settings.validation_runs:
+        nv = self.n_validation()
+        if bigger is not None or not nv:
             return bigger
-        nv = self.settings.validation_runs
-        rng = np.random.default_rng(stream(design.data["seed"], self.label, VALIDATION_STREAM))
-        u_v = np.clip(rng.random((nv, space.dim)), 2.0**-53, 1 - 2.0**-53)
+        u_v = validation_unit_rows(design.data["seed"], self.label, nv, space.dim)
         log.info("%s: %d validation runs", self.label, nv)
         data = dict(design.data, n_fit=design.n_runs, u_validation=u_v)
         return Design(x=np.vstack([design.x, space.from_unit(u_v)]), data=data)
@@ -293,8 +308,16 @@ class AdaptivePCE(Method):
                 diagnostics[f"n_components.{f.columns.name}"] = f.n_components
         diagnostics["fit_seconds"] = (design.data.get("fit_seconds", 0.0)
                                       + time.perf_counter() - t0)
-        return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-                        scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
+        est = Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
+                       scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
+        surrogate = Surrogate(Germ.of(space), {f.columns.name: f.expansion for f in fits},
+                              dict(self.derived_outputs),
+                              {f.columns.name: f.columns.kind for f in fits})
+        finish(est, surrogate, space=space, validation=validation,
+               u_validation=design.data.get("u_validation"),
+               loo={f.columns.name: f.loo for f in fits}, threshold=s.usable_error,
+               seed=int(design.data.get("seed", 0)), n_draws=s.surrogate_draws)
+        return est
 
     def _validate(self, space: InputSpace, fits: list[_OutputFit], u_v: np.ndarray,
                    validation: ModelOutput, events: dict[str, EventEstimate]

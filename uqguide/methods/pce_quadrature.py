@@ -37,7 +37,11 @@ from ..pce.outputs import assemble, failure_summary, output_columns
 from ..pce.pca import constant_columns
 from ..pce.projection import project
 from ..pce.quadrature import Grid, union_basis
+from ..pce.surrogate import Surrogate
+from ..pce.validation import validation_unit_rows
 from .base import Design, Estimate, Method, MethodSettings
+from .pce_validated import (USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish,
+                            split_validation)
 
 log = logging.getLogger(__name__)
 
@@ -84,6 +88,8 @@ class QuadratureSettings(MethodSettings):
 
     surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
     surrogate_sampling: Literal["random", "sobol"] = "random"
+    validation: ValidationSettings | None = VALIDATION_FIELD
+    usable_error: float = USABLE_FIELD
 
 
 class QuadraturePCE(Method):
@@ -117,7 +123,20 @@ class QuadraturePCE(Method):
         draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
         log.info("%s: %d model runs (%s)", self.label, grid.n_nodes,
                  ", ".join(f"{k}={v}" for k, v in self._grid_diagnostics(grid).items()))
-        return Design(x=germ.to_physical(grid.xi), data={"xi": grid.xi, "draw_seed": draw_seed})
+        x = germ.to_physical(grid.xi)
+        data: dict[str, Any] = {"xi": grid.xi, "draw_seed": draw_seed, "seed": int(seed)}
+        if self.settings.validation is not None:
+            nv = self.settings.validation.n_samples
+            u_v = validation_unit_rows(seed, self.label, nv, space.dim)
+            log.info("%s: %d validation runs", self.label, nv)
+            x = np.vstack([x, space.from_unit(u_v)])
+            data.update(n_fit=grid.n_nodes, u_validation=u_v)
+        return Design(x=x, data=data)
+
+    def n_validation(self) -> int:
+        """Validation runs the method adds after the grid."""
+        v = self.settings.validation
+        return v.n_samples if v is not None else 0
 
     def _fitter(self, germ: Germ, grid: Grid, outputs: ModelOutput
                 ) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
@@ -146,7 +165,10 @@ class QuadraturePCE(Method):
         t0 = time.perf_counter()
         germ = Germ.of(space)
         grid = self._checked_grid(germ)
-        if outputs.n != grid.n_nodes or design.n_runs != grid.n_nodes or not np.allclose(
+        n_total = outputs.n
+        outputs, validation = split_validation(design.data, outputs)
+        n_fit = int(design.data.get("n_fit", design.n_runs))
+        if outputs.n != grid.n_nodes or n_fit != grid.n_nodes or not np.allclose(
                 design.data.get("xi", grid.xi), grid.xi, rtol=0, atol=1e-12):
             raise MethodError(
                 f"{self.label}: the design ({design.n_runs} runs, {outputs.n} outputs) is not "
@@ -168,7 +190,8 @@ class QuadraturePCE(Method):
             levels=self.quantile_levels, events=self.events, components=self.components,
             note=self.note)
         diagnostics: dict[str, Any] = {
-            "n_runs": outputs.n,
+            "n_runs": n_total,
+            "n_fit_runs": outputs.n,
             "n_failed": int(outputs.failed.sum()),
             "failure_reasons": failure_summary(outputs),
             "coefficients": "projection" if rows.size == outputs.n else "regression",
@@ -179,6 +202,13 @@ class QuadraturePCE(Method):
             "moments_method": ", ".join(sorted({s.moments_method for s in stats.values()})),
             **extra,
         }
+        est = Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
+                       scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
+        surrogate = Surrogate(germ, {c.name: e for c, e in fitted}, dict(self.derived_outputs),
+                              {c.name: c.kind for c, _ in fitted})
+        finish(est, surrogate, space=space, validation=validation,
+               u_validation=design.data.get("u_validation"), loo={},
+               threshold=self.settings.usable_error, seed=int(design.data.get("seed", 0)),
+               n_draws=self.settings.surrogate_draws)
         diagnostics["fit_seconds"] = time.perf_counter() - t0
-        return Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
-                        scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
+        return est

@@ -106,7 +106,7 @@ class SmolyakPCE(QuadraturePCE):
                 f"level: {self.label} with level {self.settings.level} on {d} inputs combines "
                 f"{bound:.3g} grid points; allowed at most {MAX_NODES} (lower the level)",
                 field="level")
-        return RunPlan(runs=bound, terms=bound, exact=False)
+        return RunPlan(runs=bound + self.n_validation(), terms=bound, exact=False)
 
     def _grid(self, germ: Germ) -> Grid:
         try:

@@ -68,7 +68,7 @@ class TensorPCE(QuadraturePCE):
                 f"m: {self.label} with m = {self.settings.m} on {space.dim} inputs is {n:.3g} "
                 f"runs; allowed at most {MAX_NODES} (lower m, or use pce_smolyak or "
                 f"pce_adaptive)", field="m")
-        return RunPlan(runs=n, terms=n)
+        return RunPlan(runs=n + self.n_validation(), terms=n)
 
     def _rule(self) -> str:
         return "gauss" if self.settings.rule == "auto" else self.settings.rule

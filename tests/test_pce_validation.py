@@ -1,0 +1,266 @@
+"""PCE validation sets: out-of-sample errors, control-variate moments and their intervals,
+'no usable surrogate', and the surrogate kept in the result file."""
+
+from __future__ import annotations
+
+import logging
+
+import h5py
+import numpy as np
+import pytest
+
+import uqguide
+from uqguide.pce.derived import DerivedOutput
+from uqguide.pce.expansion import Expansion
+from uqguide.pce.germ import Germ
+from uqguide.pce.surrogate import Surrogate
+from uqguide.pce.validation import corrected_moments, relative_error, usable_mask
+from uqguide.report import render_text, validation_table
+from uqguide.result import read_hdf5, write_hdf5
+from uqguide.result_surrogate import read_surrogate, write_surrogate
+from uqguide.stats import central_moments
+from uqguide.types import OutputStats
+
+from .test_pce_helpers import normal_space
+
+ISHIGAMI = {"mean": 3.5, "std": np.sqrt(13.844587940719254), "skewness": 0.0,
+            # 80^3-node Gauss-Legendre rule on the function (exact for this polynomial-
+            # trigonometric integrand to round-off)
+            "kurtosis": 3.5071980673776344}
+
+
+def _stats(mean, std, skew, kurt):
+    a = lambda v: np.atleast_1d(np.asarray(v, dtype=float))  # noqa: E731
+    return OutputStats(mean=a(mean), std=a(std), skewness=a(skew), kurtosis=a(kurt),
+                       cov=np.atleast_2d(std) ** 2, n_used=1, moments_method="exact")
+
+
+def _ishigami_config(methods, seed=3):
+    return {"model": {"name": "ishigami"},
+            "inputs": [{"name": f"x{i}", "dist": "uniform", "low": -np.pi, "high": np.pi}
+                       for i in (1, 2, 3)],
+            "methods": methods, "seed": seed}
+
+
+# ---------------------------------------------------------------------------- closed forms
+def test_perfect_surrogate_keeps_the_pce_moments_and_a_zero_width_interval():
+    y = np.random.default_rng(0).standard_normal((50, 1))
+    pce = _stats(0.1, 1.2, 0.3, 3.3)
+    c = corrected_moments(pce, y, y.copy())
+    for k, v in {"mean": 0.1, "std": 1.2, "skewness": 0.3, "kurtosis": 3.3}.items():
+        assert abs(c.values[k][0] - v) < 1e-12 * max(1, abs(v))
+        assert abs(c.ci[k][1, 0] - c.ci[k][0, 0]) < 1e-12
+    assert c.error[0] == 0.0
+
+
+def test_constant_surrogate_gives_the_sample_moments_of_the_validation_runs():
+    """A constant surrogate (LOO about 1) is no control variate: the corrected moments are
+    then the validation runs' own population moments, to round-off."""
+    y = np.random.default_rng(1).gamma(2.0, size=(80, 2))
+    pce = _stats([5.0, 5.0], [0.0, 0.0], [np.nan, np.nan], [np.nan, np.nan])
+    c = corrected_moments(pce, y, np.full_like(y, 5.0))
+    mean, mu2, mu3, mu4 = central_moments(y)
+    np.testing.assert_allclose(c.values["mean"], mean, rtol=1e-12)
+    np.testing.assert_allclose(c.values["std"], np.sqrt(mu2), rtol=1e-12)
+    np.testing.assert_allclose(c.values["skewness"], mu3 / mu2**1.5, rtol=1e-10)
+    np.testing.assert_allclose(c.values["kurtosis"], mu4 / mu2**2, rtol=1e-10)
+
+
+def test_relative_error_is_the_missed_fraction_of_the_variance():
+    x = np.random.default_rng(2).standard_normal((400, 1))
+    y = x + 0.3 * (x**2 - 1)
+    e = relative_error(y, x)
+    np.testing.assert_allclose(e, np.mean((0.3 * (x**2 - 1)) ** 2) / y.var(), rtol=1e-12)
+    # a column where the model does not vary: 0 if the surrogate agrees, inf otherwise
+    flat = np.ones((10, 2))
+    np.testing.assert_array_equal(relative_error(flat, flat + [[0.0, 1e-3]]), [0.0, np.inf])
+
+
+def test_usable_mask_series_by_validation_step_scalars_by_both():
+    err = np.array([[0.01], [0.05], [0.2]])
+    np.testing.assert_array_equal(usable_mask(err, 0.5, 0.1, (3, 1)).ravel(),
+                                  [True, True, False])  # a series: its steps decide
+    assert not usable_mask(np.array([0.01]), 0.5, 0.1, (1,)).any()  # a scalar: LOO too
+    assert not usable_mask(None, 0.98, 0.1, (1,)).any()  # no validation: LOO alone
+
+
+def test_corrected_intervals_cover_a_biased_surrogate_over_seeds():
+    """y = x + a (x^2 - 1), x ~ N(0, 1), surrogate s = x (exact moments 0, 1, 0, 3): the
+    surrogate misses 2a^2 / (1 + 2a^2) = 0.08% of the variance (usable) but its skewness is
+    0 where the model's is 0.12. Over 200 validation sets of 100 runs, the corrected mean and
+    std intervals must cover the Gauss-Hermite truth at least 88% of the time (nominal 95%;
+    88% is 4.5 binomial standard errors of 200 trials below it) and the corrected skewness
+    must be unbiased (its average over sets within 4 standard errors of the truth)."""
+    a = 0.02
+    x, w = np.polynomial.hermite_e.hermegauss(60)
+    w = w / w.sum()
+    yq = x + a * (x**2 - 1)
+    m = (w * yq).sum()
+    v = (w * (yq - m) ** 2).sum()
+    truth = {"mean": m, "std": np.sqrt(v), "skewness": (w * (yq - m) ** 3).sum() / v**1.5}
+    pce = _stats(0.0, 1.0, 0.0, 3.0)
+    hits = {k: 0 for k in truth}
+    skews = []
+    for seed in range(200):
+        xv = np.random.default_rng(seed).standard_normal((100, 1))
+        c = corrected_moments(pce, xv + a * (xv**2 - 1), xv, seed=seed, n_boot=300)
+        for k in truth:
+            hits[k] += bool(c.ci[k][0, 0] <= truth[k] <= c.ci[k][1, 0])
+        skews.append(c.values["skewness"][0])
+    assert hits["mean"] >= 176 and hits["std"] >= 176, hits
+    skews = np.asarray(skews)
+    assert abs(skews.mean() - truth["skewness"]) <= 4 * skews.std() / np.sqrt(skews.size)
+
+
+# ---------------------------------------------------------------------------- the methods
+@pytest.mark.parametrize("entry", [
+    {"name": "pce_tensor", "label": "t2", "m": 2},
+    {"name": "pce_smolyak", "label": "s2", "level": 2},
+])
+def test_a_degree_one_pce_of_ishigami_is_not_usable_and_says_so(entry, caplog):
+    """Degree 1 on Ishigami (sin, sin^2, x^4 sin terms) misses most of the variance: no PCE
+    moments, a reason in the diagnostics and the report, and control-variate moments with
+    intervals (their coverage is measured over seeds elsewhere, not on one seed here)."""
+    entry = dict(entry, validation={"n_samples": 200})
+    with caplog.at_level(logging.WARNING):
+        r = uqguide.run(_ishigami_config([entry]))
+    run = r.runs[0]
+    s = run.estimate.stats["y"]
+    assert not s.usable.any() and np.isnan(s.mean).all() and np.isnan(s.std).all()
+    assert s.validation_error[0] > 0.1
+    assert "validation error" in run.estimate.diagnostics["unusable.y"]
+    assert "no usable surrogate" in caplog.text
+    for k in ("mean", "std", "skewness", "kurtosis"):
+        lo, hi = s.corrected_ci[k][:, 0]
+        assert lo < s.corrected[k][0] < hi, (k, lo, hi)
+    text = render_text(r)
+    assert "no usable surrogate" in text and f"{entry['label']}+cv" in text
+    assert run.n_runs == run.estimate.diagnostics["n_fit_runs"] + 200
+
+
+def test_adaptive_pce_validation_and_the_cost_table():
+    r = uqguide.run(_ishigami_config([{"name": "pce_adaptive", "label": "apce",
+                                       "n_samples": 120, "validation": {"n_samples": 100}}]))
+    run = r.runs[0]
+    s = run.estimate.stats["y"]
+    assert s.usable.all() and s.validation_error[0] < 0.01
+    assert run.n_runs == 220
+    df = validation_table(r)
+    assert set(df["stat"]) == {"mean", "std", "skewness", "kurtosis"}
+    assert (df["runs"] == "120+100").all()
+    # corrected = PCE + validation correction, which is small for a good surrogate: within
+    # the interval's half-width of the PCE value
+    for _, row in df.iterrows():
+        assert abs(row["corrected"] - row["pce"]) <= row["ci_high"] - row["ci_low"]
+
+
+def test_a_constant_fit_reports_no_moments_instead_of_std_zero():
+    """cos(a), a ~ U(-3, 3), is even: a degree-1 PCE of it is a constant (LOO about 1). It
+    reports no moments and says why, not std 0."""
+    cfg = {"model": {"name": "callable", "function": "tests.fixtures_models:even_cosine",
+                     "inputs": ["a"]},
+           "inputs": [{"name": "a", "dist": "uniform", "low": -3.0, "high": 3.0}],
+           "methods": [{"name": "pce_adaptive", "label": "apce", "n_samples": 30,
+                        "degree_max": 1, "enrich": False}], "seed": 4}
+    r = uqguide.run(cfg)
+    d = r.runs[0].estimate.diagnostics
+    s = next(iter(r.runs[0].estimate.stats.values()))
+    assert d["loo_error"] > 0.5
+    assert np.isnan(s.std).all() and not s.usable.any()
+    assert any(k.startswith("unusable.") for k in d)
+
+
+# ---------------------------------------------------------------------------- kept surrogate
+def test_surrogate_reloaded_from_the_result_file_reproduces_values_and_statistics(tmp_path):
+    cfg = {"model": {"name": "callable", "function": "tests.fixtures_models:series_and_scalar",
+                     "inputs": ["a", "b"],
+                     "outputs": [{"name": "path", "kind": "series"}, "total"]},
+           "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                      {"name": "b", "dist": "uniform", "low": 1.0, "high": 3.0}],
+           "methods": [{"name": "pce_adaptive", "label": "apce", "n_samples": 30},
+                       {"name": "pce_tensor", "label": "t3", "m": 3}], "seed": 1}
+    r = uqguide.run(cfg)
+    path = write_hdf5(r, tmp_path / "r.h5")
+    back = read_hdf5(path)
+    api = uqguide.read_result(path)
+    x = np.column_stack([np.random.default_rng(9).normal(0, 1, 1000),
+                         np.random.default_rng(10).uniform(1, 3, 1000)])
+    for label in ("apce", "t3"):
+        fitted, reloaded = r.surrogate(label), back.surrogate(label)
+        a, b = fitted(x), reloaded(x)
+        assert set(a) == {"path", "total"}
+        for name in a:
+            scale = np.abs(a[name]).max()
+            assert np.abs(a[name] - b[name]).max() <= 1e-12 * scale
+            sa, sb = fitted.statistics(name), reloaded.statistics(name)
+            for stat in ("mean", "std", "skewness", "kurtosis"):
+                np.testing.assert_allclose(sb.stat(stat), sa.stat(stat), rtol=1e-12,
+                                           atol=1e-12 * np.nanmax(np.abs(sa.std)))
+        np.testing.assert_array_equal(api.surrogate(label)(x)["total"], b["total"])
+    # total = a + b is linear: the surrogate is the model
+    np.testing.assert_allclose(back.surrogate("apce")(x)["total"][:, 0], x.sum(axis=1),
+                               rtol=1e-10)
+
+
+def test_monte_carlo_keeps_no_surrogate(tmp_path):
+    r = uqguide.run(_ishigami_config([{"name": "monte_carlo", "label": "mc", "n_samples": 50}]))
+    with pytest.raises(uqguide.errors.ResultError, match="kept no surrogate"):
+        read_hdf5(write_hdf5(r, tmp_path / "r.h5")).surrogate("mc")
+
+
+def test_stored_derived_output_is_recomputed_from_its_carriers(tmp_path):
+    space = normal_space(2)
+    germ = Germ.of(space)
+    alpha = np.array([[0, 0], [1, 0], [0, 1]])
+    exp = Expansion(germ, alpha, np.array([[0.5, 0.0], [1.0, 0.2], [0.0, 2.0]]), (2,))
+    dist = DerivedOutput(("m",), lambda c, x: np.hypot(c["m"][:, 0], c["m"][:, 1])[:, None])
+    sur = Surrogate(germ, {"m": exp}, {"dist": dist}, {"m": "scalar"})
+    with h5py.File(tmp_path / "s.h5", "w") as f:
+        write_surrogate(f.create_group("surrogate"), sur)
+    with h5py.File(tmp_path / "s.h5", "r") as f:
+        stored = read_surrogate(f["surrogate"])
+    back = stored.resolve(germ, {"dist": dist})
+    x = np.random.default_rng(3).standard_normal((1000, 2))
+    a, b = sur(x), back(x)
+    np.testing.assert_array_equal(a["m"], b["m"])
+    np.testing.assert_array_equal(a["dist"], b["dist"])
+    # the germ map inverts to_physical: germ values back from physical ones
+    np.testing.assert_allclose(sur.map.to_germ(germ.to_physical(x)), x, rtol=0, atol=1e-13)
+
+
+# ---------------------------------------------------------------------------- plots
+def test_pce_density_is_a_kde_of_the_kept_surrogate(tmp_path):
+    """On Ishigami (a bimodal-looking, flat-topped density) the PCE curve is the KDE of its
+    surrogate's draws, not a moment fit; read back from the file, the same curve."""
+    from uqguide.plots import scalar_figure
+
+    r = uqguide.run(_ishigami_config([
+        {"name": "monte_carlo", "label": "mc", "n_samples": 2000},
+        {"name": "pce_adaptive", "label": "apce", "n_samples": 150}]))
+    back = read_hdf5(write_hdf5(r, tmp_path / "r.h5"))
+    curves = []
+    for res in (r, back):
+        fig = scalar_figure(res, "y")
+        ax = fig.axes[0]
+        line = next(ln for ln in ax.get_lines() if "KDE of 100,000 draws" in ln.get_label())
+        curves.append(line.get_ydata())
+    np.testing.assert_allclose(curves[0], curves[1], rtol=1e-10, atol=1e-12)
+    # the KDE of the surrogate integrates to 1 over the plotted range (up to the tails cut off)
+    xs = fig.axes[0].get_lines()[-1].get_xdata()
+    assert 0.97 < np.trapezoid(curves[0], xs) <= 1.0 + 1e-6
+
+
+def test_a_zero_one_output_is_drawn_as_a_probability(tmp_path):
+    from uqguide.plots import scalar_figure
+
+    cfg = {"model": {"name": "callable", "function": "tests.fixtures_models:indicator",
+                     "inputs": ["a"]},
+           "inputs": [{"name": "a", "dist": "normal", "std": 1.5}],
+           "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 4000}], "seed": 2}
+    r = uqguide.run(cfg)
+    fig = scalar_figure(r, r.outputs[0].name)
+    ax = fig.axes[0]
+    assert ax.get_xlabel().startswith("P(")
+    bar = ax.patches[0]
+    p = float(np.asarray(r.runs[0].scalars[r.outputs[0].name]).mean())
+    assert abs(bar.get_width() - p) < 1e-12

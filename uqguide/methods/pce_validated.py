@@ -1,0 +1,152 @@
+"""The step every PCE method shares after its fit: keep the surrogate, validate it on
+independent runs, correct its moments and withdraw them where it is not usable.
+
+Settings (every PCE method)::
+
+    validation: {n_samples: 100}   # independent Monte Carlo runs after the fit (default none)
+    usable_error: 0.1              # LOO / validation error above which a PCE reports no moments
+
+The validation runs come from the method's own stream (:func:`uqguide.pce.validation.
+validation_unit_rows`, keyed by the label), are appended after the fit's runs in the design and
+never reach the fit. What they give is described in :mod:`uqguide.pce.validation`.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from pydantic import ConfigDict, Field
+
+from ..strict import StrictModel
+
+from ..inputs import InputSpace
+from ..pce.surrogate import Surrogate
+from ..pce.validation import (USABLE_ERROR, corrected_moments, sampling_se, usable_mask,
+                              validation_unit_rows, withdraw)
+from ..types import Estimate, ModelOutput
+
+log = logging.getLogger(__name__)
+
+
+class ValidationSettings(StrictModel):
+    """``validation:`` of a PCE method.
+
+    Attributes
+    ----------
+    n_samples : int
+        Independent model runs at random inputs after the fit.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    n_samples: int = Field(ge=2, le=10_000_000,
+                           description="independent model runs that validate the surrogate")
+
+
+#: Fields the PCE methods' settings add (annotations and defaults), one definition for all.
+VALIDATION_FIELD = Field(default=None, description="independent runs that validate the "
+                                                    "surrogate and correct its moments")
+USABLE_FIELD = Field(default=USABLE_ERROR, gt=0.0, le=10.0,
+                     description="relative LOO / validation error above which the PCE reports "
+                                 "no moments ('no usable surrogate')")
+
+
+#: Fresh surrogate draws that measure the sampling error of sampled PCE moments.
+SE_DRAWS = 20_000
+
+
+def _values(out: ModelOutput, name: str) -> np.ndarray | None:
+    if name in out.series:
+        return np.asarray(out.series[name], dtype=float)
+    if name in out.scalars:
+        return np.asarray(out.scalars[name], dtype=float)
+    return None
+
+
+def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
+           validation: ModelOutput | None, u_validation: np.ndarray | None,
+           loo: Mapping[str, float], threshold: float, seed: int,
+           n_draws: int = 1_000_000) -> None:
+    """Keep the surrogate in ``estimate``; validate, correct and judge every output in place.
+
+    Parameters
+    ----------
+    estimate : Estimate
+        The PCE's estimate (its own statistics of every fitted and derived output).
+    surrogate : Surrogate
+    space : InputSpace
+    validation : ModelOutput, optional
+        The validation runs' outputs (None: no validation set).
+    u_validation : ndarray, shape (n_v, d), optional
+        Their inputs on the unit cube.
+    loo : mapping of str to float
+        The fit's relative LOO error per fitted output (empty for quadrature PCEs).
+    threshold : float
+        ``usable_error``.
+    seed : int
+        Seed of the bootstrap.
+    n_draws : int
+        Surrogate draws behind sampled moments (their sampling error joins the intervals).
+    """
+    estimate.surrogate = surrogate
+    diag = estimate.diagnostics
+    diag["usable_error"] = threshold
+    ok = None
+    if validation is not None and u_validation is not None:
+        ok = ~validation.failed
+        diag["n_validation"] = int(validation.n)
+        diag["n_validation_failed"] = int(validation.failed.sum())
+    time = validation.time if validation is not None else None
+    for name, st in estimate.stats.items():
+        err = None
+        y = _values(validation, name) if validation is not None else None
+        if y is not None and ok is not None and u_validation is not None \
+                and int(ok.sum()) >= 2:
+            s = surrogate.at_unit(u_validation[ok], [name])[name].reshape(y[ok].shape)
+            pce_se = None
+            if st.moments_method == "surrogate-sampling":
+                cols = int(np.prod(y.shape[1:]))
+                m = min(SE_DRAWS, n_draws, max(1000, 2_000_000 // max(cols, 1)))
+                u = validation_unit_rows(seed, f"{estimate.label}/se", m, space.dim)
+                draws = surrogate.at_unit(u, [name])[name].reshape((m,) + y.shape[1:])
+                pce_se = sampling_se(draws, n_draws, seed=seed)
+            cv = corrected_moments(st, y[ok], s, seed=seed, pce_se=pce_se)
+            st.corrected, st.corrected_ci = cv.values, cv.ci
+            st.validation_error = err = cv.error
+            diag[f"validation_error.{name}"] = float(np.max(err)) if err.size else 0.0
+        # Derived outputs have no LOO of their own: their carriers' LOO judges them.
+        fit_loo = loo.get(name)
+        if fit_loo is None and name in surrogate.derived:
+            carriers = [loo[c] for c in surrogate.derived[name].carriers if c in loo]
+            fit_loo = max(carriers) if carriers else None
+        usable = usable_mask(err, fit_loo, threshold, np.shape(st.mean))
+        st.usable = usable
+        if usable.all():
+            continue
+        withdraw(st, usable)
+        why = (f"validation error {float(np.max(err)):.3g}" if err is not None
+               else f"LOO error {fit_loo:.3g}")
+        if usable.ndim == 2 and time is not None and time.size == usable.shape[0]:
+            bad_t = np.flatnonzero(~usable.all(axis=1))
+            diag[f"unusable_from.{name}"] = float(time[bad_t[0]])
+            diag[f"unusable_steps.{name}"] = int(bad_t.size)
+            log.warning("%s: %s: no usable surrogate from t = %g s (%d of %d steps; %s > %g)",
+                        estimate.label, name, time[bad_t[0]], bad_t.size, usable.shape[0],
+                        why, threshold)
+        else:
+            diag[f"unusable.{name}"] = f"{why} > {threshold:g}"
+            log.warning("%s: %s: no usable surrogate (%s > %g); its moments are not reported",
+                        estimate.label, name, why, threshold)
+
+
+def split_validation(design_data: Mapping[str, Any], outputs: ModelOutput
+                     ) -> tuple[ModelOutput, ModelOutput | None]:
+    """The fit's runs and the validation runs (after ``n_fit`` rows), when the design has them."""
+    if "n_fit" not in design_data:
+        return outputs, None
+    n_fit = int(design_data["n_fit"])
+    return (outputs.subset(np.arange(n_fit)),
+            outputs.subset(np.arange(n_fit, outputs.n)))
