@@ -72,7 +72,7 @@ def measure(n: int, workers: int) -> dict:
         executor.close()
     r = result.run("mc")
     digest = hashlib.sha256()
-    for name, s in sorted(r.estimate.stats.items()):
+    for _name, s in sorted(r.estimate.stats.items()):
         for k in ("mean", "std", "skewness", "kurtosis", "cov"):
             digest.update(np.ascontiguousarray(getattr(s, k)).tobytes())
         for k in sorted(s.ci):

@@ -37,7 +37,8 @@ def main() -> None:
         n_iter=info.n_iter,
         converged=info.converged,
         lower_bound=info.lower_bound,
-        recipe="grid cloud of spec 4.3 (deduplicated), k-means from [W 22], EM reg_covar 1e-5 tol 1e-8",
+        recipe=("grid cloud of spec 4.3 (deduplicated), k-means from [W 22], "
+                "EM reg_covar 1e-5 tol 1e-8"),
     )
     logging.info("wrote %s (%d points, %d EM iterations, %.1f s)", args.out, info.n_points,
                  info.n_iter, time.perf_counter() - t0)

@@ -93,7 +93,8 @@ def test_a_model_breaking_its_contract_is_not_a_sample_failure(write_config, tmp
     cfg = _config("tests.failing_models:clean_sum")  # an array, where series need a dict
     res = CliRunner().invoke(main, ["run", str(write_config(cfg)), "--out", str(tmp_path)])
     assert res.exit_code == 1
-    assert res.stderr.strip().splitlines()[-1] == "error: a function with series outputs must return a dict"
+    assert res.stderr.strip().splitlines()[-1] == (
+        "error: a function with series outputs must return a dict")
     assert not (tmp_path / "config.h5").exists()
 
 

@@ -208,8 +208,8 @@ def test_a_folder_at_the_run_path_that_is_not_a_run_folder_is_not_deleted(tmp_pa
 # ---------------------------------------------------------------------------- 3. all-failed
 def test_a_chunk_in_which_every_sample_fails_is_counted():
     """Chunks of 1 sample of a model failing for |a| > 1.96 (raises above, NaN below): every
-    failure is a chunk failing whole. Every failure is counted with its reason, the statistics are those of
-    the rest."""
+    failure is a chunk failing whole. Every failure is counted with its reason, the statistics
+    are those of the rest."""
     from uqguide.config import validate_config
     from uqguide.propagate import run
 

@@ -79,7 +79,7 @@ def test_sign_for_line_of_sight_target_minus_chaser():
     t = np.linspace(0, 120.0, 7)
     tgt, chs = _two_body(target0, t), _two_body(chaser0, t)
     los_ref = []
-    for ti, yt, yc in zip(t, tgt, chs):
+    for yt, yc in zip(tgt, chs):
         xh = yt[:3] / np.linalg.norm(yt[:3])
         zh = np.cross(yt[:3], yt[3:])
         zh /= np.linalg.norm(zh)

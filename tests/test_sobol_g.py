@@ -24,6 +24,6 @@ def test_variance_is_the_textbook_product():
 def test_raw_moments_equal_quadrature_of_each_factor():
     m = SobolG({"a": [0.0, 1.0, 4.5]})
     for k in (1, 2, 3, 4):
-        by_quad = np.prod([quad(lambda x, a=a: ((abs(4 * x - 2) + a) / (1 + a)) ** k, 0, 1,
+        by_quad = np.prod([quad(lambda x, a=a, k=k: ((abs(4 * x - 2) + a) / (1 + a)) ** k, 0, 1,
                                 points=[0.5])[0] for a in m.params.a])
         assert abs(m.raw_moment(k) - by_quad) <= 1e-12 * by_quad, k

@@ -17,7 +17,8 @@ try:
     main(sys.argv[1:], prog_name="uqguide")
 except SystemExit:
     pass
-print("HEAVY:" + ",".join(m for m in ("chaospy", "scipy.stats", "sklearn", "pandas") if m in sys.modules),
+print("HEAVY:" + ",".join(m for m in ("chaospy", "scipy.stats", "sklearn", "pandas")
+                          if m in sys.modules),
       file=sys.stderr)
 """
 

@@ -34,15 +34,16 @@ if TYPE_CHECKING:
     from .result import Result
 
 
-def load_config(config: str | Path | Mapping[str, Any]) -> RunConfig:
+def load_config(config: str | Path | Mapping[str, Any] | RunConfig) -> RunConfig:
     """A validated run configuration.
 
     Parameters
     ----------
-    config : str, Path or mapping
+    config : str, Path, mapping or RunConfig
         A YAML config file, the name of a shipped study (``uqguide configs`` lists them), or
         the same content as a mapping. In a mapping, a ``callable`` model's ``function`` may be
-        a Python function object instead of ``"module:function"``.
+        a Python function object instead of ``"module:function"``. A RunConfig is returned
+        as it is.
 
     Returns
     -------
@@ -133,6 +134,16 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
 
 def read_result(path: str | Path) -> Result:
     """Read a result file (``uqguide run``'s ``<name>.h5``, any format version).
+
+    Parameters
+    ----------
+    path : str or Path
+        The HDF5 result file.
+
+    Returns
+    -------
+    Result
+        Every method's statistics, runs and failures, with the resolved config and provenance.
 
     Raises
     ------

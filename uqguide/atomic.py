@@ -22,7 +22,17 @@ _TEMP = re.compile(r"^\..+\.(\d+)\.tmp$")
 
 
 def temp_path(path: Path) -> Path:
-    """The temporary sibling of ``path`` owned by this process."""
+    """The temporary sibling of ``path`` owned by this process.
+
+    Parameters
+    ----------
+    path : Path
+
+    Returns
+    -------
+    Path
+        ``.<name>.<pid>.tmp`` in the same folder.
+    """
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
@@ -45,7 +55,21 @@ def atomic_path(path: str | Path, fsync: bool = True, clean: bool = True) -> Ite
 
     On any exception (Ctrl-C included) the temporary file is removed and ``path`` is left as
     it was. Writers that open files by name (HDF5, matplotlib, pandas) write to the yielded
-    path. ``clean``: first remove stale temporary files of dead writers in the folder.
+    path.
+
+    Parameters
+    ----------
+    path : str or Path
+        The final file; its folder is created.
+    fsync : bool
+        Flush the file and the folder to disk before and after the rename.
+    clean : bool
+        First remove stale temporary files of dead writers in the folder.
+
+    Yields
+    ------
+    Path
+        The temporary file to write.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -66,7 +90,17 @@ def atomic_path(path: str | Path, fsync: bool = True, clean: bool = True) -> Ite
 
 
 def write_text(path: str | Path, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    """Write ``text`` (UTF-8) to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+    text : str
+
+    Returns
+    -------
+    Path
+    """
     path = Path(path)
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
@@ -74,7 +108,18 @@ def write_text(path: str | Path, text: str) -> Path:
 
 
 def write_with(path: str | Path, writer: Callable[[Path], object]) -> Path:
-    """Call ``writer(tmp_path)`` and rename its file to ``path`` atomically."""
+    """Call ``writer(tmp_path)`` and rename its file to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+    writer : callable
+        Writes a whole file to the path it is given.
+
+    Returns
+    -------
+    Path
+    """
     path = Path(path)
     with atomic_path(path) as tmp:
         writer(tmp)
@@ -82,7 +127,16 @@ def write_with(path: str | Path, writer: Callable[[Path], object]) -> Path:
 
 
 def pid_alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists on this host (permission denied counts as alive)."""
+    """Whether a process ``pid`` exists on this host (permission denied counts as alive).
+
+    Parameters
+    ----------
+    pid : int
+
+    Returns
+    -------
+    bool
+    """
     if pid <= 0:
         return False
     try:
@@ -98,8 +152,17 @@ def clean_stale_temps(folder: str | Path) -> list[Path]:
     """Remove ``.<name>.<pid>.tmp`` files in ``folder`` whose process is gone; return them.
 
     Only this naming pattern is touched, and only when its PID is not a live process here.
+
+    Parameters
+    ----------
+    folder : str or Path
+
+    Returns
+    -------
+    list of Path
+        The files removed.
     """
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(os.scandir(folder))
     except OSError:

@@ -183,13 +183,26 @@ def _uncertainty_kind(s: OutputStats) -> str:
 
 
 def standard_error(s: OutputStats, stat: str, where: tuple[int, ...]) -> float:
-    """Standard error of a sample statistic at ``where`` (module docstring for the formulas)."""
+    """Standard error of a sample statistic at ``where`` (module docstring for the formulas).
+
+    Parameters
+    ----------
+    s : OutputStats
+    stat : {"mean", "std", "skewness", "kurtosis"}
+    where : tuple of int
+        ``(time index, component)`` for a series, ``(component,)`` for a scalar.
+
+    Returns
+    -------
+    float
+        In the statistic's unit: from the sem, the bootstrap interval, or normal theory.
+    """
     n = max(int(s.n_used), 1)
     if stat == "mean" and s.sem is not None:
         return float(s.sem[where])
     ci = s.ci.get(stat)
     if ci is not None:
-        lo, hi = float(ci[(0, *where)]), float(ci[(1, *where)])
+        lo, hi = float(ci[0][where]), float(ci[1][where])
         if math.isfinite(lo) and math.isfinite(hi):
             return (hi - lo) / (2.0 * Z95)
     std = float(s.std[where])
@@ -243,8 +256,20 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
                   roundoff: dict[StatKey, list[float | None]] | None = None) -> dict[str, Any]:
     """The baseline of ``result`` as a JSON-ready mapping (see the module docstring).
 
-    ``roundoff`` marks statistics as chaotic under round-off, with their range over a
-    round-off ensemble (``scripts/update_golden.py`` measures it).
+    Parameters
+    ----------
+    result : Result
+    pce_rtol : float
+        Relative tolerance stored for PCE statistics, in ``(0, 1]``.
+    roundoff : dict, optional
+        Statistics chaotic under round-off, with their range over a round-off ensemble
+        (``scripts/update_golden.py`` measures it); they are recorded, not checked.
+
+    Returns
+    -------
+    dict
+        JSON-ready: format, config, tolerances, and per method and output the values and
+        standard errors at the report points.
     """
     if not (math.isfinite(pce_rtol) and 0 < pce_rtol <= 1):
         raise ResultError(f"--pce-rtol: must be a finite number in (0, 1] (got {pce_rtol!r})")
@@ -319,6 +344,18 @@ def _json_text(obj: Any, level: int = 0) -> str:
 
 
 def to_jsonable(obj: Any) -> Any:
+    """``obj`` with arrays and NumPy scalars as lists and numbers, non-finite floats as None.
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts, lists, tuples, arrays and scalars.
+
+    Returns
+    -------
+    object
+        Accepted by ``json.dumps(..., allow_nan=False)``.
+    """
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -334,7 +371,20 @@ def to_jsonable(obj: Any) -> Any:
 
 def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_PCE_RTOL,
                    roundoff: dict[StatKey, list[float | None]] | None = None) -> Path:
-    """Write the baseline of ``result`` to ``path`` (temporary file, then an atomic rename)."""
+    """Write the baseline of ``result`` to ``path`` (temporary file, then an atomic rename).
+
+    Parameters
+    ----------
+    result : Result
+    path : str or Path
+    pce_rtol : float
+    roundoff : dict, optional
+        As for :func:`make_baseline`.
+
+    Returns
+    -------
+    Path
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     text = _json_text(to_jsonable(make_baseline(result, pce_rtol, roundoff))) + "\n"
@@ -342,7 +392,19 @@ def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_P
 
 
 def parse_baseline(data: Any, source: str = "<baseline>") -> Baseline:
-    """Validate a decoded baseline mapping; ResultError naming the first problem."""
+    """Validate a decoded baseline mapping; ResultError naming the first problem.
+
+    Parameters
+    ----------
+    data : object
+        The decoded JSON.
+    source : str
+        How to name it in messages.
+
+    Returns
+    -------
+    Baseline
+    """
     if not isinstance(data, dict) or data.get("format") != BASELINE_FORMAT:
         raise ResultError(f"{source}: not a uqguide baseline (expected a JSON object with "
                           f"\"format\": \"{BASELINE_FORMAT}\"; write one with "
@@ -374,7 +436,16 @@ def _reject_constant(name: str) -> Any:
 
 
 def read_baseline(path: str | Path) -> Baseline:
-    """Read and validate a baseline file; ResultError if it is missing, corrupt or not one."""
+    """Read and validate a baseline file; ResultError if it is missing, corrupt or not one.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Baseline
+    """
     path = Path(path)
     try:
         size = path.stat().st_size

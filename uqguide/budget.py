@@ -65,6 +65,12 @@ class Budget:
         return kept + transient + BASE_BYTES
 
     def lines(self) -> list[str]:
+        """The budget for the console: one line per method, then the peak memory.
+
+        Returns
+        -------
+        list of str
+        """
         out = []
         for m in self.methods:
             runs = "runs unknown until the design is built" if m.runs is None \
@@ -83,7 +89,21 @@ BASE_BYTES = 250e6
 
 
 def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) -> Budget:
-    """The budget of ``cfg`` (module docstring), without building any design."""
+    """The budget of ``cfg`` (module docstring), without building any design.
+
+    Parameters
+    ----------
+    cfg : RunConfig
+    workers : int
+        Worker processes (chunks in flight at once).
+    batch_size : int, optional
+        Samples per model call; default the config's.
+
+    Returns
+    -------
+    Budget
+        Per method: model runs, steps per run and the estimated memory [bytes] by part.
+    """
     model = cfg.model
     count = model.step_count()
     grid = count.grid if count is not None else 0.0
@@ -126,7 +146,12 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
 
 
 def check_memory(budget: Budget) -> None:
-    """ConfigError (exit 2) when the estimate exceeds ``max_memory``."""
+    """ConfigError (exit 2) when the estimate exceeds ``max_memory``.
+
+    Parameters
+    ----------
+    budget : Budget
+    """
     if budget.peak_bytes > budget.max_memory:
         worst = max((m for m in budget.methods if m.peak_bytes is not None),
                     key=lambda m: m.peak_bytes or 0.0, default=None)

@@ -36,7 +36,13 @@ def _folder() -> Path:
 
 
 def studies() -> list[Study]:
-    """Every shipped study, sorted by name."""
+    """Every shipped study, sorted by name.
+
+    Returns
+    -------
+    list of Study
+        Name, path and description of each.
+    """
     out = []
     for path in sorted(_folder().glob("*.yaml")):
         with path.open(encoding="utf-8") as f:
@@ -47,6 +53,16 @@ def studies() -> list[Study]:
 
 def study_path(name: str, field: str = "CONFIG") -> Path:
     """The shipped config called ``name`` (with or without ``.yaml``).
+
+    Parameters
+    ----------
+    name : str
+    field : str
+        How to name the argument in messages.
+
+    Returns
+    -------
+    Path
 
     Raises
     ------
@@ -68,6 +84,17 @@ def resolve(config: str | Path, field: str = "CONFIG") -> Path:
 
     Only a bare name (no folder, no ``.yaml``) is looked up among the studies; a missing path
     is an error that names the study to run instead when its stem is one.
+
+    Parameters
+    ----------
+    config : str or Path
+    field : str
+        How to name the argument in messages.
+
+    Returns
+    -------
+    Path
+        An existing file; ConfigError otherwise.
     """
     path = Path(config)
     if path.is_file():
@@ -83,7 +110,18 @@ def resolve(config: str | Path, field: str = "CONFIG") -> Path:
 
 
 def copy_study(name: str, folder: Path) -> Path:
-    """Copy the shipped study ``name`` into ``folder`` (created); refuses to overwrite."""
+    """Copy the shipped study ``name`` into ``folder`` (created); refuses to overwrite.
+
+    Parameters
+    ----------
+    name : str
+    folder : Path
+
+    Returns
+    -------
+    Path
+        The copy.
+    """
     src = study_path(name, "NAME")
     folder.mkdir(parents=True, exist_ok=True)
     dst = folder / src.name

@@ -72,7 +72,17 @@ class RunInterrupted(KeyboardInterrupt):
 
 # ---------------------------------------------------------------------------- identity
 def model_code_hash(model: Model) -> str:
-    """SHA-256 of the source that defines ``model`` (see the module docstring)."""
+    """SHA-256 of the source that defines ``model`` (see the module docstring).
+
+    Parameters
+    ----------
+    model : Model
+
+    Returns
+    -------
+    str
+        Hex digest of its version and source files (a callable model's module included).
+    """
     files = _source_files(type(model))
     function = getattr(model.params, "function", None)
     if model.name == "callable" and isinstance(function, str):
@@ -107,14 +117,36 @@ def _source_files(cls: type) -> list[Path]:
 
 
 def run_identity(resolved_config: dict[str, Any], model: Model) -> dict[str, Any]:
-    """What must not change between a run and its resumption, with its hash ``run_id``."""
+    """What must not change between a run and its resumption, with its hash ``run_id``.
+
+    Parameters
+    ----------
+    resolved_config : dict
+        The config with every default filled in.
+    model : Model
+
+    Returns
+    -------
+    dict
+        ``config``, ``uqguide`` (version), ``model``, ``model_code`` (hash) and ``run_id``.
+    """
     identity = {"config": resolved_config, "uqguide": __version__, "model": model.name,
                 "model_code": model_code_hash(model)}
     return {**identity, "run_id": identity_hash(identity)}
 
 
 def identity_hash(identity: dict[str, Any]) -> str:
-    """SHA-256 of a run identity (its canonical JSON, without a ``run_id`` key)."""
+    """SHA-256 of a run identity (its canonical JSON, without a ``run_id`` key).
+
+    Parameters
+    ----------
+    identity : dict
+
+    Returns
+    -------
+    str
+        Hex digest.
+    """
     core = {k: v for k, v in identity.items() if k != "run_id"}
     text = json.dumps(core, sort_keys=True, default=str, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
@@ -122,7 +154,19 @@ def identity_hash(identity: dict[str, Any]) -> str:
 
 def run_dir(out_dir: str | Path, name: str) -> Path:
     """The run folder of the result ``<out_dir>/<name>.h5`` (ConfigError for a name that is
-    not a plain file name: the folder must lie inside ``out_dir``)."""
+    not a plain file name: the folder must lie inside ``out_dir``).
+
+    Parameters
+    ----------
+    out_dir : str or Path
+    name : str
+        The run's name.
+
+    Returns
+    -------
+    Path
+        ``<out_dir>/<name>.run``.
+    """
     from .config import check_run_name
 
     return Path(out_dir) / f"{check_run_name(name)}.run"
@@ -176,6 +220,21 @@ class RunStore:
              resume_hint: str = "uqguide run CONFIG --resume") -> RunStore:
         """Open the run folder ``path`` for a fresh run or (``resume``) to continue it. The
         caller holds the folder's :class:`~uqguide.runlock.RunLock` (``uqguide run`` does).
+
+        Parameters
+        ----------
+        path : str or Path
+            The run folder.
+        identity : dict
+            As :func:`run_identity` gives it.
+        resume : bool
+            Continue the run stored there.
+        resume_hint : str
+            The command to suggest in messages.
+
+        Returns
+        -------
+        RunStore
 
         Raises
         ------
@@ -244,7 +303,22 @@ class RunStore:
         return len(_read_manifest(self.path / MANIFEST)[1])
 
     def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
-        """The stored result of a chunk, or None when it is not (validly) stored."""
+        """The stored result of a chunk, or None when it is not (validly) stored.
+
+        Parameters
+        ----------
+        label : str
+            The method's label.
+        stage : int
+            Design stage (0: initial, then one per refinement).
+        task : Task
+            The chunk.
+
+        Returns
+        -------
+        ChunkResult or None
+            ConfigError when the stored chunk belongs to another run.
+        """
         e = self._entries.get((label, stage, task.index))
         if e is None:
             return None
@@ -275,7 +349,14 @@ class RunStore:
         return r.result
 
     def save(self, label: str, stage: int, result: ChunkResult) -> None:
-        """Write one chunk atomically, then list it in the manifest."""
+        """Write one chunk atomically, then list it in the manifest.
+
+        Parameters
+        ----------
+        label : str
+        stage : int
+        result : ChunkResult
+        """
         t = result.task
         name = f"{label}.s{stage}.c{t.index:06d}.npz"
         _write_chunk(self.path / name, result, self.run_id, label, stage)
@@ -371,7 +452,8 @@ class _StoredChunk:
 
 
 def _write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int) -> None:
-    arrays: dict[str, np.ndarray] = {
+    # Any: np.savez's stub would match a dict of arrays against its allow_pickle flag
+    arrays: dict[str, Any] = {
         "run_id": np.array(run_id), "label": np.array(label),
         "stage": np.array(stage, dtype=np.int64),
         "task": np.array([r.task.index, r.task.start, r.task.stop], dtype=np.int64),

@@ -65,11 +65,31 @@ RUN_NAME_RULE = ("a plain file name of 1 to 200 letters, digits, '_', '.' or '-'
 
 
 def is_run_name(name: str) -> bool:
+    """Whether ``name`` is a plain file name a run may be called (:data:`RUN_NAME_RULE`).
+
+    Parameters
+    ----------
+    name : str
+
+    Returns
+    -------
+    bool
+    """
     return bool(RUN_NAME.match(name)) and set(name) != {"."}
 
 
 def check_run_name(name: str) -> str:
-    """``name`` if it is a valid run name, else ConfigError (field ``name``)."""
+    """``name`` if it is a valid run name, else ConfigError (field ``name``).
+
+    Parameters
+    ----------
+    name : str
+
+    Returns
+    -------
+    str
+        ``name`` unchanged.
+    """
     if not isinstance(name, str) or not is_run_name(name):
         raise ConfigError(f"name: must be {RUN_NAME_RULE} (got {_short(name)})", field="name")
     return name
@@ -181,19 +201,37 @@ class RunConfig:
         return stem if is_run_name(stem) else "run"
 
     def resolved(self) -> dict[str, Any]:
-        """The config with every default filled in (what the run really used)."""
+        """The config with every default filled in (what the run really used).
+
+        Returns
+        -------
+        dict
+            JSON-ready; the model's and every method's settings in full, methods labelled.
+        """
         # the raw model section may hold a function object (callable model from Python): the
         # model's own params serialise it
         rest = self.raw.model_dump(mode="json", exclude={"model"})
-        d = {k: rest.get(k) for k in RawConfig.model_fields if k in rest or k == "model"}
+        d: dict[str, Any] = {k: rest.get(k) for k in RawConfig.model_fields
+                             if k in rest or k == "model"}
         d["model"] = {"name": self.model.name, **self.model.params.model_dump(mode="json")}
         d["outputs"] = list(self.outputs)
-        d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")} for m in self.methods]
+        d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")}
+                        for m in self.methods]
         for m, entry in zip(self.methods, d["methods"]):
             entry["label"] = m.label
         return d
 
     def with_seed(self, seed: int) -> RunConfig:
+        """The same config with another seed (validated again).
+
+        Parameters
+        ----------
+        seed : int
+
+        Returns
+        -------
+        RunConfig
+        """
         return validate_config({**self.raw.model_dump(mode="python"), "seed": seed}, self.source)
 
 
@@ -278,7 +316,17 @@ def _fields(model: type[BaseModel]) -> list[str]:
 def load_yaml(path: str | Path) -> dict[str, Any]:
     """Read a YAML config file into a mapping; ConfigError on I/O or syntax problems, and on
     what :mod:`uqguide.safe_yaml` refuses (aliases, duplicate keys, deep nesting, a file
-    over 1 MB)."""
+    over 1 MB).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    dict
+        The file's top-level mapping, not yet validated.
+    """
     from .safe_yaml import MAX_BYTES, safe_load
 
     p = Path(path)
@@ -310,7 +358,17 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
 
 def load_config(path: str | Path) -> RunConfig:
     """Read and validate a config file, or the shipped study of that name (``ftcapn_table3``;
-    see :mod:`uqguide.catalog`)."""
+    see :mod:`uqguide.catalog`).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    RunConfig
+        ConfigError naming the field, the value and what is allowed when it is invalid.
+    """
     from .catalog import resolve
 
     path = resolve(path)
@@ -318,7 +376,21 @@ def load_config(path: str | Path) -> RunConfig:
 
 
 def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfig:
-    """Validate a config mapping into a :class:`RunConfig` (model, inputs, methods resolved)."""
+    """Validate a config mapping into a :class:`RunConfig` (model, inputs, methods resolved).
+
+    Parameters
+    ----------
+    data : mapping
+        The config's content (as a YAML file holds it).
+    source : str
+        Where it came from: a file's path (its folder is where a callable model's module is
+        looked for first) or ``"<dict>"``.
+
+    Returns
+    -------
+    RunConfig
+        ConfigError naming the field, the value and what is allowed when it is invalid.
+    """
     nan_at = _find_nan(data)
     nan_at = None if nan_at is None else _printable(nan_at)
     if nan_at is not None:
@@ -530,7 +602,8 @@ def _build_space(raw: RawConfig, model: Model) -> InputSpace:
         if sorted(idx) != list(range(min(idx), min(idx) + k)) or idx != sorted(idx):
             raise ConfigError(
                 f"correlations[{g}].inputs: correlated inputs must be consecutive in the inputs "
-                f"list and in the same order (got {spec.inputs})", field=f"correlations[{g}].inputs")
+                f"list and in the same order (got {spec.inputs})",
+                field=f"correlations[{g}].inputs")
         groups.append(CorrelatedGroup(tuple(idx), C))
     return InputSpace(raw.inputs, groups)
 

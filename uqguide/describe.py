@@ -29,31 +29,32 @@ def _docstring_attributes(cls: type) -> dict[str, str]:
         names: list[str] = []
         text: list[str] = []
         in_section = False
-
-        def flush() -> None:
-            if names and text:
-                sentence = re.split(r"(?<=\.)\s", " ".join(text), maxsplit=1)[0]
-                for n in names:
-                    found[n] = sentence.replace("``", "")
-
         for i, line in enumerate(lines):
             underline = i + 1 < len(lines) and set(lines[i + 1].strip()) == {"-"}
             if underline:
-                flush()
+                _record_entry(found, names, text)
                 names, text = [], []
                 in_section = line.strip() in ("Attributes", "Parameters")
                 continue
             if not in_section or set(line.strip()) == {"-"}:
                 continue
             if line and not line.startswith(" "):
-                flush()
+                _record_entry(found, names, text)
                 names = [n.strip() for n in line.split(" : ")[0].split(",")]
                 names = [n for n in names if n.isidentifier()]
                 text = []
             elif line.strip():
                 text.append(line.strip())
-        flush()
+        _record_entry(found, names, text)
     return found
+
+
+def _record_entry(found: dict[str, str], names: list[str], text: list[str]) -> None:
+    """Store the first sentence of one docstring entry's ``text`` under each of its ``names``."""
+    if names and text:
+        sentence = re.split(r"(?<=\.)\s", " ".join(text), maxsplit=1)[0]
+        for n in names:
+            found[n] = sentence.replace("``", "")
 
 
 def _num(v: float) -> str:
@@ -86,16 +87,28 @@ def _allowed(annotation: Any, metadata: list[Any]) -> str:
         return "text"
     origin = get_origin(annotation)
     if origin in (list, tuple):
-        inner = [a for a in get_args(annotation) if a is not Ellipsis]
-        if origin is tuple and inner and len(inner) > 1 and len(set(inner)) == 1:
-            return f"list of {len(inner)} {_allowed(inner[0], []).split()[0]}s"
+        members = [a for a in get_args(annotation) if a is not Ellipsis]
+        if origin is tuple and members and len(members) > 1 and len(set(members)) == 1:
+            return f"list of {len(members)} {_allowed(members[0], []).split()[0]}s"
         return "list"
     text = getattr(annotation, "__name__", None) or str(annotation).replace("typing.", "")
     return text
 
 
 def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
-    """One line per field: name, allowed values, default, unit, one-line meaning."""
+    """One line per field: name, allowed values, default, unit, one-line meaning.
+
+    Parameters
+    ----------
+    settings : type of pydantic.BaseModel
+        A model's ``Params`` or a method's settings class.
+    indent : str
+        Prefix of every line.
+
+    Returns
+    -------
+    str
+    """
     from_doc = _docstring_attributes(settings)
     lines = []
     for fname, f in settings.model_fields.items():
@@ -127,7 +140,17 @@ def _value(v: Any) -> str:
 
 
 def describe_model(cls: type[Model]) -> str:
-    """Name, summary, uncertain inputs, outputs and parameters of a model class."""
+    """Name, summary, uncertain inputs, outputs and parameters of a model class.
+
+    Parameters
+    ----------
+    cls : type of Model
+
+    Returns
+    -------
+    str
+        Text for ``uqguide models NAME``.
+    """
     model = cls()
     lines = [f"{cls.name}: {cls.summary}", " inputs (uncertain; nominal value when not listed):"]
     for i in model.inputs():

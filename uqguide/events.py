@@ -46,24 +46,72 @@ class EventSpec(BaseModel):
         return self
 
     def describe(self) -> str:
+        """The event as text, e.g. ``"miss[1] > 5"``.
+
+        Returns
+        -------
+        str
+        """
         comp = f"[{self.component}]" if self.component is not None else ""
         op, thr = ("<", self.below) if self.below is not None else (">", self.above)
         return f"{self.output}{comp} {op} {thr:g}"
 
     def threshold(self) -> float:
-        return float(self.below if self.below is not None else self.above)
+        """The event's threshold.
+
+        Returns
+        -------
+        float
+            ``a`` (``below``) or ``b`` (``above``), in the output's unit.
+        """
+        value = self.below if self.below is not None else self.above
+        assert value is not None, "validated: exactly one of below, above"
+        return float(value)
 
     def severity(self, values: np.ndarray) -> np.ndarray:
-        """``g`` with the event ``g > 0`` (for level sets): ``y - a`` or ``b - y``."""
+        """``g`` with the event ``g > 0`` (for level sets): ``y - a`` or ``b - y``.
+
+        Parameters
+        ----------
+        values : ndarray, shape (n,)
+            The component's values, in the output's unit.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            In the output's unit.
+        """
         return values - self.threshold() if self.above is not None else self.threshold() - values
 
     def indicator(self, values: np.ndarray) -> np.ndarray:
-        """Boolean ``(n,)``: the event for the component's values ``(n,)``."""
+        """Whether each sample is in the event.
+
+        Parameters
+        ----------
+        values : ndarray, shape (n,)
+            The component's values, in the output's unit.
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+        """
         return self.severity(values) > 0
 
 
 def component_index(spec: EventSpec, components: tuple[str, ...]) -> int:
-    """Column of the event's component (0 for a one-component output)."""
+    """Column of the event's component (0 for a one-component output).
+
+    Parameters
+    ----------
+    spec : EventSpec
+    components : tuple of str
+        The output's component names.
+
+    Returns
+    -------
+    int
+        ValueError naming the allowed components when the event's is not one of them.
+    """
     c = spec.component
     if c is None:
         if len(components) > 1:
@@ -85,6 +133,20 @@ def clopper_pearson(k: int, n: int, level: float = LEVEL) -> tuple[float, float]
 
     Coverage is at least ``level`` for every true probability (conservative); ``[0, upper]``
     for ``k = 0`` and ``[lower, 1]`` for ``k = n``.
+
+    Parameters
+    ----------
+    k : int
+        Successes (runs in the event).
+    n : int
+        Trials.
+    level : float
+        Coverage.
+
+    Returns
+    -------
+    (float, float)
+        Lower and upper bound; NaN for ``n = 0``.
     """
     if n <= 0:
         return float("nan"), float("nan")
@@ -125,12 +187,31 @@ class EventEstimate:
     cov: float = float("nan")
 
     def as_dict(self) -> dict[str, object]:
+        """The fields but the name, flat (for storage); inverse of :meth:`from_dict`.
+
+        Returns
+        -------
+        dict of str to object
+        """
         return {"definition": self.definition, "probability": self.probability,
                 "ci_low": self.ci[0], "ci_high": self.ci[1], "n_in": self.n_in,
                 "n_used": self.n_used, "estimator": self.estimator, "cov": self.cov}
 
     @classmethod
     def from_dict(cls, name: str, d: dict) -> EventEstimate:
+        """The estimate stored by :meth:`as_dict`.
+
+        Parameters
+        ----------
+        name : str
+            The event's name.
+        d : dict
+            As :meth:`as_dict` returns it (``cov`` may be missing in older files).
+
+        Returns
+        -------
+        EventEstimate
+        """
         return cls(name, str(d["definition"]), float(d["probability"]),
                    (float(d["ci_low"]), float(d["ci_high"])), int(d["n_in"]),
                    int(d["n_used"]), str(d["estimator"]), float(d.get("cov", float("nan"))))
@@ -139,7 +220,25 @@ class EventEstimate:
 def count_events(specs: list[EventSpec], scalars: dict[str, np.ndarray], ok: np.ndarray,
                  components: dict[str, tuple[str, ...]], estimator: str = "count"
                  ) -> dict[str, EventEstimate]:
-    """Events counted over the runs (or draws) ``ok`` of per-sample scalars ``(n, k)``."""
+    """Events counted over the runs (or draws) ``ok`` of per-sample scalars.
+
+    Parameters
+    ----------
+    specs : list of EventSpec
+    scalars : dict of str to ndarray, shape (n, k)
+        Per-sample scalar outputs.
+    ok : ndarray of bool, shape (n,)
+        The samples to count over (those that did not fail).
+    components : dict of str to tuple of str
+        Each output's component names.
+    estimator : str
+        Recorded in each estimate (``"count"`` or ``"surrogate"``).
+
+    Returns
+    -------
+    dict of str to EventEstimate
+        By event name: ``k / n`` with its Clopper-Pearson interval.
+    """
     out = {}
     for s in specs:
         y = scalars[s.output][ok, component_index(s, components[s.output])]

@@ -10,7 +10,7 @@ index) is NaN for it. xarray is an optional dependency (``pip install 'uqguide[x
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -73,7 +73,19 @@ def _xarray():
 
 
 def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
-    """The statistics of one method as a Dataset (attrs: the method's cost and diagnostics)."""
+    """The statistics of one method as a Dataset (attrs: the method's cost and diagnostics).
+
+    Parameters
+    ----------
+    result : Result
+    run : MethodRun
+        One of ``result.runs``.
+
+    Returns
+    -------
+    xarray.Dataset
+        Variables of :func:`uqguide.labelled.method_variables`; ``time`` in s.
+    """
     xr = _xarray()
     coords, variables = method_variables(run.estimate.stats, result.outputs, result.time,
                                          result.input_names)
@@ -90,7 +102,18 @@ def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
 
 
 def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
-    """The statistics of method ``label``, or of every method along a ``method`` dimension."""
+    """The statistics of method ``label``, or of every method along a ``method`` dimension.
+
+    Parameters
+    ----------
+    result : Result
+    label : str, optional
+        One method; default all, stacked (NaN where a method lacks a variable).
+
+    Returns
+    -------
+    xarray.Dataset
+    """
     xr = _xarray()
     if label is not None:
         return method_dataset(result, result.run(label))
@@ -122,6 +145,16 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
     Columns: ``method``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
     skewness, kurtosis, sem, q<level>), ``value``, ``ci_low``, ``ci_high`` (NaN where the
     method gives no interval).
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+
+    Returns
+    -------
+    pandas.DataFrame
+        Values in the output's unit, time in s.
     """
     import pandas as pd
 
@@ -135,13 +168,15 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
             (n, s.stat(n), s.ci.get(n)) for n in STAT_NAMES]
         if s.sem is not None:
             rows.append(("sem", s.sem, None))
-        if s.quantiles is not None:
-            rows += [(f"q{p:g}", s.quantiles[j], s.ci_quantiles[:, j])
-                     for j, p in enumerate(s.quantile_levels)]
+        table = s.quantile_table()
+        if table is not None:
+            levels, quantiles, ci_quantiles = table
+            rows += [(f"q{p:g}", quantiles[j], ci_quantiles[:, j])
+                     for j, p in enumerate(levels)]
         for stat, value, ci in rows:
             value = np.asarray(value, dtype=float)
             comp = np.broadcast_to(np.array(info.components, dtype=object), value.shape)
-            cols = {"method": r.label}
+            cols: dict[str, Any] = {"method": r.label}
             if info.kind == "series":
                 cols["time"] = np.broadcast_to(result.time[:, None], value.shape).ravel()
             cols.update(component=comp.ravel(), statistic=stat, value=value.ravel(),

@@ -144,6 +144,15 @@ class CheckReport:
         return not self.failures
 
     def to_frame(self) -> pd.DataFrame:
+        """Every compared statistic, one row each.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``quantity``, ``label``, ``output``, ``component``, ``time`` [s],
+            ``stat``, ``unit``, ``value``, ``baseline``, ``difference``, ``tolerance`` (in the
+            statistic's unit), ``basis``, ``passed``, ``note``.
+        """
         import pandas as pd  # here: `uqguide check` starts without it
 
         return pd.DataFrame([{
@@ -154,6 +163,12 @@ class CheckReport:
         } for r in self.rows])
 
     def summary(self) -> str:
+        """One line: PASS or REGRESSION, the counts and the tolerances used.
+
+        Returns
+        -------
+        str
+        """
         n_skip = sum(r.skipped for r in self.rows)
         n = len(self.rows) - n_skip
         labels = ", ".join(dict.fromkeys(r.label for r in self.rows))
@@ -170,7 +185,17 @@ class CheckReport:
                 f"from baseline {self.baseline_source} beyond tolerance ({how}){skipped}")
 
     def render(self, all_rows: bool = False) -> str:
-        """The console form: the summary line, the failing (or every) row, the notes."""
+        """The console form: the summary line, the failing (or every) row, the notes.
+
+        Parameters
+        ----------
+        all_rows : bool
+            Every row, not only the failing ones.
+
+        Returns
+        -------
+        str
+        """
         parts = [self.summary()]
         rows = self.rows if all_rows else self.failures
         if rows:
@@ -232,7 +257,18 @@ def _flatten(d: Any, prefix: str = "") -> dict[str, Any]:
 def config_differences(baseline_config: dict[str, Any],
                        config: dict[str, Any]) -> list[tuple[str, Any, Any]]:
     """``(path, baseline value, value)`` for every leaf of two resolved configs that differs;
-    ``ABSENT`` stands for a key one of them does not have (a setting added to uqguide since)."""
+    ``ABSENT`` stands for a key one of them does not have (a setting added to uqguide since).
+
+    Parameters
+    ----------
+    baseline_config, config : dict
+        Resolved configs (the baseline's, the result's).
+
+    Returns
+    -------
+    list of (str, object, object)
+        Dotted path, baseline value, value; empty when they agree.
+    """
     a, b = _flatten(to_jsonable(baseline_config)), _flatten(to_jsonable(config))
     diffs = []
     for key in dict.fromkeys([*a, *b]):
@@ -243,6 +279,17 @@ def config_differences(baseline_config: dict[str, Any],
 
 
 def format_differences(diffs: list[tuple[str, Any, Any]]) -> str:
+    """The differences of :func:`config_differences` on one line.
+
+    Parameters
+    ----------
+    diffs : list of (str, object, object)
+
+    Returns
+    -------
+    str
+        ``"path: old -> new; ..."``.
+    """
     return "; ".join(f"{k}: {va!r} -> {vb!r}" for k, va, vb in diffs)
 
 
@@ -362,7 +409,19 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
 
 
 def check_tolerance(option: str, value: Any) -> float:
-    """A gate tolerance: a finite number > 0, else ResultError (exit 2) naming the option."""
+    """A gate tolerance: a finite number > 0, else ResultError (exit 2) naming the option.
+
+    Parameters
+    ----------
+    option : str
+        The command-line option, for the message.
+    value : object
+        What was given.
+
+    Returns
+    -------
+    float
+    """
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -395,6 +454,11 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
         Relative tolerance of PCE statistics; default the one stored in the baseline.
     source : str
         How to name the baseline in messages (its path).
+
+    Returns
+    -------
+    CheckReport
+        One row per statistic compared, with its tolerance and verdict.
 
     Raises
     ------

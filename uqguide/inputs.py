@@ -38,13 +38,37 @@ class _Marginal(StrictModel):
     name: str = Field(min_length=1)
 
     def to_chaospy(self) -> chaospy.Distribution:  # pragma: no cover - abstract
+        """The same distribution in chaospy.
+
+        Returns
+        -------
+        chaospy.Distribution
+        """
         raise NotImplementedError
 
     def ppf(self, u: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """The inverse cumulative distribution function.
+
+        Parameters
+        ----------
+        u : ndarray, shape (n,)
+            Probabilities in ``(0, 1)``.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Values in the input's SI unit.
+        """
         raise NotImplementedError
 
     def moments(self) -> tuple[float, float]:  # pragma: no cover - abstract
-        """Mean and standard deviation."""
+        """Mean and standard deviation.
+
+        Returns
+        -------
+        mean, std : float
+            In the input's SI unit.
+        """
         raise NotImplementedError
 
 
@@ -191,9 +215,7 @@ class InputSpace:
         order: list[int] = []
         grouped = {i for g in self.groups for i in g.index}
         for g in self.groups:
-            ms = [self.marginals[i] for i in g.index]
-            mean = np.array([m.mean for m in ms])  # type: ignore[attr-defined]
-            std = np.array([m.std for m in ms])  # type: ignore[attr-defined]
+            mean, std = self._group_normal(g)
             parts.append(_chaospy().MvNormal(mean, g.matrix * np.outer(std, std)))
             order.extend(g.index)
         for i, m in enumerate(self.marginals):
@@ -204,8 +226,28 @@ class InputSpace:
             raise ValueError("correlated groups must list consecutive inputs in config order")
         return _chaospy().J(*parts)
 
+    def _group_normal(self, g: CorrelatedGroup) -> tuple[np.ndarray, np.ndarray]:
+        """Means and standard deviations ``(g,)`` of a correlated group's normal inputs."""
+        ms = [self.marginals[i] for i in g.index]
+        normals = [m for m in ms if isinstance(m, Normal)]
+        if len(normals) != len(ms):  # the config refuses this; a direct caller may not
+            raise ValueError("correlated groups hold normal inputs only")
+        return np.array([m.mean for m in normals]), np.array([m.std for m in normals])
+
     def from_unit(self, u: np.ndarray) -> np.ndarray:
-        """Map points of the unit hypercube ``u (n, d)`` to physical inputs ``x (n, d)``."""
+        """Map points of the unit hypercube to physical inputs (inverse CDFs; correlated
+        groups through their Cholesky factor).
+
+        Parameters
+        ----------
+        u : ndarray, shape (n, d)
+            Points in ``(0, 1)^d``, column ``j`` for input ``names[j]``.
+
+        Returns
+        -------
+        ndarray, shape (n, d)
+            Input values in their SI units.
+        """
         from scipy import special
 
         u = np.asarray(u, dtype=float)
@@ -214,9 +256,7 @@ class InputSpace:
             x[:, j] = m.ppf(u[:, j])
         for g, L in zip(self.groups, self._chol):
             idx = list(g.index)
-            ms = [self.marginals[i] for i in idx]
-            mean = np.array([m.mean for m in ms])  # type: ignore[attr-defined]
-            std = np.array([m.std for m in ms])  # type: ignore[attr-defined]
+            mean, std = self._group_normal(g)
             z = special.ndtri(u[:, idx]) @ L.T
             x[:, idx] = mean + std * z
         return x

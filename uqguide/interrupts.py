@@ -25,12 +25,19 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, delivered like Ctrl-C."""
 
 
-_state = {"depth": 0, "pending": None}
+class _Deferral:
+    """How many :func:`deferred` blocks are open, and the signal held until they close."""
+
+    depth: int = 0
+    pending: int | None = None
+
+
+_state = _Deferral()
 
 
 def _handler(signum: int, frame: FrameType | None) -> None:
-    if _state["depth"] > 0:
-        _state["pending"] = signum
+    if _state.depth > 0:
+        _state.pending = signum
         return
     _raise(signum)
 
@@ -43,8 +50,13 @@ def _raise(signum: int) -> None:
 
 def install() -> dict[int, Any]:
     """Route SIGINT and SIGTERM to :class:`KeyboardInterrupt` (main thread only; a signal the
-    process was started ignoring stays ignored). Returns the handlers replaced, for
-    :func:`restore`."""
+    process was started ignoring stays ignored).
+
+    Returns
+    -------
+    dict of int to handler
+        The handlers replaced, by signal number, for :func:`restore`.
+    """
     previous: dict[int, Any] = {}
     if threading.current_thread() is not threading.main_thread():
         return previous
@@ -57,7 +69,13 @@ def install() -> dict[int, Any]:
 
 
 def restore(previous: dict[int, Any]) -> None:
-    """Put back the handlers :func:`install` replaced."""
+    """Put back the handlers :func:`install` replaced.
+
+    Parameters
+    ----------
+    previous : dict of int to handler
+        As :func:`install` returned it.
+    """
     if threading.current_thread() is threading.main_thread():
         for sig, old in previous.items():
             signal.signal(sig, old if old is not None else signal.SIG_DFL)
@@ -72,12 +90,18 @@ def ignore_signals() -> None:
 
 @contextmanager
 def deferred() -> Iterator[None]:
-    """Hold SIGINT / SIGTERM until the block ends, then raise it (KeyboardInterrupt)."""
-    _state["depth"] += 1
+    """Hold SIGINT / SIGTERM until the block ends, then raise it (KeyboardInterrupt).
+
+    Yields
+    ------
+    None
+    """
+    _state.depth += 1
     try:
         yield
     finally:
-        _state["depth"] -= 1
-        if _state["depth"] == 0 and _state["pending"] is not None:
-            signum, _state["pending"] = _state["pending"], None
+        _state.depth -= 1
+        signum = _state.pending
+        if _state.depth == 0 and signum is not None:
+            _state.pending = None
             _raise(signum)

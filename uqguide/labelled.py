@@ -33,6 +33,7 @@ in their number of components.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -56,13 +57,42 @@ class Variable:
 
 
 def component_dim(output: str, second: bool = False) -> str:
+    """Name of an output's component dimension (the second one of a covariance).
+
+    Parameters
+    ----------
+    output : str
+    second : bool
+
+    Returns
+    -------
+    str
+        ``"<output>_component"`` or ``"<output>_component2"``.
+    """
     return f"{output}_component2" if second else f"{output}_component"
 
 
-def method_variables(stats: dict[str, OutputStats], outputs: list[OutputInfo],
-                     time: np.ndarray, input_names: list[str]
+def method_variables(stats: dict[str, OutputStats], outputs: Sequence[OutputInfo],
+                     time: np.ndarray, input_names: Sequence[str]
                      ) -> tuple[dict[str, np.ndarray], dict[str, Variable]]:
-    """Coordinates (dimension -> values) and variables of one method's statistics."""
+    """Coordinates (dimension -> values) and variables of one method's statistics.
+
+    Parameters
+    ----------
+    stats : dict of str to OutputStats
+        By output name.
+    outputs : sequence of OutputInfo
+    time : ndarray, shape (T,)
+        Time grid [s].
+    input_names : sequence of str, length d
+
+    Returns
+    -------
+    coords : dict of str to ndarray
+        Values of each dimension (``time``, ``statistic``, ``input``, components, ...).
+    variables : dict of str to Variable
+        Per output: moments, covariance, intervals, Sobol' indices, quantiles, with units.
+    """
     coords: dict[str, np.ndarray] = {
         "time": np.asarray(time, dtype=float),
         "input": np.array(input_names, dtype=object),
@@ -100,16 +130,17 @@ def method_variables(stats: dict[str, OutputStats], outputs: list[OutputInfo],
             v = getattr(s, kind)
             if v is not None:
                 out[f"{o.name}_{kind}"] = Variable((*base, "input"), v, {"units": "1"})
-        if s.quantiles is not None:
-            levels = np.asarray(s.quantile_levels, dtype=float)
+        table = s.quantile_table()
+        if table is not None:
+            levels = np.asarray(table[0], dtype=float)
             if "quantile" in coords and not np.array_equal(coords["quantile"], levels):
                 raise ValueError(f"output {o.name!r} has quantile levels {levels.tolist()}, "
                                  f"another output {coords['quantile'].tolist()}")
             coords["quantile"] = levels
-            out[f"{o.name}_quantile"] = Variable(("quantile", *base), s.quantiles,
+            out[f"{o.name}_quantile"] = Variable(("quantile", *base), table[1],
                                                  {"units": o.unit})
             out[f"{o.name}_ci_quantile"] = Variable(("bound", "quantile", *base),
-                                                    s.ci_quantiles, {"units": o.unit})
+                                                    table[2], {"units": o.unit})
         if s.corrected:
             out[f"{o.name}_corrected"] = Variable(
                 ("statistic", *base), np.stack([s.corrected[n] for n in STAT_NAMES]),
@@ -130,10 +161,25 @@ def method_variables(stats: dict[str, OutputStats], outputs: list[OutputInfo],
     return coords, out
 
 
-def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: list[OutputInfo]
+def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[OutputInfo]
                          ) -> dict[str, OutputStats]:
-    """The inverse of :func:`method_variables`: ``get(name)`` gives an array, ``has(name)``
-    whether it exists, ``attrs(name)`` its attributes (a file group or a Dataset alike)."""
+    """The inverse of :func:`method_variables` (a file group or a Dataset alike).
+
+    Parameters
+    ----------
+    get : callable
+        ``get(name)``: the variable's array.
+    has : callable
+        ``has(name)``: whether it exists.
+    attrs : callable
+        ``attrs(name)``: its attributes.
+    outputs : sequence of OutputInfo
+
+    Returns
+    -------
+    dict of str to OutputStats
+        By output name, for the outputs that have statistics.
+    """
     stats = {}
     for o in outputs:
         if not has(o.name):

@@ -27,6 +27,7 @@ import re
 import textwrap
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy import stats as sps
@@ -57,11 +58,32 @@ class FigureFile:
 
 
 def unit_label(unit: str) -> str:
-    """``[unit]`` for axis labels; ``[-]`` for a dimensionless quantity."""
+    """``[unit]`` for axis labels; ``[-]`` for a dimensionless quantity.
+
+    Parameters
+    ----------
+    unit : str
+        SI unit as the model states it.
+
+    Returns
+    -------
+    str
+    """
     return "[-]" if unit in ("", "1", "-") else f"[{unit}]"
 
 
 def method_label(r: MethodRun) -> str:
+    """A method's legend entry: label, short method name and runs.
+
+    Parameters
+    ----------
+    r : MethodRun
+
+    Returns
+    -------
+    str
+        E.g. ``"mc1000 (MC, 1000 runs)"``.
+    """
     short = METHOD_SHORT.get(r.estimate.method, r.estimate.method)
     return f"{r.label} ({short}, {r.n_runs} run{'' if r.n_runs == 1 else 's'})"
 
@@ -100,6 +122,11 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
         Name of a ``series`` output.
     component : int
         Index into the output's components.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Four panels over time [s], values in the output's unit.
     """
     o = result.output(output)
     name = f"{o.name}{_comp_suffix(o, component)}"
@@ -164,6 +191,17 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
 
 
 def has_quantiles(result: Result, output: str) -> bool:
+    """Whether any method of ``result`` computed quantiles of ``output``.
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+
+    Returns
+    -------
+    bool
+    """
     return any(r.estimate.stats.get(output) is not None
                and r.estimate.stats[output].quantiles is not None for r in result.runs)
 
@@ -178,6 +216,18 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
     with the k a Gaussian gives the outer levels: where the two disagree the output is not
     Gaussian. Steps without quantiles (above the memory cap: report times only) show as
     markers.
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+        Name of a ``series`` output with quantiles.
+    component : int
+        Index into the output's components.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     o = result.output(output)
     name = f"{o.name}{_comp_suffix(o, component)}"
@@ -189,16 +239,17 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
     title_levels = ""
     for r in result.runs:
         s = r.estimate.stats.get(output)
-        if s is None or s.quantiles is None:
+        table = s.quantile_table() if s is not None else None
+        if s is None or table is None:
             continue
         st = styles[r.label]
-        lv = s.quantile_levels
+        lv, quantiles, ci_quantiles = table
         lo_i, hi_i, mid_i = 0, len(lv) - 1, int(np.argmin(np.abs(np.asarray(lv) - 0.5)))
-        q = s.quantiles[:, :, component]
-        ci = s.ci_quantiles[:, :, :, component]
+        q = quantiles[:, :, component]
+        ci = ci_quantiles[:, :, :, component]
         ok = np.isfinite(q[lo_i]) & np.isfinite(q[hi_i])
         dense = ok.sum() > 2 and ok.all()
-        mark = {} if dense else {"marker": "o", "ms": 4}
+        mark: dict[str, Any] = {} if dense else {"marker": "o", "ms": 4}
         if dense:
             ax.fill_between(t, q[lo_i], q[hi_i], color=st["color"], alpha=0.12, lw=0)
         for i in (lo_i, hi_i):
@@ -348,6 +399,16 @@ def scalar_figure(result: Result, output: str) -> Figure:
     """Histograms of the Monte Carlo samples of a scalar output, with each PCE's density.
 
     One panel per component; module docstring for what the PCE curve is.
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+        Name of a ``scalar`` output.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     o = result.output(output)
     k = o.k
@@ -450,7 +511,16 @@ def scalar_figure(result: Result, output: str) -> Figure:
 
 # ---------------------------------------------------------------------------- cost
 def cost_figure(result: Result) -> Figure:
-    """Model runs and wall seconds per method (log scales), above the cost table."""
+    """Model runs and wall seconds per method (log scales), above the cost table.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     df = cost_table(result)
     labels = [method_label(r) for r in result.runs]
     n = len(labels)
@@ -517,7 +587,21 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
     """Write every figure of ``result`` as PNG into ``out_dir``.
 
     Files: ``<name>_<output>[_<component>].png`` per series output component,
-    ``<name>_<output>_hist.png`` per scalar output, ``<name>_cost.png``.
+    ``<name>_<output>_hist.png`` per scalar output, ``<name>_cost.png``; with quantiles also
+    ``<name>_<output>[_<component>]_envelope.png``. Each is written whole or not at all.
+
+    Parameters
+    ----------
+    result : Result
+    out_dir : str or Path
+        Created when missing.
+    dpi : int
+        Resolution.
+
+    Returns
+    -------
+    list of FigureFile
+        Path, kind, output and component of each file.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -63,7 +63,8 @@ class BarProgress(Progress):
         # A terminal that reports no width (a pseudo-terminal without a size) would get an
         # empty bar from tqdm: give it a fixed width instead.
         try:
-            sized = os.get_terminal_size(self.stream.fileno()).columns > 0
+            sized = (self.stream is not None
+                     and os.get_terminal_size(self.stream.fileno()).columns > 0)
         except (AttributeError, OSError, ValueError):
             sized = False
         self._bar = tqdm(total=self.chunks_total or None, file=self.stream, unit="chunk",
@@ -135,7 +136,19 @@ class BarProgress(Progress):
 
 
 def make_progress(stream: TextIO | None, quiet: bool = False) -> Progress:
-    """The display for ``stream``: a bar on a terminal, plain lines elsewhere, none if quiet."""
+    """The display for ``stream``: a bar on a terminal, plain lines elsewhere, none if quiet.
+
+    Parameters
+    ----------
+    stream : text stream or None
+        Where progress goes (stderr); None shows nothing.
+    quiet : bool
+        Show nothing.
+
+    Returns
+    -------
+    Progress
+    """
     if quiet or stream is None:
         return Progress(None)
     isatty = getattr(stream, "isatty", None)

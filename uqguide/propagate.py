@@ -29,7 +29,7 @@ from .execution import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, Mod
 from .inputs import InputSpace
 from .methods.base import Design, Method
 from .models.base import Model
-from .types import Estimate, ModelOutput
+from .types import Estimate, GeneratedRows, ModelOutput
 from .progress import Progress
 from .report_times import check_config_report_times
 from .result import MethodRun, Result, provenance
@@ -86,7 +86,7 @@ class _Stage:
         return [Task(i, a, b) for i, (a, b) in
                 enumerate(self.method.chunk_bounds(n, self.batch_size))]
 
-    def run(self, x: np.ndarray, stage: int, tasks: list[Task], reducer: Any
+    def run(self, x: np.ndarray | GeneratedRows, stage: int, tasks: list[Task], reducer: Any
             ) -> tuple[ModelOutput, Any]:
         """Outputs of the rows ``x`` (scalars only when reduced) and the folded summaries."""
         label = self.method.label
@@ -306,6 +306,12 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
     progress : Progress, optional
         Where progress is shown (default: counted, not shown).
 
+    Returns
+    -------
+    Result
+        One MethodRun per method, in config order; a method that failed is recorded with its
+        runs and ``success=False`` (see :func:`check_methods`).
+
     Raises
     ------
     RunInterrupted
@@ -360,7 +366,12 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
 
 def check_methods(result: Result) -> None:
     """Raise UqguideError (exit 1) naming each method that produced no statistics (the others
-    are in the result and its tables)."""
+    are in the result and its tables).
+
+    Parameters
+    ----------
+    result : Result
+    """
     failed = [r.message for r in result.runs if not r.success]
     if failed:
         raise UqguideError("; ".join(failed))
@@ -370,6 +381,12 @@ def check_failure_budget(result: Result, max_failed_fraction: float) -> None:
     """Raise UqguideError (exit 1) when a method's share of failed runs exceeds the budget.
 
     The message names each method over budget, its counts and its most common reasons.
+
+    Parameters
+    ----------
+    result : Result
+    max_failed_fraction : float
+        Largest share of failed runs allowed per method, in ``[0, 1]``.
     """
     over = []
     for r in result.runs:

@@ -45,6 +45,18 @@ def _load(target: str) -> type:
 
 
 def did_you_mean(name: str, choices: list[str]) -> str:
+    """A hint naming the closest of ``choices`` to a misspelt ``name``.
+
+    Parameters
+    ----------
+    name : str
+    choices : list of str
+
+    Returns
+    -------
+    str
+        ``" (did you mean 'x'?)"``, or ``""`` when nothing is close.
+    """
     close = difflib.get_close_matches(name, choices, n=1)
     return f" (did you mean '{close[0]}'?)" if close else ""
 
@@ -60,10 +72,34 @@ def _lookup(kind: str, table: dict[str, str], name: object, field: str) -> type:
 
 
 def model_class(name: object, field: str = "model.name") -> type[Model]:
-    """The model class registered as ``name``; ConfigError naming ``field`` otherwise."""
+    """The model class registered as ``name``; ConfigError naming ``field`` otherwise.
+
+    Parameters
+    ----------
+    name : object
+        As the config gives it.
+    field : str
+        The config field, for the message.
+
+    Returns
+    -------
+    type of Model
+    """
     return _lookup("model", MODELS, name, field)
 
 
 def method_class(name: object, field: str = "methods.name") -> type[Method]:
-    """The method class registered as ``name``; ConfigError naming ``field`` otherwise."""
+    """The method class registered as ``name``; ConfigError naming ``field`` otherwise.
+
+    Parameters
+    ----------
+    name : object
+        As the config gives it.
+    field : str
+        The config field, for the message.
+
+    Returns
+    -------
+    type of Method
+    """
     return _lookup("method", METHODS, name, field)

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import atomic
 from .config import RunConfig, validate_config
 from .errors import ConfigError, UqguideError
 from .events import component_index
@@ -40,7 +41,13 @@ class Replay:
     stored_failed: bool
 
     def mismatches(self) -> list[str]:
-        """Scalar outputs whose replayed bits differ from the stored ones."""
+        """Scalar outputs whose replayed bits differ from the stored ones.
+
+        Returns
+        -------
+        list of str
+            Output names (NaN equals NaN).
+        """
         bad = []
         for name, v in self.stored.items():
             a = np.ascontiguousarray(v, dtype=float)
@@ -53,14 +60,46 @@ class Replay:
 
 
 def config_of(result: Result) -> RunConfig:
-    """The validated config a result was produced with (its resolved form)."""
+    """The validated config a result was produced with (its resolved form).
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    RunConfig
+    """
     return validate_config(result.config, f"{result.name} (stored config)")
 
 
 def choose_sample(result: Result, cfg: RunConfig, run: MethodRun, *, sample: int | None,
                   worst: str | None, lowest: bool, event: str | None,
                   component: str | int | None = None) -> tuple[int, str]:
-    """The sample index and a sentence saying why it was chosen."""
+    """The sample index and a sentence saying why it was chosen.
+
+    Parameters
+    ----------
+    result : Result
+    cfg : RunConfig
+        The result's config.
+    run : MethodRun
+        The method whose runs are searched.
+    sample : int, optional
+        A sample index (``--sample``).
+    worst : str, optional
+        An output whose largest (or, with ``lowest``, smallest) value picks the sample.
+    lowest : bool
+    event : str, optional
+        An event of the config: its first sample in the event.
+    component : str or int, optional
+        The component of ``worst``.
+
+    Returns
+    -------
+    (int, str)
+        ConfigError unless exactly one of ``sample``, ``worst``, ``event`` is given.
+    """
     given = [k for k, v in (("--sample", sample), ("--worst", worst), ("--event", event))
              if v is not None]
     if len(given) != 1:
@@ -114,7 +153,21 @@ def _component(output: str, component: str | int | None, comps: tuple[str, ...])
 
 
 def replay(result: Result, label: str, **choice) -> tuple[Replay, RunConfig]:
-    """Rerun one sample of method ``label`` with every output of the model."""
+    """Rerun one sample of method ``label`` with every output of the model.
+
+    Parameters
+    ----------
+    result : Result
+    label : str
+        The method's label.
+    **choice
+        How to choose the sample (see :func:`choose_sample`).
+
+    Returns
+    -------
+    (Replay, RunConfig)
+        The replayed sample beside its stored values, and the result's config.
+    """
     cfg = config_of(result)
     run = result.run(label)
     i, why = choose_sample(result, cfg, run, **choice)
@@ -127,7 +180,18 @@ def replay(result: Result, label: str, **choice) -> tuple[Replay, RunConfig]:
 
 
 def write_histories(rep: Replay, path: Path) -> Path:
-    """Every series of the replayed sample as columns of one CSV (time first)."""
+    """Every series of the replayed sample as columns of one CSV (time first), written
+    whole or not at all.
+
+    Parameters
+    ----------
+    rep : Replay
+    path : Path
+
+    Returns
+    -------
+    Path
+    """
     out = rep.replayed
     cols = {"time": out.time}
     for name, y in out.series.items():
@@ -135,16 +199,32 @@ def write_histories(rep: Replay, path: Path) -> Path:
         for c in range(k):
             cols[name if k == 1 else f"{name}[{c}]"] = y[0, :, c]
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(list(cols))
-        for j in range(out.time.size):
-            w.writerow([repr(float(v[j])) for v in cols.values()])
-    return path
+
+    def write(tmp: Path) -> None:
+        with tmp.open("w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(list(cols))
+            for j in range(out.time.size):
+                w.writerow([repr(float(v[j])) for v in cols.values()])
+
+    return atomic.write_with(path, write)
 
 
 def history_figure(rep: Replay, result_name: str, path: Path) -> Path:
-    """One panel per series output (every component) against time."""
+    """One panel per series output (every component) against time, as a PNG written whole or
+    not at all.
+
+    Parameters
+    ----------
+    rep : Replay
+    result_name : str
+        For the title.
+    path : Path
+
+    Returns
+    -------
+    Path
+    """
     from .figures import new_figure, save
 
     series = rep.replayed.series
@@ -166,7 +246,21 @@ def history_figure(rep: Replay, result_name: str, path: Path) -> Path:
 
 
 def write_replay(rep: Replay, cfg: RunConfig, result_name: str, out_dir: Path) -> list[Path]:
-    """Histories (CSV), the generic history figure and the paper scenario's trajectory figures."""
+    """Histories (CSV), the generic history figure and the paper scenario's trajectory figures.
+
+    Parameters
+    ----------
+    rep : Replay
+    cfg : RunConfig
+    result_name : str
+    out_dir : Path
+        Created when missing.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     from .papers import sample_figures
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -179,7 +273,16 @@ def write_replay(rep: Replay, cfg: RunConfig, result_name: str, out_dir: Path) -
 
 
 def render(rep: Replay) -> str:
-    """The console summary: which sample, its inputs, stored vs replayed scalars."""
+    """The console summary: which sample, its inputs, stored vs replayed scalars.
+
+    Parameters
+    ----------
+    rep : Replay
+
+    Returns
+    -------
+    str
+    """
     lines = [f"{rep.label} sample {rep.index}: {rep.why}"
              + (" (stored as FAILED)" if rep.stored_failed else "")]
     lines.append("inputs: " + ", ".join(f"{k} = {v:.17g}" for k, v in rep.inputs.items()))

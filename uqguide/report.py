@@ -38,7 +38,20 @@ def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:
 
 
 def cost_table(result: Result) -> pd.DataFrame:
-    """One row per method: runs, failures, wall times and method diagnostics."""
+    """One row per method: runs, failures, wall times and method diagnostics.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``label``, ``method``, ``runs``, ``failed``, ``model_s``, ``fit_s`` [s],
+        the diagnostics a method has (``degree``, ``n_terms``, ``loo_error``...), each rare
+        event's ``P(name)`` and ``cov(name)``, ``reference``, and ``status`` when a method
+        failed.
+    """
     rows = []
     # a rare-event method's event is shown for every method that estimates it: the cost of
     # its probability and coefficient of variation side by side
@@ -139,6 +152,18 @@ def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) ->
     interval. Judging a candidate against the reference's interval alone would call a
     consistent 1000-run Monte Carlo "out" of a 1e5-run reference whenever its own error is the
     larger one.
+
+    Parameters
+    ----------
+    v, lo, hi : float
+        One estimate and its 95% interval (NaN: none).
+    rv, rlo, rhi : float
+        The other (the reference) and its interval, in the same unit.
+
+    Returns
+    -------
+    bool or None
+        None when neither estimate has an interval or either value is not finite.
     """
     def half(x: float, a: float, b: float, towards: float) -> float:
         w = (b - x) if towards > x else (x - a)
@@ -155,7 +180,14 @@ def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) ->
 def failure_table(result: Result) -> pd.DataFrame:
     """One row per method and failure reason: label, runs, failed, share, reason, count.
 
-    Empty when no run failed.
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns of :data:`uqguide.failures.COLUMNS`; no rows when no run failed.
     """
     rows = [row for r in result.runs if r.n_failed
             for row in reason_rows(r.label, r.n_runs, r.reasons[r.failed])]
@@ -163,7 +195,19 @@ def failure_table(result: Result) -> pd.DataFrame:
 
 
 def statistics_table(result: Result) -> pd.DataFrame:
-    """Long-form statistics at the report times (series) and for every scalar output."""
+    """Long-form statistics at the report times (series) and for every scalar output.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per output, component, time [s] (NaN for scalars), method and statistic:
+        ``value``, ``ci_low``, ``ci_high`` in the output's ``unit``; against the reference
+        also ``ref_value``, ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`).
+    """
     ref = result.run(result.reference) if result.reference else None
     idx = report_indices(result.time, result.report_times)
     rows = []
@@ -214,35 +258,49 @@ def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where:
                    comp: str, t: float) -> list[dict]:
     """Rows of the quantiles at one place (none where they were not computed), compared with
     the reference's quantile of the same level and its distribution-free interval."""
-    if s.quantiles is None:
+    table = s.quantile_table()
+    if table is None:
         return []
-    ref_levels = list(rs.quantile_levels) if rs is not None and rs.quantiles is not None else []
+    levels, quantiles, ci_quantiles = table
+    ref_table = rs.quantile_table() if rs is not None else None
+    ref_levels = list(ref_table[0]) if ref_table is not None else []
     rows = []
-    for i, p in enumerate(s.quantile_levels):
-        v = float(s.quantiles[i][where])
+    for i, p in enumerate(levels):
+        v = float(quantiles[i][where])
         if np.isnan(v):
             continue
-        row = {"output": o.name, "component": comp, "unit": o.unit, "time": t, "label": label,
-               "stat": level_name(p), "value": v,
-               "ci_low": float(s.ci_quantiles[0, i][where]),
-               "ci_high": float(s.ci_quantiles[1, i][where])}
-        if p in ref_levels:
+        lo, hi = float(ci_quantiles[0, i][where]), float(ci_quantiles[1, i][where])
+        row: dict[str, object] = {"output": o.name, "component": comp, "unit": o.unit,
+                                  "time": t, "label": label, "stat": level_name(p),
+                                  "value": v, "ci_low": lo, "ci_high": hi}
+        if ref_table is not None and p in ref_levels:
             j = ref_levels.index(p)
-            rv = float(rs.quantiles[j][where])
-            rlo, rhi = (float(rs.ci_quantiles[(k, j, *where)]) for k in (0, 1))
+            rv = float(ref_table[1][j][where])
+            rlo, rhi = (float(ref_table[2][k, j][where]) for k in (0, 1))
             if not np.isnan(rv):
                 # as for the moments: no relative difference to a value within its own
                 # interval of zero (a median near 0)
                 noisy = np.isfinite(rhi - rlo) and abs(rv) <= 0.5 * (rhi - rlo)
                 row.update(ref_value=rv, abs_diff=v - rv,
                            rel_diff=(v - rv) / abs(rv) if rv and not noisy else float("nan"),
-                           agrees=agrees(v, row["ci_low"], row["ci_high"], rv, rlo, rhi))
+                           agrees=agrees(v, lo, hi, rv, rlo, rhi))
         rows.append(row)
     return rows
 
 
 def events_table(result: Result) -> pd.DataFrame:
-    """One row per method and event: probability, 95% interval, counts and estimator."""
+    """One row per method and event: probability, 95% interval, counts and estimator.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``event``, ``definition``, ``label``, ``probability``, ``ci_low``,
+        ``ci_high``, ``n_in``, ``n_used``, ``cov``, ``estimator``.
+    """
     rows = []
     for r in result.runs:
         for name, ev in r.estimate.events.items():
@@ -254,6 +312,19 @@ def events_table(result: Result) -> pd.DataFrame:
 
 
 def events_text(df: pd.DataFrame) -> pd.DataFrame:
+    """The events table for reading: probability and interval in one column.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        As :func:`events_table` returns it.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``event``, ``definition``, ``label``, ``probability [95% interval]``,
+        ``in / used``, ``cov``, ``estimator`` (text).
+    """
     out = df[["event", "definition", "label"]].copy()
     out["probability [95% interval]"] = [
         f"{_fmt(p)} [{_fmt(lo)}, {_fmt(hi)}]"
@@ -269,6 +340,16 @@ def series_agreement(result: Result) -> pd.DataFrame:
 
     The relative difference at a step is ``|value - ref| / |ref|``, over the steps where
     ``|ref|`` is at least ``REL_FLOOR`` of its peak over time.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``output``, ``label``, ``max_rel_mean``, ``at_t_mean`` [s], ``max_rel_std``,
+        ``at_t_std`` [s]; empty without a reference.
     """
     if not result.reference:
         return pd.DataFrame()
@@ -282,7 +363,7 @@ def series_agreement(result: Result) -> pd.DataFrame:
             s = r.estimate.stats.get(o.name)
             if r is ref or s is None or rs is None:
                 continue
-            row = {"output": o.name, "label": r.label}
+            row: dict[str, object] = {"output": o.name, "label": r.label}
             for stat in ("mean", "std"):
                 a, b = s.stat(stat), rs.stat(stat)
                 mag = np.abs(b)
@@ -309,7 +390,21 @@ def _fmt(v: float) -> str:
 
 
 def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
-    """One row per (time, component, label); a column per statistic with its interval."""
+    """One row per (time, component, label); a column per statistic with its interval.
+
+    Parameters
+    ----------
+    stats : pandas.DataFrame
+        Rows of :func:`statistics_table` (one output); ``stats.attrs["reference"]`` names
+        the reference method.
+    with_ref : bool
+        Add the difference from the reference and its verdict to each cell.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Text cells; the ``time`` and ``component`` columns only where they vary.
+    """
     rows = []
     keys = ["time", "component", "label"]
     for key, g in stats.groupby(keys, sort=False, dropna=False):
@@ -344,7 +439,17 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
 
 
 def render_text(result: Result) -> str:
-    """The console form: the cost table, then each output's statistics at the report times."""
+    """The console form: the cost table, then each output's statistics at the report times.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    str
+        Cost, statistics, events, series agreement, legend and failures, as plain text.
+    """
     parts = ["Cost", cost_table(result).to_string(index=False)]
     val = validation_table(result)
     if not val.empty:
@@ -384,7 +489,17 @@ def render_text(result: Result) -> str:
 
 
 def interval_legend(with_reference: bool) -> str:
-    """What the brackets and flags of the statistics tables mean (printed with every table)."""
+    """What the brackets and flags of the statistics tables mean (printed with every table).
+
+    Parameters
+    ----------
+    with_reference : bool
+        Also explain the difference and its in / OUT verdict.
+
+    Returns
+    -------
+    str
+    """
     text = ("Values: estimate [95% interval]: Monte Carlo moments by the delta method "
             "(+-1.96 influence-function standard errors; by Poisson bootstrap with "
             "intervals: bootstrap, the mean then by +-1.96 standard errors where it has no "
@@ -400,7 +515,17 @@ def interval_legend(with_reference: bool) -> str:
 
 
 def to_markdown(df: pd.DataFrame) -> str:
-    """A GitHub-flavoured Markdown table (no extra dependency)."""
+    """A GitHub-flavoured Markdown table (no extra dependency).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+
+    Returns
+    -------
+    str
+        Header, separator and one line per row; floats to 4 significant digits.
+    """
     cols = [str(c) for c in df.columns]
     lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
     for _, row in df.iterrows():
@@ -410,6 +535,17 @@ def to_markdown(df: pd.DataFrame) -> str:
 
 
 def render_markdown(result: Result) -> str:
+    """The Markdown summary (``<name>_summary.md``): cost, statistics, events and series
+    agreement tables.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    str
+    """
     stats = statistics_table(result)
     stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
@@ -435,7 +571,22 @@ def render_markdown(result: Result) -> str:
 
 
 def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
-    """Write ``<stem>_stats.csv``, ``<stem>_cost.csv`` and ``<stem>_summary.md``."""
+    """Write ``<stem>_stats.csv``, ``<stem>_cost.csv`` and ``<stem>_summary.md`` (and
+    ``<stem>_events.csv`` when the config has events), each whole or absent.
+
+    Parameters
+    ----------
+    result : Result
+    out_dir : Path
+        Created when missing.
+    stem : str
+        File name prefix (the run's name).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",
              out_dir / f"{stem}_summary.md"]

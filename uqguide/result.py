@@ -91,7 +91,7 @@ class MethodRun:
     """
 
     estimate: Estimate
-    x: np.ndarray
+    x: np.ndarray | GeneratedRows
     scalars: dict[str, np.ndarray]
     failed: np.ndarray
     reasons: np.ndarray
@@ -128,6 +128,18 @@ class Result:
     provenance: dict[str, Any] = field(default_factory=dict)
 
     def run(self, label: str) -> MethodRun:
+        """One method's estimate and runs.
+
+        Parameters
+        ----------
+        label : str
+            The method entry's label in the config.
+
+        Returns
+        -------
+        MethodRun
+            ResultError (listing the labels) when there is none of that label.
+        """
         for r in self.runs:
             if r.label == label:
                 return r
@@ -160,6 +172,18 @@ class Result:
         return s
 
     def output(self, name: str) -> OutputInfo:
+        """The metadata of one output (kind, unit, components).
+
+        Parameters
+        ----------
+        name : str
+            An output of this result.
+
+        Returns
+        -------
+        OutputInfo
+            ResultError when the result has no such output.
+        """
         for o in self.outputs:
             if o.name == name:
                 return o
@@ -167,21 +191,52 @@ class Result:
 
     def to_xarray(self, label: str | None = None) -> Any:
         """The statistics as an ``xarray.Dataset``: of method ``label``, or of every method
-        along a ``method`` dimension (see :mod:`uqguide.frames`; needs ``uqguide[xarray]``)."""
+        along a ``method`` dimension (see :mod:`uqguide.frames`; needs ``uqguide[xarray]``).
+
+        Parameters
+        ----------
+        label : str, optional
+            One method's label; default all methods.
+
+        Returns
+        -------
+        xarray.Dataset
+            Per output: ``<output>`` (dimensions ``statistic``, ``time`` for a series,
+            ``<output>_component``), its covariance, intervals, Sobol' indices and quantiles
+            where the method gives them; plus ``method`` when all methods are stacked.
+        """
         from .frames import to_xarray
 
         return to_xarray(self, label)
 
     def to_dataframe(self, output: str) -> Any:
-        """Every statistic of ``output`` at every time step as a tidy ``pandas.DataFrame``
-        (columns method, time, component, statistic, value, ci_low, ci_high)."""
+        """Every statistic of ``output`` at every time step as a tidy table.
+
+        Parameters
+        ----------
+        output : str
+            An output of this result.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per value: columns ``method``, ``time`` [s] (series only), ``component``,
+            ``statistic``, ``value`` (in the output's unit), ``ci_low``, ``ci_high``.
+        """
         from .frames import to_dataframe
 
         return to_dataframe(self, output)
 
 
 def provenance() -> dict[str, Any]:
-    """Versions and host facts that explain where a result's numbers came from."""
+    """Versions and host facts that explain where a result's numbers came from.
+
+    Returns
+    -------
+    dict
+        ``created_utc`` (ISO time), ``versions`` (uqguide, Python, NumPy, SciPy, chaospy,
+        h5py, numba) and ``platform``.
+    """
     import scipy
     from importlib.metadata import PackageNotFoundError, version
 
@@ -221,7 +276,19 @@ def _json_default(obj: Any) -> Any:
 
 
 def write_hdf5(result: Result, path: str | Path) -> Path:
-    """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename)."""
+    """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename).
+
+    Parameters
+    ----------
+    result : Result
+    path : str or Path
+        The HDF5 file to write; its folder is created.
+
+    Returns
+    -------
+    Path
+        ``path``, complete: an interrupted write leaves no file under this name.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic.atomic_path(path) as tmp:
@@ -326,7 +393,18 @@ def _read_stats(g: h5py.Group) -> OutputStats:
 
 
 def read_hdf5(path: str | Path) -> Result:
-    """Read a result file written by :func:`write_hdf5`; ResultError if it is not one."""
+    """Read a result file written by :func:`write_hdf5` (any format version).
+
+    Parameters
+    ----------
+    path : str or Path
+        The HDF5 result file.
+
+    Returns
+    -------
+    Result
+        ResultError when the file is missing, not a uqguide result or incomplete.
+    """
     path = Path(path)
     if not path.is_file():
         raise ResultError(f"{path}: result file not found")
@@ -424,7 +502,8 @@ def _check_result(r: Result, path: Path) -> None:
             break
         n = run.x.shape[0] if run.x.ndim == 2 else -1
         if run.x.ndim != 2 or run.x.shape[1] != len(r.input_names):
-            bad = f"{run.label}: samples/x has shape {run.x.shape}, expected (n, {len(r.input_names)})"
+            bad = (f"{run.label}: samples/x has shape {run.x.shape}, "
+                   f"expected (n, {len(r.input_names)})")
         elif run.failed.shape != (n,) or run.reasons.shape != (n,):
             bad = f"{run.label}: samples/failed or reasons do not have {n} rows"
         for name, s in run.estimate.stats.items():

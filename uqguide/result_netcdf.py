@@ -24,6 +24,17 @@ UTF8 = h5py.string_dtype("utf-8")
 
 
 def h5_array(values: Any) -> np.ndarray:
+    """``values`` as HDF5 can store them: text as UTF-8 variable-length strings.
+
+    Parameters
+    ----------
+    values : array_like
+
+    Returns
+    -------
+    ndarray
+        Same shape; numbers unchanged.
+    """
     a = np.asarray(values)
     if a.dtype.kind in "OUS":
         return np.array([str(v) for v in a.ravel()], dtype=UTF8).reshape(a.shape)
@@ -31,7 +42,22 @@ def h5_array(values: Any) -> np.ndarray:
 
 
 def write_scale(g: h5py.Group, name: str, values: Any, **attrs: Any) -> h5py.Dataset:
-    """A coordinate variable: a dataset that is also the dimension scale ``name``."""
+    """A coordinate variable: a dataset that is also the dimension scale ``name``.
+
+    Parameters
+    ----------
+    g : h5py.Group
+    name : str
+        The dimension's name.
+    values : array_like, shape (m,)
+        Its coordinates.
+    **attrs
+        Attributes (``units``, ``long_name``).
+
+    Returns
+    -------
+    h5py.Dataset
+    """
     d = g.create_dataset(name, data=h5_array(values))
     d.make_scale(name)
     d.attrs.update(attrs)
@@ -39,12 +65,37 @@ def write_scale(g: h5py.Group, name: str, values: Any, **attrs: Any) -> h5py.Dat
 
 
 def attach(d: h5py.Dataset, scales: list[h5py.Dataset]) -> None:
+    """Attach one dimension scale per axis of ``d``, in order.
+
+    Parameters
+    ----------
+    d : h5py.Dataset
+    scales : list of h5py.Dataset
+        One per dimension of ``d``.
+    """
     for axis, scale in enumerate(scales):
         d.dims[axis].attach_scale(scale)
 
 
 def write_variable(g: h5py.Group, name: str, v: Variable, scales: dict[str, h5py.Dataset],
                    compress: bool = False) -> h5py.Dataset:
+    """One labelled variable as a dataset with its dimension scales and attributes.
+
+    Parameters
+    ----------
+    g : h5py.Group
+    name : str
+    v : Variable
+        Dimensions, data and attributes.
+    scales : dict of str to h5py.Dataset
+        The group's dimension scales by name (every dimension of ``v``).
+    compress : bool
+        gzip the data when it is larger than 4096 values.
+
+    Returns
+    -------
+    h5py.Dataset
+    """
     d = g.create_dataset(name, data=h5_array(v.data),
                          compression="gzip" if compress and v.data.size > 4096 else None)
     attach(d, [scales[dim] for dim in v.dims])
@@ -55,7 +106,22 @@ def write_variable(g: h5py.Group, name: str, v: Variable, scales: dict[str, h5py
 
 def write_method_stats(g: h5py.Group, stats: dict[str, OutputStats], outputs: list[OutputInfo],
                        time: np.ndarray, input_names: list[str]) -> dict[str, h5py.Dataset]:
-    """The statistics of one method into ``g``; returns its dimension scales by name."""
+    """The statistics of one method into ``g``.
+
+    Parameters
+    ----------
+    g : h5py.Group
+    stats : dict of str to OutputStats
+    outputs : list of OutputInfo
+    time : ndarray, shape (T,)
+        Time grid [s].
+    input_names : list of str
+
+    Returns
+    -------
+    dict of str to h5py.Dataset
+        Its dimension scales by name.
+    """
     coords, variables = method_variables(stats, outputs, time, input_names)
     scales = {dim: write_scale(g, dim, values) for dim, values in coords.items()}
     scales["time"].attrs.update(units="s", long_name="time")
@@ -65,6 +131,18 @@ def write_method_stats(g: h5py.Group, stats: dict[str, OutputStats], outputs: li
 
 
 def read_method_stats(g: h5py.Group, outputs: list[OutputInfo]) -> dict[str, OutputStats]:
+    """The statistics :func:`write_method_stats` wrote into ``g``.
+
+    Parameters
+    ----------
+    g : h5py.Group
+    outputs : list of OutputInfo
+
+    Returns
+    -------
+    dict of str to OutputStats
+        By output name.
+    """
     def get(name: str) -> np.ndarray:
         return g[name][()]
 
@@ -76,5 +154,16 @@ def read_method_stats(g: h5py.Group, outputs: list[OutputInfo]) -> dict[str, Out
 
 
 def strings(values: Any) -> list[str]:
-    """UTF-8 (format 2) or fixed-length bytes (format 1) strings as str."""
+    """UTF-8 (format 2) or fixed-length bytes (format 1) strings as str.
+
+    Parameters
+    ----------
+    values : array_like
+        Strings or bytes, any shape.
+
+    Returns
+    -------
+    list of str
+        Flattened.
+    """
     return [v.decode() if isinstance(v, bytes) else str(v) for v in np.asarray(values).ravel()]

@@ -48,7 +48,7 @@ class ConfigLoader(yaml.SafeLoader):
         super().__init__(stream)
         self._depth = 0
 
-    def compose_node(self, parent: Node | None, index: Any) -> Node:
+    def compose_node(self, parent: Node | None, index: Any) -> Node | None:
         if self.check_event(yaml.AliasEvent):
             event = self.peek_event()
             raise YamlLimitError(f"alias *{event.anchor} is not allowed in a config (write the "
@@ -84,8 +84,8 @@ class ConfigLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
-# YAML 1.2 floats without a dot or an exponent sign (``1e8``, ``1.5e3``): YAML 1.1, and so PyYAML, reads them as
-# strings, and ``n_samples: 1e8`` would be refused as "not an integer".
+# YAML 1.2 floats without a dot or an exponent sign (``1e8``, ``1.5e3``): YAML 1.1, and so
+# PyYAML, reads them as strings, and ``n_samples: 1e8`` would be refused as "not an integer".
 ConfigLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
     re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
@@ -94,7 +94,20 @@ ConfigLoader.add_implicit_resolver(
 
 def safe_load(text: str, max_bytes: int = MAX_BYTES) -> Any:
     """Parse one YAML document with :class:`ConfigLoader`; YamlLimitError / YAMLError if it
-    is refused or invalid."""
+    is refused or invalid.
+
+    Parameters
+    ----------
+    text : str
+        The document.
+    max_bytes : int
+        Largest size accepted (UTF-8 bytes).
+
+    Returns
+    -------
+    object
+        The document's value (a config is a mapping).
+    """
     size = len(text.encode("utf-8", "surrogatepass"))
     if size > max_bytes:
         raise YamlLimitError(f"{size} bytes, more than the {max_bytes} a config may have")

@@ -39,8 +39,21 @@ __all__ = ["STAT_NAMES", "MomentSums", "OutputStats", "bootstrap_intervals", "ce
            "covariance", "sample_statistics", "shape_moments", "statistics_from_sums"]
 
 
-def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray):
-    """std, skewness and kurtosis from central moments; NaN where the variance is zero."""
+def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """std, skewness and kurtosis from central moments; NaN where the variance is zero.
+
+    Parameters
+    ----------
+    mean, mu2, mu3, mu4 : ndarray, shape (..., k)
+        Mean and central moments 2-4, in powers of the output's unit.
+
+    Returns
+    -------
+    std, skewness, kurtosis : ndarray, shape (..., k)
+        ``std`` in the output's unit; skewness and (non-excess) kurtosis dimensionless, NaN
+        where the variance is at round-off level relative to the mean.
+    """
     std = np.sqrt(np.maximum(mu2, 0.0))
     # A variance at rounding level relative to the mean is zero for this purpose: samples that
     # all agree (before any dispersion acts) must give NaN, not a huge ratio of round-off.
@@ -52,8 +65,22 @@ def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.nd
     return std, skew, kurt
 
 
-def central_moments(y: np.ndarray, axis: int = 0):
-    """Mean and central moments 2-4 of ``y`` along ``axis`` (population estimators, two-pass)."""
+def central_moments(y: np.ndarray, axis: int = 0
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Mean and central moments 2-4 of ``y`` along ``axis`` (population estimators, two-pass).
+
+    Parameters
+    ----------
+    y : ndarray
+        Samples along ``axis``.
+    axis : int
+        The sample axis.
+
+    Returns
+    -------
+    mean, mu2, mu3, mu4 : ndarray
+        Shape of ``y`` without ``axis``; ``mu_p`` in the p-th power of ``y``'s unit.
+    """
     mean = y.mean(axis=axis)
     d = y - np.expand_dims(mean, axis)
     d2 = d * d
@@ -64,7 +91,18 @@ def central_moments(y: np.ndarray, axis: int = 0):
 
 
 def covariance(y: np.ndarray) -> np.ndarray:
-    """Population covariance of ``y (n, ..., k)`` over the sample axis: shape ``(..., k, k)``."""
+    """Population covariance over the sample axis.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n, ..., k)
+        Samples of a k-component output.
+
+    Returns
+    -------
+    ndarray, shape (..., k, k)
+        In the square of ``y``'s unit (divided by ``n``, not ``n - 1``).
+    """
     d = y - y.mean(axis=0)
     return np.einsum("n...i,n...j->...ij", d, d) / y.shape[0]
 
@@ -247,6 +285,12 @@ def sample_statistics(
     intervals : {"bootstrap", "delta"}
         How the intervals are computed (``delta``: :func:`delta_intervals`, at every step,
         ``bootstrap`` then only switches them on when positive).
+
+    Returns
+    -------
+    OutputStats
+        Moments ``(..., k)``, covariance ``(..., k, k)``, the standard error of the mean and
+        the intervals ``ci[stat]`` ``(2, ..., k)``; ``moments_method="sample"``.
     """
     y = np.asarray(y, dtype=float)
     n = y.shape[0]
@@ -326,6 +370,11 @@ class MomentSums:
             Also the comoment sums ``(..., k, k)``.
         high : bool
             Also the central sums of orders 5-8 (:attr:`high`).
+
+        Returns
+        -------
+        MomentSums
+            Fields ``(..., k)``, ``cm`` ``(..., k, k)`` or None, ``high`` ``(4, ..., k)`` or None.
         """
         y = np.asarray(y, dtype=float)
         n = y.shape[0]
@@ -392,6 +441,18 @@ class MomentSums:
         The weighted power sums are matrix products of the weights with the powers of ``y``
         centred at its plain mean (centring keeps the conversion to central sums well
         conditioned), converted to central sums about each resample's own weighted mean.
+
+        Parameters
+        ----------
+        y : ndarray, shape (n, c)
+            Samples of ``c`` columns.
+        w : ndarray, shape (B, n)
+            Non-negative weights (bootstrap multiplicities) per resample.
+
+        Returns
+        -------
+        MomentSums
+            ``n`` ``(B, 1)`` (total weights), fields ``(B, c)``, no comoments.
         """
         y = np.asarray(y, dtype=float)
         B = w.shape[0]
@@ -411,7 +472,18 @@ class MomentSums:
         return cls(W, c + a, m2, m3, m4)
 
     def merge(self, other: MomentSums) -> MomentSums:
-        """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2)."""
+        """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2).
+
+        Parameters
+        ----------
+        other : MomentSums
+            Sums of the other set, fields of the same shape.
+
+        Returns
+        -------
+        MomentSums
+            The union's sums (comoments only where both sides have them).
+        """
         na, nb = self.n, other.n
         if np.ndim(na) == 0 and np.ndim(nb) == 0:
             # Whole-chunk sums: an empty side is the other side exactly.
@@ -442,7 +514,13 @@ class MomentSums:
         return MomentSums(n, mean, m2, m3, m4, cm, high)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """The fields as named arrays (for storage); inverse of :meth:`from_arrays`."""
+        """The fields as named arrays (for storage); inverse of :meth:`from_arrays`.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``n``, ``mean``, ``m2``, ``m3``, ``m4`` and ``cm`` where present.
+        """
         d = {"n": np.asarray(self.n, dtype=float), "mean": self.mean, "m2": self.m2,
              "m3": self.m3, "m4": self.m4}
         if self.cm is not None:
@@ -453,12 +531,29 @@ class MomentSums:
 
     @classmethod
     def from_arrays(cls, d: dict[str, np.ndarray]) -> MomentSums:
+        """The sums stored by :meth:`arrays`.
+
+        Parameters
+        ----------
+        d : dict of str to ndarray
+            As :meth:`arrays` returns it.
+
+        Returns
+        -------
+        MomentSums
+        """
         n = d["n"]
         return cls(float(n) if n.ndim == 0 else n, d["mean"], d["m2"], d["m3"], d["m4"],
                    d.get("cm"), d.get("high"))
 
-    def central_moments(self):
-        """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0."""
+    def central_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0.
+
+        Returns
+        -------
+        mean, mu2, mu3, mu4 : ndarray
+            Shapes of the fields.
+        """
         with np.errstate(invalid="ignore", divide="ignore"):
             inv = np.where(np.asarray(self.n) > 0, 1.0 / np.asarray(self.n), np.nan)
         return self.mean, self.m2 * inv, self.m3 * inv, self.m4 * inv
@@ -518,6 +613,11 @@ def statistics_from_sums(
         Plain sums with the orders 5-8 (:attr:`MomentSums.high`) of the interval columns
         (laid out as ``boot``'s): delta-method intervals (:func:`delta_intervals`), used when
         ``boot`` is None.
+
+    Returns
+    -------
+    OutputStats
+        As :func:`sample_statistics` gives for the same samples (to round-off).
     """
     n = int(round(float(sums.n)))
     shape = sums.mean.shape

@@ -56,7 +56,7 @@ from .models.base import Model
 from .models.benchmarks import LinearGaussian
 from .propagate import propagate
 from .result import MethodRun
-from .types import ModelOutput
+from .types import GeneratedRows, ModelOutput
 
 __all__ = ["ConformanceError", "check_method", "check_model"]
 
@@ -203,7 +203,8 @@ def _check_output(model: Model, out: ModelOutput, n: int, who: str) -> None:
 
 
 def _same_bits(a: ModelOutput, b: ModelOutput, who: str, rule: str, what: str) -> None:
-    pairs = [("failed", a.failed, b.failed), ("time", a.time, b.time)]
+    pairs: list[tuple[str, np.ndarray, np.ndarray | None]] = [
+        ("failed", a.failed, b.failed), ("time", a.time, b.time)]
     pairs += [(k, v, b.series.get(k)) for k, v in a.series.items()]
     pairs += [(k, v, b.scalars.get(k)) for k, v in a.scalars.items()]
     for name, u, v in pairs:
@@ -219,8 +220,8 @@ def _check_kernels(cls: type[Model], params: dict[str, Any], x: np.ndarray,
         raise _fail(who, "kernels", "the NumPy and compiled kernels fail different samples")
     ok = ~ref.failed
     for name in ref.series.keys() | ref.scalars.keys():
-        a = (ref.series.get(name) if name in ref.series else ref.scalars[name])[ok]
-        b = (fast.series.get(name) if name in fast.series else fast.scalars[name])[ok]
+        a = (ref.series[name] if name in ref.series else ref.scalars[name])[ok]
+        b = (fast.series[name] if name in fast.series else fast.scalars[name])[ok]
         scale = float(np.nanmax(np.abs(a))) if a.size and np.isfinite(a).any() else 0.0
         err = np.abs(a - b)
         if a.size and not np.all((err <= 1e-6 * scale + 1e-12) | (np.isnan(a) & np.isnan(b))):
@@ -367,7 +368,7 @@ class _StopAfterFirstChunk:
     def __init__(self, inner: Executor) -> None:
         self.inner, self.batch_size = inner, inner.batch_size
 
-    def map_chunks(self, job: ChunkJob, tasks: Sequence[Task], x: np.ndarray
+    def map_chunks(self, job: ChunkJob, tasks: Sequence[Task], x: np.ndarray | GeneratedRows
                    ) -> Iterator[ChunkResult]:
         for i, r in enumerate(self.inner.map_chunks(job, tasks, x)):
             yield r

@@ -8,7 +8,7 @@ methods, a PCE reads a :class:`ModelOutput` without importing the models.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -51,7 +51,18 @@ class ModelOutput:
         return int(self.failed.shape[0])
 
     def subset(self, index: np.ndarray) -> ModelOutput:
-        """The outputs of the samples selected by ``index`` (boolean mask or integer array)."""
+        """The outputs of some samples of the batch.
+
+        Parameters
+        ----------
+        index : ndarray, shape (n,) of bool, or (m,) of int
+            The samples to keep (a mask or their positions).
+
+        Returns
+        -------
+        ModelOutput
+            Same time grid; series ``(m, T, k)``, scalars ``(m, k)``, failures ``(m,)``.
+        """
         return ModelOutput(
             time=self.time,
             series={k: v[index] for k, v in self.series.items()},
@@ -63,7 +74,18 @@ class ModelOutput:
     @staticmethod
     def concatenate(parts: Sequence[ModelOutput]) -> ModelOutput:
         """Join the outputs of consecutive chunks of one batch, in order (a single part is
-        returned as it is, not copied)."""
+        returned as it is, not copied).
+
+        Parameters
+        ----------
+        parts : sequence of ModelOutput
+            Chunks of ``n_i`` samples each, on one time grid (ModelError otherwise).
+
+        Returns
+        -------
+        ModelOutput
+            ``sum(n_i)`` samples, in the order of ``parts``.
+        """
         if not parts:
             raise ModelError("cannot concatenate an empty list of model outputs")
         first = parts[0]
@@ -143,6 +165,17 @@ class GeneratedRows:
         return self.n
 
     def rows(self, start: int, stop: int) -> np.ndarray:
+        """Rows ``[start, stop)``, making only the chunks that cover them.
+
+        Parameters
+        ----------
+        start, stop : int
+            Row range, clipped to ``[0, n]``.
+
+        Returns
+        -------
+        ndarray, shape (stop - start, d)
+        """
         start, stop = max(0, start), min(self.n, stop)
         if stop <= start:
             return np.empty((0, self.d))
@@ -152,8 +185,15 @@ class GeneratedRows:
         off = first * self.chunk
         return block[start - off:stop - off]
 
-    def chunks(self) -> Any:
-        """``(start, rows)`` of every chunk in order."""
+    def chunks(self) -> Iterator[tuple[int, np.ndarray]]:
+        """Every chunk in order, made one at a time.
+
+        Yields
+        ------
+        start : int
+            Index of the chunk's first row.
+        rows : ndarray, shape (m_i, d)
+        """
         for i, start in enumerate(range(0, self.n, self.chunk)):
             yield start, self._make(i)
 
@@ -226,10 +266,37 @@ class OutputStats:
     usable: np.ndarray | None = None
 
     def stat(self, name: str) -> np.ndarray:
+        """One of the four moments by name.
+
+        Parameters
+        ----------
+        name : {"mean", "std", "skewness", "kurtosis"}
+
+        Returns
+        -------
+        ndarray, shape (..., k)
+            In the output's unit (skewness and kurtosis: dimensionless).
+        """
         if name not in STAT_NAMES:
             raise KeyError(name)
         value: np.ndarray = getattr(self, name)
         return value
+
+    def quantile_table(self) -> tuple[tuple[float, ...], np.ndarray, np.ndarray] | None:
+        """The quantiles with their levels and intervals, which are set together.
+
+        Returns
+        -------
+        tuple or None
+            ``(levels, quantiles, ci_quantiles)``: the probabilities ``(q,)``, the quantiles
+            ``(q, ..., k)`` and their 95% intervals ``(2, q, ..., k)``, in the output's unit;
+            None where no quantiles were computed.
+        """
+        if self.quantiles is None:
+            return None
+        if self.quantile_levels is None or self.ci_quantiles is None:
+            raise ValueError("quantiles need their levels and intervals (set all three)")
+        return self.quantile_levels, self.quantiles, self.ci_quantiles
 
 
 @dataclass(frozen=True)
@@ -252,17 +319,51 @@ class ScalarIndex:
 
     @staticmethod
     def of(output: str, k: int) -> list[ScalarIndex]:
-        """The columns of a ``k``-component scalar output."""
+        """The columns of a ``k``-component scalar output.
+
+        Parameters
+        ----------
+        output : str
+            The output's name.
+        k : int
+            Its number of components.
+
+        Returns
+        -------
+        list of ScalarIndex, length k
+        """
         return [ScalarIndex(output, j, k) for j in range(k)]
 
     @staticmethod
     def stacked(scalars: Iterable[tuple[str, int]]) -> list[ScalarIndex]:
-        """The columns of ``(output, k)`` pairs stacked in order."""
+        """The columns of several scalar outputs stacked in order.
+
+        Parameters
+        ----------
+        scalars : iterable of (str, int)
+            Each output's name and number of components.
+
+        Returns
+        -------
+        list of ScalarIndex
+            One per column, ``sum(k)`` in all.
+        """
         return [ix for name, k in scalars for ix in ScalarIndex.of(name, k)]
 
     @staticmethod
     def parse(names: Sequence[str]) -> list[ScalarIndex]:
-        """The columns named ``names`` (as stored in a result file)."""
+        """The columns named ``names`` (as stored in a result file).
+
+        Parameters
+        ----------
+        names : sequence of str
+            ``"output"`` or ``"output[j]"`` per column.
+
+        Returns
+        -------
+        list of ScalarIndex, same length
+            Each output's component count is that of its columns in ``names``.
+        """
         split = []
         for nm in names:
             base, _, rest = nm.partition("[")
@@ -317,7 +418,14 @@ class Estimate:
 
     def restrict(self, outputs: Collection[str]) -> None:
         """Keep only the statistics of ``outputs`` (a surrogate method also estimates the
-        carriers of derived outputs, which are not part of the result)."""
+        carriers of derived outputs, which are not part of the result).
+
+        Parameters
+        ----------
+        outputs : collection of str
+            The outputs to keep; the stacked scalar mean and covariance shrink to their
+            columns.
+        """
         self.stats = {k: v for k, v in self.stats.items() if k in outputs}
         if not self.scalar_index or self.scalar_mean is None:
             return

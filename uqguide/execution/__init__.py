@@ -22,8 +22,9 @@ Only the driver writes files. Failures never sink a run:
   only on failure: at most ``2 k log2(m)`` calls for ``k`` raising samples of ``m``);
 - a worker process that dies (segfault, ``os._exit``, out-of-memory kill) breaks the pool: the
   chunks in flight are re-run one at a time in a fresh pool; the one that kills its worker again
-  is re-run here with its model calls in guard processes (:mod:`uqguide.execution.guard`), bisected down
-  to the samples that crash: they fail alone with the reason, the others keep their values;
+  is re-run here with its model calls in guard processes (:mod:`uqguide.execution.guard`),
+  bisected down to the samples that crash: they fail alone with the reason, the others keep
+  their values;
 - on Dask, a chunk whose workers keep dying (``KilledWorker``) is isolated likewise;
 - with the config's ``timeout_s``, every model call runs in a guard process and a call that
   does not return in time is killed and bisected the same way: a hanging sample costs itself.

@@ -77,6 +77,13 @@ class ChunkResult:
         return int(np.sum(self.failed))
 
     def output(self) -> ModelOutput:
+        """The chunk's runs as a model output (its series, if any were kept).
+
+        Returns
+        -------
+        ModelOutput
+            ``m`` samples: scalars ``(m, k)``, series ``(m, T, k)``, failures ``(m,)``.
+        """
         return ModelOutput(time=self.time, series=self.series, scalars=self.scalars,
                            failed=self.failed, reasons=self.reasons)
 

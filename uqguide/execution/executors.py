@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..models.base import Model
-from ..types import ModelOutput
+from ..types import GeneratedRows, ModelOutput
 from .chunks import DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Task, Timing
 from .guard import close_guards
 from .isolation import common_grid
@@ -33,7 +33,24 @@ class Executor(Protocol):
     batch_size: int | None
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
-                   x: np.ndarray) -> Iterator[ChunkResult]: ...
+                   x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
+        """Evaluate the chunks of a design.
+
+        Parameters
+        ----------
+        job : ChunkJob
+            The model, input names, outputs and reducer every chunk shares.
+        tasks : sequence of Task
+            The chunks: rows ``[start, stop)`` of ``x``.
+        x : ndarray or GeneratedRows, shape (n, d)
+            The design, inputs in SI units; only the chunks' rows are read.
+
+        Yields
+        ------
+        ChunkResult
+            One per task, in the order they complete (the driver folds them by index).
+        """
+        ...
 
     def abort(self) -> None: ...
 
@@ -54,13 +71,32 @@ class SerialExecutor:
         self.batch_size = batch_size
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
-                   x: np.ndarray) -> Iterator[ChunkResult]:
+                   x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
+        """Evaluate the chunks here, in order (see :meth:`Executor.map_chunks`)."""
         for t in tasks:
             yield run_chunk(job, t, x[t.start:t.stop])
 
     def evaluate(self, model: Model, x: np.ndarray, names: Sequence[str],
                  outputs: Collection[str], timing: Timing | None = None) -> ModelOutput:
-        """Evaluate ``model`` on ``x (n, d)`` batch by batch; returns the joined output."""
+        """Evaluate ``model`` batch by batch, samples that raise isolated.
+
+        Parameters
+        ----------
+        model : Model
+        x : ndarray, shape (n, d)
+            Inputs in SI units, column ``j`` for ``names[j]``.
+        names : sequence of str, length d
+            The uncertain inputs.
+        outputs : collection of str
+            Outputs to compute.
+        timing : Timing, optional
+            Incremented by the model seconds and the ``n`` runs.
+
+        Returns
+        -------
+        ModelOutput
+            The ``n`` samples joined in order.
+        """
         bs = self.batch_size or DEFAULT_BATCH_SIZE
         job = ChunkJob(ModelHandle(model), tuple(names), tuple(outputs), bs)
         n = x.shape[0]
@@ -89,7 +125,7 @@ class _WindowedExecutor:
         raise NotImplementedError
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
-                   x: np.ndarray) -> Iterator[ChunkResult]:
+                   x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         todo = list(tasks)[::-1]
         running: dict[Any, Task] = {}
         try:
@@ -111,7 +147,7 @@ class _WindowedExecutor:
         raise NotImplementedError
 
     def _collect(self, job: ChunkJob, fut: Any, task: Task, running: dict[Any, Task],
-                 x: np.ndarray) -> Iterator[ChunkResult]:
+                 x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         raise NotImplementedError
 
     def _cancel(self, futures: list[Any]) -> None:
@@ -170,7 +206,7 @@ class ProcessExecutor(_WindowedExecutor):
         return sorted(done, key=futures.index)
 
     def _collect(self, job: ChunkJob, fut: Future, task: Task, running: dict[Any, Task],
-                 x: np.ndarray) -> Iterator[ChunkResult]:
+                 x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         try:
             yield fut.result()
             return
@@ -271,7 +307,7 @@ class DaskExecutor(_WindowedExecutor):
         return sorted(done, key=futures.index)
 
     def _collect(self, job: ChunkJob, fut: Any, task: Task, running: dict[Any, Task],
-                 x: np.ndarray) -> Iterator[ChunkResult]:
+                 x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         from distributed import KilledWorker
 
         try:
@@ -296,7 +332,22 @@ class DaskExecutor(_WindowedExecutor):
 def make_executor(workers: int | None = None, scheduler: str | None = None,
                   scheduler_file: str | None = None) -> Executor:
     """An executor: Dask if a scheduler (address or file) is given, a process pool of
-    ``workers`` processes when ``workers >= 1``, else this process."""
+    ``workers`` processes when ``workers >= 1``, else this process.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Local worker processes.
+    scheduler : str, optional
+        Address of a ``dask.distributed`` scheduler.
+    scheduler_file : str, optional
+        A Dask scheduler file.
+
+    Returns
+    -------
+    Executor
+        To be closed by the caller (``close()``).
+    """
     if scheduler or scheduler_file:
         return DaskExecutor(address=scheduler, scheduler_file=scheduler_file)
     if workers:

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ModelError
+from ..types import ModelOutput
 from .isolation import assemble_pieces, evaluate_batch
 from .processes import die_with_parent, sigint_ignored
 
@@ -40,7 +41,7 @@ def _serve(conn: Any) -> None:
             return
         if msg[0] == "prepare":  # build the model (imports, kernels) outside the timeout
             try:
-                msg[1].model
+                _ = msg[1].model  # the property builds the model
                 conn.send(("ready", None))
             except Exception as exc:  # noqa: BLE001
                 conn.send(("raised", f"{type(exc).__name__}: {exc}"))
@@ -99,7 +100,23 @@ class Guard:
 
     def call(self, handle: Any, x: np.ndarray, names: Sequence[str],
              outputs: Collection[str]) -> tuple[str, Any]:
-        """``("ok", ModelOutput)``, or ``("timeout" | "crashed" | "raised", reason)``."""
+        """One model call in the guard process, killed after ``timeout_s``.
+
+        Parameters
+        ----------
+        handle : ModelHandle
+            The model (rebuilt in the guard once).
+        x : ndarray, shape (n, d)
+            Inputs in SI units.
+        names : sequence of str, length d
+        outputs : collection of str
+
+        Returns
+        -------
+        tuple
+            ``("ok", ModelOutput)``, or ``("timeout" | "crashed" | "raised", reason)``; a
+            ModelError (the caller's mistake, not the sample's) is raised here.
+        """
         if self._proc is None or not self._proc.is_alive():
             self._stop()
             self._start()
@@ -132,7 +149,17 @@ _GUARDS: dict[float | None, Guard] = {}
 
 
 def guard_for(timeout_s: float | None) -> Guard:
-    """This process's guard for ``timeout_s`` (one, reused)."""
+    """This process's guard for ``timeout_s`` (one, reused).
+
+    Parameters
+    ----------
+    timeout_s : float or None
+        Seconds a call may take (None: no limit, crash isolation only).
+
+    Returns
+    -------
+    Guard
+    """
     g = _GUARDS.get(timeout_s)
     if g is None:
         g = _GUARDS[timeout_s] = Guard(timeout_s)
@@ -140,15 +167,33 @@ def guard_for(timeout_s: float | None) -> Guard:
 
 
 def close_guards() -> None:
+    """Stop this process's guard processes."""
     for g in _GUARDS.values():
         g.close()
     _GUARDS.clear()
 
 
 def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Collection[str],
-                  timeout_s: float | None) -> Any:
+                  timeout_s: float | None) -> ModelOutput:
     """``evaluate_batch`` in the guard process, bisected on a timeout or a crash (module
-    docstring); the samples that time out or crash alone fail with the reason."""
+    docstring); the samples that time out or crash alone fail with the reason.
+
+    Parameters
+    ----------
+    handle : ModelHandle
+        The model.
+    x : ndarray, shape (n, d)
+        Inputs in SI units, column ``j`` for ``names[j]``.
+    names : sequence of str, length d
+    outputs : collection of str
+    timeout_s : float or None
+        Seconds one call may take.
+
+    Returns
+    -------
+    ModelOutput
+        The ``n`` samples in order; those isolated fail with the reason.
+    """
     model = handle.model
     guard = guard_for(timeout_s)
     pieces: list[Any] = []

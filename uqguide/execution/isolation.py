@@ -22,6 +22,20 @@ def evaluate_batch(model: Model, x: np.ndarray, names: Sequence[str],
     When the call raises, the batch is split in halves recursively until the raising samples
     are single (the others are evaluated normally; the model is deterministic per sample, so
     their values do not depend on the split).
+
+    Parameters
+    ----------
+    model : Model
+    x : ndarray, shape (n, d)
+        Inputs in SI units, column ``j`` for ``names[j]``.
+    names : sequence of str, length d
+    outputs : collection of str
+
+    Returns
+    -------
+    ModelOutput
+        The ``n`` samples in order; a raising sample fails with ``"ExceptionType: message"``.
+        A ModelError (a contract violation, not a sample's failure) propagates.
     """
     pieces: list[ModelOutput | tuple[int, str]] = []
     _bisect(model, x, names, outputs, pieces)
@@ -34,8 +48,20 @@ def evaluate_batch(model: Model, x: np.ndarray, names: Sequence[str],
 
 def assemble_pieces(model: Model, pieces: Sequence[ModelOutput | tuple[int, str]],
                     outputs: Collection[str]) -> ModelOutput:
-    """One batch's output from its evaluated pieces and its failed ones (``(n, reason)``), in
-    order; failed pieces get the grid of an evaluated one (or of a probe run)."""
+    """One batch's output from its evaluated pieces and its failed ones, in order; failed
+    pieces get the grid of an evaluated one (or of a probe run).
+
+    Parameters
+    ----------
+    model : Model
+    pieces : sequence of ModelOutput or (int, str)
+        Evaluated pieces, and failed ones as ``(n_samples, reason)``.
+    outputs : collection of str
+
+    Returns
+    -------
+    ModelOutput
+    """
     grid = next((p.time for p in pieces if isinstance(p, ModelOutput)), None)
     if grid is None and any(model.output_info(o).kind == "series" for o in outputs):
         grid = _probe_grid(model, outputs)
@@ -72,7 +98,17 @@ def _probe_grid(model: Model, outputs: Collection[str]) -> np.ndarray | None:
 
 
 def common_grid(parts: list[ModelOutput]) -> list[ModelOutput]:
-    """Give all-failed parts without a grid the grid of the others, so they concatenate."""
+    """Give all-failed parts without a grid the grid of the others, so they concatenate.
+
+    Parameters
+    ----------
+    parts : list of ModelOutput
+
+    Returns
+    -------
+    list of ModelOutput
+        Same parts; an all-failed one without a grid gets NaN series on the common grid.
+    """
     grid = next((p.time for p in parts if p.time.size), None)
     if grid is None:
         return parts
@@ -90,8 +126,22 @@ def failed_output(model: Model, n: int, outputs: Collection[str], reason: str,
                   time_grid: np.ndarray | None = None) -> ModelOutput:
     """An all-failed ModelOutput of the right shapes (NaN values) with one reason.
 
-    ``time_grid`` defaults to the grid of the model's nominal run when it has time series (an
-    empty grid if even that raises).
+    Parameters
+    ----------
+    model : Model
+    n : int
+        Samples.
+    outputs : collection of str
+    reason : str
+        Every sample's failure reason.
+    time_grid : ndarray, shape (T,), optional
+        Default: the grid of the model's nominal run when it has time series (an empty grid
+        if even that raises).
+
+    Returns
+    -------
+    ModelOutput
+        Series ``(n, T, k)`` and scalars ``(n, k)`` of NaN, every sample failed.
     """
     infos = [model.output_info(o) for o in outputs]
     if time_grid is None:

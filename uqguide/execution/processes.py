@@ -46,7 +46,13 @@ def ignore_sigint() -> None:
 def init_worker(threads: int) -> None:
     """Worker start: ignore SIGINT and cap compiled kernels' threads at the worker's share of
     the cores (N workers each running an all-core numba kernel would oversubscribe the machine).
-    Numba reads the variable when first imported, which in a spawned worker is after this."""
+    Numba reads the variable when first imported, which in a spawned worker is after this.
+
+    Parameters
+    ----------
+    threads : int
+        Threads a compiled kernel may use in this worker (``NUMBA_NUM_THREADS``, unless set).
+    """
     ignore_sigint()
     die_with_parent()  # a driver killed (out of memory) must not leave workers holding its pipes
     os.environ.setdefault("NUMBA_NUM_THREADS", str(threads))

@@ -16,7 +16,22 @@ from .isolation import common_grid, evaluate_batch
 
 def run_chunk(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
     """Evaluate one chunk ``x (m, d)`` in model calls of ``job.batch_size`` samples, then reduce
-    it with ``job.reducer`` when there is one. Runs in whichever process the executor chose."""
+    it with ``job.reducer`` when there is one. Runs in whichever process the executor chose.
+
+    Parameters
+    ----------
+    job : ChunkJob
+    task : Task
+        Which chunk (its index is passed to the reducer).
+    x : ndarray, shape (m, d)
+        The chunk's rows, inputs in SI units.
+
+    Returns
+    -------
+    ChunkResult
+        Failures, reasons, grid and scalars ``(m, k)``; the series ``(m, T, k)`` when not
+        reduced, the reducer's summary when reduced; the seconds spent in the model.
+    """
     model = job.model.model
     m = x.shape[0]
     t0 = time.perf_counter()
@@ -38,5 +53,18 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
 
 def isolate_crash(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
     """Re-run a chunk that killed its worker, in this process, its model calls in guard
-    processes bisected down to the samples that crash: they fail alone, with the reason."""
+    processes bisected down to the samples that crash: they fail alone, with the reason.
+
+    Parameters
+    ----------
+    job : ChunkJob
+    task : Task
+    x : ndarray, shape (m, d)
+        The chunk's rows.
+
+    Returns
+    -------
+    ChunkResult
+        As :func:`run_chunk` gives.
+    """
     return run_chunk(replace(job, guarded=True), task, x)

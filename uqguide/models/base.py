@@ -152,11 +152,23 @@ class Model(ABC):
 
     @abstractmethod
     def inputs(self) -> tuple[InputInfo, ...]:
-        """The inputs this model accepts as uncertain."""
+        """The inputs this model accepts as uncertain.
+
+        Returns
+        -------
+        tuple of InputInfo
+            Name, SI unit, meaning and nominal value of each.
+        """
 
     @abstractmethod
     def outputs(self) -> tuple[OutputInfo, ...]:
-        """The outputs this model can produce."""
+        """The outputs this model can produce.
+
+        Returns
+        -------
+        tuple of OutputInfo
+            Name, kind (series or scalar), SI unit, meaning and components of each.
+        """
 
     @abstractmethod
     def _evaluate(
@@ -172,27 +184,74 @@ class Model(ABC):
             Batch size.
         outputs : frozenset of str
             Names of the outputs asked for; others may be left out (saves memory and time).
+
+        Returns
+        -------
+        ModelOutput
+            Grid ``(T,)`` [s], series ``(n, T, k)``, scalars ``(n, k)``, failure mask and
+            reasons ``(n,)``; a sample that fails is flagged with its reason, never raised.
         """
 
     def derived_outputs(self) -> Mapping[str, DerivedOutput]:
-        """Outputs this model computes from smoother carrier outputs (default: none)."""
+        """Outputs this model computes from smoother carrier outputs (default: none).
+
+        Returns
+        -------
+        mapping of str to DerivedOutput
+            By output name.
+        """
         return {}
 
     def full_values(self, x: np.ndarray, input_names: Sequence[str]) -> dict[str, float]:
-        """Every input's value for one sample ``x (d,)`` (nominal where not given)."""
+        """Every input's value for one sample (nominal where not given).
+
+        Parameters
+        ----------
+        x : ndarray, shape (d,)
+            The sample, SI units.
+        input_names : sequence of str, length d
+
+        Returns
+        -------
+        dict of str to float
+            Every input of :meth:`inputs`.
+        """
         vals = {i.name: float(i.nominal) for i in self.inputs()}
         vals.update({nm: float(v) for nm, v in zip(input_names, x)})
         return vals
 
     # ------------------------------------------------------------------ public API
     def input_names(self) -> tuple[str, ...]:
+        """Names of :meth:`inputs`, in order.
+
+        Returns
+        -------
+        tuple of str
+        """
         return tuple(i.name for i in self.inputs())
 
     def step_count(self) -> StepCount | None:
-        """Steps and output grid points of one run (None: the model does not time-step)."""
+        """Steps and output grid points of one run, from the parameters alone.
+
+        Returns
+        -------
+        StepCount or None
+            None: the model does not time-step.
+        """
         return None
 
     def output_info(self, name: str) -> OutputInfo:
+        """The metadata of one output.
+
+        Parameters
+        ----------
+        name : str
+
+        Returns
+        -------
+        OutputInfo
+            ModelError, listing the outputs, when there is none of that name.
+        """
         for o in self.outputs():
             if o.name == name:
                 return o
@@ -203,10 +262,27 @@ class Model(ABC):
 
     def nominal_values(self, n: int = 1) -> dict[str, np.ndarray]:
         """Every input at its nominal value, arrays of length ``n`` (moved by round-off when
-        ``UQGUIDE_PERTURB`` asks, as :meth:`evaluate` does; see :mod:`.roundoff`)."""
+        ``UQGUIDE_PERTURB`` asks, as :meth:`evaluate` does; see :mod:`.roundoff`).
+
+        Parameters
+        ----------
+        n : int
+            Length of each array.
+
+        Returns
+        -------
+        dict of str to ndarray, shape (n,)
+            Every input, SI units.
+        """
         return apply_env({i.name: np.full(n, i.nominal) for i in self.inputs()})
 
     def default_outputs(self) -> tuple[str, ...]:
+        """The outputs reported when the config lists none.
+
+        Returns
+        -------
+        tuple of str
+        """
         return tuple(o.name for o in self.outputs() if o.default)
 
     def evaluate(
@@ -275,7 +351,17 @@ class Model(ABC):
 
 
 def failure_reasons(failed: np.ndarray, reason: str) -> np.ndarray:
-    """An object array of reasons: ``reason`` where ``failed``, ``""`` elsewhere."""
+    """An object array of reasons: ``reason`` where ``failed``, ``""`` elsewhere.
+
+    Parameters
+    ----------
+    failed : ndarray of bool, shape (n,)
+    reason : str
+
+    Returns
+    -------
+    ndarray of object, shape (n,)
+    """
     out = np.full(failed.shape, "", dtype=object)
     out[failed] = reason
     return out

@@ -54,13 +54,15 @@ class LinearGaussian(Model):
     name = "linear_gaussian"
     summary = "y = b + A x: exact mean and covariance, skewness 0, kurtosis 3 for Gaussian x"
     Params = LinearGaussianParams
+    params: LinearGaussianParams
 
     def _A(self) -> np.ndarray:
         return np.asarray(self.params.coefficients, dtype=float)
 
     def _b(self) -> np.ndarray:
         A = self._A()
-        return np.zeros(A.shape[0]) if self.params.offset is None else np.asarray(self.params.offset)
+        offset = self.params.offset
+        return np.zeros(A.shape[0]) if offset is None else np.asarray(offset)
 
     def inputs(self) -> tuple[InputInfo, ...]:
         return _x_inputs(self._A().shape[1])
@@ -73,11 +75,22 @@ class LinearGaussian(Model):
         )
 
     def exact_mean_cov(self, mean: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Mean and covariance of ``y`` for inputs of the given mean ``(d,)`` and covariance."""
+        """Mean and covariance of ``y`` for inputs of the given mean and covariance.
+
+        Parameters
+        ----------
+        mean : ndarray, shape (d,)
+        cov : ndarray, shape (d, d)
+
+        Returns
+        -------
+        mean, cov : ndarray, shapes (k,), (k, k)
+        """
         A = self._A()
         return self._b() + A @ mean, A @ cov @ A.T
 
-    def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]):
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
         X = np.column_stack([values[i.name] for i in self.inputs()])
         y = self._b() + X @ self._A().T
         t = np.linspace(0.0, 1.0, self.params.n_times)
@@ -101,6 +114,7 @@ class Lognormal(Model):
     name = "lognormal"
     summary = "y = exp(sum a_i x_i): lognormal, closed-form mean, variance, skewness, kurtosis"
     Params = LognormalParams
+    params: LognormalParams
 
     def inputs(self) -> tuple[InputInfo, ...]:
         return _x_inputs(len(self.params.a))
@@ -109,7 +123,13 @@ class Lognormal(Model):
         return (OutputInfo("y", "scalar", "1", "exp(sum a_i x_i)"),)
 
     def exact_moments(self) -> dict[str, float]:
-        """Mean, std, skewness, kurtosis (non-excess) for standard normal inputs."""
+        """Mean, std, skewness, kurtosis (non-excess) for standard normal inputs.
+
+        Returns
+        -------
+        dict of str to float
+            Keys ``mean``, ``std``, ``skewness``, ``kurtosis``.
+        """
         s2 = float(np.sum(np.square(self.params.a)))
         e = np.exp(s2)
         return {
@@ -119,7 +139,8 @@ class Lognormal(Model):
             "kurtosis": float(np.exp(4 * s2) + 2 * np.exp(3 * s2) + 3 * np.exp(2 * s2) - 3),
         }
 
-    def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]):
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
         X = np.column_stack([values[i.name] for i in self.inputs()])
         failed, reasons = _no_failures(n)
         return ModelOutput(
@@ -139,6 +160,7 @@ class Ishigami(Model):
     name = "ishigami"
     summary = "Ishigami function: closed-form mean, variance and Sobol' indices for U(-pi, pi)"
     Params = IshigamiParams
+    params: IshigamiParams
 
     def inputs(self) -> tuple[InputInfo, ...]:
         return _x_inputs(3)
@@ -147,7 +169,13 @@ class Ishigami(Model):
         return (OutputInfo("y", "scalar", "1", "sin x1 + a sin^2 x2 + b x3^4 sin x1"),)
 
     def exact(self) -> dict[str, object]:
-        """Mean, variance, first-order and total Sobol' indices for ``x_i ~ U(-pi, pi)``."""
+        """Mean, variance, first-order and total Sobol' indices for ``x_i ~ U(-pi, pi)``.
+
+        Returns
+        -------
+        dict
+            ``mean``, ``variance`` (float), ``first``, ``total`` (ndarray, shape (3,)).
+        """
         a, b, pi = self.params.a, self.params.b, np.pi
         v1 = 0.5 * (1 + b * pi**4 / 5) ** 2
         v2 = a**2 / 8
@@ -160,7 +188,8 @@ class Ishigami(Model):
             "total": np.array([v1 + v13, v2, v13]) / var,
         }
 
-    def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]):
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
         x1, x2, x3 = values["x1"], values["x2"], values["x3"]
         a, b = self.params.a, self.params.b
         y = np.sin(x1) + a * np.sin(x2) ** 2 + b * x3**4 * np.sin(x1)
@@ -197,7 +226,8 @@ class Borehole(Model):
     def outputs(self) -> tuple[OutputInfo, ...]:
         return (OutputInfo("flow", "scalar", "m^3/yr", "2 pi Tu (Hu - Hl) / (ln(r/rw) (...))"),)
 
-    def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]):
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
         v = values
         log_r = np.log(v["r"] / v["rw"])
         denom = log_r * (1 + 2 * v["L"] * v["Tu"] / (log_r * v["rw"] ** 2 * v["Kw"])

@@ -62,7 +62,20 @@ class CallableOutput(BaseModel):
 
 
 def find_module_dir(spec: str, folders: list[Path]) -> str | None:
-    """The first of ``folders`` holding the top-level module of ``"pkg.module:function"``."""
+    """The first of ``folders`` holding the top-level module of ``"pkg.module:function"``.
+
+    Parameters
+    ----------
+    spec : str
+        ``"pkg.module:function"``.
+    folders : list of Path
+        Where to look, in order.
+
+    Returns
+    -------
+    str or None
+        The folder (resolved), or None when none holds ``pkg.py`` or ``pkg/__init__.py``.
+    """
     top = spec.partition(":")[0].split(".")[0]
     if not top:
         return None
@@ -74,7 +87,20 @@ def find_module_dir(spec: str, folders: list[Path]) -> str | None:
 
 def import_function(spec: str, module_dir: str | None = None) -> Callable[[np.ndarray], object]:
     """The callable named ``"package.module:function"`` (imported from ``module_dir`` first
-    when given); ValueError saying what went wrong."""
+    when given); ValueError saying what went wrong.
+
+    Parameters
+    ----------
+    spec : str
+        ``"package.module:function"`` (the function may be a dotted attribute path).
+    module_dir : str, optional
+        A folder to import the module from first.
+
+    Returns
+    -------
+    callable
+        ``f(x (n, d))``.
+    """
     module, sep, attr = spec.partition(":")
     if not sep or not module or not attr:
         raise ValueError(f"must be 'package.module:function', got {spec!r}")
@@ -98,7 +124,7 @@ def import_function(spec: str, module_dir: str | None = None) -> Callable[[np.nd
         obj = getattr(obj, part)
     if not callable(obj):
         raise ValueError(f"{spec!r} is not callable")
-    return obj  # type: ignore[return-value]
+    return obj
 
 
 class CallableParams(ModelParams):
@@ -130,11 +156,21 @@ class CallableParams(ModelParams):
         return v if isinstance(v, str) else f"{v.__module__}:{v.__qualname__}"
 
     def spec(self) -> str:
-        """``"module:function"``, also for a function object."""
+        """``"module:function"``, also for a function object.
+
+        Returns
+        -------
+        str
+        """
         return self._spec(self.function)
 
     def resolve(self) -> Callable[..., Any]:
-        """The function itself."""
+        """The function itself (imported when given by name).
+
+        Returns
+        -------
+        callable
+        """
         if callable(self.function):
             return self.function
         return import_function(self.function, self.module_dir)
@@ -167,6 +203,7 @@ class CallableModel(Model):
     name = "callable"
     summary = "a user's vectorised Python function 'package.module:function' of x (n, d)"
     Params = CallableParams
+    params: CallableParams
     example_params = {"function": "uqguide.models.callable:example_function",
                       "inputs": ["a", "b"], "nominal": [1.0, 0.5],
                       "outputs": ["y", {"name": "path", "kind": "series"}]}
@@ -180,14 +217,16 @@ class CallableModel(Model):
                      for j, (n, v) in enumerate(zip(self.params.inputs, nominal)))
 
     def outputs(self) -> tuple[OutputInfo, ...]:
+        spec = self.params.spec()
         return tuple(
-            OutputInfo(s.name, s.kind, s.unit, s.description or f"{s.kind} output of {self.params.spec()}",
+            OutputInfo(s.name, s.kind, s.unit, s.description or f"{s.kind} output of {spec}",
                        tuple(s.component_names) if s.component_names else
                        tuple(f"{s.name}{j}" for j in range(s.components))
                        if s.components > 1 else ("",))
             for s in self._specs())
 
-    def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]):
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
         fn = self.params.resolve()
         x = np.column_stack([values[name] for name in self.params.inputs])
         raw = fn(x)
@@ -227,7 +266,18 @@ class CallableModel(Model):
 
 def example_function(x: np.ndarray) -> dict[str, np.ndarray]:
     """A callable model's example (its conformance check): ``y = sin a + b^2`` and the series
-    ``path = t y`` on 5 points of [0, 1]."""
+    ``path = t y`` on 5 points of [0, 1].
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 2)
+        Columns ``a``, ``b``.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``y`` ``(n,)``, ``path`` ``(n, 5)`` and ``time`` ``(5,)``.
+    """
     y = np.sin(x[:, 0]) + x[:, 1] ** 2
     t = np.linspace(0.0, 1.0, 5)
     return {"y": y, "path": y[:, None] * t[None, :], "time": t}

@@ -39,6 +39,10 @@ _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 def kernel_override() -> KernelChoice | None:
     """The kernel forced by ``UQGUIDE_KERNEL`` (None when unset or empty).
 
+    Returns
+    -------
+    {"numpy", "numba"} or None
+
     Raises
     ------
     ConfigError
@@ -47,17 +51,25 @@ def kernel_override() -> KernelChoice | None:
     value = os.environ.get(KERNEL_ENV, "").strip().lower()
     if not value:
         return None
-    if value not in ("numpy", "numba"):
-        from ..errors import ConfigError
+    if value == "numpy":
+        return "numpy"
+    if value == "numba":
+        return "numba"
+    from ..errors import ConfigError
 
-        raise ConfigError(
-            f"environment variable {KERNEL_ENV} must be 'numpy' or 'numba'; got {value!r}",
-            field=KERNEL_ENV,
-        )
-    return value  # type: ignore[return-value]
+    raise ConfigError(
+        f"environment variable {KERNEL_ENV} must be 'numpy' or 'numba'; got {value!r}",
+        field=KERNEL_ENV,
+    )
 
 
 def numba_available() -> bool:
+    """Whether numba can be imported here.
+
+    Returns
+    -------
+    bool
+    """
     try:
         import numba  # noqa: F401
     except ImportError:
@@ -74,6 +86,10 @@ def choose(requested: str, model: str) -> KernelChoice:
         The model's ``kernel`` parameter; ``auto`` is numba when it is importable.
     model : str
         The model's name, for the error message.
+
+    Returns
+    -------
+    {"numpy", "numba"}
 
     Raises
     ------
@@ -140,8 +156,17 @@ def _writable(folder: Path) -> bool:
 def cache_dir(package_dir: Path = _PACKAGE_DIR) -> Path | None:
     """Where compiled kernels are cached; None means numba's default (beside the source).
 
-    ``package_dir`` is the installed ``uqguide`` folder (a parameter so that tests can point it
-    at a read-only folder).
+    Parameters
+    ----------
+    package_dir : Path
+        The installed ``uqguide`` folder (a parameter so that tests can point it at a
+        read-only folder).
+
+    Returns
+    -------
+    Path or None
+        ``NUMBA_CACHE_DIR`` if set; None when the package folder is writable; else a
+        writable user cache folder (None if there is none).
     """
     if os.environ.get("NUMBA_CACHE_DIR"):
         return Path(os.environ["NUMBA_CACHE_DIR"])
@@ -201,13 +226,26 @@ def _configure_numba() -> None:
 
     where = cache_dir()
     if where is not None:
-        numba.config.CACHE_DIR = str(where)
+        # numba fills its config module at run time: no declaration for a type checker to see
+        config: Any = numba.config
+        config.CACHE_DIR = str(where)
     event.register("numba:compile", _listener_class()())
     _configured = True
 
 
 def njit(*args: Any, **kwargs: Any) -> Callable[..., Any]:
-    """``numba.njit`` with uqguide's cache location and compile notice (module docstring)."""
+    """``numba.njit`` with uqguide's cache location and compile notice (module docstring).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        As for ``numba.njit``.
+
+    Returns
+    -------
+    callable
+        The compiled function, or a decorator when called with options only.
+    """
     _configure_numba()
     import numba
 

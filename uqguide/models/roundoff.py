@@ -43,6 +43,11 @@ ROUNDOFF = 1e-12
 def perturbation_from_env() -> float:
     """The relative perturbation asked for by ``UQGUIDE_PERTURB`` (0.0 when unset).
 
+    Returns
+    -------
+    float
+        Relative size in ``[0, 1e-6]``.
+
     Raises
     ------
     ConfigError
@@ -90,6 +95,11 @@ def perturb(values: Mapping[str, np.ndarray], rel: float, member: int = 0
         Relative size of the perturbation; 0 returns the values unchanged (as new arrays).
     member : int
         Which perturbation: different members move the inputs in independent directions.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+        New arrays, same units.
     """
     out: dict[str, np.ndarray] = {}
     for name, v in values.items():
@@ -115,7 +125,17 @@ def _member_from_env() -> int:
 
 def apply_env(values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """``values`` perturbed as ``UQGUIDE_PERTURB`` (and ``UQGUIDE_PERTURB_MEMBER``) ask;
-    unchanged when it is unset."""
+    unchanged when it is unset.
+
+    Parameters
+    ----------
+    values : mapping of str to ndarray, shape (n,)
+        Input values by name, SI units.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+    """
     rel = perturbation_from_env()
     return perturb(values, rel, _member_from_env()) if rel else dict(values)
 
@@ -139,13 +159,34 @@ class Spread:
 
     @classmethod
     def of(cls, runs: np.ndarray) -> Spread:
-        """The spread of ``runs`` (members, ...): member 0 unperturbed, member ``m > 0`` run
-        with ``perturb(values, ROUNDOFF, member=m)``."""
+        """The spread of an ensemble's runs.
+
+        Parameters
+        ----------
+        runs : ndarray, shape (members, ...)
+            Member 0 unperturbed, member ``m > 0`` run with
+            ``perturb(values, ROUNDOFF, member=m)``.
+
+        Returns
+        -------
+        Spread
+            Median, low and high of shape ``(...)``.
+        """
         runs = np.asarray(runs, dtype=float)
         return cls(np.median(runs, axis=0), runs.min(axis=0), runs.max(axis=0), runs.shape[0])
 
     def describe(self, index: tuple[int, ...] | int = ()) -> str:
-        """``"median of 5 runs under 1e-12 input perturbations; range [a, b]"``."""
+        """``"median of 5 runs under 1e-12 input perturbations; range [a, b]"``.
+
+        Parameters
+        ----------
+        index : tuple of int or int
+            Which element (``()`` for a scalar figure).
+
+        Returns
+        -------
+        str
+        """
         lo, hi = float(self.low[index]), float(self.high[index])
         return (f"median of {self.members} runs under {ROUNDOFF:g} input perturbations; "
                 f"range [{lo:.3g}, {hi:.3g}]")

@@ -27,7 +27,20 @@ MU_EARTH = 3.986004418e14
 
 
 def mean_motion(semi_major_axis: float, mu: float = MU_EARTH) -> float:
-    """Mean motion ``n = sqrt(mu / a^3)`` [rad/s] of a circular orbit of radius ``a`` [m]."""
+    """Mean motion ``n = sqrt(mu / a^3)`` of a circular orbit.
+
+    Parameters
+    ----------
+    semi_major_axis : float
+        Orbit radius ``a`` [m], > 0.
+    mu : float
+        Gravitational parameter [m^3/s^2].
+
+    Returns
+    -------
+    float
+        [rad/s].
+    """
     if not semi_major_axis > 0:
         raise ValueError(f"semi-major axis must be positive, got {semi_major_axis} m")
     return float(np.sqrt(mu / semi_major_axis**3))
@@ -58,7 +71,18 @@ def hill_acceleration(r: np.ndarray, v: np.ndarray, n: float) -> np.ndarray:
 
 
 def hill_matrix(n: float) -> np.ndarray:
-    """System matrix ``A`` (6 x 6) of ``d/dt [r, v] = A [r, v]`` for the Hill equations."""
+    """System matrix ``A`` of ``d/dt [r, v] = A [r, v]`` for the Hill equations.
+
+    Parameters
+    ----------
+    n : float
+        Mean motion [rad/s].
+
+    Returns
+    -------
+    ndarray, shape (6, 6)
+        [1/s] and [1/s^2] blocks.
+    """
     A = np.zeros((6, 6))
     A[0:3, 3:6] = np.eye(3)
     A[3, 0] = 3.0 * n * n

@@ -37,7 +37,17 @@ from .tschauner_hempel import ChiefOrbit
 
 
 def skew(x: np.ndarray) -> np.ndarray:
-    """``[x x]`` with ``[x x] y = x cross y``; ``x`` (..., 3) -> (..., 3, 3)."""
+    """The cross-product matrix ``[x x]`` with ``[x x] y = x cross y``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (..., 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+        In ``x``'s unit.
+    """
     x = np.asarray(x, dtype=float)
     S = np.zeros(x.shape[:-1] + (3, 3))
     S[..., 0, 1], S[..., 0, 2] = -x[..., 2], x[..., 1]
@@ -47,8 +57,18 @@ def skew(x: np.ndarray) -> np.ndarray:
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a x b`` for broadcastable (..., 3) arrays (``np.cross`` without its axis handling,
-    which dominated the per-step cost of small batches)."""
+    """``a x b`` (``np.cross`` without its axis handling, which dominated the per-step cost
+    of small batches).
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (..., 3)
+        Broadcastable.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+    """
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
@@ -222,7 +242,22 @@ def body_to_lvlh(
 def lvlh_to_body(
     C: np.ndarray, w: np.ndarray, r_l: np.ndarray, v_l: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse of :func:`body_to_lvlh`: ``r_b = C^T r_l``, ``v_b = C^T v_l - w x r_b``."""
+    """Inverse of :func:`body_to_lvlh`: ``r_b = C^T r_l``, ``v_b = C^T v_l - w x r_b``.
+
+    Parameters
+    ----------
+    C : ndarray, shape (m, 3, 3)
+        Body -> LVLH attitude(s), ``m`` in {1, n}.
+    w : ndarray, shape (m, 3)
+        Spin rate(s), body components [rad/s].
+    r_l, v_l : ndarray, shape (n, 3)
+        Position [m] and velocity [m/s] in LVLH.
+
+    Returns
+    -------
+    r_b, v_b : ndarray, shape (n, 3)
+        In body components, [m] and [m/s].
+    """
     Ct = np.swapaxes(C, -1, -2)
     r_b = rotate(Ct, r_l)
     return r_b, rotate(Ct, v_l) - np.cross(w, r_b)
@@ -232,7 +267,19 @@ def rotate(C: np.ndarray, x: np.ndarray, transpose: bool = False) -> np.ndarray:
     """``C x`` (or ``C^T x``) for ``C`` (m, 3, 3), ``m`` in {1, n}, and vectors ``x`` (n, 3).
 
     Element-wise products summed in a fixed order, so a sample gives bit-identical results in a
-    batch with per-sample matrices and alone (a BLAS product may reorder the sums)."""
+    batch with per-sample matrices and alone (a BLAS product may reorder the sums).
+
+    Parameters
+    ----------
+    C : ndarray, shape (m, 3, 3)
+    x : ndarray, shape (n, 3)
+    transpose : bool
+        Apply ``C^T``.
+
+    Returns
+    -------
+    ndarray, shape (n, 3)
+    """
     if transpose:
         return np.sum(C * x[:, :, None], axis=-2)
     return np.sum(C * x[:, None, :], axis=-1)
@@ -250,6 +297,18 @@ def eq32_acceleration(w: np.ndarray, r_b: np.ndarray, v_b: np.ndarray, u_b: np.n
     The difference between the relative accelerations seen in LVLH and in the body frame, not
     a different thrust (spec section 3, A24): a diagnostic to compare with [C] Fig. 11 once
     rotated to LVLH. The physical thrust in LVLH is ``C u_b``.
+
+    Parameters
+    ----------
+    w : ndarray, shape (m, 3)
+        Spin rate(s) [rad/s].
+    r_b, v_b, u_b : ndarray, shape (n, 3)
+        Body-frame position [m], velocity [m/s] and thrust acceleration [m/s^2].
+
+    Returns
+    -------
+    ndarray, shape (n, 3)
+        [m/s^2].
     """
     return u_b + 2.0 * np.cross(w, v_b) + np.cross(w, np.cross(w, r_b))
 
@@ -280,7 +339,18 @@ class BodyFrameStage:
     printed: bool = False
 
     def apply(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``A21 r + A22 v`` [m/s^2] for ``r, v`` (n, 3) (``m`` = 1 or ``n``)."""
+        """``A21 r + A22 v`` without forming the matrices.
+
+        Parameters
+        ----------
+        r, v : ndarray, shape (n, 3)
+            Body-frame position [m] and velocity [m/s] (``m`` = 1 or ``n``).
+
+        Returns
+        -------
+        ndarray, shape (n, 3)
+            [m/s^2].
+        """
         wr = cross(self.w, r)
         frame = -cross(self.w, wr) - 2.0 * cross(self.w, v)
         A, B = self.A[None], self.B[None]
@@ -290,7 +360,13 @@ class BodyFrameStage:
         return rotate(self.C, lvlh, transpose=True) + frame
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray]:
-        """``A21``, ``A22`` (m, 3, 3) of :func:`body_frame_matrices`."""
+        """The plant's matrices (:func:`body_frame_matrices`).
+
+        Returns
+        -------
+        A21, A22 : ndarray, shape (m, 3, 3)
+            [1/s^2] and [1/s].
+        """
         return body_frame_matrices(self.A, self.B, self.C, self.w, printed=self.printed)
 
 
@@ -302,6 +378,18 @@ class LinearStage:
     A22: np.ndarray
 
     def apply(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``A21 r + A22 v``.
+
+        Parameters
+        ----------
+        r, v : ndarray, shape (n, 3)
+            Position [m] and velocity [m/s].
+
+        Returns
+        -------
+        ndarray, shape (n, 3)
+            [m/s^2].
+        """
         A21 = np.asarray(self.A21, dtype=float).reshape(-1, 3, 3)
         A22 = np.asarray(self.A22, dtype=float).reshape(-1, 3, 3)
         return rotate(A21, r) + rotate(A22, v)
@@ -342,7 +430,18 @@ class RotatingBodyFrame:
         object.__setattr__(self, "C0", C0)
 
     def attitude(self, t: float) -> np.ndarray:
-        """``C(t)`` (m, 3, 3), body -> LVLH."""
+        """The attitude at time ``t``.
+
+        Parameters
+        ----------
+        t : float
+            [s].
+
+        Returns
+        -------
+        ndarray, shape (m, 3, 3)
+            Body -> LVLH.
+        """
         return spin_attitude(self.w, t, self.C0)
 
     def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
@@ -350,6 +449,17 @@ class RotatingBodyFrame:
 
         The :class:`~uqguide.models.dynamics.tschauner_hempel.RelativePlant` interface (one
         common spin rate, ``m = 1``), so the shared RK4 maps apply to this plant too.
+
+        Parameters
+        ----------
+        t : float
+            [s].
+        f : float
+            Chief true anomaly [rad].
+
+        Returns
+        -------
+        A21, A22 : ndarray, shape (3, 3)
         """
         if self.w.shape[0] != 1:
             raise ValueError("matrices(t, f) needs one common spin rate; use stage_matrices")
@@ -358,19 +468,51 @@ class RotatingBodyFrame:
         return A21[0], A22[0]
 
     def stage_schedule(self, n_steps: int, h: float) -> StageSchedule:
-        """Orbit matrices at the RK4 stage times ``k h / 2``, ``k = 0 .. 2 n_steps``."""
+        """Orbit matrices at the RK4 stage times ``k h / 2``, ``k = 0 .. 2 n_steps``.
+
+        Parameters
+        ----------
+        n_steps : int
+        h : float
+            Step [s].
+
+        Returns
+        -------
+        StageSchedule
+        """
         times = 0.5 * h * np.arange(2 * n_steps + 1)
         f = true_anomaly(self.orbit, times)
         A, B = lvlh_matrices(self.orbit, f, self.printed_omega_dot)
         return StageSchedule(h=h, times=times, f=f, A=A, B=B)
 
     def stage_at(self, schedule: StageSchedule, j: int) -> BodyFrameStage:
-        """The plant at the half-step grid point ``j`` of ``schedule``."""
+        """The plant at the half-step grid point ``j`` of ``schedule``.
+
+        Parameters
+        ----------
+        schedule : StageSchedule
+        j : int
+            Index into ``schedule.times``.
+
+        Returns
+        -------
+        BodyFrameStage
+        """
         return BodyFrameStage(schedule.A[j], schedule.B[j], self.attitude(schedule.times[j]),
                               self.w, self.printed)
 
     def matrices_at(self, schedule: StageSchedule, j: int) -> tuple[np.ndarray, np.ndarray]:
-        """``A21``, ``A22`` (m, 3, 3) at the half-step grid point ``j`` of ``schedule``."""
+        """The plant's matrices at the half-step grid point ``j`` of ``schedule``.
+
+        Parameters
+        ----------
+        schedule : StageSchedule
+        j : int
+
+        Returns
+        -------
+        A21, A22 : ndarray, shape (m, 3, 3)
+        """
         return self.stage_at(schedule, j).matrices()
 
 
@@ -398,7 +540,18 @@ class StageSchedule:
 
 class Stage(Protocol):
     def apply(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``A21 r + A22 v`` (n, 3)."""
+        """``A21 r + A22 v``.
+
+        Parameters
+        ----------
+        r, v : ndarray, shape (n, 3)
+            Position [m] and velocity [m/s].
+
+        Returns
+        -------
+        ndarray, shape (n, 3)
+            [m/s^2].
+        """
         ...
 
 

@@ -67,11 +67,33 @@ class ChiefOrbit:
         return float(np.sqrt(self.mu / self.a**3))
 
     def radius(self, f: np.ndarray | float) -> np.ndarray:
-        """Chief orbit radius ``r_c = a (1 - e^2) / (1 + e cos f)`` [m]."""
+        """Chief orbit radius ``r_c = a (1 - e^2) / (1 + e cos f)``.
+
+        Parameters
+        ----------
+        f : ndarray or float
+            True anomaly [rad].
+
+        Returns
+        -------
+        ndarray
+            [m], shape of ``f``.
+        """
         return self.a * (1 - self.e**2) / (1 + self.e * np.cos(f))
 
     def omega(self, f: np.ndarray | float) -> np.ndarray:
-        """Orbit (LVLH) angular rate ``df/dt = n (1 + e cos f)^2 / (1 - e^2)^{3/2}`` [rad/s] ([W 4])."""
+        """Orbit (LVLH) angular rate ``df/dt = n (1 + e cos f)^2 / (1 - e^2)^{3/2}`` ([W 4]).
+
+        Parameters
+        ----------
+        f : ndarray or float
+            True anomaly [rad].
+
+        Returns
+        -------
+        ndarray
+            [rad/s], shape of ``f``.
+        """
         return self.mean_motion * (1 + self.e * np.cos(f)) ** 2 / (1 - self.e**2) ** 1.5
 
     def omega_dot(self, f: np.ndarray | float, printed: bool = False) -> np.ndarray:
@@ -79,6 +101,18 @@ class ChiefOrbit:
 
         ``-2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^3`` (spec A3). With ``printed=True`` the
         form printed in [W 5] / [C 3], ``+2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^{3/2}``.
+
+        Parameters
+        ----------
+        f : ndarray or float
+            True anomaly [rad].
+        printed : bool
+            The printed (wrong) form.
+
+        Returns
+        -------
+        ndarray
+            [rad/s^2], shape of ``f``.
         """
         n2 = self.mean_motion**2
         core = 2 * n2 * self.e * np.sin(f) * (1 + self.e * np.cos(f)) ** 3
@@ -97,7 +131,20 @@ class RelativePlant(Protocol):
     orbit: ChiefOrbit
 
     def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
-        """``A`` and ``B``, each (3, 3), at time ``t`` [s] and chief true anomaly ``f`` [rad]."""
+        """The plant's matrices.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        f : float
+            Chief true anomaly [rad].
+
+        Returns
+        -------
+        A, B : ndarray, shape (3, 3)
+            [1/s^2] and [1/s].
+        """
         ...
 
 
@@ -116,7 +163,20 @@ class LVLHPlant:
     printed_omega_dot: bool = False
 
     def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
-        """``A(f)``, ``B(f)`` of [W 2-3] (corrected), each (3, 3); ``t`` is unused (LVLH)."""
+        """``A(f)``, ``B(f)`` of [W 2-3] (corrected).
+
+        Parameters
+        ----------
+        t : float
+            Time [s], unused (LVLH).
+        f : float
+            Chief true anomaly [rad].
+
+        Returns
+        -------
+        A, B : ndarray, shape (3, 3)
+            [1/s^2] and [1/s].
+        """
         w = float(self.orbit.omega(f))
         wd = float(self.orbit.omega_dot(f, printed=self.printed_omega_dot))
         k = self.orbit.mu / float(self.orbit.radius(f)) ** 3
