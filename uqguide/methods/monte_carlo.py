@@ -43,7 +43,7 @@ import logging
 import time
 import zlib
 from collections import Counter
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -53,7 +53,7 @@ from ..inputs import InputSpace
 from ..types import ModelOutput
 from ..events import count_events
 from ..quantiles import order_statistic_quantiles
-from ..stats import MomentSums, OutputStats, statistics_from_sums
+from ..stats import OutputStats, statistics_from_sums
 from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
 from .mc_reduce import MonteCarloReducer, ci_index, scalar_names, split_summary
 
@@ -190,8 +190,8 @@ class MonteCarlo(Method):
         """Merge a chunk: moment sums by Chan's formulas, series values for the quantiles
         by concatenation (both in chunk order)."""
         acc = {} if acc is None else acc
-        for key, sums in split_summary(summary).items():
-            acc[key] = acc[key].merge(sums) if key in acc else sums
+        for group, sums in split_summary(summary).items():
+            acc[group] = acc[group].merge(sums) if group in acc else sums
         for key, v in summary.items():
             if key.startswith("q:"):
                 k = ("q", key.split(":", 2)[2])
@@ -210,7 +210,7 @@ class MonteCarlo(Method):
         return self.estimate_reduced(space, design, runs, acc)
 
     def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
-                         acc: dict[tuple[str, str], MomentSums] | None) -> Estimate:
+                         acc: dict[tuple[str, str], Any] | None) -> Estimate:
         t0 = time.perf_counter()
         n_failed = int(runs.failed.sum())
         reasons = Counter(r for r in runs.reasons[runs.failed])
@@ -239,7 +239,8 @@ class MonteCarlo(Method):
                     runs.scalars[name][~runs.failed]
                 _put_quantiles(stats[name], values, self.quantile_levels, runs.time,
                                self.report_times)
-        events = count_events(list(self.events), runs.scalars, ~runs.failed, self.components) \
+        events = count_events(list(self.events), runs.scalars, ~runs.failed,
+                              dict(self.components)) \
             if self.events else {}
         names = scalar_names(runs.scalars)  # (stacking them would copy every value)
         joint = acc.get(("j", ""))
@@ -258,7 +259,9 @@ class MonteCarlo(Method):
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
             scalar_index=names,
             scalar_mean=joint.mean if (names and joint is not None and n_ok) else None,
-            scalar_cov=joint.cm / n_ok if (names and joint is not None and n_ok) else None,
+            scalar_cov=(np.asarray(joint.cm) / n_ok
+                        if (names and joint is not None and joint.cm is not None and n_ok)
+                        else None),
             events=events,
         )
 
