@@ -60,7 +60,7 @@ import numpy as np  # noqa: E402
 from uqguide.inputs import InputSpace, LogNormal, Normal, Uniform
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.models.base import ModelOutput
-from uqguide.pce import basis, moments
+from uqguide.pce import moments
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import NORMAL, Germ
 from uqguide.pce.quadrature import gauss_rule

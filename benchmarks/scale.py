@@ -62,9 +62,12 @@ def measure(n: int, workers: int) -> dict:
         t0 = time.perf_counter()
         run(config(8192 * max(workers, 1)), executor)
         warm = time.perf_counter() - t0
+        load = os.getloadavg()[0]
+        c0 = time.process_time()
         t0 = time.perf_counter()
         result = run(cfg, executor)
         wall = time.perf_counter() - t0
+        driver_cpu = time.process_time() - c0
     finally:
         executor.close()
     r = result.run("mc")
@@ -79,7 +82,8 @@ def measure(n: int, workers: int) -> dict:
     series_bytes = sum(8 * n * result.time.size * o.k for o in result.outputs
                        if o.kind == "series")
     return {
-        "n": n, "workers": workers, "wall_s": wall, "warmup_s": warm,
+        "n": n, "workers": workers, "wall_s": wall, "warmup_s": warm, "load": load,
+        "driver_cpu_s": driver_cpu,
         "model_s": r.model_seconds,
         "n_failed": r.n_failed, "T": int(result.time.size),
         "driver_peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
@@ -116,11 +120,12 @@ def main() -> None:
     if args.small:
         rows.append(_spawn(args.small, 0))
     print(f"FTCAPN Table 3 Monte Carlo, {CONFIG.name}; {os.cpu_count()} CPUs")
-    print(f"{'n':>9} {'workers':>7} {'warm-up s':>9} {'wall s':>8} {'runs/s':>8} {'model s':>8} "
+    print(f"{'n':>9} {'workers':>7} {'warm-up s':>9} {'wall s':>8} {'runs/s':>8} "
+          f"{'driver cpu':>10} {'load':>5} {'model s':>8} "
           f"{'failed':>6} {'driver MiB':>10} {'worker MiB':>10} {'series MiB':>10}  stats")
     for r in rows:
         print(f"{r['n']:>9,} {r['workers']:>7} {r['warmup_s']:>9.1f} {r['wall_s']:>8.1f} "
-              f"{r['n'] / r['wall_s']:>8.0f} "
+              f"{r['n'] / r['wall_s']:>8.0f} {r['driver_cpu_s']:>10.1f} {r['load']:>5.2f} "
               f"{r['model_s']:>8.1f} {r['n_failed']:>6} {r['driver_peak_mib']:>10.0f} "
               f"{r['worker_peak_mib']:>10.0f} {r['series_if_kept_mib']:>10.0f}  "
               f"{r['stats_sha256']}")
@@ -136,6 +141,9 @@ def main() -> None:
     print(f"omega_s at the end: mean {big['omega_s_end_mean']:.4e} rad/s, std "
           f"{big['omega_s_end_std']:.4e} rad/s; zem mean {big['zem_mean']:.4f} m, std "
           f"{big['zem_std']:.4f} m")
+    print("load: 1-minute load average at the start of the timed run (wall times and the "
+          "speed-up are only meaningful on an idle machine, load < 1); driver cpu: CPU seconds "
+          "of the driver process (all of the run with 0 workers)")
     print("warm-up: worker start and numba kernel load, one chunk per worker (not in wall); "
           "model s: worker-seconds in the model; series MiB: what the time series alone "
           "would take if kept in memory; driver / worker MiB: peak resident set (ru_maxrss) "

@@ -1,9 +1,9 @@
 """Throughput of the simulators: samples per second of "simulation plus statistics".
 
 For each case and batch size: draw the inputs, evaluate the model on the whole batch, then
-compute ``uqguide.stats.sample_statistics`` of every requested series (bootstrapped at the
-report times and the last step, as the Monte Carlo method does) and of the scalar outputs
-stacked into one vector (one set of bootstrap resamples for all of them).
+reduce it as the Monte Carlo method reduces a chunk (:class:`MonteCarloReducer`: moment sums,
+intervals at the report times and the last step, delta method or ``--intervals bootstrap``)
+and compute the statistics from the sums.
 Prints one table row per (case, batch): samples/s, model runs, failures, simulation and
 statistics seconds, wall seconds, CPU seconds of the process (all threads; on a shared machine
 the wall time depends on the other jobs, the CPU time much less) and the peak traced memory
@@ -23,12 +23,60 @@ Usage::
 
 The structure (cases -> ``run_case`` -> rows) is meant to be routed through the real Monte
 Carlo pipeline later: only ``run_case`` knows how a batch is evaluated and reduced.
+
+Roofline
+--------
+A second table puts each case's simulation beside the floor its arithmetic allows. Columns:
+samples per CPU-second of the simulation alone (``time.process_time``: every thread's CPU time,
+so a threaded kernel is not flattered by the cores it borrows), ns of CPU time per
+sample-step, the floor in ns per sample-step and the ratio measured / floor (1 would be a
+kernel at the machine's peak). Load (``os.getloadavg``) is printed beside: on a shared machine
+CPU time still grows with contention (caches, SMT), so acceptance figures are for an idle one.
+
+The floor of one sample-step is ``max(F / peak_flops, B / bandwidth)`` with ``F`` the
+flop-equivalents and ``B`` the bytes of main-memory traffic of one step of one sample
+(:data:`LOOP_COUNTS`), ``peak_flops`` the fused-multiply-add throughput of one core measured by
+:func:`calibrate` (a compiled loop of independent ``y = a y + b`` chains across a vector in L1:
+what the SIMD units deliver when nothing else limits them) and ``bandwidth`` one core's
+streaming write-and-read rate over 256 MB (NumPy ``multiply`` into a preallocated array).
+Flop-equivalents: an add, a multiply, a compare-and-select or a fused multiply-add half counts
+1; a division or a square root counts 8 (their vector throughput on x86 cores of the last
+decade is 4-8x below an FMA's per lane); ``exp``, ``log`` and ``pow`` count 20 each (a vector
+polynomial of ~10 FMAs plus range reduction). Counts, per sample-step (derived from the loops
+of each kernel; they round to the nearest ten and are good to about +-30 %):
+
+- ``ftcapn`` (a step = one ``dt`` of the discrete-time loop, the steps a sample takes until it
+  stops): range and its rate, LOS unit vector, transverse velocity and LOS rate (~35 add/mul,
+  2 sqrt, 1 div); sliding variable, saturated sign, reaching law with ``|s|^eta`` (~15 add/mul,
+  1 pow); radial/transverse command and its vector (~20, 1 div, 1 sqrt for ``|a_c|``); exact
+  double-integrator update (12); stop and pass tests (~15); delta-v and peak (3). About 100
+  add/mul + 5 div/sqrt (40) + 1 pow (20) = 160. Memory: the series written per step (8 bytes
+  per recorded component, ``omega_s`` and ``R`` in Table 3: 16 B); the state lives in cache.
+- ``gmm_proximity`` (a step = one RK4 sub-step, 10 per 1 s control period): the sub-step map
+  ``phi (6x6) x + gam (6x3) u`` (108), the range (5 + sqrt), per chief part (5) the
+  box distance and depth (~25 + sqrt); the swept-box test amortised (~10 per part); per control
+  period (shared by its ``n_sub`` sub-steps) the GMM potential's gradient and Hessian, ~90 per
+  kernel (10 kernels: 3x3 quadratic form, exp, gradient and outer-product Hessian), and the
+  NTSMC law (~150 add/mul + 6 pow = 270). Per sub-step: 108 + 13 + 5 x 43 + (900 + 270) / 10
+  = 450. Memory: 8 B per recorded state component every 100 sub-steps: negligible.
+- ``gmm_ftc`` (a step = one 0.1 s control period = one RK4 step): the GMM-FTC law with the
+  12-kernel potential and its third derivative (~150 per kernel: 1800; law ~200 incl. 6 pow =
+  320); attitude of the spinning target (~60 incl. sin/cos = 40); RK4 of the 6-state plant, four
+  right-hand sides of ~70 (280); geometry per sub-step and metrics (~200). About 2,600.
+- ``ft_as`` (a step = one RK4 step of the 6-DOF loop): four right-hand sides, each MRP
+  kinematics matrices (~80), the true body accelerations (~60) and the observer (~100): ~240, so
+  960; the FT-AS law once per step with its fractional powers (~12 pow = 240, ~200 add/mul);
+  the 36-entry combination of the stages (~150); metrics (~100). About 1,650.
+
+The floor ignores the branches, the data-dependent stopping and the transcendental functions'
+latency chains that a real loop carries: it is a bound, not a forecast.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib.util
+import os
 import subprocess
 import sys
 import time
@@ -43,7 +91,8 @@ from pydantic import TypeAdapter
 from uqguide.config import load_yaml
 from uqguide.inputs import InputSpace, Marginal
 from uqguide.registry import model_class
-from uqguide.stats import sample_statistics
+from uqguide.methods.mc_reduce import MonteCarloReducer, split_summary
+from uqguide.stats import statistics_from_sums
 
 HERE = Path(__file__).resolve().parent
 
@@ -66,6 +115,97 @@ CASES: list[dict[str, Any]] = [
 
 BOOTSTRAP = 200
 
+LOOP_COUNTS: dict[str, tuple[float, float]] = {
+    # model: (flop-equivalents, bytes of memory traffic) per sample-step; derivation in the
+    # module docstring
+    "ftcapn": (160.0, 16.0),
+    "gmm_proximity": (450.0, 0.0),
+    "gmm_ftc": (2600.0, 0.0),
+    "ft_as": (1650.0, 0.0),
+}
+
+_MACHINE: dict[str, float] = {}
+
+
+def calibrate() -> dict[str, float]:
+    """One core's peak FMA rate (flop/s) and streaming bandwidth (bytes/s), measured once.
+
+    Returns
+    -------
+    dict
+        ``peak_flops`` [flop/s] and ``bandwidth`` [B/s] of one core.
+    """
+    if _MACHINE:
+        return _MACHINE
+    import numba
+
+    @numba.njit(fastmath=True, cache=False)
+    def fma_chains(y: np.ndarray, a: float, b: float, reps: int) -> float:
+        # 512 independent chains across the vector: the compiler unrolls and vectorises the
+        # inner loop, so latency is hidden and only the FMA ports limit the rate
+        for _ in range(reps):
+            for i in range(y.shape[0]):
+                y[i] = a * y[i] + b
+        return y[0]
+
+    y = np.ones(512)
+    reps = 20_000
+    fma_chains(y, 0.999, 1e-3, 10)
+    best = np.inf
+    for _ in range(3):
+        c0 = time.process_time()
+        fma_chains(y, 0.999, 1e-3, reps)
+        best = min(best, time.process_time() - c0)
+    peak = 2.0 * y.size * reps / best
+    big = np.ones(2**25)  # 256 MB
+    out = np.empty_like(big)
+    np.multiply(big, 1.0, out=out)
+    best = np.inf
+    for _ in range(3):
+        c0 = time.process_time()
+        np.multiply(big, 1.0, out=out)
+        best = min(best, time.process_time() - c0)
+    _MACHINE.update(peak_flops=peak, bandwidth=2.0 * big.nbytes / best)
+    return _MACHINE
+
+
+def steps_per_sample(model, out) -> float:
+    """Integration steps one sample takes: FTCAPN's until it stops (mean over the batch, from
+    ``t_stop``), the others' fixed count (:meth:`step_count`)."""
+    if model.name == "ftcapn" and "t_stop" in out.scalars:
+        t = out.scalars["t_stop"][:, 0]
+        t = t[np.isfinite(t)]
+        if t.size:
+            return float(np.mean(t)) / model.params.dt + 1.0
+    return float(model.step_count().steps)
+
+
+def roofline_row(row: dict[str, Any]) -> dict[str, Any]:
+    """Samples per CPU-second, ns per sample-step, its floor and the ratio, for a run row."""
+    machine = calibrate()
+    flops, nbytes = LOOP_COUNTS.get(row["model"], (float("nan"), 0.0))
+    floor_ns = 1e9 * max(flops / machine["peak_flops"], nbytes / machine["bandwidth"])
+    per_cpu = row["batch"] / row["sim_cpu_s"]
+    ns_step = 1e9 * row["sim_cpu_s"] / (row["batch"] * row["steps"])
+    return {**row, "samples_per_cpu_s": per_cpu, "ns_per_step": ns_step, "floor_ns": floor_ns,
+            "floor_samples_per_s": 1e9 / (floor_ns * row["steps"]),
+            "ratio": ns_step / floor_ns}
+
+
+def format_roofline(rows: list[dict[str, Any]]) -> str:
+    machine = calibrate()
+    head = (f"{'case':<24} {'batch':>8} {'steps':>8} {'samples/cpu-s':>13} {'ns/smp-step':>11} "
+            f"{'floor ns':>8} {'floor smp/s':>11} {'ratio':>6} {'load':>5}")
+    lines = [f"roofline: peak {machine['peak_flops'] / 1e9:.1f} Gflop/s and "
+             f"{machine['bandwidth'] / 1e9:.1f} GB/s per core (measured)", head,
+             "-" * len(head)]
+    for r in rows:
+        lines.append(
+            f"{r['label']:<24} {r['batch']:>8d} {r['steps']:>8.0f} {r['samples_per_cpu_s']:>13.4g} "
+            f"{r['ns_per_step']:>11.3g} {r['floor_ns']:>8.3g} {r['floor_samples_per_s']:>11.3g} "
+            f"{r['ratio']:>6.1f} {r['load']:>5.2f}")
+    return "\n".join(lines)
+
 
 def discover_cases() -> list[dict[str, Any]]:
     """The built-in cases plus ``CASES`` of every ``benchmarks/cases_*.py`` module."""
@@ -87,25 +227,29 @@ def _ci_index(time_grid: np.ndarray, report_times: list[float] | None) -> np.nda
     return np.unique(idx + [time_grid.size - 1])
 
 
-def _evaluate_and_reduce(model, x, names, outputs, report_times, bootstrap, seed):
-    """One batch: the model, then the statistics the Monte Carlo method computes."""
+def _evaluate_and_reduce(model, x, names, outputs, report_times, bootstrap, seed,
+                         intervals="delta"):
+    """One batch: the model, then the statistics the Monte Carlo method computes (its chunk
+    reduction, one chunk, and the statistics of the merged sums)."""
     t0 = time.perf_counter()
+    c0 = time.process_time()
     out = model.evaluate(x, names, outputs)
+    sim_cpu = time.process_time() - c0
     t1 = time.perf_counter()
-    ok = ~out.failed
-    keep = slice(None) if ok.all() else ok  # a boolean mask would copy every series
+    reduce = MonteCarloReducer(bootstrap, seed, tuple(report_times or ()), "report",
+                               intervals=intervals)
+    acc = split_summary(reduce(out, 0))
     idx = _ci_index(out.time, report_times)
-    for y in out.series.values():
-        sample_statistics(y[keep], bootstrap=bootstrap, seed=seed, ci_index=idx)
-    if out.scalars:
-        # the scalars as one stacked vector (uq-methods.md section 3): one set of resamples
-        stacked = np.concatenate([y[keep] for y in out.scalars.values()], axis=1)
-        sample_statistics(stacked, bootstrap=bootstrap, seed=seed)
-    return out, t1 - t0, time.perf_counter() - t1
+    for (kind, name), sums in acc.items():
+        if kind == "m" and name:
+            statistics_from_sums(sums, acc.get(("b", name)),
+                                 idx if sums.mean.ndim == 2 else None,
+                                 delta=acc.get(("h", name)))
+    return out, t1 - t0, time.perf_counter() - t1, sim_cpu
 
 
 def run_case(case: dict[str, Any], n: int, seed: int = 1, bootstrap: int = BOOTSTRAP,
-             memory: bool = True) -> dict[str, Any]:
+             memory: bool = True, intervals: str = "delta") -> dict[str, Any]:
     """Evaluate one batch of ``n`` samples and reduce it to statistics; timings and memory.
 
     The timed run is not traced: tracemalloc costs microseconds per allocation, which would
@@ -117,12 +261,15 @@ def run_case(case: dict[str, Any], n: int, seed: int = 1, bootstrap: int = BOOTS
     space = InputSpace([adapter.validate_python(m) for m in case["inputs"]])
     outputs = case.get("outputs") or list(model.default_outputs())
     x = space.from_unit(np.random.default_rng(seed).random((n, space.dim)))
-    args = (model, x, space.names, outputs, case.get("report_times"), bootstrap, seed)
+    args = (model, x, space.names, outputs, case.get("report_times"), bootstrap, seed,
+            intervals)
     _evaluate_and_reduce(model, x[:2], *args[2:])  # JIT compilation, nominal grid, caches
+    load = os.getloadavg()[0]
     c0 = time.process_time()
-    out, sim_s, stats_s = _evaluate_and_reduce(*args)
+    out, sim_s, stats_s, sim_cpu_s = _evaluate_and_reduce(*args)
     cpu_s = time.process_time() - c0
     failed = int(out.failed.sum())
+    steps = steps_per_sample(model, out)
     del out
     peak = float("nan")
     if memory:
@@ -135,6 +282,7 @@ def run_case(case: dict[str, Any], n: int, seed: int = 1, bootstrap: int = BOOTS
         "label": case["label"], "model": case["model"], "batch": n,
         "samples_per_s": n / wall, "runs": n, "failed": failed,
         "sim_s": sim_s, "stats_s": stats_s, "wall_s": wall, "cpu_s": cpu_s, "peak_mb": peak,
+        "sim_cpu_s": sim_cpu_s, "steps": steps, "load": load,
     }
 
 
@@ -157,9 +305,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                     help="override a model parameter (YAML value), e.g. kernel=numpy")
     ap.add_argument("--bootstrap", type=int, default=BOOTSTRAP, help="bootstrap resamples")
+    ap.add_argument("--intervals", choices=["delta", "bootstrap"], default="delta",
+                    help="interval method of the statistics (the Monte Carlo setting)")
     ap.add_argument("--no-memory", action="store_true", help="do not trace memory")
     ap.add_argument("--no-scale", action="store_true",
-                    help="skip the 1e6-sample FTCAPN runs on 1 and 2 processes (benchmarks/scale.py)")
+                    help="skip the 1e6-sample FTCAPN runs on 1 and 2 processes "
+                         "(benchmarks/scale.py)")
     args = ap.parse_args(argv)
     overrides = {}
     for item in args.param:
@@ -174,9 +325,12 @@ def main(argv: list[str] | None = None) -> int:
     for case in cases:
         case = {**case, "params": {**(case.get("params") or {}), **overrides}}
         for n in args.batches or case["batches"]:
-            rows.append(run_case(case, n, bootstrap=args.bootstrap, memory=not args.no_memory))
+            rows.append(run_case(case, n, bootstrap=args.bootstrap, memory=not args.no_memory,
+                                 intervals=args.intervals))
             print(format_table(rows[-1:]).splitlines()[-1], file=sys.stderr, flush=True)
     print(format_table(rows))
+    print("")
+    print(format_roofline([roofline_row(r) for r in rows]))
     if not args.no_scale and (not args.model or "ftcapn" in args.model):
         # The campaign-scale figures (1e6 samples: wall time, peak memory, 2-process speed-up)
         # run in fresh processes so their memory peaks are their own.

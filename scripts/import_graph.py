@@ -32,7 +32,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("errors", "strict", "atomic", "interrupts", "safe_yaml", "failures", "quantiles",
      "events", "types", "progress", "runlock", "_version", "figures"),
     # 1. numerics on arrays
-    ("stats",),
+    ("stats", "moment_sums_kernel"),
     # 2. the models and the input space they are sampled on
     ("models", "inputs"),
     # 3. surrogate building blocks, describing models and statistics

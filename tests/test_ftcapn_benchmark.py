@@ -28,6 +28,13 @@ def test_ftcapn_case_runs_and_formats(tp):
     assert row["peak_mb"] > 0
     text = tp.format_table([row])
     assert "ftcapn table3" in text and "samples/s" in text.splitlines()[0]
+    # roofline: every figure follows from the row's CPU time, step count and the floor
+    roof = tp.roofline_row(row)
+    assert roof["samples_per_cpu_s"] == pytest.approx(64 / row["sim_cpu_s"])
+    assert roof["ns_per_step"] == pytest.approx(1e9 * row["sim_cpu_s"] / (64 * row["steps"]))
+    assert roof["ratio"] == pytest.approx(roof["ns_per_step"] / roof["floor_ns"])
+    # Table 3 runs stop at 77.0-77.2 s with dt = 0.5 s: 155-156 steps
+    assert 154 < row["steps"] < 157
 
 
 def test_cases_modules_are_discovered(tp, tmp_path, monkeypatch):
@@ -43,6 +50,9 @@ def test_command_line_filters_and_overrides(tp, capsys):
     assert tp.main(["--no-scale", "--model", "ftcapn", "--batches", "32", "--param", "kernel=numpy",
                     "--bootstrap", "0", "--no-memory"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert len(out) == 3 and out[2].split()[:3] == ["ftcapn", "table3", "ftcapn"]
+    # the run table (header, rule, one row), a blank line, then the roofline table
+    assert out[2].split()[:3] == ["ftcapn", "table3", "ftcapn"] and out[3] == ""
+    assert out[4].startswith("roofline: peak") and len(out) == 8
+    assert out[7].split()[:3] == ["ftcapn", "table3", "32"]
     with pytest.raises(SystemExit):
         tp.main(["--model", "no_such_model"])

@@ -7,21 +7,26 @@ import pytest
 
 from uqguide.pce import basis
 from uqguide.pce.germ import Germ
-from uqguide.pce.lars import LarsPath, corrected_loo_path, hybrid_lars, lars_order
+from uqguide.pce.lars import LarsPath, LooPath, corrected_loo_path, hybrid_lars, lars_order
 from uqguide.pce.pca import constant_columns, principal_components
+from uqguide.pce import sparse_regression
 from uqguide.pce.sparse_regression import fit_columns
+
+from uqguide.inputs import InputSpace, Uniform
 
 from .test_pce_helpers import normal_space
 
 
-def _direct_loo(psi, y, cols):
-    """Corrected LOO by the textbook formulas: hat matrix and explicit inverse."""
+def _direct_loo(psi, y, cols, se=False):
+    """Corrected LOO by the textbook formulas: hat matrix and explicit inverse (and the standard
+    error of the mean of the squared LOO residuals, times the same factors)."""
     a = psi[:, [0, *cols]]
     n, p = a.shape
     h = np.diag(a @ np.linalg.solve(a.T @ a, a.T))
     r = y - a @ np.linalg.lstsq(a, y, rcond=None)[0]
-    t = n / (n - p) * (1 + np.trace(np.linalg.inv(a.T @ a / n)) / n)
-    return np.mean((r / (1 - h)) ** 2) / y.var(ddof=1) * t
+    t = n / (n - p) * (1 + np.trace(np.linalg.inv(a.T @ a / n)) / n) / y.var(ddof=1)
+    e2 = (r / (1 - h)) ** 2
+    return (np.mean(e2) * t, np.std(e2) / np.sqrt(n) * t) if se else np.mean(e2) * t
 
 
 @pytest.fixture
@@ -132,3 +137,81 @@ def test_default_fit_is_deterministic_and_chooses_its_grid():
     np.testing.assert_array_equal(a.alpha, b.alpha)
     np.testing.assert_array_equal(a.core, b.core)
     assert a.q[0] in (0.5, 0.75, 1.0) and a.degree[0] >= 7
+
+
+def test_loo_path_fed_in_blocks_equals_the_direct_formula(noisy_problem):
+    """A LooPath extended block by block (as LARS goes on) scores every nested set as the
+    textbook formulas do, and as one path scored at once; its standard error too."""
+    psi, y = noisy_problem
+    order = lars_order(psi, y, max_steps=psi.shape[1] - 1)
+    full = np.concatenate([[0], order])
+    blocks = LooPath(psi, y)
+    for end in (1, 4, 11, 12, 30, full.size):
+        blocks.feed(full[:end])
+    once = LooPath(psi, y)
+    once.feed(full)
+    np.testing.assert_array_equal(blocks.cols, full)
+    np.testing.assert_allclose(blocks.loo, once.loo, rtol=1e-9)
+    for k in (1, 2, 9, 15, full.size - 1):
+        loo, se = _direct_loo(psi, y, full[1:k], se=True)
+        assert blocks.loo[k - 1] == pytest.approx(loo, rel=1e-9)
+        assert blocks.se[k - 1] == pytest.approx(se, rel=1e-9)
+    fit = blocks.fit(12)
+    np.testing.assert_allclose(fit.coef, np.linalg.lstsq(psi[:, full[:12]], y, rcond=None)[0],
+                               rtol=1e-9)
+
+
+def test_loo_path_drops_a_column_in_the_span(noisy_problem):
+    """A column equal to a combination of earlier ones adds nothing: dropped, not scored."""
+    psi, y = noisy_problem
+    psi = np.c_[psi, psi[:, 1] - 2.0 * psi[:, 3]]
+    path = LooPath(psi, y)
+    path.feed(np.array([0, 1, 2]))
+    path.feed(np.array([0, 1, 2, 3, psi.shape[1] - 1, 5]))
+    assert path.cols.tolist() == [0, 1, 2, 3, 5]
+    assert path.loo[-1] == pytest.approx(_direct_loo(psi, y, [1, 2, 3, 5]), rel=1e-9)
+
+
+def test_columns_fitted_together_equal_their_separate_fits():
+    """The principal components of a series share one candidate basis (and its LARS layout):
+    each column's expansion is the one it gets when fitted alone."""
+    germ = Germ.of(normal_space(2))
+    xi = np.random.default_rng(11).normal(size=(40, 2))
+    y = np.c_[np.exp(0.3 * xi[:, 0]) + xi[:, 0] * xi[:, 1], np.sin(xi[:, 1]), xi[:, 0] ** 3]
+    together = fit_columns(germ, xi, y)
+
+    def terms(fit, c):
+        return {tuple(a): v for a, v in zip(fit.alpha.tolist(), fit.core[:, c]) if v != 0.0}
+
+    for c in range(3):
+        alone = fit_columns(germ, xi, y[:, c:c + 1])
+        mine, ref = terms(together, c), terms(alone, 0)
+        assert mine.keys() == ref.keys()
+        np.testing.assert_allclose([mine[k] for k in ref], list(ref.values()), rtol=1e-12)
+        assert together.loo[c] == alone.loo[0] and together.degree[c] == alone.degree[0]
+
+
+def test_selected_fit_is_within_the_rule_of_every_cheap_degree():
+    """Every degree whose own LARS is cheap is scored by it, so the selected expansion's error
+    is at most any such degree's own-LARS error plus the selection rule's 1%: checked on a
+    kinked (G-function-like) output with few runs, where the largest set's shared path misses
+    low-degree fits."""
+    germ = Germ.of(InputSpace([Uniform(name=f"u{i}", dist="uniform", low=-1.0, high=1.0)
+                               for i in range(4)]))
+    xi = np.random.default_rng(4).uniform(-1.0, 1.0, size=(60, 4))
+    y = np.prod((2 * np.abs(xi) + np.array([0.0, 1.0, 4.5, 9.0])) / np.array([1, 2, 5.5, 10]),
+                axis=1)
+    chosen = fit_columns(germ, xi, y[:, None]).loo[0]
+    checked = 0
+    for q in sparse_regression.Q_GRID:
+        for p in range(1, 8):
+            alpha = basis.hyperbolic_indices(4, p, q)
+            top = sparse_regression.top_degree(4, q, sparse_regression.candidate_cap(60), 1,
+                                               None)
+            work = 60 * alpha.shape[0] * min(alpha.shape[0], 60)
+            if p > top or work > sparse_regression.OWN_LARS_WORK:
+                continue
+            own = hybrid_lars(basis.evaluate(germ, alpha, xi), y)
+            assert chosen <= 1.01 * own.loo
+            checked += 1
+    assert checked >= 10

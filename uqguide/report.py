@@ -500,9 +500,11 @@ def interval_legend(with_reference: bool) -> str:
     -------
     str
     """
-    text = ("Values: estimate [95% interval]: Monte Carlo moments by Poisson bootstrap (the "
-            "mean by +-1.96 standard errors where it has no bootstrap), quantiles by order "
-            "statistics; PCE values carry none (their error is the surrogate's, see loo_error); "
+    text = ("Values: estimate [95% interval]: Monte Carlo moments by the delta method "
+            "(+-1.96 influence-function standard errors; by Poisson bootstrap with "
+            "intervals: bootstrap, the mean then by +-1.96 standard errors where it has no "
+            "bootstrap), quantiles by order statistics; PCE values carry none (their error is "
+            "the surrogate's, see loo_error); "
             "label+cv: a validated PCE's control-variate estimate, bootstrap interval over its "
             "validation runs; 'no usable surrogate': LOO or validation error above the "
             "method's usable_error.")

@@ -6,8 +6,10 @@ Conventions, for an output ``y`` of k components at one time:
 - skewness ``E[(y-mu)^3]/sigma^3`` and kurtosis ``E[(y-mu)^4]/sigma^4`` are **non-excess**
   (a Gaussian has kurtosis 3);
 - a component with zero variance has skewness and kurtosis NaN, silently;
-- the standard error of the mean is ``sigma/sqrt(n)``; 95% intervals of std, skewness and
-  kurtosis come from a vectorised percentile bootstrap with a fixed seed.
+- the standard error of the mean is ``sigma/sqrt(n)``; 95% intervals of mean, std, skewness and
+  kurtosis come either from the delta method (influence functions evaluated with the sample's
+  central moments up to the 8th, :func:`delta_intervals`; the Monte Carlo default) or from a
+  percentile bootstrap with a fixed seed.
 
 Arrays of a time-series output carry the time axis first: ``mean (T, k)``, ``cov (T, k, k)``.
 A scalar output has no time axis: ``mean (k,)``, ``cov (k, k)``.
@@ -26,6 +28,8 @@ Two forms of the same estimators:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from math import comb
+from statistics import NormalDist
 
 import numpy as np
 
@@ -176,9 +180,93 @@ def _nan_safe_percentile(v: np.ndarray, alpha: float) -> np.ndarray:
     return res
 
 
+def delta_standard_errors(
+    mu: tuple[np.ndarray, ...], n: float,
+) -> dict[str, np.ndarray]:
+    """Delta-method (influence-function) standard errors of mean, std, skewness, kurtosis.
+
+    With ``z = (y - mean) / sigma`` and the standardized moments ``r_k = E z^k``, the influence
+    functions of the population estimators are polynomials in ``z``:
+
+    - mean: ``sigma z``;
+    - std: ``sigma (z^2 - 1) / 2``;
+    - skewness ``g = r_3``: ``z^3 - (3 g / 2) z^2 - 3 z + g / 2``;
+    - kurtosis ``k = r_4``: ``z^4 - 2 k z^2 - 4 g z + k``;
+
+    and the estimator's variance is ``E[IF^2] / n`` (Serfling 1980, section 2.2.3; the
+    skewness and kurtosis forms are eqs 2.2-2.3 of Wright & Herrington 2011 written for the
+    population estimators). ``E[IF^2]`` is a quadratic form of the coefficients in the
+    standardized moments up to ``r_8``.
+
+    Parameters
+    ----------
+    mu : tuple of ndarray
+        Population central moments ``(mu_2, ..., mu_8)``, each of shape ``(...)``.
+    n : float
+        Sample count.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (...)
+        Standard error per statistic; NaN where the variance is zero.
+    """
+    mu2 = mu[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sigma = np.sqrt(np.maximum(mu2, 0.0))
+        inv = np.where(sigma > 0, 1.0 / np.where(sigma > 0, sigma, 1.0), np.nan)
+        r = [np.ones_like(mu2), np.zeros_like(mu2), np.ones_like(mu2)]
+        r += [mu[k - 2] * inv**k for k in range(3, 9)]
+        g, k4 = r[3], r[4]
+        zero = np.zeros_like(mu2)
+        one = np.ones_like(mu2)
+        polys = {
+            "mean": [zero, one],
+            "std": [-0.5 * one, zero, 0.5 * one],
+            "skewness": [0.5 * g, -3.0 * one, -1.5 * g, one],
+            "kurtosis": [k4, -4.0 * g, -2.0 * k4, zero, one],
+        }
+        out: dict[str, np.ndarray] = {}
+        for name, c in polys.items():
+            var = np.zeros_like(mu2)
+            for i, ci in enumerate(c):
+                for j, cj in enumerate(c):
+                    var = var + ci * cj * r[i + j]
+            se = np.sqrt(np.maximum(var, 0.0) / n)
+            out[name] = se * sigma if name in ("mean", "std") else se
+    return out
+
+
+def delta_intervals(
+    mean: np.ndarray, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
+    mu: tuple[np.ndarray, ...], n: float, level: float = 0.95,
+) -> dict[str, np.ndarray]:
+    """Normal-theory intervals ``estimate +- z_(1+level)/2 SE`` with delta-method SEs.
+
+    Parameters
+    ----------
+    mean, std, skew, kurt : ndarray, shape (...)
+        The estimates.
+    mu : tuple of ndarray
+        Central moments ``(mu_2, ..., mu_8)`` of the same shape (:func:`delta_standard_errors`).
+    n : float
+        Sample count.
+    level : float
+        Coverage.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (2, ...)
+        ``(low, high)`` per statistic.
+    """
+    z = NormalDist().inv_cdf(0.5 + level / 2)
+    se = delta_standard_errors(mu, n)
+    est = {"mean": mean, "std": std, "skewness": skew, "kurtosis": kurt}
+    return {k: np.stack([est[k] - z * se[k], est[k] + z * se[k]]) for k in STAT_NAMES}
+
+
 def sample_statistics(
     y: np.ndarray, *, bootstrap: int = 200, seed: int = 0, level: float = 0.95,
-    ci_index: np.ndarray | None = None,
+    ci_index: np.ndarray | None = None, intervals: str = "bootstrap",
 ) -> OutputStats:
     """Statistics of samples ``y (n, ..., k)`` over the first axis.
 
@@ -194,12 +282,15 @@ def sample_statistics(
         For a time series, the time indices at which to bootstrap (the intervals are NaN at the
         other steps); default all steps. The bootstrap costs ``2 * bootstrap * n`` flops per
         power, column and resample, so a 1e5-sample series is bootstrapped where it is reported.
+    intervals : {"bootstrap", "delta"}
+        How the intervals are computed (``delta``: :func:`delta_intervals`, at every step,
+        ``bootstrap`` then only switches them on when positive).
 
     Returns
     -------
     OutputStats
         Moments ``(..., k)``, covariance ``(..., k, k)``, the standard error of the mean and
-        the bootstrap intervals ``ci[stat]`` ``(2, ..., k)``; ``moments_method="sample"``.
+        the intervals ``ci[stat]`` ``(2, ..., k)``; ``moments_method="sample"``.
     """
     y = np.asarray(y, dtype=float)
     n = y.shape[0]
@@ -209,7 +300,11 @@ def sample_statistics(
     mean, mu2, mu3, mu4 = central_moments(y)
     std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     ci: dict[str, np.ndarray] = {}
-    if bootstrap > 0 and n > 1:
+    if intervals == "delta" and bootstrap > 0 and n > 1:
+        d = y - mean
+        mus = [mu2, mu3, mu4] + [np.mean(d**k, axis=0) for k in range(5, 9)]
+        ci = delta_intervals(mean, std, skew, kurt, tuple(mus), n, level)
+    elif bootstrap > 0 and n > 1:
         if ci_index is None or y.ndim != 3:
             ci = bootstrap_intervals(y, bootstrap, seed, level)
         else:
@@ -250,6 +345,9 @@ class MomentSums:
         Total weight (sample count); ``(B, 1)`` for ``B`` bootstrap resamples.
     mean, m2, m3, m4 : ndarray, shape (..., k) or (B, c)
     cm : ndarray, shape (..., k, k), optional
+    high : ndarray, shape (4, ..., k), optional
+        Central sums of orders 5-8 (what the delta-method intervals of skewness and kurtosis
+        need, :func:`delta_standard_errors`); plain samples only.
     """
 
     n: float | np.ndarray
@@ -258,35 +356,83 @@ class MomentSums:
     m3: np.ndarray
     m4: np.ndarray
     cm: np.ndarray | None = None
+    high: np.ndarray | None = None
 
     @classmethod
-    def of(cls, y: np.ndarray, comoments: bool = True) -> MomentSums:
-        """Sums of plain samples over the first axis (two-pass).
+    def of(cls, y: np.ndarray, comoments: bool = True, high: bool = False) -> MomentSums:
+        """Sums of plain samples ``y (n, ..., k)`` over the first axis (two-pass).
 
         Parameters
         ----------
         y : ndarray, shape (n, ..., k)
-            Samples of one output.
+            Samples (not modified; a view of a model's buffer is fine).
         comoments : bool
-            Also sum the cross products (for the covariance).
+            Also the comoment sums ``(..., k, k)``.
+        high : bool
+            Also the central sums of orders 5-8 (:attr:`high`).
 
         Returns
         -------
         MomentSums
-            Fields ``(..., k)``, ``cm`` ``(..., k, k)`` or None.
+            Fields ``(..., k)``, ``cm`` ``(..., k, k)`` or None, ``high`` ``(4, ..., k)`` or None.
         """
         y = np.asarray(y, dtype=float)
         n = y.shape[0]
         if n == 0:
             z = np.zeros(y.shape[1:])
             cm = np.zeros(y.shape[1:] + y.shape[-1:]) if comoments else None
-            return cls(0.0, z, z.copy(), z.copy(), z.copy(), cm)
+            hi = np.zeros((4,) + y.shape[1:]) if high else None
+            return cls(0.0, z, z.copy(), z.copy(), z.copy(), cm, hi)
+        kernel = _compiled_sums()
+        if kernel is None:
+            return cls._of_numpy(y, comoments, high)
+        column_sums, comoment_sums = kernel
+        shape = y.shape[1:]
+        # explicit width: reshape(n, -1) is ambiguous for zero columns (no scalar outputs)
+        flat = np.ascontiguousarray(y).reshape(n, int(np.prod(shape)))
+        mean_flat, sums = column_sums(flat, high)
+        mean = mean_flat.reshape(shape)
+        m2, m3, m4 = (sums[r].reshape(shape) for r in range(3))
+        cm = None
+        if comoments:
+            k = shape[-1] if shape else 1
+            if k == 1:
+                # sum d d over the samples in order: the same additions as m2's
+                cm = m2[..., None].copy()
+            else:
+                lead = int(np.prod(shape[:-1])) if len(shape) > 1 else 1
+                cm = comoment_sums(flat.reshape(n, lead, k), mean.reshape(lead, k)
+                                   ).reshape(shape + (k,))
+        hi = sums[3:].reshape((4,) + shape) if high else None
+        return cls(float(n), mean, m2, m3, m4, cm, hi)
+
+    @classmethod
+    def _of_numpy(cls, y: np.ndarray, comoments: bool, high: bool) -> MomentSums:
+        """:meth:`of` in NumPy (where numba is not importable; the compiled form's reference)."""
+        n = y.shape[0]
         mean = y.mean(axis=0)
         d = y - mean
-        d2 = d * d
         cm = np.einsum("n...i,n...j->...ij", d, d) if comoments else None
-        return cls(float(n), mean, d2.sum(axis=0), (d2 * d).sum(axis=0), (d2 * d2).sum(axis=0),
-                   cm)
+        # powers built in two reused buffers (d^4 as d^2 d^2, the rounding of the merged sums
+        # the baselines were recorded with)
+        d2 = d * d
+        pw = d2 * d
+        sums = [d2.sum(axis=0), pw.sum(axis=0)]
+        np.multiply(d2, d2, out=pw)
+        sums.append(pw.sum(axis=0))
+        if high:
+            for _ in range(4):
+                pw *= d
+                sums.append(pw.sum(axis=0))
+        hi = np.stack(sums[3:]) if high else None
+        return cls(float(n), mean, sums[0], sums[1], sums[2], cm, hi)
+
+    def central_sums(self) -> list[np.ndarray]:
+        """``[m_2, ..., m_p]``: the fields and, when kept, the orders 5-8."""
+        out = [self.m2, self.m3, self.m4]
+        if self.high is not None:
+            out += list(self.high)
+        return out
 
     @classmethod
     def weighted(cls, y: np.ndarray, w: np.ndarray) -> MomentSums:
@@ -361,7 +507,11 @@ class MomentSums:
         cm = None
         if self.cm is not None and other.cm is not None:
             cm = self.cm + other.cm + np.einsum("...i,...j->...ij", delta, delta) * nab
-        return MomentSums(n, mean, m2, m3, m4, cm)
+        high = None
+        if self.high is not None and other.high is not None:
+            high = np.stack([_merge_order(p, self.central_sums(), other.central_sums(), na, nb,
+                                          delta) for p in range(5, 9)])
+        return MomentSums(n, mean, m2, m3, m4, cm, high)
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The fields as named arrays (for storage); inverse of :meth:`from_arrays`.
@@ -375,6 +525,8 @@ class MomentSums:
              "m3": self.m3, "m4": self.m4}
         if self.cm is not None:
             d["cm"] = self.cm
+        if self.high is not None:
+            d["high"] = self.high
         return d
 
     @classmethod
@@ -392,7 +544,7 @@ class MomentSums:
         """
         n = d["n"]
         return cls(float(n) if n.ndim == 0 else n, d["mean"], d["m2"], d["m3"], d["m4"],
-                   d.get("cm"))
+                   d.get("cm"), d.get("high"))
 
     def central_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0.
@@ -407,9 +559,40 @@ class MomentSums:
         return self.mean, self.m2 * inv, self.m3 * inv, self.m4 * inv
 
 
+_KERNEL: list = []
+
+
+def _compiled_sums():
+    """The compiled column sums (:mod:`uqguide.moment_sums_kernel`), imported on first use so
+    that commands computing no statistics do not load numba; None without numba."""
+    if not _KERNEL:
+        try:
+            from .moment_sums_kernel import column_sums, comoment_sums
+        except ImportError:
+            _KERNEL.append(None)
+        else:
+            _KERNEL.append((column_sums, comoment_sums))
+    return _KERNEL[0]
+
+
+def _merge_order(p: int, a: list[np.ndarray], b: list[np.ndarray], na: float | np.ndarray,
+                 nb: float | np.ndarray,
+                 delta: np.ndarray) -> np.ndarray:
+    """Central sum of order ``p`` of the union of two sample sets (Pébay 2008, eq 3.1 general
+    order): ``a``, ``b`` are ``[m_2, ..., m_p]`` of each side, ``delta = mean_b - mean_a``."""
+    n = na + nb
+    out = a[p - 2] + b[p - 2]
+    for k in range(1, p - 1):
+        # m_{p-k}; the first central sum is zero, so k stops at p - 2
+        out = out + comb(p, k) * delta**k * ((-nb / n) ** k * a[p - k - 2]
+                                             + (na / n) ** k * b[p - k - 2])
+    out = out + (na * nb * delta / n) ** p * (1.0 / nb ** (p - 1) - (-1.0 / na) ** (p - 1))
+    return out
+
+
 def statistics_from_sums(
     sums: MomentSums, boot: MomentSums | None = None, ci_index: np.ndarray | None = None,
-    level: float = 0.95,
+    level: float = 0.95, delta: MomentSums | None = None,
 ) -> OutputStats:
     """OutputStats from merged :class:`MomentSums` (the streaming form of
     :func:`sample_statistics`).
@@ -425,7 +608,11 @@ def statistics_from_sums(
     ci_index : ndarray of int, optional
         Time indices of the bootstrap columns of a series output.
     level : float
-        Coverage of the percentile intervals.
+        Coverage of the intervals.
+    delta : MomentSums, optional
+        Plain sums with the orders 5-8 (:attr:`MomentSums.high`) of the interval columns
+        (laid out as ``boot``'s): delta-method intervals (:func:`delta_intervals`), used when
+        ``boot`` is None.
 
     Returns
     -------
@@ -441,6 +628,17 @@ def statistics_from_sums(
     std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     cov = sums.cm / n if sums.cm is not None else np.full(shape + shape[-1:], np.nan)
     ci: dict[str, np.ndarray] = {}
+    if boot is None and delta is not None and delta.high is not None and n > 1:
+        inv = 1.0 / float(delta.n)
+        mus = tuple(m * inv for m in delta.central_sums())
+        dstd, dskew, dkurt = shape_moments(delta.mean, mus[0], mus[1], mus[2])
+        for name, q in delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level).items():
+            if ci_index is None:
+                ci[name] = q.reshape((2,) + shape)
+            else:
+                full = np.full((2,) + shape, np.nan)
+                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
+                ci[name] = full
     if boot is not None and n > 1:
         bm, b2, b3, b4 = boot.central_moments()
         bstd, bskew, bkurt = shape_moments(bm, b2, b3, b4)

@@ -73,7 +73,8 @@ class ModelOutput:
 
     @staticmethod
     def concatenate(parts: Sequence[ModelOutput]) -> ModelOutput:
-        """Join the outputs of consecutive chunks of one batch, in order.
+        """Join the outputs of consecutive chunks of one batch, in order (a single part is
+        returned as it is, not copied).
 
         Parameters
         ----------
@@ -88,6 +89,10 @@ class ModelOutput:
         if not parts:
             raise ModelError("cannot concatenate an empty list of model outputs")
         first = parts[0]
+        if len(parts) == 1:
+            # one part (a chunk evaluated in one model call, the usual case): nothing to join,
+            # and np.concatenate would copy every series of the chunk
+            return first
         for p in parts[1:]:
             if p.time.shape != first.time.shape or not np.array_equal(p.time, first.time):
                 raise ModelError("chunks of one run must share the time grid")

@@ -68,7 +68,9 @@ class MonteCarloReducer:
     """Reduces one chunk of Monte Carlo runs to mergeable sums (runs in the worker).
 
     Summary keys are ``"m:<field>:<output>"`` (plain sums with comoments),
-    ``"b:<field>:<output>"`` (Poisson-bootstrap sums of the interval columns) and
+    ``"h:<field>:<output>"`` (plain sums with the orders 5-8 of the interval columns, for the
+    delta-method intervals), ``"b:<field>:<output>"`` (Poisson-bootstrap sums of the interval
+    columns, when ``intervals == "bootstrap"``) and
     ``"j:<field>:"`` (all scalar outputs stacked, for their joint covariance) and, when
     quantiles are asked for, ``"q::<output>"``: the good runs' values of each series at the
     quantile steps (:func:`quantile_index`), merged by concatenation in chunk order.
@@ -80,6 +82,7 @@ class MonteCarloReducer:
     bootstrap_times: str
     quantiles: bool = False
     n_total: int = 0
+    intervals: str = "delta"
 
     def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:
         ok = ~out.failed
@@ -89,16 +92,27 @@ class MonteCarloReducer:
             # Nothing to sum: an empty summary merges as the identity (its failures are
             # counted from the chunk's mask), and an all-failed chunk may carry no time grid.
             return summary
+        # The model's arrays are reduced where they lie: a boolean mask would copy every
+        # series of the chunk, a full slice is a view.
+        keep: slice | np.ndarray = slice(None) if ok.all() else ok
+        idx = ci_index(out.time, self.report_times, self.bootstrap_times)
+        if self.intervals == "delta":
+            for name, y in [*out.series.items(), *out.scalars.items()]:
+                y_ok = y[keep]
+                _put(summary, "m", name, MomentSums.of(y_ok))
+                cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
+                _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
+            self._scalars_and_quantiles(summary, out, ok, keep)
+            return summary
         w = None
         if self.bootstrap > 0:
             # Weights for every run of the chunk (failed ones then dropped), so a sample's
             # weights do not depend on which other samples failed.
             rng = np.random.default_rng([self.boot_seed, index])
             w = poisson1(rng, (self.bootstrap, m))[:, ok]
-        idx = ci_index(out.time, self.report_times, self.bootstrap_times)
         blocks, spans = [], []
         for name, y in [*out.series.items(), *out.scalars.items()]:
-            y_ok = y[ok]
+            y_ok = y[keep]
             _put(summary, "m", name, MomentSums.of(y_ok))
             cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
             # explicit width: reshape(0, -1) is ambiguous for a chunk in which every run failed
@@ -114,14 +128,21 @@ class MonteCarloReducer:
                 _put(summary, "b", name, MomentSums(boot.n, boot.mean[:, sl], boot.m2[:, sl],
                                                     boot.m3[:, sl], boot.m4[:, sl]))
                 c0 += c
+        self._scalars_and_quantiles(summary, out, ok, keep)
+        return summary
+
+    def _scalars_and_quantiles(self, summary: dict[str, np.ndarray], out: ModelOutput,
+                               ok: np.ndarray, keep: slice | np.ndarray) -> None:
+        """The joint sums of the stacked scalars and the series values kept for quantiles."""
         _, stacked = stack_scalars(out.scalars, ok)
         _put(summary, "j", "", MomentSums.of(stacked))
         if self.quantiles and out.series:
             width = sum(y.shape[2] for y in out.series.values())
             q_idx = quantile_index(out.time, self.report_times, self.n_total, width)
             for name, y in out.series.items():
-                summary[f"q::{name}"] = y[ok] if q_idx is None else y[ok][:, q_idx]
-        return summary
+                # a copy: the chunk's buffer is released once the summary leaves the worker
+                summary[f"q::{name}"] = (y[keep].copy() if q_idx is None
+                                         else y[keep][:, q_idx])
 
 
 def _put(summary: dict[str, np.ndarray], kind: str, name: str, sums: MomentSums) -> None:

@@ -17,13 +17,18 @@ executor): each chunk is reduced where it ran to mergeable sums (count, mean, ce
 sums up to the 4th, comoments; :class:`~uqguide.stats.MomentSums`) and the chunks are merged
 in chunk order, so a 1e6-sample run never holds its time series, and the numbers do not depend
 on which process reduced which chunk. Per-sample scalar outputs are kept (they are small).
-The bootstrap intervals are a **Poisson bootstrap** (Hanley & MacGibbon 2006; Chamandy et al.
-2012): resample ``b`` gives sample ``i`` of chunk ``c`` the weight ``w_bi ~ Poisson(1)`` from the
-stream ``(boot_seed, c)``, so the weighted sums of a resample are chunk-additive and merge like
-the plain ones. For large ``n`` it has the multinomial bootstrap's distribution (a multinomial
-``(n, 1/n)`` count is asymptotically ``Poisson(1)``); failed runs get weight 0. Intervals of a
-series are computed at the report times and the last step (``bootstrap_times: report``) or at
-every step (``all``: costs ``4 B T k`` multiply-adds per sample).
+The 95% intervals of mean, std, skewness and kurtosis are by default **delta-method**
+intervals (``intervals: delta``; :func:`~uqguide.stats.delta_intervals`): the influence
+functions' variance needs the central moments up to the 8th, which the chunks sum like the
+others at the interval columns, so the intervals cost a few power sums instead of ``B``
+weighted ones. ``intervals: bootstrap`` gives instead a **Poisson bootstrap** (Hanley &
+MacGibbon 2006; Chamandy et al. 2012): resample ``b`` gives sample ``i`` of chunk ``c`` the
+weight ``w_bi ~ Poisson(1)`` from the stream ``(boot_seed, c)``, so the weighted sums of a
+resample are chunk-additive and merge like the plain ones. For large ``n`` it has the
+multinomial bootstrap's distribution (a multinomial ``(n, 1/n)`` count is asymptotically
+``Poisson(1)``); failed runs get weight 0. Intervals of a series are computed at the report
+times and the last step (``bootstrap_times: report``) or at every step (``all``; bootstrap:
+``4 B T k`` multiply-adds per sample).
 
 Quantiles (the config's ``quantiles``) are order statistics with distribution-free intervals
 (:mod:`uqguide.quantiles`): scalars from the kept per-sample values; series from each chunk's
@@ -38,7 +43,7 @@ import logging
 import time
 import zlib
 from collections import Counter
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -48,7 +53,7 @@ from ..inputs import InputSpace
 from ..types import ModelOutput
 from ..events import count_events
 from ..quantiles import order_statistic_quantiles
-from ..stats import MomentSums, OutputStats, statistics_from_sums
+from ..stats import OutputStats, statistics_from_sums
 from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
 from .mc_reduce import MonteCarloReducer, ci_index, scalar_names, split_summary
 
@@ -69,16 +74,21 @@ class MonteCarloSettings(MethodSettings):
         Design of the samples within each chunk.
     chunk_size : int
         Samples per random stream (changes the numbers; fixed so that the worker count does not).
+    intervals : {"delta", "bootstrap"}
+        How the 95% intervals of mean, std, skewness and kurtosis are computed: delta method
+        (influence functions, default; cheap) or Poisson bootstrap (``bootstrap`` resamples).
     bootstrap : int
-        Bootstrap resamples for the 95% intervals of std, skewness and kurtosis (0: none).
+        Bootstrap resamples of ``intervals: bootstrap`` (0: no intervals, whatever
+        ``intervals`` says).
     bootstrap_times : {"report", "all"}
-        Where a time series gets bootstrap intervals: at the config's report times and the
-        final step (default; cheap), or at every step.
+        Where a time series gets intervals: at the config's report times and the final step
+        (default; cheap), or at every step.
     """
 
     n_samples: int = Field(ge=1, le=100_000_000)
     sampling: Literal["random", "lhs", "sobol"] = "random"
     chunk_size: int = Field(default=8192, ge=1, le=10_000_000)
+    intervals: Literal["delta", "bootstrap"] = "delta"
     bootstrap: int = Field(default=200, ge=0, le=100_000)
     bootstrap_times: Literal["report", "all"] = "report"
 
@@ -169,14 +179,19 @@ class MonteCarlo(Method):
         return MonteCarloReducer(self.settings.bootstrap, int(design.data.get("boot_seed", 0)),
                                  self.report_times, self.settings.bootstrap_times,
                                  quantiles=self.quantile_levels is not None,
-                                 n_total=design.n_runs)
+                                 n_total=design.n_runs, intervals=self.interval_kind)
+
+    @property
+    def interval_kind(self) -> str:
+        """``delta``, ``bootstrap`` or ``none`` (``bootstrap: 0`` switches intervals off)."""
+        return self.settings.intervals if self.settings.bootstrap > 0 else "none"
 
     def fold(self, acc: dict | None, summary: dict[str, np.ndarray]) -> dict:
         """Merge a chunk: moment sums by Chan's formulas, series values for the quantiles
         by concatenation (both in chunk order)."""
         acc = {} if acc is None else acc
-        for key, sums in split_summary(summary).items():
-            acc[key] = acc[key].merge(sums) if key in acc else sums
+        for group, sums in split_summary(summary).items():
+            acc[group] = acc[group].merge(sums) if group in acc else sums
         for key, v in summary.items():
             if key.startswith("q:"):
                 k = ("q", key.split(":", 2)[2])
@@ -195,7 +210,7 @@ class MonteCarlo(Method):
         return self.estimate_reduced(space, design, runs, acc)
 
     def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
-                         acc: dict[tuple[str, str], MomentSums] | None) -> Estimate:
+                         acc: dict[tuple[str, str], Any] | None) -> Estimate:
         t0 = time.perf_counter()
         n_failed = int(runs.failed.sum())
         reasons = Counter(r for r in runs.reasons[runs.failed])
@@ -216,14 +231,16 @@ class MonteCarlo(Method):
             is_series = sums.mean.ndim == 2
             idx = ci_index(runs.time, self.report_times, self.settings.bootstrap_times) \
                 if is_series else None
-            stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx)
+            stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx,
+                                               delta=acc.get(("h", name)))
             if self.quantile_levels is not None:
                 kept = acc.get(("q", name)) or [np.empty((0,) + sums.mean.shape)]
                 values = np.concatenate(kept, axis=0) if is_series else \
                     runs.scalars[name][~runs.failed]
                 _put_quantiles(stats[name], values, self.quantile_levels, runs.time,
                                self.report_times)
-        events = count_events(list(self.events), runs.scalars, ~runs.failed, self.components) \
+        events = count_events(list(self.events), runs.scalars, ~runs.failed,
+                              dict(self.components)) \
             if self.events else {}
         names = scalar_names(runs.scalars)  # (stacking them would copy every value)
         joint = acc.get(("j", ""))
@@ -235,13 +252,16 @@ class MonteCarlo(Method):
             "sampling": self.settings.sampling,
             "bootstrap": self.settings.bootstrap,
             "bootstrap_kind": "poisson",
+            "intervals": self.interval_kind,
             "fit_seconds": time.perf_counter() - t0,
         }
         return Estimate(
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
             scalar_index=names,
             scalar_mean=joint.mean if (names and joint is not None and n_ok) else None,
-            scalar_cov=joint.cm / n_ok if (names and joint is not None and n_ok) else None,
+            scalar_cov=(np.asarray(joint.cm) / n_ok
+                        if (names and joint is not None and joint.cm is not None and n_ok)
+                        else None),
             events=events,
         )
 

@@ -67,7 +67,7 @@ from ..pce.expansion import Expansion
 from ..pce.germ import Germ
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.pca import principal_components
-from ..pce.sparse_regression import Q_GRID, fit_columns
+from ..pce.sparse_regression import Q_GRID, ColumnsFit, fit_columns
 from ..pce.surrogate import Surrogate
 from ..pce.validation import validation_unit_rows
 from .base import Design, Estimate, Method, MethodSettings, RunPlan
@@ -360,15 +360,19 @@ class AdaptivePCE(Method):
 
     def _fit_output(self, germ: Germ, xi: np.ndarray, col: OutputColumns) -> _OutputFit:
         s = self.settings
-        kw = dict(degree_min=s.degree_min, degree_max=s.degree_max, q=s.q_norm)
+
+        def fit_of(y: np.ndarray) -> ColumnsFit:
+            return fit_columns(germ, xi, y, degree_min=s.degree_min, degree_max=s.degree_max,
+                               q=s.q_norm)
+
         if col.kind == "scalar":
-            fit = fit_columns(germ, xi, col.y, **kw)
+            fit = fit_of(col.y)
             exp = Expansion(germ, fit.alpha, fit.core, col.shape)
             return _OutputFit(col, exp, float(fit.loo.max()), int(fit.degree.max()),
                               float(fit.q.max()), int(fit.alpha.shape[0]), None)
         comps = principal_components(col.y, s.variance_fraction)
         r = comps.n_components
-        fit = fit_columns(germ, xi, comps.scores, **kw)
+        fit = fit_of(comps.scores)
         core = np.zeros((fit.alpha.shape[0], r + 1))
         core[:, :r] = fit.core
         core[0, r] = 1.0  # the sample mean, mix's last row

@@ -10,10 +10,9 @@ ordinary least squares and scored by its corrected leave-one-out error
 (``r_i`` the OLS residuals, ``h_i`` the diagonal of the hat matrix, ``A (N, P)`` the active
 basis at the N design points). The set of least error is kept.
 
-The path's OLS refits share one incremental QR factorisation (Gram-Schmidt with
-re-orthogonalisation, one column per step): residuals, hat diagonal and ``trace((A^T A)^-1) =
-||R^-1||_F^2`` all update in ``O(N P)`` per step, so scoring the whole path costs about one QR
-of the largest set.
+The path's OLS refits share one QR factorisation, extended block by block as the path grows
+(:class:`LooPath`): residuals, hat diagonal and ``trace((A^T A)^-1) = ||R^-1||_F^2`` of every
+nested set follow from it, so scoring the whole path costs about one QR of the largest set.
 """
 
 from __future__ import annotations
@@ -38,11 +37,37 @@ class SparseFit:
         Their OLS coefficients.
     loo : float
         Corrected leave-one-out error (relative to the output's variance).
+    loo_se : float
+        Its standard error: that of the mean of the squared leave-one-out residuals, times the
+        same factors (0 where unknown).
     """
 
     terms: np.ndarray
     coef: np.ndarray
     loo: float
+    loo_se: float = 0.0
+
+
+class LarsBasis:
+    """A candidate basis prepared for :class:`LarsPath`, shared by the paths of several output
+    columns (the principal components of a series): the transposed basis (contiguous, one pass
+    over memory per product with every candidate) and the columns' squared norms.
+
+    Parameters
+    ----------
+    psi : ndarray, shape (N, P)
+        Candidate basis at the design points.
+    """
+
+    def __init__(self, psi: np.ndarray) -> None:
+        self.n = int(psi.shape[0])
+        self.psi_t = np.ascontiguousarray(psi.T)
+        self.norms2 = np.einsum("ij,ij->i", self.psi_t, self.psi_t)
+
+    @property
+    def psi(self) -> np.ndarray:
+        """The basis ``(N, P)`` (a transposed view)."""
+        return self.psi_t.T
 
 
 class LarsPath:
@@ -60,24 +85,38 @@ class LarsPath:
       is 1e-5 of the output: on Ishigami with 200 runs it stalled at a LOO error of 2e-7 where
       this path reaches OpenTURNS' 1e-12, with the same terms).
 
-    A step costs about one product with the ``(N, P)`` basis and a few with the inverse
-    Cholesky factor of the active columns' Gram matrix, grown by one row per step. A column
-    (nearly) in the span of the active ones is skipped. The path keeps its state, so asking
-    for more steps continues it rather than starting again.
+    A step costs one product with the ``(N, P)`` basis and two with the active columns,
+    kept orthonormalised (``Q``, by Gram-Schmidt, repeated when a column is nearly in the
+    span: "twice is enough"). The equiangular direction is ``u = A G^-1 s / sqrt(s^T G^-1 s)``
+    (``A`` the active columns, ``G = A^T A``, ``s`` the signs of their correlations, which do
+    not change on a LAR path); with ``A = Q R``, ``A G^-1 s = Q z``, ``z = R^-T s``, and ``z``
+    grows by one entry per step, ``z_new = (s_new - r . z) / d`` (``r = Q^T a_new``, ``d`` the
+    new column's distance to the span), so ``Q z`` is updated in ``O(N)``. A column (nearly)
+    in the span of the active ones is skipped. The path keeps its state, so asking for more
+    steps continues it rather than starting again.
+
+    Parameters
+    ----------
+    psi : ndarray, shape (N, P), or LarsBasis
+        Candidate basis at the design points.
+    y : ndarray, shape (N,)
+        Output at the design points.
     """
 
-    def __init__(self, psi: np.ndarray, y: np.ndarray) -> None:
-        n, p = psi.shape
+    def __init__(self, psi: np.ndarray | LarsBasis, y: np.ndarray) -> None:
+        lb = psi if isinstance(psi, LarsBasis) else LarsBasis(psi)
+        n, p = lb.n, lb.psi_t.shape[0]
+        self.basis = lb
         self.y = y
         self.cap = int(min(n - 1, p))
-        self.psi_t = np.ascontiguousarray(psi.T)  # one pass over memory per product
-        self.norms2 = np.einsum("ij,ij->j", psi, psi)
-        self.excluded = self.norms2 <= (_DEGENERATE**2) * n
-        self.linv = np.zeros((max(self.cap, 1), max(self.cap, 1)))  # inverse Cholesky factor
-        self.act = np.empty((max(self.cap, 1), n))  # the active columns, contiguous
+        size = max(self.cap, 1)
+        self.excluded = lb.norms2 <= (_DEGENERATE**2) * n
+        self.q = np.empty((size, n))  # the active columns, orthonormalised
+        self.z = np.zeros(size)  # R^-T s
+        self.qz = np.zeros(n)  # Q z = A G^-1 s
         self.active: list[int] = []
         self.fitted = np.zeros(n)
-        self.corr = self.psi_t @ y
+        self.corr = lb.psi_t @ y
         self.corr[self.excluded] = 0.0
         self.next = int(np.argmax(np.abs(self.corr)))
         self.done = self.cap < 2
@@ -89,39 +128,49 @@ class LarsPath:
         order = np.array(self.active, dtype=int)
         return order[order != 0][:max_steps]
 
+    def _refresh(self) -> None:
+        """Correlations with the residual, recomputed (the updates drift by round-off)."""
+        self.corr = self.basis.psi_t @ (self.y - self.fitted)
+
     def _step(self) -> None:
-        psi_t, j, k = self.psi_t, self.next, len(self.active)
-        b = self.act[:k] @ psi_t[j]
-        row = self.linv[:k, :k] @ b
-        d2 = self.norms2[j] - row @ row
-        if d2 <= _DEGENERATE * self.norms2[j]:
+        lb, j, k = self.basis, self.next, len(self.active)
+        q = self.q[:k]
+        col = lb.psi_t[j]
+        row = q @ col
+        v = col - row @ q
+        d2 = v @ v
+        if d2 < 0.25 * lb.norms2[j]:  # cancellation: orthogonalise once more
+            extra = q @ v
+            v -= extra @ q
+            row += extra
+            d2 = v @ v
+        if d2 <= _DEGENERATE * lb.norms2[j]:
             self.excluded[j] = True  # in the span of the active columns: adds nothing
         else:
             d = np.sqrt(d2)
-            self.linv[k, :k] = -(row @ self.linv[:k, :k]) / d
-            self.linv[k, k] = 1.0 / d
-            self.act[k] = psi_t[j]
+            s_new = 1.0 if self.corr[j] >= 0.0 else -1.0
+            z_new = (s_new - row @ self.z[:k]) / d
+            self.q[k] = v / d
+            self.z[k] = z_new
+            self.qz += (z_new / d) * v
             self.active.append(j)
             k += 1
             if k >= self.cap:
                 self.done = True
                 return
         if k % _REFRESH == 0:
-            # Exact again: the updates below drift by round-off.
-            self.corr = psi_t @ (self.y - self.fitted)
+            self._refresh()
         active = self.active
-        sign = np.sign(self.corr[active])
         c_max = np.abs(self.corr[active]).max()
-        lk = self.linv[:k, :k]
-        w = (lk @ sign) @ lk
-        scale = 1.0 / np.sqrt(sign @ w)
-        u = (w * scale) @ self.act[:k]  # the equiangular direction
-        a = psi_t @ u
+        zz = self.z[:k] @ self.z[:k]  # s^T G^-1 s
         free = ~self.excluded
         free[active] = False
-        if not free.any() or c_max <= 0.0:
+        if not free.any() or c_max <= 0.0 or zz <= 0.0:
             self.done = True
             return
+        scale = 1.0 / np.sqrt(zz)
+        u = self.qz * scale  # the equiangular direction (unit norm)
+        a = lb.psi_t @ u
         cf, af = self.corr[free], a[free]
         with np.errstate(divide="ignore", invalid="ignore"):
             g1 = (c_max - cf) / (scale - af)
@@ -143,45 +192,112 @@ def lars_order(psi: np.ndarray, y: np.ndarray, max_steps: int) -> np.ndarray:
     return LarsPath(psi, y).order(max_steps)
 
 
-def _path_scores(psi: np.ndarray, y: np.ndarray, cols: np.ndarray, var: float
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Corrected LOO errors of the nested sets ``cols[:1], cols[:2], ...`` (column 0 first).
+class LooPath:
+    """Corrected LOO errors of the nested sets of a growing path (column 0, the constant,
+    first), its QR extended block by block as the path grows.
 
-    One Householder QR of the path's columns gives every nested set's OLS residuals (cumulative
-    sums of ``Q`` columns times ``Q^T y``), hat diagonals (cumulative sums of ``Q^2``) and
-    ``trace((A^T A)^-1) = ||R^-1||_F^2`` (cumulative column norms of ``R^-1``), in BLAS-3 work.
-    Columns (nearly) in the span of the earlier ones are dropped and the QR redone.
+    A block of new columns is orthogonalised against the kept ones (classical Gram-Schmidt,
+    twice) and factorised by Householder QR; the nested sets' OLS residuals (cumulative sums of
+    ``Q`` columns times ``Q^T y``), hat diagonals (cumulative sums of ``Q^2``) and
+    ``trace((A^T A)^-1) = ||R^-1||_F^2`` (cumulative column norms of ``R^-1``, whose new
+    columns are ``[-R^-1 C Rb^-1; Rb^-1]``) follow in BLAS-3 work on the block only, so a path
+    scored again after LARS has gone on costs only its new part. A column (nearly) in the span
+    of the earlier ones is dropped.
 
-    Returns the kept columns, their scores (``inf`` where undefined), ``R`` and ``Q^T y``.
+    Parameters
+    ----------
+    psi : ndarray, shape (N, P)
+        Candidate basis at the design points.
+    y : ndarray, shape (N,)
+        Output at the design points (non-constant).
     """
-    from scipy.linalg import qr, solve_triangular  # here: `uqguide validate` starts without it
 
-    n = y.size
-    while True:
-        a = psi[:, cols]
-        r = qr(a, mode="r", check_finite=False)[0][: cols.size]
-        diag = np.abs(np.diag(r))
-        bad = diag <= _DEGENERATE * np.linalg.norm(a, axis=0)
-        if not bad.any():
-            break
-        cols = cols[~bad]
-    # Q = A R^-1 (Householder R is backward stable: Q is orthonormal to ~eps cond(A)).
-    q = solve_triangular(r, a.T, trans="T", lower=False, check_finite=False).T
-    qty = q.T @ y
-    resid = y[:, None] - np.cumsum(q * qty, axis=1)
-    hat = np.cumsum(q * q, axis=1)
-    rinv = solve_triangular(r, np.eye(r.shape[0]), lower=False, check_finite=False)
-    frob = np.cumsum((rinv * rinv).sum(axis=0))
-    p = np.arange(1, cols.size + 1)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        loo = np.mean((resid / (1.0 - hat)) ** 2, axis=0) / var * n / (n - p) * (1.0 + frob)
-    undefined = (hat >= 1.0 - 1e-10).any(axis=0) | (p >= n) | ~np.isfinite(loo)
-    loo[np.maximum.accumulate(undefined)] = np.inf  # a leverage of 1 stays 1 as terms join
-    return cols, loo, r, qty
+    def __init__(self, psi: np.ndarray, y: np.ndarray) -> None:
+        n = y.size
+        self.psi, self.y, self.n = psi, y, n
+        self.var = float(y.var(ddof=1))
+        self.fed = 0  # entries of the path consumed (kept or dropped)
+        self.cols = np.zeros(0, dtype=int)  # kept columns
+        self.loo = np.zeros(0)  # score of each nested set of the kept columns
+        self.se = np.zeros(0)  # its standard error
+        self._q = np.zeros((n, 0))
+        self._r = np.zeros((0, 0))
+        self._rinv = np.zeros((0, 0))
+        self._qty = np.zeros(0)
+        self._resid = y.astype(float).copy()
+        self._hat = np.zeros(n)
+        self._frob = 0.0
+        self._undefined = False
+
+    def feed(self, path: np.ndarray) -> None:
+        """Score ``path``'s entries past those already fed (``path`` extends the earlier one)."""
+        new = np.asarray(path[self.fed:], dtype=int)
+        self.fed = max(self.fed, len(path))
+        if new.size:
+            self._extend(new)
+
+    def _extend(self, new: np.ndarray) -> None:
+        from scipy.linalg import qr, solve_triangular  # here: `uqguide validate` starts without it
+
+        q, n, m = self._q, self.n, self.cols.size
+        while True:
+            b = self.psi[:, new]
+            norms = np.linalg.norm(b, axis=0)
+            c = q.T @ b
+            b = b - q @ c
+            c2 = q.T @ b
+            b -= q @ c2
+            c += c2
+            qb, rb = qr(b, mode="economic", check_finite=False)
+            bad = np.abs(np.diag(rb)) <= _DEGENERATE * norms
+            if not bad.any():
+                break
+            new = new[~bad]
+            if new.size == 0:
+                return
+        k = new.size
+        qty = qb.T @ self._resid  # = Qb^T y: Qb is orthogonal to the kept columns
+        resid = self._resid[:, None] - np.cumsum(qb * qty, axis=1)
+        hat = self._hat[:, None] + np.cumsum(qb * qb, axis=1)
+        rbinv = solve_triangular(rb, np.eye(k), lower=False, check_finite=False)
+        top = -self._rinv @ (c @ rbinv)
+        frob = self._frob + np.cumsum((top * top).sum(axis=0) + (rbinv * rbinv).sum(axis=0))
+        p = m + 1 + np.arange(k)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            e2 = (resid / (1.0 - hat)) ** 2
+            factor = n / (n - p) * (1.0 + frob) / self.var
+            loo = np.mean(e2, axis=0) * factor
+            se = np.std(e2, axis=0) / np.sqrt(n) * factor
+        undefined = (hat >= 1.0 - 1e-10).any(axis=0) | (p >= n) | ~np.isfinite(loo)
+        undefined = np.maximum.accumulate(undefined | self._undefined)  # a leverage of 1 stays
+        loo[undefined] = np.inf
+        r = np.zeros((m + k, m + k))
+        r[:m, :m], r[:m, m:], r[m:, m:] = self._r, c, rb
+        rinv = np.zeros((m + k, m + k))
+        rinv[:m, :m], rinv[:m, m:], rinv[m:, m:] = self._rinv, top, rbinv
+        self._q = np.hstack([q, qb])
+        self._r, self._rinv = r, rinv
+        self._qty = np.concatenate([self._qty, qty])
+        self._resid, self._hat = resid[:, -1].copy(), hat[:, -1].copy()
+        self._frob, self._undefined = float(frob[-1]), bool(undefined[-1])
+        self.cols = np.concatenate([self.cols, new])
+        self.loo = np.concatenate([self.loo, loo])
+        self.se = np.concatenate([self.se, se])
+
+    def fit(self, k: int) -> SparseFit:
+        """The OLS fit of the first ``k`` kept columns, with its score."""
+        from scipy.linalg import solve_triangular
+
+        coef = solve_triangular(self._r[:k, :k], self._qty[:k], lower=False,
+                                check_finite=False)
+        score = float(self.loo[k - 1]) if np.isfinite(self.loo[k - 1]) else float(np.inf)
+        se = float(self.se[k - 1]) if np.isfinite(score) else 0.0
+        return SparseFit(self.cols[:k].copy(), coef, score, se)
 
 
 def corrected_loo_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray,
-                       patience: int | None = None, hint: int = 0) -> SparseFit:
+                       patience: int | None = None, hint: int = 0,
+                       state: LooPath | None = None) -> SparseFit:
     """Score the nested sets ``{0} + order[:k]`` by corrected LOO; the best one refitted.
 
     Parameters
@@ -198,30 +314,34 @@ def corrected_loo_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray,
         ``O(N P^2)``. None scores the whole path.
     hint : int
         A guess of the best set's size (a neighbouring degree's), so that the first block
-        is long enough and the QR is rarely redone.
+        is long enough.
+    state : LooPath, optional
+        The scores of a shorter path that ``order`` extends (same ``psi`` and ``y``): only
+        the new part is scored. It is advanced in place.
+
+    Returns
+    -------
+    SparseFit
+        The nested set of least corrected LOO error, its OLS coefficients and its error.
     """
     n = y.size
     var = y.var(ddof=1) if n > 1 else 0.0
     if var <= 0.0:
         return SparseFit(np.zeros(1, dtype=int), np.array([y.mean()]), 0.0)
     full = np.concatenate([[0], order[: max(0, n - 2)]]).astype(int)
+    path = LooPath(psi, y) if state is None else state
     length = full.size if patience is None else min(
-        full.size, max(4 * patience, 2 * hint + patience) + 1)
+        full.size, max(4 * patience, 2 * hint + patience, path.fed) + 1)
     while True:
-        cols, loo, r, qty = _path_scores(psi, y, full[:length], var)
-        best = int(np.argmin(loo))
+        path.feed(full[:length])
+        best = int(np.argmin(path.loo))
         if length >= full.size or patience is None:
             break
         want = 2 * (best + 1) + patience
-        if want < cols.size:
+        if want < path.cols.size:
             break
         length = min(full.size, max(2 * length, want + 1))
-    k = best + 1
-    from scipy.linalg import solve_triangular
-
-    coef = solve_triangular(r[:k, :k], qty[:k], lower=False, check_finite=False)
-    score = float(loo[best]) if np.isfinite(loo[best]) else float(np.inf)
-    return SparseFit(cols[:k].copy(), coef, score)
+    return path.fit(best + 1)
 
 
 def hybrid_lars(psi: np.ndarray, y: np.ndarray) -> SparseFit:

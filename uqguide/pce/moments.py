@@ -90,7 +90,7 @@ def exact_rule(exp: Expansion, max_exact_points: int = 250_000) -> str | None:
         costs["grid"] = nodes * (trimmed.alpha.shape[0] * (1 + r) + (r + 4) * m)
     if terms <= linearisation.MAX_PRODUCT_TERMS:
         costs["linearisation"] = terms * (40 + m)
-    return min(costs, key=costs.get) if costs else None
+    return min(costs, key=costs.__getitem__) if costs else None
 
 
 def central_moments_exact(exp: Expansion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

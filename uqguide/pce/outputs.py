@@ -94,7 +94,7 @@ def assemble(
     sampling: str = "random", levels: tuple[float, ...] | None = None,
     events: tuple[EventSpec, ...] = (), components: Mapping[str, tuple[str, ...]] | None = None,
     note: Callable[[str], None] | None = None,
-) -> tuple[dict[str, OutputStats], list[str], np.ndarray | None, np.ndarray | None,
+) -> tuple[dict[str, OutputStats], list[ScalarIndex], np.ndarray | None, np.ndarray | None,
            dict[str, object], dict[str, EventEstimate]]:
     """Statistics of every output, and the stacked scalars' joint moments.
 

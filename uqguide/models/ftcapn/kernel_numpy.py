@@ -36,8 +36,9 @@ import numpy as np
 
 from .layout import (
     K_ACMAX, K_DV, K_RS, K_TFAIL, K_TSETTLE, K_TSTOP, K_TSURF, K_VS, P_ASAT, P_BETA, P_C,
-    P_CONTROL, P_DELTA, P_ROTATING, P_DT, P_EPS, P_ETA, P_N, P_NMEAN, P_RSTOP, P_SETTLE, S_AC, S_ACLOS,
-    S_DV, S_OMEGA, S_POS, S_R, S_RDOT, S_S, S_SPEED, S_VEL, S_W, ST_NONFINITE, ST_OK, ST_TMAX,
+    P_CONTROL, P_DELTA, P_ROTATING, P_DT, P_EPS, P_ETA, P_N, P_NMEAN, P_RSTOP, P_SETTLE, S_AC,
+    S_ACLOS, S_DV, S_OMEGA, S_POS, S_R, S_RDOT, S_S, S_SPEED, S_VEL, S_W, ST_NONFINITE, ST_OK,
+    ST_TMAX,
 )
 
 CHUNK = 8192
@@ -358,8 +359,10 @@ def _simulate_chunk(idx, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, stat
             ps, po, th = prev_abs_s[cross], prev_om[cross], thr[cross]
             ts, tt = t_surf[cross], t_set[cross]
             with np.errstate(divide="ignore", invalid="ignore"):
-                ts = np.where(np.isnan(ts) & (a_s <= delta), t + tau * (ps - delta) / (ps - a_s), ts)
-                tt = np.where(oms > th, np.nan, np.where(po > th, t + tau * (po - th) / (po - oms), tt))
+                ts = np.where(np.isnan(ts) & (a_s <= delta),
+                              t + tau * (ps - delta) / (ps - a_s), ts)
+                tt = np.where(oms > th, np.nan,
+                              np.where(po > th, t + tau * (po - th) / (po - oms), tt))
             t_surf[cross], t_set[cross] = ts, tt
             rows = idx[cross]
             if j + 1 <= K:

@@ -265,7 +265,7 @@ class FTCAPN(Model):
             import numba
 
             before = numba.get_num_threads()
-            most = numba.config.NUMBA_NUM_THREADS
+            most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
             numba.set_num_threads(min(p.threads, most) if p.threads else most)
             try:
                 kernel(*args)

@@ -167,7 +167,7 @@ class SampledRun:
     @property
     def collided(self) -> np.ndarray:
         """Any part hit, shape (n,)."""
-        return self.hits.any(axis=1)
+        return np.asarray(self.hits.any(axis=1))
 
 
 def saturate(u: np.ndarray, a_max: float, per_axis: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -249,7 +249,7 @@ def simulate(
     r_rec[:, 0], v_rec[:, 0] = x[:, :3], x[:, 3:]
     coast = schedule.coast_to_end() if goal is not None else None
     zem = np.empty((n, T)) if goal is not None else None
-    if zem is not None:
+    if zem is not None and coast is not None:
         zem[:, 0] = np.linalg.norm(x @ coast[0][:3].T - goal, axis=1)
     u_all = np.empty((n, N, 3)) if keep_control else None
 
@@ -278,7 +278,7 @@ def simulate(
         n_sat += limited
         if thrust_scale is not None:
             u = u * thrust_scale[:, None]
-        if thrust_noise > 0:
+        if thrust_noise > 0 and rng is not None:  # (checked above: noise needs a generator)
             u = u * (1.0 + rng.uniform(-thrust_noise, thrust_noise, size=u.shape))
         if u_all is not None:
             u_all[:, k] = u
@@ -298,7 +298,7 @@ def simulate(
             j = (k + 1) // record_every
             r_rec[:, j], v_rec[:, j] = x[:, :3], x[:, 3:]
             dv_rec[:, j] = delta_v
-            if zem is not None:
+            if zem is not None and coast is not None:
                 zem[:, j] = np.linalg.norm(x @ coast[k + 1][:3].T - goal, axis=1)
 
     if n_bad.any():

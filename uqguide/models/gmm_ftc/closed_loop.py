@@ -239,7 +239,7 @@ def run_closed_loop(
                 norm = np.linalg.norm(u, axis=1)
                 u = u * np.minimum(1.0, st.u_max / np.maximum(norm, 1e-300))[:, None]
             u = u * scale
-            if st.thrust_noise > 0:
+            if st.thrust_noise > 0 and noise_keys is not None:  # (checked on entry)
                 u = u * (1.0 + st.thrust_noise * (2.0 * noise.uniform(noise_keys, k) - 1.0))
 
             # -------- per-sample-time statistics (time t_k)
@@ -316,7 +316,8 @@ def run_closed_loop(
         bad={"bad_e": bad_e, "bad_settle": bad_settle, "bad_v": bad_v, "bad_s2": bad_s2,
              "bad_speed": bad_speed, "bad_u": bad_u},
         dt=dt, t_final=st.t_final, n_steps=N, pos_final=pos_final, speed_final=speed_final,
-        speed_max=speed_max, speed_axes=speed_axes, u_max=u_max, u_conv=u_conv, u_lo=u_lo, u_hi=u_hi,
+        speed_max=speed_max, speed_axes=speed_axes, u_max=u_max, u_conv=u_conv, u_lo=u_lo,
+        u_hi=u_hi,
         u_last=rec["u"][:, -1], delta_v=delta_v, clearance=clearance, penetration=penetration,
         hits=hits, range_min=range_min, n_guarded=n_guarded.astype(float),
         n_nonfinite=n_bad.astype(float))

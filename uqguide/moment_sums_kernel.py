@@ -1,0 +1,99 @@
+"""Compiled central sums of a chunk of samples (the hot part of :meth:`.stats.MomentSums.of`).
+
+NumPy's form of the same sums makes a temporary of the data's size for every power and reads it
+back (about ten passes over a chunk's series, each a fresh allocation the kernel must zero);
+these loops read the data twice (mean, then the powers) and keep the sums per column. The
+loop over the samples is the outer one and each column's sum is accumulated in sample order,
+which is the order of NumPy's ``sum(axis=0)`` on a C-ordered array, so both forms give the
+same sums up to the rounding of the powers (the tests compare them).
+
+``numba.njit`` directly, not :func:`uqguide.models.kernels.njit`: statistics sit below the
+models in the import layers. numba itself falls back to a user-wide cache folder where the
+package's ``__pycache__`` cannot be written.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from numba import njit
+
+
+@njit(cache=True, error_model="numpy")
+def column_sums(y: np.ndarray, high: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and central sums of the columns of ``y``.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n, c)
+        C-ordered samples (rows) of ``c`` columns; ``n >= 1``.
+    high : bool
+        Also the orders 5-8.
+
+    Returns
+    -------
+    mean : ndarray, shape (c,)
+    sums : ndarray, shape (3, c) or (7, c)
+        Central sums of orders 2, 3, 4 (and 5-8).
+    """
+    n, c = y.shape
+    acc = np.zeros(c)
+    for i in range(n):
+        for j in range(c):
+            acc[j] += y[i, j]
+    mean = acc / n
+    rows = 7 if high else 3
+    s = np.zeros((rows, c))
+    s2, s3, s4 = s[0], s[1], s[2]
+    if high:
+        s5, s6, s7, s8 = s[3], s[4], s[5], s[6]
+        for i in range(n):
+            for j in range(c):
+                d = y[i, j] - mean[j]
+                d2 = d * d
+                s2[j] += d2
+                s3[j] += d2 * d
+                p = d2 * d2
+                s4[j] += p
+                p = p * d
+                s5[j] += p
+                p = p * d
+                s6[j] += p
+                p = p * d
+                s7[j] += p
+                p = p * d
+                s8[j] += p
+    else:
+        for i in range(n):
+            for j in range(c):
+                d = y[i, j] - mean[j]
+                d2 = d * d
+                s2[j] += d2
+                s3[j] += d2 * d
+                s4[j] += d2 * d2
+    return mean, s
+
+
+@njit(cache=True, error_model="numpy")
+def comoment_sums(y: np.ndarray, mean: np.ndarray) -> np.ndarray:
+    """Comoment sums ``sum_i (y_i - mean)(y_i - mean)^T`` of every group of ``k`` components.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n, P, k)
+        C-ordered samples.
+    mean : ndarray, shape (P, k)
+
+    Returns
+    -------
+    ndarray, shape (P, k, k)
+    """
+    n, P, k = y.shape
+    cm = np.zeros((P, k, k))
+    for i in range(n):
+        for q in range(P):
+            for a in range(k):
+                da = y[i, q, a] - mean[q, a]
+                for b in range(k):
+                    cm[q, a, b] += da * (y[i, q, b] - mean[q, b])
+    return cm
