@@ -450,7 +450,7 @@ def render_text(result: Result) -> str:
     str
         Cost, statistics, events, series agreement, legend and failures, as plain text.
     """
-    parts = ["Cost", cost_table(result).to_string(index=False)]
+    parts = ["Cost", cost_table(result).to_string(index=False, na_rep="")]
     val = validation_table(result)
     if not val.empty:
         parts += ["", "PCE validation (PCE value; control-variate value with its 95% bootstrap "
