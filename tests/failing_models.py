@@ -8,6 +8,21 @@ import time
 import numpy as np
 
 
+def mc_config(function: str, n: int, chunk: int, seed: int = 11, bootstrap: int = 0,
+              **top: object) -> dict:
+    """A Monte Carlo config over ``function(a, b)``, a ~ N(0, 1), b ~ U(0, 2), output ``y``:
+    the shared study of the execution, resume and fault tests."""
+    return {
+        "model": {"name": "callable", "function": function, "inputs": ["a", "b"],
+                  "outputs": ["y"]},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                   {"name": "b", "dist": "uniform", "low": 0.0, "high": 2.0}],
+        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": n, "chunk_size": chunk,
+                     "bootstrap": bootstrap}],
+        "seed": seed, **top,
+    }
+
+
 def flaky(x):
     """``y = a + b^2`` and a series ``a t``; fails on about 5% of samples, two ways:
     ``a > 1.96`` (2.5% of a standard normal) raises, ``a < -1.96`` gives NaN."""

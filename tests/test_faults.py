@@ -21,21 +21,15 @@ from click.testing import CliRunner
 from uqguide.cli import main
 from uqguide.result import read_hdf5
 
+from .failing_models import mc_config
+
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
 def _config(function: str = "tests.failing_models:clean_sum", n: int = 400, chunk: int = 50,
             seed: int = 11, **top) -> dict:
-    return {
-        "model": {"name": "callable", "function": function, "inputs": ["a", "b"],
-                  "outputs": ["y"]},
-        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
-                   {"name": "b", "dist": "uniform", "low": 0.0, "high": 2.0}],
-        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": n, "chunk_size": chunk,
-                     "bootstrap": 0}],
-        "seed": seed, **top,
-    }
+    return mc_config(function, n, chunk, seed, **top)
 
 
 def _write(path: Path, cfg: dict) -> Path:

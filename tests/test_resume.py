@@ -20,19 +20,13 @@ from click.testing import CliRunner
 from uqguide.cli import main
 from uqguide.result import read_hdf5
 
+from .failing_models import mc_config
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _config(function: str, n: int = 2000, chunk: int = 100) -> dict:
-    return {
-        "model": {"name": "callable", "function": function, "inputs": ["a", "b"],
-                  "outputs": ["y"]},
-        "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
-                   {"name": "b", "dist": "uniform", "low": 0.0, "high": 2.0}],
-        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": n, "chunk_size": chunk,
-                     "bootstrap": 40}],
-        "seed": 11,
-    }
+    return mc_config(function, n, chunk, bootstrap=40)
 
 
 def _stats(h5: Path) -> dict[str, np.ndarray]:
