@@ -655,6 +655,3 @@ def statistics_from_sums(
     return OutputStats(mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=cov, n_used=n,
                        moments_method="sample", sem=std / np.sqrt(n), ci=ci)
 
-
-# The name two PCE modules used before it was public.
-_shape_moments = shape_moments

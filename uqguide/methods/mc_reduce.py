@@ -134,7 +134,7 @@ class MonteCarloReducer:
     def _scalars_and_quantiles(self, summary: dict[str, np.ndarray], out: ModelOutput,
                                ok: np.ndarray, keep: slice | np.ndarray) -> None:
         """The joint sums of the stacked scalars and the series values kept for quantiles."""
-        _, stacked = stack_scalars(out.scalars, ok)
+        stacked = stack_scalars(out.scalars, ok)
         _put(summary, "j", "", MomentSums.of(stacked))
         if self.quantiles and out.series:
             width = sum(y.shape[2] for y in out.series.values())
@@ -166,15 +166,11 @@ def scalar_names(scalars: dict[str, np.ndarray]) -> list[ScalarIndex]:
     return ScalarIndex.stacked((name, y.shape[1]) for name, y in scalars.items())
 
 
-def stack_scalars(scalars: dict[str, np.ndarray], ok: np.ndarray) -> tuple[list[str], np.ndarray]:
-    """All scalar outputs of the good runs side by side ``(n_ok, m)`` with their names."""
-    names: list[str] = []
-    cols = []
-    for name, y in scalars.items():
-        k = y.shape[1]
-        names += [name] if k == 1 else [f"{name}[{j}]" for j in range(k)]
-        cols.append(y[ok])
+def stack_scalars(scalars: dict[str, np.ndarray], ok: np.ndarray) -> np.ndarray:
+    """All scalar outputs of the good runs side by side ``(n_ok, m)``, in the column order of
+    :func:`scalar_names`."""
+    cols = [y[ok] for y in scalars.values()]
     if not cols:
-        return names, np.empty((int(ok.sum()), 0))
-    return names, np.concatenate(cols, axis=1)
+        return np.empty((int(ok.sum()), 0))
+    return np.concatenate(cols, axis=1)
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..types import DerivedOutput
-from ..stats import OutputStats, _shape_moments
+from ..stats import OutputStats, shape_moments
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
@@ -141,7 +141,7 @@ def _stats(acc: _Sums, shape: tuple[int, ...], n_runs: int) -> OutputStats:
     mu2 = s2 - s1**2
     mu3 = s3 - 3 * s1 * s2 + 2 * s1**3
     mu4 = s4 - 4 * s1 * s3 + 6 * s1**2 * s2 - 3 * s1**4
-    std, skew, kurt = _shape_moments(mean, mu2, mu3, mu4)
+    std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     cov = acc.cross / n - np.einsum("...i,...j->...ij", s1, s1)
     return OutputStats(mean=mean.reshape(shape), std=std.reshape(shape),
                        skewness=skew.reshape(shape), kurtosis=kurt.reshape(shape), cov=cov,

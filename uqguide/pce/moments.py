@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..stats import OutputStats, _shape_moments
+from ..stats import OutputStats, shape_moments
 from . import basis, linearisation
 from .design import surrogate_draws
 from .expansion import Expansion
@@ -190,9 +190,9 @@ def output_statistics(
     # The reported std is the exact one, and it decides which columns have zero variance (with
     # the threshold of uqguide.stats, so PCE and Monte Carlo agree on what is "zero").
     zeros = np.zeros_like(var)
-    std, flag, _ = _shape_moments(mean.ravel(), var, zeros, zeros)
+    std, flag, _ = shape_moments(mean.ravel(), var, zeros, zeros)
     zero = np.isnan(flag)
-    _, skew, kurt = _shape_moments(mean.ravel(), mu2, mu3, mu4)
+    _, skew, kurt = shape_moments(mean.ravel(), mu2, mu3, mu4)
     skew = np.where(zero, np.nan, skew)
     kurt = np.where(zero, np.nan, kurt)
     first, total = sobol_indices(exp)
