@@ -228,7 +228,8 @@ class FTAS(Model):
         """Integrate one run per variant with the given input values (timing overrides allowed)."""
         p = self.params
         batch = self.make_batch(values, variants)
-        return run_batch(batch, p.plant(), p.gains(), p.timing(**timing), record, p.kernel)
+        return run_batch(batch, p.plant(), p.gains(), p.timing(**timing), record, p.kernel,
+                         p.threads)
 
     def _evaluate(
         self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]

@@ -58,6 +58,10 @@ class FTASParams(ModelParams):
         default="numba", description="compiled kernel, the (slow) numpy whole-run reference, "
         "or 'auto' (numba when importable)"
     )
+    threads: int = Field(
+        default=0, ge=0, description="threads of the numba kernel (blocks of samples in "
+        "parallel); 0: all cores (set 1 when batches already run in parallel worker processes)"
+    )
     # --- integration (section 9)
     step: PositiveFloat = Field(default=0.01, description="RK4 / ZOH step [s]")
     duration: PositiveFloat = Field(default=3000.0, description="horizon [s]")

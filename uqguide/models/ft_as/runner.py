@@ -137,6 +137,7 @@ def run_batch(
     timing: Timing,
     record: Iterable[str] = (),
     kernel_name: str = "numba",
+    threads: int = 0,
 ) -> RunResult:
     """Integrate ``batch`` with the numba kernel (or its numpy reference).
 
@@ -152,6 +153,9 @@ def run_batch(
     kernel_name : {"numba", "numpy", "auto"}
         ``numpy``: the whole-run reference of ``reference_run.py`` (same numbers to rounding,
         ~100x slower for small batches).
+    threads : int
+        Threads of the compiled kernel (blocks of samples run in parallel); 0: all cores. The
+        numbers do not depend on it.
 
     Returns
     -------
@@ -186,39 +190,33 @@ def run_batch(
             tols, rec, offsets, settle, final_max, peak_app, peak_cmd, peak_late, impulse, failed,
         )  # fmt: skip
     else:
-        kernel.simulate(
-            np.ascontiguousarray(batch.x0, dtype=float),
-            np.asarray(batch.mass_offset, dtype=float),
-            np.asarray(batch.inertia_scale_error, dtype=float),
-            np.asarray(batch.force_amp, dtype=float),
-            np.asarray(batch.torque_amp, dtype=float),
-            np.asarray(batch.controller, dtype=np.int64),
-            np.asarray(batch.observer_on_applied, dtype=np.bool_),
-            np.asarray(batch.psi2_bound, dtype=float),
-            np.asarray(batch.omega_chi, dtype=float),
-            np.asarray(batch.switch_input, dtype=np.bool_),
-            pack_constants(plant, gains),
-            np.ascontiguousarray(plant.J0, dtype=float),
-            np.ascontiguousarray(plant.J0_inv),
-            P,
-            Q,
-            np.asarray(plant.limits, dtype=float),
-            float(timing.step),
-            n_steps,
-            every,
-            final_start,
-            late_start,
-            tols,
-            rec,
-            offsets,
-            settle,
-            final_max,
-            peak_app,
-            peak_cmd,
-            peak_late,
-            impulse,
-            failed,
-        )
+        import numba
+
+        before = numba.get_num_threads()
+        most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
+        used = min(threads, most) if threads else most
+        numba.set_num_threads(used)
+        try:
+            kernel.simulate(
+                np.ascontiguousarray(batch.x0, dtype=float),
+                np.asarray(batch.mass_offset, dtype=float),
+                np.asarray(batch.inertia_scale_error, dtype=float),
+                np.asarray(batch.force_amp, dtype=float),
+                np.asarray(batch.torque_amp, dtype=float),
+                np.asarray(batch.controller, dtype=np.int64),
+                np.asarray(batch.observer_on_applied, dtype=np.bool_),
+                np.asarray(batch.psi2_bound, dtype=float),
+                np.asarray(batch.omega_chi, dtype=float),
+                np.asarray(batch.switch_input, dtype=np.bool_),
+                pack_constants(plant, gains),
+                np.ascontiguousarray(plant.J0, dtype=float),
+                np.ascontiguousarray(plant.J0_inv),
+                P, Q, np.asarray(plant.limits, dtype=float), float(timing.step), n_steps, every,
+                final_start, late_start, tols, rec, offsets, settle, final_max, peak_app,
+                peak_cmd, peak_late, impulse, failed, kernel.block_size(n, used),
+            )  # fmt: skip
+        finally:
+            numba.set_num_threads(before)
     wall = time.perf_counter() - t0
     log.debug("ft_as kernel: %d runs x %d steps in %.2f s", n, n_steps, wall)
     records = {
