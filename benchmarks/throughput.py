@@ -63,10 +63,20 @@ of each kernel; they round to the nearest ten and are good to about +-30 %):
   12-kernel potential and its third derivative (~150 per kernel: 1800; law ~200 incl. 6 pow =
   320); attitude of the spinning target (~60 incl. sin/cos = 40); RK4 of the 6-state plant, four
   right-hand sides of ~70 (280); geometry per sub-step and metrics (~200). About 2,600.
-- ``ft_as`` (a step = one RK4 step of the 6-DOF loop): four right-hand sides, each MRP
-  kinematics matrices (~80), the true body accelerations (~60) and the observer (~100): ~240, so
-  960; the FT-AS law once per step with its fractional powers (~12 pow = 240, ~200 add/mul);
-  the 36-entry combination of the stages (~150); metrics (~100). About 1,650.
+- ``ft_as`` (a step = one RK4 step of the 6-DOF loop of the FT-AS controller), counted on the
+  kernel's loop: four right-hand sides, each the MRP kinematics and tracking terms (~180),
+  the differential gravity (~30 + 1 sqrt + 2 div = 55), the true body accelerations with the
+  adjugate solve (~90 + 1 div = 100), mass and force (~15 + 1 div = 25) and the observer (M u
+  with 3 div, norms, ``lam1 |eps|^(1/2) + lam2 |eps|^p`` with 2 sqrt + log + exp, 1 div,
+  ~90 add/mul = 175): ~530, so 2,120; the law once per step, per channel 4 log + 5 exp (the
+  fractional powers share their logarithms), 5 div and ~30 add/mul = 250, so 1,500 with ~60
+  for ``M^-1``; the input saturation (6 tanh + 6 div = 170); the stage combination and the
+  finiteness test (3 x 72 + 180 + 36 = ~430); metrics (7 norms, 35 tolerance tests, peaks,
+  envelope: ~220); the time-only terms, once per step for a block of samples (~500 per block,
+  ~40 per sample). About 4,500. (This count replaced one of 1,650 on 2026-11-23 that had
+  the law at 12 pow where the loop then made 54, and left out the divisions, the gravity and
+  the observer's powers; with either count, issue 16's "3x the samples per CPU-second" comes
+  before its "within a factor 2 of the floor".)
 
 The floor ignores the branches, the data-dependent stopping and the transcendental functions'
 latency chains that a real loop carries: it is a bound, not a forecast.
@@ -121,7 +131,7 @@ LOOP_COUNTS: dict[str, tuple[float, float]] = {
     "ftcapn": (160.0, 16.0),
     "gmm_proximity": (450.0, 0.0),
     "gmm_ftc": (2600.0, 0.0),
-    "ft_as": (1650.0, 0.0),
+    "ft_as": (4500.0, 0.0),
 }
 
 _MACHINE: dict[str, float] = {}

@@ -107,6 +107,24 @@ def test_samples_are_independent_of_the_batch():
         np.testing.assert_array_equal(both.scalars[k][1:], one.scalars[k])
 
 
+@pytest.mark.parametrize("threads,block", [(1, 1), (2, 2), (2, 5)])
+def test_samples_do_not_depend_on_the_thread_count_or_the_block(monkeypatch, threads, block):
+    # a block of samples shares the clock (time-only terms) and runs on one thread: a sample's
+    # numbers must be the same bits whichever block and thread it lands in
+    from uqguide.models.ft_as import kernel
+
+    kw = {"step": 0.1, "duration": 60.0, "output_interval": 10.0, "final_window": 20.0}
+    x = np.array([[0.8, 1e-3], [1.2, 5e-3], [1.0, 0.0], [0.9, 2e-3], [1.1, 8e-3]])
+    names = ["initial_error_scale", "force_disturbance_amplitude"]
+    ref = FTAS({**kw, "threads": 1}).evaluate(x, names)
+    monkeypatch.setattr(kernel, "block_size", lambda n, t: block)
+    out = FTAS({**kw, "threads": threads}).evaluate(x, names)
+    for k in ref.scalars:
+        np.testing.assert_array_equal(out.scalars[k], ref.scalars[k], err_msg=k)
+    for k in ref.series:
+        np.testing.assert_array_equal(out.series[k], ref.series[k], err_msg=k)
+
+
 def test_nonfinite_sample_is_flagged_not_raised():
     model = FTAS({"step": 0.1, "duration": 20.0, "output_interval": 10.0, "final_window": 5.0})
     x = np.array([[1e-3], [np.inf], [1e-3]])

@@ -22,7 +22,7 @@ How the loop is laid out, and why (``benchmarks/throughput.py`` prints its roofl
   same time).
 - Fractional powers share their logarithms: the law needs ``|e1|^b``, ``|e1|^(b-1)``,
   ``|e2|^(a-1)``, ``|e2|^(2-a)``, ``|kappa e2|^a``, ``kappa^-a``, ``|s|^r2`` and ``|s|^rho2``,
-  which are four logarithms and five exponentials (:func:`_law_channel`) instead of nine
+  which are four logarithms and five exponentials (:func:`_law`) instead of nine
   ``pow`` calls; ``(1 + q)^-1.5 - 1`` of the differential gravity is a square root and a
   division written without cancellation instead of ``expm1(-1.5 log1p(q))``. They differ from
   the NumPy reference by a few ulps, like two libm's.
@@ -170,9 +170,8 @@ def _terms(ck, x, nt, J0, J0i):
     G20 = 0.5 * (-s1 + s2 * s0)
     G21 = 0.5 * (s0 + s2 * s1)
     G22 = a + 0.5 * s2 * s2
-    opq2 = (1.0 + q) ** 2
-    k = 16.0 / opq2
-    d = 1.0 / opq2
+    d = 1.0 / (1.0 + q) ** 2
+    k = 16.0 * d  # 16 / (1 + q)^2 to the bit
     w = 4.0 * (1.0 - q)
     # third column of C(sigma): omega_t = [0, 0, n_t]
     C02 = d * (8.0 * (s0 * s2) - w * s1)
@@ -256,10 +255,10 @@ def _true_body_acc(ck, x, tau0, tau1, tau2, J0, inertia_err, a_tau):
     c11 = J00 * J22 - J02 * J02
     c12 = J01 * J02 - J00 * J12
     c22 = J00 * J11 - J01 * J01
-    det = J00 * c00 + J01 * c01 + J02 * c02
-    return ((c00 * b0 + c01 * b1 + c02 * b2) / det,
-            (c01 * b0 + c11 * b1 + c12 * b2) / det,
-            (c02 * b0 + c12 * b1 + c22 * b2) / det)  # fmt: skip
+    inv_det = 1.0 / (J00 * c00 + J01 * c01 + J02 * c02)
+    return ((c00 * b0 + c01 * b1 + c02 * b2) * inv_det,
+            (c01 * b0 + c11 * b1 + c12 * b2) * inv_det,
+            (c02 * b0 + c12 * b1 + c22 * b2) * inv_det)  # fmt: skip
 
 
 @njit(cache=True, error_model="numpy")
@@ -272,11 +271,11 @@ def _rhs(ck, tr, x, dx, u, m_off, inertia_err, a_f, a_tau, omega_chi, case2, c, 
     """
     m0 = c[K_M0]
     s1t, s3t, c2t = ck[0], ck[2], ck[3]
-    m = m0 + 1.0 + 0.1 * s1t + m_off
+    inv_m = 1.0 / (m0 + 1.0 + 0.1 * s1t + m_off)  # divisions are the costly flops here
     dx[0], dx[1], dx[2] = x[3], x[4], x[5]
-    dx[3] = tr[0] + (u[0] + a_f * s1t) / m
-    dx[4] = tr[1] + (u[1] + a_f * c2t) / m
-    dx[5] = tr[2] + (u[2] + a_f * s3t) / m
+    dx[3] = tr[0] + (u[0] + a_f * s1t) * inv_m
+    dx[4] = tr[1] + (u[1] + a_f * c2t) * inv_m
+    dx[5] = tr[2] + (u[2] + a_f * s3t) * inv_m
     e2_3, e2_4, e2_5 = tr[6], tr[7], tr[8]
     dx[6], dx[7], dx[8] = e2_3, e2_4, e2_5
     acc = _true_body_acc(ck, x, u[3], u[4], u[5], J0, inertia_err, a_tau)
@@ -296,15 +295,17 @@ def _rhs(ck, tr, x, dx, u, m_off, inertia_err, a_f, a_tau, omega_chi, case2, c, 
         n_t = math.sqrt(p0**2 + p1**2 + p2**2 + p3**2 + p4**2 + p5**2)
         n_r = n_t
     lam1, lam2, lam3, p = c[K_LAM1], c[K_LAM2], c[K_LAM3], c[K_OBS_P]
-    # gain of unit(eps1): lam1 |eps1|^(1/2) + lam2 |eps1|^p, once per norm (pow is costly)
-    g_t = lam1 * math.sqrt(n_t) + lam2 * n_t**p
-    g_r = g_t if n_r == n_t else lam1 * math.sqrt(n_r) + lam2 * n_r**p
-    un0 = p0 / n_t if n_t > 0.0 else 0.0
-    un1 = p1 / n_t if n_t > 0.0 else 0.0
-    un2 = p2 / n_t if n_t > 0.0 else 0.0
-    un3 = p3 / n_r if n_r > 0.0 else 0.0
-    un4 = p4 / n_r if n_r > 0.0 else 0.0
-    un5 = p5 / n_r if n_r > 0.0 else 0.0
+    # gain of unit(eps1): lam1 |eps1|^(1/2) + lam2 |eps1|^p, once per norm; at 0 the unit
+    # vector is 0 and the gain does not matter
+    g_t = lam1 * math.sqrt(n_t) + lam2 * math.exp(p * math.log(n_t)) if n_t > 0.0 else 0.0
+    if n_r == n_t:
+        g_r = g_t
+    else:
+        g_r = lam1 * math.sqrt(n_r) + lam2 * math.exp(p * math.log(n_r)) if n_r > 0.0 else 0.0
+    i_t = 1.0 / n_t if n_t > 0.0 else 0.0
+    i_r = 1.0 / n_r if n_r > 0.0 else 0.0
+    un0, un1, un2 = p0 * i_t, p1 * i_t, p2 * i_t
+    un3, un4, un5 = p3 * i_r, p4 * i_r, p5 * i_r
     dx[12] = -g_t * un0 + x[18] + (v[0] + tr[0])
     dx[13] = -g_t * un1 + x[19] + (v[1] + tr[1])
     dx[14] = -g_t * un2 + x[20] + (v[2] + tr[2])
@@ -330,49 +331,34 @@ def _rhs(ck, tr, x, dx, u, m_off, inertia_err, a_f, a_tau, omega_chi, case2, c, 
 
 
 @njit(cache=True, error_model="numpy")
-def _sliding(e1k, e2k, c):
-    """``s_k = e1 + sig^a(kappa e2)`` (eq 26-27) of one channel, with ``1/kappa`` and the
-    logarithms it needs: ``(s, 1/kappa, log|e1|, log|e2|, |e2|^(a-1))`` (logs -inf at 0)."""
+def _sliding(z, c, w):
+    """``s_k = e1 + sig^a(kappa e2)`` (eq 26-27) of the six channels of ``z = (e1, e2)`` (12).
+
+    Writes ``s`` into ``w[0]`` and keeps for the law ``1/kappa`` (``w[1]``), ``|e1|^b``
+    (``w[2]``), ``f = |e2|^(a-1)`` (``w[3]``) and ``kappa^-a`` (``w[4]``); ``w`` is (8, 6)
+    scratch. Each transcendental runs as its own pass over the channels: the six calls of a
+    pass are independent, so the core overlaps them instead of waiting on one channel's chain
+    ``log -> exp -> log -> exp``.
+    """
     a, b = c[K_A], c[K_B]
-    ae1, ae2 = abs(e1k), abs(e2k)
-    l1 = math.log(ae1) if ae1 > 0.0 else -math.inf
-    l2 = math.log(ae2) if ae2 > 0.0 else -math.inf
-    base = c[K_NU1] * math.exp(b * l1) + c[K_ETA1]  # 1 / kappa
-    f = math.exp((a - 1.0) * l2)  # |e2|^(a-1); 0 at e2 = 0
-    # |kappa e2|^a = |e2| f / base^a
-    k_a = math.exp(a * math.log(base))  # kappa^-a
-    sk = e1k + math.copysign(ae2 * f / k_a, e2k) if ae2 > 0.0 else e1k
-    return sk, base, l1, l2, f, k_a
-
-
-@njit(cache=True, error_model="numpy")
-def _law_channel(e1k, e2k, hk, dk, c, switch_input):
-    """FT-NTSM law (eq 29 / 42) on one channel: ``(s_k, v_k)``, ``v`` in e2-acceleration units
-    before ``M^-1``."""
-    b, cc = c[K_B], c[K_C]
-    eps = c[K_EPS]
-    sk, base, l1, l2, f, k_a = _sliding(e1k, e2k, c)
-    ls = math.log(abs(sk)) if sk != 0.0 else -math.inf
-    reach = math.copysign(c[K_NU2] * math.exp(c[K_R2] * ls) + c[K_ETA2] * math.exp(c[K_RHO2] * ls),
-                          sk) if sk != 0.0 else 0.0  # fmt: skip
-    if e2k == 0.0:
-        g = 1.0  # [A9]
-        e2pow = 0.0
-    else:
-        phi = math.sin(math.pi * f / (2.0 * eps)) if f < eps else 1.0
-        g = phi / f
-        e2pow = math.copysign(abs(e2k) / f, e2k)  # sig^(2-a)(e2)
-    # sig^(b-1)(e1) e2^2 = sign(e1) |e1|^b / |e1| e2^2
-    e1pow = math.copysign(math.exp(b * l1) / abs(e1k), e1k) if e1k != 0.0 else 0.0
-    kappa = 1.0 / base
-    v = (c[K_NU1] * b * kappa * e1pow * e2k * e2k
-         - cc * k_a * e2pow
-         - cc * k_a * g * reach
-         - hk
-         - dk)  # fmt: skip
-    if not switch_input:
-        v -= c[K_GAMMA] * _switch(sk, c[K_BOUNDARY])
-    return sk, v
+    nu1, eta1 = c[K_NU1], c[K_ETA1]
+    for k in range(6):
+        ae1, ae2 = abs(z[k]), abs(z[6 + k])
+        w[5, k] = math.log(ae1) if ae1 > 0.0 else -math.inf
+        w[6, k] = math.log(ae2) if ae2 > 0.0 else -math.inf
+    for k in range(6):
+        w[2, k] = math.exp(b * w[5, k])  # |e1|^b; 0 at e1 = 0
+        w[3, k] = math.exp((a - 1.0) * w[6, k])  # |e2|^(a-1); 0 at e2 = 0
+    for k in range(6):
+        base = nu1 * w[2, k] + eta1  # 1 / kappa
+        w[1, k] = base
+        w[7, k] = math.log(base)
+    for k in range(6):
+        k_a = math.exp(a * w[7, k])  # kappa^-a
+        w[4, k] = k_a
+        e1, e2 = z[k], z[6 + k]
+        # sig^a(kappa e2) = sign(e2) |e2| |e2|^(a-1) kappa^a
+        w[0, k] = e1 + math.copysign(abs(e2) * w[3, k] / k_a, e2) if e2 != 0.0 else e1
 
 
 @njit(cache=True, error_model="numpy")
@@ -381,15 +367,48 @@ def _switch(s, bl):
 
 
 @njit(cache=True, error_model="numpy")
-def _law(z, hd, tr, J0, m0, switch_input, c, out):
-    """FT-NTSM command (eq 29 / 42) from ``z = (z1 (6), z2 (6))`` and ``hd`` = hbar + d_hat
-    (6): writes ``u`` into ``out[0:6]`` and ``s`` into ``out[6:12]``."""
-    s0, v0 = _law_channel(z[0], z[6], hd[0], hd[6], c, switch_input)
-    s1, v1 = _law_channel(z[1], z[7], hd[1], hd[7], c, switch_input)
-    s2, v2 = _law_channel(z[2], z[8], hd[2], hd[8], c, switch_input)
-    s3, v3 = _law_channel(z[3], z[9], hd[3], hd[9], c, switch_input)
-    s4, v4 = _law_channel(z[4], z[10], hd[4], hd[10], c, switch_input)
-    s5, v5 = _law_channel(z[5], z[11], hd[5], hd[11], c, switch_input)
+def _law(z, hd, tr, J0, m0, switch_input, c, out, w):
+    """FT-NTSM command (eq 29 / 42) from ``z = (z1 (6), z2 (6))`` and ``hd`` = (hbar, d_hat)
+    (12): writes ``u`` into ``out[0:6]`` and ``s`` into ``out[6:12]``; ``w`` is (8, 6) scratch.
+
+    The fractional powers share their logarithms (module docstring): ``sig^(b-1)(e1) =
+    sign(e1) |e1|^b / |e1|``, ``sig^(2-a)(e2) = sign(e2) |e2| / f``, and ``|s|^r2``,
+    ``|s|^rho2`` from one ``log |s|``.
+    """
+    b, cc, eps = c[K_B], c[K_C], c[K_EPS]
+    nu1, nu2, eta2, r2, rho2 = c[K_NU1], c[K_NU2], c[K_ETA2], c[K_R2], c[K_RHO2]
+    gamma, bl = c[K_GAMMA], c[K_BOUNDARY]
+    _sliding(z, c, w)
+    for k in range(6):
+        sk = w[0, k]
+        w[5, k] = math.log(abs(sk)) if sk != 0.0 else -math.inf
+    for k in range(6):
+        sk = w[0, k]
+        ls = w[5, k]
+        # sig^r2(s) and sig^rho2(s) in the reaching law; 0 at s = 0
+        w[6, k] = math.copysign(nu2 * math.exp(r2 * ls) + eta2 * math.exp(rho2 * ls), sk)
+    for k in range(6):
+        e1k, e2k = z[k], z[6 + k]
+        f, k_a = w[3, k], w[4, k]
+        if e2k == 0.0:
+            g = 1.0  # [A9]
+            e2pow = 0.0
+        else:
+            phi = math.sin(math.pi * f / (2.0 * eps)) if f < eps else 1.0
+            g = phi / f
+            e2pow = math.copysign(abs(e2k) / f, e2k)  # sig^(2-a)(e2)
+        e1pow = math.copysign(w[2, k] / abs(e1k), e1k) if e1k != 0.0 else 0.0  # sig^(b-1)
+        kappa = 1.0 / w[1, k]
+        v = (nu1 * b * kappa * e1pow * e2k * e2k
+             - cc * k_a * e2pow
+             - cc * k_a * g * w[6, k]
+             - hd[k]
+             - hd[6 + k])  # fmt: skip
+        if not switch_input:
+            v -= gamma * _switch(w[0, k], bl)
+        w[7, k] = v
+    v0, v1, v2 = w[7, 0], w[7, 1], w[7, 2]
+    v3, v4, v5 = w[7, 3], w[7, 4], w[7, 5]
     out[0], out[1], out[2] = m0 * v0, m0 * v1, m0 * v2
     k = tr[21]  # G^-1 = k G^T
     b0 = (k * tr[12]) * v3 + (k * tr[15]) * v4 + (k * tr[18]) * v5
@@ -398,9 +417,9 @@ def _law(z, hd, tr, J0, m0, switch_input, c, out):
     out[3] = J0[0, 0] * b0 + J0[0, 1] * b1 + J0[0, 2] * b2
     out[4] = J0[1, 0] * b0 + J0[1, 1] * b1 + J0[1, 2] * b2
     out[5] = J0[2, 0] * b0 + J0[2, 1] * b1 + J0[2, 2] * b2
-    out[6], out[7], out[8], out[9], out[10], out[11] = s0, s1, s2, s3, s4, s5
+    for q in range(6):
+        out[6 + q] = w[0, q]
     if switch_input:
-        gamma, bl = c[K_GAMMA], c[K_BOUNDARY]
         for q in range(6):
             out[q] -= gamma * _switch(out[6 + q], bl)
 
@@ -507,6 +526,7 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
     X, Xs = np.empty(36), np.empty(36)
     k1, k2, k3, k4 = np.empty(36), np.empty(36), np.empty(36), np.empty(36)
     z, hd, law = np.empty(12), np.empty(12), np.empty(12)
+    wlaw = np.empty((8, 6))
     u = np.empty(18)  # applied, observed, Case 2 excess
     s_true, dobs = np.empty(6), np.empty(6)
     norms = np.empty(7)
@@ -550,7 +570,7 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                 for q in range(6):
                     hd[q] = tr[q]
                     hd[6 + q] = X[18 + q]
-            _law(z, hd, tr, J0, m0, sw_in, c, law)
+            _law(z, hd, tr, J0, m0, sw_in, c, law, wlaw)
             for q in range(6):
                 uc = law[q]
                 if ci == CASE1:
@@ -564,8 +584,11 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                 u[12 + q] = ua - uc if case2 else 0.0
             if case2:  # s on the true errors (metric of claim C6)
                 for q in range(3):
-                    s_true[q] = _sliding(X[q], X[3 + q], c)[0]
-                    s_true[3 + q] = _sliding(X[6 + q], tr[6 + q], c)[0]
+                    z[q], z[3 + q] = X[q], X[6 + q]
+                    z[6 + q], z[9 + q] = X[3 + q], tr[6 + q]
+                _sliding(z, c, wlaw)
+                for q in range(6):
+                    s_true[q] = wlaw[0, q]
             else:
                 for q in range(6):
                     s_true[q] = law[6 + q]
