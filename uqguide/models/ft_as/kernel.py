@@ -12,20 +12,26 @@ How the loop is laid out, and why (``benchmarks/throughput.py`` prints its roofl
   depends on time only -- the reference orbit and its ``mu / |r_t|^3``, the mass, inertia and
   disturbance sinusoids -- is evaluated once per step and stage time for the whole block
   (:func:`_clock`), not once per sample and right-hand side (60 libm calls per sample-step).
-- Each sample's step is scalar code: the 3x3 and 6x6 algebra is written out on local floats
-  and the helpers return tuples, so nothing is allocated and nothing goes through scratch
-  arrays in the hot path (array scratch forced reloads around every store: ~8x slower).
-  The samples are not vectorised against each other: what remains per sample is dominated by
-  data-dependent branches (``sig``, the observer's unit vector, the singularity weight) and
-  libm calls that numba cannot vectorise without SVML.
+- Each sample's step is scalar code: the 3x3 algebra is written out on local floats and the
+  helpers return tuples; arrays only carry what passes between loops (the stage derivatives,
+  the law's per-channel passes), and nothing is allocated inside the step. The old kernel's
+  tracking terms through 3x3 and 6-vector scratch arrays took ~150 ns a call, the scalar ones
+  ~25 ns.
+- The samples are not vectorised against each other: what remains per sample is mostly libm
+  calls (~55 per sample-step) that numba cannot vectorise without a vector math library, and
+  data-dependent branches (``sig``, the observer's unit vector, the singularity weight). A
+  structure-of-arrays loop of the tracking terms over a block, tried, ran at the same ~25 ns
+  per sample: LLVM did not vectorise a body of that size over numba's 2-D arrays.
 - The tracking terms of the controller call are reused by the first RK4 stage (same state,
-  same time).
+  same time); the right-hand side multiplies by one reciprocal of the mass, of the observer
+  norms and of the inertia determinant instead of dividing a dozen times.
 - Fractional powers share their logarithms: the law needs ``|e1|^b``, ``|e1|^(b-1)``,
   ``|e2|^(a-1)``, ``|e2|^(2-a)``, ``|kappa e2|^a``, ``kappa^-a``, ``|s|^r2`` and ``|s|^rho2``,
-  which are four logarithms and five exponentials (:func:`_law`) instead of nine
-  ``pow`` calls; ``(1 + q)^-1.5 - 1`` of the differential gravity is a square root and a
-  division written without cancellation instead of ``expm1(-1.5 log1p(q))``. They differ from
-  the NumPy reference by a few ulps, like two libm's.
+  which are four logarithms and five exponentials per channel (:func:`_law`) instead of nine
+  ``pow`` calls, each kind as one pass over the six channels so that the core overlaps them;
+  ``(1 + q)^-1.5 - 1`` of the differential gravity is a square root and a division written
+  without cancellation instead of ``expm1(-1.5 log1p(q))``. All this differs from the NumPy
+  reference by a few ulps per operation, as two math libraries do.
 
 Every sample runs the same code whatever block it lands in, so a sample's numbers are the
 same bits whatever the batch split and the thread count.
