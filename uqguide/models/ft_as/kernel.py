@@ -21,7 +21,10 @@ How the loop is laid out, and why (``benchmarks/throughput.py`` prints its roofl
   calls (~55 per sample-step) that numba cannot vectorise without a vector math library, and
   data-dependent branches (``sig``, the observer's unit vector, the singularity weight). A
   structure-of-arrays loop of the tracking terms over a block, tried, ran at the same ~25 ns
-  per sample: LLVM did not vectorise a body of that size over numba's 2-D arrays.
+  per sample when it indexed a 2-D block array (LLVM did not vectorise it); over 1-D row views
+  it vectorised and took ~5-8 ns per sample, but only from 16 samples per block on (the
+  benchmark's batch is 10). Moving the arithmetic of the right-hand sides into such loops
+  (with scalar passes for the libm calls) is the next step.
 - The tracking terms of the controller call are reused by the first RK4 stage (same state,
   same time); the right-hand side multiplies by one reciprocal of the mass, of the observer
   norms and of the inertia determinant instead of dividing a dozen times.
