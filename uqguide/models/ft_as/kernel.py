@@ -12,22 +12,23 @@ How the loop is laid out, and why (``benchmarks/throughput.py`` prints its roofl
   depends on time only -- the reference orbit and its ``mu / |r_t|^3``, the mass, inertia and
   disturbance sinusoids -- is evaluated once per step and stage time for the whole block
   (:func:`_clock`), not once per sample and right-hand side (60 libm calls per sample-step).
-- Each sample's step is scalar code: the 3x3 algebra is written out on local floats and the
-  helpers return tuples; arrays only carry what passes between loops (the stage derivatives,
-  the law's per-channel passes), and nothing is allocated inside the step. The old kernel's
-  tracking terms through 3x3 and 6-vector scratch arrays took ~150 ns a call, the scalar ones
-  ~25 ns.
-- The samples are not vectorised against each other: what remains per sample is mostly libm
-  calls (~55 per sample-step) that numba cannot vectorise without a vector math library, and
-  data-dependent branches (``sig``, the observer's unit vector, the singularity weight). A
-  structure-of-arrays loop of the tracking terms over a block, tried, ran at the same ~25 ns
-  per sample when it indexed a 2-D block array (LLVM did not vectorise it); over 1-D row views
-  it vectorised and took ~5-8 ns per sample, but only from 16 samples per block on (the
-  benchmark's batch is 10). Moving the arithmetic of the right-hand sides into such loops
-  (with scalar passes for the libm calls) is the next step.
-- The tracking terms of the controller call are reused by the first RK4 stage (same state,
-  same time); the right-hand side multiplies by one reciprocal of the mass, of the observer
-  norms and of the inertia determinant instead of dividing a dozen times.
+- The controller runs per sample (scalar: the law's branches and libm calls), on local floats:
+  the 3x3 algebra is written out and the helpers return tuples; nothing is allocated inside the
+  step. The old kernel's tracking terms through 3x3 and 6-vector scratch arrays took ~150 ns a
+  call, the scalar ones ~25 ns.
+- The four RK4 stages run on the whole block at once: the state is stored as structure of
+  arrays (a row per component, the block's samples along it) and each stage is one loop over
+  the samples for the arithmetic of the right-hand side, a scalar pass for the observer's
+  ``sqrt``/``log``/``exp`` and a loop for the rest (:func:`_rhs_block`); the stage
+  combinations are loops along the rows. Free of calls and of the per-sample function
+  boundaries, the right-hand side costs ~50 ns per sample instead of ~80. It is not
+  vectorised: LLVM vectorised a trial loop of the tracking terms that read the rows of one
+  array and wrote those of another (~5-8 ns per sample instead of ~25, from 16 samples per
+  block on), but neither the whole right-hand side nor the same terms writing into two arrays;
+  getting it to is the next step. What remains per sample is mostly libm calls (~55 per
+  sample-step), which numba cannot vectorise without a vector math library.
+- The right-hand side multiplies by one reciprocal of the mass, of the observer norms and of
+  the inertia determinant instead of dividing a dozen times.
 - Fractional powers share their logarithms: the law needs ``|e1|^b``, ``|e1|^(b-1)``,
   ``|e2|^(a-1)``, ``|e2|^(2-a)``, ``|kappa e2|^a``, ``kappa^-a``, ``|s|^r2`` and ``|s|^rho2``,
   which are four logarithms and five exponentials per channel (:func:`_law`) instead of nine
@@ -271,72 +272,206 @@ def _true_body_acc(ck, x, tau0, tau1, tau2, J0, inertia_err, a_tau):
 
 
 @njit(cache=True, error_model="numpy")
-def _rhs(ck, tr, x, dx, u, m_off, inertia_err, a_f, a_tau, omega_chi, case2, c, J0, J0i):
-    """``dx/dt`` of one sample (sections 3.2, 6, 8.3) with held inputs, written into ``dx`` (36).
+def _rhs_block(ck, XT, KT, UT, m_off, inertia_err, a_f, a_tau, c, J0, J0i, W, nw):
+    """``d/dt`` of the states of ``nw`` lanes of a block (sections 3.2, 6) with held inputs,
+    rows 0-23: plant and FT-DO; rows 24-35 (Case 2's auxiliary system) are left to
+    :func:`_aux_block`. The tracking terms are those of :func:`_terms`, operation for operation.
 
-    ``ck`` is the clock and ``tr`` the tracking terms (:func:`_terms`) of ``x`` at the stage
-    time; ``u`` (18) holds the applied input, the input the observer sees and, for Case 2, the
-    saturation excess ``u_app - u_c`` that drives the auxiliary system.
+    ``XT``, ``KT`` (36, nw): states and derivatives, a row per component; ``UT`` (12, nw): the
+    applied and the observed inputs; ``m_off`` ... ``a_tau`` (nw,): the lanes' dispersions;
+    ``W`` (16, nw): scratch. The arithmetic runs in loops over the lanes on 1-D row views, the
+    observer's gain (sqrt, log, exp) as a scalar pass between them.
     """
-    m0 = c[K_M0]
-    s1t, s3t, c2t = ck[0], ck[2], ck[3]
-    inv_m = 1.0 / (m0 + 1.0 + 0.1 * s1t + m_off)  # divisions are the costly flops here
-    dx[0], dx[1], dx[2] = x[3], x[4], x[5]
-    dx[3] = tr[0] + (u[0] + a_f * s1t) * inv_m
-    dx[4] = tr[1] + (u[1] + a_f * c2t) * inv_m
-    dx[5] = tr[2] + (u[2] + a_f * s3t) * inv_m
-    e2_3, e2_4, e2_5 = tr[6], tr[7], tr[8]
-    dx[6], dx[7], dx[8] = e2_3, e2_4, e2_5
-    acc = _true_body_acc(ck, x, u[3], u[4], u[5], J0, inertia_err, a_tau)
-    dx[9], dx[10], dx[11] = acc[0], acc[1], acc[2]
-    # FT-DO (eq 18-20)
-    v = _apply_M(tr, J0i, m0, u[6], u[7], u[8], u[9], u[10], u[11])
-    p0 = x[12] - x[3]  # eps1 = psi1 - e2
-    p1 = x[13] - x[4]
-    p2 = x[14] - x[5]
-    p3 = x[15] - e2_3
-    p4 = x[16] - e2_4
-    p5 = x[17] - e2_5
-    if c[K_OBS_PER_CHANNEL] > 0.0:
-        n_t = math.sqrt(p0**2 + p1**2 + p2**2)
-        n_r = math.sqrt(p3**2 + p4**2 + p5**2)
-    else:
-        n_t = math.sqrt(p0**2 + p1**2 + p2**2 + p3**2 + p4**2 + p5**2)
-        n_r = n_t
+    nt, m0 = c[K_NT], c[K_M0]
     lam1, lam2, lam3, p = c[K_LAM1], c[K_LAM2], c[K_LAM3], c[K_OBS_P]
-    # gain of unit(eps1): lam1 |eps1|^(1/2) + lam2 |eps1|^p, once per norm; at 0 the unit
-    # vector is 0 and the gain does not matter
-    g_t = lam1 * math.sqrt(n_t) + lam2 * math.exp(p * math.log(n_t)) if n_t > 0.0 else 0.0
-    if n_r == n_t:
-        g_r = g_t
-    else:
-        g_r = lam1 * math.sqrt(n_r) + lam2 * math.exp(p * math.log(n_r)) if n_r > 0.0 else 0.0
-    i_t = 1.0 / n_t if n_t > 0.0 else 0.0
-    i_r = 1.0 / n_r if n_r > 0.0 else 0.0
-    un0, un1, un2 = p0 * i_t, p1 * i_t, p2 * i_t
-    un3, un4, un5 = p3 * i_r, p4 * i_r, p5 * i_r
-    dx[12] = -g_t * un0 + x[18] + (v[0] + tr[0])
-    dx[13] = -g_t * un1 + x[19] + (v[1] + tr[1])
-    dx[14] = -g_t * un2 + x[20] + (v[2] + tr[2])
-    dx[15] = -g_r * un3 + x[21] + (v[3] + tr[3])
-    dx[16] = -g_r * un4 + x[22] + (v[4] + tr[4])
-    dx[17] = -g_r * un5 + x[23] + (v[5] + tr[5])
-    dx[18] = -lam3 * un0
-    dx[19] = -lam3 * un1
-    dx[20] = -lam3 * un2
-    dx[21] = -lam3 * un3
-    dx[22] = -lam3 * un4
-    dx[23] = -lam3 * un5
-    # Case 2 auxiliary system (section 8.3); at rest (exactly 0) for the other controllers
-    if case2:
-        w = _apply_M(tr, J0i, m0, u[12], u[13], u[14], u[15], u[16], u[17])
-        k1, k2 = omega_chi * omega_chi, 2.0 * omega_chi
+    per_channel = c[K_OBS_PER_CHANNEL] > 0.0
+    s1t, s3t, c2t = ck[0], ck[2], ck[3]
+    s2t = ck[1]
+    rt0, rt1, rt2, rtn2, f = ck[4], ck[5], ck[6], ck[7], ck[8]
+    A00, A01, A02 = J0[0, 0], J0[0, 1], J0[0, 2]
+    A10, A11, A12 = J0[1, 0], J0[1, 1], J0[1, 2]
+    A20, A21, A22 = J0[2, 0], J0[2, 1], J0[2, 2]
+    B00, B01, B02 = J0i[0, 0], J0i[0, 1], J0i[0, 2]
+    B10, B11, B12 = J0i[1, 0], J0i[1, 1], J0i[1, 2]
+    B20, B21, B22 = J0i[2, 0], J0i[2, 1], J0i[2, 2]
+    x0r, x1r, x2r, x3r, x4r, x5r = XT[0], XT[1], XT[2], XT[3], XT[4], XT[5]
+    x6r, x7r, x8r, x9r, x10r, x11r = XT[6], XT[7], XT[8], XT[9], XT[10], XT[11]
+    x12r, x13r, x14r, x15r, x16r, x17r = XT[12], XT[13], XT[14], XT[15], XT[16], XT[17]
+    k0r, k1r, k2r, k3r, k4r, k5r = KT[0], KT[1], KT[2], KT[3], KT[4], KT[5]
+    k6r, k7r, k8r, k9r, k10r, k11r = KT[6], KT[7], KT[8], KT[9], KT[10], KT[11]
+    u0r, u1r, u2r, u3r, u4r, u5r = UT[0], UT[1], UT[2], UT[3], UT[4], UT[5]
+    o0r, o1r, o2r, o3r, o4r, o5r = UT[6], UT[7], UT[8], UT[9], UT[10], UT[11]
+    p0r, p1r, p2r, p3r, p4r, p5r = W[0], W[1], W[2], W[3], W[4], W[5]  # eps1
+    v0r, v1r, v2r, v3r, v4r, v5r = W[6], W[7], W[8], W[9], W[10], W[11]  # M u_obs + h
+    ntr, nrr = W[12], W[13]
+    for b in range(nw):
+        s0, s1, s2 = x6r[b], x7r[b], x8r[b]
+        om0, om1, om2 = x9r[b], x10r[b], x11r[b]
+        q = s0 * s0 + s1 * s1 + s2 * s2
+        a = 0.25 * (1.0 - q)
+        G00 = a + 0.5 * s0 * s0
+        G01 = 0.5 * (-s2 + s0 * s1)
+        G02 = 0.5 * (s1 + s0 * s2)
+        G10 = 0.5 * (s2 + s1 * s0)
+        G11 = a + 0.5 * s1 * s1
+        G12 = 0.5 * (-s0 + s1 * s2)
+        G20 = 0.5 * (-s1 + s2 * s0)
+        G21 = 0.5 * (s0 + s2 * s1)
+        G22 = a + 0.5 * s2 * s2
+        d = 1.0 / (1.0 + q) ** 2
+        w = 4.0 * (1.0 - q)
+        C02 = d * (8.0 * (s0 * s2) - w * s1)
+        C12 = d * (8.0 * (s1 * s2) + w * s0)
+        C22 = 1.0 + d * (8.0 * (s2 * s2 - q))
+        wt0, wt1, wt2 = C02 * nt, C12 * nt, C22 * nt
+        w0 = om0 - wt0
+        w1 = om1 - wt1
+        w2 = om2 - wt2
+        sd0 = G00 * w0 + G01 * w1 + G02 * w2
+        sd1 = G10 * w0 + G11 * w1 + G12 * w2
+        sd2 = G20 * w0 + G21 * w1 + G22 * w2
+        ssd = s0 * sd0 + s1 * sd1 + s2 * sd2
+        swe = s0 * w0 + s1 * w1 + s2 * w2
+        sdwe = sd0 * w0 + sd1 * w1 + sd2 * w2
+        gd0 = 0.5 * (-ssd * w0 + (sd1 * w2 - sd2 * w1) + sd0 * swe + s0 * sdwe)
+        gd1 = 0.5 * (-ssd * w1 + (sd2 * w0 - sd0 * w2) + sd1 * swe + s1 * sdwe)
+        gd2 = 0.5 * (-ssd * w2 + (sd0 * w1 - sd1 * w0) + sd2 * swe + s2 * sdwe)
+        j0 = A00 * om0 + A01 * om1 + A02 * om2
+        j1 = A10 * om0 + A11 * om1 + A12 * om2
+        j2 = A20 * om0 + A21 * om1 + A22 * om2
+        g0 = -(om1 * j2 - om2 * j1)
+        g1 = -(om2 * j0 - om0 * j2)
+        g2 = -(om0 * j1 - om1 * j0)
+        a0 = B00 * g0 + B01 * g1 + B02 * g2
+        a1 = B10 * g0 + B11 * g1 + B12 * g2
+        a2 = B20 * g0 + B21 * g1 + B22 * g2
+        a0 += w1 * wt2 - w2 * wt1
+        a1 += w2 * wt0 - w0 * wt2
+        a2 += w0 * wt1 - w1 * wt0
+        h3 = gd0 + G00 * a0 + G01 * a1 + G02 * a2
+        h4 = gd1 + G10 * a0 + G11 * a1 + G12 * a2
+        h5 = gd2 + G20 * a0 + G21 * a1 + G22 * a2
+        re0, re1, re2 = x0r[b], x1r[b], x2r[b]
+        qg = (2.0 * (re0 * rt0 + re1 * rt1 + re2 * rt2) + re0 * re0 + re1 * re1 + re2 * re2) / rtn2
+        r = math.sqrt(1.0 + qg)
+        km1 = -qg * (2.0 + qg + r) / (r * (1.0 + r) * (1.0 + qg))
+        h0 = f * ((1.0 + km1) * re0 + km1 * rt0)
+        h1 = f * ((1.0 + km1) * re1 + km1 * rt1)
+        h2 = f * ((1.0 + km1) * re2 + km1 * rt2)
+        # plant
+        inv_m = 1.0 / (m0 + 1.0 + 0.1 * s1t + m_off[b])
+        v_0, v_1, v_2 = x3r[b], x4r[b], x5r[b]
+        k0r[b], k1r[b], k2r[b] = v_0, v_1, v_2
+        af = a_f[b]
+        k3r[b] = h0 + (u0r[b] + af * s1t) * inv_m
+        k4r[b] = h1 + (u1r[b] + af * c2t) * inv_m
+        k5r[b] = h2 + (u2r[b] + af * s3t) * inv_m
+        k6r[b], k7r[b], k8r[b] = sd0, sd1, sd2
+        kk = 1.0 + inertia_err[b]
+        J00 = kk * A00 + 0.1 + 0.01 * s1t
+        J11 = kk * A11 + 0.1 + 0.01 * s2t
+        J22 = kk * A22 + 0.1 + 0.01 * s3t
+        J01, J02, J12 = kk * A01, kk * A02, kk * A12
+        tj0 = J00 * om0 + J01 * om1 + J02 * om2
+        tj1 = J01 * om0 + J11 * om1 + J12 * om2
+        tj2 = J02 * om0 + J12 * om1 + J22 * om2
+        at2 = 2.0 * a_tau[b]
+        b0 = -(om1 * tj2 - om2 * tj1) + u3r[b] + at2 * s1t
+        b1 = -(om2 * tj0 - om0 * tj2) + u4r[b] + at2 * c2t
+        b2 = -(om0 * tj1 - om1 * tj0) + u5r[b] + at2 * s3t
+        c00 = J11 * J22 - J12 * J12
+        c01 = J02 * J12 - J01 * J22
+        c02 = J01 * J12 - J02 * J11
+        c11 = J00 * J22 - J02 * J02
+        c12 = J01 * J02 - J00 * J12
+        c22 = J00 * J11 - J01 * J01
+        inv_det = 1.0 / (J00 * c00 + J01 * c01 + J02 * c02)
+        k9r[b] = (c00 * b0 + c01 * b1 + c02 * b2) * inv_det
+        k10r[b] = (c01 * b0 + c11 * b1 + c12 * b2) * inv_det
+        k11r[b] = (c02 * b0 + c12 * b1 + c22 * b2) * inv_det
+        # observer: M u_obs + h, eps1 and its norms
+        ob3, ob4, ob5 = o3r[b], o4r[b], o5r[b]
+        mb0 = B00 * ob3 + B01 * ob4 + B02 * ob5
+        mb1 = B10 * ob3 + B11 * ob4 + B12 * ob5
+        mb2 = B20 * ob3 + B21 * ob4 + B22 * ob5
+        v0r[b] = o0r[b] / m0 + h0
+        v1r[b] = o1r[b] / m0 + h1
+        v2r[b] = o2r[b] / m0 + h2
+        v3r[b] = (G00 * mb0 + G01 * mb1 + G02 * mb2) + h3
+        v4r[b] = (G10 * mb0 + G11 * mb1 + G12 * mb2) + h4
+        v5r[b] = (G20 * mb0 + G21 * mb1 + G22 * mb2) + h5
+        e0 = x12r[b] - v_0
+        e1 = x13r[b] - v_1
+        e2 = x14r[b] - v_2
+        e3 = x15r[b] - sd0
+        e4 = x16r[b] - sd1
+        e5 = x17r[b] - sd2
+        p0r[b], p1r[b], p2r[b], p3r[b], p4r[b], p5r[b] = e0, e1, e2, e3, e4, e5
+        if per_channel:
+            ntr[b] = math.sqrt(e0**2 + e1**2 + e2**2)
+            nrr[b] = math.sqrt(e3**2 + e4**2 + e5**2)
+        else:
+            nn = math.sqrt(e0**2 + e1**2 + e2**2 + e3**2 + e4**2 + e5**2)
+            ntr[b] = nn
+            nrr[b] = nn
+    gtr, grr = W[14], W[15]
+    for b in range(nw):  # the observer's gains: libm, scalar
+        n_t, n_r = ntr[b], nrr[b]
+        g_t = lam1 * math.sqrt(n_t) + lam2 * math.exp(p * math.log(n_t)) if n_t > 0.0 else 0.0
+        if n_r == n_t:
+            g_r = g_t
+        else:
+            g_r = lam1 * math.sqrt(n_r) + lam2 * math.exp(p * math.log(n_r)) if n_r > 0.0 else 0.0
+        gtr[b], grr[b] = g_t, g_r
+    x18r, x19r, x20r, x21r, x22r, x23r = XT[18], XT[19], XT[20], XT[21], XT[22], XT[23]
+    k12r, k13r, k14r, k15r, k16r, k17r = KT[12], KT[13], KT[14], KT[15], KT[16], KT[17]
+    k18r, k19r, k20r, k21r, k22r, k23r = KT[18], KT[19], KT[20], KT[21], KT[22], KT[23]
+    for b in range(nw):
+        n_t, n_r = ntr[b], nrr[b]
+        i_t = 1.0 / n_t if n_t > 0.0 else 0.0
+        i_r = 1.0 / n_r if n_r > 0.0 else 0.0
+        un0, un1, un2 = p0r[b] * i_t, p1r[b] * i_t, p2r[b] * i_t
+        un3, un4, un5 = p3r[b] * i_r, p4r[b] * i_r, p5r[b] * i_r
+        g_t, g_r = gtr[b], grr[b]
+        k12r[b] = -g_t * un0 + x18r[b] + v0r[b]
+        k13r[b] = -g_t * un1 + x19r[b] + v1r[b]
+        k14r[b] = -g_t * un2 + x20r[b] + v2r[b]
+        k15r[b] = -g_r * un3 + x21r[b] + v3r[b]
+        k16r[b] = -g_r * un4 + x22r[b] + v4r[b]
+        k17r[b] = -g_r * un5 + x23r[b] + v5r[b]
+        k18r[b] = -lam3 * un0
+        k19r[b] = -lam3 * un1
+        k20r[b] = -lam3 * un2
+        k21r[b] = -lam3 * un3
+        k22r[b] = -lam3 * un4
+        k23r[b] = -lam3 * un5
+
+
+@njit(cache=True, error_model="numpy")
+def _aux_block(ck, XT, KT, DU, omega_chi, c, J0, J0i, case2, x, nw):
+    """The Case 2 auxiliary system (section 8.3) of the lanes where ``case2``: rows 24-35 of
+    ``KT`` from ``XT`` and the saturation excess ``DU`` (6, >= nw); ``x`` (36) scratch."""
+    nt, m0 = c[K_NT], c[K_M0]
+    for b in range(nw):
+        if not case2[b]:
+            continue
+        for q in range(36):
+            x[q] = XT[q, b]
+        tr = _terms(ck, x, nt, J0, J0i)
+        w = _apply_M(tr, J0i, m0, DU[0, b], DU[1, b], DU[2, b], DU[3, b], DU[4, b], DU[5, b])
+        oc = omega_chi[b]
+        k1, k2 = oc * oc, 2.0 * oc
         for i in range(6):
-            dx[24 + i] = x[30 + i]
-            dx[30 + i] = -k1 * x[24 + i] - k2 * x[30 + i] + w[i]
-    else:
-        for i in range(24, 36):
-            dx[i] = 0.0
+            KT[24 + i, b] = x[30 + i]
+            KT[30 + i, b] = -k1 * x[24 + i] - k2 * x[30 + i] + w[i]
+
+
+@njit(cache=True, error_model="numpy")
+def _stage(ck, XT, KT, UT, DU, mo, ie, af, at, oc, c, J0, J0i, W, case2_lane, any_case2, x, nw):
+    """One RK4 stage of a block: ``KT = f(XT)`` with the held inputs."""
+    _rhs_block(ck, XT, KT, UT, mo, ie, af, at, c, J0, J0i, W, nw)
+    if any_case2:
+        _aux_block(ck, XT, KT, DU, oc, c, J0, J0i, case2_lane, x, nw)
 
 
 @njit(cache=True, error_model="numpy")
@@ -523,17 +658,30 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
     n_tol = tols.shape[1]
     m0 = c[K_M0]
     nt = c[K_NT]
-    Xb = np.empty((nb, 36))
+    XT = np.empty((36, nb))  # the block's states, a row per component (structure of arrays)
     for b in range(nb):
         for q in range(36):
-            Xb[b, q] = x0[lo + b, q]
+            XT[q, b] = x0[lo + b, q]
+    XsT = np.empty((36, nb))
+    K1, K2, K3, K4 = (np.zeros((36, nb)), np.zeros((36, nb)), np.zeros((36, nb)),
+                      np.zeros((36, nb)))  # fmt: skip
+    UT = np.zeros((12, nb))  # held applied and observed inputs
+    DU = np.zeros((6, nb))  # Case 2: saturation excess
+    W = np.zeros((16, nb))
+    mo, ie, af, at = (mass_off[lo:hi], inertia_err[lo:hi], force_amp[lo:hi],
+                      torque_amp[lo:hi])  # fmt: skip
+    oc = omega_chi[lo:hi]
+    case2_lane = np.empty(nb, dtype=np.bool_)
+    any_case2 = False
+    for b in range(nb):
+        case2_lane[b] = ctrl[lo + b] == CASE2
+        any_case2 = any_case2 or case2_lane[b]
     env = np.empty((nb, 12))  # applied-input envelope over the output interval: min, max
     env[:, :6] = np.inf
     env[:, 6:] = -np.inf
     jrec = np.zeros(nb, dtype=np.int64)
     alive = np.ones(nb, dtype=np.bool_)
-    X, Xs = np.empty(36), np.empty(36)
-    k1, k2, k3, k4 = np.empty(36), np.empty(36), np.empty(36), np.empty(36)
+    X = np.empty(36)
     z, hd, law = np.empty(12), np.empty(12), np.empty(12)
     wlaw = np.empty((8, 6))
     u = np.empty(18)  # applied, observed, Case 2 excess
@@ -556,7 +704,7 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                 continue
             i = lo + b
             for q in range(36):
-                X[q] = Xb[b, q]
+                X[q] = XT[q, b]
             ci = ctrl[i]
             case2 = ci == CASE2
             sw_in = switch_input[i]
@@ -591,6 +739,9 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                 u[q] = ua
                 u[6 + q] = uo
                 u[12 + q] = ua - uc if case2 else 0.0
+                UT[q, b] = ua
+                UT[6 + q, b] = uo
+                DU[q, b] = u[12 + q]
             if case2:  # s on the true errors (metric of claim C6)
                 for q in range(3):
                     z[q], z[3 + q] = X[q], X[6 + q]
@@ -699,43 +850,48 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                 for q in range(6):
                     env[b, q] = np.inf
                     env[b, 6 + q] = -np.inf
-            if last:
-                continue
-            # --- classical RK4 with held inputs (section 9 step 3)
-            mo, ie, oc = mass_off[i], inertia_err[i], omega_chi[i]
-            af, at = force_amp[i], torque_amp[i]
-            _rhs(ck0, tr, X, k1, u, mo, ie, af, at, oc, case2, c, J0, J0i)
-            for q in range(36):
-                Xs[q] = X[q] + half * k1[q]
-            _rhs(ckh, _terms(ckh, Xs, nt, J0, J0i), Xs, k2, u, mo, ie, af, at, oc, case2, c, J0,
-                 J0i)  # fmt: skip
-            for q in range(36):
-                Xs[q] = X[q] + half * k2[q]
-            _rhs(ckh, _terms(ckh, Xs, nt, J0, J0i), Xs, k3, u, mo, ie, af, at, oc, case2, c, J0,
-                 J0i)  # fmt: skip
-            for q in range(36):
-                Xs[q] = X[q] + dt * k3[q]
-            _rhs(ck1, _terms(ck1, Xs, nt, J0, J0i), Xs, k4, u, mo, ie, af, at, oc, case2, c, J0,
-                 J0i)  # fmt: skip
+        if last:
+            break
+        # --- classical RK4 with held inputs (section 9 step 3), all lanes of the block at once
+        _stage(ck0, XT, K1, UT, DU, mo, ie, af, at, oc, c, J0, J0i, W, case2_lane, any_case2, X,
+               nb)  # fmt: skip
+        for q in range(36):
+            for b in range(nb):
+                XsT[q, b] = XT[q, b] + half * K1[q, b]
+        _stage(ckh, XsT, K2, UT, DU, mo, ie, af, at, oc, c, J0, J0i, W, case2_lane, any_case2, X,
+               nb)  # fmt: skip
+        for q in range(36):
+            for b in range(nb):
+                XsT[q, b] = XT[q, b] + half * K2[q, b]
+        _stage(ckh, XsT, K3, UT, DU, mo, ie, af, at, oc, c, J0, J0i, W, case2_lane, any_case2, X,
+               nb)  # fmt: skip
+        for q in range(36):
+            for b in range(nb):
+                XsT[q, b] = XT[q, b] + dt * K3[q, b]
+        _stage(ck1, XsT, K4, UT, DU, mo, ie, af, at, oc, c, J0, J0i, W, case2_lane, any_case2, X,
+               nb)  # fmt: skip
+        w6 = dt / 6.0
+        for b in range(nb):
+            if not alive[b]:
+                continue  # a failed lane keeps its last finite state
             finite = True
-            w6 = dt / 6.0
             for q in range(36):
-                X[q] += w6 * (k1[q] + 2.0 * k2[q] + 2.0 * k3[q] + k4[q])
+                X[q] = XT[q, b] + w6 * (K1[q, b] + 2.0 * K2[q, b] + 2.0 * K3[q, b] + K4[q, b])
                 if not math.isfinite(X[q]):
                     finite = False
             if not finite:
-                failed[i] = True
+                failed[lo + b] = True
                 alive[b] = False
                 continue
             sq = X[6] * X[6] + X[7] * X[7] + X[8] * X[8]
             if sq > 1.0:  # MRP shadow set
                 for q in range(6, 9):
                     X[q] = -X[q] / sq
-            bound = psi2_bound[i]
+            bound = psi2_bound[lo + b]
             for q in range(18, 24):
                 X[q] = min(max(X[q], -bound), bound)
             for q in range(36):
-                Xb[b, q] = X[q]
+                XT[q, b] = X[q]
     # a sample that stopped early keeps its last recorded values on the rest of the grid
     for b in range(nb):
         i, j = lo + b, jrec[b]
