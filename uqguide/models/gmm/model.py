@@ -27,6 +27,10 @@ Decisions where spec and paper are silent (each a parameter or stated here):
   flagged failed (its value has no physical meaning), as is one whose state becomes non-finite.
 - Series are recorded every ``record_interval`` seconds (default 10 s: 81 points) to bound the
   memory of 1e4-sample runs; clearance and collisions use every RK4 sub-step (0.1 s).
+- The closed loop runs compiled for the whole run (:mod:`.kernel_numba`, blocks of samples in
+  ``threads`` threads) unless ``kernel: numpy`` asks for the NumPy reference
+  (:func:`.sampled_sim.simulate`); the two agree to round-off, and a sample's numbers do not
+  depend on the batch split or the thread count.
 - ``los_rate`` is the rate of the line of sight from the chief's centre to the deputy seen in
   LVLH, ``|r x v| / |r|^2``; ``zem`` is the zero-effort miss, the distance from the goal at
   which the deputy would be at ``t_f`` had the thrust stopped at ``t`` (coasting on the same
