@@ -4,8 +4,10 @@ holding, whether uqguide flags it, and whether the corrected intervals hold the 
 For each seed, the config's tensor and Smolyak PCEs (with their 100 validation runs) run beside
 a 1e5-run Monte Carlo; over the time steps in ``[--t0, --t1]`` (default 60-78 s) the table gives,
 per PCE and statistic (mean, std): the largest relative error of the PCE value against the MC
-(over the window, and over its steps before the flag), the time from which uqguide flags the
-PCE ("no usable surrogate from t = ..."), and the share of
+(over the window, and over its steps before the first flag), the times from which uqguide flags
+the PCE: its validation runs refute its statistics ("validation disagrees ... from t = ...") and
+its out-of-sample error exceeds ``usable_error`` ("no usable surrogate from t = ..."), and the
+share of
 steps where the corrected value's 95% interval holds the MC value (``covered``) or where the
 difference lies within both estimates' 95% half-widths in quadrature (``combined``: the report's
 agreement flag; the MC's bootstrap intervals exist at the report times only, so between them
@@ -42,7 +44,7 @@ def main() -> None:
     mc = {"name": "monte_carlo", "label": "mc1e5", "n_samples": 100_000, "sampling": "random"}
     cfg = dict(cfg, methods=[mc] + pces, reference="mc1e5", outputs=["omega_s"])
     print(f"{'seed':>4s} {'label':12s} {'stat':5s} {'max |pce-mc|/mc':>16s} "
-          f"{'unflagged':>13s} {'flagged from':>13s} "
+          f"{'unflagged':>13s} {'disagrees':>11s} {'unusable':>11s} "
           f"{'covered':>8s} {'combined':>9s}   (steps {args.t0:g}-{args.t1:g} s)")
     for seed in args.seeds:
         r = uqguide.run(dict(cfg, seed=seed))
@@ -52,7 +54,11 @@ def main() -> None:
         for p in pces:
             run = r.run(p["label"])
             s = run.estimate.stats["omega_s"]
-            flag = run.estimate.diagnostics.get("unusable_from.omega_s")
+            diag = run.estimate.diagnostics
+            unusable = diag.get("unusable_from.omega_s")
+            disagrees = diag.get("disagrees_from.omega_s")
+            flags = [f for f in (unusable, disagrees) if f is not None]
+            flag = min(flags) if flags else None
             # the PCE's own value where it was withdrawn: recompute from the kept surrogate
             own = run.estimate.surrogate.statistics("omega_s")
             for stat in ("mean", "std"):
@@ -78,9 +84,13 @@ def main() -> None:
                 kept = t[steps] < flag if flag is not None else np.ones_like(rerr, bool)
                 err_kept = np.max(rerr[kept]) if kept.any() else float("nan")
                 print(f"{seed:4d} {p['label']:12s} {stat:5s} {100 * err:15.1f}% "
-                      f"{100 * err_kept:12.1f}% "
-                      f"{(f'{flag:g} s' if flag is not None else 'not flagged'):>13s} "
+                      f"{(f'{100 * err_kept:.1f}%' if kept.any() else 'none'):>13s} "
+                      f"{_t(disagrees):>11s} {_t(unusable):>11s} "
                       f"{100 * covered:7.0f}% {100 * combined:8.0f}%", flush=True)
+
+
+def _t(t: float | None) -> str:
+    return f"{t:g} s" if t is not None else "-"
 
 
 if __name__ == "__main__":

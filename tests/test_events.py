@@ -99,11 +99,16 @@ def test_bad_events_name_the_field(events, field, words):
     assert exc.value.field == field and words in str(exc.value)
 
 
-def test_pce_validation_runs_correct_a_biased_surrogate_probability_over_seeds():
+@pytest.mark.parametrize("validation", [
+    {"validation_runs": 400},                                    # random runs (legacy form)
+    {"validation": {"n_samples": 400}},                          # stratified by the surrogate
+])
+def test_pce_validation_runs_correct_a_biased_surrogate_probability_over_seeds(validation):
     """A degree-1 PCE of a lognormal output has a Gaussian tail: its own probability of
-    y > exp(2 s) (exactly 1 - Phi(2)) is far off. With 400 validation runs the control-variate
-    estimate's interval (>= 95% by construction) holds the exact value over 100 seeds at least
-    as often as a 95% interval may miss by chance (4 binomial standard errors)."""
+    y > exp(2 s) (exactly 1 - Phi(2)) is far off. With 400 validation runs, random or
+    stratified, the control-variate estimate's interval (>= 95% by construction) holds the
+    exact value over 100 seeds at least as often as a 95% interval may miss by chance (4
+    binomial standard errors)."""
     a = [0.9, 0.6, 0.3]
     s = float(np.sqrt(np.sum(np.square(a))))
     exact = float(stats.norm.sf(2.0))
@@ -113,7 +118,7 @@ def test_pce_validation_runs_correct_a_biased_surrogate_probability_over_seeds()
                    for i in (1, 2, 3)],
         "events": [{"name": "hi", "output": "y", "above": float(np.exp(2 * s))}],
         "methods": [{"name": "pce_adaptive", "n_samples": 30, "degree_min": 1,
-                     "degree_max": 1, "enrich": False, "validation_runs": 400,
+                     "degree_max": 1, "enrich": False, **validation,
                      "surrogate_draws": 20_000}]})
     hits, seeds = 0, 100
     for seed in range(seeds):

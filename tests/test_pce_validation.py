@@ -103,7 +103,7 @@ def test_corrected_intervals_cover_a_biased_surrogate_over_seeds():
     skews = []
     for seed in range(200):
         xv = np.random.default_rng(seed).standard_normal((100, 1))
-        c = corrected_moments(pce, xv + a * (xv**2 - 1), xv, seed=seed, n_boot=300)
+        c = corrected_moments(pce, xv + a * (xv**2 - 1), xv)
         for k in truth:
             hits[k] += bool(c.ci[k][0, 0] <= truth[k] <= c.ci[k][1, 0])
         skews.append(c.values["skewness"][0])
@@ -148,10 +148,11 @@ def test_adaptive_pce_validation_and_the_cost_table():
     df = validation_table(r)
     assert set(df["stat"]) == {"mean", "std", "skewness", "kurtosis"}
     assert (df["runs"] == "120+100").all()
-    # corrected = PCE + validation correction, which is small for a good surrogate: within
-    # the interval's half-width of the PCE value
+    # corrected = PCE + validation correction: within two half-widths (about 4 standard
+    # errors) of the exact value, for every statistic
     for _, row in df.iterrows():
-        assert abs(row["corrected"] - row["pce"]) <= row["ci_high"] - row["ci_low"]
+        half = (row["ci_high"] - row["ci_low"]) / 2
+        assert abs(row["corrected"] - ISHIGAMI[row["stat"]]) <= 2 * half, row
 
 
 def test_a_constant_fit_reports_no_moments_instead_of_std_zero():
@@ -264,3 +265,29 @@ def test_a_zero_one_output_is_drawn_as_a_probability(tmp_path):
     bar = ax.patches[0]
     p = float(np.asarray(r.runs[0].scalars[r.outputs[0].name]).mean())
     assert abs(bar.get_width() - p) < 1e-12
+
+
+def test_late_approach_of_the_degree_one_pces_is_flagged_before_60_s(caplog):
+    """configs/ftcapn_pce_table3.yaml: the degree-1 tensor and Smolyak PCEs of omega_s are
+    up to 17% (mean) and 16% (std) off the Monte Carlo from about 60 s to the stop (
+    benchmarks/pce_late_approach.py against 1e5 runs). Their validation runs refute them from
+    55-58 s on seeds 1-3 (the statistic outside the correction's 95% half-width for 3 steps
+    in a row, by more than 1% of the std), so the report flags the whole 60-78 s window; the
+    out-of-sample error alone (usable_error 0.1) fires only at 63-68 s. Checked here on one
+    seed against a window, not a time: 50-60 s."""
+    from pathlib import Path
+
+    import yaml
+
+    cfg = yaml.safe_load((Path(__file__).parents[1] / "configs" /
+                          "ftcapn_pce_table3.yaml").read_text())
+    cfg["methods"] = [m for m in cfg["methods"] if m["name"].startswith("pce_")]
+    cfg.pop("reference", None)
+    with caplog.at_level(logging.WARNING):
+        r = uqguide.run(dict(cfg, outputs=["omega_s"], seed=1))
+    for run in r.runs:
+        d = run.estimate.diagnostics
+        assert 50.0 <= d["disagrees_from.omega_s"] <= 60.0, (run.label, d)
+        assert d["disagrees_from.omega_s"] < d["unusable_from.omega_s"]
+    assert "disagree with its validation runs from t =" in caplog.text
+    assert "validation disagrees" in render_text(r)

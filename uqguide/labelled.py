@@ -149,7 +149,7 @@ def method_variables(stats: dict[str, OutputStats], outputs: Sequence[OutputInfo
             out[f"{o.name}_corrected_ci"] = Variable(
                 ("bound", "statistic", *base),
                 np.stack([s.corrected_ci[n] for n in STAT_NAMES], axis=1),
-                {"description": "95% bootstrap interval over the validation runs"})
+                {"description": "95% interval from the validation runs (delta method, stratified)"})
         if s.validation_error is not None:
             out[f"{o.name}_validation_error"] = Variable(
                 base, np.asarray(s.validation_error, dtype=float),

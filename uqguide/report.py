@@ -68,6 +68,9 @@ def cost_table(result: Result) -> pd.DataFrame:
         unusable = unusable_outputs(d)
         if unusable:
             extra["no usable surrogate"] = "; ".join(unusable)
+        disagree = disagreeing_outputs(d)
+        if disagree:
+            extra["validation disagrees"] = "; ".join(disagree)
         for name in rare:
             ev = r.estimate.events.get(name)
             extra[f"P({name})"] = ev.probability if ev else float("nan")
@@ -93,6 +96,16 @@ def unusable_outputs(diagnostics: dict) -> list[str]:
            if k.startswith("unusable.")]
     out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
             if k.startswith("unusable_from.")]
+    return out
+
+
+def disagreeing_outputs(diagnostics: dict) -> list[str]:
+    """``"zem (skewness)"`` or ``"omega_s from t = 57 s"`` for every output (span) whose PCE
+    statistics its validation runs refute (:func:`uqguide.pce.validation.disagreement`)."""
+    out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
+           if k.startswith("disagrees.")]
+    out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
+            if k.startswith("disagrees_from.")]
     return out
 
 
@@ -453,8 +466,8 @@ def render_text(result: Result) -> str:
     parts = ["Cost", cost_table(result).to_string(index=False, na_rep="")]
     val = validation_table(result)
     if not val.empty:
-        parts += ["", "PCE validation (PCE value; control-variate value with its 95% bootstrap "
-                  "interval over the validation runs; val_error: out-of-sample error / variance)",
+        parts += ["", "PCE validation (PCE value; control-variate value with its 95% interval from "
+                  "the validation runs, delta method; val_error: out-of-sample error / variance)",
                   validation_text(val).to_string(index=False)]
     stats = statistics_table(result)
     stats.attrs["reference"] = result.reference
@@ -505,9 +518,9 @@ def interval_legend(with_reference: bool) -> str:
             "intervals: bootstrap, the mean then by +-1.96 standard errors where it has no "
             "bootstrap), quantiles by order statistics; PCE values carry none (their error is "
             "the surrogate's, see loo_error); "
-            "label+cv: a validated PCE's control-variate estimate, bootstrap interval over its "
-            "validation runs; 'no usable surrogate': LOO or validation error above the "
-            "method's usable_error.")
+            "label+cv: a validated PCE's control-variate estimate, delta-method interval from "
+            "its (stratified) validation runs; 'no usable surrogate': LOO or validation error "
+            "above the method's usable_error.")
     if with_reference:
         text += (" (difference from the reference; in: within the 95% interval of the "
                  "difference, both estimates' errors combined; OUT: beyond it).")

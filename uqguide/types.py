@@ -238,7 +238,7 @@ class OutputStats:
         A validated PCE's control-variate estimates of mean, std, skewness and kurtosis
         (:mod:`uqguide.pce.validation`); empty without a validation set.
     corrected_ci : dict of str to ndarray, shape (2, ..., k)
-        Their 95% bootstrap intervals.
+        Their 95% intervals (delta method over the validation runs).
     validation_error : ndarray, shape (..., k), optional
         The surrogate's out-of-sample relative error on the validation runs.
     usable : ndarray of bool, shape (..., k), optional

@@ -47,6 +47,7 @@ Example config entry (paper Table 5)::
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
 import time
@@ -69,9 +70,10 @@ from ..pce.outputs import OutputColumns, assemble, failure_summary, output_colum
 from ..pce.pca import principal_components
 from ..pce.sparse_regression import Q_GRID, ColumnsFit, fit_columns
 from ..pce.surrogate import Surrogate
-from ..pce.validation import validation_unit_rows
+from ..pce.validation_design import ValidationDesign
 from .base import Design, Estimate, Method, MethodSettings, RunPlan
-from .pce_validated import USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish
+from .pce_validated import (USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish,
+                            validation_design)
 
 log = logging.getLogger(__name__)
 
@@ -152,6 +154,20 @@ class AdaptivePCESettings(MethodSettings):
         return self
 
 
+def _runs_digest(space: InputSpace, design: Design, outputs: ModelOutput) -> bytes:
+    """A digest of the fit's inputs (design points, outputs, failures): equal digests, equal
+    fits."""
+    h = hashlib.blake2b(digest_size=20)
+    h.update(repr(space.names).encode())
+    for a in ([np.asarray(design.data.get("u", design.x)), outputs.failed]
+              + [outputs.scalars[k] for k in sorted(outputs.scalars)]
+              + [outputs.series[k] for k in sorted(outputs.series)]):
+        arr = np.ascontiguousarray(a)
+        h.update(repr((arr.dtype.str, arr.shape)).encode())
+        h.update(arr.tobytes())
+    return h.digest()
+
+
 @dataclass
 class _OutputFit:
     """An output's expansion and its fit diagnostics."""
@@ -224,17 +240,25 @@ class AdaptivePCE(Method):
 
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         """Enrich while the LOO error is above target and the budget allows; then, once, add
-        the validation runs (when asked for)."""
+        the validation runs (when asked for), placed by the final fit's surrogate."""
         if "n_fit" in design.data:
             return None
         bigger = self._enrich(space, design, outputs)
         nv = self.n_validation()
         if bigger is not None or not nv:
             return bigger
-        u_v = validation_unit_rows(design.data["seed"], self.label, nv, space.dim)
-        log.info("%s: %d validation runs", self.label, nv)
-        data = dict(design.data, n_fit=design.n_runs, u_validation=u_v)
-        return Design(x=np.vstack([design.x, space.from_unit(u_v)]), data=data)
+        surrogate = self._surrogate(space, self._fit(space, design, outputs))
+        vd = validation_design(self.settings.validation, nv, surrogate, self.context.outputs,
+                               seed=design.data["seed"], label=self.label, d=space.dim)
+        log.info("%s: %d validation runs (%s)", self.label, nv,
+                 "stratified" if vd.stratified else "random")
+        data = dict(design.data, n_fit=design.n_runs, **vd.to_data())
+        return Design(x=np.vstack([design.x, space.from_unit(vd.u)]), data=data)
+
+    def _surrogate(self, space: InputSpace, fits: list[_OutputFit]) -> Surrogate:
+        return Surrogate(Germ.of(space), {f.columns.name: f.expansion for f in fits},
+                         dict(self.derived_outputs),
+                         {f.columns.name: f.columns.kind for f in fits})
 
     def _enrich(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         s, d, n = self.settings, space.dim, design.n_runs
@@ -276,10 +300,9 @@ class AdaptivePCE(Method):
             label=self.label, sampling=s.surrogate_sampling,
             levels=self.quantile_levels, events=self.events, components=self.components,
             note=self.note)
-        val_diag: dict[str, Any] = {}
-        if validation is not None:
-            events, val_diag = self._validate(space, fits, design.data["u_validation"],
-                                              validation, events)
+        val_design = ValidationDesign.from_data(design.data)
+        if validation is not None and val_design is not None:
+            events = self._validate(space, fits, val_design, validation, events)
         worst = max((f.loo for f in fits), default=0.0)
         diagnostics: dict[str, Any] = {
             "n_runs": outputs.n,
@@ -297,7 +320,7 @@ class AdaptivePCE(Method):
             "n_terms": max((f.n_terms for f in fits), default=0),
             "n_components": max((f.n_components or 0 for f in fits), default=0),
             "moments_method": ", ".join(sorted({st.moments_method for st in stats.values()})),
-            **extra, **val_diag,
+            **extra,
         }
         for f in fits:
             diagnostics[f"loo_error.{f.columns.name}"] = f.loo
@@ -310,37 +333,41 @@ class AdaptivePCE(Method):
                                       + time.perf_counter() - t0)
         est = Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
                        scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
-        surrogate = Surrogate(Germ.of(space), {f.columns.name: f.expansion for f in fits},
-                              dict(self.derived_outputs),
-                              {f.columns.name: f.columns.kind for f in fits})
-        finish(est, surrogate, space=space, validation=validation,
-               u_validation=design.data.get("u_validation"),
+        finish(est, self._surrogate(space, fits), space=space, validation=validation,
+               design=val_design,
                loo={f.columns.name: f.loo for f in fits}, threshold=s.usable_error,
                seed=int(design.data.get("seed", 0)), n_draws=s.surrogate_draws)
         return est
 
-    def _validate(self, space: InputSpace, fits: list[_OutputFit], u_v: np.ndarray,
-                   validation: ModelOutput, events: dict[str, EventEstimate]
-                   ) -> tuple[dict[str, EventEstimate], dict[str, Any]]:
-        """Control-variate events and each scalar output's relative RMS validation error."""
+    def _validate(self, space: InputSpace, fits: list[_OutputFit], vd: ValidationDesign,
+                  validation: ModelOutput, events: dict[str, EventEstimate]
+                  ) -> dict[str, EventEstimate]:
+        """The events corrected by the validation runs (the surrogate as control variate)."""
         expansions = {f.columns.name: f.expansion for f in fits}
         germ = Germ.of(space)
-        ok = ~validation.failed
         names = [n for n in validation.scalars if n in expansions or n in self.derived_outputs]
-        sur = {n: surrogate_values(germ, expansions, self.derived_outputs, n, u_v)
+        sur = {n: surrogate_values(germ, expansions, self.derived_outputs, n, vd.u)
                for n in names}
-        diag: dict[str, Any] = {"n_validation": int(validation.n),
-                                "n_validation_failed": int(validation.failed.sum())}
-        for n in names:
-            y = np.asarray(validation.scalars[n], dtype=float)[ok]
-            err = np.sqrt(np.mean((sur[n][ok] - y) ** 2)) / max(float(y.std()), 1e-300)
-            diag[f"validation_error.{n}"] = float(err)
         cv = control_variate_events(events, self.events, self.components, validation.scalars,
-                                    sur, ok)
-        return {**events, **cv}, diag
+                                    sur, ~validation.failed, vd)
+        return {**events, **cv}
 
     # ------------------------------------------------------------------ fitting
     def _fit(self, space: InputSpace, design: Design, outputs: ModelOutput) -> list[_OutputFit]:
+        """The fit of every output, remembered for the same runs: the validation runs are
+        placed by the final fit (``refine``), which ``estimate`` then reuses instead of
+        fitting again (a pure cache: a resumed run that lacks it fits the same again)."""
+        key = _runs_digest(space, design, outputs)
+        cached = getattr(self, "_last_fit", None)
+        if cached is not None and cached[0] == key:
+            fits: list[_OutputFit] = cached[1]
+            return fits
+        fits = self._fit_now(space, design, outputs)
+        self._last_fit = (key, fits)
+        return fits
+
+    def _fit_now(self, space: InputSpace, design: Design, outputs: ModelOutput
+                 ) -> list[_OutputFit]:
         if outputs.n != design.n_runs or "u" not in design.data:
             raise MethodError(f"{self.label}: the outputs ({outputs.n} runs) do not belong to "
                               f"this method's design ({design.n_runs} runs)")

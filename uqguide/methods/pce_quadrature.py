@@ -38,10 +38,10 @@ from ..pce.pca import constant_columns
 from ..pce.projection import project
 from ..pce.quadrature import Grid, union_basis
 from ..pce.surrogate import Surrogate
-from ..pce.validation import validation_unit_rows
+from ..pce.validation_design import ValidationDesign, random_validation
 from .base import Design, Estimate, Method, MethodSettings
 from .pce_validated import (USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish,
-                            split_validation)
+                            split_validation, validation_design)
 
 log = logging.getLogger(__name__)
 
@@ -100,6 +100,8 @@ class QuadraturePCE(Method):
     needs_all_runs = True
     uses_derivations = True
     random_design = False
+    # Stratified validation runs are placed once the grid's runs are projected.
+    refines = True
 
     @abstractmethod
     def _grid(self, germ: Germ) -> Grid:
@@ -125,13 +127,49 @@ class QuadraturePCE(Method):
                  ", ".join(f"{k}={v}" for k, v in self._grid_diagnostics(grid).items()))
         x = germ.to_physical(grid.xi)
         data: dict[str, Any] = {"xi": grid.xi, "draw_seed": draw_seed, "seed": int(seed)}
-        if self.settings.validation is not None:
-            nv = self.settings.validation.n_samples
-            u_v = validation_unit_rows(seed, self.label, nv, space.dim)
-            log.info("%s: %d validation runs", self.label, nv)
-            x = np.vstack([x, space.from_unit(u_v)])
-            data.update(n_fit=grid.n_nodes, u_validation=u_v)
+        v = self.settings.validation
+        if v is not None and v.design == "random":
+            # Random validation runs do not need the fit: they go with the grid.
+            vd = random_validation(seed, self.label, v.n_samples, space.dim)
+            log.info("%s: %d validation runs (random)", self.label, vd.n)
+            x = np.vstack([x, space.from_unit(vd.u)])
+            data.update(n_fit=grid.n_nodes, **vd.to_data())
         return Design(x=x, data=data)
+
+    def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
+        """Stratified validation runs, placed by the projection of the grid's runs (once)."""
+        v = self.settings.validation
+        if v is None or "n_fit" in design.data:
+            return None
+        germ = Germ.of(space)
+        grid = self._checked_grid(germ)
+        _, fitted = self._project(germ, grid, design, outputs)
+        surrogate = Surrogate(germ, {c.name: e for c, e in fitted}, dict(self.derived_outputs),
+                              {c.name: c.kind for c, _ in fitted})
+        vd = validation_design(v, v.n_samples, surrogate, self.context.outputs,
+                               seed=int(design.data["seed"]), label=self.label, d=space.dim)
+        log.info("%s: %d validation runs (stratified)", self.label, vd.n)
+        data = dict(design.data, n_fit=design.n_runs, **vd.to_data())
+        return Design(x=np.vstack([design.x, space.from_unit(vd.u)]), data=data)
+
+    def _project(self, germ: Germ, grid: Grid, design: Design, outputs: ModelOutput
+                 ) -> tuple[np.ndarray, list[tuple[Any, Expansion]]]:
+        """Rows used and every fitted output's expansion (not the derived ones)."""
+        if outputs.n != grid.n_nodes or not np.allclose(
+                design.data.get("xi", grid.xi), grid.xi, rtol=0, atol=1e-12):
+            raise MethodError(
+                f"{self.label}: the design ({design.n_runs} runs, {outputs.n} outputs) is not "
+                f"this method's {grid.n_nodes}-node grid")
+        rows, alpha, fit = self._fitter(germ, grid, outputs)
+        fitted = []
+        for col in output_columns(outputs, rows):
+            if col.name in self.derived_outputs:
+                continue  # computed from its carriers' surrogates below
+            self.note(f"projecting {col.name}")
+            coef = fit(col.y)
+            coef[1:, constant_columns(col.y)] = 0.0  # runs that all agree: exactly constant
+            fitted.append((col, Expansion(germ, alpha, coef, col.shape)))
+        return rows, fitted
 
     def n_validation(self) -> int:
         """Validation runs the method adds after the grid."""
@@ -168,21 +206,13 @@ class QuadraturePCE(Method):
         n_total = outputs.n
         outputs, validation = split_validation(design.data, outputs)
         n_fit = int(design.data.get("n_fit", design.n_runs))
-        if outputs.n != grid.n_nodes or n_fit != grid.n_nodes or not np.allclose(
-                design.data.get("xi", grid.xi), grid.xi, rtol=0, atol=1e-12):
+        if n_fit != grid.n_nodes:
             raise MethodError(
                 f"{self.label}: the design ({design.n_runs} runs, {outputs.n} outputs) is not "
                 f"this method's {grid.n_nodes}-node grid")
-        rows, alpha, fit = self._fitter(germ, grid, outputs)
+        rows, fitted = self._project(germ, grid, design, outputs)
+        alpha = fitted[0][1].alpha if fitted else union_basis(grid)
         seed = design.data.get("draw_seed", 0)
-        fitted = []
-        for col in output_columns(outputs, rows):
-            if col.name in self.derived_outputs:
-                continue  # computed from its carriers' surrogates below
-            self.note(f"projecting {col.name}")
-            coef = fit(col.y)
-            coef[1:, constant_columns(col.y)] = 0.0  # runs that all agree: exactly constant
-            fitted.append((col, Expansion(germ, alpha, coef, col.shape)))
         stats, names, s_mean, s_cov, extra, events = assemble(
             fitted, self.derived_outputs, outputs, n_runs=rows.size,
             n_draws=self.settings.surrogate_draws, seed=seed, label=self.label,
@@ -207,7 +237,7 @@ class QuadraturePCE(Method):
         surrogate = Surrogate(germ, {c.name: e for c, e in fitted}, dict(self.derived_outputs),
                               {c.name: c.kind for c, _ in fitted})
         finish(est, surrogate, space=space, validation=validation,
-               u_validation=design.data.get("u_validation"), loo={},
+               design=ValidationDesign.from_data(design.data), loo={},
                threshold=self.settings.usable_error, seed=int(design.data.get("seed", 0)),
                n_draws=self.settings.surrogate_draws)
         diagnostics["fit_seconds"] = time.perf_counter() - t0

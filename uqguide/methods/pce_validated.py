@@ -3,19 +3,21 @@ independent runs, correct its moments and withdraw them where it is not usable.
 
 Settings (every PCE method)::
 
-    validation: {n_samples: 100}   # independent Monte Carlo runs after the fit (default none)
+    validation: {n_samples: 100}   # independent model runs after the fit (default none)
+    validation: {n_samples: 100, design: random}   # plain random runs, not stratified
     usable_error: 0.1              # LOO / validation error above which a PCE reports no moments
 
-The validation runs come from the method's own stream (:func:`uqguide.pce.validation.
-validation_unit_rows`, keyed by the label), are appended after the fit's runs in the design and
-never reach the fit. What they give is described in :mod:`uqguide.pce.validation`.
+The validation runs come from the method's own stream (keyed by its label), are chosen once the
+surrogate is fitted (stratified by its value, :mod:`uqguide.pce.validation_design`), are
+appended after the fit's runs in the design and never reach the fit. What they give is
+described in :mod:`uqguide.pce.validation`.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import ConfigDict, Field
@@ -24,8 +26,11 @@ from ..strict import StrictModel
 
 from ..inputs import InputSpace
 from ..pce.surrogate import Surrogate
-from ..pce.validation import (USABLE_ERROR, corrected_moments, sampling_se, usable_mask,
-                              validation_unit_rows, withdraw)
+from ..pce.validation import (USABLE_ERROR, corrected_moments, disagreement,
+                              first_sustained, sampling_se, usable_mask, validation_unit_rows,
+                              withdraw)
+from ..pce.validation_design import (ValidationDesign, random_validation,
+                                     stratified_validation)
 from ..types import Estimate, ModelOutput
 
 log = logging.getLogger(__name__)
@@ -37,13 +42,30 @@ class ValidationSettings(StrictModel):
     Attributes
     ----------
     n_samples : int
-        Independent model runs at random inputs after the fit.
+        Independent model runs after the fit.
+    design : {"stratified", "random"}
+        Stratified by the fitted surrogate's value (default; the tails get runs of their own,
+        :mod:`uqguide.pce.validation_design`) or plain random.
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     n_samples: int = Field(ge=2, le=10_000_000,
                            description="independent model runs that validate the surrogate")
+    design: Literal["stratified", "random"] = Field(
+        default="stratified", description="stratified by the surrogate's value, or random")
+
+
+def validation_design(settings: ValidationSettings | None, n: int, surrogate: Surrogate,
+                      outputs: tuple[str, ...], *, seed: int, label: str, d: int
+                      ) -> ValidationDesign:
+    """The ``n`` validation runs of a fitted surrogate: stratified by the value of the
+    ``outputs`` it reports (all it predicts when none is named) unless ``settings`` asks for
+    random runs or there are none (the legacy ``validation_runs``)."""
+    if settings is None or settings.design == "random":
+        return random_validation(seed, label, n, d)
+    names = [o for o in outputs if o in surrogate.names] or surrogate.names
+    return stratified_validation(lambda u: surrogate.at_unit(u, names), seed, label, n, d)
 
 
 #: Fields the PCE methods' settings add (annotations and defaults), one definition for all.
@@ -67,7 +89,7 @@ def _values(out: ModelOutput, name: str) -> np.ndarray | None:
 
 
 def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
-           validation: ModelOutput | None, u_validation: np.ndarray | None,
+           validation: ModelOutput | None, design: ValidationDesign | None,
            loo: Mapping[str, float], threshold: float, seed: int,
            n_draws: int = 1_000_000) -> None:
     """Keep the surrogate in ``estimate``; validate, correct and judge every output in place.
@@ -80,14 +102,14 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
     space : InputSpace
     validation : ModelOutput, optional
         The validation runs' outputs (None: no validation set).
-    u_validation : ndarray, shape (n_v, d), optional
-        Their inputs on the unit cube.
+    design : ValidationDesign, optional
+        Their inputs on the unit cube, weights and strata.
     loo : mapping of str to float
         The fit's relative LOO error per fitted output (empty for quadrature PCEs).
     threshold : float
         ``usable_error``.
     seed : int
-        Seed of the bootstrap.
+        The run's seed (keys the draws that measure sampled moments' sampling error).
     n_draws : int
         Surrogate draws behind sampled moments (their sampling error joins the intervals).
     """
@@ -95,17 +117,21 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
     diag = estimate.diagnostics
     diag["usable_error"] = threshold
     ok = None
-    if validation is not None and u_validation is not None:
+    used = None
+    if validation is not None and design is not None:
         ok = ~validation.failed
+        used = design.successful(ok)
         diag["n_validation"] = int(validation.n)
         diag["n_validation_failed"] = int(validation.failed.sum())
+        diag["validation_design"] = (f"stratified ({design.share.size} strata of a "
+                                     f"{design.pool}-point pool)" if design.stratified
+                                     else "random")
     time = validation.time if validation is not None else None
     for name, st in estimate.stats.items():
         err = None
         y = _values(validation, name) if validation is not None else None
-        if y is not None and ok is not None and u_validation is not None \
-                and int(ok.sum()) >= 2:
-            s = surrogate.at_unit(u_validation[ok], [name])[name].reshape(y[ok].shape)
+        if y is not None and ok is not None and used is not None and int(ok.sum()) >= 2:
+            s = surrogate.at_unit(used.u, [name])[name].reshape(y[ok].shape)
             pce_se = None
             if st.moments_method == "surrogate-sampling":
                 cols = int(np.prod(y.shape[1:]))
@@ -113,10 +139,12 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
                 u = validation_unit_rows(seed, f"{estimate.label}/se", m, space.dim)
                 draws = surrogate.at_unit(u, [name])[name].reshape((m,) + y.shape[1:])
                 pce_se = sampling_se(draws, n_draws, seed=seed)
-            cv = corrected_moments(st, y[ok], s, seed=seed, pce_se=pce_se)
+            cv = corrected_moments(st, y[ok], s, weight=used.weight, stratum=used.stratum,
+                                   share=used.share, pool=used.pool, pce_se=pce_se)
             st.corrected, st.corrected_ci = cv.values, cv.ci
             st.validation_error = err = cv.error
             diag[f"validation_error.{name}"] = float(np.max(err)) if err.size else 0.0
+            _flag_disagreement(diag, estimate.label, name, st, cv, time)
         # Derived outputs have no LOO of their own: their carriers' LOO judges them.
         fit_loo = loo.get(name)
         if fit_loo is None and name in surrogate.derived:
@@ -140,6 +168,33 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             diag[f"unusable.{name}"] = f"{why} > {threshold:g}"
             log.warning("%s: %s: no usable surrogate (%s > %g); its moments are not reported",
                         estimate.label, name, why, threshold)
+
+
+def _flag_disagreement(diag: dict[str, Any], label: str, name: str, st: Any, cv: Any,
+                       time: np.ndarray | None) -> None:
+    """Record (diagnostics ``disagrees.<output>`` / ``disagrees_from.<output>``) and log where
+    the PCE's own statistics are refuted by its validation runs
+    (:func:`uqguide.pce.validation.disagreement`)."""
+    own = {k: np.asarray(st.stat(k), dtype=float) for k in ("mean", "std", "skewness",
+                                                             "kurtosis")}
+    series = own["mean"].ndim == 2 and time is not None and time.size == own["mean"].shape[0]
+    mask, names = disagreement(own, cv, series)
+    if not names:
+        return
+    if series and time is not None:
+        i = first_sustained(np.asarray(mask.any(axis=1)))
+        if i is None:
+            return
+        t0 = float(time[i])
+        diag[f"disagrees_from.{name}"] = t0
+        log.warning("%s: %s: the PCE's %s disagree with its validation runs from t = %g s "
+                    "(outside the correction's 95%% interval); the corrected values (+cv) "
+                    "hold there", label, name, " and ".join(names), t0)
+    else:
+        diag[f"disagrees.{name}"] = ", ".join(names)
+        log.warning("%s: %s: the PCE's %s disagree with its validation runs (more than two "
+                    "95%% half-widths from the corrected value); the corrected values (+cv) "
+                    "hold", label, name, ", ".join(names))
 
 
 def split_validation(design_data: Mapping[str, Any], outputs: ModelOutput

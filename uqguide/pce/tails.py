@@ -26,6 +26,7 @@ from ..quantiles import order_statistic_quantiles
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
+from .validation_design import ValidationDesign, random_design_of
 
 SERIES_FLOATS = 2**24
 _CHUNK_FLOATS = 2**22
@@ -118,40 +119,60 @@ def control_variate_events(
     surrogate: Mapping[str, EventEstimate], events: tuple[EventSpec, ...],
     components: Mapping[str, tuple[str, ...]], model_values: Mapping[str, np.ndarray],
     surrogate_at_validation: Mapping[str, np.ndarray], ok: np.ndarray,
+    design: ValidationDesign | None = None,
 ) -> dict[str, EventEstimate]:
     """Events corrected by a validation set of model runs (the surrogate as control variate).
 
-    With ``n`` validation runs (independent of the fit), ``n+`` in the event by the model but
-    not by the surrogate and ``n-`` the reverse, the estimate is
-    ``P = P_s + (n+ - n-) / n`` (unbiased for the model's probability: ``P_s`` is the
-    surrogate's, the correction the mean model-minus-surrogate indicator). Its interval is
-    distribution-free: the draws' and both disagreement rates' Clopper-Pearson intervals at
-    ``1 - 0.05 / 3`` each (Bonferroni), combined end to end, so it holds at least 95% whatever
-    the surrogate, and it is ``[0, ~3.7 / n]``-wide, never ``[0, 0]``, when no run disagrees.
+    With ``n_k`` successful validation runs in stratum ``k`` of probability ``W_k`` (one
+    stratum, ``W = 1``, for random runs; :mod:`uqguide.pce.validation_design`), ``n+_k`` of
+    them in the event by the model but not by the surrogate and ``n-_k`` the reverse, the
+    estimate is ``P = P_s + sum_k W_k (n+_k - n-_k) / n_k`` (unbiased for the model's
+    probability: ``P_s`` is the surrogate's, the correction the mean model-minus-surrogate
+    indicator). Its interval is distribution-free: the draws' and every stratum's two
+    disagreement rates' Clopper-Pearson intervals at ``1 - 0.05 / (1 + 2K)`` each
+    (Bonferroni), combined end to end, so it holds at least 95% whatever the surrogate; for
+    random runs it is ``[0, ~3.7 / n]``-wide, never ``[0, 0]``, when no run disagrees.
+
+    Parameters
+    ----------
+    ok : ndarray of bool, shape (n,)
+        The validation runs that succeeded.
+    design : ValidationDesign, optional
+        The runs' design (all of them, failed ones included); default: random.
     """
     from ..events import clopper_pearson
 
-    level = 1.0 - 0.05 / 3.0
+    n_all = int(np.asarray(ok).size)
+    used = (design if design is not None
+            else random_design_of(np.zeros((n_all, 0)))).successful(ok)
+    strata = [k for k in range(used.share.size)
+              if used.share[k] > 0 and np.any(used.stratum == k)]
+    level = 1.0 - 0.05 / (1.0 + 2.0 * len(strata))
     out = {}
     for spec in events:
         s = surrogate.get(spec.name)
-        if s is None:
+        if s is None or not strata:
             continue
         c = component_index(spec, tuple(components.get(spec.output, ("",))))
         im = spec.indicator(np.asarray(model_values[spec.output])[ok, c])
         isur = spec.indicator(np.asarray(surrogate_at_validation[spec.output])[ok, c])
-        n = int(ok.sum())
-        if n == 0:
-            continue
-        n_plus, n_minus = int(np.sum(im & ~isur)), int(np.sum(~im & isur))
-        p = s.probability + (n_plus - n_minus) / n
         d_lo, d_hi = clopper_pearson(s.n_in, s.n_used, level)
-        plus = clopper_pearson(n_plus, n, level)
-        minus = clopper_pearson(n_minus, n, level)
-        lo = max(0.0, d_lo + plus[0] - minus[1])
-        hi = min(1.0, d_hi + plus[1] - minus[0])
-        diff = im.astype(float) - isur.astype(float)
-        cov = float(diff.std(ddof=1) / np.sqrt(n) / p) if p > 0 and n > 1 else float("nan")
+        p, lo, hi, var = s.probability, d_lo, d_hi, 0.0
+        for k in strata:
+            rows = used.stratum == k
+            nk, wk = int(rows.sum()), float(used.share[k])
+            n_plus = int(np.sum(im[rows] & ~isur[rows]))
+            n_minus = int(np.sum(~im[rows] & isur[rows]))
+            plus = clopper_pearson(n_plus, nk, level)
+            minus = clopper_pearson(n_minus, nk, level)
+            p += wk * (n_plus - n_minus) / nk
+            lo += wk * (plus[0] - minus[1])
+            hi += wk * (plus[1] - minus[0])
+            diff = im[rows].astype(float) - isur[rows].astype(float)
+            var += wk**2 * float(diff.var(ddof=1)) / nk if nk > 1 else 0.0
+        n = int(np.sum(ok))
+        cov = float(np.sqrt(var) / p) if p > 0 and n > 1 else float("nan")
         out[spec.name] = EventEstimate(spec.name, spec.describe(), float(min(max(p, 0.0), 1.0)),
-                                       (lo, hi), int(im.sum()), n, "surrogate+cv", cov)
+                                       (max(0.0, lo), min(1.0, hi)), int(im.sum()), n,
+                                       "surrogate+cv", cov)
     return out
