@@ -112,8 +112,16 @@ def test_same_numbers_whatever_the_split_and_the_threads():
                                       err_msg=name)
 
 
+def test_an_empty_batch_gives_empty_outputs():
+    out = GMMProximity({**E_START, "kernel": "numba"}).evaluate(np.zeros((0, 1)), ["dx0"],
+                                                                ["delta_v", "range"])
+    assert out.scalars["delta_v"].shape == (0, 1)
+    assert out.series["range"].shape == (0, 81, 1)
+
+
 @pytest.mark.parametrize("threads", [1, 2, 3, 8])
 def test_blocks_cover_the_batch_evenly(threads):
+    assert block_size(0, threads) >= 1  # an empty batch runs no block
     for n in (1, 2, 63, 64, 65, 200, 1000, 12345):
         size = block_size(n, threads)
         blocks = -(-n // size)

@@ -63,7 +63,7 @@ def block_size(n: int, threads: int) -> int:
     int
     """
     threads = max(1, threads)
-    blocks = -(-n // BLOCK)
+    blocks = max(1, -(-n // BLOCK))
     blocks = -(-blocks // threads) * threads
     return max(1, -(-n // blocks))
 
