@@ -133,7 +133,9 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         if y is not None and ok is not None and used is not None and int(ok.sum()) >= 2:
             s = surrogate.at_unit(used.u, [name])[name].reshape(y[ok].shape)
             pce_se = None
-            if st.moments_method == "surrogate-sampling":
+            if st.sampling_se:
+                pce_se = st.sampling_se
+            elif st.moments_method == "surrogate-sampling":
                 cols = int(np.prod(y.shape[1:]))
                 m = min(SE_DRAWS, n_draws, max(1000, 2_000_000 // max(cols, 1)))
                 u = validation_unit_rows(seed, f"{estimate.label}/se", m, space.dim)
