@@ -52,13 +52,20 @@ of each kernel; they round to the nearest ten and are good to about +-30 %):
   double-integrator update (12); stop and pass tests (~15); delta-v and peak (3). About 100
   add/mul + 5 div/sqrt (40) + 1 pow (20) = 160. Memory: the series written per step (8 bytes
   per recorded component, ``omega_s`` and ``R`` in Table 3: 16 B); the state lives in cache.
-- ``gmm_proximity`` (a step = one RK4 sub-step, 10 per 1 s control period): the sub-step map
-  ``phi (6x6) x + gam (6x3) u`` (108), the range (5 + sqrt), per chief part (5) the
-  box distance and depth (~25 + sqrt); the swept-box test amortised (~10 per part); per control
-  period (shared by its ``n_sub`` sub-steps) the GMM potential's gradient and Hessian, ~90 per
-  kernel (10 kernels: 3x3 quadratic form, exp, gradient and outer-product Hessian), and the
-  NTSMC law (~150 add/mul + 6 pow = 270). Per sub-step: 108 + 13 + 5 x 43 + (900 + 270) / 10
-  = 450. Memory: 8 B per recorded state component every 100 sub-steps: negligible.
+- ``gmm_proximity`` (a step = one RK4 sub-step, 10 per 1 s control period). Per sub-step: the
+  three position rows of the sub-step map ``phi (6x6) x + gam (6x3) u`` (51; the velocity rows
+  only at the period's end, 5 per sub-step), the squared range and its minimum (6), per chief
+  part (5) the squared box distance and its minimum (~18), the body's depth (13), the period's
+  bounding box (6) and the swept-box overlap tests amortised (3): about 175. Per control
+  period, shared by its 10 sub-steps: the potential's 10 Gaussian kernels at ~80 each (3x3
+  quadratic form, ``exp``, gradient and Hessian: 800) and the NTSMC law (~250 add/mul, 6 ``pow``,
+  3 ``sqrt``, 3 divisions, the saturation's and delta-v's 2 ``sqrt`` and a division: ~440),
+  so 125 per sub-step. About 300. Memory: 8 B per recorded state component every 100
+  sub-steps: negligible. (An earlier count, 450, charged all six map rows and a ``sqrt`` per
+  part at every sub-step; the loop needs neither: intermediate velocities are never used, and
+  the minimum of square roots is the square root of the minimum. Every Gaussian kernel is
+  counted although the kernel skips the ``exp`` and the sums where it underflows to zero: 93 %
+  of them along case E's paths, 3 % along F2's.)
 - ``gmm_ftc`` (a step = one 0.1 s control period = one RK4 step): the GMM-FTC law with the
   12-kernel potential and its third derivative (~150 per kernel: 1800; law ~200 incl. 6 pow =
   320); attitude of the spinning target (~60 incl. sin/cos = 40); RK4 of the 6-state plant, four
@@ -129,7 +136,7 @@ LOOP_COUNTS: dict[str, tuple[float, float]] = {
     # model: (flop-equivalents, bytes of memory traffic) per sample-step; derivation in the
     # module docstring
     "ftcapn": (160.0, 16.0),
-    "gmm_proximity": (450.0, 0.0),
+    "gmm_proximity": (300.0, 0.0),
     "gmm_ftc": (2600.0, 0.0),
     "ft_as": (4500.0, 0.0),
 }

@@ -241,6 +241,9 @@ class OutputStats:
         Their 95% intervals (delta method over the validation runs).
     validation_error : ndarray, shape (..., k), optional
         The surrogate's out-of-sample relative error on the validation runs.
+    sampling_se : dict of str to ndarray, shape (..., k)
+        Standard errors of moments sampled from a surrogate (a derived output's replicate
+        spread, :mod:`uqguide.pce.derived`); empty where the moments are exact.
     usable : ndarray of bool, shape (..., k), optional
         Where the surrogate is usable (its error at most the method's ``usable_error``); its
         own moments are NaN elsewhere. None: not judged (sampling methods).
@@ -264,6 +267,7 @@ class OutputStats:
     corrected_ci: dict[str, np.ndarray] = field(default_factory=dict)
     validation_error: np.ndarray | None = None
     usable: np.ndarray | None = None
+    sampling_se: dict[str, np.ndarray] = field(default_factory=dict)
 
     def stat(self, name: str) -> np.ndarray:
         """One of the four moments by name.

@@ -109,11 +109,13 @@ class AdaptivePCESettings(MethodSettings):
     variance_fraction : float in (0, 1]
         Fraction of a time series' (correlation-scaled) variance its principal components keep.
     surrogate_draws : int
-        Surrogate samples for skewness and kurtosis where the exact rule is too large, and for
-        derived outputs.
+        Surrogate samples for skewness and kurtosis where the exact rule is too large, for
+        derived outputs, quantiles and events.
     surrogate_sampling : {"random", "sobol"}
         Those samples: pseudo-random, or scrambled Sobol' (error about ``1 / n`` instead of
         ``1 / sqrt(n)`` on a polynomial; ``surrogate_draws`` rounded up to a power of two).
+        Derived outputs' moments always use 16 scrambled Sobol' replicates, whose spread is
+        their standard error (:mod:`uqguide.pce.derived`).
     validation_runs : int
         Model runs at independent random inputs after the fit (not used by it): the config's
         events get the control-variate correction of the surrogate's probability

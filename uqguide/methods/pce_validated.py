@@ -129,11 +129,14 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
     time = validation.time if validation is not None else None
     for name, st in estimate.stats.items():
         err = None
+        corrected = None
         y = _values(validation, name) if validation is not None else None
         if y is not None and ok is not None and used is not None and int(ok.sum()) >= 2:
             s = surrogate.at_unit(used.u, [name])[name].reshape(y[ok].shape)
             pce_se = None
-            if st.moments_method == "surrogate-sampling":
+            if st.sampling_se:
+                pce_se = st.sampling_se
+            elif st.moments_method == "surrogate-sampling":
                 cols = int(np.prod(y.shape[1:]))
                 m = min(SE_DRAWS, n_draws, max(1000, 2_000_000 // max(cols, 1)))
                 u = validation_unit_rows(seed, f"{estimate.label}/se", m, space.dim)
@@ -144,7 +147,7 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             st.corrected, st.corrected_ci = cv.values, cv.ci
             st.validation_error = err = cv.error
             diag[f"validation_error.{name}"] = float(np.max(err)) if err.size else 0.0
-            _flag_disagreement(diag, estimate.label, name, st, cv, time)
+            corrected = cv
         # Derived outputs have no LOO of their own: their carriers' LOO judges them.
         fit_loo = loo.get(name)
         if fit_loo is None and name in surrogate.derived:
@@ -152,6 +155,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             fit_loo = max(carriers) if carriers else None
         usable = usable_mask(err, fit_loo, threshold, np.shape(st.mean))
         st.usable = usable
+        if corrected is not None:
+            _flag_disagreement(diag, estimate.label, name, st, corrected, time, usable)
         if usable.all():
             continue
         withdraw(st, usable)
@@ -171,15 +176,17 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
 
 
 def _flag_disagreement(diag: dict[str, Any], label: str, name: str, st: Any, cv: Any,
-                       time: np.ndarray | None) -> None:
+                       time: np.ndarray | None, usable: np.ndarray) -> None:
     """Record (diagnostics ``disagrees.<output>`` / ``disagrees_from.<output>``) and log where
     the PCE's own statistics are refuted by its validation runs
-    (:func:`uqguide.pce.validation.disagreement`)."""
+    (:func:`uqguide.pce.validation.disagreement`), among the columns where it is usable (the
+    others already say "no usable surrogate")."""
     own = {k: np.asarray(st.stat(k), dtype=float) for k in ("mean", "std", "skewness",
                                                              "kurtosis")}
     series = own["mean"].ndim == 2 and time is not None and time.size == own["mean"].shape[0]
     mask, names = disagreement(own, cv, series)
-    if not names:
+    mask &= usable
+    if not mask.any():
         return
     if series and time is not None:
         i = first_sustained(np.asarray(mask.any(axis=1)))

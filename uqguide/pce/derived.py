@@ -9,10 +9,20 @@ Carlo value is 3.56), while PCEs of the stop state ``r, v`` reach LOO errors of 
 So an output can be *derived*: the model names the smooth outputs it is computed from (its
 *carriers*) and gives the deterministic map; a PCE method fits the carriers and gets the derived
 output's statistics by sampling the carriers' surrogates jointly (same germ draws) and applying
-the map to every draw (``n_draws`` germ draws, as
-:func:`uqguide.pce.moments.central_moments_sampled`). The statistics are
-``"surrogate-sampling"`` ones (population moments of the draws); Sobol' indices are not
-available for them (``None``).
+the map to every draw. The statistics are ``"surrogate-sampling"`` ones (population moments of
+the draws); Sobol' indices are not available for them (``None``).
+
+The draws are randomised quasi-Monte Carlo whatever ``surrogate_sampling`` says (that setting
+governs the draws of quantiles and events, whose order-statistic and binomial intervals need
+independent draws): :data:`REPLICATES` independently scrambled Sobol' sequences of
+``n_draws / REPLICATES`` points each (rounded up to a power of two). The estimate pools them;
+its standard error is the spread of the replicates' own estimates over ``sqrt(REPLICATES)``
+(L'Ecuyer & Lemieux, *Recent advances in randomized quasi-Monte Carlo methods*, 2002), kept in
+``OutputStats.sampling_se`` so that validated intervals carry it. On Table 5's ZEM (a
+surrogate of the stop state through the closest-approach map, which has a cone), 2^17 points
+gave replicate spreads of 4e-5 m / 2e-4 m / 4e-4 / 2.8e-3 on mean / std / skewness /
+kurtosis, against 0.021 m / 0.017 m / 0.006 / 0.021 for as many pseudo-random draws: 8 to 500
+times smaller.
 
 A draw where the map returns a non-finite value (a surrogate state the map cannot handle) is
 left out and counted.
@@ -20,18 +30,21 @@ left out and counted.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..types import DerivedOutput
-from ..stats import OutputStats, shape_moments
+from ..stats import STAT_NAMES, OutputStats, shape_moments
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
 
 _CHUNK_FLOATS = 2**22  # draws per chunk x values per draw: about 32 MB per array
+#: Independently scrambled Sobol' sequences behind a derived output's moments (their spread
+#: is the sampling error: 16 gives it to within about 18%).
+REPLICATES = 16
 
 
 @dataclass
@@ -61,11 +74,13 @@ def derived_statistics(
         Names of the scalar outputs (fitted or derived) in the order of the stacked vector;
         when a derived output is among them, their joint mean and covariance are sampled too.
     n_draws : int
+        Draws in all (split over :data:`REPLICATES` scrambled Sobol' sequences).
     seed : int or SeedSequence
+        Keys the scramblings.
     n_runs : int
         Model runs behind the expansions (``n_used``).
-    sampling : {"random", "sobol"}
-        The draws (:func:`uqguide.pce.design.surrogate_draws`).
+    sampling : str
+        Ignored: derived moments are always randomised quasi-Monte Carlo (module docstring).
 
     Returns
     -------
@@ -77,13 +92,14 @@ def derived_statistics(
     """
     d = germ.dim
     joint_wanted = any(nm in derived for nm in scalar_order)
-    sums: dict[str, _Sums] = {}
+    sums: dict[str, list[_Sums]] = {}
     shapes: dict[str, tuple[int, ...]] = {}
     n_invalid = 0
     width = sum(e.n_columns for e in expansions.values()) + sum(
         expansions[c].n_columns for dv in derived.values() for c in dv.carriers)
     chunk = max(256, _CHUNK_FLOATS // max(width, 1))
-    for u in surrogate_draws(d, n_draws, seed, chunk, sampling):
+    per = max(1, -(-n_draws // REPLICATES))
+    for r, u in _replicate_draws(d, per, seed, chunk):
         xi = germ.from_unit(u)
         x = germ.to_physical(xi)
         inputs = {name: x[:, j] for j, name in enumerate(germ.space.names)}
@@ -107,25 +123,51 @@ def derived_statistics(
                 [values[nm][ok].reshape(int(ok.sum()), -1) for nm in scalar_order], axis=1)
         for name, y in groups.items():
             shapes.setdefault(name, y.shape[1:])
-            _accumulate(sums, name, y)
-    stats = {name: _stats(sums[name], shapes[name], n_runs) for name in derived}
+            _accumulate(sums, name, r, y)
+    stats = {}
+    for name in derived:
+        reps = [_stats(acc, shapes[name], n_runs) for acc in sums[name] if acc.n]
+        st = _stats(_pooled(sums[name]), shapes[name], n_runs)
+        if len(reps) > 1:
+            st.sampling_se = {k: np.std([rep.stat(k) for rep in reps], axis=0, ddof=1)
+                              / np.sqrt(len(reps)) for k in STAT_NAMES}
+        stats[name] = st
     joint = None
     if joint_wanted:
-        j = sums["\0joint"]
+        j = _pooled(sums["\0joint"])
         mean = j.shift + j.s[0] / j.n
         dev = j.s[0] / j.n
         joint = (mean, j.cross / j.n - np.outer(dev, dev))
     return stats, joint, n_invalid
 
 
-def _accumulate(sums: dict[str, _Sums], name: str, y: np.ndarray) -> None:
-    """Add draws ``y (n, ..., k)`` to the shifted power sums and the per-step cross products."""
+def _replicate_draws(d: int, per: int, seed: int | np.random.SeedSequence, chunk: int
+                     ) -> Iterator[tuple[int, np.ndarray]]:
+    """``(replicate, points)`` chunks of :data:`REPLICATES` independently scrambled Sobol'
+    sequences of ``per`` points each (rounded up to a power of two)."""
+    base = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    for r in range(REPLICATES):
+        ss = np.random.SeedSequence(base.entropy, spawn_key=tuple(base.spawn_key) + (r,))
+        for u in surrogate_draws(d, per, ss, chunk, "sobol"):
+            yield r, u
+
+
+def _pooled(reps: list[_Sums]) -> _Sums:
+    """The replicates' sums added (they share one shift)."""
+    first = reps[0]
+    return _Sums(first.shift, [np.sum([a.s[i] for a in reps], axis=0) for i in range(4)],
+                 np.sum([a.cross for a in reps], axis=0), sum(a.n for a in reps))
+
+
+def _accumulate(sums: dict[str, list[_Sums]], name: str, r: int, y: np.ndarray) -> None:
+    """Add draws ``y (n, ..., k)`` of replicate ``r`` to its shifted power sums and per-step
+    cross products (one shift, the first chunk's mean, for every replicate)."""
     if name not in sums:
         shift = y.mean(axis=0) if y.shape[0] else np.zeros(y.shape[1:])
         k = y.shape[-1]
-        sums[name] = _Sums(shift, [np.zeros(y.shape[1:]) for _ in range(4)],
-                           np.zeros(y.shape[1:] + (k,)))
-    acc = sums[name]
+        sums[name] = [_Sums(shift, [np.zeros(y.shape[1:]) for _ in range(4)],
+                            np.zeros(y.shape[1:] + (k,))) for _ in range(REPLICATES)]
+    acc = sums[name][r]
     z = y - acc.shift
     z2 = z * z
     for i, p in enumerate((z, z2, z2 * z, z2 * z2)):

@@ -27,6 +27,10 @@ Decisions where spec and paper are silent (each a parameter or stated here):
   flagged failed (its value has no physical meaning), as is one whose state becomes non-finite.
 - Series are recorded every ``record_interval`` seconds (default 10 s: 81 points) to bound the
   memory of 1e4-sample runs; clearance and collisions use every RK4 sub-step (0.1 s).
+- The closed loop runs compiled for the whole run (:mod:`.kernel_numba`, blocks of samples in
+  ``threads`` threads) unless ``kernel: numpy`` asks for the NumPy reference
+  (:func:`.sampled_sim.simulate`); the two agree to round-off, and a sample's numbers do not
+  depend on the batch split or the thread count.
 - ``los_rate`` is the rate of the line of sight from the chief's centre to the deputy seen in
   LVLH, ``|r x v| / |r|^2``; ``zem`` is the zero-effort miss, the distance from the goal at
   which the deputy would be at ``t_f`` had the thrust stopped at ``t`` (coasting on the same
@@ -45,13 +49,14 @@ import numpy as np
 from ..base import (InputInfo, Model, ModelOutput, OutputInfo, StepCount,
                    failure_reasons)
 from ..dynamics.tschauner_hempel import ChiefOrbit, LVLHPlant
+from ..kernels import select
 from .controllers import NTSMC, TSMC, ReachingLaw
 from .gauss_sum import GaussSum
 from .geometry import ChiefGeometry, wang2022_chief
 from .mixture import WANG2022_PUBLISHED, Mixture
 from .params import GMMProximityParams
 from .potential import AttractRepulsePotential
-from .sampled_sim import SampledRun, StepSchedule, build_schedule, simulate
+from .sampled_sim import SampledRun, StepSchedule, build_schedule
 
 log = logging.getLogger(__name__)
 
@@ -218,17 +223,25 @@ class GMMProximity(Model):
         a_max = np.inf if p.saturation == "none" else p.max_thrust / p.deputy_mass
         if record_every is None:
             record_every = int(round(p.record_interval / p.dt))
-        return simulate(
-            self.schedule(),
-            self.controller(name, self.repulsion(name, values, n)),
-            x0,
-            self.geometry(),
-            a_max=a_max,
-            per_axis_saturation=p.saturation == "per_axis",
-            thrust_scale=None if np.all(scale == 1.0) else scale,
-            record_every=record_every,
-            goal=np.asarray(p.r_f) if zem else None,
-        )
+        simulate = select(p.kernel, self.name,
+                          "uqguide.models.gmm.kernel_numba:simulate_compiled",
+                          "uqguide.models.gmm.sampled_sim:simulate")
+        args = (self.schedule(), self.controller(name, self.repulsion(name, values, n)), x0,
+                self.geometry())
+        options = dict(a_max=a_max, per_axis_saturation=p.saturation == "per_axis",
+                       thrust_scale=None if np.all(scale == 1.0) else scale,
+                       record_every=record_every, goal=np.asarray(p.r_f) if zem else None)
+        if simulate.__name__ != "simulate_compiled":
+            return simulate(*args, **options)
+        import numba
+
+        before = numba.get_num_threads()
+        most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
+        numba.set_num_threads(min(p.threads, most) if p.threads else most)
+        try:
+            return simulate(*args, **options)
+        finally:
+            numba.set_num_threads(before)
 
     # ------------------------------------------------------------------ contract
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int,

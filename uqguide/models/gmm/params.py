@@ -9,6 +9,7 @@ from pydantic import Field, model_validator
 
 from ..base import ModelParams
 from ..dynamics.tschauner_hempel import MU_EARTH
+from ..kernels import KernelParam
 from ..time_grid import recording_stride, whole_steps
 
 __all__ = ["ControllerName", "GMMProximityParams", "Vec3"]
@@ -65,6 +66,12 @@ class GMMProximityParams(ModelParams):
     deputy_radius: float = Field(0.0, ge=0, description="m (a point in [W])")
     record_interval: float = Field(10.0, gt=0, description="s between recorded series points")
     reach_tolerance: float = Field(0.05, gt=0, description="m; goal reached (claim W10, A32)")
+    kernel: KernelParam = Field("auto", description="'numba' (compiled whole-run loop), 'numpy' "
+                                "(the reference, one NumPy step per period) or 'auto' (numba "
+                                "when importable)")
+    threads: int = Field(
+        0, ge=0, description="threads of the numba kernel; 0: all cores (set 1 when batches "
+                             "already run in parallel worker processes)")
 
     @model_validator(mode="after")
     def _grid(self) -> GMMProximityParams:

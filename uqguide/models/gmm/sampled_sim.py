@@ -21,6 +21,8 @@ Per run it accumulates (spec 8 "Outputs per run"):
 
 Geometry checks run in one compiled loop per period (numba); a per-period bounding box of the
 sub-step path skips the swept test where it cannot hit, which does not change the result.
+This is the reference of :mod:`.kernel_numba` (the whole run compiled, about 7x faster per
+CPU-second); ``kernel: numpy`` (or ``UQGUIDE_KERNEL=numpy``) runs it.
 """
 
 from __future__ import annotations
