@@ -24,6 +24,12 @@ def indicator(x):
     return (x[:, 0] > 2.0).astype(float)
 
 
+def rare_flag(x):
+    """1 where a > 3.5 (probability 2.3e-4 for a standard normal), else 0: an event 60 runs
+    almost never see."""
+    return (x[:, 0] > 3.5).astype(float)
+
+
 def even_cosine(x):
     """cos(a) on a symmetric interval: even, so a degree-1 PCE of it is a constant."""
     return np.cos(x[:, 0])

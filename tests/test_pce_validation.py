@@ -171,6 +171,26 @@ def test_a_constant_fit_reports_no_moments_instead_of_std_zero():
     assert any(k.startswith("unusable.") for k in d)
 
 
+def test_a_scalar_constant_on_every_fit_run_reports_no_moments():
+    """A flag that fired on none of the 60 fit runs has an exactly constant PCE; its std 0
+    would claim the event never happens. It reports no moments and says why; the validation
+    runs' corrected mean stays (a constant surrogate gives every pool point the same score,
+    so its strata are random subsets)."""
+    cfg = {"model": {"name": "callable", "function": "tests.fixtures_models:rare_flag",
+                     "inputs": ["a"]},
+           "inputs": [{"name": "a", "dist": "normal", "mean": 0.0, "std": 1.0}],
+           "methods": [{"name": "pce_adaptive", "label": "apce", "n_samples": 60,
+                        "enrich": False, "validation": {"n_samples": 20}}], "seed": 4}
+    r = uqguide.run(cfg)
+    d = r.runs[0].estimate.diagnostics
+    s = next(iter(r.runs[0].estimate.stats.values()))
+    assert np.isnan(s.std).all() and np.isnan(s.mean).all() and not s.usable.any()
+    assert "constant on all 60 fit runs" in next(v for k, v in d.items()
+                                                 if k.startswith("unusable."))
+    assert np.isfinite(s.corrected["mean"]).all()
+    assert "no usable surrogate" in render_text(r)
+
+
 # ---------------------------------------------------------------------------- kept surrogate
 def test_surrogate_reloaded_from_the_result_file_reproduces_values_and_statistics(tmp_path):
     cfg = {"model": {"name": "callable", "function": "tests.fixtures_models:series_and_scalar",

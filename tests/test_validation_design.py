@@ -159,3 +159,26 @@ def test_a_scalar_disagrees_beyond_two_half_widths_on_any_moment():
     assert disagreement(own, near, series=False)[1] == []
     far = _corrected({**own, "skewness": np.array([0.62])}, half)   # 2.4 half-widths
     assert disagreement(own, far, series=False)[1] == ["skewness"]
+
+
+@pytest.mark.parametrize("entry", [
+    {"name": "pce_adaptive", "label": "a", "n_samples": 40, "degree_max": 4, "enrich": False},
+    {"name": "pce_smolyak", "label": "s", "level": 3},
+])
+def test_stratified_validation_is_the_same_on_one_or_two_worker_processes(entry):
+    """The runs are placed by the fitted surrogate after the fit's runs come back: the same
+    seed gives the same validation runs and the same corrected moments, bit for bit, whatever
+    the number of worker processes."""
+    import uqguide
+
+    cfg = {"model": {"name": "ishigami"},
+           "inputs": [{"name": f"x{i}", "dist": "uniform", "low": -np.pi, "high": np.pi}
+                      for i in (1, 2, 3)],
+           "methods": [dict(entry, validation={"n_samples": 30})], "seed": 11}
+    one = uqguide.run(cfg).runs[0].estimate
+    two = uqguide.run(cfg, workers=2).runs[0].estimate
+    assert one.diagnostics["validation_design"].startswith("stratified")
+    for k in ("mean", "std", "skewness", "kurtosis"):
+        np.testing.assert_array_equal(one.stats["y"].corrected[k], two.stats["y"].corrected[k])
+        np.testing.assert_array_equal(one.stats["y"].corrected_ci[k],
+                                      two.stats["y"].corrected_ci[k])

@@ -154,6 +154,12 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             carriers = [loo[c] for c in surrogate.derived[name].carriers if c in loo]
             fit_loo = max(carriers) if carriers else None
         usable = usable_mask(err, fit_loo, threshold, np.shape(st.mean))
+        # A scalar every fit run gave the same value (a collision flag that never fired) has
+        # an exactly constant expansion: its std 0 says nothing about how often it varies,
+        # so it is no result (the validation runs' corrected moments, if any, remain).
+        constant = np.ndim(st.mean) == 1 and bool(np.any(np.asarray(st.std) == 0.0))
+        if constant:
+            usable = usable & (np.asarray(st.std) != 0.0)
         st.usable = usable
         if corrected is not None:
             _flag_disagreement(diag, estimate.label, name, st, corrected, time, usable)
@@ -162,6 +168,12 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         withdraw(st, usable)
         why = (f"validation error {float(np.max(err)):.3g}" if err is not None
                else f"LOO error {fit_loo:.3g}")
+        if constant:
+            diag[f"unusable.{name}"] = (f"constant on all {st.n_used} fit runs: a PCE cannot "
+                                        f"tell a constant from a rare event")
+            log.warning("%s: %s: no usable surrogate (constant on all %d fit runs); its "
+                        "moments are not reported", estimate.label, name, st.n_used)
+            continue
         if usable.ndim == 2 and time is not None and time.size == usable.shape[0]:
             bad_t = np.flatnonzero(~usable.all(axis=1))
             diag[f"unusable_from.{name}"] = float(time[bad_t[0]])

@@ -278,7 +278,9 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
 
     ci, own = {}, {}
     for k, g in grads.items():
-        influence = sum(gp * d for gp, d in zip(g, diffs))
+        with np.errstate(invalid="ignore"):
+            # NaN where the statistic is undefined (zero variance): so is its interval
+            influence = sum(gp * d for gp, d in zip(g, diffs))
         se, df = stratified_se(np.asarray(influence), weight, stratum, share, pool)
         with np.errstate(invalid="ignore"):
             half = student.ppf((1 + LEVEL) / 2, np.maximum(df, 1.0)) * se
