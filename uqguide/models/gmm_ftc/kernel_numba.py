@@ -359,9 +359,15 @@ def _det3(a00, a01, a02, a10, a11, a12, a20, a21, a22):  # pragma: no cover - co
             + a02 * (a10 * a21 - a11 * a20))
 
 
+# rows of the law's work array ``lw (N_LW, m)``: Lambda y2 (then the right-hand side), k_s gamma,
+# I + k_s H (row by row)
+W_LY, W_KG, W_J = 0, 3, 6
+N_LW = 15
+
+
 @njit(cache=True, error_model="numpy")
 def _law(m, x, acc, pa, r_f, P, M, alpha1, beta1, lam1, lam2, zeta1, mode1, zeta2, mode2, k_s,
-         det_guard, u, s2, guarded):  # pragma: no cover - compiled
+         det_guard, u, s2, guarded, lw):  # pragma: no cover - compiled
     """GMM-FTC command ``u`` and ``s2`` (each (3, m)) of every lane from the potential's
     derivatives ``acc``; ``guarded[l]`` is 1 where ``I + k_s H`` was singular."""
     P00, P01, P02 = P[0, 0], P[0, 1], P[0, 2]
@@ -426,30 +432,37 @@ def _law(m, x, acc, pa, r_f, P, M, alpha1, beta1, lam1, lam2, zeta1, mode1, zeta
         s21 = y1 + alpha1[1] * s11 + beta1[1] * (s11 * s11 * s11) + ks1 * Hv1
         s22 = y2 + alpha1[2] * s12 + beta1[2] * (s12 * s12 * s12) + ks2 * Hv2
         s2[0, l], s2[1, l], s2[2, l] = s20, s21, s22
-        p10, p20 = _sig2(s20, zeta1, mode1, zeta2, mode2)
-        p11, p21 = _sig2(s21, zeta1, mode1, zeta2, mode2)
-        p12, p22 = _sig2(s22, zeta1, mode1, zeta2, mode2)
-        rhs0 = (-lam1[0] * p10 - lam2[0] * p20
-                - (alpha1[0] + 3.0 * beta1[0] * s10 * s10) * Jv0 - ks0 * gam0)
-        rhs1 = (-lam1[1] * p11 - lam2[1] * p21
-                - (alpha1[1] + 3.0 * beta1[1] * s11 * s11) * Jv1 - ks1 * gam1)
-        rhs2 = (-lam1[2] * p12 - lam2[2] * p22
-                - (alpha1[2] + 3.0 * beta1[2] * s12 * s12) * Jv2 - ks2 * gam2)
-        J00, J01, J02 = 1.0 + ks0 * H00, ks0 * H01, ks0 * H02
-        J10, J11, J12 = ks1 * H10, 1.0 + ks1 * H11, ks1 * H12
-        J20, J21, J22 = ks2 * H20, ks2 * H21, 1.0 + ks2 * H22
+        lw[W_LY, l] = (alpha1[0] + 3.0 * beta1[0] * s10 * s10) * Jv0
+        lw[W_LY + 1, l] = (alpha1[1] + 3.0 * beta1[1] * s11 * s11) * Jv1
+        lw[W_LY + 2, l] = (alpha1[2] + 3.0 * beta1[2] * s12 * s12) * Jv2
+        lw[W_KG, l] = ks0 * gam0
+        lw[W_KG + 1, l] = ks1 * gam1
+        lw[W_KG + 2, l] = ks2 * gam2
+        lw[W_J, l], lw[W_J + 1, l], lw[W_J + 2, l] = 1.0 + ks0 * H00, ks0 * H01, ks0 * H02
+        lw[W_J + 3, l], lw[W_J + 4, l], lw[W_J + 5, l] = ks1 * H10, 1.0 + ks1 * H11, ks1 * H12
+        lw[W_J + 6, l], lw[W_J + 7, l], lw[W_J + 8, l] = ks2 * H20, ks2 * H21, 1.0 + ks2 * H22
+    # the reaching law's fractional powers: calls, so a pass of their own
+    for a in range(3):
+        la1, la2 = lam1[a], lam2[a]
+        for l in range(m):
+            p1, p2 = _sig2(s2[a, l], zeta1, mode1, zeta2, mode2)
+            lw[W_LY + a, l] = ((-la1 * p1 - la2 * p2) - lw[W_LY + a, l]) - lw[W_KG + a, l]
+    # u = (I + k_s H)^-1 rhs - plant: Cramer's rule, or rhs - plant where the determinant is
+    # guarded (selects: both are computed, the division's inf or NaN is never selected)
+    for l in range(m):
+        J00, J01, J02 = lw[W_J, l], lw[W_J + 1, l], lw[W_J + 2, l]
+        J10, J11, J12 = lw[W_J + 3, l], lw[W_J + 4, l], lw[W_J + 5, l]
+        J20, J21, J22 = lw[W_J + 6, l], lw[W_J + 7, l], lw[W_J + 8, l]
+        rhs0, rhs1, rhs2 = lw[W_LY, l], lw[W_LY + 1, l], lw[W_LY + 2, l]
         det = _det3(J00, J01, J02, J10, J11, J12, J20, J21, J22)
-        if not abs(det) >= det_guard:
-            guarded[l] = 1.0
-            u[0, l] = rhs0 - pa[0, l]
-            u[1, l] = rhs1 - pa[1, l]
-            u[2, l] = rhs2 - pa[2, l]
-            continue
-        guarded[l] = 0.0
-        # Cramer's rule (det checked above)
-        u[0, l] = _det3(rhs0, J01, J02, rhs1, J11, J12, rhs2, J21, J22) / det - pa[0, l]
-        u[1, l] = _det3(J00, rhs0, J02, J10, rhs1, J12, J20, rhs2, J22) / det - pa[1, l]
-        u[2, l] = _det3(J00, J01, rhs0, J10, J11, rhs1, J20, J21, rhs2) / det - pa[2, l]
+        ok = abs(det) >= det_guard
+        guarded[l] = 0.0 if ok else 1.0
+        u[0, l] = (_det3(rhs0, J01, J02, rhs1, J11, J12, rhs2, J21, J22) / det if ok
+                   else rhs0) - pa[0, l]
+        u[1, l] = (_det3(J00, rhs0, J02, J10, rhs1, J12, J20, rhs2, J22) / det if ok
+                   else rhs1) - pa[1, l]
+        u[2, l] = (_det3(J00, J01, rhs0, J10, J11, rhs1, J20, J21, rhs2) / det if ok
+                   else rhs2) - pa[2, l]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -556,6 +569,7 @@ def _simulate_block(i0, i1, x0, W, Wc, C0, ctl_separate, plant_printed, ctl_prin
     th = np.empty((3, m))
     eta = np.empty(m)
     ex = np.empty(m)
+    lw = np.empty((N_LW, m))
     kv = np.empty((12, m))  # k1v, k2v, k3v, k4v
     kr = np.empty((9, m))  # k2r, k3r, k4r (k1r = v)
     p0 = np.empty((3, m))
@@ -607,7 +621,7 @@ def _simulate_block(i0, i1, x0, W, Wc, C0, ctl_separate, plant_printed, ctl_prin
         else:
             _potential(m, x, c, mu, L, acc, th, eta, ex)
         _law(m, x, acc, pa, r_f, P, M, alpha1, beta1, lam1, lam2, zeta1, mode1, zeta2, mode2,
-             k_s, det_guard, u, s2, guarded)
+             k_s, det_guard, u, s2, guarded, lw)
         _shape_thrust(m, i0, k, u, guarded, scale, noise_w, keys, u_max, mt)
         _metrics(m, k, x, u, s2, r_f, converge_tol, settle_tol, velocity_tol, s2_tol, k_check,
                  nrm, mt)
