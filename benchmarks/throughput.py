@@ -59,10 +59,21 @@ of each kernel; they round to the nearest ten and are good to about +-30 %):
   kernel (10 kernels: 3x3 quadratic form, exp, gradient and outer-product Hessian), and the
   NTSMC law (~150 add/mul + 6 pow = 270). Per sub-step: 108 + 13 + 5 x 43 + (900 + 270) / 10
   = 450. Memory: 8 B per recorded state component every 100 sub-steps: negligible.
-- ``gmm_ftc`` (a step = one 0.1 s control period = one RK4 step): the GMM-FTC law with the
-  12-kernel potential and its third derivative (~150 per kernel: 1800; law ~200 incl. 6 pow =
-  320); attitude of the spinning target (~60 incl. sin/cos = 40); RK4 of the 6-state plant, four
-  right-hand sides of ~70 (280); geometry per sub-step and metrics (~200). About 2,600.
+- ``gmm_ftc`` (a step = one 0.1 s control period = one RK4 step), recounted on the blocked
+  kernel's loop: the 12-kernel potential with its third derivative along ``v`` (axis-aligned
+  kernels, as in Table 2: quadratic form 11, ``exp`` 20, value, gradient, Hessian and third
+  derivative sums ~60: ~90 per kernel, 1,100); the law (matrix-vector products, ``g``, ``H``,
+  ``gamma``, ``s1``, ``s2``: ~275; the reaching law's 3 ``pow`` and 3 ``x sqrt(x)``: ~100;
+  the 3x3 Cramer solve with 3 divisions: ~85; 460); five plant right-hand sides (one for the
+  law, four RK4 stages; crosses and four 3x3 products: ~108 each, 540) and the RK4
+  combinations (~65); the attitude at two half-steps (per-sample spin: sqrt, 3 divisions,
+  sin, cos, Rodrigues and ``C0 R``: ~150 each, 300; a common spin: computed once per block,
+  ~0); geometry per sub-step (5 box distances with a sqrt ~29 each, segment half-length and
+  range: ~175) and metrics (4 norms, threshold and extremum updates: ~80). About 2,400 (common
+  spin) to 2,700 (per-sample spin); the count of 2,600 made before the kernel was rewritten
+  (with a general 3x3 ``L`` per kernel, ~150 each) is inside that range and stays. The ``exp``
+  of a kernel whose weight underflows is skipped at run time (most of the 12 for most
+  samples), which the count ignores: a floor without the 12 exps would be about 2,350.
 - ``ft_as`` (a step = one RK4 step of the 6-DOF loop): four right-hand sides, each MRP
   kinematics matrices (~80), the true body accelerations (~60) and the observer (~100): ~240, so
   960; the FT-AS law once per step with its fractional powers (~12 pow = 240, ~200 add/mul);

@@ -1,12 +1,26 @@
-"""Compiled GMM-FTC closed loop: the arithmetic of :mod:`.closed_loop`, one sample at a time.
+"""Compiled GMM-FTC closed loop: the arithmetic of :mod:`.closed_loop`, in blocks of samples.
 
 :func:`.closed_loop.run_closed_loop` (NumPy over the batch) is the reference; this kernel runs
 the same sampled-data loop (GMM-FTC at ``t_k``, thrust factors and keyed noise, RK4 of the
-body-frame plant, per-sub-step geometry, the same metrics) in one compiled function with the
-batch as the outer, parallel loop. NumPy advances a whole batch per Python-level step and pays
-~1 ms of call overhead per step whatever the batch size; the kernel pays nothing per step, so
-one 3,000-step run costs a few milliseconds. Results agree with the reference to rounding
-(tests/test_gmm_ftc_kernel.py), not bit for bit: sums are taken in another order.
+body-frame plant, per-sub-step geometry, the same metrics) in one compiled function. NumPy
+advances a whole batch per Python-level step and pays ~1 ms of call overhead per step whatever
+the batch size; the kernel pays nothing per step. Results agree with the reference to rounding
+(tests/test_gmm_ftc_kernel.py), not bit for bit: some sums are taken in another order.
+
+Layout. Blocks of :data:`BLOCK` samples run on parallel threads (``prange``); within a block
+the samples advance in lockstep, their state and per-step work stored as structure of arrays
+(a row per quantity, the samples along it), so the compiler vectorises the branch-free passes
+across samples: the plant's right-hand sides, the RK4 stages, the GMM kernels' quadratic forms
+and sums, the law's arithmetic and 3x3 solve, the clearances and the metrics. What stays scalar
+per sample are the library calls (``exp`` of the GMM kernels that do not underflow, the
+``sig^zeta1`` power, the per-sample attitude's ``sin``/``cos``) and the rare events (a path near
+a part: the swept collision test). Nothing is allocated inside the time loop. Quantities shared
+by the batch are computed once: the orbit's matrices (on the half-step grid, before the kernel)
+and, when the spin is common, the attitude at each half step.
+
+A sample's numbers do not depend on its block, its lane, the thread count or the batch (no
+reduction runs across lanes; a shared quantity is computed by the same arithmetic as its
+per-lane form): tests/test_gmm_ftc_kernel.py checks this bit for bit.
 
 Layout of the per-sample scalar results (columns of ``sc``) is :data:`SCALAR_COLUMNS`.
 """
