@@ -66,10 +66,21 @@ of each kernel; they round to the nearest ten and are good to about +-30 %):
   the minimum of square roots is the square root of the minimum. Every Gaussian kernel is
   counted although the kernel skips the ``exp`` and the sums where it underflows to zero: 93 %
   of them along case E's paths, 3 % along F2's.)
-- ``gmm_ftc`` (a step = one 0.1 s control period = one RK4 step): the GMM-FTC law with the
-  12-kernel potential and its third derivative (~150 per kernel: 1800; law ~200 incl. 6 pow =
-  320); attitude of the spinning target (~60 incl. sin/cos = 40); RK4 of the 6-state plant, four
-  right-hand sides of ~70 (280); geometry per sub-step and metrics (~200). About 2,600.
+- ``gmm_ftc`` (a step = one 0.1 s control period = one RK4 step), recounted on the blocked
+  kernel's loop: the 12-kernel potential with its third derivative along ``v`` (axis-aligned
+  kernels, as in Table 2: quadratic form 11, ``exp`` 20, value, gradient, Hessian and third
+  derivative sums ~60: ~90 per kernel, 1,100); the law (matrix-vector products, ``g``, ``H``,
+  ``gamma``, ``s1``, ``s2``: ~275; the reaching law's 3 ``pow`` and 3 ``x sqrt(x)``: ~100;
+  the 3x3 Cramer solve with 3 divisions: ~85; 460); five plant right-hand sides (one for the
+  law, four RK4 stages; crosses and four 3x3 products: ~108 each, 540) and the RK4
+  combinations (~65); the attitude at two half-steps (per-sample spin: sqrt, 3 divisions,
+  sin, cos, Rodrigues and ``C0 R``: ~150 each, 300; a common spin: computed once per block,
+  ~0); geometry per sub-step (5 box distances with a sqrt ~29 each, segment half-length and
+  range: ~175) and metrics (4 norms, threshold and extremum updates: ~80). About 2,400 (common
+  spin) to 2,700 (per-sample spin); the count of 2,600 made before the kernel was rewritten
+  (with a general 3x3 ``L`` per kernel, ~150 each) is inside that range and stays. The ``exp``
+  of a kernel whose weight underflows is skipped at run time (most of the 12 for most
+  samples), which the count ignores: a floor without the 12 exps would be about 2,350.
 - ``ft_as`` (a step = one RK4 step of the 6-DOF loop of the FT-AS controller), counted on the
   kernel's loop: four right-hand sides, each the MRP kinematics and tracking terms (~180),
   the differential gravity (~30 + 1 sqrt + 2 div = 55), the true body accelerations with the

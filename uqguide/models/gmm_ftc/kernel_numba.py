@@ -1,12 +1,26 @@
-"""Compiled GMM-FTC closed loop: the arithmetic of :mod:`.closed_loop`, one sample at a time.
+"""Compiled GMM-FTC closed loop: the arithmetic of :mod:`.closed_loop`, in blocks of samples.
 
 :func:`.closed_loop.run_closed_loop` (NumPy over the batch) is the reference; this kernel runs
 the same sampled-data loop (GMM-FTC at ``t_k``, thrust factors and keyed noise, RK4 of the
-body-frame plant, per-sub-step geometry, the same metrics) in one compiled function with the
-batch as the outer, parallel loop. NumPy advances a whole batch per Python-level step and pays
-~1 ms of call overhead per step whatever the batch size; the kernel pays nothing per step, so
-one 3,000-step run costs a few milliseconds. Results agree with the reference to rounding
-(tests/test_gmm_ftc_kernel.py), not bit for bit: sums are taken in another order.
+body-frame plant, per-sub-step geometry, the same metrics) in one compiled function. NumPy
+advances a whole batch per Python-level step and pays ~1 ms of call overhead per step whatever
+the batch size; the kernel pays nothing per step. Results agree with the reference to rounding
+(tests/test_gmm_ftc_kernel.py), not bit for bit: some sums are taken in another order.
+
+Layout. Blocks of :data:`BLOCK` samples run on parallel threads (``prange``); within a block
+the samples advance in lockstep, their state and per-step work stored as structure of arrays
+(a row per quantity, the samples along it), so the compiler vectorises the branch-free passes
+across samples: the plant's right-hand sides, the RK4 stages, the GMM kernels' quadratic forms
+and sums, the law's arithmetic and 3x3 solve, the clearances and the metrics. What stays scalar
+per sample are the library calls (``exp`` of the GMM kernels that do not underflow, the
+``sig^zeta1`` power, the per-sample attitude's ``sin``/``cos``) and the rare events (a path near
+a part: the swept collision test). Nothing is allocated inside the time loop. Quantities shared
+by the batch are computed once: the orbit's matrices (on the half-step grid, before the kernel)
+and, when the spin is common, the attitude at each half step.
+
+A sample's numbers do not depend on its block, its lane, the thread count or the batch (no
+reduction runs across lanes; a shared quantity is computed by the same arithmetic as its
+per-lane form): tests/test_gmm_ftc_kernel.py checks this bit for bit.
 
 Layout of the per-sample scalar results (columns of ``sc``) is :data:`SCALAR_COLUMNS`.
 """
@@ -27,6 +41,9 @@ SCALAR_COLUMNS: tuple[str, ...] = (
     "range_min", "n_guarded", "n_nonfinite", "failed",
 )
 COL = {name: i for i, name in enumerate(SCALAR_COLUMNS)}
+N_COL = len(SCALAR_COLUMNS)
+C_DV, C_PEN, C_RANGE = COL["delta_v"], COL["penetration"], COL["range_min"]
+C_GUARDED, C_NONFINITE, C_FAILED = COL["n_guarded"], COL["n_nonfinite"], COL["failed"]
 
 _GAMMA = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -48,219 +65,455 @@ def _uniform(key: np.uint64, element: int) -> float:  # pragma: no cover - compi
     return float(z >> _S11) * 2.0**-53
 
 
-@njit(cache=True, inline="always")
-def _attitude(w: np.ndarray, t: float, C0: np.ndarray, C: np.ndarray) -> None:  # pragma: no cover
-    # C = C0 exp(t [w x]) (Rodrigues)
-    rate = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-    R = np.eye(3)
+BLOCK = 64
+"""Samples per parallel task; they advance in lockstep (see :func:`_simulate_block`)."""
+
+# rows of the potential's accumulator ``acc (N_ACC, m)``: value, gradient, Hessian (row by row)
+# and the third derivative contracted twice with the velocity
+A_V, A_G, A_H, A_T = 0, 1, 4, 13
+N_ACC = 16
+
+# how |x|^a is evaluated (chosen once per run): pow, sqrt, |x| sqrt(|x|)
+POW_GENERAL, POW_HALF, POW_THREE_HALVES = 0, 1, 2
+
+
+@njit(cache=True)
+def pow_mode(a: float) -> int:
+    """The exact algebraic form of ``|x|^a`` where one exists (:data:`POW_HALF` for 0.5,
+    :data:`POW_THREE_HALVES` for 1.5), else :data:`POW_GENERAL` (a ``pow`` call).
+
+    Parameters
+    ----------
+    a : float
+        Exponent.
+
+    Returns
+    -------
+    int
+    """
+    if a == 0.5:
+        return POW_HALF
+    if a == 1.5:
+        return POW_THREE_HALVES
+    return POW_GENERAL
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _abs_pow(x: float, a: float, mode: int) -> float:  # pragma: no cover - compiled
+    # |x|^a for x >= 0; sqrt is correctly rounded, pow within an ulp: the forms agree to round-off
+    if mode == POW_THREE_HALVES:
+        return x * math.sqrt(x)
+    if mode == POW_HALF:
+        return math.sqrt(x)
+    return x**a
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _sig2(x: float, a1: float, m1: int, a2: float, m2: int) -> tuple[float, float]:
+    # (sig^a1(x), sig^a2(x)) with sig^a(x) = sign(x) |x|^a
+    if x > 0.0:
+        return _abs_pow(x, a1, m1), _abs_pow(x, a2, m2)
+    if x < 0.0:
+        return -_abs_pow(-x, a1, m1), -_abs_pow(-x, a2, m2)
+    return 0.0, 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _rotation(w0, w1, w2, t, C0):  # pragma: no cover - compiled
+    # C0 exp(t [w x]) (Rodrigues), its nine entries row by row
+    rate = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    R00, R01, R02 = 1.0, 0.0, 0.0
+    R10, R11, R12 = 0.0, 1.0, 0.0
+    R20, R21, R22 = 0.0, 0.0, 1.0
     if rate > 0.0:
-        k0, k1, k2 = w[0] / rate, w[1] / rate, w[2] / rate
+        k0, k1, k2 = w0 / rate, w1 / rate, w2 / rate
         s = math.sin(rate * t)
         c1 = 1.0 - math.cos(rate * t)
-        K = np.array([[0.0, -k2, k1], [k2, 0.0, -k0], [-k1, k0, 0.0]])
-        for a in range(3):
-            for b in range(3):
-                kk = K[a, 0] * K[0, b] + K[a, 1] * K[1, b] + K[a, 2] * K[2, b]
-                R[a, b] += s * K[a, b] + c1 * kk
-    for a in range(3):
-        for b in range(3):
-            C[a, b] = C0[a, 0] * R[0, b] + C0[a, 1] * R[1, b] + C0[a, 2] * R[2, b]
+        # I + s K + c1 K^2 with K = [k x]
+        R00 = 1.0 + c1 * (-(k2 * k2) - k1 * k1)
+        R01 = -(s * k2) + c1 * (k1 * k0)
+        R02 = s * k1 + c1 * (k2 * k0)
+        R10 = s * k2 + c1 * (k0 * k1)
+        R11 = 1.0 + c1 * (-(k2 * k2) - k0 * k0)
+        R12 = -(s * k0) + c1 * (k2 * k1)
+        R20 = -(s * k1) + c1 * (k0 * k2)
+        R21 = s * k0 + c1 * (k1 * k2)
+        R22 = 1.0 + c1 * (-(k1 * k1) - k0 * k0)
+    return (C0[0, 0] * R00 + C0[0, 1] * R10 + C0[0, 2] * R20,
+            C0[0, 0] * R01 + C0[0, 1] * R11 + C0[0, 2] * R21,
+            C0[0, 0] * R02 + C0[0, 1] * R12 + C0[0, 2] * R22,
+            C0[1, 0] * R00 + C0[1, 1] * R10 + C0[1, 2] * R20,
+            C0[1, 0] * R01 + C0[1, 1] * R11 + C0[1, 2] * R21,
+            C0[1, 0] * R02 + C0[1, 1] * R12 + C0[1, 2] * R22,
+            C0[2, 0] * R00 + C0[2, 1] * R10 + C0[2, 2] * R20,
+            C0[2, 0] * R01 + C0[2, 1] * R11 + C0[2, 2] * R21,
+            C0[2, 0] * R02 + C0[2, 1] * R12 + C0[2, 2] * R22)
 
 
-@njit(cache=True, inline="always")
-def _mv(M: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
-    for a in range(3):
-        out[a] = M[a, 0] * x[0] + M[a, 1] * x[1] + M[a, 2] * x[2]
-
-
-@njit(cache=True, inline="always")
-def _mtv(M: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
-    for a in range(3):
-        out[a] = M[0, a] * x[0] + M[1, a] * x[1] + M[2, a] * x[2]
-
-
-@njit(cache=True, inline="always")
-def _cross(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
-
-
-@njit(cache=True)
-def _plant(A: np.ndarray, B: np.ndarray, C: np.ndarray, w: np.ndarray, printed: bool,
-           r: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
-    # A21 r + A22 v = C^T (A C r + B C (v + w x r)) - w x (w x r) - 2 w x v   (corrected [C 7])
-    # printed: A C r + B (v + w x r) - w x (w x r) - 2 w x v
-    wr = np.empty(3)
-    wwr = np.empty(3)
-    wv = np.empty(3)
-    Cr = np.empty(3)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
-    s = np.empty(3)
-    _cross(w, r, wr)
-    _cross(w, wr, wwr)
-    _cross(w, v, wv)
-    _mv(C, r, Cr)
-    _mv(A, Cr, t1)
-    for a in range(3):
-        s[a] = v[a] + wr[a]
-    if printed:
-        _mv(B, s, t2)
-        for a in range(3):
-            out[a] = t1[a] + t2[a] - wwr[a] - 2.0 * wv[a]
+@njit(cache=True, error_model="numpy")
+def _attitudes(m, w, shared, t, C0, out):  # pragma: no cover - compiled
+    """Attitude rows ``out (9, m)`` at time ``t``: computed once and copied to every lane when
+    the spin is common (``shared``), else per lane; the same arithmetic either way, so a
+    sample's bits do not depend on its batch."""
+    if shared:
+        R = _rotation(w[0, 0], w[1, 0], w[2, 0], t, C0)
+        for l in range(m):
+            out[0, l], out[1, l], out[2, l] = R[0], R[1], R[2]
+            out[3, l], out[4, l], out[5, l] = R[3], R[4], R[5]
+            out[6, l], out[7, l], out[8, l] = R[6], R[7], R[8]
     else:
-        Cs = np.empty(3)
-        _mv(C, s, Cs)
-        _mv(B, Cs, t2)
-        for a in range(3):
-            t1[a] += t2[a]
-        _mtv(C, t1, t2)
-        for a in range(3):
-            out[a] = t2[a] - wwr[a] - 2.0 * wv[a]
+        for l in range(m):
+            R = _rotation(w[0, l], w[1, l], w[2, l], t, C0)
+            out[0, l], out[1, l], out[2, l] = R[0], R[1], R[2]
+            out[3, l], out[4, l], out[5, l] = R[3], R[4], R[5]
+            out[6, l], out[7, l], out[8, l] = R[6], R[7], R[8]
 
 
-@njit(cache=True)
-def _sig(x: float, a: float) -> float:  # pragma: no cover
-    if x > 0.0:
-        return x**a
-    if x < 0.0:
-        return -((-x) ** a)
-    return 0.0
+@njit(cache=True, error_model="numpy")
+def _plant(m, A_st, B_st, j, C, w, printed, x, out):  # pragma: no cover - compiled
+    """``A21 r + A22 v`` of every lane into ``out (3, m)``; ``x (6, m)`` holds ``r``, ``v``.
+
+    A21 r + A22 v = C^T (A C r + B C (v + w x r)) - w x (w x r) - 2 w x v  (corrected [C 7]);
+    printed: A C r + B (v + w x r) - w x (w x r) - 2 w x v.
+    """
+    a00, a01, a02 = A_st[j, 0, 0], A_st[j, 0, 1], A_st[j, 0, 2]
+    a10, a11, a12 = A_st[j, 1, 0], A_st[j, 1, 1], A_st[j, 1, 2]
+    a20, a21, a22 = A_st[j, 2, 0], A_st[j, 2, 1], A_st[j, 2, 2]
+    b00, b01, b02 = B_st[j, 0, 0], B_st[j, 0, 1], B_st[j, 0, 2]
+    b10, b11, b12 = B_st[j, 1, 0], B_st[j, 1, 1], B_st[j, 1, 2]
+    b20, b21, b22 = B_st[j, 2, 0], B_st[j, 2, 1], B_st[j, 2, 2]
+    for l in range(m):
+        w0, w1, w2 = w[0, l], w[1, l], w[2, l]
+        r0, r1, r2 = x[0, l], x[1, l], x[2, l]
+        v0, v1, v2 = x[3, l], x[4, l], x[5, l]
+        wr0 = w1 * r2 - w2 * r1
+        wr1 = w2 * r0 - w0 * r2
+        wr2 = w0 * r1 - w1 * r0
+        f0 = (w1 * wr2 - w2 * wr1) + 2.0 * (w1 * v2 - w2 * v1)
+        f1 = (w2 * wr0 - w0 * wr2) + 2.0 * (w2 * v0 - w0 * v2)
+        f2 = (w0 * wr1 - w1 * wr0) + 2.0 * (w0 * v1 - w1 * v0)
+        c00, c01, c02 = C[0, l], C[1, l], C[2, l]
+        c10, c11, c12 = C[3, l], C[4, l], C[5, l]
+        c20, c21, c22 = C[6, l], C[7, l], C[8, l]
+        Cr0 = c00 * r0 + c01 * r1 + c02 * r2
+        Cr1 = c10 * r0 + c11 * r1 + c12 * r2
+        Cr2 = c20 * r0 + c21 * r1 + c22 * r2
+        t0 = a00 * Cr0 + a01 * Cr1 + a02 * Cr2
+        t1 = a10 * Cr0 + a11 * Cr1 + a12 * Cr2
+        t2 = a20 * Cr0 + a21 * Cr1 + a22 * Cr2
+        s0, s1, s2 = v0 + wr0, v1 + wr1, v2 + wr2
+        if printed:
+            out[0, l] = t0 + (b00 * s0 + b01 * s1 + b02 * s2) - f0
+            out[1, l] = t1 + (b10 * s0 + b11 * s1 + b12 * s2) - f1
+            out[2, l] = t2 + (b20 * s0 + b21 * s1 + b22 * s2) - f2
+        else:
+            Cs0 = c00 * s0 + c01 * s1 + c02 * s2
+            Cs1 = c10 * s0 + c11 * s1 + c12 * s2
+            Cs2 = c20 * s0 + c21 * s1 + c22 * s2
+            t0 += b00 * Cs0 + b01 * Cs1 + b02 * Cs2
+            t1 += b10 * Cs0 + b11 * Cs1 + b12 * Cs2
+            t2 += b20 * Cs0 + b21 * Cs1 + b22 * Cs2
+            out[0, l] = (c00 * t0 + c10 * t1 + c20 * t2) - f0
+            out[1, l] = (c01 * t0 + c11 * t1 + c21 * t2) - f1
+            out[2, l] = (c02 * t0 + c12 * t1 + c22 * t2) - f2
 
 
-@njit(cache=True)
-def _law(r, v, r_f, P, M, c, mu, L, alpha1, beta1, lam1, lam2, zeta1, zeta2, k_s, det_guard,
-         plant_acc, u, s2):  # pragma: no cover
-    """GMM-FTC command u (and s2); returns 1 if the Jacobian was guarded."""
-    K = mu.shape[0]
-    Vv = 0.0
-    gV = np.zeros(3)
-    HV = np.zeros((3, 3))
-    TV = np.zeros(3)
-    d = np.empty(3)
-    th = np.empty(3)
-    Ly = np.empty(3)
-    for k in range(K):
-        for a in range(3):
-            d[a] = r[a] - mu[k, a]
-        q = 0.0
-        for a in range(3):
-            th[a] = L[k, a, 0] * d[0] + L[k, a, 1] * d[1] + L[k, a, 2] * d[2]
-            q += d[a] * th[a]
-        eta = c[k] * math.exp(-0.5 * q)
-        if eta == 0.0:
-            continue
-        Vv += eta
-        yLy = 0.0
-        ty = 0.0
-        for a in range(3):
-            Ly[a] = L[k, a, 0] * v[0] + L[k, a, 1] * v[1] + L[k, a, 2] * v[2]
-            yLy += v[a] * Ly[a]
-            ty += th[a] * v[a]
-        for a in range(3):
-            gV[a] -= eta * th[a]
-            for b in range(3):
-                HV[a, b] += eta * (th[a] * th[b] - L[k, a, b])
-            TV[a] += eta * ((yLy - ty * ty) * th[a] + 2.0 * ty * Ly[a])
-    e = np.empty(3)
-    for a in range(3):
-        e[a] = r[a] - r_f[a]
-    Me = np.empty(3)
-    Pe = np.empty(3)
-    My = np.empty(3)
-    hy = np.empty(3)
-    _mv(M, e, Me)
-    _mv(P, e, Pe)
-    _mv(M, v, My)
-    _mv(HV, v, hy)
-    qe = e[0] * Me[0] + e[1] * Me[1] + e[2] * Me[2]
-    gy = gV[0] * v[0] + gV[1] * v[1] + gV[2] * v[2]
-    yhy = v[0] * hy[0] + v[1] * hy[1] + v[2] * hy[2]
-    eMy = e[0] * My[0] + e[1] * My[1] + e[2] * My[2]
-    yMy = v[0] * My[0] + v[1] * My[1] + v[2] * My[2]
-    g = np.empty(3)
-    H = np.empty((3, 3))
-    gam = np.empty(3)
-    for a in range(3):
-        g[a] = Pe[a] + Vv * Me[a] + 0.5 * qe * gV[a]
-        gam[a] = (2.0 * gy * My[a] + yhy * Me[a] + 2.0 * eMy * hy[a] + yMy * gV[a]
-                  + 0.5 * qe * TV[a])
-        for b in range(3):
-            H[a, b] = (P[a, b] + Vv * M[a, b] + Me[a] * gV[b] + gV[a] * Me[b]
-                       + 0.5 * qe * HV[a, b])
-    s1 = np.empty(3)
-    Hv = np.empty(3)
-    _mv(H, v, Hv)
-    J = np.empty((3, 3))
-    rhs = np.empty(3)
-    for a in range(3):
-        s1[a] = e[a] + k_s[a] * g[a]
-    for a in range(3):
-        s2[a] = v[a] + alpha1[a] * s1[a] + beta1[a] * s1[a] ** 3 + k_s[a] * Hv[a]
-        for b in range(3):
-            J[a, b] = (1.0 if a == b else 0.0) + k_s[a] * H[a, b]
-    for a in range(3):
-        Jv = v[a] + k_s[a] * Hv[a]
-        lam_y2 = (alpha1[a] + 3.0 * beta1[a] * s1[a] * s1[a]) * Jv
-        rhs[a] = (-lam1[a] * _sig(s2[a], zeta1) - lam2[a] * _sig(s2[a], zeta2) - lam_y2
-                  - k_s[a] * gam[a])
-    det = (J[0, 0] * (J[1, 1] * J[2, 2] - J[1, 2] * J[2, 1])
-           - J[0, 1] * (J[1, 0] * J[2, 2] - J[1, 2] * J[2, 0])
-           + J[0, 2] * (J[1, 0] * J[2, 1] - J[1, 1] * J[2, 0]))
-    guarded = 0
-    if not abs(det) >= det_guard:
-        guarded = 1
-        for a in range(3):
-            u[a] = rhs[a] - plant_acc[a]
-        return guarded
-    # Cramer's rule (3x3, det checked above)
-    for a in range(3):
-        Ja = J.copy()
-        for b in range(3):
-            Ja[b, a] = rhs[b]
-        da = (Ja[0, 0] * (Ja[1, 1] * Ja[2, 2] - Ja[1, 2] * Ja[2, 1])
-              - Ja[0, 1] * (Ja[1, 0] * Ja[2, 2] - Ja[1, 2] * Ja[2, 0])
-              + Ja[0, 2] * (Ja[1, 0] * Ja[2, 1] - Ja[1, 1] * Ja[2, 0]))
-        u[a] = da / det - plant_acc[a]
-    return guarded
+EXP_ZERO = -746.0
+"""``exp(x)`` is 0 in double precision for every ``x`` below this (``exp(-746) ~ 1e-324`` is
+under half the smallest subnormal), so it is not evaluated there."""
 
 
-@njit(cache=True)
-def _box_distance(p, lo, hi) -> float:  # pragma: no cover
-    s = 0.0
-    for a in range(3):
-        gap = max(lo[a] - p[a], p[a] - hi[a], 0.0)
-        s += gap * gap
-    return math.sqrt(s)
+@njit(cache=True, error_model="numpy")
+def _weights(m, ck, arg, out):  # pragma: no cover - compiled
+    """``out = ck exp(arg)`` of every lane.
+
+    Most kernels are far from most samples (a 3 mm sheet puts ``arg`` near -1e4), and libm's
+    ``exp`` takes a slow path (~10 ns) when its result underflows. Those lanes get the 0 that
+    ``exp`` would return, without the call: the zero fill and the guarded call are separate
+    loops because in one select the compiler evaluates ``exp`` on every lane anyway.
+    """
+    for l in range(m):
+        out[l] = 0.0
+    for l in range(m):
+        a = arg[l]
+        if not a <= EXP_ZERO:  # NaN passes: exp(NaN) = NaN, as the reference
+            out[l] = ck * math.exp(a)
 
 
-@njit(cache=True)
-def _depth(p, lo, hi) -> float:  # pragma: no cover
-    d = np.inf
+@njit(cache=True, error_model="numpy")
+def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
+    """:func:`_potential` for kernels whose ``L`` has zero off-diagonal entries (axis-aligned
+    covariances, as in [C] Table 2): the same numbers (the dropped terms are exact zeros,
+    and ``t0 t1 = t1 t0`` makes the Hessian's mirror entries copies) for a third of the work.
+    """
+    for a in range(N_ACC):
+        for l in range(m):
+            acc[a, l] = 0.0
+    for k in range(mu.shape[0]):
+        m0, m1, m2 = mu[k, 0], mu[k, 1], mu[k, 2]
+        L00, L11, L22 = L[k, 0, 0], L[k, 1, 1], L[k, 2, 2]
+        ck = c[k]
+        for l in range(m):
+            d0, d1, d2 = x[0, l] - m0, x[1, l] - m1, x[2, l] - m2
+            t0, t1, t2 = L00 * d0, L11 * d1, L22 * d2
+            th[0, l], th[1, l], th[2, l] = t0, t1, t2
+            eta[l] = -0.5 * (d0 * t0 + d1 * t1 + d2 * t2)
+        _weights(m, ck, eta, ex)
+        for l in range(m):
+            e = ex[l]
+            live = e != 0.0
+            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+            acc[A_V, l] += e if live else 0.0
+            acc[A_G, l] -= e * t0 if live else 0.0
+            acc[A_G + 1, l] -= e * t1 if live else 0.0
+            acc[A_G + 2, l] -= e * t2 if live else 0.0
+        for l in range(m):
+            e = ex[l]
+            live = e != 0.0
+            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+            acc[A_H, l] += e * (t0 * t0 - L00) if live else 0.0
+            acc[A_H + 4, l] += e * (t1 * t1 - L11) if live else 0.0
+            acc[A_H + 8, l] += e * (t2 * t2 - L22) if live else 0.0
+        for l in range(m):
+            e = ex[l]
+            live = e != 0.0
+            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+            acc[A_H + 1, l] += e * (t0 * t1) if live else 0.0
+            acc[A_H + 2, l] += e * (t0 * t2) if live else 0.0
+            acc[A_H + 5, l] += e * (t1 * t2) if live else 0.0
+        for l in range(m):
+            e = ex[l]
+            live = e != 0.0
+            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+            y0, y1, y2 = x[3, l], x[4, l], x[5, l]
+            Ly0, Ly1, Ly2 = L00 * y0, L11 * y1, L22 * y2
+            yLy = y0 * Ly0 + y1 * Ly1 + y2 * Ly2
+            ty = t0 * y0 + t1 * y1 + t2 * y2
+            b = yLy - ty * ty
+            acc[A_T, l] += e * (b * t0 + 2.0 * ty * Ly0) if live else 0.0
+            acc[A_T + 1, l] += e * (b * t1 + 2.0 * ty * Ly1) if live else 0.0
+            acc[A_T + 2, l] += e * (b * t2 + 2.0 * ty * Ly2) if live else 0.0
+    for l in range(m):
+        acc[A_H + 3, l] = acc[A_H + 1, l]
+        acc[A_H + 6, l] = acc[A_H + 2, l]
+        acc[A_H + 7, l] = acc[A_H + 5, l]
+
+
+@njit(cache=True, error_model="numpy")
+def _potential(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
+    """The GMM sum's value, gradient, Hessian and third derivative along ``v`` (twice) at every
+    lane's ``r`` into ``acc (N_ACC, m)``.
+
+    Kernel by kernel, three passes over the lanes: the quadratic form (branch-free, vectorised),
+    the exponentials, the accumulation (branch-free). A kernel whose weight underflows to 0
+    adds nothing (as the reference skips it).
+    """
+    for a in range(N_ACC):
+        for l in range(m):
+            acc[a, l] = 0.0
+    for k in range(mu.shape[0]):
+        m0, m1, m2 = mu[k, 0], mu[k, 1], mu[k, 2]
+        L00, L01, L02 = L[k, 0, 0], L[k, 0, 1], L[k, 0, 2]
+        L10, L11, L12 = L[k, 1, 0], L[k, 1, 1], L[k, 1, 2]
+        L20, L21, L22 = L[k, 2, 0], L[k, 2, 1], L[k, 2, 2]
+        ck = c[k]
+        for l in range(m):
+            d0, d1, d2 = x[0, l] - m0, x[1, l] - m1, x[2, l] - m2
+            t0 = L00 * d0 + L01 * d1 + L02 * d2
+            t1 = L10 * d0 + L11 * d1 + L12 * d2
+            t2 = L20 * d0 + L21 * d1 + L22 * d2
+            th[0, l], th[1, l], th[2, l] = t0, t1, t2
+            eta[l] = -0.5 * (d0 * t0 + d1 * t1 + d2 * t2)
+        _weights(m, ck, eta, ex)
+        for l in range(m):
+            e = ex[l]
+            live = e != 0.0
+            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+            acc[A_V, l] += e if live else 0.0
+            acc[A_G, l] -= e * t0 if live else 0.0
+            acc[A_G + 1, l] -= e * t1 if live else 0.0
+            acc[A_G + 2, l] -= e * t2 if live else 0.0
+        for l in range(m):
+            e = ex[l]
+            live = e != 0.0
+            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+            acc[A_H, l] += e * (t0 * t0 - L00) if live else 0.0
+            acc[A_H + 1, l] += e * (t0 * t1 - L01) if live else 0.0
+            acc[A_H + 2, l] += e * (t0 * t2 - L02) if live else 0.0
+            acc[A_H + 3, l] += e * (t1 * t0 - L10) if live else 0.0
+            acc[A_H + 4, l] += e * (t1 * t1 - L11) if live else 0.0
+        for l in range(m):
+            e = ex[l]
+            live = e != 0.0
+            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+            acc[A_H + 5, l] += e * (t1 * t2 - L12) if live else 0.0
+            acc[A_H + 6, l] += e * (t2 * t0 - L20) if live else 0.0
+            acc[A_H + 7, l] += e * (t2 * t1 - L21) if live else 0.0
+            acc[A_H + 8, l] += e * (t2 * t2 - L22) if live else 0.0
+        for l in range(m):
+            e = ex[l]
+            live = e != 0.0
+            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+            y0, y1, y2 = x[3, l], x[4, l], x[5, l]
+            Ly0 = L00 * y0 + L01 * y1 + L02 * y2
+            Ly1 = L10 * y0 + L11 * y1 + L12 * y2
+            Ly2 = L20 * y0 + L21 * y1 + L22 * y2
+            yLy = y0 * Ly0 + y1 * Ly1 + y2 * Ly2
+            ty = t0 * y0 + t1 * y1 + t2 * y2
+            b = yLy - ty * ty
+            acc[A_T, l] += e * (b * t0 + 2.0 * ty * Ly0) if live else 0.0
+            acc[A_T + 1, l] += e * (b * t1 + 2.0 * ty * Ly1) if live else 0.0
+            acc[A_T + 2, l] += e * (b * t2 + 2.0 * ty * Ly2) if live else 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _det3(a00, a01, a02, a10, a11, a12, a20, a21, a22):  # pragma: no cover - compiled
+    return (a00 * (a11 * a22 - a12 * a21)
+            - a01 * (a10 * a22 - a12 * a20)
+            + a02 * (a10 * a21 - a11 * a20))
+
+
+# rows of the law's work array ``lw (N_LW, m)``: Lambda y2 (then the right-hand side), k_s gamma,
+# I + k_s H (row by row)
+W_LY, W_KG, W_J = 0, 3, 6
+N_LW = 15
+
+
+@njit(cache=True, error_model="numpy")
+def _law(m, x, acc, pa, r_f, P, M, alpha1, beta1, lam1, lam2, zeta1, mode1, zeta2, mode2, k_s,
+         det_guard, u, s2, guarded, lw):  # pragma: no cover - compiled
+    """GMM-FTC command ``u`` and ``s2`` (each (3, m)) of every lane from the potential's
+    derivatives ``acc``; ``guarded[l]`` is 1 where ``I + k_s H`` was singular."""
+    P00, P01, P02 = P[0, 0], P[0, 1], P[0, 2]
+    P10, P11, P12 = P[1, 0], P[1, 1], P[1, 2]
+    P20, P21, P22 = P[2, 0], P[2, 1], P[2, 2]
+    M00, M01, M02 = M[0, 0], M[0, 1], M[0, 2]
+    M10, M11, M12 = M[1, 0], M[1, 1], M[1, 2]
+    M20, M21, M22 = M[2, 0], M[2, 1], M[2, 2]
+    ks0, ks1, ks2 = k_s[0], k_s[1], k_s[2]
+    for l in range(m):
+        y0, y1, y2 = x[3, l], x[4, l], x[5, l]
+        e0, e1, e2 = x[0, l] - r_f[0], x[1, l] - r_f[1], x[2, l] - r_f[2]
+        Vv = acc[A_V, l]
+        gV0, gV1, gV2 = acc[A_G, l], acc[A_G + 1, l], acc[A_G + 2, l]
+        h00, h01, h02 = acc[A_H, l], acc[A_H + 1, l], acc[A_H + 2, l]
+        h10, h11, h12 = acc[A_H + 3, l], acc[A_H + 4, l], acc[A_H + 5, l]
+        h20, h21, h22 = acc[A_H + 6, l], acc[A_H + 7, l], acc[A_H + 8, l]
+        T0, T1, T2 = acc[A_T, l], acc[A_T + 1, l], acc[A_T + 2, l]
+        Me0 = M00 * e0 + M01 * e1 + M02 * e2
+        Me1 = M10 * e0 + M11 * e1 + M12 * e2
+        Me2 = M20 * e0 + M21 * e1 + M22 * e2
+        Pe0 = P00 * e0 + P01 * e1 + P02 * e2
+        Pe1 = P10 * e0 + P11 * e1 + P12 * e2
+        Pe2 = P20 * e0 + P21 * e1 + P22 * e2
+        My0 = M00 * y0 + M01 * y1 + M02 * y2
+        My1 = M10 * y0 + M11 * y1 + M12 * y2
+        My2 = M20 * y0 + M21 * y1 + M22 * y2
+        hy0 = h00 * y0 + h01 * y1 + h02 * y2
+        hy1 = h10 * y0 + h11 * y1 + h12 * y2
+        hy2 = h20 * y0 + h21 * y1 + h22 * y2
+        qe = e0 * Me0 + e1 * Me1 + e2 * Me2
+        gy = gV0 * y0 + gV1 * y1 + gV2 * y2
+        yhy = y0 * hy0 + y1 * hy1 + y2 * hy2
+        eMy = e0 * My0 + e1 * My1 + e2 * My2
+        yMy = y0 * My0 + y1 * My1 + y2 * My2
+        hq = 0.5 * qe
+        g0 = Pe0 + Vv * Me0 + hq * gV0
+        g1 = Pe1 + Vv * Me1 + hq * gV1
+        g2 = Pe2 + Vv * Me2 + hq * gV2
+        gam0 = 2.0 * gy * My0 + yhy * Me0 + 2.0 * eMy * hy0 + yMy * gV0 + hq * T0
+        gam1 = 2.0 * gy * My1 + yhy * Me1 + 2.0 * eMy * hy1 + yMy * gV1 + hq * T1
+        gam2 = 2.0 * gy * My2 + yhy * Me2 + 2.0 * eMy * hy2 + yMy * gV2 + hq * T2
+        H00 = P00 + Vv * M00 + Me0 * gV0 + gV0 * Me0 + hq * h00
+        H01 = P01 + Vv * M01 + Me0 * gV1 + gV0 * Me1 + hq * h01
+        H02 = P02 + Vv * M02 + Me0 * gV2 + gV0 * Me2 + hq * h02
+        H10 = P10 + Vv * M10 + Me1 * gV0 + gV1 * Me0 + hq * h10
+        H11 = P11 + Vv * M11 + Me1 * gV1 + gV1 * Me1 + hq * h11
+        H12 = P12 + Vv * M12 + Me1 * gV2 + gV1 * Me2 + hq * h12
+        H20 = P20 + Vv * M20 + Me2 * gV0 + gV2 * Me0 + hq * h20
+        H21 = P21 + Vv * M21 + Me2 * gV1 + gV2 * Me1 + hq * h21
+        H22 = P22 + Vv * M22 + Me2 * gV2 + gV2 * Me2 + hq * h22
+        Hv0 = H00 * y0 + H01 * y1 + H02 * y2
+        Hv1 = H10 * y0 + H11 * y1 + H12 * y2
+        Hv2 = H20 * y0 + H21 * y1 + H22 * y2
+        s10 = e0 + ks0 * g0
+        s11 = e1 + ks1 * g1
+        s12 = e2 + ks2 * g2
+        Jv0 = y0 + ks0 * Hv0
+        Jv1 = y1 + ks1 * Hv1
+        Jv2 = y2 + ks2 * Hv2
+        s20 = y0 + alpha1[0] * s10 + beta1[0] * (s10 * s10 * s10) + ks0 * Hv0
+        s21 = y1 + alpha1[1] * s11 + beta1[1] * (s11 * s11 * s11) + ks1 * Hv1
+        s22 = y2 + alpha1[2] * s12 + beta1[2] * (s12 * s12 * s12) + ks2 * Hv2
+        s2[0, l], s2[1, l], s2[2, l] = s20, s21, s22
+        lw[W_LY, l] = (alpha1[0] + 3.0 * beta1[0] * s10 * s10) * Jv0
+        lw[W_LY + 1, l] = (alpha1[1] + 3.0 * beta1[1] * s11 * s11) * Jv1
+        lw[W_LY + 2, l] = (alpha1[2] + 3.0 * beta1[2] * s12 * s12) * Jv2
+        lw[W_KG, l] = ks0 * gam0
+        lw[W_KG + 1, l] = ks1 * gam1
+        lw[W_KG + 2, l] = ks2 * gam2
+        lw[W_J, l], lw[W_J + 1, l], lw[W_J + 2, l] = 1.0 + ks0 * H00, ks0 * H01, ks0 * H02
+        lw[W_J + 3, l], lw[W_J + 4, l], lw[W_J + 5, l] = ks1 * H10, 1.0 + ks1 * H11, ks1 * H12
+        lw[W_J + 6, l], lw[W_J + 7, l], lw[W_J + 8, l] = ks2 * H20, ks2 * H21, 1.0 + ks2 * H22
+    # the reaching law's fractional powers: calls, so a pass of their own
     for a in range(3):
-        d = min(d, p[a] - lo[a], hi[a] - p[a])
+        la1, la2 = lam1[a], lam2[a]
+        for l in range(m):
+            p1, p2 = _sig2(s2[a, l], zeta1, mode1, zeta2, mode2)
+            lw[W_LY + a, l] = ((-la1 * p1 - la2 * p2) - lw[W_LY + a, l]) - lw[W_KG + a, l]
+    # u = (I + k_s H)^-1 rhs - plant: Cramer's rule, or rhs - plant where the determinant is
+    # guarded (selects: both are computed, the division's inf or NaN is never selected)
+    for l in range(m):
+        J00, J01, J02 = lw[W_J, l], lw[W_J + 1, l], lw[W_J + 2, l]
+        J10, J11, J12 = lw[W_J + 3, l], lw[W_J + 4, l], lw[W_J + 5, l]
+        J20, J21, J22 = lw[W_J + 6, l], lw[W_J + 7, l], lw[W_J + 8, l]
+        rhs0, rhs1, rhs2 = lw[W_LY, l], lw[W_LY + 1, l], lw[W_LY + 2, l]
+        det = _det3(J00, J01, J02, J10, J11, J12, J20, J21, J22)
+        ok = abs(det) >= det_guard
+        guarded[l] = 0.0 if ok else 1.0
+        u[0, l] = (_det3(rhs0, J01, J02, rhs1, J11, J12, rhs2, J21, J22) / det if ok
+                   else rhs0) - pa[0, l]
+        u[1, l] = (_det3(J00, rhs0, J02, J10, rhs1, J12, J20, rhs2, J22) / det if ok
+                   else rhs1) - pa[1, l]
+        u[2, l] = (_det3(J00, J01, rhs0, J10, J11, rhs1, J20, J21, rhs2) / det if ok
+                   else rhs2) - pa[2, l]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _box_distance(x0, x1, x2, lo, hi, p) -> float:  # pragma: no cover - compiled
+    g0 = max(lo[p, 0] - x0, x0 - hi[p, 0], 0.0)
+    g1 = max(lo[p, 1] - x1, x1 - hi[p, 1], 0.0)
+    g2 = max(lo[p, 2] - x2, x2 - hi[p, 2], 0.0)
+    return math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _depth(x0, x1, x2, lo, hi, p) -> float:  # pragma: no cover - compiled
+    d = min(np.inf, x0 - lo[p, 0], hi[p, 0] - x0)
+    d = min(d, x1 - lo[p, 1], hi[p, 1] - x1)
+    d = min(d, x2 - lo[p, 2], hi[p, 2] - x2)
     return max(d, 0.0)
 
 
-@njit(cache=True)
-def _segment_hits(p0, p1, lo, hi) -> bool:  # pragma: no cover
-    # slab test of gmm.geometry.segment_box_hits
+@njit(cache=True, error_model="numpy")
+def _segment_hits(p0, l, x, lo, hi, p) -> bool:  # pragma: no cover - compiled
+    # slab test of gmm.geometry.segment_box_hits, segment p0[:, l] -> x[:3, l]
     t_enter = -np.inf
     t_exit = np.inf
     for a in range(3):
-        d = p1[a] - p0[a]
+        a0 = p0[a, l]
+        d = x[a, l] - a0
         if d != 0.0:
-            t1 = (lo[a] - p0[a]) / d
-            t2 = (hi[a] - p0[a]) / d
+            t1 = (lo[p, a] - a0) / d
+            t2 = (hi[p, a] - a0) / d
             t_enter = max(t_enter, min(t1, t2))
             t_exit = min(t_exit, max(t1, t2))
-        elif not (lo[a] <= p0[a] <= hi[a]):
+        elif not (lo[p, a] <= a0 <= hi[p, a]):
             return False
     return t_enter <= t_exit and t_exit >= 0.0 and t_enter <= 1.0
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, error_model="numpy", parallel=True)
 def simulate(x0, W, Wc, C0, ctl_separate, plant_printed, ctl_printed, times, A_st, B_st,
              r_f, P, M, c, mu, L, alpha1, beta1, lam1, lam2, zeta1, zeta2, k_s, det_guard,
              scale, noise_w, keys, s_lo, s_hi, c_lo, c_hi, is_solid, reach,
@@ -272,198 +525,323 @@ def simulate(x0, W, Wc, C0, ctl_separate, plant_printed, ctl_printed, times, A_s
 
     ``W`` (m, 3) / ``Wc`` (mc, 3): plant / controller spins (m, mc in {1, n});
     ``times``, ``A_st``, ``B_st``: the orbit on the half-step grid (2 N n_sub + 1 points).
+    Blocks of :data:`BLOCK` samples run in parallel threads (:func:`_simulate_block`).
     """
     n = x0.shape[0]
+    for b in nb.prange((n + BLOCK - 1) // BLOCK):
+        _simulate_block(b * BLOCK, min(n, (b + 1) * BLOCK), x0, W, Wc, C0, ctl_separate,
+                        plant_printed, ctl_printed, times, A_st, B_st, r_f, P, M, c, mu, L,
+                        alpha1, beta1, lam1, lam2, zeta1, zeta2, k_s, det_guard, scale,
+                        noise_w, keys, s_lo, s_hi, c_lo, c_hi, is_solid, reach, dt, n_sub, N,
+                        record_every, converge_tol, settle_tol, velocity_tol, s2_tol, k_check,
+                        u_max, rec_r, rec_v, rec_u, rec_rl, rec_vl, rec_ul, rec_u32, rec_s2,
+                        rec_dv, clearance, hits, sc)
+
+
+@njit(cache=True, error_model="numpy")
+def _simulate_block(i0, i1, x0, W, Wc, C0, ctl_separate, plant_printed, ctl_printed, times,
+                    A_st, B_st, r_f, P, M, c, mu, L, alpha1, beta1, lam1, lam2, zeta1, zeta2,
+                    k_s, det_guard, scale, noise_w, keys, s_lo, s_hi, c_lo, c_hi, is_solid,
+                    reach, dt, n_sub, N, record_every, converge_tol, settle_tol, velocity_tol,
+                    s2_tol, k_check, u_max, rec_r, rec_v, rec_u, rec_rl, rec_vl, rec_ul,
+                    rec_u32, rec_s2, rec_dv, clearance, hits, sc):  # pragma: no cover
+    """Samples ``i0 .. i1-1`` in lockstep, one control period at a time.
+
+    State and per-step work are structure of arrays (a row per quantity, the lanes along it):
+    the plant's right-hand sides, the RK4 stages and the potential's kernels are branch-free
+    passes over the lanes, which the compiler vectorises; the law, the metrics, the records
+    and the geometry tests are scalar passes. Nothing is allocated inside the time loop.
+    Each lane's arithmetic is the same whatever the block (no reduction across lanes), so a
+    sample's numbers do not depend on the batch split or the thread count.
+    """
+    m = i1 - i0
     nP = s_lo.shape[0]
     h = dt / n_sub
-    mw = W.shape[0]
-    mwc = Wc.shape[0]
-    for i in nb.prange(n):
-        ii = np.int64(i)
-        w = W[min(ii, np.int64(mw - 1))]
-        wc = Wc[min(ii, np.int64(mwc - 1))]
-        r = x0[i, :3].copy()
-        v = x0[i, 3:].copy()
-        C = np.empty((3, 3))
-        Ch = np.empty((3, 3))
-        C1 = np.empty((3, 3))
-        Cc = np.empty((3, 3))
-        pa = np.empty(3)
-        u = np.empty(3)
-        s2 = np.empty(3)
-        tmp = np.empty(3)
-        tmp2 = np.empty(3)
-        d_prev = np.empty(nP)
+    shared = W.shape[0] == 1
+    shared_c = Wc.shape[0] == 1
+    mode1 = pow_mode(zeta1)
+    mode2 = pow_mode(zeta2)
+    diagonal = True
+    for k in range(L.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                if a != b and L[k, a, b] != 0.0:
+                    diagonal = False
+    x = np.empty((6, m))  # r, v
+    xs = np.empty((6, m))  # RK4 stage state
+    w = np.empty((3, m))
+    wc = np.empty((3, m))
+    C = np.empty((9, m))
+    Ch = np.empty((9, m))
+    C1 = np.empty((9, m))
+    Cc = np.empty((9, m))
+    pa = np.empty((3, m))
+    u = np.empty((3, m))
+    s2 = np.empty((3, m))
+    guarded = np.empty(m)
+    acc = np.empty((N_ACC, m))
+    th = np.empty((3, m))
+    eta = np.empty(m)
+    ex = np.empty(m)
+    lw = np.empty((N_LW, m))
+    kv = np.empty((12, m))  # k1v, k2v, k3v, k4v
+    kr = np.empty((9, m))  # k2r, k3r, k4r (k1r = v)
+    p0 = np.empty((3, m))
+    d_prev = np.empty((nP, m))
+    clr = np.empty((nP, m))
+    half = np.empty(m)
+    flag = np.empty(m)
+    mt = np.empty((N_COL, m))  # the scalar results, a row per column of ``sc``
+    for l in range(m):
+        for q in range(6):
+            mt[q, l] = -1.0  # bad_*: last step that violated the threshold
+        for q in range(6, 14):
+            mt[q, l] = 0.0
+        for q in range(14, 17):
+            mt[q, l] = np.inf
+        for q in range(17, 20):
+            mt[q, l] = -np.inf
+        for q in range(20, N_COL):
+            mt[q, l] = 0.0
+    dv, pen, rng_min = mt[C_DV], mt[C_PEN], mt[C_RANGE]
+    nrm = np.empty((4, m))  # |r - r_f|, |v|, |u|, |s2| at t_k
+    for l in range(m):
+        i = i0 + l
+        iw = 0 if shared else i
+        iwc = 0 if shared_c else i
+        for a in range(3):
+            x[a, l] = x0[i, a]
+            x[3 + a, l] = x0[i, 3 + a]
+            w[a, l] = W[iw, a]
+            wc[a, l] = Wc[iwc, a]
         for p in range(nP):
-            clearance[i, p] = _box_distance(r, s_lo[p], s_hi[p])
-            d_prev[p] = clearance[i, p]
+            dn = _box_distance(x[0, l], x[1, l], x[2, l], s_lo, s_hi, p)
+            clr[p, l] = dn
+            d_prev[p, l] = dn
             hits[i, p] = False
-        pen = 0.0
-        for p in range(nP):
             if is_solid[p]:
-                pen = max(pen, _depth(r, s_lo[p], s_hi[p]))
-        rng_min = math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
-        bad_e = bad_settle = bad_v = bad_s2 = bad_speed = bad_u = -1
-        pos_final = speed_final = speed_max = u_mx = u_conv = dv = 0.0
-        sp_ax = np.zeros(3)
-        u_lo = np.full(3, np.inf)
-        u_hi = np.full(3, -np.inf)
-        n_guard = 0
-        n_bad = 0
-        failed = False
-        _attitude(w, times[0], C0, C)
-        k1r = np.empty(3)
-        k1v = np.empty(3)
-        k2r = np.empty(3)
-        k2v = np.empty(3)
-        k3r = np.empty(3)
-        k3v = np.empty(3)
-        k4r = np.empty(3)
-        k4v = np.empty(3)
-        rs = np.empty(3)
-        vs = np.empty(3)
-        for k in range(N + 1):
-            j0 = 2 * k * n_sub
-            if ctl_separate:
-                _attitude(wc, times[j0], C0, Cc)
-                _plant(A_st[j0], B_st[j0], Cc, wc, ctl_printed, r, v, pa)
-            else:
-                _plant(A_st[j0], B_st[j0], C, w, plant_printed, r, v, pa)
-            n_guard += _law(r, v, r_f, P, M, c, mu, L, alpha1, beta1, lam1, lam2, zeta1,
-                            zeta2, k_s, det_guard, pa, u, s2)
-            if not (math.isfinite(u[0]) and math.isfinite(u[1]) and math.isfinite(u[2])):
-                u[:] = 0.0
-                n_bad += 1
-            if math.isfinite(u_max):
-                un = math.sqrt(u[0] ** 2 + u[1] ** 2 + u[2] ** 2)
-                f = min(1.0, u_max / max(un, 1e-300))
-                for a in range(3):
-                    u[a] *= f
+                pen[l] = max(pen[l], _depth(x[0, l], x[1, l], x[2, l], s_lo, s_hi, p))
+        rng_min[l] = math.sqrt(x[0, l] ** 2 + x[1, l] ** 2 + x[2, l] ** 2)
+    _attitudes(m, w, shared, times[0], C0, C)
+    for k in range(N + 1):
+        j0 = 2 * k * n_sub
+        if ctl_separate:
+            _attitudes(m, wc, shared_c, times[j0], C0, Cc)
+            _plant(m, A_st, B_st, j0, Cc, wc, ctl_printed, x, pa)
+        else:
+            _plant(m, A_st, B_st, j0, C, w, plant_printed, x, pa)
+        if diagonal:
+            _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex)
+        else:
+            _potential(m, x, c, mu, L, acc, th, eta, ex)
+        _law(m, x, acc, pa, r_f, P, M, alpha1, beta1, lam1, lam2, zeta1, mode1, zeta2, mode2,
+             k_s, det_guard, u, s2, guarded, lw)
+        _shape_thrust(m, i0, k, u, guarded, scale, noise_w, keys, u_max, mt)
+        _metrics(m, k, x, u, s2, r_f, converge_tol, settle_tol, velocity_tol, s2_tol, k_check,
+                 nrm, mt)
+        if k % record_every == 0:
+            ir = k // record_every
+            for l in range(m):
+                _record(i0 + l, l, ir, x, u, s2, w, C, dv, rec_r, rec_v, rec_u, rec_rl,
+                        rec_vl, rec_ul, rec_u32, rec_s2, rec_dv)
+        if k == N:
+            break
+        for l in range(m):
+            dv[l] += nrm[2, l] * dt
+        for s in range(n_sub):
+            j = j0 + 2 * s
+            _attitudes(m, w, shared, times[j + 1], C0, Ch)
+            _attitudes(m, w, shared, times[j + 2], C0, C1)
+            _plant(m, A_st, B_st, j, C, w, plant_printed, x, kv[0:3])
             for a in range(3):
-                u[a] *= scale[i, a]
-            if noise_w > 0.0:
-                for a in range(3):
-                    u[a] *= 1.0 + noise_w * (2.0 * _uniform(keys[i], 3 * k + a) - 1.0)
-            e_norm = math.sqrt((r[0] - r_f[0]) ** 2 + (r[1] - r_f[1]) ** 2
-                               + (r[2] - r_f[2]) ** 2)
-            speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
-            u_norm = math.sqrt(u[0] ** 2 + u[1] ** 2 + u[2] ** 2)
-            s2n = math.sqrt(s2[0] ** 2 + s2[1] ** 2 + s2[2] ** 2)
-            if not e_norm < converge_tol:
-                bad_e = k
-            if not e_norm < settle_tol:
-                bad_settle = k
-            if not speed < velocity_tol:
-                bad_v = k
-            if not s2n < s2_tol:
-                bad_s2 = k
-            if not speed < 0.15:
-                bad_speed = k
-            if not u_norm < 0.06:
-                bad_u = k
-            speed_max = max(speed_max, speed)
-            u_mx = max(u_mx, u_norm)
+                for l in range(m):
+                    kv[a, l] += u[a, l]
+                    xs[a, l] = x[a, l] + 0.5 * h * x[3 + a, l]
+                    xs[3 + a, l] = x[3 + a, l] + 0.5 * h * kv[a, l]
+            _plant(m, A_st, B_st, j + 1, Ch, w, plant_printed, xs, kv[3:6])
             for a in range(3):
-                sp_ax[a] = max(sp_ax[a], abs(v[a]))
-            u_conv = max(u_conv, u_norm) if e_norm < converge_tol else 0.0
-            if k >= k_check:
-                pos_final = max(pos_final, e_norm)
-                speed_final = max(speed_final, speed)
-                for a in range(3):
-                    u_lo[a] = min(u_lo[a], u[a])
-                    u_hi[a] = max(u_hi[a], u[a])
-            if k % record_every == 0:
-                ir = k // record_every
-                _cross(w, r, tmp)
-                for a in range(3):
-                    rec_r[i, ir, a] = r[a]
-                    rec_v[i, ir, a] = v[a]
-                    rec_u[i, ir, a] = u[a]
-                    tmp[a] += v[a]
-                _mv(C, r, tmp2)
-                rec_rl[i, ir] = tmp2
-                _mv(C, tmp, tmp2)
-                rec_vl[i, ir] = tmp2
-                _mv(C, u, tmp2)
-                rec_ul[i, ir] = tmp2
-                # eq (32): u + 2 w x v + w x (w x r)
-                _cross(w, r, tmp)
-                _cross(w, tmp, tmp2)
-                _cross(w, v, tmp)
-                for a in range(3):
-                    tmp2[a] += u[a] + 2.0 * tmp[a]
-                _mv(C, tmp2, tmp)
-                rec_u32[i, ir] = tmp
-                rec_s2[i, ir] = s2n
-                rec_dv[i, ir] = dv
-            if k == N:
-                break
-            dv += u_norm * dt
-            for s in range(n_sub):
-                j = j0 + 2 * s
-                _attitude(w, times[j + 1], C0, Ch)
-                _attitude(w, times[j + 2], C0, C1)
-                _plant(A_st[j], B_st[j], C, w, plant_printed, r, v, k1v)
-                for a in range(3):
-                    k1r[a] = v[a]
-                    k1v[a] += u[a]
-                    rs[a] = r[a] + 0.5 * h * k1r[a]
-                    vs[a] = v[a] + 0.5 * h * k1v[a]
-                _plant(A_st[j + 1], B_st[j + 1], Ch, w, plant_printed, rs, vs, k2v)
-                for a in range(3):
-                    k2r[a] = vs[a]
-                    k2v[a] += u[a]
-                for a in range(3):
-                    rs[a] = r[a] + 0.5 * h * k2r[a]
-                    vs[a] = v[a] + 0.5 * h * k2v[a]
-                _plant(A_st[j + 1], B_st[j + 1], Ch, w, plant_printed, rs, vs, k3v)
-                for a in range(3):
-                    k3r[a] = vs[a]
-                    k3v[a] += u[a]
-                for a in range(3):
-                    rs[a] = r[a] + h * k3r[a]
-                    vs[a] = v[a] + h * k3v[a]
-                _plant(A_st[j + 2], B_st[j + 2], C1, w, plant_printed, rs, vs, k4v)
-                for a in range(3):
-                    k4r[a] = vs[a]
-                    k4v[a] += u[a]
-                p0 = r.copy()
-                for a in range(3):
-                    r[a] = r[a] + (h / 6.0) * (k1r[a] + 2 * k2r[a] + 2 * k3r[a] + k4r[a])
-                    v[a] = v[a] + (h / 6.0) * (k1v[a] + 2 * k2v[a] + 2 * k3v[a] + k4v[a])
-                half = 0.5 * math.sqrt((r[0] - p0[0]) ** 2 + (r[1] - p0[1]) ** 2
-                                       + (r[2] - p0[2]) ** 2)
-                near = False
-                for p in range(nP):
-                    dn = _box_distance(r, s_lo[p], s_hi[p])
-                    clearance[i, p] = min(clearance[i, p], dn)
-                    if is_solid[p] and dn == 0.0:
-                        pen = max(pen, _depth(r, s_lo[p], s_hi[p]))
-                    if min(d_prev[p], dn) <= half + reach:
-                        near = True
-                    d_prev[p] = dn
-                if near:
-                    for p in range(nP):
-                        if _segment_hits(p0, r, c_lo[p], c_hi[p]):
-                            hits[i, p] = True
-                rng_min = min(rng_min, math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2))
-                C[:, :] = C1
-            if not failed and not (math.isfinite(r[0]) and math.isfinite(r[1])
-                                   and math.isfinite(r[2]) and math.isfinite(v[0])
-                                   and math.isfinite(v[1]) and math.isfinite(v[2])):
-                failed = True
-                r[:] = 0.0  # frozen; flagged, its outputs are not to be used
-                v[:] = 0.0
-        row = sc[i]
-        row[0], row[1], row[2], row[3], row[4], row[5] = (bad_e, bad_settle, bad_v, bad_s2,
-                                                          bad_speed, bad_u)
-        row[6], row[7], row[8] = pos_final, speed_final, speed_max
-        row[9], row[10], row[11] = sp_ax[0], sp_ax[1], sp_ax[2]
-        row[12], row[13] = u_mx, u_conv
-        row[14], row[15], row[16] = u_lo[0], u_lo[1], u_lo[2]
-        row[17], row[18], row[19] = u_hi[0], u_hi[1], u_hi[2]
-        row[20], row[21], row[22] = dv, pen, rng_min
-        row[23], row[24], row[25] = n_guard, n_bad, 1.0 if failed else 0.0
+                for l in range(m):
+                    kr[a, l] = xs[3 + a, l]
+                    kv[3 + a, l] += u[a, l]
+                    xs[a, l] = x[a, l] + 0.5 * h * kr[a, l]
+                    xs[3 + a, l] = x[3 + a, l] + 0.5 * h * kv[3 + a, l]
+            _plant(m, A_st, B_st, j + 1, Ch, w, plant_printed, xs, kv[6:9])
+            for a in range(3):
+                for l in range(m):
+                    kr[3 + a, l] = xs[3 + a, l]
+                    kv[6 + a, l] += u[a, l]
+                    xs[a, l] = x[a, l] + h * kr[3 + a, l]
+                    xs[3 + a, l] = x[3 + a, l] + h * kv[6 + a, l]
+            _plant(m, A_st, B_st, j + 2, C1, w, plant_printed, xs, kv[9:12])
+            for a in range(3):
+                for l in range(m):
+                    p0[a, l] = x[a, l]
+                    kv[9 + a, l] += u[a, l]
+                    x[a, l] = x[a, l] + (h / 6.0) * (
+                        x[3 + a, l] + 2 * kr[a, l] + 2 * kr[3 + a, l] + xs[3 + a, l])
+                    x[3 + a, l] = x[3 + a, l] + (h / 6.0) * (
+                        kv[a, l] + 2 * kv[3 + a, l] + 2 * kv[6 + a, l] + kv[9 + a, l])
+            _geometry(m, x, p0, s_lo, s_hi, reach, d_prev, clr, half, flag, rng_min)
+            for l in range(m):
+                if flag[l] != 0.0:
+                    _geometry_events(i0 + l, l, x, p0, s_lo, s_hi, c_lo, c_hi, is_solid,
+                                     d_prev, flag, pen, hits)
+            C, C1 = C1, C
+        for l in range(m):
+            if mt[C_FAILED, l] == 0.0 and not (
+                    math.isfinite(x[0, l]) and math.isfinite(x[1, l]) and math.isfinite(x[2, l])
+                    and math.isfinite(x[3, l]) and math.isfinite(x[4, l])
+                    and math.isfinite(x[5, l])):
+                mt[C_FAILED, l] = 1.0
+                for q in range(6):
+                    x[q, l] = 0.0  # frozen; flagged, its outputs are not to be used
+    for l in range(m):
+        for q in range(N_COL):
+            sc[i0 + l, q] = mt[q, l]
+        for p in range(nP):
+            clearance[i0 + l, p] = clr[p, l]
+
+
+@njit(cache=True, error_model="numpy")
+def _shape_thrust(m, i0, k, u, guarded, scale, noise_w, keys, u_max, mt
+                  ):  # pragma: no cover - compiled
+    """Thrust limit, thrust factors and per-period noise on every lane's command."""
+    for l in range(m):
+        i = i0 + l
+        mt[C_GUARDED, l] += guarded[l]
+        u0, u1, u2 = u[0, l], u[1, l], u[2, l]
+        if not (math.isfinite(u0) and math.isfinite(u1) and math.isfinite(u2)):
+            u0 = u1 = u2 = 0.0
+            mt[C_NONFINITE, l] += 1.0
+        if math.isfinite(u_max):
+            un = math.sqrt(u0 ** 2 + u1 ** 2 + u2 ** 2)
+            f = min(1.0, u_max / max(un, 1e-300))
+            u0 *= f
+            u1 *= f
+            u2 *= f
+        u0 *= scale[i, 0]
+        u1 *= scale[i, 1]
+        u2 *= scale[i, 2]
+        if noise_w > 0.0:
+            u0 *= 1.0 + noise_w * (2.0 * _uniform(keys[i], 3 * k) - 1.0)
+            u1 *= 1.0 + noise_w * (2.0 * _uniform(keys[i], 3 * k + 1) - 1.0)
+            u2 *= 1.0 + noise_w * (2.0 * _uniform(keys[i], 3 * k + 2) - 1.0)
+        u[0, l], u[1, l], u[2, l] = u0, u1, u2
+
+
+@njit(cache=True, error_model="numpy")
+def _metrics(m, k, x, u, s2, r_f, converge_tol, settle_tol, velocity_tol, s2_tol, k_check, nrm,
+             mt):  # pragma: no cover - compiled
+    """The metrics at ``t_k`` of every lane: norms, then the threshold and extremum updates as
+    selects (branch-free passes of at most a few rows each, which the compiler vectorises).
+    ``nrm`` gets the norms; ``s2[0]`` becomes ``|s2|`` (the record needs only the norm)."""
+    kf = float(k)
+    for l in range(m):
+        nrm[0, l] = math.sqrt((x[0, l] - r_f[0]) ** 2 + (x[1, l] - r_f[1]) ** 2
+                              + (x[2, l] - r_f[2]) ** 2)
+        nrm[1, l] = math.sqrt(x[3, l] ** 2 + x[4, l] ** 2 + x[5, l] ** 2)
+    for l in range(m):
+        nrm[2, l] = math.sqrt(u[0, l] ** 2 + u[1, l] ** 2 + u[2, l] ** 2)
+        s2n = math.sqrt(s2[0, l] ** 2 + s2[1, l] ** 2 + s2[2, l] ** 2)
+        nrm[3, l] = s2n
+        s2[0, l] = s2n
+    for l in range(m):
+        e_norm, speed = nrm[0, l], nrm[1, l]
+        mt[0, l] = mt[0, l] if e_norm < converge_tol else kf
+        mt[1, l] = mt[1, l] if e_norm < settle_tol else kf
+        mt[2, l] = mt[2, l] if speed < velocity_tol else kf
+    for l in range(m):
+        speed, un, s2n = nrm[1, l], nrm[2, l], nrm[3, l]
+        mt[3, l] = mt[3, l] if s2n < s2_tol else kf
+        mt[4, l] = mt[4, l] if speed < 0.15 else kf
+        mt[5, l] = mt[5, l] if un < 0.06 else kf
+    for l in range(m):
+        e_norm, speed, un = nrm[0, l], nrm[1, l], nrm[2, l]
+        mt[8, l] = max(mt[8, l], speed)
+        mt[12, l] = max(mt[12, l], un)
+        mt[13, l] = max(mt[13, l], un) if e_norm < converge_tol else 0.0
+    for l in range(m):
+        mt[9, l] = max(mt[9, l], abs(x[3, l]))
+        mt[10, l] = max(mt[10, l], abs(x[4, l]))
+        mt[11, l] = max(mt[11, l], abs(x[5, l]))
+    if k >= k_check:
+        for l in range(m):
+            mt[6, l] = max(mt[6, l], nrm[0, l])
+            mt[7, l] = max(mt[7, l], nrm[1, l])
+        for l in range(m):
+            mt[14, l] = min(mt[14, l], u[0, l])
+            mt[15, l] = min(mt[15, l], u[1, l])
+            mt[16, l] = min(mt[16, l], u[2, l])
+        for l in range(m):
+            mt[17, l] = max(mt[17, l], u[0, l])
+            mt[18, l] = max(mt[18, l], u[1, l])
+            mt[19, l] = max(mt[19, l], u[2, l])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _record(i, l, ir, x, u, s2, w, C, dv, rec_r, rec_v, rec_u, rec_rl, rec_vl, rec_ul, rec_u32,
+            rec_s2, rec_dv):  # pragma: no cover - compiled
+    """Lane ``l``'s state, thrust and their LVLH forms on record row ``ir``."""
+    r0, r1, r2 = x[0, l], x[1, l], x[2, l]
+    v0, v1, v2 = x[3, l], x[4, l], x[5, l]
+    u0, u1, u2 = u[0, l], u[1, l], u[2, l]
+    w0, w1, w2 = w[0, l], w[1, l], w[2, l]
+    wr0 = w1 * r2 - w2 * r1
+    wr1 = w2 * r0 - w0 * r2
+    wr2 = w0 * r1 - w1 * r0
+    # eq (32): u + 2 w x v + w x (w x r)
+    e0 = (u0 + 2.0 * (w1 * v2 - w2 * v1)) + (w1 * wr2 - w2 * wr1)
+    e1 = (u1 + 2.0 * (w2 * v0 - w0 * v2)) + (w2 * wr0 - w0 * wr2)
+    e2 = (u2 + 2.0 * (w0 * v1 - w1 * v0)) + (w0 * wr1 - w1 * wr0)
+    q0, q1, q2 = v0 + wr0, v1 + wr1, v2 + wr2
+    for a in range(3):
+        ca0, ca1, ca2 = C[3 * a, l], C[3 * a + 1, l], C[3 * a + 2, l]
+        rec_r[i, ir, a] = x[a, l]
+        rec_v[i, ir, a] = x[3 + a, l]
+        rec_u[i, ir, a] = u[a, l]
+        rec_rl[i, ir, a] = ca0 * r0 + ca1 * r1 + ca2 * r2
+        rec_vl[i, ir, a] = ca0 * q0 + ca1 * q1 + ca2 * q2
+        rec_ul[i, ir, a] = ca0 * u0 + ca1 * u1 + ca2 * u2
+        rec_u32[i, ir, a] = ca0 * e0 + ca1 * e1 + ca2 * e2
+    rec_s2[i, ir] = s2[0, l]
+    rec_dv[i, ir] = dv[l]
+
+
+@njit(cache=True, error_model="numpy")
+def _geometry(m, x, p0, s_lo, s_hi, reach, d_prev, clr, half, flag, rng_min
+              ):  # pragma: no cover - compiled
+    """Clearance and range of every lane after a sub-step, branch-free; ``flag[l]`` > 0 when
+    lane ``l`` is inside a part or its last segment may reach a collision box (then
+    :func:`_geometry_events` looks closer)."""
+    for l in range(m):
+        r0, r1, r2 = x[0, l], x[1, l], x[2, l]
+        half[l] = 0.5 * math.sqrt((r0 - p0[0, l]) ** 2 + (r1 - p0[1, l]) ** 2
+                                  + (r2 - p0[2, l]) ** 2)
+        rng_min[l] = min(rng_min[l], math.sqrt(r0 ** 2 + r1 ** 2 + r2 ** 2))
+        flag[l] = 0.0
+    for p in range(s_lo.shape[0]):
+        for l in range(m):
+            dn = _box_distance(x[0, l], x[1, l], x[2, l], s_lo, s_hi, p)
+            clr[p, l] = min(clr[p, l], dn)
+            # the segment can reach the box only if an end is within half its length plus the
+            # box's inflation of the skeleton
+            near = min(d_prev[p, l], dn) <= half[l] + reach
+            flag[l] = max(flag[l], 2.0 if near else (1.0 if dn == 0.0 else 0.0))
+            d_prev[p, l] = dn
+
+
+@njit(cache=True, error_model="numpy")
+def _geometry_events(i, l, x, p0, s_lo, s_hi, c_lo, c_hi, is_solid, d_prev, flag, pen, hits
+                     ):  # pragma: no cover - compiled
+    """Penetration of the solid parts and the swept collision test of a flagged lane."""
+    r0, r1, r2 = x[0, l], x[1, l], x[2, l]
+    for p in range(s_lo.shape[0]):
+        if is_solid[p] and d_prev[p, l] == 0.0:
+            pen[l] = max(pen[l], _depth(r0, r1, r2, s_lo, s_hi, p))
+    if flag[l] >= 2.0:
+        for p in range(s_lo.shape[0]):
+            if _segment_hits(p0, l, x, c_lo, c_hi, p):
+                hits[i, p] = True
 
 
 def run_closed_loop_numba(plant, controller_plant, law, geometry, x0, settings,
