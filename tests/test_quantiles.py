@@ -172,3 +172,18 @@ def test_a_bracket_that_misses_falls_back_to_the_exact_partition(monkeypatch):
     np.testing.assert_array_equal(select_order_statistics(np.split(y, [5_000, 5_001]),
                                                           positions),
                                   np.sort(y, axis=0)[positions])
+
+
+def test_binomial_points_are_scipy_stats():
+    """The ranks' binomial points (from scipy.special.bdtr, so that a run need not import
+    scipy.stats) equal scipy.stats.binom.ppf over run counts from
+    1 to 1e8 and the points of 90-99% intervals. At an exact tie (a cdf equal to q, such as
+    the median of Bin(7, 0.5)) the two libraries' last bits can pick neighbours; the points
+    (1 -+ level) / 2 of an interval fall on none."""
+    from scipy.stats import binom
+
+    for n in [1, 2, 3, 7, 10, 37, 100, 999, 1000, 4096, 10_007, 100_000, 1_000_000,
+              12_345_678, 100_000_000]:
+        for p in [*THREE_SIGMA, 1e-6, 0.001, 0.01, 0.05, 0.1, 0.25, 0.9, 0.99, 0.999]:
+            for q in (0.025, 0.975, 0.005, 0.995, 0.05, 0.95):
+                assert quantiles.binomial_ppf(q, n, p) == int(binom.ppf(q, n, p)), (n, p, q)
