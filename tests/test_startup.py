@@ -51,3 +51,26 @@ def test_the_three_sigma_literals_are_scipys():
     from uqguide.quantiles import THREE_SIGMA
 
     assert THREE_SIGMA == (float(stats.norm.cdf(-3.0)), 0.5, float(stats.norm.cdf(3.0)))
+
+
+def test_checking_report_times_loads_no_compiled_kernel():
+    """``uqguide run`` checks the report times against the model's grid before it starts the
+    workers; for FTCAPN the grid comes from a one-run NumPy probe, not from a run of the
+    compiled kernel (0.6 s to load into a driver that may never simulate), and it is the
+    grid the runs produce."""
+    probe = """
+import sys
+import numpy as np
+import uqguide
+from uqguide.report_times import check_config_report_times, model_time_grid
+c = uqguide.load_config("configs/ftcapn_table3.yaml")
+check_config_report_times(c)
+print("NUMBA:" + str("numba" in sys.modules))
+grid = model_time_grid(c.model, c.outputs)
+run = c.model.evaluate(np.zeros((1, c.space.dim)), c.space.names, ["omega_s"]).time
+print("SAME:" + str(np.array_equal(grid, run) and grid[-1] == 77.5))
+"""
+    p = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT,
+                       timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert "NUMBA:False" in p.stdout and "SAME:True" in p.stdout, p.stdout

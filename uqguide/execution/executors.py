@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..models.base import Model
-from ..types import GeneratedRows, ModelOutput
+from ..types import GeneratedRows, ModelOutput, RowRange
 from .chunks import DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Task, Timing
 from .guard import close_guards
 from .isolation import common_grid
@@ -121,7 +121,7 @@ class _WindowedExecutor:
     batch_size: int | None
     window: int
 
-    def _submit(self, job: ChunkJob, task: Task, x: np.ndarray) -> Any:
+    def _submit(self, job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> Any:
         raise NotImplementedError
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
@@ -132,7 +132,10 @@ class _WindowedExecutor:
             while todo or running:
                 while todo and len(running) < self.window:
                     t = todo.pop()
-                    running[self._submit(job, t, x[t.start:t.stop])] = t
+                    # a design made on demand is made by the worker (RowRange), not here
+                    rows = x.lazy(t.start, t.stop) if isinstance(x, GeneratedRows) else \
+                        x[t.start:t.stop]
+                    running[self._submit(job, t, rows)] = t
                 for fut in self._wait_some(list(running)):
                     if fut in running:  # not already taken by a crash recovery
                         task = running.pop(fut)
@@ -191,7 +194,7 @@ class ProcessExecutor(_WindowedExecutor):
             self._pool.shutdown(wait=True, cancel_futures=True)
         self._pool = None
 
-    def _submit(self, job: ChunkJob, task: Task, x: np.ndarray) -> Future:
+    def _submit(self, job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> Future:
         with sigint_ignored():  # a submit may start worker processes
             return self._get_pool().submit(run_chunk, job, task, x)
 
@@ -297,7 +300,7 @@ class DaskExecutor(_WindowedExecutor):
         n_threads = sum(self.client.nthreads().values()) or 1
         self.window = 2 * n_threads
 
-    def _submit(self, job: ChunkJob, task: Task, x: np.ndarray) -> Any:
+    def _submit(self, job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> Any:
         return self.client.submit(run_chunk, job, task, x, pure=False, retries=self.retries)
 
     def _wait_some(self, futures: list[Any]) -> list[Any]:

@@ -8,13 +8,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..types import ModelOutput
+from ..types import ModelOutput, RowRange
 from .chunks import ChunkJob, ChunkResult, Task
 from .guard import guarded_batch
 from .isolation import common_grid, evaluate_batch
 
 
-def run_chunk(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
+def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResult:
     """Evaluate one chunk ``x (m, d)`` in model calls of ``job.batch_size`` samples, then reduce
     it with ``job.reducer`` when there is one. Runs in whichever process the executor chose.
 
@@ -23,8 +23,8 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
     job : ChunkJob
     task : Task
         Which chunk (its index is passed to the reducer).
-    x : ndarray, shape (m, d)
-        The chunk's rows, inputs in SI units.
+    x : ndarray or RowRange, shape (m, d)
+        The chunk's rows, inputs in SI units (a RowRange is made here).
 
     Returns
     -------
@@ -33,6 +33,7 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
         reduced, the reducer's summary when reduced; the seconds spent in the model.
     """
     model = job.model.model
+    x = np.asarray(x)  # a RowRange: the rows are made here
     m = x.shape[0]
     t0 = time.perf_counter()
     if job.timeout_s is not None or job.guarded:

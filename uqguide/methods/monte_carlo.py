@@ -136,6 +136,22 @@ def unit_samples(d: int, n: int, sampling: str, chunk_size: int,
     return np.concatenate(parts) if parts else np.empty((0, d))
 
 
+class DesignChunks:
+    """``make(i)``: chunk ``i`` of a Monte Carlo design in SI units, where and when it is
+    evaluated (never held whole); picklable, so a pool worker can make its own chunk."""
+
+    def __init__(self, space: InputSpace, n: int, sampling: str, chunk_size: int,
+                 seed: np.random.SeedSequence) -> None:
+        self.space, self.n, self.sampling, self.chunk_size, self.seed = (
+            space, n, sampling, chunk_size, seed)
+
+    def __call__(self, i: int) -> np.ndarray:
+        d, n, c = self.space.dim, self.n, self.chunk_size
+        if not d:
+            return np.empty((min(c, n - i * c), 0))
+        return self.space.from_unit(unit_chunk(d, n, self.sampling, c, self.seed, i))
+
+
 class MonteCarlo(Method):
     """Monte Carlo sampling with streaming sample-moment statistics and Poisson-bootstrap
     intervals."""
@@ -150,15 +166,9 @@ class MonteCarlo(Method):
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings
         ss = method_seed(seed, self.label)
-        d, n, c = space.dim, s.n_samples, s.chunk_size
-
-        def make(i: int) -> np.ndarray:
-            # One chunk of the design, where and when it is evaluated: never held whole.
-            if not d:
-                return np.empty((min(c, n - i * c), 0))
-            return space.from_unit(unit_chunk(d, n, s.sampling, c, ss, i))
-
-        x = GeneratedRows(n, d, c, make)
+        x = GeneratedRows(s.n_samples, space.dim, s.chunk_size,
+                          DesignChunks(space, s.n_samples, s.sampling, s.chunk_size, ss),
+                          portable=True)
         # The bootstrap stream is a fixed function of the same root, kept apart from the design.
         boot_seed = int(np.random.SeedSequence([seed, zlib.crc32(self.label.encode()), 1])
                         .generate_state(1)[0])
