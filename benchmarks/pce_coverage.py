@@ -17,9 +17,10 @@ error of the corrected and of the plain PCE value:
     power sums of all runs; its uncertainty is a delete-one-replicate jackknife over the
     independent scrambles (valid for the ratio statistics, whose pooled estimate is not the
     replicates' average), shown as a 95% half-width with Student's t on R - 1 degrees of
-    freedom. Its standard errors (about 5e-5 m, 1.5e-4 m, 2.5e-4, 2e-3) are 12-50 times
-    smaller than the PCE intervals' on the first three moments and 6 times on the kurtosis,
-    so "covered" against it is the intervals' coverage: this is the acceptance figure.
+    freedom (the per-replicate moments' std / sqrt(R) is printed beside it and agrees to two
+    digits). Its standard errors (4-5e-5 m, 1.5-2.6e-4 m, 3-4e-4, 2.5-3.3e-3 over three
+    seeds) are 40-60, 11-19, 6-8 and 4-5 times smaller than the PCE intervals', so "covered"
+    against it is the intervals' coverage: this is the acceptance figure.
     ``--rqmc-refs`` (3) such references on independent seeds show that the figure does not
     depend on which one is drawn;
   - the same size in plain (pseudo-random) Monte Carlo: the first ``--mc-runs`` x 1e5 runs
@@ -29,7 +30,7 @@ error of the corrected and of the plain PCE value:
     quadrature (the report's agreement flag), and the coverage against each disjoint 4e5-run
     block of the precise run shows how far that literal figure moves with the reference;
   - a precise plain Monte Carlo: ``--ref-runs`` runs (2e7, kept at the size the README quotes;
-    about 3 minutes), with half-widths 5-9 times narrower than the PCE's intervals: an
+    under 3 minutes), with half-widths 5-9 times narrower than the PCE's intervals: an
     independent check of the RQMC value by a method without its smoothness assumptions.
 - ``ishigami`` (100 runs + 100 validation) and ``borehole`` (50 runs + 100 validation),
   ``--analytic-seeds`` seeds (100): exact references (closed form / tensor Gauss rules, as
@@ -39,8 +40,9 @@ error of the corrected and of the plain PCE value:
         [--cases table5 ishigami borehole] [--mc-runs 4] [--ref-runs 20000000]
         [--rqmc-reps 25] [--rqmc-refs 3] [--design stratified|random]
 
-The full run takes about 15 minutes of two cores (the 2e7-run reference about 3, the RQMC
-references 5 s each); ``--seeds 3 --ref-runs 1000000 --analytic-seeds 20`` is a quick check.
+The full run takes 7 minutes of two idle cores, up to 15 on a loaded machine (the references
+under 3, of which the RQMC ones 3 s each); ``--seeds 3 --ref-runs 1000000 --analytic-seeds
+20`` is a quick check.
 """
 
 from __future__ import annotations
