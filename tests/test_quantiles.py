@@ -10,7 +10,14 @@ from uqguide.config import validate_config
 from uqguide.errors import ConfigError
 from uqguide.methods import mc_reduce
 from uqguide.propagate import run
-from uqguide.quantiles import THREE_SIGMA, coverage, order_statistic_quantiles, ranks
+from uqguide import quantiles
+from uqguide.quantiles import (
+    THREE_SIGMA,
+    coverage,
+    order_statistic_quantiles,
+    ranks,
+    select_order_statistics,
+)
 from uqguide.result import read_hdf5, write_hdf5
 
 LEVELS = [0.01, 0.1, 0.5, 0.9, 0.99]
@@ -128,3 +135,55 @@ def test_envelope_figure_and_events_section_are_written(tmp_path):
     assert ("envelope", "ramp", "y1") in kinds and ("envelope", "ramp", "y2") in kinds
     md = render_markdown(res)
     assert "## Events" in md and "y[y1] > 3" in md and "q0.99865" in md
+
+
+@pytest.mark.parametrize("case", ["normal", "ties", "heavy", "small", "nan", "constant"])
+def test_selection_equals_the_full_sort_on_uneven_chunks(case):
+    """The bracketed selection returns exactly the sorted union's values at the wanted
+    positions (bit for bit: an order statistic is one of the inputs), whatever the chunking;
+    ties, a heavy tail, a constant lane, NaN (sorts last) and inputs too small to bracket."""
+    rng = np.random.default_rng(7)
+    n = 40 if case == "small" else 30_011
+    y = rng.standard_normal((n, 3, 2))
+    if case == "ties":
+        y = np.floor(3 * y)
+    elif case == "heavy":
+        y = rng.standard_cauchy((n, 3, 2))
+    elif case == "nan":
+        y[rng.random(n) < 0.01, 1, 0] = np.nan
+    elif case == "constant":
+        y[:, 2, 1] = 4.0
+    cuts = np.sort(rng.choice(np.arange(1, n), size=6, replace=False))
+    chunks = np.split(y, cuts)
+    positions = sorted({k - 1 for p in THREE_SIGMA for k in ranks(n, p) if 1 <= k <= n}
+                       | {0, n - 1})
+    got = select_order_statistics(chunks, positions)
+    want = np.sort(y, axis=0)[positions]
+    np.testing.assert_array_equal(got, want)
+
+
+def test_a_bracket_that_misses_falls_back_to_the_exact_partition(monkeypatch):
+    """With no margin the subsample's bracket misses the wanted ranks in most lanes; the
+    counts catch every miss and the answer stays exact."""
+    monkeypatch.setattr(quantiles, "_MARGIN_SD", -3.0)
+    rng = np.random.default_rng(8)
+    y = rng.standard_normal((20_000, 4))
+    positions = [26, 9_999, 19_973]
+    np.testing.assert_array_equal(select_order_statistics(np.split(y, [5_000, 5_001]),
+                                                          positions),
+                                  np.sort(y, axis=0)[positions])
+
+
+def test_binomial_points_are_scipy_stats():
+    """The ranks' binomial points (from scipy.special.bdtr, so that a run need not import
+    scipy.stats) equal scipy.stats.binom.ppf over run counts from
+    1 to 1e8 and the points of 90-99% intervals. At an exact tie (a cdf equal to q, such as
+    the median of Bin(7, 0.5)) the two libraries' last bits can pick neighbours; the points
+    (1 -+ level) / 2 of an interval fall on none."""
+    from scipy.stats import binom
+
+    for n in [1, 2, 3, 7, 10, 37, 100, 999, 1000, 4096, 10_007, 100_000, 1_000_000,
+              12_345_678, 100_000_000]:
+        for p in [*THREE_SIGMA, 1e-6, 0.001, 0.01, 0.05, 0.1, 0.25, 0.9, 0.99, 0.999]:
+            for q in (0.025, 0.975, 0.005, 0.995, 0.05, 0.95):
+                assert quantiles.binomial_ppf(q, n, p) == int(binom.ppf(q, n, p)), (n, p, q)

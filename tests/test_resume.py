@@ -189,6 +189,38 @@ def test_manifest_lines_and_chunk_files(tmp_path):
         "manifest.jsonl", "mc.s0.c000000.npz", "mc.s0.c000001.npz", "mc.s0.c000002.npz"]
 
 
+def test_a_checkpoint_write_that_fails_stops_the_run_and_lists_only_what_is_on_disk(
+        tmp_path, monkeypatch):
+    """Chunks are written by a background thread; its error (here a full disk at the second
+    chunk) reaches the run, which fails with it, and the manifest lists exactly the chunk
+    files written before it, so a resume re-runs the rest."""
+    from uqguide import checkpoint
+    from uqguide.checkpoint import RunStore, run_identity
+    from uqguide.config import validate_config
+    from uqguide.propagate import run
+
+    real = checkpoint._write_chunk
+    written = []
+
+    def full_disk(path, r, *args):
+        if r.task.index == 1:
+            raise OSError(28, "No space left on device")
+        real(path, r, *args)
+        written.append(path.name)
+
+    monkeypatch.setattr(checkpoint, "_write_chunk", full_disk)
+    c = validate_config(_config("tests.failing_models:clean_sum", 500))
+    store = RunStore.open(tmp_path / "r.run", run_identity(c.resolved(), c.model), resume=False)
+    with pytest.raises(OSError, match="No space left"):
+        try:
+            run(c, store=store)
+        finally:
+            store.close()
+    lines = [json.loads(x) for x in (tmp_path / "r.run" / "manifest.jsonl").read_text()
+             .splitlines()][1:]
+    assert [e["file"] for e in lines] == written == ["mc.s0.c000000.npz"]
+
+
 def test_ctrl_c_with_worker_processes_exits_130_without_traceback(tmp_path):
     # A real SIGINT to the whole process group, as a terminal's Ctrl-C: the workers ignore it
     # (from birth), the driver stops them, reports and leaves a resumable run.

@@ -10,8 +10,10 @@ Layout, next to the result file (``<out>/<name>.run/``)::
                              "stop", "file", "n_failed"}
     <label>.s<stage>.c<index>.npz
                             one chunk's run id, label, stage and bounds, its per-sample failure
-                            mask, reasons, scalar outputs, and either its series or its
-                            method's summary (Monte Carlo sums); written to a temporary name,
+                            mask, reasons, and its scalar outputs with either its series or
+                            its method's summary (Monte Carlo sums) packed into one byte
+                            array with a JSON index of names, dtypes, shapes and offsets
+                            (no pickle anywhere); written to a temporary name,
                             fsynced, renamed into place, and only then listed in the manifest
 
 So a chunk listed in the manifest is complete on disk, whatever killed the run and when; a
@@ -39,8 +41,10 @@ import inspect
 import json
 import logging
 import os
+import queue
 import re
 import shutil
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -55,7 +59,8 @@ from .models.base import Model
 
 log = logging.getLogger(__name__)
 
-FORMAT = 1
+#: 2: a chunk's scalars, series and summary packed into one array (1: an npz entry each)
+FORMAT = 2
 MANIFEST = "manifest.jsonl"
 
 
@@ -213,6 +218,10 @@ class RunStore:
         self.identity = identity
         self.run_id: str = identity["run_id"]
         self._entries: dict[tuple[str, int, int], dict[str, Any]] = {}
+        # bounded: a writer slower than the workers holds back the driver, not its memory
+        self._queue: queue.Queue[tuple[str, int, ChunkResult] | None] = queue.Queue(maxsize=16)
+        self._writer: threading.Thread | None = None
+        self._error: BaseException | None = None
 
     # -------------------------------------------------------------- opening
     @classmethod
@@ -349,7 +358,13 @@ class RunStore:
         return r.result
 
     def save(self, label: str, stage: int, result: ChunkResult) -> None:
-        """Write one chunk atomically, then list it in the manifest.
+        """Queue one chunk: a writer thread writes it atomically, then lists it in the
+        manifest, chunk after chunk in the order given.
+
+        The driver folds the next chunk while this one is fsynced (three fsyncs a chunk: 1.3 s
+        of a 1e6-run study's wall time when they were in line). A chunk still queued when the
+        process is killed is simply not listed, so a resume re-runs it; an error of the writer
+        (a full disk) is raised by the next ``save`` or by :meth:`flush`.
 
         Parameters
         ----------
@@ -357,6 +372,48 @@ class RunStore:
         stage : int
         result : ChunkResult
         """
+        self._raise_writer_error()
+        if self._writer is None:
+            self._writer = threading.Thread(target=self._write_loop, name="uqguide-checkpoint",
+                                            daemon=True)
+            self._writer.start()
+        self._queue.put((label, stage, result))
+
+    def flush(self) -> None:
+        """Wait until every queued chunk is on disk and listed; raise the writer's error."""
+        if self._writer is not None:
+            self._queue.join()
+        self._raise_writer_error()
+
+    def close(self) -> None:
+        """:meth:`flush`, then end the writer thread."""
+        try:
+            self.flush()
+        finally:
+            if self._writer is not None:
+                self._queue.put(None)
+                self._writer.join()
+                self._writer = None
+
+    def _raise_writer_error(self) -> None:
+        if self._error is not None:
+            err, self._error = self._error, None
+            raise err
+
+    def _write_loop(self) -> None:
+        while True:
+            item = self._queue.get()
+            try:
+                if item is None:
+                    return
+                if self._error is None:  # after a failure, nothing more: the chunks re-run
+                    self._save_now(*item)
+            except BaseException as exc:  # noqa: BLE001 - handed to the driver's thread
+                self._error = exc
+            finally:
+                self._queue.task_done()
+
+    def _save_now(self, label: str, stage: int, result: ChunkResult) -> None:
         t = result.task
         name = f"{label}.s{stage}.c{t.index:06d}.npz"
         _write_chunk(self.path / name, result, self.run_id, label, stage)
@@ -368,6 +425,7 @@ class RunStore:
 
     def remove(self) -> None:
         """Delete the folder (after the result file is written: it holds everything)."""
+        self.close()
         if self.path.is_dir() and not self.path.is_symlink():
             header, _ = _read_manifest(self.path / MANIFEST)
             if header is not None and header.get("run_id") == self.run_id:
@@ -452,6 +510,12 @@ class _StoredChunk:
 
 
 def _write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int) -> None:
+    # The scalars, series and summary go packed into one byte array with a JSON index: a
+    # Monte Carlo chunk's summary is ~100 small arrays, and one zip entry each made the
+    # checkpoints the driver's largest cost (2.5 s of a 1e6-run study, 20 ms a chunk).
+    index, packed = _pack({**{f"scalar.{k}": v for k, v in r.scalars.items()},
+                           **{f"series.{k}": v for k, v in r.series.items()},
+                           **{f"summary.{k}": v for k, v in r.summary.items()}})
     # Any: np.savez's stub would match a dict of arrays against its allow_pickle flag
     arrays: dict[str, Any] = {
         "run_id": np.array(run_id), "label": np.array(label),
@@ -461,14 +525,39 @@ def _write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int
         "failed": r.failed,
         "reasons": np.array([str(v) for v in r.reasons], dtype=str),
         "time": r.time,
+        "index": np.array(index), "packed": packed,
     }
-    arrays.update({f"scalar.{k}": v for k, v in r.scalars.items()})
-    arrays.update({f"series.{k}": v for k, v in r.series.items()})
-    arrays.update({f"summary.{k}": v for k, v in r.summary.items()})
     # fsynced file and folder: the rename must survive a power cut before the manifest line
     with atomic_path(path, clean=False) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
+
+
+def _pack(arrays: dict[str, np.ndarray]) -> tuple[str, np.ndarray]:
+    """Numeric arrays as one byte array and a JSON index of (name, dtype, shape, offset)."""
+    entries, parts, offset = [], [], 0
+    for name, v in arrays.items():
+        a = np.asarray(v)  # (np.ascontiguousarray would make a 0-d array 1-d)
+        if a.dtype.hasobject or a.dtype.kind not in "biufc":
+            raise TypeError(f"checkpoint: {name} has dtype {a.dtype}, not a numeric array")
+        entries.append([name, a.dtype.str, list(a.shape), offset])
+        parts.append(np.ascontiguousarray(a).reshape(-1).view(np.uint8))
+        offset += a.nbytes
+    packed = np.concatenate(parts) if parts else np.zeros(0, dtype=np.uint8)
+    return json.dumps(entries), packed
+
+
+def _unpack(index: str, packed: np.ndarray) -> dict[str, np.ndarray]:
+    out = {}
+    for name, dtype, shape, offset in json.loads(index):
+        dt = np.dtype(dtype)
+        if dt.hasobject or dt.kind not in "biufc":
+            raise ValueError(f"packed array {name!r} has dtype {dtype}")
+        count = int(np.prod(shape, dtype=np.int64))
+        if offset < 0 or offset + count * dt.itemsize > packed.size:
+            raise ValueError(f"packed array {name!r} runs past the end of the file")
+        out[name] = packed[offset:offset + count * dt.itemsize].view(dt).reshape(shape).copy()
+    return out
 
 
 def _read_chunk(path: Path, task: Task) -> _StoredChunk:
@@ -478,7 +567,8 @@ def _read_chunk(path: Path, task: Task) -> _StoredChunk:
         raise ForeignChunk("carries no run id (written by an older uqguide or another tool)")
     if tuple(int(v) for v in data["task"]) != (task.index, task.start, task.stop):
         raise ValueError("chunk file does not match its manifest entry")
-    pick = {p: {k[len(p) + 1:]: v for k, v in data.items() if k.startswith(p + ".")}
+    arrays = _unpack(str(data["index"]), data["packed"])
+    pick = {p: {k[len(p) + 1:]: v for k, v in arrays.items() if k.startswith(p + ".")}
             for p in ("scalar", "series", "summary")}
     return _StoredChunk(run_id=str(data["run_id"]), label=str(data["label"]),
                         stage=int(data["stage"]), result=ChunkResult(

@@ -134,6 +134,8 @@ class _Stage:
             if close is not None:
                 close()
         fold_ready()
+        if self.store is not None:
+            self.store.flush()  # the stage's chunks on disk before the method goes on
         if kept is not None:
             return kept.output(), acc
         return ModelOutput.concatenate(common_grid(parts)), acc
@@ -341,7 +343,13 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         executor.abort()
         if isinstance(exc, RunInterrupted):
             raise
-        # The store's count: a chunk saved just before the interrupt may not be counted yet.
+        # The store's count, once the chunks queued for writing are on disk: a chunk saved
+        # just before the interrupt may not be counted yet.
+        if store is not None:
+            try:
+                store.close()
+            except Exception as err:  # noqa: BLE001 - the interrupt is what the user sees
+                log.warning("checkpoint: the last chunks could not be written (%s)", err)
         done = store.n_done if store is not None else progress.chunks_done
         raise RunInterrupted(done, progress.chunks_total) from None
     finally:

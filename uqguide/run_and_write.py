@@ -95,7 +95,10 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
         with RunLock(folder):
             store = RunStore.open(folder, run_identity(config.resolved(), config.model), resume,
                                   resume_hint)
-            result = run(config, executor, store=store, progress=progress)
+            try:
+                result = run(config, executor, store=store, progress=progress)
+            finally:
+                store.close()  # every chunk saved is on disk, whatever stopped the run
             try:
                 # Each file whole or absent; a signal here stops the run after the file being
                 # written, and the run folder stays until every file is written (resumable).

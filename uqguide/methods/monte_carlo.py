@@ -234,9 +234,9 @@ class MonteCarlo(Method):
             stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx,
                                                delta=acc.get(("h", name)))
             if self.quantile_levels is not None:
-                kept = acc.get(("q", name)) or [np.empty((0,) + sums.mean.shape)]
-                values = np.concatenate(kept, axis=0) if is_series else \
-                    runs.scalars[name][~runs.failed]
+                # the chunks' values as they came: the selection never concatenates them
+                values = (acc.get(("q", name)) or [np.empty((0,) + sums.mean.shape)]) \
+                    if is_series else [runs.scalars[name][~runs.failed]]
                 _put_quantiles(stats[name], values, self.quantile_levels, runs.time,
                                self.report_times)
         events = count_events(list(self.events), runs.scalars, ~runs.failed,
@@ -266,13 +266,14 @@ class MonteCarlo(Method):
         )
 
 
-def _put_quantiles(st: OutputStats, values: np.ndarray, levels: tuple[float, ...],
+def _put_quantiles(st: OutputStats, values: list[np.ndarray], levels: tuple[float, ...],
                    time_grid: np.ndarray, report_times: tuple[float, ...] | None) -> None:
-    """Order-statistic quantiles of ``values`` (scalar ``(n, k)``, or series ``(n, t, k)`` at
-    every step or at the quantile steps) into ``st``, NaN at the steps not kept."""
+    """Order-statistic quantiles of ``values`` (chunks of scalars ``(n_i, k)``, or of series
+    ``(n_i, t, k)`` at every step or at the quantile steps) into ``st``, NaN at the steps not
+    kept."""
     q, ci = order_statistic_quantiles(values, levels)
-    if values.ndim == 3 and values.shape[1] != time_grid.size:
-        full_q = np.full((len(levels), time_grid.size, values.shape[2]), np.nan)
+    if values[0].ndim == 3 and values[0].shape[1] != time_grid.size:
+        full_q = np.full((len(levels), time_grid.size, values[0].shape[2]), np.nan)
         full_ci = np.full((2,) + full_q.shape, np.nan)
         idx = ci_index(time_grid, report_times, "report")
         full_q[:, idx], full_ci[:, :, idx] = q, ci

@@ -205,7 +205,11 @@ class FTCAPN(Model):
         if p.t_final is not None:
             return p.t_final
         if self._t_final is None:
-            out = self._run(np.zeros((1, len(INPUT_INFO))), frozenset(["t_stop"]), grid_end=0.0)
+            # The NumPy reference kernel, in every process alike (so all share one grid): 16 ms
+            # for one run, where loading the compiled kernel into a driver that never
+            # simulates (the runs go to worker processes) took 0.6 s.
+            out = self._run(np.zeros((1, len(INPUT_INFO))), frozenset(["t_stop"]), grid_end=0.0,
+                            kernel="numpy")
             t_stop = out.scalars["t_stop"][0, 0]
             if out.failed[0] or not np.isfinite(t_stop):
                 log.warning("FTCAPN nominal run did not stop (%s): output grid runs to t_max",
@@ -232,9 +236,10 @@ class FTCAPN(Model):
         return self._run(x, outputs)
 
     # ------------------------------------------------------------------ simulation
-    def _run(self, x: np.ndarray, outputs: frozenset[str], grid_end: float | None = None
-             ) -> ModelOutput:
-        """Simulate ``x (n, 11)`` (columns in :data:`INPUT_INFO` order)."""
+    def _run(self, x: np.ndarray, outputs: frozenset[str], grid_end: float | None = None,
+             kernel: str | None = None) -> ModelOutput:
+        """Simulate ``x (n, 11)`` (columns in :data:`INPUT_INFO` order), with the config's
+        kernel or ``kernel``."""
         p = self.params
         n = x.shape[0]
         r0n, v0n = self.initial_state()
@@ -259,20 +264,21 @@ class FTCAPN(Model):
         args = (np.ascontiguousarray(r0), np.ascontiguousarray(v0), np.ascontiguousarray(at),
                 np.ascontiguousarray(x[:, 7]), np.ascontiguousarray(x[:, 6]), prm, K, max_steps,
                 col, buf, sc, status)
-        kernel = select(p.kernel, "ftcapn", "uqguide.models.ftcapn.kernel_numba:simulate_numba",
-                        "uqguide.models.ftcapn.kernel_numpy:simulate_numpy")
-        if kernel.__name__ == "simulate_numba":
+        fn = select(kernel or p.kernel, "ftcapn",
+                    "uqguide.models.ftcapn.kernel_numba:simulate_numba",
+                    "uqguide.models.ftcapn.kernel_numpy:simulate_numpy")
+        if fn.__name__ == "simulate_numba":
             import numba
 
             before = numba.get_num_threads()
             most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
             numba.set_num_threads(min(p.threads, most) if p.threads else most)
             try:
-                kernel(*args)
+                fn(*args)
             finally:
                 numba.set_num_threads(before)
         else:
-            kernel(*args)
+            fn(*args)
         series = {}
         for i, (name, k) in enumerate(L.SERIES_LAYOUT):
             if col[i] >= 0:
