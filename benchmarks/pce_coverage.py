@@ -8,24 +8,41 @@ with its 95% Wilson interval over the seeds, the average half-width and the aver
 error of the corrected and of the plain PCE value:
 
 - ``table5``: ``configs/ftcapn_table5.yaml``'s adaptive PCE (150 -> 300 runs + 100
-  validation) for the ZEM, ``--seeds`` design seeds (20). Two references, both plain Monte
-  Carlo of the model on a stream of their own:
-  - the issue's: the first ``--mc-runs`` x 1e5 runs (4e5). Its own 95% half-width (delta
-    method) is about as wide as the PCE's interval, so a share against it measures the
-    reference's error as much as the PCE's; the "combined" column counts the seeds where the
-    difference lies within both half-widths in quadrature (the report's agreement flag);
-  - a precise one: ``--ref-runs`` runs (2e7), whose half-widths are 5-9x narrower than the
-    PCE's intervals, so "covered" against it is the intervals' coverage.
+  validation) for the ZEM, ``--seeds`` design seeds (20). Three kinds of reference, each a
+  Monte Carlo of the model on streams of its own, shown side by side:
+  - the issue's "pooled 4e5-run Monte Carlo", drawn as randomised quasi-Monte Carlo with
+    uqguide's own Monte Carlo design (``sampling: sobol``): ``--rqmc-reps`` (25) chunks of
+    2^14 runs from :func:`uqguide.methods.monte_carlo.unit_chunk`, each an independent
+    scramble of a Sobol' sequence (409,600 runs). The value is the moments of the pooled
+    power sums of all runs; its uncertainty is a delete-one-replicate jackknife over the
+    independent scrambles (valid for the ratio statistics, whose pooled estimate is not the
+    replicates' average), shown as a 95% half-width with Student's t on R - 1 degrees of
+    freedom (the per-replicate moments' std / sqrt(R) is printed beside it and agrees to two
+    digits). Its standard errors (4-5e-5 m, 1.5-2.6e-4 m, 3-4e-4, 2.5-3.3e-3 over three
+    seeds) are 40-60, 11-19, 6-8 and 4-5 times smaller than the PCE intervals', so "covered"
+    against it is the intervals' coverage: this is the acceptance figure.
+    ``--rqmc-refs`` (3) such references on independent seeds show that the figure does not
+    depend on which one is drawn;
+  - the same size in plain (pseudo-random) Monte Carlo: the first ``--mc-runs`` x 1e5 runs
+    (4e5) of the stream below. Its own 95% half-width (delta method) is 3-6 times the PCE's
+    interval, so a share against it measures the reference's error as much as the PCE's; the
+    "combined" column counts the seeds where the difference lies within both half-widths in
+    quadrature (the report's agreement flag), and the coverage against each disjoint 4e5-run
+    block of the precise run shows how far that literal figure moves with the reference;
+  - a precise plain Monte Carlo: ``--ref-runs`` runs (2e7, kept at the size the README quotes;
+    under 3 minutes), with half-widths 5-9 times narrower than the PCE's intervals: an
+    independent check of the RQMC value by a method without its smoothness assumptions.
 - ``ishigami`` (100 runs + 100 validation) and ``borehole`` (50 runs + 100 validation),
   ``--analytic-seeds`` seeds (100): exact references (closed form / tensor Gauss rules, as
   ``benchmarks/pce_accuracy.py``).
 
     python benchmarks/pce_coverage.py [--seeds 20] [--analytic-seeds 100]
         [--cases table5 ishigami borehole] [--mc-runs 4] [--ref-runs 20000000]
-        [--design stratified|random]
+        [--rqmc-reps 25] [--rqmc-refs 3] [--design stratified|random]
 
-The full run takes about 15 minutes of two cores (the 2e7-run reference about 3); ``--seeds 3
---ref-runs 1000000 --analytic-seeds 20`` is a quick check.
+The full run takes 7 minutes of two idle cores, up to 15 on a loaded machine (the references
+under 3, of which the RQMC ones 3 s each); ``--seeds 3 --ref-runs 1000000 --analytic-seeds
+20`` is a quick check.
 """
 
 from __future__ import annotations
@@ -43,12 +60,15 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
+from uqguide.methods.monte_carlo import unit_chunk  # noqa: E402
 from uqguide.methods.pce_adaptive import AdaptivePCE  # noqa: E402
 from uqguide.stats import STAT_NAMES, delta_standard_errors  # noqa: E402
 from uqguide.types import ModelOutput  # noqa: E402
 
 VALIDATION = 100
 REF_SEED = 900_000
+RQMC_SEED = 910_000
+RQMC_CHUNK = 2**14
 CHUNK = 200_000
 
 
@@ -98,6 +118,12 @@ class PowerSums:
             self.s[p] += zp.sum()
             zp = zp * z
 
+    @classmethod
+    def of(cls, centre: float, s: np.ndarray) -> PowerSums:
+        out = cls(centre)
+        out.s = np.array(s, dtype=float)
+        return out
+
     def moments(self) -> tuple[dict[str, float], dict[str, float]]:
         n = self.s[0]
         raw = self.s / n
@@ -115,7 +141,41 @@ class PowerSums:
                 {k: float(1.96 * se[k]) for k in STAT_NAMES})
 
 
-def table5_case(n_seeds: int, mc_runs: int, ref_runs: int, design: str) -> list[dict[str, Any]]:
+def rqmc_reference(model: Any, space: Any, reps: int, seed: int
+                   ) -> tuple[dict[str, float], dict[str, float], dict[str, float], int]:
+    """Moments of ``reps`` independent scrambles of a 2^14-point Sobol' sequence, pooled.
+
+    Returns the pooled moments, their delete-one-replicate jackknife standard errors, the
+    replicates' own standard errors (std of the per-replicate moments / sqrt(reps), a
+    cross-check of the jackknife) and the number of failed runs."""
+    ss = np.random.SeedSequence(seed)
+    n = reps * RQMC_CHUNK
+    parts, failed = [], 0
+    for i in range(reps):
+        # the chunks of a ``sampling: sobol`` Monte Carlo design are independent scrambles
+        # (child i of the seed keys chunk i), so its chunks are RQMC replicates
+        u = unit_chunk(space.dim, n, "sobol", RQMC_CHUNK, ss, i)
+        out = model.evaluate(space.from_unit(u), space.names, ["zem"])
+        y = np.asarray(out.scalars["zem"], dtype=float)[:, 0]
+        ok = ~np.asarray(out.failed, dtype=bool)
+        failed += int((~ok).sum())
+        part = PowerSums(8.8)
+        part.add(y[ok])
+        parts.append(part.s)
+    total = np.sum(parts, axis=0)
+    ref = PowerSums.of(8.8, total).moments()[0]
+    loo = np.array([[PowerSums.of(8.8, total - s).moments()[0][k] for k in STAT_NAMES]
+                    for s in parts])
+    jack_se = np.sqrt((reps - 1) / reps * ((loo - loo.mean(0)) ** 2).sum(0))
+    each = np.array([[PowerSums.of(8.8, s).moments()[0][k] for k in STAT_NAMES]
+                     for s in parts])
+    rep_se = each.std(0, ddof=1) / np.sqrt(reps)
+    return (ref, {k: float(jack_se[j]) for j, k in enumerate(STAT_NAMES)},
+            {k: float(rep_se[j]) for j, k in enumerate(STAT_NAMES)}, failed)
+
+
+def table5_case(n_seeds: int, mc_runs: int, ref_runs: int, rqmc_reps: int, rqmc_refs: int,
+                design: str) -> list[dict[str, Any]]:
     import uqguide
 
     cfg = yaml.safe_load((ROOT / "configs" / "ftcapn_table5.yaml").read_text())
@@ -124,6 +184,21 @@ def table5_case(n_seeds: int, mc_runs: int, ref_runs: int, design: str) -> list[
     cfg.pop("reference", None)
     rc = uqguide.load_config(dict(cfg, methods=[apce]))
     model, space = rc.model, rc.space
+    from scipy.stats import t as student
+
+    # the jackknife SE rests on rqmc_reps independent replicates: t, not normal, quantile
+    q = float(student.ppf(0.975, rqmc_reps - 1))
+    refs = []
+    for j in range(1, rqmc_refs + 1):
+        t0 = time.perf_counter()
+        ref, se, rep_se, failed = rqmc_reference(model, space, rqmc_reps, RQMC_SEED + j)
+        half = {k: q * se[k] for k in STAT_NAMES}
+        label = f"{rqmc_reps * RQMC_CHUNK:.0e} RQMC{j}"
+        refs.append((label, ref, half))
+        print(f"table5: reference {label} ({rqmc_reps} scrambles x {RQMC_CHUNK}, {failed} "
+              f"failed, {time.perf_counter() - t0:.0f} s): " + ", ".join(
+                  f"{k} {ref[k]:.6g} +- {half[k]:.2g} (jackknife SE {se[k]:.2g}, "
+                  f"replicate SE {rep_se[k]:.2g})" for k in STAT_NAMES), flush=True)
     t0 = time.perf_counter()
     rng = np.random.default_rng(REF_SEED)
     big = PowerSums(8.8)
@@ -148,7 +223,6 @@ def table5_case(n_seeds: int, mc_runs: int, ref_runs: int, design: str) -> list[
         done += m
     small = blocks[0]
     block_refs = [b.moments()[0] for b in blocks]
-    refs = []
     for label, sums in ((f"{n_small:.0e} MC", small), (f"{ref_runs:.0e} MC", big)):
         ref, half = sums.moments()
         refs.append((label, ref, half))
@@ -177,7 +251,7 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 
 
 def table(results: list[dict[str, Any]]) -> str:
-    lines = [f"{'case':36s} {'reference':>9s} {'moment':9s} {'covered':>8s} {'(95% CI)':>11s} "
+    lines = [f"{'case':36s} {'reference':>11s} {'moment':9s} {'covered':>8s} {'(95% CI)':>11s} "
              f"{'combined':>9s} {'half-width':>11s} {'|cv - ref|':>11s} {'|pce - ref|':>11s} "
              f"{'ref +-':>9s}"]
     for res in results:
@@ -194,7 +268,7 @@ def table(results: list[dict[str, Any]]) -> str:
                 w = wilson(hits, len(rows))
                 combined = np.mean(np.abs(cv - ref) <= np.hypot(half, rh))
                 lines.append(
-                    f"{res['case']:36s} {label:>9s} {k:9s} {100 * hits / len(rows):7.0f}% "
+                    f"{res['case']:36s} {label:>11s} {k:9s} {100 * hits / len(rows):7.0f}% "
                     f"{f'({100 * w[0]:.0f}-{100 * w[1]:.0f})':>11s} {100 * combined:8.0f}% "
                     f"{np.mean(half):11.3g} {np.mean(np.abs(cv - ref)):11.3g} "
                     f"{np.nanmean(np.abs(pce - ref)):11.3g} {rh:9.2g}")
@@ -218,6 +292,10 @@ def main() -> None:
     ap.add_argument("--mc-runs", type=int, default=4, help="1e5-run MC runs pooled (table5)")
     ap.add_argument("--ref-runs", type=int, default=20_000_000,
                     help="runs of table5's precise reference")
+    ap.add_argument("--rqmc-reps", type=int, default=25,
+                    help="independent 2^14-run scrambles pooled in each RQMC reference (table5)")
+    ap.add_argument("--rqmc-refs", type=int, default=3,
+                    help="RQMC references on independent seeds (table5)")
     ap.add_argument("--design", choices=["stratified", "random"], default="stratified",
                     help="where the validation runs go")
     ap.add_argument("--cases", nargs="+", default=["table5", "ishigami", "borehole"],
@@ -227,7 +305,8 @@ def main() -> None:
     t0 = time.perf_counter()
     results = []
     for c in args.cases:
-        results += (table5_case(args.seeds, args.mc_runs, args.ref_runs, args.design)
+        results += (table5_case(args.seeds, args.mc_runs, args.ref_runs, args.rqmc_reps,
+                                args.rqmc_refs, args.design)
                     if c == "table5" else analytic_case(c, args.analytic_seeds, args.design))
     print()
     print(f"Coverage of the corrected 95% intervals over design seeds ({VALIDATION} "
