@@ -385,6 +385,12 @@ class RunStore:
             self._queue.join()
         self._raise_writer_error()
 
+    def drain(self) -> None:
+        """Wait until the writer is done with every queued chunk, raising nothing (for a run
+        that is stopping with an error or an interrupt of its own)."""
+        if self._writer is not None:
+            self._queue.join()
+
     def close(self) -> None:
         """:meth:`flush`, then end the writer thread."""
         try:

@@ -129,6 +129,10 @@ class _Stage:
                 self.progress.advance(r.task.n, r.n_failed)
                 pending[r.task.index] = r
                 fold_ready()
+        except BaseException:
+            if self.store is not None:
+                self.store.drain()  # what was saved before the stop is on disk when it is seen
+            raise
         finally:
             close = getattr(results, "close", None)
             if close is not None:

@@ -394,9 +394,14 @@ def _check_resume(method: Method, model: Model, space: Any, outputs: tuple[str, 
                  store)
         except KeyboardInterrupt:
             pass
+        finally:
+            store.close()
         store = RunStore.open(folder, identity, resume=True)
         if store.n_done < 1:
             raise _fail(who, "resume", "no chunk was kept by the interrupted run")
-        resumed = _run(method, model, space, outputs, seed, SerialExecutor(16), store)
+        try:
+            resumed = _run(method, model, space, outputs, seed, SerialExecutor(16), store)
+        finally:
+            store.close()
     _same_runs(whole, resumed, who, "resume",
                "a run interrupted after its first chunk and resumed gave other numbers")
