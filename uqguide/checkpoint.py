@@ -55,6 +55,7 @@ from ._version import __version__
 from .atomic import atomic_path, clean_stale_temps
 from .errors import ConfigError
 from .execution import ChunkResult, Task
+from .interrupts import deferred
 from .models.base import Model
 
 log = logging.getLogger(__name__)
@@ -381,15 +382,17 @@ class RunStore:
 
     def flush(self) -> None:
         """Wait until every queued chunk is on disk and listed; raise the writer's error."""
-        if self._writer is not None:
-            self._queue.join()
+        self.drain()
         self._raise_writer_error()
 
     def drain(self) -> None:
-        """Wait until the writer is done with every queued chunk, raising nothing (for a run
-        that is stopping with an error or an interrupt of its own)."""
+        """Wait until the writer is done with every queued chunk, raising nothing of its own
+        (for a run that is stopping with an error or an interrupt). A Ctrl-C or SIGTERM while
+        it waits is held until the writer is done (a few chunk writes at most): the process
+        must not exit with the writer half-way through a file."""
         if self._writer is not None:
-            self._queue.join()
+            with deferred():
+                self._queue.join()
 
     def close(self) -> None:
         """:meth:`flush`, then end the writer thread."""
@@ -397,8 +400,9 @@ class RunStore:
             self.flush()
         finally:
             if self._writer is not None:
-                self._queue.put(None)
-                self._writer.join()
+                with deferred():
+                    self._queue.put(None)
+                    self._writer.join()
                 self._writer = None
 
     def _raise_writer_error(self) -> None:

@@ -145,7 +145,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .budget import estimate
     from .checkpoint import RunInterrupted
     from .config import load_config
-    from .execution import make_executor
+    from .execution import Executor, ProcessExecutor, make_executor
     from .progress_display import make_progress
     from .propagate import check_failure_budget, check_methods
     from .report import render_text
@@ -153,19 +153,31 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .run_and_write import WriteInterrupted, run_and_write
 
     _check_executor_flags(workers, scheduler, scheduler_file)
-    cfg = load_config(config)
-    if seed is not None:
-        cfg = cfg.with_seed(seed)
-    check_config_report_times(cfg)  # before a run folder is made
-    baseline = _gate_preflight(check_path, cfg) if check_path else None
+    executor: Executor | None = None
+    if workers and not (scheduler or scheduler_file):
+        # local workers start importing now, while the config is read and checked
+        pool = ProcessExecutor(workers)
+        pool.start()
+        executor = pool
+    try:
+        cfg = load_config(config)
+        if seed is not None:
+            cfg = cfg.with_seed(seed)
+        check_config_report_times(cfg)  # before a run folder is made
+        baseline = _gate_preflight(check_path, cfg) if check_path else None
+        if not quiet:
+            click.echo("budget:", err=True)
+            for line in estimate(cfg, workers or 1).lines():
+                click.echo(line, err=True)
+    except BaseException:
+        if executor is not None:
+            executor.close()
+        raise
     again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
         "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")
-    if not quiet:
-        click.echo("budget:", err=True)
-        for line in estimate(cfg, workers or 1).lines():
-            click.echo(line, err=True)
-    executor = make_executor(workers, scheduler,
-                             str(scheduler_file) if scheduler_file else None)
+    if executor is None:
+        executor = make_executor(workers, scheduler,
+                                 str(scheduler_file) if scheduler_file else None)
     try:
         written = run_and_write(cfg, out_dir, executor, workers=workers or 1, resume=resume,
                                 progress=make_progress(sys.stderr, quiet), resume_hint=again)

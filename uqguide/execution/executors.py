@@ -22,7 +22,7 @@ from .guard import close_guards
 from .isolation import common_grid
 from .processes import init_worker, sigint_ignored
 from .transport import ModelHandle
-from .worker import isolate_crash, run_chunk
+from .worker import isolate_crash, run_chunk, warm_up
 
 log = logging.getLogger(__name__)
 
@@ -188,6 +188,15 @@ class ProcessExecutor(_WindowedExecutor):
             self._pool = ProcessPoolExecutor(self.workers, mp_context=self._ctx,
                                              initializer=init_worker, initargs=(threads,))
         return self._pool
+
+    def start(self) -> None:
+        """Start the worker processes now, so they import while the driver still checks the
+        config and opens the run folder (about a second of a short run's wall time). Each
+        imports uqguide and numba; nothing else is done until a chunk comes."""
+        pool = self._get_pool()
+        with sigint_ignored():
+            for _ in range(self.workers):
+                pool.submit(warm_up)
 
     def _rebuild(self) -> None:
         if self._pool is not None:

@@ -69,3 +69,9 @@ def isolate_crash(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
         As :func:`run_chunk` gives.
     """
     return run_chunk(replace(job, guarded=True), task, x)
+
+
+def warm_up() -> None:
+    """A worker's first task when the pool is started ahead of the run: the imports every
+    chunk needs (numba is imported here after the worker's initializer capped its threads)."""
+    import numba  # noqa: F401
