@@ -90,3 +90,22 @@ def test_reference_with_zero_variance_output_prints_without_a_verdict(write_conf
     res = CliRunner().invoke(main, ["run", str(write_config(cfg)), "--out", str(tmp_path)])
     assert res.exit_code == 0, res.output
     assert "(+0, ?)" in res.output
+
+
+def test_a_bad_config_with_workers_exits_2_and_leaves_no_worker_behind(tmp_path):
+    """``--workers`` starts the pool before the config is read; a config that fails still
+    exits 2 with the field named, no traceback and nothing written, and the workers end with
+    the command (it returns; a worker left running would hold its pipes open)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("model: {name: ftcapn}\ninputs: []\n"
+                   "methods: [{name: monte_carlo, n_samples: -3}]\n")
+    p = subprocess.run([sys.executable, "-m", "uqguide.cli", "run", str(bad), "--workers", "2",
+                        "--out", str(tmp_path / "out")], capture_output=True, text=True,
+                       timeout=120, cwd=Path(__file__).resolve().parents[1])
+    assert p.returncode == 2, p.stderr
+    assert "methods[0].n_samples" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "out").exists()
