@@ -5,8 +5,9 @@ equations); the test suite checks that both give the same numbers to ~1e-9 relat
 64 samples run in parallel threads; within a block the samples advance in lockstep, which keeps
 the work of a block in the L1 cache. The state and the per-step work of a block are stored as
 structure of arrays (a row per quantity, the samples along it) and each step first runs a
-branch-free pass over every sample, which the compiler vectorises, then a scalar pass for the
-events and the stop (:func:`_simulate_block`).
+branch-free pass over every sample, which the compiler vectorises, then the events, records
+and stop tests as loops over every sample with selects, with a scalar loop only over the few
+samples whose step ends in a failure or near the stop (:func:`_simulate_block`).
 """
 
 from __future__ import annotations
@@ -168,9 +169,10 @@ def _newton_min(D, hi, out):
 BLOCK = 64
 """Samples per parallel task; they advance in lockstep (see :func:`_simulate_block`)."""
 
-# per-sample scalars of a block, columns of ``lane (BLOCK, N_LANE)``
-L_DV, L_ACMAX, L_TSURF, L_TSET, L_PABS, L_POM, L_THR, L_ACR, L_ACT, L_ACN = range(10)
-N_LANE = 10
+# per-sample scalars of a block, rows of ``lane (N_LANE, BLOCK)`` (the samples along a row, so
+# the per-step updates of pass 2 run unit stride)
+L_DV, L_ACMAX, L_TSURF, L_TSET, L_PABS, L_POM, L_THR = range(7)
+N_LANE = 7
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
@@ -187,18 +189,20 @@ def simulate_numba(r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
 
 
 @njit(cache=True, error_model="numpy")
-def _finish(i, lane_row, code, sc, status):
+def _finish(i, lane, l, code, sc, status):
     status[i] = code
-    sc[i, K_DV] = lane_row[L_DV]
-    sc[i, K_TSURF] = lane_row[L_TSURF]
-    sc[i, K_TSETTLE] = lane_row[L_TSET]
-    sc[i, K_ACMAX] = lane_row[L_ACMAX]
+    sc[i, K_DV] = lane[L_DV, l]
+    sc[i, K_TSURF] = lane[L_TSURF, l]
+    sc[i, K_TSETTLE] = lane[L_TSET, l]
+    sc[i, K_ACMAX] = lane[L_ACMAX, l]
 
 
 @njit(cache=True, error_model="numpy")
-def _stop_in_step(i, j, hi, st_row, f, ac_row, lr, p, bR_i, K, col, buf, sc, D, ev):
+def _stop_in_step(i, j, hi, st_row, f, ac_row, acr, act, acn, lane, l, p, bR_i, K, col, buf,
+                  sc, D, ev):
     """The sample crosses r_stop inside step ``j`` (before ``t_j + hi``): locate the crossing,
-    record the stop state on the rest of the grid, write its scalars."""
+    record the stop state on the rest of the grid, write its scalars. ``acr, act, acn``: the
+    step's command along the LOS frame and its magnitude."""
     c_, delta, dt, rstop, nm = p[P_C], p[P_DELTA], p[P_DT], p[P_RSTOP], p[P_NMEAN]
     t = j * dt
     _derivatives(st_row, f, nm, D)
@@ -206,8 +210,8 @@ def _stop_in_step(i, j, hi, st_row, f, ac_row, lr, p, bR_i, K, col, buf, sc, D, 
     _eval(D, tau, ev)
     for q in range(6):
         st_row[q] = ev[q]
-    lr[L_DV] += lr[L_ACN] * tau
-    lr[L_ACMAX] = max(lr[L_ACMAX], lr[L_ACN])
+    lane[L_DV, l] += acn * tau
+    lane[L_ACMAX, l] = max(lane[L_ACMAX, l], acn)
     R = math.sqrt(st_row[0] * st_row[0] + st_row[1] * st_row[1] + st_row[2] * st_row[2])
     iR = 1.0 / R
     Rdot = (st_row[0] * st_row[3] + st_row[1] * st_row[4] + st_row[2] * st_row[5]) * iR
@@ -216,17 +220,17 @@ def _stop_in_step(i, j, hi, st_row, f, ac_row, lr, p, bR_i, K, col, buf, sc, D, 
     vpz = st_row[5] - Rdot * (st_row[2] * iR)
     om = math.sqrt(vpx * vpx + vpy * vpy + vpz * vpz) * iR
     s = c_ * (R + bR_i) + Rdot
-    pa, po, thr = lr[L_PABS], lr[L_POM], lr[L_THR]
-    if lr[L_TSURF] != lr[L_TSURF] and abs(s) <= delta:
-        lr[L_TSURF] = t + tau * (pa - delta) / (pa - abs(s))
+    pa, po, thr = lane[L_PABS, l], lane[L_POM, l], lane[L_THR, l]
+    if lane[L_TSURF, l] != lane[L_TSURF, l] and abs(s) <= delta:
+        lane[L_TSURF, l] = t + tau * (pa - delta) / (pa - abs(s))
     if om > thr:
-        lr[L_TSET] = np.nan
+        lane[L_TSET, l] = np.nan
     elif po > thr:
-        lr[L_TSET] = t + tau * (po - thr) / (po - om)
+        lane[L_TSET, l] = t + tau * (po - thr) / (po - om)
     if j + 1 <= K:
         _record(buf, i, j + 1, K + 1, col, st_row[0], st_row[1], st_row[2], st_row[3],
                 st_row[4], st_row[5], R, Rdot, om, s, ac_row[0], ac_row[1], ac_row[2],
-                lr[L_ACR], lr[L_ACT], lr[L_DV])
+                acr, act, lane[L_DV, l])
     sc[i, K_TSTOP] = t + tau
     for q in range(3):
         sc[i, K_RS + q] = st_row[q]
@@ -358,19 +362,132 @@ def _propagate(m, st, W, dt, hdt, nm, nx, f, D, ev):
 
 
 @njit(cache=True, error_model="numpy")
+def _record_step(buf, i0, m, j, col, st, W, ac, lane, running):
+    """Grid row ``j`` of every running lane, one loop per series component: the same values
+    as :func:`_record`, without its per-sample dispatch on the series."""
+    c = col[S_OMEGA]
+    if c >= 0:
+        for l in range(m):
+            if running[l]:
+                buf[c, i0 + l, j] = W[W_OM, l]
+    c = col[S_W]
+    if c >= 0:
+        for l in range(m):
+            if running[l]:
+                x, y, z = st[0, l], st[1, l], st[2, l]
+                vx, vy, vz = st[3, l], st[4, l], st[5, l]
+                R = W[W_R, l]
+                R2 = R * R
+                buf[c, i0 + l, j] = (y * vz - z * vy) / R2
+                buf[c + 1, i0 + l, j] = (z * vx - x * vz) / R2
+                buf[c + 2, i0 + l, j] = (x * vy - y * vx) / R2
+    for sr, wr in ((S_R, W_R), (S_RDOT, W_RDOT), (S_S, W_S)):
+        c = col[sr]
+        if c >= 0:
+            for l in range(m):
+                if running[l]:
+                    buf[c, i0 + l, j] = W[wr, l]
+    c = col[S_AC]
+    if c >= 0:
+        for q in range(3):
+            for l in range(m):
+                if running[l]:
+                    buf[c + q, i0 + l, j] = ac[q, l]
+    c = col[S_ACLOS]
+    if c >= 0:
+        for l in range(m):
+            if running[l]:
+                buf[c, i0 + l, j] = W[W_ACR, l]
+                buf[c + 1, i0 + l, j] = W[W_ACT, l]
+                buf[c + 2, i0 + l, j] = 0.0
+    c = col[S_DV]
+    if c >= 0:
+        for l in range(m):
+            if running[l]:
+                buf[c, i0 + l, j] = lane[L_DV, l]
+    for sr in (S_POS, S_VEL):
+        c = col[sr]
+        if c >= 0:
+            q0 = 3 if sr == S_VEL else 0
+            for q in range(3):
+                for l in range(m):
+                    if running[l]:
+                        buf[c + q, i0 + l, j] = st[q0 + q, l]
+    c = col[S_SPEED]
+    if c >= 0:
+        for l in range(m):
+            if running[l]:
+                vx, vy, vz = st[3, l], st[4, l], st[5, l]
+                buf[c, i0 + l, j] = math.sqrt(vx * vx + vy * vy + vz * vz)
+
+
+@njit(cache=True, error_model="numpy")
+def _end_of_step(i, l, j, st, W, ac, lane, p, bR, K, col, buf, sc, status, nx, f, D, ev,
+                 acr_l):
+    """The end of step ``j`` of running lane ``l`` (sample ``i``): the failure test, the
+    stop inside the step, else the step's delta-v and the new state. True if it stopped."""
+    dt, rstop, nm = p[P_DT], p[P_RSTOP], p[P_NMEAN]
+    rs2 = rstop * rstop
+    t = j * dt
+    n0, n1, n2 = W[W_N0, l], W[W_N1, l], W[W_N2, l]
+    n3, n4, n5 = W[W_N3, l], W[W_N4, l], W[W_N5, l]
+    Rn2 = n0 * n0 + n1 * n1 + n2 * n2
+    # one test for all six: a NaN or infinity anywhere makes the sum non-finite
+    if not math.isfinite(Rn2 + n3 * n3 + n4 * n4 + n5 * n5):
+        sc[i, K_TFAIL] = t + dt
+        for k in range(j + 1, K + 1):
+            for q in range(buf.shape[0]):
+                buf[q, i, k] = np.nan
+        _finish(i, lane, l, ST_NONFINITE, sc, status)
+        return True
+    cross = Rn2 <= rs2
+    hi = dt
+    passing = W[W_RDOT, l] < 0.0 and (n0 * n3 + n1 * n4 + n2 * n5) > 0.0
+    if cross or passing:
+        for q in range(6):
+            nx[q] = st[q, l]
+        f[0], f[1], f[2] = W[W_FX, l], W[W_FY, l], W[W_FZ, l]
+    if not cross and passing:
+        # The range has a minimum inside the step: a pass that may dip below r_stop.
+        _derivatives(nx, f, nm, D)
+        tm = _newton_min(D, dt, ev)
+        _eval(D, tm, ev)
+        if ev[0] ** 2 + ev[1] ** 2 + ev[2] ** 2 <= rs2:
+            cross = True
+            hi = tm
+    if cross:
+        for q in range(3):
+            acr_l[q] = ac[q, l]
+        _stop_in_step(i, j, hi, nx, f, acr_l, W[W_ACR, l], W[W_ACT, l], W[W_ACN, l], lane, l,
+                      p, bR[i], K, col, buf, sc, D, ev)
+        for q in range(6):
+            st[q, l] = nx[q]
+        _finish(i, lane, l, ST_OK, sc, status)
+        return True
+    lane[L_DV, l] += W[W_ACN, l] * dt
+    lane[L_ACMAX, l] = max(lane[L_ACMAX, l], W[W_ACN, l])
+    st[0, l], st[1, l], st[2, l] = n0, n1, n2
+    st[3, l], st[4, l], st[5, l] = n3, n4, n5
+    return False
+
+
+@njit(cache=True, error_model="numpy")
 def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
     """Samples ``i0 .. i1-1`` in lockstep, one step at a time in two passes:
 
-    - a branch-free pass over every lane (:func:`_kinematics`, the ``|s|^eta`` loop,
+    - pass 1, branch-free over every lane (:func:`_kinematics`, the ``|s|^eta`` loop,
       :func:`_command`, :func:`_forcing`, :func:`_propagate`) on structure-of-arrays work
       rows, which the compiler unrolls and vectorises and in which one lane's long dependency
       chain (sqrt, division, pow) overlaps with the others';
-    - a scalar pass over the running lanes for what is rare or sample-specific: the events
-      (surface reached, LOS settled), the series records, the failure and stop tests and the
-      stop's root finding.
+    - pass 2, the running lanes' events, records and stop tests. On the first and the last
+      step it is a scalar loop over the running lanes. On the other steps it runs as loops
+      over every lane with selects (the event times, the series records one loop per
+      component, a flag for the lanes whose step ends in a failure, a crossing or a pass by
+      the range minimum, the delta-v and the new state of the unflagged lanes), then a scalar
+      loop over the flagged lanes only (:func:`_end_of_step`: root finding, stop, failure).
 
-    Lanes that have stopped still go through the first pass (their state is frozen and finite,
-    or NaN after a failure; nothing of it is used): cheaper than branching on every one.
+    Lanes that have stopped still go through pass 1 (their state is frozen and finite, or NaN
+    after a failure; nothing of it is used): cheaper than branching on every one.
     Each lane's arithmetic is the same, operation for operation, as in the per-sample loop of
     :mod:`.kernel_numpy`.
     """
@@ -384,9 +501,12 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
     m = i1 - i0
     st = np.empty((6, m))
     ac = np.zeros((3, m))
+    # zeros: without control the command rows stay zero, the held command of the records
     W = np.zeros((N_W, m))
-    lane = np.zeros((m, N_LANE))
+    lane = np.zeros((N_LANE, m))
     running = np.ones(m, dtype=np.bool_)
+    upd = np.zeros(m, dtype=np.bool_)
+    flag = np.zeros(m, dtype=np.bool_)
     nx = np.empty(6)
     f = np.empty(3)
     D = np.zeros((5, 6))
@@ -399,8 +519,9 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
             st[q, l] = r0[i, q]
             st[3 + q, l] = v0[i, q]
         sc[i, :] = nan
-        lane[l, L_TSURF] = nan
-        lane[l, L_TSET] = nan
+        lane[L_TSURF, l] = nan
+        lane[L_TSET, l] = nan
+    n_running = m
     for j in range(max_steps + 1):
         t = j * dt
         # ---- pass 1: every lane, no branches on the sample
@@ -412,101 +533,110 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
         _forcing(m, W, ac, at, i0, rotating)
         _propagate(m, st, W, dt, hdt, nm, nx, f, D, ev)
         # ---- pass 2: the running lanes' events, records and stop tests
-        n_running = 0
-        for l in range(m):
-            if not running[l]:
-                continue
-            n_running += 1
-            i = i0 + l
-            x, y, z = st[0, l], st[1, l], st[2, l]
-            vx, vy, vz = st[3, l], st[4, l], st[5, l]
-            R = W[W_R, l]
-            Rdot = W[W_RDOT, l]
-            om = W[W_OM, l]
-            s = W[W_S, l]
-            abs_s = W[W_ABS, l]
-            if j == 0:
-                lane[l, L_THR] = settle * om
-                if abs_s <= delta:
-                    lane[l, L_TSURF] = 0.0
-                if om <= lane[l, L_THR]:
-                    lane[l, L_TSET] = 0.0
-                if R <= rstop:
-                    # Already inside the stop range: stopped at t = 0, no control applied.
-                    _record(buf, i, 0, K + 1, col, x, y, z, vx, vy, vz, R, Rdot, om, s,
-                            0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-                    sc[i, K_TSTOP] = 0.0
-                    for q in range(3):
-                        sc[i, K_RS + q] = st[q, l]
-                        sc[i, K_VS + q] = st[3 + q, l]
-                    _finish(i, lane[l], ST_OK, sc, status)
-                    running[l] = False
-                    continue
-            else:
-                if lane[l, L_TSURF] != lane[l, L_TSURF] and abs_s <= delta:
-                    pa = lane[l, L_PABS]
-                    lane[l, L_TSURF] = t - dt + dt * (pa - delta) / (pa - abs_s)
-                thr = lane[l, L_THR]
-                po = lane[l, L_POM]
-                if om > thr:
-                    lane[l, L_TSET] = nan
-                elif po > thr:
-                    lane[l, L_TSET] = t - dt + dt * (po - thr) / (po - om)
-            lane[l, L_PABS] = abs_s
-            lane[l, L_POM] = om
-            if control:
-                lane[l, L_ACR] = W[W_ACR, l]
-                lane[l, L_ACT] = W[W_ACT, l]
-                lane[l, L_ACN] = W[W_ACN, l]
+        if 0 < j < max_steps:
+            # Every lane, selects instead of branches; the values of stopped lanes are
+            # computed and dropped (their lane rows are no longer read).
+            for l in range(m):
+                abs_s = W[W_ABS, l]
+                pa = lane[L_PABS, l]
+                ts = lane[L_TSURF, l]
+                cand = t - dt + dt * (pa - delta) / (pa - abs_s)
+                lane[L_TSURF, l] = cand if (ts != ts) & (abs_s <= delta) else ts
+                lane[L_PABS, l] = abs_s
+            for l in range(m):
+                om = W[W_OM, l]
+                thr = lane[L_THR, l]
+                po = lane[L_POM, l]
+                cand = t - dt + dt * (po - thr) / (po - om)
+                lane[L_TSET, l] = nan if om > thr else (cand if po > thr else lane[L_TSET, l])
+                lane[L_POM, l] = om
             if j <= K:
-                _record(buf, i, j, j + 1, col, x, y, z, vx, vy, vz, R, Rdot, om, s,
-                        ac[0, l], ac[1, l], ac[2, l], lane[l, L_ACR], lane[l, L_ACT],
-                        lane[l, L_DV])
-            if j >= max_steps:
-                sc[i, K_TFAIL] = t
-                _finish(i, lane[l], ST_TMAX, sc, status)
-                running[l] = False
-                continue
-            n0, n1, n2 = W[W_N0, l], W[W_N1, l], W[W_N2, l]
-            n3, n4, n5 = W[W_N3, l], W[W_N4, l], W[W_N5, l]
-            Rn2 = n0 * n0 + n1 * n1 + n2 * n2
-            # one test for all six: a NaN or infinity anywhere makes the sum non-finite
-            if not math.isfinite(Rn2 + n3 * n3 + n4 * n4 + n5 * n5):
-                sc[i, K_TFAIL] = t + dt
-                for k in range(j + 1, K + 1):
-                    for q in range(buf.shape[0]):
-                        buf[q, i, k] = nan
-                _finish(i, lane[l], ST_NONFINITE, sc, status)
-                running[l] = False
-                continue
-            cross = Rn2 <= rs2
-            hi = dt
-            passing = Rdot < 0.0 and (n0 * n3 + n1 * n4 + n2 * n5) > 0.0
-            if cross or passing:
-                for q in range(6):
-                    nx[q] = st[q, l]
-                f[0], f[1], f[2] = W[W_FX, l], W[W_FY, l], W[W_FZ, l]
-            if not cross and passing:
-                # The range has a minimum inside the step: a pass that may dip below r_stop.
-                _derivatives(nx, f, nm, D)
-                tm = _newton_min(D, dt, ev)
-                _eval(D, tm, ev)
-                if ev[0] ** 2 + ev[1] ** 2 + ev[2] ** 2 <= rs2:
-                    cross = True
-                    hi = tm
-            if cross:
-                for q in range(3):
-                    acr_l[q] = ac[q, l]
-                _stop_in_step(i, j, hi, nx, f, acr_l, lane[l], p, bR[i], K, col, buf, sc, D,
-                              ev)
-                for q in range(6):
-                    st[q, l] = nx[q]
-                _finish(i, lane[l], ST_OK, sc, status)
-                running[l] = False
-                continue
-            lane[l, L_DV] += lane[l, L_ACN] * dt
-            lane[l, L_ACMAX] = max(lane[l, L_ACMAX], lane[l, L_ACN])
-            st[0, l], st[1, l], st[2, l] = n0, n1, n2
-            st[3, l], st[4, l], st[5, l] = n3, n4, n5
+                _record_step(buf, i0, m, j, col, st, W, ac, lane, running)
+            n_flag = 0
+            for l in range(m):
+                n0, n1, n2 = W[W_N0, l], W[W_N1, l], W[W_N2, l]
+                n3, n4, n5 = W[W_N3, l], W[W_N4, l], W[W_N5, l]
+                Rn2 = n0 * n0 + n1 * n1 + n2 * n2
+                # not finite (NaN compares false), in the stop range, or past the range minimum
+                odd = ((not (abs(Rn2 + n3 * n3 + n4 * n4 + n5 * n5) < math.inf))
+                       | (Rn2 <= rs2)
+                       | ((W[W_RDOT, l] < 0.0) & ((n0 * n3 + n1 * n4 + n2 * n5) > 0.0)))
+                r_ = running[l]
+                flag[l] = r_ & odd
+                upd[l] = r_ & (not odd)
+                n_flag += r_ & odd
+            for l in range(m):
+                u_ = upd[l]
+                acn = W[W_ACN, l]
+                dv = lane[L_DV, l]
+                amax = lane[L_ACMAX, l]
+                lane[L_DV, l] = dv + acn * dt if u_ else dv
+                lane[L_ACMAX, l] = max(amax, acn) if u_ else amax
+            for q in range(6):
+                for l in range(m):
+                    st[q, l] = W[W_N0 + q, l] if upd[l] else st[q, l]
+            if n_flag > 0:
+                for l in range(m):
+                    if flag[l]:
+                        if _end_of_step(i0 + l, l, j, st, W, ac, lane, p, bR, K, col, buf, sc,
+                                        status, nx, f, D, ev, acr_l):
+                            running[l] = False
+                            n_running -= 1
+        else:
+            for l in range(m):
+                if not running[l]:
+                    continue
+                i = i0 + l
+                x, y, z = st[0, l], st[1, l], st[2, l]
+                vx, vy, vz = st[3, l], st[4, l], st[5, l]
+                R = W[W_R, l]
+                Rdot = W[W_RDOT, l]
+                om = W[W_OM, l]
+                s = W[W_S, l]
+                abs_s = W[W_ABS, l]
+                if j == 0:
+                    lane[L_THR, l] = settle * om
+                    if abs_s <= delta:
+                        lane[L_TSURF, l] = 0.0
+                    if om <= lane[L_THR, l]:
+                        lane[L_TSET, l] = 0.0
+                    if R <= rstop:
+                        # Already inside the stop range: stopped at t = 0, no control applied.
+                        _record(buf, i, 0, K + 1, col, x, y, z, vx, vy, vz, R, Rdot, om, s,
+                                0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                        sc[i, K_TSTOP] = 0.0
+                        for q in range(3):
+                            sc[i, K_RS + q] = st[q, l]
+                            sc[i, K_VS + q] = st[3 + q, l]
+                        _finish(i, lane, l, ST_OK, sc, status)
+                        running[l] = False
+                        n_running -= 1
+                        continue
+                else:
+                    if lane[L_TSURF, l] != lane[L_TSURF, l] and abs_s <= delta:
+                        pa = lane[L_PABS, l]
+                        lane[L_TSURF, l] = t - dt + dt * (pa - delta) / (pa - abs_s)
+                    thr = lane[L_THR, l]
+                    po = lane[L_POM, l]
+                    if om > thr:
+                        lane[L_TSET, l] = nan
+                    elif po > thr:
+                        lane[L_TSET, l] = t - dt + dt * (po - thr) / (po - om)
+                lane[L_PABS, l] = abs_s
+                lane[L_POM, l] = om
+                if j <= K:
+                    _record(buf, i, j, j + 1, col, x, y, z, vx, vy, vz, R, Rdot, om, s,
+                            ac[0, l], ac[1, l], ac[2, l], W[W_ACR, l], W[W_ACT, l],
+                            lane[L_DV, l])
+                if j >= max_steps:
+                    sc[i, K_TFAIL] = t
+                    _finish(i, lane, l, ST_TMAX, sc, status)
+                    running[l] = False
+                    n_running -= 1
+                    continue
+                if _end_of_step(i, l, j, st, W, ac, lane, p, bR, K, col, buf, sc, status, nx,
+                                f, D, ev, acr_l):
+                    running[l] = False
+                    n_running -= 1
         if n_running == 0:
             break
