@@ -240,9 +240,8 @@ def _stop_in_step(i, j, hi, st_row, f, ac_row, acr, act, acn, lane, l, p, bR_i, 
 # rows of the per-step work array ``W (N_W, m)`` of a block (structure of arrays: one row per
 # quantity, the samples along it, so the branch-free pass below reads and writes unit stride)
 (W_R, W_IR, W_RDOT, W_ERX, W_ERY, W_ERZ, W_VPX, W_VPY, W_VPZ, W_VT, W_OM, W_S, W_ABS,
- W_POW, W_ACR, W_ACT, W_ACN, W_AX, W_AY, W_AZ, W_FX, W_FY, W_FZ, W_N0, W_N1, W_N2, W_N3, W_N4,
- W_N5) = range(29)
-N_W = 29
+ W_POW, W_ACR, W_ACT, W_ACN, W_IV, W_FX, W_FY, W_FZ) = range(21)
+N_W = 21
 
 
 # Pass 1 is written as short loops, each storing at most three work rows: the loop
@@ -292,17 +291,14 @@ def _command(m, W, ac, bR, bw, i0, c_, eps, beta, Nn, asat, delta, idelta):
         u = asat if u > asat else (-asat if u < -asat else u)
         W[W_ACR, l] = -u
         W[W_ACT, l] = -Nn * Rdot * omm if W[W_VT, l] > 0.0 else 0.0
+    # one store per loop: with the three components in one loop it ran scalar
     for l in range(m):
-        acr = W[W_ACR, l]
         Vt = W[W_VT, l]
-        pos = Vt > 0.0
-        iV = W[W_ACT, l] / Vt if pos else 0.0
-        a0 = acr * W[W_ERX, l]
-        a1 = acr * W[W_ERY, l]
-        a2 = acr * W[W_ERZ, l]
-        ac[0, l] = a0 + iV * W[W_VPX, l] if pos else a0
-        ac[1, l] = a1 + iV * W[W_VPY, l] if pos else a1
-        ac[2, l] = a2 + iV * W[W_VPZ, l] if pos else a2
+        W[W_IV, l] = W[W_ACT, l] / Vt if Vt > 0.0 else 0.0
+    for q in range(3):
+        for l in range(m):
+            a = W[W_ACR, l] * W[W_ERX + q, l]
+            ac[q, l] = a + W[W_IV, l] * W[W_VPX + q, l] if W[W_VT, l] > 0.0 else a
     for l in range(m):
         acr, act = W[W_ACR, l], W[W_ACT, l]
         W[W_ACN, l] = math.sqrt(acr * acr + act * act)
@@ -338,18 +334,18 @@ def _forcing(m, W, ac, at, i0, rotating):
 
 
 @njit(cache=True, error_model="numpy")
-def _propagate(m, st, W, dt, hdt, nm, nx, f, D, ev):
-    """State at the step's end for every lane: the exact quadratic without gravity
+def _propagate(m, st, nst, W, dt, hdt, nm, nx, f, D, ev):
+    """State ``nst`` at the step's end for every lane: the exact quadratic without gravity
     (vectorisable), the Taylor polynomial of the Hill flow otherwise."""
     if nm == 0.0:
         for l in range(m):
-            W[W_N0, l] = st[0, l] + dt * (st[3, l] + hdt * W[W_FX, l])
-            W[W_N1, l] = st[1, l] + dt * (st[4, l] + hdt * W[W_FY, l])
-            W[W_N2, l] = st[2, l] + dt * (st[5, l] + hdt * W[W_FZ, l])
+            nst[0, l] = st[0, l] + dt * (st[3, l] + hdt * W[W_FX, l])
+            nst[1, l] = st[1, l] + dt * (st[4, l] + hdt * W[W_FY, l])
+            nst[2, l] = st[2, l] + dt * (st[5, l] + hdt * W[W_FZ, l])
         for l in range(m):
-            W[W_N3, l] = st[3, l] + dt * W[W_FX, l]
-            W[W_N4, l] = st[4, l] + dt * W[W_FY, l]
-            W[W_N5, l] = st[5, l] + dt * W[W_FZ, l]
+            nst[3, l] = st[3, l] + dt * W[W_FX, l]
+            nst[4, l] = st[4, l] + dt * W[W_FY, l]
+            nst[5, l] = st[5, l] + dt * W[W_FZ, l]
     else:
         for l in range(m):
             for q in range(6):
@@ -358,7 +354,7 @@ def _propagate(m, st, W, dt, hdt, nm, nx, f, D, ev):
             _derivatives(nx, f, nm, D)
             _eval(D, dt, ev)
             for q in range(6):
-                W[W_N0 + q, l] = ev[q]
+                nst[q, l] = ev[q]
 
 
 @njit(cache=True, error_model="numpy")
@@ -422,15 +418,16 @@ def _record_step(buf, i0, m, j, col, st, W, ac, lane, running):
 
 
 @njit(cache=True, error_model="numpy")
-def _end_of_step(i, l, j, st, W, ac, lane, p, bR, K, col, buf, sc, status, nx, f, D, ev,
-                 acr_l):
-    """The end of step ``j`` of running lane ``l`` (sample ``i``): the failure test, the
-    stop inside the step, else the step's delta-v and the new state. True if it stopped."""
+def _end_of_step(i, l, j, st, nst, W, ac, lane, p, bR, K, col, buf, sc, status, nx, f, D,
+                 ev, acr_l):
+    """The end of step ``j`` of running lane ``l`` (sample ``i``; ``st`` the state at the step's
+    start, ``nst`` at its end): the failure test, the stop inside the step (``st`` <- the stop
+    state), else the step's delta-v. True if it stopped."""
     dt, rstop, nm = p[P_DT], p[P_RSTOP], p[P_NMEAN]
     rs2 = rstop * rstop
     t = j * dt
-    n0, n1, n2 = W[W_N0, l], W[W_N1, l], W[W_N2, l]
-    n3, n4, n5 = W[W_N3, l], W[W_N4, l], W[W_N5, l]
+    n0, n1, n2 = nst[0, l], nst[1, l], nst[2, l]
+    n3, n4, n5 = nst[3, l], nst[4, l], nst[5, l]
     Rn2 = n0 * n0 + n1 * n1 + n2 * n2
     # one test for all six: a NaN or infinity anywhere makes the sum non-finite
     if not math.isfinite(Rn2 + n3 * n3 + n4 * n4 + n5 * n5):
@@ -466,8 +463,6 @@ def _end_of_step(i, l, j, st, W, ac, lane, p, bR, K, col, buf, sc, status, nx, f
         return True
     lane[L_DV, l] += W[W_ACN, l] * dt
     lane[L_ACMAX, l] = max(lane[L_ACMAX, l], W[W_ACN, l])
-    st[0, l], st[1, l], st[2, l] = n0, n1, n2
-    st[3, l], st[4, l], st[5, l] = n3, n4, n5
     return False
 
 
@@ -483,8 +478,11 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
       step it is a scalar loop over the running lanes. On the other steps it runs as loops
       over every lane with selects (the event times, the series records one loop per
       component, a flag for the lanes whose step ends in a failure, a crossing or a pass by
-      the range minimum, the delta-v and the new state of the unflagged lanes), then a scalar
-      loop over the flagged lanes only (:func:`_end_of_step`: root finding, stop, failure).
+      the range minimum, the delta-v of the unflagged lanes), then a scalar loop over the
+      flagged lanes only (:func:`_end_of_step`: root finding, stop, failure).
+
+    Pass 1 writes the step's end state to a second state array, which becomes the current one
+    at the end of the step; a lane that has stopped gets its frozen state copied over.
 
     Lanes that have stopped still go through pass 1 (their state is frozen and finite, or NaN
     after a failure; nothing of it is used): cheaper than branching on every one.
@@ -500,6 +498,7 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
     idelta = 1.0 / delta
     m = i1 - i0
     st = np.empty((6, m))
+    nst = np.empty((6, m))
     ac = np.zeros((3, m))
     # zeros: without control the command rows stay zero, the held command of the records
     W = np.zeros((N_W, m))
@@ -531,7 +530,7 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
                 W[W_POW, l] = W[W_ABS, l] ** eta
             _command(m, W, ac, bR, bw, i0, c_, eps, beta, Nn, asat, delta, idelta)
         _forcing(m, W, ac, at, i0, rotating)
-        _propagate(m, st, W, dt, hdt, nm, nx, f, D, ev)
+        _propagate(m, st, nst, W, dt, hdt, nm, nx, f, D, ev)
         # ---- pass 2: the running lanes' events, records and stop tests
         if 0 < j < max_steps:
             # Every lane, selects instead of branches; the values of stopped lanes are
@@ -554,8 +553,8 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
                 _record_step(buf, i0, m, j, col, st, W, ac, lane, running)
             n_flag = 0
             for l in range(m):
-                n0, n1, n2 = W[W_N0, l], W[W_N1, l], W[W_N2, l]
-                n3, n4, n5 = W[W_N3, l], W[W_N4, l], W[W_N5, l]
+                n0, n1, n2 = nst[0, l], nst[1, l], nst[2, l]
+                n3, n4, n5 = nst[3, l], nst[4, l], nst[5, l]
                 Rn2 = n0 * n0 + n1 * n1 + n2 * n2
                 # not finite (NaN compares false), in the stop range, or past the range minimum
                 odd = ((not (abs(Rn2 + n3 * n3 + n4 * n4 + n5 * n5) < math.inf))
@@ -572,13 +571,10 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
                 amax = lane[L_ACMAX, l]
                 lane[L_DV, l] = dv + acn * dt if u_ else dv
                 lane[L_ACMAX, l] = max(amax, acn) if u_ else amax
-            for q in range(6):
-                for l in range(m):
-                    st[q, l] = W[W_N0 + q, l] if upd[l] else st[q, l]
             if n_flag > 0:
                 for l in range(m):
                     if flag[l]:
-                        if _end_of_step(i0 + l, l, j, st, W, ac, lane, p, bR, K, col, buf, sc,
+                        if _end_of_step(i0 + l, l, j, st, nst, W, ac, lane, p, bR, K, col, buf, sc,
                                         status, nx, f, D, ev, acr_l):
                             running[l] = False
                             n_running -= 1
@@ -634,9 +630,16 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
                     running[l] = False
                     n_running -= 1
                     continue
-                if _end_of_step(i, l, j, st, W, ac, lane, p, bR, K, col, buf, sc, status, nx,
-                                f, D, ev, acr_l):
+                if _end_of_step(i, l, j, st, nst, W, ac, lane, p, bR, K, col, buf, sc, status,
+                                nx, f, D, ev, acr_l):
                     running[l] = False
                     n_running -= 1
         if n_running == 0:
             break
+        # The new state is the next step's; a stopped lane keeps its frozen state (the
+        # running ones were advanced in nst, which beats a masked copy of six rows).
+        for l in range(m):
+            if not running[l]:
+                for q in range(6):
+                    nst[q, l] = st[q, l]
+        st, nst = nst, st
