@@ -77,6 +77,8 @@ class MonteCarloSettings(MethodSettings):
     intervals : {"delta", "bootstrap"}
         How the 95% intervals of mean, std, skewness and kurtosis are computed: delta method
         (influence functions, default; cheap) or Poisson bootstrap (``bootstrap`` resamples).
+        Both treat the runs as independent: for ``lhs`` and ``sobol`` they are the error of a
+        random design of the same size, an upper bound.
     bootstrap : int
         Bootstrap resamples of ``intervals: bootstrap`` (0: no intervals, whatever
         ``intervals`` says).
