@@ -504,7 +504,6 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
     W = np.zeros((N_W, m))
     lane = np.zeros((N_LANE, m))
     running = np.ones(m, dtype=np.bool_)
-    upd = np.zeros(m, dtype=np.bool_)
     flag = np.zeros(m, dtype=np.bool_)
     nx = np.empty(6)
     f = np.empty(3)
@@ -562,10 +561,8 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
                        | ((W[W_RDOT, l] < 0.0) & ((n0 * n3 + n1 * n4 + n2 * n5) > 0.0)))
                 r_ = running[l]
                 flag[l] = r_ & odd
-                upd[l] = r_ & (not odd)
                 n_flag += r_ & odd
-            for l in range(m):
-                u_ = upd[l]
+                u_ = r_ & (not odd)
                 acn = W[W_ACN, l]
                 dv = lane[L_DV, l]
                 amax = lane[L_ACMAX, l]
