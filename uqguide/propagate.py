@@ -49,14 +49,17 @@ class _Runs:
     def __init__(self, n: int) -> None:
         self.n = n
         self.failed = np.zeros(n, dtype=bool)
-        self.reasons = np.empty(n, dtype=object)
+        # a failure's reason is only kept for a failed run: copying a million empty strings
+        # chunk by chunk cost the driver 0.2 s of a 1e6-run study
+        self.reasons = np.full(n, "", dtype=object)
         self.scalars: dict[str, np.ndarray] = {}
         self.time: np.ndarray | None = None
 
     def add(self, r: ChunkResult) -> None:
         rows = slice(r.task.start, r.task.stop)
         self.failed[rows] = r.failed
-        self.reasons[rows] = r.reasons
+        if r.failed.any():
+            self.reasons[r.task.start + np.flatnonzero(r.failed)] = r.reasons[r.failed]
         for k, v in r.scalars.items():
             if k not in self.scalars:
                 self.scalars[k] = np.empty((self.n, *v.shape[1:]), dtype=v.dtype)

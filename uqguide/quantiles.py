@@ -9,8 +9,9 @@ continuous distribution (:func:`coverage` gives it exactly). When ``l < 1`` (too
 the tail: ``n p`` below about 3.7) the lower end is ``-inf``, and when ``u > n`` the upper end
 is ``+inf``: an honest "unbounded", never a made-up number.
 
-Monte Carlo keeps each chunk's values at the steps it reports quantiles for and selects the
-order statistics of the union at the end, so the quantiles are exact and do not depend on the
+Monte Carlo keeps each chunk's values at the steps it reports quantiles for (lane-major: a row
+per output value, laid out so by the worker) and selects the order statistics of the union at
+the end, so the quantiles are exact and do not depend on the
 chunking or the workers. The selection does not sort the union (a sort of 1e6 runs x 20 lanes
 along the run axis took 2.2 s, the largest serial cost of a 1e6-run study): it brackets each
 group of ranks between two order statistics of a strided subsample, counts the values below
@@ -21,6 +22,7 @@ bracket (they are checked; a lane whose bracket misses falls back to a full part
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -102,8 +104,27 @@ def order_statistic_quantiles(y: np.ndarray | Sequence[np.ndarray], levels: tupl
     concatenation (which is never built). NaN values (none expected: failed runs are left out
     before) sort last."""
     chunks = [y] if isinstance(y, np.ndarray) else list(y)
-    n = sum(c.shape[0] for c in chunks)
     shape = chunks[0].shape[1:]
+    if presorted:
+        s = np.concatenate(chunks, axis=0)
+        return _quantiles_from(lambda wanted: np.stack([s[k] for k in wanted]), s.shape[0],
+                               shape, levels, level)
+    return lane_quantiles(_lane_major(chunks), shape, levels, level)
+
+
+def lane_quantiles(lanes: Sequence[np.ndarray], shape: tuple[int, ...],
+                   levels: tuple[float, ...], level: float = LEVEL
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`order_statistic_quantiles` of values given lane-major: chunks ``(L, n_i)`` whose
+    row ``l`` holds the runs of the flattened value ``l`` of ``shape`` (``L = prod(shape)``);
+    how Monte Carlo workers hand over the series values they keep for the quantiles."""
+    n = sum(c.shape[1] for c in lanes)
+    return _quantiles_from(lambda wanted: select_lanes(lanes, wanted).reshape(
+        (len(wanted),) + tuple(shape)), n, tuple(shape), levels, level)
+
+
+def _quantiles_from(pick: Any, n: int, shape: tuple[int, ...], levels: tuple[float, ...],
+                    level: float) -> tuple[np.ndarray, np.ndarray]:
     q = len(levels)
     vals = np.full((q,) + shape, np.nan)
     ci = np.full((2, q) + shape, np.nan)
@@ -111,16 +132,16 @@ def order_statistic_quantiles(y: np.ndarray | Sequence[np.ndarray], levels: tupl
         return vals, ci
     rk = [ranks(n, p, level) for p in levels]
     wanted = sorted({k - 1 for r in rk for k in r if 1 <= k <= n})
-    if presorted:
-        s = np.concatenate(chunks, axis=0)
-        picked = {k: s[k] for k in wanted}
-    else:
-        picked = dict(zip(wanted, select_order_statistics(chunks, wanted), strict=True))
+    picked = dict(zip(wanted, pick(wanted), strict=True))
     for i, (r, lo, hi) in enumerate(rk):
         vals[i] = picked[r - 1]
         ci[0, i] = picked[lo - 1] if lo >= 1 else -np.inf
         ci[1, i] = picked[hi - 1] if hi <= n else np.inf
     return vals, ci
+
+
+def _lane_major(chunks: Sequence[np.ndarray]) -> list[np.ndarray]:
+    return [np.ascontiguousarray(c.reshape(c.shape[0], -1).T) for c in chunks]
 
 
 #: stride of the subsample that brackets the wanted ranks; 4 binomial standard deviations of
@@ -131,24 +152,27 @@ _MARGIN_SD = 4.0
 
 def select_order_statistics(chunks: Sequence[np.ndarray], positions: list[int]) -> np.ndarray:
     """``np.sort(np.concatenate(chunks), axis=0)[positions]`` (0-based, ascending positions),
-    exactly, without the concatenation or the sort.
-
-    Each chunk is turned lane-major (one row per output value) in turn, while it is in the
-    cache, and dropped: the selection holds no second copy of the values (at 1e7 runs x 20
-    lanes a copy is 1.6 GB). Positions closer together than a bracket's width share it. Small
-    inputs, NaN values (which sort last) and a bracket that misses fall back to
-    ``np.partition``.
-    """
+    exactly, without the concatenation or the sort (:func:`select_lanes` of the chunks made
+    lane-major)."""
     shape = chunks[0].shape[1:]
-    flat = [c.reshape(c.shape[0], -1) for c in chunks]
-    n_lanes = flat[0].shape[1]
-    n = sum(c.shape[0] for c in flat)
+    return select_lanes(_lane_major(chunks), positions).reshape((len(positions),) + shape)
+
+
+def select_lanes(lanes: Sequence[np.ndarray], positions: list[int]) -> np.ndarray:
+    """The order statistics at ``positions`` (0-based, ascending) of each row of the
+    lane-major chunks ``(L, n_i)`` joined along the runs: ``(len(positions), L)``, exactly.
+
+    Positions closer together than a bracket's width share it. Small inputs, NaN values
+    (which sort last) and a bracket that misses fall back to ``np.partition``.
+    """
+    n_lanes = lanes[0].shape[0]
+    n = sum(c.shape[1] for c in lanes)
     out = np.empty((len(positions), n_lanes))
     row = {k: i for i, k in enumerate(positions)}
-    if n < 16 * _STRIDE or any(np.isnan(c).any() for c in flat):
-        part = np.partition(np.concatenate(flat, axis=0), positions, axis=0)
-        return part[positions].reshape((len(positions),) + shape)
-    sub = np.sort(np.concatenate([c[::_STRIDE].T for c in flat], axis=1), axis=1)
+    if n < 16 * _STRIDE or any(np.isnan(c).any() for c in lanes):
+        part = np.partition(np.concatenate(lanes, axis=1), positions, axis=1)
+        return np.ascontiguousarray(part[:, positions].T)
+    sub = np.sort(np.concatenate([c[:, ::_STRIDE] for c in lanes], axis=1), axis=1)
     m = sub.shape[1]
     groups = _groups(positions, n, m)
     edges = []
@@ -161,8 +185,7 @@ def select_order_statistics(chunks: Sequence[np.ndarray], positions: list[int]) 
     below = np.zeros((len(groups), n_lanes), dtype=np.int64)
     lane_ids = np.arange(n_lanes)
     vals, owner = [], []
-    for chunk in flat:
-        c = np.ascontiguousarray(chunk.T)
+    for c in lanes:
         inside = np.zeros(c.shape, dtype=bool)
         for g, (low, high) in enumerate(edges):
             below[g] += np.count_nonzero(c < low, axis=1)
@@ -183,9 +206,9 @@ def select_order_statistics(chunks: Sequence[np.ndarray], positions: list[int]) 
             if k[0] >= 0 and k[-1] < mine.size:
                 out[at, j] = np.partition(mine, k)[k]
             else:  # the bracket missed (a 1-in-1e4 event per lane): select from the lane
-                lane = np.concatenate([c[:, j] for c in flat])
+                lane = np.concatenate([c[j] for c in lanes])
                 out[at, j] = np.partition(lane, group)[group]
-    return out.reshape((len(positions),) + shape)
+    return out
 
 
 def _bracket(lo_k: int, hi_k: int, n: int, m: int) -> tuple[int, int]:

@@ -140,9 +140,12 @@ class MonteCarloReducer:
             width = sum(y.shape[2] for y in out.series.values())
             q_idx = quantile_index(out.time, self.report_times, self.n_total, width)
             for name, y in out.series.items():
-                # a copy: the chunk's buffer is released once the summary leaves the worker
-                summary[f"q::{name}"] = (y[keep].copy() if q_idx is None
-                                         else y[keep][:, q_idx])
+                # lane-major (a row per step and component, the runs along it), a copy: the
+                # driver selects order statistics along rows without transposing, and the
+                # chunk's buffer is released once the summary leaves the worker
+                kept = y[keep] if q_idx is None else y[keep][:, q_idx]
+                summary[f"q::{name}"] = np.ascontiguousarray(
+                    kept.reshape(kept.shape[0], -1).T)
 
 
 def _put(summary: dict[str, np.ndarray], kind: str, name: str, sums: MomentSums) -> None:

@@ -52,7 +52,7 @@ from ..errors import MethodError
 from ..inputs import InputSpace
 from ..types import ModelOutput
 from ..events import count_events
-from ..quantiles import order_statistic_quantiles
+from ..quantiles import lane_quantiles, order_statistic_quantiles
 from ..stats import OutputStats, statistics_from_sums
 from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
 from .mc_reduce import MonteCarloReducer, ci_index, scalar_names, split_summary
@@ -246,10 +246,16 @@ class MonteCarlo(Method):
             stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx,
                                                delta=acc.get(("h", name)))
             if self.quantile_levels is not None:
-                # the chunks' values as they came: the selection never concatenates them
-                values = (acc.get(("q", name)) or [np.empty((0,) + sums.mean.shape)]) \
-                    if is_series else [runs.scalars[name][~runs.failed]]
-                _put_quantiles(stats[name], values, self.quantile_levels, runs.time,
+                if is_series:  # the chunks' lane-major values as they came (never joined)
+                    lanes = acc.get(("q", name)) or []
+                    k = sums.mean.shape[-1]
+                    steps = lanes[0].shape[0] // k if lanes else sums.mean.shape[0]
+                    q, ci = lane_quantiles(lanes or [np.empty((steps * k, 0))], (steps, k),
+                                           self.quantile_levels)
+                else:
+                    q, ci = order_statistic_quantiles(runs.scalars[name][~runs.failed],
+                                                      self.quantile_levels)
+                _put_quantiles(stats[name], q, ci, self.quantile_levels, runs.time,
                                self.report_times)
         events = count_events(list(self.events), runs.scalars, ~runs.failed,
                               dict(self.components)) \
@@ -278,14 +284,12 @@ class MonteCarlo(Method):
         )
 
 
-def _put_quantiles(st: OutputStats, values: list[np.ndarray], levels: tuple[float, ...],
+def _put_quantiles(st: OutputStats, q: np.ndarray, ci: np.ndarray, levels: tuple[float, ...],
                    time_grid: np.ndarray, report_times: tuple[float, ...] | None) -> None:
-    """Order-statistic quantiles of ``values`` (chunks of scalars ``(n_i, k)``, or of series
-    ``(n_i, t, k)`` at every step or at the quantile steps) into ``st``, NaN at the steps not
-    kept."""
-    q, ci = order_statistic_quantiles(values, levels)
-    if values[0].ndim == 3 and values[0].shape[1] != time_grid.size:
-        full_q = np.full((len(levels), time_grid.size, values[0].shape[2]), np.nan)
+    """Quantiles ``q (levels, ...)`` and intervals ``ci (2, levels, ...)`` of a scalar, or of
+    a series at every step or at the quantile steps, into ``st``, NaN at the steps not kept."""
+    if q.ndim == 3 and q.shape[1] != time_grid.size:
+        full_q = np.full((len(levels), time_grid.size, q.shape[2]), np.nan)
         full_ci = np.full((2,) + full_q.shape, np.nan)
         idx = ci_index(time_grid, report_times, "report")
         full_q[:, idx], full_ci[:, :, idx] = q, ci
