@@ -384,8 +384,9 @@ def _probability_panel(ax, result: Result, output: str, c: int,
     ypos = np.arange(len(labels))[::-1]
     ax.barh(ypos, p, xerr=[np.maximum(lo, 0), np.maximum(hi, 0)], color=colours, alpha=0.8,
             capsize=4)
-    for y, v in zip(ypos, p):
-        ax.text(v, y, f"  {v:.4g}", va="center", fontsize=9)
+    for y, v, h in zip(ypos, p, hi):
+        # beyond the interval's upper end, so the whisker never runs through the number
+        ax.text(v + max(h, 0.0), y, f"  {v:.4g}", va="center", fontsize=9)
     ax.set(yticks=ypos, yticklabels=labels, xlabel=f"P({output} = 1) [-] (95% interval)",
            xlim=(0, max(1e-3, 1.3 * max([a + b for a, b in zip(p, hi)], default=1.0))))
     ax.grid(True, axis="x", alpha=0.3)
