@@ -15,14 +15,13 @@ the end, so the quantiles are exact and do not depend on the
 chunking or the workers. The selection does not sort the union (a sort of 1e6 runs x 20 lanes
 along the run axis took 2.2 s, the largest serial cost of a 1e6-run study): it brackets each
 group of ranks between two order statistics of a strided subsample, counts the values below
-the bracket and sorts only the values inside it, which is exact whenever the counts confirm the
+the bracket and partitions only the values inside it, which is exact whenever the counts confirm the
 bracket (they are checked; a lane whose bracket misses falls back to a full partition).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -97,19 +96,13 @@ def coverage(n: int, p: float, level: float = LEVEL) -> float:
 
 
 def order_statistic_quantiles(y: np.ndarray | Sequence[np.ndarray], levels: tuple[float, ...],
-                              level: float = LEVEL, presorted: bool = False
-                              ) -> tuple[np.ndarray, np.ndarray]:
+                              level: float = LEVEL) -> tuple[np.ndarray, np.ndarray]:
     """Quantiles ``(q, ...)`` of ``y (n, ...)`` along axis 0 and their intervals
     ``(2, q, ...)``. ``y`` may also be a list of chunks ``(n_i, ...)``, taken as their
     concatenation (which is never built). NaN values (none expected: failed runs are left out
     before) sort last."""
     chunks = [y] if isinstance(y, np.ndarray) else list(y)
-    shape = chunks[0].shape[1:]
-    if presorted:
-        s = np.concatenate(chunks, axis=0)
-        return _quantiles_from(lambda wanted: np.stack([s[k] for k in wanted]), s.shape[0],
-                               shape, levels, level)
-    return lane_quantiles(_lane_major(chunks), shape, levels, level)
+    return lane_quantiles(_lane_major(chunks), chunks[0].shape[1:], levels, level)
 
 
 def lane_quantiles(lanes: Sequence[np.ndarray], shape: tuple[int, ...],
@@ -123,8 +116,8 @@ def lane_quantiles(lanes: Sequence[np.ndarray], shape: tuple[int, ...],
         (len(wanted),) + tuple(shape)), n, tuple(shape), levels, level)
 
 
-def _quantiles_from(pick: Any, n: int, shape: tuple[int, ...], levels: tuple[float, ...],
-                    level: float) -> tuple[np.ndarray, np.ndarray]:
+def _quantiles_from(pick: Callable[[list[int]], np.ndarray], n: int, shape: tuple[int, ...],
+                    levels: tuple[float, ...], level: float) -> tuple[np.ndarray, np.ndarray]:
     q = len(levels)
     vals = np.full((q,) + shape, np.nan)
     ci = np.full((2, q) + shape, np.nan)

@@ -361,11 +361,6 @@ def _propagate(m, st, nst, W, dt, hdt, nm, nx, f, D, ev):
 def _record_step(buf, i0, m, j, col, st, W, ac, lane, running):
     """Grid row ``j`` of every running lane, one loop per series component: the same values
     as :func:`_record`, without its per-sample dispatch on the series."""
-    c = col[S_OMEGA]
-    if c >= 0:
-        for l in range(m):
-            if running[l]:
-                buf[c, i0 + l, j] = W[W_OM, l]
     c = col[S_W]
     if c >= 0:
         for l in range(m):
@@ -377,7 +372,7 @@ def _record_step(buf, i0, m, j, col, st, W, ac, lane, running):
                 buf[c, i0 + l, j] = (y * vz - z * vy) / R2
                 buf[c + 1, i0 + l, j] = (z * vx - x * vz) / R2
                 buf[c + 2, i0 + l, j] = (x * vy - y * vx) / R2
-    for sr, wr in ((S_R, W_R), (S_RDOT, W_RDOT), (S_S, W_S)):
+    for sr, wr in ((S_OMEGA, W_OM), (S_R, W_R), (S_RDOT, W_RDOT), (S_S, W_S)):
         c = col[sr]
         if c >= 0:
             for l in range(m):
