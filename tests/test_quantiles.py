@@ -174,6 +174,86 @@ def test_a_bracket_that_misses_falls_back_to_the_exact_partition(monkeypatch):
                                   np.sort(y, axis=0)[positions])
 
 
+def _sorted_positions(n):
+    return sorted({k - 1 for p in THREE_SIGMA for k in ranks(n, p) if 1 <= k <= n}
+                  | {0, n // 3, n - 1})
+
+
+@pytest.mark.parametrize("seed", range(24))
+def test_selection_equals_the_full_sort_across_block_boundaries(monkeypatch, seed):
+    """Random lane counts, run counts and chunk widths against narrow blocks, so that chunks
+    are split, joined and cut at every kind of boundary (a chunk narrower, wider and as wide
+    as a block, a run count a multiple of it); ties, NaN (also among the wanted ranks) and a
+    few lanes; the answer is the sorted union's, bit for bit."""
+    rng = np.random.default_rng(100 + seed)
+    width = int(rng.choice([64, 100, 256]))
+    monkeypatch.setattr(quantiles, "_BLOCK_COLUMNS", width)
+    n_lanes = int(rng.integers(1, 12))
+    if seed % 4 == 3:  # many lanes: narrower blocks, chunks cut but not joined
+        monkeypatch.setattr(quantiles, "_BLOCK_VALUES", 7 * width)
+        monkeypatch.setattr(quantiles, "_MIN_COLUMNS", width // 2)
+        n_lanes = int(rng.integers(15, 30))
+    n = width * int(rng.integers(10, 40)) if seed % 3 == 0 else int(rng.integers(1024, 12_000))
+    y = rng.standard_normal((n_lanes, n))
+    if seed % 5 == 1:
+        y = np.round(y, 1)  # heavy ties: brackets share their end values
+    if seed % 5 == 2:
+        y[0, rng.random(n) < 0.01] = np.nan  # NaN in a lane (sort last)
+        y[-1, rng.random(n) < 0.3] = np.nan  # the upper quantiles' ranks fall among the NaN
+    widths = rng.choice([1, width - 1, width, width + 1, 3 * width + 7, 37], size=n)
+    cuts = np.cumsum(widths)
+    cuts = cuts[cuts < n]
+    lanes = [np.ascontiguousarray(c) for c in np.split(y, cuts, axis=1)]
+    positions = _sorted_positions(n)
+    np.testing.assert_array_equal(quantiles.select_lanes(lanes, positions),
+                                  np.sort(y, axis=1)[:, positions].T)
+
+
+@pytest.mark.parametrize("at", [0.2, 0.39, 0.41, 0.5, 0.9])
+def test_one_bracket_reaching_into_nan_stays_exact(at):
+    """A lone wanted rank near where a lane's NaN begin (they sort last): the subsample's
+    bracket may end on a NaN, which must not turn into a bracket of the wrong values."""
+    rng = np.random.default_rng(11)
+    n = 64_000
+    y = rng.standard_normal((2, n))
+    y[:, rng.permutation(n)[:int(0.6 * n)]] = np.nan
+    positions = [int(at * n)]
+    np.testing.assert_array_equal(quantiles.select_lanes(np.split(y, [5000, 40_000], axis=1),
+                                                         positions),
+                                  np.sort(y, axis=1)[:, positions].T)
+
+
+@pytest.mark.parametrize("widths, width", [([5, 5, 5], 4), ([3, 9, 1, 1, 8, 2], 4),
+                                           ([4, 4], 4), ([17], 4), ([1] * 11, 3), ([2], 8)])
+@pytest.mark.parametrize("join", [True, False])
+def test_blocks_cover_the_runs_in_order(widths, width, join):
+    """Joined, every block but the last is exactly ``width`` wide; not, each is a piece of
+    one chunk; either way they join to the chunks' union."""
+    rng = np.random.default_rng(3)
+    lanes = [rng.standard_normal((2, w)) for w in widths]
+    blocks = [b.copy() for b in quantiles._blocks(lanes, width, join)]  # the buffer is reused
+    assert all(1 <= b.shape[1] <= width for b in blocks)
+    if join:
+        assert all(b.shape[1] == width for b in blocks[:-1])
+    else:
+        assert len(blocks) == sum(-(-w // width) for w in widths)
+    np.testing.assert_array_equal(np.concatenate(blocks, axis=1),
+                                  np.concatenate(lanes, axis=1))
+
+
+def test_a_bracket_that_misses_falls_back_across_blocks(monkeypatch):
+    """The fallback stays exact with the runs cut into many blocks, for ties as well."""
+    monkeypatch.setattr(quantiles, "_MARGIN_SD", -3.0)
+    monkeypatch.setattr(quantiles, "_BLOCK_COLUMNS", 1000)
+    rng = np.random.default_rng(9)
+    y = np.floor(4 * rng.standard_normal((3, 20_500)))
+    y[1] = rng.standard_normal(20_500)
+    lanes = np.split(y, [700, 701, 9_000], axis=1)
+    positions = _sorted_positions(20_500)
+    np.testing.assert_array_equal(quantiles.select_lanes(lanes, positions),
+                                  np.sort(y, axis=1)[:, positions].T)
+
+
 def test_binomial_points_are_scipy_stats():
     """The ranks' binomial points (from scipy.special.bdtr, so that a run need not import
     scipy.stats) equal scipy.stats.binom.ppf over run counts from
