@@ -116,3 +116,49 @@ def test_a_chunk_that_raises_fails_only_its_raising_samples():
     np.testing.assert_array_equal(r.failed, large)
     assert set(r.reasons[large]) == {"ValueError: value above 0.999 in this chunk"}
     np.testing.assert_array_equal(r.scalars["y"][~large, 0], 2 * r.x[~large, 0])
+
+
+def test_quantiles_are_the_same_on_one_thread_and_on_two(monkeypatch):
+    """The outputs' quantiles are selected on a thread pool; the selection is exact, so the
+    numbers are the sorted values' whatever the thread count, bit for bit."""
+    import threading
+
+    from uqguide.methods import monte_carlo as mc
+    from uqguide.quantiles import ranks
+
+    cfg = validate_config({
+        "model": {"name": "linear_gaussian"},
+        "inputs": [{"name": f"x{i}", "dist": "normal", "mean": 0.0, "std": 1.0}
+                   for i in (1, 2, 3)],
+        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 5000,
+                     "chunk_size": 512, "bootstrap": 0}],
+        "quantiles": "3sigma", "seed": 5})
+    where: list[str] = []
+
+    def traced(f):
+        def call(*args, **kwargs):
+            where.append(threading.current_thread().name)
+            return f(*args, **kwargs)
+        return call
+
+    monkeypatch.setattr(mc, "lane_quantiles", traced(mc.lane_quantiles))
+    monkeypatch.setattr(mc, "order_statistic_quantiles", traced(mc.order_statistic_quantiles))
+    got = {}
+    for threads in (1, 2):
+        monkeypatch.setattr(mc, "QUANTILE_THREADS", threads)
+        where.clear()
+        got[threads] = run(cfg).run("mc")
+        assert len(where) == 2  # y and ramp
+        on_pool = [w.startswith("quantiles") for w in where]
+        assert not any(on_pool) if threads == 1 else all(on_pool)
+    for name in ("y", "ramp"):
+        one, two = (got[t].estimate.stats[name] for t in (1, 2))
+        assert np.array_equal(one.quantiles, two.quantiles)
+        assert np.array_equal(one.ci_quantiles, two.ci_quantiles)
+        assert np.isfinite(one.ci_quantiles).all()
+    y = np.sort(got[2].scalars["y"], axis=0)
+    st = got[2].estimate.stats["y"]
+    for i, p in enumerate(st.quantile_levels):
+        r, lo, hi = ranks(5000, p)
+        np.testing.assert_array_equal(st.quantiles[i], y[r - 1])
+        np.testing.assert_array_equal(st.ci_quantiles[:, i], [y[lo - 1], y[hi - 1]])

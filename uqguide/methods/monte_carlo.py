@@ -40,9 +40,13 @@ values at every step (at the report times and the last step above
 from __future__ import annotations
 
 import logging
+import os
 import time
 import zlib
 from collections import Counter
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 from typing import Any, Literal
 
 import numpy as np
@@ -237,6 +241,8 @@ class MonteCarlo(Method):
                               f"statistics ({tally})\n\nFailed runs\n"
                               + render_reasons(self.label, runs.n, runs.reasons[runs.failed]))
         stats = {}
+        jobs: dict[str, tuple[int, Callable[[], tuple[np.ndarray, np.ndarray]]]] = {}
+        levels = self.quantile_levels
         for (kind, name), sums in acc.items():
             if kind != "m" or name == "":
                 continue
@@ -245,18 +251,19 @@ class MonteCarlo(Method):
                 if is_series else None
             stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx,
                                                delta=acc.get(("h", name)))
-            if self.quantile_levels is not None:
+            if levels is not None:
                 if is_series:  # the chunks' lane-major values as they came (never joined)
                     lanes = acc.get(("q", name)) or []
                     k = sums.mean.shape[-1]
                     steps = lanes[0].shape[0] // k if lanes else sums.mean.shape[0]
-                    q, ci = lane_quantiles(lanes or [np.empty((steps * k, 0))], (steps, k),
-                                           self.quantile_levels)
+                    jobs[name] = (sum(c.size for c in lanes), partial(
+                        lane_quantiles, lanes or [np.empty((steps * k, 0))], (steps, k),
+                        levels))
                 else:
-                    q, ci = order_statistic_quantiles(runs.scalars[name][~runs.failed],
-                                                      self.quantile_levels)
-                _put_quantiles(stats[name], q, ci, self.quantile_levels, runs.time,
-                               self.report_times)
+                    y = runs.scalars[name]
+                    jobs[name] = (y.size, partial(_scalar_quantiles, y, ~runs.failed, levels))
+        for name, (q, ci) in _run_jobs(jobs).items():
+            _put_quantiles(stats[name], q, ci, levels or (), runs.time, self.report_times)
         events = count_events(list(self.events), runs.scalars, ~runs.failed,
                               dict(self.components)) \
             if self.events else {}
@@ -282,6 +289,30 @@ class MonteCarlo(Method):
                         else None),
             events=events,
         )
+
+
+#: threads computing different outputs' quantiles at once (None: one per CPU). The selection
+#: is exact, so the numbers do not depend on it; numpy's compares and partitions release the
+#: GIL, and this tail runs in the driver after the workers are idle (7 outputs shaped like
+#: 1e6 FTCAPN runs': 0.051 s on 2 threads against 0.084 s on one).
+QUANTILE_THREADS: int | None = None
+
+
+def _scalar_quantiles(y: np.ndarray, good: np.ndarray, levels: tuple[float, ...]
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    return order_statistic_quantiles(y[good], levels)
+
+
+def _run_jobs(jobs: dict[str, tuple[int, Callable[[], Any]]]) -> dict[str, Any]:
+    """Each job's result by name; ``(size, call)`` jobs run on up to
+    :data:`QUANTILE_THREADS` threads, the largest first so that the threads finish together."""
+    threads = min(QUANTILE_THREADS or os.cpu_count() or 1, len(jobs))
+    if threads <= 1:
+        return {name: call() for name, (_, call) in jobs.items()}
+    order = sorted(jobs, key=lambda name: -jobs[name][0])
+    with ThreadPoolExecutor(threads, thread_name_prefix="quantiles") as pool:
+        futures = {name: pool.submit(jobs[name][1]) for name in order}
+        return {name: futures[name].result() for name in jobs}
 
 
 def _put_quantiles(st: OutputStats, q: np.ndarray, ci: np.ndarray, levels: tuple[float, ...],
