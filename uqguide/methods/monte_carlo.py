@@ -55,7 +55,8 @@ from ..events import count_events
 from ..quantiles import lane_quantiles, order_statistic_quantiles
 from ..stats import OutputStats, statistics_from_sums
 from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
-from .mc_reduce import MonteCarloReducer, ci_index, scalar_names, split_summary
+from .mc_reduce import (MonteCarloReducer, append_columns, ci_index, scalar_names,
+                        split_summary)
 
 log = logging.getLogger(__name__)
 
@@ -206,8 +207,7 @@ class MonteCarlo(Method):
             acc[group] = acc[group].merge(sums) if group in acc else sums
         for key, v in summary.items():
             if key.startswith("q:"):
-                k = ("q", key.split(":", 2)[2])
-                acc.setdefault(k, []).append(v)
+                append_columns(acc.setdefault(("q", key.split(":", 2)[2]), []), v)
         return acc
 
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
