@@ -28,6 +28,7 @@ from .execution import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, Mod
                         SerialExecutor, Task, Timing, common_grid)
 from .execution.shared_rows import SharedRows
 from .inputs import InputSpace
+from .interrupts import raise_swallowed
 from .methods.base import Design, Method
 from .models.base import Model
 from .types import Estimate, GeneratedRows, ModelOutput
@@ -158,6 +159,7 @@ class _Stage:
                 self.progress.advance(r.task.n, r.n_failed)
                 pending[r.task.index] = r
                 fold_ready()
+                raise_swallowed()
         except BaseException:
             if self.store is not None:
                 self.store.drain()  # what was saved before the stop is on disk when it is seen
