@@ -2,8 +2,9 @@
 
 Measures, for each worker count, after a warm-up run that starts the workers and loads the
 compiled kernel, the wall time of ``uqguide.propagate.run`` (design, chunked
-evaluation in a process pool, streaming statistics with Poisson-bootstrap intervals at the
-report times) and the peak resident memory of the driver and of the workers, then the speed-up
+evaluation in a process pool, streaming statistics with delta-method intervals and exact
+3-sigma quantiles at the report times), the CPU seconds of the driver and of the workers, and
+the peak resident memory of the driver and of the workers, then the speed-up
 of ``w`` processes over 1, and checks that every statistic is bit-identical across worker
 counts. A smaller serial run shows how memory grows with ``n``: only by the per-sample inputs
 and scalar outputs (8 bytes x (7 + 5) per sample), not by the series, which never leave the
@@ -39,6 +40,23 @@ ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "ftcapn_table3.yaml"
 
 
+def _workers_cpu(executor) -> float:
+    """CPU seconds the pool's worker processes have used so far (Linux /proc; NaN elsewhere or
+    in-process)."""
+    pool = getattr(executor, "_pool", None)
+    if pool is None:
+        return float("nan")
+    tick = os.sysconf("SC_CLK_TCK")
+    total = 0.0
+    for pid in list(getattr(pool, "_processes", {})):
+        try:
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            return float("nan")
+        total += (int(fields[11]) + int(fields[12])) / tick  # utime + stime
+    return total
+
+
 def measure(n: int, workers: int) -> dict:
     """One run of ``n`` samples with ``workers`` processes (0: in this process)."""
     from uqguide.config import validate_config
@@ -63,11 +81,13 @@ def measure(n: int, workers: int) -> dict:
         run(config(8192 * max(workers, 1)), executor)
         warm = time.perf_counter() - t0
         load = os.getloadavg()[0]
+        w0 = _workers_cpu(executor)
         c0 = time.process_time()
         t0 = time.perf_counter()
         result = run(cfg, executor)
         wall = time.perf_counter() - t0
         driver_cpu = time.process_time() - c0
+        workers_cpu = _workers_cpu(executor) - w0
     finally:
         executor.close()
     r = result.run("mc")
@@ -83,7 +103,7 @@ def measure(n: int, workers: int) -> dict:
                        if o.kind == "series")
     return {
         "n": n, "workers": workers, "wall_s": wall, "warmup_s": warm, "load": load,
-        "driver_cpu_s": driver_cpu,
+        "driver_cpu_s": driver_cpu, "workers_cpu_s": workers_cpu,
         "model_s": r.model_seconds,
         "n_failed": r.n_failed, "T": int(result.time.size),
         "driver_peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
@@ -121,11 +141,12 @@ def main() -> None:
         rows.append(_spawn(args.small, 0))
     print(f"FTCAPN Table 3 Monte Carlo, {CONFIG.name}; {os.cpu_count()} CPUs")
     print(f"{'n':>9} {'workers':>7} {'warm-up s':>9} {'wall s':>8} {'runs/s':>8} "
-          f"{'driver cpu':>10} {'load':>5} {'model s':>8} "
+          f"{'driver cpu':>10} {'workers cpu':>11} {'load':>5} {'model s':>8} "
           f"{'failed':>6} {'driver MiB':>10} {'worker MiB':>10} {'series MiB':>10}  stats")
     for r in rows:
         print(f"{r['n']:>9,} {r['workers']:>7} {r['warmup_s']:>9.1f} {r['wall_s']:>8.1f} "
-              f"{r['n'] / r['wall_s']:>8.0f} {r['driver_cpu_s']:>10.1f} {r['load']:>5.2f} "
+              f"{r['n'] / r['wall_s']:>8.0f} {r['driver_cpu_s']:>10.1f} "
+              f"{r['workers_cpu_s']:>11.1f} {r['load']:>5.2f} "
               f"{r['model_s']:>8.1f} {r['n_failed']:>6} {r['driver_peak_mib']:>10.0f} "
               f"{r['worker_peak_mib']:>10.0f} {r['series_if_kept_mib']:>10.0f}  "
               f"{r['stats_sha256']}")
@@ -145,8 +166,10 @@ def main() -> None:
           "speed-up are only meaningful on an idle machine, load < 1); driver cpu: CPU seconds "
           "of the driver process (all of the run with 0 workers)")
     print("warm-up: worker start and numba kernel load, one chunk per worker (not in wall); "
-          "model s: worker-seconds in the model; series MiB: what the time series alone "
-          "would take if kept in memory; driver / worker MiB: peak resident set (ru_maxrss) "
+          "workers cpu: CPU seconds of the worker processes in the timed run (/proc); "
+          "model s: wall seconds in the model summed over the workers (above the model's share "
+          "of workers cpu when the workers wait for a core); series MiB: what the time series "
+          "alone would take if kept in memory; driver / worker MiB: peak resident set (ru_maxrss) "
           "of the driver and of its largest worker")
 
 

@@ -461,6 +461,37 @@ def test_sigint_or_sigterm_at_20_random_moments_is_exit_130_and_resumes_identica
     assert codes.count(130) >= 15, codes  # nearly every moment falls inside the run
 
 
+def test_an_interrupt_python_swallows_is_not_printed_and_is_raised_later(capsys):
+    """A signal that lands in a ``__del__`` or a weakref callback (the import system's module
+    locks have one) raises where Python cannot propagate it: it prints "Exception ignored ...
+    Traceback" and goes on. The handler's interrupt is kept instead, unprinted, and raised at
+    the next check (after a chunk, a deferred block, a command)."""
+    import gc
+
+    from uqguide import interrupts
+
+    class Finalised:
+        def __del__(self):
+            interrupts._handler(signal.SIGTERM, None)  # as if SIGTERM landed here
+
+    hook = sys.unraisablehook
+    previous = interrupts.install()
+    try:
+        Finalised()  # dropped at once: __del__ runs, its Terminated is swallowed
+        gc.collect()
+        assert "Traceback" not in capsys.readouterr().err
+        with pytest.raises(interrupts.Terminated):
+            interrupts.raise_swallowed()
+        interrupts.raise_swallowed()  # raised once, then clear
+        Finalised()
+        with pytest.raises(interrupts.Terminated):
+            with interrupts.deferred():
+                pass
+    finally:
+        interrupts.restore(previous)
+    assert sys.unraisablehook is hook
+
+
 def test_stale_temporary_files_of_dead_processes_are_removed(tmp_path):
     cfg = _write(tmp_path / "c.yaml", _config(n=100))
     out = tmp_path / "out"

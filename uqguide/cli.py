@@ -70,10 +70,12 @@ class _Group(click.Group):
     """The command group: a SIGINT or SIGTERM anywhere in a command is exit 130, one line."""
 
     def invoke(self, ctx: click.Context) -> Any:
-        from .interrupts import EXIT_INTERRUPTED
+        from .interrupts import EXIT_INTERRUPTED, raise_swallowed
 
         try:
-            return super().invoke(ctx)
+            result = super().invoke(ctx)
+            raise_swallowed()  # a signal Python swallowed on the way still stops the command
+            return result
         except KeyboardInterrupt as exc:
             _interrupted(exc)
             raise click.exceptions.Exit(EXIT_INTERRUPTED) from None

@@ -6,11 +6,19 @@ resumable state and the command line exits 130 without a traceback. Inside :func
 (the writing of the result files) a signal is remembered instead and raised when the block
 ends: a file is then written whole, never abandoned half-way by an exception raised inside a
 C library (HDF5), which may swallow it.
+
+Python itself swallows an exception raised where it cannot propagate: in a weakref callback
+(the import system's module locks have one), a ``__del__`` or a garbage-collector callback.
+A signal that lands there would be printed as "Exception ignored ... Traceback" and lost, and
+the run would go on to exit 0. :func:`install` therefore routes such an interrupt to a flag
+instead of the printout, and :func:`raise_swallowed` (called after each chunk, when a deferred
+block closes and when a command ends) raises it where it can propagate.
 """
 
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -30,6 +38,11 @@ class _Deferral:
 
     depth: int = 0
     pending: int | None = None
+    #: the signal whose exception Python swallowed (raised where it could not propagate)
+    swallowed: int | None = None
+    #: the signal last raised by the handler
+    raised: int = signal.SIGINT
+    hook: Any = None
 
 
 _state = _Deferral()
@@ -39,7 +52,24 @@ def _handler(signum: int, frame: FrameType | None) -> None:
     if _state.depth > 0:
         _state.pending = signum
         return
+    _state.raised = signum
     _raise(signum)
+
+
+def _unraisable(info: Any) -> None:
+    """``sys.unraisablehook``: an interrupt Python could not propagate is kept, not printed."""
+    if info.exc_type is not None and issubclass(info.exc_type, KeyboardInterrupt):
+        _state.swallowed = _state.raised
+        return
+    (_state.hook or sys.__unraisablehook__)(info)
+
+
+def raise_swallowed() -> None:
+    """Raise the interrupt Python swallowed, if any (outside :func:`deferred` blocks)."""
+    signum = _state.swallowed
+    if signum is not None and _state.depth == 0:
+        _state.swallowed = None
+        _raise(signum)
 
 
 def _raise(signum: int) -> None:
@@ -65,6 +95,9 @@ def install() -> dict[int, Any]:
         if old is not signal.SIG_IGN:
             previous[sig] = old
             signal.signal(sig, _handler)
+    if previous and sys.unraisablehook is not _unraisable:
+        _state.hook, sys.unraisablehook = sys.unraisablehook, _unraisable
+    _state.swallowed = None
     return previous
 
 
@@ -79,6 +112,8 @@ def restore(previous: dict[int, Any]) -> None:
     if threading.current_thread() is threading.main_thread():
         for sig, old in previous.items():
             signal.signal(sig, old if old is not None else signal.SIG_DFL)
+        if previous and sys.unraisablehook is _unraisable:
+            sys.unraisablehook, _state.hook = _state.hook or sys.__unraisablehook__, None
 
 
 def ignore_signals() -> None:
@@ -105,3 +140,4 @@ def deferred() -> Iterator[None]:
         if _state.depth == 0 and signum is not None:
             _state.pending = None
             _raise(signum)
+        raise_swallowed()

@@ -26,7 +26,9 @@ from .config import RunConfig
 from .errors import MethodError, ModelError, UqguideError
 from .execution import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, ModelHandle,
                         SerialExecutor, Task, Timing, common_grid)
+from .execution.shared_rows import SharedRows
 from .inputs import InputSpace
+from .interrupts import raise_swallowed
 from .methods.base import Design, Method
 from .models.base import Model
 from .types import Estimate, GeneratedRows, ModelOutput
@@ -44,7 +46,8 @@ MAX_REFINEMENTS = 100
 class _Runs:
     """The per-sample values of reduced chunks (scalars, failure flags, reasons), copied into
     arrays allocated once for the whole stage: joining a list of chunk arrays at the end would
-    hold every value twice (1 GB at 1e7 samples)."""
+    hold every value twice (1 GB at 1e7 samples). With a process pool the scalar arrays are
+    the stage's shared ones (:mod:`uqguide.execution.shared_rows`), which the workers fill."""
 
     def __init__(self, n: int) -> None:
         self.n = n
@@ -54,16 +57,21 @@ class _Runs:
         self.reasons = np.full(n, "", dtype=object)
         self.scalars: dict[str, np.ndarray] = {}
         self.time: np.ndarray | None = None
+        self.shared: SharedRows | None = None
 
     def add(self, r: ChunkResult) -> None:
         rows = slice(r.task.start, r.task.stop)
         self.failed[rows] = r.failed
         if r.failed.any():
             self.reasons[r.task.start + np.flatnonzero(r.failed)] = r.reasons[r.failed]
+        written = {key for part, key, _ in r.in_place if part == "scalars"}
         for k, v in r.scalars.items():
             if k not in self.scalars:
-                self.scalars[k] = np.empty((self.n, *v.shape[1:]), dtype=v.dtype)
-            self.scalars[k][rows] = v
+                shared = self.shared.scalar_array(k) if self.shared is not None else None
+                self.scalars[k] = shared if shared is not None else \
+                    np.empty((self.n, *v.shape[1:]), dtype=v.dtype)
+            if k not in written:  # (what a worker wrote in place is there already)
+                self.scalars[k][rows] = v
         if r.time.size:
             if self.time is None:
                 self.time = r.time
@@ -93,22 +101,29 @@ class _Stage:
             ) -> tuple[ModelOutput, Any]:
         """Outputs of the rows ``x`` (scalars only when reduced) and the folded summaries."""
         label = self.method.label
-        pending: dict[int, ChunkResult] = {}
-        for t in tasks:
-            r = self.store.load(label, stage, t) if self.store else None
-            if r is not None:
-                pending[t.index] = r
-                self.progress.restored(t.n, r.n_failed)
-        todo = [t for t in tasks if t.index not in pending]
-        if len(pending):
-            log.info("%s: %d of %d chunks restored from the checkpoint", label, len(pending),
-                     len(tasks))
         job = ChunkJob(ModelHandle(self.model), tuple(self.space.names), self.outputs,
                        self.batch_size, reducer, timeout_s=self.timeout_s)
         parts: list[ModelOutput] = []
         kept = _Runs(x.shape[0]) if reducer is not None else None
+        per_run = getattr(reducer, "per_run", None)
+        share = kept is not None and per_run is not None and \
+            getattr(self.executor, "shares_memory", False)
+        pending: dict[int, ChunkResult] = {}
         acc = None
         nxt = 0
+
+        def arrived(r: ChunkResult) -> ChunkResult:
+            # The first result back (restored or evaluated) shapes the shared arrays; the
+            # chunks submitted from then on write their per-run values there.
+            nonlocal share
+            if kept is None:
+                return r
+            if share and per_run is not None:
+                share = False
+                kept.shared = SharedRows.for_result(r, x.shape[0], per_run)
+                if kept.shared is not None:
+                    job.shared = kept.shared.layout
+            return kept.shared.adopt(r) if kept.shared is not None else r
 
         def fold_ready() -> None:
             nonlocal nxt, acc
@@ -123,15 +138,28 @@ class _Stage:
                     parts.append(r.output())
                 nxt += 1
 
-        fold_ready()
-        results = self.executor.map_chunks(job, todo, x) if todo else iter(())
+        results: Any = iter(())
         try:
+            for t in tasks:
+                r = self.store.load(label, stage, t) if self.store else None
+                if r is not None:
+                    pending[t.index] = arrived(r)
+                    self.progress.restored(t.n, r.n_failed)
+            todo = [t for t in tasks if t.index not in pending]
+            if len(pending):
+                log.info("%s: %d of %d chunks restored from the checkpoint", label,
+                         len(pending), len(tasks))
+            fold_ready()
+            if todo:
+                results = self.executor.map_chunks(job, todo, x)
             for r in results:
+                r = arrived(r)
                 if self.store is not None:
                     self.store.save(label, stage, r)
                 self.progress.advance(r.task.n, r.n_failed)
                 pending[r.task.index] = r
                 fold_ready()
+                raise_swallowed()
         except BaseException:
             if self.store is not None:
                 self.store.drain()  # what was saved before the stop is on disk when it is seen
@@ -140,6 +168,8 @@ class _Stage:
             close = getattr(results, "close", None)
             if close is not None:
                 close()
+            if kept is not None and kept.shared is not None:
+                kept.shared.close()  # the files go; the views stay valid
         fold_ready()
         if self.store is not None:
             self.store.flush()  # the stage's chunks on disk before the method goes on

@@ -367,6 +367,7 @@ class _StopAfterFirstChunk:
 
     def __init__(self, inner: Executor) -> None:
         self.inner, self.batch_size = inner, inner.batch_size
+        self.shares_memory = inner.shares_memory
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task], x: np.ndarray | GeneratedRows
                    ) -> Iterator[ChunkResult]:

@@ -5,7 +5,10 @@ decides the split (Monte Carlo: its random-stream chunks, so statistics are redu
 the same way wherever they run; other methods: ``batch_size`` slices). A chunk is evaluated by
 :func:`run_chunk` wherever the executor puts it, in model calls of at most ``batch_size``
 samples (memory only), and optionally reduced there to small mergeable summaries (the method's
-``reduce``), so a worker sends back per-sample scalars and sums, not time series.
+``reduce``), so a worker sends back per-sample scalars and sums, not time series. A local
+process pool's workers write the per-sample values (scalars, values kept for quantiles) in
+place, into the driver's arrays in shared memory, and send only the sums
+(:mod:`.shared_rows`).
 
 Executors (all give bit-identical numbers, since a chunk's result does not depend on where it
 ran and the driver folds chunks in index order):
@@ -34,8 +37,9 @@ propagates.
 
 Modules, from the bottom up: :mod:`.transport` (the model in workers), :mod:`.chunks` (the
 unit of work), :mod:`.isolation` (raising samples fail alone), :mod:`.processes` (signals and
-lifetimes of child processes), :mod:`.guard` (timeouts and crashes), :mod:`.worker` (one chunk,
-wherever it runs) and :mod:`.executors`.
+lifetimes of child processes), :mod:`.guard` (timeouts and crashes), :mod:`.shared_rows`
+(per-sample values written in place), :mod:`.worker` (one chunk, wherever it runs) and
+:mod:`.executors`.
 """
 
 from __future__ import annotations

@@ -4,12 +4,15 @@ what comes back from one."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from ..types import ModelOutput
 from .transport import ModelHandle
+
+if TYPE_CHECKING:
+    from .shared_rows import RowsLayout
 
 #: Samples per model call when neither the config nor the executor says otherwise.
 DEFAULT_BATCH_SIZE = 10_000
@@ -61,6 +64,10 @@ class ChunkResult:
         The method's reduction of the chunk (empty when not reduced).
     model_seconds : float
         Wall seconds of the model calls of this chunk.
+    in_place : tuple of (part, key, n)
+        Per-run values the worker wrote into the driver's shared arrays instead of sending
+        them (:mod:`uqguide.execution.shared_rows`): ``scalars`` or ``summary``, the key, the
+        number of runs.
     """
 
     task: Task
@@ -71,6 +78,7 @@ class ChunkResult:
     series: dict[str, np.ndarray] = field(default_factory=dict)
     summary: dict[str, np.ndarray] = field(default_factory=dict)
     model_seconds: float = 0.0
+    in_place: tuple[tuple[str, str, int], ...] = ()
 
     @property
     def n_failed(self) -> int:
@@ -102,3 +110,7 @@ class ChunkJob:
     timeout_s: float | None = None
     #: Run the calls in a guard process even without a timeout (crash isolation).
     guarded: bool = False
+    #: Where the worker writes the per-run values of a reduced chunk in place (shared memory,
+    #: :mod:`uqguide.execution.shared_rows`); set by the driver once the first chunk back has
+    #: shown their shapes, so the chunks sent before it bring theirs through the pipe.
+    shared: RowsLayout | None = None

@@ -31,6 +31,9 @@ class Executor(Protocol):
     """Evaluates chunks and yields their results as they complete (any order)."""
 
     batch_size: int | None
+    #: Workers on this machine, in other processes: they can write per-run values into shared
+    #: memory (:mod:`uqguide.execution.shared_rows`) instead of sending them.
+    shares_memory: bool
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
                    x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
@@ -66,6 +69,8 @@ class SerialExecutor:
         Samples per model call (memory / cache granularity; does not change the numbers);
         default the config's ``batch_size``.
     """
+
+    shares_memory = False  # nothing to share: the values are in this process already
 
     def __init__(self, batch_size: int | None = None) -> None:
         self.batch_size = batch_size
@@ -171,6 +176,8 @@ class ProcessExecutor(_WindowedExecutor):
     batch_size : int, optional
         Samples per model call; default the config's.
     """
+
+    shares_memory = True
 
     def __init__(self, workers: int, batch_size: int | None = None,
                  start_method: str = "spawn") -> None:
@@ -286,6 +293,8 @@ class DaskExecutor(_WindowedExecutor):
     batch_size : int, optional
     retries : int
     """
+
+    shares_memory = False  # workers may be on other machines
 
     def __init__(self, address: str | None = None, scheduler_file: str | None = None,
                  client: Any = None, batch_size: int | None = None, retries: int = 2) -> None:

@@ -12,6 +12,7 @@ from ..types import ModelOutput, RowRange
 from .chunks import ChunkJob, ChunkResult, Task
 from .guard import guarded_batch
 from .isolation import common_grid, evaluate_batch
+from .shared_rows import write_in_place
 
 
 def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResult:
@@ -48,8 +49,9 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
         return ChunkResult(task, out.failed, out.reasons, out.time, out.scalars, out.series,
                            model_seconds=seconds)
     summary = job.reducer(out, task.index)
-    return ChunkResult(task, out.failed, out.reasons, out.time, out.scalars,
-                       summary=summary, model_seconds=seconds)
+    result = ChunkResult(task, out.failed, out.reasons, out.time, out.scalars,
+                         summary=summary, model_seconds=seconds)
+    return write_in_place(job.shared, result) if job.shared is not None else result
 
 
 def isolate_crash(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:

@@ -84,6 +84,13 @@ class MonteCarloReducer:
     n_total: int = 0
     intervals: str = "delta"
 
+    @staticmethod
+    def per_run(key: str) -> bool:
+        """Whether a summary entry holds per-run values (``q::``, lane-major, a column per
+        good run) rather than sums: a process pool's workers write those in place
+        (:mod:`uqguide.execution.shared_rows`)."""
+        return key.startswith("q::")
+
     def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:
         ok = ~out.failed
         m = out.n
@@ -162,6 +169,24 @@ def split_summary(summary: dict[str, np.ndarray]) -> dict[tuple[str, str], Momen
         kind, f, name = key.split(":", 2)
         groups.setdefault((kind, name), {})[f] = v
     return {k: MomentSums.from_arrays(g) for k, g in groups.items()}
+
+
+def append_columns(lanes: list[np.ndarray], v: np.ndarray) -> None:
+    """Append the lane-major chunk ``v (L, n)`` to ``lanes``, joined with the last one when
+    both are column blocks of one array and ``v`` continues it (consecutive chunks written in
+    place by pool workers): the quantile selection then makes a few long passes instead of a
+    short pass a chunk."""
+    if lanes:
+        a, root = lanes[-1], lanes[-1].base
+        if (isinstance(root, np.ndarray) and root is v.base and root.ndim == a.ndim == v.ndim
+                == 2 and root.flags.c_contiguous and a.shape[0] == v.shape[0] == root.shape[0]
+                and a.strides == v.strides == root.strides):
+            c0 = (a.ctypes.data - root.ctypes.data) // root.itemsize
+            c1 = (v.ctypes.data - root.ctypes.data) // root.itemsize
+            if c1 == c0 + a.shape[1] and c1 + v.shape[1] <= root.shape[1]:
+                lanes[-1] = root[:, c0:c1 + v.shape[1]]
+                return
+    lanes.append(v)
 
 
 def scalar_names(scalars: dict[str, np.ndarray]) -> list[ScalarIndex]:

@@ -59,9 +59,14 @@ from ..events import count_events
 from ..quantiles import lane_quantiles, order_statistic_quantiles
 from ..stats import OutputStats, statistics_from_sums
 from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
-from .mc_reduce import MonteCarloReducer, ci_index, scalar_names, split_summary
+from .mc_fold import FoldedSums
+from .mc_reduce import (MonteCarloReducer, append_columns, ci_index, scalar_names,
+                        split_summary)
 
 log = logging.getLogger(__name__)
+
+#: Where ``fold`` keeps the merged sums in its accumulator (the rest: quantile values by output).
+_SUMS = ("sums", "")
 
 # Keep inverse CDFs finite: a unit-cube coordinate of exactly 0 or 1 maps to +-inf for a normal.
 _U_EPS = 2.0**-53
@@ -203,15 +208,14 @@ class MonteCarlo(Method):
         return self.settings.intervals if self.settings.bootstrap > 0 else "none"
 
     def fold(self, acc: dict | None, summary: dict[str, np.ndarray]) -> dict:
-        """Merge a chunk: moment sums by Chan's formulas, series values for the quantiles
-        by concatenation (both in chunk order)."""
-        acc = {} if acc is None else acc
-        for group, sums in split_summary(summary).items():
-            acc[group] = acc[group].merge(sums) if group in acc else sums
+        """Merge a chunk: moment sums by Chan's formulas (all outputs at once,
+        :mod:`~uqguide.methods.mc_fold`), series values for the quantiles by concatenation
+        (both in chunk order)."""
+        acc = {_SUMS: FoldedSums()} if acc is None else acc
+        acc[_SUMS].add(split_summary(summary))
         for key, v in summary.items():
             if key.startswith("q:"):
-                k = ("q", key.split(":", 2)[2])
-                acc.setdefault(k, []).append(v)
+                append_columns(acc.setdefault(("q", key.split(":", 2)[2]), []), v)
         return acc
 
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
@@ -228,6 +232,8 @@ class MonteCarlo(Method):
     def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
                          acc: dict[tuple[str, str], Any] | None) -> Estimate:
         t0 = time.perf_counter()
+        if acc is not None and _SUMS in acc:
+            acc = {**acc[_SUMS].groups(), **{k: v for k, v in acc.items() if k != _SUMS}}
         n_failed = int(runs.failed.sum())
         reasons = Counter(r for r in runs.reasons[runs.failed])
         tally = "; ".join(f"{r} ({c})" for r, c in reasons.most_common())
