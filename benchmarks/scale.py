@@ -97,6 +97,9 @@ def measure(n: int, workers: int) -> dict:
             digest.update(np.ascontiguousarray(getattr(s, k)).tobytes())
         for k in sorted(s.ci):
             digest.update(np.ascontiguousarray(s.ci[k]).tobytes())
+        for q in (s.quantiles, s.ci_quantiles):  # the exact 3-sigma quantiles too
+            if q is not None:
+                digest.update(np.ascontiguousarray(q).tobytes())
     omega = r.estimate.stats["omega_s"]
     zem = r.estimate.stats["zem"]
     series_bytes = sum(8 * n * result.time.size * o.k for o in result.outputs
@@ -144,7 +147,7 @@ def main() -> None:
           f"{'driver cpu':>10} {'workers cpu':>11} {'load':>5} {'model s':>8} "
           f"{'failed':>6} {'driver MiB':>10} {'worker MiB':>10} {'series MiB':>10}  stats")
     for r in rows:
-        print(f"{r['n']:>9,} {r['workers']:>7} {r['warmup_s']:>9.1f} {r['wall_s']:>8.1f} "
+        print(f"{r['n']:>9,} {r['workers']:>7} {r['warmup_s']:>9.1f} {r['wall_s']:>8.2f} "
               f"{r['n'] / r['wall_s']:>8.0f} {r['driver_cpu_s']:>10.1f} "
               f"{r['workers_cpu_s']:>11.1f} {r['load']:>5.2f} "
               f"{r['model_s']:>8.1f} {r['n_failed']:>6} {r['driver_peak_mib']:>10.0f} "
@@ -154,7 +157,7 @@ def main() -> None:
     for r in rows:
         if base and r is not base and r["n"] == args.n:
             print(f"speed-up of {r['workers']} processes over 1: "
-                  f"{base['wall_s'] / r['wall_s']:.2f}x")
+                  f"{base['wall_s'] / r['wall_s']:.3f}x")
     same = {r["stats_sha256"] for r in rows if r["n"] == args.n}
     print("statistics bit-identical across worker counts: "
           + ("yes" if len(same) == 1 else f"NO ({same})"))
