@@ -37,9 +37,9 @@ propagates.
 
 Modules, from the bottom up: :mod:`.transport` (the model in workers), :mod:`.chunks` (the
 unit of work), :mod:`.isolation` (raising samples fail alone), :mod:`.processes` (signals and
-lifetimes of child processes), :mod:`.guard` (timeouts and crashes), :mod:`.shared_rows`
-(per-sample values written in place), :mod:`.worker` (one chunk, wherever it runs) and
-:mod:`.executors`.
+lifetimes of child processes), :mod:`.guard` (timeouts and crashes), :mod:`.row_layout` and
+:mod:`.shared_rows` (per-sample values written in place), :mod:`.worker` (one chunk, wherever
+it runs) and :mod:`.executors`.
 """
 
 from __future__ import annotations

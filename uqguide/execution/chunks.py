@@ -4,15 +4,13 @@ what comes back from one."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from ..types import ModelOutput
+from .row_layout import RowsLayout
 from .transport import ModelHandle
-
-if TYPE_CHECKING:
-    from .shared_rows import RowsLayout
 
 #: Samples per model call when neither the config nor the executor says otherwise.
 DEFAULT_BATCH_SIZE = 10_000

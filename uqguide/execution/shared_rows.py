@@ -26,41 +26,18 @@ import logging
 import os
 import secrets
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from .chunks import ChunkResult
+from .row_layout import RowsLayout, Slot
 
 log = logging.getLogger(__name__)
 
 SHM_DIR = Path("/dev/shm")
 _PREFIX = "uqguide-rows-"
-
-
-@dataclass(frozen=True)
-class Slot:
-    """One shared array: ``part`` (``scalars`` or ``summary``) and ``key`` name the value in a
-    :class:`~uqguide.execution.chunks.ChunkResult`; ``runs_axis`` is the axis along which the
-    runs lie (0: a row per run; 1: lane-major, a column per good run)."""
-
-    part: str
-    key: str
-    path: str
-    shape: tuple[int, ...]
-    dtype: str
-    runs_axis: int
-
-    def open(self) -> np.memmap:
-        return np.memmap(self.path, dtype=np.dtype(self.dtype), mode="r+", shape=self.shape)
-
-
-@dataclass(frozen=True)
-class RowsLayout:
-    """Where a chunk's per-run values go (picklable: it travels with every chunk)."""
-
-    slots: tuple[Slot, ...]
 
 
 def write_in_place(layout: RowsLayout, r: ChunkResult) -> ChunkResult:
