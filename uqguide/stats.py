@@ -27,6 +27,7 @@ Two forms of the same estimators:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from math import comb
 from statistics import NormalDist
@@ -471,13 +472,18 @@ class MomentSums:
         m4 = p4 - 4 * a * p3 + 6 * a * a * p2 - 3 * a**3 * p1
         return cls(W, c + a, m2, m3, m4)
 
-    def merge(self, other: MomentSums) -> MomentSums:
+    def merge(self, other: MomentSums,
+              outer: Callable[[np.ndarray], np.ndarray] | None = None) -> MomentSums:
         """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2).
 
         Parameters
         ----------
         other : MomentSums
             Sums of the other set, fields of the same shape.
+        outer : callable, optional
+            The outer products ``delta_i delta_j`` of the means' difference, shaped as ``cm``
+            (default ``einsum`` over the last axis; :mod:`uqguide.methods.mc_fold` gathers them
+            by index for comoments laid out flat).
 
         Returns
         -------
@@ -506,7 +512,9 @@ class MomentSums:
               + 4 * delta * (fa * other.m3 - fb * self.m3))
         cm = None
         if self.cm is not None and other.cm is not None:
-            cm = self.cm + other.cm + np.einsum("...i,...j->...ij", delta, delta) * nab
+            products = np.einsum("...i,...j->...ij", delta, delta) if outer is None \
+                else outer(delta)
+            cm = self.cm + other.cm + products * nab
         high = None
         if self.high is not None and other.high is not None:
             high = np.stack([_merge_order(p, self.central_sums(), other.central_sums(), na, nb,

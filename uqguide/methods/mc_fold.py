@@ -6,8 +6,9 @@ group, each merge is some forty small NumPy operations: 1.5 ms a chunk, 0.2 CPU-
 1e6-run FTCAPN study, taken by the driver from the cores its pool's workers run on. The groups
 of one chunk share their run count and Chan's formulas are elementwise, so groups of the same
 fields are laid side by side in flat arrays and merged as one: the same operations on the same
-numbers, bit for bit, one merge per kind of group a chunk. The comoments' outer products are
-gathered by index (``delta[I] * delta[J]``: the products ``einsum`` forms).
+numbers, bit for bit, one merge per kind of group a chunk (:meth:`MomentSums.merge` itself,
+with the comoments' outer products gathered by index, ``delta[I] * delta[J]``: the products
+``einsum`` forms).
 
 Sums with per-resample counts (the Poisson bootstrap's) are merged group by group as before.
 """
@@ -29,9 +30,8 @@ class _Pack:
 
     keys: list[Key]
     shapes: list[tuple[int, ...]]
-    sums: MomentSums  # flat fields (and ``high`` (4, total)); comoments apart:
-    cm: np.ndarray | None
-    outer: tuple[np.ndarray, np.ndarray] | None  # cm's element = delta[I] * delta[J]
+    sums: MomentSums  # flat fields, ``high`` (4, total), comoments flat
+    outer: tuple[np.ndarray, np.ndarray] | None  # a comoment is delta[I] * delta[J]
 
     @classmethod
     def of(cls, groups: list[tuple[Key, MomentSums]], accumulates: bool = True) -> _Pack:
@@ -48,13 +48,11 @@ class _Pack:
         if first.high is not None:
             high = np.concatenate([np.asarray(s.high).reshape(4, -1) for _, s in groups],
                                   axis=1)
+        cm = joined("cm") if first.cm is not None else None
         flat = MomentSums(first.n, joined("mean"), joined("m2"), joined("m3"), joined("m4"),
-                          high=high)
-        cm = outer = None
-        if first.cm is not None:
-            cm = joined("cm")
-            outer = _outer_index(shapes) if accumulates else None
-        return cls(keys, shapes, flat, cm, outer)
+                          cm, high)
+        outer = _outer_index(shapes) if cm is not None and accumulates else None
+        return cls(keys, shapes, flat, outer)
 
     def matches(self, groups: list[tuple[Key, MomentSums]]) -> bool:
         return [k for k, _ in groups] == self.keys and \
@@ -63,21 +61,13 @@ class _Pack:
     def merge(self, other: _Pack) -> None:
         """Merge ``other`` (the next chunk's groups, same layout) into this one: exactly
         :meth:`MomentSums.merge` of each group."""
-        a, b = self.sums, other.sums
-        na, nb = a.n, b.n
-        if nb == 0:
-            return
-        if na == 0:
-            self.sums, self.cm = b, other.cm
-            return
-        if self.cm is not None and other.cm is not None and self.outer is not None:
-            # MomentSums.merge's comoment term, with its operations in its order
-            safe = np.where(na + nb > 0, na + nb, 1.0)
-            delta = b.mean - a.mean
-            nab = na * nb / safe
+        gather = None
+        if self.outer is not None:
             i, j = self.outer
-            self.cm = self.cm + other.cm + (delta[i] * delta[j]) * nab
-        self.sums = a.merge(b)
+
+            def gather(delta: np.ndarray) -> np.ndarray:
+                return delta[i] * delta[j]
+        self.sums = self.sums.merge(other.sums, outer=gather)
 
     def groups(self) -> dict[Key, MomentSums]:
         out, at, cm_at = {}, 0, 0
@@ -86,9 +76,9 @@ class _Pack:
             size = int(np.prod(shape))
             sl = slice(at, at + size)
             cm = None
-            if self.cm is not None:
+            if s.cm is not None:
                 k = shape[-1] if shape else 1
-                cm = self.cm[cm_at:cm_at + size * k].reshape(shape + (k,))
+                cm = s.cm[cm_at:cm_at + size * k].reshape(shape + (k,))
                 cm_at += size * k
             out[key] = MomentSums(
                 s.n, s.mean[sl].reshape(shape), s.m2[sl].reshape(shape),

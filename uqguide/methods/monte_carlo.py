@@ -258,7 +258,7 @@ class MonteCarlo(Method):
             stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx,
                                                delta=acc.get(("h", name)))
             if levels is not None:
-                if is_series:  # the chunks' lane-major values as they came (never joined)
+                if is_series:  # lane-major values, chunks joined where adjacent
                     lanes = acc.get(("q", name)) or []
                     k = sums.mean.shape[-1]
                     steps = lanes[0].shape[0] // k if lanes else sums.mean.shape[0]
