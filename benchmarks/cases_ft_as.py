@@ -13,7 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from uqguide.config import load_yaml
+from uqguide.config.run_config import load_yaml
 
 # the inputs and outputs of the shipped dispersion config, read from it so they cannot drift
 _CONFIG = load_yaml(Path(__file__).resolve().parents[1] / "configs" / "ft_as_dispersion.yaml")

@@ -20,7 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from uqguide.config import load_yaml
+from uqguide.config.run_config import load_yaml
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from uqguide.config import load_yaml
+from uqguide.config.run_config import load_yaml
 
 # the inputs and outputs of configs/gmm_ftc_dispersion.yaml, read from it so they cannot drift
 _CONFIG = load_yaml(Path(__file__).resolve().parents[1] / "configs" / "gmm_ftc_dispersion.yaml")

@@ -378,7 +378,7 @@ def run_one(m: Mutation, folder: Path, i: int) -> Outcome:
 
 def run_all(ms: list[Mutation]) -> list[Outcome]:
     import uqguide.cli  # noqa: F401 - imported once, before the forks
-    import uqguide.config  # noqa: F401
+    import uqguide.config.run_config  # noqa: F401
 
     with tempfile.TemporaryDirectory(prefix="uq_cfgfuzz_") as tmp:
         return [run_one(m, Path(tmp), i) for i, m in enumerate(ms)]

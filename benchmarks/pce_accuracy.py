@@ -47,7 +47,7 @@ from typing import Any
 import chaospy
 import numpy as np
 
-from uqguide.inputs import InputSpace, LogNormal, Normal, Uniform
+from uqguide.core.inputs import InputSpace, LogNormal, Normal, Uniform
 from uqguide.methods.base import Method
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.methods.pce_smolyak import SmolyakPCE
@@ -56,7 +56,7 @@ from uqguide.models.base import Model, ModelOutput
 from uqguide.models.benchmarks import Borehole, Ishigami, LinearGaussian, Lognormal
 from uqguide.pce.germ import Germ
 from uqguide.pce.quadrature import gauss_rule, smolyak_grid
-from uqguide.stats import STAT_NAMES
+from uqguide.stats.moments import STAT_NAMES
 
 BUDGETS = (50, 100, 200, 500, 1000)
 SEED = 2024

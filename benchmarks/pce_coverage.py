@@ -62,8 +62,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from uqguide.methods.monte_carlo import unit_chunk  # noqa: E402
 from uqguide.methods.pce_adaptive import AdaptivePCE  # noqa: E402
-from uqguide.stats import STAT_NAMES, delta_standard_errors  # noqa: E402
-from uqguide.types import ModelOutput  # noqa: E402
+from uqguide.stats.moments import STAT_NAMES, delta_standard_errors  # noqa: E402
+from uqguide.core.types import ModelOutput  # noqa: E402
 
 VALIDATION = 100
 REF_SEED = 900_000
@@ -105,7 +105,7 @@ def analytic_case(name: str, n_seeds: int, design: str) -> list[dict[str, Any]]:
 
 class PowerSums:
     """Sums of ``(y - c)^p``, p = 0..8, about a fixed centre: moments and their delta-method
-    half-widths (:func:`uqguide.stats.delta_standard_errors`) of a streamed sample."""
+    half-widths (:func:`uqguide.stats.moments.delta_standard_errors`) of a streamed sample."""
 
     def __init__(self, centre: float) -> None:
         self.c = centre

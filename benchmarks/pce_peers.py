@@ -57,7 +57,7 @@ from dataclasses import dataclass
 
 import numpy as np  # noqa: E402
 
-from uqguide.inputs import InputSpace, LogNormal, Normal, Uniform
+from uqguide.core.inputs import InputSpace, LogNormal, Normal, Uniform
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.models.base import ModelOutput
 from uqguide.pce import moments

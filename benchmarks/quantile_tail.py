@@ -21,7 +21,7 @@ from functools import partial
 import numpy as np
 
 from uqguide.methods import monte_carlo as mc
-from uqguide.quantiles import THREE_SIGMA, lane_quantiles
+from uqguide.stats.quantiles import THREE_SIGMA, lane_quantiles
 
 
 def jobs(n: int, chunk: int = 8192, seed: int = 0) -> dict:

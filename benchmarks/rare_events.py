@@ -34,10 +34,10 @@ from scipy import stats
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from uqguide.config import load_yaml, validate_config  # noqa: E402
-from uqguide.events import clopper_pearson  # noqa: E402
-from uqguide.propagate import run  # noqa: E402
-from uqguide.result import read_hdf5  # noqa: E402
+from uqguide.config.run_config import load_yaml, validate_config  # noqa: E402
+from uqguide.core.events import clopper_pearson  # noqa: E402
+from uqguide.driver.propagate import run  # noqa: E402
+from uqguide.results.result import read_hdf5  # noqa: E402
 
 
 def _fmt(v: float) -> str:

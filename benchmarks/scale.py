@@ -1,7 +1,7 @@
 """Scale: a 1e6-sample Monte Carlo of FTCAPN (Table 3) through the real pipeline.
 
 Measures, for each worker count, after a warm-up run that starts the workers and loads the
-compiled kernel, the wall time of ``uqguide.propagate.run`` (design, chunked
+compiled kernel, the wall time of ``uqguide.driver.propagate.run`` (design, chunked
 evaluation in a process pool, streaming statistics with delta-method intervals and exact
 3-sigma quantiles at the report times), the CPU seconds of the driver and of the workers, and
 the peak resident memory of the driver and of the workers, then the speed-up
@@ -59,9 +59,9 @@ def _workers_cpu(executor) -> float:
 
 def measure(n: int, workers: int) -> dict:
     """One run of ``n`` samples with ``workers`` processes (0: in this process)."""
-    from uqguide.config import validate_config
-    from uqguide.execution import ProcessExecutor, SerialExecutor
-    from uqguide.propagate import run
+    from uqguide.config.run_config import validate_config
+    from uqguide.driver.execution import ProcessExecutor, SerialExecutor
+    from uqguide.driver.propagate import run
 
     raw = yaml.safe_load(CONFIG.read_text())
     raw["model"]["threads"] = 1

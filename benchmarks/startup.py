@@ -38,7 +38,7 @@ print("HEAVY " + ",".join(heavy), file=sys.stderr)
 
 def _make_inputs(folder: Path) -> tuple[Path, Path]:
     import uqguide
-    from uqguide.gate import write_baseline
+    from uqguide.gate.check import write_baseline
 
     result = uqguide.run({
         "model": {"name": "linear_gaussian"},

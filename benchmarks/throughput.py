@@ -116,11 +116,11 @@ import numpy as np
 import yaml
 from pydantic import TypeAdapter
 
-from uqguide.config import load_yaml
-from uqguide.inputs import InputSpace, Marginal
-from uqguide.registry import model_class
+from uqguide.config.run_config import load_yaml
+from uqguide.core.inputs import InputSpace, Marginal
+from uqguide.config.registry import model_class
 from uqguide.methods.mc_reduce import MonteCarloReducer, split_summary
-from uqguide.stats import statistics_from_sums
+from uqguide.stats.moments import statistics_from_sums
 
 HERE = Path(__file__).resolve().parent
 

@@ -1,15 +1,23 @@
-"""The import graph between uqguide's parts, checked against its layers.
+"""The import graph between uqguide's layers, read from the package's folders.
 
-A *part* is a subpackage (``uqguide/models/``, ``uqguide/pce/``...) or a top-level module
-(``uqguide/config.py``). Every ``import`` in the package is read from the source (module level,
-inside functions and under ``TYPE_CHECKING`` alike: a lazy or type-only import is still a
-dependency), and folded onto the parts.
+The folders are the layers. A *part* is a folder of the package (``uqguide/config/``,
+``uqguide/models/``...) or a top-level module (``uqguide/cli.py``). Each folder says where it
+sits in the first line of its ``__init__.py`` docstring, "... above ``<folder>``" (``core``, the
+bottom folder, says nothing), so the order lives in the tree, beside the code it orders. Two
+top-level modules are the foundation every layer may import (``errors``, ``_version``); the
+other top-level modules are the front doors (``api``, ``cli``, ``testing``, ``__init__``),
+above every folder.
+
+Every ``import`` in the package is read from the source (module level, inside functions and
+under ``TYPE_CHECKING`` alike: a lazy or type-only import is still a dependency), and folded onto
+the parts.
 
 Printed: each part's layer and the parts it imports. Exit status:
 
-- 0: no cycle between parts, and every arrow points down the layers of ``LAYERS``;
+- 0: no cycle, between parts or between the modules of one folder, and every arrow points down;
 - 1: a cycle (printed, with the modules that make it), or an arrow that runs back up;
-- 2: a part that ``LAYERS`` does not place (a new module must be given its layer here).
+- 2: a folder that does not say what it is above, or a top-level module that is neither a front
+  door nor the foundation (a new module belongs in a folder).
 
 Run it from anywhere: ``python scripts/import_graph.py``. ``--dot`` prints the graph in
 Graphviz form instead.
@@ -19,39 +27,65 @@ from __future__ import annotations
 
 import argparse
 import ast
+import re
 import sys
 from collections import defaultdict
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "uqguide"
 
-#: Layers from the bottom (0) up: a part may import parts of its own layer or below, never
-#: above. Parts in one layer must not import each other in a circle.
-LAYERS: list[tuple[str, ...]] = [
-    # 0. leaves: errors, typed values, small utilities with no uqguide imports of note
-    ("errors", "strict", "atomic", "interrupts", "safe_yaml", "failures", "quantiles",
-     "events", "types", "progress", "runlock", "_version", "figures"),
-    # 1. numerics on arrays
-    ("stats", "moment_sums_kernel"),
-    # 2. the models and the input space they are sampled on
-    ("models", "inputs"),
-    # 3. surrogate building blocks, describing models and statistics
-    ("pce", "describe", "labelled", "limits"),
-    # 4. the methods
-    ("methods",),
-    # 5. names of models and methods, the shipped studies, configuration and its budgets
-    ("registry", "catalog", "config", "budget", "report_times"),
-    # 6. execution of model runs
-    ("execution",),
-    # 7. results
-    ("result", "result_netcdf", "result_surrogate", "frames", "checkpoint"),
-    # 8. the driver, the paper scenarios and what reads results
-    ("propagate", "papers", "report", "plots", "baseline", "gate", "replay", "testing"),
-    # 9. the library's front doors
-    ("run_and_write", "api", "report_document", "progress_display", "__init__"),
-    # 10. the command line
-    ("cli", "__main__"),
-]
+#: Top-level modules below every folder: what any layer may import.
+FOUNDATION = ("errors", "_version")
+#: Top-level modules above every folder: the library's and the command line's front doors.
+FRONT_DOORS = ("api", "testing", "__init__", "cli", "__main__")
+
+_ABOVE = re.compile(r"above ``(\w+)``")
+
+
+class LayerError(Exception):
+    """The tree does not say how its folders are layered."""
+
+
+def folder_layers(package: Path = PACKAGE) -> dict[str, int]:
+    """Folder -> layer number, from each folder's "above ``X``" (``core`` at 1, foundation 0)."""
+    above: dict[str, str | None] = {}
+    for init in sorted(package.glob("*/__init__.py")):
+        name = init.parent.name
+        doc = ast.get_docstring(ast.parse(init.read_text(encoding="utf-8"))) or ""
+        first = doc.strip().splitlines()[0] if doc.strip() else ""
+        m = _ABOVE.search(first)
+        above[name] = m.group(1) if m else None
+    roots = [f for f, a in above.items() if a is None]
+    if roots != ["core"]:
+        others = [f for f in roots if f != "core"]
+        raise LayerError(f"folders that do not say what they are above: {', '.join(others)}; "
+                         "end the first line of their __init__.py docstring with "
+                         "\"above ``<folder>``\"")
+    layer: dict[str, int] = {}
+
+    def depth(f: str, seen: tuple[str, ...] = ()) -> int:
+        if f in seen:
+            raise LayerError(f"folders above each other in a circle: {' -> '.join(seen + (f,))}")
+        if f not in above:
+            raise LayerError(f"{seen[-1]} says it is above ``{f}``, which is not a folder")
+        if f not in layer:
+            below = above[f]
+            layer[f] = 1 if below is None else depth(below, seen + (f,)) + 1
+        return layer[f]
+
+    for f in above:
+        depth(f)
+    return layer
+
+
+def layers(package: Path = PACKAGE) -> dict[str, int]:
+    """Every part -> its layer: foundation 0, the folders, the front doors on top."""
+    folder = folder_layers(package)
+    top = max(folder.values()) + 1
+    out = {p: 0 for p in FOUNDATION}
+    out.update(folder)
+    out.update({p: top + (p in ("cli", "__main__")) for p in FRONT_DOORS})
+    return out
 
 
 def part_of(module: str) -> str | None:
@@ -91,14 +125,14 @@ def _is_module(dotted: str) -> bool:
     return path.with_suffix(".py").exists() or (path / "__init__.py").exists()
 
 
-def edges() -> dict[tuple[str, str], set[str]]:
-    """(from part, to part) -> the modules whose imports make that arrow."""
-    out: dict[tuple[str, str], set[str]] = defaultdict(set)
+def module_edges() -> dict[str, set[str]]:
+    """Module -> the uqguide modules it imports (dotted names)."""
+    out: dict[str, set[str]] = defaultdict(set)
     for path in sorted(PACKAGE.rglob("*.py")):
         here = module_name(path)
-        src = part_of(here)
         is_pkg = path.name == "__init__.py"
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        out[here]
         for node in ast.walk(tree):
             targets: list[str] = []
             if isinstance(node, ast.Import):
@@ -106,10 +140,34 @@ def edges() -> dict[tuple[str, str], set[str]]:
             elif isinstance(node, ast.ImportFrom):
                 targets = resolve(node, here, is_pkg)
             for t in targets:
-                dst = part_of(t)
-                if dst is not None and src is not None and dst != src:
-                    out[(src, dst)].add(here)
+                if part_of(t) is not None and t != here:
+                    out[here].add(t)
     return out
+
+
+def edges() -> dict[tuple[str, str], set[str]]:
+    """(from part, to part) -> the modules whose imports make that arrow."""
+    out: dict[tuple[str, str], set[str]] = defaultdict(set)
+    for here, targets in module_edges().items():
+        src = part_of(here)
+        for t in targets:
+            dst = part_of(t)
+            if dst is not None and src is not None and dst != src:
+                out[(src, dst)].add(here)
+    return out
+
+
+def folder_cycles() -> list[list[str]]:
+    """Cycles among the modules of one folder (an arrow inside a layer may not close a loop)."""
+    mods = module_edges()
+    inner: dict[str, set[str]] = defaultdict(set)
+    for a, targets in mods.items():
+        for b in targets:
+            # a package's __init__ is its folder's door, not a module of it
+            if part_of(a) == part_of(b) and a.count(".") >= 2 and b in mods \
+                    and not b == ".".join(a.split(".")[:2]):
+                inner[a].add(b)
+    return cycles(inner)
 
 
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -153,14 +211,19 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dot", action="store_true", help="print Graphviz dot instead")
     args = ap.parse_args(argv)
-    layer = {p: i for i, parts in enumerate(LAYERS) for p in parts}
+    try:
+        layer = layers()
+    except LayerError as e:
+        print(e, file=sys.stderr)
+        return 2
     arrows = edges()
     parts = sorted({p for e in arrows for p in e} | {part_of(module_name(p)) or ""
                                                     for p in PACKAGE.rglob("*.py")})
     unplaced = [p for p in parts if p and p not in layer]
     if unplaced:
-        print(f"parts with no layer in LAYERS: {', '.join(unplaced)}; give each its layer in "
-              f"{Path(__file__).name}", file=sys.stderr)
+        print(f"top-level modules that are neither a front door nor the foundation: "
+              f"{', '.join(unplaced)}; move each into the folder of its layer (or name it in "
+              f"{Path(__file__).name}'s FRONT_DOORS if it truly is one)", file=sys.stderr)
         return 2
     graph: dict[str, set[str]] = defaultdict(set)
     for (a, b) in arrows:
@@ -172,14 +235,13 @@ def main(argv: list[str] | None = None) -> int:
         print("}")
         return 0
     up = [(a, b) for (a, b) in sorted(arrows) if layer[b] > layer[a]]
-    for i, names in reversed(list(enumerate(LAYERS))):
-        for p in names:
-            if p not in parts:
-                continue
-            below = sorted(graph.get(p, ()), key=lambda q: (-layer[q], q))
-            print(f"{i:2d} {p:18s} -> {', '.join(below) if below else '(nothing)'}")
+    for p in sorted(parts, key=lambda q: (-layer[q], q)):
+        below = sorted(graph.get(p, ()), key=lambda q: (-layer[q], q))
+        kind = "/" if (PACKAGE / p).is_dir() else ".py"
+        print(f"{layer[p]:2d} {p + kind:18s} -> {', '.join(below) if below else '(nothing)'}")
     bad = 0
-    for comp in cycles(graph):
+    found = cycles(graph) + folder_cycles()
+    for comp in found:
         bad = 1
         print(f"\ncycle: {' <-> '.join(comp)}")
         for a in comp:
@@ -191,7 +253,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\nback up: {a} (layer {layer[a]}) -> {b} (layer {layer[b]}): in "
               f"{', '.join(sorted(arrows[(a, b)]))}")
     print(f"\n{len(arrows)} arrows between {len(parts)} parts; "
-          f"{len(cycles(graph))} cycles; {len(up)} arrows back up")
+          f"{len(found)} cycles; {len(up)} arrows back up")
     return bad
 
 

@@ -44,13 +44,13 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 from update_golden import missing_registrations  # noqa: E402
 
-from uqguide.config import RunConfig, load_config  # noqa: E402
+from uqguide.config.run_config import RunConfig, load_config  # noqa: E402
 from uqguide.errors import UqguideError  # noqa: E402
 from uqguide.papers import format_report, has_scenario, nominal_figures, nominal_report  # noqa: E402
-from uqguide.propagate import run  # noqa: E402
-from uqguide.report import render_text, write_tables  # noqa: E402
-from uqguide.report_document import write_report  # noqa: E402
-from uqguide.result import write_hdf5  # noqa: E402
+from uqguide.driver.propagate import run  # noqa: E402
+from uqguide.report.tables import render_text, write_tables  # noqa: E402
+from uqguide.report.document import write_report  # noqa: E402
+from uqguide.results.result import write_hdf5  # noqa: E402
 
 log = logging.getLogger("reproduce_results")
 

@@ -39,15 +39,15 @@ ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = ROOT / "tests" / "golden"
 sys.path.insert(0, str(ROOT))
 
-from uqguide.baseline import StatKey, parse_baseline  # noqa: E402
-from uqguide.baseline import make_baseline, to_jsonable  # noqa: E402
-from uqguide.config import load_config  # noqa: E402
+from uqguide.gate.baseline import StatKey, parse_baseline  # noqa: E402
+from uqguide.gate.baseline import make_baseline, to_jsonable  # noqa: E402
+from uqguide.config.run_config import load_config  # noqa: E402
 from uqguide.errors import UqguideError  # noqa: E402
-from uqguide.gate import check_result, read_baseline, write_baseline  # noqa: E402
+from uqguide.gate.check import check_result, read_baseline, write_baseline  # noqa: E402
 from uqguide.models.roundoff import MEMBER_ENV, PERTURB_ENV, ROUNDOFF  # noqa: E402
-from uqguide.propagate import run  # noqa: E402
-from uqguide.registry import METHODS, MODELS  # noqa: E402
-from uqguide.result import Result  # noqa: E402
+from uqguide.driver.propagate import run  # noqa: E402
+from uqguide.config.registry import METHODS, MODELS  # noqa: E402
+from uqguide.results.result import Result  # noqa: E402
 
 ROUNDOFF_MEMBERS = 4
 """Perturbed reruns of each golden config when its baseline is written."""

@@ -9,7 +9,7 @@ import pytest
 
 import uqguide
 import uqguide.api
-from uqguide.stats import STAT_NAMES
+from uqguide.stats.moments import STAT_NAMES
 
 xr = pytest.importorskip("xarray")
 
@@ -96,7 +96,7 @@ def test_the_tensor_pce_mean_is_the_closed_form(result):
 
 
 def test_read_result_gives_back_the_same_dataset(result, tmp_path):
-    from uqguide.result import write_hdf5
+    from uqguide.results.result import write_hdf5
 
     back = uqguide.read_result(write_hdf5(result, tmp_path / "r.h5"))
     xr.testing.assert_identical(back.to_xarray(), result.to_xarray())

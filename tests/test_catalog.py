@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from uqguide.catalog import resolve, studies
+from uqguide.config.catalog import resolve, studies
 from uqguide.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]

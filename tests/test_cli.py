@@ -6,8 +6,8 @@ import numpy as np
 from click.testing import CliRunner
 
 from uqguide.cli import main
-from uqguide.registry import MODELS
-from uqguide.result import read_hdf5
+from uqguide.config.registry import MODELS
+from uqguide.results.result import read_hdf5
 
 
 def test_run_prints_tables_and_writes_files(write_config, lognormal_config, tmp_path):

@@ -77,7 +77,7 @@ CASES = [
 
 @pytest.mark.parametrize("defect,edit,message", CASES, ids=[c[0] for c in CASES])
 def test_config_error_exit_2_with_one_clear_line(write_config, tmp_path, defect, edit, message):
-    from uqguide.registry import METHODS, MODELS
+    from uqguide.config.registry import METHODS, MODELS
 
     old, new = edit
     assert old in GOOD, f"test case {defect} does not apply"

@@ -12,7 +12,7 @@ from pydantic import ConfigDict, Field
 from uqguide.methods.base import Design
 from uqguide.methods.monte_carlo import MonteCarlo
 from uqguide.models.base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
-from uqguide.registry import METHODS, MODELS, method_class, model_class
+from uqguide.config.registry import METHODS, MODELS, method_class, model_class
 from uqguide.testing import ConformanceError, check_method, check_model
 
 

@@ -12,13 +12,15 @@ from math import comb
 import numpy as np
 import pytest
 
-from uqguide.config import validate_config
+from uqguide.config.run_config import validate_config
 from uqguide.errors import ConfigError
 from uqguide.methods.mc_reduce import MonteCarloReducer, split_summary
 from uqguide.models.base import ModelOutput
 from uqguide.models.benchmarks import Lognormal
-from uqguide.propagate import run
-from uqguide.stats import MomentSums, STAT_NAMES, delta_standard_errors, statistics_from_sums
+from uqguide.driver.propagate import run
+from uqguide.stats.moments import (
+    MomentSums, STAT_NAMES, delta_standard_errors, statistics_from_sums,
+)
 
 
 def test_higher_central_sums_merge_as_one_pass():

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from uqguide.config import validate_config
-from uqguide.propagate import run
+from uqguide.config.run_config import validate_config
+from uqguide.driver.propagate import run
 
 
 def _config(methods):

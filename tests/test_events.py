@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from uqguide.config import validate_config
+from uqguide.config.run_config import validate_config
 from uqguide.errors import ConfigError
-from uqguide.events import clopper_pearson
-from uqguide.propagate import run
-from uqguide.result import read_hdf5, write_hdf5
+from uqguide.core.events import clopper_pearson
+from uqguide.driver.propagate import run
+from uqguide.results.result import read_hdf5, write_hdf5
 
 LINEAR = {"model": {"name": "linear_gaussian", "coefficients": [[1.0, 2.0, -0.5]]},
           "inputs": [{"name": f"x{i}", "dist": "normal", "mean": 0.0, "std": 1.0}

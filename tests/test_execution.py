@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from uqguide.config import validate_config
-from uqguide.execution import DaskExecutor, ProcessExecutor, SerialExecutor
-from uqguide.propagate import run
+from uqguide.config.run_config import validate_config
+from uqguide.driver.execution import DaskExecutor, ProcessExecutor, SerialExecutor
+from uqguide.driver.propagate import run
 
 FLAKY = {
     "model": {"name": "callable", "function": "tests.failing_models:flaky", "inputs": ["a", "b"],
@@ -131,7 +131,7 @@ def test_cli_workers_gives_the_serial_result_and_executor_options_are_checked(wr
     from click.testing import CliRunner
 
     from uqguide.cli import main
-    from uqguide.result import read_hdf5
+    from uqguide.results.result import read_hdf5
 
     cfg = dict(FLAKY, methods=[dict(FLAKY["methods"][0], n_samples=2500)])
     path = write_config(yaml.safe_dump(cfg), "flaky.yaml")

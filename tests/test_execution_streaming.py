@@ -10,8 +10,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uqguide.progress import Progress
-from uqguide.stats import MomentSums, sample_statistics, statistics_from_sums
+from uqguide.driver.progress import Progress
+from uqguide.stats.moments import MomentSums, sample_statistics, statistics_from_sums
 
 
 @settings(max_examples=40, deadline=None)

@@ -9,10 +9,10 @@ import yaml
 from click.testing import CliRunner
 
 from uqguide.cli import main
-from uqguide.config import validate_config
-from uqguide.propagate import run
-from uqguide.result import read_hdf5
-from uqguide.stats import sample_statistics
+from uqguide.config.run_config import validate_config
+from uqguide.driver.propagate import run
+from uqguide.results.result import read_hdf5
+from uqguide.stats.moments import sample_statistics
 
 N = 4000
 
@@ -177,7 +177,7 @@ def test_one_failing_method_is_recorded_while_the_others_complete(write_config, 
     s = mc.estimate.stats["y"]
     exact = -norm.pdf(1.5) / norm.cdf(1.5)
     assert abs(s.mean[0] - exact) < 4 * s.sem[0]
-    from uqguide.report import cost_table
+    from uqguide.report.tables import cost_table
 
     table = cost_table(result).set_index("label")
     assert table.loc["pt", "status"] == "FAILED: no statistics"

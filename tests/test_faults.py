@@ -19,7 +19,7 @@ import yaml
 from click.testing import CliRunner
 
 from uqguide.cli import main
-from uqguide.result import read_hdf5
+from uqguide.results.result import read_hdf5
 
 from .failing_models import mc_config
 
@@ -204,8 +204,8 @@ def test_a_chunk_in_which_every_sample_fails_is_counted():
     """Chunks of 1 sample of a model failing for |a| > 1.96 (raises above, NaN below): every
     failure is a chunk failing whole. Every failure is counted with its reason, the statistics
     are those of the rest."""
-    from uqguide.config import validate_config
-    from uqguide.propagate import run
+    from uqguide.config.run_config import validate_config
+    from uqguide.driver.propagate import run
 
     cfg = _config("tests.failing_models:flaky", n=600, chunk=1, seed=3)
     cfg["model"]["outputs"] = ["y", {"name": "path", "kind": "series"}]
@@ -343,8 +343,8 @@ def test_the_estimate_counts_the_values_exact_quantiles_keep():
     # Table 3 asks for quantiles: a 1e7-run Monte Carlo keeps omega_s and R at the 9 report
     # times and the last step, 2 x 1e7 x 10 x 2 x 8 B = 3.2 GB (measured peak 3.6 GB in all);
     # without quantiles the same run peaks at 0.81 GB
-    from uqguide.budget import estimate
-    from uqguide.config import validate_config
+    from uqguide.config.budget import estimate
+    from uqguide.config.run_config import validate_config
 
     raw = _ftcapn(10_000_000)
     with_q = estimate(validate_config(raw)).methods[0]
@@ -387,7 +387,7 @@ def test_a_tensor_grid_too_large_to_build_is_refused_by_validate(tmp_path):
 
 
 def test_the_design_is_made_per_chunk_and_identical_to_the_whole_one():
-    from uqguide.config import validate_config
+    from uqguide.config.run_config import validate_config
     from uqguide.methods.base import GeneratedRows
     from uqguide.methods.monte_carlo import method_seed, unit_samples
 
@@ -468,7 +468,7 @@ def test_an_interrupt_python_swallows_is_not_printed_and_is_raised_later(capsys)
     the next check (after a chunk, a deferred block, a command)."""
     import gc
 
-    from uqguide import interrupts
+    from uqguide.driver import interrupts
 
     class Finalised:
         def __del__(self):
@@ -510,7 +510,7 @@ def test_stale_temporary_files_of_dead_processes_are_removed(tmp_path):
 # ---------------------------------------------------------------------------- 4. hangs, crashes
 def _one_sample_above(n: int, chunk: int, seed: int) -> tuple[float, int]:
     """A threshold that exactly one sample's ``a`` exceeds, and that sample's row."""
-    from uqguide.config import validate_config
+    from uqguide.config.run_config import validate_config
 
     c = validate_config(_config(n=n, chunk=chunk, seed=seed))
     a = np.asarray(c.methods[0].design(c.space, c.seed).x)[:, 0]

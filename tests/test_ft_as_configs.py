@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from uqguide.config import load_config
+from uqguide.config.run_config import load_config
 from uqguide.models.ft_as import FTAS
-from uqguide.registry import METHODS
+from uqguide.config.registry import METHODS
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 

@@ -11,13 +11,7 @@ from uqguide.models.dynamics import mrp
 from uqguide.models.ft_as import closed_loop as cl
 from uqguide.models.ft_as import scenario
 from uqguide.models.ft_as.params import FTASParams
-from uqguide.models.ft_as.setup import (
-    OMEGA,
-    R_E,
-    SIGMA_E,
-    V_E,
-    Batch,
-)
+from uqguide.models.ft_as.setup import OMEGA, R_E, SIGMA_E, V_E, Batch
 
 PARAMS = FTASParams()
 PLANT = PARAMS.plant()

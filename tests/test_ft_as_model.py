@@ -11,7 +11,7 @@ from uqguide.models.ft_as.model import Variant
 from uqguide.models.ft_as.params import FTASParams
 from uqguide.models.ft_as.runner import Timing, run_batch
 from uqguide.models.ft_as.setup import CHI1, OMEGA, PSI1, PSI2, R_E, SIGMA_E, V_E
-from uqguide.registry import model_class
+from uqguide.config.registry import model_class
 
 VARIANTS = [
     Variant("FT-AS", "ft_as", True),

@@ -226,7 +226,7 @@ def test_non_finite_state_is_flagged_not_raised():
 
 
 def test_identical_samples_give_identical_outputs_and_nan_shape_statistics():
-    from uqguide.stats import sample_statistics
+    from uqguide.stats.moments import sample_statistics
 
     m = model()
     out = m.evaluate(np.zeros((6, 1)), ["dx"], ["omega_s", "zem", "t_stop"])

@@ -16,13 +16,13 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from uqguide.baseline import make_baseline, parse_baseline, read_baseline, write_baseline
+from uqguide.gate.baseline import make_baseline, parse_baseline, read_baseline, write_baseline
 from uqguide.cli import main
-from uqguide.config import validate_config
+from uqguide.config.run_config import validate_config
 from uqguide.errors import ResultError
-from uqguide.gate import check_result
-from uqguide.propagate import run
-from uqguide.result import write_hdf5
+from uqguide.gate.check import check_result
+from uqguide.driver.propagate import run
+from uqguide.results.result import write_hdf5
 
 
 def linear_config(seed: int = 1, a11: float = 1.0, n: int = 2000) -> dict:

@@ -9,11 +9,7 @@ import pytest
 
 from uqguide.models.gmm.geometry import wang2022_chief
 from uqguide.models.gmm.mixture import (
-    WANG2022_MEANS0,
-    WANG2022_PUBLISHED,
-    Mixture,
-    fit_mixture,
-    kmeans_partition,
+    WANG2022_MEANS0, WANG2022_PUBLISHED, Mixture, fit_mixture, kmeans_partition,
 )
 from uqguide.models.gmm.point_cloud import WANG2022_GRID_COUNTS, grid_cloud
 

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from uqguide.config import load_config, validate_config
-from uqguide.propagate import run
+from uqguide.config.run_config import load_config, validate_config
+from uqguide.driver.propagate import run
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 

@@ -14,7 +14,7 @@ from scipy.optimize import brentq
 from uqguide.models.gmm_ftc import GMMFTC
 from uqguide.papers import nominal_figures, nominal_report
 from uqguide.papers.gmm_ftc.report import nominal_runs
-from uqguide.registry import model_class
+from uqguide.config.registry import model_class
 
 
 @pytest.fixture(scope="module")

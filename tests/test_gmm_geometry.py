@@ -6,11 +6,7 @@ import numpy as np
 import pytest
 
 from uqguide.models.gmm.geometry import (
-    Part,
-    penetration_depth,
-    point_box_distance,
-    segment_box_hits,
-    wang2022_chief,
+    Part, penetration_depth, point_box_distance, segment_box_hits, wang2022_chief,
 )
 from uqguide.models.gmm.point_cloud import WANG2022_GRID_COUNTS, grid_cloud, random_cloud
 from uqguide.models.gmm.sampled_sim import _advance

@@ -9,7 +9,7 @@ import pytest
 import yaml
 from pydantic import ValidationError
 
-from uqguide.config import load_config
+from uqguide.config.run_config import load_config
 from uqguide.models.dynamics.tschauner_hempel import ChiefOrbit, LVLHPlant, propagate_free
 from uqguide.models.gmm.mixture import WANG2022_PUBLISHED, Mixture
 from uqguide.models.gmm.sampled_sim import simulate
@@ -17,7 +17,7 @@ from uqguide.models.gmm.model import GMMProximity
 from uqguide.papers import nominal_figures, nominal_report
 from uqguide.papers.gmm_proximity.claims import APF, GNT, GTS, evaluate_wang2022_claims
 from uqguide.papers.gmm_proximity.report import nominal_outcomes
-from uqguide.registry import model_class
+from uqguide.config.registry import model_class
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 E_START = {"r0": (-15.0, 16.0, 0.0)}

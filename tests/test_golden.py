@@ -16,9 +16,11 @@ from pathlib import Path
 
 import pytest
 
-from uqguide.config import load_config
-from uqguide.gate import ABSENT, check_result, config_differences, format_differences, read_baseline
-from uqguide.propagate import run
+from uqguide.config.run_config import load_config
+from uqguide.gate.check import (
+    ABSENT, check_result, config_differences, format_differences, read_baseline,
+)
+from uqguide.driver.propagate import run
 
 ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = ROOT / "tests" / "golden"

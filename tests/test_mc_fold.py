@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from uqguide.methods.mc_fold import FoldedSums
-from uqguide.stats import MomentSums
+from uqguide.stats.moments import MomentSums
 
 
 def _chunk(rng: np.random.Generator, n: int, boot: bool = True) -> dict:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from uqguide.config import validate_config
-from uqguide.execution import SerialExecutor
+from uqguide.config.run_config import validate_config
+from uqguide.driver.execution import SerialExecutor
 from uqguide.models.benchmarks import LinearGaussian, Lognormal
-from uqguide.propagate import run
+from uqguide.driver.propagate import run
 
 
 def _se_from_ci(ci: np.ndarray) -> np.ndarray:
@@ -124,7 +124,7 @@ def test_quantiles_are_the_same_on_one_thread_and_on_two(monkeypatch):
     import threading
 
     from uqguide.methods import monte_carlo as mc
-    from uqguide.quantiles import ranks
+    from uqguide.stats.quantiles import ranks
 
     cfg = validate_config({
         "model": {"name": "linear_gaussian"},

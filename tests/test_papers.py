@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from uqguide.models.base import Model
-from uqguide.papers import (SCENARIOS, NoPaperScenario, nominal_figures, nominal_report,
-                            sample_figures)
-from uqguide.registry import MODELS, model_class
+from uqguide.papers import (
+    SCENARIOS, NoPaperScenario, nominal_figures, nominal_report, sample_figures,
+)
+from uqguide.config.registry import MODELS, model_class
 
 
 def test_every_scenario_belongs_to_a_registered_model():
@@ -38,7 +39,7 @@ def test_a_model_without_a_paper_scenario(tmp_path):
 
 def test_importing_the_models_pulls_in_neither_papers_nor_matplotlib():
     # the layering the import graph checks statically, checked at run time too
-    code = ("import sys, uqguide.registry as r\n"
+    code = ("import sys, uqguide.config.registry as r\n"
             "[r.model_class(n) for n in r.MODELS]\n"
             "bad = sorted(m for m in sys.modules\n"
             "             if m.startswith(('uqguide.papers', 'matplotlib')))\n"

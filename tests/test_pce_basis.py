@@ -10,7 +10,7 @@ import chaospy
 import numpy as np
 import pytest
 
-from uqguide.inputs import CorrelatedGroup, InputSpace, LogNormal, Normal, TruncNormal, Uniform
+from uqguide.core.inputs import CorrelatedGroup, InputSpace, LogNormal, Normal, TruncNormal, Uniform
 from uqguide.pce import basis
 from uqguide.pce import quadrature as Q
 from uqguide.pce.germ import Germ

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 from uqguide.methods.base import RunContext
-from uqguide.config import load_config
+from uqguide.config.run_config import load_config
 from uqguide.methods.monte_carlo import MonteCarlo
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.models.ftcapn.drift import miss_parabola
 from uqguide.pce.derived import DerivedOutput
-from uqguide.stats import STAT_NAMES, sample_statistics
+from uqguide.stats.moments import STAT_NAMES, sample_statistics
 
 from .test_pce_helpers import run_method
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from uqguide.inputs import InputSpace, Normal, Uniform
+from uqguide.core.inputs import InputSpace, Normal, Uniform
 from uqguide.methods.base import Estimate, Method
 from uqguide.models.base import Model, ModelOutput
 

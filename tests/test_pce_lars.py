@@ -12,7 +12,7 @@ from uqguide.pce.pca import constant_columns, principal_components
 from uqguide.pce import sparse_regression
 from uqguide.pce.sparse_regression import fit_columns
 
-from uqguide.inputs import InputSpace, Uniform
+from uqguide.core.inputs import InputSpace, Uniform
 
 from .test_pce_helpers import normal_space
 

@@ -17,13 +17,13 @@ from pydantic import ValidationError
 
 from uqguide.methods.base import RunContext
 from uqguide.errors import ConfigError, MethodError
-from uqguide.inputs import CorrelatedGroup, InputSpace, Normal, Uniform
+from uqguide.core.inputs import CorrelatedGroup, InputSpace, Normal, Uniform
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.methods.pce_smolyak import SmolyakPCE
 from uqguide.methods.pce_tensor import TensorPCE
 from uqguide.models.base import ModelOutput, OutputInfo
 from uqguide.models.benchmarks import Ishigami, LinearGaussian, Lognormal
-from uqguide.registry import method_class
+from uqguide.config.registry import method_class
 
 from .test_pce_helpers import ishigami_space, normal_space, rel, run_method
 

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from uqguide.inputs import InputSpace, Uniform
+from uqguide.core.inputs import InputSpace, Uniform
 from uqguide.pce import basis, linearisation, moments
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import Germ
@@ -168,7 +168,7 @@ def test_products_of_legendre_terms_match_closed_form(rule):
 def test_linearisation_and_grid_agree_on_random_sparse_expansions():
     """Both exact rules, on sparse expansions in several germ families at once (normal,
     uniform and truncated normal)."""
-    from uqguide.inputs import TruncNormal
+    from uqguide.core.inputs import TruncNormal
     space = InputSpace([Uniform(name="u", dist="uniform", low=0, high=1),
                         normal_space(1).marginals[0],
                         TruncNormal(name="t", dist="truncnormal", mean=0.0, std=1.0, low=-1.0,

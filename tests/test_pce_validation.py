@@ -15,11 +15,11 @@ from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import Germ
 from uqguide.pce.surrogate import Surrogate
 from uqguide.pce.validation import corrected_moments, relative_error, usable_mask
-from uqguide.report import render_text, validation_table
-from uqguide.result import read_hdf5, write_hdf5
-from uqguide.result_surrogate import read_surrogate, write_surrogate
-from uqguide.stats import central_moments
-from uqguide.types import OutputStats
+from uqguide.report.tables import render_text, validation_table
+from uqguide.results.result import read_hdf5, write_hdf5
+from uqguide.results.surrogate import read_surrogate, write_surrogate
+from uqguide.stats.moments import central_moments
+from uqguide.core.types import OutputStats
 
 from .test_pce_helpers import normal_space
 
@@ -253,7 +253,7 @@ def test_stored_derived_output_is_recomputed_from_its_carriers(tmp_path):
 def test_pce_density_is_a_kde_of_the_kept_surrogate(tmp_path):
     """On Ishigami (a bimodal-looking, flat-topped density) the PCE curve is the KDE of its
     surrogate's draws, not a moment fit; read back from the file, the same curve."""
-    from uqguide.plots import scalar_figure
+    from uqguide.report.plots import scalar_figure
 
     r = uqguide.run(_ishigami_config([
         {"name": "monte_carlo", "label": "mc", "n_samples": 2000},
@@ -272,7 +272,7 @@ def test_pce_density_is_a_kde_of_the_kept_surrogate(tmp_path):
 
 
 def test_a_zero_one_output_is_drawn_as_a_probability(tmp_path):
-    from uqguide.plots import scalar_figure
+    from uqguide.report.plots import scalar_figure
 
     cfg = {"model": {"name": "callable", "function": "tests.fixtures_models:indicator",
                      "inputs": ["a"]},

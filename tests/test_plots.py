@@ -13,10 +13,12 @@ from click.testing import CliRunner
 from matplotlib.image import imread
 
 from uqguide.cli import main
-from uqguide.config import validate_config
-from uqguide.plots import _moment_density, cost_figure, scalar_figure, series_figure, write_figures
-from uqguide.propagate import run
-from uqguide.report_document import write_report
+from uqguide.config.run_config import validate_config
+from uqguide.report.plots import (
+    _moment_density, cost_figure, scalar_figure, series_figure, write_figures,
+)
+from uqguide.driver.propagate import run
+from uqguide.report.document import write_report
 
 
 def _texts(fig) -> list[str]:

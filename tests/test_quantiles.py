@@ -6,19 +6,15 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from uqguide.config import validate_config
+from uqguide.config.run_config import validate_config
 from uqguide.errors import ConfigError
 from uqguide.methods import mc_reduce
-from uqguide.propagate import run
-from uqguide import quantiles
-from uqguide.quantiles import (
-    THREE_SIGMA,
-    coverage,
-    order_statistic_quantiles,
-    ranks,
-    select_order_statistics,
+from uqguide.driver.propagate import run
+from uqguide.stats import quantiles
+from uqguide.stats.quantiles import (
+    THREE_SIGMA, coverage, order_statistic_quantiles, ranks, select_order_statistics,
 )
-from uqguide.result import read_hdf5, write_hdf5
+from uqguide.results.result import read_hdf5, write_hdf5
 
 LEVELS = [0.01, 0.1, 0.5, 0.9, 0.99]
 A = [0.3, 0.2, 0.1]
@@ -119,8 +115,8 @@ def test_bad_quantile_levels_name_the_field(value, field):
 
 
 def test_envelope_figure_and_events_section_are_written(tmp_path):
-    from uqguide.plots import write_figures
-    from uqguide.report import render_markdown
+    from uqguide.report.plots import write_figures
+    from uqguide.report.tables import render_markdown
 
     cfg = validate_config({
         "model": {"name": "linear_gaussian"},

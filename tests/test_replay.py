@@ -12,9 +12,9 @@ import pytest
 from click.testing import CliRunner
 
 from uqguide.cli import main
-from uqguide.config import validate_config
-from uqguide.propagate import run
-from uqguide.result import read_hdf5, write_hdf5
+from uqguide.config.run_config import validate_config
+from uqguide.driver.propagate import run
+from uqguide.results.result import read_hdf5, write_hdf5
 
 TABLE4 = {
     "model": {"name": "ftcapn", "gravity": "none", "t_final": 95.0},

@@ -8,10 +8,10 @@ import h5py
 import numpy as np
 import pytest
 
-from uqguide.config import validate_config
+from uqguide.config.run_config import validate_config
 from uqguide.errors import ResultError
-from uqguide.propagate import run
-from uqguide.result import read_hdf5, write_hdf5
+from uqguide.driver.propagate import run
+from uqguide.results.result import read_hdf5, write_hdf5
 
 
 @pytest.fixture
@@ -119,7 +119,7 @@ def test_write_is_atomic(result, tmp_path, monkeypatch):
     def boom(*args, **kwargs):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr("uqguide.result._write_run", boom)
+    monkeypatch.setattr("uqguide.results.result._write_run", boom)
     with pytest.raises(RuntimeError):
         write_hdf5(result, target)
     assert list(tmp_path.iterdir()) == [], "no partial or temporary file may remain"

@@ -18,7 +18,7 @@ import yaml
 from click.testing import CliRunner
 
 from uqguide.cli import main
-from uqguide.result import read_hdf5
+from uqguide.results.result import read_hdf5
 
 from .failing_models import mc_config
 
@@ -155,13 +155,13 @@ def test_a_model_whose_code_changed_is_refused(tmp_path, monkeypatch):
     (pkg / "__init__.py").write_text("")
     (pkg / "f.py").write_text("def f(x):\n    return x[:, 0] + x[:, 1]\n")
     monkeypatch.syspath_prepend(str(tmp_path))
-    from uqguide.checkpoint import RunStore, run_identity
-    from uqguide.config import validate_config
+    from uqguide.driver.checkpoint import RunStore, run_identity
+    from uqguide.config.run_config import validate_config
 
     c = validate_config(_config("usermod.f:f", 200))
     folder = tmp_path / "out" / "x.run"
     store = RunStore.open(folder, run_identity(c.resolved(), c.model), resume=False)
-    from uqguide.propagate import run
+    from uqguide.driver.propagate import run
 
     run(c, store=store)
     (pkg / "f.py").write_text("def f(x):\n    return x[:, 0] - x[:, 1]\n")
@@ -173,9 +173,9 @@ def test_a_model_whose_code_changed_is_refused(tmp_path, monkeypatch):
 
 
 def test_manifest_lines_and_chunk_files(tmp_path):
-    from uqguide.checkpoint import RunStore, run_identity
-    from uqguide.config import validate_config
-    from uqguide.propagate import run
+    from uqguide.driver.checkpoint import RunStore, run_identity
+    from uqguide.config.run_config import validate_config
+    from uqguide.driver.propagate import run
 
     c = validate_config(_config("tests.failing_models:clean_sum", 300))
     store = RunStore.open(tmp_path / "r.run", run_identity(c.resolved(), c.model), resume=False)
@@ -194,10 +194,10 @@ def test_a_checkpoint_write_that_fails_stops_the_run_and_lists_only_what_is_on_d
     """Chunks are written by a background thread; its error (here a full disk at the second
     chunk) reaches the run, which fails with it, and the manifest lists exactly the chunk
     files written before it, so a resume re-runs the rest."""
-    from uqguide import checkpoint
-    from uqguide.checkpoint import RunStore, run_identity
-    from uqguide.config import validate_config
-    from uqguide.propagate import run
+    from uqguide.driver import checkpoint
+    from uqguide.driver.checkpoint import RunStore, run_identity
+    from uqguide.config.run_config import validate_config
+    from uqguide.driver.propagate import run
 
     real = checkpoint._write_chunk
     written = []

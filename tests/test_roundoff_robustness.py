@@ -24,12 +24,12 @@ from pathlib import Path
 
 import pytest
 
-from uqguide.config import load_config
-from uqguide.gate import check_result, read_baseline
+from uqguide.config.run_config import load_config
+from uqguide.gate.check import check_result, read_baseline
 from uqguide.models.kernels import KERNEL_ENV
 from uqguide.models.roundoff import PERTURB_ENV
 from uqguide.papers import nominal_report
-from uqguide.propagate import run
+from uqguide.driver.propagate import run
 
 ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = ROOT / "tests" / "golden"

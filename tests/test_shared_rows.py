@@ -1,4 +1,4 @@
-"""Per-run values written in place by pool workers (uqguide.execution.shared_rows): the same
+"""Per-run values written in place by pool workers (uqguide.driver.execution.shared_rows): the same
 numbers as the pipe, what happens without room, and no file left behind."""
 
 from __future__ import annotations
@@ -9,13 +9,13 @@ import os
 import numpy as np
 import pytest
 
-from uqguide.config import validate_config
-from uqguide.execution import ProcessExecutor, SerialExecutor
-from uqguide.execution import shared_rows
-from uqguide.execution.chunks import ChunkResult, Task
-from uqguide.execution.shared_rows import SharedRows, write_in_place
+from uqguide.config.run_config import validate_config
+from uqguide.driver.execution import ProcessExecutor, SerialExecutor
+from uqguide.driver.execution import shared_rows
+from uqguide.driver.execution.chunks import ChunkResult, Task
+from uqguide.driver.execution.shared_rows import SharedRows, write_in_place
 from uqguide.methods.mc_reduce import append_columns
-from uqguide.propagate import run
+from uqguide.driver.propagate import run
 
 from .test_execution import FLAKY, _arrays, _assert_identical
 

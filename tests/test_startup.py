@@ -48,7 +48,7 @@ def test_baseline_and_check_import_none_of_them(tmp_path):
 def test_the_three_sigma_literals_are_scipys():
     from scipy import stats
 
-    from uqguide.quantiles import THREE_SIGMA
+    from uqguide.stats.quantiles import THREE_SIGMA
 
     assert THREE_SIGMA == (float(stats.norm.cdf(-3.0)), 0.5, float(stats.norm.cdf(3.0)))
 
@@ -62,7 +62,7 @@ def test_checking_report_times_loads_no_compiled_kernel():
 import sys
 import numpy as np
 import uqguide
-from uqguide.report_times import check_config_report_times, model_time_grid
+from uqguide.config.report_times import check_config_report_times, model_time_grid
 c = uqguide.load_config("configs/ftcapn_table3.yaml")
 check_config_report_times(c)
 print("NUMBA:" + str("numba" in sys.modules))

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from uqguide.config import validate_config
+from uqguide.config.run_config import validate_config
 from uqguide.errors import ConfigError, MethodError
-from uqguide.execution import ProcessExecutor
-from uqguide.propagate import run
-from uqguide.report import cost_table
+from uqguide.driver.execution import ProcessExecutor
+from uqguide.driver.propagate import run
+from uqguide.report.tables import cost_table
 
 P_EXACT = 1e-5
 D = 6
@@ -82,7 +82,7 @@ def test_a_result_with_subset_simulation_reads_back_and_replays(tmp_path):
     from click.testing import CliRunner
 
     from uqguide.cli import main
-    from uqguide.result import read_hdf5, write_hdf5
+    from uqguide.results.result import read_hdf5, write_hdf5
 
     res = run(_config(n_per_level=100))
     h5 = write_hdf5(res, tmp_path / "r.h5")

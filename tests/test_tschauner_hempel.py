@@ -7,10 +7,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from uqguide.models.dynamics.tschauner_hempel import (
-    ChiefOrbit,
-    LVLHPlant,
-    propagate_free,
-    rk4_transition,
+    ChiefOrbit, LVLHPlant, propagate_free, rk4_transition,
 )
 
 WANG_ORBIT = ChiefOrbit(a=6778.1336e3, e=0.01, f0=0.0)

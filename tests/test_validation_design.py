@@ -8,10 +8,11 @@ import pytest
 from scipy import stats
 
 from uqguide.pce.validation import corrected_moments
-from uqguide.pce.validation_design import (MIN_PER_STRATUM, STRATA, neyman_allocation,
-                                           random_validation, strata_edges,
-                                           stratified_validation)
-from uqguide.types import OutputStats
+from uqguide.pce.validation_design import (
+    MIN_PER_STRATUM, STRATA, neyman_allocation, random_validation, strata_edges,
+    stratified_validation,
+)
+from uqguide.core.types import OutputStats
 
 
 def _normal(u: np.ndarray) -> dict[str, np.ndarray]:

@@ -6,7 +6,7 @@ The package is organised around three abstractions:
   outputs (time series ``(n, T, k)`` and scalars ``(n, k)``) plus a failure mask;
 - :class:`uqguide.methods.base.Method` designs the runs to make and turns the model's outputs
   into statistics (Monte Carlo, full-tensor PCE, Smolyak PCE, adaptive sparse PCE);
-- :class:`uqguide.result.Result` holds the statistics, diagnostics and provenance of a run
+- :class:`uqguide.results.result.Result` holds the statistics, diagnostics and provenance of a run
   and writes them to HDF5.
 
 The Python API (imported on first use, so ``import uqguide`` stays cheap)::

@@ -30,8 +30,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from .config import RunConfig
-    from .result import Result
+    from .config.run_config import RunConfig
+    from .results.result import Result
 
 
 def load_config(config: str | Path | Mapping[str, Any] | RunConfig) -> RunConfig:
@@ -62,7 +62,7 @@ def load_config(config: str | Path | Mapping[str, Any] | RunConfig) -> RunConfig
     >>> cfg.model.name, [m.label for m in cfg.methods]
     ('ftcapn', ['mc1000'])
     """
-    from .config import RunConfig, load_config as _load, validate_config
+    from .config.run_config import RunConfig, load_config as _load, validate_config
 
     if isinstance(config, RunConfig):
         return config
@@ -111,9 +111,9 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     >>> bool(row.ci_low < 1.0671 < row.ci_high)   # the exact mean exp(0.13 / 2)
     True
     """
-    from .execution import make_executor
-    from .progress_display import make_progress
-    from .propagate import run as _run
+    from .driver.execution import make_executor
+    from .driver.progress_display import make_progress
+    from .driver.propagate import run as _run
 
     cfg = load_config(config)
     if seed is not None:
@@ -121,7 +121,7 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     executor = make_executor(workers) if workers else None
     shown = make_progress(sys.stderr, not progress)
     if out is not None:
-        from .run_and_write import run_and_write
+        from .driver.run_and_write import run_and_write
 
         return run_and_write(cfg, out, executor, workers=workers or 1, progress=shown).result
     try:
@@ -150,6 +150,6 @@ def read_result(path: str | Path) -> Result:
     uqguide.errors.ResultError
         If the file is missing, not a uqguide result or incomplete.
     """
-    from .result import read_hdf5
+    from .results.result import read_hdf5
 
     return read_hdf5(path)

@@ -3,7 +3,7 @@
 Exit codes: 0 success; 1 a run that could not produce its result (UqguideError); 2 bad input
 (ConfigError, or a usage error caught by click) with one line naming the field, the value and
 what is allowed, and no traceback; 130 stopped by SIGINT (Ctrl-C) or SIGTERM, at any moment
-(:mod:`uqguide.interrupts`).
+(:mod:`uqguide.driver.interrupts`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import click
 
 from ._version import __version__
 from .errors import ConfigError, ResultError, UqguideError
-from .interrupts import EXIT_INTERRUPTED, ignore_signals, install
+from .driver.interrupts import EXIT_INTERRUPTED, ignore_signals, install
 
 
 def _handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -45,7 +45,7 @@ def _setup_logging(verbose: int) -> None:
 
 
 def _interrupted(exc: KeyboardInterrupt) -> None:
-    from .interrupts import Terminated
+    from .driver.interrupts import Terminated
 
     what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
     try:
@@ -70,7 +70,7 @@ class _Group(click.Group):
     """The command group: a SIGINT or SIGTERM anywhere in a command is exit 130, one line."""
 
     def invoke(self, ctx: click.Context) -> Any:
-        from .interrupts import EXIT_INTERRUPTED, raise_swallowed
+        from .driver.interrupts import EXIT_INTERRUPTED, raise_swallowed
 
         try:
             result = super().invoke(ctx)
@@ -88,7 +88,7 @@ class _Group(click.Group):
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
         # Also around click's own parsing and exit, where click would print "Aborted!", exit 1.
-        from .interrupts import EXIT_INTERRUPTED, install, restore
+        from .driver.interrupts import EXIT_INTERRUPTED, install, restore
 
         previous = install()
         try:
@@ -144,15 +144,15 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, resume: bool,
         check_path: Path | None, quiet: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
-    from .budget import estimate
-    from .checkpoint import RunInterrupted
-    from .config import load_config
-    from .execution import Executor, ProcessExecutor, make_executor
-    from .progress_display import make_progress
-    from .propagate import check_failure_budget, check_methods
-    from .report import render_text
-    from .report_times import check_config_report_times
-    from .run_and_write import WriteInterrupted, run_and_write
+    from .config.budget import estimate
+    from .driver.checkpoint import RunInterrupted
+    from .config.run_config import load_config
+    from .driver.execution import Executor, ProcessExecutor, make_executor
+    from .driver.progress_display import make_progress
+    from .driver.propagate import check_failure_budget, check_methods
+    from .report.tables import render_text
+    from .config.report_times import check_config_report_times
+    from .driver.run_and_write import WriteInterrupted, run_and_write
 
     _check_executor_flags(workers, scheduler, scheduler_file)
     executor: Executor | None = None
@@ -210,8 +210,8 @@ def validate(config: Path) -> None:
 
     A ``callable`` model's module is imported (its code runs): treat a config like code.
     """
-    from .budget import check_memory, estimate
-    from .config import load_config
+    from .config.budget import check_memory, estimate
+    from .config.run_config import load_config
 
     cfg = load_config(config)
     methods = ", ".join(f"{m.label} ({m.name})" for m in cfg.methods)
@@ -232,7 +232,7 @@ def validate(config: Path) -> None:
 @_handle_errors
 def simulate(config: Path, fig_dir: Path | None) -> None:
     """Run CONFIG's model once at its nominal inputs; print its figures beside the paper's."""
-    from .config import load_config
+    from .config.run_config import load_config
     from .papers import NoPaperScenario, format_report, nominal_figures, nominal_report
 
     cfg = load_config(config)
@@ -252,7 +252,7 @@ def simulate(config: Path, fig_dir: Path | None) -> None:
 @_handle_errors
 def configs_command(copy: tuple[str, Path] | None) -> None:
     """List the shipped studies (run one with `uqguide run NAME`), or copy one out to edit."""
-    from .catalog import copy_study, studies
+    from .config.catalog import copy_study, studies
 
     if copy is not None:
         click.echo(f"wrote {copy_study(copy[0], copy[1])}")
@@ -268,8 +268,8 @@ def configs_command(copy: tuple[str, Path] | None) -> None:
 @_handle_errors
 def models(name: str | None) -> None:
     """List the models with their inputs, outputs and parameters (or one model: NAME)."""
-    from .registry import MODELS, model_class
-    from .describe import describe_model
+    from .config.registry import MODELS, model_class
+    from .report.describe import describe_model
 
     names = [name] if name else list(MODELS)
     for i, n in enumerate(names):
@@ -283,8 +283,8 @@ def models(name: str | None) -> None:
 @_handle_errors
 def methods() -> None:
     """List the propagation methods with their settings."""
-    from .registry import METHODS, method_class
-    from .describe import describe_settings
+    from .config.registry import METHODS, method_class
+    from .report.describe import describe_settings
 
     for i, n in enumerate(METHODS):
         cls = method_class(n)
@@ -312,7 +312,7 @@ def _unusable_input_is_2(fn: Callable[..., Any]) -> Callable[..., Any]:
 @_unusable_input_is_2
 def _gate_preflight(path: Path, cfg: Any) -> Any:
     """The baseline of ``run --check``, matched to the config before anything runs."""
-    from .gate import check_compatible, read_baseline
+    from .gate.check import check_compatible, read_baseline
 
     baseline = read_baseline(path)
     check_compatible(baseline, cfg.model.name, {m.label: m.name for m in cfg.methods},
@@ -324,7 +324,7 @@ def _gate_preflight(path: Path, cfg: Any) -> Any:
 def _gate_verdict(result: Any, baseline: Any, path: Path, sigmas: float | None = None,
                   pce_rtol: float | None = None, show_all: bool = False) -> None:
     """Print the check of ``result`` against ``baseline``; exit 1 on a regression."""
-    from .gate import DEFAULT_SIGMAS, check_result
+    from .gate.check import DEFAULT_SIGMAS, check_result
 
     report = check_result(result, baseline, DEFAULT_SIGMAS if sigmas is None else sigmas,
                           pce_rtol, str(path))
@@ -376,8 +376,8 @@ def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol
     Exit 0 when every statistic is within tolerance, 1 on a regression (the failing quantities
     are listed with value, baseline and tolerance), 2 when RESULT or the baseline is unusable.
     """
-    from .gate import read_baseline
-    from .result import read_hdf5
+    from .gate.check import read_baseline
+    from .results.result import read_hdf5
 
     baseline = read_baseline(baseline_path)
     _gate_verdict(read_hdf5(result_path), baseline, baseline_path, sigmas, pce_rtol, show_all)
@@ -394,8 +394,8 @@ def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol
 @_unusable_input_is_2
 def baseline(result_path: Path, out_path: Path, pce_rtol: float, force: bool) -> None:
     """Write the baseline of RESULT: its statistics, their uncertainties, config and versions."""
-    from .gate import write_baseline
-    from .result import read_hdf5
+    from .gate.check import write_baseline
+    from .results.result import read_hdf5
 
     if out_path.exists() and not force:
         raise ConfigError(f"{out_path}: baseline exists; baselines change only on purpose: "
@@ -411,8 +411,8 @@ def baseline(result_path: Path, out_path: Path, pce_rtol: float, force: bool) ->
 @_unusable_input_is_2
 def plot(result_path: Path, out_dir: Path | None) -> None:
     """PNG figures of RESULT: statistics over time, scalar histograms, the cost table."""
-    from .plots import write_figures
-    from .result import read_hdf5
+    from .report.plots import write_figures
+    from .results.result import read_hdf5
 
     result = read_hdf5(result_path)
     for f in write_figures(result, out_dir or result_path.parent / "figures"):
@@ -430,9 +430,9 @@ def plot(result_path: Path, out_dir: Path | None) -> None:
 @_unusable_input_is_2
 def report(result_path: Path, out_dir: Path | None, baseline_path: Path | None) -> None:
     """A Markdown report of RESULT embedding its figures and tables."""
-    from .gate import check_result, read_baseline
-    from .report_document import write_report
-    from .result import read_hdf5
+    from .gate.check import check_result, read_baseline
+    from .report.document import write_report
+    from .results.result import read_hdf5
 
     result = read_hdf5(result_path)
     check_report = None
@@ -468,8 +468,8 @@ def replay(result_path: Path, label: str, sample: int | None, worst: str | None,
     Exit 0 when the replayed scalars equal the stored ones bit for bit, 1 when they differ (the
     code or a dependency changed since RESULT was written), 2 on bad input.
     """
-    from .replay import render, replay as replay_sample, write_replay
-    from .result import read_hdf5
+    from .driver.replay import render, replay as replay_sample, write_replay
+    from .results.result import read_hdf5
 
     result = read_hdf5(result_path)
     rep, cfg = replay_sample(result, label, sample=sample, worst=worst, lowest=lowest,

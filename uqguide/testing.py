@@ -2,8 +2,8 @@
 
 As scikit-learn's ``check_estimator`` does for estimators, :func:`check_model` and
 :func:`check_method` take a class and raise :class:`ConformanceError` naming the first broken
-rule, so a model or method added to :mod:`uqguide.registry` is covered by the parametrised test
-``tests/test_conformance.py`` with no test code of its own. A class states how it is checked
+rule, so a model or method added to :mod:`uqguide.config.registry` is covered by the parametrised
+test ``tests/test_conformance.py`` with no test code of its own. A class states how it is checked
 cheaply through :attr:`Model.example_params` (a short horizon) and
 :attr:`Method.example_settings` (a small design).
 
@@ -47,16 +47,16 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from .checkpoint import RunStore, run_identity
-from .config import validate_config
+from .driver.checkpoint import RunStore, run_identity
+from .config.run_config import validate_config
 from .errors import ModelError
-from .execution import ChunkJob, ChunkResult, Executor, ProcessExecutor, SerialExecutor, Task
+from .driver.execution import ChunkJob, ChunkResult, Executor, ProcessExecutor, SerialExecutor, Task
 from .methods.base import Method, RunContext
 from .models.base import Model
 from .models.benchmarks import LinearGaussian
-from .propagate import propagate
-from .result import MethodRun
-from .types import GeneratedRows, ModelOutput
+from .driver.propagate import propagate
+from .results.result import MethodRun
+from .core.types import GeneratedRows, ModelOutput
 
 __all__ = ["ConformanceError", "check_method", "check_model"]
 

@@ -4,7 +4,7 @@ A method works in phases, so a design can be stored, run elsewhere and resumed:
 
 1. :meth:`Method.design` gives the runs to make (inputs ``x (n, d)`` plus whatever the method
    needs later, e.g. quadrature weights);
-2. the driver (:func:`uqguide.propagate.propagate`) evaluates the model on the design;
+2. the driver (:func:`uqguide.driver.propagate.propagate`) evaluates the model on the design;
 3. :meth:`Method.refine` may ask for more runs (sequential designs, :attr:`Method.refines`);
    the driver evaluates them and calls it again until it returns ``None``;
 4. :meth:`Method.estimate` gives the statistics and diagnostics (or, for a method that
@@ -12,11 +12,11 @@ A method works in phases, so a design can be stored, run elsewhere and resumed:
    :meth:`Method.estimate_reduced`). A method that cannot produce statistics raises
    :class:`~uqguide.errors.MethodError`: the run records it and completes the other methods.
 
-Methods never know which model they run: they see the :class:`~uqguide.inputs.InputSpace`, the
-:class:`~uqguide.types.ModelOutput` and the :class:`RunContext` they were built with.
+Methods never know which model they run: they see the :class:`~uqguide.core.inputs.InputSpace`, the
+:class:`~uqguide.core.types.ModelOutput` and the :class:`RunContext` they were built with.
 
 A new method is one module with a ``Settings`` class and a ``Method`` subclass declaring its
-capability flags and ``example_settings``, plus one line in :mod:`uqguide.registry`; the
+capability flags and ``example_settings``, plus one line in :mod:`uqguide.config.registry`; the
 conformance suite (:func:`uqguide.testing.check_method`) then checks it with no test code.
 """
 
@@ -32,11 +32,11 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from pydantic import ConfigDict, Field
 
-from ..strict import StrictModel
+from ..core.strict import StrictModel
 
-from ..events import EventSpec
-from ..inputs import InputSpace
-from ..types import DerivedOutput, Estimate, GeneratedRows, ModelOutput
+from ..core.events import EventSpec
+from ..core.inputs import InputSpace
+from ..core.types import DerivedOutput, Estimate, GeneratedRows, ModelOutput
 
 
 class MethodSettings(StrictModel):
@@ -266,7 +266,7 @@ class Method(ABC):
     # ------------------------------------------------------------------ budgets
     def plan(self, space: InputSpace) -> RunPlan:
         """What the method will ask for, known before any design is built (for the budgets
-        of :mod:`uqguide.budget`). Default: unknown until the design is built."""
+        of :mod:`uqguide.config.budget`). Default: unknown until the design is built."""
         return RunPlan(runs=None)
 
     # ------------------------------------------------------------------ execution hooks

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..stats import MomentSums
+from ..stats.moments import MomentSums
 
 Key = tuple[str, str]
 

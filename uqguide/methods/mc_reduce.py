@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..types import ModelOutput, ScalarIndex
-from ..stats import MomentSums
+from ..core.types import ModelOutput, ScalarIndex
+from ..stats.moments import MomentSums
 
 
 # CDF of Poisson(1) at k = 0..19 (the mass beyond 19 is 1.9e-19, below double resolution).
@@ -88,7 +88,7 @@ class MonteCarloReducer:
     def per_run(key: str) -> bool:
         """Whether a summary entry holds per-run values (``q::``, lane-major, a column per
         good run) rather than sums: a process pool's workers write those in place
-        (:mod:`uqguide.execution.shared_rows`)."""
+        (:mod:`uqguide.driver.execution.shared_rows`)."""
         return key.startswith("q::")
 
     def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:

@@ -14,11 +14,11 @@ fail; failed runs are counted and their reasons tallied in the diagnostics.
 
 Statistics are computed in streaming form, always (one code path, whatever the size or the
 executor): each chunk is reduced where it ran to mergeable sums (count, mean, central moment
-sums up to the 4th, comoments; :class:`~uqguide.stats.MomentSums`) and the chunks are merged
+sums up to the 4th, comoments; :class:`~uqguide.stats.moments.MomentSums`) and the chunks are merged
 in chunk order, so a 1e6-sample run never holds its time series, and the numbers do not depend
 on which process reduced which chunk. Per-sample scalar outputs are kept (they are small).
 The 95% intervals of mean, std, skewness and kurtosis are by default **delta-method**
-intervals (``intervals: delta``; :func:`~uqguide.stats.delta_intervals`): the influence
+intervals (``intervals: delta``; :func:`~uqguide.stats.moments.delta_intervals`): the influence
 functions' variance needs the central moments up to the 8th, which the chunks sum like the
 others at the interval columns, so the intervals cost a few power sums instead of ``B``
 weighted ones. ``intervals: bootstrap`` gives instead a **Poisson bootstrap** (Hanley &
@@ -31,7 +31,7 @@ times and the last step (``bootstrap_times: report``) or at every step (``all``;
 ``4 B T k`` multiply-adds per sample).
 
 Quantiles (the config's ``quantiles``) are order statistics with distribution-free intervals
-(:mod:`uqguide.quantiles`): scalars from the kept per-sample values; series from each chunk's
+(:mod:`uqguide.stats.quantiles`): scalars from the kept per-sample values; series from each chunk's
 values at every step (at the report times and the last step above
 :data:`~uqguide.methods.mc_reduce.QUANTILE_ALL_FLOATS`), concatenated in chunk order. Events
 (the config's ``events``) are counted over the good runs with Clopper-Pearson intervals.
@@ -53,15 +53,14 @@ import numpy as np
 from pydantic import Field
 
 from ..errors import MethodError
-from ..inputs import InputSpace
-from ..types import ModelOutput
-from ..events import count_events
-from ..quantiles import lane_quantiles, order_statistic_quantiles
-from ..stats import OutputStats, statistics_from_sums
+from ..core.inputs import InputSpace
+from ..core.types import ModelOutput
+from ..core.events import count_events
+from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
+from ..stats.moments import OutputStats, statistics_from_sums
 from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
 from .mc_fold import FoldedSums
-from .mc_reduce import (MonteCarloReducer, append_columns, ci_index, scalar_names,
-                        split_summary)
+from .mc_reduce import MonteCarloReducer, append_columns, ci_index, scalar_names, split_summary
 
 log = logging.getLogger(__name__)
 
@@ -241,7 +240,7 @@ class MonteCarlo(Method):
             log.warning("%s: %d of %d runs failed; statistics use the other %d",
                         self.label, n_failed, runs.n, runs.n - n_failed)
         if not acc:
-            from ..failures import render_reasons
+            from ..core.failures import render_reasons
 
             raise MethodError(f"{self.label}: every one of the {runs.n} runs failed, no "
                               f"statistics ({tally})\n\nFailed runs\n"

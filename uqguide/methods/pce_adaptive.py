@@ -58,10 +58,10 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ..errors import MethodError
-from ..inputs import InputSpace
-from ..types import ModelOutput
+from ..core.inputs import InputSpace
+from ..core.types import ModelOutput
 from ..pce.basis import hyperbolic_indices
-from ..events import EventEstimate
+from ..core.events import EventEstimate
 from ..pce.tails import control_variate_events, surrogate_values
 from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
@@ -72,8 +72,9 @@ from ..pce.sparse_regression import Q_GRID, ColumnsFit, fit_columns
 from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign
 from .base import Design, Estimate, Method, MethodSettings, RunPlan
-from .pce_validated import (USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish,
-                            validation_design)
+from .pce_validated import (
+    USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish, validation_design,
+)
 
 log = logging.getLogger(__name__)
 

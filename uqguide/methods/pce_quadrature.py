@@ -27,8 +27,8 @@ import numpy as np
 from pydantic import Field
 
 from ..errors import MethodError
-from ..inputs import InputSpace
-from ..types import ModelOutput
+from ..core.inputs import InputSpace
+from ..core.types import ModelOutput
 from ..pce import basis
 from ..pce.design import SURROGATE_STREAM, stream
 from ..pce.expansion import Expansion
@@ -40,8 +40,10 @@ from ..pce.quadrature import Grid, union_basis
 from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign, random_validation
 from .base import Design, Estimate, Method, MethodSettings
-from .pce_validated import (USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish,
-                            split_validation, validation_design)
+from .pce_validated import (
+    USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish, split_validation,
+    validation_design,
+)
 
 log = logging.getLogger(__name__)
 

@@ -38,7 +38,7 @@ from pydantic import Field
 
 from ..errors import ConfigError
 from ..pce.germ import NORMAL, UNIFORM, Germ
-from ..inputs import InputSpace
+from ..core.inputs import InputSpace
 from ..pce.quadrature import Grid, smolyak_grid
 from .base import RunPlan
 from .pce_quadrature import MAX_NODES, QuadraturePCE, QuadratureSettings

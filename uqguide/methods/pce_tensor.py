@@ -30,7 +30,7 @@ from pydantic import Field
 from ..errors import ConfigError
 from ..pce.germ import Germ
 from ..pce.quadrature import RULE_FAMILIES, Grid, tensor_grid
-from ..inputs import InputSpace
+from ..core.inputs import InputSpace
 from .base import RunPlan
 from .pce_quadrature import MAX_NODES, QuadraturePCE, QuadratureSettings
 

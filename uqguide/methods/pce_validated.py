@@ -22,16 +22,16 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import ConfigDict, Field
 
-from ..strict import StrictModel
+from ..core.strict import StrictModel
 
-from ..inputs import InputSpace
+from ..core.inputs import InputSpace
 from ..pce.surrogate import Surrogate
-from ..pce.validation import (USABLE_ERROR, corrected_moments, disagreement,
-                              first_sustained, sampling_se, usable_mask, validation_unit_rows,
-                              withdraw)
-from ..pce.validation_design import (ValidationDesign, random_validation,
-                                     stratified_validation)
-from ..types import Estimate, ModelOutput
+from ..pce.validation import (
+    USABLE_ERROR, corrected_moments, disagreement, first_sustained, sampling_se, usable_mask,
+    validation_unit_rows, withdraw,
+)
+from ..pce.validation_design import ValidationDesign, random_validation, stratified_validation
+from ..core.types import Estimate, ModelOutput
 
 log = logging.getLogger(__name__)
 

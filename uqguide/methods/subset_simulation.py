@@ -43,9 +43,9 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ..errors import ConfigError, MethodError
-from ..events import EventEstimate, EventSpec, component_index
-from ..inputs import InputSpace
-from ..types import ModelOutput
+from ..core.events import EventEstimate, EventSpec, component_index
+from ..core.inputs import InputSpace
+from ..core.types import ModelOutput
 from .base import Design, Estimate, Method, MethodSettings
 
 log = logging.getLogger(__name__)

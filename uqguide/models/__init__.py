@@ -1,1 +1,5 @@
-"""Models: the contract (``base``), analytic benchmarks, simulators, and user callables."""
+"""Models, above ``stats``: the contract (``base``), benchmarks, simulators, user callables.
+
+A simulator is a folder: ``model.py`` (parameters and the batch interface), the compiled
+``kernel_numba.py`` and its NumPy reference ``kernel_numpy.py``, chosen by ``kernels.select``.
+"""

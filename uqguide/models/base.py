@@ -13,7 +13,7 @@ analytic benchmark, a user's Python callable) can be propagated by any method.
 
 A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class (and
 ``example_params``, a cheap configuration), ``inputs()``, ``outputs()`` and ``_evaluate``;
-registering it is one line in :mod:`uqguide.registry`, and the conformance suite
+registering it is one line in :mod:`uqguide.config.registry`, and the conformance suite
 (:func:`uqguide.testing.check_model`) then checks it with no test code. What a paper says about
 a model (its nominal figures and checks) lives in :mod:`uqguide.papers`, not in the model.
 """
@@ -28,10 +28,10 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from pydantic import ConfigDict
 
-from ..strict import StrictModel
+from ..core.strict import StrictModel
 
 from ..errors import ModelError
-from ..types import DerivedOutput, ModelOutput
+from ..core.types import DerivedOutput, ModelOutput
 from .roundoff import apply_env
 
 __all__ = ["DerivedOutput", "InputInfo", "Model", "ModelOutput", "ModelParams", "OutputInfo",
@@ -108,7 +108,7 @@ class OutputInfo:
 @dataclass(frozen=True)
 class StepCount:
     """How much one run of a time-stepping model computes, from its parameters alone (the
-    budgets of :mod:`uqguide.budget` are checked with it before anything runs).
+    budgets of :mod:`uqguide.config.budget` are checked with it before anything runs).
 
     Attributes
     ----------

@@ -18,7 +18,7 @@ returns either
   plus ``"time": (T,)`` when there are series.
 
 A sample with a non-finite output value is flagged as failed, not raised; a call that raises
-is split until the raising samples fail alone (see :func:`uqguide.execution.evaluate_batch`).
+is split until the raising samples fail alone (see :func:`uqguide.driver.execution.evaluate_batch`).
 
 Where the module is found: ``"oscillator:damped"`` is looked up first as ``oscillator.py`` (or a
 package folder ``oscillator/``) in the config file's folder, then in the current folder, then

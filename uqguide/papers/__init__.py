@@ -1,4 +1,6 @@
-"""Paper scenarios: each paper's nominal checks, report rows and figures, on top of the models.
+"""Paper scenarios, above ``report``.
+
+Each paper's nominal checks, report rows and figures, on top of the models.
 
 A model simulates; it does not know which paper it reproduces nor how that paper draws it. This
 layer holds, per simulator with a paper behind it, a subpackage with

@@ -1,4 +1,6 @@
-"""Polynomial chaos building blocks shared by the PCE methods (uq-methods.md sections 4.2-4.5).
+"""Polynomial-chaos building blocks, above ``models``.
+
+The pieces the PCE methods share (uq-methods.md sections 4.2-4.5).
 
 One concept per module, as a pipeline of small functions::
 

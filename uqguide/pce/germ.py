@@ -37,7 +37,7 @@ import numpy as np
 if TYPE_CHECKING:
     import chaospy
 
-from ..inputs import InputSpace, LogNormal, Normal, TruncNormal, Uniform
+from ..core.inputs import InputSpace, LogNormal, Normal, TruncNormal, Uniform
 
 #: Germ families: which orthogonal polynomials and which nested rules apply.
 NORMAL, UNIFORM, OTHER = "normal", "uniform", "other"

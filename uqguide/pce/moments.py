@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..stats import OutputStats, shape_moments
+from ..stats.moments import OutputStats, shape_moments
 from . import basis, linearisation
 from .design import surrogate_draws
 from .expansion import Expansion
@@ -188,7 +188,7 @@ def output_statistics(
     else:
         mu2, mu3, mu4 = central_moments_sampled(exp, n_draws, seed, sampling)
     # The reported std is the exact one, and it decides which columns have zero variance (with
-    # the threshold of uqguide.stats, so PCE and Monte Carlo agree on what is "zero").
+    # the threshold of uqguide.stats.moments, so PCE and Monte Carlo agree on what is "zero").
     zeros = np.zeros_like(var)
     std, flag, _ = shape_moments(mean.ravel(), var, zeros, zeros)
     zero = np.isnan(flag)

@@ -16,13 +16,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MethodError
-from ..types import ModelOutput, ScalarIndex
-from ..stats import OutputStats
+from ..core.types import ModelOutput, ScalarIndex
+from ..stats.moments import OutputStats
 from . import moments
 from .derived import DerivedOutput, derived_statistics
 from .expansion import Expansion
 from .tails import surrogate_tails
-from ..events import EventEstimate, EventSpec
+from ..core.events import EventEstimate, EventSpec
 
 
 @dataclass

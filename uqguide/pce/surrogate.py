@@ -4,7 +4,7 @@ outputs' carriers, evaluated as one vectorised predictor of the physical inputs.
 The statistics of a PCE are a function of its coefficients; keeping only the statistics throws
 away what the runs paid for (a density, a probability, a value at a new point). A
 :class:`Surrogate` is what a PCE method fitted, in the form the result file stores
-(:mod:`uqguide.result_surrogate`) and :meth:`uqguide.result.Result.surrogate` gives back.
+(:mod:`uqguide.results.surrogate`) and :meth:`uqguide.results.result.Result.surrogate` gives back.
 
 The input-to-germ map is the inverse of :meth:`uqguide.pce.germ.Germ.to_physical`, input by
 input (:func:`germ_map`): ``xi = (g(x) - shift) / scale`` with ``g`` the identity, or ``log`` for
@@ -20,8 +20,8 @@ from types import MappingProxyType
 
 import numpy as np
 
-from ..inputs import LogNormal, Normal, TruncNormal, Uniform
-from ..types import DerivedOutput, OutputStats
+from ..core.inputs import LogNormal, Normal, TruncNormal, Uniform
+from ..core.types import DerivedOutput, OutputStats
 from . import moments
 from .expansion import Expansion
 from .germ import Germ

@@ -20,9 +20,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..events import EventEstimate, EventSpec, component_index, count_events
-from ..types import DerivedOutput
-from ..quantiles import order_statistic_quantiles
+from ..core.events import EventEstimate, EventSpec, component_index, count_events
+from ..core.types import DerivedOutput
+from ..stats.quantiles import order_statistic_quantiles
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
@@ -140,7 +140,7 @@ def control_variate_events(
     design : ValidationDesign, optional
         The runs' design (all of them, failed ones included); default: random.
     """
-    from ..events import clopper_pearson
+    from ..core.events import clopper_pearson
 
     n_all = int(np.asarray(ok).size)
     used = (design if design is not None

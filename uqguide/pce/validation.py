@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..types import OutputStats
+from ..core.types import OutputStats
 from .validation_design import random_validation
 
 #: Default usability threshold on the relative (LOO or validation) error.

@@ -18,19 +18,7 @@ import numpy as np
 from ..dynamics import mrp
 from . import scenario
 from .setup import (
-    CASE1,
-    CASE2,
-    CHI1,
-    CHI2,
-    OMEGA,
-    PSI1,
-    PSI2,
-    R_E,
-    SIGMA_E,
-    V_E,
-    Batch,
-    Gains,
-    Plant,
+    CASE1, CASE2, CHI1, CHI2, OMEGA, PSI1, PSI2, R_E, SIGMA_E, V_E, Batch, Gains, Plant,
 )
 
 

@@ -55,30 +55,8 @@ from numba import prange
 from ..kernels import njit
 
 from .setup import (
-    CASE1,
-    CASE2,
-    K_A,
-    K_AT,
-    K_B,
-    K_BOUNDARY,
-    K_C,
-    K_EPS,
-    K_ETA1,
-    K_ETA2,
-    K_GAMMA,
-    K_LAM1,
-    K_LAM2,
-    K_LAM3,
-    K_M0,
-    K_MU,
-    K_NT,
-    K_NU1,
-    K_NU2,
-    K_OBS_P,
-    K_OBS_PER_CHANNEL,
-    K_R2,
-    K_RHO2,
-    K_U0,
+    CASE1, CASE2, K_A, K_AT, K_B, K_BOUNDARY, K_C, K_EPS, K_ETA1, K_ETA2, K_GAMMA, K_LAM1, K_LAM2,
+    K_LAM3, K_M0, K_MU, K_NT, K_NU1, K_NU2, K_OBS_P, K_OBS_PER_CHANNEL, K_R2, K_RHO2, K_U0,
 )
 
 # Recorded channel groups: name -> width. The caller asks for a subset through offsets.

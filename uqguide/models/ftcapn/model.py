@@ -37,8 +37,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..base import (DerivedOutput, InputInfo, Model, ModelOutput, OutputInfo,
-                    StepCount)
+from ..base import DerivedOutput, InputInfo, Model, ModelOutput, OutputInfo, StepCount
 from ..dynamics.hill import mean_motion
 from ..kernels import select
 from .params import FTCAPNParams

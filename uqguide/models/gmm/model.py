@@ -46,8 +46,7 @@ from importlib import resources
 
 import numpy as np
 
-from ..base import (InputInfo, Model, ModelOutput, OutputInfo, StepCount,
-                   failure_reasons)
+from ..base import InputInfo, Model, ModelOutput, OutputInfo, StepCount, failure_reasons
 from ..dynamics.tschauner_hempel import ChiefOrbit, LVLHPlant
 from ..kernels import select
 from .controllers import NTSMC, TSMC, ReachingLaw

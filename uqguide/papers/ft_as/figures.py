@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ...figures import Figure, new_figure, save
+from ...report.figures import Figure, new_figure, save
 from .report import nominal_runs
 
 if TYPE_CHECKING:

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ...figures import new_figure, save
+from ...report.figures import new_figure, save
 from ...models.base import ModelOutput
 
 if TYPE_CHECKING:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ...figures import colormap, new_figure, save
+from ...report.figures import colormap, new_figure, save
 from ...models.dynamics.rotating_body_frame import spin_attitude
 from ...models.gmm_ftc.target import target_geometry
 from ..chief_drawing import draw_chief_3d, draw_chief_xy

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from matplotlib.patches import Rectangle
 
-from ...figures import new_figure, save
+from ...report.figures import new_figure, save
 from ...models.base import ModelOutput
 from ..chief_drawing import PART_COLORS, draw_chief_3d, draw_chief_xy
 from .report import CONTROLLER_LABEL, nominal_runs

@@ -12,8 +12,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..rows import ReportRow
-from .claims import (APF, CONTROLLER_LABEL, GNT, GTS, WANG2022_DV_RATIO, Outcome,
-                     evaluate_wang2022_claims)
+from .claims import (
+    APF, CONTROLLER_LABEL, GNT, GTS, WANG2022_DV_RATIO, Outcome, evaluate_wang2022_claims,
+)
 
 if TYPE_CHECKING:
     from ...models.gmm.model import GMMProximity

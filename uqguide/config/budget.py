@@ -1,0 +1,162 @@
+"""Time and memory budgets, checked before anything runs.
+
+``uqguide validate`` and ``uqguide run`` print, per method, the number of model runs, the
+steps of one run and an estimate of the peak memory of the driver; ``run`` refuses (ConfigError,
+exit 2) an estimate above the config's ``max_memory`` before allocating anything, and the config
+itself is refused when one run would take more than ``max_steps`` integration steps (a ``dt`` of
+1e-9 s would run for ever).
+
+The estimate is an upper bound of what the pipeline holds at once, in bytes:
+
+- **kept per run** (the whole run): per-sample scalar outputs (8 bytes a component), the failure
+  flag and reason (9 bytes), and the inputs (8 bytes an input) of methods that keep their
+  design (PCE; Monte Carlo designs are generated per chunk and never held whole); once for a
+  reduced method (Monte Carlo copies each chunk into arrays allocated once), twice for the
+  others (their chunks are joined at the end);
+- **per chunk** (transient): the chunk's inputs and time series (``rows x T x k x 8``), four
+  times (model output, joined parts, centred powers of the reduction), and the Poisson
+  bootstrap weights (``B x rows x 8``), per chunk in flight (two per worker, in the workers);
+- **series kept** by a method without a reducer (PCE): ``runs x T x k x 8``, twice;
+- **quantiles kept** by a Monte Carlo method asked for quantiles: ``runs x steps x k x 8``, twice
+  (the steps are the whole grid while that stays under 2^25 floats, else the report times);
+- **basis**: a PCE's design matrix ``runs x terms x 8``, three times (matrix, its
+  factorisation, the projection).
+
+``T`` is the model's output grid at its longest (:meth:`Model.step_count`); a model without
+one (the analytic benchmarks, a callable) is counted with its scalar outputs only. The figure
+is a bound for planning, not a measurement: ``benchmarks/scale.py`` measures.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from ..errors import ConfigError
+from .limits import human
+
+if TYPE_CHECKING:
+    from .run_config import RunConfig
+
+@dataclass(frozen=True)
+class MethodBudget:
+    label: str
+    runs: int | None
+    steps_per_run: float | None
+    peak_bytes: float | None
+    parts: dict[str, float]
+    exact: bool = True
+
+
+@dataclass(frozen=True)
+class Budget:
+    methods: list[MethodBudget]
+    max_memory: int
+    workers: int
+
+    @property
+    def peak_bytes(self) -> float:
+        """Kept data adds up over methods (the result holds them all); transients do not."""
+        kept = sum(m.parts.get("kept", 0.0) + m.parts.get("series kept", 0.0)
+                   + m.parts.get("quantiles kept", 0.0)
+                   for m in self.methods)
+        transient = max((m.parts.get("per chunk", 0.0) + m.parts.get("basis", 0.0)
+                         for m in self.methods), default=0.0)
+        return kept + transient + BASE_BYTES
+
+    def lines(self) -> list[str]:
+        """The budget for the console: one line per method, then the peak memory.
+
+        Returns
+        -------
+        list of str
+        """
+        out = []
+        for m in self.methods:
+            runs = "runs unknown until the design is built" if m.runs is None \
+                else f"{'' if m.exact else 'up to '}{m.runs:,} model runs"
+            steps = "" if m.steps_per_run is None else f" x {m.steps_per_run:,.0f} steps"
+            mem = "" if m.peak_bytes is None else f", ~{human(m.peak_bytes)} " + \
+                "(" + ", ".join(f"{k} {human(v)}" for k, v in m.parts.items() if v) + ")"
+            out.append(f"  {m.label}: {runs}{steps}{mem}")
+        out.append(f"  estimated peak memory {human(self.peak_bytes)} of max_memory "
+                   f"{human(self.max_memory)}")
+        return out
+
+
+#: The interpreter, numpy, scipy, chaospy and a compiled kernel, before any data.
+BASE_BYTES = 250e6
+
+
+def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) -> Budget:
+    """The budget of ``cfg`` (module docstring), without building any design.
+
+    Parameters
+    ----------
+    cfg : RunConfig
+    workers : int
+        Worker processes (chunks in flight at once).
+    batch_size : int, optional
+        Samples per model call; default the config's.
+
+    Returns
+    -------
+    Budget
+        Per method: model runs, steps per run and the estimated memory [bytes] by part.
+    """
+    model = cfg.model
+    count = model.step_count()
+    grid = count.grid if count is not None else 0.0
+    infos = [model.output_info(o) for o in cfg.outputs]
+    k_scalar = sum(i.k for i in infos if i.kind == "scalar")
+    k_series = sum(i.k for i in infos if i.kind == "series")
+    d = cfg.space.dim
+    bs = batch_size or cfg.raw.batch_size
+    in_flight = 1 if workers <= 1 else 2 * workers
+    rows = []
+    for method in cfg.methods:
+        plan = method.plan(cfg.space)
+        if plan.runs is None:
+            rows.append(MethodBudget(method.label, None, count.steps if count else None, None,
+                                     {}))
+            continue
+        n = plan.runs
+        chunk = min(plan.chunk or bs, n)
+        boot = getattr(method.settings, "bootstrap", 0) or 0
+        per_chunk = chunk * (8.0 * d + 4 * 8.0 * grid * k_series + 8.0 * boot + 9.0)
+        parts = {
+            # reduced chunks are copied into arrays allocated once; others joined (twice)
+            "kept": (1 if plan.reduced else 2) * n * (8.0 * k_scalar + 9.0 +
+                                                      (0 if plan.reduced else 8.0 * d)),
+            "per chunk": per_chunk * (1 if workers <= 1 else in_flight / 2),
+            "series kept": 0.0 if plan.reduced else 2 * n * 8.0 * grid * k_series,
+            "basis": 3 * 8.0 * n * plan.terms,
+        }
+        if plan.reduced and k_series and getattr(method, "quantile_levels", None) is not None:
+            # exact quantiles keep every good run's series values (at every step while that
+            # stays small, else at the report times and the last step), per chunk and joined
+            from ..methods.mc_reduce import QUANTILE_ALL_FLOATS
+
+            steps = grid if n * grid * k_series <= QUANTILE_ALL_FLOATS else \
+                len(cfg.raw.report_times or ()) + 1
+            parts["quantiles kept"] = 2 * n * 8.0 * steps * k_series
+        rows.append(MethodBudget(method.label, n, count.steps if count else None,
+                                 sum(parts.values()), parts, plan.exact))
+    return Budget(rows, cfg.max_memory, workers)
+
+
+def check_memory(budget: Budget) -> None:
+    """ConfigError (exit 2) when the estimate exceeds ``max_memory``.
+
+    Parameters
+    ----------
+    budget : Budget
+    """
+    if budget.peak_bytes > budget.max_memory:
+        worst = max((m for m in budget.methods if m.peak_bytes is not None),
+                    key=lambda m: m.peak_bytes or 0.0, default=None)
+        who = f" ({worst.label}: {worst.runs:,} runs)" if worst is not None else ""
+        raise ConfigError(
+            f"max_memory: this run needs an estimated {human(budget.peak_bytes)}{who}, more "
+            f"than max_memory = {human(budget.max_memory)}; lower n_samples / chunk_size / the "
+            f"grid, or raise max_memory if the machine has it", field="max_memory")

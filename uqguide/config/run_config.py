@@ -1,0 +1,653 @@
+"""The run configuration: YAML validated into typed objects before anything runs.
+
+Every error is a :class:`~uqguide.errors.ConfigError` with one line that names the field path
+(``methods[1].n_samples``), the value given and what is allowed. Unknown keys are errors.
+
+Layout (all values SI)::
+
+    model:               # registered model name + any fields of that model's Params
+      name: ftcapn
+      gravity: none
+    inputs:              # uncertain inputs (may be empty for `uqguide simulate`)
+      - {name: dx, dist: normal, mean: 0.0, std: 1.5}
+    correlations:        # optional: groups of normal inputs with a correlation matrix
+      - {inputs: [dx, dy], matrix: [[1, 0.5], [0.5, 1]]}
+    outputs: [omega_s, zem]      # optional; default: the model's default outputs
+    report_times: [0, 20, 40]    # optional [s]: times shown in printed tables
+    methods:             # one or more; each a registered method name + its settings
+      - {name: monte_carlo, label: mc1000, n_samples: 1000, sampling: random}
+    reference: mc1000    # optional: label of the reference method of the cost table
+    seed: 12345          # root seed of every random stream of the run
+    batch_size: 10000    # samples per model call (memory only: never changes the numbers)
+    max_failed_fraction: 0.01    # failure budget per method: above it `uqguide run` exits 1
+    pce_failure_policy: fail     # quadrature PCE with failed runs: fail | regression
+    quantiles: 3sigma            # optional: quantile levels in (0, 1), or 3sigma
+    events:                      # optional: events on scalar outputs (below: y < b, above: y > a)
+      - {name: collision, output: collided, above: 0.5}
+"""
+
+from __future__ import annotations
+
+import re
+from types import MappingProxyType
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import yaml
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator)
+
+from ..errors import ConfigError
+from ..core.events import EventSpec, component_index
+from ..stats.quantiles import resolve_levels
+from ..core.strict import StrictModel
+from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
+from .limits import check_steps, default_max_memory, parse_bytes
+from ..methods.base import Method, RunContext
+from ..models.base import Model
+from .registry import did_you_mean, method_class, model_class
+
+
+class CorrelationSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    inputs: list[str] = Field(min_length=2)
+    matrix: list[list[float]]
+
+
+#: What a run name may be: it names files inside ``--out`` (result, tables, run folder), so
+#: never a path, never ``.`` or ``..``.
+RUN_NAME = re.compile(r"^[A-Za-z0-9_.\-]{1,200}$")
+RUN_NAME_RULE = ("a plain file name of 1 to 200 letters, digits, '_', '.' or '-' (no path "
+                 "separators, not '.' or '..')")
+
+
+def is_run_name(name: str) -> bool:
+    """Whether ``name`` is a plain file name a run may be called (:data:`RUN_NAME_RULE`).
+
+    Parameters
+    ----------
+    name : str
+
+    Returns
+    -------
+    bool
+    """
+    return bool(RUN_NAME.match(name)) and set(name) != {"."}
+
+
+def check_run_name(name: str) -> str:
+    """``name`` if it is a valid run name, else ConfigError (field ``name``).
+
+    Parameters
+    ----------
+    name : str
+
+    Returns
+    -------
+    str
+        ``name`` unchanged.
+    """
+    if not isinstance(name, str) or not is_run_name(name):
+        raise ConfigError(f"name: must be {RUN_NAME_RULE} (got {_short(name)})", field="name")
+    return name
+
+
+class RawConfig(StrictModel):
+    """The config file's top level, before model- and method-specific validation."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str | None = None
+    description: str | None = None
+    model: dict[str, Any]
+    inputs: list[Marginal] = Field(default_factory=list)
+    correlations: list[CorrelationSpec] = Field(default_factory=list)
+    outputs: list[str] | None = Field(default=None, min_length=1)
+    report_times: list[float] | None = None
+    methods: list[dict[str, Any]] = Field(min_length=1)
+    reference: str | None = None
+    seed: int = Field(default=0, ge=0, lt=2**63)
+    batch_size: int = Field(default=10_000, ge=1, le=10_000_000)
+    #: Largest share of a method's runs that may fail before ``uqguide run`` exits 1 (the
+    #: result is still written, for inspection). 1%: statistics of the survivors are biased
+    #: wherever failures correlate with the inputs (they always do), most of all the tails
+    #: (kurtosis); above 1% a GNC campaign should look at why before trusting them.
+    max_failed_fraction: float = Field(default=0.01, ge=0.0, le=1.0)
+    #: A quadrature PCE (tensor, Smolyak) needs every node: ``fail`` (default) stops the method
+    #: with the failed nodes named; ``regression`` fits the coefficients by least squares on
+    #: the surviving nodes, with a warning and a diagnostics entry.
+    pce_failure_policy: Literal["fail", "regression"] = "fail"
+    #: Quantile levels in (0, 1), or ``3sigma`` (the median and the 3-sigma envelope).
+    quantiles: list[float] | str | None = None
+    #: Events on scalar outputs whose probabilities every method reports.
+    events: list[EventSpec] = Field(default_factory=list)
+    #: Integration steps one model run may take (a dt of 1e-9 s would run for ever).
+    max_steps: int = Field(default=10_000_000, ge=1, le=10**12)
+    #: Largest estimated peak memory of a run ("8 GB", or bytes); default half the machine's
+    #: memory, decided when the run starts (so a config means the same on every machine).
+    max_memory: int | float | str | None = None
+    #: Seconds one model call may take (None: no limit). Set, every call runs in a guard
+    #: process; a call over time is killed and bisected, so a hanging sample fails alone.
+    #: A call is ``batch_size`` samples (chunk rows at most): size it for that.
+    timeout_s: float | None = Field(default=None, gt=0.0, le=1e6)
+
+    @field_validator("max_memory")
+    @classmethod
+    def _memory(cls, v: Any) -> Any:
+        if v is not None:
+            parse_bytes(v)
+        return v
+
+    @field_validator("name")
+    @classmethod
+    def _plain_name(cls, v: str | None) -> str | None:
+        if v is not None and not is_run_name(v):
+            raise ValueError(f"must be {RUN_NAME_RULE}")
+        return v
+
+
+@dataclass
+class RunConfig:
+    """A validated configuration, ready to run.
+
+    Attributes
+    ----------
+    model : Model
+    space : InputSpace
+    outputs : tuple of str
+    methods : list of Method
+    raw : RawConfig
+        The validated file content (its ``model_dump`` is the resolved config written to results).
+    source : str
+        Path of the config file, or ``"<dict>"``.
+    """
+
+    model: Model
+    space: InputSpace
+    outputs: tuple[str, ...]
+    methods: list[Method]
+    raw: RawConfig
+    source: str = "<dict>"
+
+    @property
+    def seed(self) -> int:
+        return self.raw.seed
+
+    @property
+    def reference(self) -> str | None:
+        return self.raw.reference
+
+    @property
+    def report_times(self) -> list[float] | None:
+        return self.raw.report_times
+
+    @property
+    def max_memory(self) -> int:
+        """Bytes a run may plan to use (the config's ``max_memory`` or half the machine's)."""
+        v = self.raw.max_memory
+        return default_max_memory() if v is None else parse_bytes(v)
+
+    @property
+    def name(self) -> str:
+        if self.raw.name:
+            return self.raw.name
+        if self.source == "<dict>":
+            return "run"
+        # The file's stem, made a plain name (a name must never leave --out).
+        stem = re.sub(r"[^A-Za-z0-9_.\-]", "_", Path(self.source).stem)[:200]
+        return stem if is_run_name(stem) else "run"
+
+    def resolved(self) -> dict[str, Any]:
+        """The config with every default filled in (what the run really used).
+
+        Returns
+        -------
+        dict
+            JSON-ready; the model's and every method's settings in full, methods labelled.
+        """
+        # the raw model section may hold a function object (callable model from Python): the
+        # model's own params serialise it
+        rest = self.raw.model_dump(mode="json", exclude={"model"})
+        d: dict[str, Any] = {k: rest.get(k) for k in RawConfig.model_fields
+                             if k in rest or k == "model"}
+        d["model"] = {"name": self.model.name, **self.model.params.model_dump(mode="json")}
+        d["outputs"] = list(self.outputs)
+        d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")}
+                        for m in self.methods]
+        for m, entry in zip(self.methods, d["methods"]):
+            entry["label"] = m.label
+        return d
+
+    def with_seed(self, seed: int) -> RunConfig:
+        """The same config with another seed (validated again).
+
+        Parameters
+        ----------
+        seed : int
+
+        Returns
+        -------
+        RunConfig
+        """
+        return validate_config({**self.raw.model_dump(mode="python"), "seed": seed}, self.source)
+
+
+# ---------------------------------------------------------------------------- error messages
+def _path(prefix: str, loc: tuple[Any, ...]) -> str:
+    out = prefix
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif part in DISTRIBUTIONS or part in ("function-after", "function-before", "str") \
+                or str(part).startswith("list["):
+            continue  # pydantic's discriminated-union branch names are not fields of the file
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str] | None = None,
+                     source: str = "") -> ConfigError:
+    """One ConfigError line from pydantic's first error: path, value, what is allowed."""
+    errors = err.errors(include_url=False)
+    e = errors[0]
+    where = f"{source}: " if source else ""
+    misspelt = _misspelt_required(errors)
+    if misspelt is not None:
+        # A misspelt required key is both "missing" and "unknown": name the key typed.
+        e, close = misspelt
+        path = _printable(_path(prefix, tuple(e["loc"])))
+        allowed = (f"; allowed keys: {', '.join(allowed_keys)}"
+                   if allowed_keys and len(e["loc"]) == 1 else "")
+        return ConfigError(f"{where}{path}: unknown key (did you mean '{close}'?){allowed}",
+                           field=path)
+    path = _printable(_path(prefix, tuple(e["loc"])))
+    if e["type"] == "extra_forbidden":
+        key = str(e["loc"][-1])
+        hint = did_you_mean(key, allowed_keys) if allowed_keys else ""
+        allowed = f"; allowed keys: {', '.join(allowed_keys)}" if allowed_keys else ""
+        return ConfigError(f"{where}{path}: unknown key{hint}{allowed}", field=path)
+    if e["type"] == "missing":
+        return ConfigError(f"{where}{path}: required field is missing", field=path)
+    if e["type"] in ("union_tag_invalid", "union_tag_not_found"):
+        tag = e.get("input", {}).get("dist") if isinstance(e.get("input"), dict) else None
+        hint = did_you_mean(tag, list(DISTRIBUTIONS)) if isinstance(tag, str) else ""
+        got = f"got {tag!r}" if tag is not None else "missing"
+        return ConfigError(
+            f"{where}{path}.dist: unknown distribution ({got}){hint}; allowed: "
+            f"{', '.join(DISTRIBUTIONS)}", field=f"{path}.dist")
+    msg = e["msg"].replace("Value error, ", "")
+    if isinstance(e.get("input"), dict):
+        # A check across several fields: its message names the values itself.
+        return ConfigError(f"{where}{path}: {msg}", field=path)
+    return ConfigError(f"{where}{path}: {msg} (got {_short(e.get('input'))})", field=path)
+
+
+def _misspelt_required(errors: list[Any]) -> tuple[Any, str] | None:
+    """The unknown-key error whose key is close to a missing required field beside it, with
+    that field's name."""
+    import difflib
+
+    for x in errors:
+        if x["type"] != "extra_forbidden":
+            continue
+        parent = tuple(x["loc"][:-1])
+        missing = [str(m["loc"][-1]) for m in errors
+                   if m["type"] == "missing" and tuple(m["loc"][:-1]) == parent]
+        close = difflib.get_close_matches(str(x["loc"][-1]), missing, n=1)
+        if close:
+            return x, close[0]
+    return None
+
+
+def _fields(model: type[BaseModel]) -> list[str]:
+    return list(model.model_fields)
+
+
+# ---------------------------------------------------------------------------- loading
+def load_yaml(path: str | Path) -> dict[str, Any]:
+    """Read a YAML config file into a mapping; ConfigError on I/O or syntax problems, and on
+    what :mod:`uqguide.config.safe_yaml` refuses (aliases, duplicate keys, deep nesting, a file
+    over 1 MB).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    dict
+        The file's top-level mapping, not yet validated.
+    """
+    from .safe_yaml import MAX_BYTES, safe_load
+
+    p = Path(path)
+    try:
+        size = p.stat().st_size
+        if size > MAX_BYTES:
+            raise ConfigError(f"{p}: config file is {size} bytes; allowed at most {MAX_BYTES} "
+                              f"(a config is a few kB: is this the right file?)")
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: config file not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{p}: is a folder, not a config file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{p}: cannot read config file ({exc})") from None
+    try:
+        data = safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ConfigError(f"{p}: invalid YAML{where}: {problem}") from None
+    if not isinstance(data, dict):
+        raise ConfigError(
+            f"{p}: the config must be a mapping with keys model, inputs, methods, ...; "
+            f"got {type(data).__name__}")
+    return data
+
+
+def load_config(path: str | Path) -> RunConfig:
+    """Read and validate a config file, or the shipped study of that name (``ftcapn_table3``;
+    see :mod:`uqguide.config.catalog`).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    RunConfig
+        ConfigError naming the field, the value and what is allowed when it is invalid.
+    """
+    from .catalog import resolve
+
+    path = resolve(path)
+    return validate_config(load_yaml(path), str(path))
+
+
+def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfig:
+    """Validate a config mapping into a :class:`RunConfig` (model, inputs, methods resolved).
+
+    Parameters
+    ----------
+    data : mapping
+        The config's content (as a YAML file holds it).
+    source : str
+        Where it came from: a file's path (its folder is where a callable model's module is
+        looked for first) or ``"<dict>"``.
+
+    Returns
+    -------
+    RunConfig
+        ConfigError naming the field, the value and what is allowed when it is invalid.
+    """
+    nan_at = _find_nan(data)
+    nan_at = None if nan_at is None else _printable(nan_at)
+    if nan_at is not None:
+        raise ConfigError(f"{nan_at}: must be a number, not NaN", field=nan_at)
+    nul_at = _find_nul(data)
+    if nul_at is not None:
+        raise ConfigError(f"{nul_at}: must not contain a NUL character", field=nul_at)
+    try:
+        raw = RawConfig.model_validate(dict(data))
+    except ValidationError as err:
+        raise _from_validation(err, "", _fields(RawConfig)) from None
+
+    model = _build_model(raw.model, str(Path(source).parent) if source != "<dict>" else None)
+    _check_finite_parameters(raw)
+    space = _build_space(raw, model)
+    outputs = _resolve_outputs(raw, model)
+    _check_quantiles(raw)
+    _check_events(raw, model, outputs)
+    methods = _build_methods(raw, _run_context(raw, model, outputs))
+    for i, m in enumerate(methods):
+        m.check(i)
+    labels = [m.label for m in methods]
+    for i, lab in enumerate(labels):
+        if labels.index(lab) != i:
+            raise ConfigError(
+                f"methods[{i}].label: {lab!r} is used twice; give each method a unique label",
+                field=f"methods[{i}].label")
+    if raw.reference is not None and raw.reference not in labels:
+        raise ConfigError(
+            f"reference: {raw.reference!r} is not a method label"
+            f"{did_you_mean(raw.reference, labels)}; allowed: {', '.join(labels)}",
+            field="reference")
+    if raw.report_times is not None:
+        for i, t in enumerate(raw.report_times):
+            if not np.isfinite(t) or t < 0:
+                raise ConfigError(
+                    f"report_times[{i}]: must be a finite time >= 0 s (got {t!r})",
+                    field=f"report_times[{i}]")
+    cfg = RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
+                    source=source)
+    check_steps(model, raw.max_steps)
+    for i, m in enumerate(methods):
+        try:
+            m.plan(space)
+        except ConfigError as exc:  # a grid too large to build, refused before it is built
+            raise ConfigError(f"methods[{i}].{exc}", field=f"methods[{i}].{exc.field}") from None
+    return cfg
+
+
+def _check_quantiles(raw: RawConfig) -> None:
+    if isinstance(raw.quantiles, str) and raw.quantiles != "3sigma":
+        raise ConfigError(f"quantiles: give a list of levels in (0, 1) or 3sigma (got "
+                          f"{raw.quantiles!r})", field="quantiles")
+    if isinstance(raw.quantiles, list):
+        if not raw.quantiles:
+            raise ConfigError("quantiles: give at least one level, or 3sigma (got [])",
+                              field="quantiles")
+        for i, p in enumerate(raw.quantiles):
+            if not 0.0 < p < 1.0:
+                raise ConfigError(f"quantiles[{i}]: must be a probability strictly between 0 "
+                                  f"and 1 (got {p!r})", field=f"quantiles[{i}]")
+
+
+def _check_events(raw: RawConfig, model: Model, outputs: tuple[str, ...]) -> None:
+    seen: set[str] = set()
+    for i, e in enumerate(raw.events):
+        if e.name in seen:
+            raise ConfigError(f"events[{i}].name: {e.name!r} is used twice; give each event a "
+                              f"unique name", field=f"events[{i}].name")
+        seen.add(e.name)
+        if e.output not in outputs:
+            raise ConfigError(
+                f"events[{i}].output: {e.output!r} is not among the config's outputs"
+                f"{did_you_mean(e.output, list(outputs))}; allowed: {', '.join(outputs)}",
+                field=f"events[{i}].output")
+        info = model.output_info(e.output)
+        if info.kind != "scalar":
+            raise ConfigError(f"events[{i}].output: {e.output!r} is a time series; an event is "
+                              f"defined on a scalar output", field=f"events[{i}].output")
+        try:
+            component_index(e, tuple(info.components))
+        except ValueError as exc:
+            raise ConfigError(f"events[{i}].component: {exc}",
+                              field=f"events[{i}].component") from None
+        thr = e.threshold()
+        if not np.isfinite(thr):
+            raise ConfigError(f"events[{i}]: the threshold must be finite (got {thr!r})",
+                              field=f"events[{i}]")
+
+
+def _first_path(node: Any, bad: Callable[[Any], bool], path: str = "") -> str | None:
+    """Path of the first value or key of the config for which ``bad`` holds (depth first, a
+    key before its value)."""
+    if bad(node):
+        return path or "<top>"
+    if isinstance(node, Mapping):
+        for k, v in node.items():
+            sub = f"{path}.{k}" if path else str(k)
+            found = sub if bad(k) else _first_path(v, bad, sub)
+            if found:
+                return found
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            found = _first_path(v, bad, f"{path}[{i}]")
+            if found:
+                return found
+    return None
+
+
+def _find_nan(node: Any) -> str | None:
+    """Path of the first NaN in the config (never a meaningful setting; YAML spells it .nan)."""
+    return _first_path(node, lambda v: isinstance(v, float) and v != v)
+
+
+def _printable(text: str) -> str:
+    """``text`` with control characters escaped (a message stays one line)."""
+    return text if text.isprintable() else repr(text)[1:-1]
+
+
+def _find_nul(node: Any) -> str | None:
+    """Path of the first string (value or key) holding a NUL character (printable)."""
+    found = _first_path(node, lambda v: isinstance(v, str) and "\x00" in v)
+    return None if found is None else _printable(found)
+
+
+def _check_finite_parameters(raw: RawConfig) -> None:
+    """Distribution parameters must be finite; a truncated normal's bounds may be infinite
+    (one-sided truncation)."""
+    for i, m in enumerate(raw.inputs):
+        for name, value in m.model_dump().items():
+            if not isinstance(value, float) or np.isfinite(value):
+                continue
+            if m.dist == "truncnormal" and name in ("low", "high"):
+                continue
+            raise ConfigError(f"inputs[{i}].{name}: must be a finite number (got {value!r})",
+                              field=f"inputs[{i}].{name}")
+
+
+def _build_model(section: dict[str, Any], config_dir: str | None = None) -> Model:
+    if "name" not in section:
+        raise ConfigError("model.name: required field is missing", field="model.name")
+    cls = model_class(section["name"], "model.name")
+    params = {k: v for k, v in section.items() if k != "name"}
+    try:
+        # config_dir: where a callable model's module is looked for first
+        validated = cls.Params.model_validate(params, context={"config_dir": config_dir})
+    except ValidationError as err:
+        raise _from_validation(err, "model", ["name", *_fields(cls.Params)]) from None
+    bad = _find_infinite(validated.model_dump(), "model")
+    if bad is not None:
+        raise ConfigError(f"{bad[0]}: must be a finite number (got {bad[1]!r})", field=bad[0])
+    return cls(validated)
+
+
+def _find_infinite(node: Any, path: str) -> tuple[str, float] | None:
+    """The first infinite number among a model's parameters (no model takes one)."""
+    if isinstance(node, float) and not np.isfinite(node):
+        return path, node
+    items = node.items() if isinstance(node, dict) else enumerate(node) \
+        if isinstance(node, (list, tuple)) else ()
+    for k, v in items:
+        found = _find_infinite(v, f"{path}[{k}]" if isinstance(k, int) else f"{path}.{k}")
+        if found:
+            return found
+    return None
+
+
+def _build_space(raw: RawConfig, model: Model) -> InputSpace:
+    accepted = list(model.input_names())
+    seen: dict[str, int] = {}
+    for i, m in enumerate(raw.inputs):
+        if m.name not in accepted:
+            raise ConfigError(
+                f"inputs[{i}].name: model '{model.name}' has no input {m.name!r}"
+                f"{did_you_mean(m.name, accepted)}; allowed: {', '.join(accepted)}",
+                field=f"inputs[{i}].name")
+        if m.name in seen:
+            raise ConfigError(
+                f"inputs[{i}].name: {m.name!r} is already inputs[{seen[m.name]}]",
+                field=f"inputs[{i}].name")
+        seen[m.name] = i
+    groups = []
+    for g, spec in enumerate(raw.correlations):
+        idx = []
+        for j, name in enumerate(spec.inputs):
+            if name not in seen:
+                raise ConfigError(
+                    f"correlations[{g}].inputs[{j}]: {name!r} is not an uncertain input of this "
+                    f"config", field=f"correlations[{g}].inputs[{j}]")
+            if not isinstance(raw.inputs[seen[name]], Normal):
+                raise ConfigError(
+                    f"correlations[{g}].inputs[{j}]: {name!r} must be a normal input to be "
+                    f"correlated (got {raw.inputs[seen[name]].dist})",
+                    field=f"correlations[{g}].inputs[{j}]")
+            idx.append(seen[name])
+        k = len(idx)
+        field = f"correlations[{g}].matrix"
+        lengths = [len(row) for row in spec.matrix]
+        if len(lengths) != k or any(n != k for n in lengths):
+            raise ConfigError(f"{field}: must be {k}x{k} (got {len(lengths)} rows of lengths "
+                              f"{lengths[:8]})", field=field)
+        C = np.asarray(spec.matrix, dtype=float)
+        if not np.isfinite(C).all():
+            raise ConfigError(f"{field}: entries must be finite numbers", field=field)
+        if not np.allclose(C, C.T) or not np.allclose(np.diag(C), 1.0):
+            raise ConfigError(f"{field}: must be symmetric with a unit diagonal", field=field)
+        if np.linalg.eigvalsh(C).min() <= 0:
+            raise ConfigError(f"{field}: must be positive definite", field=field)
+        if sorted(idx) != list(range(min(idx), min(idx) + k)) or idx != sorted(idx):
+            raise ConfigError(
+                f"correlations[{g}].inputs: correlated inputs must be consecutive in the inputs "
+                f"list and in the same order (got {spec.inputs})",
+                field=f"correlations[{g}].inputs")
+        groups.append(CorrelatedGroup(tuple(idx), C))
+    return InputSpace(raw.inputs, groups)
+
+
+def _resolve_outputs(raw: RawConfig, model: Model) -> tuple[str, ...]:
+    if raw.outputs is None:
+        return model.default_outputs()
+    names = [o.name for o in model.outputs()]
+    for i, name in enumerate(raw.outputs):
+        if name not in names:
+            raise ConfigError(
+                f"outputs[{i}]: model '{model.name}' has no output {name!r}"
+                f"{did_you_mean(name, names)}; allowed: {', '.join(names)}",
+                field=f"outputs[{i}]")
+    return tuple(dict.fromkeys(raw.outputs))
+
+
+def _run_context(raw: RawConfig, model: Model, outputs: tuple[str, ...]) -> RunContext:
+    """What every method of the config is told about the run (:class:`RunContext`)."""
+    return RunContext(
+        report_times=tuple(raw.report_times) if raw.report_times else None,
+        failure_policy=raw.pce_failure_policy,
+        quantile_levels=resolve_levels(raw.quantiles),
+        events=tuple(raw.events),
+        components=MappingProxyType({o: tuple(model.output_info(o).components)
+                                     for o in outputs}),
+        outputs=outputs,
+        derived=MappingProxyType({k: d for k, d in model.derived_outputs().items()
+                                  if k in outputs}),
+    )
+
+
+def _build_methods(raw: RawConfig, context: RunContext) -> list[Method]:
+    methods = []
+    for i, entry in enumerate(raw.methods):
+        if "name" not in entry:
+            raise ConfigError(f"methods[{i}].name: required field is missing",
+                              field=f"methods[{i}].name")
+        cls = method_class(entry["name"], f"methods[{i}].name")
+        settings = {k: v for k, v in entry.items() if k != "name"}
+        try:
+            method = cls(cls.Settings.model_validate(settings), context)
+        except ValidationError as err:
+            raise _from_validation(err, f"methods[{i}]", ["name", *_fields(cls.Settings)]) from None
+        methods.append(method)
+    return methods
+

@@ -1,0 +1,9 @@
+"""The shared vocabulary every layer speaks; imports nothing of uqguide but ``errors``.
+
+- ``types``: what a model returns, the statistics of an output, what a method estimates;
+- ``inputs``: uncertain inputs, their joint distribution and the map from the unit cube;
+- ``events``: events such as ``collision: min_clearance below 0`` and their probabilities;
+- ``failures``: failed runs tallied by reason;
+- ``strict``: booleans are not numbers in a config;
+- ``atomic``: files that are complete or absent.
+"""

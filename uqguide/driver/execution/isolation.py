@@ -1,0 +1,159 @@
+"""Failure isolation inside one process: a model call that raises is split in halves until the
+raising samples fail alone, with the reason; the others keep their values."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Collection, Sequence
+
+import numpy as np
+
+from ...errors import ModelError
+from ...models.base import Model
+from ...core.types import ModelOutput
+
+log = logging.getLogger(__name__)
+
+
+def evaluate_batch(model: Model, x: np.ndarray, names: Sequence[str],
+                   outputs: Collection[str]) -> ModelOutput:
+    """``model.evaluate`` on ``x (n, d)``; samples whose evaluation raises fail alone.
+
+    When the call raises, the batch is split in halves recursively until the raising samples
+    are single (the others are evaluated normally; the model is deterministic per sample, so
+    their values do not depend on the split).
+
+    Parameters
+    ----------
+    model : Model
+    x : ndarray, shape (n, d)
+        Inputs in SI units, column ``j`` for ``names[j]``.
+    names : sequence of str, length d
+    outputs : collection of str
+
+    Returns
+    -------
+    ModelOutput
+        The ``n`` samples in order; a raising sample fails with ``"ExceptionType: message"``.
+        A ModelError (a contract violation, not a sample's failure) propagates.
+    """
+    pieces: list[ModelOutput | tuple[int, str]] = []
+    _bisect(model, x, names, outputs, pieces)
+    raised = [p[1] for p in pieces if not isinstance(p, ModelOutput)]
+    if raised:
+        log.warning("model '%s' raised on %d of %d samples of a batch (they fail; first: %s)",
+                    model.name, len(raised), x.shape[0], raised[0])
+    return assemble_pieces(model, pieces, outputs)
+
+
+def assemble_pieces(model: Model, pieces: Sequence[ModelOutput | tuple[int, str]],
+                    outputs: Collection[str]) -> ModelOutput:
+    """One batch's output from its evaluated pieces and its failed ones, in order; failed
+    pieces get the grid of an evaluated one (or of a probe run).
+
+    Parameters
+    ----------
+    model : Model
+    pieces : sequence of ModelOutput or (int, str)
+        Evaluated pieces, and failed ones as ``(n_samples, reason)``.
+    outputs : collection of str
+
+    Returns
+    -------
+    ModelOutput
+    """
+    grid = next((p.time for p in pieces if isinstance(p, ModelOutput)), None)
+    if grid is None and any(model.output_info(o).kind == "series" for o in outputs):
+        grid = _probe_grid(model, outputs)
+    grid = np.zeros(0) if grid is None else grid
+    parts = [p if isinstance(p, ModelOutput) else failed_output(model, p[0], outputs, p[1], grid)
+             for p in pieces]
+    return ModelOutput.concatenate(parts)
+
+
+def _bisect(model: Model, x: np.ndarray, names: Sequence[str], outputs: Collection[str],
+            pieces: list[ModelOutput | tuple[int, str]]) -> None:
+    try:
+        pieces.append(model.evaluate(x, names, outputs))
+        return
+    except ModelError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a raising model call is isolated, not fatal
+        if x.shape[0] <= 1:
+            pieces.append((x.shape[0], f"{type(exc).__name__}: {exc}"))
+            return
+    half = x.shape[0] // 2
+    _bisect(model, x[:half], names, outputs, pieces)
+    _bisect(model, x[half:], names, outputs, pieces)
+
+
+def _probe_grid(model: Model, outputs: Collection[str]) -> np.ndarray | None:
+    """The time grid of the model's nominal run (for a batch in which every sample raised)."""
+    try:
+        return model.evaluate(np.zeros((1, 0)), [], outputs).time
+    except ModelError:
+        raise
+    except Exception:  # noqa: BLE001 - no grid to be had: the failed chunk carries none
+        return None
+
+
+def common_grid(parts: list[ModelOutput]) -> list[ModelOutput]:
+    """Give all-failed parts without a grid the grid of the others, so they concatenate.
+
+    Parameters
+    ----------
+    parts : list of ModelOutput
+
+    Returns
+    -------
+    list of ModelOutput
+        Same parts; an all-failed one without a grid gets NaN series on the common grid.
+    """
+    grid = next((p.time for p in parts if p.time.size), None)
+    if grid is None:
+        return parts
+    return [p if p.time.size or not p.failed.all() else _regrid(p, grid) for p in parts]
+
+
+def _regrid(p: ModelOutput, grid: np.ndarray) -> ModelOutput:
+    T = grid.shape[0]
+    return ModelOutput(
+        time=grid, scalars=p.scalars, failed=p.failed, reasons=p.reasons,
+        series={k: np.full((v.shape[0], T, v.shape[2]), np.nan) for k, v in p.series.items()})
+
+
+def failed_output(model: Model, n: int, outputs: Collection[str], reason: str,
+                  time_grid: np.ndarray | None = None) -> ModelOutput:
+    """An all-failed ModelOutput of the right shapes (NaN values) with one reason.
+
+    Parameters
+    ----------
+    model : Model
+    n : int
+        Samples.
+    outputs : collection of str
+    reason : str
+        Every sample's failure reason.
+    time_grid : ndarray, shape (T,), optional
+        Default: the grid of the model's nominal run when it has time series (an empty grid
+        if even that raises).
+
+    Returns
+    -------
+    ModelOutput
+        Series ``(n, T, k)`` and scalars ``(n, k)`` of NaN, every sample failed.
+    """
+    infos = [model.output_info(o) for o in outputs]
+    if time_grid is None:
+        time_grid = np.zeros(0)
+        if any(i.kind == "series" for i in infos):
+            probe = _probe_grid(model, outputs)
+            time_grid = probe if probe is not None else time_grid
+    T = time_grid.shape[0]
+    return ModelOutput(
+        time=time_grid,
+        series={i.name: np.full((n, T, i.k), np.nan) for i in infos if i.kind == "series"},
+        scalars={i.name: np.full((n, i.k), np.nan) for i in infos if i.kind == "scalar"},
+        failed=np.ones(n, dtype=bool),
+        reasons=np.full(n, reason, dtype=object),
+    )

@@ -1,0 +1,297 @@
+"""``uqguide replay``: one sample of a result run again, with its full time histories.
+
+The sample's inputs are read from the result (``samples/x``) and the model is rebuilt from the
+result's resolved config (same parameters), so the run is the one that produced the stored
+scalars. The model is deterministic per sample and vectorised sample by sample (no state is
+shared across a batch), so the replayed scalars equal the stored ones **bit for bit**; a
+difference means the code or a dependency changed since the result was written, and the replay
+says so (exit 1).
+
+A sample is chosen by number (``--sample``), as the extreme of a scalar output
+(``--worst OUTPUT``: largest, or smallest with ``--lowest``), or as the first sample in one of
+the config's events (``--event NAME``); failed samples are never the worst or in an event.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..core import atomic
+from ..config.run_config import RunConfig, validate_config
+from ..errors import ConfigError, UqguideError
+from ..core.events import component_index
+from ..models.base import ModelOutput
+from ..results.result import MethodRun, Result
+
+
+@dataclass
+class Replay:
+    """A replayed sample: its index, inputs, stored and replayed scalars, every output."""
+
+    label: str
+    index: int
+    why: str
+    inputs: dict[str, float]
+    stored: dict[str, np.ndarray]
+    replayed: ModelOutput
+    stored_failed: bool
+
+    def mismatches(self) -> list[str]:
+        """Scalar outputs whose replayed bits differ from the stored ones.
+
+        Returns
+        -------
+        list of str
+            Output names (NaN equals NaN).
+        """
+        bad = []
+        for name, v in self.stored.items():
+            a = np.ascontiguousarray(v, dtype=float)
+            b = np.ascontiguousarray(self.replayed.scalars[name][0], dtype=float)
+            both_nan = np.isnan(a) & np.isnan(b)
+            same = (a.view(np.uint64) == b.view(np.uint64)) | both_nan
+            if not same.all():
+                bad.append(name)
+        return bad
+
+
+def config_of(result: Result) -> RunConfig:
+    """The validated config a result was produced with (its resolved form).
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    RunConfig
+    """
+    return validate_config(result.config, f"{result.name} (stored config)")
+
+
+def choose_sample(result: Result, cfg: RunConfig, run: MethodRun, *, sample: int | None,
+                  worst: str | None, lowest: bool, event: str | None,
+                  component: str | int | None = None) -> tuple[int, str]:
+    """The sample index and a sentence saying why it was chosen.
+
+    Parameters
+    ----------
+    result : Result
+    cfg : RunConfig
+        The result's config.
+    run : MethodRun
+        The method whose runs are searched.
+    sample : int, optional
+        A sample index (``--sample``).
+    worst : str, optional
+        An output whose largest (or, with ``lowest``, smallest) value picks the sample.
+    lowest : bool
+    event : str, optional
+        An event of the config: its first sample in the event.
+    component : str or int, optional
+        The component of ``worst``.
+
+    Returns
+    -------
+    (int, str)
+        ConfigError unless exactly one of ``sample``, ``worst``, ``event`` is given.
+    """
+    given = [k for k, v in (("--sample", sample), ("--worst", worst), ("--event", event))
+             if v is not None]
+    if len(given) != 1:
+        raise ConfigError(f"give exactly one of --sample, --worst, --event (got "
+                          f"{', '.join(given) or 'none'})", field="sample")
+    n = run.x.shape[0]
+    ok = ~np.asarray(run.failed, dtype=bool)
+    if sample is not None:
+        if not 0 <= sample < n:
+            raise ConfigError(f"--sample: {sample} is out of range; method '{run.label}' has "
+                              f"samples 0..{n - 1}", field="sample")
+        return sample, f"sample {sample}"
+    if worst is not None:
+        if worst not in run.scalars:
+            raise ConfigError(f"--worst: {worst!r} is not a stored scalar output of "
+                              f"'{run.label}'; allowed: {', '.join(run.scalars)}",
+                              field="worst")
+        info = result.output(worst)
+        c = _component(worst, component, tuple(info.components))
+        y = np.where(ok, run.scalars[worst][:, c], np.nan)
+        if not np.isfinite(y).any():
+            raise UqguideError(f"--worst {worst}: no sample of '{run.label}' has a value")
+        i = int(np.nanargmin(y) if lowest else np.nanargmax(y))
+        return i, f"{'smallest' if lowest else 'largest'} {worst} ({y[i]:.6g}) of {ok.sum()} " \
+                  f"good samples"
+    names = [e.name for e in cfg.raw.events]
+    if event not in names:
+        raise ConfigError(f"--event: {event!r} is not an event of this result's config; "
+                          f"allowed: {', '.join(names) or 'none declared'}", field="event")
+    spec = cfg.raw.events[names.index(event)]
+    y = run.scalars[spec.output][:, component_index(spec, tuple(
+        result.output(spec.output).components))]
+    hit = np.flatnonzero(ok & spec.indicator(np.where(ok, y, np.nan)))
+    if hit.size == 0:
+        raise UqguideError(f"--event {event}: no sample of '{run.label}' is in the event "
+                           f"({spec.describe()}; 0 of {ok.sum()} good samples)")
+    return int(hit[0]), f"first of the {hit.size} samples in event {event} ({spec.describe()})"
+
+
+def _component(output: str, component: str | int | None, comps: tuple[str, ...]) -> int:
+    if component is None:
+        return 0
+    if isinstance(component, str) and component.isdigit():
+        component = int(component)
+    if isinstance(component, int) and 0 <= component < len(comps):
+        return component
+    if component in comps:
+        return comps.index(component)
+    raise ConfigError(f"--component: {component!r} is not a component of {output}; allowed: "
+                      f"{', '.join(comps)}", field="component")
+
+
+def replay(result: Result, label: str, **choice) -> tuple[Replay, RunConfig]:
+    """Rerun one sample of method ``label`` with every output of the model.
+
+    Parameters
+    ----------
+    result : Result
+    label : str
+        The method's label.
+    **choice
+        How to choose the sample (see :func:`choose_sample`).
+
+    Returns
+    -------
+    (Replay, RunConfig)
+        The replayed sample beside its stored values, and the result's config.
+    """
+    cfg = config_of(result)
+    run = result.run(label)
+    i, why = choose_sample(result, cfg, run, **choice)
+    model = cfg.model
+    every = [o.name for o in model.outputs()]
+    out = model.evaluate(run.x[i:i + 1], list(cfg.space.names), every)
+    return Replay(label, i, why, model.full_values(run.x[i], cfg.space.names),
+                  {k: v[i] for k, v in run.scalars.items()}, out,
+                  bool(run.failed[i])), cfg
+
+
+def write_histories(rep: Replay, path: Path) -> Path:
+    """Every series of the replayed sample as columns of one CSV (time first), written
+    whole or not at all.
+
+    Parameters
+    ----------
+    rep : Replay
+    path : Path
+
+    Returns
+    -------
+    Path
+    """
+    out = rep.replayed
+    cols = {"time": out.time}
+    for name, y in out.series.items():
+        k = y.shape[2]
+        for c in range(k):
+            cols[name if k == 1 else f"{name}[{c}]"] = y[0, :, c]
+    path.parent.mkdir(parents=True, exist_ok=True)
+
+    def write(tmp: Path) -> None:
+        with tmp.open("w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(list(cols))
+            for j in range(out.time.size):
+                w.writerow([repr(float(v[j])) for v in cols.values()])
+
+    return atomic.write_with(path, write)
+
+
+def history_figure(rep: Replay, result_name: str, path: Path) -> Path:
+    """One panel per series output (every component) against time, as a PNG written whole or
+    not at all.
+
+    Parameters
+    ----------
+    rep : Replay
+    result_name : str
+        For the title.
+    path : Path
+
+    Returns
+    -------
+    Path
+    """
+    from ..report.figures import new_figure, save
+
+    series = rep.replayed.series
+    n = max(len(series), 1)
+    cols = 3 if n > 4 else 2 if n > 1 else 1
+    rows = -(-n // cols)
+    fig = new_figure((4.2 * cols, 2.8 * rows + 0.8), layout="constrained")
+    t = rep.replayed.time
+    for k, (name, y) in enumerate(series.items()):
+        ax = fig.add_subplot(rows, cols, k + 1)
+        for c in range(y.shape[2]):
+            ax.plot(t, y[0, :, c], lw=1.2, label=f"[{c}]" if y.shape[2] > 1 else None)
+        ax.set_title(name, fontsize=9)
+        ax.grid(True, alpha=0.3)
+        if y.shape[2] > 1:
+            ax.legend(fontsize=7)
+    fig.suptitle(f"{result_name}: {rep.label} sample {rep.index} ({rep.why})", fontsize=10)
+    return save(fig, path, dpi=100)
+
+
+def write_replay(rep: Replay, cfg: RunConfig, result_name: str, out_dir: Path) -> list[Path]:
+    """Histories (CSV), the generic history figure and the paper scenario's trajectory figures.
+
+    Parameters
+    ----------
+    rep : Replay
+    cfg : RunConfig
+    result_name : str
+    out_dir : Path
+        Created when missing.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    from ..papers import sample_figures
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = f"{result_name}_{rep.label}_{rep.index}"
+    paths = [write_histories(rep, out_dir / f"{stem}_history.csv")]
+    if rep.replayed.series:
+        paths.append(history_figure(rep, result_name, out_dir / f"{stem}_history.png"))
+    paths += sample_figures(cfg.model, rep.replayed, rep.inputs, out_dir, stem)
+    return paths
+
+
+def render(rep: Replay) -> str:
+    """The console summary: which sample, its inputs, stored vs replayed scalars.
+
+    Parameters
+    ----------
+    rep : Replay
+
+    Returns
+    -------
+    str
+    """
+    lines = [f"{rep.label} sample {rep.index}: {rep.why}"
+             + (" (stored as FAILED)" if rep.stored_failed else "")]
+    lines.append("inputs: " + ", ".join(f"{k} = {v:.17g}" for k, v in rep.inputs.items()))
+    bad = set(rep.mismatches())
+    lines.append(f"{'output':<16} {'stored':>26} {'replayed':>26}  bits")
+    for name, v in rep.stored.items():
+        new = rep.replayed.scalars[name][0]
+        for c in range(v.shape[0]):
+            nm = name if v.shape[0] == 1 else f"{name}[{c}]"
+            lines.append(f"{nm:<16} {v[c]:>26.17g} {new[c]:>26.17g}  "
+                         f"{'DIFFER' if name in bad else 'equal'}")
+    return "\n".join(lines)

@@ -1,0 +1,118 @@
+"""A whole run as the command line makes it, for the library and the scripts too: budget check,
+a locked and resumable run folder, every method, then the result file and the tables, each
+whole or absent.
+
+``uqguide run`` is this plus printing; :func:`uqguide.run` with ``out=`` and
+``scripts/reproduce_results.py`` call it, so every way of running writes the same files the
+same way.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..config.budget import check_memory, estimate
+from .checkpoint import RunStore, run_dir, run_identity
+from ..config.run_config import RunConfig
+from .execution import Executor, SerialExecutor
+from .interrupts import deferred
+from .progress import Progress
+from .propagate import run
+from ..report.tables import write_tables
+from ..config.report_times import check_config_report_times
+from ..results.result import Result, write_hdf5
+from .runlock import RunLock
+
+
+class WriteInterrupted(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM while the result files were written: the files written so far are
+    whole, and the run folder stays, so the run resumes without re-running a model."""
+
+
+@dataclass(frozen=True)
+class Written:
+    """A finished run and the files it wrote.
+
+    Attributes
+    ----------
+    result : Result
+    h5 : Path
+        ``<out>/<name>.h5``.
+    tables : list of Path
+        The CSV and Markdown tables beside it.
+    """
+
+    result: Result
+    h5: Path
+    tables: list[Path]
+
+
+def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | None = None, *,
+                  workers: int = 1, resume: bool = False, progress: Progress | None = None,
+                  resume_hint: str = "") -> Written:
+    """Run every method of ``config`` and write ``<out_dir>/<name>.h5`` and its tables.
+
+    Parameters
+    ----------
+    config : RunConfig
+        A validated config (:func:`uqguide.load_config`).
+    out_dir : str or Path
+        Folder of the result; the run folder ``<out_dir>/<name>.run`` checkpoints finished
+        chunks meanwhile and is removed once every file is written.
+    executor : Executor, optional
+        Where chunks run (default: this process). Closed on return.
+    workers : int
+        Worker processes of ``executor``, for the memory budget.
+    resume : bool
+        Continue from the run folder of an interrupted run of the same config (refused when
+        the config changed), instead of refusing to touch it.
+    progress : Progress, optional
+        Where progress is shown (default: counted, not shown).
+    resume_hint : str
+        The command that resumes this run, named in the messages of an interrupted run.
+
+    Returns
+    -------
+    Written
+
+    Raises
+    ------
+    ConfigError
+        Report times off the model's grid, or a memory budget over ``max_memory``: before any
+        folder is made.
+    RunInterrupted
+        Ctrl-C or SIGTERM during the runs (chunks done so far are in the run folder).
+    WriteInterrupted
+        Ctrl-C or SIGTERM while writing the result files.
+    """
+    out_dir = Path(out_dir)
+    executor = executor or SerialExecutor(config.raw.batch_size)
+    try:
+        check_config_report_times(config)
+        check_memory(estimate(config, workers))  # before anything is allocated
+        folder = run_dir(out_dir, config.name)  # inside out_dir: the name is a plain file name
+        with RunLock(folder):
+            store = RunStore.open(folder, run_identity(config.resolved(), config.model), resume,
+                                  resume_hint)
+            try:
+                result = run(config, executor, store=store, progress=progress)
+            finally:
+                store.close()  # every chunk saved is on disk, whatever stopped the run
+            try:
+                # Each file whole or absent; a signal here stops the run after the file being
+                # written, and the run folder stays until every file is written (resumable).
+                with deferred():
+                    h5 = write_hdf5(result, out_dir / f"{config.name}.h5")
+                with deferred():
+                    tables = write_tables(result, out_dir, config.name)
+            except KeyboardInterrupt:
+                raise WriteInterrupted() from None
+            with deferred():
+                store.remove()  # the result file holds everything the chunks did
+    finally:
+        executor.close()
+    return Written(result, h5, list(tables))
+
+
+__all__ = ["WriteInterrupted", "Written", "run_and_write"]

@@ -1,0 +1,5 @@
+"""Statistics as a CI regression gate, above ``results``.
+
+- ``baseline``: a result's statistics and their standard errors, kept as JSON;
+- ``check``: a result against a baseline, statistic by statistic.
+"""

@@ -1,0 +1,469 @@
+"""Baselines of the regression gate: what a result's statistics were, as a JSON file.
+
+A baseline is written from a result on purpose (``uqguide baseline RESULT -o B.json``). It holds,
+per method label, per output, per point (each report time and the last step of a series, as
+:func:`uqguide.report.tables.report_indices` picks them; the value of a scalar), per component: the
+mean, std, skewness and kurtosis, and for sample (Monte Carlo) estimates the standard error of each
+(:func:`standard_error`); plus the relative tolerance of PCE statistics, the resolved config, the
+library versions and the creation date. ``null`` stands for NaN.
+
+The file is JSON with every container of plain values on one line (one line per point), so a
+baseline that changes on purpose shows in a diff as the points that moved. Numbers are written
+with the shortest repr that reads back to the same double: a re-run of the same config and seed
+compares exactly.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from ..core import atomic
+from .._version import __version__
+from ..errors import ResultError
+from ..models.base import OutputInfo
+from ..config.report_times import report_indices
+from ..results.result import Result
+from ..stats.moments import STAT_NAMES, OutputStats
+
+BASELINE_FORMAT = "uqguide-baseline"
+BASELINE_VERSION = 1
+DEFAULT_PCE_RTOL = 0.02
+#: Half-width of a 95% normal interval in standard errors.
+Z95 = 1.959963984540054
+#: How a baseline output's statistics are judged: by standard errors (sample estimates) or by a
+#: relative tolerance (PCE: exact or surrogate-sampled moments).
+SAMPLE, RELATIVE = "standard_error", "relative_tolerance"
+
+
+# ---------------------------------------------------------------------------- file schema
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BaselinePoint(_Strict):
+    """One time point (or the scalar value) of one component; ``None`` stands for NaN."""
+
+    at: Literal["report", "end", "scalar"]
+    time: float | None
+    component: str
+    mean: float | None
+    std: float | None
+    skewness: float | None
+    kurtosis: float | None
+    mean_se: float | None = None
+    std_se: float | None = None
+    skewness_se: float | None = None
+    kurtosis_se: float | None = None
+    #: Statistics that are chaotic under round-off, with the range [low, high] they took over
+    #: the round-off ensemble the baseline was written with (``scripts/update_golden.py``);
+    #: the gate reports them and does not check them.
+    roundoff: dict[str, list[float | None]] = {}
+
+    @field_validator("time", "mean", "std", "skewness", "kurtosis", "mean_se", "std_se",
+                     "skewness_se", "kurtosis_se", mode="before")
+    @classmethod
+    def _number(cls, v: Any) -> Any:
+        if isinstance(v, bool):
+            raise ValueError(f"must be a number or null, not a boolean (got {v!r})")
+        return v
+
+    @field_validator("time", "mean", "std", "skewness", "kurtosis")
+    @classmethod
+    def _finite(cls, v: float | None) -> float | None:
+        if v is not None and not math.isfinite(v):
+            raise ValueError(f"must be a finite number or null (got {v!r})")
+        return v
+
+    @field_validator("std", "mean_se", "std_se", "skewness_se", "kurtosis_se")
+    @classmethod
+    def _error(cls, v: float | None) -> float | None:
+        if v is not None and not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"must be a finite number >= 0 or null (got {v!r})")
+        return v
+
+
+class BaselineOutput(_Strict):
+    kind: Literal["series", "scalar"]
+    unit: str
+    components: list[str]
+    uncertainty: Literal["standard_error", "relative_tolerance"]
+    moments_method: str
+    n_used: int = Field(ge=0)
+    points: list[BaselinePoint] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> BaselineOutput:
+        """A baseline that cannot be compared is refused here, not at check time."""
+        if not self.components or len(set(self.components)) != len(self.components):
+            raise ValueError(f"components must be a non-empty list of distinct names "
+                             f"(got {self.components})")
+        sample = self.uncertainty == SAMPLE
+        if sample != (self.moments_method == "sample"):
+            raise ValueError(f"uncertainty {self.uncertainty!r} does not fit moments_method "
+                             f"{self.moments_method!r}")
+        if sample and self.n_used < 1:
+            raise ValueError(f"n_used must be >= 1 for sample statistics (got {self.n_used})")
+        for i, p in enumerate(self.points):
+            where = f"points[{i}]"
+            if p.component not in self.components:
+                raise ValueError(f"{where}.component {p.component!r} is not one of "
+                                 f"{self.components}")
+            if self.kind == "scalar" and (p.at != "scalar" or p.time is not None):
+                raise ValueError(f"{where}: a scalar output's point has at 'scalar' and time "
+                                 f"null (got at {p.at!r}, time {p.time!r})")
+            if self.kind == "series" and (p.at == "scalar" or p.time is None or p.time < 0):
+                raise ValueError(f"{where}: a series output's point has at 'report' or 'end' "
+                                 f"and a time >= 0 (got at {p.at!r}, time {p.time!r})")
+            if p.mean is None and p.std is None:
+                raise ValueError(f"{where}: mean and std are both null: nothing to check")
+            if sample and p.std is not None:
+                # The standard error of the mean is std / sqrt(n_used) (stats.py): a baseline
+                # whose error bars were loosened by hand no longer fits its own numbers.
+                sem = p.std / math.sqrt(self.n_used)
+                if p.mean_se is None or abs(p.mean_se - sem) > 1e-6 * sem + 1e-300:
+                    raise ValueError(f"{where}.mean_se must be std / sqrt(n_used) = {sem:.6g} "
+                                     f"(got {p.mean_se!r})")
+                for stat in ("std", "skewness", "kurtosis"):
+                    if getattr(p, stat) is not None and getattr(p, f"{stat}_se") is None:
+                        raise ValueError(f"{where}.{stat}_se: missing for a sample statistic")
+        return self
+
+
+class BaselineMethod(_Strict):
+    method: str
+    n_runs: int = Field(ge=0)
+    n_failed: int = Field(ge=0)
+    outputs: dict[str, BaselineOutput] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _counts(self) -> BaselineMethod:
+        if self.n_failed > self.n_runs:
+            raise ValueError(f"n_failed ({self.n_failed}) exceeds n_runs ({self.n_runs})")
+        return self
+
+
+class BaselineTolerances(_Strict):
+    pce_rtol: float
+    note: str = ""
+
+    @field_validator("pce_rtol")
+    @classmethod
+    def _rtol(cls, v: float) -> float:
+        if not (math.isfinite(v) and 0 < v <= 1):
+            raise ValueError(f"must be a finite number in (0, 1] (got {v!r})")
+        return v
+
+
+class Baseline(_Strict):
+    """A baseline file, validated. Build one with :func:`make_baseline`."""
+
+    format: Literal["uqguide-baseline"]
+    format_version: Literal[1]
+    name: str
+    model: str
+    created_utc: str
+    uqguide_version: str
+    result_created_utc: str = ""
+    versions: dict[str, str]
+    tolerances: BaselineTolerances
+    methods: dict[str, BaselineMethod] = Field(min_length=1)
+    config: dict[str, Any]
+
+
+# ---------------------------------------------------------------------------- extraction
+def _uncertainty_kind(s: OutputStats) -> str:
+    return SAMPLE if s.moments_method == "sample" else RELATIVE
+
+
+def standard_error(s: OutputStats, stat: str, where: tuple[int, ...]) -> float:
+    """Standard error of a sample statistic at ``where`` (module docstring for the formulas).
+
+    Parameters
+    ----------
+    s : OutputStats
+    stat : {"mean", "std", "skewness", "kurtosis"}
+    where : tuple of int
+        ``(time index, component)`` for a series, ``(component,)`` for a scalar.
+
+    Returns
+    -------
+    float
+        In the statistic's unit: from the sem, the bootstrap interval, or normal theory.
+    """
+    n = max(int(s.n_used), 1)
+    if stat == "mean" and s.sem is not None:
+        return float(s.sem[where])
+    ci = s.ci.get(stat)
+    if ci is not None:
+        lo, hi = float(ci[0][where]), float(ci[1][where])
+        if math.isfinite(lo) and math.isfinite(hi):
+            return (hi - lo) / (2.0 * Z95)
+    std = float(s.std[where])
+    normal_theory = {"mean": std / math.sqrt(n), "std": std / math.sqrt(2 * n),
+                     "skewness": math.sqrt(6.0 / n), "kurtosis": math.sqrt(24.0 / n)}
+    return normal_theory[stat]
+
+
+def _num(v: float) -> float | None:
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _point_places(result: Result, o: OutputInfo) -> list[tuple[str, float | None, int | None]]:
+    """``(at, time, step index)`` of the points a baseline keeps for output ``o``."""
+    if o.kind == "scalar":
+        return [("scalar", None, None)]
+    idx = report_indices(result.time, result.report_times)
+    last = result.time.size - 1
+    return [("end" if i == last else "report", float(result.time[i]), int(i)) for i in idx]
+
+
+#: Key of one statistic of a baseline: (label, output, at, time, component, statistic).
+StatKey = tuple[str, str, str, "float | None", str, str]
+
+
+def _points(result: Result, o: OutputInfo, s: OutputStats, label: str = "",
+            roundoff: dict[StatKey, list[float | None]] | None = None) -> list[dict[str, Any]]:
+    sample = _uncertainty_kind(s) == SAMPLE
+    pts = []
+    for at, t, i in _point_places(result, o):
+        for c, comp in enumerate(o.components):
+            where = (c,) if i is None else (i, c)
+            if s.usable is not None and not bool(np.asarray(s.usable)[where]):
+                continue  # a PCE with no usable surrogate here reports no moments to pin
+            p: dict[str, Any] = {"at": at, "time": t, "component": comp}
+            for stat in STAT_NAMES:
+                p[stat] = _num(s.stat(stat)[where])
+            if sample:
+                for stat in STAT_NAMES:
+                    p[f"{stat}_se"] = _num(standard_error(s, stat, where))
+            chaotic = {stat: rng for stat in STAT_NAMES
+                       if (rng := (roundoff or {}).get((label, o.name, at, t, comp, stat)))}
+            if chaotic:
+                p["roundoff"] = chaotic
+            pts.append(p)
+    return pts
+
+
+def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
+                  roundoff: dict[StatKey, list[float | None]] | None = None) -> dict[str, Any]:
+    """The baseline of ``result`` as a JSON-ready mapping (see the module docstring).
+
+    Parameters
+    ----------
+    result : Result
+    pce_rtol : float
+        Relative tolerance stored for PCE statistics, in ``(0, 1]``.
+    roundoff : dict, optional
+        Statistics chaotic under round-off, with their range over a round-off ensemble
+        (``scripts/update_golden.py`` measures it); they are recorded, not checked.
+
+    Returns
+    -------
+    dict
+        JSON-ready: format, config, tolerances, and per method and output the values and
+        standard errors at the report points.
+    """
+    if not (math.isfinite(pce_rtol) and 0 < pce_rtol <= 1):
+        raise ResultError(f"--pce-rtol: must be a finite number in (0, 1] (got {pce_rtol!r})")
+    methods: dict[str, Any] = {}
+    left_out: list[str] = []
+    for r in result.runs:
+        outs: dict[str, Any] = {}
+        for o in result.outputs:
+            s = r.estimate.stats.get(o.name)
+            if s is None:
+                continue
+            points = _points(result, o, s, r.label, roundoff)
+            if not points:
+                left_out.append(f"{r.label}/{o.name} (no usable surrogate: no moments)")
+                continue
+            if roundoff and all(set(STAT_NAMES) <= set(p.get("roundoff", {})) for p in points):
+                left_out.append(f"{r.label}/{o.name} (nothing checkable: chaotic under "
+                                "round-off, or the moments of a zero spread)")
+                continue
+            outs[o.name] = {
+                "kind": o.kind, "unit": o.unit, "components": list(o.components),
+                "uncertainty": _uncertainty_kind(s), "moments_method": s.moments_method,
+                "n_used": int(s.n_used), "points": points,
+            }
+        if not outs:  # a method without moments (subset simulation): nothing to gate
+            left_out.append(f"{r.label} (no statistic to check)")
+            continue
+        methods[r.label] = {"method": r.estimate.method, "n_runs": int(r.n_runs),
+                            "n_failed": int(r.n_failed), "outputs": outs}
+    return {
+        "format": BASELINE_FORMAT,
+        "format_version": BASELINE_VERSION,
+        "name": result.name,
+        "model": result.model,
+        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "uqguide_version": __version__,
+        "result_created_utc": str(result.provenance.get("created_utc", "")),
+        "versions": {k: str(v) for k, v in result.provenance.get("versions", {}).items()},
+        "tolerances": {
+            "pce_rtol": float(pce_rtol),
+            "note": "Monte Carlo statistics are checked against k combined standard errors "
+                    "(the *_se values; k given to `uqguide check --sigmas`, default 4); PCE "
+                    "statistics against pce_rtol of their scale. null means NaN."
+                    + (" Left out: " + "; ".join(left_out) + "." if left_out else ""),
+        },
+        "methods": methods,
+        "config": result.config,
+    }
+
+
+# ---------------------------------------------------------------------------- JSON files
+def _is_scalar(v: Any) -> bool:
+    return v is None or isinstance(v, (str, int, float, bool))
+
+
+def _json_text(obj: Any, level: int = 0) -> str:
+    """JSON with containers of scalars on one line (one line per point: readable diffs)."""
+    pad, inner = "  " * level, "  " * (level + 1)
+    if isinstance(obj, dict):
+        if not obj:
+            return "{}"
+        if all(_is_scalar(v) for v in obj.values()):
+            return json.dumps(obj, allow_nan=False)
+        body = ",\n".join(f"{inner}{json.dumps(str(k))}: {_json_text(v, level + 1)}"
+                          for k, v in obj.items())
+        return "{\n" + body + "\n" + pad + "}"
+    if isinstance(obj, (list, tuple)):
+        if all(_is_scalar(v) for v in obj):
+            return json.dumps(list(obj), allow_nan=False)
+        return "[\n" + ",\n".join(inner + _json_text(v, level + 1) for v in obj) + "\n" + pad + "]"
+    return json.dumps(obj, allow_nan=False)
+
+
+def to_jsonable(obj: Any) -> Any:
+    """``obj`` with arrays and NumPy scalars as lists and numbers, non-finite floats as None.
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts, lists, tuples, arrays and scalars.
+
+    Returns
+    -------
+    object
+        Accepted by ``json.dumps(..., allow_nan=False)``.
+    """
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return to_jsonable(obj.item())
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    return obj
+
+
+def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_PCE_RTOL,
+                   roundoff: dict[StatKey, list[float | None]] | None = None) -> Path:
+    """Write the baseline of ``result`` to ``path`` (temporary file, then an atomic rename).
+
+    Parameters
+    ----------
+    result : Result
+    path : str or Path
+    pce_rtol : float
+    roundoff : dict, optional
+        As for :func:`make_baseline`.
+
+    Returns
+    -------
+    Path
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = _json_text(to_jsonable(make_baseline(result, pce_rtol, roundoff))) + "\n"
+    return atomic.write_text(path, text)
+
+
+def parse_baseline(data: Any, source: str = "<baseline>") -> Baseline:
+    """Validate a decoded baseline mapping; ResultError naming the first problem.
+
+    Parameters
+    ----------
+    data : object
+        The decoded JSON.
+    source : str
+        How to name it in messages.
+
+    Returns
+    -------
+    Baseline
+    """
+    if not isinstance(data, dict) or data.get("format") != BASELINE_FORMAT:
+        raise ResultError(f"{source}: not a uqguide baseline (expected a JSON object with "
+                          f"\"format\": \"{BASELINE_FORMAT}\"; write one with "
+                          f"`uqguide baseline RESULT -o FILE`)")
+    version = data.get("format_version")
+    if version != BASELINE_VERSION:
+        raise ResultError(f"{source}: baseline format_version {version!r} is not supported "
+                          f"(this uqguide reads {BASELINE_VERSION}); regenerate it with "
+                          f"`uqguide baseline`")
+    try:
+        return Baseline.model_validate(data)
+    except ValidationError as err:
+        e = err.errors(include_url=False)[0]
+        where = ".".join(str(p) for p in e["loc"])
+        msg = e["msg"].replace("Value error, ", "")
+        got = "" if isinstance(e.get("input"), (dict, list)) else f" (got {e.get('input')!r:.60})"
+        raise ResultError(f"{source}: invalid baseline at {where or 'top level'}: "
+                          f"{msg}{got}") from None
+    except RecursionError:
+        raise ResultError(f"{source}: baseline nested too deeply") from None
+
+
+#: A baseline holds a few numbers per report point: 50 MB is far beyond any real one.
+MAX_BASELINE_BYTES = 50_000_000
+
+
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a JSON number (a baseline writes NaN as null)")
+
+
+def read_baseline(path: str | Path) -> Baseline:
+    """Read and validate a baseline file; ResultError if it is missing, corrupt or not one.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Baseline
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        if size > MAX_BASELINE_BYTES:
+            raise ResultError(f"{path}: baseline is {size} bytes; a baseline is at most "
+                              f"{MAX_BASELINE_BYTES} (is this a baseline?)")
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ResultError(f"{path}: baseline file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ResultError(f"{path}: cannot read baseline file ({exc})") from None
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except RecursionError:
+        raise ResultError(f"{path}: baseline is nested too deeply to be one") from None
+    except ValueError as exc:
+        if not isinstance(exc, json.JSONDecodeError):
+            raise ResultError(f"{path}: baseline is not valid JSON ({exc})") from None
+        raise ResultError(f"{path}: baseline is not valid JSON (line {exc.lineno}, column "
+                          f"{exc.colno}: {exc.msg})") from None
+    return parse_baseline(data, str(path))

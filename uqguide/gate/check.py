@@ -1,0 +1,517 @@
+"""Statistics as a regression gate: the comparison of a result with a baseline.
+
+A baseline (:mod:`uqguide.gate.baseline`, written on purpose by ``uqguide baseline RESULT -o
+B.json``) holds per method label, output, point (report times and last step of a series; a scalar's
+value) and component the mean, std, skewness and kurtosis, with the standard error of each for Monte
+Carlo estimates, plus the config and the versions it came from.
+
+``uqguide check RESULT --baseline B.json`` compares every statistic of the result with the
+baseline's at the same points:
+
+- **Monte Carlo** (``moments_method == "sample"``): the two estimates are independent, so their
+  difference has standard error ``sqrt(se_a^2 + se_b^2)``; it fails beyond ``sigmas`` (default 4)
+  of these. The standard error of the mean is ``sem = std / sqrt(n)``; that of std, skewness and
+  kurtosis is the half-width of the 95% bootstrap interval over 1.96 (the percentile interval of
+  a near-normal estimator is ``+-1.96 se``). Where a result has no bootstrap interval (bootstrap
+  off, or a series step that is not a report time) the normal-theory values ``std / sqrt(2n)``,
+  ``sqrt(6/n)`` and ``sqrt(24/n)`` are used; they understate the spread of heavy-tailed outputs,
+  which is why the bootstrap is preferred. With 4 sigmas a single quantity of a reseeded rerun
+  fails with probability about 6e-5, so a check of a few hundred quantities stays green; a
+  shift of a mean by 5 or more combined standard errors fails nearly always.
+- **PCE** (``moments_method`` ``"exact"`` or ``"surrogate-sampling"``): the estimate is a
+  deterministic function of the design, so a statistical error bar does not apply; it fails when
+  it differs from the baseline by more than ``pce_rtol`` (default 2%, stored in the baseline) of
+  a scale: ``max(|mean|, std)`` for the mean (a mean near zero is judged on the output's
+  spread), ``std`` for the std, ``max(|skewness|, 1)`` for the skewness, ``kurtosis`` for the
+  kurtosis. It judges a rerun of the same design (same seed): a PCE with another seed is
+  another surrogate, whose skewness and kurtosis may differ far more (an adaptive PCE of
+  FTCAPN's miss distance from 150 runs gave skewness 0.9 to 25 over three seeds).
+  2% is far above the round-off of a re-run (same design, same numbers) and of a
+  library update that leaves the fitted basis unchanged, and below the few-per-cent shifts a
+  guidance-law change gives; an adaptive basis that selects different terms after a dependency
+  update may move skewness and kurtosis more, and should then be looked at.
+
+Every tolerance has a floor of ``ROUNDOFF_RTOL`` (1e-6) of the output component's magnitude (its
+peak ``|mean| + std`` over the baseline's points). It decides alone where there is no spread (a
+deterministic nominal run, a series step before any dispersion acts). It is not 1e-15: last-bit
+differences of a math library on another CPU are amplified by a chattering sliding-mode
+controller to its accuracy floor (FT-AS: attitude error ~1e-8 against a peak of 0.2, i.e. 5e-8
+of the peak), while a change of a gain or a law moves the statistics by far more. A statistic
+that is NaN in both (skewness of a zero-variance step) passes; NaN in one only fails. Skewness and
+kurtosis are skipped (with a note) where the std of either is below ``STD_ZERO_RTOL`` of the
+component's peak std: they are then ratios of round-off.
+
+A baseline that cannot be read, or does not match the result (other model, a method label or an
+output missing, other kind, unit or components), raises :class:`~uqguide.errors.ResultError`:
+the gate cannot judge, which ``uqguide check`` reports with exit code 2. A config that differs
+from the baseline's (a changed gain, another seed or sample count) is what the gate is for: it is
+listed in the notes and the statistics decide.
+"""
+
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .baseline import (
+    DEFAULT_PCE_RTOL, SAMPLE, Baseline, BaselineOutput, BaselinePoint, to_jsonable, read_baseline,
+    standard_error, write_baseline,
+)
+from ..errors import ResultError
+from ..models.base import OutputInfo
+from ..results.result import MethodRun, Result
+from ..stats.moments import STAT_NAMES, OutputStats
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["DEFAULT_PCE_RTOL", "DEFAULT_SIGMAS", "Baseline", "CheckReport", "CheckRow",
+           "check_compatible", "check_result", "config_differences", "read_baseline",
+           "write_baseline"]
+
+DEFAULT_SIGMAS = 4.0
+#: Differences below this fraction of an output component's peak magnitude are numerical noise.
+ROUNDOFF_RTOL = 1e-6
+#: A std below this fraction of the component's peak std makes skewness and kurtosis meaningless.
+STD_ZERO_RTOL = 1e-8
+
+
+class _Absent:
+    def __repr__(self) -> str:
+        return "<absent>"
+
+
+#: Marks a config key one of two compared configs does not have.
+ABSENT: Any = _Absent()
+
+
+# ---------------------------------------------------------------------------- comparison
+@dataclass
+class CheckRow:
+    """One statistic of one output at one point, compared with the baseline.
+
+    ``tolerance`` is the largest allowed ``|value - baseline|`` (same unit as the statistic);
+    ``basis`` says where it comes from; ``note`` why a row passed or failed other than by value.
+    """
+
+    label: str
+    output: str
+    component: str
+    time: float | None
+    stat: str
+    unit: str
+    value: float
+    baseline: float
+    tolerance: float
+    basis: str
+    passed: bool
+    note: str = ""
+
+    @property
+    def quantity(self) -> str:
+        comp = f"[{self.component}]" if self.component else ""
+        where = f" at t={self.time:g} s" if self.time is not None else ""
+        return f"{self.label}: {self.stat} of {self.output}{comp}{where}"
+
+    @property
+    def difference(self) -> float:
+        return self.value - self.baseline
+
+    @property
+    def skipped(self) -> bool:
+        return self.note.startswith("skipped")
+
+
+@dataclass
+class CheckReport:
+    """The outcome of :func:`check_result`: one row per compared statistic, plus notes."""
+
+    name: str
+    baseline_source: str
+    sigmas: float
+    pce_rtol: float
+    rows: list[CheckRow] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def failures(self) -> list[CheckRow]:
+        return [r for r in self.rows if not r.passed]
+
+    @property
+    def passed(self) -> bool:
+        return not self.failures
+
+    def to_frame(self) -> pd.DataFrame:
+        """Every compared statistic, one row each.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``quantity``, ``label``, ``output``, ``component``, ``time`` [s],
+            ``stat``, ``unit``, ``value``, ``baseline``, ``difference``, ``tolerance`` (in the
+            statistic's unit), ``basis``, ``passed``, ``note``.
+        """
+        import pandas as pd  # here: `uqguide check` starts without it
+
+        return pd.DataFrame([{
+            "quantity": r.quantity, "label": r.label, "output": r.output,
+            "component": r.component, "time": r.time, "stat": r.stat, "unit": r.unit,
+            "value": r.value, "baseline": r.baseline, "difference": r.difference,
+            "tolerance": r.tolerance, "basis": r.basis, "passed": r.passed, "note": r.note,
+        } for r in self.rows])
+
+    def summary(self) -> str:
+        """One line: PASS or REGRESSION, the counts and the tolerances used.
+
+        Returns
+        -------
+        str
+        """
+        n_skip = sum(r.skipped for r in self.rows)
+        n = len(self.rows) - n_skip
+        labels = ", ".join(dict.fromkeys(r.label for r in self.rows))
+        how = (f"Monte Carlo: {self.sigmas:g} combined standard errors; "
+               f"PCE: {100 * self.pce_rtol:g}% relative")
+        n_chaos = sum(r.note.startswith("skipped: chaotic") for r in self.rows)
+        parts = [f"{n_skip - n_chaos} skipped (std ~ 0)"] if n_skip > n_chaos else []
+        parts += [f"{n_chaos} not checked (chaotic under round-off)"] if n_chaos else []
+        skipped = "; " + ", ".join(parts) if parts else ""
+        if self.passed:
+            return (f"PASS: {n} statistics of '{self.name}' ({labels}) within tolerance of "
+                    f"baseline {self.baseline_source} ({how}){skipped}")
+        return (f"REGRESSION: {len(self.failures)} of {n} statistics of '{self.name}' differ "
+                f"from baseline {self.baseline_source} beyond tolerance ({how}){skipped}")
+
+    def render(self, all_rows: bool = False) -> str:
+        """The console form: the summary line, the failing (or every) row, the notes.
+
+        Parameters
+        ----------
+        all_rows : bool
+            Every row, not only the failing ones.
+
+        Returns
+        -------
+        str
+        """
+        parts = [self.summary()]
+        rows = self.rows if all_rows else self.failures
+        if rows:
+            import pandas as pd
+
+            df = pd.DataFrame([{
+                "quantity": r.quantity, "unit": _stat_unit(r),
+                "value": _fmt(r.value), "baseline": _fmt(r.baseline),
+                "difference": _fmt(r.difference), "tolerance": _fmt(r.tolerance),
+                "basis": r.basis, **({"ok": "yes" if r.passed else "NO"} if all_rows else {}),
+                "note": r.note,
+            } for r in rows])
+            if not df["note"].astype(bool).any():
+                df = df.drop(columns="note")
+            parts += ["", _text_table(df, left=("quantity", "basis", "note"))]
+        if self.notes:
+            parts += ["", "Notes:"] + [f"- {n}" for n in self.notes]
+        return "\n".join(parts)
+
+
+def _text_table(df: pd.DataFrame, left: tuple[str, ...]) -> str:
+    """Fixed-width text table: the ``left`` columns left-aligned, the others right-aligned."""
+    cols = [str(c) for c in df.columns]
+    cells = [[str(v) for v in row] for row in df.itertuples(index=False)]
+    widths = [max([len(c)] + [len(r[j]) for r in cells]) for j, c in enumerate(cols)]
+
+    def line(values: list[str]) -> str:
+        return "  ".join(v.ljust(w) if c in left else v.rjust(w)
+                         for v, w, c in zip(values, widths, cols)).rstrip()
+
+    return "\n".join([line(cols)] + [line(r) for r in cells])
+
+
+def _stat_unit(r: CheckRow) -> str:
+    return r.unit if r.stat in ("mean", "std") else "1"
+
+
+def _fmt(v: float) -> str:
+    if not math.isfinite(v):
+        return "nan"
+    a = abs(v)
+    return f"{v:.5g}" if (a == 0 or 1e-3 <= a < 1e5) else f"{v:.4e}"
+
+
+def _flatten(d: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(d, dict):
+        out: dict[str, Any] = {}
+        for k, v in d.items():
+            out.update(_flatten(v, f"{prefix}.{k}" if prefix else str(k)))
+        return out
+    if isinstance(d, list):
+        out = {}
+        for i, v in enumerate(d):
+            out.update(_flatten(v, f"{prefix}[{i}]"))
+        return out or {prefix: []}
+    return {prefix: d}
+
+
+def config_differences(baseline_config: dict[str, Any],
+                       config: dict[str, Any]) -> list[tuple[str, Any, Any]]:
+    """``(path, baseline value, value)`` for every leaf of two resolved configs that differs;
+    ``ABSENT`` stands for a key one of them does not have (a setting added to uqguide since).
+
+    Parameters
+    ----------
+    baseline_config, config : dict
+        Resolved configs (the baseline's, the result's).
+
+    Returns
+    -------
+    list of (str, object, object)
+        Dotted path, baseline value, value; empty when they agree.
+    """
+    a, b = _flatten(to_jsonable(baseline_config)), _flatten(to_jsonable(config))
+    diffs = []
+    for key in dict.fromkeys([*a, *b]):
+        va, vb = a.get(key, ABSENT), b.get(key, ABSENT)
+        if va != vb:
+            diffs.append((key, va, vb))
+    return diffs
+
+
+def format_differences(diffs: list[tuple[str, Any, Any]]) -> str:
+    """The differences of :func:`config_differences` on one line.
+
+    Parameters
+    ----------
+    diffs : list of (str, object, object)
+
+    Returns
+    -------
+    str
+        ``"path: old -> new; ..."``.
+    """
+    return "; ".join(f"{k}: {va!r} -> {vb!r}" for k, va, vb in diffs)
+
+
+def check_compatible(baseline: Baseline, model: str, labels: dict[str, str],
+                     outputs: dict[str, OutputInfo], source: str = "baseline") -> None:
+    """ResultError unless the baseline's model, method labels and outputs are all there.
+
+    Parameters
+    ----------
+    labels : dict of str to str
+        Method label -> registered method name, of the result (or config) to check.
+    outputs : dict of str to OutputInfo
+        The outputs the result reports.
+    """
+    if baseline.model != model:
+        raise ResultError(f"{source}: baseline is for model '{baseline.model}', the result is "
+                          f"model '{model}'")
+    for label, bm in baseline.methods.items():
+        if label not in labels:
+            raise ResultError(f"{source}: the result has no method labelled '{label}' (it has: "
+                              f"{', '.join(labels) or 'none'})")
+        if labels[label] != bm.method:
+            raise ResultError(f"{source}: method '{label}' is {bm.method} in the baseline and "
+                              f"{labels[label]} in the result")
+        for name, bo in bm.outputs.items():
+            o = outputs.get(name)
+            if o is None:
+                raise ResultError(f"{source}: the result has no output '{name}' (baseline method "
+                                  f"'{label}'; result outputs: {', '.join(outputs)})")
+            if (o.kind, o.unit, list(o.components)) != (bo.kind, bo.unit, bo.components):
+                raise ResultError(
+                    f"{source}: output '{name}' is {bo.kind} [{bo.unit}] with components "
+                    f"{bo.components} in the baseline, {o.kind} [{o.unit}] with components "
+                    f"{list(o.components)} in the result")
+
+
+def _grid_index(time: np.ndarray, p: BaselinePoint) -> tuple[int | None, str]:
+    """Step of the result that matches baseline point ``p``, and a note."""
+    if time.size == 0:
+        return None, "the result has no time grid"
+    assert p.time is not None
+    if p.at == "end":
+        note = "" if np.isclose(time[-1], p.time, rtol=0, atol=1e-9) else \
+            f"last step at t={time[-1]:g} s, baseline's at t={p.time:g} s"
+        return time.size - 1, note
+    i = int(np.argmin(np.abs(time - p.time)))
+    half_step = 0.5 * float(np.min(np.diff(time))) if time.size > 1 else 0.0
+    if abs(time[i] - p.time) > half_step + 1e-9:
+        return None, f"no step of the result's grid ({time[0]:g}..{time[-1]:g} s) at this time"
+    return i, ""
+
+
+def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: OutputStats,
+                    time: np.ndarray, sigmas: float, pce_rtol: float) -> list[CheckRow]:
+    rows: list[CheckRow] = []
+    sample = bo.uncertainty == SAMPLE
+    # Magnitude and spread per component over the baseline's points: the floors' scales.
+    mag: dict[str, float] = {}
+    peak_std: dict[str, float] = {}
+    for p in bo.points:
+        m, sd = abs(p.mean or 0.0), abs(p.std or 0.0)
+        mag[p.component] = max(mag.get(p.component, 0.0), m + sd)
+        peak_std[p.component] = max(peak_std.get(p.component, 0.0), sd)
+    comps = list(bo.components)
+    for p in bo.points:
+        c = comps.index(p.component)
+        if bo.kind == "series":
+            i, where_note = _grid_index(time, p)
+            where: tuple[int, ...] | None = None if i is None else (i, c)
+        else:
+            where, where_note = (c,), ""
+        std_a = float(s.std[where]) if where is not None else math.nan
+        std_b = math.nan if p.std is None else p.std
+        floor = ROUNDOFF_RTOL * mag[p.component]
+        zero_std = STD_ZERO_RTOL * peak_std[p.component]
+        for stat in STAT_NAMES:
+            b = getattr(p, stat)
+            b = math.nan if b is None else float(b)
+            row = CheckRow(label, name, p.component, p.time, stat, unit,
+                           math.nan, b, math.nan, "", False, where_note)
+            rows.append(row)
+            if where is None:
+                continue
+            a = float(s.stat(stat)[where])
+            row.value = a
+            if stat in p.roundoff:
+                lo, hi = (math.nan if v is None else v for v in p.roundoff[stat])
+                row.passed = True
+                row.note = (f"skipped: chaotic under round-off (took {_fmt(lo)} .. {_fmt(hi)} "
+                            "when the baseline's inputs moved by 1e-12)")
+                continue
+            if stat in ("skewness", "kurtosis") and not (std_a > zero_std and std_b > zero_std):
+                row.passed, row.note = True, "skipped: std ~ 0 (ratio of round-off)"
+                continue
+            if sample:
+                se_b = getattr(p, f"{stat}_se")
+                se_b = math.nan if se_b is None else se_b
+                se_a = standard_error(s, stat, where)
+                comb = math.hypot(se_a, se_b)  # no overflow of the squares
+                row.tolerance = max(sigmas * comb, floor) if math.isfinite(comb) else floor
+                row.basis = f"{sigmas:g} x combined SE {_fmt(comb)}" \
+                    if row.tolerance > floor else "round-off floor (no spread)"
+            else:
+                scale = {"mean": max(abs(b), abs(std_b)), "std": abs(b),
+                         "skewness": max(abs(b), 1.0), "kurtosis": abs(b)}[stat]
+                row.tolerance = max(pce_rtol * scale, floor) if math.isfinite(scale) else floor
+                row.basis = f"{100 * pce_rtol:g}% of {_fmt(scale)}" \
+                    if row.tolerance > floor else "round-off floor (no spread)"
+            if math.isnan(a) and math.isnan(b):
+                row.passed, row.note = True, "NaN in both"
+            elif math.isnan(a) or math.isnan(b):
+                row.passed = False
+                row.note = "NaN in the " + ("result" if math.isnan(a) else "baseline")
+            else:
+                row.passed = abs(a - b) <= row.tolerance
+    return rows
+
+
+def check_tolerance(option: str, value: Any) -> float:
+    """A gate tolerance: a finite number > 0, else ResultError (exit 2) naming the option.
+
+    Parameters
+    ----------
+    option : str
+        The command-line option, for the message.
+    value : object
+        What was given.
+
+    Returns
+    -------
+    float
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise ResultError(f"{option}: must be a finite number > 0 (got {value!r})")
+    return v
+
+
+def _check_shapes(s: OutputStats, o: OutputInfo, time: np.ndarray, where: str) -> None:
+    want = (time.size, o.k) if o.kind == "series" else (o.k,)
+    for stat in STAT_NAMES:
+        got = np.shape(s.stat(stat))
+        if got != want:
+            raise ResultError(f"result {where}: {stat} has shape {got}, expected {want} "
+                              f"({o.kind} output with {o.k} component(s))")
+
+
+def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIGMAS,
+                 pce_rtol: float | None = None, source: str = "baseline") -> CheckReport:
+    """Compare every statistic of ``result`` with ``baseline`` at the baseline's points.
+
+    Parameters
+    ----------
+    result : Result
+    baseline : Baseline
+    sigmas : float
+        Monte Carlo tolerance in combined standard errors (module docstring).
+    pce_rtol : float, optional
+        Relative tolerance of PCE statistics; default the one stored in the baseline.
+    source : str
+        How to name the baseline in messages (its path).
+
+    Returns
+    -------
+    CheckReport
+        One row per statistic compared, with its tolerance and verdict.
+
+    Raises
+    ------
+    ResultError
+        When the result cannot be compared with this baseline (:func:`check_compatible`).
+    """
+    check_tolerance("--sigmas", sigmas)
+    rtol = baseline.tolerances.pce_rtol if pce_rtol is None else pce_rtol
+    check_tolerance("--pce-rtol", rtol)
+    if not baseline.methods:
+        raise ResultError(f"{source}: the baseline names no method: it would check nothing")
+    check_compatible(baseline, result.model, {r.label: r.estimate.method for r in result.runs},
+                     {o.name: o for o in result.outputs}, source)
+    report = CheckReport(result.name, source, sigmas, rtol)
+    for label, bm in baseline.methods.items():
+        run: MethodRun = result.run(label)
+        if not bm.outputs:
+            raise ResultError(f"{source}: baseline method '{label}' names no output: it would "
+                              f"check nothing")
+        for name, bo in bm.outputs.items():
+            s = run.estimate.stats.get(name)
+            if s is None:
+                raise ResultError(f"{source}: method '{label}' of the result has no statistics "
+                                  f"of output '{name}'")
+            _check_shapes(s, result.output(name), result.time, f"{label}/{name}")
+            rows = _compare_output(label, name, bo.unit, bo, s, result.time, sigmas, rtol)
+            if not any(not r.skipped for r in rows):
+                raise ResultError(f"{source}: baseline method '{label}', output '{name}' has no "
+                                  f"statistic to check")
+            report.rows += rows
+        extra = [n for n in run.estimate.stats if n not in bm.outputs]
+        if extra:
+            report.notes.append(f"{label}: output(s) {', '.join(extra)} not in the baseline, "
+                                f"not checked")
+        if run.n_runs != bm.n_runs:
+            report.notes.append(f"{label}: {run.n_runs} runs, baseline {bm.n_runs}")
+    extra_labels = [r.label for r in result.runs if r.label not in baseline.methods]
+    if extra_labels:
+        report.notes.append(f"method(s) {', '.join(extra_labels)} not in the baseline, "
+                            f"not checked")
+    diffs = config_differences(baseline.config, result.config)
+    changed = [d for d in diffs if d[1] is not ABSENT]
+    added = [d for d in diffs if d[1] is ABSENT]
+    if changed:
+        report.notes.append("config differs from the baseline's: " + format_differences(changed))
+    if added:
+        report.notes.append("settings the baseline does not have (defaults since added): "
+                            + format_differences(added))
+    vdiff = [f"{k} {baseline.versions.get(k, '?')} -> {v}"
+             for k, v in result.provenance.get("versions", {}).items()
+             if baseline.versions.get(k) != str(v)]
+    if vdiff:
+        report.notes.append("versions differ from the baseline's: " + "; ".join(vdiff))
+    return report

@@ -1,0 +1,165 @@
+"""Text descriptions for the CLI: models, method settings, and nominal-run reports."""
+
+from __future__ import annotations
+
+import inspect
+import re
+from types import UnionType
+from typing import Any, Literal, Union, get_args, get_origin
+
+from pydantic import BaseModel
+
+from ..models.base import Model
+
+
+_SPEC_REF = re.compile(
+    r"\s*\((?:\[W\][^)]*|\[W \d+\]|spec [^)]*|App\. [^)]*|A\d+[^)]*)\)"  # ([W] 3, A2) ...
+    r"|\s*\[W\s*\d*\]"                                                     # [W 23]
+    r"|;?\s*spec choice")
+_UNIT = re.compile(r"\[([^\]]*[A-Za-z][^\]]*)\]")
+_ROLE = re.compile(r"\s*\(:\w+:`[^`]*`\)|:\w+:`~?([^`]*)`")
+
+
+def _docstring_attributes(cls: type) -> dict[str, str]:
+    """The first sentence of each entry of the numpydoc ``Attributes`` / ``Parameters``
+    sections of ``cls`` and its bases (the settings' meanings where a field has none)."""
+    found: dict[str, str] = {}
+    for klass in reversed(cls.__mro__):
+        lines = (inspect.getdoc(klass) or "").splitlines()
+        names: list[str] = []
+        text: list[str] = []
+        in_section = False
+        for i, line in enumerate(lines):
+            underline = i + 1 < len(lines) and set(lines[i + 1].strip()) == {"-"}
+            if underline:
+                _record_entry(found, names, text)
+                names, text = [], []
+                in_section = line.strip() in ("Attributes", "Parameters")
+                continue
+            if not in_section or set(line.strip()) == {"-"}:
+                continue
+            if line and not line.startswith(" "):
+                _record_entry(found, names, text)
+                names = [n.strip() for n in line.split(" : ")[0].split(",")]
+                names = [n for n in names if n.isidentifier()]
+                text = []
+            elif line.strip():
+                text.append(line.strip())
+        _record_entry(found, names, text)
+    return found
+
+
+def _record_entry(found: dict[str, str], names: list[str], text: list[str]) -> None:
+    """Store the first sentence of one docstring entry's ``text`` under each of its ``names``."""
+    if names and text:
+        sentence = re.split(r"(?<=\.)\s", " ".join(text), maxsplit=1)[0]
+        for n in names:
+            found[n] = sentence.replace("``", "")
+
+
+def _num(v: float) -> str:
+    if float(v).is_integer() and abs(v) >= 1e5:
+        return f"{v:.0e}".replace("e+0", "e").replace("e+", "e")
+    return f"{v:g}"
+
+
+def _allowed(annotation: Any, metadata: list[Any]) -> str:
+    """The values a field accepts, in the config's words."""
+    args = [a for a in get_args(annotation) if a is not type(None)]
+    optional = type(None) in get_args(annotation)
+    if get_origin(annotation) is Literal:
+        return "one of " + " | ".join(str(a) for a in get_args(annotation))
+    if args and get_origin(annotation) in (Union, UnionType) and len(args) == 1:
+        inner = _allowed(args[0], metadata)
+        return f"{inner}, or null" if optional else inner
+    if annotation is bool:
+        return "true | false"
+    if annotation in (int, float):
+        kind = "integer" if annotation is int else "number"
+        bounds = []
+        for m in metadata:
+            for attr, op in (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<")):
+                v = getattr(m, attr, None)
+                if v is not None:
+                    bounds.append(f"{op} {_num(v)}")
+        return f"{kind} {', '.join(bounds)}" if bounds else kind
+    if annotation is str:
+        return "text"
+    origin = get_origin(annotation)
+    if origin in (list, tuple):
+        members = [a for a in get_args(annotation) if a is not Ellipsis]
+        if origin is tuple and members and len(members) > 1 and len(set(members)) == 1:
+            return f"list of {len(members)} {_allowed(members[0], []).split()[0]}s"
+        return "list"
+    text = getattr(annotation, "__name__", None) or str(annotation).replace("typing.", "")
+    return text
+
+
+def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
+    """One line per field: name, allowed values, default, unit, one-line meaning.
+
+    Parameters
+    ----------
+    settings : type of pydantic.BaseModel
+        A model's ``Params`` or a method's settings class.
+    indent : str
+        Prefix of every line.
+
+    Returns
+    -------
+    str
+    """
+    from_doc = _docstring_attributes(settings)
+    lines = []
+    for fname, f in settings.model_fields.items():
+        default = "required" if f.is_required() else f"default {_value(f.default)}"
+        meaning = f.description or from_doc.get(fname, "")
+        meaning = _clean(meaning)
+        unit = _UNIT.search(meaning)
+        unit_text = f", unit {unit.group(1)}" if unit else ""
+        lines.append(f"{indent}{fname}: {_allowed(f.annotation, f.metadata)}; {default}"
+                     f"{unit_text}" + (f" — {meaning}" if meaning else ""))
+    return "\n".join(lines) if lines else f"{indent}(no settings)"
+
+
+def _clean(text: str) -> str:
+    """A description for users: without internal spec references and Sphinx roles."""
+    return _ROLE.sub(lambda m: m.group(1) or "", _SPEC_REF.sub("", text)).strip()
+
+
+def _value(v: Any) -> str:
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return f"{v:.10g}"
+    if isinstance(v, tuple):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    return str(v)
+
+
+def describe_model(cls: type[Model]) -> str:
+    """Name, summary, uncertain inputs, outputs and parameters of a model class.
+
+    Parameters
+    ----------
+    cls : type of Model
+
+    Returns
+    -------
+    str
+        Text for ``uqguide models NAME``.
+    """
+    model = cls()
+    lines = [f"{cls.name}: {cls.summary}", " inputs (uncertain; nominal value when not listed):"]
+    for i in model.inputs():
+        lines.append(f"  {i.name} [{i.unit}] nominal {i.nominal:g} — {_clean(i.description)}")
+    lines.append(" outputs (* = reported by default):")
+    for o in model.outputs():
+        comps = f" ({', '.join(o.components)})" if o.k > 1 else ""
+        star = "*" if o.default else " "
+        lines.append(f" {star}{o.name} [{o.unit}] {o.kind}{comps} — {_clean(o.description)}")
+    lines.append(" parameters (model: section of a config):")
+    lines.append(describe_settings(cls.Params))
+    return "\n".join(lines)

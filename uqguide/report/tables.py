@@ -1,0 +1,615 @@
+"""Tables of a result: the cost table and the statistics table (uq-methods.md section 5).
+
+``statistics_table`` is the long form (one row per output, component, time, method and
+statistic) written to CSV; the printed and Markdown forms are pivots of it. Beside every value it
+gives the reference method's value, the relative difference and whether the value lies inside
+the reference's 95% interval (bootstrap for std, skewness, kurtosis; ``mean +- 1.96 sem`` for the
+mean), so a reader sees whether a difference is larger than the reference's own noise.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..core import atomic
+from ..core.failures import COLUMNS as FAILURE_COLUMNS, reason_rows
+from ..results.result import Result
+from ..stats.quantiles import level_name
+from ..config.report_times import report_indices  # noqa: F401 - imported from here by others
+from ..stats.moments import STAT_NAMES, OutputStats
+
+#: Relative differences of a series over time ignore steps where the reference's magnitude is
+#: below this fraction of its peak: a ratio to a value that crosses zero means nothing.
+REL_FLOOR = 1e-3
+
+
+def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:
+    if stat in s.ci:
+        lo, hi = s.ci[stat][0][where], s.ci[stat][1][where]
+        return float(lo), float(hi)
+    if stat == "mean" and s.sem is not None:
+        m, e = s.mean[where], s.sem[where]
+        return float(m - 1.96 * e), float(m + 1.96 * e)
+    return float("nan"), float("nan")
+
+
+def cost_table(result: Result) -> pd.DataFrame:
+    """One row per method: runs, failures, wall times and method diagnostics.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``label``, ``method``, ``runs``, ``failed``, ``model_s``, ``fit_s`` [s],
+        the diagnostics a method has (``degree``, ``n_terms``, ``loo_error``...), each rare
+        event's ``P(name)`` and ``cov(name)``, ``reference``, and ``status`` when a method
+        failed.
+    """
+    rows = []
+    # a rare-event method's event is shown for every method that estimates it: the cost of
+    # its probability and coefficient of variation side by side
+    rare = list(dict.fromkeys(r.estimate.diagnostics["event"] for r in result.runs
+                              if "event" in r.estimate.diagnostics))
+    for r in result.runs:
+        d = r.estimate.diagnostics
+        extra: dict[str, Any] = {k: d[k] for k in ("degree", "n_terms", "loo_error",
+                                                    "n_components", "levels") if k in d}
+        if "n_validation" in d:
+            extra["validation"] = d["n_validation"]
+            errs = [v for k, v in d.items() if k.startswith("validation_error.")]
+            extra["val_error"] = max(errs) if errs else float("nan")
+        unusable = unusable_outputs(d)
+        if unusable:
+            extra["no usable surrogate"] = "; ".join(unusable)
+        disagree = disagreeing_outputs(d)
+        if disagree:
+            extra["validation disagrees"] = "; ".join(disagree)
+        for name in rare:
+            ev = r.estimate.events.get(name)
+            extra[f"P({name})"] = ev.probability if ev else float("nan")
+            extra[f"cov({name})"] = ev.cov if ev else float("nan")
+        rows.append({
+            "label": r.label, "method": r.estimate.method, "runs": r.n_runs,
+            "failed": r.n_failed, "model_s": round(r.model_seconds, 3),
+            "fit_s": round(r.fit_seconds, 3), **extra,
+            "reference": "yes" if r.label == result.reference else "",
+        })
+        if not r.success:
+            rows[-1]["status"] = "FAILED: no statistics"
+    df = pd.DataFrame(rows)
+    if "status" in df:
+        df["status"] = df["status"].fillna("ok")
+    return df
+
+
+def unusable_outputs(diagnostics: dict) -> list[str]:
+    """``"output"`` or ``"output from t = 58 s"`` for every output (span) a PCE withdrew
+    its moments from (:mod:`uqguide.pce.validation`)."""
+    out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
+           if k.startswith("unusable.")]
+    out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
+            if k.startswith("unusable_from.")]
+    return out
+
+
+def disagreeing_outputs(diagnostics: dict) -> list[str]:
+    """``"zem (skewness)"`` or ``"omega_s from t = 57 s"`` for every output (span) whose PCE
+    statistics its validation runs refute (:func:`uqguide.pce.validation.disagreement`)."""
+    out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
+           if k.startswith("disagrees.")]
+    out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
+            if k.startswith("disagrees_from.")]
+    return out
+
+
+def validation_table(result: Result) -> pd.DataFrame:
+    """A validated PCE's own value beside its control-variate value and interval, per output,
+    component, statistic (and report time for a series), with the model runs it cost (fit plus
+    validation)."""
+    idx = report_indices(result.time, result.report_times)
+    rows = []
+    for r in result.runs:
+        d = r.estimate.diagnostics
+        for o in result.outputs:
+            s = r.estimate.stats.get(o.name)
+            if s is None or not s.corrected:
+                continue
+            places = [((i, c), float(result.time[i])) for i in idx for c in range(o.k)] \
+                if o.kind == "series" else [((c,), float("nan")) for c in range(o.k)]
+            for where, t in places:
+                usable = True if s.usable is None else bool(s.usable[where])
+                err = float(s.validation_error[where]) if s.validation_error is not None \
+                    else float("nan")
+                for stat in STAT_NAMES:
+                    lo, hi = s.corrected_ci[stat][(0,) + where], s.corrected_ci[stat][(1,) + where]
+                    rows.append({"label": r.label, "output": o.name,
+                                 "component": o.components[where[-1]], "time": t,
+                                 "stat": stat, "pce": float(s.stat(stat)[where]),
+                                 "corrected": float(s.corrected[stat][where]),
+                                 "ci_low": float(lo), "ci_high": float(hi),
+                                 "val_error": err, "usable": usable,
+                                 "runs": f"{r.n_runs - int(d.get('n_validation', 0))}"
+                                         f"+{int(d.get('n_validation', 0))}"})
+    return pd.DataFrame(rows)
+
+
+def validation_text(df: pd.DataFrame) -> pd.DataFrame:
+    out = df[["label", "output", "component", "time", "stat"]].copy()
+    out["PCE"] = [(_fmt(v) if u else "no usable surrogate") for v, u in zip(df["pce"],
+                                                                             df["usable"])]
+    out["corrected [95%]"] = [f"{_fmt(v)} [{_fmt(a)}, {_fmt(b)}]" for v, a, b in
+                              zip(df["corrected"], df["ci_low"], df["ci_high"])]
+    out["val_error"] = df["val_error"].map(_fmt)
+    out["runs (fit+validation)"] = df["runs"]
+    if out["time"].isna().all():
+        out = out.drop(columns="time")
+    if (out["component"] == "").all():
+        out = out.drop(columns="component")
+    return out
+
+
+def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) -> bool | None:
+    """Whether two estimates agree: their difference lies within the 95% interval of the
+    difference, both estimates' errors combined (None when neither has an interval).
+
+    Each 95% half-width is taken on the side facing the other estimate (``1.96 se`` for a
+    symmetric interval), so the difference's half-width is ``sqrt(u_a^2 + u_b^2)``. An estimate
+    without an interval (a PCE's moment) counts as exact: it then has to lie in the other's
+    interval. Judging a candidate against the reference's interval alone would call a
+    consistent 1000-run Monte Carlo "out" of a 1e5-run reference whenever its own error is the
+    larger one.
+
+    Parameters
+    ----------
+    v, lo, hi : float
+        One estimate and its 95% interval (NaN: none).
+    rv, rlo, rhi : float
+        The other (the reference) and its interval, in the same unit.
+
+    Returns
+    -------
+    bool or None
+        None when neither estimate has an interval or either value is not finite.
+    """
+    def half(x: float, a: float, b: float, towards: float) -> float:
+        w = (b - x) if towards > x else (x - a)
+        return float(w) if np.isfinite(w) else 0.0
+
+    if not (np.isfinite(lo) or np.isfinite(rlo)):
+        return None
+    if not (np.isfinite(v) and np.isfinite(rv)):
+        return None
+    width = float(np.hypot(half(v, lo, hi, rv), half(rv, rlo, rhi, v)))
+    return bool(abs(v - rv) <= width)
+
+
+def failure_table(result: Result) -> pd.DataFrame:
+    """One row per method and failure reason: label, runs, failed, share, reason, count.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns of :data:`uqguide.core.failures.COLUMNS`; no rows when no run failed.
+    """
+    rows = [row for r in result.runs if r.n_failed
+            for row in reason_rows(r.label, r.n_runs, r.reasons[r.failed])]
+    return pd.DataFrame(rows, columns=FAILURE_COLUMNS)
+
+
+def statistics_table(result: Result) -> pd.DataFrame:
+    """Long-form statistics at the report times (series) and for every scalar output.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per output, component, time [s] (NaN for scalars), method and statistic:
+        ``value``, ``ci_low``, ``ci_high`` in the output's ``unit``; against the reference
+        also ``ref_value``, ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`).
+    """
+    ref = result.run(result.reference) if result.reference else None
+    idx = report_indices(result.time, result.report_times)
+    rows = []
+    for o in result.outputs:
+        for r in result.runs:
+            s = r.estimate.stats.get(o.name)
+            if s is None:
+                continue
+            rs = ref.estimate.stats.get(o.name) if ref is not None else None
+            places = [((i, c), float(result.time[i])) for i in idx for c in range(o.k)] \
+                if o.kind == "series" else [((c,), float("nan")) for c in range(o.k)]
+            for where, t in places:
+                comp = o.components[where[-1]]
+                usable = True if s.usable is None else bool(s.usable[where])
+                # the PCE's own value, then a validated PCE's control-variate estimate with its
+                # own interval
+                variants: list[tuple[str, bool]] = [(r.label, usable)]
+                if s.corrected:
+                    variants.append((f"{r.label}+cv", True))
+                for (label, ok), stat in ((va, st) for va in variants for st in STAT_NAMES):
+                    if label == r.label:
+                        v = float(s.stat(stat)[where])
+                        lo, hi = _interval(s, stat, where)
+                    else:
+                        v = float(s.corrected[stat][where])
+                        lo = float(s.corrected_ci[stat][(0,) + where])
+                        hi = float(s.corrected_ci[stat][(1,) + where])
+                    row = {"output": o.name, "component": comp, "unit": o.unit, "time": t,
+                           "label": label, "stat": stat, "value": v, "ci_low": lo,
+                           "ci_high": hi, "usable": ok}
+                    if rs is not None:
+                        rv = float(rs.stat(stat)[where])
+                        rlo, rhi = _interval(rs, stat, where)
+                        # A relative difference to a reference that is within its own noise of
+                        # zero (a skewness of a near-Gaussian output) means nothing: NaN there,
+                        # and the absolute difference says the rest.
+                        noisy = np.isfinite(rlo) and abs(rv) <= 0.5 * (rhi - rlo)
+                        row.update(ref_value=rv, abs_diff=v - rv,
+                                   rel_diff=(v - rv) / abs(rv) if rv and not noisy
+                                   else float("nan"),
+                                   agrees=agrees(v, lo, hi, rv, rlo, rhi))
+                    rows.append(row)
+                rows += _quantile_rows(o, r.label, s, rs, where, comp, t)
+    return pd.DataFrame(rows)
+
+
+def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where: tuple,
+                   comp: str, t: float) -> list[dict]:
+    """Rows of the quantiles at one place (none where they were not computed), compared with
+    the reference's quantile of the same level and its distribution-free interval."""
+    table = s.quantile_table()
+    if table is None:
+        return []
+    levels, quantiles, ci_quantiles = table
+    ref_table = rs.quantile_table() if rs is not None else None
+    ref_levels = list(ref_table[0]) if ref_table is not None else []
+    rows = []
+    for i, p in enumerate(levels):
+        v = float(quantiles[i][where])
+        if np.isnan(v):
+            continue
+        lo, hi = float(ci_quantiles[0, i][where]), float(ci_quantiles[1, i][where])
+        row: dict[str, object] = {"output": o.name, "component": comp, "unit": o.unit,
+                                  "time": t, "label": label, "stat": level_name(p),
+                                  "value": v, "ci_low": lo, "ci_high": hi}
+        if ref_table is not None and p in ref_levels:
+            j = ref_levels.index(p)
+            rv = float(ref_table[1][j][where])
+            rlo, rhi = (float(ref_table[2][k, j][where]) for k in (0, 1))
+            if not np.isnan(rv):
+                # as for the moments: no relative difference to a value within its own
+                # interval of zero (a median near 0)
+                noisy = np.isfinite(rhi - rlo) and abs(rv) <= 0.5 * (rhi - rlo)
+                row.update(ref_value=rv, abs_diff=v - rv,
+                           rel_diff=(v - rv) / abs(rv) if rv and not noisy else float("nan"),
+                           agrees=agrees(v, lo, hi, rv, rlo, rhi))
+        rows.append(row)
+    return rows
+
+
+def events_table(result: Result) -> pd.DataFrame:
+    """One row per method and event: probability, 95% interval, counts and estimator.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``event``, ``definition``, ``label``, ``probability``, ``ci_low``,
+        ``ci_high``, ``n_in``, ``n_used``, ``cov``, ``estimator``.
+    """
+    rows = []
+    for r in result.runs:
+        for name, ev in r.estimate.events.items():
+            rows.append({"event": name, "definition": ev.definition, "label": r.label,
+                         "probability": ev.probability, "ci_low": ev.ci[0],
+                         "ci_high": ev.ci[1], "n_in": ev.n_in, "n_used": ev.n_used,
+                         "cov": ev.cov, "estimator": ev.estimator})
+    return pd.DataFrame(rows)
+
+
+def events_text(df: pd.DataFrame) -> pd.DataFrame:
+    """The events table for reading: probability and interval in one column.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        As :func:`events_table` returns it.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``event``, ``definition``, ``label``, ``probability [95% interval]``,
+        ``in / used``, ``cov``, ``estimator`` (text).
+    """
+    out = df[["event", "definition", "label"]].copy()
+    out["probability [95% interval]"] = [
+        f"{_fmt(p)} [{_fmt(lo)}, {_fmt(hi)}]"
+        for p, lo, hi in zip(df["probability"], df["ci_low"], df["ci_high"])]
+    out["in / used"] = [f"{a} / {b}" for a, b in zip(df["n_in"], df["n_used"])]
+    out["cov"] = df["cov"].map(_fmt)
+    out["estimator"] = df["estimator"]
+    return out
+
+
+def series_agreement(result: Result) -> pd.DataFrame:
+    """Per series output and method: the largest relative difference of mean and std over time.
+
+    The relative difference at a step is ``|value - ref| / |ref|``, over the steps where
+    ``|ref|`` is at least ``REL_FLOOR`` of its peak over time.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``output``, ``label``, ``max_rel_mean``, ``at_t_mean`` [s], ``max_rel_std``,
+        ``at_t_std`` [s]; empty without a reference.
+    """
+    if not result.reference:
+        return pd.DataFrame()
+    ref = result.run(result.reference)
+    rows = []
+    for o in result.outputs:
+        if o.kind != "series":
+            continue
+        rs = ref.estimate.stats.get(o.name)
+        for r in result.runs:
+            s = r.estimate.stats.get(o.name)
+            if r is ref or s is None or rs is None:
+                continue
+            row: dict[str, object] = {"output": o.name, "label": r.label}
+            for stat in ("mean", "std"):
+                a, b = s.stat(stat), rs.stat(stat)
+                mag = np.abs(b)
+                keep = mag >= REL_FLOOR * np.nanmax(mag, axis=0, keepdims=True)
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    rel = np.where(keep, np.abs(a - b) / np.where(keep, mag, 1.0), np.nan)
+                finite = np.where(np.isfinite(rel), rel, -np.inf)
+                t_idx, _ = np.unravel_index(int(np.argmax(finite)), finite.shape)
+                has = bool(np.isfinite(rel).any())
+                row[f"max_rel_{stat}"] = float(finite[t_idx].max()) if has else float("nan")
+                row[f"at_t_{stat}"] = float(result.time[t_idx]) if has else float("nan")
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+# ---------------------------------------------------------------------------- text forms
+def _fmt(v: float) -> str:
+    if v is None or (isinstance(v, float) and np.isnan(v)):
+        return "nan"
+    if isinstance(v, float) and np.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    a = abs(v)
+    return f"{v:.4g}" if (a == 0 or 1e-3 <= a < 1e5) else f"{v:.3e}"
+
+
+def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
+    """One row per (time, component, label); a column per statistic with its interval.
+
+    Parameters
+    ----------
+    stats : pandas.DataFrame
+        Rows of :func:`statistics_table` (one output); ``stats.attrs["reference"]`` names
+        the reference method.
+    with_ref : bool
+        Add the difference from the reference and its verdict to each cell.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Text cells; the ``time`` and ``component`` columns only where they vary.
+    """
+    rows = []
+    keys = ["time", "component", "label"]
+    for key, g in stats.groupby(keys, sort=False, dropna=False):
+        row = dict(zip(keys, key))
+        for _, s in g.iterrows():
+            u = s.get("usable")
+            if isinstance(u, (bool, np.bool_)) and not u:
+                row[s["stat"]] = "no usable surrogate"
+                continue
+            cell = _fmt(s["value"])
+            if not np.isnan(s["ci_low"]):
+                cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
+            if with_ref and s["label"] != stats.attrs.get("reference"):
+                rd, ad = s.get("rel_diff"), s.get("abs_diff")
+                inside = s.get("agrees")
+                # pandas stores a missing verdict (no reference interval) as None or NaN
+                flag = "?" if inside is None or inside != inside else ("in" if inside else "OUT")
+                if rd is not None and np.isfinite(rd):
+                    cell += f" ({100 * rd:+.1f}%, {flag})"
+                elif ad is not None and np.isfinite(ad):
+                    cell += f" ({ad:+.2g}, {flag})"
+            row[s["stat"]] = cell
+        rows.append(row)
+    df = pd.DataFrame(rows)
+    if df["time"].isna().all():
+        df = df.drop(columns="time")
+    else:
+        df["time"] = df["time"].map(lambda t: f"{t:g}")
+    if (df["component"] == "").all():
+        df = df.drop(columns="component")
+    return df
+
+
+def render_text(result: Result) -> str:
+    """The console form: the cost table, then each output's statistics at the report times.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    str
+        Cost, statistics, events, series agreement, legend and failures, as plain text.
+    """
+    parts = ["Cost", cost_table(result).to_string(index=False, na_rep="")]
+    val = validation_table(result)
+    if not val.empty:
+        parts += ["", "PCE validation (PCE value; control-variate value with its 95% interval from "
+                  "the validation runs, delta method; val_error: out-of-sample error / variance)",
+                  validation_text(val).to_string(index=False)]
+    stats = statistics_table(result)
+    stats.attrs["reference"] = result.reference
+    with_ref = result.reference is not None and len(result.runs) > 1
+    for o in result.outputs:
+        sub = stats[stats["output"] == o.name]
+        if sub.empty:
+            continue
+        kind = "at report times" if o.kind == "series" else "(scalar)"
+        parts += ["", f"{o.name} [{o.unit}] {kind}: {o.description}",
+                  wide_table(sub, with_ref).to_string(index=False)]
+    events = events_table(result)
+    if not events.empty:
+        parts += ["", "Events (95% intervals: Clopper-Pearson over model runs; surrogate: over its "
+                  "draws only; subset: lognormal from its CoV upper bound, in = final level)",
+                  events_text(events).to_string(index=False)]
+    agree = series_agreement(result)
+    if not agree.empty:
+        parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
+                  f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
+    if any(r.estimate.stats for r in result.runs):
+        parts += ["", interval_legend(with_ref)]
+    broken = [r for r in result.runs if not r.success]
+    if broken:
+        parts += ["", "Methods without statistics (the others completed):"]
+        parts += [f"  {r.label}: {r.message}" for r in broken]
+    failures = failure_table(result)
+    if not failures.empty:
+        parts += ["", "Failed runs (excluded from the statistics)",
+                  failures.to_string(index=False)]
+    return "\n".join(parts)
+
+
+def interval_legend(with_reference: bool) -> str:
+    """What the brackets and flags of the statistics tables mean (printed with every table).
+
+    Parameters
+    ----------
+    with_reference : bool
+        Also explain the difference and its in / OUT verdict.
+
+    Returns
+    -------
+    str
+    """
+    text = ("Values: estimate [95% interval]: Monte Carlo moments by the delta method "
+            "(+-1.96 influence-function standard errors; by Poisson bootstrap with "
+            "intervals: bootstrap, the mean then by +-1.96 standard errors where it has no "
+            "bootstrap), quantiles by order statistics; PCE values carry none (their error is "
+            "the surrogate's, see loo_error); "
+            "label+cv: a validated PCE's control-variate estimate, delta-method interval from "
+            "its (stratified) validation runs; 'no usable surrogate': LOO or validation error "
+            "above the method's usable_error.")
+    if with_reference:
+        text += (" (difference from the reference; in: within the 95% interval of the "
+                 "difference, both estimates' errors combined; OUT: beyond it).")
+    return text
+
+
+def to_markdown(df: pd.DataFrame) -> str:
+    """A GitHub-flavoured Markdown table (no extra dependency).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+
+    Returns
+    -------
+    str
+        Header, separator and one line per row; floats to 4 significant digits.
+    """
+    cols = [str(c) for c in df.columns]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    for _, row in df.iterrows():
+        cells = [_fmt(v) if isinstance(v, float) else str(v) for v in row.tolist()]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def render_markdown(result: Result) -> str:
+    """The Markdown summary (``<name>_summary.md``): cost, statistics, events and series
+    agreement tables.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    str
+    """
+    stats = statistics_table(result)
+    stats.attrs["reference"] = result.reference
+    with_ref = result.reference is not None and len(result.runs) > 1
+    parts = [f"# {result.name}: model `{result.model}`", "", "## Cost", "",
+             to_markdown(cost_table(result))]
+    val = validation_table(result)
+    if not val.empty:
+        parts += ["", "## PCE validation", "", to_markdown(validation_text(val))]
+    for o in result.outputs:
+        sub = stats[stats["output"] == o.name]
+        if not sub.empty:
+            parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
+                      to_markdown(wide_table(sub, with_ref))]
+    if any(r.estimate.stats for r in result.runs):
+        parts += ["", interval_legend(with_ref)]
+    events = events_table(result)
+    if not events.empty:
+        parts += ["", "## Events", "", to_markdown(events_text(events))]
+    agree = series_agreement(result)
+    if not agree.empty:
+        parts += ["", "## Series agreement with the reference", "", to_markdown(agree)]
+    return "\n".join(parts) + "\n"
+
+
+def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
+    """Write ``<stem>_stats.csv``, ``<stem>_cost.csv`` and ``<stem>_summary.md`` (and
+    ``<stem>_events.csv`` when the config has events), each whole or absent.
+
+    Parameters
+    ----------
+    result : Result
+    out_dir : Path
+        Created when missing.
+    stem : str
+        File name prefix (the run's name).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",
+             out_dir / f"{stem}_summary.md"]
+    # Each file whole or absent (temporary file, then rename): never a 0-byte table.
+    atomic.write_with(paths[0], lambda p: statistics_table(result).to_csv(p, index=False))
+    events = events_table(result)
+    if not events.empty:
+        paths.append(out_dir / f"{stem}_events.csv")
+        atomic.write_with(paths[-1], lambda p: events.to_csv(p, index=False))
+    atomic.write_with(paths[1], lambda p: cost_table(result).to_csv(p, index=False))
+    atomic.write_text(paths[2], render_markdown(result))
+    return paths
+

@@ -1,0 +1,190 @@
+"""A Result as an xarray Dataset or a tidy pandas table (``Result.to_xarray``,
+``Result.to_dataframe``).
+
+The Dataset's variables are those of :mod:`uqguide.results.labelled` (the same as a format-2 result
+file's ``methods/<label>`` group), with a ``method`` dimension when several methods are taken
+together: a statistic a method does not give (a PCE's standard error, a Monte Carlo Sobol'
+index) is NaN for it. xarray is an optional dependency (``pip install 'uqguide[xarray]'``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+from ..errors import ResultError
+from .labelled import method_variables
+from ..core.types import STAT_NAMES, Estimate
+
+if TYPE_CHECKING:
+    import pandas as pd
+    import xarray as xr
+
+    from ..models.base import OutputInfo
+
+
+class MethodRun(Protocol):
+    """What these views read of a method's run (:class:`uqguide.results.result.MethodRun`); a
+    protocol, so that the result, which offers the views, is not imported by them."""
+
+    @property
+    def label(self) -> str: ...
+    @property
+    def estimate(self) -> Estimate: ...
+    @property
+    def n_runs(self) -> int: ...
+    @property
+    def n_failed(self) -> int: ...
+    @property
+    def model_seconds(self) -> float: ...
+    @property
+    def fit_seconds(self) -> float: ...
+
+
+class Result(Protocol):
+    """What these views read of a :class:`uqguide.results.result.Result`."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def model(self) -> str: ...
+    @property
+    def reference(self) -> str | None: ...
+    @property
+    def runs(self) -> Sequence[MethodRun]: ...
+    @property
+    def outputs(self) -> Sequence[OutputInfo]: ...
+    @property
+    def time(self) -> np.ndarray: ...
+    @property
+    def input_names(self) -> Sequence[str]: ...
+    def run(self, label: str) -> MethodRun: ...
+    def output(self, name: str) -> OutputInfo: ...
+
+
+def _xarray():
+    try:
+        import xarray
+    except ImportError:
+        raise ImportError("Result.to_xarray needs xarray: pip install 'uqguide[xarray]'") from None
+    return xarray
+
+
+def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
+    """The statistics of one method as a Dataset (attrs: the method's cost and diagnostics).
+
+    Parameters
+    ----------
+    result : Result
+    run : MethodRun
+        One of ``result.runs``.
+
+    Returns
+    -------
+    xarray.Dataset
+        Variables of :func:`uqguide.results.labelled.method_variables`; ``time`` in s.
+    """
+    xr = _xarray()
+    coords, variables = method_variables(run.estimate.stats, result.outputs, result.time,
+                                         result.input_names)
+    used = {d for v in variables.values() for d in v.dims}
+    ds = xr.Dataset(
+        {name: (v.dims, v.data, dict(v.attrs)) for name, v in variables.items()},
+        coords={d: values for d, values in coords.items() if d in used or d == "time"},
+    )
+    ds["time"].attrs.update(units="s", long_name="time")
+    ds.attrs.update(name=result.name, model=result.model, label=run.label,
+                    method=run.estimate.method, n_runs=run.n_runs, n_failed=run.n_failed,
+                    model_seconds=run.model_seconds, fit_seconds=run.fit_seconds)
+    return ds
+
+
+def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
+    """The statistics of method ``label``, or of every method along a ``method`` dimension.
+
+    Parameters
+    ----------
+    result : Result
+    label : str, optional
+        One method; default all, stacked (NaN where a method lacks a variable).
+
+    Returns
+    -------
+    xarray.Dataset
+    """
+    xr = _xarray()
+    if label is not None:
+        return method_dataset(result, result.run(label))
+    parts = [method_dataset(result, r) for r in result.runs]
+    if not parts:
+        raise ResultError("this result has no methods")
+    # Give every part every variable (NaN where a method has none) so they stack cleanly.
+    for name in {n for p in parts for n in p.data_vars}:
+        like = next(p[name] for p in parts if name in p.data_vars)
+        for p in parts:
+            if name not in p.data_vars:
+                p[name] = xr.full_like(like, np.nan, dtype=float)
+    for p in parts:
+        p.attrs = {}
+    ds = xr.concat(parts, dim="method", data_vars="all", coords="minimal",
+                   compat="equals", join="outer")
+    ds = ds.assign_coords(method=[r.label for r in result.runs])
+    ds["method_name"] = ("method", np.array([r.estimate.method for r in result.runs],
+                                            dtype=object))
+    ds["n_runs"] = ("method", np.array([r.n_runs for r in result.runs]))
+    ds["n_failed"] = ("method", np.array([r.n_failed for r in result.runs]))
+    ds.attrs.update(name=result.name, model=result.model, reference=result.reference or "")
+    return ds
+
+
+def to_dataframe(result: Result, output: str) -> pd.DataFrame:
+    """Every statistic of ``output`` at every time step, one row per value.
+
+    Columns: ``method``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
+    skewness, kurtosis, sem, q<level>), ``value``, ``ci_low``, ``ci_high`` (NaN where the
+    method gives no interval).
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+
+    Returns
+    -------
+    pandas.DataFrame
+        Values in the output's unit, time in s.
+    """
+    import pandas as pd
+
+    info = result.output(output)
+    frames = []
+    for r in result.runs:
+        s = r.estimate.stats.get(output)
+        if s is None:
+            continue
+        rows: list[tuple[str, np.ndarray, np.ndarray | None]] = [
+            (n, s.stat(n), s.ci.get(n)) for n in STAT_NAMES]
+        if s.sem is not None:
+            rows.append(("sem", s.sem, None))
+        table = s.quantile_table()
+        if table is not None:
+            levels, quantiles, ci_quantiles = table
+            rows += [(f"q{p:g}", quantiles[j], ci_quantiles[:, j])
+                     for j, p in enumerate(levels)]
+        for stat, value, ci in rows:
+            value = np.asarray(value, dtype=float)
+            comp = np.broadcast_to(np.array(info.components, dtype=object), value.shape)
+            cols: dict[str, Any] = {"method": r.label}
+            if info.kind == "series":
+                cols["time"] = np.broadcast_to(result.time[:, None], value.shape).ravel()
+            cols.update(component=comp.ravel(), statistic=stat, value=value.ravel(),
+                        ci_low=(ci[0].ravel() if ci is not None
+                                else np.full(value.size, np.nan)),
+                        ci_high=(ci[1].ravel() if ci is not None
+                                 else np.full(value.size, np.nan)))
+            frames.append(pd.DataFrame(cols))
+    if not frames:
+        raise ResultError(f"no method of this result has statistics of {output!r}")
+    return pd.concat(frames, ignore_index=True)

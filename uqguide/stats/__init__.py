@@ -1,0 +1,7 @@
+"""Statistics on arrays, above ``core``.
+
+- ``moments``: mean, covariance, skewness and kurtosis of an output, the mergeable moment sums
+  and their intervals (uq-methods.md section 3);
+- ``moment_sums_kernel``: the compiled central sums of a chunk (the hot loop of ``moments``);
+- ``quantiles``: quantiles from order statistics with distribution-free intervals.
+"""

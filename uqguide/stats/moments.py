@@ -1,0 +1,665 @@
+"""Statistics of an output (uq-methods.md section 3): the container and the sample estimators.
+
+Conventions, for an output ``y`` of k components at one time:
+
+- moments are the plain population (``1/n``) estimators of the paper's eq (17);
+- skewness ``E[(y-mu)^3]/sigma^3`` and kurtosis ``E[(y-mu)^4]/sigma^4`` are **non-excess**
+  (a Gaussian has kurtosis 3);
+- a component with zero variance has skewness and kurtosis NaN, silently;
+- the standard error of the mean is ``sigma/sqrt(n)``; 95% intervals of mean, std, skewness and
+  kurtosis come either from the delta method (influence functions evaluated with the sample's
+  central moments up to the 8th, :func:`delta_intervals`; the Monte Carlo default) or from a
+  percentile bootstrap with a fixed seed.
+
+Arrays of a time-series output carry the time axis first: ``mean (T, k)``, ``cov (T, k, k)``.
+A scalar output has no time axis: ``mean (k,)``, ``cov (k, k)``.
+
+Two forms of the same estimators:
+
+- in memory (:func:`sample_statistics`, :func:`bootstrap_intervals`): all samples at once,
+  multinomial bootstrap; used where the samples are at hand (PCE surrogate draws, tests);
+- streaming (:class:`MomentSums`, :func:`statistics_from_sums`): per-chunk sums merged in a
+  fixed chunk order (Chan et al. 1979, Pébay 2008) and a Poisson bootstrap whose resamples are
+  chunk-additive; Monte Carlo always uses this form, so a 1e6-sample run never holds its time
+  series and gives the same bits on any executor. Both agree to rounding on the moments; the
+  two bootstraps agree in distribution for large ``n``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from math import comb
+from statistics import NormalDist
+
+import numpy as np
+
+from ..core.types import STAT_NAMES, OutputStats
+
+__all__ = ["STAT_NAMES", "MomentSums", "OutputStats", "bootstrap_intervals", "central_moments",
+           "covariance", "sample_statistics", "shape_moments", "statistics_from_sums"]
+
+
+def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """std, skewness and kurtosis from central moments; NaN where the variance is zero.
+
+    Parameters
+    ----------
+    mean, mu2, mu3, mu4 : ndarray, shape (..., k)
+        Mean and central moments 2-4, in powers of the output's unit.
+
+    Returns
+    -------
+    std, skewness, kurtosis : ndarray, shape (..., k)
+        ``std`` in the output's unit; skewness and (non-excess) kurtosis dimensionless, NaN
+        where the variance is at round-off level relative to the mean.
+    """
+    std = np.sqrt(np.maximum(mu2, 0.0))
+    # A variance at rounding level relative to the mean is zero for this purpose: samples that
+    # all agree (before any dispersion acts) must give NaN, not a huge ratio of round-off.
+    tiny = (np.abs(mean) + 1e-300) * 1e-12
+    ok = std > tiny
+    with np.errstate(invalid="ignore", divide="ignore"):
+        skew = np.where(ok, mu3 / np.where(ok, std, 1.0) ** 3, np.nan)
+        kurt = np.where(ok, mu4 / np.where(ok, std, 1.0) ** 4, np.nan)
+    return std, skew, kurt
+
+
+def central_moments(y: np.ndarray, axis: int = 0
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Mean and central moments 2-4 of ``y`` along ``axis`` (population estimators, two-pass).
+
+    Parameters
+    ----------
+    y : ndarray
+        Samples along ``axis``.
+    axis : int
+        The sample axis.
+
+    Returns
+    -------
+    mean, mu2, mu3, mu4 : ndarray
+        Shape of ``y`` without ``axis``; ``mu_p`` in the p-th power of ``y``'s unit.
+    """
+    mean = y.mean(axis=axis)
+    d = y - np.expand_dims(mean, axis)
+    d2 = d * d
+    mu2 = d2.mean(axis=axis)
+    mu3 = (d2 * d).mean(axis=axis)
+    mu4 = (d2 * d2).mean(axis=axis)
+    return mean, mu2, mu3, mu4
+
+
+def covariance(y: np.ndarray) -> np.ndarray:
+    """Population covariance over the sample axis.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n, ..., k)
+        Samples of a k-component output.
+
+    Returns
+    -------
+    ndarray, shape (..., k, k)
+        In the square of ``y``'s unit (divided by ``n``, not ``n - 1``).
+    """
+    d = y - y.mean(axis=0)
+    return np.einsum("n...i,n...j->...ij", d, d) / y.shape[0]
+
+
+def bootstrap_intervals(
+    y: np.ndarray, n_resamples: int = 200, seed: int = 0, level: float = 0.95,
+    block: int = 25, max_bytes: int = 256 * 2**20,
+) -> dict[str, np.ndarray]:
+    """Percentile-bootstrap intervals of mean, std, skewness and kurtosis.
+
+    Vectorised: a block of resamples is a matrix of multiplicities ``c (b, n)`` and the
+    resampled power sums are matrix products ``c @ d**p`` of the data centred at the full-sample
+    mean (centring keeps the raw-to-central conversion well conditioned). Columns (time steps x
+    components) are processed in blocks so the powers of the data stay under ``max_bytes``; the
+    multiplicities of resample block ``j`` come from the stream ``(seed, j)``, so every column
+    sees the same resamples.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n, ...)
+    n_resamples : int
+    seed : int
+        Seed of the resampling; fixed so the same data give the same intervals.
+    level : float
+        Coverage of the intervals.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (2, ...)
+        ``(low, high)`` per statistic.
+    """
+    n = y.shape[0]
+    shape = y.shape[1:]
+    flat = y.reshape(n, -1)
+    m = flat.shape[1]
+    full_mean = flat.mean(axis=0)
+    cols = max(1, int(max_bytes // (4 * 8 * n)))
+    alpha = (1.0 - level) / 2
+    res = {k: np.empty((2, m)) for k in STAT_NAMES}
+    for c0 in range(0, m, cols):
+        sl_c = slice(c0, min(m, c0 + cols))
+        d = flat[:, sl_c] - full_mean[sl_c]
+        d2 = d * d
+        powers = (d, d2, d2 * d, d2 * d2)
+        draws = {k: np.empty((n_resamples, d.shape[1])) for k in STAT_NAMES}
+        for j, r0 in enumerate(range(0, n_resamples, block)):
+            b = min(block, n_resamples - r0)
+            rng = np.random.default_rng([seed, j])
+            idx = rng.integers(0, n, size=(b, n)) + (np.arange(b) * n)[:, None]
+            counts = np.bincount(idx.ravel(), minlength=b * n).reshape(b, n).astype(float)
+            m1, m2, m3, m4 = (counts @ p / n for p in powers)
+            mu2 = m2 - m1**2
+            mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
+            mu4 = m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4
+            mean = full_mean[sl_c] + m1
+            std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
+            sl_r = slice(r0, r0 + b)
+            draws["mean"][sl_r], draws["std"][sl_r] = mean, std
+            draws["skewness"][sl_r], draws["kurtosis"][sl_r] = skew, kurt
+        for k, v in draws.items():
+            res[k][:, sl_c] = _nan_safe_percentile(v, alpha)
+    return {k: v.reshape((2,) + shape) for k, v in res.items()}
+
+
+def _nan_safe_percentile(v: np.ndarray, alpha: float) -> np.ndarray:
+    """Percentiles over resamples (axis 0), ignoring NaN resamples; all-NaN columns stay NaN."""
+    q = [100 * alpha, 100 * (1 - alpha)]
+    nan = np.isnan(v)
+    if not nan.any():
+        return np.percentile(v, q, axis=0)
+    res = np.full((2, v.shape[1]), np.nan)
+    ok = ~nan.all(axis=0)
+    if ok.any():
+        res[:, ok] = np.nanpercentile(v[:, ok], q, axis=0)
+    return res
+
+
+def delta_standard_errors(
+    mu: tuple[np.ndarray, ...], n: float,
+) -> dict[str, np.ndarray]:
+    """Delta-method (influence-function) standard errors of mean, std, skewness, kurtosis.
+
+    With ``z = (y - mean) / sigma`` and the standardized moments ``r_k = E z^k``, the influence
+    functions of the population estimators are polynomials in ``z``:
+
+    - mean: ``sigma z``;
+    - std: ``sigma (z^2 - 1) / 2``;
+    - skewness ``g = r_3``: ``z^3 - (3 g / 2) z^2 - 3 z + g / 2``;
+    - kurtosis ``k = r_4``: ``z^4 - 2 k z^2 - 4 g z + k``;
+
+    and the estimator's variance is ``E[IF^2] / n`` (Serfling 1980, section 2.2.3; the
+    skewness and kurtosis forms are eqs 2.2-2.3 of Wright & Herrington 2011 written for the
+    population estimators). ``E[IF^2]`` is a quadratic form of the coefficients in the
+    standardized moments up to ``r_8``.
+
+    Parameters
+    ----------
+    mu : tuple of ndarray
+        Population central moments ``(mu_2, ..., mu_8)``, each of shape ``(...)``.
+    n : float
+        Sample count.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (...)
+        Standard error per statistic; NaN where the variance is zero.
+    """
+    mu2 = mu[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sigma = np.sqrt(np.maximum(mu2, 0.0))
+        inv = np.where(sigma > 0, 1.0 / np.where(sigma > 0, sigma, 1.0), np.nan)
+        r = [np.ones_like(mu2), np.zeros_like(mu2), np.ones_like(mu2)]
+        r += [mu[k - 2] * inv**k for k in range(3, 9)]
+        g, k4 = r[3], r[4]
+        zero = np.zeros_like(mu2)
+        one = np.ones_like(mu2)
+        polys = {
+            "mean": [zero, one],
+            "std": [-0.5 * one, zero, 0.5 * one],
+            "skewness": [0.5 * g, -3.0 * one, -1.5 * g, one],
+            "kurtosis": [k4, -4.0 * g, -2.0 * k4, zero, one],
+        }
+        out: dict[str, np.ndarray] = {}
+        for name, c in polys.items():
+            var = np.zeros_like(mu2)
+            for i, ci in enumerate(c):
+                for j, cj in enumerate(c):
+                    var = var + ci * cj * r[i + j]
+            se = np.sqrt(np.maximum(var, 0.0) / n)
+            out[name] = se * sigma if name in ("mean", "std") else se
+    return out
+
+
+def delta_intervals(
+    mean: np.ndarray, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
+    mu: tuple[np.ndarray, ...], n: float, level: float = 0.95,
+) -> dict[str, np.ndarray]:
+    """Normal-theory intervals ``estimate +- z_(1+level)/2 SE`` with delta-method SEs.
+
+    Parameters
+    ----------
+    mean, std, skew, kurt : ndarray, shape (...)
+        The estimates.
+    mu : tuple of ndarray
+        Central moments ``(mu_2, ..., mu_8)`` of the same shape (:func:`delta_standard_errors`).
+    n : float
+        Sample count.
+    level : float
+        Coverage.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (2, ...)
+        ``(low, high)`` per statistic.
+    """
+    z = NormalDist().inv_cdf(0.5 + level / 2)
+    se = delta_standard_errors(mu, n)
+    est = {"mean": mean, "std": std, "skewness": skew, "kurtosis": kurt}
+    return {k: np.stack([est[k] - z * se[k], est[k] + z * se[k]]) for k in STAT_NAMES}
+
+
+def sample_statistics(
+    y: np.ndarray, *, bootstrap: int = 200, seed: int = 0, level: float = 0.95,
+    ci_index: np.ndarray | None = None, intervals: str = "bootstrap",
+) -> OutputStats:
+    """Statistics of samples ``y (n, ..., k)`` over the first axis.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n, T, k) or (n, k)
+        Samples of the output (failed runs already removed).
+    bootstrap : int
+        Number of bootstrap resamples for the intervals (0: no intervals).
+    seed : int
+        Seed of the bootstrap.
+    ci_index : ndarray of int, optional
+        For a time series, the time indices at which to bootstrap (the intervals are NaN at the
+        other steps); default all steps. The bootstrap costs ``2 * bootstrap * n`` flops per
+        power, column and resample, so a 1e5-sample series is bootstrapped where it is reported.
+    intervals : {"bootstrap", "delta"}
+        How the intervals are computed (``delta``: :func:`delta_intervals`, at every step,
+        ``bootstrap`` then only switches them on when positive).
+
+    Returns
+    -------
+    OutputStats
+        Moments ``(..., k)``, covariance ``(..., k, k)``, the standard error of the mean and
+        the intervals ``ci[stat]`` ``(2, ..., k)``; ``moments_method="sample"``.
+    """
+    y = np.asarray(y, dtype=float)
+    n = y.shape[0]
+    if n == 0:
+        nan = np.full(y.shape[1:], np.nan)
+        return OutputStats(nan, nan, nan, nan, np.full(y.shape[1:] + y.shape[-1:], np.nan), 0)
+    mean, mu2, mu3, mu4 = central_moments(y)
+    std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
+    ci: dict[str, np.ndarray] = {}
+    if intervals == "delta" and bootstrap > 0 and n > 1:
+        d = y - mean
+        mus = [mu2, mu3, mu4] + [np.mean(d**k, axis=0) for k in range(5, 9)]
+        ci = delta_intervals(mean, std, skew, kurt, tuple(mus), n, level)
+    elif bootstrap > 0 and n > 1:
+        if ci_index is None or y.ndim != 3:
+            ci = bootstrap_intervals(y, bootstrap, seed, level)
+        else:
+            idx = np.unique(np.asarray(ci_index, dtype=int))
+            part = bootstrap_intervals(y[:, idx], bootstrap, seed, level)
+            for k, v in part.items():
+                full = np.full((2,) + y.shape[1:], np.nan)
+                full[:, idx] = v
+                ci[k] = full
+    return OutputStats(
+        mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=covariance(y), n_used=n,
+        moments_method="sample", sem=std / np.sqrt(n), ci=ci,
+    )
+
+
+# ---------------------------------------------------------------------------- streaming form
+# Monte Carlo at scale never holds every sample of a time series: each chunk of samples is
+# reduced to mergeable sums where it is evaluated, and the sums are merged in chunk order.
+@dataclass
+class MomentSums:
+    """Mergeable moment sums of (possibly weighted) samples: count, mean, central sums.
+
+    For samples ``y_i`` with weights ``w_i`` (1 for plain samples)::
+
+        n = sum w_i,  mean = sum w_i y_i / n,  m_p = sum w_i (y_i - mean)^p  (p = 2, 3, 4),
+        cm = sum w_i (y_i - mean)(y_i - mean)^T   (comoments, optional)
+
+    Two summaries of disjoint sample sets merge exactly (up to rounding) by the pairwise
+    formulas of Chan, Golub & LeVeque (1979) and Pébay (2008, Sandia SAND2008-6212, eqs 3.1
+    and 3.2, which hold for real weights), so statistics of any number of chunks come out of
+    one pass over the chunks without keeping the samples. The merge is not associative in
+    floating point: merging in a fixed (chunk) order makes the result independent of which
+    process reduced which chunk.
+
+    Attributes
+    ----------
+    n : float or ndarray, shape (B, 1)
+        Total weight (sample count); ``(B, 1)`` for ``B`` bootstrap resamples.
+    mean, m2, m3, m4 : ndarray, shape (..., k) or (B, c)
+    cm : ndarray, shape (..., k, k), optional
+    high : ndarray, shape (4, ..., k), optional
+        Central sums of orders 5-8 (what the delta-method intervals of skewness and kurtosis
+        need, :func:`delta_standard_errors`); plain samples only.
+    """
+
+    n: float | np.ndarray
+    mean: np.ndarray
+    m2: np.ndarray
+    m3: np.ndarray
+    m4: np.ndarray
+    cm: np.ndarray | None = None
+    high: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, y: np.ndarray, comoments: bool = True, high: bool = False) -> MomentSums:
+        """Sums of plain samples ``y (n, ..., k)`` over the first axis (two-pass).
+
+        Parameters
+        ----------
+        y : ndarray, shape (n, ..., k)
+            Samples (not modified; a view of a model's buffer is fine).
+        comoments : bool
+            Also the comoment sums ``(..., k, k)``.
+        high : bool
+            Also the central sums of orders 5-8 (:attr:`high`).
+
+        Returns
+        -------
+        MomentSums
+            Fields ``(..., k)``, ``cm`` ``(..., k, k)`` or None, ``high`` ``(4, ..., k)`` or None.
+        """
+        y = np.asarray(y, dtype=float)
+        n = y.shape[0]
+        if n == 0:
+            z = np.zeros(y.shape[1:])
+            cm = np.zeros(y.shape[1:] + y.shape[-1:]) if comoments else None
+            hi = np.zeros((4,) + y.shape[1:]) if high else None
+            return cls(0.0, z, z.copy(), z.copy(), z.copy(), cm, hi)
+        kernel = _compiled_sums()
+        if kernel is None:
+            return cls._of_numpy(y, comoments, high)
+        column_sums, comoment_sums = kernel
+        shape = y.shape[1:]
+        # explicit width: reshape(n, -1) is ambiguous for zero columns (no scalar outputs)
+        flat = np.ascontiguousarray(y).reshape(n, int(np.prod(shape)))
+        mean_flat, sums = column_sums(flat, high)
+        mean = mean_flat.reshape(shape)
+        m2, m3, m4 = (sums[r].reshape(shape) for r in range(3))
+        cm = None
+        if comoments:
+            k = shape[-1] if shape else 1
+            if k == 1:
+                # sum d d over the samples in order: the same additions as m2's
+                cm = m2[..., None].copy()
+            else:
+                lead = int(np.prod(shape[:-1])) if len(shape) > 1 else 1
+                cm = comoment_sums(flat.reshape(n, lead, k), mean.reshape(lead, k)
+                                   ).reshape(shape + (k,))
+        hi = sums[3:].reshape((4,) + shape) if high else None
+        return cls(float(n), mean, m2, m3, m4, cm, hi)
+
+    @classmethod
+    def _of_numpy(cls, y: np.ndarray, comoments: bool, high: bool) -> MomentSums:
+        """:meth:`of` in NumPy (where numba is not importable; the compiled form's reference)."""
+        n = y.shape[0]
+        mean = y.mean(axis=0)
+        d = y - mean
+        cm = np.einsum("n...i,n...j->...ij", d, d) if comoments else None
+        # powers built in two reused buffers (d^4 as d^2 d^2, the rounding of the merged sums
+        # the baselines were recorded with)
+        d2 = d * d
+        pw = d2 * d
+        sums = [d2.sum(axis=0), pw.sum(axis=0)]
+        np.multiply(d2, d2, out=pw)
+        sums.append(pw.sum(axis=0))
+        if high:
+            for _ in range(4):
+                pw *= d
+                sums.append(pw.sum(axis=0))
+        hi = np.stack(sums[3:]) if high else None
+        return cls(float(n), mean, sums[0], sums[1], sums[2], cm, hi)
+
+    def central_sums(self) -> list[np.ndarray]:
+        """``[m_2, ..., m_p]``: the fields and, when kept, the orders 5-8."""
+        out = [self.m2, self.m3, self.m4]
+        if self.high is not None:
+            out += list(self.high)
+        return out
+
+    @classmethod
+    def weighted(cls, y: np.ndarray, w: np.ndarray) -> MomentSums:
+        """Sums of ``y (n, c)`` under ``B`` weight vectors ``w (B, n)``: fields ``(B, c)``.
+
+        The weighted power sums are matrix products of the weights with the powers of ``y``
+        centred at its plain mean (centring keeps the conversion to central sums well
+        conditioned), converted to central sums about each resample's own weighted mean.
+
+        Parameters
+        ----------
+        y : ndarray, shape (n, c)
+            Samples of ``c`` columns.
+        w : ndarray, shape (B, n)
+            Non-negative weights (bootstrap multiplicities) per resample.
+
+        Returns
+        -------
+        MomentSums
+            ``n`` ``(B, 1)`` (total weights), fields ``(B, c)``, no comoments.
+        """
+        y = np.asarray(y, dtype=float)
+        B = w.shape[0]
+        if y.shape[0] == 0:
+            z = np.zeros((B, y.shape[1]))
+            return cls(np.zeros((B, 1)), z, z.copy(), z.copy(), z.copy())
+        c = y.mean(axis=0)
+        d = y - c
+        d2 = d * d
+        W = w.sum(axis=1, keepdims=True)
+        p1, p2, p3, p4 = (w @ p for p in (d, d2, d2 * d, d2 * d2))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            a = np.where(W > 0, p1 / np.where(W > 0, W, 1.0), 0.0)  # weighted mean - c
+        m2 = p2 - a * p1
+        m3 = p3 - 3 * a * p2 + 2 * a * a * p1
+        m4 = p4 - 4 * a * p3 + 6 * a * a * p2 - 3 * a**3 * p1
+        return cls(W, c + a, m2, m3, m4)
+
+    def merge(self, other: MomentSums,
+              outer: Callable[[np.ndarray], np.ndarray] | None = None) -> MomentSums:
+        """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2).
+
+        Parameters
+        ----------
+        other : MomentSums
+            Sums of the other set, fields of the same shape.
+        outer : callable, optional
+            The outer products ``delta_i delta_j`` of the means' difference, shaped as ``cm``
+            (default ``einsum`` over the last axis; :mod:`uqguide.methods.mc_fold` gathers them
+            by index for comoments laid out flat).
+
+        Returns
+        -------
+        MomentSums
+            The union's sums (comoments only where both sides have them).
+        """
+        na, nb = self.n, other.n
+        if np.ndim(na) == 0 and np.ndim(nb) == 0:
+            # Whole-chunk sums: an empty side is the other side exactly.
+            if nb == 0:
+                return self
+            if na == 0:
+                return other
+        n = na + nb
+        safe = np.where(n > 0, n, 1.0)
+        delta = other.mean - self.mean
+        fa, fb = na / safe, nb / safe
+        mean = self.mean + delta * fb
+        d2 = delta * delta
+        nab = na * nb / safe
+        m2 = self.m2 + other.m2 + d2 * nab
+        m3 = (self.m3 + other.m3 + d2 * delta * nab * (fa - fb)
+              + 3 * delta * (fa * other.m2 - fb * self.m2))
+        m4 = (self.m4 + other.m4 + d2 * d2 * nab * (fa * fa - fa * fb + fb * fb)
+              + 6 * d2 * (fa * fa * other.m2 + fb * fb * self.m2)
+              + 4 * delta * (fa * other.m3 - fb * self.m3))
+        cm = None
+        if self.cm is not None and other.cm is not None:
+            products = np.einsum("...i,...j->...ij", delta, delta) if outer is None \
+                else outer(delta)
+            cm = self.cm + other.cm + products * nab
+        high = None
+        if self.high is not None and other.high is not None:
+            high = np.stack([_merge_order(p, self.central_sums(), other.central_sums(), na, nb,
+                                          delta) for p in range(5, 9)])
+        return MomentSums(n, mean, m2, m3, m4, cm, high)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The fields as named arrays (for storage); inverse of :meth:`from_arrays`.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``n``, ``mean``, ``m2``, ``m3``, ``m4`` and ``cm`` where present.
+        """
+        d = {"n": np.asarray(self.n, dtype=float), "mean": self.mean, "m2": self.m2,
+             "m3": self.m3, "m4": self.m4}
+        if self.cm is not None:
+            d["cm"] = self.cm
+        if self.high is not None:
+            d["high"] = self.high
+        return d
+
+    @classmethod
+    def from_arrays(cls, d: dict[str, np.ndarray]) -> MomentSums:
+        """The sums stored by :meth:`arrays`.
+
+        Parameters
+        ----------
+        d : dict of str to ndarray
+            As :meth:`arrays` returns it.
+
+        Returns
+        -------
+        MomentSums
+        """
+        n = d["n"]
+        return cls(float(n) if n.ndim == 0 else n, d["mean"], d["m2"], d["m3"], d["m4"],
+                   d.get("cm"), d.get("high"))
+
+    def central_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0.
+
+        Returns
+        -------
+        mean, mu2, mu3, mu4 : ndarray
+            Shapes of the fields.
+        """
+        with np.errstate(invalid="ignore", divide="ignore"):
+            inv = np.where(np.asarray(self.n) > 0, 1.0 / np.asarray(self.n), np.nan)
+        return self.mean, self.m2 * inv, self.m3 * inv, self.m4 * inv
+
+
+_KERNEL: list = []
+
+
+def _compiled_sums():
+    """The compiled column sums (:mod:`uqguide.stats.moment_sums_kernel`), imported on first use so
+    that commands computing no statistics do not load numba; None without numba."""
+    if not _KERNEL:
+        try:
+            from .moment_sums_kernel import column_sums, comoment_sums
+        except ImportError:
+            _KERNEL.append(None)
+        else:
+            _KERNEL.append((column_sums, comoment_sums))
+    return _KERNEL[0]
+
+
+def _merge_order(p: int, a: list[np.ndarray], b: list[np.ndarray], na: float | np.ndarray,
+                 nb: float | np.ndarray,
+                 delta: np.ndarray) -> np.ndarray:
+    """Central sum of order ``p`` of the union of two sample sets (Pébay 2008, eq 3.1 general
+    order): ``a``, ``b`` are ``[m_2, ..., m_p]`` of each side, ``delta = mean_b - mean_a``."""
+    n = na + nb
+    out = a[p - 2] + b[p - 2]
+    for k in range(1, p - 1):
+        # m_{p-k}; the first central sum is zero, so k stops at p - 2
+        out = out + comb(p, k) * delta**k * ((-nb / n) ** k * a[p - k - 2]
+                                             + (na / n) ** k * b[p - k - 2])
+    out = out + (na * nb * delta / n) ** p * (1.0 / nb ** (p - 1) - (-1.0 / na) ** (p - 1))
+    return out
+
+
+def statistics_from_sums(
+    sums: MomentSums, boot: MomentSums | None = None, ci_index: np.ndarray | None = None,
+    level: float = 0.95, delta: MomentSums | None = None,
+) -> OutputStats:
+    """OutputStats from merged :class:`MomentSums` (the streaming form of
+    :func:`sample_statistics`).
+
+    Parameters
+    ----------
+    sums : MomentSums
+        Plain sums of the output, fields ``(..., k)``, comoments ``(..., k, k)``.
+    boot : MomentSums, optional
+        Poisson-bootstrap sums ``(B, c)`` of the columns the intervals are wanted at: every
+        column of the output flattened, or, for a time series, the time steps ``ci_index``
+        flattened ``(len(ci_index) * k)``. Intervals are NaN at the other steps.
+    ci_index : ndarray of int, optional
+        Time indices of the bootstrap columns of a series output.
+    level : float
+        Coverage of the intervals.
+    delta : MomentSums, optional
+        Plain sums with the orders 5-8 (:attr:`MomentSums.high`) of the interval columns
+        (laid out as ``boot``'s): delta-method intervals (:func:`delta_intervals`), used when
+        ``boot`` is None.
+
+    Returns
+    -------
+    OutputStats
+        As :func:`sample_statistics` gives for the same samples (to round-off).
+    """
+    n = int(round(float(sums.n)))
+    shape = sums.mean.shape
+    if n == 0:
+        nan = np.full(shape, np.nan)
+        return OutputStats(nan, nan, nan, nan, np.full(shape + shape[-1:], np.nan), 0)
+    mean, mu2, mu3, mu4 = sums.central_moments()
+    std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
+    cov = sums.cm / n if sums.cm is not None else np.full(shape + shape[-1:], np.nan)
+    ci: dict[str, np.ndarray] = {}
+    if boot is None and delta is not None and delta.high is not None and n > 1:
+        inv = 1.0 / float(delta.n)
+        mus = tuple(m * inv for m in delta.central_sums())
+        dstd, dskew, dkurt = shape_moments(delta.mean, mus[0], mus[1], mus[2])
+        for name, q in delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level).items():
+            if ci_index is None:
+                ci[name] = q.reshape((2,) + shape)
+            else:
+                full = np.full((2,) + shape, np.nan)
+                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
+                ci[name] = full
+    if boot is not None and n > 1:
+        bm, b2, b3, b4 = boot.central_moments()
+        bstd, bskew, bkurt = shape_moments(bm, b2, b3, b4)
+        alpha = (1.0 - level) / 2
+        draws = {"mean": bm, "std": bstd, "skewness": bskew, "kurtosis": bkurt}
+        for name, v in draws.items():
+            q = _nan_safe_percentile(v, alpha)
+            if ci_index is None:
+                ci[name] = q.reshape((2,) + shape)
+            else:
+                full = np.full((2,) + shape, np.nan)
+                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
+                ci[name] = full
+    return OutputStats(mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=cov, n_used=n,
+                       moments_method="sample", sem=std / np.sqrt(n), ci=ci)
+
