@@ -36,3 +36,13 @@ class MethodError(UqguideError):
 
 class ResultError(UqguideError):
     """A result file or baseline is missing, corrupt, or does not match what was asked of it."""
+
+
+class WorkerStartError(UqguideError):
+    """Worker processes died while starting, before they ran a single sample.
+
+    Not a sample's fault, so not recovered by re-running samples one by one: every new worker
+    would die the same way. The usual cause is a script that calls ``uqguide.run(..., workers=N)``
+    at its top level, without an ``if __name__ == "__main__":`` guard: each spawned worker
+    re-imports the script and would start the whole run again.
+    """

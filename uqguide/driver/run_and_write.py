@@ -16,6 +16,7 @@ from ..config.budget import check_memory, estimate
 from .checkpoint import RunStore, run_dir, run_identity
 from ..config.run_config import RunConfig
 from .execution import Executor, SerialExecutor
+from .execution.processes import refuse_nested_run
 from .interrupts import deferred
 from .progress import Progress
 from .propagate import run
@@ -86,6 +87,7 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     WriteInterrupted
         Ctrl-C or SIGTERM while writing the result files.
     """
+    refuse_nested_run()  # before the lock: a worker re-running an unguarded script stops here
     out_dir = Path(out_dir)
     executor = executor or SerialExecutor(config.raw.batch_size)
     try:

@@ -14,13 +14,13 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ...errors import ConfigError
+from ...errors import ConfigError, WorkerStartError
 from ...models.base import Model
 from ...core.types import GeneratedRows, ModelOutput, RowRange
 from .chunks import DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Task, Timing
 from .guard import close_guards
 from .isolation import common_grid
-from .processes import init_worker, sigint_ignored
+from .processes import WORKERS_DID_NOT_START, init_worker, sigint_ignored
 from .transport import ModelHandle
 from .worker import isolate_crash, run_chunk, warm_up
 
@@ -188,12 +188,14 @@ class ProcessExecutor(_WindowedExecutor):
         self.window = 2 * workers
         self._ctx = multiprocessing.get_context(start_method)
         self._pool: ProcessPoolExecutor | None = None
+        self._started = self._ctx.Event()
 
     def _get_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
             threads = max(1, (os.cpu_count() or 1) // self.workers)
             self._pool = ProcessPoolExecutor(self.workers, mp_context=self._ctx,
-                                             initializer=init_worker, initargs=(threads,))
+                                             initializer=init_worker,
+                                             initargs=(threads, self._started))
         return self._pool
 
     def start(self) -> None:
@@ -230,7 +232,10 @@ class ProcessExecutor(_WindowedExecutor):
             yield fut.result()
             return
         except BrokenProcessPool:
-            pass
+            if not self._started.is_set():
+                # No worker ever started: fresh pools would die the same way, so bisecting
+                # the chunks in them would only repeat the death once per sample.
+                raise WorkerStartError(WORKERS_DID_NOT_START) from None
         # Every chunk in flight died with the pool; which one killed it is unknown. Keep those
         # that had finished, re-run the others one at a time in fresh pools: the culprit
         # crashes again and fails alone.

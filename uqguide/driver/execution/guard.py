@@ -23,10 +23,11 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import ModelError
+from ...errors import ModelError, WorkerStartError
 from ...core.types import ModelOutput
 from .isolation import assemble_pieces, evaluate_batch
-from .processes import die_with_parent, sigint_ignored
+from .processes import (NESTED_RUN_EXIT, WORKERS_DID_NOT_START, die_with_parent,
+                        sigint_ignored)
 
 log = logging.getLogger(__name__)
 
@@ -82,10 +83,21 @@ class Guard:
         key = id(handle)
         if self._prepared == key:
             return
-        self._conn.send(("prepare", handle))
-        if not self._conn.poll(self.START_S):
-            raise EOFError("the guard process did not start")
-        status, value = self._conn.recv()
+        try:
+            self._conn.send(("prepare", handle))
+            if not self._conn.poll(self.START_S):
+                raise WorkerStartError(f"the guard process did not start within "
+                                       f"{self.START_S:g} s")
+            status, value = self._conn.recv()
+        except (EOFError, OSError):
+            # Dead before it built the model: no sample is to blame, and a fresh guard would
+            # die the same way, once per sample of the bisection.
+            self._proc.join(5)
+            code = self._proc.exitcode
+            if code == NESTED_RUN_EXIT:
+                raise WorkerStartError(WORKERS_DID_NOT_START) from None
+            raise WorkerStartError(f"the guard process died while starting or building the "
+                                   f"model (exit code {code}), before any sample ran") from None
         if status != "ready":
             raise ModelError(f"cannot build the model in the guard process: {value}")
         self._prepared = key

@@ -3,6 +3,7 @@ ignore Ctrl-C, which the driver handles, and die with their parent."""
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import signal
 import sys
@@ -10,6 +11,7 @@ import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import Any
 
 def die_with_parent() -> None:
     """Make this process end when its parent does (call first thing in a child process)."""
@@ -43,7 +45,7 @@ def ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def init_worker(threads: int) -> None:
+def init_worker(threads: int, started: Any = None) -> None:
     """Worker start: ignore SIGINT and cap compiled kernels' threads at the worker's share of
     the cores (N workers each running an all-core numba kernel would oversubscribe the machine).
     Numba reads the variable when first imported, which in a spawned worker is after this.
@@ -52,10 +54,47 @@ def init_worker(threads: int) -> None:
     ----------
     threads : int
         Threads a compiled kernel may use in this worker (``NUMBA_NUM_THREADS``, unless set).
+    started : multiprocessing.Event, optional
+        Set once this worker has started: a pool that breaks before any worker set it died
+        starting up (see :func:`starting_worker`), not on a sample.
     """
     ignore_sigint()
     die_with_parent()  # a driver killed (out of memory) must not leave workers holding its pipes
     os.environ.setdefault("NUMBA_NUM_THREADS", str(threads))
+    if started is not None:
+        started.set()
+
+
+#: Exit code of a worker that found itself asked to start a run while it was starting up.
+NESTED_RUN_EXIT = 3
+
+WORKERS_DID_NOT_START = (
+    "the worker processes died while starting, before any sample ran. A worker process "
+    "(workers=N, or a guard process with timeout_s) re-imports the script that started the run; "
+    "if that script calls uqguide.run at its top level, put the call under "
+    "`if __name__ == \"__main__\":`")
+
+
+def starting_worker() -> bool:
+    """Is this process a spawned worker still importing its parent's main script?
+
+    ``multiprocessing`` re-runs the parent's ``__main__`` in every ``spawn`` child before the
+    child does any work; code that starts a run from an unguarded script reaches the run again
+    there. Python marks that phase with ``current_process()._inheriting``, the flag its own
+    "before the current process has finished its bootstrapping phase" check reads.
+    """
+    return bool(getattr(multiprocessing.current_process(), "_inheriting", False))
+
+
+def refuse_nested_run() -> None:
+    """End a starting worker quietly instead of letting it start the whole run again.
+
+    The parent sees its pool break before any worker started and raises one
+    :class:`~uqguide.errors.WorkerStartError` that says how to fix the script; a traceback from
+    every worker would bury that line.
+    """
+    if starting_worker():
+        raise SystemExit(NESTED_RUN_EXIT)
 
 
 @contextmanager
