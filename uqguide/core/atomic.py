@@ -5,6 +5,12 @@ fsynced, then renamed over the final name: whatever kills the writer and when, a
 final name is whole (the old one or the new one), never a 0-byte or torn table. A temporary
 file left by a killed writer is removed by the next write into that folder once its process
 is gone (:func:`clean_stale_temps`).
+
+No file is written through a symbolic link. A link at a final name is refused
+(:func:`refuse_links`: ConfigError, exit 2, naming it) rather than replaced, since it is the
+user's; the temporary file is created here, exclusively and without following a link
+(``O_EXCL | O_NOFOLLOW``), before any writer opens it by name, so a link planted at its
+predictable name cannot redirect the write outside the folder.
 """
 
 from __future__ import annotations
@@ -15,6 +21,8 @@ import re
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+
+from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +57,44 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+def refuse_links(*paths: str | Path, field: str = "out") -> None:
+    """Raise ConfigError for the first of ``paths`` that is a symbolic link.
+
+    Parameters
+    ----------
+    *paths : str or Path
+        Where uqguide is about to create or replace a file or folder.
+    field : str
+        The setting that chose the folder (named in the message).
+
+    Raises
+    ------
+    ConfigError
+        Naming the link and where it points; nothing has been written.
+    """
+    for p in paths:
+        p = Path(p)
+        if p.is_symlink():
+            raise ConfigError(
+                f"--{field}: {p} is a symbolic link (to {os.readlink(p)}); uqguide writes no "
+                f"file through a link and does not replace one: remove it or choose another "
+                f"--{field}", field=field)
+
+
+def _create_temp(tmp: Path) -> None:
+    """Create ``tmp`` empty and ours: exclusively, never through a link at its name."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
+    for _ in range(2):
+        try:
+            os.close(os.open(tmp, flags, 0o644))
+            return
+        except FileExistsError:
+            # The name holds this PID, so no live writer owns it: a leftover of an earlier
+            # process with our PID, or something planted. Removing a link removes only the link.
+            os.unlink(tmp)
+    raise FileExistsError(tmp)  # pragma: no cover - recreated between unlink and open
+
+
 @contextmanager
 def atomic_path(path: str | Path, fsync: bool = True, clean: bool = True) -> Iterator[Path]:
     """Yield a temporary path to write; on success it is renamed to ``path``.
@@ -69,13 +115,20 @@ def atomic_path(path: str | Path, fsync: bool = True, clean: bool = True) -> Ite
     Yields
     ------
     Path
-        The temporary file to write.
+        The temporary file to write (created empty, a regular file of this process).
+
+    Raises
+    ------
+    ConfigError
+        ``path`` is a symbolic link.
     """
     path = Path(path)
+    refuse_links(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if clean:
         clean_stale_temps(path.parent)
     tmp = temp_path(path)
+    _create_temp(tmp)
     try:
         yield tmp
         if fsync:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..config.budget import check_memory, estimate
+from ..core.atomic import refuse_links
 from .checkpoint import RunStore, run_dir, run_identity
 from ..config.run_config import RunConfig
 from .execution import Executor, SerialExecutor
@@ -94,6 +95,9 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
         check_config_report_times(config)
         check_memory(estimate(config, workers))  # before anything is allocated
         folder = run_dir(out_dir, config.name)  # inside out_dir: the name is a plain file name
+        # A link where the run folder or the result goes would send checkpoints or the result
+        # outside out_dir: refused before anything is written (the lock refuses its own).
+        refuse_links(folder, out_dir / f"{config.name}.h5")
         with RunLock(folder):
             store = RunStore.open(folder, run_identity(config.resolved(), config.model), resume,
                                   resume_hint)

@@ -13,12 +13,14 @@ it (the PID and host in the file then at least name the other owner).
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import logging
 import os
 import socket
 from pathlib import Path
 
+from ..core.atomic import refuse_links
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -46,7 +48,16 @@ class RunLock:
         """Take the lock or raise ConfigError naming its owner."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
         for _ in range(20):
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                # O_NOFOLLOW: a link planted at the lock's name must not be truncated and
+                # written through (a write outside --out), nor its missing target created.
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0),
+                             0o644)
+            except OSError as e:
+                if e.errno != errno.ELOOP:
+                    raise
+                refuse_links(self.path)
+                raise
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
