@@ -7,6 +7,8 @@ import pytest
 from click.testing import CliRunner
 
 from uqguide.cli import main
+from uqguide.api import load_config
+from uqguide.errors import ConfigError
 
 GOOD = """
 model: {name: lognormal, a: [0.3, 0.2]}
@@ -114,3 +116,19 @@ def test_good_config_validates(write_config):
     result = CliRunner().invoke(main, ["validate", str(write_config(GOOD))])
     assert result.exit_code == 0, result.output
     assert "OK — model lognormal, 2 uncertain inputs (x1, x2)" in result.output
+
+
+@pytest.mark.parametrize("output", ["a/b", "..", ".", "y z", {"name": "c/d", "kind": "series"}],
+                         ids=["slash", "dotdot", "dot", "space", "mapping-form"])
+def test_a_callable_output_that_cannot_name_a_file_is_refused_at_load(output):
+    """An output name becomes an HDF5 path component and a figure file name: ``a/b`` used to be
+    accepted, and ``plot`` / ``report`` then could not read the result."""
+    cfg = {"name": "t", "inputs": [{"name": "x1", "dist": "normal", "std": 1.0}],
+           "model": {"name": "callable", "function": "uqguide.models.callable:example_function",
+                     "outputs": [output]},
+           "methods": [{"name": "monte_carlo", "n_samples": 10}]}
+    with pytest.raises(ConfigError) as e:
+        load_config(cfg)
+    assert e.value.field == "model.outputs"
+    name = output if isinstance(output, str) else output["name"]
+    assert repr(name) in str(e.value) and "letters, digits" in str(e.value)

@@ -39,6 +39,7 @@ import numpy as np
 from pydantic import (BaseModel, ConfigDict, Field, ValidationInfo, field_serializer,
                       field_validator, model_validator)
 
+from ..core.names import PLAIN_NAME_RULE, check_plain_name, is_plain_name
 from ..errors import ModelError
 from .base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
 
@@ -48,6 +49,8 @@ class CallableOutput(BaseModel):
 
     name: str = Field(min_length=1)
     kind: Literal["scalar", "series"] = "scalar"
+
+    _plain_name = field_validator("name")(check_plain_name)
     components: int = Field(default=1, ge=1)
     unit: str = "1"
     description: str = ""
@@ -181,6 +184,21 @@ class CallableParams(ModelParams):
                     ) -> str | Callable[..., Any]:
         if isinstance(v, str):
             import_function(v, info.data.get("module_dir"))
+        return v
+
+    @field_validator("outputs", mode="before")
+    @classmethod
+    def _plain_output_names(cls, v: Any) -> Any:
+        # Before the str | CallableOutput union: its error for a bad name in the mapping form
+        # would be "Input should be a valid string", which names neither the name nor the rule.
+        if isinstance(v, list):
+            names = [o.get("name") if isinstance(o, Mapping) else
+                     o.name if isinstance(o, CallableOutput) else o for o in v]
+            for name in names:
+                if isinstance(name, str) and not is_plain_name(name):
+                    raise ValueError(f"output name {name!r} must be {PLAIN_NAME_RULE}")
+            if len(set(map(str, names))) != len(names):
+                raise ValueError("output names must be unique")
         return v
 
     @model_validator(mode="after")
