@@ -109,3 +109,36 @@ def test_a_bad_config_with_workers_exits_2_and_leaves_no_worker_behind(tmp_path)
     assert p.returncode == 2, p.stderr
     assert "methods[0].n_samples" in p.stderr and "Traceback" not in p.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_another_config_of_the_same_name_is_refused_unless_forced(write_config, lognormal_config,
+                                                                  tmp_path):
+    """Two different studies named alike used to both exit 0, the second silently replacing the
+    first's result and tables."""
+    out = tmp_path / "out"
+    first = write_config({**lognormal_config, "name": "study"}, "first.yaml")
+    other = write_config({**lognormal_config, "name": "study", "seed": 8}, "other.yaml")
+    runner = CliRunner()
+    assert runner.invoke(main, ["run", str(first), "--out", str(out)]).exit_code == 0
+    before = (out / "study.h5").read_bytes()
+    res = runner.invoke(main, ["run", str(other), "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    assert "another config named 'study'" in res.output and "--force" in res.output
+    assert "Traceback" not in res.output
+    assert (out / "study.h5").read_bytes() == before
+    # the same config again may overwrite its own result (same numbers)
+    assert runner.invoke(main, ["run", str(first), "--out", str(out)]).exit_code == 0
+    res = runner.invoke(main, ["run", str(other), "--out", str(out), "--force"])
+    assert res.exit_code == 0, res.output
+    assert read_hdf5(out / "study.h5").config["seed"] == 8
+
+
+def test_a_foreign_file_at_the_result_name_is_refused_unless_forced(write_config,
+                                                                    lognormal_config, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "study.h5").write_text("the user's notes, not a result")
+    path = write_config({**lognormal_config, "name": "study"})
+    res = CliRunner().invoke(main, ["run", str(path), "--out", str(out)])
+    assert res.exit_code == 2 and "not a readable uqguide result" in res.output, res.output
+    assert (out / "study.h5").read_text() == "the user's notes, not a result"

@@ -73,7 +73,7 @@ def load_config(config: str | Path | Mapping[str, Any] | RunConfig) -> RunConfig
 
 def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | None = None,
         seed: int | None = None, out: str | Path | None = None,
-        progress: bool = False) -> Result:
+        progress: bool = False, force: bool = False) -> Result:
     """Propagate the uncertainty of ``config`` with every method it lists.
 
     Parameters
@@ -89,6 +89,9 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
         Also write ``<out>/<name>.h5`` and the CSV / Markdown tables, as ``uqguide run`` does.
     progress : bool
         Show progress on stderr.
+    force : bool
+        With ``out``: replace ``<out>/<name>.h5`` even when another config made it (a
+        ConfigError otherwise; a rerun of the same config may always overwrite its result).
 
     Returns
     -------
@@ -125,7 +128,8 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     if out is not None:
         from .driver.run_and_write import run_and_write
 
-        return run_and_write(cfg, out, executor, workers=workers or 1, progress=shown).result
+        return run_and_write(cfg, out, executor, workers=workers or 1, progress=shown,
+                             force=force).result
     try:
         result = _run(cfg, executor, progress=shown)
     finally:

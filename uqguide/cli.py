@@ -134,6 +134,9 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
               default=None, help="Dask scheduler file (dask scheduler --scheduler-file).")
 @click.option("--resume", is_flag=True,
               help="Continue an interrupted run from its checkpoint (<out>/<name>.run).")
+@click.option("--force", is_flag=True,
+              help="Replace <out>/<name>.h5 even when another config made it (refused "
+                   "otherwise).")
 @click.option("--check", "check_path", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Then check the statistics against this baseline JSON "
                                  "(exit 1 on a regression, 2 if it is unusable).")
@@ -141,7 +144,7 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
               help="No progress display (and no budget lines) on stderr.")
 @_handle_errors
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
-        scheduler: str | None, scheduler_file: Path | None, resume: bool,
+        scheduler: str | None, scheduler_file: Path | None, resume: bool, force: bool,
         check_path: Path | None, quiet: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .config.budget import estimate
@@ -176,13 +179,15 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
             executor.close()
         raise
     again = f"uqguide run {config} --resume" + (f" --out {out_dir}" if out_dir != Path(
-        "results/runs") else "") + (f" --seed {seed}" if seed is not None else "")
+        "results/runs") else "") + (f" --seed {seed}" if seed is not None else "") + (
+        " --force" if force else "")
     if executor is None:
         executor = make_executor(workers, scheduler,
                                  str(scheduler_file) if scheduler_file else None)
     try:
         written = run_and_write(cfg, out_dir, executor, workers=workers or 1, resume=resume,
-                                progress=make_progress(sys.stderr, quiet), resume_hint=again)
+                                progress=make_progress(sys.stderr, quiet), resume_hint=again,
+                                force=force)
     except RunInterrupted as exc:
         click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume "
                    f"with `{again}`", err=True)

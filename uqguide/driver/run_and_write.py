@@ -9,8 +9,13 @@ same way.
 
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
+import yaml
 
 from ..config.budget import check_memory, estimate
 from ..core.atomic import refuse_links
@@ -23,7 +28,8 @@ from .progress import Progress
 from .propagate import run
 from ..report.tables import write_tables
 from ..config.report_times import check_config_report_times
-from ..results.result import Result, write_hdf5
+from ..errors import ConfigError, ResultError
+from ..results.result import Result, read_config, write_hdf5
 from .runlock import RunLock
 
 
@@ -50,9 +56,51 @@ class Written:
     tables: list[Path]
 
 
+def _canonical(config: dict[str, Any]) -> str:
+    # Through YAML as the result file keeps it, so a config read back compares equal.
+    return json.dumps(yaml.safe_load(yaml.safe_dump(config)), sort_keys=True, default=str)
+
+
+def check_same_study(result_path: Path, config: RunConfig, force: bool = False) -> None:
+    """Refuse to replace a result of another config that has the same name.
+
+    A rerun of the same config (same numbers) may overwrite its result; a different config,
+    seed included, under the same name would silently replace another study's statistics and
+    tables, so it is refused unless ``force``.
+
+    Parameters
+    ----------
+    result_path : Path
+        ``<out>/<name>.h5``.
+    config : RunConfig
+    force : bool
+        Replace whatever is there.
+
+    Raises
+    ------
+    ConfigError
+        Naming both configs' digests (field ``out``).
+    """
+    if force or not result_path.exists():
+        return
+    new = _canonical(config.resolved())
+    try:
+        old = _canonical(read_config(result_path))
+    except ResultError as exc:
+        raise ConfigError(f"--out: {result_path} exists and is not a readable uqguide result "
+                          f"({exc}); move it away, or pass --force to replace it",
+                          field="out") from None
+    if old != new:
+        digest = [hashlib.sha256(c.encode()).hexdigest()[:12] for c in (old, new)]
+        raise ConfigError(
+            f"--out: {result_path} holds the result of another config named "
+            f"'{config.name}' (config {digest[0]}; this run's is {digest[1]}); give this run "
+            f"another name or --out, or pass --force to replace it", field="out")
+
+
 def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | None = None, *,
                   workers: int = 1, resume: bool = False, progress: Progress | None = None,
-                  resume_hint: str = "") -> Written:
+                  resume_hint: str = "", force: bool = False) -> Written:
     """Run every method of ``config`` and write ``<out_dir>/<name>.h5`` and its tables.
 
     Parameters
@@ -73,6 +121,9 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
         Where progress is shown (default: counted, not shown).
     resume_hint : str
         The command that resumes this run, named in the messages of an interrupted run.
+    force : bool
+        Replace a result of another config with the same name (refused otherwise:
+        :func:`check_same_study`).
 
     Returns
     -------
@@ -99,6 +150,7 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
         # outside out_dir: refused before anything is written (the lock refuses its own).
         refuse_links(folder, out_dir / f"{config.name}.h5")
         with RunLock(folder):
+            check_same_study(out_dir / f"{config.name}.h5", config, force)
             store = RunStore.open(folder, run_identity(config.resolved(), config.model), resume,
                                   resume_hint)
             try:

@@ -487,6 +487,32 @@ def read_hdf5(path: str | Path) -> Result:
     return result
 
 
+def read_config(path: str | Path) -> dict[str, Any]:
+    """The resolved config a result file was made from, without reading its statistics.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    ResultError
+        Not a readable uqguide result file.
+    """
+    path = Path(path)
+    try:
+        with h5py.File(path, "r") as f:
+            text = f.attrs["config_yaml"]
+    except (OSError, KeyError) as exc:
+        raise ResultError(f"{path}: not a readable uqguide result file "
+                          f"({type(exc).__name__}: {exc})") from None
+    return _config_from_yaml(text, path)
+
+
 def _config_from_yaml(text: Any, path: Path) -> dict[str, Any]:
     from ..config.safe_yaml import YamlLimitError, safe_load
 
