@@ -112,3 +112,26 @@ def test_a_0_1_output_is_refused_with_a_reason():
         "methods": [{"name": "subset_simulation", "n_per_level": 100, "event": "on"}]})
     with pytest.raises(MethodError, match="grades the approach"):
         run(cfg)
+
+
+def test_a_chain_that_stays_is_neither_rerun_nor_taken_for_a_plateau():
+    """A proposal rejected in every coordinate leaves the chain where it is. That point used to
+    be run again as a new row, and two rows of one input at the threshold rank read as a flat
+    output: with 2 inputs and proposal_std 3 (most proposals rejected whole), 30 of these 40
+    runs aborted with a spurious 'values are equal' error. Now no run aborts and no input is run
+    twice; the chains are the same, so the estimate keeps its meaning (the 1e-5 accuracy test
+    above runs the same code)."""
+    cfg2 = validate_config({
+        "model": {"name": "linear_gaussian", "coefficients": [[1 / np.sqrt(2)] * 2]},
+        "inputs": [{"name": f"x{i + 1}", "dist": "normal", "mean": 0.0, "std": 1.0}
+                   for i in range(2)],
+        "outputs": ["y"],
+        "events": [{"name": "far", "output": "y", "above": float(stats.norm.isf(P_EXACT))}],
+        "methods": [{"name": "subset_simulation", "label": "sus", "n_per_level": 400,
+                     "p0": 0.1, "event": "far", "proposal_std": 3.0}],
+        "seed": 1})
+    for seed in range(40):
+        r = run(cfg2.with_seed(seed)).run("sus")
+        assert np.unique(r.x, axis=0).shape[0] == r.n_runs, seed
+        assert r.n_runs < 400 + r.estimate.diagnostics["levels"] * 360  # stays cost nothing
+        assert 0.0 < r.estimate.diagnostics["acceptance"] < 1.0

@@ -14,11 +14,13 @@ The event ``F = {g(x) > 0}`` (``g`` the event's severity: ``y - a`` for ``above:
 3. repeat until at least ``N_c`` samples of a level are in ``F``; then
    ``P = p0^m n_F / N`` (``m`` MCMC levels).
 
-Cost: ``N + m (N - N_c)`` model runs. All steps of all chains of one level advance together:
-step ``k`` is one batch of ``N_c`` candidates, evaluated through the same model contract and
-chunked executors as any design (a sequential design: :meth:`SubsetSimulation.refine`), so
-the numbers depend on the seed and the label, never on the workers. Failed runs are outside
-every level (level 0) or rejected moves (chains), and counted.
+Cost: at most ``N + m (N - N_c)`` model runs: a chain whose proposal keeps no coordinate stays
+where it is without a run (its value is known), and the ``acceptance`` diagnostic is the share
+of chain steps that moved to a new point inside the level. All steps of all chains of one level
+advance together: step ``k`` is one batch of the candidates of the chains that moved, evaluated
+through the same model contract and chunked executors as any design (a sequential design:
+:meth:`SubsetSimulation.refine`), so the numbers depend on the seed and the label, never on the
+workers. Failed runs are outside every level (level 0) or rejected moves (chains), and counted.
 
 Uncertainty (Au & Beck 2001, eqs 17-29): level ``i`` contributes
 ``delta_i^2 = (1 - P_i) / (N P_i) (1 + gamma_i)``, ``gamma_i`` from the chains' indicator
@@ -149,66 +151,94 @@ class SubsetSimulation(Method):
 
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         """Accept or reject the last candidates; at the end of a level set the next threshold
-        (or stop); then propose the next candidate of every chain."""
+        (or stop); then propose the next candidate of every chain.
+
+        A chain whose proposal is rejected in every coordinate stays where it is: its point is
+        not run again as a new row (the value is known), so a step runs only the chains that
+        moved, and a step where none moved runs nothing."""
         if design.data["done"]:
             return None
         d = dict(design.data)
         g = self._severity(outputs)
-        N, nc, L = self.settings.n_per_level, self.n_seeds, self.chain_length
+        nc, L = self.n_seeds, self.chain_length
         if d["step"] > 0:
-            # the last nc rows are the candidates of proposal number `step`
-            cand = np.arange(design.x.shape[0] - nc, design.x.shape[0])
+            # the last rows are the candidates of the chains that moved at proposal `step`
+            moved = d["moved"]
+            cand = np.arange(design.x.shape[0] - moved.size, design.x.shape[0])
             ok = g[cand] > d["thresholds"][-1]
             d["accepted"] += int(ok.sum())
+            current = d["current"].copy()
+            current[moved[ok]] = cand[ok]
+            d["current"] = current
+            d["chain_rows"] = d["chain_rows"].copy()
+            d["chain_rows"][:, d["step"]] = current
+        while True:
+            if d["chain_rows"] is None or d["step"] == L - 1:
+                if self._end_level(d, g):
+                    design.data.update(d)  # the driver estimates from the design it holds
+                    return None
+            rng = self._rng(d["seed"], d["level"], d["step"] + 1)
+            z_cur = d["z"][d["current"]]
+            prop = z_cur + self.settings.proposal_std * rng.standard_normal(z_cur.shape)
+            keep = rng.random(z_cur.shape) < np.exp(0.5 * (z_cur ** 2 - prop ** 2))
+            moved = np.flatnonzero(keep.any(axis=1))
             d["proposed"] += nc
-            d["current"] = np.where(ok, cand, d["current"])
+            d["step"] += 1
+            if moved.size:
+                z_new = np.where(keep, prop, z_cur)[moved]
+                d["z"] = np.vstack([d["z"], z_new])
+                d["moved"] = moved
+                return Design(x=np.vstack([design.x, self._to_x(space, z_new)]), data=d)
+            # no chain moved: this step's states are the current ones, and nothing to run
             d["chain_rows"] = d["chain_rows"].copy()
             d["chain_rows"][:, d["step"]] = d["current"]
-        if d["chain_rows"] is None or d["step"] == L - 1:
-            rows = np.arange(N) if d["chain_rows"] is None else d["chain_rows"].ravel()
-            gl = g[rows]
-            n_f = int(np.count_nonzero(gl > 0))
-            order = np.argsort(-gl, kind="stable")
-            final = n_f >= nc or d["level"] >= self.settings.max_levels
-            # equal values of two *different* runs (a chain that stays repeats its run) mean
-            # the output has plateaus
-            if not final and gl[order[nc - 1]] == gl[order[nc]] \
-                    and rows[order[nc - 1]] != rows[order[nc]]:
-                raise MethodError(
-                    f"{self.label}: the {nc}th and {nc + 1}th largest values of "
-                    f"{self.spec.output} at level {d['level']} are equal "
-                    f"({gl[order[nc]]:g}): no intermediate threshold separates them; subset "
-                    f"simulation needs an output that grades the approach to the event (a "
-                    f"distance or a margin, not a 0/1 flag)")
-            b = 0.0 if final else 0.5 * (gl[order[nc - 1]] + gl[order[nc]])
-            if not np.isfinite(b):
-                raise MethodError(f"{self.label}: level {d['level']} has fewer than {nc + 1} "
-                                  f"runs with a value; cannot set an intermediate threshold")
-            if d["chain_rows"] is not None:
-                d["gammas"] = d["gammas"] + [_gamma(g, d["chain_rows"], b)]
-            if final:
-                if n_f < nc:
-                    log.warning("%s: stopped at max_levels = %d with %d of %d samples in the "
-                                "event", self.label, self.settings.max_levels, n_f, N)
-                d.update(final_count=n_f, done=True)
-                design.data.update(d)  # the driver estimates from the design it holds
-                return None
-            seeds = rows[order[:nc]]
-            d["thresholds"] = d["thresholds"] + [float(b)]
-            d["cond_probs"] = d["cond_probs"] + [nc / N]
-            d["level"] += 1
-            d["step"] = 0
-            d["chain_rows"] = np.full((nc, L), -1, dtype=np.int64)
-            d["chain_rows"][:, 0] = seeds
-            d["current"] = seeds
-        rng = self._rng(d["seed"], d["level"], d["step"] + 1)
-        z_cur = d["z"][d["current"]]
-        prop = z_cur + self.settings.proposal_std * rng.standard_normal(z_cur.shape)
-        keep = rng.random(z_cur.shape) < np.exp(0.5 * (z_cur ** 2 - prop ** 2))
-        z_new = np.where(keep, prop, z_cur)
-        d["z"] = np.vstack([d["z"], z_new])
-        d["step"] += 1
-        return Design(x=np.vstack([design.x, self._to_x(space, z_new)]), data=d)
+
+    def _end_level(self, d: dict[str, Any], g: np.ndarray) -> bool:
+        """Close a level in ``d``: the next threshold and the chains' seeds, or the end.
+
+        Returns
+        -------
+        bool
+            True when the run is done (the event level reached, or ``max_levels``).
+        """
+        N, nc, L = self.settings.n_per_level, self.n_seeds, self.chain_length
+        rows = np.arange(N) if d["chain_rows"] is None else d["chain_rows"].ravel()
+        gl = g[rows]
+        n_f = int(np.count_nonzero(gl > 0))
+        order = np.argsort(-gl, kind="stable")
+        final = n_f >= nc or d["level"] >= self.settings.max_levels
+        # Equal values at the threshold rank are a plateau only when they come from different
+        # inputs: a chain that stays repeats its own point and value.
+        a, b_ = rows[order[nc - 1]], rows[order[nc]]
+        if not final and gl[order[nc - 1]] == gl[order[nc]] \
+                and not np.array_equal(d["z"][a], d["z"][b_]):
+            raise MethodError(
+                f"{self.label}: the {nc}th and {nc + 1}th largest values of "
+                f"{self.spec.output} at level {d['level']} are equal ({gl[order[nc]]:g}) for "
+                f"two different inputs: no intermediate threshold separates them; subset "
+                f"simulation needs an output that grades the approach to the event (a "
+                f"distance or a margin, not a 0/1 flag or a saturated value)")
+        b = 0.0 if final else 0.5 * (gl[order[nc - 1]] + gl[order[nc]])
+        if not np.isfinite(b):
+            raise MethodError(f"{self.label}: level {d['level']} has fewer than {nc + 1} "
+                              f"runs with a value; cannot set an intermediate threshold")
+        if d["chain_rows"] is not None:
+            d["gammas"] = d["gammas"] + [_gamma(g, d["chain_rows"], b)]
+        if final:
+            if n_f < nc:
+                log.warning("%s: stopped at max_levels = %d with %d of %d samples in the "
+                            "event", self.label, self.settings.max_levels, n_f, N)
+            d.update(final_count=n_f, done=True)
+            return True
+        seeds = rows[order[:nc]]
+        d["thresholds"] = d["thresholds"] + [float(b)]
+        d["cond_probs"] = d["cond_probs"] + [nc / N]
+        d["level"] += 1
+        d["step"] = 0
+        d["chain_rows"] = np.full((nc, L), -1, dtype=np.int64)
+        d["chain_rows"][:, 0] = seeds
+        d["current"] = seeds
+        return False
 
     # ------------------------------------------------------------------ estimate
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
