@@ -14,7 +14,8 @@ from pathlib import Path
 
 from ..config.budget import check_memory, estimate
 from .checkpoint import RunStore, run_dir, run_identity
-from ..config.run_config import RunConfig
+from ..config.run_config import RUN_NAME_RULE, RunConfig
+from ..errors import ConfigError
 from .execution import Executor, SerialExecutor
 from .interrupts import deferred
 from .progress import Progress
@@ -48,6 +49,31 @@ class Written:
     tables: list[Path]
 
 
+def check_result_name(config: RunConfig) -> None:
+    """Refuse to write the result of a config that has no name of its own.
+
+    A mapping without ``name`` would be written as ``<out>/run.h5`` (and ``run.run``,
+    ``run_*.csv``), so a second unnamed config would overwrite the first's files, or resume
+    from its run folder and be refused as a changed config. A file's config is named after
+    the file, so only mappings are concerned.
+
+    Parameters
+    ----------
+    config : RunConfig
+
+    Raises
+    ------
+    ConfigError
+        Field ``name``, saying how to give one or how to run without writing.
+    """
+    if not config.raw.name and config.source == "<dict>":
+        raise ConfigError(
+            "name: a config given as a mapping needs a 'name' to be written to a folder (got "
+            "none; it would be <out>/run.h5, overwritten by the next unnamed config): add "
+            f"\"name\": \"my_study\" ({RUN_NAME_RULE}), or run without out= to keep the result "
+            "in memory only", field="name")
+
+
 def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | None = None, *,
                   workers: int = 1, resume: bool = False, progress: Progress | None = None,
                   resume_hint: str = "") -> Written:
@@ -79,8 +105,8 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     Raises
     ------
     ConfigError
-        Report times off the model's grid, or a memory budget over ``max_memory``: before any
-        folder is made.
+        A mapping config without a ``name`` (:func:`check_result_name`), report times off the
+        model's grid, or a memory budget over ``max_memory``: before any folder is made.
     RunInterrupted
         Ctrl-C or SIGTERM during the runs (chunks done so far are in the run folder).
     WriteInterrupted
@@ -89,6 +115,7 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     out_dir = Path(out_dir)
     executor = executor or SerialExecutor(config.raw.batch_size)
     try:
+        check_result_name(config)
         check_config_report_times(config)
         check_memory(estimate(config, workers))  # before anything is allocated
         folder = run_dir(out_dir, config.name)  # inside out_dir: the name is a plain file name
@@ -115,4 +142,4 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     return Written(result, h5, list(tables))
 
 
-__all__ = ["WriteInterrupted", "Written", "run_and_write"]
+__all__ = ["WriteInterrupted", "Written", "check_result_name", "run_and_write"]
