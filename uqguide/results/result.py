@@ -168,7 +168,8 @@ class Result:
                 raise ResultError(f"{label}: the surrogate's inputs {s.inputs} are not the "
                                   f"stored config's {list(cfg.space.names)}")
             est.surrogate = s = s.resolve(Germ.of(cfg.space), cfg.model.derived_outputs())
-        return s
+        # its repr names the method and the errors it measured (the surrogate does not know)
+        return s.fitted_by(est.label, est.method, est.diagnostics)
 
     def output(self, name: str) -> OutputInfo:
         """The metadata of one output (kind, unit, components).
