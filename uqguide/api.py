@@ -1,7 +1,9 @@
 """The Python API: load a config, run it, read a result back.
 
 These three functions are what ``import uqguide`` offers (``uqguide.load_config``,
-``uqguide.run``, ``uqguide.read_result``); the command line is a thin layer over them.
+``uqguide.run``, ``uqguide.read_result``), with the classes they take and give
+(``uqguide.RunConfig``, ``uqguide.Result``, and ``uqguide.Model`` / ``uqguide.Method`` to
+subclass); the command line is a thin layer over them.
 
 Examples
 --------

@@ -149,6 +149,8 @@ class Result:
         """The PCE surrogate of method ``label``: a vectorised predictor ``f(x (n, d)) ->
         {output: values (n, T, k) or (n, k)}`` of the physical inputs (config order, SI),
         :class:`uqguide.pce.surrogate.Surrogate` (``.statistics(name)``, ``.at_unit(u)``).
+        It prints as a summary (method, inputs, per output degree, terms and error); the
+        coefficients are ``.expansions[output].alpha`` and ``.coef``.
 
         A surrogate read from a file gets its germ and the model's derived-output maps from the
         stored config. ResultError when the method kept no surrogate (sampling methods, files
