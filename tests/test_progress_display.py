@@ -165,8 +165,8 @@ def test_on_a_terminal_each_method_gets_its_own_bar_and_keeps_it():
     assert mc_final.startswith("mc (1/2) |") and "2/2 chunks" in mc_final
     assert mc_final.endswith("2,000/2,000 runs, 0 failed]")  # done: no ETA
     frames = [f for f in apce_line.split("\r") if f.startswith("apce")]
-    assert frames and all(f.startswith("apce (2/2)") and "/3 chunks" in f and "/300 runs" in f
-                          for f in frames)
+    assert frames and all(f.startswith("apce (2/2)") and "/3 chunks" in f for f in frames)
+    assert any("100/300 runs, 0 failed" in f for f in frames)
     assert any(f.startswith("apce (2/2): compiling the gmm kernel |") and "ETA" not in f
                for f in frames)
 

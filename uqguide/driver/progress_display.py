@@ -71,7 +71,9 @@ class BarProgress(Progress):
         except (AttributeError, OSError, ValueError):
             sized = False
         self._bar_of = self.current
-        return tqdm(total=self.current.chunks_total or None, file=self.stream, unit="chunk",
+        # desc from the start: tqdm draws the bar once as it is made
+        return tqdm(total=self.current.chunks_total or None, desc=self.title(),
+                    file=self.stream, unit="chunk",
                     dynamic_ncols=sized, ncols=None if sized else 100,
                     nrows=None if sized else 24, leave=True,
                     mininterval=0,
