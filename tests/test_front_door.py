@@ -128,3 +128,20 @@ def test_a_surrogate_summary_cuts_long_lists():
     assert lines[2 + SHOWN_OUTPUTS] == "  ... and 3 more fitted outputs"
     assert lines[3 + SHOWN_OUTPUTS] == "  miss: derived from a, b"
     assert len(lines) == SHOWN_OUTPUTS + 5
+
+
+def test_a_result_and_its_runs_print_as_summaries():
+    result = uqguide.run({**UNNAMED, "name": "lg", "outputs": ["y", "ramp"],
+                          "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 200},
+                                      {"name": "pce_tensor", "label": "t", "m": 2}],
+                          "reference": "mc"})
+    steps = result.time.size
+    assert repr(result).splitlines() == [
+        "Result 'lg': model linear_gaussian, 2 inputs -> 2 outputs, 2 methods",
+        "  inputs: x1, x2",
+        f"  outputs: y, ramp ({steps} steps)",
+        "  mc (monte_carlo): 200 runs, 0 failed (reference)",
+        "  t (pce_tensor): 4 runs, 0 failed",
+        "  .run(label), .surrogate(label), .to_xarray(), .to_dataframe(output)"]
+    assert repr(result.run("t")) == ("MethodRun 't' (pce_tensor): 4 runs, 0 failed; "
+                                     "statistics of ramp, y")
