@@ -41,6 +41,7 @@ def _make_inputs(folder: Path) -> tuple[Path, Path]:
     from uqguide.gate.check import write_baseline
 
     result = uqguide.run({
+        "name": "run",  # a result is written only under a name the config gives
         "model": {"name": "linear_gaussian"},
         "inputs": [{"name": "x1", "dist": "normal", "mean": 0.0, "std": 1.0}],
         "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 1000}], "seed": 1},

@@ -4,6 +4,7 @@ and the PCE fit phases), a few plain lines elsewhere, nothing with -q."""
 from __future__ import annotations
 
 import io
+import re
 import subprocess
 import sys
 import time
@@ -106,3 +107,125 @@ def test_in_a_pseudo_terminal_the_pce_fit_shows_its_phases(tmp_path):
     piped = subprocess.run([uq, "run", str(path), "--out", str(tmp_path)],
                            capture_output=True, text=True, timeout=300)
     assert "\r" not in piped.stderr and "chunks [" not in piped.stderr
+
+
+def test_each_method_shows_its_own_counts_and_a_phase_instead_of_eta_after_its_runs():
+    log = io.StringIO()
+    p = PlainProgress(log, interval=0.0)
+    p.plan(1, 1000, "mc")
+    p.plan(3, 300, "apce")
+    p.start("mc")
+    p.advance(1000, 2)
+    p.start("apce")
+    p.advance(100, 0)
+    p.advance(100, 1)
+    p.advance(100, 0)
+    p.phase("fitting y (1/1, 300 runs)")
+    p.plan(1, 50)  # a refinement: more runs of the current method
+    p.phase("")
+    p.advance(50, 0)
+    p.close()
+    assert (p.chunks_total, p.runs_total, p.runs_done, p.runs_failed) == (5, 1350, 1350, 3)
+    lines = log.getvalue().splitlines()
+    assert re.fullmatch(r"progress: mc \(1/2\) 1/1 chunks  1,000/1,000 runs  2 failed  \d+s",
+                        lines[1])
+    assert re.fullmatch(r"progress: apce \(2/2\) 0/3 chunks  0/300 runs  0 failed  \d+s",
+                        lines[2])
+    assert re.fullmatch(r"progress: apce \(2/2\) 1/3 chunks  100/300 runs  0 failed  \d+s  "
+                        r"ETA \d+s", lines[3])
+    # its runs done, the method fits: the phase is shown, never an ETA of 0 s
+    assert re.fullmatch(r"progress: apce \(2/2\) 3/3 chunks  300/300 runs  1 failed  \d+s",
+                        lines[5])
+    assert re.fullmatch(r"progress: apce \(2/2\) 3/3 chunks  300/300 runs  1 failed  \d+s  "
+                        r"fitting y \(1/1, 300 runs\)", lines[6])
+    # the refinement's runs are still to do: paced by runs again
+    assert re.fullmatch(r"progress: apce \(2/2\) 3/4 chunks  300/350 runs  1 failed  \d+s  "
+                        r"ETA \d+s", lines[7])
+    assert lines[-1].startswith("progress: apce (2/2) 4/4 chunks  350/350 runs")
+    assert not any("ETA" in ln for ln in lines if "1,000/1,000" in ln or "300/300" in ln)
+
+
+def test_on_a_terminal_each_method_gets_its_own_bar_and_keeps_it():
+    term = _Terminal()
+    p = make_progress(term)
+    p.plan(2, 2000, "mc")
+    p.plan(3, 300, "apce")
+    p.start("mc")
+    p.advance(1000, 0)
+    p.advance(1000, 0)
+    p.start("apce")
+    p.advance(100, 0)
+    p.phase("compiling the gmm kernel")  # any phase name is shown as it is given
+    p.close()
+    out = term.getvalue()
+    # the mc bar is left whole on its own line when apce starts; apce's bar is the next line
+    mc_line, apce_line, rest = out.split("\n")
+    assert rest == ""
+    mc_final = mc_line.split("\r")[-1]
+    assert mc_final.startswith("mc (1/2) |") and "2/2 chunks" in mc_final
+    assert mc_final.endswith("2,000/2,000 runs, 0 failed]")  # done: no ETA
+    frames = [f for f in apce_line.split("\r") if f.startswith("apce")]
+    assert frames and all(f.startswith("apce (2/2)") and "/3 chunks" in f for f in frames)
+    assert any("100/300 runs, 0 failed" in f for f in frames)
+    assert any(f.startswith("apce (2/2): compiling the gmm kernel |") and "ETA" not in f
+               for f in frames)
+
+
+def test_a_run_of_two_methods_counts_each_and_names_its_phases():
+    """Through the driver: per-method counts, the fit's phases, no ETA once runs are done."""
+    import uqguide
+    from uqguide.driver.propagate import run
+
+    cfg = uqguide.load_config({
+        "model": {"name": "linear_gaussian"},
+        "inputs": [{"name": "x1", "dist": "normal", "std": 1.0},
+                   {"name": "x2", "dist": "uniform", "low": 0.0, "high": 2.0}],
+        "outputs": ["y"], "batch_size": 500,
+        "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 1500},
+                    {"name": "pce_adaptive", "label": "apce", "n_samples": 40,
+                     "validation": {"n_samples": 20}}]})
+    log = io.StringIO()
+    run(cfg, progress=PlainProgress(log, interval=0.0))
+    lines = log.getvalue().splitlines()
+    mc = [ln for ln in lines if ln.startswith("progress: mc (1/2) ")]
+    apce = [ln for ln in lines if ln.startswith("progress: apce (2/2) ")]
+    assert mc and apce and len(mc) + len(apce) == len(lines)
+    assert all(re.search(r" \d/\d chunks  [\d,]+/1,500 runs", ln) for ln in mc)
+    # 40 fit runs, then 20 validation runs planned by the refinement
+    assert any("1/1 chunks  40/40 runs" in ln and "fitting y" in ln for ln in apce)
+    assert any("2/2 chunks  60/60 runs" in ln and "estimating" in ln for ln in apce)
+    for ln in lines:
+        done = re.search(r"([\d,]+)/([\d,]+) runs", ln)
+        assert done is not None
+        if done.group(1) == done.group(2):
+            assert "ETA" not in ln, ln
+
+
+def test_the_eta_paces_the_method_by_its_runs_not_by_its_phases(monkeypatch):
+    """A fake clock: 100 runs in 10 s, then a 30-s fit, leave 100 runs for 10 s more, not 40."""
+    from types import SimpleNamespace
+
+    from uqguide.driver import progress as progress_module
+
+    now = [1000.0]
+    # the module's clock only, not the time module everyone shares
+    monkeypatch.setattr(progress_module, "time", SimpleNamespace(monotonic=lambda: now[0]))
+    p = progress_module.Progress(None)
+    p.plan(1, 100, "mc")
+    p.plan(1, 100, "apce")
+    p.start("mc")
+    now[0] += 50.0
+    p.advance(100, 0)  # mc's speed is not apce's
+    p.start("apce")
+    p.plan(1, 100)  # a refinement of apce: 200 runs in all
+    now[0] += 10.0
+    p.advance(100, 0)
+    assert p.eta_seconds() == 10.0
+    p.phase("fitting y (1/1, 100 runs)")
+    now[0] += 30.0
+    assert p.eta_seconds() is None and p.status().endswith("  fitting y (1/1, 100 runs)")
+    p.phase("")
+    assert p.eta_seconds() == 10.0
+    assert p.status() == "apce (2/2) 1/2 chunks  100/200 runs  0 failed  40s  ETA 10s"
+    p.advance(100, 0)
+    assert p.eta_seconds() is None  # its runs done: whatever follows is not paced by runs

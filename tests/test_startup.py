@@ -39,6 +39,31 @@ def test_quick_commands_import_no_chaospy_scipy_stats_or_pandas(args):
     assert _heavy(*args) == ""
 
 
+def test_import_uqguide_and_dir_import_no_numpy_numba_pandas_or_matplotlib():
+    """``import uqguide`` and ``dir(uqguide)`` name the API without importing it; resolving
+    one of the classes imports its module, still without the compiled kernels or the
+    plotting and table libraries."""
+    probe = """
+import sys
+import uqguide
+names = dir(uqguide)
+heavy = ("numpy", "numba", "pandas", "matplotlib", "h5py", "pydantic", "chaospy", "scipy")
+print("BARE:" + ",".join(m for m in heavy if m in sys.modules))
+print("DIR:" + ",".join(n for n in ("run", "load_config", "read_result", "Result",
+                                    "RunConfig", "Model", "Method") if n in names))
+for name in ("Result", "RunConfig", "Model", "Method", "run"):
+    getattr(uqguide, name)
+print("USED:" + ",".join(m for m in ("numba", "pandas", "matplotlib") if m in sys.modules))
+"""
+    p = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT,
+                       timeout=120)
+    assert p.returncode == 0, p.stderr
+    lines = dict(ln.split(":", 1) for ln in p.stdout.splitlines() if ":" in ln)
+    assert lines["BARE"] == ""
+    assert lines["DIR"] == "run,load_config,read_result,Result,RunConfig,Model,Method"
+    assert lines["USED"] == ""
+
+
 def test_baseline_and_check_import_none_of_them(tmp_path):
     base = str(tmp_path / "b.json")
     assert _heavy("baseline", "tests/data/result_format1.h5", "-o", base) == ""

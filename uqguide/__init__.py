@@ -15,19 +15,55 @@ The Python API (imported on first use, so ``import uqguide`` stays cheap)::
     result = uqguide.run(cfg, workers=2, out="results")  # -> Result
     result = uqguide.read_result("results/ftcapn_table3.h5")
     result.to_xarray(), result.to_dataframe("omega_s")
+
+``uqguide.Result``, ``uqguide.RunConfig``, ``uqguide.Model`` and ``uqguide.Method`` are the
+classes above, re-exported for type annotations and subclassing; ``dir(uqguide)`` lists the
+whole API.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
-__all__ = ["load_config", "read_result", "run", "__version__"]
+
+if TYPE_CHECKING:  # what the lazy names below resolve to, for type checkers and IDEs
+    from .api import load_config, read_result, run
+    from .config.run_config import RunConfig
+    from .methods.base import Method
+    from .models.base import Model
+    from .results.result import Result
+
+#: Public name -> the module that defines it. Imported on first access (PEP 562): ``import
+#: uqguide`` must not pay for NumPy, h5py or pydantic before the API is used.
+_LAZY = {
+    "load_config": "uqguide.api",
+    "run": "uqguide.api",
+    "read_result": "uqguide.api",
+    "Result": "uqguide.results.result",
+    "RunConfig": "uqguide.config.run_config",
+    "Model": "uqguide.models.base",
+    "Method": "uqguide.methods.base",
+}
+
+__all__ = ["Method", "Model", "Result", "RunConfig", "__version__", "load_config",
+           "read_result", "run"]
 
 
 def __getattr__(name: str) -> Any:
-    if name in ("load_config", "run", "read_result"):
-        from . import api
+    where = _LAZY.get(name)
+    if where is None:
+        raise AttributeError(f"module 'uqguide' has no attribute {name!r}")
+    from importlib import import_module
 
-        return getattr(api, name)
-    raise AttributeError(f"module 'uqguide' has no attribute {name!r}")
+    value = getattr(import_module(where), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    # The public API (lazy names included, before their first use), the dunders and the
+    # subpackages imported so far; not this module's own helpers (Any, TYPE_CHECKING).
+    here = {k for k, v in globals().items() if k.startswith("__") or isinstance(v, ModuleType)}
+    return sorted(here | set(__all__))

@@ -1,7 +1,9 @@
 """The Python API: load a config, run it, read a result back.
 
 These three functions are what ``import uqguide`` offers (``uqguide.load_config``,
-``uqguide.run``, ``uqguide.read_result``); the command line is a thin layer over them.
+``uqguide.run``, ``uqguide.read_result``), with the classes they take and give
+(``uqguide.RunConfig``, ``uqguide.Result``, and ``uqguide.Model`` / ``uqguide.Method`` to
+subclass); the command line is a thin layer over them.
 
 Examples
 --------
@@ -87,6 +89,12 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
         Overrides the config's seed.
     out : str or Path, optional
         Also write ``<out>/<name>.h5`` and the CSV / Markdown tables, as ``uqguide run`` does.
+        ``<name>`` is the config's ``name``, or a config file's stem. A mapping without a
+        ``name`` is refused here (ConfigError, field ``name``) rather than written as
+        ``run.h5``, where the next unnamed config would overwrite it (or find its run folder
+        and refuse to resume a different config); a name derived from the content would
+        avoid the clash but leave a file nobody chose or can find. Without ``out`` nothing is
+        written and no name is needed.
     progress : bool
         Show progress on stderr.
     force : bool
@@ -98,6 +106,11 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     Result
         Statistics of every method; ``result.to_xarray()``, ``result.to_dataframe(output)``.
         Failed samples are counted in each method's ``n_failed`` and do not raise.
+
+    Raises
+    ------
+    uqguide.errors.ConfigError
+        An invalid config, or ``out`` given for a mapping config without a ``name``.
 
     Examples
     --------
@@ -123,6 +136,10 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     cfg = load_config(config)
     if seed is not None:
         cfg = cfg.with_seed(seed)
+    if out is not None:
+        from .driver.run_and_write import check_result_name
+
+        check_result_name(cfg)  # before a worker pool is started for nothing
     executor = make_executor(workers) if workers else None
     shown = make_progress(sys.stderr, not progress)
     if out is not None:

@@ -1,8 +1,11 @@
 """How ``uqguide run`` shows its progress: a tqdm bar on a terminal, a few plain lines elsewhere.
 
-- On a terminal: one bar redrawn in place, ``apce: fitting zem (2/7, 300 runs) |####| 3/3
-  chunk [00:41, 300/300 runs, 0 failed]``. A ticker redraws it every ``refresh`` seconds so
-  the elapsed time moves during a compile or a PCE fit, where no chunk finishes; the kernels'
+- On a terminal: one bar per method, redrawn in place, ``apce (2/3): fitting zem (2/7, 300
+  runs) |####| 3/3 chunks [00:41, 300/300 runs, 0 failed]``: the method's own chunks, runs
+  and elapsed time, and its phase (any text :meth:`Progress.phase` was given: a kernel
+  compile, a PCE fit) in place of an ETA. When the next method starts, the finished bar stays
+  on its line and a new one opens below. A ticker redraws every ``refresh`` seconds so the
+  elapsed time moves during a compile or a PCE fit, where no chunk finishes; the kernels'
   one-line compile notice is printed above the bar (not across it) and shown as the phase.
 - Elsewhere (a pipe, a CI log): a plain line at most every ``interval`` seconds, and a closing
   line only if it says something the last one did not.
@@ -17,7 +20,7 @@ import os
 import threading
 from typing import Any, TextIO
 
-from .progress import Progress
+from .progress import MethodCount, Progress, hms
 
 
 class PlainProgress(Progress):
@@ -28,8 +31,9 @@ class PlainProgress(Progress):
         self._last_counts: tuple[Any, ...] | None = None
 
     def _counts(self) -> tuple[Any, ...]:
-        return (self.label, self.chunks_done, self.chunks_total, self.runs_done,
-                self.runs_failed, self.phase_text)
+        m = self.current
+        return (self.title(), m.chunks_done, m.chunks_total, m.runs_done, m.runs_failed,
+                self.phase_text)
 
     def _show(self, force: bool = False) -> None:
         if self._counts() == self._last_counts:
@@ -51,14 +55,13 @@ class BarProgress(Progress):
     def __init__(self, stream: TextIO, refresh: float = 0.5) -> None:
         super().__init__(stream, tty=True, refresh=refresh)
         self._bar: Any = None
+        self._bar_of: MethodCount | None = None
         self._stop = threading.Event()
         self._ticker: threading.Thread | None = None
         self._draw_lock = threading.Lock()
 
-    def _open(self) -> None:
+    def _new_bar(self) -> Any:
         from tqdm import tqdm
-
-        from ..models import kernels
 
         # A terminal that reports no width (a pseudo-terminal without a size) would get an
         # empty bar from tqdm: give it a fixed width instead.
@@ -67,12 +70,20 @@ class BarProgress(Progress):
                      and os.get_terminal_size(self.stream.fileno()).columns > 0)
         except (AttributeError, OSError, ValueError):
             sized = False
-        self._bar = tqdm(total=self.chunks_total or None, file=self.stream, unit="chunk",
-                         dynamic_ncols=sized, ncols=None if sized else 100,
-                         nrows=None if sized else 24, leave=True,
-                         mininterval=0,
-                         bar_format="{desc} |{bar}| {n_fmt}/{total_fmt} chunks "
-                                    "[{elapsed}{postfix}]")
+        self._bar_of = self.current
+        # desc from the start: tqdm draws the bar once as it is made
+        return tqdm(total=self.current.chunks_total or None, desc=self.title(),
+                    file=self.stream, unit="chunk",
+                    dynamic_ncols=sized, ncols=None if sized else 100,
+                    nrows=None if sized else 24, leave=True,
+                    mininterval=0,
+                    bar_format="{desc} |{bar}| {n_fmt}/{total_fmt} chunks "
+                               "[{elapsed}{postfix}]")
+
+    def _open(self) -> None:
+        from ..models import kernels
+
+        self._bar = self._new_bar()
         kernels.notice_sink = self._notice
         # log lines (warnings during a fit) go above the bar too
         from tqdm.contrib.logging import logging_redirect_tqdm
@@ -99,14 +110,19 @@ class BarProgress(Progress):
             b = self._bar
             if b is None:
                 return
-            b.total = self.chunks_total or None
-            b.n = self.chunks_done
-            desc = self.label + (f": {self.phase_text}" if self.phase_text else "")
+            if self._bar_of is not self.current:
+                # the next method started: its predecessor's bar stays, final, on its line
+                b.close()
+                self._bar = b = self._new_bar()
+            m = self.current
+            b.total = m.chunks_total or None
+            b.n = m.chunks_done
+            desc = self.title() + (f": {self.phase_text}" if self.phase_text else "")
             b.set_description_str(desc, refresh=False)
-            eta = self.eta_seconds() if not self.phase_text else None
-            b.set_postfix_str(f"{self.runs_done:,}/{self.runs_total:,} runs, "
-                              f"{self.runs_failed:,} failed"
-                              + (f", ETA {int(eta)}s" if eta is not None else ""),
+            eta = self.eta_seconds()
+            b.set_postfix_str(f"{m.runs_done:,}/{m.runs_total:,} runs, "
+                              f"{m.runs_failed:,} failed"
+                              + (f", ETA {hms(eta)}" if eta is not None else ""),
                               refresh=False)
             b.refresh()
 

@@ -221,7 +221,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
                    timeout_s)
     tasks = stage.tasks(design.n_runs)
     if not progress.chunks_total:  # called alone, not from run()
-        progress.plan(len(tasks), design.n_runs)
+        progress.plan(len(tasks), design.n_runs, method.label)
     progress.start(method.label)
     log.info("%s: %d runs in the initial design (%d chunks)", method.label, design.n_runs,
              len(tasks))
@@ -264,19 +264,22 @@ def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, st
     if method.refines:
         for k in range(1, MAX_REFINEMENTS + 1):
             t0 = time.perf_counter()
+            # the runs so far are done, and no ETA paces what follows: say what the method
+            # does, until it says more itself ("fitting zem (2/7, 300 runs)")
+            progress.phase("refining the design")
             try:
                 bigger = method.refine(space, design, out)
             except _METHOD_FAILURES as exc:
                 fit_seconds += time.perf_counter() - t0
                 return _no_estimate(method), design, out, fit_seconds, _why(method, exc)
             fit_seconds += time.perf_counter() - t0
-            progress.phase("")
             if bigger is None:
                 break
             new_x = _appended_rows(design, bigger)
             log.info("%s: %d more runs (sequential design)", method.label, new_x.shape[0])
             more_tasks = stage.tasks(new_x.shape[0])
-            progress.plan(len(more_tasks), new_x.shape[0])
+            progress.plan(len(more_tasks), new_x.shape[0], method.label)
+            progress.phase("")  # planned first: the line it shows counts the new runs
             more, _ = stage.run(new_x, k, more_tasks, None)
             design, out = bigger, ModelOutput.concatenate(common_grid([out, more]))
         else:
@@ -372,7 +375,8 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
             design = method.design(config.space, config.seed)
             designs.append((design, time.perf_counter() - t_design))
             bs = executor.batch_size or config.raw.batch_size
-            progress.plan(len(method.chunk_bounds(design.n_runs, bs)), design.n_runs)
+            progress.plan(len(method.chunk_bounds(design.n_runs, bs)), design.n_runs,
+                          method.label)
         for method, (design, design_seconds) in zip(config.methods, designs):
             r = propagate(method, config.model, config.space, config.outputs, config.seed,
                           executor, batch_size=config.raw.batch_size, store=store,

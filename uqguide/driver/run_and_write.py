@@ -20,7 +20,8 @@ import yaml
 from ..config.budget import check_memory, estimate
 from ..core.atomic import refuse_links
 from .checkpoint import RunStore, run_dir, run_identity
-from ..config.run_config import RunConfig
+from ..config.run_config import RUN_NAME_RULE, RunConfig
+from ..errors import ConfigError
 from .execution import Executor, SerialExecutor
 from .execution.processes import refuse_nested_run
 from .interrupts import deferred
@@ -28,7 +29,7 @@ from .progress import Progress
 from .propagate import run
 from ..report.tables import write_tables
 from ..config.report_times import check_config_report_times
-from ..errors import ConfigError, ResultError
+from ..errors import ResultError
 from ..results.result import Result, read_config, write_hdf5
 from .runlock import RunLock
 
@@ -98,6 +99,31 @@ def check_same_study(result_path: Path, config: RunConfig, force: bool = False) 
             f"another name or --out, or pass --force to replace it", field="out")
 
 
+def check_result_name(config: RunConfig) -> None:
+    """Refuse to write the result of a config that has no name of its own.
+
+    A mapping without ``name`` would be written as ``<out>/run.h5`` (and ``run.run``,
+    ``run_*.csv``), so a second unnamed config would overwrite the first's files, or resume
+    from its run folder and be refused as a changed config. A file's config is named after
+    the file, so only mappings are concerned.
+
+    Parameters
+    ----------
+    config : RunConfig
+
+    Raises
+    ------
+    ConfigError
+        Field ``name``, saying how to give one or how to run without writing.
+    """
+    if not config.raw.name and config.source == "<dict>":
+        raise ConfigError(
+            "name: a config given as a mapping needs a 'name' to be written to a folder (got "
+            "none; it would be <out>/run.h5, overwritten by the next unnamed config): add "
+            f"\"name\": \"my_study\" ({RUN_NAME_RULE}), or run without out= to keep the result "
+            "in memory only", field="name")
+
+
 def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | None = None, *,
                   workers: int = 1, resume: bool = False, progress: Progress | None = None,
                   resume_hint: str = "", force: bool = False) -> Written:
@@ -132,8 +158,8 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     Raises
     ------
     ConfigError
-        Report times off the model's grid, or a memory budget over ``max_memory``: before any
-        folder is made.
+        A mapping config without a ``name`` (:func:`check_result_name`), report times off the
+        model's grid, or a memory budget over ``max_memory``: before any folder is made.
     RunInterrupted
         Ctrl-C or SIGTERM during the runs (chunks done so far are in the run folder).
     WriteInterrupted
@@ -143,6 +169,7 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     out_dir = Path(out_dir)
     executor = executor or SerialExecutor(config.raw.batch_size)
     try:
+        check_result_name(config)
         check_config_report_times(config)
         check_memory(estimate(config, workers))  # before anything is allocated
         folder = run_dir(out_dir, config.name)  # inside out_dir: the name is a plain file name
@@ -173,4 +200,4 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     return Written(result, h5, list(tables))
 
 
-__all__ = ["WriteInterrupted", "Written", "run_and_write"]
+__all__ = ["WriteInterrupted", "Written", "check_result_name", "run_and_write"]

@@ -14,9 +14,10 @@ a lognormal input; a correlated normal group is then decorrelated by its Cholesk
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
@@ -78,6 +79,59 @@ def germ_map(germ: Germ) -> GermMap:
     return GermMap(germ.families, shift, scale, log, groups)
 
 
+#: Outputs ``repr`` lists one per line before "... and N more".
+SHOWN_OUTPUTS = 8
+
+
+def summary(head: str, inputs: Sequence[str],
+            rows: Sequence[tuple[str, np.ndarray, int | None, tuple[int, ...], str,
+                                 tuple[str, float] | None]],
+            derived: Mapping[str, Sequence[str]],
+            full: str = ".expansions[name].alpha (terms, inputs), .coef (terms, columns)") -> str:
+    """A few lines describing a surrogate, for ``repr`` (not its coefficients).
+
+    Parameters
+    ----------
+    head : str
+        What it is (``"Surrogate 'apce' (pce_adaptive)"``).
+    inputs : sequence of str
+        Input names, in order.
+    rows : sequence of (name, alpha, components, shape, kind, error)
+        Per fitted output: its multi-indices ``(P, d)``, its number of principal components
+        (None: not compressed), the shape of one sample, ``"series"`` or ``"scalar"``, and
+        its (error kind, value) if known.
+    derived : mapping of str to sequence of str
+        Derived outputs (not fitted) and their carriers.
+    full : str
+        Where the full expansion is, for the last line.
+
+    Returns
+    -------
+    str
+        A head line, the inputs, one line per output (at most :data:`SHOWN_OUTPUTS`) and a
+        last line saying where the full expansion is.
+    """
+    n_out = len(rows) + len(derived)
+    names = ", ".join(inputs)
+    if len(names) > 80:  # a long input list is cut, not wrapped: the summary stays short
+        cut = names.rfind(", ", 0, 76)
+        names = (names[:cut] if cut > 0 else names[:76]) + ", ..."
+    lines = [f"{head}: {len(inputs)} input{'s' * (len(inputs) != 1)} -> {n_out} "
+             f"output{'s' * (n_out != 1)}", f"  inputs: {names}"]
+    for name, alpha, comps, shape, kind, error in rows[:SHOWN_OUTPUTS]:
+        degree = int(alpha.sum(axis=1).max()) if alpha.size else 0
+        terms = f"{alpha.shape[0]} terms" + (f" x {comps} components" if comps else "")
+        size = "x".join(str(v) for v in shape)
+        err = f", {error[0]} error {error[1]:.2g}" if error is not None else ""
+        lines.append(f"  {name} ({kind}, {size}): degree {degree}, {terms}{err}")
+    if len(rows) > SHOWN_OUTPUTS:
+        lines.append(f"  ... and {len(rows) - SHOWN_OUTPUTS} more fitted outputs")
+    for name, carriers in derived.items():
+        lines.append(f"  {name}: derived from {', '.join(carriers)}")
+    lines.append(f"  full expansion: {full}")
+    return "\n".join(lines)
+
+
 @dataclass
 class Surrogate:
     """Every output's PCE of one method, as a predictor of the physical inputs.
@@ -91,12 +145,64 @@ class Surrogate:
         Outputs computed from their carriers' surrogates.
     kinds : dict of str to str
         ``"series"`` or ``"scalar"`` per fitted output.
+    label, method : str
+        The config's label and the registered name of the method that fitted it ("" when
+        not known); shown by ``repr``.
+    errors : dict of str to (str, float)
+        Per fitted output, the kind of its relative error (``"validation"`` on held-out runs,
+        or ``"LOO"``) and the worst value over its columns, when the method measured one.
+
+    Notes
+    -----
+    ``repr`` is a summary of a few lines (method, inputs, and per output its degree, number of
+    terms and error), not the coefficients. The full expansion of an output is
+    ``expansions[name]``: ``.alpha`` the multi-indices ``(P, d)`` of the orthonormal basis in
+    the config's input order (row 0 the constant), ``.coef`` the coefficients ``(P, m)`` with
+    ``m`` the output's columns, time step slowest and component fastest.
     """
 
     germ: Germ
     expansions: dict[str, Expansion]
     derived: Mapping[str, DerivedOutput] = field(default_factory=lambda: MappingProxyType({}))
     kinds: dict[str, str] = field(default_factory=dict)
+    label: str = field(default="", compare=False)
+    method: str = field(default="", compare=False)
+    errors: dict[str, tuple[str, float]] = field(default_factory=dict, compare=False)
+
+    def fitted_by(self, label: str, method: str, diagnostics: Mapping[str, Any]) -> Surrogate:
+        """Record the method that fitted it and its errors from the method's ``diagnostics``
+        (``validation_error.<output>``, else ``loo_error.<output>``), for ``repr``.
+
+        Parameters
+        ----------
+        label, method : str
+            The method's label in the config and its registered name.
+        diagnostics : mapping
+            The method's :attr:`uqguide.core.types.Estimate.diagnostics`.
+
+        Returns
+        -------
+        Surrogate
+            Itself.
+        """
+        self.label, self.method = label, method
+        self.errors = {}
+        for name in self.expansions:
+            for kind, key in (("validation", "validation_error"), ("LOO", "loo_error")):
+                value = diagnostics.get(f"{key}.{name}")
+                if isinstance(value, (int, float, np.floating)):
+                    self.errors[name] = (kind, float(value))
+                    break
+        return self
+
+    def __repr__(self) -> str:
+        who = f"{self.label!r} ({self.method})" if self.label else "(PCE)"
+        rows = [(name, e.alpha, None if e.mix is None else e.mix.shape[0], e.shape,
+                 self.kinds.get(name, "series" if len(e.shape) == 2 else "scalar"),
+                 self.errors.get(name)) for name, e in self.expansions.items()]
+        extra = [n for n in self.derived if n not in self.expansions]
+        return summary(f"Surrogate {who}", list(self.germ.space.names), rows,
+                       {n: self.derived[n].carriers for n in extra})
 
     @property
     def names(self) -> list[str]:

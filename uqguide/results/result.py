@@ -110,10 +110,35 @@ class MethodRun:
     def n_failed(self) -> int:
         return int(np.sum(self.failed))
 
+    def __repr__(self) -> str:
+        # the dataclass's repr prints every array (runs, statistics): a notebook cell that
+        # ends in ``result.run("mc")`` should show what it is, not thousands of lines
+        outcome = (f"statistics of {_names(list(self.estimate.stats))}" if self.success
+                   else f"no statistics: {self.message}")
+        return (f"MethodRun {self.label!r} ({self.estimate.method}): {self.n_runs:,} runs, "
+                f"{self.n_failed:,} failed; {outcome}")
+
+
+def _count(items: list[Any], word: str) -> str:
+    return f"{len(items)} {word}{'s' * (len(items) != 1)}"
+
+
+def _names(names: list[str], width: int = 70) -> str:
+    """``names`` joined by commas, cut at about ``width`` characters."""
+    text = ", ".join(names)
+    if len(text) <= width:
+        return text
+    cut = text.rfind(", ", 0, width - 4)
+    return (text[:cut] if cut > 0 else text[:width - 4]) + ", ..."
+
 
 @dataclass
 class Result:
-    """Statistics of every method of a run, with the resolved config and provenance."""
+    """Statistics of every method of a run, with the resolved config and provenance.
+
+    ``repr`` is a summary (model, inputs, outputs, methods and their runs); the statistics
+    are ``run(label).estimate.stats``, ``to_xarray()`` and ``to_dataframe(output)``.
+    """
 
     name: str
     model: str
@@ -125,6 +150,21 @@ class Result:
     report_times: list[float] | None = None
     config: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        outputs = [o.name + (f" ({self.time.size} steps)" if o.kind == "series" else "")
+                   for o in self.outputs]
+        lines = [f"Result {self.name!r}: model {self.model}, {_count(self.input_names, 'input')}"
+                 f" -> {_count(self.outputs, 'output')}, {_count(self.runs, 'method')}",
+                 f"  inputs: {_names(self.input_names)}",
+                 f"  outputs: {_names(outputs)}"]
+        for r in self.runs:
+            lines.append(f"  {r.label} ({r.estimate.method}): {r.n_runs:,} runs, "
+                         f"{r.n_failed:,} failed"
+                         + ("" if r.success else f"; no statistics: {r.message}")
+                         + (" (reference)" if r.label == self.reference else ""))
+        lines.append("  .run(label), .surrogate(label), .to_xarray(), .to_dataframe(output)")
+        return "\n".join(lines)
 
     def run(self, label: str) -> MethodRun:
         """One method's estimate and runs.
@@ -149,6 +189,8 @@ class Result:
         """The PCE surrogate of method ``label``: a vectorised predictor ``f(x (n, d)) ->
         {output: values (n, T, k) or (n, k)}`` of the physical inputs (config order, SI),
         :class:`uqguide.pce.surrogate.Surrogate` (``.statistics(name)``, ``.at_unit(u)``).
+        It prints as a summary (method, inputs, per output degree, terms and error); the
+        coefficients are ``.expansions[output].alpha`` and ``.coef``.
 
         A surrogate read from a file gets its germ and the model's derived-output maps from the
         stored config. ResultError when the method kept no surrogate (sampling methods, files
@@ -168,7 +210,8 @@ class Result:
                 raise ResultError(f"{label}: the surrogate's inputs {s.inputs} are not the "
                                   f"stored config's {list(cfg.space.names)}")
             est.surrogate = s = s.resolve(Germ.of(cfg.space), cfg.model.derived_outputs())
-        return s
+        # its repr names the method and the errors it measured (the surrogate does not know)
+        return s.fitted_by(est.label, est.method, est.diagnostics)
 
     def output(self, name: str) -> OutputInfo:
         """The metadata of one output (kind, unit, components).

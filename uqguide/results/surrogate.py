@@ -44,6 +44,17 @@ class StoredSurrogate:
                  derived: dict[str, tuple[tuple[str, ...], str]]) -> None:
         self.inputs, self.outputs, self.derived = inputs, outputs, derived
 
+    def __repr__(self) -> str:
+        from ..pce.surrogate import summary
+
+        rows = [(name, alpha, None if mix is None else mix.shape[0], shape, kind, None)
+                for name, (alpha, core, mix, shape, kind) in self.outputs.items()]
+        return summary("StoredSurrogate (from a file; Result.surrogate(label) rebuilds it)",
+                       self.inputs, rows,
+                       {name: carriers for name, (carriers, _) in self.derived.items()},
+                       full=".outputs[name] = (alpha, core, mix, shape, kind); "
+                            "coefficients core @ mix")
+
     def resolve(self, germ: Any, derivations: Any) -> Surrogate:
         """The :class:`Surrogate` on ``germ`` with the model's ``derivations`` (name ->
         DerivedOutput) of the stored derived outputs."""
