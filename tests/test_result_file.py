@@ -114,12 +114,17 @@ def test_format_1_files_still_read():
 
 
 def test_write_is_atomic(result, tmp_path, monkeypatch):
+    from uqguide.results import netcdf_file
+
     target = tmp_path / "r.h5"
+    real = netcdf_file._write_dataset
 
-    def boom(*args, **kwargs):
-        raise RuntimeError("disk full")
+    def boom(g, name, *args, **kwargs):
+        if name == "x":  # half-way: the first method's statistics are written, its runs not
+            raise RuntimeError("disk full")
+        return real(g, name, *args, **kwargs)
 
-    monkeypatch.setattr("uqguide.results.result._write_run", boom)
+    monkeypatch.setattr(netcdf_file, "_write_dataset", boom)
     with pytest.raises(RuntimeError):
         write_hdf5(result, target)
     assert list(tmp_path.iterdir()) == [], "no partial or temporary file may remain"
