@@ -10,6 +10,13 @@ strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
     /time                   (time,) time grid [s] (empty for models without series)
     /input                  (input,) uncertain input names, config order
     /report_times           (r,) [s], where the config gives them
+    /label                  (label,) method labels, config order
+    /method_name, n_runs, n_failed, success, method_group
+                            (label,) each method's registered name, runs, failed runs, 1 where
+                            it gave statistics, and the group that holds them
+    /output                 (output,) output names, config order
+    /output_kind, output_unit, output_description
+                            (output,)
     /outputs/<name>         attrs: kind (series|scalar), unit, description, components
     /methods/<label>        attrs: method, n_runs, n_failed, model_seconds, fit_seconds,
                                    wall_seconds, success, message, diagnostics_json
@@ -24,6 +31,15 @@ strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
                         outputs' carriers (:mod:`uqguide.results.surrogate`)
       samples/x (sample, input), failed (sample,) 0/1, reasons (sample,),
               scalars/<output> (sample, <output>_component)
+
+The root group is the file's index: ``xarray.open_dataset(path, engine="h5netcdf")`` shows the
+coordinates ``time``, ``input``, ``report_times``, ``label`` and ``output``, the variables
+``method_name``, ``n_runs``, ``n_failed``, ``success`` and ``method_group`` along ``label`` and
+``output_kind``, ``output_unit``, ``output_description`` along ``output``, and the attributes
+above (name, model, reference, seed, the config). A method's statistics open with
+``group=ds["method_group"].sel(label=...).item()``. Older format-2 files, written before the
+index, have only the coordinates ``time``, ``input`` and ``report_times`` there; they read
+alike.
 
 Format 1 (uqguide before format 2; still read): ``/inputs/names`` and, per method,
 ``stats/<output>/{mean, std, skewness, kurtosis, cov, sem, ci_<stat>, sobol_first,
@@ -334,11 +350,33 @@ def file_layout(result: Result) -> Group:
     if result.report_times:
         scales["report_times"] = Dataset(np.asarray(result.report_times, dtype=float),
                                          attrs={"units": "s"})
+    scales["label"] = Dataset(np.array(labels, dtype=object),
+                              attrs={"long_name": "method label, config order"})
+    scales["output"] = Dataset(np.array([o.name for o in result.outputs], dtype=object),
+                               attrs={"long_name": "output, config order"})
+    index = {
+        "method_name": Dataset(np.array([r.estimate.method for r in result.runs], dtype=object),
+                               ("label",), {"long_name": "registered method"}),
+        "n_runs": Dataset(np.array([r.n_runs for r in result.runs], dtype=np.int64), ("label",),
+                          {"long_name": "model runs"}),
+        "n_failed": Dataset(np.array([r.n_failed for r in result.runs], dtype=np.int64),
+                            ("label",), {"long_name": "failed model runs"}),
+        "success": Dataset(np.array([r.success for r in result.runs], dtype=np.uint8),
+                           ("label",), {"long_name": "1 where the method gave statistics"}),
+        "method_group": Dataset(np.array([f"methods/{x}" for x in labels], dtype=object),
+                                ("label",), {"long_name": "group of the method's statistics"}),
+        "output_kind": Dataset(np.array([o.kind for o in result.outputs], dtype=object),
+                               ("output",), {"long_name": "series or scalar"}),
+        "output_unit": Dataset(np.array([o.unit for o in result.outputs], dtype=object),
+                               ("output",), {"long_name": "unit (SI)"}),
+        "output_description": Dataset(np.array([o.description for o in result.outputs],
+                                               dtype=object), ("output",)),
+    }
     outputs = Group(groups={o.name: Group(attrs={
         "kind": o.kind, "unit": o.unit, "description": o.description,
         "components": json.dumps(list(o.components))}) for o in result.outputs})
     methods = Group(groups={r.label: _method_layout(r, result) for r in result.runs})
-    return Group(attrs, scales, groups={"outputs": outputs, "methods": methods})
+    return Group(attrs, scales, index, {"outputs": outputs, "methods": methods})
 
 
 def _method_layout(r: MethodRun, result: Result) -> Group:
