@@ -131,7 +131,7 @@ def test_format_1_files_still_read():
     # y = A x, x1 ~ N(0, 1), x2 ~ U(0, 2): the tensor rule's mean is exact, (2, 0)
     np.testing.assert_allclose(tensor.stats["y"].mean, [2.0, 0.0], atol=1e-12)
     # and it converts like a new one
-    assert back.to_xarray()["ramp"].dims == ("method", "statistic", "time", "ramp_component")
+    assert back.to_xarray()["ramp"].dims == ("label", "statistic", "time", "ramp_component")
 
 
 def test_write_is_atomic(result, tmp_path, monkeypatch):

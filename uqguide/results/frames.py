@@ -2,9 +2,10 @@
 ``Result.to_dataframe``).
 
 The Dataset's variables are those of :mod:`uqguide.results.labelled` (the same as a format-2 result
-file's ``methods/<label>`` group), with a ``method`` dimension when several methods are taken
-together: a statistic a method does not give (a PCE's standard error, a Monte Carlo Sobol'
-index) is NaN for it. xarray is an optional dependency (``pip install 'uqguide[xarray]'``).
+file's ``methods/<label>`` group), with a ``label`` dimension when several methods are taken
+together (``ds.sel(label="mc1000")``): a statistic a method does not give (a PCE's standard
+error, a Monte Carlo Sobol' index) is NaN for it. xarray is an optional dependency
+(``pip install 'uqguide[xarray]'``).
 """
 
 from __future__ import annotations
@@ -67,7 +68,7 @@ class Result(Protocol):
 
 #: The dimension along which :func:`to_xarray` stacks the methods, and the column of
 #: :func:`to_dataframe` that names a row's method.
-LABEL = "method"
+LABEL = "label"
 
 
 def _xarray():
@@ -109,7 +110,10 @@ def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
 
 
 def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
-    """The statistics of method ``label``, or of every method along a ``method`` dimension.
+    """The statistics of method ``label``, or of every method along a ``label`` dimension.
+
+    The dimension is ``label``, not ``method``: ``Dataset.sel(method=...)`` is xarray's own
+    keyword (the fill method), so a dimension of that name could not be selected by keyword.
 
     Parameters
     ----------
@@ -120,6 +124,8 @@ def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
     Returns
     -------
     xarray.Dataset
+        With every method: ``ds.sel(label="mc1000")``; ``method_name``, ``n_runs`` and
+        ``n_failed`` along ``label``.
     """
     xr = _xarray()
     if label is not None:
@@ -149,7 +155,7 @@ def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
 def to_dataframe(result: Result, output: str) -> pd.DataFrame:
     """Every statistic of ``output`` at every time step, one row per value.
 
-    Columns: ``method``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
+    Columns: ``label``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
     skewness, kurtosis, sem, q<level>), ``value``, ``ci_low``, ``ci_high`` (NaN where the
     method gives no interval).
 

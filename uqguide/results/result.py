@@ -211,7 +211,8 @@ class Result:
 
     def to_xarray(self, label: str | None = None) -> Any:
         """The statistics as an ``xarray.Dataset``: of method ``label``, or of every method
-        along a ``method`` dimension (see :mod:`uqguide.results.frames`; needs ``uqguide[xarray]``).
+        along a ``label`` dimension, ``ds.sel(label="mc1000")`` (see
+        :mod:`uqguide.results.frames`; needs ``uqguide[xarray]``).
 
         Parameters
         ----------
@@ -223,7 +224,7 @@ class Result:
         xarray.Dataset
             Per output: ``<output>`` (dimensions ``statistic``, ``time`` for a series,
             ``<output>_component``), its covariance, intervals, Sobol' indices and quantiles
-            where the method gives them; plus ``method`` when all methods are stacked.
+            where the method gives them; plus ``label`` when all methods are stacked.
         """
         from .frames import to_xarray
 
@@ -240,7 +241,7 @@ class Result:
         Returns
         -------
         pandas.DataFrame
-            One row per value: columns ``method``, ``time`` [s] (series only), ``component``,
+            One row per value: columns ``label``, ``time`` [s] (series only), ``component``,
             ``statistic``, ``value`` (in the output's unit), ``ci_low``, ``ci_high``.
         """
         from .frames import to_dataframe
