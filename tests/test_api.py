@@ -20,7 +20,8 @@ CONFIG = {
     "outputs": ["y", "ramp"],
     "report_times": [0.5],
     "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 400},
-                {"name": "pce_tensor", "label": "tensor", "m": 3}],
+                {"name": "pce_tensor", "label": "tensor", "m": 3,
+                 "validation": {"n_samples": 30}}],
     "reference": "mc",
     "seed": 11,
     "quantiles": [0.1, 0.5, 0.9],
@@ -98,6 +99,22 @@ def test_to_dataframe_is_tidy_over_every_time_step(result):
         result.run("tensor").estimate.stats["ramp"].quantiles[2])
     scalar = result.to_dataframe("y")
     assert "time" not in scalar.columns and set(scalar.component) == {"y1", "y2"}
+
+
+def test_to_dataframe_has_the_control_variate_rows(result):
+    """A validated PCE's control-variate moments are rows labelled ``<label>+cv``, with their
+    intervals, as in the statistics table."""
+    df = result.to_dataframe("ramp")
+    assert set(df.label) == {"mc", "tensor", "tensor+cv"}
+    s = result.run("tensor").estimate.stats["ramp"]
+    cv = df[df.label == "tensor+cv"]
+    assert list(dict.fromkeys(cv.statistic)) == list(STAT_NAMES)
+    for stat in STAT_NAMES:
+        rows = cv[cv.statistic == stat]
+        for col, want in (("value", s.corrected[stat]), ("ci_low", s.corrected_ci[stat][0]),
+                          ("ci_high", s.corrected_ci[stat][1])):
+            got = rows.pivot(index="time", columns="component", values=col)[["y1", "y2"]]
+            np.testing.assert_array_equal(got.to_numpy(), want)
 
 
 def test_the_tensor_pce_mean_is_the_closed_form(result):

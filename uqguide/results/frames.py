@@ -157,7 +157,8 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
 
     Columns: ``label``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
     skewness, kurtosis, sem, q<level>), ``value``, ``ci_low``, ``ci_high`` (NaN where the
-    method gives no interval).
+    method gives no interval). A validated PCE's control-variate moments are rows of their
+    own, labelled ``<label>+cv`` (:mod:`uqguide.results.statistics`).
 
     Parameters
     ----------
@@ -181,7 +182,7 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
             (st.label, st.name, st.value, st.ci) for st in v.moments]
         if v.sem is not None:
             rows.append((r.label, "sem", v.sem, None))
-        rows += [(st.label, st.name, st.value, st.ci) for st in v.quantiles]
+        rows += [(st.label, st.name, st.value, st.ci) for st in v.quantiles + v.corrected]
         for lab, stat, value, ci in rows:
             value = np.asarray(value, dtype=float)
             comp = np.broadcast_to(np.array(info.components, dtype=object), value.shape)
