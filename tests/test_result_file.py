@@ -95,6 +95,27 @@ def test_xarray_opens_a_method_group_with_named_dims_and_the_time(result, tmp_pa
         assert list(root["input"].values) == ["x1", "x2"]
 
 
+def test_the_root_group_opens_in_xarray_as_the_file_s_index(result, tmp_path):
+    """The root group lists the methods (config order) and outputs, and names each method's
+    group: a user who opens the file without ``group=`` sees what is in it."""
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("h5netcdf")
+    path = write_hdf5(result, tmp_path / "r.h5")
+    with xr.open_dataset(path, engine="h5netcdf") as root:
+        assert list(root["label"].values) == ["mc_b", "mc_a"]
+        assert list(root["method_name"].values) == ["monte_carlo", "monte_carlo"]
+        assert root["n_runs"].sel(label="mc_a").item() == 300
+        assert root["n_failed"].dims == ("label",) and root["success"].values.tolist() == [1, 1]
+        assert list(root["output"].values) == ["y", "ramp"]
+        assert list(root["output_kind"].values) == ["scalar", "series"]
+        assert list(root["output_unit"].values) == [o.unit for o in result.outputs]
+        assert root.attrs["model"] == "linear_gaussian" and root.attrs["reference"] == "mc_b"
+        group = root["method_group"].sel(label="mc_a").item()
+    with xr.open_dataset(path, group=group, engine="h5netcdf") as ds:
+        np.testing.assert_array_equal(ds["y"].sel(statistic="mean").values,
+                                      result.run("mc_a").estimate.stats["y"].mean)
+
+
 def test_format_1_files_still_read():
     """A file written by uqguide before format 2 (tests/data, made by the format-1 writer)."""
     back = read_hdf5(Path(__file__).parent / "data" / "result_format1.h5")
@@ -110,16 +131,21 @@ def test_format_1_files_still_read():
     # y = A x, x1 ~ N(0, 1), x2 ~ U(0, 2): the tensor rule's mean is exact, (2, 0)
     np.testing.assert_allclose(tensor.stats["y"].mean, [2.0, 0.0], atol=1e-12)
     # and it converts like a new one
-    assert back.to_xarray()["ramp"].dims == ("method", "statistic", "time", "ramp_component")
+    assert back.to_xarray()["ramp"].dims == ("label", "statistic", "time", "ramp_component")
 
 
 def test_write_is_atomic(result, tmp_path, monkeypatch):
+    from uqguide.results import netcdf_file
+
     target = tmp_path / "r.h5"
+    real = netcdf_file._write_dataset
 
-    def boom(*args, **kwargs):
-        raise RuntimeError("disk full")
+    def boom(g, name, *args, **kwargs):
+        if name == "x":  # half-way: the first method's statistics are written, its runs not
+            raise RuntimeError("disk full")
+        return real(g, name, *args, **kwargs)
 
-    monkeypatch.setattr("uqguide.results.result._write_run", boom)
+    monkeypatch.setattr(netcdf_file, "_write_dataset", boom)
     with pytest.raises(RuntimeError):
         write_hdf5(result, target)
     assert list(tmp_path.iterdir()) == [], "no partial or temporary file may remain"

@@ -16,12 +16,12 @@ Examples
 ...     "methods": [{"name": "pce_tensor", "label": "tensor", "m": 2}],
 ... })
 >>> result = uqguide.run(cfg)
->>> ds = result.to_xarray()       # ``sel({"method": ...})``: ``sel(method=)`` is xarray's own
->>> mean = ds["y"].sel({"method": "tensor", "statistic": "mean"})   # exact: b + A E[x] = (2, 0)
+>>> ds = result.to_xarray()       # every method, along ``label``
+>>> mean = ds["y"].sel(label="tensor", statistic="mean")   # exact: b + A E[x] = (2, 0)
 >>> [round(float(v), 12) + 0.0 for v in mean]
 [2.0, 0.0]
 >>> list(ds["y"].dims)
-['method', 'statistic', 'y_component']
+['label', 'statistic', 'y_component']
 """
 
 from __future__ import annotations

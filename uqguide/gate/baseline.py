@@ -1,11 +1,13 @@
 """Baselines of the regression gate: what a result's statistics were, as a JSON file.
 
 A baseline is written from a result on purpose (``uqguide baseline RESULT -o B.json``). It holds,
-per method label, per output, per point (each report time and the last step of a series, as
-:func:`uqguide.report.tables.report_indices` picks them; the value of a scalar), per component: the
-mean, std, skewness and kurtosis, and for sample (Monte Carlo) estimates the standard error of each
-(:func:`standard_error`); plus the relative tolerance of PCE statistics, the resolved config, the
-library versions and the creation date. ``null`` stands for NaN.
+per method label, per output, per point (each report time and the last step of a series, the
+value of a scalar: :func:`uqguide.results.statistics.points`), per component: the mean, std,
+skewness and kurtosis, and for sample (Monte Carlo) estimates the standard error of each
+(:meth:`uqguide.results.statistics.OutputStatistics.standard_error`); plus the relative
+tolerance of PCE statistics, the resolved config, the library versions and the creation date.
+``null`` stands for NaN. It reads the result through the description of
+:mod:`uqguide.results.statistics`, as the report tables and the result file do.
 
 The file is JSON with every container of plain values on one line (one line per point), so a
 baseline that changes on purpose shows in a diff as the points that moved. Numbers are written
@@ -27,19 +29,15 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..core import atomic
 from .._version import __version__
 from ..errors import ResultError
-from ..models.base import OutputInfo
-from ..config.report_times import report_indices
+from ..results import statistics
 from ..results.result import Result
-from ..stats.moments import STAT_NAMES, OutputStats
+from ..results.statistics import (
+    SAMPLE, STAT_NAMES, OutputStatistics, Point, result_statistics,
+)
 
 BASELINE_FORMAT = "uqguide-baseline"
 BASELINE_VERSION = 1
 DEFAULT_PCE_RTOL = 0.02
-#: Half-width of a 95% normal interval in standard errors.
-Z95 = 1.959963984540054
-#: How a baseline output's statistics are judged: by standard errors (sample estimates) or by a
-#: relative tolerance (PCE: exact or surrogate-sampled moments).
-SAMPLE, RELATIVE = "standard_error", "relative_tolerance"
 
 
 # ---------------------------------------------------------------------------- file schema
@@ -178,77 +176,37 @@ class Baseline(_Strict):
 
 
 # ---------------------------------------------------------------------------- extraction
-def _uncertainty_kind(s: OutputStats) -> str:
-    return SAMPLE if s.moments_method == "sample" else RELATIVE
-
-
-def standard_error(s: OutputStats, stat: str, where: tuple[int, ...]) -> float:
-    """Standard error of a sample statistic at ``where`` (module docstring for the formulas).
-
-    Parameters
-    ----------
-    s : OutputStats
-    stat : {"mean", "std", "skewness", "kurtosis"}
-    where : tuple of int
-        ``(time index, component)`` for a series, ``(component,)`` for a scalar.
-
-    Returns
-    -------
-    float
-        In the statistic's unit: from the sem, the bootstrap interval, or normal theory.
-    """
-    n = max(int(s.n_used), 1)
-    if stat == "mean" and s.sem is not None:
-        return float(s.sem[where])
-    ci = s.ci.get(stat)
-    if ci is not None:
-        lo, hi = float(ci[0][where]), float(ci[1][where])
-        if math.isfinite(lo) and math.isfinite(hi):
-            return (hi - lo) / (2.0 * Z95)
-    std = float(s.std[where])
-    normal_theory = {"mean": std / math.sqrt(n), "std": std / math.sqrt(2 * n),
-                     "skewness": math.sqrt(6.0 / n), "kurtosis": math.sqrt(24.0 / n)}
-    return normal_theory[stat]
-
-
 def _num(v: float) -> float | None:
     v = float(v)
     return v if math.isfinite(v) else None
-
-
-def _point_places(result: Result, o: OutputInfo) -> list[tuple[str, float | None, int | None]]:
-    """``(at, time, step index)`` of the points a baseline keeps for output ``o``."""
-    if o.kind == "scalar":
-        return [("scalar", None, None)]
-    idx = report_indices(result.time, result.report_times)
-    last = result.time.size - 1
-    return [("end" if i == last else "report", float(result.time[i]), int(i)) for i in idx]
 
 
 #: Key of one statistic of a baseline: (label, output, at, time, component, statistic).
 StatKey = tuple[str, str, str, "float | None", str, str]
 
 
-def _points(result: Result, o: OutputInfo, s: OutputStats, label: str = "",
+def _points(v: OutputStatistics, places: list[Point],
             roundoff: dict[StatKey, list[float | None]] | None = None) -> list[dict[str, Any]]:
-    sample = _uncertainty_kind(s) == SAMPLE
+    """The baseline's points of one method's output: its moments (and their standard errors,
+    for sample estimates) where the method's own moments are usable."""
+    sample = v.uncertainty == SAMPLE
     pts = []
-    for at, t, i in _point_places(result, o):
-        for c, comp in enumerate(o.components):
-            where = (c,) if i is None else (i, c)
-            if s.usable is not None and not bool(np.asarray(s.usable)[where]):
-                continue  # a PCE with no usable surrogate here reports no moments to pin
-            p: dict[str, Any] = {"at": at, "time": t, "component": comp}
-            for stat in STAT_NAMES:
-                p[stat] = _num(s.stat(stat)[where])
-            if sample:
-                for stat in STAT_NAMES:
-                    p[f"{stat}_se"] = _num(standard_error(s, stat, where))
-            chaotic = {stat: rng for stat in STAT_NAMES
-                       if (rng := (roundoff or {}).get((label, o.name, at, t, comp, stat)))}
-            if chaotic:
-                p["roundoff"] = chaotic
-            pts.append(p)
+    for place in places:
+        where = place.where
+        if not v.usable_at(where):
+            continue  # a PCE with no usable surrogate here reports no moments to pin
+        p: dict[str, Any] = {"at": place.at, "time": place.time, "component": place.name}
+        for m in v.moments:
+            p[m.name] = _num(m.value[where])
+        if sample:
+            for m in v.moments:
+                p[f"{m.name}_se"] = _num(v.standard_error(m.name, where))
+        chaotic = {m.name: rng for m in v.moments
+                   if (rng := (roundoff or {}).get((v.label, v.output.name, place.at,
+                                                    place.time, place.name, m.name)))}
+        if chaotic:
+            p["roundoff"] = chaotic
+        pts.append(p)
     return pts
 
 
@@ -275,13 +233,13 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
         raise ResultError(f"--pce-rtol: must be a finite number in (0, 1] (got {pce_rtol!r})")
     methods: dict[str, Any] = {}
     left_out: list[str] = []
+    described = result_statistics(result)
     for r in result.runs:
         outs: dict[str, Any] = {}
-        for o in result.outputs:
-            s = r.estimate.stats.get(o.name)
-            if s is None:
-                continue
-            points = _points(result, o, s, r.label, roundoff)
+        for v in described[r.label].values():
+            o = v.output
+            points = _points(v, statistics.points(o, result.time, result.report_times),
+                             roundoff)
             if not points:
                 left_out.append(f"{r.label}/{o.name} (no usable surrogate: no moments)")
                 continue
@@ -291,8 +249,8 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
                 continue
             outs[o.name] = {
                 "kind": o.kind, "unit": o.unit, "components": list(o.components),
-                "uncertainty": _uncertainty_kind(s), "moments_method": s.moments_method,
-                "n_used": int(s.n_used), "points": points,
+                "uncertainty": v.uncertainty, "moments_method": v.moments_method,
+                "n_used": v.n_used, "points": points,
             }
         if not outs:  # a method without moments (subset simulation): nothing to gate
             left_out.append(f"{r.label} (no statistic to check)")

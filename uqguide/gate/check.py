@@ -58,13 +58,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .baseline import (
-    DEFAULT_PCE_RTOL, SAMPLE, Baseline, BaselineOutput, BaselinePoint, to_jsonable, read_baseline,
-    standard_error, write_baseline,
+    DEFAULT_PCE_RTOL, Baseline, BaselineOutput, BaselinePoint, to_jsonable, read_baseline,
+    write_baseline,
 )
 from ..errors import ResultError
 from ..models.base import OutputInfo
-from ..results.result import MethodRun, Result
-from ..stats.moments import STAT_NAMES, OutputStats
+from ..results.result import Result
+from ..results.statistics import SAMPLE, OutputStatistics, result_statistics
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -344,7 +344,7 @@ def _grid_index(time: np.ndarray, p: BaselinePoint) -> tuple[int | None, str]:
     return i, ""
 
 
-def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: OutputStats,
+def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: OutputStatistics,
                     time: np.ndarray, sigmas: float, pce_rtol: float) -> list[CheckRow]:
     rows: list[CheckRow] = []
     sample = bo.uncertainty == SAMPLE
@@ -363,11 +363,12 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
             where: tuple[int, ...] | None = None if i is None else (i, c)
         else:
             where, where_note = (c,), ""
-        std_a = float(s.std[where]) if where is not None else math.nan
+        std_a = float(s.moment("std").value[where]) if where is not None else math.nan
         std_b = math.nan if p.std is None else p.std
         floor = ROUNDOFF_RTOL * mag[p.component]
         zero_std = STD_ZERO_RTOL * peak_std[p.component]
-        for stat in STAT_NAMES:
+        for moment in s.moments:
+            stat = moment.name
             b = getattr(p, stat)
             b = math.nan if b is None else float(b)
             row = CheckRow(label, name, p.component, p.time, stat, unit,
@@ -375,7 +376,7 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
             rows.append(row)
             if where is None:
                 continue
-            a = float(s.stat(stat)[where])
+            a = float(moment.value[where])
             row.value = a
             if stat in p.roundoff:
                 lo, hi = (math.nan if v is None else v for v in p.roundoff[stat])
@@ -389,7 +390,7 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
             if sample:
                 se_b = getattr(p, f"{stat}_se")
                 se_b = math.nan if se_b is None else se_b
-                se_a = standard_error(s, stat, where)
+                se_a = s.standard_error(stat, where)
                 comb = math.hypot(se_a, se_b)  # no overflow of the squares
                 row.tolerance = max(sigmas * comb, floor) if math.isfinite(comb) else floor
                 row.basis = f"{sigmas:g} x combined SE {_fmt(comb)}" \
@@ -433,12 +434,13 @@ def check_tolerance(option: str, value: Any) -> float:
     return v
 
 
-def _check_shapes(s: OutputStats, o: OutputInfo, time: np.ndarray, where: str) -> None:
+def _check_shapes(s: OutputStatistics, time: np.ndarray, where: str) -> None:
+    o = s.output
     want = (time.size, o.k) if o.kind == "series" else (o.k,)
-    for stat in STAT_NAMES:
-        got = np.shape(s.stat(stat))
+    for m in s.moments:
+        got = np.shape(m.value)
         if got != want:
-            raise ResultError(f"result {where}: {stat} has shape {got}, expected {want} "
+            raise ResultError(f"result {where}: {m.name} has shape {got}, expected {want} "
                               f"({o.kind} output with {o.k} component(s))")
 
 
@@ -475,23 +477,24 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
     check_compatible(baseline, result.model, {r.label: r.estimate.method for r in result.runs},
                      {o.name: o for o in result.outputs}, source)
     report = CheckReport(result.name, source, sigmas, rtol)
+    described = result_statistics(result)
     for label, bm in baseline.methods.items():
-        run: MethodRun = result.run(label)
+        run = result.run(label)
         if not bm.outputs:
             raise ResultError(f"{source}: baseline method '{label}' names no output: it would "
                               f"check nothing")
         for name, bo in bm.outputs.items():
-            s = run.estimate.stats.get(name)
+            s = described[label].get(name)
             if s is None:
                 raise ResultError(f"{source}: method '{label}' of the result has no statistics "
                                   f"of output '{name}'")
-            _check_shapes(s, result.output(name), result.time, f"{label}/{name}")
+            _check_shapes(s, result.time, f"{label}/{name}")
             rows = _compare_output(label, name, bo.unit, bo, s, result.time, sigmas, rtol)
             if not any(not r.skipped for r in rows):
                 raise ResultError(f"{source}: baseline method '{label}', output '{name}' has no "
                                   f"statistic to check")
             report.rows += rows
-        extra = [n for n in run.estimate.stats if n not in bm.outputs]
+        extra = [n for n in described[label] if n not in bm.outputs]
         if extra:
             report.notes.append(f"{label}: output(s) {', '.join(extra)} not in the baseline, "
                                 f"not checked")

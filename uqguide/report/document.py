@@ -27,6 +27,7 @@ from .tables import (
     wide_table,
 )
 from ..results.result import Result
+from ..results.statistics import result_statistics
 
 log = logging.getLogger(__name__)
 
@@ -47,11 +48,12 @@ def _sobol_tables(result: Result) -> dict[str, pd.DataFrame]:
     """Per scalar output component (and series at its last step): one row per input, the
     first-order and total Sobol' indices of every method that gives them side by side."""
     tables: dict[str, pd.DataFrame] = {}
+    described = result_statistics(result)
     for o in result.outputs:
         for c, comp in enumerate(o.components):
             cols: dict[str, list[float]] = {}
             for r in result.runs:
-                s = r.estimate.stats.get(o.name)
+                s = described[r.label].get(o.name)
                 if s is None or s.sobol_first is None or s.sobol_total is None:
                     continue
                 first = s.sobol_first[-1] if o.kind == "series" else s.sobol_first

@@ -17,24 +17,14 @@ import pandas as pd
 
 from ..core import atomic
 from ..core.failures import COLUMNS as FAILURE_COLUMNS, reason_rows
+from ..models.base import OutputInfo
 from ..results.result import Result
-from ..stats.quantiles import level_name
+from ..results.statistics import Point, Statistic, points, result_statistics
 from ..config.report_times import report_indices  # noqa: F401 - imported from here by others
-from ..stats.moments import STAT_NAMES, OutputStats
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
 #: below this fraction of its peak: a ratio to a value that crosses zero means nothing.
 REL_FLOOR = 1e-3
-
-
-def _interval(s: OutputStats, stat: str, where: tuple) -> tuple[float, float]:
-    if stat in s.ci:
-        lo, hi = s.ci[stat][0][where], s.ci[stat][1][where]
-        return float(lo), float(hi)
-    if stat == "mean" and s.sem is not None:
-        m, e = s.mean[where], s.sem[where]
-        return float(m - 1.96 * e), float(m + 1.96 * e)
-    return float("nan"), float("nan")
 
 
 def cost_table(result: Result) -> pd.DataFrame:
@@ -113,31 +103,31 @@ def validation_table(result: Result) -> pd.DataFrame:
     """A validated PCE's own value beside its control-variate value and interval, per output,
     component, statistic (and report time for a series), with the model runs it cost (fit plus
     validation)."""
-    idx = report_indices(result.time, result.report_times)
+    described = result_statistics(result)
     rows = []
     for r in result.runs:
         d = r.estimate.diagnostics
-        for o in result.outputs:
-            s = r.estimate.stats.get(o.name)
-            if s is None or not s.corrected:
+        runs = f"{r.n_runs - int(d.get('n_validation', 0))}+{int(d.get('n_validation', 0))}"
+        for v in described[r.label].values():
+            if not v.corrected:
                 continue
-            places = [((i, c), float(result.time[i])) for i in idx for c in range(o.k)] \
-                if o.kind == "series" else [((c,), float("nan")) for c in range(o.k)]
-            for where, t in places:
-                usable = True if s.usable is None else bool(s.usable[where])
-                err = float(s.validation_error[where]) if s.validation_error is not None \
+            for p in points(v.output, result.time, result.report_times):
+                w = p.where
+                err = float(v.validation_error[w]) if v.validation_error is not None \
                     else float("nan")
-                for stat in STAT_NAMES:
-                    lo, hi = s.corrected_ci[stat][(0,) + where], s.corrected_ci[stat][(1,) + where]
-                    rows.append({"label": r.label, "output": o.name,
-                                 "component": o.components[where[-1]], "time": t,
-                                 "stat": stat, "pce": float(s.stat(stat)[where]),
-                                 "corrected": float(s.corrected[stat][where]),
-                                 "ci_low": float(lo), "ci_high": float(hi),
-                                 "val_error": err, "usable": usable,
-                                 "runs": f"{r.n_runs - int(d.get('n_validation', 0))}"
-                                         f"+{int(d.get('n_validation', 0))}"})
+                for cv in v.corrected:
+                    lo, hi = cv.interval(w)
+                    rows.append({"label": r.label, "output": v.output.name, "component": p.name,
+                                 "time": _time(p), "stat": cv.name,
+                                 "pce": float(v.moment(cv.name).value[w]),
+                                 "corrected": float(cv.value[w]), "ci_low": lo, "ci_high": hi,
+                                 "val_error": err, "usable": v.usable_at(w), "runs": runs})
     return pd.DataFrame(rows)
+
+
+def _time(p: Point) -> float:
+    """A point's time in a table: NaN for a scalar."""
+    return float("nan") if p.time is None else p.time
 
 
 def validation_text(df: pd.DataFrame) -> pd.DataFrame:
@@ -217,88 +207,56 @@ def statistics_table(result: Result) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        One row per output, component, time [s] (NaN for scalars), method and statistic:
-        ``value``, ``ci_low``, ``ci_high`` in the output's ``unit``; against the reference
-        also ``ref_value``, ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`).
+        One row per output, component, time [s] (NaN for scalars), method and statistic
+        (:mod:`uqguide.results.statistics`: the method's moments, a validated PCE's
+        control-variate moments as ``<label>+cv``, the quantiles): ``value``, ``ci_low``,
+        ``ci_high`` in the output's ``unit``, ``usable`` (moments); against the reference also
+        ``ref_value``, ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`).
     """
-    ref = result.run(result.reference) if result.reference else None
-    idx = report_indices(result.time, result.report_times)
+    described = result_statistics(result)
+    # result.run: a ResultError naming the labels when the reference is none of them
+    ref = described[result.run(result.reference).label] if result.reference else None
     rows = []
     for o in result.outputs:
         for r in result.runs:
-            s = r.estimate.stats.get(o.name)
-            if s is None:
+            v = described[r.label].get(o.name)
+            if v is None:
                 continue
-            rs = ref.estimate.stats.get(o.name) if ref is not None else None
-            places = [((i, c), float(result.time[i])) for i in idx for c in range(o.k)] \
-                if o.kind == "series" else [((c,), float("nan")) for c in range(o.k)]
-            for where, t in places:
-                comp = o.components[where[-1]]
-                usable = True if s.usable is None else bool(s.usable[where])
-                # the PCE's own value, then a validated PCE's control-variate estimate with its
-                # own interval
-                variants: list[tuple[str, bool]] = [(r.label, usable)]
-                if s.corrected:
-                    variants.append((f"{r.label}+cv", True))
-                for (label, ok), stat in ((va, st) for va in variants for st in STAT_NAMES):
-                    if label == r.label:
-                        v = float(s.stat(stat)[where])
-                        lo, hi = _interval(s, stat, where)
-                    else:
-                        v = float(s.corrected[stat][where])
-                        lo = float(s.corrected_ci[stat][(0,) + where])
-                        hi = float(s.corrected_ci[stat][(1,) + where])
-                    row = {"output": o.name, "component": comp, "unit": o.unit, "time": t,
-                           "label": label, "stat": stat, "value": v, "ci_low": lo,
-                           "ci_high": hi, "usable": ok}
-                    if rs is not None:
-                        rv = float(rs.stat(stat)[where])
-                        rlo, rhi = _interval(rs, stat, where)
-                        # A relative difference to a reference that is within its own noise of
-                        # zero (a skewness of a near-Gaussian output) means nothing: NaN there,
-                        # and the absolute difference says the rest.
-                        noisy = np.isfinite(rlo) and abs(rv) <= 0.5 * (rhi - rlo)
-                        row.update(ref_value=rv, abs_diff=v - rv,
-                                   rel_diff=(v - rv) / abs(rv) if rv and not noisy
-                                   else float("nan"),
-                                   agrees=agrees(v, lo, hi, rv, rlo, rhi))
-                    rows.append(row)
-                rows += _quantile_rows(o, r.label, s, rs, where, comp, t)
+            rv = ref.get(o.name) if ref is not None else None
+            for p in points(o, result.time, result.report_times):
+                for st in v.statistics:
+                    rows += _row(o, st, p, None if rv is None else rv.own(st.name))
     return pd.DataFrame(rows)
 
 
-def _quantile_rows(o, label: str, s: OutputStats, rs: OutputStats | None, where: tuple,
-                   comp: str, t: float) -> list[dict]:
-    """Rows of the quantiles at one place (none where they were not computed), compared with
-    the reference's quantile of the same level and its distribution-free interval."""
-    table = s.quantile_table()
-    if table is None:
+def _row(o: OutputInfo, st: Statistic, p: Point, ref: Statistic | None) -> list[dict]:
+    """The row of statistic ``st`` at point ``p`` (none where it does not exist there),
+    compared with the reference's own statistic of the same name where that exists."""
+    w = p.where
+    if not st.defined_at(w):
         return []
-    levels, quantiles, ci_quantiles = table
-    ref_table = rs.quantile_table() if rs is not None else None
-    ref_levels = list(ref_table[0]) if ref_table is not None else []
-    rows = []
-    for i, p in enumerate(levels):
-        v = float(quantiles[i][where])
-        if np.isnan(v):
-            continue
-        lo, hi = float(ci_quantiles[0, i][where]), float(ci_quantiles[1, i][where])
-        row: dict[str, object] = {"output": o.name, "component": comp, "unit": o.unit,
-                                  "time": t, "label": label, "stat": level_name(p),
-                                  "value": v, "ci_low": lo, "ci_high": hi}
-        if ref_table is not None and p in ref_levels:
-            j = ref_levels.index(p)
-            rv = float(ref_table[1][j][where])
-            rlo, rhi = (float(ref_table[2][k, j][where]) for k in (0, 1))
-            if not np.isnan(rv):
-                # as for the moments: no relative difference to a value within its own
-                # interval of zero (a median near 0)
-                noisy = np.isfinite(rhi - rlo) and abs(rv) <= 0.5 * (rhi - rlo)
-                row.update(ref_value=rv, abs_diff=v - rv,
-                           rel_diff=(v - rv) / abs(rv) if rv and not noisy else float("nan"),
-                           agrees=agrees(v, lo, hi, rv, rlo, rhi))
-        rows.append(row)
-    return rows
+    lo, hi = st.interval(w)
+    row: dict[str, object] = {"output": o.name, "component": p.name, "unit": o.unit,
+                              "time": _time(p), "label": st.label, "stat": st.name,
+                              "value": float(st.value[w]), "ci_low": lo, "ci_high": hi}
+    usable = st.usable_at(w)
+    if usable is not None:
+        row["usable"] = usable
+    if ref is not None and ref.defined_at(w):
+        row.update(_against(float(st.value[w]), lo, hi, float(ref.value[w]), *ref.interval(w)))
+    return [row]
+
+
+def _against(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float
+             ) -> dict[str, object]:
+    """The reference's value, the difference from it and whether the two agree."""
+    # A relative difference to a reference that is within its own noise of zero (a skewness
+    # of a near-Gaussian output, a median near 0) means nothing: NaN there, and the absolute
+    # difference says the rest.
+    noisy = bool(np.isfinite(rhi - rlo)) and abs(rv) <= 0.5 * (rhi - rlo)
+    return {"ref_value": rv, "abs_diff": v - rv,
+            "rel_diff": (v - rv) / abs(rv) if rv and not noisy else float("nan"),
+            "agrees": agrees(v, lo, hi, rv, rlo, rhi)}
 
 
 def events_table(result: Result) -> pd.DataFrame:
@@ -366,19 +324,20 @@ def series_agreement(result: Result) -> pd.DataFrame:
     """
     if not result.reference:
         return pd.DataFrame()
-    ref = result.run(result.reference)
+    described = result_statistics(result)
+    ref = described[result.run(result.reference).label]
     rows = []
     for o in result.outputs:
         if o.kind != "series":
             continue
-        rs = ref.estimate.stats.get(o.name)
+        rs = ref.get(o.name)
         for r in result.runs:
-            s = r.estimate.stats.get(o.name)
-            if r is ref or s is None or rs is None:
+            s = described[r.label].get(o.name)
+            if r.label == result.reference or s is None or rs is None:
                 continue
             row: dict[str, object] = {"output": o.name, "label": r.label}
             for stat in ("mean", "std"):
-                a, b = s.stat(stat), rs.stat(stat)
+                a, b = s.moment(stat).value, rs.moment(stat).value
                 mag = np.abs(b)
                 keep = mag >= REL_FLOOR * np.nanmax(mag, axis=0, keepdims=True)
                 with np.errstate(invalid="ignore", divide="ignore"):
@@ -488,7 +447,7 @@ def render_text(result: Result) -> str:
     if not agree.empty:
         parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
                   f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
-    if any(r.estimate.stats for r in result.runs):
+    if any(result_statistics(result).values()):
         parts += ["", interval_legend(with_ref)]
     broken = [r for r in result.runs if not r.success]
     if broken:
@@ -572,7 +531,7 @@ def render_markdown(result: Result) -> str:
         if not sub.empty:
             parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
                       to_markdown(wide_table(sub, with_ref))]
-    if any(r.estimate.stats for r in result.runs):
+    if any(result_statistics(result).values()):
         parts += ["", interval_legend(with_ref)]
     events = events_table(result)
     if not events.empty:

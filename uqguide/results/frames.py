@@ -2,9 +2,10 @@
 ``Result.to_dataframe``).
 
 The Dataset's variables are those of :mod:`uqguide.results.labelled` (the same as a format-2 result
-file's ``methods/<label>`` group), with a ``method`` dimension when several methods are taken
-together: a statistic a method does not give (a PCE's standard error, a Monte Carlo Sobol'
-index) is NaN for it. xarray is an optional dependency (``pip install 'uqguide[xarray]'``).
+file's ``methods/<label>`` group), with a ``label`` dimension when several methods are taken
+together (``ds.sel(label="mc1000")``): a statistic a method does not give (a PCE's standard
+error, a Monte Carlo Sobol' index) is NaN for it. xarray is an optional dependency
+(``pip install 'uqguide[xarray]'``).
 """
 
 from __future__ import annotations
@@ -16,7 +17,8 @@ import numpy as np
 
 from ..errors import ResultError
 from .labelled import method_variables
-from ..core.types import STAT_NAMES, Estimate
+from .statistics import method_statistics
+from ..core.types import Estimate
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -64,6 +66,11 @@ class Result(Protocol):
     def output(self, name: str) -> OutputInfo: ...
 
 
+#: The dimension along which :func:`to_xarray` stacks the methods, and the column of
+#: :func:`to_dataframe` that names a row's method.
+LABEL = "label"
+
+
 def _xarray():
     try:
         import xarray
@@ -87,14 +94,15 @@ def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
         Variables of :func:`uqguide.results.labelled.method_variables`; ``time`` in s.
     """
     xr = _xarray()
-    coords, variables = method_variables(run.estimate.stats, result.outputs, result.time,
-                                         result.input_names)
+    coords, variables = method_variables(
+        method_statistics(run.label, run.estimate.stats, result.outputs), result.time,
+        result.input_names)
     used = {d for v in variables.values() for d in v.dims}
     ds = xr.Dataset(
         {name: (v.dims, v.data, dict(v.attrs)) for name, v in variables.items()},
-        coords={d: values for d, values in coords.items() if d in used or d == "time"},
+        coords={d: (c.dims, c.data, dict(c.attrs)) for d, c in coords.items()
+                if d in used or d == "time"},
     )
-    ds["time"].attrs.update(units="s", long_name="time")
     ds.attrs.update(name=result.name, model=result.model, label=run.label,
                     method=run.estimate.method, n_runs=run.n_runs, n_failed=run.n_failed,
                     model_seconds=run.model_seconds, fit_seconds=run.fit_seconds)
@@ -102,7 +110,10 @@ def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
 
 
 def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
-    """The statistics of method ``label``, or of every method along a ``method`` dimension.
+    """The statistics of method ``label``, or of every method along a ``label`` dimension.
+
+    The dimension is ``label``, not ``method``: ``Dataset.sel(method=...)`` is xarray's own
+    keyword (the fill method), so a dimension of that name could not be selected by keyword.
 
     Parameters
     ----------
@@ -113,6 +124,8 @@ def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
     Returns
     -------
     xarray.Dataset
+        With every method: ``ds.sel(label="mc1000")``; ``method_name``, ``n_runs`` and
+        ``n_failed`` along ``label``.
     """
     xr = _xarray()
     if label is not None:
@@ -128,13 +141,13 @@ def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
                 p[name] = xr.full_like(like, np.nan, dtype=float)
     for p in parts:
         p.attrs = {}
-    ds = xr.concat(parts, dim="method", data_vars="all", coords="minimal",
+    ds = xr.concat(parts, dim=LABEL, data_vars="all", coords="minimal",
                    compat="equals", join="outer")
-    ds = ds.assign_coords(method=[r.label for r in result.runs])
-    ds["method_name"] = ("method", np.array([r.estimate.method for r in result.runs],
-                                            dtype=object))
-    ds["n_runs"] = ("method", np.array([r.n_runs for r in result.runs]))
-    ds["n_failed"] = ("method", np.array([r.n_failed for r in result.runs]))
+    ds = ds.assign_coords({LABEL: [r.label for r in result.runs]})
+    ds["method_name"] = (LABEL, np.array([r.estimate.method for r in result.runs],
+                                         dtype=object))
+    ds["n_runs"] = (LABEL, np.array([r.n_runs for r in result.runs]))
+    ds["n_failed"] = (LABEL, np.array([r.n_failed for r in result.runs]))
     ds.attrs.update(name=result.name, model=result.model, reference=result.reference or "")
     return ds
 
@@ -142,9 +155,10 @@ def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
 def to_dataframe(result: Result, output: str) -> pd.DataFrame:
     """Every statistic of ``output`` at every time step, one row per value.
 
-    Columns: ``method``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
+    Columns: ``label``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
     skewness, kurtosis, sem, q<level>), ``value``, ``ci_low``, ``ci_high`` (NaN where the
-    method gives no interval).
+    method gives no interval). A validated PCE's control-variate moments are rows of their
+    own, labelled ``<label>+cv`` (:mod:`uqguide.results.statistics`).
 
     Parameters
     ----------
@@ -161,22 +175,18 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
     info = result.output(output)
     frames = []
     for r in result.runs:
-        s = r.estimate.stats.get(output)
-        if s is None:
+        v = method_statistics(r.label, r.estimate.stats, [info]).get(output)
+        if v is None:
             continue
-        rows: list[tuple[str, np.ndarray, np.ndarray | None]] = [
-            (n, s.stat(n), s.ci.get(n)) for n in STAT_NAMES]
-        if s.sem is not None:
-            rows.append(("sem", s.sem, None))
-        table = s.quantile_table()
-        if table is not None:
-            levels, quantiles, ci_quantiles = table
-            rows += [(f"q{p:g}", quantiles[j], ci_quantiles[:, j])
-                     for j, p in enumerate(levels)]
-        for stat, value, ci in rows:
+        rows: list[tuple[str, str, np.ndarray, np.ndarray | None]] = [
+            (st.label, st.name, st.value, st.ci) for st in v.moments]
+        if v.sem is not None:
+            rows.append((r.label, "sem", v.sem, None))
+        rows += [(st.label, st.name, st.value, st.ci) for st in v.quantiles + v.corrected]
+        for lab, stat, value, ci in rows:
             value = np.asarray(value, dtype=float)
             comp = np.broadcast_to(np.array(info.components, dtype=object), value.shape)
-            cols: dict[str, Any] = {"method": r.label}
+            cols: dict[str, Any] = {LABEL: lab}
             if info.kind == "series":
                 cols["time"] = np.broadcast_to(result.time[:, None], value.shape).ravel()
             cols.update(component=comp.ravel(), statistic=stat, value=value.ravel(),

@@ -1,5 +1,6 @@
-"""A method's statistics as named, labelled arrays: the one description of the variables that
-both the result file (format 2, a netCDF-4 group per method) and ``Result.to_xarray()`` use.
+"""A method's statistics as named, labelled arrays: the variables that both the result file
+(format 2, a netCDF-4 group per method) and ``Result.to_xarray()`` hold, laid out from the
+description of :mod:`uqguide.results.statistics`.
 
 Per output ``o`` of ``k`` components (``...`` is ``time`` for a series, nothing for a scalar):
 
@@ -33,13 +34,14 @@ in their number of components.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..stats.moments import STAT_NAMES, OutputStats
+from ..core.types import STAT_NAMES, OutputStats
+from .statistics import OutputStatistics, Statistic
 
 if TYPE_CHECKING:
     from ..models.base import OutputInfo
@@ -72,93 +74,97 @@ def component_dim(output: str, second: bool = False) -> str:
     return f"{output}_component2" if second else f"{output}_component"
 
 
-def method_variables(stats: dict[str, OutputStats], outputs: Sequence[OutputInfo],
-                     time: np.ndarray, input_names: Sequence[str]
-                     ) -> tuple[dict[str, np.ndarray], dict[str, Variable]]:
-    """Coordinates (dimension -> values) and variables of one method's statistics.
+def method_variables(stats: Mapping[str, OutputStatistics], time: np.ndarray,
+                     input_names: Sequence[str]) -> tuple[dict[str, Variable], dict[str, Variable]]:
+    """Coordinates and variables of one method's statistics.
 
     Parameters
     ----------
-    stats : dict of str to OutputStats
-        By output name.
-    outputs : sequence of OutputInfo
+    stats : mapping of str to OutputStatistics
+        The method's statistics by output name, in the outputs' order
+        (:func:`uqguide.results.statistics.method_statistics`).
     time : ndarray, shape (T,)
         Time grid [s].
     input_names : sequence of str, length d
 
     Returns
     -------
-    coords : dict of str to ndarray
-        Values of each dimension (``time``, ``statistic``, ``input``, components, ...).
+    coords : dict of str to Variable
+        The coordinate of each dimension (``time``, ``input``, ``statistic``, ``bound``,
+        components, ``quantile``), by its name.
     variables : dict of str to Variable
         Per output: moments, covariance, intervals, Sobol' indices, quantiles, with units.
     """
-    coords: dict[str, np.ndarray] = {
-        "time": np.asarray(time, dtype=float),
-        "input": np.array(input_names, dtype=object),
-        "statistic": np.array(STAT_NAMES, dtype=object),
-        "bound": np.array(BOUNDS, dtype=object),
+    coords: dict[str, Variable] = {
+        "time": Variable(("time",), np.asarray(time, dtype=float),
+                         {"units": "s", "long_name": "time"}),
+        "input": Variable(("input",), np.array(input_names, dtype=object)),
+        "statistic": Variable(("statistic",), np.array(STAT_NAMES, dtype=object)),
+        "bound": Variable(("bound",), np.array(BOUNDS, dtype=object)),
     }
     out: dict[str, Variable] = {}
-    for o in outputs:
-        s = stats.get(o.name)
-        if s is None:
-            continue
+    for v in stats.values():
+        o = v.output
         lead = ("time",) if o.kind == "series" else ()
         c, c2 = component_dim(o.name), component_dim(o.name, True)
         names = np.array(o.components, dtype=object)
-        coords[c] = names
-        coords[c2] = names
+        coords[c] = Variable((c,), names)
+        coords[c2] = Variable((c2,), names)
         base = (*lead, c)
         out[o.name] = Variable(
-            ("statistic", *base), np.stack([s.stat(n) for n in STAT_NAMES]),
+            ("statistic", *base), np.stack([m.value for m in v.moments]),
             {"units": o.unit, "long_name": o.description, "kind": o.kind,
-             "n_used": int(s.n_used), "moments_method": s.moments_method})
-        out[f"{o.name}_cov"] = Variable((*base, c2), s.cov, {"units": f"({o.unit})^2"})
-        if s.sem is not None:
-            out[f"{o.name}_sem"] = Variable(base, s.sem, {"units": o.unit})
-        if s.ci:
-            ci = np.full((2, len(STAT_NAMES), *s.mean.shape), np.nan)
-            for j, n in enumerate(STAT_NAMES):
-                if n in s.ci:
-                    ci[:, j] = s.ci[n]
-            out[f"{o.name}_ci"] = Variable(
-                ("bound", "statistic", *base), ci,
-                {"description": "95% interval", "statistics": [n for n in STAT_NAMES
-                                                               if n in s.ci]})
-        for kind in ("sobol_first", "sobol_total"):
-            v = getattr(s, kind)
-            if v is not None:
-                out[f"{o.name}_{kind}"] = Variable((*base, "input"), v, {"units": "1"})
-        table = s.quantile_table()
-        if table is not None:
-            levels = np.asarray(table[0], dtype=float)
-            if "quantile" in coords and not np.array_equal(coords["quantile"], levels):
+             "n_used": v.n_used, "moments_method": v.moments_method})
+        out[f"{o.name}_cov"] = Variable((*base, c2), v.cov, {"units": f"({o.unit})^2"})
+        if v.sem is not None:
+            out[f"{o.name}_sem"] = Variable(base, v.sem, {"units": o.unit})
+        given = [m for m in v.moments if m.ci is not None]
+        if given:
+            ci = np.full((2, len(STAT_NAMES), *v.moments[0].value.shape), np.nan)
+            for j, m in enumerate(v.moments):
+                if m.ci is not None:
+                    ci[:, j] = m.ci
+            out[f"{o.name}_ci"] = Variable(("bound", "statistic", *base), ci,
+                                           {"description": "95% interval",
+                                            "statistics": [m.name for m in given]})
+        for kind, sobol in (("sobol_first", v.sobol_first), ("sobol_total", v.sobol_total)):
+            if sobol is not None:
+                out[f"{o.name}_{kind}"] = Variable((*base, "input"), sobol, {"units": "1"})
+        if v.quantiles:
+            levels = np.asarray(v.quantile_levels, dtype=float)
+            if "quantile" in coords and not np.array_equal(coords["quantile"].data, levels):
                 raise ValueError(f"output {o.name!r} has quantile levels {levels.tolist()}, "
-                                 f"another output {coords['quantile'].tolist()}")
-            coords["quantile"] = levels
-            out[f"{o.name}_quantile"] = Variable(("quantile", *base), table[1],
-                                                 {"units": o.unit})
-            out[f"{o.name}_ci_quantile"] = Variable(("bound", "quantile", *base),
-                                                    table[2], {"units": o.unit})
-        if s.corrected:
+                                 f"another output {coords['quantile'].data.tolist()}")
+            coords["quantile"] = Variable(("quantile",), levels)
+            out[f"{o.name}_quantile"] = Variable(
+                ("quantile", *base), np.stack([q.value for q in v.quantiles]), {"units": o.unit})
+            out[f"{o.name}_ci_quantile"] = Variable(
+                ("bound", "quantile", *base), np.stack([_ci(q) for q in v.quantiles], axis=1),
+                {"units": o.unit})
+        if v.corrected:
             out[f"{o.name}_corrected"] = Variable(
-                ("statistic", *base), np.stack([s.corrected[n] for n in STAT_NAMES]),
+                ("statistic", *base), np.stack([m.value for m in v.corrected]),
                 {"units": o.unit, "description": "control-variate estimates (PCE + mean "
                                                  "model-minus-surrogate on validation runs)"})
             out[f"{o.name}_corrected_ci"] = Variable(
-                ("bound", "statistic", *base),
-                np.stack([s.corrected_ci[n] for n in STAT_NAMES], axis=1),
+                ("bound", "statistic", *base), np.stack([_ci(m) for m in v.corrected], axis=1),
                 {"description": "95% interval from the validation runs (delta method, stratified)"})
-        if s.validation_error is not None:
+        if v.validation_error is not None:
             out[f"{o.name}_validation_error"] = Variable(
-                base, np.asarray(s.validation_error, dtype=float),
+                base, np.asarray(v.validation_error, dtype=float),
                 {"units": "1", "description": "mean squared model-minus-surrogate difference "
                                               "over the model's variance, validation runs"})
-        if s.usable is not None:
-            out[f"{o.name}_usable"] = Variable(base, np.asarray(s.usable, dtype=np.uint8),
+        if v.usable is not None:
+            out[f"{o.name}_usable"] = Variable(base, np.asarray(v.usable, dtype=np.uint8),
                                                {"units": "1"})
     return coords, out
+
+
+def _ci(st: Statistic) -> np.ndarray:
+    """The interval of a statistic that always has one (quantiles, control-variate moments)."""
+    if st.ci is None:
+        raise ValueError(f"{st.label}: {st.name} has no interval")
+    return st.ci
 
 
 def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[OutputInfo]

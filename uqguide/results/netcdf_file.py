@@ -5,10 +5,18 @@ Each ``methods/<label>`` group is a self-contained netCDF-4 group: the variables
 ``statistic``, ``bound``, ``quantile``, ``<output>_component``...), strings as UTF-8. So
 ``xarray.open_dataset(path, group="methods/mc1000", engine="h5netcdf")`` gives named
 dimensions and the time coordinate, and plain h5py reads the same arrays by name.
+
+A file is laid out whole first, as a tree of :class:`Group` (attributes, dimension scales,
+variables, subgroups), and then written by one call of :func:`write_group`: the caller
+(:mod:`uqguide.results.result`) says what goes where, this module how it is stored. Arrays too
+large to hold twice (a generated design, the failure reasons) are :class:`Blocks`, converted
+and written a block at a time during that call.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import h5py
@@ -17,8 +25,9 @@ import numpy as np
 from .labelled import Variable, method_variables, stats_from_variables
 
 if TYPE_CHECKING:
+    from ..core.types import OutputStats
     from ..models.base import OutputInfo
-    from ..stats.moments import OutputStats
+    from .statistics import OutputStatistics
 
 UTF8 = h5py.string_dtype("utf-8")
 
@@ -41,97 +50,158 @@ def h5_array(values: Any) -> np.ndarray:
     return a
 
 
-def write_scale(g: h5py.Group, name: str, values: Any, **attrs: Any) -> h5py.Dataset:
-    """A coordinate variable: a dataset that is also the dimension scale ``name``.
+@dataclass
+class Blocks:
+    """Values written a block at a time, never held whole (a million runs' inputs or failure
+    reasons).
 
-    Parameters
+    Attributes
     ----------
-    g : h5py.Group
-    name : str
-        The dimension's name.
-    values : array_like, shape (m,)
-        Its coordinates.
-    **attrs
-        Attributes (``units``, ``long_name``).
-
-    Returns
-    -------
-    h5py.Dataset
+    shape : tuple of int
+    dtype : numpy dtype or str
+    blocks : callable
+        ``blocks()``: an iterable of ``(index, values)``; ``dataset[index] = values`` for each.
     """
-    d = g.create_dataset(name, data=h5_array(values))
-    d.make_scale(name)
-    d.attrs.update(attrs)
-    return d
+
+    shape: tuple[int, ...]
+    dtype: Any
+    blocks: Callable[[], Iterable[tuple[Any, np.ndarray]]]
 
 
-def attach(d: h5py.Dataset, scales: list[h5py.Dataset]) -> None:
-    """Attach one dimension scale per axis of ``d``, in order.
+@dataclass
+class Dataset:
+    """A variable as the file stores it.
 
-    Parameters
+    Attributes
     ----------
-    d : h5py.Dataset
-    scales : list of h5py.Dataset
-        One per dimension of ``d``.
+    data : ndarray or Blocks
+        Its values (text as str or object arrays, stored as UTF-8).
+    dims : tuple of str, optional
+        The dimension scale of each axis, by name: one of its group's scales or of a group
+        above (netCDF-4 scoping); None: no dimension scales.
+    attrs : dict
+        Attributes (a list is stored as an array of UTF-8 strings).
+    storage : dict
+        h5py's dataset-creation keywords (``compression``, ``chunks``, ``shuffle``...).
     """
-    for axis, scale in enumerate(scales):
-        d.dims[axis].attach_scale(scale)
+
+    data: np.ndarray | Blocks
+    dims: tuple[str, ...] | None = None
+    attrs: dict[str, Any] = field(default_factory=dict)
+    storage: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, v: Variable) -> Dataset:
+        """A labelled variable (:mod:`uqguide.results.labelled`) as stored: with its
+        dimension scales, uncompressed (statistics are small).
+
+        Parameters
+        ----------
+        v : Variable
+
+        Returns
+        -------
+        Dataset
+        """
+        return cls(v.data, v.dims, dict(v.attrs))
 
 
-def write_variable(g: h5py.Group, name: str, v: Variable, scales: dict[str, h5py.Dataset],
-                   compress: bool = False) -> h5py.Dataset:
-    """One labelled variable as a dataset with its dimension scales and attributes.
+@dataclass
+class Group:
+    """One group of the file, laid out whole before any of it is written.
 
-    Parameters
+    Attributes
     ----------
-    g : h5py.Group
-    name : str
-    v : Variable
-        Dimensions, data and attributes.
-    scales : dict of str to h5py.Dataset
-        The group's dimension scales by name (every dimension of ``v``).
-    compress : bool
-        gzip the data when it is larger than 4096 values.
-
-    Returns
-    -------
-    h5py.Dataset
+    attrs : dict
+    scales : dict of str to Dataset
+        The group's dimensions: coordinate variables that are also the dimension scales of
+        their name, created before the variables that use them.
+    variables : dict of str to Dataset
+    groups : dict of str to Group
+        Subgroups, written after the variables, in this order.
+    fill : callable, optional
+        ``fill(h5py_group)``, called last: content another module writes itself (a kept
+        surrogate, :mod:`uqguide.results.surrogate`).
     """
-    d = g.create_dataset(name, data=h5_array(v.data),
-                         compression="gzip" if compress and v.data.size > 4096 else None)
-    attach(d, [scales[dim] for dim in v.dims])
-    for k, val in v.attrs.items():
-        d.attrs[k] = np.array(val, dtype=UTF8) if isinstance(val, list) else val
-    return d
+
+    attrs: dict[str, Any] = field(default_factory=dict)
+    scales: dict[str, Dataset] = field(default_factory=dict)
+    variables: dict[str, Dataset] = field(default_factory=dict)
+    groups: dict[str, Group] = field(default_factory=dict)
+    fill: Callable[[h5py.Group], None] | None = None
 
 
-def write_method_stats(g: h5py.Group, stats: dict[str, OutputStats], outputs: list[OutputInfo],
-                       time: np.ndarray, input_names: list[str]) -> dict[str, h5py.Dataset]:
-    """The statistics of one method into ``g``.
+def method_group(stats: Mapping[str, OutputStatistics], time: np.ndarray,
+                 input_names: Sequence[str]) -> Group:
+    """The group of one method's statistics: the variables of
+    :func:`uqguide.results.labelled.method_variables` with their dimension scales.
 
     Parameters
     ----------
-    g : h5py.Group
-    stats : dict of str to OutputStats
-    outputs : list of OutputInfo
+    stats : mapping of str to OutputStatistics
+        The method's statistics by output name (:mod:`uqguide.results.statistics`).
     time : ndarray, shape (T,)
         Time grid [s].
-    input_names : list of str
+    input_names : sequence of str
 
     Returns
     -------
-    dict of str to h5py.Dataset
-        Its dimension scales by name.
+    Group
+        Its scales and variables; add attributes and subgroups to it.
     """
-    coords, variables = method_variables(stats, outputs, time, input_names)
-    scales = {dim: write_scale(g, dim, values) for dim, values in coords.items()}
-    scales["time"].attrs.update(units="s", long_name="time")
-    for name, v in variables.items():
-        write_variable(g, name, v, scales)
-    return scales
+    coords, variables = method_variables(stats, time, input_names)
+    return Group(scales={dim: Dataset.of(v) for dim, v in coords.items()},
+                 variables={name: Dataset.of(v) for name, v in variables.items()})
+
+
+def write_group(g: h5py.Group, layout: Group,
+                above: Mapping[str, h5py.Dataset] | None = None) -> None:
+    """Write ``layout`` into ``g``, its subgroups with it: the file's one writing pass.
+
+    Parameters
+    ----------
+    g : h5py.Group
+        An empty group (or a new file).
+    layout : Group
+    above : mapping of str to h5py.Dataset, optional
+        The dimension scales of the groups above, by name.
+    """
+    _set_attrs(g, layout.attrs)
+    scales = dict(above or {})
+    for dim, d in layout.scales.items():
+        # a coordinate is its own dimension: nothing is attached to it
+        scales[dim] = _write_dataset(g, dim, replace(d, dims=None), scales)
+        scales[dim].make_scale(dim)
+    for name, d in layout.variables.items():
+        _write_dataset(g, name, d, scales)
+    for name, sub in layout.groups.items():
+        write_group(g.create_group(name), sub, scales)
+    if layout.fill is not None:
+        layout.fill(g)
+
+
+def _set_attrs(obj: h5py.Group | h5py.Dataset, attrs: Mapping[str, Any]) -> None:
+    for k, val in attrs.items():
+        obj.attrs[k] = np.array(val, dtype=UTF8) if isinstance(val, list) else val
+
+
+def _write_dataset(g: h5py.Group, name: str, d: Dataset,
+                   scales: Mapping[str, h5py.Dataset]) -> h5py.Dataset:
+    if isinstance(d.data, Blocks):
+        ds = g.create_dataset(name, shape=d.data.shape, dtype=d.data.dtype, **d.storage)
+        for index, values in d.data.blocks():
+            ds[index] = values
+    else:
+        ds = g.create_dataset(name, data=h5_array(d.data), **d.storage)
+    if d.dims is not None:
+        for axis, dim in enumerate(d.dims):
+            ds.dims[axis].attach_scale(scales[dim])
+    _set_attrs(ds, d.attrs)
+    return ds
 
 
 def read_method_stats(g: h5py.Group, outputs: list[OutputInfo]) -> dict[str, OutputStats]:
-    """The statistics :func:`write_method_stats` wrote into ``g``.
+    """The statistics of a :func:`method_group` written into ``g``.
 
     Parameters
     ----------

@@ -5,10 +5,18 @@ strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
 
     /                       attrs: format, uqguide_version, created_utc, name, model, seed,
                                    reference, config_yaml (resolved config), wall_seconds,
-                                   versions_json (python and library versions)
+                                   versions_json (python and library versions),
+                                   method_order, output_order (JSON lists)
     /time                   (time,) time grid [s] (empty for models without series)
     /input                  (input,) uncertain input names, config order
     /report_times           (r,) [s], where the config gives them
+    /label                  (label,) method labels, config order
+    /method_name, n_runs, n_failed, success, method_group
+                            (label,) each method's registered name, runs, failed runs, 1 where
+                            it gave statistics, and the group that holds them
+    /output                 (output,) output names, config order
+    /output_kind, output_unit, output_description
+                            (output,)
     /outputs/<name>         attrs: kind (series|scalar), unit, description, components
     /methods/<label>        attrs: method, n_runs, n_failed, model_seconds, fit_seconds,
                                    wall_seconds, success, message, diagnostics_json
@@ -24,6 +32,15 @@ strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
       samples/x (sample, input), failed (sample,) 0/1, reasons (sample,),
               scalars/<output> (sample, <output>_component)
 
+The root group is the file's index: ``xarray.open_dataset(path, engine="h5netcdf")`` shows the
+coordinates ``time``, ``input``, ``report_times``, ``label`` and ``output``, the variables
+``method_name``, ``n_runs``, ``n_failed``, ``success`` and ``method_group`` along ``label`` and
+``output_kind``, ``output_unit``, ``output_description`` along ``output``, and the attributes
+above (name, model, reference, seed, the config). A method's statistics open with
+``group=ds["method_group"].sel(label=...).item()``. Older format-2 files, written before the
+index, have only the coordinates ``time``, ``input`` and ``report_times`` there; they read
+alike.
+
 Format 1 (uqguide before format 2; still read): ``/inputs/names`` and, per method,
 ``stats/<output>/{mean, std, skewness, kurtosis, cov, sem, ci_<stat>, sobol_first,
 sobol_total, quantiles, ci_quantiles}`` without dimension scales, strings as bytes.
@@ -38,6 +55,7 @@ import datetime as _dt
 import json
 import platform
 from dataclasses import dataclass, field
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -52,8 +70,11 @@ from ..core.events import EventEstimate
 from ..core.types import Estimate, GeneratedRows, ScalarIndex
 from ..models.base import OutputInfo
 from .surrogate import StoredSurrogate, read_surrogate, write_surrogate
-from .netcdf_file import UTF8, attach, read_method_stats, strings, write_method_stats, write_scale
-from ..stats.moments import STAT_NAMES, OutputStats
+from .netcdf_file import (
+    UTF8, Blocks, Dataset, Group, method_group, read_method_stats, strings, write_group,
+)
+from .statistics import OutputStatistics, method_statistics
+from ..stats.moments import OutputStats
 
 FORMAT = 2
 #: Format versions :func:`read_hdf5` reads.
@@ -233,7 +254,8 @@ class Result:
 
     def to_xarray(self, label: str | None = None) -> Any:
         """The statistics as an ``xarray.Dataset``: of method ``label``, or of every method
-        along a ``method`` dimension (see :mod:`uqguide.results.frames`; needs ``uqguide[xarray]``).
+        along a ``label`` dimension, ``ds.sel(label="mc1000")`` (see
+        :mod:`uqguide.results.frames`; needs ``uqguide[xarray]``).
 
         Parameters
         ----------
@@ -245,7 +267,7 @@ class Result:
         xarray.Dataset
             Per output: ``<output>`` (dimensions ``statistic``, ``time`` for a series,
             ``<output>_component``), its covariance, intervals, Sobol' indices and quantiles
-            where the method gives them; plus ``method`` when all methods are stacked.
+            where the method gives them; plus ``label`` when all methods are stacked.
         """
         from .frames import to_xarray
 
@@ -262,7 +284,7 @@ class Result:
         Returns
         -------
         pandas.DataFrame
-            One row per value: columns ``method``, ``time`` [s] (series only), ``component``,
+            One row per value: columns ``label``, ``time`` [s] (series only), ``component``,
             ``statistic``, ``value`` (in the output's unit), ``ci_low``, ``ci_high``.
         """
         from .frames import to_dataframe
@@ -333,100 +355,150 @@ def write_hdf5(result: Result, path: str | Path) -> Path:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    layout = file_layout(result)
     with atomic.atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
-            _fill(f, result)
+            write_group(f, layout)
     return path
 
 
-def _fill(f: h5py.File, result: Result) -> None:
-    f.attrs["format"] = FORMAT
-    f.attrs["uqguide_version"] = __version__
-    f.attrs["name"] = result.name
-    f.attrs["model"] = result.model
-    f.attrs["seed"] = int(result.config.get("seed", 0))
-    f.attrs["reference"] = result.reference or ""
-    f.attrs["config_yaml"] = yaml.safe_dump(result.config, sort_keys=False)
-    f.attrs["created_utc"] = result.provenance.get("created_utc", "")
-    f.attrs["wall_seconds"] = float(result.provenance.get("wall_seconds", 0.0))
-    f.attrs["versions_json"] = json.dumps(result.provenance.get("versions", {}))
-    # HDF5 lists groups alphabetically: keep the config's method order explicitly.
-    f.attrs["method_order"] = json.dumps([r.label for r in result.runs])
-    f.attrs["output_order"] = json.dumps([o.name for o in result.outputs])
-    write_scale(f, "time", result.time, units="s", long_name="time")
-    write_scale(f, "input", result.input_names, long_name="uncertain input")
+def file_layout(result: Result) -> Group:
+    """The whole file of ``result``, laid out (module docstring), for one writing pass.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    Group
+        The root group; large arrays (a generated design, the failure reasons) are written
+        block by block when it is written.
+    """
+    labels = [r.label for r in result.runs]
+    attrs = {
+        "format": FORMAT, "uqguide_version": __version__, "name": result.name,
+        "model": result.model, "seed": int(result.config.get("seed", 0)),
+        "reference": result.reference or "",
+        "config_yaml": yaml.safe_dump(result.config, sort_keys=False),
+        "created_utc": result.provenance.get("created_utc", ""),
+        "wall_seconds": float(result.provenance.get("wall_seconds", 0.0)),
+        "versions_json": json.dumps(result.provenance.get("versions", {})),
+        # HDF5 lists groups alphabetically: keep the config's method order explicitly.
+        "method_order": json.dumps(labels),
+        "output_order": json.dumps([o.name for o in result.outputs]),
+    }
+    scales = {"time": Dataset(result.time, attrs={"units": "s", "long_name": "time"}),
+              "input": Dataset(np.array(result.input_names, dtype=object),
+                               attrs={"long_name": "uncertain input"})}
     if result.report_times:
-        write_scale(f, "report_times", np.asarray(result.report_times, dtype=float), units="s")
-    for o in result.outputs:
-        g = f.create_group(f"outputs/{o.name}")
-        g.attrs.update(kind=o.kind, unit=o.unit, description=o.description,
-                       components=json.dumps(list(o.components)))
-    for r in result.runs:
-        _write_run(f.create_group(f"methods/{r.label}"), r, result)
+        scales["report_times"] = Dataset(np.asarray(result.report_times, dtype=float),
+                                         attrs={"units": "s"})
+    scales["label"] = Dataset(np.array(labels, dtype=object),
+                              attrs={"long_name": "method label, config order"})
+    scales["output"] = Dataset(np.array([o.name for o in result.outputs], dtype=object),
+                               attrs={"long_name": "output, config order"})
+    index = {
+        "method_name": Dataset(np.array([r.estimate.method for r in result.runs], dtype=object),
+                               ("label",), {"long_name": "registered method"}),
+        "n_runs": Dataset(np.array([r.n_runs for r in result.runs], dtype=np.int64), ("label",),
+                          {"long_name": "model runs"}),
+        "n_failed": Dataset(np.array([r.n_failed for r in result.runs], dtype=np.int64),
+                            ("label",), {"long_name": "failed model runs"}),
+        "success": Dataset(np.array([r.success for r in result.runs], dtype=np.uint8),
+                           ("label",), {"long_name": "1 where the method gave statistics"}),
+        "method_group": Dataset(np.array([f"methods/{x}" for x in labels], dtype=object),
+                                ("label",), {"long_name": "group of the method's statistics"}),
+        "output_kind": Dataset(np.array([o.kind for o in result.outputs], dtype=object),
+                               ("output",), {"long_name": "series or scalar"}),
+        "output_unit": Dataset(np.array([o.unit for o in result.outputs], dtype=object),
+                               ("output",), {"long_name": "unit (SI)"}),
+        "output_description": Dataset(np.array([o.description for o in result.outputs],
+                                               dtype=object), ("output",)),
+    }
+    outputs = Group(groups={o.name: Group(attrs={
+        "kind": o.kind, "unit": o.unit, "description": o.description,
+        "components": json.dumps(list(o.components))}) for o in result.outputs})
+    methods = Group(groups={r.label: _method_layout(r, result) for r in result.runs})
+    return Group(attrs, scales, index, {"outputs": outputs, "methods": methods})
 
 
-def _write_reasons(g: h5py.Group, reasons: np.ndarray, block: int = 1 << 20) -> h5py.Dataset:
-    """Failure reasons as UTF-8 strings (netCDF-4 ``string``), converted a block at a time (a
-    list of 1e7 Python strings would cost more than the result)."""
-    n = len(reasons)
-    ds = g.create_dataset("reasons", shape=(n,), dtype=UTF8,
-                          compression="gzip" if n > 4096 else None)
-    # Only failed samples have a reason; the others read back as the dataset's fill value "".
-    # Writing just those keeps a 1e6-run result with few failures from converting a million
-    # empty Python strings (1.5 s of a 9 s run).
-    failed = np.flatnonzero(np.asarray(reasons, dtype=object).astype(bool))
-    if failed.size > n // 4:
-        for a in range(0, n, block):
-            ds[a:a + block] = np.array([str(v) for v in reasons[a:a + block]], dtype=object)
-    else:
-        for a in range(0, failed.size, block):
-            idx = failed[a:a + block]
-            ds[idx] = np.array([str(v) for v in reasons[idx]], dtype=object)
-    return ds
-
-
-def _write_run(g: h5py.Group, r: MethodRun, result: Result) -> None:
+def _method_layout(r: MethodRun, result: Result) -> Group:
+    """The group ``methods/<label>``: the method's statistics and the runs behind them."""
     e = r.estimate
+    stats = method_statistics(r.label, e.stats, result.outputs)
+    g = method_group(stats, result.time, result.input_names)
     g.attrs.update(method=e.method, n_runs=r.n_runs, n_failed=r.n_failed,
                    model_seconds=r.model_seconds, fit_seconds=r.fit_seconds,
                    wall_seconds=r.wall_seconds, success=r.success, message=r.message,
                    diagnostics_json=json.dumps(e.diagnostics, default=_json_default))
-    outputs = [o for o in result.outputs if o.name in e.stats or o.name in r.scalars]
-    scales = write_method_stats(g, e.stats, outputs, result.time, result.input_names)
-    if e.scalar_names and e.scalar_mean is not None:
-        j = g.create_group("scalar_joint")
-        names = write_scale(j, "names", e.scalar_names)
-        attach(j.create_dataset("mean", data=e.scalar_mean), [names])
-        j.create_dataset("cov", data=e.scalar_cov)
-    if e.surrogate is not None and hasattr(e.surrogate, "expansions"):
-        write_surrogate(g.create_group("surrogate"), e.surrogate)
-    for name, ev in e.events.items():
-        g.create_group(f"events/{name}").attrs.update(ev.as_dict())
-    s = g.create_group("samples")
+    if e.scalar_names and e.scalar_mean is not None and e.scalar_cov is not None:
+        g.groups["scalar_joint"] = Group(
+            scales={"names": Dataset(np.array(e.scalar_names, dtype=object))},
+            variables={"mean": Dataset(e.scalar_mean, ("names",)),
+                       "cov": Dataset(e.scalar_cov)})
+    surrogate = e.surrogate
+    if surrogate is not None and hasattr(surrogate, "expansions"):
+        g.groups["surrogate"] = Group(fill=lambda h: write_surrogate(h, surrogate))
+    if e.events:
+        g.groups["events"] = Group(groups={name: Group(attrs=ev.as_dict())
+                                           for name, ev in e.events.items()})
+    g.groups["samples"] = _samples_layout(r, g.scales, result)
+    return g
+
+
+def _samples_layout(r: MethodRun, method_scales: dict[str, Dataset], result: Result) -> Group:
+    """The group ``samples``: every run's inputs, failure and scalar outputs."""
     x = r.x
-    sample = write_scale(s, "sample", np.arange(x.shape[0]))
     # Not compressed: random inputs are incompressible doubles (1e6 x 7 of them: 56 MB raw,
     # 53 MB deflated, for 1.2 s of a 9 s run).
-    gz = None
     if isinstance(x, GeneratedRows):  # written chunk by chunk: never held whole
-        ds = s.create_dataset("x", shape=x.shape, dtype="f8", compression=gz,
-                              chunks=(min(max(x.n, 1), 65536), max(x.d, 1)) if x.size else None)
-        for start, rows in x.chunks():
-            ds[start:start + rows.shape[0]] = rows
+        xs = Dataset(Blocks(x.shape, "f8", lambda: ((slice(start, start + rows.shape[0]), rows)
+                                                    for start, rows in x.chunks())),
+                     ("sample", "input"),
+                     storage={"chunks": (min(max(x.n, 1), 65536), max(x.d, 1)) if x.size
+                              else None})
     else:
-        ds = s.create_dataset("x", data=x, compression=gz)
-    attach(ds, [sample, scales["input"]])
-    attach(s.create_dataset("failed", data=r.failed.astype(np.uint8)), [sample])
-    attach(_write_reasons(s, r.reasons), [sample])
+        xs = Dataset(x, ("sample", "input"))
+    variables = {"x": xs, "failed": Dataset(r.failed.astype(np.uint8), ("sample",)),
+                 "reasons": _reasons(r.reasons)}
     info = {o.name: o for o in result.outputs}
+    scalars = {}
     for name, y in r.scalars.items():
-        comp = scales.get(f"{name}_component")
-        d = s.create_dataset(f"scalars/{name}", data=y, shuffle=y.size > 4096,
-                             compression="gzip" if y.size > 4096 else None,
-                             compression_opts=1 if y.size > 4096 else None)
-        if comp is not None and info[name].kind == "scalar" and y.ndim == 2 \
-                and y.shape[1] == comp.shape[0]:
-            attach(d, [sample, comp])
+        big = y.size > 4096
+        comp = method_scales.get(f"{name}_component")
+        # the component scale only where it fits (a method without statistics of the output
+        # has none; a series' scalars are not its components)
+        fits = comp is not None and info[name].kind == "scalar" and y.ndim == 2 \
+            and y.shape[1] == np.shape(comp.data)[0]
+        scalars[name] = Dataset(y, ("sample", f"{name}_component") if fits else None,
+                                storage={"shuffle": big, "compression": "gzip" if big else None,
+                                         "compression_opts": 1 if big else None})
+    return Group(scales={"sample": Dataset(np.arange(x.shape[0]))}, variables=variables,
+                 groups={"scalars": Group(variables=scalars)} if scalars else {})
+
+
+def _reasons(reasons: np.ndarray, block: int = 1 << 20) -> Dataset:
+    """Failure reasons as UTF-8 strings (netCDF-4 ``string``), converted a block at a time (a
+    list of 1e7 Python strings would cost more than the result)."""
+    n = len(reasons)
+    # Only failed samples have a reason; the others read back as the dataset's fill value "".
+    # Writing just those keeps a 1e6-run result with few failures from converting a million
+    # empty Python strings (1.5 s of a 9 s run).
+    failed = np.flatnonzero(np.asarray(reasons, dtype=object).astype(bool))
+
+    def blocks() -> Iterator[tuple[Any, np.ndarray]]:
+        if failed.size > n // 4:
+            for a in range(0, n, block):
+                yield slice(a, a + block), np.array([str(v) for v in reasons[a:a + block]],
+                                                    dtype=object)
+        else:
+            for a in range(0, failed.size, block):
+                idx = failed[a:a + block]
+                yield idx, np.array([str(v) for v in reasons[idx]], dtype=object)
+
+    return Dataset(Blocks((n,), UTF8, blocks), ("sample",),
+                   storage={"compression": "gzip" if n > 4096 else None})
 
 
 # ---------------------------------------------------------------------------- reading
@@ -576,7 +648,7 @@ def _check_result(r: Result, path: Path) -> None:
     bad = None
     if r.time.ndim != 1:
         bad = f"time has shape {r.time.shape}, expected (T,)"
-    names = {o.name: o for o in r.outputs}
+    names = {o.name for o in r.outputs}
     for run in r.runs:
         if bad:
             break
@@ -586,24 +658,29 @@ def _check_result(r: Result, path: Path) -> None:
                    f"expected (n, {len(r.input_names)})")
         elif run.failed.shape != (n,) or run.reasons.shape != (n,):
             bad = f"{run.label}: samples/failed or reasons do not have {n} rows"
-        for name, s in run.estimate.stats.items():
-            if bad:
-                break
-            o = names.get(name)
-            if o is None:
-                bad = f"{run.label}: statistics of '{name}', which is not an output of the file"
-                break
-            want = (r.time.size, o.k) if o.kind == "series" else (o.k,)
-            for stat in STAT_NAMES:
-                arr = np.asarray(s.stat(stat))
-                if arr.shape != want or arr.dtype.kind not in "fiu":
-                    bad = (f"{run.label}/{name}: {stat} has shape {arr.shape} and type "
-                           f"{arr.dtype}, expected {want} numbers")
-                    break
-            if not bad and s.sem is not None and np.shape(s.sem) != want:
-                bad = f"{run.label}/{name}: sem has shape {np.shape(s.sem)}, expected {want}"
-            for stat, ci in s.ci.items():
-                if not bad and np.shape(ci) != (2, *want):
-                    bad = f"{run.label}/{name}: ci_{stat} has shape {np.shape(ci)}"
+        unknown = [name for name in run.estimate.stats if name not in names]
+        if not bad and unknown:
+            bad = (f"{run.label}: statistics of '{unknown[0]}', which is not an output of "
+                   f"the file")
+        for name, v in method_statistics(run.label, run.estimate.stats, r.outputs).items():
+            if not bad:
+                bad = _misshapen(v, r.time.size, f"{run.label}/{name}")
     if bad:
         raise ResultError(f"{path}: inconsistent result file ({bad})")
+
+
+def _misshapen(v: OutputStatistics, n_steps: int, where: str) -> str | None:
+    """What is wrong with the shapes of one output's moments, sem and intervals, if anything."""
+    o = v.output
+    want = (n_steps, o.k) if o.kind == "series" else (o.k,)
+    for m in v.moments:
+        arr = np.asarray(m.value)
+        if arr.shape != want or arr.dtype.kind not in "fiu":
+            return (f"{where}: {m.name} has shape {arr.shape} and type {arr.dtype}, "
+                    f"expected {want} numbers")
+    if v.sem is not None and np.shape(v.sem) != want:
+        return f"{where}: sem has shape {np.shape(v.sem)}, expected {want}"
+    for m in v.moments:
+        if m.ci is not None and np.shape(m.ci) != (2, *want):
+            return f"{where}: ci_{m.name} has shape {np.shape(m.ci)}"
+    return None

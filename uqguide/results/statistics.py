@@ -1,0 +1,411 @@
+"""A run's statistics, described once: which there are, how they are named and labelled, where
+they are read, their intervals and standard errors.
+
+Every reader of a result's statistics goes through this description rather than through
+:class:`~uqguide.core.types.OutputStats`: the result file and the xarray / pandas views
+(:mod:`uqguide.results.labelled`, :mod:`uqguide.results.frames`), the report tables
+(:mod:`uqguide.report.tables`) and the regression gate (:mod:`uqguide.gate`).
+
+What one method estimated of one output is an :class:`OutputStatistics`. Its
+:attr:`~OutputStatistics.statistics`, in the order a table lists them, are :class:`Statistic`
+entries:
+
+- the method's own ``mean``, ``std``, ``skewness`` and ``kurtosis``, labelled with the method's
+  label;
+- a validated PCE's control-variate estimates of the same four, labelled ``<label>+cv``;
+- the quantiles, named by their level (``q0.5``; :func:`uqguide.stats.quantiles.level_name`).
+
+Each holds its values over every step and component, its 95% interval where the method gives
+one, and where the value is usable. The places a statistic is reported at (the report times'
+steps and the last step of a series, the value of a scalar, per component) are
+:class:`Point` entries from :func:`points`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal, Protocol
+
+import numpy as np
+
+from ..config.report_times import report_indices
+from ..core.types import STAT_NAMES, OutputStats
+from ..stats.quantiles import level_name
+
+if TYPE_CHECKING:
+    from ..models.base import OutputInfo
+
+#: How the label of a control-variate estimate ends.
+CORRECTED_SUFFIX = "+cv"
+#: Half-width of a 95% normal interval in standard errors.
+Z95 = 1.959963984540054
+#: How an output's statistics are judged: by standard errors (sample estimates) or by a relative
+#: tolerance (a PCE's exact or surrogate-sampled moments).
+SAMPLE, RELATIVE = "standard_error", "relative_tolerance"
+
+Kind = Literal["moment", "corrected", "quantile"]
+
+
+@dataclass(frozen=True)
+class Point:
+    """One place a statistic is reported at: a step of a series, or a scalar, and a component.
+
+    Attributes
+    ----------
+    at : {"report", "end", "scalar"}
+        A report time's step, the last step of the grid, or a scalar output's value.
+    time : float or None
+        The step's time [s]; None for a scalar.
+    step : int or None
+        The step's index on the time grid; None for a scalar.
+    component : int
+        The component's index.
+    name : str
+        The component's name (``""`` for a single component).
+    """
+
+    at: Literal["report", "end", "scalar"]
+    time: float | None
+    step: int | None
+    component: int
+    name: str
+
+    @property
+    def where(self) -> tuple[int, ...]:
+        """Index of this point in a statistic's values: ``(step, component)`` or
+        ``(component,)``."""
+        return (self.component,) if self.step is None else (self.step, self.component)
+
+
+def points(output: OutputInfo, time: np.ndarray,
+           report_times: Sequence[float] | None) -> list[Point]:
+    """The points an output's statistics are reported at, step by step, component by component.
+
+    Parameters
+    ----------
+    output : OutputInfo
+    time : ndarray, shape (T,)
+        The time grid [s].
+    report_times : sequence of float or None
+        The config's report times [s] (their nearest steps, plus the last step;
+        :func:`uqguide.config.report_times.report_indices`).
+
+    Returns
+    -------
+    list of Point
+    """
+    if output.kind == "scalar":
+        return [Point("scalar", None, None, c, n) for c, n in enumerate(output.components)]
+    last = time.size - 1
+    return [Point("end" if i == last else "report", float(time[i]), int(i), c, n)
+            for i in report_indices(time, report_times)
+            for c, n in enumerate(output.components)]
+
+
+@dataclass(frozen=True)
+class Statistic:
+    """One statistic of one output by one method, at every step and component.
+
+    Attributes
+    ----------
+    label : str
+        The method's label; ``<label>+cv`` for a control-variate estimate.
+    name : str
+        ``mean``, ``std``, ``skewness``, ``kurtosis``, or a quantile's level name (``q0.99``).
+    kind : {"moment", "corrected", "quantile"}
+        The method's own moment, a validated PCE's control-variate moment, or a quantile.
+    value : ndarray, shape (..., k)
+        In the output's unit (skewness and kurtosis: dimensionless); a quantile is NaN at the
+        steps where none was computed.
+    ci : ndarray, shape (2, ..., k), or None
+        The method's 95% interval (low, high); None where the method gives none.
+    sem : ndarray, shape (..., k), or None
+        The standard error of a sample mean (the mean's interval when it has no other).
+    usable : ndarray of bool, shape (..., k), or bool, or None
+        Where the value is usable (a PCE withdraws its own moments where its surrogate is not);
+        True: everywhere; None: not judged (quantiles).
+    level : float or None
+        A quantile's probability.
+    """
+
+    label: str
+    name: str
+    kind: Kind
+    value: np.ndarray
+    ci: np.ndarray | None = None
+    sem: np.ndarray | None = None
+    usable: np.ndarray | bool | None = True
+    level: float | None = None
+
+    def defined_at(self, where: tuple[int, ...]) -> bool:
+        """Whether the statistic exists at ``where``: a quantile is NaN at the steps it was
+        not computed at; a moment exists everywhere (a NaN moment is a value).
+
+        Parameters
+        ----------
+        where : tuple of int
+
+        Returns
+        -------
+        bool
+        """
+        return self.kind != "quantile" or not np.isnan(self.value[where])
+
+    def interval(self, where: tuple[int, ...]) -> tuple[float, float]:
+        """The 95% interval at ``where``: the method's; for a sample mean without one,
+        ``mean -+ 1.96 sem``; NaN where there is none.
+
+        Parameters
+        ----------
+        where : tuple of int
+
+        Returns
+        -------
+        (float, float)
+        """
+        if self.ci is not None:
+            return float(self.ci[0][where]), float(self.ci[1][where])
+        if self.sem is not None:
+            m, e = self.value[where], self.sem[where]
+            return float(m - 1.96 * e), float(m + 1.96 * e)
+        return float("nan"), float("nan")
+
+    def usable_at(self, where: tuple[int, ...]) -> bool | None:
+        """Whether the value at ``where`` is usable; None for a statistic that is not judged.
+
+        Parameters
+        ----------
+        where : tuple of int
+
+        Returns
+        -------
+        bool or None
+        """
+        if self.usable is None or isinstance(self.usable, bool):
+            return self.usable
+        return bool(self.usable[where])
+
+
+@dataclass(frozen=True)
+class OutputStatistics:
+    """What one method estimated of one output: its statistics, and what they are judged by.
+
+    Attributes
+    ----------
+    label : str
+        The method's label.
+    output : OutputInfo
+    moments : tuple of Statistic
+        Its own mean, std, skewness and kurtosis, in that order.
+    corrected : tuple of Statistic
+        A validated PCE's control-variate moments (``<label>+cv``); empty otherwise.
+    quantiles : tuple of Statistic
+        By increasing level; empty when none were computed.
+    n_used : int
+        Runs (or surrogate draws) the moments used.
+    moments_method : str
+        ``"sample"``, ``"exact"`` or ``"surrogate-sampling"``.
+    cov : ndarray, shape (..., k, k)
+        The covariance between components.
+    sobol_first, sobol_total : ndarray, shape (..., k, d), or None
+        Sobol' indices per input (PCE).
+    validation_error : ndarray, shape (..., k), or None
+        A validated PCE's out-of-sample relative error.
+    usable : ndarray of bool, shape (..., k), or None
+        Where a PCE's surrogate is usable; None: not judged (sampling methods).
+    """
+
+    label: str
+    output: OutputInfo
+    moments: tuple[Statistic, ...]
+    corrected: tuple[Statistic, ...]
+    quantiles: tuple[Statistic, ...]
+    n_used: int
+    moments_method: str
+    cov: np.ndarray
+    sobol_first: np.ndarray | None = None
+    sobol_total: np.ndarray | None = None
+    validation_error: np.ndarray | None = None
+    usable: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, label: str, output: OutputInfo, s: OutputStats) -> OutputStatistics:
+        """The description of one method's statistics of ``output``.
+
+        Parameters
+        ----------
+        label : str
+            The method's label.
+        output : OutputInfo
+        s : OutputStats
+            What the method estimated.
+
+        Returns
+        -------
+        OutputStatistics
+        """
+        usable = None if s.usable is None else np.asarray(s.usable, dtype=bool)
+        moments = tuple(Statistic(label, n, "moment", s.stat(n), s.ci.get(n),
+                                  s.sem if n == "mean" else None,
+                                  True if usable is None else usable) for n in STAT_NAMES)
+        corrected = tuple(Statistic(label + CORRECTED_SUFFIX, n, "corrected", s.corrected[n],
+                                    s.corrected_ci[n]) for n in STAT_NAMES) \
+            if s.corrected else ()
+        table = s.quantile_table()
+        quantiles = () if table is None else tuple(
+            Statistic(label, level_name(p), "quantile", table[1][j], table[2][:, j],
+                      usable=None, level=float(p)) for j, p in enumerate(table[0]))
+        return cls(label, output, moments, corrected, quantiles, int(s.n_used),
+                   s.moments_method, s.cov, s.sobol_first, s.sobol_total,
+                   s.validation_error, usable)
+
+    @property
+    def statistics(self) -> tuple[Statistic, ...]:
+        """Every statistic in reading order: own moments, control-variate moments, quantiles."""
+        return self.moments + self.corrected + self.quantiles
+
+    @property
+    def sem(self) -> np.ndarray | None:
+        """The standard error of the mean (sample estimates only)."""
+        return self.moments[0].sem
+
+    @property
+    def uncertainty(self) -> str:
+        """How the statistics are judged: :data:`SAMPLE` or :data:`RELATIVE`."""
+        return SAMPLE if self.moments_method == "sample" else RELATIVE
+
+    @property
+    def quantile_levels(self) -> tuple[float, ...]:
+        """The quantiles' probabilities (empty when there are none)."""
+        return tuple(float(q.level) for q in self.quantiles if q.level is not None)
+
+    def moment(self, name: str) -> Statistic:
+        """The method's own moment ``name``.
+
+        Parameters
+        ----------
+        name : {"mean", "std", "skewness", "kurtosis"}
+
+        Returns
+        -------
+        Statistic
+        """
+        return self.moments[STAT_NAMES.index(name)]
+
+    def own(self, name: str) -> Statistic | None:
+        """The method's own statistic of that name (a moment or a quantile), if it has one.
+
+        Parameters
+        ----------
+        name : str
+            ``mean``... or a quantile's level name.
+
+        Returns
+        -------
+        Statistic or None
+        """
+        return next((st for st in self.moments + self.quantiles if st.name == name), None)
+
+    def usable_at(self, where: tuple[int, ...]) -> bool:
+        """Whether the method's own moments are usable at ``where`` (always, unless judged).
+
+        Parameters
+        ----------
+        where : tuple of int
+
+        Returns
+        -------
+        bool
+        """
+        return True if self.usable is None else bool(self.usable[where])
+
+    def standard_error(self, name: str, where: tuple[int, ...]) -> float:
+        """Standard error of the sample moment ``name`` at ``where``.
+
+        The standard error of the mean where there is one; else the half-width of the
+        method's 95% interval over :data:`Z95` (a bootstrap percentile interval of a
+        near-normal estimator is ``-+1.96 se``); else normal theory: ``std / sqrt(n)``,
+        ``std / sqrt(2 n)``, ``sqrt(6 / n)``, ``sqrt(24 / n)``.
+
+        Parameters
+        ----------
+        name : {"mean", "std", "skewness", "kurtosis"}
+        where : tuple of int
+
+        Returns
+        -------
+        float
+            In the statistic's unit.
+        """
+        n = max(self.n_used, 1)
+        st = self.moment(name)
+        if name == "mean" and st.sem is not None:
+            return float(st.sem[where])
+        if st.ci is not None:
+            lo, hi = float(st.ci[0][where]), float(st.ci[1][where])
+            if math.isfinite(lo) and math.isfinite(hi):
+                return (hi - lo) / (2.0 * Z95)
+        std = float(self.moment("std").value[where])
+        normal_theory = {"mean": std / math.sqrt(n), "std": std / math.sqrt(2 * n),
+                         "skewness": math.sqrt(6.0 / n), "kurtosis": math.sqrt(24.0 / n)}
+        return normal_theory[name]
+
+
+def method_statistics(label: str, stats: Mapping[str, OutputStats],
+                      outputs: Sequence[OutputInfo]) -> dict[str, OutputStatistics]:
+    """The description of one method's statistics, output by output.
+
+    Parameters
+    ----------
+    label : str
+        The method's label.
+    stats : mapping of str to OutputStats
+        What the method estimated, by output name.
+    outputs : sequence of OutputInfo
+        The result's outputs, in their order.
+
+    Returns
+    -------
+    dict of str to OutputStatistics
+        In the outputs' order, for the outputs the method has statistics of.
+    """
+    return {o.name: OutputStatistics.of(label, o, stats[o.name])
+            for o in outputs if o.name in stats}
+
+
+class _Estimate(Protocol):
+    @property
+    def stats(self) -> dict[str, OutputStats]: ...
+
+
+class _Run(Protocol):
+    @property
+    def label(self) -> str: ...
+    @property
+    def estimate(self) -> _Estimate: ...
+
+
+class _Result(Protocol):
+    @property
+    def runs(self) -> Sequence[_Run]: ...
+    @property
+    def outputs(self) -> Sequence[OutputInfo]: ...
+
+
+def result_statistics(result: _Result) -> dict[str, dict[str, OutputStatistics]]:
+    """The description of every method's statistics of a result.
+
+    Parameters
+    ----------
+    result : Result
+        :class:`uqguide.results.result.Result` (or what has its ``runs`` and ``outputs``).
+
+    Returns
+    -------
+    dict of str to dict of str to OutputStatistics
+        By method label (the result's order), then by output name (the outputs' order).
+    """
+    return {r.label: method_statistics(r.label, r.estimate.stats, result.outputs)
+            for r in result.runs}
