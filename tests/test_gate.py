@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -132,10 +133,15 @@ def test_perturbed_ftcapn_navigation_constant_fails_reseed_passes(write_config, 
     res = runner.invoke(main, ["check", str(tmp_path / "c" / "ft.h5"), "--baseline", str(b)])
     assert res.exit_code == 1
     assert "mc200: mean of omega_s at t=20 s" in res.output
-    # a tolerance of 1000 standard errors lets the same change through: the knob is the sigmas
-    res = runner.invoke(main, ["check", str(tmp_path / "c" / "ft.h5"), "--baseline", str(b),
-                               "--sigmas", "1000"])
-    assert res.exit_code == 0, res.output
+    # 1000 standard errors would let the same change through, so the gate refuses to be
+    # widened that far (exit 2, nothing checked); at its limit of 10 it still fails the change
+    for sigmas, code in (("1000", 2), ("1e300", 2), ("10", 1)):
+        res = runner.invoke(main, ["check", str(tmp_path / "c" / "ft.h5"), "--baseline",
+                                   str(b), "--sigmas", sigmas])
+        assert res.exit_code == code, (sigmas, res.output)
+    assert "must be a number in (0, 10]" in runner.invoke(
+        main, ["check", str(tmp_path / "c" / "ft.h5"), "--baseline", str(b),
+               "--sigmas", "1000"]).output
 
 
 def test_zero_spread_skips_shape_statistics_and_nan_equals_nan(base_result, base):
@@ -303,3 +309,65 @@ def test_yaml_config_round_trip_keeps_baseline_config(base_result, tmp_path):
     """The baseline's config is the resolved config of the result (what the run really used)."""
     b = read_baseline(write_baseline(base_result, tmp_path / "b.json"))
     assert yaml.safe_dump(b.config) == yaml.safe_dump(base_result.config)
+
+
+@pytest.mark.parametrize("command", ["check", "baseline"])
+@pytest.mark.parametrize("value, ok", [("0.2", True), ("0.21", False), ("2", False),
+                                       ("nan", False), ("0", False)])
+def test_check_and_baseline_accept_the_same_pce_rtol_range(command, value, ok, tmp_path):
+    """``check --pce-rtol 2`` was accepted while ``baseline --pce-rtol 2`` was refused: one range,
+    (0, 0.2], for both; outside it, exit 2 naming the option, before any file is read."""
+    from uqguide.gate.tolerances import tolerance_problem
+
+    assert (tolerance_problem("--pce-rtol", value) is None) == ok
+    if not ok:
+        args = ([command, str(tmp_path / "r.h5"), "--baseline", str(tmp_path / "b.json")]
+                if command == "check" else [command, str(tmp_path / "r.h5"), "-o",
+                                            str(tmp_path / "b.json")])
+        res = CliRunner().invoke(main, args + ["--pce-rtol", value])
+        assert res.exit_code == 2 and "--pce-rtol" in res.output and "(0, 0.2]" in res.output
+
+
+def _edited(baseline_path, tmp_path, edit):
+    data = json.loads(baseline_path.read_text())
+    edit(data)
+    path = tmp_path / "edited.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _sample_output(data):
+    for m in data["methods"].values():
+        for o in m["outputs"].values():
+            if o["uncertainty"] == "standard_error":
+                return m, o
+    raise AssertionError("no Monte Carlo output in the baseline")
+
+
+def test_hand_loosened_error_bars_are_refused(tmp_path):
+    """Two hand edits that let a real regression through: every non-mean standard error set to
+    1e300 (11 of 90 statistics still failed), and n_used 1 with mean_se = std (2 of 90)."""
+    golden = Path(__file__).parent / "golden" / "ftcapn_table3.baseline.json"
+
+    def huge_errors(data):
+        for p in _sample_output(data)[1]["points"]:
+            for k in ("std_se", "skewness_se", "kurtosis_se"):
+                p[k] = 1e300
+
+    def one_run(data):
+        o = _sample_output(data)[1]
+        o["n_used"] = 1
+        for p in o["points"]:
+            p["mean_se"] = p["std"]
+
+    def more_runs_than_made(data):
+        m, o = _sample_output(data)
+        o["n_used"] = m["n_runs"] + 1
+        for p in o["points"]:
+            p["mean_se"] = p["std"] / (m["n_runs"] + 1) ** 0.5
+
+    for edit, why in ((huge_errors, "std_se"), (one_run, "n_used"),
+                      (more_runs_than_made, "n_used")):
+        with pytest.raises(ResultError, match=why):
+            read_baseline(_edited(golden, tmp_path, edit))
+    read_baseline(golden)  # the file as written passes

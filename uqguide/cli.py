@@ -329,7 +329,8 @@ def _gate_preflight(path: Path, cfg: Any) -> Any:
 def _gate_verdict(result: Any, baseline: Any, path: Path, sigmas: float | None = None,
                   pce_rtol: float | None = None, show_all: bool = False) -> None:
     """Print the check of ``result`` against ``baseline``; exit 1 on a regression."""
-    from .gate.check import DEFAULT_SIGMAS, check_result
+    from .gate.check import check_result
+    from .gate.tolerances import DEFAULT_SIGMAS
 
     report = check_result(result, baseline, DEFAULT_SIGMAS if sigmas is None else sigmas,
                           pce_rtol, str(path))
@@ -338,24 +339,26 @@ def _gate_verdict(result: Any, baseline: Any, path: Path, sigmas: float | None =
         sys.exit(1)
 
 
-class _PositiveFinite(click.ParamType):
-    """A float that is finite and > 0 (click's FloatRange lets inf and nan through)."""
+class _GateTolerance(click.ParamType):
+    """A gate tolerance within its limits (:mod:`uqguide.gate.tolerances`), the same range for
+    ``check`` and ``baseline`` (click's FloatRange lets inf and nan through)."""
 
     name = "float"
 
+    def __init__(self, option: str) -> None:
+        self.option = option
+
     def convert(self, value: Any, param: Any, ctx: Any) -> float:
-        import math
+        from .gate.tolerances import tolerance_problem
 
-        try:
-            v = float(value)
-        except (TypeError, ValueError):
-            v = math.nan
-        if not (math.isfinite(v) and v > 0):
-            self.fail(f"must be a finite number > 0 (got {value!r})", param, ctx)
-        return v
+        problem = tolerance_problem(self.option, value)
+        if problem:
+            self.fail(problem.split(": ", 1)[1], param, ctx)
+        return float(value)
 
 
-POSITIVE_FINITE = _PositiveFinite()
+SIGMAS = _GateTolerance("--sigmas")
+PCE_RTOL = _GateTolerance("--pce-rtol")
 
 _RESULT_ARG = click.argument("result_path", metavar="RESULT",
                              type=click.Path(dir_okay=False, path_type=Path))
@@ -366,10 +369,12 @@ _RESULT_ARG = click.argument("result_path", metavar="RESULT",
 @click.option("--baseline", "baseline_path", required=True,
               type=click.Path(dir_okay=False, path_type=Path),
               help="Baseline JSON written by `uqguide baseline`.")
-@click.option("--sigmas", type=POSITIVE_FINITE, default=None,
-              help="Monte Carlo tolerance in combined standard errors [default: 4].")
-@click.option("--pce-rtol", type=POSITIVE_FINITE, default=None,
-              help="Relative tolerance of PCE statistics [default: the baseline's].")
+@click.option("--sigmas", type=SIGMAS, default=None,
+              help="Monte Carlo tolerance in combined standard errors, at most 10 "
+                   "[default: 4].")
+@click.option("--pce-rtol", type=PCE_RTOL, default=None,
+              help="Relative tolerance of PCE statistics, at most 0.2 [default: the "
+                   "baseline's].")
 @click.option("--all", "show_all", is_flag=True,
               help="List every compared statistic, not only the failing ones.")
 @_handle_errors
@@ -392,8 +397,8 @@ def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol
 @_RESULT_ARG
 @click.option("-o", "--output", "out_path", required=True,
               type=click.Path(dir_okay=False, path_type=Path), help="Baseline JSON to write.")
-@click.option("--pce-rtol", type=POSITIVE_FINITE, default=0.02,
-              show_default=True, help="Relative tolerance of PCE statistics, stored in it.")
+@click.option("--pce-rtol", type=PCE_RTOL, default=0.02, show_default=True,
+              help="Relative tolerance of PCE statistics, stored in it; at most 0.2.")
 @click.option("--force", is_flag=True, help="Replace an existing baseline (on purpose).")
 @_handle_errors
 @_unusable_input_is_2

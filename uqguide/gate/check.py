@@ -58,9 +58,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .baseline import (
-    DEFAULT_PCE_RTOL, Baseline, BaselineOutput, BaselinePoint, to_jsonable, read_baseline,
-    write_baseline,
+    Baseline, BaselineOutput, BaselinePoint, to_jsonable, read_baseline, write_baseline,
 )
+from .tolerances import DEFAULT_PCE_RTOL, DEFAULT_SIGMAS, check_tolerance
 from ..errors import ResultError
 from ..models.base import OutputInfo
 from ..results.result import Result
@@ -73,7 +73,6 @@ __all__ = ["DEFAULT_PCE_RTOL", "DEFAULT_SIGMAS", "Baseline", "CheckReport", "Che
            "check_compatible", "check_result", "config_differences", "read_baseline",
            "write_baseline"]
 
-DEFAULT_SIGMAS = 4.0
 #: Differences below this fraction of an output component's peak magnitude are numerical noise.
 ROUNDOFF_RTOL = 1e-6
 #: A std below this fraction of the component's peak std makes skewness and kurtosis meaningless.
@@ -409,29 +408,6 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
             else:
                 row.passed = abs(a - b) <= row.tolerance
     return rows
-
-
-def check_tolerance(option: str, value: Any) -> float:
-    """A gate tolerance: a finite number > 0, else ResultError (exit 2) naming the option.
-
-    Parameters
-    ----------
-    option : str
-        The command-line option, for the message.
-    value : object
-        What was given.
-
-    Returns
-    -------
-    float
-    """
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        v = math.nan
-    if not (math.isfinite(v) and v > 0):
-        raise ResultError(f"{option}: must be a finite number > 0 (got {value!r})")
-    return v
 
 
 def _check_shapes(s: OutputStatistics, time: np.ndarray, where: str) -> None:
