@@ -132,7 +132,7 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
             "series kept": 0.0 if plan.reduced else 2 * n * 8.0 * grid * k_series,
             "basis": 3 * 8.0 * n * plan.terms,
         }
-        if plan.reduced and k_series and getattr(method, "quantile_levels", None) is not None:
+        if plan.reduced and k_series and method.context.quantile_levels is not None:
             # exact quantiles keep every good run's series values (at every step while that
             # stays small, else at the report times and the last step), per chunk and joined
             from ..methods.mc_reduce import QUANTILE_ALL_FLOATS
