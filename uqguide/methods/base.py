@@ -94,8 +94,6 @@ class RunPlan:
     chunk : int or None
         Rows evaluated and held together (Monte Carlo: ``chunk_size``); None: the executor's
         ``batch_size``.
-    reduced : bool
-        Whether chunks are reduced where they ran (series never kept whole).
     terms : int
         Basis terms of a surrogate fitted on all runs (0: none).
     exact : bool
@@ -104,7 +102,6 @@ class RunPlan:
 
     runs: int | None
     chunk: int | None = None
-    reduced: bool = False
     terms: int = 0
     exact: bool = True
 

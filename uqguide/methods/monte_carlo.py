@@ -185,7 +185,7 @@ class MonteCarlo(StreamingMethod):
 
     def plan(self, space: InputSpace) -> RunPlan:
         s = self.settings
-        return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples), reduced=True)
+        return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples))
 
     # ------------------------------------------------------------------ streaming estimate
     def chunk_bounds(self, n_runs: int) -> list[tuple[int, int]]:
