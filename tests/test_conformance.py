@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from pydantic import ConfigDict, Field
 
-from uqguide.methods.base import Design
+from uqguide.methods.base import Design, Method, StreamingMethod, chunk_bounds
 from uqguide.methods.monte_carlo import MonteCarlo
 from uqguide.models.base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
 from uqguide.config.registry import METHODS, MODELS, method_class, model_class
@@ -129,3 +129,42 @@ def test_a_method_with_a_biased_mean_fails_the_closed_form():
 
     with pytest.raises(ConformanceError, match="method 'monte_carlo': closed forms: mean"):
         check_method(Biased, workers=False)
+
+
+def test_a_streaming_method_whose_in_memory_estimate_differs_fails():
+    class TwoWays(MonteCarlo):
+        def estimate(self, space, design: Design, outputs):
+            est = super().estimate(space, design, outputs)
+            est.stats["y"].std = est.stats["y"].std * 1.001
+            return est
+
+    with pytest.raises(ConformanceError, match="method 'monte_carlo': streaming: the estimate "
+                                               "of outputs in memory differs"):
+        check_method(TwoWays, workers=False)
+
+
+# ---------------------------------------------------------------------------- contract shapes
+def test_the_driver_asks_the_class_not_flags():
+    # Monte Carlo streams: its own chunk split, whatever the batch size; the others are cut
+    # into batches and get every run.
+    mc = MonteCarlo({"n_samples": 10, "chunk_size": 4})
+    assert isinstance(mc, StreamingMethod)
+    assert chunk_bounds(mc, 10, 3) == [(0, 4), (4, 8), (8, 10)]
+    pce = method_class("pce_tensor")({"m": 2})
+    assert not isinstance(pce, StreamingMethod)
+    assert chunk_bounds(pce, 10, 3) == [(0, 3), (3, 6), (6, 9), (9, 10)]
+    assert chunk_bounds(pce, 0, 3) == [(0, 0)]
+
+
+def test_a_streaming_method_cannot_refine():
+    with pytest.raises(TypeError, match="Refining: a streaming method cannot refine"):
+        class Refining(MonteCarlo):
+            def refine(self, space, design, outputs):
+                return None
+
+
+def test_the_retired_streaming_flag_is_refused_where_the_class_is_written():
+    with pytest.raises(TypeError, match="Flagged: 'reduces_chunks' is retired; subclass "
+                                        "uqguide.methods.base.StreamingMethod"):
+        class Flagged(Method):
+            reduces_chunks = True

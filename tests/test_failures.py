@@ -104,7 +104,7 @@ def test_pce_failure_policy_reaches_every_method(policy):
     if policy:
         cfg["pce_failure_policy"] = policy
     c = validate_config(cfg)
-    assert [m.failure_policy for m in c.methods] == [policy or "fail"]
+    assert [m.context.failure_policy for m in c.methods] == [policy or "fail"]
     assert c.resolved()["pce_failure_policy"] == (policy or "fail")
 
 

@@ -31,6 +31,8 @@ event probabilities are known in closed form:
 - seeds: the same seed gives the same bits; a method with a random design
   (:attr:`Method.random_design`) gives another design for another seed;
 - workers: serial and a 2-process pool give the same bits;
+- streaming: a :class:`~uqguide.methods.base.StreamingMethod`'s ``estimate`` of outputs held in
+  memory gives the bits of its chunks reduced where they ran and folded by the driver;
 - resume: a run interrupted after its first chunk and resumed from its checkpoint gives the
   bits of an uninterrupted run.
 """
@@ -51,7 +53,8 @@ from .driver.checkpoint import RunStore, run_identity
 from .config.run_config import validate_config
 from .errors import ModelError
 from .driver.execution import ChunkJob, ChunkResult, Executor, ProcessExecutor, SerialExecutor, Task
-from .methods.base import Method, RunContext
+from .core.types import Estimate
+from .methods.base import Method, RunContext, StreamingMethod
 from .models.base import Model
 from .models.benchmarks import LinearGaussian
 from .driver.propagate import propagate
@@ -303,6 +306,8 @@ def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *
                        "a 2-process pool gave other numbers than this process")
         finally:
             pool.close()
+    if isinstance(method, StreamingMethod):
+        _check_streaming(method, model, space, outputs, seed, first, who)
     _check_resume(method, model, space, outputs, seed, first, who)
 
 
@@ -349,17 +354,34 @@ def _check_closed_forms(run: MethodRun, mean: np.ndarray, sd: np.ndarray, p_tail
 def _same_runs(a: MethodRun, b: MethodRun, who: str, rule: str, what: str) -> None:
     if a.success != b.success or a.n_runs != b.n_runs:
         raise _fail(who, rule, f"{what} (runs {a.n_runs} vs {b.n_runs})")
-    for name, s in a.estimate.stats.items():
-        t = b.estimate.stats.get(name)
+    _same_estimates(a.estimate, b.estimate, who, rule, what)
+
+
+def _same_estimates(a: Estimate, b: Estimate, who: str, rule: str, what: str) -> None:
+    for name, s in a.stats.items():
+        t = b.stats.get(name)
         for stat in ("mean", "std", "skewness", "kurtosis", "cov"):
             u, v = getattr(s, stat), None if t is None else getattr(t, stat)
             if v is None or not np.array_equal(u, v, equal_nan=True):
                 raise _fail(who, rule, f"{what}: '{name}' {stat}")
-    for name, e in a.estimate.events.items():
-        f = b.estimate.events.get(name)
+    for name, e in a.events.items():
+        f = b.events.get(name)
         if f is None or (e.probability != f.probability and not
                          (np.isnan(e.probability) and np.isnan(f.probability))):
             raise _fail(who, rule, f"{what}: event '{name}'")
+
+
+def _check_streaming(method: StreamingMethod, model: Model, space: Any,
+                     outputs: tuple[str, ...], seed: int, streamed: MethodRun, who: str) -> None:
+    design = method.design(space, seed)
+    held = SerialExecutor(16).evaluate(model, np.asarray(design.x), space.names, outputs)
+    try:
+        estimate = method.estimate(space, design, held)
+    except Exception as exc:  # noqa: BLE001 - whatever it is, the rule is broken
+        raise _fail(who, "streaming", f"estimate of outputs in memory raised "
+                    f"{type(exc).__name__}: {exc}") from None
+    _same_estimates(streamed.estimate, estimate, who, "streaming",
+                    "the estimate of outputs in memory differs from the streamed one")
 
 
 class _StopAfterFirstChunk:

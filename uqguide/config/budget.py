@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..errors import ConfigError
+from ..methods.base import StreamingMethod
 from .limits import human
 
 if TYPE_CHECKING:
@@ -124,15 +125,16 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
         chunk = min(plan.chunk or bs, n)
         boot = getattr(method.settings, "bootstrap", 0) or 0
         per_chunk = chunk * (8.0 * d + 4 * 8.0 * grid * k_series + 8.0 * boot + 9.0)
+        reduced = isinstance(method, StreamingMethod)  # its series are never kept whole
         parts = {
             # reduced chunks are copied into arrays allocated once; others joined (twice)
-            "kept": (1 if plan.reduced else 2) * n * (8.0 * k_scalar + 9.0 +
-                                                      (0 if plan.reduced else 8.0 * d)),
+            "kept": (1 if reduced else 2) * n * (8.0 * k_scalar + 9.0 +
+                                                 (0 if reduced else 8.0 * d)),
             "per chunk": per_chunk * (1 if workers <= 1 else in_flight / 2),
-            "series kept": 0.0 if plan.reduced else 2 * n * 8.0 * grid * k_series,
+            "series kept": 0.0 if reduced else 2 * n * 8.0 * grid * k_series,
             "basis": 3 * 8.0 * n * plan.terms,
         }
-        if plan.reduced and k_series and getattr(method, "quantile_levels", None) is not None:
+        if reduced and k_series and method.context.quantile_levels is not None:
             # exact quantiles keep every good run's series values (at every step while that
             # stays small, else at the report times and the last step), per chunk and joined
             from ..methods.mc_reduce import QUANTILE_ALL_FLOATS

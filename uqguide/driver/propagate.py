@@ -5,9 +5,10 @@
 Evaluation goes chunk by chunk through an executor (:mod:`uqguide.driver.execution`); finished
 chunks are checkpointed as they arrive when a :class:`~uqguide.driver.checkpoint.RunStore` is given
 (and taken from it on resume), and folded **in chunk order** whatever order they finish in, so the
-numbers do not depend on the executor, the worker count or interruptions. A method with a
-reducer (Monte Carlo) is folded chunk by chunk into summaries (bounded memory); the others get
-every output of every run and may refine their design.
+numbers do not depend on the executor, the worker count or interruptions. A
+:class:`~uqguide.methods.base.StreamingMethod` (Monte Carlo) is folded chunk by chunk into
+summaries (bounded memory); the others get every output of every run and may refine their
+design.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from .execution import (
 from .execution.shared_rows import SharedRows
 from ..core.inputs import InputSpace
 from .interrupts import raise_swallowed
-from ..methods.base import Design, Method
+from ..methods.base import Design, Method, StreamingMethod, chunk_bounds
 from ..models.base import Model
 from ..core.types import Estimate, GeneratedRows, ModelOutput
 from .progress import Progress
@@ -98,7 +99,7 @@ class _Stage:
 
     def tasks(self, n: int) -> list[Task]:
         return [Task(i, a, b) for i, (a, b) in
-                enumerate(self.method.chunk_bounds(n, self.batch_size))]
+                enumerate(chunk_bounds(self.method, n, self.batch_size))]
 
     def run(self, x: np.ndarray | GeneratedRows, stage: int, tasks: list[Task], reducer: Any
             ) -> tuple[ModelOutput, Any]:
@@ -135,6 +136,7 @@ class _Stage:
                 self.timing.model_seconds += r.model_seconds
                 self.timing.n_runs += r.task.n
                 if kept is not None:
+                    assert isinstance(self.method, StreamingMethod)  # (only those reduce)
                     acc = self.method.fold(acc, r.summary)
                     kept.add(r)
                 else:
@@ -225,7 +227,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     progress.start(method.label)
     log.info("%s: %d runs in the initial design (%d chunks)", method.label, design.n_runs,
              len(tasks))
-    reducer = method.reducer(space, design) if method.reduces_chunks else None
+    reducer = method.reducer(space, design) if isinstance(method, StreamingMethod) else None
     with method.phases_to(progress.phase):
         estimate, design, out, fit_seconds, failure = _evaluate_and_estimate(
             method, space, design, stage, tasks, reducer, progress, timing)
@@ -261,7 +263,7 @@ def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, st
     """
     out, acc = stage.run(design.x, 0, tasks, reducer)
     fit_seconds = 0.0
-    if method.refines:
+    if not isinstance(method, StreamingMethod):  # (that one never sees whole runs to refine)
         for k in range(1, MAX_REFINEMENTS + 1):
             t0 = time.perf_counter()
             # the runs so far are done, and no ETA paces what follows: say what the method
@@ -288,10 +290,10 @@ def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, st
     progress.phase("estimating")
     failure = ""
     try:
-        if reducer is None:
-            estimate = method.estimate(space, design, out)
-        else:
+        if isinstance(method, StreamingMethod):
             estimate = method.estimate_reduced(space, design, out, acc)
+        else:
+            estimate = method.estimate(space, design, out)
     except _METHOD_FAILURES as exc:
         estimate, failure = _no_estimate(method), _why(method, exc)
     progress.phase("")
@@ -375,7 +377,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
             design = method.design(config.space, config.seed)
             designs.append((design, time.perf_counter() - t_design))
             bs = executor.batch_size or config.raw.batch_size
-            progress.plan(len(method.chunk_bounds(design.n_runs, bs)), design.n_runs,
+            progress.plan(len(chunk_bounds(method, design.n_runs, bs)), design.n_runs,
                           method.label)
         for method, (design, design_seconds) in zip(config.methods, designs):
             r = propagate(method, config.model, config.space, config.outputs, config.seed,

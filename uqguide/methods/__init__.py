@@ -1,5 +1,13 @@
 """Uncertainty-propagation methods, above ``pce``.
 
-The contract is ``base`` (a method designs its runs and estimates statistics from them); each
-other module is one method, registered by name in ``uqguide.config.registry``.
+- ``base``: the contract. A ``Method`` designs its runs and estimates statistics from them (and
+  may refine its design); a ``StreamingMethod`` is estimated instead from chunks reduced where
+  they ran and folded in chunk order;
+- ``monte_carlo`` (a streaming method), with ``mc_reduce`` (a chunk's sums, where it ran) and
+  ``mc_fold`` (the driver's merge of them);
+- ``pce_quadrature`` (``pce_tensor``, ``pce_smolyak``), ``pce_adaptive``, with
+  ``pce_validated`` (the PCEs' shared step: keep, validate, correct, withdraw);
+- ``subset_simulation``: a rare event's probability.
+
+Each method is registered by name in ``uqguide.config.registry``.
 """

@@ -5,19 +5,28 @@ A method works in phases, so a design can be stored, run elsewhere and resumed:
 1. :meth:`Method.design` gives the runs to make (inputs ``x (n, d)`` plus whatever the method
    needs later, e.g. quadrature weights);
 2. the driver (:func:`uqguide.driver.propagate.propagate`) evaluates the model on the design;
-3. :meth:`Method.refine` may ask for more runs (sequential designs, :attr:`Method.refines`);
-   the driver evaluates them and calls it again until it returns ``None``;
-4. :meth:`Method.estimate` gives the statistics and diagnostics (or, for a method that
-   :attr:`~Method.reduces_chunks`, :meth:`Method.fold` per chunk and
-   :meth:`Method.estimate_reduced`). A method that cannot produce statistics raises
-   :class:`~uqguide.errors.MethodError`: the run records it and completes the other methods.
+3. :meth:`Method.refine` may ask for more runs (a sequential design); the driver evaluates them
+   and calls it again until it returns ``None``;
+4. :meth:`Method.estimate` gives the statistics and diagnostics. A method that cannot produce
+   statistics raises :class:`~uqguide.errors.MethodError`: the run records it and completes
+   the other methods.
 
-Methods never know which model they run: they see the :class:`~uqguide.core.inputs.InputSpace`, the
-:class:`~uqguide.core.types.ModelOutput` and the :class:`RunContext` they were built with.
+A :class:`StreamingMethod` (Monte Carlo) is estimated instead from chunks reduced where they
+ran: the driver applies its :meth:`~StreamingMethod.reducer` to each chunk of its
+:meth:`~StreamingMethod.chunk_bounds`, merges the summaries in chunk order with
+:meth:`~StreamingMethod.fold` and ends with :meth:`~StreamingMethod.estimate_reduced`, so time
+series never travel or stay. Such a method does not refine: it never sees whole runs.
 
-A new method is one module with a ``Settings`` class and a ``Method`` subclass declaring its
-capability flags and ``example_settings``, plus one line in :mod:`uqguide.config.registry`; the
-conformance suite (:func:`uqguide.testing.check_method`) then checks it with no test code.
+Methods never know which model they run: they see the :class:`~uqguide.core.inputs.InputSpace`,
+the :class:`~uqguide.core.types.ModelOutput` and the :class:`RunContext` they were built with
+(``self.context``: report times, events, quantile levels, failure policy, outputs).
+
+A new method is one module with a ``Settings`` class and a subclass of :class:`Method` (or of
+:class:`StreamingMethod`) with its ``example_settings``, plus one line in
+:mod:`uqguide.config.registry`; the conformance suite (:func:`uqguide.testing.check_method`)
+then checks it with no test code. What the driver may do with a method follows from its class;
+the class flags left (:attr:`Method.uses_derivations`, :attr:`Method.random_design`) are
+choices a class makes, not protocols.
 """
 
 from __future__ import annotations
@@ -85,8 +94,6 @@ class RunPlan:
     chunk : int or None
         Rows evaluated and held together (Monte Carlo: ``chunk_size``); None: the executor's
         ``batch_size``.
-    reduced : bool
-        Whether chunks are reduced where they ran (series never kept whole).
     terms : int
         Basis terms of a surrogate fitted on all runs (0: none).
     exact : bool
@@ -95,7 +102,6 @@ class RunPlan:
 
     runs: int | None
     chunk: int | None = None
-    reduced: bool = False
     terms: int = 0
     exact: bool = True
 
@@ -111,9 +117,9 @@ class RunContext:
         The run's report times [s]: where a method that must economise (e.g. Monte Carlo
         bootstrap intervals of long series) concentrates its effort.
     failure_policy : {"fail", "regression"}
-        What a method whose design needs every run (:attr:`Method.needs_all_runs`) does when
-        runs failed (the config's ``pce_failure_policy``): ``"fail"`` raises MethodError naming
-        the failed runs; ``"regression"`` fits by least squares on the surviving runs, logs a
+        What a method whose design needs every run (a quadrature grid) does when runs
+        failed (the config's ``pce_failure_policy``): ``"fail"`` raises MethodError naming the
+        failed runs; ``"regression"`` fits by least squares on the surviving runs, logs a
         warning and says so in the diagnostics.
     quantile_levels : tuple of float, optional
         The config's quantile levels (None: no quantiles).
@@ -142,24 +148,11 @@ class RunContext:
 
 class Method(ABC):
     """A propagation method. ``__init__`` only stores the validated settings and the run
-    context; work happens in :meth:`design`, :meth:`refine` and :meth:`estimate`.
-
-    What the driver may do with a method is declared by class flags, never inferred:
-    :attr:`reduces_chunks`, :attr:`refines`, :attr:`needs_all_runs`, :attr:`uses_derivations`.
-    """
+    context; work happens in :meth:`design`, :meth:`refine` and :meth:`estimate`."""
 
     name: ClassVar[str]
     summary: ClassVar[str]
     Settings: ClassVar[type[MethodSettings]] = MethodSettings
-    #: Chunks are reduced where they ran (:meth:`reducer`, :meth:`fold`,
-    #: :meth:`estimate_reduced`): time series never travel or stay. Such a method does not
-    #: refine.
-    reduces_chunks: ClassVar[bool] = False
-    #: The design grows after seeing runs (:meth:`refine`).
-    refines: ClassVar[bool] = False
-    #: Every run of the design is needed (quadrature): failed runs follow the context's
-    #: ``failure_policy``.
-    needs_all_runs: ClassVar[bool] = False
     #: Derived outputs are computed from surrogates of their carriers (``context.derived``),
     #: so the carriers are evaluated too.
     uses_derivations: ClassVar[bool] = False
@@ -169,6 +162,14 @@ class Method(ABC):
     #: Settings of a small design that still exercises the method (several chunks): what the
     #: conformance suite (:func:`uqguide.testing.check_method`) runs it with.
     example_settings: ClassVar[Mapping[str, Any]] = {}
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # The flag that used to ask for the streaming protocol would now be ignored, and the
+        # method estimated from whole runs: refuse it where the class is written.
+        if cls.__dict__.get("reduces_chunks") and not issubclass(cls, StreamingMethod):
+            raise TypeError(f"{cls.__name__}: 'reduces_chunks' is retired; subclass "
+                            f"uqguide.methods.base.StreamingMethod instead")
 
     def __init__(self, settings: MethodSettings | dict[str, Any] | None = None,
                  context: RunContext | None = None) -> None:
@@ -187,27 +188,6 @@ class Method(ABC):
     @property
     def label(self) -> str:
         return self.settings.label or self.name
-
-    # Read-only views of the context, under the names the methods use.
-    @property
-    def report_times(self) -> tuple[float, ...] | None:
-        return self.context.report_times
-
-    @property
-    def failure_policy(self) -> Literal["fail", "regression"]:
-        return self.context.failure_policy
-
-    @property
-    def quantile_levels(self) -> tuple[float, ...] | None:
-        return self.context.quantile_levels
-
-    @property
-    def events(self) -> tuple[EventSpec, ...]:
-        return self.context.events
-
-    @property
-    def components(self) -> Mapping[str, tuple[str, ...]]:
-        return self.context.components
 
     @property
     def derived_outputs(self) -> Mapping[str, DerivedOutput]:
@@ -239,6 +219,11 @@ class Method(ABC):
         """
         return None
 
+    def plan(self, space: InputSpace) -> RunPlan:
+        """What the method will ask for, known before any design is built (for the budgets
+        of :mod:`uqguide.config.budget`). Default: unknown until the design is built."""
+        return RunPlan(runs=None)
+
     @abstractmethod
     def design(self, space: InputSpace, seed: int) -> Design:
         """The initial runs to make.
@@ -263,34 +248,74 @@ class Method(ABC):
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
         """Statistics of every output in ``outputs`` from the runs of ``design``."""
 
-    # ------------------------------------------------------------------ budgets
-    def plan(self, space: InputSpace) -> RunPlan:
-        """What the method will ask for, known before any design is built (for the budgets
-        of :mod:`uqguide.config.budget`). Default: unknown until the design is built."""
-        return RunPlan(runs=None)
 
-    # ------------------------------------------------------------------ execution hooks
-    def chunk_bounds(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
-        """How ``n_runs`` new rows of a design split into chunks ``[start, stop)``: the unit of
-        work of the executors and of checkpoints (default: ``batch_size`` slices). A method
-        that reduces chunks (:meth:`reducer`) splits where its statistics need it."""
-        return [(s, min(n_runs, s + batch_size)) for s in range(0, max(n_runs, 1), batch_size)]
+#: Reduces one chunk where it ran: ``f(out, chunk_index) -> dict of arrays`` (picklable, so
+#: that a pool worker can run it).
+ChunkReducer = Callable[[ModelOutput, int], dict[str, np.ndarray]]
 
-    def reducer(self, space: InputSpace, design: Design) -> Any:
-        """A picklable ``f(out: ModelOutput, chunk_index) -> dict of arrays`` that reduces a
-        chunk where it ran, or ``None`` (default) to bring back every output of every run.
 
-        A method with a reducer does not refine, and is estimated by :meth:`fold` (driver, in
-        chunk order) and :meth:`estimate_reduced`, so time series never travel or stay.
-        """
-        return None
+class StreamingMethod(Method):
+    """A method estimated from chunks reduced where they ran (module docstring): its
+    statistics depend on how the design splits into chunks, so the split is the method's
+    (:meth:`chunk_bounds`), never the executor's. It does not refine.
 
+    :meth:`estimate` is given: it reduces and folds in-memory outputs chunk by chunk exactly
+    as the driver does, so it gives the numbers of a streamed run bit for bit.
+    """
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.refine is not Method.refine:
+            raise TypeError(f"{cls.__name__}: a streaming method cannot refine (its runs are "
+                            f"folded into summaries, never seen whole)")
+
+    @abstractmethod
+    def chunk_bounds(self, n_runs: int) -> list[tuple[int, int]]:
+        """How the ``n_runs`` rows of the design split into chunks ``[start, stop)``, the unit
+        of reduction, of the executors' work and of checkpoints."""
+
+    @abstractmethod
+    def reducer(self, space: InputSpace, design: Design) -> ChunkReducer:
+        """The reduction of one chunk of ``design``, run where the chunk ran."""
+
+    @abstractmethod
     def fold(self, acc: Any, summary: dict[str, np.ndarray]) -> Any:
-        """Merge one chunk's summary into the accumulator (``acc`` is None at the start)."""
-        raise NotImplementedError(f"method '{self.name}' has no reducer")
+        """Merge one chunk's summary into the accumulator (``acc`` is None at the start); the
+        driver folds in chunk order."""
 
+    @abstractmethod
     def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
                          acc: Any) -> Estimate:
         """Statistics from the folded summaries; ``runs`` has the per-sample scalars, the
         failure mask and the time grid, but no series."""
-        raise NotImplementedError(f"method '{self.name}' has no reducer")
+
+    def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
+        reduce = self.reducer(space, design)
+        acc = None
+        for i, (a, b) in enumerate(self.chunk_bounds(outputs.n)):
+            acc = self.fold(acc, reduce(outputs.subset(np.arange(a, b)), i))
+        runs = ModelOutput(time=outputs.time, scalars=outputs.scalars, failed=outputs.failed,
+                           reasons=outputs.reasons)
+        return self.estimate_reduced(space, design, runs, acc)
+
+
+def chunk_bounds(method: Method, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
+    """How ``n_runs`` new rows of ``method``'s design split into chunks ``[start, stop)``: a
+    streaming method's own split, else slices of ``batch_size``.
+
+    Parameters
+    ----------
+    method : Method
+    n_runs : int
+        Rows to evaluate (a refinement's appended rows, or the whole design).
+    batch_size : int
+        Rows per chunk for a method that does not stream.
+
+    Returns
+    -------
+    list of (int, int)
+        Consecutive bounds covering ``[0, n_runs)`` (one empty chunk when ``n_runs`` is 0).
+    """
+    if isinstance(method, StreamingMethod):
+        return method.chunk_bounds(n_runs)
+    return [(s, min(n_runs, s + batch_size)) for s in range(0, max(n_runs, 1), batch_size)]

@@ -58,7 +58,7 @@ from ..core.types import ModelOutput
 from ..core.events import count_events
 from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
 from ..stats.moments import OutputStats, statistics_from_sums
-from .base import Design, Estimate, GeneratedRows, Method, MethodSettings, RunPlan
+from .base import Design, Estimate, GeneratedRows, MethodSettings, RunPlan, StreamingMethod
 from .mc_fold import FoldedSums
 from .mc_reduce import MonteCarloReducer, append_columns, ci_index, scalar_names, split_summary
 
@@ -162,7 +162,7 @@ class DesignChunks:
         return self.space.from_unit(unit_chunk(d, n, self.sampling, c, self.seed, i))
 
 
-class MonteCarlo(Method):
+class MonteCarlo(StreamingMethod):
     """Monte Carlo sampling with streaming sample-moment statistics and Poisson-bootstrap
     intervals."""
 
@@ -170,7 +170,6 @@ class MonteCarlo(Method):
     summary = "Monte Carlo: random, Latin hypercube or scrambled Sobol' samples; sample moments"
     Settings = MonteCarloSettings
     settings: MonteCarloSettings
-    reduces_chunks = True
     example_settings = {"n_samples": 4096, "chunk_size": 1024, "bootstrap": 100}
 
     def design(self, space: InputSpace, seed: int) -> Design:
@@ -186,19 +185,18 @@ class MonteCarlo(Method):
 
     def plan(self, space: InputSpace) -> RunPlan:
         s = self.settings
-        return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples), reduced=True)
+        return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples))
 
     # ------------------------------------------------------------------ streaming estimate
-    def chunk_bounds(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
-        """The random-stream chunks: statistics are reduced per chunk, so the split is part of
-        the numbers (``chunk_size``), never the executor's or ``batch_size``'s choice."""
+    def chunk_bounds(self, n_runs: int) -> list[tuple[int, int]]:
+        """The random-stream chunks of ``chunk_size``: the split is part of the numbers."""
         c = self.settings.chunk_size
         return [(s, min(n_runs, s + c)) for s in range(0, max(n_runs, 1), c)]
 
     def reducer(self, space: InputSpace, design: Design) -> MonteCarloReducer:
         return MonteCarloReducer(self.settings.bootstrap, int(design.data.get("boot_seed", 0)),
-                                 self.report_times, self.settings.bootstrap_times,
-                                 quantiles=self.quantile_levels is not None,
+                                 self.context.report_times, self.settings.bootstrap_times,
+                                 quantiles=self.context.quantile_levels is not None,
                                  n_total=design.n_runs, intervals=self.interval_kind)
 
     @property
@@ -216,17 +214,6 @@ class MonteCarlo(Method):
             if key.startswith("q:"):
                 append_columns(acc.setdefault(("q", key.split(":", 2)[2]), []), v)
         return acc
-
-    def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
-        """Statistics of in-memory outputs: reduced chunk by chunk exactly as the executors
-        do, so this gives the numbers of a streamed run bit for bit."""
-        reduce = self.reducer(space, design)
-        acc = None
-        for i, (a, b) in enumerate(self.chunk_bounds(outputs.n, self.settings.chunk_size)):
-            acc = self.fold(acc, reduce(outputs.subset(np.arange(a, b)), i))
-        runs = ModelOutput(time=outputs.time, scalars=outputs.scalars, failed=outputs.failed,
-                           reasons=outputs.reasons)
-        return self.estimate_reduced(space, design, runs, acc)
 
     def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
                          acc: dict[tuple[str, str], Any] | None) -> Estimate:
@@ -247,12 +234,12 @@ class MonteCarlo(Method):
                               + render_reasons(self.label, runs.n, runs.reasons[runs.failed]))
         stats = {}
         jobs: dict[str, tuple[int, Callable[[], tuple[np.ndarray, np.ndarray]]]] = {}
-        levels = self.quantile_levels
+        levels = self.context.quantile_levels
         for (kind, name), sums in acc.items():
             if kind != "m" or name == "":
                 continue
             is_series = sums.mean.ndim == 2
-            idx = ci_index(runs.time, self.report_times, self.settings.bootstrap_times) \
+            idx = ci_index(runs.time, self.context.report_times, self.settings.bootstrap_times) \
                 if is_series else None
             stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx,
                                                delta=acc.get(("h", name)))
@@ -268,10 +255,10 @@ class MonteCarlo(Method):
                     y = runs.scalars[name]
                     jobs[name] = (y.size, partial(_scalar_quantiles, y, ~runs.failed, levels))
         for name, (q, ci) in _run_jobs(jobs).items():
-            _put_quantiles(stats[name], q, ci, levels or (), runs.time, self.report_times)
-        events = count_events(list(self.events), runs.scalars, ~runs.failed,
-                              dict(self.components)) \
-            if self.events else {}
+            _put_quantiles(stats[name], q, ci, levels or (), runs.time, self.context.report_times)
+        events = count_events(list(self.context.events), runs.scalars, ~runs.failed,
+                              dict(self.context.components)) \
+            if self.context.events else {}
         names = scalar_names(runs.scalars)  # (stacking them would copy every value)
         joint = acc.get(("j", ""))
         n_ok = runs.n - n_failed

@@ -192,7 +192,6 @@ class AdaptivePCE(Method):
                "sequential design")
     Settings = AdaptivePCESettings
     settings: AdaptivePCESettings
-    refines = True
     uses_derivations = True
     example_settings = {"n_samples": 40, "max_runs": 60, "degree_max": 3}
 
@@ -301,7 +300,8 @@ class AdaptivePCE(Method):
             [(f.columns, f.expansion) for f in fits], self.derived_outputs, outputs,
             n_runs=n_ok, n_draws=s.surrogate_draws, seed=design.data.get("draw_seed", 0),
             label=self.label, sampling=s.surrogate_sampling,
-            levels=self.quantile_levels, events=self.events, components=self.components,
+            levels=self.context.quantile_levels, events=self.context.events,
+            components=self.context.components,
             note=self.note)
         val_design = ValidationDesign.from_data(design.data)
         if validation is not None and val_design is not None:
@@ -351,8 +351,8 @@ class AdaptivePCE(Method):
         names = [n for n in validation.scalars if n in expansions or n in self.derived_outputs]
         sur = {n: surrogate_values(germ, expansions, self.derived_outputs, n, vd.u)
                for n in names}
-        cv = control_variate_events(events, self.events, self.components, validation.scalars,
-                                    sur, ~validation.failed, vd)
+        cv = control_variate_events(events, self.context.events, self.context.components,
+                                    validation.scalars, sur, ~validation.failed, vd)
         return {**events, **cv}
 
     # ------------------------------------------------------------------ fitting

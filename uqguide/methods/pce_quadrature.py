@@ -6,7 +6,7 @@ component: the projection is linear, so all columns go at once) and take the sta
 the coefficients (:mod:`uqguide.pce.moments`). They make no sequential runs.
 
 Failed runs: a projection needs the output at every node. With the config's
-``pce_failure_policy: fail`` (default, :attr:`Method.failure_policy`) a failed run is a
+``pce_failure_policy: fail`` (default, the context's ``failure_policy``) a failed run is a
 :class:`~uqguide.errors.MethodError` naming the count and reasons. With ``regression`` the
 coefficients are fitted by least squares on the surviving nodes instead, on the grid's basis
 cut to the terms the surviving nodes can determine (:func:`identifiable_terms`: in graded order,
@@ -99,11 +99,8 @@ class QuadraturePCE(Method):
 
     Settings = QuadratureSettings
     settings: QuadratureSettings
-    needs_all_runs = True
     uses_derivations = True
     random_design = False
-    # Stratified validation runs are placed once the grid's runs are projected.
-    refines = True
 
     @abstractmethod
     def _grid(self, germ: Germ) -> Grid:
@@ -188,7 +185,7 @@ class QuadraturePCE(Method):
             return np.arange(outputs.n), alpha, lambda y: project(germ, grid, y)[1]
         what = (f"{self.label}: {n_failed} of {outputs.n} quadrature runs failed "
                 f"({failure_summary(outputs)})")
-        if self.failure_policy != "regression":
+        if self.context.failure_policy != "regression":
             raise MethodError(f"{what}; a quadrature PCE needs every node (set "
                               f"pce_failure_policy: regression to fit on the others)")
         rows = np.flatnonzero(~outputs.failed)
@@ -219,7 +216,8 @@ class QuadraturePCE(Method):
             fitted, self.derived_outputs, outputs, n_runs=rows.size,
             n_draws=self.settings.surrogate_draws, seed=seed, label=self.label,
             sampling=self.settings.surrogate_sampling,
-            levels=self.quantile_levels, events=self.events, components=self.components,
+            levels=self.context.quantile_levels, events=self.context.events,
+            components=self.context.components,
             note=self.note)
         diagnostics: dict[str, Any] = {
             "n_runs": n_total,

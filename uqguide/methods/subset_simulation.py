@@ -95,13 +95,12 @@ class SubsetSimulation(Method):
     summary = "Subset simulation (Au & Beck 2001): a rare event's probability, CoV and interval"
     Settings = SubsetSimulationSettings
     settings: SubsetSimulationSettings
-    refines = True
     example_settings = {"event": "tail", "n_per_level": 500}
 
     # ------------------------------------------------------------------ config
     def check(self, index: int) -> None:
         """ConfigError unless the method's event is one of the config's events."""
-        names = [e.name for e in self.events]
+        names = [e.name for e in self.context.events]
         if self.settings.event not in names:
             raise ConfigError(
                 f"methods[{index}].event: {self.settings.event!r} is not one of the config's "
@@ -110,7 +109,7 @@ class SubsetSimulation(Method):
 
     @property
     def spec(self) -> EventSpec:
-        return next(e for e in self.events if e.name == self.settings.event)
+        return next(e for e in self.context.events if e.name == self.settings.event)
 
     @property
     def n_seeds(self) -> int:
@@ -144,7 +143,7 @@ class SubsetSimulation(Method):
     def _severity(self, outputs: ModelOutput) -> np.ndarray:
         """g of every run so far (-inf for failed runs: never in any level)."""
         spec = self.spec
-        y = outputs.scalars[spec.output][:, component_index(spec, self.components.get(
+        y = outputs.scalars[spec.output][:, component_index(spec, self.context.components.get(
             spec.output, ("",)))]
         g = spec.severity(np.asarray(y, dtype=float))
         return np.where(outputs.failed | ~np.isfinite(g), -np.inf, g)
