@@ -96,8 +96,8 @@ class AdaptivePCESettings(MethodSettings):
         Lowest truncation degree tried (default 1).
     degree_max : int, optional
         Highest truncation degree tried; default the largest whose candidate set has at most
-        five terms per run and 3000 in all, up to 40 (the paper: 6;
-        :func:`uqguide.pce.sparse_regression.candidate_cap`).
+        five terms per run and 3000 in all, up to 40 (the paper: 6). The cap:
+        :func:`uqguide.pce.sparse_regression.candidate_cap`.
     q_norm : float in (0, 1], optional
         Hyperbolic truncation ``||alpha||_q <= p``; default: chosen per output among 0.5, 0.75
         and 1 by corrected LOO (the paper: 0.5; 1 is total degree).
