@@ -23,6 +23,10 @@ def test_methods_list_allowed_values_defaults_and_meanings():
     assert ("  sampling: one of random | lhs | sobol; default random — Design of the samples "
             "within each chunk.") in out
     assert "  n_samples: integer >= 1, <= 1e8; required — Number of model runs." in out
+    # rules, not pointers to the source: the adaptive PCE's design size and its budget
+    assert "module docstring" not in out
+    assert "Initial design size; default max(10 d, 2 P_min) runs for d inputs" in out
+    assert "(default: n_samples, no enrichment)" in out
     # every setting has a one-line meaning
     settings = [ln for ln in out.splitlines() if ln.startswith("  ")]
     assert settings and all(" — " in ln for ln in settings), [

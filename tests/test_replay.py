@@ -90,3 +90,20 @@ def test_bad_choices_exit_2_with_one_line(tmp_path, args, words):
     out = CliRunner().invoke(main, ["replay", str(h5), "--label", "mc", *args])
     assert out.exit_code == 2
     assert words in out.output and "Traceback" not in out.output
+
+
+def test_without_out_the_replay_writes_under_the_current_folder_never_beside_the_result(
+        tmp_path, monkeypatch):
+    stored = tmp_path / "stored"
+    stored.mkdir()
+    h5 = _result(stored)
+    before = sorted(p.name for p in stored.iterdir())
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    out = CliRunner().invoke(main, ["replay", str(h5), "--label", "mc", "--sample", "0"])
+    assert out.exit_code == 0, out.output
+    assert sorted(p.name for p in stored.iterdir()) == before  # nothing beside the result
+    written = sorted(p.name for p in (work / "replay").iterdir())
+    assert "t4_mc_0_history.csv" in written
+    assert f"wrote {Path('replay') / 't4_mc_0_history.csv'}" in out.output

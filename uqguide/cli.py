@@ -466,13 +466,14 @@ def report(result_path: Path, out_dir: Path | None, baseline_path: Path | None) 
 @click.option("--event", default=None, metavar="NAME",
               help="The first sample in this event of the config.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
-              default=None, help="Folder of the histories and figures [default: RESULT's "
-                                 "folder/replay].")
+              default=Path("replay"), show_default=True,
+              help="Folder of the histories and figures (created; nothing is written "
+                   "beside RESULT unless this names its folder).")
 @_handle_errors
 @_unusable_input_is_2
 def replay(result_path: Path, label: str, sample: int | None, worst: str | None,
            lowest: bool, component: str | None, event: str | None,
-           out_dir: Path | None) -> None:
+           out_dir: Path) -> None:
     """Rerun one sample of RESULT: its scalars (bit for bit), histories and figures.
 
     Exit 0 when the replayed scalars equal the stored ones bit for bit, 1 when they differ (the
@@ -485,7 +486,7 @@ def replay(result_path: Path, label: str, sample: int | None, worst: str | None,
     rep, cfg = replay_sample(result, label, sample=sample, worst=worst, lowest=lowest,
                              event=event, component=component)
     click.echo(render(rep))
-    for p in write_replay(rep, cfg, result.name, out_dir or result_path.parent / "replay"):
+    for p in write_replay(rep, cfg, result.name, out_dir):
         click.echo(f"wrote {p}")
     bad = rep.mismatches()
     if bad:

@@ -87,18 +87,20 @@ class AdaptivePCESettings(MethodSettings):
     Attributes
     ----------
     n_samples : int, optional
-        Initial design size (default: module docstring's rule).
+        Initial design size; default ``max(10 d, 2 P_min)`` runs for ``d`` inputs, ``P_min``
+        the size of the candidate basis at ``degree_min`` and the smallest q-norm tried, capped
+        by ``max_runs``.
     sampling : {"sobol", "lhs"}
         Design on the unit cube: scrambled Sobol' or Latin hypercube.
     degree_min : int
         Lowest truncation degree tried (default 1).
     degree_max : int, optional
-        Highest truncation degree tried (the paper: 6). Default: the largest whose candidate
-        set has at most five terms per run and 3000 in all (:func:`uqguide.pce.
-        sparse_regression.candidate_cap`), up to 40.
+        Highest truncation degree tried; default the largest whose candidate set has at most
+        five terms per run and 3000 in all, up to 40 (the paper: 6). The cap:
+        :func:`uqguide.pce.sparse_regression.candidate_cap`.
     q_norm : float in (0, 1], optional
-        Hyperbolic truncation ``||alpha||_q <= p`` (the paper: 0.5; 1 is total degree).
-        Default: chosen per output among 0.5, 0.75 and 1 by corrected LOO.
+        Hyperbolic truncation ``||alpha||_q <= p``; default: chosen per output among 0.5, 0.75
+        and 1 by corrected LOO (the paper: 0.5; 1 is total degree).
     target_loo : float
         Corrected LOO error (relative to the variance) at which enrichment stops (spec 4.4):
         1e-5, the surrogate leaves 0.001% of the variance unexplained. Only a stopping rule: the

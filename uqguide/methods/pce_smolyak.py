@@ -52,7 +52,8 @@ class SmolyakPCESettings(QuadratureSettings):
     Attributes
     ----------
     level : int
-        The paper's sparse-grid level (chaospy order + 1; module docstring).
+        The paper's sparse-grid level, chaospy order + 1: level 2 is 15 runs and total degree 1
+        for 7 normal inputs, level 3 is 113 runs and total degree 2.
     nested : bool
         Nested rules (Genz-Keister / Gauss-Patterson) instead of Gauss rules.
     """

@@ -43,7 +43,9 @@ class TensorPCESettings(QuadratureSettings):
     m : int
         Nodes per input (the paper's "level"): ``m^d`` runs, basis degree ``m - 1`` per input.
     rule : {"auto", "gauss", "clenshaw_curtis"}
-        One-dimensional rule (module docstring).
+        One-dimensional rule: ``auto`` and ``gauss`` take the Gauss rule of each input's germ
+        (Hermite, Legendre, truncated normal), ``clenshaw_curtis`` (uniform inputs only) the
+        Clenshaw-Curtis rule, whose ``m`` nodes carry a basis of degree about ``(m - 1) / 2``.
     """
 
     m: int = Field(default=2, ge=1, le=64)
