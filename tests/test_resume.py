@@ -252,3 +252,53 @@ def test_ctrl_c_with_worker_processes_exits_130_without_traceback(tmp_path):
     fast.write_text(yaml.safe_dump(_config("tests.failing_models:clean_sum")))
     assert CliRunner().invoke(main, ["run", str(fast), "--out", str(tmp_path)]).exit_code == 0
     _assert_same(_stats(tmp_path / "ref.h5"), _stats(out / "slow.h5"))
+
+
+def test_resume_and_cleanup_leave_the_users_files_alone(interrupted, tmp_path):
+    """A resumed run deleted a notes.txt left in its run folder, and a sub-folder there gave an
+    IsADirectoryError traceback after the result was written, leaving a half-deleted folder that
+    every later --resume crashed on. Only the files the run wrote are deleted now."""
+    cfg, out, _ = interrupted
+    folder = out / "cc.run"
+    (folder / "notes.txt").write_text("why this run matters\n")
+    (folder / "mine").mkdir()
+    (folder / "mine" / "plot.png").write_bytes(b"\x89PNG")
+    resumed = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out), "--resume"])
+    assert resumed.exit_code == 0, resumed.output
+    assert "Traceback" not in resumed.output
+    assert (out / "cc.h5").is_file()
+    assert sorted(p.name for p in folder.iterdir()) == ["mine", "notes.txt"]
+    assert (folder / "notes.txt").read_text() == "why this run matters\n"
+    assert (folder / "mine" / "plot.png").read_bytes() == b"\x89PNG"
+    # the folder is no longer the run's: a new run is refused, naming what is in the way
+    again = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out)])
+    assert again.exit_code == 2
+    assert "is not a uqguide run folder" in again.output
+    assert "'mine'" in again.output or "'notes.txt'" in again.output
+
+
+def test_a_run_stopped_while_writing_its_result_is_recognised_as_finished(tmp_path,
+                                                                          monkeypatch):
+    """Every chunk done, then Ctrl-C while the tables were written: a plain rerun used to refuse
+    with 'holds an unfinished run'; it now sees a finished run of the same config and runs it
+    again (same numbers)."""
+    from uqguide.driver import run_and_write as raw
+
+    cfg = tmp_path / "w.yaml"
+    cfg.write_text(yaml.safe_dump(_config("tests.failing_models:clean_sum", 400)))
+    out = tmp_path / "out"
+
+    def ctrl_c(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:
+        m.setattr(raw, "write_tables", ctrl_c)
+        stopped = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out)])
+    assert stopped.exit_code == 130, stopped.output
+    assert (out / "w.run" / "manifest.jsonl").is_file()
+    again = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out)])
+    assert again.exit_code == 0, again.output
+    assert not (out / "w.run").exists()
+    ref = CliRunner().invoke(main, ["run", str(cfg), "--out", str(tmp_path / "ref")])
+    assert ref.exit_code == 0
+    _assert_same(_stats(tmp_path / "ref" / "w.h5"), _stats(out / "w.h5"))

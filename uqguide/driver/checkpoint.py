@@ -139,6 +139,14 @@ class RunStore:
             clean_stale_temps(path)
             log.info("resuming %s: %d chunks already done", path, len(entries))
             return store
+        if header is not None and header.get("complete") and not resume \
+                and header.get("run_id") == store.run_id:
+            # This very run finished its chunks and was stopped while writing its result:
+            # start it afresh (same numbers) rather than call it unfinished.
+            log.info("%s: a finished run of this config, stopped while writing; running it "
+                     "again", path)
+            store.manifest.remove()
+            header, entries = store.manifest.read()
         if entries and not resume:
             raise ConfigError(
                 f"{path} holds an unfinished run ({len(entries)} chunks done); continue it "
@@ -188,10 +196,16 @@ class RunStore:
         """:meth:`flush`, then end the writer thread."""
         self.writer.close()
 
-    def remove(self) -> None:
-        """Delete the folder (after the result file is written: it holds everything)."""
+    def mark_complete(self) -> None:
+        """Every chunk is done (see :meth:`RunManifest.mark_complete`)."""
         self.close()
-        self.manifest.remove()
+        self.manifest.mark_complete()
+
+    def remove(self) -> list[str]:
+        """Delete the run's files and the folder (after the result file is written: it holds
+        everything); return what was left, not the run's (see :meth:`RunManifest.remove`)."""
+        self.close()
+        return self.manifest.remove()
 
     def _save_now(self, item: tuple[str, int, ChunkResult]) -> None:
         # The file first, then its line: a chunk listed in the manifest is whole on disk.

@@ -184,6 +184,7 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
                 result = run(config, executor, store=store, progress=progress)
             finally:
                 store.close()  # every chunk saved is on disk, whatever stopped the run
+            store.mark_complete()
             try:
                 # Each file whole or absent; a signal here stops the run after the file being
                 # written, and the run folder stays until every file is written (resumable).

@@ -20,6 +20,7 @@ import hashlib
 import importlib
 import inspect
 import json
+import logging
 import os
 import re
 import shutil
@@ -29,6 +30,8 @@ from typing import Any
 from .._version import __version__
 from ..errors import ConfigError
 from ..models.base import Model
+
+log = logging.getLogger(__name__)
 
 #: 2: a chunk's scalars, series and summary packed into one array (1: an npz entry each)
 FORMAT = 2
@@ -249,21 +252,64 @@ class RunManifest:
                               field="out")
         shutil.rmtree(self.folder)
 
-    def remove(self) -> None:
-        """Delete the folder when its manifest says it is this run's (after the result file is
-        written: it holds everything)."""
+    def mark_complete(self) -> None:
+        """Say that every chunk of the run is done: a folder left by an interrupt in the final
+        write is then recognised as a finished run, not an unfinished one."""
+        self.append({"kind": "complete", "run": self.run_id})
+
+    def _ours(self, name: str, listed: set[str]) -> bool:
+        """Whether ``name`` in the folder is a file this run wrote: a chunk the manifest lists,
+        or a chunk (or its temporary file) named for one of this run's method labels, which a
+        kill between the file and its manifest line leaves unlisted."""
+        if name in listed:
+            return True
+        labels = [m.get("label") for m in self.identity.get("config", {}).get("methods", [])
+                  if isinstance(m, dict) and isinstance(m.get("label"), str)]
+        return any(re.fullmatch(rf"\.?{re.escape(str(lab))}\.s\d+\.c\d+\.npz(\.\d+\.tmp)?",
+                                name) for lab in labels)
+
+    def remove(self) -> list[str]:
+        """Delete this run's files and then the folder, when its manifest says it is this run's
+        (after the result file is written: it holds everything). Only files the run wrote are
+        deleted; anything else (a user's notes, a sub-folder) is left where it is, named in a
+        warning, and never stops the run. The manifest goes last, and stays while anything of
+        the run's is left, so the folder still says whose it is.
+
+        Returns
+        -------
+        list of str
+            The names left in the folder (empty: the folder is gone).
+        """
         if not self.folder.is_dir() or self.folder.is_symlink():
-            return
-        header, _ = self.read()
+            return []
+        header, entries = self.read()
         if header is None or header.get("run_id") != self.run_id:
-            return
-        # The manifest last: a removal cut short leaves a folder that still says whose it is
-        # (its missing chunks are re-run), never anonymous chunk files.
-        for p in self.folder.iterdir():
-            if p.name != MANIFEST:
-                p.unlink(missing_ok=True)
-        self.file.unlink(missing_ok=True)
-        shutil.rmtree(self.folder, ignore_errors=True)
+            return []
+        listed = {str(e.get("file")) for e in entries.values()}
+        left: list[str] = []
+        ours_left = False
+        for p in sorted(self.folder.iterdir()):
+            if p.name == MANIFEST:
+                continue
+            if self._ours(p.name, listed) and p.is_file() and not p.is_symlink():
+                try:
+                    p.unlink()
+                    continue
+                except OSError:
+                    ours_left = True
+            left.append(p.name)
+        if not ours_left:
+            self.file.unlink(missing_ok=True)
+        if left:
+            log.warning("%s: left in place, not written by this run: %s%s", self.folder,
+                        ", ".join(left[:3]), f" and {len(left) - 3} more" if len(left) > 3
+                        else "")
+            return left
+        try:
+            self.folder.rmdir()
+        except OSError:  # something appeared meanwhile: it is not ours to delete
+            return [p.name for p in self.folder.iterdir()]
+        return []
 
 
 def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
@@ -302,6 +348,9 @@ def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dic
                 header = obj
             elif obj.get("run_id") != header.get("run_id"):
                 header = {**header, "run_id": "<mixed>", "format": header.get("format")}
+        elif obj.get("kind") == "complete":
+            if header is not None and obj.get("run") == header.get("run_id"):
+                header = {**header, "complete": True}
         elif obj.get("kind") == "chunk":
             try:
                 entries[(str(obj["label"]), int(obj["stage"]), int(obj["index"]))] = obj
