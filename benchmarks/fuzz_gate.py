@@ -35,6 +35,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # the test models live in tests/
     sys.path.insert(0, str(ROOT))
 
+from uqguide.gate.baseline import sealed  # noqa: E402
+
 
 @dataclass
 class Case:
@@ -154,7 +156,8 @@ def _baseline_mutations() -> list[tuple[str, Callable[[dict], object], int]]:
         ("tolerances missing", drop("tolerances"), 2),
         ("model other", lambda d: d.__setitem__("model", "ftcapn"), 2),
         ("format other", lambda d: d.__setitem__("format", "something"), 2),
-        ("format_version 2", lambda d: d.__setitem__("format_version", 2), 2),
+        ("format_version 1", lambda d: d.__setitem__("format_version", 1), 2),
+        ("format_version 7", lambda d: d.__setitem__("format_version", 7), 2),
         ("config not a mapping", lambda d: d.__setitem__("config", [1, 2]), 2),
         ("top is a list", lambda d: [d], 2),
         ("top is a number", lambda d: 3, 2),
@@ -242,7 +245,16 @@ def build_cases(folder: Path) -> list[Case]:
         d = d if out is None else out
         p = folder / f"b{i:03d}.json"
         p.write_text(json.dumps(d))
-        cases.append(Case(f"baseline: {name}", ["check", str(h5), "--baseline", str(p)], expect))
+        # An edit by hand no longer matches the baseline's digest: refused, whatever it did.
+        cases.append(Case(f"baseline, edited: {name}", ["check", str(h5), "--baseline", str(p)],
+                          expect if d == data else 2))
+        if isinstance(d, dict):
+            # The same content as if uqguide had written it (digest matching): the structural
+            # checks and the comparison must still give the expected verdict.
+            p = folder / f"b{i:03d}s.json"
+            p.write_text(json.dumps(sealed(d)))
+            cases.append(Case(f"baseline, sealed: {name}", ["check", str(h5), "--baseline",
+                                                            str(p)], expect))
     for i, (name, text, expect) in enumerate(_raw_baselines()):
         p = folder / f"raw{i:03d}.json"
         p.write_text(text)

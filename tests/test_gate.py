@@ -17,7 +17,8 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from uqguide.gate.baseline import make_baseline, parse_baseline, read_baseline, write_baseline
+from uqguide.gate.baseline import (make_baseline, parse_baseline, read_baseline, sealed,
+                                   to_jsonable, write_baseline)
 from uqguide.cli import main
 from uqguide.config.run_config import validate_config
 from uqguide.errors import ResultError
@@ -220,8 +221,10 @@ def test_baseline_file_is_readable_and_exact(base_result, tmp_path):
      "baseline is not valid JSON (line 1, column"),
     ("[1, 2]", "not a uqguide baseline"),
     ('{"format": "uqguide-baseline", "format_version": 7}', "format_version 7 is not supported"),
-    ('{"format": "uqguide-baseline", "format_version": 1, "name": "x"}',
+    ('{"format": "uqguide-baseline", "format_version": 2, "name": "x"}',
      "invalid baseline at model: Field required"),
+    ('{"format": "uqguide-baseline", "format_version": 1, "name": "x"}',
+     "whose digest refuses edits by hand"),
 ])
 def test_corrupt_baseline_is_exit_2(base_result, tmp_path, content, message):
     h5 = write_hdf5(base_result, tmp_path / "r.h5")
@@ -261,7 +264,7 @@ def test_mismatched_baseline_is_exit_2(base_result, tmp_path, write_config):
     cases["output 'y' is scalar [m] with components ['y1', 'y2'] in the baseline"] = d
     for message, data in cases.items():
         b = tmp_path / "b.json"
-        b.write_text(json.dumps(data))
+        b.write_text(json.dumps(sealed(to_jsonable(data))))  # as if written so: not an edit
         res = runner.invoke(main, ["check", str(h5), "--baseline", str(b)])
         assert res.exit_code == 2, (message, res.output)
         assert message in res.stderr
@@ -371,3 +374,24 @@ def test_hand_loosened_error_bars_are_refused(tmp_path):
         with pytest.raises(ResultError, match=why):
             read_baseline(_edited(golden, tmp_path, edit))
     read_baseline(golden)  # the file as written passes
+
+
+def test_a_baseline_edited_by_hand_is_refused(base_result, tmp_path):
+    """Any change after writing, even one the other checks cannot see (a mean moved within its
+    own error bar, a tolerance widened within its range), is refused: regenerating a baseline is
+    the only way to change it."""
+    b = write_baseline(base_result, tmp_path / "b.json")
+    read_baseline(b)
+    for edit in (lambda d: d["methods"]["mc"]["outputs"]["y"]["points"][0].update(
+                     mean=d["methods"]["mc"]["outputs"]["y"]["points"][0]["mean"] * (1 + 1e-9)),
+                 lambda d: d["tolerances"].update(pce_rtol=0.2),
+                 lambda d: d.update(format_version=1)):
+        data = json.loads(b.read_text())
+        edit(data)
+        edited = tmp_path / "edited.json"
+        edited.write_text(json.dumps(data))
+        with pytest.raises(ResultError, match="changed after it was written|edits by hand"):
+            read_baseline(edited)
+        res = CliRunner().invoke(main, ["check", str(write_hdf5(base_result, tmp_path / "r.h5")),
+                                        "--baseline", str(edited)])
+        assert res.exit_code == 2, res.output

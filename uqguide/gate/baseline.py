@@ -18,6 +18,7 @@ compares exactly.
 from __future__ import annotations
 
 import datetime as _dt
+import hashlib
 import json
 import math
 from pathlib import Path
@@ -37,7 +38,8 @@ from ..results.statistics import (
 )
 
 BASELINE_FORMAT = "uqguide-baseline"
-BASELINE_VERSION = 1
+#: 2: a ``digest`` of the rest of the file, so an edit by hand is refused (1: none)
+BASELINE_VERSION = 2
 
 
 # ---------------------------------------------------------------------------- file schema
@@ -192,7 +194,9 @@ class Baseline(_Strict):
     """A baseline file, validated. Build one with :func:`make_baseline`."""
 
     format: Literal["uqguide-baseline"]
-    format_version: Literal[1]
+    format_version: Literal[2]
+    #: checked by read_baseline against the file's content (an in-memory baseline has none)
+    digest: str = ""
     name: str
     model: str
     created_utc: str
@@ -355,6 +359,40 @@ def to_jsonable(obj: Any) -> Any:
     return obj
 
 
+def baseline_digest(data: dict[str, Any]) -> str:
+    """SHA-256 of a baseline's content, everything but the ``digest`` itself.
+
+    The statistics, their standard errors, the tolerances and the config a baseline was made
+    with are what the gate trusts; the digest makes any change to them by hand visible, so a
+    baseline changes only by being written again from a result.
+
+    Parameters
+    ----------
+    data : dict
+        The baseline as JSON-ready values (:func:`to_jsonable`), with or without a digest.
+
+    Returns
+    -------
+    str
+        ``"sha256:<hex>"``.
+    """
+    body = {k: v for k, v in data.items() if k != "digest"}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return "sha256:" + hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def sealed(data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` (JSON-ready) with its digest, placed after ``format_version``."""
+    out: dict[str, Any] = {}
+    for k, v in data.items():
+        if k != "digest":
+            out[k] = v
+        if k == "format_version":
+            out["digest"] = ""
+    out["digest"] = baseline_digest(data)
+    return out
+
+
 def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_PCE_RTOL,
                    roundoff: dict[StatKey, list[float | None]] | None = None) -> Path:
     """Write the baseline of ``result`` to ``path`` (temporary file, then an atomic rename).
@@ -373,7 +411,7 @@ def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_P
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = _json_text(to_jsonable(make_baseline(result, pce_rtol, roundoff))) + "\n"
+    text = _json_text(sealed(to_jsonable(make_baseline(result, pce_rtol, roundoff)))) + "\n"
     return atomic.write_text(path, text)
 
 
@@ -398,8 +436,9 @@ def parse_baseline(data: Any, source: str = "<baseline>") -> Baseline:
     version = data.get("format_version")
     if version != BASELINE_VERSION:
         raise ResultError(f"{source}: baseline format_version {version!r} is not supported "
-                          f"(this uqguide reads {BASELINE_VERSION}); regenerate it with "
-                          f"`uqguide baseline`")
+                          f"(this uqguide reads {BASELINE_VERSION}, whose digest refuses edits "
+                          f"by hand); regenerate it with `uqguide baseline RESULT -o FILE "
+                          f"--force`")
     try:
         return Baseline.model_validate(data)
     except ValidationError as err:
@@ -422,7 +461,8 @@ def _reject_constant(name: str) -> Any:
 
 
 def read_baseline(path: str | Path) -> Baseline:
-    """Read and validate a baseline file; ResultError if it is missing, corrupt or not one.
+    """Read and validate a baseline file; ResultError if it is missing, corrupt, not one, or
+    edited since it was written (its digest, :func:`baseline_digest`).
 
     Parameters
     ----------
@@ -452,4 +492,10 @@ def read_baseline(path: str | Path) -> Baseline:
             raise ResultError(f"{path}: baseline is not valid JSON ({exc})") from None
         raise ResultError(f"{path}: baseline is not valid JSON (line {exc.lineno}, column "
                           f"{exc.colno}: {exc.msg})") from None
-    return parse_baseline(data, str(path))
+    baseline = parse_baseline(data, str(path))
+    if data.get("digest") != baseline_digest(data):
+        raise ResultError(f"{path}: the baseline was changed after it was written (its digest "
+                          f"does not match its content); a baseline changes only by being "
+                          f"written again: `uqguide baseline RESULT -o FILE --force` (golden "
+                          f"baselines: scripts/update_golden.py)")
+    return baseline
