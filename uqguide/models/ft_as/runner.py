@@ -1,8 +1,8 @@
 """Run a batch of FT-AS closed loops through the compiled kernel and collect the results.
 
 :func:`run_batch` is the one entry point used by the model, the report and the tests: it packs
-the constants, allocates the recording and metric arrays, calls ``kernel.simulate`` (or the
-numpy reference ``reference_run.simulate`` when asked) and
+the constants, allocates the recording and metric arrays, calls ``kernel_numba.simulate`` (or the
+numpy reference ``kernel_numpy.simulate`` when asked) and
 returns a :class:`RunResult` with named arrays.
 """
 
@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..kernels import choose
-from . import kernel
+from . import kernel_numba
 from .setup import Batch, Gains, Plant, pack_constants
 
 log = logging.getLogger(__name__)
@@ -30,7 +30,7 @@ SETTLE_TOLERANCES: dict[str, tuple[float, ...]] = {
     "s_trans": (1e-3,),  # claim C6
     "s_rot": (1e-3,),
 }
-assert tuple(SETTLE_TOLERANCES) == kernel.SETTLE_QUANTITIES
+assert tuple(SETTLE_TOLERANCES) == kernel_numba.SETTLE_QUANTITIES
 FINAL_QUANTITIES = ("r_e", "v_e", "sigma_e", "omega_e")  # rows of the kernel's final_max
 
 
@@ -79,7 +79,7 @@ class RunResult:
     time : ndarray, shape (T,)
         Recorded grid [s].
     records : dict of str to ndarray, shape (n, T, k)
-        Recorded groups of ``kernel.RECORD_GROUPS`` that were asked for.
+        Recorded groups of ``kernel_numba.RECORD_GROUPS`` that were asked for.
     settle : dict of str to ndarray, shape (n, n_tol)
         Last time [s] each norm exceeded each tolerance of ``SETTLE_TOLERANCES``; equal to the
         horizon where not settled.
@@ -149,9 +149,9 @@ def run_batch(
     gains : Gains
     timing : Timing
     record : iterable of str
-        Groups of ``kernel.RECORD_GROUPS`` to record on the output grid.
+        Groups of ``kernel_numba.RECORD_GROUPS`` to record on the output grid.
     kernel_name : {"numba", "numpy", "auto"}
-        ``numpy``: the whole-run reference of ``reference_run.py`` (same numbers to rounding,
+        ``numpy``: the whole-run reference of ``kernel_numpy.py`` (same numbers to rounding,
         ~100x slower for small batches).
     threads : int
         Threads of the compiled kernel (blocks of samples run in parallel); 0: all cores. The
@@ -162,11 +162,11 @@ def run_batch(
     RunResult
     """
     record = list(dict.fromkeys(record))
-    offsets = np.full(len(kernel.RECORD_GROUPS), -1, dtype=np.int64)
+    offsets = np.full(len(kernel_numba.RECORD_GROUPS), -1, dtype=np.int64)
     width = 0
     for name in record:
-        offsets[kernel.GROUP_INDEX[name]] = width
-        width += kernel.RECORD_GROUPS[name]
+        offsets[kernel_numba.GROUP_INDEX[name]] = width
+        width += kernel_numba.RECORD_GROUPS[name]
     n, n_steps, every = batch.n, timing.n_steps, timing.record_every
     n_rec = n_steps // every + 1
     rec = np.zeros((n, n_rec, max(width, 1)))
@@ -183,9 +183,9 @@ def run_batch(
     final_start = timing.first_step_at(timing.duration - timing.final_window)
     late_start = timing.first_step_at(timing.late_time)
     if choose(kernel_name, "ft_as") == "numpy":
-        from . import reference_run
+        from . import kernel_numpy
 
-        reference_run.simulate(
+        kernel_numpy.simulate(
             batch, plant, gains, float(timing.step), n_steps, every, final_start, late_start,
             tols, rec, offsets, settle, final_max, peak_app, peak_cmd, peak_late, impulse, failed,
         )  # fmt: skip
@@ -197,7 +197,7 @@ def run_batch(
         used = min(threads, most) if threads else most
         numba.set_num_threads(used)
         try:
-            kernel.simulate(
+            kernel_numba.simulate(
                 np.ascontiguousarray(batch.x0, dtype=float),
                 np.asarray(batch.mass_offset, dtype=float),
                 np.asarray(batch.inertia_scale_error, dtype=float),
@@ -213,15 +213,15 @@ def run_batch(
                 np.ascontiguousarray(plant.J0_inv),
                 P, Q, np.asarray(plant.limits, dtype=float), float(timing.step), n_steps, every,
                 final_start, late_start, tols, rec, offsets, settle, final_max, peak_app,
-                peak_cmd, peak_late, impulse, failed, kernel.block_size(n, used),
+                peak_cmd, peak_late, impulse, failed, kernel_numba.block_size(n, used),
             )  # fmt: skip
         finally:
             numba.set_num_threads(before)
     wall = time.perf_counter() - t0
     log.debug("ft_as kernel: %d runs x %d steps in %.2f s", n, n_steps, wall)
     records = {
-        name: rec[:, :, offsets[kernel.GROUP_INDEX[name]] : offsets[kernel.GROUP_INDEX[name]]
-                  + kernel.RECORD_GROUPS[name]]
+        name: rec[:, :, offsets[kernel_numba.GROUP_INDEX[name]]
+                  : offsets[kernel_numba.GROUP_INDEX[name]] + kernel_numba.RECORD_GROUPS[name]]
         for name in record
     }  # fmt: skip
     return RunResult(

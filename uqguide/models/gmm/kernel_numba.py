@@ -1,6 +1,6 @@
-"""Compiled GMM proximity closed loop: the arithmetic of :func:`.sampled_sim.simulate`, whole run.
+"""Compiled GMM proximity closed loop: the arithmetic of :func:`.kernel_numpy.simulate`, whole run.
 
-:func:`.sampled_sim.simulate` (NumPy over the batch, one Python-level step per control period)
+:func:`.kernel_numpy.simulate` (NumPy over the batch, one Python-level step per control period)
 is the reference; this kernel runs the same sampled-data loop (GMM-NTSMC or TSMC command at
 ``t_k``, bad-command guard, saturation, thrust scale, the RK4 sub-step maps, per-sub-step
 clearance, penetration, range and swept collision tests, records and ZEM) for the whole run in
@@ -36,7 +36,7 @@ from numba import prange
 from ..kernels import njit
 from .controllers import NTSMC, TSMC
 from .geometry import ChiefGeometry
-from .sampled_sim import Controller, SampledRun, StepSchedule, simulate
+from .kernel_numpy import Controller, SampledRun, StepSchedule, simulate
 
 log = logging.getLogger(__name__)
 
@@ -103,7 +103,7 @@ def simulate_compiled(
     goal: np.ndarray | None = None,
     keep_control: bool = False,
 ) -> SampledRun:
-    """:func:`.sampled_sim.simulate` by the compiled kernel; same arguments, same result.
+    """:func:`.kernel_numpy.simulate` by the compiled kernel; same arguments, same result.
 
     The kernel knows the :class:`.controllers.NTSMC` and :class:`.controllers.TSMC` laws; any
     other controller, a thrust noise or ``keep_control`` (options no model run uses) go to the
@@ -113,7 +113,7 @@ def simulate_compiled(
     ----------
     schedule, controller, x0, geometry, a_max, per_axis_saturation, thrust_scale, thrust_noise,
     rng, record_every, goal, keep_control
-        As for :func:`.sampled_sim.simulate`.
+        As for :func:`.kernel_numpy.simulate`.
 
     Returns
     -------

@@ -29,7 +29,7 @@ Decisions where spec and paper are silent (each a parameter or stated here):
   memory of 1e4-sample runs; clearance and collisions use every RK4 sub-step (0.1 s).
 - The closed loop runs compiled for the whole run (:mod:`.kernel_numba`, blocks of samples in
   ``threads`` threads) unless ``kernel: numpy`` asks for the NumPy reference
-  (:func:`.sampled_sim.simulate`); the two agree to round-off, and a sample's numbers do not
+  (:func:`.kernel_numpy.simulate`); the two agree to round-off, and a sample's numbers do not
   depend on the batch split or the thread count.
 - ``los_rate`` is the rate of the line of sight from the chief's centre to the deputy seen in
   LVLH, ``|r x v| / |r|^2``; ``zem`` is the zero-effort miss, the distance from the goal at
@@ -55,7 +55,7 @@ from .geometry import ChiefGeometry, wang2022_chief
 from .mixture import WANG2022_PUBLISHED, Mixture
 from .params import GMMProximityParams
 from .potential import AttractRepulsePotential
-from .sampled_sim import SampledRun, StepSchedule, build_schedule
+from .kernel_numpy import SampledRun, StepSchedule, build_schedule
 
 log = logging.getLogger(__name__)
 
@@ -224,7 +224,7 @@ class GMMProximity(Model):
             record_every = int(round(p.record_interval / p.dt))
         simulate = select(p.kernel, self.name,
                           "uqguide.models.gmm.kernel_numba:simulate_compiled",
-                          "uqguide.models.gmm.sampled_sim:simulate")
+                          "uqguide.models.gmm.kernel_numpy:simulate")
         args = (self.schedule(), self.controller(name, self.repulsion(name, values, n)), x0,
                 self.geometry())
         options = dict(a_max=a_max, per_axis_saturation=p.saturation == "per_axis",

@@ -1,6 +1,6 @@
-"""Compiled GMM-FTC closed loop: the arithmetic of :mod:`.closed_loop`, in blocks of samples.
+"""Compiled GMM-FTC closed loop: the arithmetic of :mod:`.kernel_numpy`, in blocks of samples.
 
-:func:`.closed_loop.run_closed_loop` (NumPy over the batch) is the reference; this kernel runs
+:func:`.kernel_numpy.run_closed_loop` (NumPy over the batch) is the reference; this kernel runs
 the same sampled-data loop (GMM-FTC at ``t_k``, thrust factors and keyed noise, RK4 of the
 body-frame plant, per-sub-step geometry, the same metrics) in one compiled function. NumPy
 advances a whole batch per Python-level step and pays ~1 ms of call overhead per step whatever
@@ -846,9 +846,9 @@ def _geometry_events(i, l, x, p0, s_lo, s_hi, c_lo, c_hi, is_solid, d_prev, flag
 
 def run_closed_loop_numba(plant, controller_plant, law, geometry, x0, settings,
                           thrust_scale=None, noise_keys=None):
-    """:func:`.closed_loop.run_closed_loop` through the compiled kernel (same arguments and
+    """:func:`.kernel_numpy.run_closed_loop` through the compiled kernel (same arguments and
     result)."""
-    from .closed_loop import LoopRun, scalar_results
+    from .kernel_numpy import LoopRun, scalar_results
 
     st = settings
     x0 = np.ascontiguousarray(x0, dtype=float)

@@ -46,7 +46,7 @@ from ..dynamics.tschauner_hempel import ChiefOrbit
 from ..gmm.potential import AttractRepulsePotential
 from ..kernels import select
 from . import noise
-from .closed_loop import LoopRun, LoopSettings
+from .kernel_numpy import LoopRun, LoopSettings
 from .law import FTCGains, GMMFTCLaw
 from .params import GMMFTCParams
 from .target import target_geometry, target_mixture
@@ -182,7 +182,7 @@ class GMMFTC(Model):
                  settings: LoopSettings | None = None, noise_keys: np.ndarray | None = None
                  ) -> LoopRun:
         """Closed-loop runs for inputs ``values`` (each (n,)); see
-        :func:`.closed_loop.run_closed_loop`.
+        :func:`.kernel_numpy.run_closed_loop`.
 
         ``noise_keys`` (n,) overrides the keys derived from ``noise_seed`` and the inputs.
         """
@@ -212,7 +212,7 @@ class GMMFTC(Model):
                                    p.body_tolerance)
         runner = select(p.kernel, "gmm_ftc",
                         "uqguide.models.gmm_ftc.kernel_numba:run_closed_loop_numba",
-                        "uqguide.models.gmm_ftc.closed_loop:run_closed_loop")
+                        "uqguide.models.gmm_ftc.kernel_numpy:run_closed_loop")
         return runner(plant, controller_plant, self.law(), geometry, x0, st,
                       thrust_scale=scale, noise_keys=noise_keys)
 

@@ -1,10 +1,10 @@
 """Compiled (numba) integration of a batch of FT-AS closed loops with per-step metrics.
 
-The same equations as the numpy reference ``closed_loop.py`` (ft-as-controller.md sections
+The same equations as the numpy reference ``equations.py`` (ft-as-controller.md sections
 3-9), written per sample on scalars. The model's accuracy floors are set by the sampling rate
 (section 12.3), so the spec's h = 0.01 s over 3000 s (3e5 steps) is what a reported run needs;
 only a compiled loop makes that, and Monte Carlo over it, affordable. ``tests/test_ft_as_model.py``
-checks this kernel against :func:`closed_loop.rk4_step` and ``reference_run.py`` to rounding level.
+checks this kernel against :func:`equations.rk4_step` and ``kernel_numpy.py`` to rounding level.
 
 How the loop is laid out, and why (``benchmarks/throughput.py`` prints its roofline):
 
@@ -200,7 +200,7 @@ def _terms(ck, x, nt, J0, J0i):
     h4 = gd1 + G10 * a0 + G11 * a1 + G12 * a2
     h5 = gd2 + G20 * a0 + G21 * a1 + G22 * a2
     # differential gravity without cancellation: (1 + q)^-1.5 - 1 = -q (2 + q + r) / (r (1 + r)
-    # (1 + q)), r = sqrt(1 + q), exact algebra (see closed_loop.differential_gravity)
+    # (1 + q)), r = sqrt(1 + q), exact algebra (see equations.differential_gravity)
     rt0, rt1, rt2, rtn2, f = ck[4], ck[5], ck[6], ck[7], ck[8]
     re0, re1, re2 = x[0], x[1], x[2]
     qg = (2.0 * (re0 * rt0 + re1 * rt1 + re2 * rt2) + re0 * re0 + re1 * re1 + re2 * re2) / rtn2
