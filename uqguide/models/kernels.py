@@ -23,9 +23,11 @@ import os
 import sys
 import tempfile
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, contextmanager, nullcontext
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Generic, Literal, TypeVar
 
 KERNEL_ENV = "UQGUIDE_KERNEL"
 """Environment variable that forces every model's kernel: ``numpy`` or ``numba``."""
@@ -34,6 +36,7 @@ KernelChoice = Literal["numba", "numpy"]
 KernelParam = Literal["auto", "numba", "numpy"]
 """A model's ``kernel`` parameter: ``auto`` is numba when it is importable (:func:`choose`)."""
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
+F = TypeVar("F", bound=Callable[..., Any])
 
 
 def kernel_override() -> KernelChoice | None:
@@ -111,11 +114,44 @@ def choose(requested: str, model: str) -> KernelChoice:
     return "numpy"
 
 
-def select(requested: str, model: str, compiled: str, reference: str) -> Callable[..., Any]:
-    """The closed-loop function a model runs: its compiled kernel or its NumPy reference.
+@dataclass(frozen=True)
+class Kernel(Generic[F]):
+    """The closed loop a model runs: its compiled kernel or its NumPy reference.
 
-    Both are named as ``"module:function"`` and imported only when chosen, so that a NumPy run
-    never imports numba nor compiles anything.
+    Attributes
+    ----------
+    choice : {"numba", "numpy"}
+        Which of the two ``run`` is.
+    run : callable
+        The chosen function (both take the same arguments and return the same result).
+    """
+
+    choice: KernelChoice
+    run: F
+
+    def threads(self, threads: int) -> AbstractContextManager[None]:
+        """Run the compiled kernel on ``threads`` threads while in the block (0: every core
+        numba may use); nothing to set for the NumPy reference.
+
+        Parameters
+        ----------
+        threads : int
+
+        Returns
+        -------
+        context manager
+        """
+        return numba_threads(threads) if self.choice == "numba" else nullcontext()
+
+
+def select(requested: str, model: str, compiled: Callable[[], F], reference: Callable[[], F]
+           ) -> Kernel[F]:
+    """The closed loop a model runs: its compiled kernel or its NumPy reference.
+
+    Both come from zero-argument loaders written in the model's module, each importing its
+    function by name (``from .kernel_numba import simulate_numba``), so that the reader, grep
+    and the type checker see which functions a model runs, and only the chosen one is
+    imported: a NumPy run never imports numba nor compiles anything.
 
     Parameters
     ----------
@@ -123,21 +159,40 @@ def select(requested: str, model: str, compiled: str, reference: str) -> Callabl
         The model's ``kernel`` parameter (``UQGUIDE_KERNEL`` overrides it, see :func:`choose`).
     model : str
         The model's name, for the error message.
-    compiled, reference : str
-        ``"uqguide.models.<pkg>.<module>:<function>"`` of the numba kernel and of the NumPy
-        reference, which take the same arguments and return the same result.
+    compiled, reference : callable
+        Loaders of the numba kernel and of the NumPy reference, which take the same arguments
+        and return the same result.
 
     Returns
     -------
-    callable
-        The chosen function.
+    Kernel
+        The chosen function and which one it is.
     """
-    import importlib
+    choice = choose(requested, model)
+    return Kernel(choice, compiled() if choice == "numba" else reference())
 
-    target = compiled if choose(requested, model) == "numba" else reference
-    module, _, function = target.partition(":")
-    chosen: Callable[..., Any] = getattr(importlib.import_module(module), function)
-    return chosen
+
+@contextmanager
+def numba_threads(threads: int) -> Iterator[None]:
+    """Let compiled kernels use ``threads`` threads (0: all numba may use) inside the block.
+
+    Parameters
+    ----------
+    threads : int
+
+    Yields
+    ------
+    None
+    """
+    import numba
+
+    before = numba.get_num_threads()
+    most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
+    numba.set_num_threads(min(threads, most) if threads else most)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
 
 
 # ---------------------------------------------------------------------------- the cache

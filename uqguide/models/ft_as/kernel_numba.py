@@ -57,27 +57,8 @@ from ..kernels import njit
 from .setup import (
     CASE1, CASE2, K_A, K_AT, K_B, K_BOUNDARY, K_C, K_EPS, K_ETA1, K_ETA2, K_GAMMA, K_LAM1, K_LAM2,
     K_LAM3, K_M0, K_MU, K_NT, K_NU1, K_NU2, K_OBS_P, K_OBS_PER_CHANNEL, K_R2, K_RHO2, K_U0,
+    Batch, Gains, Plant, pack_constants,
 )
-
-# Recorded channel groups: name -> width. The caller asks for a subset through offsets.
-RECORD_GROUPS: dict[str, int] = {
-    "r_e": 3,
-    "v_e": 3,
-    "sigma_e": 3,
-    "omega_e": 3,
-    "s": 6,  # sliding variable on the true errors
-    "u_command": 6,  # u_c (Case 2: u_T) at the grid instant
-    "u_applied_min": 6,  # envelope of the applied input over the output interval
-    "u_applied_max": 6,
-    "eps1": 6,  # psi1 - e2
-    "eps2": 6,  # psi2 - d_obs (true)
-    "d_hat": 6,
-    "d_obs": 6,
-    "chi1": 6,
-}
-GROUP_INDEX = {name: i for i, name in enumerate(RECORD_GROUPS)}
-# Order of the norms whose settling times are tracked (section 10) and of their tolerance rows.
-SETTLE_QUANTITIES = ("r_e", "v_e", "sigma_e", "omega_e", "eps1", "s_trans", "s_rot")
 
 MAX_BLOCK = 16
 """Most samples per parallel block. A block pays the clock (~20 libm calls per step) once for
@@ -579,6 +560,36 @@ def _observed_disturbance(ck, x, tr, u, m_off, inertia_err, a_f, a_tau, c, J0, J
         out[i] += dm[i]
 
 
+def simulate_numba(batch: Batch, plant: Plant, gains: Gains, dt: float, n_steps: int,
+                   rec_every: int, final_start: int, late_start: int, tols: np.ndarray,
+                   rec: np.ndarray, offsets: np.ndarray, settle: np.ndarray,
+                   final_max: np.ndarray, peak_app: np.ndarray, peak_cmd: np.ndarray,
+                   peak_late: np.ndarray, impulse: np.ndarray, failed: np.ndarray) -> None:
+    """:func:`.kernel_numpy.simulate` by the compiled kernel: same arguments, same outputs
+    (written in place), in blocks of samples over the threads numba may use now."""
+    import numba
+
+    P, Q = plant.reference.basis()
+    simulate(
+        np.ascontiguousarray(batch.x0, dtype=float),
+        np.asarray(batch.mass_offset, dtype=float),
+        np.asarray(batch.inertia_scale_error, dtype=float),
+        np.asarray(batch.force_amp, dtype=float),
+        np.asarray(batch.torque_amp, dtype=float),
+        np.asarray(batch.controller, dtype=np.int64),
+        np.asarray(batch.observer_on_applied, dtype=np.bool_),
+        np.asarray(batch.psi2_bound, dtype=float),
+        np.asarray(batch.omega_chi, dtype=float),
+        np.asarray(batch.switch_input, dtype=np.bool_),
+        pack_constants(plant, gains),
+        np.ascontiguousarray(plant.J0, dtype=float),
+        np.ascontiguousarray(plant.J0_inv),
+        P, Q, np.asarray(plant.limits, dtype=float), float(dt), n_steps, rec_every,
+        final_start, late_start, tols, rec, offsets, settle, final_max, peak_app,
+        peak_cmd, peak_late, impulse, failed, block_size(batch.n, numba.get_num_threads()),
+    )  # fmt: skip
+
+
 @njit(cache=True, error_model="numpy", parallel=True)
 def simulate(x0, mass_off, inertia_err, force_amp, torque_amp, ctrl, obs_applied, psi2_bound,
              omega_chi, switch_input, c, J0, J0i, P, Q, limits, dt, n_steps, rec_every,
@@ -603,11 +614,11 @@ def simulate(x0, mass_off, inertia_err, force_amp, torque_amp, ctrl, obs_applied
         Step [s]; ``n_steps`` steps are taken.
     rec_every : int
         Record every ``rec_every`` steps into ``rec`` (n, n_rec, n_channels), the groups of
-        ``RECORD_GROUPS`` at column ``offsets[g]`` (-1: not recorded).
+        ``layout.RECORD_GROUPS`` at column ``offsets[g]`` (-1: not recorded).
     final_start, late_start : int
         First step of the final-accuracy window and of the "late" peak window.
     tols : ndarray, shape (7, n_tol)
-        Settling tolerances per ``SETTLE_QUANTITIES`` row (entries <= 0 unused).
+        Settling tolerances per ``layout.SETTLE_QUANTITIES`` row (entries <= 0 unused).
     block : int
         Samples per parallel block (:func:`block_size`); it changes the speed, not the numbers.
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import equations as cl
-from .kernel_numba import GROUP_INDEX, RECORD_GROUPS
+from .layout import GROUP_INDEX, RECORD_GROUPS
 from .setup import CASE2, PSI1, PSI2, Batch, Gains, Plant
 
 
