@@ -251,7 +251,17 @@ def _kernel_family(module: str) -> str | None:
     return None
 
 
+#: Compiles in progress in this process: a kernel's compile compiles the functions it calls
+#: (its own helpers, the shared record writers) inside it, and only the outermost is announced.
+_depth = 0
+
+
 def _on_compile(event: Any) -> None:
+    global _depth
+    with _lock:
+        _depth += 1
+        if _depth > 1:
+            return
     dispatcher = (event.data or {}).get("dispatcher")
     family = _kernel_family(getattr(getattr(dispatcher, "py_func", None), "__module__", ""))
     if family is None:
@@ -267,6 +277,12 @@ def _on_compile(event: Any) -> None:
         sink(text)
     else:
         print(text, file=sys.stderr, flush=True)
+
+
+def _on_compiled(event: Any) -> None:
+    global _depth
+    with _lock:
+        _depth -= 1
 
 
 _configured = False
@@ -315,6 +331,6 @@ def _listener_class() -> type:
             _on_compile(ev)
 
         def on_end(self, ev: Any) -> None:
-            pass
+            _on_compiled(ev)
 
     return CompileListener

@@ -53,6 +53,7 @@ import numpy as np
 from numba import prange
 
 from ..kernels import njit
+from ..record_rows import put_vector
 
 from .setup import (
     CASE1, CASE2, K_A, K_AT, K_B, K_BOUNDARY, K_C, K_EPS, K_ETA1, K_ETA2, K_GAMMA, K_LAM1, K_LAM2,
@@ -785,38 +786,14 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
             # --- recording
             j = jrec[b]
             if record and j < n_rec:
-                o = offsets[0]
-                if o >= 0:
-                    for q in range(3):
-                        rec[i, j, o + q] = X[q]
-                o = offsets[1]
-                if o >= 0:
-                    for q in range(3):
-                        rec[i, j, o + q] = X[3 + q]
-                o = offsets[2]
-                if o >= 0:
-                    for q in range(3):
-                        rec[i, j, o + q] = X[6 + q]
-                o = offsets[3]
-                if o >= 0:
-                    for q in range(3):
-                        rec[i, j, o + q] = tr[9 + q]
-                o = offsets[4]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = s_true[q]
-                o = offsets[5]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = law[q]
-                o = offsets[6]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = env[b, q]
-                o = offsets[7]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = env[b, 6 + q]
+                put_vector(rec, i, j, offsets[0], X, 0, 3)  # r_e
+                put_vector(rec, i, j, offsets[1], X, 3, 3)  # v_e
+                put_vector(rec, i, j, offsets[2], X, 6, 3)  # sigma_e
+                put_vector(rec, i, j, offsets[3], tr, 9, 3)  # omega_e
+                put_vector(rec, i, j, offsets[4], s_true, 0, 6)
+                put_vector(rec, i, j, offsets[5], law, 0, 6)  # u_command
+                put_vector(rec, i, j, offsets[6], env[b], 0, 6)  # u_applied_min
+                put_vector(rec, i, j, offsets[7], env[b], 6, 6)  # u_applied_max
                 o = offsets[8]
                 if o >= 0:
                     rec[i, j, o], rec[i, j, o + 1], rec[i, j, o + 2] = e0, e1, e2
@@ -828,18 +805,9 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                     if o >= 0:
                         for q in range(6):
                             rec[i, j, o + q] = X[18 + q] - dobs[q]
-                    o = offsets[11]
-                    if o >= 0:
-                        for q in range(6):
-                            rec[i, j, o + q] = dobs[q]
-                o = offsets[10]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = X[18 + q]
-                o = offsets[12]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = X[24 + q]
+                    put_vector(rec, i, j, offsets[11], dobs, 0, 6)  # d_obs
+                put_vector(rec, i, j, offsets[10], X, 18, 6)  # d_hat
+                put_vector(rec, i, j, offsets[12], X, 24, 6)  # chi1
                 jrec[b] = j + 1
                 for q in range(6):
                     env[b, q] = np.inf

@@ -34,6 +34,7 @@ import numpy as np
 from numba import prange
 
 from ..kernels import njit
+from ..record_rows import put_lane
 from .controllers import NTSMC, TSMC
 from .geometry import ChiefGeometry
 from .kernel_numpy import Controller, SampledRun, StepSchedule, simulate
@@ -507,9 +508,8 @@ def _block(i0, i1, x0, A, B, phi, gam, law, gains, P, M, c, mu, L, s_lo, s_hi, c
             j = (k + 1) // record_every
             for l in range(m):
                 i = i0 + l
-                for a in range(3):
-                    r_rec[i, j, a] = st[a, l]
-                    v_rec[i, j, a] = st[3 + a, l]
+                put_lane(r_rec, i, j, 0, st, 0, 3, l)
+                put_lane(v_rec, i, j, 0, st, 3, 3, l)
                 dv_rec[i, j] = dv[l]
             if with_zem:
                 _zem(j, i0, m, st, coast[k + 1], goal, zem)

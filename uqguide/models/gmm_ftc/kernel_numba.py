@@ -33,6 +33,7 @@ import numba as nb
 import numpy as np
 
 from ..kernels import njit
+from ..record_rows import put_lane
 
 SCALAR_COLUMNS: tuple[str, ...] = (
     "bad_e", "bad_settle", "bad_v", "bad_s2", "bad_speed", "bad_u", "pos_error_final",
@@ -794,11 +795,11 @@ def _record(i, l, ir, x, u, s2, w, C, dv, rec_r, rec_v, rec_u, rec_rl, rec_vl, r
     e1 = (u1 + 2.0 * (w2 * v0 - w0 * v2)) + (w2 * wr0 - w0 * wr2)
     e2 = (u2 + 2.0 * (w0 * v1 - w1 * v0)) + (w0 * wr1 - w1 * wr0)
     q0, q1, q2 = v0 + wr0, v1 + wr1, v2 + wr2
+    put_lane(rec_r, i, ir, 0, x, 0, 3, l)
+    put_lane(rec_v, i, ir, 0, x, 3, 3, l)
+    put_lane(rec_u, i, ir, 0, u, 0, 3, l)
     for a in range(3):
         ca0, ca1, ca2 = C[3 * a, l], C[3 * a + 1, l], C[3 * a + 2, l]
-        rec_r[i, ir, a] = x[a, l]
-        rec_v[i, ir, a] = x[3 + a, l]
-        rec_u[i, ir, a] = u[a, l]
         rec_rl[i, ir, a] = ca0 * r0 + ca1 * r1 + ca2 * r2
         rec_vl[i, ir, a] = ca0 * q0 + ca1 * q1 + ca2 * q2
         rec_ul[i, ir, a] = ca0 * u0 + ca1 * u1 + ca2 * u2
