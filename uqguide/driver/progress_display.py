@@ -3,7 +3,8 @@
 - On a terminal: one bar redrawn in place, ``apce: fitting zem (2/7, 300 runs) |####| 3/3
   chunk [00:41, 300/300 runs, 0 failed]``. A ticker redraws it every ``refresh`` seconds so
   the elapsed time moves during a compile or a PCE fit, where no chunk finishes; the kernels'
-  one-line compile notice is printed above the bar (not across it) and shown as the phase.
+  compile notices (its start, then its duration) are printed above the bar (not across it) and
+  the compile is shown as the phase while it lasts.
 - Elsewhere (a pipe, a CI log): a plain line at most every ``interval`` seconds, and a closing
   line only if it says something the last one did not.
 - ``-q``: nothing.
@@ -87,12 +88,12 @@ class BarProgress(Progress):
         while not self._stop.wait(self.refresh):
             self._draw()
 
-    def _notice(self, text: str) -> None:
+    def _notice(self, text: str, phase: str) -> None:
         from tqdm import tqdm
 
         with self._draw_lock:
             tqdm.write(text, file=self.stream)
-        self.phase(text.removeprefix("uqguide: ").split(" (")[0])
+        self.phase(phase)
 
     def _draw(self) -> None:
         with self._draw_lock:
