@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from uqguide.models.dynamics import mrp
-from uqguide.models.ft_as import closed_loop as cl
+from uqguide.models.ft_as import equations as cl
 from uqguide.models.ft_as import scenario
 from uqguide.models.ft_as.params import FTASParams
 from uqguide.models.ft_as.setup import OMEGA, R_E, SIGMA_E, V_E, Batch

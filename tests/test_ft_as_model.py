@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from uqguide.models.ft_as import FTAS
-from uqguide.models.ft_as import closed_loop as cl
+from uqguide.models.ft_as import equations as cl
 from uqguide.models.ft_as.model import Variant
 from uqguide.models.ft_as.params import FTASParams
 from uqguide.models.ft_as.runner import Timing, run_batch
@@ -111,7 +111,7 @@ def test_samples_are_independent_of_the_batch():
 def test_samples_do_not_depend_on_the_thread_count_or_the_block(monkeypatch, threads, block):
     # a block of samples shares the clock (time-only terms) and runs on one thread: a sample's
     # numbers must be the same bits whichever block and thread it lands in
-    from uqguide.models.ft_as import kernel
+    from uqguide.models.ft_as import kernel_numba as kernel
 
     kw = {"step": 0.1, "duration": 60.0, "output_interval": 10.0, "final_window": 20.0}
     x = np.array([[0.8, 1e-3], [1.2, 5e-3], [1.0, 0.0], [0.9, 2e-3], [1.1, 8e-3]])
@@ -152,7 +152,7 @@ def test_gains_follow_params():
 
 def test_numpy_whole_run_reference_matches_kernel_metrics():
     # every metric and recorded group of the compiled kernel against the independently written
-    # numpy loop (reference_run.py), 60 s at h = 0.1 s through the saturated start, all controllers
+    # numpy loop (kernel_numpy.py), 60 s at h = 0.1 s through the saturated start, all controllers
     kw = {"step": 0.1, "duration": 60.0, "output_interval": 5.0, "final_window": 20.0,
           "late_time": 30.0}  # fmt: skip
     groups = ("r_e", "v_e", "sigma_e", "omega_e", "s", "u_command", "u_applied_min",

@@ -1,5 +1,5 @@
 """The compiled gmm_proximity closed loop (models/gmm/kernel_numba.py) against the NumPy reference
-(models/gmm/sampled_sim.py), and its invariance to the batch split and the thread count.
+(models/gmm/kernel_numpy.py), and its invariance to the batch split and the thread count.
 
 Both run the same arithmetic; they differ by round-off (the libm against NumPy's vector ``pow``
 and ``exp``, and the kernel's algebraic forms of the fractional powers). Round-off grows along a
@@ -24,7 +24,7 @@ import pytest
 from uqguide.models.gmm import kernel_numba
 from uqguide.models.gmm.kernel_numba import BLOCK, block_size
 from uqguide.models.gmm.model import GMMProximity
-from uqguide.models.gmm.sampled_sim import SampledRun
+from uqguide.models.gmm.kernel_numpy import SampledRun
 
 E_START = {"r0": (-15.0, 16.0, 0.0)}
 F2 = {**E_START, "gmm_sigma_floor": 0.3, "antenna_half_width": 0.3}

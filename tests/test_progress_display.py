@@ -27,7 +27,10 @@ def test_on_a_terminal_one_bar_is_redrawn_in_place_with_the_phase():
     assert isinstance(p, BarProgress)
     p.plan(4, 400)
     p.start("apce")
-    kernels.notice_sink("uqguide: compiling the ftcapn kernel (once per install; ...)")
+    kernels.notice_sink("uqguide: compiling the ftcapn kernel (once per install; ...)",
+                        "compiling the ftcapn kernel")
+    time.sleep(2.5 * p.refresh)  # the ticker redraws the phase while the compile lasts
+    kernels.notice_sink("uqguide: compiled the ftcapn kernel in 21.3 s", "")
     p.advance(100, 1)
     p.phase("fitting zem (2/7, 300 runs)")
     time.sleep(2.5 * p.refresh)  # the ticker redraws while nothing else happens
@@ -35,11 +38,14 @@ def test_on_a_terminal_one_bar_is_redrawn_in_place_with_the_phase():
     out = term.getvalue()
     assert kernels.notice_sink is None  # the compile notice goes back to stderr afterwards
     before_close = out[:out.rindex("\r")]
-    # the compile line is printed whole above the bar; the bar itself never starts a new line
-    assert before_close.count("\n") == 1
+    # the compile lines are printed whole above the bar; the bar itself never starts a new line
+    assert before_close.count("\n") == 2
     assert "uqguide: compiling the ftcapn kernel (once per install; ...)\n" in out
+    assert "uqguide: compiled the ftcapn kernel in 21.3 s\n" in out
     frames = [f for f in out.split("\r") if "chunks" in f]
-    assert any(f.startswith("apce: compiling the ftcapn kernel |") for f in frames)
+    compiling = [f for f in frames if f.startswith("apce: compiling the ftcapn kernel |")]
+    assert len(compiling) >= 2  # a live phase: redrawn while it lasts
+    assert not any(f.startswith("apce: compiled") for f in frames)  # over: not a phase
     fitting = [f for f in frames if f.startswith("apce: fitting zem (2/7, 300 runs) |")]
     assert len(fitting) >= 2  # redrawn by the ticker during the fit
     assert all("1/4 chunks" in f and "100/400 runs, 1 failed" in f for f in fitting)

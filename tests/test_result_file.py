@@ -52,6 +52,21 @@ def test_round_trip_is_exact_and_keeps_method_order(result, tmp_path):
     assert back.provenance["versions"]["numpy"] == np.__version__
 
 
+def test_compile_seconds_are_kept_apart_and_older_files_read_as_none(result, tmp_path):
+    from uqguide.report.tables import cost_table
+
+    assert "compile_s" not in cost_table(result)  # nothing compiled: no column
+    result.runs[1].compile_seconds = 21.25
+    back = read_hdf5(write_hdf5(result, tmp_path / "r.h5"))
+    assert [r.compile_seconds for r in back.runs] == [0.0, 21.25]
+    assert [r.model_seconds for r in back.runs] == [r.model_seconds for r in result.runs]
+    cost = cost_table(back)
+    assert list(cost["compile_s"]) == [0.0, 21.25]
+    assert list(cost.columns[4:7]) == ["model_s", "compile_s", "fit_s"]
+    old = read_hdf5(Path(__file__).parent / "data" / "result_format1.h5")
+    assert [r.compile_seconds for r in old.runs] == [0.0, 0.0]
+
+
 def test_layout_is_as_documented(result, tmp_path):
     path = write_hdf5(result, tmp_path / "r.h5")
     T = result.time.size

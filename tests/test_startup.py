@@ -3,6 +3,7 @@ figures are measured by benchmarks/startup.py, not asserted here)."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -99,3 +100,24 @@ print("SAME:" + str(np.array_equal(grid, run) and grid[-1] == 77.5))
                        timeout=120)
     assert p.returncode == 0, p.stderr
     assert "NUMBA:False" in p.stdout and "SAME:True" in p.stdout, p.stdout
+
+
+def test_a_numpy_kernel_run_imports_no_numba():
+    """``kernels.select`` calls only the chosen loader: with ``UQGUIDE_KERNEL=numpy`` a run of
+    FTCAPN and one of FT-AS (whose runner once imported its compiled kernel for the record
+    layout) never import numba."""
+    probe = """
+import sys
+import numpy as np
+from uqguide.models.ft_as import FTAS
+from uqguide.models.ftcapn import FTCAPN
+assert not FTCAPN().nominal().failed[0]
+FTAS({"step": 0.1, "duration": 5.0, "output_interval": 1.0, "final_window": 1.0,
+      "late_time": 1.0}).evaluate(np.zeros((1, 0)), [])
+print("NUMBA:" + str("numba" in sys.modules))
+"""
+    env = {**os.environ, "UQGUIDE_KERNEL": "numpy"}
+    p = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT,
+                       env=env, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert "NUMBA:False" in p.stdout, p.stdout

@@ -6,7 +6,8 @@
   compile, a PCE fit) in place of an ETA. When the next method starts, the finished bar stays
   on its line and a new one opens below. A ticker redraws every ``refresh`` seconds so the
   elapsed time moves during a compile or a PCE fit, where no chunk finishes; the kernels'
-  one-line compile notice is printed above the bar (not across it) and shown as the phase.
+  compile notices (its start, then its duration) are printed above the bar (not across it) and
+  the compile is shown as the phase while it lasts.
 - Elsewhere (a pipe, a CI log): a plain line at most every ``interval`` seconds, and a closing
   line only if it says something the last one did not.
 - ``-q``: nothing.
@@ -98,12 +99,12 @@ class BarProgress(Progress):
         while not self._stop.wait(self.refresh):
             self._draw()
 
-    def _notice(self, text: str) -> None:
+    def _notice(self, text: str, phase: str) -> None:
         from tqdm import tqdm
 
         with self._draw_lock:
             tqdm.write(text, file=self.stream)
-        self.phase(text.removeprefix("uqguide: ").split(" (")[0])
+        self.phase(phase)
 
     def _draw(self) -> None:
         with self._draw_lock:

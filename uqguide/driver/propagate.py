@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import time
+import weakref
 from collections import Counter
 from dataclasses import replace
 from types import MappingProxyType
@@ -27,12 +28,14 @@ from ..config.run_config import RunConfig
 from ..errors import MethodError, ModelError, UqguideError
 from .execution import (
     DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, ModelHandle, SerialExecutor, Task, Timing,
-    common_grid,
+    common_grid, evaluate_batch,
 )
+from .execution.guard import guarded_batch
 from .execution.shared_rows import SharedRows
 from ..core.inputs import InputSpace
 from .interrupts import raise_swallowed
 from ..methods.base import Design, Method, StreamingMethod, chunk_bounds
+from ..models import kernels
 from ..models.base import Model
 from ..core.types import Estimate, GeneratedRows, ModelOutput
 from .progress import Progress
@@ -40,6 +43,9 @@ from ..config.report_times import check_config_report_times
 from ..results.result import MethodRun, Result, provenance
 
 log = logging.getLogger(__name__)
+
+#: Models whose compiled kernel this process has loaded (or compiled) for a process pool.
+_LOADED: weakref.WeakSet[Model] = weakref.WeakSet()
 
 #: Refinement rounds after which a method that keeps asking for runs is stopped (a guard
 #: against a method bug; real methods stop by their own budget long before).
@@ -97,6 +103,30 @@ class _Stage:
         self.executor, self.batch_size, self.store = executor, batch_size, store
         self.progress, self.timing, self.timeout_s = progress, timing, timeout_s
 
+    def _compile_here_first(self, job: ChunkJob, x: np.ndarray | GeneratedRows,
+                            task: Task) -> None:
+        """Load the model's compiled kernel before a local pool's workers start.
+
+        One row of the design is evaluated here when the model runs a compiled kernel, so that
+        a kernel missing from the cache compiles once, in this process (its phase shown by this
+        progress display), and the workers load it from the cache instead of each compiling it
+        at the same time. Once per model and process; the row's outputs are dropped (a worker
+        evaluates it again with its chunk), its compile seconds kept. With a timeout the row
+        runs in a guard process like every call (its compile then is not timed here).
+        """
+        model = self.model
+        if model in _LOADED or model.kernel_choice() != "numba":
+            return
+        before = kernels.compile_seconds()
+        row = x.rows(task.start, task.start + 1) if isinstance(x, GeneratedRows) else \
+            x[task.start:task.start + 1]
+        if job.timeout_s is not None or job.guarded:
+            guarded_batch(job.model, row, job.names, job.outputs, job.timeout_s)
+        else:
+            evaluate_batch(model, row, job.names, job.outputs)
+        _LOADED.add(model)
+        self.timing.compile_seconds += kernels.compile_seconds() - before
+
     def tasks(self, n: int) -> list[Task]:
         return [Task(i, a, b) for i, (a, b) in
                 enumerate(chunk_bounds(self.method, n, self.batch_size))]
@@ -134,6 +164,7 @@ class _Stage:
             while nxt in pending:
                 r = pending.pop(nxt)
                 self.timing.model_seconds += r.model_seconds
+                self.timing.compile_seconds += r.compile_seconds
                 self.timing.n_runs += r.task.n
                 if kept is not None:
                     assert isinstance(self.method, StreamingMethod)  # (only those reduce)
@@ -155,6 +186,8 @@ class _Stage:
                 log.info("%s: %d of %d chunks restored from the checkpoint", label,
                          len(pending), len(tasks))
             fold_ready()
+            if todo and getattr(self.executor, "shares_memory", False):
+                self._compile_here_first(job, x, todo[0])
             if todo:
                 results = self.executor.map_chunks(job, todo, x)
             for r in results:
@@ -245,6 +278,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         n_runs=timing.n_runs,
         model_seconds=timing.model_seconds,
         fit_seconds=fit_seconds,
+        compile_seconds=timing.compile_seconds,
         wall_seconds=time.perf_counter() - t_start,
         success=not failure,
         message=failure,

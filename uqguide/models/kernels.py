@@ -13,8 +13,11 @@ the first decorator runs,
   cache goes to ``$XDG_CACHE_HOME/uqguide/numba`` (``~/.cache/uqguide/numba``), and to a folder in
   the temporary directory when even that cannot be written (``NUMBA_CACHE_DIR`` set by the user
   always wins);
-- a compile that misses the cache prints one line on stderr ("compiling the ftcapn kernel (once
-  per install)"), because the first run of a fresh install spends seconds there in silence.
+- a compile that misses the cache is a phase of its own: a line on stderr when it starts
+  ("compiling the ftcapn kernel (once per install ...)", the phase of the progress bar on a
+  terminal) and one when it ends ("compiled the ftcapn kernel in 21.3 s"), because the first
+  run of a fresh install spends tens of CPU-seconds there; its seconds are counted
+  (:func:`compile_seconds`) so that the driver books them as compile time, not model time.
 """
 
 from __future__ import annotations
@@ -23,9 +26,12 @@ import os
 import sys
 import tempfile
 import threading
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, contextmanager, nullcontext
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Generic, Literal, TypeVar
 
 KERNEL_ENV = "UQGUIDE_KERNEL"
 """Environment variable that forces every model's kernel: ``numpy`` or ``numba``."""
@@ -34,6 +40,7 @@ KernelChoice = Literal["numba", "numpy"]
 KernelParam = Literal["auto", "numba", "numpy"]
 """A model's ``kernel`` parameter: ``auto`` is numba when it is importable (:func:`choose`)."""
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
+F = TypeVar("F", bound=Callable[..., Any])
 
 
 def kernel_override() -> KernelChoice | None:
@@ -111,11 +118,44 @@ def choose(requested: str, model: str) -> KernelChoice:
     return "numpy"
 
 
-def select(requested: str, model: str, compiled: str, reference: str) -> Callable[..., Any]:
-    """The closed-loop function a model runs: its compiled kernel or its NumPy reference.
+@dataclass(frozen=True)
+class Kernel(Generic[F]):
+    """The closed loop a model runs: its compiled kernel or its NumPy reference.
 
-    Both are named as ``"module:function"`` and imported only when chosen, so that a NumPy run
-    never imports numba nor compiles anything.
+    Attributes
+    ----------
+    choice : {"numba", "numpy"}
+        Which of the two ``run`` is.
+    run : callable
+        The chosen function (both take the same arguments and return the same result).
+    """
+
+    choice: KernelChoice
+    run: F
+
+    def threads(self, threads: int) -> AbstractContextManager[None]:
+        """Run the compiled kernel on ``threads`` threads while in the block (0: every core
+        numba may use); nothing to set for the NumPy reference.
+
+        Parameters
+        ----------
+        threads : int
+
+        Returns
+        -------
+        context manager
+        """
+        return numba_threads(threads) if self.choice == "numba" else nullcontext()
+
+
+def select(requested: str, model: str, compiled: Callable[[], F], reference: Callable[[], F]
+           ) -> Kernel[F]:
+    """The closed loop a model runs: its compiled kernel or its NumPy reference.
+
+    Both come from zero-argument loaders written in the model's module, each importing its
+    function by name (``from .kernel_numba import simulate_numba``), so that the reader, grep
+    and the type checker see which functions a model runs, and only the chosen one is
+    imported: a NumPy run never imports numba nor compiles anything.
 
     Parameters
     ----------
@@ -123,21 +163,40 @@ def select(requested: str, model: str, compiled: str, reference: str) -> Callabl
         The model's ``kernel`` parameter (``UQGUIDE_KERNEL`` overrides it, see :func:`choose`).
     model : str
         The model's name, for the error message.
-    compiled, reference : str
-        ``"uqguide.models.<pkg>.<module>:<function>"`` of the numba kernel and of the NumPy
-        reference, which take the same arguments and return the same result.
+    compiled, reference : callable
+        Loaders of the numba kernel and of the NumPy reference, which take the same arguments
+        and return the same result.
 
     Returns
     -------
-    callable
-        The chosen function.
+    Kernel
+        The chosen function and which one it is.
     """
-    import importlib
+    choice = choose(requested, model)
+    return Kernel(choice, compiled() if choice == "numba" else reference())
 
-    target = compiled if choose(requested, model) == "numba" else reference
-    module, _, function = target.partition(":")
-    chosen: Callable[..., Any] = getattr(importlib.import_module(module), function)
-    return chosen
+
+@contextmanager
+def numba_threads(threads: int) -> Iterator[None]:
+    """Let compiled kernels use ``threads`` threads (0: all numba may use) inside the block.
+
+    Parameters
+    ----------
+    threads : int
+
+    Yields
+    ------
+    None
+    """
+    import numba
+
+    before = numba.get_num_threads()
+    most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
+    numba.set_num_threads(min(threads, most) if threads else most)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
 
 
 # ---------------------------------------------------------------------------- the cache
@@ -180,12 +239,13 @@ def cache_dir(package_dir: Path = _PACKAGE_DIR) -> Path | None:
     return None
 
 
-# ---------------------------------------------------------------------------- compile notice
+# ---------------------------------------------------------------------------- compile phase
 _announced: set[str] = set()
 _lock = threading.Lock()
-#: Where the compile notice goes instead of a plain line on stderr: a progress bar on a terminal
-#: sets it, to print the line above the bar (not across it) and show the compile as its phase.
-notice_sink: Callable[[str], None] | None = None
+#: Where the compile notices go instead of plain lines on stderr: a progress bar on a terminal
+#: sets it, to print them above the bar (not across it) and show the compile as its phase.
+#: Called with the line and the phase text ("" when the compile is over).
+notice_sink: Callable[[str, str], None] | None = None
 
 
 def _kernel_family(module: str) -> str | None:
@@ -196,22 +256,72 @@ def _kernel_family(module: str) -> str | None:
     return None
 
 
-def _on_compile(event: Any) -> None:
-    dispatcher = (event.data or {}).get("dispatcher")
-    family = _kernel_family(getattr(getattr(dispatcher, "py_func", None), "__module__", ""))
-    if family is None:
-        return
-    with _lock:
-        if family in _announced:
-            return
-        _announced.add(family)
-    text = (f"uqguide: compiling the {family} kernel (once per install; later runs load it from "
-            "the cache)")
+class _CompileClock:
+    """The compiles of uqguide's kernels in this process: how long they took, and their notices.
+
+    A kernel's compile compiles the functions it calls (its helpers, the shared record writers)
+    inside it, so only the outermost compile counts; numba compiles under one global lock, so
+    no two run at once. A function found in the cache is loaded, not compiled, and never seen
+    here (numba reports cache misses only).
+    """
+
+    def __init__(self) -> None:
+        self.depth = 0
+        self.family: str | None = None
+        self.announced = False
+        self.started = 0.0
+        self.seconds = 0.0
+
+    def start(self, event: Any) -> None:
+        with _lock:
+            self.depth += 1
+            if self.depth > 1:
+                return
+            dispatcher = (event.data or {}).get("dispatcher")
+            module = getattr(getattr(dispatcher, "py_func", None), "__module__", "")
+            family = self.family = _kernel_family(module)
+            self.started = time.perf_counter()
+            self.announced = family is not None and family not in _announced
+            if family is None or not self.announced:
+                return
+            _announced.add(family)
+        _notice(f"uqguide: compiling the {family} kernel (once per install; later runs "
+                "load it from the cache)", f"compiling the {family} kernel")
+
+    def end(self, event: Any) -> None:
+        with _lock:
+            self.depth -= 1
+            if self.depth > 0 or self.family is None:
+                return
+            took = time.perf_counter() - self.started
+            self.seconds += took
+        if self.announced:
+            _notice(f"uqguide: compiled the {self.family} kernel in {took:.1f} s", "")
+
+
+_clock = _CompileClock()
+
+
+def _notice(text: str, phase: str) -> None:
     sink = notice_sink
     if sink is not None:
-        sink(text)
+        sink(text, phase)
     else:
         print(text, file=sys.stderr, flush=True)
+
+
+def compile_seconds() -> float:
+    """Seconds this process has spent compiling uqguide's kernels (cache misses only).
+
+    The driver reads it around each chunk's model calls, so that a first-run compile is
+    booked as compile time, not model time.
+
+    Returns
+    -------
+    float
+    """
+    with _lock:
+        return _clock.seconds
 
 
 _configured = False
@@ -257,9 +367,9 @@ def _listener_class() -> type:
 
     class CompileListener(event.Listener):
         def on_start(self, ev: Any) -> None:
-            _on_compile(ev)
+            _clock.start(ev)
 
         def on_end(self, ev: Any) -> None:
-            pass
+            _clock.end(ev)
 
     return CompileListener

@@ -37,7 +37,9 @@ def cost_table(result: Result) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        Columns ``label``, ``method``, ``runs``, ``failed``, ``model_s``, ``fit_s`` [s],
+        Columns ``label``, ``method``, ``runs``, ``failed``, ``model_s``, ``compile_s`` (only
+        when a method's runs compiled the model's kernel: the first run of a fresh install,
+        never counted in ``model_s``), ``fit_s`` [s],
         the diagnostics a method has (``degree``, ``n_terms``, ``loo_error``...), each rare
         event's ``P(name)`` and ``cov(name)``, ``reference``, and ``status`` when a method
         failed.
@@ -47,6 +49,7 @@ def cost_table(result: Result) -> pd.DataFrame:
     # its probability and coefficient of variation side by side
     rare = list(dict.fromkeys(r.estimate.diagnostics["event"] for r in result.runs
                               if "event" in r.estimate.diagnostics))
+    compiled = any(r.compile_seconds > 0 for r in result.runs)
     for r in result.runs:
         d = r.estimate.diagnostics
         extra: dict[str, Any] = {k: d[k] for k in ("degree", "n_terms", "loo_error",
@@ -68,6 +71,7 @@ def cost_table(result: Result) -> pd.DataFrame:
         rows.append({
             "label": r.label, "method": r.estimate.method, "runs": r.n_runs,
             "failed": r.n_failed, "model_s": round(r.model_seconds, 3),
+            **({"compile_s": round(r.compile_seconds, 3)} if compiled else {}),
             "fit_s": round(r.fit_seconds, 3), **extra,
             "reference": "yes" if r.label == result.reference else "",
         })

@@ -19,7 +19,8 @@ strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
                             (output,)
     /outputs/<name>         attrs: kind (series|scalar), unit, description, components
     /methods/<label>        attrs: method, n_runs, n_failed, model_seconds, fit_seconds,
-                                   wall_seconds, success, message, diagnostics_json
+                                   wall_seconds, success, message, diagnostics_json,
+                                   compile_seconds (absent before it was kept: read as 0)
       <output>, <output>_cov, _sem, _ci, _sobol_first, _sobol_total, _quantile, _ci_quantile
                         the variables of :mod:`uqguide.results.labelled`, e.g. <output> is
                         (statistic, time, <output>_component); coordinates time, input,
@@ -98,7 +99,7 @@ class MethodRun:
     time : ndarray, shape (T,)
     n_runs : int
     model_seconds : float
-        Seconds in the model, summed over chunks (worker-seconds).
+        Seconds in the model, summed over chunks (worker-seconds), compiling excluded.
     fit_seconds : float
         Seconds the method spent outside the model: refinement fits and the estimate.
     wall_seconds : float
@@ -108,6 +109,9 @@ class MethodRun:
         ``message`` says why (the runs made are still here, with their failures).
     message : str
         Why the method failed ("" when it succeeded).
+    compile_seconds : float
+        Seconds spent compiling the model's kernel during this method (a first run on a fresh
+        install; 0 when it came from the cache, and in files written before it was kept).
     """
 
     estimate: Estimate
@@ -122,6 +126,7 @@ class MethodRun:
     wall_seconds: float
     success: bool = True
     message: str = ""
+    compile_seconds: float = 0.0
 
     @property
     def label(self) -> str:
@@ -430,7 +435,8 @@ def _method_layout(r: MethodRun, result: Result) -> Group:
     g = method_group(stats, result.time, result.input_names)
     g.attrs.update(method=e.method, n_runs=r.n_runs, n_failed=r.n_failed,
                    model_seconds=r.model_seconds, fit_seconds=r.fit_seconds,
-                   wall_seconds=r.wall_seconds, success=r.success, message=r.message,
+                   wall_seconds=r.wall_seconds, compile_seconds=r.compile_seconds,
+                   success=r.success, message=r.message,
                    diagnostics_json=json.dumps(e.diagnostics, default=_json_default))
     if e.scalar_names and e.scalar_mean is not None and e.scalar_cov is not None:
         g.groups["scalar_joint"] = Group(
@@ -577,6 +583,7 @@ def read_hdf5(path: str | Path) -> Result:
                     model_seconds=float(g.attrs["model_seconds"]),
                     fit_seconds=float(g.attrs["fit_seconds"]),
                     wall_seconds=float(g.attrs["wall_seconds"]),
+                    compile_seconds=float(g.attrs.get("compile_seconds", 0.0)),
                     success=bool(g.attrs.get("success", True)),
                     message=str(g.attrs.get("message", "")),
                 ))

@@ -19,10 +19,12 @@ DEFAULT_BATCH_SIZE = 10_000
 @dataclass
 class Timing:
     """Seconds spent in the model, summed over chunks (worker-seconds: with ``w`` workers busy
-    this grows ``w`` times faster than the wall clock), and the number of runs."""
+    this grows ``w`` times faster than the wall clock), seconds spent compiling its kernel
+    (never in ``model_seconds``), and the number of runs."""
 
     model_seconds: float = 0.0
     n_runs: int = 0
+    compile_seconds: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -61,7 +63,10 @@ class ChunkResult:
     summary : dict of str to ndarray
         The method's reduction of the chunk (empty when not reduced).
     model_seconds : float
-        Wall seconds of the model calls of this chunk.
+        Wall seconds of the model calls of this chunk, less ``compile_seconds``.
+    compile_seconds : float
+        Seconds the chunk's process spent compiling a kernel during those calls (a first run
+        on a fresh install; :func:`uqguide.models.kernels.compile_seconds`).
     in_place : tuple of (part, key, n)
         Per-run values the worker wrote into the driver's shared arrays instead of sending
         them (:mod:`uqguide.driver.execution.shared_rows`): ``scalars`` or ``summary``, the key, the
@@ -76,6 +81,7 @@ class ChunkResult:
     series: dict[str, np.ndarray] = field(default_factory=dict)
     summary: dict[str, np.ndarray] = field(default_factory=dict)
     model_seconds: float = 0.0
+    compile_seconds: float = 0.0
     in_place: tuple[tuple[str, str, int], ...] = ()
 
     @property

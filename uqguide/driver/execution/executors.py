@@ -109,6 +109,7 @@ class SerialExecutor:
         results = list(self.map_chunks(job, tasks, x))
         if timing is not None:
             timing.model_seconds += sum(r.model_seconds for r in results)
+            timing.compile_seconds += sum(r.compile_seconds for r in results)
             timing.n_runs += n
         return ModelOutput.concatenate(common_grid([r.output() for r in results]))
 

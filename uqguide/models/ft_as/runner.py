@@ -1,25 +1,38 @@
 """Run a batch of FT-AS closed loops through the compiled kernel and collect the results.
 
 :func:`run_batch` is the one entry point used by the model, the report and the tests: it packs
-the constants, allocates the recording and metric arrays, calls ``kernel.simulate`` (or the
-numpy reference ``reference_run.simulate`` when asked) and
-returns a :class:`RunResult` with named arrays.
+the constants, allocates the recording and metric arrays, calls the compiled kernel
+(``kernel_numba.simulate_numba``) or its NumPy reference (``kernel_numpy.simulate``), chosen
+by :func:`uqguide.models.kernels.select`, and returns a :class:`RunResult` with named arrays.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kernels import choose
-from . import kernel
-from .setup import Batch, Gains, Plant, pack_constants
+from ..kernels import select
+from .layout import GROUP_INDEX, RECORD_GROUPS, SETTLE_QUANTITIES
+from .setup import Batch, Gains, Plant
 
 log = logging.getLogger(__name__)
+
+
+def _compiled() -> Callable[..., None]:
+    from .kernel_numba import simulate_numba
+
+    return simulate_numba
+
+
+def _reference() -> Callable[..., None]:
+    from .kernel_numpy import simulate
+
+    return simulate
+
 
 SETTLE_TOLERANCES: dict[str, tuple[float, ...]] = {
     "r_e": (1.0, 1e-2, 5e-3, 1e-3, 2e-4),  # m, section 10
@@ -30,7 +43,7 @@ SETTLE_TOLERANCES: dict[str, tuple[float, ...]] = {
     "s_trans": (1e-3,),  # claim C6
     "s_rot": (1e-3,),
 }
-assert tuple(SETTLE_TOLERANCES) == kernel.SETTLE_QUANTITIES
+assert tuple(SETTLE_TOLERANCES) == SETTLE_QUANTITIES
 FINAL_QUANTITIES = ("r_e", "v_e", "sigma_e", "omega_e")  # rows of the kernel's final_max
 
 
@@ -79,7 +92,7 @@ class RunResult:
     time : ndarray, shape (T,)
         Recorded grid [s].
     records : dict of str to ndarray, shape (n, T, k)
-        Recorded groups of ``kernel.RECORD_GROUPS`` that were asked for.
+        Recorded groups of ``layout.RECORD_GROUPS`` that were asked for.
     settle : dict of str to ndarray, shape (n, n_tol)
         Last time [s] each norm exceeded each tolerance of ``SETTLE_TOLERANCES``; equal to the
         horizon where not settled.
@@ -149,9 +162,9 @@ def run_batch(
     gains : Gains
     timing : Timing
     record : iterable of str
-        Groups of ``kernel.RECORD_GROUPS`` to record on the output grid.
+        Groups of ``layout.RECORD_GROUPS`` to record on the output grid.
     kernel_name : {"numba", "numpy", "auto"}
-        ``numpy``: the whole-run reference of ``reference_run.py`` (same numbers to rounding,
+        ``numpy``: the whole-run reference of ``kernel_numpy.py`` (same numbers to rounding,
         ~100x slower for small batches).
     threads : int
         Threads of the compiled kernel (blocks of samples run in parallel); 0: all cores. The
@@ -162,11 +175,11 @@ def run_batch(
     RunResult
     """
     record = list(dict.fromkeys(record))
-    offsets = np.full(len(kernel.RECORD_GROUPS), -1, dtype=np.int64)
+    offsets = np.full(len(RECORD_GROUPS), -1, dtype=np.int64)
     width = 0
     for name in record:
-        offsets[kernel.GROUP_INDEX[name]] = width
-        width += kernel.RECORD_GROUPS[name]
+        offsets[GROUP_INDEX[name]] = width
+        width += RECORD_GROUPS[name]
     n, n_steps, every = batch.n, timing.n_steps, timing.record_every
     n_rec = n_steps // every + 1
     rec = np.zeros((n, n_rec, max(width, 1)))
@@ -178,50 +191,19 @@ def run_batch(
     final_max = np.zeros((n, 4, 3))
     peak_app, peak_cmd, peak_late, impulse = (np.zeros((n, 6)) for _ in range(4))
     failed = np.zeros(n, dtype=np.bool_)
-    P, Q = plant.reference.basis()
     t0 = time.perf_counter()
     final_start = timing.first_step_at(timing.duration - timing.final_window)
     late_start = timing.first_step_at(timing.late_time)
-    if choose(kernel_name, "ft_as") == "numpy":
-        from . import reference_run
-
-        reference_run.simulate(
-            batch, plant, gains, float(timing.step), n_steps, every, final_start, late_start,
-            tols, rec, offsets, settle, final_max, peak_app, peak_cmd, peak_late, impulse, failed,
-        )  # fmt: skip
-    else:
-        import numba
-
-        before = numba.get_num_threads()
-        most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
-        used = min(threads, most) if threads else most
-        numba.set_num_threads(used)
-        try:
-            kernel.simulate(
-                np.ascontiguousarray(batch.x0, dtype=float),
-                np.asarray(batch.mass_offset, dtype=float),
-                np.asarray(batch.inertia_scale_error, dtype=float),
-                np.asarray(batch.force_amp, dtype=float),
-                np.asarray(batch.torque_amp, dtype=float),
-                np.asarray(batch.controller, dtype=np.int64),
-                np.asarray(batch.observer_on_applied, dtype=np.bool_),
-                np.asarray(batch.psi2_bound, dtype=float),
-                np.asarray(batch.omega_chi, dtype=float),
-                np.asarray(batch.switch_input, dtype=np.bool_),
-                pack_constants(plant, gains),
-                np.ascontiguousarray(plant.J0, dtype=float),
-                np.ascontiguousarray(plant.J0_inv),
-                P, Q, np.asarray(plant.limits, dtype=float), float(timing.step), n_steps, every,
-                final_start, late_start, tols, rec, offsets, settle, final_max, peak_app,
-                peak_cmd, peak_late, impulse, failed, kernel.block_size(n, used),
-            )  # fmt: skip
-        finally:
-            numba.set_num_threads(before)
+    loop = select(kernel_name, "ft_as", _compiled, _reference)
+    with loop.threads(threads):
+        loop.run(batch, plant, gains, float(timing.step), n_steps, every, final_start,
+                 late_start, tols, rec, offsets, settle, final_max, peak_app, peak_cmd,
+                 peak_late, impulse, failed)
     wall = time.perf_counter() - t0
     log.debug("ft_as kernel: %d runs x %d steps in %.2f s", n, n_steps, wall)
     records = {
-        name: rec[:, :, offsets[kernel.GROUP_INDEX[name]] : offsets[kernel.GROUP_INDEX[name]]
-                  + kernel.RECORD_GROUPS[name]]
+        name: rec[:, :, offsets[GROUP_INDEX[name]]
+                  : offsets[GROUP_INDEX[name]] + RECORD_GROUPS[name]]
         for name in record
     }  # fmt: skip
     return RunResult(

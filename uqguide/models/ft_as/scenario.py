@@ -3,7 +3,7 @@
 The reference orbit (circular, propagated in closed form), the initial tracking errors of
 Table 1 computed from the two orbits' elements, and the truth model's time-varying mass,
 inertia and disturbances. Everything is numpy, batched over a leading sample axis where a
-quantity depends on an uncertain input; the numba kernel (``kernel.py``) evaluates the same
+quantity depends on an uncertain input; the numba kernel (``kernel_numba.py``) evaluates the same
 formulas per sample and is checked against these functions.
 """
 

@@ -4,7 +4,7 @@
 sections 6-7), :class:`Plant` the nominal plant and reference orbit, :class:`Batch` everything
 that may differ between the samples of one integration: initial state, truth-model dispersions
 and which controller each sample runs. Both integration paths (numpy reference in
-``closed_loop.py`` and the numba kernel in ``kernel.py``) take these objects; the kernel gets
+``equations.py`` and the numba kernel in ``kernel_numba.py``) take these objects; the kernel gets
 them flattened by :func:`pack_constants`.
 """
 

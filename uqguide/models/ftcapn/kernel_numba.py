@@ -18,6 +18,7 @@ import numpy as np
 from numba import prange
 
 from ..kernels import njit
+from ..record_rows import put_lanes
 
 from .layout import (
     K_ACMAX, K_DV, K_RS, K_TFAIL, K_TSETTLE, K_TSTOP, K_TSURF, K_VS, P_ASAT, P_BETA, P_C,
@@ -373,17 +374,8 @@ def _record_step(buf, i0, m, j, col, st, W, ac, lane, running):
                 buf[c + 1, i0 + l, j] = (z * vx - x * vz) / R2
                 buf[c + 2, i0 + l, j] = (x * vy - y * vx) / R2
     for sr, wr in ((S_OMEGA, W_OM), (S_R, W_R), (S_RDOT, W_RDOT), (S_S, W_S)):
-        c = col[sr]
-        if c >= 0:
-            for l in range(m):
-                if running[l]:
-                    buf[c, i0 + l, j] = W[wr, l]
-    c = col[S_AC]
-    if c >= 0:
-        for q in range(3):
-            for l in range(m):
-                if running[l]:
-                    buf[c + q, i0 + l, j] = ac[q, l]
+        put_lanes(buf, col[sr], i0, j, W, wr, 1, m, running)
+    put_lanes(buf, col[S_AC], i0, j, ac, 0, 3, m, running)
     c = col[S_ACLOS]
     if c >= 0:
         for l in range(m):
@@ -391,19 +383,9 @@ def _record_step(buf, i0, m, j, col, st, W, ac, lane, running):
                 buf[c, i0 + l, j] = W[W_ACR, l]
                 buf[c + 1, i0 + l, j] = W[W_ACT, l]
                 buf[c + 2, i0 + l, j] = 0.0
-    c = col[S_DV]
-    if c >= 0:
-        for l in range(m):
-            if running[l]:
-                buf[c, i0 + l, j] = lane[L_DV, l]
-    for sr in (S_POS, S_VEL):
-        c = col[sr]
-        if c >= 0:
-            q0 = 3 if sr == S_VEL else 0
-            for q in range(3):
-                for l in range(m):
-                    if running[l]:
-                        buf[c + q, i0 + l, j] = st[q0 + q, l]
+    put_lanes(buf, col[S_DV], i0, j, lane, L_DV, 1, m, running)
+    put_lanes(buf, col[S_POS], i0, j, st, 0, 3, m, running)
+    put_lanes(buf, col[S_VEL], i0, j, st, 3, 3, m, running)
     c = col[S_SPEED]
     if c >= 0:
         for l in range(m):

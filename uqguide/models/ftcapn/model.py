@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -107,6 +107,18 @@ INPUT_INFO: tuple[InputInfo, ...] = (
     InputInfo("at_r", "m/s^2", "target acceleration along e_r of the LOS frame (maneuver_frame)"),
     InputInfo("at_w", "m/s^2", "target acceleration along e_w of the LOS frame (maneuver_frame)"),
 )
+
+def _compiled() -> Callable[..., None]:
+    from .kernel_numba import simulate_numba
+
+    return simulate_numba
+
+
+def _reference() -> Callable[..., None]:
+    from .kernel_numpy import simulate_numpy
+
+    return simulate_numpy
+
 
 def los_frames(r: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rows ``e_theta, e_r, e_w`` ``(n, 3, 3)`` of the true LOS frames of states ``r, v (n, 3)``
@@ -263,21 +275,9 @@ class FTCAPN(Model):
         args = (np.ascontiguousarray(r0), np.ascontiguousarray(v0), np.ascontiguousarray(at),
                 np.ascontiguousarray(x[:, 7]), np.ascontiguousarray(x[:, 6]), prm, K, max_steps,
                 col, buf, sc, status)
-        fn = select(kernel or p.kernel, "ftcapn",
-                    "uqguide.models.ftcapn.kernel_numba:simulate_numba",
-                    "uqguide.models.ftcapn.kernel_numpy:simulate_numpy")
-        if fn.__name__ == "simulate_numba":
-            import numba
-
-            before = numba.get_num_threads()
-            most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
-            numba.set_num_threads(min(p.threads, most) if p.threads else most)
-            try:
-                fn(*args)
-            finally:
-                numba.set_num_threads(before)
-        else:
-            fn(*args)
+        loop = select(kernel or p.kernel, "ftcapn", _compiled, _reference)
+        with loop.threads(p.threads):
+            loop.run(*args)
         series = {}
         for i, (name, k) in enumerate(L.SERIES_LAYOUT):
             if col[i] >= 0:

@@ -11,7 +11,7 @@ and the generic building blocks (gmm-controllers.md section 14) it shares with t
 - :mod:`.geometry`: box-built chiefs, clearance, penetration, swept-segment collisions;
 - :mod:`.point_cloud`, :mod:`.mixture`: surface samples, mixtures (published sets), k-means + EM;
 - :mod:`.controllers`: reaching law, TSMC (APF/GMM) and NTSMC laws;
-- :mod:`.sampled_sim`: the batched sampled-data closed loop on a linear relative plant (the
+- :mod:`.kernel_numpy`: the batched sampled-data closed loop on a linear relative plant (the
   NumPy reference, one step of the batch per control period);
 - :mod:`.kernel_numba`: the same closed loop compiled for the whole run (what the model runs
   by default, ``kernel: auto``).

@@ -1,6 +1,6 @@
-"""Compiled GMM proximity closed loop: the arithmetic of :func:`.sampled_sim.simulate`, whole run.
+"""Compiled GMM proximity closed loop: the arithmetic of :func:`.kernel_numpy.simulate`, whole run.
 
-:func:`.sampled_sim.simulate` (NumPy over the batch, one Python-level step per control period)
+:func:`.kernel_numpy.simulate` (NumPy over the batch, one Python-level step per control period)
 is the reference; this kernel runs the same sampled-data loop (GMM-NTSMC or TSMC command at
 ``t_k``, bad-command guard, saturation, thrust scale, the RK4 sub-step maps, per-sub-step
 clearance, penetration, range and swept collision tests, records and ZEM) for the whole run in
@@ -34,9 +34,10 @@ import numpy as np
 from numba import prange
 
 from ..kernels import njit
+from ..record_rows import put_lane
 from .controllers import NTSMC, TSMC
 from .geometry import ChiefGeometry
-from .sampled_sim import Controller, SampledRun, StepSchedule, simulate
+from .kernel_numpy import Controller, SampledRun, StepSchedule, simulate
 
 log = logging.getLogger(__name__)
 
@@ -103,7 +104,7 @@ def simulate_compiled(
     goal: np.ndarray | None = None,
     keep_control: bool = False,
 ) -> SampledRun:
-    """:func:`.sampled_sim.simulate` by the compiled kernel; same arguments, same result.
+    """:func:`.kernel_numpy.simulate` by the compiled kernel; same arguments, same result.
 
     The kernel knows the :class:`.controllers.NTSMC` and :class:`.controllers.TSMC` laws; any
     other controller, a thrust noise or ``keep_control`` (options no model run uses) go to the
@@ -113,7 +114,7 @@ def simulate_compiled(
     ----------
     schedule, controller, x0, geometry, a_max, per_axis_saturation, thrust_scale, thrust_noise,
     rng, record_every, goal, keep_control
-        As for :func:`.sampled_sim.simulate`.
+        As for :func:`.kernel_numpy.simulate`.
 
     Returns
     -------
@@ -507,9 +508,8 @@ def _block(i0, i1, x0, A, B, phi, gam, law, gains, P, M, c, mu, L, s_lo, s_hi, c
             j = (k + 1) // record_every
             for l in range(m):
                 i = i0 + l
-                for a in range(3):
-                    r_rec[i, j, a] = st[a, l]
-                    v_rec[i, j, a] = st[3 + a, l]
+                put_lane(r_rec, i, j, 0, st, 0, 3, l)
+                put_lane(v_rec, i, j, 0, st, 3, 3, l)
                 dv_rec[i, j] = dv[l]
             if with_zem:
                 _zem(j, i0, m, st, coast[k + 1], goal, zem)

@@ -29,7 +29,7 @@ Decisions where spec and paper are silent (each a parameter or stated here):
   memory of 1e4-sample runs; clearance and collisions use every RK4 sub-step (0.1 s).
 - The closed loop runs compiled for the whole run (:mod:`.kernel_numba`, blocks of samples in
   ``threads`` threads) unless ``kernel: numpy`` asks for the NumPy reference
-  (:func:`.sampled_sim.simulate`); the two agree to round-off, and a sample's numbers do not
+  (:func:`.kernel_numpy.simulate`); the two agree to round-off, and a sample's numbers do not
   depend on the batch split or the thread count.
 - ``los_rate`` is the rate of the line of sight from the chief's centre to the deputy seen in
   LVLH, ``|r x v| / |r|^2``; ``zem`` is the zero-effort miss, the distance from the goal at
@@ -40,7 +40,7 @@ Decisions where spec and paper are silent (each a parameter or stated here):
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from functools import lru_cache
 from importlib import resources
 
@@ -55,7 +55,7 @@ from .geometry import ChiefGeometry, wang2022_chief
 from .mixture import WANG2022_PUBLISHED, Mixture
 from .params import GMMProximityParams
 from .potential import AttractRepulsePotential
-from .sampled_sim import SampledRun, StepSchedule, build_schedule
+from .kernel_numpy import SampledRun, StepSchedule, build_schedule
 
 log = logging.getLogger(__name__)
 
@@ -80,6 +80,18 @@ def fitted_mixture() -> Mixture:
     (scripts/fit_gmm_wang2022.py)."""
     with resources.as_file(resources.files("uqguide") / "data" / FITTED_FILE) as path:
         return Mixture.load(path)
+
+
+def _compiled() -> Callable[..., SampledRun]:
+    from .kernel_numba import simulate_compiled
+
+    return simulate_compiled
+
+
+def _reference() -> Callable[..., SampledRun]:
+    from .kernel_numpy import simulate
+
+    return simulate
 
 
 _PERTURBATION = ("gmm_shift_x", "gmm_shift_y", "gmm_shift_z", "gmm_mean_scale", "gmm_cov_scale")
@@ -222,25 +234,14 @@ class GMMProximity(Model):
         a_max = np.inf if p.saturation == "none" else p.max_thrust / p.deputy_mass
         if record_every is None:
             record_every = int(round(p.record_interval / p.dt))
-        simulate = select(p.kernel, self.name,
-                          "uqguide.models.gmm.kernel_numba:simulate_compiled",
-                          "uqguide.models.gmm.sampled_sim:simulate")
+        loop = select(p.kernel, self.name, _compiled, _reference)
         args = (self.schedule(), self.controller(name, self.repulsion(name, values, n)), x0,
                 self.geometry())
         options = dict(a_max=a_max, per_axis_saturation=p.saturation == "per_axis",
                        thrust_scale=None if np.all(scale == 1.0) else scale,
                        record_every=record_every, goal=np.asarray(p.r_f) if zem else None)
-        if simulate.__name__ != "simulate_compiled":
-            return simulate(*args, **options)
-        import numba
-
-        before = numba.get_num_threads()
-        most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
-        numba.set_num_threads(min(p.threads, most) if p.threads else most)
-        try:
-            return simulate(*args, **options)
-        finally:
-            numba.set_num_threads(before)
+        with loop.threads(p.threads):
+            return loop.run(*args, **options)
 
     # ------------------------------------------------------------------ contract
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int,

@@ -1,6 +1,6 @@
-"""Compiled GMM-FTC closed loop: the arithmetic of :mod:`.closed_loop`, in blocks of samples.
+"""Compiled GMM-FTC closed loop: the arithmetic of :mod:`.kernel_numpy`, in blocks of samples.
 
-:func:`.closed_loop.run_closed_loop` (NumPy over the batch) is the reference; this kernel runs
+:func:`.kernel_numpy.run_closed_loop` (NumPy over the batch) is the reference; this kernel runs
 the same sampled-data loop (GMM-FTC at ``t_k``, thrust factors and keyed noise, RK4 of the
 body-frame plant, per-sub-step geometry, the same metrics) in one compiled function. NumPy
 advances a whole batch per Python-level step and pays ~1 ms of call overhead per step whatever
@@ -33,6 +33,7 @@ import numba as nb
 import numpy as np
 
 from ..kernels import njit
+from ..record_rows import put_lane
 
 SCALAR_COLUMNS: tuple[str, ...] = (
     "bad_e", "bad_settle", "bad_v", "bad_s2", "bad_speed", "bad_u", "pos_error_final",
@@ -794,11 +795,11 @@ def _record(i, l, ir, x, u, s2, w, C, dv, rec_r, rec_v, rec_u, rec_rl, rec_vl, r
     e1 = (u1 + 2.0 * (w2 * v0 - w0 * v2)) + (w2 * wr0 - w0 * wr2)
     e2 = (u2 + 2.0 * (w0 * v1 - w1 * v0)) + (w0 * wr1 - w1 * wr0)
     q0, q1, q2 = v0 + wr0, v1 + wr1, v2 + wr2
+    put_lane(rec_r, i, ir, 0, x, 0, 3, l)
+    put_lane(rec_v, i, ir, 0, x, 3, 3, l)
+    put_lane(rec_u, i, ir, 0, u, 0, 3, l)
     for a in range(3):
         ca0, ca1, ca2 = C[3 * a, l], C[3 * a + 1, l], C[3 * a + 2, l]
-        rec_r[i, ir, a] = x[a, l]
-        rec_v[i, ir, a] = x[3 + a, l]
-        rec_u[i, ir, a] = u[a, l]
         rec_rl[i, ir, a] = ca0 * r0 + ca1 * r1 + ca2 * r2
         rec_vl[i, ir, a] = ca0 * q0 + ca1 * q1 + ca2 * q2
         rec_ul[i, ir, a] = ca0 * u0 + ca1 * u1 + ca2 * u2
@@ -846,9 +847,9 @@ def _geometry_events(i, l, x, p0, s_lo, s_hi, c_lo, c_hi, is_solid, d_prev, flag
 
 def run_closed_loop_numba(plant, controller_plant, law, geometry, x0, settings,
                           thrust_scale=None, noise_keys=None):
-    """:func:`.closed_loop.run_closed_loop` through the compiled kernel (same arguments and
+    """:func:`.kernel_numpy.run_closed_loop` through the compiled kernel (same arguments and
     result)."""
-    from .closed_loop import LoopRun, scalar_results
+    from .kernel_numpy import LoopRun, scalar_results
 
     st = settings
     x0 = np.ascontiguousarray(x0, dtype=float)

@@ -36,7 +36,7 @@ the converged LOS rate is 0 by construction).
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -46,7 +46,7 @@ from ..dynamics.tschauner_hempel import ChiefOrbit
 from ..gmm.potential import AttractRepulsePotential
 from ..kernels import select
 from . import noise
-from .closed_loop import LoopRun, LoopSettings
+from .kernel_numpy import LoopRun, LoopSettings
 from .law import FTCGains, GMMFTCLaw
 from .params import GMMFTCParams
 from .target import target_geometry, target_mixture
@@ -132,6 +132,18 @@ SCALAR_INFO: tuple[OutputInfo, ...] = (
 )
 
 
+def _compiled() -> Callable[..., LoopRun]:
+    from .kernel_numba import run_closed_loop_numba
+
+    return run_closed_loop_numba
+
+
+def _reference() -> Callable[..., LoopRun]:
+    from .kernel_numpy import run_closed_loop
+
+    return run_closed_loop
+
+
 class GMMFTC(Model):
     """GMM-FTC proximity to a spinning complex-shaped target ([C]), vectorised over samples."""
 
@@ -182,7 +194,7 @@ class GMMFTC(Model):
                  settings: LoopSettings | None = None, noise_keys: np.ndarray | None = None
                  ) -> LoopRun:
         """Closed-loop runs for inputs ``values`` (each (n,)); see
-        :func:`.closed_loop.run_closed_loop`.
+        :func:`.kernel_numpy.run_closed_loop`.
 
         ``noise_keys`` (n,) overrides the keys derived from ``noise_seed`` and the inputs.
         """
@@ -210,11 +222,9 @@ class GMMFTC(Model):
             noise_keys = noise.sample_keys(p.noise_seed, np.stack(list(col.values()), axis=1))
         geometry = target_geometry(p.panel_half_thickness, p.antenna_half_width,
                                    p.body_tolerance)
-        runner = select(p.kernel, "gmm_ftc",
-                        "uqguide.models.gmm_ftc.kernel_numba:run_closed_loop_numba",
-                        "uqguide.models.gmm_ftc.closed_loop:run_closed_loop")
-        return runner(plant, controller_plant, self.law(), geometry, x0, st,
-                      thrust_scale=scale, noise_keys=noise_keys)
+        loop = select(p.kernel, "gmm_ftc", _compiled, _reference)
+        return loop.run(plant, controller_plant, self.law(), geometry, x0, st,
+                        thrust_scale=scale, noise_keys=noise_keys)
 
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]
                   ) -> ModelOutput:

@@ -2,7 +2,7 @@
 
 Each function maps one equation of the spec to arrays of leading length ``n``. This path is
 the readable reference: the spec's unit tests (the ``h``/``M``/``d`` split, the ``s_dot``
-identity, the observer) run on it, and the numba kernel (``kernel.py``), which the model uses
+identity, the observer) run on it, and the numba kernel (``kernel_numba.py``), which the model uses
 for speed, is tested against :func:`rk4_step` step by step.
 
 Notation: ``e1 = [r_e; sigma_e]``, ``e2 = [v_e; G(sigma_e) omega_e]``,

@@ -1,4 +1,4 @@
-"""Whole-run numpy reference of the FT-AS batch: the same loop and metrics as ``kernel.simulate``.
+"""Whole-run numpy reference of the FT-AS batch: the loop and metrics of ``kernel_numba.simulate``.
 
 Vectorised over the batch with one Python iteration per time step (about 2-3 ms per step
 whatever the batch size), so a 3000 s run at h = 0.1 s takes about a minute. It exists to check
@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import closed_loop as cl
-from .kernel import GROUP_INDEX, RECORD_GROUPS
+from . import equations as cl
+from .layout import GROUP_INDEX, RECORD_GROUPS
 from .setup import CASE2, PSI1, PSI2, Batch, Gains, Plant
 
 
@@ -36,7 +36,7 @@ def simulate(
     impulse: np.ndarray,
     failed: np.ndarray,
 ) -> None:
-    """Fill the output arrays exactly as ``kernel.simulate`` does (see its docstring)."""
+    """Fill the output arrays exactly as ``kernel_numba.simulate`` does (see its docstring)."""
     # a diverging sample produces inf/nan on purpose: it is flagged by the finiteness mask
     with np.errstate(all="ignore"):
         _simulate(batch, plant, gains, dt, n_steps, rec_every, final_start, late_start, tols,

@@ -1,10 +1,10 @@
 """Compiled (numba) integration of a batch of FT-AS closed loops with per-step metrics.
 
-The same equations as the numpy reference ``closed_loop.py`` (ft-as-controller.md sections
+The same equations as the numpy reference ``equations.py`` (ft-as-controller.md sections
 3-9), written per sample on scalars. The model's accuracy floors are set by the sampling rate
 (section 12.3), so the spec's h = 0.01 s over 3000 s (3e5 steps) is what a reported run needs;
 only a compiled loop makes that, and Monte Carlo over it, affordable. ``tests/test_ft_as_model.py``
-checks this kernel against :func:`closed_loop.rk4_step` and ``reference_run.py`` to rounding level.
+checks this kernel against :func:`equations.rk4_step` and ``kernel_numpy.py`` to rounding level.
 
 How the loop is laid out, and why (``benchmarks/throughput.py`` prints its roofline):
 
@@ -53,31 +53,13 @@ import numpy as np
 from numba import prange
 
 from ..kernels import njit
+from ..record_rows import put_vector
 
 from .setup import (
     CASE1, CASE2, K_A, K_AT, K_B, K_BOUNDARY, K_C, K_EPS, K_ETA1, K_ETA2, K_GAMMA, K_LAM1, K_LAM2,
     K_LAM3, K_M0, K_MU, K_NT, K_NU1, K_NU2, K_OBS_P, K_OBS_PER_CHANNEL, K_R2, K_RHO2, K_U0,
+    Batch, Gains, Plant, pack_constants,
 )
-
-# Recorded channel groups: name -> width. The caller asks for a subset through offsets.
-RECORD_GROUPS: dict[str, int] = {
-    "r_e": 3,
-    "v_e": 3,
-    "sigma_e": 3,
-    "omega_e": 3,
-    "s": 6,  # sliding variable on the true errors
-    "u_command": 6,  # u_c (Case 2: u_T) at the grid instant
-    "u_applied_min": 6,  # envelope of the applied input over the output interval
-    "u_applied_max": 6,
-    "eps1": 6,  # psi1 - e2
-    "eps2": 6,  # psi2 - d_obs (true)
-    "d_hat": 6,
-    "d_obs": 6,
-    "chi1": 6,
-}
-GROUP_INDEX = {name: i for i, name in enumerate(RECORD_GROUPS)}
-# Order of the norms whose settling times are tracked (section 10) and of their tolerance rows.
-SETTLE_QUANTITIES = ("r_e", "v_e", "sigma_e", "omega_e", "eps1", "s_trans", "s_rot")
 
 MAX_BLOCK = 16
 """Most samples per parallel block. A block pays the clock (~20 libm calls per step) once for
@@ -200,7 +182,7 @@ def _terms(ck, x, nt, J0, J0i):
     h4 = gd1 + G10 * a0 + G11 * a1 + G12 * a2
     h5 = gd2 + G20 * a0 + G21 * a1 + G22 * a2
     # differential gravity without cancellation: (1 + q)^-1.5 - 1 = -q (2 + q + r) / (r (1 + r)
-    # (1 + q)), r = sqrt(1 + q), exact algebra (see closed_loop.differential_gravity)
+    # (1 + q)), r = sqrt(1 + q), exact algebra (see equations.differential_gravity)
     rt0, rt1, rt2, rtn2, f = ck[4], ck[5], ck[6], ck[7], ck[8]
     re0, re1, re2 = x[0], x[1], x[2]
     qg = (2.0 * (re0 * rt0 + re1 * rt1 + re2 * rt2) + re0 * re0 + re1 * re1 + re2 * re2) / rtn2
@@ -579,6 +561,36 @@ def _observed_disturbance(ck, x, tr, u, m_off, inertia_err, a_f, a_tau, c, J0, J
         out[i] += dm[i]
 
 
+def simulate_numba(batch: Batch, plant: Plant, gains: Gains, dt: float, n_steps: int,
+                   rec_every: int, final_start: int, late_start: int, tols: np.ndarray,
+                   rec: np.ndarray, offsets: np.ndarray, settle: np.ndarray,
+                   final_max: np.ndarray, peak_app: np.ndarray, peak_cmd: np.ndarray,
+                   peak_late: np.ndarray, impulse: np.ndarray, failed: np.ndarray) -> None:
+    """:func:`.kernel_numpy.simulate` by the compiled kernel: same arguments, same outputs
+    (written in place), in blocks of samples over the threads numba may use now."""
+    import numba
+
+    P, Q = plant.reference.basis()
+    simulate(
+        np.ascontiguousarray(batch.x0, dtype=float),
+        np.asarray(batch.mass_offset, dtype=float),
+        np.asarray(batch.inertia_scale_error, dtype=float),
+        np.asarray(batch.force_amp, dtype=float),
+        np.asarray(batch.torque_amp, dtype=float),
+        np.asarray(batch.controller, dtype=np.int64),
+        np.asarray(batch.observer_on_applied, dtype=np.bool_),
+        np.asarray(batch.psi2_bound, dtype=float),
+        np.asarray(batch.omega_chi, dtype=float),
+        np.asarray(batch.switch_input, dtype=np.bool_),
+        pack_constants(plant, gains),
+        np.ascontiguousarray(plant.J0, dtype=float),
+        np.ascontiguousarray(plant.J0_inv),
+        P, Q, np.asarray(plant.limits, dtype=float), float(dt), n_steps, rec_every,
+        final_start, late_start, tols, rec, offsets, settle, final_max, peak_app,
+        peak_cmd, peak_late, impulse, failed, block_size(batch.n, numba.get_num_threads()),
+    )  # fmt: skip
+
+
 @njit(cache=True, error_model="numpy", parallel=True)
 def simulate(x0, mass_off, inertia_err, force_amp, torque_amp, ctrl, obs_applied, psi2_bound,
              omega_chi, switch_input, c, J0, J0i, P, Q, limits, dt, n_steps, rec_every,
@@ -603,11 +615,11 @@ def simulate(x0, mass_off, inertia_err, force_amp, torque_amp, ctrl, obs_applied
         Step [s]; ``n_steps`` steps are taken.
     rec_every : int
         Record every ``rec_every`` steps into ``rec`` (n, n_rec, n_channels), the groups of
-        ``RECORD_GROUPS`` at column ``offsets[g]`` (-1: not recorded).
+        ``layout.RECORD_GROUPS`` at column ``offsets[g]`` (-1: not recorded).
     final_start, late_start : int
         First step of the final-accuracy window and of the "late" peak window.
     tols : ndarray, shape (7, n_tol)
-        Settling tolerances per ``SETTLE_QUANTITIES`` row (entries <= 0 unused).
+        Settling tolerances per ``layout.SETTLE_QUANTITIES`` row (entries <= 0 unused).
     block : int
         Samples per parallel block (:func:`block_size`); it changes the speed, not the numbers.
 
@@ -774,38 +786,14 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
             # --- recording
             j = jrec[b]
             if record and j < n_rec:
-                o = offsets[0]
-                if o >= 0:
-                    for q in range(3):
-                        rec[i, j, o + q] = X[q]
-                o = offsets[1]
-                if o >= 0:
-                    for q in range(3):
-                        rec[i, j, o + q] = X[3 + q]
-                o = offsets[2]
-                if o >= 0:
-                    for q in range(3):
-                        rec[i, j, o + q] = X[6 + q]
-                o = offsets[3]
-                if o >= 0:
-                    for q in range(3):
-                        rec[i, j, o + q] = tr[9 + q]
-                o = offsets[4]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = s_true[q]
-                o = offsets[5]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = law[q]
-                o = offsets[6]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = env[b, q]
-                o = offsets[7]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = env[b, 6 + q]
+                put_vector(rec, i, j, offsets[0], X, 0, 3)  # r_e
+                put_vector(rec, i, j, offsets[1], X, 3, 3)  # v_e
+                put_vector(rec, i, j, offsets[2], X, 6, 3)  # sigma_e
+                put_vector(rec, i, j, offsets[3], tr, 9, 3)  # omega_e
+                put_vector(rec, i, j, offsets[4], s_true, 0, 6)
+                put_vector(rec, i, j, offsets[5], law, 0, 6)  # u_command
+                put_vector(rec, i, j, offsets[6], env[b], 0, 6)  # u_applied_min
+                put_vector(rec, i, j, offsets[7], env[b], 6, 6)  # u_applied_max
                 o = offsets[8]
                 if o >= 0:
                     rec[i, j, o], rec[i, j, o + 1], rec[i, j, o + 2] = e0, e1, e2
@@ -817,18 +805,9 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                     if o >= 0:
                         for q in range(6):
                             rec[i, j, o + q] = X[18 + q] - dobs[q]
-                    o = offsets[11]
-                    if o >= 0:
-                        for q in range(6):
-                            rec[i, j, o + q] = dobs[q]
-                o = offsets[10]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = X[18 + q]
-                o = offsets[12]
-                if o >= 0:
-                    for q in range(6):
-                        rec[i, j, o + q] = X[24 + q]
+                    put_vector(rec, i, j, offsets[11], dobs, 0, 6)  # d_obs
+                put_vector(rec, i, j, offsets[10], X, 18, 6)  # d_hat
+                put_vector(rec, i, j, offsets[12], X, 24, 6)  # chi1
                 jrec[b] = j + 1
                 for q in range(6):
                     env[b, q] = np.inf
