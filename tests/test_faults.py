@@ -603,3 +603,30 @@ def test_a_smolyak_grid_too_large_to_build_is_refused_by_validate(tmp_path):
     raw["methods"] = [{"name": "pce_smolyak", "level": 3, "nested": False}]
     res = _invoke("validate", _write(tmp_path / "ok.yaml", raw))
     assert res.exit_code == 0 and "pce_smolyak: up to 120 model runs" in res.output, res.output
+
+
+def test_the_estimate_counts_the_bootstrap_sums_and_names_them_when_it_refuses(tmp_path):
+    """Bootstrap intervals at every step passed the budget whatever their size. Each resample
+    keeps four power sums per interval column: FTCAPN's 5 scalars and 2 series of 801 steps are
+    5 + 2 x 801 = 1607 columns, so 2000 resamples are 2000 x 1607 x 4 x 8 B = 102.8 MB a set."""
+    from uqguide.config.budget import estimate
+    from uqguide.config.run_config import validate_config
+
+    raw = _ftcapn(100_000)
+    raw["methods"][0].update(intervals="bootstrap", bootstrap=2000, bootstrap_times="all")
+    parts = estimate(validate_config(raw)).methods[0].parts
+    assert parts["bootstrap sums"] == pytest.approx(2 * 2000 * (5 + 2 * 801) * 4 * 8.0)
+    raw["methods"][0]["bootstrap_times"] = "report"  # 9 report times and the last step
+    parts = estimate(validate_config(raw)).methods[0].parts
+    assert parts["bootstrap sums"] == pytest.approx(2 * 2000 * (5 + 2 * 10) * 4 * 8.0)
+    raw["methods"][0].update(intervals="delta")
+    assert "bootstrap sums" not in estimate(validate_config(raw)).methods[0].parts
+    # refused: by how much, and which setting to lower
+    raw = {**_ftcapn(1_000_000), "max_memory": "2 GB"}
+    raw.pop("quantiles")
+    raw["methods"][0].update(intervals="bootstrap", bootstrap=20_000, bootstrap_times="all")
+    res = _invoke("validate", _write(tmp_path / "boot.yaml", raw))
+    assert res.exit_code == 2, res.output
+    last = res.stderr.strip().splitlines()[-1]
+    assert "its largest part, bootstrap" in last and "more than max_memory = 2 GB" in last
+    assert "lower bootstrap (the resamples), or bootstrap_times: report" in last

@@ -19,6 +19,11 @@ The estimate is an upper bound of what the pipeline holds at once, in bytes:
 - **series kept** by a method without a reducer (PCE): ``runs x T x k x 8``, twice;
 - **quantiles kept** by a Monte Carlo method asked for quantiles: ``runs x steps x k x 8``, twice
   (the steps are the whole grid while that stays under 2^25 floats, else the report times);
+- **bootstrap sums** of a Monte Carlo method with ``intervals: bootstrap``: four power sums per
+  resample and interval column, ``B x C x 4 x 8`` with ``C`` the scalar components plus the
+  series components at the bootstrap steps (the report times and the last step, or every
+  step with ``bootstrap_times: all``); twice kept (the running sums and a merge), three times
+  per chunk in flight (the chunk's sums and the weighted products that make them);
 - **basis**: a PCE's design matrix ``runs x terms x 8``, three times (matrix, its
   factorisation, the projection).
 
@@ -59,9 +64,10 @@ class Budget:
     def peak_bytes(self) -> float:
         """Kept data adds up over methods (the result holds them all); transients do not."""
         kept = sum(m.parts.get("kept", 0.0) + m.parts.get("series kept", 0.0)
-                   + m.parts.get("quantiles kept", 0.0)
+                   + m.parts.get("quantiles kept", 0.0) + m.parts.get("bootstrap sums", 0.0)
                    for m in self.methods)
         transient = max((m.parts.get("per chunk", 0.0) + m.parts.get("basis", 0.0)
+                         + m.parts.get("bootstrap per chunk", 0.0)
                          for m in self.methods), default=0.0)
         return kept + transient + BASE_BYTES
 
@@ -134,6 +140,10 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
             "series kept": 0.0 if reduced else 2 * n * 8.0 * grid * k_series,
             "basis": 3 * 8.0 * n * plan.terms,
         }
+        sums = _bootstrap_sums(method, cfg, k_scalar, k_series, grid)
+        if sums:
+            parts["bootstrap sums"] = 2 * sums
+            parts["bootstrap per chunk"] = 3 * sums * (1 if workers <= 1 else in_flight / 2)
         if reduced and k_series and method.context.quantile_levels is not None:
             # exact quantiles keep every good run's series values (at every step while that
             # stays small, else at the report times and the last step), per chunk and joined
@@ -147,6 +157,33 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
     return Budget(rows, cfg.max_memory, workers)
 
 
+def _bootstrap_sums(method: object, cfg: RunConfig, k_scalar: int, k_series: int,
+                    grid: float) -> float:
+    """Bytes of one set of a Monte Carlo method's bootstrap power sums (0 without them)."""
+    settings = getattr(method, "settings", None)
+    boot = getattr(settings, "bootstrap", 0) or 0
+    if getattr(settings, "intervals", None) != "bootstrap" or boot <= 0:
+        return 0.0
+    steps = grid if getattr(settings, "bootstrap_times", "report") == "all" else \
+        len(cfg.raw.report_times or ()) + 1
+    columns = k_scalar + k_series * steps
+    return 4 * 8.0 * boot * columns
+
+
+#: The setting that shrinks each part of the estimate, named when the budget refuses a run.
+LOWER = {
+    "kept": "n_samples (or the scalar outputs kept)",
+    "per chunk": "chunk_size or batch_size",
+    "series kept": "n_samples or the series outputs",
+    "quantiles kept": "quantiles (or n_samples)",
+    "bootstrap sums": "bootstrap (the resamples), or bootstrap_times: report, or intervals: "
+                      "delta",
+    "bootstrap per chunk": "bootstrap (the resamples), or bootstrap_times: report, or "
+                           "intervals: delta",
+    "basis": "the PCE's degree or its runs",
+}
+
+
 def check_memory(budget: Budget) -> None:
     """ConfigError (exit 2) when the estimate exceeds ``max_memory``.
 
@@ -157,8 +194,14 @@ def check_memory(budget: Budget) -> None:
     if budget.peak_bytes > budget.max_memory:
         worst = max((m for m in budget.methods if m.peak_bytes is not None),
                     key=lambda m: m.peak_bytes or 0.0, default=None)
-        who = f" ({worst.label}: {worst.runs:,} runs)" if worst is not None else ""
+        who, lower = "", "n_samples / chunk_size / the grid"
+        if worst is not None:
+            part, size = max(worst.parts.items(), key=lambda kv: kv[1])
+            who = f" ({worst.label}: {worst.runs:,} runs; its largest part, {part}, " \
+                  f"{human(size)})"
+            lower = LOWER.get(part, lower)
+        over = budget.peak_bytes - budget.max_memory
         raise ConfigError(
-            f"max_memory: this run needs an estimated {human(budget.peak_bytes)}{who}, more "
-            f"than max_memory = {human(budget.max_memory)}; lower n_samples / chunk_size / the "
-            f"grid, or raise max_memory if the machine has it", field="max_memory")
+            f"max_memory: this run needs an estimated {human(budget.peak_bytes)}{who}, "
+            f"{human(over)} more than max_memory = {human(budget.max_memory)}; lower {lower}, "
+            f"or raise max_memory if the machine has it", field="max_memory")
