@@ -10,12 +10,15 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 import uqguide
 from uqguide.errors import ConfigError, ModelError
@@ -276,8 +279,6 @@ def test_hdf5_files_give_the_bits_of_csv_files(program, tmp_path):
         "    f['time'] = [0.5, 1.0, 2.0]\n"
         "    f['path'] = y[:, None] * np.array([0.5, 1.0, 2.0])\n"
         "    f['failed'] = (x1 > 1.8).astype(int)\n")
-    import sys
-
     cfg = _config(Path(sys.executable), tmp_path / "w", n=40, batch=20,
                   input_format="hdf5", output_format="hdf5")
     cfg["model"]["command"] = f"{sys.executable} {script} {{inputs}} {{outputs}}"
@@ -303,3 +304,50 @@ def test_two_workers_give_the_bits_of_a_serial_run(program, tmp_path):
         a, b = serial.estimate.stats[name], pooled.estimate.stats[name]
         for stat in ("mean", "std", "skewness", "kurtosis"):
             np.testing.assert_array_equal(a.stat(stat), b.stat(stat))
+
+
+DOC = Path(__file__).resolve().parents[1] / "docs" / "your-simulator.md"
+
+
+def _doc_block(lang: str) -> str:
+    return re.findall(rf"```{lang}\n(.*?)```", DOC.read_text(), re.S)[0]
+
+
+def _square_config(command: str, work: Path) -> dict:
+    """y = a + b^2, a ~ N(1, 0.1), b ~ N(0.5, 0.2): the documentation's examples."""
+    return {"model": {"name": "command", "command": command, "inputs": ["a", "b"],
+                      "outputs": ["y"], "workdir": str(work)},
+            "inputs": [{"name": "a", "dist": "normal", "mean": 1.0, "std": 0.1},
+                       {"name": "b", "dist": "normal", "mean": 0.5, "std": 0.2}],
+            "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 40}],
+            "batch_size": 20, "seed": 1}
+
+
+def test_the_documented_c_program_is_the_model_it_says(program, tmp_path):
+    (tmp_path / "mysim.c").write_text(_doc_block("c"))
+    subprocess.run(["cc", "-O2", "-o", str(tmp_path / "mysim"), str(tmp_path / "mysim.c")],
+                   check=True, capture_output=True, timeout=120)
+    path = tmp_path / "sim.yaml"
+    path.write_text(yaml.safe_dump(_square_config("./mysim {inputs} {outputs}",
+                                                  tmp_path / "work")))
+    run = uqguide.run(uqguide.load_config(path)).run("mc")
+    x = np.asarray(run.x)
+    np.testing.assert_array_equal(run.scalars["y"][:, 0], x[:, 0] + x[:, 1] ** 2)
+
+
+def test_the_documented_octave_function_is_the_model_it_says(tmp_path):
+    if shutil.which("octave") is None:
+        pytest.skip("octave is not on PATH (docs/your-simulator.md section 4 is then untested)")
+    (tmp_path / "mysim.m").write_text(_doc_block("matlab"))
+    command = ("octave --no-gui --quiet --eval "
+               "\"addpath('{config_dir}'); mysim('{inputs}', '{outputs}')\"")
+    cfg = _square_config(command, tmp_path / "work")
+    cwd = os.getcwd()
+    os.chdir(tmp_path)  # {config_dir} of a config from Python: the current folder
+    try:
+        run = uqguide.run(cfg).run("mc")
+    finally:
+        os.chdir(cwd)
+    x = np.asarray(run.x)
+    # Octave's own number reader and pow: equal to a few units of round-off
+    np.testing.assert_allclose(run.scalars["y"][:, 0], x[:, 0] + x[:, 1] ** 2, rtol=1e-15)

