@@ -351,3 +351,38 @@ def test_the_documented_octave_function_is_the_model_it_says(tmp_path):
     x = np.asarray(run.x)
     # Octave's own number reader and pow: equal to a few units of round-off
     np.testing.assert_allclose(run.scalars["y"][:, 0], x[:, 0] + x[:, 1] ** 2, rtol=1e-15)
+
+
+@pytest.mark.parametrize("text,message", [
+    ("z\n1\n2\n", r"line 1: no column 'y' in the header 'z'"),
+    ("y\n1\n2\n3\n", r"3 sample rows, expected 2 .*line 4 is one too many"),
+    ("y,w\n1,2\n3\n", r"line 3 \(sample 1\): 1 cells, the header has 2: column 2 is missing"),
+    ("y,failed\n1,0\n2,yes\n", r"line 3 \(sample 1\), column 2 'failed': 'yes' is not 0 or 1"),
+    ("y\n1\n\n", r"1 sample rows, expected 2 .*line 3 \(sample 1\) is missing"),
+    ("", r"line 1: the file is empty"),
+])
+def test_each_defect_of_an_outputs_file_is_named_with_its_line_and_column(tmp_path, text,
+                                                                           message):
+    from uqguide.models.command.files import OutputSpec, read_outputs
+
+    (tmp_path / "outputs.csv").write_text(text)
+    with pytest.raises(ModelError, match=re.escape(str(tmp_path / "outputs.csv")) + ": " +
+                       message):
+        read_outputs(tmp_path / "outputs.csv", [OutputSpec("y", "scalar", 1)], 2, "csv")
+
+
+def test_a_flagged_sample_may_leave_its_cells_empty_and_a_series_row_too(tmp_path):
+    from uqguide.models.command.files import OutputSpec, read_outputs
+
+    (tmp_path / "out.csv").write_text('y[0],y[1],failed,reason\n1,2,0,\n,,1,"a, b"\n')
+    (tmp_path / "out_p.csv").write_text("0,1\n5,6\n,\n")
+    got = read_outputs(tmp_path / "out.csv", [OutputSpec("y", "scalar", 2),
+                                              OutputSpec("p", "series", 1)], 2, "csv")
+    np.testing.assert_array_equal(got.scalars["y"], [[1, 2], [np.nan, np.nan]])
+    np.testing.assert_array_equal(got.series["p"][:, :, 0], [[5, 6], [np.nan, np.nan]])
+    np.testing.assert_array_equal(got.time, [0, 1])
+    assert list(got.flagged) == [False, True] and list(got.reasons) == ["", "a, b"]
+    (tmp_path / "out_p.csv").write_text("0,1\n5,6\n7,x\n")
+    with pytest.raises(ModelError, match=r"out_p\.csv: line 3 \(sample 1\), column 2 't=1': "
+                                         r"'x' is not a number"):
+        read_outputs(tmp_path / "out.csv", [OutputSpec("p", "series", 1)], 2, "csv")

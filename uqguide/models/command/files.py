@@ -193,9 +193,10 @@ def _number(cell: str, path: Path, line: int, sample: int, col: int, name: str) 
 
 
 def _sample_rows(rows: list[list[str]], path: Path, n: int, first_line: int) -> list[list[str]]:
-    """The ``n`` sample rows after the first line (blank trailing lines dropped)."""
+    """The ``n`` sample rows after the first line (empty trailing lines dropped; a line of
+    empty cells is a row: a failed sample's)."""
     body = rows[1:]
-    while body and not any(c.strip() for c in body[-1]):
+    while body and not body[-1]:
         body.pop()
     if len(body) != n:
         if len(body) < n:
@@ -205,6 +206,31 @@ def _sample_rows(rows: list[list[str]], path: Path, n: int, first_line: int) -> 
         raise ModelError(f"{path}: {len(body)} sample rows, expected {n} (one per sample, in "
                          f"order): line {first_line + n + 1} is one too many")
     return body
+
+
+def _column(body: list[list[str]], j: int, flagged: np.ndarray, path: Path, name: str
+            ) -> np.ndarray:
+    """Column ``j`` of the sample rows as floats; a flagged sample's empty cell is NaN."""
+    cells = [row[j] for row in body]
+    try:
+        # one conversion for the whole column (Python's correctly rounded parser, in C)
+        return np.array(cells, dtype=float)
+    except ValueError:
+        pass
+    out = np.empty(len(cells))
+    for i, c in enumerate(cells):
+        cell = c.strip()
+        out[i] = (np.nan if flagged[i] and not cell else
+                  _number(cell, path, i + 2, i, j + 1, name))
+    return out
+
+
+def _check_widths(body: list[list[str]], width: int, path: Path, what: str) -> None:
+    for i, row in enumerate(body):
+        if len(row) != width:
+            missing = f": column {len(row) + 1} is missing" if len(row) < width else ""
+            raise ModelError(f"{path}: line {i + 2} (sample {i}): {len(row)} cells, {what} "
+                             f"has {width}{missing}")
 
 
 def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int
@@ -221,33 +247,22 @@ def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int
                 raise ModelError(f"{path}: line 1: no column '{c}' in the header "
                                  f"{','.join(header)!r}")
     body = _sample_rows(rows, path, n, 1)
-    width = len(header)
-    table = {s.name: np.empty((n, s.components)) for s in specs}
+    _check_widths(body, len(header), path, "the header")
     flagged = np.zeros(n, dtype=bool)
     reasons = np.full(n, "", dtype=object)
     fcol, rcol = where.get("failed"), where.get("reason")
-    for i, row in enumerate(body):
-        line = i + 2
-        if len(row) != width:
-            missing = (f": column {len(row) + 1} '{header[len(row)]}' is missing"
-                       if len(row) < width else "")
-            raise ModelError(f"{path}: line {line} (sample {i}): {len(row)} cells, the header "
-                             f"has {width}{missing}")
-        if fcol is not None:
+    if fcol is not None:
+        for i, row in enumerate(body):
             cell = row[fcol].strip()
             if cell not in ("0", "1"):
-                raise ModelError(f"{path}: line {line} (sample {i}), column {fcol + 1} "
+                raise ModelError(f"{path}: line {i + 2} (sample {i}), column {fcol + 1} "
                                  f"'failed': {row[fcol]!r} is not 0 or 1")
-            flagged[i] = cell == "1"
-        if flagged[i]:
-            reasons[i] = (row[rcol].strip() if rcol is not None else "") or FLAGGED
-        for s in specs:
-            for k, c in enumerate(scalar_columns(s)):
-                j = where[c]
-                # a flagged sample's values are not used: empty cells are allowed there
-                cell = row[j].strip()
-                table[s.name][i, k] = (np.nan if flagged[i] and not cell else
-                                       _number(cell, path, line, i, j + 1, c))
+            if cell == "1":
+                flagged[i] = True
+                reasons[i] = (body[i][rcol].strip() if rcol is not None else "") or FLAGGED
+    table = {s.name: np.column_stack([_column(body, where[c], flagged, path, c)
+                                      for c in scalar_columns(s)]).reshape(n, s.components)
+             for s in specs}
     return table, flagged, reasons
 
 
@@ -261,17 +276,14 @@ def _read_series_csv(path: Path, n: int, flagged: np.ndarray
     if t.size > 1 and not (np.all(np.isfinite(t)) and np.all(np.diff(t) >= 0)):
         raise ModelError(f"{path}: line 1: the time grid must be finite and non-decreasing")
     body = _sample_rows(rows, path, n, 1)
-    values = np.empty((n, t.size))
-    for i, row in enumerate(body):
-        if len(row) != t.size:
-            raise ModelError(f"{path}: line {i + 2} (sample {i}): {len(row)} values, the time "
-                             f"grid on line 1 has {t.size}" +
-                             (f": column {len(row) + 1} is missing" if len(row) < t.size else ""))
-        for j, c in enumerate(row):
-            cell = c.strip()
-            values[i, j] = (np.nan if flagged[i] and not cell else
-                            _number(cell, path, i + 2, i, j + 1, f"t={t[j]:g}"))
-    return t, values
+    _check_widths(body, t.size, path, "the time grid on line 1")
+    try:
+        return t, np.array(body, dtype=float).reshape(n, t.size)
+    except ValueError:
+        pass
+    values = np.column_stack([_column(body, j, flagged, path, f"t={t[j]:g}")
+                              for j in range(t.size)]) if t.size else np.empty((n, 0))
+    return t, values.reshape(n, t.size)
 
 
 def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ReadOutputs:
