@@ -5,9 +5,11 @@
 The program (C, compiled here with ``cc``) counts the lines of its inputs file and writes a
 ``y`` of 0 per sample: what is measured is uqguide's share (a work folder made and removed, the
 inputs written, the process started and waited for, the outputs parsed) plus the program's own
-file I/O. The ``spawn ms`` column is the same program started directly with
-``subprocess.run`` on a file already written: the operating system's part, which no
-implementation avoids. One model call per batch, in this process (no pool).
+file I/O. Columns: ``ms/batch`` a whole model call; ``spawn ms`` the same program started
+directly with ``subprocess.run`` on a file already written (the operating system's part, which
+no implementation avoids); ``write ms`` and ``read ms`` uqguide's writing of the inputs file and
+reading of the outputs file alone (the I/O of the data); ``fixed ms`` what remains of a call
+(folders, environment, waiting). One model call per batch, in this process (no pool).
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ def main() -> None:
         sys.exit("no C compiler 'cc' on PATH: the benchmark compiles its no-op program")
 
     from uqguide.models.command import CommandModel
+    from uqguide.models.command.files import OutputSpec, read_outputs, write_inputs
 
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -60,7 +63,7 @@ def main() -> None:
                               "workdir": str(folder / "work")})
         rng = np.random.default_rng(0)
         print(f"{'batches':>8} {'samples/batch':>14} {'ms/batch':>9} {'spawn ms':>9} "
-              f"{'uqguide ms':>11} {'samples/s':>11}")
+              f"{'write ms':>9} {'read ms':>8} {'fixed ms':>9} {'samples/s':>11}")
         for n in (int(s) for s in args.sizes.split(",")):
             x = rng.standard_normal((n, len(names)))
             model.evaluate(x, names, ["y"])  # warm: imports, page cache
@@ -80,8 +83,18 @@ def main() -> None:
                 subprocess.run([str(folder / "noop"), str(inputs), str(spawn_dir / "out.csv")],
                                check=True)
             spawn = (time.perf_counter() - t0) / args.batches
+            t0 = time.perf_counter()
+            for _ in range(args.batches):
+                write_inputs(spawn_dir / "in.csv", names, x, "csv")
+            write = (time.perf_counter() - t0) / args.batches
+            t0 = time.perf_counter()
+            for _ in range(args.batches):
+                read_outputs(spawn_dir / "out.csv", [OutputSpec("y", "scalar", 1)], n, "csv")
+            read = (time.perf_counter() - t0) / args.batches
+            fixed = per - spawn - write - read
             print(f"{args.batches:>8} {n:>14,} {per * 1e3:>9.2f} {spawn * 1e3:>9.2f} "
-                  f"{(per - spawn) * 1e3:>11.2f} {n / per:>11,.0f}")
+                  f"{write * 1e3:>9.2f} {read * 1e3:>8.2f} {fixed * 1e3:>9.2f} "
+                  f"{n / per:>11,.0f}")
 
 
 if __name__ == "__main__":
