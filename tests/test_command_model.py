@@ -386,3 +386,16 @@ def test_a_flagged_sample_may_leave_its_cells_empty_and_a_series_row_too(tmp_pat
     with pytest.raises(ModelError, match=r"out_p\.csv: line 3 \(sample 1\), column 2 't=1': "
                                          r"'x' is not a number"):
         read_outputs(tmp_path / "out.csv", [OutputSpec("p", "series", 1)], 2, "csv")
+
+
+def test_a_recompiled_program_is_a_code_change_a_resume_refuses(program, tmp_path):
+    from uqguide.driver.checkpoint import model_code_hash
+
+    copy = tmp_path / "sim"
+    shutil.copy(program, copy)
+    model = uqguide.load_config(_config(copy, tmp_path, series=False)).model
+    before = model_code_hash(model)
+    assert model_code_hash(model) == before
+    with copy.open("ab") as f:
+        f.write(b"\0")  # the same program, other bytes: as a rebuild with other flags
+    assert model_code_hash(model) != before

@@ -30,7 +30,8 @@ run
 folder: a folder of anything else at that path is refused, not removed. The model's
 code is the source of the module defining its class (the whole package folder for a simulator
 package such as ``uqguide.models.ftcapn``) and, for a ``callable`` model, the user function's
-module; a code change elsewhere (a shared helper module) is not seen.
+module, for a ``command`` model its program's file (a recompiled simulator); a code change
+elsewhere (a shared helper module, a script an interpreter runs) is not seen.
 """
 
 from __future__ import annotations
@@ -88,7 +89,8 @@ def model_code_hash(model: Model) -> str:
     Returns
     -------
     str
-        Hex digest of its version and source files (a callable model's module included).
+        Hex digest of its version and source files (a callable model's module, a command
+        model's program file included).
     """
     files = _source_files(type(model))
     function = getattr(model.params, "function", None)
@@ -97,6 +99,11 @@ def model_code_hash(model: Model) -> str:
             files += [Path(inspect.getfile(importlib.import_module(function.partition(":")[0])))]
         except (ImportError, TypeError, OSError):
             pass
+    program = getattr(model.params, "program_file", None)
+    if model.name == "command" and callable(program):
+        found = program()
+        if found is not None:
+            files.append(found)
     h = hashlib.sha256(str(getattr(model, "version", "")).encode())
     for f in sorted(set(files)):
         h.update(f.name.encode())

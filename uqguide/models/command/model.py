@@ -168,14 +168,14 @@ class CommandParams(ModelParams):
     def _check_program(self) -> None:
         """A program that cannot be found is a config error, not a run of failed samples."""
         program = shlex.split(self.command)[0]
-        if process.unknown_placeholders(program) or "{" in program:
+        if "{" in program:
             return
+        path = self.program_file()
         if "/" in program:
-            path = Path(self.config_dir or ".", program)
-            if not path.is_file() or not os.access(path, os.X_OK):
+            if path is None or not path.is_file() or not os.access(path, os.X_OK):
                 self._refuse("command", f"program {program!r}: no executable file {path} (a "
                                         f"relative path is taken from the config's folder)")
-        elif shutil.which(program, path=self.environment().get("PATH")) is None:
+        elif path is None:
             self._refuse("command", f"program {program!r} is not on PATH (give its path, e.g. "
                                     f"'./{program}' for one in the config's folder)")
 
@@ -185,6 +185,22 @@ class CommandParams(ModelParams):
         raise ValidationError.from_exception_data(type(self).__name__, [InitErrorDetails(
             type=PydanticCustomError("value_error", "{message}", {"message": message}),
             loc=(field,), input=getattr(self, field))])
+
+    def program_file(self) -> Path | None:
+        """The file of the program the command starts (what a resumed run checks unchanged).
+
+        Returns
+        -------
+        Path or None
+            None with ``shell: true``, a program named by a placeholder, or one not found.
+        """
+        program = shlex.split(self.command)[0]
+        if self.shell or "{" in program:
+            return None
+        if "/" in program:
+            return Path(self.config_dir or ".", program)
+        found = shutil.which(program, path=self.environment().get("PATH"))
+        return Path(found) if found else None
 
     def environment(self) -> dict[str, str]:
         """The program's environment: uqguide's, with ``env`` set over it.
