@@ -399,3 +399,23 @@ def test_a_recompiled_program_is_a_code_change_a_resume_refuses(program, tmp_pat
     with copy.open("ab") as f:
         f.write(b"\0")  # the same program, other bytes: as a rebuild with other flags
     assert model_code_hash(model) != before
+
+
+def test_at_the_command_line_a_bad_program_is_exit_2_and_a_malformed_file_exit_1(
+        program, tmp_path, write_config):
+    from click.testing import CliRunner
+
+    from uqguide.cli import main
+
+    cfg = _config("./no-such-sim", tmp_path / "work", n=10, batch=10, series=False)
+    res = CliRunner().invoke(main, ["validate", str(write_config(cfg))])
+    assert res.exit_code == 2
+    assert res.stderr.strip().splitlines() == [
+        f"error: model.command: program './no-such-sim': no executable file "
+        f"{tmp_path.resolve() / 'no-such-sim'} (a relative path is taken from the config's "
+        f"folder) (got './no-such-sim {{inputs}} {{outputs}}')"]
+    cfg = _config(program, tmp_path / "work", n=10, batch=10, series=False, mode="short")
+    res = CliRunner().invoke(main, ["run", str(write_config(cfg)), "--out",
+                                    str(tmp_path / "out")])
+    assert res.exit_code == 1 and "Traceback" not in res.output
+    assert "outputs.csv: 9 sample rows, expected 10" in res.stderr

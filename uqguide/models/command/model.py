@@ -12,9 +12,9 @@ Config::
       per_sample: false              # true: one process per sample
 
 Each call (a batch, or a sample with ``per_sample``) gets a fresh work folder under ``workdir``
-(default: ``<tmp>/uqguide-command``), is the program's current folder, holds the inputs file, the
-outputs files and the program's ``stdout.txt``/``stderr.txt``, and is removed when the call
-succeeds. The file formats are in :mod:`.files`; running the program in :mod:`.process`.
+(default: ``<tmp>/uqguide-command-<uid>``), is the program's current folder, holds the inputs
+file, the outputs files and the program's ``stdout.txt``/``stderr.txt``, and is removed when
+the call succeeds. The file formats are in :mod:`.files`; running the program in :mod:`.process`.
 
 Failures, from the sample's to the program's:
 
@@ -72,7 +72,8 @@ with open(sys.argv[2][:-4] + '_path.csv', 'w') as f:
 
 
 def _default_root() -> str:
-    return str(Path(tempfile.gettempdir()) / "uqguide-command")
+    # one per user: another account's folder of the same name would not be writable
+    return str(Path(tempfile.gettempdir()) / f"uqguide-command-{os.getuid()}")
 
 
 class CommandParams(ModelParams):
@@ -99,7 +100,8 @@ class CommandParams(ModelParams):
     shell: bool = Field(default=False, description=(
         "run the command through /bin/sh -c (placeholders are shell-quoted)"))
     workdir: str | None = Field(default=None, description=(
-        "folder under which each call's work folder is made (default: <tmp>/uqguide-command)"))
+        "folder under which each call's work folder is made (default: "
+        "<tmp>/uqguide-command-<uid>; a relative path is taken from the config's folder)"))
     config_dir: str | None = Field(default=None, description=(
         "folder a relative program path is found in (set by uqguide: the config's folder or "
         "the current folder)"))
@@ -259,8 +261,13 @@ class CommandModel(Model):
         if n == 0:
             return _nan_output(specs, 0, np.zeros(0), "")
         root = self.params.root()
-        root.mkdir(parents=True, exist_ok=True)
-        folder = Path(tempfile.mkdtemp(prefix=f"batch-{os.getpid()}-", dir=root))
+        try:
+            root.mkdir(parents=True, exist_ok=True)
+            folder = Path(tempfile.mkdtemp(prefix=f"batch-{os.getpid()}-", dir=root))
+        except OSError as exc:
+            # not a sample's fault: splitting the batch would fail the same way
+            raise ModelError(f"cannot make a work folder in {root} (model.workdir): "
+                             f"{exc.strerror or exc}") from None
         try:
             if self.params.per_sample:
                 out, crashed = self._per_sample(folder, x, specs)
