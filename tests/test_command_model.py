@@ -3,7 +3,8 @@
 The program computes ``y = 2 x1 + 0.5 x2^2`` and the series ``path = y t`` on t = 0.5, 1, 2;
 ``x1 ~ N(1, 0.5)`` and ``x2 ~ N(0.5, 1)`` give closed-form moments. The environment variable
 ``UQ_MODE`` makes it misbehave for the samples with ``x1 > UQ_THRESH``: write NaN, flag them in a
-``failed`` column, abort, hang (with a forked child), or write a short or malformed file.
+``failed`` column, abort, hang (with a forked child), or write a short or malformed file; or,
+``mixed``, hang there, abort where ``x1 < UQ_LOW`` and write NaN where ``x2 > UQ_HIGH2``.
 """
 
 from __future__ import annotations
@@ -38,6 +39,9 @@ static double x1[100000], x2[100000];
 int main(int argc, char **argv) {
     const char *mode = getenv("UQ_MODE") ? getenv("UQ_MODE") : "";
     double th = getenv("UQ_THRESH") ? atof(getenv("UQ_THRESH")) : INFINITY;
+    double low = getenv("UQ_LOW") ? atof(getenv("UQ_LOW")) : -INFINITY;
+    double high2 = getenv("UQ_HIGH2") ? atof(getenv("UQ_HIGH2")) : INFINITY;
+    int mixed = !strcmp(mode, "mixed");
     char line[4096], spath[4096];
     int n = 0, flag = !strcmp(mode, "flag");
     if (argc < 3) return 2;
@@ -46,9 +50,10 @@ int main(int argc, char **argv) {
     while (n < 100000 && fscanf(in, "%lf,%lf", &x1[n], &x2[n]) == 2) n++;
     fclose(in);
     for (int i = 0; i < n; i++) {
+        if (mixed && x1[i] < low) abort();
         if (x1[i] <= th) continue;
         if (!strcmp(mode, "abort")) abort();
-        if (!strcmp(mode, "hang")) {
+        if (!strcmp(mode, "hang") || mixed) {
             if (fork() == 0) {
                 snprintf(spath, sizeof spath, "%s/child-%d", getenv("UQ_PIDDIR"), getpid());
                 fclose(fopen(spath, "w"));
@@ -62,7 +67,8 @@ int main(int argc, char **argv) {
     fprintf(ser, "0.5,1,2\n");
     for (int i = 0; i < n - !strcmp(mode, "short"); i++) {
         int bad = x1[i] > th;
-        double y = bad && !strcmp(mode, "nan") ? NAN : 2 * x1[i] + 0.5 * x2[i] * x2[i];
+        double y = (bad && !strcmp(mode, "nan")) || (mixed && x2[i] > high2)
+                   ? NAN : 2 * x1[i] + 0.5 * x2[i] * x2[i];
         if (!strcmp(mode, "malformed") && i == 2) fprintf(out, "%.17g;\n", y);
         else if (flag) fprintf(out, "%.17g,%d,%s\n", y, bad, bad ? "\"x1, too large\"" : "");
         else fprintf(out, "%.17g\n", y);
@@ -196,17 +202,26 @@ def _alive(pid: int) -> bool:
     return "\nState:\tZ" not in status
 
 
-def test_a_hanging_sample_times_out_alone_and_its_process_group_dies(program, tmp_path):
-    # the design of 8 samples first, to hang on exactly the one with the largest x1
-    x1 = np.sort(_x1(uqguide.run(_config(program, tmp_path, n=8, batch=8)).run("mc")))
-    thresh = (x1[-1] + x1[-2]) / 2
-    run = uqguide.run(_config(program, tmp_path, n=8, batch=8, mode="hang", thresh=thresh,
-                              timeout_s=1.0)).run("mc")
-    bad = _x1(run) > thresh
-    assert bad.sum() == 1
-    np.testing.assert_array_equal(run.failed, bad)
+def test_exactly_the_failing_hanging_and_crashing_samples_fail(program, tmp_path):
+    """The issue's acceptance in small: 4 samples write NaN, 1 hangs (with a child it forked),
+    1 crashes, among 300; the design is read first to pick them."""
+    x = np.asarray(uqguide.run(_config(program, tmp_path, n=300, batch=300, series=False))
+                   .run("mc").x)
+    x1, x2 = np.sort(x[:, 0]), np.sort(x[:, 1])
+    limits = {"thresh": (x1[-1] + x1[-2]) / 2, "UQ_LOW": (x1[0] + x1[1]) / 2,
+              "UQ_HIGH2": (x2[-4] + x2[-5]) / 2}
+    cfg = _config(program, tmp_path, n=300, batch=10, mode="mixed", thresh=limits["thresh"],
+                  timeout_s=1.0)
+    cfg["model"]["env"].update({k: repr(float(v)) for k, v in limits.items() if k != "thresh"})
+    run = uqguide.run(cfg).run("mc")
+    hang, crash = x[:, 0] > limits["thresh"], x[:, 0] < limits["UQ_LOW"]
+    nan = (x[:, 1] > limits["UQ_HIGH2"]) & ~hang & ~crash
+    assert (hang.sum(), crash.sum(), nan.sum()) == (1, 1, 4)
+    np.testing.assert_array_equal(run.failed, hang | crash | nan)
     assert "did not finish within timeout_s = 1 s (its process group was killed)" in \
-        run.reasons[bad][0]
+        run.reasons[hang][0]
+    assert "killed by signal SIGABRT" in run.reasons[crash][0]
+    assert set(run.reasons[nan]) == {"non-finite output value"}
     children = [int(p.name.split("-")[1]) for p in tmp_path.glob("child-*")]
     assert children, "the hanging program's child did not start"
     assert not [pid for pid in children if _alive(pid)]
@@ -294,16 +309,38 @@ def test_hdf5_files_give_the_bits_of_csv_files(program, tmp_path):
                                       csv.estimate.stats["path"].stat(stat))
 
 
+def _assert_same_bits(a, b) -> None:
+    np.testing.assert_array_equal(a.failed, b.failed)
+    for name in ("y", "path"):
+        for stat in ("mean", "std", "skewness", "kurtosis"):
+            np.testing.assert_array_equal(a.estimate.stats[name].stat(stat),
+                                          b.estimate.stats[name].stat(stat))
+
+
 def test_two_workers_give_the_bits_of_a_serial_run(program, tmp_path):
     cfg = _config(program, tmp_path, n=200, batch=25, mode="abort", thresh=1.8)
     serial = uqguide.run(cfg).run("mc")
-    pooled = uqguide.run(cfg, workers=2).run("mc")
     assert serial.n_failed > 0
-    np.testing.assert_array_equal(serial.failed, pooled.failed)
-    for name in ("y", "path"):
-        a, b = serial.estimate.stats[name], pooled.estimate.stats[name]
-        for stat in ("mean", "std", "skewness", "kurtosis"):
-            np.testing.assert_array_equal(a.stat(stat), b.stat(stat))
+    _assert_same_bits(serial, uqguide.run(cfg, workers=2).run("mc"))
+
+
+# Slow: a Dask cluster takes about 10 s to start, and the pool above ships the model the same
+# way (its registered name and parameters, rebuilt in the worker).
+@pytest.mark.slow
+def test_a_dask_cluster_gives_the_bits_of_a_serial_run(program, tmp_path):
+    from distributed import Client, LocalCluster
+
+    from uqguide.config.run_config import validate_config
+    from uqguide.driver.execution import DaskExecutor
+    from uqguide.driver.propagate import run as propagate_run
+
+    cfg = _config(program, tmp_path, n=200, batch=25, mode="abort", thresh=1.8)
+    serial = uqguide.run(cfg).run("mc")
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        dask = propagate_run(validate_config(cfg), DaskExecutor(client=client)).run("mc")
+    assert serial.n_failed > 0
+    _assert_same_bits(serial, dask)
 
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "your-simulator.md"
