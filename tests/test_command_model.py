@@ -456,3 +456,17 @@ def test_at_the_command_line_a_bad_program_is_exit_2_and_a_malformed_file_exit_1
                                     str(tmp_path / "out")])
     assert res.exit_code == 1 and "Traceback" not in res.output
     assert "outputs.csv: 9 sample rows, expected 10" in res.stderr
+
+
+def test_with_shell_true_the_placeholders_are_quoted(program, tmp_path):
+    # a work folder whose name is itself an injection attempt, and a real pipe in the command
+    work = tmp_path / "w; touch pwned"
+    cfg = _config(program, work, n=20, batch=10, series=False, shell=True)
+    cfg["model"]["command"] = (f"{program} {{inputs}} {{outputs}} && "
+                               "echo {batch} | tr a-z A-Z > {workdir}/../seen-{batch}")
+    run = uqguide.run(cfg).run("mc")
+    assert run.n_failed == 0
+    assert not list(tmp_path.rglob("pwned")) and not list(Path.cwd().glob("pwned"))
+    seen = sorted(work.glob("seen-batch-*"))
+    assert len(seen) == 2  # one call per batch of 10, each saw its own folder's name
+    assert [p.read_text().strip() for p in seen] == [p.name[5:].upper() for p in seen]
