@@ -470,3 +470,17 @@ def test_with_shell_true_the_placeholders_are_quoted(program, tmp_path):
     seen = sorted(work.glob("seen-batch-*"))
     assert len(seen) == 2  # one call per batch of 10, each saw its own folder's name
     assert [p.read_text().strip() for p in seen] == [p.name[5:].upper() for p in seen]
+
+
+def test_a_series_of_two_components_is_one_file_per_component_on_one_grid(tmp_path):
+    from uqguide.models.command.files import OutputSpec, read_outputs
+
+    spec = OutputSpec("r", "series", 2)
+    (tmp_path / "out_r_0.csv").write_text("0,1,2\n1,2,3\n")
+    (tmp_path / "out_r_1.csv").write_text("0,1,2\n4,5,6\n")
+    got = read_outputs(tmp_path / "out.csv", [spec], 1, "csv")
+    np.testing.assert_array_equal(got.series["r"], [[[1, 4], [2, 5], [3, 6]]])
+    (tmp_path / "out_r_1.csv").write_text("0,1,3\n4,5,6\n")
+    with pytest.raises(ModelError, match=r"out_r_1\.csv: line 1: the time grid differs from "
+                                         r"that of .*out_r_0\.csv"):
+        read_outputs(tmp_path / "out.csv", [spec], 1, "csv")
