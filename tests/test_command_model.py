@@ -484,3 +484,10 @@ def test_a_series_of_two_components_is_one_file_per_component_on_one_grid(tmp_pa
     with pytest.raises(ModelError, match=r"out_r_1\.csv: line 1: the time grid differs from "
                                          r"that of .*out_r_0\.csv"):
         read_outputs(tmp_path / "out.csv", [spec], 1, "csv")
+
+
+def test_a_program_in_the_home_folder_may_be_written_with_a_tilde(program, tmp_path,
+                                                                  monkeypatch):
+    monkeypatch.setenv("HOME", str(program.parent))
+    run = uqguide.run(_config("~/sim", tmp_path, n=10, batch=10, series=False)).run("mc")
+    assert run.n_failed == 0

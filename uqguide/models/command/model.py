@@ -196,7 +196,7 @@ class CommandParams(ModelParams):
         Path or None
             None with ``shell: true``, a program named by a placeholder, or one not found.
         """
-        program = shlex.split(self.command)[0]
+        program = os.path.expanduser(shlex.split(self.command)[0])
         if self.shell or "{" in program:
             return None
         if "/" in program:

@@ -99,7 +99,7 @@ def argv(template: str, values: Mapping[str, str], shell: bool) -> list[str] | s
     if shell:
         return fill(template, values, quote=True)
     args = [fill(token, values) for token in shlex.split(template)]
-    program = args[0]
+    program = args[0] = os.path.expanduser(args[0])  # no shell to expand ~ as users expect
     if "/" in program and not os.path.isabs(program):
         # the program runs in its work folder: a relative program path means the config's
         args[0] = os.path.join(values["config_dir"], program)
