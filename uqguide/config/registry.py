@@ -24,6 +24,7 @@ MODELS: dict[str, str] = {
     "borehole": "uqguide.models.benchmarks:Borehole",
     "sobol_g": "uqguide.models.sobol_g:SobolG",
     "callable": "uqguide.models.callable:CallableModel",
+    "command": "uqguide.models.command:CommandModel",
     "ftcapn": "uqguide.models.ftcapn:FTCAPN",
     "gmm_proximity": "uqguide.models.gmm.model:GMMProximity",
     "ft_as": "uqguide.models.ft_as:FTAS",

@@ -52,7 +52,8 @@ def model_code_hash(model: Model) -> str:
     Returns
     -------
     str
-        Hex digest of its version and source files (a callable model's module included).
+        Hex digest of its version and source files (a callable model's module, a command
+        model's program file included: a recompiled simulator is another model).
     """
     files = _source_files(type(model))
     function = getattr(model.params, "function", None)
@@ -61,6 +62,11 @@ def model_code_hash(model: Model) -> str:
             files += [Path(inspect.getfile(importlib.import_module(function.partition(":")[0])))]
         except (ImportError, TypeError, OSError):
             pass
+    program = getattr(model.params, "program_file", None)
+    if model.name == "command" and callable(program):
+        found = program()
+        if found is not None:
+            files.append(found)
     h = hashlib.sha256(str(getattr(model, "version", "")).encode())
     for f in sorted(set(files)):
         h.update(f.name.encode())

@@ -64,6 +64,33 @@ class CallableOutput(BaseModel):
         return self
 
 
+def check_output_names(v: Any) -> Any:
+    """``v`` unchanged when its output names (strings or mappings with ``name``) are plain and
+    unique; ValueError naming the name and the rule otherwise.
+
+    Parameters
+    ----------
+    v : object
+        The ``outputs`` list as the config gives it, before the ``str | CallableOutput`` union
+        is validated: the union's error for a bad name in the mapping form would be "Input
+        should be a valid string", which names neither the name nor the rule.
+
+    Returns
+    -------
+    object
+        ``v``.
+    """
+    if isinstance(v, list):
+        names = [o.get("name") if isinstance(o, Mapping) else
+                 o.name if isinstance(o, CallableOutput) else o for o in v]
+        for name in names:
+            if isinstance(name, str) and not is_plain_name(name):
+                raise ValueError(f"output name {name!r} must be {PLAIN_NAME_RULE}")
+        if len(set(map(str, names))) != len(names):
+            raise ValueError("output names must be unique")
+    return v
+
+
 def find_module_dir(spec: str, folders: list[Path]) -> str | None:
     """The first of ``folders`` holding the top-level module of ``"pkg.module:function"``.
 
@@ -189,17 +216,7 @@ class CallableParams(ModelParams):
     @field_validator("outputs", mode="before")
     @classmethod
     def _plain_output_names(cls, v: Any) -> Any:
-        # Before the str | CallableOutput union: its error for a bad name in the mapping form
-        # would be "Input should be a valid string", which names neither the name nor the rule.
-        if isinstance(v, list):
-            names = [o.get("name") if isinstance(o, Mapping) else
-                     o.name if isinstance(o, CallableOutput) else o for o in v]
-            for name in names:
-                if isinstance(name, str) and not is_plain_name(name):
-                    raise ValueError(f"output name {name!r} must be {PLAIN_NAME_RULE}")
-            if len(set(map(str, names))) != len(names):
-                raise ValueError("output names must be unique")
-        return v
+        return check_output_names(v)
 
     @model_validator(mode="after")
     def _consistent(self) -> CallableParams:

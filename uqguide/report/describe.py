@@ -7,7 +7,7 @@ import re
 from types import UnionType
 from typing import Any, Literal, Union, get_args, get_origin
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 
 from ..models.base import Model
 
@@ -151,7 +151,11 @@ def describe_model(cls: type[Model]) -> str:
     str
         Text for ``uqguide models NAME``.
     """
-    model = cls()
+    try:
+        model = cls()
+    except ValidationError:
+        # a model with required parameters (the command model's program) shows its example
+        model = cls(cls.example_params)
     lines = [f"{cls.name}: {cls.summary}", " inputs (uncertain; nominal value when not listed):"]
     for i in model.inputs():
         lines.append(f"  {i.name} [{i.unit}] nominal {i.nominal:g} — {_clean(i.description)}")

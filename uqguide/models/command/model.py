@@ -1,0 +1,339 @@
+"""Any executable as a model: its parameters and the batch interface.
+
+Config::
+
+    model:
+      name: command
+      command: "./mysim {inputs} {outputs}"   # split like a shell would, run without one
+      inputs: [a, b]                 # the columns of the inputs file, in order
+      outputs: [y, {name: path, kind: series}]
+      timeout_s: 60                  # per call; kills the program's whole process group
+      env: {OMP_NUM_THREADS: 1}
+      per_sample: false              # true: one process per sample
+
+Each call (a batch, or a sample with ``per_sample``) gets a fresh work folder under ``workdir``
+(default: ``<tmp>/uqguide-command-<uid>``), is the program's current folder, holds the inputs
+file, the outputs files and the program's ``stdout.txt``/``stderr.txt``, and is removed when
+the call succeeds. The file formats are in :mod:`.files`; running the program in :mod:`.process`.
+
+Failures, from the sample's to the program's:
+
+- a sample whose outputs are not finite, or whose ``failed`` column is 1, fails with its reason;
+- a non-zero exit (or a signal, or ``timeout_s``) fails the call: it raises
+  :class:`~.process.CommandFailed`, and the engine splits the batch until the failing samples
+  are alone (with ``per_sample`` the sample just fails). The work folder is kept and named in
+  the reason;
+- an outputs file that breaks the format (missing, short, a cell that is not a number) is a
+  :class:`~uqguide.errors.ModelError` naming the file, line and column: the run stops, the work
+  folder is kept.
+
+Trust: the command runs in the user's account with the user's rights, like a ``callable``
+model's function; uqguide adds no sandbox. What it does guarantee is that the run's data never
+reaches a shell: input names are plain names, values only go into files, and without
+``shell: true`` the arguments are passed to the program as they are.
+"""
+
+from __future__ import annotations
+
+import os
+import shlex
+import shutil
+import sys
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic_core import InitErrorDetails, PydanticCustomError
+
+from ...core.names import PLAIN_NAME_RULE, is_plain_name
+from ...errors import ModelError
+from ..base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
+from ..callable import CallableOutput, check_output_names
+from . import process
+from .files import NON_FINITE, OutputSpec, read_outputs, write_inputs
+from .process import PLACEHOLDERS, CommandFailed
+
+_ENV_NAME = "letters, digits and '_', not starting with a digit"
+
+#: The conformance example: a Python program (stdlib only) reading inputs.csv and writing
+#: y = a + b^2 and the series path = y t on three times.
+_EXAMPLE = """
+import csv, sys
+rows = list(csv.reader(open(sys.argv[1])))[1:]
+ys = [float(a) + float(b) ** 2 for a, b in rows]
+with open(sys.argv[2], 'w') as f:
+    f.write('y\\n' + ''.join(repr(y) + '\\n' for y in ys))
+with open(sys.argv[2][:-4] + '_path.csv', 'w') as f:
+    f.write('0.0,0.5,1.0\\n' + ''.join(f'0.0,{y * 0.5!r},{y!r}\\n' for y in ys))
+"""
+
+
+def _default_root() -> str:
+    # one per user: another account's folder of the same name would not be writable
+    return str(Path(tempfile.gettempdir()) / f"uqguide-command-{os.getuid()}")
+
+
+class CommandParams(ModelParams):
+    command: str = Field(min_length=1, description=(
+        "the program and its arguments, split like a shell would but run without one; "
+        f"placeholders: {', '.join('{' + p + '}' for p in PLACEHOLDERS)}"))
+    inputs: list[str] = Field(min_length=1,
+                              description="names of the inputs file's columns, in order")
+    nominal: list[float] | None = Field(default=None,
+                                        description="values of inputs not made uncertain")
+    outputs: list[str | CallableOutput] = Field(default=["y"], min_length=1, description=(
+        "the outputs the program writes: names, or {name, kind: scalar|series, components, "
+        "unit, description, component_names}"))
+    input_format: Literal["csv", "hdf5"] = Field(default="csv",
+                                                 description="format of the inputs file")
+    output_format: Literal["csv", "hdf5"] = Field(default="csv",
+                                                  description="format of the outputs file(s)")
+    timeout_s: float | None = Field(default=None, gt=0.0, le=1e6, description=(
+        "seconds a call may take before its whole process group is killed [s]"))
+    env: dict[str, str | int | float] = Field(
+        default={}, description="environment variables set for the program")
+    per_sample: bool = Field(default=False,
+                             description="one process per sample (a one-row inputs file)")
+    shell: bool = Field(default=False, description=(
+        "run the command through /bin/sh -c (placeholders are shell-quoted)"))
+    workdir: str | None = Field(default=None, description=(
+        "folder under which each call's work folder is made (default: "
+        "<tmp>/uqguide-command-<uid>; a relative path is taken from the config's folder)"))
+    config_dir: str | None = Field(default=None, description=(
+        "folder a relative program path is found in (set by uqguide: the config's folder or "
+        "the current folder)"))
+
+    @model_validator(mode="before")
+    @classmethod
+    def _locate(cls, data: Any, info: ValidationInfo) -> Any:
+        if isinstance(data, Mapping) and data.get("config_dir") is None:
+            where = (info.context or {}).get("config_dir") or os.getcwd()
+            data = {**data, "config_dir": str(Path(where).resolve())}
+        return data
+
+    @field_validator("command")
+    @classmethod
+    def _template(cls, v: str) -> str:
+        unknown = process.unknown_placeholders(v)
+        if unknown:
+            raise ValueError(f"unknown placeholder {{{unknown[0]}}}; allowed: "
+                             f"{', '.join('{' + p + '}' for p in PLACEHOLDERS)}")
+        try:
+            if not shlex.split(v):
+                raise ValueError("names no program")
+        except ValueError as exc:
+            raise ValueError(f"cannot be split into arguments ({exc})") from None
+        return v
+
+    @field_validator("inputs")
+    @classmethod
+    def _plain_inputs(cls, v: list[str]) -> list[str]:
+        for name in v:
+            if not is_plain_name(name):
+                # an input name is a column of the inputs file (and an HDF5 dataset)
+                raise ValueError(f"input name {name!r} must be {PLAIN_NAME_RULE}")
+        if len(set(v)) != len(v):
+            raise ValueError(f"inputs must be unique names, got {v}")
+        return v
+
+    @field_validator("outputs", mode="before")
+    @classmethod
+    def _plain_output_names(cls, v: Any) -> Any:
+        v = check_output_names(v)
+        if isinstance(v, list) and any(
+                (o.get("name") if isinstance(o, Mapping) else o) in ("failed", "reason")
+                for o in v):
+            raise ValueError("'failed' and 'reason' name the outputs file's failure columns, "
+                             "not outputs")
+        return v
+
+    @field_validator("env")
+    @classmethod
+    def _env_names(cls, v: dict[str, Any]) -> dict[str, Any]:
+        for k in v:
+            if not (k and (k[0].isalpha() or k[0] == "_") and
+                    all(c.isalnum() or c == "_" for c in k) and k.isascii()):
+                raise ValueError(f"environment variable name {k!r} must be {_ENV_NAME}")
+        return v
+
+    @model_validator(mode="after")
+    def _consistent(self) -> CommandParams:
+        if self.nominal is not None and len(self.nominal) != len(self.inputs):
+            raise ValueError(f"nominal must have {len(self.inputs)} values, one per input")
+        if not self.shell:
+            self._check_program()
+        return self
+
+    def _check_program(self) -> None:
+        """A program that cannot be found is a config error, not a run of failed samples."""
+        program = shlex.split(self.command)[0]
+        if "{" in program:
+            return
+        path = self.program_file()
+        if "/" in program:
+            if path is None or not path.is_file() or not os.access(path, os.X_OK):
+                self._refuse("command", f"program {program!r}: no executable file {path} (a "
+                                        f"relative path is taken from the config's folder)")
+        elif path is None:
+            self._refuse("command", f"program {program!r} is not on PATH (give its path, e.g. "
+                                    f"'./{program}' for one in the config's folder)")
+
+    def _refuse(self, field: str, message: str) -> None:
+        # A check across fields, reported at the field it is about (a plain ValueError here
+        # would be reported at "model", naming no field).
+        raise ValidationError.from_exception_data(type(self).__name__, [InitErrorDetails(
+            type=PydanticCustomError("value_error", "{message}", {"message": message}),
+            loc=(field,), input=getattr(self, field))])
+
+    def program_file(self) -> Path | None:
+        """The file of the program the command starts (what a resumed run checks unchanged).
+
+        Returns
+        -------
+        Path or None
+            None with ``shell: true``, a program named by a placeholder, or one not found.
+        """
+        program = os.path.expanduser(shlex.split(self.command)[0])
+        if self.shell or "{" in program:
+            return None
+        if "/" in program:
+            return Path(self.config_dir or ".", program)
+        found = shutil.which(program, path=self.environment().get("PATH"))
+        return Path(found) if found else None
+
+    def environment(self) -> dict[str, str]:
+        """The program's environment: uqguide's, with ``env`` set over it.
+
+        Returns
+        -------
+        dict of str to str
+        """
+        return {**os.environ, **{k: str(v) for k, v in self.env.items()}}
+
+    def root(self) -> Path:
+        """The folder the work folders are made in.
+
+        Returns
+        -------
+        Path
+        """
+        return Path(self.config_dir or ".", self.workdir or _default_root())
+
+
+class CommandModel(Model):
+    """An executable program, run on files of inputs and outputs, as a uqguide model."""
+
+    name = "command"
+    summary = "any executable run on a file of inputs, writing a file of outputs"
+    Params = CommandParams
+    params: CommandParams
+    example_params = {
+        "command": f"{shlex.quote(sys.executable)} -c {shlex.quote(_EXAMPLE)} "
+                   "{inputs} {outputs}",
+        "inputs": ["a", "b"], "nominal": [1.0, 0.5],
+        "outputs": ["y", {"name": "path", "kind": "series"}]}
+
+    def _specs(self) -> list[CallableOutput]:
+        return [CallableOutput(name=o) if isinstance(o, str) else o for o in self.params.outputs]
+
+    def inputs(self) -> tuple[InputInfo, ...]:
+        nominal = self.params.nominal or [0.0] * len(self.params.inputs)
+        return tuple(InputInfo(n, "", f"column {j} of the inputs file", v)
+                     for j, (n, v) in enumerate(zip(self.params.inputs, nominal)))
+
+    def outputs(self) -> tuple[OutputInfo, ...]:
+        return tuple(
+            OutputInfo(s.name, s.kind, s.unit, s.description or f"{s.kind} output of the "
+                       f"command",
+                       tuple(s.component_names) if s.component_names else
+                       tuple(f"{s.name}{j}" for j in range(s.components))
+                       if s.components > 1 else ("",))
+            for s in self._specs())
+
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
+        x = np.column_stack([values[name] for name in self.params.inputs])
+        specs = [OutputSpec(s.name, s.kind, s.components) for s in self._specs()
+                 if s.name in outputs]
+        if n == 0:
+            return _nan_output(specs, 0, np.zeros(0), "")
+        root = self.params.root()
+        try:
+            root.mkdir(parents=True, exist_ok=True)
+            folder = Path(tempfile.mkdtemp(prefix=f"batch-{os.getpid()}-", dir=root))
+        except OSError as exc:
+            # not a sample's fault: splitting the batch would fail the same way
+            raise ModelError(f"cannot make a work folder in {root} (model.workdir): "
+                             f"{exc.strerror or exc}") from None
+        try:
+            if self.params.per_sample:
+                out, crashed = self._per_sample(folder, x, specs)
+            else:
+                out, crashed = self._call(folder, folder.name, x, specs), False
+        except (CommandFailed, ModelError):
+            raise  # the work folder is kept for inspection: the message names it
+        except BaseException:
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
+        if not crashed:  # a crashed sample's reason names its folder: kept
+            shutil.rmtree(folder, ignore_errors=True)
+        return out
+
+    def _call(self, folder: Path, batch: str, x: np.ndarray, specs: list[OutputSpec]
+              ) -> ModelOutput:
+        """One process on the samples ``x (n, d)`` in ``folder``; ``batch`` fills {batch}."""
+        p = self.params
+        ext = {"csv": ".csv", "hdf5": ".h5"}
+        inputs = folder / f"inputs{ext[p.input_format]}"
+        outputs = folder / f"outputs{ext[p.output_format]}"
+        write_inputs(inputs, p.inputs, x, p.input_format)
+        filled = {"inputs": str(inputs), "input_file": str(inputs), "outputs": str(outputs),
+                  "output_file": str(outputs), "workdir": str(folder), "batch": batch,
+                  "config_dir": p.config_dir or os.getcwd()}
+        process.run(process.argv(p.command, filled, p.shell), folder, p.environment(),
+                    p.timeout_s)
+        try:
+            got = read_outputs(outputs, specs, x.shape[0], p.output_format)
+        except ModelError as exc:
+            raise ModelError(f"{exc} (work folder kept: {folder})") from None
+        bad = got.flagged.copy()
+        reasons = got.reasons.copy()
+        for a in got.scalars.values():
+            bad |= ~np.isfinite(a).all(axis=1)
+        for a in got.series.values():
+            bad |= ~np.isfinite(a).all(axis=(1, 2))
+        reasons[bad & ~got.flagged] = NON_FINITE
+        return ModelOutput(time=got.time, series=got.series, scalars=got.scalars, failed=bad,
+                           reasons=reasons)
+
+    def _per_sample(self, folder: Path, x: np.ndarray, specs: list[OutputSpec]
+                    ) -> tuple[ModelOutput, bool]:
+        """One process per sample, each in a sub-folder; a failing process fails its sample
+        (no split is needed to find it). Also says whether any process failed."""
+        parts: list[ModelOutput | str] = []
+        for i in range(x.shape[0]):
+            sub = folder / f"sample-{i}"
+            sub.mkdir()
+            try:
+                parts.append(self._call(sub, f"{folder.name}-{i}", x[i:i + 1], specs))
+                shutil.rmtree(sub, ignore_errors=True)
+            except CommandFailed as exc:
+                parts.append(f"{type(exc).__name__}: {exc}")
+        grid = next((p.time for p in parts if isinstance(p, ModelOutput)), np.zeros(0))
+        out = ModelOutput.concatenate([p if isinstance(p, ModelOutput) else
+                                       _nan_output(specs, 1, grid, p) for p in parts])
+        return out, any(isinstance(p, str) for p in parts)
+
+
+def _nan_output(specs: list[OutputSpec], n: int, grid: np.ndarray, reason: str) -> ModelOutput:
+    """``n`` samples of NaN outputs on ``grid``, failed with ``reason`` (none when empty)."""
+    return ModelOutput(
+        time=grid,
+        series={s.name: np.full((n, grid.size, s.components), np.nan)
+                for s in specs if s.kind == "series"},
+        scalars={s.name: np.full((n, s.components), np.nan)
+                 for s in specs if s.kind == "scalar"},
+        failed=np.full(n, bool(reason)), reasons=np.full(n, reason, dtype=object))
