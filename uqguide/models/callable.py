@@ -232,7 +232,40 @@ def _example(x: np.ndarray) -> np.ndarray:
     return x[:, 0] + x[:, 1] ** 2
 
 
-class CallableModel(Model):
+class DeclaredModel(Model):
+    """A model whose inputs and outputs its config declares, not its code: a user's Python
+    function (``callable``) or program (``command``). ``params`` has ``inputs`` (names, in
+    column order), ``nominal`` (their values when not uncertain) and ``outputs`` (names, or
+    :class:`CallableOutput` mappings)."""
+
+    #: How input ``j`` reaches the user's code, for ``uqguide models``.
+    input_column = "column {j} of x"
+
+    def _source(self) -> str:
+        """What computes the outputs, for their default descriptions."""
+        return self.name
+
+    def _specs(self) -> list[CallableOutput]:
+        return [CallableOutput(name=o) if isinstance(o, str) else o
+                for o in self.params.outputs]  # type: ignore[attr-defined]
+
+    def inputs(self) -> tuple[InputInfo, ...]:
+        names = self.params.inputs  # type: ignore[attr-defined]
+        nominal = self.params.nominal or [0.0] * len(names)  # type: ignore[attr-defined]
+        return tuple(InputInfo(n, "", self.input_column.format(j=j), v)
+                     for j, (n, v) in enumerate(zip(names, nominal)))
+
+    def outputs(self) -> tuple[OutputInfo, ...]:
+        source = self._source()
+        return tuple(
+            OutputInfo(s.name, s.kind, s.unit, s.description or f"{s.kind} output of {source}",
+                       tuple(s.component_names) if s.component_names else
+                       tuple(f"{s.name}{j}" for j in range(s.components))
+                       if s.components > 1 else ("",))
+            for s in self._specs())
+
+
+class CallableModel(DeclaredModel):
     """Any vectorised Python function ``f(x (n, d))`` as a uqguide model."""
 
     name = "callable"
@@ -243,22 +276,8 @@ class CallableModel(Model):
                       "inputs": ["a", "b"], "nominal": [1.0, 0.5],
                       "outputs": ["y", {"name": "path", "kind": "series"}]}
 
-    def _specs(self) -> list[CallableOutput]:
-        return [CallableOutput(name=o) if isinstance(o, str) else o for o in self.params.outputs]
-
-    def inputs(self) -> tuple[InputInfo, ...]:
-        nominal = self.params.nominal or [0.0] * len(self.params.inputs)
-        return tuple(InputInfo(n, "", f"column {j} of x", v)
-                     for j, (n, v) in enumerate(zip(self.params.inputs, nominal)))
-
-    def outputs(self) -> tuple[OutputInfo, ...]:
-        spec = self.params.spec()
-        return tuple(
-            OutputInfo(s.name, s.kind, s.unit, s.description or f"{s.kind} output of {spec}",
-                       tuple(s.component_names) if s.component_names else
-                       tuple(f"{s.name}{j}" for j in range(s.components))
-                       if s.components > 1 else ("",))
-            for s in self._specs())
+    def _source(self) -> str:
+        return self.params.spec()
 
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
                   outputs: frozenset[str]) -> ModelOutput:

@@ -50,8 +50,8 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from ...core.names import PLAIN_NAME_RULE, is_plain_name
 from ...errors import ModelError
-from ..base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
-from ..callable import CallableOutput, check_output_names
+from ..base import ModelOutput, ModelParams
+from ..callable import CallableOutput, DeclaredModel, check_output_names
 from . import process
 from .files import NON_FINITE, OutputSpec, read_outputs, write_inputs
 from .process import PLACEHOLDERS, CommandFailed
@@ -223,7 +223,7 @@ class CommandParams(ModelParams):
         return Path(self.config_dir or ".", self.workdir or _default_root())
 
 
-class CommandModel(Model):
+class CommandModel(DeclaredModel):
     """An executable program, run on files of inputs and outputs, as a uqguide model."""
 
     name = "command"
@@ -236,22 +236,10 @@ class CommandModel(Model):
         "inputs": ["a", "b"], "nominal": [1.0, 0.5],
         "outputs": ["y", {"name": "path", "kind": "series"}]}
 
-    def _specs(self) -> list[CallableOutput]:
-        return [CallableOutput(name=o) if isinstance(o, str) else o for o in self.params.outputs]
+    input_column = "column {j} of the inputs file"
 
-    def inputs(self) -> tuple[InputInfo, ...]:
-        nominal = self.params.nominal or [0.0] * len(self.params.inputs)
-        return tuple(InputInfo(n, "", f"column {j} of the inputs file", v)
-                     for j, (n, v) in enumerate(zip(self.params.inputs, nominal)))
-
-    def outputs(self) -> tuple[OutputInfo, ...]:
-        return tuple(
-            OutputInfo(s.name, s.kind, s.unit, s.description or f"{s.kind} output of the "
-                       f"command",
-                       tuple(s.component_names) if s.component_names else
-                       tuple(f"{s.name}{j}" for j in range(s.components))
-                       if s.components > 1 else ("",))
-            for s in self._specs())
+    def _source(self) -> str:
+        return "the command"
 
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
                   outputs: frozenset[str]) -> ModelOutput:
