@@ -21,7 +21,7 @@ from click.testing import CliRunner
 from uqguide.cli import main
 from uqguide.results.result import read_hdf5
 
-from .failing_models import mc_config
+from .failing_models import mc_config, sigint_as_on_a_terminal
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
@@ -441,7 +441,7 @@ def test_sigint_or_sigterm_at_20_random_moments_is_exit_130_and_resumes_identica
             procs.append((i, subprocess.Popen(
                 [sys.executable, "-m", "uqguide.cli", "run", str(cfg), "--out",
                  str(tmp_path / f"o{i}")], cwd=ROOT, env=ENV, stdout=subprocess.PIPE,
-                stderr=subprocess.PIPE), time.monotonic()))
+                stderr=subprocess.PIPE, preexec_fn=sigint_as_on_a_terminal), time.monotonic()))
         for i, p, started in sorted(procs, key=lambda t: moments[t[0]]):
             time.sleep(max(0.0, started + moments[i] - time.monotonic()))
             p.send_signal(signals[i])
