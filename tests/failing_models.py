@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import time
 
 import numpy as np
@@ -100,3 +101,10 @@ def crash_above(x):
     if (x[:, 0] > float(os.environ.get("UQGUIDE_TEST_CRASH_ABOVE", "inf"))).any():
         os._exit(3)
     return x[:, 0] + x[:, 1]
+
+
+def sigint_as_on_a_terminal() -> None:
+    """A shell starts a background job (``pytest ... &``, a CI runner) with SIGINT ignored,
+    and Python, like uqguide on purpose, keeps an inherited SIG_IGN: the run would never see
+    the Ctrl-C. Give it SIGINT's default, as a terminal's foreground command has it."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

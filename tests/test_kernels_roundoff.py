@@ -75,6 +75,11 @@ print(json.dumps({"model_s": run.model_seconds, "compile_s": run.compile_seconds
 """
 
 
+# slow: a fresh compile of the whole ftcapn kernel costs ~28 CPU-s. The default suite keeps
+# the mechanism in the probe-kernel test below (a two-function kernel compiled through
+# kernels.njit in a fresh cache: one notice, then silence), the accounting on a driven clock
+# (test_a_chunk_books_the_compile_...) and that every model kernel goes through kernels.njit.
+@pytest.mark.slow
 def test_first_compile_is_a_phase_of_its_own_never_booked_as_model_time(tmp_path):
     # An empty cache folder is a fresh install. The first run, on a pool of two workers,
     # compiles once, in the driver before the workers start (they load the kernel from the
@@ -132,6 +137,59 @@ def test_a_chunk_books_the_compile_inside_its_model_calls_as_compile_time(monkey
     job = ChunkJob(ModelHandle(Compiling()), ("x1", "x2", "x3"), ("y",), batch_size=10)
     r = worker.run_chunk(job, Task(0, 0, 4), np.zeros((4, 3)))
     assert (r.model_seconds, r.compile_seconds) == (2.0, 3.0)
+
+
+PROBE_KERNEL = """
+import sys
+
+from uqguide.models import kernels
+
+sys.modules["uqguide.models.probe"] = sys.modules[__name__]  # numba re-imports it by name
+
+
+def _half(x):
+    return 0.5 * x
+
+
+def _plus_one(x):
+    return x + 1.0
+
+
+_half.__module__ = _plus_one.__module__ = "uqguide.models.probe"  # the family is "probe"
+half = kernels.njit(cache=True)(_half)
+plus_one = kernels.njit(cache=True)(_plus_one)
+"""
+
+
+def test_a_fresh_compile_says_so_once_per_family_and_a_cached_run_is_silent(tmp_path):
+    # The cheap version of the ftcapn test above: two compiled functions of one family in an
+    # empty cache folder print the notice once; a second process loads them and is silent.
+    (tmp_path / "probe_kernel.py").write_text(PROBE_KERNEL)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
+           "PYTHONPATH": os.pathsep.join([str(tmp_path), str(Path.cwd())])}
+    code = "import probe_kernel as k; assert k.plus_one(k.half(2.0)) == 2.0"
+    first = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                           text=True)
+    assert first.returncode == 0, first.stderr
+    lines = [ln for ln in first.stderr.splitlines() if "compiling" in ln]
+    assert lines == ["uqguide: compiling the probe kernel (once per install; later runs load "
+                     "it from the cache)"], first.stderr
+    assert any(Path(tmp_path / "cache").rglob("*.nbi"))
+    second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                            text=True, check=True)
+    assert "compiling" not in second.stderr, second.stderr
+
+
+def test_every_model_kernel_is_compiled_through_kernels_njit():
+    # what gives the models' kernels the cache folder and the notice tested above
+    models = Path(kernels.__file__).parent
+    direct = [str(p.relative_to(models)) for p in models.rglob("*.py")
+              if p.name != "kernels.py"
+              and ("from numba import njit" in p.read_text() or "numba.njit(" in p.read_text()
+                   or "numba.jit(" in p.read_text() or "from numba import jit" in p.read_text())]
+    assert not direct, direct
+    uses = [p for p in models.rglob("*.py") if "from ..kernels import njit" in p.read_text()]
+    assert {p.parent.name for p in uses} >= {"ftcapn", "ft_as", "gmm", "gmm_ftc"}
 
 
 def test_perturbation_is_relative_deterministic_and_differs_per_member():

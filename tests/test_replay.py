@@ -37,6 +37,17 @@ def _result(tmp_path: Path, **model) -> Path:
     return write_hdf5(run(validate_config(cfg)), tmp_path / "t4.h5")
 
 
+@pytest.fixture
+def no_figures(monkeypatch):
+    """Replay without drawing (~2.5 CPU-s a replay): the tests of the choice and of the
+    comparison; the figures are checked by the worst-zem test."""
+    import uqguide.papers
+    from uqguide.driver import replay
+
+    monkeypatch.setattr(replay, "history_figure", lambda rep, name, path: path)
+    monkeypatch.setattr(uqguide.papers, "sample_figures", lambda *args: [])
+
+
 @pytest.mark.parametrize("kernel", ["numba", "numpy"])
 def test_worst_zem_replays_bit_for_bit_with_histories_and_figures(tmp_path, kernel):
     h5 = _result(tmp_path, kernel=kernel)
@@ -56,7 +67,7 @@ def test_worst_zem_replays_bit_for_bit_with_histories_and_figures(tmp_path, kern
     assert hist["R"][-1] == pytest.approx(50.0, abs=1e-6)
 
 
-def test_event_picks_the_first_sample_in_the_event(tmp_path):
+def test_event_picks_the_first_sample_in_the_event(tmp_path, no_figures):
     h5 = _result(tmp_path)
     zem = read_hdf5(h5).run("mc").scalars["zem"][:, 0]
     first = int(np.flatnonzero(zem > 15.0)[0])
@@ -66,7 +77,7 @@ def test_event_picks_the_first_sample_in_the_event(tmp_path):
     assert f"mc sample {first}: first of the {int((zem > 15.0).sum())} samples" in out.output
 
 
-def test_a_changed_stored_scalar_is_reported_and_exits_1(tmp_path):
+def test_a_changed_stored_scalar_is_reported_and_exits_1(tmp_path, no_figures):
     h5 = _result(tmp_path)
     with h5py.File(h5, "r+") as f:
         d = f["methods/mc/samples/scalars/t_stop"]

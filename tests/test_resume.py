@@ -20,7 +20,7 @@ from click.testing import CliRunner
 from uqguide.cli import main
 from uqguide.results.result import read_hdf5
 
-from .failing_models import mc_config
+from .failing_models import mc_config, sigint_as_on_a_terminal
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -232,7 +232,7 @@ def test_ctrl_c_with_worker_processes_exits_130_without_traceback(tmp_path):
                              str(out), "--workers", "2"], cwd=ROOT,
                             env={**os.environ, "PYTHONPATH": str(ROOT)},
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=sigint_as_on_a_terminal)
     deadline = time.monotonic() + 60
     while _chunk_lines(manifest) < 3 and time.monotonic() < deadline:
         assert proc.poll() is None, proc.stderr.read().decode()
