@@ -241,11 +241,15 @@ def gate_cases(tmp_path_factory):
     return fuzz_gate.build_cases(tmp_path_factory.mktemp("gate"))
 
 
-GATE_SAMPLE = ["baseline: untouched", "baseline: methods empty", "baseline: mc outputs empty",
-               "baseline: points empty", "baseline: unknown component",
-               "baseline: series time null", "baseline: mean_se negative",
-               "baseline: mean_se huge", "baseline: mean_se loosened 10x",
-               "baseline: pce_rtol negative", "baseline: mean shifted 8 se",
+# "sealed": the edit as if uqguide had written it (the structural checks and the comparison);
+# "edited": by hand, refused by the digest whatever it did
+GATE_SAMPLE = ["baseline, sealed: untouched", "baseline, sealed: methods empty",
+               "baseline, sealed: mc outputs empty", "baseline, sealed: points empty",
+               "baseline, sealed: unknown component", "baseline, sealed: series time null",
+               "baseline, sealed: mean_se negative", "baseline, sealed: mean_se huge",
+               "baseline, sealed: mean_se loosened 10x", "baseline, sealed: pce_rtol negative",
+               "baseline, sealed: mean shifted 8 se", "baseline, edited: mean shifted 0.5 se",
+               "baseline, edited: untouched",
                "baseline file: deep nesting", "check --sigmas inf", "check --sigmas nan",
                "check --pce-rtol nan", "result: config_yaml not yaml (check)",
                "result: config_yaml alias bomb (check)", "result: stats wrong shape (check)",
