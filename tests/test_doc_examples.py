@@ -111,7 +111,9 @@ def _folder(tmp: Path, block: Block) -> None:
     # the committed results, file by file in folders of the temporary one: what an example
     # writes under results/ lands there, never in the checkout
     for f in (ROOT / "results").rglob("*"):
-        if f.is_file():
+        # results/runs/ is uqguide run's default --out (not committed; .ci/run writes there
+        # first): linked in, a run's own result would be a link it rightly refuses to replace
+        if f.is_file() and "runs" not in f.relative_to(ROOT / "results").parts[:1]:
             link = tmp / f.relative_to(ROOT)
             link.parent.mkdir(parents=True, exist_ok=True)
             link.symlink_to(f)
