@@ -132,3 +132,15 @@ def test_a_callable_output_that_cannot_name_a_file_is_refused_at_load(output):
     assert e.value.field == "model.outputs"
     name = output if isinstance(output, str) else output["name"]
     assert repr(name) in str(e.value) and "letters, digits" in str(e.value)
+
+
+@pytest.mark.parametrize("label", ["..", ".", "a/b", "mc 1"])
+def test_a_method_label_that_cannot_name_a_group_or_file_is_refused(label):
+    """A label names the method's HDF5 group and its files: '.' and '..' passed the old
+    character pattern."""
+    cfg = {"name": "t", "model": {"name": "lognormal", "a": [0.3]},
+           "inputs": [{"name": "x1", "dist": "normal", "std": 1.0}],
+           "methods": [{"name": "monte_carlo", "n_samples": 10, "label": label}]}
+    with pytest.raises(ConfigError) as e:
+        load_config(cfg)
+    assert e.value.field == "methods[0].label" and "not only dots" in str(e.value)

@@ -39,8 +39,9 @@ from types import MappingProxyType
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import ConfigDict, Field
+from pydantic import ConfigDict, Field, field_validator
 
+from ..core.names import check_plain_name
 from ..core.strict import StrictModel
 
 from ..core.events import EventSpec
@@ -57,9 +58,12 @@ class MethodSettings(StrictModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    label: str | None = Field(default=None, min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$",
+    label: str | None = Field(default=None,
                               description="name of the method's rows in the tables and of its "
                                           "group in the result file (default: the method's name)")
+
+    # a label names an HDF5 group and files: "." and ".." passed the old character pattern
+    _plain_label = field_validator("label")(check_plain_name)
 
 
 @dataclass
