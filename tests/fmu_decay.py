@@ -12,8 +12,12 @@ integration tolerance. Its parameters:
 
 Outputs ``x`` [m] and ``rate = -k x`` [m/s].
 
+The binary also implements model exchange (``x`` the continuous state, ``rate`` its
+derivative; the simulator's solver integrates it, ``x_max`` and ``t_end`` do not apply), so the
+same library declared as a model-exchange-only FMU tests that path.
+
 :func:`build` writes the source and ``modelDescription.xml``, compiles the shared library with
-``cc`` against the FMI headers FMPy ships, and zips the three into ``decay.fmu``.
+``cc`` against the FMI headers FMPy ships, and zips the three into the ``.fmu``.
 """
 
 from __future__ import annotations
@@ -58,7 +62,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid,
                               fmi2String resources, const fmi2CallbackFunctions *cb,
                               fmi2Boolean visible, fmi2Boolean logging) {
     Decay *d;
-    if (type != fmi2CoSimulation || strcmp(guid, "GUID")) return NULL;
+    if (strcmp(guid, "GUID")) return NULL;
     d = calloc(1, sizeof *d);
     if (!d) return NULL;
     d->cb = *cb;
@@ -134,6 +138,40 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
     return fmi2OK;
 }
 
+/* Model exchange: the solver integrates x' = -k x itself (X_MAX and T_END do not apply). */
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real t) { ((Decay *)c)->time = t; return fmi2OK; }
+fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n) {
+    Decay *d = c;
+    d->v[X] = x[0];
+    outputs(d);
+    return fmi2OK;
+}
+fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t n) {
+    x[0] = ((Decay *)c)->v[X];
+    return fmi2OK;
+}
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real dx[], size_t n) {
+    dx[0] = ((Decay *)c)->v[RATE];
+    return fmi2OK;
+}
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x[], size_t n) {
+    x[0] = 1.0;
+    return fmi2OK;
+}
+fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real z[], size_t n) { return fmi2OK; }
+fmi2Status fmi2EnterEventMode(fmi2Component c) { return fmi2OK; }
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) { return fmi2OK; }
+fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) {
+    memset(e, 0, sizeof *e);
+    return fmi2OK;
+}
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSet, fmi2Boolean *enter,
+                                       fmi2Boolean *terminate) {
+    *enter = fmi2False;
+    *terminate = fmi2False;
+    return fmi2OK;
+}
+
 /* What this FMU does not do: every other FMI 2.0 function, present as the standard requires. */
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n,
                           fmi2Integer v[]) { return fmi2Error; }
@@ -178,7 +216,7 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
 MODEL_DESCRIPTION = f"""<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="decay" guid="{GUID}"
     description="x' = -k x, advanced exactly" numberOfEventIndicators="0">
-  <CoSimulation modelIdentifier="decay" canHandleVariableCommunicationStepSize="true"/>
+INTERFACES
   <UnitDefinitions>
     <Unit name="m"><BaseUnit m="1"/></Unit>
     <Unit name="1/s"><BaseUnit s="-1"/></Unit>
@@ -200,28 +238,42 @@ MODEL_DESCRIPTION = f"""<?xml version="1.0" encoding="UTF-8"?>
     <ScalarVariable name="x" valueReference="4" causality="output" variability="continuous"
         initial="calculated" description="state"><Real unit="m"/></ScalarVariable>
     <ScalarVariable name="rate" valueReference="5" causality="output" variability="continuous"
-        initial="calculated" description="dx/dt"><Real unit="m/s"/></ScalarVariable>
+        initial="calculated" description="dx/dt"><Real unit="m/s" derivative="5"/>
+        </ScalarVariable>
   </ModelVariables>
   <ModelStructure>
     <Outputs><Unknown index="5"/><Unknown index="6"/></Outputs>
+    <Derivatives><Unknown index="6"/></Derivatives>
     <InitialUnknowns><Unknown index="5"/><Unknown index="6"/></InitialUnknowns>
   </ModelStructure>
 </fmiModelDescription>
 """
 
 
-def build(folder: Path) -> Path:
-    """Compile the FMU into ``folder`` and return the path of ``decay.fmu``.
+CO_SIMULATION = ('  <CoSimulation modelIdentifier="decay" '
+                 'canHandleVariableCommunicationStepSize="true"/>')
+MODEL_EXCHANGE = '  <ModelExchange modelIdentifier="decay"/>'
+
+
+def build(folder: Path, interfaces: tuple[str, ...] = (CO_SIMULATION,),
+          name: str = "decay.fmu") -> Path:
+    """Compile the FMU into ``folder`` and return its path.
 
     Parameters
     ----------
     folder : Path
-        An empty folder to build in.
+        A folder to build in (the library is compiled once per folder).
+    interfaces : tuple of str
+        The interface elements its description declares: :data:`CO_SIMULATION` (the
+        default), :data:`MODEL_EXCHANGE` (the simulator then integrates ``x' = -k x``), or
+        both. The binary implements both.
+    name : str
+        The file name.
 
     Returns
     -------
     Path
-        ``folder/decay.fmu``.
+        ``folder/name``.
     """
     import fmpy
 
@@ -229,13 +281,15 @@ def build(folder: Path) -> Path:
     src = folder / "decay.c"
     src.write_text(SOURCE)
     lib = folder / "decay.so"
-    cc = shutil.which("cc")
-    assert cc is not None
-    subprocess.run([cc, "-shared", "-fPIC", "-O1", "-w", f"-I{headers}", "-o", str(lib),
-                    str(src), "-lm"], check=True, capture_output=True)
-    fmu = folder / "decay.fmu"
+    if not lib.exists():
+        cc = shutil.which("cc")
+        assert cc is not None
+        subprocess.run([cc, "-shared", "-fPIC", "-O1", "-w", f"-I{headers}", "-o", str(lib),
+                        str(src), "-lm"], check=True, capture_output=True)
+    fmu = folder / name
     with zipfile.ZipFile(fmu, "w") as z:
-        z.writestr("modelDescription.xml", MODEL_DESCRIPTION)
+        z.writestr("modelDescription.xml",
+                   MODEL_DESCRIPTION.replace("INTERFACES", "\n".join(interfaces)))
         z.write(lib, "binaries/linux64/decay.so")
         z.write(src, "sources/decay.c")
     return fmu

@@ -120,6 +120,26 @@ def test_failed_samples_are_counted_in_a_run_not_raised(decay_fmu):
     assert all("exceeds x_max" in r for r in mc.reasons[mc.failed])
 
 
+def test_a_model_exchange_fmu_is_integrated_by_fmpy_to_its_tolerance(decay_fmu):
+    """The same binary declared model-exchange only: FMPy's CVode integrates x' = -k x. Its
+    local error is held at relative_tolerance (1e-8); over 2 s of this stable decay the global
+    error stays far below 1000 times that, while a sample run from the wrong start values or
+    read at the wrong time would be off by O(1)."""
+    from tests.fmu_decay import MODEL_EXCHANGE, build
+
+    me = build(decay_fmu.parent, (MODEL_EXCHANGE,), "decay_me.fmu")
+    model = FmuModel({"path": str(me), "inputs": ["x0", "k"],
+                      "outputs": ["x", {"name": "p", "kind": "series", "variable": "x"}],
+                      "stop_time": 2.0, "output_interval": 0.5, "relative_tolerance": 1e-8})
+    x = np.column_stack([np.linspace(0.5, 1.5, 12), np.linspace(0.2, 0.8, 12)])
+    out = model.evaluate(x, ["x0", "k"], ["x", "p"])
+    assert not out.failed.any()
+    exact = x[:, :1] * np.exp(-x[:, 1:] * out.time)
+    assert np.allclose(out.time, [0.0, 0.5, 1.0, 1.5, 2.0], rtol=0, atol=1e-12)
+    assert np.allclose(out.series["p"][:, :, 0], exact, rtol=1e-5, atol=0)
+    assert np.array_equal(out.scalars["x"][:, 0], out.series["p"][:, -1, 0])
+
+
 def _validate(tmp_path: Path, model: dict) -> tuple[int, str]:
     cfg = {"model": {"name": "fmu", "stop_time": 2.0, "output_interval": 0.5, **model},
            "inputs": [{"name": "x0", "dist": "normal", "mean": 1.0, "std": 0.1}],
