@@ -120,6 +120,16 @@ def test_failed_samples_are_counted_in_a_run_not_raised(decay_fmu):
     assert all("exceeds x_max" in r for r in mc.reasons[mc.failed])
 
 
+def test_without_output_interval_the_fmus_default_step_is_fitted_to_the_span(decay_fmu):
+    # the test FMU's DefaultExperiment stepSize is 0.5 s: 2 s is 4 steps of it, 2.2 s 5 of 0.44
+    for stop, steps in ((2.0, 4), (2.2, 5)):
+        model = FmuModel({"path": str(decay_fmu), "inputs": ["x0", "k"], "outputs": ["x"],
+                          "stop_time": stop})
+        assert model.step_count().steps == pytest.approx(steps, rel=1e-12)
+        out = model.evaluate(np.array([[2.0, 0.3]]), ["x0", "k"])
+        assert out.scalars["x"][0, 0] == pytest.approx(2.0 * math.exp(-0.3 * stop), rel=1e-13)
+
+
 def test_a_model_exchange_fmu_is_integrated_by_fmpy_to_its_tolerance(decay_fmu):
     """The same binary declared model-exchange only: FMPy's CVode integrates x' = -k x. Its
     local error is held at relative_tolerance (1e-8); over 2 s of this stable decay the global
@@ -138,6 +148,25 @@ def test_a_model_exchange_fmu_is_integrated_by_fmpy_to_its_tolerance(decay_fmu):
     assert np.allclose(out.time, [0.0, 0.5, 1.0, 1.5, 2.0], rtol=0, atol=1e-12)
     assert np.allclose(out.series["p"][:, :, 0], exact, rtol=1e-5, atol=0)
     assert np.array_equal(out.scalars["x"][:, 0], out.series["p"][:, -1, 0])
+
+
+def test_an_fmu_that_cannot_be_instantiated_stops_the_run_not_its_samples(decay_fmu, tmp_path):
+    # a description whose GUID is not the binary's: fmi2Instantiate refuses, whatever the sample
+    import zipfile
+
+    from tests.fmu_decay import GUID
+    from uqguide.errors import ModelError
+
+    other = tmp_path / "other.fmu"
+    with zipfile.ZipFile(decay_fmu) as src, zipfile.ZipFile(other, "w") as dst:
+        for item in src.namelist():
+            data = src.read(item)
+            if item == "modelDescription.xml":
+                data = data.replace(GUID.encode(), b"{00000000-0000-0000-0000-000000000000}")
+            dst.writestr(item, data)
+    model = FmuModel({"path": str(other), "inputs": ["x0"], "outputs": ["x"], "stop_time": 1.0})
+    with pytest.raises(ModelError, match=r"other\.fmu: the FMU cannot be instantiated \("):
+        model.evaluate(np.array([[1.0]]), ["x0"])
 
 
 def _validate(tmp_path: Path, model: dict) -> tuple[int, str]:

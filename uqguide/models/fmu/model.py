@@ -13,6 +13,7 @@ Config::
       start_time: 0.0                  # [s]
       stop_time: 10.0                  # [s]
       output_interval: 0.1             # [s]: the series' grid and the communication step
+                                       # (without it: the FMU's default step, fitted to the span)
       start_values: {controller.k: 2}  # other FMU variables, the same for every sample
       relative_tolerance: 1.0e-6       # passed to the FMU (and to CVode for model exchange)
 
@@ -105,8 +106,9 @@ class FmuParams(ModelParams):
     stop_time: float = Field(description="time the simulations end at; scalars are read there "
                                          "[s]")
     output_interval: float | None = Field(default=None, gt=0.0, description=(
-        "interval of the series' grid and of the co-simulation steps [s] (default: FMPy's "
-        "choice; required with series outputs)"))
+        "interval of the series' grid and of the co-simulation steps [s] (required with series "
+        "outputs; default: the span in whole steps of at most the FMU's default step size, "
+        "else of span / 500)"))
     start_values: dict[str, float | int | bool | str] = Field(default={}, description=(
         "other FMU variables, set to these values before every simulation"))
     relative_tolerance: float | None = Field(default=None, gt=0.0, lt=1.0, description=(
@@ -203,6 +205,30 @@ class FmuParams(ModelParams):
         """
         return archive.description(self.fmu_file())
 
+    def interval(self) -> float:
+        """The communication step, and the interval of the series' grid [s].
+
+        Without ``output_interval``, the span ``stop_time - start_time`` cut into whole steps
+        of at most the FMU's default step (its ``DefaultExperiment`` ``stepSize``, else span /
+        500): a co-simulation FMU that cannot take a shorter last step would otherwise stop
+        short of ``stop_time``.
+
+        Returns
+        -------
+        float
+        """
+        if self.output_interval is not None:
+            return self.output_interval
+        span = self.stop_time - self.start_time
+        experiment = self.description().defaultExperiment
+        try:
+            step = float(experiment.stepSize)
+        except (AttributeError, TypeError, ValueError):
+            step = math.nan
+        if not (math.isfinite(step) and step > 0):
+            step = span / 500
+        return span / max(1, math.ceil(span / step - 1e-9))
+
     def output_specs(self) -> list[FmuOutput]:
         """The outputs, each as an :class:`FmuOutput`.
 
@@ -249,12 +275,16 @@ class FmuParams(ModelParams):
                              f"{'is not a variable of' if key not in known else 'cannot be set before a simulation in'}"  # noqa: E501
                              f" {f.name}; its variables that can be set: {archive.listing(can)}",
                              dict(self.start_values))
-        readable = [k for k, x in known.items() if x.type in archive.NUMERIC_TYPES]
+        # an FMI 3.0 array variable has no single value to read as a component
+        readable = [k for k, x in known.items()
+                    if x.type in archive.NUMERIC_TYPES and not getattr(x, "dimensions", None)]
         for spec in self.output_specs():
             for v in spec.variables():
                 if v not in readable:
-                    what = "is not a variable of" if v not in known else \
-                        f"is a {known[v].type}, not a number, in"
+                    what = ("is not a variable of" if v not in known else
+                            "is an array, not one number, in"
+                            if known[v].type in archive.NUMERIC_TYPES else
+                            f"is a {known[v].type}, not a number, in")
                     self._refuse("outputs", f"FMU variable {v!r} (output {spec.name!r}) "
                                             f"{what} {f.name}; its numeric variables: "
                                             f"{archive.listing(readable)}",
@@ -311,29 +341,24 @@ class FmuModel(DeclaredModel):
                 tuple(s.variables()) if s.components > 1 else ("",)))
         return tuple(infos)
 
-    def step_count(self) -> StepCount | None:
+    def step_count(self) -> StepCount:
         p = self.params
-        if p.output_interval is None:
-            return None
-        steps = (p.stop_time - p.start_time) / p.output_interval
+        steps = (p.stop_time - p.start_time) / p.interval()
         return StepCount(steps, steps + 1, "output_interval",
                          "(stop_time - start_time) / output_interval")
 
     def _setup(self, with_series: bool) -> Setup:
         p = self.params
-        if with_series and p.output_interval is not None:
-            n = whole_steps(p.stop_time - p.start_time, p.output_interval,
-                            "stop_time - start_time", "output_interval")
-            grid = p.start_time + p.output_interval * np.arange(n + 1)
-        else:
-            grid = np.zeros(0)
         try:
             folder = archive.unzipped(p.fmu_file())
             md = self.params.description()
+            step = p.interval()
         except (archive.FmuUnavailable, OSError, ValueError) as exc:
             # checked when the config was loaded: this process (a worker) differs
             raise ModelError(f"model.path: {p.fmu_file()}: {exc}") from None
-        return Setup(folder, md, p.start_time, p.stop_time, p.output_interval, grid,
+        n = round((p.stop_time - p.start_time) / step)
+        grid = p.start_time + step * np.arange(n + 1) if with_series else np.zeros(0)
+        return Setup(folder, md, p.start_time, p.stop_time, step, grid,
                      p.relative_tolerance, dict(p.start_values))
 
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int,

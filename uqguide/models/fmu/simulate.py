@@ -42,8 +42,8 @@ class Setup:
     md : fmpy ModelDescription
     start_time, stop_time : float
         [s].
-    output_interval : float or None
-        [s]; None: FMPy's choice (no series outputs then).
+    output_interval : float
+        The communication step [s] (a whole number of them spans the simulation).
     grid : ndarray, shape (T,)
         Times the series are recorded at [s] (empty without series outputs).
     relative_tolerance : float or None
@@ -55,7 +55,7 @@ class Setup:
     md: Any
     start_time: float
     stop_time: float
-    output_interval: float | None
+    output_interval: float
     grid: np.ndarray
     relative_tolerance: float | None
     fixed: Mapping[str, Any]
