@@ -81,6 +81,19 @@ def test_the_documented_config_gives_the_closed_form_mean_and_std(decay_fmu, see
                        rtol=1e-13, atol=0)
 
 
+def test_tensor_pce_through_the_fmu_gives_the_exact_mean_and_std(decay_fmu):
+    """A 7 x 7 Gauss rule: exact in x0 (degree 2 at most), and for E[exp(-p k t)] on the
+    uniform k its error is (b-a)^14 (7!)^4 / (15 (14!)^3) (p t)^14 <= 2e-14 for p <= 2, t = 2:
+    the moments must agree to round-off (1e-12 relative)."""
+    cfg = _doc_config(decay_fmu)
+    cfg["methods"] = [{"name": "pce_tensor", "label": "pce", "m": 7}]
+    pce = uqguide.run(cfg).run("pce")
+    mean, sd, _ = _exact(cfg["model"]["stop_time"])
+    assert pce.n_runs == 49
+    assert pce.estimate.stats["x"].mean[0] == pytest.approx(mean, rel=1e-12)
+    assert pce.estimate.stats["x"].std[0] == pytest.approx(sd, rel=1e-12)
+
+
 def test_a_failing_simulation_fails_its_sample_with_the_fmus_reason(decay_fmu):
     model = FmuModel({"path": str(decay_fmu), "inputs": ["x0", "k"], "outputs": ["x"],
                       "stop_time": 2.0, "output_interval": 0.5, "start_values": {"x_max": 1.0}})
