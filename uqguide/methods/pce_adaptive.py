@@ -195,7 +195,8 @@ class AdaptivePCE(Method):
     Settings = AdaptivePCESettings
     settings: AdaptivePCESettings
     uses_derivations = True
-    example_settings = {"n_samples": 40, "max_runs": 60, "degree_max": 3}
+    example_settings = {"n_samples": 40, "max_runs": 60, "degree_max": 3,
+                        "surrogate_draws": 20_000}
 
     # ------------------------------------------------------------------ design sizes
     def initial_size(self, d: int) -> int:
