@@ -251,6 +251,28 @@ def simulate(config: Path, fig_dir: Path | None) -> None:
             click.echo(f"wrote {p}")
 
 
+@main.command()
+@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--n", "n_runs", type=click.IntRange(1, 1_000_000), required=True,
+              help="How many runs to suggest.")
+@click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path),
+              required=True, help="The CSV to write (input names as header).")
+@click.option("--force", is_flag=True, help="Replace an existing --out file.")
+@_handle_errors
+def suggest(config: Path, n_runs: int, out_path: Path, force: bool) -> None:
+    """Write the next runs that extend the design of CONFIG's data file.
+
+    The inputs only, one row per run: run them elsewhere, append their rows with the outputs
+    to the data file, and run CONFIG again. The points fill the largest holes of the file's
+    design (greedy maximin over scrambled Sobol' candidates in the inputs' probability space).
+    """
+    from .config.data_source import write_suggestion
+    from .config.run_config import load_config
+
+    cfg = load_config(config)
+    click.echo(f"wrote {write_suggestion(cfg, n_runs, out_path, force)} ({n_runs} runs)")
+
+
 @main.command("configs")
 @click.option("--copy", "copy", nargs=2, type=(str, click.Path(file_okay=False, path_type=Path)),
               default=None, metavar="NAME DIR", help="Copy the shipped study NAME into DIR.")
