@@ -365,3 +365,32 @@ def test_ishigami_500_iid_rows_give_the_four_moments_within_1e_6(tmp_path, seed)
     got = four(uqguide.run(p), "pce_adaptive")
     assert np.all(np.abs(got - ishigami_exact()) < 1e-6), got - ishigami_exact()
     assert np.array_equal(four(uqguide.fit(x, y, inputs=ISHIGAMI), "pce_adaptive"), got)
+
+
+# ---------------------------------------------------------------------------- the docs
+def test_the_documented_example_gives_the_documented_numbers(tmp_path, monkeypatch):
+    """docs/your-simulator.md, "Your own samples": its script and config, run in this process
+    (the page's blocks run as subprocesses only in the slow suite)."""
+    import re
+    import runpy
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "your-simulator.md").read_text()
+    for name in ("make_runs.py", "samples.yaml"):
+        body = re.search(rf"```\w+\n# file: {re.escape(name)}\n(.*?)```", page, re.S).group(1)
+        (tmp_path / name).write_text(body)
+    monkeypatch.chdir(tmp_path)
+    runpy.run_path("make_runs.py")
+    result = uqguide.run("samples.yaml")
+    mean, std = (math.expm1(0.6) / 0.6 * math.exp(-1 / 8),
+                 math.sqrt(math.expm1(1.2) / 1.2 * (1 + math.exp(-0.5)) / 2
+                           - (math.expm1(0.6) / 0.6 * math.exp(-1 / 8)) ** 2))
+    assert "1.20920" in page and "0.30150" in page and f"{mean:.5f}" == "1.20920"
+    assert f"{std:.5f}" == "0.30150"
+    pce = result.run("pce")
+    assert pce.n_failed == 1 and pce.estimate.diagnostics["n_validation"] == 50
+    # the surrogate's error is at most sqrt(LOO error x variance) in L2 (Cauchy-Schwarz for
+    # the mean; the std moves by no more), four times that for the LOO estimate's own spread
+    tol = 4 * math.sqrt(pce.estimate.diagnostics["loo_error"]) * std
+    assert four(result, "pce")[:2] == pytest.approx([mean, std], rel=0, abs=tol)
+    mc = result.run("mc").estimate.stats["y"]
+    assert abs(float(mc.mean[0]) - mean) < 4 * float(mc.sem[0])

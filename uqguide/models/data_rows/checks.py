@@ -128,7 +128,7 @@ def _refuse_repeats(table: Table, x: np.ndarray, names: Sequence[str]) -> None:
         raise _fail(table, f"{table.where(r)} repeats the inputs of {table.where(f)} ({shown}"
                            f"{', ...' if len(names) > 4 else ''}); each row must be a distinct "
                            f"run: average repeated runs into one row or drop the copy "
-                           f"({repeat.size} repeated rows)")
+                           f"({repeat.size} repeated row{'s' if repeat.size > 1 else ''})")
 
 
 def output_names(table: Table, space: InputSpace, outputs: Sequence[str] | None
