@@ -394,3 +394,55 @@ def test_the_documented_example_gives_the_documented_numbers(tmp_path, monkeypat
     assert four(result, "pce")[:2] == pytest.approx([mean, std], rel=0, abs=tol)
     mc = result.run("mc").estimate.stats["y"]
     assert abs(float(mc.mean[0]) - mean) < 4 * float(mc.sem[0])
+
+
+def test_an_hdf5_series_with_its_time_dataset_and_report_times(tmp_path):
+    import h5py
+
+    x, y = rows(30, 18)
+    t = np.array([0.0, 1.0, 3.0, 4.0])
+    with h5py.File(tmp_path / "runs.h5", "w") as f:
+        f["a"], f["b"], f["time"] = x[:, 0], x[:, 1], t
+        f["path"] = y[:, None] * t[None, :]
+    mc = [{"name": "monte_carlo", "label": "mc"}]
+    result = uqguide.run(config(tmp_path, "runs.h5", mc, report_times=[3.0]))
+    assert np.array_equal(result.time, t)
+    assert np.allclose(result.run("mc").estimate.stats["path"].mean[:, 0], y.mean() * t,
+                       rtol=1e-13)
+    with pytest.raises(ConfigError, match=r"report_times\[0\]: 9 s is outside the model's "
+                                          r"time grid \[0, 4\] s"):
+        uqguide.run(config(tmp_path, "runs.h5", mc, report_times=[9.0]))
+
+
+def test_parquet_without_an_engine_says_what_to_install(tmp_path):
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        pytest.skip("pyarrow is installed: Parquet files are read")
+    (tmp_path / "runs.parquet").write_bytes(b"PAR1")
+    with pytest.raises(ConfigError, match=r"data: runs.parquet: reading Parquet needs pyarrow"):
+        uqguide.load_config(config(tmp_path, "runs.parquet"))
+
+
+def test_the_unit_cube_and_germ_maps_invert_those_of_the_designs():
+    """``InputSpace.to_unit`` inverts ``from_unit`` and ``Germ.from_physical`` inverts
+    ``to_physical``, for every marginal and a correlated normal group (the data's rows reach
+    the fit and the design extension through them)."""
+    from uqguide.core.inputs import CorrelatedGroup, InputSpace, LogNormal, Normal, \
+        TruncNormal, Uniform
+    from uqguide.pce.germ import Germ
+
+    space = InputSpace([Normal(name="n1", dist="normal", mean=1.0, std=2.0),
+                        Normal(name="n2", dist="normal", mean=-1.0, std=0.5),
+                        Uniform(name="u", dist="uniform", low=2.0, high=5.0),
+                        LogNormal(name="l", dist="lognormal", mu=0.1, sigma=0.3),
+                        TruncNormal(name="t", dist="truncnormal", mean=0.0, std=1.0,
+                                    low=-1.0, high=2.0)],
+                       [CorrelatedGroup((0, 1), np.array([[1.0, 0.6], [0.6, 1.0]]))])
+    u = np.random.default_rng(19).uniform(0.01, 0.99, (50, 5))
+    assert np.allclose(space.to_unit(space.from_unit(u)), u, rtol=0, atol=1e-12)
+    germ = Germ.of(space)
+    xi = germ.from_unit(u)
+    assert np.allclose(germ.from_physical(germ.to_physical(xi)), xi, rtol=0, atol=1e-12)

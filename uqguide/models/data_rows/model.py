@@ -70,6 +70,20 @@ class DataModel(DeclaredModel):
         cols = [self.table.columns[n] for n in self.params.inputs]
         return np.column_stack(cols) if cols else np.empty((self.table.n_rows, 0))
 
+    def time_grid(self) -> np.ndarray:
+        """The series' time grid [s] (empty without series): ``data.time``, else the file's
+        ``time``, else the step numbers; known without a run (the report times are checked
+        against it, and no nominal row exists to run)."""
+        steps = [self.table.columns[s.name].shape[1] for s in self._specs()
+                 if s.kind == "series"] if self.table is not None else []
+        if not steps:
+            return np.zeros(0)
+        if self.params.time is not None:
+            return np.asarray(self.params.time, dtype=float)
+        if self.table is not None and self.table.time is not None:
+            return np.asarray(self.table.time, dtype=float)
+        return np.arange(steps[0], dtype=float)
+
     def _row_index(self) -> dict[bytes, int]:
         if self._index is None:
             x = np.ascontiguousarray(self.rows(), dtype=np.float64)
@@ -94,7 +108,6 @@ class DataModel(DeclaredModel):
         series: dict[str, np.ndarray] = {}
         failed = np.zeros(n, dtype=bool)
         reasons = np.full(n, "", dtype=object)
-        steps = 0
         for spec in self._specs():
             v = self.table.columns[spec.name][at]
             bad = ~np.isfinite(v.reshape(n, -1)).all(axis=1)
@@ -102,13 +115,7 @@ class DataModel(DeclaredModel):
             failed |= bad
             if spec.kind == "series":
                 series[spec.name] = v[:, :, None]
-                steps = v.shape[1]
             else:
                 scalars[spec.name] = v[:, None]
-        time = np.asarray(self.params.time, dtype=float) if self.params.time is not None \
-            else np.asarray(self.table.time, dtype=float) if self.table.time is not None \
-            else np.arange(steps, dtype=float)
-        if not series:
-            time = np.zeros(0)
-        return ModelOutput(time=time, scalars=scalars, series=series, failed=failed,
-                           reasons=reasons)
+        return ModelOutput(time=self.time_grid(), scalars=scalars, series=series,
+                           failed=failed, reasons=reasons)
