@@ -211,7 +211,8 @@ def fit(x: Any, y: Any, *, inputs: Sequence[Mapping[str, Any]],
     >>> y = 1 + 2 * x[:, 0] + x[:, 1] ** 2           # mean 1 + 1/3, variance 4/3 + 4/45
     >>> result = uqguide.fit(x, y, inputs=[
     ...     {"name": "a", "dist": "uniform", "low": -1, "high": 1},
-    ...     {"name": "b", "dist": "uniform", "low": -1, "high": 1}])
+    ...     {"name": "b", "dist": "uniform", "low": -1, "high": 1}],
+    ...     method={"name": "pce_adaptive", "degree_max": 3})
     >>> st = result.to_dataframe("y").set_index("statistic").value
     >>> round(float(st["mean"]), 9), round(float(st["std"] ** 2), 9)
     (1.333333333, 1.422222222)

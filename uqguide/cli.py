@@ -220,7 +220,9 @@ def validate(config: Path) -> None:
 
     cfg = load_config(config)
     methods = ", ".join(f"{m.label} ({m.name})" for m in cfg.methods)
-    click.echo(f"{config}: OK — model {cfg.model.name}, {cfg.space.dim} uncertain inputs "
+    source = f"model {cfg.model.name}" if cfg.data is None else \
+        f"data {cfg.data['path']} ({getattr(cfg.model.params, 'n_rows', 0)} rows)"
+    click.echo(f"{config}: OK — {source}, {cfg.space.dim} uncertain inputs "
                f"({', '.join(cfg.space.names) or 'none'}), outputs {', '.join(cfg.outputs)}, "
                f"methods {methods}, seed {cfg.seed}")
     budget = estimate(cfg)
