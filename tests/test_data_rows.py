@@ -304,6 +304,8 @@ def test_suggest_fills_the_empty_half_and_the_loop_closes(tmp_path):
     x = np.column_stack([rng.uniform(-1, 0, 60), rng.standard_normal(60)])  # a in [-1, 0]
     write_csv(tmp_path / "runs.csv", x, poly(x[:, 0], x[:, 1]))
     cfg = config(tmp_path, methods=[PCE])
+    checked = CliRunner().invoke(main, ["validate", str(cfg)])
+    assert f"{cfg}: OK — data runs.csv (60 rows), 2 uncertain inputs (a, b)" in checked.output
     out = tmp_path / "next.csv"
     res = CliRunner().invoke(main, ["suggest", str(cfg), "--n", "8", "--out", str(out)])
     assert res.exit_code == 0, res.output
@@ -328,6 +330,29 @@ def test_suggest_needs_data(tmp_path, write_config, lognormal_config):
                                     "3", "--out", str(tmp_path / "n.csv")])
     assert res.exit_code == 2
     assert "suggest extends the rows of a data file" in res.stderr
+
+
+@pytest.mark.slow
+def test_workers_report_plots_and_the_gate_work_on_a_data_result(tmp_path):
+    x, y = rows(80, 20)
+    write_csv(tmp_path / "runs.csv", x, y)
+    cfg = config(tmp_path, methods=[PCE, {"name": "monte_carlo", "label": "mc"}], name="d")
+    runner = CliRunner()
+    serial = runner.invoke(main, ["run", str(cfg), "--out", str(tmp_path / "a"), "-q"])
+    pool = runner.invoke(main, ["run", str(cfg), "--out", str(tmp_path / "b"), "-q",
+                                "--workers", "2"])
+    assert serial.exit_code == 0 and pool.exit_code == 0, serial.output + pool.output
+    a, b = uqguide.read_result(tmp_path / "a" / "d.h5"), uqguide.read_result(tmp_path / "b" /
+                                                                          "d.h5")
+    for label in ("pce", "mc"):
+        assert np.array_equal(four(a, label), four(b, label))
+    h5 = str(tmp_path / "a" / "d.h5")
+    base = str(tmp_path / "base.json")
+    for args in (["baseline", h5, "-o", base], ["check", h5, "--baseline", base],
+                 ["report", h5], ["plot", h5]):
+        res = runner.invoke(main, args)
+        assert res.exit_code == 0, (args, res.output)
+    assert (tmp_path / "a" / "d_report.md").read_text().count("Sobol")
 
 
 # ---------------------------------------------------------------------------- acceptance
