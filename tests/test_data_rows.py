@@ -116,6 +116,9 @@ def test_fit_gives_the_numbers_of_the_config_bit_for_bit(tmp_path):
     assert np.array_equal(four(uqguide.fit(ds[["a", "b"]], ds[["y"]], inputs=INPUTS,
                                            method=PCE), "pce"), ref)
     assert from_arrays.surrogate("pce").names == ["y"]
+    with pytest.raises(ConfigError, match=r"given from Python \(uqguide.fit\) and are not "
+                                          r"stored"):
+        uqguide.load_config(from_arrays.config)
 
 
 def test_fit_refuses_bad_rows_with_a_uqguide_error():
@@ -156,7 +159,7 @@ BAD = [
     ("repeated_row", lambda L: "\n".join(L + [L[7]]) + "\n", {},
      "data: runs.csv: row 41 (line 42) repeats the inputs of row 7 (line 8)"),
     ("not_a_number", lambda L: _set(L, 9, 2, "oops"), {},
-     "data: runs.csv: line 9, column 'y': 'oops' is not a number"),
+     "data: runs.csv: row 8 (line 9), column 'y': 'oops' is not a number"),
     ("too_few_rows", lambda L: "\n".join(L[:12]) + "\n", {},
      "data: runs.csv: 11 usable rows; methods[0] (pce) needs at least 20 for 2 inputs"),
     ("too_few_good_rows", lambda L: _set(L[:21], 21, 2, "nan"), {},

@@ -42,6 +42,7 @@ from ..errors import ConfigError
 from ..methods.base import GivenRows
 from ..models.callable import CallableOutput
 from ..models.data_rows import DataModel, DataParams, Table, read_table
+from ..models.data_rows.files import ARRAYS
 from ..models.data_rows.checks import (
     failed_rows, goodness_of_fit, input_rows, output_names, warn_failed, warn_goodness_of_fit,
 )
@@ -120,6 +121,10 @@ def load_source(value: Any, space: InputSpace, outputs: list[str] | None,
     if isinstance(spec, Table):
         table, time = spec, None
         stored: dict[str, Any] = {"path": table.source}
+    elif spec.path == ARRAYS:
+        raise ConfigError("data: the runs were given from Python (uqguide.fit) and are not "
+                          "stored with the result; write them to a file and give data: FILE",
+                          field="data")
     else:
         p = Path(spec.path).expanduser()
         if not p.is_absolute() and config_dir:

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import ConfigError
-from .files import TIME, Table, table_from_arrays
+from .files import ARRAYS, TIME, Table, table_from_arrays
 
 
 def _columns(obj: Any, names: Sequence[str] | None, default: str, what: str
@@ -85,4 +85,4 @@ def table_of(x: Any, y: Any, input_names: Sequence[str],
     columns = {**xs, **ys}
     if time is not None:
         columns[TIME] = np.asarray(time, dtype=float)
-    return table_from_arrays(columns, "<arrays>")
+    return table_from_arrays(columns, ARRAYS)

@@ -46,6 +46,9 @@ _STEP = re.compile(r"^(.+)\[(\d+)\]$")
 #: The name of the time grid in a file (not an input or an output).
 TIME = "time"
 
+#: How messages (and a stored config) name runs given from Python rather than read from a file.
+ARRAYS = "<arrays>"
+
 
 @dataclass(frozen=True, eq=False)
 class Table:
@@ -156,8 +159,8 @@ def _read_csv(path: Path, source: str) -> tuple[dict[str, np.ndarray], int]:
             flat[name] = np.array(cells, dtype=float)
         except ValueError:
             i = next(i for i, c in enumerate(cells) if not _is_number(c))
-            raise ConfigError(f"data: {source}: line {i + 2}, column {name!r}: {cells[i]!r} is not "
-                              f"a number") from None
+            raise ConfigError(f"data: {source}: row {i + 1} (line {i + 2}), column {name!r}: "
+                              f"{cells[i]!r} is not a number") from None
     return flat, 2
 
 
@@ -266,7 +269,7 @@ def read_table(path: str | Path, source: str | None = None) -> Table:
     return _table(flat, source, first_line, grid_in_file=fmt != "csv")
 
 
-def table_from_arrays(columns: Mapping[str, Any], source: str = "<arrays>") -> Table:
+def table_from_arrays(columns: Mapping[str, Any], source: str = ARRAYS) -> Table:
     """A table of columns already in memory (``uqguide.fit``).
 
     Parameters
