@@ -474,3 +474,16 @@ def test_the_unit_cube_and_germ_maps_invert_those_of_the_designs():
     germ = Germ.of(space)
     xi = germ.from_unit(u)
     assert np.allclose(germ.from_physical(germ.to_physical(xi)), xi, rtol=0, atol=1e-12)
+
+
+def test_fit_takes_a_dataset_series_with_its_time_coordinate_and_monte_carlo():
+    import xarray as xr
+
+    x, y = rows(40, 21)
+    t = np.array([0.0, 2.0, 5.0])
+    ds = xr.Dataset({"a": ("run", x[:, 0]), "b": ("run", x[:, 1]),
+                     "path": (("run", "t"), y[:, None] * t[None, :])}, coords={"t": t})
+    result = uqguide.fit(ds[["a", "b"]], ds[["path"]], inputs=INPUTS, method="monte_carlo")
+    assert np.array_equal(result.time, t)
+    st = result.run("monte_carlo").estimate.stats["path"]
+    assert np.allclose(st.mean[:, 0], y.mean() * t, rtol=1e-13)

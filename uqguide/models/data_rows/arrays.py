@@ -25,9 +25,7 @@ from .files import ARRAYS, TIME, Table, table_from_arrays
 
 def _columns(obj: Any, names: Sequence[str] | None, default: str, what: str
              ) -> dict[str, np.ndarray]:
-    if isinstance(obj, Mapping):
-        return {str(k): np.asarray(v) for k, v in obj.items()}
-    if hasattr(obj, "data_vars"):  # an xarray Dataset
+    if hasattr(obj, "data_vars"):  # an xarray Dataset (a Mapping too: tested first)
         out = {}
         for k, v in obj.data_vars.items():
             out[str(k)] = np.asarray(v.values)
@@ -36,6 +34,8 @@ def _columns(obj: Any, names: Sequence[str] | None, default: str, what: str
         return out
     if hasattr(obj, "columns") and hasattr(obj, "to_numpy"):  # a DataFrame
         return {str(k): obj[k].to_numpy() for k in obj.columns}
+    if isinstance(obj, Mapping):
+        return {str(k): np.asarray(v) for k, v in obj.items()}
     try:
         a = np.asarray(obj, dtype=float)
     except (TypeError, ValueError):
