@@ -275,6 +275,20 @@ def suggest(config: Path, n_runs: int, out_path: Path, force: bool) -> None:
     click.echo(f"wrote {write_suggestion(cfg, n_runs, out_path, force)} ({n_runs} runs)")
 
 
+@main.command("compile")
+@click.argument("configs", nargs=-1)
+@_handle_errors
+def compile_command(configs: tuple[str, ...]) -> None:
+    """Compile the simulators' kernels now, once per install (every shipped study, or CONFIGS).
+
+    For a container build, before a cluster job array, or before timing anything: a kernel
+    already in the cache is only loaded.
+    """
+    from .driver.compile_kernels import compile_kernels, format_compiled
+
+    click.echo(format_compiled(compile_kernels(configs)))
+
+
 @main.command("configs")
 @click.option("--copy", "copy", nargs=2, type=(str, click.Path(file_okay=False, path_type=Path)),
               default=None, metavar="NAME DIR", help="Copy the shipped study NAME into DIR.")
