@@ -66,6 +66,7 @@ class SmolyakPCE(QuadraturePCE):
     """Smolyak sparse-grid pseudo-spectral PCE."""
 
     name = "pce_smolyak"
+    own_design = "its quadrature needs the nodes of its own sparse grid"
     example_settings = {"level": 2, "surrogate_draws": 20_000}
     summary = "Smolyak sparse PCE: sparse-grid runs, Smolyak pseudo-spectral projection (paper 4.3)"
     Settings = SmolyakPCESettings
