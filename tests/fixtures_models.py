@@ -49,3 +49,9 @@ def decaying_cosine(x):
     omega_d = omega * np.sqrt(1.0 - zeta**2)
     return {"time": OSCILLATOR_TIME,
             "x": np.exp(-zeta * omega * t) * np.cos(omega_d * t)}
+
+
+def decaying_cosine_at_7s(x):
+    """:func:`decaying_cosine` at t = 7 s only, a scalar (a cheap case of the same fit)."""
+    omega, zeta = x[:, 0], x[:, 1]
+    return np.exp(-zeta * omega * 7.0) * np.cos(omega * np.sqrt(1.0 - zeta**2) * 7.0)
