@@ -1,5 +1,8 @@
 """The step every PCE method shares after its fit: keep the surrogate, validate it on
-independent runs, correct its moments and withdraw them where it is not usable.
+independent runs, correct its moments and withdraw them where it is not usable; withhold a
+skewness or kurtosis its own runs do not support (:mod:`uqguide.pce.support`) and give, where
+any moment is withheld, the Monte Carlo estimate of the runs it made
+(:mod:`uqguide.pce.runs_estimate`, the ``+mc`` rows).
 
 Settings (every PCE method)::
 

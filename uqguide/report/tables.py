@@ -19,7 +19,7 @@ from ..core import atomic
 from ..core.failures import COLUMNS as FAILURE_COLUMNS, reason_rows
 from ..models.base import OutputInfo
 from ..results.result import Result
-from ..results.statistics import Point, Statistic, points, result_statistics
+from ..results.statistics import CORRECTED_SUFFIX, Point, Statistic, points, result_statistics
 from ..config.report_times import report_indices  # noqa: F401 - imported from here by others
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
@@ -153,7 +153,7 @@ def validation_text(df: pd.DataFrame) -> pd.DataFrame:
     out["PCE"] = [(_fmt(v) if u else "no usable surrogate") for v, u in zip(df["pce"],
                                                                              df["usable"])]
     out["corrected [95%]"] = [f"{_fmt(v)} [{_fmt(a)}, {_fmt(b)}]" if np.isfinite(v) or
-                              np.isfinite(a) else "not reported: see +mc" for v, a, b in
+                              np.isfinite(a) else NOT_REPORTED for v, a, b in
                               zip(df["corrected"], df["ci_low"], df["ci_high"])]
     out["val_error"] = df["val_error"].map(_fmt)
     out["runs (fit+validation)"] = df["runs"]
@@ -377,6 +377,11 @@ def series_agreement(result: Result) -> pd.DataFrame:
 
 
 # ---------------------------------------------------------------------------- text forms
+#: A control-variate value the runs refuted, or less precise than the runs' own estimate
+#: (:func:`uqguide.pce.support.refuted`), or undefined (no variance): the legend says which.
+NOT_REPORTED = "not reported"
+
+
 def _fmt(v: float) -> str:
     if v is None or (isinstance(v, float) and np.isnan(v)):
         return "nan"
@@ -413,6 +418,10 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
                 continue
             if s.get("withheld") is True:
                 row[s["stat"]] = "withheld: its runs disagree (see +mc)"
+                continue
+            if str(s["label"]).endswith(CORRECTED_SUFFIX) and np.isnan(s["value"]) \
+                    and np.isnan(s["ci_low"]):
+                row[s["stat"]] = NOT_REPORTED
                 continue
             cell = _fmt(s["value"])
             if not np.isnan(s["ci_low"]):
