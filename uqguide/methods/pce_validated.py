@@ -37,7 +37,7 @@ from ..pce.runs_estimate import INTERVAL, runs_estimate
 from ..pce.support import SHAPE_STATS, refuted, unsupported
 from ..pce.validation import Corrected
 from ..pce.validation_design import ValidationDesign, random_validation, stratified_validation
-from ..core.types import Estimate, ModelOutput
+from ..core.types import STAT_NAMES, Estimate, ModelOutput
 
 log = logging.getLogger(__name__)
 
@@ -180,7 +180,7 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         if corrected is not None:
             _flag_disagreement(diag, estimate.label, name, st, corrected, time, usable)
         _withhold_unsupported(diag, estimate.label, name, st, corrected, runs, usable, time)
-        if runs is not None:
+        if st.fallback:
             diag["fallback_interval"] = INTERVAL
         if usable.all():
             continue
@@ -263,11 +263,12 @@ def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
             v = np.array(getattr(st, k), dtype=float)
             v[m] = np.nan
             setattr(st, k, v)
-    if runs is not None:
-        for k in runs.values:
-            withheld = ~usable | bad.get(k, np.zeros_like(usable))
-            st.fallback[k] = np.where(withheld, runs.values[k], np.nan)
-            st.fallback_ci[k] = np.where(withheld, runs.ci[k], np.nan)
+    withheld = {k: ~usable | bad.get(k, np.zeros_like(usable)) for k in STAT_NAMES}
+    if runs is not None and any(m.any() for m in withheld.values()):
+        # kept only where something is withheld: a PCE that gives every moment has no +mc
+        for k, m in withheld.items():
+            st.fallback[k] = np.where(m, runs.values[k], np.nan)
+            st.fallback_ci[k] = np.where(m, runs.ci[k], np.nan)
     names = [k for k, m in bad.items() if m.any()]
     if not names:
         return
