@@ -73,11 +73,12 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return centre - half, centre + half
 
 
-def coverage(sigma: float, n: int, seeds: int, chunk: int) -> dict[str, tuple[dict, float]]:
+def coverage(sigma: float, n: int, seeds: int, chunk: int,
+             kinds: tuple[str, ...] = KINDS) -> dict[str, tuple[dict, float]]:
     """Per interval kind: hits per statistic over the seeds, and the CPU seconds spent."""
     truth = lognormal_moments(sigma)
     out = {}
-    for kind in KINDS:
+    for kind in kinds:
         hits = dict.fromkeys(STAT_NAMES, 0)
         cpu = 0.0
         for seed in range(seeds):
