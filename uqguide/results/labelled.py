@@ -13,7 +13,12 @@ variable                 dims                                        what
 ``o_sem``                (..., o_component)                          standard error of the mean
 ``o_ci``                 (bound, statistic, ..., o_component)        95% intervals (NaN where
                                                                      the method gives none)
-``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE)
+``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE;
+                                                                     Monte Carlo: first order
+                                                                     from the runs, NaN at
+                                                                     steps not estimated)
+``o_sobol_first_ci``     (bound, ..., o_component, input)            their 95% intervals
+``o_sobol_total_ci``
 ``o_quantile``           (quantile, ..., o_component)                quantiles at the levels
 ``o_ci_quantile``        (bound, quantile, ..., o_component)         their 95% intervals
 ``o_corrected``          (statistic, ..., o_component)               a validated PCE's
@@ -127,9 +132,16 @@ def method_variables(stats: Mapping[str, OutputStatistics], time: np.ndarray,
             out[f"{o.name}_ci"] = Variable(("bound", "statistic", *base), ci,
                                            {"description": "95% interval",
                                             "statistics": [m.name for m in given]})
-        for kind, sobol in (("sobol_first", v.sobol_first), ("sobol_total", v.sobol_total)):
+        for kind, sobol, band in (("sobol_first", v.sobol_first, v.sobol_first_ci),
+                                  ("sobol_total", v.sobol_total, v.sobol_total_ci)):
             if sobol is not None:
-                out[f"{o.name}_{kind}"] = Variable((*base, "input"), sobol, {"units": "1"})
+                out[f"{o.name}_{kind}"] = Variable(
+                    (*base, "input"), sobol,
+                    {"units": "1", "estimator": v.sobol_estimator or "pce"})
+            if sobol is not None and band is not None:
+                out[f"{o.name}_{kind}_ci"] = Variable(("bound", *base, "input"), band,
+                                                      {"units": "1",
+                                                       "description": "95% interval"})
         if v.quantiles:
             levels = np.asarray(v.quantile_levels, dtype=float)
             if "quantile" in coords and not np.array_equal(coords["quantile"].data, levels):
@@ -208,6 +220,12 @@ def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[Outpu
             quantiles=get(f"{o.name}_quantile") if q else None,
             ci_quantiles=get(f"{o.name}_ci_quantile") if q else None,
         )
+        first = f"{o.name}_sobol_first"
+        if has(first):
+            stats[o.name].sobol_estimator = str(attrs(first).get("estimator", "pce"))
+            for kind in ("first", "total"):
+                if has(f"{o.name}_sobol_{kind}_ci"):
+                    setattr(stats[o.name], f"sobol_{kind}_ci", get(f"{o.name}_sobol_{kind}_ci"))
         if has(f"{o.name}_corrected"):
             cv, cci = get(f"{o.name}_corrected"), get(f"{o.name}_corrected_ci")
             stats[o.name].corrected = {n: cv[j] for j, n in enumerate(STAT_NAMES)}

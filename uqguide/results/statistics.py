@@ -210,11 +210,16 @@ class OutputStatistics:
     cov : ndarray, shape (..., k, k)
         The covariance between components.
     sobol_first, sobol_total : ndarray, shape (..., k, d), or None
-        Sobol' indices per input (PCE).
+        Sobol' indices per input (a PCE's; Monte Carlo's first-order ones, NaN at the steps
+        where none was computed).
     validation_error : ndarray, shape (..., k), or None
         A validated PCE's out-of-sample relative error.
     usable : ndarray of bool, shape (..., k), or None
         Where a PCE's surrogate is usable; None: not judged (sampling methods).
+    sobol_first_ci, sobol_total_ci : ndarray, shape (2, ..., k, d), or None
+        The indices' 95% intervals, where the method gives them.
+    sobol_estimator : str
+        ``"pce"``, ``"given-data"`` or ``""`` (no indices).
     """
 
     label: str
@@ -229,6 +234,9 @@ class OutputStatistics:
     sobol_total: np.ndarray | None = None
     validation_error: np.ndarray | None = None
     usable: np.ndarray | None = None
+    sobol_first_ci: np.ndarray | None = None
+    sobol_total_ci: np.ndarray | None = None
+    sobol_estimator: str = ""
 
     @classmethod
     def of(cls, label: str, output: OutputInfo, s: OutputStats) -> OutputStatistics:
@@ -259,7 +267,8 @@ class OutputStatistics:
                       usable=None, level=float(p)) for j, p in enumerate(table[0]))
         return cls(label, output, moments, corrected, quantiles, int(s.n_used),
                    s.moments_method, s.cov, s.sobol_first, s.sobol_total,
-                   s.validation_error, usable)
+                   s.validation_error, usable, s.sobol_first_ci, s.sobol_total_ci,
+                   s.sobol_estimator or ("pce" if s.sobol_first is not None else ""))
 
     @property
     def statistics(self) -> tuple[Statistic, ...]:
