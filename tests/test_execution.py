@@ -41,6 +41,9 @@ def _arrays(result):
             out[f"{name}/{k}"] = getattr(s, k)
         out.update({f"{name}/ci_{k}": v for k, v in s.ci.items()})
         out[f"{name}/quantiles"], out[f"{name}/ci_quantiles"] = s.quantiles, s.ci_quantiles
+        # the error budget (6500 runs: sensitivity auto is on) from the chunks' kept values
+        out[f"{name}/sobol_first"], out[f"{name}/sobol_first_ci"] = s.sobol_first, \
+            s.sobol_first_ci
     out.update({f"event/{k}": np.array([v.probability, *v.ci, v.n_in, v.n_used])
                 for k, v in e.events.items()})
     return out

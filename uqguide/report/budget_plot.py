@@ -50,7 +50,7 @@ def budget_figure(result: Result, output: str, component: int = 0) -> Figure:
               if output in d and d[output].sobol_first is not None]
     o = result.output(output)
     comp = o.components[component]
-    fig = new_figure((8.0, 3.2 * max(len(panels), 1) + 0.6), layout="constrained")
+    fig = new_figure((8.0, 3.4 * max(len(panels), 1) + 0.8), layout="constrained")
     axes = fig.subplots(max(len(panels), 1), 1, squeeze=False, sharex=True)[:, 0]
     t = result.time
     names = list(result.input_names)

@@ -93,7 +93,7 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
         kind = "time series" if o.kind == "series" else "scalar"
         parts += ["", f"### {o.name} [{o.unit}] ({kind})", "", o.description]
         for f in figures:
-            if f.output == o.name:
+            if f.output == o.name and f.kind != "budget":  # (in the budget section)
                 alt = f"{o.name} {f.component}".strip()
                 parts += ["", _img(f.path, base, alt)]
         head = "Statistics at the report times and the last step:" if o.kind == "series" \
