@@ -266,6 +266,12 @@ class OutputStats:
         Their 95% intervals (low, high), where the method gives them.
     sobol_estimator : str
         How the indices were estimated (``""``: no indices; ``"pce"``, ``"given-data"``).
+    sobol_groups : tuple of str
+        Names of the groups of inputs with indices (the config's ``groups``).
+    sobol_group_first : ndarray, shape (..., k, G), optional
+        First-order indices of those groups (given data; :mod:`uqguide.stats.sobol_groups`).
+    sobol_group_first_ci : ndarray, shape (2, ..., k, G), optional
+        Their 95% intervals.
     quantile_levels : tuple of float, optional
         Probabilities of the quantiles (the config's ``quantiles``).
     quantiles : ndarray, shape (q, ..., k), optional
@@ -304,6 +310,9 @@ class OutputStats:
     sobol_first_ci: np.ndarray | None = None
     sobol_total_ci: np.ndarray | None = None
     sobol_estimator: str = ""
+    sobol_groups: tuple[str, ...] = ()
+    sobol_group_first: np.ndarray | None = None
+    sobol_group_first_ci: np.ndarray | None = None
     corrected: dict[str, np.ndarray] = field(default_factory=dict)
     corrected_ci: dict[str, np.ndarray] = field(default_factory=dict)
     validation_error: np.ndarray | None = None

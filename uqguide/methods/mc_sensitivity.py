@@ -30,7 +30,8 @@ import numpy as np
 
 from ..core.inputs import InputSpace
 from ..core.types import GeneratedRows, ModelOutput, OutputStats
-from ..stats.sobol_given_data import first_order_indices
+from ..stats.sobol_given_data import MIN_RUNS, first_order_indices, n_bins, rank_bins
+from ..stats.sobol_groups import group_indices
 from .mc_reduce import ci_index
 
 log = logging.getLogger(__name__)
@@ -66,8 +67,10 @@ def good_inputs(x: np.ndarray | GeneratedRows, good: np.ndarray) -> np.ndarray:
 
 def add_indices(stats: dict[str, OutputStats], space: InputSpace, x: np.ndarray | GeneratedRows,
                 runs: ModelOutput, lanes: dict[str, Sequence[np.ndarray]],
-                report_times: tuple[float, ...] | None) -> None:
-    """Set ``sobol_first`` and ``sobol_first_ci`` of every output in ``stats``.
+                report_times: tuple[float, ...] | None,
+                groups: Sequence[tuple[str, tuple[int, ...]]] = ()) -> None:
+    """Set ``sobol_first`` and ``sobol_first_ci`` of every output in ``stats`` (and the
+    ``sobol_group_*`` of the groups of inputs, :mod:`uqguide.stats.sobol_groups`).
 
     Parameters
     ----------
@@ -82,32 +85,52 @@ def add_indices(stats: dict[str, OutputStats], space: InputSpace, x: np.ndarray 
         Per series output, its kept per-run values in chunk order, lane-major ``(L, n_c)``
         (a row per kept step and component), at every step or at :func:`ci_index`'s steps.
     report_times : tuple of float, optional
+    groups : sequence of (str, tuple of int)
+        Groups of inputs with an index of their own (name, input columns).
     """
     good = ~runs.failed
     x_ok = good_inputs(x, good)
     d = space.dim
     steps = ci_index(runs.time, report_times, "report") if runs.time.size else None
+    n = x_ok.shape[0]
+    # the inputs sorted once for every output (a sort of each input costs what the bin sums
+    # of seven output columns do)
+    binned = rank_bins(x_ok) if n >= max(MIN_RUNS, 3 * n_bins(n)) else None
     for name, st in stats.items():
         if name in runs.scalars:
             y = runs.scalars[name][good]
-            est = first_order_indices(x_ok, y.T)
+            est = first_order_indices(x_ok, y.T, binned=binned)
             k = y.shape[1]
             st.sobol_first = est.first.reshape(k, d)
             st.sobol_first_ci = est.ci.reshape(2, k, d)
+            if groups:
+                gf, gci = group_indices(x_ok, y.T, [cols for _, cols in groups])
+                st.sobol_group_first, st.sobol_group_first_ci = gf, gci
         elif name in lanes and steps is not None:
-            parts = list(lanes[name])
             k = st.mean.shape[-1]
             t_all = st.mean.shape[0]
-            block = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)
-            kept_steps = block.shape[0] // k
-            rows = block if kept_steps == steps.size else \
-                block.reshape(kept_steps, k, -1)[steps].reshape(steps.size * k, -1)
-            est = first_order_indices(x_ok, rows)
+            # the report steps of each chunk's values, then joined: quantiles may keep every
+            # step (156 of FTCAPN's, 1.2 GB at 1e6 runs), the indices need 21
+            parts = [p if p.shape[0] == steps.size * k else
+                     p.reshape(p.shape[0] // k, k, -1)[steps].reshape(steps.size * k, -1)
+                     for p in lanes[name]]
+            if not parts:
+                continue
+            rows = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)
+            est = first_order_indices(x_ok, rows, binned=binned)
             first = np.full((t_all, k, d), np.nan)
             ci = np.full((2, t_all, k, d), np.nan)
             first[steps] = est.first.reshape(steps.size, k, d)
             ci[:, steps] = est.ci.reshape(2, steps.size, k, d)
             st.sobol_first, st.sobol_first_ci = first, ci
+            if groups:
+                n_g = len(groups)
+                gf, gci = group_indices(x_ok, rows, [cols for _, cols in groups])
+                st.sobol_group_first = np.full((t_all, k, n_g), np.nan)
+                st.sobol_group_first_ci = np.full((2, t_all, k, n_g), np.nan)
+                st.sobol_group_first[steps] = gf.reshape(steps.size, k, n_g)
+                st.sobol_group_first_ci[:, steps] = gci.reshape(2, steps.size, k, n_g)
         else:
             continue
         st.sobol_estimator = "given-data"
+        st.sobol_groups = tuple(name for name, _ in groups) if groups else ()

@@ -4,7 +4,8 @@ the statistics description (:mod:`uqguide.results.statistics`).
 One table per method and scalar output component (a series at its last step in the Markdown
 report; its course over time is a figure, :mod:`uqguide.report.budget_plot`): a row per input,
 ordered by first-order index, with its 95% interval where the method gives one, the total index
-where the method has it (PCE), and the input's **share**: its first-order index over the sum of
+where the method has it (PCE), the groups of inputs (the config's ``groups``, or each
+correlated group) after the inputs, and the input's **share**: its first-order index over the sum of
 the positive first-order indices, the part of the first-order budget it carries. The sum of the
 first-order indices is stated under the table: ``1 - sum`` is the variance that only
 interactions explain (for independent inputs).
@@ -41,7 +42,7 @@ class BudgetTable:
     table : DataFrame
         Columns input, first_order, ci_low, ci_high, total (NaN where unknown), share [%].
     first_sum : float
-        Sum of the first-order indices.
+        Sum of the inputs' first-order indices.
     """
 
     label: str
@@ -79,8 +80,18 @@ def budget_table(s: OutputStatistics, inputs: list[str], component: int,
     share = 100.0 * positive / positive.sum() if positive.sum() > 0 else nan
     df = pd.DataFrame({"input": inputs, "first_order": first, "ci_low": ci[0],
                        "ci_high": ci[1], "total": total, "share_%": share})
-    return df.sort_values("first_order", ascending=False, kind="stable",
-                          na_position="last").reset_index(drop=True)
+    df = df.sort_values("first_order", ascending=False, kind="stable",
+                        na_position="last").reset_index(drop=True)
+    if s.sobol_group_first is not None and s.sobol_groups:
+        gf = np.asarray(s.sobol_group_first)[pick]
+        gci = np.asarray(s.sobol_group_first_ci)[(slice(None),) + pick] \
+            if s.sobol_group_first_ci is not None else np.full((2, gf.size), np.nan)
+        # a group overlaps its inputs' rows: listed after them, without a share
+        groups = pd.DataFrame({"input": [f"group {g}" for g in s.sobol_groups],
+                               "first_order": gf, "ci_low": gci[0], "ci_high": gci[1],
+                               "total": np.nan, "share_%": np.nan})
+        df = pd.concat([df, groups], ignore_index=True)
+    return df
 
 
 def budget_tables(result: Result, series_at_end: bool = False) -> list[BudgetTable]:
@@ -103,15 +114,18 @@ def budget_tables(result: Result, series_at_end: bool = False) -> list[BudgetTab
                 if df is None:
                     continue
                 name = f"{o.name}[{comp}]" if comp else o.name
+                one = ~df["input"].str.startswith("group ")
                 tables.append(BudgetTable(r.label, name, at, s.sobol_estimator or "pce", df,
-                                          float(np.nansum(df["first_order"]))))
+                                          float(np.nansum(df["first_order"][one]))))
     return tables
 
 
 def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
     """The console form of one budget: the largest ``max_rows`` inputs and the sum."""
     df = b.table
-    shown = df.head(max_rows)
+    groups = df[df["input"].str.startswith("group ")]
+    df = df[~df["input"].str.startswith("group ")]
+    shown = pd.concat([df.head(max_rows), groups], ignore_index=True)
     cols = {"input": shown["input"],
             "first-order": shown["first_order"].map(_fmt),
             "95% interval": [_interval(lo, hi) for lo, hi in zip(shown["ci_low"],
@@ -122,7 +136,7 @@ def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
     if not np.isfinite(df["ci_low"]).any():
         del cols["95% interval"]
     lines = [b.title, pd.DataFrame(cols).to_string(index=False)]
-    rest = len(df) - len(shown)
+    rest = len(df) - min(len(df), max_rows)
     if rest > 0:
         lines.append(f"  ... {rest} more inputs, first-order indices summing to "
                      f"{np.nansum(df['first_order'].iloc[max_rows:]):.3f}")

@@ -220,6 +220,10 @@ class OutputStatistics:
         The indices' 95% intervals, where the method gives them.
     sobol_estimator : str
         ``"pce"``, ``"given-data"`` or ``""`` (no indices).
+    sobol_groups : tuple of str
+        Names of the groups of inputs with first-order indices.
+    sobol_group_first, sobol_group_first_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
+        Their indices and 95% intervals, or None.
     """
 
     label: str
@@ -237,6 +241,9 @@ class OutputStatistics:
     sobol_first_ci: np.ndarray | None = None
     sobol_total_ci: np.ndarray | None = None
     sobol_estimator: str = ""
+    sobol_groups: tuple[str, ...] = ()
+    sobol_group_first: np.ndarray | None = None
+    sobol_group_first_ci: np.ndarray | None = None
 
     @classmethod
     def of(cls, label: str, output: OutputInfo, s: OutputStats) -> OutputStatistics:
@@ -268,7 +275,8 @@ class OutputStatistics:
         return cls(label, output, moments, corrected, quantiles, int(s.n_used),
                    s.moments_method, s.cov, s.sobol_first, s.sobol_total,
                    s.validation_error, usable, s.sobol_first_ci, s.sobol_total_ci,
-                   s.sobol_estimator or ("pce" if s.sobol_first is not None else ""))
+                   s.sobol_estimator or ("pce" if s.sobol_first is not None else ""),
+                   tuple(s.sobol_groups), s.sobol_group_first, s.sobol_group_first_ci)
 
     @property
     def statistics(self) -> tuple[Statistic, ...]:
