@@ -9,7 +9,7 @@ import pytest
 
 from uqguide.config.run_config import validate_config
 from uqguide.driver.propagate import run
-from uqguide.methods.mc_sensitivity import AUTO_MIN_RUNS, wanted
+from uqguide.methods.mc_sensitivity import AUTO_MAX_RUNS, AUTO_MIN_RUNS, wanted
 from uqguide.models.benchmarks import Ishigami
 from uqguide.stats.sobol_given_data import first_order_indices, n_bins
 
@@ -78,8 +78,9 @@ def test_a_constant_column_and_a_tiny_sample_have_no_index():
     assert np.isnan(first_order_indices(x[:10], x[:10, :1].T).first).all()
 
 
-def test_auto_needs_500_runs_and_at_most_50_inputs():
+def test_auto_needs_500_to_1e6_runs_and_at_most_50_inputs():
     assert wanted("auto", 7, AUTO_MIN_RUNS) and not wanted("auto", 7, AUTO_MIN_RUNS - 1)
+    assert wanted("auto", 7, AUTO_MAX_RUNS) and not wanted("auto", 7, AUTO_MAX_RUNS + 1)
     assert not wanted("auto", 51, 10_000) and wanted("on", 51, 100)
     assert not wanted("off", 3, 10_000) and not wanted("on", 0, 10_000)
 

@@ -14,9 +14,11 @@ What the estimator needs is the ``(inputs, outputs)`` rows of the good runs:
   and the indices do not depend on the worker count.
 
 When: ``sensitivity: auto`` (the default) estimates them when the run has at most
-:data:`AUTO_MAX_INPUTS` inputs and at least :data:`AUTO_MIN_RUNS` runs: below that the
-estimator's bins hold too few runs for a useful budget (at 500 runs the standard error of an
-index is about 0.04), above it the table is no longer a budget one reads. ``on`` estimates them
+:data:`AUTO_MAX_INPUTS` inputs and from :data:`AUTO_MIN_RUNS` to :data:`AUTO_MAX_RUNS` runs:
+below that the estimator's bins hold too few runs for a useful budget (at 500 runs the standard
+error of an index is about 0.04); above 50 inputs the table is no longer a budget one reads;
+above 1e6 runs the series values kept at the report times would grow past a few hundred MB
+(32 GB for FTCAPN at 1e8 runs) for indices known to 0.002 long before. ``on`` estimates them
 whatever the size (from :data:`~uqguide.stats.sobol_given_data.MIN_RUNS` good runs), ``off``
 never.
 """
@@ -38,8 +40,10 @@ log = logging.getLogger(__name__)
 
 #: ``sensitivity: auto`` gives indices up to this many inputs ...
 AUTO_MAX_INPUTS = 50
-#: ... from this many runs.
+#: ... from this many runs ...
 AUTO_MIN_RUNS = 500
+#: ... up to this many (``sensitivity: on`` beyond; the memory budget counts what it keeps).
+AUTO_MAX_RUNS = 1_000_000
 
 
 def wanted(setting: str, n_inputs: int, n_runs: int) -> bool:
@@ -48,7 +52,7 @@ def wanted(setting: str, n_inputs: int, n_runs: int) -> bool:
         return False
     if setting == "on":
         return True
-    return n_inputs <= AUTO_MAX_INPUTS and n_runs >= AUTO_MIN_RUNS
+    return n_inputs <= AUTO_MAX_INPUTS and AUTO_MIN_RUNS <= n_runs <= AUTO_MAX_RUNS
 
 
 def good_inputs(x: np.ndarray | GeneratedRows, good: np.ndarray) -> np.ndarray:

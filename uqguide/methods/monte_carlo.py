@@ -39,7 +39,7 @@ values at every step (at the report times and the last step above
 The error budget (``sensitivity``): first-order Sobol' indices of every output on every input,
 at the report times and the last step of a series and for each scalar, with 95% intervals,
 from the same runs (:mod:`uqguide.methods.mc_sensitivity`); on by default up to 50 inputs from
-500 runs.
+500 to 1e6 runs.
 """
 
 from __future__ import annotations
@@ -103,7 +103,7 @@ class MonteCarloSettings(MethodSettings):
         (default; cheap), or at every step.
     sensitivity : {"auto", "on", "off"}
         Given-data first-order Sobol' indices with 95% intervals (the error budget): ``auto``
-        when the inputs are at most 50 and the runs at least 500
+        when the inputs are at most 50 and the runs from 500 to 1e6
         (:mod:`uqguide.methods.mc_sensitivity`).
     """
 

@@ -148,17 +148,21 @@ def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
 def budget_markdown(b: BudgetTable) -> pd.DataFrame:
     """The Markdown report's form of one budget (every input)."""
     df = b.table
-    out = pd.DataFrame({"input": df["input"], "first-order": df["first_order"].map(_fmt)})
+    out = pd.DataFrame({"input": df["input"], "first-order": df["first_order"].map(_fmt4)})
     if np.isfinite(df["ci_low"]).any():
         out["95% interval"] = [_interval(lo, hi) for lo, hi in zip(df["ci_low"], df["ci_high"])]
     if np.isfinite(df["total"]).any():
-        out["total"] = df["total"].map(_fmt)
+        out["total"] = df["total"].map(_fmt4)
     out["share"] = df["share_%"].map(lambda v: f"{v:.1f}%" if np.isfinite(v) else "")
     return out
 
 
 def _fmt(v: float) -> str:
     return f"{v:.3f}" if np.isfinite(v) else ""
+
+
+def _fmt4(v: float) -> str:
+    return f"{v:.4f}" if np.isfinite(v) else ""
 
 
 def _interval(lo: float, hi: float) -> str:
