@@ -61,7 +61,7 @@ def budget_figure(result: Result, output: str, component: int = 0) -> Figure:
         peak = np.nanmax(np.where(np.isfinite(first[at]), first[at], -np.inf), axis=0)
         order = [i for i in np.argsort(-peak, kind="stable") if peak[i] >= MIN_SHOWN]
         shown = order[:MAX_LINES]
-        marker = "o" if at.size < t.size else None
+        marker = "o" if s.sobol_estimator == "given-data" else None  # (at the report times)
         for j, i in enumerate(shown):
             colour = _COLOURS[j % len(_COLOURS)]
             ax.plot(t[at], first[at, i], color=colour, marker=marker, ms=3, lw=1.4,
