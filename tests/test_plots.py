@@ -122,7 +122,9 @@ def test_cost_figure_shows_every_method(result):
 def test_write_figures_and_report_files(result, tmp_path):
     files = write_figures(result, tmp_path / "fig")
     names = [f.path.name for f in files]
-    assert names == ["run_y_hist.png", "run_ramp_y1.png", "run_ramp_y2.png", "run_cost.png"]
+    # the 2000-run Monte Carlo gives the series' error budgets (sensitivity: auto)
+    assert names == ["run_y_hist.png", "run_ramp_y1.png", "run_ramp_y1_budget.png",
+                     "run_ramp_y2.png", "run_ramp_y2_budget.png", "run_cost.png"]
     for f in files:
         assert f.path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         h, w = imread(f.path).shape[:2]
@@ -130,11 +132,12 @@ def test_write_figures_and_report_files(result, tmp_path):
     path, figs = write_report(result, tmp_path / "rep")
     text = path.read_text()
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
-    assert len(links) == 4
+    assert len(links) == 6
     assert all((path.parent / link).is_file() for link in links)
     for heading in ("# run: uncertainty propagation report", "## Uncertain inputs",
                     "## Methods and cost", "### y [m/s] (scalar)", "### ramp [m] (time series)",
-                    "## Series over the whole grid against `mc`", "## Provenance"):
+                    "## Series over the whole grid against `mc`",
+                    "## Error budget (Sobol' indices)", "## Provenance"):
         assert heading in text.splitlines()
 
 
@@ -164,7 +167,8 @@ def test_plot_and_report_commands_on_an_ftcapn_result(write_config, tmp_path):
     assert res.exit_code == 0, res.output
     written = [Path(line[6:]) for line in res.output.splitlines()]
     # figures follow the config's output order (zem, then omega_s), then the cost table
-    assert [p.name for p in written] == ["ft_zem_hist.png", "ft_omega_s.png", "ft_cost.png"]
+    assert [p.name for p in written] == ["ft_zem_hist.png", "ft_omega_s.png",
+                                         "ft_omega_s_budget.png", "ft_cost.png"]
     assert all(p.parent == tmp_path / "figures" and p.is_file() for p in written)
     b = tmp_path / "b.json"
     assert runner.invoke(main, ["baseline", str(h5), "-o", str(b)]).exit_code == 0
@@ -176,6 +180,8 @@ def test_plot_and_report_commands_on_an_ftcapn_result(write_config, tmp_path):
     text = report.read_text()
     assert "![omega_s](figures/ft_omega_s.png)" in text
     assert "### zem [m] (scalar)" in text
+    assert "![error budget of omega_s](figures/ft_omega_s_budget.png)" in text
+    assert "Error budget of zem, mc1000: Sobol' indices from the Monte Carlo runs" in text
     assert "## Regression check" in text and "PASS: " in text
     res = runner.invoke(main, ["plot", str(tmp_path / "missing.h5")])
     assert res.exit_code == 2 and "result file not found" in res.stderr

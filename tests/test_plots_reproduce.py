@@ -39,7 +39,8 @@ def test_runs_registered_configs_and_skips_the_others(tmp_path):
     assert "| lin | done |" in index
     # Sobol' indices of y1 = x1 + 2 x2 - 0.5 x3 (independent unit normals): a_i^2 / sum a^2
     report = (out / "lin" / "lin_report.md").read_text()
-    assert "| x2 | 0.7619 | 0.7619 |" in report  # 4 / 5.25, first-order = total (additive)
+    # 4 / 5.25, first-order = total (additive): the budget from the PCE's coefficients
+    assert "| x2 | 0.7619 | 0.7619 | 76.2% |" in report
     # a partial rerun keeps the other rows of the index
     code = reproduce_results.main(["future", "--configs", str(configs), "--out", str(out)])
     assert code == 0

@@ -25,6 +25,10 @@ The estimate is an upper bound of what the pipeline holds at once, in bytes:
   series components at the bootstrap steps (the report times and the last step, or every
   step with ``bootstrap_times: all``); twice kept (the running sums and a merge), three times
   per chunk in flight (the chunk's sums and the weighted products that make them);
+- **sensitivity kept** by a Monte Carlo method with Sobol' indices and series outputs but no
+  quantiles: ``runs x steps x k x 8`` at the report times and the last step, twice (per chunk,
+  joined); **sensitivity** (transient, at the end): the good runs' inputs and their bins
+  (``runs x d x 12``) and the series values joined at those steps (``runs x steps x k x 8``);
 - **basis**: a PCE's design matrix ``runs x terms x 8``, three times (matrix, its
   factorisation, the projection).
 
@@ -66,9 +70,11 @@ class Budget:
         """Kept data adds up over methods (the result holds them all); transients do not."""
         kept = sum(m.parts.get("kept", 0.0) + m.parts.get("series kept", 0.0)
                    + m.parts.get("quantiles kept", 0.0) + m.parts.get("bootstrap sums", 0.0)
+                   + m.parts.get("sensitivity kept", 0.0)
                    for m in self.methods)
         transient = max((m.parts.get("per chunk", 0.0) + m.parts.get("basis", 0.0)
                          + m.parts.get("bootstrap per chunk", 0.0)
+                         + m.parts.get("sensitivity", 0.0)
                          for m in self.methods), default=0.0)
         return kept + transient + BASE_BYTES
 
@@ -153,6 +159,14 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
             steps = grid if n * grid * k_series <= QUANTILE_ALL_FLOATS else \
                 len(cfg.raw.report_times or ()) + 1
             parts["quantiles kept"] = 2 * n * 8.0 * steps * k_series
+        from ..methods.monte_carlo import MonteCarlo
+
+        if isinstance(method, MonteCarlo) and method.sensitivity_for(cfg.space, n):
+            report_steps = len(cfg.raw.report_times or ()) + 1
+            series = n * 8.0 * report_steps * k_series
+            if k_series and method.context.quantile_levels is None:
+                parts["sensitivity kept"] = 2 * series
+            parts["sensitivity"] = n * 12.0 * d + series
         rows.append(MethodBudget(method.label, n, count.steps if count else None,
                                  sum(parts.values()), parts, plan.exact))
     return Budget(rows, cfg.max_memory, workers)
@@ -184,6 +198,8 @@ LOWER = {
     "bootstrap per chunk": "bootstrap (the resamples), or bootstrap_times: report, or "
                            "intervals: delta",
     "basis": "the PCE's degree or its runs",
+    "sensitivity kept": "sensitivity: off (or n_samples, or fewer report_times)",
+    "sensitivity": "sensitivity: off (or n_samples)",
 }
 
 

@@ -25,6 +25,8 @@ Layout (all values SI)::
     quantiles: 3sigma            # optional: quantile levels in (0, 1), or 3sigma
     events:                      # optional: events on scalar outputs (below: y < b, above: y > a)
       - {name: collision, output: collided, above: 0.5}
+    groups:                      # optional: groups of inputs with a Sobol' index of their own
+      navigation: [dx, dy, dz]   # (default: each correlated group)
 """
 
 from __future__ import annotations
@@ -133,6 +135,9 @@ class RawConfig(StrictModel):
     quantiles: list[float] | str | None = None
     #: Events on scalar outputs whose probabilities every method reports.
     events: list[EventSpec] = Field(default_factory=list)
+    #: Groups of inputs (name -> inputs) whose joint first-order Sobol' index the methods that
+    #: estimate indices report; default (None): each correlated group, named by its inputs.
+    groups: dict[str, list[str]] | None = None
     #: Integration steps one model run may take (a dt of 1e-9 s would run for ever).
     max_steps: int = Field(default=10_000_000, ge=1, le=10**12)
     #: Largest estimated peak memory of a run ("8 GB", or bytes); default half the machine's
@@ -443,7 +448,8 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
         outputs = _resolve_outputs(raw, model)
     _check_quantiles(raw)
     _check_events(raw, model, outputs)
-    methods = _build_methods(entries, replace(_run_context(raw, model, outputs), rows=rows))
+    methods = _build_methods(entries,
+                             replace(_run_context(raw, model, outputs, space), rows=rows))
     if rows is not None:
         from .data_source import check_rows_enough
 
@@ -690,9 +696,39 @@ def _resolve_outputs(raw: RawConfig, model: Model) -> tuple[str, ...]:
     return tuple(dict.fromkeys(raw.outputs))
 
 
-def _run_context(raw: RawConfig, model: Model, outputs: tuple[str, ...]) -> RunContext:
+def _resolve_groups(raw: RawConfig, space: InputSpace) -> tuple[tuple[str, tuple[int, ...]], ...]:
+    """The groups of inputs with an index of their own: the config's, else each correlated
+    group (named ``dx+dy+dz``)."""
+    names = list(space.names)
+    if raw.groups is None:
+        return tuple(("+".join(names[i] for i in g.index), tuple(g.index))
+                     for g in space.groups)
+    out = []
+    for gname, members in raw.groups.items():
+        field = f"groups.{gname}"
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_.+-]*", gname):
+            raise ConfigError(f"groups: group name {gname!r} must start with a letter or _ and "
+                              f"hold letters, digits, _ . + - only", field="groups")
+        if not members:
+            raise ConfigError(f"{field}: a group needs at least one input (got [])", field=field)
+        idx = []
+        for j, name in enumerate(members):
+            if name not in names:
+                raise ConfigError(f"{field}[{j}]: {name!r} is not an uncertain input of this "
+                                  f"config{did_you_mean(name, names)}; allowed: "
+                                  f"{', '.join(names)}", field=f"{field}[{j}]")
+            if names.index(name) in idx:
+                raise ConfigError(f"{field}[{j}]: {name!r} is listed twice", field=f"{field}[{j}]")
+            idx.append(names.index(name))
+        out.append((gname, tuple(idx)))
+    return tuple(out)
+
+
+def _run_context(raw: RawConfig, model: Model, outputs: tuple[str, ...],
+                 space: InputSpace) -> RunContext:
     """What every method of the config is told about the run (:class:`RunContext`)."""
     return RunContext(
+        groups=_resolve_groups(raw, space),
         report_times=tuple(raw.report_times) if raw.report_times else None,
         failure_policy=raw.pce_failure_policy,
         quantile_levels=resolve_levels(raw.quantiles),

@@ -259,7 +259,19 @@ class OutputStats:
     ci : dict of str to ndarray, shape (2, ..., k)
         95% interval (low, high) per statistic name, where known.
     sobol_first, sobol_total : ndarray, shape (..., k, d), optional
-        Sobol' indices per input (PCE only).
+        Sobol' indices per input: a PCE's from its coefficients, Monte Carlo's first-order
+        ones from its runs (:mod:`uqguide.stats.sobol_given_data`; NaN at the steps of a series
+        where none was computed).
+    sobol_first_ci, sobol_total_ci : ndarray, shape (2, ..., k, d), optional
+        Their 95% intervals (low, high), where the method gives them.
+    sobol_estimator : str
+        How the indices were estimated (``""``: no indices; ``"pce"``, ``"given-data"``).
+    sobol_groups : tuple of str
+        Names of the groups of inputs with indices (the config's ``groups``).
+    sobol_group_first : ndarray, shape (..., k, G), optional
+        First-order indices of those groups (given data; :mod:`uqguide.stats.sobol_groups`).
+    sobol_group_first_ci : ndarray, shape (2, ..., k, G), optional
+        Their 95% intervals.
     quantile_levels : tuple of float, optional
         Probabilities of the quantiles (the config's ``quantiles``).
     quantiles : ndarray, shape (q, ..., k), optional
@@ -301,6 +313,12 @@ class OutputStats:
     quantile_levels: tuple[float, ...] | None = None
     quantiles: np.ndarray | None = None
     ci_quantiles: np.ndarray | None = None
+    sobol_first_ci: np.ndarray | None = None
+    sobol_total_ci: np.ndarray | None = None
+    sobol_estimator: str = ""
+    sobol_groups: tuple[str, ...] = ()
+    sobol_group_first: np.ndarray | None = None
+    sobol_group_first_ci: np.ndarray | None = None
     corrected: dict[str, np.ndarray] = field(default_factory=dict)
     corrected_ci: dict[str, np.ndarray] = field(default_factory=dict)
     validation_error: np.ndarray | None = None

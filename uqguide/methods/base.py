@@ -161,6 +161,9 @@ class RunContext:
         The model's derivations of reported outputs from smoother carriers; a method with
         :attr:`Method.uses_derivations` fits the carriers and derives the output from their
         surrogates, the others use the model's own values.
+    groups : tuple of (str, tuple of int)
+        Groups of inputs (name, input columns) that get a Sobol' index of their own: the
+        config's ``groups``, or by default each correlated group.
     """
 
     report_times: tuple[float, ...] | None = None
@@ -171,6 +174,7 @@ class RunContext:
         default_factory=lambda: MappingProxyType({}))
     outputs: tuple[str, ...] = ()
     derived: Mapping[str, DerivedOutput] = field(default_factory=lambda: MappingProxyType({}))
+    groups: tuple[tuple[str, tuple[int, ...]], ...] = ()
     #: The data file's rows when the config gives ``data:``: the method's design is then
     #: these rows, not points it draws (only methods with an empty :attr:`Method.own_design`).
     rows: GivenRows | None = None

@@ -75,7 +75,10 @@ class MonteCarloReducer:
     orders 5-8) and
     ``"j:<field>:"`` (all scalar outputs stacked, for their joint covariance) and, when
     quantiles are asked for, ``"q::<output>"``: the good runs' values of each series at the
-    quantile steps (:func:`quantile_index`), merged by concatenation in chunk order.
+    quantile steps (:func:`quantile_index`), merged by concatenation in chunk order. With
+    ``sensitivity`` and no quantiles, ``"s::<output>"`` keeps the same values at the report
+    times and the last step only, for the given-data Sobol' indices (with quantiles, those
+    read the quantiles' values: a series is kept once).
     """
 
     bootstrap: int
@@ -85,13 +88,14 @@ class MonteCarloReducer:
     quantiles: bool = False
     n_total: int = 0
     intervals: str = "delta"
+    sensitivity: bool = False
 
     @staticmethod
     def per_run(key: str) -> bool:
-        """Whether a summary entry holds per-run values (``q::``, lane-major, a column per
-        good run) rather than sums: a process pool's workers write those in place
+        """Whether a summary entry holds per-run values (``q::`` or ``s::``, lane-major, a
+        column per good run) rather than sums: a process pool's workers write those in place
         (:mod:`uqguide.driver.execution.shared_rows`)."""
-        return key.startswith("q::")
+        return key.startswith(PER_RUN_KINDS)
 
     def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:
         ok = ~out.failed
@@ -161,6 +165,16 @@ class MonteCarloReducer:
                 kept = y[keep] if q_idx is None else y[keep][:, q_idx]
                 summary[f"q::{name}"] = np.ascontiguousarray(
                     kept.reshape(kept.shape[0], -1).T)
+        elif self.sensitivity and out.series:
+            s_idx = ci_index(out.time, self.report_times, "report")
+            for name, y in out.series.items():
+                kept = y[keep][:, s_idx]
+                summary[f"s::{name}"] = np.ascontiguousarray(
+                    kept.reshape(kept.shape[0], -1).T)
+
+
+#: Prefixes of the summary entries that hold per-run values (quantiles', sensitivity's).
+PER_RUN_KINDS = ("q::", "s::")
 
 
 def _put(summary: dict[str, np.ndarray], kind: str, name: str, sums: MomentSums) -> None:
@@ -169,10 +183,10 @@ def _put(summary: dict[str, np.ndarray], kind: str, name: str, sums: MomentSums)
 
 
 def split_summary(summary: dict[str, np.ndarray]) -> dict[tuple[str, str], MomentSums]:
-    """The moment sums of a chunk summary by ``(kind, output)`` (quantile values left out)."""
+    """The moment sums of a chunk summary by ``(kind, output)`` (per-run values left out)."""
     groups: dict[tuple[str, str], dict[str, np.ndarray]] = {}
     for key, v in summary.items():
-        if key.startswith("q:"):
+        if key.startswith(PER_RUN_KINDS):
             continue
         kind, f, name = key.split(":", 2)
         groups.setdefault((kind, name), {})[f] = v

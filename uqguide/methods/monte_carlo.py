@@ -40,6 +40,11 @@ Quantiles (the config's ``quantiles``) are order statistics with distribution-fr
 values at every step (at the report times and the last step above
 :data:`~uqguide.methods.mc_reduce.QUANTILE_ALL_FLOATS`), concatenated in chunk order. Events
 (the config's ``events``) are counted over the good runs with Clopper-Pearson intervals.
+
+The error budget (``sensitivity``): first-order Sobol' indices of every output on every input,
+at the report times and the last step of a series and for each scalar, with 95% intervals,
+from the same runs (:mod:`uqguide.methods.mc_sensitivity`); on by default up to 50 inputs from
+500 to 1e6 runs.
 """
 
 from __future__ import annotations
@@ -65,7 +70,10 @@ from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
 from ..stats.moments import OutputStats, statistics_from_sums
 from .base import Design, Estimate, GeneratedRows, MethodSettings, RunPlan, StreamingMethod
 from .mc_fold import FoldedSums
-from .mc_reduce import MonteCarloReducer, append_columns, ci_index, scalar_names, split_summary
+from .mc_reduce import (
+    PER_RUN_KINDS, MonteCarloReducer, append_columns, ci_index, scalar_names, split_summary,
+)
+from .mc_sensitivity import add_indices, wanted
 
 log = logging.getLogger(__name__)
 
@@ -102,6 +110,10 @@ class MonteCarloSettings(MethodSettings):
     bootstrap_times : {"report", "all"}
         Where a time series gets intervals: at the config's report times and the final step
         (default; cheap), or at every step.
+    sensitivity : {"auto", "on", "off"}
+        Given-data first-order Sobol' indices with 95% intervals (the error budget): ``auto``
+        when the inputs are at most 50 and the runs from 500 to 1e6
+        (:mod:`uqguide.methods.mc_sensitivity`).
     """
 
     n_samples: int = Field(ge=1, le=100_000_000)
@@ -110,6 +122,7 @@ class MonteCarloSettings(MethodSettings):
     intervals: Literal["delta", "bootstrap", "studentized"] = "delta"
     bootstrap: int = Field(default=200, ge=0, le=100_000)
     bootstrap_times: Literal["report", "all"] = "report"
+    sensitivity: Literal["auto", "on", "off"] = "auto"
 
 
 def method_seed(seed: int, label: str) -> np.random.SeedSequence:
@@ -211,7 +224,12 @@ class MonteCarlo(StreamingMethod):
         return MonteCarloReducer(self.settings.bootstrap, int(design.data.get("boot_seed", 0)),
                                  self.context.report_times, self.settings.bootstrap_times,
                                  quantiles=self.context.quantile_levels is not None,
-                                 n_total=design.n_runs, intervals=self.interval_kind)
+                                 n_total=design.n_runs, intervals=self.interval_kind,
+                                 sensitivity=self.sensitivity_for(space, design.n_runs))
+
+    def sensitivity_for(self, space: InputSpace, n_runs: int) -> bool:
+        """Whether this run estimates the given-data Sobol' indices."""
+        return wanted(self.settings.sensitivity, space.dim, n_runs)
 
     @property
     def interval_kind(self) -> str:
@@ -225,8 +243,9 @@ class MonteCarlo(StreamingMethod):
         acc = {_SUMS: FoldedSums()} if acc is None else acc
         acc[_SUMS].add(split_summary(summary))
         for key, v in summary.items():
-            if key.startswith("q:"):
-                append_columns(acc.setdefault(("q", key.split(":", 2)[2]), []), v)
+            if key.startswith(PER_RUN_KINDS):
+                kind, _, name = key.split(":", 2)
+                append_columns(acc.setdefault((kind, name), []), v)
         return acc
 
     def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
@@ -270,6 +289,14 @@ class MonteCarlo(StreamingMethod):
                     jobs[name] = (y.size, partial(_scalar_quantiles, y, ~runs.failed, levels))
         for name, (q, ci) in _run_jobs(jobs).items():
             _put_quantiles(stats[name], q, ci, levels or (), runs.time, self.context.report_times)
+        sobol_seconds = 0.0
+        if self.sensitivity_for(space, design.n_runs):
+            t_sobol = time.thread_time()  # (this thread: the estimator runs on it alone)
+            lanes = {name: acc.get(("q", name)) or acc.get(("s", name)) or []
+                     for name in stats}
+            add_indices(stats, space, design.x, runs, lanes, self.context.report_times,
+                        self.context.groups)
+            sobol_seconds = time.thread_time() - t_sobol
         events = count_events(list(self.context.events), runs.scalars, ~runs.failed,
                               dict(self.context.components)) \
             if self.context.events else {}
@@ -285,6 +312,7 @@ class MonteCarlo(StreamingMethod):
             "bootstrap_kind": "poisson",
             "intervals": self.interval_kind,
             "fit_seconds": time.perf_counter() - t0,
+            "sensitivity_cpu_seconds": sobol_seconds,
         }
         return Estimate(
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,

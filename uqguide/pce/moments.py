@@ -202,5 +202,5 @@ def output_statistics(
     return OutputStats(
         mean=mean, std=std.reshape(exp.shape), skewness=skew.reshape(exp.shape),
         kurtosis=kurt.reshape(exp.shape), cov=cov, n_used=int(n_runs), moments_method=moments,
-        sobol_first=first, sobol_total=total,
+        sobol_first=first, sobol_total=total, sobol_estimator="pce",
     )

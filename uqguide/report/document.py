@@ -3,8 +3,9 @@
 
 Sections: the uncertain inputs; the methods' cost (table and figure); per output its figure and
 its statistics at the report times beside the reference method's, with the reference's 95%
-interval; the agreement of each series with the reference over the whole grid; Sobol' indices
-where a PCE gave them; optionally the regression check against a baseline; and the provenance
+interval; the agreement of each series with the reference over the whole grid; the error
+budget (Sobol' indices of every method that gives them, tables and figures over time);
+optionally the regression check against a baseline; and the provenance
 (versions and the resolved config).
 """
 
@@ -21,13 +22,13 @@ import yaml
 
 from ..core import atomic
 from ..gate.check import CheckReport
+from .budget import budget_markdown, budget_tables
 from .plots import FigureFile, write_figures
 from .tables import (
     cost_table, events_table, events_text, series_agreement, statistics_table, to_markdown,
     wide_table,
 )
 from ..results.result import Result
-from ..results.statistics import result_statistics
 
 log = logging.getLogger(__name__)
 
@@ -42,29 +43,6 @@ def _inputs_table(result: Result) -> pd.DataFrame:
         rows.append({"input": spec.get("name", ""), "distribution": spec.get("dist", ""),
                      "parameters (SI)": params})
     return pd.DataFrame(rows)
-
-
-def _sobol_tables(result: Result) -> dict[str, pd.DataFrame]:
-    """Per scalar output component (and series at its last step): one row per input, the
-    first-order and total Sobol' indices of every method that gives them side by side."""
-    tables: dict[str, pd.DataFrame] = {}
-    described = result_statistics(result)
-    for o in result.outputs:
-        for c, comp in enumerate(o.components):
-            cols: dict[str, list[float]] = {}
-            for r in result.runs:
-                s = described[r.label].get(o.name)
-                if s is None or s.sobol_first is None or s.sobol_total is None:
-                    continue
-                first = s.sobol_first[-1] if o.kind == "series" else s.sobol_first
-                total = s.sobol_total[-1] if o.kind == "series" else s.sobol_total
-                cols[f"{r.label} first-order"] = [float(v) for v in first[c]]
-                cols[f"{r.label} total"] = [float(v) for v in total[c]]
-            if cols:
-                key = f"{o.name}{f'[{comp}]' if comp else ''}" + \
-                    (" at the last step" if o.kind == "series" else "")
-                tables[key] = pd.DataFrame({"input": result.input_names, **cols})
-    return tables
 
 
 def _img(path: Path, base: Path, alt: str) -> str:
@@ -115,7 +93,7 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
         kind = "time series" if o.kind == "series" else "scalar"
         parts += ["", f"### {o.name} [{o.unit}] ({kind})", "", o.description]
         for f in figures:
-            if f.output == o.name:
+            if f.output == o.name and f.kind != "budget":  # (in the budget section)
                 alt = f"{o.name} {f.component}".strip()
                 parts += ["", _img(f.path, base, alt)]
         head = "Statistics at the report times and the last step:" if o.kind == "series" \
@@ -134,11 +112,20 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
                   "Largest relative difference of the mean and the std over time (steps where "
                   "the reference is below 1e-3 of its peak are left out), and when it occurs.",
                   "", to_markdown(agree)]
-    sobol = _sobol_tables(result)
-    if sobol:
-        parts += ["", "## Sensitivity (Sobol' indices from the PCE coefficients)"]
-        for key, df in sobol.items():
-            parts += ["", f"{key}:", "", to_markdown(df)]
+    budgets = budget_tables(result, series_at_end=True)
+    if budgets:
+        parts += ["", "## Error budget (Sobol' indices)", "",
+                  "First-order index of each input: the fraction of the output's variance its "
+                  "uncertainty alone explains, with its 95% interval where the method gives "
+                  "one; share: its part of the sum of the positive first-order indices; total "
+                  "(PCE): with all its interactions."]
+        for f in figures:
+            if f.kind == "budget":
+                alt = f"error budget of {f.output} {f.component}".strip()
+                parts += ["", _img(f.path, base, alt)]
+        for b in budgets:
+            parts += ["", f"{b.title}:", "", to_markdown(budget_markdown(b)), "",
+                      f"Sum of the first-order indices: {b.first_sum:.3f}."]
     if check is not None:
         parts += ["", "## Regression check", "", check.summary()]
         rows = check.failures

@@ -14,6 +14,8 @@
   95% interval (Clopper-Pearson for Monte Carlo; a PCE's mean, with its control-variate
   interval where it was validated), not as a density. The runs of a PCE design are never
   histogrammed: quadrature nodes are not samples of the output's distribution.
+- the error budget of a series over time (:func:`uqguide.report.budget_plot.budget_figure`)
+  where a method gave Sobol' indices;
 - :func:`cost_figure`: the cost table (:func:`uqguide.report.tables.cost_table`) as bars and a
 table.
 
@@ -33,6 +35,7 @@ from typing import Any
 import numpy as np
 from scipy import stats as sps
 
+from .budget_plot import budget_figure, has_budget
 from .figures import Figure, new_figure, save
 from ..models.base import OutputInfo
 from .tables import cost_table
@@ -590,7 +593,9 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
 
     Files: ``<name>_<output>[_<component>].png`` per series output component,
     ``<name>_<output>_hist.png`` per scalar output, ``<name>_cost.png``; with quantiles also
-    ``<name>_<output>[_<component>]_envelope.png``. Each is written whole or not at all.
+    ``<name>_<output>[_<component>]_envelope.png``; with Sobol' indices of a series also
+    ``<name>_<output>[_<component>]_budget.png`` (:mod:`uqguide.report.budget_plot`).
+    Each is written whole or not at all.
 
     Parameters
     ----------
@@ -622,6 +627,11 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
                                   f"_envelope.png")
                     _save(envelope_figure(result, o.name, c), path, dpi)
                     files.append(FigureFile(path, "envelope", o.name, comp))
+                if has_budget(result, o.name):
+                    path = out / (f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
+                                  f"_budget.png")
+                    _save(budget_figure(result, o.name, c), path, dpi)
+                    files.append(FigureFile(path, "budget", o.name, comp))
         elif o.kind == "scalar":
             path = out / f"{stem}_{_safe(o.name)}_hist.png"
             _save(scalar_figure(result, o.name), path, dpi)

@@ -19,6 +19,7 @@ from ..core import atomic
 from ..core.failures import COLUMNS as FAILURE_COLUMNS, reason_rows
 from ..models.base import OutputInfo
 from ..results.result import Result
+from .budget import budget_tables, budget_text
 from ..results.statistics import CORRECTED_SUFFIX, Point, Statistic, points, result_statistics
 from ..config.report_times import report_indices  # noqa: F401 - imported from here by others
 
@@ -457,7 +458,8 @@ def render_text(result: Result) -> str:
     Returns
     -------
     str
-        Cost, statistics, events, series agreement, legend and failures, as plain text.
+        Cost, statistics, events, series agreement, the error budget of each scalar output
+        (:mod:`uqguide.report.budget`), legend and failures, as plain text.
     """
     parts = ["Cost", cost_table(result).to_string(index=False, na_rep="")]
     val = validation_table(result)
@@ -484,6 +486,8 @@ def render_text(result: Result) -> str:
     if not agree.empty:
         parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
                   f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
+    for b in budget_tables(result):
+        parts += ["", budget_text(b)]
     if any(result_statistics(result).values()):
         parts += ["", interval_legend(with_ref)]
     broken = [r for r in result.runs if not r.success]
@@ -574,6 +578,8 @@ def render_markdown(result: Result) -> str:
         if not sub.empty:
             parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
                       to_markdown(wide_table(sub, with_ref))]
+    for b in budget_tables(result):
+        parts += ["", budget_text(b)]
     if any(result_statistics(result).values()):
         parts += ["", interval_legend(with_ref)]
     events = events_table(result)

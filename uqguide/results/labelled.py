@@ -13,7 +13,15 @@ variable                 dims                                        what
 ``o_sem``                (..., o_component)                          standard error of the mean
 ``o_ci``                 (bound, statistic, ..., o_component)        95% intervals (NaN where
                                                                      the method gives none)
-``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE)
+``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE;
+                                                                     Monte Carlo: first order
+                                                                     from the runs, NaN at
+                                                                     steps not estimated)
+``o_sobol_first_ci``     (bound, ..., o_component, input)            their 95% intervals
+``o_sobol_total_ci``
+``o_sobol_group_first``  (..., o_component, group)                   first-order indices of the
+                                                                     config's groups of inputs
+``o_sobol_group_first_ci`` (bound, ..., o_component, group)          their 95% intervals
 ``o_quantile``           (quantile, ..., o_component)                quantiles at the levels
 ``o_ci_quantile``        (bound, quantile, ..., o_component)         their 95% intervals
 ``o_corrected``          (statistic, ..., o_component)               a validated PCE's
@@ -30,7 +38,8 @@ variable                 dims                                        what
                                                                      are NaN)
 =======================  ==========================================  =========================
 
-Coordinates: ``time`` [s], ``input`` (uncertain input names), ``statistic``, ``bound`` (low,
+Coordinates: ``time`` [s], ``input`` (uncertain input names), ``group`` (groups of inputs,
+where there are group indices), ``statistic``, ``bound`` (low,
 high), ``quantile`` (levels), ``o_component`` and ``o_component2`` (component names; a single
 component is named ``""``). Each output has its own component dimension because outputs differ
 in their number of components.
@@ -131,9 +140,24 @@ def method_variables(stats: Mapping[str, OutputStatistics], time: np.ndarray,
             out[f"{o.name}_ci"] = Variable(("bound", "statistic", *base), ci,
                                            {"description": "95% interval",
                                             "statistics": [m.name for m in given]})
-        for kind, sobol in (("sobol_first", v.sobol_first), ("sobol_total", v.sobol_total)):
+        for kind, sobol, band in (("sobol_first", v.sobol_first, v.sobol_first_ci),
+                                  ("sobol_total", v.sobol_total, v.sobol_total_ci)):
             if sobol is not None:
-                out[f"{o.name}_{kind}"] = Variable((*base, "input"), sobol, {"units": "1"})
+                out[f"{o.name}_{kind}"] = Variable(
+                    (*base, "input"), sobol,
+                    {"units": "1", "estimator": v.sobol_estimator or "pce"})
+            if sobol is not None and band is not None:
+                out[f"{o.name}_{kind}_ci"] = Variable(("bound", *base, "input"), band,
+                                                      {"units": "1",
+                                                       "description": "95% interval"})
+        if v.sobol_group_first is not None and v.sobol_groups:
+            coords["group"] = Variable(("group",), np.array(v.sobol_groups, dtype=object))
+            out[f"{o.name}_sobol_group_first"] = Variable(
+                (*base, "group"), v.sobol_group_first, {"units": "1", "estimator": "given-data"})
+            if v.sobol_group_first_ci is not None:
+                out[f"{o.name}_sobol_group_first_ci"] = Variable(
+                    ("bound", *base, "group"), v.sobol_group_first_ci,
+                    {"units": "1", "description": "95% interval"})
         if v.quantiles:
             levels = np.asarray(v.quantile_levels, dtype=float)
             if "quantile" in coords and not np.array_equal(coords["quantile"].data, levels):
@@ -221,6 +245,18 @@ def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[Outpu
             quantiles=get(f"{o.name}_quantile") if q else None,
             ci_quantiles=get(f"{o.name}_ci_quantile") if q else None,
         )
+        first = f"{o.name}_sobol_first"
+        if has(first):
+            stats[o.name].sobol_estimator = str(attrs(first).get("estimator", "pce"))
+            for kind in ("first", "total"):
+                if has(f"{o.name}_sobol_{kind}_ci"):
+                    setattr(stats[o.name], f"sobol_{kind}_ci", get(f"{o.name}_sobol_{kind}_ci"))
+        if has(f"{o.name}_sobol_group_first") and has("group"):
+            stats[o.name].sobol_groups = tuple(
+                g.decode() if isinstance(g, bytes) else str(g) for g in get("group"))
+            stats[o.name].sobol_group_first = get(f"{o.name}_sobol_group_first")
+            if has(f"{o.name}_sobol_group_first_ci"):
+                stats[o.name].sobol_group_first_ci = get(f"{o.name}_sobol_group_first_ci")
         if has(f"{o.name}_corrected"):
             cv, cci = get(f"{o.name}_corrected"), get(f"{o.name}_corrected_ci")
             stats[o.name].corrected = {n: cv[j] for j, n in enumerate(STAT_NAMES)}

@@ -219,11 +219,20 @@ class OutputStatistics:
     cov : ndarray, shape (..., k, k)
         The covariance between components.
     sobol_first, sobol_total : ndarray, shape (..., k, d), or None
-        Sobol' indices per input (PCE).
+        Sobol' indices per input (a PCE's; Monte Carlo's first-order ones, NaN at the steps
+        where none was computed).
     validation_error : ndarray, shape (..., k), or None
         A validated PCE's out-of-sample relative error.
     usable : ndarray of bool, shape (..., k), or None
         Where a PCE's surrogate is usable; None: not judged (sampling methods).
+    sobol_first_ci, sobol_total_ci : ndarray, shape (2, ..., k, d), or None
+        The indices' 95% intervals, where the method gives them.
+    sobol_estimator : str
+        ``"pce"``, ``"given-data"`` or ``""`` (no indices).
+    sobol_groups : tuple of str
+        Names of the groups of inputs with first-order indices.
+    sobol_group_first, sobol_group_first_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
+        Their indices and 95% intervals, or None.
     """
 
     label: str
@@ -239,6 +248,12 @@ class OutputStatistics:
     validation_error: np.ndarray | None = None
     usable: np.ndarray | None = None
     fallback: tuple[Statistic, ...] = ()
+    sobol_first_ci: np.ndarray | None = None
+    sobol_total_ci: np.ndarray | None = None
+    sobol_estimator: str = ""
+    sobol_groups: tuple[str, ...] = ()
+    sobol_group_first: np.ndarray | None = None
+    sobol_group_first_ci: np.ndarray | None = None
 
     @classmethod
     def of(cls, label: str, output: OutputInfo, s: OutputStats) -> OutputStatistics:
@@ -272,7 +287,9 @@ class OutputStatistics:
                       usable=None, level=float(p)) for j, p in enumerate(table[0]))
         return cls(label, output, moments, corrected, quantiles, int(s.n_used),
                    s.moments_method, s.cov, s.sobol_first, s.sobol_total,
-                   s.validation_error, usable, fallback)
+                   s.validation_error, usable, fallback, s.sobol_first_ci, s.sobol_total_ci,
+                   s.sobol_estimator or ("pce" if s.sobol_first is not None else ""),
+                   tuple(s.sobol_groups), s.sobol_group_first, s.sobol_group_first_ci)
 
     @property
     def statistics(self) -> tuple[Statistic, ...]:

@@ -1,0 +1,158 @@
+"""Given-data first-order Sobol' indices on Ishigami at equal runs: uqguide beside its peers.
+
+Ishigami ``sin x1 + 7 sin^2 x2 + 0.1 x3^4 sin x1``, ``x ~ U(-pi, pi)^3``: exact first-order
+indices (0.3139, 0.4424, 0). For each seed (default 50) one plain Monte Carlo sample of
+``--runs`` runs (default 2000, #29's acceptance) is given to every given-data estimator:
+
+- ``uqguide``: :func:`uqguide.stats.sobol_given_data.first_order_indices` (rank bins of
+  ``sqrt(n)`` runs, all pairs within a bin; 95% intervals from the influence function);
+- ``rank-neighbour``: Gamboa, Klein & Lagnoux (2022): each run paired with its rank neighbour
+  only (Chatterjee's xi); no interval;
+- ``salib-rbd-fast``: SALib's RBD-FAST on the same sample (``M = 10`` harmonics; its interval:
+  SALib's bootstrap);
+- ``salib-delta``: SALib's delta-moment method, whose ``S1`` is a given-data first-order index
+  (interval: SALib's bootstrap); not run by default (10 CPU-s an analysis: ask for it with
+  ``--methods``);
+
+and, at about the same number of runs but its own design:
+
+- ``salib-saltelli``: SALib's Sobol' analysis of a Saltelli design with ``N = runs / (d + 2)``
+  base runs, ``calc_second_order=False`` (``N (d + 2)`` runs; first-order interval: SALib's).
+
+The table gives, per method and index, the mean error (bias), its standard deviation over the
+seeds, the largest absolute error, how often the error exceeds 0.05, the coverage of the 95%
+interval and the median CPU seconds of one analysis (all indices). SALib is optional
+(``pip install uqguide[peers]``); without it its rows are skipped.
+
+    python benchmarks/sensitivity_peers.py [--runs 2000] [--seeds 50] [--methods ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+from collections.abc import Callable
+
+import numpy as np
+
+from uqguide.models.benchmarks import Ishigami
+from uqguide.stats.sobol_given_data import first_order_indices
+
+NAMES = ("x1", "x2", "x3")
+PROBLEM = {"num_vars": 3, "names": list(NAMES), "bounds": [[-np.pi, np.pi]] * 3}
+
+Estimate = tuple[np.ndarray, np.ndarray | None]  # (first (3,), ci (2, 3) or None)
+
+
+def ishigami(x: np.ndarray) -> np.ndarray:
+    return Ishigami().evaluate(x, NAMES).scalars["y"][:, 0]
+
+
+def ours(x: np.ndarray, y: np.ndarray, seed: int) -> Estimate:
+    est = first_order_indices(x, y[None, :])
+    return est.first[0], est.ci[:, 0]
+
+
+def rank_neighbour(x: np.ndarray, y: np.ndarray, seed: int) -> Estimate:
+    z = (y - y.mean()) / y.std(ddof=1)
+    first = []
+    for i in range(x.shape[1]):
+        zs = z[np.argsort(x[:, i])]
+        first.append(np.mean(zs[:-1] * zs[1:]))
+    return np.array(first), None
+
+
+def rbd_fast(x: np.ndarray, y: np.ndarray, seed: int) -> Estimate:
+    from SALib.analyze import rbd_fast as rbd
+
+    r = rbd.analyze(PROBLEM, x, y, M=10, seed=seed)
+    s1, conf = np.asarray(r["S1"]), np.asarray(r["S1_conf"])
+    return s1, np.stack([s1 - conf, s1 + conf])
+
+
+def delta(x: np.ndarray, y: np.ndarray, seed: int) -> Estimate:
+    from SALib.analyze import delta as dm
+
+    r = dm.analyze(PROBLEM, x, y, num_resamples=20, seed=seed)
+    s1, conf = np.asarray(r["S1"]), np.asarray(r["S1_conf"])
+    return s1, np.stack([s1 - conf, s1 + conf])
+
+
+GIVEN_DATA: dict[str, Callable[[np.ndarray, np.ndarray, int], Estimate]] = {
+    "uqguide": ours, "rank-neighbour": rank_neighbour, "salib-rbd-fast": rbd_fast,
+    "salib-delta": delta,
+}
+
+
+def saltelli(runs: int, seed: int) -> tuple[Estimate, int]:
+    from SALib.analyze import sobol
+    from SALib.sample import sobol as sobol_sample
+
+    n_base = max(2, runs // (len(NAMES) + 2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # N not a power of two: SALib warns of balance
+        x = sobol_sample.sample(PROBLEM, n_base, calc_second_order=False, seed=seed)
+    r = sobol.analyze(PROBLEM, ishigami(x), calc_second_order=False, seed=seed)
+    s1, conf = np.asarray(r["S1"]), np.asarray(r["S1_conf"])
+    return (s1, np.stack([s1 - conf, s1 + conf])), x.shape[0]
+
+
+def have_salib() -> bool:
+    try:
+        import SALib  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=2000)
+    ap.add_argument("--seeds", type=int, default=50)
+    ap.add_argument("--methods", nargs="+",
+                    default=["uqguide", "rank-neighbour", "salib-rbd-fast", "salib-saltelli"])
+    args = ap.parse_args()
+    exact = Ishigami().exact()["first"]
+    salib = have_salib()
+    methods = [m for m in args.methods if salib or not m.startswith("salib")]
+    if len(methods) < len(args.methods):
+        print("SALib not installed: its rows are skipped (pip install uqguide[peers])")
+    err = {m: np.zeros((args.seeds, 3)) for m in methods}
+    cover = {m: np.zeros(3) for m in methods}
+    has_ci = {m: False for m in methods}
+    cpu = {m: [] for m in methods}
+    runs_of = {m: args.runs for m in methods}
+    for seed in range(args.seeds):
+        x = np.random.default_rng(seed).uniform(-np.pi, np.pi, (args.runs, 3))
+        y = ishigami(x)
+        for m in methods:
+            t0 = time.process_time()
+            if m == "salib-saltelli":
+                (first, ci), runs_of[m] = saltelli(args.runs, seed)
+            else:
+                first, ci = GIVEN_DATA[m](x, y, seed)
+            cpu[m].append(time.process_time() - t0)
+            err[m][seed] = first - exact
+            if ci is not None:
+                has_ci[m] = True
+                cover[m] += (ci[0] <= exact) & (exact <= ci[1])
+    print(f"Ishigami, exact first-order indices {np.round(exact, 4).tolist()}; "
+          f"{args.seeds} seeds; plain Monte Carlo sample of {args.runs} runs "
+          f"(salib-saltelli: its own design)")
+    head = (f"{'method':16s} {'runs':>5s} {'index':>5s} {'bias':>8s} {'sd':>7s} "
+            f"{'max|err|':>8s} {'>0.05':>6s} {'cover95':>8s} {'cpu_s':>7s}")
+    print(head)
+    print("-" * len(head))
+    for m in methods:
+        e = err[m]
+        for i, name in enumerate(("S1", "S2", "S3")):
+            cov = f"{cover[m][i] / args.seeds:8.0%}" if has_ci[m] else f"{'-':>8s}"
+            print(f"{m:16s} {runs_of[m]:5d} {name:>5s} {e[:, i].mean():8.4f} "
+                  f"{e[:, i].std(ddof=1):7.4f} {np.abs(e[:, i]).max():8.4f} "
+                  f"{int(np.sum(np.abs(e[:, i]) > 0.05)):6d} {cov} "
+                  f"{np.median(cpu[m]):7.4f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,88 @@
+"""The error budget of a series over time: each input's first-order Sobol' index against time,
+one panel per method, the 95% interval as a band.
+
+Lines rather than stacked areas: the indices of a correlated input need not sum to at most 1,
+a given-data index near 0 may be slightly negative, and an interval band cannot stack. Monte
+Carlo has indices at the report times and the last step only (markers joined by lines); a PCE
+at every step. Only the inputs whose index reaches :data:`MIN_SHOWN` somewhere are drawn (at
+most :data:`MAX_LINES`, the largest first); the legend names how many others there are.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .figures import Figure, new_figure
+from ..results.result import Result
+from ..results.statistics import result_statistics
+
+#: An input is drawn when its index reaches this at some time.
+MIN_SHOWN = 0.02
+#: At most this many inputs are drawn per panel.
+MAX_LINES = 10
+_COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+            "#bcbd22", "#17becf", "#7f7f7f"]
+
+
+def has_budget(result: Result, output: str) -> bool:
+    """Whether some method has Sobol' indices of the series ``output``."""
+    described = result_statistics(result)
+    return any((s := d.get(output)) is not None and s.sobol_first is not None
+               and np.isfinite(np.asarray(s.sobol_first)).any() for d in described.values())
+
+
+def budget_figure(result: Result, output: str, component: int = 0) -> Figure:
+    """First-order indices of one component of a series output over time, per method.
+
+    Parameters
+    ----------
+    result : Result
+    output : str
+        A series output with indices (:func:`has_budget`).
+    component : int
+
+    Returns
+    -------
+    Figure
+    """
+    described = result_statistics(result)
+    panels = [(label, d[output]) for label, d in described.items()
+              if output in d and d[output].sobol_first is not None]
+    o = result.output(output)
+    comp = o.components[component]
+    fig = new_figure((8.0, 3.4 * max(len(panels), 1) + 0.8), layout="constrained")
+    axes = fig.subplots(max(len(panels), 1), 1, squeeze=False, sharex=True)[:, 0]
+    t = result.time
+    names = list(result.input_names)
+    for ax, (label, s) in zip(axes, panels):
+        first = np.asarray(s.sobol_first)[:, component]          # (T, d)
+        ci = None if s.sobol_first_ci is None else np.asarray(s.sobol_first_ci)[:, :, component]
+        at = np.flatnonzero(np.isfinite(first).any(axis=1))
+        peak = np.nanmax(np.where(np.isfinite(first[at]), first[at], -np.inf), axis=0)
+        order = [i for i in np.argsort(-peak, kind="stable") if peak[i] >= MIN_SHOWN]
+        shown = order[:MAX_LINES]
+        marker = "o" if s.sobol_estimator == "given-data" else None  # (at the report times)
+        for j, i in enumerate(shown):
+            colour = _COLOURS[j % len(_COLOURS)]
+            ax.plot(t[at], first[at, i], color=colour, marker=marker, ms=3, lw=1.4,
+                    label=names[i])
+            if ci is not None:
+                ax.fill_between(t[at], ci[0, at, i], ci[1, at, i], color=colour, alpha=0.18,
+                                lw=0)
+        left = len(names) - len(shown)
+        if left:
+            ax.plot([], [], " ", label=f"{left} other input{'s' * (left > 1)} "
+                                       f"(index < {MIN_SHOWN:g} throughout)")
+        how = "Monte Carlo runs (given data)" if s.sobol_estimator == "given-data" else \
+            "PCE coefficients"
+        ax.set_title(f"{label}: from the {how}", fontsize=10)
+        ax.set_ylabel("first-order Sobol' index")
+        ax.set_ylim(min(-0.05, float(np.nanmin(first[at])) - 0.02) if at.size else -0.05, 1.05)
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="best")
+    axes[-1].set_xlabel("time [s]")
+    what = f"{output}[{comp}]" if comp else output
+    fig.suptitle(f"{result.name}: error budget of {what} over time (95% intervals as bands)",
+                 fontsize=11)
+    return fig
