@@ -46,8 +46,10 @@ def budget_figure(result: Result, output: str, component: int = 0) -> Figure:
     Figure
     """
     described = result_statistics(result)
+    # A method with no usable surrogate keeps its indices as NaN: it gets no panel.
     panels = [(label, d[output]) for label, d in described.items()
-              if output in d and d[output].sobol_first is not None]
+              if output in d and d[output].sobol_first is not None
+              and np.isfinite(np.asarray(d[output].sobol_first)[:, component]).any()]
     o = result.output(output)
     comp = o.components[component]
     fig = new_figure((8.0, 3.4 * max(len(panels), 1) + 0.8), layout="constrained")
