@@ -20,6 +20,7 @@ import yaml
 from ..config.budget import check_memory, estimate
 from ..core.atomic import refuse_links
 from .checkpoint import RunStore, run_dir, run_identity
+from .run_manifest import study_config
 from ..config.run_config import RUN_NAME_RULE, RunConfig
 from ..errors import ConfigError
 from .execution import Executor, SerialExecutor
@@ -59,7 +60,8 @@ class Written:
 
 def _canonical(config: dict[str, Any]) -> str:
     # Through YAML as the result file keeps it, so a config read back compares equal.
-    return json.dumps(yaml.safe_load(yaml.safe_dump(config)), sort_keys=True, default=str)
+    return json.dumps(yaml.safe_load(yaml.safe_dump(study_config(config))), sort_keys=True,
+                      default=str)
 
 
 def check_same_study(result_path: Path, config: RunConfig, force: bool = False) -> None:
