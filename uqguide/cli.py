@@ -215,7 +215,7 @@ def validate(config: Path) -> None:
 
     A ``callable`` model's module is imported (its code runs): treat a config like code.
     """
-    from .config.budget import check_memory, estimate
+    from .config.budget import check_budget, estimate
     from .config.run_config import load_config
 
     cfg = load_config(config)
@@ -227,7 +227,7 @@ def validate(config: Path) -> None:
     click.echo("budget (serial run):")
     for line in budget.lines():
         click.echo(line)
-    check_memory(budget)
+    check_budget(budget)
 
 
 @main.command()

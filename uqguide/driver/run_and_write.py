@@ -17,7 +17,7 @@ from typing import Any
 
 import yaml
 
-from ..config.budget import check_memory, estimate
+from ..config.budget import check_budget, estimate
 from ..core.atomic import refuse_links
 from .checkpoint import RunStore, run_dir, run_identity
 from .run_manifest import study_config
@@ -173,7 +173,7 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     try:
         check_result_name(config)
         check_config_report_times(config)
-        check_memory(estimate(config, workers))  # before anything is allocated
+        check_budget(estimate(config, workers))  # before anything is allocated
         folder = run_dir(out_dir, config.name)  # inside out_dir: the name is a plain file name
         # A link where the run folder or the result goes would send checkpoints or the result
         # outside out_dir: refused before anything is written (the lock refuses its own).
