@@ -139,3 +139,20 @@ def leak_above(x):
 
 
 _kept: list = []
+
+
+def swallows_a_sigterm(x):
+    """``a + b``; on its first call a SIGTERM lands inside a bare ``except:`` of the user's
+    (the handler runs as if the signal had arrived there), which drops the exception."""
+    if not _swallowed:
+        _swallowed.append(True)
+        from uqguide.driver import interrupts
+
+        try:
+            interrupts._handler(signal.SIGTERM, None)
+        except BaseException:  # noqa: BLE001 - the user's code, as users write it
+            pass
+    return x[:, 0] + x[:, 1]
+
+
+_swallowed: list = []

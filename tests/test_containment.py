@@ -10,6 +10,7 @@ is ``benchmarks/contain_crashes.py``; its short form is the slow test at the end
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -137,3 +138,61 @@ def test_acceptance_4_segfaults_in_1000_and_kill_resume_bit_identical():
     assert (one["exit"], one["failed"]) == (0, 4), one
     for row in contain_crashes.kill_and_resume([2, 5, 8]):
         assert row["bit-identical"] and row["crashers run again"] == 0, row
+
+
+def test_a_sample_of_the_containment_fuzz_is_clean():
+    """4 of benchmarks/fuzz_containment.py's layouts (run whole: 0 writes outside --out and 0
+    user files lost over every layout), in this process."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import fuzz_containment
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    assert len(fuzz_containment.layouts()) >= 200
+    outcomes = fuzz_containment.run_all(sample=4, seed=26)
+    assert [o.verdict for o in outcomes] == ["ok"] * 4, [
+        (o.layout.label, o.verdict, o.escaped, o.lost) for o in outcomes]
+
+
+def test_a_signal_swallowed_before_the_result_is_written_is_exit_130(tmp_path, monkeypatch):
+    """A SIGTERM that lands in code that catches it (a user's bare ``except:``) used to let
+    the run finish and exit 0, though the signal came before the result was written: the
+    command now exits 130 (the result is whole, a resume or rerun gives the same numbers)."""
+    from tests import failing_models
+
+    monkeypatch.setattr(failing_models, "_swallowed", [])
+    cfg = mc_config("tests.failing_models:swallows_a_sigterm", 40, 20)
+    cfg["model"]["isolate"] = False  # the user's code runs in the driver, where signals land
+    path = tmp_path / "sw.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    res = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "o"), "-q"])
+    assert res.exit_code == 130, res.output
+    assert res.stderr.strip().splitlines()[-1] == \
+        "terminated (SIGTERM); nothing was left half-written"
+
+
+def test_a_hard_link_at_the_lock_is_refused_before_anything_is_written(tmp_path):
+    """Found by benchmarks/fuzz_containment.py: O_NOFOLLOW stops a symbolic link, not a
+    second name of a file outside --out, which the lock truncated and wrote."""
+    from uqguide.driver.runlock import RunLock
+    from uqguide.errors import ConfigError
+
+    victim = tmp_path / "outside.txt"
+    victim.write_text("the user's\n")
+    (tmp_path / "out").mkdir()
+    os.link(victim, tmp_path / "out" / "st.run.lock")
+    with pytest.raises(ConfigError, match="is a hard link"):
+        RunLock(tmp_path / "out" / "st.run").acquire()
+    assert victim.read_text() == "the user's\n"
+
+
+def test_a_folder_where_a_table_goes_is_refused_before_the_run(tmp_path, write_config):
+    """Also found by the fuzzer: a user's folder named like a table stopped the run with a
+    traceback after all its work, at the rename."""
+    cfg = write_config({**mc_config("tests.failing_models:clean_sum", 20, 10), "name": "t"})
+    (tmp_path / "o" / "t_stats.csv").mkdir(parents=True)
+    res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(tmp_path / "o"), "-q"])
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip().splitlines()[-1].startswith(
+        f"error: --out: {tmp_path / 'o' / 't_stats.csv'} is a folder;")
+    assert not (tmp_path / "o" / "t.h5").exists()

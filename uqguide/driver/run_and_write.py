@@ -18,7 +18,7 @@ from typing import Any
 import yaml
 
 from ..config.budget import check_budget, estimate
-from ..core.atomic import refuse_links
+from ..core.atomic import refuse_folders, refuse_links
 from .checkpoint import RunStore, run_dir, run_identity
 from .run_manifest import study_config
 from ..config.run_config import RUN_NAME_RULE, RunConfig
@@ -177,7 +177,11 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
         folder = run_dir(out_dir, config.name)  # inside out_dir: the name is a plain file name
         # A link where the run folder or the result goes would send checkpoints or the result
         # outside out_dir: refused before anything is written (the lock refuses its own).
-        refuse_links(folder, out_dir / f"{config.name}.h5")
+        outputs = [out_dir / f"{config.name}{tail}" for tail in
+                   (".h5", "_stats.csv", "_cost.csv", "_summary.md", "_events.csv")]
+        refuse_links(folder, *outputs)
+        # ... and a folder where a file goes would stop the run after its work, at the rename
+        refuse_folders(*outputs)
         with RunLock(folder):
             check_same_study(out_dir / f"{config.name}.h5", config, force)
             store = RunStore.open(folder, run_identity(config.resolved(), config.model), resume,
