@@ -39,16 +39,16 @@ def _above(cfg: dict, k: int) -> float:
 
 
 def test_a_segfaulting_sample_costs_only_itself_in_a_serial_run(tmp_path, monkeypatch):
-    cfg = {**mc_config("tests.failing_models:segfault_above", 48, 16),
+    cfg = {**mc_config("tests.failing_models:segfault_above", 32, 16),
            "max_failed_fraction": 0.5, "name": "seg"}
-    thr = _above(cfg, 2)
+    thr = _above(cfg, 1)
     monkeypatch.setenv("UQGUIDE_TEST_SEGFAULT_ABOVE", repr(thr))
     path = tmp_path / "seg.yaml"
     path.write_text(yaml.safe_dump(cfg))
     res = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "o"), "-q"])
     assert res.exit_code == 0, res.output
     r = read_hdf5(tmp_path / "o" / "seg.h5").run("mc")
-    assert r.n_failed == 2
+    assert r.n_failed == 1
     np.testing.assert_array_equal(r.failed, r.x[:, 0] > thr)
     assert set(map(str, r.reasons[r.failed])) == {"model process crashed (exit code -11)"}
     ok = ~r.failed

@@ -223,8 +223,8 @@ def check_budget(budget: Budget) -> None:
     ----------
     budget : Budget
     """
+    check_memory(budget)  # first: a basis too large to hold is the more basic refusal
     check_surrogate(budget)
-    check_memory(budget)
 
 
 def check_surrogate(budget: Budget) -> None:
