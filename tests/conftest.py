@@ -29,3 +29,16 @@ def lognormal_config() -> dict:
         "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 4000}],
         "seed": 7,
     }
+
+
+@pytest.fixture(scope="session")
+def decay_fmu(tmp_path_factory) -> Path:
+    """The test FMU of ``tests/fmu_decay.py`` (x' = -k x), compiled once per session."""
+    import shutil
+
+    pytest.importorskip("fmpy", reason="the fmu model needs FMPy: pip install 'uqguide[fmu]'")
+    if shutil.which("cc") is None:
+        pytest.skip("no C compiler 'cc' on PATH to build the test FMU")
+    from tests import fmu_decay
+
+    return fmu_decay.build(tmp_path_factory.mktemp("fmu"))

@@ -33,6 +33,7 @@ def result():
     return uqguide.run(CONFIG)
 
 
+@pytest.mark.slow
 def test_the_api_docstrings_run():
     failed, tried = doctest.testmod(uqguide.api, optionflags=doctest.ELLIPSIS)
     assert tried >= 8 and failed == 0
@@ -44,6 +45,7 @@ def test_load_config_takes_a_mapping_a_study_name_and_a_loaded_config():
     assert uqguide.load_config("ftcapn_table3").model.name == "ftcapn"
 
 
+@pytest.mark.slow
 def test_to_xarray_holds_every_statistic_exactly(result):
     ds = result.to_xarray()
     assert list(ds["label"].values) == ["mc", "tensor"]

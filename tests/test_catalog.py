@@ -51,6 +51,7 @@ def test_a_file_wins_over_a_study_and_a_missing_path_names_the_study(tmp_path):
         resolve(tmp_path / "configs" / "ftcapn_table3.yaml")
 
 
+@pytest.mark.slow
 def test_an_unknown_name_exits_2_with_a_suggestion(tmp_path):
     out = _cli("run", "ftcapn_tabel3", cwd=tmp_path)
     assert out.returncode == 2

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import numpy as np
 from click.testing import CliRunner
 
@@ -92,6 +93,7 @@ def test_reference_with_zero_variance_output_prints_without_a_verdict(write_conf
     assert "(+0, ?)" in res.output
 
 
+@pytest.mark.slow
 def test_a_bad_config_with_workers_exits_2_and_leaves_no_worker_behind(tmp_path):
     """``--workers`` starts the pool before the config is read; a config that fails still
     exits 2 with the field named, no traceback and nothing written, and the workers end with

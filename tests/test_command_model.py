@@ -317,6 +317,7 @@ def _assert_same_bits(a, b) -> None:
                                           b.estimate.stats[name].stat(stat))
 
 
+@pytest.mark.slow
 def test_two_workers_give_the_bits_of_a_serial_run(program, tmp_path):
     cfg = _config(program, tmp_path, n=200, batch=25, mode="abort", thresh=1.8)
     serial = uqguide.run(cfg).run("mc")

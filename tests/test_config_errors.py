@@ -23,7 +23,7 @@ seed: 1
 # (defect, replacement applied to GOOD, the exact first line of stderr after "error: ")
 CASES = [
     ("unknown_top_key", ("seed: 1", "seed: 1\nsede: 2"),
-     "sede: unknown key (did you mean 'seed'?); allowed keys: name, description, model, "
+     "sede: unknown key (did you mean 'seed'?); allowed keys: name, description, model, data, "
      "inputs, correlations, outputs, report_times, methods, reference, seed, batch_size, "
      "max_failed_fraction, pce_failure_policy, quantiles, events, max_steps, max_memory, "
      "timeout_s"),

@@ -204,6 +204,7 @@ JSONISH = st.recursive(
     max_leaves=5)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())

@@ -64,6 +64,7 @@ def _lognormal_central_moments(s2: float) -> tuple[np.ndarray, ...]:
                  for p in range(2, 9))
 
 
+@pytest.mark.slow
 def test_delta_coverage_matches_the_known_answer_and_the_bootstrap():
     """R replicates of the lognormal benchmark (n = 4000 each, seeds 0..R-1).
 
@@ -138,6 +139,7 @@ def test_bad_interval_method_names_the_field_and_the_choices(lognormal_config):
     assert "intervals" in text and "jackknife" in text and "bootstrap" in text
 
 
+@pytest.mark.slow
 def test_a_monte_carlo_only_run_imports_no_chaospy(tmp_path):
     cfg = tmp_path / "mc.yaml"
     cfg.write_text(textwrap.dedent("""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import numpy as np
 
 from uqguide.config.run_config import validate_config
@@ -20,6 +21,7 @@ def _config(methods):
     }
 
 
+@pytest.mark.slow
 def test_pce_gets_the_miss_distance_through_the_stop_state_surrogate():
     cfg = validate_config(_config([
         {"name": "monte_carlo", "label": "mc", "n_samples": 20000},

@@ -46,6 +46,7 @@ def _exact_cp_coverage(n: int, p: float) -> float:
     return float(stats.binom.pmf(ks, n, p)[cover].sum())
 
 
+@pytest.mark.slow
 def test_event_intervals_cover_the_true_probability_over_seeds():
     """200 seeds of a 400-run Monte Carlo of P(y > t) with p = 0.02 exactly: the number of
     intervals that cover p is Bin(200, c) with c the exact coverage (>= 0.95); 4 sigma."""
@@ -103,6 +104,7 @@ def test_bad_events_name_the_field(events, field, words):
     {"validation_runs": 400},                                    # random runs (legacy form)
     {"validation": {"n_samples": 400}},                          # stratified by the surrogate
 ])
+@pytest.mark.slow
 def test_pce_validation_runs_correct_a_biased_surrogate_probability_over_seeds(validation):
     """A degree-1 PCE of a lognormal output has a Gaussian tail: its own probability of
     y > exp(2 s) (exactly 1 - Phi(2)) is far off. With 400 validation runs, random or

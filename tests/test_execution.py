@@ -58,6 +58,7 @@ def serial_result():
     return run(validate_config(FLAKY))
 
 
+@pytest.mark.slow
 def test_serial_and_process_pool_give_identical_statistics(serial_result):
     cfg = validate_config(FLAKY)
     serial = _arrays(serial_result)
@@ -117,6 +118,7 @@ def test_estimate_on_outputs_in_memory_equals_the_streamed_estimate(serial_resul
                               equal_nan=True)
 
 
+@pytest.mark.slow
 def test_a_crashed_worker_fails_only_its_crashing_samples_and_the_pool_goes_on():
     cfg = validate_config({
         "model": {"name": "callable", "function": "tests.failing_models:crash_worker",
@@ -146,6 +148,7 @@ def test_a_crashed_worker_fails_only_its_crashing_samples_and_the_pool_goes_on()
     assert r.estimate.stats["y"].n_used == ok.sum()
 
 
+@pytest.mark.slow
 def test_cli_workers_gives_the_serial_result_and_executor_options_are_checked(write_config,
                                                                               tmp_path):
     import yaml

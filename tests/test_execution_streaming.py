@@ -3,6 +3,7 @@ has the width of normal theory; progress display."""
 
 from __future__ import annotations
 
+import pytest
 import io
 import re
 
@@ -52,6 +53,7 @@ def test_weighted_sums_with_unit_weights_are_the_plain_sums():
         np.testing.assert_allclose(getattr(wk, f)[0], getattr(rep, f), rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_poisson_bootstrap_width_matches_normal_theory():
     # Same reasoning and tolerances as the multinomial bootstrap's test in test_stats.py
     # (Poisson(1) weights are the n -> infinity limit of multinomial counts): widths within

@@ -77,6 +77,7 @@ def _stop(proc, sig=signal.SIGKILL) -> None:
 
 
 # ---------------------------------------------------------------------------- 1. run folder
+@pytest.mark.slow
 def test_a_second_run_into_the_same_folder_is_refused_naming_the_owner(tmp_path):
     cfg = _write(tmp_path / "slow.yaml", _config("tests.failing_models:slow_sum", n=2000,
                                                  chunk=100))
@@ -121,6 +122,7 @@ def _interrupted_run(tmp_path: Path, seed: int, sub: str) -> tuple[Path, Path]:
     return cfg, out / "mix.run"
 
 
+@pytest.mark.slow
 def test_chunks_of_another_seed_are_refused_on_resume(tmp_path):
     """Issue 15 item 1: seed-11 chunks folded into a seed-12 resume exited 0 with wrong
     statistics. Both ways of mixing them in (manifest lines of the other run; chunk files of
@@ -151,6 +153,7 @@ def test_chunks_of_another_seed_are_refused_on_resume(tmp_path):
     assert not (run12.parent / "mix.h5").exists()
 
 
+@pytest.mark.slow
 def test_resume_after_a_kill_still_completes(tmp_path):
     cfg, run = _interrupted_run(tmp_path, 5, "k")
     res = _invoke("run", cfg, "--out", run.parent, "--resume")
@@ -470,6 +473,7 @@ def test_sigint_or_sigterm_at_20_random_moments_is_exit_130_and_resumes_identica
     assert codes.count(130) >= 15, codes  # nearly every moment falls inside the run
 
 
+@pytest.mark.slow
 def test_sigterm_mid_run_is_exit_130_and_resumes_identically(tmp_path):
     """The default suite's one-moment version of the test above: SIGTERM (the signal the
     Ctrl-C test in test_resume.py does not send) once two chunks are written ends in exit 130
@@ -555,6 +559,7 @@ def _one_sample_above(n: int, chunk: int, seed: int) -> tuple[float, int]:
     return float(top.mean()), int(np.argmax(a))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind, workers", [("hang", None), ("crash", 2)])
 def test_a_hanging_or_crashing_sample_costs_exactly_one_sample(tmp_path, monkeypatch, kind,
                                                                workers):
@@ -612,6 +617,7 @@ def test_workers_die_with_a_killed_driver(tmp_path):
 
 
 # ---------------------------------------------------------------------------- config fuzz
+@pytest.mark.slow
 def test_a_sample_of_the_config_fuzz_is_clean():
     """20 of benchmarks/fuzz_configs.py's 519 mutations (run whole: every invalid one a clean
     exit 2, 0 hangs, 0 tracebacks, 0 silent acceptances), each in a forked child killed

@@ -8,7 +8,7 @@ import pytest
 import uqguide
 from uqguide.errors import ConfigError
 
-PUBLIC = ("run", "load_config", "read_result", "Result", "RunConfig", "Model", "Method")
+PUBLIC = ("run", "load_config", "read_result", "fit", "Result", "RunConfig", "Model", "Method")
 
 
 def test_dir_lists_the_api_and_all_agrees():
@@ -31,6 +31,7 @@ def test_each_name_is_the_object_it_stands_for():
     assert uqguide.run is api.run
     assert uqguide.load_config is api.load_config
     assert uqguide.read_result is api.read_result
+    assert uqguide.fit is api.fit
     assert uqguide.Result is Result
     assert uqguide.RunConfig is RunConfig
     assert uqguide.Model is Model

@@ -165,6 +165,7 @@ def test_observer_converges_on_a_known_disturbance():
     assert eps2_late <= 10 * gains.lam3 * h
 
 
+@pytest.mark.slow
 def test_relative_kinematics_match_absolute_propagation():
     # spec test 2: integrate (sigma_{B/N}, omega) and (sigma_e, omega) side by side, no control.
     rng = np.random.default_rng(7)

@@ -150,6 +150,7 @@ def test_gains_follow_params():
     assert FTASParams().gains().c == 0.9
 
 
+@pytest.mark.slow
 def test_numpy_whole_run_reference_matches_kernel_metrics():
     # every metric and recorded group of the compiled kernel against the independently written
     # numpy loop (kernel_numpy.py), 60 s at h = 0.1 s through the saturated start, all controllers

@@ -150,6 +150,7 @@ def coarse():
     return {r.quantity: r for r in rows}, {v.label: i for i, v in enumerate(variants)}, res, model
 
 
+@pytest.mark.slow
 def test_coarse_observer_converges_within_5s_C1(coarse):
     rows, idx, res, _ = coarse
     for lab in ("FT-AS", "Case 1", "Case 2"):
@@ -183,6 +184,7 @@ def test_coarse_report_rows_are_checked_and_name_their_statistic(coarse):
         assert r.statistic.startswith("median of 7 runs under 1e-12 input perturbations; range")
 
 
+@pytest.mark.slow
 def test_coarse_nominal_figures_are_written(tmp_path):
     # drawing 3000 s of records costs ~19 CPU-s whatever the step: 60 s show the same figures
     paths = nominal_figures(FTAS({"step": 0.1, "duration": 60.0, "output_interval": 10.0,

@@ -18,6 +18,7 @@ def tp():
     return module
 
 
+@pytest.mark.slow
 def test_ftcapn_case_runs_and_formats(tp):
     case = next(c for c in tp.discover_cases() if c["model"] == "ftcapn")
     case = {**case, "params": {"kernel": "numpy"}}

@@ -48,6 +48,7 @@ COARSE = {"body": (40,), "panel+y": (57, 29), "panel-y": (57, 29),
 """A 0.2x-per-axis version of the spec 4.3 grid with the same weight proportions."""
 
 
+@pytest.mark.slow
 def test_coarse_cloud_fit_recovers_the_published_layout():
     # The means do not depend on the grid density. The variances do (a grid of m points has
     # variance L^2/12 * (m+1)/(m-1)), so they are not compared; the weights shift by the share

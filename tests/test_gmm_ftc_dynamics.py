@@ -70,6 +70,7 @@ def test_body_lvlh_round_trip_and_transport_theorem():
     np.testing.assert_allclose((plus - minus) / (2 * h), v_l, atol=1e-8)
 
 
+@pytest.mark.slow
 def test_zero_spin_circular_orbit_is_clohessy_wiltshire():
     orbit = ChiefOrbit(6878.14e3, 0.0, 0.0, 3.986e14)
     frame = RotatingBodyFrame(orbit, np.zeros((1, 3)))
@@ -80,6 +81,7 @@ def test_zero_spin_circular_orbit_is_clohessy_wiltshire():
     np.testing.assert_allclose(traj[:, -1], ref, rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("w", [(0.0, 0.0, 0.05), (0.02, -0.03, 0.04)])
 def test_body_frame_propagation_matches_lvlh_propagation(w):
     """Spec 3 / 12.4: corrected [C 7] mapped to LVLH equals TH in LVLH to < 1e-6 m over 200 s."""
@@ -97,6 +99,7 @@ def test_body_frame_propagation_matches_lvlh_propagation(w):
     assert np.linalg.norm(r_p - lvlh[:, -1, :3]) > 0.1
 
 
+@pytest.mark.slow
 def test_free_drift_conserves_the_cw_jacobi_integral():
     """On a circular orbit the CW energy 1/2|v|^2 - 3/2 n^2 x^2 + 1/2 n^2 z^2 is conserved; the
     body-frame propagation of a tumbling target must conserve it once mapped to LVLH."""

@@ -42,6 +42,7 @@ def test_numba_kernel_matches_numpy_reference(variant):
         np.testing.assert_allclose(fast.scalars[k], a, rtol=1e-10, atol=1e-14, err_msg=k)
 
 
+@pytest.mark.slow
 def test_numba_kernel_collision_verdict_on_a_chaotic_run():
     params = {"t_final": 80.0, "thrust_noise": 0.0}
     x = np.array([[-6.0], [0.0]])  # start (12, -3, 1): crosses the +x panel (spec 11)

@@ -87,6 +87,7 @@ def test_nominal_report_flags(nominal):
     assert bound.value == pytest.approx(500.0)
 
 
+@pytest.mark.slow
 def test_nominal_figures(nominal, tmp_path):
     paths = nominal_figures(nominal, tmp_path)
     assert [p.name for p in paths] == [

@@ -66,7 +66,13 @@ FIELDS = ("r", "v", "zem", "delta_v_history", "delta_v", "clearance", "penetrati
 EXACT = ("hits", "n_saturated", "n_nonfinite", "failed")
 
 
-@pytest.mark.parametrize("case", sorted(CASES))
+# Each case costs ~1 CPU-s (the NumPy reference steps in Python). The default suite keeps one
+# case per controller family and saturation mode; the slow tests run the rest.
+SLOW_CASES = {"F2_ntsmc", "literal_ntsmc_published_law", "E_gmm_tsmc", "F2_no_saturation_fitted"}
+
+
+@pytest.mark.parametrize("case", [
+    pytest.param(c, marks=[pytest.mark.slow] if c in SLOW_CASES else []) for c in sorted(CASES)])
 def test_compiled_kernel_agrees_with_the_reference(case, monkeypatch):
     params, gmm = CASES[case]
     vals = _inputs(N, seed=sorted(CASES).index(case), gmm=gmm)

@@ -3,6 +3,7 @@ the check itself sees a cycle when there is one."""
 
 from __future__ import annotations
 
+import pytest
 import importlib.util
 import sys
 from pathlib import Path
@@ -18,6 +19,7 @@ def _script():
     return mod
 
 
+@pytest.mark.slow
 def test_the_package_has_no_cycle_and_no_arrow_back_up(capsys):
     assert _script().main([]) == 0, capsys.readouterr().out
 

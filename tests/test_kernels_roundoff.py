@@ -161,6 +161,7 @@ plus_one = kernels.njit(cache=True)(_plus_one)
 """
 
 
+@pytest.mark.slow
 def test_a_fresh_compile_says_so_once_per_family_and_a_cached_run_is_silent(tmp_path):
     # The cheap version of the ftcapn test above: two compiled functions of one family in an
     # empty cache folder print the notice once; a second process loads them and is silent.

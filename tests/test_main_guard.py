@@ -45,6 +45,7 @@ def _run(path: Path) -> subprocess.CompletedProcess[str]:
                           text=True, timeout=STUCK_S)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("workers, timeout_s", [(2, None), (1, 30.0)],
                          ids=["process-pool", "guard-process"])
 def test_an_unguarded_script_gets_one_error_that_names_the_fix(tmp_path, workers, timeout_s):
@@ -57,6 +58,7 @@ def test_an_unguarded_script_gets_one_error_that_names_the_fix(tmp_path, workers
     assert "n_runs" not in done.stdout
 
 
+@pytest.mark.slow
 def test_the_same_script_with_the_guard_runs(tmp_path):
     done = _run(_script(tmp_path, guard=True, workers=2, timeout_s=None))
     assert done.returncode == 0, done.stderr[-3000:]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -42,6 +43,7 @@ def test_kinematics_matrix_dot_is_the_derivative(sigma, sigma_dot):
     np.testing.assert_allclose(mrp.kinematics_matrix_dot(sigma, sigma_dot), fd, atol=1e-10)
 
 
+@pytest.mark.slow
 @given(vec, rate)
 def test_dcm_rate_is_minus_skew_omega_times_dcm(sigma, omega):
     # sigma_dot = G omega; d/dt C = -S(omega) C. Fourth-order central difference along the

@@ -37,6 +37,7 @@ def test_a_model_without_a_paper_scenario(tmp_path):
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_importing_the_models_pulls_in_neither_papers_nor_matplotlib():
     # the layering the import graph checks statically, checked at run time too
     code = ("import sys, uqguide.config.registry as r\n"

@@ -172,6 +172,7 @@ def test_loo_path_drops_a_column_in_the_span(noisy_problem):
     assert path.loo[-1] == pytest.approx(_direct_loo(psi, y, [1, 2, 3, 5]), rel=1e-9)
 
 
+@pytest.mark.slow
 def test_columns_fitted_together_equal_their_separate_fits():
     """The principal components of a series share one candidate basis (and its LARS layout):
     each column's expansion is the one it gets when fitted alone."""

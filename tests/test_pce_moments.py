@@ -165,6 +165,7 @@ def test_products_of_legendre_terms_match_closed_form(rule):
     np.testing.assert_allclose(np.ravel(_rule_moments(exp, rule)), want, rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_linearisation_and_grid_agree_on_random_sparse_expansions():
     """Both exact rules, on sparse expansions in several germ families at once (normal,
     uniform and truncated normal)."""

@@ -250,6 +250,7 @@ def test_stored_derived_output_is_recomputed_from_its_carriers(tmp_path):
 
 
 # ---------------------------------------------------------------------------- plots
+@pytest.mark.slow
 def test_pce_density_is_a_kde_of_the_kept_surrogate(tmp_path):
     """On Ishigami (a bimodal-looking, flat-topped density) the PCE curve is the KDE of its
     surrogate's draws, not a moment fit; read back from the file, the same curve."""

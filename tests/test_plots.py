@@ -118,6 +118,7 @@ def test_cost_figure_shows_every_method(result):
     assert "wall time [s]" in [a.get_xlabel() for a in fig.axes]
 
 
+@pytest.mark.slow
 def test_write_figures_and_report_files(result, tmp_path):
     files = write_figures(result, tmp_path / "fig")
     names = [f.path.name for f in files]
@@ -152,6 +153,7 @@ FTCAPN = {
 }
 
 
+@pytest.mark.slow
 def test_plot_and_report_commands_on_an_ftcapn_result(write_config, tmp_path):
     runner = CliRunner()
     res = runner.invoke(main, ["run", str(write_config(FTCAPN, "ft.yaml")), "--out",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import sys
 from pathlib import Path
 
@@ -13,6 +14,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import reproduce_results  # noqa: E402
 
 
+@pytest.mark.slow
 def test_runs_registered_configs_and_skips_the_others(tmp_path):
     configs = tmp_path / "configs"
     configs.mkdir()

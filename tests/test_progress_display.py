@@ -3,6 +3,7 @@ and the PCE fit phases), a few plain lines elsewhere, nothing with -q."""
 
 from __future__ import annotations
 
+import pytest
 import io
 import re
 import subprocess
@@ -75,6 +76,7 @@ def test_off_a_terminal_few_plain_lines_and_no_repeated_last_line():
     assert slow.getvalue() == ""
 
 
+@pytest.mark.slow
 def test_quiet_shows_nothing(tmp_path):
     cfg = {"model": {"name": "linear_gaussian"},
            "inputs": [{"name": "x1", "dist": "normal", "mean": 0.0, "std": 1.0}],
@@ -88,6 +90,7 @@ def test_quiet_shows_nothing(tmp_path):
     assert p.stderr == ""
 
 
+@pytest.mark.slow
 def test_in_a_pseudo_terminal_the_pce_fit_shows_its_phases(tmp_path):
     import shutil
 

@@ -39,6 +39,7 @@ def test_ranks_give_the_textbook_interval():
     assert ci[0, 0, 0] == -np.inf and ci[1, 1, 0] == np.inf
 
 
+@pytest.mark.slow
 def test_monte_carlo_intervals_cover_the_exact_lognormal_quantiles_over_200_seeds():
     """For each level, the intervals that cover the exact quantile over 200 seeds number
     Bin(200, c), c the exact coverage of the order-statistic interval (>= 0.95): within 4
@@ -114,6 +115,7 @@ def test_bad_quantile_levels_name_the_field(value, field):
     assert exc.value.field == field
 
 
+@pytest.mark.slow
 def test_envelope_figure_and_events_section_are_written(tmp_path):
     from uqguide.report.plots import write_figures
     from uqguide.report.tables import render_markdown

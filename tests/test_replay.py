@@ -48,6 +48,7 @@ def no_figures(monkeypatch):
     monkeypatch.setattr(uqguide.papers, "sample_figures", lambda *args: [])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kernel", ["numba", "numpy"])
 def test_worst_zem_replays_bit_for_bit_with_histories_and_figures(tmp_path, kernel):
     h5 = _result(tmp_path, kernel=kernel)
@@ -103,6 +104,7 @@ def test_bad_choices_exit_2_with_one_line(tmp_path, args, words):
     assert words in out.output and "Traceback" not in out.output
 
 
+@pytest.mark.slow
 def test_without_out_the_replay_writes_under_the_current_folder_never_beside_the_result(
         tmp_path, monkeypatch):
     stored = tmp_path / "stored"

@@ -225,6 +225,7 @@ def test_a_checkpoint_write_that_fails_stops_the_run_and_lists_only_what_is_on_d
     assert [e["file"] for e in lines] == written == ["mc.s0.c000000.npz"]
 
 
+@pytest.mark.slow
 def test_ctrl_c_with_worker_processes_exits_130_without_traceback(tmp_path):
     # A real SIGINT to the whole process group, as a terminal's Ctrl-C: the workers ignore it
     # (from birth), the driver stops them, reports and leaves a resumable run.

@@ -37,7 +37,8 @@ MODES = {"perturbed": (PERTURB_ENV, "1e-12"), "numpy": (KERNEL_ENV, "numpy")}
 
 # Cases that cost more than about 1 CPU-s in a mode (the NumPy kernels of the closed loops run
 # 50-100x slower than the compiled ones): they run in the marked suite only. Every simulator
-# keeps cheaper cases in the default suite (ft_as: its dispersion, perturbed).
+# keeps cheaper cases in the default suite (ft_as: its dispersion, perturbed; gmm: the
+# small dispersion and the nominal runs).
 EXPENSIVE = {
     ("ft_as_nominal", "perturbed"), ("gmm_ftc_dispersion", "numpy"),
     ("gmm_ftc_dispersion_smooth", "numpy"), ("gmm_ftc_nominal", "numpy"),
@@ -46,6 +47,7 @@ EXPENSIVE = {
     ("ftcapn_pce_table3", "perturbed"), ("gmm_dispersion", "numpy"),
     ("gmm_dispersion_f2", "numpy"), ("gmm_dispersion_small", "numpy"),
     ("gmm_ftc_dispersion", "perturbed"), ("gmm_ftc_dispersion_smooth", "perturbed"),
+    ("gmm_dispersion", "perturbed"), ("gmm_dispersion_f2", "perturbed"),
 }  # fmt: skip
 # FT-AS's NumPy reference costs about 20 ms per step of a batch (its kernel 0.1 ms): the paper
 # profile (300,000 steps) would take hours. FT-AS is checked under round-off in the perturbed

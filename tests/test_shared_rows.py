@@ -121,6 +121,7 @@ def test_files_of_a_killed_driver_are_swept_and_a_live_drivers_kept():
         live.unlink(missing_ok=True)
 
 
+@pytest.mark.slow
 def test_a_process_pool_writes_in_place_and_gives_the_serial_numbers(monkeypatch):
     """The pool's chunks after the first come back without their per-run values (written in
     place), the statistics, quantiles and per-run scalars are the serial run's bit for bit,

@@ -36,6 +36,7 @@ def _heavy(*args: str) -> str:
     ("validate", "configs/ftcapn_table5.yaml"),       # Monte Carlo and adaptive PCE
     ("validate", "configs/ftcapn_pce_table3.yaml"),   # tensor and Smolyak PCE
 ])
+@pytest.mark.slow
 def test_quick_commands_import_no_chaospy_scipy_stats_or_pandas(args):
     assert _heavy(*args) == ""
 
@@ -65,6 +66,7 @@ print("USED:" + ",".join(m for m in ("numba", "pandas", "matplotlib") if m in sy
     assert lines["USED"] == ""
 
 
+@pytest.mark.slow
 def test_baseline_and_check_import_none_of_them(tmp_path):
     base = str(tmp_path / "b.json")
     assert _heavy("baseline", "tests/data/result_format1.h5", "-o", base) == ""
@@ -79,6 +81,7 @@ def test_the_three_sigma_literals_are_scipys():
     assert THREE_SIGMA == (float(stats.norm.cdf(-3.0)), 0.5, float(stats.norm.cdf(3.0)))
 
 
+@pytest.mark.slow
 def test_checking_report_times_loads_no_compiled_kernel():
     """``uqguide run`` checks the report times against the model's grid before it starts the
     workers; for FTCAPN the grid comes from a one-run NumPy probe, not from a run of the
@@ -102,6 +105,7 @@ print("SAME:" + str(np.array_equal(grid, run) and grid[-1] == 77.5))
     assert "NUMBA:False" in p.stdout and "SAME:True" in p.stdout, p.stdout
 
 
+@pytest.mark.slow
 def test_a_numpy_kernel_run_imports_no_numba():
     """``kernels.select`` calls only the chosen loader: with ``UQGUIDE_KERNEL=numpy`` a run of
     FTCAPN and one of FT-AS (whose runner once imported its compiled kernel for the record

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import warnings
 
 import numpy as np
@@ -37,6 +38,7 @@ def test_zero_variance_gives_nan_without_warnings():
     assert (s.std[:2] == 0).all()
 
 
+@pytest.mark.slow
 def test_bootstrap_width_matches_normal_theory():
     # For N(0, 1): SE(std) = 1/sqrt(2n), SE(skew) = sqrt(6/n), SE(kurt) = sqrt(24/n) asymptotically;
     # a 95% percentile interval is about 2 * 1.96 SE wide. The bootstrap width is a plug-in of the

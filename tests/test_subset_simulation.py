@@ -31,6 +31,7 @@ def _config(**method):
         "seed": 1})
 
 
+@pytest.mark.slow
 def test_a_1e_5_probability_within_its_own_interval_in_90_percent_of_50_seeds():
     cfg = _config()
     p, hits, covs, ups, runs = [], 0, [], [], []
@@ -53,6 +54,7 @@ def test_a_1e_5_probability_within_its_own_interval_in_90_percent_of_50_seeds():
     assert 0.75 * np.mean(covs) <= spread <= 1.25 * np.mean(ups), (spread, np.mean(covs))
 
 
+@pytest.mark.slow
 def test_same_numbers_for_a_seed_whatever_the_workers():
     cfg = _config(n_per_level=200)
     serial = run(cfg).run("sus")

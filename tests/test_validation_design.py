@@ -69,6 +69,7 @@ def _truth(f):
             "kurtosis": w @ (y - m) ** 4 / v**2}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("design", ["random", "stratified"])
 def test_corrected_moments_are_unbiased_and_cover_a_tail_misfit_over_seeds(design):
     """y = x + 0.02 x^3 with x ~ N(0, 1) and the surrogate s = x (exact moments 0, 1, 0, 3):

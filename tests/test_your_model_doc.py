@@ -42,6 +42,7 @@ def _commands() -> list[str]:
             if line.startswith("uqguide ")]
 
 
+@pytest.mark.slow
 def test_the_guide_runs_from_an_empty_folder_without_pythonpath(tmp_path):
     assert _write_files(tmp_path) == ["oscillator.py", "oscillator.yaml", "study.py"]
     commands = _commands()
@@ -92,6 +93,7 @@ def _failing_config(folder: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_a_function_failing_on_every_sample_is_exit_1_with_a_failure_table(tmp_path):
     path = _failing_config(tmp_path)
     p = subprocess.run([UQGUIDE, "run", path.name, "--out", "out"], cwd=tmp_path, env=_env(),

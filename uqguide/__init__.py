@@ -14,6 +14,7 @@ The Python API (imported on first use, so ``import uqguide`` stays cheap)::
     cfg = uqguide.load_config("ftcapn_table3")          # a file, a shipped study or a dict
     result = uqguide.run(cfg, workers=2, out="results")  # -> Result
     result = uqguide.read_result("results/ftcapn_table3.h5")
+    result = uqguide.fit(x, y, inputs=[...])             # runs already made -> Result
     result.to_xarray(), result.to_dataframe("omega_s")
 
 ``uqguide.Result``, ``uqguide.RunConfig``, ``uqguide.Model`` and ``uqguide.Method`` are the
@@ -29,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 from ._version import __version__
 
 if TYPE_CHECKING:  # what the lazy names below resolve to, for type checkers and IDEs
-    from .api import load_config, read_result, run
+    from .api import fit, load_config, read_result, run
     from .config.run_config import RunConfig
     from .methods.base import Method
     from .models.base import Model
@@ -41,13 +42,14 @@ _LAZY = {
     "load_config": "uqguide.api",
     "run": "uqguide.api",
     "read_result": "uqguide.api",
+    "fit": "uqguide.api",
     "Result": "uqguide.results.result",
     "RunConfig": "uqguide.config.run_config",
     "Model": "uqguide.models.base",
     "Method": "uqguide.methods.base",
 }
 
-__all__ = ["Method", "Model", "Result", "RunConfig", "__version__", "load_config",
+__all__ = ["Method", "Model", "Result", "RunConfig", "__version__", "fit", "load_config",
            "read_result", "run"]
 
 

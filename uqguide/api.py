@@ -1,7 +1,7 @@
-"""The Python API: load a config, run it, read a result back.
+"""The Python API: load a config, run it, read a result back, fit runs already made.
 
-These three functions are what ``import uqguide`` offers (``uqguide.load_config``,
-``uqguide.run``, ``uqguide.read_result``), with the classes they take and give
+These four functions are what ``import uqguide`` offers (``uqguide.load_config``,
+``uqguide.run``, ``uqguide.read_result``, ``uqguide.fit``), with the classes they take and give
 (``uqguide.RunConfig``, ``uqguide.Result``, and ``uqguide.Model`` / ``uqguide.Method`` to
 subclass); the command line is a thin layer over them.
 
@@ -27,7 +27,7 @@ Examples
 from __future__ import annotations
 
 import sys
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -153,6 +153,82 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
         if executor is not None:
             executor.close()
     return result
+
+
+def fit(x: Any, y: Any, *, inputs: Sequence[Mapping[str, Any]],
+        method: str | Mapping[str, Any] = "pce_adaptive", outputs: Sequence[str] | None = None,
+        seed: int = 0, name: str | None = None, time: Sequence[float] | None = None,
+        workers: int | None = None) -> Result:
+    """Statistics (and, for a PCE, the kept surrogate) of runs already made: ``x`` and ``y``.
+
+    The same as a config with ``data:`` (``docs/your-simulator.md``, "Your own samples"): the
+    rows of ``x`` are the design, drawn from ``inputs``; the same rows, settings and seed give
+    the same numbers bit for bit, from a file or from here. The rows are checked as a data
+    file's are (:mod:`uqguide.models.data_rows.checks`).
+
+    Parameters
+    ----------
+    x : ndarray (n, d), pandas DataFrame, xarray Dataset or mapping of arrays
+        The runs' inputs: an array's columns in the order of ``inputs``, the others by name.
+    y : ndarray (n,) or (n, m), DataFrame, Dataset or mapping of arrays
+        The runs' outputs: a 1-D array is the output ``y`` (or ``outputs[0]``), a 2-D array's
+        columns are ``outputs`` (default ``y0``, ``y1``, ...); a series is a DataFrame's
+        ``name[0]``, ``name[1]``, ... columns, a Dataset's ``(n, T)`` variable or a mapping's
+        ``(n, T)`` array. A row of NaN outputs is a failed run (counted, not dropped).
+    inputs : sequence of mapping
+        The distribution of each input, as a config's ``inputs:`` (``{"name": "x1", "dist":
+        "uniform", "low": 0, "high": 1}``).
+    method : str or mapping
+        ``"pce_adaptive"`` (default) or ``"monte_carlo"``, or a config's method entry with
+        its settings (``{"name": "pce_adaptive", "degree_max": 8}``).
+    outputs : sequence of str, optional
+        The outputs to report (and the names of a 2-D array ``y``'s columns).
+    seed : int
+        The run's seed (held-out rows, surrogate draws).
+    name : str, optional
+        The result's name.
+    time : sequence of float, optional
+        The series' time grid [s] (default: a Dataset's time coordinate, else 0, 1, ...).
+    workers : int, optional
+        As :func:`run`.
+
+    Returns
+    -------
+    Result
+        With the method's statistics; a PCE's surrogate is kept (``result.surrogate(label)``).
+
+    Raises
+    ------
+    uqguide.errors.ConfigError
+        Bad data (missing column, input outside its support, repeated row, too few rows) or
+        settings, naming the row and the column.
+
+    Examples
+    --------
+    >>> import numpy as np, uqguide
+    >>> rng = np.random.default_rng(1)
+    >>> x = rng.uniform(-1, 1, (60, 2))
+    >>> y = 1 + 2 * x[:, 0] + x[:, 1] ** 2           # mean 1 + 1/3, variance 4/3 + 4/45
+    >>> result = uqguide.fit(x, y, inputs=[
+    ...     {"name": "a", "dist": "uniform", "low": -1, "high": 1},
+    ...     {"name": "b", "dist": "uniform", "low": -1, "high": 1}],
+    ...     method={"name": "pce_adaptive", "degree_max": 3})
+    >>> st = result.to_dataframe("y").set_index("statistic").value
+    >>> round(float(st["mean"]), 9), round(float(st["std"] ** 2), 9)
+    (1.333333333, 1.422222222)
+    """
+    from .models.data_rows import table_of
+
+    entry = {"name": method} if isinstance(method, str) else dict(method)
+    names = [m.get("name") for m in inputs]
+    table = table_of(x, y, [str(n) for n in names], outputs, time)
+    config: dict[str, Any] = {"data": table, "inputs": list(inputs), "methods": [entry],
+                              "seed": seed}
+    if outputs is not None:
+        config["outputs"] = list(outputs)
+    if name is not None:
+        config["name"] = name
+    return run(config, workers=workers)
 
 
 def read_result(path: str | Path) -> Result:

@@ -222,7 +222,9 @@ def validate(config: Path) -> None:
 
     cfg = load_config(config)
     methods = ", ".join(f"{m.label} ({m.name})" for m in cfg.methods)
-    click.echo(f"{config}: OK — model {cfg.model.name}, {cfg.space.dim} uncertain inputs "
+    source = f"model {cfg.model.name}" if cfg.data is None else \
+        f"data {cfg.data['path']} ({getattr(cfg.model.params, 'n_rows', 0)} rows)"
+    click.echo(f"{config}: OK — {source}, {cfg.space.dim} uncertain inputs "
                f"({', '.join(cfg.space.names) or 'none'}), outputs {', '.join(cfg.outputs)}, "
                f"methods {methods}, seed {cfg.seed}")
     budget = estimate(cfg)
@@ -251,6 +253,42 @@ def simulate(config: Path, fig_dir: Path | None) -> None:
     if fig_dir is not None:
         for p in nominal_figures(cfg.model, fig_dir):
             click.echo(f"wrote {p}")
+
+
+@main.command()
+@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--n", "n_runs", type=click.IntRange(1, 1_000_000), required=True,
+              help="How many runs to suggest.")
+@click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path),
+              required=True, help="The CSV to write (input names as header).")
+@click.option("--force", is_flag=True, help="Replace an existing --out file.")
+@_handle_errors
+def suggest(config: Path, n_runs: int, out_path: Path, force: bool) -> None:
+    """Write the next runs that extend the design of CONFIG's data file.
+
+    The inputs only, one row per run: run them elsewhere, append their rows with the outputs
+    to the data file, and run CONFIG again. The points fill the largest holes of the file's
+    design (greedy maximin over scrambled Sobol' candidates in the inputs' probability space).
+    """
+    from .config.data_source import write_suggestion
+    from .config.run_config import load_config
+
+    cfg = load_config(config)
+    click.echo(f"wrote {write_suggestion(cfg, n_runs, out_path, force)} ({n_runs} runs)")
+
+
+@main.command("compile")
+@click.argument("configs", nargs=-1)
+@_handle_errors
+def compile_command(configs: tuple[str, ...]) -> None:
+    """Compile the simulators' kernels now, once per install (every shipped study, or CONFIGS).
+
+    For a container build, before a cluster job array, or before timing anything: a kernel
+    already in the cache is only loaded.
+    """
+    from .driver.compile_kernels import compile_kernels, format_compiled
+
+    click.echo(format_compiled(compile_kernels(configs)))
 
 
 @main.command("configs")

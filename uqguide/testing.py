@@ -34,7 +34,10 @@ event probabilities are known in closed form:
 - streaming: a :class:`~uqguide.methods.base.StreamingMethod`'s ``estimate`` of outputs held in
   memory gives the bits of its chunks reduced where they ran and folded by the driver;
 - resume: a run interrupted after its first chunk and resumed from its checkpoint gives the
-  bits of an uninterrupted run.
+  bits of an uninterrupted run;
+- given rows: a method that takes a data file's rows as its design (an empty
+  :attr:`Method.own_design`) runs exactly those rows, every one once, and its statistics of
+  them pass the closed forms.
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ from __future__ import annotations
 import random
 import tempfile
 from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -54,7 +58,7 @@ from .config.run_config import validate_config
 from .errors import ModelError
 from .driver.execution import ChunkJob, ChunkResult, Executor, ProcessExecutor, SerialExecutor, Task
 from .core.types import Estimate
-from .methods.base import Method, RunContext, StreamingMethod
+from .methods.base import GivenRows, Method, RunContext, StreamingMethod
 from .models.base import Model
 from .models.benchmarks import LinearGaussian
 from .driver.propagate import propagate
@@ -309,6 +313,29 @@ def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *
     if isinstance(method, StreamingMethod):
         _check_streaming(method, model, space, outputs, seed, first, who)
     _check_resume(method, model, space, outputs, seed, first, who)
+    if not cls.own_design:
+        _check_given_rows(cls, settings, context, model, space, outputs, seed, first, who,
+                          mean, sd, p_tail)
+
+
+def _check_given_rows(cls: type[Method], settings: Mapping[str, Any], context: RunContext,
+                      model: Model, space: Any, outputs: tuple[str, ...], seed: int,
+                      first: MethodRun, who: str, mean: np.ndarray, sd: np.ndarray,
+                      p_tail: float) -> None:
+    """The method on the rows of its own first run, given as a data file's."""
+    x = np.asarray(first.x, dtype=float)
+    rows = GivenRows(x, "<conformance>", np.zeros(x.shape[0], dtype=bool))
+    given = cls(dict(settings), replace(context, rows=rows))
+    design = np.asarray(given.design(space, seed).x, dtype=float)
+    if design.shape != x.shape or not np.array_equal(np.unique(design, axis=0),
+                                                     np.unique(x, axis=0)):
+        raise _fail(who, "given rows", f"its design of {x.shape[0]} given rows has shape "
+                    f"{design.shape} and other rows; with data: the design is the rows, each "
+                    f"once")
+    run = _run(given, model, space, outputs, seed, SerialExecutor(16))
+    if run.n_runs != x.shape[0]:
+        raise _fail(who, "given rows", f"made {run.n_runs} runs of {x.shape[0]} given rows")
+    _check_closed_forms(run, mean, sd, p_tail, who)
 
 
 def _run(method: Method, model: Model, space: Any, outputs: tuple[str, ...], seed: int,

@@ -25,6 +25,7 @@ MODELS: dict[str, str] = {
     "sobol_g": "uqguide.models.sobol_g:SobolG",
     "callable": "uqguide.models.callable:CallableModel",
     "command": "uqguide.models.command:CommandModel",
+    "fmu": "uqguide.models.fmu:FmuModel",
     "ftcapn": "uqguide.models.ftcapn:FTCAPN",
     "gmm_proximity": "uqguide.models.gmm.model:GMMProximity",
     "ft_as": "uqguide.models.ft_as:FTAS",

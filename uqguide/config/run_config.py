@@ -31,6 +31,7 @@ Layout (all values SI)::
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 from types import MappingProxyType
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -104,7 +105,10 @@ class RawConfig(StrictModel):
 
     name: str | None = None
     description: str | None = None
-    model: dict[str, Any]
+    #: The simulator to run; or, in its place, ``data``: runs already made
+    #: (:mod:`uqguide.config.data_source`).
+    model: dict[str, Any] | None = None
+    data: Any = None
     inputs: list[Marginal] = Field(default_factory=list)
     correlations: list[CorrelationSpec] = Field(default_factory=list)
     outputs: list[str] | None = Field(default=None, min_length=1)
@@ -173,6 +177,8 @@ class RunConfig:
     methods: list[Method]
     raw: RawConfig
     source: str = "<dict>"
+    #: With ``data:``: the stored form of the data section (path, time grid, digest).
+    data: dict[str, Any] | None = None
 
     @property
     def seed(self) -> int:
@@ -191,14 +197,19 @@ class RunConfig:
         """Whether a run without workers makes the model's calls in a child process: the
         config's ``model.isolate``, else the model's own
         :attr:`~uqguide.models.base.Model.may_crash`."""
-        v = self.raw.model.get("isolate")
+        v = self._model_section.get("isolate")
         return self.model.may_crash if v is None else bool(v)
 
     @property
     def isolate_asked(self) -> bool:
         """Whether the config itself asked for isolation (``model.isolate: true``): then a
         model that cannot run in a child process is an error, not a fallback."""
-        return self.raw.model.get("isolate") is True
+        return self._model_section.get("isolate") is True
+
+    @property
+    def _model_section(self) -> dict[str, Any]:
+        """The config's ``model:`` mapping (empty for a ``data:`` config)."""
+        return self.raw.model if isinstance(self.raw.model, dict) else {}
 
     @property
     def max_memory(self) -> int:
@@ -226,12 +237,16 @@ class RunConfig:
         """
         # the raw model section may hold a function object (callable model from Python): the
         # model's own params serialise it
-        rest = self.raw.model_dump(mode="json", exclude={"model"})
+        rest = self.raw.model_dump(mode="json", exclude={"model", "data"})
         d: dict[str, Any] = {k: rest.get(k) for k in RawConfig.model_fields
-                             if k in rest or k == "model"}
-        d["model"] = {"name": self.model.name, **self.model.params.model_dump(mode="json")}
-        if self.raw.model.get("isolate") is not None:  # only when given: results made
-            d["model"]["isolate"] = self.raw.model["isolate"]  # before it compare equal
+                             if k in rest or k in ("model", "data")}
+        if self.data is not None:  # the data's model is the file: data: says which
+            d["model"], d["data"] = None, dict(self.data)
+        else:
+            d["model"] = {"name": self.model.name, **self.model.params.model_dump(mode="json")}
+            d["data"] = None
+            if self._model_section.get("isolate") is not None:  # only when given: results
+                d["model"]["isolate"] = self._model_section["isolate"]  # made before compare
         d["outputs"] = list(self.outputs)
         d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")}
                         for m in self.methods]
@@ -421,13 +436,36 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     except ValidationError as err:
         raise _from_validation(err, "", _fields(RawConfig)) from None
 
-    model = _build_model(raw.model, str(Path(source).parent) if source != "<dict>" else None)
+    config_dir = str(Path(source).parent) if source != "<dict>" else None
+    if (raw.model is None) == (raw.data is None):
+        both = raw.model is not None
+        raise ConfigError(("data: give either model: (a simulator to run) or data: (a file of "
+                           "runs already made), not both") if both else
+                          "model: required field is missing (or give data: a file of runs "
+                          "already made)", field="data" if both else "model")
     _check_finite_parameters(raw)
-    space = _build_space(raw, model)
-    outputs = _resolve_outputs(raw, model)
+    rows = stored_data = None
+    entries = raw.methods
+    model: Model
+    if raw.data is not None:
+        from .data_source import load_source, method_entries
+
+        space = _build_space(raw, None)
+        found = load_source(raw.data, space, raw.outputs, config_dir)
+        model, outputs, rows, stored_data = found.model, found.outputs, found.rows, found.spec
+        entries = method_entries(raw.methods, rows.x.shape[0], rows.source)
+    else:
+        assert raw.model is not None
+        model = _build_model(raw.model, config_dir)
+        space = _build_space(raw, model)
+        outputs = _resolve_outputs(raw, model)
     _check_quantiles(raw)
     _check_events(raw, model, outputs)
-    methods = _build_methods(raw, _run_context(raw, model, outputs))
+    methods = _build_methods(entries, replace(_run_context(raw, model, outputs), rows=rows))
+    if rows is not None:
+        from .data_source import check_rows_enough
+
+        check_rows_enough(methods, rows, space.dim)
     for i, m in enumerate(methods):
         m.check(i)
     labels = [m.label for m in methods]
@@ -448,7 +486,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
                     f"report_times[{i}]: must be a finite time >= 0 s (got {t!r})",
                     field=f"report_times[{i}]")
     cfg = RunConfig(model=model, space=space, outputs=outputs, methods=methods, raw=raw,
-                    source=source)
+                    source=source, data=stored_data)
     check_steps(model, raw.max_steps)
     for i, m in enumerate(methods):
         try:
@@ -456,6 +494,29 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
         except ConfigError as exc:  # a grid too large to build, refused before it is built
             raise ConfigError(f"methods[{i}].{exc}", field=f"methods[{i}].{exc.field}") from None
     return cfg
+
+
+def stored_input_space(data: Mapping[str, Any]) -> InputSpace:
+    """The input space of a config mapping alone: its ``inputs`` and ``correlations``,
+    without building its model or reading its data (a stored config whose data file is not at
+    hand).
+
+    Parameters
+    ----------
+    data : mapping
+        A config's content.
+
+    Returns
+    -------
+    InputSpace
+        ConfigError when the inputs are invalid.
+    """
+    try:
+        raw = RawConfig.model_validate({k: v for k, v in data.items()
+                                        if k in ("inputs", "correlations")} | {"methods": [{}]})
+    except ValidationError as err:
+        raise _from_validation(err, "", _fields(RawConfig)) from None
+    return _build_space(raw, None)
 
 
 def _check_quantiles(raw: RawConfig) -> None:
@@ -580,11 +641,19 @@ def _find_infinite(node: Any, path: str) -> tuple[str, float] | None:
     return None
 
 
-def _build_space(raw: RawConfig, model: Model) -> InputSpace:
-    accepted = list(model.input_names())
+def _build_space(raw: RawConfig, model: Model | None) -> InputSpace:
+    """The config's input space; each input must be one ``model`` accepts (any plain name
+    with ``data:``, whose columns are checked against the file)."""
+    accepted = list(model.input_names()) if model is not None else None
     seen: dict[str, int] = {}
     for i, m in enumerate(raw.inputs):
-        if m.name not in accepted:
+        if model is None:
+            from ..core.names import PLAIN_NAME_RULE, is_plain_name
+
+            if not is_plain_name(m.name):
+                raise ConfigError(f"inputs[{i}].name: {m.name!r} must be {PLAIN_NAME_RULE}",
+                                  field=f"inputs[{i}].name")
+        elif accepted is not None and m.name not in accepted:
             raise ConfigError(
                 f"inputs[{i}].name: model '{model.name}' has no input {m.name!r}"
                 f"{did_you_mean(m.name, accepted)}; allowed: {', '.join(accepted)}",
@@ -658,9 +727,9 @@ def _run_context(raw: RawConfig, model: Model, outputs: tuple[str, ...]) -> RunC
     )
 
 
-def _build_methods(raw: RawConfig, context: RunContext) -> list[Method]:
+def _build_methods(entries: list[dict[str, Any]], context: RunContext) -> list[Method]:
     methods = []
-    for i, entry in enumerate(raw.methods):
+    for i, entry in enumerate(entries):
         if "name" not in entry:
             raise ConfigError(f"methods[{i}].name: required field is missing",
                               field=f"methods[{i}].name")

@@ -65,6 +65,41 @@ class _Marginal(StrictModel):
         """
         raise NotImplementedError
 
+    def cdf(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """The cumulative distribution function (inverse of :meth:`ppf`).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            Values in the input's SI unit.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Probabilities in ``[0, 1]``.
+        """
+        raise NotImplementedError
+
+    def support(self) -> tuple[float, float]:
+        """The closed interval holding every value the input can take (infinite ends allowed).
+
+        Returns
+        -------
+        low, high : float
+            In the input's SI unit.
+        """
+        return -np.inf, np.inf
+
+    def describe(self) -> str:
+        """The distribution as the config writes it, e.g. ``uniform(low=0, high=2)``.
+
+        Returns
+        -------
+        str
+        """
+        fields = {k: v for k, v in self.model_dump().items() if k not in ("name", "dist")}
+        return f"{self.dist}({', '.join(f'{k}={v:g}' for k, v in fields.items())})"
+
     def moments(self) -> tuple[float, float]:  # pragma: no cover - abstract
         """Mean and standard deviation.
 
@@ -91,6 +126,11 @@ class Normal(_Marginal):
 
         return self.mean + self.std * special.ndtri(u)
 
+    def cdf(self, x: np.ndarray) -> np.ndarray:
+        from scipy import special
+
+        return special.ndtr((np.asarray(x, dtype=float) - self.mean) / self.std)
+
     def moments(self) -> tuple[float, float]:
         return self.mean, self.std
 
@@ -114,6 +154,12 @@ class Uniform(_Marginal):
     def ppf(self, u: np.ndarray) -> np.ndarray:
         return self.low + (self.high - self.low) * u
 
+    def cdf(self, x: np.ndarray) -> np.ndarray:
+        return np.clip((np.asarray(x, dtype=float) - self.low) / (self.high - self.low), 0, 1)
+
+    def support(self) -> tuple[float, float]:
+        return self.low, self.high
+
     def moments(self) -> tuple[float, float]:
         return 0.5 * (self.low + self.high), (self.high - self.low) / np.sqrt(12.0)
 
@@ -132,6 +178,19 @@ class LogNormal(_Marginal):
         from scipy import special
 
         return np.exp(self.mu + self.sigma * special.ndtri(u))
+
+    def cdf(self, x: np.ndarray) -> np.ndarray:
+        from scipy import special
+
+        x = np.asarray(x, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = (np.log(np.where(x > 0, x, 1.0)) - self.mu) / self.sigma
+        return np.where(x > 0, special.ndtr(z), 0.0)
+
+    def support(self) -> tuple[float, float]:
+        # 0 itself has probability zero but is the limit: a value of exactly 0 is refused by
+        # the strict check of the data's rows (exp never gives it)
+        return 0.0, np.inf
 
     def moments(self) -> tuple[float, float]:
         m = np.exp(self.mu + self.sigma**2 / 2)
@@ -164,6 +223,12 @@ class TruncNormal(_Marginal):
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
         return self._scipy().ppf(u)
+
+    def cdf(self, x: np.ndarray) -> np.ndarray:
+        return self._scipy().cdf(x)
+
+    def support(self) -> tuple[float, float]:
+        return self.low, self.high
 
     def moments(self) -> tuple[float, float]:
         d = self._scipy()
@@ -264,3 +329,31 @@ class InputSpace:
             z = special.ndtri(u[:, idx]) @ L.T
             x[:, idx] = mean + std * z
         return x
+
+    def to_unit(self, x: np.ndarray) -> np.ndarray:
+        """The inverse of :meth:`from_unit`: physical inputs to points of the unit hypercube
+        (CDFs; a correlated group decorrelated through its Cholesky factor first).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, d)
+            Input values in their SI units, column ``j`` for input ``names[j]``.
+
+        Returns
+        -------
+        ndarray, shape (n, d)
+            Points in ``[0, 1]^d`` (independent uniform when ``x`` follows the inputs'
+            distribution).
+        """
+        from scipy import linalg, special
+
+        x = np.asarray(x, dtype=float)
+        u = np.empty_like(x)
+        for j, m in enumerate(self.marginals):
+            u[:, j] = m.cdf(x[:, j])
+        for g, L in zip(self.groups, self._chol):
+            idx = list(g.index)
+            mean, std = self._group_normal(g)
+            z = linalg.solve_triangular(L, ((x[:, idx] - mean) / std).T, lower=True).T
+            u[:, idx] = special.ndtr(z)
+        return u

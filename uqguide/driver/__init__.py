@@ -9,4 +9,5 @@
 - ``runlock``, ``interrupts``: one owner per run folder; Ctrl-C and SIGTERM;
 - ``progress``, ``progress_display``: counts, ETA and how they are shown;
 - ``replay``: one sample of a result run again with its full time histories.
+- ``compile_kernels``: every study's kernel compiled up front (``uqguide compile``).
 """

@@ -12,8 +12,9 @@ Here are the checks that keep two experiments apart: a resumed run must have the
 the run that started the folder (else a refusal naming what changed), and a folder is deleted
 only when its manifest says it is a uqguide run folder. The model's code is the source of the
 module defining its class (the whole package folder for a simulator package such as
-``uqguide.models.ftcapn``) and, for a ``callable`` model, the user function's module; a code
-change elsewhere (a shared helper module) is not seen.
+``uqguide.models.ftcapn``) and, for a ``callable`` model, the user function's module, for a
+``command`` model its program's file, for an ``fmu`` model the FMU file; a code change
+elsewhere (a shared helper module) is not seen.
 """
 
 from __future__ import annotations
@@ -57,7 +58,8 @@ def model_code_hash(model: Model) -> str:
     -------
     str
         Hex digest of its version and source files (a callable model's module, a command
-        model's program file included: a recompiled simulator is another model).
+        model's program file, an fmu model's FMU file included: a recompiled simulator is
+        another model).
     """
     files = _source_files(type(model))
     function = getattr(model.params, "function", None)
@@ -67,7 +69,7 @@ def model_code_hash(model: Model) -> str:
         except (ImportError, TypeError, OSError):
             pass
     program = getattr(model.params, "program_file", None)
-    if model.name == "command" and callable(program):
+    if model.name in ("command", "fmu") and callable(program):
         found = program()
         if found is not None:
             files.append(found)

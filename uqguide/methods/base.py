@@ -110,6 +110,29 @@ class RunPlan:
     exact: bool = True
 
 
+@dataclass(frozen=True, eq=False)
+class GivenRows:
+    """A design the method does not choose: the rows of a data file (config ``data:``).
+
+    Compared by identity (two contexts hold the same rows only when they share this object),
+    so that comparing contexts never compares arrays element by element.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n, d)
+        The rows' inputs, SI units, columns in ``InputSpace.names`` order.
+    source : str
+        The file, for messages.
+    failed : ndarray of bool, shape (n,)
+        Rows whose outputs are NaN (failed runs): a method may leave them out of a
+        held-out set, not out of its counts.
+    """
+
+    x: np.ndarray
+    source: str
+    failed: np.ndarray
+
+
 @dataclass(frozen=True)
 class RunContext:
     """What a method is told about the run it is part of: given when it is built, never set on
@@ -148,6 +171,9 @@ class RunContext:
         default_factory=lambda: MappingProxyType({}))
     outputs: tuple[str, ...] = ()
     derived: Mapping[str, DerivedOutput] = field(default_factory=lambda: MappingProxyType({}))
+    #: The data file's rows when the config gives ``data:``: the method's design is then
+    #: these rows, not points it draws (only methods with an empty :attr:`Method.own_design`).
+    rows: GivenRows | None = None
 
 
 class Method(ABC):
@@ -163,6 +189,9 @@ class Method(ABC):
     #: The design is drawn from the seed (another seed, another design); a quadrature grid is
     #: not.
     random_design: ClassVar[bool] = True
+    #: Why the method cannot take a data file's rows as its design (config ``data:``), named
+    #: in the refusal; empty for a method whose :meth:`design` returns ``context.rows``.
+    own_design: ClassVar[str] = "it chooses its own design points"
     #: Settings of a small design that still exercises the method (several chunks): what the
     #: conformance suite (:func:`uqguide.testing.check_method`) runs it with.
     example_settings: ClassVar[Mapping[str, Any]] = {}

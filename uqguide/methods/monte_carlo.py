@@ -171,16 +171,21 @@ class MonteCarlo(StreamingMethod):
     Settings = MonteCarloSettings
     settings: MonteCarloSettings
     example_settings = {"n_samples": 4096, "chunk_size": 1024, "bootstrap": 100}
+    #: A data file's rows are a Monte Carlo sample when they are iid draws from the inputs
+    #: (the config checks each column's fit and warns): the statistics are the same sums.
+    own_design = ""
 
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings
+        # The bootstrap stream is a fixed function of the same root, kept apart from the design.
+        boot_seed = int(np.random.SeedSequence([seed, zlib.crc32(self.label.encode()), 1])
+                        .generate_state(1)[0])
+        if self.context.rows is not None:
+            return Design(x=self.context.rows.x, data={"boot_seed": boot_seed})
         ss = method_seed(seed, self.label)
         x = GeneratedRows(s.n_samples, space.dim, s.chunk_size,
                           DesignChunks(space, s.n_samples, s.sampling, s.chunk_size, ss),
                           portable=True)
-        # The bootstrap stream is a fixed function of the same root, kept apart from the design.
-        boot_seed = int(np.random.SeedSequence([seed, zlib.crc32(self.label.encode()), 1])
-                        .generate_state(1)[0])
         return Design(x=x, data={"boot_seed": boot_seed})
 
     def plan(self, space: InputSpace) -> RunPlan:
@@ -266,7 +271,7 @@ class MonteCarlo(StreamingMethod):
             "n_runs": runs.n,
             "n_failed": n_failed,
             "failure_reasons": tally,
-            "sampling": self.settings.sampling,
+            "sampling": "data" if self.context.rows is not None else self.settings.sampling,
             "bootstrap": self.settings.bootstrap,
             "bootstrap_kind": "poisson",
             "intervals": self.interval_kind,

@@ -195,7 +195,10 @@ class AdaptivePCE(Method):
     Settings = AdaptivePCESettings
     settings: AdaptivePCESettings
     uses_derivations = True
-    example_settings = {"n_samples": 40, "max_runs": 60, "degree_max": 3}
+    example_settings = {"n_samples": 40, "max_runs": 60, "degree_max": 3,
+                        "surrogate_draws": 20_000}
+    #: Regression needs no particular points: a data file's rows are fitted as they are.
+    own_design = ""
 
     # ------------------------------------------------------------------ design sizes
     def initial_size(self, d: int) -> int:
@@ -207,6 +210,13 @@ class AdaptivePCE(Method):
         p_min = hyperbolic_indices(d, s.degree_min, q).shape[0]
         n = max(10 * d, 2 * p_min)
         return min(n, s.max_runs) if s.max_runs is not None else n
+
+    def min_rows(self, d: int) -> int:
+        """The fewest successful rows a data file must give for ``d`` inputs: the default
+        initial design ``max(10 d, 2 P_min)`` (module docstring), plus the held-out rows."""
+        q = self.settings.q_norm if self.settings.q_norm is not None else min(Q_GRID)
+        p_min = hyperbolic_indices(d, self.settings.degree_min, q).shape[0]
+        return max(10 * d, 2 * p_min, _MIN_RUNS) + self.n_validation()
 
     def n_validation(self) -> int:
         """Validation runs after the fit (``validation.n_samples`` or ``validation_runs``)."""
@@ -233,6 +243,8 @@ class AdaptivePCE(Method):
 
     # ------------------------------------------------------------------ phases
     def design(self, space: InputSpace, seed: int) -> Design:
+        if self.context.rows is not None:
+            return self._rows_design(space, seed)
         n = self.initial_size(space.dim)
         u = unit_design(space.dim, 0, n, self.settings.sampling, seed, self.label, batch=0)
         draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
@@ -242,10 +254,42 @@ class AdaptivePCE(Method):
             "u": u, "seed": int(seed), "batches": 1, "draw_seed": draw_seed,
             "fit_seconds": 0.0, "loo_history": np.zeros(0)})
 
+    def _rows_design(self, space: InputSpace, seed: int) -> Design:
+        """The data file's rows as the design (config ``data:``): no enrichment, and the
+        validation set, when asked for, held out of the file instead of run.
+
+        The held-out rows are drawn at random from the rows whose outputs did not fail, from
+        the method's validation stream (so the same config holds out the same rows), and
+        placed after the fit's rows, where validation runs go. The germ values are computed
+        from the rows in closed form (:meth:`Germ.from_physical`), not through the unit cube,
+        whose CDFs would round away normal tails.
+        """
+        from ..pce.design import VALIDATION_STREAM
+        from ..pce.validation_design import random_design_of
+
+        assert self.context.rows is not None
+        x, failed = self.context.rows.x, self.context.rows.failed
+        n, nv = x.shape[0], self.n_validation()
+        draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
+        data: dict[str, Any] = {"seed": int(seed), "batches": 1, "draw_seed": draw_seed,
+                                "fit_seconds": 0.0, "loo_history": np.zeros(0)}
+        n_fit = n
+        if nv:
+            rng = np.random.default_rng(stream(seed, self.label, VALIDATION_STREAM))
+            held = np.sort(rng.choice(np.flatnonzero(~failed), nv, replace=False))
+            order = np.concatenate([np.setdiff1d(np.arange(n), held), held])
+            x, n_fit = x[order], n - nv
+            u_held = np.clip(space.to_unit(x[n_fit:]), 2.0**-53, 1 - 2.0**-53)
+            data.update(n_fit=n_fit, **random_design_of(u_held).to_data())
+            log.info("%s: %d of the %d rows held out for validation", self.label, nv, n)
+        data["u"] = space.to_unit(x[:n_fit])
+        data["xi"] = Germ.of(space).from_physical(x[:n_fit])
+        return Design(x=x, data=data)
+
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         """Enrich while the LOO error is above target and the budget allows; then, once, add
         the validation runs (when asked for), placed by the final fit's surrogate."""
-        if "n_fit" in design.data:
+        if "n_fit" in design.data or self.context.rows is not None:
             return None
         bigger = self._enrich(space, design, outputs)
         nv = self.n_validation()
@@ -313,7 +357,7 @@ class AdaptivePCE(Method):
             "n_runs": outputs.n,
             "n_failed": int(outputs.failed.sum()),
             "failure_reasons": failure_summary(outputs),
-            "sampling": s.sampling,
+            "sampling": "data" if self.context.rows is not None else s.sampling,
             "n_initial": self.initial_size(space.dim),
             "max_runs": self.budget(space.dim),
             "n_enrichments": int(design.data.get("batches", 1)) - 1,
@@ -382,7 +426,8 @@ class AdaptivePCE(Method):
                 f"{self.label}: only {ok.size} of {outputs.n} runs succeeded "
                 f"({failure_summary(outputs)}); a regression PCE needs at least {_MIN_RUNS}")
         germ = Germ.of(space)
-        xi = germ.from_unit(design.data["u"][ok])
+        xi = design.data["xi"][ok] if "xi" in design.data else \
+            germ.from_unit(design.data["u"][ok])
         cols = [c for c in output_columns(outputs, ok) if c.name not in self.derived_outputs]
         fits = []
         for i, col in enumerate(cols):

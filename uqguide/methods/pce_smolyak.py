@@ -66,7 +66,8 @@ class SmolyakPCE(QuadraturePCE):
     """Smolyak sparse-grid pseudo-spectral PCE."""
 
     name = "pce_smolyak"
-    example_settings = {"level": 2}
+    own_design = "its quadrature needs the nodes of its own sparse grid"
+    example_settings = {"level": 2, "surrogate_draws": 20_000}
     summary = "Smolyak sparse PCE: sparse-grid runs, Smolyak pseudo-spectral projection (paper 4.3)"
     Settings = SmolyakPCESettings
     settings: SmolyakPCESettings

@@ -56,7 +56,8 @@ class TensorPCE(QuadraturePCE):
     """Full-tensor pseudo-spectral PCE."""
 
     name = "pce_tensor"
-    example_settings = {"m": 3}
+    own_design = "its quadrature needs its own tensor grid of Gauss nodes"
+    example_settings = {"m": 3, "surrogate_draws": 20_000}
     summary = "full-tensor PCE: m^d quadrature runs, pseudo-spectral projection (paper 4.2)"
     Settings = TensorPCESettings
     settings: TensorPCESettings

@@ -92,6 +92,7 @@ class SubsetSimulation(Method):
     """Subset simulation: the probability of one of the config's events, with its CoV."""
 
     name = "subset_simulation"
+    own_design = "it draws each level's samples by MCMC from the level before"
     summary = "Subset simulation (Au & Beck 2001): a rare event's probability, CoV and interval"
     Settings = SubsetSimulationSettings
     settings: SubsetSimulationSettings

@@ -1,6 +1,7 @@
 """Models, above ``stats``: the contract (``base``), benchmarks, simulators, user callables.
 
-A program in any language is the ``command`` model (``command/``: files, process, model).
+A program in any language is the ``command`` model (``command/``: files, process, model); an
+FMU the ``fmu`` model (``fmu/``: archive, simulate, model; FMPy is an optional extra).
 A simulator is a folder: ``model.py`` (parameters and the batch interface), the compiled
 ``kernel_numba.py`` and its NumPy reference ``kernel_numpy.py``, chosen by ``kernels.select``
 from two loaders in the model's module that import each by name. ``record_rows`` holds the

@@ -129,6 +129,28 @@ class Germ:
         return x
 
 
+    def from_physical(self, x: np.ndarray) -> np.ndarray:
+        """Germ values ``xi (n, d)`` of physical inputs ``x (n, d)``: the inverse of
+        :meth:`to_physical`, in closed form (a detour through the unit cube would lose the
+        normal tails to the rounding of CDFs near 1)."""
+        from scipy import linalg
+
+        x = np.asarray(x, dtype=float)
+        xi = np.empty_like(x)
+        for j, m in enumerate(self.space.marginals):
+            if isinstance(m, Uniform):
+                xi[:, j] = (x[:, j] - 0.5 * (m.low + m.high)) / (0.5 * (m.high - m.low))
+            elif isinstance(m, LogNormal):
+                xi[:, j] = (np.log(x[:, j]) - m.mu) / m.sigma
+            else:
+                xi[:, j] = (x[:, j] - m.mean) / m.std  # type: ignore[attr-defined]
+        for g in self.space.groups:
+            L = np.linalg.cholesky(g.matrix)
+            idx = list(g.index)
+            xi[:, idx] = linalg.solve_triangular(L, xi[:, idx].T, lower=True).T
+        return xi
+
+
 def kind_distribution(kind: tuple[str, float, float]) -> chaospy.Distribution:
     """The chaospy distribution of a germ variable of the given :meth:`Germ.kind`."""
     import chaospy

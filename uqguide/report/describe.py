@@ -151,19 +151,30 @@ def describe_model(cls: type[Model]) -> str:
     str
         Text for ``uqguide models NAME``.
     """
+    model: Model | None
     try:
         model = cls()
     except ValidationError:
-        # a model with required parameters (the command model's program) shows its example
-        model = cls(cls.example_params)
-    lines = [f"{cls.name}: {cls.summary}", " inputs (uncertain; nominal value when not listed):"]
-    for i in model.inputs():
-        lines.append(f"  {i.name} [{i.unit}] nominal {i.nominal:g} — {_clean(i.description)}")
-    lines.append(" outputs (* = reported by default):")
-    for o in model.outputs():
-        comps = f" ({', '.join(o.components)})" if o.k > 1 else ""
-        star = "*" if o.default else " "
-        lines.append(f" {star}{o.name} [{o.unit}] {o.kind}{comps} — {_clean(o.description)}")
+        # a model with required parameters (the command model's program) shows its example;
+        # one whose example needs a file (an FMU) its parameters only
+        try:
+            model = cls(cls.example_params) if cls.example_params else None
+        except ValidationError:
+            model = None
+    lines = [f"{cls.name}: {cls.summary}"]
+    if model is None:
+        lines.append(" inputs and outputs: those the config's model section declares")
+    else:
+        lines.append(" inputs (uncertain; nominal value when not listed):")
+        for i in model.inputs():
+            lines.append(f"  {i.name} [{i.unit}] nominal {i.nominal:g} — "
+                         f"{_clean(i.description)}")
+        lines.append(" outputs (* = reported by default):")
+        for o in model.outputs():
+            comps = f" ({', '.join(o.components)})" if o.k > 1 else ""
+            star = "*" if o.default else " "
+            lines.append(f" {star}{o.name} [{o.unit}] {o.kind}{comps} — "
+                         f"{_clean(o.description)}")
     lines.append(" parameters (model: section of a config):")
     lines.append(describe_settings(cls.Params))
     return "\n".join(lines)

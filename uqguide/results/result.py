@@ -231,11 +231,19 @@ class Result:
             from ..config.run_config import validate_config
             from ..pce.germ import Germ
 
-            cfg = validate_config(self.config, f"{self.name} (stored config)")
-            if list(cfg.space.names) != list(s.inputs):
+            if self.config.get("data") is not None:
+                # A fit to a data file needs its inputs only, not the file (moved or gone
+                # since, perhaps), and has no derived outputs.
+                from ..config.run_config import stored_input_space
+
+                space, derived = stored_input_space(self.config), {}
+            else:
+                cfg = validate_config(self.config, f"{self.name} (stored config)")
+                space, derived = cfg.space, dict(cfg.model.derived_outputs())
+            if list(space.names) != list(s.inputs):
                 raise ResultError(f"{label}: the surrogate's inputs {s.inputs} are not the "
-                                  f"stored config's {list(cfg.space.names)}")
-            est.surrogate = s = s.resolve(Germ.of(cfg.space), cfg.model.derived_outputs())
+                                  f"stored config's {list(space.names)}")
+            est.surrogate = s = s.resolve(Germ.of(space), derived)
         # its repr names the method and the errors it measured (the surrogate does not know)
         return s.fitted_by(est.label, est.method, est.diagnostics)
 

@@ -561,6 +561,14 @@ def _observed_disturbance(ck, x, tr, u, m_off, inertia_err, a_f, a_tau, c, J0, J
         out[i] += dm[i]
 
 
+def _c(values: object, dtype: type) -> np.ndarray:
+    # Contiguous, whatever the caller holds: an uncertain input arrives as a strided column of
+    # the design, a fixed one as a full array, and numba compiles one specialisation per
+    # memory layout. Copying a few n-vectors keeps every study on one compiled kernel (a fresh
+    # install compiled it up to four times, about 30 CPU-s each); the values are unchanged.
+    return np.ascontiguousarray(values, dtype=dtype)
+
+
 def simulate_numba(batch: Batch, plant: Plant, gains: Gains, dt: float, n_steps: int,
                    rec_every: int, final_start: int, late_start: int, tols: np.ndarray,
                    rec: np.ndarray, offsets: np.ndarray, settle: np.ndarray,
@@ -573,15 +581,15 @@ def simulate_numba(batch: Batch, plant: Plant, gains: Gains, dt: float, n_steps:
     P, Q = plant.reference.basis()
     simulate(
         np.ascontiguousarray(batch.x0, dtype=float),
-        np.asarray(batch.mass_offset, dtype=float),
-        np.asarray(batch.inertia_scale_error, dtype=float),
-        np.asarray(batch.force_amp, dtype=float),
-        np.asarray(batch.torque_amp, dtype=float),
-        np.asarray(batch.controller, dtype=np.int64),
-        np.asarray(batch.observer_on_applied, dtype=np.bool_),
-        np.asarray(batch.psi2_bound, dtype=float),
-        np.asarray(batch.omega_chi, dtype=float),
-        np.asarray(batch.switch_input, dtype=np.bool_),
+        _c(batch.mass_offset, float),
+        _c(batch.inertia_scale_error, float),
+        _c(batch.force_amp, float),
+        _c(batch.torque_amp, float),
+        _c(batch.controller, np.int64),
+        _c(batch.observer_on_applied, np.bool_),
+        _c(batch.psi2_bound, float),
+        _c(batch.omega_chi, float),
+        _c(batch.switch_input, np.bool_),
         pack_constants(plant, gains),
         np.ascontiguousarray(plant.J0, dtype=float),
         np.ascontiguousarray(plant.J0_inv),

@@ -1,0 +1,46 @@
+"""``uqguide compile``: each study's model runs once with its kernel, so that the compile is paid
+up front and on purpose; a kernel already in the cache is only loaded."""
+
+from __future__ import annotations
+
+import yaml
+from click.testing import CliRunner
+
+from uqguide.cli import main
+from uqguide.driver.compile_kernels import compile_kernels
+from uqguide.models import kernels
+
+
+def _lognormal(tmp_path):
+    path = tmp_path / "mine.yaml"
+    path.write_text(yaml.safe_dump({
+        "model": {"name": "lognormal", "a": [0.3]},
+        "inputs": [{"name": "x1", "dist": "normal", "mean": 0.0, "std": 1.0}],
+        "methods": [{"name": "monte_carlo", "n_samples": 10}]}))
+    return path
+
+
+def test_each_distinct_model_runs_once_then_the_statistics_kernel(tmp_path):
+    # ftcapn_table3 is ftcapn_nominal's model with the same parameters: met once.
+    rows = compile_kernels(["ftcapn_nominal", "ftcapn_table3", _lognormal(tmp_path)])
+    assert [(r.study, r.model) for r in rows] == [
+        ("ftcapn_nominal", "ftcapn"), ("mine", "lognormal"), ("-", "moment sums")]
+    assert rows[0].kernel == kernels.choose("auto", "ftcapn")
+    assert rows[1].kernel == ""             # no kernel to choose: nothing is compiled
+    assert all(0.0 <= r.compile_s <= r.total_s for r in rows)
+    # a second call finds everything in this process or the cache: no compile at all
+    assert sum(r.compile_s for r in compile_kernels(["ftcapn_nominal"])) == 0.0
+
+
+def test_a_forced_numpy_kernel_compiles_nothing(tmp_path, monkeypatch):
+    monkeypatch.setenv(kernels.KERNEL_ENV, "numpy")
+    out = CliRunner().invoke(main, ["compile", "gmm_nominal"])
+    assert out.exit_code == 0, out.output
+    line = next(ln for ln in out.output.splitlines() if ln.startswith("gmm_nominal"))
+    assert line.split()[1:4] == ["gmm_proximity", "numpy", "0.0"]
+
+
+def test_an_unknown_study_is_exit_2_naming_it():
+    out = CliRunner().invoke(main, ["compile", "ftcapn_tabel3"])
+    assert out.exit_code == 2
+    assert "ftcapn_tabel3" in out.output and "Traceback" not in out.output

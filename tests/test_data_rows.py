@@ -1,0 +1,489 @@
+"""``data:`` in place of ``model:`` (runs already made), ``uqguide.fit`` and ``uqguide suggest``.
+
+The closed-form case: ``y = 1 + 2 a + 3 b + a b`` with ``a ~ U(-1, 1)``, ``b ~ N(0, 1)``. A
+regression PCE whose basis holds this polynomial reproduces it from any rows up to round-off,
+so its four moments must equal the exact ones (computed here by an independent Gauss rule) to
+round-off; Monte Carlo on the rows must give the rows' own sample moments.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+import uqguide
+from uqguide.cli import main
+from uqguide.errors import ConfigError
+
+INPUTS = [{"name": "a", "dist": "uniform", "low": -1.0, "high": 1.0},
+          {"name": "b", "dist": "normal", "mean": 0.0, "std": 1.0}]
+PCE = {"name": "pce_adaptive", "label": "pce", "degree_max": 3, "surrogate_draws": 1000}
+
+
+def poly(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return 1 + 2 * a + 3 * b + a * b
+
+
+def exact_moments() -> tuple[float, float, float, float]:
+    """Mean, std, skewness, kurtosis of ``poly`` by a tensor Gauss rule (exact: y^4 has
+    degree 8 in each variable, a 10-point rule integrates degree 19)."""
+    ga, wa = np.polynomial.legendre.leggauss(10)
+    gb, wb = np.polynomial.hermite_e.hermegauss(10)
+    wa, wb = wa / 2, wb / math.sqrt(2 * math.pi)
+    A, B = np.meshgrid(ga, gb, indexing="ij")
+    W = np.outer(wa, wb)
+    y = poly(A, B)
+    m = float((W * y).sum())
+    v = float((W * (y - m) ** 2).sum())
+    return (m, math.sqrt(v), float((W * (y - m) ** 3).sum()) / v**1.5,
+            float((W * (y - m) ** 4).sum()) / v**2)
+
+
+def rows(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    x = np.column_stack([rng.uniform(-1, 1, n), rng.standard_normal(n)])
+    return x, poly(x[:, 0], x[:, 1])
+
+
+def write_csv(path: Path, x: np.ndarray, y: np.ndarray, names=("a", "b", "y")) -> Path:
+    lines = [",".join(names)] + [",".join(repr(v) for v in r)
+                                 for r in np.column_stack([x, y]).tolist()]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def config(tmp_path: Path, data: str = "runs.csv", methods=None, **more) -> Path:
+    cfg = {"data": data, "inputs": INPUTS, "methods": methods or [PCE], **more}
+    p = tmp_path / "data.yaml"
+    p.write_text(yaml.safe_dump(cfg))
+    return p
+
+
+def four(result, label: str, output: str = "y") -> np.ndarray:
+    st = result.run(label).estimate.stats[output]
+    return np.array([float(np.ravel(st.stat(k))[0])
+                     for k in ("mean", "std", "skewness", "kurtosis")])
+
+
+# ---------------------------------------------------------------------------- closed forms
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_pce_of_the_rows_gives_the_exact_moments(tmp_path, seed):
+    x, y = rows(40, seed)
+    write_csv(tmp_path / "runs.csv", x, y)
+    result = uqguide.run(config(tmp_path))
+    # round-off of a least-squares fit of 40 rows: a few hundred ulps of the moments
+    assert np.allclose(four(result, "pce"), exact_moments(), rtol=0, atol=1e-10)
+    assert result.run("pce").estimate.diagnostics["sampling"] == "data"
+    assert result.run("pce").n_runs == 40
+
+
+@pytest.mark.parametrize("seed", [3, 4, 5])
+def test_monte_carlo_of_the_rows_is_their_sample_statistics(tmp_path, seed):
+    x, y = rows(200, seed)
+    write_csv(tmp_path / "runs.csv", x, y)
+    result = uqguide.run(config(tmp_path, methods=[{"name": "monte_carlo", "label": "mc"}]))
+    st = result.run("mc").estimate.stats["y"]
+    assert float(st.mean[0]) == pytest.approx(y.mean(), rel=1e-13)
+    assert float(st.std[0]) == pytest.approx(y.std(), rel=1e-12)
+    # the exact mean within 4 of its standard errors (a false alarm once in 16,000 seeds)
+    assert abs(float(st.mean[0]) - exact_moments()[0]) < 4 * float(st.sem[0])
+    assert result.run("mc").n_runs == 200
+
+
+# ---------------------------------------------------------------------------- fit
+def test_fit_gives_the_numbers_of_the_config_bit_for_bit(tmp_path):
+    import pandas as pd
+    import xarray as xr
+
+    x, y = rows(40, 7)
+    write_csv(tmp_path / "runs.csv", x, y)
+    from_file = uqguide.run(config(tmp_path))
+    ref = four(from_file, "pce")
+    sobol = from_file.run("pce").estimate.stats["y"].sobol_total
+    from_arrays = uqguide.fit(x, y, inputs=INPUTS, method=PCE)
+    assert np.array_equal(four(from_arrays, "pce"), ref)
+    assert np.array_equal(from_arrays.run("pce").estimate.stats["y"].sobol_total, sobol)
+    frame = pd.DataFrame({"b": x[:, 1], "a": x[:, 0]})  # by name, in any order
+    assert np.array_equal(four(uqguide.fit(frame, pd.DataFrame({"y": y}), inputs=INPUTS,
+                                           method=PCE), "pce"), ref)
+    ds = xr.Dataset({"a": ("run", x[:, 0]), "b": ("run", x[:, 1]), "y": ("run", y)})
+    assert np.array_equal(four(uqguide.fit(ds[["a", "b"]], ds[["y"]], inputs=INPUTS,
+                                           method=PCE), "pce"), ref)
+    assert from_arrays.surrogate("pce").names == ["y"]
+    with pytest.raises(ConfigError, match=r"given from Python \(uqguide.fit\) and are not "
+                                          r"stored"):
+        uqguide.load_config(from_arrays.config)
+
+
+def test_fit_refuses_bad_rows_with_a_uqguide_error():
+    x, y = rows(40, 8)
+    x[5, 0] = 1.5
+    with pytest.raises(ConfigError, match=r"row 6, column 'a': 1\.5 is outside the support"):
+        uqguide.fit(x, y, inputs=INPUTS)
+
+
+# ---------------------------------------------------------------------------- bad data
+def _bad(tmp_path, edit, methods=None, data="runs.csv", **more):
+    x, y = rows(40, 9)
+    lines = write_csv(tmp_path / "runs.csv", x, y).read_text().splitlines()
+    text = edit(lines)
+    if text is not None:
+        (tmp_path / "runs.csv").write_text(text)
+    return CliRunner().invoke(main, ["validate", str(config(tmp_path, data, methods, **more))])
+
+
+def _set(lines, line, col, value):
+    cells = lines[line - 1].split(",")
+    cells[col] = value
+    lines[line - 1] = ",".join(cells)
+    return "\n".join(lines) + "\n"
+
+
+BAD = [
+    ("missing_input", lambda L: "\n".join(l.split(",", 1)[1] for l in L) + "\n", {},
+     "data: runs.csv: no column 'a' for inputs[0] (columns: b, y)"),
+    ("missing_output", None, {"outputs": ["z"]},
+     "data: runs.csv: no column 'z' (or z[0], z[1], ...) for outputs[0]; output columns: y"),
+    ("nan_input", lambda L: _set(L, 5, 1, "nan"), {},
+     "data: runs.csv: row 4 (line 5), column 'b': input is nan; every run's inputs must be "
+     "known numbers (a failed run is a row of NaN outputs)"),
+    ("outside_support", lambda L: _set(L, 3, 0, "-1.25"), {},
+     "data: runs.csv: row 2 (line 3), column 'a': -1.25 is outside the support [-1, 1] of "
+     "inputs[0] uniform(low=-1, high=1) (1 row is outside)"),
+    ("repeated_row", lambda L: "\n".join(L + [L[7]]) + "\n", {},
+     "data: runs.csv: row 41 (line 42) repeats the inputs of row 7 (line 8)"),
+    ("not_a_number", lambda L: _set(L, 9, 2, "oops"), {},
+     "data: runs.csv: row 8 (line 9), column 'y': 'oops' is not a number"),
+    ("too_few_rows", lambda L: "\n".join(L[:12]) + "\n", {},
+     "data: runs.csv: 11 usable rows; methods[0] (pce) needs at least 20 for 2 inputs"),
+    ("too_few_good_rows", lambda L: _set(L[:21], 21, 2, "nan"), {},
+     "data: runs.csv: 19 usable rows (1 of 20 has NaN outputs); methods[0] (pce) needs at "
+     "least 20 for 2 inputs"),
+    ("quadrature_refused", None, {"methods": [{"name": "pce_tensor", "m": 3}]},
+     "methods[0].name: pce_tensor cannot take its design from data: runs.csv (its quadrature "
+     "needs its own tensor grid of Gauss nodes); with data: use monte_carlo or pce_adaptive"),
+    ("subset_refused", None, {"methods": [{"name": "subset_simulation"}]},
+     "methods[0].name: subset_simulation cannot take its design from data: runs.csv"),
+    ("size_given", None, {"methods": [{"name": "monte_carlo", "n_samples": 100}]},
+     "methods[0].n_samples: 100, but with data: the design is the 40 rows of runs.csv; leave "
+     "n_samples out"),
+    ("unknown_suffix", None, {"data": "runs.xlsx"},
+     "data: runs.xlsx: unknown file type '.xlsx'; allowed: .csv, .parquet, .h5, .hdf5, .npz"),
+    ("not_found", None, {"data": "nowhere.csv"},
+     "data: nowhere.csv: file not found (a path is relative to the config file's folder)"),
+    ("model_and_data", None, {"model": {"name": "ishigami"}},
+     "data: give either model: (a simulator to run) or data: (a file of runs already made), "
+     "not both"),
+]
+
+
+@pytest.mark.parametrize("case,edit,more,message", BAD, ids=[b[0] for b in BAD])
+def test_bad_data_is_one_line_exit_2(tmp_path, case, edit, more, message):
+    more = dict(more)
+    methods = more.pop("methods", None)
+    data = more.pop("data", "runs.csv")
+    res = _bad(tmp_path, edit or (lambda L: None), methods, data, **more)
+    assert res.exit_code == 2, res.output
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith(f"error: {message}"), lines[0]
+
+
+# ---------------------------------------------------------------------------- failed rows
+def test_nan_outputs_are_failed_runs_counted_never_dropped(tmp_path, caplog):
+    x, y = rows(60, 10)
+    y[[3, 17, 42]] = np.nan
+    write_csv(tmp_path / "runs.csv", x, y)
+    with caplog.at_level(logging.WARNING):
+        result = uqguide.run(config(tmp_path, methods=[PCE, {"name": "monte_carlo",
+                                                             "label": "mc"}]))
+    assert "3 of 60 rows have NaN or infinite outputs (rows 4, 18, 43)" in caplog.text
+    for label in ("pce", "mc"):
+        run = result.run(label)
+        assert run.n_runs == 60 and run.n_failed == 3
+        assert set(run.reasons[run.failed]) == {"non-finite y in runs.csv"}
+    ok = np.isfinite(y)
+    assert float(result.run("mc").estimate.stats["y"].mean[0]) == pytest.approx(y[ok].mean(),
+                                                                               rel=1e-13)
+    assert np.allclose(four(result, "pce"), exact_moments(), rtol=0, atol=1e-10)
+
+
+# ---------------------------------------------------------------------------- goodness of fit
+def test_rows_from_another_distribution_are_warned_not_refused(tmp_path, caplog):
+    x, y = rows(200, 11)
+    x[:, 1] *= 0.5  # b drawn with std 0.5, the config says 1
+    write_csv(tmp_path / "runs.csv", x, poly(x[:, 0], x[:, 1]))
+    mc = [{"name": "monte_carlo", "label": "mc"}]
+    with caplog.at_level(logging.WARNING):
+        uqguide.load_config(config(tmp_path, methods=mc))
+    assert "column 'b' does not look like draws from normal(mean=0, std=1)" in caplog.text
+    assert "column 'a'" not in caplog.text
+    caplog.clear()
+    x, y = rows(200, 11)
+    write_csv(tmp_path / "runs.csv", x, y)
+    with caplog.at_level(logging.WARNING):
+        uqguide.load_config(config(tmp_path, methods=mc))
+    assert "does not look like" not in caplog.text
+
+
+# ---------------------------------------------------------------------------- formats
+def test_hdf5_and_npz_give_the_numbers_of_the_csv(tmp_path):
+    import h5py
+
+    x, y = rows(40, 12)
+    write_csv(tmp_path / "runs.csv", x, y)
+    ref = four(uqguide.run(config(tmp_path)), "pce")
+    np.savez(tmp_path / "runs.npz", a=x[:, 0], b=x[:, 1], y=y)
+    with h5py.File(tmp_path / "runs.h5", "w") as f:
+        for k, v in {"a": x[:, 0], "b": x[:, 1], "y": y}.items():
+            f[k] = v
+    for name in ("runs.npz", "runs.h5"):
+        assert np.array_equal(four(uqguide.run(config(tmp_path, name)), "pce"), ref)
+
+
+def test_a_series_from_step_columns_with_its_time_grid(tmp_path):
+    x, y = rows(50, 13)
+    t = np.array([0.0, 0.5, 2.0])
+    path = y[:, None] * t[None, :]
+    cols = np.column_stack([x, y, path])
+    header = "a,b,y,path[0],path[1],path[2]"
+    (tmp_path / "runs.csv").write_text(header + "\n" + "\n".join(
+        ",".join(repr(v) for v in r) for r in cols.tolist()) + "\n")
+    result = uqguide.run(config(tmp_path, {"path": "runs.csv", "time": t.tolist()},
+                                [{"name": "monte_carlo", "label": "mc"}]))
+    assert np.array_equal(result.time, t)
+    st = result.run("mc").estimate.stats["path"]
+    assert np.allclose(st.mean[:, 0], y.mean() * t, rtol=1e-13)
+    assert result.config["data"]["time"] == t.tolist()
+
+
+# ---------------------------------------------------------------------------- validation
+def test_held_out_rows_validate_the_fit(tmp_path):
+    x, y = rows(60, 14)
+    write_csv(tmp_path / "runs.csv", x, y)
+    pce = {**PCE, "validation": {"n_samples": 15, "design": "random"}}
+    run = uqguide.run(config(tmp_path, methods=[pce])).run("pce")
+    d = run.estimate.diagnostics
+    assert d["n_validation"] == 15 and d["n_runs"] == 45 and run.n_runs == 60
+    assert d["validation_error.y"] < 1e-20  # the exact polynomial predicts the held-out rows
+
+
+# ---------------------------------------------------------------------------- downstream
+def test_the_result_file_keeps_the_surrogate_without_the_data_file(tmp_path, monkeypatch):
+    x, y = rows(40, 15)
+    write_csv(tmp_path / "runs.csv", x, y)
+    written = uqguide.run(config(tmp_path, name="fitted"), out=tmp_path / "out")
+    (tmp_path / "runs.csv").unlink()
+    monkeypatch.chdir(tmp_path / "out")
+    back = uqguide.read_result("fitted.h5")
+    assert back.config["data"]["path"] == "runs.csv" and back.config["model"] is None
+    u = np.array([[0.25, 0.5]])
+    sur = back.surrogate("pce")
+    assert sur.at_unit(u, ["y"])["y"].ravel() == pytest.approx(
+        written.surrogate("pce").at_unit(u, ["y"])["y"].ravel(), rel=1e-15)
+    assert sur.at_unit(u, ["y"])["y"].ravel()[0] == pytest.approx(poly(-0.5, 0.0), abs=1e-12)
+
+
+def test_a_changed_data_file_is_refused_by_its_stored_config(tmp_path):
+    from uqguide.config.run_config import validate_config
+
+    x, y = rows(40, 16)
+    write_csv(tmp_path / "runs.csv", x, y)
+    result = uqguide.run(config(tmp_path))
+    write_csv(tmp_path / "runs.csv", x, y + 1)
+    with pytest.raises(ConfigError, match="the file changed since this config was stored"):
+        validate_config(result.config, str(tmp_path / "stored"))
+
+
+# ---------------------------------------------------------------------------- suggest
+def test_suggest_fills_the_empty_half_and_the_loop_closes(tmp_path):
+    rng = np.random.default_rng(17)
+    x = np.column_stack([rng.uniform(-1, 0, 60), rng.standard_normal(60)])  # a in [-1, 0]
+    write_csv(tmp_path / "runs.csv", x, poly(x[:, 0], x[:, 1]))
+    cfg = config(tmp_path, methods=[PCE])
+    checked = CliRunner().invoke(main, ["validate", str(cfg)])
+    assert f"{cfg}: OK — data runs.csv (60 rows), 2 uncertain inputs (a, b)" in checked.output
+    out = tmp_path / "next.csv"
+    res = CliRunner().invoke(main, ["suggest", str(cfg), "--n", "8", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert res.output == f"wrote {out} (8 runs)\n"
+    lines = out.read_text().splitlines()
+    assert lines[0] == "a,b" and len(lines) == 9
+    new = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
+    assert (new[:, 0] > 0).all()  # the largest holes: the half the file never ran
+    again = tmp_path / "again.csv"
+    CliRunner().invoke(main, ["suggest", str(cfg), "--n", "8", "--out", str(again)])
+    assert again.read_text() == out.read_text()  # same config and seed, same points
+    refused = CliRunner().invoke(main, ["suggest", str(cfg), "--n", "8", "--out", str(out)])
+    assert refused.exit_code == 2 and "exists" in refused.stderr
+    # the loop: run them elsewhere, append, fit again
+    both = np.vstack([x, new])
+    write_csv(tmp_path / "runs.csv", both, poly(both[:, 0], both[:, 1]))
+    assert uqguide.run(cfg).run("pce").n_runs == 68
+
+
+def test_suggest_needs_data(tmp_path, write_config, lognormal_config):
+    res = CliRunner().invoke(main, ["suggest", str(write_config(lognormal_config)), "--n",
+                                    "3", "--out", str(tmp_path / "n.csv")])
+    assert res.exit_code == 2
+    assert "suggest extends the rows of a data file" in res.stderr
+
+
+@pytest.mark.slow
+def test_workers_report_plots_and_the_gate_work_on_a_data_result(tmp_path):
+    x, y = rows(80, 20)
+    write_csv(tmp_path / "runs.csv", x, y)
+    cfg = config(tmp_path, methods=[PCE, {"name": "monte_carlo", "label": "mc"}], name="d")
+    runner = CliRunner()
+    serial = runner.invoke(main, ["run", str(cfg), "--out", str(tmp_path / "a"), "-q"])
+    pool = runner.invoke(main, ["run", str(cfg), "--out", str(tmp_path / "b"), "-q",
+                                "--workers", "2"])
+    assert serial.exit_code == 0 and pool.exit_code == 0, serial.output + pool.output
+    a, b = uqguide.read_result(tmp_path / "a" / "d.h5"), uqguide.read_result(tmp_path / "b" /
+                                                                          "d.h5")
+    for label in ("pce", "mc"):
+        assert np.array_equal(four(a, label), four(b, label))
+    h5 = str(tmp_path / "a" / "d.h5")
+    base = str(tmp_path / "base.json")
+    for args in (["baseline", h5, "-o", base], ["check", h5, "--baseline", base],
+                 ["report", h5], ["plot", h5]):
+        res = runner.invoke(main, args)
+        assert res.exit_code == 0, (args, res.output)
+    assert (tmp_path / "a" / "d_report.md").read_text().count("Sobol")
+
+
+# ---------------------------------------------------------------------------- acceptance
+ISHIGAMI = [{"name": f"x{i}", "dist": "uniform", "low": -math.pi, "high": math.pi}
+            for i in (1, 2, 3)]
+
+
+def ishigami_exact() -> np.ndarray:
+    """Mean and std in closed form (Ishigami & Homma); skewness 0 (y - mean is a sum of
+    independent symmetric terms); kurtosis by an 80-point Gauss-Legendre tensor rule, exact to
+    round-off for this entire function."""
+    from uqguide.models.benchmarks import Ishigami
+
+    ex = Ishigami().exact()
+    g, w = np.polynomial.legendre.leggauss(80)
+    g, w = g * math.pi, w / 2
+    X1, X2, X3 = np.meshgrid(g, g, g, indexing="ij")
+    W = w[:, None, None] * w[None, :, None] * w[None, None, :]
+    y = np.sin(X1) + 7 * np.sin(X2) ** 2 + 0.1 * X3**4 * np.sin(X1)
+    c = y - ex["mean"]
+    return np.array([ex["mean"], math.sqrt(ex["variance"]), 0.0,
+                     float((W * c**4).sum()) / ex["variance"] ** 2])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_ishigami_500_iid_rows_give_the_four_moments_within_1e_6(tmp_path, seed):
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-math.pi, math.pi, (500, 3))
+    y = np.sin(x[:, 0]) + 7 * np.sin(x[:, 1]) ** 2 + 0.1 * x[:, 2] ** 4 * np.sin(x[:, 0])
+    write_csv(tmp_path / "runs.csv", x, y, ("x1", "x2", "x3", "y"))
+    p = tmp_path / "ish.yaml"
+    p.write_text(yaml.safe_dump({"data": "runs.csv", "inputs": ISHIGAMI,
+                                 "methods": [{"name": "pce_adaptive"}]}))
+    got = four(uqguide.run(p), "pce_adaptive")
+    assert np.all(np.abs(got - ishigami_exact()) < 1e-6), got - ishigami_exact()
+    assert np.array_equal(four(uqguide.fit(x, y, inputs=ISHIGAMI), "pce_adaptive"), got)
+
+
+# ---------------------------------------------------------------------------- the docs
+def test_the_documented_example_gives_the_documented_numbers(tmp_path, monkeypatch):
+    """docs/your-simulator.md, "Your own samples": its script and config, run in this process
+    (the page's blocks run as subprocesses only in the slow suite)."""
+    import re
+    import runpy
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "your-simulator.md").read_text()
+    for name in ("make_runs.py", "samples.yaml"):
+        body = re.search(rf"```\w+\n# file: {re.escape(name)}\n(.*?)```", page, re.S).group(1)
+        (tmp_path / name).write_text(body)
+    monkeypatch.chdir(tmp_path)
+    runpy.run_path("make_runs.py")
+    result = uqguide.run("samples.yaml")
+    mean, std = (math.expm1(0.6) / 0.6 * math.exp(-1 / 8),
+                 math.sqrt(math.expm1(1.2) / 1.2 * (1 + math.exp(-0.5)) / 2
+                           - (math.expm1(0.6) / 0.6 * math.exp(-1 / 8)) ** 2))
+    assert "1.20920" in page and "0.30150" in page and f"{mean:.5f}" == "1.20920"
+    assert f"{std:.5f}" == "0.30150"
+    pce = result.run("pce")
+    assert pce.n_failed == 1 and pce.estimate.diagnostics["n_validation"] == 50
+    # the surrogate's error is at most sqrt(LOO error x variance) in L2 (Cauchy-Schwarz for
+    # the mean; the std moves by no more), four times that for the LOO estimate's own spread
+    tol = 4 * math.sqrt(pce.estimate.diagnostics["loo_error"]) * std
+    assert four(result, "pce")[:2] == pytest.approx([mean, std], rel=0, abs=tol)
+    mc = result.run("mc").estimate.stats["y"]
+    assert abs(float(mc.mean[0]) - mean) < 4 * float(mc.sem[0])
+
+
+def test_an_hdf5_series_with_its_time_dataset_and_report_times(tmp_path):
+    import h5py
+
+    x, y = rows(30, 18)
+    t = np.array([0.0, 1.0, 3.0, 4.0])
+    with h5py.File(tmp_path / "runs.h5", "w") as f:
+        f["a"], f["b"], f["time"] = x[:, 0], x[:, 1], t
+        f["path"] = y[:, None] * t[None, :]
+    mc = [{"name": "monte_carlo", "label": "mc"}]
+    result = uqguide.run(config(tmp_path, "runs.h5", mc, report_times=[3.0]))
+    assert np.array_equal(result.time, t)
+    assert np.allclose(result.run("mc").estimate.stats["path"].mean[:, 0], y.mean() * t,
+                       rtol=1e-13)
+    with pytest.raises(ConfigError, match=r"report_times\[0\]: 9 s is outside the model's "
+                                          r"time grid \[0, 4\] s"):
+        uqguide.run(config(tmp_path, "runs.h5", mc, report_times=[9.0]))
+
+
+def test_parquet_without_an_engine_says_what_to_install(tmp_path):
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        pytest.skip("pyarrow is installed: Parquet files are read")
+    (tmp_path / "runs.parquet").write_bytes(b"PAR1")
+    with pytest.raises(ConfigError, match=r"data: runs.parquet: reading Parquet needs pyarrow"):
+        uqguide.load_config(config(tmp_path, "runs.parquet"))
+
+
+def test_the_unit_cube_and_germ_maps_invert_those_of_the_designs():
+    """``InputSpace.to_unit`` inverts ``from_unit`` and ``Germ.from_physical`` inverts
+    ``to_physical``, for every marginal and a correlated normal group (the data's rows reach
+    the fit and the design extension through them)."""
+    from uqguide.core.inputs import CorrelatedGroup, InputSpace, LogNormal, Normal, \
+        TruncNormal, Uniform
+    from uqguide.pce.germ import Germ
+
+    space = InputSpace([Normal(name="n1", dist="normal", mean=1.0, std=2.0),
+                        Normal(name="n2", dist="normal", mean=-1.0, std=0.5),
+                        Uniform(name="u", dist="uniform", low=2.0, high=5.0),
+                        LogNormal(name="l", dist="lognormal", mu=0.1, sigma=0.3),
+                        TruncNormal(name="t", dist="truncnormal", mean=0.0, std=1.0,
+                                    low=-1.0, high=2.0)],
+                       [CorrelatedGroup((0, 1), np.array([[1.0, 0.6], [0.6, 1.0]]))])
+    u = np.random.default_rng(19).uniform(0.01, 0.99, (50, 5))
+    assert np.allclose(space.to_unit(space.from_unit(u)), u, rtol=0, atol=1e-12)
+    germ = Germ.of(space)
+    xi = germ.from_unit(u)
+    assert np.allclose(germ.from_physical(germ.to_physical(xi)), xi, rtol=0, atol=1e-12)
+
+
+def test_fit_takes_a_dataset_series_with_its_time_coordinate_and_monte_carlo():
+    import xarray as xr
+
+    x, y = rows(40, 21)
+    t = np.array([0.0, 2.0, 5.0])
+    ds = xr.Dataset({"a": ("run", x[:, 0]), "b": ("run", x[:, 1]),
+                     "path": (("run", "t"), y[:, None] * t[None, :])}, coords={"t": t})
+    result = uqguide.fit(ds[["a", "b"]], ds[["path"]], inputs=INPUTS, method="monte_carlo")
+    assert np.array_equal(result.time, t)
+    st = result.run("monte_carlo").estimate.stats["path"]
+    assert np.allclose(st.mean[:, 0], y.mean() * t, rtol=1e-13)

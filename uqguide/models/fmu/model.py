@@ -1,0 +1,161 @@
+"""An FMU as a model: the batch interface (the parameters are in :mod:`.params`).
+
+Config::
+
+    model:
+      name: fmu
+      path: decay.fmu                  # a relative path is taken from the config's folder
+      inputs: {x0: x0, rate: k}        # uqguide input name -> FMU variable (or a list: same names)
+      outputs:
+        - x                            # a scalar at stop_time, from the FMU variable x
+        - {name: path, kind: series, variable: x}          # x on the output_interval grid
+        - {name: pos, variable: [body.r[1], body.r[2]]}    # two components
+      start_time: 0.0                  # [s]
+      stop_time: 10.0                  # [s]
+      output_interval: 0.1             # [s]: the series' grid and the communication step
+                                       # (without it: the FMU's default step, fitted to the span)
+      start_values: {controller.k: 2}  # other FMU variables, the same for every sample
+      relative_tolerance: 1.0e-6       # passed to the FMU (and to CVode for model exchange)
+
+An input sets its FMU variable's start value before each simulation; it must be a real-valued
+parameter, input or variable with a start value (what FMI lets one set before initialising).
+An input the config does not make uncertain keeps the FMU's own start value (or ``nominal``).
+Outputs are read from any numeric FMU variable; their unit and description default to the
+FMU's. A scalar is the value at ``stop_time``; a series is the value at ``start_time + i
+output_interval`` up to ``stop_time``, which must be a whole number of intervals.
+
+Everything about the file is checked when the config is loaded: FMPy installed, the file an
+FMU with a binary for this machine, every variable named present and of the right kind. A
+failure is then a config error naming the field, the value and the FMU's variables; what goes
+wrong in a simulation fails that sample with its reason (see :mod:`.simulate`).
+
+Trust: an FMU's binary runs in uqguide's process with the user's rights, like a ``callable``
+model's function; a crash of the binary (a segmentation fault) ends that process. The config's
+``timeout_s`` runs each batch in a guard process, which contains both a crash and a hang.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...errors import ModelError
+from ..base import InputInfo, ModelOutput, OutputInfo, StepCount
+from ..callable import CallableOutput, DeclaredModel
+from . import archive
+from .params import FmuParams
+from .simulate import Instance, Setup, pick
+
+
+class FmuModel(DeclaredModel):
+    """An FMU (FMI 1.0, 2.0 or 3.0; co-simulation, or model exchange with FMPy's solver),
+    simulated by FMPy, as a uqguide model."""
+
+    name = "fmu"
+    summary = "an FMU (Modelica, Simulink, ... export) simulated with FMPy (uqguide[fmu])"
+    Params = FmuParams
+    params: FmuParams
+    # example_params stays empty: no FMU ships with uqguide, so the conformance test builds
+    # one (tests/fmu_decay.py) and `uqguide models fmu` lists the parameters only
+
+    def _specs(self) -> list[CallableOutput]:
+        return list(self.params.output_specs())
+
+    def _source(self) -> str:
+        return Path(self.params.path).name
+
+    def inputs(self) -> tuple[InputInfo, ...]:
+        known = archive.variables(self.params.description())
+        infos = []
+        for name, v in self.params.inputs.items():
+            var = known[v]
+            start = self.params.nominal.get(name, _start(var))
+            infos.append(InputInfo(name, _unit(var), f"FMU {var.causality} {v!r}"
+                                   + (f": {var.description}" if var.description else ""),
+                                   start))
+        return tuple(infos)
+
+    def outputs(self) -> tuple[OutputInfo, ...]:
+        known = archive.variables(self.params.description())
+        infos = []
+        for s in self.params.output_specs():
+            first = known[s.variables()[0]]
+            where = "at stop_time" if s.kind == "scalar" else "on the output_interval grid"
+            infos.append(OutputInfo(
+                s.name, s.kind, s.unit or _unit(first) or "1",
+                s.description or (f"{first.description or 'FMU variable'} "
+                                  f"({', '.join(s.variables())}) {where}"),
+                tuple(s.component_names) if s.component_names else
+                tuple(s.variables()) if s.components > 1 else ("",)))
+        return tuple(infos)
+
+    def step_count(self) -> StepCount:
+        p = self.params
+        steps = (p.stop_time - p.start_time) / p.interval()
+        return StepCount(steps, steps + 1, "output_interval",
+                         "(stop_time - start_time) / output_interval")
+
+    def _setup(self, with_series: bool) -> Setup:
+        p = self.params
+        try:
+            folder = archive.unzipped(p.fmu_file())
+            md = self.params.description()
+            step = p.interval()
+        except (archive.FmuUnavailable, OSError, ValueError) as exc:
+            # checked when the config was loaded: this process (a worker) differs
+            raise ModelError(f"model.path: {p.fmu_file()}: {exc}") from None
+        n = round((p.stop_time - p.start_time) / step)
+        grid = p.start_time + step * np.arange(n + 1) if with_series else np.zeros(0)
+        return Setup(folder, md, p.start_time, p.stop_time, step, grid,
+                     p.relative_tolerance, dict(p.start_values))
+
+    def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
+                  outputs: frozenset[str]) -> ModelOutput:
+        specs = [s for s in self.params.output_specs() if s.name in outputs]
+        scalars = {s.name: s.variables() for s in specs if s.kind == "scalar"}
+        series = {s.name: s.variables() for s in specs if s.kind == "series"}
+        setup = self._setup(bool(series))
+        recorded = sorted({v for s in specs for v in s.variables()})
+        T = setup.grid.size
+        out_scalars = {k: np.full((n, len(v)), np.nan) for k, v in scalars.items()}
+        out_series = {k: np.full((n, T, len(v)), np.nan) for k, v in series.items()}
+        reasons = np.full(n, "", dtype=object)
+        instance = Instance(setup)
+        try:
+            for i in range(n):
+                start = {self.params.inputs[name]: float(values[name][i])
+                         for name in self.params.inputs}
+                got = instance.run(start, recorded)
+                if isinstance(got, str):
+                    reasons[i] = got
+                    continue
+                sc, se, reasons[i] = pick(got, setup, scalars, series)
+                for k, a in sc.items():
+                    out_scalars[k][i] = a
+                for k, a in se.items():
+                    out_series[k][i] = a
+        except ModelError as exc:
+            raise ModelError(f"{self.params.fmu_file()}: {exc}") from None
+        finally:
+            instance.close()
+        failed = reasons != ""
+        return ModelOutput(time=setup.grid, series=out_series, scalars=out_scalars,
+                           failed=failed, reasons=reasons)
+
+
+def _start(variable: Any) -> float:
+    """A variable's start value as a float (0 when it has none, or none that is a number)."""
+    try:
+        value = float(variable.start)
+    except (TypeError, ValueError):
+        return 0.0
+    return value if math.isfinite(value) else 0.0
+
+
+def _unit(variable: Any) -> str:
+    declared = getattr(variable, "declaredType", None)
+    return variable.unit or (declared.unit if declared is not None else "") or ""
