@@ -20,8 +20,9 @@ against a reference:
   printed value more than 10 half-widths off is what issue 27 calls absurd);
 - ``no-ci``: values printed with no interval, and their worst error ``err``: relative for std
   and kurtosis, in units of the std for the mean, absolute for the skewness;
-- ``withheld``: statistics the method did not print (NaN), for which a user gets no number from
-  that label.
+- ``withheld``: statistics a method did not print (NaN); ``no-answer``: those for which no row
+  derived from it (``label+mc``, the Monte Carlo estimate of its own runs) gives a number
+  either.
 
 Usage::
 
@@ -257,6 +258,7 @@ class Score:
     no_ci: int = 0
     worst_rel_no_ci: float = 0.0   # worst relative error among values with no interval
     withheld: int = 0
+    unanswered: int = 0            # withheld with no fallback row (label+mc) either
     runs: list[int] = field(default_factory=list)
 
 
@@ -270,7 +272,8 @@ def score_run(p: Problem, result, ref: dict[str, np.ndarray], table: dict) -> No
             wanted = [None]
         for label, rows in df.groupby("label", sort=False):
             s = table.setdefault((p.name, str(label)), {st: Score() for st in STATS})
-            runs = int(result.run(str(label)).n_runs)
+            # a derived row (label+cv, label+mc) costs the runs of the method it comes from
+            runs = int(result.run(str(label).split("+")[0]).n_runs)
             for k, stat in enumerate(STATS):
                 sc = s[stat]
                 sc.runs.append(runs)
@@ -281,7 +284,11 @@ def score_run(p: Problem, result, ref: dict[str, np.ndarray], table: dict) -> No
                     exact = float(np.ravel(exact)[0])
                     value = float(row["value"].iloc[0]) if len(row) else float("nan")
                     if not np.isfinite(value):
-                        sc.withheld += 1
+                        # a fallback row (label+mc) is empty where its method printed: only a
+                        # method's own gap counts, and whether some row of it filled the gap
+                        if "+" not in str(label):
+                            sc.withheld += 1
+                            sc.unanswered += int(not _answered(df, str(label), stat, t))
                         continue
                     sc.printed += 1
                     lo, hi = (float(row[c].iloc[0]) for c in ("ci_low", "ci_high"))
@@ -294,6 +301,14 @@ def score_run(p: Problem, result, ref: dict[str, np.ndarray], table: dict) -> No
                         sc.no_ci += 1
                         scale = _scale(stat, exact, ref[o["name"]], j if t is not None else None)
                         sc.worst_rel_no_ci = max(sc.worst_rel_no_ci, abs(value - exact) / scale)
+
+
+def _answered(df, label: str, stat: str, t: float | None) -> bool:
+    """Whether a row derived from ``label`` (``label+mc``, ``label+cv``) gives the statistic."""
+    rows = df[df["label"].astype(str).str.startswith(label + "+") & (df["statistic"] == stat)]
+    if t is not None:
+        rows = rows[np.isclose(rows["time"], t)]
+    return bool(np.isfinite(rows["value"].to_numpy(dtype=float)).any())
 
 
 def _scale(stat: str, exact: float, ref: np.ndarray, j: int | None) -> float:
@@ -325,7 +340,7 @@ def main(argv: list[str] | None = None) -> int:
     cpu = time.process_time() - started
     print(f"defaults zoo: {len(chosen)} problems x {args.seeds} seeds, {cpu:.0f} CPU-s")
     print(f"{'problem':<13} {'label':<7} {'stat':<9} {'runs':>5} {'printed':>7} {'cover':>6} "
-          f"{'lo':>5} {'worst':>6} {'no-ci':>5} {'err':>8} {'withheld':>8}")
+          f"{'lo':>5} {'worst':>6} {'no-ci':>5} {'err':>8} {'withheld':>8} {'no-answer':>9}")
     fails = 0
     for (name, label), per in table.items():
         for stat, sc in per.items():
@@ -335,7 +350,7 @@ def main(argv: list[str] | None = None) -> int:
             fails += int(bool(bad))
             print(f"{name:<13} {label:<7} {stat:<9} {int(np.mean(sc.runs)):>5} "
                   f"{sc.printed:>7} {cover:>6.1%} {low:>5.0%} {sc.worst_hw:>6.1f} "
-                  f"{sc.no_ci:>5} {sc.worst_rel_no_ci:>8.1e} {sc.withheld:>8}"
+                  f"{sc.no_ci:>5} {sc.worst_rel_no_ci:>8.1e} {sc.withheld:>8} {sc.unanswered:>9}"
                   + ("  <-" if bad else ""))
     print(f"{fails} rows below 93% coverage (Wilson lower bound 85%) or over 10 half-widths off")
     return 0

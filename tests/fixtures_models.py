@@ -33,3 +33,25 @@ def rare_flag(x):
 def even_cosine(x):
     """cos(a) on a symmetric interval: even, so a degree-1 PCE of it is a constant."""
     return np.cos(x[:, 0])
+
+
+#: The time grid of :func:`decaying_cosine` [s]: 401 steps over 10 s.
+OSCILLATOR_TIME = np.linspace(0.0, 10.0, 401)
+
+
+def decaying_cosine(x):
+    """x(t) = exp(-zeta omega t) cos(omega_d t), omega_d = omega sqrt(1 - zeta^2): a damped
+    oscillator released at rest-free unit displacement, with uncertain natural frequency
+    ``omega`` [rad/s] and damping ratio ``zeta`` (issue 27's 2-input, 401-step series; its
+    phase spreads with time, so late steps are far from polynomial in the inputs)."""
+    omega, zeta = x[:, 0, None], x[:, 1, None]
+    t = OSCILLATOR_TIME[None, :]
+    omega_d = omega * np.sqrt(1.0 - zeta**2)
+    return {"time": OSCILLATOR_TIME,
+            "x": np.exp(-zeta * omega * t) * np.cos(omega_d * t)}
+
+
+def decaying_cosine_at_7s(x):
+    """:func:`decaying_cosine` at t = 7 s only, a scalar (a cheap case of the same fit)."""
+    omega, zeta = x[:, 0], x[:, 1]
+    return np.exp(-zeta * omega * 7.0) * np.cos(omega * np.sqrt(1.0 - zeta**2) * 7.0)

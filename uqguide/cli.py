@@ -144,10 +144,13 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
                                  "(exit 1 on a regression, 2 if it is unusable).")
 @click.option("-q", "--quiet", is_flag=True,
               help="No progress display (and no budget lines) on stderr.")
+@click.option("--strict", is_flag=True,
+              help="Exit 1 when a PCE withholds a statistic at a reported point (its Monte "
+                   "Carlo fallback is still reported); also the config's strict: true.")
 @_handle_errors
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, resume: bool, force: bool,
-        check_path: Path | None, quiet: bool) -> None:
+        check_path: Path | None, quiet: bool, strict: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .config.budget import estimate
     from .driver.checkpoint import RunInterrupted
@@ -205,6 +208,10 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         click.echo(f"wrote {p}")
     check_methods(result)
     check_failure_budget(result, cfg.raw.max_failed_fraction)
+    if strict or cfg.raw.strict:
+        from .driver.strict import check_withheld
+
+        check_withheld(result)
     if check_path:
         _gate_verdict(result, baseline, check_path)
 

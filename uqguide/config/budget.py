@@ -20,7 +20,8 @@ The estimate is an upper bound of what the pipeline holds at once, in bytes:
 - **quantiles kept** by a Monte Carlo method asked for quantiles: ``runs x steps x k x 8``, twice
   (the steps are the whole grid while that stays under 2^25 floats, else the report times);
 - **bootstrap sums** of a Monte Carlo method with ``intervals: bootstrap``: four power sums per
-  resample and interval column, ``B x C x 4 x 8`` with ``C`` the scalar components plus the
+  resample and interval column (eight with ``intervals: studentized``), ``B x C x 4 x 8`` with
+  ``C`` the scalar components plus the
   series components at the bootstrap steps (the report times and the last step, or every
   step with ``bootstrap_times: all``); twice kept (the running sums and a merge), three times
   per chunk in flight (the chunk's sums and the weighted products that make them);
@@ -193,12 +194,14 @@ def _bootstrap_sums(method: object, cfg: RunConfig, k_scalar: int, k_series: int
     """Bytes of one set of a Monte Carlo method's bootstrap power sums (0 without them)."""
     settings = getattr(method, "settings", None)
     boot = getattr(settings, "bootstrap", 0) or 0
-    if getattr(settings, "intervals", None) != "bootstrap" or boot <= 0:
+    kind = getattr(settings, "intervals", None)
+    if kind not in ("bootstrap", "studentized") or boot <= 0:
         return 0.0
     steps = grid if getattr(settings, "bootstrap_times", "report") == "all" else \
         len(cfg.raw.report_times or ()) + 1
     columns = k_scalar + k_series * steps
-    return 4 * 8.0 * boot * columns
+    # the studentised bootstrap keeps the central sums of orders 5-8 too
+    return (8 if kind == "studentized" else 4) * 8.0 * boot * columns
 
 
 #: The setting that shrinks each part of the estimate, named when the budget refuses a run.

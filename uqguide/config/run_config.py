@@ -22,6 +22,7 @@ Layout (all values SI)::
     seed: 12345          # root seed of every random stream of the run
     batch_size: 10000    # samples per model call (memory only: never changes the numbers)
     max_failed_fraction: 0.01    # failure budget per method: above it `uqguide run` exits 1
+    strict: false                # true: a statistic a PCE withholds makes `uqguide run` exit 1
     pce_failure_policy: fail     # quadrature PCE with failed runs: fail | regression
     quantiles: 3sigma            # optional: quantile levels in (0, 1), or 3sigma
     events:                      # optional: events on scalar outputs (below: y < b, above: y > a)
@@ -122,6 +123,10 @@ class RawConfig(StrictModel):
     #: wherever failures correlate with the inputs (they always do), most of all the tails
     #: (kurtosis); above 1% a GNC campaign should look at why before trusting them.
     max_failed_fraction: float = Field(default=0.01, ge=0.0, le=1.0)
+    #: Whether a statistic a PCE withholds (no usable surrogate, or not supported by its own
+    #: runs) makes ``uqguide run`` exit 1 (the result is still written); ``--strict`` does
+    #: the same. Off by default: the report then gives the runs' own Monte Carlo estimate.
+    strict: bool = False
     #: A quadrature PCE (tensor, Smolyak) needs every node: ``fail`` (default) stops the method
     #: with the failed nodes named; ``regression`` fits the coefficients by least squares on
     #: the surviving nodes, with a warning and a diagnostics entry.

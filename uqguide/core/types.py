@@ -279,6 +279,12 @@ class OutputStats:
     usable : ndarray of bool, shape (..., k), optional
         Where the surrogate is usable (its error at most the method's ``usable_error``); its
         own moments are NaN elsewhere. None: not judged (sampling methods).
+    fallback : dict of str to ndarray, shape (..., k)
+        Where a PCE withholds a moment (not usable, or not supported by its runs,
+        :mod:`uqguide.pce.support`): the Monte Carlo estimate of its own fit and validation
+        runs (:mod:`uqguide.pce.runs_estimate`); NaN where the PCE's own value is given.
+    fallback_ci : dict of str to ndarray, shape (2, ..., k)
+        Their 95% intervals.
     """
 
     mean: np.ndarray
@@ -300,6 +306,8 @@ class OutputStats:
     validation_error: np.ndarray | None = None
     usable: np.ndarray | None = None
     sampling_se: dict[str, np.ndarray] = field(default_factory=dict)
+    fallback: dict[str, np.ndarray] = field(default_factory=dict)
+    fallback_ci: dict[str, np.ndarray] = field(default_factory=dict)
 
     def stat(self, name: str) -> np.ndarray:
         """One of the four moments by name.

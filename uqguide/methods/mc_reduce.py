@@ -69,8 +69,10 @@ class MonteCarloReducer:
 
     Summary keys are ``"m:<field>:<output>"`` (plain sums with comoments),
     ``"h:<field>:<output>"`` (plain sums with the orders 5-8 of the interval columns, for the
-    delta-method intervals), ``"b:<field>:<output>"`` (Poisson-bootstrap sums of the interval
-    columns, when ``intervals == "bootstrap"``) and
+    delta-method and studentised intervals, flattened as the bootstrap's columns under
+    ``studentized``), ``"b:<field>:<output>"`` (Poisson-bootstrap sums of the interval
+    columns, when ``intervals`` is ``bootstrap``, or ``studentized``: then with each resample's
+    orders 5-8) and
     ``"j:<field>:"`` (all scalar outputs stacked, for their joint covariance) and, when
     quantiles are asked for, ``"q::<output>"``: the good runs' values of each series at the
     quantile steps (:func:`quantile_index`), merged by concatenation in chunk order.
@@ -125,16 +127,22 @@ class MonteCarloReducer:
             # explicit width: reshape(0, -1) is ambiguous for a chunk in which every run failed
             blocks.append(cols.reshape(cols.shape[0], int(np.prod(cols.shape[1:]))))
             spans.append((name, blocks[-1].shape[1]))
+        student = self.intervals == "studentized"
         if w is not None and blocks:
             # One weighted reduction of every interval column side by side: a few large
             # matrix products instead of one small product per output and power.
-            boot = MomentSums.weighted(np.concatenate(blocks, axis=1), w)
+            boot = MomentSums.weighted(np.concatenate(blocks, axis=1), w, high=student)
             c0 = 0
             for name, c in spans:
                 sl = slice(c0, c0 + c)
+                hi = boot.high[:, :, sl] if boot.high is not None else None
                 _put(summary, "b", name, MomentSums(boot.n, boot.mean[:, sl], boot.m2[:, sl],
-                                                    boot.m3[:, sl], boot.m4[:, sl]))
+                                                    boot.m3[:, sl], boot.m4[:, sl], None, hi))
                 c0 += c
+        if student:
+            # the full sample's own standard errors, which the bootstrap-t pivot rescales
+            for (name, _), cols in zip(spans, blocks):
+                _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
         self._scalars_and_quantiles(summary, out, ok, keep)
         return summary
 

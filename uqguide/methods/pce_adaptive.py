@@ -385,7 +385,8 @@ class AdaptivePCE(Method):
         finish(est, self._surrogate(space, fits), space=space, validation=validation,
                design=val_design,
                loo={f.columns.name: f.loo for f in fits}, threshold=s.usable_error,
-               seed=int(design.data.get("seed", 0)), n_draws=s.surrogate_draws)
+               seed=int(design.data.get("seed", 0)), n_draws=s.surrogate_draws,
+               fit=outputs)
         return est
 
     def _validate(self, space: InputSpace, fits: list[_OutputFit], vd: ValidationDesign,

@@ -1,5 +1,8 @@
 """The step every PCE method shares after its fit: keep the surrogate, validate it on
-independent runs, correct its moments and withdraw them where it is not usable.
+independent runs, correct its moments and withdraw them where it is not usable; withhold a
+skewness or kurtosis its own runs do not support (:mod:`uqguide.pce.support`) and give, where
+any moment is withheld, the Monte Carlo estimate of the runs it made
+(:mod:`uqguide.pce.runs_estimate`, the ``+mc`` rows).
 
 Settings (every PCE method)::
 
@@ -30,8 +33,11 @@ from ..pce.validation import (
     USABLE_ERROR, corrected_moments, disagreement, first_sustained, sampling_se, usable_mask,
     validation_unit_rows, withdraw,
 )
+from ..pce.runs_estimate import INTERVAL, runs_estimate
+from ..pce.support import SHAPE_STATS, refuted, unsupported
+from ..pce.validation import Corrected
 from ..pce.validation_design import ValidationDesign, random_validation, stratified_validation
-from ..core.types import Estimate, ModelOutput
+from ..core.types import STAT_NAMES, Estimate, ModelOutput
 
 log = logging.getLogger(__name__)
 
@@ -91,7 +97,7 @@ def _values(out: ModelOutput, name: str) -> np.ndarray | None:
 def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
            validation: ModelOutput | None, design: ValidationDesign | None,
            loo: Mapping[str, float], threshold: float, seed: int,
-           n_draws: int = 1_000_000) -> None:
+           n_draws: int = 1_000_000, fit: ModelOutput | None = None) -> None:
     """Keep the surrogate in ``estimate``; validate, correct and judge every output in place.
 
     Parameters
@@ -112,6 +118,11 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         The run's seed (keys the draws that measure sampled moments' sampling error).
     n_draws : int
         Surrogate draws behind sampled moments (their sampling error joins the intervals).
+    fit : ModelOutput, optional
+        The fit's runs when they are a sample of the input distribution (a regression
+        design; not quadrature nodes): with the validation runs they give the Monte Carlo
+        estimate that judges the PCE's skewness and kurtosis (:mod:`uqguide.pce.support`)
+        and stands in where a statistic is withheld (:mod:`uqguide.pce.runs_estimate`).
     """
     estimate.surrogate = surrogate
     diag = estimate.diagnostics
@@ -127,6 +138,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
                                      f"{design.pool}-point pool)" if design.stratified
                                      else "random")
     time = validation.time if validation is not None else None
+    if (time is None or time.size == 0) and fit is not None:
+        time = fit.time
     for name, st in estimate.stats.items():
         err = None
         corrected = None
@@ -148,6 +161,9 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             st.validation_error = err = cv.error
             diag[f"validation_error.{name}"] = float(np.max(err)) if err.size else 0.0
             corrected = cv
+        runs = _runs_estimate(name, fit, validation, ok, used)
+        if corrected is not None:
+            _drop_refuted(diag, estimate.label, name, st, corrected, runs)
         # Derived outputs have no LOO of their own: their carriers' LOO judges them.
         fit_loo = loo.get(name)
         if fit_loo is None and name in surrogate.derived:
@@ -163,6 +179,9 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         st.usable = usable
         if corrected is not None:
             _flag_disagreement(diag, estimate.label, name, st, corrected, time, usable)
+        _withhold_unsupported(diag, estimate.label, name, st, corrected, runs, usable, time)
+        if st.fallback:
+            diag["fallback_interval"] = INTERVAL
         if usable.all():
             continue
         withdraw(st, usable)
@@ -187,6 +206,89 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
                         estimate.label, name, why, threshold)
 
 
+def _runs_estimate(name: str, fit: ModelOutput | None, validation: ModelOutput | None,
+                   ok: np.ndarray | None, used: ValidationDesign | None) -> Corrected | None:
+    """The Monte Carlo estimate of the output's fit and validation runs (None: no runs of
+    it, e.g. a derived output, or fewer than three)."""
+    yf = _values(fit, name) if fit is not None else None
+    if yf is not None and fit is not None:
+        yf = yf[~fit.failed]
+    yv = _values(validation, name) if validation is not None else None
+    if yv is not None and ok is not None and used is not None:
+        yv = yv[ok]
+    else:
+        yv, used = None, None
+    if yf is None and yv is None:
+        return None
+    return runs_estimate(yf, yv, used)
+
+
+def _drop_refuted(diag: dict[str, Any], label: str, name: str, st: Any, cv: Corrected,
+                  runs: Corrected | None) -> None:
+    """Remove the control-variate values the runs' own Monte Carlo estimate refutes
+    (:func:`uqguide.pce.support.refuted`): they are not reported, and nothing says they
+    hold."""
+    if runs is None:
+        return
+    bad = refuted(cv, runs, runs.values["std"])
+    names = [k for k, m in bad.items() if m.any()]
+    if not names:
+        return
+    for k in names:
+        v = np.array(cv.values[k], dtype=float)
+        v[bad[k]] = np.nan
+        ci = np.array(cv.ci[k], dtype=float)
+        ci[:, bad[k]] = np.nan
+        cv.values[k], cv.ci[k] = v, ci
+    st.corrected, st.corrected_ci = cv.values, cv.ci
+    n_bad = int(np.sum(np.any([bad[k] for k in names], axis=0)))
+    diag[f"cv_refuted.{name}"] = ", ".join(names)
+    log.warning("%s: %s: the corrected (+cv) %s disagree with, or are less precise than, the "
+                "Monte Carlo estimate of the method's own runs at %d point(s) (the surrogate's "
+                "tails beyond its validation runs carry them); they are not reported there",
+                label, name, ", ".join(names), n_bad)
+
+
+def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
+                          cv: Corrected | None, runs: Corrected | None, usable: np.ndarray,
+                          time: np.ndarray | None) -> None:
+    """Withhold the PCE's skewness and kurtosis where its runs do not support them
+    (:func:`uqguide.pce.support.unsupported`), and give the runs' Monte Carlo estimate
+    (``fallback``) wherever one of its moments is withheld."""
+    own = {k: np.asarray(st.stat(k), dtype=float) for k in ("std",) + SHAPE_STATS}
+    bad = unsupported(own, cv, runs)
+    bad = {k: m & usable for k, m in bad.items()}  # elsewhere all four go anyway
+    for k, m in bad.items():
+        if m.any():
+            v = np.array(getattr(st, k), dtype=float)
+            v[m] = np.nan
+            setattr(st, k, v)
+    withheld = {k: ~usable | bad.get(k, np.zeros_like(usable)) for k in STAT_NAMES}
+    if runs is not None and any(m.any() for m in withheld.values()):
+        # kept only where something is withheld: a PCE that gives every moment has no +mc
+        for k, m in withheld.items():
+            st.fallback[k] = np.where(m, runs.values[k], np.nan)
+            st.fallback_ci[k] = np.where(m, runs.ci[k], np.nan)
+    names = [k for k, m in bad.items() if m.any()]
+    if not names:
+        return
+    any_bad = np.any([bad[k] for k in names], axis=0)
+    what = " and ".join(names)
+    instead = ("the Monte Carlo estimate of its own runs (+mc) is given" if runs is not None
+               else "no estimate of its own runs is at hand")
+    if any_bad.ndim == 2 and time is not None and time.size == any_bad.shape[0]:
+        steps = np.flatnonzero(any_bad.any(axis=1))
+        diag[f"withheld_steps.{name}"] = int(steps.size)
+        diag[f"withheld_from.{name}"] = float(time[steps[0]])
+        log.warning("%s: %s: the PCE's %s disagree with its own runs at %d of %d steps (from "
+                    "t = %g s) and are withheld there; %s", label, name, what, steps.size,
+                    any_bad.shape[0], time[steps[0]], instead)
+    else:
+        diag[f"withheld.{name}"] = what
+        log.warning("%s: %s: the PCE's %s disagree with its own runs and are withheld; %s",
+                    label, name, what, instead)
+
+
 def _flag_disagreement(diag: dict[str, Any], label: str, name: str, st: Any, cv: Any,
                        time: np.ndarray | None, usable: np.ndarray) -> None:
     """Record (diagnostics ``disagrees.<output>`` / ``disagrees_from.<output>``) and log where
@@ -207,13 +309,24 @@ def _flag_disagreement(diag: dict[str, Any], label: str, name: str, st: Any, cv:
         t0 = float(time[i])
         diag[f"disagrees_from.{name}"] = t0
         log.warning("%s: %s: the PCE's %s disagree with its validation runs from t = %g s "
-                    "(outside the correction's 95%% interval); the corrected values (+cv) "
-                    "hold there", label, name, " and ".join(names), t0)
+                    "(outside the correction's 95%% interval); %s", label, name,
+                    " and ".join(names), t0, _instead(diag, name))
     else:
         diag[f"disagrees.{name}"] = ", ".join(names)
         log.warning("%s: %s: the PCE's %s disagree with its validation runs (more than two "
-                    "95%% half-widths from the corrected value); the corrected values (+cv) "
-                    "hold", label, name, ", ".join(names))
+                    "95%% half-widths from the corrected value); %s", label, name,
+                    ", ".join(names), _instead(diag, name))
+
+def _instead(diag: dict[str, Any], name: str) -> str:
+    """What stands where the PCE's statistics disagree: the corrected values, unless the
+    runs refuted some of them (:func:`_drop_refuted`)."""
+    refuted_cv = diag.get(f"cv_refuted.{name}")
+    if refuted_cv:
+        return (f"the corrected values (+cv) stand where the method's own runs do not refute "
+                f"them (they refute its {refuted_cv} in places: the runs' Monte Carlo "
+                f"estimate, +mc, is given there)")
+    return "the corrected values (+cv) are consistent with the runs there"
+
 
 
 def split_validation(design_data: Mapping[str, Any], outputs: ModelOutput

@@ -19,7 +19,7 @@ from ..core import atomic
 from ..core.failures import COLUMNS as FAILURE_COLUMNS, reason_rows
 from ..models.base import OutputInfo
 from ..results.result import Result
-from ..results.statistics import Point, Statistic, points, result_statistics
+from ..results.statistics import CORRECTED_SUFFIX, Point, Statistic, points, result_statistics
 from ..config.report_times import report_indices  # noqa: F401 - imported from here by others
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
@@ -64,6 +64,9 @@ def cost_table(result: Result) -> pd.DataFrame:
         disagree = disagreeing_outputs(d)
         if disagree:
             extra["validation disagrees"] = "; ".join(disagree)
+        withheld = withheld_outputs(d)
+        if withheld:
+            extra["withheld (+mc given)"] = "; ".join(withheld)
         for name in rare:
             ev = r.estimate.events.get(name)
             extra[f"P({name})"] = ev.probability if ev else float("nan")
@@ -90,6 +93,17 @@ def unusable_outputs(diagnostics: dict) -> list[str]:
            if k.startswith("unusable.")]
     out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
             if k.startswith("unusable_from.")]
+    return out
+
+
+def withheld_outputs(diagnostics: dict) -> list[str]:
+    """``"zem (kurtosis)"`` or ``"x at 19 steps from t = 5.3 s"`` for every output whose PCE
+    skewness or kurtosis its runs do not support (:mod:`uqguide.pce.support`)."""
+    out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
+           if k.startswith("withheld.")]
+    out += [f"{k.split('.', 1)[1]} at {v} steps from t = "
+            f"{diagnostics.get('withheld_from.' + k.split('.', 1)[1], float('nan')):g} s"
+            for k, v in diagnostics.items() if k.startswith("withheld_steps.")]
     return out
 
 
@@ -138,7 +152,8 @@ def validation_text(df: pd.DataFrame) -> pd.DataFrame:
     out = df[["label", "output", "component", "time", "stat"]].copy()
     out["PCE"] = [(_fmt(v) if u else "no usable surrogate") for v, u in zip(df["pce"],
                                                                              df["usable"])]
-    out["corrected [95%]"] = [f"{_fmt(v)} [{_fmt(a)}, {_fmt(b)}]" for v, a, b in
+    out["corrected [95%]"] = [f"{_fmt(v)} [{_fmt(a)}, {_fmt(b)}]" if np.isfinite(v) or
+                              np.isfinite(a) else NOT_REPORTED for v, a, b in
                               zip(df["corrected"], df["ci_low"], df["ci_high"])]
     out["val_error"] = df["val_error"].map(_fmt)
     out["runs (fit+validation)"] = df["runs"]
@@ -228,14 +243,18 @@ def statistics_table(result: Result) -> pd.DataFrame:
                 continue
             rv = ref.get(o.name) if ref is not None else None
             for p in points(o, result.time, result.report_times):
+                withheld = v.withheld_at(p.where) if v.usable_at(p.where) else []
                 for st in v.statistics:
-                    rows += _row(o, st, p, None if rv is None else rv.own(st.name))
+                    rows += _row(o, st, p, None if rv is None else rv.own(st.name),
+                                 st.kind == "moment" and st.name in withheld)
     return pd.DataFrame(rows)
 
 
-def _row(o: OutputInfo, st: Statistic, p: Point, ref: Statistic | None) -> list[dict]:
+def _row(o: OutputInfo, st: Statistic, p: Point, ref: Statistic | None,
+         withheld: bool = False) -> list[dict]:
     """The row of statistic ``st`` at point ``p`` (none where it does not exist there),
-    compared with the reference's own statistic of the same name where that exists."""
+    compared with the reference's own statistic of the same name where that exists;
+    ``withheld``: a PCE's moment its runs do not support (:mod:`uqguide.pce.support`)."""
     w = p.where
     if not st.defined_at(w):
         return []
@@ -246,6 +265,8 @@ def _row(o: OutputInfo, st: Statistic, p: Point, ref: Statistic | None) -> list[
     usable = st.usable_at(w)
     if usable is not None:
         row["usable"] = usable
+    if withheld:
+        row["withheld"] = True
     if ref is not None and ref.defined_at(w):
         row.update(_against(float(st.value[w]), lo, hi, float(ref.value[w]), *ref.interval(w)))
     return [row]
@@ -356,6 +377,11 @@ def series_agreement(result: Result) -> pd.DataFrame:
 
 
 # ---------------------------------------------------------------------------- text forms
+#: A control-variate value the runs refuted, or less precise than the runs' own estimate
+#: (:func:`uqguide.pce.support.refuted`), or undefined (no variance): the legend says which.
+NOT_REPORTED = "not reported"
+
+
 def _fmt(v: float) -> str:
     if v is None or (isinstance(v, float) and np.isnan(v)):
         return "nan"
@@ -389,6 +415,13 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
             u = s.get("usable")
             if isinstance(u, (bool, np.bool_)) and not u:
                 row[s["stat"]] = "no usable surrogate"
+                continue
+            if s.get("withheld") is True:
+                row[s["stat"]] = "withheld: its runs disagree (see +mc)"
+                continue
+            if str(s["label"]).endswith(CORRECTED_SUFFIX) and np.isnan(s["value"]) \
+                    and np.isnan(s["ci_low"]):
+                row[s["stat"]] = NOT_REPORTED
                 continue
             cell = _fmt(s["value"])
             if not np.isnan(s["ci_low"]):
@@ -479,11 +512,17 @@ def interval_legend(with_reference: bool) -> str:
     text = ("Values: estimate [95% interval]: Monte Carlo moments by the delta method "
             "(+-1.96 influence-function standard errors; by Poisson bootstrap with "
             "intervals: bootstrap, the mean then by +-1.96 standard errors where it has no "
-            "bootstrap), quantiles by order statistics; PCE values carry none (their error is "
+            "bootstrap; by studentised Poisson bootstrap with intervals: studentized), "
+            "quantiles by order statistics; PCE values carry none (their error is "
             "the surrogate's, see loo_error); "
             "label+cv: a validated PCE's control-variate estimate, delta-method interval from "
-            "its (stratified) validation runs; 'no usable surrogate': LOO or validation error "
-            "above the method's usable_error.")
+            "its (stratified) validation runs (not shown where the runs' own estimate "
+            "refutes it or is more precise); 'no usable surrogate': LOO or validation error "
+            "above the method's usable_error; 'withheld': a PCE skewness or kurtosis outside "
+            "the interval of its validation or Monte Carlo run estimate; label+mc: where a PCE "
+            "moment is withheld, the Monte Carlo estimate of the method's own fit and "
+            "validation runs (no extra runs), delta-method interval treating them as "
+            "independent draws.")
     if with_reference:
         text += (" (difference from the reference; in: within the 95% interval of the "
                  "difference, both estimates' errors combined; OUT: beyond it).")

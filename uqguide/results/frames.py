@@ -158,7 +158,8 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
     Columns: ``label``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
     skewness, kurtosis, sem, q<level>), ``value``, ``ci_low``, ``ci_high`` (NaN where the
     method gives no interval). A validated PCE's control-variate moments are rows of their
-    own, labelled ``<label>+cv`` (:mod:`uqguide.results.statistics`).
+    own, labelled ``<label>+cv``, and so is the Monte Carlo estimate of a PCE's own runs where
+    it withholds a moment, ``<label>+mc`` (only there; :mod:`uqguide.results.statistics`).
 
     Parameters
     ----------
@@ -183,7 +184,9 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
         if v.sem is not None:
             rows.append((r.label, "sem", v.sem, None))
         rows += [(st.label, st.name, st.value, st.ci) for st in v.quantiles + v.corrected]
-        for lab, stat, value, ci in rows:
+        fallback = len(rows)
+        rows += [(st.label, st.name, st.value, st.ci) for st in v.fallback]
+        for i, (lab, stat, value, ci) in enumerate(rows):
             value = np.asarray(value, dtype=float)
             comp = np.broadcast_to(np.array(info.components, dtype=object), value.shape)
             cols: dict[str, Any] = {LABEL: lab}
@@ -194,7 +197,12 @@ def to_dataframe(result: Result, output: str) -> pd.DataFrame:
                                 else np.full(value.size, np.nan)),
                         ci_high=(ci[1].ravel() if ci is not None
                                  else np.full(value.size, np.nan)))
-            frames.append(pd.DataFrame(cols))
+            frame = pd.DataFrame(cols)
+            if i >= fallback:  # given only where the PCE withholds its own value
+                frame = frame[frame["value"].notna()]
+                if frame.empty:
+                    continue
+            frames.append(frame)
     if not frames:
         raise ResultError(f"no method of this result has statistics of {output!r}")
     return pd.concat(frames, ignore_index=True)

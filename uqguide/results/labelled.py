@@ -19,6 +19,10 @@ variable                 dims                                        what
 ``o_corrected``          (statistic, ..., o_component)               a validated PCE's
                                                                      control-variate moments
 ``o_corrected_ci``       (bound, statistic, ..., o_component)        their 95% intervals
+``o_fallback``           (statistic, ..., o_component)               where a PCE withholds a
+                                                                     moment, the Monte Carlo
+                                                                     estimate of its own runs
+``o_fallback_ci``        (bound, statistic, ..., o_component)        their 95% intervals
 ``o_validation_error``   (..., o_component)                          out-of-sample relative
                                                                      error of the surrogate
 ``o_usable``             (..., o_component)                          1 where the surrogate is
@@ -149,6 +153,15 @@ def method_variables(stats: Mapping[str, OutputStatistics], time: np.ndarray,
             out[f"{o.name}_corrected_ci"] = Variable(
                 ("bound", "statistic", *base), np.stack([_ci(m) for m in v.corrected], axis=1),
                 {"description": "95% interval from the validation runs (delta method, stratified)"})
+        if v.fallback:
+            out[f"{o.name}_fallback"] = Variable(
+                ("statistic", *base), np.stack([m.value for m in v.fallback]),
+                {"units": o.unit, "description": "where the PCE withholds a moment: the Monte "
+                                                 "Carlo estimate of its own fit and "
+                                                 "validation runs"})
+            out[f"{o.name}_fallback_ci"] = Variable(
+                ("bound", "statistic", *base), np.stack([_ci(m) for m in v.fallback], axis=1),
+                {"description": "95% interval, the runs treated as independent draws"})
         if v.validation_error is not None:
             out[f"{o.name}_validation_error"] = Variable(
                 base, np.asarray(v.validation_error, dtype=float),
@@ -212,6 +225,10 @@ def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[Outpu
             cv, cci = get(f"{o.name}_corrected"), get(f"{o.name}_corrected_ci")
             stats[o.name].corrected = {n: cv[j] for j, n in enumerate(STAT_NAMES)}
             stats[o.name].corrected_ci = {n: cci[:, j] for j, n in enumerate(STAT_NAMES)}
+        if has(f"{o.name}_fallback"):
+            fb, fci = get(f"{o.name}_fallback"), get(f"{o.name}_fallback_ci")
+            stats[o.name].fallback = {n: fb[j] for j, n in enumerate(STAT_NAMES)}
+            stats[o.name].fallback_ci = {n: fci[:, j] for j, n in enumerate(STAT_NAMES)}
         if has(f"{o.name}_validation_error"):
             stats[o.name].validation_error = get(f"{o.name}_validation_error")
         if has(f"{o.name}_usable"):

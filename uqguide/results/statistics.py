@@ -13,6 +13,8 @@ entries:
 - the method's own ``mean``, ``std``, ``skewness`` and ``kurtosis``, labelled with the method's
   label;
 - a validated PCE's control-variate estimates of the same four, labelled ``<label>+cv``;
+- where a PCE withholds one of its moments, the Monte Carlo estimate of its own fit and
+  validation runs, labelled ``<label>+mc`` (:mod:`uqguide.pce.runs_estimate`);
 - the quantiles, named by their level (``q0.5``; :func:`uqguide.stats.quantiles.level_name`).
 
 Each holds its values over every step and component, its 95% interval where the method gives
@@ -39,13 +41,15 @@ if TYPE_CHECKING:
 
 #: How the label of a control-variate estimate ends.
 CORRECTED_SUFFIX = "+cv"
+#: How the label of a PCE's fallback (the Monte Carlo estimate of its own runs) ends.
+FALLBACK_SUFFIX = "+mc"
 #: Half-width of a 95% normal interval in standard errors.
 Z95 = 1.959963984540054
 #: How an output's statistics are judged: by standard errors (sample estimates) or by a relative
 #: tolerance (a PCE's exact or surrogate-sampled moments).
 SAMPLE, RELATIVE = "standard_error", "relative_tolerance"
 
-Kind = Literal["moment", "corrected", "quantile"]
+Kind = Literal["moment", "corrected", "fallback", "quantile"]
 
 
 @dataclass(frozen=True)
@@ -114,8 +118,9 @@ class Statistic:
         The method's label; ``<label>+cv`` for a control-variate estimate.
     name : str
         ``mean``, ``std``, ``skewness``, ``kurtosis``, or a quantile's level name (``q0.99``).
-    kind : {"moment", "corrected", "quantile"}
-        The method's own moment, a validated PCE's control-variate moment, or a quantile.
+    kind : {"moment", "corrected", "fallback", "quantile"}
+        The method's own moment, a validated PCE's control-variate moment, the Monte Carlo
+        estimate of a PCE's own runs where it withholds its moment, or a quantile.
     value : ndarray, shape (..., k)
         In the output's unit (skewness and kurtosis: dimensionless); a quantile is NaN at the
         steps where none was computed.
@@ -141,7 +146,8 @@ class Statistic:
 
     def defined_at(self, where: tuple[int, ...]) -> bool:
         """Whether the statistic exists at ``where``: a quantile is NaN at the steps it was
-        not computed at; a moment exists everywhere (a NaN moment is a value).
+        not computed at, a PCE's fallback where the PCE gives its own value; a moment exists
+        everywhere (a NaN moment is a value).
 
         Parameters
         ----------
@@ -151,7 +157,7 @@ class Statistic:
         -------
         bool
         """
-        return self.kind != "quantile" or not np.isnan(self.value[where])
+        return self.kind not in ("quantile", "fallback") or not np.isnan(self.value[where])
 
     def interval(self, where: tuple[int, ...]) -> tuple[float, float]:
         """The 95% interval at ``where``: the method's; for a sample mean without one,
@@ -203,6 +209,9 @@ class OutputStatistics:
         A validated PCE's control-variate moments (``<label>+cv``); empty otherwise.
     quantiles : tuple of Statistic
         By increasing level; empty when none were computed.
+    fallback : tuple of Statistic
+        Where a PCE withholds a moment, the Monte Carlo estimate of its own runs
+        (``<label>+mc``; NaN where the PCE's own value is given); empty otherwise.
     n_used : int
         Runs (or surrogate draws) the moments used.
     moments_method : str
@@ -229,6 +238,7 @@ class OutputStatistics:
     sobol_total: np.ndarray | None = None
     validation_error: np.ndarray | None = None
     usable: np.ndarray | None = None
+    fallback: tuple[Statistic, ...] = ()
 
     @classmethod
     def of(cls, label: str, output: OutputInfo, s: OutputStats) -> OutputStatistics:
@@ -253,18 +263,38 @@ class OutputStatistics:
         corrected = tuple(Statistic(label + CORRECTED_SUFFIX, n, "corrected", s.corrected[n],
                                     s.corrected_ci[n]) for n in STAT_NAMES) \
             if s.corrected else ()
+        fallback = tuple(Statistic(label + FALLBACK_SUFFIX, n, "fallback", s.fallback[n],
+                                   s.fallback_ci[n]) for n in STAT_NAMES) \
+            if s.fallback else ()
         table = s.quantile_table()
         quantiles = () if table is None else tuple(
             Statistic(label, level_name(p), "quantile", table[1][j], table[2][:, j],
                       usable=None, level=float(p)) for j, p in enumerate(table[0]))
         return cls(label, output, moments, corrected, quantiles, int(s.n_used),
                    s.moments_method, s.cov, s.sobol_first, s.sobol_total,
-                   s.validation_error, usable)
+                   s.validation_error, usable, fallback)
 
     @property
     def statistics(self) -> tuple[Statistic, ...]:
-        """Every statistic in reading order: own moments, control-variate moments, quantiles."""
-        return self.moments + self.corrected + self.quantiles
+        """Every statistic in reading order: own moments, control-variate moments, the
+        fallback where a moment is withheld, quantiles."""
+        return self.moments + self.corrected + self.fallback + self.quantiles
+
+    def withheld_at(self, where: tuple[int, ...]) -> list[str]:
+        """The moments a PCE withholds at ``where`` (not usable there, or not supported by
+        its runs: :mod:`uqguide.pce.support`); empty for sampling methods.
+
+        Parameters
+        ----------
+        where : tuple of int
+
+        Returns
+        -------
+        list of str
+        """
+        if not self.usable_at(where):
+            return list(STAT_NAMES)
+        return [f.name for f in self.fallback if np.isfinite(f.value[where])]
 
     @property
     def sem(self) -> np.ndarray | None:

@@ -1,0 +1,94 @@
+"""The Monte Carlo estimate of the model runs a PCE method already made (its ``+mc`` fallback).
+
+Where a PCE withholds a statistic (its surrogate is not usable there, or its own runs do not
+support the value, :mod:`uqguide.pce.support`), the report still gives an answer: the plain
+sample moments of the model runs the method made, its fit runs and its validation runs, with
+a 95% interval. No run is added, so the cost table counts each run once.
+
+Design decisions:
+
+- **Two designs, one estimate.** The fit runs are a space-filling design of the input
+  distribution (scrambled Sobol' or Latin hypercube, unweighted); the validation runs a random
+  or stratified one with known weights. Each part's weighted mean of ``(y - c)^p`` is unbiased
+  for ``E[(Y - c)^p]``; the estimate mixes the two in proportion to their run counts, so a run
+  counts the same whichever part it came from. The mixture's variance is the sum of the parts'
+  variances: written as strata (the fit runs one stratum of share ``n_fit / N``, validation
+  stratum ``k`` the share ``W_k n_val / N``), the stratified variance of
+  :func:`uqguide.pce.validation.stratified_se` is exactly that sum.
+- **The interval** is that of the control-variate estimates with a constant surrogate
+  (:func:`uqguide.pce.validation.corrected_moments`): delta-method standard errors linearised in
+  the four raw moments, Welch-Satterthwaite degrees of freedom, a t quantile. It treats the fit
+  runs as **independent draws** (the iid interval). A single scrambled Sobol' sequence (or one
+  Latin hypercube) has no replicate scrambles to measure its own error; for outputs of bounded
+  variation its error is smaller than a random design's, so the iid interval is an upper bound
+  there and an approximation otherwise. The label in the report says so (:data:`INTERVAL`).
+- **Where it is given**: only where the PCE withholds the statistic (NaN elsewhere), so the
+  report shows one answer per statistic and point.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.types import OutputStats
+from .validation import Corrected, corrected_moments
+from .validation_design import ValidationDesign
+
+#: What the ``+mc`` interval assumes (the report's legend and the diagnostics).
+INTERVAL = ("95% delta-method interval of the method's own fit and validation runs, the fit "
+            "runs treated as independent draws (an upper bound for a scrambled Sobol' design "
+            "of a smooth output)")
+
+
+def runs_estimate(fit: np.ndarray | None, validation: np.ndarray | None,
+                  design: ValidationDesign | None) -> Corrected | None:
+    """Sample mean, std, skewness and kurtosis of a PCE's own model runs, with intervals.
+
+    Parameters
+    ----------
+    fit : ndarray, shape (n_fit, ...), optional
+        The output at the successful fit runs (None: not a random design, e.g. quadrature
+        nodes, or none).
+    validation : ndarray, shape (n_val, ...), optional
+        The output at the successful validation runs.
+    design : ValidationDesign, optional
+        The validation runs' design restricted to the successful runs
+        (:meth:`~uqguide.pce.validation_design.ValidationDesign.successful`); required with
+        ``validation``.
+
+    Returns
+    -------
+    Corrected or None
+        ``values`` and ``ci`` per statistic (shape ``(...)``, ``(2, ...)``), ``error`` zeros;
+        None with fewer than 3 runs (no spread, no interval).
+    """
+    parts, weights, strata, shares = [], [], [], []
+    n_fit = 0 if fit is None else fit.shape[0]
+    n_val = 0 if validation is None or design is None else validation.shape[0]
+    total = n_fit + n_val
+    if total < 3:
+        return None
+    if n_fit:
+        assert fit is not None
+        parts.append(fit)
+        weights.append(np.full(n_fit, 1.0 / total))
+        strata.append(np.zeros(n_fit, dtype=int))
+        shares.append(np.array([n_fit / total]))
+    pool = 0
+    if n_val:
+        assert validation is not None and design is not None
+        parts.append(validation)
+        weights.append(design.weight * (n_val / total))
+        strata.append(design.stratum + (1 if n_fit else 0))
+        shares.append(design.share * (n_val / total))
+        pool = design.pool
+    y = np.concatenate(parts).astype(float)
+    w = np.concatenate(weights)
+    c = np.tensordot(w, y, axes=(0, 0))
+    flat = np.zeros(y.shape[1:])
+    # A constant surrogate at the runs' mean: the "correction" is then the runs' own moments.
+    constant = OutputStats(mean=c, std=flat, skewness=flat, kurtosis=flat,
+                           cov=np.zeros(y.shape[1:] + y.shape[-1:]), n_used=total)
+    s = np.broadcast_to(c, y.shape)
+    return corrected_moments(constant, y, s, weight=w, stratum=np.concatenate(strata),
+                             share=np.concatenate(shares), pool=pool)

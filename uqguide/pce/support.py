@@ -1,0 +1,133 @@
+"""Whether a PCE's skewness and kurtosis are supported by the model runs it made.
+
+A PCE's moments are exact for the surrogate. Its skewness and kurtosis are carried by the
+surrogate's tails, and a polynomial fitted to a few runs can put enormous values where no run
+looked: a 20-run, degree-16 fit of a damped oscillator (issue 27) gave kurtosis 2.7e3 where
+the model's is 2.4. The control-variate estimate (``+cv``) does not repair that: it corrects
+the surrogate only where the validation runs are, and the tails that carry the moment lie
+beyond them (its interval, from the same runs, is narrow and wrong).
+
+Rule (per statistic and column, i.e. time step x component):
+
+- the PCE's own skewness or kurtosis is **withheld** unless it agrees with every estimate of
+  it its runs give: the control-variate value (with a validation set) and the plain Monte
+  Carlo estimate of the fit and validation runs (:mod:`uqguide.pce.runs_estimate`);
+- a control-variate value (any of the four moments) is **refuted** where it disagrees with the
+  runs' Monte Carlo estimate: it is then not reported either, and no message says it holds.
+  It is also dropped where its interval is wider than the runs' Monte Carlo interval: the
+  surrogate then adds variance instead of removing it (a control variate worse than none; a
+  kurtosis of 1.5e5 with an interval reaching down to the model's 2.9 is no answer).
+
+"Agrees": the difference lies within the 95% interval of the difference, ``sqrt(h_a^2 +
+h_b^2)`` for half-widths ``h_a``, ``h_b`` (a PCE value is exact for its surrogate, ``h = 0``:
+it must lie within the other estimate's interval), or is below the immaterial amount
+:data:`~uqguide.pce.validation.MATERIAL`. One half-width, as the issue asks ("within their
+intervals"): a correct PCE then loses about 5% of its points to chance, and those points get
+the runs' estimate instead, never no answer. Two half-widths (about four standard errors)
+kept a 20-run oscillator's kurtosis of 2.7e3 within its control-variate interval
+([2.1e3, 4.0e3]), whose own validation runs never reach the tails that carry it. Against the
+runs' plain Monte Carlo estimate the margin is :data:`RUNS_FACTOR` half-widths instead (see
+there): that check exists to catch values off by orders of magnitude, which it does (the same
+oscillator's kurtosis 2.7e3 against 2.0 +- 0.9 from its 77 runs).
+
+What the rule costs: a correct PCE of a heavy-tailed output whose few runs have not seen the
+tail (a lognormal's kurtosis from 30 runs) is withheld too; the report then gives the runs'
+own estimate, labelled as such. Nothing the runs contain supports the tail the PCE
+extrapolated; the issue's rule is "never an absurd number", and withholding with an answer
+beside it is the honest form of it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .validation import MATERIAL, Corrected
+
+#: Half-widths of the difference's 95% interval beyond which two estimates disagree.
+FACTOR = 1.0
+#: The same for a PCE value against the runs' plain Monte Carlo estimate: the delta-method
+#: interval of a sample skewness or kurtosis from a few dozen runs is too short (the sample
+#: underestimates the 8th moment that sets it; 65-85% coverage at n = 1000 on a lognormal, and
+#: less at n = 60), so one half-width would withhold correct values: a 60-run PCE's kurtosis
+#: 3.82 of a GMM approach whose 200-run Monte Carlo gives 3.88.
+RUNS_FACTOR = 2.0
+#: The PCE statistics the rule withholds (its mean and std have their own checks:
+#: the usable error and :func:`uqguide.pce.validation.disagreement`).
+SHAPE_STATS = ("skewness", "kurtosis")
+
+
+def _half(est: Corrected, name: str) -> np.ndarray:
+    lo, hi = est.ci[name]
+    return np.asarray(0.5 * (hi - lo), dtype=float)
+
+
+def _disagree(a: np.ndarray, ha: np.ndarray | float, b: np.ndarray, hb: np.ndarray,
+              floor: np.ndarray | float) -> np.ndarray:
+    """Where two finite estimates differ by more than FACTOR half-widths of the difference
+    (and more than ``floor``); False where either is NaN (nothing to compare)."""
+    with np.errstate(invalid="ignore"):
+        width = FACTOR * np.hypot(np.nan_to_num(ha), np.nan_to_num(hb))
+        out = np.abs(a - b) > np.maximum(width, floor)
+    return out & np.isfinite(a) & np.isfinite(b)
+
+
+def _floor(name: str, std: np.ndarray) -> np.ndarray | float:
+    return MATERIAL * np.nan_to_num(np.abs(std)) if name in ("mean", "std") else MATERIAL
+
+
+def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
+                runs: Corrected | None) -> dict[str, np.ndarray]:
+    """Where the PCE's own skewness and kurtosis are not supported by its runs.
+
+    Parameters
+    ----------
+    own : dict of str to ndarray, shape (...)
+        The PCE's own ``std``, ``skewness`` and ``kurtosis``.
+    corrected : Corrected, optional
+        The control-variate estimates (None without a validation set).
+    runs : Corrected, optional
+        The runs' Monte Carlo estimate (None when there are too few runs).
+
+    Returns
+    -------
+    dict of str to ndarray of bool, shape (...)
+        Per statistic of :data:`SHAPE_STATS`: True where it is withheld.
+    """
+    out = {}
+    for k in SHAPE_STATS:
+        bad = np.zeros(np.shape(own[k]), dtype=bool)
+        for est, factor in ((corrected, 1.0), (runs, RUNS_FACTOR)):
+            if est is not None:
+                bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, est.values[k],
+                                 factor * _half(est, k), MATERIAL)
+        out[k] = bad
+    return out
+
+
+def refuted(corrected: Corrected, runs: Corrected | None, std: np.ndarray
+            ) -> dict[str, np.ndarray]:
+    """Where the control-variate estimates disagree with the runs' Monte Carlo estimate.
+
+    Parameters
+    ----------
+    corrected : Corrected
+    runs : Corrected, optional
+    std : ndarray, shape (...)
+        A scale of the output (the runs' std) for the immaterial floor of mean and std.
+
+    Returns
+    -------
+    dict of str to ndarray of bool, shape (...)
+        Per moment: True where the ``+cv`` value is refuted or its interval is wider than the
+        runs' (all False without ``runs``).
+    """
+    out = {}
+    for k, v in corrected.values.items():
+        if runs is None:
+            out[k] = np.zeros(np.shape(v), dtype=bool)
+            continue
+        hc, hr = _half(corrected, k), _half(runs, k)
+        with np.errstate(invalid="ignore"):
+            worse = (hc > hr) & np.isfinite(hr)
+        out[k] = _disagree(v, hc, runs.values[k], hr, _floor(k, std)) | (worse & np.isfinite(v))
+    return out
