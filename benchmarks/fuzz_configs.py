@@ -292,6 +292,28 @@ def mutations(seed: int = 2026, heavy: bool = True) -> list[Mutation]:
             out.append(Mutation(f"{name}: {'.'.join(map(str, p))} = {v!r:.30}",
                                 _dump(cfg) if v == v else _dump(cfg), "either"))
 
+    # -- issue 26: isolation, per-process memory, surrogate draws in the budget
+    for name, base in B.items():
+        for v, expect in [(True, "valid"), (False, "valid"), (None, "valid"), ("yes", "invalid"),
+                          (1, "invalid"), (0, "invalid"), ([], "invalid"), ({}, "invalid"),
+                          ("true", "invalid")]:
+            cfg = copy.deepcopy(base)
+            cfg["model"]["isolate"] = v
+            out.append(Mutation(f"{name}: model.isolate = {v!r}", _dump(cfg), expect))
+        for v, expect in [("2 GB", "valid"), ("100 MB", "invalid"), ("1 kB", "invalid")]:
+            cfg = copy.deepcopy(base)
+            cfg["max_memory"] = v
+            out.append(Mutation(f"{name}: max_memory = {v}", _dump(cfg), expect))
+    for draws, expect in [(100_000_000, "invalid"), (50_000_000, "invalid"),
+                          (10_000_000, "valid"), (1_000_000, "valid")]:
+        for method in ({"name": "pce_tensor", "label": "tp", "m": 6},
+                       {"name": "pce_adaptive", "label": "ap", "max_runs": 400}):
+            cfg = copy.deepcopy(B["ishigami"])
+            cfg["methods"] = [{**method, "surrogate_draws": draws}]
+            cfg["quantiles"] = "3sigma"
+            out.append(Mutation(f"ishigami: {method['name']} surrogate_draws = {draws:.0e}",
+                                _dump(cfg), expect))
+
     # -- random edits of the text
     for name, base in B.items():
         text = _dump(base)

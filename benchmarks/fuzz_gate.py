@@ -56,6 +56,8 @@ def base_config() -> dict:
         "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 400, "bootstrap": 20},
                     {"name": "pce_tensor", "label": "tp", "m": 3}],
         "report_times": [0.5, 1.0],
+        "quantiles": [0.1, 0.5, 0.9],
+        "events": [{"name": "big", "output": "y", "above": 2.0}],
         "seed": 5,
     }
 
@@ -107,6 +109,35 @@ def _baseline_mutations() -> list[tuple[str, Callable[[dict], object], int]]:
                 node = node[k]
             del node[keys[-1]]
         return f
+
+    def q(d, label="mc", out="y", name="q0.5", i=0):
+        return pt(d, label, out, i)["quantiles"][name]
+
+    def shift_quantile(label, by_se, widen=1.0, name="q0.5"):
+        def f(d):
+            v, lo, hi = q(d, label, name=name)
+            half = (hi - lo) / 2 if lo is not None and hi is not None else abs(v) * 0.02 + 1e-3
+            v2 = v + by_se * half / 1.96
+            pt(d, label)["quantiles"][name] = [v2, v2 - widen * (v - lo if lo is not None else
+                                                                   half),
+                                               v2 + widen * (hi - v if hi is not None else half)]
+        return f
+
+    def shift_event(by_runs):
+        from uqguide.core.events import clopper_pearson
+
+        def f(d):
+            e = d["methods"]["mc"]["events"]["big"]
+            e["n_in"] = min(e["n_used"], e["n_in"] + by_runs)
+            e["probability"] = e["n_in"] / e["n_used"]
+            e["ci"] = list(clopper_pearson(e["n_in"], e["n_used"]))
+        return f
+
+    def drop_quantiles(d):
+        for meth in d["methods"].values():
+            for o in meth["outputs"].values():
+                for p in o["points"]:
+                    p.pop("quantiles", None)
 
     m: list[tuple[str, Callable[[dict], object], int]] = [
         ("untouched", lambda d: None, 0),
@@ -169,6 +200,33 @@ def _baseline_mutations() -> list[tuple[str, Callable[[dict], object], int]]:
         ("series std doubled", lambda d: pt(d, "mc", "path", -1).update(
             std=2 * pt(d, "mc", "path", -1)["std"],
             mean_se=2 * pt(d, "mc", "path", -1)["mean_se"]), 1),
+        # issue 26: quantiles and event probabilities, sealed like the rest
+        ("quantile interval 1e300 wide", lambda d: pt(d)["quantiles"].__setitem__(
+            "q0.9", [q(d, name="q0.9")[0], -1e300, 1e300]), 2),
+        ("quantile interval not holding its value", lambda d: pt(d)["quantiles"].__setitem__(
+            "q0.5", [q(d)[0], q(d)[0] + 1.0, q(d)[0] + 2.0]), 2),
+        ("quantile value null", lambda d: pt(d)["quantiles"].__setitem__(
+            "q0.5", [None, None, None]), 2),
+        ("quantile of level 1.5", lambda d: pt(d)["quantiles"].__setitem__(
+            "q1.5", q(d)), 2),
+        ("quantile named median", lambda d: pt(d)["quantiles"].__setitem__(
+            "median", q(d)), 2),
+        ("quantiles removed", drop_quantiles, 2),
+        ("median shifted 8 se", shift_quantile("mc", 8.0), 1),
+        ("median shifted 0.5 se", shift_quantile("mc", 0.5), 0),
+        ("median shifted 8 se, interval widened 3x", shift_quantile("mc", 8.0, 3.0), 1),
+        ("pce median shifted 10%", lambda d: pt(d, "tp")["quantiles"].__setitem__(
+            "q0.5", [q(d, "tp")[0] * 1.1 + 0.1, None, None]), 1),
+        ("event interval [0, 1]", lambda d: d["methods"]["mc"]["events"]["big"].__setitem__(
+            "ci", [0.0, 1.0]), 2),
+        ("event probability not n_in / n_used", lambda d: d["methods"]["mc"]["events"][
+            "big"].__setitem__("probability", 0.5), 2),
+        ("event n_in above n_used", lambda d: d["methods"]["mc"]["events"]["big"].__setitem__(
+            "n_in", 10**6), 2),
+        ("events removed", lambda d: [m.pop("events", None) for m in d["methods"].values()]
+         and None, 2),
+        ("event shifted 80 of 400 runs", shift_event(80), 1),
+        ("event shifted 1 run", shift_event(1), 0),
     ]
     return m
 

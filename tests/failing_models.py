@@ -108,3 +108,51 @@ def sigint_as_on_a_terminal() -> None:
     and Python, like uqguide on purpose, keeps an inherited SIG_IGN: the run would never see
     the Ctrl-C. Give it SIGINT's default, as a terminal's foreground command has it."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def segfault_above(x):
+    """``a + b``; a call holding a sample with ``a > $UQGUIDE_TEST_SEGFAULT_ABOVE`` dies of a
+    real segmentation fault (a NULL read through ctypes, as a broken C extension would)."""
+    pause = float(os.environ.get("UQGUIDE_TEST_SLEEP_S", "0"))
+    if pause:
+        time.sleep(pause)
+    bad = x[:, 0] > float(os.environ.get("UQGUIDE_TEST_SEGFAULT_ABOVE", "inf"))
+    if bad.any():
+        log = os.environ.get("UQGUIDE_TEST_CALL_LOG")
+        if log and x.shape[0] == 1:  # a known crasher run again would show here
+            with open(log, "a") as f:
+                f.write(f"{x[0, 0]!r}\n")
+        import ctypes
+        import faulthandler
+
+        faulthandler.disable()  # the signal's default action, no traceback on stderr
+        ctypes.string_at(0)
+    return x[:, 0] + x[:, 1]
+
+
+def leak_above(x):
+    """``a + b``; a call holding a sample with ``a > $UQGUIDE_TEST_LEAK_ABOVE`` allocates
+    (and keeps) 4 GB, as a model leaking at every call soon would."""
+    if (x[:, 0] > float(os.environ.get("UQGUIDE_TEST_LEAK_ABOVE", "inf"))).any():
+        _kept.append(np.ones(4 << 27))
+    return x[:, 0] + x[:, 1]
+
+
+_kept: list = []
+
+
+def swallows_a_sigterm(x):
+    """``a + b``; on its first call a SIGTERM lands inside a bare ``except:`` of the user's
+    (the handler runs as if the signal had arrived there), which drops the exception."""
+    if not _swallowed:
+        _swallowed.append(True)
+        from uqguide.driver import interrupts
+
+        try:
+            interrupts._handler(signal.SIGTERM, None)
+        except BaseException:  # noqa: BLE001 - the user's code, as users write it
+            pass
+    return x[:, 0] + x[:, 1]
+
+
+_swallowed: list = []

@@ -36,7 +36,7 @@ CASES = [
      "model.name: unknown model 'lognormall' (did you mean 'lognormal'?); allowed: borehole, "
      "callable, {models}"),
     ("unknown_model_param", ("a: [0.3, 0.2]", "a: [0.3, 0.2], b: 1"),
-     "model.b: unknown key; allowed keys: name, a"),
+     "model.b: unknown key; allowed keys: name, isolate, a"),
     ("model_param_wrong_type", ("a: [0.3, 0.2]", "a: seven"),
      "model.a: Input should be a valid list (got 'seven')"),
     ("unknown_method", ("name: monte_carlo", "name: monte_carl"),

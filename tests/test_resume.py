@@ -95,7 +95,11 @@ def test_sigkill_mid_run_then_resume_equals_an_uninterrupted_run(tmp_path):
 def interrupted(tmp_path, monkeypatch):
     """A run stopped by Ctrl-C on its third model call (2 of 10 chunks done)."""
     cfg = tmp_path / "cc.yaml"
-    cfg.write_text(yaml.safe_dump(_config("tests.failing_models:ctrl_c_on_third_call", 1000)))
+    raw = _config("tests.failing_models:ctrl_c_on_third_call", 1000)
+    # the model's KeyboardInterrupt stands for a Ctrl-C of the driver: it must run there, not
+    # in the guard process a callable runs in by default (whose death would be a crash)
+    raw["model"]["isolate"] = False
+    cfg.write_text(yaml.safe_dump(raw))
     monkeypatch.setenv("UQGUIDE_TEST_ARM_CTRL_C", "1")
     from tests import failing_models
 

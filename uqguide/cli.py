@@ -70,11 +70,13 @@ class _Group(click.Group):
     """The command group: a SIGINT or SIGTERM anywhere in a command is exit 130, one line."""
 
     def invoke(self, ctx: click.Context) -> Any:
-        from .driver.interrupts import EXIT_INTERRUPTED, raise_swallowed
+        from .driver.interrupts import EXIT_INTERRUPTED, raise_received
 
         try:
             result = super().invoke(ctx)
-            raise_swallowed()  # a signal Python swallowed on the way still stops the command
+            # a signal whose exception was swallowed on the way (by Python, a library or the
+            # user's code) still stops the command: exit 0 means no signal came before the end
+            raise_received()
             return result
         except KeyboardInterrupt as exc:
             _interrupted(exc)
@@ -222,7 +224,7 @@ def validate(config: Path) -> None:
 
     A ``callable`` model's module is imported (its code runs): treat a config like code.
     """
-    from .config.budget import check_memory, estimate
+    from .config.budget import check_budget, estimate
     from .config.run_config import load_config
 
     cfg = load_config(config)
@@ -236,7 +238,7 @@ def validate(config: Path) -> None:
     click.echo("budget (serial run):")
     for line in budget.lines():
         click.echo(line)
-    check_memory(budget)
+    check_budget(budget)
 
 
 @main.command()

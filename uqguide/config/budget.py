@@ -32,6 +32,17 @@ The estimate is an upper bound of what the pipeline holds at once, in bytes:
 - **basis**: a PCE's design matrix ``runs x terms x 8``, three times (matrix, its
   factorisation, the projection).
 
+**Surrogate draws.** A PCE samples its surrogate ``surrogate_draws`` times where it needs draws
+(skewness and kurtosis beyond the exact rules, quantiles, events, derived outputs). Each draw
+evaluates every basis term, and costs about :data:`DRAW_OVERHEAD_TERMS` terms more (drawing,
+the inverse CDFs of the inputs, sorting for quantiles); measured, a term evaluation takes
+0.03-0.1 us (``benchmarks`` of the surrogate: 13 us a draw of a 64-term, 3-input basis). A
+method whose ``surrogate_draws x (terms + DRAW_OVERHEAD_TERMS)`` exceeds
+:data:`MAX_SURROGATE_TERMS` (about ten minutes of one core) is refused, with the figure and the
+largest ``surrogate_draws`` that fits. Every shipped study stays 6 times below it (at most
+8.5e8, ``gmm_dispersion``'s 800-term candidate bound); ``surrogate_draws: 1e8`` of a 64-term
+basis (6.4e9 and more) ran for over two minutes before it was refused here.
+
 ``T`` is the model's output grid at its longest (:meth:`Model.step_count`); a model without
 one (the analytic benchmarks, a callable) is counted with its scalar outputs only. The figure
 is a bound for planning, not a measurement: ``benchmarks/scale.py`` measures.
@@ -57,6 +68,16 @@ class MethodBudget:
     peak_bytes: float | None
     parts: dict[str, float]
     exact: bool = True
+    #: The method's ``surrogate_draws`` (0: it draws none) and the basis terms of a draw.
+    surrogate_draws: int = 0
+    surrogate_terms: int = 0
+    #: Where the method sits in the config (``methods[i]``), for a refusal's field.
+    index: int = 0
+
+    @property
+    def surrogate_work(self) -> float:
+        """Basis-term evaluations of the surrogate's draws (module docstring)."""
+        return float(self.surrogate_draws) * (self.surrogate_terms + DRAW_OVERHEAD_TERMS)
 
 
 @dataclass(frozen=True)
@@ -101,6 +122,11 @@ class Budget:
 #: The interpreter, numpy, scipy, chaospy and a compiled kernel, before any data.
 BASE_BYTES = 250e6
 
+#: What one surrogate draw costs beside its basis terms, in term evaluations.
+DRAW_OVERHEAD_TERMS = 50
+#: Largest surrogate work of one method, in term evaluations (module docstring).
+MAX_SURROGATE_TERMS = 5e9
+
 
 def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) -> Budget:
     """The budget of ``cfg`` (module docstring), without building any design.
@@ -128,11 +154,15 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
     bs = batch_size or cfg.raw.batch_size
     in_flight = 1 if workers <= 1 else 2 * workers
     rows = []
-    for method in cfg.methods:
+    for index, method in enumerate(cfg.methods):
         plan = method.plan(cfg.space)
+        draws = int(getattr(method.settings, "surrogate_draws", 0) or 0)
+        # a fitted basis has at most one term per run
+        terms = min(plan.terms, plan.runs) if plan.runs is not None else plan.terms
         if plan.runs is None:
             rows.append(MethodBudget(method.label, None, count.steps if count else None, None,
-                                     {}))
+                                     {}, surrogate_draws=draws, surrogate_terms=terms,
+                                     index=index))
             continue
         n = plan.runs
         chunk = min(plan.chunk or bs, n)
@@ -168,7 +198,8 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
                 parts["sensitivity kept"] = 2 * series
             parts["sensitivity"] = n * 12.0 * d + series
         rows.append(MethodBudget(method.label, n, count.steps if count else None,
-                                 sum(parts.values()), parts, plan.exact))
+                                 sum(parts.values()), parts, plan.exact,
+                                 surrogate_draws=draws, surrogate_terms=terms, index=index))
     return Budget(rows, cfg.max_memory, workers)
 
 
@@ -201,6 +232,41 @@ LOWER = {
     "sensitivity kept": "sensitivity: off (or n_samples, or fewer report_times)",
     "sensitivity": "sensitivity: off (or n_samples)",
 }
+
+
+def check_budget(budget: Budget) -> None:
+    """ConfigError (exit 2) when a run is over its budget: memory (:func:`check_memory`) or a
+    surrogate's draws (:func:`check_surrogate`).
+
+    Parameters
+    ----------
+    budget : Budget
+    """
+    check_memory(budget)  # first: a basis too large to hold is the more basic refusal
+    check_surrogate(budget)
+
+
+def check_surrogate(budget: Budget) -> None:
+    """ConfigError (exit 2) naming the first method whose surrogate draws exceed
+    :data:`MAX_SURROGATE_TERMS`, by how much, and the ``surrogate_draws`` that would fit.
+
+    Parameters
+    ----------
+    budget : Budget
+    """
+    for m in budget.methods:
+        work = m.surrogate_work
+        if work <= MAX_SURROGATE_TERMS:
+            continue
+        per_draw = m.surrogate_terms + DRAW_OVERHEAD_TERMS
+        fits = int(MAX_SURROGATE_TERMS // per_draw)
+        field = f"methods[{m.index}].surrogate_draws"
+        raise ConfigError(
+            f"{field}: {m.label}'s {m.surrogate_draws:.3g} surrogate draws need an estimated "
+            f"{work:.3g} basis-term evaluations ({m.surrogate_terms} terms + "
+            f"{DRAW_OVERHEAD_TERMS} a draw), {work / MAX_SURROGATE_TERMS:.3g} times the limit "
+            f"of {MAX_SURROGATE_TERMS:.3g} (about ten minutes of one core); lower "
+            f"surrogate_draws to at most {fits:,}", field=field)
 
 
 def check_memory(budget: Budget) -> None:

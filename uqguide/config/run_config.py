@@ -8,6 +8,8 @@ Layout (all values SI)::
     model:               # registered model name + any fields of that model's Params
       name: ftcapn
       gravity: none
+      isolate: false     # optional: model calls in a child process without workers (default:
+                         # true for a callable, whose code may crash its process)
     inputs:              # uncertain inputs (may be empty for `uqguide simulate`)
       - {name: dx, dist: normal, mean: 0.0, std: 1.5}
     correlations:        # optional: groups of normal inputs with a correlation matrix
@@ -201,6 +203,25 @@ class RunConfig:
         return self.raw.report_times
 
     @property
+    def isolate(self) -> bool:
+        """Whether a run without workers makes the model's calls in a child process: the
+        config's ``model.isolate``, else the model's own
+        :attr:`~uqguide.models.base.Model.may_crash`."""
+        v = self._model_section.get("isolate")
+        return self.model.may_crash if v is None else bool(v)
+
+    @property
+    def isolate_asked(self) -> bool:
+        """Whether the config itself asked for isolation (``model.isolate: true``): then a
+        model that cannot run in a child process is an error, not a fallback."""
+        return self._model_section.get("isolate") is True
+
+    @property
+    def _model_section(self) -> dict[str, Any]:
+        """The config's ``model:`` mapping (empty for a ``data:`` config)."""
+        return self.raw.model if isinstance(self.raw.model, dict) else {}
+
+    @property
     def max_memory(self) -> int:
         """Bytes a run may plan to use (the config's ``max_memory`` or half the machine's)."""
         v = self.raw.max_memory
@@ -234,6 +255,8 @@ class RunConfig:
         else:
             d["model"] = {"name": self.model.name, **self.model.params.model_dump(mode="json")}
             d["data"] = None
+            if self._model_section.get("isolate") is not None:  # only when given: results
+                d["model"]["isolate"] = self._model_section["isolate"]  # made before compare
         d["outputs"] = list(self.outputs)
         d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")}
                         for m in self.methods]
@@ -600,12 +623,16 @@ def _build_model(section: dict[str, Any], config_dir: str | None = None) -> Mode
     if "name" not in section:
         raise ConfigError("model.name: required field is missing", field="model.name")
     cls = model_class(section["name"], "model.name")
-    params = {k: v for k, v in section.items() if k != "name"}
+    params = {k: v for k, v in section.items() if k not in ("name", "isolate")}
+    isolate = section.get("isolate")
+    if isolate is not None and not isinstance(isolate, bool):
+        raise ConfigError(f"model.isolate: must be true or false (got {_short(isolate)})",
+                          field="model.isolate")
     try:
         # config_dir: where a callable model's module is looked for first
         validated = cls.Params.model_validate(params, context={"config_dir": config_dir})
     except ValidationError as err:
-        raise _from_validation(err, "model", ["name", *_fields(cls.Params)]) from None
+        raise _from_validation(err, "model", ["name", "isolate", *_fields(cls.Params)]) from None
     bad = _find_infinite(validated.model_dump(), "model")
     if bad is not None:
         raise ConfigError(f"{bad[0]}: must be a finite number (got {bad[1]!r})", field=bad[0])

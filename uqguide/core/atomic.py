@@ -81,6 +81,30 @@ def refuse_links(*paths: str | Path, field: str = "out") -> None:
                 f"--{field}", field=field)
 
 
+def refuse_folders(*paths: str | Path, field: str = "out") -> None:
+    """Raise ConfigError for the first of ``paths`` that is a folder (not a link to one).
+
+    Parameters
+    ----------
+    *paths : str or Path
+        Where uqguide is about to write a file.
+    field : str
+        The setting that chose the folder (named in the message).
+
+    Raises
+    ------
+    ConfigError
+        Naming the folder; a rename over it would fail after the work was done, and a
+        folder at a file's name is the user's.
+    """
+    for p in paths:
+        p = Path(p)
+        if p.is_dir() and not p.is_symlink():
+            raise ConfigError(
+                f"--{field}: {p} is a folder; uqguide writes a file of that name there and "
+                f"does not replace a folder: move it or choose another --{field}", field=field)
+
+
 def _create_temp(tmp: Path) -> None:
     """Create ``tmp`` empty and ours: exclusively, never through a link at its name."""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
@@ -120,10 +144,11 @@ def atomic_path(path: str | Path, fsync: bool = True, clean: bool = True) -> Ite
     Raises
     ------
     ConfigError
-        ``path`` is a symbolic link.
+        ``path`` is a symbolic link or a folder.
     """
     path = Path(path)
     refuse_links(path)
+    refuse_folders(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if clean:
         clean_stale_temps(path.parent)

@@ -97,6 +97,8 @@ class RunStore:
         self.chunks = ChunkStore(path, self.run_id)
         self.writer: CheckpointWriter[tuple[str, int, ChunkResult]] = \
             CheckpointWriter(self._save_now)
+        #: Samples found to crash or hang their process, by (label, stage): row -> reason.
+        self.isolated: dict[tuple[str, int], dict[int, str]] = {}
 
     @classmethod
     def open(cls, path: str | Path, identity: dict[str, Any], resume: bool,
@@ -136,6 +138,7 @@ class RunStore:
         if header is not None and resume:
             store.manifest.check_same_run(header)
             store.chunks = ChunkStore(path, store.run_id, entries)
+            store.isolated = store.manifest.isolated()
             clean_stale_temps(path)
             log.info("resuming %s: %d chunks already done", path, len(entries))
             return store
@@ -165,6 +168,25 @@ class RunStore:
         not the in-memory list, because an interrupt can land between a chunk's manifest line
         and its bookkeeping here."""
         return self.manifest.n_chunks()
+
+    def known_isolated(self, label: str, stage: int) -> dict[int, str]:
+        """Design rows of a stage known to crash or hang their process, with the reason."""
+        return dict(self.isolated.get((label, stage), {}))
+
+    def record_isolated(self, label: str, stage: int, row: int, reason: str) -> None:
+        """List at once a sample that crashed or hung its process: a resume fails it with
+        ``reason`` instead of running it again.
+
+        Parameters
+        ----------
+        label : str
+        stage : int
+        row : int
+            Its row in the stage's design.
+        reason : str
+        """
+        self.isolated.setdefault((label, stage), {})[row] = reason
+        self.manifest.record_isolated(label, stage, row, reason)
 
     def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
         """The stored result of a chunk, or None (see :meth:`ChunkStore.load`)."""

@@ -11,8 +11,16 @@ Python itself swallows an exception raised where it cannot propagate: in a weakr
 (the import system's module locks have one), a ``__del__`` or a garbage-collector callback.
 A signal that lands there would be printed as "Exception ignored ... Traceback" and lost, and
 the run would go on to exit 0. :func:`install` therefore routes such an interrupt to a flag
-instead of the printout, and :func:`raise_swallowed` (called after each chunk, when a deferred
-block closes and when a command ends) raises it where it can propagate.
+instead of the printout, and :func:`raise_swallowed` (called after each chunk and when a
+deferred block closes) raises it where it can propagate.
+
+Code can also catch the interrupt and go on: a user's function with a bare ``except:`` that a
+SIGTERM lands in, a library's clean-up that catches everything. The run would then finish and
+exit 0 although the signal came before its result was written. So the handler also records
+every signal it receives, and :func:`raise_received` (called when a command ends) raises it
+again: a command that received a signal exits 130, whatever swallowed the exception on the
+way. A command exits 0 only when no signal reached it before its end, i.e. its result was
+fully written before any signal.
 """
 
 from __future__ import annotations
@@ -42,6 +50,8 @@ class _Deferral:
     swallowed: int | None = None
     #: the signal last raised by the handler
     raised: int = signal.SIGINT
+    #: the first signal received since :func:`install` (None: none)
+    received: int | None = None
     hook: Any = None
 
 
@@ -49,6 +59,8 @@ _state = _Deferral()
 
 
 def _handler(signum: int, frame: FrameType | None) -> None:
+    if _state.received is None:
+        _state.received = signum
     if _state.depth > 0:
         _state.pending = signum
         return
@@ -69,6 +81,16 @@ def raise_swallowed() -> None:
     signum = _state.swallowed
     if signum is not None and _state.depth == 0:
         _state.swallowed = None
+        _raise(signum)
+
+
+def raise_received() -> None:
+    """Raise the first signal received since :func:`install` (outside :func:`deferred`
+    blocks), even if its exception was caught and dropped on the way: call when a command has
+    done its work, so that it exits 130 and not 0."""
+    signum = _state.received
+    if signum is not None and _state.depth == 0:
+        _state.received = _state.swallowed = None
         _raise(signum)
 
 
@@ -97,7 +119,7 @@ def install() -> dict[int, Any]:
             signal.signal(sig, _handler)
     if previous and sys.unraisablehook is not _unraisable:
         _state.hook, sys.unraisablehook = sys.unraisablehook, _unraisable
-    _state.swallowed = None
+    _state.swallowed = _state.received = None
     return previous
 
 

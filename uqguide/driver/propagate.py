@@ -27,8 +27,8 @@ from .checkpoint import RunInterrupted, RunStore
 from ..config.run_config import RunConfig
 from ..errors import MethodError, ModelError, UqguideError
 from .execution import (
-    DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Executor, ModelHandle, SerialExecutor, Task, Timing,
-    common_grid, evaluate_batch,
+    DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Containment, Executor, ModelHandle, SerialExecutor,
+    Task, Timing, common_grid, evaluate_batch,
 )
 from .execution.guard import guarded_batch
 from .execution.shared_rows import SharedRows
@@ -98,10 +98,28 @@ class _Stage:
 
     def __init__(self, method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
                  executor: Executor, batch_size: int, store: RunStore | None,
-                 progress: Progress, timing: Timing, timeout_s: float | None = None) -> None:
+                 progress: Progress, timing: Timing, timeout_s: float | None = None,
+                 containment: Containment | None = None) -> None:
         self.method, self.model, self.space, self.outputs = method, model, space, outputs
         self.executor, self.batch_size, self.store = executor, batch_size, store
         self.progress, self.timing, self.timeout_s = progress, timing, timeout_s
+        self.containment = containment or Containment()
+
+    def _job(self, stage: int, reducer: Any) -> ChunkJob:
+        """What every chunk of ``stage`` shares: with the containment of the run (a guard
+        process for a model that can crash, when the chunks run in this process), the rows
+        already known to crash, and where to record new ones."""
+        c, store, label = self.containment, self.store, self.method.label
+        guarded = c.isolate and getattr(self.executor, "in_process", False)
+        on_isolated = None
+        if store is not None:
+            def on_isolated(row: int, reason: str) -> None:
+                store.record_isolated(label, stage, row, reason)
+        return ChunkJob(ModelHandle(self.model), tuple(self.space.names), self.outputs,
+                        self.batch_size, reducer, timeout_s=self.timeout_s, guarded=guarded,
+                        guard_fallback=guarded and not c.asked, memory_limit=c.memory_limit,
+                        known=store.known_isolated(label, stage) if store else {},
+                        on_isolated=on_isolated)
 
     def _compile_here_first(self, job: ChunkJob, x: np.ndarray | GeneratedRows,
                             task: Task) -> None:
@@ -121,7 +139,8 @@ class _Stage:
         row = x.rows(task.start, task.start + 1) if isinstance(x, GeneratedRows) else \
             x[task.start:task.start + 1]
         if job.timeout_s is not None or job.guarded:
-            guarded_batch(job.model, row, job.names, job.outputs, job.timeout_s)
+            guarded_batch(job.model, row, job.names, job.outputs, job.timeout_s,
+                          job.memory_limit)
         else:
             evaluate_batch(model, row, job.names, job.outputs)
         _LOADED.add(model)
@@ -135,8 +154,7 @@ class _Stage:
             ) -> tuple[ModelOutput, Any]:
         """Outputs of the rows ``x`` (scalars only when reduced) and the folded summaries."""
         label = self.method.label
-        job = ChunkJob(ModelHandle(self.model), tuple(self.space.names), self.outputs,
-                       self.batch_size, reducer, timeout_s=self.timeout_s)
+        job = self._job(stage, reducer)
         parts: list[ModelOutput] = []
         kept = _Runs(x.shape[0]) if reducer is not None else None
         per_run = getattr(reducer, "per_run", None)
@@ -219,7 +237,8 @@ class _Stage:
 def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
               seed: int, executor: Executor | None = None, *, batch_size: int | None = None,
               store: RunStore | None = None, progress: Progress | None = None,
-              design: Design | None = None, timeout_s: float | None = None) -> MethodRun:
+              design: Design | None = None, timeout_s: float | None = None,
+              containment: Containment | None = None) -> MethodRun:
     """Run one method on one model.
 
     Parameters
@@ -237,6 +256,8 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         know the total work).
     timeout_s : float, optional
         Seconds a model call may take (:mod:`uqguide.guard`); default no limit.
+    containment : Containment, optional
+        Guard processes and memory limits for a model that may crash or leak (default: none).
 
     Returns
     -------
@@ -253,7 +274,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     if design is None:
         design = method.design(space, seed)
     stage = _Stage(method, model, space, outputs, executor, bs, store, progress, timing,
-                   timeout_s)
+                   timeout_s, containment)
     tasks = stage.tasks(design.n_runs)
     if not progress.chunks_total:  # called alone, not from run()
         progress.plan(len(tasks), design.n_runs, method.label)
@@ -416,7 +437,8 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         for method, (design, design_seconds) in zip(config.methods, designs):
             r = propagate(method, config.model, config.space, config.outputs, config.seed,
                           executor, batch_size=config.raw.batch_size, store=store,
-                          progress=progress, design=design, timeout_s=config.raw.timeout_s)
+                          progress=progress, design=design, timeout_s=config.raw.timeout_s,
+                          containment=containment_of(config))
             r.wall_seconds += design_seconds
             runs.append(r)
     except KeyboardInterrupt as exc:
@@ -450,6 +472,22 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         config=config.resolved(),
         provenance={**provenance(), "wall_seconds": time.perf_counter() - t0},
     )
+
+
+def containment_of(config: RunConfig) -> Containment:
+    """How a run of ``config`` contains its model: isolated when the model may crash (or the
+    config says ``model.isolate``), child processes capped at ``max_memory``.
+
+    Parameters
+    ----------
+    config : RunConfig
+
+    Returns
+    -------
+    Containment
+    """
+    return Containment(isolate=config.isolate, asked=config.isolate_asked,
+                       memory_limit=config.max_memory)
 
 
 def check_methods(result: Result) -> None:

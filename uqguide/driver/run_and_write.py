@@ -17,9 +17,10 @@ from typing import Any
 
 import yaml
 
-from ..config.budget import check_memory, estimate
-from ..core.atomic import refuse_links
+from ..config.budget import check_budget, estimate
+from ..core.atomic import refuse_folders, refuse_links
 from .checkpoint import RunStore, run_dir, run_identity
+from .run_manifest import study_config
 from ..config.run_config import RUN_NAME_RULE, RunConfig
 from ..errors import ConfigError
 from .execution import Executor, SerialExecutor
@@ -59,7 +60,8 @@ class Written:
 
 def _canonical(config: dict[str, Any]) -> str:
     # Through YAML as the result file keeps it, so a config read back compares equal.
-    return json.dumps(yaml.safe_load(yaml.safe_dump(config)), sort_keys=True, default=str)
+    return json.dumps(yaml.safe_load(yaml.safe_dump(study_config(config))), sort_keys=True,
+                      default=str)
 
 
 def check_same_study(result_path: Path, config: RunConfig, force: bool = False) -> None:
@@ -171,11 +173,15 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     try:
         check_result_name(config)
         check_config_report_times(config)
-        check_memory(estimate(config, workers))  # before anything is allocated
+        check_budget(estimate(config, workers))  # before anything is allocated
         folder = run_dir(out_dir, config.name)  # inside out_dir: the name is a plain file name
         # A link where the run folder or the result goes would send checkpoints or the result
         # outside out_dir: refused before anything is written (the lock refuses its own).
-        refuse_links(folder, out_dir / f"{config.name}.h5")
+        outputs = [out_dir / f"{config.name}{tail}" for tail in
+                   (".h5", "_stats.csv", "_cost.csv", "_summary.md", "_events.csv")]
+        refuse_links(folder, *outputs)
+        # ... and a folder where a file goes would stop the run after its work, at the rename
+        refuse_folders(*outputs)
         with RunLock(folder):
             check_same_study(out_dir / f"{config.name}.h5", config, force)
             store = RunStore.open(folder, run_identity(config.resolved(), config.model), resume,

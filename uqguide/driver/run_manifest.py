@@ -3,7 +3,10 @@
 ``manifest.jsonl`` is append-only, one JSON object a line, flushed and fsynced: line 1 is the
 run's identity (resolved config, uqguide version, model name and a hash of its code, and
 ``run_id``, the SHA-256 of that identity); then one line per finished chunk (see
-:mod:`uqguide.driver.chunk_store`). A torn last line (killed while appending) is ignored.
+:mod:`uqguide.driver.chunk_store`), and one per sample found to crash or hang its process
+(``kind: isolated``, with the design row and the reason), written as soon as it is found so
+that a resume of a run stopped in the middle of that chunk fails it without running it
+again. A torn last line (killed while appending) is ignored.
 
 Here are the checks that keep two experiments apart: a resumed run must have the identity of
 the run that started the folder (else a refusal naming what changed), and a folder is deleted
@@ -25,6 +28,7 @@ import logging
 import os
 import re
 import shutil
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -109,9 +113,35 @@ def run_identity(resolved_config: dict[str, Any], model: Model) -> dict[str, Any
     dict
         ``config``, ``uqguide`` (version), ``model``, ``model_code`` (hash) and ``run_id``.
     """
-    identity = {"config": resolved_config, "uqguide": __version__, "model": model.name,
+    identity = {"config": study_config(resolved_config), "uqguide": __version__,
+                "model": model.name,
                 "model_code": model_code_hash(model)}
     return {**identity, "run_id": identity_hash(identity)}
+
+
+#: Settings of the model section that decide how its calls run, never their numbers: a run
+#: may be resumed, or its result replaced, with them changed.
+EXECUTION_ONLY = ("isolate",)
+
+
+def study_config(resolved_config: dict[str, Any]) -> dict[str, Any]:
+    """The resolved config less the settings that change only how the model runs
+    (:data:`EXECUTION_ONLY`): what two runs must share to be the same study.
+
+    Parameters
+    ----------
+    resolved_config : dict
+
+    Returns
+    -------
+    dict
+        A copy without ``model.isolate``.
+    """
+    model = resolved_config.get("model")
+    if not isinstance(model, dict) or not any(k in model for k in EXECUTION_ONLY):
+        return resolved_config
+    return {**resolved_config,
+            "model": {k: v for k, v in model.items() if k not in EXECUTION_ONLY}}
 
 
 def identity_hash(identity: dict[str, Any]) -> str:
@@ -178,6 +208,8 @@ class RunManifest:
             identity = {**identity, "run_id": identity_hash(identity)}
         self.identity = identity
         self.run_id: str = identity["run_id"]
+        # the checkpoint writer's thread appends chunk lines, the driver isolated samples
+        self._append_lock = threading.Lock()
 
     @property
     def file(self) -> Path:
@@ -186,6 +218,33 @@ class RunManifest:
     def read(self) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
         """The header and the chunk lines on disk (see :func:`read_manifest`)."""
         return read_manifest(self.file)
+
+    def isolated(self) -> dict[tuple[str, int], dict[int, str]]:
+        """The samples of this run found to crash or hang their process, by (label, stage):
+        design row -> reason."""
+        out: dict[tuple[str, int], dict[int, str]] = {}
+        if not self.file.is_file() or self.file.is_symlink():
+            return out
+        try:
+            text = self.file.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            return out
+        for line in text.splitlines():
+            try:
+                obj = json.loads(line)
+                if not isinstance(obj, dict) or obj.get("kind") != "isolated" or \
+                        obj.get("run") != self.run_id:
+                    continue
+                key = (str(obj["label"]), int(obj["stage"]))
+                out.setdefault(key, {})[int(obj["row"])] = str(obj["reason"])
+            except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+                continue  # a torn line: that sample runs again, isolated again
+        return out
+
+    def record_isolated(self, label: str, stage: int, row: int, reason: str) -> None:
+        """List a sample that crashed or hung its process (see the module docstring)."""
+        self.append({"kind": "isolated", "run": self.run_id, "label": label, "stage": stage,
+                     "row": row, "reason": reason})
 
     def n_chunks(self) -> int:
         """Chunk lines on disk: what a resume will find."""
@@ -199,7 +258,7 @@ class RunManifest:
 
     def append(self, obj: dict[str, Any]) -> None:
         """Append one line, fsynced before returning: once listed, it survives a power cut."""
-        with open(self.file, "a", encoding="utf-8") as f:
+        with self._append_lock, open(self.file, "a", encoding="utf-8") as f:
             f.write(json.dumps(obj, sort_keys=True) + "\n")
             f.flush()
             os.fsync(f.fileno())

@@ -18,6 +18,7 @@ import fcntl
 import logging
 import os
 import socket
+import stat
 from pathlib import Path
 
 from ..core.atomic import refuse_links
@@ -54,10 +55,16 @@ class RunLock:
                 fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0),
                              0o644)
             except OSError as e:
+                if e.errno == errno.EISDIR:
+                    raise ConfigError(
+                        f"--out: {self.path} is a folder; the run's lock file goes there and "
+                        f"uqguide does not replace a folder: move it, or give this run another "
+                        f"--out or name", field="out") from None
                 if e.errno != errno.ELOOP:
                     raise
                 refuse_links(self.path)
                 raise
+            _refuse_shared(fd, self.path)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -102,6 +109,23 @@ class RunLock:
 
     def __exit__(self, *exc: object) -> None:
         self.release()
+
+
+def _refuse_shared(fd: int, path: Path) -> None:
+    """ConfigError (the descriptor closed) unless ``fd`` is a regular file with one name.
+
+    O_NOFOLLOW keeps a symbolic link from redirecting the lock's write, not a hard link: a
+    second name of a file outside --out at the lock's name would be truncated and written.
+    Nothing has been written when this refuses (the lock is opened without O_TRUNC)."""
+    st = os.fstat(fd)
+    if stat.S_ISREG(st.st_mode) and st.st_nlink == 1:
+        return
+    os.close(fd)
+    what = f"a hard link ({st.st_nlink} names)" if stat.S_ISREG(st.st_mode) else \
+        "not a regular file"
+    raise ConfigError(f"--out: {path} is {what}; the run's lock file goes there and uqguide "
+                      f"writes no file that has another name: remove it, or give this run "
+                      f"another --out or name", field="out")
 
 
 def _read_owner(fd: int) -> str:

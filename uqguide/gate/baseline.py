@@ -4,8 +4,10 @@ A baseline is written from a result on purpose (``uqguide baseline RESULT -o B.j
 per method label, per output, per point (each report time and the last step of a series, the
 value of a scalar: :func:`uqguide.results.statistics.points`), per component: the mean, std,
 skewness and kurtosis, and for sample (Monte Carlo) estimates the standard error of each
-(:meth:`uqguide.results.statistics.OutputStatistics.standard_error`); plus the relative
-tolerance of PCE statistics, the resolved config, the library versions and the creation date.
+(:meth:`uqguide.results.statistics.OutputStatistics.standard_error`); the quantiles with their
+95% intervals (``q0.99: [value, low, high]``) and, per method, the probability of each event
+with its interval and counts; plus the relative tolerance of PCE statistics, the resolved
+config, the library versions and the creation date.
 ``null`` stands for NaN. It reads the result through the description of
 :mod:`uqguide.results.statistics`, as the report tables and the result file do.
 
@@ -28,6 +30,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ..core import atomic
+from ..core.events import EventEstimate, clopper_pearson
 from .._version import __version__
 from ..errors import ResultError
 from ..results import statistics
@@ -38,8 +41,14 @@ from ..results.statistics import (
 )
 
 BASELINE_FORMAT = "uqguide-baseline"
-#: 2: a ``digest`` of the rest of the file, so an edit by hand is refused (1: none)
-BASELINE_VERSION = 2
+#: 3: quantiles and event probabilities too; 2: a ``digest`` of the rest of the file, so an
+#: edit by hand is refused (1: none). Version 2 files are still read (their moments checked).
+BASELINE_VERSION = 3
+READ_VERSIONS = (2, 3)
+
+#: z of a two-sided 95% interval (a quantile's or an event's standard error is the half-width
+#: of its interval over this).
+Z95 = 1.959963984540054
 
 
 # ---------------------------------------------------------------------------- file schema
@@ -65,6 +74,27 @@ class BaselinePoint(_Strict):
     #: the round-off ensemble the baseline was written with (``scripts/update_golden.py``);
     #: the gate reports them and does not check them.
     roundoff: dict[str, list[float | None]] = {}
+    #: Quantiles by level name (``q0.99``): ``[value, low, high]``, the 95% interval's bounds
+    #: (null where the method gives none).
+    quantiles: dict[str, list[float | None]] = {}
+
+    @field_validator("quantiles")
+    @classmethod
+    def _quantiles(cls, v: dict[str, list[float | None]]) -> dict[str, list[float | None]]:
+        for name, q in v.items():
+            level = quantile_level(name)
+            if level is None:
+                raise ValueError(f"quantile {name!r}: a name is 'q' and a level in (0, 1), "
+                                 f"e.g. q0.99")
+            if len(q) != 3 or q[0] is None or any(
+                    x is not None and (isinstance(x, bool) or not math.isfinite(x)) for x in q):
+                raise ValueError(f"quantile {name}: must be [value, low, high], finite numbers "
+                                 f"(low and high may be null) (got {q!r})")
+            value, lo, hi = float(q[0]), q[1], q[2]
+            if (lo is not None and lo > value) or (hi is not None and hi < value):
+                raise ValueError(f"quantile {name}: the interval [{lo}, {hi}] does not hold "
+                                 f"the value {value}")
+        return v
 
     @field_validator("time", "mean", "std", "skewness", "kurtosis", "mean_se", "std_se",
                      "skewness_se", "kurtosis_se", mode="before")
@@ -134,7 +164,50 @@ class BaselineOutput(_Strict):
                     if getattr(p, stat) is not None and getattr(p, f"{stat}_se") is None:
                         raise ValueError(f"{where}.{stat}_se: missing for a sample statistic")
                 _check_std_se(p, self.n_used, where)
+            if sample:
+                _check_quantile_intervals(p, self.n_used, where)
         return self
+
+
+def quantile_level(name: str) -> float | None:
+    """The probability of a quantile named ``q<level>`` (None if it is not such a name)."""
+    if not name.startswith("q"):
+        return None
+    try:
+        level = float(name[1:])
+    except ValueError:
+        return None
+    return level if 0.0 < level < 1.0 else None
+
+
+def _check_quantile_intervals(p: BaselinePoint, n_used: int, where: str) -> None:
+    """A sample quantile's interval bounds are order statistics of the runs, so (Cantelli's
+    inequality, which holds for the runs' own distribution) the one at level ``l`` lies within
+    ``mean -+ std sqrt((1 - l) / l)`` resp. ``sqrt(l / (1 - l))``. An interval widened by hand
+    to switch the quantile's check off goes beyond that and is refused. The levels are taken
+    3 binomial standard deviations and one run beyond the 95% interval's: a margin that no
+    interval a run computes reaches."""
+    if p.mean is None or p.std is None:
+        return
+    for name, (_, lo, hi) in p.quantiles.items():
+        level = quantile_level(name)
+        assert level is not None  # (validated with the point)
+        half = 3.0 * math.sqrt(level * (1.0 - level) / n_used) + 1.0 / n_used
+        l_lo, l_hi = level - half, level + half
+        if lo is not None and l_lo > 0:
+            bound = p.mean - p.std * math.sqrt((1.0 - l_lo) / l_lo)
+            if lo < bound - 1e-9 * (abs(bound) + p.std):
+                raise ValueError(f"{where}.quantiles.{name}: the interval's low end {lo:.6g} "
+                                 f"is below what {n_used} runs of mean {p.mean:.6g} and std "
+                                 f"{p.std:.6g} allow ({bound:.6g}); regenerate the baseline "
+                                 f"rather than edit it")
+        if hi is not None and l_hi < 1:
+            bound = p.mean + p.std * math.sqrt(l_hi / (1.0 - l_hi))
+            if hi > bound + 1e-9 * (abs(bound) + p.std):
+                raise ValueError(f"{where}.quantiles.{name}: the interval's high end {hi:.6g} "
+                                 f"is above what {n_used} runs of mean {p.mean:.6g} and std "
+                                 f"{p.std:.6g} allow ({bound:.6g}); regenerate the baseline "
+                                 f"rather than edit it")
 
 
 #: How far a sample std's standard error may lie from the delta method's
@@ -156,11 +229,48 @@ def _check_std_se(p: BaselinePoint, n_used: int, where: str) -> None:
             f"factor {STD_SE_FACTOR:g}); regenerate the baseline rather than edit it")
 
 
+#: Event estimators whose probability is a random estimate (checked against combined standard
+#: errors); the others are functions of a fixed design and seed (PCE draws: relative tolerance).
+SAMPLE_EVENTS = ("count", "subset")
+
+
+class BaselineEvent(_Strict):
+    """One event's probability by one method, its 95% interval and counts."""
+
+    probability: float = Field(ge=0.0, le=1.0)
+    ci: list[float] = Field(min_length=2, max_length=2)
+    n_in: int = Field(ge=0)
+    n_used: int = Field(ge=1)
+    estimator: str
+
+    @model_validator(mode="after")
+    def _consistent(self) -> BaselineEvent:
+        lo, hi = self.ci
+        if not (0.0 <= lo <= self.probability <= hi <= 1.0):
+            raise ValueError(f"the interval [{lo}, {hi}] must lie in [0, 1] and hold the "
+                             f"probability {self.probability}")
+        if self.n_in > self.n_used:
+            raise ValueError(f"n_in ({self.n_in}) exceeds n_used ({self.n_used})")
+        if self.estimator == "count":
+            # a count of runs: the probability and its exact interval follow from the counts,
+            # so an interval widened by hand no longer fits them
+            p = self.n_in / self.n_used
+            want = clopper_pearson(self.n_in, self.n_used)
+            if abs(self.probability - p) > 1e-12 or \
+                    any(abs(a - b) > 1e-9 for a, b in zip(self.ci, want)):
+                raise ValueError(f"a count's probability and interval must be n_in / n_used "
+                                 f"= {p:.6g} and its Clopper-Pearson interval [{want[0]:.6g}, "
+                                 f"{want[1]:.6g}] (got {self.probability:.6g}, [{lo:.6g}, "
+                                 f"{hi:.6g}]); regenerate the baseline rather than edit it")
+        return self
+
+
 class BaselineMethod(_Strict):
     method: str
     n_runs: int = Field(ge=0)
     n_failed: int = Field(ge=0)
     outputs: dict[str, BaselineOutput] = Field(min_length=1)
+    events: dict[str, BaselineEvent] = {}
 
     @model_validator(mode="after")
     def _counts(self) -> BaselineMethod:
@@ -194,7 +304,7 @@ class Baseline(_Strict):
     """A baseline file, validated. Build one with :func:`make_baseline`."""
 
     format: Literal["uqguide-baseline"]
-    format_version: Literal[2]
+    format_version: Literal[2, 3]
     #: checked by read_baseline against the file's content (an in-memory baseline has none)
     digest: str = ""
     name: str
@@ -206,6 +316,20 @@ class Baseline(_Strict):
     tolerances: BaselineTolerances
     methods: dict[str, BaselineMethod] = Field(min_length=1)
     config: dict[str, Any]
+
+    @model_validator(mode="after")
+    def _complete(self) -> Baseline:
+        """A version 3 baseline of a config with quantiles (events) holds them: removing them
+        (and sealing the file again) would switch their check off."""
+        if self.format_version < 3:
+            return self
+        if self.config.get("quantiles") is not None and not any(
+                p.quantiles for m in self.methods.values() for o in m.outputs.values()
+                for p in o.points):
+            raise ValueError("its config asks for quantiles and it holds none")
+        if self.config.get("events") and not any(m.events for m in self.methods.values()):
+            raise ValueError("its config has events and it holds no event probability")
+        return self
 
 
 # ---------------------------------------------------------------------------- extraction
@@ -234,6 +358,10 @@ def _points(v: OutputStatistics, places: list[Point],
         if sample:
             for m in v.moments:
                 p[f"{m.name}_se"] = _num(v.standard_error(m.name, where))
+        quantiles = {q.name: [_num(q.value[where]), *(_num(b) for b in q.interval(where))]
+                     for q in v.quantiles if q.defined_at(where)}
+        if quantiles:
+            p["quantiles"] = quantiles
         chaotic = {m.name: rng for m in v.moments
                    if (rng := (roundoff or {}).get((v.label, v.output.name, place.at,
                                                     place.time, place.name, m.name)))}
@@ -289,6 +417,9 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
             continue
         methods[r.label] = {"method": r.estimate.method, "n_runs": int(r.n_runs),
                             "n_failed": int(r.n_failed), "outputs": outs}
+        events = {name: _event(e) for name, e in r.estimate.events.items() if _event(e)}
+        if events:
+            methods[r.label]["events"] = events
     return {
         "format": BASELINE_FORMAT,
         "format_version": BASELINE_VERSION,
@@ -308,6 +439,16 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
         "methods": methods,
         "config": result.config,
     }
+
+
+def _event(e: EventEstimate) -> dict[str, Any] | None:
+    """An event's baseline entry (None where the method estimated no probability)."""
+    lo, hi = e.ci
+    if not (math.isfinite(e.probability) and math.isfinite(lo) and math.isfinite(hi)) \
+            or e.n_used < 1:
+        return None
+    return {"probability": float(e.probability), "ci": [float(lo), float(hi)],
+            "n_in": int(e.n_in), "n_used": int(e.n_used), "estimator": e.estimator}
 
 
 # ---------------------------------------------------------------------------- JSON files
@@ -434,11 +575,11 @@ def parse_baseline(data: Any, source: str = "<baseline>") -> Baseline:
                           f"\"format\": \"{BASELINE_FORMAT}\"; write one with "
                           f"`uqguide baseline RESULT -o FILE`)")
     version = data.get("format_version")
-    if version != BASELINE_VERSION:
+    if version not in READ_VERSIONS or isinstance(version, bool):
         raise ResultError(f"{source}: baseline format_version {version!r} is not supported "
-                          f"(this uqguide reads {BASELINE_VERSION}, whose digest refuses edits "
-                          f"by hand); regenerate it with `uqguide baseline RESULT -o FILE "
-                          f"--force`")
+                          f"(this uqguide reads {' and '.join(map(str, READ_VERSIONS))}, whose "
+                          f"digest refuses edits by hand); regenerate it with `uqguide baseline "
+                          f"RESULT -o FILE --force`")
     try:
         return Baseline.model_validate(data)
     except ValidationError as err:

@@ -41,6 +41,17 @@ that is NaN in both (skewness of a zero-variance step) passes; NaN in one only f
 kurtosis are skipped (with a note) where the std of either is below ``STD_ZERO_RTOL`` of the
 component's peak std: they are then ratios of round-off.
 
+**Quantiles** are checked like the moments: a Monte Carlo quantile against ``sigmas`` combined
+standard errors, the result's the half-width of its 95% order-statistic interval over 1.96, the
+baseline's that one scaled to the baseline's run count (its stored interval only where the
+result has none: an interval is a weak witness of itself, see :mod:`.baseline`); a PCE
+quantile (a fixed surrogate's draws) against ``pce_rtol`` of ``max(|quantile|, std)``. **Event
+probabilities** of a random estimate (a count of runs, subset simulation) against ``sigmas``
+combined standard errors from their 95% intervals (Clopper-Pearson for a count: not zero at
+zero events, so one event more than a baseline of none is judged, not absolute); those of a PCE's
+draws against ``pce_rtol`` of the probability, at least one draw (``1 / n_used``). A baseline of
+format 2 has neither; the report says so in a note.
+
 A baseline that cannot be read, or does not match the result (other model, a method label or an
 output missing, other kind, unit or components), raises :class:`~uqguide.errors.ResultError`:
 the gate cannot judge, which ``uqguide check`` reports with exit code 2. A config that differs
@@ -58,8 +69,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .baseline import (
-    Baseline, BaselineOutput, BaselinePoint, to_jsonable, read_baseline, write_baseline,
+    SAMPLE_EVENTS, Z95, Baseline, BaselineEvent, BaselineOutput, BaselinePoint, to_jsonable,
+    read_baseline, write_baseline,
 )
+from ..core.events import EventEstimate
 from .tolerances import DEFAULT_PCE_RTOL, DEFAULT_SIGMAS, check_tolerance
 from ..errors import ResultError
 from ..models.base import OutputInfo
@@ -400,13 +413,90 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
                 row.tolerance = max(pce_rtol * scale, floor) if math.isfinite(scale) else floor
                 row.basis = f"{100 * pce_rtol:g}% of {_fmt(scale)}" \
                     if row.tolerance > floor else "round-off floor (no spread)"
-            if math.isnan(a) and math.isnan(b):
-                row.passed, row.note = True, "NaN in both"
-            elif math.isnan(a) or math.isnan(b):
-                row.passed = False
-                row.note = "NaN in the " + ("result" if math.isnan(a) else "baseline")
-            else:
-                row.passed = abs(a - b) <= row.tolerance
+            _verdict(row, a, b)
+        if where is not None:
+            rows += _compare_quantiles(label, name, unit, p, s, where, sample, sigmas,
+                                       pce_rtol, floor, bo.n_used)
+    return rows
+
+
+def _verdict(row: CheckRow, a: float, b: float) -> None:
+    if math.isnan(a) and math.isnan(b):
+        row.passed, row.note = True, "NaN in both"
+    elif math.isnan(a) or math.isnan(b):
+        row.passed = False
+        row.note = "NaN in the " + ("result" if math.isnan(a) else "baseline")
+    else:
+        row.passed = abs(a - b) <= row.tolerance
+
+
+def _half_width_se(lo: float | None, hi: float | None) -> float:
+    """A standard error from a 95% interval (NaN when it has no two finite ends)."""
+    if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
+        return math.nan
+    return (hi - lo) / (2.0 * Z95)
+
+
+def _compare_quantiles(label: str, name: str, unit: str, p: BaselinePoint, s: OutputStatistics,
+                       where: tuple[int, ...], sample: bool, sigmas: float, pce_rtol: float,
+                       floor: float, n_used_b: int) -> list[CheckRow]:
+    """The baseline point's quantiles against the result's at the same place."""
+    rows = []
+    std_b = math.nan if p.std is None else p.std
+    for qname, (b, lo_b, hi_b) in p.quantiles.items():
+        assert b is not None  # (validated)
+        row = CheckRow(label, name, p.component, p.time, qname, unit, math.nan, b, math.nan,
+                       "", False)
+        rows.append(row)
+        q = s.own(qname)
+        if q is None or q.kind != "quantile" or not q.defined_at(where):
+            row.note = "the result has no such quantile here"
+            continue
+        row.value = a = float(q.value[where])
+        if sample:
+            # The baseline's standard error is the result's scaled to its run count, not the
+            # half-width of its stored interval: an interval widened by hand within what the
+            # baseline's own numbers allow would still loosen the check. Its own only where the
+            # result has no interval here (an extreme level of few runs).
+            se_a = _half_width_se(*q.interval(where))
+            se_b = se_a * math.sqrt(max(s.n_used, 1) / max(n_used_b, 1)) \
+                if math.isfinite(se_a) else _half_width_se(lo_b, hi_b)
+            comb = math.hypot(se_a, se_b)
+            row.tolerance = max(sigmas * comb, floor) if math.isfinite(comb) else floor
+            row.basis = f"{sigmas:g} x combined SE {_fmt(comb)}" \
+                if row.tolerance > floor else "round-off floor (no spread)"
+        else:
+            scale = max(abs(b), abs(std_b)) if math.isfinite(std_b) else abs(b)
+            row.tolerance = max(pce_rtol * scale, floor)
+            row.basis = f"{100 * pce_rtol:g}% of {_fmt(scale)}" \
+                if row.tolerance > floor else "round-off floor (no spread)"
+        _verdict(row, a, b)
+    return rows
+
+
+def _compare_events(label: str, events: dict[str, BaselineEvent],
+                    got: dict[str, EventEstimate], sigmas: float, pce_rtol: float
+                    ) -> list[CheckRow]:
+    """The baseline's event probabilities of one method against the result's."""
+    rows = []
+    for ev_name, bev in events.items():
+        b = bev.probability
+        row = CheckRow(label, ev_name, "", None, "probability", "1", math.nan, b, math.nan,
+                       "", False)
+        rows.append(row)
+        e = got.get(ev_name)
+        if e is None or not math.isfinite(e.probability):
+            row.note = "the result has no probability of this event"
+            continue
+        row.value = a = float(e.probability)
+        if bev.estimator in SAMPLE_EVENTS:
+            comb = math.hypot(_half_width_se(*e.ci), _half_width_se(*bev.ci))
+            row.tolerance = sigmas * comb if math.isfinite(comb) else 0.0
+            row.basis = f"{sigmas:g} x combined SE {_fmt(comb)}"
+        else:
+            row.tolerance = max(pce_rtol * b, 1.0 / bev.n_used)
+            row.basis = f"{100 * pce_rtol:g}% of {_fmt(b)}, at least one draw"
+        _verdict(row, a, b)
     return rows
 
 
@@ -470,12 +560,17 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
                 raise ResultError(f"{source}: baseline method '{label}', output '{name}' has no "
                                   f"statistic to check")
             report.rows += rows
+        report.rows += _compare_events(label, bm.events, run.estimate.events, sigmas, rtol)
         extra = [n for n in described[label] if n not in bm.outputs]
         if extra:
             report.notes.append(f"{label}: output(s) {', '.join(extra)} not in the baseline, "
                                 f"not checked")
         if run.n_runs != bm.n_runs:
             report.notes.append(f"{label}: {run.n_runs} runs, baseline {bm.n_runs}")
+    if baseline.format_version < 3:
+        report.notes.append(f"{source} is a format {baseline.format_version} baseline: its "
+                            f"quantiles and event probabilities are not checked; write it "
+                            f"again (`uqguide baseline RESULT -o FILE --force`) to check them")
     extra_labels = [r.label for r in result.runs if r.label not in baseline.methods]
     if extra_labels:
         report.notes.append(f"method(s) {', '.join(extra_labels)} not in the baseline, "

@@ -140,6 +140,11 @@ class Model(ABC):
     name: ClassVar[str]
     summary: ClassVar[str]
     Params: ClassVar[type[ModelParams]] = ModelParams
+    #: Whether an evaluation can take its process down (a user's Python code, which may call
+    #: into C): a run without workers then makes the model's calls in a child process (the
+    #: config's ``model.isolate`` overrides it). The built-in simulators are vectorised NumPy
+    #: and numba code over validated inputs, and keep the fast path in the driver.
+    may_crash: ClassVar[bool] = False
     #: A small, cheap configuration (a short horizon) that still runs every part of the model:
     #: what the conformance suite (:func:`uqguide.testing.check_model`) builds it with.
     example_params: ClassVar[Mapping[str, Any]] = {}

@@ -271,6 +271,7 @@ class CallableModel(DeclaredModel):
     name = "callable"
     summary = "a user's vectorised Python function 'package.module:function' of x (n, d)"
     Params = CallableParams
+    may_crash = True  # a user's function may segfault (C extensions), leak or os._exit
     params: CallableParams
     example_params = {"function": "uqguide.models.callable:example_function",
                       "inputs": ["a", "b"], "nominal": [1.0, 0.5],

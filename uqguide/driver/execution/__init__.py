@@ -30,7 +30,14 @@ Only the driver writes files. Failures never sink a run:
   their values;
 - on Dask, a chunk whose workers keep dying (``KilledWorker``) is isolated likewise;
 - with the config's ``timeout_s``, every model call runs in a guard process and a call that
-  does not return in time is killed and bisected the same way: a hanging sample costs itself.
+  does not return in time is killed and bisected the same way: a hanging sample costs itself;
+- without workers, a model that can crash its process (every ``callable``, any model with
+  ``isolate: true``) runs its calls in a guard process too, so a segfault costs the samples
+  that crash even serially; the built-in simulators keep the fast path in this process;
+- the samples found to crash or hang are recorded in the run folder as they are found, and a
+  resume fails them with the recorded reason without running them again;
+- child processes (guards, pool workers) are capped at the run's ``max_memory``
+  (``RLIMIT_AS``): a model that leaks ends its process, and is bisected like a crash.
 
 A :class:`~uqguide.errors.ModelError` (a model breaking its own contract) is a bug and
 propagates.
@@ -44,15 +51,16 @@ it runs) and :mod:`.executors`.
 
 from __future__ import annotations
 
-from .chunks import DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Reducer, Task, Timing
+from .chunks import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Containment, Reducer, Task,
+                     Timing)
 from .executors import DaskExecutor, Executor, ProcessExecutor, SerialExecutor, make_executor
 from .isolation import assemble_pieces, common_grid, evaluate_batch, failed_output
 from .transport import ModelHandle
 from .worker import isolate_crash, run_chunk
 
 __all__ = [
-    "DEFAULT_BATCH_SIZE", "ChunkJob", "ChunkResult", "DaskExecutor", "Executor", "ModelHandle",
-    "ProcessExecutor", "Reducer", "SerialExecutor", "Task", "Timing", "assemble_pieces",
-    "common_grid", "evaluate_batch", "failed_output", "isolate_crash", "make_executor",
-    "run_chunk",
+    "DEFAULT_BATCH_SIZE", "ChunkJob", "ChunkResult", "Containment", "DaskExecutor", "Executor",
+    "ModelHandle", "ProcessExecutor", "Reducer", "SerialExecutor", "Task", "Timing",
+    "assemble_pieces", "common_grid", "evaluate_batch", "failed_output", "isolate_crash",
+    "make_executor", "run_chunk",
 ]

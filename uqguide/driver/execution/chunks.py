@@ -3,8 +3,9 @@ what comes back from one."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -100,6 +101,28 @@ class ChunkResult:
                            failed=self.failed, reasons=self.reasons)
 
 
+@dataclass(frozen=True)
+class Containment:
+    """How a run contains a model that may crash or leak.
+
+    Attributes
+    ----------
+    isolate : bool
+        Without workers, make the model calls in a guard process (a crash then costs the
+        samples that crash, found by bisection).
+    asked : bool
+        The config asked for it (``model.isolate: true``): a model that cannot be built in a
+        guard process stops the run. Otherwise (a callable's default) the run falls back to
+        evaluating in its own process, with a warning.
+    memory_limit : int or None
+        Bytes of address space of each child process (guard processes, pool workers).
+    """
+
+    isolate: bool = False
+    asked: bool = False
+    memory_limit: int | None = None
+
+
 @dataclass
 class ChunkJob:
     """What every chunk of one design shares (sent along with each chunk; small)."""
@@ -114,7 +137,23 @@ class ChunkJob:
     timeout_s: float | None = None
     #: Run the calls in a guard process even without a timeout (crash isolation).
     guarded: bool = False
+    #: When the guard cannot start or cannot build the model, evaluate in this process
+    #: instead of stopping (the isolation a callable gets by default, not one asked for).
+    guard_fallback: bool = False
+    #: Bytes of address space each child process may use (guard processes, pool workers):
+    #: the run's ``max_memory``; None: no limit.
+    memory_limit: int | None = None
+    #: Rows of the stage (design row numbers) known to crash or hang their process, with the
+    #: reason recorded when they did: they fail again without being run.
+    known: Mapping[int, str] = field(default_factory=dict)
+    #: Told ``(design row, reason)`` for each row isolated by a crash or a timeout, in the
+    #: process that found it; never sent to a worker (the driver records the rows).
+    on_isolated: Callable[[int, str], None] | None = None
     #: Where the worker writes the per-run values of a reduced chunk in place (shared memory,
     #: :mod:`uqguide.driver.execution.shared_rows`); set by the driver once the first chunk back has
     #: shown their shapes, so the chunks sent before it bring theirs through the pipe.
     shared: RowsLayout | None = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        # the driver's callback (it writes the run folder) stays with the driver
+        return {**self.__dict__, "on_isolated": None}

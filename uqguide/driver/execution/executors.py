@@ -22,7 +22,7 @@ from .guard import close_guards
 from .isolation import common_grid
 from .processes import WORKERS_DID_NOT_START, init_worker, sigint_ignored
 from .transport import ModelHandle
-from .worker import isolate_crash, run_chunk, warm_up
+from .worker import isolate_crash, run_chunk, run_chunk_in_worker, warm_up
 
 log = logging.getLogger(__name__)
 
@@ -61,7 +61,8 @@ class Executor(Protocol):
 
 
 class SerialExecutor:
-    """Evaluates chunks one after another in this process.
+    """Evaluates chunks one after another in this process (the model calls of a model that
+    can crash its process in a guard process: :mod:`.guard`).
 
     Parameters
     ----------
@@ -71,6 +72,9 @@ class SerialExecutor:
     """
 
     shares_memory = False  # nothing to share: the values are in this process already
+    #: A model call that crashes would take the driver with it: the driver isolates models
+    #: that can crash (:attr:`uqguide.models.base.Model.may_crash`) in a guard process.
+    in_process = True
 
     def __init__(self, batch_size: int | None = None) -> None:
         self.batch_size = batch_size
@@ -215,7 +219,7 @@ class ProcessExecutor(_WindowedExecutor):
 
     def _submit(self, job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> Future:
         with sigint_ignored():  # a submit may start worker processes
-            return self._get_pool().submit(run_chunk, job, task, x)
+            return self._get_pool().submit(run_chunk_in_worker, job, task, x)
 
     def _cancel(self, futures: list[Any]) -> None:
         # Not cancelled one by one: on Ctrl-C abort() ends the workers, and Python 3.11's pool

@@ -8,6 +8,16 @@ way the batch is split in halves and each half is tried again in a fresh guard, 
 samples: one hanging or crashing sample costs that sample (failed, with the reason), not its
 chunk, at ``log2(batch)`` extra calls and waits.
 
+Without ``timeout_s`` the same guard contains a model that can crash its process: every
+``callable`` (and any model with ``isolate: true``) of a run without workers runs there by
+default, so one segfaulting sample costs that sample even serially. A guard is capped at the
+run's ``max_memory`` (:func:`~.processes.limit_memory`): a leak ends it like a crash.
+
+A guard does not re-import the script that started the run when the model does not need it
+(a function given as ``"module:function"``): an unguarded script then runs serially as it
+always did. A function defined in that script (``__main__``) needs the script: it is
+re-imported, as a pool worker does.
+
 Guard and pool processes die with their parent (``PR_SET_PDEATHSIG`` on Linux, and a watchdog
 thread that notices a new parent elsewhere): a driver killed by the out-of-memory killer leaves
 no process behind holding its pipes.
@@ -17,8 +27,13 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
+import pickle
 import signal
-from collections.abc import Collection, Sequence
+import sys
+import types
+from collections.abc import Callable, Collection, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -26,21 +41,43 @@ import numpy as np
 from ...errors import ModelError, WorkerStartError
 from ...core.types import ModelOutput
 from .isolation import assemble_pieces, evaluate_batch
-from .processes import (NESTED_RUN_EXIT, WORKERS_DID_NOT_START, die_with_parent,
-                        sigint_ignored)
+from .processes import (NESTED_RUN_EXIT, OVER_MEMORY_EXIT, WORKERS_DID_NOT_START,
+                        die_with_parent, limit_memory, sigint_ignored)
 
 log = logging.getLogger(__name__)
 
+#: Called with (row of the batch, reason) for each sample isolated by a crash or a timeout.
+OnIsolated = Callable[[int, str], None]
 
-def _serve(conn: Any) -> None:
+
+class GuardUnavailable(ModelError):
+    """The guard process started but could not build the model (a function defined in a
+    notebook, which another process cannot import). A run whose isolation is only the
+    default goes on in its own process; one that asked for it (``isolate: true``,
+    ``timeout_s``) stops with this message."""
+
+
+def _serve(conn: Any, memory_limit: int | None = None) -> None:
     die_with_parent()
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the driver handles Ctrl-C
+    limit_memory(memory_limit)
+    try:
+        _answer(conn)
+    except MemoryError:
+        os._exit(OVER_MEMORY_EXIT)  # the caller bisects it like a crash
+
+
+def _answer(conn: Any) -> None:
     while True:
         try:
             msg = conn.recv()
         except (EOFError, OSError):
             return
         if msg[0] == "prepare":  # build the model (imports, kernels) outside the timeout
+            # A guard forked from the fork server has the server's environment: the caller's
+            # (as it is now) is what the model must see.
+            os.environ.clear()
+            os.environ.update(msg[2])
             try:
                 _ = msg[1].model  # the property builds the model
                 conn.send(("ready", None))
@@ -53,8 +90,50 @@ def _serve(conn: Any) -> None:
             conn.send(("ok", out))
         except ModelError as exc:
             conn.send(("model_error", str(exc)))
+        except MemoryError:
+            raise
         except Exception as exc:  # noqa: BLE001 - reported to the caller, which bisects
             conn.send(("raised", f"{type(exc).__name__}: {exc}"))
+
+
+def _needs_main(handle: Any) -> bool:
+    """Whether the model refers to the script that started the run (a function defined in
+    ``__main__``): only then must a guard re-import that script."""
+    try:
+        return b"__main__" in pickle.dumps(handle)
+    except Exception:  # noqa: BLE001 - unpicklable: the start reports it
+        return True
+
+
+@contextmanager
+def _main_hidden() -> Iterator[None]:
+    """Start a child without re-running the parent's main script: ``multiprocessing``
+    re-imports ``sys.modules["__main__"]`` in a ``spawn`` child (and in the fork server) when
+    it has a file or a module spec, and this stand-in has neither."""
+    main = sys.modules.get("__main__")
+    sys.modules["__main__"] = types.ModuleType("__main__")
+    try:
+        yield
+    finally:
+        if main is not None:
+            sys.modules["__main__"] = main
+
+
+def _context(needs_main: bool) -> Any:
+    """Where a guard process comes from.
+
+    A model that does not need the main script comes from a **fork server**: one process,
+    started once, that has imported uqguide and forks each guard from itself, so that the
+    fresh guard after a crash costs a fork (milliseconds) and not a new interpreter importing
+    NumPy and uqguide (half a second: 40 of them to find 4 crashing samples among 1000). The
+    fork server is single-threaded, so forking it is safe, unlike forking the driver. A model
+    defined in the main script needs that script imported, which only ``spawn`` does.
+    """
+    if needs_main or "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload([__name__])
+    return ctx
 
 
 class Guard:
@@ -63,18 +142,34 @@ class Guard:
     #: Seconds a fresh guard may take to start and build the model (not the model's time).
     START_S = 300.0
 
-    def __init__(self, timeout_s: float | None) -> None:
+    def __init__(self, timeout_s: float | None, memory_limit: int | None = None) -> None:
         self.timeout_s = timeout_s
+        self.memory_limit = memory_limit
         self._proc: Any = None
         self._conn: Any = None
         self._prepared: Any = None
+        self._needs_main: dict[int, bool] = {}
+        #: Guard processes started (the first, and one after each crash or timeout).
+        self.n_started = 0
+        #: Why the model cannot run here (a guard that could not start or build it): a run
+        #: whose isolation is only the default then evaluates in its own process.
+        self.unavailable = ""
 
-    def _start(self) -> None:
-        ctx = multiprocessing.get_context("spawn")
+    def _start(self, handle: Any) -> None:
+        key = id(handle)
+        if key not in self._needs_main:
+            self._needs_main[key] = _needs_main(handle)
+        ctx = _context(self._needs_main[key])
         parent, child = ctx.Pipe()
-        proc = ctx.Process(target=_serve, args=(child,), daemon=True, name="uqguide-guard")
+        proc = ctx.Process(target=_serve, args=(child, self.memory_limit), daemon=True,
+                           name="uqguide-guard")
         with sigint_ignored():
-            proc.start()
+            if self._needs_main[key]:
+                proc.start()
+            else:
+                with _main_hidden():
+                    proc.start()
+        self.n_started += 1
         child.close()
         self._proc, self._conn = proc, parent
         self._prepared = None
@@ -84,7 +179,7 @@ class Guard:
         if self._prepared == key:
             return
         try:
-            self._conn.send(("prepare", handle))
+            self._conn.send(("prepare", handle, dict(os.environ)))
             if not self._conn.poll(self.START_S):
                 raise WorkerStartError(f"the guard process did not start within "
                                        f"{self.START_S:g} s")
@@ -99,7 +194,7 @@ class Guard:
             raise WorkerStartError(f"the guard process died while starting or building the "
                                    f"model (exit code {code}), before any sample ran") from None
         if status != "ready":
-            raise ModelError(f"cannot build the model in the guard process: {value}")
+            raise GuardUnavailable(f"cannot build the model in the guard process: {value}")
         self._prepared = key
 
     def _stop(self) -> None:
@@ -131,7 +226,7 @@ class Guard:
         """
         if self._proc is None or not self._proc.is_alive():
             self._stop()
-            self._start()
+            self._start(handle)
         try:
             self._prepare(handle)  # the start of a fresh guard is not the model's time
             self._conn.send(("call", handle, x, tuple(names), tuple(outputs)))
@@ -146,8 +241,13 @@ class Guard:
             self._stop()  # a call cut short leaves a guard in an unknown state
             raise
         except (EOFError, OSError, BrokenPipeError):
+            if self._proc is not None:
+                self._proc.join(5)  # its exit code says why it ended
             code = self._proc.exitcode if self._proc is not None else None
             self._stop()
+            if code == OVER_MEMORY_EXIT and self.memory_limit is not None:
+                return "crashed", (f"model process went over its memory limit (max_memory = "
+                                   f"{self.memory_limit / 2**20:.0f} MiB per process)")
             return "crashed", f"model process crashed (exit code {code})"
         if status == "model_error":
             raise ModelError(value)
@@ -157,24 +257,26 @@ class Guard:
         self._stop()
 
 
-_GUARDS: dict[float | None, Guard] = {}
+_GUARDS: dict[tuple[float | None, int | None], Guard] = {}
 
 
-def guard_for(timeout_s: float | None) -> Guard:
-    """This process's guard for ``timeout_s`` (one, reused).
+def guard_for(timeout_s: float | None, memory_limit: int | None = None) -> Guard:
+    """This process's guard for ``timeout_s`` and ``memory_limit`` (one, reused).
 
     Parameters
     ----------
     timeout_s : float or None
         Seconds a call may take (None: no limit, crash isolation only).
+    memory_limit : int or None
+        Bytes of address space the guard process may use (None: no limit).
 
     Returns
     -------
     Guard
     """
-    g = _GUARDS.get(timeout_s)
+    g = _GUARDS.get((timeout_s, memory_limit))
     if g is None:
-        g = _GUARDS[timeout_s] = Guard(timeout_s)
+        g = _GUARDS[(timeout_s, memory_limit)] = Guard(timeout_s, memory_limit)
     return g
 
 
@@ -186,7 +288,8 @@ def close_guards() -> None:
 
 
 def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Collection[str],
-                  timeout_s: float | None) -> ModelOutput:
+                  timeout_s: float | None, memory_limit: int | None = None,
+                  on_isolated: OnIsolated | None = None) -> ModelOutput:
     """``evaluate_batch`` in the guard process, bisected on a timeout or a crash (module
     docstring); the samples that time out or crash alone fail with the reason.
 
@@ -200,6 +303,11 @@ def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Col
     outputs : collection of str
     timeout_s : float or None
         Seconds one call may take.
+    memory_limit : int or None
+        Bytes of address space of the guard process.
+    on_isolated : callable, optional
+        Told ``(row, reason)`` for each row of ``x`` that failed alone by a crash or a
+        timeout (the driver records it, so that a resume does not run it again).
 
     Returns
     -------
@@ -207,10 +315,10 @@ def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Col
         The ``n`` samples in order; those isolated fail with the reason.
     """
     model = handle.model
-    guard = guard_for(timeout_s)
+    guard = guard_for(timeout_s, memory_limit)
     pieces: list[Any] = []
 
-    def bisect(rows: np.ndarray) -> None:
+    def bisect(rows: np.ndarray, first: int) -> None:
         status, value = guard.call(handle, rows, names, outputs)
         if status == "ok":
             pieces.append(value)
@@ -218,10 +326,12 @@ def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Col
         if rows.shape[0] <= 1:
             pieces.append((rows.shape[0], value))
             log.warning("model '%s': a sample failed: %s", model.name, value)
+            if on_isolated is not None and rows.shape[0] == 1 and status != "raised":
+                on_isolated(first, value)
             return
         half = rows.shape[0] // 2
-        bisect(rows[:half])
-        bisect(rows[half:])
+        bisect(rows[:half], first)
+        bisect(rows[half:], first + half)
 
-    bisect(x)
+    bisect(x, 0)
     return assemble_pieces(model, pieces, outputs)

@@ -4,13 +4,14 @@ raising samples fail alone, with the reason; the others keep their values."""
 from __future__ import annotations
 
 import logging
-from collections.abc import Collection, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 
 import numpy as np
 
 from ...errors import ModelError
 from ...models.base import Model
 from ...core.types import ModelOutput
+from .processes import memory_limited
 
 log = logging.getLogger(__name__)
 
@@ -78,13 +79,60 @@ def _bisect(model: Model, x: np.ndarray, names: Sequence[str], outputs: Collecti
         return
     except ModelError:
         raise
+    except MemoryError as exc:
+        if memory_limited():  # a child over its limit ends: what leaked is still held here
+            raise
+        failure: Exception = exc
     except Exception as exc:  # noqa: BLE001 - a raising model call is isolated, not fatal
-        if x.shape[0] <= 1:
-            pieces.append((x.shape[0], f"{type(exc).__name__}: {exc}"))
-            return
+        failure = exc
+    if x.shape[0] <= 1:
+        pieces.append((x.shape[0], f"{type(failure).__name__}: {failure}"))
+        return
     half = x.shape[0] // 2
     _bisect(model, x[:half], names, outputs, pieces)
     _bisect(model, x[half:], names, outputs, pieces)
+
+
+def skipping_known(model: Model, x: np.ndarray, outputs: Collection[str],
+                   known: Mapping[int, str],
+                   evaluate: Callable[[np.ndarray, int], ModelOutput]) -> ModelOutput:
+    """``evaluate(x)`` without the rows already known to crash or hang their process.
+
+    A row isolated by an earlier attempt of the run (its checkpoint lists it) fails again with
+    the reason recorded then, without being run: a resume never runs a known crasher again,
+    and its result equals the uninterrupted run's. The other rows are evaluated in the
+    stretches between them (the model is deterministic per sample, so the split does not
+    change their values).
+
+    Parameters
+    ----------
+    model : Model
+    x : ndarray, shape (n, d)
+    outputs : collection of str
+    known : mapping of int to str
+        Row of ``x`` -> the reason it failed with.
+    evaluate : callable
+        ``evaluate(rows, first)`` evaluates the stretch ``rows (m, d)`` that starts at row
+        ``first`` of ``x``.
+
+    Returns
+    -------
+    ModelOutput
+        The ``n`` samples in order.
+    """
+    rows = sorted(r for r in known if 0 <= r < x.shape[0])
+    if not rows:
+        return evaluate(x, 0)
+    pieces: list[ModelOutput | tuple[int, str]] = []
+    start = 0
+    for r in rows:
+        if r > start:
+            pieces.append(evaluate(x[start:r], start))
+        pieces.append((1, known[r]))
+        start = r + 1
+    if start < x.shape[0]:
+        pieces.append(evaluate(x[start:], start))
+    return assemble_pieces(model, pieces, outputs)
 
 
 def _probe_grid(model: Model, outputs: Collection[str]) -> np.ndarray | None:

@@ -13,6 +13,52 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
+#: Exit code of a child process whose model went over its memory limit (a MemoryError under
+#: :func:`limit_memory`): the process is ended, not reused, since what leaked is still held.
+OVER_MEMORY_EXIT = 75
+
+#: Smallest per-process limit applied: Python, NumPy, numba and uqguide take about half a GB
+#: of address space before any sample runs; a smaller ``max_memory`` would stop every child
+#: at its start, which says nothing about the model.
+MIN_PROCESS_MEMORY = 1 << 30
+
+_memory_limit: dict[str, int] = {}
+
+
+def limit_memory(n_bytes: int | None) -> None:
+    """Cap this process's address space (``RLIMIT_AS``, soft limit) at ``n_bytes``.
+
+    Called in the child processes a run starts (guard processes, pool workers), never in the
+    driver: an allocation over the limit raises MemoryError there, the child ends with
+    :data:`OVER_MEMORY_EXIT` and the samples of its call are bisected like a crash, so a model
+    that leaks costs failed samples, not the machine. Address space, not resident memory, is
+    what Linux can cap per process; it overcounts (thread stacks, mapped libraries), hence
+    :data:`MIN_PROCESS_MEMORY`. A no-op where ``resource`` is missing.
+
+    Parameters
+    ----------
+    n_bytes : int or None
+        The limit in bytes (None: unchanged).
+    """
+    if n_bytes is None or _memory_limit.get("bytes") == n_bytes:
+        return
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not on POSIX
+        return
+    limit = max(int(n_bytes), MIN_PROCESS_MEMORY)
+    _, hard = resource.getrlimit(resource.RLIMIT_AS)
+    if hard != resource.RLIM_INFINITY:
+        limit = min(limit, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
+    _memory_limit["bytes"] = n_bytes
+
+
+def memory_limited() -> bool:
+    """Whether :func:`limit_memory` capped this process (a MemoryError then ends it)."""
+    return "bytes" in _memory_limit
+
+
 def die_with_parent() -> None:
     """Make this process end when its parent does (call first thing in a child process)."""
     parent = os.getppid()

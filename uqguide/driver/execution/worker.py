@@ -3,17 +3,43 @@ in guard processes when a timeout or crash isolation asks, then reduced where it
 
 from __future__ import annotations
 
+import logging
+import os
 import time
 from dataclasses import replace
 
 import numpy as np
 
 from ...core.types import ModelOutput, RowRange
+from ...errors import WorkerStartError
 from ...models import kernels
 from .chunks import ChunkJob, ChunkResult, Task
-from .guard import guarded_batch
-from .isolation import common_grid, evaluate_batch
+from .guard import GuardUnavailable, guard_for, guarded_batch
+from .isolation import common_grid, evaluate_batch, skipping_known
+from .processes import OVER_MEMORY_EXIT, limit_memory
 from .shared_rows import write_in_place
+
+log = logging.getLogger(__name__)
+
+
+def _evaluate(job: ChunkJob, rows: np.ndarray, first: int) -> ModelOutput:
+    """One model call on ``rows``, the stretch of the design starting at row ``first``: in a
+    guard process when the job asks for one, else here."""
+    if job.timeout_s is not None or job.guarded:
+        guard = guard_for(job.timeout_s, job.memory_limit)
+        if not (job.guard_fallback and guard.unavailable):
+            tell = job.on_isolated
+            told = None if tell is None else (lambda r, why: tell(first + r, why))
+            try:
+                return guarded_batch(job.model, rows, job.names, job.outputs, job.timeout_s,
+                                     job.memory_limit, told)
+            except (GuardUnavailable, WorkerStartError) as exc:
+                if not job.guard_fallback:
+                    raise
+                guard.unavailable = str(exc)
+                log.warning("model '%s' runs in this process: %s. A sample that crashes its "
+                            "process ends the run (resumable)", job.model.model.name, exc)
+    return evaluate_batch(job.model.model, rows, job.names, job.outputs)
 
 
 def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResult:
@@ -40,12 +66,15 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
     m = x.shape[0]
     compiled_before = kernels.compile_seconds()
     t0 = time.perf_counter()
-    if job.timeout_s is not None or job.guarded:
-        parts = [guarded_batch(job.model, x[s:s + job.batch_size], job.names, job.outputs,
-                               job.timeout_s) for s in range(0, max(m, 1), job.batch_size)]
-    else:
-        parts = [evaluate_batch(model, x[s:s + job.batch_size], job.names, job.outputs)
-                 for s in range(0, max(m, 1), job.batch_size)]
+    known = {r - task.start: why for r, why in job.known.items() if task.start <= r < task.stop}
+    parts = []
+    for s in range(0, max(m, 1), job.batch_size):
+        here = {r - s: why for r, why in known.items() if s <= r < s + job.batch_size}
+
+        def call(rows: np.ndarray, at: int, first: int = task.start + s) -> ModelOutput:
+            return _evaluate(job, rows, first + at)
+
+        parts.append(skipping_known(model, x[s:s + job.batch_size], job.outputs, here, call))
     out = ModelOutput.concatenate(common_grid(parts))
     # a first call that compiles the kernel is timed as compiling, not as running the model
     compiled = kernels.compile_seconds() - compiled_before
@@ -57,6 +86,28 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
     result = ChunkResult(task, out.failed, out.reasons, out.time, out.scalars,
                          summary=summary, model_seconds=seconds, compile_seconds=compiled)
     return write_in_place(job.shared, result) if job.shared is not None else result
+
+
+def run_chunk_in_worker(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResult:
+    """:func:`run_chunk` in a pool worker, capped at ``job.memory_limit``: a worker whose model
+    goes over it ends (the pool re-runs its chunk alone, then in guard processes, like a
+    crash) instead of failing every later sample with the memory its model still holds.
+
+    Parameters
+    ----------
+    job : ChunkJob
+    task : Task
+    x : ndarray or RowRange, shape (m, d)
+
+    Returns
+    -------
+    ChunkResult
+    """
+    limit_memory(job.memory_limit)
+    try:
+        return run_chunk(job, task, x)
+    except MemoryError:
+        os._exit(OVER_MEMORY_EXIT)
 
 
 def isolate_crash(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
