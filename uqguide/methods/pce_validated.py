@@ -179,7 +179,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         st.usable = usable
         if corrected is not None:
             _flag_disagreement(diag, estimate.label, name, st, corrected, time, usable)
-        _withhold_unsupported(diag, estimate.label, name, st, corrected, runs, usable, time)
+        _withhold_unsupported(diag, estimate.label, name, st, corrected, runs, usable, time,
+                              fit_loo)
         if st.fallback:
             diag["fallback_interval"] = INTERVAL
         if usable.all():
@@ -251,12 +252,12 @@ def _drop_refuted(diag: dict[str, Any], label: str, name: str, st: Any, cv: Corr
 
 def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
                           cv: Corrected | None, runs: Corrected | None, usable: np.ndarray,
-                          time: np.ndarray | None) -> None:
+                          time: np.ndarray | None, loo: float | None = None) -> None:
     """Withhold the PCE's skewness and kurtosis where its runs do not support them
     (:func:`uqguide.pce.support.unsupported`), and give the runs' Monte Carlo estimate
     (``fallback``) wherever one of its moments is withheld."""
     own = {k: np.asarray(st.stat(k), dtype=float) for k in ("std",) + SHAPE_STATS}
-    bad = unsupported(own, cv, runs)
+    bad = unsupported(own, cv, runs, loo)
     bad = {k: m & usable for k, m in bad.items()}  # elsewhere all four go anyway
     for k, m in bad.items():
         if m.any():
