@@ -81,6 +81,17 @@ def test_the_documented_config_gives_the_closed_form_mean_and_std(decay_fmu, see
                        rtol=1e-13, atol=0)
 
 
+def test_a_serial_run_simulates_the_fmu_in_a_guard_process_unless_told_not_to(decay_fmu):
+    # An FMU is native code: like a callable, a crash in it must cost its samples only (the
+    # guard process and its bisection are tested in tests/test_containment.py).
+    from uqguide.config.run_config import validate_config
+
+    cfg = _doc_config(decay_fmu)
+    assert validate_config(cfg).isolate
+    cfg["model"]["isolate"] = False
+    assert not validate_config(cfg).isolate
+
+
 def test_tensor_pce_through_the_fmu_gives_the_exact_mean_and_std(decay_fmu):
     """A 7 x 7 Gauss rule: exact in x0 (degree 2 at most), and for E[exp(-p k t)] on the
     uniform k its error is (b-a)^14 (7!)^4 / (15 (14!)^3) (p t)^14 <= 2e-14 for p <= 2, t = 2:

@@ -57,6 +57,8 @@ class FmuModel(DeclaredModel):
 
     name = "fmu"
     summary = "an FMU (Modelica, Simulink, ... export) simulated with FMPy (uqguide[fmu])"
+    # An FMU is native code: a crash or a leak in its binary must cost its samples, not the run.
+    may_crash = True
     Params = FmuParams
     params: FmuParams
     # example_params stays empty: no FMU ships with uqguide, so the conformance test builds
