@@ -2,6 +2,7 @@
 
 A program in any language is the ``command`` model (``command/``: files, process, model); an
 FMU the ``fmu`` model (``fmu/``: archive, simulate, model; FMPy is an optional extra).
+Both find relative paths from their config's folder (``config_dir``).
 A simulator is a folder: ``model.py`` (parameters and the batch interface), the compiled
 ``kernel_numba.py`` and its NumPy reference ``kernel_numpy.py``, chosen by ``kernels.select``
 from two loaders in the model's module that import each by name. ``record_rows`` holds the

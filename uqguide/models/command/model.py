@@ -45,12 +45,13 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from ...core.names import PLAIN_NAME_RULE, is_plain_name
 from ...errors import ModelError
-from ..base import ModelOutput, ModelParams
+from ..base import ModelOutput
+from ..config_dir import ConfigDirParams
 from ..callable import CallableOutput, DeclaredModel, check_output_names
 from . import process
 from .files import NON_FINITE, OutputSpec, read_outputs, write_inputs
@@ -76,7 +77,7 @@ def _default_root() -> str:
     return str(Path(tempfile.gettempdir()) / f"uqguide-command-{os.getuid()}")
 
 
-class CommandParams(ModelParams):
+class CommandParams(ConfigDirParams):
     command: str = Field(min_length=1, description=(
         "the program and its arguments, split like a shell would but run without one; "
         f"placeholders: {', '.join('{' + p + '}' for p in PLACEHOLDERS)}"))
@@ -105,14 +106,6 @@ class CommandParams(ModelParams):
     config_dir: str | None = Field(default=None, description=(
         "folder a relative program path is found in (set by uqguide: the config's folder or "
         "the current folder)"))
-
-    @model_validator(mode="before")
-    @classmethod
-    def _locate(cls, data: Any, info: ValidationInfo) -> Any:
-        if isinstance(data, Mapping) and data.get("config_dir") is None:
-            where = (info.context or {}).get("config_dir") or os.getcwd()
-            data = {**data, "config_dir": str(Path(where).resolve())}
-        return data
 
     @field_validator("command")
     @classmethod

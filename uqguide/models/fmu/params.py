@@ -13,11 +13,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, NoReturn
 
-from pydantic import Field, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from ...core.names import PLAIN_NAME_RULE, is_plain_name
-from ..base import ModelParams
+from ..config_dir import ConfigDirParams
 from ..callable import CallableOutput, check_output_names
 from ..time_grid import whole_steps
 from . import archive
@@ -60,7 +60,7 @@ class FmuOutput(CallableOutput):
         return [self.variable or self.name]
 
 
-class FmuParams(ModelParams):
+class FmuParams(ConfigDirParams):
     path: str = Field(min_length=1, description=(
         "the FMU file (.fmu, or a folder holding an unzipped FMU); a relative path is taken "
         "from the config's folder"))
@@ -84,14 +84,6 @@ class FmuParams(ModelParams):
     config_dir: str | None = Field(default=None, description=(
         "folder a relative path is found in (set by uqguide: the config's folder or the "
         "current folder)"))
-
-    @model_validator(mode="before")
-    @classmethod
-    def _locate(cls, data: Any, info: ValidationInfo) -> Any:
-        if isinstance(data, Mapping) and data.get("config_dir") is None:
-            where = (info.context or {}).get("config_dir") or os.getcwd()
-            data = {**data, "config_dir": str(Path(where).resolve())}
-        return data
 
     @field_validator("inputs", mode="before")
     @classmethod

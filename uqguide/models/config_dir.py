@@ -1,0 +1,28 @@
+"""Parameters of a model that names files relative to its config's folder (``command``,
+``fmu``): ``config_dir`` is filled in at validation, so that the config runs the same from
+any working folder."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationInfo, model_validator
+
+from .base import ModelParams
+
+
+class ConfigDirParams(ModelParams):
+    """A model's parameters with a ``config_dir`` field (each subclass declares it, with its own
+    description): unless the config sets it, the folder of the config file (the validation
+    context's ``config_dir``), else the current folder, as an absolute path."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _locate(cls, data: Any, info: ValidationInfo) -> Any:
+        if isinstance(data, Mapping) and data.get("config_dir") is None:
+            where = (info.context or {}).get("config_dir") or os.getcwd()
+            data = {**data, "config_dir": str(Path(where).resolve())}
+        return data
