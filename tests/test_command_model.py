@@ -15,6 +15,7 @@ import re
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -224,6 +225,24 @@ def test_exactly_the_failing_hanging_and_crashing_samples_fail(program, tmp_path
     assert set(run.reasons[nan]) == {"non-finite output value"}
     children = [int(p.name.split("-")[1]) for p in tmp_path.glob("child-*")]
     assert children, "the hanging program's child did not start"
+    assert not [pid for pid in children if _alive(pid)]
+
+
+@pytest.mark.slow  # seconds of waiting on timeouts
+def test_the_runs_timeout_s_kills_the_program_and_its_children_not_only_the_guard(
+        program, tmp_path):
+    """The config-level ``timeout_s`` kills the guard process that waits for the program. The
+    program runs in a session of its own, out of reach of that kill: it (and the child it
+    forked) used to run on, one orphan per call of the bisection."""
+    cfg = _config(program, tmp_path, n=8, batch=8, mode="hang", thresh=M1 + S1, series=False)
+    cfg["timeout_s"], cfg["max_failed_fraction"] = 0.5, 1.0
+    run = uqguide.run(cfg).run("mc")
+    hang = _x1(run) > M1 + S1
+    assert hang.any() and not hang.all()  # seed 3's design: both kinds of sample
+    np.testing.assert_array_equal(run.failed, hang)
+    children = [int(p.name.split("-")[1]) for p in tmp_path.glob("child-*")]
+    assert len(children) >= hang.sum()  # one per call that reached a hanging sample
+    time.sleep(0.2)  # the kernel's delivery of SIGKILL to the group
     assert not [pid for pid in children if _alive(pid)]
 
 

@@ -5,5 +5,6 @@
 - ``events``: events such as ``collision: min_clearance below 0`` and their probabilities;
 - ``failures``: failed runs tallied by reason;
 - ``strict``: booleans are not numbers in a config;
-- ``atomic``: files that are complete or absent.
+- ``atomic``: files that are complete or absent;
+- ``process_groups``: external programs a process waits for, ended with it.
 """

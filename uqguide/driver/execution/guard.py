@@ -6,7 +6,9 @@ at most ``timeout_s`` for the answer. A call that does not answer in time is kil
 process; a call whose process dies (segfault, ``os._exit``, out-of-memory kill) likewise. Either
 way the batch is split in halves and each half is tried again in a fresh guard, down to single
 samples: one hanging or crashing sample costs that sample (failed, with the reason), not its
-chunk, at ``log2(batch)`` extra calls and waits.
+chunk, at ``log2(batch)`` extra calls and waits. A guard is ended by SIGTERM first: it kills
+the external programs it waits for (a ``command`` model's, which run in sessions of their own,
+:mod:`uqguide.core.process_groups`), then exits; SIGKILL follows a second later if it cannot.
 
 Without ``timeout_s`` the same guard contains a model that can crash its process: every
 ``callable`` (and any model with ``isolate: true``) of a run without workers runs there by
@@ -39,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import ModelError, WorkerStartError
+from ...core.process_groups import stop_on_sigterm
 from ...core.types import ModelOutput
 from .isolation import assemble_pieces, evaluate_batch
 from .processes import (NESTED_RUN_EXIT, OVER_MEMORY_EXIT, WORKERS_DID_NOT_START,
@@ -58,7 +61,10 @@ class GuardUnavailable(ModelError):
 
 
 def _serve(conn: Any, memory_limit: int | None = None) -> None:
-    die_with_parent()
+    # SIGTERM, not SIGKILL, from a dying parent and from _stop: the guard's handler kills the
+    # external programs it waits for (core.process_groups) before it goes
+    die_with_parent(signal.SIGTERM)
+    stop_on_sigterm()
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the driver handles Ctrl-C
     limit_memory(memory_limit)
     try:
@@ -141,6 +147,8 @@ class Guard:
 
     #: Seconds a fresh guard may take to start and build the model (not the model's time).
     START_S = 300.0
+    #: Seconds a guard is given to end its programs on SIGTERM before it is killed.
+    TERM_S = 1.0
 
     def __init__(self, timeout_s: float | None, memory_limit: int | None = None) -> None:
         self.timeout_s = timeout_s
@@ -200,7 +208,13 @@ class Guard:
     def _stop(self) -> None:
         if self._proc is not None:
             if self._proc.is_alive():
-                self._proc.kill()
+                # SIGTERM lets a guard waiting on a command's program kill that program's
+                # process group (it runs in a session of its own, out of reach of a kill aimed
+                # at the guard); a guard stuck in compiled code cannot answer, and is killed
+                self._proc.terminate()
+                self._proc.join(self.TERM_S)
+                if self._proc.is_alive():
+                    self._proc.kill()
             self._proc.join(5)
             self._conn.close()
         self._proc = self._conn = None

@@ -59,8 +59,11 @@ def memory_limited() -> bool:
     return "bytes" in _memory_limit
 
 
-def die_with_parent() -> None:
-    """Make this process end when its parent does (call first thing in a child process)."""
+def die_with_parent(sig: int = signal.SIGKILL) -> None:
+    """Make this process end when its parent does (call first thing in a child process).
+
+    ``sig`` is the signal the kernel sends it then: SIGTERM for a process whose handler has
+    something to clean up (a guard's external programs), SIGKILL otherwise."""
     parent = os.getppid()
     if sys.platform.startswith("linux"):
         try:
@@ -68,7 +71,7 @@ def die_with_parent() -> None:
 
             libc = ctypes.CDLL(None, use_errno=True)
             PR_SET_PDEATHSIG = 1
-            libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+            libc.prctl(PR_SET_PDEATHSIG, int(sig), 0, 0, 0)
         except (OSError, AttributeError):  # pragma: no cover - no prctl
             pass
     if os.getppid() != parent:  # the parent died before prctl took effect
@@ -80,6 +83,8 @@ def die_with_parent() -> None:
         while True:
             time.sleep(1.0)
             if os.getppid() != parent:
+                os.kill(os.getpid(), sig)  # as prctl would have: the same handler runs
+                time.sleep(1.0)
                 os._exit(1)
 
     threading.Thread(target=watch, name="uqguide-parent-watch", daemon=True).start()

@@ -23,6 +23,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from ...errors import ModelError
+from ...core.process_groups import kill_group, tracked
 
 #: The placeholders a template may hold, and what each becomes.
 PLACEHOLDERS = {
@@ -106,13 +107,6 @@ def argv(template: str, values: Mapping[str, str], shell: bool) -> list[str] | s
     return args
 
 
-def _kill_group(pgid: int) -> None:
-    try:
-        os.killpg(pgid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        pass
-
-
 def _stderr_tail(workdir: Path) -> str:
     try:
         lines = (workdir / "stderr.txt").read_text(errors="replace").strip().splitlines()
@@ -154,19 +148,20 @@ def run(args: Sequence[str] | str, workdir: Path, env: Mapping[str, str],
             raise ModelError(f"cannot start the command's program {program!r}: "
                              f"{exc.strerror or exc}") from None
         try:
-            code = proc.wait(timeout=timeout_s)
+            with tracked(proc.pid):  # a guard killed on the run's timeout_s kills it too
+                code = proc.wait(timeout=timeout_s)
         except subprocess.TimeoutExpired:
-            _kill_group(proc.pid)
+            kill_group(proc.pid)
             proc.wait()
             raise CommandFailed(f"the command did not finish within timeout_s = {timeout_s:g} s "
                                 f"(its process group was killed); work folder kept: "
                                 f"{workdir}") from None
         except BaseException:
-            _kill_group(proc.pid)  # Ctrl-C: leave no simulator behind
+            kill_group(proc.pid)  # Ctrl-C: leave no simulator behind
             proc.wait()
             raise
         # children it left running in the background belong to this call and end with it
-        _kill_group(proc.pid)
+        kill_group(proc.pid)
     if code != 0:
         how = (f"was killed by signal {signal.Signals(-code).name}" if code < 0 and
                -code in signal.Signals._value2member_map_ else f"exited with status {code}")
