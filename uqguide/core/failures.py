@@ -4,6 +4,7 @@ a method failed (no statistics at all)."""
 
 from __future__ import annotations
 
+import re
 from collections import Counter
 from collections.abc import Iterable
 
@@ -12,9 +13,39 @@ MAX_REASONS = 5
 COLUMNS = ["label", "runs", "failed", "share", "reason", "count"]
 
 
+#: A detail of one run inside its reason (a ``command`` model's kept work folder): the runs are
+#: tallied with it masked, or 20 samples failing alike would fill the table with 20 reasons of
+#: count 1. The per-run reason keeps it (``RunResult.reasons``), where the user looks it up.
+_PER_RUN = re.compile(r"(work folder kept: )(\S+?)(?=[;)]|$)")
+MASK = "one per run"
+
+
+def reason_kind(reason: str) -> str:
+    """``reason`` with its per-run details masked: the key failures are tallied by."""
+    return _PER_RUN.sub(lambda m: m.group(1) + MASK, reason)
+
+
+def _tally(reasons: Iterable[object]) -> list[tuple[str, int]]:
+    kinds: Counter[str] = Counter()
+    first: dict[str, str] = {}
+    for v in reasons:
+        text = str(v) or "unknown"
+        kind = reason_kind(text)
+        kinds[kind] += 1
+        first.setdefault(kind, text)
+    rows = []
+    for kind, count in kinds.most_common():
+        detail = _PER_RUN.search(first[kind])
+        # a reason met once is shown as it is; one met often, masked, with its first run's
+        rows.append((first[kind] if count == 1 or detail is None
+                     else f"{kind} (first: {detail.group(2)})", count))
+    return rows
+
+
 def reason_rows(label: str, n_runs: int, reasons: Iterable[object]) -> list[dict[str, object]]:
-    """Rows of one method's failures: ``reasons`` has one entry per failed run."""
-    tally = Counter(str(v) or "unknown" for v in reasons).most_common()
+    """Rows of one method's failures: ``reasons`` has one entry per failed run, tallied by
+    :func:`reason_kind`."""
+    tally = _tally(reasons)
     n_failed = sum(c for _, c in tally)
     shown, rest = tally[:MAX_REASONS], tally[MAX_REASONS:]
     if rest:
