@@ -214,6 +214,45 @@ def test_nan_outputs_are_failed_runs_counted_never_dropped(tmp_path, caplog):
     assert np.allclose(four(result, "pce"), exact_moments(), rtol=0, atol=1e-10)
 
 
+def test_rows_flagged_failed_carry_their_own_reason_in_every_format(tmp_path):
+    """The ``failed``/``reason`` columns of a command's outputs file, in a data file: a flagged
+    row fails with the user's words (a finite value beside the flag does not make it a run),
+    a flag without words gets one, and the statistics are those of the other rows."""
+    import h5py
+
+    x, y = rows(40, 13)
+    flag = np.zeros(40, dtype=int)
+    flag[[2, 9, 30]] = 1
+    why = np.array([""] * 40, dtype=object)
+    why[[2, 9]] = "solver diverged"
+    y_file = y.copy()
+    y_file[2] = np.nan  # one flagged row has no output at all, the others keep theirs
+    lines = ["a,b,y,failed,reason"] + [
+        f"{float(x[i, 0])!r},{float(x[i, 1])!r},"
+        f"{'' if np.isnan(y_file[i]) else repr(float(y_file[i]))},"
+        f"{flag[i] or ''},{why[i]}" for i in range(40)]
+    (tmp_path / "runs.csv").write_text("\n".join(lines) + "\n")
+    np.savez(tmp_path / "runs.npz", a=x[:, 0], b=x[:, 1], y=y_file, failed=flag,
+             reason=why.astype(str))
+    with h5py.File(tmp_path / "runs.h5", "w") as f:
+        for k, v in {"a": x[:, 0], "b": x[:, 1], "y": y_file, "failed": flag}.items():
+            f[k] = v
+        f["reason"] = why.astype(str).astype(bytes)
+    ok = flag == 0
+    for name in ("runs.csv", "runs.npz", "runs.h5"):
+        run = uqguide.run(config(tmp_path, name, methods=[{"name": "monte_carlo", "label": "mc"}],
+                                 max_failed_fraction=0.1)).run("mc")
+        np.testing.assert_array_equal(run.failed, ~ok)
+        assert list(run.reasons[~ok]) == ["solver diverged", "solver diverged",
+                                          f"marked failed in {name}"], name
+        assert float(run.estimate.stats["y"].mean[0]) == pytest.approx(y[ok].mean(), rel=1e-13)
+    bad = lines[:]
+    bad[5] = bad[5].rsplit(",", 2)[0] + ",2,"
+    (tmp_path / "runs.csv").write_text("\n".join(bad) + "\n")
+    with pytest.raises(ConfigError, match=r"row 5 \(line 6\), column 'failed': 2 is not 0 or 1"):
+        uqguide.load_config(config(tmp_path))
+
+
 # ---------------------------------------------------------------------------- goodness of fit
 def test_rows_from_another_distribution_are_warned_not_refused(tmp_path, caplog):
     x, y = rows(200, 11)

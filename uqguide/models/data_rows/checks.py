@@ -166,7 +166,8 @@ def output_names(table: Table, space: InputSpace, outputs: Sequence[str] | None
 
 
 def failed_rows(table: Table, outputs: Sequence[str]) -> np.ndarray:
-    """Rows whose outputs hold a NaN or an infinity: the runs that failed.
+    """The runs that failed: rows flagged in the ``failed`` column, and rows whose outputs
+    hold a NaN or an infinity.
 
     Parameters
     ----------
@@ -177,7 +178,7 @@ def failed_rows(table: Table, outputs: Sequence[str]) -> np.ndarray:
     -------
     ndarray of bool, shape (n,)
     """
-    bad = np.zeros(table.n_rows, dtype=bool)
+    bad = np.zeros(table.n_rows, dtype=bool) if table.flagged is None else table.flagged.copy()
     for name in outputs:
         v = table.columns[name]
         bad |= ~np.isfinite(v.reshape(v.shape[0], -1)).all(axis=1)
@@ -185,13 +186,15 @@ def failed_rows(table: Table, outputs: Sequence[str]) -> np.ndarray:
 
 
 def warn_failed(table: Table, failed: np.ndarray) -> None:
-    """Log the failed rows (NaN outputs): counted, never dropped silently."""
+    """Log the failed rows (flagged, or NaN outputs): counted, never dropped silently."""
     if failed.any():
         rows = np.flatnonzero(failed)
         shown = ", ".join(str(r + 1) for r in rows[:8])
-        log.warning("data: %s: %d of %d rows have NaN or infinite outputs (rows %s%s); they are "
-                    "failed runs, counted in n_failed", table.source, rows.size, failed.size,
-                    shown, ", ..." if rows.size > 8 else "")
+        how = ("are flagged failed or have NaN or infinite outputs" if table.flagged is not None
+               else "have NaN or infinite outputs")
+        log.warning("data: %s: %d of %d rows %s (rows %s%s); they are failed runs, counted in "
+                    "n_failed", table.source, rows.size, failed.size, how, shown,
+                    ", ..." if rows.size > 8 else "")
 
 
 def goodness_of_fit(x: np.ndarray, space: InputSpace) -> list[GoodnessOfFit]:

@@ -17,6 +17,11 @@ Formats, chosen by the file's suffix:
 A series' time grid [s] is the ``time`` dataset or array of an HDF5 or ``.npz`` file (a CSV
 holds runs only), else the config's ``data.time``, else the step numbers ``0, 1, ..., T-1``.
 
+A run that failed is a row of NaN (or empty) outputs after its inputs, or a row flagged in the
+optional ``failed`` column (0/1; empty is 0) with its ``reason`` (text; optional): the columns a
+``command`` model's outputs file has, so the batch runner a user already has can say why a run
+failed, and the failed-runs table shows it. Neither is an input or an output.
+
 Everything here reads and names; what the rows must satisfy against the config's inputs is
 :mod:`.checks`. A file that cannot be read is a :class:`~uqguide.errors.ConfigError` naming
 the file (and the line and column where a cell is not a number): it is the user's input.
@@ -46,6 +51,9 @@ _STEP = re.compile(r"^(.+)\[(\d+)\]$")
 #: The name of the time grid in a file (not an input or an output).
 TIME = "time"
 
+#: A run's status columns (neither inputs nor outputs): flagged failed (0/1), and why.
+FAILED, REASON = "failed", "reason"
+
 #: How messages (and a stored config) name runs given from Python rather than read from a file.
 ARRAYS = "<arrays>"
 
@@ -67,6 +75,10 @@ class Table:
         row is named by its number alone).
     digest : str
         SHA-256 of the columns' names and values (a run's identity: another file, another run).
+    flagged : ndarray of bool or None
+        ``(n,)``: the rows the ``failed`` column marks, when the file has one.
+    reasons : ndarray of str or None
+        ``(n,)``: the ``reason`` column ("" where empty), when the file has one.
     """
 
     source: str
@@ -74,6 +86,8 @@ class Table:
     time: np.ndarray | None = None
     first_line: int = 0
     digest: str = field(default="")
+    flagged: np.ndarray | None = None
+    reasons: np.ndarray | None = None
 
     @property
     def n_rows(self) -> int:
@@ -93,7 +107,8 @@ class Table:
         return out
 
 
-def _digest(columns: Mapping[str, np.ndarray], time: np.ndarray | None) -> str:
+def _digest(columns: Mapping[str, np.ndarray], time: np.ndarray | None,
+            flagged: np.ndarray | None = None, reasons: np.ndarray | None = None) -> str:
     h = hashlib.sha256()
     for k in sorted(columns):
         a = np.ascontiguousarray(columns[k], dtype=float)
@@ -101,7 +116,32 @@ def _digest(columns: Mapping[str, np.ndarray], time: np.ndarray | None) -> str:
         h.update(a.tobytes())
     if time is not None:
         h.update(np.ascontiguousarray(time, dtype=float).tobytes())
+    # status columns only when present: a file without them keeps the digest it always had
+    if flagged is not None:
+        h.update(b"failed" + flagged.astype(np.uint8).tobytes())
+    if reasons is not None:
+        h.update(repr(("reason", list(reasons))).encode())
     return h.hexdigest()
+
+
+def _flags(raw: np.ndarray, source: str, first_line: int) -> np.ndarray:
+    """The ``failed`` column as booleans: 0, 1 or empty (NaN, read as 0) only."""
+    bad = ~(np.isnan(raw) | (raw == 0) | (raw == 1))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        line = f" (line {i + first_line})" if first_line else ""
+        raise ConfigError(f"data: {source}: row {i + 1}{line}, column 'failed': {raw[i]:g} is "
+                          f"not 0 or 1 (1 marks a run that failed; 0 or empty, one that ran)")
+    return raw == 1
+
+
+def _text(values: Any) -> np.ndarray:
+    """A column of text (bytes from HDF5 decoded; missing values as "")."""
+    out = np.empty(len(values), dtype=object)
+    for i, v in enumerate(values):
+        v = v.decode("utf-8", "replace") if isinstance(v, bytes) else v
+        out[i] = "" if v is None or (isinstance(v, float) and np.isnan(v)) else str(v).strip()
+    return out
 
 
 def _group_series(flat: dict[str, np.ndarray], source: str) -> dict[str, np.ndarray]:
@@ -154,6 +194,9 @@ def _read_csv(path: Path, source: str) -> tuple[dict[str, np.ndarray], int]:
             raise ConfigError(f"data: {source}: line {i + 2}: {len(r)} cells, the header names "
                               f"{len(header)} columns")
     for j, name in enumerate(header):
+        if name == REASON:
+            flat[name] = _text([r[j] for r in body])
+            continue
         cells = [r[j].strip() or "nan" for r in body]
         try:
             flat[name] = np.array(cells, dtype=float)
@@ -187,6 +230,9 @@ def _read_parquet(path: Path, source: str) -> dict[str, np.ndarray]:
 def _numeric_frame(frame: Any, source: str) -> dict[str, np.ndarray]:
     flat = {}
     for name in frame.columns:
+        if str(name) == REASON:
+            flat[REASON] = _text(frame[name].tolist())
+            continue
         try:
             flat[str(name)] = frame[name].to_numpy(dtype=float, na_value=np.nan)
         except (TypeError, ValueError):
@@ -200,6 +246,9 @@ def _numeric_frame(frame: Any, source: str) -> dict[str, np.ndarray]:
 def _read_arrays(items: Mapping[str, Any], source: str) -> dict[str, np.ndarray]:
     out = {}
     for name, a in items.items():
+        if str(name) == REASON:
+            out[REASON] = _text(np.asarray(a).reshape(-1).tolist())
+            continue
         try:
             arr = np.asarray(a, dtype=float)
         except (TypeError, ValueError):
@@ -291,6 +340,12 @@ def _table(flat: dict[str, np.ndarray], source: str, first_line: int, *,
            grid_in_file: bool) -> Table:
     # A CSV holds runs only: a column named time there is a column like any other.
     time = flat.pop(TIME, None) if grid_in_file else None
+    reasons = flat.pop(REASON, None)
+    raw = flat.pop(FAILED, None)
+    if raw is not None and raw.ndim != 1:
+        raise ConfigError(f"data: {source}: column 'failed' has shape {raw.shape}; allowed "
+                          f"(n,), 0 or 1 per run")
+    flagged = None if raw is None else _flags(raw, source, first_line)
     columns = _group_series(flat, source)
     if not columns:
         raise ConfigError(f"data: {source}: no columns")
@@ -300,4 +355,10 @@ def _table(flat: dict[str, np.ndarray], source: str, first_line: int, *,
         k = next(k for k, v in lengths.items() if v != lengths[k0])
         raise ConfigError(f"data: {source}: column {k!r} has {lengths[k]} rows, column {k0!r} "
                           f"{lengths[k0]}; every column holds one value per run")
-    return Table(source, columns, time, first_line, _digest(columns, time))
+    n = next(iter(lengths.values()))
+    for name, col in ((FAILED, flagged), (REASON, reasons)):
+        if col is not None and col.shape[0] != n:
+            raise ConfigError(f"data: {source}: column {name!r} has {col.shape[0]} rows, the "
+                              f"others {n}; every column holds one value per run")
+    return Table(source, columns, time, first_line, _digest(columns, time, flagged, reasons),
+                 flagged, reasons)

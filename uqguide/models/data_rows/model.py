@@ -108,6 +108,13 @@ class DataModel(DeclaredModel):
         series: dict[str, np.ndarray] = {}
         failed = np.zeros(n, dtype=bool)
         reasons = np.full(n, "", dtype=object)
+        if self.table.flagged is not None:
+            # the user's own verdict comes first, in the user's own words
+            failed = self.table.flagged[at].copy()
+            given = (self.table.reasons[at] if self.table.reasons is not None
+                     else np.full(n, "", dtype=object))
+            reasons[failed] = [r or f"marked failed in {self.params.source}"
+                               for r in given[failed]]
         for spec in self._specs():
             v = self.table.columns[spec.name][at]
             bad = ~np.isfinite(v.reshape(n, -1)).all(axis=1)
