@@ -32,6 +32,9 @@ class Case:
     groups: dict[str, list[str]]
     exact: Callable[[], tuple[np.ndarray, np.ndarray]]
     independent: bool = True
+    #: Coverage is counted over the indices at least this large (a reference that is not
+    #: exact: its own error exceeds the intervals of the near-zero indices).
+    cover_floor: float = 0.0
 
 
 def _g_exact() -> tuple[np.ndarray, np.ndarray]:
@@ -58,25 +61,28 @@ _BOREHOLE_REF: list[tuple[np.ndarray, np.ndarray]] = []
 
 
 def _borehole_exact() -> tuple[np.ndarray, np.ndarray]:
-    """A degree-5 least-squares PCE's indices (OpenTURNS), computed once."""
+    """A degree-5 least-squares PCE's indices (OpenTURNS), computed once. Its germ is standard
+    normal for ``rw`` and ``log r`` (Hermite) and uniform for the rest (Legendre): in the unit
+    cube the normal inverse CDF is singular at the ends, and the PCE would carry that error
+    into the small indices."""
     if _BOREHOLE_REF:
         return _BOREHOLE_REF[0]
     import openturns as ot
+    from scipy.special import ndtr
 
     cfg = validate_config({**CASES["borehole"].config,
                            "methods": [{"name": "monte_carlo", "n_samples": 10}]})
-    names = cfg.space.names
-    u = np.asarray(ot.LHSExperiment(_joint(ot)([ot.Uniform(0.0, 1.0)] * 8),
-                                    20000).generate())
-    x = cfg.space.from_unit(np.clip(u, 1e-12, 1 - 1e-12))
-    y = cfg.model.evaluate(x, names).scalars["flow"]
     ot.RandomGenerator.SetSeed(0)
-    marg = _joint(ot)([ot.Uniform(0.0, 1.0)] * 8)
-    basis = ot.OrthogonalProductPolynomialFactory([ot.LegendreFactory()] * 8)
+    germ = _joint(ot)([ot.Normal(0.0, 1.0)] * 2 + [ot.Uniform(0.0, 1.0)] * 6)
+    z = np.asarray(ot.LHSExperiment(germ, 15000).generate())
+    u = np.c_[ndtr(z[:, :2]), z[:, 2:]]
+    y = cfg.model.evaluate(cfg.space.from_unit(u), cfg.space.names).scalars["flow"]
+    basis = ot.OrthogonalProductPolynomialFactory(
+        [ot.HermiteFactory()] * 2 + [ot.LegendreFactory()] * 6)
     size = basis.getEnumerateFunction().getStrataCumulatedCardinal(5)
-    algo = ot.FunctionalChaosAlgorithm(
-        ot.Sample(u), ot.Sample(y), marg,
-        ot.FixedStrategy(basis, size), ot.LeastSquaresStrategy())
+    algo = ot.FunctionalChaosAlgorithm(ot.Sample(z), ot.Sample(y), germ,
+                                       ot.FixedStrategy(basis, size),
+                                       ot.LeastSquaresStrategy())
     algo.run()
     sob = ot.FunctionalChaosSobolIndices(algo.getResult())
     ref = (np.array([sob.getSobolIndex(i) for i in range(8)]),
@@ -115,7 +121,7 @@ CASES: dict[str, Case] = {
                    {"name": "L", "dist": "uniform", "low": 1120, "high": 1680},
                    {"name": "Kw", "dist": "uniform", "low": 9855, "high": 12045}],
         "outputs": ["flow"]}, "flow", ["rw", "r", "Tu", "Hu", "Tl", "Hl", "L", "Kw"], {},
-        _borehole_exact),
+        _borehole_exact, cover_floor=0.001),
     "linear-correlated": Case("linear-correlated", {
         "model": {"name": "linear_gaussian", "coefficients": [[1.0, 1.0, 1.0, 0.5]]},
         "inputs": _inputs(["x1", "x2", "x3", "x4"], {"dist": "normal", "std": 1.0}),
@@ -238,7 +244,7 @@ def study(functions: list[str], methods: list[str], n_base: int, seeds: int) -> 
                 continue
             for k, kind in enumerate(("S", "ST")):
                 e = err[k]
-                cov = hit[k] / seeds
+                cov = (hit[k] / seeds)[(first_x, total_x)[k] >= case.cover_floor]
                 bias = e.mean(axis=0)
                 print(f"{fname:18s} {meth:15s} {runs:6d} {kind:>4s} "
                       f"{bias[np.argmax(np.abs(bias))]:7.4f} {np.sqrt(np.mean(e ** 2)):7.4f} "
@@ -246,5 +252,8 @@ def study(functions: list[str], methods: list[str], n_base: int, seeds: int) -> 
                       + (f"{cov.min():7.0%} {cov.mean():7.1%} " if have_ci else
                          f"{'-':>7s} {'-':>7s} ")
                       + f"{np.median(cpu):6.3f}")
+        if case.cover_floor:
+            print(f"{'':18s} coverage over the indices >= {case.cover_floor:g} (the "
+                  f"reference's own error exceeds the intervals of the smaller ones)")
         print(f"{'':18s} exact S  {np.round(first_x, 4).tolist()}")
         print(f"{'':18s} exact ST {np.round(total_x, 4).tolist()}")

@@ -29,7 +29,7 @@ total indices at ``N = --n-base`` base rows (default 1000), equal runs ``N (m + 
 method (``m`` frozen sets), on four functions:
 
 - Ishigami (exact indices); the 8-D G-function, ``a = (0, 1, 4.5, 9, 99, 99, 99, 99)`` (exact:
-  ``V_i = 1 / (3 (1 + a_i)^2)``); borehole (reference: a degree-5 least-squares PCE of 20000
+  ``V_i = 1 / (3 (1 + a_i)^2)``); borehole (reference: a degree-5 least-squares PCE of 15000
   Latin-hypercube runs, OpenTURNS' ``FunctionalChaosAlgorithm``: another method, whose
   indices' error is far below the designs'); ``y = x1 + x2 + x3 + x4 / 2`` with ``x1, x2``
   standard normals of correlation 0.8 (exact group index of ``(x1, x2)``: 3.6 / 4.85, and

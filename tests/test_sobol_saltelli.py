@@ -10,6 +10,7 @@ import pytest
 
 from uqguide.config.run_config import validate_config
 from uqguide.driver.propagate import run
+from uqguide.errors import ConfigError
 from uqguide.stats.sobol_pick_freeze import PickFreezeSums, pick_freeze_indices
 
 Z95 = 1.959963984540054
@@ -113,3 +114,15 @@ def test_a_failed_run_leaves_its_base_row_out_and_is_counted():
     assert d["n_runs"] == 512 and d["n_failed"] == int(r.failed.sum()) > 0
     assert d["n_base_used"] == 128 - int(failed.sum())
     assert r.estimate.stats["y"].n_used == d["sample_runs"] - d["sample_failed"]
+
+
+def test_a_group_holding_part_of_a_correlated_group_is_a_config_error():
+    cfg = _linear(0)
+    cfg["correlations"] = [{"inputs": ["x1", "x2"], "matrix": [[1.0, 0.8], [0.8, 1.0]]}]
+    cfg["groups"] = {"g": ["x1", "x3"]}
+    with pytest.raises(ConfigError) as err:
+        validate_config(cfg)
+    assert str(err.value) == (
+        "groups.g: holds part of the correlated group (x1, x2); sobol_saltelli (method 's') "
+        "can freeze a correlated group only whole: add its other inputs to the group, or "
+        "leave them all out")

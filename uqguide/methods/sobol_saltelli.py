@@ -46,7 +46,7 @@ from pydantic import Field
 
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats
-from ..errors import MethodError
+from ..errors import ConfigError, MethodError
 from ..stats.sobol_pick_freeze import PickFreezeSums, pick_freeze_indices
 from .base import Design, MethodSettings, RunPlan, StreamingMethod
 from .mc_reduce import MonteCarloReducer, ci_index
@@ -73,7 +73,8 @@ class SaltelliSettings(MethodSettings):
         Base rows per chunk (each with its ``m + 2`` runs); fixed so that the worker count
         does not change the numbers. A power of two keeps Sobol' points balanced.
     bootstrap : int
-        Poisson-bootstrap resamples of the indices' 95% intervals (0: none).
+        Poisson-bootstrap resamples of the indices' 95% intervals (0: none), and of the
+        moments' with ``intervals: bootstrap`` or ``studentized`` (0: none either).
     intervals : {"delta", "bootstrap", "studentized"}
         The intervals of the ``A`` and ``B`` rows' moments, as ``monte_carlo``'s.
     """
@@ -106,10 +107,13 @@ class SobolSaltelli(StreamingMethod):
         for g, (name, cols) in enumerate(self.context.groups):
             split_groups = [c for c in correlated if c & set(cols) and not c <= set(cols)]
             if split_groups:
-                raise MethodError(
-                    f"{self.label}: group {name!r} holds part of a correlated group (inputs "
-                    f"{', '.join(space.names[i] for i in sorted(split_groups[0]))}); a "
-                    f"pick-freeze design can freeze a correlated group only whole")
+                # a config error, found when the budget plans the runs (exit 2, nothing run)
+                whole = ", ".join(space.names[i] for i in sorted(split_groups[0]))
+                raise ConfigError(
+                    f"groups.{name}: holds part of the correlated group ({whole}); "
+                    f"{self.name} (method '{self.label}') can freeze a correlated group only "
+                    f"whole: add its other inputs to the group, or leave them all out",
+                    field=f"groups.{name}")
             sets.append(("group", g, tuple(cols)))
         return sets
 
@@ -146,8 +150,9 @@ class SobolSaltelli(StreamingMethod):
         s = self.settings
         mc = MonteCarloSettings(n_samples=2 * s.n_base, chunk_size=2 * min(s.chunk_size,
                                                                             s.n_base),
-                                intervals=s.intervals, bootstrap=max(s.bootstrap, 1)
-                                if s.intervals != "delta" else s.bootstrap,
+                                intervals=s.intervals,
+                                # (0 would switch the delta method's intervals off too)
+                                bootstrap=s.bootstrap or int(s.intervals == "delta"),
                                 sensitivity="off", label=self.label)
         return MonteCarlo(mc, self.context)
 
