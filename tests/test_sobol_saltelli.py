@@ -101,7 +101,7 @@ def test_a_failed_run_leaves_its_base_row_out_and_is_counted():
     # rows once each has four runs
     cfg = {
         "model": {"name": "callable", "function": "tests.fixtures_models:sqrt_of_x",
-                  "inputs": ["x1", "x2"], "outputs": ["y"]},
+                  "inputs": ["x1", "x2"], "outputs": ["y"], "isolate": False},
         "inputs": [{"name": "x1", "dist": "normal", "mean": 1.5, "std": 1.0},
                    {"name": "x2", "dist": "uniform", "low": 0.0, "high": 2.0}],
         "methods": [{"name": "sobol_saltelli", "label": "s", "n_base": 128, "chunk_size": 64,
