@@ -155,3 +155,37 @@ def test_ishigami_at_1000_base_rows_over_50_seeds():
     # 0.0305 once in 300 (as SALib's, on the same seeds: benchmarks/sensitivity_peers.py)
     assert np.mean(err < 0.03) >= 0.99 and err.max() < 0.04, err.max(axis=0)
     assert np.all(hits >= 45), hits
+
+
+@pytest.mark.slow
+def test_a_run_stopped_by_ctrl_c_resumes_to_the_same_indices(tmp_path, monkeypatch):
+    import yaml
+    from click.testing import CliRunner
+
+    from tests import failing_models
+    from uqguide.cli import main
+    from uqguide.results.result import read_hdf5
+
+    raw = {"model": {"name": "callable", "function": "tests.failing_models:ctrl_c_on_third_call",
+                     "inputs": ["a", "b"], "outputs": ["y"], "isolate": False},
+           "inputs": [{"name": "a", "dist": "normal", "std": 1.0},
+                      {"name": "b", "dist": "uniform", "low": 0.0, "high": 2.0}],
+           "methods": [{"name": "sobol_saltelli", "label": "s", "n_base": 400,
+                        "chunk_size": 64, "bootstrap": 50}],
+           "seed": 5}
+    cfg = tmp_path / "cc.yaml"
+    cfg.write_text(yaml.safe_dump(raw))
+    out = tmp_path / "out"
+    monkeypatch.setitem(failing_models._calls, "n", 0)
+    monkeypatch.setenv("UQGUIDE_TEST_ARM_CTRL_C", "1")
+    stopped = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out)])
+    monkeypatch.setenv("UQGUIDE_TEST_ARM_CTRL_C", "0")
+    assert stopped.exit_code == 130, stopped.output
+    resumed = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out), "--resume"])
+    assert resumed.exit_code == 0, resumed.output
+    ref = CliRunner().invoke(main, ["run", str(cfg), "--out", str(tmp_path / "ref")])
+    assert ref.exit_code == 0, ref.output
+    a = read_hdf5(out / "cc.h5").run("s").estimate.stats["y"]
+    b = read_hdf5(tmp_path / "ref" / "cc.h5").run("s").estimate.stats["y"]
+    for f in ("sobol_first", "sobol_total", "sobol_first_ci", "sobol_total_ci", "mean", "std"):
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f)
