@@ -374,13 +374,14 @@ def _gate_preflight(path: Path, cfg: Any) -> Any:
 
 @_unusable_input_is_2
 def _gate_verdict(result: Any, baseline: Any, path: Path, sigmas: float | None = None,
-                  pce_rtol: float | None = None, show_all: bool = False) -> None:
+                  pce_rtol: float | None = None, show_all: bool = False,
+                  sensitivity: bool = False) -> None:
     """Print the check of ``result`` against ``baseline``; exit 1 on a regression."""
     from .gate.check import check_result
     from .gate.tolerances import DEFAULT_SIGMAS
 
     report = check_result(result, baseline, DEFAULT_SIGMAS if sigmas is None else sigmas,
-                          pce_rtol, str(path))
+                          pce_rtol, str(path), sensitivity=sensitivity)
     click.echo(report.render(show_all))
     if not report.passed:
         sys.exit(1)
@@ -424,10 +425,13 @@ _RESULT_ARG = click.argument("result_path", metavar="RESULT",
                    "baseline's].")
 @click.option("--all", "show_all", is_flag=True,
               help="List every compared statistic, not only the failing ones.")
+@click.option("--sensitivity", is_flag=True,
+              help="Also compare the Sobol' indices (the error budget) within their "
+                   "combined intervals; the baseline must hold them (format 4).")
 @_handle_errors
 @_unusable_input_is_2
 def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol: float | None,
-          show_all: bool) -> None:
+          show_all: bool, sensitivity: bool) -> None:
     """Compare the statistics of RESULT with a baseline.
 
     Exit 0 when every statistic is within tolerance, 1 on a regression (the failing quantities
@@ -437,7 +441,8 @@ def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol
     from .results.result import read_hdf5
 
     baseline = read_baseline(baseline_path)
-    _gate_verdict(read_hdf5(result_path), baseline, baseline_path, sigmas, pce_rtol, show_all)
+    _gate_verdict(read_hdf5(result_path), baseline, baseline_path, sigmas, pce_rtol, show_all,
+                  sensitivity)
 
 
 @main.command()

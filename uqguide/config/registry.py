@@ -38,6 +38,7 @@ METHODS: dict[str, str] = {
     "pce_smolyak": "uqguide.methods.pce_smolyak:SmolyakPCE",
     "pce_adaptive": "uqguide.methods.pce_adaptive:AdaptivePCE",
     "subset_simulation": "uqguide.methods.subset_simulation:SubsetSimulation",
+    "sobol_saltelli": "uqguide.methods.sobol_saltelli:SobolSaltelli",
 }
 
 

@@ -503,6 +503,8 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
         try:
             m.plan(space)
         except ConfigError as exc:  # a grid too large to build, refused before it is built
+            if (exc.field or "").split(".")[0] in ("groups", "correlations"):
+                raise  # a top-level setting the method cannot serve: named as it is written
             raise ConfigError(f"methods[{i}].{exc}", field=f"methods[{i}].{exc.field}") from None
     return cfg
 

@@ -265,13 +265,17 @@ class OutputStats:
     sobol_first_ci, sobol_total_ci : ndarray, shape (2, ..., k, d), optional
         Their 95% intervals (low, high), where the method gives them.
     sobol_estimator : str
-        How the indices were estimated (``""``: no indices; ``"pce"``, ``"given-data"``).
+        How the indices were estimated (``""``: no indices; ``"pce"``, ``"given-data"``,
+        ``"saltelli"``).
     sobol_groups : tuple of str
         Names of the groups of inputs with indices (the config's ``groups``).
     sobol_group_first : ndarray, shape (..., k, G), optional
         First-order indices of those groups (given data; :mod:`uqguide.stats.sobol_groups`).
     sobol_group_first_ci : ndarray, shape (2, ..., k, G), optional
         Their 95% intervals.
+    sobol_group_total, sobol_group_total_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
+        Total indices of the groups and their 95% intervals (a pick-freeze design's, whose
+        groups are frozen together: :mod:`uqguide.methods.sobol_saltelli`), or None.
     quantile_levels : tuple of float, optional
         Probabilities of the quantiles (the config's ``quantiles``).
     quantiles : ndarray, shape (q, ..., k), optional
@@ -319,6 +323,8 @@ class OutputStats:
     sobol_groups: tuple[str, ...] = ()
     sobol_group_first: np.ndarray | None = None
     sobol_group_first_ci: np.ndarray | None = None
+    sobol_group_total: np.ndarray | None = None
+    sobol_group_total_ci: np.ndarray | None = None
     corrected: dict[str, np.ndarray] = field(default_factory=dict)
     corrected_ci: dict[str, np.ndarray] = field(default_factory=dict)
     validation_error: np.ndarray | None = None

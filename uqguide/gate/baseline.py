@@ -5,9 +5,10 @@ per method label, per output, per point (each report time and the last step of a
 value of a scalar: :func:`uqguide.results.statistics.points`), per component: the mean, std,
 skewness and kurtosis, and for sample (Monte Carlo) estimates the standard error of each
 (:meth:`uqguide.results.statistics.OutputStatistics.standard_error`); the quantiles with their
-95% intervals (``q0.99: [value, low, high]``) and, per method, the probability of each event
-with its interval and counts; plus the relative tolerance of PCE statistics, the resolved
-config, the library versions and the creation date.
+95% intervals (``q0.99: [value, low, high]``), the Sobol' indices with their 95% intervals
+(``"first:x1": [value, low, high]``; ``total:``, ``group_first:``, ``group_total:``) and, per
+method, the probability of each event with its interval and counts; plus the relative
+tolerance of PCE statistics, the resolved config, the library versions and the creation date.
 ``null`` stands for NaN. It reads the result through the description of
 :mod:`uqguide.results.statistics`, as the report tables and the result file do.
 
@@ -41,10 +42,14 @@ from ..results.statistics import (
 )
 
 BASELINE_FORMAT = "uqguide-baseline"
-#: 3: quantiles and event probabilities too; 2: a ``digest`` of the rest of the file, so an
-#: edit by hand is refused (1: none). Version 2 files are still read (their moments checked).
-BASELINE_VERSION = 3
-READ_VERSIONS = (2, 3)
+#: 4: Sobol' indices too (``check --sensitivity``); 3: quantiles and event probabilities too;
+#: 2: a ``digest`` of the rest of the file, so an edit by hand is refused (1: none). Versions 2
+#: and 3 are still read (what they hold is checked; a note says what they lack).
+BASELINE_VERSION = 4
+READ_VERSIONS = (2, 3, 4)
+
+#: The kinds of index a baseline point holds, ``<kind>:<input or group>``.
+INDEX_KINDS = ("first", "total", "group_first", "group_total")
 
 #: z of a two-sided 95% interval (a quantile's or an event's standard error is the half-width
 #: of its interval over this).
@@ -77,6 +82,26 @@ class BaselinePoint(_Strict):
     #: Quantiles by level name (``q0.99``): ``[value, low, high]``, the 95% interval's bounds
     #: (null where the method gives none).
     quantiles: dict[str, list[float | None]] = {}
+    #: Sobol' indices by ``<kind>:<name>`` (:data:`INDEX_KINDS`): ``[value, low, high]``, the
+    #: 95% interval's bounds (null where the method gives none).
+    indices: dict[str, list[float | None]] = {}
+
+    @field_validator("indices")
+    @classmethod
+    def _indices(cls, v: dict[str, list[float | None]]) -> dict[str, list[float | None]]:
+        for name, q in v.items():
+            kind, _, of = name.partition(":")
+            if kind not in INDEX_KINDS or not of:
+                raise ValueError(f"index {name!r}: a name is a kind ({', '.join(INDEX_KINDS)}), "
+                                 f"':' and an input or group, e.g. first:x1")
+            if len(q) != 3 or q[0] is None or any(
+                    x is not None and (isinstance(x, bool) or not math.isfinite(x)) for x in q):
+                raise ValueError(f"index {name}: must be [value, low, high], finite numbers "
+                                 f"(low and high may be null) (got {q!r})")
+            if q[1] is not None and q[2] is not None and q[1] > q[2]:
+                raise ValueError(f"index {name}: the interval's low end {q[1]} is above its "
+                                 f"high end {q[2]}")
+        return v
 
     @field_validator("quantiles")
     @classmethod
@@ -126,6 +151,8 @@ class BaselineOutput(_Strict):
     uncertainty: Literal["standard_error", "relative_tolerance"]
     moments_method: str
     n_used: int = Field(ge=0)
+    #: How the Sobol' indices were estimated (``pce``, ``given-data``, ``saltelli``; "" none).
+    sobol_estimator: str = ""
     points: list[BaselinePoint] = Field(min_length=1)
 
     @model_validator(mode="after")
@@ -269,6 +296,10 @@ class BaselineMethod(_Strict):
     method: str
     n_runs: int = Field(ge=0)
     n_failed: int = Field(ge=0)
+    #: The runs that are a sample of the inputs, and how many of them failed, where they are
+    #: not all the runs (a pick-freeze design's ``A`` and ``B`` rows); None: all of them.
+    sample_runs: int | None = Field(default=None, ge=0)
+    sample_failed: int | None = Field(default=None, ge=0)
     outputs: dict[str, BaselineOutput] = Field(min_length=1)
     events: dict[str, BaselineEvent] = {}
 
@@ -276,14 +307,24 @@ class BaselineMethod(_Strict):
     def _counts(self) -> BaselineMethod:
         if self.n_failed > self.n_runs:
             raise ValueError(f"n_failed ({self.n_failed}) exceeds n_runs ({self.n_runs})")
-        # Sample statistics use every run that did not fail (a non-finite value fails its run),
-        # so n_used is the method's count of successful runs; a smaller one widens every
-        # standard error, a larger one claims runs that were not made.
-        ok = self.n_runs - self.n_failed
+        if (self.sample_runs is None) != (self.sample_failed is None):
+            raise ValueError("sample_runs and sample_failed are given together or not at all")
+        # Sample statistics use every run of the sample that did not fail (a non-finite value
+        # fails its run), so n_used is the method's count of successful sample runs; a smaller
+        # one widens every standard error, a larger one claims runs that were not made.
+        runs, failed, what = self.n_runs, self.n_failed, "n_runs - n_failed"
+        if self.sample_runs is not None and self.sample_failed is not None:
+            if not (self.sample_runs <= self.n_runs and self.sample_failed <= self.n_failed
+                    and self.sample_failed <= self.sample_runs):
+                raise ValueError(f"sample_runs ({self.sample_runs}) and sample_failed "
+                                 f"({self.sample_failed}) must be within n_runs and n_failed")
+            runs, failed, what = self.sample_runs, self.sample_failed, \
+                "sample_runs - sample_failed"
+        ok = runs - failed
         for name, o in self.outputs.items():
             if o.uncertainty == SAMPLE and o.n_used != ok:
                 raise ValueError(f"outputs.{name}.n_used ({o.n_used}) is not the method's "
-                                 f"successful runs ({ok} = n_runs - n_failed)")
+                                 f"successful runs ({ok} = {what})")
         return self
 
 
@@ -304,7 +345,7 @@ class Baseline(_Strict):
     """A baseline file, validated. Build one with :func:`make_baseline`."""
 
     format: Literal["uqguide-baseline"]
-    format_version: Literal[2, 3]
+    format_version: Literal[2, 3, 4]
     #: checked by read_baseline against the file's content (an in-memory baseline has none)
     digest: str = ""
     name: str
@@ -329,6 +370,13 @@ class Baseline(_Strict):
             raise ValueError("its config asks for quantiles and it holds none")
         if self.config.get("events") and not any(m.events for m in self.methods.values()):
             raise ValueError("its config has events and it holds no event probability")
+        if self.format_version >= 4:
+            for label, m in self.methods.items():
+                for name, o in m.outputs.items():
+                    if o.sobol_estimator and not any(p.indices for p in o.points):
+                        raise ValueError(f"methods.{label}.outputs.{name}: its estimator "
+                                         f"{o.sobol_estimator!r} gave Sobol' indices and it "
+                                         f"holds none")
         return self
 
 
@@ -343,7 +391,8 @@ StatKey = tuple[str, str, str, "float | None", str, str]
 
 
 def _points(v: OutputStatistics, places: list[Point],
-            roundoff: dict[StatKey, list[float | None]] | None = None) -> list[dict[str, Any]]:
+            roundoff: dict[StatKey, list[float | None]] | None = None,
+            inputs: tuple[str, ...] = ()) -> list[dict[str, Any]]:
     """The baseline's points of one method's output: its moments (and their standard errors,
     for sample estimates) where the method's own moments are usable."""
     sample = v.uncertainty == SAMPLE
@@ -362,6 +411,10 @@ def _points(v: OutputStatistics, places: list[Point],
                      for q in v.quantiles if q.defined_at(where)}
         if quantiles:
             p["quantiles"] = quantiles
+        indices = {name: [value, *bounds]
+                   for name, value, bounds in index_values(v, where, inputs) if value is not None}
+        if indices:
+            p["indices"] = indices
         chaotic = {m.name: rng for m in v.moments
                    if (rng := (roundoff or {}).get((v.label, v.output.name, place.at,
                                                     place.time, place.name, m.name)))}
@@ -369,6 +422,35 @@ def _points(v: OutputStatistics, places: list[Point],
             p["roundoff"] = chaotic
         pts.append(p)
     return pts
+
+
+def index_values(v: OutputStatistics, where: tuple[int, ...], inputs: tuple[str, ...]
+                  ) -> list[tuple[str, float | None, tuple[float | None, float | None]]]:
+    """The Sobol' indices of one output at one point: ``(name, value, (low, high))`` with names
+    ``<kind>:<input or group>`` (:data:`INDEX_KINDS`), None for NaN, in a fixed order.
+
+    Parameters
+    ----------
+    v : OutputStatistics
+    where : tuple of int
+        The point: ``(step, component)`` of a series, ``(component,)`` of a scalar.
+    inputs : tuple of str
+        The result's input names (the indices' last axis).
+    """
+    out = []
+    for kind, value, band, names in (
+            ("first", v.sobol_first, v.sobol_first_ci, inputs),
+            ("total", v.sobol_total, v.sobol_total_ci, inputs),
+            ("group_first", v.sobol_group_first, v.sobol_group_first_ci, v.sobol_groups),
+            ("group_total", v.sobol_group_total, v.sobol_group_total_ci, v.sobol_groups)):
+        if value is None:
+            continue
+        at = np.asarray(value)[where]
+        lo_hi = np.asarray(band)[(slice(None),) + where] if band is not None else None
+        for j, name in enumerate(names[:at.shape[-1]]):
+            bounds = (None, None) if lo_hi is None else (_num(lo_hi[0, j]), _num(lo_hi[1, j]))
+            out.append((f"{kind}:{name}", _num(at[j]), bounds))
+    return out
 
 
 def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
@@ -399,7 +481,7 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
         for v in described[r.label].values():
             o = v.output
             points = _points(v, statistics.points(o, result.time, result.report_times),
-                             roundoff)
+                             roundoff, tuple(result.input_names))
             if not points:
                 left_out.append(f"{r.label}/{o.name} (no usable surrogate: no moments)")
                 continue
@@ -410,13 +492,20 @@ def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
             outs[o.name] = {
                 "kind": o.kind, "unit": o.unit, "components": list(o.components),
                 "uncertainty": v.uncertainty, "moments_method": v.moments_method,
-                "n_used": v.n_used, "points": points,
+                "n_used": v.n_used,
+                **({"sobol_estimator": v.sobol_estimator}
+                   if any("indices" in p for p in points) else {}),
+                "points": points,
             }
         if not outs:  # a method without moments (subset simulation): nothing to gate
             left_out.append(f"{r.label} (no statistic to check)")
             continue
         methods[r.label] = {"method": r.estimate.method, "n_runs": int(r.n_runs),
                             "n_failed": int(r.n_failed), "outputs": outs}
+        diag = r.estimate.diagnostics
+        if "sample_runs" in diag:
+            methods[r.label] |= {"sample_runs": int(diag["sample_runs"]),
+                                 "sample_failed": int(diag["sample_failed"])}
         events = {name: _event(e) for name, e in r.estimate.events.items() if _event(e)}
         if events:
             methods[r.label]["events"] = events

@@ -52,6 +52,16 @@ zero events, so one event more than a baseline of none is judged, not absolute);
 draws against ``pce_rtol`` of the probability, at least one draw (``1 / n_used``). A baseline of
 format 2 has neither; the report says so in a note.
 
+**Sobol' indices** (``uqguide check --sensitivity``; a baseline of format 4 holds them) are
+checked like the quantiles: a sampled index (Monte Carlo's given-data ones, a pick-freeze
+design's) against ``sigmas`` combined standard errors, each the half-width of its own 95%
+interval over 1.96; an index without a two-sided interval on either side is not checked (a
+note says so). Not the plain sum of the half-widths: that is about 2.8 combined standard
+errors, a false alarm in one index of 200 on a rerun with another seed, and a budget of 7
+inputs at 21 report times holds 300 of them. A PCE's index (a fixed design) against
+``pce_rtol`` as an absolute difference, indices being fractions of the variance. Without
+``--sensitivity`` the indices are not compared and a note counts them.
+
 A baseline that cannot be read, or does not match the result (other model, a method label or an
 output missing, other kind, unit or components), raises :class:`~uqguide.errors.ResultError`:
 the gate cannot judge, which ``uqguide check`` reports with exit code 2. A config that differs
@@ -69,8 +79,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .baseline import (
-    SAMPLE_EVENTS, Z95, Baseline, BaselineEvent, BaselineOutput, BaselinePoint, to_jsonable,
-    read_baseline, write_baseline,
+    SAMPLE_EVENTS, Z95, Baseline, BaselineEvent, BaselineOutput, BaselinePoint, index_values,
+    to_jsonable, read_baseline, write_baseline,
 )
 from ..core.events import EventEstimate
 from .tolerances import DEFAULT_PCE_RTOL, DEFAULT_SIGMAS, check_tolerance
@@ -357,7 +367,10 @@ def _grid_index(time: np.ndarray, p: BaselinePoint) -> tuple[int | None, str]:
 
 
 def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: OutputStatistics,
-                    time: np.ndarray, sigmas: float, pce_rtol: float) -> list[CheckRow]:
+                    time: np.ndarray, sigmas: float, pce_rtol: float,
+                    inputs: tuple[str, ...] | None = None) -> list[CheckRow]:
+    """Rows of one output: moments and quantiles, and with ``inputs`` (the result's input
+    names: ``--sensitivity``) the Sobol' indices."""
     rows: list[CheckRow] = []
     sample = bo.uncertainty == SAMPLE
     # Magnitude and spread per component over the baseline's points: the floors' scales.
@@ -417,6 +430,44 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
         if where is not None:
             rows += _compare_quantiles(label, name, unit, p, s, where, sample, sigmas,
                                        pce_rtol, floor, bo.n_used)
+        if inputs is not None and p.indices:
+            got = {} if where is None else \
+                {n: (v, b) for n, v, b in index_values(s, where, inputs)}
+            rows += _compare_indices(label, name, p, got, bo.sobol_estimator != "pce", sigmas,
+                                     pce_rtol)
+    return rows
+
+
+def _compare_indices(label: str, name: str, p: BaselinePoint,
+                     got: dict[str, tuple[float | None, tuple[float | None, float | None]]],
+                     sample: bool, sigmas: float, pce_rtol: float) -> list[CheckRow]:
+    """The baseline point's Sobol' indices against the result's at the same place."""
+    rows = []
+    for key, (b, lo_b, hi_b) in p.indices.items():
+        assert b is not None  # (validated)
+        kind, _, of = key.partition(":")
+        stat = {"first": "S1", "total": "ST", "group_first": "S1 group",
+                "group_total": "ST group"}[kind] + f"[{of}]"
+        row = CheckRow(label, name, p.component, p.time, stat, "1", math.nan, b, math.nan,
+                       "", False)
+        rows.append(row)
+        value, (lo_a, hi_a) = got.get(key, (None, (None, None)))
+        if value is None:
+            row.note = "the result has no such index here"
+            continue
+        row.value = a = value
+        if sample:
+            comb = math.hypot(_half_width_se(lo_a, hi_a), _half_width_se(lo_b, hi_b))
+            if not math.isfinite(comb):
+                row.tolerance, row.passed = math.inf, True
+                row.basis, row.note = "not checked", "no two-sided interval to judge it by"
+                continue
+            row.tolerance = sigmas * comb
+            row.basis = f"{sigmas:g} x combined SE {_fmt(comb)}"
+        else:
+            row.tolerance = pce_rtol
+            row.basis = f"{pce_rtol:g} absolute (a PCE's index)"
+        _verdict(row, a, b)
     return rows
 
 
@@ -519,7 +570,8 @@ def _check_shapes(s: OutputStatistics, time: np.ndarray, where: str) -> None:
 
 
 def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIGMAS,
-                 pce_rtol: float | None = None, source: str = "baseline") -> CheckReport:
+                 pce_rtol: float | None = None, source: str = "baseline",
+                 sensitivity: bool = False) -> CheckReport:
     """Compare every statistic of ``result`` with ``baseline`` at the baseline's points.
 
     Parameters
@@ -532,6 +584,9 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
         Relative tolerance of PCE statistics; default the one stored in the baseline.
     source : str
         How to name the baseline in messages (its path).
+    sensitivity : bool
+        Also compare the Sobol' indices (module docstring); ResultError when the baseline
+        holds none.
 
     Returns
     -------
@@ -552,6 +607,15 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
                      {o.name: o for o in result.outputs}, source)
     report = CheckReport(result.name, source, sigmas, rtol)
     described = result_statistics(result)
+    n_indices = sum(len(p.indices) for m in baseline.methods.values()
+                    for o in m.outputs.values() for p in o.points)
+    if sensitivity and not n_indices:
+        why = (f"a format {baseline.format_version} baseline (indices from format 4 on)"
+               if baseline.format_version < 4 else "its result had no Sobol' indices")
+        raise ResultError(f"{source}: --sensitivity: the baseline holds no Sobol' index to "
+                          f"check ({why}); write it again from a result with indices "
+                          f"(`uqguide baseline RESULT -o FILE --force`)")
+    inputs = tuple(result.input_names) if sensitivity else None
     for label, bm in baseline.methods.items():
         run = result.run(label)
         if not bm.outputs:
@@ -563,7 +627,8 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
                 raise ResultError(f"{source}: method '{label}' of the result has no statistics "
                                   f"of output '{name}'")
             _check_shapes(s, result.time, f"{label}/{name}")
-            rows = _compare_output(label, name, bo.unit, bo, s, result.time, sigmas, rtol)
+            rows = _compare_output(label, name, bo.unit, bo, s, result.time, sigmas, rtol,
+                                   inputs)
             if not any(not r.skipped for r in rows):
                 raise ResultError(f"{source}: baseline method '{label}', output '{name}' has no "
                                   f"statistic to check")
@@ -579,6 +644,9 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
         report.notes.append(f"{source} is a format {baseline.format_version} baseline: its "
                             f"quantiles and event probabilities are not checked; write it "
                             f"again (`uqguide baseline RESULT -o FILE --force`) to check them")
+    if n_indices and not sensitivity:
+        report.notes.append(f"the baseline's {n_indices} Sobol' indices are not checked "
+                            f"(check them with --sensitivity)")
     extra_labels = [r.label for r in result.runs if r.label not in baseline.methods]
     if extra_labels:
         report.notes.append(f"method(s) {', '.join(extra_labels)} not in the baseline, "

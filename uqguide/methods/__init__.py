@@ -7,7 +7,9 @@
   ``mc_fold`` (the driver's merge of them);
 - ``pce_quadrature`` (``pce_tensor``, ``pce_smolyak``), ``pce_adaptive``, with
   ``pce_validated`` (the PCEs' shared step: keep, validate, correct, withdraw);
-- ``subset_simulation``: a rare event's probability.
+- ``subset_simulation``: a rare event's probability;
+- ``sobol_saltelli`` (a streaming method), with ``saltelli_reduce``: first-order and total
+  Sobol' indices of a pick-freeze design, Monte Carlo moments of its ``A`` and ``B`` rows.
 
 Each method is registered by name in ``uqguide.config.registry``.
 """

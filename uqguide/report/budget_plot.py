@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .budget import ESTIMATORS
 from .figures import Figure, new_figure
 from ..results.result import Result
 from ..results.statistics import result_statistics
@@ -63,7 +64,8 @@ def budget_figure(result: Result, output: str, component: int = 0) -> Figure:
         peak = np.nanmax(np.where(np.isfinite(first[at]), first[at], -np.inf), axis=0)
         order = [i for i in np.argsort(-peak, kind="stable") if peak[i] >= MIN_SHOWN]
         shown = order[:MAX_LINES]
-        marker = "o" if s.sobol_estimator == "given-data" else None  # (at the report times)
+        # (sampled indices are estimated at the report times only)
+        marker = "o" if s.sobol_estimator in ("given-data", "saltelli") else None
         for j, i in enumerate(shown):
             colour = _COLOURS[j % len(_COLOURS)]
             ax.plot(t[at], first[at, i], color=colour, marker=marker, ms=3, lw=1.4,
@@ -75,9 +77,8 @@ def budget_figure(result: Result, output: str, component: int = 0) -> Figure:
         if left:
             ax.plot([], [], " ", label=f"{left} other input{'s' * (left > 1)} "
                                        f"(index < {MIN_SHOWN:g} throughout)")
-        how = "Monte Carlo runs (given data)" if s.sobol_estimator == "given-data" else \
-            "PCE coefficients"
-        ax.set_title(f"{label}: from the {how}", fontsize=10)
+        how = ESTIMATORS.get(s.sobol_estimator, "from the PCE coefficients")
+        ax.set_title(f"{label}: {how}", fontsize=10)
         ax.set_ylabel("first-order Sobol' index")
         ax.set_ylim(min(-0.05, float(np.nanmin(first[at])) - 0.02) if at.size else -0.05, 1.05)
         ax.axhline(0.0, color="0.6", lw=0.6)
