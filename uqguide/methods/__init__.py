@@ -7,7 +7,10 @@
   ``mc_fold`` (the driver's merge of them);
 - ``pce_quadrature`` (``pce_tensor``, ``pce_smolyak``), ``pce_adaptive``, with
   ``pce_validated`` (the PCEs' shared step: keep, validate, correct, withdraw);
-- ``subset_simulation``: a rare event's probability.
+- ``subset_simulation``: a rare event's probability;
+- ``mfmc``: multi-fidelity Monte Carlo over fidelity levels of one model (run in phases by
+  :mod:`uqguide.driver.propagate_levels`), with ``mfmc_levels`` (the levels' outputs on the
+  highest level's grid).
 
 Each method is registered by name in ``uqguide.config.registry``.
 """
