@@ -131,3 +131,86 @@ def test_config_errors_name_the_field_and_what_is_allowed(method, message):
 def test_a_budget_or_a_target_but_not_both():
     with pytest.raises(ConfigError, match="give exactly one of budget_cpu_s"):
         _config()
+
+
+def _result(seed: int, **method):
+    from uqguide.driver.propagate import run
+
+    raw = _config(budget_cpu_s=0.02, bootstrap=50, **method).raw.model_dump()
+    raw.update(seed=seed)
+    return run(validate_config(raw))
+
+
+def test_the_gate_takes_an_mfmc_baseline_and_passes_a_reseeded_run():
+    from uqguide.gate.baseline import make_baseline, parse_baseline
+    from uqguide.gate.check import check_result
+    from uqguide.report.tables import cost_table
+
+    first = _result(1)
+    base = parse_baseline(make_baseline(first))
+    assert check_result(first, base).passed
+    # a reseeded run differs by its standard errors only: each statistic fails with
+    # probability ~6e-5 at the gate's 4 sigma, so none of these should
+    again = check_result(_result(2), base)
+    assert again.passed, [r for r in again.failures]
+    row = cost_table(first).iloc[0]
+    runs = [int(v) for v in row["runs per level"].split(" / ")]
+    assert len(runs) == 3 and runs[0] < runs[1] < runs[2]
+    assert row["equivalent MC runs"] > runs[0] and row["variance reduction"] > 1
+
+
+def _same_statistics(a, b):
+    for name, st in a.estimate.stats.items():
+        other = b.estimate.stats[name]
+        for stat in ("mean", "std", "skewness", "kurtosis", "sem"):
+            np.testing.assert_array_equal(getattr(st, stat), getattr(other, stat))
+        for stat, ci in st.ci.items():
+            np.testing.assert_array_equal(ci, other.ci[stat])
+    np.testing.assert_array_equal(a.estimate.diagnostics["runs_per_level"],
+                                  b.estimate.diagnostics["runs_per_level"])
+
+
+@pytest.mark.slow
+def test_two_workers_dask_and_a_resume_give_the_bits_of_a_serial_run(tmp_path):
+    from distributed import Client, LocalCluster
+
+    from uqguide.driver.checkpoint import RunStore
+    from uqguide.driver.execution import DaskExecutor, ProcessExecutor
+    from uqguide.testing import _StopAfterFirstChunk
+
+    cfg = _config(budget_cpu_s=0.02, bootstrap=50)
+    serial = _run(cfg)
+    pool = ProcessExecutor(2, batch_size=100)
+    try:
+        _same_statistics(serial, _run(cfg, pool))
+    finally:
+        pool.close()
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        _same_statistics(serial, _run(cfg, DaskExecutor(client=client)))
+    identity = {"check": "mfmc resume"}
+    store = RunStore.open(tmp_path / "run", identity, resume=False)
+    with pytest.raises(KeyboardInterrupt):
+        try:
+            propagate(cfg.methods[0], cfg.model, cfg.space, cfg.outputs, cfg.seed,
+                      _StopAfterFirstChunk(SerialExecutor(4096)), store=store)
+        finally:
+            store.close()
+    store = RunStore.open(tmp_path / "run", identity, resume=True)
+    try:
+        resumed = propagate(cfg.methods[0], cfg.model, cfg.space, cfg.outputs, cfg.seed,
+                            SerialExecutor(4096), store=store)
+    finally:
+        store.close()
+    _same_statistics(serial, resumed)
+
+
+def test_the_docs_config_validates():
+    """docs/multifidelity.md's config (its run is a slow doc example)."""
+    import yaml
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "multifidelity.md").read_text()
+    block = page.split("# file: mfmc_decay.yaml\n", 1)[1].split("```", 1)[0]
+    cfg = validate_config(yaml.safe_load(block))
+    assert cfg.methods[0].name == "mfmc" and len(cfg.methods[0].settings.fidelities) == 3

@@ -449,5 +449,5 @@ def _output_stats(full: Any, boot: Any, cols: np.ndarray, run0: ModelOutput, nam
     return OutputStats(mean=full.mean.reshape(shape), std=full.std.reshape(shape),
                        skewness=full.skewness.reshape(shape),
                        kurtosis=full.kurtosis.reshape(shape), cov=cov,
-                       n_used=int(full.n_used[0]), moments_method="sample",
+                       n_used=int(full.n_used[0]), moments_method="mfmc",
                        sem=full.sem.reshape(shape), ci=ci)
