@@ -6,6 +6,8 @@ Cases (``--case``):
   and costs 1 : 0.05 : 0.01: the allocation against PWG16's closed form (eq 3.10, 3.13), and
   over ``--seeds`` seeds at equal cost the standard errors of mean and std of MFMC and MC, and
   the coverage of MFMC's 95% intervals of the exact mean and std (0.2, sqrt(1.08));
+- ``uncorrelated``: a cheap level uncorrelated with the expensive one (a user's callable at
+  two "fidelities"): plain MC, its standard error and its cost against the budget;
 - ``euler``: the ``euler_decay`` model at dt = 0.01 / 0.1 / 0.4 through the ``mfmc`` method
   (pinned costs), coverage of the highest level's exact mean over seeds;
 - ``ftcapn``, ``gmm_ftc``, ``ft_as``: a pilot of ``--pilot`` runs at each step of the model's
@@ -160,20 +162,162 @@ def analytic(seeds: int, budget: float) -> None:
               f"(95% Wilson [{lo:.2f}, {hi:.2f}])")
 
 
+# ---------------------------------------------------------------------------------- euler
+EULER_LEVELS = [0.01, 0.1, 0.4]
+EULER_COSTS = [1e-4, 1e-5, 2.5e-6]
+
+
+def _euler_exact(dt: float, power: int, a: float = 0.5, b: float = 1.5) -> float:
+    """``E[(1 - k dt)^(power n)]``, ``k ~ U(a, b)``, ``n = 2 / dt``."""
+    n = power * round(2.0 / dt)
+    return ((1 - a * dt) ** (n + 1) - (1 - b * dt) ** (n + 1)) / ((n + 1) * dt * (b - a))
+
+
+def euler(seeds: int, budget: float) -> None:
+    """The ``mfmc`` method on ``euler_decay`` against plain MC of dt = 0.01 at equal (pinned)
+    cost, over seeds: standard errors and coverage of the exact mean and std."""
+    from uqguide.driver.execution import SerialExecutor
+    from uqguide.driver.propagate import propagate
+
+    mean = _euler_exact(0.01, 1)
+    std = np.sqrt(1.01 * _euler_exact(0.01, 2) - mean**2)  # E[y0^2] = 1 + 0.1^2
+    base = {"model": {"name": "euler_decay", "dt": 0.01},
+            "inputs": [{"name": "k", "dist": "uniform", "low": 0.5, "high": 1.5},
+                       {"name": "y0", "dist": "normal", "mean": 1.0, "std": 0.1}],
+            "outputs": ["y_end"]}
+    rows: dict[str, list[tuple[float, float]]] = {"mfmc": [], "mc": []}
+    hits = {"mean": 0, "std": 0}
+    n_mc = int(budget / EULER_COSTS[0])
+    t0 = time.process_time()
+    diag: dict[str, Any] = {}
+    for s in range(seeds):
+        mf = validate_config({**base, "seed": s, "methods": [{
+            "name": "mfmc", "fidelities": [{"dt": h} for h in EULER_LEVELS],
+            "costs": EULER_COSTS, "budget_cpu_s": budget, "n_pilot": 50,
+            "chunk_size": 1024}]})
+        mc = validate_config({**base, "seed": s, "methods": [{
+            "name": "monte_carlo", "n_samples": n_mc, "sensitivity": "off"}]})
+        a = propagate(mf.methods[0], mf.model, mf.space, mf.outputs, s, SerialExecutor(4096))
+        b = propagate(mc.methods[0], mc.model, mc.space, mc.outputs, s, SerialExecutor(4096))
+        st, sb = a.estimate.stats["y_end"], b.estimate.stats["y_end"]
+        rows["mfmc"].append((st.mean[0], st.std[0]))
+        rows["mc"].append((sb.mean[0], sb.std[0]))
+        hits["mean"] += st.ci["mean"][0, 0] <= mean <= st.ci["mean"][1, 0]
+        hits["std"] += st.ci["std"][0, 0] <= std <= st.ci["std"][1, 0]
+        diag = a.estimate.diagnostics
+    print(f"euler_decay dt = {EULER_LEVELS}, pinned costs {EULER_COSTS} s per run, budget "
+          f"{budget:g} s: MFMC runs {list(diag['runs_per_level'])}, plain MC {n_mc} runs; "
+          f"{seeds} seeds, {time.process_time() - t0:.1f} CPU-s")
+    print(f"  exact highest-level mean {mean:.6f}, std {std:.6f}")
+    print(f"  {'':>6} {'s.e. mean':>10} {'s.e. std':>10} {'bias mean':>10}")
+    for k, v in rows.items():
+        arr = np.array(v)
+        print(f"  {k:>6} {arr[:, 0].std(ddof=1):10.6f} {arr[:, 1].std(ddof=1):10.6f} "
+              f"{arr[:, 0].mean() - mean:+10.6f}")
+    for k, h in hits.items():
+        lo, hi = _wilson(h, seeds)
+        print(f"  coverage of the exact {k}: {h}/{seeds} = {h / seeds:.2f} "
+              f"(95% Wilson [{lo:.2f}, {hi:.2f}])")
+
+
+# ---------------------------------------------------------------------------------- useless
+def fine(x: np.ndarray) -> np.ndarray:
+    """The expensive level of the ``uncorrelated`` case: ``x1 + 0.2 x1^2``."""
+    return x[:, 0] + 0.2 * x[:, 0] ** 2
+
+
+def unrelated(x: np.ndarray) -> np.ndarray:
+    """A cheap level that ignores ``x1``: uncorrelated with :func:`fine`."""
+    return x[:, 1]
+
+
+def uncorrelated(seeds: int, budget: float) -> None:
+    """An uncorrelated cheap level: ``mfmc`` should run plain MC of the highest level, at
+    plain MC's cost less the cheap level's pilot."""
+    from uqguide.driver.execution import SerialExecutor
+    from uqguide.driver.propagate import propagate
+
+    costs = [1e-3, 1e-5]
+    spent, ratios, plain = [], [], 0
+    for s in range(seeds):
+        cfg = validate_config({
+            "model": {"name": "callable", "function": "multifidelity:fine", "isolate": False,
+                      "inputs": ["x1", "x2"], "outputs": ["y"],
+                      "module_dir": str(Path(__file__).resolve().parent)},
+            "inputs": [{"name": "x1", "dist": "normal", "std": 1.0},
+                       {"name": "x2", "dist": "normal", "std": 1.0}],
+            "methods": [{"name": "mfmc", "fidelities": [{}, {"function":
+                                                             "multifidelity:unrelated"}],
+                         "costs": costs, "budget_cpu_s": budget, "n_pilot": 100}],
+            "seed": s})
+        r = propagate(cfg.methods[0], cfg.model, cfg.space, cfg.outputs, s,
+                      SerialExecutor(10000))
+        d, st = r.estimate.diagnostics, r.estimate.stats["y"]
+        plain += bool(d["plain_mc"])
+        cost = float(np.dot(d["runs_per_level"], costs))
+        spent.append(cost / budget)
+        # its standard error against plain MC's over the runs the budget buys
+        ratios.append(st.sem[0] / (st.std[0] / np.sqrt(budget / costs[0])))
+    print(f"uncorrelated cheap level, {seeds} seeds, budget {budget:g} s at pinned costs "
+          f"{costs}: plain MC chosen {plain}/{seeds}; cost / budget {min(spent):.4f} to "
+          f"{max(spent):.4f}; s.e. of the mean / plain MC's at the budget {min(ratios):.4f} "
+          f"to {max(ratios):.4f}")
+
+
+# ---------------------------------------------------------------------------------- FT-AS run
+def ft_as_run(budget: float, n_pilot: int, workers: int) -> None:
+    """The ``mfmc`` method on FT-AS Case 2 at h = 0.01 s for ``budget`` CPU seconds."""
+    from uqguide.driver.execution import ProcessExecutor, SerialExecutor
+    from uqguide.driver.propagate import propagate
+    from uqguide.report.tables import cost_table  # noqa: F401 - the row's columns
+
+    raw = load_yaml(ROOT / "configs/ft_as_dispersion.yaml")
+    raw["model"].update(controller="case2", threads=1)
+    raw.pop("reference", None)
+    raw["outputs"] = ["delta_v", "settle_r_e"]
+    raw["methods"] = [{"name": "mfmc", "fidelities": [{"step": h} for h in
+                                                      (0.01, 0.02, 0.05, 0.1)],
+                       "budget_cpu_s": budget, "n_pilot": n_pilot, "chunk_size": 20}]
+    cfg = validate_config(raw, source=str(ROOT / "configs/ft_as_dispersion.yaml"))
+    ex = ProcessExecutor(workers, batch_size=20) if workers > 1 else SerialExecutor(20)
+    t0 = time.process_time()
+    try:
+        r = propagate(cfg.methods[0], cfg.model, cfg.space, cfg.outputs, cfg.seed, ex)
+    finally:
+        ex.close()
+    d = r.estimate.diagnostics
+    print(f"FT-AS Case 2 mfmc, budget {budget:g} CPU-s, pilot {n_pilot}, {workers} worker(s): "
+          f"this process {time.process_time() - t0:.1f} CPU-s, model {r.model_seconds:.1f} s")
+    for k in ("levels", "levels_used", "runs_per_level", "cpu_per_level", "cost_per_run",
+              "estimated_variance_reduction", "equivalent_mc_runs", "equivalent_mc_cpu_s",
+              "cpu_saving", "note"):
+        print(f"  {k}: {d.get(k)}")
+    for name, st in r.estimate.stats.items():
+        for c in range(st.mean.shape[-1]):
+            print(f"  {name}[{c}]: mean {st.mean[c]:.6g} +- {st.sem[c]:.3g}, std "
+                  f"{st.std[c]:.6g} [{st.ci['std'][0, c]:.6g}, {st.ci['std'][1, c]:.6g}]")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--case", default="analytic",
-                    choices=["analytic", "euler", *PILOTS, "ft_as-run"])
+                    choices=["analytic", "euler", "uncorrelated", *PILOTS, "ft_as-run"])
     ap.add_argument("--seeds", type=int, default=50)
     ap.add_argument("--pilot", type=int, default=60)
-    ap.add_argument("--budget", type=float, default=100.0)
+    ap.add_argument("--budget", type=float, default=100.0,
+                    help="cost units (analytic), CPU seconds (euler, ft_as-run)")
+    ap.add_argument("--workers", type=int, default=1)
     a = ap.parse_args()
     if a.case == "analytic":
         analytic(a.seeds, a.budget)
+    elif a.case == "uncorrelated":
+        uncorrelated(a.seeds, a.budget)
+    elif a.case == "euler":
+        euler(a.seeds, a.budget)
     elif a.case in PILOTS:
         pilot(a.case, a.pilot)
     else:
-        raise SystemExit(f"--case {a.case}: not written yet")
+        ft_as_run(a.budget, a.pilot, a.workers)
 
 
 if __name__ == "__main__":

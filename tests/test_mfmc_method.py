@@ -174,7 +174,7 @@ def _same_statistics(a, b):
 def test_two_workers_dask_and_a_resume_give_the_bits_of_a_serial_run(tmp_path):
     from distributed import Client, LocalCluster
 
-    from uqguide.driver.checkpoint import RunStore
+    from uqguide.driver.checkpoint import RunStore, run_identity
     from uqguide.driver.execution import DaskExecutor, ProcessExecutor
     from uqguide.testing import _StopAfterFirstChunk
 
@@ -188,7 +188,7 @@ def test_two_workers_dask_and_a_resume_give_the_bits_of_a_serial_run(tmp_path):
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster, Client(cluster) as client:
         _same_statistics(serial, _run(cfg, DaskExecutor(client=client)))
-    identity = {"check": "mfmc resume"}
+    identity = run_identity({"check": "mfmc resume"}, cfg.model)
     store = RunStore.open(tmp_path / "run", identity, resume=False)
     with pytest.raises(KeyboardInterrupt):
         try:
