@@ -59,7 +59,8 @@ def propagate_levels(method: MultiFidelityMC, model: Model, space: InputSpace,
             out = run_rows(i, 1 + 2 * i, 0, s.n_pilot)
             assert out is not None  # (n_pilot >= 10)
             pilot.append(out)
-        pilot_cost = [t.model_seconds / max(t.n_runs, 1) for t in timings]
+        # CPU, not wall seconds: on a shared machine the wall clock counts the neighbours' load
+        pilot_cost = [t.cpu_seconds / max(t.n_runs, 1) for t in timings]
         plan = method.allocate(pilot, pilot_cost)
         log.info("%s: levels %s, runs %s (estimated variance reduction %.3g)", method.label,
                  plan.levels, list(plan.sizes), 1.0 / plan.allocation.variance_ratio)
@@ -72,7 +73,7 @@ def propagate_levels(method: MultiFidelityMC, model: Model, space: InputSpace,
         t_fit = time.perf_counter()
         progress.phase("estimating")
         estimate = method.estimate_levels(runs, plan, design,
-                                          [t.model_seconds for t in timings], pilot_cost)
+                                          [t.cpu_seconds for t in timings], pilot_cost)
         progress.phase("")
     fit_seconds = time.perf_counter() - t_fit
     estimate.diagnostics["fit_seconds"] = fit_seconds

@@ -166,6 +166,7 @@ class Stage:
                 r = pending.pop(nxt)
                 self.timing.model_seconds += r.model_seconds
                 self.timing.compile_seconds += r.compile_seconds
+                self.timing.cpu_seconds += r.cpu_seconds
                 self.timing.n_runs += r.task.n
                 if kept is not None:
                     assert isinstance(self.method, StreamingMethod)  # (only those reduce)
