@@ -87,7 +87,7 @@ def test_mean_is_unbiased_with_the_variance_of_its_formula(seed):
     g = float(variance_factor(RHO, sizes / sizes[0]))
     var_formula = g / sizes[0]  # sigma_0 = 1
     rng = np.random.default_rng([seed, 30])
-    n_rep = 300
+    n_rep = 200
     est = np.array([mfmc_statistics(_levels(rng, sizes), sizes, n_resamples=0).mean[0]
                     for _ in range(n_rep)])
     # unbiased: the replicate mean is within 4 standard errors of E[y_0] = 0

@@ -136,7 +136,7 @@ def test_a_budget_or_a_target_but_not_both():
 def _result(seed: int, **method):
     from uqguide.driver.propagate import run
 
-    raw = _config(budget_cpu_s=0.02, bootstrap=50, **method).raw.model_dump()
+    raw = _config(budget_cpu_s=0.01, bootstrap=20, **method).raw.model_dump()
     raw.update(seed=seed)
     return run(validate_config(raw))
 
