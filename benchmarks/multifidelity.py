@@ -45,7 +45,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PILOTS: dict[str, tuple[str, str, list[float], list[str], dict[str, Any]]] = {
     "ft_as": ("configs/ft_as_dispersion.yaml", "step", [0.01, 0.02, 0.05, 0.1],
               ["delta_v", "settle_r_e"], {"controller": "case2", "threads": 1}),
-    "gmm_ftc": ("configs/gmm_ftc_dispersion.yaml", "dt", [0.1, 0.2, 0.5, 1.0], [], {}),
+    "gmm_ftc": ("configs/gmm_ftc_dispersion.yaml", "dt", [0.1, 0.2, 0.5, 1.0],
+                ["delta_v", "t_settle", "min_clearance"], {}),
     "ftcapn": ("configs/ftcapn_table3.yaml", "dt", [0.5, 1.0, 2.0], ["zem", "dv_total"], {}),
 }
 
@@ -66,6 +67,7 @@ def pilot(case: str, n: int, seed: int = 1) -> None:
     raw["model"].update(overrides)
     raw.pop("reference", None)
     raw.pop("quantiles", None)
+    raw.pop("events", None)
     cfg = validate_config({**raw, "methods": [{"name": "monte_carlo", "n_samples": n}]},
                           source=str(ROOT / path))
     names = outputs or list(cfg.outputs)
