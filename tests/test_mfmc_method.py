@@ -214,3 +214,16 @@ def test_the_docs_config_validates():
     block = page.split("# file: mfmc_decay.yaml\n", 1)[1].split("```", 1)[0]
     cfg = validate_config(yaml.safe_load(block))
     assert cfg.methods[0].name == "mfmc" and len(cfg.methods[0].settings.fidelities) == 3
+
+
+def test_a_value_left_nan_by_the_model_is_left_out_not_propagated():
+    method = MultiFidelityMC({"fidelities": [{"dt": 0.01}, {"dt": 0.4}], "n_pilot": 200,
+                              "budget_cpu_s": 1.0, "costs": [1e-3, 1e-5]},
+                             RunContext(outputs=("y_end",)))
+    rng = np.random.default_rng(1)
+    y = rng.standard_normal(200)
+    cheap = y + 0.1 * rng.standard_normal(200)
+    cheap[:20] = np.nan  # e.g. a settling time the coarse level never reached
+    plan = method.allocate([_pilot(y), _pilot(cheap)], [1e-3, 1e-5])
+    # correlation ~0.995 on the 180 finite rows: the cheap level is kept
+    assert plan.levels == (0, 1) and plan.allocation.variance_ratio < 0.5

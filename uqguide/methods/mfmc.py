@@ -301,8 +301,15 @@ class MultiFidelityMC(Method):
             owner += [name] * len(idx)
             for j, p in enumerate(pilot):
                 v, _ = values(p, name, pilot[0].time)
-                cols[j].append(v[ok][:, idx])
+                cols[j].append(v[:, idx])
         lv = [np.concatenate(c, axis=1) for c in cols]
+        # an output a model leaves NaN by design (a time never reached) is no correlation
+        ok &= np.all([np.isfinite(v).all(axis=1) for v in lv], axis=0)
+        if ok.sum() < 3:
+            raise MethodError(f"{self.label}: {int(ok.sum())} of {n} pilot rows have finite "
+                              f"values of {', '.join(self._targets())} at every level; at "
+                              f"least 3 are needed")
+        lv = [v[ok] for v in lv]
         var0 = lv[0].var(axis=0)
         keep = var0 > 1e-24 * np.maximum(lv[0].mean(axis=0) ** 2, 1e-300)
         lv = [v[:, keep] for v in lv]
@@ -352,22 +359,27 @@ class MultiFidelityMC(Method):
         how: set[tuple[int, str]] = set()
         boot_seed = int(design.data.get("boot_seed", 0))
         equivalent: dict[str, float] = {}
+        nan_rows: dict[str, int] = {}
         for name in names:
             lv = []
+            finite = ok.copy()
             for j, r in enumerate(runs):
                 v, h = values(r, name, grid)
                 lv.append(v)
+                finite[:sizes[j]] &= np.isfinite(v).all(axis=1)
                 if h != "same":
                     how.add((plan.levels[j], h))
+            if (~finite & ok).any():
+                nan_rows[name] = int((~finite & ok).sum())
             try:
-                full = mfmc_statistics(lv, sizes, ok, n_resamples=0)
+                full = mfmc_statistics(lv, sizes, finite, n_resamples=0)
             except ValueError as exc:
                 raise MethodError(f"{self.label}: {name}: {exc}") from None
             cols = self._report_columns(runs[0], name)
-            boot = mfmc_statistics([v[:, cols] for v in lv], sizes, ok,
+            boot = mfmc_statistics([v[:, cols] for v in lv], sizes, finite,
                                    n_resamples=self.settings.bootstrap, seed=boot_seed) \
                 if self.settings.bootstrap else None
-            stats[name] = _output_stats(full, boot, cols, runs[0], name, ok[:sizes[0]])
+            stats[name] = _output_stats(full, boot, cols, runs[0], name, finite[:sizes[0]])
             finite = full.equivalent_mc_runs[np.isfinite(full.equivalent_mc_runs)]
             equivalent[name] = float(finite.min()) if finite.size else float("nan")
         n_failed = int((~ok).sum())
@@ -398,6 +410,8 @@ class MultiFidelityMC(Method):
             "interpolated": ", ".join(f"level {i} {h}" for i, h in sorted(how)) or "none",
             "intervals": "mean: variance formula; std, skewness, kurtosis: group bootstrap",
             "bootstrap": self.settings.bootstrap,
+            # rows left out of one output's statistics for a non-finite value at some level
+            "non_finite_rows": "; ".join(f"{k} ({v})" for k, v in nan_rows.items()) or "none",
         }
         return Estimate(method=self.name, label=self.label, stats=stats,
                         diagnostics=diagnostics)

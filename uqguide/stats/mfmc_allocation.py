@@ -73,6 +73,8 @@ def ordering_holds(rho: np.ndarray, w: np.ndarray) -> bool:
     if np.any(np.diff(r2[:-1]) >= 0):
         return False
     for i in range(1, len(w)):
+        if r2[i] - r2[i + 1] <= 0:  # (an uncorrelated last level: no gap to pay for it)
+            return False
         if not w[i - 1] / w[i] > (r2[i - 1] - r2[i]) / (r2[i] - r2[i + 1]):
             return False
     return True
