@@ -15,7 +15,8 @@ for FTCAPN and GMM-FTC, ``step`` for FT-AS). The driver runs it in phases
 (:mod:`uqguide.driver.propagate_levels`):
 
 1. **pilot**: the first ``n_pilot`` rows at every level. Each level's cost per run is the
-   measured model seconds of its pilot chunks (worker-seconds, compiling excluded), unless
+   CPU seconds of its pilot chunks' model calls (``time.process_time`` where they ran,
+   compiling excluded: a busy machine inflates wall seconds, not CPU), unless
    ``costs`` pins them; the correlations with the highest level are those of the pilot, per
    quantity: each component of each ``optimise_for`` output (series at the report times on the
    highest level's grid) and its square (the carrier of the variance).
@@ -240,7 +241,7 @@ class MultiFidelityMC(Method):
         pilot : list of ModelOutput
             The pilot rows' outputs at every config level.
         seconds_per_run : list of float
-            Measured model seconds per run of every level.
+            Measured model CPU seconds per run of every level.
         """
         s = self.settings
         measured = s.costs is None
