@@ -22,6 +22,7 @@ MODELS: dict[str, str] = {
     "lognormal": "uqguide.models.benchmarks:Lognormal",
     "ishigami": "uqguide.models.benchmarks:Ishigami",
     "borehole": "uqguide.models.benchmarks:Borehole",
+    "euler_decay": "uqguide.models.euler_decay:EulerDecay",
     "sobol_g": "uqguide.models.sobol_g:SobolG",
     "callable": "uqguide.models.callable:CallableModel",
     "command": "uqguide.models.command:CommandModel",
@@ -39,6 +40,7 @@ METHODS: dict[str, str] = {
     "pce_adaptive": "uqguide.methods.pce_adaptive:AdaptivePCE",
     "subset_simulation": "uqguide.methods.subset_simulation:SubsetSimulation",
     "sobol_saltelli": "uqguide.methods.sobol_saltelli:SobolSaltelli",
+    "mfmc": "uqguide.methods.mfmc:MultiFidelityMC",
 }
 
 

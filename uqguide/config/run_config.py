@@ -479,6 +479,10 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
         check_rows_enough(methods, rows, space.dim)
     for i, m in enumerate(methods):
         m.check(i)
+        # a multi-fidelity method's levels are the model's: checked here, where both are known
+        check_fidelities = getattr(m, "check_fidelities", None)
+        if check_fidelities is not None:
+            check_fidelities(model, i)
     labels = [m.label for m in methods]
     for i, lab in enumerate(labels):
         if labels.index(lab) != i:

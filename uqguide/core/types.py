@@ -252,7 +252,8 @@ class OutputStats:
     n_used : int
         Samples the estimate used (runs that did not fail), or surrogate draws.
     moments_method : str
-        ``"sample"`` (population estimators on model runs), ``"exact"`` (from PCE
+        ``"sample"`` (population estimators on model runs), ``"mfmc"`` (multi-fidelity Monte
+        Carlo over fidelity levels of the model), ``"exact"`` (from PCE
         coefficients) or ``"surrogate-sampling"`` (sampling a PCE surrogate).
     sem : ndarray, shape (..., k), optional
         Standard error of the mean (sample estimates only).

@@ -161,6 +161,7 @@ def write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int)
         "stage": np.array(stage, dtype=np.int64),
         "task": np.array([r.task.index, r.task.start, r.task.stop], dtype=np.int64),
         "model_seconds": np.array(r.model_seconds),
+        "cpu_seconds": np.array(r.cpu_seconds),
         "failed": r.failed,
         "reasons": np.array([str(v) for v in r.reasons], dtype=str),
         "time": r.time,
@@ -206,7 +207,9 @@ def read_chunk(path: Path, task: Task) -> StoredChunk:
         task=task, failed=data["failed"].astype(bool),
         reasons=np.array(data["reasons"].tolist(), dtype=object).reshape(-1),
         time=data["time"], scalars=pick["scalar"], series=pick["series"],
-        summary=pick["summary"], model_seconds=float(data["model_seconds"])))
+        summary=pick["summary"], model_seconds=float(data["model_seconds"]),
+        # (a chunk written before CPU seconds were kept: 0)
+        cpu_seconds=float(data.get("cpu_seconds", 0.0))))
 
 
 def _pack(arrays: dict[str, np.ndarray]) -> tuple[str, np.ndarray]:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import logging
 import time
-import weakref
 from collections import Counter
 from dataclasses import replace
 from types import MappingProxyType
@@ -24,214 +23,27 @@ from typing import Any
 import numpy as np
 
 from .checkpoint import RunInterrupted, RunStore
+from .stage import Stage
 from ..config.run_config import RunConfig
-from ..errors import MethodError, ModelError, UqguideError
+from ..errors import MethodError, UqguideError
 from .execution import (
-    DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Containment, Executor, ModelHandle, SerialExecutor,
-    Task, Timing, common_grid, evaluate_batch,
+    DEFAULT_BATCH_SIZE, Containment, Executor, SerialExecutor,
+    Task, Timing, common_grid,
 )
-from .execution.guard import guarded_batch
-from .execution.shared_rows import SharedRows
 from ..core.inputs import InputSpace
-from .interrupts import raise_swallowed
 from ..methods.base import Design, Method, StreamingMethod, chunk_bounds
-from ..models import kernels
+from ..methods.mfmc import MultiFidelityMC
 from ..models.base import Model
-from ..core.types import Estimate, GeneratedRows, ModelOutput
+from ..core.types import Estimate, ModelOutput
 from .progress import Progress
 from ..config.report_times import check_config_report_times
 from ..results.result import MethodRun, Result, provenance
 
 log = logging.getLogger(__name__)
 
-#: Models whose compiled kernel this process has loaded (or compiled) for a process pool.
-_LOADED: weakref.WeakSet[Model] = weakref.WeakSet()
-
 #: Refinement rounds after which a method that keeps asking for runs is stopped (a guard
 #: against a method bug; real methods stop by their own budget long before).
 MAX_REFINEMENTS = 100
-
-
-class _Runs:
-    """The per-sample values of reduced chunks (scalars, failure flags, reasons), copied into
-    arrays allocated once for the whole stage: joining a list of chunk arrays at the end would
-    hold every value twice (1 GB at 1e7 samples). With a process pool the scalar arrays are
-    the stage's shared ones (:mod:`uqguide.driver.execution.shared_rows`), which the workers
-    fill."""
-
-    def __init__(self, n: int) -> None:
-        self.n = n
-        self.failed = np.zeros(n, dtype=bool)
-        # a failure's reason is only kept for a failed run: copying a million empty strings
-        # chunk by chunk cost the driver 0.2 s of a 1e6-run study
-        self.reasons = np.full(n, "", dtype=object)
-        self.scalars: dict[str, np.ndarray] = {}
-        self.time: np.ndarray | None = None
-        self.shared: SharedRows | None = None
-
-    def add(self, r: ChunkResult) -> None:
-        rows = slice(r.task.start, r.task.stop)
-        self.failed[rows] = r.failed
-        if r.failed.any():
-            self.reasons[r.task.start + np.flatnonzero(r.failed)] = r.reasons[r.failed]
-        written = {key for part, key, _ in r.in_place if part == "scalars"}
-        for k, v in r.scalars.items():
-            if k not in self.scalars:
-                shared = self.shared.scalar_array(k) if self.shared is not None else None
-                self.scalars[k] = shared if shared is not None else \
-                    np.empty((self.n, *v.shape[1:]), dtype=v.dtype)
-            if k not in written:  # (what a worker wrote in place is there already)
-                self.scalars[k][rows] = v
-        if r.time.size:
-            if self.time is None:
-                self.time = r.time
-            elif r.time.shape != self.time.shape or not np.array_equal(r.time, self.time):
-                raise ModelError("chunks of one run must share the time grid")
-
-    def output(self) -> ModelOutput:
-        return ModelOutput(time=self.time if self.time is not None else np.zeros(0),
-                           scalars=self.scalars, failed=self.failed, reasons=self.reasons)
-
-
-class _Stage:
-    """Evaluates the rows of one design stage chunk by chunk and folds them in order."""
-
-    def __init__(self, method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
-                 executor: Executor, batch_size: int, store: RunStore | None,
-                 progress: Progress, timing: Timing, timeout_s: float | None = None,
-                 containment: Containment | None = None) -> None:
-        self.method, self.model, self.space, self.outputs = method, model, space, outputs
-        self.executor, self.batch_size, self.store = executor, batch_size, store
-        self.progress, self.timing, self.timeout_s = progress, timing, timeout_s
-        self.containment = containment or Containment()
-
-    def _job(self, stage: int, reducer: Any) -> ChunkJob:
-        """What every chunk of ``stage`` shares: with the containment of the run (a guard
-        process for a model that can crash, when the chunks run in this process), the rows
-        already known to crash, and where to record new ones."""
-        c, store, label = self.containment, self.store, self.method.label
-        guarded = c.isolate and getattr(self.executor, "in_process", False)
-        on_isolated = None
-        if store is not None:
-            def on_isolated(row: int, reason: str) -> None:
-                store.record_isolated(label, stage, row, reason)
-        return ChunkJob(ModelHandle(self.model), tuple(self.space.names), self.outputs,
-                        self.batch_size, reducer, timeout_s=self.timeout_s, guarded=guarded,
-                        guard_fallback=guarded and not c.asked, memory_limit=c.memory_limit,
-                        known=store.known_isolated(label, stage) if store else {},
-                        on_isolated=on_isolated)
-
-    def _compile_here_first(self, job: ChunkJob, x: np.ndarray | GeneratedRows,
-                            task: Task) -> None:
-        """Load the model's compiled kernel before a local pool's workers start.
-
-        One row of the design is evaluated here when the model runs a compiled kernel, so that
-        a kernel missing from the cache compiles once, in this process (its phase shown by this
-        progress display), and the workers load it from the cache instead of each compiling it
-        at the same time. Once per model and process; the row's outputs are dropped (a worker
-        evaluates it again with its chunk), its compile seconds kept. With a timeout the row
-        runs in a guard process like every call (its compile then is not timed here).
-        """
-        model = self.model
-        if model in _LOADED or model.kernel_choice() != "numba":
-            return
-        before = kernels.compile_seconds()
-        row = x.rows(task.start, task.start + 1) if isinstance(x, GeneratedRows) else \
-            x[task.start:task.start + 1]
-        if job.timeout_s is not None or job.guarded:
-            guarded_batch(job.model, row, job.names, job.outputs, job.timeout_s,
-                          job.memory_limit)
-        else:
-            evaluate_batch(model, row, job.names, job.outputs)
-        _LOADED.add(model)
-        self.timing.compile_seconds += kernels.compile_seconds() - before
-
-    def tasks(self, n: int) -> list[Task]:
-        return [Task(i, a, b) for i, (a, b) in
-                enumerate(chunk_bounds(self.method, n, self.batch_size))]
-
-    def run(self, x: np.ndarray | GeneratedRows, stage: int, tasks: list[Task], reducer: Any
-            ) -> tuple[ModelOutput, Any]:
-        """Outputs of the rows ``x`` (scalars only when reduced) and the folded summaries."""
-        label = self.method.label
-        job = self._job(stage, reducer)
-        parts: list[ModelOutput] = []
-        kept = _Runs(x.shape[0]) if reducer is not None else None
-        per_run = getattr(reducer, "per_run", None)
-        share = kept is not None and per_run is not None and \
-            getattr(self.executor, "shares_memory", False)
-        pending: dict[int, ChunkResult] = {}
-        acc = None
-        nxt = 0
-
-        def arrived(r: ChunkResult) -> ChunkResult:
-            # The first result back (restored or evaluated) shapes the shared arrays; the
-            # chunks submitted from then on write their per-run values there.
-            nonlocal share
-            if kept is None:
-                return r
-            if share and per_run is not None:
-                share = False
-                kept.shared = SharedRows.for_result(r, x.shape[0], per_run)
-                if kept.shared is not None:
-                    job.shared = kept.shared.layout
-            return kept.shared.adopt(r) if kept.shared is not None else r
-
-        def fold_ready() -> None:
-            nonlocal nxt, acc
-            while nxt in pending:
-                r = pending.pop(nxt)
-                self.timing.model_seconds += r.model_seconds
-                self.timing.compile_seconds += r.compile_seconds
-                self.timing.n_runs += r.task.n
-                if kept is not None:
-                    assert isinstance(self.method, StreamingMethod)  # (only those reduce)
-                    acc = self.method.fold(acc, r.summary)
-                    kept.add(r)
-                else:
-                    parts.append(r.output())
-                nxt += 1
-
-        results: Any = iter(())
-        try:
-            for t in tasks:
-                r = self.store.load(label, stage, t) if self.store else None
-                if r is not None:
-                    pending[t.index] = arrived(r)
-                    self.progress.restored(t.n, r.n_failed)
-            todo = [t for t in tasks if t.index not in pending]
-            if len(pending):
-                log.info("%s: %d of %d chunks restored from the checkpoint", label,
-                         len(pending), len(tasks))
-            fold_ready()
-            if todo and getattr(self.executor, "shares_memory", False):
-                self._compile_here_first(job, x, todo[0])
-            if todo:
-                results = self.executor.map_chunks(job, todo, x)
-            for r in results:
-                r = arrived(r)
-                if self.store is not None:
-                    self.store.save(label, stage, r)
-                self.progress.advance(r.task.n, r.n_failed)
-                pending[r.task.index] = r
-                fold_ready()
-                raise_swallowed()
-        except BaseException:
-            if self.store is not None:
-                self.store.drain()  # what was saved before the stop is on disk when it is seen
-            raise
-        finally:
-            close = getattr(results, "close", None)
-            if close is not None:
-                close()
-            if kept is not None and kept.shared is not None:
-                kept.shared.close()  # the files go; the views stay valid
-        fold_ready()
-        if self.store is not None:
-            self.store.flush()  # the stage's chunks on disk before the method goes on
-        if kept is not None:
-            return kept.output(), acc
-        return ModelOutput.concatenate(common_grid(parts)), acc
 
 
 def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
@@ -269,11 +81,14 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     method, outputs = _in_context(method, model, outputs)
     bs = executor.batch_size or batch_size or DEFAULT_BATCH_SIZE
     progress = progress or Progress()
+    if isinstance(method, MultiFidelityMC):
+        return _levels(method, model, space, outputs, seed, executor, bs, store, progress,
+                       design, timeout_s, containment)
     timing = Timing()
     t_start = time.perf_counter()
     if design is None:
         design = method.design(space, seed)
-    stage = _Stage(method, model, space, outputs, executor, bs, store, progress, timing,
+    stage = Stage(method, model, space, outputs, executor, bs, store, progress, timing,
                    timeout_s, containment)
     tasks = stage.tasks(design.n_runs)
     if not progress.chunks_total:  # called alone, not from run()
@@ -306,7 +121,29 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     )
 
 
-def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, stage: _Stage,
+def _levels(method: MultiFidelityMC, model: Model, space: InputSpace,
+            outputs: tuple[str, ...], seed: int, executor: Executor, bs: int,
+            store: RunStore | None, progress: Progress, design: Design | None,
+            timeout_s: float | None, containment: Containment | None) -> MethodRun:
+    """A multi-fidelity method (:mod:`.propagate_levels`); a method failure is recorded
+    like any method's, the runs made before it are lost to the result (not to the
+    checkpoint)."""
+    from .propagate_levels import propagate_levels
+
+    t0 = time.perf_counter()
+    try:
+        return propagate_levels(method, model, space, outputs, seed, executor, bs, store,
+                                progress, design, timeout_s, containment)
+    except _METHOD_FAILURES as exc:
+        return MethodRun(estimate=_no_estimate(method), x=np.zeros((0, space.dim)),
+                         scalars={}, failed=np.zeros(0, bool),
+                         reasons=np.zeros(0, dtype=object), time=np.zeros(0), n_runs=0,
+                         model_seconds=0.0, fit_seconds=0.0,
+                         wall_seconds=time.perf_counter() - t0, success=False,
+                         message=_why(method, exc))
+
+
+def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, stage: Stage,
                            tasks: list[Task], reducer: Any, progress: Progress, timing: Timing
                            ) -> tuple[Estimate, Design, ModelOutput, float, str]:
     """Evaluate the design (and its refinements), then estimate.
@@ -431,6 +268,8 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
             t_design = time.perf_counter()
             design = method.design(config.space, config.seed)
             designs.append((design, time.perf_counter() - t_design))
+            if isinstance(method, MultiFidelityMC):
+                continue  # (its runs are planned stage by stage, once the pilot has run)
             bs = executor.batch_size or config.raw.batch_size
             progress.plan(len(chunk_bounds(method, design.n_runs, bs)), design.n_runs,
                           method.label)

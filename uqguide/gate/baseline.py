@@ -38,7 +38,7 @@ from ..results import statistics
 from ..results.result import Result
 from .tolerances import DEFAULT_PCE_RTOL, check_tolerance, tolerance_problem
 from ..results.statistics import (
-    SAMPLE, STAT_NAMES, OutputStatistics, Point, result_statistics,
+    FROM_RUNS, SAMPLE, STAT_NAMES, OutputStatistics, Point, result_statistics,
 )
 
 BASELINE_FORMAT = "uqguide-baseline"
@@ -162,7 +162,7 @@ class BaselineOutput(_Strict):
             raise ValueError(f"components must be a non-empty list of distinct names "
                              f"(got {self.components})")
         sample = self.uncertainty == SAMPLE
-        if sample != (self.moments_method == "sample"):
+        if sample != (self.moments_method in FROM_RUNS):
             raise ValueError(f"uncertainty {self.uncertainty!r} does not fit moments_method "
                              f"{self.moments_method!r}")
         if sample and self.n_used < 1:
@@ -180,7 +180,9 @@ class BaselineOutput(_Strict):
                                  f"and a time >= 0 (got at {p.at!r}, time {p.time!r})")
             if p.mean is None and p.std is None:
                 raise ValueError(f"{where}: mean and std are both null: nothing to check")
-            if sample and p.std is not None:
+            if self.moments_method == "mfmc" and p.std is not None:
+                _check_multifidelity_se(p, self.n_used, where)
+            elif sample and p.std is not None:
                 # The standard error of the mean is std / sqrt(n_used) (stats.py): a baseline
                 # whose error bars were loosened by hand no longer fits its own numbers.
                 sem = p.std / math.sqrt(self.n_used)
@@ -194,6 +196,32 @@ class BaselineOutput(_Strict):
             if sample:
                 _check_quantile_intervals(p, self.n_used, where)
         return self
+
+
+#: How much larger than plain MC's ``std / sqrt(n_used)`` over its highest level's runs a
+#: multi-fidelity standard error of the mean may be. With the optimal weights estimated from
+#: the runs the estimator's variance formula is at most plain MC's over those runs (PWG16
+#: Lemma 3.3: ``g <= 1``); the margin covers the std being the MFMC estimate, not the highest
+#: level's own sample std.
+MFMC_SE_FACTOR = 1.5
+
+
+def _check_multifidelity_se(p: BaselinePoint, n_used: int, where: str) -> None:
+    """A multi-fidelity point's standard errors: present, and the mean's no larger than
+    plain MC's over its highest-level runs (``n_used``) would be (a bar loosened by hand)."""
+    if p.std is None:
+        return
+    if p.mean_se is None or not p.mean_se > 0:
+        raise ValueError(f"{where}.mean_se must be a standard error > 0 for a multi-fidelity "
+                         f"statistic (got {p.mean_se!r})")
+    bound = MFMC_SE_FACTOR * p.std / math.sqrt(n_used)
+    if p.mean_se > bound:
+        raise ValueError(f"{where}.mean_se {p.mean_se:.6g} exceeds {MFMC_SE_FACTOR:g} std / "
+                         f"sqrt(n_used) = {bound:.6g}, more than plain MC of the highest "
+                         f"level's runs; regenerate the baseline rather than edit it")
+    for stat in ("std", "skewness", "kurtosis"):
+        if getattr(p, stat) is not None and getattr(p, f"{stat}_se") is None:
+            raise ValueError(f"{where}.{stat}_se: missing for a sample statistic")
 
 
 def quantile_level(name: str) -> float | None:
@@ -322,6 +350,12 @@ class BaselineMethod(_Strict):
                 "sample_runs - sample_failed"
         ok = runs - failed
         for name, o in self.outputs.items():
+            if o.moments_method == "mfmc":
+                # the highest level's runs: some of all the levels' runs
+                if o.n_used > ok:
+                    raise ValueError(f"outputs.{name}.n_used ({o.n_used}) exceeds the "
+                                     f"method's successful runs ({ok} = n_runs - n_failed)")
+                continue
             if o.uncertainty == SAMPLE and o.n_used != ok:
                 raise ValueError(f"outputs.{name}.n_used ({o.n_used}) is not the method's "
                                  f"successful runs ({ok} = {what})")

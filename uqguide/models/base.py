@@ -148,6 +148,10 @@ class Model(ABC):
     #: A small, cheap configuration (a short horizon) that still runs every part of the model:
     #: what the conformance suite (:func:`uqguide.testing.check_model`) builds it with.
     example_params: ClassVar[Mapping[str, Any]] = {}
+    #: The parameters that set the model's fidelity (an integration step: ``dt``, ``step``):
+    #: the only ones a multi-fidelity method's ``fidelities`` may change
+    #: (:meth:`at_fidelity`). Empty: the model has a single fidelity.
+    fidelity_params: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, params: ModelParams | Mapping[str, object] | None = None) -> None:
         if params is None:
@@ -155,6 +159,35 @@ class Model(ABC):
         elif not isinstance(params, ModelParams):
             params = self.Params(**dict(params))
         self.params = params
+
+    def at_fidelity(self, changes: Mapping[str, object]) -> Model:
+        """The same model with its fidelity parameters changed (validated like the config's).
+
+        Parameters
+        ----------
+        changes : mapping of str to value
+            Values of some of :attr:`fidelity_params`; empty: this model.
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        ValueError
+            Naming a parameter that does not set the fidelity, or a value its field refuses.
+        """
+        if not changes:
+            return self
+        other = [k for k in changes if k not in self.fidelity_params]
+        if other:
+            allowed = ", ".join(self.fidelity_params) or "none (a single fidelity)"
+            raise ValueError(f"'{other[0]}' does not set the fidelity of model '{self.name}'; "
+                             f"its fidelity parameters: {allowed}")
+        # Through the Params class, so a step the model refuses is refused here too; the
+        # field values themselves (not their JSON) so that a callable's function survives.
+        fields = {k: getattr(self.params, k) for k in type(self.params).model_fields}
+        return type(self)(self.Params(**{**fields, **changes}))
 
     @abstractmethod
     def inputs(self) -> tuple[InputInfo, ...]:

@@ -273,6 +273,9 @@ class CallableModel(DeclaredModel):
     Params = CallableParams
     may_crash = True  # a user's function may segfault (C extensions), leak or os._exit
     params: CallableParams
+    #: Fidelity levels of a user's model are other functions of the same inputs and outputs
+    #: (``fidelities: [{function: "sim:fine"}, {function: "sim:coarse"}]``).
+    fidelity_params = ("function",)
     example_params = {"function": "uqguide.models.callable:example_function",
                       "inputs": ["a", "b"], "nominal": [1.0, 0.5],
                       "outputs": ["y", {"name": "path", "kind": "series"}]}

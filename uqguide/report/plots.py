@@ -40,6 +40,7 @@ from .figures import Figure, new_figure, save
 from ..models.base import OutputInfo
 from .tables import cost_table
 from ..results.result import MethodRun, Result
+from ..results.statistics import FROM_RUNS
 
 log = logging.getLogger(__name__)
 
@@ -94,7 +95,7 @@ def method_label(r: MethodRun) -> str:
 
 def _is_sample(r: MethodRun, output: str) -> bool:
     s = r.estimate.stats.get(output)
-    return s is not None and s.moments_method == "sample"
+    return s is not None and s.moments_method in FROM_RUNS
 
 
 def _styles(result: Result) -> dict[str, dict]:

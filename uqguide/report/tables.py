@@ -59,6 +59,7 @@ def cost_table(result: Result) -> pd.DataFrame:
             extra["validation"] = d["n_validation"]
             errs = [v for k, v in d.items() if k.startswith("validation_error.")]
             extra["val_error"] = max(errs) if errs else float("nan")
+        extra.update(multifidelity_columns(d))
         unusable = unusable_outputs(d)
         if unusable:
             extra["no usable surrogate"] = "; ".join(unusable)
@@ -85,6 +86,26 @@ def cost_table(result: Result) -> pd.DataFrame:
     if "status" in df:
         df["status"] = df["status"].fillna("ok")
     return df
+
+
+def multifidelity_columns(diagnostics: dict) -> dict[str, Any]:
+    """A multi-fidelity method's cost (:mod:`uqguide.methods.mfmc`): runs and model CPU
+    seconds per level (``/``-separated, highest fidelity first; a level left out after the
+    pilot shows its pilot runs), the variance reduction the pilot predicted for the allocation,
+    and the plain Monte Carlo runs of the highest level that would give the standard error of
+    the mean it reached (the worst of the outputs it was optimised for). Empty for the other
+    methods."""
+    if "runs_per_level" not in diagnostics:
+        return {}
+    runs = np.atleast_1d(diagnostics["runs_per_level"])
+    cpu = np.atleast_1d(diagnostics.get("cpu_per_level", np.full(runs.size, np.nan)))
+    return {
+        "runs per level": " / ".join(str(int(v)) for v in runs),
+        "CPU s per level": " / ".join(f"{float(v):.3g}" for v in cpu),
+        "variance reduction": round(float(diagnostics.get("estimated_variance_reduction",
+                                                          np.nan)), 3),
+        "equivalent MC runs": round(float(diagnostics.get("equivalent_mc_runs", np.nan))),
+    }
 
 
 def unusable_outputs(diagnostics: dict) -> list[str]:

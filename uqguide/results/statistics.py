@@ -48,6 +48,9 @@ Z95 = 1.959963984540054
 #: How an output's statistics are judged: by standard errors (sample estimates) or by a relative
 #: tolerance (a PCE's exact or surrogate-sampled moments).
 SAMPLE, RELATIVE = "standard_error", "relative_tolerance"
+#: ``moments_method`` of estimates made from model runs, judged by their standard errors:
+#: plain sample moments, and multi-fidelity Monte Carlo's (:mod:`uqguide.methods.mfmc`).
+FROM_RUNS = ("sample", "mfmc")
 
 Kind = Literal["moment", "corrected", "fallback", "quantile"]
 
@@ -326,7 +329,7 @@ class OutputStatistics:
     @property
     def uncertainty(self) -> str:
         """How the statistics are judged: :data:`SAMPLE` or :data:`RELATIVE`."""
-        return SAMPLE if self.moments_method == "sample" else RELATIVE
+        return SAMPLE if self.moments_method in FROM_RUNS else RELATIVE
 
     @property
     def quantile_levels(self) -> tuple[float, ...]:

@@ -21,11 +21,13 @@ DEFAULT_BATCH_SIZE = 10_000
 class Timing:
     """Seconds spent in the model, summed over chunks (worker-seconds: with ``w`` workers busy
     this grows ``w`` times faster than the wall clock), seconds spent compiling its kernel
-    (never in ``model_seconds``), and the number of runs."""
+    (never in ``model_seconds``), the number of runs, and the CPU seconds of the model calls
+    (``cpu_seconds``: what a multi-fidelity method's costs are measured in)."""
 
     model_seconds: float = 0.0
     n_runs: int = 0
     compile_seconds: float = 0.0
+    cpu_seconds: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -68,6 +70,10 @@ class ChunkResult:
     compile_seconds : float
         Seconds the chunk's process spent compiling a kernel during those calls (a first run
         on a fresh install; :func:`uqguide.models.kernels.compile_seconds`).
+    cpu_seconds : float
+        CPU seconds of the chunk's process during those calls (``time.process_time``: all its
+        threads, so a model's own threads count), less ``compile_seconds``; unlike the wall
+        seconds, not inflated by other processes on a busy machine.
     in_place : tuple of (part, key, n)
         Per-run values the worker wrote into the driver's shared arrays instead of sending
         them (:mod:`uqguide.driver.execution.shared_rows`): ``scalars`` or ``summary``, the key, the
@@ -83,6 +89,7 @@ class ChunkResult:
     summary: dict[str, np.ndarray] = field(default_factory=dict)
     model_seconds: float = 0.0
     compile_seconds: float = 0.0
+    cpu_seconds: float = 0.0
     in_place: tuple[tuple[str, str, int], ...] = ()
 
     @property

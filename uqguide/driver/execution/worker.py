@@ -66,6 +66,7 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
     m = x.shape[0]
     compiled_before = kernels.compile_seconds()
     t0 = time.perf_counter()
+    c0 = time.process_time()
     known = {r - task.start: why for r, why in job.known.items() if task.start <= r < task.stop}
     parts = []
     for s in range(0, max(m, 1), job.batch_size):
@@ -79,12 +80,14 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
     # a first call that compiles the kernel is timed as compiling, not as running the model
     compiled = kernels.compile_seconds() - compiled_before
     seconds = max(time.perf_counter() - t0 - compiled, 0.0)
+    cpu = max(time.process_time() - c0 - compiled, 0.0)
     if job.reducer is None:
         return ChunkResult(task, out.failed, out.reasons, out.time, out.scalars, out.series,
-                           model_seconds=seconds, compile_seconds=compiled)
+                           model_seconds=seconds, compile_seconds=compiled, cpu_seconds=cpu)
     summary = job.reducer(out, task.index)
     result = ChunkResult(task, out.failed, out.reasons, out.time, out.scalars,
-                         summary=summary, model_seconds=seconds, compile_seconds=compiled)
+                         summary=summary, model_seconds=seconds, compile_seconds=compiled,
+                         cpu_seconds=cpu)
     return write_in_place(job.shared, result) if job.shared is not None else result
 
 

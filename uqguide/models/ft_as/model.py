@@ -71,6 +71,7 @@ class FTAS(Model):
     """
 
     name = "ft_as"
+    fidelity_params = ("step",)
     summary = (
         "6-DOF orbit+attitude tracking: fixed-time observer, FT-NTSM, 2 N / 1 N m saturation "
         "(Wei et al. 2024)"

@@ -136,6 +136,7 @@ class FTCAPN(Model):
     """FTCAPN closed-loop rendezvous simulator (spec ftcapn.md), vectorised over samples."""
 
     name = "ftcapn"
+    fidelity_params = ("dt",)
     summary = ("finite-time-convergence augmented proportional navigation, midrange "
                "rendezvous from 5.4 km to 50 m (Wang & Song 2019)")
     Params = FTCAPNParams

@@ -148,6 +148,7 @@ class GMMFTC(Model):
     """GMM-FTC proximity to a spinning complex-shaped target ([C]), vectorised over samples."""
 
     name = "gmm_ftc"
+    fidelity_params = ("dt",)
     summary = ("GMM-based fixed-time control approaching a tumbling complex-shaped target in "
                "its body frame (Chen et al. 2020)")
     Params = GMMFTCParams

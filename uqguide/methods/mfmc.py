@@ -1,0 +1,468 @@
+"""Multi-fidelity Monte Carlo (``mfmc``): the highest level's statistics, with cheaper levels of
+the same model as control variates (Peherstorfer, Willcox & Gunzburger 2016).
+
+Config::
+
+    methods:
+      - name: mfmc
+        fidelities: [{step: 0.01}, {step: 0.05}, {step: 0.1}]   # highest first
+        budget_cpu_s: 600          # or target_se: {delta_v: 0.01}
+        optimise_for: [delta_v, settle_r_e]
+
+A level is the config's model with the parameters of one ``fidelities`` entry changed; a model
+declares which parameters may change (:attr:`uqguide.models.base.Model.fidelity_params`: ``dt``
+for FTCAPN and GMM-FTC, ``step`` for FT-AS). The driver runs it in phases
+(:mod:`uqguide.driver.propagate_levels`):
+
+1. **pilot**: the first ``n_pilot`` rows at every level. Each level's cost per run is the
+   CPU seconds of its pilot chunks' model calls (``time.process_time`` where they ran,
+   compiling excluded: a busy machine inflates wall seconds, not CPU), unless
+   ``costs`` pins them; the correlations with the highest level are those of the pilot, per
+   quantity: each component of each ``optimise_for`` output (series at the report times on the
+   highest level's grid) and its square (the carrier of the variance).
+2. **allocation** (:func:`uqguide.stats.mfmc_allocation.select_allocation`): the levels kept
+   and the ratios ``m_i / m_0`` that minimise the worst variance ratio against plain MC of the
+   highest level at equal cost over those quantities; plain MC when nothing gains more than
+   ``min_gain`` (the method says so). Then ``m_0`` from ``budget_cpu_s`` (the pilot's cost
+   included) or from ``target_se`` (the largest ``m_0`` any quantity needs).
+3. **main**: level ``i`` on rows ``[n_pilot, m_i)``; the pilot rows are part of the estimate
+   (their weights are re-estimated from all rows every level ran, so the pilot's noise in the
+   allocation does not bias the estimate beyond ``O(1/m_0)``).
+
+Reproducibility: all levels evaluate rows of one stream of inputs, drawn in chunks of
+``chunk_size`` from children of the method's seed (:func:`~uqguide.methods.monte_carlo.
+method_seed`), so a chunk's rows never depend on the workers. With ``costs`` given the
+allocation is a function of the config alone and the numbers are the same bits on any
+executor; measured costs are rounded to two significant digits relative to the highest level
+(timing noise below a few percent does not move the allocation) and, on a resume, come from
+the checkpointed pilot chunks.
+
+Statistics (:mod:`uqguide.stats.mfmc_estimator`): mean, std, skewness and kurtosis per
+component and time step of the highest level's grid; the mean's standard error from the
+estimator's variance formula, the others' 95% intervals by a group bootstrap at the report times
+and the last step. The covariance's off-diagonal terms are the highest level's sample
+covariance (its diagonal the MFMC variance). Quantiles and events are not estimated (the config
+is refused).
+"""
+
+from __future__ import annotations
+
+import logging
+import zlib
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from ..core.inputs import InputSpace
+from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats
+from ..errors import ConfigError, MethodError
+from ..stats.mfmc_allocation import Allocation, sample_sizes, select_allocation, variance_factor
+from ..stats.mfmc_estimator import mfmc_statistics
+from .base import Design, MethodSettings, Method, RunPlan
+from .mc_reduce import ci_index
+from .mfmc_levels import usable_rows, values
+from .monte_carlo import DesignChunks, method_seed
+
+log = logging.getLogger(__name__)
+
+
+def _one_level() -> list[dict[str, float | int | str]]:
+    return [{}]
+
+
+class MfmcSettings(MethodSettings):
+    """Settings of ``mfmc`` (module docstring).
+
+    Attributes
+    ----------
+    fidelities : list of dict
+        The levels, highest fidelity first: each the model parameters it changes.
+    n_pilot : int
+        Runs of every level in the pilot (and the least any used level gets).
+    budget_cpu_s : float, optional
+        Model CPU seconds for the whole method, pilot included.
+    target_se : dict of str to float, optional
+        Standard error of the mean wanted per output (its unit); exactly one of the two.
+    optimise_for : list of str
+        Outputs the allocation is optimised for (default: every output of the run).
+    costs : list of float, optional
+        Seconds per run of each level, instead of the pilot's measurement.
+    min_gain : float
+        Estimated variance reduction below which plain MC of the highest level is run.
+    chunk_size : int
+        Rows per random stream and per checkpointed chunk.
+    bootstrap : int
+        Group-bootstrap resamples for the intervals of std, skewness, kurtosis (0: none).
+    max_runs : int
+        Largest number of runs of any one level.
+    """
+
+    fidelities: list[dict[str, float | int | str]] = Field(default_factory=_one_level,
+                                                           min_length=1, max_length=8)
+    n_pilot: int = Field(default=100, ge=10, le=1_000_000)
+    budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False)
+    target_se: dict[str, float] | None = None
+    optimise_for: list[str] = Field(default_factory=list)
+    costs: list[float] | None = None
+    min_gain: float = Field(default=1.1, ge=1.0, le=1e6)
+    chunk_size: int = Field(default=256, ge=1, le=1_000_000)
+    bootstrap: int = Field(default=200, ge=0, le=100_000)
+    max_runs: int = Field(default=10_000_000, ge=10, le=100_000_000)
+
+    @model_validator(mode="after")
+    def _one_goal(self) -> MfmcSettings:
+        if (self.budget_cpu_s is None) == (self.target_se is None):
+            raise ValueError("give exactly one of budget_cpu_s (model CPU seconds) and "
+                             "target_se (standard error of the mean per output)")
+        for k, v in (self.target_se or {}).items():
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"target_se.{k} must be a standard error > 0, got {v}")
+        if self.costs is not None:
+            if len(self.costs) != len(self.fidelities):
+                raise ValueError(f"costs has {len(self.costs)} values for "
+                                 f"{len(self.fidelities)} fidelities; give one per level")
+            if not all(np.isfinite(c) and c > 0 for c in self.costs):
+                raise ValueError(f"costs must be seconds per run > 0, got {self.costs}")
+        if self.max_runs < self.n_pilot:
+            raise ValueError(f"max_runs ({self.max_runs}) must be at least n_pilot "
+                             f"({self.n_pilot})")
+        return self
+
+
+@dataclass
+class LevelPlan:
+    """What the pilot decided.
+
+    Attributes
+    ----------
+    levels : tuple of int
+        Config levels used, in estimator order (0 first).
+    sizes : ndarray of int
+        Runs of each used level (rows ``[0, m_i)``).
+    allocation : Allocation
+    costs : ndarray, shape (K,)
+        Seconds per run of every config level (measured or given).
+    measured : bool
+        Whether ``costs`` were measured.
+    note : str
+        Why plain MC, or what limited the sizes ("" when nothing to say).
+    """
+
+    levels: tuple[int, ...]
+    sizes: np.ndarray
+    allocation: Allocation
+    costs: np.ndarray
+    measured: bool
+    note: str = ""
+
+
+class MultiFidelityMC(Method):
+    """Multi-fidelity Monte Carlo over fidelity levels of the run's model."""
+
+    name = "mfmc"
+    summary = "multi-fidelity Monte Carlo: cheaper fidelity levels as control variates"
+    Settings = MfmcSettings
+    settings: MfmcSettings
+    example_settings = {"fidelities": [{}], "n_pilot": 40, "costs": [1e-3],
+                        "budget_cpu_s": 0.3, "chunk_size": 64, "bootstrap": 50,
+                        "max_runs": 1000}
+
+    # ---------------------------------------------------------------- config checks
+    def check(self, index: int) -> None:
+        """ConfigError for outputs the run does not report, and for quantiles and events."""
+        where = f"methods[{index}]"
+        known = list(self.context.outputs)
+        for key, names in (("optimise_for", self.settings.optimise_for),
+                           ("target_se", list(self.settings.target_se or {}))):
+            for name in names:
+                if known and name not in known:
+                    raise ConfigError(f"{where}.{key}: {name!r} is not an output of the run; "
+                                      f"allowed: {', '.join(known)}", field=f"{where}.{key}")
+        if self.context.quantile_levels is not None or self.context.events:
+            raise ConfigError(f"{where}: mfmc estimates moments only; remove quantiles and "
+                              f"events from the config or run them with monte_carlo",
+                              field=where)
+
+    def check_fidelities(self, model: Any, index: int) -> None:
+        """ConfigError naming ``methods[i].fidelities[j]`` when a level changes a parameter
+        that does not set the model's fidelity, or sets a value the model refuses."""
+        for j, changes in enumerate(self.settings.fidelities):
+            try:
+                model.at_fidelity(changes)
+            except ValueError as exc:
+                why = str(exc).splitlines()[0]
+                if hasattr(exc, "errors"):  # pydantic: the field's own message
+                    e = exc.errors()[0]
+                    why = f"{'.'.join(map(str, e['loc']))}: {e['msg']}"
+                raise ConfigError(f"methods[{index}].fidelities[{j}]: {dict(changes)}: {why}",
+                                  field=f"methods[{index}].fidelities[{j}]") from None
+
+    # ---------------------------------------------------------------- design
+    def plan(self, space: InputSpace) -> RunPlan:
+        return RunPlan(runs=None, chunk=self.settings.chunk_size, exact=False)
+
+    def design(self, space: InputSpace, seed: int) -> Design:
+        """One stream of input rows shared by every level (rows made per chunk on demand)."""
+        s = self.settings
+        boot_seed = int(np.random.SeedSequence([seed, zlib.crc32(self.label.encode()), 1])
+                        .generate_state(1)[0])
+        chunks = DesignChunks(space, s.max_runs, "random", s.chunk_size,
+                              method_seed(seed, self.label))
+        x = GeneratedRows(s.max_runs, space.dim, s.chunk_size, chunks, portable=True)
+        return Design(x=x, data={"boot_seed": boot_seed})
+
+    def row_chunks(self, start: int, stop: int) -> list[tuple[int, int]]:
+        """Rows ``[start, stop)`` split at the multiples of ``chunk_size`` (the checkpointed
+        unit; fixed by the config, never by the executor)."""
+        c = self.settings.chunk_size
+        cuts = [start, *range((start // c + 1) * c, stop, c), stop]
+        return [(a, b) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+
+    # ---------------------------------------------------------------- allocation
+    def _targets(self) -> list[str]:
+        return list(self.settings.optimise_for) or list(self.context.outputs)
+
+    def _report_columns(self, out: ModelOutput, name: str) -> np.ndarray:
+        """Columns of :func:`~.mfmc_levels.values` at the report times and the last step."""
+        if name in out.scalars:
+            return np.arange(out.scalars[name].shape[1])
+        k = out.series[name].shape[2]
+        idx = ci_index(out.time, self.context.report_times, "report")
+        steps = np.arange(out.time.size) if idx is None else idx
+        return (steps[:, None] * k + np.arange(k)[None, :]).ravel()
+
+    def allocate(self, pilot: list[ModelOutput], seconds_per_run: list[float]) -> LevelPlan:
+        """The levels and runs per level from the pilot (module docstring, step 2).
+
+        Parameters
+        ----------
+        pilot : list of ModelOutput
+            The pilot rows' outputs at every config level.
+        seconds_per_run : list of float
+            Measured model CPU seconds per run of every level.
+        """
+        s = self.settings
+        measured = s.costs is None
+        raw = np.asarray(seconds_per_run if measured else s.costs, dtype=float)
+        costs = raw.copy()
+        if measured:
+            if not np.all(np.isfinite(raw) & (raw > 0)):
+                raise MethodError(f"{self.label}: the pilot measured no model time at some "
+                                  f"level ({list(raw)} s per run); give costs")
+            rel = raw / raw[0]
+            rounded = np.array([float(f"{r:.2g}") for r in rel])
+            costs = rounded * float(f"{raw[0]:.2g}")
+        rows, var0, owner = self._pilot_quantities(pilot)
+        rho = _correlations(rows)
+        allocation = select_allocation(rho, costs, s.min_gain)
+        note = ""
+        if allocation.is_plain_mc and len(costs) > 1:
+            note = (f"the pilot found no gain above min_gain = {s.min_gain:g} from the cheaper "
+                    f"levels (correlations too low for their cost): plain Monte Carlo of the "
+                    f"highest level")
+            log.warning("%s: %s", self.label, note)
+        levels = allocation.levels
+        unused = [i for i in range(len(costs)) if i not in levels]
+        if s.budget_cpu_s is not None:
+            spent_unused = float(sum(costs[i] for i in unused)) * s.n_pilot
+            sizes = sample_sizes(allocation, costs, budget=max(s.budget_cpu_s - spent_unused,
+                                                                0.0), at_least=s.n_pilot)
+        else:
+            sizes = sample_sizes(allocation, costs, m0=self._m0_for_target(
+                var0, owner, rho, allocation), at_least=s.n_pilot)
+        if sizes[-1] > s.max_runs:
+            note = (note + "; " if note else "") + f"capped at max_runs = {s.max_runs}"
+            sizes = np.minimum(sizes, s.max_runs)
+        if s.budget_cpu_s is not None and \
+                float(np.dot(costs[list(levels)], np.full(len(levels), s.n_pilot))) \
+                + sum(costs[i] for i in unused) * s.n_pilot > s.budget_cpu_s:
+            note = (note + "; " if note else "") + \
+                "the pilot alone exceeds budget_cpu_s: every used level keeps its pilot runs"
+        return LevelPlan(levels=levels, sizes=sizes, allocation=allocation, costs=costs,
+                         measured=measured, note=note)
+
+    def _pilot_quantities(self, pilot: list[ModelOutput]
+                          ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+        """Per level, the pilot's values ``(n_ok, 2Q)`` of the quantities (each one, then each
+        one's centred square: the carrier of the variance) on the rows no level failed;
+        level 0's variances ``(Q,)`` and the output each quantity belongs to ``(Q,)``.
+        Constant quantities (zero variance at level 0, e.g. a series at t = 0) are left out:
+        they need no runs."""
+        n = self.settings.n_pilot
+        ok = usable_rows([p.failed for p in pilot], np.full(len(pilot), n))
+        if ok.sum() < 3:
+            raise MethodError(f"{self.label}: {int(ok.sum())} of {n} pilot rows ran at every "
+                              f"level without failing; at least 3 are needed")
+        cols: list[list[np.ndarray]] = [[] for _ in pilot]
+        owner: list[str] = []
+        for name in self._targets():
+            idx = self._report_columns(pilot[0], name)
+            owner += [name] * len(idx)
+            for j, p in enumerate(pilot):
+                v, _ = values(p, name, pilot[0].time)
+                cols[j].append(v[:, idx])
+        lv = [np.concatenate(c, axis=1) for c in cols]
+        # an output a model leaves NaN by design (a time never reached) is no correlation
+        ok &= np.all([np.isfinite(v).all(axis=1) for v in lv], axis=0)
+        if ok.sum() < 3:
+            raise MethodError(f"{self.label}: {int(ok.sum())} of {n} pilot rows have finite "
+                              f"values of {', '.join(self._targets())} at every level; at "
+                              f"least 3 are needed")
+        lv = [v[ok] for v in lv]
+        var0 = lv[0].var(axis=0)
+        keep = var0 > 1e-24 * np.maximum(lv[0].mean(axis=0) ** 2, 1e-300)
+        lv = [v[:, keep] for v in lv]
+        centred = [v - v.mean(axis=0) for v in lv]
+        return ([np.concatenate([c, c * c], axis=1) for c in centred], var0[keep],
+                np.asarray(owner, dtype=object)[keep])
+
+    def _m0_for_target(self, var0: np.ndarray, owner: np.ndarray, rho: np.ndarray,
+                       allocation: Allocation) -> float:
+        """The ``m_0`` at which every ``target_se`` output's mean reaches its standard error:
+        ``sigma^2 g / se^2`` (PWG16 Lemma 3.3), the largest over its components and times."""
+        assert self.settings.target_se is not None
+        need = 1.0
+        rho1 = rho[:var0.size][:, list(allocation.levels)]  # (the first powers)
+        g = variance_factor(rho1, allocation.ratios)
+        for name, se in self.settings.target_se.items():
+            mine = owner == name
+            if mine.any():
+                need = max(need, float(np.max(var0[mine] * g[mine])) / se**2)
+        return need
+
+    # ---------------------------------------------------------------- estimate
+    def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
+        raise MethodError(f"{self.label}: mfmc runs its levels through the driver "
+                          f"(uqguide.driver.propagate_levels), not on one model's runs")
+
+    def estimate_levels(self, runs: list[ModelOutput], plan: LevelPlan, design: Design,
+                        seconds: list[float], pilot_seconds: list[float]) -> Estimate:
+        """Statistics of every output from the used levels' runs (estimator order).
+
+        Parameters
+        ----------
+        runs : list of ModelOutput
+            Rows ``[0, m_i)`` of each used level.
+        plan : LevelPlan
+        design : Design
+        seconds : list of float
+            Model seconds of every config level (pilot and main runs).
+        pilot_seconds : list of float
+            Model seconds per run of every config level in the pilot.
+        """
+        sizes = plan.sizes
+        ok = usable_rows([r.failed for r in runs], sizes)
+        grid = runs[0].time
+        names = list(self.context.outputs) or [*runs[0].scalars, *runs[0].series]
+        stats: dict[str, OutputStats] = {}
+        how: set[tuple[int, str]] = set()
+        boot_seed = int(design.data.get("boot_seed", 0))
+        equivalent: dict[str, float] = {}
+        nan_rows: dict[str, int] = {}
+        for name in names:
+            lv = []
+            finite = ok.copy()
+            for j, r in enumerate(runs):
+                v, h = values(r, name, grid)
+                lv.append(v)
+                finite[:sizes[j]] &= np.isfinite(v).all(axis=1)
+                if h != "same":
+                    how.add((plan.levels[j], h))
+            if (~finite & ok).any():
+                nan_rows[name] = int((~finite & ok).sum())
+            try:
+                full = mfmc_statistics(lv, sizes, finite, n_resamples=0)
+            except ValueError as exc:
+                raise MethodError(f"{self.label}: {name}: {exc}") from None
+            cols = self._report_columns(runs[0], name)
+            boot = mfmc_statistics([v[:, cols] for v in lv], sizes, finite,
+                                   n_resamples=self.settings.bootstrap, seed=boot_seed) \
+                if self.settings.bootstrap else None
+            stats[name] = _output_stats(full, boot, cols, runs[0], name, finite[:sizes[0]])
+            finite = full.equivalent_mc_runs[np.isfinite(full.equivalent_mc_runs)]
+            equivalent[name] = float(finite.min()) if finite.size else float("nan")
+        n_failed = int((~ok).sum())
+        targets = [t for t in self._targets() if t in equivalent]
+        eq = min((equivalent[t] for t in targets), default=float("nan"))
+        cpu = float(sum(seconds))
+        c0 = float(plan.costs[0])
+        diagnostics: dict[str, Any] = {
+            "n_runs": int(sum(r.n for r in runs)) + self._unused_pilot_runs(plan),
+            "n_failed": n_failed,
+            "levels": "; ".join(_level_name(f) for f in self.settings.fidelities),
+            "levels_used": ",".join(str(i) for i in plan.levels),
+            "runs_per_level": np.array([int(sizes[plan.levels.index(i)])
+                                        if i in plan.levels else self.settings.n_pilot
+                                        for i in range(len(self.settings.fidelities))]),
+            "cpu_per_level": np.asarray(seconds, dtype=float),
+            "cost_per_run": np.asarray(plan.costs, dtype=float),
+            "costs": "measured (pilot, 2 significant digits)" if plan.measured else "given",
+            "pilot_seconds_per_run": np.asarray(pilot_seconds, dtype=float),
+            "estimated_variance_reduction": 1.0 / plan.allocation.variance_ratio,
+            "equivalent_mc_runs": eq,
+            "equivalent_mc_cpu_s": eq * c0,
+            # CPU that plain MC of the highest level would need for the same standard error of
+            # the worst optimised output's mean, over the CPU this run took
+            "cpu_saving": eq * c0 / cpu if cpu > 0 else float("nan"),
+            "plain_mc": bool(plan.allocation.is_plain_mc),
+            "note": plan.note,
+            "interpolated": ", ".join(f"level {i} {h}" for i, h in sorted(how)) or "none",
+            "intervals": "mean: variance formula; std, skewness, kurtosis: group bootstrap",
+            "bootstrap": self.settings.bootstrap,
+            # rows left out of one output's statistics for a non-finite value at some level
+            "non_finite_rows": "; ".join(f"{k} ({v})" for k, v in nan_rows.items()) or "none",
+        }
+        return Estimate(method=self.name, label=self.label, stats=stats,
+                        diagnostics=diagnostics)
+
+    def _unused_pilot_runs(self, plan: LevelPlan) -> int:
+        unused = len(self.settings.fidelities) - len(plan.levels)
+        return unused * self.settings.n_pilot
+
+
+def _level_name(changes: dict[str, Any]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in changes.items()) or "model as configured"
+
+
+def _correlations(rows: list[np.ndarray]) -> np.ndarray:
+    """``(Q, K)`` correlation of every (centred) quantity of each level with level 0's."""
+    a = rows[0]
+    out = np.ones((a.shape[1], len(rows)))
+    da = a - a.mean(axis=0)
+    sa = np.sqrt((da * da).mean(axis=0))
+    for j in range(1, len(rows)):
+        db = rows[j] - rows[j].mean(axis=0)
+        sb = np.sqrt((db * db).mean(axis=0))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[:, j] = np.where((sa > 0) & (sb > 0), (da * db).mean(axis=0) / (sa * sb), 0.0)
+    return out
+
+
+def _output_stats(full: Any, boot: Any, cols: np.ndarray, run0: ModelOutput, name: str,
+                  ok0: np.ndarray) -> OutputStats:
+    """The MFMC estimates in the output's shape: ``(k,)`` or ``(T, k)``."""
+    if name in run0.scalars:
+        shape: tuple[int, ...] = (run0.scalars[name].shape[1],)
+        y0 = run0.scalars[name][ok0]
+    else:
+        shape = run0.series[name].shape[1:]
+        y0 = run0.series[name][ok0]
+    k = shape[-1]
+    ci = {"mean": full.ci["mean"].reshape((2, *shape))}
+    for stat in ("std", "skewness", "kurtosis"):
+        v = np.full((2, int(np.prod(shape))), np.nan)
+        if boot is not None:
+            v[:, cols] = boot.ci[stat]
+        ci[stat] = v.reshape((2, *shape))
+    d = y0 - y0.mean(axis=0)
+    cov = np.einsum("n...i,n...j->...ij", d, d) / max(y0.shape[0], 1)
+    var = (full.std.reshape(shape)) ** 2
+    eye = np.eye(k, dtype=bool)
+    cov = np.where(eye, var[..., :, None] * np.ones(k), cov)
+    return OutputStats(mean=full.mean.reshape(shape), std=full.std.reshape(shape),
+                       skewness=full.skewness.reshape(shape),
+                       kurtosis=full.kurtosis.reshape(shape), cov=cov,
+                       n_used=int(full.n_used[0]), moments_method="mfmc",
+                       sem=full.sem.reshape(shape), ci=ci)

@@ -1,0 +1,201 @@
+"""Multi-fidelity Monte Carlo: which levels to use and how many runs of each.
+
+Peherstorfer, Willcox & Gunzburger (2016), "Optimal model management for multifidelity Monte
+Carlo estimation", SIAM J. Sci. Comput. 38(5) A3163 (cited as PWG16 below). Level 0 is the
+highest fidelity; levels ``1..K-1`` are cheaper. Level ``i`` is run on the first ``m_i`` rows
+of one input stream, ``m_0 <= m_1 <= ...`` (nested samples).
+
+Design decisions:
+
+- The closed-form optimum (PWG16 Thm 3.4, eq 3.10) holds only under the ordering condition
+  (PWG16 eq 3.8: correlations fall with the level, and the cost ratios beat the correlation
+  gaps). We check it per candidate subset of levels and discard the candidates that break it,
+  which is PWG16 Algorithm 1's model selection.
+- Several quantities of interest (outputs, report times, the first and second powers that
+  carry the mean and the variance) share one allocation. Each candidate (a subset, ordered by
+  one quantity's correlations, with that quantity's optimal ratios) is scored on every
+  quantity by the general variance formula of a nested allocation with the per-quantity
+  optimal weights, which holds for any ordering (PWG16 Lemma 3.3); the candidate with the
+  smallest *worst* variance ratio against plain Monte Carlo at equal cost wins. Plain Monte
+  Carlo of level 0 is always a candidate, with ratio 1, so the choice is never worse than MC
+  at the estimated correlations and costs.
+- A gain smaller than ``min_gain`` is not trusted (correlations from a pilot are noisy): the
+  allocation then falls back to plain Monte Carlo.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations
+
+import numpy as np
+
+__all__ = ["Allocation", "mfmc_ratios", "ordering_holds", "select_allocation",
+           "sample_sizes", "variance_factor", "variance_ratio"]
+
+
+@dataclass(frozen=True)
+class Allocation:
+    """The levels used and their run ratios.
+
+    Attributes
+    ----------
+    levels : tuple of int
+        Levels used, in estimator order; the first is always 0 (the highest fidelity).
+    ratios : ndarray, shape (len(levels),)
+        ``r_i = m_i / m_0``, non-decreasing, ``r_0 = 1``.
+    variance_ratio : float
+        Worst estimated ``Var(MFMC) / Var(MC)`` over the quantities, at equal cost (1: plain MC).
+    """
+
+    levels: tuple[int, ...]
+    ratios: np.ndarray
+
+    variance_ratio: float
+
+    @property
+    def is_plain_mc(self) -> bool:
+        return len(self.levels) == 1
+
+
+def ordering_holds(rho: np.ndarray, w: np.ndarray) -> bool:
+    """PWG16 eq (3.8): ``|rho_0| > |rho_1| > ...`` and
+    ``w_{i-1}/w_i > (rho_{i-1}^2 - rho_i^2) / (rho_i^2 - rho_{i+1}^2)`` for ``i >= 1``.
+
+    Parameters
+    ----------
+    rho : ndarray, shape (K,)
+        Correlations of each level with level 0 (``rho[0] = 1``).
+    w : ndarray, shape (K,)
+        Cost per run of each level (any unit, > 0).
+    """
+    r2 = np.append(np.asarray(rho, float) ** 2, 0.0)
+    if np.any(np.diff(r2[:-1]) >= 0):
+        return False
+    for i in range(1, len(w)):
+        if r2[i] - r2[i + 1] <= 0:  # (an uncorrelated last level: no gap to pay for it)
+            return False
+        if not w[i - 1] / w[i] > (r2[i - 1] - r2[i]) / (r2[i] - r2[i + 1]):
+            return False
+    return True
+
+
+def mfmc_ratios(rho: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The optimal ratios ``r_i = m_i/m_0`` (PWG16 eq 3.10):
+    ``r_i = sqrt(w_0 (rho_i^2 - rho_{i+1}^2) / (w_i (1 - rho_1^2)))``, ``rho_K = 0``.
+
+    Parameters
+    ----------
+    rho, w : ndarray, shape (K,)
+        As :func:`ordering_holds`, which must hold.
+
+    Returns
+    -------
+    ndarray, shape (K,)
+    """
+    r2 = np.append(np.asarray(rho, float) ** 2, 0.0)
+    w = np.asarray(w, float)
+    if len(w) == 1:
+        return np.ones(1)
+    return np.sqrt(w[0] * (r2[:-1] - r2[1:]) / (w * (1.0 - r2[1])))
+
+
+def variance_factor(rho: np.ndarray, ratios: np.ndarray) -> np.ndarray:
+    """``g`` in ``Var(MFMC mean) = sigma_0^2 g / m_0`` for a nested allocation with the
+    optimal weights ``alpha_i = rho_i sigma_0 / sigma_i`` (PWG16 Lemma 3.3):
+    ``g = 1 - sum_{i>=1} (1/r_{i-1} - 1/r_i) rho_i^2``.
+
+    Parameters
+    ----------
+    rho : ndarray, shape (..., K)
+        Correlations of the used levels with level 0, in estimator order.
+    ratios : ndarray, shape (K,)
+
+    Returns
+    -------
+    ndarray, shape (...)
+    """
+    rho = np.asarray(rho, float)
+    inv = 1.0 / np.asarray(ratios, float)
+    return 1.0 - np.sum((inv[:-1] - inv[1:]) * rho[..., 1:] ** 2, axis=-1)
+
+
+def variance_ratio(rho: np.ndarray, w: np.ndarray, ratios: np.ndarray) -> np.ndarray:
+    """``Var(MFMC) / Var(MC)`` at equal cost: ``g * (sum_i w_i r_i) / w_0``.
+
+    At the optimum of :func:`mfmc_ratios` this equals PWG16 eq (3.13)'s
+    ``(sum_i sqrt(w_i (rho_i^2 - rho_{i+1}^2)))^2 / w_0``.
+    """
+    w = np.asarray(w, float)
+    return variance_factor(rho, ratios) * float(np.dot(w, ratios)) / w[0]
+
+
+def select_allocation(rho: np.ndarray, w: np.ndarray, min_gain: float = 1.0) -> Allocation:
+    """The allocation with the smallest worst variance ratio over the quantities (module
+    docstring), or plain MC of level 0 when no candidate gains more than ``min_gain``.
+
+    Parameters
+    ----------
+    rho : ndarray, shape (Q, K)
+        Correlation of each quantity at each level with level 0 (column 0 is 1; NaN, e.g. a
+        constant quantity, counts as 0).
+    w : ndarray, shape (K,)
+        Cost per run of each level (> 0).
+    min_gain : float
+        Variance reduction (``1/variance_ratio``) below which plain MC is kept.
+
+    Returns
+    -------
+    Allocation
+    """
+    rho = np.nan_to_num(np.atleast_2d(np.asarray(rho, float)))
+    rho[:, 0] = 1.0
+    w = np.asarray(w, float)
+    n_levels = len(w)
+    best = Allocation((0,), np.ones(1), 1.0)
+    for size in range(1, n_levels):
+        for subset in combinations(range(1, n_levels), size):
+            for q in range(rho.shape[0]):
+                order = sorted(subset, key=lambda i: -abs(rho[q, i]))
+                levels = (0, *order)
+                rq, wq = rho[q, list(levels)], w[list(levels)]
+                if not ordering_holds(rq, wq):
+                    continue
+                ratios = mfmc_ratios(rq, wq)
+                worst = float(np.max(variance_ratio(rho[:, list(levels)], wq, ratios)))
+                if worst < best.variance_ratio:
+                    best = Allocation(levels, ratios, worst)
+    if best.is_plain_mc or 1.0 / best.variance_ratio < min_gain:
+        return Allocation((0,), np.ones(1), 1.0)
+    return best
+
+
+def sample_sizes(allocation: Allocation, w: np.ndarray, *, budget: float | None = None,
+                 m0: float | None = None, at_least: int = 0) -> np.ndarray:
+    """Runs per used level, ``m_i = floor(r_i m_0)`` (within a budget), nested, at least
+    ``max(at_least, 2)``.
+
+    Parameters
+    ----------
+    allocation : Allocation
+    w : ndarray, shape (K,)
+        Cost per run of every level (indexed by level, not by estimator order).
+    budget : float, optional
+        Total cost (unit of ``w``): ``m_0 = budget / sum_i w_i r_i`` (PWG16 eq 3.10).
+    m0 : float, optional
+        ``m_0`` itself (for a target standard error); exactly one of ``budget`` and ``m0``.
+    at_least : int
+        Lower bound of every ``m_i`` (the pilot's runs are part of the estimate).
+
+    Returns
+    -------
+    ndarray of int, shape (len(allocation.levels),)
+    """
+    if (budget is None) == (m0 is None):
+        raise ValueError("give exactly one of budget and m0")
+    if m0 is None:
+        assert budget is not None
+        wl = np.asarray(w, float)[list(allocation.levels)]
+        m0 = budget / float(np.dot(wl, allocation.ratios))
+    m = np.maximum(np.floor(allocation.ratios * m0 + 1e-9), at_least).astype(np.int64)
+    return np.maximum.accumulate(np.maximum(m, 2))

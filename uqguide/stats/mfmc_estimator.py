@@ -1,0 +1,251 @@
+"""The multi-fidelity Monte Carlo estimator of mean, std, skewness and kurtosis, with intervals.
+
+Peherstorfer, Willcox & Gunzburger (2016, PWG16; see :mod:`.mfmc_allocation`). Level ``j``
+(estimator order, 0 = highest fidelity) ran on the first ``m_j`` rows of one input stream,
+``m_0 <= m_1 <= ...``. With ``M_j(t)`` the mean of level ``j`` over the first ``m_t`` rows, the
+estimator of ``E[f(y_0)]`` is (PWG16 eq 2.4)::
+
+    s = M_0(0) + sum_{j>=1} alpha_j (M_j(j) - M_j(j-1))
+
+It is unbiased for level 0 whatever the weights: the cheaper levels only cancel noise.
+
+Design decisions:
+
+- Higher moments: the same control-variate structure applied to the power sums ``E[z^p]``,
+  ``p = 1..4``, of ``z = y - c`` with ``c`` the highest level's sample mean (centring keeps the
+  raw-to-central conversion well conditioned), each power with its own optimal weight
+  ``alpha_{j,p} = cov(z_0^p, z_j^p) / var(z_j^p)`` (PWG16 eq 3.9), estimated on the rows every
+  level ran. The central moments follow from the four estimates; like the Monte Carlo
+  estimators they are the plain (``1/n``-type) ones, consistent but not exactly unbiased
+  beyond the mean. A negative variance estimate (possible with weights > 1 on very few runs)
+  gives std NaN rather than a made-up number.
+- The rows split into independent groups: group ``g`` is rows ``[m_{g-1}, m_g)``, run at levels
+  ``g, g+1, ...``. Intervals are a percentile bootstrap that resamples rows *within* each group
+  (so each resample keeps the allocation), weights held at their full-sample values, with a
+  fixed seed stream (block ``b`` of resamples from ``default_rng([seed, b])``). The standard
+  error of the mean is PWG16 Lemma 3.3's variance formula with the sample variances and
+  correlations, and the mean's interval is the normal one from it.
+- A failed run is counted and left out: a row that failed at any level it ran at is dropped at
+  every level (a row is one draw of the inputs; keeping it at some levels only would break the
+  telescoping sum). The group sizes are then the surviving rows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from statistics import NormalDist
+
+import numpy as np
+
+from .moments import _nan_safe_percentile, shape_moments
+
+__all__ = ["MfmcStatistics", "mfmc_statistics", "group_bounds"]
+
+_POWERS = 4
+
+
+@dataclass
+class MfmcStatistics:
+    """The estimates of :func:`mfmc_statistics`, one column per quantity.
+
+    Attributes
+    ----------
+    mean, std, skewness, kurtosis, sem : ndarray, shape (Q,)
+    ci : dict of str to ndarray, shape (2, Q)
+        95% (or ``level``) intervals of mean, std, skewness and kurtosis.
+    alpha : ndarray, shape (K, 4, Q)
+        Weights per level and power (row 0 is 1).
+    rho : ndarray, shape (K, 2, Q)
+        Correlations with level 0 of ``z`` and ``z^2`` (the carriers of mean and variance).
+    equivalent_mc_runs : ndarray, shape (Q,)
+        Level-0 Monte Carlo runs with the same standard error of the mean:
+        ``sigma_0^2 / sem^2``.
+    n_used : ndarray of int, shape (K,)
+        Surviving rows per level.
+    """
+
+    mean: np.ndarray
+    std: np.ndarray
+    skewness: np.ndarray
+    kurtosis: np.ndarray
+    sem: np.ndarray
+    ci: dict[str, np.ndarray]
+    alpha: np.ndarray
+    rho: np.ndarray
+    equivalent_mc_runs: np.ndarray
+    n_used: np.ndarray
+
+
+def group_bounds(sizes: np.ndarray) -> list[tuple[int, int]]:
+    """The independent groups ``[m_{g-1}, m_g)`` of rows (``m_{-1} = 0``).
+
+    Parameters
+    ----------
+    sizes : ndarray of int, shape (K,)
+        Runs per level, non-decreasing.
+    """
+    edges = [0, *(int(m) for m in sizes)]
+    return [(edges[g], edges[g + 1]) for g in range(len(sizes))]
+
+
+def _check(levels_y: list[np.ndarray], sizes: np.ndarray, ok: np.ndarray) -> None:
+    if len(levels_y) != len(sizes) or not len(sizes):
+        raise ValueError("one array of outputs per level is needed")
+    if np.any(np.diff(sizes) < 0):
+        raise ValueError(f"runs per level must not decrease; got {list(sizes)}")
+    for j, (y, m) in enumerate(zip(levels_y, sizes)):
+        if y.ndim != 2 or y.shape[0] != m:
+            raise ValueError(f"level {j}: outputs of shape {y.shape}, expected ({m}, Q)")
+    if ok.shape != (int(sizes[-1]),):
+        raise ValueError(f"ok mask of shape {ok.shape}, expected ({int(sizes[-1])},)")
+
+
+def _group_sums(z: list[np.ndarray], bounds: list[tuple[int, int]], ok: np.ndarray,
+                counts: list[np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """Power sums ``S (B, G, K, 4, Q)`` per group and level (zero where a level did not run
+    in a group) and surviving rows ``N (B, G)``; ``counts[g] (B, n_g)`` are resampling
+    multiplicities of group ``g``'s surviving rows (None: each row once, ``B = 1``)."""
+    n_levels, q = len(z), z[0].shape[1]
+    b = 1 if counts is None else counts[0].shape[0]
+    s = np.zeros((b, len(bounds), n_levels, _POWERS, q))
+    n = np.zeros((b, len(bounds)))
+    for g, (a, e) in enumerate(bounds):
+        keep = a + np.flatnonzero(ok[a:e])
+        c = np.ones((1, keep.size)) if counts is None else counts[g]
+        n[:, g] = c.sum(axis=1)
+        for j in range(g, n_levels):
+            d = z[j][keep]
+            p = d.copy()
+            for k in range(_POWERS):
+                s[:, g, j, k] = c @ p
+                p = p * d
+    return s, n
+
+
+def _combine(s: np.ndarray, n: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """PWG16 eq (2.4) for each power: ``(B, 4, Q)`` estimates of ``E[z^p]``."""
+    cum_s = np.cumsum(s, axis=1)  # (B, t, K, 4, Q): sums over the first m_t rows
+    cum_n = np.cumsum(n, axis=1)[:, :, None, None]  # (B, t, 1, 1)
+    est = cum_s[:, 0, 0] / cum_n[:, 0]
+    for j in range(1, s.shape[2]):
+        est = est + alpha[j] * (cum_s[:, j, j] / cum_n[:, j] - cum_s[:, j - 1, j] /
+                                cum_n[:, j - 1])
+    return est
+
+
+def _central(raw: np.ndarray, shift: np.ndarray) -> tuple[np.ndarray, ...]:
+    """mean, std, skewness, kurtosis from ``E[z^p]`` ``(..., 4, Q)``, ``z = y - shift``."""
+    m1, m2, m3, m4 = (raw[..., k, :] for k in range(_POWERS))
+    mu2 = m2 - m1**2
+    mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
+    mu4 = m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4
+    mean = shift + m1
+    with np.errstate(invalid="ignore"):
+        std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
+    std = np.where(mu2 < 0, np.nan, std)
+    return mean, std, skew, kurt
+
+
+def _weights(z: list[np.ndarray], rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Optimal weights ``(K, 4, Q)`` and correlations ``(K, 2, Q)`` from the rows every level
+    ran; a constant level gets weight 0 and correlation 0 (NaN-free)."""
+    n_levels, q = len(z), z[0].shape[1]
+    alpha = np.zeros((n_levels, _POWERS, q))
+    rho = np.zeros((n_levels, 2, q))
+    alpha[0] = 1.0
+    rho[0] = 1.0
+    powers0 = [z[0][rows] ** (k + 1) for k in range(_POWERS)]
+    for j in range(1, n_levels):
+        for k in range(_POWERS):
+            a, b = powers0[k], z[j][rows] ** (k + 1)
+            da, db = a - a.mean(axis=0), b - b.mean(axis=0)
+            cov = (da * db).mean(axis=0)
+            va, vb = (da * da).mean(axis=0), (db * db).mean(axis=0)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                alpha[j, k] = np.where(vb > 0, cov / vb, 0.0)
+                if k < 2:
+                    rho[j, k] = np.where((va > 0) & (vb > 0), cov / np.sqrt(va * vb), 0.0)
+    return alpha, rho
+
+
+def mfmc_statistics(levels_y: list[np.ndarray], sizes: np.ndarray, ok: np.ndarray | None = None,
+                    *, n_resamples: int = 200, seed: int = 0, level: float = 0.95,
+                    block: int = 25) -> MfmcStatistics:
+    """MFMC estimates of mean, std, skewness, kurtosis per quantity, with intervals.
+
+    Parameters
+    ----------
+    levels_y : list of ndarray, shape (m_j, Q)
+        Each used level's values on rows ``[0, m_j)``, in estimator order (highest first).
+    sizes : ndarray of int, shape (K,)
+        ``m_j``, non-decreasing.
+    ok : ndarray of bool, shape (m_{K-1},), optional
+        Rows usable at every level they ran at (module docstring); default all.
+    n_resamples : int
+        Bootstrap resamples (0: no intervals but the mean's).
+    seed : int
+        Seed of the resampling stream.
+    level : float
+        Coverage of the intervals.
+    block : int
+        Resamples drawn and summed together (memory ``block * m`` floats).
+
+    Returns
+    -------
+    MfmcStatistics
+    """
+    sizes = np.asarray(sizes, dtype=np.int64)
+    ok = np.ones(int(sizes[-1]), bool) if ok is None else np.asarray(ok, bool)
+    levels_y = [np.asarray(y, float) for y in levels_y]
+    _check(levels_y, sizes, ok)
+    bounds = group_bounds(sizes)
+    rows0 = np.flatnonzero(ok[:sizes[0]])
+    if rows0.size < 2:
+        raise ValueError(f"{rows0.size} usable runs of the highest level; at least 2 needed")
+    shift = levels_y[0][rows0].mean(axis=0)
+    z = [y - shift for y in levels_y]
+    alpha, rho = _weights(z, rows0)
+    s, n = _group_sums(z, bounds, ok, None)
+    raw = _combine(s, n, alpha)[0]
+    mean, std, skew, kurt = _central(raw, shift)
+
+    # PWG16 Lemma 3.3 with the sample moments of the rows every level ran
+    used = np.cumsum(n[0])
+    sig = np.stack([z[j][rows0].std(axis=0) for j in range(len(z))])
+    var = sig[0] ** 2 / used[0]
+    for j in range(1, len(z)):
+        a = alpha[j, 0]
+        var = var + (1 / used[j - 1] - 1 / used[j]) * (a * a * sig[j] ** 2 -
+                                                       2 * a * rho[j, 0] * sig[0] * sig[j])
+    sem = np.sqrt(np.maximum(var, 0.0))
+    zq = NormalDist().inv_cdf(0.5 + level / 2)
+    ci = {"mean": np.stack([mean - zq * sem, mean + zq * sem])}
+    if n_resamples > 0:
+        ci.update(_bootstrap(z, bounds, ok, alpha, shift, n_resamples, seed, level, block))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        equivalent = np.where(var > 0, sig[0] ** 2 / var, np.inf)
+    return MfmcStatistics(mean=mean, std=std, skewness=skew, kurtosis=kurt, sem=sem, ci=ci,
+                          alpha=alpha, rho=rho, equivalent_mc_runs=equivalent,
+                          n_used=used.astype(np.int64))
+
+
+def _bootstrap(z: list[np.ndarray], bounds: list[tuple[int, int]], ok: np.ndarray,
+               alpha: np.ndarray, shift: np.ndarray, n_resamples: int, seed: int, level: float,
+               block: int) -> dict[str, np.ndarray]:
+    """Percentile intervals of std, skewness and kurtosis (module docstring)."""
+    q = z[0].shape[1]
+    draws = {k: np.empty((n_resamples, q)) for k in ("std", "skewness", "kurtosis")}
+    sizes = [int(ok[a:e].sum()) for a, e in bounds]
+    for blk, r0 in enumerate(range(0, n_resamples, block)):
+        b = min(block, n_resamples - r0)
+        rng = np.random.default_rng([seed, blk])
+        counts = []
+        for n_g in sizes:
+            idx = rng.integers(0, max(n_g, 1), size=(b, n_g)) + (np.arange(b) * n_g)[:, None]
+            counts.append(np.bincount(idx.ravel(), minlength=b * n_g).reshape(b, n_g)
+                          .astype(float))
+        s, n = _group_sums(z, bounds, ok, counts)
+        _, std, skew, kurt = _central(_combine(s, n, alpha), shift)
+        sl = slice(r0, r0 + b)
+        draws["std"][sl], draws["skewness"][sl], draws["kurtosis"][sl] = std, skew, kurt
+    return {k: _nan_safe_percentile(v, (1.0 - level) / 2) for k, v in draws.items()}
