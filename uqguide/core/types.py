@@ -272,6 +272,8 @@ class OutputStats:
         First-order indices of those groups (given data; :mod:`uqguide.stats.sobol_groups`).
     sobol_group_first_ci : ndarray, shape (2, ..., k, G), optional
         Their 95% intervals.
+    sobol_group_total, sobol_group_total_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
+        Total indices of the groups and their intervals (a PCE's; None from given data).
     quantile_levels : tuple of float, optional
         Probabilities of the quantiles (the config's ``quantiles``).
     quantiles : ndarray, shape (q, ..., k), optional
@@ -319,6 +321,8 @@ class OutputStats:
     sobol_groups: tuple[str, ...] = ()
     sobol_group_first: np.ndarray | None = None
     sobol_group_first_ci: np.ndarray | None = None
+    sobol_group_total: np.ndarray | None = None
+    sobol_group_total_ci: np.ndarray | None = None
     corrected: dict[str, np.ndarray] = field(default_factory=dict)
     corrected_ci: dict[str, np.ndarray] = field(default_factory=dict)
     validation_error: np.ndarray | None = None

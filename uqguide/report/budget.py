@@ -4,11 +4,11 @@ the statistics description (:mod:`uqguide.results.statistics`).
 One table per method and scalar output component (a series at its last step in the Markdown
 report; its course over time is a figure, :mod:`uqguide.report.budget_plot`): a row per input,
 ordered by first-order index, with its 95% interval where the method gives one, the total index
-where the method has it (PCE), the groups of inputs (the config's ``groups``, or each
-correlated group) after the inputs, and the input's **share**: its first-order index over the sum of
-the positive first-order indices, the part of the first-order budget it carries. The sum of the
-first-order indices is stated under the table: ``1 - sum`` is the variance that only
-interactions explain (for independent inputs).
+and its interval where the method has them (PCE: :mod:`uqguide.pce.sobol_indices`), the groups
+of inputs (the config's ``groups``, or each correlated group) after the inputs, and the input's
+**share**: its first-order index over the sum of the positive first-order indices, the part of
+the first-order budget it carries. The sum of the first-order indices is stated under the
+table: ``1 - sum`` is the variance that only interactions explain (for independent inputs).
 """
 
 from __future__ import annotations
@@ -40,7 +40,8 @@ class BudgetTable:
     estimator : str
         ``"given-data"`` (Monte Carlo runs) or ``"pce"`` (coefficients).
     table : DataFrame
-        Columns input, first_order, ci_low, ci_high, total (NaN where unknown), share [%].
+        Columns input, first_order, ci_low, ci_high, total, total_ci_low, total_ci_high (NaN
+        where unknown), share [%].
     first_sum : float
         Sum of the inputs' first-order indices.
     """
@@ -76,20 +77,29 @@ def budget_table(s: OutputStatistics, inputs: list[str], component: int,
     ci = np.asarray(s.sobol_first_ci)[(slice(None),) + pick] \
         if s.sobol_first_ci is not None else np.stack([nan, nan])
     total = np.asarray(s.sobol_total)[pick] if s.sobol_total is not None else nan
+    tci = np.asarray(s.sobol_total_ci)[(slice(None),) + pick] \
+        if s.sobol_total_ci is not None else np.stack([nan, nan])
     positive = np.clip(np.nan_to_num(first), 0.0, None)
     share = 100.0 * positive / positive.sum() if positive.sum() > 0 else nan
     df = pd.DataFrame({"input": inputs, "first_order": first, "ci_low": ci[0],
-                       "ci_high": ci[1], "total": total, "share_%": share})
+                       "ci_high": ci[1], "total": total, "total_ci_low": tci[0],
+                       "total_ci_high": tci[1], "share_%": share})
     df = df.sort_values("first_order", ascending=False, kind="stable",
                         na_position="last").reset_index(drop=True)
     if s.sobol_group_first is not None and s.sobol_groups:
         gf = np.asarray(s.sobol_group_first)[pick]
+        g_nan = np.full((2, gf.size), np.nan)
         gci = np.asarray(s.sobol_group_first_ci)[(slice(None),) + pick] \
-            if s.sobol_group_first_ci is not None else np.full((2, gf.size), np.nan)
+            if s.sobol_group_first_ci is not None else g_nan
+        gt = np.asarray(s.sobol_group_total)[pick] if s.sobol_group_total is not None \
+            else g_nan[0]
+        gtci = np.asarray(s.sobol_group_total_ci)[(slice(None),) + pick] \
+            if s.sobol_group_total_ci is not None else g_nan
         # a group overlaps its inputs' rows: listed after them, without a share
         groups = pd.DataFrame({"input": [f"group {g}" for g in s.sobol_groups],
                                "first_order": gf, "ci_low": gci[0], "ci_high": gci[1],
-                               "total": np.nan, "share_%": np.nan})
+                               "total": gt, "total_ci_low": gtci[0],
+                               "total_ci_high": gtci[1], "share_%": np.nan})
         df = pd.concat([df, groups], ignore_index=True)
     return df
 
@@ -133,6 +143,9 @@ def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
             "share": shown["share_%"].map(lambda v: f"{v:.1f}%" if np.isfinite(v) else "")}
     if np.isfinite(df["total"]).any():
         cols["total"] = shown["total"].map(_fmt)
+    if np.isfinite(df["total_ci_low"]).any():
+        cols["total 95%"] = [_interval(lo, hi) for lo, hi in zip(shown["total_ci_low"],
+                                                                 shown["total_ci_high"])]
     if not np.isfinite(df["ci_low"]).any():
         del cols["95% interval"]
     lines = [b.title, pd.DataFrame(cols).to_string(index=False)]
@@ -153,6 +166,9 @@ def budget_markdown(b: BudgetTable) -> pd.DataFrame:
         out["95% interval"] = [_interval(lo, hi) for lo, hi in zip(df["ci_low"], df["ci_high"])]
     if np.isfinite(df["total"]).any():
         out["total"] = df["total"].map(_fmt4)
+    if np.isfinite(df["total_ci_low"]).any():
+        out["total 95%"] = [_interval(lo, hi) for lo, hi in zip(df["total_ci_low"],
+                                                                df["total_ci_high"])]
     out["share"] = df["share_%"].map(lambda v: f"{v:.1f}%" if np.isfinite(v) else "")
     return out
 

@@ -13,15 +13,18 @@ variable                 dims                                        what
 ``o_sem``                (..., o_component)                          standard error of the mean
 ``o_ci``                 (bound, statistic, ..., o_component)        95% intervals (NaN where
                                                                      the method gives none)
-``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE;
-                                                                     Monte Carlo: first order
-                                                                     from the runs, NaN at
-                                                                     steps not estimated)
+``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE:
+                                                                     first and total at every
+                                                                     step; Monte Carlo: first
+                                                                     order from the runs, NaN
+                                                                     at steps not estimated)
 ``o_sobol_first_ci``     (bound, ..., o_component, input)            their 95% intervals
 ``o_sobol_total_ci``
 ``o_sobol_group_first``  (..., o_component, group)                   first-order indices of the
                                                                      config's groups of inputs
 ``o_sobol_group_first_ci`` (bound, ..., o_component, group)          their 95% intervals
+``o_sobol_group_total``  (..., o_component, group)                   total indices of the
+``o_sobol_group_total_ci``                                           groups (PCE) and intervals
 ``o_quantile``           (quantile, ..., o_component)                quantiles at the levels
 ``o_ci_quantile``        (bound, quantile, ..., o_component)         their 95% intervals
 ``o_corrected``          (statistic, ..., o_component)               a validated PCE's
@@ -152,12 +155,17 @@ def method_variables(stats: Mapping[str, OutputStatistics], time: np.ndarray,
                                                        "description": "95% interval"})
         if v.sobol_group_first is not None and v.sobol_groups:
             coords["group"] = Variable(("group",), np.array(v.sobol_groups, dtype=object))
-            out[f"{o.name}_sobol_group_first"] = Variable(
-                (*base, "group"), v.sobol_group_first, {"units": "1", "estimator": "given-data"})
-            if v.sobol_group_first_ci is not None:
-                out[f"{o.name}_sobol_group_first_ci"] = Variable(
-                    ("bound", *base, "group"), v.sobol_group_first_ci,
-                    {"units": "1", "description": "95% interval"})
+            for kind, sobol, band in (("first", v.sobol_group_first, v.sobol_group_first_ci),
+                                      ("total", v.sobol_group_total, v.sobol_group_total_ci)):
+                if sobol is None:
+                    continue
+                out[f"{o.name}_sobol_group_{kind}"] = Variable(
+                    (*base, "group"), sobol,
+                    {"units": "1", "estimator": v.sobol_estimator or "given-data"})
+                if band is not None:
+                    out[f"{o.name}_sobol_group_{kind}_ci"] = Variable(
+                        ("bound", *base, "group"), band,
+                        {"units": "1", "description": "95% interval"})
         if v.quantiles:
             levels = np.asarray(v.quantile_levels, dtype=float)
             if "quantile" in coords and not np.array_equal(coords["quantile"].data, levels):
@@ -254,9 +262,10 @@ def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[Outpu
         if has(f"{o.name}_sobol_group_first") and has("group"):
             stats[o.name].sobol_groups = tuple(
                 g.decode() if isinstance(g, bytes) else str(g) for g in get("group"))
-            stats[o.name].sobol_group_first = get(f"{o.name}_sobol_group_first")
-            if has(f"{o.name}_sobol_group_first_ci"):
-                stats[o.name].sobol_group_first_ci = get(f"{o.name}_sobol_group_first_ci")
+            for kind in ("first", "total"):
+                for suffix in ("", "_ci"):
+                    if has(key := f"{o.name}_sobol_group_{kind}{suffix}"):
+                        setattr(stats[o.name], f"sobol_group_{kind}{suffix}", get(key))
         if has(f"{o.name}_corrected"):
             cv, cci = get(f"{o.name}_corrected"), get(f"{o.name}_corrected_ci")
             stats[o.name].corrected = {n: cv[j] for j, n in enumerate(STAT_NAMES)}

@@ -233,6 +233,8 @@ class OutputStatistics:
         Names of the groups of inputs with first-order indices.
     sobol_group_first, sobol_group_first_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
         Their indices and 95% intervals, or None.
+    sobol_group_total, sobol_group_total_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
+        Their total indices and intervals (a PCE's), or None.
     """
 
     label: str
@@ -254,6 +256,8 @@ class OutputStatistics:
     sobol_groups: tuple[str, ...] = ()
     sobol_group_first: np.ndarray | None = None
     sobol_group_first_ci: np.ndarray | None = None
+    sobol_group_total: np.ndarray | None = None
+    sobol_group_total_ci: np.ndarray | None = None
 
     @classmethod
     def of(cls, label: str, output: OutputInfo, s: OutputStats) -> OutputStatistics:
@@ -289,7 +293,8 @@ class OutputStatistics:
                    s.moments_method, s.cov, s.sobol_first, s.sobol_total,
                    s.validation_error, usable, fallback, s.sobol_first_ci, s.sobol_total_ci,
                    s.sobol_estimator or ("pce" if s.sobol_first is not None else ""),
-                   tuple(s.sobol_groups), s.sobol_group_first, s.sobol_group_first_ci)
+                   tuple(s.sobol_groups), s.sobol_group_first, s.sobol_group_first_ci,
+                   s.sobol_group_total, s.sobol_group_total_ci)
 
     @property
     def statistics(self) -> tuple[Statistic, ...]:
