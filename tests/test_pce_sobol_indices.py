@@ -29,7 +29,9 @@ from uqguide.methods.pce_tensor import TensorPCE
 from uqguide.models.base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import Germ
-from uqguide.pce.sobol_indices import expansion_indices, term_sets, truncation_bounds
+from uqguide.pce.sobol_indices import (
+    ROUND_OFF, expansion_indices, term_sets, truncation_bounds,
+)
 
 from .test_pce_helpers import normal_space, run_method
 
@@ -96,7 +98,7 @@ def test_indices_at_every_step_match_the_closed_form(method):
     if method.name == "pce_adaptive":  # a regression: an interval, here of round-off width
         ci = s.sobol_total_ci[:, :, 0]
         assert np.all(ci[0] <= ex["total"] + 1e-9) and np.all(ex["total"] <= ci[1] + 1e-9)
-        assert np.nanmax(ci[1] - ci[0]) < 1e-8
+        assert np.nanmax(ci[1] - ci[0]) <= 2 * ROUND_OFF + 1e-9
         assert s.sobol_group_first_ci is not None
     else:  # a projection without a validation set: no interval (module docstring)
         assert s.sobol_first_ci is None or np.isnan(s.sobol_first_ci).all()
@@ -172,3 +174,44 @@ def test_regression_interval_is_not_degenerate_and_holds_the_index():
         assert hi - lo > 1e-4, (seed, lo, hi)
         held += lo <= s1 <= hi
     assert held >= 2  # a 95% interval misses all but one of three with probability < 1%
+
+
+def _ramp(x):
+    t = np.linspace(0.0, 1.0, 5)
+    y = (1.0 - t) * x[:, :1] + t * x[:, 1:2] + 0.1 * x[:, 2:3]
+    return {"time": t, "y": y, "end": y[:, -1]}
+
+
+def test_pce_budget_reaches_the_table_the_dataset_and_the_file(tmp_path):
+    """A PCE's first and total indices, their intervals and the groups' get to the budget
+    table (with its total interval), to ``to_xarray`` with an ``input`` and a ``group``
+    dimension, and back from the result file."""
+    import uqguide
+    from uqguide.report.budget import budget_tables, budget_text
+    from uqguide.results.result import write_hdf5
+
+    result = uqguide.run({
+        "model": {"name": "callable", "function": _ramp, "inputs": ["a", "b", "c"],
+                  "outputs": [{"name": "y", "kind": "series"}, "end"]},
+        "inputs": [{"name": n, "dist": "normal", "std": 1.0} for n in "abc"],
+        "groups": {"ab": ["a", "b"]},
+        "methods": [{"name": "pce_adaptive", "label": "apce", "n_samples": 20,
+                     "degree_max": 1, "surrogate_draws": 2000}],
+        "seed": 4})
+    ds = result.to_xarray("apce")
+    t = ds["time"].values
+    s_a = ds["y_sobol_first"].sel(input="a").values[:, 0]
+    np.testing.assert_allclose(s_a, (1 - t) ** 2 / ((1 - t) ** 2 + t**2 + 0.01), atol=1e-9)
+    assert ds["y_sobol_total_ci"].dims == ("bound", "time", "y_component", "input")
+    np.testing.assert_allclose(ds["end_sobol_group_total"].sel(group="ab").values, 1 / 1.01,
+                               atol=1e-9)
+    assert "end_sobol_group_first_ci" in ds
+    (table,) = [b for b in budget_tables(result) if b.output == "end"]
+    assert table.estimator == "pce"
+    assert list(table.table["input"]) == ["b", "c", "a", "group ab"]
+    text = budget_text(table)
+    assert "from the PCE coefficients" in text and "total 95%" in text
+    back = uqguide.read_result(write_hdf5(result, tmp_path / "r.h5"))
+    back_ds = back.to_xarray("apce")
+    for name in ("end_sobol_group_total", "end_sobol_group_total_ci", "y_sobol_first_ci"):
+        np.testing.assert_array_equal(back_ds[name].values, ds[name].values)
