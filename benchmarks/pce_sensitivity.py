@@ -16,7 +16,9 @@ out-of-sample error then sets the truncation bound instead of the LOO error). Fo
 the method runs end to end (design, runs, fit, indices with their
 bootstrap-and-truncation intervals); the table gives per index the mean error (bias), its
 standard deviation over the seeds, the largest absolute error, the coverage of the 95%
-interval, its mean width, and the median CPU seconds of a fit with its indices.
+interval, its mean width, and the median CPU seconds of the estimate: the fit with its indices
+(with ``--validation`` the fit made to place the validation runs is reused, and the column is
+the indices' and statistics' cost alone).
 
     python benchmarks/pce_sensitivity.py [--cases ishigami-60 gfun-300] [--seeds 50]
                                          [--validation M]
