@@ -221,9 +221,10 @@ def test_pce_budget_reaches_the_table_the_dataset_and_the_file(tmp_path):
 def test_ishigami_and_the_g_function_at_a_few_hundred_runs():
     """Adaptive PCE, default settings. Ishigami at 200 runs is represented to round-off (the
     benchmark's 50 seeds: every error rounds to 0.0000, and every interval holds the exact
-    index): every index within 1e-6 and inside its interval. The 8-input G-function at 300 runs (``benchmarks/pce_sensitivity.py``,
-    50 seeds: the worst index has bias 0.012 and standard deviation 0.0055): every index
-    within ``|bias| + 4 sd = 0.035`` of the exact value on every seed."""
+    index): every index within 1e-6 and inside its interval. The 8-input G-function at 300
+    runs (``benchmarks/pce_sensitivity.py``, 50 seeds: the worst index has bias 0.012 and
+    standard deviation 0.0055): every index within ``|bias| + 4 sd = 0.035`` of the exact
+    value on every seed."""
     import sys
     from pathlib import Path
 
