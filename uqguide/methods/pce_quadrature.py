@@ -243,7 +243,8 @@ class QuadraturePCE(Method):
                design=ValidationDesign.from_data(design.data), loo={},
                threshold=self.settings.usable_error, seed=int(design.data.get("seed", 0)),
                n_draws=self.settings.surrogate_draws)
-        # no regression to resample: the truncation bound of the validation error, or none
-        truncation_error_intervals(est.stats)
+        # no regression to resample: the (general: aliased) truncation bound of the
+        # validation error, or none
+        truncation_error_intervals(est.stats, orthogonal=False)
         diagnostics["fit_seconds"] = time.perf_counter() - t0
         return est

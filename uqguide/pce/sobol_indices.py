@@ -55,16 +55,28 @@ covers both:
    LOO error of the output (one figure per output: for a series it is relative to the
    output's total variance, so at steps of small variance it understates ``eps``).
 
-The interval of a regression PCE is the bootstrap interval widened by the truncation bound.
-A quadrature PCE (tensor, Smolyak) has no regression to resample and no LOO error: its
-interval is the truncation bound alone when it has a validation set, and **none** (NaN)
-otherwise (nothing measured says how far its indices are from the model's); with
+   The orthogonality holds for the regression in the mean (its sampling departures are the
+   bootstrap's part). It does not hold for a quadrature projection: the rule aliases the missing
+   terms onto the kept ones, deterministically (``x1 + 0.5 x2^2 + 0.3 |x1|`` on a 4- or 6-node
+   Gauss grid: ``S1`` reads 1.5e-4 to 3e-4 low, 6 to 12 times the bound above). For any error
+   ``e`` of relative size ``eps`` every index is ``||P f||^2 / ||f - E f||^2`` for an orthogonal
+   projection ``P`` (onto the functions of ``x_i``, or of the inputs other than ``x_i`` for a
+   total index), and ``| ||P f|| - ||P f_P|| | <= ||e||``; with ``rho = sqrt(eps) / (1 -
+   sqrt(eps))`` the model's index then lies in ``[(sqrt(S_P) - rho)_+^2 / (1 + rho)^2,
+   (sqrt(S_P) + rho)^2 / (1 - rho)^2]``: wide for large indices (``eps = 1e-3``, ``S_P = 0.94``:
+   [0.83, 1]), tight for small ones (about ``[0, eps]`` at ``S_P = 0``).
+
+The interval of a regression PCE is the bootstrap interval widened by the orthogonal
+truncation bound. A quadrature PCE (tensor, Smolyak) has no regression to resample and no LOO
+error: its interval is the general truncation bound when it has a validation set, and **none**
+(NaN) otherwise (nothing measured says how far its indices are from the model's); with
 ``pce_failure_policy: regression`` its fit is a regression, but on quadrature nodes, not random
 runs, so it is treated like a projection.
 
-Cost: a replicate refits one least-squares problem per distinct support (the components of a
-series or a vector's entries often share one) and evaluates the indices of every column; 200
-replicates of FTCAPN's 300-run fit (two series of 156 steps, five scalars) take about a second.
+Cost: one QR factorisation per distinct support (the components of a series or a vector's
+entries often share one), then per replicate a product with its pseudo-inverse and the indices
+of every column: for the G-function's 300-run fit (8 inputs, about 70 terms) the indices and
+their 200 replicates take 0.03 CPU-s, against 0.7 CPU-s for the fit.
 """
 
 from __future__ import annotations
@@ -234,12 +246,23 @@ def bootstrap_intervals(exp: Expansion, cores: np.ndarray, sets: np.ndarray) -> 
     return out
 
 
-def truncation_bounds(values: np.ndarray, eps: np.ndarray) -> np.ndarray:
-    """``(2, ...)``: how far below and above an index the model's may be for a surrogate of
-    relative error ``eps`` (broadcast to ``values``): ``[-eps S, eps (1 - S)]`` (module
-    docstring)."""
+def truncation_bounds(values: np.ndarray, eps: np.ndarray, orthogonal: bool = True
+                      ) -> np.ndarray:
+    """``(2, ...)``: how far below and above an index ``S`` the model's may be for a surrogate
+    of relative error ``eps`` (broadcast to ``values``), module docstring:
+    ``[-eps S, eps (1 - S)]`` when the error is orthogonal to the expansion's terms, else
+    (any error) ``(sqrt(S) -+ rho)^2 / (1 +- rho)^2 - S`` with
+    ``rho = sqrt(eps) / (1 - sqrt(eps))``, within [0, 1]."""
     eps = np.clip(np.asarray(eps, dtype=float), 0.0, 1.0)
-    return np.stack([-eps * values, eps * (1.0 - values)])
+    if orthogonal:
+        return np.stack([-eps * values, eps * (1.0 - values)])
+    root = np.sqrt(eps)
+    rho = root / np.maximum(1.0 - root, 1e-300)
+    s = np.sqrt(np.clip(values, 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        low = np.clip(s - rho, 0.0, None) ** 2 / (1.0 + rho) ** 2
+        high = np.where(rho < 1.0, (s + rho) ** 2 / np.maximum(1.0 - rho, 1e-300) ** 2, 1.0)
+    return np.stack([np.minimum(low, 1.0) - values, np.minimum(high, 1.0) - values])
 
 
 def set_indices(st: OutputStats, exp: Expansion, groups: Sequence[tuple[str, Sequence[int]]],
@@ -274,7 +297,8 @@ def set_indices(st: OutputStats, exp: Expansion, groups: Sequence[tuple[str, Seq
         st.sobol_group_total_ci = np.stack([shaped(x, n_g) for x in b.group_total])
 
 
-def widen_by_truncation(st: OutputStats, eps: np.ndarray | float | None) -> None:
+def widen_by_truncation(st: OutputStats, eps: np.ndarray | float | None,
+                        orthogonal: bool = True) -> None:
     """Widen (or, without intervals, set) ``st``'s index intervals by the truncation bound of a
     surrogate of relative error ``eps`` (per column ``(..., k)``, or one figure); where an
     index is NaN (withdrawn: no usable surrogate) its interval is NaN too. ``eps`` None leaves
@@ -290,7 +314,8 @@ def widen_by_truncation(st: OutputStats, eps: np.ndarray | float | None) -> None
         if eps is not None:
             e = np.asarray(eps, dtype=float)
             e = e[..., None] if e.ndim else e  # per column: broadcast over inputs
-            ci = np.clip(ci + truncation_bounds(v, e), 0.0, 1.0)  # the model's index too
+            # the model's index is in [0, 1] too
+            ci = np.clip(ci + truncation_bounds(v, e, orthogonal), 0.0, 1.0)
         ci[:, ~np.isfinite(v)] = np.nan
         setattr(st, f"{name}_ci", ci)
 
@@ -321,12 +346,13 @@ def regression_intervals(stats: Mapping[str, OutputStats], fitted: Mapping[str, 
 
 
 def truncation_error_intervals(stats: Mapping[str, OutputStats],
-                               loo: Mapping[str, float] | None = None) -> None:
+                               loo: Mapping[str, float] | None = None,
+                               orthogonal: bool = True) -> None:
     """Widen every PCE index interval in ``stats`` by its truncation bound, in place, once the
     surrogate is validated: ``eps`` is an output's validation error (per column) where it has
     one, else its LOO error in ``loo``, else none (the intervals stay as they are: NaN for a
-    projection). Group indices of the columns whose indices were withdrawn (no usable
-    surrogate) are withdrawn too.
+    projection; ``orthogonal``: which bound, module docstring). Group indices of the columns
+    whose indices were withdrawn (no usable surrogate) are withdrawn too.
     """
     for name, st in stats.items():
         if st.sobol_first is None or st.sobol_estimator != "pce":
@@ -340,4 +366,4 @@ def truncation_error_intervals(stats: Mapping[str, OutputStats],
                 setattr(st, g, v)
         eps = st.validation_error if st.validation_error is not None else \
             (loo or {}).get(name)
-        widen_by_truncation(st, eps)
+        widen_by_truncation(st, eps, orthogonal)
