@@ -275,8 +275,9 @@ class OutputStats:
     sobol_group_first_ci : ndarray, shape (2, ..., k, G), optional
         Their 95% intervals.
     sobol_group_total, sobol_group_total_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
-        Total indices of the groups and their 95% intervals (a pick-freeze design's, whose
-        groups are frozen together: :mod:`uqguide.methods.sobol_saltelli`), or None.
+        Total indices of the groups and their 95% intervals (a PCE's, or a pick-freeze
+        design's, whose groups are frozen together: :mod:`uqguide.methods.sobol_saltelli`);
+        None from given data.
     quantile_levels : tuple of float, optional
         Probabilities of the quantiles (the config's ``quantiles``).
     quantiles : ndarray, shape (q, ..., k), optional

@@ -60,6 +60,7 @@ from pydantic import Field, model_validator
 from ..errors import MethodError
 from ..core.inputs import InputSpace
 from ..core.types import ModelOutput
+from ..pce import basis
 from ..pce.basis import hyperbolic_indices
 from ..core.events import EventEstimate
 from ..pce.tails import control_variate_events, surrogate_values
@@ -68,6 +69,9 @@ from ..pce.expansion import Expansion
 from ..pce.germ import Germ
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.pca import principal_components
+from ..pce.sobol_indices import (
+    BOOTSTRAP_STREAM, regression_intervals, truncation_error_intervals,
+)
 from ..pce.sparse_regression import Q_GRID, ColumnsFit, fit_columns
 from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign
@@ -184,6 +188,9 @@ class _OutputFit:
     q: float
     n_terms: int
     n_components: int | None
+    #: The columns the expansion's core was fitted to at the fit's runs (a scalar's
+    #: components, or a series' component scores): what the indices' bootstrap refits.
+    targets: np.ndarray | None = None
 
 
 class AdaptivePCE(Method):
@@ -349,6 +356,7 @@ class AdaptivePCE(Method):
             levels=self.context.quantile_levels, events=self.context.events,
             components=self.context.components,
             note=self.note)
+        self._indices(space, design, outputs, fits, stats)
         val_design = ValidationDesign.from_data(design.data)
         if validation is not None and val_design is not None:
             events = self._validate(space, fits, val_design, validation, events)
@@ -387,7 +395,19 @@ class AdaptivePCE(Method):
                loo={f.columns.name: f.loo for f in fits}, threshold=s.usable_error,
                seed=int(design.data.get("seed", 0)), n_draws=s.surrogate_draws,
                fit=outputs)
+        truncation_error_intervals(est.stats, {f.columns.name: f.loo for f in fits})
         return est
+
+    def _indices(self, space: InputSpace, design: Design, outputs: ModelOutput,
+                 fits: list[_OutputFit], stats: dict[str, Any]) -> None:
+        """Sobol' indices (and groups') of every fitted output with bootstrap intervals
+        (:mod:`uqguide.pce.sobol_indices`)."""
+        germ = Germ.of(space)
+        xi = self._fit_points(germ, design, np.flatnonzero(~outputs.failed))
+        fitted = {f.columns.name: (f.expansion, basis.evaluate(germ, f.expansion.alpha, xi),
+                                   f.targets) for f in fits if f.targets is not None}
+        seed = stream(int(design.data.get("seed", 0)), self.label, BOOTSTRAP_STREAM)
+        regression_intervals(stats, fitted, self.context.groups, seed)
 
     def _validate(self, space: InputSpace, fits: list[_OutputFit], vd: ValidationDesign,
                   validation: ModelOutput, events: dict[str, EventEstimate]
@@ -427,14 +447,19 @@ class AdaptivePCE(Method):
                 f"{self.label}: only {ok.size} of {outputs.n} runs succeeded "
                 f"({failure_summary(outputs)}); a regression PCE needs at least {_MIN_RUNS}")
         germ = Germ.of(space)
-        xi = design.data["xi"][ok] if "xi" in design.data else \
-            germ.from_unit(design.data["u"][ok])
+        xi = self._fit_points(germ, design, ok)
         cols = [c for c in output_columns(outputs, ok) if c.name not in self.derived_outputs]
         fits = []
         for i, col in enumerate(cols):
             self.note(f"fitting {col.name} ({i + 1}/{len(cols)}, {ok.size} runs)")
             fits.append(self._fit_output(germ, xi, col))
         return fits
+
+    @staticmethod
+    def _fit_points(germ: Germ, design: Design, ok: np.ndarray) -> np.ndarray:
+        """Germ coordinates ``(n_ok, d)`` of the design's successful runs."""
+        return design.data["xi"][ok] if "xi" in design.data else \
+            germ.from_unit(design.data["u"][ok])
 
     def _fit_output(self, germ: Germ, xi: np.ndarray, col: OutputColumns) -> _OutputFit:
         s = self.settings
@@ -447,7 +472,7 @@ class AdaptivePCE(Method):
             fit = fit_of(col.y)
             exp = Expansion(germ, fit.alpha, fit.core, col.shape)
             return _OutputFit(col, exp, float(fit.loo.max()), int(fit.degree.max()),
-                              float(fit.q.max()), int(fit.alpha.shape[0]), None)
+                              float(fit.q.max()), int(fit.alpha.shape[0]), None, col.y)
         comps = principal_components(col.y, s.variance_fraction)
         r = comps.n_components
         fit = fit_of(comps.scores)
@@ -459,4 +484,5 @@ class AdaptivePCE(Method):
         total = lam.sum() / max(comps.explained, 1e-300)
         loo = float((lam @ fit.loo + (total - lam.sum())) / total) if r else 0.0
         return _OutputFit(col, exp, loo, int(fit.degree.max(initial=0)),
-                          float(fit.q.max(initial=0.0)), int(fit.alpha.shape[0]), r)
+                          float(fit.q.max(initial=0.0)), int(fit.alpha.shape[0]), r,
+                          comps.scores)

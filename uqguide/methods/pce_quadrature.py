@@ -36,6 +36,7 @@ from ..pce.germ import Germ
 from ..pce.outputs import assemble, failure_summary, output_columns
 from ..pce.pca import constant_columns
 from ..pce.projection import project
+from ..pce.sobol_indices import set_indices, truncation_error_intervals
 from ..pce.quadrature import Grid, union_basis
 from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign, random_validation
@@ -219,6 +220,8 @@ class QuadraturePCE(Method):
             levels=self.context.quantile_levels, events=self.context.events,
             components=self.context.components,
             note=self.note)
+        for col, exp in fitted:  # the groups' indices; intervals once validated (below)
+            set_indices(stats[col.name], exp, self.context.groups)
         diagnostics: dict[str, Any] = {
             "n_runs": n_total,
             "n_fit_runs": outputs.n,
@@ -240,5 +243,8 @@ class QuadraturePCE(Method):
                design=ValidationDesign.from_data(design.data), loo={},
                threshold=self.settings.usable_error, seed=int(design.data.get("seed", 0)),
                n_draws=self.settings.surrogate_draws)
+        # no regression to resample: the (general: aliased) truncation bound of the
+        # validation error, or none
+        truncation_error_intervals(est.stats, orthogonal=False)
         diagnostics["fit_seconds"] = time.perf_counter() - t0
         return est

@@ -14,6 +14,7 @@ One concept per module, as a pipeline of small functions::
     pca         principal components of time-series outputs
     expansion   a fitted expansion of one output
     moments     mean / covariance / skewness / kurtosis / Sobol' indices from an expansion
+    sobol_indices  first, total and group indices at every step, with 95% intervals
     derived     outputs computed from other outputs' surrogates (miss distances)
     outputs     model outputs -> columns, expansions -> an Estimate's statistics
 

@@ -3,13 +3,13 @@ the statistics description (:mod:`uqguide.results.statistics`).
 
 One table per method and scalar output component (a series at its last step in the Markdown
 report; its course over time is a figure, :mod:`uqguide.report.budget_plot`): a row per input,
-ordered by first-order index, with its 95% interval where the method gives one, the total
-index (and its interval) where the method has it (PCE, a Saltelli design), the groups of inputs
-(the config's ``groups``, or each correlated group) after the inputs, and the input's
-**share**: its first-order index over the sum of the positive first-order indices, the part of
-the first-order budget it carries. The sum of the
-first-order indices is stated under the table: ``1 - sum`` is the variance that only
-interactions explain (for independent inputs).
+ordered by first-order index, with its 95% interval where the method gives one, the total index
+and its interval where the method has them (PCE: :mod:`uqguide.pce.sobol_indices`; a Saltelli
+pick-freeze design), the groups of inputs (the config's ``groups``, or each correlated group)
+after the inputs, and the input's **share**: its first-order index over the sum of the positive
+first-order indices, the part of the first-order budget it carries. The sum of the first-order
+indices is stated under the table: ``1 - sum`` is the variance that only interactions explain
+(for independent inputs).
 """
 
 from __future__ import annotations

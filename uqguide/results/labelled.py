@@ -13,10 +13,11 @@ variable                 dims                                        what
 ``o_sem``                (..., o_component)                          standard error of the mean
 ``o_ci``                 (bound, statistic, ..., o_component)        95% intervals (NaN where
                                                                      the method gives none)
-``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE;
-                                                                     Monte Carlo: first order
-                                                                     from the runs; Saltelli:
-                                                                     both; NaN at steps not
+``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE and
+                                                                     Saltelli: first and total
+                                                                     at every step; Monte
+                                                                     Carlo: first order from
+                                                                     the runs, NaN at steps not
                                                                      estimated)
 ``o_sobol_first_ci``     (bound, ..., o_component, input)            their 95% intervals
 ``o_sobol_total_ci``
@@ -24,7 +25,7 @@ variable                 dims                                        what
                                                                      config's groups of inputs
 ``o_sobol_group_first_ci`` (bound, ..., o_component, group)          their 95% intervals
 ``o_sobol_group_total``  (..., o_component, group)                   total indices of the
-                                                                     groups (pick-freeze)
+                                                                     groups (PCE, pick-freeze)
 ``o_sobol_group_total_ci`` (bound, ..., o_component, group)          their 95% intervals
 ``o_quantile``           (quantile, ..., o_component)                quantiles at the levels
 ``o_ci_quantile``        (bound, quantile, ..., o_component)         their 95% intervals

@@ -237,7 +237,8 @@ class OutputStatistics:
     sobol_group_first, sobol_group_first_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
         Their indices and 95% intervals, or None.
     sobol_group_total, sobol_group_total_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
-        The groups' total indices and their intervals (a pick-freeze design's), or None.
+        The groups' total indices and their intervals (a PCE's or a pick-freeze design's),
+        or None.
     """
 
     label: str
