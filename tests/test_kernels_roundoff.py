@@ -123,7 +123,8 @@ def test_a_chunk_books_the_compile_inside_its_model_calls_as_compile_time(monkey
     from uqguide.models.benchmarks import LinearGaussian
 
     now = [100.0]
-    clock = type("Clock", (), {"perf_counter": staticmethod(lambda: now[0])})
+    clock = type("Clock", (), {"perf_counter": staticmethod(lambda: now[0]),
+                               "process_time": staticmethod(lambda: now[0])})
     compiled = [7.0]
     monkeypatch.setattr(worker, "time", clock)
     monkeypatch.setattr(kernels, "compile_seconds", lambda: compiled[0])
