@@ -5,9 +5,13 @@ Each problem is a vectorised NumPy function of the kind a user brings (smooth, k
 discontinuous, heavy-tailed, bimodal; scalar and time series; 2 to 20 inputs; normal, uniform,
 lognormal and correlated inputs). Each is run through ``uqguide.run`` at the methods' defaults
 only (Monte Carlo with the sample size a user would pick, 1000; the adaptive PCE with no
-setting at all), over many seeds, and every statistic uqguide prints (mean, std, skewness,
-kurtosis, at the final value of a scalar and at three report times of a series) is scored
-against a reference:
+setting at all, i.e. its default plan: a design grown until its LOO error and moments settle
+and a default validation set, :mod:`uqguide.pce.default_plan`), over many seeds, and every
+statistic uqguide prints (mean, std, skewness, kurtosis, at the final value of a scalar and at
+three report times of a series) is scored against a reference. Every row a method gives is
+scored: its own (``apce``, no interval), the validation runs' corrected values with their
+intervals (``apce+cv``) and the runs' Monte Carlo estimate where a PCE value is withheld
+(``apce+mc``); ``runs`` counts fit and validation runs. The reference:
 
 - the reference is computed here, independently of uqguide: scipy's scrambled Sobol' points
   (2^21 of them, 2^18 for the series) mapped through scipy's marginals (a Cholesky factor for
