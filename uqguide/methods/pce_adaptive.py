@@ -276,9 +276,7 @@ class AdaptivePCE(Method):
     def min_rows(self, d: int) -> int:
         """The fewest successful rows a data file must give for ``d`` inputs: the default
         initial design ``max(10 d, 2 P_min)`` (module docstring), plus the held-out rows."""
-        q = self.settings.q_norm if self.settings.q_norm is not None else min(Q_GRID)
-        p_min = hyperbolic_indices(d, self.settings.degree_min, q).shape[0]
-        return max(10 * d, 2 * p_min, _MIN_RUNS) + self._asked_validation()
+        return max(self._n0(d), _MIN_RUNS) + self._asked_validation()
 
     def n_validation(self, n_fit: int = 0) -> int:
         """Validation runs after a fit of ``n_fit`` runs: ``validation.n_samples`` or

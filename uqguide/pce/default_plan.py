@@ -12,8 +12,10 @@ below ``n0``.
 - ``10 n0``: the enrichment loop grows the design by half each step, so ten times the initial
   design allows six refits (``n0 -> 1.5 n0 -> ... -> 10 n0``), enough for the degree to rise
   from the 2-3 a first fit of ``10 d`` runs supports to the 15-30 a smooth but oscillating
-  output of a few inputs needs (issue 27's 2-input oscillator: LOO 2.9e-5 at degree 30 with
-  200 runs; 20 runs, the old default, gave kurtosis 1.3e6 against 3.06). Being a multiple of
+  output of a few inputs needs (the zoo's 2-input, 401-step oscillator,
+  ``benchmarks/defaults_zoo.py``: LOO 2.9e-5 at degree 30 with 200 runs, kurtosis within 1.1%
+  at t = 1, 5, 10 s; issue 27's, with a normal frequency, got kurtosis 1.3e6 against 3.06
+  from 20 runs, the old default). Being a multiple of
   ``n0`` it is a multiple of ``d`` and of the basis size at once.
 - 1000 at most: a 1000-run Monte Carlo gives every moment with an honest interval; a PCE
   still short of its target after as many runs is no cheaper than that, and a user who wants
