@@ -332,18 +332,24 @@ def models(name: str | None) -> None:
 
 
 @main.command()
+@click.argument("name", required=False)
 @_handle_errors
-def methods() -> None:
-    """List the propagation methods with their settings."""
+def methods(name: str | None) -> None:
+    """List the propagation methods with their settings (NAME: one method, with the rules
+    behind its defaults)."""
     from .config.registry import METHODS, method_class
-    from .report.describe import describe_settings
+    from .report.describe import describe_defaults, describe_settings
 
-    for i, n in enumerate(METHODS):
-        cls = method_class(n)
+    names = [name] if name else list(METHODS)
+    for i, n in enumerate(names):
+        cls = method_class(n, "NAME")
         if i:
             click.echo("")
         click.echo(f"{n}: {cls.summary}")
         click.echo(describe_settings(cls.Settings))
+        rules = describe_defaults(cls) if name else ""
+        if rules:
+            click.echo(rules)
 
 
 # ---------------------------------------------------------------------------- regression gate

@@ -199,6 +199,15 @@ class Method(ABC):
     #: Settings of a small design that still exercises the method (several chunks): what the
     #: conformance suite (:func:`uqguide.testing.check_method`) runs it with.
     example_settings: ClassVar[Mapping[str, Any]] = {}
+    #: Settings whose default is a rule, not a number: ``(setting, rule and why)`` pairs that
+    #: ``uqguide methods NAME`` prints (:meth:`default_sizes` gives the rule's numbers).
+    default_rules: ClassVar[tuple[tuple[str, str], ...]] = ()
+
+    @classmethod
+    def default_sizes(cls, d: int) -> dict[str, int]:
+        """The run counts the default rules give for ``d`` inputs (empty: none depend on
+        ``d``)."""
+        return {}
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

@@ -14,7 +14,8 @@ Pipeline:
    variance) and one adaptive PCE is fitted per component; scalar outputs are fitted component
    by component.
 3. **Enrich** (sequential design): while the worst output's LOO error is above ``target_loo``
-   and runs remain in the budget ``max_runs``, add ``max(d + 1, n / 2)`` points (the next points
+   (at the default plan: or the moments still move, below) and runs remain in the budget
+   ``max_runs``, add ``max(d + 1, n / 2)`` points (the next points
    of the same Sobol' sequence, or a new Latin hypercube) and refit. Growing the design by half
    each time keeps the number of refits logarithmic in the budget, and every refit sees a
    design at least 1.5 times the last, enough to move the LOO error visibly.
@@ -25,13 +26,23 @@ Pipeline:
    ``surrogate_draws`` surrogate samples only where both exact rules are too large (the result
    says which).
 
-Design size. ``n_samples`` defaults to ``max(10 d, 2 P_min)`` (``P_min`` the size of the
+Design size. ``n_samples`` defaults to ``n0 = max(10 d, 2 P_min)`` (``P_min`` the size of the
 candidate basis at ``degree_min`` and the smallest q-norm tried), capped by ``max_runs``: ten
 runs per input is the usual minimum for a regression PCE to see every input's main effect, and
-twice the smallest basis lets its OLS refit be scored. ``max_runs`` defaults to ``n_samples``
-(no enrichment): a config that gives ``n_samples: 200`` makes 200 runs; give ``max_runs`` to let
-the method add points. For the paper's Table 4 case (9 inputs), ``max_runs: 300`` starts with 90
-runs and grows 90 -> 135 -> 203 -> 300 while the LOO error stays above the target.
+twice the smallest basis lets its OLS refit be scored.
+
+- **Neither ``n_samples`` nor ``max_runs`` given (the default plan,**
+  :mod:`uqguide.pce.default_plan`): the design starts at ``n0`` and grows until the worst LOO
+  error is at most ``target_loo`` *and* every output's mean and std moved by at most ``2
+  sqrt(LOO) std`` since the previous fit, up to ``min(max(10 n0, 100), 1000)`` fit runs; then
+  ``max(20, ceil(n_fit / 4))`` validation runs check it (``validation:`` given, including
+  ``{n_samples: 0}``, wins). Issue 27: the old default, 20 runs and no enrichment for 2
+  inputs, printed a kurtosis of 1.3e6 where the model's is 3.06.
+- ``n_samples`` given, no ``max_runs``: exactly ``n_samples`` runs (no enrichment), no
+  validation unless asked: a config that states its run count keeps it (the paper studies).
+- ``max_runs`` given: enrichment up to it, stopped by ``target_loo`` alone, as in the paper.
+  For the paper's Table 4 case (9 inputs), ``max_runs: 300`` starts with 90 runs and grows 90
+  -> 135 -> 203 -> 300 while the LOO error stays above the target.
 
 LOO error of an output (diagnostics): the largest component's error for a scalar output; for a
 series, the error relative to the output's total (correlation-scaled) variance, i.e. the
@@ -64,6 +75,7 @@ from ..pce import basis
 from ..pce.basis import hyperbolic_indices
 from ..core.events import EventEstimate
 from ..pce.tails import control_variate_events, surrogate_values
+from ..pce.default_plan import default_budget, default_validation, mean_and_std, settled
 from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
@@ -91,9 +103,9 @@ class AdaptivePCESettings(MethodSettings):
     Attributes
     ----------
     n_samples : int, optional
-        Initial design size; default ``max(10 d, 2 P_min)`` runs for ``d`` inputs, ``P_min``
-        the size of the candidate basis at ``degree_min`` and the smallest q-norm tried, capped
-        by ``max_runs``.
+        Initial design size; default ``n0 = max(10 d, 2 P_min)`` runs for ``d`` inputs,
+        ``P_min`` the size of the candidate basis at ``degree_min`` and the smallest q-norm
+        tried, capped by ``max_runs``.
     sampling : {"sobol", "lhs"}
         Design on the unit cube: scrambled Sobol' or Latin hypercube.
     degree_min : int
@@ -110,7 +122,9 @@ class AdaptivePCESettings(MethodSettings):
         1e-5, the surrogate leaves 0.001% of the variance unexplained. Only a stopping rule: the
         fit always takes the expansion of least error the runs allow.
     max_runs : int, optional
-        Budget of model runs, enrichment included (default: ``n_samples``, no enrichment).
+        Budget of fit runs, enrichment included; default ``min(max(10 n0, 100), 1000)`` when
+        ``n_samples`` is not given either (grown until LOO and moments settle), else
+        ``n_samples`` (no enrichment).
     enrich : bool
         Whether to add runs while the LOO error is above target and the budget allows.
     variance_fraction : float in (0, 1]
@@ -131,7 +145,9 @@ class AdaptivePCESettings(MethodSettings):
     validation : {n_samples: int}, optional
         The same as ``validation_runs`` (the form every PCE method takes; the larger of the
         two counts): validation errors per output and time step, control-variate moments
-        with intervals (:mod:`uqguide.methods.pce_validated`).
+        with intervals (:mod:`uqguide.methods.pce_validated`). Default: ``max(20, ceil(n_fit /
+        4))`` stratified runs when neither ``n_samples`` nor ``max_runs`` is given, else none;
+        ``{n_samples: 0}``: none.
     usable_error : float
         Relative LOO / validation error above which an output reports no PCE moments.
     """
@@ -206,34 +222,93 @@ class AdaptivePCE(Method):
                         "surrogate_draws": 20_000}
     #: Regression needs no particular points: a data file's rows are fitted as they are.
     own_design = ""
+    default_rules = (
+        ("n_samples", "n0 = max(10 d, 2 P_min), P_min the basis at degree_min and q-norm 0.5: "
+                      "ten runs per input see every main effect, twice the smallest basis "
+                      "lets its least-squares refit be scored"),
+        ("max_runs", "with neither n_samples nor max_runs: min(max(10 n0, 100), 1000) fit runs; "
+                     "ten times n0 allows six refits of +50% for the degree to rise, and past "
+                     "1000 runs a Monte Carlo gives every moment with an interval. With "
+                     "n_samples alone: n_samples (no enrichment)"),
+        ("stopping", "the design grows (by half) until the worst corrected LOO error is <= "
+                     "target_loo (1e-5) and every output's mean and std moved by <= 2 sqrt(LOO) "
+                     "std since the previous fit (the most two fits of that error can differ); "
+                     "with max_runs given: the LOO target alone"),
+        ("validation", "with neither n_samples nor max_runs: max(20, ceil(n_fit / 4)) runs "
+                       "stratified by the surrogate (the 80/20 split of the runs made, at least "
+                       "two per stratum); otherwise none. validation: {n_samples: 0} opts out"),
+        ("statistics", "a skewness or kurtosis is printed only where the validation runs' "
+                       "corrected (+cv) estimate and the runs' Monte Carlo estimate support "
+                       "it; elsewhere withheld, with the runs' estimate (+mc) beside it"),
+    )
+
+    @classmethod
+    def default_sizes(cls, d: int) -> dict[str, int]:
+        """Initial design, fit budget and largest validation set at the defaults for ``d``
+        inputs (the numbers of :attr:`default_rules`)."""
+        m = cls()
+        budget = m.budget(d)
+        return {"n_samples": m.initial_size(d), "max_runs": budget,
+                "validation": m.n_validation(budget), "most runs": m.plan_runs(d)}
+
+    def plan_runs(self, d: int) -> int:
+        """Most model runs, fit and validation, for ``d`` inputs."""
+        budget = self.budget(d)
+        return budget + self.n_validation(budget)
 
     # ------------------------------------------------------------------ design sizes
+    @property
+    def default_plan(self) -> bool:
+        """Whether the method sizes its own design (neither ``n_samples`` nor ``max_runs``
+        given, and runs to make rather than a data file's rows): the design grows until its
+        evidence settles and a validation set checks it (:mod:`uqguide.pce.default_plan`)."""
+        s = self.settings
+        return s.n_samples is None and s.max_runs is None and self.context.rows is None
+
+    def _n0(self, d: int) -> int:
+        """``max(10 d, 2 P_min)`` (module docstring)."""
+        s = self.settings
+        q = s.q_norm if s.q_norm is not None else min(Q_GRID)
+        p_min = hyperbolic_indices(d, s.degree_min, q).shape[0]
+        return max(10 * d, 2 * p_min)
+
     def initial_size(self, d: int) -> int:
         """Initial design size for ``d`` inputs (module docstring)."""
         s = self.settings
         if s.n_samples is not None:
             return s.n_samples
-        q = s.q_norm if s.q_norm is not None else min(Q_GRID)
-        p_min = hyperbolic_indices(d, s.degree_min, q).shape[0]
-        n = max(10 * d, 2 * p_min)
+        n = self._n0(d)
         return min(n, s.max_runs) if s.max_runs is not None else n
 
     def min_rows(self, d: int) -> int:
         """The fewest successful rows a data file must give for ``d`` inputs: the default
         initial design ``max(10 d, 2 P_min)`` (module docstring), plus the held-out rows."""
-        q = self.settings.q_norm if self.settings.q_norm is not None else min(Q_GRID)
-        p_min = hyperbolic_indices(d, self.settings.degree_min, q).shape[0]
-        return max(10 * d, 2 * p_min, _MIN_RUNS) + self.n_validation()
+        return max(self._n0(d), _MIN_RUNS) + self._asked_validation()
 
-    def n_validation(self) -> int:
-        """Validation runs after the fit (``validation.n_samples`` or ``validation_runs``)."""
+    def n_validation(self, n_fit: int = 0) -> int:
+        """Validation runs after a fit of ``n_fit`` runs: ``validation.n_samples`` or
+        ``validation_runs`` when given; at the default plan, :func:`default_validation` of
+        ``n_fit``."""
+        s = self.settings
+        v = s.validation
+        if v is None and s.validation_runs == 0 and self.default_plan:
+            return default_validation(n_fit)
+        return self._asked_validation()
+
+    def _asked_validation(self) -> int:
+        """The validation runs the config asks for (a data file's rows get no default set:
+        holding rows out would change the fit the user asked of them)."""
         v = self.settings.validation
         return max(v.n_samples if v is not None else 0, self.settings.validation_runs)
 
     def budget(self, d: int) -> int:
-        """Most model runs the method makes for ``d`` inputs."""
+        """Most fit runs the method makes for ``d`` inputs (validation runs not included)."""
         s = self.settings
-        return s.max_runs if s.max_runs is not None else self.initial_size(d)
+        if s.max_runs is not None:
+            return s.max_runs
+        if s.n_samples is not None or not self.default_plan:
+            return self.initial_size(d)
+        return default_budget(self._n0(d))
 
     def plan(self, space: InputSpace) -> RunPlan:
         from math import comb
@@ -246,7 +321,7 @@ class AdaptivePCE(Method):
             terms = len(Q_GRID) * candidate_cap(runs)
         else:  # at most the total-degree basis (a q-norm below 1 prunes it), capped
             terms = min(comb(space.dim + s.degree_max, space.dim), MAX_CANDIDATES)
-        return RunPlan(runs=runs + self.n_validation(), terms=terms)
+        return RunPlan(runs=self.plan_runs(space.dim), terms=terms)
 
     # ------------------------------------------------------------------ phases
     def design(self, space: InputSpace, seed: int) -> Design:
@@ -276,7 +351,7 @@ class AdaptivePCE(Method):
 
         assert self.context.rows is not None
         x, failed = self.context.rows.x, self.context.rows.failed
-        n, nv = x.shape[0], self.n_validation()
+        n, nv = x.shape[0], self._asked_validation()
         draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
         data: dict[str, Any] = {"seed": int(seed), "batches": 1, "draw_seed": draw_seed,
                                 "fit_seconds": 0.0, "loo_history": np.zeros(0)}
@@ -299,11 +374,14 @@ class AdaptivePCE(Method):
         if "n_fit" in design.data or self.context.rows is not None:
             return None
         bigger = self._enrich(space, design, outputs)
-        nv = self.n_validation()
+        nv = self.n_validation(design.n_runs)
         if bigger is not None or not nv:
             return bigger
         surrogate = self._surrogate(space, self._fit(space, design, outputs))
-        vd = validation_design(self.settings.validation, nv, surrogate, self.context.outputs,
+        asked = self.settings.validation
+        if asked is None and self.settings.validation_runs == 0:  # the default set: stratified
+            asked = ValidationSettings(n_samples=nv)
+        vd = validation_design(asked, nv, surrogate, self.context.outputs,
                                seed=design.data["seed"], label=self.label, d=space.dim)
         log.info("%s: %d validation runs (%s)", self.label, nv,
                  "stratified" if vd.stratified else "random")
@@ -325,17 +403,28 @@ class AdaptivePCE(Method):
         worst = max((f.loo for f in fits), default=0.0)
         history = np.append(design.data.get("loo_history", np.zeros(0)), worst)
         fit_seconds = design.data.get("fit_seconds", 0.0) + time.perf_counter() - t0
-        if worst <= s.target_loo:
+        moments = {f.columns.name: mean_and_std(f.expansion.coef) for f in fits}
+        if self.default_plan:  # LOO below target and the moments settled
+            done = settled(design.data.get("moments", {}), moments,
+                           {f.columns.name: f.loo for f in fits}, s.target_loo)
+        else:
+            done = worst <= s.target_loo
+        if done:
             design.data.update(fit_seconds=fit_seconds, loo_history=history)
             return None
         add = min(budget - n, max(d + 1, math.ceil(n / 2)))
         batch = int(design.data.get("batches", 1))
         u_new = unit_design(d, n, n + add, s.sampling, design.data["seed"], self.label,
                             batch=batch)
-        log.info("%s: LOO error %.2e above target %.0e with %d runs: adding %d (budget %d)",
-                 self.label, worst, s.target_loo, n, add, budget)
+        if worst > s.target_loo:
+            log.info("%s: LOO error %.2e above target %.0e with %d runs: adding %d (budget %d)",
+                     self.label, worst, s.target_loo, n, add, budget)
+        else:
+            log.info("%s: LOO error %.2e below target, but the mean or std moved by more than "
+                     "2 sqrt(LOO) std since the last fit, with %d runs: adding %d (budget %d)",
+                     self.label, worst, n, add, budget)
         data = dict(design.data, u=np.vstack([design.data["u"], u_new]), batches=batch + 1,
-                    fit_seconds=fit_seconds, loo_history=history)
+                    fit_seconds=fit_seconds, loo_history=history, moments=moments)
         return Design(x=np.vstack([design.x, space.from_unit(u_new)]), data=data)
 
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:

@@ -128,7 +128,7 @@ class QuadraturePCE(Method):
         x = germ.to_physical(grid.xi)
         data: dict[str, Any] = {"xi": grid.xi, "draw_seed": draw_seed, "seed": int(seed)}
         v = self.settings.validation
-        if v is not None and v.design == "random":
+        if v is not None and v.n_samples and v.design == "random":
             # Random validation runs do not need the fit: they go with the grid.
             vd = random_validation(seed, self.label, v.n_samples, space.dim)
             log.info("%s: %d validation runs (random)", self.label, vd.n)
@@ -139,7 +139,7 @@ class QuadraturePCE(Method):
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         """Stratified validation runs, placed by the projection of the grid's runs (once)."""
         v = self.settings.validation
-        if v is None or "n_fit" in design.data:
+        if v is None or not v.n_samples or "n_fit" in design.data:
             return None
         germ = Germ.of(space)
         grid = self._checked_grid(germ)

@@ -6,7 +6,8 @@ any moment is withheld, the Monte Carlo estimate of the runs it made
 
 Settings (every PCE method)::
 
-    validation: {n_samples: 100}   # independent model runs after the fit (default none)
+    validation: {n_samples: 100}   # independent model runs after the fit
+    validation: {n_samples: 0}     # none (the opt-out of pce_adaptive's default set)
     validation: {n_samples: 100, design: random}   # plain random runs, not stratified
     usable_error: 0.1              # LOO / validation error above which a PCE reports no moments
 
@@ -23,7 +24,7 @@ from collections.abc import Mapping
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import ConfigDict, Field
+from pydantic import ConfigDict, Field, field_validator
 
 from ..core.strict import StrictModel
 
@@ -48,7 +49,8 @@ class ValidationSettings(StrictModel):
     Attributes
     ----------
     n_samples : int
-        Independent model runs after the fit.
+        Independent model runs after the fit; 0 (or 2 and more): 0 is the explicit opt-out
+        of a method's default validation set (``pce_adaptive`` at its default design).
     design : {"stratified", "random"}
         Stratified by the fitted surrogate's value (default; the tails get runs of their own,
         :mod:`uqguide.pce.validation_design`) or plain random.
@@ -56,10 +58,20 @@ class ValidationSettings(StrictModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    n_samples: int = Field(ge=2, le=10_000_000,
-                           description="independent model runs that validate the surrogate")
+    n_samples: int = Field(ge=0, le=10_000_000,
+                           description="independent model runs that validate the surrogate "
+                                       "(0: none, the explicit opt-out of a method's default)")
     design: Literal["stratified", "random"] = Field(
         default="stratified", description="stratified by the surrogate's value, or random")
+
+    @field_validator("n_samples")
+    @classmethod
+    def _none_or_two(cls, v: int) -> int:
+        # one run has no spread: no validation error, no interval of a corrected moment
+        if v == 1:
+            raise ValueError("The 'n_samples' parameter of validation must be 0 (no validation "
+                             "runs) or an integer >= 2. Got 1 instead.")
+        return v
 
 
 def validation_design(settings: ValidationSettings | None, n: int, surrogate: Surrogate,

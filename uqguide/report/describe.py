@@ -122,6 +122,37 @@ def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
     return "\n".join(lines) if lines else f"{indent}(no settings)"
 
 
+#: Input counts of the table of default run counts (``uqguide methods NAME``).
+DEFAULT_DIMS = (1, 2, 3, 5, 10, 20, 50)
+
+
+def describe_defaults(cls: Any) -> str:
+    """The defaults of a method that are rules, each with its reason, and the run counts
+    they give for a few input counts (computed by the method itself).
+
+    Parameters
+    ----------
+    cls : type of Method
+
+    Returns
+    -------
+    str
+        Empty when the method has no such default.
+    """
+    if not cls.default_rules:
+        return ""
+    lines = [" defaults that are rules (d inputs):"]
+    lines += [f"  {name}: {rule}" for name, rule in cls.default_rules]
+    sizes = {d: cls.default_sizes(d) for d in DEFAULT_DIMS}
+    keys = list(next(iter(sizes.values())))
+    if keys:
+        lines.append(" the defaults' run counts:")
+        lines.append("  " + f"{'d':>4}" + "".join(f"{k:>12}" for k in keys))
+        for d, row in sizes.items():
+            lines.append("  " + f"{d:>4}" + "".join(f"{row[k]:>12}" for k in keys))
+    return "\n".join(lines)
+
+
 def _clean(text: str) -> str:
     """A description for users: without internal spec references and Sphinx roles."""
     return _ROLE.sub(lambda m: m.group(1) or "", _SPEC_REF.sub("", text)).strip()
