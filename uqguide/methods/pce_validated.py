@@ -269,7 +269,8 @@ def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
         # kept only where something is withheld: a PCE that gives every moment has no +mc
         for k, m in withheld.items():
             st.fallback[k] = np.where(m, runs.values[k], np.nan)
-            st.fallback_ci[k] = np.where(m, runs.ci[k], np.nan)
+            shown = runs.ci if runs.shown_ci is None else runs.shown_ci
+            st.fallback_ci[k] = np.where(m, shown[k], np.nan)
     names = [k for k, m in bad.items() if m.any()]
     if not names:
         return

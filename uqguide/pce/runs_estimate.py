@@ -105,9 +105,11 @@ def runs_estimate(fit: np.ndarray | None, validation: np.ndarray | None,
 
 
 def _bound_tails(found: Corrected, y: np.ndarray) -> None:
-    """Widen ``found``'s intervals to the tail-aware ones of the pooled runs, in place: the
-    union of both where the runs bound the statistic, a stated floor (an infinite end) where
-    they do not (:func:`uqguide.stats.tail_intervals.tail_intervals`)."""
+    """The interval to print (``found.shown_ci``): ``found``'s widened to the tail-aware one
+    of the pooled runs, the union of both where the runs bound the statistic, a stated floor
+    (an infinite end) where they do not (:func:`uqguide.stats.tail_intervals.tail_intervals`).
+    ``found.ci`` stays the delta-method interval, which :mod:`uqguide.pce.support` judges a
+    PCE's values by (a floor refutes no large value; that check is calibrated on it)."""
     mean = y.mean(axis=0)
     d = y - mean
     mus, pw = [], d * d
@@ -116,8 +118,10 @@ def _bound_tails(found: Corrected, y: np.ndarray) -> None:
             mus.append(pw.mean(axis=0))
             pw = pw * d
         tail = tail_intervals(mean, tuple(mus), y.shape[0])[0]
+    shown = {}
     for name, q in found.ci.items():
         t = tail[name]
         lo = np.where(np.isnan(t[0]), q[0], np.fmin(q[0], t[0]))
         hi = np.where(np.isnan(t[1]), q[1], np.fmax(q[1], t[1]))
-        found.ci[name] = np.stack([lo, hi])
+        shown[name] = np.stack([lo, hi])
+    found.shown_ci = shown

@@ -55,7 +55,8 @@ import numpy as np
 
 from ..core.types import STAT_NAMES
 
-__all__ = ["MIN_EFFECTIVE_RUNS", "if_moments", "if_polynomial", "tail_intervals"]
+__all__ = ["MIN_EFFECTIVE_RUNS", "hall_interval", "if_moments", "if_polynomial",
+           "tail_intervals"]
 
 #: Below this many effective runs carrying a statistic's variance (Kish), its interval is
 #: one-sided (module docstring).
@@ -167,9 +168,7 @@ def tail_intervals(mean: np.ndarray, mus: tuple[np.ndarray, ...], n: float,
             # Where the runs cannot bound the statistic, the skewness of IF (read from even
             # higher moments) is not estimated either: the floor is the plain delta one.
             g = np.where(np.isfinite(g) & bounded, g, 0.0)
-            lo_t, hi_t = _hall_inverse(z, g, n), _hall_inverse(-z, g, n)
-            low = est[name] - se * lo_t
-            high = est[name] - se * hi_t
+            low, high = hall_interval(est[name], se, z, g / np.sqrt(n))
             # unbounded on the side of IF's heavy tail: right-skewed IF, truth above
             high = np.where(bounded | (g < 0), high, np.inf)
             low = np.where(bounded | (g >= 0), low, -np.inf)
@@ -185,11 +184,34 @@ def tail_intervals(mean: np.ndarray, mus: tuple[np.ndarray, ...], n: float,
     return ci, n_eff
 
 
-def _hall_inverse(u: float, g: np.ndarray, n: float) -> np.ndarray:
-    """``G^-1(u)`` of Hall's transformation ``G(t) = ((1 + a t)^3 - 1) / (3 a) + a / 2``,
-    ``a = g / (3 sqrt(n))`` (monotone in ``t``; the real cube root keeps it so for any ``u``);
-    ``u`` itself where ``a`` is 0."""
-    a = g / (3.0 * np.sqrt(n))
+def hall_interval(value: np.ndarray, se: np.ndarray, q: np.ndarray | float,
+                  skew: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Hall's (1992) skew-corrected interval ``[T - SE G^-1(q), T - SE G^-1(-q)]``.
+
+    Parameters
+    ----------
+    value, se : ndarray
+        The estimate ``T`` and its standard error.
+    q : float or ndarray
+        The quantile of the symmetric interval (1.96, or a t quantile).
+    skew : ndarray
+        The skewness of the estimator's own distribution (``g / sqrt(n)`` for a mean of
+        ``n`` values of skewness ``g``; for a stratified mean ``sum_k W_k^3 mu3_k / n_k^2`` over
+        its standard error cubed).
+
+    Returns
+    -------
+    low, high : ndarray
+        Equal to ``T -+ q SE`` where the skew is 0; the longer side toward a positive skew.
+    """
+    a = np.asarray(skew, dtype=float) / 3.0
+    return value - se * _hall_inverse(q, a), value - se * _hall_inverse(-q, a)
+
+
+def _hall_inverse(u: np.ndarray | float, a: np.ndarray) -> np.ndarray:
+    """``G^-1(u)`` of Hall's transformation ``G(t) = ((1 + a t)^3 - 1) / (3 a) + a / 2``
+    (monotone in ``t``; the real cube root keeps it so for any ``u``); ``u`` itself where ``a``
+    is 0."""
     small = np.abs(a) < 1e-12
     safe = np.where(small, 1.0, a)
     t = (np.cbrt(1.0 + 3.0 * safe * (u - safe / 2.0)) - 1.0) / safe
