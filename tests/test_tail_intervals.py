@@ -9,6 +9,7 @@ from math import sqrt
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from uqguide.report.tables import wide_table
 from uqguide.stats.moments import MomentSums, sample_statistics
@@ -99,3 +100,33 @@ def test_the_report_states_a_floor():
                            "value": 7.5, "ci_low": 5.25, "ci_high": np.inf}])
     cell = wide_table(stats, with_ref=False)["kurtosis"].iloc[0]
     assert cell == "7.5 [>= 5.25; the runs cannot bound it above]"
+
+
+# ------------------------------------------------------------------ control-variate intervals
+def test_stratified_degrees_of_freedom_are_welch_for_gaussian_kurtosis_and_fewer_for_heavy():
+    from uqguide.pce.validation import stratified_se, stratified_skewness
+
+    # values with sample kurtosis exactly 3 (two point masses at +-a and 0 in proportions
+    # 1/6, 1/6, 2/3: E d^4 / (E d^2)^2 = (a^4/3) / (a^2/3)^2 = 3)
+    n = 60
+    x = np.concatenate([np.full(10, 1.0), np.full(10, -1.0), np.zeros(40)])[:, None]
+    w, strat, share = np.full(n, 1 / n), np.zeros(n, int), np.ones(1)
+    se, df = stratified_se(x, w, strat, share)
+    assert df[0] == pytest.approx(n - 1) and se[0] == pytest.approx(np.sqrt(x.var(ddof=1) / n))
+    assert stratified_skewness(x, strat, share, se)[0] == pytest.approx(0.0, abs=1e-12)
+    # one large value among zeros: kurtosis ~ n, Satterthwaite's df ~ 2n / (kappa - 1) ~ 2
+    y = np.zeros((n, 1))
+    y[3] = 5.0
+    se_y, df_y = stratified_se(y, w, strat, share)
+    welch = stratified_se(y, w, strat, share, kurtosis_adjusted=False)[1]
+    assert welch[0] == pytest.approx(n - 1) and df_y[0] < 3.0
+    assert stratified_skewness(y, strat, share, se_y)[0] > 0.5
+
+
+def test_hall_interval_is_symmetric_without_skew_and_longer_toward_it():
+    from uqguide.stats.tail_intervals import hall_interval
+
+    lo, hi = hall_interval(np.array([1.0, 1.0]), np.array([0.1, 0.1]), 1.96,
+                           np.array([0.0, 0.3]))
+    np.testing.assert_allclose([lo[0], hi[0]], [1.0 - 0.196, 1.0 + 0.196], rtol=1e-12)
+    assert hi[1] - 1.0 > 1.0 - lo[1]
