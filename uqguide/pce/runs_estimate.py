@@ -119,7 +119,7 @@ def _bound_tails(found: Corrected, y: np.ndarray) -> None:
             pw = pw * d
         tail = tail_intervals(mean, tuple(mus), y.shape[0])[0]
     shown = {}
-    for name, q in found.ci.items():
+    for name, q in (found.ci if found.shown_ci is None else found.shown_ci).items():
         t = tail[name]
         lo = np.where(np.isnan(t[0]), q[0], np.fmin(q[0], t[0]))
         hi = np.where(np.isnan(t[1]), q[1], np.fmax(q[1], t[1]))

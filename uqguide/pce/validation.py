@@ -118,8 +118,10 @@ class Corrected:
         The 95% half-width of the correction alone (without the PCE's own sampling error):
         how far the PCE's value may sit from the corrected one by chance.
     shown_ci : dict of str to ndarray, shape (2, ...), optional
-        The interval the report prints when it differs from ``ci`` (which the support checks
-        judge by): the runs' Monte Carlo estimate's tail-aware interval
+        The interval the report prints when it differs from ``ci`` (Welch's t, symmetric,
+        which the support checks of :mod:`uqguide.pce.support` judge by, calibrated on it):
+        the kurtosis-adjusted, skew-corrected interval of :func:`corrected_moments`, and for
+        the runs' Monte Carlo estimate its union with the tail-aware interval
         (:func:`uqguide.pce.runs_estimate.runs_estimate`), one-sided where its runs cannot
         bound the statistic.
     """
@@ -330,7 +332,7 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
     grads = _gradients(*raw)
     from scipy.stats import t as student
 
-    ci, own = {}, {}
+    ci, own, shown = {}, {}, {}
     for k, g in grads.items():
         with np.errstate(invalid="ignore"):
             # NaN where the statistic is undefined (zero variance): so is its interval
@@ -341,21 +343,25 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
                               kurtosis_adjusted=False)[1]
         with np.errstate(invalid="ignore"):
             q = student.ppf((1 + LEVEL) / 2, np.maximum(df, 1.0))
-            # the support check (disagreement) keeps its calibration: Welch's t, symmetric
-            own[k] = (student.ppf((1 + LEVEL) / 2, np.maximum(welch, 1.0)) * se).reshape(shape)
-        half = q * se
+            # the support checks keep their calibration: Welch's t, symmetric
+            half = student.ppf((1 + LEVEL) / 2, np.maximum(welch, 1.0)) * se
+        own[k] = half.reshape(shape)
+        wide = q * se
         if pce_se is not None and k in pce_se:
+            extra = 1.96 * np.asarray(pce_se[k]).reshape(-1)
+            half = np.hypot(half, extra)
             # the PCE's own sampling error widens the interval's quantile in proportion
-            total = np.hypot(half, 1.96 * np.asarray(pce_se[k]).reshape(-1))
             with np.errstate(invalid="ignore", divide="ignore"):
-                q = np.where(se > 0, total / np.where(se > 0, se, 1.0), q)
+                q = np.where(se > 0, np.hypot(wide, extra) / np.where(se > 0, se, 1.0), q)
+        ci[k] = np.stack([values[k] - half, values[k] + half])
         lo, hi = hall_interval(values[k], se, q, skew)
-        ci[k] = np.stack([lo, hi])
+        shown[k] = np.stack([lo, hi])
     return Corrected(values={k: v.reshape(shape) for k, v in values.items()},
                      ci={k: v.reshape((2,) + shape) for k, v in ci.items()},
                      error=relative_error(y.reshape(n, -1), s.reshape(n, -1),
                                           weight).reshape(shape),
-                     n=n, correction_half=own)
+                     n=n, correction_half=own,
+                     shown_ci={k: v.reshape((2,) + shape) for k, v in shown.items()})
 
 
 #: Statistics whose PCE value is checked against its validation runs: scalars all four, series
