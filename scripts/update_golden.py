@@ -103,7 +103,9 @@ def roundoff_ranges(path: Path, result: Result) -> dict[StatKey, list[float | No
 
 def _at(baseline, row) -> str:
     """The point kind (report, end, scalar) of a gate row."""
-    bo = baseline.methods[row.label].outputs[row.output]
+    bo = baseline.methods[row.label].outputs.get(row.output)
+    if bo is None:  # an event's row (its name is not an output's)
+        return "event"
     return next(p.at for p in bo.points if p.time == row.time)
 
 

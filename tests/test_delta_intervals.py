@@ -109,17 +109,17 @@ def test_delta_coverage_matches_the_known_answer_and_the_bootstrap():
                                                                               exact_se[k])
 
 
-def test_monte_carlo_defaults_to_delta_and_keeps_the_bootstrap(lognormal_config):
+def test_monte_carlo_defaults_to_tail_and_keeps_delta_and_bootstrap(lognormal_config):
     by = {}
-    for kind in ("delta", "bootstrap"):
+    for kind in ("delta", "bootstrap", "tail"):
         cfg = dict(lognormal_config)
         cfg["methods"] = [{"name": "monte_carlo", "label": "mc", "n_samples": 4000,
                            "intervals": kind}]
         by[kind] = run(validate_config(cfg)).run("mc").estimate
     default = run(validate_config(lognormal_config)).run("mc").estimate
-    assert default.diagnostics["intervals"] == "delta"
+    assert default.diagnostics["intervals"] == "tail"
     assert by["bootstrap"].diagnostics["intervals"] == "bootstrap"
-    np.testing.assert_array_equal(default.stats["y"].ci["std"], by["delta"].stats["y"].ci["std"])
+    np.testing.assert_array_equal(default.stats["y"].ci["std"], by["tail"].stats["y"].ci["std"])
     # same moments whatever the interval method; the two intervals of the std agree in width
     # to the bootstrap's own Monte Carlo error (200 resamples: ~1/sqrt(2 * 200) = 5% relative,
     # 4 of those: 20%)

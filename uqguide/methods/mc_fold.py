@@ -30,7 +30,7 @@ class _Pack:
 
     keys: list[Key]
     shapes: list[tuple[int, ...]]
-    sums: MomentSums  # flat fields, ``high`` (4, total), comoments flat
+    sums: MomentSums  # flat fields, ``high`` (orders, total), comoments flat
     outer: tuple[np.ndarray, np.ndarray] | None  # a comoment is delta[I] * delta[J]
 
     @classmethod
@@ -46,7 +46,8 @@ class _Pack:
 
         high = None
         if first.high is not None:
-            high = np.concatenate([np.asarray(s.high).reshape(4, -1) for _, s in groups],
+            rows = len(first.high)
+            high = np.concatenate([np.asarray(s.high).reshape(rows, -1) for _, s in groups],
                                   axis=1)
         cm = joined("cm") if first.cm is not None else None
         flat = MomentSums(first.n, joined("mean"), joined("m2"), joined("m3"), joined("m4"),
@@ -83,7 +84,7 @@ class _Pack:
             out[key] = MomentSums(
                 s.n, s.mean[sl].reshape(shape), s.m2[sl].reshape(shape),
                 s.m3[sl].reshape(shape), s.m4[sl].reshape(shape), cm,
-                s.high[:, sl].reshape((4,) + shape) if s.high is not None else None)
+                s.high[:, sl].reshape((len(s.high),) + shape) if s.high is not None else None)
             at += size
         return out
 

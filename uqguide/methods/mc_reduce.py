@@ -68,8 +68,8 @@ class MonteCarloReducer:
     """Reduces one chunk of Monte Carlo runs to mergeable sums (runs in the worker).
 
     Summary keys are ``"m:<field>:<output>"`` (plain sums with comoments),
-    ``"h:<field>:<output>"`` (plain sums with the orders 5-8 of the interval columns, for the
-    delta-method and studentised intervals, flattened as the bootstrap's columns under
+    ``"h:<field>:<output>"`` (plain sums with the orders 5-16 of the interval columns, for the
+    tail-aware, delta-method and studentised intervals, flattened as the bootstrap's columns under
     ``studentized``), ``"b:<field>:<output>"`` (Poisson-bootstrap sums of the interval
     columns, when ``intervals`` is ``bootstrap``, or ``studentized``: then with each resample's
     orders 5-8) and
@@ -87,7 +87,7 @@ class MonteCarloReducer:
     bootstrap_times: str
     quantiles: bool = False
     n_total: int = 0
-    intervals: str = "delta"
+    intervals: str = "tail"
     sensitivity: bool = False
 
     @staticmethod
@@ -109,7 +109,7 @@ class MonteCarloReducer:
         # series of the chunk, a full slice is a view.
         keep: slice | np.ndarray = slice(None) if ok.all() else ok
         idx = ci_index(out.time, self.report_times, self.bootstrap_times)
-        if self.intervals == "delta":
+        if self.intervals in ("delta", "tail"):
             for name, y in [*out.series.items(), *out.scalars.items()]:
                 y_ok = y[keep]
                 _put(summary, "m", name, MomentSums.of(y_ok))

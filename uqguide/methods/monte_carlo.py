@@ -17,11 +17,17 @@ executor): each chunk is reduced where it ran to mergeable sums (count, mean, ce
 sums up to the 4th, comoments; :class:`~uqguide.stats.moments.MomentSums`) and the chunks are merged
 in chunk order, so a 1e6-sample run never holds its time series, and the numbers do not depend
 on which process reduced which chunk. Per-sample scalar outputs are kept (they are small).
-The 95% intervals of mean, std, skewness and kurtosis are by default **delta-method**
-intervals (``intervals: delta``; :func:`~uqguide.stats.moments.delta_intervals`): the influence
-functions' variance needs the central moments up to the 8th, which the chunks sum like the
-others at the interval columns, so the intervals cost a few power sums instead of ``B``
-weighted ones. ``intervals: bootstrap`` gives instead a **Poisson bootstrap** (Hanley &
+The 95% intervals of mean, std, skewness and kurtosis are by default **tail-aware**
+intervals (``intervals: tail``; :mod:`uqguide.stats.tail_intervals`): Hall's (1992)
+skew-corrected interval of each statistic's influence function, and, where a handful of runs
+carry the sum behind the statistic's variance (Kish's effective count below 10), a
+**one-sided** interval, a stated floor such as "kurtosis >= L" (the upper end infinite): the
+runs cannot bound it above. They need the central moments up to the 16th, which the chunks sum
+like the others at the interval columns, so the intervals cost a few power sums instead of
+``B`` weighted ones, and do not depend on the chunking or the workers. ``intervals: delta``
+gives the symmetric delta-method intervals (:func:`~uqguide.stats.moments.delta_intervals`;
+lognormal sigma 0.5, n = 1000: skewness / kurtosis coverage 81% / 65%, against 94% / 97% for
+``tail``). ``intervals: bootstrap`` gives instead a **Poisson bootstrap** (Hanley &
 MacGibbon 2006; Chamandy et al. 2012): resample ``b`` gives sample ``i`` of chunk ``c`` the
 weight ``w_bi ~ Poisson(1)`` from the stream ``(boot_seed, c)``, so the weighted sums of a
 resample are chunk-additive and merge like the plain ones. For large ``n`` it has the
@@ -95,9 +101,12 @@ class MonteCarloSettings(MethodSettings):
         Design of the samples within each chunk.
     chunk_size : int
         Samples per random stream (changes the numbers; fixed so that the worker count does not).
-    intervals : {"delta", "bootstrap", "studentized"}
-        How the 95% intervals of mean, std, skewness and kurtosis are computed: delta method
-        (influence functions, default; cheap), Poisson bootstrap (``bootstrap`` resamples,
+    intervals : {"tail", "delta", "bootstrap", "studentized"}
+        How the 95% intervals of mean, std, skewness and kurtosis are computed: tail-aware
+        (default; Hall's skew-corrected interval of the influence function, one-sided where a
+        handful of runs carry the statistic's variance: :mod:`uqguide.stats.tail_intervals`;
+        cheap, from the central sums up to the 16th), delta method (influence functions,
+        symmetric; cheap), Poisson bootstrap (``bootstrap`` resamples,
         percentile intervals) or studentised Poisson bootstrap (bootstrap-t: each resample's
         statistic over its own delta-method standard error; the best coverage of the three on
         skewed outputs, for twice the bootstrap's sums: :func:`~uqguide.stats.moments.
@@ -119,7 +128,7 @@ class MonteCarloSettings(MethodSettings):
     n_samples: int = Field(ge=1, le=100_000_000)
     sampling: Literal["random", "lhs", "sobol"] = "random"
     chunk_size: int = Field(default=8192, ge=1, le=10_000_000)
-    intervals: Literal["delta", "bootstrap", "studentized"] = "delta"
+    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = "tail"
     bootstrap: int = Field(default=200, ge=0, le=100_000)
     bootstrap_times: Literal["report", "all"] = "report"
     sensitivity: Literal["auto", "on", "off"] = "auto"
@@ -275,7 +284,8 @@ class MonteCarlo(StreamingMethod):
             idx = ci_index(runs.time, self.context.report_times, self.settings.bootstrap_times) \
                 if is_series else None
             stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx,
-                                               delta=acc.get(("h", name)))
+                                               delta=acc.get(("h", name)),
+                                               tail=self.settings.intervals == "tail")
             if levels is not None:
                 if is_series:  # lane-major values, chunks joined where adjacent
                     lanes = acc.get(("q", name)) or []

@@ -169,7 +169,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
                 pce_se = sampling_se(draws, n_draws, seed=seed)
             cv = corrected_moments(st, y[ok], s, weight=used.weight, stratum=used.stratum,
                                    share=used.share, pool=used.pool, pce_se=pce_se)
-            st.corrected, st.corrected_ci = cv.values, cv.ci
+            st.corrected = cv.values
+            st.corrected_ci = cv.ci if cv.shown_ci is None else cv.shown_ci
             st.validation_error = err = cv.error
             diag[f"validation_error.{name}"] = float(np.max(err)) if err.size else 0.0
             corrected = cv
@@ -253,7 +254,12 @@ def _drop_refuted(diag: dict[str, Any], label: str, name: str, st: Any, cv: Corr
         ci = np.array(cv.ci[k], dtype=float)
         ci[:, bad[k]] = np.nan
         cv.values[k], cv.ci[k] = v, ci
-    st.corrected, st.corrected_ci = cv.values, cv.ci
+        if cv.shown_ci is not None:
+            shown = np.array(cv.shown_ci[k], dtype=float)
+            shown[:, bad[k]] = np.nan
+            cv.shown_ci[k] = shown
+    st.corrected = cv.values
+    st.corrected_ci = cv.ci if cv.shown_ci is None else cv.shown_ci
     n_bad = int(np.sum(np.any([bad[k] for k in names], axis=0)))
     diag[f"cv_refuted.{name}"] = ", ".join(names)
     log.warning("%s: %s: the corrected (+cv) %s disagree with, or are less precise than, the "
@@ -281,7 +287,8 @@ def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
         # kept only where something is withheld: a PCE that gives every moment has no +mc
         for k, m in withheld.items():
             st.fallback[k] = np.where(m, runs.values[k], np.nan)
-            st.fallback_ci[k] = np.where(m, runs.ci[k], np.nan)
+            shown = runs.ci if runs.shown_ci is None else runs.shown_ci
+            st.fallback_ci[k] = np.where(m, shown[k], np.nan)
     names = [k for k, m in bad.items() if m.any()]
     if not names:
         return

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.types import OutputStats
+from ..stats.tail_intervals import hall_interval
 from .validation_design import random_validation
 
 #: Default usability threshold on the relative (LOO or validation) error.
@@ -116,6 +117,13 @@ class Corrected:
     correction_half : dict of str to ndarray, shape (...)
         The 95% half-width of the correction alone (without the PCE's own sampling error):
         how far the PCE's value may sit from the corrected one by chance.
+    shown_ci : dict of str to ndarray, shape (2, ...), optional
+        The interval the report prints when it differs from ``ci`` (Welch's t, symmetric,
+        which the support checks of :mod:`uqguide.pce.support` judge by, calibrated on it):
+        the kurtosis-adjusted, skew-corrected interval of :func:`corrected_moments`, and for
+        the runs' Monte Carlo estimate its union with the tail-aware interval
+        (:func:`uqguide.pce.runs_estimate.runs_estimate`), one-sided where its runs cannot
+        bound the statistic.
     """
 
     values: dict[str, np.ndarray]
@@ -123,6 +131,7 @@ class Corrected:
     error: np.ndarray
     n: int
     correction_half: dict[str, np.ndarray]
+    shown_ci: dict[str, np.ndarray] | None = None
 
 
 def _moments_of(w: np.ndarray, counts: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
@@ -168,7 +177,8 @@ def _gradients(m1: np.ndarray, m2: np.ndarray, m3: np.ndarray, m4: np.ndarray
 
 
 def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray,
-                  share: np.ndarray, pool: int = 0) -> tuple[np.ndarray, np.ndarray]:
+                  share: np.ndarray, pool: int = 0, kurtosis_adjusted: bool = True
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Standard error of a stratified weighted mean and its Welch-Satterthwaite degrees of
     freedom.
 
@@ -186,24 +196,47 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
     pool : int
         Size of the pool the strata were cut from (0: none); its sampling adds
         ``var / pool``.
+    kurtosis_adjusted : bool
+        Degrees of freedom adjusted for the values' kurtosis (below); False: Welch's, as if
+        the values were Gaussian.
 
     Returns
     -------
     se, df : ndarray, shape (m,)
-        ``sqrt(sum_k W_k^2 s_k^2 / n_k (+ var / pool))`` and
-        ``(sum a_k)^2 / sum a_k^2 / (n_k - 1)``. A stratum with a single run borrows the
-        largest within-stratum variance of the others (conservative).
+        ``sqrt(sum_k W_k^2 s_k^2 / n_k (+ var / pool))`` and the kurtosis-adjusted
+        Satterthwaite degrees of freedom ``2 (sum a_k)^2 / sum a_k^2 v_k``, ``a_k = W_k^2
+        s_k^2 / n_k``, ``v_k = (kappa_k - 3) / n_k + 2 / (n_k - 1)`` the relative variance of
+        ``s_k^2`` for values of kurtosis ``kappa_k`` (Welch's ``n_k - 1`` for Gaussian ones).
+        A stratum with a single run borrows the largest within-stratum variance (and fewer
+        than four runs the largest kurtosis) of the others (conservative).
+
+    Notes
+    -----
+    Why the kurtosis: a variance read from heavy-tailed values (model-minus-surrogate
+    differences of a non-smooth output: most near zero, a few large) is itself far noisier
+    than a Gaussian sample's, and usually too small. Its degrees of freedom are ``2 /
+    Var(s^2 / sigma^2)`` (Satterthwaite 1946), which for values of kurtosis ``kappa`` is
+    ``2 n / (kappa - 1)`` rather than ``n - 1`` (e.g. Bonett 2006, Comput. Stat. Data Anal.
+    50, 775-782, for the variance's own interval): the t quantile widens the interval where
+    the differences are heavy-tailed and leaves it alone where they are Gaussian.
     """
     m = influence.shape[1]
     parts, dfs = [], []
-    variances = {}
+    variances, kurtoses = {}, {}
     for k in range(share.size):
         rows = stratum == k
         nk = int(rows.sum())
         if nk >= 2:
             variances[k] = (influence[rows].var(axis=0, ddof=1), nk)
+        if nk >= 4:
+            d = influence[rows] - influence[rows].mean(axis=0)
+            m2 = np.mean(d * d, axis=0)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                kurtoses[k] = np.where(m2 > 0, np.mean(d**4, axis=0)
+                                       / np.where(m2 > 0, m2, 1.0) ** 2, 3.0)
     largest = (np.max([v for v, _ in variances.values()], axis=0) if variances
                else np.full(m, np.nan))
+    heaviest = (np.max(list(kurtoses.values()), axis=0) if kurtoses else np.full(m, 3.0))
     for k in range(share.size):
         nk = int((stratum == k).sum())
         if nk == 0 or share[k] == 0:
@@ -211,7 +244,9 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
         v, _ = variances.get(k, (largest, nk))
         a = share[k] ** 2 * v / nk
         parts.append(a)
-        dfs.append(a**2 / max(nk - 1, 1))
+        kappa = kurtoses.get(k, heaviest) if kurtosis_adjusted else 3.0
+        rel = (kappa - 3.0) / nk + 2.0 / max(nk - 1, 1)
+        dfs.append(a**2 * np.maximum(rel, 1e-12) / 2.0)
     total = np.sum(parts, axis=0) if parts else np.full(m, np.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
         df = np.where(total > 0, total**2 / np.sum(dfs, axis=0), np.inf) if parts \
@@ -220,6 +255,25 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
         mean = weight @ influence
         total = total + (weight @ (influence - mean) ** 2) / pool
     return np.sqrt(total), df
+
+
+def stratified_skewness(influence: np.ndarray, stratum: np.ndarray, share: np.ndarray,
+                        se: np.ndarray) -> np.ndarray:
+    """Skewness of a stratified weighted mean's own distribution: ``sum_k W_k^3 mu3_k /
+    n_k^2`` over its standard error cubed (``mu3_k`` the stratum's third central moment of
+    ``influence (n, m)``); 0 where it is undefined. What Hall's interval corrects for
+    (:func:`uqguide.stats.tail_intervals.hall_interval`)."""
+    third = np.zeros(influence.shape[1])
+    for k in range(share.size):
+        rows = stratum == k
+        nk = int(rows.sum())
+        if nk < 3 or share[k] == 0:
+            continue
+        d = influence[rows] - influence[rows].mean(axis=0)
+        third = third + share[k] ** 3 * np.mean(d**3, axis=0) / nk**2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        g = third / se**3
+    return np.where(np.isfinite(g), g, 0.0)
 
 
 def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
@@ -249,7 +303,9 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
 
     Notes
     -----
-    The interval is ``value +- t_{0.975, df} se`` with ``se`` the delta-method standard error:
+    The interval is ``value +- t_{0.975, df} se``, skew-corrected by Hall's transformation
+    (:func:`stratified_skewness`; the longer side toward the skew of the per-run influence),
+    with ``se`` the delta-method standard error:
     each statistic is a smooth function of the four corrected raw moments, linearised at the
     estimate, so its error is the weighted mean of the per-run influence
     ``sum_p dstat/dM_p d_p`` (``d_p`` the run's model-minus-surrogate difference of the p-th
@@ -276,23 +332,36 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
     grads = _gradients(*raw)
     from scipy.stats import t as student
 
-    ci, own = {}, {}
+    ci, own, shown = {}, {}, {}
     for k, g in grads.items():
         with np.errstate(invalid="ignore"):
             # NaN where the statistic is undefined (zero variance): so is its interval
             influence = sum(gp * d for gp, d in zip(g, diffs))
         se, df = stratified_se(np.asarray(influence), weight, stratum, share, pool)
+        skew = stratified_skewness(np.asarray(influence), stratum, share, se)
+        welch = stratified_se(np.asarray(influence), weight, stratum, share, pool,
+                              kurtosis_adjusted=False)[1]
         with np.errstate(invalid="ignore"):
-            half = student.ppf((1 + LEVEL) / 2, np.maximum(df, 1.0)) * se
+            q = student.ppf((1 + LEVEL) / 2, np.maximum(df, 1.0))
+            # the support checks keep their calibration: Welch's t, symmetric
+            half = student.ppf((1 + LEVEL) / 2, np.maximum(welch, 1.0)) * se
         own[k] = half.reshape(shape)
+        wide = q * se
         if pce_se is not None and k in pce_se:
-            half = np.hypot(half, 1.96 * np.asarray(pce_se[k]).reshape(-1))
+            extra = 1.96 * np.asarray(pce_se[k]).reshape(-1)
+            half = np.hypot(half, extra)
+            # the PCE's own sampling error widens the interval's quantile in proportion
+            with np.errstate(invalid="ignore", divide="ignore"):
+                q = np.where(se > 0, np.hypot(wide, extra) / np.where(se > 0, se, 1.0), q)
         ci[k] = np.stack([values[k] - half, values[k] + half])
+        lo, hi = hall_interval(values[k], se, q, skew)
+        shown[k] = np.stack([lo, hi])
     return Corrected(values={k: v.reshape(shape) for k, v in values.items()},
                      ci={k: v.reshape((2,) + shape) for k, v in ci.items()},
                      error=relative_error(y.reshape(n, -1), s.reshape(n, -1),
                                           weight).reshape(shape),
-                     n=n, correction_half=own)
+                     n=n, correction_half=own,
+                     shown_ci={k: v.reshape((2,) + shape) for k, v in shown.items()})
 
 
 #: Statistics whose PCE value is checked against its validation runs: scalars all four, series

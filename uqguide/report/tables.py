@@ -446,7 +446,12 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
                 row[s["stat"]] = NOT_REPORTED
                 continue
             cell = _fmt(s["value"])
-            if not np.isnan(s["ci_low"]):
+            if np.isinf(s["ci_high"]) and np.isfinite(s["ci_low"]):
+                # a stated floor (uqguide.stats.tail_intervals): no upper bound from the runs
+                cell += f" [>= {_fmt(s['ci_low'])}; the runs cannot bound it above]"
+            elif np.isinf(s["ci_low"]) and np.isfinite(s["ci_high"]):
+                cell += f" [<= {_fmt(s['ci_high'])}; the runs cannot bound it below]"
+            elif not np.isnan(s["ci_low"]):
                 cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
             if with_ref and s["label"] != stats.attrs.get("reference"):
                 rd, ad = s.get("rel_diff"), s.get("abs_diff")

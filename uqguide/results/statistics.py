@@ -382,7 +382,8 @@ class OutputStatistics:
 
         The standard error of the mean where there is one; else the half-width of the
         method's 95% interval over :data:`Z95` (a bootstrap percentile interval of a
-        near-normal estimator is ``-+1.96 se``); else normal theory: ``std / sqrt(n)``,
+        near-normal estimator is ``-+1.96 se``), of its finite side for a one-sided interval
+        (:mod:`uqguide.stats.tail_intervals`); else normal theory: ``std / sqrt(n)``,
         ``std / sqrt(2 n)``, ``sqrt(6 / n)``, ``sqrt(24 / n)``.
 
         Parameters
@@ -403,6 +404,11 @@ class OutputStatistics:
             lo, hi = float(st.ci[0][where]), float(st.ci[1][where])
             if math.isfinite(lo) and math.isfinite(hi):
                 return (hi - lo) / (2.0 * Z95)
+            # a one-sided interval (a floor the runs cannot bound above): its finite side
+            v = float(st.value[where])
+            for end in (lo, hi):
+                if math.isfinite(end) and math.isfinite(v) and end != v:
+                    return abs(v - end) / Z95
         std = float(self.moment("std").value[where])
         normal_theory = {"mean": std / math.sqrt(n), "std": std / math.sqrt(2 * n),
                          "skewness": math.sqrt(6.0 / n), "kurtosis": math.sqrt(24.0 / n)}

@@ -28,13 +28,13 @@ def column_sums(y: np.ndarray, high: bool) -> tuple[np.ndarray, np.ndarray]:
     y : ndarray, shape (n, c)
         C-ordered samples (rows) of ``c`` columns; ``n >= 1``.
     high : bool
-        Also the orders 5-8.
+        Also the orders 5-16 (what the tail-aware intervals read).
 
     Returns
     -------
     mean : ndarray, shape (c,)
-    sums : ndarray, shape (3, c) or (7, c)
-        Central sums of orders 2, 3, 4 (and 5-8).
+    sums : ndarray, shape (3, c) or (15, c)
+        Central sums of orders 2, 3, 4 (and 5-16).
     """
     n, c = y.shape
     acc = np.zeros(c)
@@ -42,11 +42,10 @@ def column_sums(y: np.ndarray, high: bool) -> tuple[np.ndarray, np.ndarray]:
         for j in range(c):
             acc[j] += y[i, j]
     mean = acc / n
-    rows = 7 if high else 3
+    rows = 15 if high else 3
     s = np.zeros((rows, c))
     s2, s3, s4 = s[0], s[1], s[2]
     if high:
-        s5, s6, s7, s8 = s[3], s[4], s[5], s[6]
         for i in range(n):
             for j in range(c):
                 d = y[i, j] - mean[j]
@@ -55,14 +54,9 @@ def column_sums(y: np.ndarray, high: bool) -> tuple[np.ndarray, np.ndarray]:
                 s3[j] += d2 * d
                 p = d2 * d2
                 s4[j] += p
-                p = p * d
-                s5[j] += p
-                p = p * d
-                s6[j] += p
-                p = p * d
-                s7[j] += p
-                p = p * d
-                s8[j] += p
+                for r in range(3, rows):
+                    p = p * d
+                    s[r, j] += p
     else:
         for i in range(n):
             for j in range(c):

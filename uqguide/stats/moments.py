@@ -7,9 +7,10 @@ Conventions, for an output ``y`` of k components at one time:
   (a Gaussian has kurtosis 3);
 - a component with zero variance has skewness and kurtosis NaN, silently;
 - the standard error of the mean is ``sigma/sqrt(n)``; 95% intervals of mean, std, skewness and
-  kurtosis come either from the delta method (influence functions evaluated with the sample's
-  central moments up to the 8th, :func:`delta_intervals`; the Monte Carlo default) or from a
-  percentile bootstrap with a fixed seed.
+  kurtosis come from the tail-aware intervals (Hall's skew-corrected interval of the influence
+  function, one-sided where a few runs carry the variance, from the central moments up to the
+  16th: :mod:`uqguide.stats.tail_intervals`; the Monte Carlo default), the delta method
+  (:func:`delta_intervals`) or a percentile bootstrap with a fixed seed.
 
 Arrays of a time-series output carry the time axis first: ``mean (T, k)``, ``cov (T, k, k)``.
 A scalar output has no time axis: ``mean (k,)``, ``cov (k, k)``.
@@ -35,6 +36,7 @@ from statistics import NormalDist
 import numpy as np
 
 from ..core.types import STAT_NAMES, OutputStats
+from .tail_intervals import tail_intervals
 
 __all__ = ["STAT_NAMES", "MomentSums", "OutputStats", "bootstrap_intervals", "central_moments",
            "covariance", "sample_statistics", "shape_moments", "statistics_from_sums"]
@@ -283,8 +285,9 @@ def sample_statistics(
         For a time series, the time indices at which to bootstrap (the intervals are NaN at the
         other steps); default all steps. The bootstrap costs ``2 * bootstrap * n`` flops per
         power, column and resample, so a 1e5-sample series is bootstrapped where it is reported.
-    intervals : {"bootstrap", "delta"}
-        How the intervals are computed (``delta``: :func:`delta_intervals`, at every step,
+    intervals : {"bootstrap", "delta", "tail"}
+        How the intervals are computed (``delta``: :func:`delta_intervals`; ``tail``:
+        :func:`uqguide.stats.tail_intervals.tail_intervals`; both at every step,
         ``bootstrap`` then only switches them on when positive).
 
     Returns
@@ -301,10 +304,12 @@ def sample_statistics(
     mean, mu2, mu3, mu4 = central_moments(y)
     std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     ci: dict[str, np.ndarray] = {}
-    if intervals == "delta" and bootstrap > 0 and n > 1:
+    if intervals in ("delta", "tail") and bootstrap > 0 and n > 1:
         d = y - mean
-        mus = [mu2, mu3, mu4] + [np.mean(d**k, axis=0) for k in range(5, 9)]
-        ci = delta_intervals(mean, std, skew, kurt, tuple(mus), n, level)
+        top = HIGH_ORDER if intervals == "tail" else 8
+        mus = [mu2, mu3, mu4] + [np.mean(d**k, axis=0) for k in range(5, top + 1)]
+        ci = delta_intervals(mean, std, skew, kurt, tuple(mus), n, level) \
+            if intervals == "delta" else tail_intervals(mean, tuple(mus), n, level)[0]
     elif bootstrap > 0 and n > 1:
         if ci_index is None or y.ndim != 3:
             ci = bootstrap_intervals(y, bootstrap, seed, level)
@@ -346,9 +351,11 @@ class MomentSums:
         Total weight (sample count); ``(B, 1)`` for ``B`` bootstrap resamples.
     mean, m2, m3, m4 : ndarray, shape (..., k) or (B, c)
     cm : ndarray, shape (..., k, k), optional
-    high : ndarray, shape (4, ..., k), optional
-        Central sums of orders 5-8 (what the delta-method intervals of skewness and kurtosis
-        need, :func:`delta_standard_errors`); plain samples only.
+    high : ndarray, shape (H, ..., k), optional
+        Central sums of orders 5 to ``4 + H``: 5-16 for plain samples (what the delta-method
+        and the tail-aware intervals of skewness and kurtosis need,
+        :func:`delta_standard_errors`, :func:`uqguide.stats.tail_intervals.tail_intervals`),
+        5-8 for a bootstrap's weighted sums.
     """
 
     n: float | np.ndarray
@@ -370,19 +377,20 @@ class MomentSums:
         comoments : bool
             Also the comoment sums ``(..., k, k)``.
         high : bool
-            Also the central sums of orders 5-8 (:attr:`high`).
+            Also the central sums of orders 5-16 (:attr:`high`).
 
         Returns
         -------
         MomentSums
-            Fields ``(..., k)``, ``cm`` ``(..., k, k)`` or None, ``high`` ``(4, ..., k)`` or None.
+            Fields ``(..., k)``, ``cm`` ``(..., k, k)`` or None, ``high`` ``(12, ..., k)`` or
+            None.
         """
         y = np.asarray(y, dtype=float)
         n = y.shape[0]
         if n == 0:
             z = np.zeros(y.shape[1:])
             cm = np.zeros(y.shape[1:] + y.shape[-1:]) if comoments else None
-            hi = np.zeros((4,) + y.shape[1:]) if high else None
+            hi = np.zeros((HIGH_ORDER - 4,) + y.shape[1:]) if high else None
             return cls(0.0, z, z.copy(), z.copy(), z.copy(), cm, hi)
         kernel = _compiled_sums()
         if kernel is None:
@@ -404,7 +412,7 @@ class MomentSums:
                 lead = int(np.prod(shape[:-1])) if len(shape) > 1 else 1
                 cm = comoment_sums(flat.reshape(n, lead, k), mean.reshape(lead, k)
                                    ).reshape(shape + (k,))
-        hi = sums[3:].reshape((4,) + shape) if high else None
+        hi = sums[3:].reshape((HIGH_ORDER - 4,) + shape) if high else None
         return cls(float(n), mean, m2, m3, m4, cm, hi)
 
     @classmethod
@@ -422,14 +430,14 @@ class MomentSums:
         np.multiply(d2, d2, out=pw)
         sums.append(pw.sum(axis=0))
         if high:
-            for _ in range(4):
+            for _ in range(HIGH_ORDER - 4):
                 pw *= d
                 sums.append(pw.sum(axis=0))
         hi = np.stack(sums[3:]) if high else None
         return cls(float(n), mean, sums[0], sums[1], sums[2], cm, hi)
 
     def central_sums(self) -> list[np.ndarray]:
-        """``[m_2, ..., m_p]``: the fields and, when kept, the orders 5-8."""
+        """``[m_2, ..., m_p]``: the fields and, when kept, the orders 5 and up."""
         out = [self.m2, self.m3, self.m4]
         if self.high is not None:
             out += list(self.high)
@@ -531,8 +539,9 @@ class MomentSums:
             cm = self.cm + other.cm + products * nab
         high = None
         if self.high is not None and other.high is not None:
+            top = 4 + len(self.high)
             high = np.stack([_merge_order(p, self.central_sums(), other.central_sums(), na, nb,
-                                          delta) for p in range(5, 9)])
+                                          delta) for p in range(5, top + 1)])
         return MomentSums(n, mean, m2, m3, m4, cm, high)
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -581,6 +590,10 @@ class MomentSums:
         return self.mean, self.m2 * inv, self.m3 * inv, self.m4 * inv
 
 
+#: The highest central sum :meth:`MomentSums.of` keeps with ``high`` (the tail-aware
+#: intervals' kurtosis diagnostic reads the 16th, :mod:`uqguide.stats.tail_intervals`).
+HIGH_ORDER = 16
+
 _KERNEL: list = []
 
 
@@ -621,7 +634,7 @@ def _merge_order(p: int, a: list[np.ndarray], b: list[np.ndarray], na: float | n
 
 def statistics_from_sums(
     sums: MomentSums, boot: MomentSums | None = None, ci_index: np.ndarray | None = None,
-    level: float = 0.95, delta: MomentSums | None = None,
+    level: float = 0.95, delta: MomentSums | None = None, tail: bool = False,
 ) -> OutputStats:
     """OutputStats from merged :class:`MomentSums` (the streaming form of
     :func:`sample_statistics`).
@@ -642,6 +655,9 @@ def statistics_from_sums(
         Plain sums with the orders 5-8 (:attr:`MomentSums.high`) of the interval columns
         (laid out as ``boot``'s): delta-method intervals (:func:`delta_intervals`), used when
         ``boot`` is None.
+    tail : bool
+        With ``delta`` (orders up to 16) and no ``boot``: the tail-aware intervals of
+        :func:`uqguide.stats.tail_intervals.tail_intervals` instead of the delta method's.
 
     Returns
     -------
@@ -662,7 +678,11 @@ def statistics_from_sums(
         inv = 1.0 / float(delta.n)
         mus = tuple(m * inv for m in delta.central_sums())
         dstd, dskew, dkurt = shape_moments(delta.mean, mus[0], mus[1], mus[2])
-        for name, q in delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level).items():
+        if boot is None and tail and len(mus) >= HIGH_ORDER - 1:
+            found = tail_intervals(delta.mean, mus, n, level)[0]
+        else:
+            found = delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level)
+        for name, q in found.items():
             if ci_index is None:
                 ci[name] = q.reshape((2,) + shape)
             else:
