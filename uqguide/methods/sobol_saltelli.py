@@ -75,15 +75,16 @@ class SaltelliSettings(MethodSettings):
     bootstrap : int
         Poisson-bootstrap resamples of the indices' 95% intervals (0: none), and of the
         moments' with ``intervals: bootstrap`` or ``studentized`` (0: none either).
-    intervals : {"delta", "bootstrap", "studentized"}
-        The intervals of the ``A`` and ``B`` rows' moments, as ``monte_carlo``'s.
+    intervals : {"tail", "delta", "bootstrap", "studentized"}
+        The intervals of the ``A`` and ``B`` rows' moments, as ``monte_carlo``'s (default
+        ``tail``, as there).
     """
 
     n_base: int = Field(ge=2, le=10_000_000)
     sampling: Literal["sobol", "random", "lhs"] = "sobol"
     chunk_size: int = Field(default=1024, ge=1, le=1_000_000)
     bootstrap: int = Field(default=200, ge=0, le=10_000)
-    intervals: Literal["delta", "bootstrap", "studentized"] = "delta"
+    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = "tail"
 
 
 class SobolSaltelli(StreamingMethod):
@@ -151,8 +152,8 @@ class SobolSaltelli(StreamingMethod):
         mc = MonteCarloSettings(n_samples=2 * s.n_base, chunk_size=2 * min(s.chunk_size,
                                                                             s.n_base),
                                 intervals=s.intervals,
-                                # (0 would switch the delta method's intervals off too)
-                                bootstrap=s.bootstrap or int(s.intervals == "delta"),
+                                # (0 would switch the closed-form intervals off too)
+                                bootstrap=s.bootstrap or int(s.intervals in ("tail", "delta")),
                                 sensitivity="off", label=self.label)
         return MonteCarlo(mc, self.context)
 
