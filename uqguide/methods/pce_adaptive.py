@@ -113,9 +113,10 @@ class AdaptivePCESettings(MethodSettings):
         Whether to add runs while the LOO error is above target and the budget allows.
     variance_fraction : float in (0, 1], optional
         Keep the principal components of a time series that hold this fraction of its
-        (correlation-scaled) variance. Default: the moments' rule of
-        :mod:`uqguide.pce.pca_rank` (enough components that the truncation error of the mean,
-        std, skewness and kurtosis at every step is at most the surrogate's own error).
+        (correlation-scaled) variance; default: as many as make the truncation error of the
+        mean, std, skewness and kurtosis at every step at most the surrogate's own
+        leave-one-out error, and at least those holding 0.9999 of the variance. The rule:
+        :mod:`uqguide.pce.pca_rank`.
     n_components : int, optional
         Keep this many principal components of a time series (instead of either rule).
     surrogate_draws : int
