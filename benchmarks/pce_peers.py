@@ -10,7 +10,12 @@ Cases (closed-form or quadrature references for mean, std, skewness, kurtosis):
 - ``lognormal10``: ``exp(sum a_i x_i)``, ``a_i = 0.3 / sqrt(i)``, 10 standard normal inputs: closed
   form;
 - ``sobol_g``: the Sobol' G-function ``prod (|4 u_i - 2| + a_i) / (1 + a_i)``, 8 uniform inputs,
-  ``a = 0, 1, 4.5, 9, 99, 99, 99, 99``: closed form (products of the factors' raw moments).
+  ``a = 0, 1, 4.5, 9, 99, 99, 99, 99``: closed form (products of the factors' raw moments);
+- ``oscillator``: a time series, the damped oscillator ``exp(-zeta omega t) cos(omega_d t)`` of
+  issue 27 on 200 steps over [0, 10] s, ``omega ~ U(1.5, 2.5)``, ``zeta ~ U(0.05, 0.2)``; the
+  errors are those at the last step (t = 10 s), against a 300^2 Gauss-Legendre rule; only
+  uqguide fits it (the peers fit scalars), and its "fit s" is the CPU time of the whole series
+  fit (principal components, their expansions, moments at every step).
 
 For each case, budget (default 100, 200, 500, 1000 runs) and design seed (default 3 seeds), all
 methods fit the same scrambled Sobol' design (uqguide's own, for the seed):
@@ -86,9 +91,18 @@ OT_MAX_CANDIDATES = 1500
 class Case:
     name: str
     space: InputSpace
-    f: Callable[[np.ndarray], np.ndarray]  # physical inputs (n, d) -> output (n,)
-    ref: dict[str, float]
+    f: Callable[[np.ndarray], np.ndarray]  # physical inputs (n, d) -> output (n,) or (n, T)
+    ref: dict[str, float]  # of the output (a series: at its last step)
     note: str
+    times: np.ndarray | None = None  # a series' time grid
+
+
+OSC_T = np.linspace(0.0, 10.0, 200)
+
+
+def _oscillator(x: np.ndarray) -> np.ndarray:
+    omega, zeta = x[:, :1], x[:, 1:2]
+    return np.exp(-zeta * omega * OSC_T) * np.cos(omega * np.sqrt(1.0 - zeta**2) * OSC_T)
 
 
 # ---------------------------------------------------------------------- cases
@@ -173,6 +187,8 @@ def cases() -> list[Case]:
                 "kurtosis": w**4 + 2 * w**3 + 3 * w**2 - 3}
     gsp = InputSpace([Uniform(name=f"u{i}", dist="uniform", low=0.0, high=1.0)
                       for i in range(1, 9)])
+    osc = InputSpace([Uniform(name="omega", dist="uniform", low=1.5, high=2.5),
+                      Uniform(name="zeta", dist="uniform", low=0.05, high=0.2)])
     return [
         Case("ishigami", ish, _ishigami, ish_ref,
              "a = 7, b = 0.1; kurtosis by 60^3 Gauss-Legendre"),
@@ -182,6 +198,9 @@ def cases() -> list[Case]:
              "exp(sum 0.3 x_i / sqrt(i)), 10 inputs: closed form"),
         Case("sobol_g", gsp, _sobol_g, _sobol_g_ref(),
              "a = 0, 1, 4.5, 9, 99, 99, 99, 99: closed form"),
+        Case("oscillator", osc, _oscillator,
+             _tensor_gauss(lambda x: _oscillator(x)[:, -1], osc, (300, 300)),
+             "series, 200 steps; errors at t = 10 s; 300^2 Gauss-Legendre", OSC_T),
     ]
 
 
@@ -202,9 +221,11 @@ def run_uqguide(case: Case, seed: int, budget: int) -> tuple[dict[str, float], f
     method = AdaptivePCE({"n_samples": budget})
     design = method.design(case.space, seed)
     y = case.f(design.x)
-    out = ModelOutput(time=np.zeros(0), scalars={"y": y[:, None]},
-                      failed=np.zeros(budget, dtype=bool),
-                      reasons=np.full(budget, "", dtype=object))
+    fail = dict(failed=np.zeros(budget, dtype=bool), reasons=np.full(budget, "", dtype=object))
+    if case.times is None:
+        out = ModelOutput(time=np.zeros(0), scalars={"y": y[:, None]}, **fail)
+    else:
+        out = ModelOutput(time=case.times, series={"y": y[:, :, None]}, **fail)
     t = time.process_time()
     est = method.estimate(case.space, design, out)
     cpu = time.process_time() - t
@@ -212,7 +233,10 @@ def run_uqguide(case: Case, seed: int, budget: int) -> tuple[dict[str, float], f
     dg = est.diagnostics
     info = (f"q {dg['q_norm']:g} p {dg['degree']} terms {dg['n_terms']} "
             f"LOO {dg['loo_error']:.0e} {dg['moments_method']}")
-    return {k: float(s.stat(k)[0]) for k in STATS}, cpu, info
+    if case.times is not None:
+        info += f" components {dg['n_components']}"
+    return {k: float(s.stat(k)[0] if case.times is None else s.stat(k)[-1, 0])
+            for k in STATS}, cpu, info
 
 
 def _ot_fit(germ: Germ, xi: np.ndarray, y: np.ndarray, degree: int, q: float):
@@ -348,6 +372,8 @@ def main() -> None:
             for method in methods:
                 if method == "ot-loop" and budget > args.loop_max_budget:
                     continue
+                if case.times is not None and method != "uqguide":
+                    continue  # the peers fit scalars
                 errs, cpus = [], []
                 for seed in args.seeds:
                     try:

@@ -102,9 +102,10 @@ def roundoff_ranges(path: Path, result: Result) -> dict[StatKey, list[float | No
 
 
 def _at(baseline, row) -> str:
-    """The point kind (report, end, scalar) of a gate row."""
+    """The point kind (report, end, scalar) of a gate row; "event" for an event's probability
+    (the baseline keeps events apart from the outputs)."""
     bo = baseline.methods[row.label].outputs.get(row.output)
-    if bo is None:  # an event's row (its name is not an output's)
+    if bo is None:
         return "event"
     return next(p.at for p in bo.points if p.time == row.time)
 

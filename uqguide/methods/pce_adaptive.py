@@ -10,9 +10,11 @@ Pipeline:
    from ``degree_min`` up to what the runs support, the (q, degree, terms) of least error kept
    (:mod:`uqguide.pce.sparse_regression`); ``degree_max`` and ``q_norm`` fix the grid's ends
    when given. Time series are first
-   compressed to principal components (:mod:`uqguide.pce.pca`, ``variance_fraction`` of the
-   variance) and one adaptive PCE is fitted per component; scalar outputs are fitted component
-   by component.
+   compressed to principal components (:mod:`uqguide.pce.pca`), fitted together on shared
+   least-angle paths (:mod:`uqguide.pce.series_fit`), and as many kept as make the truncation
+   error of every moment at every step at most the surrogate's own (:mod:`uqguide.pce.pca_rank`;
+   ``n_components`` or ``variance_fraction`` fix the count instead); scalar outputs are fitted
+   component by component.
 3. **Enrich** (sequential design): while the worst output's LOO error is above ``target_loo``
    (at the default plan: or the moments still move, below) and runs remain in the budget
    ``max_runs``, add ``max(d + 1, n / 2)`` points (the next points
@@ -80,7 +82,7 @@ from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
-from ..pce.pca import principal_components
+from ..pce.series_fit import fit_series
 from ..pce.sobol_indices import (
     BOOTSTRAP_STREAM, regression_intervals, truncation_error_intervals,
 )
@@ -127,8 +129,14 @@ class AdaptivePCESettings(MethodSettings):
         ``n_samples`` (no enrichment).
     enrich : bool
         Whether to add runs while the LOO error is above target and the budget allows.
-    variance_fraction : float in (0, 1]
-        Fraction of a time series' (correlation-scaled) variance its principal components keep.
+    variance_fraction : float in (0, 1], optional
+        Keep the principal components of a time series that hold this fraction of its
+        (correlation-scaled) variance; default: as many as make the truncation error of the
+        mean, std, skewness and kurtosis at every step at most the surrogate's own
+        leave-one-out error, and at least those holding 0.9999 of the variance. The rule:
+        :mod:`uqguide.pce.pca_rank`.
+    n_components : int, optional
+        Keep this many principal components of a time series (instead of either rule).
     surrogate_draws : int
         Surrogate samples for skewness and kurtosis where the exact rule is too large, for
         derived outputs, quantiles and events.
@@ -160,7 +168,8 @@ class AdaptivePCESettings(MethodSettings):
     target_loo: float = Field(default=1e-5, gt=0.0, lt=1.0)
     max_runs: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000)
     enrich: bool = True
-    variance_fraction: float = Field(default=0.9999, gt=0.0, le=1.0)
+    variance_fraction: float | None = Field(default=None, gt=0.0, le=1.0)
+    n_components: int | None = Field(default=None, ge=1, le=10_000)
     surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
     surrogate_sampling: Literal["random", "sobol"] = "random"
     validation_runs: int = Field(default=0, ge=0, le=10_000_000)
@@ -172,6 +181,10 @@ class AdaptivePCESettings(MethodSettings):
         if self.degree_max is not None and self.degree_min > self.degree_max:
             raise ValueError(f"The 'degree_min' parameter of pce_adaptive must be <= degree_max "
                              f"({self.degree_max}). Got {self.degree_min} instead.")
+        if self.variance_fraction is not None and self.n_components is not None:
+            raise ValueError(f"The 'n_components' parameter of pce_adaptive must be unset when "
+                             f"variance_fraction ({self.variance_fraction}) is given. Got "
+                             f"{self.n_components} instead.")
         if self.n_samples is not None and self.max_runs is not None \
                 and self.n_samples > self.max_runs:
             raise ValueError(f"The 'n_samples' parameter of pce_adaptive must be <= max_runs "
@@ -562,9 +575,11 @@ class AdaptivePCE(Method):
             exp = Expansion(germ, fit.alpha, fit.core, col.shape)
             return _OutputFit(col, exp, float(fit.loo.max()), int(fit.degree.max()),
                               float(fit.q.max()), int(fit.alpha.shape[0]), None, col.y)
-        comps = principal_components(col.y, s.variance_fraction)
+        series = fit_series(germ, xi, col.y, degree_min=s.degree_min, degree_max=s.degree_max,
+                            q=s.q_norm, variance_fraction=s.variance_fraction,
+                            n_components=s.n_components)
+        comps, fit = series.components, series.fit
         r = comps.n_components
-        fit = fit_of(comps.scores)
         core = np.zeros((fit.alpha.shape[0], r + 1))
         core[:, :r] = fit.core
         core[0, r] = 1.0  # the sample mean, mix's last row

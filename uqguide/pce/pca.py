@@ -49,6 +49,73 @@ def constant_columns(y: np.ndarray) -> np.ndarray:
     return spread <= 1e-12 * np.maximum(np.abs(y).max(axis=0), 1e-300)
 
 
+@dataclass
+class Decomposition:
+    """Every principal component of ``N`` runs of an output with ``m`` columns (correlation
+    PCA); :meth:`components` keeps the first ``r``.
+
+    Attributes
+    ----------
+    scores : ndarray, shape (N, K)
+        Scores of every component, largest first.
+    axes : ndarray, shape (K, m)
+        The components in output units (zero on constant columns).
+    mean : ndarray, shape (m,)
+        The sample mean (a constant column's value).
+    energy : ndarray, shape (K,)
+        Squared singular values (the scaled variance each component holds, times ``N``).
+    varying : ndarray of bool, shape (m,)
+        Columns that are not constant.
+    """
+
+    scores: np.ndarray
+    axes: np.ndarray
+    mean: np.ndarray
+    energy: np.ndarray
+    varying: np.ndarray
+
+    @property
+    def size(self) -> int:
+        return int(self.energy.size)
+
+    def count_for_fraction(self, variance_fraction: float) -> int:
+        """The fewest components that keep ``variance_fraction`` of the scaled variance."""
+        if not self.size:
+            return 0
+        cum = np.cumsum(self.energy) / self.energy.sum()
+        return min(int(np.searchsorted(cum, variance_fraction - 1e-15) + 1), self.size)
+
+    def explained(self, r: int) -> float:
+        total = self.energy.sum()
+        return float(self.energy[:r].sum() / total) if total > 0 else 1.0
+
+    def components(self, r: int) -> Components:
+        """The first ``r`` components."""
+        r = min(r, self.size)
+        mix = np.vstack([self.axes[:r], self.mean[None, :]])
+        return Components(self.scores[:, :r], mix, self.explained(r) if r else 1.0)
+
+    def reconstruct(self, scores: np.ndarray) -> np.ndarray:
+        """Output columns ``(n, m)`` of scores ``(n, r)`` of the first ``r`` components."""
+        return self.mean + scores @ self.axes[: scores.shape[1]]
+
+
+def decompose(y: np.ndarray) -> Decomposition:
+    """Correlation PCA of ``y (N, m)``: every component (module docstring)."""
+    n, m = y.shape
+    mean = y.mean(axis=0)
+    varying = ~constant_columns(y)
+    mean = np.where(varying, mean, y[0] if n else 0.0)
+    if not varying.any() or n < 2:
+        return Decomposition(np.zeros((n, 0)), np.zeros((0, m)), mean, np.zeros(0), varying)
+    scale = y[:, varying].std(axis=0)
+    z = (y[:, varying] - mean[varying]) / scale
+    u, s, vt = np.linalg.svd(z, full_matrices=False)
+    axes = np.zeros((s.size, m))
+    axes[:, varying] = vt * scale
+    return Decomposition(u * s, axes, mean, s**2, varying)
+
+
 def principal_components(y: np.ndarray, variance_fraction: float = 0.9999) -> Components:
     """Correlation PCA of ``y (N, m)`` keeping ``variance_fraction`` of the variance.
 
@@ -61,20 +128,7 @@ def principal_components(y: np.ndarray, variance_fraction: float = 0.9999) -> Co
     -------
     Components
     """
-    n, m = y.shape
-    mean = y.mean(axis=0)
-    varying = ~constant_columns(y)
-    mix = np.zeros((1, m))
-    mix[0] = np.where(varying, mean, y[0] if n else 0.0)
-    if not varying.any() or n < 2:
-        return Components(np.zeros((n, 0)), mix, 1.0)
-    scale = y[:, varying].std(axis=0)
-    z = (y[:, varying] - mean[varying]) / scale
-    u, s, vt = np.linalg.svd(z, full_matrices=False)
-    energy = s**2
-    cum = np.cumsum(energy) / energy.sum()
-    r = int(np.searchsorted(cum, variance_fraction - 1e-15) + 1)
-    r = min(r, s.size)
-    comps = np.zeros((r, m))
-    comps[:, varying] = vt[:r] * scale
-    return Components(u[:, :r] * s[:r], np.vstack([comps, mix]), float(cum[r - 1]))
+    dec = decompose(y)
+    if not dec.size:
+        return dec.components(0)
+    return dec.components(dec.count_for_fraction(variance_fraction))

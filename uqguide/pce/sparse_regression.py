@@ -134,7 +134,7 @@ def top_degree(d: int, q: float, cap: int, degree_min: int, degree_max: int | No
 
 
 @dataclass
-class _Candidates:
+class Candidates:
     """One q-norm's candidate set: columns of the evaluated basis and their q-norms."""
 
     q: float
@@ -148,7 +148,7 @@ class _SharedBasis:
     smaller degrees' own sets when they need a LARS of their own: shared by every output
     column fitted together (the principal components of a series, the entries of a vector)."""
 
-    def __init__(self, psi: np.ndarray, cs: _Candidates) -> None:
+    def __init__(self, psi: np.ndarray, cs: Candidates) -> None:
         self.cs = cs
         self.top = LarsBasis(psi[:, cs.cols])
         self._own: dict[int, tuple[np.ndarray, LarsBasis]] = {}
@@ -161,8 +161,8 @@ class _SharedBasis:
         return self._own[p]
 
 
-def _candidate_sets(d: int, n_runs: int, degree_min: int, degree_max: int | None,
-                    q: float | None) -> tuple[np.ndarray, list[_Candidates]]:
+def candidate_sets(d: int, n_runs: int, degree_min: int, degree_max: int | None,
+                    q: float | None) -> tuple[np.ndarray, list[Candidates]]:
     """The union of the q-norms' largest candidate sets (constant first), and each set in it."""
     cap = candidate_cap(n_runs) if degree_max is None else MAX_CANDIDATES
     sets = []
@@ -174,12 +174,12 @@ def _candidate_sets(d: int, n_runs: int, degree_min: int, degree_max: int | None
         sets.append((qq, top, basis.hyperbolic_indices(d, top, qq)))
     union = basis.graded(np.unique(np.concatenate([s[2] for s in sets]), axis=0))
     lookup = basis.index_lookup(union)
-    out = [_Candidates(qq, top, np.array([lookup[tuple(int(v) for v in a)] for a in al]),
+    out = [Candidates(qq, top, np.array([lookup[tuple(int(v) for v in a)] for a in al]),
                        q_norms(al, qq)) for qq, top, al in sets]
     return union, out
 
 
-def _degrees(lo: int, hi: int) -> list[int]:
+def degree_grid(lo: int, hi: int) -> list[int]:
     """Degrees scored in ``[lo, hi]``: all of them up to :data:`FULL_DEGREES`, else a coarse grid
     of that many (both ends included); :func:`_fit_column` then refines around the best."""
     if hi - lo + 1 <= FULL_DEGREES:
@@ -272,7 +272,7 @@ class _QSearch:
                 fits[p] = self._path_fit(p, path, hint)
                 lengths[p] = path.size
 
-        for p in _degrees(self.degree_min, cs.top):
+        for p in degree_grid(self.degree_min, cs.top):
             score(p)
         # Refine between the coarse grid's neighbours of its best degree.
         coarse = sorted(fits)
@@ -368,7 +368,7 @@ def fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 
 def _fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, degree_min: int,
                  degree_max: int | None, q: float | None) -> ColumnsFit:
     d = germ.dim
-    union, sets = _candidate_sets(d, xi.shape[0], degree_min, degree_max, q)
+    union, sets = candidate_sets(d, xi.shape[0], degree_min, degree_max, q)
     psi = basis.evaluate(germ, union, xi)
     shared = [_SharedBasis(psi, cs) for cs in sets]
     del psi  # each q-norm's set keeps its own copy, laid out for LARS
