@@ -25,7 +25,7 @@ def test_methods_list_allowed_values_defaults_and_meanings():
     assert "  n_samples: integer >= 1, <= 1e8; required — Number of model runs." in out
     # rules, not pointers to the source: the adaptive PCE's design size and its budget
     assert "module docstring" not in out
-    assert "Initial design size; default max(10 d, 2 P_min) runs for d inputs" in out
+    assert "Initial design size; default n0 = max(10 d, 2 P_min) runs for d inputs" in out
     assert "(default: n_samples, no enrichment)" in out
     # every setting has a one-line meaning
     settings = [ln for ln in out.splitlines() if ln.startswith("  ")]
