@@ -26,7 +26,8 @@ def test_methods_list_allowed_values_defaults_and_meanings():
     # rules, not pointers to the source: the adaptive PCE's design size and its budget
     assert "module docstring" not in out
     assert "Initial design size; default n0 = max(10 d, 2 P_min) runs for d inputs" in out
-    assert "(default: n_samples, no enrichment)" in out
+    assert ("default min(max(10 n0, 100), 1000) when n_samples is not given either (grown until "
+            "LOO and moments settle), else n_samples (no enrichment)") in out
     # every setting has a one-line meaning
     settings = [ln for ln in out.splitlines() if ln.startswith("  ")]
     assert settings and all(" — " in ln for ln in settings), [
