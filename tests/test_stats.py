@@ -90,3 +90,13 @@ def test_agreement_combines_both_estimates_errors():
     # 0.61 apart, beyond the combined half-width sqrt(0.40^2 + 0.042^2) = 0.40: OUT
     assert agrees(8.20, 7.80, 8.60, 8.808, 8.766, 8.848) is False
     assert agrees(1.0, float("nan"), float("nan"), 1.1, float("nan"), float("nan")) is None
+
+
+def test_a_stated_floor_agrees_with_any_value_on_its_open_side():
+    # Table 5's mc1000 kurtosis, 3.486 [>= 2.877]: the runs cannot bound it above, so the
+    # 1e5-run reference 3.597 above it agrees; a value below the floor still does not
+    from uqguide.report.tables import agrees
+
+    inf = float("inf")
+    assert agrees(3.486, 2.877, inf, 3.597, 3.539, 3.66) is True
+    assert agrees(3.486, 2.877, inf, 2.0, 1.95, 2.05) is False

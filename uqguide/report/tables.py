@@ -211,7 +211,9 @@ def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) ->
     """
     def half(x: float, a: float, b: float, towards: float) -> float:
         w = (b - x) if towards > x else (x - a)
-        return float(w) if np.isfinite(w) else 0.0
+        # NaN: no interval (counts as exact); inf: a stated floor or ceiling, whose runs do not
+        # bound it on that side, so any value there agrees with it
+        return 0.0 if np.isnan(w) else float(w)
 
     if not (np.isfinite(lo) or np.isfinite(rlo)):
         return None
