@@ -34,6 +34,7 @@ from ..pce.validation import (
     USABLE_ERROR, corrected_moments, disagreement, first_sustained, sampling_se, usable_mask,
     validation_unit_rows, withdraw,
 )
+from ..pce.point_choice import better_points
 from ..pce.runs_estimate import INTERVAL, runs_estimate
 from ..pce.support import SHAPE_STATS, refuted, unsupported
 from ..pce.validation import Corrected
@@ -194,6 +195,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             _flag_disagreement(diag, estimate.label, name, st, corrected, time, usable)
         _withhold_unsupported(diag, estimate.label, name, st, corrected, runs, usable, time,
                               fit_loo)
+        if corrected is not None:
+            _choose_points(diag, name, st, corrected, usable)
         if st.fallback:
             diag["fallback_interval"] = INTERVAL
         if usable.all():
@@ -336,6 +339,26 @@ def _flag_disagreement(diag: dict[str, Any], label: str, name: str, st: Any, cv:
         log.warning("%s: %s: the PCE's %s disagree with its validation runs (more than two "
                     "95%% half-widths from the corrected value); %s", label, name,
                     ", ".join(names), _instead(diag, name))
+
+def _choose_points(diag: dict[str, Any], name: str, st: Any, cv: Corrected,
+                   usable: np.ndarray) -> None:
+    """Print in the ``+cv`` row, point by point, the PCE's own value or the corrected one,
+    whichever has the smaller estimated mean squared error
+    (:func:`uqguide.pce.point_choice.better_points`); the interval stays the correction's.
+    Diagnostics ``cv_point.<output>`` say how often the PCE's value was taken."""
+    if cv.se is None:
+        return
+    chosen, taken, total = {}, 0, 0
+    for k in STAT_NAMES:
+        own = np.where(usable, np.asarray(st.stat(k), dtype=float), np.nan)
+        value, mask = better_points(own, st.corrected[k], cv.se[k])
+        chosen[k] = value
+        taken += int(mask.sum())
+        total += int(np.isfinite(value).sum())
+    # a new dict: the corrected values themselves (cv.values) stay what the checks judged
+    st.corrected = chosen
+    diag[f"cv_point.{name}"] = f"PCE value at {taken} of {total}"
+
 
 def _instead(diag: dict[str, Any], name: str) -> str:
     """What stands where the PCE's statistics disagree: the corrected values, unless the

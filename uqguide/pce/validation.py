@@ -124,6 +124,10 @@ class Corrected:
         the runs' Monte Carlo estimate its union with the tail-aware interval
         (:func:`uqguide.pce.runs_estimate.runs_estimate`), one-sided where its runs cannot
         bound the statistic.
+    se : dict of str to ndarray, shape (...), optional
+        The standard error of the correction alone (the delta-method one of
+        :func:`corrected_moments`): what :mod:`uqguide.pce.point_choice` weighs the PCE's
+        estimated bias against.
     """
 
     values: dict[str, np.ndarray]
@@ -132,6 +136,7 @@ class Corrected:
     n: int
     correction_half: dict[str, np.ndarray]
     shown_ci: dict[str, np.ndarray] | None = None
+    se: dict[str, np.ndarray] | None = None
 
 
 def _moments_of(w: np.ndarray, counts: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
@@ -332,7 +337,7 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
     grads = _gradients(*raw)
     from scipy.stats import t as student
 
-    ci, own, shown = {}, {}, {}
+    ci, own, shown, ses = {}, {}, {}, {}
     for k, g in grads.items():
         with np.errstate(invalid="ignore"):
             # NaN where the statistic is undefined (zero variance): so is its interval
@@ -346,6 +351,7 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
             # the support checks keep their calibration: Welch's t, symmetric
             half = student.ppf((1 + LEVEL) / 2, np.maximum(welch, 1.0)) * se
         own[k] = half.reshape(shape)
+        ses[k] = np.asarray(se).reshape(shape)
         wide = q * se
         if pce_se is not None and k in pce_se:
             extra = 1.96 * np.asarray(pce_se[k]).reshape(-1)
@@ -361,7 +367,8 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
                      error=relative_error(y.reshape(n, -1), s.reshape(n, -1),
                                           weight).reshape(shape),
                      n=n, correction_half=own,
-                     shown_ci={k: v.reshape((2,) + shape) for k, v in shown.items()})
+                     shown_ci={k: v.reshape((2,) + shape) for k, v in shown.items()},
+                     se=ses)
 
 
 #: Statistics whose PCE value is checked against its validation runs: scalars all four, series
