@@ -83,3 +83,35 @@ def test_a_baseline_without_indices_is_exit_2_with_sensitivity(base, tmp_path):
         f"error: {b}: --sensitivity: the baseline holds no Sobol' index to check (its result "
         f"had no Sobol' indices); write it again from a result with indices (`uqguide "
         f"baseline RESULT -o FILE --force`)")
+
+
+def test_run_checks_the_indices_too_and_refuses_before_running_without_them(base, tmp_path):
+    import yaml
+
+    result, _ = base
+    cfg = tmp_path / "ishigami.yaml"
+    cfg.write_text(yaml.safe_dump(_ishigami(2)))
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(sealed(to_jsonable(make_baseline(result)))))
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out), "-q", "--check",
+                                    str(good), "--check-sensitivity"])
+    assert res.exit_code == 0, res.output
+    # the indices were compared (without the flag a note says they are not)
+    assert "PASS: " in res.output and "Sobol' indices are not checked" not in res.output
+    # the same baseline without its indices: exit 2 before a run folder is made
+    data = to_jsonable(make_baseline(result))
+    for p in data["methods"]["s"]["outputs"]["y"]["points"]:
+        del p["indices"]
+    del data["methods"]["s"]["outputs"]["y"]["sobol_estimator"]
+    bare = tmp_path / "bare.json"
+    bare.write_text(json.dumps(sealed(data)))
+    other = tmp_path / "other"
+    res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(other), "-q", "--check",
+                                    str(bare), "--check-sensitivity"])
+    assert res.exit_code == 2 and "--sensitivity: the baseline holds no Sobol' index" \
+        in res.stderr
+    assert not other.exists()
+    res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(other), "-q",
+                                    "--check-sensitivity"])
+    assert res.exit_code == 2 and "--check BASELINE.json" in res.output

@@ -142,6 +142,9 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
 @click.option("--check", "check_path", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Then check the statistics against this baseline JSON "
                                  "(exit 1 on a regression, 2 if it is unusable).")
+@click.option("--check-sensitivity", is_flag=True,
+              help="With --check, also compare the Sobol' indices within their combined "
+                   "intervals (as `uqguide check --sensitivity`; a format 4 baseline).")
 @click.option("-q", "--quiet", is_flag=True,
               help="No progress display (and no budget lines) on stderr.")
 @click.option("--strict", is_flag=True,
@@ -150,7 +153,7 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
 @_handle_errors
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, resume: bool, force: bool,
-        check_path: Path | None, quiet: bool, strict: bool) -> None:
+        check_path: Path | None, check_sensitivity: bool, quiet: bool, strict: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .config.budget import estimate
     from .driver.checkpoint import RunInterrupted
@@ -163,6 +166,9 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .driver.run_and_write import WriteInterrupted, run_and_write
 
     _check_executor_flags(workers, scheduler, scheduler_file)
+    if check_sensitivity and not check_path:
+        raise click.UsageError("--check-sensitivity compares with a baseline: give it with "
+                               "--check BASELINE.json")
     executor: Executor | None = None
     if workers and not (scheduler or scheduler_file):
         # local workers start importing now, while the config is read and checked
@@ -174,7 +180,8 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         if seed is not None:
             cfg = cfg.with_seed(seed)
         check_config_report_times(cfg)  # before a run folder is made
-        baseline = _gate_preflight(check_path, cfg) if check_path else None
+        baseline = (_gate_preflight(check_path, cfg, check_sensitivity) if check_path
+                    else None)
         if not quiet:
             click.echo("budget:", err=True)
             for line in estimate(cfg, workers or 1).lines():
@@ -213,7 +220,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
 
         check_withheld(result)
     if check_path:
-        _gate_verdict(result, baseline, check_path)
+        _gate_verdict(result, baseline, check_path, sensitivity=check_sensitivity)
 
 
 @main.command()
@@ -368,13 +375,15 @@ def _unusable_input_is_2(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 @_unusable_input_is_2
-def _gate_preflight(path: Path, cfg: Any) -> Any:
+def _gate_preflight(path: Path, cfg: Any, sensitivity: bool = False) -> Any:
     """The baseline of ``run --check``, matched to the config before anything runs."""
-    from .gate.check import check_compatible, read_baseline
+    from .gate.check import check_compatible, check_sensitivity_possible, read_baseline
 
     baseline = read_baseline(path)
     check_compatible(baseline, cfg.model.name, {m.label: m.name for m in cfg.methods},
                      {o: cfg.model.output_info(o) for o in cfg.outputs}, str(path))
+    if sensitivity:
+        check_sensitivity_possible(baseline, str(path))
     return baseline
 
 

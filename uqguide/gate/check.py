@@ -569,6 +569,25 @@ def _check_shapes(s: OutputStatistics, time: np.ndarray, where: str) -> None:
                               f"({o.kind} output with {o.k} component(s))")
 
 
+def baseline_indices(baseline: Baseline) -> int:
+    """How many Sobol' indices ``baseline`` holds (0 before format 4)."""
+    return sum(len(p.indices) for m in baseline.methods.values()
+               for o in m.outputs.values() for p in o.points)
+
+
+def check_sensitivity_possible(baseline: Baseline, source: str) -> int:
+    """The count of the baseline's Sobol' indices; a :class:`ResultError` (exit 2) when it
+    holds none, so that ``run --check ... --check-sensitivity`` refuses before it runs."""
+    n_indices = baseline_indices(baseline)
+    if not n_indices:
+        why = (f"a format {baseline.format_version} baseline (indices from format 4 on)"
+               if baseline.format_version < 4 else "its result had no Sobol' indices")
+        raise ResultError(f"{source}: --sensitivity: the baseline holds no Sobol' index to "
+                          f"check ({why}); write it again from a result with indices "
+                          f"(`uqguide baseline RESULT -o FILE --force`)")
+    return n_indices
+
+
 def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIGMAS,
                  pce_rtol: float | None = None, source: str = "baseline",
                  sensitivity: bool = False) -> CheckReport:
@@ -607,14 +626,8 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
                      {o.name: o for o in result.outputs}, source)
     report = CheckReport(result.name, source, sigmas, rtol)
     described = result_statistics(result)
-    n_indices = sum(len(p.indices) for m in baseline.methods.values()
-                    for o in m.outputs.values() for p in o.points)
-    if sensitivity and not n_indices:
-        why = (f"a format {baseline.format_version} baseline (indices from format 4 on)"
-               if baseline.format_version < 4 else "its result had no Sobol' indices")
-        raise ResultError(f"{source}: --sensitivity: the baseline holds no Sobol' index to "
-                          f"check ({why}); write it again from a result with indices "
-                          f"(`uqguide baseline RESULT -o FILE --force`)")
+    n_indices = check_sensitivity_possible(baseline, source) if sensitivity \
+        else baseline_indices(baseline)
     inputs = tuple(result.input_names) if sensitivity else None
     for label, bm in baseline.methods.items():
         run = result.run(label)

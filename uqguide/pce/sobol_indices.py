@@ -259,7 +259,9 @@ def truncation_bounds(values: np.ndarray, eps: np.ndarray, orthogonal: bool = Tr
     root = np.sqrt(eps)
     rho = root / np.maximum(1.0 - root, 1e-300)
     s = np.sqrt(np.clip(values, 0.0, None))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # an error as large as the variance (eps -> 1) makes rho overflow: the bound is then
+    # [0, 1], which the clipping below gives
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         low = np.clip(s - rho, 0.0, None) ** 2 / (1.0 + rho) ** 2
         high = np.where(rho < 1.0, (s + rho) ** 2 / np.maximum(1.0 - rho, 1e-300) ** 2, 1.0)
     return np.stack([np.minimum(low, 1.0) - values, np.minimum(high, 1.0) - values])
