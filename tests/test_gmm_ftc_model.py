@@ -219,3 +219,33 @@ def test_model_variants_change_the_path_as_the_spec_reports():
     assert dev["2pi"] == pytest.approx(1.2e-7, abs=0.05e-7)
     assert dev["no_gmm"] == pytest.approx(6.6e-4, abs=0.05e-4)
     assert 0 < dev["fitted"] < 1e-7
+
+
+@pytest.mark.parametrize("kernel", ["numpy", "numba"])
+def test_a_loop_that_diverges_at_a_coarse_step_is_a_failed_run_not_a_nan(kernel):
+    """At dt = 1 s the finite-time law overshoots on some dispersed starts: the state grows
+    until the speed or delta-v overflows. Those runs are failed and say why; the others keep
+    finite outputs (issue: NaN delta-v reported as a success)."""
+    from pathlib import Path
+
+    import yaml
+
+    from uqguide import load_config
+
+    raw = yaml.safe_load((Path(__file__).parents[1] / "configs" /
+                          "gmm_ftc_dispersion.yaml").read_text())
+    raw.pop("reference")
+    raw.pop("events")
+    raw["model"]["kernel"] = kernel
+    raw["model"]["t_final"] = 30.0   # the diverging runs overflow by t = 12 s
+    rc = load_config(dict(raw, methods=[{"name": "monte_carlo", "n_samples": 10}]))
+    space = rc.space
+    u = np.random.default_rng(1).random((6, space.dim))
+    out = rc.model.at_fidelity({"dt": 1.0}).evaluate(space.from_unit(u), space.names,
+                                                     ["delta_v", "min_clearance"])
+    dv = out.scalars["delta_v"][:, 0]
+    assert out.failed.sum() >= 3   # rows 1, 2, 4 and 5 of this stream diverge
+    assert np.isfinite(dv[~out.failed]).all() and np.isnan(dv[out.failed]).all()
+    assert set(out.reasons[out.failed]) <= {
+        "non-finite state: the closed loop diverged",
+        "the closed loop diverged (speed or delta-v overflowed; dt too coarse?)"}

@@ -556,9 +556,10 @@ def interval_legend(with_reference: bool) -> str:
             "its (stratified) validation runs (not shown where the runs' own estimate "
             "refutes it or is more precise); its value is the PCE's own where that lies "
             "within sqrt(2) standard errors of the corrected one (the smaller estimated "
-            "mean squared error, cv_point in the diagnostics); 'no usable surrogate': LOO or validation error "
-            "above the method's usable_error; 'withheld': a PCE skewness or kurtosis outside "
-            "the interval of its validation or Monte Carlo run estimate; label+mc: where a PCE "
+            "mean squared error, cv_point in the diagnostics); 'no usable surrogate': LOO "
+            "or validation error above the method's usable_error; 'withheld': a PCE "
+            "skewness or kurtosis outside the interval of its validation or Monte Carlo run "
+            "estimate; label+mc: where a PCE "
             "moment is withheld, the Monte Carlo estimate of the method's own fit and "
             "validation runs (no extra runs), delta-method interval treating them as "
             "independent draws.")
