@@ -97,6 +97,13 @@ def test_the_runs_estimate_is_the_pooled_sample_and_its_mean_interval_covers():
     cover = np.mean((lo < 0.0) & (0.0 < hi))
     assert cover >= 0.95 - 4 * np.sqrt(0.95 * 0.05 / 400), cover
     assert runs_estimate(fit[:2], None, None) is None  # two runs: no spread to estimate
+    # the printed interval never reaches below what any distribution can have
+    assert est.shown_ci is not None
+    assert np.nanmin(est.shown_ci["kurtosis"][0]) >= 1.0
+    assert np.nanmin(est.shown_ci["std"][0]) >= 0.0
+    heavy = np.exp(rng.normal(size=(50, 200)))       # lognormal, sigma 1: wide kurtosis
+    low = runs_estimate(heavy[:30], heavy[30:], design).shown_ci["kurtosis"][0]
+    assert np.nanmin(low) >= 1.0
 
 
 # ---------------------------------------------------------------------------- end to end

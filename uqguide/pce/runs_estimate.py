@@ -104,6 +104,10 @@ def runs_estimate(fit: np.ndarray | None, validation: np.ndarray | None,
     return found
 
 
+#: The least value a statistic can take (any distribution).
+LOWEST = {"std": 0.0, "kurtosis": 1.0}
+
+
 def _bound_tails(found: Corrected, y: np.ndarray) -> None:
     """The interval to print (``found.shown_ci``): ``found``'s widened to the tail-aware one
     of the pooled runs, the union of both where the runs bound the statistic, a stated floor
@@ -123,5 +127,8 @@ def _bound_tails(found: Corrected, y: np.ndarray) -> None:
         t = tail[name]
         lo = np.where(np.isnan(t[0]), q[0], np.fmin(q[0], t[0]))
         hi = np.where(np.isnan(t[1]), q[1], np.fmax(q[1], t[1]))
+        # the union inherits the delta interval's low end, which knows no bounds: no
+        # distribution has a kurtosis below 1 or a negative std (seen: kurtosis >= -3.6)
+        lo = np.maximum(lo, LOWEST.get(name, -np.inf))
         shown[name] = np.stack([lo, hi])
     found.shown_ci = shown
