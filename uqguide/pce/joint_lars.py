@@ -111,11 +111,12 @@ class JointLarsPath:
                 self._refresh(k)
         act = self.corr[self._act[:k]]
         c2 = np.einsum("ij,ij->i", act, act).max()
-        if not free.any() or c2 <= 0.0:
+        idx = np.flatnonzero(free)
+        if not idx.size or c2 <= 0.0:
             self.done = True
             return
-        u = self.corr[free]
-        a = u - self.corr_ols[free]
+        u = self.corr[idx]
+        a = u - self.corr_ols[idx]
         g = _catch_up(u, a, c2)
         i = int(np.argmin(g))
         if not np.isfinite(g[i]):
@@ -124,7 +125,7 @@ class JointLarsPath:
         gam = min(float(g[i]), 1.0)
         self.b[:k] += gam * (self.qty[:k] - self.b[:k])
         self.corr = (1.0 - gam) * self.corr + gam * self.corr_ols
-        self.next = int(np.flatnonzero(free)[i])
+        self.next = int(idx[i])
 
 
 def _catch_up(u: np.ndarray, a: np.ndarray, c2: float) -> np.ndarray:

@@ -170,13 +170,14 @@ class LarsPath:
             self._refresh()
         c_max = np.abs(self.corr[self._act[:k]]).max()
         zz = self.z[:k] @ self.z[:k]  # s^T G^-1 s
-        if not free.any() or c_max <= 0.0 or zz <= 0.0:
+        idx = np.flatnonzero(free)
+        if not idx.size or c_max <= 0.0 or zz <= 0.0:
             self.done = True
             return
         scale = 1.0 / np.sqrt(zz)
         u = self.qz * scale  # the equiangular direction (unit norm)
         a = lb.psi_t @ u
-        cf, af = self.corr[free], a[free]
+        cf, af = self.corr[idx], a[idx]
         # 0 / 0 gives nan, ignored as the steps at or below the floor are (errstate: order).
         g1 = (c_max - cf) / (scale - af)
         g2 = (c_max + cf) / (scale + af)
@@ -190,7 +191,7 @@ class LarsPath:
             return
         self.fitted += gam[i] * u
         self.corr -= gam[i] * a
-        self.next = int(np.flatnonzero(free)[i])
+        self.next = int(idx[i])
 
 
 def lars_order(psi: np.ndarray, y: np.ndarray, max_steps: int) -> np.ndarray:
