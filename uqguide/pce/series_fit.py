@@ -20,8 +20,8 @@ Why. With few runs each component's own search serves it better than a shared pa
 spends its ``N - 2`` least-angle steps on all the components at once: on the 30 runs of the
 ``ft_as_dispersion`` golden study the joint path's LOO error was 0.15 where the
 column-by-column search's was 0.037; on issue 27's oscillator (2 inputs, 401 steps, 200 runs at
-the adaptive PCE's default plan) the joint path for all the components fitted the first to
-degree 6 and LOO 0.013, and printed kurtoses up to 53% off at 25 steps its validation runs could
+the adaptive PCE's default plan) the joint path for all the components fitted none above
+degree 6 (LOO 0.013), and printed kurtoses up to 53% off at 25 steps its validation runs could
 not refute, where the column-by-column search reaches degree 37, LOO 0.0027 and no kurtosis 20%
 off (``benchmarks/oscillator_defaults.py``; ``tests/test_pce_support.py``, a slow test); on the
 200-step oscillator of ``benchmarks/pce_peers.py`` the hybrid (three components searched) had
@@ -33,8 +33,8 @@ trailing components, and the worst error of the four moments over all 199 varyin
 2.8e-8 with the hybrid and 5.5e-8 column by column (swapping a single component between the two
 fits moves the last step's skewness error between 8e-10 and 1e-7: at that level it is the
 noise of the fit, not a property of the path), while the series fit fell from about 20 CPU-s
-(18 searches of about a CPU-second each) to about 4. The first component keeps its own search:
-it holds the most variance, and it is the one whose degree a shared path capped.
+(18 searches of about a CPU-second each) to 4-5. The first component keeps its own search:
+it holds the most variance, so its degree matters most, and a shared path is what capped it.
 """
 
 from __future__ import annotations
