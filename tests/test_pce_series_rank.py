@@ -119,3 +119,38 @@ def test_variance_fraction_and_n_components_exclude_each_other():
     with pytest.raises(ValidationError, match="'n_components' parameter of pce_adaptive must "
                                               "be unset when variance_fraction"):
         AdaptivePCE({"variance_fraction": 0.99, "n_components": 3})
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_hybrid_fits_the_leading_component_alone_and_the_rest_jointly(seed, monkeypatch):
+    """Above :data:`series_fit.HYBRID_WORK` (forced to 0 here) the first component is the
+    column-by-column fit of it alone, the others the joint fit of them alone, term for term,
+    and each component's leave-one-out residuals are those of its own fit. On exact
+    polynomial columns the merged expansion reproduces every column to round-off."""
+    from uqguide.pce import series_fit
+    from uqguide.pce.expansion import Expansion
+
+    _, germ, xi = _hermite_design(40, seed)
+    x1, x2 = xi[:, 0], xi[:, 1]
+    y = np.column_stack([2.0 * x1 + 0.5 * x2, 0.3 * (x1**2 - 1.0) + 0.1 * x1 * x2,
+                         0.01 * (x2**3 - 3.0 * x2) + 0.02 * x1])
+    kw = dict(degree_min=1, degree_max=3, q=1.0)
+    monkeypatch.setattr(series_fit, "HYBRID_WORK", 0.0)
+    fit, resid = series_fit._fit_components(germ, xi, y, loo=True, **kw)
+    lead = fit_columns(germ, xi, y[:, :1], **kw)
+    rest = fit_joint(germ, xi, y[:, 1:], **kw)
+
+    def terms(f, c):
+        return {tuple(a): v for a, v in zip(f.alpha.tolist(), f.core[:, c]) if v != 0.0}
+
+    assert terms(fit, 0) == terms(lead, 0)
+    assert [terms(fit, c) for c in (1, 2)] == [terms(rest.fit, c) for c in (0, 1)]
+    np.testing.assert_array_equal(fit.degree, np.concatenate([lead.degree, rest.fit.degree]))
+    np.testing.assert_array_equal(resid[:, 1:], rest.loo_resid)
+    test = np.random.default_rng(100 + seed).normal(size=(200, 2))
+    t1, t2 = test[:, 0], test[:, 1]
+    truth = np.column_stack([2.0 * t1 + 0.5 * t2, 0.3 * (t1**2 - 1.0) + 0.1 * t1 * t2,
+                             0.01 * (t2**3 - 3.0 * t2) + 0.02 * t1])
+    both = Expansion(germ, fit.alpha, fit.core, (3,)).evaluate(test)
+    assert np.all(np.abs(both - truth).max(axis=0) <= EXACT * np.abs(y).max(axis=0))
+    assert np.all(np.abs(resid) <= EXACT * np.abs(y).max(axis=0))

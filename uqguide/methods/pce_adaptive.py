@@ -10,8 +10,9 @@ Pipeline:
    from ``degree_min`` up to what the runs support, the (q, degree, terms) of least error kept
    (:mod:`uqguide.pce.sparse_regression`); ``degree_max`` and ``q_norm`` fix the grid's ends
    when given. Time series are first
-   compressed to principal components (:mod:`uqguide.pce.pca`), fitted together on shared
-   least-angle paths (:mod:`uqguide.pce.series_fit`), and as many kept as make the truncation
+   compressed to principal components (:mod:`uqguide.pce.pca`), each fitted as a scalar is, or
+   with many runs the first so and the others on shared least-angle paths
+   (:mod:`uqguide.pce.series_fit`), and as many kept as make the truncation
    error of every moment at every step at most the surrogate's own (:mod:`uqguide.pce.pca_rank`;
    ``n_components`` or ``variance_fraction`` fix the count instead); scalar outputs are fitted
    component by component.

@@ -57,6 +57,9 @@ class JointLarsPath:
         self.qty = np.empty((size, self.y.shape[1]))  # Q^T Y
         self.b = np.zeros((size, self.y.shape[1]))  # Y_hat = Q^T b
         self.active: list[int] = []
+        # As in LarsPath: the active set as an index array, the free candidates as a mask.
+        self._act = np.zeros(size, dtype=np.intp)
+        self._free = ~self.excluded
         self.corr = lb.psi_t @ self.y  # C = psi^T (Y - Y_hat)
         self.corr_ols = self.corr.copy()  # psi^T (Y - Y_bar)
         self.corr[self.excluded] = 0.0
@@ -87,6 +90,8 @@ class JointLarsPath:
         if d2 < 0.25 * lb.norms2[j]:  # cancellation: orthogonalise once more
             v -= (q @ v) @ q
             d2 = v @ v
+        free = self._free
+        free[j] = False
         if d2 <= _DEGENERATE * lb.norms2[j]:
             self.excluded[j] = True  # in the span of the active columns: adds nothing
         else:
@@ -97,20 +102,21 @@ class JointLarsPath:
             # The least-squares residual loses its part along the new column.
             self.corr_ols -= np.outer(lb.psi_t @ qn, self.qty[k])
             self.active.append(j)
+            self._act[k] = j
             k += 1
             if k >= self.cap:
                 self.done = True
                 return
             if k % _REFRESH == 0:
                 self._refresh(k)
-        active = self.active
-        c2 = np.einsum("ij,ij->i", self.corr[active], self.corr[active]).max()
-        free = ~self.excluded
-        free[active] = False
-        if not free.any() or c2 <= 0.0:
+        act = self.corr[self._act[:k]]
+        c2 = np.einsum("ij,ij->i", act, act).max()
+        idx = np.flatnonzero(free)
+        if not idx.size or c2 <= 0.0:
             self.done = True
             return
-        u, a = self.corr[free], self.corr[free] - self.corr_ols[free]
+        u = self.corr[idx]
+        a = u - self.corr_ols[idx]
         g = _catch_up(u, a, c2)
         i = int(np.argmin(g))
         if not np.isfinite(g[i]):
@@ -119,7 +125,7 @@ class JointLarsPath:
         gam = min(float(g[i]), 1.0)
         self.b[:k] += gam * (self.qty[:k] - self.b[:k])
         self.corr = (1.0 - gam) * self.corr + gam * self.corr_ols
-        self.next = int(np.flatnonzero(free)[i])
+        self.next = int(idx[i])
 
 
 def _catch_up(u: np.ndarray, a: np.ndarray, c2: float) -> np.ndarray:

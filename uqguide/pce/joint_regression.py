@@ -14,9 +14,9 @@ are smooth functions of the same inputs, and one path serves them all (the path 
 largest components first and the small ones once the large ones are fitted). What is given up:
 the single-column search's extra LARS of its own for a close degree
 (:meth:`uqguide.pce.sparse_regression._QSearch.own_lars`), and the column-by-column path,
-whose order suits one component better than a shared one; so a series takes the joint path
-only where the column-by-column search is expensive (:mod:`uqguide.pce.series_fit`), and
-scalar outputs never.
+whose order suits one component better than a shared one; so a series' components other than
+the first take the joint path only where the column-by-column search is expensive (many runs:
+:mod:`uqguide.pce.series_fit`), and scalar outputs never.
 """
 
 from __future__ import annotations

@@ -79,10 +79,11 @@ def moment_steps(y: np.ndarray) -> np.ndarray:
     return mom[1] > _FLAT * np.maximum(np.abs(mom[0]), 1e-300)
 
 
-def truncation_errors(dec: Decomposition, y: np.ndarray, r: int, steps: np.ndarray
-                      ) -> np.ndarray:
-    """Truncation errors ``(4, s)`` of ``r`` components at the judged steps."""
-    full = _moments(y[:, steps])
+def truncation_errors(dec: Decomposition, y: np.ndarray, r: int, steps: np.ndarray,
+                      full: np.ndarray | None = None) -> np.ndarray:
+    """Truncation errors ``(4, s)`` of ``r`` components at the judged steps (``full``: the
+    moments of ``y`` there, if already computed)."""
+    full = _moments(y[:, steps]) if full is None else full
     return _scaled(_moments(dec.reconstruct(dec.scores[:, :r])[:, steps]), full)
 
 
@@ -105,8 +106,9 @@ def choose(dec: Decomposition, y: np.ndarray, loo_resid: np.ndarray) -> int:
     steps = moment_steps(y)
     if not steps.any():
         return floor
+    full = _moments(y[:, steps])
     for r in range(max(floor, 1), n_fit + 1):
-        trunc = truncation_errors(dec, y, r, steps)
+        trunc = truncation_errors(dec, y, r, steps, full)
         worst = np.max(np.where(np.isfinite(trunc), trunc, 0.0), axis=1)
         if np.all(worst <= surrogate_errors(dec, loo_resid[:, :r], steps)):
             return r

@@ -1,23 +1,40 @@
-"""A series output's adaptive PCE: principal components, one joint sparse fit, the rank.
+"""A series output's adaptive PCE: principal components, their sparse fits, the rank.
 
 ``y (N, m)`` is decomposed (:func:`uqguide.pce.pca.decompose`); the candidate components are
-fitted together on shared least-angle paths (:func:`uqguide.pce.joint_regression.fit_joint`);
-the number kept is then chosen by the moments' rule (:mod:`uqguide.pce.pca_rank`), unless the
-configuration fixes it by ``n_components`` or ``variance_fraction`` (those fit only what they
-keep). The kept components' expansions are those of the joint fit: choosing after fitting
-costs one fit, where growing the count and refitting cost one per step.
+fitted (below), and the number kept is then chosen by the moments' rule
+(:mod:`uqguide.pce.pca_rank`), unless the configuration fixes it by ``n_components`` or
+``variance_fraction`` (those fit only what they keep). The kept components' expansions are those
+fitted: choosing after fitting costs one fit, where growing the count and refitting cost one per
+step.
 
-The joint path is a saving, not a gain in accuracy: with few runs each component's own path
-serves it better (on the 30 runs of the ``ft_as_dispersion`` golden study the joint path's LOO
-error was 0.15 where the column-by-column search's was 0.037), and a shared path stops at a
-degree the slowest component allows: on issue 27's oscillator (2 inputs, 401 steps, 200 runs at
-the adaptive PCE's default plan) it reached degree 6 and LOO 0.013, and printed kurtoses up to
-53% off at 25 steps its validation runs could not refute, where the column-by-column search
-reaches degree 37, LOO 0.0027 and no kurtosis 20% off (``tests/test_pce_support.py``, the
-oscillator at defaults, a slow test). So the column-by-column search is used, as for scalar
-outputs, wherever it costs at most :data:`COLUMNWISE_WORK` multiply-adds in all (``r N P min(N,
-P)`` summed over the q-norms' candidate sets of ``P`` terms): accuracy first, the joint path
-only where the search would take minutes.
+How the components are fitted. Where one component's column-by-column search
+(:func:`uqguide.pce.sparse_regression.fit_columns`, as for a scalar output) costs at most
+:data:`HYBRID_WORK` multiply-adds (``N P min(N, P)`` summed over the q-norms' candidate sets of
+``P`` terms: up to about 340 runs with 2 inputs, 250 with 3 to 8), every component gets it.
+Above, a hybrid: the first component gets its own search and the others share the joint path
+(:func:`uqguide.pce.joint_regression.fit_joint`); past :data:`COLUMNWISE_WORK` (about a
+CPU-minute for that one search) the first takes the joint path too. The moments' rule takes the
+leave-one-out residuals of both.
+
+Why. With few runs each component's own search serves it better than a shared path, which
+spends its ``N - 2`` least-angle steps on all the components at once: on the 30 runs of the
+``ft_as_dispersion`` golden study the joint path's LOO error was 0.15 where the
+column-by-column search's was 0.037; on issue 27's oscillator (2 inputs, 401 steps, 200 runs at
+the adaptive PCE's default plan) the joint path for all the components fitted none above
+degree 6 (LOO 0.013), and printed kurtoses up to 53% off at 25 steps its validation runs could
+not refute, where the column-by-column search reaches degree 37, LOO 0.0027 and no kurtosis 20%
+off (``benchmarks/oscillator_defaults.py``; ``tests/test_pce_support.py``, a slow test); on the
+200-step oscillator of ``benchmarks/pce_peers.py`` the hybrid (three components searched) had
+last-step skewness errors of 0.12 at 100 runs and 6.9e-4 at 200, where the column-by-column
+search has 2.2e-2 and 4.3e-4. With more runs the joint path fits the small components as well
+as their own searches do, for about the cost of one of them: on that oscillator at 500 runs
+(seed 1) the joint path's LOO error was below the component's own search's for 15 of the 17
+trailing components, and the worst error of the four moments over all 199 varying steps was
+2.8e-8 with the hybrid and 5.5e-8 column by column (swapping a single component between the two
+fits moves the last step's skewness error between 8e-10 and 1e-7: at that level it is the
+noise of the fit, not a property of the path), while the series fit fell from about 20 CPU-s
+(18 searches of about a CPU-second each) to 4-5. The first component keeps its own search:
+it holds the most variance, so its degree matters most, and a shared path is what capped it.
 """
 
 from __future__ import annotations
@@ -36,8 +53,14 @@ from .sparse_regression import ColumnsFit, candidate_sets, fit_columns
 
 log = logging.getLogger(__name__)
 
-#: Work (multiply-adds) below which the components are searched column by column: about a
-#: CPU-minute of least-angle steps (the 200-step, 500-run oscillator is 8e9).
+#: One component's search work (multiply-adds) up to which every component is searched column
+#: by column (module docstring; the 500-run oscillator's is 4e8).
+HYBRID_WORK = 2e8
+#: Components searched column by column above :data:`HYBRID_WORK`, the largest first (each
+#: costs about what the joint path for all the others does).
+LEAD = 1
+#: Work (multiply-adds) above which even the leading components take the joint path: about a
+#: CPU-minute of least-angle steps.
 COLUMNWISE_WORK = 1e11
 
 
@@ -89,6 +112,52 @@ def _loo_residuals(germ: Germ, xi: np.ndarray, y: np.ndarray, fit: ColumnsFit) -
     return np.where(np.isfinite(out), out, 0.0)
 
 
+def _merge(a: ColumnsFit, b: ColumnsFit) -> ColumnsFit:
+    """The columns of ``a`` then those of ``b``, on the union of their terms (graded, constant
+    first)."""
+    alpha = basis.graded(np.unique(np.vstack([a.alpha, b.alpha]), axis=0))
+    lookup = basis.index_lookup(alpha)
+    core = np.zeros((alpha.shape[0], a.core.shape[1] + b.core.shape[1]))
+    for fit, lo in ((a, 0), (b, a.core.shape[1])):
+        rows = [lookup[tuple(int(v) for v in row)] for row in fit.alpha]
+        core[rows, lo:lo + fit.core.shape[1]] = fit.core
+    return ColumnsFit(alpha, core, np.concatenate([a.degree, b.degree]),
+                      np.concatenate([a.q, b.q]), np.concatenate([a.loo, b.loo]),
+                      np.concatenate([a.n_terms, b.n_terms]),
+                      max(a.n_candidates, b.n_candidates))
+
+
+def _fit_components(germ: Germ, xi: np.ndarray, scores: np.ndarray,
+                    degree_min: int, degree_max: int | None, q: float | None,
+                    loo: bool) -> tuple[ColumnsFit, np.ndarray | None]:
+    """Expansions of the components' ``scores (N, r)`` (module docstring: column by column where
+    cheap, else the hybrid or the joint path), and their leave-one-out residuals if ``loo``."""
+    n, r = scores.shape
+    one = _columnwise_work(germ.dim, n, 1, degree_min, degree_max, q)
+    if one <= HYBRID_WORK:
+        fit = fit_columns(germ, xi, scores, degree_min=degree_min, degree_max=degree_max,
+                          q=q)
+        return fit, (_loo_residuals(germ, xi, scores, fit) if loo else None)
+    # Even the leading components' search is skipped where it would take minutes.
+    lead = min(LEAD, r) if LEAD * one <= COLUMNWISE_WORK else 0
+    parts, resid = [], []
+    if lead:
+        fit = fit_columns(germ, xi, scores[:, :lead], degree_min=degree_min,
+                          degree_max=degree_max, q=q)
+        parts.append(fit)
+        if loo:
+            resid.append(_loo_residuals(germ, xi, scores[:, :lead], fit))
+    if lead < r:
+        joint = fit_joint(germ, xi, scores[:, lead:], degree_min=degree_min,
+                          degree_max=degree_max, q=q)
+        parts.append(joint.fit)
+        resid.append(joint.loo_resid)
+    fit = parts[0] if len(parts) == 1 else _merge(*parts)
+    log.debug("series: %d leading component(s) searched column by column, %d on the joint "
+              "path", lead, r - lead)
+    return fit, (np.hstack(resid) if loo else None)
+
+
 def fit_series(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1,
                degree_max: int | None = None, q: float | None = None,
                variance_fraction: float | None = None, n_components: int | None = None
@@ -117,18 +186,10 @@ def fit_series(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1
                            np.zeros(0, dtype=int), np.zeros(0), np.zeros(0),
                            np.zeros(0, dtype=int))
         return SeriesFit(comps, empty, rule)
-    if _columnwise_work(germ.dim, y.shape[0], r, degree_min, degree_max, q) <= COLUMNWISE_WORK:
-        fit = fit_columns(germ, xi, comps.scores, degree_min=degree_min,
-                          degree_max=degree_max, q=q)
-        if rule != "moments":
-            return SeriesFit(comps, fit, rule)
-        loo_resid = _loo_residuals(germ, xi, comps.scores, fit)
-    else:
-        joint = fit_joint(germ, xi, comps.scores, degree_min=degree_min,
-                          degree_max=degree_max, q=q)
-        fit, loo_resid = joint.fit, joint.loo_resid
-        if rule != "moments":
-            return SeriesFit(comps, fit, rule)
+    fit, loo_resid = _fit_components(germ, xi, comps.scores, degree_min, degree_max, q,
+                                     loo=rule == "moments")
+    if loo_resid is None:
+        return SeriesFit(comps, fit, rule)
     kept = pca_rank.choose(dec, y, loo_resid)
     log.debug("series: %d of %d candidate components kept by the moments' rule", kept, r)
     return SeriesFit(dec.components(kept), _keep(fit, kept), rule)
