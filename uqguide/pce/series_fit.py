@@ -43,6 +43,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from . import pca_rank
 from .germ import Germ
@@ -173,6 +174,18 @@ def fit_series(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1
     n_components : int, optional
         Keep this many components (at most all there are).
     """
+    # One BLAS thread for the whole fit, the decomposition included: a threaded SVD leaves
+    # its threads spinning into the single-threaded searches that follow (a 2 CPU-s fit
+    # billed 83 CPU-s on a loaded 2-core machine), and its round-off would depend on the
+    # thread count.
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _fit_series(germ, xi, y, degree_min, degree_max, q, variance_fraction,
+                           n_components)
+
+
+def _fit_series(germ: Germ, xi: np.ndarray, y: np.ndarray, degree_min: int,
+                degree_max: int | None, q: float | None, variance_fraction: float | None,
+                n_components: int | None) -> SeriesFit:
     dec = decompose(y)
     if n_components is not None:
         r, rule = min(n_components, dec.size), "n_components"
