@@ -68,14 +68,19 @@ def test_without_the_flag_the_indices_are_counted_in_a_note(base):
         in report.notes
 
 
-def test_a_baseline_without_indices_is_exit_2_with_sensitivity(base, tmp_path):
-    result, _ = base
+def _without_indices(result, path):
+    """``result``'s baseline with its Sobol' indices taken out, written to ``path``."""
     data = to_jsonable(make_baseline(result))
     for p in data["methods"]["s"]["outputs"]["y"]["points"]:
         del p["indices"]
     del data["methods"]["s"]["outputs"]["y"]["sobol_estimator"]
-    b = tmp_path / "b.json"
-    b.write_text(json.dumps(sealed(data)))
+    path.write_text(json.dumps(sealed(data)))
+    return path
+
+
+def test_a_baseline_without_indices_is_exit_2_with_sensitivity(base, tmp_path):
+    result, _ = base
+    b = _without_indices(result, tmp_path / "b.json")
     h5 = write_hdf5(result, tmp_path / "r.h5")
     res = CliRunner().invoke(main, ["check", str(h5), "--baseline", str(b), "--sensitivity"])
     assert res.exit_code == 2, res.output
@@ -100,12 +105,7 @@ def test_run_checks_the_indices_too_and_refuses_before_running_without_them(base
     # the indices were compared (without the flag a note says they are not)
     assert "PASS: " in res.output and "Sobol' indices are not checked" not in res.output
     # the same baseline without its indices: exit 2 before a run folder is made
-    data = to_jsonable(make_baseline(result))
-    for p in data["methods"]["s"]["outputs"]["y"]["points"]:
-        del p["indices"]
-    del data["methods"]["s"]["outputs"]["y"]["sobol_estimator"]
-    bare = tmp_path / "bare.json"
-    bare.write_text(json.dumps(sealed(data)))
+    bare = _without_indices(result, tmp_path / "bare.json")
     other = tmp_path / "other"
     res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(other), "-q", "--check",
                                     str(bare), "--check-sensitivity"])
