@@ -221,7 +221,8 @@ def test_model_variants_change_the_path_as_the_spec_reports():
     assert 0 < dev["fitted"] < 1e-7
 
 
-@pytest.mark.parametrize("kernel", ["numpy", "numba"])
+# the NumPy kernel's 30 steps cost 2 CPU-s of set-up: a slow test (the default suite's budget)
+@pytest.mark.parametrize("kernel", [pytest.param("numpy", marks=pytest.mark.slow), "numba"])
 def test_a_loop_that_diverges_at_a_coarse_step_is_a_failed_run_not_a_nan(kernel):
     """At dt = 1 s the finite-time law overshoots on some dispersed starts: the state grows
     until the speed or delta-v overflows. Those runs are failed and say why; the others keep
