@@ -174,7 +174,7 @@ def validation_text(df: pd.DataFrame) -> pd.DataFrame:
     out = df[["label", "output", "component", "time", "stat"]].copy()
     out["PCE"] = [(_fmt(v) if u else "no usable surrogate") for v, u in zip(df["pce"],
                                                                              df["usable"])]
-    out["corrected [95%]"] = [f"{_fmt(v)} [{_fmt(a)}, {_fmt(b)}]" if np.isfinite(v) or
+    out["+cv [95%]"] = [f"{_fmt(v)} [{_fmt(a)}, {_fmt(b)}]" if np.isfinite(v) or
                               np.isfinite(a) else NOT_REPORTED for v, a, b in
                               zip(df["corrected"], df["ci_low"], df["ci_high"])]
     out["val_error"] = df["val_error"].map(_fmt)
@@ -492,8 +492,10 @@ def render_text(result: Result) -> str:
     parts = ["Cost", cost_table(result).to_string(index=False, na_rep="")]
     val = validation_table(result)
     if not val.empty:
-        parts += ["", "PCE validation (PCE value; control-variate value with its 95% interval from "
-                  "the validation runs, delta method; val_error: out-of-sample error / variance)",
+        parts += ["", "PCE validation (PCE value; the +cv row: the PCE's own value where it lies "
+                  "within sqrt(2) standard errors of the control-variate value, else that value, "
+                  "with the control variate's 95% interval from the validation runs, delta "
+                  "method; val_error: out-of-sample error / variance)",
                   validation_text(val).to_string(index=False)]
     stats = statistics_table(result)
     stats.attrs["reference"] = result.reference
