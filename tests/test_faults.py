@@ -596,6 +596,7 @@ def test_a_sample_that_kills_its_worker_fails_alone_without_a_timeout(tmp_path, 
 
 
 # ---------------------------------------------------------------------------- 6. orphans
+@pytest.mark.slow  # a signal to a subprocess: the marker's 'crashes and signals'
 def test_workers_die_with_a_killed_driver(tmp_path):
     """SIGKILL of the driver (the out-of-memory killer's way): its workers end too, and the
     caller's pipes close (communicate() returns) instead of being held for ever."""

@@ -48,6 +48,7 @@ def _chunk_lines(manifest: Path) -> int:
     return sum(1 for line in manifest.read_text().splitlines() if '"kind": "chunk"' in line)
 
 
+@pytest.mark.slow  # a signal to a subprocess: the marker's 'crashes and signals'
 def test_sigkill_mid_run_then_resume_equals_an_uninterrupted_run(tmp_path):
     cfg = tmp_path / "slow.yaml"
     cfg.write_text(yaml.safe_dump(_config("tests.failing_models:slow_sum")))
