@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .lars import SparseFit
-
-_DEGENERATE = 1e-10  # as in uqguide.pce.lars
+from .lars import GrowingPath, SparseFit, grown_factor, orthogonal_block
 
 
-class MultiLooPath:
+
+class MultiLooPath(GrowingPath):
     """Corrected LOO errors ``(K, r)`` of the nested sets of one path (constant first).
 
     Parameters
@@ -49,37 +48,15 @@ class MultiLooPath:
         self.best_size = np.zeros(r, dtype=int)
         self.best_resid = np.zeros((n, r))
 
-    def feed(self, path: np.ndarray) -> None:
-        """Score ``path``'s entries past those already fed (``path`` extends the earlier one)."""
-        new = np.asarray(path[self.fed:], dtype=int)
-        self.fed = max(self.fed, len(path))
-        if new.size:
-            self._extend(new)
-
     def _extend(self, new: np.ndarray) -> None:
-        from scipy.linalg import qr, solve_triangular
-
         q, n, m = self._q, self.n, self.cols.size
-        while True:
-            b = self.psi[:, new]
-            norms = np.linalg.norm(b, axis=0)
-            c = q.T @ b
-            b = b - q @ c
-            c2 = q.T @ b
-            b -= q @ c2
-            c += c2
-            qb, rb = qr(b, mode="economic", check_finite=False)
-            bad = np.abs(np.diag(rb)) <= _DEGENERATE * norms
-            if not bad.any():
-                break
-            new = new[~bad]
-            if new.size == 0:
-                return
+        block = orthogonal_block(self.psi, q, new)
+        if block is None:
+            return
+        new, qb, rb, c = block
         k = new.size
         hat = self._hat[:, None] + np.cumsum(qb * qb, axis=1)
-        rbinv = solve_triangular(rb, np.eye(k), lower=False, check_finite=False)
-        top = -self._rinv @ (c @ rbinv)
-        frob = self._frob + np.cumsum((top * top).sum(axis=0) + (rbinv * rbinv).sum(axis=0))
+        r, rinv, frob = grown_factor(self._r, self._rinv, self._frob, c, rb)
         p = m + 1 + np.arange(k)
         undefined = (hat >= 1.0 - 1e-10).any(axis=0) | (p >= n)
         undefined = np.maximum.accumulate(undefined | self._undefined)
@@ -100,10 +77,6 @@ class MultiLooPath:
                     self.best_loo[j], self.best_size[j] = loo[i, j], m + 1 + i
                     self.best_resid[:, j] = e[:, i]
                 self._resid[:, j] = resid[:, -1]
-        r = np.zeros((m + k, m + k))
-        r[:m, :m], r[:m, m:], r[m:, m:] = self._r, c, rb
-        rinv = np.zeros((m + k, m + k))
-        rinv[:m, :m], rinv[:m, m:], rinv[m:, m:] = self._rinv, top, rbinv
         self._q = np.hstack([q, qb])
         self._r, self._rinv = r, rinv
         self._qty = np.vstack([self._qty, qty])

@@ -31,7 +31,7 @@ from .germ import Germ
 from .joint_lars import JointLarsPath
 from .joint_loo import MultiLooPath, score_path
 from .lars import LarsBasis, SparseFit
-from .sparse_regression import (PATIENCE, Candidates, ColumnsFit, candidate_sets,
+from .sparse_regression import (PATIENCE, Candidates, ColumnsFit, candidate_sets, columns_fit,
                                 degree_grid)
 
 
@@ -121,11 +121,4 @@ def _fit_joint(germ: Germ, xi: np.ndarray, y: np.ndarray, degree_min: int,
         fits.append(fit)
         loo[j] = fit.loo
         loo_resid[:, j] = resid[j][k]
-    used = np.unique(np.concatenate([[0]] + [f.terms for f in fits]))
-    pos = {t: i for i, t in enumerate(used)}
-    core = np.zeros((used.size, r))
-    for c, f in enumerate(fits):
-        core[[pos[t] for t in f.terms], c] = f.coef
-    n_terms = np.array([f.terms.size for f in fits], dtype=int)
-    return JointFit(ColumnsFit(union[used], core, degree, qs, loo, n_terms, int(union.shape[0])),
-                    loo_resid)
+    return JointFit(columns_fit(union, fits, degree, qs, loo), loo_resid)

@@ -200,7 +200,67 @@ def lars_order(psi: np.ndarray, y: np.ndarray, max_steps: int) -> np.ndarray:
     return LarsPath(psi, y).order(max_steps)
 
 
-class LooPath:
+def orthogonal_block(psi: np.ndarray, q: np.ndarray, new: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """Columns ``new`` of ``psi`` orthogonalised against ``q``'s orthonormal columns (classical
+    Gram-Schmidt, twice) and factorised by Householder QR, dropping those (nearly) in the span
+    of the kept ones: ``(new, Qb, Rb, C)`` with ``psi[:, new] = q C + Qb Rb``; None when none
+    adds anything."""
+    from scipy.linalg import qr  # here: `uqguide validate` starts without it
+
+    while True:
+        b = psi[:, new]
+        norms = np.linalg.norm(b, axis=0)
+        c = q.T @ b
+        b = b - q @ c
+        c2 = q.T @ b
+        b -= q @ c2
+        c += c2
+        qb, rb = qr(b, mode="economic", check_finite=False)
+        bad = np.abs(np.diag(rb)) <= _DEGENERATE * norms
+        if not bad.any():
+            return new, qb, rb, c
+        new = new[~bad]
+        if new.size == 0:
+            return None
+
+
+def grown_factor(r: np.ndarray, rinv: np.ndarray, frob: float, c: np.ndarray, rb: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``R`` and ``R^-1`` grown by a block (:func:`orthogonal_block`'s ``C``, ``Rb``), and
+    ``trace((A^T A)^-1) = ||R^-1||_F^2`` of each nested set the block adds (``(k,)``, from
+    ``frob``, the kept set's): the new columns of ``R^-1`` are ``[-R^-1 C Rb^-1; Rb^-1]``."""
+    from scipy.linalg import solve_triangular
+
+    m, k = r.shape[0], rb.shape[0]
+    rbinv = solve_triangular(rb, np.eye(k), lower=False, check_finite=False)
+    top = -rinv @ (c @ rbinv)
+    frobs = frob + np.cumsum((top * top).sum(axis=0) + (rbinv * rbinv).sum(axis=0))
+    r_new = np.zeros((m + k, m + k))
+    r_new[:m, :m], r_new[:m, m:], r_new[m:, m:] = r, c, rb
+    rinv_new = np.zeros((m + k, m + k))
+    rinv_new[:m, :m], rinv_new[:m, m:], rinv_new[m:, m:] = rinv, top, rbinv
+    return r_new, rinv_new, frobs
+
+
+class GrowingPath:
+    """A path scored as it grows: :meth:`feed` hands the entries not yet seen to ``_extend``
+    (:class:`LooPath`, :class:`uqguide.pce.joint_loo.MultiLooPath`)."""
+
+    fed: int
+
+    def feed(self, path: np.ndarray) -> None:
+        """Score ``path``'s entries past those already fed (``path`` extends the earlier one)."""
+        new = np.asarray(path[self.fed:], dtype=int)
+        self.fed = max(self.fed, len(path))
+        if new.size:
+            self._extend(new)
+
+    def _extend(self, new: np.ndarray) -> None:
+        raise NotImplementedError
+
+
+class LooPath(GrowingPath):
     """Corrected LOO errors of the nested sets of a growing path (column 0, the constant,
     first), its QR extended block by block as the path grows.
 
@@ -237,39 +297,17 @@ class LooPath:
         self._frob = 0.0
         self._undefined = False
 
-    def feed(self, path: np.ndarray) -> None:
-        """Score ``path``'s entries past those already fed (``path`` extends the earlier one)."""
-        new = np.asarray(path[self.fed:], dtype=int)
-        self.fed = max(self.fed, len(path))
-        if new.size:
-            self._extend(new)
-
     def _extend(self, new: np.ndarray) -> None:
-        from scipy.linalg import qr, solve_triangular  # here: `uqguide validate` starts without it
-
         q, n, m = self._q, self.n, self.cols.size
-        while True:
-            b = self.psi[:, new]
-            norms = np.linalg.norm(b, axis=0)
-            c = q.T @ b
-            b = b - q @ c
-            c2 = q.T @ b
-            b -= q @ c2
-            c += c2
-            qb, rb = qr(b, mode="economic", check_finite=False)
-            bad = np.abs(np.diag(rb)) <= _DEGENERATE * norms
-            if not bad.any():
-                break
-            new = new[~bad]
-            if new.size == 0:
-                return
+        block = orthogonal_block(self.psi, q, new)
+        if block is None:
+            return
+        new, qb, rb, c = block
         k = new.size
         qty = qb.T @ self._resid  # = Qb^T y: Qb is orthogonal to the kept columns
         resid = self._resid[:, None] - np.cumsum(qb * qty, axis=1)
         hat = self._hat[:, None] + np.cumsum(qb * qb, axis=1)
-        rbinv = solve_triangular(rb, np.eye(k), lower=False, check_finite=False)
-        top = -self._rinv @ (c @ rbinv)
-        frob = self._frob + np.cumsum((top * top).sum(axis=0) + (rbinv * rbinv).sum(axis=0))
+        r, rinv, frob = grown_factor(self._r, self._rinv, self._frob, c, rb)
         p = m + 1 + np.arange(k)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             e2 = (resid / (1.0 - hat)) ** 2
@@ -279,10 +317,6 @@ class LooPath:
         undefined = (hat >= 1.0 - 1e-10).any(axis=0) | (p >= n) | ~np.isfinite(loo)
         undefined = np.maximum.accumulate(undefined | self._undefined)  # a leverage of 1 stays
         loo[undefined] = np.inf
-        r = np.zeros((m + k, m + k))
-        r[:m, :m], r[:m, m:], r[m:, m:] = self._r, c, rb
-        rinv = np.zeros((m + k, m + k))
-        rinv[:m, :m], rinv[:m, m:], rinv[m:, m:] = self._rinv, top, rbinv
         self._q = np.hstack([q, qb])
         self._r, self._rinv = r, rinv
         self._qty = np.concatenate([self._qty, qty])

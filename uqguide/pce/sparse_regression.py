@@ -384,9 +384,16 @@ def _fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, degree_min: int,
         fit, qs[c], degree[c] = _fit_column(shared, y[:, c], degree_min)
         fits.append(fit)
         loo[c] = fit.loo
+    return columns_fit(union, fits, degree, qs, loo)
+
+
+def columns_fit(union: np.ndarray, fits: list[SparseFit], degree: np.ndarray, qs: np.ndarray,
+                loo: np.ndarray) -> ColumnsFit:
+    """The columns' fits (terms as rows of ``union``) on the union of the terms they use,
+    constant first."""
     used = np.unique(np.concatenate([[0]] + [f.terms for f in fits]))
     pos = {t: i for i, t in enumerate(used)}
-    core = np.zeros((used.size, r))
+    core = np.zeros((used.size, len(fits)))
     for c, f in enumerate(fits):
         core[[pos[t] for t in f.terms], c] = f.coef
     n_terms = np.array([f.terms.size for f in fits], dtype=int)
