@@ -126,6 +126,31 @@ def test_lars_path_continues_where_it_stopped(noisy_problem):
     np.testing.assert_array_equal(longer, lars_order(psi, y, max_steps=15))
 
 
+def test_loo_path_reads_a_lars_path_only_as_far_as_it_scores(noisy_problem):
+    """Handed the LARS path itself, the patient scoring takes only the steps it reads and
+    returns the fit it returns for the whole order; without patience it reads it all."""
+    _, y = noisy_problem
+    germ = Germ.of(normal_space(3))
+    xi = np.random.default_rng(5).normal(size=(60, 3))
+    psi = basis.evaluate(germ, basis.hyperbolic_indices(3, 7, 1.0), xi)  # 120 candidates
+    whole = lars_order(psi, y, max_steps=psi.shape[1] - 1)  # 58 steps: the runs' limit
+    taken = []
+    for patience, hint in ((3, 0), (5, 2), (20, 0)):
+        lazy = LarsPath(psi, y)
+        got = corrected_loo_path(psi, y, lazy, patience=patience, hint=hint)
+        ref = corrected_loo_path(psi, y, whole, patience=patience, hint=hint)
+        np.testing.assert_array_equal(got.terms, ref.terms)
+        np.testing.assert_array_equal(got.coef, ref.coef)
+        assert got.loo == ref.loo
+        taken.append(len(lazy.active))
+    assert min(taken) < whole.size  # the short patience stopped LARS early (best set: 15)
+    lazy = LarsPath(psi, y)
+    got = corrected_loo_path(psi, y, lazy)
+    ref = corrected_loo_path(psi, y, whole)
+    np.testing.assert_array_equal(got.terms, ref.terms)
+    assert lazy.done or len(lazy.active) >= min(psi.shape[1], y.size - 1)
+
+
 def test_default_fit_is_deterministic_and_chooses_its_grid():
     """Defaults: q-norm and degree come from the grid (the q = 0.5 set reaches the high
     degree a smooth one-input function needs); two fits of the same data are identical."""

@@ -337,7 +337,7 @@ class LooPath(GrowingPath):
         return SparseFit(self.cols[:k].copy(), coef, score, se)
 
 
-def corrected_loo_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray,
+def corrected_loo_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray | LarsPath,
                        patience: int | None = None, hint: int = 0,
                        state: LooPath | None = None) -> SparseFit:
     """Score the nested sets ``{0} + order[:k]`` by corrected LOO; the best one refitted.
@@ -347,8 +347,11 @@ def corrected_loo_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray,
     psi : ndarray, shape (N, P_cand)
         Candidate basis at the design points; column 0 is the constant.
     y : ndarray, shape (N,)
-    order : ndarray of int
-        Candidate columns in order of entry.
+    order : ndarray of int, or LarsPath
+        Candidate columns in order of entry; a :class:`LarsPath` is advanced only as far as
+        the scoring reads it (with ``patience``, the steps past ``2 P_best + patience`` are
+        never taken: on a kinked series' components, 150 runs, they were half of all LARS
+        steps). The result is the same as for the path's whole order.
     patience : int, optional
         Score the path in growing blocks, and stop once it has been scored past
         ``2 P_best + patience`` terms (``P_best`` the best set's size): the error's factor
@@ -371,19 +374,29 @@ def corrected_loo_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray,
     var = state.var if state is not None else (y.var(ddof=1) if n > 1 else 0.0)
     if var <= 0.0:
         return SparseFit(np.zeros(1, dtype=int), np.array([y.mean()]), 0.0)
-    full = np.concatenate([[0], order[: max(0, n - 2)]]).astype(int)
+    limit = max(0, n - 2)
+
+    def head(k: int) -> np.ndarray:
+        """``[0] + order[:limit]`` up to its first ``k`` entries (fewer where it ends)."""
+        k = min(k - 1, limit)
+        part = order.order(k) if isinstance(order, LarsPath) else order[:k]
+        return np.concatenate([[0], part[:k]]).astype(int)
+
     path = LooPath(psi, y) if state is None else state
-    length = full.size if patience is None else min(
-        full.size, max(4 * patience, 2 * hint + patience, path.fed) + 1)
+    full = head(limit + 1 if patience is None
+                else max(4 * patience, 2 * hint + patience, path.fed) + 1)
     while True:
-        path.feed(full[:length])
+        path.feed(full)
         best = int(np.argmin(path.loo))
-        if length >= full.size or patience is None:
+        if patience is None:
             break
         want = 2 * (best + 1) + patience
         if want < path.cols.size:
             break
-        length = min(full.size, max(2 * length, want + 1))
+        longer = head(max(2 * full.size, want + 1))
+        if longer.size == full.size:  # the whole order is scored
+            break
+        full = longer
     return path.fit(best + 1)
 
 

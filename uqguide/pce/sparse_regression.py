@@ -302,8 +302,7 @@ class _QSearch:
 
         for p in [p for p in self.fits if wanted(p)]:
             own, lb = self.shared.own(p)
-            path = LarsPath(lb, self.y).order(min(own.size - 1, self.n - 2))
-            fit = corrected_loo_path(lb.psi, self.y, path, patience=PATIENCE,
+            fit = corrected_loo_path(lb.psi, self.y, LarsPath(lb, self.y), patience=PATIENCE,
                                      hint=self.fits[p].terms.size)
             if fit.loo < self.fits[p].loo:
                 self.fits[p] = SparseFit(own[fit.terms], fit.coef, fit.loo, fit.loo_se)
