@@ -31,7 +31,7 @@ from ..core.strict import StrictModel
 from ..core.inputs import InputSpace
 from ..pce.surrogate import Surrogate
 from ..pce.validation import (
-    USABLE_ERROR, corrected_moments, disagreement, first_sustained, sampling_se, usable_mask,
+    USABLE_ERROR, corrected_moments, disagreeing, sampling_se, sustained, usable_mask,
     validation_unit_rows, withdraw,
 )
 from ..pce.point_choice import better_points
@@ -191,10 +191,12 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         if constant:
             usable = usable & (np.asarray(st.std) != 0.0)
         st.usable = usable
+        refuted_own = {}
         if corrected is not None:
-            _flag_disagreement(diag, estimate.label, name, st, corrected, time, usable)
+            refuted_own = _withhold_refuted(diag, estimate.label, name, st, corrected, time,
+                                            usable)
         _withhold_unsupported(diag, estimate.label, name, st, corrected, runs, usable, time,
-                              fit_loo)
+                              fit_loo, refuted_own)
         if corrected is not None:
             _choose_points(diag, name, st, corrected, usable)
         if st.fallback:
@@ -273,10 +275,12 @@ def _drop_refuted(diag: dict[str, Any], label: str, name: str, st: Any, cv: Corr
 
 def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
                           cv: Corrected | None, runs: Corrected | None, usable: np.ndarray,
-                          time: np.ndarray | None, loo: float | None = None) -> None:
+                          time: np.ndarray | None, loo: float | None = None,
+                          refuted_own: dict[str, np.ndarray] | None = None) -> None:
     """Withhold the PCE's skewness and kurtosis where its runs do not support them
     (:func:`uqguide.pce.support.unsupported`), and give the runs' Monte Carlo estimate
-    (``fallback``) wherever one of its moments is withheld."""
+    (``fallback``) wherever one of its moments is withheld, here or by its validation runs
+    (``refuted_own``, :func:`_withhold_refuted`)."""
     own = {k: np.asarray(st.stat(k), dtype=float) for k in ("std",) + SHAPE_STATS}
     bad = unsupported(own, cv, runs, loo)
     bad = {k: m & usable for k, m in bad.items()}  # elsewhere all four go anyway
@@ -285,7 +289,9 @@ def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
             v = np.array(getattr(st, k), dtype=float)
             v[m] = np.nan
             setattr(st, k, v)
-    withheld = {k: ~usable | bad.get(k, np.zeros_like(usable)) for k in STAT_NAMES}
+    none = np.zeros_like(usable)
+    withheld = {k: ~usable | bad.get(k, none) | (refuted_own or {}).get(k, none)
+                for k in STAT_NAMES}
     if runs is not None and any(m.any() for m in withheld.values()):
         # kept only where something is withheld: a PCE that gives every moment has no +mc
         for k, m in withheld.items():
@@ -312,33 +318,51 @@ def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
                     label, name, what, instead)
 
 
-def _flag_disagreement(diag: dict[str, Any], label: str, name: str, st: Any, cv: Any,
-                       time: np.ndarray | None, usable: np.ndarray) -> None:
-    """Record (diagnostics ``disagrees.<output>`` / ``disagrees_from.<output>``) and log where
-    the PCE's own statistics are refuted by its validation runs
-    (:func:`uqguide.pce.validation.disagreement`), among the columns where it is usable (the
-    others already say "no usable surrogate")."""
-    own = {k: np.asarray(st.stat(k), dtype=float) for k in ("mean", "std", "skewness",
-                                                             "kurtosis")}
+def _withhold_refuted(diag: dict[str, Any], label: str, name: str, st: Any, cv: Corrected,
+                      time: np.ndarray | None, usable: np.ndarray) -> dict[str, np.ndarray]:
+    """Withhold the PCE's own statistics where its validation runs refute them
+    (:func:`uqguide.pce.validation.disagreeing`; a series' steps only within a sustained run
+    of them, :func:`uqguide.pce.validation.sustained`), among the columns where it is usable
+    (the others already say "no usable surrogate"); record (diagnostics
+    ``disagrees.<output>`` / ``disagrees_from.<output>``) and log it.
+
+    Why withhold and not only warn: a value its own evidence refutes is not a result (issue
+    27: "a PCE statistic is printed only when its own validation runs support it"). A kinked
+    ramp's PCE std was printed 24% off beside the warning. The ``+cv`` row gives the corrected
+    value there, and the ``+mc`` row the runs' own estimate.
+
+    Returns
+    -------
+    dict of str to ndarray of bool
+        Per statistic, where it was withheld.
+    """
+    own = {k: np.asarray(st.stat(k), dtype=float) for k in STAT_NAMES}
     series = own["mean"].ndim == 2 and time is not None and time.size == own["mean"].shape[0]
-    mask, names = disagreement(own, cv, series)
-    mask &= usable
-    if not mask.any():
-        return
+    masks = {k: m & usable for k, m in disagreeing(own, cv, series).items()}
+    if series:
+        masks = {k: sustained(m) for k, m in masks.items()}
+    names = [k for k, m in masks.items() if m.any()]
+    if not names:
+        return {}
+    for k in names:
+        v = np.array(getattr(st, k), dtype=float)
+        v[masks[k]] = np.nan
+        setattr(st, k, v)
     if series and time is not None:
-        i = first_sustained(np.asarray(mask.any(axis=1)))
-        if i is None:
-            return
-        t0 = float(time[i])
+        steps = np.flatnonzero(np.any([masks[k].any(axis=1) for k in names], axis=0))
+        t0 = float(time[steps[0]])
         diag[f"disagrees_from.{name}"] = t0
-        log.warning("%s: %s: the PCE's %s disagree with its validation runs from t = %g s "
-                    "(outside the correction's 95%% interval); %s", label, name,
-                    " and ".join(names), t0, _instead(diag, name))
+        log.warning("%s: %s: the PCE's %s disagree with its validation runs at %d steps from "
+                    "t = %g s (outside the correction's 95%% interval) and are withheld there; "
+                    "%s", label, name, " and ".join(names), steps.size, t0,
+                    _instead(diag, name))
     else:
         diag[f"disagrees.{name}"] = ", ".join(names)
         log.warning("%s: %s: the PCE's %s disagree with its validation runs (more than two "
-                    "95%% half-widths from the corrected value); %s", label, name,
-                    ", ".join(names), _instead(diag, name))
+                    "95%% half-widths from the corrected value) and are withheld; %s", label,
+                    name, ", ".join(names), _instead(diag, name))
+    return masks
+
 
 def _choose_points(diag: dict[str, Any], name: str, st: Any, cv: Corrected,
                    usable: np.ndarray) -> None:

@@ -389,6 +389,34 @@ SERIES_RUN = 3
 MATERIAL = 0.01
 
 
+def disagreeing(own: dict[str, np.ndarray], cv: Corrected, series: bool
+                ) -> dict[str, np.ndarray]:
+    """Per checked statistic, where the PCE's own value disagrees with its validation runs
+    (:func:`disagreement`, which combines them)."""
+    checked = SERIES_CHECKED if series else SCALAR_CHECKED
+    factor = 1.0 if series else SCALAR_FACTOR
+    scale = np.nan_to_num(np.abs(own["std"]))
+    out = {}
+    for k in checked:
+        floor = MATERIAL * (scale if k in ("mean", "std") else 1.0)
+        with np.errstate(invalid="ignore"):
+            bad = np.abs(cv.values[k] - own[k]) > np.maximum(
+                factor * cv.correction_half[k], floor)
+        out[k] = bad & np.isfinite(own[k])
+    return out
+
+
+def sustained(mask: np.ndarray, run: int = SERIES_RUN) -> np.ndarray:
+    """The entries of ``mask (T, ...)`` (steps first) that lie in a run of at least ``run``
+    consecutive steps where some column of ``mask`` is True."""
+    step = np.asarray(mask.reshape(mask.shape[0], -1).any(axis=1), dtype=bool)
+    keep = np.zeros(step.shape, dtype=bool)
+    for i in range(max(0, step.size - run + 1)):
+        if step[i:i + run].all():
+            keep[i:i + run] = True
+    return mask & keep.reshape((-1,) + (1,) * (mask.ndim - 1))
+
+
 def disagreement(own: dict[str, np.ndarray], cv: Corrected, series: bool
                  ) -> tuple[np.ndarray, list[str]]:
     """Where the PCE's own statistics disagree with their validation runs.
@@ -414,29 +442,13 @@ def disagreement(own: dict[str, np.ndarray], cv: Corrected, series: bool
     names : list of str
         The statistics that disagree somewhere.
     """
-    checked = SERIES_CHECKED if series else SCALAR_CHECKED
-    factor = 1.0 if series else SCALAR_FACTOR
     mask = np.zeros(np.shape(cv.values["mean"]), dtype=bool)
     names = []
-    scale = np.nan_to_num(np.abs(own["std"]))
-    for k in checked:
-        floor = MATERIAL * (scale if k in ("mean", "std") else 1.0)
-        with np.errstate(invalid="ignore"):
-            bad = np.abs(cv.values[k] - own[k]) > np.maximum(
-                factor * cv.correction_half[k], floor)
-        bad &= np.isfinite(own[k])
+    for k, bad in disagreeing(own, cv, series).items():
         if bad.any():
             names.append(k)
             mask |= bad
     return mask, names
-
-
-def first_sustained(mask: np.ndarray, run: int = SERIES_RUN) -> int | None:
-    """The first index from which ``run`` consecutive entries of ``mask (T,)`` are True."""
-    for i in range(max(0, mask.size - run + 1)):
-        if mask[i:i + run].all():
-            return i
-    return None
 
 
 def usable_mask(error: np.ndarray | None, loo: float | None, threshold: float,
