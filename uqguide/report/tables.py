@@ -172,8 +172,10 @@ def _time(p: Point) -> float:
 
 def validation_text(df: pd.DataFrame) -> pd.DataFrame:
     out = df[["label", "output", "component", "time", "stat"]].copy()
-    out["PCE"] = [(_fmt(v) if u else "no usable surrogate") for v, u in zip(df["pce"],
-                                                                             df["usable"])]
+    # a usable PCE's NaN is a value its runs refuted or do not support (withheld, with a
+    # reason in the warnings and the cost table), not a number
+    out["PCE"] = [("no usable surrogate" if not u else _fmt(v) if np.isfinite(v)
+                   else "withheld") for v, u in zip(df["pce"], df["usable"])]
     out["+cv [95%]"] = [f"{_fmt(v)} [{_fmt(a)}, {_fmt(b)}]" if np.isfinite(v) or
                               np.isfinite(a) else NOT_REPORTED for v, a, b in
                               zip(df["corrected"], df["ci_low"], df["ci_high"])]
