@@ -53,6 +53,30 @@ def test_a_pce_value_inside_every_interval_is_kept_and_one_outside_is_withheld()
     assert not bad["skewness"].any()
 
 
+def test_a_pce_mean_or_std_its_runs_refute_is_withheld():
+    """The zoo's kinked ramp (seed 8, t = 2 s): the PCE's std 0.201, its 298 runs' 0.163; the
+    runs judge a mean and a std at two half-widths, as they do a skewness."""
+    runs = Corrected(values={"mean": np.array([0.933, 0.933, 0.933]),
+                             "std": np.array([0.163, 0.163, 0.163]),
+                             "skewness": np.zeros(3), "kurtosis": np.full(3, 3.0)},
+                     ci={"mean": np.array([[0.92] * 3, [0.946] * 3]),
+                         "std": np.array([[0.153] * 3, [0.173] * 3]),
+                         "skewness": np.array([[-1.0] * 3, [1.0] * 3]),
+                         "kurtosis": np.array([[2.0] * 3, [4.0] * 3])},
+                     error=np.zeros(3), n=298, correction_half={})
+    own = {"mean": np.array([0.933, 0.95, 0.933]), "std": np.array([0.201, 0.18, 0.1635]),
+           "skewness": np.zeros(3), "kurtosis": np.full(3, 3.0)}
+    bad = unsupported(own, None, runs)
+    # 0.201 is 3.8 half-widths (0.010) off; 0.18 is 1.7, within two; a mean 1.3 half-widths off
+    assert bad["std"].tolist() == [True, False, False]
+    assert bad["mean"].tolist() == [False, False, False]
+    own["mean"] = np.array([0.933, 0.96, 0.933])  # 2.1 half-widths (0.013)
+    assert unsupported(own, None, runs)["mean"].tolist() == [False, True, False]
+    # a fit exact to its held-out runs is not judged by them (EXACT_LOO), nor without runs
+    assert not unsupported(own, None, runs, loo=1e-12)["std"].any()
+    assert not unsupported(own, None, None)["std"].any()
+
+
 def test_a_fit_exact_to_its_held_out_runs_is_not_judged_by_their_sample_kurtosis():
     # The 40-run command model of tests/test_command_model.py: the PCE's kurtosis 4.959 is
     # exact, its runs' sample kurtosis 2.51 [1.69, 3.34] is biased low (a sample kurtosis of a

@@ -36,7 +36,7 @@ from ..pce.validation import (
 )
 from ..pce.point_choice import better_points
 from ..pce.runs_estimate import INTERVAL, runs_estimate
-from ..pce.support import SHAPE_STATS, refuted, unsupported
+from ..pce.support import refuted, unsupported
 from ..pce.validation import Corrected
 from ..pce.validation_design import ValidationDesign, random_validation, stratified_validation
 from ..core.types import STAT_NAMES, Estimate, ModelOutput
@@ -277,11 +277,11 @@ def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
                           cv: Corrected | None, runs: Corrected | None, usable: np.ndarray,
                           time: np.ndarray | None, loo: float | None = None,
                           refuted_own: dict[str, np.ndarray] | None = None) -> None:
-    """Withhold the PCE's skewness and kurtosis where its runs do not support them
+    """Withhold the PCE's moments where its runs do not support them
     (:func:`uqguide.pce.support.unsupported`), and give the runs' Monte Carlo estimate
     (``fallback``) wherever one of its moments is withheld, here or by its validation runs
     (``refuted_own``, :func:`_withhold_refuted`)."""
-    own = {k: np.asarray(st.stat(k), dtype=float) for k in ("std",) + SHAPE_STATS}
+    own = {k: np.asarray(st.stat(k), dtype=float) for k in STAT_NAMES}
     bad = unsupported(own, cv, runs, loo)
     bad = {k: m & usable for k, m in bad.items()}  # elsewhere all four go anyway
     for k, m in bad.items():
