@@ -32,8 +32,11 @@ CONFIGS = sorted(GOLDEN.glob("*.yaml"))
 FIX = "if the change is on purpose, run `python scripts/update_golden.py {name}` and commit"
 
 
-# The two goldens of over 1.5 CPU-s run with the slow tests (.ci/run runs them every time).
-SLOW = {"ftcapn_table5", "ft_as_nominal"}
+# Goldens that run with the slow tests (.ci/run runs them every time): the two of over 1.5
+# CPU-s whose simulator has no cheaper golden, and the second and third dispersion studies of
+# a simulator whose cheapest one stays here (gmm_ftc_dispersion, gmm_dispersion_small).
+SLOW = {"ftcapn_table5", "ft_as_nominal", "gmm_ftc_dispersion_smooth", "gmm_dispersion",
+        "gmm_dispersion_f2"}
 
 
 @pytest.mark.parametrize("path", [

@@ -48,6 +48,9 @@ EXPENSIVE = {
     ("gmm_dispersion_f2", "numpy"), ("gmm_dispersion_small", "numpy"),
     ("gmm_ftc_dispersion", "perturbed"), ("gmm_ftc_dispersion_smooth", "perturbed"),
     ("gmm_dispersion", "perturbed"), ("gmm_dispersion_f2", "perturbed"),
+    # the GMM paper's nominal figures under the NumPy kernel: gmm_nominal stays here, its two
+    # variants (the E configuration, the second figure set) run in the marked suite
+    ("gmm_nominal_e", "numpy"), ("gmm_nominal_f2", "numpy"),
 }  # fmt: skip
 # FT-AS's NumPy reference costs about 20 ms per step of a batch (its kernel 0.1 ms): the paper
 # profile (300,000 steps) would take hours. FT-AS is checked under round-off in the perturbed
