@@ -50,6 +50,7 @@ def test_eq15_equals_true_miss_for_a_straight_drift():
                                                      rel=ratio_term + 1e-12)
 
 
+@pytest.mark.slow  # figures (tests/test_plots.py keeps the cheap ones in the default suite)
 def test_nominal_figures_are_written(tmp_path):
     paths = nominal_figures(FTCAPN({"kernel": "numpy"}), tmp_path)
     assert len(paths) == 3

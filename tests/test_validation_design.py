@@ -166,7 +166,8 @@ def test_a_scalar_disagrees_beyond_two_half_widths_on_any_moment():
 
 @pytest.mark.parametrize("entry", [
     {"name": "pce_adaptive", "label": "a", "n_samples": 40, "degree_max": 4, "enrich": False},
-    {"name": "pce_smolyak", "label": "s", "level": 3},
+    # a second process pool: with the slow tests (the default suite keeps the first)
+    pytest.param({"name": "pce_smolyak", "label": "s", "level": 3}, marks=pytest.mark.slow),
 ])
 def test_stratified_validation_is_the_same_on_one_or_two_worker_processes(entry):
     """The runs are placed by the fitted surrogate after the fit's runs come back: the same
