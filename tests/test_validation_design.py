@@ -132,7 +132,7 @@ def _corrected(values, half):
 
 
 def test_a_series_disagrees_from_its_first_sustained_run_of_refuted_steps():
-    from uqguide.pce.validation import disagreement, sustained
+    from uqguide.pce.validation import disagreeing, sustained
 
     t = 10
     own = {"mean": np.zeros((t, 1)), "std": np.ones((t, 1)),
@@ -141,27 +141,31 @@ def test_a_series_disagrees_from_its_first_sustained_run_of_refuted_steps():
     shift = np.array([0.01, 0.0, 0.2, 0.0, 0.01, 0.0, 0.2, 0.3, 0.25, 0.4])[:, None]
     cv = _corrected({**own, "mean": own["mean"] + shift},
                     {k: np.full((t, 1), 0.05) for k in own})
-    mask, names = disagreement(own, cv, series=True)
-    assert names == ["mean"]
+    masks = disagreeing(own, cv, series=True)
+    assert [k for k, m in masks.items() if m.any()] == ["mean"]
+    mask = masks["mean"]
     np.testing.assert_array_equal(np.flatnonzero(mask[:, 0]), [2, 6, 7, 8, 9])
     # a lone refuted step is chance; a run of three or more is the PCE's error
     np.testing.assert_array_equal(np.flatnonzero(sustained(mask)[:, 0]), [6, 7, 8, 9])
     # below 1% of the std a refuted difference is immaterial: no flag
     tiny = _corrected({**own, "mean": own["mean"] + 0.005}, {k: np.full((t, 1), 1e-6)
                                                               for k in own})
-    assert not disagreement(own, tiny, series=True)[0].any()
+    assert not any(m.any() for m in disagreeing(own, tiny, series=True).values())
 
 
 def test_a_scalar_disagrees_beyond_two_half_widths_on_any_moment():
-    from uqguide.pce.validation import disagreement
+    from uqguide.pce.validation import disagreeing
+
+    def refuted(cv):
+        return [k for k, m in disagreeing(own, cv, series=False).items() if m.any()]
 
     own = {"mean": np.array([1.0]), "std": np.array([2.0]), "skewness": np.array([0.5]),
            "kurtosis": np.array([3.5])}
     half = {k: np.array([0.05]) for k in own}
     near = _corrected({**own, "skewness": np.array([0.59])}, half)  # 1.8 half-widths
-    assert disagreement(own, near, series=False)[1] == []
+    assert refuted(near) == []
     far = _corrected({**own, "skewness": np.array([0.62])}, half)   # 2.4 half-widths
-    assert disagreement(own, far, series=False)[1] == ["skewness"]
+    assert refuted(far) == ["skewness"]
 
 
 @pytest.mark.parametrize("entry", [

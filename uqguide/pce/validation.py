@@ -391,8 +391,7 @@ MATERIAL = 0.01
 
 def disagreeing(own: dict[str, np.ndarray], cv: Corrected, series: bool
                 ) -> dict[str, np.ndarray]:
-    """Per checked statistic, where the PCE's own value disagrees with its validation runs
-    (:func:`disagreement`, which combines them)."""
+    """Per checked statistic, where the PCE's own value disagrees with its validation runs."""
     checked = SERIES_CHECKED if series else SCALAR_CHECKED
     factor = 1.0 if series else SCALAR_FACTOR
     scale = np.nan_to_num(np.abs(own["std"]))
@@ -415,40 +414,6 @@ def sustained(mask: np.ndarray, run: int = SERIES_RUN) -> np.ndarray:
         if step[i:i + run].all():
             keep[i:i + run] = True
     return mask & keep.reshape((-1,) + (1,) * (mask.ndim - 1))
-
-
-def disagreement(own: dict[str, np.ndarray], cv: Corrected, series: bool
-                 ) -> tuple[np.ndarray, list[str]]:
-    """Where the PCE's own statistics disagree with their validation runs.
-
-    The correction ``corrected - pce`` is the validation runs' estimate of the PCE's bias;
-    where it exceeds its own 95% half-width the PCE's value is refuted by the runs, even
-    if its out-of-sample error is small (a degree-1 surrogate late in an approach: its error
-    is a few percent of the variance, its std 14% off).
-
-    Parameters
-    ----------
-    own : dict of str to ndarray, shape (...)
-        The PCE's own mean, std, skewness, kurtosis.
-    cv : Corrected
-    series : bool
-        Whether the output is a series (shape ``(T, k)``): checked step by step on mean and
-        std at one half-width; a scalar output on all four at :data:`SCALAR_FACTOR`.
-
-    Returns
-    -------
-    mask : ndarray of bool, shape (...)
-        Where any checked statistic disagrees.
-    names : list of str
-        The statistics that disagree somewhere.
-    """
-    mask = np.zeros(np.shape(cv.values["mean"]), dtype=bool)
-    names = []
-    for k, bad in disagreeing(own, cv, series).items():
-        if bad.any():
-            names.append(k)
-            mask |= bad
-    return mask, names
 
 
 def usable_mask(error: np.ndarray | None, loo: float | None, threshold: float,

@@ -131,7 +131,7 @@ def withheld_outputs(diagnostics: dict) -> list[str]:
 
 def disagreeing_outputs(diagnostics: dict) -> list[str]:
     """``"zem (skewness)"`` or ``"omega_s from t = 57 s"`` for every output (span) whose PCE
-    statistics its validation runs refute (:func:`uqguide.pce.validation.disagreement`)."""
+    statistics its validation runs refute (:func:`uqguide.pce.validation.disagreeing`)."""
     out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
            if k.startswith("disagrees.")]
     out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
