@@ -15,6 +15,8 @@ from uqguide.cli import main
 from uqguide.config.run_config import validate_config
 from uqguide.driver.strict import check_withheld
 from uqguide.errors import UqguideError
+from uqguide.core.types import OutputStats
+from uqguide.methods.pce_validated import _withhold_unsupported
 from uqguide.pce.runs_estimate import runs_estimate
 from uqguide.pce.support import refuted, unsupported
 from uqguide.pce.validation import Corrected
@@ -92,6 +94,36 @@ def test_a_fit_exact_to_its_held_out_runs_is_not_judged_by_their_sample_kurtosis
     # the control-variate check is not waived: its validation runs are independent of the fit
     cv = _estimate(3.0, 0.2)
     assert unsupported(own, cv, runs, loo=1e-20)["kurtosis"].tolist() == [True]
+
+
+def _beam_stats(kurtosis: float) -> OutputStats:
+    return OutputStats(mean=np.array([0.488]), std=np.array([0.114]),
+                       skewness=np.array([-0.043]), kurtosis=np.array([kurtosis]),
+                       cov=np.array([[0.013]]), n_used=234, moments_method="exact")
+
+
+def test_a_skewness_goes_with_the_kurtosis_whose_tails_the_runs_refute():
+    """A user's contact-kink beam (3 inputs, 234 runs, seed 3): the PCE's kurtosis 1.0e3
+    against its runs' 2.34 is withheld; its skewness -0.043 (the model's: -0.209) lies within
+    two half-widths of the runs' wide -0.221 [-0.404, -0.038] and passed alone. It rests on the
+    same tails, so it goes with the kurtosis, and the runs' estimate stands in for both."""
+    runs = Corrected(values={"mean": np.array([0.49]), "std": np.array([0.112]),
+                             "skewness": np.array([-0.221]), "kurtosis": np.array([2.338])},
+                     ci={"mean": np.array([[0.475], [0.505]]),
+                         "std": np.array([[0.102], [0.122]]),
+                         "skewness": np.array([[-0.404], [-0.038]]),
+                         "kurtosis": np.array([[2.097], [2.580]])},
+                     error=np.zeros(1), n=234, correction_half={})
+    usable = np.array([True])
+    st, diag = _beam_stats(1036.3), {}
+    _withhold_unsupported(diag, "apce", "y", st, None, runs, usable, None)
+    assert np.isnan(st.skewness[0]) and np.isnan(st.kurtosis[0])
+    assert st.fallback["skewness"][0] == -0.221 and st.fallback["kurtosis"][0] == 2.338
+    assert diag["skewness_with_kurtosis.y"] == 1 and diag["withheld.y"] == "kurtosis"
+    # the same skewness beside a kurtosis the runs support is kept: the kurtosis decides
+    st, diag = _beam_stats(2.4), {}
+    _withhold_unsupported(diag, "apce", "y", st, None, runs, usable, None)
+    assert st.skewness[0] == -0.043 and not st.fallback
 
 
 def test_a_control_variate_value_the_runs_refute_or_less_precise_than_them_is_dropped():

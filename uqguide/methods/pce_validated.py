@@ -36,7 +36,7 @@ from ..pce.validation import (
 )
 from ..pce.point_choice import better_points
 from ..pce.runs_estimate import INTERVAL, runs_estimate
-from ..pce.support import refuted, unsupported
+from ..pce.support import refuted, unsupported, with_the_kurtosis
 from ..pce.validation import Corrected
 from ..pce.validation_design import ValidationDesign, random_validation, stratified_validation
 from ..core.types import STAT_NAMES, Estimate, ModelOutput
@@ -284,12 +284,15 @@ def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
     own = {k: np.asarray(st.stat(k), dtype=float) for k in STAT_NAMES}
     bad = unsupported(own, cv, runs, loo)
     bad = {k: m & usable for k, m in bad.items()}  # elsewhere all four go anyway
+    none = np.zeros_like(usable)
+    tails = with_the_kurtosis(bad["kurtosis"] | (refuted_own or {}).get("kurtosis", none),
+                              own["skewness"]) & usable & ~bad["skewness"]
+    bad["skewness"] = bad["skewness"] | tails
     for k, m in bad.items():
         if m.any():
             v = np.array(getattr(st, k), dtype=float)
             v[m] = np.nan
             setattr(st, k, v)
-    none = np.zeros_like(usable)
     withheld = {k: ~usable | bad.get(k, none) | (refuted_own or {}).get(k, none)
                 for k in STAT_NAMES}
     if runs is not None and any(m.any() for m in withheld.values()):
@@ -301,6 +304,15 @@ def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
     names = [k for k, m in bad.items() if m.any()]
     if not names:
         return
+    if tails.any():
+        diag[f"skewness_with_kurtosis.{name}"] = int(tails.sum())
+        log.warning("%s: %s: the PCE's skewness is withheld with its kurtosis at %d point(s): "
+                    "both rest on the surrogate's tails, which its runs refute", label, name,
+                    int(tails.sum()))
+        bad["skewness"] = bad["skewness"] & ~tails
+        names = [k for k, m in bad.items() if m.any()]
+        if not names:
+            return
     any_bad = np.any([bad[k] for k in names], axis=0)
     what = " and ".join(names)
     instead = ("the Monte Carlo estimate of its own runs (+mc) is given" if runs is not None
