@@ -34,6 +34,7 @@ from ..pce.validation import (
     USABLE_ERROR, corrected_moments, disagreeing, sampling_se, sustained, usable_mask,
     validation_unit_rows, withdraw,
 )
+from ..pce.far_tails import can_swing, far_draws, replace_far_tails
 from ..pce.point_choice import better_points
 from ..pce.runs_estimate import INTERVAL, runs_estimate
 from ..pce.support import refuted, unsupported, with_the_kurtosis
@@ -154,6 +155,7 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
     if (time is None or time.size == 0) and fit is not None:
         time = fit.time
     for name, st in estimate.stats.items():
+        _far_tails(diag, estimate.label, name, st, surrogate, space, seed)
         err = None
         corrected = None
         y = _values(validation, name) if validation is not None else None
@@ -225,6 +227,29 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
                         estimate.label, name, why, threshold)
 
 
+def _far_tails(diag: dict[str, Any], label: str, name: str, st: Any, surrogate: Surrogate,
+               space: InputSpace, seed: int) -> None:
+    """Where a fitted output's exact moments come from inputs too rare for any run, take them
+    from surrogate draws instead (:mod:`uqguide.pce.far_tails`); diagnostics
+    ``far_tails.<output>`` count the columns."""
+    if name not in surrogate.expansions or st.sampling_se:
+        return  # derived outputs are sampled already
+    if not can_swing(surrogate.expansions[name]):
+        return
+    shape = np.shape(st.mean)
+    m = far_draws(int(np.prod(shape)))
+    u = validation_unit_rows(seed, f"{label}/far", m, space.dim)
+    draws = surrogate.at_unit(u, [name])[name].reshape((m,) + shape)
+    cols = replace_far_tails(st, draws)
+    if not cols.any():
+        return
+    diag[f"far_tails.{name}"] = int(cols.sum())
+    log.warning("%s: %s: the PCE's exact moments at %d of %d points come from inputs rarer than "
+                "1 in %d, beyond every run (its polynomial swings there); its statistics there "
+                "are those of %d surrogate draws, with their sampling error", label, name,
+                int(cols.sum()), cols.size, m, m)
+
+
 def _runs_estimate(name: str, fit: ModelOutput | None, validation: ModelOutput | None,
                    ok: np.ndarray | None, used: ValidationDesign | None) -> Corrected | None:
     """The Monte Carlo estimate of the output's fit and validation runs (None: no runs of
@@ -282,7 +307,7 @@ def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
     (``fallback``) wherever one of its moments is withheld, here or by its validation runs
     (``refuted_own``, :func:`_withhold_refuted`)."""
     own = {k: np.asarray(st.stat(k), dtype=float) for k in STAT_NAMES}
-    bad = unsupported(own, cv, runs, loo)
+    bad = unsupported(own, cv, runs, loo, st.sampling_se or None)
     bad = {k: m & usable for k, m in bad.items()}  # elsewhere all four go anyway
     none = np.zeros_like(usable)
     tails = with_the_kurtosis(bad["kurtosis"] | (refuted_own or {}).get("kurtosis", none),

@@ -97,7 +97,8 @@ def _floor(name: str, std: np.ndarray) -> np.ndarray | float:
 
 
 def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
-                runs: Corrected | None, loo: float | None = None) -> dict[str, np.ndarray]:
+                runs: Corrected | None, loo: float | None = None,
+                own_se: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Where the PCE's own moments are not supported by its runs.
 
     Parameters
@@ -111,6 +112,11 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
         The runs' Monte Carlo estimate (None when there are too few runs).
     loo : float, optional
         The fit's corrected LOO error; at most :data:`EXACT_LOO`, ``runs`` is not consulted.
+    own_se : dict of str to ndarray, optional
+        Standard errors of PCE moments that were sampled (a derived output's, or where the
+        exact moments came from the far tails, :mod:`uqguide.pce.far_tails`): a value whose
+        95% half-width exceeds the runs' own is withheld, as a control-variate value is
+        (:func:`refuted`): the runs' estimate is then the better one.
 
     Returns
     -------
@@ -133,6 +139,12 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
                 bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, est.values[k],
                                  factor * _half(est, k), MATERIAL)
         out[k] = bad
+    if runs is not None and own_se:
+        for k in out:
+            if k in own_se:
+                with np.errstate(invalid="ignore"):
+                    worse = 1.96 * np.asarray(own_se[k], dtype=float) > _half(runs, k)
+                out[k] = out[k] | (worse & np.isfinite(np.asarray(own[k], dtype=float)))
     return out
 
 
