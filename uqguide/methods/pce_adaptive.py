@@ -497,7 +497,7 @@ class AdaptivePCE(Method):
                design=val_design,
                loo={f.columns.name: f.loo for f in fits}, threshold=s.usable_error,
                seed=int(design.data.get("seed", 0)), n_draws=s.surrogate_draws,
-               fit=outputs)
+               fit=outputs, fit_u=_fit_u(design, outputs.n))
         truncation_error_intervals(est.stats, {f.columns.name: f.loo for f in fits})
         return est
 
@@ -591,3 +591,11 @@ class AdaptivePCE(Method):
         return _OutputFit(col, exp, loo, int(fit.degree.max(initial=0)),
                           float(fit.q.max(initial=0.0)), int(fit.alpha.shape[0]), r,
                           comps.scores)
+
+
+def _fit_u(design: Design, n_fit: int) -> np.ndarray | None:
+    """The fit's runs on the unit cube (None where the design keeps none: given germ points)."""
+    u = design.data.get("u")
+    if u is None or np.shape(u)[0] < n_fit:
+        return None
+    return np.asarray(u)[:n_fit]

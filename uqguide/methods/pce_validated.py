@@ -34,7 +34,7 @@ from ..pce.validation import (
     USABLE_ERROR, corrected_moments, disagreeing, sampling_se, sustained, usable_mask,
     validation_unit_rows, withdraw,
 )
-from ..pce.far_tails import can_swing, far_draws, replace_far_tails
+from ..pce.far_tails import beyond_the_runs, can_swing, far_draws, replace_far_tails
 from ..pce.point_choice import better_points
 from ..pce.runs_estimate import INTERVAL, runs_estimate
 from ..pce.support import refuted, unsupported, with_the_kurtosis
@@ -111,7 +111,8 @@ def _values(out: ModelOutput, name: str) -> np.ndarray | None:
 def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
            validation: ModelOutput | None, design: ValidationDesign | None,
            loo: Mapping[str, float], threshold: float, seed: int,
-           n_draws: int = 1_000_000, fit: ModelOutput | None = None) -> None:
+           n_draws: int = 1_000_000, fit: ModelOutput | None = None,
+           fit_u: np.ndarray | None = None) -> None:
     """Keep the surrogate in ``estimate``; validate, correct and judge every output in place.
 
     Parameters
@@ -137,6 +138,10 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         design; not quadrature nodes): with the validation runs they give the Monte Carlo
         estimate that judges the PCE's skewness and kurtosis (:mod:`uqguide.pce.support`)
         and stands in where a statistic is withheld (:mod:`uqguide.pce.runs_estimate`).
+    fit_u : ndarray, shape (n_fit, d), optional
+        The fit's runs on the unit cube: with the validation runs they give the range beyond
+        which the surrogate extrapolates, whose share of each statistic widens the ``+cv``
+        interval (:func:`uqguide.pce.far_tails.beyond_the_runs`).
     """
     estimate.surrogate = surrogate
     diag = estimate.diagnostics
@@ -154,8 +159,9 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
     time = validation.time if validation is not None else None
     if (time is None or time.size == 0) and fit is not None:
         time = fit.time
+    box = _runs_box(fit_u, fit, used)
     for name, st in estimate.stats.items():
-        _far_tails(diag, estimate.label, name, st, surrogate, space, seed)
+        beyond = _far_tails(diag, estimate.label, name, st, surrogate, space, seed, box)
         err = None
         corrected = None
         y = _values(validation, name) if validation is not None else None
@@ -172,6 +178,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
                 pce_se = sampling_se(draws, n_draws, seed=seed)
             cv = corrected_moments(st, y[ok], s, weight=used.weight, stratum=used.stratum,
                                    share=used.share, pool=used.pool, pce_se=pce_se)
+            if beyond is not None:
+                _widen(cv, beyond)
             st.corrected = cv.values
             st.corrected_ci = cv.ci if cv.shown_ci is None else cv.shown_ci
             st.validation_error = err = cv.error
@@ -227,27 +235,67 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
                         estimate.label, name, why, threshold)
 
 
+def _runs_box(fit_u: np.ndarray | None, fit: ModelOutput | None,
+              used: ValidationDesign | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The range (low, high per coordinate of the unit cube) of the successful fit and
+    validation runs; None without the fit's points."""
+    if fit_u is None or fit is None or fit_u.shape[0] != fit.n:
+        return None
+    pts = [np.asarray(fit_u, dtype=float)[~fit.failed]]
+    if used is not None:
+        pts.append(np.asarray(used.u, dtype=float))
+    u = np.vstack(pts)
+    if u.shape[0] == 0:
+        return None
+    return u.min(axis=0), u.max(axis=0)
+
+
 def _far_tails(diag: dict[str, Any], label: str, name: str, st: Any, surrogate: Surrogate,
-               space: InputSpace, seed: int) -> None:
+               space: InputSpace, seed: int, box: tuple[np.ndarray, np.ndarray] | None
+               ) -> dict[str, np.ndarray] | None:
     """Where a fitted output's exact moments come from inputs too rare for any run, take them
     from surrogate draws instead (:mod:`uqguide.pce.far_tails`); diagnostics
-    ``far_tails.<output>`` count the columns."""
+    ``far_tails.<output>`` count the columns.
+
+    Returns
+    -------
+    dict of str to ndarray, optional
+        With the runs' range ``box`` (low, high on the unit cube): per statistic, the part the
+        surrogate takes from beyond it (:func:`uqguide.pce.far_tails.beyond_the_runs`), which
+        widens the ``+cv`` interval. None where the polynomial cannot swing.
+    """
     if name not in surrogate.expansions or st.sampling_se:
-        return  # derived outputs are sampled already
+        return None  # derived outputs are sampled already
     if not can_swing(surrogate.expansions[name]):
-        return
+        return None
     shape = np.shape(st.mean)
     m = far_draws(int(np.prod(shape)))
     u = validation_unit_rows(seed, f"{label}/far", m, space.dim)
     draws = surrogate.at_unit(u, [name])[name].reshape((m,) + shape)
+    beyond = None
+    if box is not None:
+        clipped = surrogate.at_unit(np.clip(u, *box), [name])[name].reshape((m,) + shape)
+        beyond = beyond_the_runs(draws, clipped)
     cols = replace_far_tails(st, draws)
     if not cols.any():
-        return
+        return beyond
     diag[f"far_tails.{name}"] = int(cols.sum())
     log.warning("%s: %s: the PCE's exact moments at %d of %d points come from inputs rarer than "
                 "1 in %d, beyond every run (its polynomial swings there); its statistics there "
                 "are those of %d surrogate draws, with their sampling error", label, name,
                 int(cols.sum()), cols.size, m, m)
+    return beyond
+
+
+def _widen(cv: Corrected, beyond: Mapping[str, np.ndarray]) -> None:
+    """Widen the control-variate intervals, in place, by the part of each statistic the
+    surrogate takes from beyond its runs, on either side (the check of the PCE's own value,
+    ``correction_half``, keeps the correction's own width: the extrapolation moves both)."""
+    for k, extra in beyond.items():
+        sides = np.array([-1.0, 1.0]).reshape((2,) + (1,) * extra.ndim) * extra
+        cv.ci[k] = cv.ci[k] + sides
+        if cv.shown_ci is not None and k in cv.shown_ci:
+            cv.shown_ci[k] = cv.shown_ci[k] + sides
 
 
 def _runs_estimate(name: str, fit: ModelOutput | None, validation: ModelOutput | None,
