@@ -158,6 +158,9 @@ def test_coarse_observer_converges_within_5s_C1(coarse):
     assert not res.settled("eps1")[idx["FT-AS literal"], 1]
 
 
+# 2.8 CPU-s (the coarse nominal runs): with the slow tests; FT-AS keeps its golden, round-off
+# and model tests in the default suite
+@pytest.mark.slow
 def test_coarse_inputs_C5(coarse):
     rows, idx, res, _ = coarse
     lim = np.array([2.0, 2.0, 2.0, 1.0, 1.0, 1.0])
