@@ -134,10 +134,14 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
                                RUNS_FACTOR * _half(runs, k), _floor(k, own["std"]))
     for k in SHAPE_STATS:
         bad = np.zeros(np.shape(own[k]), dtype=bool)
-        for est, factor in ((corrected, 1.0), (runs, RUNS_FACTOR)):
-            if est is not None:
-                bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, est.values[k],
-                                 factor * _half(est, k), MATERIAL)
+        if corrected is not None:
+            # the correction alone: the PCE's value and the corrected one share the surrogate
+            # (its sampling error and its part beyond the runs' range, which widen ``ci``)
+            bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, corrected.values[k],
+                             np.asarray(corrected.correction_half[k], dtype=float), MATERIAL)
+        if runs is not None:
+            bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, runs.values[k],
+                             RUNS_FACTOR * _half(runs, k), MATERIAL)
         out[k] = bad
     if runs is not None and own_se:
         for k in out:
