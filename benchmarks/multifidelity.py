@@ -16,7 +16,11 @@ Cases (``--case``):
   would make for the outputs together, and the CPU plain MC would need for the same standard
   error of the mean (and of the variance) against MFMC's;
 - ``ft_as-run``: the ``mfmc`` method on FT-AS Case 2 (configs/ft_as_dispersion.yaml with
-  ``controller: case2``) for ``--budget`` CPU seconds, serial and on 2 workers.
+  ``controller: case2``) for ``--budget`` CPU seconds, serial or on ``--workers``; with
+  ``--pce N`` a PCE level too (``pce_adaptive`` on N runs at ``--pce-step``, listed before
+  ``mfmc``), its runs and fit charged to the saving. Printed per output: the standard errors of
+  mean and std reached, and the h = 0.01 s plain-MC runs that would give them (mean:
+  ``sigma^2 / se^2``; std: ``(kurtosis - 1) sigma^2 / (4 se_std^2)``, the delta method).
 
 Every figure is printed in a table; nothing is asserted (the tests do that on small cases).
 
@@ -267,37 +271,58 @@ def uncorrelated(seeds: int, budget: float) -> None:
 
 
 # ---------------------------------------------------------------------------------- FT-AS run
-def ft_as_run(budget: float, n_pilot: int, workers: int) -> None:
+def ft_as_run(budget: float, n_pilot: int, workers: int, pce: int = 0,
+              pce_step: float = 0.02, seed: int | None = None) -> None:
     """The ``mfmc`` method on FT-AS Case 2 at h = 0.01 s for ``budget`` CPU seconds."""
     from uqguide.driver.execution import ProcessExecutor, SerialExecutor
-    from uqguide.driver.propagate import propagate
-    from uqguide.report.tables import cost_table  # noqa: F401 - the row's columns
+    from uqguide.driver.propagate import run
 
     raw = load_yaml(ROOT / "configs/ft_as_dispersion.yaml")
     raw["model"].update(controller="case2", threads=1)
     raw.pop("reference", None)
     raw["outputs"] = ["delta_v", "settle_r_e"]
-    raw["methods"] = [{"name": "mfmc", "fidelities": [{"step": h} for h in
-                                                      (0.01, 0.02, 0.05, 0.1)],
-                       "budget_cpu_s": budget, "n_pilot": n_pilot, "chunk_size": 20}]
+    levels: list[dict[str, Any]] = [{"step": h} for h in (0.01, 0.02, 0.05, 0.1)]
+    raw["methods"] = []
+    if pce:
+        raw["model"]["step"] = pce_step  # the fidelity the PCE learns
+        raw["methods"].append({"name": "pce_adaptive", "label": "apce", "n_samples": pce,
+                               "max_runs": pce})
+        levels.append({"surrogate": "apce"})
+    raw["methods"].append({"name": "mfmc", "fidelities": levels, "budget_cpu_s": budget,
+                           "n_pilot": n_pilot, "chunk_size": 20})
+    if seed is not None:
+        raw["seed"] = seed
     cfg = validate_config(raw, source=str(ROOT / "configs/ft_as_dispersion.yaml"))
     ex = ProcessExecutor(workers, batch_size=20) if workers > 1 else SerialExecutor(20)
     t0 = time.process_time()
     try:
-        r = propagate(cfg.methods[0], cfg.model, cfg.space, cfg.outputs, cfg.seed, ex)
+        result = run(cfg, ex)
     finally:
         ex.close()
+    r = result.runs[-1]
     d = r.estimate.diagnostics
-    print(f"FT-AS Case 2 mfmc, budget {budget:g} CPU-s, pilot {n_pilot}, {workers} worker(s): "
+    spent = float(np.sum(d["cpu_per_level"])) + float(d.get("surrogate_cpu_s", 0.0))
+    print(f"FT-AS Case 2 mfmc, budget {budget:g} CPU-s, pilot {n_pilot}, {workers} worker(s), "
+          f"PCE level {'on ' + str(pce) + f' runs at h = {pce_step:g} s' if pce else 'none'}: "
           f"this process {time.process_time() - t0:.1f} CPU-s, model {r.model_seconds:.1f} s")
     for k in ("levels", "levels_used", "runs_per_level", "cpu_per_level", "cost_per_run",
-              "estimated_variance_reduction", "equivalent_mc_runs", "equivalent_mc_cpu_s",
-              "cpu_saving", "note"):
+              "surrogate_cpu_s", "estimated_variance_reduction", "equivalent_mc_runs",
+              "equivalent_mc_cpu_s", "cpu_saving", "note"):
         print(f"  {k}: {d.get(k)}")
+    c0 = float(d["cost_per_run"][0])
+    print(f"  all CPU (levels + the PCE's runs and fit): {spent:.1f} s; h = 0.01 s costs "
+          f"{c0:.3g} s per run")
+    print("  output: mean +- se (MC runs for it) | std [95%] (MC runs for its se) | CPU saving")
     for name, st in r.estimate.stats.items():
+        assert st.sem is not None and st.ci is not None
         for c in range(st.mean.shape[-1]):
-            print(f"  {name}[{c}]: mean {st.mean[c]:.6g} +- {st.sem[c]:.3g}, std "
-                  f"{st.std[c]:.6g} [{st.ci['std'][0, c]:.6g}, {st.ci['std'][1, c]:.6g}]")
+            se_std = (st.ci["std"][1, c] - st.ci["std"][0, c]) / (2 * 1.96)
+            n_mean = st.std[c] ** 2 / st.sem[c] ** 2
+            n_std = (st.kurtosis[c] - 1) * st.std[c] ** 2 / (4 * se_std ** 2)
+            saving = min(n_mean, n_std) * c0 / spent
+            print(f"  {name}[{c}]: mean {st.mean[c]:.6g} +- {st.sem[c]:.3g} ({n_mean:.0f}) | "
+                  f"std {st.std[c]:.6g} [{st.ci['std'][0, c]:.6g}, {st.ci['std'][1, c]:.6g}] "
+                  f"({n_std:.0f}) | {saving:.2f}x")
 
 
 def main() -> None:
@@ -309,6 +334,11 @@ def main() -> None:
     ap.add_argument("--budget", type=float, default=100.0,
                     help="cost units (analytic), CPU seconds (euler, ft_as-run)")
     ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--pce", type=int, default=0,
+                    help="ft_as-run: add a PCE level fitted on this many runs (0: none)")
+    ap.add_argument("--pce-step", type=float, default=0.02,
+                    help="ft_as-run: the step of the runs the PCE learns [s]")
+    ap.add_argument("--seed", type=int, default=None)
     a = ap.parse_args()
     if a.case == "analytic":
         analytic(a.seeds, a.budget)
@@ -319,7 +349,7 @@ def main() -> None:
     elif a.case in PILOTS:
         pilot(a.case, a.pilot)
     else:
-        ft_as_run(a.budget, a.pilot, a.workers)
+        ft_as_run(a.budget, a.pilot, a.workers, a.pce, a.pce_step, a.seed)
 
 
 if __name__ == "__main__":

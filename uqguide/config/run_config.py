@@ -489,6 +489,11 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
             raise ConfigError(
                 f"methods[{i}].label: {lab!r} is used twice; give each method a unique label",
                 field=f"methods[{i}].label")
+    for i, m in enumerate(methods):
+        # a surrogate level names a PCE method listed before it
+        check_surrogates = getattr(m, "check_surrogates", None)
+        if check_surrogates is not None:
+            check_surrogates(methods, i)
     if raw.reference is not None and raw.reference not in labels:
         raise ConfigError(
             f"reference: {raw.reference!r} is not a method label"

@@ -16,6 +16,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import replace
 from types import MappingProxyType
 from typing import Any
@@ -50,7 +51,8 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
               seed: int, executor: Executor | None = None, *, batch_size: int | None = None,
               store: RunStore | None = None, progress: Progress | None = None,
               design: Design | None = None, timeout_s: float | None = None,
-              containment: Containment | None = None) -> MethodRun:
+              containment: Containment | None = None,
+              earlier: Sequence[MethodRun] = ()) -> MethodRun:
     """Run one method on one model.
 
     Parameters
@@ -70,6 +72,9 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         Seconds a model call may take (:mod:`uqguide.guard`); default no limit.
     containment : Containment, optional
         Guard processes and memory limits for a model that may crash or leak (default: none).
+    earlier : sequence of MethodRun
+        The runs of the methods listed before this one (a multi-fidelity method's surrogate
+        levels are their PCEs).
 
     Returns
     -------
@@ -83,7 +88,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     progress = progress or Progress()
     if isinstance(method, MultiFidelityMC):
         return _levels(method, model, space, outputs, seed, executor, bs, store, progress,
-                       design, timeout_s, containment)
+                       design, timeout_s, containment, earlier)
     timing = Timing()
     t_start = time.perf_counter()
     if design is None:
@@ -124,16 +129,18 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
 def _levels(method: MultiFidelityMC, model: Model, space: InputSpace,
             outputs: tuple[str, ...], seed: int, executor: Executor, bs: int,
             store: RunStore | None, progress: Progress, design: Design | None,
-            timeout_s: float | None, containment: Containment | None) -> MethodRun:
+            timeout_s: float | None, containment: Containment | None,
+            earlier: Sequence[MethodRun]) -> MethodRun:
     """A multi-fidelity method (:mod:`.propagate_levels`); a method failure is recorded
     like any method's, the runs made before it are lost to the result (not to the
     checkpoint)."""
-    from .propagate_levels import propagate_levels
+    from .propagate_levels import propagate_levels, surrogate_levels
 
     t0 = time.perf_counter()
     try:
         return propagate_levels(method, model, space, outputs, seed, executor, bs, store,
-                                progress, design, timeout_s, containment)
+                                progress, design, timeout_s, containment,
+                                surrogate_levels(method, earlier, outputs))
     except _METHOD_FAILURES as exc:
         return MethodRun(estimate=_no_estimate(method), x=np.zeros((0, space.dim)),
                          scalars={}, failed=np.zeros(0, bool),
@@ -261,7 +268,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
     executor = executor or SerialExecutor(config.raw.batch_size)
     progress = progress or Progress()
     t0 = time.perf_counter()
-    runs = []
+    runs: list[MethodRun] = []
     try:
         designs = []
         for method in config.methods:
@@ -277,7 +284,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
             r = propagate(method, config.model, config.space, config.outputs, config.seed,
                           executor, batch_size=config.raw.batch_size, store=store,
                           progress=progress, design=design, timeout_s=config.raw.timeout_s,
-                          containment=containment_of(config))
+                          containment=containment_of(config), earlier=tuple(runs))
             r.wall_seconds += design_seconds
             runs.append(r)
     except KeyboardInterrupt as exc:

@@ -190,6 +190,9 @@ class Method(ABC):
     #: Derived outputs are computed from surrogates of their carriers (``context.derived``),
     #: so the carriers are evaluated too.
     uses_derivations: ClassVar[bool] = False
+    #: The estimate keeps a fitted surrogate (``Estimate.surrogate``), which a multi-fidelity
+    #: method may take as a level (``fidelities: [..., {surrogate: LABEL}]``).
+    fits_surrogate: ClassVar[bool] = False
     #: The design is drawn from the seed (another seed, another design); a quadrature grid is
     #: not.
     random_design: ClassVar[bool] = True

@@ -11,8 +11,14 @@ Config::
 
 A level is the config's model with the parameters of one ``fidelities`` entry changed; a model
 declares which parameters may change (:attr:`uqguide.models.base.Model.fidelity_params`: ``dt``
-for FTCAPN and GMM-FTC, ``step`` for FT-AS). The driver runs it in phases
-(:mod:`uqguide.driver.propagate_levels`):
+for FTCAPN and GMM-FTC, ``step`` for FT-AS). A level may also be ``{surrogate: LABEL}``: the
+PCE that the method ``LABEL``, listed before this one, fitted to the model *as configured*
+(set ``model:`` to the fidelity the PCE should learn), evaluated on the rows of this method's
+stream (:mod:`uqguide.driver.surrogate_level`). It is nearly free per run, so the allocation
+gives it many rows, at most ``surrogate_ratio`` times the level before it; what the PCE method
+spent (its runs and its fit) is charged to this method's ``cpu_saving``. The highest level is
+never a surrogate: the estimate is unbiased for the model, not for a fit of it. The driver runs
+the levels in phases (:mod:`uqguide.driver.propagate_levels`):
 
 1. **pilot**: the first ``n_pilot`` rows at every level. Each level's cost per run is the
    CPU seconds of its pilot chunks' model calls (``time.process_time`` where they ran,
@@ -58,7 +64,9 @@ from pydantic import Field, model_validator
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats
 from ..errors import ConfigError, MethodError
-from ..stats.mfmc_allocation import Allocation, sample_sizes, select_allocation, variance_factor
+from ..stats.mfmc_allocation import (
+    Allocation, sample_sizes, select_allocation, variance_factor, variance_ratio,
+)
 from ..stats.mfmc_estimator import mfmc_statistics
 from .base import Design, MethodSettings, Method, RunPlan
 from .mc_reduce import ci_index
@@ -78,7 +86,8 @@ class MfmcSettings(MethodSettings):
     Attributes
     ----------
     fidelities : list of dict
-        The levels, highest fidelity first: each the model parameters it changes.
+        The levels, highest fidelity first: each the model parameters it changes, or
+        ``{surrogate: LABEL}`` (module docstring).
     n_pilot : int
         Runs of every level in the pilot (and the least any used level gets).
     budget_cpu_s : float, optional
@@ -97,6 +106,11 @@ class MfmcSettings(MethodSettings):
         Group-bootstrap resamples for the intervals of std, skewness, kurtosis (0: none).
     max_runs : int
         Largest number of runs of any one level.
+    surrogate_ratio : float
+        A surrogate level runs at most this many times the rows of the level before it. The
+        variance a level leaves falls as ``1/m_prev - 1/m``: at 20 it keeps 95% of what an
+        endless sample of the surrogate would remove, and its values stay in memory (a series
+        of ``T`` steps holds ``20 m_prev T`` floats).
     """
 
     fidelities: list[dict[str, float | int | str]] = Field(default_factory=_one_level,
@@ -110,6 +124,7 @@ class MfmcSettings(MethodSettings):
     chunk_size: int = Field(default=256, ge=1, le=1_000_000)
     bootstrap: int = Field(default=200, ge=0, le=100_000)
     max_runs: int = Field(default=10_000_000, ge=10, le=100_000_000)
+    surrogate_ratio: float = Field(default=20.0, ge=1.0, le=1e4, allow_inf_nan=False)
 
     @model_validator(mode="after")
     def _one_goal(self) -> MfmcSettings:
@@ -125,6 +140,15 @@ class MfmcSettings(MethodSettings):
                                  f"{len(self.fidelities)} fidelities; give one per level")
             if not all(np.isfinite(c) and c > 0 for c in self.costs):
                 raise ValueError(f"costs must be seconds per run > 0, got {self.costs}")
+        for j, level in enumerate(self.fidelities):
+            if "surrogate" not in level:
+                continue
+            if j == 0:
+                raise ValueError("fidelities[0] is the highest fidelity, whose statistics are "
+                                 "estimated: it must be the model, not {surrogate: ...}")
+            if len(level) != 1 or not isinstance(level["surrogate"], str):
+                raise ValueError(f"fidelities[{j}]: a surrogate level is {{surrogate: LABEL}} "
+                                 f"alone, LABEL a PCE method's label; got {dict(level)}")
         if self.max_runs < self.n_pilot:
             raise ValueError(f"max_runs ({self.max_runs}) must be at least n_pilot "
                              f"({self.n_pilot})")
@@ -185,10 +209,33 @@ class MultiFidelityMC(Method):
                               f"events from the config or run them with monte_carlo",
                               field=where)
 
+    @property
+    def surrogate_levels(self) -> dict[int, str]:
+        """The levels that are a PCE method's surrogate: level index to that method's label."""
+        return {j: str(f["surrogate"]) for j, f in enumerate(self.settings.fidelities)
+                if "surrogate" in f}
+
+    def check_surrogates(self, methods: list[Method], index: int) -> None:
+        """ConfigError naming ``methods[i].fidelities[j]`` when a surrogate level names no PCE
+        method listed before this one (the surrogate must be fitted before the pilot)."""
+        before = {m.label: m for m in methods[:index]}
+        fitting = [lab for lab, m in before.items() if m.fits_surrogate]
+        for j, label in self.surrogate_levels.items():
+            where = f"methods[{index}].fidelities[{j}]"
+            m = before.get(label)
+            if m is None or not m.fits_surrogate:
+                what = ("is not a PCE method" if m is not None else
+                        "is not the label of a method listed before this one")
+                raise ConfigError(f"{where}: surrogate {label!r} {what}; allowed: "
+                                  f"{', '.join(fitting) or 'none (list a PCE method first)'}",
+                                  field=where)
+
     def check_fidelities(self, model: Any, index: int) -> None:
         """ConfigError naming ``methods[i].fidelities[j]`` when a level changes a parameter
         that does not set the model's fidelity, or sets a value the model refuses."""
         for j, changes in enumerate(self.settings.fidelities):
+            if "surrogate" in changes:
+                continue
             try:
                 model.at_fidelity(changes)
             except ValueError as exc:
@@ -257,7 +304,10 @@ class MultiFidelityMC(Method):
         rows, var0, owner = self._pilot_quantities(pilot)
         rho = _correlations(rows)
         allocation = select_allocation(rho, costs, s.min_gain)
-        note = ""
+        allocation, capped = _cap_surrogates(allocation, rho, costs, self.surrogate_levels,
+                                             s.surrogate_ratio)
+        note = (f"surrogate rows capped at surrogate_ratio = {s.surrogate_ratio:g} times the "
+                f"level before") if capped else ""
         if allocation.is_plain_mc and len(costs) > 1:
             note = (f"the pilot found no gain above min_gain = {s.min_gain:g} from the cheaper "
                     f"levels (correlations too low for their cost): plain Monte Carlo of the "
@@ -338,7 +388,8 @@ class MultiFidelityMC(Method):
                           f"(uqguide.driver.propagate_levels), not on one model's runs")
 
     def estimate_levels(self, runs: list[ModelOutput], plan: LevelPlan, design: Design,
-                        seconds: list[float], pilot_seconds: list[float]) -> Estimate:
+                        seconds: list[float], pilot_seconds: list[float],
+                        surrogate_cpu_s: float = 0.0) -> Estimate:
         """Statistics of every output from the used levels' runs (estimator order).
 
         Parameters
@@ -351,6 +402,9 @@ class MultiFidelityMC(Method):
             Model seconds of every config level (pilot and main runs).
         pilot_seconds : list of float
             Model seconds per run of every config level in the pilot.
+        surrogate_cpu_s : float
+            What the PCE methods of the surrogate levels spent (runs and fit), charged to the
+            saving.
         """
         sizes = plan.sizes
         ok = usable_rows([r.failed for r in runs], sizes)
@@ -386,7 +440,7 @@ class MultiFidelityMC(Method):
         n_failed = int((~ok).sum())
         targets = [t for t in self._targets() if t in equivalent]
         eq = min((equivalent[t] for t in targets), default=float("nan"))
-        cpu = float(sum(seconds))
+        cpu = float(sum(seconds)) + surrogate_cpu_s
         c0 = float(plan.costs[0])
         diagnostics: dict[str, Any] = {
             "n_runs": int(sum(r.n for r in runs)) + self._unused_pilot_runs(plan),
@@ -397,6 +451,8 @@ class MultiFidelityMC(Method):
                                         if i in plan.levels else self.settings.n_pilot
                                         for i in range(len(self.settings.fidelities))]),
             "cpu_per_level": np.asarray(seconds, dtype=float),
+            # the surrogate levels' PCE methods: their runs and fit, in cpu_saving
+            "surrogate_cpu_s": surrogate_cpu_s,
             "cost_per_run": np.asarray(plan.costs, dtype=float),
             "costs": "measured (pilot, 2 significant digits)" if plan.measured else "given",
             "pilot_seconds_per_run": np.asarray(pilot_seconds, dtype=float),
@@ -404,7 +460,8 @@ class MultiFidelityMC(Method):
             "equivalent_mc_runs": eq,
             "equivalent_mc_cpu_s": eq * c0,
             # CPU that plain MC of the highest level would need for the same standard error of
-            # the worst optimised output's mean, over the CPU this run took
+            # the worst optimised output's mean, over the CPU this run took (with what its
+            # surrogate levels' PCE methods spent)
             "cpu_saving": eq * c0 / cpu if cpu > 0 else float("nan"),
             "plain_mc": bool(plan.allocation.is_plain_mc),
             "note": plan.note,
@@ -423,7 +480,28 @@ class MultiFidelityMC(Method):
 
 
 def _level_name(changes: dict[str, Any]) -> str:
+    if "surrogate" in changes:
+        return f"surrogate of {changes['surrogate']}"
     return ", ".join(f"{k}={v}" for k, v in changes.items()) or "model as configured"
+
+
+def _cap_surrogates(allocation: Allocation, rho: np.ndarray, costs: np.ndarray,
+                    surrogates: dict[int, str], ratio: float) -> tuple[Allocation, bool]:
+    """The allocation with each surrogate level's runs at most ``ratio`` times the level
+    before it (estimator order), and its variance ratio recomputed for those ratios; whether
+    any was capped. A nearly free level gets a ratio in the thousands from the closed form:
+    capped, the budget goes to the levels before it instead."""
+    r = np.asarray(allocation.ratios, dtype=float).copy()
+    levels = list(allocation.levels)
+    capped = False
+    for j in range(1, len(levels)):
+        if levels[j] in surrogates and r[j] > ratio * r[j - 1]:
+            r[j], capped = ratio * r[j - 1], True
+        r[j] = max(r[j], r[j - 1])
+    if not capped:
+        return allocation, False
+    worst = float(np.max(variance_ratio(np.nan_to_num(rho[:, levels]), costs[levels], r)))
+    return Allocation(allocation.levels, r, worst), True
 
 
 def _correlations(rows: list[np.ndarray]) -> np.ndarray:

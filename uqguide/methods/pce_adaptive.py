@@ -230,6 +230,7 @@ class AdaptivePCE(Method):
     summary = ("adaptive sparse PCE: LARS + corrected LOO over a (q-norm, degree) grid, "
                "sequential design")
     Settings = AdaptivePCESettings
+    fits_surrogate = True
     settings: AdaptivePCESettings
     uses_derivations = True
     example_settings = {"n_samples": 40, "max_runs": 60, "degree_max": 3,

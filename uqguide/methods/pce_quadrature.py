@@ -102,6 +102,7 @@ class QuadraturePCE(Method):
     settings: QuadratureSettings
     uses_derivations = True
     random_design = False
+    fits_surrogate = True
 
     @abstractmethod
     def _grid(self, germ: Germ) -> Grid:
