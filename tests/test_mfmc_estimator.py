@@ -88,8 +88,8 @@ def test_mean_is_unbiased_with_the_variance_of_its_formula(seed):
     var_formula = g / sizes[0]  # sigma_0 = 1
     rng = np.random.default_rng([seed, 30])
     n_rep = 200
-    est = np.array([mfmc_statistics(_levels(rng, sizes), sizes, n_resamples=0).mean[0]
-                    for _ in range(n_rep)])
+    reps = [mfmc_statistics(_levels(rng, sizes), sizes, n_resamples=0) for _ in range(n_rep)]
+    est = np.array([r.mean[0] for r in reps])
     # unbiased: the replicate mean is within 4 standard errors of E[y_0] = 0
     assert abs(est.mean()) < 4 * np.sqrt(var_formula / n_rep)
     # the sample variance of n_rep normal estimates has relative s.e. sqrt(2/(n_rep-1)); the
@@ -98,6 +98,12 @@ def test_mean_is_unbiased_with_the_variance_of_its_formula(seed):
     assert abs(est.var(ddof=1) / var_formula - 1) < 4 * rel_se + 3 / sizes[0]
     # and MFMC beats plain MC of the same cost
     assert var_formula < 1.0 / (float(np.dot(COST, sizes)) / COST[0])
+    # the std's standard error by the same formula on the squares: the replicates' spread of
+    # the std (the std's estimates are near normal here: same tolerance, with the O(1/m_0) of
+    # estimated weights counted twice, once for each power)
+    stds = np.array([r.std[0] for r in reps])
+    se2 = np.mean([r.se_std[0] ** 2 for r in reps])
+    assert abs(stds.var(ddof=1) / se2 - 1) < 4 * rel_se + 6 / sizes[0]
 
 
 def _skewed(rng: np.random.Generator, sizes: np.ndarray) -> list[np.ndarray]:

@@ -414,6 +414,7 @@ class MultiFidelityMC(Method):
         how: set[tuple[int, str]] = set()
         boot_seed = int(design.data.get("boot_seed", 0))
         equivalent: dict[str, float] = {}
+        equivalent_std: dict[str, float] = {}
         nan_rows: dict[str, int] = {}
         for name in names:
             lv = []
@@ -435,11 +436,12 @@ class MultiFidelityMC(Method):
                                    n_resamples=self.settings.bootstrap, seed=boot_seed) \
                 if self.settings.bootstrap else None
             stats[name] = _output_stats(full, boot, cols, runs[0], name, finite[:sizes[0]])
-            finite = full.equivalent_mc_runs[np.isfinite(full.equivalent_mc_runs)]
-            equivalent[name] = float(finite.min()) if finite.size else float("nan")
+            equivalent[name] = _least(full.equivalent_mc_runs)
+            equivalent_std[name] = _least(full.equivalent_mc_runs_std)
         n_failed = int((~ok).sum())
         targets = [t for t in self._targets() if t in equivalent]
         eq = min((equivalent[t] for t in targets), default=float("nan"))
+        eq_std = min((equivalent_std[t] for t in targets), default=float("nan"))
         cpu = float(sum(seconds)) + surrogate_cpu_s
         c0 = float(plan.costs[0])
         diagnostics: dict[str, Any] = {
@@ -459,10 +461,12 @@ class MultiFidelityMC(Method):
             "estimated_variance_reduction": 1.0 / plan.allocation.variance_ratio,
             "equivalent_mc_runs": eq,
             "equivalent_mc_cpu_s": eq * c0,
-            # CPU that plain MC of the highest level would need for the same standard error of
-            # the worst optimised output's mean, over the CPU this run took (with what its
-            # surrogate levels' PCE methods spent)
-            "cpu_saving": eq * c0 / cpu if cpu > 0 else float("nan"),
+            # the same for the variance (the estimator's formula on the squares)
+            "equivalent_mc_runs_std": eq_std,
+            # CPU that plain MC of the highest level would need for the same standard errors
+            # of the worst optimised output's mean and variance, over the CPU this run took
+            # (with what its surrogate levels' PCE methods spent)
+            "cpu_saving": min(eq, eq_std) * c0 / cpu if cpu > 0 else float("nan"),
             "plain_mc": bool(plan.allocation.is_plain_mc),
             "note": plan.note,
             "interpolated": ", ".join(f"level {i} {h}" for i, h in sorted(how)) or "none",
@@ -477,6 +481,13 @@ class MultiFidelityMC(Method):
     def _unused_pilot_runs(self, plan: LevelPlan) -> int:
         unused = len(self.settings.fidelities) - len(plan.levels)
         return unused * self.settings.n_pilot
+
+
+def _least(equivalent: np.ndarray | None) -> float:
+    """The fewest equivalent Monte Carlo runs over an output's columns (NaN: none finite)."""
+    v = np.asarray(equivalent if equivalent is not None else [], dtype=float)
+    v = v[np.isfinite(v)]
+    return float(v.min()) if v.size else float("nan")
 
 
 def _level_name(changes: dict[str, Any]) -> str:

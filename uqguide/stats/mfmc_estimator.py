@@ -60,6 +60,12 @@ class MfmcStatistics:
     equivalent_mc_runs : ndarray, shape (Q,)
         Level-0 Monte Carlo runs with the same standard error of the mean:
         ``sigma_0^2 / sem^2``.
+    se_std : ndarray, shape (Q,)
+        Standard error of the std by the same variance formula applied to the squares (the
+        carriers of the variance), ``se(var) / (2 std)``: a check on the bootstrap interval.
+    equivalent_mc_runs_std : ndarray, shape (Q,)
+        Level-0 Monte Carlo runs with the same standard error of the variance:
+        ``Var(z_0^2) / se(var)^2`` (no kurtosis estimate enters).
     n_used : ndarray of int, shape (K,)
         Surviving rows per level.
     """
@@ -74,6 +80,8 @@ class MfmcStatistics:
     rho: np.ndarray
     equivalent_mc_runs: np.ndarray
     n_used: np.ndarray
+    se_std: np.ndarray | None = None
+    equivalent_mc_runs_std: np.ndarray | None = None
 
 
 def group_bounds(sizes: np.ndarray) -> list[tuple[int, int]]:
@@ -211,22 +219,38 @@ def mfmc_statistics(levels_y: list[np.ndarray], sizes: np.ndarray, ok: np.ndarra
 
     # PWG16 Lemma 3.3 with the sample moments of the rows every level ran
     used = np.cumsum(n[0])
-    sig = np.stack([z[j][rows0].std(axis=0) for j in range(len(z))])
-    var = sig[0] ** 2 / used[0]
-    for j in range(1, len(z)):
-        a = alpha[j, 0]
-        var = var + (1 / used[j - 1] - 1 / used[j]) * (a * a * sig[j] ** 2 -
-                                                       2 * a * rho[j, 0] * sig[0] * sig[j])
+    var = _lemma33([zj[rows0] for zj in z], alpha[:, 0], rho[:, 0], used)
     sem = np.sqrt(np.maximum(var, 0.0))
+    # the same for the squares, centred at the mean: the variance's estimator (to first order)
+    squares = [zj[rows0] ** 2 for zj in z]
+    var2 = _lemma33(squares, alpha[:, 1], rho[:, 1], used)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        se_std = np.sqrt(np.maximum(var2, 0.0)) / (2 * std)
+        equivalent_std = np.where(var2 > 0, squares[0].var(axis=0) / var2, np.inf)
     zq = NormalDist().inv_cdf(0.5 + level / 2)
     ci = {"mean": np.stack([mean - zq * sem, mean + zq * sem])}
     if n_resamples > 0:
         ci.update(_bootstrap(z, bounds, ok, alpha, shift, n_resamples, seed, level, block))
     with np.errstate(divide="ignore", invalid="ignore"):
-        equivalent = np.where(var > 0, sig[0] ** 2 / var, np.inf)
+        equivalent = np.where(var > 0, z[0][rows0].std(axis=0) ** 2 / var, np.inf)
     return MfmcStatistics(mean=mean, std=std, skewness=skew, kurtosis=kurt, sem=sem, ci=ci,
                           alpha=alpha, rho=rho, equivalent_mc_runs=equivalent,
-                          n_used=used.astype(np.int64))
+                          n_used=used.astype(np.int64), se_std=se_std,
+                          equivalent_mc_runs_std=equivalent_std)
+
+
+def _lemma33(z: list[np.ndarray], alpha: np.ndarray, rho: np.ndarray, used: np.ndarray
+             ) -> np.ndarray:
+    """PWG16 Lemma 3.3: the variance ``(Q,)`` of the estimator of ``E[z_0]`` from each level's
+    values ``z (n, Q)`` on the rows every level ran, the weights and correlations with level 0
+    ``(K, Q)`` and the rows ``m_j`` of each level."""
+    sig = np.stack([zj.std(axis=0) for zj in z])
+    var = sig[0] ** 2 / used[0]
+    for j in range(1, len(z)):
+        a = alpha[j]
+        var = var + (1 / used[j - 1] - 1 / used[j]) * (a * a * sig[j] ** 2 -
+                                                       2 * a * rho[j] * sig[0] * sig[j])
+    return var
 
 
 def _bootstrap(z: list[np.ndarray], bounds: list[tuple[int, int]], ok: np.ndarray,
