@@ -9,29 +9,41 @@ Cases (``--case``):
 - ``uncorrelated``: a cheap level uncorrelated with the expensive one (a user's callable at
   two "fidelities"): plain MC, its standard error and its cost against the budget;
 - ``euler``: the ``euler_decay`` model at dt = 0.01 / 0.1 / 0.4 through the ``mfmc`` method
-  (pinned costs), coverage of the highest level's exact mean over seeds;
+  (pinned costs), coverage of the highest level's exact mean over seeds; with ``--pce 1`` the
+  levels are dt = 0.01 and a PCE of dt = 0.1 (``pce_tensor``, 25 runs; its cost pinned at
+  1e-7 s per run, its fit outside the budget);
 - ``ftcapn``, ``gmm_ftc``, ``ft_as``: a pilot of ``--pilot`` runs at each step of the model's
   dispersion config: measured CPU seconds per run (``time.process_time``, one thread), the
   correlation of each level with the highest per output, the allocation the ``mfmc`` method
   would make for the outputs together, and the CPU plain MC would need for the same standard
   error of the mean (and of the variance) against MFMC's;
-- ``ft_as-run``: the ``mfmc`` method on FT-AS Case 2 (configs/ft_as_dispersion.yaml with
-  ``controller: case2``) for ``--budget`` CPU seconds, serial or on ``--workers``; with
+- ``ft_as-run`` (and ``ftcapn-run``, ``gmm_ftc-run``): the ``mfmc`` method on FT-AS Case 2
+  (configs/ft_as_dispersion.yaml with ``controller: case2``; the other two on their pilot
+  configs and levels) for ``--budget`` CPU seconds, serial or on ``--workers``; with
   ``--pce N`` a PCE level too (``pce_adaptive`` on N runs at ``--pce-step``, listed before
   ``mfmc``), its runs and fit charged to the saving. Printed: the h = 0.01 s plain-MC runs
   that would give the standard errors reached for the mean and for the variance of the worst
   output (the estimator's variance formula), the CPU saving, and per output the mean +- its
   standard error and the std with its bootstrap interval.
 
+With ``--peer-python PATH`` (an interpreter that has MXMCPy; ``benchmarks/mfmc_mxmcpy.py``)
+the ``analytic`` case and the simulator pilots also print, per quantity, the variance ratio
+against plain MC at equal cost of uqguide's allocation beside MXMCPy's MFMC, MLMC and ACV
+optimisers (ACV-MF, ACV-IS, GRD-MR) for the same costs and covariance.
+
 Every figure is printed in a table; nothing is asserted (the tests do that on small cases).
 
     python benchmarks/multifidelity.py --case analytic [--seeds 50]
     python benchmarks/multifidelity.py --case ft_as --pilot 60
+    python benchmarks/multifidelity.py --case analytic --peer-python /tmp/mx/bin/python
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import subprocess
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -64,8 +76,44 @@ def _wilson(k: int, n: int) -> tuple[float, float]:
     return c - h, c + h
 
 
+# ---------------------------------------------------------------------------------- peers
+def peers(costs: np.ndarray, covs: dict[str, np.ndarray], python: str | None) -> None:
+    """uqguide's allocation for each quantity alone beside MXMCPy's (module docstring): the
+    variance ratio against plain MC of level 0 at equal cost (lower is better)."""
+    if not python:
+        return
+    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
+        json.dump({"costs": [float(c) for c in costs],
+                   "quantities": {k: np.asarray(v).tolist() for k, v in covs.items()}}, f)
+    proc = subprocess.run([python, str(ROOT / "benchmarks" / "mfmc_mxmcpy.py"), f.name],
+                          capture_output=True, text=True)
+    Path(f.name).unlink()
+    if proc.returncode:
+        print(f"  peer failed: {proc.stderr.strip().splitlines()[-1:]}")
+        return
+    rows = [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
+    algs = list(dict.fromkeys(r["algorithm"] for r in rows))
+    print("\n  variance ratio vs plain MC at equal cost, one quantity at a time (MXMCPy 1.0 "
+          "with its model selection; uqguide with its own)")
+    print(f"  {'quantity':>22} {'uqguide mfmc':>13} " + " ".join(f"{a:>13}" for a in algs))
+    for name, cov in covs.items():
+        sd = np.sqrt(np.diag(cov))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rho = np.nan_to_num(cov[0] / (sd[0] * sd))
+        ours = select_allocation(rho[None, :], costs).variance_ratio
+        cells = []
+        for a in algs:
+            r = next(r for r in rows if r["quantity"] == name and r["algorithm"] == a)
+            cells.append(f"{r['variance_ratio']:13.4f}" if "variance_ratio" in r else
+                         f"{'error':>13}")
+        print(f"  {name:>22} {ours:13.4f} " + " ".join(cells))
+    errors = {r["algorithm"]: r["error"] for r in rows if "error" in r}
+    for a, e in errors.items():
+        print(f"  {a}: {e}")
+
+
 # ---------------------------------------------------------------------------------- pilot
-def pilot(case: str, n: int, seed: int = 1) -> None:
+def pilot(case: str, n: int, seed: int = 1, peer_python: str | None = None) -> None:
     """Measured costs, correlations and the allocation of a pilot of ``n`` runs per level."""
     path, param, steps, outputs, overrides = PILOTS[case]
     raw = load_yaml(ROOT / path)
@@ -116,6 +164,13 @@ def pilot(case: str, n: int, seed: int = 1) -> None:
     for q, (k, c) in enumerate(keep):
         print(f"  {k}[{c}]: CPU of plain MC / CPU of MFMC for the same s.e.: mean "
               f"{1 / vr[q]:.3g}x, variance {1 / vr[len(keep) + q]:.3g}x")
+    covs = {}
+    for k, c in keep:
+        ys = np.stack([r[k][ok, c] for r in rows], axis=1)
+        covs[f"{k}[{c}]"] = np.cov(ys, rowvar=False)
+        sq = (ys - ys.mean(axis=0)) ** 2
+        covs[f"({k}[{c}] - mean)^2"] = np.cov(sq, rowvar=False)
+    peers(w, covs, peer_python)
     print(f"  worst over the outputs: {1 / alloc.variance_ratio:.3g}x")
 
 
@@ -124,10 +179,12 @@ NOISE = np.array([0.0, 0.3, 1.0])
 COST = np.array([1.0, 0.05, 0.01])
 
 
-def analytic(seeds: int, budget: float) -> None:
+def analytic(seeds: int, budget: float, peer_python: str | None = None) -> None:
     """Closed-form allocation, then MFMC against MC at equal cost over seeds."""
     # y_0 = x + 0.2 x^2 has variance 1.08; y_j adds s_j e_j: rho_j = sqrt(1.08 / (1.08 + s_j^2))
     rho = np.sqrt(1.08 / (1.08 + NOISE**2))
+    # (the levels share y_0 and add independent noise: cov_ij = 1.08 + s_i^2 [i = j])
+    peers(COST, {"y_0 = x + 0.2 x^2": 1.08 + np.diag(NOISE**2)}, peer_python)
     alloc = select_allocation(rho[None, :], COST)
     r_closed = mfmc_ratios(rho[list(alloc.levels)], COST[list(alloc.levels)])
     r2 = np.append(rho[list(alloc.levels)] ** 2, 0)
@@ -180,11 +237,11 @@ def _euler_exact(dt: float, power: int, a: float = 0.5, b: float = 1.5) -> float
     return ((1 - a * dt) ** (n + 1) - (1 - b * dt) ** (n + 1)) / ((n + 1) * dt * (b - a))
 
 
-def euler(seeds: int, budget: float) -> None:
+def euler(seeds: int, budget: float, pce: bool = False) -> None:
     """The ``mfmc`` method on ``euler_decay`` against plain MC of dt = 0.01 at equal (pinned)
     cost, over seeds: standard errors and coverage of the exact mean and std."""
     from uqguide.driver.execution import SerialExecutor
-    from uqguide.driver.propagate import propagate
+    from uqguide.driver.propagate import propagate, run
 
     mean = _euler_exact(0.01, 1)
     std = np.sqrt(1.01 * _euler_exact(0.01, 2) - mean**2)  # E[y0^2] = 1 + 0.1^2
@@ -198,13 +255,23 @@ def euler(seeds: int, budget: float) -> None:
     t0 = time.process_time()
     diag: dict[str, Any] = {}
     for s in range(seeds):
-        mf = validate_config({**base, "seed": s, "methods": [{
-            "name": "mfmc", "fidelities": [{"dt": h} for h in EULER_LEVELS],
-            "costs": EULER_COSTS, "budget_cpu_s": budget, "n_pilot": 50,
-            "chunk_size": 1024}]})
+        if pce:
+            mf = validate_config({**base, "model": {"name": "euler_decay", "dt": 0.1},
+                                  "seed": s, "methods": [
+                {"name": "pce_tensor", "label": "tpce", "m": 5},
+                {"name": "mfmc", "fidelities": [{"dt": 0.01}, {"surrogate": "tpce"}],
+                 "costs": [EULER_COSTS[0], 1e-7], "budget_cpu_s": budget, "n_pilot": 50,
+                 "chunk_size": 1024}]})
+            a = run(mf, SerialExecutor(4096)).runs[-1]
+        else:
+            mf = validate_config({**base, "seed": s, "methods": [{
+                "name": "mfmc", "fidelities": [{"dt": h} for h in EULER_LEVELS],
+                "costs": EULER_COSTS, "budget_cpu_s": budget, "n_pilot": 50,
+                "chunk_size": 1024}]})
+            a = propagate(mf.methods[0], mf.model, mf.space, mf.outputs, s,
+                          SerialExecutor(4096))
         mc = validate_config({**base, "seed": s, "methods": [{
             "name": "monte_carlo", "n_samples": n_mc, "sensitivity": "off"}]})
-        a = propagate(mf.methods[0], mf.model, mf.space, mf.outputs, s, SerialExecutor(4096))
         b = propagate(mc.methods[0], mc.model, mc.space, mc.outputs, s, SerialExecutor(4096))
         st, sb = a.estimate.stats["y_end"], b.estimate.stats["y_end"]
         rows["mfmc"].append((st.mean[0], st.std[0]))
@@ -212,7 +279,8 @@ def euler(seeds: int, budget: float) -> None:
         hits["mean"] += st.ci["mean"][0, 0] <= mean <= st.ci["mean"][1, 0]
         hits["std"] += st.ci["std"][0, 0] <= std <= st.ci["std"][1, 0]
         diag = a.estimate.diagnostics
-    print(f"euler_decay dt = {EULER_LEVELS}, pinned costs {EULER_COSTS} s per run, budget "
+    levels = "dt = 0.01 and a PCE of dt = 0.1" if pce else f"dt = {EULER_LEVELS}"
+    print(f"euler_decay {levels}, pinned costs {diag['cost_per_run']} s per run, budget "
           f"{budget:g} s: MFMC runs {list(diag['runs_per_level'])}, plain MC {n_mc} runs; "
           f"{seeds} seeds, {time.process_time() - t0:.1f} CPU-s")
     print(f"  exact highest-level mean {mean:.6f}, std {std:.6f}")
@@ -272,28 +340,35 @@ def uncorrelated(seeds: int, budget: float) -> None:
 
 
 # ---------------------------------------------------------------------------------- FT-AS run
-def ft_as_run(budget: float, n_pilot: int, workers: int, pce: int = 0,
-              pce_step: float = 0.02, seed: int | None = None) -> None:
-    """The ``mfmc`` method on FT-AS Case 2 at h = 0.01 s for ``budget`` CPU seconds."""
+#: rows per chunk of ``*-run``: a few seconds of the slow simulators, more of the fast one
+CHUNK = {"ft_as": 20, "gmm_ftc": 64, "ftcapn": 1024}
+
+
+def method_run(case: str, budget: float, n_pilot: int, workers: int, pce: int = 0,
+               pce_step: float | None = None, seed: int | None = None) -> None:
+    """The ``mfmc`` method on the levels of :data:`PILOTS` ``case`` for ``budget`` CPU s."""
     from uqguide.driver.execution import ProcessExecutor, SerialExecutor
     from uqguide.driver.propagate import run
 
-    raw = load_yaml(ROOT / "configs/ft_as_dispersion.yaml")
-    raw["model"].update(controller="case2", threads=1)
-    raw.pop("reference", None)
-    raw["outputs"] = ["delta_v", "settle_r_e"]
-    levels: list[dict[str, Any]] = [{"step": h} for h in (0.01, 0.02, 0.05, 0.1)]
+    path, param, steps, outputs, overrides = PILOTS[case]
+    raw = load_yaml(ROOT / path)
+    raw["model"].update(overrides)
+    for key in ("reference", "quantiles", "events"):
+        raw.pop(key, None)
+    raw["outputs"] = outputs
+    levels: list[dict[str, Any]] = [{param: h} for h in steps]
     raw["methods"] = []
     if pce:
-        raw["model"]["step"] = pce_step  # the fidelity the PCE learns
+        # the fidelity the PCE learns (default: the second level's)
+        raw["model"][param] = steps[1] if pce_step is None else pce_step
         raw["methods"].append({"name": "pce_adaptive", "label": "apce", "n_samples": pce,
                                "max_runs": pce})
         levels.append({"surrogate": "apce"})
     raw["methods"].append({"name": "mfmc", "fidelities": levels, "budget_cpu_s": budget,
-                           "n_pilot": n_pilot, "chunk_size": 20})
+                           "n_pilot": n_pilot, "chunk_size": CHUNK[case]})
     if seed is not None:
         raw["seed"] = seed
-    cfg = validate_config(raw, source=str(ROOT / "configs/ft_as_dispersion.yaml"))
+    cfg = validate_config(raw, source=str(ROOT / path))
     ex = ProcessExecutor(workers, batch_size=20) if workers > 1 else SerialExecutor(20)
     t0 = time.process_time()
     try:
@@ -303,16 +378,17 @@ def ft_as_run(budget: float, n_pilot: int, workers: int, pce: int = 0,
     r = result.runs[-1]
     d = r.estimate.diagnostics
     spent = float(np.sum(d["cpu_per_level"])) + float(d.get("surrogate_cpu_s", 0.0))
-    print(f"FT-AS Case 2 mfmc, budget {budget:g} CPU-s, pilot {n_pilot}, {workers} worker(s), "
-          f"PCE level {'on ' + str(pce) + f' runs at h = {pce_step:g} s' if pce else 'none'}: "
+    learnt = f"on {pce} runs at {param} = {raw['model'][param]:g}" if pce else "none"
+    print(f"{case} mfmc, budget {budget:g} CPU-s, pilot {n_pilot}, {workers} worker(s), "
+          f"PCE level {learnt}: "
           f"this process {time.process_time() - t0:.1f} CPU-s, model {r.model_seconds:.1f} s")
     for k in ("levels", "levels_used", "runs_per_level", "cpu_per_level", "cost_per_run",
               "surrogate_cpu_s", "estimated_variance_reduction", "equivalent_mc_runs",
               "equivalent_mc_runs_std", "equivalent_mc_cpu_s", "cpu_saving", "note"):
         print(f"  {k}: {d.get(k)}")
     c0 = float(d["cost_per_run"][0])
-    print(f"  all CPU (levels + the PCE's runs and fit): {spent:.1f} s; h = 0.01 s costs "
-          f"{c0:.3g} s per run")
+    print(f"  all CPU (levels + the PCE's runs and fit): {spent:.1f} s; {param} = {steps[0]:g} "
+          f"costs {c0:.3g} s per run")
     for name, st in r.estimate.stats.items():
         assert st.sem is not None and st.ci is not None
         for c in range(st.mean.shape[-1]):
@@ -323,28 +399,34 @@ def ft_as_run(budget: float, n_pilot: int, workers: int, pce: int = 0,
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--case", default="analytic",
-                    choices=["analytic", "euler", "uncorrelated", *PILOTS, "ft_as-run"])
+                    choices=["analytic", "euler", "uncorrelated", *PILOTS,
+                             *(f"{c}-run" for c in PILOTS)])
     ap.add_argument("--seeds", type=int, default=50)
     ap.add_argument("--pilot", type=int, default=60)
     ap.add_argument("--budget", type=float, default=100.0,
-                    help="cost units (analytic), CPU seconds (euler, ft_as-run)")
+                    help="cost units (analytic), CPU seconds (euler, *-run)")
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--pce", type=int, default=0,
-                    help="ft_as-run: add a PCE level fitted on this many runs (0: none)")
-    ap.add_argument("--pce-step", type=float, default=0.02,
-                    help="ft_as-run: the step of the runs the PCE learns [s]")
+                    help="*-run: add a PCE level fitted on this many runs (0: none); "
+                         "euler: 1 for a PCE level")
+    ap.add_argument("--pce-step", type=float, default=None,
+                    help="*-run: the step of the runs the PCE learns [s] (default: the "
+                         "second level's)")
     ap.add_argument("--seed", type=int, default=None)
+    ap.add_argument("--peer-python", default=None,
+                    help="an interpreter with MXMCPy: its allocations beside uqguide's")
     a = ap.parse_args()
     if a.case == "analytic":
-        analytic(a.seeds, a.budget)
+        analytic(a.seeds, a.budget, a.peer_python)
     elif a.case == "uncorrelated":
         uncorrelated(a.seeds, a.budget)
     elif a.case == "euler":
-        euler(a.seeds, a.budget)
+        euler(a.seeds, a.budget, bool(a.pce))
     elif a.case in PILOTS:
-        pilot(a.case, a.pilot)
+        pilot(a.case, a.pilot, peer_python=a.peer_python)
     else:
-        ft_as_run(a.budget, a.pilot, a.workers, a.pce, a.pce_step, a.seed)
+        method_run(a.case.removesuffix("-run"), a.budget, a.pilot, a.workers, a.pce,
+                   a.pce_step, a.seed)
 
 
 if __name__ == "__main__":
