@@ -475,6 +475,10 @@ class MultiFidelityMC(Method):
             # rows left out of one output's statistics for a non-finite value at some level
             "non_finite_rows": "; ".join(f"{k} ({v})" for k, v in nan_rows.items()) or "none",
         }
+        # per output (the fewest over its components and times): which one limits the saving
+        for name in equivalent:
+            diagnostics[f"equivalent_mc_runs.{name}"] = equivalent[name]
+            diagnostics[f"equivalent_mc_runs_std.{name}"] = equivalent_std[name]
         return Estimate(method=self.name, label=self.label, stats=stats,
                         diagnostics=diagnostics)
 

@@ -93,8 +93,8 @@ def multifidelity_columns(diagnostics: dict) -> dict[str, Any]:
     seconds per level (``/``-separated, highest fidelity first; a level left out after the
     pilot shows its pilot runs), the variance reduction the pilot predicted for the allocation,
     and the plain Monte Carlo runs of the highest level that would give the standard error of
-    the mean it reached (the worst of the outputs it was optimised for). Empty for the other
-    methods."""
+    the mean it reached (the worst of the outputs it was optimised for), and of the variance.
+    Empty for the other methods."""
     if "runs_per_level" not in diagnostics:
         return {}
     runs = np.atleast_1d(diagnostics["runs_per_level"])
@@ -105,7 +105,14 @@ def multifidelity_columns(diagnostics: dict) -> dict[str, Any]:
         "variance reduction": round(float(diagnostics.get("estimated_variance_reduction",
                                                           np.nan)), 3),
         "equivalent MC runs": round(float(diagnostics.get("equivalent_mc_runs", np.nan))),
+        "equivalent MC runs (std)": _rounded(diagnostics.get("equivalent_mc_runs_std")),
     }
+
+
+def _rounded(value: object) -> float | int:
+    """A count rounded, or NaN (a result written before the figure existed has none)."""
+    v = float(value) if isinstance(value, (int, float, np.floating)) else float("nan")
+    return round(v) if np.isfinite(v) else float("nan")
 
 
 def unusable_outputs(diagnostics: dict) -> list[str]:
