@@ -181,7 +181,7 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             if beyond is not None:
                 _widen(cv, beyond)
             st.corrected = cv.values
-            st.corrected_ci = cv.ci if cv.shown_ci is None else cv.shown_ci
+            st.corrected_ci = _printed(cv)
             st.validation_error = err = cv.error
             diag[f"validation_error.{name}"] = float(np.max(err)) if err.size else 0.0
             corrected = cv
@@ -287,6 +287,20 @@ def _far_tails(diag: dict[str, Any], label: str, name: str, st: Any, surrogate: 
     return beyond
 
 
+def _printed(cv: Corrected) -> dict[str, np.ndarray]:
+    """The intervals the report prints: ``shown_ci`` (else ``ci``) with the std's lower end at
+    least 0 and the kurtosis' at least 1, as for Monte Carlo (a skew-corrected interval widened
+    beyond the runs' range printed a kurtosis down to -1058, which no distribution has)."""
+    ci = dict(cv.ci if cv.shown_ci is None else cv.shown_ci)
+    for k, floor in (("std", 0.0), ("kurtosis", 1.0)):
+        if k in ci:
+            v = np.array(ci[k], dtype=float)
+            with np.errstate(invalid="ignore"):
+                v[0] = np.where(np.isnan(v[0]), np.nan, np.maximum(v[0], floor))
+            ci[k] = v
+    return ci
+
+
 def _widen(cv: Corrected, beyond: Mapping[str, np.ndarray]) -> None:
     """Widen the control-variate intervals, in place, by the part of each statistic the
     surrogate takes from beyond its runs, on either side (the check of the PCE's own value,
@@ -337,7 +351,7 @@ def _drop_refuted(diag: dict[str, Any], label: str, name: str, st: Any, cv: Corr
             shown[:, bad[k]] = np.nan
             cv.shown_ci[k] = shown
     st.corrected = cv.values
-    st.corrected_ci = cv.ci if cv.shown_ci is None else cv.shown_ci
+    st.corrected_ci = _printed(cv)
     n_bad = int(np.sum(np.any([bad[k] for k in names], axis=0)))
     diag[f"cv_refuted.{name}"] = ", ".join(names)
     log.warning("%s: %s: the corrected (+cv) %s disagree with, or are less precise than, the "
