@@ -328,3 +328,21 @@ def test_late_approach_of_the_degree_one_pces_is_flagged_before_60_s(caplog):
     assert "disagree with its validation runs at" in caplog.text
     assert "withheld there" in caplog.text
     assert "validation disagrees" in render_text(r)
+
+
+def test_the_withdrawn_outputs_print_in_one_order_whatever_the_diagnostics_order():
+    """ft_as_dispersion's cost table printed "delta_v ...; settle_r_e ..." from the run and
+    "settle_r_e ...; delta_v ..." from its file: the text follows the output names."""
+    from uqguide.report.tables import disagreeing_outputs, unusable_outputs, withheld_outputs
+
+    d = {"unusable.settle_r_e": "validation error 0.223 > 0.1", "withheld.zem": "kurtosis",
+         "unusable.delta_v": "validation error 1.08 > 0.1", "withheld.a": "skewness",
+         "withheld_steps.y": 19, "withheld_from.y": 5.3, "disagrees_from.w": 57.0,
+         "disagrees.b": "std"}
+    back = dict(reversed(list(d.items())))
+    for f in (unusable_outputs, withheld_outputs, disagreeing_outputs):
+        assert f(d) == f(back)
+    assert unusable_outputs(back) == ["delta_v (validation error 1.08 > 0.1)",
+                                      "settle_r_e (validation error 0.223 > 0.1)"]
+    assert withheld_outputs(back) == ["a (skewness)", "zem (kurtosis)",
+                                      "y at 19 steps from t = 5.3 s"]

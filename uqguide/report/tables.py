@@ -118,31 +118,33 @@ def _rounded(value: object) -> float | int:
 def unusable_outputs(diagnostics: dict) -> list[str]:
     """``"output"`` or ``"output from t = 58 s"`` for every output (span) a PCE withdrew
     its moments from (:mod:`uqguide.pce.validation`)."""
-    out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
-           if k.startswith("unusable.")]
-    out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
-            if k.startswith("unusable_from.")]
+    out = [f"{name} ({v})" for name, v in _by_output(diagnostics, "unusable.")]
+    out += [f"{name} from t = {v:g} s" for name, v in _by_output(diagnostics, "unusable_from.")]
     return out
+
+
+def _by_output(diagnostics: dict, prefix: str) -> list[tuple[str, Any]]:
+    """``(output, value)`` of the diagnostics ``prefix + output``, by output name: the order
+    of a dict read back from a result file is not the order the method wrote it in, and the
+    same result must print the same text."""
+    return sorted((k[len(prefix):], v) for k, v in diagnostics.items() if k.startswith(prefix))
 
 
 def withheld_outputs(diagnostics: dict) -> list[str]:
     """``"zem (kurtosis)"`` or ``"x at 19 steps from t = 5.3 s"`` for every output whose PCE
     skewness or kurtosis its runs do not support (:mod:`uqguide.pce.support`)."""
-    out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
-           if k.startswith("withheld.")]
-    out += [f"{k.split('.', 1)[1]} at {v} steps from t = "
-            f"{diagnostics.get('withheld_from.' + k.split('.', 1)[1], float('nan')):g} s"
-            for k, v in diagnostics.items() if k.startswith("withheld_steps.")]
+    out = [f"{name} ({v})" for name, v in _by_output(diagnostics, "withheld.")]
+    out += [f"{name} at {v} steps from t = "
+            f"{diagnostics.get('withheld_from.' + name, float('nan')):g} s"
+            for name, v in _by_output(diagnostics, "withheld_steps.")]
     return out
 
 
 def disagreeing_outputs(diagnostics: dict) -> list[str]:
     """``"zem (skewness)"`` or ``"omega_s from t = 57 s"`` for every output (span) whose PCE
     statistics its validation runs refute (:func:`uqguide.pce.validation.disagreeing`)."""
-    out = [f"{k.split('.', 1)[1]} ({v})" for k, v in diagnostics.items()
-           if k.startswith("disagrees.")]
-    out += [f"{k.split('.', 1)[1]} from t = {v:g} s" for k, v in diagnostics.items()
-            if k.startswith("disagrees_from.")]
+    out = [f"{name} ({v})" for name, v in _by_output(diagnostics, "disagrees.")]
+    out += [f"{name} from t = {v:g} s" for name, v in _by_output(diagnostics, "disagrees_from.")]
     return out
 
 
