@@ -386,6 +386,9 @@ def method_run(case: str, budget: float, n_pilot: int, workers: int, pce: int = 
               "surrogate_cpu_s", "estimated_variance_reduction", "equivalent_mc_runs",
               "equivalent_mc_runs_std", "equivalent_mc_cpu_s", "cpu_saving", "note"):
         print(f"  {k}: {d.get(k)}")
+    for k in sorted(d):
+        if k.startswith("equivalent_mc_runs") and "." in k:
+            print(f"  {k}: {d[k]:.0f}")
     c0 = float(d["cost_per_run"][0])
     print(f"  all CPU (levels + the PCE's runs and fit): {spent:.1f} s; {param} = {steps[0]:g} "
           f"costs {c0:.3g} s per run")
