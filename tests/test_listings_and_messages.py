@@ -20,6 +20,9 @@ def test_methods_list_allowed_values_defaults_and_meanings():
     assert r.exit_code == 0
     out = r.output
     assert "Literal" not in out and "[W" not in out and ":mod:" not in out
+    # a default made by a factory is shown, not pydantic's placeholder for it
+    assert "PydanticUndefined" not in out
+    assert "  fidelities: list; default [{}] — " in out
     assert ("  sampling: one of random | lhs | sobol; default random — Design of the samples "
             "within each chunk.") in out
     assert "  n_samples: integer >= 1, <= 1e8; required — Number of model runs." in out

@@ -87,7 +87,7 @@ class MfmcSettings(MethodSettings):
     ----------
     fidelities : list of dict
         The levels, highest fidelity first: each the model parameters it changes, or
-        ``{surrogate: LABEL}`` (module docstring).
+        ``{surrogate: LABEL}``, the PCE that the method LABEL, listed before this one, fitted.
     n_pilot : int
         Runs of every level in the pilot (and the least any used level gets).
     budget_cpu_s : float, optional

@@ -112,7 +112,8 @@ def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
     from_doc = _docstring_attributes(settings)
     lines = []
     for fname, f in settings.model_fields.items():
-        default = "required" if f.is_required() else f"default {_value(f.default)}"
+        default = "required" if f.is_required() else \
+            f"default {_value(f.get_default(call_default_factory=True))}"
         meaning = f.description or from_doc.get(fname, "")
         meaning = _clean(meaning)
         unit = _UNIT.search(meaning)
