@@ -147,3 +147,17 @@ def test_interval_coverage_over_seeds():
         hits["mean"] += s.ci["mean"][0, 0] <= 0.2 <= s.ci["mean"][1, 0]
         hits["std"] += s.ci["std"][0, 0] <= np.sqrt(1.08) <= s.ci["std"][1, 0]
     assert min(hits.values()) >= 0.9 * n_seeds, hits
+
+
+def test_moments_no_distribution_has_are_not_reported():
+    """Each power has its own weight, so the four estimates need not be one distribution's:
+    raw moments whose kurtosis falls below 1 + skewness^2 give NaN, not a number."""
+    from uqguide.stats.mfmc_estimator import _central
+
+    # E[z] = 0, E[z^2] = 1, E[z^3] = 0, E[z^4] = 0.5: kurtosis 0.5 < 1
+    mean, std, skew, kurt = _central(np.array([[[0.0, 0.0], [1.0, 1.0], [0.0, 1.0],
+                                                [0.5, 3.0]]]), np.zeros(2))
+    assert std.tolist() == [[1.0, 1.0]]
+    assert np.isnan(skew[0, 0]) and np.isnan(kurt[0, 0])
+    # a valid set (skewness 1, kurtosis 3 >= 2) is kept
+    assert skew[0, 1] == 1.0 and kurt[0, 1] == 3.0
