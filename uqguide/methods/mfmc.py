@@ -510,9 +510,9 @@ def _cap_surrogates(allocation: Allocation, rho: np.ndarray, costs: np.ndarray,
     levels = list(allocation.levels)
     capped = False
     for j in range(1, len(levels)):
+        # (the cap is at least the level before, so the ratios stay non-decreasing)
         if levels[j] in surrogates and r[j] > ratio * r[j - 1]:
             r[j], capped = ratio * r[j - 1], True
-        r[j] = max(r[j], r[j - 1])
     if not capped:
         return allocation, False
     worst = float(np.max(variance_ratio(np.nan_to_num(rho[:, levels]), costs[levels], r)))
