@@ -130,3 +130,28 @@ def test_hall_interval_is_symmetric_without_skew_and_longer_toward_it():
                            np.array([0.0, 0.3]))
     np.testing.assert_allclose([lo[0], hi[0]], [1.0 - 0.196, 1.0 + 0.196], rtol=1e-12)
     assert hi[1] - 1.0 > 1.0 - lo[1]
+
+
+def test_the_corrected_interval_keeps_both_symmetric_sides_and_lengthens_toward_the_skew():
+    # Hall's correction reads the skew from the runs (3-8 per outer stratum in a stratified
+    # design): it may lengthen the side toward the skew, never shorten the other below the
+    # symmetric t interval's (which it did, by ~10% here, before the rule).
+    from scipy.stats import t as student
+
+    from uqguide.pce.validation import corrected_moments, stratified_se
+    from uqguide.stats.moments import OutputStats
+
+    rng = np.random.default_rng(3)
+    n = 80
+    s = rng.normal(size=n)
+    d = rng.lognormal(0.0, 1.0, n) - np.exp(0.5)  # right-skewed model-minus-surrogate values
+    pce = OutputStats(mean=np.array(0.0), std=np.array(1.0), cov=np.array([[1.0]]),
+                      skewness=np.array(0.0), kurtosis=np.array(3.0), n_used=n)
+    cv = corrected_moments(pce, s + d, s)
+    se, df = stratified_se(d[:, None], np.full(n, 1 / n), np.zeros(n, int), np.ones(1))
+    half = student.ppf(0.975, df[0]) * se[0]
+    lo, hi = cv.shown_ci["mean"]
+    value = float(cv.values["mean"])
+    assert value == pytest.approx(d.mean(), rel=1e-12)
+    assert lo <= value - half * (1 - 1e-12)
+    assert hi - value > (value - lo) * 1.05  # lengthened toward the skew
