@@ -135,7 +135,7 @@ def test_hall_interval_is_symmetric_without_skew_and_longer_toward_it():
 def test_the_corrected_interval_keeps_both_symmetric_sides_and_lengthens_toward_the_skew():
     # Hall's correction reads the skew from the runs (3-8 per outer stratum in a stratified
     # design): it may lengthen the side toward the skew, never shorten the other below the
-    # symmetric t interval's (which it did, by ~10% here, before the rule).
+    # symmetric t interval's (before the rule it shortened the lower side here by ~20%).
     from scipy.stats import t as student
 
     from uqguide.pce.validation import corrected_moments, stratified_se

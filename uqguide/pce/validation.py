@@ -363,8 +363,9 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
         lo, hi = hall_interval(values[k], se, q, skew)
         # Hall's correction may lengthen a side, never shorten one below the symmetric t
         # interval: its skewness is read from a few runs per stratum (3-8 in the outer
-        # strata), too noisy to pull a side in (Table 5's ZEM, design seed 1003, and the zoo's
-        # oscillator at t = 10 s: the reference lay on the side it had shortened).
+        # strata), too noisy to pull a side in (Table 5's ZEM std on one of the fresh design
+        # seeds 1001-1020, and the zoo's oscillator kurtosis at t = 10 s, seed 1: the reference
+        # lay on the side it had shortened).
         with np.errstate(invalid="ignore"):
             lo, hi = np.minimum(lo, values[k] - q * se), np.maximum(hi, values[k] + q * se)
         shown[k] = np.stack([lo, hi])
