@@ -39,6 +39,7 @@ Usage::
     python benchmarks/defaults_zoo.py --problems ishigami,step --save a.pkl   # one core each,
     python benchmarks/defaults_zoo.py --problems heavy,kinked --save b.pkl    # then
     python benchmarks/defaults_zoo.py --merge a.pkl b.pkl                     # one table
+    python benchmarks/defaults_zoo.py --problems ramp --seeds 25 --first-seed 26 --save c.pkl
 """
 
 from __future__ import annotations
@@ -300,6 +301,15 @@ class Score:
     one_sided: int = 0             # intervals with one infinite end (a stated floor)
     runs: list[int] = field(default_factory=list)
 
+    def merge(self, other: Score) -> None:
+        """Add ``other``'s counts (the same problem and row, other seeds)."""
+        for name in ("printed", "with_ci", "covered", "no_ci", "withheld", "unanswered",
+                     "one_sided"):
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+        self.worst_hw = max(self.worst_hw, other.worst_hw)
+        self.worst_rel_no_ci = max(self.worst_rel_no_ci, other.worst_rel_no_ci)
+        self.runs.extend(other.runs)
+
 
 def score_run(p: Problem, result, ref: dict[str, np.ndarray], table: dict,
               ref_se: dict[str, np.ndarray] | None = None) -> None:
@@ -384,12 +394,14 @@ def _scale(stat: str, exact: float, ref: np.ndarray, j: int | None) -> float:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=50)
+    ap.add_argument("--first-seed", type=int, default=1,
+                    help="the first seed (a long study split over cores by seed, then --merge)")
     ap.add_argument("--problems", default="", help="comma-separated names (default: all)")
     ap.add_argument("--ref-log2", type=int, default=21, help="log2 of the reference points")
     ap.add_argument("--save", type=Path, help="keep the scores in this file (pickle)")
     ap.add_argument("--merge", type=Path, nargs="+", default=[],
-                    help="print the scores kept by earlier --save runs (split by problem, "
-                         "e.g. one per core) as one table, and run nothing")
+                    help="print the scores kept by earlier --save runs (split by problem or "
+                         "by seed, e.g. one per core) as one table, and run nothing")
     args = ap.parse_args(argv)
     chosen = [p for p in PROBLEMS
               if not args.problems or p.name in args.problems.split(",")]
@@ -399,17 +411,23 @@ def main(argv: list[str] | None = None) -> int:
         cpu = 0.0
         for f in args.merge:
             part = pickle.loads(f.read_bytes())
-            table.update(part["table"])
+            for key, per in part["table"].items():
+                if key not in table:
+                    table[key] = per
+                    continue
+                for stat, sc in per.items():
+                    table[key][stat].merge(sc)
             cpu += part["cpu"]
         print(f"defaults zoo: {len({k[0] for k in table})} problems from {len(args.merge)} "
               f"runs, {cpu:.0f} CPU-s")
     else:
         for p in chosen:
             ref, ref_se = reference(p, args.ref_log2 - (3 if p.report_times else 0))
-            for seed in range(1, args.seeds + 1):
+            for seed in range(args.first_seed, args.first_seed + args.seeds):
                 score_run(p, uqguide.run(config(p, seed)), ref, table, ref_se)
         cpu = time.process_time() - started
-        print(f"defaults zoo: {len(chosen)} problems x {args.seeds} seeds, {cpu:.0f} CPU-s")
+        print(f"defaults zoo: {len(chosen)} problems x {args.seeds} seeds (from seed "
+              f"{args.first_seed}), {cpu:.0f} CPU-s")
         if args.save:
             args.save.write_bytes(pickle.dumps({"table": table, "cpu": cpu}))
     print(f"{'problem':<13} {'label':<7} {'stat':<9} {'runs':>5} {'printed':>7} {'cover':>6} "
