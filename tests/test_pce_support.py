@@ -62,6 +62,27 @@ def test_a_pce_value_inside_every_interval_is_kept_and_one_outside_is_withheld()
     assert not bad["skewness"].any()
 
 
+def test_a_pce_shape_statistic_whose_cv_twin_the_runs_refuted_is_judged_at_one_half_width():
+    """A user's damped pendulum (final angle; default pce_adaptive, 250 runs): the PCE's
+    kurtosis 3.58, the model's 2.83 (2e4 Monte Carlo runs), its runs' 2.69 +- 0.56. Its +cv
+    twin was refuted by those runs; the PCE's own value passed the two-half-width check."""
+    own = {"std": np.array([0.189, 0.189, 0.189]), "skewness": np.full(3, -0.95),
+           "kurtosis": np.array([3.58, 3.0, 3.58])}
+    runs = _estimate(-0.94, 0.23)
+    runs.values["kurtosis"] = np.full(3, 2.69)
+    runs.values["skewness"] = np.full(3, -0.94)
+    runs.ci["kurtosis"] = np.array([[2.13] * 3, [3.25] * 3])
+    runs.ci["skewness"] = np.array([[-1.17] * 3, [-0.71] * 3])
+    runs.shown_ci = {k: v.copy() for k, v in runs.ci.items()}
+    runs.shown_ci["kurtosis"][1, 2] = np.inf  # the third column: the runs give a floor only
+    twin = {"kurtosis": np.array([True, True, True]), "skewness": np.zeros(3, dtype=bool)}
+    assert not unsupported(own, None, runs)["kurtosis"].any()  # 3.58 < 2.69 + 2 x 0.56
+    bad = unsupported(own, None, runs, twin_refuted=twin)
+    # 3.58 is 1.6 half-widths off: withheld; 3.0 is within one; a floor judges nothing
+    assert bad["kurtosis"].tolist() == [True, False, False]
+    assert not bad["skewness"].any()  # its twin stood
+
+
 def test_a_pce_mean_or_std_its_runs_refute_is_withheld():
     """The zoo's kinked ramp (seed 8, t = 2 s): the PCE's std 0.201, its 298 runs' 0.163; the
     runs judge a mean and a std at two half-widths, as they do a skewness."""

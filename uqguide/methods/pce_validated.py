@@ -37,7 +37,7 @@ from ..pce.validation import (
 from ..pce.far_tails import beyond_the_runs, can_swing, far_draws, replace_far_tails
 from ..pce.point_choice import better_points
 from ..pce.runs_estimate import INTERVAL, runs_estimate
-from ..pce.support import refuted, unsupported, with_the_kurtosis
+from ..pce.support import disagrees_with_runs, refuted, unsupported, with_the_kurtosis
 from ..pce.validation import Corrected
 from ..pce.validation_design import ValidationDesign, random_validation, stratified_validation
 from ..core.types import STAT_NAMES, Estimate, ModelOutput
@@ -186,8 +186,9 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             diag[f"validation_error.{name}"] = float(np.max(err)) if err.size else 0.0
             corrected = cv
         runs = _runs_estimate(name, fit, validation, ok, used)
+        twin_refuted = None
         if corrected is not None:
-            _drop_refuted(diag, estimate.label, name, st, corrected, runs)
+            twin_refuted = _drop_refuted(diag, estimate.label, name, st, corrected, runs)
         # Derived outputs have no LOO of their own: their carriers' LOO judges them.
         fit_loo = loo.get(name)
         if fit_loo is None and name in surrogate.derived:
@@ -206,7 +207,7 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             refuted_own = _withhold_refuted(diag, estimate.label, name, st, corrected, time,
                                             usable)
         _withhold_unsupported(diag, estimate.label, name, st, corrected, runs, usable, time,
-                              fit_loo, refuted_own)
+                              fit_loo, refuted_own, twin_refuted)
         if corrected is not None:
             _choose_points(diag, name, st, corrected, usable)
         if st.fallback:
@@ -330,16 +331,18 @@ def _runs_estimate(name: str, fit: ModelOutput | None, validation: ModelOutput |
 
 
 def _drop_refuted(diag: dict[str, Any], label: str, name: str, st: Any, cv: Corrected,
-                  runs: Corrected | None) -> None:
+                  runs: Corrected | None) -> dict[str, np.ndarray] | None:
     """Remove the control-variate values the runs' own Monte Carlo estimate refutes
     (:func:`uqguide.pce.support.refuted`): they are not reported, and nothing says they
-    hold."""
+    hold. Returns where the runs disagreed with them (None without runs), which judges the
+    PCE's own values next (:func:`uqguide.pce.support.unsupported`)."""
     if runs is None:
-        return
+        return None
+    disagreed = disagrees_with_runs(cv, runs, runs.values["std"])
     bad = refuted(cv, runs, runs.values["std"])
     names = [k for k, m in bad.items() if m.any()]
     if not names:
-        return
+        return disagreed
     for k in names:
         v = np.array(cv.values[k], dtype=float)
         v[bad[k]] = np.nan
@@ -358,18 +361,20 @@ def _drop_refuted(diag: dict[str, Any], label: str, name: str, st: Any, cv: Corr
                 "Monte Carlo estimate of the method's own runs at %d point(s) (the surrogate's "
                 "tails beyond its validation runs carry them); they are not reported there",
                 label, name, ", ".join(names), n_bad)
+    return disagreed
 
 
 def _withhold_unsupported(diag: dict[str, Any], label: str, name: str, st: Any,
                           cv: Corrected | None, runs: Corrected | None, usable: np.ndarray,
                           time: np.ndarray | None, loo: float | None = None,
-                          refuted_own: dict[str, np.ndarray] | None = None) -> None:
+                          refuted_own: dict[str, np.ndarray] | None = None,
+                          twin_refuted: dict[str, np.ndarray] | None = None) -> None:
     """Withhold the PCE's moments where its runs do not support them
     (:func:`uqguide.pce.support.unsupported`), and give the runs' Monte Carlo estimate
     (``fallback``) wherever one of its moments is withheld, here or by its validation runs
     (``refuted_own``, :func:`_withhold_refuted`)."""
     own = {k: np.asarray(st.stat(k), dtype=float) for k in STAT_NAMES}
-    bad = unsupported(own, cv, runs, loo, st.sampling_se or None)
+    bad = unsupported(own, cv, runs, loo, st.sampling_se or None, twin_refuted)
     bad = {k: m & usable for k, m in bad.items()}  # elsewhere all four go anyway
     none = np.zeros_like(usable)
     tails = with_the_kurtosis(bad["kurtosis"] | (refuted_own or {}).get("kurtosis", none),
