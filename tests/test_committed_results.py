@@ -1,5 +1,7 @@
 """The committed results/ agree with today's code: one Monte Carlo sample of every committed
-result file is rerun and must give its stored scalars bit for bit (``uqguide replay``'s check).
+result file is rerun and must give its stored scalars to round-off (``uqguide replay``'s check:
+bit for bit on the machine that wrote them, within 1e-9 relative on another CPU, whose kernels
+may move the last bits; :data:`uqguide.driver.replay.ROUNDOFF`).
 
 A failure here means the committed results are stale (older than the code or a dependency):
 regenerate them with ``python scripts/reproduce_results.py``.
@@ -12,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uqguide.driver.replay import replay
+from uqguide.driver.replay import ROUNDOFF, replay
 from uqguide.results.result import read_hdf5
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
@@ -38,7 +40,7 @@ def replay_mismatches(path: Path) -> list[str]:
     assert chosen is not None, f"{path}: no Monte Carlo sample to replay"
     label, index = chosen
     rep, _ = replay(read_hdf5(path), label, sample=index, worst=None, lowest=False, event=None)
-    return rep.mismatches()
+    return rep.mismatches(ROUNDOFF)
 
 
 def test_there_are_committed_results_to_check():
@@ -46,7 +48,7 @@ def test_there_are_committed_results_to_check():
 
 
 @pytest.mark.parametrize("path", FILES, ids=[p.parent.name for p in FILES])
-def test_a_committed_result_replays_bit_for_bit(path):
+def test_a_committed_result_replays_to_round_off(path):
     bad = replay_mismatches(path)
     assert not bad, (f"{path.relative_to(RESULTS.parent)}: replayed scalars differ from the "
                      f"stored ones ({', '.join(bad)}); the committed result is older than the "
