@@ -121,7 +121,9 @@ NESTED_RUN_EXIT = 3
 
 WORKERS_DID_NOT_START = (
     "the worker processes died while starting, before any sample ran. A worker process "
-    "(workers=N, or a guard process with timeout_s) re-imports the script that started the run; "
+    "(workers=N; or a guard process: with timeout_s, and by default for a model function "
+    "defined in the script itself, to contain its crashes) re-imports the script that started "
+    "the run; "
     "if that script calls uqguide.run at its top level, put the call under "
     "`if __name__ == \"__main__\":`")
 
