@@ -300,6 +300,8 @@ class Score:
     unanswered: int = 0            # withheld with no fallback row (label+mc) either
     one_sided: int = 0             # intervals with one infinite end (a stated floor)
     runs: list[int] = field(default_factory=list)
+    # the intervals that missed: (seed, time, value, reference, low, high), for --misses
+    misses: list[tuple] = field(default_factory=list)
 
     def merge(self, other: Score) -> None:
         """Add ``other``'s counts (the same problem and row, other seeds)."""
@@ -307,12 +309,13 @@ class Score:
                      "one_sided"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.worst_hw = max(self.worst_hw, other.worst_hw)
+        self.misses += getattr(other, "misses", [])
         self.worst_rel_no_ci = max(self.worst_rel_no_ci, other.worst_rel_no_ci)
         self.runs.extend(other.runs)
 
 
 def score_run(p: Problem, result, ref: dict[str, np.ndarray], table: dict,
-              ref_se: dict[str, np.ndarray] | None = None) -> None:
+              ref_se: dict[str, np.ndarray] | None = None, seed: int = 0) -> None:
     """Score every row of ``result`` against the reference. An interval is judged with the
     reference's own 95% error added in quadrature to its half-width (``ref_se``; it changes
     nothing where the interval is wide, and keeps a reference error from passing for an
@@ -354,8 +357,11 @@ def score_run(p: Problem, result, ref: dict[str, np.ndarray], table: dict,
                         sc.with_ci += 1
                         hw = max(math.hypot((hi - lo) / 2.0, err_ref), 1e-300)
                         grow = hw - (hi - lo) / 2.0  # both ends (an interval may be skewed)
-                        sc.covered += int(lo - grow <= exact <= hi + grow)
+                        held = lo - grow <= exact <= hi + grow
+                        sc.covered += int(held)
                         sc.worst_hw = max(sc.worst_hw, abs(value - exact) / hw)
+                        if not held:
+                            sc.misses.append((seed, t, value, exact, lo, hi))
                     elif np.isfinite(lo) or np.isfinite(hi):
                         # one-sided (a stated floor): it holds when the exact value is on its
                         # side; an error is measured in its finite half-width
@@ -402,6 +408,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--merge", type=Path, nargs="+", default=[],
                     help="print the scores kept by earlier --save runs (split by problem or "
                          "by seed, e.g. one per core) as one table, and run nothing")
+    ap.add_argument("--misses", action="store_true",
+                    help="also list every interval that missed its reference: seed, time, "
+                         "value, reference, interval, error in half-widths")
     args = ap.parse_args(argv)
     chosen = [p for p in PROBLEMS
               if not args.problems or p.name in args.problems.split(",")]
@@ -424,7 +433,7 @@ def main(argv: list[str] | None = None) -> int:
         for p in chosen:
             ref, ref_se = reference(p, args.ref_log2 - (3 if p.report_times else 0))
             for seed in range(args.first_seed, args.first_seed + args.seeds):
-                score_run(p, uqguide.run(config(p, seed)), ref, table, ref_se)
+                score_run(p, uqguide.run(config(p, seed)), ref, table, ref_se, seed)
         cpu = time.process_time() - started
         print(f"defaults zoo: {len(chosen)} problems x {args.seeds} seeds (from seed "
               f"{args.first_seed}), {cpu:.0f} CPU-s")
@@ -448,7 +457,23 @@ def main(argv: list[str] | None = None) -> int:
                   + ("  <-" if bad else ""))
     print(f"{fails} rows below 93% coverage (Wilson lower bound 85%) or over 10 half-widths off")
     print_kinds(table)
+    if args.misses:
+        print_misses(table)
     return 0
+
+
+def print_misses(table: dict) -> None:
+    """Every interval that missed its reference, worst first per row."""
+    print("\nmisses: problem label stat seed time value reference [low, high] half-widths")
+    for (name, label), per in table.items():
+        for stat, sc in per.items():
+            for seed, t, v, ex, lo, hi in sorted(
+                    getattr(sc, "misses", []),
+                    key=lambda m: -abs(m[2] - m[3]) / max((m[5] - m[4]) / 2, 1e-300)):
+                hw = max((hi - lo) / 2, 1e-300)
+                where = "" if t is None else f"t {t:g}"
+                print(f"  {name} {label} {stat} seed {seed} {where} {v:.6g} {ex:.6g} "
+                      f"[{lo:.6g}, {hi:.6g}] {(v - ex) / hw:+.1f}")
 
 
 def interval_kind(label: str) -> str:
