@@ -180,9 +180,11 @@ def test_a_constant_fit_reports_no_moments_instead_of_std_zero():
 
 def test_a_scalar_constant_on_every_fit_run_reports_no_moments():
     """A flag that fired on none of the 60 fit runs has an exactly constant PCE; its std 0
-    would claim the event never happens. It reports no moments and says why; the validation
-    runs' corrected mean stays (a constant surrogate gives every pool point the same score,
-    so its strata are random subsets)."""
+    would claim the event never happens. It reports no moments and says why; the mean still
+    has an answer, the validation runs' corrected one or, where the runs' own estimate is
+    more precise, that (+mc). (A constant surrogate gives every pool point the same score, so
+    the strata are random subsets of the arcsine pool, which puts 17 times a uniform pool's
+    runs beyond 3 sigma: at this seed one of the 20 sees the flag.)"""
     cfg = {"model": {"name": "callable", "function": "tests.fixtures_models:rare_flag",
                      "inputs": ["a"]},
            "inputs": [{"name": "a", "dist": "normal", "mean": 0.0, "std": 1.0}],
@@ -194,7 +196,7 @@ def test_a_scalar_constant_on_every_fit_run_reports_no_moments():
     assert np.isnan(s.std).all() and np.isnan(s.mean).all() and not s.usable.any()
     assert "constant on all 60 fit runs" in next(v for k, v in d.items()
                                                  if k.startswith("unusable."))
-    assert np.isfinite(s.corrected["mean"]).all()
+    assert (np.isfinite(s.corrected["mean"]) | np.isfinite(s.fallback["mean"])).all()
     assert "no usable surrogate" in render_text(r)
 
 

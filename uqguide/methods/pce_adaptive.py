@@ -251,7 +251,10 @@ class AdaptivePCE(Method):
                      "with max_runs given: the LOO target alone"),
         ("validation", "with neither n_samples nor max_runs: max(20, ceil(n_fit / 4)) runs "
                        "stratified by the surrogate (the 80/20 split of the runs made, at least "
-                       "two per stratum); otherwise none. validation: {n_samples: 0} opts out"),
+                       "two per stratum) from a pool leaning to the faces of the inputs the "
+                       "surrogate is curved in, where a polynomial swings (the arcsine "
+                       "density, importance-weighted, when at most 2 are; uniform otherwise); "
+                       "otherwise none. validation: {n_samples: 0} opts out"),
         ("statistics", "a skewness or kurtosis is printed only where the validation runs' "
                        "corrected (+cv) estimate and the runs' Monte Carlo estimate support "
                        "it; elsewhere withheld, with the runs' estimate (+mc) beside it"),

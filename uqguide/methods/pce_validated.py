@@ -37,9 +37,11 @@ from ..pce.validation import (
 from ..pce.far_tails import beyond_the_runs, can_swing, far_draws, replace_far_tails
 from ..pce.point_choice import better_points
 from ..pce.runs_estimate import INTERVAL, runs_estimate
-from ..pce.support import disagrees_with_runs, refuted, unsupported, with_the_kurtosis
+from ..pce.support import (disagrees_with_runs, either, less_precise, unsupported,
+                           with_the_kurtosis)
 from ..pce.validation import Corrected
-from ..pce.validation_design import ValidationDesign, random_validation, stratified_validation
+from ..pce.validation_design import (ValidationDesign, curved_inputs, random_validation,
+                                     stratified_validation)
 from ..core.types import STAT_NAMES, Estimate, ModelOutput
 
 log = logging.getLogger(__name__)
@@ -85,7 +87,11 @@ def validation_design(settings: ValidationSettings | None, n: int, surrogate: Su
     if settings is None or settings.design == "random":
         return random_validation(seed, label, n, d)
     names = [o for o in outputs if o in surrogate.names] or surrogate.names
-    return stratified_validation(lambda u: surrogate.at_unit(u, names), seed, label, n, d)
+    fitted = [surrogate.expansions[o].trimmed().alpha for o in names
+              if o in surrogate.expansions] or [e.trimmed().alpha
+                                                for e in surrogate.expansions.values()]
+    return stratified_validation(lambda u: surrogate.at_unit(u, names), seed, label, n, d,
+                                 curved=curved_inputs(fitted, d))
 
 
 #: Fields the PCE methods' settings add (annotations and defaults), one definition for all.
@@ -153,9 +159,10 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         used = design.successful(ok)
         diag["n_validation"] = int(validation.n)
         diag["n_validation_failed"] = int(validation.failed.sum())
+        pool_kind = "" if design.ratio is None else " arcsine, importance-weighted"
         diag["validation_design"] = (f"stratified ({design.share.size} strata of a "
-                                     f"{design.pool}-point pool)" if design.stratified
-                                     else "random")
+                                     f"{design.pool}-point{pool_kind} pool)"
+                                     if design.stratified else "random")
     time = validation.time if validation is not None else None
     if (time is None or time.size == 0) and fit is not None:
         time = fit.time
@@ -339,7 +346,7 @@ def _drop_refuted(diag: dict[str, Any], label: str, name: str, st: Any, cv: Corr
     if runs is None:
         return None
     disagreed = disagrees_with_runs(cv, runs, runs.values["std"])
-    bad = refuted(cv, runs, runs.values["std"])
+    bad = either(disagreed, less_precise(cv, runs))
     names = [k for k, m in bad.items() if m.any()]
     if not names:
         return disagreed

@@ -100,7 +100,7 @@ def runs_estimate(fit: np.ndarray | None, validation: np.ndarray | None,
     s = np.broadcast_to(c, y.shape)
     found = corrected_moments(constant, y, s, weight=w, stratum=np.concatenate(strata),
                               share=np.concatenate(shares), pool=pool)
-    _bound_tails(found, y)
+    _bound_tails(found, y, w)
     return found
 
 
@@ -108,20 +108,26 @@ def runs_estimate(fit: np.ndarray | None, validation: np.ndarray | None,
 LOWEST = {"std": 0.0, "kurtosis": 1.0}
 
 
-def _bound_tails(found: Corrected, y: np.ndarray) -> None:
+def _bound_tails(found: Corrected, y: np.ndarray, weight: np.ndarray) -> None:
     """The interval to print (``found.shown_ci``): ``found``'s widened to the tail-aware one
     of the pooled runs, the union of both where the runs bound the statistic, a stated floor
     (an infinite end) where they do not (:func:`uqguide.stats.tail_intervals.tail_intervals`).
     ``found.ci`` stays the delta-method interval, which :mod:`uqguide.pce.support` judges a
-    PCE's values by (a floor refutes no large value; that check is calibrated on it)."""
-    mean = y.mean(axis=0)
+    PCE's values by (a floor refutes no large value; that check is calibrated on it).
+
+    The pooled runs' moments are weighted as the estimate's (the validation runs over-sample
+    the tails and the input cube's faces, :mod:`uqguide.pce.validation_design`: unweighted,
+    they would inflate a kurtosis floor above the model's), with Kish's effective number of
+    runs ``(sum w)^2 / sum w^2`` in place of ``n``."""
+    w = weight / weight.sum()
+    mean = np.tensordot(w, y, axes=(0, 0))
     d = y - mean
     mus, pw = [], d * d
     with np.errstate(over="ignore", invalid="ignore"):
         for _ in range(2, MAX_ORDER + 1):
-            mus.append(pw.mean(axis=0))
+            mus.append(np.tensordot(w, pw, axes=(0, 0)))
             pw = pw * d
-        tail = tail_intervals(mean, tuple(mus), y.shape[0])[0]
+        tail = tail_intervals(mean, tuple(mus), 1.0 / float(np.sum(w * w)))[0]
     shown = {}
     for name, q in (found.ci if found.shown_ci is None else found.shown_ci).items():
         t = tail[name]

@@ -126,12 +126,15 @@ def control_variate_events(
     With ``n_k`` successful validation runs in stratum ``k`` of probability ``W_k`` (one
     stratum, ``W = 1``, for random runs; :mod:`uqguide.pce.validation_design`), ``n+_k`` of
     them in the event by the model but not by the surrogate and ``n-_k`` the reverse, the
-    estimate is ``P = P_s + sum_k W_k (n+_k - n-_k) / n_k`` (unbiased for the model's
+    estimate is ``P = P_s + sum_k W_k (sum r+_k - sum r-_k) / n_k`` (unbiased for the model's
     probability: ``P_s`` is the surrogate's, the correction the mean model-minus-surrogate
-    indicator). Its interval is distribution-free: the draws' and every stratum's two
-    disagreement rates' Clopper-Pearson intervals at ``1 - 0.05 / (1 + 2K)`` each
-    (Bonferroni), combined end to end, so it holds at least 95% whatever the surrogate; for
-    random runs it is ``[0, ~3.7 / n]``-wide, never ``[0, 0]``, when no run disagrees.
+    indicator, each run weighted by its importance ratio ``r``, 1 but for a non-uniform pool).
+    Its interval is distribution-free: the draws' and every stratum's two disagreement rates'
+    Clopper-Pearson intervals at ``1 - 0.05 / (1 + 2K)`` each (Bonferroni), each rate's ends
+    scaled by the least and the largest ratio of the stratum's pool points (the ratio-weighted
+    rate lies between them), combined end to end, so it holds at least 95% whatever the
+    surrogate; for random runs it is ``[0, ~3.7 / n]``-wide, never ``[0, 0]``, when no run
+    disagrees.
 
     Parameters
     ----------
@@ -148,6 +151,7 @@ def control_variate_events(
     strata = [k for k in range(used.share.size)
               if used.share[k] > 0 and np.any(used.stratum == k)]
     level = 1.0 - 0.05 / (1.0 + 2.0 * len(strata))
+    ratio, bounds = used.ratios(), used.ratio_bounds()
     out = {}
     for spec in events:
         s = surrogate.get(spec.name)
@@ -161,14 +165,15 @@ def control_variate_events(
         for k in strata:
             rows = used.stratum == k
             nk, wk = int(rows.sum()), float(used.share[k])
+            r_lo, r_hi = bounds[k]
             n_plus = int(np.sum(im[rows] & ~isur[rows]))
             n_minus = int(np.sum(~im[rows] & isur[rows]))
             plus = clopper_pearson(n_plus, nk, level)
             minus = clopper_pearson(n_minus, nk, level)
-            p += wk * (n_plus - n_minus) / nk
-            lo += wk * (plus[0] - minus[1])
-            hi += wk * (plus[1] - minus[0])
-            diff = im[rows].astype(float) - isur[rows].astype(float)
+            diff = (im[rows].astype(float) - isur[rows].astype(float)) * ratio[rows]
+            p += wk * float(diff.mean())
+            lo += wk * (r_lo * plus[0] - r_hi * minus[1])
+            hi += wk * (r_hi * plus[1] - r_lo * minus[0])
             var += wk**2 * float(diff.var(ddof=1)) / nk if nk > 1 else 0.0
         n = int(np.sum(ok))
         cov = float(np.sqrt(var) / p) if p > 0 and n > 1 else float("nan")

@@ -192,8 +192,8 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
     influence : ndarray, shape (n, m)
         The values averaged (one column per statistic and output column).
     weight : ndarray, shape (n,)
-        ``W_k / n_k`` per run (unused beyond the check that the strata are those of
-        ``share``).
+        ``r W_k / n_k`` per run, ``r`` its importance ratio (1 but for a non-uniform pool,
+        :mod:`uqguide.pce.validation_design`): the stratum's values are ``r influence``.
     stratum : ndarray of int, shape (n,)
         Each run's stratum.
     share : ndarray, shape (K,)
@@ -226,6 +226,9 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
     the differences are heavy-tailed and leaves it alone where they are Gaussian.
     """
     m = influence.shape[1]
+    ratio = importance_ratios(weight, stratum, share)
+    plain = influence
+    influence = influence * ratio[:, None]
     parts, dfs = [], []
     variances, kurtoses = {}, {}
     for k in range(share.size):
@@ -257,17 +260,35 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
         df = np.where(total > 0, total**2 / np.sum(dfs, axis=0), np.inf) if parts \
             else np.full(m, np.nan)
     if pool:
-        mean = weight @ influence
-        total = total + (weight @ (influence - mean) ** 2) / pool
+        # the pool's own sampling: Var_q(r f) / P, the pool's strata weighting the runs
+        mean = weight @ plain
+        total = total + ((weight / ratio) @ (influence - mean) ** 2) / pool
     return np.sqrt(total), df
 
 
+def importance_ratios(weight: np.ndarray, stratum: np.ndarray, share: np.ndarray
+                      ) -> np.ndarray:
+    """Each run's importance ratio ``r = weight n_k / W_k`` (its weight is ``r W_k / n_k``);
+    exactly 1 in a stratum whose ratios are all 1 to round-off (a uniform pool), so that such
+    a design's intervals are those of plain stratified sampling, bit for bit."""
+    counts = np.bincount(stratum, minlength=share.size)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(share[stratum] > 0, weight * counts[stratum] / share[stratum], 1.0)
+    for k in range(share.size):
+        rows = stratum == k
+        if rows.any() and np.allclose(r[rows], 1.0, rtol=0.0, atol=1e-9):
+            r[rows] = 1.0
+    return r
+
+
 def stratified_skewness(influence: np.ndarray, stratum: np.ndarray, share: np.ndarray,
-                        se: np.ndarray) -> np.ndarray:
+                        se: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
     """Skewness of a stratified weighted mean's own distribution: ``sum_k W_k^3 mu3_k /
     n_k^2`` over its standard error cubed (``mu3_k`` the stratum's third central moment of
-    ``influence (n, m)``); 0 where it is undefined. What Hall's interval corrects for
-    (:func:`uqguide.stats.tail_intervals.hall_interval`)."""
+    the ratio-weighted ``influence (n, m)``, :func:`stratified_se`); 0 where it is undefined.
+    What Hall's interval corrects for (:func:`uqguide.stats.tail_intervals.hall_interval`)."""
+    if weight is not None:
+        influence = influence * importance_ratios(weight, stratum, share)[:, None]
     third = np.zeros(influence.shape[1])
     for k in range(share.size):
         rows = stratum == k
@@ -343,7 +364,7 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
             # NaN where the statistic is undefined (zero variance): so is its interval
             influence = sum(gp * d for gp, d in zip(g, diffs))
         se, df = stratified_se(np.asarray(influence), weight, stratum, share, pool)
-        skew = stratified_skewness(np.asarray(influence), stratum, share, se)
+        skew = stratified_skewness(np.asarray(influence), stratum, share, se, weight)
         welch = stratified_se(np.asarray(influence), weight, stratum, share, pool,
                               kurtosis_adjusted=False)[1]
         with np.errstate(invalid="ignore"):
