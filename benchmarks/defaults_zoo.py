@@ -309,7 +309,8 @@ class Score:
                      "one_sided"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.worst_hw = max(self.worst_hw, other.worst_hw)
-        self.misses += getattr(other, "misses", [])
+        # scores pickled before misses were kept have none
+        self.misses = getattr(self, "misses", []) + getattr(other, "misses", [])
         self.worst_rel_no_ci = max(self.worst_rel_no_ci, other.worst_rel_no_ci)
         self.runs.extend(other.runs)
 
