@@ -285,8 +285,9 @@ def _moments(y: np.ndarray) -> np.ndarray:
     return np.array([m, np.sqrt(m2), m3 / m2**1.5, m4 / m2**2])
 
 
-def _outputs(p: Problem, u: np.ndarray) -> dict[str, np.ndarray]:
-    """Each output at points ``u`` of the unit cube (at the report times of a series)."""
+def to_inputs(p: Problem, u: np.ndarray) -> np.ndarray:
+    """The problem's inputs ``(n, d)`` at points ``u`` of the unit cube, through scipy's
+    marginals (a Cholesky factor of the normal scores for a correlated pair)."""
     u = np.clip(u, 1e-16, 1.0 - 1e-16)
     if p.correlations:  # normal scores of the correlated pair, then their Cholesky factor
         z = stats.norm.ppf(u)
@@ -294,7 +295,12 @@ def _outputs(p: Problem, u: np.ndarray) -> dict[str, np.ndarray]:
             idx = [[i["name"] for i in p.inputs].index(nm) for nm in c["inputs"]]
             z[:, idx] = z[:, idx] @ np.linalg.cholesky(np.array(c["matrix"])).T
         u = stats.norm.cdf(z)
-    x = np.column_stack([_marginal(s).ppf(u[:, j]) for j, s in enumerate(p.inputs)])
+    return np.column_stack([_marginal(s).ppf(u[:, j]) for j, s in enumerate(p.inputs)])
+
+
+def _outputs(p: Problem, u: np.ndarray) -> dict[str, np.ndarray]:
+    """Each output at points ``u`` of the unit cube (at the report times of a series)."""
+    x = to_inputs(p, u)
     sums: dict[str, list[np.ndarray]] = {}
     for lo in range(0, x.shape[0], 1 << 16):
         out = p.function(x[lo:lo + (1 << 16)])

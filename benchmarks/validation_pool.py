@@ -71,16 +71,7 @@ def _columns(p: zoo.Problem, every_step: bool) -> np.ndarray | None:
 def _model(p: zoo.Problem, u: np.ndarray, name: str, cols: np.ndarray | None) -> np.ndarray:
     """The output at unit-cube points ``u`` (the scored columns of a series), the inputs
     mapped as the zoo's reference maps them."""
-    u = np.clip(u, 1e-16, 1.0 - 1e-16)
-    if p.correlations:
-        from scipy import stats
-
-        z = stats.norm.ppf(u)
-        for c in p.correlations:
-            idx = [[i["name"] for i in p.inputs].index(nm) for nm in c["inputs"]]
-            z[:, idx] = z[:, idx] @ np.linalg.cholesky(np.array(c["matrix"])).T
-        u = stats.norm.cdf(z)
-    x = np.column_stack([zoo._marginal(sp).ppf(u[:, j]) for j, sp in enumerate(p.inputs)])
+    x = zoo.to_inputs(p, u)
     y = np.asarray(p.function(x)[name], dtype=float)
     return y.reshape(y.shape[0], -1) if cols is None else y[:, cols]
 
