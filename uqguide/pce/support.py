@@ -25,11 +25,13 @@ Rule (per statistic and column, i.e. time step x component):
 - where the runs refuted the control-variate skewness or kurtosis by *disagreeing* with it
   (not merely by being more precise), the PCE's own value, which shares the surrogate's tails
   with it, is judged against the runs at one half-width instead of :data:`RUNS_FACTOR`, wherever
-  the runs' tail-aware interval bounds the statistic on both sides (where it is a floor, a
-  heavy tail's, the runs' sample value is biased low and judges nothing). A damped pendulum's
-  final angle (2 inputs, a user's script, default ``pce_adaptive``, 250 runs) printed a PCE
-  kurtosis of 3.58 against the model's 2.83 (2e4 Monte Carlo runs): its ``+cv`` twin was
-  refuted by the runs' 2.69 +- 0.56, but the PCE's value passed the two-half-width check;
+  the runs' tail-aware interval bounds the statistic on both sides, and is withheld where that
+  interval is a floor (a heavy tail's: the runs' sample value is biased low and cannot vouch
+  for the tails the refuted twin shares). A damped pendulum's final angle (2 inputs, a user's
+  script, default ``pce_adaptive``, 250 runs) printed a PCE kurtosis of 3.58 against the
+  model's 2.83 (2e4 Monte Carlo runs): its ``+cv`` twin was refuted by the runs' 2.69 +- 0.56,
+  but the PCE's value passed the two-half-width check; another printed 5.07 against 4.19
+  beside a twin of 5.06 [5.00, 5.11] and the runs' floor;
 - where the PCE's own kurtosis is withheld (by its runs or its validation runs), its skewness
   is **withheld with it** (:func:`with_the_kurtosis`): both are carried by the surrogate's
   tails, and a fourth moment the runs refute says those tails are not the model's. A contact
