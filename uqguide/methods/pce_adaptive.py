@@ -82,6 +82,7 @@ from ..pce.default_plan import default_budget, default_validation, mean_and_std,
 from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
+from ..pce.loo_values import loo_values
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.series_fit import fit_series
 from ..pce.sobol_indices import (
@@ -501,9 +502,22 @@ class AdaptivePCE(Method):
                design=val_design,
                loo={f.columns.name: f.loo for f in fits}, threshold=s.usable_error,
                seed=int(design.data.get("seed", 0)), n_draws=s.surrogate_draws,
-               fit=outputs, fit_u=_fit_u(design, outputs.n))
+               fit=outputs, fit_u=_fit_u(design, outputs.n),
+               fit_loo_values=self._fit_loo(space, design, outputs, fits)
+               if val_design is not None and val_design.sorter is not None else None)
         truncation_error_intervals(est.stats, {f.columns.name: f.loo for f in fits})
         return est
+
+    def _fit_loo(self, space: InputSpace, design: Design, outputs: ModelOutput,
+                 fits: list[_OutputFit]) -> dict[str, np.ndarray]:
+        """Each fitted output's leave-one-out values ``(n_ok, *shape)`` at the successful fit
+        runs (:mod:`uqguide.pce.loo_values`)."""
+        germ = Germ.of(space)
+        ok = np.flatnonzero(~outputs.failed)
+        xi = self._fit_points(germ, design, ok)
+        return {f.columns.name: loo_values(f.expansion, xi, f.targets).reshape(
+                    (ok.size,) + tuple(f.expansion.shape))
+                for f in fits if f.targets is not None}
 
     def _indices(self, space: InputSpace, design: Design, outputs: ModelOutput,
                  fits: list[_OutputFit], stats: dict[str, Any]) -> None:

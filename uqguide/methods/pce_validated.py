@@ -39,6 +39,7 @@ from ..pce.point_choice import better_points
 from ..pce.runs_estimate import INTERVAL, runs_estimate
 from ..pce.support import (disagrees_with_runs, either, less_precise, unsupported,
                            with_the_kurtosis)
+from ..pce.loo_values import FitRuns
 from ..pce.validation import Corrected
 from ..pce.validation_design import (ValidationDesign, curved_inputs, random_validation,
                                      stratified_validation)
@@ -118,7 +119,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
            validation: ModelOutput | None, design: ValidationDesign | None,
            loo: Mapping[str, float], threshold: float, seed: int,
            n_draws: int = 1_000_000, fit: ModelOutput | None = None,
-           fit_u: np.ndarray | None = None) -> None:
+           fit_u: np.ndarray | None = None,
+           fit_loo_values: Mapping[str, np.ndarray] | None = None) -> None:
     """Keep the surrogate in ``estimate``; validate, correct and judge every output in place.
 
     Parameters
@@ -148,6 +150,10 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         The fit's runs on the unit cube: with the validation runs they give the range beyond
         which the surrogate extrapolates, whose share of each statistic widens the ``+cv``
         interval (:func:`uqguide.pce.far_tails.beyond_the_runs`).
+    fit_loo_values : mapping of str to ndarray, shape (n_ok, ...), optional
+        The surrogate's leave-one-out values at the fit's successful runs, per fitted output
+        (:mod:`uqguide.pce.loo_values`): with ``fit`` and ``fit_u`` they floor the ``+cv``
+        intervals' variance (:func:`uqguide.pce.validation.stratified_se`).
     """
     estimate.surrogate = surrogate
     diag = estimate.diagnostics
@@ -184,7 +190,9 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
                 draws = surrogate.at_unit(u, [name])[name].reshape((m,) + y.shape[1:])
                 pce_se = sampling_se(draws, n_draws, seed=seed)
             cv = corrected_moments(st, y[ok], s, weight=used.weight, stratum=used.stratum,
-                                   share=used.share, pool=used.pool, pce_se=pce_se)
+                                   share=used.share, pool=used.pool, pce_se=pce_se,
+                                   fit_runs=_fit_runs(name, surrogate, used, fit, fit_u,
+                                                      fit_loo_values))
             if beyond is not None:
                 _widen(cv, beyond)
             st.corrected = cv.values
@@ -241,6 +249,26 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             diag[f"unusable.{name}"] = f"{why} > {threshold:g}"
             log.warning("%s: %s: no usable surrogate (%s > %g); its moments are not reported",
                         estimate.label, name, why, threshold)
+
+
+def _fit_runs(name: str, surrogate: Surrogate, used: ValidationDesign,
+              fit: ModelOutput | None, fit_u: np.ndarray | None,
+              fit_loo: Mapping[str, np.ndarray] | None) -> FitRuns | None:
+    """The fit's successful runs as a second sample of ``name``'s differences (None where
+    a piece is missing: a random design, a derived output, given germ points)."""
+    sorter = used.sorter
+    if (sorter is None or fit is None or fit_u is None or fit_loo is None
+            or name not in fit_loo or fit_u.shape[0] != fit.n):
+        return None
+    ok = ~fit.failed
+    y = _values(fit, name)
+    if y is None or int(ok.sum()) != fit_loo[name].shape[0]:
+        return None
+    u = np.asarray(fit_u, dtype=float)[ok]
+    at = surrogate.at_unit(u, list(sorter.scale))
+    return FitRuns(y=y[ok], s_loo=fit_loo[name].reshape(y[ok].shape),
+                   stratum=sorter.strata(at), ratio=sorter.ratios(u),
+                   input_share=sorter.input_share)
 
 
 def _runs_box(fit_u: np.ndarray | None, fit: ModelOutput | None,

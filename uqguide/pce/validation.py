@@ -42,6 +42,7 @@ import numpy as np
 
 from ..core.types import OutputStats
 from ..stats.tail_intervals import hall_interval
+from .loo_values import FitFloor, FitRuns
 from .validation_design import random_validation
 
 #: Default usability threshold on the relative (LOO or validation) error.
@@ -182,8 +183,8 @@ def _gradients(m1: np.ndarray, m2: np.ndarray, m3: np.ndarray, m4: np.ndarray
 
 
 def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray,
-                  share: np.ndarray, pool: int = 0, kurtosis_adjusted: bool = True
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  share: np.ndarray, pool: int = 0, kurtosis_adjusted: bool = True,
+                  floor: FitFloor | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Standard error of a stratified weighted mean and its Welch-Satterthwaite degrees of
     freedom.
 
@@ -204,6 +205,9 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
     kurtosis_adjusted : bool
         Degrees of freedom adjusted for the values' kurtosis (below); False: Welch's, as if
         the values were Gaussian.
+    floor : FitFloor, optional
+        The same values at the fit runs, from the surrogate's leave-one-out predictions: a
+        stratum's variance is the larger of the validation runs' and theirs (below).
 
     Returns
     -------
@@ -224,6 +228,14 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
     ``2 n / (kappa - 1)`` rather than ``n - 1`` (e.g. Bonett 2006, Comput. Stat. Data Anal.
     50, 775-782, for the variance's own interval): the t quantile widens the interval where
     the differences are heavy-tailed and leaves it alone where they are Gaussian.
+
+    Why the floor: the few runs of an outer stratum (2-8) may all miss the place where the
+    surrogate errs (a corner of the cube, a kink), and their variance is then far too small.
+    The fit runs that fall in the stratum, each predicted without itself
+    (:mod:`uqguide.pce.loo_values`), are more draws of the same differences; the larger of the
+    two variances is kept (a leave-one-out error slightly overstates the full fit's, the safe
+    side). They only widen: the estimate is the validation runs' alone. The degrees of freedom
+    stay those of the validation runs (fewer, so the quantile is the larger).
     """
     m = influence.shape[1]
     ratio = importance_ratios(weight, stratum, share)
@@ -250,6 +262,8 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
         if nk == 0 or share[k] == 0:
             continue
         v, _ = variances.get(k, (largest, nk))
+        if floor is not None:
+            v = np.maximum(v, floor.variance(k, share[k]))
         a = share[k] ** 2 * v / nk
         parts.append(a)
         kappa = kurtoses.get(k, heaviest) if kurtosis_adjusted else 3.0
@@ -305,7 +319,8 @@ def stratified_skewness(influence: np.ndarray, stratum: np.ndarray, share: np.nd
 def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
                       weight: np.ndarray | None = None, stratum: np.ndarray | None = None,
                       share: np.ndarray | None = None, pool: int = 0,
-                      pce_se: dict[str, np.ndarray] | None = None) -> Corrected:
+                      pce_se: dict[str, np.ndarray] | None = None,
+                      fit_runs: FitRuns | None = None) -> Corrected:
     """Control-variate mean, std, skewness and kurtosis with 95% intervals.
 
     Parameters
@@ -322,6 +337,9 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
     pce_se : dict of str to ndarray, shape (...), optional
         Standard errors of the PCE's own moments where they were sampled
         (:func:`sampling_se`), added to the interval in quadrature.
+    fit_runs : FitRuns, optional
+        The fit runs with the surrogate's leave-one-out values there: their differences
+        floor each stratum's variance (:func:`stratified_se`).
 
     Returns
     -------
@@ -358,15 +376,28 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
     grads = _gradients(*raw)
     from scipy.stats import t as student
 
+    fit_diffs = None
+    if fit_runs is not None:
+        nf = fit_runs.y.shape[0]
+        yf, sf = fit_runs.y.reshape(nf, -1) - c, fit_runs.s_loo.reshape(nf, -1) - c
+        fit_diffs = [yf**p - sf**p for p in range(1, 5)]
+
     ci, own, shown, ses = {}, {}, {}, {}
     for k, g in grads.items():
         with np.errstate(invalid="ignore"):
             # NaN where the statistic is undefined (zero variance): so is its interval
             influence = sum(gp * d for gp, d in zip(g, diffs))
-        se, df = stratified_se(np.asarray(influence), weight, stratum, share, pool)
+        floor = None
+        if fit_runs is not None and fit_diffs is not None:
+            with np.errstate(invalid="ignore"):
+                at_fit = np.asarray(sum(gp * d for gp, d in zip(g, fit_diffs)))
+            floor = FitFloor(np.nan_to_num(at_fit), fit_runs.stratum, fit_runs.ratio,
+                             fit_runs.input_share)
+        se, df = stratified_se(np.asarray(influence), weight, stratum, share, pool,
+                               floor=floor)
         skew = stratified_skewness(np.asarray(influence), stratum, share, se, weight)
         welch = stratified_se(np.asarray(influence), weight, stratum, share, pool,
-                              kurtosis_adjusted=False)[1]
+                              kurtosis_adjusted=False, floor=floor)[1]
         with np.errstate(invalid="ignore"):
             q = student.ppf((1 + LEVEL) / 2, np.maximum(df, 1.0))
             # the support checks keep their calibration: Welch's t, symmetric

@@ -111,6 +111,9 @@ class ValidationDesign:
         The least and largest ratio over each stratum's pool points, which bound the
         ratio-weighted mean of a bounded quantity (the events' intervals,
         :mod:`uqguide.pce.tails`); None: all 1.
+    sorter : StratumSorter, optional
+        How any point's stratum (and ratio) is found, for the fit runs' leave-one-out floor
+        on the intervals (:mod:`uqguide.pce.loo_values`); None for a random design.
     """
 
     u: np.ndarray
@@ -120,6 +123,7 @@ class ValidationDesign:
     pool: int = 0
     ratio: np.ndarray | None = None
     ratio_range: np.ndarray | None = None
+    sorter: StratumSorter | None = None
 
     @property
     def n(self) -> int:
@@ -139,6 +143,8 @@ class ValidationDesign:
         if self.ratio is not None:
             data["ratio_validation"] = self.ratio
             data["ratio_range_validation"] = self.ratio_range
+        if self.sorter is not None:
+            data["sorter_validation"] = self.sorter
         return data
 
     def ratios(self) -> np.ndarray:
@@ -165,7 +171,8 @@ class ValidationDesign:
                    share=np.asarray(data["share_validation"], dtype=float),
                    pool=int(data.get("pool_validation", 0)),
                    ratio=_optional(data.get("ratio_validation")),
-                   ratio_range=_optional(data.get("ratio_range_validation")))
+                   ratio_range=_optional(data.get("ratio_range_validation")),
+                   sorter=data.get("sorter_validation"))
 
     def successful(self, ok: np.ndarray) -> ValidationDesign:
         """The design restricted to the runs that succeeded, weights renormalised within each
@@ -194,7 +201,45 @@ class ValidationDesign:
         if ratio is not None:
             w = w * ratio
         return ValidationDesign(u=self.u[ok], weight=w, stratum=stratum, share=share,
-                                pool=self.pool, ratio=ratio, ratio_range=self.ratio_range)
+                                pool=self.pool, ratio=ratio, ratio_range=self.ratio_range,
+                                sorter=None if (share != self.share).any() else self.sorter)
+
+
+@dataclass(frozen=True)
+class StratumSorter:
+    """Which stratum of a stratified design any point falls in, and its importance ratio:
+    what the fit runs need to join the validation runs' variance estimate
+    (:func:`uqguide.pce.validation.stratified_se`).
+
+    Attributes
+    ----------
+    scale : dict of str to (ndarray, ndarray)
+        The tail score's column means and standard deviations per output (:func:`tail_score`).
+    edges : ndarray, shape (K - 1,)
+        The scores at the strata's upper rank edges in the pool: a point of score ``z`` is in
+        the first stratum whose edge is at least ``z`` (the last stratum beyond them all).
+    curved : ndarray of bool, shape (d,), optional
+        The inputs the pool leaned to the faces in (None: a uniform pool, every ratio 1).
+    input_share : ndarray, shape (K,)
+        Each stratum's probability under the input distribution, ``E_q[r 1_k]`` over the pool
+        (``share`` itself for a uniform pool).
+    """
+
+    scale: dict[str, tuple[np.ndarray, np.ndarray]]
+    edges: np.ndarray
+    curved: np.ndarray | None
+    input_share: np.ndarray
+
+    def strata(self, values: dict[str, np.ndarray]) -> np.ndarray:
+        """Strata ``(n,)`` of points whose surrogate values per output are ``values``."""
+        score = tail_score({k: values[k] for k in self.scale}, self.scale)
+        return np.searchsorted(self.edges, score, side="left")
+
+    def ratios(self, u: np.ndarray) -> np.ndarray:
+        """Importance ratios ``1 / q(u)``, shape ``(n,)``, of unit-cube points ``u (n, d)``."""
+        if self.curved is None:
+            return np.ones(u.shape[0])
+        return np.exp(-pool_log_density(np.clip(u, _U_EPS, 1 - _U_EPS), self.curved))
 
 
 def _optional(v: Any) -> np.ndarray | None:
@@ -320,12 +365,18 @@ def stratified_validation(surrogate: Callable[[np.ndarray], dict[str, np.ndarray
     rows = np.concatenate(picks)
     stratum = np.concatenate([np.full(a, k) for k, a in enumerate(alloc)])
     weight = np.concatenate([np.full(a, share[k] / a) for k, a in enumerate(alloc)])
-    if np.all(ratio == 1.0):  # a uniform pool: plain stratified sampling
+    uniform = bool(np.all(ratio == 1.0))
+    sorter = StratumSorter(
+        scale=scale, edges=np.array([score[order[b - 1]] for b in bounds[1:-1]]),
+        curved=None if uniform else _curved_mask(curved, d),
+        input_share=share if uniform else np.array([ratio[m].sum() / pool for m in members]))
+    if uniform:  # a uniform pool: plain stratified sampling
         return ValidationDesign(u=u[rows], weight=weight, stratum=stratum, share=share,
-                                pool=pool)
+                                pool=pool, sorter=sorter)
     bounds_r = np.array([[ratio[m].min(), ratio[m].max()] for m in members])
     return ValidationDesign(u=u[rows], weight=weight * ratio[rows], stratum=stratum,
-                            share=share, pool=pool, ratio=ratio[rows], ratio_range=bounds_r)
+                            share=share, pool=pool, ratio=ratio[rows], ratio_range=bounds_r,
+                            sorter=sorter)
 
 
 def ratio_moment() -> float:
@@ -339,7 +390,7 @@ def pool_points(rng: np.random.Generator, m: int, d: int, curved: np.ndarray | N
     ``1 / q(u)``, shape ``(m,)``: the arcsine density ``Beta(1/2, 1/2)`` in the ``curved``
     inputs (all by default) when there are at most :data:`ARCSINE_INPUTS` of them, uniform
     elsewhere and otherwise."""
-    curved = np.ones(d, dtype=bool) if curved is None else np.asarray(curved, dtype=bool)
+    curved = _curved_mask(curved, d)
     k = int(curved.sum())
     if k == 0 or k > ARCSINE_INPUTS:
         return np.clip(rng.random((m, d)), _U_EPS, 1 - _U_EPS), np.ones(m)
@@ -347,9 +398,19 @@ def pool_points(rng: np.random.Generator, m: int, d: int, curved: np.ndarray | N
     u[:, curved] = rng.beta(0.5, 0.5, size=(m, k))
     u[:, ~curved] = rng.random((m, d - k))
     u = np.clip(u, _U_EPS, 1 - _U_EPS)
+    return u, np.exp(-pool_log_density(u, curved))
+
+
+def _curved_mask(curved: np.ndarray | None, d: int) -> np.ndarray:
+    return np.ones(d, dtype=bool) if curved is None else np.asarray(curved, dtype=bool)
+
+
+def pool_log_density(u: np.ndarray, curved: np.ndarray) -> np.ndarray:
+    """The log of the arcsine pool's density ``q(u)``, shape ``(n,)``, at points ``u (n, d)``
+    inside the cube: ``Beta(1/2, 1/2)`` in the ``curved`` inputs, uniform in the others."""
     uc = u[:, curved]
-    log_q = -0.5 * (np.log(uc) + np.log1p(-uc)).sum(axis=1) - k * betaln(0.5, 0.5)
-    return u, np.exp(-log_q)
+    k = int(curved.sum())
+    return -0.5 * (np.log(uc) + np.log1p(-uc)).sum(axis=1) - k * betaln(0.5, 0.5)
 
 
 def curved_inputs(alphas: list[np.ndarray], d: int) -> np.ndarray:
