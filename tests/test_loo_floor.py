@@ -119,3 +119,28 @@ def test_the_floor_only_widens_and_never_moves_the_estimate():
     want = np.sqrt(0.25 * 2.0 / 2 + 0.25 * infl[2:].var(ddof=1) / 2)
     np.testing.assert_allclose(se1, want, rtol=1e-12)
     assert se1 > se0
+
+
+def test_the_fits_are_least_squares_on_their_own_terms():
+    """What :func:`loo_values` rests on: every column the adaptive PCE fits (a scalar, and
+    each principal component of a series) is ordinary least squares on its retained terms,
+    its residual orthogonal to them to round-off (1e-9 of its norm)."""
+    from uqguide.core.inputs import Normal
+    from uqguide.pce.series_fit import fit_series
+    from uqguide.pce.sparse_regression import fit_columns
+
+    germ = Germ.of(InputSpace([Normal(name="a", dist="normal", mean=0.0, std=1.0),
+                               Uniform(name="b", dist="uniform", low=-1.0, high=1.0),
+                               Uniform(name="c", dist="uniform", low=-1.0, high=1.0)]))
+    rng = np.random.default_rng(1)
+    xi = np.column_stack([rng.normal(size=120), rng.uniform(-1, 1, (120, 2))])
+    y = (np.exp(0.3 * xi[:, 0]) * np.cos(xi[:, 1]) + np.abs(xi[:, 2]))[:, None]
+    t = np.linspace(0.0, 5.0, 50)
+    series = fit_series(germ, xi, np.exp(-0.2 * xi[:, :1] * t) * np.cos((1 + 0.1 * xi[:, 1:2]) * t))
+    for fit, targets in ((fit_columns(germ, xi, y), y),
+                         (series.fit, series.components.scores)):
+        psi = basis.evaluate(germ, fit.alpha, xi)
+        for j in range(targets.shape[1]):
+            terms = np.union1d([0], np.flatnonzero(fit.core[:, j]))
+            resid = targets[:, j] - psi @ fit.core[:, j]
+            assert np.abs(psi[:, terms].T @ resid).max() <= 1e-9 * np.linalg.norm(resid), j
