@@ -144,3 +144,37 @@ def test_the_fits_are_least_squares_on_their_own_terms():
             terms = np.union1d([0], np.flatnonzero(fit.core[:, j]))
             resid = targets[:, j] - psi @ fit.core[:, j]
             assert np.abs(psi[:, terms].T @ resid).max() <= 1e-9 * np.linalg.norm(resid), j
+
+
+def test_a_derived_output_s_fit_runs_are_its_map_of_the_carriers_leave_one_out(monkeypatch):
+    """A derived output (a distance through its miss vector, Table 5's ZEM in small) gets its
+    fit runs too: each run's leave-one-out value is the output's map of its carriers'
+    leave-one-out values, at the run's physical inputs. The miss vector here is linear, which
+    the PCE fits exactly, so every value is the model's own to round-off (the inputs'
+    std of 2 tells physical inputs from germ ones); and the runs are spread over the
+    validation design's strata."""
+    from uqguide.methods import pce_validated
+    from uqguide.methods.base import RunContext
+    from uqguide.methods.pce_adaptive import AdaptivePCE
+
+    from .test_pce_derived import DIST, _Planar
+    from .test_pce_helpers import normal_space, run_method
+
+    seen: dict[str, FitRuns | None] = {}
+    real = pce_validated.corrected_moments
+
+    def spy(st, y, s, **kw):
+        seen[str(len(seen))] = kw.get("fit_runs")
+        return real(st, y, s, **kw)
+
+    monkeypatch.setattr(pce_validated, "corrected_moments", spy)
+    method = AdaptivePCE({"n_samples": 40, "degree_min": 1, "degree_max": 2,
+                          "surrogate_draws": 20_000, "validation": {"n_samples": 40}})
+    est, out = run_method(method.with_context(RunContext(derived={"dist": DIST})), _Planar(),
+                          normal_space(3, std=2.0), outputs=("m", "dist"))
+    runs = [fr for fr in seen.values() if fr is not None and fr.y.shape[1:] == (1,)]
+    assert len(runs) == 1, "the distance's +cv interval gets the fit runs as a floor"
+    fr = runs[0]
+    assert fr.y.shape[0] == int((~out.failed).sum()) - est.diagnostics["n_validation"]
+    np.testing.assert_allclose(fr.s_loo, fr.y, rtol=1e-9, atol=1e-9)
+    assert fr.stratum.min() >= 0 and np.unique(fr.stratum).size >= 2

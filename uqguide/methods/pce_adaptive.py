@@ -511,13 +511,21 @@ class AdaptivePCE(Method):
     def _fit_loo(self, space: InputSpace, design: Design, outputs: ModelOutput,
                  fits: list[_OutputFit]) -> dict[str, np.ndarray]:
         """Each fitted output's leave-one-out values ``(n_ok, *shape)`` at the successful fit
-        runs (:mod:`uqguide.pce.loo_values`)."""
+        runs (:mod:`uqguide.pce.loo_values`), and each derived output's: its map applied to
+        its carriers' leave-one-out values (the map is exact, only the carriers are fitted)."""
         germ = Germ.of(space)
         ok = np.flatnonzero(~outputs.failed)
         xi = self._fit_points(germ, design, ok)
-        return {f.columns.name: loo_values(f.expansion, xi, f.targets).reshape(
-                    (ok.size,) + tuple(f.expansion.shape))
-                for f in fits if f.targets is not None}
+        loo = {f.columns.name: loo_values(f.expansion, xi, f.targets).reshape(
+                   (ok.size,) + tuple(f.expansion.shape))
+               for f in fits if f.targets is not None}
+        x = germ.to_physical(xi)
+        inputs = {nm: x[:, j] for j, nm in enumerate(space.names)}
+        for name, dv in self.derived_outputs.items():
+            if name not in loo and all(c in loo for c in dv.carriers):
+                y = np.asarray(dv.function({c: loo[c] for c in dv.carriers}, inputs), float)
+                loo[name] = y if y.ndim > 1 else y[:, None]
+        return loo
 
     def _indices(self, space: InputSpace, design: Design, outputs: ModelOutput,
                  fits: list[_OutputFit], stats: dict[str, Any]) -> None:

@@ -255,7 +255,8 @@ def _fit_runs(name: str, surrogate: Surrogate, used: ValidationDesign,
               fit: ModelOutput | None, fit_u: np.ndarray | None,
               fit_loo: Mapping[str, np.ndarray] | None) -> FitRuns | None:
     """The fit's successful runs as a second sample of ``name``'s differences (None where
-    a piece is missing: a random design, a derived output, given germ points)."""
+    a piece is missing: a random design, a derived output whose carriers have no
+    leave-one-out values, given germ points)."""
     sorter = used.sorter
     if (sorter is None or fit is None or fit_u is None or fit_loo is None
             or name not in fit_loo or fit_u.shape[0] != fit.n):
