@@ -102,3 +102,24 @@ def test_a_single_method_run_says_what_its_intervals_are(write_config, tmp_path)
 def test_the_listing_is_also_right_for_a_callable_model():
     out = _invoke("models", "callable").output
     assert "  function: " in out and "module:function" in out
+
+
+def test_a_function_returning_other_outputs_is_told_how_to_declare_them(write_config,
+                                                                           tmp_path):
+    """The commonest first mistake with a callable model: the function returns its own names
+    and the config lists none (default [y]). The message names what it returned and the
+    ``outputs`` entry for each, a series where the value is (n, T) on the returned grid."""
+    cfg = {"model": {"name": "callable", "function": "tests.fixtures_models:series_and_scalar",
+                     "inputs": ["a"]},
+           "inputs": [{"name": "a", "dist": "normal", "std": 1.0}],
+           "methods": [{"name": "monte_carlo", "n_samples": 20}]}
+    r = _invoke("run", str(write_config(cfg)), "--out", str(tmp_path / "out"), "-q")
+    assert r.exit_code == 1
+    assert ("did not return output 'y': it returned 'path', 'total'" in r.output
+            and "outputs: [{name: path, kind: series}, total]" in r.output), r.output
+    assert "Traceback" not in r.output
+    fixed = dict(cfg, model=dict(cfg["model"], outputs=[{"name": "path", "kind": "series"},
+                                                       "total"]))
+    r = _invoke("run", str(write_config(fixed, "fixed.yaml")), "--out", str(tmp_path / "ok"),
+                "-q")
+    assert r.exit_code == 0, r.output

@@ -307,7 +307,7 @@ class CallableModel(DeclaredModel):
         bad = np.zeros(n, dtype=bool)
         for s in specs:
             if s.name not in data:
-                raise ModelError(f"{self.params.spec()} did not return output {s.name!r}")
+                raise ModelError(self._missing(s.name, data, n, time_grid.shape[0]))
             a = np.asarray(data[s.name], dtype=float)
             if s.kind == "series":
                 a = a.reshape(n, time_grid.shape[0], s.components)
@@ -320,6 +320,27 @@ class CallableModel(DeclaredModel):
         reasons = np.where(bad, "non-finite output value", "").astype(object)
         return ModelOutput(time=time_grid, series=series, scalars=scalars, failed=bad,
                            reasons=reasons)
+
+
+    def _missing(self, name: str, data: Mapping[str, object], n: int, steps: int) -> str:
+        """What a function that returns other outputs than its config lists is told: what it
+        returned, and the ``outputs`` entry that would declare each (a series where its shape
+        is ``(n, T, ...)`` on the returned time grid)."""
+        returned = sorted(k for k in data if k != "time")
+
+        def entry(k: str) -> str:
+            try:
+                shape = np.shape(np.asarray(data[k]))
+            except (TypeError, ValueError):  # a ragged value: no shape to read a kind from
+                shape = ()
+            series = steps > 0 and len(shape) >= 2 and shape[0] == n and shape[1] == steps
+            return f"{{name: {k}, kind: series}}" if series else k
+
+        hint = f"outputs: [{', '.join(entry(k) for k in returned)}]" if returned else ""
+        return (f"{self.params.spec()} did not return output {name!r}: it returned "
+                f"{', '.join(map(repr, returned)) or 'no output'}. The model's 'outputs' lists "
+                f"what the function returns (default [y])" + (f"; for these: {hint}" if hint
+                                                             else ""))
 
 
 def example_function(x: np.ndarray) -> dict[str, np.ndarray]:
