@@ -321,7 +321,6 @@ class CallableModel(DeclaredModel):
         return ModelOutput(time=time_grid, series=series, scalars=scalars, failed=bad,
                            reasons=reasons)
 
-
     def _missing(self, name: str, data: Mapping[str, object], n: int, steps: int) -> str:
         """What a function that returns other outputs than its config lists is told: what it
         returned, and the ``outputs`` entry that would declare each (a series where its shape
