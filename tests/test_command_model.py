@@ -411,7 +411,10 @@ def test_the_documented_octave_function_is_the_model_it_says(tmp_path):
 
 
 @pytest.mark.parametrize("text,message", [
-    ("z\n1\n2\n", r"line 1: no column 'y' in the header 'z'"),
+    ("z\n1\n2\n", r"line 1: no column 'y' in the header 'z'; the model's 'outputs' lists "
+                  r"what the program writes \(default \[y\]\): for this header, outputs: \[z\]"),
+    ("v[0],v[1],failed\n1,2,0\n",
+     r"line 1: no column 'y' .*outputs: \[\{name: v, components: 2\}\]"),
     ("y\n1\n2\n3\n", r"3 sample rows, expected 2 .*line 4 is one too many"),
     ("y,w\n1,2\n3\n", r"line 3 \(sample 1\): 1 cells, the header has 2: column 2 is missing"),
     ("y,failed\n1,0\n2,yes\n", r"line 3 \(sample 1\), column 2 'failed': 'yes' is not 0 or 1"),

@@ -21,7 +21,8 @@ rather than fail every sample the same way.
 from __future__ import annotations
 
 import csv
-from collections.abc import Sequence
+import re
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -233,6 +234,17 @@ def _check_widths(body: list[list[str]], width: int, path: Path, what: str) -> N
                              f"has {width}{missing}")
 
 
+def _declared(columns: Iterable[str]) -> list[str]:
+    """The ``outputs`` entries that declare a header's columns: ``y`` for ``y``, ``{name: y,
+    components: k}`` for ``y[0] .. y[k-1]``, in the header's order."""
+    counts: dict[str, int] = {}
+    for c in columns:
+        m = re.fullmatch(r"(.+)\[(\d+)\]", c)
+        name, k = (m.group(1), int(m.group(2)) + 1) if m else (c, 0)
+        counts[name] = max(counts.get(name, 0), k)
+    return [f"{{name: {nm}, components: {k}}}" if k else nm for nm, k in counts.items()]
+
+
 def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int
                      ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     rows = _open_csv(path)
@@ -244,8 +256,12 @@ def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int
     for s in specs:
         for c in scalar_columns(s):
             if c not in where:
+                others = _declared(h for h in header if h and h not in ("failed", "reason"))
+                hint = (f"; the model's 'outputs' lists what the program writes (default "
+                        f"[y]): for this header, outputs: [{', '.join(others)}]"
+                        if others else "")
                 raise ModelError(f"{path}: line 1: no column '{c}' in the header "
-                                 f"{','.join(header)!r}")
+                                 f"{','.join(header)!r}{hint}")
     body = _sample_rows(rows, path, n, 1)
     _check_widths(body, len(header), path, "the header")
     flagged = np.zeros(n, dtype=bool)
