@@ -130,3 +130,22 @@ def test_read_result_gives_back_the_same_dataset(result, tmp_path):
 
     back = uqguide.read_result(write_hdf5(result, tmp_path / "r.h5"))
     xr.testing.assert_identical(back.to_xarray(), result.to_xarray())
+
+
+def test_to_dataframe_names_the_outputs_when_it_needs_one(result):
+    """A result of several outputs needs the output named, and says which it has; a result of
+    one takes ``to_dataframe()`` as it is (``uqguide.fit`` of a single column)."""
+    with pytest.raises(uqguide.errors.ResultError, match="name one of this result's 2 "
+                                                         "outputs: y, ramp"):
+        result.to_dataframe()
+    with pytest.raises(uqguide.errors.ResultError, match=r"no output 'z' .*outputs: y, ramp"):
+        result.to_dataframe("z")
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(60, 2))
+    one = uqguide.fit(x, x[:, 0] + 0.5 * x[:, 1],
+                      inputs=[{"name": "a", "dist": "normal", "std": 1.0},
+                              {"name": "b", "dist": "normal", "std": 1.0}])
+    df = one.to_dataframe()
+    assert df.equals(one.to_dataframe(one.outputs[0].name))
+    mean = df[(df.statistic == "mean")].value.to_numpy()
+    assert np.isfinite(mean).all()

@@ -263,7 +263,8 @@ class Result:
         for o in self.outputs:
             if o.name == name:
                 return o
-        raise ResultError(f"no output {name!r} in this result")
+        raise ResultError(f"no output {name!r} in this result (its outputs: "
+                          f"{', '.join(o.name for o in self.outputs)})")
 
     def to_xarray(self, label: str | None = None) -> Any:
         """The statistics as an ``xarray.Dataset``: of method ``label``, or of every method
@@ -286,13 +287,13 @@ class Result:
 
         return to_xarray(self, label)
 
-    def to_dataframe(self, output: str) -> Any:
+    def to_dataframe(self, output: str | None = None) -> Any:
         """Every statistic of ``output`` at every time step as a tidy table.
 
         Parameters
         ----------
-        output : str
-            An output of this result.
+        output : str, optional
+            An output of this result; may be left out when the result has only one.
 
         Returns
         -------
@@ -302,6 +303,12 @@ class Result:
         """
         from .frames import to_dataframe
 
+        if output is None:
+            if len(self.outputs) != 1:
+                raise ResultError(f"to_dataframe: name one of this result's "
+                                  f"{len(self.outputs)} outputs: "
+                                  f"{', '.join(o.name for o in self.outputs)}")
+            output = self.outputs[0].name
         return to_dataframe(self, output)
 
 
