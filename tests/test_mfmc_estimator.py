@@ -106,6 +106,33 @@ def test_mean_is_unbiased_with_the_variance_of_its_formula(seed):
     assert abs(stds.var(ddof=1) / se2 - 1) < 4 * rel_se + 6 / sizes[0]
 
 
+def test_a_level_with_an_offset_serves_the_variance_as_well_as_the_mean():
+    # A coarser step's bias shifts the cheap level: y_1 = y_0 + 3 exactly. About its own mean
+    # the cheap level's square is the expensive one's, so it is a perfect control of the
+    # variance too: the formula's standard error is plain MC's with all m_1 rows,
+    # equivalent_mc_runs_std = m_1 (PWG16 Lemma 3.3 with rho = alpha = 1). Centred at the
+    # expensive level's mean instead, the square would carry 6 (y_0 - mean), which tracks
+    # the mean and not the spread: rho of the squares 0.2.
+    rng = np.random.default_rng(5)
+    sizes = np.array([50, 1000])
+    y0 = rng.standard_normal(1000)
+    st = mfmc_statistics([y0[:50, None], (y0 + 3.0)[:, None]], sizes, n_resamples=0)
+    assert st.rho[1, 1, 0] == pytest.approx(1.0, abs=1e-12)
+    assert st.equivalent_mc_runs_std[0] == pytest.approx(1000, rel=1e-9)
+    assert st.equivalent_mc_runs[0] == pytest.approx(1000, rel=1e-9)
+    # and the estimates are those of the 1000 rows (the control is exact)
+    assert st.mean[0] == pytest.approx(y0.mean(), abs=1e-12)
+    assert st.std[0] == pytest.approx(y0.std(), rel=1e-12)
+    # with noise on the cheap level, the replicates' spread of the std follows the formula
+    noisy = [mfmc_statistics([y[:50, None], (y + 3.0 + 0.3 * rng.standard_normal(1000))[:, None]],
+                             sizes, n_resamples=0)
+             for y in rng.standard_normal((200, 1000))]
+    stds = np.array([r.std[0] for r in noisy])
+    se2 = np.mean([r.se_std[0] ** 2 for r in noisy])
+    # (as in the test above: 4 relative s.e. of a 200-replicate variance, plus O(1/m_0))
+    assert abs(stds.var(ddof=1) / se2 - 1) < 4 * np.sqrt(2 / 199) + 6 / 50
+
+
 def _skewed(rng: np.random.Generator, sizes: np.ndarray) -> list[np.ndarray]:
     """``y_0 = x + 0.2 x^2`` (mean 0.2, variance 1.08), level 1 = level 0 + 0.3 noise."""
     n = int(sizes[-1])
@@ -161,3 +188,4 @@ def test_moments_no_distribution_has_are_not_reported():
     assert np.isnan(skew[0, 0]) and np.isnan(kurt[0, 0])
     # a valid set (skewness 1, kurtosis 3 >= 2) is kept
     assert skew[0, 1] == 1.0 and kurt[0, 1] == 3.0
+
