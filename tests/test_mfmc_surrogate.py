@@ -57,10 +57,10 @@ def test_a_pce_level_leaves_the_estimate_the_models_and_cuts_its_error(seed):
     # ... and not the surrogate's, whose mean (dt = 0.1's) lies many standard errors away
     assert abs(pce.stats["y_end"].mean[0] - _exact_mean(COARSE)) < 1e-6
     assert abs(_exact_mean(COARSE) - exact) > 10 * st.sem[0]
-    # the surrogate's rows capped at surrogate_ratio (20) times the fine level's (both floored
-    # from one real m_0), and the budget spent
+    # the surrogate's rows capped at surrogate_ratio (100) times the fine level's (both
+    # floored from one real m_0), and the budget spent
     m0, m1 = d["runs_per_level"]
-    assert 20 * m0 <= m1 < 20 * (m0 + 1) and "capped at surrogate_ratio" in d["note"]
+    assert 100 * m0 <= m1 < 100 * (m0 + 1) and "capped at surrogate_ratio" in d["note"]
     assert float(np.dot(d["runs_per_level"], COSTS)) <= 0.05 * (1 + 1e-9)
     # it pays: the fine model's plain MC at the same (pinned) cost has a twice larger error
     mc_sem = st.std[0] / np.sqrt(0.05 / COSTS[0])
@@ -69,6 +69,14 @@ def test_a_pce_level_leaves_the_estimate_the_models_and_cuts_its_error(seed):
     # what the PCE method spent is charged to the saving
     assert d["surrogate_cpu_s"] == pytest.approx(result.runs[0].model_seconds +
                                                  result.runs[0].fit_seconds)
+
+
+def test_a_surrogate_level_is_held_within_its_memory_and_says_so():
+    # one output of one column: 10,000 values are 10,000 rows, below the 100x cap's 45,000
+    d = run(validate_config(_raw(surrogate_values=1e4))).runs[1].estimate.diagnostics
+    m0, m1 = d["runs_per_level"]
+    assert m1 == 10_000 and m0 < m1
+    assert "surrogate rows held at 10000 (1 values per row" in d["note"]
 
 
 @pytest.mark.slow

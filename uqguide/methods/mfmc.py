@@ -65,7 +65,7 @@ from ..core.inputs import InputSpace
 from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats
 from ..errors import ConfigError, MethodError
 from ..stats.mfmc_allocation import (
-    Allocation, sample_sizes, select_allocation, variance_factor, variance_ratio,
+    Allocation, sample_sizes, select_allocation, variance_factor,
 )
 from ..stats.mfmc_estimator import mfmc_statistics
 from .base import Design, MethodSettings, Method, RunPlan
@@ -107,10 +107,16 @@ class MfmcSettings(MethodSettings):
     max_runs : int
         Largest number of runs of any one level.
     surrogate_ratio : float
-        A surrogate level runs at most this many times the rows of the level before it. The
-        variance a level leaves falls as ``1/m_prev - 1/m``: at 20 it keeps 95% of what an
-        endless sample of the surrogate would remove, and its values stay in memory (a series
-        of ``T`` steps holds ``20 m_prev T`` floats).
+        A surrogate level runs at most this many times the rows of the level before it. It
+        removes ``rho^2 (1/m_prev - 1/m)`` of the variance: at a ratio of 20 it leaves
+        ``rho^2 / (20 m_prev)``, which is what limits the estimate when the surrogate follows
+        the model closely (FT-AS Case 2's delta-v: ``1 - rho^2 = 0.004``, so 20 left the
+        variance twelve times what the PCE's own error leaves). The allocation optimises the
+        other levels within this cap (:func:`~uqguide.stats.mfmc_allocation.select_allocation`).
+    surrogate_values : float
+        Most values a surrogate level keeps in memory for the estimate (rows times every
+        output's columns; 2e7 floats are 160 MB): its rows are cut to fit, after the
+        allocation, and the note says so. A series of ``T`` steps is ``T k`` columns.
     """
 
     fidelities: list[dict[str, float | int | str]] = Field(default_factory=_one_level,
@@ -124,7 +130,8 @@ class MfmcSettings(MethodSettings):
     chunk_size: int = Field(default=256, ge=1, le=1_000_000)
     bootstrap: int = Field(default=200, ge=0, le=100_000)
     max_runs: int = Field(default=10_000_000, ge=10, le=100_000_000)
-    surrogate_ratio: float = Field(default=20.0, ge=1.0, le=1e4, allow_inf_nan=False)
+    surrogate_ratio: float = Field(default=100.0, ge=1.0, le=1e5, allow_inf_nan=False)
+    surrogate_values: float = Field(default=2e7, ge=1e3, le=1e10, allow_inf_nan=False)
 
     @model_validator(mode="after")
     def _one_goal(self) -> MfmcSettings:
@@ -303,9 +310,10 @@ class MultiFidelityMC(Method):
             costs = rounded * float(f"{raw[0]:.2g}")
         rows, var0, owner = self._pilot_quantities(pilot)
         rho = _correlations(rows)
-        allocation = select_allocation(rho, costs, s.min_gain)
-        allocation, capped = _cap_surrogates(allocation, rho, costs, self.surrogate_levels,
-                                             s.surrogate_ratio)
+        step = np.array([s.surrogate_ratio if i in self.surrogate_levels else np.inf
+                         for i in range(len(costs))])
+        allocation = select_allocation(rho, costs, s.min_gain, max_step=step)
+        capped = _at_cap(allocation, step)
         note = (f"surrogate rows capped at surrogate_ratio = {s.surrogate_ratio:g} times the "
                 f"level before") if capped else ""
         if allocation.is_plain_mc and len(costs) > 1:
@@ -322,6 +330,9 @@ class MultiFidelityMC(Method):
         else:
             sizes = sample_sizes(allocation, costs, m0=self._m0_for_target(
                 var0, owner, rho, allocation), at_least=s.n_pilot)
+        sizes, held = self._hold_surrogate_memory(sizes, levels, pilot[0])
+        if held:
+            note = (note + "; " if note else "") + held
         if sizes[-1] > s.max_runs:
             note = (note + "; " if note else "") + f"capped at max_runs = {s.max_runs}"
             sizes = np.minimum(sizes, s.max_runs)
@@ -332,6 +343,26 @@ class MultiFidelityMC(Method):
                 "the pilot alone exceeds budget_cpu_s: every used level keeps its pilot runs"
         return LevelPlan(levels=levels, sizes=sizes, allocation=allocation, costs=costs,
                          measured=measured, note=note)
+
+    def _hold_surrogate_memory(self, sizes: np.ndarray, levels: tuple[int, ...],
+                               top: ModelOutput) -> tuple[np.ndarray, str]:
+        """``sizes`` with each surrogate level's rows cut so that its values (every output's
+        columns, on the highest level's grid) take at most ``surrogate_values`` floats: they
+        stay in memory for the estimate. The cut level keeps at least the rows of the level
+        before it; the note says so."""
+        s = self.settings
+        cols = sum(int(np.prod(v.shape[1:])) for v in top.scalars.values()) + \
+            sum(int(np.prod(v.shape[1:])) for v in top.series.values())
+        most = max(int(s.surrogate_values // max(cols, 1)), 1)
+        out = sizes.copy()
+        cut = False
+        for j, i in enumerate(levels):
+            if j and i in self.surrogate_levels and out[j] > max(most, out[j - 1]):
+                out[j], cut = max(most, out[j - 1]), True
+        out = np.maximum.accumulate(out)
+        note = (f"surrogate rows held at {most} ({cols} values per row, surrogate_values = "
+                f"{s.surrogate_values:g})") if cut else ""
+        return out, note
 
     def _pilot_quantities(self, pilot: list[ModelOutput]
                           ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -500,23 +531,12 @@ def _level_name(changes: dict[str, Any]) -> str:
     return ", ".join(f"{k}={v}" for k, v in changes.items()) or "model as configured"
 
 
-def _cap_surrogates(allocation: Allocation, rho: np.ndarray, costs: np.ndarray,
-                    surrogates: dict[int, str], ratio: float) -> tuple[Allocation, bool]:
-    """The allocation with each surrogate level's runs at most ``ratio`` times the level
-    before it (estimator order), and its variance ratio recomputed for those ratios; whether
-    any was capped. A nearly free level gets a ratio in the thousands from the closed form:
-    capped, the budget goes to the levels before it instead."""
-    r = np.asarray(allocation.ratios, dtype=float).copy()
-    levels = list(allocation.levels)
-    capped = False
-    for j in range(1, len(levels)):
-        # (the cap is at least the level before, so the ratios stay non-decreasing)
-        if levels[j] in surrogates and r[j] > ratio * r[j - 1]:
-            r[j], capped = ratio * r[j - 1], True
-    if not capped:
-        return allocation, False
-    worst = float(np.max(variance_ratio(np.nan_to_num(rho[:, levels]), costs[levels], r)))
-    return Allocation(allocation.levels, r, worst), True
+def _at_cap(allocation: Allocation, step: np.ndarray) -> bool:
+    """Whether a capped level (a surrogate) got its largest ratio over the level before it:
+    a nearly free level gets a ratio in the thousands from the closed form."""
+    r = allocation.ratios
+    return any(np.isfinite(step[i]) and r[j] >= step[i] * r[j - 1] * (1 - 1e-9)
+               for j, i in enumerate(allocation.levels) if j > 0)
 
 
 def _correlations(rows: list[np.ndarray]) -> np.ndarray:

@@ -19,6 +19,14 @@ Design decisions:
   smallest *worst* variance ratio against plain Monte Carlo at equal cost wins. Plain Monte
   Carlo of level 0 is always a candidate, with ratio 1, so the choice is never worse than MC
   at the estimated correlations and costs.
+- The closed form is each candidate's starting point, not its end: it is optimal for one
+  quantity and no cap, so the ratios are then refined numerically (Nelder-Mead on the
+  worst variance ratio over all quantities, within the caps) for the best candidate of each
+  ordering. A surrogate level is capped at ``max_step`` times the rows of the level before it
+  (memory); before this refinement the cap was applied after the selection, which then kept
+  a closed-form allocation made for no cap. On FT-AS Case 2 (400 paired runs, a PCE capped
+  at 20) the worst quantity's predicted gain went from 9.5 to 11.6 (the refined allocation
+  gives h = 0.02 s more rows so that the capped PCE gets more too).
 - A gain smaller than ``min_gain`` is not trusted (correlations from a pilot are noisy): the
   allocation then falls back to plain Monte Carlo.
 """
@@ -29,6 +37,7 @@ from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
+from scipy.optimize import minimize
 
 __all__ = ["Allocation", "mfmc_ratios", "ordering_holds", "select_allocation",
            "sample_sizes", "variance_factor", "variance_ratio"]
@@ -130,7 +139,8 @@ def variance_ratio(rho: np.ndarray, w: np.ndarray, ratios: np.ndarray) -> np.nda
     return variance_factor(rho, ratios) * float(np.dot(w, ratios)) / w[0]
 
 
-def select_allocation(rho: np.ndarray, w: np.ndarray, min_gain: float = 1.0) -> Allocation:
+def select_allocation(rho: np.ndarray, w: np.ndarray, min_gain: float = 1.0,
+                      max_step: np.ndarray | None = None) -> Allocation:
     """The allocation with the smallest worst variance ratio over the quantities (module
     docstring), or plain MC of level 0 when no candidate gains more than ``min_gain``.
 
@@ -143,6 +153,9 @@ def select_allocation(rho: np.ndarray, w: np.ndarray, min_gain: float = 1.0) -> 
         Cost per run of each level (> 0).
     min_gain : float
         Variance reduction (``1/variance_ratio``) below which plain MC is kept.
+    max_step : ndarray, shape (K,), optional
+        Largest ``m_i / m_prev`` of each level, ``m_prev`` the rows of the level before it in
+        estimator order (``inf``: no cap; the default for every level).
 
     Returns
     -------
@@ -152,7 +165,8 @@ def select_allocation(rho: np.ndarray, w: np.ndarray, min_gain: float = 1.0) -> 
     rho[:, 0] = 1.0
     w = np.asarray(w, float)
     n_levels = len(w)
-    best = Allocation((0,), np.ones(1), 1.0)
+    step = np.full(n_levels, np.inf) if max_step is None else np.asarray(max_step, float)
+    starts: dict[tuple[int, ...], Allocation] = {}
     for size in range(1, n_levels):
         for subset in combinations(range(1, n_levels), size):
             for q in range(rho.shape[0]):
@@ -161,13 +175,71 @@ def select_allocation(rho: np.ndarray, w: np.ndarray, min_gain: float = 1.0) -> 
                 rq, wq = rho[q, list(levels)], w[list(levels)]
                 if not ordering_holds(rq, wq):
                     continue
-                ratios = mfmc_ratios(rq, wq)
+                ratios = _capped(mfmc_ratios(rq, wq), step[list(levels)])
                 worst = float(np.max(variance_ratio(rho[:, list(levels)], wq, ratios)))
-                if worst < best.variance_ratio:
-                    best = Allocation(levels, ratios, worst)
+                if levels not in starts or worst < starts[levels].variance_ratio:
+                    starts[levels] = Allocation(levels, ratios, worst)
+    best = Allocation((0,), np.ones(1), 1.0)
+    for start in starts.values():
+        refined = _refine(start, rho, w, step)
+        if refined.variance_ratio < best.variance_ratio:
+            best = refined
     if best.is_plain_mc or 1.0 / best.variance_ratio < min_gain:
         return Allocation((0,), np.ones(1), 1.0)
     return best
+
+
+def _capped(ratios: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """``ratios`` with each ``r_i <= step_i r_{i-1}`` (in order, so the caps compound)."""
+    r = np.asarray(ratios, float).copy()
+    for i in range(1, r.size):
+        r[i] = min(r[i], step[i] * r[i - 1])
+    return r
+
+
+def _refine(start: Allocation, rho: np.ndarray, w: np.ndarray, step: np.ndarray
+            ) -> Allocation:
+    """``start``'s levels with the ratios that minimise the worst variance ratio over the
+    quantities, within the caps ``step``; ``start`` itself when the search finds no better.
+
+    The ratios are ``r_i = r_{i-1} g_i``, ``g_i = 1 + e^{u_i}`` (no cap) or
+    ``1 + (step_i - 1) / (1 + e^{-u_i})`` (capped), so any ``u`` is a feasible, nested
+    allocation; Nelder-Mead from the start's ``u`` (deterministic: the same inputs give the
+    same allocation on any machine: its ratios are rounded to four digits).
+    """
+    levels = list(start.levels)
+    if len(levels) == 1:
+        return start
+    rq, wq, cap = rho[:, levels], w[levels], step[levels]
+    finite = np.isfinite(cap[1:])
+
+    def ratios(u: np.ndarray) -> np.ndarray:
+        with np.errstate(over="ignore"):
+            g = np.where(finite, 1 + (np.where(finite, cap[1:], 2.0) - 1) / (1 + np.exp(-u)),
+                         1 + np.exp(u))
+        return np.cumprod(np.concatenate([[1.0], g]))
+
+    def worst(u: np.ndarray) -> float:
+        return float(np.max(variance_ratio(rq, wq, ratios(u))))
+
+    g0 = start.ratios[1:] / start.ratios[:-1]
+    tiny = 1e-6
+    with np.errstate(divide="ignore"):
+        u0 = np.where(finite, np.log(np.clip((g0 - 1) / (np.where(finite, cap[1:], 2.0) - 1),
+                                             tiny, 1 - tiny) /
+                                     (1 - np.clip((g0 - 1) / (np.where(finite, cap[1:], 2.0) - 1),
+                                                  tiny, 1 - tiny))),
+                      np.log(np.maximum(g0 - 1, tiny)))
+    res = minimize(worst, u0, method="Nelder-Mead",
+                   options={"xatol": 1e-4, "fatol": 1e-7, "maxiter": 400 * len(u0)})
+    # four significant digits: the search's last digits move with round-off, and a gain
+    # below 1e-6 is no reason to leave the closed form
+    r = np.array([float(f"{v:.4g}") for v in ratios(res.x)])
+    r = _capped(np.maximum.accumulate(r), cap)
+    vr = float(np.max(variance_ratio(rq, wq, r)))
+    if not vr < start.variance_ratio * (1 - 1e-6):
+        return start
+    return Allocation(start.levels, r, vr)
 
 
 def sample_sizes(allocation: Allocation, w: np.ndarray, *, budget: float | None = None,
