@@ -198,8 +198,8 @@ def analytic(seeds: int, budget: float, peer_python: str | None = None) -> None:
     g = float(variance_factor(rho[list(alloc.levels)], sizes / sizes[0]))
     print(f"  budget {budget:g}: MFMC runs {sizes.tolist()}, plain MC runs {n_mc}; predicted "
           f"s.e. ratio of the mean {np.sqrt(g / sizes[0] * n_mc):.3f}")
-    est = {"mfmc": [], "mc": []}
-    hits = {"mean": 0, "std": 0}
+    est: dict[str, list[tuple[float, float]]] = {"mfmc": [], "blue": [], "mc": []}
+    hits = {(e, k): 0 for e in ("mfmc", "blue") for k in ("mean", "std")}
     t_cpu = time.process_time()
     for s in range(seeds):
         rng = np.random.default_rng([s, 30])
@@ -208,21 +208,22 @@ def analytic(seeds: int, budget: float, peer_python: str | None = None) -> None:
         y0 = x + 0.2 * x**2
         lv = [(y0 + NOISE[i] * rng.standard_normal(y0.size))[:sizes[j], None]
               for j, i in enumerate(alloc.levels)]
-        st = mfmc_statistics(lv, sizes, n_resamples=200, seed=s)
-        est["mfmc"].append((st.mean[0], st.std[0]))
+        for e in ("mfmc", "blue"):
+            st = mfmc_statistics(lv, sizes, n_resamples=200, seed=s, estimator=e)
+            est[e].append((st.mean[0], st.std[0]))
+            hits[e, "mean"] += st.ci["mean"][0, 0] <= 0.2 <= st.ci["mean"][1, 0]
+            hits[e, "std"] += st.ci["std"][0, 0] <= np.sqrt(1.08) <= st.ci["std"][1, 0]
         mc = y0[:n_mc]
         est["mc"].append((mc.mean(), mc.std()))
-        hits["mean"] += st.ci["mean"][0, 0] <= 0.2 <= st.ci["mean"][1, 0]
-        hits["std"] += st.ci["std"][0, 0] <= np.sqrt(1.08) <= st.ci["std"][1, 0]
     print(f"  over {seeds} seeds ({time.process_time() - t_cpu:.1f} CPU-s):")
     print(f"  {'':>6} {'s.e. mean':>10} {'s.e. std':>10} {'bias mean':>10}")
     for k, v in est.items():
         a = np.array(v)
         print(f"  {k:>6} {a[:, 0].std(ddof=1):10.5f} {a[:, 1].std(ddof=1):10.5f} "
               f"{a[:, 0].mean() - 0.2:+10.5f}")
-    for k, h in hits.items():
+    for (e, k), h in hits.items():
         lo, hi = _wilson(h, seeds)
-        print(f"  coverage of the exact {k}: {h}/{seeds} = {h / seeds:.2f} "
+        print(f"  {e}: coverage of the exact {k}: {h}/{seeds} = {h / seeds:.2f} "
               f"(95% Wilson [{lo:.2f}, {hi:.2f}])")
 
 
@@ -237,7 +238,7 @@ def _euler_exact(dt: float, power: int, a: float = 0.5, b: float = 1.5) -> float
     return ((1 - a * dt) ** (n + 1) - (1 - b * dt) ** (n + 1)) / ((n + 1) * dt * (b - a))
 
 
-def euler(seeds: int, budget: float, pce: bool = False) -> None:
+def euler(seeds: int, budget: float, pce: bool = False, estimator: str = "blue") -> None:
     """The ``mfmc`` method on ``euler_decay`` against plain MC of dt = 0.01 at equal (pinned)
     cost, over seeds: standard errors and coverage of the exact mean and std."""
     from uqguide.driver.execution import SerialExecutor
@@ -261,13 +262,13 @@ def euler(seeds: int, budget: float, pce: bool = False) -> None:
                 {"name": "pce_tensor", "label": "tpce", "m": 5},
                 {"name": "mfmc", "fidelities": [{"dt": 0.01}, {"surrogate": "tpce"}],
                  "costs": [EULER_COSTS[0], 1e-7], "budget_cpu_s": budget, "n_pilot": 50,
-                 "chunk_size": 1024}]})
+                 "chunk_size": 1024, "estimator": estimator}]})
             a = run(mf, SerialExecutor(4096)).runs[-1]
         else:
             mf = validate_config({**base, "seed": s, "methods": [{
                 "name": "mfmc", "fidelities": [{"dt": h} for h in EULER_LEVELS],
                 "costs": EULER_COSTS, "budget_cpu_s": budget, "n_pilot": 50,
-                "chunk_size": 1024}]})
+                "chunk_size": 1024, "estimator": estimator}]})
             a = propagate(mf.methods[0], mf.model, mf.space, mf.outputs, s,
                           SerialExecutor(4096))
         mc = validate_config({**base, "seed": s, "methods": [{
@@ -280,8 +281,9 @@ def euler(seeds: int, budget: float, pce: bool = False) -> None:
         hits["std"] += st.ci["std"][0, 0] <= std <= st.ci["std"][1, 0]
         diag = a.estimate.diagnostics
     levels = "dt = 0.01 and a PCE of dt = 0.1" if pce else f"dt = {EULER_LEVELS}"
-    print(f"euler_decay {levels}, pinned costs {diag['cost_per_run']} s per run, budget "
-          f"{budget:g} s: MFMC runs {list(diag['runs_per_level'])}, plain MC {n_mc} runs; "
+    print(f"euler_decay {levels}, estimator {estimator}, pinned costs "
+          f"{diag['cost_per_run']} s per run, budget {budget:g} s: MFMC runs "
+          f"{list(diag['runs_per_level'])}, plain MC {n_mc} runs; "
           f"{seeds} seeds, {time.process_time() - t0:.1f} CPU-s")
     print(f"  exact highest-level mean {mean:.6f}, std {std:.6f}")
     print(f"  {'':>6} {'s.e. mean':>10} {'s.e. std':>10} {'bias mean':>10}")
@@ -345,7 +347,8 @@ CHUNK = {"ft_as": 20, "gmm_ftc": 64, "ftcapn": 1024}
 
 
 def method_run(case: str, budget: float, n_pilot: int, workers: int, pce: int = 0,
-               pce_step: float | None = None, seed: int | None = None) -> None:
+               pce_step: float | None = None, seed: int | None = None,
+               estimator: str = "blue") -> None:
     """The ``mfmc`` method on the levels of :data:`PILOTS` ``case`` for ``budget`` CPU s."""
     from uqguide.driver.execution import ProcessExecutor, SerialExecutor
     from uqguide.driver.propagate import run
@@ -365,7 +368,8 @@ def method_run(case: str, budget: float, n_pilot: int, workers: int, pce: int = 
                                "max_runs": pce})
         levels.append({"surrogate": "apce"})
     raw["methods"].append({"name": "mfmc", "fidelities": levels, "budget_cpu_s": budget,
-                           "n_pilot": n_pilot, "chunk_size": CHUNK[case]})
+                           "n_pilot": n_pilot, "chunk_size": CHUNK[case],
+                           "estimator": estimator})
     if seed is not None:
         raw["seed"] = seed
     cfg = validate_config(raw, source=str(ROOT / path))
@@ -379,8 +383,8 @@ def method_run(case: str, budget: float, n_pilot: int, workers: int, pce: int = 
     d = r.estimate.diagnostics
     spent = float(np.sum(d["cpu_per_level"])) + float(d.get("surrogate_cpu_s", 0.0))
     learnt = f"on {pce} runs at {param} = {raw['model'][param]:g}" if pce else "none"
-    print(f"{case} mfmc, budget {budget:g} CPU-s, pilot {n_pilot}, {workers} worker(s), "
-          f"PCE level {learnt}: "
+    print(f"{case} mfmc ({estimator}), budget {budget:g} CPU-s, pilot {n_pilot}, "
+          f"{workers} worker(s), PCE level {learnt}: "
           f"this process {time.process_time() - t0:.1f} CPU-s, model {r.model_seconds:.1f} s")
     for k in ("levels", "levels_used", "runs_per_level", "cpu_per_level", "cost_per_run",
               "surrogate_cpu_s", "estimated_variance_reduction", "equivalent_mc_runs",
@@ -416,6 +420,8 @@ def main() -> None:
                     help="*-run: the step of the runs the PCE learns [s] (default: the "
                          "second level's)")
     ap.add_argument("--seed", type=int, default=None)
+    ap.add_argument("--estimator", choices=["blue", "mfmc"], default="blue",
+                    help="euler, *-run: how the method combines the runs")
     ap.add_argument("--peer-python", default=None,
                     help="an interpreter with MXMCPy: its allocations beside uqguide's")
     a = ap.parse_args()
@@ -424,12 +430,12 @@ def main() -> None:
     elif a.case == "uncorrelated":
         uncorrelated(a.seeds, a.budget)
     elif a.case == "euler":
-        euler(a.seeds, a.budget, bool(a.pce))
+        euler(a.seeds, a.budget, bool(a.pce), a.estimator)
     elif a.case in PILOTS:
         pilot(a.case, a.pilot, peer_python=a.peer_python)
     else:
         method_run(a.case.removesuffix("-run"), a.budget, a.pilot, a.workers, a.pce,
-                   a.pce_step, a.seed)
+                   a.pce_step, a.seed, a.estimator)
 
 
 if __name__ == "__main__":

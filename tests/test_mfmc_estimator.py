@@ -223,3 +223,41 @@ def test_a_capped_level_gets_the_best_allocation_within_its_cap():
     one = select_allocation(RHO[None, :], COST)
     np.testing.assert_array_equal(one.ratios, mfmc_ratios(RHO[list(one.levels)],
                                                           COST[list(one.levels)]))
+
+
+def test_the_blue_of_two_levels_is_the_mfmc_estimate():
+    # with two levels the best linear unbiased estimator of nested runs is the control variate
+    # with the optimal weight, which is MFMC's: the same estimate, from the same covariance
+    rng = np.random.default_rng(7)
+    sizes = np.array([40, 900])
+    x = rng.standard_normal(900)
+    lv = [(x + 0.2 * x**2)[:40, None], (x + 0.3 * rng.standard_normal(900) + 2.0)[:, None]]
+    a = mfmc_statistics(lv, sizes, n_resamples=0, estimator="mfmc")
+    b = mfmc_statistics(lv, sizes, n_resamples=0, estimator="blue")
+    for stat in ("mean", "std", "skewness", "kurtosis", "sem", "se_std"):
+        np.testing.assert_allclose(getattr(b, stat), getattr(a, stat), rtol=1e-7)
+
+
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow)])
+def test_the_blue_is_unbiased_with_the_variance_of_its_formula_and_never_above_mfmcs(seed):
+    levels = (0, 1, 2)
+    sizes = sample_sizes(Allocation(levels, mfmc_ratios(RHO, COST), 0.0), COST, budget=100.0)
+    rng = np.random.default_rng([seed, 31])
+    n_rep = 200
+    blue, mfmc = [], []
+    for _ in range(n_rep):
+        lv = _levels(rng, sizes)
+        blue.append(mfmc_statistics(lv, sizes, n_resamples=0, estimator="blue"))
+        mfmc.append(mfmc_statistics(lv, sizes, n_resamples=0, estimator="mfmc"))
+    est = np.array([r.mean[0] for r in blue])
+    var_formula = np.mean([r.sem[0] ** 2 for r in blue])
+    # unbiased for E[y_0] = 0 (4 standard errors), and the spread its formula gives (the
+    # tolerance of test_mean_is_unbiased_with_the_variance_of_its_formula)
+    assert abs(est.mean()) < 4 * np.sqrt(var_formula / n_rep)
+    assert abs(est.var(ddof=1) / var_formula - 1) < 4 * np.sqrt(2 / (n_rep - 1)) + 3 / sizes[0]
+    # MFMC is a linear unbiased estimator of the same runs: at the same (sample) covariance
+    # the BLUE's variance is at most its, on every replicate, for the mean and the variance
+    for b, m in zip(blue, mfmc):
+        assert b.sem[0] <= m.sem[0] * (1 + 1e-6)
+        # (se_std is se(var) / (2 std), and each has its own std)
+        assert b.se_std[0] * b.std[0] <= m.se_std[0] * m.std[0] * (1 + 1e-6)

@@ -56,7 +56,7 @@ from __future__ import annotations
 import logging
 import zlib
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -113,6 +113,12 @@ class MfmcSettings(MethodSettings):
         the model closely (FT-AS Case 2's delta-v: ``1 - rho^2 = 0.004``, so 20 left the
         variance twelve times what the PCE's own error leaves). The allocation optimises the
         other levels within this cap (:func:`~uqguide.stats.mfmc_allocation.select_allocation`).
+    estimator : {"blue", "mfmc"}
+        How the runs are combined: the best linear unbiased estimator of the highest level's
+        moments from them (MLBLUE, Schaden & Ullmann 2020; the default), or PWG16's MFMC
+        estimator with one weight per level (:mod:`uqguide.stats.mfmc_estimator`). Both are
+        unbiased for the highest level; the allocation is MFMC's either way, so the
+        predicted reduction is a lower bound for the BLUE (at the exact covariance).
     surrogate_values : float
         Most values a surrogate level keeps in memory for the estimate (rows times every
         output's columns; 2e7 floats are 160 MB): its rows are cut to fit, after the
@@ -132,6 +138,7 @@ class MfmcSettings(MethodSettings):
     max_runs: int = Field(default=10_000_000, ge=10, le=100_000_000)
     surrogate_ratio: float = Field(default=100.0, ge=1.0, le=1e5, allow_inf_nan=False)
     surrogate_values: float = Field(default=2e7, ge=1e3, le=1e10, allow_inf_nan=False)
+    estimator: Literal["mfmc", "blue"] = "blue"
 
     @model_validator(mode="after")
     def _one_goal(self) -> MfmcSettings:
@@ -459,12 +466,14 @@ class MultiFidelityMC(Method):
             if (~finite & ok).any():
                 nan_rows[name] = int((~finite & ok).sum())
             try:
-                full = mfmc_statistics(lv, sizes, finite, n_resamples=0)
+                full = mfmc_statistics(lv, sizes, finite, n_resamples=0,
+                                       estimator=self.settings.estimator)
             except ValueError as exc:
                 raise MethodError(f"{self.label}: {name}: {exc}") from None
             cols = self._report_columns(runs[0], name)
             boot = mfmc_statistics([v[:, cols] for v in lv], sizes, finite,
-                                   n_resamples=self.settings.bootstrap, seed=boot_seed) \
+                                   n_resamples=self.settings.bootstrap, seed=boot_seed,
+                                   estimator=self.settings.estimator) \
                 if self.settings.bootstrap else None
             stats[name] = _output_stats(full, boot, cols, runs[0], name, finite[:sizes[0]])
             equivalent[name] = _least(full.equivalent_mc_runs)
