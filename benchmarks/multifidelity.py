@@ -227,6 +227,67 @@ def analytic(seeds: int, budget: float, peer_python: str | None = None) -> None:
               f"(95% Wilson [{lo:.2f}, {hi:.2f}])")
 
 
+# ---------------------------------------------------------------------------------- jumps
+#: rare jumps the cheap levels miss (FT-AS's settling times: one row in 400 settles 34 s later
+#: at h = 0.01 s than at 0.02 s): size and probability
+JUMP, P_JUMP = 10.0, 0.005
+JUMP_COST = np.array([1.0, 0.5, 0.001])
+
+
+def _jump_levels(rng: np.random.Generator, n: int, jump: float, p: float) -> list[np.ndarray]:
+    x, u = rng.standard_normal(n), rng.random(n)
+    smooth = x + 0.2 * x**2
+    return [smooth + jump * (u < p), smooth + 0.05 * rng.standard_normal(n),
+            x + 0.3 * rng.standard_normal(n)]
+
+
+def jumps(seeds: int, budget: float, n_pilot: int, jump: float = JUMP,
+          p: float = P_JUMP) -> None:
+    """A non-smooth case: level 0 jumps by JUMP with probability P_JUMP, level 1 follows it
+    closely but never jumps, level 2 is cheap and rougher. Per seed: a pilot of ``n_pilot``
+    rows, the method's allocation from it, both estimators; coverage of the exact mean
+    ``0.2 + JUMP p`` and std ``sqrt(1.08 + JUMP^2 p (1 - p))``, and the s.e. against plain MC of
+    level 0 at equal cost."""
+    mean = 0.2 + jump * p
+    std = np.sqrt(1.08 + jump**2 * p * (1 - p))
+    n_mc = int(budget / JUMP_COST[0])
+    est: dict[str, list[tuple[float, float]]] = {"mfmc": [], "blue": [], "mc": []}
+    hits = {(e, k): 0 for e in ("mfmc", "blue") for k in ("mean", "std")}
+    runs = []
+    for s in range(seeds):
+        rng = np.random.default_rng([s, 32])
+        pool = _jump_levels(rng, 400_000, jump, p)
+        pilot = [y[:n_pilot] for y in pool]
+        rows = [np.concatenate([p - p.mean(), (p - p.mean()) ** 2]) for p in pilot]
+        rho = np.array([[np.corrcoef(rows[0][:n_pilot], r[:n_pilot])[0, 1] for r in rows],
+                        [np.corrcoef(rows[0][n_pilot:], r[n_pilot:])[0, 1] for r in rows]])
+        alloc = select_allocation(rho, JUMP_COST, 1.1)
+        spent = float(np.dot(JUMP_COST, np.full(3, n_pilot))) - \
+            float(np.sum(JUMP_COST[list(alloc.levels)])) * n_pilot
+        sizes = sample_sizes(alloc, JUMP_COST, budget=budget - spent, at_least=n_pilot)
+        runs.append(sizes.tolist())
+        lv = [pool[i][:sizes[j], None] for j, i in enumerate(alloc.levels)]
+        for e in ("mfmc", "blue"):
+            st = mfmc_statistics(lv, sizes, n_resamples=200, seed=s, estimator=e)
+            est[e].append((st.mean[0], st.std[0]))
+            hits[e, "mean"] += st.ci["mean"][0, 0] <= mean <= st.ci["mean"][1, 0]
+            hits[e, "std"] += st.ci["std"][0, 0] <= std <= st.ci["std"][1, 0]
+        mc = pool[0][:n_mc]
+        est["mc"].append((mc.mean(), mc.std()))
+    print(f"jumps: level 0 jumps by {jump:g} with p = {p:g}, costs {JUMP_COST.tolist()}, "
+          f"budget {budget:g}, pilot {n_pilot}; exact mean {mean:.4f}, std {std:.4f}; "
+          f"runs per level (first 3 seeds) {runs[:3]}, plain MC {n_mc}")
+    print(f"  {'':>6} {'s.e. mean':>10} {'s.e. std':>10} {'bias mean':>10} {'bias std':>10}")
+    for k, v in est.items():
+        a = np.array(v)
+        print(f"  {k:>6} {a[:, 0].std(ddof=1):10.5f} {a[:, 1].std(ddof=1):10.5f} "
+              f"{a[:, 0].mean() - mean:+10.5f} {a[:, 1].mean() - std:+10.5f}")
+    for (e, k), h in hits.items():
+        lo, hi = _wilson(h, seeds)
+        print(f"  {e}: coverage of the exact {k}: {h}/{seeds} = {h / seeds:.2f} "
+              f"(95% Wilson [{lo:.2f}, {hi:.2f}])")
+
+
 # ---------------------------------------------------------------------------------- euler
 EULER_LEVELS = [0.01, 0.1, 0.4]
 EULER_COSTS = [1e-4, 1e-5, 2.5e-6]
@@ -334,6 +395,7 @@ def uncorrelated(seeds: int, budget: float) -> None:
         cost = float(np.dot(d["runs_per_level"], costs))
         spent.append(cost / budget)
         # its standard error against plain MC's over the runs the budget buys
+        assert st.sem is not None
         ratios.append(st.sem[0] / (st.std[0] / np.sqrt(budget / costs[0])))
     print(f"uncorrelated cheap level, {seeds} seeds, budget {budget:g} s at pinned costs "
           f"{costs}: plain MC chosen {plain}/{seeds}; cost / budget {min(spent):.4f} to "
@@ -406,10 +468,10 @@ def method_run(case: str, budget: float, n_pilot: int, workers: int, pce: int = 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--case", default="analytic",
-                    choices=["analytic", "euler", "uncorrelated", *PILOTS,
+                    choices=["analytic", "jumps", "euler", "uncorrelated", *PILOTS,
                              *(f"{c}-run" for c in PILOTS)])
     ap.add_argument("--seeds", type=int, default=50)
-    ap.add_argument("--pilot", type=int, default=60)
+    ap.add_argument("--pilot", type=int, default=200)
     ap.add_argument("--budget", type=float, default=100.0,
                     help="cost units (analytic), CPU seconds (euler, *-run)")
     ap.add_argument("--workers", type=int, default=1)
@@ -420,6 +482,8 @@ def main() -> None:
                     help="*-run: the step of the runs the PCE learns [s] (default: the "
                          "second level's)")
     ap.add_argument("--seed", type=int, default=None)
+    ap.add_argument("--jump", type=float, default=JUMP, help="jumps: the jump's size")
+    ap.add_argument("--p-jump", type=float, default=P_JUMP, help="jumps: its probability")
     ap.add_argument("--estimator", choices=["blue", "mfmc"], default="blue",
                     help="euler, *-run: how the method combines the runs")
     ap.add_argument("--peer-python", default=None,
@@ -427,6 +491,8 @@ def main() -> None:
     a = ap.parse_args()
     if a.case == "analytic":
         analytic(a.seeds, a.budget, a.peer_python)
+    elif a.case == "jumps":
+        jumps(a.seeds, a.budget, a.pilot, a.jump, a.p_jump)
     elif a.case == "uncorrelated":
         uncorrelated(a.seeds, a.budget)
     elif a.case == "euler":

@@ -89,7 +89,12 @@ class MfmcSettings(MethodSettings):
         The levels, highest fidelity first: each the model parameters it changes, or
         ``{surrogate: LABEL}``, the PCE that the method LABEL, listed before this one, fitted.
     n_pilot : int
-        Runs of every level in the pilot (and the least any used level gets).
+        Runs of every level in the pilot (and the least any used level gets). Default 200:
+        the squares' correlations rest on the tails, and a smaller pilot tunes the allocation
+        to its noise. On FT-AS Case 2 (1200 paired runs as the truth, 100 pilots drawn from
+        them) the allocation's CPU saving had a median of 5.2x from 100-run pilots and 6.5x
+        from 200-run ones, against 7.6x at the true correlations. A used level's pilot runs
+        are part of the estimate, so only the dropped levels' pilots are spent for nothing.
     budget_cpu_s : float, optional
         Model CPU seconds for the whole method, pilot included.
     target_se : dict of str to float, optional
@@ -127,7 +132,7 @@ class MfmcSettings(MethodSettings):
 
     fidelities: list[dict[str, float | int | str]] = Field(default_factory=_one_level,
                                                            min_length=1, max_length=8)
-    n_pilot: int = Field(default=100, ge=10, le=1_000_000)
+    n_pilot: int = Field(default=200, ge=10, le=1_000_000)
     budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False)
     target_se: dict[str, float] | None = None
     optimise_for: list[str] = Field(default_factory=list)
