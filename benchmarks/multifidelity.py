@@ -403,6 +403,133 @@ def uncorrelated(seeds: int, budget: float) -> None:
           f"to {max(ratios):.4f}")
 
 
+# ---------------------------------------------------------------------------------- paired
+def _blue_variance(c: np.ndarray, sizes: np.ndarray) -> float:
+    """The BLUE's variance of level 0's mean for nested runs ``sizes`` (estimator order) and
+    the levels' covariance ``c`` (:mod:`uqguide.stats.mfmc_estimator`)."""
+    k = len(sizes)
+    groups = np.diff(np.concatenate([[0.0], sizes]))
+    psi = np.zeros((k, k))
+    for g in range(k):
+        psi[g:, g:] += groups[g] * np.linalg.inv(c[g:, g:])
+    return float(np.linalg.inv(psi)[0, 0])
+
+
+def paired(rows: int, budget: float, pce_runs: int, workers: int, draws: int,
+           score: list[Any]) -> None:
+    """FT-AS Case 2: ``rows`` paired runs at h = 0.01 / 0.02 / 0.05 s and a PCE learnt on
+    ``pce_runs`` runs at h = 0.02 s (its own seed), as the truth allocations are scored
+    against: each level's ``1 - rho^2`` with h = 0.01 s, the best allocation and its CPU
+    saving at ``budget`` CPU-s with the PCE's CPU added, the savings of the allocations made
+    from ``draws`` pilots of 100 and 200 of those rows, and of the allocations in ``score``
+    (``[label, levels, runs per level, CPU in all]``, levels as the ``ft_as-run`` config's:
+    0-3 the steps, 4 the PCE)."""
+    from uqguide.driver.execution import ProcessExecutor, SerialExecutor
+    from uqguide.driver.propagate import run
+
+    path, param, steps, outputs, overrides = PILOTS["ft_as"]
+    raw = load_yaml(ROOT / path)
+    raw["model"].update(overrides)
+    for key in ("reference", "quantiles", "events"):
+        raw.pop(key, None)
+    raw["outputs"] = outputs
+    ex = ProcessExecutor(workers, batch_size=20) if workers > 1 else SerialExecutor(20)
+    t0 = time.process_time()
+    levels, cost, failed = [], [], []
+    x = np.empty(0)
+    try:
+        for h in steps[:3]:
+            cfg = validate_config({**raw, "model": {**raw["model"], param: h}, "seed": 7,
+                                   "methods": [{"name": "monte_carlo", "label": "mc",
+                                                "n_samples": rows, "sampling": "random",
+                                                "sensitivity": "off"}]})
+            r = run(cfg, ex).runs[0]
+            x = np.asarray(r.x)
+            levels.append(np.column_stack([r.scalars[k].reshape(rows, -1) for k in outputs]))
+            names = [f"{k}[{c}]" for k in outputs for c in range(r.scalars[k].reshape(rows, -1)
+                                                                   .shape[1])]
+            failed.append(r.failed)
+            cost.append(r.model_seconds / rows)
+        cfg = validate_config({**raw, "model": {**raw["model"], param: steps[1]}, "seed": 8,
+                               "methods": [{"name": "pce_adaptive", "label": "apce",
+                                            "n_samples": pce_runs, "max_runs": pce_runs}]})
+        result = run(cfg, ex)
+    finally:
+        ex.close()
+    fixed = result.runs[0].model_seconds + result.runs[0].fit_seconds
+    sur = result.surrogate("apce")
+    t1 = time.process_time()
+    p = sur(x, outputs)
+    cost.append((time.process_time() - t1) / rows)
+    levels.append(np.column_stack([p[k].reshape(rows, -1) for k in outputs]))
+    ok = ~np.any(failed, axis=0)
+    lv = [v[ok] for v in levels]
+    w = np.array(cost)
+
+    def covariances(sub: np.ndarray) -> list[np.ndarray]:
+        """Each quantity's and its (centred) square's covariance over the levels."""
+        out = []
+        for q in range(lv[0].shape[1]):
+            ys = np.column_stack([v[sub, q] for v in lv])
+            out += [np.cov(ys, rowvar=False), np.cov((ys - ys.mean(axis=0)) ** 2, rowvar=False)]
+        return out
+
+    def correlations(cs: list[np.ndarray]) -> np.ndarray:
+        return np.nan_to_num(np.array([c[0] / np.sqrt(c[0, 0] * np.diag(c)) for c in cs]))
+
+    n_ok = lv[0].shape[0]
+    covs = covariances(np.arange(n_ok))
+    rho = correlations(covs)
+    names = [f"{c}{s}" for c in names for s in ("", "^2")]
+    print(f"FT-AS Case 2: {int(ok.sum())} paired runs at {param} = {steps[:3]} and a PCE of "
+          f"{pce_runs} runs at {steps[1]:g} ({fixed:.1f} CPU-s with its fit); seconds per run "
+          f"{np.round(w, 7).tolist()}; {time.process_time() - t0:.0f} CPU-s in this process")
+    print(f"  1 - rho^2 with {param} = {steps[0]:g}, per level "
+          f"({', '.join(f'{h:g}' for h in steps[1:3])}, PCE):")
+    for n, r in zip(names, rho):
+        print(f"    {n:>16} " + " ".join(f"{1 - v**2:9.2e}" for v in r[1:]))
+    cap = np.array([np.inf, np.inf, np.inf, 100.0])
+
+    def saving(levels_used: tuple[int, ...], sizes: np.ndarray, cpu: float) -> float:
+        """Plain-MC CPU for the same standard errors (BLUE) over ``cpu``, worst quantity."""
+        worst = np.inf
+        for c in covs:
+            cl = c[np.ix_(levels_used, levels_used)]
+            worst = min(worst, cl[0, 0] / (cpu / w[0]) / _blue_variance(cl, sizes))
+        return worst
+
+    def at_budget(a: Any) -> float:
+        sizes = a.ratios * budget / float(np.dot(w[list(a.levels)], a.ratios))
+        return saving(a.levels, sizes, budget + fixed)
+
+    for subset in ((0, 1, 3), (0, 2, 3), (0, 1, 2, 3)):
+        a = select_allocation(rho[:, subset], w[list(subset)], 1.0, max_step=cap[list(subset)])
+        used = tuple(subset[i] for i in a.levels)
+        best = select_allocation(rho[:, used], w[list(used)], 1.0, max_step=cap[list(used)])
+        print(f"  best allocation of levels {subset} (3 = the PCE): {used}, ratios "
+              f"{np.round(best.ratios, 1).tolist()}, CPU saving {1 / best.variance_ratio:.2f}x "
+              f"(MFMC, levels only), {at_budget(type(best)(used, best.ratios, 0.0)):.2f}x "
+              f"(BLUE, at {budget:g} CPU-s with the PCE's {fixed:.0f} s)")
+    rng = np.random.default_rng(0)
+    for n_pilot in (100, 200):
+        if 2 * n_pilot > n_ok:  # (pilots must be a small part of the truth they are scored on)
+            continue
+        got = []
+        for _ in range(draws):
+            sub = rng.choice(n_ok, n_pilot, replace=False)
+            a = select_allocation(correlations(covariances(sub)), w, 1.1, max_step=cap)
+            got.append(at_budget(a) if not a.is_plain_mc else budget / (budget + fixed))
+        g = np.array(got)
+        print(f"  allocations from {draws} pilots of {n_pilot}: CPU saving median "
+              f"{np.median(g):.2f}x, 10% below {np.quantile(g, 0.1):.2f}x, "
+              f"{np.mean(g >= 5):.0%} at 5x or more")
+    index = {0: 0, 1: 1, 2: 2, 4: 3}
+    for label, used, runs, cpu in score:
+        scored = saving(tuple(index[i] for i in used), np.array(runs, float), cpu)
+        print(f"  {label}: levels {used}, runs {runs}, {cpu:g} CPU-s: CPU saving against the "
+              f"paired runs {scored:.2f}x")
+
+
 # ---------------------------------------------------------------------------------- FT-AS run
 #: rows per chunk of ``*-run``: a few seconds of the slow simulators, more of the fast one
 CHUNK = {"ft_as": 20, "gmm_ftc": 64, "ftcapn": 1024}
@@ -468,7 +595,7 @@ def method_run(case: str, budget: float, n_pilot: int, workers: int, pce: int = 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--case", default="analytic",
-                    choices=["analytic", "jumps", "euler", "uncorrelated", *PILOTS,
+                    choices=["analytic", "jumps", "euler", "uncorrelated", "ft_as-paired", *PILOTS,
                              *(f"{c}-run" for c in PILOTS)])
     ap.add_argument("--seeds", type=int, default=50)
     ap.add_argument("--pilot", type=int, default=200)
@@ -482,6 +609,9 @@ def main() -> None:
                     help="*-run: the step of the runs the PCE learns [s] (default: the "
                          "second level's)")
     ap.add_argument("--seed", type=int, default=None)
+    ap.add_argument("--rows", type=int, default=1200, help="ft_as-paired: paired runs")
+    ap.add_argument("--score", default="[]",
+                    help="ft_as-paired: JSON [[label, levels, runs per level, CPU s], ...]")
     ap.add_argument("--jump", type=float, default=JUMP, help="jumps: the jump's size")
     ap.add_argument("--p-jump", type=float, default=P_JUMP, help="jumps: its probability")
     ap.add_argument("--estimator", choices=["blue", "mfmc"], default="blue",
@@ -491,6 +621,8 @@ def main() -> None:
     a = ap.parse_args()
     if a.case == "analytic":
         analytic(a.seeds, a.budget, a.peer_python)
+    elif a.case == "ft_as-paired":
+        paired(a.rows, a.budget, a.pce or 300, a.workers, a.seeds, json.loads(a.score))
     elif a.case == "jumps":
         jumps(a.seeds, a.budget, a.pilot, a.jump, a.p_jump)
     elif a.case == "uncorrelated":

@@ -63,6 +63,8 @@ def test_mean_matches_the_highest_levels_closed_form_for_less_cpu(seed):
     assert st.sem[0] < mc_sem / 2
     assert d["equivalent_mc_runs"] > 4 * d["runs_per_level"][0]
     assert not d["plain_mc"] and d["levels_used"].startswith("0")
+    # what the highest level's own rows cannot see (rule of three over its runs)
+    assert d["unseen_difference_rate"] == pytest.approx(3 / d["runs_per_level"][0])
 
 
 def test_same_numbers_whatever_the_batches():

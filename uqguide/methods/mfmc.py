@@ -516,6 +516,11 @@ class MultiFidelityMC(Method):
             "note": plan.note,
             "interpolated": ", ".join(f"level {i} {h}" for i, h in sorted(how)) or "none",
             "intervals": "mean: variance formula; std, skewness, kurtosis: group bootstrap",
+            # The cheap levels stand in for the highest one everywhere but on its own rows: a
+            # difference between them that shows in fewer runs than this fraction may be in
+            # none of those rows (95%, rule of three), and then neither the estimate nor its
+            # intervals see it (benchmarks/multifidelity.py --case jumps).
+            "unseen_difference_rate": 3.0 / max(int(sizes[0]), 1),
             "bootstrap": self.settings.bootstrap,
             # rows left out of one output's statistics for a non-finite value at some level
             "non_finite_rows": "; ".join(f"{k} ({v})" for k, v in nan_rows.items()) or "none",
