@@ -415,6 +415,42 @@ def _blue_variance(c: np.ndarray, sizes: np.ndarray) -> float:
     return float(np.linalg.inv(psi)[0, 0])
 
 
+def _acv_variance(c: np.ndarray, sizes: np.ndarray, parent: tuple[int, ...]) -> float:
+    """Variance of level 0's mean by an ACV estimator of nested runs ``sizes`` in which level
+    ``i`` is compared between the rows of level ``parent[i]`` and its own, with the jointly
+    optimal weights (Gorodetsky et al. 2020; ``parent = (0, 0, ...)`` is ACV-MF, ``(0, 0, 1,
+    2, ...)`` is MFMC). Nested means: ``cov(mean_a y_i, mean_b y_j) = c_ij / max(a, b)``."""
+    k = len(sizes)
+
+    def inv(a: int, b: int) -> float:
+        return 1.0 / max(sizes[a], sizes[b])
+
+    g = np.array([c[0, i] * (inv(0, parent[i]) - inv(0, i)) for i in range(1, k)])
+    big = np.array([[c[i, j] * (inv(parent[i], parent[j]) - inv(parent[i], j) -
+                                inv(i, parent[j]) + inv(i, j)) for j in range(1, k)]
+                    for i in range(1, k)])
+    return float(c[0, 0] / sizes[0] - g @ np.linalg.solve(big, g))
+
+
+def _best_acv(covs: list[np.ndarray], w: np.ndarray, parent: tuple[int, ...], cap: float
+              ) -> float:
+    """The worst quantity's CPU saving of the best ratios for ``parent`` (Nelder-Mead from
+    several starts), levels only, the last level at most ``cap`` times the one before."""
+    from scipy.optimize import minimize
+
+    def worst(u: np.ndarray) -> float:
+        r = np.cumprod(np.concatenate([[1.0], 1 + np.exp(u)]))
+        if r[-1] > cap * r[-2]:
+            return 1e9
+        m = r / float(np.dot(w, r))  # unit budget
+        return max(_acv_variance(c, m, parent) / (c[0, 0] * w[0]) for c in covs)
+
+    best = min(minimize(worst, np.full(len(w) - 1, s), method="Nelder-Mead",
+                        options={"maxiter": 4000, "xatol": 1e-5, "fatol": 1e-9}).fun
+               for s in (0.0, 1.0, 2.0, 3.0))
+    return 1.0 / best
+
+
 def paired(rows: int, budget: float, pce_runs: int, workers: int, draws: int,
            score: list[Any]) -> None:
     """FT-AS Case 2: ``rows`` paired runs at h = 0.01 / 0.02 / 0.05 s and a PCE learnt on
@@ -422,8 +458,9 @@ def paired(rows: int, budget: float, pce_runs: int, workers: int, draws: int,
     against: each level's ``1 - rho^2`` with h = 0.01 s, the best allocation and its CPU
     saving at ``budget`` CPU-s with the PCE's CPU added, the savings of the allocations made
     from ``draws`` pilots of 100 and 200 of those rows, and of the allocations in ``score``
-    (``[label, levels, runs per level, CPU in all]``, levels as the ``ft_as-run`` config's:
-    0-3 the steps, 4 the PCE)."""
+    (``[label, levels, runs per level, CPU in all, CPU per run at h = 0.01 s]``, levels as the
+    ``ft_as-run`` config's: 0-3 the steps, 4 the PCE; the plain-MC CPU at the run's own cost
+    per run, so that a run on a busier machine is compared at its own prices)."""
     from uqguide.driver.execution import ProcessExecutor, SerialExecutor
     from uqguide.driver.propagate import run
 
@@ -490,12 +527,15 @@ def paired(rows: int, budget: float, pce_runs: int, workers: int, draws: int,
         print(f"    {n:>16} " + " ".join(f"{1 - v**2:9.2e}" for v in r[1:]))
     cap = np.array([np.inf, np.inf, np.inf, 100.0])
 
-    def saving(levels_used: tuple[int, ...], sizes: np.ndarray, cpu: float) -> float:
-        """Plain-MC CPU for the same standard errors (BLUE) over ``cpu``, worst quantity."""
+    def saving(levels_used: tuple[int, ...], sizes: np.ndarray, cpu: float,
+               c0: float | None = None) -> float:
+        """Plain-MC CPU for the same standard errors (BLUE), at ``c0`` per run (default:
+        measured here), over ``cpu``; the worst quantity."""
         worst = np.inf
         for c in covs:
             cl = c[np.ix_(levels_used, levels_used)]
-            worst = min(worst, cl[0, 0] / (cpu / w[0]) / _blue_variance(cl, sizes))
+            runs = cl[0, 0] / _blue_variance(cl, sizes)
+            worst = min(worst, runs * (w[0] if c0 is None else c0) / cpu)
         return worst
 
     def at_budget(a: Any) -> float:
@@ -510,6 +550,9 @@ def paired(rows: int, budget: float, pce_runs: int, workers: int, draws: int,
               f"{np.round(best.ratios, 1).tolist()}, CPU saving {1 / best.variance_ratio:.2f}x "
               f"(MFMC, levels only), {at_budget(type(best)(used, best.ratios, 0.0)):.2f}x "
               f"(BLUE, at {budget:g} CPU-s with the PCE's {fixed:.0f} s)")
+    for parent, what in (((0, 0, 1, 2), "MFMC's"), ((0, 0, 0, 0), "ACV-MF's")):
+        print(f"  {what} pattern of all four levels, jointly optimal weights, best ratios: CPU "
+              f"saving {_best_acv(covs, w, parent, 100.0):.2f}x (levels only)")
     rng = np.random.default_rng(0)
     for n_pilot in (100, 200):
         if 2 * n_pilot > n_ok:  # (pilots must be a small part of the truth they are scored on)
@@ -524,8 +567,8 @@ def paired(rows: int, budget: float, pce_runs: int, workers: int, draws: int,
               f"{np.median(g):.2f}x, 10% below {np.quantile(g, 0.1):.2f}x, "
               f"{np.mean(g >= 5):.0%} at 5x or more")
     index = {0: 0, 1: 1, 2: 2, 4: 3}
-    for label, used, runs, cpu in score:
-        scored = saving(tuple(index[i] for i in used), np.array(runs, float), cpu)
+    for label, used, runs, cpu, c0 in score:
+        scored = saving(tuple(index[i] for i in used), np.array(runs, float), cpu, c0)
         print(f"  {label}: levels {used}, runs {runs}, {cpu:g} CPU-s: CPU saving against the "
               f"paired runs {scored:.2f}x")
 
@@ -611,7 +654,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--rows", type=int, default=1200, help="ft_as-paired: paired runs")
     ap.add_argument("--score", default="[]",
-                    help="ft_as-paired: JSON [[label, levels, runs per level, CPU s], ...]")
+                    help="ft_as-paired: JSON [[label, levels, runs per level, CPU s, CPU s "
+                         "per run at the highest level], ...]")
     ap.add_argument("--jump", type=float, default=JUMP, help="jumps: the jump's size")
     ap.add_argument("--p-jump", type=float, default=P_JUMP, help="jumps: its probability")
     ap.add_argument("--estimator", choices=["blue", "mfmc"], default="blue",
