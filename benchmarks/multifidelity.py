@@ -208,19 +208,34 @@ def analytic(seeds: int, budget: float, peer_python: str | None = None) -> None:
         y0 = x + 0.2 * x**2
         lv = [(y0 + NOISE[i] * rng.standard_normal(y0.size))[:sizes[j], None]
               for j, i in enumerate(alloc.levels)]
-        for e in ("mfmc", "blue"):
-            st = mfmc_statistics(lv, sizes, n_resamples=200, seed=s, estimator=e)
-            est[e].append((st.mean[0], st.std[0]))
-            hits[e, "mean"] += st.ci["mean"][0, 0] <= 0.2 <= st.ci["mean"][1, 0]
-            hits[e, "std"] += st.ci["std"][0, 0] <= np.sqrt(1.08) <= st.ci["std"][1, 0]
+        _both_estimators(lv, sizes, s, 0.2, np.sqrt(1.08), est, hits)
         mc = y0[:n_mc]
         est["mc"].append((mc.mean(), mc.std()))
     print(f"  over {seeds} seeds ({time.process_time() - t_cpu:.1f} CPU-s):")
-    print(f"  {'':>6} {'s.e. mean':>10} {'s.e. std':>10} {'bias mean':>10}")
+    _print_spread_and_coverage(est, hits, seeds, 0.2, np.sqrt(1.08))
+
+
+def _both_estimators(lv: list[np.ndarray], sizes: np.ndarray, seed: int, mean: float,
+                     std: float, est: dict[str, list[tuple[float, float]]],
+                     hits: dict[tuple[str, str], int]) -> None:
+    """One seed's MFMC and BLUE estimates of mean and std, and whether their 95% intervals
+    hold the exact values, added to ``est`` and ``hits``."""
+    for e in ("mfmc", "blue"):
+        st = mfmc_statistics(lv, sizes, n_resamples=200, seed=seed, estimator=e)
+        est[e].append((st.mean[0], st.std[0]))
+        hits[e, "mean"] += bool(st.ci["mean"][0, 0] <= mean <= st.ci["mean"][1, 0])
+        hits[e, "std"] += bool(st.ci["std"][0, 0] <= std <= st.ci["std"][1, 0])
+
+
+def _print_spread_and_coverage(est: dict[str, list[tuple[float, float]]],
+                               hits: dict[tuple[str, str], int], seeds: int, mean: float,
+                               std: float) -> None:
+    """The estimates' spread and bias over the seeds, and the intervals' coverage."""
+    print(f"  {'':>6} {'s.e. mean':>10} {'s.e. std':>10} {'bias mean':>10} {'bias std':>10}")
     for k, v in est.items():
         a = np.array(v)
         print(f"  {k:>6} {a[:, 0].std(ddof=1):10.5f} {a[:, 1].std(ddof=1):10.5f} "
-              f"{a[:, 0].mean() - 0.2:+10.5f}")
+              f"{a[:, 0].mean() - mean:+10.5f} {a[:, 1].mean() - std:+10.5f}")
     for (e, k), h in hits.items():
         lo, hi = _wilson(h, seeds)
         print(f"  {e}: coverage of the exact {k}: {h}/{seeds} = {h / seeds:.2f} "
@@ -267,25 +282,13 @@ def jumps(seeds: int, budget: float, n_pilot: int, jump: float = JUMP,
         sizes = sample_sizes(alloc, JUMP_COST, budget=budget - spent, at_least=n_pilot)
         runs.append(sizes.tolist())
         lv = [pool[i][:sizes[j], None] for j, i in enumerate(alloc.levels)]
-        for e in ("mfmc", "blue"):
-            st = mfmc_statistics(lv, sizes, n_resamples=200, seed=s, estimator=e)
-            est[e].append((st.mean[0], st.std[0]))
-            hits[e, "mean"] += st.ci["mean"][0, 0] <= mean <= st.ci["mean"][1, 0]
-            hits[e, "std"] += st.ci["std"][0, 0] <= std <= st.ci["std"][1, 0]
+        _both_estimators(lv, sizes, s, mean, std, est, hits)
         mc = pool[0][:n_mc]
         est["mc"].append((mc.mean(), mc.std()))
     print(f"jumps: level 0 jumps by {jump:g} with p = {p:g}, costs {JUMP_COST.tolist()}, "
           f"budget {budget:g}, pilot {n_pilot}; exact mean {mean:.4f}, std {std:.4f}; "
           f"runs per level (first 3 seeds) {runs[:3]}, plain MC {n_mc}")
-    print(f"  {'':>6} {'s.e. mean':>10} {'s.e. std':>10} {'bias mean':>10} {'bias std':>10}")
-    for k, v in est.items():
-        a = np.array(v)
-        print(f"  {k:>6} {a[:, 0].std(ddof=1):10.5f} {a[:, 1].std(ddof=1):10.5f} "
-              f"{a[:, 0].mean() - mean:+10.5f} {a[:, 1].mean() - std:+10.5f}")
-    for (e, k), h in hits.items():
-        lo, hi = _wilson(h, seeds)
-        print(f"  {e}: coverage of the exact {k}: {h}/{seeds} = {h / seeds:.2f} "
-              f"(95% Wilson [{lo:.2f}, {hi:.2f}])")
+    _print_spread_and_coverage(est, hits, seeds, mean, std)
 
 
 # ---------------------------------------------------------------------------------- euler
