@@ -123,3 +123,20 @@ def test_a_function_returning_other_outputs_is_told_how_to_declare_them(write_co
     r = _invoke("run", str(write_config(fixed, "fixed.yaml")), "--out", str(tmp_path / "ok"),
                 "-q")
     assert r.exit_code == 0, r.output
+
+
+def test_a_callable_whose_inputs_are_not_declared_is_told_where(write_config, tmp_path):
+    """The other first mistake: the config's inputs named, the model's `inputs` left at its
+    default [x1, x2]. Exit 2, and the message gives the `model.inputs` line for this config."""
+    cfg = {"model": {"name": "callable", "function": "tests.fixtures_models:series_and_scalar",
+                     "outputs": [{"name": "path", "kind": "series"}, "total"]},
+           "inputs": [{"name": "a", "dist": "normal", "std": 1.0}],
+           "methods": [{"name": "monte_carlo", "n_samples": 20}]}
+    r = _invoke("run", str(write_config(cfg)), "--out", str(tmp_path / "out"), "-q")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert "model 'callable' has no input 'a'" in r.output
+    assert "for this config, model.inputs: [a]" in r.output, r.output
+    fixed = dict(cfg, model=dict(cfg["model"], inputs=["a"]))
+    r = _invoke("run", str(write_config(fixed, "fixed.yaml")), "--out", str(tmp_path / "ok"),
+                "-q")
+    assert r.exit_code == 0, r.output

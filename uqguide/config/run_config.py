@@ -676,9 +676,14 @@ def _build_space(raw: RawConfig, model: Model | None) -> InputSpace:
                 raise ConfigError(f"inputs[{i}].name: {m.name!r} must be {PLAIN_NAME_RULE}",
                                   field=f"inputs[{i}].name")
         elif accepted is not None and m.name not in accepted:
+            where = ""
+            if model.declares_inputs:
+                names = ", ".join(n.name for n in raw.inputs)
+                where = (f" (model.inputs, {', '.join(accepted)} unless set, declares them "
+                         f"in column order: for this config, model.inputs: [{names}])")
             raise ConfigError(
                 f"inputs[{i}].name: model '{model.name}' has no input {m.name!r}"
-                f"{did_you_mean(m.name, accepted)}; allowed: {', '.join(accepted)}",
+                f"{did_you_mean(m.name, accepted)}; allowed: {', '.join(accepted)}{where}",
                 field=f"inputs[{i}].name")
         if m.name in seen:
             raise ConfigError(

@@ -152,6 +152,9 @@ class Model(ABC):
     #: the only ones a multi-fidelity method's ``fidelities`` may change
     #: (:meth:`at_fidelity`). Empty: the model has a single fidelity.
     fidelity_params: ClassVar[tuple[str, ...]] = ()
+    #: Whether the config names the model's inputs (``model.inputs``, a user's function or
+    #: program) rather than the model's code: an unknown input is then told where to declare it.
+    declares_inputs: ClassVar[bool] = False
 
     def __init__(self, params: ModelParams | Mapping[str, object] | None = None) -> None:
         if params is None:

@@ -272,6 +272,7 @@ class CallableModel(DeclaredModel):
     summary = "a user's vectorised Python function 'package.module:function' of x (n, d)"
     Params = CallableParams
     may_crash = True  # a user's function may segfault (C extensions), leak or os._exit
+    declares_inputs = True
     params: CallableParams
     #: Fidelity levels of a user's model are other functions of the same inputs and outputs
     #: (``fidelities: [{function: "sim:fine"}, {function: "sim:coarse"}]``).

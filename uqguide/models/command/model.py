@@ -222,6 +222,7 @@ class CommandModel(DeclaredModel):
     name = "command"
     summary = "any executable run on a file of inputs, writing a file of outputs"
     Params = CommandParams
+    declares_inputs = True
     params: CommandParams
     example_params = {
         "command": f"{shlex.quote(sys.executable)} -c {shlex.quote(_EXAMPLE)} "
