@@ -37,7 +37,6 @@ from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
-from scipy.optimize import minimize
 
 __all__ = ["Allocation", "mfmc_ratios", "ordering_holds", "select_allocation",
            "sample_sizes", "variance_factor", "variance_ratio"]
@@ -210,6 +209,10 @@ def _refine(start: Allocation, rho: np.ndarray, w: np.ndarray, step: np.ndarray
     levels = list(start.levels)
     if len(levels) == 1:
         return start
+    # (imported here: scipy.optimize takes half a second, and every CLI start-up imports
+    # this module through the driver)
+    from scipy.optimize import minimize
+
     rq, wq, cap = rho[:, levels], w[levels], step[levels]
     finite = np.isfinite(cap[1:])
 
