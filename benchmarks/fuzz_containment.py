@@ -209,7 +209,7 @@ def templates(tmp: Path, cfg: Path) -> dict[str, Path]:
         res = _invoke("run", cfg, "--out", tmp / "t_resume", "-q")
     assert res.exit_code == 130, res.output
     made["resume"] = tmp / "t_resume" / f"{NAME}.run"
-    from uqguide.driver import run_and_write as rw
+    from uqguide.commands import run_and_write as rw
 
     real = rw.write_hdf5
 

@@ -1,7 +1,7 @@
 """The committed results/ agree with today's code: one Monte Carlo sample of every committed
 result file is rerun and must give its stored scalars to round-off (``uqguide replay``'s check:
 bit for bit on the machine that wrote them, within 1e-9 relative on another CPU, whose kernels
-may move the last bits; :data:`uqguide.driver.replay.ROUNDOFF`).
+may move the last bits; :data:`uqguide.commands.replay.ROUNDOFF`).
 
 A failure here means the committed results are stale (older than the code or a dependency):
 regenerate them with ``python scripts/reproduce_results.py``.
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uqguide.driver.replay import ROUNDOFF, replay
+from uqguide.commands.replay import ROUNDOFF, replay
 from uqguide.results.result import read_hdf5
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"

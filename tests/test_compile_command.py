@@ -7,7 +7,7 @@ import yaml
 from click.testing import CliRunner
 
 from uqguide.cli import main
-from uqguide.driver.compile_kernels import compile_kernels
+from uqguide.commands.compile_kernels import compile_kernels
 from uqguide.models import kernels
 
 

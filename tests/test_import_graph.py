@@ -68,7 +68,7 @@ def test_folders_above_each_other_in_a_circle_are_refused(tmp_path):
 
 def test_the_real_folders_form_the_documented_chain():
     layer = _script().layers()
-    chain = ["errors", "core", "stats", "models", "pce", "methods", "config", "results", "gate",
-             "report", "papers", "driver", "api", "cli"]
+    chain = ["errors", "core", "stats", "models", "pce", "methods", "config", "results", "driver",
+             "gate", "report", "papers", "commands", "api", "cli"]
     assert [layer[p] for p in chain] == sorted(layer[p] for p in chain)
     assert len({layer[p] for p in chain}) == len(chain)

@@ -13,7 +13,7 @@ from click.testing import CliRunner
 import uqguide
 from uqguide.cli import main
 from uqguide.config.run_config import validate_config
-from uqguide.driver.strict import check_withheld
+from uqguide.commands.strict import check_withheld
 from uqguide.errors import UqguideError
 from uqguide.core.types import OutputStats
 from uqguide.methods.pce_validated import _withhold_unsupported

@@ -42,7 +42,7 @@ def no_figures(monkeypatch):
     """Replay without drawing (~2.5 CPU-s a replay): the tests of the choice and of the
     comparison; the figures are checked by the worst-zem test."""
     import uqguide.papers
-    from uqguide.driver import replay
+    from uqguide.commands import replay
 
     monkeypatch.setattr(replay, "history_figure", lambda rep, name, path: path)
     monkeypatch.setattr(uqguide.papers, "sample_figures", lambda *args: [])

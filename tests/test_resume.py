@@ -288,7 +288,7 @@ def test_a_run_stopped_while_writing_its_result_is_recognised_as_finished(tmp_pa
     """Every chunk done, then Ctrl-C while the tables were written: a plain rerun used to refuse
     with 'holds an unfinished run'; it now sees a finished run of the same config and runs it
     again (same numbers)."""
-    from uqguide.driver import run_and_write as raw
+    from uqguide.commands import run_and_write as raw
 
     cfg = tmp_path / "w.yaml"
     cfg.write_text(yaml.safe_dump(_config("tests.failing_models:clean_sum", 400)))

@@ -163,7 +163,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .driver.propagate import check_failure_budget, check_methods
     from .report.tables import render_text
     from .config.report_times import check_config_report_times
-    from .driver.run_and_write import WriteInterrupted, run_and_write
+    from .commands.run_and_write import WriteInterrupted, run_and_write
 
     _check_executor_flags(workers, scheduler, scheduler_file)
     if check_sensitivity and not check_path:
@@ -216,7 +216,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     check_methods(result)
     check_failure_budget(result, cfg.raw.max_failed_fraction)
     if strict or cfg.raw.strict:
-        from .driver.strict import check_withheld
+        from .commands.strict import check_withheld
 
         check_withheld(result)
     if check_path:
@@ -300,7 +300,7 @@ def compile_command(configs: tuple[str, ...]) -> None:
     For a container build, before a cluster job array, or before timing anything: a kernel
     already in the cache is only loaded.
     """
-    from .driver.compile_kernels import compile_kernels, format_compiled
+    from .commands.compile_kernels import compile_kernels, format_compiled
 
     click.echo(format_compiled(compile_kernels(configs)))
 
@@ -550,7 +550,7 @@ def replay(result_path: Path, label: str, sample: int | None, worst: str | None,
     most 1e-9 relative: another CPU's last bits), 1 when they differ by more (the code or a
     dependency changed since RESULT was written; with --exact, by any bit), 2 on bad input.
     """
-    from .driver.replay import ROUNDOFF, render, replay as replay_sample, write_replay
+    from .commands.replay import ROUNDOFF, render, replay as replay_sample, write_replay
     from .results.result import read_hdf5
 
     result = read_hdf5(result_path)

@@ -1,4 +1,4 @@
-"""Statistics as a CI regression gate, above ``results``.
+"""Statistics as a CI regression gate, above ``driver``.
 
 - ``baseline``: a result's statistics and their standard errors, kept as JSON;
 - ``check``: a result against a baseline, statistic by statistic;

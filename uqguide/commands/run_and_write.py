@@ -19,20 +19,20 @@ import yaml
 
 from ..config.budget import check_budget, estimate
 from ..core.atomic import refuse_folders, refuse_links
-from .checkpoint import RunStore, run_dir, run_identity
-from .run_manifest import study_config
+from ..driver.checkpoint import RunStore, run_dir, run_identity
+from ..driver.run_manifest import study_config
 from ..config.run_config import RUN_NAME_RULE, RunConfig
 from ..errors import ConfigError
-from .execution import Executor, SerialExecutor
-from .execution.processes import refuse_nested_run
-from .interrupts import deferred
-from .progress import Progress
-from .propagate import run
+from ..driver.execution import Executor, SerialExecutor
+from ..driver.execution.processes import refuse_nested_run
+from ..driver.interrupts import deferred
+from ..driver.progress import Progress
+from ..driver.propagate import run
 from ..report.tables import write_tables
 from ..config.report_times import check_config_report_times
 from ..errors import ResultError
 from ..results.result import Result, read_config, write_hdf5
-from .runlock import RunLock
+from ..driver.runlock import RunLock
 
 
 class WriteInterrupted(KeyboardInterrupt):
