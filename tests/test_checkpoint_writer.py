@@ -7,7 +7,7 @@ import threading
 
 import pytest
 
-from uqguide.driver.checkpoint_writer import CheckpointWriter
+from uqguide.driver.run_folder import CheckpointWriter
 
 
 def test_items_are_written_in_order_on_another_thread():

@@ -449,7 +449,7 @@ def test_a_flagged_sample_may_leave_its_cells_empty_and_a_series_row_too(tmp_pat
 
 
 def test_a_recompiled_program_is_a_code_change_a_resume_refuses(program, tmp_path):
-    from uqguide.driver.checkpoint import model_code_hash
+    from uqguide.driver.run_folder import model_code_hash
 
     copy = tmp_path / "sim"
     shutil.copy(program, copy)

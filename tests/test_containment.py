@@ -21,7 +21,7 @@ from click.testing import CliRunner
 
 import uqguide
 from uqguide.cli import main
-from uqguide.driver.checkpoint import RunStore, run_identity
+from uqguide.driver.run_folder import RunStore, run_identity
 from uqguide.driver.progress import Progress
 from uqguide.driver.propagate import containment_of, propagate
 from uqguide.results.result import read_hdf5
@@ -174,7 +174,7 @@ def test_a_signal_swallowed_before_the_result_is_written_is_exit_130(tmp_path, m
 def test_a_hard_link_at_the_lock_is_refused_before_anything_is_written(tmp_path):
     """Found by benchmarks/fuzz_containment.py: O_NOFOLLOW stops a symbolic link, not a
     second name of a file outside --out, which the lock truncated and wrote."""
-    from uqguide.driver.runlock import RunLock
+    from uqguide.driver.run_folder import RunLock
     from uqguide.errors import ConfigError
 
     victim = tmp_path / "outside.txt"

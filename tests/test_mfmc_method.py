@@ -176,7 +176,7 @@ def _same_statistics(a, b):
 def test_two_workers_dask_and_a_resume_give_the_bits_of_a_serial_run(tmp_path):
     from distributed import Client, LocalCluster
 
-    from uqguide.driver.checkpoint import RunStore, run_identity
+    from uqguide.driver.run_folder import RunStore, run_identity
     from uqguide.driver.execution import DaskExecutor, ProcessExecutor
     from uqguide.testing import _StopAfterFirstChunk
 

@@ -14,7 +14,7 @@ from click.testing import CliRunner
 
 from uqguide.cli import main
 from uqguide.core import atomic
-from uqguide.driver.runlock import RunLock
+from uqguide.driver.run_folder import RunLock
 from uqguide.errors import ConfigError
 
 PRECIOUS = "the user's own file\n"

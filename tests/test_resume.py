@@ -160,7 +160,7 @@ def test_a_model_whose_code_changed_is_refused(tmp_path, monkeypatch):
     (pkg / "__init__.py").write_text("")
     (pkg / "f.py").write_text("def f(x):\n    return x[:, 0] + x[:, 1]\n")
     monkeypatch.syspath_prepend(str(tmp_path))
-    from uqguide.driver.checkpoint import RunStore, run_identity
+    from uqguide.driver.run_folder import RunStore, run_identity
     from uqguide.config.run_config import validate_config
 
     c = validate_config(_config("usermod.f:f", 200))
@@ -178,7 +178,7 @@ def test_a_model_whose_code_changed_is_refused(tmp_path, monkeypatch):
 
 
 def test_manifest_lines_and_chunk_files(tmp_path):
-    from uqguide.driver.checkpoint import RunStore, run_identity
+    from uqguide.driver.run_folder import RunStore, run_identity
     from uqguide.config.run_config import validate_config
     from uqguide.driver.propagate import run
 
@@ -199,12 +199,12 @@ def test_a_checkpoint_write_that_fails_stops_the_run_and_lists_only_what_is_on_d
     """Chunks are written by a background thread; its error (here a full disk at the second
     chunk) reaches the run, which fails with it, and the manifest lists exactly the chunk
     files written before it, so a resume re-runs the rest."""
-    from uqguide.driver import checkpoint
-    from uqguide.driver.checkpoint import RunStore, run_identity
+    from uqguide.driver import run_folder as checkpoint
+    from uqguide.driver.run_folder import RunStore, run_identity
     from uqguide.config.run_config import validate_config
     from uqguide.driver.propagate import run
 
-    real = checkpoint._write_chunk
+    real = checkpoint.write_chunk
     written = []
 
     def full_disk(path, r, *args):
@@ -213,7 +213,7 @@ def test_a_checkpoint_write_that_fails_stops_the_run_and_lists_only_what_is_on_d
         real(path, r, *args)
         written.append(path.name)
 
-    monkeypatch.setattr(checkpoint, "_write_chunk", full_disk)
+    monkeypatch.setattr(checkpoint, "write_chunk", full_disk)
     c = validate_config(_config("tests.failing_models:clean_sum", 500))
     store = RunStore.open(tmp_path / "r.run", run_identity(c.resolved(), c.model), resume=False)
     with pytest.raises(OSError, match="No space left"):

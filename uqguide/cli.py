@@ -156,7 +156,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         check_path: Path | None, check_sensitivity: bool, quiet: bool, strict: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .config.budget import estimate
-    from .driver.checkpoint import RunInterrupted
+    from .driver.run_folder import RunInterrupted
     from .config.run_config import load_config
     from .driver.execution import Executor, ProcessExecutor, make_executor
     from .driver.progress_display import make_progress

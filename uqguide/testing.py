@@ -53,7 +53,7 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from .driver.checkpoint import RunStore, run_identity
+from .driver.run_folder import RunStore, run_identity
 from .config.run_config import validate_config
 from .errors import ModelError
 from .driver.execution import ChunkJob, ChunkResult, Executor, ProcessExecutor, SerialExecutor, Task

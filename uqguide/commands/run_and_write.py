@@ -19,8 +19,7 @@ import yaml
 
 from ..config.budget import check_budget, estimate
 from ..core.atomic import refuse_folders, refuse_links
-from ..driver.checkpoint import RunStore, run_dir, run_identity
-from ..driver.run_manifest import study_config
+from ..driver.run_folder import RunLock, RunStore, run_dir, run_identity, study_config
 from ..config.run_config import RUN_NAME_RULE, RunConfig
 from ..errors import ConfigError
 from ..driver.execution import Executor, SerialExecutor
@@ -32,7 +31,6 @@ from ..report.tables import write_tables
 from ..config.report_times import check_config_report_times
 from ..errors import ResultError
 from ..results.result import Result, read_config, write_hdf5
-from ..driver.runlock import RunLock
 
 
 class WriteInterrupted(KeyboardInterrupt):

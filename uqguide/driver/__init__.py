@@ -5,9 +5,7 @@
 - ``propagate_levels``: a multi-fidelity method's pilot, allocation and main runs over the
   fidelity levels of one model;
 - ``execution/``: chunks, seeds, the serial / process-pool / Dask executors, isolation;
-- ``checkpoint``: a resumable run folder (``RunStore``), made of ``run_manifest`` (whose run
-  the folder is: identity, resume checks, refusals), ``chunk_store`` (the finished chunks'
-  files) and ``checkpoint_writer`` (the background thread that writes them);
-- ``runlock``, ``interrupts``: one owner per run folder; Ctrl-C and SIGTERM;
+- ``run_folder``: the resumable run folder: its lock, manifest, chunk files and writer thread;
+- ``interrupts``: Ctrl-C and SIGTERM;
 - ``progress``, ``progress_display``: counts, ETA and how they are shown.
 """

@@ -3,7 +3,7 @@
 ``run(load_config(path))`` is the whole of ``uqguide run`` less the printing and the writing.
 
 Evaluation goes chunk by chunk through an executor (:mod:`uqguide.driver.execution`); finished
-chunks are checkpointed as they arrive when a :class:`~uqguide.driver.checkpoint.RunStore` is given
+chunks are checkpointed as they arrive when a :class:`~uqguide.driver.run_folder.RunStore` is given
 (and taken from it on resume), and folded **in chunk order** whatever order they finish in, so the
 numbers do not depend on the executor, the worker count or interruptions. A
 :class:`~uqguide.methods.base.StreamingMethod` (Monte Carlo) is folded chunk by chunk into
@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .checkpoint import RunInterrupted, RunStore
+from .run_folder import RunInterrupted, RunStore
 from .stage import Stage
 from ..config.run_config import RunConfig
 from ..errors import MethodError, UqguideError
@@ -248,7 +248,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
     executor : Executor, optional
         Default: this process, in calls of the config's ``batch_size``.
     store : RunStore, optional
-        Checkpoint folder (see :mod:`uqguide.driver.checkpoint`).
+        Checkpoint folder (see :mod:`uqguide.driver.run_folder`).
     progress : Progress, optional
         Where progress is shown (default: counted, not shown).
 

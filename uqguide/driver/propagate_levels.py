@@ -26,7 +26,7 @@ from ..methods.mfmc import MultiFidelityMC
 from ..models.base import Model
 from ..results.result import MethodRun
 from .surrogate_level import SurrogateLevel
-from .checkpoint import RunStore
+from .run_folder import RunStore
 from .execution import Containment, Executor, Task, Timing, common_grid
 from .progress import Progress
 from .stage import Stage

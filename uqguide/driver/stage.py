@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .checkpoint import RunStore
+from .run_folder import RunStore
 from ..errors import ModelError
 from .execution import (
     ChunkJob, ChunkResult, Containment, Executor, ModelHandle, Task, Timing, common_grid,

@@ -1,0 +1,1037 @@
+"""The run folder: a run that survives a crash, a kill or Ctrl-C, and ``--resume``.
+
+``<out>/<name>.run/`` holds ``manifest.jsonl`` (append-only and fsynced: the run's identity,
+then one line per finished chunk or isolated sample) and one ``.npz`` per finished chunk,
+written whole and renamed before its manifest line; ``<out>/<name>.run.lock`` gives the folder
+one owner. :class:`RunStore` is what the driver holds: the :class:`RunManifest` (whose run the
+folder is, resume checks, refusals), the :class:`ChunkStore` (the chunks' files) and the
+:class:`CheckpointWriter` (the background thread that writes them). :class:`RunLock` is taken
+by the command before the folder is read.
+
+Layout, guarantees and refusals: docs/scale.md, "Checkpoints and --resume".
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import errno
+import fcntl
+import hashlib
+import importlib
+import inspect
+import json
+import logging
+import os
+import queue
+import re
+import shutil
+import socket
+import stat
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Generic, TypeVar
+
+import numpy as np
+
+from .._version import __version__
+from ..core.atomic import atomic_path, clean_stale_temps, refuse_links
+from ..errors import ConfigError
+from ..models.base import Model
+from .execution import ChunkResult, Task
+from .interrupts import deferred
+
+log = logging.getLogger(__name__)
+
+
+# ---------------------------------------------------------------------------- the lock
+class RunLock:
+    """The exclusive lock of one run folder; a context manager.
+
+    Parameters
+    ----------
+    run_folder : path
+        The run folder ``<out>/<name>.run`` (it need not exist yet).
+    """
+
+    def __init__(self, run_folder: str | Path) -> None:
+        self.run_folder = Path(run_folder)
+        self.path = self.run_folder.with_name(self.run_folder.name + ".lock")
+        self._fd: int | None = None
+
+    @property
+    def held(self) -> bool:
+        return self._fd is not None
+
+    def acquire(self) -> RunLock:
+        """Take the lock or raise ConfigError naming its owner."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        for _ in range(20):
+            try:
+                # O_NOFOLLOW: a link planted at the lock's name must not be truncated and
+                # written through (a write outside --out), nor its missing target created.
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0),
+                             0o644)
+            except OSError as e:
+                if e.errno == errno.EISDIR:
+                    raise ConfigError(
+                        f"--out: {self.path} is a folder; the run's lock file goes there and "
+                        f"uqguide does not replace a folder: move it, or give this run another "
+                        f"--out or name", field="out") from None
+                if e.errno != errno.ELOOP:
+                    raise
+                refuse_links(self.path)
+                raise
+            _refuse_shared(fd, self.path)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                owner = _read_owner(fd)
+                os.close(fd)
+                raise ConfigError(
+                    f"--out: {self.run_folder} is in use by another uqguide run ({owner}); "
+                    f"wait for it to finish, or give this run another --out or name",
+                    field="out") from None
+            # The file may have been unlinked by its previous owner between our open and our
+            # lock: then we hold a lock nobody else sees. Retry on the file now at the path.
+            try:
+                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
+            except FileNotFoundError:
+                same = False
+            if not same:
+                os.close(fd)
+                continue
+            previous = _read_owner(fd)
+            if previous != "owner unknown":
+                log.warning("%s: taking over the lock of a run that is gone (%s)",
+                            self.run_folder, previous)
+            os.ftruncate(fd, 0)
+            os.write(fd, f"pid {os.getpid()} on host {socket.gethostname()}\n".encode())
+            os.fsync(fd)
+            self._fd = fd
+            return self
+        raise ConfigError(f"--out: cannot lock {self.run_folder} (the lock file keeps "
+                          f"changing)", field="out")  # pragma: no cover
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        try:
+            self.path.unlink(missing_ok=True)  # while still locked: no one holds the old inode
+        finally:
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self) -> RunLock:
+        return self.acquire()
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+
+def _refuse_shared(fd: int, path: Path) -> None:
+    """ConfigError (the descriptor closed) unless ``fd`` is a regular file with one name.
+
+    O_NOFOLLOW keeps a symbolic link from redirecting the lock's write, not a hard link: a
+    second name of a file outside --out at the lock's name would be truncated and written.
+    Nothing has been written when this refuses (the lock is opened without O_TRUNC)."""
+    st = os.fstat(fd)
+    if stat.S_ISREG(st.st_mode) and st.st_nlink == 1:
+        return
+    os.close(fd)
+    what = f"a hard link ({st.st_nlink} names)" if stat.S_ISREG(st.st_mode) else \
+        "not a regular file"
+    raise ConfigError(f"--out: {path} is {what}; the run's lock file goes there and uqguide "
+                      f"writes no file that has another name: remove it, or give this run "
+                      f"another --out or name", field="out")
+
+
+def _read_owner(fd: int) -> str:
+    try:
+        os.lseek(fd, 0, os.SEEK_SET)
+        text = os.read(fd, 4096).decode("utf-8", "replace").strip()
+    except OSError:
+        text = ""
+    return text or "owner unknown"
+
+
+# ------------------------------------------------------------------- the manifest: whose run
+#: 2: a chunk's scalars, series and summary packed into one array (1: an npz entry each)
+FORMAT = 2
+MANIFEST = "manifest.jsonl"
+
+#: A chunk line's key: the method's label, the design stage and the chunk index.
+ChunkKey = tuple[str, int, int]
+
+
+# ---------------------------------------------------------------------------- identity
+def model_code_hash(model: Model) -> str:
+    """SHA-256 of the source that defines ``model``.
+
+    The source of the module defining its class (the whole package folder for a simulator
+    package such as ``uqguide.models.ftcapn``) and, for a ``callable`` model, the user
+    function's module, for a ``command`` model its program's file, for an ``fmu`` model the
+    FMU file; a code change elsewhere (a shared helper module) is not seen.
+
+    Parameters
+    ----------
+    model : Model
+
+    Returns
+    -------
+    str
+        Hex digest of its version and source files (a callable model's module, a command
+        model's program file, an fmu model's FMU file included: a recompiled simulator is
+        another model).
+    """
+    files = _source_files(type(model))
+    function = getattr(model.params, "function", None)
+    if model.name == "callable" and isinstance(function, str):
+        try:
+            files += [Path(inspect.getfile(importlib.import_module(function.partition(":")[0])))]
+        except (ImportError, TypeError, OSError):
+            pass
+    program = getattr(model.params, "program_file", None)
+    if model.name in ("command", "fmu") and callable(program):
+        found = program()
+        if found is not None:
+            files.append(found)
+    h = hashlib.sha256(str(getattr(model, "version", "")).encode())
+    for f in sorted(set(files)):
+        h.update(f.name.encode())
+        try:
+            h.update(f.read_bytes())
+        except OSError:
+            h.update(b"<unreadable>")
+    return h.hexdigest()
+
+
+def _source_files(cls: type) -> list[Path]:
+    try:
+        path = Path(inspect.getfile(cls))
+    except (TypeError, OSError):
+        return []
+    module = cls.__module__
+    # A simulator package (uqguide.models.<pkg>.<module>) is hashed whole; a module directly
+    # in uqguide.models (the benchmarks) alone, so editing one model leaves the others' runs.
+    parts = module.split(".")
+    if len(parts) >= 4 and parts[:2] == ["uqguide", "models"] and path.parent.name == parts[2]:
+        return sorted(path.parent.glob("*.py"))
+    if path.name == "__init__.py":
+        return sorted(path.parent.glob("*.py"))
+    return [path]
+
+
+def run_identity(resolved_config: dict[str, Any], model: Model) -> dict[str, Any]:
+    """What must not change between a run and its resumption, with its hash ``run_id``.
+
+    Parameters
+    ----------
+    resolved_config : dict
+        The config with every default filled in.
+    model : Model
+
+    Returns
+    -------
+    dict
+        ``config``, ``uqguide`` (version), ``model``, ``model_code`` (hash) and ``run_id``.
+    """
+    identity = {"config": study_config(resolved_config), "uqguide": __version__,
+                "model": model.name,
+                "model_code": model_code_hash(model)}
+    return {**identity, "run_id": identity_hash(identity)}
+
+
+#: Settings of the model section that decide how its calls run, never their numbers: a run
+#: may be resumed, or its result replaced, with them changed.
+EXECUTION_ONLY = ("isolate",)
+
+
+def study_config(resolved_config: dict[str, Any]) -> dict[str, Any]:
+    """The resolved config less the settings that change only how the model runs
+    (:data:`EXECUTION_ONLY`): what two runs must share to be the same study.
+
+    Parameters
+    ----------
+    resolved_config : dict
+
+    Returns
+    -------
+    dict
+        A copy without ``model.isolate``.
+    """
+    model = resolved_config.get("model")
+    if not isinstance(model, dict) or not any(k in model for k in EXECUTION_ONLY):
+        return resolved_config
+    return {**resolved_config,
+            "model": {k: v for k, v in model.items() if k not in EXECUTION_ONLY}}
+
+
+def identity_hash(identity: dict[str, Any]) -> str:
+    """SHA-256 of a run identity (its canonical JSON, without a ``run_id`` key).
+
+    Parameters
+    ----------
+    identity : dict
+
+    Returns
+    -------
+    str
+        Hex digest.
+    """
+    core = {k: v for k, v in identity.items() if k != "run_id"}
+    text = json.dumps(core, sort_keys=True, default=str, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _first_difference(a: Any, b: Any, path: str = "") -> str | None:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in list(a) + [k for k in b if k not in a]:
+            sub = f"{path}.{k}" if path else str(k)
+            if k not in a or k not in b:
+                return sub
+            d = _first_difference(a[k], b[k], sub)
+            if d:
+                return d
+        return None
+    if isinstance(a, list) and isinstance(b, list):
+        for i, (x, y) in enumerate(zip(a, b)):
+            d = _first_difference(x, y, f"{path}[{i}]")
+            if d:
+                return d
+        return None if len(a) == len(b) else path
+    return None if a == b else path
+
+
+def _lookup(d: Any, path: str) -> Any:
+    for part in re.findall(r"[^.\[\]]+|\[\d+\]", path):
+        try:
+            d = d[int(part[1:-1])] if part.startswith("[") else d[part]
+        except (KeyError, IndexError, TypeError):
+            return "<absent>"
+    return d
+
+
+# ---------------------------------------------------------------------------- the manifest
+class RunManifest:
+    """The manifest of the run folder ``folder`` for the run ``identity`` (as
+    :func:`run_identity` gives it, or without ``run_id``: it is then computed).
+
+    Parameters
+    ----------
+    folder : Path
+        The run folder.
+    identity : dict
+        The identity of this run.
+    """
+
+    def __init__(self, folder: Path, identity: dict[str, Any]) -> None:
+        self.folder = folder
+        if "run_id" not in identity:
+            identity = {**identity, "run_id": identity_hash(identity)}
+        self.identity = identity
+        self.run_id: str = identity["run_id"]
+        # the checkpoint writer's thread appends chunk lines, the driver isolated samples
+        self._append_lock = threading.Lock()
+
+    @property
+    def file(self) -> Path:
+        return self.folder / MANIFEST
+
+    def read(self) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
+        """The header and the chunk lines on disk (see :func:`read_manifest`)."""
+        return read_manifest(self.file)
+
+    def isolated(self) -> dict[tuple[str, int], dict[int, str]]:
+        """The samples of this run found to crash or hang their process, by (label, stage):
+        design row -> reason."""
+        out: dict[tuple[str, int], dict[int, str]] = {}
+        if not self.file.is_file() or self.file.is_symlink():
+            return out
+        try:
+            text = self.file.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            return out
+        for line in text.splitlines():
+            try:
+                obj = json.loads(line)
+                if not isinstance(obj, dict) or obj.get("kind") != "isolated" or \
+                        obj.get("run") != self.run_id:
+                    continue
+                key = (str(obj["label"]), int(obj["stage"]))
+                out.setdefault(key, {})[int(obj["row"])] = str(obj["reason"])
+            except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+                continue  # a torn line: that sample runs again, isolated again
+        return out
+
+    def record_isolated(self, label: str, stage: int, row: int, reason: str) -> None:
+        """List a sample that crashed or hung its process, with its design row and reason."""
+        self.append({"kind": "isolated", "run": self.run_id, "label": label, "stage": stage,
+                     "row": row, "reason": reason})
+
+    def n_chunks(self) -> int:
+        """Chunk lines on disk: what a resume will find."""
+        return len(self.read()[1])
+
+    def start(self) -> None:
+        """Write the header of a fresh run (the folder exists and is empty)."""
+        self.append({"kind": "header", "format": FORMAT,
+                     "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(
+                         timespec="seconds"), **self.identity})
+
+    def append(self, obj: dict[str, Any]) -> None:
+        """Append one line, fsynced before returning: once listed, it survives a power cut."""
+        with self._append_lock, open(self.file, "a", encoding="utf-8") as f:
+            f.write(json.dumps(obj, sort_keys=True) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+
+    def check_same_run(self, header: dict[str, Any]) -> None:
+        """ConfigError naming what differs when ``header`` is not this run's: the stored chunks
+        would mix two experiments.
+
+        Parameters
+        ----------
+        header : dict
+            The first line of the manifest on disk.
+        """
+        where = f"cannot resume {self.folder}"
+        tail = "; start over with another --out, or delete the folder"
+        if header.get("format") != FORMAT:
+            raise ConfigError(f"{where}: written by an incompatible uqguide (run folder "
+                              f"format {header.get('format')!r}){tail}", field="resume")
+        old, new = header.get("config", {}), self.identity["config"]
+        diff = _first_difference(old, new)
+        if diff is not None:
+            raise ConfigError(
+                f"{where}: the config changed since the run started ({diff}: "
+                f"{_lookup(old, diff)!r} -> {_lookup(new, diff)!r}){tail}", field=diff)
+        if header.get("uqguide") != self.identity["uqguide"]:
+            raise ConfigError(
+                f"{where}: it was started by uqguide {header.get('uqguide')}, this is "
+                f"{self.identity['uqguide']}{tail}", field="resume")
+        if header.get("model_code") != self.identity["model_code"]:
+            raise ConfigError(
+                f"{where}: the code of model '{self.identity['model']}' changed since the run "
+                f"started{tail}", field="model.name")
+        if header.get("run_id") != self.run_id:
+            raise ConfigError(f"{where}: its run id {str(header.get('run_id'))[:12]} is not "
+                              f"this run's ({self.run_id[:12]}){tail}", field="resume")
+
+    def clear(self, header: dict[str, Any] | None) -> None:
+        """Delete the folder before a fresh run, but only one that a uqguide manifest
+        identifies and that holds nothing but a run folder's files; an empty folder is removed
+        too. ConfigError (nothing deleted) for anything else.
+
+        Parameters
+        ----------
+        header : dict or None
+            The header on disk (None: no readable manifest).
+        """
+        names = [p.name for p in self.folder.iterdir()]
+        if not names:
+            self.folder.rmdir()
+            return
+        foreign = [n for n in names if not _RUN_FILE.match(n)]
+        anonymous = (header is None or "format" not in header) and any(
+            n.endswith(".npz") for n in names)  # chunk files without a manifest saying whose
+        if foreign or anonymous:
+            what = f"it holds {foreign[0]!r}" if foreign else "it has no uqguide manifest"
+            raise ConfigError(f"{self.folder} is not a uqguide run folder ({what}); refusing to "
+                              f"delete it: move it, or give this run another --out or name",
+                              field="out")
+        shutil.rmtree(self.folder)
+
+    def mark_complete(self) -> None:
+        """Say that every chunk of the run is done: a folder left by an interrupt in the final
+        write is then recognised as a finished run, not an unfinished one."""
+        self.append({"kind": "complete", "run": self.run_id})
+
+    def _ours(self, name: str, listed: set[str]) -> bool:
+        """Whether ``name`` in the folder is a file this run wrote: a chunk the manifest lists,
+        or a chunk (or its temporary file) named for one of this run's method labels, which a
+        kill between the file and its manifest line leaves unlisted."""
+        if name in listed:
+            return True
+        labels = [m.get("label") for m in self.identity.get("config", {}).get("methods", [])
+                  if isinstance(m, dict) and isinstance(m.get("label"), str)]
+        return any(re.fullmatch(rf"\.?{re.escape(str(lab))}\.s\d+\.c\d+\.npz(\.\d+\.tmp)?",
+                                name) for lab in labels)
+
+    def remove(self) -> list[str]:
+        """Delete this run's files and then the folder, when its manifest says it is this run's
+        (after the result file is written: it holds everything). Only files the run wrote are
+        deleted; anything else (a user's notes, a sub-folder) is left where it is, named in a
+        warning, and never stops the run. The manifest goes last, and stays while anything of
+        the run's is left, so the folder still says whose it is.
+
+        Returns
+        -------
+        list of str
+            The names left in the folder (empty: the folder is gone).
+        """
+        if not self.folder.is_dir() or self.folder.is_symlink():
+            return []
+        header, entries = self.read()
+        if header is None or header.get("run_id") != self.run_id:
+            return []
+        listed = {str(e.get("file")) for e in entries.values()}
+        left: list[str] = []
+        ours_left = False
+        for p in sorted(self.folder.iterdir()):
+            if p.name == MANIFEST:
+                continue
+            if self._ours(p.name, listed) and p.is_file() and not p.is_symlink():
+                try:
+                    p.unlink()
+                    continue
+                except OSError:
+                    ours_left = True
+            left.append(p.name)
+        if not ours_left:
+            self.file.unlink(missing_ok=True)
+        if left:
+            log.warning("%s: left in place, not written by this run: %s%s", self.folder,
+                        ", ".join(left[:3]), f" and {len(left) - 3} more" if len(left) > 3
+                        else "")
+            return left
+        try:
+            self.folder.rmdir()
+        except OSError:  # something appeared meanwhile: it is not ours to delete
+            return [p.name for p in self.folder.iterdir()]
+        return []
+
+
+def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
+    """The header (the first one) and the chunk lines of a manifest. A second header of another
+    run makes the header ``{"run_id": "<mixed>"}``: such a folder is never resumed.
+
+    Parameters
+    ----------
+    path : Path
+        The manifest file.
+
+    Returns
+    -------
+    header : dict or None
+        None when there is no readable manifest.
+    entries : dict
+        Chunk lines by (label, stage, index); the last line of a chunk wins.
+    """
+    if not path.is_file() or path.is_symlink():
+        return None, {}
+    header = None
+    entries: dict[ChunkKey, dict[str, Any]] = {}
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None, {}
+    for line in text.splitlines():
+        try:
+            obj = json.loads(line)
+        except json.JSONDecodeError:
+            continue  # a line torn by a kill while it was appended: its chunk is re-run
+        if not isinstance(obj, dict):
+            continue
+        if obj.get("kind") == "header":
+            if header is None:
+                header = obj
+            elif obj.get("run_id") != header.get("run_id"):
+                header = {**header, "run_id": "<mixed>", "format": header.get("format")}
+        elif obj.get("kind") == "complete":
+            if header is not None and obj.get("run") == header.get("run_id"):
+                header = {**header, "complete": True}
+        elif obj.get("kind") == "chunk":
+            try:
+                entries[(str(obj["label"]), int(obj["stage"]), int(obj["index"]))] = obj
+            except (KeyError, TypeError, ValueError):
+                continue
+    return header, entries
+
+
+#: What a run folder holds: anything else in it means it is not (only) ours.
+_RUN_FILE = re.compile(r"^(manifest\.jsonl|[A-Za-z0-9_.\-]+\.s\d+\.c\d+\.npz|\..+\.\d+\.tmp)$")
+
+
+# ---------------------------------------------------------------------------- the chunks
+class ChunkStore:
+    """The chunks of the run ``run_id`` listed in the folder ``folder``.
+
+    Parameters
+    ----------
+    folder : Path
+        The run folder.
+    run_id : str
+        This run's id: a stored chunk of another run is refused.
+    entries : dict, optional
+        The chunk lines already in the manifest, by (label, stage, index).
+    """
+
+    def __init__(self, folder: Path, run_id: str,
+                 entries: dict[ChunkKey, dict[str, Any]] | None = None) -> None:
+        self.folder = folder
+        self.run_id = run_id
+        self._entries: dict[ChunkKey, dict[str, Any]] = dict(entries or {})
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def entry(self, label: str, stage: int, result: ChunkResult) -> dict[str, Any]:
+        """The manifest line of a chunk (its file is named after its label, stage and index).
+
+        Parameters
+        ----------
+        label : str
+            The method's label.
+        stage : int
+            Design stage (0: initial, then one per refinement).
+        result : ChunkResult
+
+        Returns
+        -------
+        dict
+        """
+        t = result.task
+        return {"kind": "chunk", "run": self.run_id, "label": label, "stage": stage,
+                "index": t.index, "start": t.start, "stop": t.stop,
+                "file": f"{label}.s{stage}.c{t.index:06d}.npz", "n_failed": result.n_failed}
+
+    def add(self, entry: dict[str, Any]) -> None:
+        """List a chunk whose file is on disk and whose line is in the manifest."""
+        self._entries[(entry["label"], entry["stage"], entry["index"])] = entry
+
+    def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
+        """The stored result of a chunk, or None when it is not (validly) stored.
+
+        Parameters
+        ----------
+        label : str
+            The method's label.
+        stage : int
+            Design stage (0: initial, then one per refinement).
+        task : Task
+            The chunk.
+
+        Returns
+        -------
+        ChunkResult or None
+            ConfigError when the stored chunk belongs to another run.
+        """
+        e = self._entries.get((label, stage, task.index))
+        if e is None:
+            return None
+        if e.get("run") != self.run_id:
+            raise ConfigError(
+                f"cannot resume {self.folder}: chunk {task.index} of {label} ({e.get('file')}) "
+                f"belongs to another run (run id {str(e.get('run'))[:12]}, this run "
+                f"{self.run_id[:12]}); delete the folder to start over", field="resume")
+        if (e["start"], e["stop"]) != (task.start, task.stop):
+            log.warning("%s: chunk %d of %s has other bounds than stored; re-running it",
+                        self.folder, task.index, label)
+            return None
+        try:
+            r = read_chunk(self.folder / e["file"], task)
+        except ForeignChunk as exc:
+            raise ConfigError(f"cannot resume {self.folder}: {e['file']} {exc} (this run "
+                              f"{self.run_id[:12]}, {label} stage {stage}); delete the "
+                              f"folder to start over", field="resume") from None
+        except (OSError, ValueError, KeyError) as exc:
+            log.warning("%s: cannot read %s (%s); re-running the chunk", self.folder, e["file"],
+                        exc)
+            return None
+        if r.run_id != self.run_id or r.label != label or r.stage != stage:
+            raise ConfigError(
+                f"cannot resume {self.folder}: {e['file']} belongs to another run or method "
+                f"(run id {r.run_id[:12]}, {r.label} stage {r.stage}; this run "
+                f"{self.run_id[:12]}, {label} stage {stage}); delete the folder to start over",
+                field="resume")
+        return r.result
+
+
+# ---------------------------------------------------------------------------- chunk files
+class ForeignChunk(ValueError):
+    """A chunk file written by another run."""
+
+
+@dataclass
+class StoredChunk:
+    """A chunk file read back: its result and whose it says it is."""
+
+    result: ChunkResult
+    run_id: str
+    label: str
+    stage: int
+
+
+def write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int) -> None:
+    """Write one chunk's file at ``path``, whole or not at all, fsynced with its folder.
+
+    Parameters
+    ----------
+    path : Path
+    r : ChunkResult
+    run_id : str
+    label : str
+    stage : int
+    """
+    # The scalars, series and summary go packed into one byte array with a JSON index: a
+    # Monte Carlo chunk's summary is ~100 small arrays, and one zip entry each made the
+    # checkpoints the driver's largest cost (2.5 s of a 1e6-run study, 20 ms a chunk).
+    index, packed = _pack({**{f"scalar.{k}": v for k, v in r.scalars.items()},
+                           **{f"series.{k}": v for k, v in r.series.items()},
+                           **{f"summary.{k}": v for k, v in r.summary.items()}})
+    # Any: np.savez's stub would match a dict of arrays against its allow_pickle flag
+    arrays: dict[str, Any] = {
+        "run_id": np.array(run_id), "label": np.array(label),
+        "stage": np.array(stage, dtype=np.int64),
+        "task": np.array([r.task.index, r.task.start, r.task.stop], dtype=np.int64),
+        "model_seconds": np.array(r.model_seconds),
+        "cpu_seconds": np.array(r.cpu_seconds),
+        "failed": r.failed,
+        "reasons": np.array([str(v) for v in r.reasons], dtype=str),
+        "time": r.time,
+        "index": np.array(index), "packed": packed,
+    }
+    # fsynced file and folder: the rename must survive a power cut before the manifest line
+    with atomic_path(path, clean=False) as tmp:
+        with open(tmp, "wb") as f:
+            np.savez(f, **arrays)
+
+
+def read_chunk(path: Path, task: Task) -> StoredChunk:
+    """Read back the chunk file of ``task``.
+
+    Parameters
+    ----------
+    path : Path
+    task : Task
+        The chunk it must hold.
+
+    Returns
+    -------
+    StoredChunk
+
+    Raises
+    ------
+    ForeignChunk
+        The file carries no run id.
+    ValueError, KeyError, OSError
+        The file is not the chunk's, or not readable.
+    """
+    with np.load(path, allow_pickle=False) as z:
+        data = {k: z[k] for k in z.files}
+    if "run_id" not in data:
+        raise ForeignChunk("carries no run id (written by an older uqguide or another tool)")
+    if tuple(int(v) for v in data["task"]) != (task.index, task.start, task.stop):
+        raise ValueError("chunk file does not match its manifest entry")
+    arrays = _unpack(str(data["index"]), data["packed"])
+    pick = {p: {k[len(p) + 1:]: v for k, v in arrays.items() if k.startswith(p + ".")}
+            for p in ("scalar", "series", "summary")}
+    return StoredChunk(run_id=str(data["run_id"]), label=str(data["label"]),
+                       stage=int(data["stage"]), result=ChunkResult(
+        task=task, failed=data["failed"].astype(bool),
+        reasons=np.array(data["reasons"].tolist(), dtype=object).reshape(-1),
+        time=data["time"], scalars=pick["scalar"], series=pick["series"],
+        summary=pick["summary"], model_seconds=float(data["model_seconds"]),
+        # (a chunk written before CPU seconds were kept: 0)
+        cpu_seconds=float(data.get("cpu_seconds", 0.0))))
+
+
+def _pack(arrays: dict[str, np.ndarray]) -> tuple[str, np.ndarray]:
+    """Numeric arrays as one byte array and a JSON index of (name, dtype, shape, offset)."""
+    entries, parts, offset = [], [], 0
+    for name, v in arrays.items():
+        a = np.asarray(v)  # (np.ascontiguousarray would make a 0-d array 1-d)
+        if a.dtype.hasobject or a.dtype.kind not in "biufc":
+            raise TypeError(f"checkpoint: {name} has dtype {a.dtype}, not a numeric array")
+        entries.append([name, a.dtype.str, list(a.shape), offset])
+        parts.append(np.ascontiguousarray(a).reshape(-1).view(np.uint8))
+        offset += a.nbytes
+    packed = np.concatenate(parts) if parts else np.zeros(0, dtype=np.uint8)
+    return json.dumps(entries), packed
+
+
+def _unpack(index: str, packed: np.ndarray) -> dict[str, np.ndarray]:
+    out = {}
+    for name, dtype, shape, offset in json.loads(index):
+        dt = np.dtype(dtype)
+        if dt.hasobject or dt.kind not in "biufc":
+            raise ValueError(f"packed array {name!r} has dtype {dtype}")
+        count = int(np.prod(shape, dtype=np.int64))
+        if offset < 0 or offset + count * dt.itemsize > packed.size:
+            raise ValueError(f"packed array {name!r} runs past the end of the file")
+        out[name] = packed[offset:offset + count * dt.itemsize].view(dt).reshape(shape).copy()
+    return out
+
+
+# ---------------------------------------------------------------------------- the writer thread
+Item = TypeVar("Item")
+
+
+class CheckpointWriter(Generic[Item]):
+    """Calls ``write(item)`` on a thread of its own for each item :meth:`put`, one after the
+    other in the order given.
+
+    The first error of ``write`` (a full disk) is raised by the next :meth:`put` or by
+    :meth:`flush`; the items queued after it are dropped (their chunks re-run on resume).
+
+    Parameters
+    ----------
+    write : callable
+        Writes one item; runs on the writer's thread.
+    maxsize : int
+        Items queued at most: a writer slower than the workers holds back the driver, not its
+        memory.
+    """
+
+    def __init__(self, write: Callable[[Item], None], maxsize: int = 16) -> None:
+        self._write = write
+        # an item travels in a 1-tuple, so that None stays free to mean "stop"
+        self._queue: queue.Queue[tuple[Item] | None] = queue.Queue(maxsize=maxsize)
+        self._thread: threading.Thread | None = None
+        self._error: BaseException | None = None
+
+    def put(self, item: Item) -> None:
+        """Queue one item (starting the thread on the first); raise the writer's error."""
+        self._raise_error()
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._loop, name="uqguide-checkpoint",
+                                            daemon=True)
+            self._thread.start()
+        self._queue.put((item,))
+
+    def flush(self) -> None:
+        """Wait until every queued item is written; raise the writer's error."""
+        self.drain()
+        self._raise_error()
+
+    def drain(self) -> None:
+        """Wait until the writer is done with every queued item, raising nothing of its own
+        (for a run that is stopping with an error or an interrupt). A Ctrl-C or SIGTERM while
+        it waits is held until the writer is done (a few chunk writes at most): the process
+        must not exit with the writer half-way through a file."""
+        if self._thread is not None:
+            with deferred():
+                self._queue.join()
+
+    def close(self) -> None:
+        """:meth:`flush`, then end the thread."""
+        try:
+            self.flush()
+        finally:
+            if self._thread is not None:
+                with deferred():
+                    self._queue.put(None)
+                    self._thread.join()
+                self._thread = None
+
+    def _raise_error(self) -> None:
+        if self._error is not None:
+            err, self._error = self._error, None
+            raise err
+
+    def _loop(self) -> None:
+        while True:
+            job = self._queue.get()
+            try:
+                if job is None:
+                    return
+                if self._error is None:  # after a failure, nothing more: the chunks re-run
+                    self._write(job[0])
+            except BaseException as exc:  # noqa: BLE001 - handed to the driver's thread
+                self._error = exc
+            finally:
+                self._queue.task_done()
+
+
+# ---------------------------------------------------------------------------- the store
+class RunInterrupted(KeyboardInterrupt):
+    """The run was stopped (Ctrl-C) after ``n_done`` of ``n_total`` chunks; the chunks done are
+    checkpointed when the run has a run folder. A KeyboardInterrupt, so that nothing catching
+    ``Exception`` swallows it."""
+
+    def __init__(self, n_done: int, n_total: int) -> None:
+        super().__init__(f"interrupted: {n_done} of {n_total} chunks done")
+        self.n_done = n_done
+        self.n_total = n_total
+
+
+def run_dir(out_dir: str | Path, name: str) -> Path:
+    """The run folder of the result ``<out_dir>/<name>.h5`` (ConfigError for a name that is
+    not a plain file name: the folder must lie inside ``out_dir``).
+
+    Parameters
+    ----------
+    out_dir : str or Path
+    name : str
+        The run's name.
+
+    Returns
+    -------
+    Path
+        ``<out_dir>/<name>.run``.
+    """
+    from ..config.run_config import check_run_name
+
+    return Path(out_dir) / f"{check_run_name(name)}.run"
+
+
+class RunStore:
+    """A run folder (docs/scale.md). Only the driver process writes it.
+
+    Parameters
+    ----------
+    path : Path
+        The run folder.
+    identity : dict
+        The run's identity (:func:`run_identity`).
+    """
+
+    def __init__(self, path: Path, identity: dict[str, Any]) -> None:
+        self.path = path
+        self.manifest = RunManifest(path, identity)
+        self.identity = self.manifest.identity
+        self.run_id = self.manifest.run_id
+        self.chunks = ChunkStore(path, self.run_id)
+        self.writer: CheckpointWriter[tuple[str, int, ChunkResult]] = \
+            CheckpointWriter(self._save_now)
+        #: Samples found to crash or hang their process, by (label, stage): row -> reason.
+        self.isolated: dict[tuple[str, int], dict[int, str]] = {}
+
+    @classmethod
+    def open(cls, path: str | Path, identity: dict[str, Any], resume: bool,
+             resume_hint: str = "uqguide run CONFIG --resume") -> RunStore:
+        """Open the run folder ``path`` for a fresh run or (``resume``) to continue it. The
+        caller holds the folder's :class:`RunLock` (``uqguide run`` does).
+
+        Parameters
+        ----------
+        path : str or Path
+            The run folder.
+        identity : dict
+            As :func:`run_identity` gives it.
+        resume : bool
+            Continue the run stored there.
+        resume_hint : str
+            The command to suggest in messages.
+
+        Returns
+        -------
+        RunStore
+
+        Raises
+        ------
+        ConfigError
+            ``resume`` and the folder belongs to another config / code version; or not
+            ``resume`` and the folder holds finished chunks (they are not thrown away silently);
+            or the path is something other than a uqguide run folder (it is not deleted).
+        """
+        path = Path(path)
+        store = cls(path, identity)
+        if path.is_symlink() or (path.exists() and not path.is_dir()):
+            raise ConfigError(f"{path} exists and is not a uqguide run folder; refusing to "
+                              f"replace it (move it, or give this run another --out or name)",
+                              field="out")
+        header, entries = store.manifest.read()
+        if header is not None and resume:
+            store.manifest.check_same_run(header)
+            store.chunks = ChunkStore(path, store.run_id, entries)
+            store.isolated = store.manifest.isolated()
+            clean_stale_temps(path)
+            log.info("resuming %s: %d chunks already done", path, len(entries))
+            return store
+        if header is not None and header.get("complete") and not resume \
+                and header.get("run_id") == store.run_id:
+            # This very run finished its chunks and was stopped while writing its result:
+            # start it afresh (same numbers) rather than call it unfinished.
+            log.info("%s: a finished run of this config, stopped while writing; running it "
+                     "again", path)
+            store.manifest.remove()
+            header, entries = store.manifest.read()
+        if entries and not resume:
+            raise ConfigError(
+                f"{path} holds an unfinished run ({len(entries)} chunks done); continue it "
+                f"with `{resume_hint}`, or delete the folder to start over", field="resume")
+        if resume:
+            log.info("nothing to resume at %s: starting a fresh run", path)
+        if path.exists():
+            store.manifest.clear(header)
+        path.mkdir(parents=True)
+        store.manifest.start()
+        return store
+
+    @property
+    def n_done(self) -> int:
+        """Chunks listed in the manifest on disk: what a resume will find. Read from the file,
+        not the in-memory list, because an interrupt can land between a chunk's manifest line
+        and its bookkeeping here."""
+        return self.manifest.n_chunks()
+
+    def known_isolated(self, label: str, stage: int) -> dict[int, str]:
+        """Design rows of a stage known to crash or hang their process, with the reason."""
+        return dict(self.isolated.get((label, stage), {}))
+
+    def record_isolated(self, label: str, stage: int, row: int, reason: str) -> None:
+        """List at once a sample that crashed or hung its process: a resume fails it with
+        ``reason`` instead of running it again.
+
+        Parameters
+        ----------
+        label : str
+        stage : int
+        row : int
+            Its row in the stage's design.
+        reason : str
+        """
+        self.isolated.setdefault((label, stage), {})[row] = reason
+        self.manifest.record_isolated(label, stage, row, reason)
+
+    def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
+        """The stored result of a chunk, or None (see :meth:`ChunkStore.load`)."""
+        return self.chunks.load(label, stage, task)
+
+    def save(self, label: str, stage: int, result: ChunkResult) -> None:
+        """Queue one chunk: the writer thread writes it atomically, then lists it in the
+        manifest, chunk after chunk in the order given; an error of the writer (a full disk)
+        is raised by the next ``save`` or by :meth:`flush`.
+
+        Parameters
+        ----------
+        label : str
+        stage : int
+        result : ChunkResult
+        """
+        self.writer.put((label, stage, result))
+
+    def flush(self) -> None:
+        """Wait until every queued chunk is on disk and listed; raise the writer's error."""
+        self.writer.flush()
+
+    def drain(self) -> None:
+        """Wait until every queued chunk is written, raising nothing of the writer's (for a
+        run that is stopping with an error or an interrupt)."""
+        self.writer.drain()
+
+    def close(self) -> None:
+        """:meth:`flush`, then end the writer thread."""
+        self.writer.close()
+
+    def mark_complete(self) -> None:
+        """Every chunk is done (see :meth:`RunManifest.mark_complete`)."""
+        self.close()
+        self.manifest.mark_complete()
+
+    def remove(self) -> list[str]:
+        """Delete the run's files and the folder (after the result file is written: it holds
+        everything); return what was left, not the run's (see :meth:`RunManifest.remove`)."""
+        self.close()
+        return self.manifest.remove()
+
+    def _save_now(self, item: tuple[str, int, ChunkResult]) -> None:
+        # The file first, then its line: a chunk listed in the manifest is whole on disk.
+        label, stage, result = item
+        entry = self.chunks.entry(label, stage, result)
+        write_chunk(self.path / entry["file"], result, self.run_id, label, stage)
+        self.manifest.append(entry)
+        self.chunks.add(entry)
