@@ -14,7 +14,7 @@ from pathlib import Path
 import yaml
 
 from uqguide.models import kernels
-from uqguide.driver.progress_display import BarProgress, PlainProgress, make_progress
+from uqguide.driver.progress import BarProgress, PlainProgress, make_progress
 
 
 class _Terminal(io.StringIO):

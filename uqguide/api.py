@@ -129,7 +129,7 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     """
     from .driver.execution import make_executor
     from .driver.execution.processes import refuse_nested_run
-    from .driver.progress_display import make_progress
+    from .driver.progress import make_progress
     from .driver.propagate import run as _run
 
     refuse_nested_run()  # a worker re-running an unguarded script must not start the run again

@@ -159,7 +159,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .driver.run_folder import RunInterrupted
     from .config.run_config import load_config
     from .driver.execution import Executor, ProcessExecutor, make_executor
-    from .driver.progress_display import make_progress
+    from .driver.progress import make_progress
     from .driver.propagate import check_failure_budget, check_methods
     from .report.tables import render_text
     from .config.report_times import check_config_report_times

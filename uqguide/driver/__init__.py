@@ -7,5 +7,5 @@
 - ``execution/``: chunks, seeds, the serial / process-pool / Dask executors, isolation;
 - ``run_folder``: the resumable run folder: its lock, manifest, chunk files and writer thread;
 - ``interrupts``: Ctrl-C and SIGTERM;
-- ``progress``, ``progress_display``: counts, ETA and how they are shown.
+- ``progress``: counts, ETA and how they are shown.
 """
