@@ -119,6 +119,7 @@ def _folder(tmp: Path, block: Block) -> None:
             link.symlink_to(f)
     for other in ALL:
         if other.page == block.page and other.file_name:
+            (tmp / other.file_name).parent.mkdir(parents=True, exist_ok=True)
             (tmp / other.file_name).write_text(other.body)
 
 
@@ -148,8 +149,9 @@ def test_example_runs(block, tmp_path):
     _folder(tmp_path, block)
     if block.lang == "python":
         script = tmp_path / (block.file_name or "example.py")
+        script.parent.mkdir(parents=True, exist_ok=True)
         script.write_text(block.body)
-        cmd = [sys.executable, script.name]
+        cmd = [sys.executable, str(script.relative_to(tmp_path))]
     else:
         script = tmp_path / "example.sh"
         script.write_text(_script(block))

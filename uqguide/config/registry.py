@@ -1,14 +1,20 @@
-"""Name -> class for the models and methods uqguide can run.
+"""Name -> class for the models and methods uqguide can run, from the package entry points.
 
-The lists are explicit (as hapsira lists its propagators): adding a simulator or a method is one
-line here. Entries are ``"module:Class"`` strings imported on first use, so ``uqguide models``
-and config validation do not pay for importing every simulator.
+A model is registered in the entry-point group ``uqguide.models``, a method in
+``uqguide.methods`` (``name = "module:Class"``): uqguide's own are declared in its
+``pyproject.toml``, a third party's in its own package, with no fork (docs/architecture.md,
+"A plugin package"). Entries are imported on first use, so ``uqguide models`` and config
+validation do not pay for importing every simulator. A third-party name that shadows a
+built-in one is ignored with a warning.
 """
 
 from __future__ import annotations
 
 import difflib
 import importlib
+import logging
+from collections.abc import Iterator, Mapping
+from importlib.metadata import entry_points
 from typing import TYPE_CHECKING
 
 from ..errors import ConfigError
@@ -17,31 +23,61 @@ if TYPE_CHECKING:
     from ..methods.base import Method
     from ..models.base import Model
 
-MODELS: dict[str, str] = {
-    "linear_gaussian": "uqguide.models.benchmarks:LinearGaussian",
-    "lognormal": "uqguide.models.benchmarks:Lognormal",
-    "ishigami": "uqguide.models.benchmarks:Ishigami",
-    "borehole": "uqguide.models.benchmarks:Borehole",
-    "euler_decay": "uqguide.models.euler_decay:EulerDecay",
-    "sobol_g": "uqguide.models.sobol_g:SobolG",
-    "callable": "uqguide.models.callable:CallableModel",
-    "command": "uqguide.models.command:CommandModel",
-    "fmu": "uqguide.models.fmu:FmuModel",
-    "ftcapn": "uqguide.models.ftcapn:FTCAPN",
-    "gmm_proximity": "uqguide.models.gmm.model:GMMProximity",
-    "ft_as": "uqguide.models.ft_as:FTAS",
-    "gmm_ftc": "uqguide.models.gmm_ftc:GMMFTC",
-}
+log = logging.getLogger(__name__)
 
-METHODS: dict[str, str] = {
-    "monte_carlo": "uqguide.methods.monte_carlo:MonteCarlo",
-    "pce_tensor": "uqguide.methods.pce_tensor:TensorPCE",
-    "pce_smolyak": "uqguide.methods.pce_smolyak:SmolyakPCE",
-    "pce_adaptive": "uqguide.methods.pce_adaptive:AdaptivePCE",
-    "subset_simulation": "uqguide.methods.subset_simulation:SubsetSimulation",
-    "sobol_saltelli": "uqguide.methods.sobol_saltelli:SobolSaltelli",
-    "mfmc": "uqguide.methods.mfmc:MultiFidelityMC",
-}
+
+class Registry(Mapping[str, str]):
+    """Name -> ``"module:Class"`` of one entry-point group, read on first use.
+
+    Parameters
+    ----------
+    group : str
+        The entry-point group (``uqguide.models`` or ``uqguide.methods``).
+    """
+
+    def __init__(self, group: str) -> None:
+        self.group = group
+        self._table: dict[str, str] | None = None
+
+    def _entries(self) -> dict[str, str]:
+        if self._table is None:
+            eps = list(entry_points(group=self.group))
+            own = {ep.name: ep.value for ep in eps if _is_builtin(ep.value)}
+            if not own:
+                raise ConfigError(
+                    f"uqguide's own entry points ({self.group}) are not installed: install the "
+                    f"package (pip install -e . in a checkout) rather than putting it on "
+                    f"PYTHONPATH alone", field=self.group)
+            table = dict(own)
+            for ep in eps:
+                if ep.name in own and ep.value != own[ep.name]:
+                    log.warning("%s: '%s' of %s is ignored: the name is uqguide's own",
+                                self.group, ep.name, ep.value)
+                elif ep.name not in table:
+                    table[ep.name] = ep.value
+            self._table = table
+        return self._table
+
+    def reload(self) -> None:
+        """Read the entry points again (after a package was installed in this process)."""
+        self._table = None
+
+    def __getitem__(self, name: str) -> str:
+        return self._entries()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._entries())
+
+    def __len__(self) -> int:
+        return len(self._entries())
+
+
+def _is_builtin(target: str) -> bool:
+    return target.split(":", 1)[0].split(".", 1)[0] == "uqguide"
+
+
+MODELS = Registry("uqguide.models")
+METHODS = Registry("uqguide.methods")
 
 
 def _load(target: str) -> type:
@@ -66,14 +102,20 @@ def did_you_mean(name: str, choices: list[str]) -> str:
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
-def _lookup(kind: str, table: dict[str, str], name: object, field: str) -> type:
+def _lookup(kind: str, table: Mapping[str, str], name: object, field: str) -> type:
     if not isinstance(name, str) or name not in table:
         hint = did_you_mean(name, list(table)) if isinstance(name, str) else ""
         raise ConfigError(
             f"{field}: unknown {kind} {name!r}{hint}; allowed: {', '.join(sorted(table))}",
             field=field,
         )
-    return _load(table[name])
+    try:
+        return _load(table[name])
+    except (ImportError, AttributeError) as exc:
+        raise ConfigError(
+            f"{field}: the {kind} {name!r} is registered as {table[name]!r} but cannot be "
+            f"loaded ({type(exc).__name__}: {exc}); reinstall the package that provides it",
+            field=field) from None
 
 
 def model_class(name: object, field: str = "model.name") -> type[Model]:

@@ -16,3 +16,18 @@
 
 Each method is registered by name in ``uqguide.config.registry``.
 """
+
+# The names a method's author needs (docs/architecture.md, "A plugin package"), imported on first
+# use.
+_PUBLIC = {"Method": "base", "StreamingMethod": "base", "MethodSettings": "base",
+           "Design": "base", "RunPlan": "base", "RunContext": "base", "GivenRows": "base",
+           "Estimate": "base", "ModelOutput": "base", "GeneratedRows": "base"}
+__all__ = sorted(_PUBLIC)
+
+
+def __getattr__(name: str) -> object:
+    if name in _PUBLIC:
+        from importlib import import_module
+
+        return getattr(import_module(f"{__name__}.{_PUBLIC[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -9,3 +9,17 @@ from two loaders in the model's module that import each by name. ``record_rows``
 compiled record writers the kernels share; ``kernels`` the choice, the cache and the compile
 notice.
 """
+
+# The names a model's author needs (docs/architecture.md, "A plugin package"), imported on first
+# use so that importing one simulator does not import the contract's dependencies twice over.
+_PUBLIC = {"Model": "base", "ModelParams": "base", "InputInfo": "base", "OutputInfo": "base",
+           "StepCount": "base", "failure_reasons": "base", "ModelOutput": "base"}
+__all__ = sorted(_PUBLIC)
+
+
+def __getattr__(name: str) -> object:
+    if name in _PUBLIC:
+        from importlib import import_module
+
+        return getattr(import_module(f"{__name__}.{_PUBLIC[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
