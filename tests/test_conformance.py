@@ -13,34 +13,41 @@ from uqguide.methods.base import Design, Method, StreamingMethod, chunk_bounds
 from uqguide.methods.monte_carlo import MonteCarlo
 from uqguide.models.base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
 from uqguide.config.registry import METHODS, MODELS, method_class, model_class
-from uqguide.testing import ConformanceError, check_method, check_model
+from uqguide.testing import (ConformanceError, check_method, check_model, method_checks,
+                             model_checks, parametrize_with_checks)
 
 
-@pytest.mark.parametrize("name", sorted(MODELS))
-def test_every_registered_model_keeps_the_contract(name, request):
-    params = None
-    if name == "fmu":  # no FMU ships with uqguide: the session's test FMU (skips without FMPy)
-        from tests.fmu_decay import example_params
+# One test case a rule and a class (uqguide.testing.parametrize_with_checks), so a broken rule
+# fails on its own line. The FMU model needs the session's test FMU, so it is checked apart.
+@parametrize_with_checks(models=[model_class(n) for n in sorted(MODELS) if n != "fmu"],
+                         methods=[method_class(n) for n in sorted(METHODS)])
+def test_every_registered_class_keeps_each_rule(check):
+    check()
 
-        params = example_params(request.getfixturevalue("decay_fmu"))
-    check_model(model_class(name), params)
+
+def test_the_fmu_model_keeps_the_contract(request):
+    from tests.fmu_decay import example_params  # skips without FMPy
+
+    check_model(model_class("fmu"), example_params(request.getfixturevalue("decay_fmu")))
 
 
 # The 2-process pool check costs ~1-5 CPU-s a method (spawned workers, each importing uqguide
 # and the benchmark model), so it runs with the slow tests for every method. The default suite
 # keeps one cheap pooled run through the same executor path:
 # tests/test_validation_design.py (a PCE's validation runs, serial and on 2 workers).
-
-
-@pytest.mark.parametrize("name", sorted(METHODS))
-def test_every_registered_method_keeps_the_contract(name):
-    check_method(method_class(name), workers=False)
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(METHODS))
 def test_every_registered_method_keeps_the_contract_in_a_pool(name):
-    check_method(method_class(name))
+    checks = dict(method_checks(method_class(name)))
+    checks["workers"]()
+
+
+def test_the_named_checks_are_the_whole_contract():
+    rules = [rule for rule, _ in model_checks(_Toy)]
+    assert rules == ["metadata", "parameters", "shapes", "determinism", "batch-split invariance"]
+    rules = [rule for rule, _ in method_checks(MonteCarlo)]
+    assert rules == ["closed forms", "seeds", "batch size", "workers", "streaming", "resume",
+                     "given rows"]
 
 
 # ---------------------------------------------------------------------------- broken toys
@@ -102,6 +109,22 @@ def test_a_model_coupling_the_samples_of_a_batch_fails_the_batch_split():
 
     with pytest.raises(ConformanceError, match="model 'toy': batch-split invariance"):
         check_model(Coupled)
+
+
+def test_each_named_check_fails_alone_for_the_rule_it_names():
+    class Coupled(_Toy):
+        def _y(self, values):
+            y = super()._y(values)
+            return y - y.mean()
+
+    failed = []
+    for rule, check in model_checks(Coupled):
+        try:
+            check()
+        except ConformanceError as exc:
+            assert f": {rule}: " in str(exc)
+            failed.append(rule)
+    assert failed == ["batch-split invariance"]
 
 
 def test_a_model_whose_float_parameter_takes_nan_fails():

@@ -1,50 +1,20 @@
-"""Conformance suites: every model and method checked against its contract, from the registry.
+"""Conformance checks: every model and method against its contract, one named check a rule.
 
-As scikit-learn's ``check_estimator`` does for estimators, :func:`check_model` and
-:func:`check_method` take a class and raise :class:`ConformanceError` naming the first broken
-rule, so a model or method added to :mod:`uqguide.config.registry` is covered by the parametrised
-test ``tests/test_conformance.py`` with no test code of its own. A class states how it is checked
-cheaply through :attr:`Model.example_params` (a short horizon) and
-:attr:`Method.example_settings` (a small design).
+As scikit-learn's ``check_estimator`` and ``parametrize_with_checks`` do for estimators:
+:func:`model_checks` and :func:`method_checks` yield ``(rule, check)`` pairs,
+:func:`parametrize_with_checks` makes each its own pytest case (a plugin's suite shows each
+broken rule as its own failure), and :func:`check_model` / :func:`check_method` run them all and
+raise :class:`ConformanceError` naming the first broken rule. A class states how it is checked
+cheaply through :attr:`Model.example_params` and :attr:`Method.example_settings`.
 
-Model contract (uq-methods.md section 1), checked on a small batch around the nominal inputs:
-
-- metadata: unique input and output names, finite nominal values, output kinds and non-empty,
-  unique component names, default outputs that exist;
-- parameters: every float parameter refuses NaN and infinity (a validation error, not a run);
-- shapes and dtypes: a float time grid ``(T,)`` non-decreasing, series ``(n, T, k)`` and
-  scalars ``(n, k)`` of floats, a boolean failure mask ``(n,)`` with a non-empty reason exactly
-  where a sample failed;
-- batch-split invariance: the halves of a batch evaluated apart give the same bits (the
-  executors rely on it: a chunk's numbers must not depend on where it ran);
-- determinism: the same bits whatever the global random state (a model drawing noise must key
-  it on its inputs);
-- kernels: where the model has a ``kernel`` parameter, the NumPy reference and the compiled
-  kernel agree to round-off (1e-6 of each output's scale).
-
-Method contract, on the ``linear_gaussian`` benchmark (3 Gaussian inputs) whose statistics and
-event probabilities are known in closed form:
-
-- closed forms: a sampling estimate's mean lies within 4 of its standard errors, an interval
-  estimate of the std within twice its 95% half-width, an event probability within twice its
-  95% half-width; a surrogate without intervals (PCE: exact for this linear model) to 1e-8;
-- seeds: the same seed gives the same bits; a method with a random design
-  (:attr:`Method.random_design`) gives another design for another seed;
-- workers: serial and a 2-process pool give the same bits;
-- streaming: a :class:`~uqguide.methods.base.StreamingMethod`'s ``estimate`` of outputs held in
-  memory gives the bits of its chunks reduced where they ran and folded by the driver;
-- resume: a run interrupted after its first chunk and resumed from its checkpoint gives the
-  bits of an uninterrupted run;
-- given rows: a method that takes a data file's rows as its design (an empty
-  :attr:`Method.own_design`) runs exactly those rows, every one once, and its statistics of
-  them pass the closed forms.
+The rules, and why each holds: docs/architecture.md, "The contracts".
 """
 
 from __future__ import annotations
 
 import random
 import tempfile
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from types import MappingProxyType
@@ -65,7 +35,8 @@ from .driver.propagate import propagate
 from .results.result import MethodRun
 from .core.types import GeneratedRows, ModelOutput
 
-__all__ = ["ConformanceError", "check_method", "check_model"]
+__all__ = ["ConformanceError", "check_method", "check_model", "method_checks", "model_checks",
+           "parametrize_with_checks"]
 
 
 class ConformanceError(AssertionError):
@@ -77,9 +48,9 @@ def _fail(who: str, rule: str, detail: str) -> ConformanceError:
 
 
 # ---------------------------------------------------------------------------- models
-def check_model(cls: type[Model], params: Mapping[str, Any] | None = None, *, n: int = 6,
-                seed: int = 0) -> None:
-    """Check the model class ``cls`` against the model contract (module docstring).
+def model_checks(cls: type[Model], params: Mapping[str, Any] | None = None, *, n: int = 6,
+                 seed: int = 0) -> Iterator[tuple[str, Callable[[], None]]]:
+    """The model contract's checks of ``cls``, one ``(rule, check)`` pair a rule.
 
     Parameters
     ----------
@@ -91,36 +62,75 @@ def check_model(cls: type[Model], params: Mapping[str, Any] | None = None, *, n:
     seed : int
         Seed of the inputs drawn around the nominal values.
 
+    Yields
+    ------
+    (str, callable)
+        The rule's name and a function of no argument raising :class:`ConformanceError`
+        naming the model, the rule and what was seen.
+    """
+    params = dict(cls.example_params if params is None else params)
+    who = f"model '{getattr(cls, 'name', cls.__name__)}'"
+    made: dict[str, Any] = {}
+
+    def batch() -> tuple[Model, np.ndarray, list[str], list[str]]:
+        if not made:
+            model = cls(params)
+            made.update(model=model, x=_inputs_near_nominal(model, n, seed),
+                        names=list(model.input_names()),
+                        outputs=[o.name for o in model.outputs()])
+        return made["model"], made["x"], made["names"], made["outputs"]
+
+    def metadata() -> None:
+        _check_metadata(batch()[0], who)
+
+    def parameters() -> None:
+        _check_nonfinite_params(cls, params, who)
+
+    def shapes() -> None:
+        model, x, names, outputs = batch()
+        _check_output(model, _evaluate(model, x, names, outputs, who), n, who)
+
+    def determinism() -> None:
+        model, x, names, outputs = batch()
+        out = _evaluate(model, x, names, outputs, who)
+        np.random.seed(seed + 1)
+        random.seed(seed + 1)
+        again = _evaluate(model, x, names, outputs, who)
+        np.random.seed(seed + 2)
+        random.seed(seed + 2)
+        _same_bits(again, _evaluate(model, x, names, outputs, who), who, "determinism",
+                   "the global random state changed the outputs")
+        _same_bits(out, again, who, "determinism", "a second evaluation of the same batch")
+
+    def batch_split() -> None:
+        model, x, names, outputs = batch()
+        out = _evaluate(model, x, names, outputs, who)
+        for half in (slice(0, n // 2), slice(n // 2, n)):
+            part = _evaluate(model, x[half], names, outputs, who)
+            _same_bits(out.subset(np.arange(n)[half]), part, who, "batch-split invariance",
+                       f"samples {half.start}..{half.stop - 1} evaluated apart")
+
+    def kernels() -> None:
+        model, x, names, outputs = batch()
+        _check_kernels(cls, params, x, names, outputs, who)
+
+    yield from (("metadata", metadata), ("parameters", parameters), ("shapes", shapes),
+                ("determinism", determinism), ("batch-split invariance", batch_split))
+    if "kernel" in getattr(cls.Params, "model_fields", {}):
+        yield "kernels", kernels
+
+
+def check_model(cls: type[Model], params: Mapping[str, Any] | None = None, *, n: int = 6,
+                seed: int = 0) -> None:
+    """Run every check of :func:`model_checks` (same arguments); the first broken rule raises.
+
     Raises
     ------
     ConformanceError
         Naming the model, the rule and what was seen.
     """
-    params = dict(cls.example_params if params is None else params)
-    who = f"model '{getattr(cls, 'name', cls.__name__)}'"
-    model = cls(params)
-    _check_metadata(model, who)
-    _check_nonfinite_params(cls, params, who)
-    names = list(model.input_names())
-    x = _inputs_near_nominal(model, n, seed)
-    outputs = [o.name for o in model.outputs()]
-    out = _evaluate(model, x, names, outputs, who)
-    _check_output(model, out, n, who)
-    np.random.seed(seed + 1)
-    random.seed(seed + 1)
-    again = _evaluate(model, x, names, outputs, who)
-    np.random.seed(seed + 2)
-    random.seed(seed + 2)
-    _same_bits(again, _evaluate(model, x, names, outputs, who), who, "determinism",
-               "the global random state changed the outputs")
-    _same_bits(out, again, who, "determinism", "a second evaluation of the same batch")
-    for half in (slice(0, n // 2), slice(n // 2, n)):
-        part = _evaluate(model, x[half], names, outputs, who)
-        _same_bits(out.subset(np.arange(n)[half]), part, who, "batch-split invariance",
-                   f"samples {half.start}..{half.stop - 1} evaluated apart")
-    fields = getattr(cls.Params, "model_fields", {})
-    if "kernel" in fields:
-        _check_kernels(cls, params, x, names, outputs, who)
+    for _, check in model_checks(cls, params, n=n, seed=seed):
+        check()
 
 
 def _check_metadata(model: Model, who: str) -> None:
@@ -263,9 +273,12 @@ def _benchmark() -> tuple[LinearGaussian, dict[str, Any], np.ndarray, np.ndarray
     return model, cfg, mean, sd, threshold, p_tail
 
 
-def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *,
-                 seed: int = 5, workers: bool = True) -> None:
-    """Check the method class ``cls`` against the method contract (module docstring).
+def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, *,
+                  seed: int = 5, workers: bool = True
+                  ) -> Iterator[tuple[str, Callable[[], None]]]:
+    """The method contract's checks of ``cls``, one ``(rule, check)`` pair a rule.
+
+    The checks share the method's first run on the benchmark, made by whichever runs first.
 
     Parameters
     ----------
@@ -275,47 +288,140 @@ def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *
     seed : int
         Root seed of the runs.
     workers : bool
-        Also run it in a 2-process pool (starting the pool takes seconds).
+        Also check a 2-process pool (starting the pool takes seconds).
+
+    Yields
+    ------
+    (str, callable)
+        The rule's name and a function of no argument raising :class:`ConformanceError`
+        naming the method, the rule and what was seen.
+    """
+    settings = dict(cls.example_settings if settings is None else settings)
+    who = f"method '{getattr(cls, 'name', cls.__name__)}'"
+    made: dict[str, Any] = {}
+
+    def setup() -> dict[str, Any]:
+        if not made:
+            model, cfg_dict, mean, sd, _, p_tail = _benchmark()
+            cfg = validate_config(cfg_dict)
+            context = RunContext(events=tuple(cfg.raw.events), components=MappingProxyType(
+                {o: tuple(model.output_info(o).components) for o in cfg.outputs}))
+            made.update(model=model, mean=mean, sd=sd, p_tail=p_tail, context=context,
+                        method=cls(settings, context), space=cfg.space, outputs=cfg.outputs)
+        return made
+
+    def run(executor: Executor) -> MethodRun:
+        m = setup()
+        return _run(m["method"], m["model"], m["space"], m["outputs"], seed, executor)
+
+    def first() -> MethodRun:
+        m = setup()
+        if "first" not in m:
+            m["first"] = run(SerialExecutor(16))
+        return m["first"]
+
+    def closed_forms() -> None:
+        m = setup()
+        _check_closed_forms(first(), m["mean"], m["sd"], m["p_tail"], who)
+
+    def seeds() -> None:
+        _same_runs(first(), run(SerialExecutor(16)), who, "seeds",
+                   "the same seed gave other numbers")
+        if cls.random_design:
+            m = setup()
+            a = np.asarray(m["method"].design(m["space"], seed).x)
+            b = np.asarray(m["method"].design(m["space"], seed + 1).x)
+            if a.shape == b.shape and np.array_equal(a, b):
+                raise _fail(who, "seeds", f"seeds {seed} and {seed + 1} give the same design; "
+                            f"a method with a random design must derive it from the seed (or "
+                            f"declare random_design = False)")
+
+    def batch_size() -> None:
+        _same_runs(first(), run(SerialExecutor(5)), who, "batch size",
+                   "another batch size gave other numbers")
+
+    def pool() -> None:
+        executor = ProcessExecutor(2, batch_size=16)
+        try:
+            _same_runs(first(), run(executor), who, "workers",
+                       "a 2-process pool gave other numbers than this process")
+        finally:
+            executor.close()
+
+    def streaming() -> None:
+        m = setup()
+        _check_streaming(m["method"], m["model"], m["space"], m["outputs"], seed, first(), who)
+
+    def resume() -> None:
+        m = setup()
+        _check_resume(m["method"], m["model"], m["space"], m["outputs"], seed, first(), who)
+
+    def given_rows() -> None:
+        m = setup()
+        _check_given_rows(cls, settings, m["context"], m["model"], m["space"], m["outputs"],
+                          seed, first(), who, m["mean"], m["sd"], m["p_tail"])
+
+    yield from (("closed forms", closed_forms), ("seeds", seeds), ("batch size", batch_size))
+    if workers:
+        yield "workers", pool
+    if issubclass(cls, StreamingMethod):
+        yield "streaming", streaming
+    yield "resume", resume
+    if not cls.own_design:
+        yield "given rows", given_rows
+
+
+def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *,
+                 seed: int = 5, workers: bool = True) -> None:
+    """Run every check of :func:`method_checks` (same arguments); the first broken rule raises.
 
     Raises
     ------
     ConformanceError
         Naming the method, the rule and what was seen.
     """
-    settings = dict(cls.example_settings if settings is None else settings)
-    who = f"method '{getattr(cls, 'name', cls.__name__)}'"
-    model, cfg_dict, mean, sd, _, p_tail = _benchmark()
-    cfg = validate_config(cfg_dict)
-    context = RunContext(events=tuple(cfg.raw.events), components=MappingProxyType(
-        {o: tuple(model.output_info(o).components) for o in cfg.outputs}))
-    method = cls(settings, context)
-    space, outputs = cfg.space, cfg.outputs
-    first = _run(method, model, space, outputs, seed, SerialExecutor(16))
-    _check_closed_forms(first, mean, sd, p_tail, who)
-    _same_runs(first, _run(method, model, space, outputs, seed, SerialExecutor(16)), who,
-               "seeds", "the same seed gave other numbers")
-    if cls.random_design:
-        a = np.asarray(method.design(space, seed).x)
-        b = np.asarray(method.design(space, seed + 1).x)
-        if a.shape == b.shape and np.array_equal(a, b):
-            raise _fail(who, "seeds", f"seeds {seed} and {seed + 1} give the same design; a "
-                        f"method with a random design must derive it from the seed (or declare "
-                        f"random_design = False)")
-    _same_runs(first, _run(method, model, space, outputs, seed, SerialExecutor(5)), who,
-               "batch size", "another batch size gave other numbers")
-    if workers:
-        pool = ProcessExecutor(2, batch_size=16)
-        try:
-            _same_runs(first, _run(method, model, space, outputs, seed, pool), who, "workers",
-                       "a 2-process pool gave other numbers than this process")
-        finally:
-            pool.close()
-    if isinstance(method, StreamingMethod):
-        _check_streaming(method, model, space, outputs, seed, first, who)
-    _check_resume(method, model, space, outputs, seed, first, who)
-    if not cls.own_design:
-        _check_given_rows(cls, settings, context, model, space, outputs, seed, first, who,
-                          mean, sd, p_tail)
+    for _, check in method_checks(cls, settings, seed=seed, workers=workers):
+        check()
+
+
+def parametrize_with_checks(models: Sequence[type[Model] | tuple[type[Model], Mapping[str, Any]]]
+                            = (), methods: Sequence[type[Method]] = (), *,
+                            workers: bool = False) -> Any:
+    """A ``pytest.mark.parametrize`` of every check of ``models`` and ``methods``.
+
+    Each check is its own test case, with the id ``<name>-<rule>``; the decorated test takes
+    one argument, ``check``, and calls it::
+
+        @parametrize_with_checks(models=[MyModel])
+        def test_contract(check):
+            check()
+
+    Parameters
+    ----------
+    models : sequence
+        Model classes, or ``(class, params)`` pairs.
+    methods : sequence
+        Method classes (checked with their ``example_settings``).
+    workers : bool
+        Include the methods' 2-process pool check (seconds a method).
+
+    Returns
+    -------
+    pytest.MarkDecorator
+    """
+    import pytest
+
+    cases, ids = [], []
+    for entry in models:
+        cls, params = entry if isinstance(entry, tuple) else (entry, None)
+        for rule, check in model_checks(cls, params):
+            cases.append(check)
+            ids.append(f"{getattr(cls, 'name', cls.__name__)}-{rule}")
+    for mcls in methods:
+        for rule, check in method_checks(mcls, workers=workers):
+            cases.append(check)
+            ids.append(f"{getattr(mcls, 'name', mcls.__name__)}-{rule}")
+    return pytest.mark.parametrize("check", cases, ids=ids)
 
 
 def _check_given_rows(cls: type[Method], settings: Mapping[str, Any], context: RunContext,
