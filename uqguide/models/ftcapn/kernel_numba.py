@@ -1,6 +1,6 @@
 """FTCAPN closed loop, compiled with Numba.
 
-Same algorithm and same arrays as :mod:`.kernel_numpy` (the reference; see it for the
+Same algorithm and same arrays as its NumPy oracle ``tests/oracles/ftcapn.py`` (see it for the
 equations); the test suite checks that both give the same numbers to ~1e-9 relative. Blocks of
 64 samples run in parallel threads; within a block the samples advance in lockstep, which keeps
 the work of a block in the L1 cache. The state and the per-step work of a block are stored as
@@ -178,10 +178,32 @@ N_LANE = 7
 
 @njit(cache=True, error_model="numpy", parallel=True)
 def simulate_numba(r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
-    """Run the batch; arguments and outputs as :func:`.kernel_numpy.simulate_numpy`.
+    """Run the FTCAPN closed loop for a batch, filling ``buf``, ``sc`` and ``status`` in place.
 
     Blocks of ``BLOCK`` samples run in parallel (``numba.set_num_threads`` sets how many
     threads).
+
+    Parameters
+    ----------
+    r0, v0 : ndarray, shape (n, 3)
+        Initial line of sight ``r = target - chaser`` [m] and its rate [m/s].
+    at : ndarray, shape (n, 3)
+        Target acceleration [m/s^2]: a fixed vector, or (``P_ROTATING``) its components along
+        ``e_theta, e_r, e_w`` of each step's true LOS frame.
+    bR, bw : ndarray, shape (n,)
+        Range [m] and LOS-rate [rad/s] measurement biases.
+    p : ndarray, shape (N_PARAMS,)
+        Constants (indices ``P_*`` of :mod:`.layout`).
+    K, max_steps : int
+        Last grid index (grid ``k dt``, ``k = 0..K``); steps before a sample fails for
+        exceeding ``t_max``.
+    col : ndarray of int, shape (N_SERIES,)
+        First row of each series in ``buf`` (-1: not recorded).
+    buf : ndarray, shape (C, n, K+1)
+        Series columns: ``buf[col[S] + q, i, k]`` is component ``q`` of series ``S`` of
+        sample ``i`` at grid time ``k dt``; a stopped sample keeps its stop state's values.
+    sc : ndarray, shape (n, N_KSCALARS)
+    status : ndarray of int8, shape (n,)
     """
     n = r0.shape[0]
     for b in prange((n + BLOCK - 1) // BLOCK):
@@ -463,8 +485,8 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
 
     Lanes that have stopped still go through pass 1 (their state is frozen and finite, or NaN
     after a failure; nothing of it is used): cheaper than branching on every one.
-    Each lane's arithmetic is the same, operation for operation, as in the per-sample loop of
-    :mod:`.kernel_numpy`.
+    Each lane's arithmetic is the same, operation for operation, as in the NumPy oracle's
+    per-sample loop (``tests/oracles/ftcapn.py``).
     """
     c_, eps, beta, eta, Nn = p[P_C], p[P_EPS], p[P_BETA], p[P_ETA], p[P_N]
     asat, delta, dt, rstop = p[P_ASAT], p[P_DELTA], p[P_DT], p[P_RSTOP]
