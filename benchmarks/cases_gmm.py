@@ -9,8 +9,8 @@ benchmark measures exactly what ``uqguide run`` evaluates:
   kernels because the GMM shift and covariance scale are dispersed);
 - ``gmm_proximity F2``: configs/gmm_dispersion_f2.yaml (variance-floored GMM, same inputs).
 
-The compiled kernel (``kernel: auto``) runs the blocks of samples in parallel threads;
-``--param kernel=numpy`` times the NumPy reference, ``--param threads=1`` one thread.
+The compiled kernel runs the blocks of samples in parallel threads; ``--param threads=1`` on
+one thread.
 
     python benchmarks/throughput.py --model gmm_proximity
 """

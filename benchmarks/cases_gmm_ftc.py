@@ -3,8 +3,7 @@
 Each sample is one whole GMM-FTC closed-loop run around the spinning target: 0.1 s control
 period = RK4 step, 3,000 steps over 300 s, the 12-kernel GMM potential with its third
 derivative at every step, per-step clearance / swept-collision checks; the compiled kernel
-(``kernel: auto``) runs the samples in parallel. ``--param kernel=numpy`` times the NumPy
-reference (one Python-level step per control period for the whole batch).
+runs the samples in parallel.
 
 - ``gmm_ftc dispersion``: the inputs and outputs of configs/gmm_ftc_dispersion.yaml (per-sample
   spin rates, so the plant matrices are per sample);

@@ -19,7 +19,7 @@ Usage::
 
     python benchmarks/throughput.py                       # every case, its own batch sizes
     python benchmarks/throughput.py --model ftcapn --batches 1000 100000
-    python benchmarks/throughput.py --model ftcapn --param kernel=numpy --param threads=1
+    python benchmarks/throughput.py --model ftcapn --param threads=1
 
 The structure (cases -> ``run_case`` -> rows) is meant to be routed through the real Monte
 Carlo pipeline later: only ``run_case`` knows how a batch is evaluated and reduced.
@@ -331,7 +331,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--model", action="append", help="only cases of this model (repeatable)")
     ap.add_argument("--batches", type=int, nargs="+", help="batch sizes (default: per case)")
     ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a model parameter (YAML value), e.g. kernel=numpy")
+                    help="override a model parameter (YAML value), e.g. threads=1")
     ap.add_argument("--bootstrap", type=int, default=BOOTSTRAP, help="bootstrap resamples")
     ap.add_argument("--intervals", choices=["delta", "bootstrap"], default="delta",
                     help="interval method of the statistics (the Monte Carlo setting)")

@@ -19,8 +19,8 @@ model or methods are not registered are skipped with a message.
 Every baseline is written with its round-off ensemble: the config is rerun ``ROUNDOFF_MEMBERS``
 times with every model input moved by 1e-12 relative (``UQGUIDE_PERTURB``, a different
 direction each time), as another CPU would move it, and once more with the NumPy reference
-kernels (``UQGUIDE_KERNEL=numpy``: the same arithmetic in another order, as another compiler
-would order it). A statistic that moves by more than a
+kernels (the test oracles of ``tests/oracles``: the same arithmetic in another order, as another
+compiler would order it). A statistic that moves by more than a
 quarter of its gate tolerance in any of them would make the gate's verdict depend on the CPU:
 the baseline marks it chaotic, with the range it took, and the gate reports it without checking
 it (an adaptive PCE of a study whose runs cross a non-smooth boundary is the case seen: its term
@@ -46,11 +46,11 @@ from uqguide.gate.baseline import make_baseline, to_jsonable  # noqa: E402
 from uqguide.config.run_config import load_config  # noqa: E402
 from uqguide.errors import UqguideError  # noqa: E402
 from uqguide.gate.check import check_result, read_baseline, write_baseline  # noqa: E402
-from uqguide.models.kernels import KERNEL_ENV  # noqa: E402
 from uqguide.models.roundoff import MEMBER_ENV, PERTURB_ENV, ROUNDOFF  # noqa: E402
 from uqguide.driver.propagate import run  # noqa: E402
 from uqguide.config.registry import METHODS, MODELS  # noqa: E402
 from uqguide.results.result import Result  # noqa: E402
+from tests.oracles import substituted  # noqa: E402
 
 ROUNDOFF_MEMBERS = 4
 """Perturbed reruns of each golden config when its baseline is written."""
@@ -62,17 +62,23 @@ def roundoff_ranges(path: Path, result: Result) -> dict[StatKey, list[float | No
     """The chaotic statistics of ``result`` and their ranges over the round-off ensemble."""
     base = parse_baseline(to_jsonable(make_baseline(result)))
     values: dict[StatKey, list[float]] = {}
-    saved = {k: os.environ.get(k) for k in (PERTURB_ENV, MEMBER_ENV, KERNEL_ENV)}
-    # the perturbed members, then the NumPy reference kernels unperturbed: another order of
-    # the same floating-point operations, which is what another CPU or compiler does too
-    members = [{PERTURB_ENV: f"{ROUNDOFF:g}", MEMBER_ENV: str(m)}
-               for m in range(1, ROUNDOFF_MEMBERS + 1)] + [{KERNEL_ENV: "numpy"}]
+    saved = {k: os.environ.get(k) for k in (PERTURB_ENV, MEMBER_ENV)}
+    # the perturbed members, then the NumPy reference kernels unperturbed (None): another order
+    # of the same floating-point operations, which is what another CPU or compiler does too
+    members: list[dict[str, str] | None] = [
+        {PERTURB_ENV: f"{ROUNDOFF:g}", MEMBER_ENV: str(m)}
+        for m in range(1, ROUNDOFF_MEMBERS + 1)] + [None]
     try:
         for member in members:
             for k in saved:
                 os.environ.pop(k, None)
-            os.environ.update(member)
-            report = check_result(run(load_config(path)), base)
+            if member is None:
+                with substituted():
+                    member_result = run(load_config(path))
+            else:
+                os.environ.update(member)
+                member_result = run(load_config(path))
+            report = check_result(member_result, base)
             for r in report.rows:
                 key = (r.label, r.output, _at(base, r), r.time, r.component, r.stat)
                 values.setdefault(key, [r.baseline]).append(r.value)

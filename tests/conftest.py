@@ -42,3 +42,13 @@ def decay_fmu(tmp_path_factory) -> Path:
     from tests import fmu_decay
 
     return fmu_decay.build(tmp_path_factory.mktemp("fmu"))
+
+
+@pytest.fixture
+def oracle_kernels():
+    """The simulators run their NumPy test oracles instead of their compiled kernels
+    (``tests/oracles``; this process only)."""
+    from tests.oracles import substituted
+
+    with substituted():
+        yield

@@ -3,6 +3,7 @@ up front and on purpose; a kernel already in the cache is only loaded."""
 
 from __future__ import annotations
 
+import pytest
 import yaml
 from click.testing import CliRunner
 
@@ -25,19 +26,22 @@ def test_each_distinct_model_runs_once_then_the_statistics_kernel(tmp_path):
     rows = compile_kernels(["ftcapn_nominal", "ftcapn_table3", _lognormal(tmp_path)])
     assert [(r.study, r.model) for r in rows] == [
         ("ftcapn_nominal", "ftcapn"), ("mine", "lognormal"), ("-", "moment sums")]
-    assert rows[0].kernel == kernels.choose("auto", "ftcapn")
+    assert rows[0].kernel == "numba"
     assert rows[1].kernel == ""             # no kernel to choose: nothing is compiled
     assert all(0.0 <= r.compile_s <= r.total_s for r in rows)
     # a second call finds everything in this process or the cache: no compile at all
     assert sum(r.compile_s for r in compile_kernels(["ftcapn_nominal"])) == 0.0
 
 
-def test_a_forced_numpy_kernel_compiles_nothing(tmp_path, monkeypatch):
+def test_the_deprecated_numpy_kernel_is_the_compiled_one(tmp_path, monkeypatch):
+    # UQGUIDE_KERNEL=numpy once forced the NumPy references (now test oracles): it is ignored
+    monkeypatch.setattr(kernels, "_warned", set())
     monkeypatch.setenv(kernels.KERNEL_ENV, "numpy")
-    out = CliRunner().invoke(main, ["compile", "gmm_nominal"])
+    with pytest.warns(DeprecationWarning, match="UQGUIDE_KERNEL is deprecated and ignored"):
+        out = CliRunner().invoke(main, ["compile", "gmm_nominal"])
     assert out.exit_code == 0, out.output
     line = next(ln for ln in out.output.splitlines() if ln.startswith("gmm_nominal"))
-    assert line.split()[1:4] == ["gmm_proximity", "numpy", "0.0"]
+    assert line.split()[1:3] == ["gmm_proximity", "numba"]
 
 
 def test_an_unknown_study_is_exit_2_naming_it():

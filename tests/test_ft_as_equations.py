@@ -1,4 +1,5 @@
-"""Unit tests of the FT-AS equations (ft-as-controller.md section 13, tests 2-7), numpy path."""
+"""Unit tests of the FT-AS equations (ft-as-controller.md section 13, tests 2-7) on their NumPy
+form (tests/oracles/ft_as_equations.py)."""
 
 from __future__ import annotations
 
@@ -7,8 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from tests.oracles import ft_as_equations as cl
 from uqguide.models.dynamics import mrp
-from uqguide.models.ft_as import equations as cl
 from uqguide.models.ft_as import scenario
 from uqguide.models.ft_as.params import FTASParams
 from uqguide.models.ft_as.setup import OMEGA, R_E, SIGMA_E, V_E, Batch

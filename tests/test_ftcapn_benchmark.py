@@ -21,7 +21,7 @@ def tp():
 @pytest.mark.slow
 def test_ftcapn_case_runs_and_formats(tp):
     case = next(c for c in tp.discover_cases() if c["model"] == "ftcapn")
-    case = {**case, "params": {"kernel": "numpy"}}
+    case = {**case, "params": {"threads": 1}}
     row = tp.run_case(case, 64, bootstrap=20)
     assert row["runs"] == 64 and row["failed"] == 0 and row["batch"] == 64
     assert row["wall_s"] == pytest.approx(row["sim_s"] + row["stats_s"], rel=1e-9)
@@ -48,7 +48,7 @@ def test_cases_modules_are_discovered(tp, tmp_path, monkeypatch):
 
 
 def test_command_line_filters_and_overrides(tp, capsys):
-    assert tp.main(["--no-scale", "--model", "ftcapn", "--batches", "32", "--param", "kernel=numpy",
+    assert tp.main(["--no-scale", "--model", "ftcapn", "--batches", "32", "--param", "threads=1",
                     "--bootstrap", "0", "--no-memory"]) == 0
     out = capsys.readouterr().out.splitlines()
     # the run table (header, rule, one row), a blank line, then the roofline table

@@ -1,7 +1,7 @@
 """FTCAPN against closed forms: free drift, the stop crossing, Hill terms, the command law.
 
-These run the NumPy reference kernel (no JIT cost); test_ftcapn_kernels.py checks that the
-numba kernel gives the same numbers.
+These run the compiled kernel; test_ftcapn_kernels.py checks that its NumPy oracle
+(tests/oracles/ftcapn.py) gives the same numbers.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ POS_VEL = ["dx", "dy", "dz", "dvx", "dvy", "dvz"]
 
 
 def model(**kw) -> FTCAPN:
-    return FTCAPN({"kernel": "numpy", **kw})
+    return FTCAPN(kw)
 
 
 def all_outputs(m: FTCAPN) -> frozenset[str]:

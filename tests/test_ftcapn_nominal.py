@@ -12,7 +12,7 @@ from uqguide.papers import nominal_figures, nominal_report
 
 @pytest.fixture(scope="module")
 def rows():
-    return {r.quantity: r for r in nominal_report(FTCAPN({"kernel": "numpy"}))}
+    return {r.quantity: r for r in nominal_report(FTCAPN())}
 
 
 def test_initial_state_matches_paper(rows):
@@ -43,7 +43,7 @@ def test_report_flags_agree_with_the_checks(rows):
 
 def test_eq15_equals_true_miss_for_a_straight_drift():
     # |r x v| / |v| vs omega R^2 / |Rdot| = |r x v| / |Rdot|: equal up to (R omega / Rdot)^2
-    out = FTCAPN({"kernel": "numpy"}).nominal(frozenset(["zem", "zem_eq15", "omega_s_stop",
+    out = FTCAPN().nominal(frozenset(["zem", "zem_eq15", "omega_s_stop",
                                                            "Rdot_stop"]))
     ratio_term = (50.0 * out.scalars["omega_s_stop"][0, 0] / out.scalars["Rdot_stop"][0, 0]) ** 2
     assert out.scalars["zem"][0, 0] == pytest.approx(out.scalars["zem_eq15"][0, 0],
@@ -52,7 +52,7 @@ def test_eq15_equals_true_miss_for_a_straight_drift():
 
 @pytest.mark.slow  # figures (tests/test_plots.py keeps the cheap ones in the default suite)
 def test_nominal_figures_are_written(tmp_path):
-    paths = nominal_figures(FTCAPN({"kernel": "numpy"}), tmp_path)
+    paths = nominal_figures(FTCAPN(), tmp_path)
     assert len(paths) == 3
     for p in paths:
         with open(p, "rb") as f:

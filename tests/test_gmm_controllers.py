@@ -10,7 +10,7 @@ from uqguide.models.gmm.controllers import NTSMC, TSMC, ReachingLaw, sig
 from uqguide.models.gmm.gauss_sum import GaussSum
 from uqguide.models.gmm.mixture import WANG2022_PUBLISHED
 from uqguide.models.gmm.potential import AttractRepulsePotential
-from uqguide.models.gmm.kernel_numpy import saturate
+from tests.oracles.gmm import saturate
 
 R_F = np.array([-5.0, -0.913043, -0.304348])
 P_W, M_W = 1.2e-2 * np.eye(3), np.diag([0.8, 0.6, 0.4])

@@ -1,4 +1,4 @@
-"""The compiled GMM-FTC closed loop against the NumPy reference.
+"""The compiled GMM-FTC closed loop against the NumPy reference (tests/oracles/gmm_ftc.py).
 
 Same inputs (per-sample spin rates, thrust factors, keyed per-period noise, a controller with
 the nominal spin or the printed model, sub-steps, a thrust limit): the two must agree to
@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.oracles import substituted
 from uqguide.models.gmm_ftc import GMMFTC
 
 NAMES = ["dx0", "dy0", "dvz0", "dw_x", "dw_z", "thrust_scale_x", "thrust_scale"]
@@ -32,8 +33,9 @@ X = np.array([
 def test_numba_kernel_matches_numpy_reference(variant):
     params = {"t_final": 30.0, "record_dt": 0.5, **variant}
     outs = [o.name for o in GMMFTC().outputs()]
-    ref = GMMFTC({**params, "kernel": "numpy"}).evaluate(X, NAMES, outs)
-    fast = GMMFTC({**params, "kernel": "numba"}).evaluate(X, NAMES, outs)
+    with substituted():
+        ref = GMMFTC(params).evaluate(X, NAMES, outs)
+    fast = GMMFTC(params).evaluate(X, NAMES, outs)
     np.testing.assert_array_equal(ref.time, fast.time)
     for k, a in ref.series.items():
         scale = max(np.abs(a).max(), 1e-300)
@@ -46,8 +48,9 @@ def test_numba_kernel_matches_numpy_reference(variant):
 def test_numba_kernel_collision_verdict_on_a_chaotic_run():
     params = {"t_final": 80.0, "thrust_noise": 0.0}
     x = np.array([[-6.0], [0.0]])  # start (12, -3, 1): crosses the +x panel (spec 11)
-    ref = GMMFTC({**params, "kernel": "numpy"}).evaluate(x, ["dy0"], ["collided"])
-    fast = GMMFTC({**params, "kernel": "numba"}).evaluate(x, ["dy0"], ["collided"])
+    with substituted():
+        ref = GMMFTC(params).evaluate(x, ["dy0"], ["collided"])
+    fast = GMMFTC(params).evaluate(x, ["dy0"], ["collided"])
     np.testing.assert_array_equal(fast.scalars["collided"], ref.scalars["collided"])
     assert ref.scalars["collided"][:, 0].tolist() == [1.0, 0.0]
 
@@ -65,7 +68,7 @@ def test_numba_kernel_is_bitwise_independent_of_blocks_threads_and_batch():
     names = ["dx0", "dy0", "dvx0", "dw_z", "thrust_scale_x"]
     x = np.column_stack([rng.normal(0, 1, n), rng.normal(0, 1, n), rng.normal(0, 0.01, n),
                          rng.normal(0, 0.003, n), rng.uniform(0.95, 1.05, n)])
-    model = GMMFTC({"t_final": 5.0, "record_dt": 0.5, "thrust_noise": 0.05, "kernel": "numba"})
+    model = GMMFTC({"t_final": 5.0, "record_dt": 0.5, "thrust_noise": 0.05})
     outs = [o.name for o in model.outputs()]
     full = model.evaluate(x, names, outs)
     before = numba.get_num_threads()

@@ -221,9 +221,9 @@ def test_model_variants_change_the_path_as_the_spec_reports():
     assert 0 < dev["fitted"] < 1e-7
 
 
-# the NumPy kernel's 30 steps cost 2 CPU-s of set-up: a slow test (the default suite's budget)
+# the NumPy oracle's 30 steps cost 2 CPU-s of set-up: a slow test (the default suite's budget)
 @pytest.mark.parametrize("kernel", [pytest.param("numpy", marks=pytest.mark.slow), "numba"])
-def test_a_loop_that_diverges_at_a_coarse_step_is_a_failed_run_not_a_nan(kernel):
+def test_a_loop_that_diverges_at_a_coarse_step_is_a_failed_run_not_a_nan(kernel, request):
     """At dt = 1 s the finite-time law overshoots on some dispersed starts: the state grows
     until the speed or delta-v overflows. Those runs are failed and say why; the others keep
     finite outputs (issue: NaN delta-v reported as a success)."""
@@ -237,11 +237,12 @@ def test_a_loop_that_diverges_at_a_coarse_step_is_a_failed_run_not_a_nan(kernel)
                           "gmm_ftc_dispersion.yaml").read_text())
     raw.pop("reference")
     raw.pop("events")
-    raw["model"]["kernel"] = kernel
     raw["model"]["t_final"] = 30.0   # the diverging runs overflow by t = 12 s
     rc = load_config(dict(raw, methods=[{"name": "monte_carlo", "n_samples": 10}]))
     space = rc.space
     u = np.random.default_rng(1).random((6, space.dim))
+    if kernel == "numpy":
+        request.getfixturevalue("oracle_kernels")
     out = rc.model.at_fidelity({"dt": 1.0}).evaluate(space.from_unit(u), space.names,
                                                      ["delta_v", "min_clearance"])
     dv = out.scalars["delta_v"][:, 0]

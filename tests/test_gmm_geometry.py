@@ -9,7 +9,7 @@ from uqguide.models.gmm.geometry import (
     Part, penetration_depth, point_box_distance, segment_box_hits, wang2022_chief,
 )
 from uqguide.models.gmm.point_cloud import WANG2022_GRID_COUNTS, grid_cloud, random_cloud
-from uqguide.models.gmm.kernel_numpy import _advance
+from tests.oracles.gmm import _advance
 
 CHIEF = wang2022_chief()
 NAMES = CHIEF.names  # body, panel+y, panel-y, antenna+x, antenna-x

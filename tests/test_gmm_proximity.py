@@ -12,7 +12,7 @@ from pydantic import ValidationError
 from uqguide.config.run_config import load_config
 from uqguide.models.dynamics.tschauner_hempel import ChiefOrbit, LVLHPlant, propagate_free
 from uqguide.models.gmm.mixture import WANG2022_PUBLISHED, Mixture
-from uqguide.models.gmm.kernel_numpy import simulate
+from tests.oracles.gmm import simulate
 from uqguide.models.gmm.model import GMMProximity
 from uqguide.papers import nominal_figures, nominal_report
 from uqguide.papers.gmm_proximity.claims import APF, GNT, GTS, evaluate_wang2022_claims

@@ -50,8 +50,10 @@ def no_figures(monkeypatch):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("kernel", ["numba", "numpy"])
-def test_worst_zem_replays_bit_for_bit_with_histories_and_figures(tmp_path, kernel):
-    h5 = _result(tmp_path, kernel=kernel)
+def test_worst_zem_replays_bit_for_bit_with_histories_and_figures(tmp_path, kernel, request):
+    if kernel == "numpy":  # the study and its replay on the NumPy oracle (tests/oracles)
+        request.getfixturevalue("oracle_kernels")
+    h5 = _result(tmp_path)
     res = read_hdf5(h5).run("mc")
     worst = int(np.nanargmax(res.scalars["zem"][:, 0]))
     out = CliRunner().invoke(main, ["replay", str(h5), "--label", "mc", "--worst", "zem",

@@ -6,7 +6,8 @@ check must hold in all three, or it asserts something that a user on another mac
 fail without any change of the code:
 
 - ``perturbed``: every model input moved by 1e-12 relative (``UQGUIDE_PERTURB``);
-- ``numpy``: the NumPy reference kernels instead of the compiled ones (``UQGUIDE_KERNEL``).
+- ``numpy``: the NumPy reference kernels instead of the compiled ones (the test oracles of
+  ``tests/oracles``, put in their place in this process).
 
 A paper-figure check holds under round-off when every row of the nominal report keeps its
 verdict and every row marked reproducible moves by less than 1 % (a tenth of the tightest
@@ -20,20 +21,22 @@ Cheap cases run in the default suite; the others are marked ``roundoff`` and run
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 
 from uqguide.config.run_config import load_config
 from uqguide.gate.check import check_result, read_baseline
-from uqguide.models.kernels import KERNEL_ENV
+from tests.oracles import substituted
 from uqguide.models.roundoff import PERTURB_ENV
 from uqguide.papers import nominal_report
 from uqguide.driver.propagate import run
 
 ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = ROOT / "tests" / "golden"
-MODES = {"perturbed": (PERTURB_ENV, "1e-12"), "numpy": (KERNEL_ENV, "numpy")}
+MODES = ("perturbed", "numpy")
 
 # Cases that cost more than about 1 CPU-s in a mode (the NumPy kernels of the closed loops run
 # 50-100x slower than the compiled ones): they run in the marked suite only. Every simulator
@@ -70,11 +73,14 @@ def _cases(names: list[str]) -> list:
     return out
 
 
-def _set_mode(monkeypatch: pytest.MonkeyPatch, mode: str) -> None:
-    for var, _ in MODES.values():
-        monkeypatch.delenv(var, raising=False)
-    var, value = MODES[mode]
-    monkeypatch.setenv(var, value)
+@contextmanager
+def _mode(monkeypatch: pytest.MonkeyPatch, mode: str) -> Iterator[None]:
+    if mode == "perturbed":
+        monkeypatch.setenv(PERTURB_ENV, "1e-12")
+        yield
+    else:
+        with substituted():
+            yield
 
 
 GOLDEN_NAMES = sorted(p.stem for p in GOLDEN.glob("*.yaml"))
@@ -82,9 +88,10 @@ GOLDEN_NAMES = sorted(p.stem for p in GOLDEN.glob("*.yaml"))
 
 @pytest.mark.parametrize(("name", "mode"), _cases(GOLDEN_NAMES))
 def test_golden_baseline_holds_under_roundoff(name: str, mode: str, monkeypatch) -> None:
-    _set_mode(monkeypatch, mode)
+    monkeypatch.delenv(PERTURB_ENV, raising=False)
     baseline = read_baseline(GOLDEN / f"{name}.baseline.json")
-    report = check_result(run(load_config(GOLDEN / f"{name}.yaml")), baseline)
+    with _mode(monkeypatch, mode):
+        report = check_result(run(load_config(GOLDEN / f"{name}.yaml")), baseline)
     assert report.passed, f"{mode}: " + report.render()
 
 
@@ -97,11 +104,10 @@ def _rows(name: str) -> list:
 
 @pytest.mark.parametrize(("name", "mode"), _cases(NOMINAL_NAMES))
 def test_paper_figure_checks_hold_under_roundoff(name: str, mode: str, monkeypatch) -> None:
-    for var, _ in MODES.values():
-        monkeypatch.delenv(var, raising=False)
+    monkeypatch.delenv(PERTURB_ENV, raising=False)
     exact = _rows(name)
-    _set_mode(monkeypatch, mode)
-    moved = _rows(name)
+    with _mode(monkeypatch, mode):
+        moved = _rows(name)
     assert [r.quantity for r in moved] == [r.quantity for r in exact]
     for a, b in zip(exact, moved):
         if a.kind == "timing":

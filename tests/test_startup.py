@@ -3,7 +3,6 @@ figures are measured by benchmarks/startup.py, not asserted here)."""
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -81,47 +80,17 @@ def test_the_three_sigma_literals_are_scipys():
     assert THREE_SIGMA == (float(stats.norm.cdf(-3.0)), 0.5, float(stats.norm.cdf(3.0)))
 
 
-@pytest.mark.slow
-def test_checking_report_times_loads_no_compiled_kernel():
+def test_report_times_are_checked_on_the_grid_the_runs_produce():
     """``uqguide run`` checks the report times against the model's grid before it starts the
-    workers; for FTCAPN the grid comes from a one-run NumPy probe, not from a run of the
-    compiled kernel (0.6 s to load into a driver that may never simulate), and it is the
-    grid the runs produce."""
-    probe = """
-import sys
-import numpy as np
-import uqguide
-from uqguide.config.report_times import check_config_report_times, model_time_grid
-c = uqguide.load_config("configs/ftcapn_table3.yaml")
-check_config_report_times(c)
-print("NUMBA:" + str("numba" in sys.modules))
-grid = model_time_grid(c.model, c.outputs)
-run = c.model.evaluate(np.zeros((1, c.space.dim)), c.space.names, ["omega_s"]).time
-print("SAME:" + str(np.array_equal(grid, run) and grid[-1] == 77.5))
-"""
-    p = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT,
-                       timeout=120)
-    assert p.returncode == 0, p.stderr
-    assert "NUMBA:False" in p.stdout and "SAME:True" in p.stdout, p.stdout
+    workers; for FTCAPN the grid comes from its nominal run (a run of the compiled kernel,
+    which the driver loads anyway before a pool starts), and it is the grid the runs produce."""
+    import numpy as np
 
+    import uqguide
+    from uqguide.config.report_times import check_config_report_times, model_time_grid
 
-@pytest.mark.slow
-def test_a_numpy_kernel_run_imports_no_numba():
-    """``kernels.select`` calls only the chosen loader: with ``UQGUIDE_KERNEL=numpy`` a run of
-    FTCAPN and one of FT-AS (whose runner once imported its compiled kernel for the record
-    layout) never import numba."""
-    probe = """
-import sys
-import numpy as np
-from uqguide.models.ft_as import FTAS
-from uqguide.models.ftcapn import FTCAPN
-assert not FTCAPN().nominal().failed[0]
-FTAS({"step": 0.1, "duration": 5.0, "output_interval": 1.0, "final_window": 1.0,
-      "late_time": 1.0}).evaluate(np.zeros((1, 0)), [])
-print("NUMBA:" + str("numba" in sys.modules))
-"""
-    env = {**os.environ, "UQGUIDE_KERNEL": "numpy"}
-    p = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT,
-                       env=env, timeout=120)
-    assert p.returncode == 0, p.stderr
-    assert "NUMBA:False" in p.stdout, p.stdout
+    c = uqguide.load_config(ROOT / "configs" / "ftcapn_table3.yaml")
+    check_config_report_times(c)
+    grid = model_time_grid(c.model, c.outputs)
+    run = c.model.evaluate(np.zeros((1, c.space.dim)), c.space.names, ["omega_s"]).time
+    assert np.array_equal(grid, run) and grid[-1] == 77.5

@@ -7,7 +7,7 @@ from pydantic import ValidationError
 
 from uqguide.models.ft_as.params import FTASParams
 from uqguide.models.gmm.model import GMMProximityParams
-from uqguide.models.gmm_ftc.kernel_numpy import LoopSettings
+from uqguide.models.gmm_ftc.loop import LoopSettings
 from uqguide.models.gmm_ftc.model import GMMFTCParams
 from uqguide.models.time_grid import recording_stride, whole_steps
 

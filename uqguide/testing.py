@@ -110,14 +110,8 @@ def model_checks(cls: type[Model], params: Mapping[str, Any] | None = None, *, n
             _same_bits(out.subset(np.arange(n)[half]), part, who, "batch-split invariance",
                        f"samples {half.start}..{half.stop - 1} evaluated apart")
 
-    def kernels() -> None:
-        model, x, names, outputs = batch()
-        _check_kernels(cls, params, x, names, outputs, who)
-
     yield from (("metadata", metadata), ("parameters", parameters), ("shapes", shapes),
                 ("determinism", determinism), ("batch-split invariance", batch_split))
-    if "kernel" in getattr(cls.Params, "model_fields", {}):
-        yield "kernels", kernels
 
 
 def check_model(cls: type[Model], params: Mapping[str, Any] | None = None, *, n: int = 6,
@@ -227,23 +221,6 @@ def _same_bits(a: ModelOutput, b: ModelOutput, who: str, rule: str, what: str) -
     for name, u, v in pairs:
         if v is None or np.shape(u) != np.shape(v) or not np.array_equal(u, v, equal_nan=True):
             raise _fail(who, rule, f"'{name}' differs ({what})")
-
-
-def _check_kernels(cls: type[Model], params: dict[str, Any], x: np.ndarray,
-                   names: Sequence[str], outputs: Sequence[str], who: str) -> None:
-    ref = cls({**params, "kernel": "numpy"}).evaluate(x, names, outputs)
-    fast = cls({**params, "kernel": "numba"}).evaluate(x, names, outputs)
-    if not np.array_equal(ref.failed, fast.failed):
-        raise _fail(who, "kernels", "the NumPy and compiled kernels fail different samples")
-    ok = ~ref.failed
-    for name in ref.series.keys() | ref.scalars.keys():
-        a = (ref.series[name] if name in ref.series else ref.scalars[name])[ok]
-        b = (fast.series[name] if name in fast.series else fast.scalars[name])[ok]
-        scale = float(np.nanmax(np.abs(a))) if a.size and np.isfinite(a).any() else 0.0
-        err = np.abs(a - b)
-        if a.size and not np.all((err <= 1e-6 * scale + 1e-12) | (np.isnan(a) & np.isnan(b))):
-            raise _fail(who, "kernels", f"'{name}' differs by {np.nanmax(err):.3g} between the "
-                        f"NumPy and compiled kernels (scale {scale:.3g}; allowed 1e-6 of it)")
 
 
 # ---------------------------------------------------------------------------- methods

@@ -32,7 +32,6 @@ from ..core.strict import StrictModel
 
 from ..errors import ModelError
 from ..core.types import DerivedOutput, ModelOutput
-from .kernels import KernelChoice, choose
 from .roundoff import apply_env
 
 __all__ = ["DerivedOutput", "InputInfo", "Model", "ModelOutput", "ModelParams", "OutputInfo",
@@ -272,17 +271,15 @@ class Model(ABC):
         """
         return tuple(i.name for i in self.inputs())
 
-    def kernel_choice(self) -> KernelChoice | None:
-        """Which kernel the evaluations run, for a model with a ``kernel`` parameter.
+    def kernel_choice(self) -> Literal["numba"] | None:
+        """Whether the evaluations run a compiled kernel (a model with a ``kernel`` parameter).
 
         Returns
         -------
-        {"numba", "numpy"} or None
-            None: the model has no kernel to choose (nothing compiled for the driver to load
-            before its timed runs).
+        "numba" or None
+            None: nothing compiled for the driver to load before its timed runs.
         """
-        requested = getattr(self.params, "kernel", None)
-        return None if requested is None else choose(requested, self.name)
+        return None if getattr(self.params, "kernel", None) is None else "numba"
 
     def step_count(self) -> StepCount | None:
         """Steps and output grid points of one run, from the parameters alone.

@@ -1,9 +1,4 @@
-"""Compiled kernels: which one runs, where its machine code is cached, and saying when it compiles.
-
-Every simulator with a compiled (numba) closed loop also keeps a NumPy reference of the same
-loop. The two differ by round-off only, as two CPUs do, which makes the reference the cheapest
-way to ask whether a reported figure survives round-off (``UQGUIDE_KERNEL=numpy``, see
-:func:`choose`).
+"""Compiled kernels: where their machine code is cached, and saying when they compile.
 
 Kernel modules decorate with :func:`njit` from here rather than ``numba.njit`` so that, before
 the first decorator runs,
@@ -13,167 +8,75 @@ the first decorator runs,
   cache goes to ``$XDG_CACHE_HOME/uqguide/numba`` (``~/.cache/uqguide/numba``), and to a folder in
   the temporary directory when even that cannot be written (``NUMBA_CACHE_DIR`` set by the user
   always wins);
-- a compile that misses the cache is a phase of its own: a line on stderr when it starts
-  ("compiling the ftcapn kernel (once per install ...)", the phase of the progress bar on a
-  terminal) and one when it ends ("compiled the ftcapn kernel in 21.3 s"), because the first
-  run of a fresh install spends tens of CPU-seconds there; its seconds are counted
-  (:func:`compile_seconds`) so that the driver books them as compile time, not model time.
+- a compile that misses the cache is a phase of its own, a line on stderr when it starts and
+  one when it ends, its seconds booked as compile time, not model time (:func:`compile_seconds`).
+
+The NumPy reference kernels are test oracles (``tests/oracles/``); ``kernel: numpy`` and
+``UQGUIDE_KERNEL`` are deprecated and run the compiled kernel (:data:`KernelParam`).
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 import tempfile
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator
-from contextlib import AbstractContextManager, contextmanager, nullcontext
-from dataclasses import dataclass
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Generic, Literal, TypeVar
+from typing import Annotated, Any, Literal
+
+from pydantic import AfterValidator, Field
+
+log = logging.getLogger(__name__)
 
 KERNEL_ENV = "UQGUIDE_KERNEL"
-"""Environment variable that forces every model's kernel: ``numpy`` or ``numba``."""
+"""Deprecated environment variable that once forced the NumPy reference kernels."""
 
-KernelChoice = Literal["numba", "numpy"]
-KernelParam = Literal["auto", "numba", "numpy"]
-"""A model's ``kernel`` parameter: ``auto`` is numba when it is importable (:func:`choose`)."""
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
-F = TypeVar("F", bound=Callable[..., Any])
+_warned: set[str] = set()
 
 
-def kernel_override() -> KernelChoice | None:
-    """The kernel forced by ``UQGUIDE_KERNEL`` (None when unset or empty).
-
-    Returns
-    -------
-    {"numpy", "numba"} or None
-
-    Raises
-    ------
-    ConfigError
-        When the variable holds anything but ``numpy`` or ``numba``.
-    """
-    value = os.environ.get(KERNEL_ENV, "").strip().lower()
-    if not value:
-        return None
+def _deprecated(value: str) -> str:
+    # one line per process: params are validated for every model built, in every worker
+    notes = []
     if value == "numpy":
-        return "numpy"
-    if value == "numba":
-        return "numba"
-    from ..errors import ConfigError
-
-    raise ConfigError(
-        f"environment variable {KERNEL_ENV} must be 'numpy' or 'numba'; got {value!r}",
-        field=KERNEL_ENV,
-    )
-
-
-def numba_available() -> bool:
-    """Whether numba can be imported here.
-
-    Returns
-    -------
-    bool
-    """
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return False
-    return True
+        notes.append("model.kernel: 'numpy' is deprecated and runs the compiled kernel (the "
+                     "NumPy reference kernels are test oracles now); remove the key")
+    if os.environ.get(KERNEL_ENV, "").strip():
+        notes.append(f"environment variable {KERNEL_ENV} is deprecated and ignored: the "
+                     "compiled kernel runs")
+    for note in notes:
+        if note not in _warned:
+            _warned.add(note)
+            log.warning("%s", note)
+            warnings.warn(note, DeprecationWarning, stacklevel=2)
+    return value
 
 
-def choose(requested: str, model: str) -> KernelChoice:
-    """The kernel a model runs: ``UQGUIDE_KERNEL`` if set, else ``requested``.
+KernelParam = Annotated[Literal["auto", "numba", "numpy"], AfterValidator(_deprecated)]
+"""A model's deprecated ``kernel`` parameter: every value runs the compiled kernel; ``numpy``
+(and a set ``UQGUIDE_KERNEL``) say so once per process."""
+
+
+def kernel_field(default: str = "auto") -> Any:
+    """The ``kernel`` field of a simulator's parameters (:data:`KernelParam`), kept so that
+    configs and stored results that name it still load.
 
     Parameters
     ----------
-    requested : {"auto", "numba", "numpy"}
-        The model's ``kernel`` parameter; ``auto`` is numba when it is importable.
-    model : str
-        The model's name, for the error message.
+    default : {"auto", "numba"}
 
     Returns
     -------
-    {"numpy", "numba"}
-
-    Raises
-    ------
-    ConfigError
-        ``numba`` asked for (by the parameter or the environment) but not importable.
+    pydantic FieldInfo
     """
-    forced = kernel_override()
-    want = forced or requested
-    if want == "numpy":
-        return "numpy"
-    if numba_available():
-        return "numba"
-    if want == "numba":
-        from ..errors import ConfigError
-
-        source = KERNEL_ENV if forced else f"model.kernel of {model}"
-        raise ConfigError(f"{source} asks for the numba kernel, but numba is not importable; "
-                          "use 'numpy' or 'auto'", field=source)
-    return "numpy"
-
-
-@dataclass(frozen=True)
-class Kernel(Generic[F]):
-    """The closed loop a model runs: its compiled kernel or its NumPy reference.
-
-    Attributes
-    ----------
-    choice : {"numba", "numpy"}
-        Which of the two ``run`` is.
-    run : callable
-        The chosen function (both take the same arguments and return the same result).
-    """
-
-    choice: KernelChoice
-    run: F
-
-    def threads(self, threads: int) -> AbstractContextManager[None]:
-        """Run the compiled kernel on ``threads`` threads while in the block (0: every core
-        numba may use); nothing to set for the NumPy reference.
-
-        Parameters
-        ----------
-        threads : int
-
-        Returns
-        -------
-        context manager
-        """
-        return numba_threads(threads) if self.choice == "numba" else nullcontext()
-
-
-def select(requested: str, model: str, compiled: Callable[[], F], reference: Callable[[], F]
-           ) -> Kernel[F]:
-    """The closed loop a model runs: its compiled kernel or its NumPy reference.
-
-    Both come from zero-argument loaders written in the model's module, each importing its
-    function by name (``from .kernel_numba import simulate_numba``), so that the reader, grep
-    and the type checker see which functions a model runs, and only the chosen one is
-    imported: a NumPy run never imports numba nor compiles anything.
-
-    Parameters
-    ----------
-    requested : {"auto", "numba", "numpy"}
-        The model's ``kernel`` parameter (``UQGUIDE_KERNEL`` overrides it, see :func:`choose`).
-    model : str
-        The model's name, for the error message.
-    compiled, reference : callable
-        Loaders of the numba kernel and of the NumPy reference, which take the same arguments
-        and return the same result.
-
-    Returns
-    -------
-    Kernel
-        The chosen function and which one it is.
-    """
-    choice = choose(requested, model)
-    return Kernel(choice, compiled() if choice == "numba" else reference())
+    return Field(default, validate_default=True,
+                 description="deprecated: the compiled kernel always runs ('numpy' is accepted "
+                             "with a warning)")
 
 
 @contextmanager

@@ -1,10 +1,11 @@
 """Compiled (numba) integration of a batch of FT-AS closed loops with per-step metrics.
 
-The same equations as the numpy reference ``equations.py`` (ft-as-controller.md sections
-3-9), written per sample on scalars. The model's accuracy floors are set by the sampling rate
-(section 12.3), so the spec's h = 0.01 s over 3000 s (3e5 steps) is what a reported run needs;
-only a compiled loop makes that, and Monte Carlo over it, affordable. ``tests/test_ft_as_model.py``
-checks this kernel against :func:`equations.rk4_step` and ``kernel_numpy.py`` to rounding level.
+The same equations as the NumPy oracle ``tests/oracles/ft_as_equations.py``
+(ft-as-controller.md sections 3-9), written per sample on scalars. The model's accuracy floors
+are set by the sampling rate (section 12.3), so the spec's h = 0.01 s over 3000 s (3e5 steps) is
+what a reported run needs; only a compiled loop makes that, and Monte Carlo over it,
+affordable. ``tests/test_ft_as_model.py`` checks this kernel against the oracle's ``rk4_step``
+and whole-run loop (``tests/oracles/ft_as.py``) to rounding level.
 
 How the loop is laid out, and why (``benchmarks/throughput.py`` prints its roofline):
 
@@ -182,7 +183,7 @@ def _terms(ck, x, nt, J0, J0i):
     h4 = gd1 + G10 * a0 + G11 * a1 + G12 * a2
     h5 = gd2 + G20 * a0 + G21 * a1 + G22 * a2
     # differential gravity without cancellation: (1 + q)^-1.5 - 1 = -q (2 + q + r) / (r (1 + r)
-    # (1 + q)), r = sqrt(1 + q), exact algebra (see equations.differential_gravity)
+    # (1 + q)), r = sqrt(1 + q), exact algebra (the oracle's differential_gravity)
     rt0, rt1, rt2, rtn2, f = ck[4], ck[5], ck[6], ck[7], ck[8]
     re0, re1, re2 = x[0], x[1], x[2]
     qg = (2.0 * (re0 * rt0 + re1 * rt1 + re2 * rt2) + re0 * re0 + re1 * re1 + re2 * re2) / rtn2
@@ -574,8 +575,8 @@ def simulate_numba(batch: Batch, plant: Plant, gains: Gains, dt: float, n_steps:
                    rec: np.ndarray, offsets: np.ndarray, settle: np.ndarray,
                    final_max: np.ndarray, peak_app: np.ndarray, peak_cmd: np.ndarray,
                    peak_late: np.ndarray, impulse: np.ndarray, failed: np.ndarray) -> None:
-    """:func:`.kernel_numpy.simulate` by the compiled kernel: same arguments, same outputs
-    (written in place), in blocks of samples over the threads numba may use now."""
+    """Integrate ``batch`` and fill the output arrays in place (:func:`simulate`), in blocks of
+    samples over the threads numba may use now."""
     import numba
 
     P, Q = plant.reference.basis()

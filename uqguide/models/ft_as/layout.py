@@ -1,5 +1,5 @@
 """What a batch of FT-AS runs records: the channel groups and the quantities whose settling is
-tracked, shared by the compiled kernel, its NumPy reference and the runner (which must not
+tracked, shared by the compiled kernel, its NumPy test oracle and the runner (which must not
 import numba to know them)."""
 
 from __future__ import annotations

@@ -77,7 +77,7 @@ class FTAS(Model):
         "(Wei et al. 2024)"
     )
     Params = FTASParams
-    # 250 steps of 0.02 s: the NumPy reference takes seconds, not hours
+    # 250 steps of 0.02 s: the tests' NumPy oracle takes seconds, not hours
     example_params = {"step": 0.02, "duration": 5.0, "output_interval": 1.0,
                       "final_window": 2.0, "late_time": 2.0}
     params: FTASParams
@@ -229,8 +229,7 @@ class FTAS(Model):
         """Integrate one run per variant with the given input values (timing overrides allowed)."""
         p = self.params
         batch = self.make_batch(values, variants)
-        return run_batch(batch, p.plant(), p.gains(), p.timing(**timing), record, p.kernel,
-                         p.threads)
+        return run_batch(batch, p.plant(), p.gains(), p.timing(**timing), record, p.threads)
 
     def _evaluate(
         self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]

@@ -8,7 +8,7 @@ import numpy as np
 from pydantic import Field, PositiveFloat, model_validator
 
 from ..base import ModelParams
-from ..kernels import KernelParam
+from ..kernels import KernelParam, kernel_field
 from ..time_grid import whole_steps
 from . import scenario
 from .runner import Timing
@@ -54,10 +54,7 @@ class FTASParams(ModelParams):
     omega_chi: PositiveFloat = Field(
         default=0.05, description="Case 2 compensator natural frequency [rad/s] ([A14])"
     )
-    kernel: KernelParam = Field(
-        default="numba", description="compiled kernel, the (slow) numpy whole-run reference, "
-        "or 'auto' (numba when importable)"
-    )
+    kernel: KernelParam = kernel_field("numba")
     threads: int = Field(
         default=0, ge=0, description="threads of the numba kernel (blocks of samples in "
         "parallel); 0: all cores (set 1 when batches already run in parallel worker processes)"

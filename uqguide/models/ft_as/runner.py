@@ -2,8 +2,7 @@
 
 :func:`run_batch` is the one entry point used by the model, the report and the tests: it packs
 the constants, allocates the recording and metric arrays, calls the compiled kernel
-(``kernel_numba.simulate_numba``) or its NumPy reference (``kernel_numpy.simulate``), chosen
-by :func:`uqguide.models.kernels.select`, and returns a :class:`RunResult` with named arrays.
+(``kernel_numba.simulate_numba``) and returns a :class:`RunResult` with named arrays.
 """
 
 from __future__ import annotations
@@ -15,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kernels import select
+from ..kernels import numba_threads
 from .layout import GROUP_INDEX, RECORD_GROUPS, SETTLE_QUANTITIES
 from .setup import Batch, Gains, Plant
 
@@ -23,15 +22,10 @@ log = logging.getLogger(__name__)
 
 
 def _compiled() -> Callable[..., None]:
+    # imported on first use (compiles or loads the cache); tests/oracles substitutes NumPy here
     from .kernel_numba import simulate_numba
 
     return simulate_numba
-
-
-def _reference() -> Callable[..., None]:
-    from .kernel_numpy import simulate
-
-    return simulate
 
 
 SETTLE_TOLERANCES: dict[str, tuple[float, ...]] = {
@@ -149,10 +143,9 @@ def run_batch(
     gains: Gains,
     timing: Timing,
     record: Iterable[str] = (),
-    kernel_name: str = "numba",
     threads: int = 0,
 ) -> RunResult:
-    """Integrate ``batch`` with the numba kernel (or its numpy reference).
+    """Integrate ``batch`` with the compiled kernel.
 
     Parameters
     ----------
@@ -163,9 +156,6 @@ def run_batch(
     timing : Timing
     record : iterable of str
         Groups of ``layout.RECORD_GROUPS`` to record on the output grid.
-    kernel_name : {"numba", "numpy", "auto"}
-        ``numpy``: the whole-run reference of ``kernel_numpy.py`` (same numbers to rounding,
-        ~100x slower for small batches).
     threads : int
         Threads of the compiled kernel (blocks of samples run in parallel); 0: all cores. The
         numbers do not depend on it.
@@ -194,11 +184,10 @@ def run_batch(
     t0 = time.perf_counter()
     final_start = timing.first_step_at(timing.duration - timing.final_window)
     late_start = timing.first_step_at(timing.late_time)
-    loop = select(kernel_name, "ft_as", _compiled, _reference)
-    with loop.threads(threads):
-        loop.run(batch, plant, gains, float(timing.step), n_steps, every, final_start,
-                 late_start, tols, rec, offsets, settle, final_max, peak_app, peak_cmd,
-                 peak_late, impulse, failed)
+    with numba_threads(threads):
+        _compiled()(batch, plant, gains, float(timing.step), n_steps, every, final_start,
+                    late_start, tols, rec, offsets, settle, final_max, peak_app, peak_cmd,
+                    peak_late, impulse, failed)
     wall = time.perf_counter() - t0
     log.debug("ft_as kernel: %d runs x %d steps in %.2f s", n, n_steps, wall)
     records = {

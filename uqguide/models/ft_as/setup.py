@@ -3,9 +3,8 @@
 :class:`Gains` holds the controller and observer gains of section 5.1 (ft-as-controller.md
 sections 6-7), :class:`Plant` the nominal plant and reference orbit, :class:`Batch` everything
 that may differ between the samples of one integration: initial state, truth-model dispersions
-and which controller each sample runs. Both integration paths (numpy reference in
-``equations.py`` and the numba kernel in ``kernel_numba.py``) take these objects; the kernel gets
-them flattened by :func:`pack_constants`.
+and which controller each sample runs. The compiled kernel (``kernel_numba.py``) gets them
+flattened by :func:`pack_constants`; its NumPy test oracle takes them as they are.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """FTCAPN rendezvous guidance simulator (Wang & Song 2019; spec ftcapn.md).
 
-``params`` holds the parameters, ``model`` the model class, ``kernel_numpy`` the reference
-closed loop, ``kernel_numba`` the compiled one, ``drift`` the zero-effort-miss closed forms,
-``layout`` the kernels' output layout. The paper's nominal report and figures are in
+``params`` holds the parameters, ``model`` the model class, ``kernel_numba`` the compiled closed
+loop (its NumPy oracle is ``tests/oracles/ftcapn.py``), ``drift`` the zero-effort-miss closed
+forms, ``layout`` the kernel's output layout. The paper's nominal report and figures are in
 :mod:`uqguide.papers.ftcapn`.
 """
 

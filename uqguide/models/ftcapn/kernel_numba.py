@@ -1,6 +1,6 @@
 """FTCAPN closed loop, compiled with Numba.
 
-Same algorithm and same arrays as :mod:`.kernel_numpy` (the reference; see it for the
+Same algorithm and same arrays as its NumPy oracle ``tests/oracles/ftcapn.py`` (see it for the
 equations); the test suite checks that both give the same numbers to ~1e-9 relative. Blocks of
 64 samples run in parallel threads; within a block the samples advance in lockstep, which keeps
 the work of a block in the L1 cache. The state and the per-step work of a block are stored as
@@ -30,55 +30,52 @@ from .layout import (
 EPS = float(np.finfo(np.float64).eps)
 
 
+@njit(cache=True, inline="always")
+def _put(buf, c, i, k, value):
+    """Series column ``c`` of sample ``i`` at grid row ``k``; nothing when not recorded."""
+    if c >= 0:
+        buf[c, i, k] = value
+
+
+@njit(cache=True, inline="always")
+def _put3(buf, c, i, k, a, b, d):
+    """Columns ``c .. c+2`` (a three-component series) of sample ``i`` at grid row ``k``."""
+    if c >= 0:
+        buf[c, i, k] = a
+        buf[c + 1, i, k] = b
+        buf[c + 2, i, k] = d
+
+
+@njit(cache=True, inline="always")
+def _los_rate(x, y, z, vx, vy, vz, R):
+    """The LOS rate vector ``r x v / R^2`` (series ``w``)."""
+    R2 = R * R
+    return (y * vz - z * vy) / R2, (z * vx - x * vz) / R2, (x * vy - y * vx) / R2
+
+
+@njit(cache=True, inline="always")
+def _speed(vx, vy, vz):
+    return math.sqrt(vx * vx + vy * vy + vz * vz)
+
+
 @njit(cache=True, error_model="numpy")
 def _record(buf, i, k0, k1, col, x, y, z, vx, vy, vz, R, Rdot, om, s, a0, a1, a2, acr, act, dv):
     """Write the grid rows ``k0 .. k1-1`` of sample ``i`` (same values on every row). Scalars,
     not array rows: a row view costs an atomic reference-count pair in the hot loop."""
+    w0, w1, w2 = _los_rate(x, y, z, vx, vy, vz, R)
+    speed = _speed(vx, vy, vz)
     for k in range(k0, k1):
-        c = col[S_OMEGA]
-        if c >= 0:
-            buf[c, i, k] = om
-        c = col[S_W]
-        if c >= 0:
-            R2 = R * R
-            buf[c, i, k] = (y * vz - z * vy) / R2
-            buf[c + 1, i, k] = (z * vx - x * vz) / R2
-            buf[c + 2, i, k] = (x * vy - y * vx) / R2
-        c = col[S_R]
-        if c >= 0:
-            buf[c, i, k] = R
-        c = col[S_RDOT]
-        if c >= 0:
-            buf[c, i, k] = Rdot
-        c = col[S_S]
-        if c >= 0:
-            buf[c, i, k] = s
-        c = col[S_AC]
-        if c >= 0:
-            buf[c, i, k] = a0
-            buf[c + 1, i, k] = a1
-            buf[c + 2, i, k] = a2
-        c = col[S_ACLOS]
-        if c >= 0:
-            buf[c, i, k] = acr
-            buf[c + 1, i, k] = act
-            buf[c + 2, i, k] = 0.0
-        c = col[S_DV]
-        if c >= 0:
-            buf[c, i, k] = dv
-        c = col[S_POS]
-        if c >= 0:
-            buf[c, i, k] = x
-            buf[c + 1, i, k] = y
-            buf[c + 2, i, k] = z
-        c = col[S_VEL]
-        if c >= 0:
-            buf[c, i, k] = vx
-            buf[c + 1, i, k] = vy
-            buf[c + 2, i, k] = vz
-        c = col[S_SPEED]
-        if c >= 0:
-            buf[c, i, k] = math.sqrt(vx * vx + vy * vy + vz * vz)
+        _put(buf, col[S_OMEGA], i, k, om)
+        _put3(buf, col[S_W], i, k, w0, w1, w2)
+        _put(buf, col[S_R], i, k, R)
+        _put(buf, col[S_RDOT], i, k, Rdot)
+        _put(buf, col[S_S], i, k, s)
+        _put3(buf, col[S_AC], i, k, a0, a1, a2)
+        _put3(buf, col[S_ACLOS], i, k, acr, act, 0.0)
+        _put(buf, col[S_DV], i, k, dv)
+        _put3(buf, col[S_POS], i, k, x, y, z)
+        _put3(buf, col[S_VEL], i, k, vx, vy, vz)
+        _put(buf, col[S_SPEED], i, k, speed)
 
 
 @njit(cache=True, error_model="numpy")
@@ -178,10 +175,32 @@ N_LANE = 7
 
 @njit(cache=True, error_model="numpy", parallel=True)
 def simulate_numba(r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
-    """Run the batch; arguments and outputs as :func:`.kernel_numpy.simulate_numpy`.
+    """Run the FTCAPN closed loop for a batch, filling ``buf``, ``sc`` and ``status`` in place.
 
     Blocks of ``BLOCK`` samples run in parallel (``numba.set_num_threads`` sets how many
     threads).
+
+    Parameters
+    ----------
+    r0, v0 : ndarray, shape (n, 3)
+        Initial line of sight ``r = target - chaser`` [m] and its rate [m/s].
+    at : ndarray, shape (n, 3)
+        Target acceleration [m/s^2]: a fixed vector, or (``P_ROTATING``) its components along
+        ``e_theta, e_r, e_w`` of each step's true LOS frame.
+    bR, bw : ndarray, shape (n,)
+        Range [m] and LOS-rate [rad/s] measurement biases.
+    p : ndarray, shape (N_PARAMS,)
+        Constants (indices ``P_*`` of :mod:`.layout`).
+    K, max_steps : int
+        Last grid index (grid ``k dt``, ``k = 0..K``); steps before a sample fails for
+        exceeding ``t_max``.
+    col : ndarray of int, shape (N_SERIES,)
+        First row of each series in ``buf`` (-1: not recorded).
+    buf : ndarray, shape (C, n, K+1)
+        Series columns: ``buf[col[S] + q, i, k]`` is component ``q`` of series ``S`` of
+        sample ``i`` at grid time ``k dt``; a stopped sample keeps its stop state's values.
+    sc : ndarray, shape (n, N_KSCALARS)
+    status : ndarray of int8, shape (n,)
     """
     n = r0.shape[0]
     for b in prange((n + BLOCK - 1) // BLOCK):
@@ -366,13 +385,9 @@ def _record_step(buf, i0, m, j, col, st, W, ac, lane, running):
     if c >= 0:
         for l in range(m):
             if running[l]:
-                x, y, z = st[0, l], st[1, l], st[2, l]
-                vx, vy, vz = st[3, l], st[4, l], st[5, l]
-                R = W[W_R, l]
-                R2 = R * R
-                buf[c, i0 + l, j] = (y * vz - z * vy) / R2
-                buf[c + 1, i0 + l, j] = (z * vx - x * vz) / R2
-                buf[c + 2, i0 + l, j] = (x * vy - y * vx) / R2
+                w0, w1, w2 = _los_rate(st[0, l], st[1, l], st[2, l], st[3, l], st[4, l],
+                                       st[5, l], W[W_R, l])
+                _put3(buf, c, i0 + l, j, w0, w1, w2)
     for sr, wr in ((S_OMEGA, W_OM), (S_R, W_R), (S_RDOT, W_RDOT), (S_S, W_S)):
         put_lanes(buf, col[sr], i0, j, W, wr, 1, m, running)
     put_lanes(buf, col[S_AC], i0, j, ac, 0, 3, m, running)
@@ -380,9 +395,7 @@ def _record_step(buf, i0, m, j, col, st, W, ac, lane, running):
     if c >= 0:
         for l in range(m):
             if running[l]:
-                buf[c, i0 + l, j] = W[W_ACR, l]
-                buf[c + 1, i0 + l, j] = W[W_ACT, l]
-                buf[c + 2, i0 + l, j] = 0.0
+                _put3(buf, c, i0 + l, j, W[W_ACR, l], W[W_ACT, l], 0.0)
     put_lanes(buf, col[S_DV], i0, j, lane, L_DV, 1, m, running)
     put_lanes(buf, col[S_POS], i0, j, st, 0, 3, m, running)
     put_lanes(buf, col[S_VEL], i0, j, st, 3, 3, m, running)
@@ -390,8 +403,7 @@ def _record_step(buf, i0, m, j, col, st, W, ac, lane, running):
     if c >= 0:
         for l in range(m):
             if running[l]:
-                vx, vy, vz = st[3, l], st[4, l], st[5, l]
-                buf[c, i0 + l, j] = math.sqrt(vx * vx + vy * vy + vz * vz)
+                buf[c, i0 + l, j] = _speed(st[3, l], st[4, l], st[5, l])
 
 
 @njit(cache=True, error_model="numpy")
@@ -463,8 +475,8 @@ def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, s
 
     Lanes that have stopped still go through pass 1 (their state is frozen and finite, or NaN
     after a failure; nothing of it is used): cheaper than branching on every one.
-    Each lane's arithmetic is the same, operation for operation, as in the per-sample loop of
-    :mod:`.kernel_numpy`.
+    Each lane's arithmetic is the same, operation for operation, as in the NumPy oracle's
+    per-sample loop (``tests/oracles/ftcapn.py``).
     """
     c_, eps, beta, eta, Nn = p[P_C], p[P_EPS], p[P_BETA], p[P_ETA], p[P_N]
     asat, delta, dt, rstop = p[P_ASAT], p[P_DELTA], p[P_DT], p[P_RSTOP]

@@ -1,4 +1,4 @@
-"""Array layouts shared by the FTCAPN kernels (NumPy reference and Numba).
+"""Array layouts of the FTCAPN kernel (and of its NumPy test oracle).
 
 Both kernels fill the same preallocated arrays, so they can be compared number for number:
 

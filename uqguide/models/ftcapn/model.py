@@ -39,7 +39,7 @@ import numpy as np
 
 from ..base import DerivedOutput, InputInfo, Model, ModelOutput, OutputInfo, StepCount
 from ..dynamics.hill import mean_motion
-from ..kernels import select
+from ..kernels import numba_threads
 from .params import FTCAPNParams
 from . import layout as L
 from .drift import miss_hill, miss_parabola
@@ -109,15 +109,10 @@ INPUT_INFO: tuple[InputInfo, ...] = (
 )
 
 def _compiled() -> Callable[..., None]:
+    # imported on first use (compiles or loads the cache); tests/oracles substitutes NumPy here
     from .kernel_numba import simulate_numba
 
     return simulate_numba
-
-
-def _reference() -> Callable[..., None]:
-    from .kernel_numpy import simulate_numpy
-
-    return simulate_numpy
 
 
 def los_frames(r: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -217,11 +212,8 @@ class FTCAPN(Model):
         if p.t_final is not None:
             return p.t_final
         if self._t_final is None:
-            # The NumPy reference kernel, in every process alike (so all share one grid): 16 ms
-            # for one run, where loading the compiled kernel into a driver that never
-            # simulates (the runs go to worker processes) took 0.6 s.
-            out = self._run(np.zeros((1, len(INPUT_INFO))), frozenset(["t_stop"]), grid_end=0.0,
-                            kernel="numpy")
+            # the same run in every process, so that all share one grid
+            out = self._run(np.zeros((1, len(INPUT_INFO))), frozenset(["t_stop"]), grid_end=0.0)
             t_stop = out.scalars["t_stop"][0, 0]
             if out.failed[0] or not np.isfinite(t_stop):
                 log.warning("FTCAPN nominal run did not stop (%s): output grid runs to t_max",
@@ -248,10 +240,9 @@ class FTCAPN(Model):
         return self._run(x, outputs)
 
     # ------------------------------------------------------------------ simulation
-    def _run(self, x: np.ndarray, outputs: frozenset[str], grid_end: float | None = None,
-             kernel: str | None = None) -> ModelOutput:
-        """Simulate ``x (n, 11)`` (columns in :data:`INPUT_INFO` order), with the config's
-        kernel or ``kernel``."""
+    def _run(self, x: np.ndarray, outputs: frozenset[str], grid_end: float | None = None
+             ) -> ModelOutput:
+        """Simulate ``x (n, 11)`` (columns in :data:`INPUT_INFO` order)."""
         p = self.params
         n = x.shape[0]
         r0n, v0n = self.initial_state()
@@ -276,9 +267,8 @@ class FTCAPN(Model):
         args = (np.ascontiguousarray(r0), np.ascontiguousarray(v0), np.ascontiguousarray(at),
                 np.ascontiguousarray(x[:, 7]), np.ascontiguousarray(x[:, 6]), prm, K, max_steps,
                 col, buf, sc, status)
-        loop = select(kernel or p.kernel, "ftcapn", _compiled, _reference)
-        with loop.threads(p.threads):
-            loop.run(*args)
+        with numba_threads(p.threads):
+            _compiled()(*args)
         series = {}
         for i, (name, k) in enumerate(L.SERIES_LAYOUT):
             if col[i] >= 0:

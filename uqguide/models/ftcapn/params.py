@@ -10,7 +10,7 @@ from pydantic import Field, model_validator
 
 from ..base import ModelParams
 from ..dynamics.hill import MU_EARTH
-from ..kernels import KernelParam
+from ..kernels import KernelParam, kernel_field
 
 __all__ = ["FTCAPNParams"]
 
@@ -49,8 +49,7 @@ class FTCAPNParams(ModelParams):
         "initial", description="target maneuver components along the nominal initial LOS "
                                "frame (fixed vector) or along each sample's current LOS frame "
                                "(rotating; frozen at the stop for the ZEM drift)")
-    kernel: KernelParam = Field("auto", description="'numba' (compiled), 'numpy' (reference) or "
-                                                   "'auto' (numba when importable)")
+    kernel: KernelParam = kernel_field()
     threads: int = Field(
         0, ge=0, description="threads of the numba kernel; 0: all cores (set 1 when batches "
                              "already run in parallel worker processes)")

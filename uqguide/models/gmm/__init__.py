@@ -11,10 +11,9 @@ and the generic building blocks (gmm-controllers.md section 14) it shares with t
 - :mod:`.geometry`: box-built chiefs, clearance, penetration, swept-segment collisions;
 - :mod:`.point_cloud`, :mod:`.mixture`: surface samples, mixtures (published sets), k-means + EM;
 - :mod:`.controllers`: reaching law, TSMC (APF/GMM) and NTSMC laws;
-- :mod:`.kernel_numpy`: the batched sampled-data closed loop on a linear relative plant (the
-  NumPy reference, one step of the batch per control period);
-- :mod:`.kernel_numba`: the same closed loop compiled for the whole run (what the model runs
-  by default, ``kernel: auto``).
+- :mod:`.loop`: the sampled-data closed loop's RK4 maps and result on a linear relative plant;
+- :mod:`.kernel_numba`: the closed loop compiled for the whole run (its NumPy oracle is
+  ``tests/oracles/gmm.py``).
 
 The [W] paper's claims, report and figures are in :mod:`uqguide.papers.gmm_proximity`.
 """

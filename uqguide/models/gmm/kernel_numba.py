@@ -1,11 +1,10 @@
-"""Compiled GMM proximity closed loop: the arithmetic of :func:`.kernel_numpy.simulate`, whole run.
+"""Compiled GMM proximity closed loop, whole run (:mod:`.loop`: its RK4 maps and result).
 
-:func:`.kernel_numpy.simulate` (NumPy over the batch, one Python-level step per control period)
-is the reference; this kernel runs the same sampled-data loop (GMM-NTSMC or TSMC command at
-``t_k``, bad-command guard, saturation, thrust scale, the RK4 sub-step maps, per-sub-step
-clearance, penetration, range and swept collision tests, records and ZEM) for the whole run in
-one compiled function. The results agree with the reference to round-off
-(``tests/test_gmm_kernel.py``, and the conformance suite's kernel check).
+The sampled-data loop (GMM-NTSMC or TSMC command at ``t_k``, bad-command guard, saturation,
+thrust scale, the RK4 sub-step maps, per-sub-step clearance, penetration, range and swept
+collision tests, records and ZEM) runs for the whole run in one compiled function. The results
+agree with the NumPy oracle ``tests/oracles/gmm.py`` (NumPy over the batch, one Python-level
+step per control period) to round-off (``tests/test_gmm_kernel.py``).
 
 Layout. Blocks of :data:`BLOCK` samples run in parallel threads (``prange``); inside a block the
 samples ("lanes") advance in lockstep and everything per step is stored as structure of arrays
@@ -37,7 +36,7 @@ from ..kernels import njit
 from ..record_rows import put_lane
 from .controllers import NTSMC, TSMC
 from .geometry import ChiefGeometry
-from .kernel_numpy import Controller, SampledRun, StepSchedule, simulate
+from .loop import SampledRun, StepSchedule
 
 log = logging.getLogger(__name__)
 
@@ -92,37 +91,44 @@ _EXP_UNDERFLOW = 746.0
 
 def simulate_compiled(
     schedule: StepSchedule,
-    controller: Controller,
+    controller: NTSMC | TSMC,
     x0: np.ndarray,
     geometry: ChiefGeometry,
     a_max: float = np.inf,
     per_axis_saturation: bool = False,
     thrust_scale: np.ndarray | None = None,
-    thrust_noise: float = 0.0,
-    rng: np.random.Generator | None = None,
     record_every: int = 1,
     goal: np.ndarray | None = None,
-    keep_control: bool = False,
 ) -> SampledRun:
-    """:func:`.kernel_numpy.simulate` by the compiled kernel; same arguments, same result.
-
-    The kernel knows the :class:`.controllers.NTSMC` and :class:`.controllers.TSMC` laws; any
-    other controller, a thrust noise or ``keep_control`` (options no model run uses) go to the
-    NumPy reference.
+    """Run the sampled-data closed loop for a batch.
 
     Parameters
     ----------
-    schedule, controller, x0, geometry, a_max, per_axis_saturation, thrust_scale, thrust_noise,
-    rng, record_every, goal, keep_control
-        As for :func:`.kernel_numpy.simulate`.
+    schedule : StepSchedule
+        Plant maps (:func:`.loop.build_schedule`).
+    controller : NTSMC or TSMC
+    x0 : ndarray, shape (n, 6)
+        Initial states ``[r (m), v (m/s)]``.
+    geometry : ChiefGeometry
+        Parts for clearance and collision checks (in the plant's axes).
+    a_max : float
+        Acceleration limit [m/s^2] (``inf``: none).
+    per_axis_saturation : bool
+        Clip each axis instead of scaling the vector.
+    thrust_scale : ndarray, shape (n,), optional
+        Multiplicative thrust-magnitude error per run (applied after saturation: a mis-
+        calibrated thruster delivers ``scale`` times what is commanded).
+    record_every : int
+        Record states every this many periods (plus ``t = 0``; ``t_f`` is recorded when
+        ``n_steps`` is a multiple).
+    goal : ndarray, shape (3,), optional
+        If given, the ZEM to this goal is computed at the recording times.
 
     Returns
     -------
     SampledRun
+        ``u`` is None (the applied control per period is not kept).
     """
-    if (not isinstance(controller, (NTSMC, TSMC)) or thrust_noise > 0 or keep_control):
-        return simulate(schedule, controller, x0, geometry, a_max, per_axis_saturation,
-                        thrust_scale, thrust_noise, rng, record_every, goal, keep_control)
     x0 = np.ascontiguousarray(x0, dtype=float)
     n = x0.shape[0]
     N, dt = schedule.n_steps, schedule.dt

@@ -28,9 +28,8 @@ Decisions where spec and paper are silent (each a parameter or stated here):
 - Series are recorded every ``record_interval`` seconds (default 10 s: 81 points) to bound the
   memory of 1e4-sample runs; clearance and collisions use every RK4 sub-step (0.1 s).
 - The closed loop runs compiled for the whole run (:mod:`.kernel_numba`, blocks of samples in
-  ``threads`` threads) unless ``kernel: numpy`` asks for the NumPy reference
-  (:func:`.kernel_numpy.simulate`); the two agree to round-off, and a sample's numbers do not
-  depend on the batch split or the thread count.
+  ``threads`` threads); a sample's numbers do not depend on the batch split or the thread
+  count.
 - ``los_rate`` is the rate of the line of sight from the chief's centre to the deputy seen in
   LVLH, ``|r x v| / |r|^2``; ``zem`` is the zero-effort miss, the distance from the goal at
   which the deputy would be at ``t_f`` had the thrust stopped at ``t`` (coasting on the same
@@ -48,14 +47,14 @@ import numpy as np
 
 from ..base import InputInfo, Model, ModelOutput, OutputInfo, StepCount, failure_reasons
 from ..dynamics.tschauner_hempel import ChiefOrbit, LVLHPlant
-from ..kernels import select
+from ..kernels import numba_threads
 from .controllers import NTSMC, TSMC, ReachingLaw
 from .gauss_sum import GaussSum
 from .geometry import ChiefGeometry, wang2022_chief
 from .mixture import WANG2022_PUBLISHED, Mixture
 from .params import GMMProximityParams
 from .potential import AttractRepulsePotential
-from .kernel_numpy import SampledRun, StepSchedule, build_schedule
+from .loop import SampledRun, StepSchedule, build_schedule
 
 log = logging.getLogger(__name__)
 
@@ -83,15 +82,10 @@ def fitted_mixture() -> Mixture:
 
 
 def _compiled() -> Callable[..., SampledRun]:
+    # imported on first use (compiles or loads the cache); tests/oracles substitutes NumPy here
     from .kernel_numba import simulate_compiled
 
     return simulate_compiled
-
-
-def _reference() -> Callable[..., SampledRun]:
-    from .kernel_numpy import simulate
-
-    return simulate
 
 
 _PERTURBATION = ("gmm_shift_x", "gmm_shift_y", "gmm_shift_z", "gmm_mean_scale", "gmm_cov_scale")
@@ -234,14 +228,13 @@ class GMMProximity(Model):
         a_max = np.inf if p.saturation == "none" else p.max_thrust / p.deputy_mass
         if record_every is None:
             record_every = int(round(p.record_interval / p.dt))
-        loop = select(p.kernel, self.name, _compiled, _reference)
         args = (self.schedule(), self.controller(name, self.repulsion(name, values, n)), x0,
                 self.geometry())
         options = dict(a_max=a_max, per_axis_saturation=p.saturation == "per_axis",
                        thrust_scale=None if np.all(scale == 1.0) else scale,
                        record_every=record_every, goal=np.asarray(p.r_f) if zem else None)
-        with loop.threads(p.threads):
-            return loop.run(*args, **options)
+        with numba_threads(p.threads):
+            return _compiled()(*args, **options)
 
     # ------------------------------------------------------------------ contract
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int,

@@ -9,7 +9,7 @@ from pydantic import Field, model_validator
 
 from ..base import ModelParams
 from ..dynamics.tschauner_hempel import MU_EARTH
-from ..kernels import KernelParam
+from ..kernels import KernelParam, kernel_field
 from ..time_grid import recording_stride, whole_steps
 
 __all__ = ["ControllerName", "GMMProximityParams", "Vec3"]
@@ -66,9 +66,7 @@ class GMMProximityParams(ModelParams):
     deputy_radius: float = Field(0.0, ge=0, description="m (a point in [W])")
     record_interval: float = Field(10.0, gt=0, description="s between recorded series points")
     reach_tolerance: float = Field(0.05, gt=0, description="m; goal reached (claim W10, A32)")
-    kernel: KernelParam = Field("auto", description="'numba' (compiled whole-run loop), 'numpy' "
-                                "(the reference, one NumPy step per period) or 'auto' (numba "
-                                "when importable)")
+    kernel: KernelParam = kernel_field()
     threads: int = Field(
         0, ge=0, description="threads of the numba kernel; 0: all cores (set 1 when batches "
                              "already run in parallel worker processes)")

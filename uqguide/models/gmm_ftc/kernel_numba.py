@@ -1,11 +1,11 @@
-"""Compiled GMM-FTC closed loop: the arithmetic of :mod:`.kernel_numpy`, in blocks of samples.
+"""Compiled GMM-FTC closed loop in blocks of samples (:mod:`.loop`: its settings and result).
 
-:func:`.kernel_numpy.run_closed_loop` (NumPy over the batch) is the reference; this kernel runs
-the same sampled-data loop (GMM-FTC at ``t_k``, thrust factors and keyed noise, RK4 of the
-body-frame plant, per-sub-step geometry, the same metrics) in one compiled function. NumPy
-advances a whole batch per Python-level step and pays ~1 ms of call overhead per step whatever
-the batch size; the kernel pays nothing per step. Results agree with the reference to rounding
-(tests/test_gmm_ftc_kernel.py), not bit for bit: some sums are taken in another order.
+The sampled-data loop (GMM-FTC at ``t_k``, thrust factors and keyed noise, RK4 of the
+body-frame plant, per-sub-step geometry, the metrics) runs in one compiled function. Its NumPy
+oracle ``tests/oracles/gmm_ftc.py`` advances a whole batch per Python-level step and pays ~1 ms
+of call overhead per step whatever the batch size; the kernel pays nothing per step. Results
+agree with the oracle to rounding (tests/test_gmm_ftc_kernel.py), not bit for bit: some sums
+are taken in another order.
 
 Layout. Blocks of :data:`BLOCK` samples run on parallel threads (``prange``); within a block
 the samples advance in lockstep, their state and per-step work stored as structure of arrays
@@ -34,6 +34,7 @@ import numpy as np
 
 from ..kernels import njit
 from ..record_rows import put_lane
+from .loop import LoopRun, scalar_results
 
 SCALAR_COLUMNS: tuple[str, ...] = (
     "bad_e", "bad_settle", "bad_v", "bad_s2", "bad_speed", "bad_u", "pos_error_final",
@@ -847,10 +848,32 @@ def _geometry_events(i, l, x, p0, s_lo, s_hi, c_lo, c_hi, is_solid, d_prev, flag
 
 def run_closed_loop_numba(plant, controller_plant, law, geometry, x0, settings,
                           thrust_scale=None, noise_keys=None):
-    """:func:`.kernel_numpy.run_closed_loop` through the compiled kernel (same arguments and
-    result)."""
-    from .kernel_numpy import LoopRun, scalar_results
+    """Simulate a batch of servicers under GMM-FTC.
 
+    Parameters
+    ----------
+    plant : RotatingBodyFrame
+        True body-frame dynamics; its spin rate is common (``m = 1``) or per sample.
+    controller_plant : RotatingBodyFrame or None
+        The dynamics the law cancels (``None``: the true plant).
+    law : GMMFTCLaw
+        One GMM for the whole batch.
+    geometry : ChiefGeometry
+        Target parts, body frame.
+    x0 : ndarray, shape (n, 6)
+        Initial body-frame ``[r (m), r' (m/s)]``.
+    settings : LoopSettings
+    thrust_scale : ndarray, shape (n, 3), optional
+        Per-sample, per-axis thrust factor (1: exact).
+    noise_keys : ndarray of uint64, shape (n,), optional
+        Keys of the per-period thrust noise streams (:mod:`.noise`); needed when
+        ``settings.thrust_noise > 0``.
+
+    Returns
+    -------
+    LoopRun
+        Its ``scalars`` are :func:`.loop.scalar_results`.
+    """
     st = settings
     x0 = np.ascontiguousarray(x0, dtype=float)
     n = x0.shape[0]

@@ -44,9 +44,8 @@ from ..base import InputInfo, Model, ModelOutput, OutputInfo, StepCount
 from ..dynamics.rotating_body_frame import RotatingBodyFrame
 from ..dynamics.tschauner_hempel import ChiefOrbit
 from ..gmm.potential import AttractRepulsePotential
-from ..kernels import select
 from . import noise
-from .kernel_numpy import LoopRun, LoopSettings
+from .loop import LoopRun, LoopSettings
 from .law import FTCGains, GMMFTCLaw
 from .params import GMMFTCParams
 from .target import target_geometry, target_mixture
@@ -133,15 +132,10 @@ SCALAR_INFO: tuple[OutputInfo, ...] = (
 
 
 def _compiled() -> Callable[..., LoopRun]:
+    # imported on first use (compiles or loads the cache); tests/oracles substitutes NumPy here
     from .kernel_numba import run_closed_loop_numba
 
     return run_closed_loop_numba
-
-
-def _reference() -> Callable[..., LoopRun]:
-    from .kernel_numpy import run_closed_loop
-
-    return run_closed_loop
 
 
 class GMMFTC(Model):
@@ -195,7 +189,7 @@ class GMMFTC(Model):
                  settings: LoopSettings | None = None, noise_keys: np.ndarray | None = None
                  ) -> LoopRun:
         """Closed-loop runs for inputs ``values`` (each (n,)); see
-        :func:`.kernel_numpy.run_closed_loop`.
+        :func:`.kernel_numba.run_closed_loop_numba`.
 
         ``noise_keys`` (n,) overrides the keys derived from ``noise_seed`` and the inputs.
         """
@@ -223,9 +217,8 @@ class GMMFTC(Model):
             noise_keys = noise.sample_keys(p.noise_seed, np.stack(list(col.values()), axis=1))
         geometry = target_geometry(p.panel_half_thickness, p.antenna_half_width,
                                    p.body_tolerance)
-        loop = select(p.kernel, "gmm_ftc", _compiled, _reference)
-        return loop.run(plant, controller_plant, self.law(), geometry, x0, st,
-                        thrust_scale=scale, noise_keys=noise_keys)
+        return _compiled()(plant, controller_plant, self.law(), geometry, x0, st,
+                           thrust_scale=scale, noise_keys=noise_keys)
 
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]
                   ) -> ModelOutput:

@@ -8,7 +8,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from ..base import ModelParams
-from ..kernels import KernelParam
+from ..kernels import KernelParam, kernel_field
 from ..time_grid import recording_stride, whole_steps
 
 __all__ = ["GMMFTCParams", "PosVec3", "Vec3"]
@@ -70,9 +70,7 @@ class GMMFTCParams(ModelParams):
         "true", description="spin rate in the controller's model: the actual one or spin_rate")
     controller_model: Literal["corrected", "printed"] = Field(
         "corrected", description="body-frame model the controller cancels (A20)")
-    kernel: KernelParam = Field(
-        "auto", description="'numba' (compiled), 'numpy' (reference) or 'auto' (numba when "
-                            "importable)")
+    kernel: KernelParam = kernel_field()
     # claim thresholds, [C] 4.2
     converge_tol: float = Field(1e-4, gt=0.0, description="position convergence [m]")
     settle_tol: float = Field(1e-2, gt=0.0, description="coarse position settling [m] "

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...models.gmm_ftc import noise
-from ...models.gmm_ftc.kernel_numpy import LoopRun
+from ...models.gmm_ftc.loop import LoopRun
 from ...models.gmm_ftc.law import fixed_time_bound
 from ...models.gmm_ftc.target import target_geometry
 from ..cache import per_model

@@ -26,7 +26,7 @@ from .report import CONTROLLER_LABEL, nominal_runs
 if TYPE_CHECKING:
     from ...models.gmm.geometry import ChiefGeometry
     from ...models.gmm.model import GMMProximity
-    from ...models.gmm.kernel_numpy import SampledRun
+    from ...models.gmm.loop import SampledRun
 
 COLORS = {"APF-TSMC": "tab:red", "GMM-TSMC": "tab:blue", "GMM-NTSMC": "tab:green"}
 

@@ -18,7 +18,7 @@ from .claims import (
 
 if TYPE_CHECKING:
     from ...models.gmm.model import GMMProximity
-    from ...models.gmm.kernel_numpy import SampledRun
+    from ...models.gmm.loop import SampledRun
 
 __all__ = ["CONTROLLER_LABEL", "nominal_outcomes", "nominal_report", "nominal_runs"]
 

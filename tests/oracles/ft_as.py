@@ -1,19 +1,19 @@
-"""Whole-run numpy reference of the FT-AS batch: the loop and metrics of ``kernel_numba.simulate``.
+"""NumPy oracle of the FT-AS batch: the loop and metrics of the compiled kernel
+(``uqguide/models/ft_as/kernel_numba.py``).
 
 Vectorised over the batch with one Python iteration per time step (about 2-3 ms per step
 whatever the batch size), so a 3000 s run at h = 0.1 s takes about a minute. It exists to check
 the compiled kernel's metric bookkeeping (settling times, final windows, peaks, impulses,
-recording and failure handling) with independently written code, and to measure what the kernel
-buys (``--param kernel=numpy`` in ``benchmarks/throughput.py``).
+recording and failure handling) with independently written code (:mod:`.ft_as_equations`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import equations as cl
-from .layout import GROUP_INDEX, RECORD_GROUPS
-from .setup import CASE2, PSI1, PSI2, Batch, Gains, Plant
+from tests.oracles import ft_as_equations as cl
+from uqguide.models.ft_as.layout import GROUP_INDEX, RECORD_GROUPS
+from uqguide.models.ft_as.setup import CASE2, PSI1, PSI2, Batch, Gains, Plant
 
 
 def simulate(

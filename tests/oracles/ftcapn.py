@@ -1,4 +1,5 @@
-"""FTCAPN closed loop in NumPy: the reference kernel, vectorised over the samples of a chunk.
+"""NumPy oracle of the FTCAPN closed loop (``uqguide/models/ftcapn/kernel_numba.py``),
+vectorised over the samples of a chunk.
 
 Per step ``j`` (time ``t_j = j dt``), for every sample still running:
 
@@ -24,17 +25,17 @@ Per step ``j`` (time ``t_j = j dt``), for every sample still running:
    the step (``Rdot`` changes sign), by that minimum. The sample is then frozen: its series keep
    the stop state's values (range, range rate, LOS rate, ``s``) and the last held command.
 
-Arrays (see :mod:`.layout`): ``r0, v0, at (n, 3)``, ``bR, bw (n,)``, ``p (N_PARAMS,)``,
-``col (N_SERIES,)``; outputs ``buf (C, n, K+1)``, ``sc (n, N_KSCALARS)``, ``status (n,)``,
-filled in place. ``K`` is the last grid index (grid ``k dt``, ``k = 0..K``), ``max_steps`` the
-number of steps before a sample fails for exceeding ``t_max``.
+Arrays (see :mod:`uqguide.models.ftcapn.layout`): ``r0, v0, at (n, 3)``, ``bR, bw (n,)``,
+``p (N_PARAMS,)``, ``col (N_SERIES,)``; outputs ``buf (C, n, K+1)``, ``sc (n, N_KSCALARS)``,
+``status (n,)``, filled in place. ``K`` is the last grid index (grid ``k dt``, ``k = 0..K``),
+``max_steps`` the number of steps before a sample fails for exceeding ``t_max``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .layout import (
+from uqguide.models.ftcapn.layout import (
     K_ACMAX, K_DV, K_RS, K_TFAIL, K_TSETTLE, K_TSTOP, K_TSURF, K_VS, P_ASAT, P_BETA, P_C,
     P_CONTROL, P_DELTA, P_ROTATING, P_DT, P_EPS, P_ETA, P_N, P_NMEAN, P_RSTOP, P_SETTLE, S_AC,
     S_ACLOS, S_DV, S_OMEGA, S_POS, S_R, S_RDOT, S_S, S_SPEED, S_VEL, S_W, ST_NONFINITE, ST_OK,

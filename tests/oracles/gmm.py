@@ -1,42 +1,23 @@
-"""Sampled-data closed-loop simulation of a batch of deputies near a box-built chief (spec 8).
+"""NumPy oracle of the GMM proximity closed loop (``uqguide/models/gmm/kernel_numba.py``).
 
-At ``t_k = k dt`` the controller computes ``u_k`` from the sampled state and the plant
-matrices at ``(t_k, f(t_k))``; the command is saturated, optionally corrupted by a thrust
-error, and held constant over ``[t_k, t_k + dt)`` (zero-order hold). The plant is propagated
-by classical RK4 with ``n_sub`` sub-steps per period; since the plant is linear and the chief
-orbit is shared by the batch, the RK4 maps of every sub-step are computed once
-(:class:`StepSchedule`) and a batch is advanced by matrix products.
-
-Per run it accumulates (spec 8 "Outputs per run"):
-
-* ``delta_v = sum_k ||u_k|| dt`` of the applied control ([W 24], exact for a ZOH, spec A14);
-* per part, the minimum clearance of the recorded positions (every sub-step) to the part's
-  zero-thickness skeleton, and the maximum penetration depth of the body;
-* per part, whether any straight segment between consecutive sub-step positions crosses the
-  part's collision box (swept test, spec 4.2);
-* the minimum range to the chief's centre; saturated and non-finite command counts;
-* recorded states every ``record_every`` periods and, on request, the zero-effort miss (ZEM):
-  the distance from the goal at which the deputy would be at ``t_f`` if the thrust stopped at
-  ``t_k`` (the coasting state propagated by the same RK4 maps).
-
-Geometry checks run in one compiled loop per period (numba); a per-period bounding box of the
-sub-step path skips the swept test where it cannot hit, which does not change the result.
-This is the reference of :mod:`.kernel_numba` (the whole run compiled, about 7x faster per
-CPU-second); ``kernel: numpy`` (or ``UQGUIDE_KERNEL=numpy``) runs it.
+The same sampled-data loop as the compiled kernel (command at ``t_k``, bad-command guard,
+saturation, thrust scale, RK4 sub-step maps, per-sub-step clearance, penetration, range and
+swept collision tests, records and ZEM), written independently: NumPy over the batch, one
+Python-level step per control period, the geometry of a period in one compiled loop
+(:func:`_advance`). It also takes what the kernel does not: any controller with a ``command``
+method, a per-period thrust noise and the applied control of every period.
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
-from ..dynamics.tschauner_hempel import RelativePlant, rk4_transition
-from ..kernels import njit
-from ..time_grid import whole_steps
-from .geometry import ChiefGeometry
+from uqguide.models.gmm.geometry import ChiefGeometry
+from uqguide.models.gmm.loop import SampledRun, StepSchedule
+from uqguide.models.kernels import njit
 
 log = logging.getLogger(__name__)
 
@@ -45,131 +26,6 @@ class Controller(Protocol):
     def command(self, r: np.ndarray, v: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
         """Commanded acceleration (n, 3) [m/s^2] for states ``r, v`` (n, 3) and plant A, B."""
         ...
-
-
-@dataclass(frozen=True)
-class StepSchedule:
-    """Plant matrices at the sample times and RK4 maps of every control period.
-
-    Attributes
-    ----------
-    dt : float
-        Control period [s].
-    times : ndarray, shape (N + 1,)
-        Sample times ``k dt`` [s].
-    f : ndarray, shape (N + 1,)
-        Chief true anomaly at the sample times [rad].
-    A, B : ndarray, shape (N, 3, 3)
-        Plant matrices at the sample times (what the controllers cancel).
-    phi : ndarray, shape (N, n_sub, 6, 6)
-    gam : ndarray, shape (N, n_sub, 6, 3)
-        ``x(t_k + (j+1) h) = phi[k, j] x(t_k) + gam[k, j] u_k``.
-    """
-
-    dt: float
-    times: np.ndarray
-    f: np.ndarray
-    A: np.ndarray
-    B: np.ndarray
-    phi: np.ndarray
-    gam: np.ndarray
-
-    @property
-    def n_steps(self) -> int:
-        return int(self.A.shape[0])
-
-    @property
-    def n_sub(self) -> int:
-        return int(self.phi.shape[1])
-
-    def coast_to_end(self) -> np.ndarray:
-        """``Phi(t_f, t_k)`` of the unforced plant for every ``k``, shape (N + 1, 6, 6)."""
-        N = self.n_steps
-        out = np.empty((N + 1, 6, 6))
-        out[N] = np.eye(6)
-        for k in range(N - 1, -1, -1):
-            out[k] = out[k + 1] @ self.phi[k, -1]
-        return out
-
-
-def build_schedule(plant: RelativePlant, t_f: float, dt: float, n_sub: int) -> StepSchedule:
-    """The :class:`StepSchedule` of ``plant`` on ``[0, t_f]`` (``t_f`` a multiple of ``dt``).
-
-    Parameters
-    ----------
-    plant : RelativePlant
-    t_f, dt : float
-        Final time and control period [s].
-    n_sub : int
-        RK4 sub-steps per period.
-    """
-    n_steps = whole_steps(t_f, dt, "t_f")
-    if n_sub < 1:
-        raise ValueError(f"n_sub must be at least 1, got {n_sub}")
-    f = np.empty(n_steps + 1)
-    A = np.empty((n_steps, 3, 3))
-    B = np.empty((n_steps, 3, 3))
-    phi = np.empty((n_steps, n_sub, 6, 6))
-    gam = np.empty((n_steps, n_sub, 6, 3))
-    f[0] = plant.orbit.f0
-    for k in range(n_steps):
-        A[k], B[k] = plant.matrices(k * dt, f[k])
-        maps = rk4_transition(plant, k * dt, f[k], dt, n_sub)
-        phi[k], gam[k], f[k + 1] = maps.phi, maps.gam, maps.f_end
-    return StepSchedule(dt=dt, times=np.arange(n_steps + 1) * dt, f=f, A=A, B=B, phi=phi, gam=gam)
-
-
-@dataclass
-class SampledRun:
-    """What :func:`simulate` returns for a batch of ``n`` runs (SI units).
-
-    Attributes
-    ----------
-    time : ndarray, shape (T,)
-        Recording times [s].
-    r, v : ndarray, shape (n, T, 3)
-        Relative position [m] and velocity [m/s] in the plant's axes.
-    zem : ndarray, shape (n, T) or None
-        Zero-effort miss to the goal at ``t_f`` [m], if asked for.
-    delta_v_history : ndarray, shape (n, T)
-        Accumulated ``delta_v`` at the recording times [m/s].
-    u : ndarray, shape (n, N, 3) or None
-        Applied control [m/s^2] per period, if asked for.
-    delta_v : ndarray, shape (n,)
-        Accumulated ``sum ||u_k|| dt`` [m/s] ([W 24]).
-    clearance : ndarray, shape (n, P)
-        Minimum distance [m] of the path to each part's skeleton.
-    penetration : ndarray, shape (n,)
-        Maximum depth [m] inside the solid body.
-    hits : ndarray of bool, shape (n, P)
-        Swept-segment collision with each part's collision box.
-    min_range : ndarray, shape (n,)
-        Minimum distance to the chief's centre [m].
-    n_saturated, n_nonfinite : ndarray of int, shape (n,)
-        Periods with a saturated command; non-finite commands replaced by 0.
-    failed : ndarray of bool, shape (n,)
-        A state became non-finite.
-    """
-
-    time: np.ndarray
-    r: np.ndarray
-    v: np.ndarray
-    zem: np.ndarray | None
-    delta_v_history: np.ndarray
-    u: np.ndarray | None
-    delta_v: np.ndarray
-    clearance: np.ndarray
-    penetration: np.ndarray
-    hits: np.ndarray
-    min_range: np.ndarray
-    n_saturated: np.ndarray
-    n_nonfinite: np.ndarray
-    failed: np.ndarray
-
-    @property
-    def collided(self) -> np.ndarray:
-        """Any part hit, shape (n,)."""
-        return np.asarray(self.hits.any(axis=1))
 
 
 def saturate(u: np.ndarray, a_max: float, per_axis: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -207,7 +63,7 @@ def simulate(
     Parameters
     ----------
     schedule : StepSchedule
-        Plant maps (:func:`build_schedule`).
+        Plant maps (:func:`uqguide.models.gmm.loop.build_schedule`).
     controller : Controller
     x0 : ndarray, shape (n, 6)
         Initial states ``[r (m), v (m/s)]``.
@@ -339,16 +195,16 @@ def _advance(
     penetration: np.ndarray,
     hits: np.ndarray,
     min_range: np.ndarray,
-) -> None:  # pragma: no cover - compiled; checked against the NumPy reference in the tests
+) -> None:  # pragma: no cover - compiled
     """Propagate one control period and update the geometry records, in place.
 
     ``x`` (n, 6) are the states at the period's start, ``u`` (n, 3) the held controls and
     ``phi[j]`` (6, 6), ``gam[j]`` (6, 3) the RK4 maps to sub-step ``j``; the end state goes to
     ``x_next``. The path of a sample is its start and sub-step positions; clearance,
-    penetration and the swept test use the same arithmetic as
-    :func:`~.geometry.point_box_distance`, :func:`~.geometry.penetration_depth` and
-    :func:`~.geometry.segment_box_hits`, fused in one loop (the NumPy versions spent most of a
-    batch run on temporaries, and BLAS threads on tiny products).
+    penetration and the swept test use the same arithmetic as ``point_box_distance``,
+    ``penetration_depth`` and ``segment_box_hits`` of :mod:`uqguide.models.gmm.geometry`, fused
+    in one loop (the NumPy versions spent most of a batch run on temporaries, and BLAS threads
+    on tiny products).
     """
     n = x.shape[0]
     m = phi.shape[0] + 1

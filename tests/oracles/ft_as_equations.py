@@ -1,9 +1,9 @@
-"""Numpy reference of the FT-AS closed loop, batched over samples (ft-as-controller.md 3-9).
+"""The FT-AS closed loop's equations in NumPy, batched over samples (ft-as-controller.md 3-9).
 
-Each function maps one equation of the spec to arrays of leading length ``n``. This path is
-the readable reference: the spec's unit tests (the ``h``/``M``/``d`` split, the ``s_dot``
-identity, the observer) run on it, and the numba kernel (``kernel_numba.py``), which the model uses
-for speed, is tested against :func:`rk4_step` step by step.
+Each function maps one equation of the spec to arrays of leading length ``n``. This is the
+readable reference: the spec's unit tests (the ``h``/``M``/``d`` split, the ``s_dot``
+identity, the observer) run on it, and the compiled kernel
+(``uqguide/models/ft_as/kernel_numba.py``) is tested against :func:`rk4_step` step by step.
 
 Notation: ``e1 = [r_e; sigma_e]``, ``e2 = [v_e; G(sigma_e) omega_e]``,
 ``e2_dot = h + M u + d`` (paper eq 11).
@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..dynamics import mrp
-from . import scenario
-from .setup import (
+from uqguide.models.dynamics import mrp
+from uqguide.models.ft_as import scenario
+from uqguide.models.ft_as.setup import (
     CASE1, CASE2, CHI1, CHI2, OMEGA, PSI1, PSI2, R_E, SIGMA_E, V_E, Batch, Gains, Plant,
 )
 

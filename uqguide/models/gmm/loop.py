@@ -1,0 +1,144 @@
+"""The GMM proximity closed loop's inputs and result: the RK4 maps of every control period and
+what a batch run returns (:func:`.kernel_numba.simulate_compiled`).
+
+At ``t_k = k dt`` the controller computes ``u_k`` from the sampled state and the plant matrices
+at ``(t_k, f(t_k))``; the command is saturated and held over ``[t_k, t_k + dt)`` (zero-order
+hold), and the plant is propagated by classical RK4 with ``n_sub`` sub-steps per period. The
+plant is linear and the chief orbit shared by the batch, so the RK4 maps of every sub-step are
+computed once (:class:`StepSchedule`) and a batch is advanced by matrix products.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..dynamics.tschauner_hempel import RelativePlant, rk4_transition
+from ..time_grid import whole_steps
+
+
+@dataclass(frozen=True)
+class StepSchedule:
+    """Plant matrices at the sample times and RK4 maps of every control period.
+
+    Attributes
+    ----------
+    dt : float
+        Control period [s].
+    times : ndarray, shape (N + 1,)
+        Sample times ``k dt`` [s].
+    f : ndarray, shape (N + 1,)
+        Chief true anomaly at the sample times [rad].
+    A, B : ndarray, shape (N, 3, 3)
+        Plant matrices at the sample times (what the controllers cancel).
+    phi : ndarray, shape (N, n_sub, 6, 6)
+    gam : ndarray, shape (N, n_sub, 6, 3)
+        ``x(t_k + (j+1) h) = phi[k, j] x(t_k) + gam[k, j] u_k``.
+    """
+
+    dt: float
+    times: np.ndarray
+    f: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    phi: np.ndarray
+    gam: np.ndarray
+
+    @property
+    def n_steps(self) -> int:
+        return int(self.A.shape[0])
+
+    @property
+    def n_sub(self) -> int:
+        return int(self.phi.shape[1])
+
+    def coast_to_end(self) -> np.ndarray:
+        """``Phi(t_f, t_k)`` of the unforced plant for every ``k``, shape (N + 1, 6, 6)."""
+        N = self.n_steps
+        out = np.empty((N + 1, 6, 6))
+        out[N] = np.eye(6)
+        for k in range(N - 1, -1, -1):
+            out[k] = out[k + 1] @ self.phi[k, -1]
+        return out
+
+
+def build_schedule(plant: RelativePlant, t_f: float, dt: float, n_sub: int) -> StepSchedule:
+    """The :class:`StepSchedule` of ``plant`` on ``[0, t_f]`` (``t_f`` a multiple of ``dt``).
+
+    Parameters
+    ----------
+    plant : RelativePlant
+    t_f, dt : float
+        Final time and control period [s].
+    n_sub : int
+        RK4 sub-steps per period.
+    """
+    n_steps = whole_steps(t_f, dt, "t_f")
+    if n_sub < 1:
+        raise ValueError(f"n_sub must be at least 1, got {n_sub}")
+    f = np.empty(n_steps + 1)
+    A = np.empty((n_steps, 3, 3))
+    B = np.empty((n_steps, 3, 3))
+    phi = np.empty((n_steps, n_sub, 6, 6))
+    gam = np.empty((n_steps, n_sub, 6, 3))
+    f[0] = plant.orbit.f0
+    for k in range(n_steps):
+        A[k], B[k] = plant.matrices(k * dt, f[k])
+        maps = rk4_transition(plant, k * dt, f[k], dt, n_sub)
+        phi[k], gam[k], f[k + 1] = maps.phi, maps.gam, maps.f_end
+    return StepSchedule(dt=dt, times=np.arange(n_steps + 1) * dt, f=f, A=A, B=B, phi=phi, gam=gam)
+
+
+@dataclass
+class SampledRun:
+    """What a closed-loop run returns for a batch of ``n`` runs (SI units; spec 8 "Outputs per
+    run").
+
+    Attributes
+    ----------
+    time : ndarray, shape (T,)
+        Recording times [s].
+    r, v : ndarray, shape (n, T, 3)
+        Relative position [m] and velocity [m/s] in the plant's axes.
+    zem : ndarray, shape (n, T) or None
+        Zero-effort miss to the goal at ``t_f`` [m], if asked for.
+    delta_v_history : ndarray, shape (n, T)
+        Accumulated ``delta_v`` at the recording times [m/s].
+    u : ndarray, shape (n, N, 3) or None
+        Applied control [m/s^2] per period, if asked for.
+    delta_v : ndarray, shape (n,)
+        Accumulated ``sum ||u_k|| dt`` [m/s] ([W 24], exact for a ZOH).
+    clearance : ndarray, shape (n, P)
+        Minimum distance [m] of the path (every sub-step) to each part's skeleton.
+    penetration : ndarray, shape (n,)
+        Maximum depth [m] inside the solid body.
+    hits : ndarray of bool, shape (n, P)
+        Swept-segment collision with each part's collision box (spec 4.2).
+    min_range : ndarray, shape (n,)
+        Minimum distance to the chief's centre [m].
+    n_saturated, n_nonfinite : ndarray of int, shape (n,)
+        Periods with a saturated command; non-finite commands replaced by 0.
+    failed : ndarray of bool, shape (n,)
+        A state became non-finite.
+    """
+
+    time: np.ndarray
+    r: np.ndarray
+    v: np.ndarray
+    zem: np.ndarray | None
+    delta_v_history: np.ndarray
+    u: np.ndarray | None
+    delta_v: np.ndarray
+    clearance: np.ndarray
+    penetration: np.ndarray
+    hits: np.ndarray
+    min_range: np.ndarray
+    n_saturated: np.ndarray
+    n_nonfinite: np.ndarray
+    failed: np.ndarray
+
+    @property
+    def collided(self) -> np.ndarray:
+        """Any part hit, shape (n,)."""
+        return np.asarray(self.hits.any(axis=1))
