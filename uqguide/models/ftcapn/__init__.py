@@ -1,4 +1,4 @@
-"""FTCAPN rendezvous guidance simulator (Wang & Song 2019; spec ftcapn.md).
+"""FTCAPN rendezvous guidance simulator (Wang & Song 2019; docs/papers.md).
 
 ``params`` holds the parameters, ``model`` the model class, ``kernel_numpy`` the reference
 closed loop, ``kernel_numba`` the compiled one, ``drift`` the zero-effort-miss closed forms,
