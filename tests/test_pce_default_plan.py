@@ -113,7 +113,7 @@ def test_the_default_plan_grows_the_design_validates_it_and_stays_within_its_bud
     st = r.run("apce").estimate.stats["y"]
     assert st.corrected and np.isfinite(st.corrected["mean"]).all()
     # the PCE's mean and std against the closed form, within its own error: |E[S] - E[Y]| and
-    # |std_S - std_Y| are at most sqrt(error) std (module docstring of default_plan); the
+    # |std_S - std_Y| are at most sqrt(error) std (docs/methods.md, "Defaults that are rules"); the
     # validation error bounds it independently of the fit (three times, for its sampling)
     var = math.exp(A * A) * (math.exp(A * A) - 1.0) + 1.0
     err = max(d["loo_error"], d["validation_error.y"])

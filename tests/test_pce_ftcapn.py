@@ -3,8 +3,8 @@
 Acceptance (issue 3): at most 300 model runs, and the mean, std, skewness and kurtosis of the
 ZEM each inside the 95% bootstrap interval of a 1e5-run Monte Carlo.
 
-The ZEM is a distance, the norm of a miss vector: a direct PCE of it converges badly (module
-docstring of :mod:`uqguide.pce.derived`), so it is derived from the surrogates of the stop state
+The ZEM is a distance, the norm of a miss vector: a direct PCE of it converges badly
+(docs/methods.md#derived-outputs), so it is derived from the surrogates of the stop state
 ``r_at_stop``, ``v_at_stop`` through the model's own drift (:func:`miss_parabola`, the target
 maneuver ``at_theta`` along the nominal initial e_theta as the model applies it).
 """

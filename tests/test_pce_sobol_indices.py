@@ -100,7 +100,7 @@ def test_indices_at_every_step_match_the_closed_form(method):
         assert np.all(ci[0] <= ex["total"] + 1e-9) and np.all(ex["total"] <= ci[1] + 1e-9)
         assert np.nanmax(ci[1] - ci[0]) <= 2 * ROUND_OFF + 1e-9
         assert s.sobol_group_first_ci is not None
-    else:  # a projection without a validation set: no interval (module docstring)
+    else:  # a projection without a validation set: no interval (docs/error-budget.md#pce-indices)
         assert s.sobol_first_ci is None or np.isnan(s.sobol_first_ci).all()
 
 

@@ -15,7 +15,7 @@ from uqguide.stats.sobol_given_data import first_order_indices, n_bins
 
 
 def _per_run_form(x, y, m):
-    """The estimator written run by run in NumPy (module docstring): sorted, binned, U-statistic
+    """The estimator written run by run in NumPy (docs/error-budget.md): sorted, binned, U-statistic
     per bin, influence function with leave-one-out bin means."""
     n = y.size
     z = (y - y.mean()) / y.std(ddof=1)

@@ -1,14 +1,8 @@
 """uqguide: uncertainty propagation through closed-loop spacecraft guidance simulations.
 
-The package is organised around three abstractions:
-
-- :class:`uqguide.models.base.Model` maps a batch of input samples ``x (n, d)`` to named
-  outputs (time series ``(n, T, k)`` and scalars ``(n, k)``) plus a failure mask;
-- :class:`uqguide.methods.base.Method` designs the runs to make and turns the model's outputs
-  into statistics (Monte Carlo, full-tensor PCE, Smolyak PCE, adaptive sparse PCE);
-- :class:`uqguide.results.result.Result` holds the statistics, diagnostics and provenance of a run
-  and writes them to HDF5.
-
+A :class:`uqguide.Model` maps input samples ``x (n, d)`` to named outputs (series ``(n, T, k)``,
+scalars ``(n, k)``, a failure mask); a :class:`uqguide.Method` designs the runs and turns the
+outputs into statistics; a :class:`uqguide.Result` holds them with diagnostics and provenance.
 The Python API (imported on first use, so ``import uqguide`` stays cheap)::
 
     cfg = uqguide.load_config("ftcapn_table3")          # a file, a shipped study or a dict
@@ -17,9 +11,7 @@ The Python API (imported on first use, so ``import uqguide`` stays cheap)::
     result = uqguide.fit(x, y, inputs=[...])             # runs already made -> Result
     result.to_xarray(), result.to_dataframe("omega_s")
 
-``uqguide.Result``, ``uqguide.RunConfig``, ``uqguide.Model`` and ``uqguide.Method`` are the
-classes above, re-exported for type annotations and subclassing; ``dir(uqguide)`` lists the
-whole API.
+``dir(uqguide)`` lists the whole API. The layers and the contracts: docs/architecture.md.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ broken rule as its own failure), and :func:`check_model` / :func:`check_method` 
 raise :class:`ConformanceError` naming the first broken rule. A class states how it is checked
 cheaply through :attr:`Model.example_params` and :attr:`Method.example_settings`.
 
-The rules, and why each holds: docs/architecture.md, "The contracts".
+The rules, and why each holds: docs/architecture.md, "Checking the contracts".
 """
 
 from __future__ import annotations

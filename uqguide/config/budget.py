@@ -1,51 +1,15 @@
 """Time and memory budgets, checked before anything runs.
 
-``uqguide validate`` and ``uqguide run`` print, per method, the number of model runs, the
-steps of one run and an estimate of the peak memory of the driver; ``run`` refuses (ConfigError,
-exit 2) an estimate above the config's ``max_memory`` before allocating anything, and the config
-itself is refused when one run would take more than ``max_steps`` integration steps (a ``dt`` of
-1e-9 s would run for ever).
+``uqguide validate`` and ``uqguide run`` print, per method, the model runs, the steps of one run
+and an estimate of the driver's peak memory (:func:`estimate`); ``run`` refuses (ConfigError,
+exit 2) an estimate above the config's ``max_memory`` before allocating anything
+(:func:`check_memory`), the config is refused when one run would take more than ``max_steps``
+steps (:func:`check_budget`), and a PCE whose surrogate draws would cost more than
+:data:`MAX_SURROGATE_TERMS` term evaluations (:data:`DRAW_OVERHEAD_TERMS` per draw besides its
+terms) is refused with the largest ``surrogate_draws`` that fits (:func:`check_surrogate`). The
+estimate is a bound for planning; ``benchmarks/scale.py`` measures.
 
-The estimate is an upper bound of what the pipeline holds at once, in bytes:
-
-- **kept per run** (the whole run): per-sample scalar outputs (8 bytes a component), the failure
-  flag and reason (9 bytes), and the inputs (8 bytes an input) of methods that keep their
-  design (PCE; Monte Carlo designs are generated per chunk and never held whole); once for a
-  reduced method (Monte Carlo copies each chunk into arrays allocated once), twice for the
-  others (their chunks are joined at the end);
-- **per chunk** (transient): the chunk's inputs and time series (``rows x T x k x 8``), four
-  times (model output, joined parts, centred powers of the reduction), and the Poisson
-  bootstrap weights (``B x rows x 8``), per chunk in flight (two per worker, in the workers);
-- **series kept** by a method without a reducer (PCE): ``runs x T x k x 8``, twice;
-- **quantiles kept** by a Monte Carlo method asked for quantiles: ``runs x steps x k x 8``, twice
-  (the steps are the whole grid while that stays under 2^25 floats, else the report times);
-- **bootstrap sums** of a Monte Carlo method with ``intervals: bootstrap``: four power sums per
-  resample and interval column (eight with ``intervals: studentized``), ``B x C x 4 x 8`` with
-  ``C`` the scalar components plus the
-  series components at the bootstrap steps (the report times and the last step, or every
-  step with ``bootstrap_times: all``); twice kept (the running sums and a merge), three times
-  per chunk in flight (the chunk's sums and the weighted products that make them);
-- **sensitivity kept** by a Monte Carlo method with Sobol' indices and series outputs but no
-  quantiles: ``runs x steps x k x 8`` at the report times and the last step, twice (per chunk,
-  joined); **sensitivity** (transient, at the end): the good runs' inputs and their bins
-  (``runs x d x 12``) and the series values joined at those steps (``runs x steps x k x 8``);
-- **basis**: a PCE's design matrix ``runs x terms x 8``, three times (matrix, its
-  factorisation, the projection).
-
-**Surrogate draws.** A PCE samples its surrogate ``surrogate_draws`` times where it needs draws
-(skewness and kurtosis beyond the exact rules, quantiles, events, derived outputs). Each draw
-evaluates every basis term, and costs about :data:`DRAW_OVERHEAD_TERMS` terms more (drawing,
-the inverse CDFs of the inputs, sorting for quantiles); measured, a term evaluation takes
-0.03-0.1 us (``benchmarks`` of the surrogate: 13 us a draw of a 64-term, 3-input basis). A
-method whose ``surrogate_draws x (terms + DRAW_OVERHEAD_TERMS)`` exceeds
-:data:`MAX_SURROGATE_TERMS` (about ten minutes of one core) is refused, with the figure and the
-largest ``surrogate_draws`` that fits. Every shipped study stays 6 times below it (at most
-8.5e8, ``gmm_dispersion``'s 800-term candidate bound); ``surrogate_draws: 1e8`` of a 64-term
-basis (6.4e9 and more) ran for over two minutes before it was refused here.
-
-``T`` is the model's output grid at its longest (:meth:`Model.step_count`); a model without
-one (the analytic benchmarks, a callable) is counted with its scalar outputs only. The figure
-is a bound for planning, not a measurement: ``benchmarks/scale.py`` measures.
+What the estimate counts: docs/scale.md#what-the-memory-estimate-counts.
 """
 
 from __future__ import annotations

@@ -1,34 +1,10 @@
 """The run configuration: YAML validated into typed objects before anything runs.
 
 Every error is a :class:`~uqguide.errors.ConfigError` with one line that names the field path
-(``methods[1].n_samples``), the value given and what is allowed. Unknown keys are errors.
-
-Layout (all values SI)::
-
-    model:               # registered model name + any fields of that model's Params
-      name: ftcapn
-      gravity: none
-      isolate: false     # optional: model calls in a child process without workers (default:
-                         # true for a callable, whose code may crash its process)
-    inputs:              # uncertain inputs (may be empty for `uqguide simulate`)
-      - {name: dx, dist: normal, mean: 0.0, std: 1.5}
-    correlations:        # optional: groups of normal inputs with a correlation matrix
-      - {inputs: [dx, dy], matrix: [[1, 0.5], [0.5, 1]]}
-    outputs: [omega_s, zem]      # optional; default: the model's default outputs
-    report_times: [0, 20, 40]    # optional [s]: times shown in printed tables
-    methods:             # one or more; each a registered method name + its settings
-      - {name: monte_carlo, label: mc1000, n_samples: 1000, sampling: random}
-    reference: mc1000    # optional: label of the reference method of the cost table
-    seed: 12345          # root seed of every random stream of the run
-    batch_size: 10000    # samples per model call (memory only: never changes the numbers)
-    max_failed_fraction: 0.01    # failure budget per method: above it `uqguide run` exits 1
-    strict: false                # true: a statistic a PCE withholds makes `uqguide run` exit 1
-    pce_failure_policy: fail     # quadrature PCE with failed runs: fail | regression
-    quantiles: 3sigma            # optional: quantile levels in (0, 1), or 3sigma
-    events:                      # optional: events on scalar outputs (below: y < b, above: y > a)
-      - {name: collision, output: collided, above: 0.5}
-    groups:                      # optional: groups of inputs with a Sobol' index of their own
-      navigation: [dx, dy, dz]   # (default: each correlated group)
+(``methods[1].n_samples``), the value given and what is allowed. Unknown keys are errors. The
+keys (``model``, ``inputs``, ``correlations``, ``outputs``, ``report_times``, ``methods``,
+``reference``, ``seed``, ``batch_size``, the failure, quantile, event and group settings and the
+budgets), all SI, are documented with their defaults in docs/config.md.
 """
 
 from __future__ import annotations

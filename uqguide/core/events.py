@@ -1,20 +1,12 @@
 """Events (``collision: min_clearance below 0``) and their probabilities with intervals.
 
-A config declares events on scalar outputs::
+A config declares events on scalar outputs: ``below: b`` is ``y < b``, ``above: a`` is
+``y > a``, both strict; a multi-component output names its ``component``. Failed runs are left
+out of both counts. Monte Carlo reports ``k`` of ``n`` with the Clopper-Pearson 95% interval
+(never ``[0, 0]``); a PCE its surrogate's probability over its draws, whose interval covers only
+the draws' sampling error.
 
-    events:
-      - {name: collision, output: min_clearance, below: 0.0}
-      - {name: late, output: t_stop, above: 150}
-
-``below: b`` is the event ``y < b``, ``above: a`` is ``y > a`` (strict: a value exactly at the
-threshold is outside). A multi-component output names its component (``component: x`` or an
-index). Failed runs are left out of both counts (their values are not known).
-
-Monte Carlo reports ``k`` of ``n`` with the Clopper-Pearson (exact binomial) 95% interval:
-0 of ``n`` gives ``[0, 1 - 0.025^(1/n)]`` (about ``3.69 / n``), never ``[0, 0]``. PCE methods
-report the surrogate's probability over its draws; that interval covers only the draws'
-sampling error, not the surrogate's own (which a smooth surrogate of an indicator can make
-large: it has no error bar short of a validation set).
+What is reported and how: docs/statistics.md#events.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Uncertain inputs: marginal distributions, the joint distribution and the map from the unit cube.
 
 Each input is independent unless the config gives a correlation matrix for a group of normal
-inputs (uq-methods.md section 2). Designs are drawn on the unit hypercube and mapped to physical
+inputs (docs/config.md). Designs are drawn on the unit hypercube and mapped to physical
 values by the inverse CDF of each marginal; a correlated normal group is mapped through the
 Cholesky factor of its correlation matrix (the Nataf map, exact for normals).
 

@@ -463,7 +463,7 @@ class Estimate:
     scalar_index : list of ScalarIndex
         The columns of the stacked scalar vector.
     scalar_mean, scalar_cov : ndarray, shape (m,), (m, m)
-        Joint mean and covariance of all scalar outputs stacked (uq-methods.md section 3).
+        Joint mean and covariance of all scalar outputs stacked (docs/statistics.md#statistics).
     events : dict of str to EventEstimate
         Probability of each of the config's events.
     surrogate : object, optional

@@ -1,21 +1,14 @@
-"""The model contract (uq-methods.md section 1).
+"""The model contract: a batch of input samples ``x (n, d)`` (SI, one column per uncertain
+input; the others at their nominal values) to a :class:`ModelOutput` (a time grid shared by the
+batch, series ``(n, T, k)``, scalars ``(n, k)``, a failure mask with a reason per failed
+sample), all at once.
 
-A model maps a batch of input samples to named outputs, all at once:
+Methods see models only through :meth:`Model.evaluate`, so any model can be propagated by any
+method. A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class,
+``example_params``, ``inputs()``, ``outputs()`` and ``_evaluate``, plus one line in
+:mod:`uqguide.config.registry`; :func:`uqguide.testing.check_model` then checks it.
 
-- input: ``x`` of shape ``(n, d)`` in SI units, one column per uncertain input named in the
-  config; inputs the config does not name keep their nominal values;
-- output: a :class:`ModelOutput` with a time grid ``(T,)`` shared by the whole batch, time
-  series ``(n, T, k)``, scalars ``(n, k)`` and a failure mask ``(n,)`` with a reason per
-  failed sample.
-
-Methods see models only through :meth:`Model.evaluate`, so any model (a built-in simulator, an
-analytic benchmark, a user's Python callable) can be propagated by any method.
-
-A new simulator is a subclass with ``name``, ``summary``, a ``Params`` class (and
-``example_params``, a cheap configuration), ``inputs()``, ``outputs()`` and ``_evaluate``;
-registering it is one line in :mod:`uqguide.config.registry`, and the conformance suite
-(:func:`uqguide.testing.check_model`) then checks it with no test code. What a paper says about
-a model (its nominal figures and checks) lives in :mod:`uqguide.papers`, not in the model.
+The contract in full: docs/architecture.md#the-model-contract.
 """
 
 from __future__ import annotations

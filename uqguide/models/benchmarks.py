@@ -1,4 +1,5 @@
-"""Analytic benchmark models with closed-form statistics (uq-methods.md section 6).
+"""Analytic benchmark models with closed-form statistics
+(docs/performance.md#pce-accuracy-against-closed-forms).
 
 They run through the same contract and CLI as the simulators, so every method can be checked
 against exact values: ``linear_gaussian`` (any PCE of degree >= 1 is exact), ``lognormal``,

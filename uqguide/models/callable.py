@@ -1,30 +1,15 @@
-"""A user's own vectorised Python function as a model.
+"""A user's own vectorised Python function as a model (``model: {name: callable, function:
+"package.module:function", inputs: [...], outputs: [...]}``).
 
-Config::
+The function is called as ``f(x)`` with ``x (n, d)`` in the order of ``inputs`` (inputs the
+config does not make uncertain at ``nominal``) and returns one array ``(n,)`` / ``(n, m)`` when
+every output is a scalar, or a dict of scalars ``(n, k)`` and series ``(n, T, k)`` with
+``"time": (T,)``. A sample with a non-finite output value fails; a call that raises is split
+until the raising samples fail alone. The module is looked up beside the config, then in the
+current folder, then on ``sys.path``; the folder it was found in is kept as ``module_dir``.
 
-    model:
-      name: callable
-      function: "mypackage.mymodule:my_function"
-      inputs: [a, b, c]                # column names of x, in order
-      outputs: [y]                     # scalar outputs; or {name: y, kind: series, components: 3}
-
-The function is called as ``f(x)`` with ``x`` of shape ``(n, d)`` (the inputs in the order of
-``inputs``; inputs the uqguide config does not make uncertain are passed at ``nominal``) and
-returns either
-
-- an array ``(n,)`` or ``(n, m)`` when every output is a scalar (the columns are the outputs'
-  components, in order), or
-- a dict ``{name: array}`` with scalars ``(n,)``/``(n, k)`` and series ``(n, T)``/``(n, T, k)``,
-  plus ``"time": (T,)`` when there are series.
-
-A sample with a non-finite output value is flagged as failed, not raised; a call that raises
-is split until the raising samples fail alone (see :func:`uqguide.driver.execution.evaluate_batch`).
-
-Where the module is found: ``"oscillator:damped"`` is looked up first as ``oscillator.py`` (or a
-package folder ``oscillator/``) in the config file's folder, then in the current folder, then
-on ``sys.path`` like any import, so no ``PYTHONPATH`` is needed for a module beside the config.
-The folder it was found in is kept as ``module_dir`` (in the resolved config, and for worker
-processes). From Python, ``function`` may also be the function object itself.
+The guide, with the shapes a function may return and where its module is found:
+docs/your-model.md.
 """
 
 from __future__ import annotations

@@ -1,24 +1,15 @@
 """Round-off perturbations of a model's inputs: is a figure reproducible, or chaotic?
 
-A closed loop that chatters (a sliding-mode controller in its final window, a saturated
-observer) amplifies the last bit of its inputs: two CPUs, or the compiled and the NumPy kernels,
-give different final-window maxima from the same inputs. Such a figure is *chaotic*; a figure
-that moves by less than its tolerance when the inputs move by round-off is *reproducible*.
+A closed loop that chatters amplifies the last bit of its inputs, so two CPUs give different
+final-window maxima from the same inputs: such a figure is chaotic. A paper report runs its
+nominal scenario under a few perturbations of relative size :data:`ROUNDOFF` (:func:`perturb` with
+``member = 1, 2, ...``) and reports a chaotic row as the ensemble's median with its range
+(:class:`Spread`); ``UQGUIDE_PERTURB=1e-12`` perturbs every model evaluation of the process
+(:func:`perturbation_from_env`, :func:`apply_env`), so that the golden baselines and paper checks
+can be rerun under round-off. A value moves by a fixed pseudo-random function of its bits, the
+input's name and the member; an exact zero stays zero.
 
-Two uses:
-
-- a paper report runs its nominal scenario under a few perturbations of relative size 1e-12
-  (:func:`perturb` with ``member = 1, 2, ...``) and reports a chaotic row as the ensemble's
-  median with its range (:class:`Spread`), never as the single run's raw value.
-- ``UQGUIDE_PERTURB=1e-12`` perturbs every model evaluation and nominal run of the process
-  (:func:`perturbation_from_env`), so that the paper-figure checks and golden baselines can be
-  rerun to show that nothing they assert depends on round-off
-  (``tests/test_roundoff_robustness.py``, run by ``.ci/run``).
-
-A perturbation moves each input value ``v`` to ``v (1 + rel u)`` with ``u`` in
-[-1, 1) a fixed pseudo-random function of the value's bits, the input's name and the ensemble
-member: the same on every machine, independent of the batch a sample is in and of the order of
-the inputs. An exact zero stays zero, as it does under any CPU's round-off.
+What is reproducible and what is chaotic: docs/papers.md#reproducible-and-chaotic-figures.
 """
 
 from __future__ import annotations

@@ -1,19 +1,14 @@
 """Paper scenarios, above ``report``.
 
-Each paper's nominal checks, report rows and figures, on top of the models.
+Each paper's nominal checks, report rows and figures, on top of the models: a model simulates
+and does not know which paper it reproduces. Per simulator with a paper behind it, a subpackage
+with ``report.nominal_report`` (``uqguide simulate``), ``figures.nominal_figures`` and optionally
+``figures.sample_figures`` (``uqguide replay``). :data:`SCENARIOS` maps a registered model name
+to its subpackage, imported on first use; a new paper scenario is one subpackage and one line
+there.
 
-A model simulates; it does not know which paper it reproduces nor how that paper draws it. This
-layer holds, per simulator with a paper behind it, a subpackage with
-
-- ``report.nominal_report(model) -> list[ReportRow]``: the nominal run's figures beside the
-  paper's (``uqguide simulate``);
-- ``figures.nominal_figures(model, out_dir) -> list[Path]``: the paper's figures of that run;
-- optionally ``figures.sample_figures(model, out, values, out_dir, stem) -> list[Path]``: one
-  replayed sample's trajectory (``uqguide replay``).
-
-:data:`SCENARIOS` maps a registered model name to its subpackage; a new paper scenario is one
-subpackage and one line there. Subpackages are imported on first use (matplotlib is slow to
-import and ``uqguide run`` never needs it).
+The contract of a subpackage: docs/architecture.md#the-model-contract; what each paper's
+reproduction shows: docs/papers.md.
 """
 
 from __future__ import annotations

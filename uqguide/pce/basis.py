@@ -1,20 +1,15 @@
 """Orthonormal polynomial bases on the germ: multi-index sets and their evaluation.
 
-A basis is a set of multi-indices ``alpha (P, d)`` (row 0 is the zero index, the constant) and
-the polynomials ``psi_alpha(xi) = prod_j phi_j,alpha_j(xi_j)``, where ``phi_j,n`` is the degree-n
-polynomial orthonormal for germ variable ``j`` (paper eq 18: Hermite for normal germs, Legendre
-for uniform ones). Orthonormality, ``E[psi_a psi_b] = delta_ab``, is what makes the mean the
-constant coefficient and the variance the sum of the other squared coefficients (eqs 21-22).
-
-The univariate polynomials are evaluated by their three-term recurrence (from chaospy's
-``stieltjes``: analytical for normal and uniform germs, discretised Stieltjes otherwise), which
-stays accurate at degrees where monomial expansions lose every digit.
-
-The q = 0.5 set of degree 4 in two inputs keeps the interaction ``(1, 1)`` (its q-norm is
-``(1 + 1)^2 = 4``) but not ``(2, 1)`` or ``(1, 2)``:
+A basis is a set of multi-indices ``alpha (P, d)`` (row 0 the constant) and the polynomials
+``psi_alpha(xi) = prod_j phi_j,alpha_j(xi_j)``, each ``phi_j,n`` orthonormal for germ variable
+``j`` and evaluated by its three-term recurrence (:func:`recurrence`, :func:`univariate`). The
+q = 0.5 set of degree 4 in two inputs keeps ``(1, 1)`` (q-norm ``(1 + 1)^2 = 4``) but not
+``(2, 1)``:
 
 >>> hyperbolic_indices(2, 4, 0.5).tolist()
 [[0, 0], [1, 0], [0, 1], [2, 0], [1, 1], [0, 2], [3, 0], [0, 3], [4, 0], [0, 4]]
+
+Why orthonormal and why recurrences: docs/methods.md#bases-and-quadrature.
 """
 
 from __future__ import annotations

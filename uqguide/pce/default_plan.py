@@ -1,44 +1,14 @@
-"""The adaptive PCE's plan when the config gives no run counts (issue 27, "defaults sized to
-the problem"): how far the design may grow, how many validation runs check it, and when the
-fit's own evidence says to stop.
+"""The adaptive PCE's plan when the config gives no run counts: how far the design may grow
+(:func:`default_budget`), when the fit's own evidence says to stop (:func:`settled`), and how
+many validation runs check it (:func:`default_validation`).
 
 A config that gives ``n_samples`` or ``max_runs`` keeps its own plan; these rules apply only
-when the method sizes the design itself.
+when the method sizes the design itself. The numbers are :data:`BUDGET_FACTOR`,
+:data:`BUDGET_MIN`, :data:`BUDGET_MAX`, :data:`MOMENT_FACTOR`, :data:`VALIDATION_SHARE` and
+:data:`VALIDATION_MIN`.
 
-**Budget** (:func:`default_budget`): ``min(max(10 n0, 100), 1000)`` fit runs, ``n0 = max(10 d,
-2 P_min)`` the initial design (ten runs per input, twice the smallest candidate basis), never
-below ``n0``.
-
-- ``10 n0``: the enrichment loop grows the design by half each step, so ten times the initial
-  design allows six refits (``n0 -> 1.5 n0 -> ... -> 10 n0``), enough for the degree to rise
-  from the 2-3 a first fit of ``10 d`` runs supports to the 15-30 a smooth but oscillating
-  output of a few inputs needs (the zoo's 2-input, 401-step oscillator,
-  ``benchmarks/defaults_zoo.py``: LOO 2.9e-5 at degree 30 with 200 runs, kurtosis within 1.1%
-  at t = 1, 5, 10 s; issue 27's, with a normal frequency, got kurtosis 1.3e6 against 3.06
-  from 20 runs, the old default). Being a multiple of
-  ``n0`` it is a multiple of ``d`` and of the basis size at once.
-- 1000 at most: a 1000-run Monte Carlo gives every moment with an honest interval; a PCE
-  still short of its target after as many runs is no cheaper than that, and a user who wants
-  more says so with ``max_runs``. 100 at least, so a one-input model can still reach a high
-  degree.
-
-**Stopping** (:func:`settled`): the design stops growing when the worst output's corrected LOO
-error is at most ``target_loo`` **and** every output's mean and standard deviation moved by at
-most ``2 sqrt(loo) std`` since the previous fit. The bound is what a fit of relative L2 error
-``loo`` allows: ``|E[S] - E[Y]| <= ||S - Y||_2 = sqrt(loo) std`` (Cauchy-Schwarz) and ``|std_S -
-std_Y| <= ||S - Y||_2`` (the triangle inequality of the L2 norm of the centred outputs), so two
-fits that both have that error differ by at most twice it. Moments that move more say the LOO
-error is luck of the design (a feature the runs have not yet seen), and the design grows. A
-first fit already below the target has no previous fit to compare with; its out-of-sample check
-is the validation set. Skewness and kurtosis are not compared: their exact computation costs a
-Gauss rule per refit, and the validation set judges them after the fit
-(:mod:`uqguide.pce.support`).
-
-**Validation** (:func:`default_validation`): ``max(20, ceil(n_fit / 4))`` runs after the final
-fit, i.e. the common 80 / 20 split of the runs made, and at least 20 so every stratum of the
-stratified design (:mod:`uqguide.pce.validation_design`, six strata of at least two runs) has
-runs and the control-variate intervals have a few degrees of freedom each. At most 250 (a
-quarter of the 1000-run budget).
+The rules, why these numbers and the bound behind the stopping rule:
+docs/methods.md#defaults-that-are-rules-not-numbers.
 """
 
 from __future__ import annotations

@@ -1,31 +1,14 @@
 """Derived outputs: non-smooth functions of smooth outputs, through the surrogate.
 
-A miss distance is the norm of a miss vector; the vector is a smooth function of the inputs, its
-norm has a cone where the vector passes through zero. A polynomial chaos converges fast on the
-vector and slowly, with wild tails, on the norm: on the FTCAPN Table 4 case a 300-run adaptive
-PCE of the closest-approach ZEM itself has a LOO error of 3e-2 and a kurtosis of ~1000 (the Monte
-Carlo value is 3.56), while PCEs of the stop state ``r, v`` reach LOO errors of 1e-4 to 1e-5.
+A miss distance is the norm of a smooth miss vector; a polynomial chaos converges fast on the
+vector and slowly, with wild tails, on the norm. So the model names the smooth outputs an output
+is computed from (its carriers) and the map; a PCE method fits the carriers, draws their
+surrogates jointly and applies the map to every draw (:func:`derived_statistics`). The draws are
+randomised quasi-Monte Carlo, :data:`REPLICATES` scrambled Sobol' sequences whose spread gives
+the standard error (``OutputStats.sampling_se``). No Sobol' indices; non-finite draws are left
+out and counted.
 
-So an output can be *derived*: the model names the smooth outputs it is computed from (its
-*carriers*) and gives the deterministic map; a PCE method fits the carriers and gets the derived
-output's statistics by sampling the carriers' surrogates jointly (same germ draws) and applying
-the map to every draw. The statistics are ``"surrogate-sampling"`` ones (population moments of
-the draws); Sobol' indices are not available for them (``None``).
-
-The draws are randomised quasi-Monte Carlo whatever ``surrogate_sampling`` says (that setting
-governs the draws of quantiles and events, whose order-statistic and binomial intervals need
-independent draws): :data:`REPLICATES` independently scrambled Sobol' sequences of
-``n_draws / REPLICATES`` points each (rounded up to a power of two). The estimate pools them;
-its standard error is the spread of the replicates' own estimates over ``sqrt(REPLICATES)``
-(L'Ecuyer & Lemieux, *Recent advances in randomized quasi-Monte Carlo methods*, 2002), kept in
-``OutputStats.sampling_se`` so that validated intervals carry it. On Table 5's ZEM (a
-surrogate of the stop state through the closest-approach map, which has a cone), 2^17 points
-gave replicate spreads of 4e-5 m / 2e-4 m / 4e-4 / 2.8e-3 on mean / std / skewness /
-kurtosis, against 0.021 m / 0.017 m / 0.006 / 0.021 for as many pseudo-random draws: 8 to 500
-times smaller.
-
-A draw where the map returns a non-finite value (a surrogate state the map cannot handle) is
-left out and counted.
+Why, and the measured gain of the replicates: docs/methods.md#derived-outputs.
 """
 
 from __future__ import annotations

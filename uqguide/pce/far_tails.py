@@ -1,32 +1,15 @@
 """Moments a PCE's polynomial takes from inputs too rare for any run: found and replaced.
 
-A PCE's exact moments integrate its polynomial over the whole input distribution. A high-degree
-fit of a kinked output (degree 20-40, which the kink needs) is driven only by its runs, and far
-beyond the last of them, at inputs of probability below 1e-5, the polynomial swings by
-hundreds. There it can carry a material share of the exact variance: the zoo's ramp series
-(``benchmarks/defaults_zoo.py``, 200 fit runs, seed 8, t = 5 s) had an exact std of 0.2744,
-where 4e5 draws of the same surrogate give 0.2509 and the model's is 0.2501. The validation
-runs that correct the moments (``+cv``) do not reach those inputs either, so the corrected value
-inherited the error with an interval of +-0.0014: 17 half-widths off.
+A high-degree fit can swing by hundreds far beyond its last run, and its exact moments integrate
+that. Per column, where the expansion can swing at all (:func:`can_swing`), the exact mean and
+std are compared with those of up to :data:`FAR_DRAWS` random draws of the surrogate
+(:func:`far_draws`); where either differs by more than :data:`FAR_FACTOR` of the draws' standard
+errors and by more than the immaterial amount, the column's four statistics become the draws'
+(:func:`replace_far_tails`). :func:`beyond_the_runs` measures the part of each statistic that
+comes from beyond the runs, which widens the ``+cv`` interval.
 
-Rule (per column, i.e. time step x component): the exact mean and std are compared with those
-of ``m`` random draws of the surrogate (:func:`far_draws`; ``m`` up to :data:`FAR_DRAWS`),
-where it can swing at all (:func:`can_swing`). Where either differs by more than
-:data:`FAR_FACTOR` standard errors of the draws' estimate (batch means) and by more than the
-immaterial amount (:data:`~uqguide.pce.validation.MATERIAL`: 1% of the std), the exact moments
-there come from inputs rarer than about ``1 / m``, which no run has seen and no run will
-check. The column's four statistics are then the draws' (with
-their standard errors in ``sampling_se``, which the validated intervals carry). They still
-extrapolate beyond the runs, but only as far as ``m`` draws reach, and the ``+cv`` correction,
-its interval and the checks against the runs judge them as they judge any PCE value.
-
-Six standard errors: a correct expansion is replaced by chance at about 2e-9 of its columns
-(the draws' estimate of a light-tailed output is near normal at ``m`` of 1e4 and more). Why
-not the skewness and kurtosis too: a heavy-tailed output's are carried by far tails that are
-the model's as well. Judged on all four, the zoo's lognormal output (sigma 0.98, kurtosis 100)
-had its exact kurtosis replaced by draws' values biased low, and its ``+cv`` kurtosis held the
-reference at 2 of 4 seeds, 4.4 half-widths off at worst. Its variance's draws have a standard
-error of about 5% (the fourth moment sets it), so six of them do not flag a correct std.
+The rule, why six standard errors and only the mean and std, and the measured cases:
+docs/methods.md#pce-statistics.
 """
 
 from __future__ import annotations

@@ -1,30 +1,13 @@
 """The germ: independent standardised variables the polynomial chaos is built on.
 
-A PCE of an output is a polynomial in a *germ* ``xi`` of independent standard variables, mapped
-to the physical inputs by an isoprobabilistic transform. Expanding in standardised variables
-rather than in the physical ones (``InputSpace.joint``) keeps the polynomials well conditioned
-(positions of 15 m and LOS-rate biases of 1e-5 rad/s in one basis), and gives lognormal and
-correlated inputs the fast-converging Hermite basis:
+A PCE of an output is a polynomial in a germ ``xi`` of independent standard variables, mapped to
+the physical inputs by an isoprobabilistic transform: N(0, 1) for normal and lognormal inputs
+and the members of a correlated normal group (whitened by the Cholesky factor), U(-1, 1) for
+uniform ones, a truncated standard normal for a truncated normal. :class:`Germ` holds the maps;
+they agree with :meth:`uqguide.core.inputs.InputSpace.from_unit` (a test checks it), so designs
+drawn on the unit cube and quadrature nodes drawn in the germ describe the same inputs.
 
-============================  ==========================  =======================================
-input                         germ ``xi``                 physical value
-============================  ==========================  =======================================
-normal(mean, std)             N(0, 1)  (Hermite)          ``mean + std xi``
-uniform(low, high)            U(-1, 1) (Legendre)         ``(low + high)/2 + (high - low)/2 xi``
-lognormal(mu, sigma)          N(0, 1)  (Hermite)          ``exp(mu + sigma xi)``
-truncnormal(mean, std, a, b)  standard normal truncated   ``mean + std xi``
-                              to ``[(a-mean)/std,
-                              (b-mean)/std]`` (its own
-                              orthogonal polynomials)
-correlated normal group       N(0, 1) per member          ``mean + std (L xi)``, L the Cholesky
-                                                          factor of the correlation (Nataf)
-============================  ==========================  =======================================
-
-Sobol' indices of a correlated group are those of its decorrelated germ variables.
-
-The maps agree with :meth:`InputSpace.from_unit`: ``germ.to_physical(germ.from_unit(u))`` equals
-``space.from_unit(u)`` (a test checks it), so regression designs drawn on the unit cube and
-quadrature nodes drawn in the germ describe the same inputs.
+The table of germs and why standardised variables: docs/methods.md#the-germ.
 """
 
 from __future__ import annotations

@@ -1,27 +1,14 @@
 """One least-angle path shared by several output columns (multiresponse LARS).
 
-Similä & Tikka's multiresponse sparse regression (MRSR; Comput. Stat. Data Anal. 52(1), 2007):
-the least-angle regression of :class:`uqguide.pce.lars.LarsPath` with the correlation of a
-candidate ``j`` with the ``r`` residual columns measured by the Euclidean norm of its row
-``C_j = psi_j^T (Y - Y_hat)`` of the ``(P, r)`` correlation matrix. The fit moves from
-``Y_hat`` towards the least-squares fit ``Y_bar`` of the active set, ``Y_hat + g (Y_bar -
-Y_hat)``; every active row's correlation shrinks by ``1 - g`` (the least-squares residual is
-orthogonal to the active columns), and the step ``g`` in (0, 1] is the first at which an
-inactive row's norm catches up: the root in (0, 1] of
-``||C_j - g A_j||^2 = (1 - g)^2 c^2`` (``A = psi^T (Y_bar - Y_hat)``, ``c`` the active norm).
-With one column this is the "lar" path of :class:`~uqguide.pce.lars.LarsPath`, step for step.
+Similä & Tikka's multiresponse sparse regression (MRSR, 2007): the least-angle regression of
+:class:`uqguide.pce.lars.LarsPath` with a candidate's correlation with the residual columns
+measured by the norm of its row of the correlation matrix; with one column it is the "lar" path
+step for step. :class:`JointLarsPath` updates the correlations by rank-one terms, so a step costs
+about what one column's does, and recomputes them every :data:`_REFRESH` steps so they do not
+drift. The columns are used as given (no rescaling).
 
-Why it is cheap: ``A = C - C_ols`` with ``C_ols = psi^T (Y - Y_bar)`` the correlations with the
-least-squares residual, which a new active column ``q`` (orthonormalised) changes by the rank-one
-``(psi^T q)(q^T (Y - Y_bar))``; and after the step ``C <- (1 - g) C + g C_ols``. A step then
-costs one product of the ``(N, P)`` basis with a vector, as one single-column LARS step does,
-plus ``O(P r)``: the path of ``r`` principal components costs about what one component's did.
-Both matrices are recomputed from the residuals every few steps, as in the single-column path,
-so the updates do not drift.
-
-The columns are used as given (no rescaling): a principal component's scores are in the
-output's (correlation-scaled) units, so the path follows what each term adds to the whole
-output, the largest components first and the small ones once the large ones are fitted.
+The step, why it is cheap and why no rescaling:
+docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out.
 """
 
 from __future__ import annotations

@@ -1,22 +1,14 @@
 """Sparse regression of a series' principal components on one shared least-angle path.
 
-The candidate sets are those of :mod:`uqguide.pce.sparse_regression` (q-norms 0.5, 0.75 and 1,
-every degree the runs support, or the configuration's), but each q-norm's least-angle path is
-computed once for all the components together (:class:`uqguide.pce.joint_lars.JointLarsPath`)
-and each degree's restriction of it is scored once for all of them
-(:func:`uqguide.pce.joint_loo.score_path`). Each component then takes its own q-norm, degree and
-number of terms by its corrected leave-one-out error, with the selection rule of
-:mod:`~uqguide.pce.sparse_regression` (within 1% of its least error, the smallest candidate set).
+The candidate sets of :mod:`uqguide.pce.sparse_regression`, but each q-norm's path computed once
+for all the components (:class:`uqguide.pce.joint_lars.JointLarsPath`) and each degree's
+restriction of it scored once for all of them (:func:`uqguide.pce.joint_loo.score_path`); each
+component then takes its own q-norm, degree and terms by the same selection rule
+(:func:`fit_joint`). Used for a series' components other than the first where the
+column-by-column search is expensive (:mod:`uqguide.pce.series_fit`), never for scalar outputs.
 
-Why: fitted one by one, the 8 components of a 200-step oscillator series from 500 runs cost
-8-10 CPU s (three LARS paths and some forty scored paths each); the components of one series
-are smooth functions of the same inputs, and one path serves them all (the path follows the
-largest components first and the small ones once the large ones are fitted). What is given up:
-the single-column search's extra LARS of its own for a close degree
-(:meth:`uqguide.pce.sparse_regression._QSearch.own_lars`), and the column-by-column path,
-whose order suits one component better than a shared one; so a series' components other than
-the first take the joint path only where the column-by-column search is expensive (many runs:
-:mod:`uqguide.pce.series_fit`), and scalar outputs never.
+What is gained and given up: docs/methods.md#time-series-in-the-adaptive-pce and
+docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out.
 """
 
 from __future__ import annotations

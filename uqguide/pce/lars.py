@@ -1,18 +1,14 @@
-"""Least-angle regression with corrected leave-one-out selection (hybrid LARS, spec 4.4).
+"""Least-angle regression with corrected leave-one-out selection (hybrid LARS).
 
-Blatman & Sudret (2011, J. Comput. Phys. 230(6)): least-angle regression over a candidate basis
-gives a nested sequence of active sets (one more polynomial per step); each set is refitted by
-ordinary least squares and scored by its corrected leave-one-out error
+Blatman & Sudret (2011): least-angle regression over a candidate basis gives a nested sequence of
+active sets (:class:`LarsPath`, :func:`lars_order`); each set is refitted by least squares and
+scored by its corrected leave-one-out error, and the set of least error is kept
+(:func:`hybrid_lars`, :class:`SparseFit`). The refits of a path share one QR factorisation,
+extended block by block (:class:`LooPath`), so scoring the whole path costs about one QR of its
+largest set.
 
-    ``eps_LOO = mean((r_i / (1 - h_i))^2) / var(y) * T(P, N)``,
-    ``T(P, N) = N / (N - P) * (1 + trace((A^T A / N)^-1) / N)``
-
-(``r_i`` the OLS residuals, ``h_i`` the diagonal of the hat matrix, ``A (N, P)`` the active
-basis at the N design points). The set of least error is kept.
-
-The path's OLS refits share one QR factorisation, extended block by block as the path grows
-(:class:`LooPath`): residuals, hat diagonal and ``trace((A^T A)^-1) = ||R^-1||_F^2`` of every
-nested set follow from it, so scoring the whole path costs about one QR of the largest set.
+The error formula and its correction factor:
+docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out.
 """
 
 from __future__ import annotations

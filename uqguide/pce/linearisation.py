@@ -1,21 +1,13 @@
 """Exact third and fourth moments of a sparse PCE by linearising products of its basis.
 
-For orthonormal univariate polynomials, ``phi_m phi_n = sum_k T[m, n, k] phi_k`` with
-``T[m, n, k] = E[phi_m phi_n phi_k]``, nonzero only for ``|m - n| <= k <= m + n``. The product of
-two multivariate basis terms is then the tensor product of these univariate expansions, so the
-square of the centred surrogate ``z = sum_{alpha != 0} c_alpha psi_alpha`` has the exact expansion
+With ``T[m, n, k] = E[phi_m phi_n phi_k]`` (:func:`triple_products`, one Gauss rule per germ
+kind and degree), the square of the centred surrogate has an exact expansion ``sum_g s_g psi_g``
+and ``E[z^3] = sum_g s_g c_g``, ``E[z^4] = sum_g s_g^2``
+(:func:`central_moments_linearised`). The cost follows the pairs of retained terms
+(:func:`product_terms`, usable up to :data:`MAX_PRODUCT_TERMS`), not a tensor grid over all
+inputs, and the rule holds for every germ family.
 
-    ``z^2 = sum_g s_g psi_g``,  ``s_g = sum_{a, b} c_a c_b prod_j T_j[a_j, b_j, g_j]``,
-
-and by orthonormality ``E[z^3] = E[z^2 z] = sum_g s_g c_g`` and ``E[z^4] = E[(z^2)^2] =
-sum_g s_g^2``. The cost follows the sparse support (the pairs of retained terms and the few
-``g`` each pair spreads to), not a tensor grid over all inputs: a 300-term expansion in 8 inputs
-has 45,000 pairs where a tensor Gauss grid integrating its fourth power would have 10^8 nodes.
-
-``T`` is computed once per germ kind and degree with a Gauss rule of ``2 p + 1`` nodes (exact for
-the degree-``4 p`` integrand), so the rule holds for every germ family: Hermite (normal,
-lognormal and the whitened members of a correlated normal group), Legendre (uniform) and the
-Stieltjes polynomials of a truncated normal.
+Derivation and cost: docs/methods.md#exact-skewness-and-kurtosis.
 """
 
 from __future__ import annotations

@@ -1,19 +1,13 @@
 """The surrogate's leave-one-out values at its own fit runs: a second sample of its errors.
 
-A validation set of 100 runs sees the surrogate's error where it put them; a sparse PCE of a
-non-smooth or sharply curved output errs most in a few places (a corner of the input cube, a
-kink), which 100 runs may all miss, and a control-variate interval read from them is then far
-too short (issue 27: the defaults zoo's oscillator and ramp, Table 5's mean). The fit's own runs
-are a further sample of the input distribution, usually two to four times the validation set,
-and their leave-one-out residuals are out-of-sample errors of the same expansion: each run is
-predicted by the expansion's terms fitted without it (the closed form ``e_i = r_i / (1 - h_i)``
-of ordinary least squares on the retained terms; the terms' selection, made with every run, is
-held fixed). :func:`uqguide.pce.validation.stratified_se` uses them to floor the variance the
-validation runs give, never to move the estimate.
+Each fit run is predicted by the expansion's retained terms refitted without it (the closed form
+``e_i = r_i / (1 - h_i)`` of least squares; the selection of terms held fixed), a series through
+its components' scores mapped back (:func:`loo_values`). A validation set may miss the few places
+a sparse PCE errs most; these out-of-sample errors of the same expansion floor the variance the
+validation runs give (:func:`uqguide.pce.validation.stratified_se`), never move the estimate.
 
-For a principal-component expansion of a series, each component's score is predicted without
-the run and mapped back to the output's columns; the truncation (the components not kept) is in
-the run's residual as it is in a validation run's.
+Why, with the cases that needed it:
+docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate.
 """
 
 from __future__ import annotations

@@ -1,33 +1,14 @@
-"""Statistics of a PCE (uq-methods.md section 4.5).
+"""Statistics of a PCE: mean and covariance from the coefficients (eqs 21-22), skewness and
+kurtosis exact where a rule is affordable, else from surrogate draws.
 
-- mean: the constant coefficient (paper eq 21); covariance: ``sum_{alpha != 0} c_alpha
-  c_alpha^T`` over the output's k components (eq 22). Both exact, from the coefficients.
-- third and fourth central moments (skewness, kurtosis: eq 17, non-excess):
+``"exact"`` takes the cheaper of a tensor Gauss rule of ``2 p_j + 1`` nodes per germ variable
+(:func:`exact_rule`, up to ``max_exact_points``) and the linearisation of basis products
+(:mod:`uqguide.pce.linearisation`); ``"surrogate-sampling"`` the population moments of
+fixed-seed germ draws (:func:`central_moments_sampled`). Sobol' indices from the coefficients
+(:func:`sobol_indices`). A column of zero variance has NaN skewness, kurtosis and indices.
 
-  * ``"exact"``, by whichever of two exact rules is cheaper for the expansion at hand:
-
-    - a tensor Gauss rule of ``2 p_j + 1`` nodes in every germ variable ``j`` the expansion
-      uses (``p_j`` its largest degree there) integrates ``(y - mean)^4``, of degree ``4 p_j``,
-      exactly; usable when that grid has at most ``max_exact_points`` nodes (default 250,000;
-      7 inputs of degree 1 need 3^7 = 2187 nodes, 3 inputs of degree 12 need 25^3): cheap for
-      few inputs of high degree;
-    - the linearisation of products of the orthonormal basis
-      (:mod:`uqguide.pce.linearisation`), whose cost follows the pairs of retained terms:
-      cheap for sparse expansions in many inputs (300 terms in 8 inputs), usable up to
-      :data:`uqguide.pce.linearisation.MAX_PRODUCT_TERMS` product terms;
-
-  * ``"surrogate-sampling"``: where neither is usable, the surrogate is sampled with ``n_draws``
-    fixed-seed germ draws (default 10^6; cheap, the surrogate is a polynomial), and skewness /
-    kurtosis are the population estimators of those draws. Random draws (default) err like a
-    sample of that size (``sqrt(6 / n)`` for a near-Gaussian skewness: 2.4e-3 at 10^6);
-    scrambled Sobol' draws (``sampling="sobol"``, ``n`` rounded up to a power of two) err about
-    as ``1 / n`` on a polynomial.
-
-- Sobol' indices from the coefficients: first order of input i: the variance of the terms in
-  ``xi_i`` alone; total: of all terms involving ``xi_i`` (Sudret 2008).
-
-A column whose variance is zero (e.g. ``t = 0`` with no initial dispersion) has NaN skewness,
-kurtosis and Sobol' indices, silently.
+The rules and their costs: docs/methods.md#exact-skewness-and-kurtosis and
+docs/methods.md#pce-statistics.
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 Every output of the model contract is handled the same way by the PCE methods: a time series
 ``(n, T, k)`` or a scalar ``(n, k)`` output is flattened to ``m = T k`` (or ``k``) columns,
 fitted, and its statistics are reshaped back to ``(T, k)`` or ``(k,)``. The scalar outputs'
-expansions are put on one shared basis so the joint covariance of all scalars stacked (spec
-section 3) follows from the coefficients too.
+expansions are put on one shared basis so the joint covariance of all scalars stacked
+(docs/statistics.md#statistics) follows from the coefficients too.
 """
 
 from __future__ import annotations

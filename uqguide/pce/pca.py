@@ -1,4 +1,4 @@
-"""Principal components of a time-series output (spec 4.4, vector and time-series outputs).
+"""Principal components of a time-series output (docs/methods.md#time-series-in-the-adaptive-pce).
 
 The ``(N, T k)`` runs of a series output are compressed to ``r`` principal-component scores, one
 adaptive PCE is fitted per score, and the scores' expansions are mapped back to the ``T k``

@@ -1,30 +1,14 @@
-"""How many principal components a series keeps: the moments' rule (issue 27, item 4).
+"""How many principal components a series keeps: the moments' rule.
 
-A fixed fraction of the variance (0.9999 until 2026-11-27) capped the accuracy of the series'
-skewness and kurtosis whatever the budget: on a damped oscillator the 8 components it kept left
-a skewness error of 0.015 at the last step, where the fitted components were good to 1e-9. The
-variance is the wrong yardstick: a component that holds 1e-6 of the variance can carry a
-skewness of 1e-2 at the steps where the spread is small.
+On the fit's own runs, ``r`` is the smallest count at which the truncation error of the mean,
+std, skewness and kurtosis at every step (rebuilt from ``r`` components against the runs) is at
+most the surrogate's error (the components' leave-one-out predictions against the rebuilt runs,
+root mean square over the steps), :func:`choose`. At least the components that hold
+:data:`FLOOR_FRACTION` of the variance, at most :func:`candidates`; steps whose spread is
+round-off are left out (:func:`moment_steps`).
 
-The rule. On the fit's own runs ``Y (N, m)``, with ``Y_r`` their reconstruction from the first
-``r`` components and ``Y_r^loo`` that reconstruction from the components' leave-one-out
-predictions (each run predicted by the expansions fitted without it):
-
-- the *truncation error* of a moment at a step is the difference between its sample value on
-  ``Y_r`` and on ``Y``;
-- the *surrogate's error* of that moment at that step is the difference between its value on
-  ``Y_r^loo`` and on ``Y_r`` (what the fitted expansions get wrong, cross-validated);
-- errors are put on one scale over the steps: the mean's and the std's divided by the step's
-  std, the kurtosis' by the step's kurtosis, the skewness' as they are;
-- ``r`` is the smallest number of components at which, for each of the mean, std, skewness and
-  kurtosis, the truncation error at every step is at most the surrogate's error, taken as its
-  root mean square over the steps (a single step's cross-validated error can cross zero where
-  its sign changes; the root mean square is that moment's typical error).
-
-Steps whose runs differ only by round-off (std at most 1e-7 of the mean's size) are left out:
-their skewness and kurtosis are round-off on both sides. ``r`` is at least the count that keeps
-0.9999 of the variance (the former default, so a rule on a poor surrogate never keeps fewer),
-and at most the candidates fitted (:func:`candidates`).
+Why not a fraction of the variance, and how the errors are scaled:
+docs/methods.md#time-series-in-the-adaptive-pce.
 """
 
 from __future__ import annotations

@@ -1,23 +1,14 @@
 """Which point value a validated PCE's ``+cv`` row prints: the PCE's own or the corrected one,
-whichever has the smaller estimated mean squared error (issue 27, item 5).
+whichever has the smaller estimated mean squared error (:func:`better_points`).
 
-The corrected value ``cv = pce + d`` adds the validation runs' correction ``d``, an unbiased
-estimate of the PCE's bias ``b`` with standard error ``se``. Its error is all variance:
-``MSE(cv) = se^2``. The PCE's own value has no variance given its fit (the validation runs are
-independent of it) and all bias: ``MSE(pce) = b^2``, estimated without bias by ``d^2 - se^2``
-(as ``E d^2 = b^2 + se^2``). The PCE's value is the better one where ``d^2 - se^2 < se^2``,
-i.e. ``|cv - pce| < sqrt(2) se``; a sampled PCE moment's own sampling error is in both values
-and drops out of the comparison.
+The correction ``d`` estimates the PCE's bias with standard error ``se``: the corrected value's
+squared error is ``se^2``, the PCE's own is estimated without bias by ``d^2 - se^2``, so the
+PCE's value is printed where ``|d| < sqrt(2) se`` (:data:`BIAS_FACTOR`). The interval stays the
+correction's, which holds either value.
 
-Why: where the surrogate is good, its moments are exact for the surrogate and far closer to the
-model's than 100 validation runs can tell, and the correction adds only their noise. On Table
-5's ZEM over 20 fresh seeds (1001-1020) the PCE's own mean is 0.00075 m from the reference on
-average, the corrected one 0.0019 m (``benchmarks/pce_coverage.py --first-seed 1001``). Where
-the surrogate is biased the correction is larger than its noise and the corrected value wins.
-
-The interval stays the correction's: it is what the validation runs know, and it holds the
-chosen value (``sqrt(2) se`` is inside the ``t_{0.975} se`` half-width). Where the PCE's value
-is withheld or has no usable surrogate, the corrected value is printed as before.
+Derivation and the measured effect on Table 5's ZEM:
+docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate and
+docs/methods.md#agreeing-and-the-runs-own-estimate.
 """
 
 from __future__ import annotations

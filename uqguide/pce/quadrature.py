@@ -1,35 +1,14 @@
 """Quadrature on the germ: one-dimensional rules, tensor grids and Smolyak combinations.
 
-One-dimensional rules, indexed by a *level* ``l = 0, 1, 2, ...`` (chaospy's ``order``):
+One-dimensional rules by level (:data:`RULES`: Gauss of the germ's own measure, nested
+Genz-Keister for normal germs, Gauss-Patterson and Clenshaw-Curtis for uniform ones;
+:func:`rule_1d`), each with its projection degree checked numerically
+(:func:`projection_degree`); a :class:`Grid` is a linear combination of tensor rules: one for the
+full-tensor PCE (:func:`tensor_grid`), Smolyak's combination for the sparse one
+(:func:`smolyak_grid`), whose nodes are chaospy's sparse grid with the repeated centre nodes
+merged. This is the only module that sees chaospy's ``(d, n)`` arrays.
 
-- ``"gauss"``: the Gauss rule of the germ variable's own measure (Gauss-Hermite for a normal
-  germ, Gauss-Legendre for a uniform one; Golub-Welsch on the recurrence of
-  :mod:`uqguide.pce.basis`), ``l + 1`` nodes, exact to degree ``2l + 1``;
-- ``"genz_keister"``: nested Genz-Keister (chaospy ``genz_keister_24``) for normal germs:
-  1, 3, 9, 19, 43 nodes;
-- ``"patterson"``: nested Gauss-Patterson for uniform germs: 1, 3, 7, 15, 31 nodes;
-- ``"clenshaw_curtis"``: ``l + 1`` nodes including the bounds, uniform germs (tensor grids).
-
-(chaospy 4.3's ``fejer_2`` weights do not sum to one on U(-1, 1), so that rule is not offered;
-its Genz-Keister rules are taken for the standard normal directly, because mapping them through
-``dist.inv(ndtr(x))`` loses the tail nodes' precision from level 4 on.)
-
-A rule's *projection degree* is the largest ``p`` with ``sum_i w_i phi_a(x_i) phi_b(x_i) =
-delta_ab`` for all ``a, b <= p`` (checked numerically, so it holds whatever the rule): a tensor
-pseudo-spectral projection onto degrees ``<= p`` is then free of internal aliasing. For a Gauss
-rule it is ``l``, i.e. ``m - 1`` for ``m`` nodes (spec 4.2).
-
-A :class:`Grid` is a linear combination of tensor rules: one tensor rule for the full-tensor PCE
-(spec 4.2), or Smolyak's combination (spec 4.3)
-
-    ``A(q, d) = sum_{q-d+1 <= |l| <= q} (-1)^(q-|l|) C(d-1, q-|l|) (U_l1 x ... x U_ld)``
-
-whose nodes are the union of the tensor grids' nodes: those of chaospy's
-``generate_quadrature(q, dist, rule="gaussian", sparse=True)`` (or ``"genz_keister_24"``) with
-its repeated centre nodes merged (chaospy's computed zero of odd Gauss rules is not exactly 0, so
-it lists the centre once per rule). ``q = 1`` with 7 inputs is the paper's 15-run "level 2"
-grid. (chaospy's *default* sparse rule is Clenshaw-Curtis, which also gives 15 nodes at
-``q = 1`` but does not match the inputs' measures.)
+The rules, the Smolyak formula and the chaospy details: docs/methods.md#bases-and-quadrature.
 """
 
 from __future__ import annotations
@@ -224,7 +203,7 @@ def build_grid(germ: Germ, combos: list[tuple[float, tuple[int, ...]]],
 
 
 def tensor_grid(germ: Germ, m: int, rules: list[str]) -> Grid:
-    """Full tensor grid of ``m`` nodes per input (level ``m - 1``): ``m^d`` nodes (spec 4.2)."""
+    """Full tensor grid of ``m`` nodes per input (level ``m - 1``): ``m^d`` nodes."""
     return build_grid(germ, [(1.0, (m - 1,) * germ.dim)], rules)
 
 

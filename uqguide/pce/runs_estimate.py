@@ -1,35 +1,15 @@
 """The Monte Carlo estimate of the model runs a PCE method already made (its ``+mc`` fallback).
 
-Where a PCE withholds a statistic (its surrogate is not usable there, or its own runs do not
-support the value, :mod:`uqguide.pce.support`), the report still gives an answer: the plain
-sample moments of the model runs the method made, its fit runs and its validation runs, with
-a 95% interval. No run is added, so the cost table counts each run once.
+Where a PCE withholds a statistic, the report gives the sample moments of the method's fit and
+validation runs, mixed in proportion to their counts (the validation runs with their stratum
+weights), with a 95% interval: the union of the delta-method interval (as
+:func:`uqguide.pce.validation.corrected_moments` gives it for a constant surrogate) and the
+tail-aware one (:func:`uqguide.stats.tail_intervals.tail_intervals`), one-sided where a few runs
+carry the statistic. It treats the runs as independent draws (:data:`INTERVAL` says so), and is
+given only where the PCE withholds the statistic. No run is added.
 
-Design decisions:
-
-- **Two designs, one estimate.** The fit runs are a space-filling design of the input
-  distribution (scrambled Sobol' or Latin hypercube, unweighted); the validation runs a random
-  or stratified one with known weights. Each part's weighted mean of ``(y - c)^p`` is unbiased
-  for ``E[(Y - c)^p]``; the estimate mixes the two in proportion to their run counts, so a run
-  counts the same whichever part it came from. The mixture's variance is the sum of the parts'
-  variances: written as strata (the fit runs one stratum of share ``n_fit / N``, validation
-  stratum ``k`` the share ``W_k n_val / N``), the stratified variance of
-  :func:`uqguide.pce.validation.stratified_se` is exactly that sum.
-- **The interval** is that of the control-variate estimates with a constant surrogate
-  (:func:`uqguide.pce.validation.corrected_moments`): delta-method standard errors linearised in
-  the four raw moments, Welch-Satterthwaite degrees of freedom, a t quantile. It treats the fit
-  runs as **independent draws** (the iid interval). A single scrambled Sobol' sequence (or one
-  Latin hypercube) has no replicate scrambles to measure its own error; for outputs of bounded
-  variation its error is smaller than a random design's, so the iid interval is an upper bound
-  there and an approximation otherwise. The label in the report says so (:data:`INTERVAL`).
-- **Heavy tails.** With 20-40 runs a kurtosis (often a skewness) is carried by one or two
-  runs: the delta-method interval is then narrow and wrong (heavy-tailed output, 30 runs:
-  0/40 kurtosis intervals held the exact value). The interval is widened to the union with
-  the tail-aware interval of the pooled runs (:func:`uqguide.stats.tail_intervals.
-  tail_intervals`), which is one-sided, a stated floor, where fewer than 10 effective runs
-  carry the statistic's variance: "kurtosis >= L; the runs cannot bound it above".
-- **Where it is given**: only where the PCE withholds the statistic (NaN elsewhere), so the
-  report shows one answer per statistic and point.
+The mixture, its variance and why the union:
+docs/methods.md#agreeing-and-the-runs-own-estimate.
 """
 
 from __future__ import annotations

@@ -1,40 +1,15 @@
 """A series output's adaptive PCE: principal components, their sparse fits, the rank.
 
-``y (N, m)`` is decomposed (:func:`uqguide.pce.pca.decompose`); the candidate components are
-fitted (below), and the number kept is then chosen by the moments' rule
-(:mod:`uqguide.pce.pca_rank`), unless the configuration fixes it by ``n_components`` or
-``variance_fraction`` (those fit only what they keep). The kept components' expansions are those
-fitted: choosing after fitting costs one fit, where growing the count and refitting cost one per
-step.
+``y (N, m)`` is decomposed (:func:`uqguide.pce.pca.decompose`), the candidate components are
+fitted, and the number kept is chosen afterwards by the moments' rule
+(:mod:`uqguide.pce.pca_rank`) unless ``n_components`` or ``variance_fraction`` fix it. Every
+component gets its own search (:func:`uqguide.pce.sparse_regression.fit_columns`) where that
+costs at most :data:`HYBRID_WORK` multiply-adds; above, the first :data:`LEAD` component(s) get it
+and the others share one path (:func:`uqguide.pce.joint_regression.fit_joint`); past
+:data:`COLUMNWISE_WORK` all take the shared path.
 
-How the components are fitted. Where one component's column-by-column search
-(:func:`uqguide.pce.sparse_regression.fit_columns`, as for a scalar output) costs at most
-:data:`HYBRID_WORK` multiply-adds (``N P min(N, P)`` summed over the q-norms' candidate sets of
-``P`` terms: up to about 340 runs with 2 inputs, 250 with 3 to 8), every component gets it.
-Above, a hybrid: the first component gets its own search and the others share the joint path
-(:func:`uqguide.pce.joint_regression.fit_joint`); past :data:`COLUMNWISE_WORK` (about a
-CPU-minute for that one search) the first takes the joint path too. The moments' rule takes the
-leave-one-out residuals of both.
-
-Why. With few runs each component's own search serves it better than a shared path, which
-spends its ``N - 2`` least-angle steps on all the components at once: on the 30 runs of the
-``ft_as_dispersion`` golden study the joint path's LOO error was 0.15 where the
-column-by-column search's was 0.037; on issue 27's oscillator (2 inputs, 401 steps, 200 runs at
-the adaptive PCE's default plan) the joint path for all the components fitted none above
-degree 6 (LOO 0.013), and printed kurtoses up to 53% off at 25 steps its validation runs could
-not refute, where the column-by-column search reaches degree 37, LOO 0.0027 and no kurtosis 20%
-off (``benchmarks/oscillator_defaults.py``; ``tests/test_pce_support.py``, a slow test); on the
-200-step oscillator of ``benchmarks/pce_peers.py`` the hybrid (three components searched) had
-last-step skewness errors of 0.12 at 100 runs and 6.9e-4 at 200, where the column-by-column
-search has 2.2e-2 and 4.3e-4. With more runs the joint path fits the small components as well
-as their own searches do, for about the cost of one of them: on that oscillator at 500 runs
-(seed 1) the joint path's LOO error was below the component's own search's for 15 of the 17
-trailing components, and the worst error of the four moments over all 199 varying steps was
-2.8e-8 with the hybrid and 5.5e-8 column by column (swapping a single component between the two
-fits moves the last step's skewness error between 8e-10 and 1e-7: at that level it is the
-noise of the fit, not a property of the path), while the series fit fell from about 20 CPU-s
-(18 searches of about a CPU-second each) to 4-5. The first component keeps its own search:
-it holds the most variance, so its degree matters most, and a shared path is what capped it.
+Why the hybrid, with the measurements that set it:
+docs/methods.md#time-series-in-the-adaptive-pce.
 """
 
 from __future__ import annotations

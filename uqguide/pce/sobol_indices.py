@@ -1,82 +1,15 @@
-"""Sobol' indices of a PCE, in closed form, with their 95% intervals (the error budget of every
-PCE method, issue 29 items 3-5).
+"""Sobol' indices of a PCE, in closed form, with their 95% intervals (every PCE method's
+error budget).
 
-Indices. With ``c_alpha`` the coefficients of one output column (a scalar's component, or a
-series' value at one step and component) on an orthonormal basis, the variance is
-``V = sum_{alpha != 0} c_alpha^2`` and every index is a sum of squared coefficients over a set
-of terms divided by ``V`` (Sudret 2008):
+Each index is a sum of squared coefficients over a set of terms (:func:`term_sets`) divided by
+the variance (Sudret 2008); a series' indices come from its per-step coefficients, exact at every
+step. The interval of a regression PCE is a wild bootstrap of the regression with leave-one-out
+residuals (:func:`bootstrap_intervals`, :data:`N_BOOTSTRAP` replicates) widened by the
+truncation bound of the surrogate's error (:func:`truncation_bounds`); a quadrature PCE gets the
+general (non-orthogonal) bound where it has a validation set, and no interval otherwise.
 
-- first order of input ``i``: the terms in ``xi_i`` alone;
-- total of input ``i``: the terms involving ``xi_i``;
-- a group ``G`` (the config's ``groups``, or each correlated group): first order (closed
-  index, ``Var(E[y | x_G]) / V``) the terms whose support lies in ``G``, total the terms whose
-  support touches ``G``.
-
-A series' expansion is kept factored through its principal components (``coef = core @ mix``,
-:mod:`uqguide.pce.pca`): the indices of its value at a step are those of the reconstructed
-per-step coefficients (the components' coefficients combined with that step's loadings), so
-they are exact for the surrogate at every step, not only at the final time, with no sampling.
-
-A correlated group's germ variables are its decorrelated members (:mod:`uqguide.pce.germ`): the
-group's index over all of them is its physical index (the members and the germ variables carry
-the same information), while one member's own index is that of its germ variable.
-
-Intervals. An index of the surrogate differs from the model's for two reasons, and the interval
-covers both:
-
-1. **Estimation** (regression PCEs): the coefficients are a least-squares fit to random runs. A
-   bootstrap of the regression refits the selected terms of every column (the sparse support
-   LARS chose; no new selection, which would cost a full fit per replicate) to replicates of the
-   runs and recomputes the indices; the basic bootstrap interval of :data:`N_BOOTSTRAP`
-   replicates (:func:`bootstrap_intervals`) is the interval. The replicates are a **wild
-   bootstrap** with **leave-one-out residuals**: run ``j``'s output is the fitted value plus its
-   residual ``e_j / (1 - h_j)`` (``h_j`` its leverage) times a random sign. Resampling the runs
-   (pairs) was the first choice, but a resample keeps about 63% of the distinct runs, and a
-   sparse fit of ``P`` terms on a few hundred runs is then often rank-deficient; weighting them
-   instead (the Bayesian bootstrap) kept every fit well-posed but, like resampling, spreads the
-   in-sample residuals, which a sparse fit has made small by choosing its terms on these very
-   runs: on the 8-input G-function at 300 runs its intervals held the exact S1, ST1 and ST2 in
-   only 2 to 4 of 6 seeds. The leave-one-out residuals are of the size of the out-of-sample
-   error (the wild bootstrap of them is the HC3 sandwich variance, valid for a misspecified
-   model and an uneven error), and every replicate is a product with the fit's fixed
-   pseudo-inverse: 200 replicates cost less than the fit. What no refit of the selected terms
-   sees is the selection itself (another sample would choose other terms): measured coverage is
-   in ``benchmarks/pce_sensitivity.py`` and ``docs/error-budget.md``. A series' components are
-   refitted and mapped back through the loadings of the fit (held fixed: their sampling error is
-   of second order next to that of the scores' coefficients).
-2. **Truncation**: the terms the expansion does not have. Write the model ``f = f_P + r``
-   with ``r`` orthogonal to the expansion's terms (a least-squares fit, or a projection) and
-   ``eps = E[r^2] / Var(f)``, the surrogate's relative error. Every partial variance above
-   splits as ``D = D_P + D_r`` with ``0 <= D_r <= E[r^2]`` (the cross term is ``E[g r]``
-   for ``g`` a sum of the expansion's own terms: 0), and ``V = V_P / (1 - eps)``, hence
-   ``S - S_P`` lies in ``[-eps S_P, eps (1 - S_P)]`` for every index, first, total or group.
-   The error ``eps`` is the validation error of the column (:mod:`uqguide.pce.validation`,
-   per step and component) when the method has a validation set, else the fit's corrected
-   LOO error of the output (one figure per output: for a series it is relative to the
-   output's total variance, so at steps of small variance it understates ``eps``).
-
-   The orthogonality holds for the regression in the mean (its sampling departures are the
-   bootstrap's part). It does not hold for a quadrature projection: the rule aliases the missing
-   terms onto the kept ones, deterministically (``x1 + 0.5 x2^2 + 0.3 |x1|`` on a 4- or 6-node
-   Gauss grid: ``S1`` reads 1.5e-4 to 3e-4 low, 6 to 12 times the bound above). For any error
-   ``e`` of relative size ``eps`` every index is ``||P f||^2 / ||f - E f||^2`` for an orthogonal
-   projection ``P`` (onto the functions of ``x_i``, or of the inputs other than ``x_i`` for a
-   total index), and ``| ||P f|| - ||P f_P|| | <= ||e||``; with ``rho = sqrt(eps) / (1 -
-   sqrt(eps))`` the model's index then lies in ``[(sqrt(S_P) - rho)_+^2 / (1 + rho)^2,
-   (sqrt(S_P) + rho)^2 / (1 - rho)^2]``: wide for large indices (``eps = 1e-3``, ``S_P = 0.94``:
-   [0.83, 1]), tight for small ones (about ``[0, eps]`` at ``S_P = 0``).
-
-The interval of a regression PCE is the bootstrap interval widened by the orthogonal
-truncation bound. A quadrature PCE (tensor, Smolyak) has no regression to resample and no LOO
-error: its interval is the general truncation bound when it has a validation set, and **none**
-(NaN) otherwise (nothing measured says how far its indices are from the model's); with
-``pce_failure_policy: regression`` its fit is a regression, but on quadrature nodes, not random
-runs, so it is treated like a projection.
-
-Cost: one QR factorisation per distinct support (the components of a series or a vector's
-entries often share one), then per replicate a product with its pseudo-inverse and the indices
-of every column: for the G-function's 300-run fit (8 inputs, about 70 terms) the indices and
-their 200 replicates take 0.03 CPU-s, against 0.7 CPU-s for the fit.
+Derivation of the bounds, why this bootstrap, cost and measured coverage:
+docs/error-budget.md#pce-indices.
 """
 
 from __future__ import annotations

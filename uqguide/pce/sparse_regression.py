@@ -1,37 +1,15 @@
-"""Sparse regression of output columns on a candidate basis chosen from the data (spec 4.4).
+"""Sparse regression of output columns on a candidate basis chosen from the data.
 
-For each output column (a scalar component or a principal-component score) the expansion is
-chosen by corrected leave-one-out error (:mod:`uqguide.pce.lars`) over a grid of hyperbolic
-candidate sets ``||alpha||_q <= p``:
+For each output column (a scalar component or a principal component's scores) the expansion of
+least corrected leave-one-out error (:mod:`uqguide.pce.lars`) is chosen over a grid of hyperbolic
+candidate sets ``||alpha||_q <= p``: the q-norms :data:`Q_GRID` (or the config's) and every degree
+whose candidate set has at most :func:`candidate_cap` terms (up to :data:`MAX_DEGREE`), or
+``degree_max``. Among the fits within 1% of the least error the smallest candidate set wins.
+Each q-norm runs LARS once on its largest set; smaller degrees score that order restricted to
+their candidates. :func:`fit_columns` is the entry point; everything is deterministic.
 
-- **q-norms**: 0.5, 0.75 and 1 (total degree), or the one the configuration fixes;
-- **degrees**: every ``p`` from ``degree_min`` up to the largest degree whose candidate set has
-  at most :func:`candidate_cap` terms (the degree the runs support, up to 40), or
-  ``degree_max`` when the configuration fixes it.
-
-The candidate set is large on purpose: Blatman & Sudret's degree loop stops at the first rise
-of the error, and stalls on plateaus of the q = 0.5 sets before interactions such as
-Ishigami's ``x1 x3^4`` enter; a grid scored in full does not.
-
-Selection. The (q, degree, terms) of least corrected LOO error is found; among the fits within
-1% of it the smallest candidate set wins (an exact fit ties at every larger degree). A wider
-allowance, one standard error of the LOO estimate (:attr:`uqguide.pce.lars.SparseFit.loo_se`),
-was tried: it barely moved the peer benchmark (Ishigami at 100 runs 3.3e-5 -> 2.4e-5,
-lognormal-10 0.51 -> 0.50) and changed the 30-run fits of the golden configs beyond their 2%
-tolerance, so it is not used.
-
-Speed. The candidate basis is evaluated once, on the union of the q-norms' largest sets, and
-each q-norm's set is laid out for LARS once (:class:`uqguide.pce.lars.LarsBasis`), shared by all
-the columns fitted together (the principal components of a series, a vector's entries). For
-each q-norm, LARS runs once on the largest set; the path of every smaller degree is that order
-restricted to the degree's candidates (reusing the LARS path across degrees instead of running
-LARS again), and each is scored by a corrected-LOO path that is extended, not redone, as LARS
-goes on (:class:`uqguide.pce.lars.LooPath`) and stops once the set has grown well past its best
-size. LARS itself is stopped after as many steps as the best path can use (continued, to 1.5
-times the best set's size and more, when the best set comes near the end of the path). Degrees
-whose error is close to the least get a LARS of their own where that is cheap
-(:meth:`_QSearch.own_lars`). A 1000-run, 8-input fit costs 1.5-3 CPU seconds. Everything is
-deterministic.
+The grid, the selection rule and what was tried, and how the search is kept cheap:
+docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out.
 """
 
 from __future__ import annotations

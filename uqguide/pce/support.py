@@ -1,61 +1,16 @@
-"""Whether a PCE's skewness and kurtosis are supported by the model runs it made.
+"""Whether a PCE's moments are supported by the model runs it made, or withheld.
 
-A PCE's moments are exact for the surrogate. Its skewness and kurtosis are carried by the
-surrogate's tails, and a polynomial fitted to a few runs can put enormous values where no run
-looked: a 20-run, degree-16 fit of a damped oscillator (issue 27) gave kurtosis 2.7e3 where
-the model's is 2.4. The control-variate estimate (``+cv``) does not repair that: it corrects
-the surrogate only where the validation runs are, and the tails that carry the moment lie
-beyond them (its interval, from the same runs, is narrow and wrong).
+A polynomial fitted to a few runs can put enormous values in tails no run looked at, and the
+``+cv`` correction cannot see them either. Per statistic and column: the PCE's own skewness or
+kurtosis is withheld unless it agrees with every estimate its runs give (the control-variate
+value, and within :data:`RUNS_FACTOR` half-widths the runs' own Monte Carlo estimate); its mean
+and std likewise against the runs' estimate; a ``+cv`` value the runs refute, or less precise
+than they are, is dropped (:func:`refuted`, :func:`less_precise`); a skewness goes with its
+withheld kurtosis (:func:`with_the_kurtosis`). The report then gives the runs' own estimate.
 
-Rule (per statistic and column, i.e. time step x component):
-
-- the PCE's own skewness or kurtosis is **withheld** unless it agrees with every estimate of
-  it its runs give: the control-variate value (with a validation set) and the plain Monte
-  Carlo estimate of the fit and validation runs (:mod:`uqguide.pce.runs_estimate`);
-- its mean and std likewise, against the runs' Monte Carlo estimate (against the
-  control-variate value they are judged by :func:`uqguide.pce.validation.disagreeing`). A
-  high-degree fit of a kinked series extrapolates beyond every run: the zoo's ramp at 248 runs
-  (seed 8) printed a std of 0.201 where the model's is 0.163 and its runs' own estimate said so,
-  while its validation runs, which seldom reach that far, did not;
-- a control-variate value (any of the four moments) is **refuted** where it disagrees with the
-  runs' Monte Carlo estimate: it is then not reported either, and no message says it holds.
-  It is also dropped where its interval is wider than the runs' Monte Carlo interval: the
-  surrogate then adds variance instead of removing it (a control variate worse than none; a
-  kurtosis of 1.5e5 with an interval reaching down to the model's 2.9 is no answer);
-- where the runs refuted the control-variate skewness or kurtosis by *disagreeing* with it
-  (not merely by being more precise), the PCE's own value, which shares the surrogate's tails
-  with it, is judged against the runs at one half-width instead of :data:`RUNS_FACTOR`, wherever
-  the runs' tail-aware interval bounds the statistic on both sides, and is withheld where that
-  interval is a floor (a heavy tail's: the runs' sample value is biased low and cannot vouch
-  for the tails the refuted twin shares). A damped pendulum's final angle (2 inputs, a user's
-  script, default ``pce_adaptive``, 250 runs) printed a PCE kurtosis of 3.58 against the
-  model's 2.83 (2e4 Monte Carlo runs): its ``+cv`` twin was refuted by the runs' 2.69 +- 0.56,
-  but the PCE's value passed the two-half-width check; another printed 5.07 against 4.19
-  beside a twin of 5.06 [5.00, 5.11] and the runs' floor;
-- where the PCE's own kurtosis is withheld (by its runs or its validation runs), its skewness
-  is **withheld with it** (:func:`with_the_kurtosis`): both are carried by the surrogate's
-  tails, and a fourth moment the runs refute says those tails are not the model's. A contact
-  kink (a user's 3-input beam, 234 runs) had its PCE kurtosis at 1.0e3 against the model's
-  2.36; its skewness, -0.043 against the model's -0.209, passed both checks only because the
-  runs' own skewness interval ([-0.40, -0.04]) was wide.
-
-"Agrees": the difference lies within the 95% interval of the difference, ``sqrt(h_a^2 +
-h_b^2)`` for half-widths ``h_a``, ``h_b`` (a PCE value is exact for its surrogate, ``h = 0``:
-it must lie within the other estimate's interval), or is below the immaterial amount
-:data:`~uqguide.pce.validation.MATERIAL`. One half-width, as the issue asks ("within their
-intervals"): a correct PCE then loses about 5% of its points to chance, and those points get
-the runs' estimate instead, never no answer. Two half-widths (about four standard errors)
-kept a 20-run oscillator's kurtosis of 2.7e3 within its control-variate interval
-([2.1e3, 4.0e3]), whose own validation runs never reach the tails that carry it. Against the
-runs' plain Monte Carlo estimate the margin is :data:`RUNS_FACTOR` half-widths instead (see
-there): that check exists to catch values off by orders of magnitude, which it does (the same
-oscillator's kurtosis 2.7e3 against 2.0 +- 0.9 from its 77 runs).
-
-What the rule costs: a correct PCE of a heavy-tailed output whose few runs have not seen the
-tail (a lognormal's kurtosis from 30 runs) is withheld too; the report then gives the runs'
-own estimate, labelled as such. Nothing the runs contain supports the tail the PCE
-extrapolated; the issue's rule is "never an absurd number", and withholding with an answer
-beside it is the honest form of it.
+The rules, "agrees", the margins and the cases that set them:
+docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate and
+docs/methods.md#agreeing-and-the-runs-own-estimate.
 """
 
 from __future__ import annotations

@@ -1,37 +1,16 @@
 """Validation of a PCE by independent model runs: its out-of-sample error, control-variate
 corrections of its moments with their intervals, and where it is not usable.
 
-A PCE's moments are exact for the surrogate, not for the model. ``n`` model runs at independent
-inputs (a stream of their own, never used by the fit) measure the difference:
+Per output column: the out-of-sample error ``mean((y - s)^2) / var(y)`` (:func:`relative_error`);
+the raw moments about the PCE mean corrected by the model-minus-surrogate differences of the
+runs, unbiased whatever the surrogate, with delta-method intervals, Satterthwaite degrees of
+freedom and Hall's skew correction (:func:`corrected_moments`, :func:`stratified_se`); the PCE's
+own values the runs refute (:func:`disagreeing`); and the columns whose error exceeds
+:data:`USABLE_ERROR`, where the PCE's own moments are withdrawn (:func:`usable_mask`,
+:func:`withdraw`). :data:`MATERIAL` is the immaterial difference.
 
-- **Out-of-sample error** per output column (time step x component): the mean squared
-  model-minus-surrogate difference relative to the model's variance (weighted by the runs'
-  strata in a stratified design),
-  ``e = mean((y - s)^2) / var(y)``: the fraction of the variance the surrogate misses, the same
-  scale as the relative LOO error of the fit (0 perfect, about 1 for a constant).
-- **Control-variate estimates** (the surrogate as control variate): for the raw moments about
-  the PCE mean ``c``, ``M_p = E[(S - c)^p] + sum_v w_v [(y - c)^p - (s - c)^p]``, p = 1..4, with
-  ``E[(S - c)^p]`` the PCE's own (exact) central moments. Each ``M_p`` is unbiased for the
-  model's ``E[(Y - c)^p]`` whatever the surrogate's quality (the validation inputs are
-  independent of the fit); mean, std, skewness and kurtosis follow from the same four
-  ``M_p``, so they are consistent. A perfect surrogate gives the PCE's values; a constant one
-  the plain Monte Carlo moments of the validation runs.
-- **Where the runs go**: plain random, or (the default) stratified by the surrogate's own
-  value so that the tails, which carry the third and fourth moments' corrections, get runs of
-  their own (:mod:`uqguide.pce.validation_design`); every mean over the runs is then weighted
-  by its stratum's share.
-- **95% intervals**: ``value +- t_{0.975, df} se``, ``se`` the delta-method standard error of
-  the statistic (linearised in the four corrected raw moments; the stratified variance of the
-  per-run influence) and ``df`` its Welch-Satterthwaite degrees of freedom (``n - 1`` for a
-  random design), :func:`corrected_moments`. With random runs and a correction whose
-  distribution is heavy-tailed (large differences on a few tail runs) no interval from the
-  runs can be honest: on the borehole function (50-run adaptive PCE, 100 random validation
-  runs, 100 seeds) the kurtosis interval covered 58% with a bootstrap or delta-method
-  standard error alike; stratified, 90%. The PCE's own moments are held fixed: they are exact
-  for the surrogate (sampled ones, of derived outputs, add their sampling error).
-- **Usable**: a column whose error (validation, or the fit's LOO error) exceeds ``threshold``
-  (default 0.1: the surrogate misses a tenth of the variance) has no usable surrogate; the
-  PCE's own moments are withdrawn there (NaN), the corrected ones stay.
+Formulas, rules and measured coverage:
+docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate.
 """
 
 from __future__ import annotations

@@ -1,63 +1,16 @@
 """Where a PCE's validation runs go: plain random, or stratified by the surrogate's own value.
 
-The control-variate corrections of :mod:`uqguide.pce.validation` average the model-minus-
-surrogate differences of the raw moments, ``d_p = (y - c)^p - (s - c)^p``. For a good surrogate
-``d_p ~ p (s - c)^(p-1) (y - s)``: the corrections of the third and fourth moments are carried
-by the runs where the output is extreme. 100 random runs put about one run in the output's
-outer 1%, so the correction of the kurtosis (and its bootstrap or delta-method standard error)
-rests on whether that run happened to be drawn; over design seeds the interval then covers far
-less than its nominal 95% (Table 5's ZEM: 30%, borehole: 40-58%).
+The corrections of the third and fourth moments are carried by the runs where the output is
+extreme, which 100 random runs seldom visit. The stratified design draws a pool of points
+(:func:`pool_points`: arcsine-leaning in at most :data:`ARCSINE_INPUTS` inputs the surrogate is
+curved in, :func:`curved_inputs`, else uniform; each point carries its importance ratio), cuts it
+by the surrogate's tail score into :data:`STRATA` and gives each stratum runs by Neyman
+allocation (:func:`neyman_allocation`, at least :data:`MIN_PER_STRATUM`). Every run carries the
+weight ``ratio x share / runs`` of its stratum, so weighted means stay unbiased.
 
-The surrogate is known everywhere and costs little, so the runs can be placed where they matter
-(stratified sampling; Cochran, *Sampling Techniques*, 3rd ed., 1977, ch. 5):
-
-1. a pool of ``P`` independent points (``P = max(200 n, 20000)``, at most 1e6) from the
-   method's own validation stream, drawn not uniformly but from the product density
-   ``q(u) = prod_i Beta(u_i; b, b)`` (below), each point carrying its importance ratio
-   ``r = 1 / q(u)`` to the input distribution (uniform on the cube);
-2. a tail score per point: the largest standardised surrogate value over the reported outputs'
-   columns, ``z = max_j |s_j - m_j| / sd_j`` (``m, sd`` of the pool's first 10,000 points);
-3. strata by the score's rank in the pool: the outer 50%, 20%, 15%, 4%, 0.9%, 0.1%
-   (:data:`STRATA`; fewer, merged from the top, when ``n`` is small). Stratum ``k`` holds the
-   share ``W_k`` of the pool, known exactly;
-4. ``n_k`` runs drawn without replacement from stratum ``k``, by Neyman allocation
-   ``n_k ~ W_k S_k`` with ``S_k`` the root mean square of ``1 + z^3`` in the stratum (the
-   spread of ``d_1 + d_4`` if the residual's scale does not depend on the output's value), at
-   least 2 per stratum (a variance needs two).
-
-Each run carries the weight ``r W_k / n_k``; weighted means over the runs are unbiased for the
-pool's ratio-weighted means, which are unbiased for the input distribution's (the pool is an
-independent sample of ``q``), and the stratum labels let the intervals use the stratified
-variance ``sum_k W_k^2 s_k^2 / n_k`` of the ratio-weighted values ``r f``. The pool's own
-sampling adds ``var / P`` to the variance, under 1% of the stratified variance for
-``P >= 200 n`` (added in :mod:`uqguide.pce.validation`).
-
-Why the pool is not uniform: a polynomial surrogate errs most near the faces and corners of the
-input cube (the far tails of a normal or lognormal input), where it swings and the model does
-not. The error there carries the corrections of the std, skewness and kurtosis, yet a uniform
-pool puts almost no run there: the corner square of side 0.02 of a 2-input cube holds 1 in
-2500 of its points. The arcsine (Chebyshev) density ``b = 1/2`` puts 20 times as many there and
-17 times as many beyond 3 sigma of a normal input, and the ratio ``r`` keeps the estimates
-unbiased. Measured on the defaults zoo's oscillator (fixed surrogates of six seeds, 40
-validation designs of 50 runs each, every step): the ``+cv`` intervals of the mean, std,
-skewness and kurtosis covered 94.5 / 91.1 / 90.6 / 88.9% from a uniform pool and
-94.6 / 94.8 / 93.4 / 92.1% from the arcsine pool, while 0.67-0.90 times as wide.
-
-Only where that was measured to pay: in the inputs the surrogate is curved in (a retained term
-of degree 2 or more in that input, :func:`curved_inputs`; a polynomial constant or linear in an
-input cannot swing at its faces), and only when there are at most :data:`ARCSINE_INPUTS` of
-them; otherwise the pool is uniform. The price is the ratios' spread: ``E_q[r^2] =
-(pi^2 / 8)^k`` over the ``k`` leaning inputs multiplies a plain mean's variance (1.52 at 2), and
-their noise enters the variance estimate too. A pool tempered toward the uniform in more inputs
-(``Beta(b, b)`` with ``b`` raised to keep ``E_q[r^2]`` at 1.6: 0.72 at 9 inputs) gave Table 5's
-ZEM (9 inputs, 300 fit + 100 validation runs, fresh design seeds 1001-1020) intervals 40%
-narrower whose skewness and kurtosis held the 2e7-run reference at 15 and 16 of 20 seeds,
-against 20 and 19 from the uniform pool (2026-11-28). The ratio is bounded, at most
-``(pi / 2)^k`` at the cube's centre, and so are the events' intervals
-(:mod:`uqguide.pce.tails`).
-
-``design: random`` keeps ``n`` plain random points (one stratum, weights ``1 / n``), as the
-legacy ``validation_runs`` setting does.
+The algorithm step by step: docs/methods.md#the-validation-design-step-by-step; why the pool
+leans to the faces, with the measured coverage:
+docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate.
 """
 
 from __future__ import annotations

@@ -1,26 +1,14 @@
 """Figures of a result: statistics over time, scalar distributions and the cost of each method.
 
-- :func:`series_figure`: one figure per time-series output component, in four panels like the
-  paper's Figs 6-17 (mean with a +-1 std band, std, skewness, non-excess kurtosis), one line per
-  method; Monte Carlo estimates carry their 95% bootstrap intervals as bars at the report times.
-- :func:`scalar_figure`: per scalar output, a histogram of every Monte Carlo method's samples
-  (``MethodRun.scalars``, failed runs left out) with, for each PCE method, its density: a
-  Gaussian kernel density estimate of :data:`SURROGATE_DRAWS` draws of the PCE surrogate kept
-  in the result (:meth:`uqguide.results.result.Result.surrogate`; a derived output through its
-  carriers' surrogates), i.e. the surrogate's true shape, bimodal or one-sided as it is. Only
-  a result without a surrogate (written before surrogates were kept) falls back to the
-  density its moments imply (Pearson type III), and the legend says so. A 0/1 output (a
-  collision flag: every sample 0 or 1) is drawn as the probability of 1 per method with its
-  95% interval (Clopper-Pearson for Monte Carlo; a PCE's mean, with its control-variate
-  interval where it was validated), not as a density. The runs of a PCE design are never
-  histogrammed: quadrature nodes are not samples of the output's distribution.
-- the error budget of a series over time (:func:`uqguide.report.budget_plot.budget_figure`)
-  where a method gave Sobol' indices;
-- :func:`cost_figure`: the cost table (:func:`uqguide.report.tables.cost_table`) as bars and a
-table.
+:func:`series_figure` (mean +- std, std, skewness, kurtosis over time, one line per method),
+:func:`envelope_figure` (quantile envelopes), :func:`scalar_figure` (Monte Carlo histograms with
+each PCE's density from :data:`SURROGATE_DRAWS` draws of its kept surrogate; a 0/1 output as a
+probability with its interval) and :func:`cost_figure` (the cost table as bars and a table); the
+error budget over time is :func:`uqguide.report.budget_plot.budget_figure`. Figures are made and
+written through :mod:`uqguide.report.figures` (no ``pyplot``: no global state, no display, nothing
+to close); axis labels carry the output's SI unit.
 
-Figures are made and written through :mod:`uqguide.report.figures` (no ``pyplot``: no global state,
-no display needed, nothing to close). Axis labels carry the output's SI unit.
+What each figure shows and why: docs/guide.md#the-figures.
 """
 
 from __future__ import annotations

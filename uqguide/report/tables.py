@@ -1,4 +1,5 @@
-"""Tables of a result: the cost table and the statistics table (uq-methods.md section 5).
+"""Tables of a result: the cost table and the statistics table
+(docs/guide.md#running-a-shipped-study).
 
 ``statistics_table`` is the long form (one row per output, component, time, method and
 statistic) written to CSV; the printed and Markdown forms are pivots of it. Beside every value it

@@ -2,52 +2,15 @@
 (format 2, a netCDF-4 group per method) and ``Result.to_xarray()`` hold, laid out from the
 description of :mod:`uqguide.results.statistics`.
 
-Per output ``o`` of ``k`` components (``...`` is ``time`` for a series, nothing for a scalar):
+Per output ``o``: ``o`` (statistic, ..., o_component) with mean, std, skewness and kurtosis,
+then ``o_cov``, ``o_sem``, ``o_ci``, the Sobol' indices of inputs and groups with their
+intervals, the quantiles, and a validated PCE's ``o_corrected``, ``o_fallback``,
+``o_validation_error`` and ``o_usable`` (:func:`method_variables`; read back by
+:func:`stats_from_variables`). Each output has its own component dimension
+(:func:`component_dim`) because outputs differ in their number of components.
 
-=======================  ==========================================  =========================
-variable                 dims                                        what
-=======================  ==========================================  =========================
-``o``                    (statistic, ..., o_component)               mean, std, skewness,
-                                                                     kurtosis (non-excess)
-``o_cov``                (..., o_component, o_component2)            covariance
-``o_sem``                (..., o_component)                          standard error of the mean
-``o_ci``                 (bound, statistic, ..., o_component)        95% intervals (NaN where
-                                                                     the method gives none)
-``o_sobol_first/total``  (..., o_component, input)                   Sobol' indices (PCE and
-                                                                     Saltelli: first and total
-                                                                     at every step; Monte
-                                                                     Carlo: first order from
-                                                                     the runs, NaN at steps not
-                                                                     estimated)
-``o_sobol_first_ci``     (bound, ..., o_component, input)            their 95% intervals
-``o_sobol_total_ci``
-``o_sobol_group_first``  (..., o_component, group)                   first-order indices of the
-                                                                     config's groups of inputs
-``o_sobol_group_first_ci`` (bound, ..., o_component, group)          their 95% intervals
-``o_sobol_group_total``  (..., o_component, group)                   total indices of the
-                                                                     groups (PCE, pick-freeze)
-``o_sobol_group_total_ci`` (bound, ..., o_component, group)          their 95% intervals
-``o_quantile``           (quantile, ..., o_component)                quantiles at the levels
-``o_ci_quantile``        (bound, quantile, ..., o_component)         their 95% intervals
-``o_corrected``          (statistic, ..., o_component)               a validated PCE's
-                                                                     control-variate moments
-``o_corrected_ci``       (bound, statistic, ..., o_component)        their 95% intervals
-``o_fallback``           (statistic, ..., o_component)               where a PCE withholds a
-                                                                     moment, the Monte Carlo
-                                                                     estimate of its own runs
-``o_fallback_ci``        (bound, statistic, ..., o_component)        their 95% intervals
-``o_validation_error``   (..., o_component)                          out-of-sample relative
-                                                                     error of the surrogate
-``o_usable``             (..., o_component)                          1 where the surrogate is
-                                                                     usable (else its moments
-                                                                     are NaN)
-=======================  ==========================================  =========================
-
-Coordinates: ``time`` [s], ``input`` (uncertain input names), ``group`` (groups of inputs,
-where there are group indices), ``statistic``, ``bound`` (low,
-high), ``quantile`` (levels), ``o_component`` and ``o_component2`` (component names; a single
-component is named ``""``). Each output has its own component dimension because outputs differ
-in their number of components.
+The table of variables, their dimensions and coordinates:
+docs/result-file.md#a-methods-variables.
 """
 
 from __future__ import annotations

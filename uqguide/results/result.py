@@ -1,53 +1,15 @@
 """The Result of a run and its HDF5 form.
 
-Layout of a result file (format 2: netCDF-4 conventions, i.e. HDF5 dimension scales and UTF-8
-strings, so xarray / h5netcdf read it with named dimensions; every array SI)::
+:class:`Result` holds a run's statistics, diagnostics and provenance per method
+(:class:`MethodRun`); :func:`write_hdf5` writes it as a result file of format :data:`FORMAT`
+(netCDF-4 conventions, so xarray / h5netcdf read it with named dimensions; every array SI), laid
+out by :func:`file_layout`, and :func:`read_hdf5` reads back every format in
+:data:`READABLE_FORMATS`. A method's statistics are the variables of
+:mod:`uqguide.results.labelled`; a PCE's surrogate is :mod:`uqguide.results.surrogate`'s. The file
+is written to a temporary name in the same folder and renamed into place, so a file with the
+final name is always complete.
 
-    /                       attrs: format, uqguide_version, created_utc, name, model, seed,
-                                   reference, config_yaml (resolved config), wall_seconds,
-                                   versions_json (python and library versions),
-                                   method_order, output_order (JSON lists)
-    /time                   (time,) time grid [s] (empty for models without series)
-    /input                  (input,) uncertain input names, config order
-    /report_times           (r,) [s], where the config gives them
-    /label                  (label,) method labels, config order
-    /method_name, n_runs, n_failed, success, method_group
-                            (label,) each method's registered name, runs, failed runs, 1 where
-                            it gave statistics, and the group that holds them
-    /output                 (output,) output names, config order
-    /output_kind, output_unit, output_description
-                            (output,)
-    /outputs/<name>         attrs: kind (series|scalar), unit, description, components
-    /methods/<label>        attrs: method, n_runs, n_failed, model_seconds, fit_seconds,
-                                   wall_seconds, success, message, diagnostics_json,
-                                   compile_seconds (absent before it was kept: read as 0)
-      <output>, <output>_cov, _sem, _ci, _sobol_first, _sobol_total, _quantile, _ci_quantile
-                        the variables of :mod:`uqguide.results.labelled`, e.g. <output> is
-                        (statistic, time, <output>_component); coordinates time, input,
-                        statistic, bound, quantile, <output>_component
-      events/<name>     attrs: definition, probability, ci_low, ci_high, n_in, n_used,
-                               estimator (count | surrogate | subset), cov
-      scalar_joint/names, mean, cov                    all scalar outputs stacked
-      surrogate/        a PCE method's fitted expansions, input-to-germ map and derived
-                        outputs' carriers (:mod:`uqguide.results.surrogate`)
-      samples/x (sample, input), failed (sample,) 0/1, reasons (sample,),
-              scalars/<output> (sample, <output>_component)
-
-The root group is the file's index: ``xarray.open_dataset(path, engine="h5netcdf")`` shows the
-coordinates ``time``, ``input``, ``report_times``, ``label`` and ``output``, the variables
-``method_name``, ``n_runs``, ``n_failed``, ``success`` and ``method_group`` along ``label`` and
-``output_kind``, ``output_unit``, ``output_description`` along ``output``, and the attributes
-above (name, model, reference, seed, the config). A method's statistics open with
-``group=ds["method_group"].sel(label=...).item()``. Older format-2 files, written before the
-index, have only the coordinates ``time``, ``input`` and ``report_times`` there; they read
-alike.
-
-Format 1 (uqguide before format 2; still read): ``/inputs/names`` and, per method,
-``stats/<output>/{mean, std, skewness, kurtosis, cov, sem, ci_<stat>, sobol_first,
-sobol_total, quantiles, ci_quantiles}`` without dimension scales, strings as bytes.
-
-The file is written to a temporary name in the same folder and renamed into place, so a file
-with the final name is always complete.
+The layout, the root group's index and format 1: docs/result-file.md.
 """
 
 from __future__ import annotations
@@ -226,7 +188,7 @@ class Result:
         s = est.surrogate
         if s is None:
             raise ResultError(f"method {label!r} ({est.method}) kept no surrogate; only PCE "
-                              f"methods do (and result files from uqguide 0.x before issue 14)")
+                              f"methods do (and result files written before surrogates were kept)")
         if isinstance(s, StoredSurrogate):
             from ..config.run_config import validate_config
             from ..pce.germ import Germ

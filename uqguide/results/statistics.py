@@ -1,26 +1,15 @@
 """A run's statistics, described once: which there are, how they are named and labelled, where
 they are read, their intervals and standard errors.
 
-Every reader of a result's statistics goes through this description rather than through
-:class:`~uqguide.core.types.OutputStats`: the result file and the xarray / pandas views
-(:mod:`uqguide.results.labelled`, :mod:`uqguide.results.frames`), the report tables
-(:mod:`uqguide.report.tables`) and the regression gate (:mod:`uqguide.gate`).
+Every reader of a result's statistics (the result file and the xarray / pandas views, the report
+tables, the regression gate) goes through this description rather than through
+:class:`~uqguide.core.types.OutputStats`. What one method estimated of one output is an
+:class:`OutputStatistics`, whose :class:`Statistic` entries are the method's own moments, a
+validated PCE's ``+cv`` moments (:data:`CORRECTED_SUFFIX`), the ``+mc`` estimate of its own runs
+where it withholds one (:data:`FALLBACK_SUFFIX`) and the quantiles; each holds its values,
+intervals and where it is usable. The places a statistic is reported at are :func:`points`.
 
-What one method estimated of one output is an :class:`OutputStatistics`. Its
-:attr:`~OutputStatistics.statistics`, in the order a table lists them, are :class:`Statistic`
-entries:
-
-- the method's own ``mean``, ``std``, ``skewness`` and ``kurtosis``, labelled with the method's
-  label;
-- a validated PCE's control-variate estimates of the same four, labelled ``<label>+cv``;
-- where a PCE withholds one of its moments, the Monte Carlo estimate of its own fit and
-  validation runs, labelled ``<label>+mc`` (:mod:`uqguide.pce.runs_estimate`);
-- the quantiles, named by their level (``q0.5``; :func:`uqguide.stats.quantiles.level_name`).
-
-Each holds its values over every step and component, its 95% interval where the method gives
-one, and where the value is usable. The places a statistic is reported at (the report times'
-steps and the last step of a series, the value of a scalar, per component) are
-:class:`Point` entries from :func:`points`.
+How the statistics are read: docs/architecture.md#a-results-statistics.
 """
 
 from __future__ import annotations

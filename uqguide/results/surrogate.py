@@ -1,21 +1,11 @@
 """A PCE method's surrogate in the result file, and back.
 
-Layout (under ``/methods/<label>/surrogate``; arrays SI, netCDF-4 readable)::
+Under ``/methods/<label>/surrogate``: the input-to-germ map, per output the multi-indices and
+coefficients of its orthonormal basis (factored through principal components for a series), and
+the derived outputs' carriers (:func:`write_surrogate`). :func:`read_surrogate` gives a
+:class:`StoredSurrogate`, which evaluates as the fitted surrogate did.
 
-    surrogate               attrs: inputs (JSON list), germ_family (JSON list), groups (JSON:
-                                   [[input indices], Cholesky factor rows] per correlated group)
-      germ_shift (input,), germ_scale (input,), germ_log (input,) 0/1
-                            the input-to-germ map xi = (g(x) - shift) / scale, g = log where
-                            germ_log (then decorrelated per group: xi_g = L^-1 xi_g)
-      outputs/<name>        attrs: kind (series|scalar), shape (JSON: [T, k] or [k])
-        alpha (term, input) multi-indices of the orthonormal basis (row 0 the constant)
-        core (term, r)      coefficients (r = columns, or principal components with mix)
-        mix (r, column)     principal components mapping core to the T k columns (optional)
-      derived/<name>        attrs: carriers (JSON list), kind: computed by the model's own map
-                            from its carriers' surrogates
-
-The basis is the germ's orthonormal family per input (Hermite for normal and lognormal, Legendre
-for uniform, the truncated normal's own polynomials), as :mod:`uqguide.pce.basis` evaluates it.
+The layout: docs/result-file.md#the-kept-surrogate.
 """
 
 from __future__ import annotations

@@ -1,34 +1,13 @@
 """Multi-fidelity Monte Carlo: which levels to use and how many runs of each.
 
-Peherstorfer, Willcox & Gunzburger (2016), "Optimal model management for multifidelity Monte
-Carlo estimation", SIAM J. Sci. Comput. 38(5) A3163 (cited as PWG16 below). Level 0 is the
-highest fidelity; levels ``1..K-1`` are cheaper. Level ``i`` is run on the first ``m_i`` rows
-of one input stream, ``m_0 <= m_1 <= ...`` (nested samples).
+PWG16's closed-form optimum (Thm 3.4) for every candidate subset of levels that meets its
+ordering condition (:func:`ordering_holds`, :func:`mfmc_ratios`), refined numerically for the
+worst of several quantities within the caps, scored against plain Monte Carlo of the highest
+level at equal cost (:func:`select_allocation`); a gain below ``min_gain`` falls back to plain
+Monte Carlo. :func:`sample_sizes` turns the ratios into runs for a budget or a target error.
 
-Design decisions:
-
-- The closed-form optimum (PWG16 Thm 3.4, eq 3.10) holds only under the ordering condition
-  (PWG16 eq 3.8: correlations fall with the level, and the cost ratios beat the correlation
-  gaps). We check it per candidate subset of levels and discard the candidates that break it,
-  which is PWG16 Algorithm 1's model selection.
-- Several quantities of interest (outputs, report times, the first and second powers that
-  carry the mean and the variance) share one allocation. Each candidate (a subset, ordered by
-  one quantity's correlations, with that quantity's optimal ratios) is scored on every
-  quantity by the general variance formula of a nested allocation with the per-quantity
-  optimal weights, which holds for any ordering (PWG16 Lemma 3.3); the candidate with the
-  smallest *worst* variance ratio against plain Monte Carlo at equal cost wins. Plain Monte
-  Carlo of level 0 is always a candidate, with ratio 1, so the choice is never worse than MC
-  at the estimated correlations and costs.
-- The closed form is each candidate's starting point, not its end: it is optimal for one
-  quantity and no cap, so the ratios are then refined numerically (Nelder-Mead on the
-  worst variance ratio over all quantities, within the caps) for the best candidate of each
-  ordering. A surrogate level is capped at ``max_step`` times the rows of the level before it
-  (memory); before this refinement the cap was applied after the selection, which then kept
-  a closed-form allocation made for no cap. On FT-AS Case 2 (400 paired runs, a PCE capped
-  at 20) the worst quantity's predicted gain went from 9.5 to 11.4 (the refined allocation
-  gives h = 0.02 s more rows so that the capped PCE gets more too).
-- A gain smaller than ``min_gain`` is not trusted (correlations from a pilot are noisy): the
-  allocation then falls back to plain Monte Carlo.
+Design decisions and measured effects:
+docs/multifidelity.md#the-estimator-and-the-allocation-in-detail.
 """
 
 from __future__ import annotations

@@ -1,56 +1,14 @@
 """The multi-fidelity Monte Carlo estimator of mean, std, skewness and kurtosis, with intervals.
 
-Peherstorfer, Willcox & Gunzburger (2016, PWG16; see :mod:`.mfmc_allocation`). Level ``j``
-(estimator order, 0 = highest fidelity) ran on the first ``m_j`` rows of one input stream,
-``m_0 <= m_1 <= ...``. With ``M_j(t)`` the mean of level ``j`` over the first ``m_t`` rows, the
-estimator of ``E[f(y_0)]`` is (PWG16 eq 2.4)::
+Peherstorfer, Willcox & Gunzburger (2016, PWG16): level ``j`` (0 = highest fidelity) ran on the
+first ``m_j`` rows of one input stream, and ``M_0(0) + sum_j alpha_j (M_j(j) - M_j(j-1))`` is
+unbiased for level 0 whatever the weights. The powers 1-4 of each level, centred at its own mean,
+get their own weights; ``estimator="blue"`` combines the same runs by their best linear unbiased
+estimator (Schaden & Ullmann 2020). Intervals: a bootstrap within the independent groups of rows
+(:func:`group_bounds`); a failed row is dropped at every level.
 
-    s = M_0(0) + sum_{j>=1} alpha_j (M_j(j) - M_j(j-1))
-
-It is unbiased for level 0 whatever the weights: the cheaper levels only cancel noise.
-
-Design decisions:
-
-- Higher moments: the same control-variate structure applied to the power sums ``E[z^p]``, ``p =
-  1..4``, of ``z_j = y_j - c_j`` with ``c_j`` level ``j``'s own sample mean on the rows every
-  level ran (centring keeps the raw-to-central conversion well conditioned), each power with its
-  own optimal weight ``alpha_{j,p} = cov(z_0^p, z_j^p) / var(z_j^p)`` (PWG16 eq 3.9), estimated
-  on the rows every level ran. The central moments follow from the four estimates; like the
-  Monte Carlo estimators they are the plain (``1/n``-type) ones, consistent but not exactly
-  unbiased beyond the mean. Each level is centred at its *own* mean because a cheap level's
-  offset ``delta`` (a coarser step's bias) puts ``2 delta (y_j - mean_j)`` into its square, a
-  term that tracks the mean, not the spread: on FT-AS Case 2 (400 paired runs) the squares of
-  delta-v at h = 0.02 s correlate 0.9967 with h = 0.01 s's about their own means and 0.9893
-  about a common one, 3.2 times the variance left (``1 - rho^2``). The pilot measures the
-  former, so the estimator now realises what the allocation was made for. The shift is a
-  constant of both sample means of a control, so the estimate stays unbiased to ``O(1/m_0)``
-  like the weights. A negative variance estimate (possible with weights > 1 on very few runs)
-  gives std NaN rather than a made-up number; likewise a skewness and kurtosis that no
-  distribution has (``kurtosis < 1 + skewness^2``, Pearson's bound): each power has its own
-  weight, so the four estimates need not be moments of one distribution. FT-AS Case 2 with a PCE
-  level (623 runs at h = 0.01 s) estimated a settling time's kurtosis below 1.
-- The rows split into independent groups: group ``g`` is rows ``[m_{g-1}, m_g)``, run at levels
-  ``g, g+1, ...``. Intervals are a percentile bootstrap that resamples rows *within* each group
-  (so each resample keeps the allocation), weights held at their full-sample values, with a
-  fixed seed stream (block ``b`` of resamples from ``default_rng([seed, b])``). The standard
-  error of the mean is PWG16 Lemma 3.3's variance formula with the sample variances and
-  correlations, and the mean's interval is the normal one from it.
-- ``estimator="blue"``: the same runs combined by the best linear unbiased estimator
-  (Schaden & Ullmann 2020, "On multilevel best linear unbiased estimators", SIAM/ASA JUQ 8;
-  MLBLUE). Group ``g``'s rows ran at levels ``g..K-1``; with ``C`` the covariance of the
-  levels' values (per quantity and power, from the rows every level ran), the estimate of all
-  levels' means is ``Psi^{-1} sum_g R_g^T C_g^{-1} S_g`` with ``Psi = sum_g N_g R_g^T
-  C_g^{-1} R_g`` and ``S_g`` the group's sums; its first entry is the highest level's. Any
-  fixed positive definite ``C`` gives an unbiased estimate, so the covariance is regularised
-  (``1e-9`` of its diagonal) rather than trusted to be invertible. MFMC is one linear
-  unbiased estimator of the same runs, so at the exact covariance the BLUE's variance is never
-  larger: it also lets level ``j+1`` correct level ``j``'s own mean difference, which MFMC's
-  one weight per level cannot. On 400 paired FT-AS Case 2 runs (h = 0.01 s, 0.02 s and a PCE
-  at the method's allocation) its variance is 13% lower for delta-v's mean and square and the
-  same for the settling times. Its standard error is ``sqrt([Psi^{-1}]_00)``.
-- A failed run is counted and left out: a row that failed at any level it ran at is dropped at
-  every level (a row is one draw of the inputs; keeping it at some levels only would break the
-  telescoping sum). The group sizes are then the surviving rows.
+Formulas, the design decisions and what they changed on FT-AS:
+docs/multifidelity.md#the-estimator-and-the-allocation-in-detail.
 """
 
 from __future__ import annotations

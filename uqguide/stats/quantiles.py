@@ -1,22 +1,13 @@
 """Quantiles from order statistics, with distribution-free intervals.
 
-For ``n`` independent draws of ``Y`` the ``p``-quantile is estimated by the order statistic
-``Y_(r)``, ``r = ceil(n p)`` (the inverse of the empirical CDF). Its 95% interval is
-``[Y_(l), Y_(u)]`` with ranks from the binomial law of the number of draws below the true
-quantile, ``B ~ Bin(n, p)``: ``P(Y_(l) <= q_p <= Y_(u)) = P(l <= B <= u - 1)``; ``l`` is the
-2.5% point of ``B`` and ``u - 1`` its 97.5% point, so the coverage is at least 95% for every
-continuous distribution (:func:`coverage` gives it exactly). When ``l < 1`` (too few draws for
-the tail: ``n p`` below about 3.7) the lower end is ``-inf``, and when ``u > n`` the upper end
-is ``+inf``: an honest "unbounded", never a made-up number.
+The ``p``-quantile of ``n`` independent draws is ``Y_(ceil(n p))``; its 95% interval
+``[Y_(l), Y_(u)]`` takes its ranks from ``Bin(n, p)`` (:func:`ranks`, :func:`coverage`), so it
+covers at least 95% for any continuous output, and an end too few draws can bound is ``-inf`` /
+``+inf``. Monte Carlo selects the order statistics of every chunk's kept values at the end
+(:func:`select_lanes`) without sorting them, so the quantiles are exact and independent of the
+chunking and the workers.
 
-Monte Carlo keeps each chunk's values at the steps it reports quantiles for (lane-major: a row
-per output value, laid out so by the worker) and selects the order statistics of the union at
-the end, so the quantiles are exact and do not depend on the
-chunking or the workers. The selection does not sort the union (a sort of 1e6 runs x 20 lanes
-along the run axis took 2.2 s, the largest serial cost of a 1e6-run study): it brackets each
-group of ranks between two order statistics of a strided subsample, counts the values below
-the bracket and partitions only the values inside it, which is exact whenever the counts confirm the
-bracket (they are checked; a lane whose bracket misses falls back to a full partition).
+Derivation and the selection: docs/statistics.md#order-statistics-and-their-ranks.
 """
 
 from __future__ import annotations

@@ -1,55 +1,14 @@
 """First-order Sobol' indices from a plain Monte Carlo sample ("given data": no special design).
 
-The estimator
--------------
-For input ``i`` the runs are sorted by ``x_i`` and cut into ``M`` bins of equal counts
-(``M = round(sqrt(n))``, so a bin holds ``n_b ~ sqrt(n)`` runs). Within a bin every pair of runs
-is a pick-freeze pair: their ``x_i`` nearly agree and everything else is independent. With the
-output centred (``y~ = y - mean``) and ``S_b``, ``Q_b`` the bin's sum and sum of squares,
+For input ``i`` the runs are sorted by ``x_i`` and cut into :func:`n_bins` (about ``sqrt(n)``)
+bins of equal counts; every pair of runs within a bin is a pick-freeze pair, and the index is the
+U-statistic of those pairs' products, ``V_i / D``. Its standard error comes from the efficient
+influence function (Da Veiga & Gamboa 2013), evaluated with leave-one-out bin means, so the 95%
+interval ``S_i -+ 1.96 se`` is slightly conservative. The per-bin power sums are computed by
+:mod:`uqguide.stats.sobol_bins_kernel`.
 
-    V_i = 1/n sum_b (S_b^2 - Q_b) / (n_b - 1) + D / n,        S_i = V_i / D,
-
-``D`` the sample variance. ``(S_b^2 - Q_b) / (n_b - 1)`` is the U-statistic of all pairs in the
-bin: it estimates ``n_b E[y | bin]^2`` without the ``sigma_b^2 / n_b`` noise bias that makes the
-plain binned variance of bin means (EASI's, Plischke 2010) read ``M / n`` too high (a 0.022
-floor on a null index at ``n = 2000``); the ``D / n`` term is the U-statistic's correction
-for centring on the sample mean. This is the all-pairs form of the rank-neighbour estimator of
-Gamboa, Klein & Lagnoux (2022, "Global sensitivity analysis: a novel generation of mighty
-estimators based on rank statistics", Bernoulli 28(4)), which pairs each run with its rank
-neighbour only (Chatterjee's xi with bins of two): using every pair of a bin instead of one
-neighbour cuts its variance (at ``n = 2000`` on Ishigami, over 50 seeds: standard deviation
-0.014 against 0.018 for ``S_1``, 0.007 against 0.030 for the null ``S_3``;
-benchmarks/sensitivity_peers.py). SALib's RBD-FAST is as accurate on Ishigami (a periodic
-function, its home ground) at 250 times the CPU; a Saltelli design of the same 2000 runs is
-three times less accurate on ``S_1`` and ``S_3``.
-
-Bias and variance
------------------
-- Bias: the binning replaces ``E[y | x_i]`` by its bin average, which loses the variance of
-  ``E[y | x_i]`` within a bin: ``-E[g'(x)^2] h^2 / 12`` for a smooth ``g = E[y | x_i]`` and bins
-  of width ``h`` (in the input's quantile scale ``h = 1 / M``). On Ishigami at ``n = 2000``:
-  below 0.003 for every index (mean error over 50 seeds: 0.0004, -0.0023, 0.0007). It
-  vanishes as ``M`` grows.
-- Variance: the estimator is asymptotically normal with the efficient influence function of
-  ``V_i / D`` (Da Veiga & Gamboa 2013, "Efficient estimation of sensitivity indices", J.
-  Nonparametr. Stat. 25(3)), in standardised units ``psi = 2 y~ g~ - g~^2 - S_i y~^2``,
-  ``g~ = E[y~ | x_i]``: ``Var(S_i) ~ Var(psi) / n``. The standard error uses ``psi`` at every
-  run with ``g~`` the run's leave-one-out bin mean; the noise of that mean (variance
-  ``sigma_b^2 / (n_b - 1)``) makes the estimate a little large, which stands in for the
-  estimator's own second-order term (``2 (1 - S_i)^2 / (n (n_b - 1))``, the U-statistics'
-  degenerate part). So the 95% interval ``S_i -+ 1.96 se`` is slightly conservative: it holds
-  the exact values of the Ishigami indices in 98%, 98% and 100% of 50 seeds at 2000 runs
-  (benchmarks/sensitivity_peers.py), and at a null index (whose influence function vanishes) it
-  is about 1.4 times as wide as the estimator's spread (mean se 0.009 against 0.007).
-
-A correlated input's index is its full first-order index, ``Var(E[y | x_i]) / Var(y)``, which
-includes what it carries of the inputs it is correlated with: the indices then need not sum to
-at most 1 (a group index, :mod:`uqguide.stats.sobol_groups`, is the clean quantity).
-
-Cost: per input one sort of ``x_i``; per output column one pass over its runs that sums the
-powers 1-4 of its standardised values into every input's bins
-(:mod:`uqguide.stats.sobol_bins_kernel`); the index and its standard error follow from those
-bin sums.
+The estimator, its bias and variance, the comparison with the rank-neighbour estimator and
+measured accuracy: docs/error-budget.md#the-given-data-estimator-in-detail.
 """
 
 from __future__ import annotations

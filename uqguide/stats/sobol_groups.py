@@ -1,29 +1,12 @@
 """First-order Sobol' indices of groups of inputs from a plain Monte Carlo sample (given data).
 
-A group's first-order index ``Var(E[y | x_G]) / Var(y)`` is what its inputs explain together,
-whatever their correlation with each other: the clean budget entry for correlated inputs
-(navigation errors with a covariance), whose one-input indices overlap.
+A group's index ``Var(E[y | x_G]) / Var(y)`` is what its inputs explain together, the clean
+budget entry for correlated inputs. The estimator is :mod:`uqguide.stats.sobol_given_data`'s
+with the bin replaced by a neighbourhood: each run's :data:`NEIGHBOURS` nearest neighbours in the
+group's normal scores. The interval covers the estimator's noise, not the bias of the
+neighbourhood, which grows with the group's size.
 
-The estimator is the one of :mod:`uqguide.stats.sobol_given_data` with the bin replaced by a
-neighbourhood: each run's inputs of the group are mapped to normal scores
-(``Phi^-1((rank + 1/2) / n)``, so no input's unit dominates the distance, and a smooth function
-of normal inputs is smooth in them) and its ``k`` nearest neighbours there stand in for the
-runs "with the same ``x_G``". With ``z`` the standardised output and ``g_j`` the mean of ``z``
-over run ``j``'s neighbours (itself left out),
-
-    S_G = 1/n sum_j z_j g_j + 1/n,        psi_j = 2 z_j g_j - g_j^2 - S_G z_j^2,
-
-and the standard error is ``sqrt(Var(psi) / n)``, as for one input. A group of one input gets
-the binned estimator itself.
-
-Bias: neighbours are not at the same ``x_G``: the estimate loses the variance of
-``E[y | x_G]`` over a neighbourhood, whose radius falls like ``n^(-1/g)``: slowly for several
-inputs. Few neighbours keep it small (:data:`NEIGHBOURS`: 2; 7 neighbours tripled it), at
-the price of the noise of ``g_j``, which the standard error includes. Measured at 2000 runs over
-20-30 seeds: a 2-input correlated linear group (index 0.74), mean error -0.003 (sd 0.008); the
-Ishigami pair ``(x1, x3)`` (0.56), -0.013 (sd 0.019); a 3-input group at index 0.95, -0.020
-(sd 0.004). **The interval covers the estimator's noise, not this bias**: for groups of three or
-more inputs read the index as a lower bound to within a few hundredths at a few thousand runs.
+Formulas and measured bias: docs/error-budget.md#groups-of-inputs.
 """
 
 from __future__ import annotations

@@ -1,35 +1,13 @@
 """First-order and total Sobol' indices of a pick-freeze (Saltelli) design, from mergeable sums.
 
-The design (Saltelli et al. 2010, Comput. Phys. Commun. 181(2)) evaluates the model on two
-independent samples ``A`` and ``B`` of ``N`` base rows and, per frozen set ``u`` (an input, or
-a group of inputs frozen together), on ``A_B^u``: ``A`` with the columns of ``u`` taken from
-``B``. With ``V`` the variance of the ``2N`` values ``f(A), f(B)``:
+Samples ``A`` and ``B`` of ``N`` base rows and, per frozen set ``u``, ``A_B^u``: first order by
+Saltelli 2010, ``mean(f(B) (f(A_B^u) - f(A))) / V`` (centred on the mean of all runs, as SALib),
+total by Jansen, ``mean((f(A) - f(A_B^u))^2) / (2 V)``. A chunk of base rows reduces to
+:class:`PickFreezeSums`, which merge exactly; intervals are a Poisson bootstrap over the base
+rows (:func:`percentile_interval`).
 
-- first order, Saltelli 2010's estimator (its table 2, b):
-  ``S_u = mean(f(B) (f(A_B^u) - f(A))) / V``;
-- total, Jansen's (1999) estimator: ``ST_u = mean((f(A) - f(A_B^u))^2) / (2 V)``.
-
-Both are means over the base rows, so a chunk of base rows reduces to sums that merge exactly
-(:class:`PickFreezeSums`): per lane (an output component at a step) ``sum (f_A - c) + (f_B -
-c)``, ``sum (f_A - c)^2 + (f_B - c)^2`` and per set ``sum D``, ``sum (f_B - c) D``, ``sum
-(f_A - f_AB)^2`` with ``D = f_AB - f_A``, and ``sum (f_AB - c)`` over all sets, each about
-a shift ``c`` (the chunk's own mean). Shifts are exchanged by exact identities when chunks
-merge, and the first-order numerator is taken about the mean of all ``N (m + 2)`` values at
-the end (every run's inputs are a draw from the inputs, so all estimate ``E[f]``). That
-centring is the estimator SALib computes (it standardises ``Y`` by all its values first):
-``mean(f(B) D)`` without it carries a term ``mean(f) mean(D)`` whose noise grows with the
-output's mean, which for a miss distance of 1 km +- 1 m would swamp the index; about the
-mean the product has no such term. Centred on the ``2N`` values of ``A`` and ``B`` only, the
-G-function's first-order errors at ``N = 1000`` were 15% larger than SALib's.
-
-Intervals: a Poisson bootstrap over the base rows (each row weighted by a Poisson(1) count per
-resample, the same weights for all of its ``d + 2`` runs, so the pairing of ``A``, ``B`` and
-``A_B^u`` is kept), percentile 95% intervals. Chosen over the asymptotic (delta-method)
-variance because the weights are mergeable sums like the estimates (one more leading axis),
-because it needs no per-estimator variance formula (first order, total, groups alike) and
-because the ratio estimator's skewness at small ``N`` is in the percentiles; its cost is
-``R`` weighted sums per base row, small beside ``d + 2`` model runs
-(``benchmarks/sensitivity_peers.py`` measures the coverage).
+The sums, the centring, the choice of the bootstrap and the comparison with SALib and
+OpenTURNS: docs/error-budget.md#totals-a-pick-freeze-design.
 """
 
 from __future__ import annotations

@@ -1,50 +1,14 @@
 """Moment intervals that account for the estimator's skew and for tails the sample cannot bound.
 
-The delta-method interval ``T -+ 1.96 SE`` of a sample skewness or kurtosis under-covers on
-skewed outputs (a lognormal with sigma 0.5 at n = 1000: 81% / 65%): the estimator is a mean of
-influence-function values ``IF(y)`` whose distribution is itself strongly skewed, and a sample
-that missed the tail has both a small estimate and a small standard error. This module gives
-the interval used by Monte Carlo by default (``intervals: tail``), built from the sample's
-central moments up to order 16, which chunked Monte Carlo folds exactly like the lower ones (so
-the interval does not depend on the chunking or the number of workers):
+Monte Carlo's default intervals (``intervals: tail``): Hall's (1992) skew-corrected interval of
+each statistic's influence function (:func:`if_polynomial`, :func:`hall_interval`), one-sided (a
+stated floor, "kurtosis >= L; the runs cannot bound it above") where fewer than
+:data:`MIN_EFFECTIVE_RUNS` effective runs carry the statistic's variance. Everything is read from
+the sample's central moments up to order :data:`MAX_ORDER`, which merge across chunks like the
+lower ones, so the interval does not depend on the chunking or the workers.
 
-1. **Skew-corrected (Hall) interval.** Each statistic ``T`` is, to first order, ``theta + mean
-   of IF``, with ``IF`` a polynomial in ``z = (y - mean) / sigma`` (:func:`if_polynomial`). Its
-   studentised form is skewed with the skewness ``g`` of ``IF``; Hall's (1992) cubic
-   transformation ``G(t) = t + a t^2 + a^2 t^3 / 3 + a / 2`` with ``a = g / (3 sqrt(n))``
-   removes that skew to order ``1/sqrt(n)`` (Hall, P. (1992), On the removal of skewness by
-   transformation, JRSS B 54, 221-228; for a studentised mean it is the Edgeworth term
-   ``g (2 z^2 + 1) / (6 sqrt(n))`` that carries the estimate/SE correlation). The interval is
-   ``[T - SE G^-1(z), T - SE G^-1(-z)]``, asymmetric: for a right-skewed ``IF`` its upper side
-   is the longer one. ``E[IF^2]`` and ``E[IF^3]`` need the standardised moments up to order 8
-   (kurtosis: ``E[IF^3]`` up to 12).
-2. **A stated floor where the runs cannot bound the statistic.** The variance of a statistic of
-   order ``p`` (mean 1, std 2, skewness 3, kurtosis 4) is carried by the sum of ``d^(2p)``
-   (``d = y - mean``); when a handful of runs carry that sum, its standard error (and with it
-   any interval that rescales it, bootstrap-t included) is not estimated at all. The diagnostic
-   is Kish's effective number of runs carrying the sum, ``n_eff = (sum d_i^(2p))^2 / sum
-   d_i^(4p) = n r_(2p)^2 / r_(4p)`` (for the kurtosis this needs the 16th central moment).
-   Below :data:`MIN_EFFECTIVE_RUNS` the interval is **one-sided**: the side toward the heavy
-   tail of ``IF`` (the sign of its skewness) is infinite and the report prints a floor
-   ("kurtosis >= L; the runs cannot bound it above"). No interval built from the sample alone
-   can do better there (Bahadur & Savage 1956: a moment has no non-trivial two-sided
-   confidence interval over all distributions with that moment finite); the floor keeps the
-   lower side, which a missed tail only makes safer.
-
-Design decisions:
-
-- The threshold ``n_eff < 10`` (:data:`MIN_EFFECTIVE_RUNS`): with fewer runs carrying it,
-  the sum behind the standard error has a relative error above ``1 / sqrt(10)`` (a third),
-  and the interval's half-width with it. Measured (``benchmarks/interval_coverage.py``, 400
-  seeds, n = 1000): a threshold of 5 leaves lognormal(0.5) kurtosis at 85% coverage, 10
-  gives 97%; on a Gaussian output 10 turns a third of the n = 1000 kurtosis intervals (none at
-  n = 10,000) into floors, whose 8th moment is indeed carried by the few runs beyond 3 sigma.
-- The diagnostic reads the Kish count of the dominant term ``d^(2p)`` rather than of the
-  influence function's square ``IF^2``: the latter needs orders up to 16 for the kurtosis'
-  own ``IF^4`` and flags far more Gaussian outputs for the same lognormal coverage.
-- The kurtosis' lower end is at least ``1 + skewness^2`` of nothing: it is clipped at 1 (the
-  smallest kurtosis of any distribution), the std's lower end at 0.
-- Non-finite standardised moments (order-16 powers that overflow) count as an unbounded tail.
+The threshold is :data:`MIN_EFFECTIVE_RUNS`. Derivation, design decisions and measured coverage:
+docs/statistics.md#how-the-tail-aware-interval-is-built.
 """
 
 from __future__ import annotations

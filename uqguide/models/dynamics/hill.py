@@ -1,21 +1,13 @@
 """Hill / Clohessy-Wiltshire relative motion about a circular orbit.
 
-Frame: the target's LVLH frame, x radial (outward), y along-track (direction of motion),
-z orbit normal, rotating with the orbit at the mean motion ``n = sqrt(mu / a^3)`` [rad/s].
+In the target's LVLH frame (x radial outward, y along-track, z orbit normal), rotating at the
+mean motion ``n`` (:func:`mean_motion`). uqguide's guidance models use the line of sight
+``r = r_target - r_chaser``; the gravity terms keep their form for it,
+``g(r, v) = [3 n^2 x + 2 n v_y, -2 n v_x, -n^2 z]`` (:func:`hill_acceleration`), and only the
+thrust terms flip. :func:`cw_stm` and :func:`cw_propagate` are the closed-form solutions.
+Everything is vectorised over leading axes: ``r``, ``v`` of shape ``(..., 3)``.
 
-Sign convention. For the chaser relative to the target, ``rho = r_chaser - r_target``, the
-linearised relative motion about a circular orbit is (Clohessy & Wiltshire 1960)::
-
-    rho_x'' =  3 n^2 rho_x + 2 n rho_y' + (a_chaser - a_target)_x
-    rho_y'' = -2 n rho_x'               + (a_chaser - a_target)_y
-    rho_z'' = -n^2 rho_z                + (a_chaser - a_target)_z
-
-uqguide's guidance models use the line of sight ``r = r_target - r_chaser = -rho``. The
-gravity/frame terms are linear and homogeneous in ``(rho, rho')``, so they keep their form under
-``r = -rho``: ``g(r, v) = [3 n^2 x + 2 n v_y, -2 n v_x, -n^2 z]``; only the thrust terms flip,
-``r'' = g(r, v) + a_target - a_chaser``. ``v`` is the velocity relative to the rotating frame.
-
-Everything here is vectorised over leading axes: ``r``, ``v`` of shape ``(..., 3)``.
+The sign convention, derived: docs/papers.md#ftcapn-frames-and-choices.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Modified Rodrigues Parameters (MRP): kinematics, rotation matrices, composition.
 
-Conventions of ft-as-controller.md section 1.1 (Schaub & Junkins): ``sigma = e tan(phi/4)`` for
+Conventions of Schaub & Junkins (docs/papers.md#ft-as-conventions-variants-and-checks): ``sigma =
+e tan(phi/4)`` for
 principal axis ``e`` and angle ``phi``; ``C(sigma_{X/Y})`` maps Y-components to X-components;
 ``sigma_dot = G(sigma) omega`` with ``omega`` the angular velocity of X relative to Y in X
 components.

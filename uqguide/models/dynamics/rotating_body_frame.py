@@ -1,29 +1,16 @@
 """Relative motion in the body frame of a target spinning on an elliptical orbit ([C] eqs 1-9).
 
-Frames (gmm-controllers.md sections 2-3). LVLH ``l``: origin at the target, ``x`` radial
-outward, ``y`` along-track, ``z`` orbit normal. Body ``b``: the target's axes, spinning relative
-to LVLH at the constant rate ``w`` (body components, [C] Table 5: ``(0, 0, 0.05) rad/s``).
-The attitude (body -> LVLH) is ``C(t) = C0 exp(t [w x])`` with ``C0 = I`` in [C]:
-``r_l = C r_b``, ``r_l' = C (r_b' + w x r_b)``.
+The target spins relative to LVLH at the constant body rate ``w``, attitude ``C(t) = C0 exp(t
+[w x])`` (body to LVLH); substituting ``r_l = C r_b`` into the Tschauner-Hempel plant gives
+``r_b'' = A21 r_b + A22 r_b' + u_b`` with the corrected [C 7] matrices
+(:func:`body_frame_matrices`; the printed form behind ``printed=True``, A20) and ``u_b = C^T u_l``.
+:func:`eq32_acceleration` is [C 32]'s "LVLH control", a diagnostic only (A24). The spin rate may
+differ per sample, so the matrices carry a leading axis of size 1 or ``n``; the true anomaly is
+the exact Kepler solution, evaluated once on the half-step grid RK4 needs
+(:class:`RotatingBodyFrame`, :func:`rk4_step`).
 
-Substituting into the Tschauner-Hempel plant ``r_l'' = A(f) r_l + B(f) r_l' + u_l`` ([C 1-3])
-gives the body-frame plant (spec section 3, the corrected [C 7])
-
-.. math::
-    \\ddot r_b = A_{21} r_b + A_{22} \\dot r_b + u_b,
-    \\quad A_{21} = C^T A C + C^T B C [w\\times] - [\\dot w\\times] - [w\\times]^2,
-    \\quad A_{22} = C^T B C - 2 [w\\times],
-
-with ``u_b = C^T u_l`` the same physical thrust in body components. The printed [C 7] lost its
-minus signs and uses ``A C`` and ``B`` for ``C^T A C`` and ``C^T B C``; its sign-restored form
-``A21 = A C + B [w x] - [wd x] - [w x]^2``, ``A22 = B - 2 [w x]`` is kept behind
-``printed=True`` for comparison (spec A20).
-
-Batching. The target orbit is common to a batch; the spin rate may differ per sample (a
-dispersed rotation rate). Matrices therefore carry a leading axis of size ``m``, 1 when the spin
-is common (they then broadcast against ``(n, 3)`` states at no cost) or ``n``. The true anomaly
-is the exact Kepler solution, so the orbit quantities are evaluated once on the half-step grid
-that classical RK4 needs.
+The frames, the derivation and the corrections:
+docs/papers.md#relative-motion-near-an-elliptical-orbit-and-a-spinning-target.
 """
 
 from __future__ import annotations

@@ -1,26 +1,14 @@
 """Tschauner-Hempel linearised relative motion about an elliptical chief orbit.
 
-LVLH frame (gmm-controllers.md section 2, ambiguity A5): origin at the chief, ``x`` radial
-outward, ``y`` along-track, ``z`` along the orbit normal. The relative position ``r`` [m] of a
-deputy obeys ([W 1-5], [C 1-3] with the spec's corrections)
+In LVLH axes (x radial outward, y along-track, z orbit normal), ``r'' = A(f) r + B(f) r' + u``
+with the chief's true anomaly ``f`` (:class:`ChiefOrbit`, :class:`LVLHPlant`), corrected where
+both papers misprint ``A(1, 1)`` and ``dw/dt`` (A2, A3; the printed ``dw/dt`` behind
+``printed_omega_dot=True``). The chief orbit is common to a batch, so :func:`rk4_transition`
+applies RK4 to the linear plant once and returns the exact linear maps it realises: a batch then
+advances by one matrix product per sub-step, the same arithmetic as RK4 per sample.
 
-.. math:: \\ddot r = A(f) r + B(f) \\dot r + u,
-
-    A = [[w^2 + 2k, wd, 0], [-wd, w^2 - k, 0], [0, 0, -k]],
-    B = [[0, 2w, 0], [-2w, 0, 0], [0, 0, 0]],
-
-with ``k = mu / r_c^3``, ``w = df/dt`` and ``wd = dw/dt`` of the chief's true anomaly ``f``.
-
-Corrections to the printed papers (gmm-controllers.md A2, A3): the (1, 1) entry is ``w^2 + 2k``
-(printed ``wd^2 + 2k``) and ``wd = -2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^3`` (printed with a
-plus sign and exponent 3/2; kept behind ``printed_omega_dot=True`` for comparison).
-
-The chief orbit is common to a whole batch of deputies, so the sampled-data simulator does not
-integrate ``f`` per sample: :func:`rk4_transition` applies classical RK4 to the linear plant
-(state ``[r, v]`` and a control held over the step) once, to the identity, and returns the
-exact linear maps that RK4 realises; propagating a batch is then one matrix product per
-sub-step. Because RK4 is linear in the state for a linear plant, this is the same arithmetic
-as running RK4 on every sample (up to floating-point summation order).
+The equations and corrections:
+docs/papers.md#relative-motion-near-an-elliptical-orbit-and-a-spinning-target.
 """
 
 from __future__ import annotations

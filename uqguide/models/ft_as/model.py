@@ -1,9 +1,10 @@
 """The ``ft_as`` model: 6-DOF orbit + attitude (MRP) tracking under FT-AS, Case 1 or Case 2.
 
-Wei et al. (2024), The Aeronautical Journal, doi 10.1017/aer.2024.2, reconstructed in
-ft-as-controller.md. Uncertain inputs are the initial tracking errors (offsets and a common
-scale of Table 1), the truth model's mass and inertia errors and the disturbance amplitudes;
-outputs are tracking-error histories, inputs, observer errors and the section 10 metrics.
+Wei et al. (2024), The Aeronautical Journal, doi 10.1017/aer.2024.2. Uncertain inputs are the
+initial tracking errors (offsets and a common scale of Table 1), the truth model's mass and
+inertia errors and the disturbance amplitudes; outputs are tracking-error histories, inputs,
+observer errors and the paper's metrics. Its reconstruction:
+docs/papers.md#ft-as-conventions-variants-and-checks.
 """
 
 from __future__ import annotations

@@ -18,16 +18,17 @@ from .setup import Gains, Plant
 class FTASParams(ModelParams):
     """Fixed parameters of the FT-AS model (defaults: the paper's nominal scenario).
 
-    Decisions where paper and spec leave a choice (ft-as-controller.md section 14):
+    Decisions where the paper leaves a choice (labels as in
+    docs/papers.md#ft-as-conventions-variants-and-checks):
 
     - ``ft_as_observer_input = "applied"`` (FT-AS-A) by default. The literal reading
       (``"command"``: the FT-DO sees the unsaturated command) winds the estimate up and diverges
-      in position (spec section 8.1); it stays available, and the nominal report runs it to show
-      that. FT-AS-A is the only variant for which the paper's observer claim (C1) can hold.
-    - ``psi2_bound`` (FT-AS-P, spec 8.1) is off by default; 0.01 is the spec's value.
-    - ``switch_units = "input"`` ([A10], the spec's reproduction default).
+      in position; it stays available, and the nominal report runs it to show that. FT-AS-A is
+      the only variant for which the paper's observer claim (C1) can hold.
+    - ``psi2_bound`` (FT-AS-P) is off by default; 0.01 is the box that was measured to work.
+    - ``switch_units = "input"`` ([A10], the reproduction default).
     - ``step = 0.01`` s, ``duration = 3000`` s ([A15]-[A16]); dispersion studies may use 0.1 s
-      (same qualitative behaviour, larger accuracy floors, spec 12.3).
+      (same qualitative behaviour, larger accuracy floors).
     - ``output_interval = 10`` s: metrics are computed at every step and do not depend on it;
       the recorded grid only sets the series outputs, kept coarse so that Monte Carlo batches
       of thousands of runs fit in memory.

@@ -1,4 +1,4 @@
-"""Scenario of the FT-AS paper (Wei et al. 2024, section 5.1; ft-as-controller.md sections 2-3).
+"""Scenario of the FT-AS paper (Wei et al. 2024, section 5.1).
 
 The reference orbit (circular, propagated in closed form), the initial tracking errors of
 Table 1 computed from the two orbits' elements, and the truth model's time-varying mass,

@@ -1,7 +1,7 @@
 """The fixed quantities of one FT-AS run and the per-sample arrays of a batch.
 
-:class:`Gains` holds the controller and observer gains of section 5.1 (ft-as-controller.md
-sections 6-7), :class:`Plant` the nominal plant and reference orbit, :class:`Batch` everything
+:class:`Gains` holds the controller and observer gains of section 5.1 (the FT-DO and FT-NTSM
+laws, eqs 18-30), :class:`Plant` the nominal plant and reference orbit, :class:`Batch` everything
 that may differ between the samples of one integration: initial state, truth-model dispersions
 and which controller each sample runs. The compiled kernel (``kernel_numba.py``) gets them
 flattened by :func:`pack_constants`; its NumPy test oracle takes them as they are.

@@ -1,4 +1,4 @@
-"""FTCAPN rendezvous guidance simulator (Wang & Song 2019; spec ftcapn.md).
+"""FTCAPN rendezvous guidance simulator (Wang & Song 2019; docs/papers.md).
 
 ``params`` holds the parameters, ``model`` the model class, ``kernel_numba`` the compiled closed
 loop (its NumPy oracle is ``tests/oracles/ftcapn.py``), ``drift`` the zero-effort-miss closed

@@ -1,32 +1,15 @@
 """FTCAPN: finite-time-convergence augmented proportional navigation (Wang & Song 2019).
 
-Closed-loop midrange rendezvous, spec ``ftcapn.md``: sliding-mode control along the line of
-sight (eqs 4-14), proportional navigation across it (eq 3), zero-order hold at ``dt``, stop at
-``r_stop``; uncertain initial state, measurement biases and target maneuver (Tables 3 and 4).
+Closed-loop midrange rendezvous: sliding-mode control along the line of sight (eqs 4-14),
+proportional navigation across it (eq 3), zero-order hold at ``dt``, stop at ``r_stop``;
+uncertain initial state, measurement biases and target maneuver (Tables 3 and 4). The state is
+the line of sight ``r = r_target - r_chaser`` in the axes of the paper's Table 2, read as the
+target's LVLH frame. The closed loop runs in the compiled kernel (:func:`_compiled`); the
+maneuver's two readings are the parameter ``maneuver_frame``; ``zem`` and ``zem_eq15`` are
+derived from the stop state (:meth:`FTCAPN.derived_outputs`).
 
-Frames. The state is the line of sight ``r = r_target - r_chaser`` and ``v = dr/dt`` in the axes
-of the paper's Table 2, read as the target's LVLH frame (x radial, y along-track, z orbit
-normal); Table 2 gives the chaser relative to the target, so ``r0 = -chaser_position``.
-
-Decisions where spec and paper are silent (each a parameter or documented here):
-
-- ``dx, dy, dz, dvx, dvy, dvz`` are added to ``r0, v0`` (the line of sight, Table-2 axes), i.e.
-  they are minus an error of the chaser's position/velocity; for the zero-mean symmetric
-  dispersions of Tables 3-4 the two readings give the same statistics.
-- The target maneuver (section 4.4, "projected into three directions along the axis of LOS
-  coordinates") has components ``at_theta, at_r, at_w``; two readings (``maneuver_frame``):
-  ``initial`` (default): along ``e_theta, e_r, e_w`` of the *nominal initial* LOS frame, a
-  constant vector fixed in the simulation axes for the whole run and the whole batch (a
-  property of the target, not of the chaser's initial error); ``rotating``: along the
-  *current* true LOS frame of each sample, re-evaluated every control step and held over it
-  like the command. After the stop (the ZEM drift) the rotating maneuver is frozen at the stop
-  state's LOS frame (the drift lasts seconds; the map stays a function of the stop state, so
-  the PCE's derived ZEM uses it as it is). Table 4 as counted by section 4.4 (9 inputs)
-  disperses ``at_theta`` only.
-- ``b_w`` is added to the LOS-rate magnitude and ``b_R`` to the range, both constant per sample
-  (measurement biases); the true ``Rdot`` enters ``s`` (the paper lists no range-rate error).
-- ``gravity: hill`` adds the CW terms; the drift after the stop then also follows CW.
-- The series ``s`` is the controller's sliding variable (with the measured range).
+Frames, equations and every choice the paper leaves open:
+docs/papers.md#ftcapn-frames-and-choices and docs/papers.md#ftcapn-beside-the-paper.
 """
 
 from __future__ import annotations
@@ -128,7 +111,7 @@ def los_frames(r: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 class FTCAPN(Model):
-    """FTCAPN closed-loop rendezvous simulator (spec ftcapn.md), vectorised over samples."""
+    """FTCAPN closed-loop rendezvous simulator, vectorised over samples."""
 
     name = "ftcapn"
     fidelity_params = ("dt",)

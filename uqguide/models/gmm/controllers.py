@@ -1,28 +1,14 @@
-"""Sliding-mode proximity controllers of [W]: APF-TSMC, GMM-TSMC, GMM-NTSMC (spec 7.1-7.3).
+"""Sliding-mode proximity controllers of [W]: APF-TSMC, GMM-TSMC, GMM-NTSMC.
 
-Every law cancels the modelled plant terms ``-A r - B r'`` (evaluated at the sample time,
-spec A34) and imposes the reaching law ([W 12])
+Every law cancels the modelled plant ``-A r - B r'`` at the sample time (A34) and imposes the
+reaching law ``S' = -lambda1 S - lambda2 sig^a(S)`` (:class:`ReachingLaw`, [W 12]) on a sliding
+variable built from the potential's gradient: :class:`TSMC` ([W 29-32]; APF-TSMC and GMM-TSMC
+differ only in the potential) and :class:`NTSMC` ([W 10-16]), whose factor ``|e'|^(1-p/q)``
+stalls an axis whose error rate is zero (A17) unless ``eps > 0`` floors it. Gains are diagonal
+3-vectors; all controllers are callables on batches, ``u = ctl.command(r, v, A, B)``.
 
-.. math:: \\dot S = -\\lambda_1 S - \\lambda_2 \\,\\mathrm{sig}^\\alpha(S)
-
-on a sliding variable built from the potential's gradient ``g = grad_r phi``:
-
-* TSMC ([W 29-32], App. A2/A3): ``S = k_s g + e'``,
-  ``u = -k_s H r' - A r - B r' - lambda1 S - lambda2 sig^a(S)``. APF-TSMC and GMM-TSMC differ
-  only in the potential (classical APF obstacle vs GMM kernels).
-* NTSMC ([W 10-16]): ``S = k_s g + xi0 e + xi1 sig^tau(e) + xi2 sig^{p/q}(e')``,
-  ``u = (q/p) xi2^-1 |e'|^{1-p/q} o [-k_s H r' - lambda1 S - lambda2 sig^a(S) - xi0 e'
-  - tau xi1 |e|^{tau-1} o e'] - A r - B r'``.
-
-The goal is constant (``r_f' = r_f'' = 0`` in every published scenario), so the ``H_f r_f'``
-and ``r_f''`` terms of the papers vanish. Gains are diagonal and stored as 3-vectors.
-
-The NTSMC factor ``|e'|^{1-p/q}`` is zero where an error-rate component is zero, and then the
-law cannot move that axis (spec A17, the "stall"); ``eps > 0`` replaces it by
-``max(|e'_i|, eps)^{1-p/q}``. ``eps = 0`` is the law as published.
-
-All controllers are callables on batches: ``u = ctl.command(r, v, A, B)`` with ``r, v`` of
-shape (n, 3) and the plant matrices (3, 3) shared by the batch.
+The laws in full: docs/papers.md#gmm-potentials-and-controllers; the labels:
+docs/papers.md#the-gmm-papers-ambiguities-as-settled.
 """
 
 from __future__ import annotations

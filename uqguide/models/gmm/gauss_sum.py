@@ -1,26 +1,13 @@
-"""Sums of Gaussian kernels and their derivatives up to third order (gmm-controllers.md 6.1).
+"""Sums of Gaussian kernels and their derivatives up to third order.
 
-Both repulsive terms of the GMM papers are Gaussian sums
+Both repulsive terms of the GMM papers are Gaussian sums ``V(r) = sum_j c_j exp(-d_j^T L_j d_j /
+2)``, ``d_j = r - mu_j`` (:class:`GaussSum`): a GMM kernel has ``L_j = Sigma_j^-1``, a classical
+APF obstacle ``L = 2 N / sigma``. :class:`GaussSumDerivatives` holds ``V``, its gradient, Hessian
+and third-derivative contraction ``D3V[y, y]``. The published kernels' ``exp(-q/2)`` underflows
+to exactly 0 across thin parts, which is harmless: nothing here divides by it or evaluates
+``exp(+...)``. Parameters may carry a leading batch axis (one kernel set per sample).
 
-.. math:: V(r) = \\sum_j c_j \\exp(-\\tfrac12 d_j^T L_j d_j), \\quad d_j = r - \\mu_j,
-
-with ``L_j`` symmetric positive definite: the GMM term ([W 8], [C 10]) has ``L_j = Sigma_j^-1``
-and ``c_j`` a weight over a normaliser; a classical APF obstacle ([W 28]),
-``psi exp(-(r - r_obs)^T N (r - r_obs) / sigma)``, has ``c = psi``, ``L = 2 N / sigma``.
-
-With ``eta_j = c_j exp(-q_j / 2)`` and ``theta_j = L_j d_j``:
-
-* ``V = sum eta_j``,
-* ``grad V = -sum eta_j theta_j``,
-* ``hess V = sum eta_j (theta_j theta_j^T - L_j)``,
-* ``D3V[y, y] = sum eta_j [(y^T L_j y - (theta_j^T y)^2) theta_j + 2 (theta_j^T y) L_j y]``.
-
-The kernels of the published GMMs have variances of 1e-5 m^2 across thin parts: ``q_j``
-reaches 1e8 and ``exp(-q/2)`` underflows to exactly 0, which is harmless; nothing here divides
-by ``eta`` or evaluates ``exp(+...)`` (spec 6.3).
-
-Parameters may carry a leading batch axis (one kernel set per sample, e.g. a perturbed GMM in
-a dispersion study); they broadcast against the evaluation points.
+The formulas: docs/papers.md#gmm-potentials-and-controllers.
 """
 
 from __future__ import annotations

@@ -1,17 +1,17 @@
 """Chief geometry as axis-aligned boxes, clearance and swept-segment collision checks.
 
-gmm-controllers.md section 4. A chief is a set of parts in its own frame, each an axis-aligned
-box: a solid body, thin plates (solar panels, zero extent along one axis) and segments
-(antennas, zero extent along two axes). The deputy is a point (both papers).
+A chief is a set of parts in its own frame, each an axis-aligned box: a solid body, thin plates
+(solar panels, zero extent along one axis) and segments (antennas, zero extent along two axes).
+The deputy is a point (both papers).
 
 * **Clearance** is the distance to the zero-thickness skeleton of each part,
   ``||max(lo - p, 0, p - hi)||`` (0 inside), so any thickness can be applied afterwards.
-* **Collision** (spec 4.2): a straight segment between consecutive recorded positions
-  intersects a part's *collision box*: thin parts inflated by their half-thickness (in their
-  thin directions) plus the deputy radius; the body shrunk by a penetration tolerance, because
-  the [W] goal lies exactly on the body's -x face and touching it is allowed.
+* **Collision** (A8): a straight segment between consecutive recorded positions intersects a
+  part's *collision box*: thin parts inflated by their half-thickness plus the deputy radius; the
+  body shrunk by a penetration tolerance, because the [W] goal lies exactly on its -x face.
 
-All checks are vectorised over points / segments and parts.
+All checks are vectorised over points / segments and parts. Placement and thicknesses (A7, A8):
+docs/papers.md#the-gmm-papers-ambiguities-as-settled.
 """
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
 """Gaussian mixtures of a chief's surface: parameters, the published sets, fitting by k-means + EM.
 
-gmm-controllers.md section 5. A :class:`Mixture` holds ``(pi_j, mu_j, Sigma_j)``; it turns into
-the repulsive kernels of the potential with :meth:`Mixture.to_gauss_sum`.
+A :class:`Mixture` holds ``(pi_j, mu_j, Sigma_j)``; it turns into the repulsive kernels of the
+potential with :meth:`Mixture.to_gauss_sum` (docs/papers.md#gmm-potentials-and-controllers).
 
-Fitting (spec 5.3, both papers: k-means for the initial centres, then EM):
+Fitting (both papers: k-means for the initial centres, then EM):
 
 1. ``KMeans(K, init=means0, n_init=1)`` run to a fixed point; weights, means and biased
    covariances of its clusters;

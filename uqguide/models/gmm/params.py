@@ -1,5 +1,5 @@
-"""Parameters of the ``gmm_proximity`` model: the [W] scenario (gmm-controllers.md 9.1), the
-literal reading of the paper by default; SI units."""
+"""Parameters of the ``gmm_proximity`` model: the [W] scenario, the literal reading of the paper
+by default (docs/papers.md#the-gmm-papers-ambiguities-as-settled); SI units."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Surface point clouds of a box-built chief (gmm-controllers.md 4.3).
+"""Surface point clouds of a box-built chief (counts: docs/papers.md, "GMM-FTC: target").
 
 Each part's surface is sampled: the six faces of a solid, a plate as one rectangle, a segment
 as a line. Two samplers:

@@ -1,22 +1,13 @@
-"""Attract/repulse potential of the GMM papers and its derivatives (gmm-controllers.md 6.2).
+"""Attract/repulse potential of the GMM papers and its derivatives.
 
-.. math::
+``phi(r; r_f) = e^T P e / 2 + q V(r) / 2`` with ``e = r - r_f``, ``q = e^T M e`` and ``V`` a
+Gaussian sum (:mod:`.gauss_sum`): [W 9] with the GMM kernels, [W 28] with the classical APF
+obstacle, [C 17-19]. :class:`AttractRepulsePotential` gives its gradient ``g``, Hessian ``H``,
+``H_f = d g / d r_f`` (the printed [W 27] corrected, A19) and the third-derivative contraction
+``Gamma(y) = D3 phi[y, y]`` (the printed [C 24] corrected, A23) that the fixed-time controller
+of [C] uses.
 
-    \\varphi(r; r_f) = \\tfrac12 e^T P e + \\tfrac12 q V(r), \\quad e = r - r_f, \\; q = e^T M e,
-
-([W 9] with the GMM kernels, [W 28] with the classical APF obstacle, [C 17-19]). The repulsive
-term is multiplied by ``q`` so that it vanishes at the goal. Derivatives (``P``, ``M``
-symmetric):
-
-* ``g   = grad_r phi      = P e + V M e + 1/2 q grad V``                      ([W 25])
-* ``H   = hess_rr phi     = P + V M + (M e) grad V^T + grad V (M e)^T + 1/2 q hess V`` ([W 26])
-* ``H_f = d g / d r_f     = -P - V M - grad V (M e)^T``    (printed [W 27] has a sign and
-  transpose error, spec A19)
-* ``Gamma(y) = D3 phi[y, y] = 2 (grad V . y) M y + (y^T hess V y) M e + 2 (e^T M y) hess V y
-  + (y^T M y) grad V + 1/2 q D3V[y, y]``  (the corrected [C 24], spec A23)
-
-``Gamma(y)`` equals ``(dH/dt) y`` along ``r' = y`` for a constant goal; it is used by the
-fixed-time controller of [C].
+The formulas: docs/papers.md#gmm-potentials-and-controllers.
 """
 
 from __future__ import annotations

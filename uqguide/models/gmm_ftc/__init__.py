@@ -1,4 +1,4 @@
-"""GMM-FTC proximity to a rotating, complex-shaped target (Chen et al. 2020; gmm-controllers.md).
+"""GMM-FTC proximity to a rotating, complex-shaped target (Chen et al. 2020; docs/papers.md).
 
 ``target`` holds the target's geometry, point cloud and GMMs (published Table 2, shipped fit),
 ``law`` the fixed-time controller (eqs 20-31, eq 36 bound), ``loop`` the sampled-data

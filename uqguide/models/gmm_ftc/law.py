@@ -1,30 +1,15 @@
-"""GMM-based fixed-time control, GMM-FTC ([C] eqs 20-31, spec section 7.4).
+"""GMM-based fixed-time control, GMM-FTC ([C] eqs 20-31).
 
-Body-frame error coordinates (constant goal, ``r_f' = r_f'' = 0`` as in [C] Table 5):
-``y1 = r - r_f``, ``y2 = r'``. With the attract/repulse potential ``phi`` of [C 17-19]
-(gradient ``g``, Hessian ``H``, third-derivative contraction ``Gamma(y) = D3 phi[y, y]``):
+Body-frame errors ``y1 = r - r_f``, ``y2 = r'`` (a goal at rest), sliding variables
+``s1 = y1 + k_s g`` and ``s2 = y2 + alpha1 s1 + beta1 s1^3 + k_s H y2``, and the command that
+makes ``s2`` converge in fixed time while cancelling the body-frame plant (:class:`GMMFTCLaw`,
+gains in :class:`FTCGains`, the [C 36] bound :func:`fixed_time_bound`). Corrections to the printed
+equations are A21-A23; where ``I + k_s H`` is singular inside a thin GMM sheet
+(``|det| < det_guard``) the identity replaces it and the event is counted (A28). Gains are
+diagonal and stored as 3-vectors.
 
-.. math::
-    s_1 = y_1 + k_s g, \\qquad
-    s_2 = y_2 + \\alpha_1 s_1 + \\beta_1 s_1^{\\circ 3} + k_s H y_2          \\;([C\\,21]),
-
-    \\Lambda = (\\alpha_1 + 3 \\beta_1 \\mathrm{diag}(s_1 \\circ s_1)) (I + k_s H)  \\;([C\\,23]),
-
-    u = (I + k_s H)^{-1} [ -\\lambda_1 \\mathrm{sig}^{\\zeta_1}(s_2)
-        - \\lambda_2 \\mathrm{sig}^{\\zeta_2}(s_2) - \\Lambda y_2 - k_s \\Gamma(y_2) ]
-        - A_{21} r - A_{22} r'                                        \\;([C\\,31]).
-
-Then ``s1' = -alpha1 s1 - beta1 s1^3 + s2`` and ``s2' = -lambda1 sig^z1(s2) - lambda2
-sig^z2(s2)`` ([C 22, 30]) hold exactly for the continuous law. Corrections to the printed text
-(spec A21-A23): "phi1 y1 y2" in [C 21] is ``(d phi1 / d y1) y2 = k_s H y2``; the cube is
-element-wise; ``Gamma`` is the derived ``D3 phi[y2, y2]`` (the printed [C 24] misplaces a factor
-2 and a sign); ``-A21 y1 - A22 y2 - u_eq`` of [C 31] equals ``-A21 r - A22 r'`` for a goal at
-rest (the printed "u = u_eq" of [C 9] lost its sign).
-
-``I + k_s H`` is singular somewhere inside every thin GMM sheet: where ``|det| < det_guard`` the
-identity is used instead and the event is counted (never triggered in the [C] scenario).
-
-Gains are diagonal and stored as 3-vectors (row scaling: ``k_s H`` is ``diag(k_s) H``).
+The law in full and the corrections: docs/papers.md#gmm-potentials-and-controllers; the labels:
+docs/papers.md#the-gmm-papers-ambiguities-as-settled.
 """
 
 from __future__ import annotations

@@ -1,36 +1,16 @@
 """GMM-FTC: safe proximity to a rotating, complex-shaped target (Chen et al. 2020, [C]).
 
 The servicer approaches a target spinning at ``w = (0, 0, 0.05) rad/s`` relative to LVLH on an
-``e = 0.01`` orbit, in the target's body frame ([C 1-9], :mod:`..dynamics.rotating_body_frame`),
-under the GMM-based fixed-time controller ([C 20-31], :mod:`.law`) whose potential encodes the
-target's shape by a 12-component GMM ([C 17-19], :mod:`.target`). Defaults are the paper's
-scenario (Tables 3-5, step 0.1 s, +-5 % thruster error) with the resolutions of
-gmm-controllers.md (sections 3, 5.2, 7.4, 8, 9.2).
+``e = 0.01`` orbit, in the target's body frame (:mod:`..dynamics.rotating_body_frame`), under the
+GMM-based fixed-time controller (:mod:`.law`) whose potential encodes the target's shape by a
+12-component GMM (:mod:`.target`). Defaults are the paper's scenario (Tables 3-5, step 0.1 s,
++-5 % thruster error). Uncertain inputs: hand-over errors of the initial state, spin-rate errors
+and thrust scale factors held over the run; the paper's per-period thruster error
+(``thrust_noise``) comes from streams keyed by each sample's inputs (:mod:`.noise`), which a PCE
+cannot represent.
 
-Uncertain inputs (all nominal = the paper's scenario):
-
-* ``dx0, dy0, dz0`` [m], ``dvx0, dvy0, dvz0`` [m/s]: errors added to the initial body-frame
-  state of Table 5 (hand-over dispersion; the controller measures the true state);
-* ``dw_x, dw_y, dw_z`` [rad/s]: errors added to the target's spin rate (body components,
-  relative to LVLH). By default (``controller_spin: true``) the controller knows the actual
-  rate, like the state: the error changes the scenario, not the controller's model. With
-  ``controller_spin: nominal`` the controller cancels the nominal-rate dynamics while measuring
-  the true body-frame state: a model-mismatch study (no integral action, so a rate error leaves
-  a steady position offset);
-* ``thrust_scale`` and ``thrust_scale_x, _y, _z`` [-]: thruster output factors held for the whole
-  run (common and per body axis; their product is applied), e.g. ``uniform(0.95, 1.05)`` for
-  the paper's +-5 % as a random input a PCE can represent.
-
-The paper's per-period +-5 % error (``thrust_noise``, spec A25) is drawn from a stream keyed by
-the sample's inputs and ``noise_seed`` (:mod:`.noise`), so a sample's outputs do not depend on
-its batch. It is white in time and not a function of the inputs: fine for Monte Carlo, but
-a PCE cannot represent it, so dispersion configs meant for PCE set ``thrust_noise: 0``.
-
-Decisions where spec and paper are silent are documented at the parameters and outputs:
-``t_converge`` of a run that never converges is the final time (censored) with
-``converged = 0``; the LOS rate is that of the line of sight in LVLH, ``|r_l x v_l| / |r_l|^2``
-(the servicer's sensors see the target's centre move in an orbit-fixed frame; in the body frame
-the converged LOS rate is 0 by construction).
+The inputs, outputs and choices, with the ambiguities they settle:
+docs/papers.md#gmm-ftc-target-thruster-error-and-inputs.
 """
 
 from __future__ import annotations

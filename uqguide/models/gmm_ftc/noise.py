@@ -1,20 +1,13 @@
 """Thruster output error of [C] section 4.2 as a keyed, counter-based random stream.
 
-The paper's "thruster output error of +-5 %" is read (spec 8, A25) as a multiplicative factor
-``1 + delta`` per body axis and per control period, ``delta ~ U(-w, w)``, independent across
-axes, periods and runs.
+The paper's "+-5 %" is a factor ``1 + delta`` per body axis and control period, ``delta ~ U(-w,
+w)``, independent across axes, periods and runs (A25). So that a sample's outputs do not depend
+on its batch, each sample owns a SplitMix64 stream keyed by the noise seed and its input values
+rounded to single precision (:func:`sample_keys`), and the error of period ``k``, axis ``i`` is
+element ``3 k + i``, computed directly from its index (:func:`uniform`).
 
-A model must be a function of its inputs (uq-methods.md 1): the same sample must give the same
-outputs whatever batch or chunk it is evaluated in. So the errors are not drawn from a
-generator shared by the batch; each sample owns a SplitMix64 stream (Steele, Lea & Flood 2014)
-whose key is a hash of the noise seed and the sample's input values rounded to single precision
-(a key from the full double would hand a sample a new noise history whenever its inputs move by
-round-off, e.g. another CPU's last bit of an inverse CDF; single precision moves only when a
-value lies within round-off of a float32 rounding boundary, about 1 in 1e5 for a 1e-12 move),
-and the error of period
-``k``, axis ``i`` is element ``3 k + i`` of that stream. SplitMix64 outputs are a bijective
-mix of ``key + j * gamma``, so the element is computed directly from its index, vectorised over
-the batch, with no per-sample generator objects.
+Why single precision, and why a PCE cannot use it:
+docs/papers.md#gmm-ftc-target-thruster-error-and-inputs.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""Parameters of the ``gmm_ftc`` model: [C] Tables 3-5 and section 4.2 with the resolutions of
-gmm-controllers.md (sections 3, 5.2, 7.4, 8, 9.2); SI units."""
+"""Parameters of the ``gmm_ftc`` model: [C] Tables 3-5 and section 4.2 with the ambiguities
+settled as docs/papers.md#the-gmm-papers-ambiguities-as-settled says; SI units."""
 
 from __future__ import annotations
 
@@ -19,8 +19,8 @@ PosVec3 = tuple[Positive, Positive, Positive]
 
 
 class GMMFTCParams(ModelParams):
-    """GMM-FTC scenario (SI units); defaults are [C] Tables 3-5 and section 4.2 with the spec's
-    resolutions (gmm-controllers.md 9.2)."""
+    """GMM-FTC scenario (SI units); defaults are [C] Tables 3-5 and section 4.2 with the
+    ambiguities settled (docs/papers.md#the-gmm-papers-ambiguities-as-settled)."""
 
     # target orbit, [C] Table 4 (i, RAAN, argument of perigee do not enter the TH model)
     semi_major_axis: float = Field(6878.14e3, gt=0.0, description="target orbit [m]")

@@ -1,20 +1,14 @@
 """The rotating target of [C]: geometry, surface point cloud and its 12-component GMM.
 
-gmm-controllers.md sections 4-5. The target is a 2 m cube with two 6 m x 2 m solar panels
-along the body ``x`` axis and two 2 m antennas along ``y`` (:func:`chen2020_chief`, placement
-from the published GMM). Its shape enters the controller as a Gaussian mixture:
+A 2 m cube with two 6 m x 2 m solar panels along body ``x`` and two 2 m antennas along ``y``
+(:func:`target_geometry`). Its shape enters the controller as a GMM (:func:`target_mixture`):
+:data:`TABLE2`, the published fit with its lost minus signs and exponent restored (A10), by
+default; or the fit of a seeded 40,000-point surface cloud (:func:`surface_cloud`) by EM started
+from :data:`TABLE1` (A29), made by ``scripts/fit_gmm_ftc.py`` and shipped as package data
+(:func:`fitted_mixture`).
 
-* :data:`TABLE2`: the published fit ([C] Table 2) with the spec 5.2 restorations (mirror-pair
-  minus signs, ``1 x 10 5`` read as 1e-5 m^2). The default: it makes the nominal run
-  deterministic and independent of scikit-learn.
-* the fitted alternative: EM on a seeded 40,000-point uniform random surface cloud, started
-  from [C] Table 1 (:data:`TABLE1`; the k-means start does not reproduce Table 1, spec A29).
-  ``scripts/fit_gmm_ftc.py`` runs the fit and ships its result as package data
-  (``uqguide/data/gmm_ftc_fitted.npz``); :func:`fitted_mixture` loads it.
-
-Point counts (spec 4.3): the published weights (faces 0.083, panels 0.1287 + 0.1221,
-antennas 4.196e-4 of 40,000 points) give 3,320 per body face, 10,023 per panel and 17 per
-antenna, 40,000 in all.
+The geometry, the point counts and the restorations:
+docs/papers.md#gmm-ftc-target-thruster-error-and-inputs.
 """
 
 from __future__ import annotations

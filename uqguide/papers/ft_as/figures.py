@@ -1,4 +1,4 @@
-"""Figures of the FT-AS nominal comparison (the paper's Figs 5-13, ft-as-controller.md sec. 10).
+"""Figures of the FT-AS nominal comparison (the paper's Figs 5-13).
 
 FT-AS (the model's default FT-AS-A), Case 1 and Case 2 from one batch recorded every 0.1 s:
 
@@ -8,7 +8,7 @@ FT-AS (the model's default FT-AS-A), Case 1 and Case 2 from one batch recorded e
   paper's final-accuracy bounds;
 - ``ft_as_force.png``, ``ft_as_torque.png`` (Figs 12-13): applied inputs per axis. The loop
   chatters at the sampling rate, so each curve is the min/max envelope over 0.1 s intervals
-  (a decimated sample would alias, spec section 9).
+  (a decimated sample would alias).
 """
 
 from __future__ import annotations

@@ -1,22 +1,16 @@
-"""The paper's comparison (ft-as-controller.md section 11) as report rows for ``uqguide simulate``.
+"""The paper's claims C1-C6 as report rows for ``uqguide simulate``.
 
-One batch runs the five controller configurations side by side at the model's step: FT-AS
-(FT-AS-A, the model default), FT-AS-P, the literal FT-AS, Case 1 and Case 2. Each checkable
-statement C1-C6 becomes rows with the paper's figure, the spec's tolerance (accuracy bounds x3,
-orderings with a 10 % margin, "~" within a factor 3) and a pass flag; the spec's section 12.2
-reference values (prototype at h = 0.01 s) are reported beside them. Claim C6 was measured by
-the spec at h = 0.05 s, so it is also evaluated on a second run at that step.
+One batch runs the five controller configurations side by side at the model's step: FT-AS-A
+(the model default), FT-AS-P, the literal FT-AS, Case 1 and Case 2. Each claim becomes rows with
+the paper's figure, a tolerance (accuracy bounds x3, orderings with a 10 % margin, "~" within a
+factor 3) and a verdict, beside a prototype's reference values at :data:`REFERENCE_STEP`; C6 is
+also evaluated at :data:`C6_STEP`. The final-window maxima of the chattering loops, the late
+input peaks and the literal FT-AS's diverged state are chaotic under round-off: those rows show
+the median over :data:`ROUNDOFF_MEMBERS` + 1 perturbed runs with the range, checked over the
+whole ensemble (``Verdict``).
 
-Chaotic rows. The final-window maxima of the chattering loops (``final max|r_e,k|``, ``|v_e,k|``,
-``|sigma_e,k|``, ``|omega_e,k|``), the late input peaks and the literal FT-AS's diverged state
-amplify the last bit of the inputs: a 1e-12 relative change of the force-disturbance amplitude
-moves FT-AS-P's final max|sigma_e,k| from 1.1e-7 to 2.3e-8, and two CPUs differ the same way.
-Those rows therefore show the median over :data:`ROUNDOFF_MEMBERS` + 1 runs (the unperturbed
-one and runs whose inputs moved by 1e-12 relative, :mod:`uqguide.models.roundoff`) with the
-range in the row's ``statistic``. Their check uses the whole ensemble (see ``Verdict``): a bound
-must hold for every run, a reference figure must lie within its factor of the range. Every other
-row is reproducible: ``tests/test_ft_as_paper.py`` checks that it moves by less than a tenth of
-its tolerance across the same ensemble.
+The checks and reference values: docs/papers.md#ft-as-conventions-variants-and-checks; chaotic
+rows: docs/papers.md#reproducible-and-chaotic-figures.
 """
 
 from __future__ import annotations

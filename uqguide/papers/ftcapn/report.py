@@ -1,7 +1,7 @@
-"""The FTCAPN nominal run beside the paper's figures (Wang & Song 2019; spec ftcapn.md section 6).
+"""The FTCAPN nominal run beside the paper's figures (Wang & Song 2019).
 
-Tolerances are the spec's; the total delta-v is reported, not checked (the spec explains why the
-paper's 98.5 m/s is not reproduced by this model).
+Each figure with its tolerance; the total delta-v is reported, not checked: no choice of the
+settings the paper does not give reproduces its 98.5 m/s (docs/papers.md#ftcapn-beside-the-paper).
 """
 
 from __future__ import annotations

@@ -1,8 +1,9 @@
-"""The [W] paper's claims as checkable statements (gmm-controllers.md 10.1).
+"""The [W] paper's claims as checkable statements (claims W1-W10).
 
 Each claim is evaluated on the nominal outcomes of the three controllers of one configuration
 and reported with the measured value, whether it holds or not: in the literal reading of the
-paper's scenario most of them do not (spec 11), and the report says so instead of hiding it.
+paper's scenario most of them do not, and the report says so instead of hiding it
+(docs/papers.md#gmm-controllers-what-reproduces-and-what-does-not).
 """
 
 from __future__ import annotations
