@@ -111,7 +111,8 @@ def main(verbose: int) -> None:
 
 
 def _check_executor_flags(workers: int | None, scheduler: str | None,
-                          scheduler_file: Path | None) -> None:
+                          scheduler_file: Path | None,
+                          no_workers_timeout: int | None = None) -> None:
     """ConfigError (exit 2) for executor options that cannot go together."""
     if scheduler and scheduler_file:
         raise ConfigError("--scheduler-file: give either --scheduler or --scheduler-file, "
@@ -119,6 +120,15 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
     if (scheduler or scheduler_file) and workers:
         raise ConfigError("--workers: not used with a Dask scheduler (the cluster has its "
                           "own workers)", field="workers")
+    if no_workers_timeout is not None and not (scheduler or scheduler_file):
+        raise ConfigError("--no-workers-timeout: only for a Dask cluster (give --scheduler "
+                          "or --scheduler-file)", field="no_workers_timeout")
+
+
+def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
+    """How far a stopped run got and the command that continues it."""
+    done = f"{n_done} of {n_total} chunks done; " if n_done is not None else ""
+    return f"{done}resume with `{again}`"
 
 
 @main.command()
@@ -134,6 +144,10 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
               help="Evaluate chunks on a Dask cluster, e.g. tcp://host:8786 (same numbers).")
 @click.option("--scheduler-file", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Dask scheduler file (dask scheduler --scheduler-file).")
+@click.option("--no-workers-timeout", type=click.IntRange(1, 86_400), default=None,
+              metavar="SECONDS",
+              help="With Dask: stop (exit 1, resumable) when the cluster has had no worker "
+                   "for this long  [default: 60].")
 @click.option("--resume", is_flag=True,
               help="Continue an interrupted run from its checkpoint (<out>/<name>.run).")
 @click.option("--force", is_flag=True,
@@ -152,20 +166,23 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
                    "Carlo fallback is still reported); also the config's strict: true.")
 @_handle_errors
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
-        scheduler: str | None, scheduler_file: Path | None, resume: bool, force: bool,
-        check_path: Path | None, check_sensitivity: bool, quiet: bool, strict: bool) -> None:
+        scheduler: str | None, scheduler_file: Path | None, no_workers_timeout: int | None,
+        resume: bool, force: bool, check_path: Path | None, check_sensitivity: bool,
+        quiet: bool, strict: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .config.budget import estimate
     from .driver.run_folder import RunInterrupted
     from .config.run_config import load_config
     from .driver.execution import Executor, ProcessExecutor, make_executor
+    from .driver.execution.cluster_watch import NO_WORKERS_TIMEOUT
+    from .errors import ClusterLost
     from .driver.progress import make_progress
     from .driver.propagate import check_failure_budget, check_methods
     from .report.tables import render_text
     from .config.report_times import check_config_report_times
     from .commands.run_and_write import WriteInterrupted, run_and_write
 
-    _check_executor_flags(workers, scheduler, scheduler_file)
+    _check_executor_flags(workers, scheduler, scheduler_file, no_workers_timeout)
     if check_sensitivity and not check_path:
         raise click.UsageError("--check-sensitivity compares with a baseline: give it with "
                                "--check BASELINE.json")
@@ -195,15 +212,22 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         " --force" if force else "")
     if executor is None:
         executor = make_executor(workers, scheduler,
-                                 str(scheduler_file) if scheduler_file else None)
+                                 str(scheduler_file) if scheduler_file else None,
+                                 no_workers_timeout or NO_WORKERS_TIMEOUT)
     try:
         written = run_and_write(cfg, out_dir, executor, workers=workers or 1, resume=resume,
                                 progress=make_progress(sys.stderr, quiet), resume_hint=again,
                                 force=force)
     except RunInterrupted as exc:
-        click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume "
-                   f"with `{again}`", err=True)
+        click.echo(f"interrupted: {_resume_line(exc.n_done, exc.n_total, again)}", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except ClusterLost as exc:
+        # on the same cluster once it is back (or on any other executor: the same numbers)
+        where = f" --scheduler {scheduler}" if scheduler else \
+            f" --scheduler-file {scheduler_file}"
+        click.echo(f"error: {exc}; {_resume_line(exc.n_done, exc.n_total, again + where)}",
+                   err=True)
+        sys.exit(1)
     except WriteInterrupted:
         click.echo(f"interrupted while writing the result; resume with `{again}`", err=True)
         sys.exit(EXIT_INTERRUPTED)

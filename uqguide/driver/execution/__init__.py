@@ -28,7 +28,9 @@ Only the driver writes files. Failures never sink a run:
   is re-run here with its model calls in guard processes (:mod:`uqguide.driver.execution.guard`),
   bisected down to the samples that crash: they fail alone with the reason, the others keep
   their values;
-- on Dask, a chunk whose workers keep dying (``KilledWorker``) is isolated likewise;
+- on Dask, a chunk whose workers keep dying (``KilledWorker``) is isolated likewise; a cluster
+  with no worker for ``no_workers_timeout`` seconds, or whose scheduler is lost, stops the run
+  (:class:`~uqguide.errors.ClusterLost`, resumable; :mod:`.cluster_watch`);
 - with the config's ``timeout_s``, every model call runs in a guard process and a call that
   does not return in time is killed and bisected the same way: a hanging sample costs itself;
 - without workers, a model that can crash its process (every ``callable``, any model with
@@ -46,7 +48,7 @@ Modules, from the bottom up: :mod:`.transport` (the model in workers), :mod:`.ch
 unit of work), :mod:`.isolation` (raising samples fail alone), :mod:`.processes` (signals and
 lifetimes of child processes), :mod:`.guard` (timeouts and crashes), :mod:`.row_layout` and
 :mod:`.shared_rows` (per-sample values written in place), :mod:`.worker` (one chunk, wherever
-it runs) and :mod:`.executors`.
+it runs), :mod:`.cluster_watch` (a Dask cluster gone) and :mod:`.executors`.
 """
 
 from __future__ import annotations
