@@ -28,9 +28,7 @@ Only the driver writes files. Failures never sink a run:
   is re-run here with its model calls in guard processes (:mod:`uqguide.driver.execution.guard`),
   bisected down to the samples that crash: they fail alone with the reason, the others keep
   their values;
-- on Dask, a chunk whose workers keep dying (``KilledWorker``) is isolated likewise; a cluster
-  with no worker for ``no_workers_timeout`` seconds, or whose scheduler is lost, stops the run
-  (:class:`~uqguide.errors.ClusterLost`, resumable; :mod:`.cluster_watch`);
+- on Dask, a chunk whose workers keep dying (``KilledWorker``) is isolated likewise;
 - with the config's ``timeout_s``, every model call runs in a guard process and a call that
   does not return in time is killed and bisected the same way: a hanging sample costs itself;
 - without workers, a model that can crash its process (every ``callable``, any model with
