@@ -563,23 +563,41 @@ def report(result_path: Path, out_dir: Path | None, baseline_path: Path | None) 
 @click.option("--exact", is_flag=True,
               help="Any difference from the stored scalars exits 1, round-off included (on "
                    "the machine that wrote RESULT).")
+@click.option("--run-code", is_flag=True,
+              help="Run the code RESULT's model names (a callable's Python module, a "
+                   "command's program, an FMU): only for a file you trust.")
+@click.option("--config", "own_path", type=click.Path(dir_okay=False, path_type=Path),
+              default=None, help="Your own config of RESULT's study: when its model "
+                                 "section is RESULT's, that code is yours and runs without "
+                                 "--run-code.")
 @_handle_errors
 @_unusable_input_is_2
 def replay(result_path: Path, label: str, sample: int | None, worst: str | None,
            lowest: bool, component: str | None, event: str | None,
-           out_dir: Path, exact: bool) -> None:
+           out_dir: Path, exact: bool, run_code: bool, own_path: Path | None) -> None:
     """Rerun one sample of RESULT: its scalars (checked), histories and figures.
 
     Exit 0 when the replayed scalars equal the stored ones bit for bit or to round-off (at
     most 1e-9 relative: another CPU's last bits), 1 when they differ by more (the code or a
     dependency changed since RESULT was written; with --exact, by any bit), 2 on bad input.
+
+    RESULT names the model that made it. A callable, command or fmu model is code (a Python
+    module, a program, an FMU's binary) that the replay imports and runs, so a result file
+    someone sent you can run any code: such a replay first says what it runs, and needs
+    --run-code, or --config with your own config of the same model (exit 2 otherwise). The
+    built-in simulators need neither.
     """
-    from .commands.replay import ROUNDOFF, render, replay as replay_sample, write_replay
+    from .commands.replay import (ROUNDOFF, allowed_code, render, replay as replay_sample,
+                                  write_replay)
+    from .config.run_config import load_config
     from .results.result import read_hdf5
 
     result = read_hdf5(result_path)
-    rep, cfg = replay_sample(result, label, sample=sample, worst=worst, lowest=lowest,
-                             event=event, component=component)
+    own = load_config(own_path) if own_path is not None else None
+    for code in allowed_code(result, run_code=run_code, own=own, source=str(result_path)):
+        click.echo(f"replay runs {code}", err=True)
+    rep, cfg = replay_sample(result, label, run_code=True, sample=sample, worst=worst,
+                             lowest=lowest, event=event, component=component)
     click.echo(render(rep))
     for p in write_replay(rep, cfg, result.name, out_dir):
         click.echo(f"wrote {p}")
