@@ -111,7 +111,8 @@ def main(verbose: int) -> None:
 
 
 def _check_executor_flags(workers: int | None, scheduler: str | None,
-                          scheduler_file: Path | None) -> None:
+                          scheduler_file: Path | None,
+                          no_workers_timeout: int | None = None) -> None:
     """ConfigError (exit 2) for executor options that cannot go together."""
     if scheduler and scheduler_file:
         raise ConfigError("--scheduler-file: give either --scheduler or --scheduler-file, "
@@ -119,6 +120,15 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
     if (scheduler or scheduler_file) and workers:
         raise ConfigError("--workers: not used with a Dask scheduler (the cluster has its "
                           "own workers)", field="workers")
+    if no_workers_timeout is not None and not (scheduler or scheduler_file):
+        raise ConfigError("--no-workers-timeout: only for a Dask cluster (give --scheduler "
+                          "or --scheduler-file)", field="no_workers_timeout")
+
+
+def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
+    """How far a stopped run got and the command that continues it."""
+    done = f"{n_done} of {n_total} chunks done; " if n_done is not None else ""
+    return f"{done}resume with `{again}`"
 
 
 @main.command()
@@ -134,6 +144,10 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
               help="Evaluate chunks on a Dask cluster, e.g. tcp://host:8786 (same numbers).")
 @click.option("--scheduler-file", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Dask scheduler file (dask scheduler --scheduler-file).")
+@click.option("--no-workers-timeout", type=click.IntRange(1, 86_400), default=None,
+              metavar="SECONDS",
+              help="With Dask: stop (exit 1, resumable) when the cluster has had no worker "
+                   "for this long  [default: 60].")
 @click.option("--resume", is_flag=True,
               help="Continue an interrupted run from its checkpoint (<out>/<name>.run).")
 @click.option("--force", is_flag=True,
@@ -152,20 +166,23 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
                    "Carlo fallback is still reported); also the config's strict: true.")
 @_handle_errors
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
-        scheduler: str | None, scheduler_file: Path | None, resume: bool, force: bool,
-        check_path: Path | None, check_sensitivity: bool, quiet: bool, strict: bool) -> None:
+        scheduler: str | None, scheduler_file: Path | None, no_workers_timeout: int | None,
+        resume: bool, force: bool, check_path: Path | None, check_sensitivity: bool,
+        quiet: bool, strict: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .config.budget import estimate
     from .driver.run_folder import RunInterrupted
     from .config.run_config import load_config
     from .driver.execution import Executor, ProcessExecutor, make_executor
+    from .driver.execution.cluster_watch import NO_WORKERS_TIMEOUT
+    from .errors import ClusterLost
     from .driver.progress import make_progress
     from .driver.propagate import check_failure_budget, check_methods
     from .report.tables import render_text
     from .config.report_times import check_config_report_times
     from .commands.run_and_write import WriteInterrupted, run_and_write
 
-    _check_executor_flags(workers, scheduler, scheduler_file)
+    _check_executor_flags(workers, scheduler, scheduler_file, no_workers_timeout)
     if check_sensitivity and not check_path:
         raise click.UsageError("--check-sensitivity compares with a baseline: give it with "
                                "--check BASELINE.json")
@@ -195,15 +212,22 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         " --force" if force else "")
     if executor is None:
         executor = make_executor(workers, scheduler,
-                                 str(scheduler_file) if scheduler_file else None)
+                                 str(scheduler_file) if scheduler_file else None,
+                                 no_workers_timeout or NO_WORKERS_TIMEOUT)
     try:
         written = run_and_write(cfg, out_dir, executor, workers=workers or 1, resume=resume,
                                 progress=make_progress(sys.stderr, quiet), resume_hint=again,
                                 force=force)
     except RunInterrupted as exc:
-        click.echo(f"interrupted: {exc.n_done} of {exc.n_total} chunks done; resume "
-                   f"with `{again}`", err=True)
+        click.echo(f"interrupted: {_resume_line(exc.n_done, exc.n_total, again)}", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except ClusterLost as exc:
+        # on the same cluster once it is back (or on any other executor: the same numbers)
+        where = f" --scheduler {scheduler}" if scheduler else \
+            f" --scheduler-file {scheduler_file}"
+        click.echo(f"error: {exc}; {_resume_line(exc.n_done, exc.n_total, again + where)}",
+                   err=True)
+        sys.exit(1)
     except WriteInterrupted:
         click.echo(f"interrupted while writing the result; resume with `{again}`", err=True)
         sys.exit(EXIT_INTERRUPTED)
@@ -539,23 +563,41 @@ def report(result_path: Path, out_dir: Path | None, baseline_path: Path | None) 
 @click.option("--exact", is_flag=True,
               help="Any difference from the stored scalars exits 1, round-off included (on "
                    "the machine that wrote RESULT).")
+@click.option("--run-code", is_flag=True,
+              help="Run the code RESULT's model names (a callable's Python module, a "
+                   "command's program, an FMU): only for a file you trust.")
+@click.option("--config", "own_path", type=click.Path(dir_okay=False, path_type=Path),
+              default=None, help="Your own config of RESULT's study: when its model "
+                                 "section is RESULT's, that code is yours and runs without "
+                                 "--run-code.")
 @_handle_errors
 @_unusable_input_is_2
 def replay(result_path: Path, label: str, sample: int | None, worst: str | None,
            lowest: bool, component: str | None, event: str | None,
-           out_dir: Path, exact: bool) -> None:
+           out_dir: Path, exact: bool, run_code: bool, own_path: Path | None) -> None:
     """Rerun one sample of RESULT: its scalars (checked), histories and figures.
 
     Exit 0 when the replayed scalars equal the stored ones bit for bit or to round-off (at
     most 1e-9 relative: another CPU's last bits), 1 when they differ by more (the code or a
     dependency changed since RESULT was written; with --exact, by any bit), 2 on bad input.
+
+    RESULT names the model that made it. A callable, command or fmu model is code (a Python
+    module, a program, an FMU's binary) that the replay imports and runs, so a result file
+    someone sent you can run any code: such a replay first says what it runs, and needs
+    --run-code, or --config with your own config of the same model (exit 2 otherwise). The
+    built-in simulators need neither.
     """
-    from .commands.replay import ROUNDOFF, render, replay as replay_sample, write_replay
+    from .commands.replay import (ROUNDOFF, allowed_code, render, replay as replay_sample,
+                                  write_replay)
+    from .config.run_config import load_config
     from .results.result import read_hdf5
 
     result = read_hdf5(result_path)
-    rep, cfg = replay_sample(result, label, sample=sample, worst=worst, lowest=lowest,
-                             event=event, component=component)
+    own = load_config(own_path) if own_path is not None else None
+    for code in allowed_code(result, run_code=run_code, own=own, source=str(result_path)):
+        click.echo(f"replay runs {code}", err=True)
+    rep, cfg = replay_sample(result, label, run_code=True, sample=sample, worst=worst,
+                             lowest=lowest, event=event, component=component)
     click.echo(render(rep))
     for p in write_replay(rep, cfg, result.name, out_dir):
         click.echo(f"wrote {p}")

@@ -46,3 +46,19 @@ class WorkerStartError(UqguideError):
     at its top level, without an ``if __name__ == "__main__":`` guard: each spawned worker
     re-imports the script and would start the whole run again.
     """
+
+
+class ClusterLost(UqguideError):
+    """A Dask run lost its cluster: no worker for ``--no-workers-timeout`` seconds, or the
+    connection to its scheduler.
+
+    The chunks finished before are checkpointed, so the run resumes (``--resume``) once the
+    cluster is back, or anywhere else: ``n_done`` of ``n_total`` chunks, set by the driver
+    (None until it has counted them).
+    """
+
+    def __init__(self, message: str, n_done: int | None = None,
+                 n_total: int | None = None) -> None:
+        super().__init__(message)
+        self.n_done = n_done
+        self.n_total = n_total

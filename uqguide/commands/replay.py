@@ -21,17 +21,22 @@ the config's events (``--event NAME``); failed samples are never the worst or in
 from __future__ import annotations
 
 import csv
+import json
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..core import atomic
+from ..config.registry import model_class
 from ..config.run_config import RunConfig, validate_config
 from ..errors import ConfigError, UqguideError
 from ..core.events import component_index
 from ..models.base import ModelOutput
 from ..results.result import MethodRun, Result
+from .run_and_write import canonical_config
 
 
 #: The largest relative difference of a replayed scalar that is round-off, not a change: a
@@ -85,6 +90,103 @@ class Replay:
             Output names (NaN equals NaN).
         """
         return [name for name, d in self.differences().items() if d > rtol]
+
+
+def _model_sections(config: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The model sections a stored config would build: its model's, and one per level of a
+    multi-fidelity method that changes its parameters (another function of a callable)."""
+    model = config.get("model")
+    if not isinstance(model, Mapping):
+        return []  # a data file's result: no model runs
+    sections = [dict(model)]
+    for method in config.get("methods") or []:
+        levels = method.get("fidelities") if isinstance(method, Mapping) else None
+        for level in levels if isinstance(levels, list) else []:
+            if isinstance(level, Mapping) and "surrogate" not in level:
+                sections.append({**model, **level})
+    return sections
+
+
+def named_code(config: Mapping[str, Any]) -> list[str]:
+    """What a stored config's model runs beyond uqguide's own code, read without running it.
+
+    Parameters
+    ----------
+    config : mapping
+        A result's stored (resolved) config.
+
+    Returns
+    -------
+    list of str
+        One line each (:meth:`uqguide.models.base.Model.named_code`); empty for a built-in
+        simulator or a data file. ConfigError for a model name uqguide does not know.
+    """
+    found: list[str] = []
+    for section in _model_sections(config):
+        text = model_class(section.get("name"), "model.name").named_code(section)
+        if text and text not in found:
+            found.append(text)
+    return found
+
+
+def _difference(theirs: Mapping[str, Any], yours: Mapping[str, Any]) -> str:
+    """Where the model sections of two configs differ, for a message."""
+    a, b = (json.loads(canonical_config({"model": dict(c.get("model") or {})}))["model"]
+            for c in (theirs, yours))
+    for key in sorted(set(a) | set(b)):
+        if a.get(key) != b.get(key):
+            return f"model.{key} is {b.get(key)!r}, the file's {a.get(key)!r}"
+    return "the methods' fidelities differ"
+
+
+def allowed_code(result: Result, *, run_code: bool = False, own: RunConfig | None = None,
+                 source: str | None = None) -> list[str]:
+    """The code a replay of ``result`` runs beyond uqguide's own, once it is allowed.
+
+    A result file names its model, and a ``callable``, ``command`` or ``fmu`` model is code: a
+    file from someone else can run anything. Such code runs only when ``run_code`` allows it,
+    or when ``own`` (the user's config) names the same: every model section the file's config
+    builds (the model's, a multi-fidelity method's levels) is one of ``own``'s, compared
+    resolved (module or config folder included) and without the settings that only change how
+    the model runs (``isolate``). The code's content is not compared (a result does not record
+    it): what runs is what those files hold now, and a changed file shows as a replay that
+    differs.
+
+    Parameters
+    ----------
+    result : Result
+    run_code : bool
+        Run whatever the file names (``--run-code``).
+    own : RunConfig, optional
+        The user's config of the study (``--config``).
+    source : str, optional
+        The result's file, for the message (default its name).
+
+    Returns
+    -------
+    list of str
+        What will run, one line each (empty: uqguide's code only).
+
+    Raises
+    ------
+    ConfigError
+        The file names code and neither ``run_code`` nor ``own`` allows it: one line naming
+        the code and the flag.
+    """
+    code = named_code(result.config)
+    if not code or run_code:
+        return code
+    why = ""
+    if own is not None:
+        theirs = {canonical_config({"model": s}) for s in _model_sections(result.config)}
+        yours = {canonical_config({"model": s}) for s in _model_sections(own.resolved())}
+        if theirs <= yours:
+            return code
+        why = f" ({own.source} is not the same model: {_difference(result.config, own.resolved())})"
+    raise ConfigError(f"{source or result.name}: its replay would run {'; '.join(code)}, as "
+                      f"the file names it{why}; a result file can name any code: pass "
+                      f"--run-code to run it, or --config with your own config of this model",
+                      field="run_code")
 
 
 def config_of(result: Result) -> RunConfig:
@@ -180,7 +282,8 @@ def _component(output: str, component: str | int | None, comps: tuple[str, ...])
                       f"{', '.join(comps)}", field="component")
 
 
-def replay(result: Result, label: str, **choice) -> tuple[Replay, RunConfig]:
+def replay(result: Result, label: str, *, run_code: bool = False,
+           **choice: Any) -> tuple[Replay, RunConfig]:
     """Rerun one sample of method ``label`` with every output of the model.
 
     Parameters
@@ -188,6 +291,10 @@ def replay(result: Result, label: str, **choice) -> tuple[Replay, RunConfig]:
     result : Result
     label : str
         The method's label.
+    run_code : bool
+        Run the code the result's model names (a callable's module, a command's program, an
+        FMU), which a result file from elsewhere can make anything; without it such a model is
+        refused (:func:`allowed_code`, which also takes the user's own config).
     **choice
         How to choose the sample (see :func:`choose_sample`).
 
@@ -196,6 +303,8 @@ def replay(result: Result, label: str, **choice) -> tuple[Replay, RunConfig]:
     (Replay, RunConfig)
         The replayed sample beside its stored values, and the result's config.
     """
+    if not run_code:
+        allowed_code(result)
     cfg = config_of(result)
     run = result.run(label)
     i, why = choose_sample(result, cfg, run, **choice)

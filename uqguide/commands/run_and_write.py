@@ -56,8 +56,19 @@ class Written:
     tables: list[Path]
 
 
-def _canonical(config: dict[str, Any]) -> str:
-    # Through YAML as the result file keeps it, so a config read back compares equal.
+def canonical_config(config: dict[str, Any]) -> str:
+    """A resolved config (or a part of one) as one comparable text: without the settings that
+    change only how the model runs, through YAML as the result file keeps it (so a config
+    read back compares equal), as JSON with sorted keys.
+
+    Parameters
+    ----------
+    config : dict
+
+    Returns
+    -------
+    str
+    """
     return json.dumps(yaml.safe_load(yaml.safe_dump(study_config(config))), sort_keys=True,
                       default=str)
 
@@ -84,9 +95,9 @@ def check_same_study(result_path: Path, config: RunConfig, force: bool = False) 
     """
     if force or not result_path.exists():
         return
-    new = _canonical(config.resolved())
+    new = canonical_config(config.resolved())
     try:
-        old = _canonical(read_config(result_path))
+        old = canonical_config(read_config(result_path))
     except ResultError as exc:
         raise ConfigError(f"--out: {result_path} exists and is not a readable uqguide result "
                           f"({exc}); move it away, or pass --force to replace it",
@@ -205,4 +216,5 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     return Written(result, h5, list(tables))
 
 
-__all__ = ["WriteInterrupted", "Written", "check_result_name", "run_and_write"]
+__all__ = ["WriteInterrupted", "Written", "canonical_config", "check_result_name",
+           "run_and_write"]

@@ -26,7 +26,7 @@ import numpy as np
 from .run_folder import RunInterrupted, RunStore
 from .stage import Stage
 from ..config.run_config import RunConfig
-from ..errors import MethodError, UqguideError
+from ..errors import ClusterLost, MethodError, UqguideError
 from .execution import (
     DEFAULT_BATCH_SIZE, Containment, Executor, SerialExecutor,
     Task, Timing, common_grid,
@@ -263,6 +263,9 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
     RunInterrupted
         On Ctrl-C (KeyboardInterrupt): chunks in flight are dropped; those done are in
         ``store``.
+    ClusterLost
+        A Dask cluster without workers or scheduler, with the count of the chunks done (in
+        ``store``).
     """
     check_config_report_times(config)
     executor = executor or SerialExecutor(config.raw.batch_size)
@@ -291,15 +294,11 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         executor.abort()
         if isinstance(exc, RunInterrupted):
             raise
-        # The store's count, once the chunks queued for writing are on disk: a chunk saved
-        # just before the interrupt may not be counted yet.
-        if store is not None:
-            try:
-                store.close()
-            except Exception as err:  # noqa: BLE001 - the interrupt is what the user sees
-                log.warning("checkpoint: the last chunks could not be written (%s)", err)
-        done = store.n_done if store is not None else progress.chunks_done
-        raise RunInterrupted(done, progress.chunks_total) from None
+        raise RunInterrupted(_chunks_kept(store, progress), progress.chunks_total) from None
+    except ClusterLost as exc:
+        # stopped like an interrupt, with its reason: the chunks done are kept for --resume
+        raise ClusterLost(str(exc), _chunks_kept(store, progress),
+                          progress.chunks_total) from None
     finally:
         progress.close()
     if runs and not any(r.success for r in runs):
@@ -318,6 +317,18 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         config=config.resolved(),
         provenance={**provenance(), "wall_seconds": time.perf_counter() - t0},
     )
+
+
+def _chunks_kept(store: RunStore | None, progress: Progress) -> int:
+    """The chunks done when a run stops early: the store's count once the chunks queued for
+    writing are on disk (a chunk saved just before the stop may not be counted yet)."""
+    if store is None:
+        return progress.chunks_done
+    try:
+        store.close()
+    except Exception as err:  # noqa: BLE001 - why the run stopped is what the user sees
+        log.warning("checkpoint: the last chunks could not be written (%s)", err)
+    return store.n_done
 
 
 def containment_of(config: RunConfig) -> Containment:

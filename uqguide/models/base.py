@@ -148,6 +148,26 @@ class Model(ABC):
     #: program) rather than the model's code: an unknown input is then told where to declare it.
     declares_inputs: ClassVar[bool] = False
 
+    @classmethod
+    def named_code(cls, section: Mapping[str, Any]) -> str:
+        """The code a config's model section names for this model to run, beyond uqguide's own
+        (a Python function, a program, an FMU's binary), in words: a result file naming it is
+        code too (``uqguide replay --run-code``).
+
+        Parameters
+        ----------
+        section : mapping
+            The model section as stored (perhaps in a file from elsewhere): only read, never
+            validated or imported.
+
+        Returns
+        -------
+        str
+            One line (values shown with ``repr``); ``""`` when the model runs uqguide's code
+            only (the built-in simulators).
+        """
+        return ""
+
     def __init__(self, params: ModelParams | Mapping[str, object] | None = None) -> None:
         if params is None:
             params = self.Params()

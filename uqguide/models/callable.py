@@ -266,6 +266,12 @@ class CallableModel(DeclaredModel):
                       "inputs": ["a", "b"], "nominal": [1.0, 0.5],
                       "outputs": ["y", {"name": "path", "kind": "series"}]}
 
+    @classmethod
+    def named_code(cls, section: Mapping[str, Any]) -> str:
+        where = section.get("module_dir")
+        return f"the Python function {section.get('function')!r} " + (
+            f"from the folder {where!r}" if where else "from the Python path")
+
     def _source(self) -> str:
         return self.params.spec()
 

@@ -46,7 +46,7 @@ Modules, from the bottom up: :mod:`.transport` (the model in workers), :mod:`.ch
 unit of work), :mod:`.isolation` (raising samples fail alone), :mod:`.processes` (signals and
 lifetimes of child processes), :mod:`.guard` (timeouts and crashes), :mod:`.row_layout` and
 :mod:`.shared_rows` (per-sample values written in place), :mod:`.worker` (one chunk, wherever
-it runs) and :mod:`.executors`.
+it runs), :mod:`.cluster_watch` (a Dask cluster gone) and :mod:`.executors`.
 """
 
 from __future__ import annotations

@@ -8,15 +8,19 @@ import logging
 import multiprocessing
 import os
 from collections.abc import Collection, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
+from concurrent.futures import (FIRST_COMPLETED, CancelledError, Future, ProcessPoolExecutor,
+                                wait)
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
 import numpy as np
 
-from ...errors import ConfigError, WorkerStartError
+from ...errors import ClusterLost, ConfigError, WorkerStartError
 from ...models.base import Model
 from ...core.types import GeneratedRows, ModelOutput, RowRange
+from .cluster_watch import (NO_WORKERS_TIMEOUT, NoWorkerWatch, cancelled_message,
+                            scheduler_lost)
 from .chunks import DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Task, Timing
 from .guard import close_guards
 from .isolation import common_grid
@@ -292,6 +296,10 @@ class DaskExecutor(_WindowedExecutor):
     ``distributed.scheduler.allowed-failures``) fails whole with the reason. Workers need
     uqguide (and a callable model's module) importable; they never write files.
 
+    A cluster without any worker for ``no_workers_timeout`` seconds, or a lost scheduler,
+    stops the run with :class:`~uqguide.errors.ClusterLost` (:mod:`.cluster_watch`), where
+    Dask would wait for a worker forever.
+
     Parameters
     ----------
     address : str, optional
@@ -302,12 +310,18 @@ class DaskExecutor(_WindowedExecutor):
         An existing client (used as is, not closed).
     batch_size : int, optional
     retries : int
+    no_workers_timeout : float
+        Seconds the run waits while the cluster has no worker [s].
     """
 
     shares_memory = False  # workers may be on other machines
 
     def __init__(self, address: str | None = None, scheduler_file: str | None = None,
-                 client: Any = None, batch_size: int | None = None, retries: int = 2) -> None:
+                 client: Any = None, batch_size: int | None = None, retries: int = 2,
+                 no_workers_timeout: float = NO_WORKERS_TIMEOUT) -> None:
+        if not 0 < no_workers_timeout < float("inf"):
+            raise ConfigError(f"--no-workers-timeout: must be a positive number of seconds "
+                              f"(got {no_workers_timeout})", field="no_workers_timeout")
         try:
             from distributed import Client
         except ImportError:  # pragma: no cover - depends on the installation
@@ -327,29 +341,78 @@ class DaskExecutor(_WindowedExecutor):
         self.retries = retries
         n_threads = sum(self.client.nthreads().values()) or 1
         self.window = 2 * n_threads
+        where = getattr(getattr(client, "scheduler", None), "address", None)
+        self.where = str(where or address or scheduler_file)
+        self.watch = NoWorkerWatch(self._count_workers, no_workers_timeout, self.where)
+        self._lost = False
+
+    def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
+                   x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
+        try:
+            yield from super().map_chunks(job, tasks, x)
+        except ClusterLost:
+            self._lost = True
+            raise
+
+    def _connected(self) -> bool:
+        return getattr(self.client, "status", "running") == "running"
+
+    def _count_workers(self) -> int | None:
+        """Workers the scheduler has now; None when the client lost its scheduler."""
+        if not self._connected():
+            return None
+        try:
+            # a scheduler that stopped answering (its host gone without closing the
+            # connection) counts as no worker: the watch's clock then runs
+            nthreads = self.client.sync(self.client.scheduler.ncores,
+                                        callback_timeout=min(10.0, self.watch.timeout / 2))
+        except (OSError, TimeoutError):
+            return 0
+        return len(nthreads)
 
     def _submit(self, job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> Any:
         return self.client.submit(run_chunk, job, task, x, pure=False, retries=self.retries)
 
     def _wait_some(self, futures: list[Any]) -> list[Any]:
+        from distributed import TimeoutError as DaskTimeout
         from distributed import wait as dwait
 
-        done, _ = dwait(futures, return_when="FIRST_COMPLETED")
-        return sorted(done, key=futures.index)
+        while True:
+            try:
+                done, _ = dwait(futures, timeout=self.watch.poll_seconds,
+                                return_when="FIRST_COMPLETED")
+            except CancelledError as exc:  # Dask cancels every future of a lost scheduler
+                raise ClusterLost(cancelled_message(exc, self.where, self._connected())) \
+                    from None
+            except (DaskTimeout, TimeoutError):
+                self.watch.check()
+                continue
+            self.watch.saw_worker()  # a chunk came back
+            return sorted(done, key=futures.index)
 
     def _collect(self, job: ChunkJob, fut: Any, task: Task, running: dict[Any, Task],
                  x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
         from distributed import KilledWorker
+        from distributed.comm import CommClosedError
 
         try:
-            yield fut.result()
+            result = fut.result()
         except KilledWorker as exc:
             log.warning("chunk %d (%d samples) keeps killing its workers (%s); finding the "
                         "sample(s) by bisection in guard processes here", task.index, task.n,
                         exc)
-            yield isolate_crash(job, task, x[task.start:task.stop])
+            result = isolate_crash(job, task, x[task.start:task.stop])
+        except CancelledError as exc:
+            raise ClusterLost(cancelled_message(exc, self.where, self._connected())) from None
+        except CommClosedError:  # the scheduler died while the result was fetched
+            raise ClusterLost(f"{scheduler_lost(self.where)} (while fetching chunk "
+                              f"{task.index})") from None
+        except _no_worker_errors() as exc:  # the scheduler's own no-workers-timeout
+            raise ClusterLost(f"the Dask cluster at {self.where} has no worker for chunk "
+                              f"{task.index} ({type(exc).__name__})") from None
         finally:
             fut.release()
+        yield result
 
     def abort(self) -> None:
         pass  # the generator's cleanup cancels the chunks in flight; the cluster stays up
@@ -357,11 +420,39 @@ class DaskExecutor(_WindowedExecutor):
     def close(self) -> None:
         if self._own:
             self._own = False  # once: close() may be called again on the way out
-            self.client.close()
+            if not self._lost:
+                self.client.close()
+                return
+            # Closing a client that lost its scheduler cancels its reconnection attempt, which
+            # Dask logs as an error with a traceback: the run has said what happened.
+            with _silenced("distributed.client", "distributed.utils"):
+                self.client.close()
+
+
+def _no_worker_errors() -> tuple[type[BaseException], ...]:
+    """Dask's errors for a task that found no worker (newer versions only)."""
+    from distributed import scheduler
+
+    return tuple(e for e in (getattr(scheduler, "NoValidWorkerError", None),
+                             getattr(scheduler, "NoWorkerError", None)) if e is not None)
+
+
+@contextmanager
+def _silenced(*names: str) -> Iterator[None]:
+    loggers = [logging.getLogger(n) for n in names]
+    before = [lg.disabled for lg in loggers]
+    for lg in loggers:
+        lg.disabled = True
+    try:
+        yield
+    finally:
+        for lg, was in zip(loggers, before):
+            lg.disabled = was
 
 
 def make_executor(workers: int | None = None, scheduler: str | None = None,
-                  scheduler_file: str | None = None) -> Executor:
+                  scheduler_file: str | None = None,
+                  no_workers_timeout: float = NO_WORKERS_TIMEOUT) -> Executor:
     """An executor: Dask if a scheduler (address or file) is given, a process pool of
     ``workers`` processes when ``workers >= 1``, else this process.
 
@@ -373,6 +464,8 @@ def make_executor(workers: int | None = None, scheduler: str | None = None,
         Address of a ``dask.distributed`` scheduler.
     scheduler_file : str, optional
         A Dask scheduler file.
+    no_workers_timeout : float
+        Seconds a Dask run waits while its cluster has no worker [s].
 
     Returns
     -------
@@ -380,7 +473,8 @@ def make_executor(workers: int | None = None, scheduler: str | None = None,
         To be closed by the caller (``close()``).
     """
     if scheduler or scheduler_file:
-        return DaskExecutor(address=scheduler, scheduler_file=scheduler_file)
+        return DaskExecutor(address=scheduler, scheduler_file=scheduler_file,
+                            no_workers_timeout=no_workers_timeout)
     if workers:
         return ProcessExecutor(workers)
     return SerialExecutor()

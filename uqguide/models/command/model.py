@@ -232,6 +232,12 @@ class CommandModel(DeclaredModel):
 
     input_column = "column {j} of the inputs file"
 
+    @classmethod
+    def named_code(cls, section: Mapping[str, Any]) -> str:
+        shell = " through /bin/sh" if section.get("shell") else ""
+        return (f"the program {section.get('command')!r}{shell} (relative paths from "
+                f"{section.get('config_dir')!r})")
+
     def _source(self) -> str:
         return "the command"
 

@@ -64,6 +64,11 @@ class FmuModel(DeclaredModel):
     # example_params stays empty: no FMU ships with uqguide, so the conformance test builds
     # one (tests/fmu_decay.py) and `uqguide models fmu` lists the parameters only
 
+    @classmethod
+    def named_code(cls, section: Mapping[str, Any]) -> str:
+        return (f"the compiled model of the FMU {section.get('path')!r} (relative to "
+                f"{section.get('config_dir')!r})")
+
     def _specs(self) -> list[CallableOutput]:
         return list(self.params.output_specs())
 
