@@ -175,8 +175,14 @@ def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str,
         A file that is not a regular file, or larger than the batch can need, or not read by
         the deadline: the call fails (and its batch is split) as if the program had crashed.
     """
-    if fmt == "hdf5":
-        return _read_hdf5(path, specs, n)
+    got = _read_hdf5(path, specs, n) if fmt == "hdf5" else _read_csv(path, specs, n, deadline)
+    if deadline is not None:
+        deadline.check(f"reading {path.name}")
+    return got
+
+
+def _read_csv(path: Path, specs: Sequence[OutputSpec], n: int, deadline: Deadline | None
+              ) -> ReadOutputs:
     scalar_specs = [s for s in specs if s.kind == "scalar"]
     flagged = np.zeros(n, dtype=bool)
     reasons = np.full(n, "", dtype=object)
