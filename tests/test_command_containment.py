@@ -344,6 +344,10 @@ def test_the_runs_timeout_s_kills_the_guard_and_the_daemon_its_program_started(t
      '(cd "${UQ_WORKDIR}" && sim) | tee "${UQ_WORKDIR}/log"'),
     ("/opt/sim {inputs}; VAR=1 ./b", '/opt/sim "${UQ_INPUTS}"; VAR=1 ./b'),
     ('echo \\"{inputs}\\"', 'echo \\""${UQ_INPUTS}"\\"'),
+    # a here-document expands variables, and shows quotes as they are
+    ("sim <<EOF\nin {inputs}\nout '{outputs}'\nEOF\necho {batch}",
+     "sim <<EOF\nin ${UQ_INPUTS}\nout '${UQ_OUTPUTS}'\nEOF\necho \"${UQ_BATCH}\""),
+    ("sim <<-'EOF' {inputs}\n\t$x\n\tEOF\n", "sim <<-'EOF' \"${UQ_INPUTS}\"\n\t$x\n\tEOF\n"),
 ])
 def test_a_shell_template_refers_to_variables_quoted_for_where_they_stand(template, script):
     assert shell_script(template) == script
@@ -357,6 +361,15 @@ def test_with_shell_true_a_path_holding_code_is_text_however_the_template_quotes
                f'&& echo ok > {quoting.format(x="{workdir}").replace("cat ", "cat ")}/../seen')
     if "$(cat" in quoting:  # a substitution's own quotes: its output is the file's text
         command = f'test -n {quoting.format(x="{inputs}")} && {WRITE_Y}'
+    run = uqguide.run(_config(command, work, n=2, batch=2, shell=True)).run("mc")
+    assert run.n_failed == 0, run.reasons
+    assert not list(tmp_path.rglob("PWNED*")) and not list(Path.cwd().glob("PWNED*"))
+
+
+def test_with_shell_true_a_here_document_gets_a_path_holding_code_as_text(tmp_path):
+    work = tmp_path / "w$(touch PWNED)`touch PWNED2`"
+    command = ("read -r f <<EOF\n{inputs}\nEOF\n"
+               f'test -f "$f" && {WRITE_Y.replace(chr(36) + "UQ_INPUTS", chr(36) + "f")}')
     run = uqguide.run(_config(command, work, n=2, batch=2, shell=True)).run("mc")
     assert run.n_failed == 0, run.reasons
     assert not list(tmp_path.rglob("PWNED*")) and not list(Path.cwd().glob("PWNED*"))
@@ -379,6 +392,12 @@ def test_with_shell_true_a_relative_program_is_found_beside_the_config(tmp_path,
     with pytest.raises(ConfigError, match=r"model\.command: program './nosim\.sh': no "
                                           r"executable file"):
         uqguide.load_config(write_config(_config("./nosim.sh && true", "w", shell=True)))
+
+
+def test_a_placeholder_in_a_here_document_the_shell_does_not_expand_is_refused(tmp_path):
+    with pytest.raises(ConfigError, match=r"model\.command: placeholder \{inputs\} in a "
+                                          r"here-document whose delimiter is quoted \('EOF'\)"):
+        uqguide.load_config(_config("cat <<'EOF'\n{inputs}\nEOF", tmp_path, shell=True))
 
 
 def test_the_variables_uqguide_sets_cannot_be_set_by_env(tmp_path):

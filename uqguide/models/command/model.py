@@ -168,6 +168,11 @@ class CommandParams(ConfigDirParams):
     def _consistent(self) -> CommandParams:
         if self.nominal is not None and len(self.nominal) != len(self.inputs):
             raise ValueError(f"nominal must have {len(self.inputs)} values, one per input")
+        if self.shell:
+            try:
+                process.shell_script(self.command)
+            except ValueError as exc:
+                self._refuse("command", str(exc))
         self._check_program()
         return self
 

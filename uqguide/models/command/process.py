@@ -46,6 +46,8 @@ ENV_NAMES = {p: f"UQ_{p.upper()}" for p in PLACEHOLDERS}
 #: A first word that is a path (``./mysim``, ``bin/mysim``, ``/opt/mysim``): the program of a
 #: ``shell: true`` template, found as without a shell.
 _PATH_WORD = re.compile(r"\s*([\w.+@%:,/-]*/[\w.+@%:,/-]*)(?=[\s;&|<>)]|$)")
+#: A here-document's operator and delimiter: ``<<EOF``, ``<<-EOF``, ``<<'EOF'``, ``<<\EOF``.
+_HEREDOC = re.compile(r"<<(-?)[ \t]*(?:'([^'\n]*)'|\"([^\"\n]*)\"|(\\?[^\s;&|<>()'\"]+))")
 
 
 class CommandFailed(RuntimeError):
@@ -136,9 +138,10 @@ def shell_script(template: str) -> str:
 
     Each placeholder becomes its environment variable (:data:`ENV_NAMES`): ``"${UQ_INPUTS}"``
     where it stands unquoted (one word, never split or globbed), ``${UQ_INPUTS}`` inside double
-    quotes, and ``'"${UQ_INPUTS}"'`` inside single quotes (closed, the value, reopened). No value
-    is spliced into the script, so a ``$(...)``, a backquote or a quote in a path is text. A
-    relative first word (``./mysim``) is prefixed with the config's folder, as without a shell.
+    quotes and in a here-document, and ``'"${UQ_INPUTS}"'`` inside single quotes (closed, the
+    value, reopened). No value is spliced into the script, so a ``$(...)``, a backquote or a
+    quote in a path is text. A relative first word (``./mysim``) is prefixed with the config's
+    folder, as without a shell.
 
     Parameters
     ----------
@@ -148,6 +151,12 @@ def shell_script(template: str) -> str:
     Returns
     -------
     str
+
+    Raises
+    ------
+    ValueError
+        A placeholder in a here-document whose delimiter is quoted (``<<'EOF'``), where the
+        shell expands nothing.
     """
     program = shell_program(template)
     if program is not None and not program.startswith("/"):
@@ -155,6 +164,7 @@ def shell_script(template: str) -> str:
     out: list[str] = []
     # contexts: U unquoted, D "...", P $(...), G (...), B `...` (P, G, B are unquoted inside)
     stack, i, n = ["U"], 0, len(template)
+    heredocs: list[tuple[bool, str, bool]] = []  # (strip tabs, delimiter, quoted) to come
     while i < n:
         top, c = stack[-1], template[i]
         m = _PLACEHOLDER.match(template, i)
@@ -163,9 +173,17 @@ def shell_script(template: str) -> str:
             out.append(f"${{{var}}}" if top == "D" else f'"${{{var}}}"')
             i = m.end()
             continue
-        step = 1
-        if c == "\\":
+        h = _HEREDOC.match(template, i) if top != "D" else None
+        step = len(h.group(0)) if h else 1
+        if h:
+            heredocs.append(_heredoc(h))
+        elif c == "\\":
             step = 2
+        elif c == "\n" and heredocs and top != "D":
+            out.append(c)
+            i = _heredoc_bodies(template, i + 1, heredocs, out)
+            heredocs = []
+            continue
         elif c == "'" and top != "D":
             end = template.find("'", i + 1)
             end = n - 1 if end < 0 else end
@@ -188,6 +206,37 @@ def shell_script(template: str) -> str:
         out.append(template[i:i + step])
         i += step
     return "".join(out)
+
+
+def _heredoc(m: re.Match[str]) -> tuple[bool, str, bool]:
+    """A matched here-document operator: (tabs stripped, delimiter, quoted)."""
+    strip, single, double, word = m.groups()
+    if word is None:
+        return strip == "-", single if single is not None else double, True
+    return strip == "-", word.lstrip("\\"), word.startswith("\\")
+
+
+def _heredoc_bodies(template: str, i: int, heredocs: list[tuple[bool, str, bool]],
+                    out: list[str]) -> int:
+    """Copy the bodies of ``heredocs`` starting at ``template[i]`` to ``out``, each placeholder
+    as ``${UQ_...}`` (expanded there, never read as code); returns where they end."""
+    for strip, delimiter, quoted in heredocs:
+        while i < len(template):
+            end = template.find("\n", i)
+            end = len(template) if end < 0 else end + 1
+            line = template[i:end]
+            i = end
+            if (line.rstrip("\n").lstrip("\t") if strip else line.rstrip("\n")) == delimiter:
+                out.append(line)
+                break
+            m = _PLACEHOLDER.search(line)
+            if quoted and m and m.group(1) in ENV_NAMES:
+                raise ValueError(f"placeholder {m.group(0)} in a here-document whose delimiter "
+                                 f"is quoted ({delimiter!r}): the shell expands nothing there; "
+                                 f"leave the delimiter unquoted")
+            out.append(_PLACEHOLDER.sub(lambda m: f"${{{ENV_NAMES[m.group(1)]}}}" if m.group(1)
+                                        in ENV_NAMES else m.group(0), line))
+    return i
 
 
 def argv(template: str, values: Mapping[str, str], shell: bool) -> list[str] | str:
