@@ -310,7 +310,14 @@ def replay(result: Result, label: str, *, run_code: bool = False,
     i, why = choose_sample(result, cfg, run, **choice)
     model = cfg.model
     every = [o.name for o in model.outputs()]
-    out = model.evaluate(run.x[i:i + 1], list(cfg.space.names), every)
+    try:
+        out = model.evaluate(run.x[i:i + 1], list(cfg.space.names), every)
+    except UqguideError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the model's own failure: one line, no traceback
+        before = f"; in the run it failed too: {run.reasons[i]}" if run.failed[i] else ""
+        raise UqguideError(f"sample {i} of '{label}' could not be run again: "
+                           f"{type(exc).__name__}: {exc}{before}") from None
     return Replay(label, i, why, model.full_values(run.x[i], cfg.space.names),
                   {k: v[i] for k, v in run.scalars.items()}, out,
                   bool(run.failed[i])), cfg

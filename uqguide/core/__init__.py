@@ -6,5 +6,6 @@
 - ``failures``: failed runs tallied by reason;
 - ``strict``: booleans are not numbers in a config;
 - ``atomic``: files that are complete or absent;
-- ``process_groups``: external programs a process waits for, ended with it.
+- ``process_groups``: external programs a process runs, and all they start, ended with them;
+- ``descendants``: this process's descendants in Linux's ``/proc``, and the subreaper switch.
 """

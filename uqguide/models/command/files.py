@@ -15,24 +15,48 @@ HDF5
 
 A file that breaks the format is a :class:`~uqguide.errors.ModelError` naming the file, the line
 (and the sample it holds) and the column: the program is wrong, not a sample, so the run stops
-rather than fail every sample the same way.
+rather than fail every sample the same way. A file that is not a regular file (a FIFO would
+block the reader for ever), or larger than the batch can need (:data:`CELL_BYTES`, derived in
+``docs/your-simulator.md``), fails the call like a crash, before it is read.
 """
 
 from __future__ import annotations
 
 import csv
+import io
+import os
 import re
-from collections.abc import Iterable, Sequence
+import stat
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from functools import partial
+from itertools import islice, repeat
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ...errors import ModelError
+from .process import CommandFailed, Deadline
 
 #: Reason of a sample the program flagged with ``failed = 1`` and no ``reason``.
 FLAGGED = "the command marked it failed"
 NON_FINITE = "non-finite output value"
+
+#: Bytes a cell of an outputs file may take: a double in full precision is at most 24
+#: characters (``%.17g``, ``repr``; 26 in a Fortran ``ES26.17E3`` field), with its separator
+#: 25-27; 64 leaves room for padding (derivation and figures: ``docs/your-simulator.md``).
+CELL_BYTES = 64
+#: Bytes a sample's row may take beyond its cells: its ``reason`` text, CR LF.
+ROW_BYTES = 4096
+#: Bytes the header line of an outputs CSV file may take: 5000 names of 200 characters.
+HEADER_BYTES = 1 << 20
+#: Time points a series may have (a 1 kHz series of 17 minutes), in either format; its CSV
+#: grid line may take ``GRID_POINTS * CELL_BYTES`` bytes.
+GRID_POINTS = 1 << 20
+#: Bytes an HDF5 outputs file may take beyond its datasets' values: superblock, object
+#: headers and indexes (a few kB per dataset).
+HDF5_BYTES = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -122,7 +146,8 @@ def write_inputs(path: Path, names: Sequence[str], x: np.ndarray, fmt: str) -> N
 
 
 # ---------------------------------------------------------------------------- outputs
-def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str) -> ReadOutputs:
+def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str,
+                 deadline: Deadline | None = None) -> ReadOutputs:
     """Read a batch's outputs written by the program.
 
     Parameters
@@ -134,6 +159,8 @@ def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str) -> R
     n : int
         Samples of the batch.
     fmt : {"csv", "hdf5"}
+    deadline : Deadline, optional
+        When the call must be over (reading included).
 
     Returns
     -------
@@ -142,17 +169,26 @@ def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str) -> R
     Raises
     ------
     ModelError
-        A missing file, a short one, a missing column, a cell that is not a number: naming the
-        file, the line and the column.
+        A missing file, a short one, a missing or repeated column, a cell that is not a
+        number: naming the file, the line and the column.
+    CommandFailed
+        A file that is not a regular file, or larger than the batch can need, or not read by
+        the deadline: the call fails (and its batch is split) as if the program had crashed.
     """
-    if fmt == "hdf5":
-        return _read_hdf5(path, specs, n)
+    got = _read_hdf5(path, specs, n) if fmt == "hdf5" else _read_csv(path, specs, n, deadline)
+    if deadline is not None:
+        deadline.check(f"reading {path.name}")
+    return got
+
+
+def _read_csv(path: Path, specs: Sequence[OutputSpec], n: int, deadline: Deadline | None
+              ) -> ReadOutputs:
     scalar_specs = [s for s in specs if s.kind == "scalar"]
     flagged = np.zeros(n, dtype=bool)
     reasons = np.full(n, "", dtype=object)
     scalars: dict[str, np.ndarray] = {}
-    if scalar_specs or path.exists():
-        table, flagged, reasons = _read_scalar_csv(path, scalar_specs, n)
+    if scalar_specs or os.path.lexists(path):
+        table, flagged, reasons = _read_scalar_csv(path, scalar_specs, n, deadline)
         scalars = {s.name: table[s.name] for s in scalar_specs}
     series: dict[str, np.ndarray] = {}
     time: np.ndarray | None = None
@@ -162,7 +198,7 @@ def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str) -> R
             continue
         parts = []
         for f in series_files(path, s):
-            t, values = _read_series_csv(f, n, flagged)
+            t, values = _read_series_csv(f, n, flagged, deadline)
             if time is None:
                 time, grid_file = t, f
             elif t.shape != time.shape or not np.array_equal(t, time):
@@ -174,15 +210,103 @@ def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str) -> R
                        series=series, flagged=flagged, reasons=reasons)
 
 
-def _open_csv(path: Path) -> list[list[str]]:
+def _refuse_special(path: Path, mode: int) -> None:
+    if not stat.S_ISREG(mode):
+        kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a folder" if
+                stat.S_ISDIR(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+                if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "not a regular file")
+        raise CommandFailed(f"{path}: the program left {kind} here, not a regular file of its "
+                            f"outputs (refused unread: it could block for ever or never end)")
+
+
+def _open_regular(path: Path) -> int:
+    """A descriptor of the program's file ``path``, opened without blocking (a FIFO's open
+    waits for a writer) and refused unless it is a regular file."""
     try:
-        with path.open(newline="", encoding="utf-8") as f:
-            return [row for row in csv.reader(f)]
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) |
+                     getattr(os, "O_CLOEXEC", 0))
     except FileNotFoundError:
         raise ModelError(f"{path}: the command exited with status 0 but did not write this "
                          f"file") from None
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise ModelError(f"{path}: cannot be read as CSV ({exc})") from None
+    except OSError as exc:
+        raise ModelError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        _refuse_special(path, os.fstat(fd).st_mode)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def _too_large(path: Path, size: int, limit: int, why: str) -> CommandFailed:
+    return CommandFailed(f"{path}: {size:,} bytes, more than the {limit:,} a batch can need "
+                         f"({why}); refused unread")
+
+
+class _OutputsFile:
+    """One outputs CSV file of the program, opened without blocking and refused unless it is a
+    regular file; its first line read with a bound, then the rest, once the first line has
+    said how wide the rows are and the file's size has been checked against what they can
+    need (:meth:`rows`)."""
+
+    def __init__(self, path: Path, deadline: Deadline | None) -> None:
+        self.path, self.deadline = path, deadline
+        fd = _open_regular(path)
+        self.size = os.fstat(fd).st_size
+        # utf-8-sig: a byte-order mark (Excel's "CSV UTF-8") is read as CSV readers do
+        self._f = io.open(fd, "r", encoding="utf-8-sig", newline="")
+        self._first = 0
+
+    def __enter__(self) -> _OutputsFile:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self._f.close()
+
+    def _read(self, size: int) -> str:
+        try:
+            return self._f.readline(size) if not self._first else self._f.read(size)
+        except UnicodeDecodeError as exc:
+            raise ModelError(f"{self.path}: not UTF-8 text ({exc.reason})") from None
+        except OSError as exc:
+            raise ModelError(f"{self.path}: cannot be read ({exc.strerror or exc})") from None
+
+    def first_line(self, limit: int, what: str) -> str:
+        """Line 1 (``what`` it holds), of at most ``limit`` characters."""
+        text = self._read(limit + 1)
+        if len(text) > limit:
+            raise CommandFailed(f"{self.path}: line 1 is longer than the {limit:,} characters "
+                                f"{what} may take; refused")
+        self._first = max(1, len(text))
+        return text
+
+    def rows(self, n: int, width: int, first: str) -> Iterator[list[str]]:
+        """The CSV rows after line 1, which is ``first`` and says that ``n`` rows of ``width``
+        cells follow: the file may not be larger than they can take (refused unread), a line
+        not longer, and no line may hold many more cells (refused before it is parsed)."""
+        line = width * CELL_BYTES + ROW_BYTES
+        limit = self._first + n * line
+        if self.size > limit:
+            raise _too_large(self.path, self.size, limit,
+                             f"{first}, then {n} row(s) of {width} cell(s) at {CELL_BYTES} "
+                             f"bytes a cell and {ROW_BYTES} a row")
+        text = self._read(limit - self._first + 1)
+        if self._first + len(text) > limit:  # it grew since
+            raise _too_large(self.path, self._first + len(text), limit, "while it was read")
+        lines = partial(io.StringIO, text, newline="")  # each pass one line at a time, in C
+        commas = 2 * width + ROW_BYTES  # a row's commas, and those of a quoted reason
+        if text and (max(map(len, lines())) > line or
+                     max(map(str.count, lines(), repeat(","))) >= commas):
+            for k, ln in enumerate(lines(), start=2):
+                if len(ln) > line:
+                    raise CommandFailed(f"{self.path}: line {k} is longer than the {line:,} "
+                                        f"characters a row of {width} cells may take; refused")
+                if ln.count(",") >= commas:
+                    raise ModelError(f"{self.path}: line {k}: {ln.count(',') + 1:,} cells or "
+                                     f"more, line 1 has {width}")
+        if self.deadline is not None:
+            self.deadline.check(f"reading {self.path.name}")
+        return csv.reader(lines())
 
 
 def _number(cell: str, path: Path, line: int, sample: int, col: int, name: str) -> float:
@@ -193,20 +317,58 @@ def _number(cell: str, path: Path, line: int, sample: int, col: int, name: str) 
                          f"{cell!r} is not a number") from None
 
 
-def _sample_rows(rows: list[list[str]], path: Path, n: int, first_line: int) -> list[list[str]]:
-    """The ``n`` sample rows after the first line (empty trailing lines dropped; a line of
-    empty cells is a row: a failed sample's)."""
-    body = rows[1:]
-    while body and not body[-1]:
-        body.pop()
-    if len(body) != n:
-        if len(body) < n:
-            raise ModelError(f"{path}: {len(body)} sample rows, expected {n} (one per sample, "
-                             f"in order): line {first_line + len(body) + 1} (sample "
-                             f"{len(body)}) is missing")
-        raise ModelError(f"{path}: {len(body)} sample rows, expected {n} (one per sample, in "
-                         f"order): line {first_line + n + 1} is one too many")
-    return body
+def _take(reader: Any, k: int, path: Path) -> list[list[str]]:
+    """The next ``k`` rows of the CSV ``reader`` (fewer at its end), parsed in C."""
+    try:
+        return list(islice(reader, k))
+    except csv.Error as exc:
+        raise ModelError(f"{path}: line {reader.line_num + 1}: cannot be read as CSV "
+                         f"({exc})") from None
+
+
+def _next_row(reader: Any, path: Path) -> tuple[int, list[str] | None]:
+    """The next row that is not an empty line, and how many empty lines came before it."""
+    blank = 0
+    while row := _take(reader, 1, path):
+        if row[0]:
+            return blank, row[0]
+        blank += 1
+    return blank, None
+
+
+def _sample_rows(reader: Any, path: Path, n: int, width: int, what: str, block: int
+                 ) -> Iterator[tuple[int, list[list[str]]]]:
+    """The ``n`` sample rows after line 1 of the CSV ``reader``, each of ``width`` cells
+    (``what`` has that many), in blocks of at most ``block`` rows (with the index of each
+    block's first); empty trailing lines are dropped, a line of empty cells is a row (a failed
+    sample's). A row too many stops the reading: the rest is only counted."""
+    i = 0
+    while i < n:
+        rows = _take(reader, min(block, n - i), path)
+        for j, r in enumerate(rows if set(map(len, rows)) - {width} else ()):
+            if len(r) == width:
+                continue
+            if not r and not any(rows[j:]) and _next_row(reader, path)[1] is None:
+                rows = rows[:j]  # empty lines to the end: the file is short
+                break
+            missing = f": column {len(r) + 1} is missing" if len(r) < width else ""
+            raise ModelError(f"{path}: line {i + j + 2} (sample {i + j}): {len(r)} cells, "
+                             f"{what} has {width}{missing}")
+        if rows:
+            yield i, rows
+        if not rows or i + len(rows) < min(i + block, n):
+            i += len(rows)
+            raise ModelError(f"{path}: {i} sample rows, expected {n} (one per sample, in "
+                             f"order): line {i + 2} (sample {i}) is missing")
+        i += len(rows)
+    blank, extra = _next_row(reader, path)
+    if extra is not None:
+        more = n + blank + 1
+        while extra is not None:
+            blank, extra = _next_row(reader, path)
+            more += (blank + 1) if extra is not None else 0
+        raise ModelError(f"{path}: {more} sample rows, expected {n} (one per sample, in "
+                         f"order): line {n + 2} is one too many")
 
 
 def _column(body: list[list[str]], j: int, flagged: np.ndarray, path: Path, name: str
@@ -226,14 +388,6 @@ def _column(body: list[list[str]], j: int, flagged: np.ndarray, path: Path, name
     return out
 
 
-def _check_widths(body: list[list[str]], width: int, path: Path, what: str) -> None:
-    for i, row in enumerate(body):
-        if len(row) != width:
-            missing = f": column {len(row) + 1} is missing" if len(row) < width else ""
-            raise ModelError(f"{path}: line {i + 2} (sample {i}): {len(row)} cells, {what} "
-                             f"has {width}{missing}")
-
-
 def _declared(columns: Iterable[str]) -> list[str]:
     """The ``outputs`` entries that declare a header's columns: ``y`` for ``y``, ``{name: y,
     components: k}`` for ``y[0] .. y[k-1]``, in the header's order."""
@@ -245,25 +399,43 @@ def _declared(columns: Iterable[str]) -> list[str]:
     return [f"{{name: {nm}, components: {k}}}" if k else nm for nm, k in counts.items()]
 
 
-def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int
-                     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
-    rows = _open_csv(path)
-    if not rows:
+def _header(path: Path, f: _OutputsFile, specs: Sequence[OutputSpec]) -> list[str]:
+    """The header's column names, each once, holding every column of ``specs``."""
+    text = f.first_line(HEADER_BYTES, "a header")
+    if not text.strip("\r\n"):
         raise ModelError(f"{path}: line 1: the file is empty; expected a header naming the "
                          f"columns {', '.join(c for s in specs for c in scalar_columns(s))}")
-    header = [h.strip() for h in rows[0]]
-    where = {h: j for j, h in enumerate(header)}
+    try:
+        header = [h.strip() for h in next(csv.reader([text]))]
+    except csv.Error as exc:
+        raise ModelError(f"{path}: line 1: cannot be read as CSV ({exc})") from None
+    seen: dict[str, int] = {}
+    for j, h in enumerate(header):
+        if h and h in seen:
+            raise ModelError(f"{path}: line 1: column {j + 1} '{h}' repeats column "
+                             f"{seen[h] + 1}; each column is named once")
+        seen[h] = j
     for s in specs:
         for c in scalar_columns(s):
-            if c not in where:
+            if c not in seen:
                 others = _declared(h for h in header if h and h not in ("failed", "reason"))
                 hint = (f"; the model's 'outputs' lists what the program writes (default "
                         f"[y]): for this header, outputs: [{', '.join(others)}]"
                         if others else "")
                 raise ModelError(f"{path}: line 1: no column '{c}' in the header "
                                  f"{','.join(header)!r}{hint}")
-    body = _sample_rows(rows, path, n, 1)
-    _check_widths(body, len(header), path, "the header")
+    return header
+
+
+def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int,
+                     deadline: Deadline | None
+                     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    with _OutputsFile(path, deadline) as f:
+        header = _header(path, f, specs)
+        blocks = list(_sample_rows(f.rows(n, len(header), "a header"), path, n, len(header),
+                                   "the header", max(1, n)))  # one block: all n rows
+        body = blocks[0][1] if blocks else []
+    where = {h: j for j, h in enumerate(header)}
     flagged = np.zeros(n, dtype=bool)
     reasons = np.full(n, "", dtype=object)
     fcol, rcol = where.get("failed"), where.get("reason")
@@ -282,75 +454,126 @@ def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int
     return table, flagged, reasons
 
 
-def _read_series_csv(path: Path, n: int, flagged: np.ndarray
-                     ) -> tuple[np.ndarray, np.ndarray]:
-    rows = _open_csv(path)
-    if not rows:
+def _grid(path: Path, f: _OutputsFile) -> np.ndarray:
+    """The time grid on line 1 of a series file: finite, non-decreasing, at most
+    :data:`GRID_POINTS`."""
+    text = f.first_line(GRID_POINTS * CELL_BYTES, "a time grid")
+    if not text.strip("\r\n"):
         raise ModelError(f"{path}: line 1: the file is empty; expected the time grid, then "
                          f"one row per sample")
-    t = np.array([_number(c.strip(), path, 1, -1, j + 1, "time") for j, c in enumerate(rows[0])])
+    if text.count(",") >= GRID_POINTS:
+        raise CommandFailed(f"{path}: line 1: a time grid of {text.count(',') + 1:,} points, "
+                            f"more than the {GRID_POINTS:,} a series may have; refused")
+    cells = next(csv.reader([text]))
+    t = np.array([_number(c.strip(), path, 1, -1, j + 1, "time") for j, c in enumerate(cells)])
     if t.size > 1 and not (np.all(np.isfinite(t)) and np.all(np.diff(t) >= 0)):
         raise ModelError(f"{path}: line 1: the time grid must be finite and non-decreasing")
-    body = _sample_rows(rows, path, n, 1)
-    _check_widths(body, t.size, path, "the time grid on line 1")
+    return t
+
+
+def _series_rows(rows: list[list[str]], first: int, t: np.ndarray, flagged: np.ndarray,
+                 path: Path) -> np.ndarray:
+    """Rows ``first, first + 1, ...`` of a series file as floats; a flagged sample's empty
+    cell is NaN."""
     try:
-        return t, np.array(body, dtype=float).reshape(n, t.size)
+        return np.array(rows, dtype=float).reshape(len(rows), t.size)
     except ValueError:
         pass
-    values = np.column_stack([_column(body, j, flagged, path, f"t={t[j]:g}")
-                              for j in range(t.size)]) if t.size else np.empty((n, 0))
-    return t, values.reshape(n, t.size)
+    return np.array([[np.nan if flagged[i] and not c.strip() else
+                      _number(c.strip(), path, i + 2, i, j + 1, f"t={t[j]:g}")
+                      for j, c in enumerate(row)]
+                     for i, row in enumerate(rows, start=first)]).reshape(len(rows), t.size)
+
+
+def _read_series_csv(path: Path, n: int, flagged: np.ndarray, deadline: Deadline | None
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    with _OutputsFile(path, deadline) as f:
+        t = _grid(path, f)
+        values = np.empty((n, t.size))
+        # blocks of about a million cells: the rows' text is never held whole as strings
+        block = max(1, (1 << 20) // max(1, t.size))
+        for i, rows in _sample_rows(f.rows(n, t.size, "a time grid"), path, n, t.size,
+                                    "the time grid on line 1", block):
+            values[i:i + len(rows)] = _series_rows(rows, i, t, flagged, path)
+    return t, values
+
+
+def _dataset(f: Any, name: str, path: Path) -> Any:
+    """The dataset ``name`` of the open HDF5 file ``f``, not yet read."""
+    import h5py
+
+    if name not in f:
+        raise ModelError(f"{path}: no dataset '{name}' (it has: {', '.join(sorted(f)) or 'none'})")
+    ds = f[name]
+    if not isinstance(ds, h5py.Dataset):
+        raise ModelError(f"{path}: '{name}' is a group, not a dataset")
+    return ds
+
+
+def _claims(path: Path, f: Any, specs: Sequence[OutputSpec], n: int) -> int:
+    """Check every dataset that will be read against the shape the batch needs, before any
+    is read (a chunked dataset can claim terabytes in a file of kilobytes); returns the
+    number of time points."""
+    T = 0
+    if any(s.kind == "series" for s in specs):
+        T = _dataset(f, "time", path).size
+        if T > GRID_POINTS:
+            raise CommandFailed(f"{path}: dataset 'time' has {T:,} points, more than the "
+                                f"{GRID_POINTS:,} a series may have; refused unread")
+    for name in ("failed", "reason"):
+        if name in f and _dataset(f, name, path).size != n:
+            ds = f[name]
+            raise ModelError(f"{path}: dataset '{name}' must be ({n},), got shape {ds.shape}")
+    if "reason" in f and f["reason"].dtype.itemsize > ROW_BYTES:
+        raise ModelError(f"{path}: dataset 'reason' holds strings of "
+                         f"{f['reason'].dtype.itemsize:,} bytes; at most {ROW_BYTES} allowed")
+    for s in specs:
+        ds = _dataset(f, s.name, path)
+        if ds.dtype.kind not in "fiu":
+            raise ModelError(f"{path}: dataset '{s.name}' is {ds.dtype}, not numbers")
+        shape = (n, T, s.components) if s.kind == "series" else (n, s.components)
+        drop = 2 if s.kind == "series" else 1
+        if ds.shape != shape and not (ds.shape == shape[:drop] and s.components == 1):
+            raise ModelError(f"{path}: dataset '{s.name}' has shape {ds.shape}, expected "
+                             f"{shape} (samples{', time' if drop == 2 else ''}, components)")
+    return T
 
 
 def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ReadOutputs:
     import h5py
 
-    if not path.exists():
-        raise ModelError(f"{path}: the command exited with status 0 but did not write this "
-                         f"file")
+    os.close(_open_regular(path))
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
         raise ModelError(f"{path}: cannot be read as HDF5 ({exc})") from None
     with f:
-        def dataset(name: str) -> np.ndarray:
-            if name not in f:
-                raise ModelError(f"{path}: no dataset '{name}' (it has: "
-                                 f"{', '.join(sorted(f)) or 'none'})")
-            return np.asarray(f[name][()])
-
+        T = _claims(path, f, specs, n)
+        values = sum(n * (T if s.kind == "series" else 1) * s.components for s in specs) + T
+        limit = HDF5_BYTES + values * CELL_BYTES + n * ROW_BYTES
+        size = os.path.getsize(path)
+        if size > limit:
+            raise _too_large(path, size, limit, f"{values:,} values at {CELL_BYTES} bytes, "
+                             f"{ROW_BYTES} a row and {HDF5_BYTES:,} for the file's own records")
         time = np.zeros(0)
-        if any(s.kind == "series" for s in specs):
-            time = np.asarray(dataset("time"), dtype=float).reshape(-1)
+        if T:
+            time = np.asarray(f["time"][()], dtype=float).reshape(-1)
         flagged = np.zeros(n, dtype=bool)
         reasons = np.full(n, "", dtype=object)
         if "failed" in f:
-            raw = dataset("failed").reshape(-1)
-            if raw.shape != (n,) or not np.isin(raw, (0, 1)).all():
-                raise ModelError(f"{path}: dataset 'failed' must be ({n},) of 0/1, got "
-                                 f"shape {raw.shape}")
+            raw = np.asarray(f["failed"][()]).reshape(-1)
+            if not np.isin(raw, (0, 1)).all():
+                raise ModelError(f"{path}: dataset 'failed' must be ({n},) of 0/1")
             flagged = raw.astype(bool)
             given = ([r.decode() if isinstance(r, bytes) else str(r)
-                      for r in dataset("reason").reshape(-1)] if "reason" in f else [""] * n)
-            if len(given) != n:
-                raise ModelError(f"{path}: dataset 'reason' has {len(given)} rows, expected "
-                                 f"{n}")
+                      for r in np.asarray(f["reason"][()]).reshape(-1)] if "reason" in f
+                     else [""] * n)
             reasons[flagged] = [given[i].strip() or FLAGGED for i in np.flatnonzero(flagged)]
         scalars: dict[str, np.ndarray] = {}
         series: dict[str, np.ndarray] = {}
         for s in specs:
-            a = dataset(s.name)
-            if a.dtype.kind not in "fiu":
-                raise ModelError(f"{path}: dataset '{s.name}' is {a.dtype}, not numbers")
-            a = a.astype(float)
-            shape = (n, time.size, s.components) if s.kind == "series" else (n, s.components)
-            drop = 2 if s.kind == "series" else 1
-            if a.shape == shape[:drop] and s.components == 1:
-                a = a.reshape(shape)
-            if a.shape != shape:
-                raise ModelError(f"{path}: dataset '{s.name}' has shape {a.shape}, expected "
-                                 f"{shape} (samples{', time' if drop == 2 else ''}, "
-                                 f"components)")
-            (series if s.kind == "series" else scalars)[s.name] = a
+            a = np.asarray(f[s.name][()]).astype(float)
+            shape = (n, T, s.components) if s.kind == "series" else (n, s.components)
+            (series if s.kind == "series" else scalars)[s.name] = a.reshape(shape)
     return ReadOutputs(time=time, scalars=scalars, series=series, flagged=flagged,
                        reasons=reasons)

@@ -7,7 +7,7 @@ Config::
       command: "./mysim {inputs} {outputs}"   # split like a shell would, run without one
       inputs: [a, b]                 # the columns of the inputs file, in order
       outputs: [y, {name: path, kind: series}]
-      timeout_s: 60                  # per call; kills the program's whole process group
+      timeout_s: 60                  # per call, reading included; then all it started dies
       env: {OMP_NUM_THREADS: 1}
       per_sample: false              # true: one process per sample
 
@@ -19,18 +19,21 @@ the call succeeds. The file formats are in :mod:`.files`; running the program in
 Failures, from the sample's to the program's:
 
 - a sample whose outputs are not finite, or whose ``failed`` column is 1, fails with its reason;
-- a non-zero exit (or a signal, or ``timeout_s``) fails the call: it raises
+- a non-zero exit (or a signal, or ``timeout_s``, or an outputs file that is not a regular
+  file or is larger than the batch can need) fails the call: it raises
   :class:`~.process.CommandFailed`, and the engine splits the batch until the failing samples
   are alone (with ``per_sample`` the sample just fails). The work folder is kept and named in
   the reason;
-- an outputs file that breaks the format (missing, short, a cell that is not a number) is a
-  :class:`~uqguide.errors.ModelError` naming the file, line and column: the run stops, the work
-  folder is kept.
+- an outputs file that breaks the format (missing, short, a repeated column, a cell that is not
+  a number) is a :class:`~uqguide.errors.ModelError` naming the file, line and column: the run
+  stops, the work folder is kept.
+
+No process the program started outlives its call (:mod:`uqguide.core.process_groups`).
 
 Trust: the command runs in the user's account with the user's rights, like a ``callable``
 model's function; uqguide adds no sandbox. What it does guarantee is that the run's data never
-reaches a shell: input names are plain names, values only go into files, and without
-``shell: true`` the arguments are passed to the program as they are.
+reaches a shell: input names are plain names, values only go into files, and the paths a call
+fills in are arguments (or, with ``shell: true``, environment variables), never shell text.
 """
 
 from __future__ import annotations
@@ -49,15 +52,19 @@ from pydantic import Field, ValidationError, field_validator, model_validator
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from ...core.names import PLAIN_NAME_RULE, is_plain_name
+from ...core.process_groups import MARK
 from ...errors import ModelError
 from ..base import ModelOutput
 from ..config_dir import ConfigDirParams
 from ..callable import CallableOutput, DeclaredModel, check_output_names
 from . import process
 from .files import NON_FINITE, OutputSpec, read_outputs, write_inputs
-from .process import PLACEHOLDERS, CommandFailed
+from .process import PLACEHOLDERS, CommandFailed, Deadline
 
 _ENV_NAME = "letters, digits and '_', not starting with a digit"
+#: Variables each call's environment gets from uqguide, and what they hold.
+_RESERVED_ENV = {**{v: f"the value of {{{k}}}" for k, v in process.ENV_NAMES.items()},
+                 MARK: "the mark uqguide finds the call's processes by"}
 
 #: The conformance example: a Python program (stdlib only) reading inputs.csv and writing
 #: y = a + b^2 and the series path = y t on three times.
@@ -93,13 +100,15 @@ class CommandParams(ConfigDirParams):
     output_format: Literal["csv", "hdf5"] = Field(default="csv",
                                                   description="format of the outputs file(s)")
     timeout_s: float | None = Field(default=None, gt=0.0, le=1e6, description=(
-        "seconds a call may take before its whole process group is killed [s]"))
+        "seconds a call may take, reading its outputs included, before the program and every "
+        "process it started are killed [s]"))
     env: dict[str, str | int | float] = Field(
         default={}, description="environment variables set for the program")
     per_sample: bool = Field(default=False,
                              description="one process per sample (a one-row inputs file)")
     shell: bool = Field(default=False, description=(
-        "run the command through /bin/sh -c (placeholders are shell-quoted)"))
+        "run the command through /bin/sh -c; each placeholder becomes its environment "
+        "variable (\"$UQ_INPUTS\"...), never spliced text"))
     workdir: str | None = Field(default=None, description=(
         "folder under which each call's work folder is made (default: "
         "<tmp>/uqguide-command-<uid>; a relative path is taken from the config's folder)"))
@@ -150,20 +159,28 @@ class CommandParams(ConfigDirParams):
             if not (k and (k[0].isalpha() or k[0] == "_") and
                     all(c.isalnum() or c == "_" for c in k) and k.isascii()):
                 raise ValueError(f"environment variable name {k!r} must be {_ENV_NAME}")
+            if k in _RESERVED_ENV:
+                raise ValueError(f"environment variable {k} is set by uqguide for each call "
+                                 f"({_RESERVED_ENV[k]}); choose another name")
         return v
 
     @model_validator(mode="after")
     def _consistent(self) -> CommandParams:
         if self.nominal is not None and len(self.nominal) != len(self.inputs):
             raise ValueError(f"nominal must have {len(self.inputs)} values, one per input")
-        if not self.shell:
-            self._check_program()
+        if self.shell:
+            try:
+                process.shell_script(self.command)
+            except ValueError as exc:
+                self._refuse("command", str(exc))
+        self._check_program()
         return self
 
     def _check_program(self) -> None:
         """A program that cannot be found is a config error, not a run of failed samples."""
-        program = shlex.split(self.command)[0]
-        if "{" in program:
+        program = (process.shell_program(self.command) if self.shell else
+                   shlex.split(self.command)[0])
+        if program is None or "{" in program:
             return
         path = self.program_file()
         if "/" in program:
@@ -187,10 +204,14 @@ class CommandParams(ConfigDirParams):
         Returns
         -------
         Path or None
-            None with ``shell: true``, a program named by a placeholder, or one not found.
+            None for a program named by a placeholder, one not found, or with ``shell: true``
+            one not given by its path.
         """
+        if self.shell:
+            word = process.shell_program(self.command)
+            return None if word is None else Path(self.config_dir or ".", word)
         program = os.path.expanduser(shlex.split(self.command)[0])
-        if self.shell or "{" in program:
+        if "{" in program:
             return None
         if "/" in program:
             return Path(self.config_dir or ".", program)
@@ -281,12 +302,15 @@ class CommandModel(DeclaredModel):
         filled = {"inputs": str(inputs), "input_file": str(inputs), "outputs": str(outputs),
                   "output_file": str(outputs), "workdir": str(folder), "batch": batch,
                   "config_dir": p.config_dir or os.getcwd()}
-        process.run(process.argv(p.command, filled, p.shell), folder, p.environment(),
-                    p.timeout_s)
+        deadline = Deadline.start(p.timeout_s)  # for the program and the reading of its files
+        process.run(process.argv(p.command, filled, p.shell), folder,
+                    {**p.environment(), **process.environment(filled)}, deadline)
         try:
-            got = read_outputs(outputs, specs, x.shape[0], p.output_format)
+            got = read_outputs(outputs, specs, x.shape[0], p.output_format, deadline)
         except ModelError as exc:
             raise ModelError(f"{exc} (work folder kept: {folder})") from None
+        except CommandFailed as exc:
+            raise CommandFailed(f"{exc}; work folder kept: {folder}") from None
         bad = got.flagged.copy()
         reasons = got.reasons.copy()
         for a in got.scalars.values():
