@@ -14,7 +14,7 @@ import pytest
 
 from uqguide.config.run_config import validate_config
 from uqguide.errors import ConfigError
-from uqguide.methods.mc_reduce import MonteCarloReducer, split_summary
+from uqguide.methods.monte_carlo import MonteCarloReducer, split_summary
 from uqguide.models.base import ModelOutput
 from uqguide.models.benchmarks import Lognormal
 from uqguide.driver.propagate import run

@@ -184,7 +184,7 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
         if reduced and k_series and method.context.quantile_levels is not None:
             # exact quantiles keep every good run's series values (at every step while that
             # stays small, else at the report times and the last step), per chunk and joined
-            from ..methods.mc_reduce import QUANTILE_ALL_FLOATS
+            from ..methods.monte_carlo import QUANTILE_ALL_FLOATS
 
             steps = grid if n * grid * k_series <= QUANTILE_ALL_FLOATS else \
                 len(cfg.raw.report_times or ()) + 1

@@ -3,8 +3,8 @@
 - ``base``: the contract. A ``Method`` designs its runs and estimates statistics from them (and
   may refine its design); a ``StreamingMethod`` is estimated instead from chunks reduced where
   they ran and folded in chunk order;
-- ``monte_carlo`` (a streaming method), with ``mc_reduce`` (a chunk's sums, where it ran) and
-  ``mc_fold`` (the driver's merge of them);
+- ``monte_carlo`` (a streaming method): its design, a chunk's sums where it ran, the driver's
+  merge of them and the error budget;
 - ``pce_quadrature`` (``pce_tensor``, ``pce_smolyak``), ``pce_adaptive``, with
   ``pce_validated`` (the PCEs' shared step: keep, validate, correct, withdraw);
 - ``subset_simulation``: a rare event's probability;

@@ -69,9 +69,8 @@ from ..stats.mfmc_allocation import (
 )
 from ..stats.mfmc_estimator import mfmc_statistics
 from .base import Design, MethodSettings, Method, RunPlan
-from .mc_reduce import ci_index
 from .mfmc_levels import usable_rows, values
-from .monte_carlo import DesignChunks, method_seed
+from .monte_carlo import DesignChunks, ci_index, method_seed
 
 log = logging.getLogger(__name__)
 

@@ -1,6 +1,4 @@
-"""The chunk reduction of a Saltelli pick-freeze design, run where the chunk ran (kept apart
-from :mod:`uqguide.methods.sobol_saltelli` for the reason :mod:`.mc_reduce` is: a worker
-imports numpy and uqguide's statistics only).
+"""The chunk reduction of a Saltelli pick-freeze design, run where the chunk ran.
 
 A chunk is a block of ``b`` base rows with all of their runs, laid out block by block:
 ``A`` (``b`` rows), ``B`` (``b``), then ``A_B^u`` (``b``) for each of the ``m`` frozen sets.
@@ -17,7 +15,7 @@ import numpy as np
 
 from ..core.types import ModelOutput
 from ..stats.sobol_pick_freeze import PickFreezeSums
-from .mc_reduce import MonteCarloReducer, ci_index, poisson1
+from .monte_carlo import MonteCarloReducer, ci_index, poisson1
 
 #: Summary keys of the pick-freeze sums: ``"p:<field>:<output>"`` (the others are Monte
 #: Carlo's, of the ``A`` and ``B`` rows).

@@ -49,8 +49,9 @@ from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats
 from ..errors import ConfigError, MethodError
 from ..stats.sobol_pick_freeze import PickFreezeSums, pick_freeze_indices
 from .base import Design, MethodSettings, RunPlan, StreamingMethod
-from .mc_reduce import MonteCarloReducer, ci_index
-from .monte_carlo import MonteCarlo, MonteCarloSettings, method_seed, unit_chunk
+from .monte_carlo import (
+    MonteCarlo, MonteCarloReducer, MonteCarloSettings, ci_index, method_seed, unit_chunk,
+)
 from .saltelli_reduce import SaltelliReducer, split
 
 log = logging.getLogger(__name__)
