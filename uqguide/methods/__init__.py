@@ -8,11 +8,10 @@
 - ``pce_quadrature`` (``pce_tensor``, ``pce_smolyak``), ``pce_adaptive``, with
   ``pce_validated`` (the PCEs' shared step: keep, validate, correct, withdraw);
 - ``subset_simulation``: a rare event's probability;
-- ``sobol_saltelli`` (a streaming method), with ``saltelli_reduce``: first-order and total
-  Sobol' indices of a pick-freeze design, Monte Carlo moments of its ``A`` and ``B`` rows;
+- ``sobol_saltelli`` (a streaming method): first-order and total Sobol' indices of a
+  pick-freeze design, Monte Carlo moments of its ``A`` and ``B`` rows;
 - ``mfmc``: multi-fidelity Monte Carlo over fidelity levels of one model (run in phases by
-  :mod:`uqguide.driver.propagate_levels`), with ``mfmc_levels`` (the levels' outputs on the
-  highest level's grid).
+  :mod:`uqguide.driver.propagate_levels`).
 
 Each method is registered by name in ``uqguide.config.registry``.
 """
