@@ -31,8 +31,9 @@ event probabilities are known in closed form:
 - seeds: the same seed gives the same bits; a method with a random design
   (:attr:`Method.random_design`) gives another design for another seed;
 - workers: serial and a 2-process pool give the same bits;
-- streaming: a :class:`~uqguide.methods.base.StreamingMethod`'s ``estimate`` of outputs held in
-  memory gives the bits of its chunks reduced where they ran and folded by the driver;
+- streaming: a method that holds no runs (:attr:`Method.holds_runs`, a
+  :class:`~uqguide.methods.base.StreamingMethod`) gives from its ``estimate`` of outputs held
+  in memory the bits of its chunks reduced where they ran and folded by the driver;
 - resume: a run interrupted after its first chunk and resumed from its checkpoint gives the
   bits of an uninterrupted run;
 - given rows: a method that takes a data file's rows as its design (an empty
@@ -58,7 +59,7 @@ from .config.run_config import validate_config
 from .errors import ModelError
 from .driver.execution import ChunkJob, ChunkResult, Executor, ProcessExecutor, SerialExecutor, Task
 from .core.types import Estimate
-from .methods.base import GivenRows, Method, RunContext, StreamingMethod
+from .methods.base import GivenRows, Method, RunContext
 from .models.base import Model
 from .models.benchmarks import LinearGaussian
 from .driver.propagate import propagate
@@ -310,7 +311,7 @@ def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *
                        "a 2-process pool gave other numbers than this process")
         finally:
             pool.close()
-    if isinstance(method, StreamingMethod):
+    if not method.holds_runs:
         _check_streaming(method, model, space, outputs, seed, first, who)
     _check_resume(method, model, space, outputs, seed, first, who)
     if not cls.own_design:
@@ -398,7 +399,7 @@ def _same_estimates(a: Estimate, b: Estimate, who: str, rule: str, what: str) ->
             raise _fail(who, rule, f"{what}: event '{name}'")
 
 
-def _check_streaming(method: StreamingMethod, model: Model, space: Any,
+def _check_streaming(method: Method, model: Model, space: Any,
                      outputs: tuple[str, ...], seed: int, streamed: MethodRun, who: str) -> None:
     design = method.design(space, seed)
     held = SerialExecutor(16).evaluate(model, np.asarray(design.x), space.names, outputs)

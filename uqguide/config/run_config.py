@@ -479,10 +479,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
         check_rows_enough(methods, rows, space.dim)
     for i, m in enumerate(methods):
         m.check(i)
-        # a multi-fidelity method's levels are the model's: checked here, where both are known
-        check_fidelities = getattr(m, "check_fidelities", None)
-        if check_fidelities is not None:
-            check_fidelities(model, i)
+        m.check_model(model, i)  # (a multi-fidelity method's levels are the model's)
     labels = [m.label for m in methods]
     for i, lab in enumerate(labels):
         if labels.index(lab) != i:
@@ -490,10 +487,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
                 f"methods[{i}].label: {lab!r} is used twice; give each method a unique label",
                 field=f"methods[{i}].label")
     for i, m in enumerate(methods):
-        # a surrogate level names a PCE method listed before it
-        check_surrogates = getattr(m, "check_surrogates", None)
-        if check_surrogates is not None:
-            check_surrogates(methods, i)
+        m.check_order(methods, i)  # (a surrogate level names a PCE method listed before it)
     if raw.reference is not None and raw.reference not in labels:
         raise ConfigError(
             f"reference: {raw.reference!r} is not a method label"

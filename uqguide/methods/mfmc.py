@@ -17,7 +17,9 @@ the intervals and measured gains: ``docs/multifidelity.md``.
 from __future__ import annotations
 
 import logging
+import time
 import zlib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -31,7 +33,9 @@ from ..stats.mfmc_allocation import (
     Allocation, sample_sizes, select_allocation, variance_factor,
 )
 from ..stats.mfmc_estimator import mfmc_statistics
-from .base import Design, MethodSettings, Method, RunPlan
+from .base import (
+    METHOD_FAILURES, Design, MethodSettings, Method, Propagated, Runner, RunPlan,
+)
 from .monte_carlo import DesignChunks, ci_index, method_seed
 
 log = logging.getLogger(__name__)
@@ -198,7 +202,7 @@ class MultiFidelityMC(Method):
         return {j: str(f["surrogate"]) for j, f in enumerate(self.settings.fidelities)
                 if "surrogate" in f}
 
-    def check_surrogates(self, methods: list[Method], index: int) -> None:
+    def check_order(self, methods: Sequence[Method], index: int) -> None:
         """ConfigError naming ``methods[i].fidelities[j]`` when a surrogate level names no PCE
         method listed before this one (the surrogate must be fitted before the pilot)."""
         before = {m.label: m for m in methods[:index]}
@@ -213,7 +217,7 @@ class MultiFidelityMC(Method):
                                   f"{', '.join(fitting) or 'none (list a PCE method first)'}",
                                   field=where)
 
-    def check_fidelities(self, model: Any, index: int) -> None:
+    def check_model(self, model: Any, index: int) -> None:
         """ConfigError naming ``methods[i].fidelities[j]`` when a level changes a parameter
         that does not set the model's fidelity, or sets a value the model refuses."""
         for j, changes in enumerate(self.settings.fidelities):
@@ -242,6 +246,76 @@ class MultiFidelityMC(Method):
                               method_seed(seed, self.label))
         x = GeneratedRows(s.max_runs, space.dim, s.chunk_size, chunks, portable=True)
         return Design(x=x, data={"boot_seed": boot_seed})
+
+    def planned_chunks(self, design: Design, batch_size: int) -> None:
+        """None: the levels' runs are planned phase by phase, once the pilot has run."""
+        return None
+
+    def propagate(self, space: InputSpace, design: Design, runner: Runner) -> Propagated:
+        """Pilot, allocation, main runs and estimate over the levels (module docstring).
+
+        Level ``i``'s pilot is checkpoint stage ``1 + 2 i`` (rows ``[0, n_pilot)``), its main
+        runs stage ``2 + 2 i`` (rows ``[n_pilot, m_i)``), chunks cut at multiples of
+        ``chunk_size``: a resumed run restores the pilot chunks with their measured seconds, so
+        it makes the same allocation and then restores the main chunks too. A failure
+        (:data:`~uqguide.methods.base.METHOD_FAILURES`) is recorded without runs: those made
+        before it are lost to the result, not to the checkpoint.
+        """
+        try:
+            return self._propagate(design, runner)
+        except METHOD_FAILURES as exc:
+            return Propagated.failed(self, exc, np.zeros((0, space.dim)), None)
+
+    def _level(self, runner: Runner, j: int, changes: dict[str, Any]) -> Runner:
+        """The runner of level ``j``: the model at a fidelity, or a surrogate."""
+        if "surrogate" not in changes:
+            return runner.at_fidelity(changes)
+        try:
+            return runner.surrogate_of(str(changes["surrogate"]))
+        except MethodError as exc:
+            raise MethodError(f"{self.label}: fidelities[{j}]: {exc}") from None
+
+    def _propagate(self, design: Design, runner: Runner) -> Propagated:
+        s = self.settings
+        levels = [self._level(runner, j, f) for j, f in enumerate(s.fidelities)]
+
+        def run_rows(i: int, stage: int, start: int, stop: int,
+                     after: ModelOutput | None = None) -> ModelOutput | None:
+            chunks = self.row_chunks(start, stop)
+            if not chunks:
+                return after
+            levels[i].plan(chunks)
+            out, _ = levels[i].run(design.x, stage, chunks, after=after)
+            return out
+
+        pilot = []
+        for i in range(len(levels)):
+            runner.phase(f"pilot of level {i} ({s.n_pilot} runs)")
+            out = run_rows(i, 1 + 2 * i, 0, s.n_pilot)
+            assert out is not None  # (n_pilot >= 10)
+            pilot.append(out)
+        # CPU, not wall seconds: on a shared machine the wall clock counts the neighbours' load
+        pilot_cost = [lv.cpu_seconds / max(lv.n_runs, 1) for lv in levels]
+        plan = self.allocate(pilot, pilot_cost)
+        log.info("%s: levels %s, runs %s (estimated variance reduction %.3g)", self.label,
+                 plan.levels, list(plan.sizes), 1.0 / plan.allocation.variance_ratio)
+        runs = []
+        for j, i in enumerate(plan.levels):
+            runner.phase("")
+            main = run_rows(i, 2 + 2 * i, s.n_pilot, int(plan.sizes[j]), after=pilot[i])
+            assert main is not None  # (the pilot's rows at least)
+            runs.append(main)
+        t_fit = time.perf_counter()
+        runner.phase("estimating")
+        estimate = self.estimate_levels(
+            runs, plan, design, [lv.cpu_seconds for lv in levels], pilot_cost,
+            surrogate_cpu_s=sum(lv.fixed_cpu_s for lv, f in zip(levels, s.fidelities)
+                                if "surrogate" in f))
+        runner.phase("")
+        top = runs[0]
+        x = np.asarray(design.x.rows(0, top.n)) if isinstance(design.x, GeneratedRows) \
+            else np.asarray(design.x)[:top.n]
+        return Propagated(estimate, x, top, time.perf_counter() - t_fit)
 
     def row_chunks(self, start: int, stop: int) -> list[tuple[int, int]]:
         """Rows ``[start, stop)`` split at the multiples of ``chunk_size`` (the checkpointed
@@ -391,8 +465,8 @@ class MultiFidelityMC(Method):
 
     # ---------------------------------------------------------------- estimate
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
-        raise MethodError(f"{self.label}: mfmc runs its levels through the driver "
-                          f"(uqguide.driver.propagate_levels), not on one model's runs")
+        raise MethodError(f"{self.label}: mfmc runs its levels in phases (propagate), not "
+                          f"on one model's runs")
 
     def estimate_levels(self, runs: list[ModelOutput], plan: LevelPlan, design: Design,
                         seconds: list[float], pilot_seconds: list[float],
