@@ -39,8 +39,8 @@ from math import comb, sqrt
 import numpy as np
 
 from uqguide.methods.monte_carlo import MonteCarloReducer, split_summary
-from uqguide.models.base import ModelOutput
-from uqguide.stats.moments import STAT_NAMES, MomentSums, OutputStats, statistics_from_sums
+from uqguide.core.types import STAT_NAMES, ModelOutput, OutputStats
+from uqguide.stats.moments import MomentSums, statistics_from_sums
 
 KINDS = ("tail", "delta", "bootstrap", "studentized")
 

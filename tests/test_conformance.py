@@ -11,7 +11,8 @@ from pydantic import ConfigDict, Field
 
 from uqguide.methods.base import Design, Method, StreamingMethod
 from uqguide.methods.monte_carlo import MonteCarlo
-from uqguide.models.base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
+from uqguide.models.base import InputInfo, Model, ModelParams, OutputInfo
+from uqguide.core.types import ModelOutput
 from uqguide.config.registry import METHODS, MODELS, method_class, model_class
 from uqguide.testing import ConformanceError, check_method, check_model
 

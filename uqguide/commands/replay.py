@@ -30,7 +30,7 @@ from ..core import atomic
 from ..config.run_config import RunConfig, validate_config
 from ..errors import ConfigError, UqguideError
 from ..core.events import component_index
-from ..models.base import ModelOutput
+from ..core.types import ModelOutput
 from ..results.result import MethodRun, Result
 
 

@@ -32,11 +32,11 @@ from pydantic import Field
 
 from ..errors import MethodError
 from ..core.inputs import InputSpace
-from ..core.types import ModelOutput, OutputStats, ScalarIndex
+from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats, ScalarIndex
 from ..core.events import count_events
 from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
 from ..stats.moments import MomentSums, statistics_from_sums
-from .base import Design, Estimate, GeneratedRows, MethodSettings, RunPlan, StreamingMethod
+from .base import Design, MethodSettings, RunPlan, StreamingMethod
 
 log = logging.getLogger(__name__)
 
