@@ -6,5 +6,6 @@
 - ``failures``: failed runs tallied by reason;
 - ``strict``: booleans are not numbers in a config;
 - ``atomic``: files that are complete or absent;
+- ``safe_yaml``: a YAML loader that cannot be made to explode (configs, stored configs);
 - ``process_groups``: external programs a process waits for, ended with it.
 """

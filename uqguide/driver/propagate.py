@@ -30,7 +30,6 @@ from ..core.inputs import InputSpace
 from ..methods.base import Design, Method
 from ..models.base import Model
 from .progress import Progress
-from ..config.report_times import check_config_report_times
 from ..results.result import MethodRun, Result, provenance
 
 log = logging.getLogger(__name__)
@@ -159,7 +158,6 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         On Ctrl-C (KeyboardInterrupt): chunks in flight are dropped; those done are in
         ``store``.
     """
-    check_config_report_times(config)
     executor = executor or SerialExecutor(config.raw.batch_size)
     progress = progress or Progress()
     t0 = time.perf_counter()
