@@ -3,7 +3,7 @@
 For each lognormal output ``exp(N(0, sigma^2))`` (sigma 0.5, 0.75, 1: skewness 1.75, 3.27, 6.18;
 kurtosis 8.9, 28.3, 114; exact moments in closed form) and sample size ``n`` (1000, 10,000),
 ``--seeds`` (200) independent samples go through the Monte Carlo method's own streaming
-reduction (:class:`uqguide.methods.mc_reduce.MonteCarloReducer` in chunks of ``--chunk``
+reduction (:class:`uqguide.methods.monte_carlo.MonteCarloReducer` in chunks of ``--chunk``
 runs, merged in chunk order, then :func:`uqguide.stats.moments.statistics_from_sums`), once
 per ``intervals`` setting:
 
@@ -38,9 +38,9 @@ from math import comb, sqrt
 
 import numpy as np
 
-from uqguide.methods.mc_reduce import MonteCarloReducer, split_summary
-from uqguide.models.base import ModelOutput
-from uqguide.stats.moments import STAT_NAMES, MomentSums, OutputStats, statistics_from_sums
+from uqguide.methods.monte_carlo import MonteCarloReducer, split_summary
+from uqguide.core.types import STAT_NAMES, ModelOutput, OutputStats
+from uqguide.stats.moments import MomentSums, statistics_from_sums
 
 KINDS = ("tail", "delta", "bootstrap", "studentized")
 

@@ -52,11 +52,11 @@ from uqguide.methods.base import Method
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.methods.pce_smolyak import SmolyakPCE
 from uqguide.methods.pce_tensor import TensorPCE
-from uqguide.models.base import Model, ModelOutput
+from uqguide.models.base import Model
+from uqguide.core.types import STAT_NAMES, ModelOutput
 from uqguide.models.benchmarks import Borehole, Ishigami, LinearGaussian, Lognormal
 from uqguide.pce.germ import Germ
 from uqguide.pce.quadrature import gauss_rule, smolyak_grid
-from uqguide.stats.moments import STAT_NAMES
 
 BUDGETS = (50, 100, 200, 500, 1000)
 SEED = 2024

@@ -63,8 +63,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from uqguide.methods.monte_carlo import unit_chunk  # noqa: E402
 from uqguide.methods.pce_adaptive import AdaptivePCE  # noqa: E402
-from uqguide.stats.moments import STAT_NAMES, delta_standard_errors  # noqa: E402
-from uqguide.core.types import ModelOutput  # noqa: E402
+from uqguide.stats.moments import delta_standard_errors
+from uqguide.core.types import STAT_NAMES, ModelOutput
 
 VALIDATION = 100
 REF_SEED = 900_000

@@ -67,7 +67,7 @@ import numpy as np  # noqa: E402
 
 from uqguide.core.inputs import InputSpace, LogNormal, Normal, Uniform
 from uqguide.methods.pce_adaptive import AdaptivePCE
-from uqguide.models.base import ModelOutput
+from uqguide.core.types import ModelOutput
 from uqguide.pce import moments
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import NORMAL, Germ

@@ -119,7 +119,7 @@ from pydantic import TypeAdapter
 from uqguide.config.run_config import load_yaml
 from uqguide.core.inputs import InputSpace, Marginal
 from uqguide.config.registry import model_class
-from uqguide.methods.mc_reduce import MonteCarloReducer, split_summary
+from uqguide.methods.monte_carlo import MonteCarloReducer, split_summary
 from uqguide.stats.moments import statistics_from_sums
 
 HERE = Path(__file__).resolve().parent

@@ -9,7 +9,7 @@ import pytest
 
 import uqguide
 import uqguide.api
-from uqguide.stats.moments import STAT_NAMES
+from uqguide.core.types import STAT_NAMES
 
 xr = pytest.importorskip("xarray")
 

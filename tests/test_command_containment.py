@@ -419,8 +419,8 @@ def test_replay_of_a_result_whose_program_now_fails_is_one_line_exit_1(tmp_path)
     h5 = write_hdf5(uqguide.run(_config(str(prog), tmp_path / "w", n=2, batch=2)),
                     tmp_path / "r.h5")
     (tmp_path / "broken").touch()
-    res = CliRunner().invoke(main, ["replay", str(h5), "--run-code", "--label", "mc", "--sample", "1",
-                                    "--out", str(tmp_path / "rp")])
+    res = CliRunner().invoke(main, ["replay", str(h5), "--run-code", "--label", "mc",
+                                    "--sample", "1", "--out", str(tmp_path / "rp")])
     assert res.exit_code == 1 and "Traceback" not in res.output
     said, error = res.stderr.strip().splitlines()  # what replay runs, then the one error
     assert said.startswith("replay runs the program ")

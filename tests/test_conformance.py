@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from pydantic import ConfigDict, Field
 
-from uqguide.methods.base import Design, Method, StreamingMethod, chunk_bounds
+from uqguide.methods.base import Design, Method, StreamingMethod
 from uqguide.methods.monte_carlo import MonteCarlo
-from uqguide.models.base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
+from uqguide.models.base import InputInfo, Model, ModelParams, OutputInfo
+from uqguide.core.types import ModelOutput
 from uqguide.config.registry import METHODS, MODELS, method_class, model_class
 from uqguide.testing import (ConformanceError, check_method, check_model, method_checks,
                              model_checks, parametrize_with_checks)
@@ -185,15 +186,15 @@ def test_a_streaming_method_whose_in_memory_estimate_differs_fails():
 
 # ---------------------------------------------------------------------------- contract shapes
 def test_the_driver_asks_the_class_not_flags():
-    # Monte Carlo streams: its own chunk split, whatever the batch size; the others are cut
-    # into batches and get every run.
+    # Monte Carlo streams: its own chunk split, whatever the batch size, and it holds no
+    # runs; the others are cut into batches and get every run.
     mc = MonteCarlo({"n_samples": 10, "chunk_size": 4})
-    assert isinstance(mc, StreamingMethod)
-    assert chunk_bounds(mc, 10, 3) == [(0, 4), (4, 8), (8, 10)]
+    assert isinstance(mc, StreamingMethod) and not mc.holds_runs
+    assert mc.chunks(10, 3) == [(0, 4), (4, 8), (8, 10)]
     pce = method_class("pce_tensor")({"m": 2})
-    assert not isinstance(pce, StreamingMethod)
-    assert chunk_bounds(pce, 10, 3) == [(0, 3), (3, 6), (6, 9), (9, 10)]
-    assert chunk_bounds(pce, 0, 3) == [(0, 0)]
+    assert not isinstance(pce, StreamingMethod) and pce.holds_runs
+    assert pce.chunks(10, 3) == [(0, 3), (3, 6), (6, 9), (9, 10)]
+    assert pce.chunks(0, 3) == [(0, 0)]
 
 
 def test_a_streaming_method_cannot_refine():

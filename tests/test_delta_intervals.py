@@ -14,13 +14,11 @@ import pytest
 
 from uqguide.config.run_config import validate_config
 from uqguide.errors import ConfigError
-from uqguide.methods.mc_reduce import MonteCarloReducer, split_summary
-from uqguide.models.base import ModelOutput
+from uqguide.methods.monte_carlo import MonteCarloReducer, split_summary
+from uqguide.core.types import STAT_NAMES, ModelOutput
 from uqguide.models.benchmarks import Lognormal
 from uqguide.driver.propagate import run
-from uqguide.stats.moments import (
-    MomentSums, STAT_NAMES, delta_standard_errors, statistics_from_sums,
-)
+from uqguide.stats.moments import MomentSums, delta_standard_errors, statistics_from_sums
 
 
 def test_higher_central_sums_merge_as_one_pass():

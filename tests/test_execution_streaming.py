@@ -110,7 +110,7 @@ def test_poisson1_weights_have_the_poisson_pmf():
     # e^-1 / k!, and the draws are those of inverting the CDF of the same uniforms.
     import math
 
-    from uqguide.methods.mc_reduce import _POISSON1_CDF, poisson1
+    from uqguide.methods.monte_carlo import _POISSON1_CDF, poisson1
 
     w = poisson1(np.random.default_rng(8), (200, 8000))
     N = w.size

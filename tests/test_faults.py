@@ -395,7 +395,7 @@ def test_a_tensor_grid_too_large_to_build_is_refused_by_validate(tmp_path):
 
 def test_the_design_is_made_per_chunk_and_identical_to_the_whole_one():
     from uqguide.config.run_config import validate_config
-    from uqguide.methods.base import GeneratedRows
+    from uqguide.core.types import GeneratedRows
     from uqguide.methods.monte_carlo import method_seed, unit_samples
 
     cfg = validate_config({**_config(n=1000, chunk=128), "correlations": []})

@@ -84,10 +84,15 @@ def _linear(report_times):
 
 def test_a_report_time_past_the_grid_is_an_error_naming_it(write_config, tmp_path):
     out = tmp_path / "out"
-    r = _invoke("run", str(write_config(_linear([0.5, 3.0]))), "--out", str(out), "-q")
+    path = str(write_config(_linear([0.5, 3.0])))
+    r = _invoke("run", path, "--out", str(out), "-q")
     assert r.exit_code == 2
     assert ("report_times[1]: 3 s is outside the model's time grid [0, 1] s" in r.output)
     assert "Traceback" not in r.output and not out.exists()
+    # the config's rule, checked where the config is validated: validate says so too
+    r = _invoke("validate", path)
+    assert r.exit_code == 2
+    assert "report_times[1]: 3 s is outside the model's time grid [0, 1] s" in r.output
 
 
 def test_a_single_method_run_says_what_its_intervals_are(write_config, tmp_path):

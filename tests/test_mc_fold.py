@@ -1,11 +1,11 @@
-"""Merging all outputs' chunk sums at once (uqguide.methods.mc_fold) gives each group's
-MomentSums.merge bit for bit."""
+"""Merging all outputs' chunk sums at once (uqguide.methods.monte_carlo.FoldedSums) gives
+each group's MomentSums.merge bit for bit."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from uqguide.methods.mc_fold import FoldedSums
+from uqguide.methods.monte_carlo import FoldedSums
 from uqguide.stats.moments import MomentSums
 
 

@@ -19,7 +19,7 @@ from uqguide.driver.propagate import propagate
 from uqguide.errors import ConfigError
 from uqguide.methods.base import RunContext
 from uqguide.methods.mfmc import MultiFidelityMC
-from uqguide.methods.mfmc_levels import on_grid
+from uqguide.methods.mfmc import on_grid
 
 K_LOW, K_HIGH, T_END = 0.5, 1.5, 2.0
 LEVELS = [{"dt": 0.01}, {"dt": 0.1}, {"dt": 0.4}]

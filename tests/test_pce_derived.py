@@ -13,8 +13,8 @@ from uqguide.errors import MethodError
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.methods.pce_smolyak import SmolyakPCE
 from uqguide.methods.pce_tensor import TensorPCE
-from uqguide.models.base import InputInfo, Model, ModelOutput, OutputInfo
-from uqguide.pce.derived import DerivedOutput
+from uqguide.models.base import InputInfo, Model, OutputInfo
+from uqguide.core.types import DerivedOutput, ModelOutput
 
 from .test_pce_helpers import normal_space, run_method
 

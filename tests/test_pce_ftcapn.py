@@ -19,8 +19,8 @@ from uqguide.config.run_config import load_config
 from uqguide.methods.monte_carlo import MonteCarlo
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.models.ftcapn.drift import miss_parabola
-from uqguide.pce.derived import DerivedOutput
-from uqguide.stats.moments import STAT_NAMES, sample_statistics
+from uqguide.core.types import STAT_NAMES, DerivedOutput
+from uqguide.stats.moments import sample_statistics
 
 from .test_pce_helpers import run_method
 

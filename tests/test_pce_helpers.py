@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 
 from uqguide.core.inputs import InputSpace, Normal, Uniform
-from uqguide.methods.base import Estimate, Method
-from uqguide.models.base import Model, ModelOutput
+from uqguide.methods.base import Method
+from uqguide.core.types import Estimate, ModelOutput
+from uqguide.models.base import Model
 
 
 def run_method(method: Method, model: Model, space: InputSpace, seed: int = 1,

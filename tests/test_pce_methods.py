@@ -21,7 +21,8 @@ from uqguide.core.inputs import CorrelatedGroup, InputSpace, Normal, Uniform
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.methods.pce_smolyak import SmolyakPCE
 from uqguide.methods.pce_tensor import TensorPCE
-from uqguide.models.base import ModelOutput, OutputInfo
+from uqguide.models.base import OutputInfo
+from uqguide.core.types import ModelOutput
 from uqguide.models.benchmarks import Ishigami, LinearGaussian, Lognormal
 from uqguide.config.registry import method_class
 

@@ -14,7 +14,7 @@ from pydantic import ValidationError
 
 from uqguide.core.inputs import InputSpace
 from uqguide.methods.pce_adaptive import AdaptivePCE
-from uqguide.models.base import ModelOutput
+from uqguide.core.types import ModelOutput
 from uqguide.pce.germ import Germ
 from uqguide.pce.joint_lars import JointLarsPath
 from uqguide.pce.joint_regression import fit_joint

@@ -26,7 +26,8 @@ from uqguide.methods.base import RunContext
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.methods.pce_smolyak import SmolyakPCE
 from uqguide.methods.pce_tensor import TensorPCE
-from uqguide.models.base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
+from uqguide.models.base import InputInfo, Model, ModelParams, OutputInfo
+from uqguide.core.types import ModelOutput
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import Germ
 from uqguide.pce.sobol_indices import (

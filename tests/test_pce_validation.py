@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import uqguide
-from uqguide.pce.derived import DerivedOutput
+from uqguide.core.types import DerivedOutput, OutputStats
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import Germ
 from uqguide.pce.surrogate import Surrogate
@@ -19,7 +19,6 @@ from uqguide.report.tables import render_text, validation_table
 from uqguide.results.result import read_hdf5, write_hdf5
 from uqguide.results.surrogate import read_surrogate, write_surrogate
 from uqguide.stats.moments import central_moments
-from uqguide.core.types import OutputStats
 
 from .test_pce_helpers import normal_space
 

@@ -8,7 +8,7 @@ from scipy import stats
 
 from uqguide.config.run_config import validate_config
 from uqguide.errors import ConfigError
-from uqguide.methods import mc_reduce
+from uqguide.methods import monte_carlo
 from uqguide.driver.propagate import run
 from uqguide.stats import quantiles
 from uqguide.stats.quantiles import (
@@ -70,7 +70,7 @@ def test_series_quantiles_at_report_times_equal_the_full_grid_ones(monkeypatch):
                      "bootstrap": 0}],
         "report_times": [0.3], "quantiles": "3sigma"})
     full = run(cfg).runs[0].estimate.stats["ramp"]
-    monkeypatch.setattr(mc_reduce, "QUANTILE_ALL_FLOATS", 10)
+    monkeypatch.setattr(monte_carlo, "QUANTILE_ALL_FLOATS", 10)
     part = run(cfg).runs[0].estimate.stats["ramp"]
     assert full.quantile_levels == part.quantile_levels == THREE_SIGMA
     kept = [3, 10]  # t = 0.3 and the last step of the 11-point grid

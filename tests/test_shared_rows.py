@@ -14,7 +14,7 @@ from uqguide.driver.execution import ProcessExecutor, SerialExecutor
 from uqguide.driver.execution import shared_rows
 from uqguide.driver.execution.chunks import ChunkResult, Task
 from uqguide.driver.execution.shared_rows import SharedRows, write_in_place
-from uqguide.methods.mc_reduce import append_columns
+from uqguide.methods.monte_carlo import append_columns
 from uqguide.driver.propagate import run
 
 from .test_execution import FLAKY, _arrays, _assert_identical

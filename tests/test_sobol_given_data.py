@@ -9,7 +9,7 @@ import pytest
 
 from uqguide.config.run_config import validate_config
 from uqguide.driver.propagate import run
-from uqguide.methods.mc_sensitivity import AUTO_MAX_RUNS, AUTO_MIN_RUNS, wanted
+from uqguide.methods.monte_carlo import AUTO_MAX_RUNS, AUTO_MIN_RUNS, wanted
 from uqguide.models.benchmarks import Ishigami
 from uqguide.stats.sobol_given_data import first_order_indices, n_bins
 

@@ -10,7 +10,8 @@ import pytest
 
 from benchmarks.interval_coverage import coverage, lognormal_moments, streamed, wilson
 from uqguide.config.run_config import validate_config
-from uqguide.stats.moments import STAT_NAMES, MomentSums
+from uqguide.stats.moments import MomentSums
+from uqguide.core.types import STAT_NAMES
 
 #: Coverage of ``intervals: studentized`` measured by ``benchmarks/interval_coverage.py`` on a
 #: lognormal with sigma 0.5 at n = 1000 over 200 seeds (2026-11-27; delta method: 0.960,

@@ -139,7 +139,7 @@ def test_the_corrected_interval_keeps_both_symmetric_sides_and_lengthens_toward_
     from scipy.stats import t as student
 
     from uqguide.pce.validation import corrected_moments, stratified_se
-    from uqguide.stats.moments import OutputStats
+    from uqguide.core.types import OutputStats
 
     rng = np.random.default_rng(3)
     n = 80

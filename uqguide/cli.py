@@ -179,7 +179,6 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .driver.progress import make_progress
     from .driver.propagate import check_failure_budget, check_methods
     from .report.tables import render_text
-    from .config.report_times import check_config_report_times
     from .commands.run_and_write import WriteInterrupted, run_and_write
 
     _check_executor_flags(workers, scheduler, scheduler_file, no_workers_timeout)
@@ -196,7 +195,6 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         cfg = load_config(config)
         if seed is not None:
             cfg = cfg.with_seed(seed)
-        check_config_report_times(cfg)  # before a run folder is made
         baseline = (_gate_preflight(check_path, cfg, check_sensitivity) if check_path
                     else None)
         if not quiet:

@@ -28,7 +28,7 @@ from .config.run_config import validate_config
 from .errors import ModelError
 from .driver.execution import ChunkJob, ChunkResult, Executor, ProcessExecutor, SerialExecutor, Task
 from .core.types import Estimate
-from .methods.base import GivenRows, Method, RunContext, StreamingMethod
+from .methods.base import GivenRows, Method, RunContext
 from .models.base import Model
 from .models.benchmarks import LinearGaussian
 from .driver.propagate import propagate
@@ -341,7 +341,7 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
     yield from (("closed forms", closed_forms), ("seeds", seeds), ("batch size", batch_size))
     if workers:
         yield "workers", pool
-    if issubclass(cls, StreamingMethod):
+    if not cls.holds_runs:
         yield "streaming", streaming
     yield "resume", resume
     if not cls.own_design:
@@ -481,7 +481,7 @@ def _same_estimates(a: Estimate, b: Estimate, who: str, rule: str, what: str) ->
             raise _fail(who, rule, f"{what}: event '{name}'")
 
 
-def _check_streaming(method: StreamingMethod, model: Model, space: Any,
+def _check_streaming(method: Method, model: Model, space: Any,
                      outputs: tuple[str, ...], seed: int, streamed: MethodRun, who: str) -> None:
     design = method.design(space, seed)
     held = SerialExecutor(16).evaluate(model, np.asarray(design.x), space.names, outputs)

@@ -34,7 +34,7 @@ from ..config.registry import model_class
 from ..config.run_config import RunConfig, validate_config
 from ..errors import ConfigError, UqguideError
 from ..core.events import component_index
-from ..models.base import ModelOutput
+from ..core.types import ModelOutput
 from ..results.result import MethodRun, Result
 from .run_and_write import canonical_config
 

@@ -28,7 +28,6 @@ from ..driver.interrupts import deferred
 from ..driver.progress import Progress
 from ..driver.propagate import run
 from ..report.tables import write_tables
-from ..config.report_times import check_config_report_times
 from ..errors import ResultError
 from ..results.result import Result, read_config, write_hdf5
 
@@ -181,7 +180,6 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     executor = executor or SerialExecutor(config.raw.batch_size)
     try:
         check_result_name(config)
-        check_config_report_times(config)
         check_budget(estimate(config, workers))  # before anything is allocated
         folder = run_dir(out_dir, config.name)  # inside out_dir: the name is a plain file name
         # A link where the run folder or the result goes would send checkpoints or the result

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..errors import ConfigError
-from ..methods.base import StreamingMethod
 from .limits import human
 
 if TYPE_CHECKING:
@@ -132,7 +131,7 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
         chunk = min(plan.chunk or bs, n)
         boot = getattr(method.settings, "bootstrap", 0) or 0
         per_chunk = chunk * (8.0 * d + 4 * 8.0 * grid * k_series + 8.0 * boot + 9.0)
-        reduced = isinstance(method, StreamingMethod)  # its series are never kept whole
+        reduced = not method.holds_runs  # its series are never kept whole
         parts = {
             # reduced chunks are copied into arrays allocated once; others joined (twice)
             "kept": (1 if reduced else 2) * n * (8.0 * k_scalar + 9.0 +
@@ -148,14 +147,12 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
         if reduced and k_series and method.context.quantile_levels is not None:
             # exact quantiles keep every good run's series values (at every step while that
             # stays small, else at the report times and the last step), per chunk and joined
-            from ..methods.mc_reduce import QUANTILE_ALL_FLOATS
+            from ..methods.monte_carlo import QUANTILE_ALL_FLOATS
 
             steps = grid if n * grid * k_series <= QUANTILE_ALL_FLOATS else \
                 len(cfg.raw.report_times or ()) + 1
             parts["quantiles kept"] = 2 * n * 8.0 * steps * k_series
-        from ..methods.monte_carlo import MonteCarlo
-
-        if isinstance(method, MonteCarlo) and method.sensitivity_for(cfg.space, n):
+        if method.sensitivity_for(cfg.space, n):
             report_steps = len(cfg.raw.report_times or ()) + 1
             series = n * 8.0 * report_steps * k_series
             if k_series and method.context.quantile_levels is None:

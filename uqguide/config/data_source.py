@@ -212,7 +212,7 @@ def check_rows_enough(methods: list[Any], rows: GivenRows, dim: int) -> None:
     """
     n_ok = int((~rows.failed).sum())
     for i, m in enumerate(methods):
-        need = m.min_rows(dim) if hasattr(m, "min_rows") else 1
+        need = m.min_rows(dim)
         if n_ok < need:
             failed = rows.failed.size - n_ok
             why = (f" ({failed} of {rows.failed.size} {'has' if failed == 1 else 'have'} NaN "

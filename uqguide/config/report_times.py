@@ -1,28 +1,11 @@
-"""The time steps the tables show: the config's report times on the model's grid.
-
-Kept apart from :mod:`uqguide.report.tables` (pandas) so that ``uqguide baseline`` and ``check``
-start without importing pandas' table machinery they do not need.
-"""
+"""The config's report times against the model's time grid, checked once when a config is
+validated (:func:`uqguide.config.run_config.validate_config`)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-
-
-def report_indices(t: np.ndarray, report_times: Sequence[float] | None,
-                   n_default: int = 5) -> np.ndarray:
-    """Grid indices of the report times (nearest step) on the grid ``t (T,)`` plus the last
-    step; ``n_default`` evenly spaced steps when there are no report times."""
-    if t.size == 0:
-        return np.zeros(0, dtype=int)
-    if report_times:
-        idx = [int(np.argmin(np.abs(t - rt))) for rt in report_times]
-    else:
-        idx = list(np.linspace(0, t.size - 1, n_default).round().astype(int))
-    return np.unique(np.append(idx, t.size - 1))
 
 
 def check_report_times(report_times: list[float] | tuple[float, ...] | None,
@@ -56,12 +39,3 @@ def model_time_grid(model: Any, outputs: tuple[str, ...]) -> np.ndarray:
         return np.asarray(model.evaluate(np.zeros((1, 0)), [], series).time, dtype=float)
     except Exception:  # noqa: BLE001 - no grid known: the runs themselves will say what fails
         return np.zeros(0)
-
-
-def check_config_report_times(config: Any) -> None:
-    """:func:`check_report_times` for a RunConfig, probing its model's grid once per config
-    (the command line checks before it opens a run folder; ``propagate.run`` checks again)."""
-    if not config.report_times or getattr(config, "_report_times_checked", False):
-        return
-    check_report_times(config.report_times, model_time_grid(config.model, config.outputs))
-    config._report_times_checked = True

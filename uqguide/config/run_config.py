@@ -13,7 +13,7 @@ import re
 from dataclasses import replace
 from types import MappingProxyType
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -27,6 +27,7 @@ from ..stats.quantiles import resolve_levels
 from ..core.strict import StrictModel
 from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
 from .limits import check_steps, default_max_memory, parse_bytes
+from .report_times import check_report_times, model_time_grid
 from ..methods.base import Method, RunContext
 from ..models.base import Model
 from .registry import did_you_mean, method_class, model_class
@@ -165,6 +166,8 @@ class RunConfig:
     source: str = "<dict>"
     #: With ``data:``: the stored form of the data section (path, time grid, digest).
     data: dict[str, Any] | None = None
+    _resolved: dict[str, Any] | None = field(default=None, init=False, repr=False,
+                                             compare=False)
 
     @property
     def seed(self) -> int:
@@ -214,13 +217,20 @@ class RunConfig:
         return stem if is_run_name(stem) else "run"
 
     def resolved(self) -> dict[str, Any]:
-        """The config with every default filled in (what the run really used).
+        """The config with every default filled in (what the run really used), made once per
+        config: the run folder's identity, the same-study check and the result all read it.
 
         Returns
         -------
         dict
             JSON-ready; the model's and every method's settings in full, methods labelled.
+            Shared: not to be modified.
         """
+        if self._resolved is None:
+            self._resolved = self._resolve()
+        return self._resolved
+
+    def _resolve(self) -> dict[str, Any]:
         # the raw model section may hold a function object (callable model from Python): the
         # model's own params serialise it
         rest = self.raw.model_dump(mode="json", exclude={"model", "data"})
@@ -334,7 +344,7 @@ def _fields(model: type[BaseModel]) -> list[str]:
 # ---------------------------------------------------------------------------- loading
 def load_yaml(path: str | Path) -> dict[str, Any]:
     """Read a YAML config file into a mapping; ConfigError on I/O or syntax problems, and on
-    what :mod:`uqguide.config.safe_yaml` refuses (aliases, duplicate keys, deep nesting, a file
+    what :mod:`uqguide.core.safe_yaml` refuses (aliases, duplicate keys, deep nesting, a file
     over 1 MB).
 
     Parameters
@@ -346,7 +356,7 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
     dict
         The file's top-level mapping, not yet validated.
     """
-    from .safe_yaml import MAX_BYTES, safe_load
+    from ..core.safe_yaml import MAX_BYTES, safe_load
 
     p = Path(path)
     try:
@@ -455,10 +465,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
         check_rows_enough(methods, rows, space.dim)
     for i, m in enumerate(methods):
         m.check(i)
-        # a multi-fidelity method's levels are the model's: checked here, where both are known
-        check_fidelities = getattr(m, "check_fidelities", None)
-        if check_fidelities is not None:
-            check_fidelities(model, i)
+        m.check_model(model, i)  # (a multi-fidelity method's levels are the model's)
     labels = [m.label for m in methods]
     for i, lab in enumerate(labels):
         if labels.index(lab) != i:
@@ -466,10 +473,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
                 f"methods[{i}].label: {lab!r} is used twice; give each method a unique label",
                 field=f"methods[{i}].label")
     for i, m in enumerate(methods):
-        # a surrogate level names a PCE method listed before it
-        check_surrogates = getattr(m, "check_surrogates", None)
-        if check_surrogates is not None:
-            check_surrogates(methods, i)
+        m.check_order(methods, i)  # (a surrogate level names a PCE method listed before it)
     if raw.reference is not None and raw.reference not in labels:
         raise ConfigError(
             f"reference: {raw.reference!r} is not a method label"
@@ -491,7 +495,33 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
             if (exc.field or "").split(".")[0] in ("groups", "correlations"):
                 raise  # a top-level setting the method cannot serve: named as it is written
             raise ConfigError(f"methods[{i}].{exc}", field=f"methods[{i}].{exc.field}") from None
+    if raw.report_times:  # last: it may probe the model's grid with a run
+        check_report_times(raw.report_times, model_time_grid(model, outputs))
     return cfg
+
+
+def stored_context(data: Mapping[str, Any]) -> tuple[InputSpace, dict[str, Any]]:
+    """The input space and the model's derived outputs of a stored (resolved) config, what a
+    surrogate read from a result file is rebuilt with, without validating a run of it.
+
+    Parameters
+    ----------
+    data : mapping
+        A result's resolved config.
+
+    Returns
+    -------
+    InputSpace
+    dict of str to DerivedOutput
+        Empty for a fit to a data file, which needs its inputs only, not the file (moved or
+        gone since, perhaps).
+    """
+    section = data.get("model")
+    if data.get("data") is not None or not isinstance(section, Mapping):
+        return stored_input_space(data), {}
+    # config_dir "." as for any config not read from a file (a callable model's module)
+    model = _build_model(dict(section), ".")
+    return _build_space(_stored_inputs(data), model), dict(model.derived_outputs())
 
 
 def stored_input_space(data: Mapping[str, Any]) -> InputSpace:
@@ -509,12 +539,16 @@ def stored_input_space(data: Mapping[str, Any]) -> InputSpace:
     InputSpace
         ConfigError when the inputs are invalid.
     """
+    return _build_space(_stored_inputs(data), None)
+
+
+def _stored_inputs(data: Mapping[str, Any]) -> RawConfig:
+    """A config of ``data``'s ``inputs`` and ``correlations`` alone."""
     try:
-        raw = RawConfig.model_validate({k: v for k, v in data.items()
-                                        if k in ("inputs", "correlations")} | {"methods": [{}]})
+        return RawConfig.model_validate({k: v for k, v in data.items()
+                                         if k in ("inputs", "correlations")} | {"methods": [{}]})
     except ValidationError as err:
         raise _from_validation(err, "", _fields(RawConfig)) from None
-    return _build_space(raw, None)
 
 
 def _check_quantiles(raw: RawConfig) -> None:

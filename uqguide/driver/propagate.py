@@ -1,14 +1,13 @@
-"""The driver: design -> evaluate -> refine -> estimate, for every method of a config.
+"""The driver: every method of a config, each through its own :meth:`Method.propagate` hook.
 
 ``run(load_config(path))`` is the whole of ``uqguide run`` less the printing and the writing.
-
-Evaluation goes chunk by chunk through an executor (:mod:`uqguide.driver.execution`); finished
-chunks are checkpointed as they arrive when a :class:`~uqguide.driver.run_folder.RunStore` is given
-(and taken from it on resume), and folded **in chunk order** whatever order they finish in, so the
-numbers do not depend on the executor, the worker count or interruptions. A
-:class:`~uqguide.methods.base.StreamingMethod` (Monte Carlo) is folded chunk by chunk into
-summaries (bounded memory); the others get every output of every run and may refine their
-design.
+A method's hook decides its phases (design, evaluate, refine, estimate by default; chunk
+reductions for a streaming method; levels for a multi-fidelity one); the driver lends it a
+:class:`~uqguide.driver.stage.StageRunner`, which evaluates chunks through an executor
+(:mod:`uqguide.driver.execution`), checkpoints them as they arrive when a
+:class:`~uqguide.driver.run_folder.RunStore` is given (and takes them from it on resume), and
+folds them **in chunk order** whatever order they finish in, so the numbers do not depend on
+the executor, the worker count or interruptions.
 """
 
 from __future__ import annotations
@@ -19,32 +18,21 @@ from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
 from types import MappingProxyType
-from typing import Any
 
 import numpy as np
 
 from .run_folder import RunInterrupted, RunStore
-from .stage import Stage
+from .stage import StageRunner
 from ..config.run_config import RunConfig
 from ..errors import ClusterLost, MethodError, UqguideError
-from .execution import (
-    DEFAULT_BATCH_SIZE, Containment, Executor, SerialExecutor,
-    Task, Timing, common_grid,
-)
+from .execution import DEFAULT_BATCH_SIZE, Containment, Executor, SerialExecutor
 from ..core.inputs import InputSpace
-from ..methods.base import Design, Method, StreamingMethod, chunk_bounds
-from ..methods.mfmc import MultiFidelityMC
+from ..methods.base import Design, Method
 from ..models.base import Model
-from ..core.types import Estimate, ModelOutput
 from .progress import Progress
-from ..config.report_times import check_config_report_times
 from ..results.result import MethodRun, Result, provenance
 
 log = logging.getLogger(__name__)
-
-#: Refinement rounds after which a method that keeps asking for runs is stopped (a guard
-#: against a method bug; real methods stop by their own budget long before).
-MAX_REFINEMENTS = 100
 
 
 def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
@@ -86,134 +74,47 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     method, outputs = _in_context(method, model, outputs)
     bs = executor.batch_size or batch_size or DEFAULT_BATCH_SIZE
     progress = progress or Progress()
-    if isinstance(method, MultiFidelityMC):
-        return _levels(method, model, space, outputs, seed, executor, bs, store, progress,
-                       design, timeout_s, containment, earlier)
-    timing = Timing()
     t_start = time.perf_counter()
     if design is None:
         design = method.design(space, seed)
-    stage = Stage(method, model, space, outputs, executor, bs, store, progress, timing,
-                   timeout_s, containment)
-    tasks = stage.tasks(design.n_runs)
-    if not progress.chunks_total:  # called alone, not from run()
-        progress.plan(len(tasks), design.n_runs, method.label)
+    planned = method.planned_chunks(design, bs)
+    if planned is not None:
+        if not progress.chunks_total:  # called alone, not from run()
+            progress.plan(len(planned), design.n_runs, method.label)
+        log.info("%s: %d runs in the initial design (%d chunks)", method.label,
+                 design.n_runs, len(planned))
     progress.start(method.label)
-    log.info("%s: %d runs in the initial design (%d chunks)", method.label, design.n_runs,
-             len(tasks))
-    reducer = method.reducer(space, design) if isinstance(method, StreamingMethod) else None
+    runner = StageRunner(method, model, space, outputs, executor, bs, store, progress,
+                         timeout_s, containment, earlier)
     with method.phases_to(progress.phase):
-        estimate, design, out, fit_seconds, failure = _evaluate_and_estimate(
-            method, space, design, stage, tasks, reducer, progress, timing)
-    # One clock for the fit: the driver's (refinements' fits plus the final estimate).
-    estimate.diagnostics["fit_seconds"] = fit_seconds
+        done = method.propagate(space, design, runner)
+    if done.outputs is None:  # a failure that lost its runs (a multi-fidelity method's)
+        return MethodRun(estimate=done.estimate, x=np.zeros((0, space.dim)), scalars={},
+                         failed=np.zeros(0, bool), reasons=np.zeros(0, dtype=object),
+                         time=np.zeros(0), n_runs=0, model_seconds=0.0, fit_seconds=0.0,
+                         wall_seconds=time.perf_counter() - t_start, success=False,
+                         message=done.failure)
+    # One clock for the fit: the method's (refinements' fits plus the final estimate).
+    estimate = done.estimate
+    estimate.diagnostics["fit_seconds"] = done.fit_seconds
     # carriers evaluated only for a derivation are not part of the result
     estimate.restrict(requested)
+    out, timings = done.outputs, runner.timings
     return MethodRun(
         estimate=estimate,
-        x=design.x,
+        x=done.x,
         scalars={k: v for k, v in out.scalars.items() if k in requested},
         failed=out.failed,
         reasons=out.reasons,
         time=out.time,
-        n_runs=timing.n_runs,
-        model_seconds=timing.model_seconds,
-        fit_seconds=fit_seconds,
-        compile_seconds=timing.compile_seconds,
+        n_runs=int(sum(t.n_runs for t in timings)),
+        model_seconds=float(sum(t.model_seconds for t in timings)),
+        fit_seconds=done.fit_seconds,
+        compile_seconds=float(sum(t.compile_seconds for t in timings)),
         wall_seconds=time.perf_counter() - t_start,
-        success=not failure,
-        message=failure,
+        success=not done.failure,
+        message=done.failure,
     )
-
-
-def _levels(method: MultiFidelityMC, model: Model, space: InputSpace,
-            outputs: tuple[str, ...], seed: int, executor: Executor, bs: int,
-            store: RunStore | None, progress: Progress, design: Design | None,
-            timeout_s: float | None, containment: Containment | None,
-            earlier: Sequence[MethodRun]) -> MethodRun:
-    """A multi-fidelity method (:mod:`.propagate_levels`); a method failure is recorded
-    like any method's, the runs made before it are lost to the result (not to the
-    checkpoint)."""
-    from .propagate_levels import propagate_levels, surrogate_levels
-
-    t0 = time.perf_counter()
-    try:
-        return propagate_levels(method, model, space, outputs, seed, executor, bs, store,
-                                progress, design, timeout_s, containment,
-                                surrogate_levels(method, earlier, outputs))
-    except _METHOD_FAILURES as exc:
-        return MethodRun(estimate=_no_estimate(method), x=np.zeros((0, space.dim)),
-                         scalars={}, failed=np.zeros(0, bool),
-                         reasons=np.zeros(0, dtype=object), time=np.zeros(0), n_runs=0,
-                         model_seconds=0.0, fit_seconds=0.0,
-                         wall_seconds=time.perf_counter() - t0, success=False,
-                         message=_why(method, exc))
-
-
-def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, stage: Stage,
-                           tasks: list[Task], reducer: Any, progress: Progress, timing: Timing
-                           ) -> tuple[Estimate, Design, ModelOutput, float, str]:
-    """Evaluate the design (and its refinements), then estimate.
-
-    Returns the estimate, the final design, the runs' outputs, the seconds spent fitting (in
-    ``refine`` and ``estimate``, outside the model) and why the method failed ("" when it did
-    not): a method that cannot produce statistics is recorded with its runs, so the other
-    methods of the run still complete.
-    """
-    out, acc = stage.run(design.x, 0, tasks, reducer)
-    fit_seconds = 0.0
-    if not isinstance(method, StreamingMethod):  # (that one never sees whole runs to refine)
-        for k in range(1, MAX_REFINEMENTS + 1):
-            t0 = time.perf_counter()
-            # the runs so far are done, and no ETA paces what follows: say what the method
-            # does, until it says more itself ("fitting zem (2/7, 300 runs)")
-            progress.phase("refining the design")
-            try:
-                bigger = method.refine(space, design, out)
-            except _METHOD_FAILURES as exc:
-                fit_seconds += time.perf_counter() - t0
-                return _no_estimate(method), design, out, fit_seconds, _why(method, exc)
-            fit_seconds += time.perf_counter() - t0
-            if bigger is None:
-                break
-            new_x = _appended_rows(design, bigger)
-            log.info("%s: %d more runs (sequential design)", method.label, new_x.shape[0])
-            more_tasks = stage.tasks(new_x.shape[0])
-            progress.plan(len(more_tasks), new_x.shape[0], method.label)
-            progress.phase("")  # planned first: the line it shows counts the new runs
-            more, _ = stage.run(new_x, k, more_tasks, None)
-            design, out = bigger, ModelOutput.concatenate(common_grid([out, more]))
-        else:
-            log.warning("%s: stopped after %d refinements", method.label, MAX_REFINEMENTS)
-    t0 = time.perf_counter()
-    progress.phase("estimating")
-    failure = ""
-    try:
-        if isinstance(method, StreamingMethod):
-            estimate = method.estimate_reduced(space, design, out, acc)
-        else:
-            estimate = method.estimate(space, design, out)
-    except _METHOD_FAILURES as exc:
-        estimate, failure = _no_estimate(method), _why(method, exc)
-    progress.phase("")
-    return estimate, design, out, fit_seconds + time.perf_counter() - t0, failure
-
-
-#: What a method may raise and still leave the run to the other methods: a MethodError (it
-#: cannot produce statistics from these runs) or a numerical failure of its fit. A ModelError
-#: (a model breaking its contract) and a ConfigError stop the run; so does Ctrl-C.
-_METHOD_FAILURES = (MethodError, ArithmeticError, ValueError, np.linalg.LinAlgError)
-
-
-def _no_estimate(method: Method) -> Estimate:
-    return Estimate(method=method.name, label=method.label, stats={})
-
-
-def _why(method: Method, exc: Exception) -> str:
-    if isinstance(exc, MethodError):
-        return str(exc)
-    log.debug("%s failed", method.label, exc_info=exc)
-    return f"{method.label}: {type(exc).__name__}: {exc} (run with -vv for the traceback)"
 
 
 def _in_context(method: Method, model: Model, outputs: tuple[str, ...]
@@ -229,13 +130,6 @@ def _in_context(method: Method, model: Model, outputs: tuple[str, ...]
         return method, outputs
     carriers = [c for d in derived.values() for c in d.carriers if c not in outputs]
     return method, outputs + tuple(dict.fromkeys(carriers))
-
-
-def _appended_rows(old: Design, new: Design) -> np.ndarray:
-    n_old = old.x.shape[0]
-    if new.x.shape[0] <= n_old or not np.array_equal(new.x[:n_old], old.x):
-        raise RuntimeError("a refined design must keep the old runs first and append new ones")
-    return new.x[n_old:]
 
 
 def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore | None = None,
@@ -267,7 +161,6 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         A Dask cluster without workers or scheduler, with the count of the chunks done (in
         ``store``).
     """
-    check_config_report_times(config)
     executor = executor or SerialExecutor(config.raw.batch_size)
     progress = progress or Progress()
     t0 = time.perf_counter()
@@ -278,11 +171,10 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
             t_design = time.perf_counter()
             design = method.design(config.space, config.seed)
             designs.append((design, time.perf_counter() - t_design))
-            if isinstance(method, MultiFidelityMC):
-                continue  # (its runs are planned stage by stage, once the pilot has run)
-            bs = executor.batch_size or config.raw.batch_size
-            progress.plan(len(chunk_bounds(method, design.n_runs, bs)), design.n_runs,
-                          method.label)
+            planned = method.planned_chunks(design,
+                                            executor.batch_size or config.raw.batch_size)
+            if planned is not None:  # (else it plans its runs as it goes)
+                progress.plan(len(planned), design.n_runs, method.label)
         for method, (design, design_seconds) in zip(config.methods, designs):
             r = propagate(method, config.model, config.space, config.outputs, config.seed,
                           executor, batch_size=config.raw.batch_size, store=store,

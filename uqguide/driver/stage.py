@@ -1,15 +1,17 @@
 """Evaluating one design stage of one model, chunk by chunk, folded in chunk order.
 
-A :class:`Stage` is the unit the driver (:mod:`uqguide.driver.propagate`) and the
-multi-fidelity driver (:mod:`uqguide.driver.propagate_levels`) share: chunks restored from the
-checkpoint or evaluated by the executor, saved as they arrive, and folded (or joined) in chunk
-order whatever order they finish in.
+A :class:`Stage` runs chunks restored from the checkpoint or evaluated by the executor, saves
+them as they arrive, and folds (or joins) them in chunk order whatever order they finish in.
+:class:`StageRunner` lends it to a method's :meth:`~uqguide.methods.base.Method.propagate` as its
+:class:`~uqguide.methods.base.Runner` (the driver, :mod:`uqguide.driver.propagate`, makes one
+per method).
 """
 
 from __future__ import annotations
 
 import logging
 import weakref
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -24,11 +26,13 @@ from .execution.guard import guarded_batch
 from .execution.shared_rows import SharedRows
 from ..core.inputs import InputSpace
 from .interrupts import raise_swallowed
-from ..methods.base import Method, StreamingMethod, chunk_bounds
+from ..methods.base import ChunkFold, ChunkReducer, Chunks, Method
 from ..models import kernels
 from ..models.base import Model
 from ..core.types import GeneratedRows, ModelOutput
 from .progress import Progress
+from .surrogate_level import SurrogateLevel, surrogate_level
+from ..results.result import MethodRun
 
 log = logging.getLogger(__name__)
 
@@ -129,13 +133,10 @@ class Stage:
         _LOADED.add(model)
         self.timing.compile_seconds += kernels.compile_seconds() - before
 
-    def tasks(self, n: int) -> list[Task]:
-        return [Task(i, a, b) for i, (a, b) in
-                enumerate(chunk_bounds(self.method, n, self.batch_size))]
-
-    def run(self, x: np.ndarray | GeneratedRows, stage: int, tasks: list[Task], reducer: Any
-            ) -> tuple[ModelOutput, Any]:
-        """Outputs of the rows ``x`` (scalars only when reduced) and the folded summaries."""
+    def run(self, x: np.ndarray | GeneratedRows, stage: int, tasks: list[Task], reducer: Any,
+            fold: ChunkFold | None = None) -> tuple[ModelOutput, Any]:
+        """Outputs of the rows ``x`` (scalars only when reduced) and the summaries folded by
+        ``fold`` (given with ``reducer``)."""
         label = self.method.label
         job = self._job(stage, reducer)
         parts: list[ModelOutput] = []
@@ -169,8 +170,8 @@ class Stage:
                 self.timing.cpu_seconds += r.cpu_seconds
                 self.timing.n_runs += r.task.n
                 if kept is not None:
-                    assert isinstance(self.method, StreamingMethod)  # (only those reduce)
-                    acc = self.method.fold(acc, r.summary)
+                    assert fold is not None  # (a reducer comes with its fold)
+                    acc = fold(acc, r.summary)
                     kept.add(r)
                 else:
                     parts.append(r.output())
@@ -216,3 +217,64 @@ class Stage:
         if kept is not None:
             return kept.output(), acc
         return ModelOutput.concatenate(common_grid(parts)), acc
+
+
+class StageRunner:
+    """The :class:`~uqguide.methods.base.Runner` of one method on one model (or one of its
+    fidelity levels): each call of :meth:`run` evaluates a :class:`Stage`. Every runner made
+    from it (:meth:`at_fidelity`, :meth:`surrogate_of`) adds its counts to ``timings``, which
+    the driver sums into the method's."""
+
+    def __init__(self, method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
+                 executor: Executor, batch_size: int, store: RunStore | None,
+                 progress: Progress, timeout_s: float | None = None,
+                 containment: Containment | None = None,
+                 earlier: Sequence[MethodRun] = (), timings: list[Timing] | None = None
+                 ) -> None:
+        self.method, self.model, self.space, self.outputs = method, model, space, outputs
+        self.executor, self.batch_size, self.store = executor, batch_size, store
+        self.progress, self.timeout_s, self.containment = progress, timeout_s, containment
+        #: The runs of the methods listed before this one (whose surrogates may be levels).
+        self.earlier = earlier
+        self.timing = Timing()
+        self.timings = timings if timings is not None else []
+        self.timings.append(self.timing)
+        self._stage = Stage(method, model, space, outputs, executor, batch_size, store,
+                            progress, self.timing, timeout_s, containment)
+
+    @property
+    def cpu_seconds(self) -> float:
+        return self.timing.cpu_seconds
+
+    @property
+    def n_runs(self) -> int:
+        return self.timing.n_runs
+
+    fixed_cpu_s = 0.0
+
+    def run(self, x: np.ndarray | GeneratedRows, stage: int, chunks: Chunks, *,
+            reduce: tuple[ChunkReducer, ChunkFold] | None = None,
+            after: ModelOutput | None = None) -> tuple[ModelOutput, Any]:
+        tasks = [Task(i, a, b) for i, (a, b) in enumerate(chunks)]
+        reducer, fold = reduce if reduce is not None else (None, None)
+        out, acc = self._stage.run(x, stage, tasks, reducer, fold)
+        if after is not None:
+            out = ModelOutput.concatenate(common_grid([after, out]))
+        return out, acc
+
+    def plan(self, chunks: Sequence[tuple[int, int]]) -> None:
+        self.progress.plan(len(chunks), sum(b - a for a, b in chunks), self.method.label)
+
+    def phase(self, text: str) -> None:
+        self.progress.phase(text)
+
+    def at_fidelity(self, changes: Mapping[str, Any]) -> StageRunner:
+        return StageRunner(self.method, self.model.at_fidelity(changes), self.space,
+                           self.outputs, self.executor, self.batch_size, self.store,
+                           self.progress, self.timeout_s, self.containment, self.earlier,
+                           self.timings)
+
+    def surrogate_of(self, label: str) -> SurrogateLevel:
+        level = surrogate_level(self.earlier, label, self.outputs)
+        self.timings.append(level.timing)
+        return level

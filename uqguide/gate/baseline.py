@@ -38,8 +38,9 @@ from ..results import statistics
 from ..results.result import Result
 from .tolerances import DEFAULT_PCE_RTOL, check_tolerance, tolerance_problem
 from ..results.statistics import (
-    FROM_RUNS, SAMPLE, STAT_NAMES, OutputStatistics, Point, result_statistics,
+    FROM_RUNS, SAMPLE, OutputStatistics, Point, result_statistics,
 )
+from ..core.types import STAT_NAMES
 
 BASELINE_FORMAT = "uqguide-baseline"
 #: 4: Sobol' indices too (``check --sensitivity``); 3: quantiles and event probabilities too;

@@ -1,18 +1,17 @@
 """Uncertainty-propagation methods, above ``pce``.
 
-- ``base``: the contract. A ``Method`` designs its runs and estimates statistics from them (and
-  may refine its design); a ``StreamingMethod`` is estimated instead from chunks reduced where
-  they ran and folded in chunk order;
-- ``monte_carlo`` (a streaming method), with ``mc_reduce`` (a chunk's sums, where it ran) and
-  ``mc_fold`` (the driver's merge of them);
+- ``base``: the contract. A ``Method`` designs its runs and propagates them through the
+  driver's runner (by default: evaluate, refine, estimate); a ``StreamingMethod`` is estimated
+  instead from chunks reduced where they ran and folded in chunk order;
+- ``monte_carlo`` (a streaming method): its design, a chunk's sums where it ran, the driver's
+  merge of them and the error budget;
 - ``pce_quadrature`` (``pce_tensor``, ``pce_smolyak``), ``pce_adaptive``, with
   ``pce_validated`` (the PCEs' shared step: keep, validate, correct, withdraw);
 - ``subset_simulation``: a rare event's probability;
-- ``sobol_saltelli`` (a streaming method), with ``saltelli_reduce``: first-order and total
-  Sobol' indices of a pick-freeze design, Monte Carlo moments of its ``A`` and ``B`` rows;
-- ``mfmc``: multi-fidelity Monte Carlo over fidelity levels of one model (run in phases by
-  :mod:`uqguide.driver.propagate_levels`), with ``mfmc_levels`` (the levels' outputs on the
-  highest level's grid).
+- ``sobol_saltelli`` (a streaming method): first-order and total Sobol' indices of a
+  pick-freeze design, Monte Carlo moments of its ``A`` and ``B`` rows;
+- ``mfmc``: multi-fidelity Monte Carlo over fidelity levels of one model (pilot, allocation,
+  main runs: its own ``propagate``).
 
 Each method is registered by name in ``uqguide.config.registry``.
 """

@@ -1,42 +1,29 @@
 """The method contract: how a propagation method turns model runs into statistics.
 
-A method works in phases, so a design can be stored, run elsewhere and resumed:
-
-1. :meth:`Method.design` gives the runs to make (inputs ``x (n, d)`` plus whatever the method
-   needs later, e.g. quadrature weights);
-2. the driver (:func:`uqguide.driver.propagate.propagate`) evaluates the model on the design;
-3. :meth:`Method.refine` may ask for more runs (a sequential design); the driver evaluates them
-   and calls it again until it returns ``None``;
-4. :meth:`Method.estimate` gives the statistics and diagnostics. A method that cannot produce
-   statistics raises :class:`~uqguide.errors.MethodError`: the run records it and completes
-   the other methods.
-
-A :class:`StreamingMethod` (Monte Carlo) is estimated instead from chunks reduced where they
-ran: the driver applies its :meth:`~StreamingMethod.reducer` to each chunk of its
-:meth:`~StreamingMethod.chunk_bounds`, merges the summaries in chunk order with
-:meth:`~StreamingMethod.fold` and ends with :meth:`~StreamingMethod.estimate_reduced`, so time
-series never travel or stay. Such a method does not refine: it never sees whole runs.
+The driver calls one hook, :meth:`Method.propagate`, with a :class:`Runner` that evaluates rows
+chunk by chunk (executors, checkpoints, progress). Its default is design, evaluate, refine until
+:meth:`Method.refine` returns ``None``, estimate; a :class:`StreamingMethod` (Monte Carlo) instead
+reduces each chunk where it ran and folds the summaries in chunk order, so time series never
+travel or stay; a multi-fidelity method runs its own phases over the model's levels. A method
+that cannot produce statistics raises :class:`~uqguide.errors.MethodError` (or a numerical
+failure, :data:`METHOD_FAILURES`): the run records it and completes the other methods.
 
 Methods never know which model they run: they see the :class:`~uqguide.core.inputs.InputSpace`,
-the :class:`~uqguide.core.types.ModelOutput` and the :class:`RunContext` they were built with
-(``self.context``: report times, events, quantile levels, failure policy, outputs).
-
-A new method is one module with a ``Settings`` class and a subclass of :class:`Method` (or of
-:class:`StreamingMethod`) with its ``example_settings``, plus one line in
-:mod:`uqguide.config.registry`; the conformance suite (:func:`uqguide.testing.check_method`)
-then checks it with no test code. What the driver may do with a method follows from its class;
-the class flags left (:attr:`Method.uses_derivations`, :attr:`Method.random_design`) are
-choices a class makes, not protocols.
+the :class:`~uqguide.core.types.ModelOutput`, the :class:`Runner` and the :class:`RunContext` they
+were built with. A new method is one module with a ``Settings`` class and a subclass of
+:class:`Method` (or :class:`StreamingMethod`), plus one line in :mod:`uqguide.config.registry`;
+:func:`uqguide.testing.check_method` then checks it with no test code.
 """
-
 from __future__ import annotations
 
+import logging
+import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from types import MappingProxyType
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, Protocol
 
 import numpy as np
 from pydantic import ConfigDict, Field, field_validator
@@ -47,6 +34,21 @@ from ..core.strict import StrictModel
 from ..core.events import EventSpec
 from ..core.inputs import InputSpace
 from ..core.types import DerivedOutput, Estimate, GeneratedRows, ModelOutput
+from ..errors import MethodError
+
+log = logging.getLogger(__name__)
+
+#: Refinement rounds after which a method that keeps asking for runs is stopped (a guard
+#: against a method bug; real methods stop by their own budget long before).
+MAX_REFINEMENTS = 100
+
+#: What a method may raise and still leave the run to the other methods: a MethodError (it
+#: cannot produce statistics from these runs) or a numerical failure of its fit. A ModelError
+#: (a model breaking its contract) and a ConfigError stop the run; so does Ctrl-C.
+METHOD_FAILURES = (MethodError, ArithmeticError, ValueError, np.linalg.LinAlgError)
+
+#: Bounds ``[start, stop)`` of consecutive chunks of rows.
+Chunks = Sequence[tuple[int, int]]
 
 
 class MethodSettings(StrictModel):
@@ -180,9 +182,108 @@ class RunContext:
     rows: GivenRows | None = None
 
 
+#: Reduces one chunk where it ran: ``f(out, chunk_index) -> dict of arrays`` (picklable, so
+#: that a pool worker can run it).
+ChunkReducer = Callable[[ModelOutput, int], dict[str, np.ndarray]]
+#: Merges one chunk's summary into the accumulator (None at the start), in chunk order.
+ChunkFold = Callable[[Any, dict[str, np.ndarray]], Any]
+
+
+class Runner(Protocol):
+    """How a method's :meth:`~Method.propagate` evaluates rows, lent by the driver
+    (:mod:`uqguide.driver.propagate`): chunks run on its executor, are checkpointed, and are
+    folded or joined in chunk order whatever order they finish in."""
+
+    #: Rows per chunk for a method that does not cut its own (:meth:`Method.chunks`).
+    batch_size: int
+
+    @property
+    def cpu_seconds(self) -> float:
+        """Model CPU seconds of the runs made through this runner so far (where they ran)."""
+
+    @property
+    def n_runs(self) -> int:
+        """Runs made through this runner so far (restored from a checkpoint included)."""
+
+    @property
+    def fixed_cpu_s(self) -> float:
+        """CPU seconds this level cost before its first run: what the method that fitted a
+        surrogate level spent (0 for a model)."""
+
+    def run(self, x: np.ndarray | GeneratedRows, stage: int, chunks: Chunks, *,
+            reduce: tuple[ChunkReducer, ChunkFold] | None = None,
+            after: ModelOutput | None = None) -> tuple[ModelOutput, Any]:
+        """Evaluate the rows ``chunks`` of ``x`` as checkpoint stage ``stage``.
+
+        With ``reduce`` (reducer, fold) each chunk is reduced where it ran and folded in chunk
+        order: the outputs then hold the per-run scalars, failures and time grid only, and the
+        accumulator is returned beside them (else None). ``after``: the outputs of earlier rows,
+        joined in front of the new ones.
+        """
+
+    def plan(self, chunks: Chunks) -> None:
+        """Count ``chunks`` as work to do (a refinement's, a level's) in the progress display."""
+
+    def phase(self, text: str) -> None:
+        """Say what the method does besides running chunks ("" when it runs them)."""
+
+    def at_fidelity(self, changes: Mapping[str, Any]) -> Runner:
+        """A runner of the model with these fidelity parameters changed (its own counts)."""
+
+    def surrogate_of(self, label: str) -> Runner:
+        """A runner of the surrogate that the method ``label``, listed before this one, fitted;
+        MethodError saying why when it has none."""
+
+
+@dataclass
+class Propagated:
+    """What a method's propagation ends with (:meth:`Method.propagate`).
+
+    Attributes
+    ----------
+    estimate : Estimate
+        The statistics (none when the method failed).
+    x : ndarray or GeneratedRows, shape (n, d)
+        The inputs of the runs the result keeps.
+    outputs : ModelOutput or None
+        Their outputs (a streaming method's: scalars, failures and grid only); None when the
+        failure lost them (the result then keeps no runs).
+    fit_seconds : float
+        Seconds spent fitting (refinements and the estimate), outside the model.
+    failure : str
+        Why the method produced no statistics ("" when it did).
+    """
+
+    estimate: Estimate
+    x: np.ndarray | GeneratedRows
+    outputs: ModelOutput | None
+    fit_seconds: float = 0.0
+    failure: str = ""
+
+    @classmethod
+    def failed(cls, method: Method, exc: Exception, x: np.ndarray | GeneratedRows,
+               outputs: ModelOutput | None, fit_seconds: float = 0.0) -> Propagated:
+        """A method failure (:data:`METHOD_FAILURES`) recorded with the runs made."""
+        return cls(no_estimate(method), x, outputs, fit_seconds, why_failed(method, exc))
+
+
+def no_estimate(method: Method) -> Estimate:
+    """The estimate of a method that produced no statistics."""
+    return Estimate(method=method.name, label=method.label, stats={})
+
+
+def why_failed(method: Method, exc: Exception) -> str:
+    """One line saying why ``method`` failed (the traceback at debug level, ``-vv``)."""
+    if isinstance(exc, MethodError):
+        return str(exc)
+    log.debug("%s failed", method.label, exc_info=exc)
+    return f"{method.label}: {type(exc).__name__}: {exc} (run with -vv for the traceback)"
+
+
 class Method(ABC):
     """A propagation method. ``__init__`` only stores the validated settings and the run
-    context; work happens in :meth:`design`, :meth:`refine` and :meth:`estimate`."""
+    context; work happens in :meth:`design` and :meth:`propagate` (by default through
+    :meth:`refine` and :meth:`estimate`)."""
 
     name: ClassVar[str]
     summary: ClassVar[str]
@@ -199,6 +300,10 @@ class Method(ABC):
     #: Why the method cannot take a data file's rows as its design (config ``data:``), named
     #: in the refusal; empty for a method whose :meth:`design` returns ``context.rows``.
     own_design: ClassVar[str] = "it chooses its own design points"
+    #: Every run's outputs stay in memory until the estimate (the default :meth:`propagate`);
+    #: False for a :class:`StreamingMethod`, whose chunks are reduced where they ran. The
+    #: memory budget and the conformance suite go by it.
+    holds_runs: ClassVar[bool] = True
     #: Settings of a small design that still exercises the method (several chunks): what the
     #: conformance suite (:func:`uqguide.testing.check_method`) runs it with.
     example_settings: ClassVar[Mapping[str, Any]] = {}
@@ -268,6 +373,27 @@ class Method(ABC):
         """
         return None
 
+    def check_model(self, model: Any, index: int) -> None:
+        """Checks of the settings against the run's model (a multi-fidelity method's levels);
+        raise ConfigError naming ``methods[index].<field>``. Default: none."""
+        return None
+
+    def check_order(self, methods: Sequence[Method], index: int) -> None:
+        """Checks against the config's other methods, this one at ``methods[index]`` (a
+        surrogate level names a method listed before it); raise ConfigError. Default: none."""
+        return None
+
+    def min_rows(self, d: int) -> int:
+        """Least successful rows of a data file (config ``data:``) the method needs for ``d``
+        inputs. Default 1."""
+        return 1
+
+    def sensitivity_for(self, space: InputSpace, n_runs: int) -> bool:
+        """Whether a run of ``n_runs`` estimates given-data Sobol' indices from its own runs,
+        keeping their inputs and series values at the report steps (the memory budget counts
+        them). Default: no."""
+        return False
+
     def plan(self, space: InputSpace) -> RunPlan:
         """What the method will ask for, known before any design is built (for the budgets
         of :mod:`uqguide.config.budget`). Default: unknown until the design is built."""
@@ -297,20 +423,77 @@ class Method(ABC):
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
         """Statistics of every output in ``outputs`` from the runs of ``design``."""
 
+    def chunks(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
+        """How ``n_runs`` rows of a design split into chunks ``[start, stop)``, consecutive and
+        covering ``[0, n_runs)`` (one empty chunk when ``n_runs`` is 0). Default: slices of
+        ``batch_size``; a streaming method cuts its own."""
+        return [(s, min(n_runs, s + batch_size)) for s in range(0, max(n_runs, 1), batch_size)]
 
-#: Reduces one chunk where it ran: ``f(out, chunk_index) -> dict of arrays`` (picklable, so
-#: that a pool worker can run it).
-ChunkReducer = Callable[[ModelOutput, int], dict[str, np.ndarray]]
+    def planned_chunks(self, design: Design, batch_size: int) -> list[tuple[int, int]] | None:
+        """The chunks of ``design`` known before it runs, which the progress display counts
+        from the start; None when the method plans its runs as it goes."""
+        return self.chunks(design.n_runs, batch_size)
+
+    def propagate(self, space: InputSpace, design: Design, runner: Runner) -> Propagated:
+        """Run ``design`` through ``runner`` and estimate: the hook the driver calls.
+
+        Default: evaluate the design, then :meth:`refine` until it returns None (the appended
+        rows evaluated each time, at most :data:`MAX_REFINEMENTS` times), then
+        :meth:`estimate`. A failure of either (:data:`METHOD_FAILURES`) is returned with the
+        runs made, so the other methods of the run still complete.
+        """
+        out, _ = runner.run(design.x, 0, self.chunks(design.n_runs, runner.batch_size))
+        fit_seconds = 0.0
+        for k in range(1, MAX_REFINEMENTS + 1):
+            t0 = time.perf_counter()
+            # the runs so far are done, and no ETA paces what follows: say what the method
+            # does, until it says more itself ("fitting zem (2/7, 300 runs)")
+            runner.phase("refining the design")
+            try:
+                bigger = self.refine(space, design, out)
+            except METHOD_FAILURES as exc:
+                fit_seconds += time.perf_counter() - t0
+                return Propagated.failed(self, exc, design.x, out, fit_seconds)
+            fit_seconds += time.perf_counter() - t0
+            if bigger is None:
+                break
+            new_x = _appended_rows(design, bigger)
+            log.info("%s: %d more runs (sequential design)", self.label, new_x.shape[0])
+            chunks = self.chunks(new_x.shape[0], runner.batch_size)
+            runner.plan(chunks)
+            runner.phase("")  # planned first: the line it shows counts the new runs
+            out, _ = runner.run(new_x, k, chunks, after=out)
+            design = bigger
+        else:
+            log.warning("%s: stopped after %d refinements", self.label, MAX_REFINEMENTS)
+        return self.estimated(lambda: self.estimate(space, design, out), design.x, out,
+                              runner, fit_seconds)
+
+    def estimated(self, estimate: Callable[[], Estimate], x: np.ndarray | GeneratedRows,
+                  outputs: ModelOutput, runner: Runner, fit_seconds: float = 0.0) -> Propagated:
+        """The last step of a propagation: ``estimate()`` timed (added to ``fit_seconds``) and
+        its failure (:data:`METHOD_FAILURES`) recorded with the runs made."""
+        t0 = time.perf_counter()
+        runner.phase("estimating")
+        failure = ""
+        try:
+            est = estimate()
+        except METHOD_FAILURES as exc:
+            est, failure = no_estimate(self), why_failed(self, exc)
+        runner.phase("")
+        return Propagated(est, x, outputs, fit_seconds + time.perf_counter() - t0, failure)
 
 
 class StreamingMethod(Method):
-    """A method estimated from chunks reduced where they ran (module docstring): its
+    """A method estimated from chunks reduced where they ran, folded in chunk order: its
     statistics depend on how the design splits into chunks, so the split is the method's
     (:meth:`chunk_bounds`), never the executor's. It does not refine.
 
     :meth:`estimate` is given: it reduces and folds in-memory outputs chunk by chunk exactly
     as the driver does, so it gives the numbers of a streamed run bit for bit.
     """
+
+    holds_runs = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -338,6 +521,18 @@ class StreamingMethod(Method):
         """Statistics from the folded summaries; ``runs`` has the per-sample scalars, the
         failure mask and the time grid, but no series."""
 
+    def chunks(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
+        """The method's own split (:meth:`chunk_bounds`): ``batch_size`` does not apply."""
+        return self.chunk_bounds(n_runs)
+
+    def propagate(self, space: InputSpace, design: Design, runner: Runner) -> Propagated:
+        """Each chunk reduced where it ran and folded in chunk order, then
+        :meth:`estimate_reduced` (a failure of it recorded with the runs made)."""
+        out, acc = runner.run(design.x, 0, self.chunks(design.n_runs, runner.batch_size),
+                              reduce=(self.reducer(space, design), self.fold))
+        return self.estimated(lambda: self.estimate_reduced(space, design, out, acc),
+                              design.x, out, runner)
+
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
         reduce = self.reducer(space, design)
         acc = None
@@ -348,23 +543,9 @@ class StreamingMethod(Method):
         return self.estimate_reduced(space, design, runs, acc)
 
 
-def chunk_bounds(method: Method, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
-    """How ``n_runs`` new rows of ``method``'s design split into chunks ``[start, stop)``: a
-    streaming method's own split, else slices of ``batch_size``.
-
-    Parameters
-    ----------
-    method : Method
-    n_runs : int
-        Rows to evaluate (a refinement's appended rows, or the whole design).
-    batch_size : int
-        Rows per chunk for a method that does not stream.
-
-    Returns
-    -------
-    list of (int, int)
-        Consecutive bounds covering ``[0, n_runs)`` (one empty chunk when ``n_runs`` is 0).
-    """
-    if isinstance(method, StreamingMethod):
-        return method.chunk_bounds(n_runs)
-    return [(s, min(n_runs, s + batch_size)) for s in range(0, max(n_runs, 1), batch_size)]
+def _appended_rows(old: Design, new: Design) -> np.ndarray:
+    """The rows a refined design appends to ``old`` (whose rows it must keep first)."""
+    n_old = old.x.shape[0]
+    if new.x.shape[0] <= n_old or not np.array_equal(new.x[:n_old], old.x):
+        raise RuntimeError("a refined design must keep the old runs first and append new ones")
+    return new.x[n_old:]

@@ -1,60 +1,25 @@
 """Multi-fidelity Monte Carlo (``mfmc``): the highest level's statistics, with cheaper levels of
-the same model as control variates (Peherstorfer, Willcox & Gunzburger 2016).
+the same model (or a PCE method's surrogate) as control variates (Peherstorfer, Willcox &
+Gunzburger 2016).
 
-Config::
-
-    methods:
-      - name: mfmc
-        fidelities: [{step: 0.01}, {step: 0.05}, {step: 0.1}]   # highest first
-        budget_cpu_s: 600          # or target_se: {delta_v: 0.01}
-        optimise_for: [delta_v, settle_r_e]
-
-A level is the config's model with the parameters of one ``fidelities`` entry changed; a model
-declares which parameters may change (:attr:`uqguide.models.base.Model.fidelity_params`: ``dt``
-for FTCAPN and GMM-FTC, ``step`` for FT-AS). A level may also be ``{surrogate: LABEL}``: the
-PCE that the method ``LABEL``, listed before this one, fitted to the model *as configured*
-(set ``model:`` to the fidelity the PCE should learn), evaluated on the rows of this method's
-stream (:mod:`uqguide.driver.surrogate_level`). It is nearly free per run, so the allocation
-gives it many rows, at most ``surrogate_ratio`` times the level before it; what the PCE method
-spent (its runs and its fit) is charged to this method's ``cpu_saving``. The highest level is
-never a surrogate: the estimate is unbiased for the model, not for a fit of it. The driver runs
-the levels in phases (:mod:`uqguide.driver.propagate_levels`):
-
-1. **pilot**: the first ``n_pilot`` rows at every level. Each level's cost per run is the
-   CPU seconds of its pilot chunks' model calls (``time.process_time`` where they ran,
-   compiling excluded: a busy machine inflates wall seconds, not CPU), unless
-   ``costs`` pins them; the correlations with the highest level are those of the pilot, per
-   quantity: each component of each ``optimise_for`` output (series at the report times on the
-   highest level's grid) and its square (the carrier of the variance).
-2. **allocation** (:func:`uqguide.stats.mfmc_allocation.select_allocation`): the levels kept
-   and the ratios ``m_i / m_0`` that minimise the worst variance ratio against plain MC of the
-   highest level at equal cost over those quantities; plain MC when nothing gains more than
-   ``min_gain`` (the method says so). Then ``m_0`` from ``budget_cpu_s`` (the pilot's cost
-   included) or from ``target_se`` (the largest ``m_0`` any quantity needs).
-3. **main**: level ``i`` on rows ``[n_pilot, m_i)``; the pilot rows are part of the estimate
-   (their weights are re-estimated from all rows every level ran, so the pilot's noise in the
-   allocation does not bias the estimate beyond ``O(1/m_0)``).
-
-Reproducibility: all levels evaluate rows of one stream of inputs, drawn in chunks of
-``chunk_size`` from children of the method's seed (:func:`~uqguide.methods.monte_carlo.
-method_seed`), so a chunk's rows never depend on the workers. With ``costs`` given the
-allocation is a function of the config alone and the numbers are the same bits on any
-executor; measured costs are rounded to two significant digits relative to the highest level
-(timing noise below a few percent does not move the allocation) and, on a resume, come from
-the checkpointed pilot chunks.
-
-Statistics (:mod:`uqguide.stats.mfmc_estimator`): mean, std, skewness and kurtosis per
-component and time step of the highest level's grid; the mean's standard error from the
-estimator's variance formula, the others' 95% intervals by a group bootstrap at the report times
-and the last step. The covariance's off-diagonal terms are the highest level's sample
-covariance (its diagonal the MFMC variance). Quantiles and events are not estimated (the config
-is refused).
+A level is the config's model with the parameters of one ``fidelities`` entry changed
+(:attr:`uqguide.models.base.Model.fidelity_params`), or ``{surrogate: LABEL}``. The method runs
+in phases: a **pilot** of ``n_pilot`` rows at every level measures costs and correlations,
+:meth:`MultiFidelityMC.allocate` chooses the levels and their runs
+(:func:`uqguide.stats.mfmc_allocation.select_allocation`), the **main** runs extend each kept
+level on the same input stream, and :meth:`MultiFidelityMC.estimate_levels` combines them
+(:mod:`uqguide.stats.mfmc_estimator`). Levels recording their series on other grids are compared
+on the highest level's grid (:func:`on_grid`). Every level evaluates rows of one stream drawn in
+chunks of ``chunk_size``, so a chunk's rows never depend on the workers. The config, the phases,
+the intervals and measured gains: ``docs/multifidelity.md``.
 """
 
 from __future__ import annotations
 
 import logging
+import time
 import zlib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -68,10 +33,10 @@ from ..stats.mfmc_allocation import (
     Allocation, sample_sizes, select_allocation, variance_factor,
 )
 from ..stats.mfmc_estimator import mfmc_statistics
-from .base import Design, MethodSettings, Method, RunPlan
-from .mc_reduce import ci_index
-from .mfmc_levels import usable_rows, values
-from .monte_carlo import DesignChunks, method_seed
+from .base import (
+    METHOD_FAILURES, Design, MethodSettings, Method, Propagated, Runner, RunPlan,
+)
+from .monte_carlo import DesignChunks, ci_index, method_seed
 
 log = logging.getLogger(__name__)
 
@@ -81,7 +46,7 @@ def _one_level() -> list[dict[str, float | int | str]]:
 
 
 class MfmcSettings(MethodSettings):
-    """Settings of ``mfmc`` (module docstring).
+    """Settings of ``mfmc`` (``docs/multifidelity.md``).
 
     Attributes
     ----------
@@ -237,7 +202,7 @@ class MultiFidelityMC(Method):
         return {j: str(f["surrogate"]) for j, f in enumerate(self.settings.fidelities)
                 if "surrogate" in f}
 
-    def check_surrogates(self, methods: list[Method], index: int) -> None:
+    def check_order(self, methods: Sequence[Method], index: int) -> None:
         """ConfigError naming ``methods[i].fidelities[j]`` when a surrogate level names no PCE
         method listed before this one (the surrogate must be fitted before the pilot)."""
         before = {m.label: m for m in methods[:index]}
@@ -252,7 +217,7 @@ class MultiFidelityMC(Method):
                                   f"{', '.join(fitting) or 'none (list a PCE method first)'}",
                                   field=where)
 
-    def check_fidelities(self, model: Any, index: int) -> None:
+    def check_model(self, model: Any, index: int) -> None:
         """ConfigError naming ``methods[i].fidelities[j]`` when a level changes a parameter
         that does not set the model's fidelity, or sets a value the model refuses."""
         for j, changes in enumerate(self.settings.fidelities):
@@ -282,6 +247,76 @@ class MultiFidelityMC(Method):
         x = GeneratedRows(s.max_runs, space.dim, s.chunk_size, chunks, portable=True)
         return Design(x=x, data={"boot_seed": boot_seed})
 
+    def planned_chunks(self, design: Design, batch_size: int) -> None:
+        """None: the levels' runs are planned phase by phase, once the pilot has run."""
+        return None
+
+    def propagate(self, space: InputSpace, design: Design, runner: Runner) -> Propagated:
+        """Pilot, allocation, main runs and estimate over the levels (module docstring).
+
+        Level ``i``'s pilot is checkpoint stage ``1 + 2 i`` (rows ``[0, n_pilot)``), its main
+        runs stage ``2 + 2 i`` (rows ``[n_pilot, m_i)``), chunks cut at multiples of
+        ``chunk_size``: a resumed run restores the pilot chunks with their measured seconds, so
+        it makes the same allocation and then restores the main chunks too. A failure
+        (:data:`~uqguide.methods.base.METHOD_FAILURES`) is recorded without runs: those made
+        before it are lost to the result, not to the checkpoint.
+        """
+        try:
+            return self._propagate(design, runner)
+        except METHOD_FAILURES as exc:
+            return Propagated.failed(self, exc, np.zeros((0, space.dim)), None)
+
+    def _level(self, runner: Runner, j: int, changes: dict[str, Any]) -> Runner:
+        """The runner of level ``j``: the model at a fidelity, or a surrogate."""
+        if "surrogate" not in changes:
+            return runner.at_fidelity(changes)
+        try:
+            return runner.surrogate_of(str(changes["surrogate"]))
+        except MethodError as exc:
+            raise MethodError(f"{self.label}: fidelities[{j}]: {exc}") from None
+
+    def _propagate(self, design: Design, runner: Runner) -> Propagated:
+        s = self.settings
+        levels = [self._level(runner, j, f) for j, f in enumerate(s.fidelities)]
+
+        def run_rows(i: int, stage: int, start: int, stop: int,
+                     after: ModelOutput | None = None) -> ModelOutput | None:
+            chunks = self.row_chunks(start, stop)
+            if not chunks:
+                return after
+            levels[i].plan(chunks)
+            out, _ = levels[i].run(design.x, stage, chunks, after=after)
+            return out
+
+        pilot = []
+        for i in range(len(levels)):
+            runner.phase(f"pilot of level {i} ({s.n_pilot} runs)")
+            out = run_rows(i, 1 + 2 * i, 0, s.n_pilot)
+            assert out is not None  # (n_pilot >= 10)
+            pilot.append(out)
+        # CPU, not wall seconds: on a shared machine the wall clock counts the neighbours' load
+        pilot_cost = [lv.cpu_seconds / max(lv.n_runs, 1) for lv in levels]
+        plan = self.allocate(pilot, pilot_cost)
+        log.info("%s: levels %s, runs %s (estimated variance reduction %.3g)", self.label,
+                 plan.levels, list(plan.sizes), 1.0 / plan.allocation.variance_ratio)
+        runs = []
+        for j, i in enumerate(plan.levels):
+            runner.phase("")
+            main = run_rows(i, 2 + 2 * i, s.n_pilot, int(plan.sizes[j]), after=pilot[i])
+            assert main is not None  # (the pilot's rows at least)
+            runs.append(main)
+        t_fit = time.perf_counter()
+        runner.phase("estimating")
+        estimate = self.estimate_levels(
+            runs, plan, design, [lv.cpu_seconds for lv in levels], pilot_cost,
+            surrogate_cpu_s=sum(lv.fixed_cpu_s for lv, f in zip(levels, s.fidelities)
+                                if "surrogate" in f))
+        runner.phase("")
+        top = runs[0]
+        x = np.asarray(design.x.rows(0, top.n)) if isinstance(design.x, GeneratedRows) \
+            else np.asarray(design.x)[:top.n]
+        return Propagated(estimate, x, top, time.perf_counter() - t_fit)
+
     def row_chunks(self, start: int, stop: int) -> list[tuple[int, int]]:
         """Rows ``[start, stop)`` split at the multiples of ``chunk_size`` (the checkpointed
         unit; fixed by the config, never by the executor)."""
@@ -294,7 +329,7 @@ class MultiFidelityMC(Method):
         return list(self.settings.optimise_for) or list(self.context.outputs)
 
     def _report_columns(self, out: ModelOutput, name: str) -> np.ndarray:
-        """Columns of :func:`~.mfmc_levels.values` at the report times and the last step."""
+        """Columns of :func:`values` at the report times and the last step."""
         if name in out.scalars:
             return np.arange(out.scalars[name].shape[1])
         k = out.series[name].shape[2]
@@ -303,7 +338,7 @@ class MultiFidelityMC(Method):
         return (steps[:, None] * k + np.arange(k)[None, :]).ravel()
 
     def allocate(self, pilot: list[ModelOutput], seconds_per_run: list[float]) -> LevelPlan:
-        """The levels and runs per level from the pilot (module docstring, step 2).
+        """The levels and runs per level from the pilot (``docs/multifidelity.md``, step 2).
 
         Parameters
         ----------
@@ -430,8 +465,8 @@ class MultiFidelityMC(Method):
 
     # ---------------------------------------------------------------- estimate
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
-        raise MethodError(f"{self.label}: mfmc runs its levels through the driver "
-                          f"(uqguide.driver.propagate_levels), not on one model's runs")
+        raise MethodError(f"{self.label}: mfmc runs its levels in phases (propagate), not "
+                          f"on one model's runs")
 
     def estimate_levels(self, runs: list[ModelOutput], plan: LevelPlan, design: Design,
                         seconds: list[float], pilot_seconds: list[float],
@@ -601,3 +636,52 @@ def _output_stats(full: Any, boot: Any, cols: np.ndarray, run0: ModelOutput, nam
                        kurtosis=full.kurtosis.reshape(shape), cov=cov,
                        n_used=int(full.n_used[0]), moments_method="mfmc",
                        sem=full.sem.reshape(shape), ci=ci)
+
+
+# -------------------- the levels' outputs side by side
+# Levels may record their series on different grids (another step, another stop time). Every
+# level's series is compared on the highest level's grid: taken at the same times when its own
+# grid holds them (to 1e-9 of the step), else linearly interpolated per sample (held at the
+# ends), and the method says which levels were interpolated.
+
+def on_grid(series: np.ndarray, grid: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, str]:
+    """A series ``(n, T, k)`` on ``grid (T,)`` at the times ``target (T0,)``.
+
+    Returns
+    -------
+    values : ndarray, shape (n, T0, k)
+    how : {"same", "sampled", "interpolated"}
+        Same grid; the target times picked from the grid; linear interpolation.
+    """
+    if grid.shape == target.shape and np.array_equal(grid, target):
+        return series, "same"
+    tol = 1e-9 * max(float(np.max(np.abs(grid))) if grid.size else 1.0, 1.0)
+    idx = np.clip(np.searchsorted(grid, target - tol), 0, grid.size - 1)
+    if np.all(np.abs(grid[idx] - target) <= tol):
+        return series[:, idx], "sampled"
+    hi = np.clip(np.searchsorted(grid, target), 1, grid.size - 1)
+    lo = hi - 1
+    span = grid[hi] - grid[lo]
+    w = np.clip(np.where(span > 0, (target - grid[lo]) / np.where(span > 0, span, 1), 0), 0, 1)
+    return series[:, lo] * (1 - w)[None, :, None] + series[:, hi] * w[None, :, None], \
+        "interpolated"
+
+
+def values(out: ModelOutput, name: str, target: np.ndarray) -> tuple[np.ndarray, str]:
+    """The output ``name`` flattened to ``(n, Q)``: a scalar's ``k`` components, or a series'
+    ``T0 k`` values on the highest level's grid ``target`` (time-major), with how the grid was
+    matched (``"same"`` for a scalar)."""
+    if name in out.scalars:
+        v = out.scalars[name]
+        return v.reshape(v.shape[0], -1).astype(float), "same"
+    s, how = on_grid(out.series[name], out.time, target)
+    return s.reshape(s.shape[0], -1).astype(float), how
+
+
+def usable_rows(failed: list[np.ndarray], sizes: np.ndarray) -> np.ndarray:
+    """Rows ``(m_last,)`` that failed at no level they ran at (a failed row is left out at
+    every level: :mod:`uqguide.stats.mfmc_estimator`)."""
+    ok = np.ones(int(sizes[-1]), dtype=bool)
+    for f, m in zip(failed, sizes):
+        ok[:int(m)] &= ~np.asarray(f[:int(m)], dtype=bool)
+    return ok

@@ -1,67 +1,29 @@
-"""Monte Carlo propagation (uq-methods.md section 4.1).
+"""Monte Carlo propagation: the design, the chunk reduction, the fold and the error budget.
 
-Designs: pseudo-random (numpy ``Generator``), Latin hypercube and scrambled Sobol'
-(``scipy.stats.qmc``), drawn on the unit cube and mapped to the inputs by their inverse CDFs.
+Samples are drawn on the unit cube (pseudo-random, Latin hypercube or scrambled Sobol') in chunks
+of ``chunk_size``, chunk ``i`` from child ``i`` of one ``SeedSequence`` of the seed and the label,
+and mapped to the inputs by their inverse CDFs. Each chunk is reduced where it ran to mergeable
+sums (:class:`MonteCarloReducer`), merged in chunk order (:class:`FoldedSums`) and estimated by
+:meth:`MonteCarlo.estimate_reduced`, so the numbers depend on the seed, the label and
+``chunk_size``, never on the workers; ``sensitivity`` adds given-data first-order Sobol' indices
+from the same runs (:func:`add_indices`).
 
-Reproducibility: the samples are drawn in fixed-size chunks of ``chunk_size``, chunk ``i`` from
-the child ``i`` of one ``SeedSequence`` derived from the run's seed and the method's label.
-The numbers therefore depend on the seed, the label and ``chunk_size``, never on how many
-workers evaluate the chunks. LHS and Sobol' are stratified within each chunk (a chunk is an
-independent randomised replicate); keep ``chunk_size`` a power of two for Sobol'.
-
-Statistics are the population estimators of uq-methods.md section 3 over the runs that did not
-fail; failed runs are counted and their reasons tallied in the diagnostics.
-
-Statistics are computed in streaming form, always (one code path, whatever the size or the
-executor): each chunk is reduced where it ran to mergeable sums (count, mean, central moment
-sums up to the 4th, comoments; :class:`~uqguide.stats.moments.MomentSums`) and the chunks are merged
-in chunk order, so a 1e6-sample run never holds its time series, and the numbers do not depend
-on which process reduced which chunk. Per-sample scalar outputs are kept (they are small).
-The 95% intervals of mean, std, skewness and kurtosis are by default **tail-aware**
-intervals (``intervals: tail``; :mod:`uqguide.stats.tail_intervals`): Hall's (1992)
-skew-corrected interval of each statistic's influence function, and, where a handful of runs
-carry the sum behind the statistic's variance (Kish's effective count below 10), a
-**one-sided** interval, a stated floor such as "kurtosis >= L" (the upper end infinite): the
-runs cannot bound it above. They need the central moments up to the 16th, which the chunks sum
-like the others at the interval columns, so the intervals cost a few power sums instead of
-``B`` weighted ones, and do not depend on the chunking or the workers. ``intervals: delta``
-gives the symmetric delta-method intervals (:func:`~uqguide.stats.moments.delta_intervals`;
-lognormal sigma 0.5, n = 1000: skewness / kurtosis coverage 81% / 65%, against 94% / 97% for
-``tail``). ``intervals: bootstrap`` gives instead a **Poisson bootstrap** (Hanley &
-MacGibbon 2006; Chamandy et al. 2012): resample ``b`` gives sample ``i`` of chunk ``c`` the
-weight ``w_bi ~ Poisson(1)`` from the stream ``(boot_seed, c)``, so the weighted sums of a
-resample are chunk-additive and merge like the plain ones. For large ``n`` it has the
-multinomial bootstrap's distribution (a multinomial ``(n, 1/n)`` count is asymptotically
-``Poisson(1)``); failed runs get weight 0. ``intervals: studentized`` keeps, per resample,
-the central sums up to the 8th order too (they merge by Pébay's general-order formula) and
-gives **bootstrap-t** intervals (:func:`~uqguide.stats.moments.studentized_intervals`): the
-delta method and the percentile bootstrap both undercover the skewness and kurtosis of skewed
-outputs (lognormal sigma 0.5, n = 1000: 81% / 65%), the studentised bootstrap less so (89% /
-81%; ``benchmarks/interval_coverage.py``). Intervals of a series are computed at the report
-times and the last step (``bootstrap_times: report``) or at every step (``all``; bootstrap:
-``4 B T k`` multiply-adds per sample).
-
-Quantiles (the config's ``quantiles``) are order statistics with distribution-free intervals
-(:mod:`uqguide.stats.quantiles`): scalars from the kept per-sample values; series from each chunk's
-values at every step (at the report times and the last step above
-:data:`~uqguide.methods.mc_reduce.QUANTILE_ALL_FLOATS`), concatenated in chunk order. Events
-(the config's ``events``) are counted over the good runs with Clopper-Pearson intervals.
-
-The error budget (``sensitivity``): first-order Sobol' indices of every output on every input,
-at the report times and the last step of a series and for each scalar, with 95% intervals,
-from the same runs (:mod:`uqguide.methods.mc_sensitivity`); on by default up to 50 inputs from
-500 to 1e6 runs.
+Pool workers import this module (the design chunks and the reducer live here): keep its top-level
+imports light, import scipy's samplers and the sensitivity estimators where they are used.
+Intervals, quantiles and events: ``docs/statistics.md``; the error budget and when it is on:
+``docs/error-budget.md``.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import os
 import time
 import zlib
 from collections import Counter
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from functools import partial
 from typing import Any, Literal
 
@@ -70,16 +32,11 @@ from pydantic import Field
 
 from ..errors import MethodError
 from ..core.inputs import InputSpace
-from ..core.types import ModelOutput
+from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats, ScalarIndex
 from ..core.events import count_events
 from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
-from ..stats.moments import OutputStats, statistics_from_sums
-from .base import Design, Estimate, GeneratedRows, MethodSettings, RunPlan, StreamingMethod
-from .mc_fold import FoldedSums
-from .mc_reduce import (
-    PER_RUN_KINDS, MonteCarloReducer, append_columns, ci_index, scalar_names, split_summary,
-)
-from .mc_sensitivity import add_indices, wanted
+from ..stats.moments import MomentSums, statistics_from_sums
+from .base import Design, MethodSettings, RunPlan, StreamingMethod
 
 log = logging.getLogger(__name__)
 
@@ -122,7 +79,7 @@ class MonteCarloSettings(MethodSettings):
     sensitivity : {"auto", "on", "off"}
         Given-data first-order Sobol' indices with 95% intervals (the error budget): ``auto``
         when the inputs are at most 50 and the runs from 500 to 1e6
-        (:mod:`uqguide.methods.mc_sensitivity`).
+        (:func:`add_indices`, :func:`wanted`).
     """
 
     n_samples: int = Field(ge=1, le=100_000_000)
@@ -247,7 +204,7 @@ class MonteCarlo(StreamingMethod):
 
     def fold(self, acc: dict | None, summary: dict[str, np.ndarray]) -> dict:
         """Merge a chunk: moment sums by Chan's formulas (all outputs at once,
-        :mod:`~uqguide.methods.mc_fold`), series values for the quantiles by concatenation
+        :class:`FoldedSums`), series values for the quantiles by concatenation
         (both in chunk order)."""
         acc = {_SUMS: FoldedSums()} if acc is None else acc
         acc[_SUMS].add(split_summary(summary))
@@ -353,6 +310,8 @@ def _run_jobs(jobs: dict[str, tuple[int, Callable[[], Any]]]) -> dict[str, Any]:
     threads = min(QUANTILE_THREADS or os.cpu_count() or 1, len(jobs))
     if threads <= 1:
         return {name: call() for name, (_, call) in jobs.items()}
+    from concurrent.futures import ThreadPoolExecutor
+
     order = sorted(jobs, key=lambda name: -jobs[name][0])
     with ThreadPoolExecutor(threads, thread_name_prefix="quantiles") as pool:
         futures = {name: pool.submit(jobs[name][1]) for name in order}
@@ -370,3 +329,462 @@ def _put_quantiles(st: OutputStats, q: np.ndarray, ci: np.ndarray, levels: tuple
         full_q[:, idx], full_ci[:, :, idx] = q, ci
         q, ci = full_q, full_ci
     st.quantile_levels, st.quantiles, st.ci_quantiles = tuple(levels), q, ci
+
+
+# -------------------- the chunk reduction, run where the chunk ran (in pool workers)
+
+# CDF of Poisson(1) at k = 0..19 (the mass beyond 19 is 1.9e-19, below double resolution).
+_POISSON1_CDF = np.cumsum([math.exp(-1.0) / math.factorial(k) for k in range(20)])
+
+
+def poisson1(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    """Poisson(1) counts as floats, by inverting the CDF of uniforms: ``k`` is the number of
+    CDF values ``<= u`` (exact up to the resolution of the uniforms; a few times faster than
+    ``rng.poisson`` for lambda = 1: one comparison pass per reachable ``k``)."""
+    u = rng.random(shape)
+    w = np.zeros(shape, dtype=np.uint8)
+    top = u.max(initial=0.0)
+    for c in _POISSON1_CDF:
+        if c > top:
+            break
+        w += u >= c
+    return w.astype(float)
+
+
+def ci_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
+             bootstrap_times: str) -> np.ndarray | None:
+    """Time indices where a series gets bootstrap intervals: the steps nearest the report
+    times and the last step (``None``: every step)."""
+    if bootstrap_times == "all" or time_grid.size == 0:
+        return None
+    idx = [int(np.argmin(np.abs(time_grid - t))) for t in (report_times or ())]
+    idx.append(time_grid.size - 1)
+    return np.unique(idx)
+
+
+#: Quantiles of a series are exact at every step while the kept values (runs x steps x
+#: components over all series outputs) stay below this many floats (256 MiB); above it, at the
+#: report times and the last step only. Fixed by the config (sample count, grid, outputs), so
+#: the choice never depends on the chunking or the workers.
+QUANTILE_ALL_FLOATS = 2**25
+
+
+def quantile_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
+                   n_total: int, width: int) -> np.ndarray | None:
+    """Time indices where series keep their values for quantiles (``None``: every step).
+
+    ``width`` is the number of components of all series outputs together."""
+    if n_total * time_grid.size * max(width, 1) <= QUANTILE_ALL_FLOATS:
+        return None
+    return ci_index(time_grid, report_times, "report")
+
+
+@dataclass(frozen=True)
+class MonteCarloReducer:
+    """Reduces one chunk of Monte Carlo runs to mergeable sums (runs in the worker).
+
+    Summary keys are ``"m:<field>:<output>"`` (plain sums with comoments),
+    ``"h:<field>:<output>"`` (plain sums with the orders 5-16 of the interval columns, for the
+    tail-aware, delta-method and studentised intervals, flattened as the bootstrap's columns under
+    ``studentized``), ``"b:<field>:<output>"`` (Poisson-bootstrap sums of the interval
+    columns, when ``intervals`` is ``bootstrap``, or ``studentized``: then with each resample's
+    orders 5-8) and
+    ``"j:<field>:"`` (all scalar outputs stacked, for their joint covariance) and, when
+    quantiles are asked for, ``"q::<output>"``: the good runs' values of each series at the
+    quantile steps (:func:`quantile_index`), merged by concatenation in chunk order. With
+    ``sensitivity`` and no quantiles, ``"s::<output>"`` keeps the same values at the report
+    times and the last step only, for the given-data Sobol' indices (with quantiles, those
+    read the quantiles' values: a series is kept once).
+    """
+
+    bootstrap: int
+    boot_seed: int
+    report_times: tuple[float, ...] | None
+    bootstrap_times: str
+    quantiles: bool = False
+    n_total: int = 0
+    intervals: str = "tail"
+    sensitivity: bool = False
+
+    @staticmethod
+    def per_run(key: str) -> bool:
+        """Whether a summary entry holds per-run values (``q::`` or ``s::``, lane-major, a
+        column per good run) rather than sums: a process pool's workers write those in place
+        (:mod:`uqguide.driver.execution.shared_rows`)."""
+        return key.startswith(PER_RUN_KINDS)
+
+    def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:
+        ok = ~out.failed
+        m = out.n
+        summary: dict[str, np.ndarray] = {}
+        if not ok.any():
+            # Nothing to sum: an empty summary merges as the identity (its failures are
+            # counted from the chunk's mask), and an all-failed chunk may carry no time grid.
+            return summary
+        # The model's arrays are reduced where they lie: a boolean mask would copy every
+        # series of the chunk, a full slice is a view.
+        keep: slice | np.ndarray = slice(None) if ok.all() else ok
+        idx = ci_index(out.time, self.report_times, self.bootstrap_times)
+        if self.intervals in ("delta", "tail"):
+            for name, y in [*out.series.items(), *out.scalars.items()]:
+                y_ok = y[keep]
+                _put(summary, "m", name, MomentSums.of(y_ok))
+                cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
+                _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
+            self._scalars_and_quantiles(summary, out, ok, keep)
+            return summary
+        w = None
+        if self.bootstrap > 0:
+            # Weights for every run of the chunk (failed ones then dropped), so a sample's
+            # weights do not depend on which other samples failed.
+            rng = np.random.default_rng([self.boot_seed, index])
+            w = poisson1(rng, (self.bootstrap, m))[:, ok]
+        blocks, spans = [], []
+        for name, y in [*out.series.items(), *out.scalars.items()]:
+            y_ok = y[keep]
+            _put(summary, "m", name, MomentSums.of(y_ok))
+            cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
+            # explicit width: reshape(0, -1) is ambiguous for a chunk in which every run failed
+            blocks.append(cols.reshape(cols.shape[0], int(np.prod(cols.shape[1:]))))
+            spans.append((name, blocks[-1].shape[1]))
+        student = self.intervals == "studentized"
+        if w is not None and blocks:
+            # One weighted reduction of every interval column side by side: a few large
+            # matrix products instead of one small product per output and power.
+            boot = MomentSums.weighted(np.concatenate(blocks, axis=1), w, high=student)
+            c0 = 0
+            for name, c in spans:
+                sl = slice(c0, c0 + c)
+                hi = boot.high[:, :, sl] if boot.high is not None else None
+                _put(summary, "b", name, MomentSums(boot.n, boot.mean[:, sl], boot.m2[:, sl],
+                                                    boot.m3[:, sl], boot.m4[:, sl], None, hi))
+                c0 += c
+        if student:
+            # the full sample's own standard errors, which the bootstrap-t pivot rescales
+            for (name, _), cols in zip(spans, blocks):
+                _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
+        self._scalars_and_quantiles(summary, out, ok, keep)
+        return summary
+
+    def _scalars_and_quantiles(self, summary: dict[str, np.ndarray], out: ModelOutput,
+                               ok: np.ndarray, keep: slice | np.ndarray) -> None:
+        """The joint sums of the stacked scalars and the series values kept for quantiles."""
+        stacked = stack_scalars(out.scalars, ok)
+        _put(summary, "j", "", MomentSums.of(stacked))
+        if self.quantiles and out.series:
+            width = sum(y.shape[2] for y in out.series.values())
+            q_idx = quantile_index(out.time, self.report_times, self.n_total, width)
+            for name, y in out.series.items():
+                # lane-major (a row per step and component, the runs along it), a copy: the
+                # driver selects order statistics along rows without transposing, and the
+                # chunk's buffer is released once the summary leaves the worker
+                kept = y[keep] if q_idx is None else y[keep][:, q_idx]
+                summary[f"q::{name}"] = np.ascontiguousarray(
+                    kept.reshape(kept.shape[0], -1).T)
+        elif self.sensitivity and out.series:
+            s_idx = ci_index(out.time, self.report_times, "report")
+            for name, y in out.series.items():
+                kept = y[keep][:, s_idx]
+                summary[f"s::{name}"] = np.ascontiguousarray(
+                    kept.reshape(kept.shape[0], -1).T)
+
+
+#: Prefixes of the summary entries that hold per-run values (quantiles', sensitivity's).
+PER_RUN_KINDS = ("q::", "s::")
+
+
+def _put(summary: dict[str, np.ndarray], kind: str, name: str, sums: MomentSums) -> None:
+    for f, v in sums.arrays().items():
+        summary[f"{kind}:{f}:{name}"] = v
+
+
+def split_summary(summary: dict[str, np.ndarray]) -> dict[tuple[str, str], MomentSums]:
+    """The moment sums of a chunk summary by ``(kind, output)`` (per-run values left out)."""
+    groups: dict[tuple[str, str], dict[str, np.ndarray]] = {}
+    for key, v in summary.items():
+        if key.startswith(PER_RUN_KINDS):
+            continue
+        kind, f, name = key.split(":", 2)
+        groups.setdefault((kind, name), {})[f] = v
+    return {k: MomentSums.from_arrays(g) for k, g in groups.items()}
+
+
+def append_columns(lanes: list[np.ndarray], v: np.ndarray) -> None:
+    """Append the lane-major chunk ``v (L, n)`` to ``lanes``, joined with the last one when
+    both are column blocks of one array and ``v`` continues it (consecutive chunks written in
+    place by pool workers): the quantile selection then makes a few long passes instead of a
+    short pass a chunk."""
+    if lanes:
+        a, root = lanes[-1], lanes[-1].base
+        if (isinstance(root, np.ndarray) and root is v.base and root.ndim == a.ndim == v.ndim
+                == 2 and root.flags.c_contiguous and a.shape[0] == v.shape[0] == root.shape[0]
+                and a.strides == v.strides == root.strides):
+            c0 = (a.ctypes.data - root.ctypes.data) // root.itemsize
+            c1 = (v.ctypes.data - root.ctypes.data) // root.itemsize
+            if c1 == c0 + a.shape[1] and c1 + v.shape[1] <= root.shape[1]:
+                lanes[-1] = root[:, c0:c1 + v.shape[1]]
+                return
+    lanes.append(v)
+
+
+def scalar_names(scalars: dict[str, np.ndarray]) -> list[ScalarIndex]:
+    """The columns of the stacked scalar vector (without stacking anything)."""
+    return ScalarIndex.stacked((name, y.shape[1]) for name, y in scalars.items())
+
+
+def stack_scalars(scalars: dict[str, np.ndarray], ok: np.ndarray) -> np.ndarray:
+    """All scalar outputs of the good runs side by side ``(n_ok, m)``, in the column order of
+    :func:`scalar_names`."""
+    cols = [y[ok] for y in scalars.values()]
+    if not cols:
+        return np.empty((int(ok.sum()), 0))
+    return np.concatenate(cols, axis=1)
+
+
+# -------------------- the driver's merge of the chunk sums, all outputs at once
+
+Key = tuple[str, str]
+
+
+@dataclass
+class _Pack:
+    """Groups with the same fields (comoments or not, orders 5-8 or not), merged as one."""
+
+    keys: list[Key]
+    shapes: list[tuple[int, ...]]
+    sums: MomentSums  # flat fields, ``high`` (orders, total), comoments flat
+    outer: tuple[np.ndarray, np.ndarray] | None  # a comoment is delta[I] * delta[J]
+
+    @classmethod
+    def of(cls, groups: list[tuple[Key, MomentSums]], accumulates: bool = True) -> _Pack:
+        """The groups joined; ``accumulates``: this pack takes the later chunks (it keeps the
+        comoments' gather index, made once)."""
+        keys = [k for k, _ in groups]
+        shapes = [s.mean.shape for _, s in groups]
+        first = groups[0][1]
+
+        def joined(field: str) -> np.ndarray:
+            return np.concatenate([getattr(s, field).ravel() for _, s in groups])
+
+        high = None
+        if first.high is not None:
+            rows = len(first.high)
+            high = np.concatenate([np.asarray(s.high).reshape(rows, -1) for _, s in groups],
+                                  axis=1)
+        cm = joined("cm") if first.cm is not None else None
+        flat = MomentSums(first.n, joined("mean"), joined("m2"), joined("m3"), joined("m4"),
+                          cm, high)
+        outer = _outer_index(shapes) if cm is not None and accumulates else None
+        return cls(keys, shapes, flat, outer)
+
+    def matches(self, groups: list[tuple[Key, MomentSums]]) -> bool:
+        return [k for k, _ in groups] == self.keys and \
+            [s.mean.shape for _, s in groups] == self.shapes
+
+    def merge(self, other: _Pack) -> None:
+        """Merge ``other`` (the next chunk's groups, same layout) into this one: exactly
+        :meth:`MomentSums.merge` of each group."""
+        gather = None
+        if self.outer is not None:
+            i, j = self.outer
+
+            def gather(delta: np.ndarray) -> np.ndarray:
+                return delta[i] * delta[j]
+        self.sums = self.sums.merge(other.sums, outer=gather)
+
+    def groups(self) -> dict[Key, MomentSums]:
+        out, at, cm_at = {}, 0, 0
+        s = self.sums
+        for key, shape in zip(self.keys, self.shapes, strict=True):
+            size = int(np.prod(shape))
+            sl = slice(at, at + size)
+            cm = None
+            if s.cm is not None:
+                k = shape[-1] if shape else 1
+                cm = s.cm[cm_at:cm_at + size * k].reshape(shape + (k,))
+                cm_at += size * k
+            out[key] = MomentSums(
+                s.n, s.mean[sl].reshape(shape), s.m2[sl].reshape(shape),
+                s.m3[sl].reshape(shape), s.m4[sl].reshape(shape), cm,
+                s.high[:, sl].reshape((len(s.high),) + shape) if s.high is not None else None)
+            at += size
+        return out
+
+
+def _outer_index(shapes: list[tuple[int, ...]]) -> tuple[np.ndarray, np.ndarray]:
+    """Flat indices ``I, J`` into the groups' joined means such that the joined comoments'
+    element is ``delta[I] * delta[J]`` (each group's ``(..., k, k)`` outer product)."""
+    rows, cols, at = [], [], 0
+    for shape in shapes:
+        k = shape[-1] if shape else 1
+        lead = int(np.prod(shape[:-1])) if shape else 1
+        base = at + np.arange(lead)[:, None, None] * k
+        rows.append(np.broadcast_to(base + np.arange(k)[None, :, None], (lead, k, k)).ravel())
+        cols.append(np.broadcast_to(base + np.arange(k)[None, None, :], (lead, k, k)).ravel())
+        at += lead * k
+    return np.concatenate(rows), np.concatenate(cols)
+
+
+class FoldedSums:
+    """The merged sums of the chunks so far, groups of the same fields merged as one.
+
+    ``add`` merges a chunk's groups (in chunk order); ``groups`` gives every group's
+    :class:`MomentSums` in the order the groups first came, equal bit for bit to merging each
+    group on its own. The groups of one chunk share their run count and Chan's formulas are
+    elementwise, so groups of the same fields are laid side by side in flat arrays and merged by
+    one :meth:`MomentSums.merge` (the comoments' outer products gathered by index); sums with
+    per-resample counts (the Poisson bootstrap's) are merged group by group. Why: merging some
+    fifteen groups a chunk one by one cost the driver measurable time (``docs/statistics.md``).
+    """
+
+    def __init__(self) -> None:
+        self._packs: dict[tuple[bool, bool], _Pack] = {}
+        self._apart: dict[Key, MomentSums] = {}
+        self._unpacked: set[tuple[bool, bool]] = set()
+        self._order: dict[Key, None] = {}
+
+    def add(self, groups: dict[Key, MomentSums]) -> None:
+        kinds: dict[tuple[bool, bool], list[tuple[Key, MomentSums]]] = {}
+        for key, s in groups.items():
+            self._order.setdefault(key)
+            if np.ndim(s.n) == 0:
+                kinds.setdefault((s.cm is not None, s.high is not None), []).append((key, s))
+            else:  # per-resample counts
+                self._merge_apart(key, s)
+        for kind, members in kinds.items():
+            pack = self._packs.get(kind)
+            if pack is not None and not pack.matches(members):
+                # a chunk laid out otherwise (not seen in practice): group by group from now on
+                self._apart.update(self._packs.pop(kind).groups())
+                self._unpacked.add(kind)
+                pack = None
+            if kind in self._unpacked:
+                for key, s in members:
+                    self._merge_apart(key, s)
+            elif pack is None:
+                self._packs[kind] = _Pack.of(members)
+            else:
+                pack.merge(_Pack.of(members, accumulates=False))
+
+    def _merge_apart(self, key: Key, s: MomentSums) -> None:
+        self._apart[key] = self._apart[key].merge(s) if key in self._apart else s
+
+    def groups(self) -> dict[Key, MomentSums]:
+        out = dict(self._apart)
+        for pack in self._packs.values():
+            out.update(pack.groups())
+        return {k: out[k] for k in self._order}
+
+
+# -------------------- the error budget: given-data first-order Sobol' indices
+# The estimator needs the good runs' (inputs, outputs) rows, with no second pass over the model:
+# the inputs are made again from the design (a pure function of the chunk number), a scalar's
+# values are kept anyway, a series' values at the report steps are the per-run lanes the chunks
+# send for quantiles (``q::``) or, without quantiles, for this alone (``s::``). Both are joined
+# in chunk order, so the rows line up with the design's and the indices do not depend on the
+# workers. When ``auto`` turns them on, and why: docs/error-budget.md.
+
+#: ``sensitivity: auto`` gives indices up to this many inputs ...
+AUTO_MAX_INPUTS = 50
+#: ... from this many runs ...
+AUTO_MIN_RUNS = 500
+#: ... up to this many (``sensitivity: on`` beyond; the memory budget counts what it keeps).
+AUTO_MAX_RUNS = 1_000_000
+
+
+def wanted(setting: str, n_inputs: int, n_runs: int) -> bool:
+    """Whether a run with this ``sensitivity`` setting, inputs and runs gets indices."""
+    if setting == "off" or n_inputs == 0:
+        return False
+    if setting == "on":
+        return True
+    return n_inputs <= AUTO_MAX_INPUTS and AUTO_MIN_RUNS <= n_runs <= AUTO_MAX_RUNS
+
+
+def good_inputs(x: np.ndarray | GeneratedRows, good: np.ndarray) -> np.ndarray:
+    """The inputs ``(n_good, d)`` of the runs that did not fail, made chunk by chunk."""
+    if not isinstance(x, GeneratedRows):
+        return np.asarray(x, dtype=float)[good]
+    out = np.empty((int(good.sum()), x.d))
+    at = 0
+    for start, rows in x.chunks():
+        keep = good[start:start + rows.shape[0]]
+        m = int(keep.sum())
+        out[at:at + m] = rows[keep]
+        at += m
+    return out
+
+
+def add_indices(stats: dict[str, OutputStats], space: InputSpace, x: np.ndarray | GeneratedRows,
+                runs: ModelOutput, lanes: dict[str, Sequence[np.ndarray]],
+                report_times: tuple[float, ...] | None,
+                groups: Sequence[tuple[str, tuple[int, ...]]] = ()) -> None:
+    """Set ``sobol_first`` and ``sobol_first_ci`` of every output in ``stats`` (and the
+    ``sobol_group_*`` of the groups of inputs, :mod:`uqguide.stats.sobol_groups`).
+
+    Parameters
+    ----------
+    stats : dict of str to OutputStats
+        Monte Carlo's statistics by output (changed in place).
+    space : InputSpace
+    x : ndarray or GeneratedRows, shape (n, d)
+        The design's inputs, every run.
+    runs : ModelOutput
+        The failure mask, the time grid and the per-run scalars.
+    lanes : dict of str to sequence of ndarray
+        Per series output, its kept per-run values in chunk order, lane-major ``(L, n_c)``
+        (a row per kept step and component), at every step or at :func:`ci_index`'s steps.
+    report_times : tuple of float, optional
+    groups : sequence of (str, tuple of int)
+        Groups of inputs with an index of their own (name, input columns).
+    """
+    # (imported here: a pool worker, which imports this module, never estimates them)
+    from ..stats.sobol_given_data import MIN_RUNS, first_order_indices, n_bins, rank_bins
+    from ..stats.sobol_groups import group_indices
+
+    good = ~runs.failed
+    x_ok = good_inputs(x, good)
+    d = space.dim
+    steps = ci_index(runs.time, report_times, "report") if runs.time.size else None
+    n = x_ok.shape[0]
+    # the inputs sorted once for every output (a sort of each input costs what the bin sums
+    # of seven output columns do)
+    binned = rank_bins(x_ok) if n >= max(MIN_RUNS, 3 * n_bins(n)) else None
+    for name, st in stats.items():
+        if name in runs.scalars:
+            y = runs.scalars[name][good]
+            est = first_order_indices(x_ok, y.T, binned=binned)
+            k = y.shape[1]
+            st.sobol_first = est.first.reshape(k, d)
+            st.sobol_first_ci = est.ci.reshape(2, k, d)
+            if groups:
+                gf, gci = group_indices(x_ok, y.T, [cols for _, cols in groups])
+                st.sobol_group_first, st.sobol_group_first_ci = gf, gci
+        elif name in lanes and steps is not None:
+            k = st.mean.shape[-1]
+            t_all = st.mean.shape[0]
+            # the report steps of each chunk's values, then joined: quantiles may keep every
+            # step (156 of FTCAPN's, 1.2 GB at 1e6 runs), the indices need 21
+            parts = [p if p.shape[0] == steps.size * k else
+                     p.reshape(p.shape[0] // k, k, -1)[steps].reshape(steps.size * k, -1)
+                     for p in lanes[name]]
+            if not parts:
+                continue
+            rows = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)
+            est = first_order_indices(x_ok, rows, binned=binned)
+            first = np.full((t_all, k, d), np.nan)
+            ci = np.full((2, t_all, k, d), np.nan)
+            first[steps] = est.first.reshape(steps.size, k, d)
+            ci[:, steps] = est.ci.reshape(2, steps.size, k, d)
+            st.sobol_first, st.sobol_first_ci = first, ci
+            if groups:
+                n_g = len(groups)
+                gf, gci = group_indices(x_ok, rows, [cols for _, cols in groups])
+                st.sobol_group_first = np.full((t_all, k, n_g), np.nan)
+                st.sobol_group_first_ci = np.full((2, t_all, k, n_g), np.nan)
+                st.sobol_group_first[steps] = gf.reshape(steps.size, k, n_g)
+                st.sobol_group_first_ci[:, steps] = gci.reshape(2, steps.size, k, n_g)
+        else:
+            continue
+        st.sobol_estimator = "given-data"
+        st.sobol_groups = tuple(name for name, _ in groups) if groups else ()

@@ -73,7 +73,7 @@ from pydantic import Field, model_validator
 
 from ..errors import MethodError
 from ..core.inputs import InputSpace
-from ..core.types import ModelOutput
+from ..core.types import Estimate, ModelOutput
 from ..pce import basis
 from ..pce.basis import hyperbolic_indices
 from ..core.events import EventEstimate
@@ -91,7 +91,7 @@ from ..pce.sobol_indices import (
 from ..pce.sparse_regression import Q_GRID, ColumnsFit, fit_columns
 from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign
-from .base import Design, Estimate, Method, MethodSettings, RunPlan
+from .base import Design, Method, MethodSettings, RunPlan
 from .pce_validated import (
     USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish, validation_design,
 )

@@ -28,7 +28,7 @@ from pydantic import Field
 
 from ..errors import MethodError
 from ..core.inputs import InputSpace
-from ..core.types import ModelOutput
+from ..core.types import Estimate, ModelOutput
 from ..pce import basis
 from ..pce.design import SURROGATE_STREAM, stream
 from ..pce.expansion import Expansion
@@ -40,7 +40,7 @@ from ..pce.sobol_indices import set_indices, truncation_error_intervals
 from ..pce.quadrature import Grid, union_basis
 from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign, random_validation
-from .base import Design, Estimate, Method, MethodSettings
+from .base import Design, Method, MethodSettings
 from .pce_validated import (
     USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish, split_validation,
     validation_design,

@@ -1,37 +1,17 @@
 """``sobol_saltelli``: first-order and total Sobol' indices from a pick-freeze design, with the
 plain Monte Carlo statistics of its ``A`` and ``B`` rows.
 
-Why a method of its own and not an option of ``monte_carlo``: the design is not a Monte Carlo
-sample. Its ``N (m + 2)`` runs (``m`` frozen sets) are ``A``, ``B`` and the ``A_B^u``, whose
-runs are paired with ``A``'s; only ``A`` and ``B`` (``2N`` runs) are a sample from the inputs.
-A ``monte_carlo`` entry whose ``n_samples`` silently meant something else, whose quantiles
-and events used a third of its runs, would be a trap; as a method it has its own size
-(``n_base``), its own label beside a ``monte_carlo`` entry of the same config, and its own
-row in the cost table. What the two share, they share as code: the ``A`` and ``B`` rows are
-reduced and estimated by Monte Carlo's own reducer and estimate (:mod:`.monte_carlo`).
+Design (Saltelli et al. 2010; estimators in :mod:`uqguide.stats.sobol_pick_freeze`): ``N (m + 2)``
+runs, ``A``, ``B`` and ``A_B^u`` for each of ``m`` frozen sets (each input outside a correlated
+group, and each group of the run context, frozen whole). ``A`` and ``B`` are the two halves of one
+``2d``-column chunk of Monte Carlo's design; a chunk is ``chunk_size`` base rows with all their
+runs, reduced where it ran (:class:`SaltelliReducer`) and merged in chunk order like Monte
+Carlo's, so the numbers do not depend on the workers. The ``A`` and ``B`` rows are reduced and
+estimated by Monte Carlo's own code. Intervals: Poisson bootstrap over the base rows.
 
-Design (Saltelli et al. 2010; the estimators in :mod:`uqguide.stats.sobol_pick_freeze`):
-
-- frozen sets: each input not in a correlated group, and each group of the run context
-  (the config's ``groups``, by default the correlated groups), whose columns are frozen
-  together. An input of a correlated group gets no index of its own (NaN): its values are
-  drawn through the group's Cholesky factor, so no single unit column is that input alone;
-  freezing the whole group's columns is freezing the group's inputs. A group that holds part
-  of a correlated group is refused for the same reason;
-- the unit-cube points of ``A`` and ``B`` are the two halves of one ``2d``-column chunk of
-  Monte Carlo's design (:func:`~uqguide.methods.monte_carlo.unit_chunk`: random, Latin
-  hypercube or scrambled Sobol' points, a child stream per chunk), mapped to the inputs;
-- a chunk is ``chunk_size`` base rows with all their runs (:mod:`.saltelli_reduce`), so
-  chunks are reduced where they ran, checkpointed and merged in order like Monte Carlo's, and
-  the numbers do not depend on the worker count.
-
-Intervals: Poisson bootstrap over the base rows (``bootstrap`` resamples, fixed seed stream),
-percentile 95% intervals (why not the asymptotic variance:
-:mod:`uqguide.stats.sobol_pick_freeze`). Like Monte Carlo's they treat the base rows as
-independent draws: for ``lhs`` and ``sobol`` points an upper bound.
-
-Indices are given at the report times and last step of every series (NaN at other steps, as
-Monte Carlo's given-data indices) and for every scalar.
+Indices are given at the report times and last step of every series and for every scalar. Why
+a method and not an option of ``monte_carlo``, the estimators and measured accuracy:
+``docs/error-budget.md`` (Totals: a pick-freeze design).
 """
 
 from __future__ import annotations
@@ -39,6 +19,7 @@ from __future__ import annotations
 import logging
 import time
 import zlib
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -49,9 +30,10 @@ from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats
 from ..errors import ConfigError, MethodError
 from ..stats.sobol_pick_freeze import PickFreezeSums, pick_freeze_indices
 from .base import Design, MethodSettings, RunPlan, StreamingMethod
-from .mc_reduce import MonteCarloReducer, ci_index
-from .monte_carlo import MonteCarlo, MonteCarloSettings, method_seed, unit_chunk
-from .saltelli_reduce import SaltelliReducer, split
+from .monte_carlo import (
+    MonteCarlo, MonteCarloReducer, MonteCarloSettings, ci_index, method_seed, poisson1,
+    unit_chunk,
+)
 
 log = logging.getLogger(__name__)
 
@@ -259,7 +241,7 @@ def _put_indices(st: OutputStats, sums: PickFreezeSums,
 
 class PickFreezeChunks:
     """``make(i)``: chunk ``i`` of the design in SI units, ``A``, ``B`` and every ``A_B^u``
-    of its base rows (:mod:`.saltelli_reduce` gives the layout); picklable."""
+    of its base rows (:class:`SaltelliReducer` gives the layout); picklable."""
 
     def __init__(self, space: InputSpace, n_base: int, sampling: str, chunk_size: int,
                  seed: np.random.SeedSequence, sets: list[tuple[int, ...]]) -> None:
@@ -276,3 +258,77 @@ class PickFreezeChunks:
             ab[:, list(cols)] = b[:, list(cols)]
             blocks.append(ab)
         return self.space.from_unit(np.concatenate(blocks))
+
+
+# -------------------- the chunk reduction, run where the chunk ran (in pool workers)
+# A chunk is a block of ``b`` base rows with all of their runs, laid out block by block: ``A``
+# (``b`` rows), ``B`` (``b``), then ``A_B^u`` (``b``) for each of the ``m`` frozen sets. So a
+# chunk holds everything its base rows' estimates need, and the sums of chunks merge exactly
+# (:class:`~uqguide.stats.sobol_pick_freeze.PickFreezeSums`): the indices are the same whatever
+# the number of workers.
+
+#: Summary keys of the pick-freeze sums: ``"p:<field>:<output>"`` (the others are Monte
+#: Carlo's, of the ``A`` and ``B`` rows).
+PICK_FREEZE = "p:"
+
+
+def lanes(y: np.ndarray, steps: np.ndarray | None) -> np.ndarray:
+    """An output's values ``(n, L)`` at the lanes that get indices: every component of a
+    scalar, every component at ``steps`` of a series."""
+    if y.ndim == 3:
+        y = y[:, steps] if steps is not None else y
+    return y.reshape(y.shape[0], -1)
+
+
+@dataclass(frozen=True)
+class SaltelliReducer:
+    """Reduces one chunk of a pick-freeze design (laid out as above) to mergeable sums.
+
+    Summary: Monte Carlo's sums of the ``A`` and ``B`` rows (``mc``, a valid ``2b``-run
+    sample) and, per output, ``"p:<field>:<output>"`` (:class:`PickFreezeSums`). A base row
+    counts only when none of its ``m + 2`` runs failed and every value is finite: the pairing
+    of ``A``, ``B`` and ``A_B^u`` is what the estimators rest on.
+    """
+
+    n_sets: int
+    bootstrap: int
+    boot_seed: int
+    report_times: tuple[float, ...] | None
+    mc: MonteCarloReducer
+
+    def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:
+        m2 = self.n_sets + 2
+        b = out.n // m2
+        summary = self.mc(out.subset(np.arange(2 * b)), index)
+        good = ~np.asarray(out.failed, dtype=bool).reshape(m2, b).any(axis=0)
+        if not good.any():
+            return summary
+        steps = ci_index(out.time, self.report_times, "report") if out.series else None
+        values = {name: lanes(y, steps).reshape(m2, b, -1)
+                  for name, y in [*out.series.items(), *out.scalars.items()]}
+        for v in values.values():
+            good &= np.isfinite(v).all(axis=(0, 2))
+        # Weights for every base row (the bad ones then dropped), so a row's weights do not
+        # depend on which other rows failed; a stream apart from Monte Carlo's (same index).
+        rng = np.random.default_rng([self.boot_seed, index])
+        w = np.concatenate([np.ones((1, b)), poisson1(rng, (self.bootstrap, b))])[:, good]
+        for name, v in values.items():
+            v = v[:, good]
+            s = PickFreezeSums.of(v[0], v[1], v[2:], w)
+            for f, arr in s.arrays().items():
+                summary[f"{PICK_FREEZE}{f}:{name}"] = arr
+        return summary
+
+
+def split(summary: dict[str, np.ndarray]) -> tuple[dict[str, PickFreezeSums],
+                                                   dict[str, np.ndarray]]:
+    """A chunk's summary as its pick-freeze sums by output and the rest (Monte Carlo's)."""
+    mine: dict[str, dict[str, np.ndarray]] = {}
+    rest = {}
+    for key, v in summary.items():
+        if key.startswith(PICK_FREEZE):
+            _, f, name = key.split(":", 2)
+            mine.setdefault(name, {})[f] = v
+        else:
+            rest[key] = v
+    return {k: PickFreezeSums.from_arrays(a) for k, a in mine.items()}, rest

@@ -47,8 +47,8 @@ from pydantic import Field, model_validator
 from ..errors import ConfigError, MethodError
 from ..core.events import EventEstimate, EventSpec, component_index
 from ..core.inputs import InputSpace
-from ..core.types import ModelOutput
-from .base import Design, Estimate, Method, MethodSettings
+from ..core.types import Estimate, ModelOutput
+from .base import Design, Method, MethodSettings
 
 log = logging.getLogger(__name__)
 

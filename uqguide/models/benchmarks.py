@@ -14,7 +14,8 @@ from collections.abc import Mapping
 import numpy as np
 from pydantic import Field, model_validator
 
-from .base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
+from .base import InputInfo, Model, ModelParams, OutputInfo
+from ..core.types import ModelOutput
 
 
 def _no_failures(n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -26,7 +26,8 @@ from pydantic import (BaseModel, ConfigDict, Field, ValidationInfo, field_serial
 
 from ..core.names import PLAIN_NAME_RULE, check_plain_name, is_plain_name
 from ..errors import ModelError
-from .base import InputInfo, Model, ModelOutput, ModelParams, OutputInfo
+from .base import InputInfo, Model, ModelParams, OutputInfo
+from ..core.types import ModelOutput
 
 
 class CallableOutput(BaseModel):

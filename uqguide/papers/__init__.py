@@ -18,7 +18,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
 
-from ..models.base import Model, ModelOutput
+from ..models.base import Model
+from ..core.types import ModelOutput
 from .rows import ReportRow, format_report
 
 __all__ = ["SCENARIOS", "NoPaperScenario", "ReportRow", "format_report", "has_scenario",

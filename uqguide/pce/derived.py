@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.types import DerivedOutput
-from ..stats.moments import STAT_NAMES, OutputStats, shape_moments
+from ..core.types import STAT_NAMES, DerivedOutput, OutputStats
+from ..stats.moments import shape_moments
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ

@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..stats.moments import OutputStats, shape_moments
+from ..stats.moments import shape_moments
+from ..core.types import OutputStats
 from . import basis, linearisation
 from .design import surrogate_draws
 from .expansion import Expansion

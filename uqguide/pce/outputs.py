@@ -16,10 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MethodError
-from ..core.types import ModelOutput, ScalarIndex
-from ..stats.moments import OutputStats
+from ..core.types import DerivedOutput, ModelOutput, OutputStats, ScalarIndex
 from . import moments
-from .derived import DerivedOutput, derived_statistics
+from .derived import derived_statistics
 from .expansion import Expansion
 from .tails import surrogate_tails
 from ..core.events import EventEstimate, EventSpec

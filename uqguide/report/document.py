@@ -15,13 +15,13 @@ import logging
 import os
 import re
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
 import yaml
 
 from ..core import atomic
-from ..gate.check import CheckReport
 from .budget import budget_markdown, budget_tables
 from .plots import FigureFile, write_figures
 from .tables import (
@@ -31,6 +31,18 @@ from .tables import (
 from ..results.result import Result
 
 log = logging.getLogger(__name__)
+
+
+class CheckReport(Protocol):
+    """What the report shows of a regression check (:class:`uqguide.gate.check.CheckReport`); a
+    protocol, so that the report, which the gate's verdict is shown in, does not import it."""
+
+    notes: list[str]
+
+    @property
+    def failures(self) -> list[Any]: ...
+    def summary(self) -> str: ...
+    def to_frame(self) -> pd.DataFrame: ...
 
 _DIST_PARAMS = ("mean", "std", "low", "high", "mu", "sigma")
 

@@ -22,7 +22,6 @@ from ..models.base import OutputInfo
 from ..results.result import Result
 from .budget import budget_tables, budget_text
 from ..results.statistics import CORRECTED_SUFFIX, Point, Statistic, points, result_statistics
-from ..config.report_times import report_indices  # noqa: F401 - imported from here by others
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
 #: below this fraction of its peak: a ratio to a value that crosses zero means nothing.

@@ -30,14 +30,13 @@ from ..core import atomic
 from .._version import __version__
 from ..errors import ResultError
 from ..core.events import EventEstimate
-from ..core.types import Estimate, GeneratedRows, ScalarIndex
+from ..core.types import Estimate, GeneratedRows, OutputStats, ScalarIndex
 from ..models.base import OutputInfo
 from .surrogate import StoredSurrogate, read_surrogate, write_surrogate
 from .netcdf_file import (
     UTF8, Blocks, Dataset, Group, method_group, read_method_stats, strings, write_group,
 )
 from .statistics import OutputStatistics, method_statistics
-from ..stats.moments import OutputStats
 
 FORMAT = 2
 #: Format versions :func:`read_hdf5` reads.
@@ -190,18 +189,11 @@ class Result:
             raise ResultError(f"method {label!r} ({est.method}) kept no surrogate; only PCE "
                               f"methods do (and result files written before surrogates were kept)")
         if isinstance(s, StoredSurrogate):
-            from ..config.run_config import validate_config
+            # (the one call of results into config: a stored config's inputs and model)
+            from ..config.run_config import stored_context
             from ..pce.germ import Germ
 
-            if self.config.get("data") is not None:
-                # A fit to a data file needs its inputs only, not the file (moved or gone
-                # since, perhaps), and has no derived outputs.
-                from ..config.run_config import stored_input_space
-
-                space, derived = stored_input_space(self.config), {}
-            else:
-                cfg = validate_config(self.config, f"{self.name} (stored config)")
-                space, derived = cfg.space, dict(cfg.model.derived_outputs())
+            space, derived = stored_context(self.config)
             if list(space.names) != list(s.inputs):
                 raise ResultError(f"{label}: the surrogate's inputs {s.inputs} are not the "
                                   f"stored config's {list(space.names)}")
@@ -613,7 +605,7 @@ def read_config(path: str | Path) -> dict[str, Any]:
 
 
 def _config_from_yaml(text: Any, path: Path) -> dict[str, Any]:
-    from ..config.safe_yaml import YamlLimitError, safe_load
+    from ..core.safe_yaml import YamlLimitError, safe_load
 
     try:
         config = safe_load(str(text))

@@ -21,7 +21,6 @@ from typing import TYPE_CHECKING, Literal, Protocol
 
 import numpy as np
 
-from ..config.report_times import report_indices
 from ..core.types import STAT_NAMES, OutputStats
 from ..stats.quantiles import level_name
 
@@ -75,6 +74,19 @@ class Point:
         return (self.component,) if self.step is None else (self.step, self.component)
 
 
+def report_indices(t: np.ndarray, report_times: Sequence[float] | None,
+                   n_default: int = 5) -> np.ndarray:
+    """Grid indices of the report times (nearest step) on the grid ``t (T,)`` plus the last
+    step; ``n_default`` evenly spaced steps when there are no report times."""
+    if t.size == 0:
+        return np.zeros(0, dtype=int)
+    if report_times:
+        idx = [int(np.argmin(np.abs(t - rt))) for rt in report_times]
+    else:
+        idx = list(np.linspace(0, t.size - 1, n_default).round().astype(int))
+    return np.unique(np.append(idx, t.size - 1))
+
+
 def points(output: OutputInfo, time: np.ndarray,
            report_times: Sequence[float] | None) -> list[Point]:
     """The points an output's statistics are reported at, step by step, component by component.
@@ -86,7 +98,7 @@ def points(output: OutputInfo, time: np.ndarray,
         The time grid [s].
     report_times : sequence of float or None
         The config's report times [s] (their nearest steps, plus the last step;
-        :func:`uqguide.config.report_times.report_indices`).
+        :func:`report_indices`).
 
     Returns
     -------

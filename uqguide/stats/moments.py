@@ -504,8 +504,9 @@ class MomentSums:
             Sums of the other set, fields of the same shape.
         outer : callable, optional
             The outer products ``delta_i delta_j`` of the means' difference, shaped as ``cm``
-            (default ``einsum`` over the last axis; :mod:`uqguide.methods.mc_fold` gathers them
-            by index for comoments laid out flat).
+            (default ``einsum`` over the last axis;
+            :class:`uqguide.methods.monte_carlo.FoldedSums` gathers them by index for comoments
+            laid out flat).
 
         Returns
         -------

@@ -54,7 +54,7 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 from ...core.names import PLAIN_NAME_RULE, is_plain_name
 from ...core.process_groups import MARK
 from ...errors import ModelError
-from ..base import ModelOutput
+from ...core.types import ModelOutput
 from ..config_dir import ConfigDirParams
 from ..callable import CallableOutput, DeclaredModel, check_output_names
 from . import process

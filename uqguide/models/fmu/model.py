@@ -44,7 +44,8 @@ from typing import Any
 import numpy as np
 
 from ...errors import ModelError
-from ..base import InputInfo, ModelOutput, OutputInfo, StepCount
+from ..base import InputInfo, OutputInfo, StepCount
+from ...core.types import ModelOutput
 from ..callable import CallableOutput, DeclaredModel
 from . import archive
 from .params import FmuParams

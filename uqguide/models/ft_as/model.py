@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..base import InputInfo, Model, ModelOutput, OutputInfo, StepCount, failure_reasons
+from ..base import InputInfo, Model, OutputInfo, StepCount, failure_reasons
+from ...core.types import ModelOutput
 from . import scenario
 from .params import FTASParams
 from .runner import SETTLE_TOLERANCES, RunResult, run_batch

@@ -20,7 +20,8 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from ..base import DerivedOutput, InputInfo, Model, ModelOutput, OutputInfo, StepCount
+from ..base import InputInfo, Model, OutputInfo, StepCount
+from ...core.types import DerivedOutput, ModelOutput
 from ..dynamics.hill import mean_motion
 from ..kernels import numba_threads
 from .params import FTCAPNParams

@@ -45,7 +45,8 @@ from importlib import resources
 
 import numpy as np
 
-from ..base import InputInfo, Model, ModelOutput, OutputInfo, StepCount, failure_reasons
+from ..base import InputInfo, Model, OutputInfo, StepCount, failure_reasons
+from ...core.types import ModelOutput
 from ..dynamics.tschauner_hempel import ChiefOrbit, LVLHPlant
 from ..kernels import numba_threads
 from .controllers import NTSMC, TSMC, ReachingLaw

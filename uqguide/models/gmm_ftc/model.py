@@ -20,7 +20,8 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from ..base import InputInfo, Model, ModelOutput, OutputInfo, StepCount
+from ..base import InputInfo, Model, OutputInfo, StepCount
+from ...core.types import ModelOutput
 from ..dynamics.rotating_body_frame import RotatingBodyFrame
 from ..dynamics.tschauner_hempel import ChiefOrbit
 from ..gmm.potential import AttractRepulsePotential

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...report.figures import new_figure, save
-from ...models.base import ModelOutput
+from ...core.types import ModelOutput
 
 if TYPE_CHECKING:
     from ...models.ftcapn.model import FTCAPN

@@ -19,7 +19,7 @@ import numpy as np
 from matplotlib.patches import Rectangle
 
 from ...report.figures import new_figure, save
-from ...models.base import ModelOutput
+from ...core.types import ModelOutput
 from ..chief_drawing import PART_COLORS, draw_chief_3d, draw_chief_xy
 from .report import CONTROLLER_LABEL, nominal_runs
 
