@@ -68,13 +68,6 @@ NOT_YET = frozenset({
     "uqguide/models/fmu/simulate.py",
     # the moments' home
     "uqguide/stats/moments.py",
-    # the kernels: the NumPy references move to tests/, the compiled ones are rewritten
-    "uqguide/models/ft_as/kernel_numba.py",
-    "uqguide/models/gmm/__init__.py",
-    "uqguide/models/gmm/kernel_numba.py",
-    "uqguide/models/gmm/model.py",
-    "uqguide/models/gmm_ftc/kernel_numba.py",
-    "uqguide/models/kernels.py",
 })
 
 

@@ -77,17 +77,8 @@ class LinearGaussian(Model):
         )
 
     def exact_mean_cov(self, mean: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Mean and covariance of ``y`` for inputs of the given mean and covariance.
-
-        Parameters
-        ----------
-        mean : ndarray, shape (d,)
-        cov : ndarray, shape (d, d)
-
-        Returns
-        -------
-        mean, cov : ndarray, shapes (k,), (k, k)
-        """
+        """Mean (k,) and covariance (k, k) of ``y`` for inputs of mean ``mean`` (d,) and covariance
+        ``cov`` (d, d)."""
         A = self._A()
         return self._b() + A @ mean, A @ cov @ A.T
 
@@ -125,13 +116,7 @@ class Lognormal(Model):
         return (OutputInfo("y", "scalar", "1", "exp(sum a_i x_i)"),)
 
     def exact_moments(self) -> dict[str, float]:
-        """Mean, std, skewness, kurtosis (non-excess) for standard normal inputs.
-
-        Returns
-        -------
-        dict of str to float
-            Keys ``mean``, ``std``, ``skewness``, ``kurtosis``.
-        """
+        """``mean``, ``std``, ``skewness``, ``kurtosis`` (non-excess) for standard normal inputs."""
         s2 = float(np.sum(np.square(self.params.a)))
         e = np.exp(s2)
         return {
@@ -171,13 +156,8 @@ class Ishigami(Model):
         return (OutputInfo("y", "scalar", "1", "sin x1 + a sin^2 x2 + b x3^4 sin x1"),)
 
     def exact(self) -> dict[str, object]:
-        """Mean, variance, first-order and total Sobol' indices for ``x_i ~ U(-pi, pi)``.
-
-        Returns
-        -------
-        dict
-            ``mean``, ``variance`` (float), ``first``, ``total`` (ndarray, shape (3,)).
-        """
+        """``mean``, ``variance``, first-order and total Sobol' indices (``first``, ``total``, each
+        (3,)) for ``x_i ~ U(-pi, pi)``."""
         a, b, pi = self.params.a, self.params.b, np.pi
         v1 = 0.5 * (1 + b * pi**4 / 5) ** 2
         v2 = a**2 / 8

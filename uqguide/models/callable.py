@@ -54,17 +54,9 @@ def check_output_names(v: Any) -> Any:
     """``v`` unchanged when its output names (strings or mappings with ``name``) are plain and
     unique; ValueError naming the name and the rule otherwise.
 
-    Parameters
-    ----------
-    v : object
-        The ``outputs`` list as the config gives it, before the ``str | CallableOutput`` union
-        is validated: the union's error for a bad name in the mapping form would be "Input
-        should be a valid string", which names neither the name nor the rule.
-
-    Returns
-    -------
-    object
-        ``v``.
+    It checks the ``outputs`` list before the ``str | CallableOutput`` union is validated: the
+    union's error for a bad name in the mapping form would be "Input should be a valid string",
+    which names neither the name nor the rule.
     """
     if isinstance(v, list):
         names = [o.get("name") if isinstance(o, Mapping) else
@@ -78,20 +70,8 @@ def check_output_names(v: Any) -> Any:
 
 
 def find_module_dir(spec: str, folders: list[Path]) -> str | None:
-    """The first of ``folders`` holding the top-level module of ``"pkg.module:function"``.
-
-    Parameters
-    ----------
-    spec : str
-        ``"pkg.module:function"``.
-    folders : list of Path
-        Where to look, in order.
-
-    Returns
-    -------
-    str or None
-        The folder (resolved), or None when none holds ``pkg.py`` or ``pkg/__init__.py``.
-    """
+    """The first of ``folders`` (resolved) holding the top-level module of ``"pkg.module:function"``
+    as ``pkg.py`` or ``pkg/__init__.py``; None when none does."""
     top = spec.partition(":")[0].split(".")[0]
     if not top:
         return None
@@ -102,21 +82,9 @@ def find_module_dir(spec: str, folders: list[Path]) -> str | None:
 
 
 def import_function(spec: str, module_dir: str | None = None) -> Callable[[np.ndarray], object]:
-    """The callable named ``"package.module:function"`` (imported from ``module_dir`` first
-    when given); ValueError saying what went wrong.
-
-    Parameters
-    ----------
-    spec : str
-        ``"package.module:function"`` (the function may be a dotted attribute path).
-    module_dir : str, optional
-        A folder to import the module from first.
-
-    Returns
-    -------
-    callable
-        ``f(x (n, d))``.
-    """
+    """The callable ``f(x (n, d))`` named ``"package.module:function"`` (the function may be a
+    dotted attribute path), imported from ``module_dir`` first when given; ValueError saying what
+    went wrong."""
     module, sep, attr = spec.partition(":")
     if not sep or not module or not attr:
         raise ValueError(f"must be 'package.module:function', got {spec!r}")
@@ -172,21 +140,11 @@ class CallableParams(ModelParams):
         return v if isinstance(v, str) else f"{v.__module__}:{v.__qualname__}"
 
     def spec(self) -> str:
-        """``"module:function"``, also for a function object.
-
-        Returns
-        -------
-        str
-        """
+        """``"module:function"``, also for a function object."""
         return self._spec(self.function)
 
     def resolve(self) -> Callable[..., Any]:
-        """The function itself (imported when given by name).
-
-        Returns
-        -------
-        callable
-        """
+        """The function itself (imported when given by name)."""
         if callable(self.function):
             return self.function
         return import_function(self.function, self.module_dir)
@@ -336,19 +294,9 @@ class CallableModel(DeclaredModel):
 
 
 def example_function(x: np.ndarray) -> dict[str, np.ndarray]:
-    """A callable model's example (its conformance check): ``y = sin a + b^2`` and the series
-    ``path = t y`` on 5 points of [0, 1].
-
-    Parameters
-    ----------
-    x : ndarray, shape (n, 2)
-        Columns ``a``, ``b``.
-
-    Returns
-    -------
-    dict of str to ndarray
-        ``y`` ``(n,)``, ``path`` ``(n, 5)`` and ``time`` ``(5,)``.
-    """
+    """A callable model's example (its conformance check) of ``x`` (n, 2) with columns ``a``,
+    ``b``: ``y = sin a + b^2`` (n,) and the series ``path = t y`` (n, 5) on the 5 points ``time``
+    of [0, 1]."""
     y = np.sin(x[:, 0]) + x[:, 1] ** 2
     t = np.linspace(0.0, 1.0, 5)
     return {"y": y, "path": y[:, None] * t[None, :], "time": t}

@@ -4,10 +4,9 @@ Kernel modules decorate with :func:`njit` from here rather than ``numba.njit`` s
 the first decorator runs,
 
 - the on-disk cache lives where it can be written: numba's default is the ``__pycache__`` folder
-  beside the source, which a system-wide or read-only ``site-packages`` does not allow; then the
-  cache goes to ``$XDG_CACHE_HOME/uqguide/numba`` (``~/.cache/uqguide/numba``), and to a folder in
-  the temporary directory when even that cannot be written (``NUMBA_CACHE_DIR`` set by the user
-  always wins);
+  beside the source, which a read-only ``site-packages`` does not allow; then the cache goes to
+  ``$XDG_CACHE_HOME/uqguide/numba`` (``~/.cache/uqguide/numba``), and to a folder in the temporary
+  directory when even that cannot be written (``NUMBA_CACHE_DIR`` set by the user always wins);
 - a compile that misses the cache is a phase of its own, a line on stderr when it starts and
   one when it ends, its seconds booked as compile time, not model time (:func:`compile_seconds`).
 
@@ -64,16 +63,7 @@ KernelParam = Annotated[Literal["auto", "numba", "numpy"], AfterValidator(_depre
 
 def kernel_field(default: str = "auto") -> Any:
     """The ``kernel`` field of a simulator's parameters (:data:`KernelParam`), kept so that
-    configs and stored results that name it still load.
-
-    Parameters
-    ----------
-    default : {"auto", "numba"}
-
-    Returns
-    -------
-    pydantic FieldInfo
-    """
+    configs and stored results that name it still load."""
     return Field(default, validate_default=True,
                  description="deprecated: the compiled kernel always runs ('numpy' is accepted "
                              "with a warning)")
@@ -81,16 +71,7 @@ def kernel_field(default: str = "auto") -> Any:
 
 @contextmanager
 def numba_threads(threads: int) -> Iterator[None]:
-    """Let compiled kernels use ``threads`` threads (0: all numba may use) inside the block.
-
-    Parameters
-    ----------
-    threads : int
-
-    Yields
-    ------
-    None
-    """
+    """Let compiled kernels use ``threads`` threads (0: all numba may use) inside the block."""
     import numba
 
     before = numba.get_num_threads()
@@ -116,20 +97,9 @@ def _writable(folder: Path) -> bool:
 
 
 def cache_dir(package_dir: Path = _PACKAGE_DIR) -> Path | None:
-    """Where compiled kernels are cached; None means numba's default (beside the source).
-
-    Parameters
-    ----------
-    package_dir : Path
-        The installed ``uqguide`` folder (a parameter so that tests can point it at a
-        read-only folder).
-
-    Returns
-    -------
-    Path or None
-        ``NUMBA_CACHE_DIR`` if set; None when the package folder is writable; else a
-        writable user cache folder (None if there is none).
-    """
+    """Where compiled kernels are cached: ``NUMBA_CACHE_DIR`` if set; None (numba's default,
+    beside the source) when the package folder is writable; else a writable user cache folder
+    (None if there is none). ``package_dir`` is a parameter so that tests can make it read-only."""
     if os.environ.get("NUMBA_CACHE_DIR"):
         return Path(os.environ["NUMBA_CACHE_DIR"])
     if _writable(package_dir / "models" / "__pycache__"):
@@ -218,10 +188,6 @@ def compile_seconds() -> float:
 
     The driver reads it around each chunk's model calls, so that a first-run compile is
     booked as compile time, not model time.
-
-    Returns
-    -------
-    float
     """
     with _lock:
         return _clock.seconds
@@ -247,18 +213,8 @@ def _configure_numba() -> None:
 
 
 def njit(*args: Any, **kwargs: Any) -> Callable[..., Any]:
-    """``numba.njit`` with uqguide's cache location and compile notice (module docstring).
-
-    Parameters
-    ----------
-    *args, **kwargs
-        As for ``numba.njit``.
-
-    Returns
-    -------
-    callable
-        The compiled function, or a decorator when called with options only.
-    """
+    """``numba.njit`` with uqguide's cache location and compile notice (module docstring): the
+    compiled function, or a decorator when called with options only."""
     _configure_numba()
     import numba
 

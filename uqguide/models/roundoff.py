@@ -32,18 +32,8 @@ ROUNDOFF = 1e-12
 
 
 def perturbation_from_env() -> float:
-    """The relative perturbation asked for by ``UQGUIDE_PERTURB`` (0.0 when unset).
-
-    Returns
-    -------
-    float
-        Relative size in ``[0, 1e-6]``.
-
-    Raises
-    ------
-    ConfigError
-        When the variable is not a finite number in [0, 1e-6]: it is meant for round-off.
-    """
+    """The relative perturbation in ``[0, 1e-6]`` asked for by ``UQGUIDE_PERTURB`` (0.0 when
+    unset); ConfigError for anything else: it is meant for round-off."""
     raw = os.environ.get(PERTURB_ENV, "").strip()
     if not raw:
         return 0.0
@@ -72,25 +62,12 @@ def _unit_hash(v: np.ndarray, key: int) -> np.ndarray:
 
 def perturb(values: Mapping[str, np.ndarray], rel: float, member: int = 0
             ) -> dict[str, np.ndarray]:
-    """A copy of ``values`` with every array moved by a relative ``rel`` (module docstring).
+    """A copy of ``values`` (SI, each (n,)) with every array moved by a relative ``rel``
+    (module docstring); ``rel = 0`` copies them unchanged.
 
     The move of each value is a fixed function of the value itself, the input's name and
     ``member``, so a sample moves the same way whatever batch it is evaluated in, and two
-    equal samples stay equal.
-
-    Parameters
-    ----------
-    values : mapping of str to ndarray, shape (n,)
-        Input values by name, in SI units.
-    rel : float
-        Relative size of the perturbation; 0 returns the values unchanged (as new arrays).
-    member : int
-        Which perturbation: different members move the inputs in independent directions.
-
-    Returns
-    -------
-    dict of str to ndarray, shape (n,)
-        New arrays, same units.
+    equal samples stay equal; different members move the inputs in independent directions.
     """
     out: dict[str, np.ndarray] = {}
     for name, v in values.items():
@@ -116,32 +93,15 @@ def _member_from_env() -> int:
 
 def apply_env(values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """``values`` perturbed as ``UQGUIDE_PERTURB`` (and ``UQGUIDE_PERTURB_MEMBER``) ask;
-    unchanged when it is unset.
-
-    Parameters
-    ----------
-    values : mapping of str to ndarray, shape (n,)
-        Input values by name, SI units.
-
-    Returns
-    -------
-    dict of str to ndarray, shape (n,)
-    """
+    unchanged when it is unset."""
     rel = perturbation_from_env()
     return perturb(values, rel, _member_from_env()) if rel else dict(values)
 
 
 @dataclass(frozen=True)
 class Spread:
-    """A chaotic figure over a round-off ensemble: the unperturbed run and ``members`` others.
-
-    Attributes
-    ----------
-    median, low, high : ndarray
-        Median, minimum and maximum over the ensemble, elementwise.
-    members : int
-        Number of runs in the ensemble, the unperturbed one included.
-    """
+    """A chaotic figure over a round-off ensemble: the elementwise ``median``, ``low`` (minimum)
+    and ``high`` (maximum) over ``members`` runs, the unperturbed one included."""
 
     median: np.ndarray
     low: np.ndarray
@@ -150,34 +110,14 @@ class Spread:
 
     @classmethod
     def of(cls, runs: np.ndarray) -> Spread:
-        """The spread of an ensemble's runs.
-
-        Parameters
-        ----------
-        runs : ndarray, shape (members, ...)
-            Member 0 unperturbed, member ``m > 0`` run with
-            ``perturb(values, ROUNDOFF, member=m)``.
-
-        Returns
-        -------
-        Spread
-            Median, low and high of shape ``(...)``.
-        """
+        """The spread of ``runs`` (members, ...): member 0 unperturbed, member ``m > 0`` run with
+        ``perturb(values, ROUNDOFF, member=m)``."""
         runs = np.asarray(runs, dtype=float)
         return cls(np.median(runs, axis=0), runs.min(axis=0), runs.max(axis=0), runs.shape[0])
 
     def describe(self, index: tuple[int, ...] | int = ()) -> str:
-        """``"median of 5 runs under 1e-12 input perturbations; range [a, b]"``.
-
-        Parameters
-        ----------
-        index : tuple of int or int
-            Which element (``()`` for a scalar figure).
-
-        Returns
-        -------
-        str
-        """
+        """``"median of 5 runs under 1e-12 input perturbations; range [a, b]"`` of the element
+        ``index`` (``()`` for a scalar figure)."""
         lo, hi = float(self.low[index]), float(self.high[index])
         return (f"median of {self.members} runs under {ROUNDOFF:g} input perturbations; "
                 f"range [{lo:.3g}, {hi:.3g}]")

@@ -12,29 +12,9 @@ __all__ = ["recording_stride", "whole_steps"]
 
 def whole_steps(span: float, step: float, what: str, step_name: str = "dt",
                 rtol: float = 1e-9) -> int:
-    """The number of steps ``span / step``, when it is a positive whole number.
-
-    Parameters
-    ----------
-    span : float
-        The duration to cover [s], e.g. the final time.
-    step : float
-        The step [s], > 0.
-    what, step_name : str
-        The parameters' names, for the message (``"t_final"``, ``"dt"``).
-    rtol : float
-        Relative tolerance on ``span / step`` being whole (round-off of decimal steps).
-
-    Returns
-    -------
-    int
-        ``round(span / step)``, at least 1.
-
-    Raises
-    ------
-    ValueError
-        ``span`` is not a positive whole number of steps.
-    """
+    """``round(span / step)`` (at least 1) for a ``span`` and ``step`` > 0 [s], when ``span``
+    is a positive whole number of steps up to ``rtol`` (round-off of decimal steps); ValueError
+    naming the parameters ``what`` and ``step_name`` otherwise."""
     ratio = span / step
     n = round(ratio)
     if n < 1 or abs(ratio - n) > rtol * ratio:
@@ -45,29 +25,9 @@ def whole_steps(span: float, step: float, what: str, step_name: str = "dt",
 
 def recording_stride(interval: float, step: float, n_steps: int, what: str,
                      step_name: str = "dt", span_name: str = "t_final") -> int:
-    """Steps between two recorded points, when ``interval`` is whole steps dividing the run.
-
-    Parameters
-    ----------
-    interval : float
-        Spacing of the recorded grid [s].
-    step : float
-        The integration step [s].
-    n_steps : int
-        Steps of the whole run (:func:`whole_steps` of the final time).
-    what, step_name, span_name : str
-        The parameters' names, for the message.
-
-    Returns
-    -------
-    int
-        ``interval / step``, which divides ``n_steps``.
-
-    Raises
-    ------
-    ValueError
-        ``interval`` is not whole steps, or does not divide the run.
-    """
+    """Steps between two recorded points, ``interval / step``, when ``interval`` [s] is whole
+    steps that divide the run of ``n_steps`` (:func:`whole_steps` of the final time); ValueError
+    naming the parameters otherwise."""
     every = whole_steps(interval, step, what, step_name)
     if n_steps % every:
         raise ValueError(f"{what} = {interval:g} s must divide {span_name} = {n_steps * step:g} s "

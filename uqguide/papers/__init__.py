@@ -52,46 +52,15 @@ def _scenario(model: Model, part: str) -> ModuleType:
 
 
 def nominal_report(model: Model) -> list[ReportRow]:
-    """Run the model's nominal scenario and report its headline figures beside the paper's.
-
-    Parameters
-    ----------
-    model : Model
-        A model whose name is in :data:`SCENARIOS`, with the configured parameters.
-
-    Returns
-    -------
-    list of ReportRow
-        In the order the report prints them.
-
-    Raises
-    ------
-    NoPaperScenario
-        The model has no paper scenario.
-    """
+    """Run the model's nominal scenario and report its headline figures beside the paper's,
+    in the order the report prints them; :class:`NoPaperScenario` without a scenario."""
     rows: list[ReportRow] = _scenario(model, "report").nominal_report(model)
     return rows
 
 
 def nominal_figures(model: Model, out_dir: str | Path) -> list[Path]:
-    """Write the paper's figures of the nominal scenario (PNG) into ``out_dir``.
-
-    Parameters
-    ----------
-    model : Model
-    out_dir : str or Path
-        Made if missing.
-
-    Returns
-    -------
-    list of Path
-        The files written.
-
-    Raises
-    ------
-    NoPaperScenario
-        The model has no paper scenario.
-    """
+    """Write the paper's figures of the nominal scenario (PNG) into ``out_dir`` (made if
+    missing); return the files written. :class:`NoPaperScenario` without a scenario."""
     paths: list[Path] = _scenario(model, "figures").nominal_figures(model, Path(out_dir))
     return paths
 
@@ -99,23 +68,11 @@ def nominal_figures(model: Model, out_dir: str | Path) -> list[Path]:
 def sample_figures(model: Model, out: ModelOutput, values: Mapping[str, float],
                    out_dir: str | Path, stem: str) -> list[Path]:
     """Figures of one replayed sample beyond the generic time histories (its trajectory, with
-    the scene's geometry where the paper has one); none for a model without a scenario.
+    the scene's geometry where the paper has one); return the files written, none for a model
+    without a scenario or a sample figure.
 
-    Parameters
-    ----------
-    model : Model
-    out : ModelOutput
-        Every output of the one sample (batch of 1).
-    values : mapping of str to float
-        Every input of the sample (nominal where not uncertain), SI units.
-    out_dir : str or Path
-    stem : str
-        File names start with it.
-
-    Returns
-    -------
-    list of Path
-        The files written (empty without a scenario or a sample figure).
+    ``out`` holds every output of the one sample (batch of 1), ``values`` every input (nominal
+    where not uncertain) in SI units; file names start with ``stem``.
     """
     if not has_scenario(model):
         return []

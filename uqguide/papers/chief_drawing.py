@@ -40,14 +40,8 @@ def box_faces(lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray]:
 
 
 def draw_chief_3d(ax: Any, geometry: ChiefGeometry) -> None:
-    """Every part on a 3-D axes: translucent boxes and plates, antennas as thick lines.
-
-    Parameters
-    ----------
-    ax : mpl_toolkits.mplot3d.axes3d.Axes3D
-    geometry : ChiefGeometry
-        Parts in the frame the axes show [m].
-    """
+    """Every part on a 3-D axes: translucent boxes and plates, antennas as thick lines; the
+    parts in the frame the axes show [m]."""
     for part in geometry.parts:
         lo, hi = np.asarray(part.lo, float), np.asarray(part.hi, float)
         if part.kind == "segment":
@@ -59,15 +53,8 @@ def draw_chief_3d(ax: Any, geometry: ChiefGeometry) -> None:
 
 
 def outline_xy(part: Part, rotation: np.ndarray | None = None) -> np.ndarray:
-    """The closed outline (5, 2) [m] of a part's projection on the x-y plane.
-
-    Parameters
-    ----------
-    part : Part
-    rotation : ndarray, shape (3, 3), optional
-        Applied to the outline's corners (in the part's z = 0 plane) before projecting, e.g. a
-        body-to-LVLH attitude matrix.
-    """
+    """The closed outline (5, 2) [m] of a part's projection on the x-y plane; ``rotation``
+    (3, 3), e.g. a body-to-LVLH attitude, turns the corners (in the part's z = 0 plane) first."""
     lo, hi = np.asarray(part.lo, float), np.asarray(part.hi, float)
     xy = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]],
                    [lo[0], lo[1]]])
@@ -80,14 +67,8 @@ def draw_chief_xy(ax: Any, geometry: ChiefGeometry, rotation: np.ndarray | None 
                   color: Any = None) -> None:
     """Every part projected on the x-y plane: the body filled, panels and antennas as outlines.
 
-    Parameters
-    ----------
-    ax : matplotlib.axes.Axes
-    geometry : ChiefGeometry
-    rotation : ndarray, shape (3, 3), optional
-        See :func:`outline_xy`.
-    color : matplotlib colour, optional
-        One colour for every part, unfilled (snapshots coloured by time); default: by kind.
+    ``rotation`` as in :func:`outline_xy`; ``color``: one colour for every part, unfilled
+    (snapshots coloured by time), instead of one per kind.
     """
     for part in geometry.parts:
         xy = outline_xy(part, rotation)

@@ -18,7 +18,6 @@ class ReportRow:
     quantity : str
         What is reported, e.g. ``"time to 50 m"`` (prefix a group such as a controller name
         with ``"GMM-NTSMC: "`` where one model reports several cases).
-    unit : str
     value : float or str
         The model's figure (a string for yes/no or categorical outcomes).
     paper : float or str or None
@@ -62,19 +61,8 @@ def cell_text(v: object) -> str:
 
 
 def format_report(model_name: str, rows: list[ReportRow]) -> str:
-    """The nominal run's figures beside the paper's, as an aligned text table.
-
-    Parameters
-    ----------
-    model_name : str
-        Named in the title line.
-    rows : list of ReportRow
-
-    Returns
-    -------
-    str
-        The table, then the robust statistics of chaotic rows and the rows' notes.
-    """
+    """The nominal run's figures beside the paper's, as an aligned text table, then the robust
+    statistics of chaotic rows and the rows' notes."""
     header = ("quantity", "unit", "model", "paper", "tolerance", "check", "kind")
     body = [(r.quantity, r.unit, cell_text(r.value), cell_text(r.paper), r.tolerance,
              {True: "ok", False: "MISS", None: "—"}[r.ok], r.kind) for r in rows]

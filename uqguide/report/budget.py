@@ -36,20 +36,15 @@ class BudgetTable:
 
     Attributes
     ----------
-    label : str
-        The method's label.
     output : str
         The output's name, ``output[component]`` for one of several components.
     at : str
         ``""`` for a scalar, ``"at t = ... s"`` for a series' step.
     estimator : str
-        ``"given-data"`` (Monte Carlo runs), ``"saltelli"`` (a pick-freeze design) or
-        ``"pce"`` (coefficients).
+        ``"given-data"``, ``"saltelli"`` or ``"pce"`` (:data:`ESTIMATORS`).
     table : DataFrame
         Columns input, first_order, ci_low, ci_high, total, total_low, total_high (NaN where
-        unknown), share [%].
-    first_sum : float
-        Sum of the inputs' first-order indices.
+        unknown), share_% (see the module docstring).
     """
 
     label: str

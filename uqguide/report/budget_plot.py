@@ -17,9 +17,7 @@ from .figures import Figure, new_figure
 from ..results.result import Result
 from ..results.statistics import result_statistics
 
-#: An input is drawn when its index reaches this at some time.
 MIN_SHOWN = 0.02
-#: At most this many inputs are drawn per panel.
 MAX_LINES = 10
 _COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
             "#bcbd22", "#17becf", "#7f7f7f"]
@@ -33,19 +31,8 @@ def has_budget(result: Result, output: str) -> bool:
 
 
 def budget_figure(result: Result, output: str, component: int = 0) -> Figure:
-    """First-order indices of one component of a series output over time, per method.
-
-    Parameters
-    ----------
-    result : Result
-    output : str
-        A series output with indices (:func:`has_budget`).
-    component : int
-
-    Returns
-    -------
-    Figure
-    """
+    """First-order indices of one component of a series output with indices
+    (:func:`has_budget`) over time, one panel per method."""
     described = result_statistics(result)
     # A method with no usable surrogate keeps its indices as NaN: it gets no panel.
     panels = [(label, d[output]) for label, d in described.items()

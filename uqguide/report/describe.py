@@ -96,19 +96,8 @@ def _allowed(annotation: Any, metadata: list[Any]) -> str:
 
 
 def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
-    """One line per field: name, allowed values, default, unit, one-line meaning.
-
-    Parameters
-    ----------
-    settings : type of pydantic.BaseModel
-        A model's ``Params`` or a method's settings class.
-    indent : str
-        Prefix of every line.
-
-    Returns
-    -------
-    str
-    """
+    """One line per field of a model's ``Params`` or a method's settings class: name, allowed
+    values, default, unit, one-line meaning."""
     from_doc = _docstring_attributes(settings)
     lines = []
     for fname, f in settings.model_fields.items():
@@ -128,18 +117,8 @@ DEFAULT_DIMS = (1, 2, 3, 5, 10, 20, 50)
 
 
 def describe_defaults(cls: Any) -> str:
-    """The defaults of a method that are rules, each with its reason, and the run counts
-    they give for a few input counts (computed by the method itself).
-
-    Parameters
-    ----------
-    cls : type of Method
-
-    Returns
-    -------
-    str
-        Empty when the method has no such default.
-    """
+    """The defaults of a method class that are rules, each with its reason, and the run counts
+    they give for a few input counts (computed by the method itself); empty without such."""
     if not cls.default_rules:
         return ""
     lines = [" defaults that are rules (d inputs):"]
@@ -172,17 +151,8 @@ def _value(v: Any) -> str:
 
 
 def describe_model(cls: type[Model]) -> str:
-    """Name, summary, uncertain inputs, outputs and parameters of a model class.
-
-    Parameters
-    ----------
-    cls : type of Model
-
-    Returns
-    -------
-    str
-        Text for ``uqguide models NAME``.
-    """
+    """Name, summary, uncertain inputs, outputs and parameters of a model class, for
+    ``uqguide models NAME``."""
     model: Model | None
     try:
         model = cls()

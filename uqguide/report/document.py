@@ -160,23 +160,9 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
 
 def write_report(result: Result, out_dir: str | Path, check: CheckReport | None = None,
                  figure_dir: str | Path | None = None) -> tuple[Path, list[FigureFile]]:
-    """Write the figures and ``<name>_report.md`` into ``out_dir``.
-
-    Parameters
-    ----------
-    result : Result
-    out_dir : path
-        Folder of the report.
-    check : CheckReport, optional
-        A regression check to include.
-    figure_dir : path, optional
-        Folder of the figures (default ``out_dir/figures``).
-
-    Returns
-    -------
-    (Path, list of FigureFile)
-        The report and the figures it embeds.
-    """
+    """Write the figures (into ``figure_dir``, default ``out_dir/figures``) and
+    ``<name>_report.md`` into ``out_dir``, with the regression ``check`` when given; return the
+    report and the figures it embeds."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figures = write_figures(result, Path(figure_dir) if figure_dir else out / "figures")

@@ -24,44 +24,18 @@ __all__ = ["Figure", "colormap", "new_figure", "save"]
 def new_figure(figsize: tuple[float, float], *,
                layout: Literal["constrained", "compressed", "tight"] | None = None,
                **kwargs: Any) -> Figure:
-    """A figure drawn by the Agg canvas, owned by the caller only.
-
-    Parameters
-    ----------
-    figsize : (float, float)
-        Width and height [inch].
-    layout : {"constrained", "tight", None}
-        Matplotlib's layout engine.
-    **kwargs
-        Passed to :class:`matplotlib.figure.Figure`.
-
-    Returns
-    -------
-    Figure
-        Add axes with ``fig.add_subplot`` or ``fig.subplots``.
-    """
+    """A figure drawn by the Agg canvas, owned by the caller only; ``figsize`` in inches,
+    ``kwargs`` to :class:`matplotlib.figure.Figure`. Add axes with ``fig.add_subplot`` or
+    ``fig.subplots``."""
     fig = Figure(figsize=figsize, layout=layout, **kwargs)
     FigureCanvasAgg(fig)
     return fig
 
 
 def save(fig: Figure, path: str | Path, dpi: float = 100, **kwargs: Any) -> Path:
-    """Write ``fig`` as a PNG at ``path`` atomically, making its folder.
+    """Write ``fig`` as a PNG at ``path`` atomically, making its folder; return ``path``.
 
-    Parameters
-    ----------
-    fig : Figure
-    path : str or Path
-        The final file name (``.png``).
-    dpi : float
-        Resolution [dots per inch].
-    **kwargs
-        Passed to :meth:`Figure.savefig` (e.g. ``bbox_inches="tight"``).
-
-    Returns
-    -------
-    Path
-        ``path``.
+    ``kwargs`` go to :meth:`Figure.savefig` (e.g. ``bbox_inches="tight"``).
     """
     return atomic.write_with(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png", **kwargs))
 

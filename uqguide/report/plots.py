@@ -51,32 +51,12 @@ class FigureFile:
 
 
 def unit_label(unit: str) -> str:
-    """``[unit]`` for axis labels; ``[-]`` for a dimensionless quantity.
-
-    Parameters
-    ----------
-    unit : str
-        SI unit as the model states it.
-
-    Returns
-    -------
-    str
-    """
+    """``[unit]`` for axis labels; ``[-]`` for a dimensionless quantity."""
     return "[-]" if unit in ("", "1", "-") else f"[{unit}]"
 
 
 def method_label(r: MethodRun) -> str:
-    """A method's legend entry: label, short method name and runs.
-
-    Parameters
-    ----------
-    r : MethodRun
-
-    Returns
-    -------
-    str
-        E.g. ``"mc1000 (MC, 1000 runs)"``.
-    """
+    """A method's legend entry: label, short method name and runs (``"mc1000 (MC, 1000 runs)"``)."""
     short = METHOD_SHORT.get(r.estimate.method, r.estimate.method)
     return f"{r.label} ({short}, {r.n_runs} run{'' if r.n_runs == 1 else 's'})"
 
@@ -106,21 +86,7 @@ def _comp_suffix(o: OutputInfo, c: int) -> str:
 
 # ---------------------------------------------------------------------------- time series
 def series_figure(result: Result, output: str, component: int = 0) -> Figure:
-    """Mean +- std, std, skewness and kurtosis over time of one series output component.
-
-    Parameters
-    ----------
-    result : Result
-    output : str
-        Name of a ``series`` output.
-    component : int
-        Index into the output's components.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Four panels over time [s], values in the output's unit.
-    """
+    """Mean +- std, std, skewness and kurtosis over time [s] of one series output component."""
     o = result.output(output)
     name = f"{o.name}{_comp_suffix(o, component)}"
     u = unit_label(o.unit)
@@ -184,17 +150,7 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
 
 
 def has_quantiles(result: Result, output: str) -> bool:
-    """Whether any method of ``result`` computed quantiles of ``output``.
-
-    Parameters
-    ----------
-    result : Result
-    output : str
-
-    Returns
-    -------
-    bool
-    """
+    """Whether any method of ``result`` computed quantiles of ``output``."""
     return any(r.estimate.stats.get(output) is not None
                and r.estimate.stats[output].quantiles is not None for r in result.runs)
 
@@ -202,25 +158,10 @@ def has_quantiles(result: Result, output: str) -> bool:
 def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
     """Quantile envelopes over time of one series output component, per method.
 
-    The band is the outermost pair of quantile levels (with ``quantiles: 3sigma`` the 0.135%
-    and 99.865% quantiles: the distribution-free 3-sigma envelope), the line the median (or the
-    middle level); thin dotted lines are the outer quantiles' 95% intervals (order statistics;
-    where too few runs bound a tail the line is left out). Beside it, dashed, mean +- k std
-    with the k a Gaussian gives the outer levels: where the two disagree the output is not
-    Gaussian. Steps without quantiles (above the memory cap: report times only) show as
-    markers.
-
-    Parameters
-    ----------
-    result : Result
-    output : str
-        Name of a ``series`` output with quantiles.
-    component : int
-        Index into the output's components.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
+    Band: the outermost pair of levels; line: the median (or middle level); dotted: the outer
+    quantiles' 95% intervals where the runs bound them; dashed: mean +- k std with the k a
+    Gaussian gives the outer levels. Quantiles at the report times only (above the memory cap)
+    show as markers. docs/statistics.md#quantiles-and-events.
     """
     o = result.output(output)
     name = f"{o.name}{_comp_suffix(o, component)}"
@@ -393,16 +334,6 @@ def scalar_figure(result: Result, output: str) -> Figure:
     """Histograms of the Monte Carlo samples of a scalar output, with each PCE's density.
 
     One panel per component; module docstring for what the PCE curve is.
-
-    Parameters
-    ----------
-    result : Result
-    output : str
-        Name of a ``scalar`` output.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
     """
     o = result.output(output)
     k = o.k
@@ -505,16 +436,7 @@ def scalar_figure(result: Result, output: str) -> Figure:
 
 # ---------------------------------------------------------------------------- cost
 def cost_figure(result: Result) -> Figure:
-    """Model runs and wall seconds per method (log scales), above the cost table.
-
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
+    """Model runs and wall seconds per method (log scales), above the cost table."""
     df = cost_table(result)
     labels = [method_label(r) for r in result.runs]
     n = len(labels)
@@ -573,7 +495,6 @@ def _safe(text: str) -> str:
 
 
 def _save(fig: Figure, path: Path, dpi: int) -> None:
-    """A PNG written whole or not at all (temporary file, then rename)."""
     save(fig, path, dpi=dpi)
 
 
@@ -584,20 +505,7 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
     ``<name>_<output>_hist.png`` per scalar output, ``<name>_cost.png``; with quantiles also
     ``<name>_<output>[_<component>]_envelope.png``; with Sobol' indices of a series also
     ``<name>_<output>[_<component>]_budget.png`` (:mod:`uqguide.report.budget_plot`).
-    Each is written whole or not at all.
-
-    Parameters
-    ----------
-    result : Result
-    out_dir : str or Path
-        Created when missing.
-    dpi : int
-        Resolution.
-
-    Returns
-    -------
-    list of FigureFile
-        Path, kind, output and component of each file.
+    Each is written whole or not at all; ``out_dir`` is made when missing.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -19,40 +19,16 @@ MU_EARTH = 3.986004418e14
 
 
 def mean_motion(semi_major_axis: float, mu: float = MU_EARTH) -> float:
-    """Mean motion ``n = sqrt(mu / a^3)`` of a circular orbit.
-
-    Parameters
-    ----------
-    semi_major_axis : float
-        Orbit radius ``a`` [m], > 0.
-    mu : float
-        Gravitational parameter [m^3/s^2].
-
-    Returns
-    -------
-    float
-        [rad/s].
-    """
+    """Mean motion ``n = sqrt(mu / a^3)`` [rad/s] of a circular orbit of radius ``a`` [m] > 0."""
     if not semi_major_axis > 0:
         raise ValueError(f"semi-major axis must be positive, got {semi_major_axis} m")
     return float(np.sqrt(mu / semi_major_axis**3))
 
 
 def hill_acceleration(r: np.ndarray, v: np.ndarray, n: float) -> np.ndarray:
-    """Gravity and frame (Coriolis, centrifugal) relative acceleration ``g(r, v)`` [m/s^2].
-
-    Parameters
-    ----------
-    r, v : ndarray, shape (..., 3)
-        Relative position [m] and velocity [m/s] in the LVLH frame (either sign convention).
-    n : float
-        Mean motion [rad/s].
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
-        ``[3 n^2 x + 2 n v_y, -2 n v_x, -n^2 z]``.
-    """
+    """Gravity and frame (Coriolis, centrifugal) relative acceleration
+    ``g(r, v) = [3 n^2 x + 2 n v_y, -2 n v_x, -n^2 z]`` [m/s^2] for LVLH ``r`` [m], ``v`` [m/s]
+    (either sign convention) and the mean motion ``n`` [rad/s]."""
     r = np.asarray(r, dtype=float)
     v = np.asarray(v, dtype=float)
     g = np.empty(np.broadcast_shapes(r.shape, v.shape))
@@ -63,18 +39,7 @@ def hill_acceleration(r: np.ndarray, v: np.ndarray, n: float) -> np.ndarray:
 
 
 def hill_matrix(n: float) -> np.ndarray:
-    """System matrix ``A`` of ``d/dt [r, v] = A [r, v]`` for the Hill equations.
-
-    Parameters
-    ----------
-    n : float
-        Mean motion [rad/s].
-
-    Returns
-    -------
-    ndarray, shape (6, 6)
-        [1/s] and [1/s^2] blocks.
-    """
+    """System matrix ``A`` (6, 6) of the Hill equations ``d/dt [r, v] = A [r, v]`` [rad/s]."""
     A = np.zeros((6, 6))
     A[0:3, 3:6] = np.eye(3)
     A[3, 0] = 3.0 * n * n
@@ -85,20 +50,9 @@ def hill_matrix(n: float) -> np.ndarray:
 
 
 def cw_stm(n: float, t: np.ndarray | float) -> np.ndarray:
-    """Closed-form CW state transition matrix ``Phi(t)``.
-
-    Parameters
-    ----------
-    n : float
-        Mean motion [rad/s], > 0.
-    t : float or ndarray, shape (m,)
-        Elapsed times [s].
-
-    Returns
-    -------
-    ndarray, shape (m, 6, 6) (or (6, 6) for a scalar ``t``)
-        ``[r(t), v(t)] = Phi(t) [r(0), v(0)]``, state ordered ``x, y, z, vx, vy, vz``.
-    """
+    """Closed-form CW state transition matrix ``Phi(t)``, ``[r(t), v(t)] = Phi(t) [r(0), v(0)]``,
+    state ordered ``x, y, z, vx, vy, vz``: (m, 6, 6) for times ``t`` (m,) [s], (6, 6) for a
+    scalar ``t``; mean motion ``n`` > 0 [rad/s]."""
     scalar = np.ndim(t) == 0
     t = np.atleast_1d(np.asarray(t, dtype=float))
     nt = n * t
@@ -125,11 +79,9 @@ def cw_stm(n: float, t: np.ndarray | float) -> np.ndarray:
 
 
 def _particular(n: float, a: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """A particular solution ``p(t)`` (state, shape (..., 6)) for a constant acceleration ``a``.
-
-    Substituting ``x = X0 + X1 t``, ``y = Y2 t^2``, ``z = Z0`` into the forced CW equations
-    gives ``X1 = 2 a_y / n``, ``Y2 = -3 a_y / 2``, ``X0 = -a_x / (3 n^2)``, ``Z0 = a_z / n^2``.
-    """
+    """A particular solution ``p(t)`` (..., 6) for a constant acceleration ``a``: substituting
+    ``x = X0 + X1 t``, ``y = Y2 t^2``, ``z = Z0`` into the forced CW equations gives
+    ``X1 = 2 a_y / n``, ``Y2 = -3 a_y / 2``, ``X0 = -a_x / (3 n^2)``, ``Z0 = a_z / n^2``."""
     p = np.zeros(np.broadcast_shapes(a.shape[:-1], np.shape(t)) + (6,))
     p[..., 0] = -a[..., 0] / (3.0 * n * n) + 2.0 * a[..., 1] / n * t
     p[..., 1] = -1.5 * a[..., 1] * t * t
@@ -142,28 +94,12 @@ def _particular(n: float, a: np.ndarray, t: np.ndarray) -> np.ndarray:
 def cw_propagate(
     r: np.ndarray, v: np.ndarray, n: float, t: np.ndarray | float, accel: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-form CW propagation, optionally with a constant (LVLH-fixed) acceleration.
+    """Closed-form CW propagation of ``r`` [m], ``v`` [m/s] (m, 3) over the elapsed times ``t``
+    [s] per sample, optionally with a constant (LVLH-fixed) acceleration.
 
-    Parameters
-    ----------
-    r, v : ndarray, shape (m, 3)
-        Initial relative position [m] and velocity [m/s] (LVLH frame).
-    n : float
-        Mean motion [rad/s], > 0.
-    t : float or ndarray, shape (m,)
-        Elapsed time per sample [s].
-    accel : ndarray, shape (m, 3) or (3,), optional
-        Constant forcing acceleration [m/s^2] added to ``g(r, v)`` (``a_target - a_chaser`` for
-        ``r = target - chaser``).
-
-    Returns
-    -------
-    r_t, v_t : ndarray, shape (m, 3)
-
-    Notes
-    -----
-    The forced solution is ``x(t) = Phi(t) (x0 - p(0)) + p(t)`` with the particular solution of
-    :func:`_particular`; its terms of size ``|a| / n^2`` cancel, which costs about
+    ``accel`` (m, 3) or (3,) [m/s^2] is added to ``g(r, v)`` (``a_target - a_chaser`` for
+    ``r = target - chaser``). The forced solution is ``x(t) = Phi(t) (x0 - p(0)) + p(t)``
+    (:func:`_particular`); its terms of size ``|a| / n^2`` cancel, which costs about
     ``1e-16 |a| / n^2`` (1e-11 m for 0.1 m/s^2 in LEO) of absolute accuracy.
     """
     r = np.atleast_2d(np.asarray(r, dtype=float))

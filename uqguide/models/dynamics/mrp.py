@@ -16,16 +16,7 @@ import numpy as np
 
 
 def skew(x: np.ndarray) -> np.ndarray:
-    """Skew-symmetric matrix ``S(x)`` with ``S(x) y = x cross y`` (the paper's psi(x)).
-
-    Parameters
-    ----------
-    x : ndarray, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
-    """
+    """Skew-symmetric matrix ``S(x)`` with ``S(x) y = x cross y`` (the paper's psi(x))."""
     x = np.asarray(x, dtype=float)
     z = np.zeros(x.shape[:-1])
     x1, x2, x3 = x[..., 0], x[..., 1], x[..., 2]
@@ -48,53 +39,23 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def kinematics_matrix(sigma: np.ndarray) -> np.ndarray:
-    """``G(sigma) = 1/4 [(1 - sigma^T sigma) I + 2 S(sigma) + 2 sigma sigma^T]`` (paper eq 3).
-
-    Parameters
-    ----------
-    sigma : ndarray, shape (..., 3)
-        MRP.
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
-        The matrix with ``sigma_dot = G(sigma) omega``.
-    """
+    """``G(sigma) = 1/4 [(1 - sigma^T sigma) I + 2 S(sigma) + 2 sigma sigma^T]`` (paper eq 3), so
+    that ``sigma_dot = G(sigma) omega``."""
     sigma = np.asarray(sigma, dtype=float)
     q = _dot(sigma, sigma)[..., None, None]
     return 0.25 * ((1.0 - q) * np.eye(3) + 2.0 * skew(sigma) + 2.0 * _outer(sigma, sigma))
 
 
 def kinematics_matrix_inv(sigma: np.ndarray) -> np.ndarray:
-    """``G(sigma)^-1 = 16 / (1 + sigma^T sigma)^2 G(sigma)^T``.
-
-    Parameters
-    ----------
-    sigma : ndarray, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
-    """
+    """``G(sigma)^-1 = 16 / (1 + sigma^T sigma)^2 G(sigma)^T``."""
     sigma = np.asarray(sigma, dtype=float)
     q = _dot(sigma, sigma)[..., None, None]
     return 16.0 / (1.0 + q) ** 2 * np.swapaxes(kinematics_matrix(sigma), -1, -2)
 
 
 def kinematics_matrix_dot(sigma: np.ndarray, sigma_dot: np.ndarray) -> np.ndarray:
-    """Time derivative of ``G``:
-    ``1/2 [-(sigma^T sigma_dot) I + S(sigma_dot) + sigma_dot sigma^T + sigma sigma_dot^T]``.
-
-    Parameters
-    ----------
-    sigma, sigma_dot : ndarray, shape (..., 3)
-        MRP and its rate [1/s].
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
-        ``dG/dt`` [1/s].
-    """
+    """Time derivative of ``G`` [1/s] for the rate ``sigma_dot`` [1/s]:
+    ``1/2 [-(sigma^T sigma_dot) I + S(sigma_dot) + sigma_dot sigma^T + sigma sigma_dot^T]``."""
     sigma = np.asarray(sigma, dtype=float)
     sigma_dot = np.asarray(sigma_dot, dtype=float)
     sd = _dot(sigma, sigma_dot)[..., None, None]
@@ -104,18 +65,8 @@ def kinematics_matrix_dot(sigma: np.ndarray, sigma_dot: np.ndarray) -> np.ndarra
 
 
 def dcm(sigma: np.ndarray) -> np.ndarray:
-    """Direction-cosine matrix ``C(sigma) = I + [8 S^2 - 4 (1 - q) S] / (1 + q)^2``.
-
-    Parameters
-    ----------
-    sigma : ndarray, shape (..., 3)
-        MRP of frame X relative to frame Y.
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
-        Maps Y-components to X-components.
-    """
+    """Direction-cosine matrix ``C(sigma) = I + [8 S^2 - 4 (1 - q) S] / (1 + q)^2`` of the MRP of
+    frame X relative to Y: it maps Y-components to X-components."""
     sigma = np.asarray(sigma, dtype=float)
     q = _dot(sigma, sigma)[..., None, None]
     S = skew(sigma)
@@ -123,19 +74,10 @@ def dcm(sigma: np.ndarray) -> np.ndarray:
 
 
 def from_dcm(C: np.ndarray) -> np.ndarray:
-    """MRP of a direction-cosine matrix, the short rotation (``|sigma| <= 1``).
+    """MRP of a proper orthogonal matrix, the short rotation (``|sigma| <= 1``).
 
     Goes through the quaternion (Shepperd's method: the largest of the four squared
     components is taken as pivot, so no division by a small number).
-
-    Parameters
-    ----------
-    C : ndarray, shape (..., 3, 3)
-        Proper orthogonal matrix.
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
     """
     C = np.asarray(C, dtype=float)
     tr = np.trace(C, axis1=-2, axis2=-1)
@@ -174,19 +116,9 @@ def from_dcm(C: np.ndarray) -> np.ndarray:
 
 
 def relative(sigma: np.ndarray, sigma_t: np.ndarray) -> np.ndarray:
-    """MRP of B relative to R from ``sigma = sigma_{B/N}`` and ``sigma_t = sigma_{R/N}`` (eq 4).
-
+    """MRP of B relative to R from ``sigma = sigma_{B/N}`` and ``sigma_t = sigma_{R/N}`` (eq 4):
     ``sigma_e = [(1 - |sigma_t|^2) sigma - (1 - |sigma|^2) sigma_t + 2 sigma x sigma_t]
-    / [1 + |sigma_t|^2 |sigma|^2 + 2 sigma_t^T sigma]``.
-
-    Parameters
-    ----------
-    sigma, sigma_t : ndarray, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
-    """
+    / [1 + |sigma_t|^2 |sigma|^2 + 2 sigma_t^T sigma]``."""
     sigma = np.asarray(sigma, dtype=float)
     sigma_t = np.asarray(sigma_t, dtype=float)
     qs = _dot(sigma, sigma)[..., None]
@@ -197,16 +129,7 @@ def relative(sigma: np.ndarray, sigma_t: np.ndarray) -> np.ndarray:
 
 
 def shadow(sigma: np.ndarray) -> np.ndarray:
-    """Switch to the shadow set ``-sigma / |sigma|^2`` where ``|sigma| > 1``; same attitude.
-
-    Parameters
-    ----------
-    sigma : ndarray, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
-    """
+    """Switch to the shadow set ``-sigma / |sigma|^2`` where ``|sigma| > 1``; same attitude."""
     sigma = np.asarray(sigma, dtype=float)
     q = _dot(sigma, sigma)[..., None]
     return np.where(q > 1.0, -sigma / np.where(q > 1.0, q, 1.0), sigma)

@@ -24,17 +24,7 @@ from .tschauner_hempel import ChiefOrbit
 
 
 def skew(x: np.ndarray) -> np.ndarray:
-    """The cross-product matrix ``[x x]`` with ``[x x] y = x cross y``.
-
-    Parameters
-    ----------
-    x : ndarray, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
-        In ``x``'s unit.
-    """
+    """The cross-product matrix ``[x x]`` (..., 3, 3) of ``x`` (..., 3): ``[x x] y = x cross y``."""
     x = np.asarray(x, dtype=float)
     S = np.zeros(x.shape[:-1] + (3, 3))
     S[..., 0, 1], S[..., 0, 2] = -x[..., 2], x[..., 1]
@@ -44,18 +34,8 @@ def skew(x: np.ndarray) -> np.ndarray:
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a x b`` (``np.cross`` without its axis handling, which dominated the per-step cost
-    of small batches).
-
-    Parameters
-    ----------
-    a, b : ndarray, shape (..., 3)
-        Broadcastable.
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
-    """
+    """``a x b`` for broadcastable (..., 3) arrays (``np.cross`` without its axis handling,
+    which dominated the per-step cost of small batches)."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
@@ -66,20 +46,9 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def true_anomaly(orbit: ChiefOrbit, t: np.ndarray) -> np.ndarray:
-    """Exact true anomaly ``f(t)`` [rad] of the target from Kepler's equation.
-
-    Parameters
-    ----------
-    orbit : ChiefOrbit
-        ``f(0) = orbit.f0``.
-    t : ndarray, shape (T,)
-        Times [s].
-
-    Returns
-    -------
-    ndarray, shape (T,)
-        ``f`` continuous in ``t`` (not wrapped), so ``f(t) - f0`` is the swept angle.
-    """
+    """Exact true anomaly ``f(t)`` [rad] of the target from Kepler's equation at times ``t``
+    (T,) [s], with ``f(0) = orbit.f0``; continuous in ``t`` (not wrapped), so ``f(t) - f0`` is the
+    swept angle."""
     e = orbit.e
     t = np.asarray(t, dtype=float)
     # f - E = 2 atan(beta sin E / (1 - beta cos E)) is continuous in E (no quadrant wrap), so
@@ -102,21 +71,9 @@ def true_anomaly(orbit: ChiefOrbit, t: np.ndarray) -> np.ndarray:
 def lvlh_matrices(
     orbit: ChiefOrbit, f: np.ndarray, printed_omega_dot: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Tschauner-Hempel ``A(f)``, ``B(f)`` ([C 2-3], corrected as spec section 2).
-
-    Parameters
-    ----------
-    orbit : ChiefOrbit
-    f : ndarray, shape (T,)
-        True anomalies [rad].
-    printed_omega_dot : bool
-        Use the printed ``dw/dt`` (wrong sign and exponent, spec A3).
-
-    Returns
-    -------
-    A, B : ndarray, shape (T, 3, 3)
-        [1/s^2] and [1/s].
-    """
+    """Tschauner-Hempel ``A(f)`` [1/s^2], ``B(f)`` [1/s], each (T, 3, 3), at true anomalies ``f``
+    (T,) ([C 2-3], corrected as spec section 2); ``printed_omega_dot``: the printed ``dw/dt``
+    (wrong sign and exponent, spec A3)."""
     f = np.atleast_1d(np.asarray(f, dtype=float))
     w = orbit.omega(f)
     wd = orbit.omega_dot(f, printed=printed_omega_dot)
@@ -134,21 +91,10 @@ def lvlh_matrices(
 
 
 def spin_attitude(w: np.ndarray, t: float, C0: np.ndarray | None = None) -> np.ndarray:
-    """Body -> LVLH attitude ``C(t) = C0 exp(t [w x])`` of a constant spin (Rodrigues).
+    """Body -> LVLH attitudes (m, 3, 3) ``C(t) = C0 exp(t [w x])`` of a constant spin (Rodrigues).
 
-    Parameters
-    ----------
-    w : ndarray, shape (m, 3)
-        Spin rate of the body relative to LVLH, body components [rad/s].
-    t : float
-        Time [s].
-    C0 : ndarray, shape (3, 3), optional
-        Attitude at ``t = 0`` (identity by default, [C] Table 5).
-
-    Returns
-    -------
-    ndarray, shape (m, 3, 3)
-        Proper orthogonal matrices.
+    ``w`` (m, 3): spin rate of the body relative to LVLH, body components [rad/s]; ``t`` [s];
+    ``C0``: attitude at ``t = 0``, identity by default ([C] Table 5).
     """
     w = np.atleast_2d(np.asarray(w, dtype=float))
     rate = np.linalg.norm(w, axis=1)
@@ -171,25 +117,13 @@ def body_frame_matrices(
     w_dot: np.ndarray | None = None,
     printed: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``A21``, ``A22`` of the body-frame plant (spec section 3, corrected [C 7]).
+    """``A21`` [1/s^2], ``A22`` [1/s], each (m, 3, 3), of the body-frame plant (spec section 3,
+    corrected [C 7]).
 
-    Parameters
-    ----------
-    A, B : ndarray, shape (3, 3)
-        LVLH plant matrices at the current true anomaly.
-    C : ndarray, shape (m, 3, 3)
-        Body -> LVLH attitude.
-    w : ndarray, shape (m, 3)
-        Body rate relative to LVLH, body components [rad/s].
-    w_dot : ndarray, shape (m, 3), optional
-        Its body-frame derivative [rad/s^2] (0 in [C]).
-    printed : bool
-        The sign-restored printed [C 7] (``A C``, ``B`` unrotated) instead of the correct form.
-
-    Returns
-    -------
-    A21 : ndarray, shape (m, 3, 3)  [1/s^2]
-    A22 : ndarray, shape (m, 3, 3)  [1/s]
+    ``A``, ``B`` (3, 3): LVLH plant at the current true anomaly; ``C`` (m, 3, 3): body -> LVLH
+    attitude; ``w`` (m, 3): body rate relative to LVLH, body components [rad/s]; ``w_dot``: its
+    body-frame derivative [rad/s^2] (0 in [C]); ``printed``: the sign-restored printed [C 7]
+    (``A C``, ``B`` unrotated) instead of the correct form.
     """
     W = skew(w)
     W2 = _mm(W, W)
@@ -207,19 +141,10 @@ def body_frame_matrices(
 def body_to_lvlh(
     C: np.ndarray, w: np.ndarray, r_b: np.ndarray, v_b: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Position and velocity in LVLH from the body frame ([C 4-5]).
+    """Position and velocity in LVLH from the body frame ([C 4-5]): ``r_l = C r_b``,
+    ``v_l = C (v_b + w x r_b)`` (``v`` are frame derivatives in each frame).
 
-    ``r_l = C r_b``, ``v_l = C (v_b + w x r_b)`` (``v`` are frame derivatives in each frame).
-
-    Parameters
-    ----------
-    C : ndarray, shape (m, 3, 3)
-    w : ndarray, shape (m, 3)  [rad/s]
-    r_b, v_b : ndarray, shape (n, 3)  [m], [m/s]   (``m`` is 1 or ``n``)
-
-    Returns
-    -------
-    r_l, v_l : ndarray, shape (n, 3)
+    ``C`` (m, 3, 3), ``w`` (m, 3) [rad/s], ``r_b``, ``v_b`` (n, 3) [m], [m/s], ``m`` 1 or ``n``.
     """
     r_l = rotate(C, r_b)
     v_l = rotate(C, v_b + np.cross(w, r_b))
@@ -229,22 +154,8 @@ def body_to_lvlh(
 def lvlh_to_body(
     C: np.ndarray, w: np.ndarray, r_l: np.ndarray, v_l: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse of :func:`body_to_lvlh`: ``r_b = C^T r_l``, ``v_b = C^T v_l - w x r_b``.
-
-    Parameters
-    ----------
-    C : ndarray, shape (m, 3, 3)
-        Body -> LVLH attitude(s), ``m`` in {1, n}.
-    w : ndarray, shape (m, 3)
-        Spin rate(s), body components [rad/s].
-    r_l, v_l : ndarray, shape (n, 3)
-        Position [m] and velocity [m/s] in LVLH.
-
-    Returns
-    -------
-    r_b, v_b : ndarray, shape (n, 3)
-        In body components, [m] and [m/s].
-    """
+    """Inverse of :func:`body_to_lvlh`: ``r_b = C^T r_l``, ``v_b = C^T v_l - w x r_b``
+    (shapes and units as there)."""
     Ct = np.swapaxes(C, -1, -2)
     r_b = rotate(Ct, r_l)
     return r_b, rotate(Ct, v_l) - np.cross(w, r_b)
@@ -255,17 +166,6 @@ def rotate(C: np.ndarray, x: np.ndarray, transpose: bool = False) -> np.ndarray:
 
     Element-wise products summed in a fixed order, so a sample gives bit-identical results in a
     batch with per-sample matrices and alone (a BLAS product may reorder the sums).
-
-    Parameters
-    ----------
-    C : ndarray, shape (m, 3, 3)
-    x : ndarray, shape (n, 3)
-    transpose : bool
-        Apply ``C^T``.
-
-    Returns
-    -------
-    ndarray, shape (n, 3)
     """
     if transpose:
         return np.sum(C * x[:, :, None], axis=-2)
@@ -284,18 +184,6 @@ def eq32_acceleration(w: np.ndarray, r_b: np.ndarray, v_b: np.ndarray, u_b: np.n
     The difference between the relative accelerations seen in LVLH and in the body frame, not
     a different thrust (spec section 3, A24): a diagnostic to compare with [C] Fig. 11 once
     rotated to LVLH. The physical thrust in LVLH is ``C u_b``.
-
-    Parameters
-    ----------
-    w : ndarray, shape (m, 3)
-        Spin rate(s) [rad/s].
-    r_b, v_b, u_b : ndarray, shape (n, 3)
-        Body-frame position [m], velocity [m/s] and thrust acceleration [m/s^2].
-
-    Returns
-    -------
-    ndarray, shape (n, 3)
-        [m/s^2].
     """
     return u_b + 2.0 * np.cross(w, v_b) + np.cross(w, np.cross(w, r_b))
 
@@ -306,17 +194,8 @@ class BodyFrameStage:
 
     ``A21 r + A22 v = C^T (A C r + B C (v + w x r)) - w x (w x r) - 2 w x v`` (the corrected
     [C 7], :func:`body_frame_matrices`; ``w' = 0``); with ``printed=True`` the sign-restored
-    printed form ``A C r + B (v + w x r) - w x (w x r) - 2 w x v``.
-
-    Attributes
-    ----------
-    A, B : ndarray, shape (3, 3)
-        LVLH Tschauner-Hempel matrices at the instant.
-    C : ndarray, shape (m, 3, 3)
-        Body -> LVLH attitude(s).
-    w : ndarray, shape (m, 3)
-        Spin rate(s), body components [rad/s].
-    printed : bool
+    printed form ``A C r + B (v + w x r) - w x (w x r) - 2 w x v``. ``A``, ``B`` (3, 3): the LVLH
+    matrices at the instant; ``C`` (m, 3, 3), ``w`` (m, 3) [rad/s] as in :func:`body_to_lvlh`.
     """
 
     A: np.ndarray
@@ -326,18 +205,7 @@ class BodyFrameStage:
     printed: bool = False
 
     def apply(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``A21 r + A22 v`` without forming the matrices.
-
-        Parameters
-        ----------
-        r, v : ndarray, shape (n, 3)
-            Body-frame position [m] and velocity [m/s] (``m`` = 1 or ``n``).
-
-        Returns
-        -------
-        ndarray, shape (n, 3)
-            [m/s^2].
-        """
+        """``A21 r + A22 v`` [m/s^2] for body-frame ``r`` [m], ``v`` [m/s], each (n, 3)."""
         wr = cross(self.w, r)
         frame = -cross(self.w, wr) - 2.0 * cross(self.w, v)
         A, B = self.A[None], self.B[None]
@@ -347,13 +215,7 @@ class BodyFrameStage:
         return rotate(self.C, lvlh, transpose=True) + frame
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray]:
-        """The plant's matrices (:func:`body_frame_matrices`).
-
-        Returns
-        -------
-        A21, A22 : ndarray, shape (m, 3, 3)
-            [1/s^2] and [1/s].
-        """
+        """The plant's matrices (:func:`body_frame_matrices`)."""
         return body_frame_matrices(self.A, self.B, self.C, self.w, printed=self.printed)
 
 
@@ -365,18 +227,7 @@ class LinearStage:
     A22: np.ndarray
 
     def apply(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``A21 r + A22 v``.
-
-        Parameters
-        ----------
-        r, v : ndarray, shape (n, 3)
-            Position [m] and velocity [m/s].
-
-        Returns
-        -------
-        ndarray, shape (n, 3)
-            [m/s^2].
-        """
+        """``A21 r + A22 v`` [m/s^2] for ``r`` [m], ``v`` [m/s], each (n, 3)."""
         A21 = np.asarray(self.A21, dtype=float).reshape(-1, 3, 3)
         A22 = np.asarray(self.A22, dtype=float).reshape(-1, 3, 3)
         return rotate(A21, r) + rotate(A22, v)
@@ -392,8 +243,6 @@ class RotatingBodyFrame:
         Target orbit, common to the batch.
     w : ndarray, shape (m, 3)
         Spin rate(s) relative to LVLH, body components [rad/s]; ``m = 1`` (common) or ``n``.
-    C0 : ndarray, shape (3, 3)
-        Attitude at ``t = 0``.
     printed : bool
         Use the printed [C 7] form (:func:`body_frame_matrices`).
     printed_omega_dot : bool
@@ -417,18 +266,7 @@ class RotatingBodyFrame:
         object.__setattr__(self, "C0", C0)
 
     def attitude(self, t: float) -> np.ndarray:
-        """The attitude at time ``t``.
-
-        Parameters
-        ----------
-        t : float
-            [s].
-
-        Returns
-        -------
-        ndarray, shape (m, 3, 3)
-            Body -> LVLH.
-        """
+        """The body -> LVLH attitude (m, 3, 3) at time ``t`` [s]."""
         return spin_attitude(self.w, t, self.C0)
 
     def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
@@ -436,17 +274,6 @@ class RotatingBodyFrame:
 
         The :class:`~uqguide.models.dynamics.tschauner_hempel.RelativePlant` interface (one
         common spin rate, ``m = 1``), so the shared RK4 maps apply to this plant too.
-
-        Parameters
-        ----------
-        t : float
-            [s].
-        f : float
-            Chief true anomaly [rad].
-
-        Returns
-        -------
-        A21, A22 : ndarray, shape (3, 3)
         """
         if self.w.shape[0] != 1:
             raise ValueError("matrices(t, f) needs one common spin rate; use stage_matrices")
@@ -455,51 +282,19 @@ class RotatingBodyFrame:
         return A21[0], A22[0]
 
     def stage_schedule(self, n_steps: int, h: float) -> StageSchedule:
-        """Orbit matrices at the RK4 stage times ``k h / 2``, ``k = 0 .. 2 n_steps``.
-
-        Parameters
-        ----------
-        n_steps : int
-        h : float
-            Step [s].
-
-        Returns
-        -------
-        StageSchedule
-        """
+        """Orbit matrices at the RK4 stage times ``k h / 2``, ``k = 0 .. 2 n_steps``, ``h`` [s]."""
         times = 0.5 * h * np.arange(2 * n_steps + 1)
         f = true_anomaly(self.orbit, times)
         A, B = lvlh_matrices(self.orbit, f, self.printed_omega_dot)
         return StageSchedule(h=h, times=times, f=f, A=A, B=B)
 
     def stage_at(self, schedule: StageSchedule, j: int) -> BodyFrameStage:
-        """The plant at the half-step grid point ``j`` of ``schedule``.
-
-        Parameters
-        ----------
-        schedule : StageSchedule
-        j : int
-            Index into ``schedule.times``.
-
-        Returns
-        -------
-        BodyFrameStage
-        """
+        """The plant at the half-step grid point ``j`` (index into ``schedule.times``)."""
         return BodyFrameStage(schedule.A[j], schedule.B[j], self.attitude(schedule.times[j]),
                               self.w, self.printed)
 
     def matrices_at(self, schedule: StageSchedule, j: int) -> tuple[np.ndarray, np.ndarray]:
-        """The plant's matrices at the half-step grid point ``j`` of ``schedule``.
-
-        Parameters
-        ----------
-        schedule : StageSchedule
-        j : int
-
-        Returns
-        -------
-        A21, A22 : ndarray, shape (m, 3, 3)
-        """
+        """The plant's matrices (m, 3, 3) at the half-step grid point ``j`` of ``schedule``."""
         return self.stage_at(schedule, j).matrices()
 
 
@@ -507,15 +302,8 @@ class RotatingBodyFrame:
 class StageSchedule:
     """The target orbit's LVLH matrices on the half-step grid (common to a batch).
 
-    Attributes
-    ----------
-    h : float
-        Integration step [s].
-    times : ndarray, shape (2 N + 1,)
-        ``j h / 2`` [s].
-    f : ndarray, shape (2 N + 1,)
-        Exact true anomaly [rad].
-    A, B : ndarray, shape (2 N + 1, 3, 3)
+    ``times`` (2 N + 1,): ``j h / 2`` [s] for the step ``h``; ``f``: the exact true anomaly [rad]
+    there; ``A``, ``B`` (2 N + 1, 3, 3).
     """
 
     h: float
@@ -527,18 +315,7 @@ class StageSchedule:
 
 class Stage(Protocol):
     def apply(self, r: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``A21 r + A22 v``.
-
-        Parameters
-        ----------
-        r, v : ndarray, shape (n, 3)
-            Position [m] and velocity [m/s].
-
-        Returns
-        -------
-        ndarray, shape (n, 3)
-            [m/s^2].
-        """
+        """``A21 r + A22 v`` [m/s^2] for position [m] and velocity [m/s], each (n, 3)."""
         ...
 
 
@@ -546,20 +323,9 @@ def rk4_step(x: np.ndarray, u: np.ndarray, s0: Stage, s_half: Stage, s1: Stage, 
              ) -> np.ndarray:
     """One classical RK4 step of ``[r, v]' = [v, A21 r + A22 v + u]`` with ``u`` held.
 
-    Parameters
-    ----------
-    x : ndarray, shape (n, 6)
-        ``[r (m), v (m/s)]`` in the body frame.
-    u : ndarray, shape (n, 3)
-        Thrust acceleration, body components [m/s^2], constant over the step (ZOH).
-    s0, s_half, s1 : Stage
-        The plant at the step's start, middle and end (:class:`BodyFrameStage`).
-    h : float
-        Step [s].
-
-    Returns
-    -------
-    ndarray, shape (n, 6)
+    ``x`` (n, 6): ``[r (m), v (m/s)]`` in the body frame; ``u`` (n, 3): thrust acceleration, body
+    components [m/s^2], constant over the step (ZOH); ``s0``, ``s_half``, ``s1``: the plant at the
+    step's start, middle and end; ``h`` [s].
     """
     r, v = x[:, :3], x[:, 3:]
     k1r, k1v = v, s0.apply(r, v) + u
@@ -577,21 +343,8 @@ def rk4_step(x: np.ndarray, u: np.ndarray, s0: Stage, s_half: Stage, s1: Stage, 
 
 def propagate_free(frame: RotatingBodyFrame, x0: np.ndarray, t_f: float, h: float
                    ) -> np.ndarray:
-    """Unforced body-frame propagation of a batch (RK4, step ``h``).
-
-    Parameters
-    ----------
-    frame : RotatingBodyFrame
-    x0 : ndarray, shape (n, 6)
-        Body-frame ``[r, v]`` at ``t = 0``.
-    t_f, h : float
-        Final time and step [s] (``t_f`` a multiple of ``h``).
-
-    Returns
-    -------
-    ndarray, shape (n, N + 1, 6)
-        States at ``k h``.
-    """
+    """Unforced body-frame propagation of ``x0`` (n, 6) (RK4, step ``h`` [s], ``t_f`` a multiple
+    of it); the states (n, N + 1, 6) at ``k h``."""
     n_steps = int(round(t_f / h))
     sched = frame.stage_schedule(n_steps, h)
     x = np.array(x0, dtype=float)

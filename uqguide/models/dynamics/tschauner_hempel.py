@@ -24,19 +24,9 @@ MU_EARTH = 3.986e14
 
 @dataclass(frozen=True)
 class ChiefOrbit:
-    """Keplerian orbit of the chief.
-
-    Attributes
-    ----------
-    a : float
-        Semi-major axis [m].
-    e : float
-        Eccentricity, ``0 <= e < 1``.
-    f0 : float
-        True anomaly at ``t = 0`` [rad] ([W] does not publish it; spec A4: 0).
-    mu : float
-        Gravitational parameter [m^3/s^2].
-    """
+    """Keplerian orbit of the chief: semi-major axis ``a`` [m], eccentricity ``0 <= e < 1``,
+    true anomaly ``f0`` [rad] at ``t = 0`` ([W] does not publish it; spec A4: 0), ``mu``
+    [m^3/s^2]."""
 
     a: float
     e: float
@@ -55,52 +45,18 @@ class ChiefOrbit:
         return float(np.sqrt(self.mu / self.a**3))
 
     def radius(self, f: np.ndarray | float) -> np.ndarray:
-        """Chief orbit radius ``r_c = a (1 - e^2) / (1 + e cos f)``.
-
-        Parameters
-        ----------
-        f : ndarray or float
-            True anomaly [rad].
-
-        Returns
-        -------
-        ndarray
-            [m], shape of ``f``.
-        """
+        """Chief orbit radius ``r_c = a (1 - e^2) / (1 + e cos f)`` [m], ``f`` [rad]."""
         return self.a * (1 - self.e**2) / (1 + self.e * np.cos(f))
 
     def omega(self, f: np.ndarray | float) -> np.ndarray:
-        """Orbit (LVLH) angular rate ``df/dt = n (1 + e cos f)^2 / (1 - e^2)^{3/2}`` ([W 4]).
-
-        Parameters
-        ----------
-        f : ndarray or float
-            True anomaly [rad].
-
-        Returns
-        -------
-        ndarray
-            [rad/s], shape of ``f``.
-        """
+        """Orbit (LVLH) rate ``df/dt = n (1 + e cos f)^2 / (1 - e^2)^{3/2}`` [rad/s] [W 4]."""
         return self.mean_motion * (1 + self.e * np.cos(f)) ** 2 / (1 - self.e**2) ** 1.5
 
     def omega_dot(self, f: np.ndarray | float, printed: bool = False) -> np.ndarray:
-        """Orbit angular acceleration [rad/s^2].
+        """Orbit angular acceleration [rad/s^2] at true anomaly ``f`` [rad].
 
         ``-2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^3`` (spec A3). With ``printed=True`` the
-        form printed in [W 5] / [C 3], ``+2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^{3/2}``.
-
-        Parameters
-        ----------
-        f : ndarray or float
-            True anomaly [rad].
-        printed : bool
-            The printed (wrong) form.
-
-        Returns
-        -------
-        ndarray
-            [rad/s^2], shape of ``f``.
+        (wrong) form printed in [W 5] / [C 3], ``+2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^{3/2}``.
         """
         n2 = self.mean_motion**2
         core = 2 * n2 * self.e * np.sin(f) * (1 + self.e * np.cos(f)) ** 3
@@ -121,52 +77,21 @@ class RelativePlant(Protocol):
     def orbit(self) -> ChiefOrbit: ...
 
     def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
-        """The plant's matrices.
-
-        Parameters
-        ----------
-        t : float
-            Time [s].
-        f : float
-            Chief true anomaly [rad].
-
-        Returns
-        -------
-        A, B : ndarray, shape (3, 3)
-            [1/s^2] and [1/s].
-        """
+        """``A`` [1/s^2], ``B`` [1/s], each (3, 3), at time ``t`` [s] and chief true anomaly
+        ``f`` [rad]."""
         ...
 
 
 @dataclass(frozen=True)
 class LVLHPlant:
-    """Tschauner-Hempel plant in LVLH axes (spec section 2).
-
-    Attributes
-    ----------
-    orbit : ChiefOrbit
-    printed_omega_dot : bool
-        Use the papers' printed ``dw/dt`` (wrong sign and exponent) instead of the correct one.
-    """
+    """Tschauner-Hempel plant in LVLH axes (spec section 2); ``printed_omega_dot``: the papers'
+    printed ``dw/dt`` (wrong sign and exponent) instead of the correct one."""
 
     orbit: ChiefOrbit
     printed_omega_dot: bool = False
 
     def matrices(self, t: float, f: float) -> tuple[np.ndarray, np.ndarray]:
-        """``A(f)``, ``B(f)`` of [W 2-3] (corrected).
-
-        Parameters
-        ----------
-        t : float
-            Time [s], unused (LVLH).
-        f : float
-            Chief true anomaly [rad].
-
-        Returns
-        -------
-        A, B : ndarray, shape (3, 3)
-            [1/s^2] and [1/s].
-        """
+        """``A(f)``, ``B(f)`` of [W 2-3] (corrected); ``t`` is unused in LVLH."""
         w = float(self.orbit.omega(f))
         wd = float(self.orbit.omega_dot(f, printed=self.printed_omega_dot))
         k = self.orbit.mu / float(self.orbit.radius(f)) ** 3
@@ -204,27 +129,12 @@ class StepMaps:
 
 
 def rk4_transition(plant: RelativePlant, t0: float, f0: float, dt: float, n_sub: int) -> StepMaps:
-    """Maps of ``n_sub`` classical RK4 sub-steps over ``[t0, t0 + dt]`` with the control held.
+    """Maps of ``n_sub`` classical RK4 sub-steps over ``[t0, t0 + dt]`` [s] with the control held,
+    from the true anomaly ``f0`` [rad] at ``t0``.
 
     The true anomaly is integrated by the same RK4 (``df/dt = w(f)``) and the plant matrices
     are evaluated at every stage time and stage anomaly, exactly as an RK4 of the coupled state
     ``(r, v, f)`` would (spec section 8).
-
-    Parameters
-    ----------
-    plant : RelativePlant
-    t0 : float
-        Start of the period [s].
-    f0 : float
-        True anomaly at ``t0`` [rad].
-    dt : float
-        Control period [s].
-    n_sub : int
-        RK4 sub-steps per period.
-
-    Returns
-    -------
-    StepMaps
     """
     h = dt / n_sub
     orbit = plant.orbit
@@ -259,23 +169,9 @@ def rk4_transition(plant: RelativePlant, t0: float, f0: float, dt: float, n_sub:
 def propagate_free(
     plant: RelativePlant, x0: np.ndarray, t_f: float, dt: float, n_sub: int = 1
 ) -> np.ndarray:
-    """Unforced propagation of a batch of states (``u = 0``).
-
-    Parameters
-    ----------
-    plant : RelativePlant
-    x0 : ndarray, shape (n, 6)
-        Initial states ``[r (m), v (m/s)]`` at ``t = 0`` (true anomaly ``plant.orbit.f0``).
-    t_f : float
-        Final time [s], a multiple of ``dt``.
-    dt, n_sub : float, int
-        Step [s] and RK4 sub-steps per step.
-
-    Returns
-    -------
-    ndarray, shape (n, N + 1, 6)
-        States at ``t = 0, dt, ..., t_f``.
-    """
+    """Unforced propagation (``u = 0``) of states ``x0`` (n, 6) ``[r (m), v (m/s)]`` at ``t = 0``
+    (true anomaly ``plant.orbit.f0``); the states (n, N + 1, 6) at ``t = 0, dt, ..., t_f``
+    (``dt`` [s] with ``n_sub`` RK4 sub-steps, ``t_f`` a multiple of it)."""
     n_steps = int(round(t_f / dt))
     x = np.asarray(x0, dtype=float)
     out = np.empty((x.shape[0], n_steps + 1, 6))

@@ -1,49 +1,16 @@
 """Compiled (numba) integration of a batch of FT-AS closed loops with per-step metrics.
 
-The same equations as the NumPy oracle ``tests/oracles/ft_as_equations.py``
-(ft-as-controller.md sections 3-9), written per sample on scalars. The model's accuracy floors
-are set by the sampling rate (section 12.3), so the spec's h = 0.01 s over 3000 s (3e5 steps) is
-what a reported run needs; only a compiled loop makes that, and Monte Carlo over it,
-affordable. ``tests/test_ft_as_model.py`` checks this kernel against the oracle's ``rk4_step``
-and whole-run loop (``tests/oracles/ft_as.py``) to rounding level.
+The equations of the NumPy oracle ``tests/oracles/ft_as_equations.py`` written per sample on
+scalars; ``tests/test_ft_as_model.py`` checks the kernel against the oracle to rounding level.
+Blocks of samples advance in lockstep, one thread per block: what depends on time only is
+evaluated once per block (:func:`_clock`), the controller per sample on local floats, the RK4
+stages on the whole block as structure of arrays (:func:`_rhs_block`). Every sample runs the
+same code whatever block it lands in, so its numbers are the same bits whatever the batch split
+and the thread count. The layout, and why: docs/performance.md#the-ft-as-kernel.
 
-How the loop is laid out, and why (``benchmarks/throughput.py`` prints its roofline):
-
-- Blocks of samples advance in lockstep, one thread per block (``prange``). Everything that
-  depends on time only -- the reference orbit and its ``mu / |r_t|^3``, the mass, inertia and
-  disturbance sinusoids -- is evaluated once per step and stage time for the whole block
-  (:func:`_clock`), not once per sample and right-hand side (60 libm calls per sample-step).
-- The controller runs per sample (scalar: the law's branches and libm calls), on local floats:
-  the 3x3 algebra is written out and the helpers return tuples; nothing is allocated inside the
-  step. The old kernel's tracking terms through 3x3 and 6-vector scratch arrays took ~150 ns a
-  call, the scalar ones ~25 ns.
-- The four RK4 stages run on the whole block at once: the state is stored as structure of
-  arrays (a row per component, the block's samples along it) and each stage is one loop over
-  the samples for the arithmetic of the right-hand side, a scalar pass for the observer's
-  ``sqrt``/``log``/``exp`` and a loop for the rest (:func:`_rhs_block`); the stage
-  combinations are loops along the rows. Free of calls and of the per-sample function
-  boundaries, the right-hand side costs ~50 ns per sample instead of ~80. It is not
-  vectorised: LLVM vectorised a trial loop of the tracking terms that read the rows of one
-  array and wrote those of another (~5-8 ns per sample instead of ~25, from 16 samples per
-  block on), but neither the whole right-hand side nor the same terms writing into two arrays;
-  getting it to is the next step. What remains per sample is mostly libm calls (~55 per
-  sample-step), which numba cannot vectorise without a vector math library.
-- The right-hand side multiplies by one reciprocal of the mass, of the observer norms and of
-  the inertia determinant instead of dividing a dozen times.
-- Fractional powers share their logarithms: the law needs ``|e1|^b``, ``|e1|^(b-1)``,
-  ``|e2|^(a-1)``, ``|e2|^(2-a)``, ``|kappa e2|^a``, ``kappa^-a``, ``|s|^r2`` and ``|s|^rho2``,
-  which are four logarithms and five exponentials per channel (:func:`_law`) instead of nine
-  ``pow`` calls, each kind as one pass over the six channels so that the core overlaps them;
-  ``(1 + q)^-1.5 - 1`` of the differential gravity is a square root and a division written
-  without cancellation instead of ``expm1(-1.5 log1p(q))``. All this differs from the NumPy
-  reference by a few ulps per operation, as two math libraries do.
-
-Every sample runs the same code whatever block it lands in, so a sample's numbers are the
-same bits whatever the batch split and the thread count.
-
-Metrics (section 10) are accumulated at every step, so they do not depend on the output grid:
-settling times (last time a norm exceeds each tolerance), final-window maxima, peaks of the
-applied and commanded inputs, and the integrals of ``|u_k|``.
+Metrics are accumulated at every step, so they do not depend on the output grid: settling
+times (last time a norm exceeds each tolerance), final-window maxima, peaks of the applied and
+commanded inputs, and the integrals of ``|u_k|``.
 """
 
 from __future__ import annotations
@@ -63,31 +30,15 @@ from .setup import (
 )
 
 MAX_BLOCK = 16
-"""Most samples per parallel block. A block pays the clock (~20 libm calls per step) once for
-all its samples; 16 makes that a few percent of a sample-step, and keeps blocks small enough
-that a batch of a few dozen samples still spreads over the threads."""
+"""Most samples per parallel block (docs/performance.md#the-ft-as-kernel: why 16)."""
 MIN_SPLIT = 8
-"""Fewest samples per block when a batch is split over threads: below it the clock and the
-block loops' overheads, paid per block, cost more CPU than the second thread saves in wall
-time (batch 10 on 2 threads: 34-36 samples per CPU-second in blocks of 5, 40 in one block)."""
+"""Fewest samples per block when a batch is split over threads (the same page: why 8)."""
 
 
 def block_size(n: int, threads: int) -> int:
     """Samples per block for ``n`` samples on ``threads`` threads: one block per thread when
-    each gets at least :data:`MIN_SPLIT` samples, at most :data:`MAX_BLOCK` per block.
-
-    Parameters
-    ----------
-    n : int
-        Batch size.
-    threads : int
-        Threads the kernel may use.
-
-    Returns
-    -------
-    int
-        Block size; any value gives the same numbers (only the speed changes).
-    """
+    each gets at least :data:`MIN_SPLIT` samples, at most :data:`MAX_BLOCK` per block. Any value
+    gives the same numbers (only the speed changes)."""
     n = max(n, 1)
     blocks = max(1, min(threads, n // MIN_SPLIT))
     return max(1, min(MAX_BLOCK, -(-n // blocks)))
@@ -481,9 +432,9 @@ def _law(z, hd, tr, J0, m0, switch_input, c, out, w):
     """FT-NTSM command (eq 29 / 42) from ``z = (z1 (6), z2 (6))`` and ``hd`` = (hbar, d_hat)
     (12): writes ``u`` into ``out[0:6]`` and ``s`` into ``out[6:12]``; ``w`` is (8, 6) scratch.
 
-    The fractional powers share their logarithms (module docstring): ``sig^(b-1)(e1) =
-    sign(e1) |e1|^b / |e1|``, ``sig^(2-a)(e2) = sign(e2) |e2| / f``, and ``|s|^r2``,
-    ``|s|^rho2`` from one ``log |s|``.
+    The fractional powers share their logarithms (docs/performance.md#the-ft-as-kernel):
+    ``sig^(b-1)(e1) = sign(e1) |e1|^b / |e1|``, ``sig^(2-a)(e2) = sign(e2) |e2| / f``, and
+    ``|s|^r2``, ``|s|^rho2`` from one ``log |s|``.
     """
     b, cc, eps = c[K_B], c[K_C], c[K_EPS]
     nu1, nu2, eta2, r2, rho2 = c[K_NU1], c[K_NU2], c[K_ETA2], c[K_R2], c[K_RHO2]
@@ -605,7 +556,7 @@ def simulate(x0, mass_off, inertia_err, force_amp, torque_amp, ctrl, obs_applied
              omega_chi, switch_input, c, J0, J0i, P, Q, limits, dt, n_steps, rec_every,
              final_start, late_start, tols, rec, offsets, settle, final_max, peak_app, peak_cmd,
              peak_late, impulse, failed, block):  # fmt: skip
-    """Integrate every sample of a batch and accumulate its metrics (section 9-10).
+    """Integrate every sample of a batch and accumulate its metrics.
 
     Parameters
     ----------

@@ -181,15 +181,8 @@ class FTAS(Model):
         )
 
     def make_batch(self, values: Mapping[str, np.ndarray], variants: list[Variant]) -> Batch:
-        """The batch of ``len(variants)`` runs (``values`` arrays of that length).
-
-        Parameters
-        ----------
-        values : mapping of str to ndarray, shape (n,)
-            Every input of :meth:`inputs`.
-        variants : list of Variant, length n
-            Controller of each run.
-        """
+        """The batch of ``len(variants)`` runs, one per variant, from every input of :meth:`inputs`
+        (``values`` arrays of that length)."""
         p = self.params
         plant = p.plant()
         n = len(variants)

@@ -18,20 +18,10 @@ from .setup import Gains, Plant
 class FTASParams(ModelParams):
     """Fixed parameters of the FT-AS model (defaults: the paper's nominal scenario).
 
-    Decisions where the paper leaves a choice (labels as in
-    docs/papers.md#ft-as-conventions-variants-and-checks):
-
-    - ``ft_as_observer_input = "applied"`` (FT-AS-A) by default. The literal reading
-      (``"command"``: the FT-DO sees the unsaturated command) winds the estimate up and diverges
-      in position; it stays available, and the nominal report runs it to show that. FT-AS-A is
-      the only variant for which the paper's observer claim (C1) can hold.
-    - ``psi2_bound`` (FT-AS-P) is off by default; 0.01 is the box that was measured to work.
-    - ``switch_units = "input"`` ([A10], the reproduction default).
-    - ``step = 0.01`` s, ``duration = 3000`` s ([A15]-[A16]); dispersion studies may use 0.1 s
-      (same qualitative behaviour, larger accuracy floors).
-    - ``output_interval = 10`` s: metrics are computed at every step and do not depend on it;
-      the recorded grid only sets the series outputs, kept coarse so that Monte Carlo batches
-      of thousands of runs fit in memory.
+    Where the paper leaves a choice (FT-AS-A by default, FT-AS-P off, switching term in input units,
+    ``step = 0.01`` s over 3000 s): docs/papers.md#ft-as-conventions-variants-and-checks.
+    ``output_interval`` sets only the recorded series (metrics are computed at every step), kept
+    coarse so that Monte Carlo batches of thousands of runs fit in memory.
     """
 
     controller: Literal["ft_as", "case1", "case2"] = Field(

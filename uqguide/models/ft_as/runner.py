@@ -43,21 +43,10 @@ FINAL_QUANTITIES = ("r_e", "v_e", "sigma_e", "omega_e")  # rows of the kernel's 
 
 @dataclass(frozen=True)
 class Timing:
-    """Integration settings (section 9, [A15]-[A16]).
-
-    Attributes
-    ----------
-    step : float
-        RK4 / zero-order-hold step [s].
-    duration : float
-        Horizon T [s].
-    output_interval : float
-        Spacing of the recorded grid [s], a multiple of ``step``.
-    final_window : float
-        Length of the final-accuracy window ``[T - final_window, T]`` [s].
-    late_time : float
-        Start of the "late" input-peak window (claim C5: Case 1 within limits after it) [s].
-    """
+    """Integration settings (A15, A16), in seconds: the RK4 / zero-order-hold ``step``, the horizon
+    ``duration``, the recorded grid's ``output_interval`` (a multiple of ``step``), the
+    final-accuracy window ``[duration - final_window, duration]`` and the start ``late_time`` of the
+    "late" input-peak window (claim C5: Case 1 within limits after it)."""
 
     step: float = 0.01
     duration: float = 3000.0
@@ -96,8 +85,6 @@ class RunResult:
         Peaks of ``|u_k|`` [N, N m]; ``peak_late`` only after ``late_time``.
     impulse : ndarray, shape (n, 6)
         ``integral |u_k| dt`` [N s, N m s].
-    failed : ndarray of bool, shape (n,)
-    timing : Timing
     wall_time : float
         Seconds spent in the kernel (excluding compilation on first use).
     """
@@ -145,25 +132,9 @@ def run_batch(
     record: Iterable[str] = (),
     threads: int = 0,
 ) -> RunResult:
-    """Integrate ``batch`` with the compiled kernel.
-
-    Parameters
-    ----------
-    batch : Batch
-        Per-sample initial states, dispersions and controller flags.
-    plant : Plant
-    gains : Gains
-    timing : Timing
-    record : iterable of str
-        Groups of ``layout.RECORD_GROUPS`` to record on the output grid.
-    threads : int
-        Threads of the compiled kernel (blocks of samples run in parallel); 0: all cores. The
-        numbers do not depend on it.
-
-    Returns
-    -------
-    RunResult
-    """
+    """Integrate ``batch`` with the compiled kernel, recording the groups ``record`` of
+    ``layout.RECORD_GROUPS`` on the output grid; ``threads``: 0 for all cores (the numbers do not
+    depend on it)."""
     record = list(dict.fromkeys(record))
     offsets = np.full(len(RECORD_GROUPS), -1, dtype=np.int64)
     width = 0

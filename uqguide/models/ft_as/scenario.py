@@ -32,18 +32,8 @@ J0_NOMINAL = np.array([[166.5, 4.44, 3.33], [4.44, 74.0, 5.18], [3.33, 5.18, 62.
 
 @dataclass(frozen=True)
 class CircularOrbit:
-    """A circular Keplerian orbit given by classical elements (angles in degrees).
-
-    Attributes
-    ----------
-    a : float
-        Semi-major axis [m].
-    inc, raan, argp, m0 : float
-        Inclination, right ascension of the ascending node, argument of perigee and mean
-        anomaly at t = 0 [deg].
-    mu : float
-        Gravitational parameter [m^3/s^2].
-    """
+    """A circular Keplerian orbit: radius ``a`` [m]; inclination, right ascension of the ascending
+    node, argument of perigee and mean anomaly at t = 0 [deg]; ``mu`` [m^3/s^2]."""
 
     a: float
     inc: float = 28.5
@@ -65,16 +55,7 @@ class CircularOrbit:
         return P, Q
 
     def state(self, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-        """Position [m] and velocity [m/s] in ECI at times ``t`` [s].
-
-        Parameters
-        ----------
-        t : float or ndarray, shape (T,)
-
-        Returns
-        -------
-        r, v : ndarray, shape (..., 3)
-        """
+        """Position [m] and velocity [m/s] (..., 3) in ECI at times ``t`` [s]."""
         P, Q = self.basis()
         n = self.mean_motion
         u = np.radians(self.argp + self.m0) + n * np.asarray(t, dtype=float)

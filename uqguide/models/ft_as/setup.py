@@ -72,19 +72,9 @@ class Gains:
 
 @dataclass(frozen=True)
 class Plant:
-    """Nominal plant, reference orbit and actuator limits.
-
-    Attributes
-    ----------
-    m0 : float
-        Nominal mass [kg].
-    J0 : ndarray, shape (3, 3)
-        Nominal inertia [kg m^2].
-    reference : CircularOrbit
-        Desired orbit; its RTN frame is the desired attitude ([A1]).
-    limits : ndarray, shape (6,)
-        Per-axis limits ``u_bar`` [N, N, N, N m, N m, N m].
-    """
+    """Nominal plant: mass ``m0`` [kg], inertia ``J0`` (3, 3) [kg m^2], the ``reference`` orbit
+    whose RTN frame is the desired attitude (A1), per-axis input limits ``u_bar`` (6,)
+    [N, N, N, N m, N m, N m]."""
 
     m0: float
     J0: np.ndarray
@@ -124,7 +114,7 @@ class Batch:
     omega_chi : ndarray, shape (n,)
         Natural frequency of the Case 2 compensator [rad/s].
     switch_input : ndarray of bool, shape (n,)
-        [A10]: the switching term ``gamma sign(s)`` is in input units (N, N m) where True,
+        A10: the switching term ``gamma sign(s)`` is in input units (N, N m) where True,
         in e2-acceleration units (the literal eq 29) where False.
     """
 
@@ -151,19 +141,9 @@ def initial_state(
     sigma_e0: np.ndarray,
     omega_e0: np.ndarray,
 ) -> np.ndarray:
-    """The 36-element initial state of each sample from its initial tracking errors.
-
-    Parameters
-    ----------
-    plant : Plant
-    r_e0, v_e0, sigma_e0, omega_e0 : ndarray, shape (n, 3)
-        Initial errors [m, m/s, -, rad/s]; ``omega(0) = omega_e(0) + C(sigma_e(0)) omega_t``.
-
-    Returns
-    -------
-    ndarray, shape (n, 36)
-        Observer at ``(PSI1_0, PSI2_0)``, compensator at rest.
-    """
+    """The 36-element initial state (n, 36) of each sample from its initial tracking errors
+    (n, 3) [m, m/s, -, rad/s]: ``omega(0) = omega_e(0) + C(sigma_e(0)) omega_t``, the observer at
+    ``(PSI1_0, PSI2_0)``, the compensator at rest."""
     n = r_e0.shape[0]
     x0 = np.zeros((n, N_STATE))
     x0[:, R_E], x0[:, V_E], x0[:, SIGMA_E] = r_e0, v_e0, sigma_e0

@@ -175,10 +175,8 @@ N_LANE = 7
 
 @njit(cache=True, error_model="numpy", parallel=True)
 def simulate_numba(r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
-    """Run the FTCAPN closed loop for a batch, filling ``buf``, ``sc`` and ``status`` in place.
-
-    Blocks of ``BLOCK`` samples run in parallel (``numba.set_num_threads`` sets how many
-    threads).
+    """Run the FTCAPN closed loop for a batch, filling ``buf``, ``sc`` and ``status`` in place,
+    in parallel blocks of ``BLOCK`` samples.
 
     Parameters
     ----------
@@ -199,8 +197,6 @@ def simulate_numba(r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
     buf : ndarray, shape (C, n, K+1)
         Series columns: ``buf[col[S] + q, i, k]`` is component ``q`` of series ``S`` of
         sample ``i`` at grid time ``k dt``; a stopped sample keeps its stop state's values.
-    sc : ndarray, shape (n, N_KSCALARS)
-    status : ndarray of int8, shape (n,)
     """
     n = r0.shape[0]
     for b in prange((n + BLOCK - 1) // BLOCK):
@@ -457,27 +453,9 @@ def _end_of_step(i, l, j, st, nst, W, ac, lane, p, bR, K, col, buf, sc, status, 
 
 @njit(cache=True, error_model="numpy")
 def _simulate_block(i0, i1, r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
-    """Samples ``i0 .. i1-1`` in lockstep, one step at a time in two passes:
-
-    - pass 1, branch-free over every lane (:func:`_kinematics`, the ``|s|^eta`` loop,
-      :func:`_command`, :func:`_forcing`, :func:`_propagate`) on structure-of-arrays work
-      rows, which the compiler unrolls and vectorises and in which one lane's long dependency
-      chain (sqrt, division, pow) overlaps with the others';
-    - pass 2, the running lanes' events, records and stop tests. On the first and the last
-      step it is a scalar loop over the running lanes. On the other steps it runs as loops
-      over every lane with selects (the event times, the series records one loop per
-      component, a flag for the lanes whose step ends in a failure, a crossing or a pass by
-      the range minimum, the delta-v of the unflagged lanes), then a scalar loop over the
-      flagged lanes only (:func:`_end_of_step`: root finding, stop, failure).
-
-    Pass 1 writes the step's end state to a second state array, which becomes the current one
-    at the end of the step; a lane that has stopped gets its frozen state copied over.
-
-    Lanes that have stopped still go through pass 1 (their state is frozen and finite, or NaN
-    after a failure; nothing of it is used): cheaper than branching on every one.
-    Each lane's arithmetic is the same, operation for operation, as in the NumPy oracle's
-    per-sample loop (``tests/oracles/ftcapn.py``).
-    """
+    """Samples ``i0 .. i1-1`` in lockstep, one step at a time in two passes: pass 1 branch-free
+    over every lane on structure-of-arrays work rows, pass 2 the running lanes' events, records
+    and stop tests (docs/performance.md#the-ftcapn-kernel)."""
     c_, eps, beta, eta, Nn = p[P_C], p[P_EPS], p[P_BETA], p[P_ETA], p[P_N]
     asat, delta, dt, rstop = p[P_ASAT], p[P_DELTA], p[P_DT], p[P_RSTOP]
     nm, settle, control = p[P_NMEAN], p[P_SETTLE], p[P_CONTROL] != 0.0

@@ -35,15 +35,8 @@ def positive_diagonal(name: str, value: np.ndarray | float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class ReachingLaw:
-    """``S' = -lambda1 S - lambda2 sig^alpha(S)`` ([W 12]).
-
-    Attributes
-    ----------
-    lambda1, lambda2 : ndarray, shape (3,)
-        Diagonal gains [1/s] and [unit(S)^(1-alpha)/s].
-    alpha : float
-        Exponent, ``0 < alpha < 1``.
-    """
+    """``S' = -lambda1 S - lambda2 sig^alpha(S)`` ([W 12]) with diagonal gains ``lambda1`` [1/s],
+    ``lambda2`` [unit(S)^(1-alpha)/s] (3-vectors) and ``0 < alpha < 1``."""
 
     lambda1: np.ndarray
     lambda2: np.ndarray
@@ -62,17 +55,8 @@ class ReachingLaw:
 
 @dataclass(frozen=True)
 class TSMC:
-    """Terminal sliding-mode control with a potential-gradient surface (APF-TSMC / GMM-TSMC).
-
-    Attributes
-    ----------
-    potential : AttractRepulsePotential
-    r_f : ndarray, shape (3,)
-        Goal position [m] (at rest).
-    k_s : ndarray, shape (3,)
-        Diagonal surface gain [1/s].
-    reaching : ReachingLaw
-    """
+    """Terminal sliding-mode control with a potential-gradient surface (APF-TSMC / GMM-TSMC):
+    goal ``r_f`` (3,) [m] at rest, diagonal surface gain ``k_s`` (3,) [1/s]."""
 
     potential: AttractRepulsePotential
     r_f: np.ndarray
@@ -100,24 +84,20 @@ class NTSMC:
 
     Attributes
     ----------
-    potential : AttractRepulsePotential
     r_f : ndarray, shape (3,)
         Goal [m] (at rest).
     k_s : ndarray, shape (3,)
         Diagonal surface gain [1/s].
-    reaching : ReachingLaw
     xi0 : float
         Linear error gain [1/s] (``0 < xi0 < 1``).
-    xi1 : ndarray, shape (3,)
-        Gain of ``sig^tau(e)``.
-    xi2 : ndarray, shape (3,)
-        Gain of ``sig^{p/q}(e')``; must be invertible.
+    xi1, xi2 : ndarray, shape (3,)
+        Gains of ``sig^tau(e)`` and ``sig^{p/q}(e')`` (``xi2`` invertible).
     tau : float
         ``tau > 1``.
     p, q : int
         Positive odd integers, ``p < q``.
     eps : float
-        Floor [m/s] on ``|e'_i|`` in the factor ``|e'|^{1-p/q}`` (0: as published, spec A17).
+        Floor [m/s] on ``|e'_i|`` in the factor ``|e'|^{1-p/q}`` (0: as published, A17).
     """
 
     potential: AttractRepulsePotential

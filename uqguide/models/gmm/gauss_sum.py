@@ -22,16 +22,8 @@ from ..kernels import njit
 
 @dataclass(frozen=True)
 class GaussSumDerivatives:
-    """Value and derivatives of a Gaussian sum at a batch of points.
-
-    Attributes
-    ----------
-    value : ndarray, shape (n,)
-    grad : ndarray, shape (n, 3)
-    hess : ndarray, shape (n, 3, 3)
-    third : ndarray, shape (n, 3) or None
-        ``D3V[y, y]`` when a direction ``y`` was given.
-    """
+    """Value (n,), gradient (n, 3), Hessian (n, 3, 3) of a Gaussian sum at a batch of points,
+    and ``third`` = ``D3V[y, y]`` (n, 3) when a direction ``y`` was given."""
 
     value: np.ndarray
     grad: np.ndarray
@@ -43,14 +35,8 @@ class GaussSumDerivatives:
 class GaussSum:
     """``V(r) = sum_j c_j exp(-1/2 (r - mu_j)^T L_j (r - mu_j))``.
 
-    Attributes
-    ----------
-    c : ndarray, shape (K,) or (n, K)
-        Kernel heights (dimension of ``V``).
-    mu : ndarray, shape (K, 3) or (n, K, 3)
-        Kernel centres [m].
-    L : ndarray, shape (K, 3, 3) or (n, K, 3, 3)
-        Kernel precision matrices [1/m^2], symmetric positive definite.
+    Heights ``c`` (K,) or (n, K) in the unit of ``V``, centres ``mu`` (K, 3) or (n, K, 3) [m],
+    symmetric positive definite precisions ``L`` (K, 3, 3) or (n, K, 3, 3) [1/m^2].
     """
 
     c: np.ndarray
@@ -80,20 +66,12 @@ class GaussSum:
         covariances: np.ndarray,
         norm: str = "2pi",
     ) -> GaussSum:
-        """The repulsive kernel set of a Gaussian mixture (spec 5.1).
+        """The repulsive kernel set of a Gaussian mixture: weights ``pi_j`` (..., K), means
+        (..., K, 3) [m], covariances (..., K, 3, 3) [m^2].
 
-        Parameters
-        ----------
-        weights : ndarray, shape (..., K)
-            Mixture weights ``pi_j``.
-        means : ndarray, shape (..., K, 3)
-            Component means [m].
-        covariances : ndarray, shape (..., K, 3, 3)
-            Component covariances [m^2].
-        norm : {"2pi", "3d"}
-            ``c_j = pi_j / (2 pi |Sigma_j|^{1/2})`` as printed in [W 7-9] (``"2pi"``; it is the
-            3-D density times ``sqrt(2 pi)``) or the 3-D normaliser
-            ``pi_j / ((2 pi)^{3/2} |Sigma_j|^{1/2})`` of [C 10] (``"3d"``).
+        ``norm="2pi"``: ``c_j = pi_j / (2 pi |Sigma_j|^{1/2})`` as printed in [W 7-9] (the 3-D
+        density times ``sqrt(2 pi)``); ``"3d"``: the 3-D normaliser
+        ``pi_j / ((2 pi)^{3/2} |Sigma_j|^{1/2})`` of [C 10] (A9).
         """
         covariances = np.asarray(covariances, dtype=float)
         det = np.linalg.det(covariances)
@@ -111,19 +89,9 @@ class GaussSum:
     def from_apf(
         cls, psi: ArrayLike, centers: ArrayLike, N: ArrayLike, sigma: ArrayLike
     ) -> GaussSum:
-        """Obstacles ``psi_i exp(-(r - r_obs,i)^T N_i (r - r_obs,i) / sigma_i)`` of [W 28].
-
-        Parameters
-        ----------
-        psi : ndarray, shape (m,)
-            Heights.
-        centers : ndarray, shape (m, 3)
-            Obstacle centres [m].
-        N : ndarray, shape (m, 3, 3)
-            Shape matrices [1/m^2], symmetric positive definite.
-        sigma : ndarray, shape (m,)
-            Width factors.
-        """
+        """Obstacles ``psi_i exp(-(r - r_obs,i)^T N_i (r - r_obs,i) / sigma_i)`` of [W 28]: heights
+        ``psi`` (m,), centres (m, 3) [m], symmetric positive definite ``N`` (m, 3, 3) [1/m^2], width
+        factors ``sigma`` (m,)."""
         N = np.asarray(N, dtype=float)
         sigma = np.asarray(sigma, dtype=float)
         return cls(
@@ -151,15 +119,8 @@ class GaussSum:
         return self.derivatives(r).value
 
     def derivatives(self, r: np.ndarray, y: np.ndarray | None = None) -> GaussSumDerivatives:
-        """``V``, its gradient, Hessian and (given ``y``) ``D3V[y, y]`` at ``r``.
-
-        Parameters
-        ----------
-        r : ndarray, shape (n, 3)
-            Points [m].
-        y : ndarray, shape (n, 3), optional
-            Direction of the third-derivative contraction.
-        """
+        """``V``, its gradient, Hessian and (given a direction ``y`` (n, 3)) ``D3V[y, y]`` at
+        ``r`` (n, 3) [m]."""
         r = np.ascontiguousarray(r, dtype=float)
         n = r.shape[0]
         c, mu, L = self._batched(n)

@@ -70,17 +70,9 @@ class Part:
 
 @dataclass(frozen=True)
 class ChiefGeometry:
-    """The chief's parts and the collision tolerances of spec 4.2.
-
-    Attributes
-    ----------
-    parts : tuple of Part
-        The first part must be the solid body.
-    body_tolerance : float
-        Penetration of the body [m] allowed before it counts as a collision.
-    deputy_radius : float
-        Radius of the deputy [m] (0: a point, as in both papers).
-    """
+    """The chief's parts (the first the solid body) and the collision tolerances (A8):
+    ``body_tolerance`` [m], the penetration of the body allowed before it counts as a collision,
+    and ``deputy_radius`` [m] (0: a point, as in both papers)."""
 
     parts: tuple[Part, ...]
     body_tolerance: float = 0.01
@@ -128,17 +120,7 @@ class ChiefGeometry:
 
 
 def point_box_distance(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Euclidean distance from points to axis-aligned boxes (0 inside).
-
-    Parameters
-    ----------
-    points : ndarray, shape (..., 3)
-    lo, hi : ndarray, shape (P, 3)
-
-    Returns
-    -------
-    ndarray, shape (..., P)
-    """
+    """Euclidean distance (..., P) from points (..., 3) to axis-aligned boxes (P, 3) (0 inside)."""
     p = np.asarray(points, dtype=float)[..., None, :]
     gap = np.maximum(np.maximum(lo - p, p - hi), 0.0)
     return np.sqrt(np.sum(gap * gap, axis=-1))
@@ -152,21 +134,12 @@ def penetration_depth(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.
 
 
 def segment_box_hits(p0: np.ndarray, p1: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Slab test: does the closed segment ``p0 -> p1`` meet the closed box ``[lo, hi]``?
+    """Slab test: does the closed segment ``p0 -> p1`` (..., 3) meet the closed box ``[lo, hi]``
+    (P, 3)? Booleans (..., P).
 
     Per axis ``t_{1,2} = (lo - p0) / d, (hi - p0) / d``; the segment hits iff
     ``max_i min(t1, t2) <= min_i max(t1, t2)`` and the interval meets ``[0, 1]``. An axis with
-    ``d_i = 0`` constrains nothing when ``lo_i <= p0_i <= hi_i`` and excludes the box otherwise
-    (spec 4.2).
-
-    Parameters
-    ----------
-    p0, p1 : ndarray, shape (..., 3)
-    lo, hi : ndarray, shape (P, 3)
-
-    Returns
-    -------
-    ndarray of bool, shape (..., P)
+    ``d_i = 0`` constrains nothing when ``lo_i <= p0_i <= hi_i`` and excludes the box otherwise.
     """
     a = np.asarray(p0, dtype=float)[..., None, :]
     d = np.asarray(p1, dtype=float)[..., None, :] - a

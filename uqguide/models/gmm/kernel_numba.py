@@ -3,24 +3,12 @@
 The sampled-data loop (GMM-NTSMC or TSMC command at ``t_k``, bad-command guard, saturation,
 thrust scale, the RK4 sub-step maps, per-sub-step clearance, penetration, range and swept
 collision tests, records and ZEM) runs for the whole run in one compiled function. The results
-agree with the NumPy oracle ``tests/oracles/gmm.py`` (NumPy over the batch, one Python-level
-step per control period) to round-off (``tests/test_gmm_kernel.py``).
+agree with the NumPy oracle ``tests/oracles/gmm.py`` to round-off (``tests/test_gmm_kernel.py``).
 
-Layout. Blocks of :data:`BLOCK` samples run in parallel threads (``prange``); inside a block the
-samples ("lanes") advance in lockstep and everything per step is stored as structure of arrays
-(a row per quantity, the lanes along it), so that the loops over lanes run at unit stride and
-the compiler vectorises them. A lane's arithmetic does not depend on its block or on the other
-lanes (no reductions across lanes, no fused multiply-adds: numba does not contract without
-``fastmath``), so a sample gives the same bits whatever the batch split and the thread count.
-
-Where the time goes, per sample and control period (10 sub-steps): the potential's ten Gaussian
-kernels (an ``exp`` each, skipped where it underflows to zero), the NTSMC law's fractional
-powers (evaluated once per axis and period: ``|e|^tau = |e| |e|^(tau-1)`` with a ``sqrt`` for
-``tau = 3/2``, ``|v|^rho = |v| / |v|^(1-rho)`` where ``|v| >= eps``), then per sub-step three
-rows of the sub-step map for the position (six only at the period's end), the range and the
-five parts' box distances (their squares: the square root, monotone, is taken once at the end,
-which gives the same bits as the reference's minimum of square roots). The swept-segment test
-runs only where a period's bounding box meets a part's collision box, as in the reference.
+Blocks of :data:`BLOCK` samples run in parallel threads; inside a block the samples ("lanes")
+advance in lockstep, their per-step work stored as structure of arrays (rows ``W_*`` of ``W``),
+and a sample gives the same bits whatever the batch split and the thread count. The layout and
+where the time goes: docs/performance.md#the-gmm-proximity-kernel.
 """
 
 from __future__ import annotations
@@ -45,23 +33,8 @@ BLOCK = 64
 
 
 def block_size(n: int, threads: int) -> int:
-    """Samples per block: at most :data:`BLOCK`, and as many blocks per thread as possible.
-
-    A batch of 200 on 2 threads in blocks of 64 would leave one thread idle for most of the
-    last block's run; 4 blocks of 50 keep both busy. Which block a sample falls in does not
-    change its numbers.
-
-    Parameters
-    ----------
-    n : int
-        Samples in the batch.
-    threads : int
-        Threads that run the blocks.
-
-    Returns
-    -------
-    int
-    """
+    """Samples per block for a batch of ``n`` on ``threads`` threads: at most :data:`BLOCK`, and
+    as many blocks per thread as possible (docs/performance.md#the-gmm-proximity-kernel)."""
     threads = max(1, threads)
     blocks = max(1, -(-n // BLOCK))
     blocks = -(-blocks // threads) * threads
@@ -100,21 +73,19 @@ def simulate_compiled(
     record_every: int = 1,
     goal: np.ndarray | None = None,
 ) -> SampledRun:
-    """Run the sampled-data closed loop for a batch.
+    """Run the sampled-data closed loop for a batch (``u`` of the result is None).
 
     Parameters
     ----------
     schedule : StepSchedule
         Plant maps (:func:`.loop.build_schedule`).
-    controller : NTSMC or TSMC
     x0 : ndarray, shape (n, 6)
         Initial states ``[r (m), v (m/s)]``.
     geometry : ChiefGeometry
         Parts for clearance and collision checks (in the plant's axes).
     a_max : float
-        Acceleration limit [m/s^2] (``inf``: none).
-    per_axis_saturation : bool
-        Clip each axis instead of scaling the vector.
+        Acceleration limit [m/s^2] (``inf``: none); ``per_axis_saturation`` clips each axis
+        instead of scaling the vector.
     thrust_scale : ndarray, shape (n,), optional
         Multiplicative thrust-magnitude error per run (applied after saturation: a mis-
         calibrated thruster delivers ``scale`` times what is commanded).
@@ -123,11 +94,6 @@ def simulate_compiled(
         ``n_steps`` is a multiple).
     goal : ndarray, shape (3,), optional
         If given, the ZEM to this goal is computed at the recording times.
-
-    Returns
-    -------
-    SampledRun
-        ``u`` is None (the applied control per period is not kept).
     """
     x0 = np.ascontiguousarray(x0, dtype=float)
     n = x0.shape[0]

@@ -24,16 +24,11 @@ class StepSchedule:
 
     Attributes
     ----------
-    dt : float
-        Control period [s].
-    times : ndarray, shape (N + 1,)
-        Sample times ``k dt`` [s].
-    f : ndarray, shape (N + 1,)
-        Chief true anomaly at the sample times [rad].
+    times, f : ndarray, shape (N + 1,)
+        Sample times ``k dt`` [s] and the chief true anomaly there [rad].
     A, B : ndarray, shape (N, 3, 3)
         Plant matrices at the sample times (what the controllers cancel).
-    phi : ndarray, shape (N, n_sub, 6, 6)
-    gam : ndarray, shape (N, n_sub, 6, 3)
+    phi, gam : ndarray, shape (N, n_sub, 6, 6) and (N, n_sub, 6, 3)
         ``x(t_k + (j+1) h) = phi[k, j] x(t_k) + gam[k, j] u_k``.
     """
 
@@ -64,16 +59,8 @@ class StepSchedule:
 
 
 def build_schedule(plant: RelativePlant, t_f: float, dt: float, n_sub: int) -> StepSchedule:
-    """The :class:`StepSchedule` of ``plant`` on ``[0, t_f]`` (``t_f`` a multiple of ``dt``).
-
-    Parameters
-    ----------
-    plant : RelativePlant
-    t_f, dt : float
-        Final time and control period [s].
-    n_sub : int
-        RK4 sub-steps per period.
-    """
+    """The :class:`StepSchedule` of ``plant`` on ``[0, t_f]`` [s] with the control period ``dt``
+    (``t_f`` a multiple of it) and ``n_sub`` RK4 sub-steps per period."""
     n_steps = whole_steps(t_f, dt, "t_f")
     if n_sub < 1:
         raise ValueError(f"n_sub must be at least 1, got {n_sub}")
@@ -92,8 +79,7 @@ def build_schedule(plant: RelativePlant, t_f: float, dt: float, n_sub: int) -> S
 
 @dataclass
 class SampledRun:
-    """What a closed-loop run returns for a batch of ``n`` runs (SI units; spec 8 "Outputs per
-    run").
+    """What a closed-loop run returns for a batch of ``n`` runs (SI units).
 
     Attributes
     ----------
@@ -114,7 +100,7 @@ class SampledRun:
     penetration : ndarray, shape (n,)
         Maximum depth [m] inside the solid body.
     hits : ndarray of bool, shape (n, P)
-        Swept-segment collision with each part's collision box (spec 4.2).
+        Swept-segment collision with each part's collision box (A8).
     min_range : ndarray, shape (n,)
         Minimum distance to the chief's centre [m].
     n_saturated, n_nonfinite : ndarray of int, shape (n,)

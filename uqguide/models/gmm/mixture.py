@@ -29,17 +29,8 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class Mixture:
-    """A 3-D Gaussian mixture.
-
-    Attributes
-    ----------
-    weights : ndarray, shape (K,)
-        ``pi_j``, summing to 1.
-    means : ndarray, shape (K, 3)
-        ``mu_j`` [m].
-    covariances : ndarray, shape (K, 3, 3)
-        ``Sigma_j`` [m^2], symmetric positive definite.
-    """
+    """A 3-D Gaussian mixture: ``weights`` ``pi_j`` (K,) summing to 1, ``means`` ``mu_j`` (K, 3)
+    [m], symmetric positive definite ``covariances`` ``Sigma_j`` (K, 3, 3) [m^2]."""
 
     weights: np.ndarray
     means: np.ndarray
@@ -142,17 +133,8 @@ WANG2022_PUBLISHED = Mixture(
 
 @dataclass(frozen=True)
 class FitInfo:
-    """Diagnostics of an EM fit.
-
-    Attributes
-    ----------
-    converged : bool
-    n_iter : int
-        EM iterations.
-    lower_bound : float
-        Final mean log-likelihood per point.
-    n_points : int
-    """
+    """Diagnostics of an EM fit: convergence, EM iterations, the final mean log-likelihood per
+    point (``lower_bound``) and the number of points."""
 
     converged: bool
     n_iter: int
@@ -161,19 +143,8 @@ class FitInfo:
 
 
 def kmeans_partition(points: np.ndarray, means0: np.ndarray) -> Mixture:
-    """k-means from the given centres, summarised as a mixture.
-
-    Parameters
-    ----------
-    points : ndarray, shape (N, 3)
-    means0 : ndarray, shape (K, 3)
-        Initial centres [m].
-
-    Returns
-    -------
-    Mixture
-        Cluster fractions, centroids and biased (1/N_j) covariances.
-    """
+    """k-means of ``points`` (N, 3) from the initial centres ``means0`` (K, 3) [m], summarised
+    as a mixture: cluster fractions, centroids and biased (1/N_j) covariances."""
     from sklearn.cluster import KMeans
 
     means0 = np.asarray(means0, dtype=float)
@@ -203,25 +174,13 @@ def fit_mixture(
     tol: float = 1e-8,
     max_iter: int = 1000,
 ) -> tuple[Mixture, FitInfo]:
-    """Fit a Gaussian mixture to a surface point cloud by EM (spec 5.3).
+    """Fit a Gaussian mixture to a surface point cloud (N, 3) [m] by EM.
 
-    Parameters
-    ----------
-    points : ndarray, shape (N, 3)
-        Surface samples [m].
-    means0 : ndarray, shape (K, 3), optional
-        k-means initial centres ([W 22]); EM then starts from the k-means partition.
-    init : Mixture, optional
-        Start EM directly from these parameters (the [C] recipe, spec A29); ``reg_covar`` is
-        added to their covariances.
-    reg_covar : float
-        Added to every covariance diagonal [m^2] (1e-5: the published thin variances).
-    tol, max_iter : float, int
-        EM stopping rule (scikit-learn's change of the mean log-likelihood).
-
-    Returns
-    -------
-    Mixture, FitInfo
+    Start from the k-means partition of the initial centres ``means0`` (K, 3) ([W 22]), or
+    directly from the parameters ``init`` (the [C] recipe, A29; ``reg_covar`` is added to their
+    covariances). ``reg_covar`` [m^2] is added to every covariance diagonal (1e-5: the published
+    thin variances); ``tol``, ``max_iter``: scikit-learn's stopping rule on the change of the mean
+    log-likelihood.
     """
     from sklearn.mixture import GaussianMixture
 

@@ -1,39 +1,16 @@
 """GMM-based close-range proximity to a complex-shaped chief (Wang et al. 2022, [W]).
 
-A deputy (point, 50 kg, 30 N) manoeuvres next to a chief made of a 10 m cube, two 10 x 5 m
-solar panels and two 5 m antennas, under one of the three sliding-mode laws compared in [W]:
-APF-TSMC (classical APF obstacle), GMM-TSMC and GMM-NTSMC (repulsion from a Gaussian mixture
-fitted to the chief's surface point cloud). Tschauner-Hempel relative dynamics on the chief's
-elliptical orbit, control held over each 1 s period and saturated, collisions checked against
-the chief's boxes (spec ``gmm-controllers.md``, sections 2, 4-8, 9.1, 10.1, 11).
+A deputy (point, 50 kg, 30 N) manoeuvres next to a chief made of a 10 m cube, two solar panels
+and two antennas, under APF-TSMC, GMM-TSMC or GMM-NTSMC; Tschauner-Hempel relative dynamics,
+control held over each 1 s period and saturated, collisions checked against the chief's boxes.
+The uncertain inputs (initial-state errors, a thrust scale the controller does not know, errors
+of the controller's GMM of the chief) and where the paper is silent:
+docs/papers.md#gmm-proximity-scenario-inputs-and-outputs; the laws and potentials:
+docs/papers.md#gmm-potentials-and-controllers.
 
-Decisions where spec and paper are silent (each a parameter or stated here):
-
-- The literal reading of the garbled [W] Table 2, ``r0 = (1, -16, 0) m`` (spec A1), is the
-  default; it crosses the -y panel and the body for every controller (spec 11). The named
-  alternatives of spec 11 are configs (``configs/gmm_*.yaml``).
-- ``ntsmc_eps = 1e-6 m/s`` (spec A17: the published law, ``eps = 0``, stalls in ``z``).
-- Uncertain inputs ``dx0 ... dvz0`` are added to ``r0, v0`` (LVLH); ``thrust_scale``
-  multiplies the applied (saturated) thrust, so the deputy's thrusters deliver ``scale`` times
-  the command while the controller does not know it; Delta-v counts the applied thrust.
-- GMM perturbation models the controller's knowledge of the chief, not the chief itself
-  (collisions are always checked against the true boxes): ``gmm_shift_x/y/z`` translate every
-  kernel (a chief-position / point-cloud registration error; it also moves the APF obstacle
-  centre, which is the same knowledge), ``gmm_mean_scale`` scales the component means about the
-  chief's centre (a size error of the reconstruction) and ``gmm_cov_scale`` scales every
-  covariance (kernel heights follow the normaliser, ``c ~ s^-3/2``). Refitting the GMM to a
-  noisy point cloud per sample would cost a ~30 s EM fit per sample and is not offered.
-- A sample with a non-positive ``thrust_scale``, ``gmm_mean_scale`` or ``gmm_cov_scale`` is
-  flagged failed (its value has no physical meaning), as is one whose state becomes non-finite.
-- Series are recorded every ``record_interval`` seconds (default 10 s: 81 points) to bound the
-  memory of 1e4-sample runs; clearance and collisions use every RK4 sub-step (0.1 s).
-- The closed loop runs compiled for the whole run (:mod:`.kernel_numba`, blocks of samples in
-  ``threads`` threads); a sample's numbers do not depend on the batch split or the thread
-  count.
-- ``los_rate`` is the rate of the line of sight from the chief's centre to the deputy seen in
-  LVLH, ``|r x v| / |r|^2``; ``zem`` is the zero-effort miss, the distance from the goal at
-  which the deputy would be at ``t_f`` had the thrust stopped at ``t`` (coasting on the same
-  TH dynamics): the proximity analogue of the FTCAPN miss.
+:class:`GMMProximity` builds the scenario's pieces (geometry, mixture, controller) from its
+parameters and runs the compiled closed loop (:mod:`.kernel_numba`); the paper's report and
+figures are in :mod:`uqguide.papers.gmm_proximity`.
 """
 
 from __future__ import annotations
@@ -93,7 +70,7 @@ _PERTURBATION = ("gmm_shift_x", "gmm_shift_y", "gmm_shift_z", "gmm_mean_scale", 
 
 
 class GMMProximity(Model):
-    """APF-TSMC / GMM-TSMC / GMM-NTSMC proximity manoeuvre near the [W] chief (see module doc)."""
+    """APF-TSMC / GMM-TSMC / GMM-NTSMC proximity manoeuvre near the [W] chief (module docstring)."""
 
     name = "gmm_proximity"
     summary = ("GMM-potential sliding-mode proximity to a box/panel/antenna chief "

@@ -55,19 +55,10 @@ def _dedupe(points: np.ndarray) -> np.ndarray:
 
 
 def grid_cloud(geometry: ChiefGeometry, counts: Mapping[str, tuple[int, ...]]) -> np.ndarray:
-    """Regular-grid surface samples of every part.
+    """Regular-grid surface samples (N, 3) [m] of every part, duplicates removed.
 
-    Parameters
-    ----------
-    geometry : ChiefGeometry
-    counts : mapping of part name to tuple of int
-        Solid: ``(m,)`` points per edge of each face (``m x m`` per face); plate: ``(m1, m2)``
-        along its two in-plane axes in increasing axis order; segment: ``(m,)``.
-
-    Returns
-    -------
-    ndarray, shape (N, 3)
-        Points [m], duplicates removed.
+    ``counts`` by part name: solid ``(m,)`` points per edge of each face (``m x m`` per face);
+    plate ``(m1, m2)`` along its two in-plane axes in increasing axis order; segment ``(m,)``.
     """
     chunks = []
     for part in geometry.parts:
@@ -90,19 +81,8 @@ def grid_cloud(geometry: ChiefGeometry, counts: Mapping[str, tuple[int, ...]]) -
 def random_cloud(
     geometry: ChiefGeometry, counts: Mapping[str, int], rng: np.random.Generator
 ) -> np.ndarray:
-    """Uniform random surface samples.
-
-    Parameters
-    ----------
-    geometry : ChiefGeometry
-    counts : mapping of part name to int
-        Points per face of a solid, per plate, per segment.
-    rng : numpy.random.Generator
-
-    Returns
-    -------
-    ndarray, shape (N, 3)
-    """
+    """Uniform random surface samples (N, 3) [m]; ``counts`` by part name: points per face of a
+    solid, per plate, per segment."""
     chunks = []
     for part in geometry.parts:
         m = int(counts[part.name])

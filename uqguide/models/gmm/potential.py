@@ -25,7 +25,7 @@ def matvec(M: np.ndarray, x: np.ndarray) -> np.ndarray:
     Written as three element-wise products so that every row is computed by the same
     operations whatever the batch size (a BLAS product may pick a different kernel, and so a
     different rounding, for 1 row and for 1000): a batch run then equals its single runs
-    bit for bit (spec 12.8).
+    bit for bit.
     """
     if M.ndim == 2:
         return x[:, 0:1] * M[:, 0] + x[:, 1:2] * M[:, 1] + x[:, 2:3] * M[:, 2]
@@ -34,21 +34,9 @@ def matvec(M: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class PotentialDerivatives:
-    """Derivatives of ``phi`` at a batch of points.
-
-    Attributes
-    ----------
-    g : ndarray, shape (n, 3)
-        Gradient w.r.t. ``r`` [m].
-    H : ndarray, shape (n, 3, 3)
-        Hessian w.r.t. ``r`` [-].
-    H_f : ndarray, shape (n, 3, 3)
-        ``d g / d r_f`` [-].
-    gamma : ndarray, shape (n, 3) or None
-        ``D3 phi[y, y]`` [1/m * (unit of y)^2] when ``y`` was given.
-    V : ndarray, shape (n,)
-        The Gaussian-sum value.
-    """
+    """Derivatives of ``phi`` at a batch of points: gradient ``g`` (n, 3) [m] and Hessian ``H``
+    (n, 3, 3) [-] w.r.t. ``r``, ``H_f = d g / d r_f`` (n, 3, 3) [-], ``gamma = D3 phi[y, y]`` (n, 3)
+    [1/m (unit of y)^2] when ``y`` was given, and the Gaussian-sum value ``V`` (n,)."""
 
     g: np.ndarray
     H: np.ndarray
@@ -59,17 +47,8 @@ class PotentialDerivatives:
 
 @dataclass(frozen=True)
 class AttractRepulsePotential:
-    """``phi = 1/2 e^T P e + 1/2 (e^T M e) V(r)``.
-
-    Attributes
-    ----------
-    P : ndarray, shape (3, 3)
-        Attraction gain [-], symmetric positive definite.
-    M : ndarray, shape (3, 3)
-        Repulsion gain [-], symmetric positive definite.
-    V : GaussSum
-        Repulsive kernels (GMM or APF obstacles).
-    """
+    """``phi = 1/2 e^T P e + 1/2 (e^T M e) V(r)`` with symmetric positive definite attraction and
+    repulsion gains ``P``, ``M`` (3, 3) [-] and repulsive kernels ``V`` (GMM or APF obstacles)."""
 
     P: np.ndarray
     M: np.ndarray
@@ -95,17 +74,8 @@ class AttractRepulsePotential:
     def derivatives(
         self, r: np.ndarray, r_f: np.ndarray, y: np.ndarray | None = None
     ) -> PotentialDerivatives:
-        """Gradient, Hessian, ``d g / d r_f`` and (given ``y``) ``D3 phi[y, y]``.
-
-        Parameters
-        ----------
-        r : ndarray, shape (n, 3)
-            Positions [m].
-        r_f : ndarray, shape (3,) or (n, 3)
-            Goal [m].
-        y : ndarray, shape (n, 3), optional
-            Direction (a velocity, for ``(dH/dt) y``).
-        """
+        """Gradient, Hessian, ``d g / d r_f`` and (given a direction ``y`` (n, 3), a velocity for
+        ``(dH/dt) y``) ``D3 phi[y, y]`` at ``r`` (n, 3) [m] for the goal ``r_f`` (3,) or (n, 3)."""
         r = np.asarray(r, dtype=float)
         e = r - r_f
         d = self.V.derivatives(r, y)

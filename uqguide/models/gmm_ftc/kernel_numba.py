@@ -1,26 +1,12 @@
 """Compiled GMM-FTC closed loop in blocks of samples (:mod:`.loop`: its settings and result).
 
 The sampled-data loop (GMM-FTC at ``t_k``, thrust factors and keyed noise, RK4 of the
-body-frame plant, per-sub-step geometry, the metrics) runs in one compiled function. Its NumPy
-oracle ``tests/oracles/gmm_ftc.py`` advances a whole batch per Python-level step and pays ~1 ms
-of call overhead per step whatever the batch size; the kernel pays nothing per step. Results
-agree with the oracle to rounding (tests/test_gmm_ftc_kernel.py), not bit for bit: some sums
-are taken in another order.
-
-Layout. Blocks of :data:`BLOCK` samples run on parallel threads (``prange``); within a block
-the samples advance in lockstep, their state and per-step work stored as structure of arrays
-(a row per quantity, the samples along it), so the compiler vectorises the branch-free passes
-across samples: the plant's right-hand sides, the RK4 stages, the GMM kernels' quadratic forms
-and sums, the law's arithmetic and 3x3 solve, the clearances and the metrics. What stays scalar
-per sample are the library calls (``exp`` of the GMM kernels that do not underflow, the
-``sig^zeta1`` power, the per-sample attitude's ``sin``/``cos``) and the rare events (a path near
-a part: the swept collision test). Nothing is allocated inside the time loop. Quantities shared
-by the batch are computed once: the orbit's matrices (on the half-step grid, before the kernel)
-and, when the spin is common, the attitude at each half step.
-
-A sample's numbers do not depend on its block, its lane, the thread count or the batch (no
-reduction runs across lanes; a shared quantity is computed by the same arithmetic as its
-per-lane form): tests/test_gmm_ftc_kernel.py checks this bit for bit.
+body-frame plant, per-sub-step geometry, the metrics) runs in one compiled function, which
+agrees with the NumPy oracle ``tests/oracles/gmm_ftc.py`` to rounding
+(``tests/test_gmm_ftc_kernel.py``). Blocks of :data:`BLOCK` samples run on parallel threads;
+within a block the samples advance in lockstep as structure of arrays, and a sample's numbers
+do not depend on its block, its lane, the thread count or the batch. The layout and why:
+docs/performance.md#the-gmm-ftc-kernel.
 
 Layout of the per-sample scalar results (columns of ``sc``) is :data:`SCALAR_COLUMNS`.
 """
@@ -547,15 +533,7 @@ def _simulate_block(i0, i1, x0, W, Wc, C0, ctl_separate, plant_printed, ctl_prin
                     reach, dt, n_sub, N, record_every, converge_tol, settle_tol, velocity_tol,
                     s2_tol, k_check, u_max, rec_r, rec_v, rec_u, rec_rl, rec_vl, rec_ul,
                     rec_u32, rec_s2, rec_dv, clearance, hits, sc):  # pragma: no cover
-    """Samples ``i0 .. i1-1`` in lockstep, one control period at a time.
-
-    State and per-step work are structure of arrays (a row per quantity, the lanes along it):
-    the plant's right-hand sides, the RK4 stages and the potential's kernels are branch-free
-    passes over the lanes, which the compiler vectorises; the law, the metrics, the records
-    and the geometry tests are scalar passes. Nothing is allocated inside the time loop.
-    Each lane's arithmetic is the same whatever the block (no reduction across lanes), so a
-    sample's numbers do not depend on the batch split or the thread count.
-    """
+    """Samples ``i0 .. i1-1`` in lockstep, one control period at a time (module docstring)."""
     m = i1 - i0
     nP = s_lo.shape[0]
     h = dt / n_sub
@@ -848,7 +826,8 @@ def _geometry_events(i, l, x, p0, s_lo, s_hi, c_lo, c_hi, is_solid, d_prev, flag
 
 def run_closed_loop_numba(plant, controller_plant, law, geometry, x0, settings,
                           thrust_scale=None, noise_keys=None):
-    """Simulate a batch of servicers under GMM-FTC.
+    """Simulate a batch of servicers under GMM-FTC; the result's ``scalars`` are
+    :func:`.loop.scalar_results`.
 
     Parameters
     ----------
@@ -858,21 +837,13 @@ def run_closed_loop_numba(plant, controller_plant, law, geometry, x0, settings,
         The dynamics the law cancels (``None``: the true plant).
     law : GMMFTCLaw
         One GMM for the whole batch.
-    geometry : ChiefGeometry
-        Target parts, body frame.
     x0 : ndarray, shape (n, 6)
         Initial body-frame ``[r (m), r' (m/s)]``.
-    settings : LoopSettings
     thrust_scale : ndarray, shape (n, 3), optional
         Per-sample, per-axis thrust factor (1: exact).
     noise_keys : ndarray of uint64, shape (n,), optional
         Keys of the per-period thrust noise streams (:mod:`.noise`); needed when
         ``settings.thrust_noise > 0``.
-
-    Returns
-    -------
-    LoopRun
-        Its ``scalars`` are :func:`.loop.scalar_results`.
     """
     st = settings
     x0 = np.ascontiguousarray(x0, dtype=float)

@@ -59,21 +59,15 @@ class FTCGains:
 
 def fixed_time_bound(lambda1: np.ndarray, lambda2: np.ndarray, zeta1: float, zeta2: float,
                      tight: bool = False) -> float:
-    """Bound on the time for ``s2`` to reach 0 ([C 36], spec 7.4) [s].
+    """Bound [s] on the time for ``s2`` to reach 0 ([C 36]).
 
     With ``V = 1/2 |s2|^2`` the paper's Lemma 2 gives
-    ``V' <= -sum lambda_i,min (2V)^((1+zeta_i)/2)``
-    and Corollary 1 ``T_max = 2 / (lambda1,min (1 - zeta1)) + 2 / (lambda2,min (zeta2 - 1))``
-    (500 s for Table 3). Lemma 2 is invalid for ``zeta > 1`` in 3-D: by the power-mean
-    inequality ``sum |s_i|^(1+zeta2) >= 3^((1-zeta2)/2) |s|^(1+zeta2)``; keeping that factor and the
+    ``V' <= -sum lambda_i,min (2V)^((1+zeta_i)/2)`` and Corollary 1
+    ``T_max = 2 / (lambda1,min (1 - zeta1)) + 2 / (lambda2,min (zeta2 - 1))`` (500 s for Table 3).
+    Lemma 2 is invalid for ``zeta > 1`` in 3-D: by the power-mean inequality
+    ``sum |s_i|^(1+zeta2) >= 3^((1-zeta2)/2) |s|^(1+zeta2)``; keeping that factor and the
     ``2^((1+zeta)/2)`` of ``(2V)^...`` in Corollary 1 gives the valid, tighter bound
     (``tight=True``; about 279 s for Table 3).
-
-    Parameters
-    ----------
-    lambda1, lambda2 : ndarray, shape (3,)
-    zeta1, zeta2 : float
-    tight : bool
     """
     l1, l2 = float(np.min(lambda1)), float(np.min(lambda2))
     if not tight:
@@ -86,17 +80,9 @@ def fixed_time_bound(lambda1: np.ndarray, lambda2: np.ndarray, zeta1: float, zet
 
 @dataclass(frozen=True)
 class FTCCommand:
-    """One evaluation of GMM-FTC on a batch.
-
-    Attributes
-    ----------
-    u : ndarray, shape (n, 3)
-        Commanded acceleration, body components [m/s^2].
-    s1 : ndarray, shape (n, 3)  [m]
-    s2 : ndarray, shape (n, 3)  [m/s]
-    guarded : ndarray of bool, shape (n,)
-        ``I + k_s H`` was (near-)singular and replaced by ``I``.
-    """
+    """One evaluation of GMM-FTC on a batch: the commanded acceleration ``u`` (n, 3), body
+    components [m/s^2], ``s1`` [m] and ``s2`` [m/s] (n, 3), and ``guarded`` (n,): where
+    ``I + k_s H`` was (near-)singular and replaced by ``I``."""
 
     u: np.ndarray
     s1: np.ndarray
@@ -106,18 +92,9 @@ class FTCCommand:
 
 @dataclass(frozen=True)
 class GMMFTCLaw:
-    """GMM-FTC ([C 31]) for a goal at rest in the body frame.
-
-    Attributes
-    ----------
-    potential : AttractRepulsePotential
-        ``phi`` of [C 17-19] with the target's GMM kernels.
-    r_f : ndarray, shape (3,)
-        Goal, body frame [m].
-    gains : FTCGains
-    det_guard : float
-        ``|det(I + k_s H)|`` below which the identity replaces it (spec 7.4, A28).
-    """
+    """GMM-FTC ([C 31]) for a goal ``r_f`` (3,) [m] at rest in the body frame; ``potential`` is
+    ``phi`` of [C 17-19] with the target's GMM kernels; below ``det_guard`` of ``|det(I + k_s H)|``
+    the identity replaces it (A28)."""
 
     potential: AttractRepulsePotential
     r_f: np.ndarray
@@ -139,7 +116,7 @@ class GMMFTCLaw:
         """GMM-FTC command for states ``r, v`` (n, 3).
 
         ``plant.apply(r, v)`` is the ``A21 r + A22 v`` the controller believes, evaluated at the
-        sample time (spec A34): a :class:`~uqguide.models.dynamics.rotating_body_frame.
+        sample time (A34): a :class:`~uqguide.models.dynamics.rotating_body_frame.
         BodyFrameStage`, or a ``LinearStage`` of given matrices.
         """
         gn = self.gains

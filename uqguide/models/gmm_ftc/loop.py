@@ -1,12 +1,11 @@
 """The GMM-FTC closed loop's settings and result (:func:`.kernel_numba.run_closed_loop_numba`).
 
-Spec section 8 with the [C] settings: at ``t_k = k dt`` (``dt = 0.1 s``, [C] 4.2) the law
-computes ``u_k`` from the sampled body-frame state and the plant matrices at ``t_k``; the thrust
-is corrupted (per-sample per-axis scale, per-period +-5 % noise) and held over
-``[t_k, t_k + dt)``; the body-frame plant is propagated by classical RK4 with ``n_sub``
-sub-steps per period (``n_sub = 1`` in [C]: "integration step = control period"). What the
-spec's claims (section 10.2) need is accumulated at every step, so the recorded grid can be
-coarser than the step (:func:`scalar_results`).
+At ``t_k = k dt`` (``dt = 0.1 s``, [C] 4.2) the law computes ``u_k`` from the sampled body-frame
+state and the plant matrices at ``t_k``; the thrust is corrupted (per-sample per-axis scale,
+per-period +-5 % noise) and held over ``[t_k, t_k + dt)``; the body-frame plant is propagated by
+classical RK4 with ``n_sub`` sub-steps per period (``n_sub = 1`` in [C]: "integration step =
+control period"). What the paper's claims need is accumulated at every step, so the recorded
+grid can be coarser than the step (:func:`scalar_results`).
 """
 
 from __future__ import annotations
@@ -24,25 +23,19 @@ class LoopSettings:
 
     Attributes
     ----------
-    dt : float
-        Control period [s].
-    n_sub : int
-        RK4 sub-steps per period.
     t_final : float
         Duration [s], a multiple of ``dt``.
     record_every : int
         Record the series every this many periods (``t_final / dt`` must be a multiple).
     thrust_noise : float
         Half-width of the per-axis, per-period thrust factor ``1 + U(-w, w)`` (0: none).
-    converge_tol : float
-        Position-error threshold of the convergence time [m] (1e-4, [C] 4.2).
+    converge_tol, velocity_tol : float
+        Position-error [m] and velocity [m/s] thresholds of the convergence times (1e-4, [C] 4.2).
     settle_tol : float
         Coarser position-error threshold [m] of a settling time that a steady offset (e.g. from
         a thruster scale error) does not censor.
-    velocity_tol : float
-        Velocity threshold [m/s] (1e-4, [C] 4.2).
     s2_tol : float
-        ``||s2||`` threshold of the reaching time [m/s] (spec C7: 1e-6).
+        ``||s2||`` threshold of the reaching time [m/s] (claim C7: 1e-6).
     t_check : float
         Start of the "converged" window of the claims [s] (150 s, [C] 4.2).
     u_max : float

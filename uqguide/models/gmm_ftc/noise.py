@@ -27,20 +27,8 @@ def _mix(z: np.ndarray) -> np.ndarray:
 
 
 def sample_keys(seed: int, values: np.ndarray) -> np.ndarray:
-    """Stream keys from a seed and each sample's input values.
-
-    Parameters
-    ----------
-    seed : int
-        Noise seed (a model parameter), ``0 <= seed < 2**64``.
-    values : ndarray, shape (n, d)
-        The sample's inputs (all of them, nominal ones included); only their single-precision
-        roundings enter the key.
-
-    Returns
-    -------
-    ndarray of uint64, shape (n,)
-    """
+    """Stream keys (n,) uint64 from the noise seed (``0 <= seed < 2**64``) and each sample's inputs
+    (n, d), nominal ones included; only their single-precision roundings enter the key."""
     single = np.ascontiguousarray(values, dtype=np.float32)
     n = single.shape[0]
     with np.errstate(over="ignore"):
@@ -57,20 +45,8 @@ def seed_keys(seeds: np.ndarray) -> np.ndarray:
 
 
 def uniform(keys: np.ndarray, index: int, size: int = 3) -> np.ndarray:
-    """Elements ``index * size + (0 .. size-1)`` of each stream, uniform in [0, 1).
-
-    Parameters
-    ----------
-    keys : ndarray of uint64, shape (n,)
-    index : int
-        Block index (the control period).
-    size : int
-        Block length (3 axes).
-
-    Returns
-    -------
-    ndarray, shape (n, size)
-    """
+    """Elements ``index * size + (0 .. size-1)`` of each stream, uniform in [0, 1), shape (n, size):
+    ``index`` the control period, ``size`` the 3 axes."""
     j = np.uint64(index * size + 1) + np.arange(size, dtype=np.uint64)
     with np.errstate(over="ignore"):
         z = _mix(keys[:, None] + j[None, :] * _GAMMA)

@@ -91,7 +91,7 @@ PART_OF_COMPONENT: tuple[str, ...] = (
 
 def target_geometry(panel_half_thickness: float = 0.02, antenna_half_width: float = 0.05,
                     body_tolerance: float = 0.01) -> ChiefGeometry:
-    """The [C] target's parts (spec 4.1) with the spec 4.2 thickness defaults [m]."""
+    """The [C] target's parts with the default thicknesses [m] (A7)."""
     return chen2020_chief(panel_half_thickness, antenna_half_width, body_tolerance)
 
 
@@ -114,18 +114,9 @@ table.
 
 def fit_target_mixture(points: np.ndarray, init: Mixture = TABLE1, max_iter: int = 1000,
                        tol: float = EM_TOL) -> tuple[Mixture, FitInfo]:
-    """EM fit of the 12-component GMM, started from ``init`` (spec 5.3, A29).
-
-    Parameters
-    ----------
-    points : ndarray, shape (N, 3)
-        Surface samples [m].
-    init : Mixture
-        EM start (Table 1 by default); ``REG_COVAR`` is added to its covariances and its
-        weights are normalised.
-    max_iter, tol : int, float
-        EM stopping rule.
-    """
+    """EM fit of the 12-component GMM to surface samples (N, 3) [m], started from ``init``
+    (Table 1 by default, A29; ``REG_COVAR`` is added to its covariances and its weights are
+    normalised)."""
     start = Mixture(init.weights / init.weights.sum(), init.means, init.covariances)
     return fit_mixture(points, init=start, reg_covar=REG_COVAR, tol=tol, max_iter=max_iter)
 

@@ -60,17 +60,8 @@ class Outcome:
 
 @dataclass(frozen=True)
 class Claim:
-    """One checked statement.
-
-    Attributes
-    ----------
-    id : str
-        ``"W1"`` ... ``"W10"``.
-    statement : str
-    holds : bool
-    measured : str
-        The measured figures behind the verdict.
-    """
+    """One checked statement (``id`` ``"W1"`` ... ``"W10"``) and the measured figures behind
+    its verdict."""
 
     id: str
     statement: str
@@ -79,15 +70,12 @@ class Claim:
 
 
 def evaluate_wang2022_claims(out: dict[str, Outcome], reach_tolerance: float = 0.05) -> list[Claim]:
-    """Claims W1-W10 of spec 10.1 for the outcomes of APF-TSMC, GMM-TSMC and GMM-NTSMC.
+    """Claims W1-W10 of spec 10.1 for the outcomes ``out`` keyed by :data:`APF`, :data:`GTS`,
+    :data:`GNT`.
 
-    Parameters
-    ----------
-    out : dict of str to Outcome
-        Keyed by :data:`APF`, :data:`GTS`, :data:`GNT`.
-    reach_tolerance : float
-        Final position error [m] below which the goal counts as reached (W10; 0.05 m allows the
-        ~1 cm offset of the GMM controllers' spurious minimum next to the goal, spec 6.3).
+    ``reach_tolerance``: final position error [m] below which the goal counts as reached (W10;
+    0.05 m allows the ~1 cm offset of the GMM controllers' spurious minimum next to the goal,
+    spec 6.3).
     """
     a, t, n = out[APF], out[GTS], out[GNT]
 

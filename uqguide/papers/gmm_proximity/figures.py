@@ -70,20 +70,7 @@ def plot_trajectories(runs: dict[str, SampledRun], geometry: ChiefGeometry, goal
                       out_dir: Path, filename: str = "gmm_trajectories.png") -> Path:
     """Fig. 4: paths of the controllers around the chief; returns the PNG's path.
 
-    Parameters
-    ----------
-    runs : dict of str to SampledRun
-        One single-sample run per controller (display name -> run).
-    geometry : ChiefGeometry
-    goal : ndarray, shape (3,)
-        Goal position [m].
-    out_dir : Path
-    filename : str
-
-    Returns
-    -------
-    Path
-        The PNG written.
+    ``runs``: one single-sample run per controller (display name -> run); ``goal`` (3,) [m].
     """
     fig = new_figure((13, 10))
     ax3 = fig.add_subplot(2, 2, 1, projection="3d")

@@ -24,14 +24,8 @@ __all__ = ["CONTROLLER_LABEL", "nominal_outcomes", "nominal_report", "nominal_ru
 
 
 def nominal_runs(model: GMMProximity, record_every: int = 1) -> dict[str, SampledRun]:
-    """The nominal run of each of the three controllers, keyed by display name.
-
-    Parameters
-    ----------
-    model : GMMProximity
-    record_every : int
-        Record the state every this many control periods.
-    """
+    """The nominal run of each of the three controllers, keyed by display name, recording the
+    state every ``record_every`` control periods."""
     vals = model.nominal_values()
     return {CONTROLLER_LABEL[c]: model.run(vals, 1, c, record_every=record_every)
             for c in ("apf_tsmc", "gmm_tsmc", "gmm_ntsmc")}
@@ -39,14 +33,8 @@ def nominal_runs(model: GMMProximity, record_every: int = 1) -> dict[str, Sample
 
 def nominal_outcomes(model: GMMProximity,
                      runs: dict[str, SampledRun] | None = None) -> dict[str, Outcome]:
-    """The :class:`~.claims.Outcome` of each controller's nominal run (display name -> outcome).
-
-    Parameters
-    ----------
-    model : GMMProximity
-    runs : dict of str to SampledRun, optional
-        Runs from :func:`nominal_runs` (default: run them).
-    """
+    """The :class:`~.claims.Outcome` of each controller's nominal run (display name -> outcome),
+    from ``runs`` of :func:`nominal_runs` when given."""
     runs = nominal_runs(model) if runs is None else runs
     names = model.geometry().names
     r_f = np.asarray(model.params.r_f)
