@@ -46,3 +46,19 @@ class WorkerStartError(UqguideError):
     at its top level, without an ``if __name__ == "__main__":`` guard: each spawned worker
     re-imports the script and would start the whole run again.
     """
+
+
+class DiskFull(UqguideError):
+    """A write found no room (ENOSPC, EFBIG past the file size limit, EDQUOT); every file is
+    whole (the old one or none), as :mod:`uqguide.core.atomic` writes them.
+
+    Parameters
+    ----------
+    path : Path
+        The file being written.
+    """
+
+    def __init__(self, path: object) -> None:
+        super().__init__(f"disk full writing {path}; no file was left half-written: free "
+                         f"space and run the command again")
+        self.path = path

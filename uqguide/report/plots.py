@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from scipy import stats as sps
 
+from ..core import atomic
 from .budget_plot import budget_figure, has_budget
 from .figures import Figure, new_figure, save
 from ..models.base import OutputInfo
@@ -612,7 +613,7 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
         Path, kind, output and component of each file.
     """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    atomic.make_folder(out)
     stem = _safe(result.name)
     files = []
     for o in result.outputs:
