@@ -7,6 +7,9 @@ folder and the files uqguide writes).
 3. A FIFO or socket where uqguide reads or writes is refused at once, exit 2.
 4. A full disk at any write is exit 1 with one line, the run folder resumable; an unusable
    ``--out`` is exit 2 before any work.
+
+The whole campaign is ``benchmarks/fuzz_containment.py`` (plot, report and replay included);
+its sample closes this file.
 """
 
 from __future__ import annotations
@@ -307,8 +310,8 @@ def test_a_fifo_at_the_run_folders_name_is_refused(cfg, tmp_path):
     assert res.exit_code == 2 and "is not a uqguide run folder" in _one_line(res)
 
 
-@pytest.mark.parametrize("command", ["run CONFIG", "plot RESULT", "check RESULT",
-                                     "check --baseline", "run --check"])
+@pytest.mark.parametrize("command", ["run CONFIG", "check RESULT", "check --baseline",
+                                     "run --check"])
 def test_a_fifo_given_to_read_is_refused_at_once(cfg, tmp_path, command):
     out = tmp_path / "out"
     assert _run("run", cfg, "--out", out, "-q").exit_code == 0
@@ -317,7 +320,6 @@ def test_a_fifo_given_to_read_is_refused_at_once(cfg, tmp_path, command):
     fifo = tmp_path / "fifo"
     os.mkfifo(fifo)
     args = {"run CONFIG": ["run", fifo, "--out", out],
-            "plot RESULT": ["plot", fifo, "--out", out],
             "check RESULT": ["check", fifo, "--baseline", tmp_path / "b.json"],
             "check --baseline": ["check", h5, "--baseline", fifo],
             "run --check": ["run", cfg, "--out", out, "--check", fifo]}[command]
@@ -469,3 +471,45 @@ def test_an_out_without_write_rights_is_one_line(cfg, tmp_path):
     res = _run("run", cfg, "--out", tmp_path / "ro" / "out", "-q")
     assert res.exit_code == 2
     assert f"{tmp_path / 'ro'} is not writable by this user" in _one_line(res)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_FSIZE as on Linux")
+def test_a_full_disk_in_a_real_process_at_three_moments():
+    """benchmarks/fuzz_containment.py's disk-full cases at the lock, the manifest and the
+    result file (child processes under RLIMIT_FSIZE, each then resumed): about 30 s."""
+    fuzz = _fuzz()
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as t:
+        work = Path(t)
+        shared = fuzz.templates(work)
+        limits = fuzz.disk_limits(shared)
+        cases = [c for c in fuzz.disk_full_cases(shared) if c.fsize in
+                 (limits[0], limits[1], limits[-2]) and c.name.startswith("disk full: run,")]
+        outcomes = [fuzz.try_case(c, work, shared) for c in cases]
+    assert len(outcomes) == 3
+    assert [(o.case, o.run.exit_code, o.ok) for o in outcomes] == [
+        (o.case, 1, True) for o in outcomes], [(o.problems, o.run.stderr) for o in outcomes]
+
+
+def _fuzz():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import fuzz_containment
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    return fuzz_containment
+
+
+@pytest.mark.slow
+def test_a_sample_of_the_containment_fuzz_is_clean():
+    """40 of benchmarks/fuzz_containment.py's cases, child processes included (about 15 CPU-s;
+    its full run gives the summary line of docs/scale.md)."""
+    fuzz = _fuzz()
+    outcomes = fuzz.run_all(sample=40, seed=7)
+    assert len(outcomes) == 40 and len({o.case.split(":")[0] for o in outcomes}) >= 4
+    assert [o.case for o in outcomes if not o.ok] == []
+    assert fuzz.summary_line(outcomes) == (
+        "0 user files lost or changed, 0 writes outside --out, 0 runs past 60 s, 0 tracebacks, "
+        "0 processes left behind, peak RSS under max_memory in every case")
