@@ -1,78 +1,440 @@
-"""Containment fuzz: links, files and folders planted where a run writes, then a run, a resume
-and a clean-up; after each, nothing outside ``--out`` changed and nothing of the user's is gone.
+"""Containment fuzz (issue 44): hostile layouts around a run, then a uqguide command; after each,
+nothing of the user's is lost or changed, nothing outside ``--out`` is written, nothing hangs,
+crashes or is left running, and the peak RSS stays under ``max_memory``.
 
-A sandbox holds ``outside/`` (a file, a folder with a file, and a path that must stay absent)
-beside ``out/`` (the ``--out``). Into ``out/`` and into the run folder ``out/st.run/`` go
-**plants**: a user's file, a user's folder (with a file), a symbolic link to the outside file,
-to the outside folder or to the absent path, and a hard link to the outside file, at every name
-a run creates, truncates, appends to or deletes (result, tables, run folder, lock, manifest,
-chunk files and their temporary names) and at names of the user's own. Each layout (one plant,
-or several at random) is tried in three phases:
+A :class:`Case` prepares a sandbox (:class:`Box`), runs one command (in this process, or as a
+child with ``RLIMIT_FSIZE``) and is judged on snapshots of the whole box, before and after;
+what was there before is the user's unless the case puts it in ``box.own``. The groups and
+their findings: docs/scale.md ("Checkpoints and --resume").
 
-- **run**: a fresh ``uqguide run`` into ``out/``;
-- **resume**: ``--resume`` of a run interrupted after two chunks (a real Ctrl-C: the model
-  raises KeyboardInterrupt in the driver);
-- **cleanup**: a run of the same config over a run folder whose chunks are all done but whose
-  result was interrupted while it was written (the folder is recognised as finished, its files
-  removed).
+A module with a ``cases()`` generator of :class:`Case` (or of objects or dicts with its fields;
+``from fuzz_containment import Box, Case``) plugs in with one line in :data:`CASE_MODULES`.
 
-After each command: every file, folder and link outside ``out/`` is as it was (type, bytes,
-link target; the absent path still absent), every plant is still there as planted (the
-names of the run's own result and tables excepted: a run replaces those, never writes through
-them), and the command ended with exit 0, 1 or 2 and no traceback.
-
-Everything runs in this process (click's CliRunner; the config's model is evaluated in the
-driver), so a few hundred layouts take seconds.
-
-Usage::
-
-    python benchmarks/fuzz_containment.py              # every layout, prints the table
-    python benchmarks/fuzz_containment.py --sample 12  # 12 layouts at random
+    python benchmarks/fuzz_containment.py                # every case: table and summary line
+    python benchmarks/fuzz_containment.py --sample 40    # 40 cases at random
+    python benchmarks/fuzz_containment.py --group disk   # the groups whose name has "disk"
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import ctypes
+import fnmatch
 import hashlib
+import importlib
 import os
 import random
+import resource
 import shutil
+import signal
+import socket
+import stat
+import subprocess
 import sys
 import tempfile
+import threading
+import time
+import traceback
 from collections import Counter
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # the test models live in tests/
-    sys.path.insert(0, str(ROOT))
+for _p in (ROOT, ROOT / "benchmarks"):  # the test models live in tests/, case modules here
+    if str(_p) not in sys.path:
+        sys.path.insert(0, str(_p))
+if __name__ == "__main__":  # a case module's `from fuzz_containment import Case` gets this one
+    sys.modules.setdefault("fuzz_containment", sys.modules["__main__"])
 
+import psutil  # noqa: E402
 from click.testing import CliRunner  # noqa: E402
 
-from uqguide.cli import main  # noqa: E402
 from tests import failing_models  # noqa: E402
+from uqguide.cli import main  # noqa: E402
+from uqguide.core import atomic  # noqa: E402
+from uqguide.driver.execution.guard import close_guards  # noqa: E402
+
+#: Case modules beside this file, one line each (a module not found is skipped, and said so).
+CASE_MODULES: list[str] = []
+
+#: Seconds a command may take; a case over it is killed and counted.
+MAX_SECONDS = 60.0
+#: The configs' max_memory, which every case's peak RSS must stay under.
+MAX_MEMORY = 2 * 10**9
 
 NAME = "st"
 CONFIG = {**failing_models.mc_config("tests.failing_models:ctrl_c_on_third_call", 200, 50),
-          "name": NAME}
+          "name": NAME, "max_memory": "2 GB"}
 CONFIG["model"] = {**CONFIG["model"], "isolate": False}  # the Ctrl-C must reach the driver
+TABLES = [f"{NAME}_stats.csv", f"{NAME}_cost.csv", f"{NAME}_summary.md"]
 
-#: Names a run writes (its own: replacing them is its job, writing through them is not): in
-#: ``out/`` its result, tables, lock and their temporary names (a temporary name of a dead
-#: process is removed by design); in the run folder its chunks and their temporary names.
-OWN = {f"{NAME}.h5", f"{NAME}_stats.csv", f"{NAME}_cost.csv", f"{NAME}_summary.md",
-       f"{NAME}_events.csv", f"{NAME}.run.lock", f".{NAME}.h5.99999.tmp"}
-OWN_IN_RUN = {"mc.s0.c000000.npz", "mc.s0.c000003.npz", ".mc.s0.c000002.npz.99999.tmp"}
-OUT_NAMES = sorted(OWN - {f"{NAME}_events.csv"}) + [
-    f"{NAME}.run", f"{NAME}.run.lock", f".{NAME}.h5.99999.tmp", "notes.txt", "data"]
-RUN_NAMES = ["manifest.jsonl", "mc.s0.c000000.npz", "mc.s0.c000003.npz",
-             ".mc.s0.c000002.npz.99999.tmp", "notes.txt", "sub"]
-KINDS = ["file", "folder", "link_file", "link_folder", "link_absent", "hardlink"]
-PHASES = ["run", "resume", "cleanup"]
+
+# ---------------------------------------------------------------------------- the interface
+@dataclass
+class Box:
+    """The sandbox of one case, under ``root``; ``own`` collects glob patterns (relative to
+    ``root``) of what the command may create, replace or delete there."""
+
+    root: Path
+    shared: Mapping[str, Path] = field(default_factory=dict)
+    own: set[str] = field(default_factory=set)
+
+    @property
+    def out(self) -> Path:
+        """The ``--out`` of the command."""
+        return self.root / "out"
+
+    @property
+    def outside(self) -> Path:
+        """Files of the user's outside ``--out`` (links and hard links point here)."""
+        return self.root / "outside"
+
+    @property
+    def inputs(self) -> Path:
+        """The case's config and input files (read, never written)."""
+        return self.root / "in"
+
+    @property
+    def tmp(self) -> Path:
+        """The command's TMPDIR: what is left in it is a write outside ``--out``."""
+        return self.root / "tmp"
+
+
+@dataclass
+class Run:
+    """What a command did: exit code (None: killed at the time limit), output, time, memory."""
+
+    exit_code: int | None
+    stdout: str
+    stderr: str
+    seconds: float
+    peak_rss: int
+    traceback: bool
+    error: str = ""
+
+
+@dataclass
+class Case:
+    """One case.
+
+    Attributes
+    ----------
+    name : str
+        ``"group: detail"``, unique.
+    prepare : callable
+        ``prepare(box)`` makes the case's files (and adds to ``box.own``) and returns the
+        arguments of ``uqguide``.
+    expect : tuple of int
+        Exit codes allowed.
+    child : bool
+        Run ``python -m uqguide.cli`` as a child process (else in this process).
+    fsize : int, optional
+        The child's ``RLIMIT_FSIZE`` in bytes (a full disk at that file size).
+    env : mapping
+        Environment variables of the command.
+    max_memory : int
+        Bytes the peak RSS must stay under.
+    check : callable, optional
+        ``check(box, run)`` after the command: a list of problems (empty: fine).
+    """
+
+    name: str
+    prepare: Callable[[Box], Sequence[str | Path]]
+    expect: tuple[int, ...] = (0, 1, 2)
+    child: bool = False
+    fsize: int | None = None
+    env: Mapping[str, str] = field(default_factory=dict)
+    max_memory: int = MAX_MEMORY
+    check: Callable[[Box, Run], list[str]] | None = None
+
+    @property
+    def group(self) -> str:
+        return self.name.split(":", 1)[0]
+
+
+@dataclass
+class Outcome:
+    case: str
+    run: Run
+    lost: list[str]
+    outside: list[str]
+    left_behind: int
+    max_memory: int
+    problems: list[str]
+
+    @property
+    def past(self) -> bool:
+        return self.run.exit_code is None or self.run.seconds > MAX_SECONDS
+
+    @property
+    def over_memory(self) -> bool:
+        return self.run.peak_rss >= self.max_memory
+
+    @property
+    def ok(self) -> bool:
+        return not (self.lost or self.outside or self.left_behind or self.past or
+                    self.run.traceback or self.over_memory or self.problems)
+
+
+# ---------------------------------------------------------------------------- snapshots
+def snapshot(top: Path) -> dict[str, tuple]:
+    """Every entry under ``top`` by its path relative to ``top``: its type and, for a file, its
+    bytes' digest and inode, for a link its target. Nothing is followed or opened but files."""
+    out: dict[str, tuple] = {}
+    for dirpath, dirnames, filenames in os.walk(top, followlinks=False):
+        d = Path(dirpath)
+        for n in dirnames + filenames:
+            p = d / n
+            rel = p.relative_to(top).as_posix()
+            st = os.lstat(p)
+            if stat.S_ISLNK(st.st_mode):
+                out[rel] = ("link", os.readlink(p))
+            elif stat.S_ISDIR(st.st_mode):
+                out[rel] = ("dir",)
+            elif stat.S_ISREG(st.st_mode):
+                out[rel] = ("file", hashlib.sha256(p.read_bytes()).hexdigest(), st.st_ino)
+            else:
+                out[rel] = ("special", stat.S_IFMT(st.st_mode), st.st_ino)
+    return out
+
+
+def judge(box: Box, before: dict[str, tuple], after: dict[str, tuple]) -> tuple[list[str],
+                                                                                list[str]]:
+    """(user entries lost or changed, entries outside ``out/`` created, changed or deleted)."""
+    def own(rel: str) -> bool:
+        return any(fnmatch.fnmatchcase(rel, pat) for pat in box.own)
+
+    lost = sorted(k for k, v in before.items() if after.get(k) != v and not own(k))
+    outside = sorted(k for k in set(before) | set(after)
+                     if not k.startswith("out/") and k != "out" and before.get(k) != after.get(k))
+    return lost, outside
+
+
+# ---------------------------------------------------------------------------- running
+class _PastTime(BaseException):
+    """The in-process command ran past MAX_SECONDS."""
+
+
+def _on_alarm(signum: int, frame: Any) -> None:
+    raise _PastTime
+
+
+def _subreaper() -> None:
+    """Orphans of the commands (a daemon that left with setsid) become our children: counted."""
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL(None, use_errno=True).prctl(36, 1, 0, 0, 0)  # PR_SET_CHILD_SUBREAPER
+
+
+@contextlib.contextmanager
+def _environment(env: Mapping[str, str], tmp: Path) -> Iterator[None]:
+    old = {k: os.environ.get(k) for k in [*env, "TMPDIR"]}
+    os.environ.update(env)
+    os.environ["TMPDIR"] = str(tmp)
+    tempfile.tempdir = None
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+        tempfile.tempdir = None
+
+
+def run_in_process(args: Sequence[str], env: Mapping[str, str], tmp: Path) -> Run:
+    failing_models._calls["n"] = 0
+    old = signal.signal(signal.SIGALRM, _on_alarm)
+    t0 = time.monotonic()
+    try:
+        with _environment({"UQGUIDE_TEST_ARM_CTRL_C": "0", **env}, tmp):
+            signal.setitimer(signal.ITIMER_REAL, MAX_SECONDS)
+            try:
+                res = CliRunner().invoke(main, [str(a) for a in args])
+            finally:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+    except _PastTime:
+        return Run(None, "", "", time.monotonic() - t0, _self_rss(), False)
+    finally:
+        signal.signal(signal.SIGALRM, old)
+        close_guards()  # as the process's end would: a guard is reused within a process
+    raised = res.exception is not None and not isinstance(res.exception, SystemExit)
+    error = "".join(traceback.format_exception(res.exception))[-2000:] if raised else ""
+    return Run(res.exit_code, res.stdout, res.stderr, time.monotonic() - t0, _self_rss(),
+               raised or "Traceback" in res.output, error)
+
+
+def _self_rss() -> int:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def run_child(args: Sequence[str], env: Mapping[str, str], tmp: Path,
+              fsize: int | None) -> Run:
+    def limits() -> None:
+        if fsize is not None:
+            resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
+
+    full_env = {**os.environ, "PYTHONPATH": str(ROOT), "UQGUIDE_TEST_ARM_CTRL_C": "0",
+                "TMPDIR": str(tmp), **env}
+    t0 = time.monotonic()
+    p = subprocess.Popen([sys.executable, "-m", "uqguide.cli", *map(str, args)], cwd=ROOT,
+                         env=full_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         preexec_fn=limits, start_new_session=True)
+    texts: dict[str, bytes] = {}
+    readers = [threading.Thread(target=lambda k=k, s=s: texts.__setitem__(k, s.read()))
+               for k, s in (("out", p.stdout), ("err", p.stderr))]
+    for r in readers:
+        r.start()
+    timer = threading.Timer(MAX_SECONDS, lambda: _kill_group(p.pid))
+    timer.start()
+    try:
+        _, status, usage = os.wait4(p.pid, 0)
+    finally:
+        timer.cancel()
+    p.returncode = os.waitstatus_to_exitcode(status)
+    for r in readers:
+        r.join()
+    seconds = time.monotonic() - t0
+    code: int | None = None if seconds > MAX_SECONDS else p.returncode
+    err = texts.get("err", b"").decode(errors="replace")
+    out = texts.get("out", b"").decode(errors="replace")
+    # a signal's death (a segfault: -11) is a crash, counted with the tracebacks
+    tb = "Traceback" in err or "Traceback" in out or (code is not None and code < 0)
+    return Run(code, out, err, seconds, usage.ru_maxrss * 1024, tb)
+
+
+def _kill_group(pid: int) -> None:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(pid, signal.SIGKILL)
+
+
+def _left_behind(before: set[int]) -> int:
+    """Processes of ours (children, adopted orphans) that appeared during the case and are
+    still there; they are killed."""
+    me = psutil.Process()
+    deadline = time.monotonic() + 2.0
+    while True:
+        new = [c for c in me.children(recursive=True) if c.pid not in before and _alive(c)]
+        if not new or time.monotonic() > deadline:
+            break
+        time.sleep(0.05)
+    for c in new:
+        with contextlib.suppress(psutil.Error):
+            c.kill()
+    for c in me.children(recursive=False):
+        with contextlib.suppress(psutil.Error, ChildProcessError):
+            if c.pid not in before:
+                c.wait(timeout=5)
+    return len(new)
+
+
+def _alive(p: psutil.Process) -> bool:
+    try:
+        return p.is_running() and p.status() != psutil.STATUS_ZOMBIE
+    except psutil.Error:
+        return False
+
+
+def try_case(case: Case, work: Path, shared: Mapping[str, Path]) -> Outcome:
+    """Prepare the case in a fresh box under ``work``, run it, judge it."""
+    root = work / "box"
+    if root.exists():
+        shutil.rmtree(root)
+    box = Box(root, shared)
+    for d in (box.out.parent, box.outside, box.inputs, box.tmp):
+        d.mkdir(parents=True, exist_ok=True)
+    args = [str(a) for a in case.prepare(box)]
+    before = snapshot(root)
+    pids = {c.pid for c in psutil.Process().children(recursive=True)}
+    run = (run_child(args, case.env, box.tmp, case.fsize) if case.child
+           else run_in_process(args, case.env, box.tmp))
+    left = _left_behind(pids)
+    problems = []
+    if run.exit_code is not None and run.exit_code not in case.expect:
+        problems.append(f"exit {run.exit_code} (expected {case.expect})")
+    if case.check is not None and run.exit_code is not None:
+        problems += case.check(box, run)
+    after = snapshot(root)
+    lost, outside = judge(box, before, after)
+    return Outcome(case.name, run, lost, outside, left, case.max_memory, problems)
+
+
+# ---------------------------------------------------------------------------- shared states
+def _invoke(*args: str | Path, armed: bool = False) -> Any:
+    failing_models._calls["n"] = 0
+    with _environment({"UQGUIDE_TEST_ARM_CTRL_C": "1" if armed else "0"}, Path(
+            tempfile.gettempdir())):
+        return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def templates(work: Path) -> dict[str, Path]:
+    """The states the cases start from, made by real runs: the config, a finished ``--out``
+    (``done``), a run folder interrupted after two chunks (``resume``), one with only its
+    header (``started``), one whose chunks are all done but whose result was interrupted
+    (``cleanup``)."""
+    made = {"config": work / "st.yaml"}
+    made["config"].write_text(yaml.safe_dump(CONFIG))
+    res = _invoke("run", made["config"], "--out", work / "t_done", "-q")
+    assert res.exit_code == 0, res.output
+    made["done"] = work / "t_done"
+    made["baseline"] = work / "baseline.json"
+    res = _invoke("baseline", made["done"] / f"{NAME}.h5", "-o", made["baseline"])
+    assert res.exit_code == 0, res.output
+    res = _invoke("run", made["config"], "--out", work / "t_resume", "-q", armed=True)
+    assert res.exit_code == 130, res.output
+    made["resume"] = work / "t_resume" / f"{NAME}.run"
+    started = work / "t_started" / f"{NAME}.run"
+    shutil.copytree(made["resume"], started)
+    manifest = started / "manifest.jsonl"
+    manifest.write_text(manifest.read_text().splitlines(keepends=True)[0])
+    for p in started.glob("*.npz"):
+        p.unlink()
+    made["started"] = started
+    from uqguide.commands import run_and_write as rw
+
+    real = rw.write_hdf5
+
+    def stopped(*a: Any, **k: Any) -> Any:
+        raise KeyboardInterrupt
+
+    rw.write_hdf5 = stopped
+    try:
+        res = _invoke("run", made["config"], "--out", work / "t_cleanup", "-q")
+    finally:
+        rw.write_hdf5 = real
+    assert res.exit_code == 130, res.output
+    made["cleanup"] = work / "t_cleanup" / f"{NAME}.run"
+    return made
+
+
+# ---------------------------------------------------------------------------- plants
+#: A process that is gone (its temporary files are stale): a child started and reaped.
+_DEAD = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                       capture_output=True, text=True, check=True).stdout.strip()
+
+#: Names in ``out/``: the run's own (result, tables, run folder, lock), the user's, and the
+#: user's files named like temporary files (a date, an old-style uqguide name with a dead PID,
+#: a forged token).
+OUT_NAMES = [f"{NAME}.h5", *TABLES, f"{NAME}.run", f"{NAME}.run.lock", "notes.txt", "data",
+             ".thesis.20240101.tmp", f".{NAME}.h5.{_DEAD}.tmp",
+             f".{NAME}.h5.{_DEAD}.0123456789abcdef0123.tmp"]
+#: Names in the run folder: the manifest, chunks (listed, not listed), names like a chunk's,
+#: the user's, temporary-looking names.
+RUN_NAMES = ["manifest.jsonl", "mc.s0.c000000.npz", "mc.s0.c000003.npz", "mc.s0.c000007.npz",
+             "mc.s0.c0.npz", "notes.txt", "sub", f".mc.s0.c000002.npz.{_DEAD}.tmp",
+             ".thesis.20240101.tmp"]
+#: Names a run replaces by a rename (a plain file or a hard link there is the run's to
+#: replace; its other name, outside, stays as it was).
+REPLACED = {f"{NAME}.h5", *TABLES}
+KINDS = ["file", "folder", "link_file", "link_folder", "link_absent", "hardlink", "backup",
+         "fifo", "socket"]
+PHASES = ["run", "rerun", "started", "resume", "cleanup"]
 
 
 @dataclass(frozen=True)
@@ -86,223 +448,400 @@ class Plant:
         return self.name if self.where == "out" else f"{NAME}.run/{self.name}"
 
 
-@dataclass(frozen=True)
-class Layout:
-    phase: str
-    plants: tuple[Plant, ...]
-
-    @property
-    def label(self) -> str:
-        return f"{self.phase}: " + ", ".join(f"{p.kind}@{p.rel}" for p in self.plants)
-
-
-def layouts(n_random: int = 120, seed: int = 26) -> list[Layout]:
-    """Every single plant in every phase it applies to, then ``n_random`` layouts of 2 to 4
-    plants."""
-    singles = [Plant("out", n, k) for n in OUT_NAMES for k in KINDS] + \
-        [Plant("run", n, k) for n in RUN_NAMES for k in KINDS]
-    out = []
-    for phase in PHASES:
-        for p in singles:
-            if p.where == "run" and phase == "run":
-                continue  # a fresh run has no run folder: out/st.run plants cover it
-            if p.where == "run" and p.name == "manifest.jsonl" and p.kind == "file":
-                continue  # the run's own manifest, replaced by a user's file: not a layout
-            out.append(Layout(phase, (p,)))
-    rng = random.Random(seed)
-    while n_random > 0:
-        phase = rng.choice(PHASES)
-        pool = [p for p in singles if not (p.where == "run" and phase == "run")]
-        picked = rng.sample(pool, rng.randint(2, 4))
-        if len({p.rel for p in picked}) != len(picked) or any(
-                p.where == "run" for p in picked) and any(
-                p.rel == f"{NAME}.run" for p in picked):
-            continue  # one plant per name; the run folder itself is not also a plant
-        out.append(Layout(phase, tuple(picked)))
-        n_random -= 1
-    return out
-
-
-# ---------------------------------------------------------------------------- snapshots
-def snapshot(top: Path, skip: Path | None = None) -> dict[str, tuple]:
-    """Every entry under ``top`` (links not followed): type and bytes, or link target."""
-    out: dict[str, tuple] = {}
-    for dirpath, dirnames, filenames in os.walk(top, followlinks=False):
-        d = Path(dirpath)
-        if skip is not None and (d == skip or skip in d.parents):
-            dirnames[:] = []
-            continue
-        for n in dirnames + filenames:
-            p = d / n
-            if skip is not None and p == skip:
-                continue
-            rel = str(p.relative_to(top))
-            if p.is_symlink():
-                out[rel] = ("link", os.readlink(p))
-            elif p.is_dir():
-                out[rel] = ("dir",)
-            else:
-                st = p.stat()
-                out[rel] = ("file", hashlib.sha256(p.read_bytes()).hexdigest(), st.st_ino)
-    return out
-
-
-def _plant(base: Path, p: Plant, outside: Path) -> None:
-    path = base / p.rel
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.is_symlink() or path.is_file():
+def _clear(path: Path) -> None:
+    if path.is_symlink() or (path.exists() and not path.is_dir()):
         path.unlink()
     elif path.is_dir():
         shutil.rmtree(path)
+
+
+def plant(box: Box, p: Plant) -> None:
+    path = box.out / p.rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if p.kind == "backup":  # a second name, outside, of what is there (cp -al)
+        backup = box.outside / "backup" / p.rel.replace("/", "__")
+        backup.parent.mkdir(parents=True, exist_ok=True)
+        os.link(path, backup)
+        return
+    _clear(path)
     if p.kind == "file":
         path.write_text(f"the user's {p.name}\n")
     elif p.kind == "folder":
         path.mkdir()
         (path / "keep.txt").write_text("the user's\n")
     elif p.kind == "link_file":
-        path.symlink_to(outside / "victim.txt")
+        path.symlink_to(box.outside / "victim.txt")
     elif p.kind == "link_folder":
-        path.symlink_to(outside / "vdir", target_is_directory=True)
+        path.symlink_to(box.outside / "vdir", target_is_directory=True)
     elif p.kind == "link_absent":
-        path.symlink_to(outside / "ghost")
+        path.symlink_to(box.outside / "ghost")
     elif p.kind == "hardlink":
-        os.link(outside / "victim.txt", path)
+        os.link(box.outside / "victim.txt", path)
+    elif p.kind == "fifo":
+        os.mkfifo(path)
+    elif p.kind == "socket":
+        s = socket.socket(socket.AF_UNIX)
+        try:
+            s.bind(str(path))
+        finally:
+            s.close()
 
 
-def _as_planted(base: Path, p: Plant, outside: Path) -> bool:
-    path = base / p.rel
-    if p.kind == "file":
-        return path.is_file() and not path.is_symlink() and \
-            path.read_bytes() == f"the user's {p.name}\n".encode()
-    if p.kind == "folder":
-        return path.is_dir() and not path.is_symlink() and (path / "keep.txt").is_file()
-    if p.kind.startswith("link"):
-        want = {"link_file": outside / "victim.txt", "link_folder": outside / "vdir",
-                "link_absent": outside / "ghost"}[p.kind]
-        return path.is_symlink() and Path(os.readlink(path)) == want
-    return path.is_file() and path.stat().st_ino == (outside / "victim.txt").stat().st_ino
+def _exists_in(phase: str, shared: Mapping[str, Path], p: Plant) -> bool:
+    """Whether the phase's starting state has something at the plant's name."""
+    if phase == "rerun":
+        return p.where == "out" and (shared["done"] / p.name).exists()
+    if phase in ("started", "resume", "cleanup") and p.where == "run":
+        return (shared[phase] / p.name).exists()
+    return False
 
 
-# ---------------------------------------------------------------------------- the states
-@contextlib.contextmanager
-def _armed(on: bool) -> Iterator[None]:
-    old = os.environ.get("UQGUIDE_TEST_ARM_CTRL_C")
-    os.environ["UQGUIDE_TEST_ARM_CTRL_C"] = "1" if on else "0"
-    failing_models._calls["n"] = 0
-    try:
-        yield
-    finally:
-        if old is None:
-            os.environ.pop("UQGUIDE_TEST_ARM_CTRL_C", None)
-        else:
-            os.environ["UQGUIDE_TEST_ARM_CTRL_C"] = old
+def layout_case(phase: str, plants: tuple[Plant, ...]) -> Case:
+    def prepare(box: Box) -> list[str | Path]:
+        (box.outside / "vdir").mkdir(parents=True)
+        (box.outside / "victim.txt").write_text("outside, untouched\n")
+        (box.outside / "vdir" / "f.txt").write_text("outside, untouched\n")
+        box.out.mkdir()
+        shared = box.shared
+        if phase == "rerun":
+            for f in shared["done"].iterdir():
+                shutil.copy2(f, box.out / f.name)
+                box.own.add(f"out/{f.name}")
+        elif phase in ("started", "resume", "cleanup"):
+            shutil.copytree(shared[phase], box.out / f"{NAME}.run")
+            box.own.update({f"out/{NAME}.run", f"out/{NAME}.run/*"})
+        for p in plants:
+            plant(box, p)
+        planted = {f"out/{p.rel}" for p in plants if p.kind != "backup"}
+        # a plant replaces what was there: it is the user's, not the run's (the run folder
+        # itself stays the run's when only its content is planted)
+        box.own -= planted
+        if any(p.where == "out" and p.name == f"{NAME}.run" for p in plants):
+            box.own.discard(f"out/{NAME}.run/*")
+        for p in plants:
+            if p.name in REPLACED and p.where == "out" and p.kind in ("file", "hardlink"):
+                box.own.add(f"out/{p.rel}")  # replacing them is the run's job
+            if p.where == "run" and p.kind in ("file", "hardlink") and phase != "run" and \
+                    _exists_in(phase, shared, Plant(p.where, p.name, "backup")) and \
+                    p.name != "manifest.jsonl":
+                box.own.add(f"out/{p.rel}")  # a listed chunk's file: the run rewrites it
+        # uqguide's own stale temporary files (its PID gone) are removed by design
+        stale = atomic.temp_path(box.out / f"{NAME}.h5", int(_DEAD))
+        stale.write_bytes(b"half")
+        box.own.add(f"out/{stale.name}")
+        return ["run", shared["config"], "--out", box.out, "-q",
+                *(["--resume"] if phase == "resume" else [])]
+
+    label = ", ".join(f"{p.kind}@{p.rel}" for p in plants)
+    return Case(f"layout {phase}: {label}", prepare)
 
 
-def _invoke(*args: str | Path):
-    return CliRunner().invoke(main, [str(a) for a in args])
+def layout_cases(n_random: int = 150, seed: int = 44) -> Iterator[Case]:
+    """Every single plant in every phase it applies to, then ``n_random`` layouts of 2 to 4
+    plants."""
+    singles = [Plant("out", n, k) for n in OUT_NAMES for k in KINDS] + \
+        [Plant("run", n, k) for n in RUN_NAMES for k in KINDS]
+
+    def applies(phase: str, p: Plant) -> bool:
+        if p.where == "run" and phase in ("run", "rerun"):
+            return False  # no run folder: out/st.run plants cover it
+        if p.where == "run" and p.name == "manifest.jsonl" and p.kind == "file":
+            return False  # the run's own manifest, replaced by a user's file: not a layout
+        if p.kind == "backup":
+            return _exists_in(phase, _SHARED_NAMES, p)
+        return True
+
+    for phase in PHASES:
+        for p in singles:
+            if applies(phase, p):
+                yield layout_case(phase, (p,))
+    rng = random.Random(seed)
+    while n_random > 0:
+        phase = rng.choice(PHASES)
+        pool = [p for p in singles if applies(phase, p)]
+        picked = rng.sample(pool, rng.randint(2, 4))
+        if len({p.rel for p in picked}) != len(picked) or any(
+                p.where == "run" for p in picked) and any(
+                p.rel == f"{NAME}.run" for p in picked):
+            continue  # one plant per name; the run folder itself is not also a plant
+        yield layout_case(phase, tuple(picked))
+        n_random -= 1
 
 
-def templates(tmp: Path, cfg: Path) -> dict[str, Path]:
-    """The run folders the resume and clean-up phases start from, made by real runs."""
-    made = {}
-    with _armed(True):
-        res = _invoke("run", cfg, "--out", tmp / "t_resume", "-q")
-    assert res.exit_code == 130, res.output
-    made["resume"] = tmp / "t_resume" / f"{NAME}.run"
-    from uqguide.commands import run_and_write as rw
-
-    real = rw.write_hdf5
-
-    def stopped(*a, **k):
-        raise KeyboardInterrupt
-
-    rw.write_hdf5 = stopped
-    try:
-        with _armed(False):
-            res = _invoke("run", cfg, "--out", tmp / "t_cleanup", "-q")
-    finally:
-        rw.write_hdf5 = real
-    assert res.exit_code == 130, res.output
-    made["cleanup"] = tmp / "t_cleanup" / f"{NAME}.run"
-    return made
+#: What each starting state holds, by name (for which plants apply; no run needed).
+_SHARED_NAMES: dict[str, Path] = {}
 
 
-@dataclass
-class Outcome:
-    layout: Layout
-    exit_code: int
-    escaped: list[str]
-    lost: list[str]
-    traceback: bool
-    error: str = ""
-
-    @property
-    def verdict(self) -> str:
-        if self.escaped:
-            return "WRITE OUTSIDE --out"
-        if self.lost:
-            return "USER FILE LOST"
-        if self.traceback or self.exit_code not in (0, 1, 2):
-            return "CRASH"
-        return "ok"
+# ---------------------------------------------------------------------------- --out unusable
+def _one_error_line(run: Run) -> list[str]:
+    """One ``error:`` line (or click's usage error, whose last line is its one ``Error:``)."""
+    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    errors = [ln for ln in lines if ln.lower().startswith("error: ")]
+    ours = len(lines) == 1 and errors == lines
+    click = lines[:1] and lines[0].startswith("Usage: ") and errors == lines[-1:]
+    return [] if ours or click else [f"not one error line: {lines[-3:]}"]
 
 
-def try_layout(layout: Layout, tmp: Path, cfg: Path, made: dict[str, Path]) -> Outcome:
-    box = tmp / "box"
-    if box.exists():
-        shutil.rmtree(box)
-    outside, out = box / "outside", box / "out"
-    (outside / "vdir").mkdir(parents=True)
-    (outside / "victim.txt").write_text("outside, untouched\n")
-    (outside / "vdir" / "f.txt").write_text("outside, untouched\n")
-    out.mkdir()
-    if layout.phase in made:
-        shutil.copytree(made[layout.phase], out / f"{NAME}.run")
-    for p in layout.plants:
-        _plant(out, p, outside)
-    before = snapshot(box, skip=out)
-    with _armed(False):
-        res = _invoke("run", cfg, "--out", out, "-q",
-                      *(["--resume"] if layout.phase == "resume" else []))
-    after = snapshot(box, skip=out)
-    escaped = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
-    lost = [p.rel for p in layout.plants
-            if not _as_planted(out, p, outside) and p.name not in (
-                OWN if p.where == "out" else OWN_IN_RUN)]
-    tb = res.exception is not None and not isinstance(res.exception, SystemExit)
-    error = f"{type(res.exception).__name__}: {res.exception}"[:160] if tb else ""
-    return Outcome(layout, res.exit_code, escaped, lost, tb, error)
+def unusable_out_cases() -> Iterator[Case]:
+    """``--out`` (and the output of plot, report, baseline, replay) that cannot be used:
+    exit 2 with one line, before any work."""
+    kinds: dict[str, Callable[[Box], Path]] = {
+        "dangling link": lambda b: _link(b.root / "o", b.root / "nowhere"),
+        "link loop": lambda b: _link(b.root / "o", b.root / "o"),
+        "under a file": lambda b: _file(b.root / "f") / "sub",
+        "under a dangling link": lambda b: _link(b.root / "o", b.root / "nowhere") / "sub",
+        "/dev/null": lambda b: Path("/dev/null"),
+        "a FIFO": lambda b: _fifo(b.root / "o"),
+        "read-only": lambda b: Path("/proc/uqguide-out"),
+        "a file": lambda b: _file(b.root / "o"),
+    }
+    files = ("/dev/null", "a FIFO", "a file")  # kinds that baseline -o names itself
+    commands: dict[str, Callable[[Box, Path, str], list[str | Path]]] = {
+        "run": lambda b, o, k: ["run", b.shared["config"], "--out", o, "-q"],
+        "plot": lambda b, o, k: ["plot", b.shared["done"] / f"{NAME}.h5", "--out", o],
+        "report": lambda b, o, k: ["report", b.shared["done"] / f"{NAME}.h5", "--out", o],
+        "replay": lambda b, o, k: ["replay", b.shared["done"] / f"{NAME}.h5", "--label", "mc",
+                                   "--sample", "3", "--out", o],
+        "baseline": lambda b, o, k: ["baseline", b.shared["done"] / f"{NAME}.h5", "-o",
+                                     o if k in files else o / "b.json", "--force"],
+    }
+    for cname, command in commands.items():
+        for kname, make in kinds.items():
+            if cname == "baseline" and kname == "a file":
+                continue  # baseline -o FILE --force replaces it: asked for
+            def prepare(box: Box, make: Callable = make, command: Callable = command,
+                        kname: str = kname) -> list[str | Path]:
+                return command(box, make(box), kname)
+
+            yield Case(f"unusable out: {cname} --out {kname}", prepare, expect=(2,),
+                       check=lambda box, run: _one_error_line(run))
 
 
-def run_all(sample: int | None = None, seed: int = 26) -> list[Outcome]:
-    """Every layout (or ``sample`` of them at random), each in a fresh sandbox."""
-    all_layouts = layouts()
-    if sample is not None:
-        all_layouts = random.Random(seed).sample(all_layouts, sample)
+def _link(path: Path, target: Path) -> Path:
+    path.symlink_to(target)
+    return path
+
+
+def _file(path: Path) -> Path:
+    path.write_text("the user's\n")
+    return path
+
+
+def _fifo(path: Path) -> Path:
+    os.mkfifo(path)
+    return path
+
+
+# ---------------------------------------------------------------------------- inputs as FIFOs
+def fifo_input_cases() -> Iterator[Case]:
+    """A FIFO (or socket) where a command reads its config, result or baseline: refused at
+    once (exit 2), never a blocking open."""
+    for kind in ("fifo", "socket"):
+        def special(box: Box, name: str, kind: str = kind) -> Path:
+            p = box.inputs / name
+            if kind == "fifo":
+                os.mkfifo(p)
+            else:
+                s = socket.socket(socket.AF_UNIX)
+                s.bind(str(p))
+                s.close()
+            return p
+
+        def tail(box: Box, cmd: str) -> list[str | Path]:
+            return {"check": ["--baseline", box.shared["baseline"]],
+                    "baseline": ["-o", box.out / "b.json"], "plot": ["--out", box.out],
+                    "report": ["--out", box.out],
+                    "replay": ["--label", "mc", "--sample", "3", "--out", box.out]}[cmd]
+
+        yield Case(f"input {kind}: config", lambda b, s=special: [
+            "run", s(b, "c.yaml"), "--out", b.out, "-q"], expect=(2,))
+        for cmd in ("plot", "report", "check", "baseline", "replay"):
+            yield Case(f"input {kind}: {cmd} RESULT", lambda b, s=special, c=cmd: [
+                c, s(b, "r.h5"), *tail(b, c)], expect=(2,))
+        yield Case(f"input {kind}: check --baseline", lambda b, s=special: [
+            "check", b.shared["done"] / f"{NAME}.h5", "--baseline", s(b, "b.json")],
+            expect=(2,))
+        yield Case(f"input {kind}: run --check BASELINE", lambda b, s=special: [
+            "run", b.shared["config"], "--out", b.out, "-q", "--check", s(b, "b.json")],
+            expect=(2,))
+
+
+# ---------------------------------------------------------------------------- a full disk
+def _same_statistics(box: Box) -> list[str]:
+    got = box.out / f"{NAME}_stats.csv"
+    want = box.shared["done"] / f"{NAME}_stats.csv"
+    if not got.is_file():
+        return ["no statistics after --resume"]
+    return [] if got.read_bytes() == want.read_bytes() else ["statistics differ after --resume"]
+
+
+def _disk_full_then_resume(box: Box, run: Run) -> list[str]:
+    problems = []
+    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    if run.exit_code == 1:
+        want = "error: disk full writing "
+        if len(lines) != 1 or not lines[0].startswith(want) or \
+                "the run folder is intact; free space and --resume" not in lines[0]:
+            problems.append(f"not the disk-full line: {lines[-3:]}")
+    again = run_in_process(["run", box.shared["config"], "--out", box.out, "-q", "--resume"],
+                           {}, box.tmp)
+    if again.exit_code != 0 or again.traceback:
+        problems.append(f"--resume: exit {again.exit_code}: {again.stderr.strip()[-200:]}"
+                        f"{again.error}")
+    else:
+        problems += _same_statistics(box)
+    return problems
+
+
+def _disk_full_other(box: Box, run: Run) -> list[str]:
+    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    if run.exit_code == 1 and (len(lines) != 1 or not lines[0].startswith(
+            "error: disk full writing ")):
+        return [f"not the disk-full line: {lines[-3:]}"]
+    return []
+
+
+def disk_limits(shared: Mapping[str, Path]) -> list[int]:
+    """Ten file-size limits, each stopping a fresh run at another moment: the lock, the
+    manifest's header, the first chunk, the manifest's chunk lines, and the result file at
+    four points of its writing (from the sizes of a finished run's files)."""
+    header = len((shared["started"] / "manifest.jsonl").read_bytes())
+    chunk = min(p.stat().st_size for p in shared["resume"].glob("*.npz"))
+    lines = (shared["resume"] / "manifest.jsonl").read_bytes().splitlines(keepends=True)
+    line = max(len(ln) for ln in lines[1:])
+    h5 = (shared["done"] / f"{NAME}.h5").stat().st_size
+    return sorted({0, 16, header // 2, chunk // 2, chunk + header + line // 2,
+                   chunk + header + 2 * line + line // 2, h5 // 10, h5 // 3, (2 * h5) // 3,
+                   h5 - 256})
+
+
+def disk_full_cases(shared: Mapping[str, Path]) -> Iterator[Case]:
+    """A full disk (``RLIMIT_FSIZE`` in a child process) at ten moments of a fresh run, at
+    three of a resumed one and with two workers: exit 1 with the one line, then ``--resume``
+    gives the statistics of an uninterrupted run; and in plot, report, baseline."""
+    def fresh(box: Box) -> list[str | Path]:
+        box.own.add("out/*")
+        return ["run", box.shared["config"], "--out", box.out, "-q"]
+
+    def resumed(box: Box) -> list[str | Path]:
+        shutil.copytree(box.shared["resume"], box.out / f"{NAME}.run")
+        box.own.update({"out/*", f"out/{NAME}.run/*"})
+        return ["run", box.shared["config"], "--out", box.out, "-q", "--resume"]
+
+    for limit in disk_limits(shared):
+        yield Case(f"disk full: run, files over {limit} bytes", fresh, expect=(0, 1),
+                   child=True, fsize=limit, check=_disk_full_then_resume)
+    chunk = min(p.stat().st_size for p in shared["resume"].glob("*.npz"))
+    lines = (shared["resume"] / "manifest.jsonl").read_bytes().splitlines(keepends=True)
+    manifest = sum(map(len, lines))
+    for limit in (16, chunk // 2, max(chunk, manifest) + max(map(len, lines[1:])) // 2):
+        yield Case(f"disk full: --resume, files over {limit} bytes", resumed, expect=(0, 1),
+                   child=True, fsize=limit, check=_disk_full_then_resume)
+    yield Case("disk full: run --workers 2, files over 2000 bytes",
+               lambda b: [*fresh(b), "--workers", "2"], expect=(0, 1), child=True,
+               fsize=2000, check=_disk_full_then_resume)
+    result = shared["done"] / f"{NAME}.h5"
+    for cmd, limit in (("plot", 2000), ("report", 500), ("baseline", 100), ("replay", 1)):
+        def other(box: Box, cmd: str = cmd) -> list[str | Path]:
+            box.own.add("out/*")
+            box.own.add("out/*/*")
+            tail = {"plot": ["--out", box.out], "report": ["--out", box.out],
+                    "baseline": ["-o", box.out / "b.json"],
+                    "replay": ["--label", "mc", "--sample", "3", "--out", box.out]}[cmd]
+            return [cmd, result, *tail]
+
+        yield Case(f"disk full: {cmd}, files over {limit} bytes", other, expect=(1,),
+                   child=True, fsize=limit, check=_disk_full_other)
+
+
+# ---------------------------------------------------------------------------- all of it
+def own_cases(shared: Mapping[str, Path]) -> Iterator[Case]:
+    yield from layout_cases()
+    yield from unusable_out_cases()
+    yield from fifo_input_cases()
+    yield from disk_full_cases(shared)
+
+
+def all_cases(shared: Mapping[str, Path]) -> tuple[list[Case], list[str]]:
+    """This module's cases and those of :data:`CASE_MODULES`; and the notes on modules."""
+    cases = list(own_cases(shared))
+    notes = []
+    for name in CASE_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            notes.append(f"{name}: not found ({exc}); skipped")
+            continue
+        found = [_as_case(c) for c in module.cases()]
+        notes.append(f"{name}: {len(found)} cases")
+        cases += found
+    return cases, notes
+
+
+def _as_case(obj: Any) -> Case:
+    """A Case from a Case of another copy of this module, or an object or a dict with its
+    attributes."""
+    names = Case.__dataclass_fields__
+    if isinstance(obj, dict):
+        return Case(**{k: v for k, v in obj.items() if k in names})
+    return Case(**{k: getattr(obj, k) for k in names if hasattr(obj, k)})
+
+
+def run_all(sample: int | None = None, seed: int = 44, group: str | None = None
+            ) -> list[Outcome]:
+    """Every case (or ``sample`` of them at random, or those of groups containing
+    ``group``), each in a fresh box."""
+    _subreaper()
     with tempfile.TemporaryDirectory() as t:
-        tmp = Path(t)
-        cfg = tmp / "st.yaml"
-        cfg.write_text(yaml.safe_dump(CONFIG))
-        made = templates(tmp, cfg)
-        return [try_layout(lay, tmp, cfg, made) for lay in all_layouts]
+        work = Path(t)
+        shared = templates(work)
+        _SHARED_NAMES.update(shared)
+        cases, notes = all_cases(shared)
+        for n in notes:
+            print(n, file=sys.stderr)
+        if group is not None:
+            cases = [c for c in cases if group in c.group]
+        if sample is not None:
+            cases = random.Random(seed).sample(cases, min(sample, len(cases)))
+        return [try_case(c, work, shared) for c in cases]
+
+
+def summary_line(outcomes: Sequence[Outcome]) -> str:
+    """The acceptance's line (issue 44)."""
+    lost = sum(len(o.lost) for o in outcomes)
+    outside = sum(len(o.outside) for o in outcomes)
+    past = sum(o.past for o in outcomes)
+    tbs = sum(o.run.traceback for o in outcomes)
+    left = sum(o.left_behind for o in outcomes)
+    over = [o for o in outcomes if o.over_memory]
+    rss = "peak RSS under max_memory in every case" if not over else \
+        f"peak RSS over max_memory in {len(over)} cases"
+    return (f"{lost} user files lost or changed, {outside} writes outside --out, {past} runs "
+            f"past {MAX_SECONDS:.0f} s, {tbs} tracebacks, {left} processes left behind, {rss}")
 
 
 def main_(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--sample", type=int, default=None)
+    ap.add_argument("--group", default=None)
     args = ap.parse_args(argv)
-    outcomes = run_all(args.sample)
-    by = Counter((o.layout.phase, o.verdict, o.exit_code) for o in outcomes)
-    print("| phase | verdict | exit | layouts |\n|---|---|---|---|")
-    for (phase, verdict, code), n in sorted(by.items()):
-        print(f"| {phase} | {verdict} | {code} | {n} |")
-    bad = [o for o in outcomes if o.verdict != "ok"]
+    t0 = time.monotonic()
+    outcomes = run_all(args.sample, group=args.group)
+    by = Counter((o.case.split(":", 1)[0], o.run.exit_code, o.ok) for o in outcomes)
+    print("| group | exit | verdict | cases |\n|---|---|---|---|")
+    for (g, code, ok), n in sorted(by.items(), key=lambda kv: (kv[0][0], str(kv[0][1]))):
+        print(f"| {g} | {code} | {'ok' if ok else 'BAD'} | {n} |")
+    bad = [o for o in outcomes if not o.ok]
     for o in bad[:60]:
-        print(f"  {o.verdict} (exit {o.exit_code}): {o.layout.label}: escaped {o.escaped}, "
-              f"lost {o.lost}{': ' + o.error if o.error else ''}")
-    print(f"\n{len(outcomes)} layouts: {sum(bool(o.escaped) for o in outcomes)} with a write "
-          f"outside --out, {sum(bool(o.lost) for o in outcomes)} with a user file lost, "
-          f"{sum(o.verdict == 'CRASH' for o in outcomes)} crashes")
+        print(f"  BAD {o.case}: exit {o.run.exit_code}, {o.run.seconds:.1f} s, lost {o.lost}, "
+              f"outside {o.outside}, left {o.left_behind}, tb {o.run.traceback}, "
+              f"problems {o.problems}; {o.run.stderr.strip()[-300:]!r}")
+    peak = max((o.run.peak_rss for o in outcomes), default=0)
+    print(f"\n{len(outcomes)} cases in {time.monotonic() - t0:.0f} s; the largest peak RSS "
+          f"{peak / 2**20:.0f} MiB (max_memory {MAX_MEMORY / 1e9:.0f} GB); "
+          f"{len(bad)} cases not clean, {sum(bool(o.problems) for o in outcomes)} with "
+          f"another problem (exit code, message, --resume)")
+    print(summary_line(outcomes))
     return 1 if bad else 0
 
 

@@ -140,20 +140,6 @@ def test_acceptance_4_segfaults_in_1000_and_kill_resume_bit_identical():
         assert row["bit-identical"] and row["crashers run again"] == 0, row
 
 
-def test_a_sample_of_the_containment_fuzz_is_clean():
-    """4 of benchmarks/fuzz_containment.py's layouts (run whole: 0 writes outside --out and 0
-    user files lost over every layout), in this process."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        import fuzz_containment
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
-    assert len(fuzz_containment.layouts()) >= 200
-    outcomes = fuzz_containment.run_all(sample=4, seed=26)
-    assert [o.verdict for o in outcomes] == ["ok"] * 4, [
-        (o.layout.label, o.verdict, o.escaped, o.lost) for o in outcomes]
-
-
 def test_a_signal_swallowed_before_the_result_is_written_is_exit_130(tmp_path, monkeypatch):
     """A SIGTERM that lands in code that catches it (a user's bare ``except:``) used to let
     the run finish and exit 0, though the signal came before the result was written: the

@@ -19,6 +19,7 @@ import yaml
 from click.testing import CliRunner
 
 from uqguide.cli import main
+from uqguide.core import atomic
 from uqguide.results.result import read_hdf5
 
 from .failing_models import mc_config, sigint_as_on_a_terminal
@@ -549,13 +550,17 @@ def test_stale_temporary_files_of_dead_processes_are_removed(tmp_path):
     (out / "c.run").mkdir(parents=True)
     dead = int(subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
                               capture_output=True, text=True).stdout)
-    stale = [out / f".c.h5.{dead}.tmp", out / f".c_stats.csv.{dead}.tmp"]
-    alive = out / f".c.h5.{os.getppid()}.tmp"  # a live writer's file is left alone
-    for p in [*stale, alive]:
+    stale = [atomic.temp_path(out / "c.h5", dead), atomic.temp_path(out / "c_stats.csv", dead)]
+    alive = atomic.temp_path(out / "c.h5", os.getppid())  # a live writer's file is left alone
+    # a user's files named like temporary files, a dead PID in them, are not uqguide's
+    users = [out / f".c.h5.{dead}.tmp", out / ".thesis.20240101.tmp",
+             out / f".c.h5.{dead}.0123456789abcdef0123.tmp"]
+    for p in [*stale, alive, *users]:
         p.write_bytes(b"half")
     res = _invoke("run", cfg, "--out", out)
     assert res.exit_code == 0, res.output
     assert not any(p.exists() for p in stale) and alive.exists()
+    assert all(p.read_bytes() == b"half" for p in users)
 
 
 # ---------------------------------------------------------------------------- 4. hangs, crashes

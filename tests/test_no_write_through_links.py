@@ -7,7 +7,6 @@ pointed to, anywhere on the machine, and create a missing target.
 
 from __future__ import annotations
 
-import os
 
 import pytest
 from click.testing import CliRunner
@@ -90,10 +89,18 @@ def test_an_atomic_write_refuses_a_link_at_the_final_name(tmp_path, outside):
     assert link.is_symlink() and (outside / "precious.txt").read_text() == PRECIOUS
 
 
-def test_a_link_planted_at_the_temporary_name_does_not_redirect_the_write(tmp_path, outside):
+def test_a_link_planted_at_the_temporary_name_does_not_redirect_the_write(tmp_path, outside,
+                                                                          monkeypatch):
+    """The temporary name is random; were it guessed, the link there is left alone and
+    another name taken."""
     final = tmp_path / "table.csv"
-    atomic.temp_path(final).symlink_to(outside / "precious.txt")  # the name is predictable
+    tokens = iter(["0badc0de", "0badc0de", "5eed5eed"])
+    monkeypatch.setattr(atomic.secrets, "token_hex", lambda n: next(tokens))
+    planted = atomic.temp_path(final)  # the name the first write will try
+    planted.symlink_to(outside / "precious.txt")
     atomic.write_text(final, "a,b\n")
     assert final.read_text() == "a,b\n" and not final.is_symlink()
     assert (outside / "precious.txt").read_text() == PRECIOUS
-    assert not os.path.lexists(atomic.temp_path(final))
+    assert planted.is_symlink()  # not ours: never deleted
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([planted.name, "table.csv",
+                                                                "elsewhere"])

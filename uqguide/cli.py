@@ -19,7 +19,7 @@ from typing import Any
 import click
 
 from ._version import __version__
-from .errors import ConfigError, ResultError, UqguideError
+from .errors import ConfigError, DiskFull, ResultError, UqguideError
 from .driver.interrupts import EXIT_INTERRUPTED, ignore_signals, install
 
 
@@ -33,6 +33,16 @@ def _handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
             sys.exit(2)
         except UqguideError as exc:
             click.echo(f"error: {exc}", err=True)
+            sys.exit(1)
+        except OSError as exc:
+            from .core.atomic import is_disk_full
+
+            if not is_disk_full(exc):
+                raise
+            # a write that did not go through uqguide's writers (a library's cache)
+            where = f" writing {exc.filename}" if exc.filename else ""
+            click.echo(f"error: disk full{where} ({exc.strerror}): free space and run the "
+                       f"command again", err=True)
             sys.exit(1)
 
     return wrapper
@@ -229,6 +239,15 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     except WriteInterrupted:
         click.echo(f"interrupted while writing the result; resume with `{again}`", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except (DiskFull, OSError) as exc:
+        from .core.atomic import is_disk_full
+
+        if not is_disk_full(exc):
+            raise
+        full = exc.path if isinstance(exc, DiskFull) else exc.filename or "a file"
+        click.echo(f"error: disk full writing {full}; the run folder is intact; free space "
+                   f"and --resume: `{again}`", err=True)
+        sys.exit(1)
     result, h5, tables = written.result, written.h5, written.tables
     click.echo(render_text(result))
     click.echo("")

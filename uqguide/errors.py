@@ -62,3 +62,19 @@ class ClusterLost(UqguideError):
         super().__init__(message)
         self.n_done = n_done
         self.n_total = n_total
+
+
+class DiskFull(UqguideError):
+    """A write found no room (ENOSPC, EFBIG past the file size limit, EDQUOT); every file is
+    whole (the old one or none), as :mod:`uqguide.core.atomic` writes them.
+
+    Parameters
+    ----------
+    path : Path
+        The file being written.
+    """
+
+    def __init__(self, path: object) -> None:
+        super().__init__(f"disk full writing {path}; no file was left half-written: free "
+                         f"space and run the command again")
+        self.path = path

@@ -25,7 +25,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
@@ -342,14 +342,12 @@ def write_histories(rep: Replay, path: Path) -> Path:
         k = y.shape[2]
         for c in range(k):
             cols[name if k == 1 else f"{name}[{c}]"] = y[0, :, c]
-    path.parent.mkdir(parents=True, exist_ok=True)
 
-    def write(tmp: Path) -> None:
-        with tmp.open("w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(list(cols))
-            for j in range(out.time.size):
-                w.writerow([repr(float(v[j])) for v in cols.values()])
+    def write(f: IO[str]) -> None:
+        w = csv.writer(f)
+        w.writerow(list(cols))
+        for j in range(out.time.size):
+            w.writerow([repr(float(v[j])) for v in cols.values()])
 
     return atomic.write_with(path, write)
 
@@ -407,7 +405,7 @@ def write_replay(rep: Replay, cfg: RunConfig, result_name: str, out_dir: Path) -
     """
     from ..papers import sample_figures
 
-    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic.make_folder(out_dir)
     stem = f"{result_name}_{rep.label}_{rep.index}"
     paths = [write_histories(rep, out_dir / f"{stem}_history.csv")]
     if rep.replayed.series:

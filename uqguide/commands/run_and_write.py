@@ -18,7 +18,7 @@ from typing import Any
 import yaml
 
 from ..config.budget import check_budget, estimate
-from ..core.atomic import refuse_folders, refuse_links
+from ..core.atomic import refuse_unwritable, usable_folder
 from ..driver.run_folder import RunLock, RunStore, run_dir, run_identity, study_config
 from ..config.run_config import RUN_NAME_RULE, RunConfig
 from ..errors import ConfigError
@@ -179,16 +179,19 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     out_dir = Path(out_dir)
     executor = executor or SerialExecutor(config.raw.batch_size)
     try:
+        usable_folder(out_dir)  # a dangling link, a file, /dev/null: refused before any work
         check_result_name(config)
         check_budget(estimate(config, workers))  # before anything is allocated
         folder = run_dir(out_dir, config.name)  # inside out_dir: the name is a plain file name
         # A link where the run folder or the result goes would send checkpoints or the result
-        # outside out_dir: refused before anything is written (the lock refuses its own).
+        # outside out_dir, a folder where a file goes would stop the run after its work, at
+        # the rename, and a FIFO would block the read of the result: each refused before
+        # anything is written (the lock refuses its own, the run folder its names).
         outputs = [out_dir / f"{config.name}{tail}" for tail in
                    (".h5", "_stats.csv", "_cost.csv", "_summary.md", "_events.csv")]
-        refuse_links(folder, *outputs)
-        # ... and a folder where a file goes would stop the run after its work, at the rename
-        refuse_folders(*outputs)
+        if folder.is_symlink():
+            refuse_unwritable(folder)
+        refuse_unwritable(*outputs, folder.with_name(folder.name + ".lock"))
         with RunLock(folder):
             check_same_study(out_dir / f"{config.name}.h5", config, force)
             store = RunStore.open(folder, run_identity(config.resolved(), config.model), resume,

@@ -243,8 +243,8 @@ def write_suggestion(config: Any, n: int, out: str | Path, force: bool = False) 
     Path
         ``out``.
     """
-    from ..core.atomic import refuse_links, write_with
-    from ..models.command.files import write_inputs
+    from ..core.atomic import refuse_unwritable, write_text
+    from ..models.command.files import inputs_csv
     from ..models.data_rows.suggest import suggest_runs
 
     if not isinstance(config.model, DataModel):
@@ -257,7 +257,7 @@ def write_suggestion(config: Any, n: int, out: str | Path, force: bool = False) 
     if path.exists() and not force:
         raise ConfigError(f"--out: {out} exists (it may hold runs already made); pass --force "
                           f"to replace it", field="out")
-    refuse_links(path)
+    refuse_unwritable(path)
     x = suggest_runs(config.space, config.model.rows(), n, config.seed)
     names = list(config.space.names)
-    return write_with(path, lambda tmp: write_inputs(tmp, names, x, "csv"))
+    return write_text(path, inputs_csv(names, x))

@@ -361,6 +361,8 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
     p = Path(path)
     try:
         size = p.stat().st_size
+        if p.exists() and not p.is_file() and not p.is_dir():  # a FIFO's read would block
+            raise ConfigError(f"{p}: config file is not a regular file (a FIFO or a device)")
         if size > MAX_BYTES:
             raise ConfigError(f"{p}: config file is {size} bytes; allowed at most {MAX_BYTES} "
                               f"(a config is a few kB: is this the right file?)")

@@ -1,52 +1,341 @@
-"""Files that are complete or absent: every file uqguide writes goes through here.
+"""Files that are complete or absent, written only where uqguide may write: every file uqguide
+writes goes through here.
 
-A file is written to a temporary name in its own folder (``.<name>.<pid>.tmp``), flushed and
-fsynced, then renamed over the final name: whatever kills the writer and when, a file with the
-final name is whole (the old one or the new one), never a 0-byte or torn table. A temporary
-file left by a killed writer is removed by the next write into that folder once its process
-is gone (:func:`clean_stale_temps`).
+A file is written to a temporary sibling, flushed and fsynced, then renamed over its final name:
+whatever kills the writer and when, the final name holds the old file or the new one, whole.
+A temporary name carries a random token and a tag only uqguide computes (:func:`temp_owner`),
+so the clean-up of a killed writer's files (:func:`clean_stale_temps`) never takes a user's.
 
-No file is written through a symbolic link. A link at a final name is refused
-(:func:`refuse_links`: ConfigError, exit 2, naming it) rather than replaced, since it is the
-user's; the temporary file is created here, exclusively and without following a link
-(``O_EXCL | O_NOFOLLOW``), before any writer opens it by name, so a link planted at its
-predictable name cannot redirect the write outside the folder.
+Every file opened for writing goes through :func:`open_writable`: never through a symbolic or
+hard link, never into a FIFO or a device (a blocking open), and a name that holds one is refused
+with one line (ConfigError, exit 2). A full disk (ENOSPC, EFBIG, EDQUOT) is :class:`DiskFull`,
+raised once nothing is left half-written. Reasons and the layouts tried: docs/scale.md.
 """
 
 from __future__ import annotations
 
+import errno
+import fcntl
+import hashlib
+import io
 import logging
 import os
 import re
+import secrets
+import socket
+import stat
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import IO, Any
 
-from ..errors import ConfigError
+from ..errors import ConfigError, DiskFull
 
 log = logging.getLogger(__name__)
 
-_TEMP = re.compile(r"^\..+\.(\d+)\.tmp$")
+#: The errors of a write that found no room: the disk, the file size limit, the quota.
+DISK_FULL = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT})
+
+_TEMP = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.(?P<token>[0-9a-f]{8})(?P<tag>[0-9a-f]{12})"
+                   r"\.tmp$")
 
 
-def temp_path(path: Path) -> Path:
-    """The temporary sibling of ``path`` owned by this process.
+# ---------------------------------------------------------------------------- temporary names
+def _tag(name: str, pid: str, token: str) -> str:
+    # The host is in the tag: a temporary file of another host sharing the folder is not ours
+    # to judge (its PID means nothing here), so it never verifies and is left alone.
+    text = f"uqguide temporary file\0{name}\0{pid}\0{token}\0{socket.gethostname()}"
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def temp_path(path: Path, pid: int | None = None) -> Path:
+    """A fresh temporary sibling of ``path`` for this process.
 
     Parameters
     ----------
     path : Path
+    pid : int, optional
+        The writer's PID (default: this process).
 
     Returns
     -------
     Path
-        ``.<name>.<pid>.tmp`` in the same folder.
+        ``.<name>.<pid>.<token><tag>.tmp`` in the same folder: a random token, and a tag
+        of name, PID, token and host that :func:`temp_owner` checks.
     """
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    pid_, token = str(os.getpid() if pid is None else pid), secrets.token_hex(4)
+    return path.with_name(f".{path.name}.{pid_}.{token}{_tag(path.name, pid_, token)}.tmp")
 
 
+def temp_owner(name: str) -> int | None:
+    """The PID of the uqguide process that made the temporary file ``name`` on this host, or
+    None when ``name`` is not one (a user's ``.thesis.20240101.tmp``).
+
+    Parameters
+    ----------
+    name : str
+        A file name (no folder).
+
+    Returns
+    -------
+    int or None
+    """
+    m = _TEMP.match(name)
+    if m is None or _tag(m["name"], m["pid"], m["token"]) != m["tag"]:
+        return None
+    return int(m["pid"])
+
+
+def temp_target(name: str) -> str | None:
+    """The final name of the uqguide temporary file ``name`` (None: not one of ours)."""
+    m = _TEMP.match(name)
+    return m["name"] if m is not None and temp_owner(name) is not None else None
+
+
+# ---------------------------------------------------------------------------- refusals
+def not_regular(path: str | Path, hard_links: bool = True) -> str:
+    """What is at ``path`` when it is not a regular file (of one name, with ``hard_links``):
+    '' when it is, or when nothing is there. Nothing is opened, links are not followed.
+
+    Parameters
+    ----------
+    path : str or Path
+    hard_links : bool
+        Count a file with a second name as not regular.
+
+    Returns
+    -------
+    str
+        E.g. "a FIFO (named pipe)", "a hard link (2 names)", "".
+    """
+    path = Path(path)
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return ""
+    what = _what(st, path)
+    return "" if what.startswith("a hard link") and not hard_links else what
+
+
+def _what(st: os.stat_result, path: Path) -> str:
+    """What ``st`` is, when it is not a regular file of one name ('' when it is)."""
+    mode = st.st_mode
+    if stat.S_ISLNK(mode):
+        return f"a symbolic link (to {os.readlink(path)})"
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if not stat.S_ISREG(mode):
+        return "not a regular file"
+    if st.st_nlink > 1:
+        return f"a hard link ({st.st_nlink} names)"
+    return ""
+
+
+def refusal(path: str | Path, what: str, field: str = "out", role: str = "") -> ConfigError:
+    """The one-line ConfigError for a name that holds ``what`` (:func:`not_regular`).
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        What is there.
+    field : str
+        The setting that chose the folder.
+    role : str
+        What uqguide puts there ("the run's manifest goes there"), said in the message.
+
+    Returns
+    -------
+    ConfigError
+    """
+    if what.startswith("a symbolic link"):
+        why = "uqguide writes no file through a link and does not replace one"
+    elif what == "a folder":
+        why = "uqguide writes a file of that name there and does not replace a folder"
+    elif what.startswith("a hard link"):
+        why = "uqguide writes no file that has another name (it would change the other too)"
+    elif what.startswith("not a uqguide"):
+        why = "uqguide replaces only its own files"
+    else:
+        why = "uqguide reads and writes only regular files there (opening it could block)"
+    return ConfigError(f"--{field}: {path} is {what}; {role + ' and ' if role else ''}{why}: "
+                       f"move it or choose another --{field}", field=field)
+
+
+def refuse_unwritable(*paths: str | Path, field: str = "out") -> None:
+    """Raise ConfigError for the first of ``paths`` that exists and is not a regular file: a
+    symbolic link, a folder, a FIFO, a socket or a device. Nothing is opened (a FIFO's open
+    would block).
+
+    A hard link is not refused here: a file replaced by a rename keeps its other name intact.
+
+    Parameters
+    ----------
+    *paths : str or Path
+        Where uqguide is about to create, replace or read a file.
+    field : str
+        The setting that chose the folder (named in the message).
+
+    Raises
+    ------
+    ConfigError
+        Naming the path and what it is; nothing has been written.
+    """
+    for p in map(Path, paths):
+        try:
+            what = not_regular(p, hard_links=False)
+        except OSError as exc:  # a path under a file, a name too long: not writable there
+            raise ConfigError(f"--{field}: cannot write {p} ({exc.strerror})",
+                              field=field) from None
+        if what:
+            raise refusal(p, what, field)
+
+
+def open_writable(path: str | Path, flags: int, field: str = "out", mode: int = 0o644) -> int:
+    """Open ``path`` for writing, only when it is (or is created as) a regular file of one
+    name; the lock, the manifest and every temporary file are opened here.
+
+    Parameters
+    ----------
+    path : str or Path
+    flags : int
+        ``os.O_WRONLY`` or ``os.O_RDWR`` with ``O_CREAT``, ``O_EXCL``, ``O_APPEND`` as needed
+        (no ``O_TRUNC``: truncate after the checks, with ``os.ftruncate``).
+    field : str
+        The setting that chose the folder (named in a refusal).
+    mode : int
+        Permissions of a file created.
+
+    Returns
+    -------
+    int
+        A descriptor (blocking, close-on-exec) of the file.
+
+    Raises
+    ------
+    ConfigError
+        A symbolic link (never followed: O_NOFOLLOW), a folder, a FIFO or device (never
+        opened blocking: O_NONBLOCK), or a file with another name (a hard link would carry
+        the write outside the folder).
+    """
+    path = Path(path)
+    if flags & os.O_TRUNC:
+        raise ValueError("open_writable: truncate after the checks, not with O_TRUNC")
+    refuse_unwritable(path, field=field)  # before any open: a FIFO's open would block
+    try:
+        fd = os.open(path, flags | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_NOCTTY | os.O_CLOEXEC,
+                     mode)
+    except OSError as exc:
+        if exc.errno in (errno.ELOOP, errno.EISDIR, errno.ENXIO, errno.EEXIST):
+            refuse_unwritable(path, field=field)  # replaced since the check: say what by
+        raise
+    try:
+        what = _what(os.fstat(fd), path)
+        if what:
+            raise refusal(path, what, field)
+        fcntl.fcntl(fd, fcntl.F_SETFL, fcntl.fcntl(fd, fcntl.F_GETFL) & ~os.O_NONBLOCK)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+# ---------------------------------------------------------------------------- folders
+def usable_folder(path: str | Path, field: str = "out") -> Path:
+    """Check that files can be written in the folder ``path`` (made later when missing).
+
+    Parameters
+    ----------
+    path : str or Path
+    field : str
+        The setting that named it.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ConfigError
+        A dangling symbolic link or a loop, something that is not a folder (a file,
+        ``/dev/null``), a path under a file, or a folder not writable by this user.
+    """
+    path = Path(path)
+    for p in [path, *path.parents]:
+        try:
+            st = os.stat(p)
+        except (FileNotFoundError, NotADirectoryError):  # made later; under a file: see above
+            if p.is_symlink():
+                raise ConfigError(f"--{field}: {p} is a symbolic link to {os.readlink(p)}, "
+                                  f"which does not exist: choose another --{field}",
+                                  field=field) from None
+            continue
+        except OSError as exc:
+            what = "a symbolic link loop" if exc.errno == errno.ELOOP else exc.strerror
+            raise ConfigError(f"--{field}: {p} is {what}; give a folder", field=field) from None
+        if not stat.S_ISDIR(st.st_mode):
+            kind = "a file" if stat.S_ISREG(st.st_mode) else _what(st, p) or "not a folder"
+            where = "" if p == path else f" (the folder {path} would be under it)"
+            raise ConfigError(f"--{field}: {p} is {kind}, not a folder{where}; give a folder",
+                              field=field)
+        if not os.access(p, os.W_OK | os.X_OK):
+            made = "" if p == path else f" (to make {path} in it)"
+            raise ConfigError(f"--{field}: {p} is not writable by this user{made}; choose "
+                              f"another --{field}", field=field)
+        return path
+    raise ConfigError(f"--{field}: {path}: no folder of it exists", field=field)  # unreachable
+
+
+def make_folder(path: str | Path, field: str = "out") -> Path:
+    """:func:`usable_folder`, then make it (a full disk is :class:`DiskFull`)."""
+    path = usable_folder(path, field)
+    with disk_full_as_error(path):
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except FileExistsError:
+            raise refusal(path, "not a folder", field) from None
+        except OSError as exc:
+            if exc.errno in DISK_FULL:
+                raise
+            raise ConfigError(f"--{field}: cannot make {path} ({exc.strerror})",
+                              field=field) from None
+    return path
+
+
+# ---------------------------------------------------------------------------- a full disk
+def is_disk_full(exc: BaseException | None) -> bool:
+    """Whether ``exc``, or an exception it was raised from, is a write that found no room."""
+    seen = 0
+    while exc is not None and seen < 20:
+        if isinstance(exc, DiskFull) or (isinstance(exc, OSError) and exc.errno in DISK_FULL):
+            return True
+        exc, seen = exc.__cause__ or exc.__context__, seen + 1
+    return False
+
+
+@contextmanager
+def disk_full_as_error(path: str | Path) -> Iterator[None]:
+    """Turn a full disk met inside the block into :class:`DiskFull` naming ``path``."""
+    try:
+        yield
+    except DiskFull:
+        raise
+    except Exception as exc:
+        if is_disk_full(exc):
+            raise DiskFull(Path(path)) from exc
+        raise
+
+
+# ---------------------------------------------------------------------------- writing
 def _fsync_dir(folder: Path) -> None:
     try:
-        fd = os.open(folder, os.O_RDONLY)
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
     except OSError:  # pragma: no cover - a platform without directory fds
         return
     try:
@@ -57,153 +346,218 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
-def refuse_links(*paths: str | Path, field: str = "out") -> None:
-    """Raise ConfigError for the first of ``paths`` that is a symbolic link.
-
-    Parameters
-    ----------
-    *paths : str or Path
-        Where uqguide is about to create or replace a file or folder.
-    field : str
-        The setting that chose the folder (named in the message).
-
-    Raises
-    ------
-    ConfigError
-        Naming the link and where it points; nothing has been written.
-    """
-    for p in paths:
-        p = Path(p)
-        if p.is_symlink():
-            raise ConfigError(
-                f"--{field}: {p} is a symbolic link (to {os.readlink(p)}); uqguide writes no "
-                f"file through a link and does not replace one: remove it or choose another "
-                f"--{field}", field=field)
-
-
-def refuse_folders(*paths: str | Path, field: str = "out") -> None:
-    """Raise ConfigError for the first of ``paths`` that is a folder (not a link to one).
-
-    Parameters
-    ----------
-    *paths : str or Path
-        Where uqguide is about to write a file.
-    field : str
-        The setting that chose the folder (named in the message).
-
-    Raises
-    ------
-    ConfigError
-        Naming the folder; a rename over it would fail after the work was done, and a
-        folder at a file's name is the user's.
-    """
-    for p in paths:
-        p = Path(p)
-        if p.is_dir() and not p.is_symlink():
-            raise ConfigError(
-                f"--{field}: {p} is a folder; uqguide writes a file of that name there and "
-                f"does not replace a folder: move it or choose another --{field}", field=field)
-
-
-def _create_temp(tmp: Path) -> None:
-    """Create ``tmp`` empty and ours: exclusively, never through a link at its name."""
-    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
-    for _ in range(2):
+def _create_temp(path: Path, field: str) -> tuple[Path, int]:
+    """A new temporary file for ``path``, created exclusively (never over anything)."""
+    flags = os.O_RDWR | os.O_CREAT | os.O_EXCL
+    for _ in range(8):
+        tmp = temp_path(path)
         try:
-            os.close(os.open(tmp, flags, 0o644))
-            return
-        except FileExistsError:
-            # The name holds this PID, so no live writer owns it: a leftover of an earlier
-            # process with our PID, or something planted. Removing a link removes only the link.
-            os.unlink(tmp)
-    raise FileExistsError(tmp)  # pragma: no cover - recreated between unlink and open
+            return tmp, open_writable(tmp, flags, field)
+        except (ConfigError, FileExistsError):
+            if not os.path.lexists(tmp):
+                raise
+            # something sits at this random name (planted): leave it, take another name
+    raise ConfigError(f"--{field}: cannot create a temporary file beside {path}",
+                      field=field)  # pragma: no cover
 
 
 @contextmanager
-def atomic_path(path: str | Path, fsync: bool = True, clean: bool = True) -> Iterator[Path]:
-    """Yield a temporary path to write; on success it is renamed to ``path``.
+def atomic_file(path: str | Path, binary: bool = True, fsync: bool = True, clean: bool = True,
+                field: str = "out") -> Iterator[IO[Any]]:
+    """Yield an open file to write; on success it is renamed to ``path``.
 
     On any exception (Ctrl-C included) the temporary file is removed and ``path`` is left as
-    it was. Writers that open files by name (HDF5, matplotlib, pandas) write to the yielded
-    path.
+    it was; a full disk is :class:`DiskFull` naming ``path``.
 
     Parameters
     ----------
     path : str or Path
-        The final file; its folder is created.
+        The final file; its folder is made (:func:`make_folder`).
+    binary : bool
+        A binary file, else text (UTF-8, lines as written).
     fsync : bool
         Flush the file and the folder to disk before and after the rename.
     clean : bool
-        First remove stale temporary files of dead writers in the folder.
+        First remove stale temporary files of dead uqguide writers in the folder.
+    field : str
+        The setting that chose the folder (named in a refusal).
 
     Yields
     ------
-    Path
-        The temporary file to write (created empty, a regular file of this process).
+    file object
+        The temporary file, opened through :func:`open_writable`.
 
     Raises
     ------
     ConfigError
-        ``path`` is a symbolic link or a folder.
+        ``path`` is a symbolic link, a folder, a FIFO or a device; its folder is unusable.
+    DiskFull
+        The disk (or the file size limit) ran out; nothing was replaced.
     """
     path = Path(path)
-    refuse_links(path)
-    refuse_folders(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    refuse_unwritable(path, field=field)
+    make_folder(path.parent, field)
     if clean:
         clean_stale_temps(path.parent)
-    tmp = temp_path(path)
-    _create_temp(tmp)
-    try:
-        yield tmp
-        if fsync:
-            with open(tmp, "rb+") as f:
-                os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with disk_full_as_error(path):
+        tmp, fd = _create_temp(path, field)
+        try:
+            f: IO[Any] = os.fdopen(fd, "w+b") if binary else \
+                os.fdopen(fd, "w+", encoding="utf-8", newline="")
+            with f:
+                yield f
+                f.flush()
+                if fsync:
+                    os.fsync(f.fileno())
+            refuse_unwritable(path, field=field)  # (a rename would replace a folder's link)
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
     if fsync:
         _fsync_dir(path.parent)
 
 
-def write_text(path: str | Path, text: str) -> Path:
+def write_text(path: str | Path, text: str, field: str = "out") -> Path:
     """Write ``text`` (UTF-8) to ``path`` atomically.
 
     Parameters
     ----------
     path : str or Path
     text : str
+    field : str
+        The setting that chose the folder.
 
     Returns
     -------
     Path
     """
     path = Path(path)
-    with atomic_path(path) as tmp:
-        tmp.write_text(text, encoding="utf-8")
+    with atomic_file(path, binary=False, field=field) as f:
+        f.write(text)
     return path
 
 
-def write_with(path: str | Path, writer: Callable[[Path], object]) -> Path:
-    """Call ``writer(tmp_path)`` and rename its file to ``path`` atomically.
+def write_with(path: str | Path, writer: Callable[[IO[Any]], object], binary: bool = False,
+               field: str = "out") -> Path:
+    """Call ``writer(file)`` and rename its file to ``path`` atomically.
 
     Parameters
     ----------
     path : str or Path
     writer : callable
-        Writes a whole file to the path it is given.
+        Writes a whole file to the open file it is given (``df.to_csv``, ``fig.savefig``).
+    binary : bool
+        A binary file (else text, UTF-8, lines as written).
+    field : str
+        The setting that chose the folder.
 
     Returns
     -------
     Path
     """
     path = Path(path)
-    with atomic_path(path) as tmp:
-        writer(tmp)
+    with atomic_file(path, binary=binary, field=field) as f:
+        writer(f)
     return path
 
 
+class HeldErrorFile(io.RawIOBase):
+    """A file for a C library that does not survive a failed write (HDF5 crashes the process
+    at exit after one): the first error of a write is held, not raised, and raised by
+    :meth:`close` (or the ``with`` block's end) once the library is done with the file.
+
+    After the error, writes of metadata size are kept in memory, so that the library reads
+    back what it wrote; larger ones are dropped (the file is deleted anyway).
+
+    Parameters
+    ----------
+    fd : int
+        An open descriptor of the file (left open).
+    """
+
+    _KEEP = 1 << 20  # a write kept after the error: HDF5's metadata blocks are far smaller
+    _KEPT_MAX = 64 << 20
+
+    def __init__(self, fd: int) -> None:
+        super().__init__()
+        self._fd = fd
+        self._pos = 0
+        self._size = os.fstat(fd).st_size
+        self.error: OSError | None = None
+        self._kept: list[tuple[int, bytes]] = []
+        self._kept_bytes = 0
+
+    def readable(self) -> bool:
+        return True
+
+    def writable(self) -> bool:
+        return True
+
+    def seekable(self) -> bool:
+        return True
+
+    def tell(self) -> int:
+        return self._pos
+
+    def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
+        base = {io.SEEK_SET: 0, io.SEEK_CUR: self._pos, io.SEEK_END: self._size}[whence]
+        self._pos = base + offset
+        return self._pos
+
+    def readinto(self, b: Any) -> int:
+        view = memoryview(b).cast("B")
+        n = max(0, min(len(view), self._size - self._pos))
+        got = os.pread(self._fd, n, self._pos) if n else b""
+        view[:len(got)] = got
+        view[len(got):n] = bytes(n - len(got))  # past the end on disk: unwritten, zeros
+        for at, data in self._kept:  # later writes win
+            lo, hi = max(at, self._pos), min(at + len(data), self._pos + n)
+            if lo < hi:
+                view[lo - self._pos:hi - self._pos] = data[lo - at:hi - at]
+        self._pos += n
+        return n
+
+    def write(self, b: Any) -> int:
+        view = memoryview(b).cast("B")
+        n = len(view)
+        if self.error is None:
+            try:
+                done = 0
+                while done < n:
+                    done += os.pwrite(self._fd, view[done:], self._pos + done)
+            except OSError as exc:
+                self.error = exc
+        if self.error is not None and n <= self._KEEP and \
+                self._kept_bytes + n <= self._KEPT_MAX:
+            self._kept.append((self._pos, bytes(view)))
+            self._kept_bytes += n
+        self._pos += n
+        self._size = max(self._size, self._pos)
+        return n
+
+    def truncate(self, size: int | None = None) -> int:
+        size = self._pos if size is None else size
+        if self.error is None:
+            try:
+                os.ftruncate(self._fd, size)
+            except OSError as exc:
+                self.error = exc
+        self._size = size
+        return size
+
+    def flush(self) -> None:
+        pass
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        super().close()
+        if self.error is not None:
+            raise self.error
+
+
+# ---------------------------------------------------------------------------- clean-up
 def pid_alive(pid: int) -> bool:
     """Whether a process ``pid`` exists on this host (permission denied counts as alive).
 
@@ -227,9 +581,10 @@ def pid_alive(pid: int) -> bool:
 
 
 def clean_stale_temps(folder: str | Path) -> list[Path]:
-    """Remove ``.<name>.<pid>.tmp`` files in ``folder`` whose process is gone; return them.
+    """Remove the temporary files of dead uqguide writers in ``folder``; return them.
 
-    Only this naming pattern is touched, and only when its PID is not a live process here.
+    Only names :func:`temp_owner` recognises (made by uqguide on this host) whose process is
+    gone, and only regular files, are removed: a user's ``.notes.20240101.tmp`` stays.
 
     Parameters
     ----------
@@ -246,8 +601,8 @@ def clean_stale_temps(folder: str | Path) -> list[Path]:
     except OSError:
         return removed
     for e in entries:
-        m = _TEMP.match(e.name)
-        if not m or int(m.group(1)) == os.getpid() or pid_alive(int(m.group(1))):
+        pid = temp_owner(e.name)
+        if pid is None or pid == os.getpid() or pid_alive(pid):
             continue
         try:
             if e.is_file(follow_symlinks=False):

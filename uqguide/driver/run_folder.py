@@ -14,7 +14,6 @@ Layout, guarantees and refusals: docs/scale.md, "Checkpoints and --resume".
 from __future__ import annotations
 
 import datetime as _dt
-import errno
 import fcntl
 import hashlib
 import importlib
@@ -24,10 +23,9 @@ import logging
 import os
 import queue
 import re
-import shutil
 import socket
-import stat
 import threading
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,7 +34,8 @@ from typing import Any, Generic, TypeVar
 import numpy as np
 
 from .._version import __version__
-from ..core.atomic import atomic_path, clean_stale_temps, refuse_links
+from ..core.atomic import (atomic_file, clean_stale_temps, disk_full_as_error, make_folder,
+                           not_regular, open_writable, pid_alive, refusal, temp_owner)
 from ..errors import ConfigError
 from ..models.base import Model
 from .execution import ChunkResult, Task
@@ -66,24 +65,11 @@ class RunLock:
 
     def acquire(self) -> RunLock:
         """Take the lock or raise ConfigError naming its owner."""
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        make_folder(self.path.parent)
         for _ in range(20):
-            try:
-                # O_NOFOLLOW: a link planted at the lock's name must not be truncated and
-                # written through (a write outside --out), nor its missing target created.
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0),
-                             0o644)
-            except OSError as e:
-                if e.errno == errno.EISDIR:
-                    raise ConfigError(
-                        f"--out: {self.path} is a folder; the run's lock file goes there and "
-                        f"uqguide does not replace a folder: move it, or give this run another "
-                        f"--out or name", field="out") from None
-                if e.errno != errno.ELOOP:
-                    raise
-                refuse_links(self.path)
-                raise
-            _refuse_shared(fd, self.path)
+            # A link at the lock's name must not be written through (a write outside --out),
+            # nor a FIFO opened blocking: open_writable refuses both, nothing written.
+            fd = open_writable(self.path, os.O_RDWR | os.O_CREAT)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -103,12 +89,22 @@ class RunLock:
                 os.close(fd)
                 continue
             previous = _read_owner(fd)
+            if previous != "owner unknown" and not _OWNER.fullmatch(previous):
+                os.close(fd)  # a file of the user's at the lock's name: nothing written to it
+                raise refusal(self.path, "not a uqguide lock file",
+                              role="the run's lock file goes there")
             if previous != "owner unknown":
                 log.warning("%s: taking over the lock of a run that is gone (%s)",
                             self.run_folder, previous)
-            os.ftruncate(fd, 0)
-            os.write(fd, f"pid {os.getpid()} on host {socket.gethostname()}\n".encode())
-            os.fsync(fd)
+            try:
+                with disk_full_as_error(self.path):
+                    os.ftruncate(fd, 0)
+                    os.write(fd, f"pid {os.getpid()} on host {socket.gethostname()}\n".encode())
+                    os.fsync(fd)
+            except BaseException:
+                self.path.unlink(missing_ok=True)  # still locked: no one holds this inode
+                os.close(fd)
+                raise
             self._fd = fd
             return self
         raise ConfigError(f"--out: cannot lock {self.run_folder} (the lock file keeps "
@@ -130,21 +126,8 @@ class RunLock:
         self.release()
 
 
-def _refuse_shared(fd: int, path: Path) -> None:
-    """ConfigError (the descriptor closed) unless ``fd`` is a regular file with one name.
-
-    O_NOFOLLOW keeps a symbolic link from redirecting the lock's write, not a hard link: a
-    second name of a file outside --out at the lock's name would be truncated and written.
-    Nothing has been written when this refuses (the lock is opened without O_TRUNC)."""
-    st = os.fstat(fd)
-    if stat.S_ISREG(st.st_mode) and st.st_nlink == 1:
-        return
-    os.close(fd)
-    what = f"a hard link ({st.st_nlink} names)" if stat.S_ISREG(st.st_mode) else \
-        "not a regular file"
-    raise ConfigError(f"--out: {path} is {what}; the run's lock file goes there and uqguide "
-                      f"writes no file that has another name: remove it, or give this run "
-                      f"another --out or name", field="out")
+#: What a lock file holds (:meth:`RunLock.acquire` writes it): anything else is not one.
+_OWNER = re.compile(r"pid \d+ on host \S*")
 
 
 def _read_owner(fd: int) -> str:
@@ -334,6 +317,7 @@ class RunManifest:
         self.run_id: str = identity["run_id"]
         # the checkpoint writer's thread appends chunk lines, the driver isolated samples
         self._append_lock = threading.Lock()
+        self._chunk_re: re.Pattern[str] | None = None
 
     @property
     def file(self) -> Path:
@@ -381,11 +365,25 @@ class RunManifest:
                          timespec="seconds"), **self.identity})
 
     def append(self, obj: dict[str, Any]) -> None:
-        """Append one line, fsynced before returning: once listed, it survives a power cut."""
-        with self._append_lock, open(self.file, "a", encoding="utf-8") as f:
-            f.write(json.dumps(obj, sort_keys=True) + "\n")
-            f.flush()
-            os.fsync(f.fileno())
+        """Append one line, fsynced before returning: once listed, it survives a power cut.
+
+        A line the disk had no room for is taken back whole (the file keeps its lines, and
+        the next one does not join a torn one); the error is :class:`DiskFull`."""
+        line = (json.dumps(obj, sort_keys=True) + "\n").encode("utf-8")
+        with self._append_lock, disk_full_as_error(self.file):
+            fd = open_writable(self.file, os.O_WRONLY | os.O_CREAT | os.O_APPEND)
+            try:
+                end = os.lseek(fd, 0, os.SEEK_END)
+                try:
+                    done = 0
+                    while done < len(line):
+                        done += os.write(fd, line[done:])
+                    os.fsync(fd)
+                except OSError:
+                    os.ftruncate(fd, end)
+                    raise
+            finally:
+                os.close(fd)
 
     def check_same_run(self, header: dict[str, Any]) -> None:
         """ConfigError naming what differs when ``header`` is not this run's: the stored chunks
@@ -419,45 +417,112 @@ class RunManifest:
             raise ConfigError(f"{where}: its run id {str(header.get('run_id'))[:12]} is not "
                               f"this run's ({self.run_id[:12]}){tail}", field="resume")
 
-    def clear(self, header: dict[str, Any] | None) -> None:
-        """Delete the folder before a fresh run, but only one that a uqguide manifest
-        identifies and that holds nothing but a run folder's files; an empty folder is removed
-        too. ConfigError (nothing deleted) for anything else.
+    def check_names(self, resume: bool) -> None:
+        """ConfigError, before the folder is read, for a name the run reads or writes that holds
+        something else than a regular file: a FIFO or a device (its open would block), a link,
+        a folder at a chunk's name; a file named like one of this run's chunks that is not a
+        chunk file (the run would replace it); and on ``--resume`` a manifest with a second
+        name (a hard link: the lines appended would reach the other name too).
+
+        Parameters
+        ----------
+        resume : bool
+            The run continues the folder's (its manifest is appended to).
+        """
+        what = not_regular(self.file, hard_links=resume)
+        if what:
+            raise refusal(self.file, what, role="the run's manifest goes there")
+        listed = {str(e.get("file")) for e in self.read()[1].values()}
+        for name in sorted(os.listdir(self.folder)):
+            if name not in listed and not self._chunk_name(name):
+                continue
+            p = self.folder / name
+            what = not_regular(p, hard_links=False)
+            if not what and name not in listed and not _is_chunk_file(p):
+                what = "not a uqguide chunk file"
+            if what:
+                raise refusal(p, what, role="a chunk file of this run goes there")
+
+    def _chunk_name(self, name: str) -> bool:
+        """Whether ``name`` is the name of a chunk file of one of this run's methods."""
+        if self._chunk_re is None:
+            labels = [m.get("label") for m in self.identity.get("config", {}).get("methods", [])
+                      if isinstance(m, dict) and isinstance(m.get("label"), str)]
+            self._chunk_re = re.compile("|".join(
+                rf"{re.escape(str(lab))}\.s\d+\.c\d{{6,}}\.npz" for lab in labels) or "(?!)")
+        return self._chunk_re.fullmatch(name) is not None
+
+    def clear(self, header: dict[str, Any] | None, known: bool = False) -> list[str]:
+        """Before a fresh run: delete what uqguide left in the folder (the manifest, the chunk
+        files it lists, uqguide's own temporary and chunk files) and leave anything else in
+        place, named in a warning. A folder no uqguide manifest identifies (``known``: its run's
+        files were just removed) is a run folder only when it holds nothing else (an empty or
+        torn manifest, uqguide's temporary files): else ConfigError, nothing deleted.
 
         Parameters
         ----------
         header : dict or None
             The header on disk (None: no readable manifest).
+        known : bool
+            The folder was identified as this run's, and its files removed, a moment ago.
+
+        Returns
+        -------
+        list of str
+            The names left in place.
         """
-        names = [p.name for p in self.folder.iterdir()]
-        if not names:
+        names = sorted(p.name for p in self.folder.iterdir())
+        listed = {str(e.get("file")) for e in self.read()[1].values()}
+        ours = [n for n in names if n != MANIFEST and self._ours(self.folder / n, listed)]
+        left = [n for n in names if n != MANIFEST and n not in ours]
+        identified = known or (header is not None and "format" in header)
+        if not identified:
+            anonymous = [n for n in ours if temp_owner(n) is None]  # chunks without a manifest
+            foreign = left + ([] if self._torn_manifest() else [MANIFEST])
+            if foreign or anonymous:
+                what = f"it holds {foreign[0]!r}" if foreign else "it has no uqguide manifest"
+                raise ConfigError(f"{self.folder} is not a uqguide run folder ({what}); refusing "
+                                  f"to delete it: move it, or give this run another --out or "
+                                  f"name", field="out")
+        for n in ours:
+            (self.folder / n).unlink(missing_ok=True)
+        self.file.unlink(missing_ok=True)
+        if left:
+            _warn_left(self.folder, left)
+        else:
             self.folder.rmdir()
-            return
-        foreign = [n for n in names if not _RUN_FILE.match(n)]
-        anonymous = (header is None or "format" not in header) and any(
-            n.endswith(".npz") for n in names)  # chunk files without a manifest saying whose
-        if foreign or anonymous:
-            what = f"it holds {foreign[0]!r}" if foreign else "it has no uqguide manifest"
-            raise ConfigError(f"{self.folder} is not a uqguide run folder ({what}); refusing to "
-                              f"delete it: move it, or give this run another --out or name",
-                              field="out")
-        shutil.rmtree(self.folder)
+        return left
+
+    def _torn_manifest(self) -> bool:
+        """Whether the manifest on disk is absent, empty or the start of a uqguide header (a
+        kill while it was first written), i.e. uqguide's own."""
+        try:
+            with open(self.file, "rb") as f:
+                head = f.read(len(_HEADER_START))
+        except FileNotFoundError:
+            return True
+        except OSError:
+            return False
+        return _HEADER_START.startswith(head)
 
     def mark_complete(self) -> None:
         """Say that every chunk of the run is done: a folder left by an interrupt in the final
         write is then recognised as a finished run, not an unfinished one."""
         self.append({"kind": "complete", "run": self.run_id})
 
-    def _ours(self, name: str, listed: set[str]) -> bool:
-        """Whether ``name`` in the folder is a file this run wrote: a chunk the manifest lists,
-        or a chunk (or its temporary file) named for one of this run's method labels, which a
-        kill between the file and its manifest line leaves unlisted."""
-        if name in listed:
+    def _ours(self, path: Path, listed: set[str]) -> bool:
+        """Whether the file at ``path`` in the folder is uqguide's to delete: a regular file that
+        the manifest lists, a temporary file of a uqguide writer that is gone, or a chunk file
+        of this run's methods that says whose it is (a kill between the file and its manifest
+        line leaves it unlisted)."""
+        if not path.exists() or not_regular(path, hard_links=False):
+            return False
+        if path.name in listed:
             return True
-        labels = [m.get("label") for m in self.identity.get("config", {}).get("methods", [])
-                  if isinstance(m, dict) and isinstance(m.get("label"), str)]
-        return any(re.fullmatch(rf"\.?{re.escape(str(lab))}\.s\d+\.c\d+\.npz(\.\d+\.tmp)?",
-                                name) for lab in labels)
+        pid = temp_owner(path.name)
+        if pid is not None:
+            return pid == os.getpid() or not pid_alive(pid)
+        return self._chunk_name(path.name) and _is_chunk_file(path)
 
     def remove(self) -> list[str]:
         """Delete this run's files and then the folder, when its manifest says it is this run's
@@ -482,7 +547,7 @@ class RunManifest:
         for p in sorted(self.folder.iterdir()):
             if p.name == MANIFEST:
                 continue
-            if self._ours(p.name, listed) and p.is_file() and not p.is_symlink():
+            if self._ours(p, listed):
                 try:
                     p.unlink()
                     continue
@@ -492,15 +557,31 @@ class RunManifest:
         if not ours_left:
             self.file.unlink(missing_ok=True)
         if left:
-            log.warning("%s: left in place, not written by this run: %s%s", self.folder,
-                        ", ".join(left[:3]), f" and {len(left) - 3} more" if len(left) > 3
-                        else "")
+            _warn_left(self.folder, left)
             return left
         try:
             self.folder.rmdir()
         except OSError:  # something appeared meanwhile: it is not ours to delete
             return [p.name for p in self.folder.iterdir()]
         return []
+
+
+def _warn_left(folder: Path, left: list[str]) -> None:
+    log.warning("%s: left in place, not written by this run: %s%s", folder, ", ".join(left[:3]),
+                f" and {len(left) - 3} more" if len(left) > 3 else "")
+
+
+#: How every manifest begins (its header, keys sorted): a file starting otherwise is not one.
+_HEADER_START = b'{"config": '
+
+
+def _is_chunk_file(path: Path) -> bool:
+    """Whether ``path`` (a regular file) is a chunk file of uqguide's: an npz with a run id."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            return {"run_id.npy", "packed.npy", "index.npy"} <= set(z.namelist())
+    except (OSError, zipfile.BadZipFile, ValueError):
+        return False
 
 
 def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
@@ -548,10 +629,6 @@ def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dic
             except (KeyError, TypeError, ValueError):
                 continue
     return header, entries
-
-
-#: What a run folder holds: anything else in it means it is not (only) ours.
-_RUN_FILE = re.compile(r"^(manifest\.jsonl|[A-Za-z0-9_.\-]+\.s\d+\.c\d+\.npz|\..+\.\d+\.tmp)$")
 
 
 # ---------------------------------------------------------------------------- the chunks
@@ -694,9 +771,8 @@ def write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int)
         "index": np.array(index), "packed": packed,
     }
     # fsynced file and folder: the rename must survive a power cut before the manifest line
-    with atomic_path(path, clean=False) as tmp:
-        with open(tmp, "wb") as f:
-            np.savez(f, **arrays)
+    with atomic_file(path, clean=False) as f:
+        np.savez(f, **arrays)
 
 
 def read_chunk(path: Path, task: Task) -> StoredChunk:
@@ -933,6 +1009,8 @@ class RunStore:
             raise ConfigError(f"{path} exists and is not a uqguide run folder; refusing to "
                               f"replace it (move it, or give this run another --out or name)",
                               field="out")
+        if path.is_dir():
+            store.manifest.check_names(resume)
         header, entries = store.manifest.read()
         if header is not None and resume:
             store.manifest.check_same_run(header)
@@ -948,7 +1026,10 @@ class RunStore:
             log.info("%s: a finished run of this config, stopped while writing; running it "
                      "again", path)
             store.manifest.remove()
+            known = True
             header, entries = store.manifest.read()
+        else:
+            known = False
         if entries and not resume:
             raise ConfigError(
                 f"{path} holds an unfinished run ({len(entries)} chunks done); continue it "
@@ -956,8 +1037,8 @@ class RunStore:
         if resume:
             log.info("nothing to resume at %s: starting a fresh run", path)
         if path.exists():
-            store.manifest.clear(header)
-        path.mkdir(parents=True)
+            store.manifest.clear(header, known)
+        make_folder(path)
         store.manifest.start()
         return store
 

@@ -675,7 +675,6 @@ def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_P
     Path
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     text = _json_text(sealed(to_jsonable(make_baseline(result, pce_rtol, roundoff)))) + "\n"
     return atomic.write_text(path, text)
 
@@ -739,7 +738,10 @@ def read_baseline(path: str | Path) -> Baseline:
     """
     path = Path(path)
     try:
-        size = path.stat().st_size
+        st = path.stat()
+        if not path.is_file():  # a FIFO's read would block
+            raise ResultError(f"{path}: baseline is not a regular file")
+        size = st.st_size
         if size > MAX_BASELINE_BYTES:
             raise ResultError(f"{path}: baseline is {size} bytes; a baseline is at most "
                               f"{MAX_BASELINE_BYTES} (is this a baseline?)")

@@ -164,7 +164,7 @@ def write_report(result: Result, out_dir: str | Path, check: CheckReport | None 
     ``<name>_report.md`` into ``out_dir``, with the regression ``check`` when given; return the
     report and the figures it embeds."""
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    atomic.make_folder(out)
     figures = write_figures(result, Path(figure_dir) if figure_dir else out / "figures")
     name = re.sub(r"[^A-Za-z0-9_.-]+", "_", result.name).strip("_.") or "result"
     path = atomic.write_text(out / f"{name}_report.md", render_report(result, figures, out, check))

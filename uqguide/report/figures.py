@@ -37,7 +37,8 @@ def save(fig: Figure, path: str | Path, dpi: float = 100, **kwargs: Any) -> Path
 
     ``kwargs`` go to :meth:`Figure.savefig` (e.g. ``bbox_inches="tight"``).
     """
-    return atomic.write_with(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png", **kwargs))
+    return atomic.write_with(path, lambda f: fig.savefig(f, dpi=dpi, format="png", **kwargs),
+                             binary=True)
 
 
 def colormap(name: str) -> Colormap:

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from scipy import stats as sps
 
+from ..core import atomic
 from .budget_plot import budget_figure, has_budget
 from .figures import Figure, new_figure, save
 from ..models.base import OutputInfo
@@ -508,7 +509,7 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
     Each is written whole or not at all; ``out_dir`` is made when missing.
     """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    atomic.make_folder(out)
     stem = _safe(result.name)
     files = []
     for o in result.outputs:

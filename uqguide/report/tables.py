@@ -657,7 +657,7 @@ def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
     list of Path
         The files written.
     """
-    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic.make_folder(out_dir)
     paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",
              out_dir / f"{stem}_summary.md"]
     # Each file whole or absent (temporary file, then rename): never a 0-byte table.

@@ -328,11 +328,16 @@ def write_hdf5(result: Result, path: str | Path) -> Path:
         ``path``, complete: an interrupted write leaves no file under this name.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     layout = file_layout(result)
-    with atomic.atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
-            write_group(f, layout)
+    with atomic.atomic_file(path) as tmp:
+        # HDF5 crashes the process at exit after a failed write (a full disk): it writes
+        # through a file that holds the error until the library has closed it.
+        raw = atomic.HeldErrorFile(tmp.fileno())
+        try:
+            with h5py.File(raw, "w") as f:
+                write_group(f, layout)
+        finally:
+            raw.close()
     return path
 
 
@@ -507,8 +512,9 @@ def read_hdf5(path: str | Path) -> Result:
         ResultError when the file is missing, not a uqguide result or incomplete.
     """
     path = Path(path)
-    if not path.is_file():
-        raise ResultError(f"{path}: result file not found")
+    if not path.is_file():  # (a FIFO's open would block)
+        raise ResultError(f"{path}: " + ("not a regular file" if path.exists() else
+                                         "result file not found"))
     try:
         with h5py.File(path, "r") as f:
             fmt = int(f.attrs.get("format", -1))
@@ -595,6 +601,8 @@ def read_config(path: str | Path) -> dict[str, Any]:
         Not a readable uqguide result file.
     """
     path = Path(path)
+    if path.exists() and not path.is_file():  # (a FIFO's open would block)
+        raise ResultError(f"{path}: not a regular file")
     try:
         with h5py.File(path, "r") as f:
             text = f.attrs["config_yaml"]

@@ -137,12 +137,17 @@ def write_inputs(path: Path, names: Sequence[str], x: np.ndarray, fmt: str) -> N
             for j, name in enumerate(names):
                 f.create_dataset(name, data=np.ascontiguousarray(x[:, j], dtype=np.float64))
         return
+    path.write_text(inputs_csv(names, x), encoding="utf-8")
+
+
+def inputs_csv(names: Sequence[str], x: np.ndarray) -> str:
+    """The CSV text of samples ``x`` (n, d) under the header ``names``."""
     # repr is the shortest string that reads back as the same double: the program sees the
     # very sample uqguide drew, so results do not depend on the file format.
     row = ",".join(["%r"] * len(names))  # one format per row: half the time of a join
     lines = [",".join(names)]
     lines += [row % tuple(r) for r in x.astype(float).tolist()]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return "\n".join(lines) + "\n"
 
 
 # ---------------------------------------------------------------------------- outputs
