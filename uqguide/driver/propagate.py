@@ -39,6 +39,8 @@ from ..core.types import Estimate, ModelOutput
 from .progress import Progress
 from ..config.report_times import check_config_report_times
 from ..results.result import MethodRun, Result, provenance
+from ..results.statistics import result_statistics
+from ..stats.moments import quiet_overflow
 
 log = logging.getLogger(__name__)
 
@@ -169,7 +171,8 @@ def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, st
             # does, until it says more itself ("fitting zem (2/7, 300 runs)")
             progress.phase("refining the design")
             try:
-                bigger = method.refine(space, design, out)
+                with quiet_overflow():  # fits only: the model ran before (say_overflow)
+                    bigger = method.refine(space, design, out)
             except _METHOD_FAILURES as exc:
                 fit_seconds += time.perf_counter() - t0
                 return _no_estimate(method), design, out, fit_seconds, _why(method, exc)
@@ -189,14 +192,44 @@ def _evaluate_and_estimate(method: Method, space: InputSpace, design: Design, st
     progress.phase("estimating")
     failure = ""
     try:
-        if isinstance(method, StreamingMethod):
-            estimate = method.estimate_reduced(space, design, out, acc)
-        else:
-            estimate = method.estimate(space, design, out)
+        with quiet_overflow():  # statistics only: the model ran before (say_overflow)
+            if isinstance(method, StreamingMethod):
+                estimate = method.estimate_reduced(space, design, out, acc)
+            else:
+                estimate = method.estimate(space, design, out)
     except _METHOD_FAILURES as exc:
         estimate, failure = _no_estimate(method), _why(method, exc)
     progress.phase("")
     return estimate, design, out, fit_seconds + time.perf_counter() - t0, failure
+
+
+def say_overflow(result: Result) -> list[str]:
+    """Log one warning per output whose moments overflowed double precision (outputs near
+    1e300: :func:`uqguide.stats.moments.overflowed`), naming the methods; the tables show
+    those moments as ``overflow``.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    list of str
+        The lines logged.
+    """
+    by_output: dict[str, list[str]] = {}
+    for label, described in result_statistics(result).items():
+        for name, v in described.items():
+            if v.overflows:
+                by_output.setdefault(name, []).append(label)
+    lines = []
+    for name, labels in by_output.items():
+        lines.append(f"{', '.join(labels)}: {name}: its values are too large for double "
+                     f"precision: the sums of their powers overflow (beyond 1.8e308), so its "
+                     f"std, skewness or kurtosis are not finite and show as 'overflow'; "
+                     f"give the output in a larger unit")
+        log.warning("%s", lines[-1])
+    return lines
 
 
 #: What a method may raise and still leave the run to the other methods: a MethodError (it
@@ -306,7 +339,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         # nothing to report: no result file, the reasons instead
         raise MethodError("\n".join(r.message for r in runs))
     time_grid = next((r.time for r in runs if r.time.size), np.zeros(0))
-    return Result(
+    result = Result(
         name=config.name,
         model=config.model.name,
         input_names=list(config.space.names),
@@ -318,6 +351,8 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         config=config.resolved(),
         provenance={**provenance(), "wall_seconds": time.perf_counter() - t0},
     )
+    say_overflow(result)
+    return result
 
 
 def containment_of(config: RunConfig) -> Containment:

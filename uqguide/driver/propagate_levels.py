@@ -25,6 +25,7 @@ from ..methods.base import Design
 from ..methods.mfmc import MultiFidelityMC
 from ..models.base import Model
 from ..results.result import MethodRun
+from ..stats.moments import quiet_overflow
 from .surrogate_level import SurrogateLevel
 from .checkpoint import RunStore
 from .execution import Containment, Executor, Task, Timing, common_grid
@@ -77,7 +78,8 @@ def propagate_levels(method: MultiFidelityMC, model: Model, space: InputSpace,
             pilot.append(out)
         # CPU, not wall seconds: on a shared machine the wall clock counts the neighbours' load
         pilot_cost = [t.cpu_seconds / max(t.n_runs, 1) for t in timings]
-        plan = method.allocate(pilot, pilot_cost)
+        with quiet_overflow():  # (as propagate's fits: the model ran before)
+            plan = method.allocate(pilot, pilot_cost)
         log.info("%s: levels %s, runs %s (estimated variance reduction %.3g)", method.label,
                  plan.levels, list(plan.sizes), 1.0 / plan.allocation.variance_ratio)
         runs = []
@@ -88,9 +90,10 @@ def propagate_levels(method: MultiFidelityMC, model: Model, space: InputSpace,
                         ModelOutput.concatenate(common_grid([pilot[i], more])))
         t_fit = time.perf_counter()
         progress.phase("estimating")
-        estimate = method.estimate_levels(
-            runs, plan, design, [t.cpu_seconds for t in timings], pilot_cost,
-            surrogate_cpu_s=sum(sg.fixed_cpu_s for sg in surrogates.values()))
+        with quiet_overflow():
+            estimate = method.estimate_levels(
+                runs, plan, design, [t.cpu_seconds for t in timings], pilot_cost,
+                surrogate_cpu_s=sum(sg.fixed_cpu_s for sg in surrogates.values()))
         progress.phase("")
     fit_seconds = time.perf_counter() - t_fit
     estimate.diagnostics["fit_seconds"] = fit_seconds
