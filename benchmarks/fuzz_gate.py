@@ -1,20 +1,17 @@
 """Gate fuzz: corrupt and adversarial baselines, results and options fed to the regression gate.
 
-Makes one small real result (a callable model with a scalar and a series output, Monte Carlo
-and full-tensor PCE) and its baseline, then derives 60+ cases from them: baselines with empty
-or missing parts, non-finite, negative, hand-loosened or absurd numbers, wrong components,
-kinds or times, not JSON or not an object; result files with a config that is not YAML, stats
-of the wrong shape or type, missing groups, a truncated file; tolerance options inf, nan, 0,
-negative; and a few real regressions (a shifted mean). Each case runs ``uqguide check``,
-``baseline``, ``plot``, ``report`` or ``read_hdf5`` in a fresh process with a 60 s timeout.
+One small real result (a callable model, Monte Carlo and full-tensor PCE) and its baseline give
+the cases: baselines with empty, missing, non-finite, loosened or absurd parts (each edit once by
+hand, once re-sealed as uqguide would), error bars loosened within the old rules, a baseline
+re-sealed as if it had made 20 of its 400 runs, the keyed seal (``UQGUIDE_BASELINE_KEY``,
+``check --require-key``) against re-sealing without the key; corrupt result files; tolerance
+options out of range; a few real regressions. Each runs ``uqguide`` in a fresh process (60 s).
 
 Expected: exit 2 with one ``error:`` line for an unusable input, exit 1 for a real regression,
-exit 0 only for the untouched pair; never a traceback, a hang, or ``PASS: 0 statistics``.
+exit 0 only where nothing the gate relies on changed; never a traceback, a hang, a wrong pass
+(exit 0 where 1 or 2 is expected), or ``PASS: 0 statistics``.
 
-Usage::
-
-    python benchmarks/fuzz_gate.py            # every case, prints the tally
-    python benchmarks/fuzz_gate.py --list     # the case names
+Usage: ``python benchmarks/fuzz_gate.py`` (every case, prints the tally; ``--list``: the names).
 """
 
 from __future__ import annotations
@@ -28,14 +25,14 @@ import sys
 import tempfile
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # the test models live in tests/
     sys.path.insert(0, str(ROOT))
 
-from uqguide.gate.baseline import sealed  # noqa: E402
+from uqguide.gate.baseline import KEY_ENV, delta_std_se, sealed  # noqa: E402
 
 
 @dataclass
@@ -43,6 +40,11 @@ class Case:
     name: str
     args: list[str]       # uqguide arguments
     expect: int           # 0 pass, 1 regression, 2 unusable input
+    env: dict[str, str] = field(default_factory=dict)  # beyond the process's own
+
+
+#: The keyed seal's key in the cases that set one (``UQGUIDE_BASELINE_KEY``).
+KEY = "fuzz-gate-key-0123456789abcdef"
 
 
 def base_config() -> dict:
@@ -131,6 +133,49 @@ def _baseline_mutations() -> list[tuple[str, Callable[[dict], object], int]]:
             e["n_in"] = min(e["n_used"], e["n_in"] + by_runs)
             e["probability"] = e["n_in"] / e["n_used"]
             e["ci"] = list(clopper_pearson(e["n_in"], e["n_used"]))
+        return f
+
+    def std_se_x(factor, std_by=1.0):
+        """The std's error bar set to ``factor`` times what the point's own numbers give
+        (inside the old x3 rule), the std itself moved by ``std_by`` (its mean_se with it)."""
+        def f(d):
+            o = d["methods"]["mc"]["outputs"]["y"]
+            p = o["points"][0]
+            p["std"] *= std_by
+            p["mean_se"] = p["std"] / o["n_used"] ** 0.5
+            p["std_se"] = factor * delta_std_se(p["std"], p["kurtosis"], o["n_used"])
+        return f
+
+    def std_regressed(sigmas):
+        """The baseline's std below the run's by ``sigmas`` combined standard errors of two
+        runs of its size, with the std's error bar x2.9: the old x3 rule passed it."""
+        def f(d):
+            o = d["methods"]["mc"]["outputs"]["y"]
+            p = o["points"][0]
+            rel = sigmas * 2 ** 0.5 * ((p["kurtosis"] - 1) / (4 * o["n_used"])) ** 0.5
+            std_se_x(2.9, 1.0 - rel)(d)
+        return f
+
+    def few_runs(n, then=None):
+        """The Monte Carlo method re-sealed as if it had made ``n`` runs: every count, standard
+        error and the config say so, consistently (error bars sqrt(400 / n) wider)."""
+        def f(d):
+            m = d["methods"]["mc"]
+            scale = (m["n_runs"] / n) ** 0.5
+            m["n_runs"], m["n_failed"] = n, 0
+            for o in m["outputs"].values():
+                o["n_used"] = n
+                for p in o["points"]:
+                    if p.get("std") is not None:
+                        p["mean_se"] = p["std"] / n ** 0.5
+                    for k in ("std_se", "skewness_se", "kurtosis_se"):
+                        if p.get(k) is not None:
+                            p[k] *= scale
+            for meth in d["config"]["methods"]:
+                if meth.get("label") == "mc":
+                    meth["n_samples"] = n
+            if then is not None:
+                then(d)
         return f
 
     def drop_quantiles(d):
@@ -227,6 +272,16 @@ def _baseline_mutations() -> list[tuple[str, Callable[[dict], object], int]]:
          and None, 2),
         ("event shifted 80 of 400 runs", shift_event(80), 1),
         ("event shifted 1 run", shift_event(1), 0),
+        # issue 44: error bars loosened within what the old rules let through
+        ("mean_se off by 1e-9 relative", lambda d: pt(d).__setitem__(
+            "mean_se", pt(d)["mean_se"] * (1 + 1e-9)), 2),
+        ("std_se x2.9 (the std's error bar is recomputed, so it loosens nothing)",
+         std_se_x(2.9), 0),
+        ("std_se x2.9 and the std 6 combined se below", std_regressed(6.0), 1),
+        ("few runs: 20 of 400, re-sealed", few_runs(20), 2),
+        ("few runs: 20 of 400, re-sealed, mean shifted 8 se", few_runs(20, shift_mean(
+            "mc", "y", 8.0)), 2),
+        ("few runs: 100 of 400, re-sealed (within 10x)", few_runs(100), 0),
     ]
     return m
 
@@ -313,6 +368,7 @@ def build_cases(folder: Path) -> list[Case]:
             p.write_text(json.dumps(sealed(d)))
             cases.append(Case(f"baseline, sealed: {name}", ["check", str(h5), "--baseline",
                                                             str(p)], expect))
+    cases += _keyed_cases(folder, h5, data)
     for i, (name, text, expect) in enumerate(_raw_baselines()):
         p = folder / f"raw{i:03d}.json"
         p.write_text(text)
@@ -356,6 +412,64 @@ def build_cases(folder: Path) -> list[Case]:
     return cases
 
 
+def _keyed_cases(folder: Path, h5: Path, data: dict) -> list[Case]:
+    """The keyed seal (``UQGUIDE_BASELINE_KEY``): what a baseline re-sealed without the key
+    gives, with and without ``--require-key``."""
+    key = KEY.encode()
+    with_key = {KEY_ENV: KEY}
+    edits = {name: f for name, f, _ in _baseline_mutations()}
+    shifted, few = copy.deepcopy(data), copy.deepcopy(data)
+    edits["mean shifted 8 se"](shifted)
+    edits["few runs: 20 of 400, re-sealed"](few)
+    good = sealed(copy.deepcopy(data), key)
+    files = {
+        "good": good,
+        "edited, stale seal": _with_seal(sealed(shifted), good["seal"]),
+        "few runs, stale seal": _with_seal(sealed(few), good["seal"]),
+        "seal stripped": sealed(copy.deepcopy(data)),
+        "other key": sealed(copy.deepcopy(data), b"another key"),
+    }
+    paths = {}
+    for i, (name, d) in enumerate(files.items()):
+        paths[name] = folder / f"k{i:03d}.json"
+        paths[name].write_text(json.dumps(d))
+
+    def case(name: str, file: str, require: bool, env: dict[str, str], expect: int) -> Case:
+        args = ["check", str(h5), "--baseline", str(paths[file])]
+        return Case(f"keyed seal: {name}", args + (["--require-key"] if require else []),
+                    expect, env)
+
+    return [
+        case("sealed, --require-key, key set", "good", True, with_key, 0),
+        case("sealed, key set", "good", False, with_key, 0),
+        case("sealed, key not set", "good", False, {}, 0),
+        case("sealed, --require-key, key not set", "good", True, {}, 2),
+        case("sealed, --require-key, key empty", "good", True, {KEY_ENV: ""}, 2),
+        case("mean shifted 8 se, digest redone, stale seal, key set", "edited, stale seal",
+             False, with_key, 2),
+        case("mean shifted 8 se, digest redone, stale seal, --require-key",
+             "edited, stale seal", True, with_key, 2),
+        case("few runs, digest redone, stale seal, --require-key", "few runs, stale seal",
+             True, with_key, 2),
+        case("seal stripped, digest redone, --require-key", "seal stripped", True, with_key, 2),
+        case("seal stripped, digest redone, key set (a note)", "seal stripped", False,
+             with_key, 0),
+        case("sealed with another key, key set", "other key", False, with_key, 2),
+        case("sealed with another key, --require-key", "other key", True, with_key, 2),
+    ]
+
+
+def _with_seal(d: dict, seal: str) -> dict:
+    """``d`` (digest and all) with ``seal`` put back and the digest redone over it: what
+    someone without the key can make of an edit."""
+    from uqguide.gate.baseline import baseline_digest
+
+    out = {k: v for k, v in d.items()}
+    out["seal"] = seal
+    out["digest"] = baseline_digest(out)
+    return out
+
+
 @dataclass
 class Outcome:
     case: Case
@@ -384,7 +498,8 @@ class Outcome:
 
 
 def run_case(case: Case, timeout: float = 60.0) -> Outcome:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env = {k: v for k, v in os.environ.items() if k != KEY_ENV}
+    env.update({"PYTHONPATH": str(ROOT), **case.env})
     try:
         p = subprocess.run([sys.executable, "-m", "uqguide.cli", *case.args], cwd=ROOT, env=env,
                            capture_output=True, text=True, timeout=timeout)
@@ -396,9 +511,11 @@ def run_case(case: Case, timeout: float = 60.0) -> Outcome:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--list", action="store_true")
+    ap.add_argument("--match", default="", help="only the cases whose name holds this")
     args = ap.parse_args()
+    os.environ.pop(KEY_ENV, None)  # the base baseline unsealed; the keyed cases set their own
     with tempfile.TemporaryDirectory(prefix="uq_gatefuzz_") as tmp:
-        cases = build_cases(Path(tmp))
+        cases = [c for c in build_cases(Path(tmp)) if args.match in c.name]
         if args.list:
             print("\n".join(c.name for c in cases))
             return 0
@@ -412,8 +529,9 @@ def main() -> int:
           f"got exit 1: {codes[(1, 1)]}")
     print(f"  expected exit 0 (pass): {sum(c.expect == 0 for c in cases)}, got exit 0: "
           f"{codes[(0, 0)]}")
+    wrong_passes = sum(o.code == 0 and o.case.expect != 0 for o in outcomes)
     print(f"  tracebacks: {tally['traceback']}, hangs: {tally['hang']}, "
-          f"'PASS: 0 statistics': {tally['passed nothing']}")
+          f"'PASS: 0 statistics': {tally['passed nothing']}, wrong passes: {wrong_passes}")
     bad = [o for o in outcomes if o.verdict != "ok"]
     for o in bad:
         last = (o.stderr.strip().splitlines() or [""])[-1][:150]

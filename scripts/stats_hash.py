@@ -6,7 +6,8 @@ the baseline form the regression gate keeps (mean, std, skewness, kurtosis, thei
 and probabilities, per method, output, point and component; no timings, no dates), and that JSON
 is hashed. Run it before and after a change that should be a pure move or refactor: the last
 line, ``ALL <hash>``, must be the same. It is not a tolerance check (that is the gate's job): one
-changed bit in any statistic changes the hash.
+changed bit in any statistic changes the hash. Run both in one checkout folder: the same code
+at another path gave other last bits in ft_as_dispersion's PCE index intervals (2026-12-07).
 
 Usage::
 

@@ -156,3 +156,14 @@ def swallows_a_sigterm(x):
 
 
 _swallowed: list = []
+
+
+def huge(x):
+    """``y = a + b^2`` beside ``big = 1e300 y`` (the sums of its squares overflow double
+    precision) and ``mid = 1e100 y`` (those of its 3rd and 4th powers do), and the series
+    ``path = 1e300 a t``."""
+    a, b = x[:, 0], x[:, 1]
+    y = a + b**2
+    t = np.linspace(0.0, 1.0, 3)
+    return {"time": t, "y": y, "big": 1e300 * y, "mid": 1e100 * y,
+            "path": 1e300 * a[:, None] * t[None, :]}

@@ -169,6 +169,9 @@ def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
 @click.option("--check-sensitivity", is_flag=True,
               help="With --check, also compare the Sobol' indices within their combined "
                    "intervals (as `uqguide check --sensitivity`; a format 4 baseline).")
+@click.option("--check-require-key", is_flag=True,
+              help="With --check, refuse the baseline unless it carries a keyed seal made "
+                   "with the key in UQGUIDE_BASELINE_KEY (as `uqguide check --require-key`).")
 @click.option("-q", "--quiet", is_flag=True,
               help="No progress display (and no budget lines) on stderr.")
 @click.option("--strict", is_flag=True,
@@ -178,7 +181,7 @@ def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, no_workers_timeout: int | None,
         resume: bool, force: bool, check_path: Path | None, check_sensitivity: bool,
-        quiet: bool, strict: bool) -> None:
+        check_require_key: bool, quiet: bool, strict: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .config.budget import estimate
     from .driver.run_folder import RunInterrupted
@@ -192,9 +195,11 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .commands.run_and_write import WriteInterrupted, run_and_write
 
     _check_executor_flags(workers, scheduler, scheduler_file, no_workers_timeout)
-    if check_sensitivity and not check_path:
-        raise click.UsageError("--check-sensitivity compares with a baseline: give it with "
-                               "--check BASELINE.json")
+    for flag, given in (("--check-sensitivity", check_sensitivity),
+                        ("--check-require-key", check_require_key)):
+        if given and not check_path:
+            raise click.UsageError(f"{flag} compares with a baseline: give it with "
+                                   f"--check BASELINE.json")
     executor: Executor | None = None
     if workers and not (scheduler or scheduler_file):
         # local workers start importing now, while the config is read and checked
@@ -205,8 +210,8 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         cfg = load_config(config)
         if seed is not None:
             cfg = cfg.with_seed(seed)
-        baseline = (_gate_preflight(check_path, cfg, check_sensitivity) if check_path
-                    else None)
+        baseline = (_gate_preflight(check_path, cfg, check_sensitivity, check_require_key)
+                    if check_path else None)
         if not quiet:
             click.echo("budget:", err=True)
             for line in estimate(cfg, workers or 1).lines():
@@ -416,11 +421,12 @@ def _unusable_input_is_2(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 @_unusable_input_is_2
-def _gate_preflight(path: Path, cfg: Any, sensitivity: bool = False) -> Any:
+def _gate_preflight(path: Path, cfg: Any, sensitivity: bool = False,
+                    require_key: bool = False) -> Any:
     """The baseline of ``run --check``, matched to the config before anything runs."""
     from .gate.check import check_compatible, check_sensitivity_possible, read_baseline
 
-    baseline = read_baseline(path)
+    baseline = read_baseline(path, require_key)
     check_compatible(baseline, cfg.model.name, {m.label: m.name for m in cfg.methods},
                      {o: cfg.model.output_info(o) for o in cfg.outputs}, str(path))
     if sensitivity:
@@ -484,10 +490,13 @@ _RESULT_ARG = click.argument("result_path", metavar="RESULT",
 @click.option("--sensitivity", is_flag=True,
               help="Also compare the Sobol' indices (the error budget) within their "
                    "combined intervals; the baseline must hold them (format 4).")
+@click.option("--require-key", is_flag=True,
+              help="Refuse (exit 2) a baseline without a keyed seal made with the key in "
+                   "UQGUIDE_BASELINE_KEY: its digest alone detects accidental edits only.")
 @_handle_errors
 @_unusable_input_is_2
 def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol: float | None,
-          show_all: bool, sensitivity: bool) -> None:
+          show_all: bool, sensitivity: bool, require_key: bool) -> None:
     """Compare the statistics of RESULT with a baseline.
 
     Exit 0 when every statistic is within tolerance, 1 on a regression (the failing quantities
@@ -496,7 +505,7 @@ def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol
     from .gate.check import read_baseline
     from .results.result import read_hdf5
 
-    baseline = read_baseline(baseline_path)
+    baseline = read_baseline(baseline_path, require_key)
     _gate_verdict(read_hdf5(result_path), baseline, baseline_path, sigmas, pce_rtol, show_all,
                   sensitivity)
 
@@ -511,14 +520,21 @@ def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol
 @_handle_errors
 @_unusable_input_is_2
 def baseline(result_path: Path, out_path: Path, pce_rtol: float, force: bool) -> None:
-    """Write the baseline of RESULT: its statistics, their uncertainties, config and versions."""
+    """Write the baseline of RESULT: its statistics, their uncertainties, config and versions.
+
+    With UQGUIDE_BASELINE_KEY set it also carries a keyed seal (HMAC-SHA256) that
+    `uqguide check --require-key` verifies.
+    """
+    from .gate.baseline import KEY_ENV, baseline_key
     from .gate.check import write_baseline
     from .results.result import read_hdf5
 
     if out_path.exists() and not force:
         raise ConfigError(f"{out_path}: baseline exists; baselines change only on purpose: "
                           f"pass --force to replace it")
-    click.echo(f"wrote {write_baseline(read_hdf5(result_path), out_path, pce_rtol)}")
+    written = write_baseline(read_hdf5(result_path), out_path, pce_rtol)
+    how = f" (sealed with the key in {KEY_ENV})" if baseline_key() is not None else ""
+    click.echo(f"wrote {written}{how}")
 
 
 @main.command()

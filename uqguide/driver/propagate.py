@@ -31,6 +31,7 @@ from ..methods.base import Design, Method
 from ..models.base import Model
 from .progress import Progress
 from ..results.result import MethodRun, Result, provenance
+from ..results.statistics import result_statistics
 
 log = logging.getLogger(__name__)
 
@@ -117,6 +118,35 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     )
 
 
+def say_overflow(result: Result) -> list[str]:
+    """Log one warning per output whose moments overflowed double precision (outputs near
+    1e300: :func:`uqguide.stats.moments.overflowed`), naming the methods; the tables show
+    those moments as ``overflow``.
+
+    Parameters
+    ----------
+    result : Result
+
+    Returns
+    -------
+    list of str
+        The lines logged.
+    """
+    by_output: dict[str, list[str]] = {}
+    for label, described in result_statistics(result).items():
+        for name, v in described.items():
+            if v.overflows:
+                by_output.setdefault(name, []).append(label)
+    lines = []
+    for name, labels in by_output.items():
+        lines.append(f"{', '.join(labels)}: {name}: its values are too large for double "
+                     f"precision: the sums of their powers overflow (beyond 1.8e308), so its "
+                     f"std, skewness or kurtosis are not finite and show as 'overflow'; "
+                     f"give the output in a larger unit")
+        log.warning("%s", lines[-1])
+    return lines
+
+
 def _in_context(method: Method, model: Model, outputs: tuple[str, ...]
                 ) -> tuple[Method, tuple[str, ...]]:
     """The method in the context of this propagation (its outputs and the model's
@@ -197,7 +227,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         # nothing to report: no result file, the reasons instead
         raise MethodError("\n".join(r.message for r in runs))
     time_grid = next((r.time for r in runs if r.time.size), np.zeros(0))
-    return Result(
+    result = Result(
         name=config.name,
         model=config.model.name,
         input_names=list(config.space.names),
@@ -209,6 +239,8 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         config=config.resolved(),
         provenance={**provenance(), "wall_seconds": time.perf_counter() - t0},
     )
+    say_overflow(result)
+    return result
 
 
 def _chunks_kept(store: RunStore | None, progress: Progress) -> int:

@@ -22,8 +22,10 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import hmac
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any, Literal
 
@@ -184,12 +186,7 @@ class BaselineOutput(_Strict):
             if self.moments_method == "mfmc" and p.std is not None:
                 _check_multifidelity_se(p, self.n_used, where)
             elif sample and p.std is not None:
-                # The standard error of the mean is std / sqrt(n_used) (stats.py): a baseline
-                # whose error bars were loosened by hand no longer fits its own numbers.
-                sem = p.std / math.sqrt(self.n_used)
-                if p.mean_se is None or abs(p.mean_se - sem) > 1e-6 * sem + 1e-300:
-                    raise ValueError(f"{where}.mean_se must be std / sqrt(n_used) = {sem:.6g} "
-                                     f"(got {p.mean_se!r})")
+                _check_mean_se(p, self.n_used, where)
                 for stat in ("std", "skewness", "kurtosis"):
                     if getattr(p, stat) is not None and getattr(p, f"{stat}_se") is None:
                         raise ValueError(f"{where}.{stat}_se: missing for a sample statistic")
@@ -197,6 +194,26 @@ class BaselineOutput(_Strict):
             if sample:
                 _check_quantile_intervals(p, self.n_used, where)
         return self
+
+
+#: How far a stored ``mean_se`` may lie from ``std / sqrt(n_used)`` recomputed here, in units
+#: in the last place of that value. The result computes it the same way (``std / np.sqrt(n)``,
+#: :func:`uqguide.stats.moments.statistics_from_sums`): two correctly rounded operations on the
+#: same doubles, which the file keeps exactly (shortest repr), so it is equal on every point of
+#: the shipped golden baselines. 2 ulps leave room for a path that multiplies by
+#: ``1 / sqrt(n)`` (three roundings instead of two) and for no error bar a hand could loosen.
+MEAN_SE_ULPS = 2.0
+
+
+def _check_mean_se(p: BaselinePoint, n_used: int, where: str) -> None:
+    """A sample point's ``mean_se``: the one its own std and run count give, to the round-off
+    (a baseline whose error bars were loosened by hand no longer fits its own numbers)."""
+    assert p.std is not None
+    sem = p.std / math.sqrt(n_used)
+    if p.mean_se is None or abs(p.mean_se - sem) > MEAN_SE_ULPS * math.ulp(sem):
+        raise ValueError(f"{where}.mean_se must be std / sqrt(n_used) = {sem!r} to the "
+                         f"round-off ({MEAN_SE_ULPS:g} ulps) (got {p.mean_se!r}); regenerate "
+                         f"the baseline rather than edit it")
 
 
 #: How much larger than plain MC's ``std / sqrt(n_used)`` over its highest level's runs a
@@ -274,10 +291,16 @@ def _check_quantile_intervals(p: BaselinePoint, n_used: int, where: str) -> None
 STD_SE_FACTOR = 3.0
 
 
+def delta_std_se(std: float, kurtosis: float, n_used: int) -> float:
+    """The delta method's standard error of a sample std, ``std sqrt((kurtosis - 1) / (4 n))``
+    (kurtosis non-excess; the std's influence function is ``sigma (z^2 - 1) / 2``)."""
+    return std * math.sqrt(max(kurtosis - 1.0, 0.0) / (4.0 * max(n_used, 1)))
+
+
 def _check_std_se(p: BaselinePoint, n_used: int, where: str) -> None:
     if p.std is None or p.std <= 0 or p.kurtosis is None or p.std_se is None:
         return
-    expected = p.std * math.sqrt(max(p.kurtosis - 1.0, 0.0) / (4.0 * n_used))
+    expected = delta_std_se(p.std, p.kurtosis, n_used)
     if expected > 0 and not expected / STD_SE_FACTOR <= p.std_se <= expected * STD_SE_FACTOR:
         raise ValueError(
             f"{where}.std_se {p.std_se:.6g} does not fit the point's own std, kurtosis and "
@@ -383,6 +406,8 @@ class Baseline(_Strict):
     format_version: Literal[2, 3, 4]
     #: checked by read_baseline against the file's content (an in-memory baseline has none)
     digest: str = ""
+    #: keyed seal (:func:`baseline_seal`), where the baseline was written with a key
+    seal: str = ""
     name: str
     model: str
     created_utc: str
@@ -628,8 +653,9 @@ def baseline_digest(data: dict[str, Any]) -> str:
     """SHA-256 of a baseline's content, everything but the ``digest`` itself.
 
     The statistics, their standard errors, the tolerances and the config a baseline was made
-    with are what the gate trusts; the digest makes any change to them by hand visible, so a
-    baseline changes only by being written again from a result.
+    with are what the gate trusts; the digest makes an accidental change to them visible, so a
+    baseline changes only by being written again from a result. Anyone can compute it again
+    after an edit: against a deliberate one only the keyed seal (:func:`baseline_seal`) holds.
 
     Parameters
     ----------
@@ -646,16 +672,92 @@ def baseline_digest(data: dict[str, Any]) -> str:
     return "sha256:" + hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-def sealed(data: dict[str, Any]) -> dict[str, Any]:
-    """``data`` (JSON-ready) with its digest, placed after ``format_version``."""
+#: The environment variable holding the key of the baselines' keyed seal.
+KEY_ENV = "UQGUIDE_BASELINE_KEY"
+SEAL_PREFIX = "hmac-sha256:"
+
+
+def baseline_key() -> bytes | None:
+    """The seal key from :data:`KEY_ENV` (UTF-8 bytes), None where it is unset or empty."""
+    key = os.environ.get(KEY_ENV, "")
+    return key.encode("utf-8") if key else None
+
+
+def baseline_seal(data: dict[str, Any], key: bytes) -> str:
+    """HMAC-SHA256 under ``key`` of a baseline's content, everything but ``digest`` and
+    ``seal``: only who holds the key can write a baseline that carries a valid one.
+
+    Parameters
+    ----------
+    data : dict
+        The baseline as JSON-ready values (:func:`to_jsonable`).
+    key : bytes
+
+    Returns
+    -------
+    str
+        ``"hmac-sha256:<hex>"``.
+    """
+    body = {k: v for k, v in data.items() if k not in ("digest", "seal")}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return SEAL_PREFIX + hmac.new(key, text.encode("utf-8"), hashlib.sha256).hexdigest()
+
+
+def sealed(data: dict[str, Any], key: bytes | None = None) -> dict[str, Any]:
+    """``data`` (JSON-ready) with its digest, placed after ``format_version``, and with a
+    ``key`` its keyed seal after the digest (which covers the seal)."""
     out: dict[str, Any] = {}
     for k, v in data.items():
-        if k != "digest":
+        if k not in ("digest", "seal"):
             out[k] = v
         if k == "format_version":
             out["digest"] = ""
-    out["digest"] = baseline_digest(data)
+            if key is not None:
+                out["seal"] = ""
+    if key is not None:
+        out["seal"] = baseline_seal(out, key)
+    out["digest"] = baseline_digest(out)
     return out
+
+
+def check_seal(data: dict[str, Any], source: str, require_key: bool = False) -> None:
+    """ResultError unless ``data``'s keyed seal fits: a seal present and a key set must agree;
+    with ``require_key`` a key must be set and the baseline carry a seal made with it.
+
+    Parameters
+    ----------
+    data : dict
+        The decoded baseline.
+    source : str
+        How to name it in messages.
+    require_key : bool
+        ``uqguide check --require-key``: refuse a baseline without a valid seal.
+    """
+    key = baseline_key()
+    seal = data.get("seal") or ""
+    if require_key and key is None:
+        raise ResultError(f"{source}: --require-key: {KEY_ENV} is not set (or empty), so "
+                          f"no seal can be verified; set it to the key the baseline was "
+                          f"written with")
+    if require_key and not seal:
+        raise ResultError(f"{source}: --require-key: the baseline has no keyed seal; write it "
+                          f"again with {KEY_ENV} set (`uqguide baseline RESULT -o FILE --force`)")
+    if seal and key is not None and not hmac.compare_digest(
+            str(seal), baseline_seal(data, key)):
+        raise ResultError(f"{source}: the baseline's keyed seal does not match its content "
+                          f"under the key in {KEY_ENV}: it was changed after it was written, or "
+                          f"sealed with another key; write it again with the key set")
+
+
+def seal_note(baseline: Baseline) -> str:
+    """What the check can say of a baseline's seal that :func:`check_seal` let through."""
+    key = baseline_key()
+    if baseline.seal and key is None:
+        return f"the baseline's keyed seal is not verified ({KEY_ENV} is not set)"
+    if not baseline.seal and key is not None:
+        return ("the baseline has no keyed seal (its digest detects accidental edits only); "
+                "`uqguide check --require-key` refuses such a baseline")
+    return ""
 
 
 def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_PCE_RTOL,
@@ -675,7 +777,8 @@ def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_P
     Path
     """
     path = Path(path)
-    text = _json_text(sealed(to_jsonable(make_baseline(result, pce_rtol, roundoff)))) + "\n"
+    text = _json_text(sealed(to_jsonable(make_baseline(result, pce_rtol, roundoff)),
+                             baseline_key())) + "\n"
     return atomic.write_text(path, text)
 
 
@@ -724,13 +827,16 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not a JSON number (a baseline writes NaN as null)")
 
 
-def read_baseline(path: str | Path) -> Baseline:
+def read_baseline(path: str | Path, require_key: bool = False) -> Baseline:
     """Read and validate a baseline file; ResultError if it is missing, corrupt, not one, or
-    edited since it was written (its digest, :func:`baseline_digest`).
+    edited since it was written (its digest, :func:`baseline_digest`, and its keyed seal,
+    :func:`check_seal`).
 
     Parameters
     ----------
     path : str or Path
+    require_key : bool
+        Refuse a baseline without a seal made with the key in :data:`KEY_ENV`.
 
     Returns
     -------
@@ -765,4 +871,5 @@ def read_baseline(path: str | Path) -> Baseline:
                           f"does not match its content); a baseline changes only by being "
                           f"written again: `uqguide baseline RESULT -o FILE --force` (golden "
                           f"baselines: scripts/update_golden.py)")
+    check_seal(data, str(path), require_key)
     return baseline

@@ -11,11 +11,12 @@ baseline's at the same points:
 - **Monte Carlo** (``moments_method == "sample"``): the two estimates are independent, so their
   difference has standard error ``sqrt(se_a^2 + se_b^2)``; it fails beyond ``sigmas`` (default 4)
   of these. The standard error of the mean is ``sem = std / sqrt(n)``; that of std, skewness and
-  kurtosis is the half-width of the 95% bootstrap interval over 1.96 (the percentile interval of
-  a near-normal estimator is ``+-1.96 se``). Where a result has no bootstrap interval (bootstrap
-  off, or a series step that is not a report time) the normal-theory values ``std / sqrt(2n)``,
-  ``sqrt(6/n)`` and ``sqrt(24/n)`` are used; they understate the spread of heavy-tailed outputs,
-  which is why the bootstrap is preferred. With 4 sigmas a single quantity of a reseeded rerun
+  kurtosis is the half-width of the result's 95% interval over 1.96 (the intervals of
+  :mod:`uqguide.stats.tail_intervals` by default); the baseline's std error is recomputed from
+  its own std, kurtosis and run count (delta method), its skewness and kurtosis errors are the
+  stored ones, and the run counts must lie within ``RUNS_RATIO``. Where a result has no
+  interval the normal-theory values ``std / sqrt(2n)``, ``sqrt(6/n)`` and ``sqrt(24/n)`` are
+  used. With 4 sigmas a single quantity of a reseeded rerun
   fails with probability about 6e-5, so a check of a few hundred quantities stays green; a
   shift of a mean by 5 or more combined standard errors fails nearly always.
 - **PCE** (``moments_method`` ``"exact"`` or ``"surrogate-sampling"``): the estimate is a
@@ -79,8 +80,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .baseline import (
-    SAMPLE_EVENTS, Z95, Baseline, BaselineEvent, BaselineOutput, BaselinePoint, index_values,
-    to_jsonable, read_baseline, write_baseline,
+    SAMPLE_EVENTS, Z95, Baseline, BaselineEvent, BaselineOutput, BaselinePoint, delta_std_se,
+    index_values, seal_note, to_jsonable, read_baseline, write_baseline,
 )
 from ..core.events import EventEstimate
 from .tolerances import DEFAULT_PCE_RTOL, DEFAULT_SIGMAS, check_tolerance
@@ -100,6 +101,9 @@ __all__ = ["DEFAULT_PCE_RTOL", "DEFAULT_SIGMAS", "Baseline", "CheckReport", "Che
 ROUNDOFF_RTOL = 1e-6
 #: A std below this fraction of the component's peak std makes skewness and kurtosis meaningless.
 STD_ZERO_RTOL = 1e-8
+#: How far apart the run counts (``n_used``) of a sample output's baseline and result may be
+#: (:func:`_runs_ratio`).
+RUNS_RATIO = 10.0
 
 
 class _Absent:
@@ -411,11 +415,12 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
                 continue
             if stat in ("skewness", "kurtosis") and not (std_a > zero_std and std_b > zero_std):
                 row.passed, row.note = True, "skipped: std ~ 0 (ratio of round-off)"
+                if math.isinf(std_a) or (math.isnan(std_b) and p.mean is not None):
+                    row.note = "skipped: std not finite (its sums overflowed)"
                 continue
             if sample:
-                se_b = getattr(p, f"{stat}_se")
-                se_b = math.nan if se_b is None else se_b
                 se_a = s.standard_error(stat, where)
+                se_b = _baseline_moment_se(p, stat, bo.n_used, bo.moments_method)
                 comb = math.hypot(se_a, se_b)  # no overflow of the squares
                 row.tolerance = max(sigmas * comb, floor) if math.isfinite(comb) else floor
                 row.basis = f"{sigmas:g} x combined SE {_fmt(comb)}" \
@@ -472,13 +477,46 @@ def _compare_indices(label: str, name: str, p: BaselinePoint,
 
 
 def _verdict(row: CheckRow, a: float, b: float) -> None:
-    if math.isnan(a) and math.isnan(b):
-        row.passed, row.note = True, "NaN in both"
-    elif math.isnan(a) or math.isnan(b):
+    # not finite: NaN (no spread), or a moment whose sums overflowed (an output near 1e300:
+    # inf in the result, null in the baseline)
+    if not math.isfinite(a) and not math.isfinite(b):
+        row.passed, row.note = True, "NaN in both" if math.isnan(a) else "not finite in both"
+    elif not math.isfinite(a) or not math.isfinite(b):
         row.passed = False
-        row.note = "NaN in the " + ("result" if math.isnan(a) else "baseline")
+        row.note = "NaN in the " + ("result" if not math.isfinite(a) else "baseline")
     else:
         row.passed = abs(a - b) <= row.tolerance
+
+
+def _baseline_moment_se(p: BaselinePoint, stat: str, n_used: int, moments_method: str
+                        ) -> float:
+    """The baseline's standard error of a sample moment.
+
+    The std's (plain runs) is recomputed from the point's own std, kurtosis and ``n_used``
+    (:func:`delta_std_se`), numbers the gate compares with the result's, so a ``std_se``
+    loosened by hand loosens nothing; a multi-fidelity std's comes from its estimator and is
+    the stored one. ``mean_se`` is validated with the file (std over ``sqrt(n_used)``, to the
+    round-off). Skewness and kurtosis keep their stored ones: those come from central moments
+    of order 8-16 (the tail-aware intervals) that a baseline does not hold, and another run's
+    estimate is no substitute (a lognormal output's kurtosis standard error varies 17x between
+    reseeded runs of 2000); only the keyed seal protects them from a deliberate edit.
+    """
+    stored = getattr(p, f"{stat}_se")
+    stored = math.nan if stored is None else float(stored)
+    if stat == "std" and moments_method == "sample" and p.std is not None \
+            and p.kurtosis is not None:
+        return delta_std_se(p.std, p.kurtosis, n_used)
+    return stored
+
+
+def _baseline_se(se_a: float, n_a: int, n_b: int, stored: float) -> float:
+    """The baseline's standard error of a quantile: the result's ``se_a`` scaled from its
+    ``n_a`` runs to the baseline's ``n_b`` (a standard error goes as ``1 / sqrt(n)``), the
+    ``stored`` one only where the result has none (an order-statistic interval is
+    distribution-free, so the result's is as good a witness as the baseline's)."""
+    if not math.isfinite(se_a):
+        return stored
+    return se_a * math.sqrt(max(n_a, 1) / max(n_b, 1))
 
 
 def _half_width_se(lo: float | None, hi: float | None) -> float:
@@ -510,8 +548,7 @@ def _compare_quantiles(label: str, name: str, unit: str, p: BaselinePoint, s: Ou
             # baseline's own numbers allow would still loosen the check. Its own only where the
             # result has no interval here (an extreme level of few runs).
             se_a = _half_width_se(*q.interval(where))
-            se_b = se_a * math.sqrt(max(s.n_used, 1) / max(n_used_b, 1)) \
-                if math.isfinite(se_a) else _half_width_se(lo_b, hi_b)
+            se_b = _baseline_se(se_a, s.n_used, n_used_b, _half_width_se(lo_b, hi_b))
             comb = math.hypot(se_a, se_b)
             if not math.isfinite(comb):
                 # An extreme level of few runs (q0.00135 of 1000) has no two-sided
@@ -557,6 +594,31 @@ def _compare_events(label: str, events: dict[str, BaselineEvent],
             row.basis = f"{100 * pce_rtol:g}% of {_fmt(b)}, at least one draw"
         _verdict(row, a, b)
     return rows
+
+
+def _runs_ratio(label: str, name: str, bo: BaselineOutput, s: OutputStatistics,
+                source: str) -> str:
+    """A note when the result has far fewer runs than the baseline; a ResultError (the gate
+    cannot judge) when the baseline has far fewer than the result, beyond :data:`RUNS_RATIO`.
+
+    A baseline's standard errors go as ``1 / sqrt(n_used)``: one of 10x fewer runs than the
+    result carries errors 3.2x the result's, so they alone set the tolerance (a baseline
+    re-sealed with a few runs loosens every check). Fewer runs in the result only make its own
+    errors, and so the check, wider: that is said, not refused."""
+    if bo.uncertainty != SAMPLE:
+        return ""
+    n_b, n_a = bo.n_used, s.n_used
+    if n_a > RUNS_RATIO * n_b:
+        raise ResultError(
+            f"{source}: methods.{label}.outputs.{name}.n_used: the baseline has {n_b} runs, "
+            f"the result {n_a}, more than {RUNS_RATIO:g}x as many; the baseline's standard "
+            f"errors ({math.sqrt(n_a / n_b):.3g}x the result's) would set the tolerance; write "
+            f"the baseline from a run of about the result's size (`uqguide baseline RESULT -o "
+            f"FILE --force`)")
+    if n_b > RUNS_RATIO * n_a:
+        return (f"{label}: {name} has {n_a} runs against the baseline's {n_b} (fewer by more "
+                f"than {RUNS_RATIO:g}x): the check is only as tight as the result's own runs")
+    return ""
 
 
 def _check_shapes(s: OutputStatistics, time: np.ndarray, where: str) -> None:
@@ -640,6 +702,9 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
                 raise ResultError(f"{source}: method '{label}' of the result has no statistics "
                                   f"of output '{name}'")
             _check_shapes(s, result.time, f"{label}/{name}")
+            note = _runs_ratio(label, name, bo, s, source)
+            if note and note not in report.notes:
+                report.notes.append(note)
             rows = _compare_output(label, name, bo.unit, bo, s, result.time, sigmas, rtol,
                                    inputs)
             if not any(not r.skipped for r in rows):
@@ -653,6 +718,8 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
                                 f"not checked")
         if run.n_runs != bm.n_runs:
             report.notes.append(f"{label}: {run.n_runs} runs, baseline {bm.n_runs}")
+    if seal_note(baseline):
+        report.notes.append(seal_note(baseline))
     if baseline.format_version < 3:
         report.notes.append(f"{source} is a format {baseline.format_version} baseline: its "
                             f"quantiles and event probabilities are not checked; write it "

@@ -35,6 +35,7 @@ from ..core.events import EventSpec
 from ..core.inputs import InputSpace
 from ..core.types import DerivedOutput, Estimate, GeneratedRows, ModelOutput
 from ..errors import MethodError
+from ..stats.moments import quiet_overflow
 
 log = logging.getLogger(__name__)
 
@@ -450,7 +451,8 @@ class Method(ABC):
             # does, until it says more itself ("fitting zem (2/7, 300 runs)")
             runner.phase("refining the design")
             try:
-                bigger = self.refine(space, design, out)
+                with quiet_overflow():  # fits only: the model ran before
+                    bigger = self.refine(space, design, out)
             except METHOD_FAILURES as exc:
                 fit_seconds += time.perf_counter() - t0
                 return Propagated.failed(self, exc, design.x, out, fit_seconds)
@@ -477,7 +479,8 @@ class Method(ABC):
         runner.phase("estimating")
         failure = ""
         try:
-            est = estimate()
+            with quiet_overflow():  # statistics only (driver.propagate.say_overflow)
+                est = estimate()
         except METHOD_FAILURES as exc:
             est, failure = no_estimate(self), why_failed(self, exc)
         runner.phase("")

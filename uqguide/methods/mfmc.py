@@ -33,6 +33,7 @@ from ..stats.mfmc_allocation import (
     Allocation, sample_sizes, select_allocation, variance_factor,
 )
 from ..stats.mfmc_estimator import mfmc_statistics
+from ..stats.moments import quiet_overflow
 from .base import (
     METHOD_FAILURES, Design, MethodSettings, Method, Propagated, Runner, RunPlan,
 )
@@ -296,7 +297,8 @@ class MultiFidelityMC(Method):
             pilot.append(out)
         # CPU, not wall seconds: on a shared machine the wall clock counts the neighbours' load
         pilot_cost = [lv.cpu_seconds / max(lv.n_runs, 1) for lv in levels]
-        plan = self.allocate(pilot, pilot_cost)
+        with quiet_overflow():  # (as the fits of Method.propagate)
+            plan = self.allocate(pilot, pilot_cost)
         log.info("%s: levels %s, runs %s (estimated variance reduction %.3g)", self.label,
                  plan.levels, list(plan.sizes), 1.0 / plan.allocation.variance_ratio)
         runs = []
@@ -307,10 +309,11 @@ class MultiFidelityMC(Method):
             runs.append(main)
         t_fit = time.perf_counter()
         runner.phase("estimating")
-        estimate = self.estimate_levels(
-            runs, plan, design, [lv.cpu_seconds for lv in levels], pilot_cost,
-            surrogate_cpu_s=sum(lv.fixed_cpu_s for lv, f in zip(levels, s.fidelities)
-                                if "surrogate" in f))
+        with quiet_overflow():
+            estimate = self.estimate_levels(
+                runs, plan, design, [lv.cpu_seconds for lv in levels], pilot_cost,
+                surrogate_cpu_s=sum(lv.fixed_cpu_s for lv, f in zip(levels, s.fidelities)
+                                    if "surrogate" in f))
         runner.phase("")
         top = runs[0]
         x = np.asarray(design.x.rows(0, top.n)) if isinstance(design.x, GeneratedRows) \

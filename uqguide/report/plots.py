@@ -30,6 +30,7 @@ from ..models.base import OutputInfo
 from .tables import cost_table
 from ..results.result import MethodRun, Result
 from ..results.statistics import FROM_RUNS
+from ..stats.moments import overflowed
 
 log = logging.getLogger(__name__)
 
@@ -275,6 +276,13 @@ def _kde(y: np.ndarray, xs: np.ndarray) -> np.ndarray:
     """Gaussian kernel density of draws ``y`` at ``xs``; a non-negative output whose draws
     reach down to 0 (a miss distance) is reflected at 0, so the kernel's mass below 0 is not
     lost: a plain KDE halves the density at the boundary where the output piles up."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        finite_spread = bool(np.isfinite(np.var(y)))
+    if not finite_spread and np.isfinite(y).all():
+        # draws near 1e300, whose variance overflows: the density of y 2^-k at xs 2^-k,
+        # times 2^-k (a power of two scales exactly)
+        scale = float(np.ldexp(1.0, -int(np.frexp(np.max(np.abs(y)))[1])))
+        return _kde(y * scale, xs * scale) * scale
     plain = sps.gaussian_kde(y)
     if y.min() >= 0 and y.min() < 0.1 * y.std():
         both = np.concatenate([y, -y])
@@ -327,8 +335,14 @@ def _probability_panel(ax, result: Result, output: str, c: int,
     ax.grid(True, axis="x", alpha=0.3)
 
 
-def _stats_text(mean: float, std: float, skew: float, kurt: float) -> str:
-    return f"mean {mean:.4g}, std {std:.4g}, skew {skew:.3g}, kurt {kurt:.3g}"
+def _stats_text(mean: float, std: float, skew: float, kurt: float,
+                sample: bool = True) -> str:
+    over = overflowed(mean, std, skew, kurt, sample)
+    text = {name: "overflow" if over[name] else format(v, spec) for name, v, spec in (
+        ("mean", mean, ".4g"), ("std", std, ".4g"), ("skewness", skew, ".3g"),
+        ("kurtosis", kurt, ".3g"))}
+    return (f"mean {text['mean']}, std {text['std']}, skew {text['skewness']}, "
+            f"kurt {text['kurtosis']}")
 
 
 def scalar_figure(result: Result, output: str) -> Figure:
@@ -392,7 +406,7 @@ def scalar_figure(result: Result, output: str) -> Figure:
                 continue
             st = styles[r.label]
             text = _stats_text(float(s.mean[c]), float(s.std[c]), float(s.skewness[c]),
-                               float(s.kurtosis[c]))
+                               float(s.kurtosis[c]), s.moments_method == "sample")
             if r.label in samples and np.ptp(samples[r.label]) == 0:
                 # One run, or runs that all agree: a histogram of one value says nothing.
                 ax.axvline(samples[r.label][0], color=st["color"], lw=st["lw"], ls=st["ls"],

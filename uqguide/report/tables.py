@@ -265,7 +265,9 @@ def statistics_table(result: Result) -> pd.DataFrame:
         (:mod:`uqguide.results.statistics`: the method's moments, a validated PCE's
         control-variate moments as ``<label>+cv``, the quantiles): ``value``, ``ci_low``,
         ``ci_high`` in the output's ``unit``, ``usable`` (moments); against the reference also
-        ``ref_value``, ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`).
+        ``ref_value``, ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`); where
+        an output's moments overflowed double precision, ``overflow`` (``"value"``: the
+        moment, ``"interval"``: its interval; :func:`uqguide.stats.moments.overflowed`).
     """
     described = result_statistics(result)
     # result.run: a ResultError naming the labels when the reference is none of them
@@ -279,10 +281,27 @@ def statistics_table(result: Result) -> pd.DataFrame:
             rv = ref.get(o.name) if ref is not None else None
             for p in points(o, result.time, result.report_times):
                 withheld = v.withheld_at(p.where) if v.usable_at(p.where) else []
+                over = v.overflowed_at(p.where)
                 for st in v.statistics:
-                    rows += _row(o, st, p, None if rv is None else rv.own(st.name),
-                                 st.kind == "moment" and st.name in withheld)
+                    row = _row(o, st, p, None if rv is None else rv.own(st.name),
+                               st.kind == "moment" and st.name in withheld)
+                    if row and st.kind == "moment" and over:
+                        row[0]["overflow"] = _overflow_kind(st, p.where, over)
+                    rows += row
     return pd.DataFrame(rows)
+
+
+def _overflow_kind(st: Statistic, where: tuple[int, ...], over: list[str]) -> str:
+    """At a point where moments overflowed: ``"value"`` for those, ``"interval"`` for a
+    moment whose own value is finite but whose interval (read from the higher power sums)
+    is not, ``""`` otherwise."""
+    if st.name in over:
+        return "value"
+    if st.ci is None:  # (a PCE's moments carry no interval to lose)
+        return ""
+    lo, hi = st.interval(where)
+    return "interval" if np.isnan(lo) or np.isnan(hi) or (np.isinf(lo) and np.isinf(hi)) \
+        else ""
 
 
 def _row(o: OutputInfo, st: Statistic, p: Point, ref: Statistic | None,
@@ -454,6 +473,12 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
             if s.get("withheld") is True:
                 row[s["stat"]] = "withheld: its runs disagree (see +mc)"
                 continue
+            if s.get("overflow") == "value":
+                row[s["stat"]] = "overflow"
+                continue
+            if s.get("overflow") == "interval":
+                row[s["stat"]] = f"{_fmt(s['value'])} [no interval: overflow]"
+                continue
             if str(s["label"]).endswith(CORRECTED_SUFFIX) and np.isnan(s["value"]) \
                     and np.isnan(s["ci_low"]):
                 row[s["stat"]] = NOT_REPORTED
@@ -575,7 +600,8 @@ def interval_legend(with_reference: bool) -> str:
             "estimate; label+mc: where a PCE "
             "moment is withheld, the Monte Carlo estimate of the method's own fit and "
             "validation runs (no extra runs), delta-method interval treating them as "
-            "independent draws.")
+            "independent draws; 'overflow': the sums of the output's powers overflow double "
+            "precision (values near 1e300), the run names the output.")
     if with_reference:
         text += (" (difference from the reference; in: within the 95% interval of the "
                  "difference, both estimates' errors combined; OUT: beyond it).")

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Literal, Protocol
 import numpy as np
 
 from ..core.types import STAT_NAMES, OutputStats
+from ..stats.moments import overflowed
 from ..stats.quantiles import level_name
 
 if TYPE_CHECKING:
@@ -322,6 +323,33 @@ class OutputStatistics:
         if not self.usable_at(where):
             return list(STAT_NAMES)
         return [f.name for f in self.fallback if np.isfinite(f.value[where])]
+
+    def overflowed_at(self, where: tuple[int, ...]) -> list[str]:
+        """The method's own moments at ``where`` that are not finite because their sums
+        overflowed double precision (:func:`uqguide.stats.moments.overflowed`); none where a
+        PCE's surrogate is not usable (its moments are NaN for that reason).
+
+        Parameters
+        ----------
+        where : tuple of int
+
+        Returns
+        -------
+        list of str
+        """
+        if not self.usable_at(where):
+            return []
+        mean, std, skew, kurt = (self.moment(n).value[where] for n in STAT_NAMES)
+        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample")
+        return [n for n in STAT_NAMES if bool(masks[n])]
+
+    @property
+    def overflows(self) -> bool:
+        """Whether any of the method's own moments overflowed, anywhere (:meth:`overflowed_at`)."""
+        mean, std, skew, kurt = (m.value for m in self.moments)
+        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample")
+        usable = True if self.usable is None else self.usable
+        return any(bool(np.any(m & usable)) for m in masks.values())
 
     @property
     def sem(self) -> np.ndarray | None:

@@ -28,18 +28,41 @@ Two forms of the same estimators:
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from math import comb
 from statistics import NormalDist
+from typing import ParamSpec, TypeVar
 
 import numpy as np
 
 from ..core.types import STAT_NAMES, OutputStats
 from .tail_intervals import tail_intervals
 
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def quiet_overflow() -> np.errstate:
+    """A context without numpy's warnings of overflow (and of the NaN it makes), for fits and
+    statistics: outputs near 1e300 overflow their power sums, and the run says once which
+    output did (:func:`overflowed`) instead of a warning per line of arithmetic. The numbers
+    are the same."""
+    return np.errstate(over="ignore", invalid="ignore")
+
+
+def _quiet_overflow(f: Callable[_P, _R]) -> Callable[_P, _R]:
+    """``f`` run in :func:`quiet_overflow`."""
+    @functools.wraps(f)
+    def quiet(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        with quiet_overflow():
+            return f(*args, **kwargs)
+    return quiet
+
 __all__ = ["STAT_NAMES", "MomentSums", "OutputStats", "bootstrap_intervals", "central_moments",
-           "covariance", "sample_statistics", "shape_moments", "statistics_from_sums"]
+           "covariance", "overflowed", "quiet_overflow", "sample_statistics", "shape_moments",
+           "statistics_from_sums"]
 
 
 def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray
@@ -68,6 +91,43 @@ def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.nd
     return std, skew, kurt
 
 
+def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
+               skewness: np.ndarray | float, kurtosis: np.ndarray | float,
+               sample: bool = True) -> dict[str, np.ndarray]:
+    """Where moments of finite values are not finite: their sums overflowed double precision.
+
+    Finite values have finite moments, so a moment that is infinite, or (sample moments) a std
+    that is NaN beside a finite mean or a skewness or kurtosis that is NaN where the variance
+    is not zero (the test of :func:`shape_moments`), came from a power sum beyond 1.8e308
+    (outputs near 1e300; a spread whose 4th power passes it, from about 1e77). Where the std
+    overflowed, the skewness and kurtosis are ratios of overflowed sums (0 or NaN), marked too.
+
+    Parameters
+    ----------
+    mean, std, skewness, kurtosis : ndarray or float
+        Moments of one shape.
+    sample : bool
+        Sample moments of runs (``moments_method`` ``"sample"``). A PCE also withholds a
+        skewness or kurtosis as NaN (:mod:`uqguide.pce.support`), and a multi-fidelity estimate
+        gives NaN for a negative variance or an impossible shape
+        (:mod:`uqguide.stats.mfmc_estimator`): of theirs only the infinite ones are read so.
+
+    Returns
+    -------
+    dict of str to ndarray of bool
+        Per statistic name, where it overflowed.
+    """
+    mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
+    skew, kurt = np.asarray(skewness, dtype=float), np.asarray(kurtosis, dtype=float)
+    with np.errstate(invalid="ignore", over="ignore"):
+        spread = sample & np.isfinite(mean) & (std > (np.abs(mean) + 1e-300) * 1e-12)
+        bad_std = np.isinf(std) | (sample & np.isnan(std) & np.isfinite(mean))
+    return {"mean": np.isinf(mean), "std": bad_std,
+            "skewness": bad_std | np.isinf(skew) | (np.isnan(skew) & spread),
+            "kurtosis": bad_std | np.isinf(kurt) | (np.isnan(kurt) & spread)}
+
+
+@_quiet_overflow
 def central_moments(y: np.ndarray, axis: int = 0
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Mean and central moments 2-4 of ``y`` along ``axis`` (population estimators, two-pass).
@@ -110,6 +170,7 @@ def covariance(y: np.ndarray) -> np.ndarray:
     return np.einsum("n...i,n...j->...ij", d, d) / y.shape[0]
 
 
+@_quiet_overflow
 def bootstrap_intervals(
     y: np.ndarray, n_resamples: int = 200, seed: int = 0, level: float = 0.95,
     block: int = 25, max_bytes: int = 256 * 2**20,
@@ -267,6 +328,7 @@ def delta_intervals(
     return {k: np.stack([est[k] - z * se[k], est[k] + z * se[k]]) for k in STAT_NAMES}
 
 
+@_quiet_overflow
 def sample_statistics(
     y: np.ndarray, *, bootstrap: int = 200, seed: int = 0, level: float = 0.95,
     ci_index: np.ndarray | None = None, intervals: str = "bootstrap",
@@ -367,6 +429,7 @@ class MomentSums:
     high: np.ndarray | None = None
 
     @classmethod
+    @_quiet_overflow
     def of(cls, y: np.ndarray, comoments: bool = True, high: bool = False) -> MomentSums:
         """Sums of plain samples ``y (n, ..., k)`` over the first axis (two-pass).
 
@@ -444,6 +507,7 @@ class MomentSums:
         return out
 
     @classmethod
+    @_quiet_overflow
     def weighted(cls, y: np.ndarray, w: np.ndarray, high: bool = False) -> MomentSums:
         """Sums of ``y (n, c)`` under ``B`` weight vectors ``w (B, n)``: fields ``(B, c)``.
 
@@ -494,6 +558,7 @@ class MomentSums:
                            for p in range(5, 9)])
         return cls(W, c + a, m2, m3, m4, None, hi)
 
+    @_quiet_overflow
     def merge(self, other: MomentSums,
               outer: Callable[[np.ndarray], np.ndarray] | None = None) -> MomentSums:
         """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2).
@@ -578,6 +643,7 @@ class MomentSums:
         return cls(float(n) if n.ndim == 0 else n, d["mean"], d["m2"], d["m3"], d["m4"],
                    d.get("cm"), d.get("high"))
 
+    @_quiet_overflow
     def central_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0.
 
@@ -633,6 +699,7 @@ def _merge_order(p: int, a: list[np.ndarray], b: list[np.ndarray], na: float | n
     return out
 
 
+@_quiet_overflow
 def statistics_from_sums(
     sums: MomentSums, boot: MomentSums | None = None, ci_index: np.ndarray | None = None,
     level: float = 0.95, delta: MomentSums | None = None, tail: bool = False,
@@ -718,6 +785,7 @@ def statistics_from_sums(
 
 
 
+@_quiet_overflow
 def studentized_intervals(sums: MomentSums, boot: MomentSums, level: float = 0.95
                           ) -> dict[str, np.ndarray]:
     """Studentised (bootstrap-t) intervals of mean, std, skewness and kurtosis.
