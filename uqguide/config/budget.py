@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..errors import ConfigError
-from .limits import human
+from .limits import BASE_BYTES, human
 
 if TYPE_CHECKING:
     from .run_config import RunConfig
@@ -81,9 +81,6 @@ class Budget:
                    f"{human(self.max_memory)}")
         return out
 
-
-#: The interpreter, numpy, scipy, chaospy and a compiled kernel, before any data.
-BASE_BYTES = 250e6
 
 #: What one surrogate draw costs beside its basis terms, in term evaluations.
 DRAW_OVERHEAD_TERMS = 50
