@@ -703,3 +703,15 @@ def test_a_statistic_of_fewer_runs_than_it_needs_is_printed_as_needs_n_runs(tmp_
     if n == 4:
         assert "needs" not in row
         assert float(st.std[0]) == pytest.approx(y.std(), rel=1e-13)
+
+
+def test_the_run_budget_counts_the_data_table_and_its_copies_in_flight(tmp_path):
+    from uqguide.config.budget import estimate
+
+    x, y = rows(40, 28)
+    write_csv(tmp_path / "runs.csv", x, y)
+    cfg = uqguide.load_config(config(tmp_path, methods=[{"name": "monte_carlo"}]))
+    serial, pooled = estimate(cfg), estimate(cfg, workers=2)
+    assert (serial.data_bytes, serial.data_copies, pooled.data_copies) == (40 * 3 * 8, 1, 5)
+    assert "  data table: 960 B" in serial.lines()
+    assert pooled.peak_bytes - serial.peak_bytes >= 4 * 960
