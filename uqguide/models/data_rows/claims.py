@@ -81,6 +81,21 @@ def line_limit(columns: tuple[str, ...]) -> int:
     return (len(columns) - text) * (MAX_NUMBER_CHARS + 1) + text * (4 * MAX_TEXT_CHARS + 3) + 2
 
 
+def _first_long(inner: bytes, limit: int) -> int:
+    """Index (from 0) of the first line longer than ``limit`` bytes among the whole lines of
+    ``inner`` (each ending with its newline), -1 when there is none."""
+    nl = np.frombuffer(inner, dtype=np.uint8) == 10
+    # Fast path: a line of more than limit bytes holds a whole aligned block of
+    # (limit + 2) // 2 bytes without a newline; when every block has one, no line is long.
+    block = (limit + 2) // 2
+    padded = np.concatenate([nl, np.ones(-nl.size % block, dtype=bool)])
+    if padded.reshape(-1, block).any(axis=1).all():
+        return -1
+    lengths = np.diff(np.flatnonzero(nl), prepend=-1) - 1
+    over = np.flatnonzero(lengths > limit)
+    return int(over[0]) if over.size else -1
+
+
 def _count_lines(path: Path, limit: int) -> tuple[int, int]:
     """The file's lines (a last one without its newline counted), without decoding or holding
     more than a chunk; stops at the first line longer than ``limit`` bytes.
@@ -93,22 +108,22 @@ def _count_lines(path: Path, limit: int) -> tuple[int, int]:
     """
     lines, run = 0, 0  # run: bytes of the line not yet ended
     with path.open("rb") as f:
-        while True:
-            chunk = f.read(_READ_CHUNK)
-            if not chunk:
-                return lines + (run > 0), 0
-            ends = np.flatnonzero(np.frombuffer(chunk, dtype=np.uint8) == 10)
-            if ends.size:
-                lengths = np.diff(ends, prepend=-1 - run)  # each line's bytes, its newline in
-                over = np.flatnonzero(lengths > limit + 1)
-                if over.size:
-                    return lines, lines + int(over[0]) + 1
-                lines += int(ends.size)
-                run = len(chunk) - int(ends[-1]) - 1
-            else:
-                run += len(chunk)
+        while chunk := f.read(_READ_CHUNK):
+            first = chunk.find(b"\n")
+            if first < 0 or run + first > limit:
+                run += len(chunk) if first < 0 else first
+                if run > limit:
+                    return lines, lines + 1
+                continue
+            last = chunk.rfind(b"\n")
+            inside = _first_long(chunk[first + 1:last + 1], limit)
+            if inside >= 0:
+                return lines, lines + 2 + inside
+            lines += chunk.count(b"\n", first, last + 1)
+            run = len(chunk) - last - 1
             if run > limit:
                 return lines, lines + 1
+    return lines + (run > 0), 0
 
 
 def csv_header(path: Path, source: str) -> tuple[tuple[str, ...], int]:
