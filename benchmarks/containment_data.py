@@ -34,6 +34,7 @@ import argparse
 import io
 import os
 import resource
+import shutil
 import signal
 import stat
 import subprocess
@@ -537,20 +538,29 @@ def _mb(v: float) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="200 MB and 64 MiB stand-ins")
-    ap.add_argument("--only", default="", help="cases whose name contains this")
+    ap.add_argument("--only", default="", help="cases whose name contains one of these "
+                                                "(comma-separated)")
     ap.add_argument("--tree", type=Path, default=ROOT, help="checkout the subprocesses run")
     ap.add_argument("--cap-gb", type=float, default=8.0, help="RLIMIT_AS of a subprocess")
     args = ap.parse_args(argv)
     outcomes = []
+    wanted = [w for w in args.only.split(",") if w] or [""]
     for case in cases(args.quick):
-        if args.only not in case.name:
+        if not any(w in case.name for w in wanted):
             continue
-        with tempfile.TemporaryDirectory(prefix="containment-data-") as t:
-            try:
-                o = run_case(case, Path(t), args.tree, args.cap_gb * 2**30)
-            except Exception as exc:  # noqa: BLE001 - a case that cannot be built (no cc)
-                print(f"  {case.name}: not run ({type(exc).__name__}: {exc})")
-                continue
+        box = Path(tempfile.mkdtemp(prefix="containment-data-"))
+        try:
+            o = run_case(case, box, args.tree, args.cap_gb * 2**30)
+        except Exception as exc:  # noqa: BLE001 - a case that cannot be built (no cc)
+            print(f"  {case.name}: not run ({type(exc).__name__}: {exc})")
+            continue
+        finally:
+            # a killed run's guard may still be ending: give it a moment before the removal
+            for _ in range(50):
+                shutil.rmtree(box, ignore_errors=True)
+                if not box.exists():
+                    break
+                time.sleep(0.1)
         outcomes.append(o)
         first = next((ln for ln in o.message.splitlines() if ln.startswith("error:")), "")
         print(f"  {case.name}: {o.verdict}, exit {o.exit_code}, {o.seconds:.1f} s "
