@@ -255,8 +255,14 @@ CO_SIMULATION = ('  <CoSimulation modelIdentifier="decay" '
 MODEL_EXCHANGE = '  <ModelExchange modelIdentifier="decay"/>'
 
 
+#: The same source, with a crash (abort) where ``x > x_max`` makes a ``doStep`` fail: a binary
+#: that takes its process down, as a broken FMU does.
+CRASHING = SOURCE.replace("        return fmi2Error;\n    }\n    if (t + h",
+                          "        abort();\n    }\n    if (t + h", 1)
+
+
 def build(folder: Path, interfaces: tuple[str, ...] = (CO_SIMULATION,),
-          name: str = "decay.fmu") -> Path:
+          name: str = "decay.fmu", source: str = SOURCE) -> Path:
     """Compile the FMU into ``folder`` and return its path.
 
     Parameters
@@ -269,6 +275,8 @@ def build(folder: Path, interfaces: tuple[str, ...] = (CO_SIMULATION,),
         both. The binary implements both.
     name : str
         The file name.
+    source : str
+        The C source (:data:`SOURCE`, or :data:`CRASHING`); one per folder.
 
     Returns
     -------
@@ -279,7 +287,7 @@ def build(folder: Path, interfaces: tuple[str, ...] = (CO_SIMULATION,),
 
     headers = Path(fmpy.__file__).parent / "c-code"
     src = folder / "decay.c"
-    src.write_text(SOURCE)
+    src.write_text(source)
     lib = folder / "decay.so"
     if not lib.exists():
         cc = shutil.which("cc")

@@ -8,6 +8,7 @@ round-off; Monte Carlo on the rows must give the rows' own sample moments.
 
 from __future__ import annotations
 
+import csv
 import logging
 import math
 from pathlib import Path
@@ -526,3 +527,191 @@ def test_fit_takes_a_dataset_series_with_its_time_coordinate_and_monte_carlo():
     assert np.array_equal(result.time, t)
     st = result.run("monte_carlo").estimate.stats["path"]
     assert np.allclose(st.mean[:, 0], y.mean() * t, rtol=1e-13)
+
+
+# ---------------------------------------------------------------------------- hostile files
+def _validate(tmp_path, name: str, **more):
+    res = CliRunner().invoke(main, ["validate", str(config(tmp_path, name, **more))])
+    assert "Traceback" not in res.output
+    return res.exit_code, res.stderr.strip()
+
+
+def test_a_byte_order_mark_is_stripped_as_csv_readers_do(tmp_path):
+    x, y = rows(40, 22)
+    plain = write_csv(tmp_path / "runs.csv", x, y).read_bytes()
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbf" + plain)
+    ref = four(uqguide.run(config(tmp_path)), "pce")
+    assert np.array_equal(four(uqguide.run(config(tmp_path, "bom.csv")), "pce"), ref)
+    # anywhere but the start of the file it is part of a name, and refused
+    (tmp_path / "mid.csv").write_bytes(plain.replace(b"a,b,y", b"a,\xef\xbb\xbfb,y", 1))
+    assert _validate(tmp_path, "mid.csv") == (
+        2, "error: data: mid.csv: line 1, column 2: column name '\\ufeffb' holds a byte-order "
+           "mark U+FEFF; a column name is printable text")
+
+
+NAMES = [
+    ("repeated", "a,b,y,a", "line 1, column 4: column 'a' appears twice (also line 1, column 1); "
+                            "each column needs its own name"),
+    ("control", "a,b,y\x07", "line 1, column 3: column name 'y\\x07' holds a control character "
+                             "U+0007; a column name is printable text"),
+    ("nul", "a,b,y\x00z", "line 1, column 3: column name 'y\\x00z' holds a control character "
+                          "U+0000"),
+    ("empty", "a,b,,y", "line 1, column 3: empty column name"),
+    ("too_long", "a,b," + "y" * 201, "line 1, column 3: a column name of 201 characters "
+                                     "('yyyyyyyyyyyyyyyyyyyy'...); allowed at most 200"),
+    # an index this large once built range(10^11) to find the gap
+    ("huge_step", "a,b,y[99999999999]", "column y[0] is missing (series 'y' has steps up to "
+                                        "y[99999999999]; its columns must be y[0], y[1], ... "
+                                        "without gaps)"),
+    ("same_step", "a,b,y[0],y[1],y[01]", "line 1, column 5: columns 'y[1]' and 'y[01]' are both "
+                                         "step 1 of series 'y'"),
+    ("not_an_output_name", "a,b,T (K)", "column 'T (K)' cannot name an output: an output's name "
+                                        "must be 1 to 200 letters"),
+]
+
+
+@pytest.mark.parametrize("case,header,message", NAMES, ids=[n[0] for n in NAMES])
+def test_a_bad_column_name_is_one_line_exit_2_before_a_value_is_read(tmp_path, case, header,
+                                                                    message):
+    cols = len(next(csv.reader([header])))
+    x, _ = rows(40, 23)
+    body = [",".join(repr(float(v)) for v in np.resize(r, cols)) for r in x]
+    (tmp_path / "runs.csv").write_text(header + "\n" + "\n".join(body) + "\n")
+    code, err = _validate(tmp_path, "runs.csv")
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert err.startswith(f"error: data: runs.csv: {message}"), err
+
+
+def test_a_cell_over_its_limit_is_refused_naming_line_and_column(tmp_path):
+    from uqguide.models.data_rows.claims import MAX_NUMBER_CHARS, line_limit
+
+    x, y = rows(40, 24)
+    lines = write_csv(tmp_path / "runs.csv", x, y).read_text().splitlines()
+    lines[3] = lines[3].rsplit(",", 1)[0] + "," + "1" * (MAX_NUMBER_CHARS + 1)
+    (tmp_path / "runs.csv").write_text("\n".join(lines) + "\n")
+    assert _validate(tmp_path, "runs.csv") == (
+        2, "error: data: runs.csv: line 4, column 'y': a cell of 65 characters; allowed at "
+           "most 64 (a number)")
+    # a line longer than its cells can be is refused by the count of lines, before it is read
+    limit = line_limit(("a", "b", "y"))
+    lines[3] = lines[3].rsplit(",", 1)[0] + "," + "1" * 10**6
+    (tmp_path / "runs.csv").write_text("\n".join(lines) + "\n")
+    assert _validate(tmp_path, "runs.csv") == (
+        2, f"error: data: runs.csv: line 4 is longer than {limit} bytes, what 3 cells can take: "
+           f"a cell is at most 64 characters (a number) or 4,096 (a reason)")
+
+
+def _over_memory(source: str, need: str, what: str) -> str:
+    return (f"error: data: {source}: reading it needs an estimated {need} ({what}), more than "
+            f"max_memory = 300 MB; split the file or keep fewer columns, or raise max_memory "
+            f"if the machine has it")
+
+
+def test_headers_claiming_terabytes_are_refused_against_max_memory_before_reading(tmp_path):
+    import h5py
+
+    # a chunked dataset claims its shape without storing it: 8 TB in a file of a few kB
+    with h5py.File(tmp_path / "runs.h5", "w") as f:
+        f.create_dataset("a", shape=(10**12,), dtype="f8", chunks=(2**16,))
+        f.create_dataset("b", shape=(10**12,), dtype="f8", chunks=(2**16,))
+        f.create_dataset("y", shape=(10**12,), dtype="f4", chunks=(2**16,))
+    assert (tmp_path / "runs.h5").stat().st_size < 10**5
+    assert _validate(tmp_path, "runs.h5", max_memory="300 MB") == (2, _over_memory(
+        "runs.h5", "156 TB", "3 datasets, the largest 'a' of shape (1000000000000,) float64"))
+    # a sparse CSV: two bytes a row, 16 a value once read, and the rows' checks
+    (tmp_path / "runs.csv").write_text("a,b,y\n" + ",,\n" * 10**6)
+    assert _validate(tmp_path, "runs.csv", max_memory="300 MB") == (2, _over_memory(
+        "runs.csv", "419 MB", "1,000,000 rows x 3 columns"))
+
+
+def test_an_npz_header_claiming_more_than_its_member_holds_is_refused(tmp_path):
+    import io
+    import zipfile
+
+    x, y = rows(40, 25)
+    np.savez(tmp_path / "runs.npz", a=x[:, 0], b=x[:, 1], y=y)
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False,
+                                               "shape": (10**12,)})
+    with zipfile.ZipFile(tmp_path / "runs.npz", "a") as z:
+        z.writestr("big.npy", buf.getvalue() + y.tobytes())
+    assert _validate(tmp_path, "runs.npz") == (
+        2, "error: data: runs.npz: member 'big.npy': its header claims shape (1000000000000,) "
+           "float64, 8,000,000,000,000 bytes, but the member holds 320; save the runs with "
+           "numpy.savez")
+    with zipfile.ZipFile(tmp_path / "pickled.npz", "w") as z:
+        buf = io.BytesIO()
+        np.save(buf, np.array([{"a": 1}], dtype=object), allow_pickle=True)
+        z.writestr("a.npy", buf.getvalue())
+    code, err = _validate(tmp_path, "pickled.npz")
+    assert code == 2 and "its header claims shape (1,) object, Python objects (pickled), which "\
+                         "are never loaded" in err
+
+
+def test_a_parquet_files_metadata_is_its_claim(tmp_path, monkeypatch):
+    """pyarrow's metadata (here a stand-in: pyarrow is an optional dependency) gives rows and
+    columns; a file claiming 10^10 rows is refused before pandas reads it."""
+    import sys
+    import types
+
+    class Meta:
+        num_rows, num_columns = 10**10, 3
+
+    pq = types.ModuleType("pyarrow.parquet")
+    pq.ParquetFile = lambda path: types.SimpleNamespace(metadata=Meta())  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "pyarrow", types.ModuleType("pyarrow"))
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", pq)
+    (tmp_path / "runs.parquet").write_bytes(b"PAR1")
+    assert _validate(tmp_path, "runs.parquet", max_memory="300 MB") == (2, _over_memory(
+        "runs.parquet", "2 TB", "10,000,000,000 rows x 3 columns"))
+
+
+def test_fit_refuses_a_repeated_or_unprintable_column_name():
+    import pandas as pd
+
+    x, y = rows(40, 26)
+    frame = pd.DataFrame(np.column_stack([x, x[:, :1]]), columns=["a", "b", "a"])
+    with pytest.raises(ConfigError, match=r"^data: x: column 3: column 'a' appears twice \(also "
+                                          r"column 1\)"):
+        uqguide.fit(frame, y, inputs=INPUTS)
+    with pytest.raises(ConfigError, match=r"column name 'y\\ufeff' holds a byte-order mark"):
+        uqguide.fit(x, pd.DataFrame({"y\ufeff": y}), inputs=INPUTS, method="monte_carlo")
+
+
+# ---------------------------------------------------------------------------- too few runs
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
+def test_a_statistic_of_fewer_runs_than_it_needs_is_printed_as_needs_n_runs(tmp_path, n):
+    """One run's std is 0, two runs' skewness 0 and kurtosis 1, three runs' kurtosis 1.5,
+    whatever the output: such a value is NaN and the table says how many runs it needs."""
+    x, y = rows(n, 27)
+    write_csv(tmp_path / "runs.csv", x, y)
+    res = CliRunner().invoke(main, ["run", str(config(tmp_path, methods=[
+        {"name": "monte_carlo", "label": "mc"}])), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    table = res.output.split("scalar output of runs.csv\n", 1)[1].split("\n\n", 1)[0]
+    row = table.splitlines()[1]
+    needs = [f"needs {k} runs" for k, name in ((2, "std"), (3, "skewness"), (4, "kurtosis"))
+             if n < k]
+    assert [s for s in needs if s in row] == needs, row
+    st = uqguide.read_result(tmp_path / "o" / "data.h5").run("mc").estimate.stats["y"]
+    assert float(st.mean[0]) == pytest.approx(y.mean(), rel=1e-14)
+    got = [float(st.std[0]), float(st.skewness[0]), float(st.kurtosis[0])]
+    assert [math.isnan(v) for v in got] == [n < 2, n < 3, n < 4]
+    if n == 1:  # the mean's interval needs a standard deviation too
+        assert row.split()[1] == f"{float(y[0]):.4g}" and "[" not in row
+        assert "'needs n runs': a sample statistic of fewer runs" in res.output
+    if n == 4:
+        assert "needs" not in row
+        assert float(st.std[0]) == pytest.approx(y.std(), rel=1e-13)
+
+
+def test_the_run_budget_counts_the_data_table_and_its_copies_in_flight(tmp_path):
+    from uqguide.config.budget import estimate
+
+    x, y = rows(40, 28)
+    write_csv(tmp_path / "runs.csv", x, y)
+    cfg = uqguide.load_config(config(tmp_path, methods=[{"name": "monte_carlo"}]))
+    serial, pooled = estimate(cfg), estimate(cfg, workers=2)
+    assert (serial.data_bytes, serial.data_copies, pooled.data_copies) == (40 * 3 * 8, 1, 5)
+    assert "  data table: 960 B" in serial.lines()
+    assert pooled.peak_bytes - serial.peak_bytes >= 4 * 960

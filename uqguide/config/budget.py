@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..errors import ConfigError
-from .limits import human
+from .limits import BASE_BYTES, human
 
 if TYPE_CHECKING:
     from .run_config import RunConfig
@@ -48,6 +48,11 @@ class Budget:
     methods: list[MethodBudget]
     max_memory: int
     workers: int
+    #: The runs of a ``data:`` file, held by the model (0 for a simulator), and the copies of
+    #: them alive at once: the driver's, and with workers one per chunk in flight (the model
+    #: travels whole with each chunk).
+    data_bytes: float = 0.0
+    data_copies: int = 1
 
     @property
     def peak_bytes(self) -> float:
@@ -55,7 +60,7 @@ class Budget:
         kept = sum(m.parts.get("kept", 0.0) + m.parts.get("series kept", 0.0)
                    + m.parts.get("quantiles kept", 0.0) + m.parts.get("bootstrap sums", 0.0)
                    + m.parts.get("sensitivity kept", 0.0)
-                   for m in self.methods)
+                   for m in self.methods) + self.data_bytes * self.data_copies
         transient = max((m.parts.get("per chunk", 0.0) + m.parts.get("basis", 0.0)
                          + m.parts.get("bootstrap per chunk", 0.0)
                          + m.parts.get("sensitivity", 0.0)
@@ -77,13 +82,13 @@ class Budget:
             mem = "" if m.peak_bytes is None else f", ~{human(m.peak_bytes)} " + \
                 "(" + ", ".join(f"{k} {human(v)}" for k, v in m.parts.items() if v) + ")"
             out.append(f"  {m.label}: {runs}{steps}{mem}")
+        if self.data_bytes:
+            copies = f" x {self.data_copies} copies" if self.data_copies > 1 else ""
+            out.append(f"  data table: {human(self.data_bytes)}{copies}")
         out.append(f"  estimated peak memory {human(self.peak_bytes)} of max_memory "
                    f"{human(self.max_memory)}")
         return out
 
-
-#: The interpreter, numpy, scipy, chaospy and a compiled kernel, before any data.
-BASE_BYTES = 250e6
 
 #: What one surrogate draw costs beside its basis terms, in term evaluations.
 DRAW_OVERHEAD_TERMS = 50
@@ -161,7 +166,22 @@ def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) ->
         rows.append(MethodBudget(method.label, n, count.steps if count else None,
                                  sum(parts.values()), parts, plan.exact,
                                  surrogate_draws=draws, surrogate_terms=terms, index=index))
-    return Budget(rows, cfg.max_memory, workers)
+    return Budget(rows, cfg.max_memory, workers, _data_bytes(model),
+                  1 + (in_flight if workers > 1 else 0))
+
+
+def _data_bytes(model: object) -> float:
+    """Bytes of a data model's table: its columns, 8 a value, and its text (0 otherwise)."""
+    from ..models.data_rows import DataModel
+    from ..models.data_rows.claims import TEXT_CELL_BYTES
+
+    table = model.table if isinstance(model, DataModel) else None
+    if table is None:
+        return 0.0
+    text = 0.0 if table.reasons is None else \
+        sum(TEXT_CELL_BYTES + len(r) for r in table.reasons)
+    flags = 0.0 if table.flagged is None else float(table.flagged.nbytes)
+    return float(sum(v.nbytes for v in table.columns.values())) + text + flags
 
 
 def _bootstrap_sums(method: object, cfg: RunConfig, k_scalar: int, k_series: int,

@@ -24,12 +24,16 @@ rows whose outputs did not fail.
 
 The stored (resolved) config records ``data: {path, time, sha256}``: read back, it refuses a
 file whose content changed since the result was made.
+
+Before a value is read, what the file claims (its lines and header, its datasets' shapes:
+:mod:`uqguide.models.data_rows.claims`) is turned into the memory the reading and the checks
+of its rows will hold (:func:`read_bytes`), and a file over ``max_memory`` is refused.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -42,10 +46,12 @@ from ..errors import ConfigError
 from ..methods.base import GivenRows
 from ..models.callable import CallableOutput
 from ..models.data_rows import DataModel, DataParams, Table, read_table
+from ..models.data_rows.claims import Claim
 from ..models.data_rows.files import ARRAYS
 from ..models.data_rows.checks import (
     failed_rows, goodness_of_fit, input_rows, output_names, warn_failed, warn_goodness_of_fit,
 )
+from .limits import BASE_BYTES, human
 from .registry import method_class
 
 log = logging.getLogger(__name__)
@@ -98,8 +104,43 @@ def parse_spec(value: Any) -> DataSpec | Table:
         raise ConfigError(f"data.{where}: {e['msg']}", field=f"data.{where}") from None
 
 
+def read_bytes(claim: Claim, n_inputs: int) -> float:
+    """Peak memory of reading a file and checking its rows [bytes], from what it claims.
+
+    The columns take 8 bytes a value, and as much again while a CSV's step columns are
+    stacked into a series (the steps are alive until the table is made); the claim's extra
+    bytes (text, a conversion's copy, a CSV's block being converted); the rows' inputs
+    ``(n, d)`` four times over (the design, and the sorted copy, unique rows and merge-sort
+    buffer of the repeated-rows check) and 40 bytes a row of indices; and
+    :data:`~uqguide.config.limits.BASE_BYTES` for the interpreter and its libraries.
+
+    Parameters
+    ----------
+    claim : Claim
+    n_inputs : int
+        The config's inputs.
+
+    Returns
+    -------
+    float
+    """
+    return (BASE_BYTES + 16.0 * claim.cells + claim.extra_bytes
+            + 8.0 * claim.rows * (4 * n_inputs + 5))
+
+
+def _within(source: str, n_inputs: int, max_memory: int) -> Callable[[Claim], None]:
+    def check(claim: Claim) -> None:
+        need = read_bytes(claim, n_inputs)
+        if need > max_memory:
+            raise ConfigError(f"data: {source}: reading it needs an estimated {human(need)} "
+                              f"({claim.what}), more than max_memory = {human(max_memory)}; "
+                              f"split the file or keep fewer columns, or raise max_memory if "
+                              f"the machine has it", field="data")
+    return check
+
+
 def load_source(value: Any, space: InputSpace, outputs: list[str] | None,
-                config_dir: str | None) -> DataSource:
+                config_dir: str | None, max_memory: int | None = None) -> DataSource:
     """Read and check the data of a config (module docstring).
 
     Parameters
@@ -112,6 +153,9 @@ def load_source(value: Any, space: InputSpace, outputs: list[str] | None,
         The config's outputs (default: every column that is not an input).
     config_dir : str, optional
         The config file's folder (relative paths start there).
+    max_memory : int, optional
+        The config's ``max_memory`` [bytes]: a file whose reading would need more is refused
+        before it is read (None: not checked).
 
     Returns
     -------
@@ -129,7 +173,8 @@ def load_source(value: Any, space: InputSpace, outputs: list[str] | None,
         p = Path(spec.path).expanduser()
         if not p.is_absolute() and config_dir:
             p = Path(config_dir) / p
-        table = read_table(p, spec.path)
+        table = read_table(p, spec.path, None if max_memory is None else
+                           _within(spec.path, space.dim, max_memory))
         if spec.sha256 is not None and spec.sha256 != table.digest:
             raise ConfigError(f"data: {spec.path}: the file changed since this config was "
                               f"stored (its columns' SHA-256 is {table.digest[:12]}..., the "

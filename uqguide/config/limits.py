@@ -20,6 +20,8 @@ if TYPE_CHECKING:
 DEFAULT_MAX_STEPS = 10_000_000
 #: Share of the machine's physical memory a run may plan to use unless the config says otherwise.
 DEFAULT_MEMORY_SHARE = 0.5
+#: The interpreter, numpy, scipy, chaospy and a compiled kernel, before any data [bytes].
+BASE_BYTES = 250e6
 
 _UNITS = {"": 1, "b": 1, "k": 1e3, "kb": 1e3, "m": 1e6, "mb": 1e6, "g": 1e9, "gb": 1e9,
           "t": 1e12, "tb": 1e12, "kib": 2**10, "mib": 2**20, "gib": 2**30, "tib": 2**40}
@@ -48,6 +50,22 @@ def default_max_memory() -> int:
         Bytes: :data:`DEFAULT_MEMORY_SHARE` of the machine's memory.
     """
     return int(DEFAULT_MEMORY_SHARE * machine_memory())
+
+
+def memory_limit(value: Any) -> int:
+    """The ``max_memory`` a config's value stands for: :func:`parse_bytes` of it, or
+    :func:`default_max_memory` when the config sets none.
+
+    Parameters
+    ----------
+    value : int, float, str or None
+
+    Returns
+    -------
+    int
+        Bytes.
+    """
+    return default_max_memory() if value is None else parse_bytes(value)
 
 
 def parse_bytes(value: Any) -> int:

@@ -26,7 +26,7 @@ from ..core.events import EventSpec, component_index
 from ..stats.quantiles import resolve_levels
 from ..core.strict import StrictModel
 from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
-from .limits import check_steps, default_max_memory, parse_bytes
+from .limits import check_steps, memory_limit, parse_bytes
 from .report_times import check_report_times, model_time_grid
 from ..methods.base import Method, RunContext
 from ..models.base import Model
@@ -203,8 +203,7 @@ class RunConfig:
     @property
     def max_memory(self) -> int:
         """Bytes a run may plan to use (the config's ``max_memory`` or half the machine's)."""
-        v = self.raw.max_memory
-        return default_max_memory() if v is None else parse_bytes(v)
+        return memory_limit(self.raw.max_memory)
 
     @property
     def name(self) -> str:
@@ -449,7 +448,8 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
         from .data_source import load_source, method_entries
 
         space = _build_space(raw, None)
-        found = load_source(raw.data, space, raw.outputs, config_dir)
+        found = load_source(raw.data, space, raw.outputs, config_dir,
+                            memory_limit(raw.max_memory))
         model, outputs, rows, stored_data = found.model, found.outputs, found.rows, found.spec
         entries = method_entries(raw.methods, rows.x.shape[0], rows.source)
     else:

@@ -19,6 +19,11 @@ from .events import EventEstimate
 
 #: The four statistics every method reports, in table order.
 STAT_NAMES = ("mean", "std", "skewness", "kurtosis")
+#: Fewest runs a sample moment needs to say anything of the output: whatever the output, the
+#: (population) standard deviation of one run is 0, the skewness of two runs 0 and their
+#: kurtosis 1, the kurtosis of three runs 1.5. With fewer, a sample estimate is NaN and the
+#: tables print "needs n runs".
+MIN_RUNS = {"mean": 1, "std": 2, "skewness": 3, "kurtosis": 4}
 
 
 @dataclass

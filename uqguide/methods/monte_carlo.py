@@ -242,7 +242,8 @@ class MonteCarlo(StreamingMethod):
                 if is_series else None
             stats[name] = statistics_from_sums(sums, acc.get(("b", name)), idx,
                                                delta=acc.get(("h", name)),
-                                               tail=self.settings.intervals == "tail")
+                                               tail=self.settings.intervals == "tail",
+                                               uncertain=space.dim > 0)
             if levels is not None:
                 if is_series:  # lane-major values, chunks joined where adjacent
                     lanes = acc.get(("q", name)) or []

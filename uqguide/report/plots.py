@@ -336,8 +336,8 @@ def _probability_panel(ax, result: Result, output: str, c: int,
 
 
 def _stats_text(mean: float, std: float, skew: float, kurt: float,
-                sample: bool = True) -> str:
-    over = overflowed(mean, std, skew, kurt, sample)
+                sample: bool = True, n_used: int | None = None) -> str:
+    over = overflowed(mean, std, skew, kurt, sample, n_used)
     text = {name: "overflow" if over[name] else format(v, spec) for name, v, spec in (
         ("mean", mean, ".4g"), ("std", std, ".4g"), ("skewness", skew, ".3g"),
         ("kurtosis", kurt, ".3g"))}
@@ -406,7 +406,8 @@ def scalar_figure(result: Result, output: str) -> Figure:
                 continue
             st = styles[r.label]
             text = _stats_text(float(s.mean[c]), float(s.std[c]), float(s.skewness[c]),
-                               float(s.kurtosis[c]), s.moments_method == "sample")
+                               float(s.kurtosis[c]), s.moments_method == "sample",
+                               int(s.n_used))
             if r.label in samples and np.ptp(samples[r.label]) == 0:
                 # One run, or runs that all agree: a histogram of one value says nothing.
                 ax.axvline(samples[r.label][0], color=st["color"], lw=st["lw"], ls=st["ls"],

@@ -284,7 +284,8 @@ def statistics_table(result: Result) -> pd.DataFrame:
                 over = v.overflowed_at(p.where)
                 for st in v.statistics:
                     row = _row(o, st, p, None if rv is None else rv.own(st.name),
-                               st.kind == "moment" and st.name in withheld)
+                               st.kind == "moment" and st.name in withheld,
+                               v.needs_runs(st.name) if st.kind == "moment" else None)
                     if row and st.kind == "moment" and over:
                         row[0]["overflow"] = _overflow_kind(st, p.where, over)
                     rows += row
@@ -305,10 +306,11 @@ def _overflow_kind(st: Statistic, where: tuple[int, ...], over: list[str]) -> st
 
 
 def _row(o: OutputInfo, st: Statistic, p: Point, ref: Statistic | None,
-         withheld: bool = False) -> list[dict]:
+         withheld: bool = False, needs_runs: int | None = None) -> list[dict]:
     """The row of statistic ``st`` at point ``p`` (none where it does not exist there),
     compared with the reference's own statistic of the same name where that exists;
-    ``withheld``: a PCE's moment its runs do not support (:mod:`uqguide.pce.support`)."""
+    ``withheld``: a PCE's moment its runs do not support (:mod:`uqguide.pce.support`);
+    ``needs_runs``: the runs a sample moment needs, more than the method had (NaN value)."""
     w = p.where
     if not st.defined_at(w):
         return []
@@ -321,6 +323,8 @@ def _row(o: OutputInfo, st: Statistic, p: Point, ref: Statistic | None,
         row["usable"] = usable
     if withheld:
         row["withheld"] = True
+    if needs_runs is not None and np.isnan(st.value[w]):
+        row["needs_runs"] = needs_runs
     if ref is not None and ref.defined_at(w):
         row.update(_against(float(st.value[w]), lo, hi, float(ref.value[w]), *ref.interval(w)))
     return [row]
@@ -476,6 +480,10 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
             if s.get("overflow") == "value":
                 row[s["stat"]] = "overflow"
                 continue
+            need = s.get("needs_runs")
+            if need is not None and need == need:  # pandas fills a missing one with NaN
+                row[s["stat"]] = f"needs {int(need)} runs"
+                continue
             if s.get("overflow") == "interval":
                 row[s["stat"]] = f"{_fmt(s['value'])} [no interval: overflow]"
                 continue
@@ -555,7 +563,7 @@ def render_text(result: Result) -> str:
     for b in budget_tables(result):
         parts += ["", budget_text(b)]
     if any(result_statistics(result).values()):
-        parts += ["", interval_legend(with_ref)]
+        parts += ["", interval_legend(with_ref, "needs_runs" in stats)]
     broken = [r for r in result.runs if not r.success]
     if broken:
         parts += ["", "Methods without statistics (the others completed):"]
@@ -567,13 +575,15 @@ def render_text(result: Result) -> str:
     return "\n".join(parts)
 
 
-def interval_legend(with_reference: bool) -> str:
+def interval_legend(with_reference: bool, needs_runs: bool = False) -> str:
     """What the brackets and flags of the statistics tables mean (printed with every table).
 
     Parameters
     ----------
     with_reference : bool
         Also explain the difference and its in / OUT verdict.
+    needs_runs : bool
+        Also explain "needs n runs" (a table shows it).
 
     Returns
     -------
@@ -602,6 +612,10 @@ def interval_legend(with_reference: bool) -> str:
             "validation runs (no extra runs), delta-method interval treating them as "
             "independent draws; 'overflow': the sums of the output's powers overflow double "
             "precision (values near 1e300), the run names the output.")
+    if needs_runs:
+        text += (" 'needs n runs': a sample statistic of fewer runs than it takes to say "
+                 "anything of the output (whatever the output, one run's std is 0, two runs' "
+                 "skewness 0 and kurtosis 1, three runs' kurtosis 1.5).")
     if with_reference:
         text += (" (difference from the reference; in: within the 95% interval of the "
                  "difference, both estimates' errors combined; OUT: beyond it).")
@@ -656,7 +670,7 @@ def render_markdown(result: Result) -> str:
     for b in budget_tables(result):
         parts += ["", budget_text(b)]
     if any(result_statistics(result).values()):
-        parts += ["", interval_legend(with_ref)]
+        parts += ["", interval_legend(with_ref, "needs_runs" in stats)]
     events = events_table(result)
     if not events.empty:
         parts += ["", "## Events", "", to_markdown(events_text(events))]

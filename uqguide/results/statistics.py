@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Literal, Protocol
 
 import numpy as np
 
-from ..core.types import STAT_NAMES, OutputStats
+from ..core.types import MIN_RUNS, STAT_NAMES, OutputStats
 from ..stats.moments import overflowed
 from ..stats.quantiles import level_name
 
@@ -340,16 +340,37 @@ class OutputStatistics:
         if not self.usable_at(where):
             return []
         mean, std, skew, kurt = (self.moment(n).value[where] for n in STAT_NAMES)
-        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample")
+        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample",
+                           n_used=self.n_used)
         return [n for n in STAT_NAMES if bool(masks[n])]
 
     @property
     def overflows(self) -> bool:
         """Whether any of the method's own moments overflowed, anywhere (:meth:`overflowed_at`)."""
         mean, std, skew, kurt = (m.value for m in self.moments)
-        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample")
+        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample",
+                           n_used=self.n_used)
         usable = True if self.usable is None else self.usable
         return any(bool(np.any(m & usable)) for m in masks.values())
+
+    def needs_runs(self, name: str) -> int | None:
+        """The runs the sample moment ``name`` needs when the method's were fewer
+        (:data:`~uqguide.core.types.MIN_RUNS`; its value is NaN unless no input is uncertain,
+        when one run is the whole distribution); None otherwise.
+
+        Parameters
+        ----------
+        name : str
+            A moment's or a quantile's name.
+
+        Returns
+        -------
+        int or None
+        """
+        need = MIN_RUNS.get(name)
+        if need is None or self.moments_method != "sample" or self.n_used >= need:
+            return None
+        return need
 
     @property
     def sem(self) -> np.ndarray | None:

@@ -6,6 +6,9 @@ Conventions, for an output ``y`` of k components at one time:
 - skewness ``E[(y-mu)^3]/sigma^3`` and kurtosis ``E[(y-mu)^4]/sigma^4`` are **non-excess**
   (a Gaussian has kurtosis 3);
 - a component with zero variance has skewness and kurtosis NaN, silently;
+- a moment of fewer runs than it needs (:data:`~uqguide.core.types.MIN_RUNS`: a single run's
+  std is 0 whatever the output) is NaN, without an interval, unless no input is uncertain
+  (one run is then the output's whole distribution, and its std of 0 exact);
 - the standard error of the mean is ``sigma/sqrt(n)``; 95% intervals of mean, std, skewness and
   kurtosis come from the tail-aware intervals (Hall's skew-corrected interval of the influence
   function, one-sided where a few runs carry the variance, from the central moments up to the
@@ -37,7 +40,7 @@ from typing import ParamSpec, TypeVar
 
 import numpy as np
 
-from ..core.types import STAT_NAMES, OutputStats
+from ..core.types import MIN_RUNS, STAT_NAMES, OutputStats
 from .tail_intervals import tail_intervals
 
 _P = ParamSpec("_P")
@@ -93,7 +96,7 @@ def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.nd
 
 def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
                skewness: np.ndarray | float, kurtosis: np.ndarray | float,
-               sample: bool = True) -> dict[str, np.ndarray]:
+               sample: bool = True, n_used: int | None = None) -> dict[str, np.ndarray]:
     """Where moments of finite values are not finite: their sums overflowed double precision.
 
     Finite values have finite moments, so a moment that is infinite, or (sample moments) a std
@@ -111,6 +114,9 @@ def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
         skewness or kurtosis as NaN (:mod:`uqguide.pce.support`), and a multi-fidelity estimate
         gives NaN for a negative variance or an impossible shape
         (:mod:`uqguide.stats.mfmc_estimator`): of theirs only the infinite ones are read so.
+    n_used : int, optional
+        Runs the sample moments are of: a moment NaN for want of runs
+        (:data:`~uqguide.core.types.MIN_RUNS`, :func:`founded`) did not overflow.
 
     Returns
     -------
@@ -119,12 +125,39 @@ def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
     """
     mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
     skew, kurt = np.asarray(skewness, dtype=float), np.asarray(kurtosis, dtype=float)
+    enough = {k: sample and (n_used is None or n_used >= MIN_RUNS[k]) for k in STAT_NAMES}
     with np.errstate(invalid="ignore", over="ignore"):
-        spread = sample & np.isfinite(mean) & (std > (np.abs(mean) + 1e-300) * 1e-12)
-        bad_std = np.isinf(std) | (sample & np.isnan(std) & np.isfinite(mean))
-    return {"mean": np.isinf(mean), "std": bad_std,
-            "skewness": bad_std | np.isinf(skew) | (np.isnan(skew) & spread),
-            "kurtosis": bad_std | np.isinf(kurt) | (np.isnan(kurt) & spread)}
+        spread = np.isfinite(mean) & (std > (np.abs(mean) + 1e-300) * 1e-12)
+        bad_std = np.isinf(std) | (enough["std"] & np.isnan(std) & np.isfinite(mean))
+    shape = {k: bad_std | np.isinf(v) | (enough[k] & np.isnan(v) & spread)
+             for k, v in (("skewness", skew), ("kurtosis", kurt))}
+    return {"mean": np.isinf(mean), "std": bad_std, **shape}
+
+
+def founded(n: int, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
+            ci: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """std, skewness and kurtosis of ``n`` runs, NaN (and ``ci`` without their intervals)
+    where ``n`` is below the runs each needs (:data:`~uqguide.core.types.MIN_RUNS`).
+
+    Parameters
+    ----------
+    n : int
+        Runs the moments are of.
+    std, skew, kurt : ndarray
+    ci : dict of str to ndarray
+        The intervals by statistic name; those of the moments set to NaN are removed.
+
+    Returns
+    -------
+    std, skewness, kurtosis : ndarray
+    """
+    out = []
+    for name, v in (("std", std), ("skewness", skew), ("kurtosis", kurt)):
+        if n < MIN_RUNS[name]:
+            v = np.full_like(v, np.nan)
+            ci.pop(name, None)
+        out.append(v)
+    return out[0], out[1], out[2]
 
 
 @_quiet_overflow
@@ -382,6 +415,7 @@ def sample_statistics(
                 full = np.full((2,) + y.shape[1:], np.nan)
                 full[:, idx] = v
                 ci[k] = full
+    std, skew, kurt = founded(n, std, skew, kurt, ci)
     return OutputStats(
         mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=covariance(y), n_used=n,
         moments_method="sample", sem=std / np.sqrt(n), ci=ci,
@@ -703,6 +737,7 @@ def _merge_order(p: int, a: list[np.ndarray], b: list[np.ndarray], na: float | n
 def statistics_from_sums(
     sums: MomentSums, boot: MomentSums | None = None, ci_index: np.ndarray | None = None,
     level: float = 0.95, delta: MomentSums | None = None, tail: bool = False,
+    uncertain: bool = True,
 ) -> OutputStats:
     """OutputStats from merged :class:`MomentSums` (the streaming form of
     :func:`sample_statistics`).
@@ -726,6 +761,9 @@ def statistics_from_sums(
     tail : bool
         With ``delta`` (orders up to 16) and no ``boot``: the tail-aware intervals of
         :func:`uqguide.stats.tail_intervals.tail_intervals` instead of the delta method's.
+    uncertain : bool
+        Whether the runs are draws of uncertain inputs: then a moment of fewer runs than it
+        needs is NaN (module docstring); without, one run is the whole distribution.
 
     Returns
     -------
@@ -780,6 +818,8 @@ def statistics_from_sums(
                 full = np.full((2,) + shape, np.nan)
                 full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
                 ci[name] = full
+    if uncertain:
+        std, skew, kurt = founded(n, std, skew, kurt, ci)
     return OutputStats(mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=cov, n_used=n,
                        moments_method="sample", sem=std / np.sqrt(n), ci=ci)
 

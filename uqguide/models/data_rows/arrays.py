@@ -21,6 +21,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from .files import ARRAYS, TIME, Table, table_from_arrays
+from .names import check_names
 
 
 def _columns(obj: Any, names: Sequence[str] | None, default: str, what: str
@@ -33,6 +34,8 @@ def _columns(obj: Any, names: Sequence[str] | None, default: str, what: str
                 out[TIME] = np.asarray(obj.coords[v.dims[1]].values, dtype=float)
         return out
     if hasattr(obj, "columns") and hasattr(obj, "to_numpy"):  # a DataFrame
+        # a repeated name would come back from obj[k] as two columns, taken for a series
+        check_names([str(k) for k in obj.columns], what, lambda j: f"column {j + 1}")
         return {str(k): obj[k].to_numpy() for k in obj.columns}
     if isinstance(obj, Mapping):
         return {str(k): np.asarray(v) for k, v in obj.items()}

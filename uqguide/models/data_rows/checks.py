@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.inputs import InputSpace
+from ...core.names import PLAIN_NAME_RULE, is_plain_name
 from ...errors import ConfigError
 from .files import Table
 
@@ -152,6 +153,11 @@ def output_names(table: Table, space: InputSpace, outputs: Sequence[str] | None
         if not found:
             raise _fail(table, f"no output columns: every column is an input "
                                f"({', '.join(space.names)})")
+        for name in found:
+            if not is_plain_name(name):
+                raise _fail(table, f"column {name!r} cannot name an output: an output's name "
+                                   f"must be {PLAIN_NAME_RULE}; rename the column, or list the "
+                                   f"outputs to read in outputs:")
         return found
     for i, name in enumerate(outputs):
         if name in space.names:

@@ -31,8 +31,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import re
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,19 +39,19 @@ from typing import Any
 import numpy as np
 
 from ...errors import ConfigError
+from .claims import (BLOCK_CELLS, MAX_NUMBER_CHARS, MAX_TEXT_CHARS, Claim, csv_claim, hdf5_claim,
+                     npz_claim, parquet_claim)
+from .names import FAILED, REASON, STEP, TIME, check_names
 
 #: The file suffixes read, by format.
 SUFFIXES = {".csv": "csv", ".parquet": "parquet", ".h5": "hdf5", ".hdf5": "hdf5",
             ".npz": "npz"}
 
-#: A column of one time step of a series: ``name[j]``.
-_STEP = re.compile(r"^(.+)\[(\d+)\]$")
+#: How each format's claim is measured before it is read (:mod:`.claims`).
+CLAIMS = {"csv": csv_claim, "parquet": parquet_claim, "hdf5": hdf5_claim, "npz": npz_claim}
 
-#: The name of the time grid in a file (not an input or an output).
-TIME = "time"
-
-#: A run's status columns (neither inputs nor outputs): flagged failed (0/1), and why.
-FAILED, REASON = "failed", "reason"
+__all__ = ["ARRAYS", "FAILED", "REASON", "SUFFIXES", "TIME", "Table", "read_table",
+           "table_from_arrays"]
 
 #: How messages (and a stored config) name runs given from Python rather than read from a file.
 ARRAYS = "<arrays>"
@@ -144,67 +143,109 @@ def _text(values: Any) -> np.ndarray:
     return out
 
 
-def _group_series(flat: dict[str, np.ndarray], source: str) -> dict[str, np.ndarray]:
-    """Plain columns kept, the ``name[j]`` columns of each series stacked into ``(n, T)``."""
+def _group_series(flat: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Plain columns kept, the ``name[j]`` columns of each series stacked into ``(n, T)``
+    (the names already checked: :func:`.names.check_names`)."""
     plain: dict[str, np.ndarray] = {}
     steps: dict[str, dict[int, np.ndarray]] = {}
     for name, v in flat.items():
-        m = _STEP.match(name)
+        m = STEP.match(name)
         if m is None:
             plain[name] = v
         else:
             steps.setdefault(m.group(1), {})[int(m.group(2))] = v
     for name, by_step in steps.items():
-        if name in plain:
-            raise ConfigError(f"data: {source}: column {name!r} and columns {name}[0], ... both "
-                              f"present; a name is either a scalar or a series")
-        missing = sorted(set(range(max(by_step) + 1)) - set(by_step))
-        if missing:
-            raise ConfigError(f"data: {source}: column {name}[{missing[0]}] is missing (series "
-                              f"{name!r} has steps up to {name}[{max(by_step)}]; its columns "
-                              f"must be {name}[0], {name}[1], ... without gaps)")
         plain[name] = np.column_stack([by_step[j] for j in range(len(by_step))])
     return plain
 
 
-def _read_csv(path: Path, source: str) -> tuple[dict[str, np.ndarray], int]:
+def _bounded_lines(f: Any, source: str, limit: int) -> Iterator[str]:
+    """The file's lines, each read only up to ``limit`` characters: a line longer than that
+    (a file changed since it was measured) is refused before it is held."""
+    line = 1
+    while True:
+        text = f.readline(limit + 1)
+        if not text:
+            return
+        line += 1
+        if len(text) > limit and not text.endswith("\n"):
+            raise ConfigError(f"data: {source}: line {line}: longer than {limit:,} "
+                              f"characters; the file changed while it was read")
+        yield text
+
+
+def _read_csv(path: Path, source: str, claim: Claim) -> tuple[dict[str, np.ndarray], int]:
+    """The columns of a CSV whose header and size :func:`.claims.csv_claim` measured, read a
+    block of rows at a time into columns allocated once (never the whole file as text)."""
+    header = list(claim.columns)
+    numeric = [j for j, name in enumerate(header) if name != REASON]
+    values = np.empty((len(numeric), claim.rows))
+    texts: list[str] | None = [] if REASON in header else None
+    per_block = max(1, BLOCK_CELLS // max(len(header), 1))
+    block: list[list[str]] = []
+    n = 0
+
+    def convert() -> None:
+        first = n - len(block)
+        for i, j in enumerate(numeric):
+            cells = [r[j].strip() or "nan" for r in block]
+            try:
+                values[i, first:n] = np.array(cells, dtype=float)
+            except ValueError:
+                k = next(k for k, c in enumerate(cells) if not _is_number(c))
+                raise ConfigError(f"data: {source}: row {first + k + 1} (line {first + k + 2}), "
+                                  f"column {header[j]!r}: {cells[k]!r} is not a number") from None
+        if texts is not None:
+            texts.extend(r[header.index(REASON)] for r in block)
+        block.clear()
+
+    blank = 0  # the first blank line after the last row (trailing blank lines are allowed)
     try:
-        with path.open(newline="", encoding="utf-8") as f:
-            rows = list(csv.reader(f))
+        with path.open(newline="", encoding="utf-8-sig") as f:
+            records = csv.reader(_bounded_lines(f, source, claim.line_bytes))
+            next(records, None)  # the header, read by the claim
+            for line, r in enumerate(records, start=2):
+                if not any(cell.strip() for cell in r):
+                    blank = blank or line
+                    continue
+                if blank:
+                    raise ConfigError(f"data: {source}: line {blank}: blank line inside the data "
+                                      f"(a run's outputs that failed are a row of NaN or empty "
+                                      f"cells after its inputs)")
+                if len(r) != len(header):
+                    raise ConfigError(f"data: {source}: line {line}: {len(r)} cells, the header "
+                                      f"names {len(header)} columns")
+                _check_cells(r, header, source, line)
+                if n == claim.rows:
+                    raise ConfigError(f"data: {source}: more rows than its {claim.rows:,} lines; "
+                                      f"the file changed while it was read")
+                block.append(r)
+                n += 1
+                if len(block) == per_block:
+                    convert()
+            convert()
     except UnicodeDecodeError as exc:
         raise ConfigError(f"data: {source}: not a text CSV file ({exc.reason})") from None
-    if not rows or not any(cell.strip() for cell in rows[0]):
-        raise ConfigError(f"data: {source}: empty file; the first line must name the columns")
-    header = [c.strip() for c in rows[0]]
-    for j, name in enumerate(header):
-        if not name:
-            raise ConfigError(f"data: {source}: line 1, column {j + 1}: empty column name")
-        if header.index(name) != j:
-            raise ConfigError(f"data: {source}: line 1: column {name!r} appears twice")
-    body = [r for r in rows[1:] if any(cell.strip() for cell in r)]
-    lines = [i + 2 for i, r in enumerate(rows[1:]) if any(cell.strip() for cell in r)]
-    if lines != list(range(2, 2 + len(body))):
-        blank = next(i for i, ln in enumerate(lines, start=2) if ln != i)
-        raise ConfigError(f"data: {source}: line {blank}: blank line inside the data (a run's "
-                          f"outputs that failed are a row of NaN or empty cells after its "
-                          f"inputs)")
+    except csv.Error as exc:
+        raise ConfigError(f"data: {source}: not a CSV file ({exc})") from None
     flat: dict[str, np.ndarray] = {}
-    for i, r in enumerate(body):
-        if len(r) != len(header):
-            raise ConfigError(f"data: {source}: line {i + 2}: {len(r)} cells, the header names "
-                              f"{len(header)} columns")
-    for j, name in enumerate(header):
-        if name == REASON:
-            flat[name] = _text([r[j] for r in body])
-            continue
-        cells = [r[j].strip() or "nan" for r in body]
-        try:
-            flat[name] = np.array(cells, dtype=float)
-        except ValueError:
-            i = next(i for i, c in enumerate(cells) if not _is_number(c))
-            raise ConfigError(f"data: {source}: row {i + 1} (line {i + 2}), column {name!r}: "
-                              f"{cells[i]!r} is not a number") from None
-    return flat, 2
+    for i, j in enumerate(numeric):
+        flat[header[j]] = values[i, :n]  # a view: the rows are contiguous, no copy
+    if texts is not None:
+        flat[REASON] = _text(texts)
+    return {name: flat[name] for name in header}, 2
+
+
+def _check_cells(r: list[str], header: list[str], source: str, line: int) -> None:
+    """ConfigError naming the first cell longer than its limit (a number's, a reason's)."""
+    if max(map(len, r)) <= MAX_NUMBER_CHARS:  # every cell within the smaller limit
+        return
+    for j, cell in enumerate(r):
+        limit = MAX_TEXT_CHARS if header[j] == REASON else MAX_NUMBER_CHARS
+        if len(cell) > limit:
+            raise ConfigError(f"data: {source}: line {line}, column {header[j]!r}: a cell of "
+                              f"{len(cell):,} characters; allowed at most {limit:,} "
+                              f"({'a reason' if limit == MAX_TEXT_CHARS else 'a number'})")
 
 
 def _is_number(cell: str) -> bool:
@@ -228,6 +269,8 @@ def _read_parquet(path: Path, source: str) -> dict[str, np.ndarray]:
 
 
 def _numeric_frame(frame: Any, source: str) -> dict[str, np.ndarray]:
+    check_names([str(c).strip() for c in frame.columns], source,
+                lambda j: f"column {j + 1}")
     flat = {}
     for name in frame.columns:
         if str(name) == REASON:
@@ -265,8 +308,8 @@ def _read_hdf5(path: Path, source: str) -> dict[str, np.ndarray]:
 
     try:
         with h5py.File(path, "r") as f:
-            items = {k: f[k][()] for k in f if isinstance(f[k], h5py.Dataset)}
-    except OSError as exc:
+            items = {k: f[k][()] for k in f if isinstance(f.get(k), h5py.Dataset)}
+    except (OSError, KeyError) as exc:
         raise ConfigError(f"data: {source}: not a readable HDF5 file ({exc})") from None
     return _read_arrays(items, source)
 
@@ -280,8 +323,9 @@ def _read_npz(path: Path, source: str) -> dict[str, np.ndarray]:
     return _read_arrays(items, source)
 
 
-def read_table(path: str | Path, source: str | None = None) -> Table:
-    """Read a file of runs.
+def read_table(path: str | Path, source: str | None = None,
+               check: Callable[[Claim], None] | None = None) -> Table:
+    """Read a file of runs, once what it claims (:mod:`.claims`) passed ``check``.
 
     Parameters
     ----------
@@ -289,6 +333,9 @@ def read_table(path: str | Path, source: str | None = None) -> Table:
         The file; its suffix says the format (:data:`SUFFIXES`).
     source : str, optional
         How messages name the file (default: ``path`` as given).
+    check : callable, optional
+        Called with the file's :class:`~.claims.Claim` before any value is read; raises
+        ConfigError to refuse it (``max_memory``: :mod:`uqguide.config.data_source`).
 
     Returns
     -------
@@ -306,9 +353,12 @@ def read_table(path: str | Path, source: str | None = None) -> Table:
         raise ConfigError(f"data: {source}: file not found"
                           + (" (a path is relative to the config file's folder)"
                              if not Path(source).is_absolute() else ""), field="data")
+    claim = CLAIMS[fmt](p, source)
+    if check is not None:
+        check(claim)
     first_line = 0
     if fmt == "csv":
-        flat, first_line = _read_csv(p, source)
+        flat, first_line = _read_csv(p, source, claim)
     elif fmt == "parquet":
         flat = _read_parquet(p, source)
     elif fmt == "hdf5":
@@ -333,6 +383,7 @@ def table_from_arrays(columns: Mapping[str, Any], source: str = ARRAYS) -> Table
     -------
     Table
     """
+    check_names([str(k) for k in columns], source, lambda j: f"column {j + 1}")
     return _table(_read_arrays(columns, source), source, 0, grid_in_file=True)
 
 
@@ -346,7 +397,7 @@ def _table(flat: dict[str, np.ndarray], source: str, first_line: int, *,
         raise ConfigError(f"data: {source}: column 'failed' has shape {raw.shape}; allowed "
                           f"(n,), 0 or 1 per run")
     flagged = None if raw is None else _flags(raw, source, first_line)
-    columns = _group_series(flat, source)
+    columns = _group_series(flat)
     if not columns:
         raise ConfigError(f"data: {source}: no columns")
     lengths = {k: v.shape[0] for k, v in columns.items()}

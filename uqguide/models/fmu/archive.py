@@ -1,18 +1,28 @@
 """An FMU file: FMPy, its model description, its variables and its unzipped files.
 
 FMPy is an optional dependency: :func:`fmpy` imports it or raises one line saying how to
-install it. The description is parsed once per file version (path, size, modification time)
-and the archive unzipped once per process, into a temporary folder removed when the process
-that made it exits: a batch, and a sample, pay for neither.
+install it. The description is parsed once per file version (path, size, modification time).
+
+The archive is checked member by member before anything is unzipped (:func:`check_archive`:
+no absolute or climbing path, no link or special file, the declared sizes and compression
+ratios within bounds) and unzipped once, by the process that validates the config, into a
+temporary folder marked as uqguide's; the processes that evaluate it (guards, pool workers)
+find it through the environment and unzip nothing. The folder is removed when its process
+exits, whether the run finished, failed or was interrupted; a folder whose process was
+killed is removed by the next one that unzips or exits. The limits and the ratios they come
+from are in ``docs/your-simulator.md`` ("An FMU").
 """
 
 from __future__ import annotations
 
-import atexit
+import json
 import os
 import shutil
+import stat
 import tempfile
 import threading
+import zipfile
+from multiprocessing import util as mp_util
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -25,9 +35,26 @@ REAL_TYPES = frozenset({"Real", "Float64", "Float32"})
 NUMERIC_TYPES = REAL_TYPES | {"Integer", "Boolean", "Enumeration", "Int8", "UInt8", "Int16",
                               "UInt16", "Int32", "UInt32", "Int64", "UInt64"}
 
+#: Largest total of an FMU's unzipped files [bytes] (an FMU's binaries and resources are
+#: megabytes; a larger one can be unzipped by hand and its folder given as the path).
+MAX_UNZIPPED_BYTES = 2 * 2**30
+#: Largest compression ratio of a member over :data:`RATIO_FLOOR` bytes: deflate's limit is
+#: 1029 to 1 (zeros, the stuff of zip bombs); binaries and text measured 5 to 21 to 1.
+MAX_RATIO = 100
+RATIO_FLOOR = 2**20
+#: Most members an FMU may have.
+MAX_MEMBERS = 10_000
+
+#: The unzipped folders' name prefix, the mark file in each and the environment variable that
+#: tells child processes where they are.
+PREFIX, MARK, ENV = "uqguide-fmu-", ".uqguide-fmu", "UQGUIDE_FMU_UNZIPPED"
+_COPY_CHUNK = 2**20
+_READABLE = {zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED, zipfile.ZIP_BZIP2, zipfile.ZIP_LZMA}
+
 _lock = threading.Lock()
 _descriptions: dict[tuple[str, int, int], Any] = {}
-_unzipped: dict[tuple[str, int, int, int], str] = {}
+_unzipped: dict[tuple[str, int, int], str] = {}
+_exit_sweep: list[int] = []  # the processes whose exit sweeps the temporary folder
 
 
 class FmuUnavailable(ImportError):
@@ -95,8 +122,192 @@ def description(path: Path) -> Any:
     return md
 
 
+def _member_problem(info: zipfile.ZipInfo) -> str | None:
+    """Why a member is not unzipped, or None."""
+    name = info.filename
+    parts = name.split("/")
+    mode = info.external_attr >> 16 if info.create_system == 3 else 0  # Unix's mode bits
+    if not name or "\0" in name:
+        return "an empty name"
+    if "\\" in name or ":" in name:
+        return "a path with a backslash or a drive letter (FMI paths use '/')"
+    if name.startswith("/"):
+        return "an absolute path"
+    if ".." in parts:
+        return "a path out of the FMU's folder ('..')"
+    kind = stat.S_IFMT(mode)  # 0: no type recorded (zipfile's writestr), a plain file
+    if kind == stat.S_IFLNK:
+        return "a symbolic link"
+    if kind not in (0, stat.S_IFREG, stat.S_IFDIR):
+        return "a special file (a device, FIFO or socket)"
+    if info.flag_bits & 0x1:
+        return "encrypted"
+    if info.compress_type not in _READABLE:
+        return f"compressed by method {info.compress_type}, which zipfile cannot read"
+    ratio = info.file_size / max(info.compress_size, 1)
+    if info.file_size > RATIO_FLOOR and ratio > MAX_RATIO:
+        return (f"{info.file_size:,} bytes compressed {ratio:.0f} to 1 (a zip bomb's ratio); "
+                f"allowed at most {MAX_RATIO} to 1 for a member over "
+                f"{RATIO_FLOOR // 2**20} MiB")
+    return None
+
+
+def check_archive(path: Path) -> list[zipfile.ZipInfo]:
+    """The FMU's members, each checked before anything is unzipped (module docstring).
+
+    Parameters
+    ----------
+    path : Path
+        The ``.fmu`` file.
+
+    Returns
+    -------
+    list of zipfile.ZipInfo
+
+    Raises
+    ------
+    ValueError
+        Naming the member and why it is refused, or the total over its limit.
+    """
+    try:
+        with zipfile.ZipFile(path) as z:
+            infos = z.infolist()
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, ValueError) as exc:
+        raise ValueError(f"is not an FMU FMPy can read ({type(exc).__name__}: {exc})") from None
+    if len(infos) > MAX_MEMBERS:
+        raise ValueError(f"has {len(infos):,} members; an FMU may have at most "
+                         f"{MAX_MEMBERS:,}")
+    seen: set[str] = set()
+    for info in infos:
+        problem = _member_problem(info)
+        if problem is None and info.filename.rstrip("/") in seen:
+            problem = "a second member of that name"
+        if problem is not None:
+            raise ValueError(f"holds a member uqguide does not unzip: {info.filename!r} is "
+                             f"{problem}")
+        seen.add(info.filename.rstrip("/"))
+    total = sum(i.file_size for i in infos)
+    if total > MAX_UNZIPPED_BYTES:
+        raise ValueError(f"unzips to {total:,} bytes, more than the {MAX_UNZIPPED_BYTES:,} "
+                         f"uqguide unzips; unzip it yourself and give its folder as the path")
+    free = shutil.disk_usage(tempfile.gettempdir()).free
+    if total > free:
+        raise ValueError(f"unzips to {total:,} bytes; the temporary folder "
+                         f"{tempfile.gettempdir()} has {free:,} free (set TMPDIR to a "
+                         f"folder with room)")
+    return infos
+
+
+def _copy_members(path: Path, folder: Path, infos: list[zipfile.ZipInfo]) -> None:
+    """Unzip the checked members into ``folder``, counting the bytes written: a member that
+    inflates past its declared size (the sizes can lie) is refused at that byte."""
+    with zipfile.ZipFile(path) as z:
+        for info in infos:
+            target = folder.joinpath(*[p for p in info.filename.split("/") if p])
+            if info.is_dir():
+                target.mkdir(parents=True, exist_ok=True)
+                continue
+            target.parent.mkdir(parents=True, exist_ok=True)
+            written = 0
+            fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+            with os.fdopen(fd, "wb") as out, z.open(info) as src:
+                while chunk := src.read(_COPY_CHUNK):
+                    written += len(chunk)
+                    if written > info.file_size:
+                        raise ValueError(f"member {info.filename!r} unzips to more than the "
+                                         f"{info.file_size:,} bytes it declares")
+                    out.write(chunk)
+
+
+def _mark_of(folder: Path) -> dict[str, Any] | None:
+    """The mark uqguide wrote in an unzipped folder, or None when it is not one of uqguide's."""
+    try:
+        if folder.is_symlink() or not folder.is_dir():
+            return None
+        mark = folder / MARK
+        if mark.is_symlink():
+            return None
+        found = json.loads(mark.read_text())
+    except (OSError, ValueError):
+        return None
+    ok = isinstance(found, dict) and found.get("folder") == folder.name and \
+        isinstance(found.get("pid"), int)
+    return found if ok else None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def sweep() -> int:
+    """Remove the unzipped folders whose process is gone (killed before it could): only
+    folders uqguide marked, of this user, in the temporary folder.
+
+    Returns
+    -------
+    int
+        Folders removed.
+    """
+    root = Path(tempfile.gettempdir())
+    removed = 0
+    try:
+        entries = list(os.scandir(root))
+    except OSError:
+        return 0
+    for entry in entries:
+        try:
+            if not entry.name.startswith(PREFIX) or \
+                    entry.stat(follow_symlinks=False).st_uid != os.getuid():
+                continue
+        except OSError:
+            continue
+        mark = _mark_of(Path(entry.path))
+        if mark is None or mark["pid"] == os.getpid() or _alive(mark["pid"]):
+            continue
+        shutil.rmtree(entry.path, ignore_errors=True)
+        removed += 1
+    return removed
+
+
+def _exported() -> dict[str, str]:
+    """The folders this process and its parents unzipped, by FMU version (:data:`ENV`)."""
+    try:
+        known = json.loads(os.environ.get(ENV, "{}"))
+    except ValueError:
+        return {}
+    return known if isinstance(known, dict) else {}
+
+
+def _inherited(key: tuple[str, int, int]) -> str | None:
+    """The folder a parent process unzipped this FMU version into (module docstring)."""
+    folder = _exported().get(json.dumps(key))
+    if not isinstance(folder, str):
+        return None
+    mark = _mark_of(Path(folder))
+    return folder if mark is not None and mark.get("key") == list(key) else None
+
+
+def _remove(folder: str, owner: int) -> None:
+    if os.getpid() == owner:  # not in a forked child that inherited the exit handler
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _sweep_at_exit() -> None:
+    # after multiprocessing has ended this process's daemonic children (their own folders'
+    # processes are then gone): a negative priority runs after that
+    if os.getpid() not in _exit_sweep:
+        _exit_sweep.append(os.getpid())
+        mp_util.Finalize(None, sweep, exitpriority=-10)
+
+
 def unzipped(path: Path) -> str:
-    """The folder holding the FMU's files, unzipped on this process's first call.
+    """The folder holding the FMU's files: this process's, a parent's, or unzipped now.
 
     Parameters
     ----------
@@ -106,27 +317,42 @@ def unzipped(path: Path) -> str:
     Returns
     -------
     str
-        The folder (removed when this process exits).
+        The folder (removed when the process that unzipped it exits).
+
+    Raises
+    ------
+    ValueError
+        The archive is refused (:func:`check_archive`) or cannot be unzipped.
     """
     if path.is_dir():
         return str(path)
-    # keyed by process too: a forked worker inherits the parent's table, and the parent's
-    # folder is the parent's to remove
-    key = (*_key(path), os.getpid())
+    key = _key(path)
     with _lock:
-        found = _unzipped.get(key)
-        if found is not None:
+        found = _unzipped.get(key) or _inherited(key)
+        if found is not None and _mark_of(Path(found)) is not None:
+            _unzipped[key] = found
             return found
-        folder = tempfile.mkdtemp(prefix="uqguide-fmu-")
-        fmpy().extract(str(path), unzipdir=folder)
-        atexit.register(_remove, folder, os.getpid())
-        _unzipped[key] = folder
-        return folder
-
-
-def _remove(folder: str, owner: int) -> None:
-    if os.getpid() == owner:  # not in a forked child that inherited the exit handler
-        shutil.rmtree(folder, ignore_errors=True)
+        infos = check_archive(path)
+        _sweep_at_exit()
+        sweep()
+        folder = Path(tempfile.mkdtemp(prefix=f"{PREFIX}{os.getpid()}-"))
+        # removed at exit, after this process's children (Finalize runs in multiprocessing's
+        # children too, where atexit does not)
+        mp_util.Finalize(None, _remove, args=(str(folder), os.getpid()), exitpriority=-5)
+        try:
+            (folder / MARK).write_text(json.dumps({"pid": os.getpid(), "folder": folder.name,
+                                                   "key": list(key)}))
+            _copy_members(path, folder, infos)
+        except (OSError, EOFError, RuntimeError, NotImplementedError, zipfile.BadZipFile,
+                ValueError) as exc:
+            shutil.rmtree(folder, ignore_errors=True)
+            text = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
+            raise ValueError(f"cannot be unzipped ({text})") from None
+        _unzipped[key] = str(folder)
+        known = _exported()
+        known[json.dumps(key)] = str(folder)
+        os.environ[ENV] = json.dumps(known)
+        return str(folder)
 
 
 def platform_problem(path: Path) -> str | None:

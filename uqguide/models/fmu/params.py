@@ -1,8 +1,9 @@
 """The ``fmu`` model's parameters, checked against the FMU when the config is loaded.
 
-FMPy installed, the file an FMU with a binary for this machine, every variable named present
-and of the right kind: a failure is a config error (exit 2) naming the field, the value and the
-FMU's variables, raised at the field it is about.
+FMPy installed, the file an FMU whose members unzip within bounds (:func:`.archive.unzipped`)
+with a binary for this machine, every variable named present and of the right kind: a failure
+is a config error (exit 2) naming the field, the value and the FMU's variables, raised at the
+field it is about.
 """
 
 from __future__ import annotations
@@ -209,6 +210,9 @@ class FmuParams(ConfigDirParams):
             self._refuse("path", f"no FMU file {f} (a relative path is taken from the "
                                  f"config's folder)")
         try:
+            # unzipped first: its members are checked before FMPy reads any of them, and a
+            # damaged one is found now rather than by the run's first batch
+            archive.unzipped(f)
             md = archive.description(f)
             problem = archive.platform_problem(f)
         except (OSError, ValueError) as exc:
