@@ -23,7 +23,7 @@ STAT_NAMES = ("mean", "std", "skewness", "kurtosis")
 #: (population) standard deviation of one run is 0, the skewness of two runs 0 and their
 #: kurtosis 1, the kurtosis of three runs 1.5. With fewer, a sample estimate is NaN and the
 #: tables print "needs n runs".
-MIN_RUNS = {"mean": 1, "std": 2, "skewness": 3, "kurtosis": 4}
+RUNS_NEEDED = {"mean": 1, "std": 2, "skewness": 3, "kurtosis": 4}
 
 
 @dataclass

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Literal, Protocol
 
 import numpy as np
 
-from ..core.types import MIN_RUNS, STAT_NAMES, OutputStats
+from ..core.types import RUNS_NEEDED, STAT_NAMES, OutputStats
 from ..stats.moments import overflowed
 from ..stats.quantiles import level_name
 
@@ -355,7 +355,7 @@ class OutputStatistics:
 
     def needs_runs(self, name: str) -> int | None:
         """The runs the sample moment ``name`` needs when the method's were fewer
-        (:data:`~uqguide.core.types.MIN_RUNS`; its value is NaN unless no input is uncertain,
+        (:data:`~uqguide.core.types.RUNS_NEEDED`; its value is NaN unless no input is uncertain,
         when one run is the whole distribution); None otherwise.
 
         Parameters
@@ -367,7 +367,7 @@ class OutputStatistics:
         -------
         int or None
         """
-        need = MIN_RUNS.get(name)
+        need = RUNS_NEEDED.get(name)
         if need is None or self.moments_method != "sample" or self.n_used >= need:
             return None
         return need

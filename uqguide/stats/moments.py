@@ -6,7 +6,7 @@ Conventions, for an output ``y`` of k components at one time:
 - skewness ``E[(y-mu)^3]/sigma^3`` and kurtosis ``E[(y-mu)^4]/sigma^4`` are **non-excess**
   (a Gaussian has kurtosis 3);
 - a component with zero variance has skewness and kurtosis NaN, silently;
-- a moment of fewer runs than it needs (:data:`~uqguide.core.types.MIN_RUNS`: a single run's
+- a moment of fewer runs than it needs (:data:`~uqguide.core.types.RUNS_NEEDED`: a single run's
   std is 0 whatever the output) is NaN, without an interval, unless no input is uncertain
   (one run is then the output's whole distribution, and its std of 0 exact);
 - the standard error of the mean is ``sigma/sqrt(n)``; 95% intervals of mean, std, skewness and
@@ -40,7 +40,7 @@ from typing import ParamSpec, TypeVar
 
 import numpy as np
 
-from ..core.types import MIN_RUNS, STAT_NAMES, OutputStats
+from ..core.types import RUNS_NEEDED, STAT_NAMES, OutputStats
 from .tail_intervals import tail_intervals
 
 _P = ParamSpec("_P")
@@ -116,7 +116,7 @@ def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
         (:mod:`uqguide.stats.mfmc_estimator`): of theirs only the infinite ones are read so.
     n_used : int, optional
         Runs the sample moments are of: a moment NaN for want of runs
-        (:data:`~uqguide.core.types.MIN_RUNS`, :func:`founded`) did not overflow.
+        (:data:`~uqguide.core.types.RUNS_NEEDED`, :func:`founded`) did not overflow.
 
     Returns
     -------
@@ -125,7 +125,7 @@ def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
     """
     mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
     skew, kurt = np.asarray(skewness, dtype=float), np.asarray(kurtosis, dtype=float)
-    enough = {k: sample and (n_used is None or n_used >= MIN_RUNS[k]) for k in STAT_NAMES}
+    enough = {k: sample and (n_used is None or n_used >= RUNS_NEEDED[k]) for k in STAT_NAMES}
     with np.errstate(invalid="ignore", over="ignore"):
         spread = np.isfinite(mean) & (std > (np.abs(mean) + 1e-300) * 1e-12)
         bad_std = np.isinf(std) | (enough["std"] & np.isnan(std) & np.isfinite(mean))
@@ -137,7 +137,7 @@ def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
 def founded(n: int, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
             ci: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """std, skewness and kurtosis of ``n`` runs, NaN (and ``ci`` without their intervals)
-    where ``n`` is below the runs each needs (:data:`~uqguide.core.types.MIN_RUNS`).
+    where ``n`` is below the runs each needs (:data:`~uqguide.core.types.RUNS_NEEDED`).
 
     Parameters
     ----------
@@ -153,7 +153,7 @@ def founded(n: int, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
     """
     out = []
     for name, v in (("std", std), ("skewness", skew), ("kurtosis", kurt)):
-        if n < MIN_RUNS[name]:
+        if n < RUNS_NEEDED[name]:
             v = np.full_like(v, np.nan)
             ci.pop(name, None)
         out.append(v)
