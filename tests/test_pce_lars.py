@@ -7,10 +7,11 @@ import pytest
 
 from uqguide.pce import basis
 from uqguide.pce.germ import Germ
-from uqguide.pce.lars import LarsPath, LooPath, corrected_loo_path, hybrid_lars, lars_order
+from uqguide.pce.lars import LarsPath, lars_order
+from uqguide.pce.loo import LooPath, corrected_loo_path
 from uqguide.pce.pca import constant_columns, principal_components
 from uqguide.pce import sparse_regression
-from uqguide.pce.sparse_regression import fit_columns
+from uqguide.pce.sparse_regression import fit_columns, hybrid_lars
 
 from uqguide.core.inputs import InputSpace, Uniform
 

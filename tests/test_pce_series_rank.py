@@ -16,10 +16,8 @@ from uqguide.core.inputs import InputSpace
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.models.base import ModelOutput
 from uqguide.pce.germ import Germ
-from uqguide.pce.joint_lars import JointLarsPath
-from uqguide.pce.joint_regression import fit_joint
-from uqguide.pce.lars import LarsBasis, LarsPath
-from uqguide.pce.sparse_regression import fit_columns
+from uqguide.pce.lars import JointLarsPath, LarsBasis, LarsPath
+from uqguide.pce.sparse_regression import fit_columns, fit_joint
 
 from .test_pce_helpers import normal_space
 

@@ -5,7 +5,7 @@ fitted, and the number kept is chosen afterwards by the moments' rule
 (:mod:`uqguide.pce.pca_rank`) unless ``n_components`` or ``variance_fraction`` fix it. Every
 component gets its own search (:func:`uqguide.pce.sparse_regression.fit_columns`) where that
 costs at most :data:`HYBRID_WORK` multiply-adds; above, the first :data:`LEAD` component(s) get it
-and the others share one path (:func:`uqguide.pce.joint_regression.fit_joint`); past
+and the others share one path (:func:`uqguide.pce.sparse_regression.fit_joint`); past
 :data:`COLUMNWISE_WORK` all take the shared path.
 
 Why the hybrid, with the measurements that set it:
@@ -23,9 +23,8 @@ from threadpoolctl import threadpool_limits
 from . import pca_rank
 from .germ import Germ
 from . import basis
-from .joint_regression import fit_joint
 from .pca import Components, decompose
-from .sparse_regression import ColumnsFit, candidate_sets, fit_columns
+from .sparse_regression import ColumnsFit, candidate_sets, fit_columns, fit_joint
 
 log = logging.getLogger(__name__)
 

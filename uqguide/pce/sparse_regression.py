@@ -1,17 +1,18 @@
 """Sparse regression of output columns on a candidate basis chosen from the data.
 
 For each output column (a scalar component or a principal component's scores) the expansion of
-least corrected leave-one-out error (:mod:`uqguide.pce.lars`) is chosen over a grid of hyperbolic
-candidate sets ``||alpha||_q <= p``: the q-norms :data:`Q_GRID` (or the config's) and every degree
-whose candidate set has at most :func:`candidate_cap` terms (up to :data:`MAX_DEGREE`), or
-``degree_max``. Among the fits within 1% of the least error the smallest candidate set wins.
-Each q-norm runs LARS once on its largest set; smaller degrees score that order restricted to
-their candidates. :func:`fit_columns` is the entry point; everything is deterministic.
+least corrected leave-one-out error (:mod:`uqguide.pce.lars`, :mod:`uqguide.pce.loo`) is chosen
+over a grid of hyperbolic candidate sets ``||alpha||_q <= p``: the q-norms :data:`Q_GRID` (or the
+config's) and every degree whose set has at most :func:`candidate_cap` terms (up to
+:data:`MAX_DEGREE`), or ``degree_max``. Among the fits within 1% of the least error the smallest
+candidate set wins. :func:`fit_columns` runs one LARS per q-norm and column on its largest set
+(smaller degrees score that order restricted to their candidates); :func:`fit_joint` one per
+q-norm shared by all the columns (a series' components past the first where the search is
+expensive). Everything is deterministic.
 
-The grid, the selection rule and what was tried, and how the search is kept cheap:
+The grid, the selection rule and what was tried, how the search is kept cheap, the shared path:
 docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out.
 """
-
 from __future__ import annotations
 
 import logging
@@ -22,7 +23,8 @@ from threadpoolctl import threadpool_limits
 
 from . import basis
 from .germ import Germ
-from .lars import LarsBasis, LarsPath, LooPath, SparseFit, corrected_loo_path
+from .lars import JointLarsPath, LarsBasis, LarsPath, lars_order
+from .loo import LooPath, MultiLooPath, SparseFit, corrected_loo_path, score_path
 from .pca import constant_columns
 
 log = logging.getLogger(__name__)
@@ -375,3 +377,99 @@ def columns_fit(union: np.ndarray, fits: list[SparseFit], degree: np.ndarray, qs
         core[[pos[t] for t in f.terms], c] = f.coef
     n_terms = np.array([f.terms.size for f in fits], dtype=int)
     return ColumnsFit(union[used], core, degree, qs, loo, n_terms, int(union.shape[0]))
+
+
+def hybrid_lars(psi: np.ndarray, y: np.ndarray) -> SparseFit:
+    """LARS order of the candidates, then the corrected-LOO-best nested set (module docstring)."""
+    n, p_cand = psi.shape
+    order = lars_order(psi, y, max_steps=min(p_cand - 1, n - 2))
+    return corrected_loo_path(psi, y, order)
+
+
+@dataclass
+class JointFit:
+    """A :class:`ColumnsFit` of several columns and each column's leave-one-out residuals.
+
+    Attributes
+    ----------
+    fit : ColumnsFit
+    loo_resid : ndarray, shape (N, r)
+        ``y_i - y_hat_(-i)`` of each column's selected expansion (the runs' values minus what
+        the expansion fitted without run ``i`` predicts there).
+    """
+
+    fit: ColumnsFit
+    loo_resid: np.ndarray
+
+
+def fit_joint(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1,
+              degree_max: int | None = None, q: float | None = None) -> JointFit:
+    """Sparse PCE of every column of ``y (N, r)`` on shared least-angle paths (module
+    docstring). Arguments as :func:`uqguide.pce.sparse_regression.fit_columns`; no column may
+    be constant (principal-component scores are not)."""
+    with threadpool_limits(limits=1, user_api="blas"):  # why: fit_columns
+        return _fit_joint(germ, xi, y, degree_min, degree_max, q)
+
+
+def _search(cs: Candidates, lb: LarsBasis, y: np.ndarray, degree_min: int
+            ) -> dict[int, MultiLooPath]:
+    """One q-norm's joint path, scored at the degrees of the grid and refined around every
+    column's best degree, coarse to fine."""
+    n, r = y.shape
+    order = JointLarsPath(lb, y).order(min(cs.cols.size - 1, n - 2))
+    paths: dict[int, MultiLooPath] = {}
+
+    def score(p: int) -> None:
+        if p not in paths and degree_min <= p <= cs.top:
+            path = order[cs.norms[order] <= p * (1 + 1e-12)]
+            paths[p] = score_path(lb.psi, y, path, PATIENCE)
+
+    for p in degree_grid(degree_min, cs.top):
+        score(p)
+    # At most five more degrees per level, not every degree between the neighbours (with
+    # many components, their best degrees spread over the grid).
+    for j in range(r):
+        lo, hi = degree_min, cs.top
+        while True:
+            done = sorted(p for p in paths if lo <= p <= hi)
+            i = min(range(len(done)), key=lambda k: paths[done[k]].best_loo[j])
+            lo, hi = done[max(i - 1, 0)], done[min(i + 1, len(done) - 1)]
+            if hi - lo <= 2 or all(p in paths for p in range(lo + 1, hi)):
+                for p in range(lo + 1, hi):
+                    score(p)
+                break
+            for p in degree_grid(lo + 1, hi - 1):
+                score(p)
+    return paths
+
+
+def _fit_joint(germ: Germ, xi: np.ndarray, y: np.ndarray, degree_min: int,
+               degree_max: int | None, q: float | None) -> JointFit:
+    n, r = y.shape
+    union, sets = candidate_sets(germ.dim, n, degree_min, degree_max, q)
+    psi = basis.evaluate(germ, union, xi)
+    # (loo, candidate count, fit in union columns, q, degree) of every scored (q, degree),
+    # per column; and the LOO residuals of each.
+    scored: list[list[tuple[float, int, SparseFit, float, int]]] = [[] for _ in range(r)]
+    resid: list[list[np.ndarray]] = [[] for _ in range(r)]
+    for cs in sets:
+        lb = LarsBasis(psi[:, cs.cols])
+        paths = _search(cs, lb, y, degree_min)
+        for p, mp in paths.items():
+            count = int(np.count_nonzero(cs.norms <= p * (1 + 1e-12)))
+            for j in range(r):
+                f = mp.fit(j)
+                scored[j].append((f.loo, count, SparseFit(cs.cols[f.terms], f.coef, f.loo,
+                                                          f.loo_se), cs.q, p))
+                resid[j].append(mp.best_resid[:, j].copy())
+    fits, degree, qs, loo = [], np.zeros(r, dtype=int), np.zeros(r), np.zeros(r)
+    loo_resid = np.zeros((n, r))
+    for j in range(r):
+        least = min(s[0] for s in scored[j])
+        near = [i for i, s in enumerate(scored[j]) if s[0] <= least * 1.01 or s[0] == least]
+        k = min(near, key=lambda i: (scored[j][i][1], scored[j][i][0]))
+        _, _, fit, qs[j], degree[j] = scored[j][k]
+        fits.append(fit)
+        loo[j] = fit.loo
+        loo_resid[:, j] = resid[j][k]
+    return JointFit(columns_fit(union, fits, degree, qs, loo), loo_resid)
