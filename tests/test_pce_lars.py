@@ -8,7 +8,7 @@ import pytest
 from uqguide.pce import basis
 from uqguide.pce.germ import Germ
 from uqguide.pce.lars import LarsPath, lars_order
-from uqguide.pce.loo import LooPath, corrected_loo_path
+from uqguide.pce.loo import LooPath, score_path
 from uqguide.pce.pca import constant_columns, principal_components
 from uqguide.pce import sparse_regression
 from uqguide.pce.sparse_regression import fit_columns, hybrid_lars
@@ -47,9 +47,9 @@ def test_incremental_loo_equals_direct_formula(noisy_problem):
     direct = [_direct_loo(psi, y, [])] + [_direct_loo(psi, y, order[:k])
                                           for k in range(1, order.size + 1)]
     for k in (0, 1, 5, 12, order.size):
-        fit = corrected_loo_path(psi, y, order[:k])
+        fit = score_path(psi, y, order[:k]).fit()
         assert fit.loo == pytest.approx(min(direct[: k + 1]), rel=1e-9)
-    best = corrected_loo_path(psi, y, order)
+    best = score_path(psi, y, order).fit()
     k = best.terms.size - 1
     np.testing.assert_array_equal(best.terms, [0, *order[:k]])
     a = psi[:, best.terms]
@@ -138,16 +138,16 @@ def test_loo_path_reads_a_lars_path_only_as_far_as_it_scores(noisy_problem):
     taken = []
     for patience, hint in ((3, 0), (5, 2), (20, 0)):
         lazy = LarsPath(psi, y)
-        got = corrected_loo_path(psi, y, lazy, patience=patience, hint=hint)
-        ref = corrected_loo_path(psi, y, whole, patience=patience, hint=hint)
+        got = score_path(psi, y, lazy, patience=patience, hint=hint).fit()
+        ref = score_path(psi, y, whole, patience=patience, hint=hint).fit()
         np.testing.assert_array_equal(got.terms, ref.terms)
         np.testing.assert_array_equal(got.coef, ref.coef)
         assert got.loo == ref.loo
         taken.append(len(lazy.active))
     assert min(taken) < whole.size  # the short patience stopped LARS early (best set: 15)
     lazy = LarsPath(psi, y)
-    got = corrected_loo_path(psi, y, lazy)
-    ref = corrected_loo_path(psi, y, whole)
+    got = score_path(psi, y, lazy).fit()
+    ref = score_path(psi, y, whole).fit()
     np.testing.assert_array_equal(got.terms, ref.terms)
     assert lazy.done or len(lazy.active) >= min(psi.shape[1], y.size - 1)
 

@@ -16,7 +16,7 @@ from uqguide.core.inputs import InputSpace
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.models.base import ModelOutput
 from uqguide.pce.germ import Germ
-from uqguide.pce.lars import JointLarsPath, LarsBasis, LarsPath
+from uqguide.pce.lars import LarsBasis, LarsPath
 from uqguide.pce.sparse_regression import fit_columns, fit_joint
 
 from .test_pce_helpers import normal_space
@@ -33,7 +33,7 @@ def test_joint_path_of_one_column_is_the_lars_path(seed):
     psi[:, 0] = 1.0
     y = psi[:, 1:5] @ rng.normal(size=4) + 0.1 * rng.normal(size=60)
     lb = LarsBasis(psi)
-    np.testing.assert_array_equal(JointLarsPath(lb, y[:, None]).order(58),
+    np.testing.assert_array_equal(LarsPath(lb, y[:, None]).order(58),
                                   LarsPath(lb, y).order(58))
 
 

@@ -23,6 +23,7 @@ from threadpoolctl import threadpool_limits
 from . import pca_rank
 from .germ import Germ
 from . import basis
+from .loo import loo_residuals
 from .pca import Components, decompose
 from .sparse_regression import ColumnsFit, candidate_sets, fit_columns, fit_joint
 
@@ -74,17 +75,7 @@ def _columnwise_work(d: int, n: int, r: int, degree_min: int, degree_max: int | 
 
 def _loo_residuals(germ: Germ, xi: np.ndarray, y: np.ndarray, fit: ColumnsFit) -> np.ndarray:
     """Leave-one-out residuals ``(N, r)`` of each column's OLS fit on its own terms."""
-    from scipy.linalg import qr
-
-    psi = basis.evaluate(germ, fit.alpha, xi)
-    out = np.zeros_like(y)
-    for j in range(y.shape[1]):
-        terms = np.union1d([0], np.flatnonzero(fit.core[:, j]))
-        qm, _ = qr(psi[:, terms], mode="economic", check_finite=False)
-        resid = y[:, j] - qm @ (qm.T @ y[:, j])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out[:, j] = resid / (1.0 - np.einsum("ij,ij->i", qm, qm))
-    return np.where(np.isfinite(out), out, 0.0)
+    return loo_residuals(basis.evaluate(germ, fit.alpha, xi), fit.core, y)
 
 
 def _merge(a: ColumnsFit, b: ColumnsFit) -> ColumnsFit:

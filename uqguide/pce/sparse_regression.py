@@ -23,8 +23,8 @@ from threadpoolctl import threadpool_limits
 
 from . import basis
 from .germ import Germ
-from .lars import JointLarsPath, LarsBasis, LarsPath, lars_order
-from .loo import LooPath, MultiLooPath, SparseFit, corrected_loo_path, score_path
+from .lars import LarsBasis, LarsPath, lars_order
+from .loo import LooPath, SparseFit, score_path
 from .pca import constant_columns
 
 log = logging.getLogger(__name__)
@@ -187,8 +187,8 @@ class _QSearch:
     def _path_fit(self, p: int, path: np.ndarray, hint: int) -> SparseFit:
         if p not in self.paths:
             self.paths[p] = LooPath(self.sub, self.y)
-        return corrected_loo_path(self.sub, self.y, path, patience=PATIENCE, hint=hint,
-                                  state=self.paths[p])
+        return score_path(self.sub, self.y, path, patience=PATIENCE, hint=hint,
+                          state=self.paths[p]).fit()
 
     def count(self, p: int) -> int:
         return int(np.count_nonzero(self.cs.norms <= p * (1 + 1e-12)))
@@ -282,8 +282,8 @@ class _QSearch:
 
         for p in [p for p in self.fits if wanted(p)]:
             own, lb = self.shared.own(p)
-            fit = corrected_loo_path(lb.psi, self.y, LarsPath(lb, self.y), patience=PATIENCE,
-                                     hint=self.fits[p].terms.size)
+            fit = score_path(lb.psi, self.y, LarsPath(lb, self.y), patience=PATIENCE,
+                             hint=self.fits[p].terms.size).fit()
             if fit.loo < self.fits[p].loo:
                 self.fits[p] = SparseFit(own[fit.terms], fit.coef, fit.loo, fit.loo_se)
 
@@ -383,7 +383,7 @@ def hybrid_lars(psi: np.ndarray, y: np.ndarray) -> SparseFit:
     """LARS order of the candidates, then the corrected-LOO-best nested set (module docstring)."""
     n, p_cand = psi.shape
     order = lars_order(psi, y, max_steps=min(p_cand - 1, n - 2))
-    return corrected_loo_path(psi, y, order)
+    return score_path(psi, y, order).fit()
 
 
 @dataclass
@@ -412,12 +412,12 @@ def fit_joint(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1,
 
 
 def _search(cs: Candidates, lb: LarsBasis, y: np.ndarray, degree_min: int
-            ) -> dict[int, MultiLooPath]:
+            ) -> dict[int, LooPath]:
     """One q-norm's joint path, scored at the degrees of the grid and refined around every
     column's best degree, coarse to fine."""
     n, r = y.shape
-    order = JointLarsPath(lb, y).order(min(cs.cols.size - 1, n - 2))
-    paths: dict[int, MultiLooPath] = {}
+    order = LarsPath(lb, y).order(min(cs.cols.size - 1, n - 2))
+    paths: dict[int, LooPath] = {}
 
     def score(p: int) -> None:
         if p not in paths and degree_min <= p <= cs.top:
@@ -458,7 +458,7 @@ def _fit_joint(germ: Germ, xi: np.ndarray, y: np.ndarray, degree_min: int,
         for p, mp in paths.items():
             count = int(np.count_nonzero(cs.norms <= p * (1 + 1e-12)))
             for j in range(r):
-                f = mp.fit(j)
+                f = mp.fit(column=j)
                 scored[j].append((f.loo, count, SparseFit(cs.cols[f.terms], f.coef, f.loo,
                                                           f.loo_se), cs.q, p))
                 resid[j].append(mp.best_resid[:, j].copy())
