@@ -5,7 +5,7 @@ fitted, and the number kept is chosen afterwards by the moments' rule
 (:mod:`uqguide.pce.pca_rank`) unless ``n_components`` or ``variance_fraction`` fix it. Every
 component gets its own search (:func:`uqguide.pce.sparse_regression.fit_columns`) where that
 costs at most :data:`HYBRID_WORK` multiply-adds; above, the first :data:`LEAD` component(s) get it
-and the others share one path (:func:`uqguide.pce.sparse_regression.fit_joint`); past
+and the others share one path (``fit_columns(..., joint=True)``); past
 :data:`COLUMNWISE_WORK` all take the shared path.
 
 Why the hybrid, with the measurements that set it:
@@ -25,7 +25,7 @@ from .germ import Germ
 from . import basis
 from .loo import loo_residuals
 from .pca import Components, decompose
-from .sparse_regression import ColumnsFit, candidate_sets, fit_columns, fit_joint
+from .sparse_regression import ColumnsFit, candidate_sets, fit_columns
 
 log = logging.getLogger(__name__)
 
@@ -114,10 +114,11 @@ def _fit_components(germ: Germ, xi: np.ndarray, scores: np.ndarray,
         if loo:
             resid.append(_loo_residuals(germ, xi, scores[:, :lead], fit))
     if lead < r:
-        joint = fit_joint(germ, xi, scores[:, lead:], degree_min=degree_min,
-                          degree_max=degree_max, q=q)
-        parts.append(joint.fit)
-        resid.append(joint.loo_resid)
+        joint = fit_columns(germ, xi, scores[:, lead:], degree_min=degree_min,
+                            degree_max=degree_max, q=q, joint=True)
+        parts.append(joint)
+        if loo and joint.loo_resid is not None:
+            resid.append(joint.loo_resid)
     fit = parts[0] if len(parts) == 1 else _merge(*parts)
     log.debug("series: %d leading component(s) searched column by column, %d on the joint "
               "path", lead, r - lead)
