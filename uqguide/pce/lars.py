@@ -206,12 +206,6 @@ class LarsPath:
         self.next = int(idx[i])
 
 
-def lars_order(psi: np.ndarray, y: np.ndarray, max_steps: int) -> np.ndarray:
-    """Candidate columns (excluding the constant column 0) in LARS order of entry
-    (:class:`LarsPath`)."""
-    return LarsPath(psi, y).order(max_steps)
-
-
 def _catch_up(u: np.ndarray, a: np.ndarray, c2: float) -> np.ndarray:
     """Per row, the root ``g`` in (0, 1] of ``||u - g a||^2 = (1 - g)^2 c2`` (inf if none).
 

@@ -25,7 +25,7 @@ from threadpoolctl import threadpool_limits
 
 from . import basis
 from .germ import Germ
-from .lars import LarsBasis, LarsPath, lars_order
+from .lars import LarsBasis, LarsPath
 from .loo import LooPath, SparseFit, score_path
 from .pca import constant_columns
 
@@ -460,10 +460,3 @@ def columns_fit(union: np.ndarray, fits: list[SparseFit], degree: np.ndarray, qs
         core[[pos[t] for t in f.terms], c] = f.coef
     n_terms = np.array([f.terms.size for f in fits], dtype=int)
     return ColumnsFit(union[used], core, degree, qs, loo, n_terms, int(union.shape[0]))
-
-
-def hybrid_lars(psi: np.ndarray, y: np.ndarray) -> SparseFit:
-    """LARS order of the candidates, then the corrected-LOO-best nested set (module docstring)."""
-    n, p_cand = psi.shape
-    order = lars_order(psi, y, max_steps=min(p_cand - 1, n - 2))
-    return score_path(psi, y, order).fit()
