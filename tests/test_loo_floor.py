@@ -12,7 +12,7 @@ from uqguide.core.inputs import InputSpace, Uniform
 from uqguide.pce import basis
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import Germ
-from uqguide.pce.loo_values import FitFloor, FitRuns, loo_values
+from uqguide.pce.loo import FitFloor, FitRuns, loo_values
 from uqguide.pce.validation import corrected_moments, stratified_se
 from uqguide.pce.validation_design import stratified_validation
 from uqguide.core.types import OutputStats

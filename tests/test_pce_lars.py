@@ -7,7 +7,8 @@ import pytest
 
 from uqguide.pce import basis
 from uqguide.pce.germ import Germ
-from uqguide.pce.lars import LarsPath, LooPath, corrected_loo_path, hybrid_lars, lars_order
+from uqguide.pce.lars import LarsPath
+from uqguide.pce.loo import LooPath, score_path
 from uqguide.pce.pca import constant_columns, principal_components
 from uqguide.pce import sparse_regression
 from uqguide.pce.sparse_regression import fit_columns
@@ -42,13 +43,13 @@ def noisy_problem():
 
 def test_incremental_loo_equals_direct_formula(noisy_problem):
     psi, y = noisy_problem
-    order = lars_order(psi, y, max_steps=psi.shape[1] - 1)
+    order = LarsPath(psi, y).order(psi.shape[1] - 1)
     direct = [_direct_loo(psi, y, [])] + [_direct_loo(psi, y, order[:k])
                                           for k in range(1, order.size + 1)]
     for k in (0, 1, 5, 12, order.size):
-        fit = corrected_loo_path(psi, y, order[:k])
+        fit = score_path(psi, y, order[:k]).fit()
         assert fit.loo == pytest.approx(min(direct[: k + 1]), rel=1e-9)
-    best = corrected_loo_path(psi, y, order)
+    best = score_path(psi, y, order).fit()
     k = best.terms.size - 1
     np.testing.assert_array_equal(best.terms, [0, *order[:k]])
     a = psi[:, best.terms]
@@ -63,7 +64,7 @@ def test_lars_recovers_a_sparse_polynomial():
     psi = basis.evaluate(germ, alpha, xi)
     truth = {0: 2.0, 7: 3.0, 30: -0.5}
     y = sum(c * psi[:, j] for j, c in truth.items())
-    fit = hybrid_lars(psi, y)
+    fit = score_path(psi, y, LarsPath(psi, y)).fit()
     assert sorted(fit.terms.tolist()) == sorted(truth)
     np.testing.assert_allclose(dict(zip(fit.terms.tolist(), fit.coef)).get(30), -0.5, rtol=1e-10)
     assert fit.loo < 1e-20
@@ -111,7 +112,7 @@ def test_lars_on_orthonormal_columns_enters_by_coefficient_size():
     q[:, 0] = 1.0 / np.sqrt(50)
     q, _ = np.linalg.qr(q)  # orthonormal again, column 0 still the constant
     coef = np.array([0.1, 3.0, -0.2, 1.5, 0.9, -2.2, 0.05, 0.6, -1.1, 0.3, 0.0, 0.45])
-    order = lars_order(q, q @ coef, max_steps=11)
+    order = LarsPath(q, q @ coef).order(11)
     want = [j for j in np.argsort(-np.abs(coef), kind="stable") if j != 0 and coef[j] != 0]
     assert order[: len(want)].tolist() == want  # the zero-coefficient column may follow
 
@@ -123,7 +124,7 @@ def test_lars_path_continues_where_it_stopped(noisy_problem):
     short = path.order(5)
     longer = path.order(15)
     np.testing.assert_array_equal(longer[:5], short)
-    np.testing.assert_array_equal(longer, lars_order(psi, y, max_steps=15))
+    np.testing.assert_array_equal(longer, LarsPath(psi, y).order(15))
 
 
 def test_loo_path_reads_a_lars_path_only_as_far_as_it_scores(noisy_problem):
@@ -133,20 +134,20 @@ def test_loo_path_reads_a_lars_path_only_as_far_as_it_scores(noisy_problem):
     germ = Germ.of(normal_space(3))
     xi = np.random.default_rng(5).normal(size=(60, 3))
     psi = basis.evaluate(germ, basis.hyperbolic_indices(3, 7, 1.0), xi)  # 120 candidates
-    whole = lars_order(psi, y, max_steps=psi.shape[1] - 1)  # 58 steps: the runs' limit
+    whole = LarsPath(psi, y).order(psi.shape[1] - 1)  # 58 steps: the runs' limit
     taken = []
     for patience, hint in ((3, 0), (5, 2), (20, 0)):
         lazy = LarsPath(psi, y)
-        got = corrected_loo_path(psi, y, lazy, patience=patience, hint=hint)
-        ref = corrected_loo_path(psi, y, whole, patience=patience, hint=hint)
+        got = score_path(psi, y, lazy, patience=patience, hint=hint).fit()
+        ref = score_path(psi, y, whole, patience=patience, hint=hint).fit()
         np.testing.assert_array_equal(got.terms, ref.terms)
         np.testing.assert_array_equal(got.coef, ref.coef)
         assert got.loo == ref.loo
         taken.append(len(lazy.active))
     assert min(taken) < whole.size  # the short patience stopped LARS early (best set: 15)
     lazy = LarsPath(psi, y)
-    got = corrected_loo_path(psi, y, lazy)
-    ref = corrected_loo_path(psi, y, whole)
+    got = score_path(psi, y, lazy).fit()
+    ref = score_path(psi, y, whole).fit()
     np.testing.assert_array_equal(got.terms, ref.terms)
     assert lazy.done or len(lazy.active) >= min(psi.shape[1], y.size - 1)
 
@@ -168,7 +169,7 @@ def test_loo_path_fed_in_blocks_equals_the_direct_formula(noisy_problem):
     """A LooPath extended block by block (as LARS goes on) scores every nested set as the
     textbook formulas do, and as one path scored at once; its standard error too."""
     psi, y = noisy_problem
-    order = lars_order(psi, y, max_steps=psi.shape[1] - 1)
+    order = LarsPath(psi, y).order(psi.shape[1] - 1)
     full = np.concatenate([[0], order])
     blocks = LooPath(psi, y)
     for end in (1, 4, 11, 12, 30, full.size):
@@ -237,7 +238,8 @@ def test_selected_fit_is_within_the_rule_of_every_cheap_degree():
             work = 60 * alpha.shape[0] * min(alpha.shape[0], 60)
             if p > top or work > sparse_regression.OWN_LARS_WORK:
                 continue
-            own = hybrid_lars(basis.evaluate(germ, alpha, xi), y)
+            psi = basis.evaluate(germ, alpha, xi)
+            own = score_path(psi, y, LarsPath(psi, y)).fit()
             assert chosen <= 1.01 * own.loo
             checked += 1
     assert checked >= 10

@@ -16,8 +16,6 @@ from uqguide.core.inputs import InputSpace
 from uqguide.methods.pce_adaptive import AdaptivePCE
 from uqguide.core.types import ModelOutput
 from uqguide.pce.germ import Germ
-from uqguide.pce.joint_lars import JointLarsPath
-from uqguide.pce.joint_regression import fit_joint
 from uqguide.pce.lars import LarsBasis, LarsPath
 from uqguide.pce.sparse_regression import fit_columns
 
@@ -35,7 +33,7 @@ def test_joint_path_of_one_column_is_the_lars_path(seed):
     psi[:, 0] = 1.0
     y = psi[:, 1:5] @ rng.normal(size=4) + 0.1 * rng.normal(size=60)
     lb = LarsBasis(psi)
-    np.testing.assert_array_equal(JointLarsPath(lb, y[:, None]).order(58),
+    np.testing.assert_array_equal(LarsPath(lb, y[:, None]).order(58),
                                   LarsPath(lb, y).order(58))
 
 
@@ -53,7 +51,7 @@ def test_joint_fit_equals_per_column_fit_on_exact_polynomials(seed):
     x1, x2 = xi[:, 0], xi[:, 1]
     y = np.column_stack([2.0 * x1 + 0.5 * x2, 0.3 * (x1**2 - 1.0) + 0.1 * x1 * x2,
                          0.01 * (x2**3 - 3.0 * x2) + 0.02 * x1])
-    joint = fit_joint(germ, xi, y, degree_max=3, q=1.0).fit
+    joint = fit_columns(germ, xi, y, degree_max=3, q=1.0, joint=True)
     alone = fit_columns(germ, xi, y, degree_max=3, q=1.0)
     test = np.random.default_rng(100 + seed).normal(size=(200, 2))
     from uqguide.pce.expansion import Expansion
@@ -138,14 +136,14 @@ def test_hybrid_fits_the_leading_component_alone_and_the_rest_jointly(seed, monk
     monkeypatch.setattr(series_fit, "HYBRID_WORK", 0.0)
     fit, resid = series_fit._fit_components(germ, xi, y, loo=True, **kw)
     lead = fit_columns(germ, xi, y[:, :1], **kw)
-    rest = fit_joint(germ, xi, y[:, 1:], **kw)
+    rest = fit_columns(germ, xi, y[:, 1:], joint=True, **kw)
 
     def terms(f, c):
         return {tuple(a): v for a, v in zip(f.alpha.tolist(), f.core[:, c]) if v != 0.0}
 
     assert terms(fit, 0) == terms(lead, 0)
-    assert [terms(fit, c) for c in (1, 2)] == [terms(rest.fit, c) for c in (0, 1)]
-    np.testing.assert_array_equal(fit.degree, np.concatenate([lead.degree, rest.fit.degree]))
+    assert [terms(fit, c) for c in (1, 2)] == [terms(rest, c) for c in (0, 1)]
+    np.testing.assert_array_equal(fit.degree, np.concatenate([lead.degree, rest.degree]))
     np.testing.assert_array_equal(resid[:, 1:], rest.loo_resid)
     test = np.random.default_rng(100 + seed).normal(size=(200, 2))
     t1, t2 = test[:, 0], test[:, 1]

@@ -82,7 +82,7 @@ from ..pce.default_plan import default_budget, default_validation, mean_and_std,
 from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
-from ..pce.loo_values import loo_values
+from ..pce.loo import loo_values
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.series_fit import fit_series
 from ..pce.sobol_indices import (

@@ -39,7 +39,7 @@ from ..pce.point_choice import better_points
 from ..pce.runs_estimate import INTERVAL, runs_estimate
 from ..pce.support import (disagrees_with_runs, either, less_precise, unsupported,
                            with_the_kurtosis)
-from ..pce.loo_values import FitRuns
+from ..pce.loo import FitRuns
 from ..pce.validation import Corrected
 from ..pce.validation_design import (ValidationDesign, curved_inputs, random_validation,
                                      stratified_validation)

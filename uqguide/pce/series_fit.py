@@ -5,7 +5,7 @@ fitted, and the number kept is chosen afterwards by the moments' rule
 (:mod:`uqguide.pce.pca_rank`) unless ``n_components`` or ``variance_fraction`` fix it. Every
 component gets its own search (:func:`uqguide.pce.sparse_regression.fit_columns`) where that
 costs at most :data:`HYBRID_WORK` multiply-adds; above, the first :data:`LEAD` component(s) get it
-and the others share one path (:func:`uqguide.pce.joint_regression.fit_joint`); past
+and the others share one path (``fit_columns(..., joint=True)``); past
 :data:`COLUMNWISE_WORK` all take the shared path.
 
 Why the hybrid, with the measurements that set it:
@@ -23,7 +23,7 @@ from threadpoolctl import threadpool_limits
 from . import pca_rank
 from .germ import Germ
 from . import basis
-from .joint_regression import fit_joint
+from .loo import loo_residuals
 from .pca import Components, decompose
 from .sparse_regression import ColumnsFit, candidate_sets, fit_columns
 
@@ -75,17 +75,7 @@ def _columnwise_work(d: int, n: int, r: int, degree_min: int, degree_max: int | 
 
 def _loo_residuals(germ: Germ, xi: np.ndarray, y: np.ndarray, fit: ColumnsFit) -> np.ndarray:
     """Leave-one-out residuals ``(N, r)`` of each column's OLS fit on its own terms."""
-    from scipy.linalg import qr
-
-    psi = basis.evaluate(germ, fit.alpha, xi)
-    out = np.zeros_like(y)
-    for j in range(y.shape[1]):
-        terms = np.union1d([0], np.flatnonzero(fit.core[:, j]))
-        qm, _ = qr(psi[:, terms], mode="economic", check_finite=False)
-        resid = y[:, j] - qm @ (qm.T @ y[:, j])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out[:, j] = resid / (1.0 - np.einsum("ij,ij->i", qm, qm))
-    return np.where(np.isfinite(out), out, 0.0)
+    return loo_residuals(basis.evaluate(germ, fit.alpha, xi), fit.core, y)
 
 
 def _merge(a: ColumnsFit, b: ColumnsFit) -> ColumnsFit:
@@ -124,10 +114,11 @@ def _fit_components(germ: Germ, xi: np.ndarray, scores: np.ndarray,
         if loo:
             resid.append(_loo_residuals(germ, xi, scores[:, :lead], fit))
     if lead < r:
-        joint = fit_joint(germ, xi, scores[:, lead:], degree_min=degree_min,
-                          degree_max=degree_max, q=q)
-        parts.append(joint.fit)
-        resid.append(joint.loo_resid)
+        joint = fit_columns(germ, xi, scores[:, lead:], degree_min=degree_min,
+                            degree_max=degree_max, q=q, joint=True)
+        parts.append(joint)
+        if loo and joint.loo_resid is not None:
+            resid.append(joint.loo_resid)
     fit = parts[0] if len(parts) == 1 else _merge(*parts)
     log.debug("series: %d leading component(s) searched column by column, %d on the joint "
               "path", lead, r - lead)

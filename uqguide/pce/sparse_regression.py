@@ -1,28 +1,32 @@
 """Sparse regression of output columns on a candidate basis chosen from the data.
 
 For each output column (a scalar component or a principal component's scores) the expansion of
-least corrected leave-one-out error (:mod:`uqguide.pce.lars`) is chosen over a grid of hyperbolic
-candidate sets ``||alpha||_q <= p``: the q-norms :data:`Q_GRID` (or the config's) and every degree
-whose candidate set has at most :func:`candidate_cap` terms (up to :data:`MAX_DEGREE`), or
-``degree_max``. Among the fits within 1% of the least error the smallest candidate set wins.
-Each q-norm runs LARS once on its largest set; smaller degrees score that order restricted to
-their candidates. :func:`fit_columns` is the entry point; everything is deterministic.
+least corrected leave-one-out error (:mod:`uqguide.pce.lars`, :mod:`uqguide.pce.loo`) is chosen
+over a grid of hyperbolic candidate sets ``||alpha||_q <= p``: the q-norms :data:`Q_GRID` (or the
+config's) and every degree whose set has at most :func:`candidate_cap` terms (up to
+:data:`MAX_DEGREE`), or ``degree_max``. Among the fits within 1% of the least error the smallest
+candidate set wins. :func:`fit_columns` runs one LARS per q-norm and column on its largest set
+(smaller degrees score that order restricted to their candidates), or with ``joint=True`` one
+per q-norm shared by all the columns (a series' components past the first where the search is
+expensive). Everything is deterministic.
 
-The grid, the selection rule and what was tried, and how the search is kept cheap:
+The grid, the selection rule and what was tried, how the search is kept cheap, the shared path:
 docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out.
 """
-
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 from . import basis
 from .germ import Germ
-from .lars import LarsBasis, LarsPath, LooPath, SparseFit, corrected_loo_path
+from .lars import LarsBasis, LarsPath
+from .loo import LooPath, SparseFit, score_path
 from .pca import constant_columns
 
 log = logging.getLogger(__name__)
@@ -85,6 +89,10 @@ class ColumnsFit:
         Retained terms per column (constant included).
     n_candidates : int
         Size of the evaluated candidate basis.
+    loo_resid : ndarray, shape (N, r), optional
+        Each column's leave-one-out residuals ``y_i - y_hat_(-i)`` of its selected expansion,
+        which the shared-path search keeps from its scoring (None from the column-by-column
+        search: :func:`uqguide.pce.loo.loo_residuals` computes them).
     """
 
     alpha: np.ndarray
@@ -94,6 +102,7 @@ class ColumnsFit:
     loo: np.ndarray
     n_terms: np.ndarray
     n_candidates: int = 0
+    loo_resid: np.ndarray | None = None
 
 
 def q_norms(alpha: np.ndarray, q: float) -> np.ndarray:
@@ -120,6 +129,45 @@ class Candidates:
     cols: np.ndarray
     norms: np.ndarray
 
+    def of_degree(self, p: int) -> np.ndarray:
+        """Which candidates degree ``p``'s set holds (a mask)."""
+        return self.norms <= p * (1 + 1e-12)
+
+    def count(self, p: int) -> int:
+        """The size of degree ``p``'s set."""
+        return int(np.count_nonzero(self.of_degree(p)))
+
+    def restrict(self, order: np.ndarray, p: int) -> np.ndarray:
+        """A LARS order (positions in the set) restricted to degree ``p``'s candidates."""
+        return order[self.of_degree(p)[order]]
+
+
+class Scored(NamedTuple):
+    """One (q-norm, degree)'s best fit of a column: its error, its candidate set's size, the
+    fit (terms as columns of the evaluated basis), the q-norm, the degree and, from the
+    shared-path search, the fit's leave-one-out residuals."""
+
+    loo: float
+    size: int
+    fit: SparseFit
+    q: float
+    degree: int
+    resid: np.ndarray | None = None
+
+
+def scored(cs: Candidates, p: int, fit: SparseFit, resid: np.ndarray | None = None) -> Scored:
+    """``fit`` (terms as positions in ``cs``) of degree ``p`` as a :class:`Scored`."""
+    return Scored(fit.loo, cs.count(p), SparseFit(cs.cols[fit.terms], fit.coef, fit.loo,
+                                                  fit.loo_se), cs.q, p, resid)
+
+
+def select(candidates: list[Scored]) -> Scored:
+    """The selection rule: among the fits within 1% of the least error, the one of the smallest
+    candidate set (then of least error, then the first)."""
+    least = min(s.loo for s in candidates)
+    near = [s for s in candidates if s.loo <= least * 1.01 or s.loo == least]
+    return min(near, key=lambda s: (s.size, s.loo))
+
 
 class _SharedBasis:
     """One q-norm's candidate basis prepared once for LARS (:class:`LarsBasis`), and the
@@ -134,7 +182,7 @@ class _SharedBasis:
     def own(self, p: int) -> tuple[np.ndarray, LarsBasis]:
         """Degree ``p``'s candidates (positions in the q-norm's set) and their basis."""
         if p not in self._own:
-            own = np.flatnonzero(self.cs.norms <= p * (1 + 1e-12))
+            own = np.flatnonzero(self.cs.of_degree(p))
             self._own[p] = (own, LarsBasis(self.top.psi[:, own]))
         return self._own[p]
 
@@ -159,7 +207,7 @@ def candidate_sets(d: int, n_runs: int, degree_min: int, degree_max: int | None,
 
 def degree_grid(lo: int, hi: int) -> list[int]:
     """Degrees scored in ``[lo, hi]``: all of them up to :data:`FULL_DEGREES`, else a coarse grid
-    of that many (both ends included); :func:`_fit_column` then refines around the best."""
+    of that many (both ends included), refined around the best afterwards."""
     if hi - lo + 1 <= FULL_DEGREES:
         return list(range(lo, hi + 1))
     return sorted({int(round(v)) for v in np.linspace(lo, hi, FULL_DEGREES)})
@@ -185,11 +233,8 @@ class _QSearch:
     def _path_fit(self, p: int, path: np.ndarray, hint: int) -> SparseFit:
         if p not in self.paths:
             self.paths[p] = LooPath(self.sub, self.y)
-        return corrected_loo_path(self.sub, self.y, path, patience=PATIENCE, hint=hint,
-                                  state=self.paths[p])
-
-    def count(self, p: int) -> int:
-        return int(np.count_nonzero(self.cs.norms <= p * (1 + 1e-12)))
+        return score_path(self.sub, self.y, path, patience=PATIENCE, hint=hint,
+                          state=self.paths[p]).fit()
 
     @property
     def best(self) -> float:
@@ -199,7 +244,7 @@ class _QSearch:
         """Whether degree ``p``'s path (the LARS order restricted to its candidates, shorter
         than the order) ran out while still improving: its best set near its end, candidates
         left."""
-        return (self.lengths[p] < min(self.count(p) - 1, self.n - 2)
+        return (self.lengths[p] < min(self.cs.count(p) - 1, self.n - 2)
                 and 3 * self.fits[p].terms.size // 2 + PATIENCE > self.lengths[p])
 
     def run(self, max_steps: int) -> None:
@@ -221,7 +266,7 @@ class _QSearch:
             self._rescore(p, order)
 
     def _rescore(self, p: int, order: np.ndarray) -> None:
-        path = order[self.cs.norms[order] <= p * (1 + 1e-12)]
+        path = self.cs.restrict(order, p)
         if path.size > self.lengths[p]:
             self.fits[p] = self._path_fit(p, path, self.fits[p].terms.size)
             self.lengths[p] = path.size
@@ -245,7 +290,7 @@ class _QSearch:
 
         def score(p: int) -> None:
             if p not in fits and self.degree_min <= p <= cs.top:
-                path = order[cs.norms[order] <= p * (1 + 1e-12)]
+                path = cs.restrict(order, p)
                 hint = max((f.terms.size for f in fits.values()), default=0)
                 fits[p] = self._path_fit(p, path, hint)
                 lengths[p] = path.size
@@ -270,7 +315,7 @@ class _QSearch:
         3.5e-2 where the degree's own LARS found 3.0e-2 (OpenTURNS' fit, term for term) and
         a 3 times smaller moment error."""
         def wanted(p: int) -> bool:
-            c, loo = self.count(p), self.fits[p].loo
+            c, loo = self.cs.count(p), self.fits[p].loo
             if c >= self.cs.cols.size or loo > RIVAL * least:
                 return False  # the largest set's own LARS is the shared path
             cheap = self.n * c * min(c, self.n) <= OWN_LARS_WORK
@@ -280,20 +325,18 @@ class _QSearch:
 
         for p in [p for p in self.fits if wanted(p)]:
             own, lb = self.shared.own(p)
-            fit = corrected_loo_path(lb.psi, self.y, LarsPath(lb, self.y), patience=PATIENCE,
-                                     hint=self.fits[p].terms.size)
+            fit = score_path(lb.psi, self.y, LarsPath(lb, self.y), patience=PATIENCE,
+                             hint=self.fits[p].terms.size).fit()
             if fit.loo < self.fits[p].loo:
                 self.fits[p] = SparseFit(own[fit.terms], fit.coef, fit.loo, fit.loo_se)
 
 
-def _fit_column(shared: list[_SharedBasis], y: np.ndarray, degree_min: int
-                ) -> tuple[SparseFit, float, int]:
-    """Best (q, degree) sparse fit of one column, by corrected LOO; its fit, q and degree.
+def _column_scores(shared: list[_SharedBasis], y: np.ndarray, degree_min: int) -> list[Scored]:
+    """Every (q, degree) fit of one column the search scored, for :func:`select`.
 
     Every q-norm's LARS first runs :data:`FIRST_PASS` steps (or fewer, where its best degree's
     path is done); only the q-norms within a factor :data:`RIVAL` of the best error then go on
-    to the runs' limit. Within 1% of the least error, the smallest candidate set wins (module
-    docstring).
+    to the runs' limit.
     """
     searches = [_QSearch(sb, y, degree_min) for sb in shared]
     for qs in searches:
@@ -305,20 +348,43 @@ def _fit_column(shared: list[_SharedBasis], y: np.ndarray, degree_min: int
     least = min(qs.best for qs in searches)
     for qs in searches:
         qs.own_lars(least)
-    scored: list[tuple[float, int, SparseFit, float, int]] = []
-    for qs in searches:
-        for p, fit in qs.fits.items():
-            scored.append((fit.loo, qs.count(p),
-                           SparseFit(qs.cs.cols[fit.terms], fit.coef, fit.loo, fit.loo_se),
-                           qs.cs.q, p))
-    least = min(s[0] for s in scored)
-    near = [s for s in scored if s[0] <= least * 1.01 or s[0] == least]
-    _, _, fit, q, p = min(near, key=lambda s: (s[1], s[0]))
-    return fit, q, p
+    return [scored(qs.cs, p, fit) for qs in searches for p, fit in qs.fits.items()]
+
+
+def _joint_search(sb: _SharedBasis, y: np.ndarray, degree_min: int) -> dict[int, LooPath]:
+    """One q-norm's multiresponse path for all the columns of ``y (N, r)``, scored at the
+    degrees of the grid and refined around every column's best degree, coarse to fine."""
+    cs, lb = sb.cs, sb.top
+    n, r = y.shape
+    order = LarsPath(lb, y).order(min(cs.cols.size - 1, n - 2))
+    paths: dict[int, LooPath] = {}
+
+    def score(p: int) -> None:
+        if p not in paths and degree_min <= p <= cs.top:
+            paths[p] = score_path(lb.psi, y, cs.restrict(order, p), PATIENCE)
+
+    for p in degree_grid(degree_min, cs.top):
+        score(p)
+    # At most five more degrees per level, not every degree between the neighbours (with
+    # many components, their best degrees spread over the grid).
+    for j in range(r):
+        lo, hi = degree_min, cs.top
+        while True:
+            done = sorted(p for p in paths if lo <= p <= hi)
+            i = min(range(len(done)), key=lambda k: paths[done[k]].best_loo[j])
+            lo, hi = done[max(i - 1, 0)], done[min(i + 1, len(done) - 1)]
+            if hi - lo <= 2 or all(p in paths for p in range(lo + 1, hi)):
+                for p in range(lo + 1, hi):
+                    score(p)
+                break
+            for p in degree_grid(lo + 1, hi - 1):
+                score(p)
+    return paths
 
 
 def fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1,
-                degree_max: int | None = None, q: float | None = None) -> ColumnsFit:
+                degree_max: int | None = None, q: float | None = None,
+                joint: bool = False) -> ColumnsFit:
     """Sparse PCE of every column of ``y`` (module docstring).
 
     Parameters
@@ -334,33 +400,52 @@ def fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 
         Highest truncation degree tried; None: the largest the runs support.
     q : float, optional
         q-norm of the hyperbolic truncation; None: the best of :data:`Q_GRID`.
+    joint : bool
+        One least-angle path per q-norm shared by all the columns, each degree's restriction
+        of it scored once for all (cheaper with many columns; each column still takes its own
+        q-norm, degree and terms, and the fit keeps its leave-one-out residuals). No column
+        may then be constant (principal-component scores are not).
     """
     # One BLAS thread: the fit is matrix-vector work that threads do not speed up (on a
     # loaded machine they slowed it tenfold), and a threaded reduction's order, hence its
     # round-off, would depend on the thread count.
     with threadpool_limits(limits=1, user_api="blas"):
-        return _fit_columns(germ, xi, y, degree_min, degree_max, q)
+        union, sets = candidate_sets(germ.dim, xi.shape[0], degree_min, degree_max, q)
+        psi = basis.evaluate(germ, union, xi)
+        shared = [_SharedBasis(psi, cs) for cs in sets]
+        del psi  # each q-norm's set keeps its own copy, laid out for LARS
+        r = y.shape[1]
+        if not joint:
+            constant = constant_columns(y)
+            return _chosen_fit(union, [None if constant[c] else
+                                       select(_column_scores(shared, y[:, c], degree_min))
+                                       for c in range(r)], y)
+        scores: list[list[Scored]] = [[] for _ in range(r)]
+        for sb in shared:
+            for p, path in _joint_search(sb, y, degree_min).items():
+                for j in range(r):
+                    scores[j].append(scored(sb.cs, p, path.fit(column=j),
+                                            path.best_resid[:, j].copy()))
+        chosen = [select(s) for s in scores]
+        fit = _chosen_fit(union, chosen, y)
+        fit.loo_resid = np.zeros(y.shape)
+        for j, c in enumerate(chosen):
+            fit.loo_resid[:, j] = c.resid
+        return fit
 
 
-def _fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, degree_min: int,
-                 degree_max: int | None, q: float | None) -> ColumnsFit:
-    d = germ.dim
-    union, sets = candidate_sets(d, xi.shape[0], degree_min, degree_max, q)
-    psi = basis.evaluate(germ, union, xi)
-    shared = [_SharedBasis(psi, cs) for cs in sets]
-    del psi  # each q-norm's set keeps its own copy, laid out for LARS
-    r = y.shape[1]
-    fits = []
-    degree, qs, loo = np.zeros(r, dtype=int), np.zeros(r), np.zeros(r)
-    constant = constant_columns(y)
-    for c in range(r):
-        if constant[c]:
-            # All runs agree: the constant, exactly (no variance to regress on).
+def _chosen_fit(union: np.ndarray, chosen: Sequence[Scored | None], y: np.ndarray
+                ) -> ColumnsFit:
+    """The columns' chosen fits (None: all the column's runs agree, the constant exactly) on
+    the union of the terms they use."""
+    r = len(chosen)
+    fits, degree, qs, loo = [], np.zeros(r, dtype=int), np.zeros(r), np.zeros(r)
+    for c, pick in enumerate(chosen):
+        if pick is None:  # no variance to regress on
             fits.append(SparseFit(np.zeros(1, dtype=int), y[:1, c].copy(), 0.0))
             continue
-        fit, qs[c], degree[c] = _fit_column(shared, y[:, c], degree_min)
-        fits.append(fit)
-        loo[c] = fit.loo
+        fits.append(pick.fit)
+        qs[c], degree[c], loo[c] = pick.q, pick.degree, pick.fit.loo
     return columns_fit(union, fits, degree, qs, loo)
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..core.types import OutputStats
 from ..stats.tail_intervals import hall_interval
-from .loo_values import FitFloor, FitRuns
+from .loo import FitFloor, FitRuns
 from .validation_design import random_validation
 
 #: Default usability threshold on the relative (LOO or validation) error.
@@ -211,7 +211,7 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
     Why the floor: the few runs of an outer stratum (2-8) may all miss the place where the
     surrogate errs (a corner of the cube, a kink), and their variance is then far too small.
     The fit runs that fall in the stratum, each predicted without itself
-    (:mod:`uqguide.pce.loo_values`), are more draws of the same differences; the larger of the
+    (:func:`uqguide.pce.loo.loo_values`), are more draws of the same differences; the larger of the
     two variances is kept (a leave-one-out error slightly overstates the full fit's, the safe
     side). They only widen: the estimate is the validation runs' alone. The degrees of freedom
     stay those of the validation runs (fewer, so the quantile is the larger).

@@ -66,7 +66,7 @@ class ValidationDesign:
         :mod:`uqguide.pce.tails`); None: all 1.
     sorter : StratumSorter, optional
         How any point's stratum (and ratio) is found, for the fit runs' leave-one-out floor
-        on the intervals (:mod:`uqguide.pce.loo_values`); None for a random design.
+        on the intervals (:func:`uqguide.pce.loo.loo_values`); None for a random design.
     """
 
     u: np.ndarray
