@@ -16,7 +16,7 @@ from uqguide.config.run_config import validate_config
 from uqguide.commands.strict import check_withheld
 from uqguide.errors import UqguideError
 from uqguide.core.types import OutputStats
-from uqguide.methods.pce_validated import _withhold_unsupported
+from uqguide.pce.credibility import State, check_own_by_runs, fallback, record
 from uqguide.pce.runs_estimate import runs_estimate
 from uqguide.pce.support import refuted, unsupported
 from uqguide.pce.validation import Corrected
@@ -145,15 +145,19 @@ def test_a_skewness_goes_with_the_kurtosis_whose_tails_the_runs_refute():
                          "kurtosis": np.array([[2.097], [2.580]])},
                      error=np.zeros(1), n=234, correction_half={})
     usable = np.array([True])
-    st, diag = _beam_stats(1036.3), {}
-    _withhold_unsupported(diag, "apce", "y", st, None, runs, usable, None)
-    assert np.isnan(st.skewness[0]) and np.isnan(st.kurtosis[0])
-    assert st.fallback["skewness"][0] == -0.221 and st.fallback["kurtosis"][0] == 2.338
+    bad, verdicts = check_own_by_runs("y", _beam_stats(1036.3), None, runs, usable, None)
+    assert bad["skewness"][0] and bad["kurtosis"][0]
+    given, _, verdict = fallback(runs, {k: ~usable | m for k, m in bad.items()})
+    assert given["skewness"][0] == -0.221 and given["kurtosis"][0] == 2.338
+    assert verdict is not None and verdict.state is State.FALLBACK
+    diag: dict = {}
+    for v in verdicts:
+        record(diag, "apce", "y", v)
     assert diag["skewness_with_kurtosis.y"] == 1 and diag["withheld.y"] == "kurtosis"
     # the same skewness beside a kurtosis the runs support is kept: the kurtosis decides
-    st, diag = _beam_stats(2.4), {}
-    _withhold_unsupported(diag, "apce", "y", st, None, runs, usable, None)
-    assert st.skewness[0] == -0.043 and not st.fallback
+    bad, verdicts = check_own_by_runs("y", _beam_stats(2.4), None, runs, usable, None)
+    assert not any(m.any() for m in bad.values()) and not verdicts
+    assert fallback(runs, {k: ~usable | m for k, m in bad.items()}) == ({}, {}, None)
 
 
 def test_a_control_variate_value_the_runs_refute_or_less_precise_than_them_is_dropped():
