@@ -412,8 +412,8 @@ def series_agreement(result: Result) -> pd.DataFrame:
 
 
 # ---------------------------------------------------------------------------- text forms
-#: A control-variate value the runs refuted, or less precise than the runs' own estimate
-#: (:func:`uqguide.pce.support.refuted`), or undefined (no variance): the legend says which.
+#: A control-variate value the runs disagree with, or less precise than the runs' own estimate
+#: (:func:`uqguide.pce.support.corrections_to_withhold`), or undefined (no variance): the legend says which.
 NOT_REPORTED = "not reported"
 
 
