@@ -221,7 +221,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             keep(verdict)
         if st.fallback:
             diag["fallback_interval"] = INTERVAL
-        verdict = cred.unusable(name, st, usable, constant, err, fit_loo, threshold, time)
+        verdict = cred.no_usable_surrogate(name, st, usable, constant, err, fit_loo,
+                                           threshold, time)
         if verdict is not None:
             withhold_all(st, usable)
             keep(verdict)

@@ -29,7 +29,7 @@ log = logging.getLogger("uqguide.methods.pce_validated")
 
 #: The steps of :func:`uqguide.methods.pce_validated.finish`, in the order they run.
 STEPS = ("far_tails", "correct", "check_correction", "usable", "check_own",
-         "check_own_by_runs", "fallback", "choose_points", "withhold_unusable")
+         "check_own_by_runs", "fallback", "choose_points", "no_usable_surrogate")
 
 
 class State(str, Enum):
@@ -316,7 +316,7 @@ def choose_points(name: str, st: OutputStats, cv: Corrected, ok: np.ndarray
                            warn=False)
 
 
-def unusable(name: str, st: OutputStats, ok: np.ndarray, constant: bool,
+def no_usable_surrogate(name: str, st: OutputStats, ok: np.ndarray, constant: bool,
              err: np.ndarray | None, fit_loo: float | None, threshold: float,
              time: np.ndarray | None) -> Verdict | None:
     """The verdict where the surrogate is not usable (all its own values are withheld there,
@@ -328,7 +328,7 @@ def unusable(name: str, st: OutputStats, ok: np.ndarray, constant: bool,
            else f"LOO error {fit_loo:.3g}")
     if constant:
         return Verdict(
-            "withhold_unusable", "own", State.WITHHELD, where,
+            "no_usable_surrogate", "own", State.WITHHELD, where,
             f"no usable surrogate (constant on all {st.n_used} fit runs); its moments are not "
             f"reported",
             {f"unusable.{name}": f"constant on all {st.n_used} fit runs: a PCE cannot tell a "
@@ -336,11 +336,11 @@ def unusable(name: str, st: OutputStats, ok: np.ndarray, constant: bool,
     if ok.ndim == 2 and time is not None and time.size == ok.shape[0]:
         bad_t = np.flatnonzero(~ok.all(axis=1))
         return Verdict(
-            "withhold_unusable", "own", State.WITHHELD, where,
+            "no_usable_surrogate", "own", State.WITHHELD, where,
             f"no usable surrogate from t = {time[bad_t[0]]:g} s ({bad_t.size} of "
             f"{ok.shape[0]} steps; {why} > {threshold:g})",
             {f"unusable_from.{name}": float(time[bad_t[0]]),
              f"unusable_steps.{name}": int(bad_t.size)})
-    return Verdict("withhold_unusable", "own", State.WITHHELD, where,
+    return Verdict("no_usable_surrogate", "own", State.WITHHELD, where,
                    f"no usable surrogate ({why} > {threshold:g}); its moments are not reported",
                    {f"unusable.{name}": f"{why} > {threshold:g}"})

@@ -413,7 +413,8 @@ def series_agreement(result: Result) -> pd.DataFrame:
 
 # ---------------------------------------------------------------------------- text forms
 #: A control-variate value the runs disagree with, or less precise than the runs' own estimate
-#: (:func:`uqguide.pce.support.corrections_to_withhold`), or undefined (no variance): the legend says which.
+#: (:func:`uqguide.pce.support.corrections_to_withhold`), or undefined (no variance): the
+#: legend says which.
 NOT_REPORTED = "not reported"
 
 
