@@ -76,7 +76,7 @@ def test_a_correction_the_runs_disagree_with_is_withheld_and_says_which():
     assert disagreed["kurtosis"].all() and not disagreed["mean"].any()
     assert np.isnan(cv.values["kurtosis"][0]) and np.isnan(cv.ci["kurtosis"]).all()
     assert verdict is not None and verdict.of == "+cv" and verdict.state is State.WITHHELD
-    assert dict(verdict.record) == {"cv_refuted.y": "kurtosis"}
+    assert dict(verdict.record) == {"withheld_cv.y": "kurtosis"}
     assert check_correction("y", _estimate({}, 0.5), None) == (None, None)
 
 
@@ -86,7 +86,8 @@ def test_an_unusable_output_is_withheld_with_its_reason_and_a_constant_says_why(
     assert not ok.any() and not constant  # a scalar is judged by both errors: LOO 0.5 > 0.1
     ok, constant = usable("y", st, None, 0.5, 0.1)
     verdict = no_usable_surrogate("y", st, ok, constant, None, 0.5, 0.1, None)
-    assert verdict is not None and dict(verdict.record) == {"unusable.y": "LOO error 0.5 > 0.1"}
+    assert verdict is not None
+    assert dict(verdict.record) == {"no_usable_surrogate.y": "LOO error 0.5 > 0.1"}
     flat = _stats([1.0], [0.0])
     ok, constant = usable("y", flat, None, 0.0, 0.1)
     verdict = no_usable_surrogate("y", flat, ok, constant, None, 0.0, 0.1, None)

@@ -317,7 +317,7 @@ def test_a_kurtosis_its_validation_runs_refute_is_withheld_with_the_reason(
     s = est.stats["x"]
     assert np.isnan(s.kurtosis[0]) and np.isnan(s.corrected["kurtosis"][0])
     assert "kurtosis" in est.diagnostics["withheld.x"]
-    assert "kurtosis" in est.diagnostics["cv_refuted.x"]
+    assert "kurtosis" in est.diagnostics["withheld_cv.x"]
     assert "kurtosis disagree with its own runs and are withheld" in caplog.text
     assert "hold" not in caplog.text.replace("withheld", "")
     lo, hi = s.fallback_ci["kurtosis"][:, 0]

@@ -190,7 +190,7 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             cv_disagreed, verdict = cred.check_correction(name, cv, runs)
             if verdict is not None:
                 st.corrected, st.corrected_ci = cv.values, cred.printed(cv)
-                cv_withheld = verdict.record[f"cv_refuted.{name}"]
+                cv_withheld = verdict.record[f"withheld_cv.{name}"]
             keep(verdict)
         fit_loo = _fit_loo(name, loo, surrogate)
         err = None if cv is None else cv.error

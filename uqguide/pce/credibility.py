@@ -181,7 +181,7 @@ def check_correction(name: str, cv: Corrected, runs: Corrected | None
         f"the corrected (+cv) {what} disagree with, or are less precise than, the Monte Carlo "
         f"estimate of the method's own runs at {n_bad} point(s) (the surrogate's tails beyond "
         f"its validation runs carry them); they are not reported there",
-        {f"cv_refuted.{name}": what})
+        {f"withheld_cv.{name}": what})
 
 
 def usable(name: str, st: OutputStats, err: np.ndarray | None, fit_loo: float | None,
@@ -331,16 +331,16 @@ def no_usable_surrogate(name: str, st: OutputStats, ok: np.ndarray, constant: bo
             "no_usable_surrogate", "own", State.WITHHELD, where,
             f"no usable surrogate (constant on all {st.n_used} fit runs); its moments are not "
             f"reported",
-            {f"unusable.{name}": f"constant on all {st.n_used} fit runs: a PCE cannot tell a "
-                                 f"constant from a rare event"})
+            {f"no_usable_surrogate.{name}": f"constant on all {st.n_used} fit runs: a PCE "
+                                            f"cannot tell a constant from a rare event"})
     if ok.ndim == 2 and time is not None and time.size == ok.shape[0]:
         bad_t = np.flatnonzero(~ok.all(axis=1))
         return Verdict(
             "no_usable_surrogate", "own", State.WITHHELD, where,
             f"no usable surrogate from t = {time[bad_t[0]]:g} s ({bad_t.size} of "
             f"{ok.shape[0]} steps; {why} > {threshold:g})",
-            {f"unusable_from.{name}": float(time[bad_t[0]]),
-             f"unusable_steps.{name}": int(bad_t.size)})
+            {f"no_usable_surrogate_from.{name}": float(time[bad_t[0]]),
+             f"no_usable_surrogate_steps.{name}": int(bad_t.size)})
     return Verdict("no_usable_surrogate", "own", State.WITHHELD, where,
                    f"no usable surrogate ({why} > {threshold:g}); its moments are not reported",
-                   {f"unusable.{name}": f"{why} > {threshold:g}"})
+                   {f"no_usable_surrogate.{name}": f"{why} > {threshold:g}"})
