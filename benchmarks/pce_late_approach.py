@@ -55,7 +55,7 @@ def main() -> None:
             run = r.run(p["label"])
             s = run.estimate.stats["omega_s"]
             diag = run.estimate.diagnostics
-            unusable = diag.get("unusable_from.omega_s")
+            unusable = diag.get("no_usable_surrogate_from.omega_s")
             disagrees = diag.get("disagrees_from.omega_s")
             flags = [f for f in (unusable, disagrees) if f is not None]
             flag = min(flags) if flags else None

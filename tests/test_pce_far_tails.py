@@ -9,7 +9,7 @@ from scipy import stats
 
 import uqguide
 from uqguide.core.types import OutputStats
-from uqguide.methods.pce_validated import _printed, _widen
+from uqguide.pce.credibility import printed, widen
 from uqguide.pce.far_tails import (BATCHES, FAR_FACTOR, beyond_the_runs, far_draws,
                                   replace_far_tails)
 from uqguide.pce.validation import Corrected
@@ -97,7 +97,7 @@ def test_the_control_variate_interval_is_widened_on_either_side_and_its_check_is
     ci = {k: np.stack([values[k] - half[k], values[k] + half[k]]) for k in half}
     cv = Corrected(values=values, ci=ci, error=np.zeros(2), n=50, correction_half=half,
                    shown_ci={k: v.copy() for k, v in ci.items()})
-    _widen(cv, {k: np.array([0.0, 0.05]) for k in half})
+    widen(cv, {k: np.array([0.0, 0.05]) for k in half})
     np.testing.assert_allclose(cv.ci["std"], [[0.99, 1.93], [1.01, 2.07]])
     np.testing.assert_allclose(cv.shown_ci["std"], [[0.99, 1.93], [1.01, 2.07]])
     assert cv.correction_half["std"].tolist() == [0.01, 0.02]
@@ -111,8 +111,8 @@ def test_a_widened_interval_is_printed_within_what_a_std_and_a_kurtosis_can_be()
     ci = {k: np.stack([values[k] - half[k], values[k] + half[k]]) for k in half}
     cv = Corrected(values=values, ci=ci, error=np.zeros(3), n=50, correction_half=half,
                    shown_ci={k: v.copy() for k, v in ci.items()})
-    _widen(cv, {k: np.array([1060.0, 0.5, 0.0]) for k in half})
-    shown = _printed(cv)
+    widen(cv, {k: np.array([1060.0, 0.5, 0.0]) for k in half})
+    shown = printed(cv)
     np.testing.assert_allclose(shown["kurtosis"][0], [1.0, 1.0, np.nan])
     np.testing.assert_allclose(shown["std"][0], [0.0, 0.0, np.nan])
     # the upper ends, the other statistics and the interval the checks use are left alone

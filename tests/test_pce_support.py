@@ -16,10 +16,10 @@ from uqguide.config.run_config import validate_config
 from uqguide.commands.strict import check_withheld
 from uqguide.errors import UqguideError
 from uqguide.core.types import OutputStats
-from uqguide.methods.pce_validated import _withhold_unsupported
+from uqguide.pce.credibility import State, check_own_by_runs, fallback, record
 from uqguide.pce.runs_estimate import runs_estimate
-from uqguide.pce.support import refuted, unsupported
-from uqguide.pce.validation import Corrected
+from uqguide.pce.support import corrections_to_withhold, refuted, unsupported
+from uqguide.pce.validation import Corrected, withdraw
 from uqguide.pce.validation_design import random_validation
 from uqguide.results.result import read_hdf5
 from uqguide.stats.moments import central_moments, shape_moments
@@ -79,7 +79,7 @@ def test_a_pce_shape_statistic_whose_cv_twin_the_runs_refuted_is_judged_at_one_h
     runs.shown_ci["kurtosis"][1, 2] = np.inf  # the third column: the runs give a floor only
     twin = {"kurtosis": np.array([True, True, True]), "skewness": np.zeros(3, dtype=bool)}
     assert not unsupported(own, None, runs)["kurtosis"].any()  # 3.58 < 2.69 + 2 x 0.56
-    bad = unsupported(own, None, runs, twin_refuted=twin)
+    bad = unsupported(own, None, runs, twin_disagreed=twin)
     # 3.58 is 1.6 half-widths off: withheld; 3.0 is within one; beside a floor: withheld
     assert bad["kurtosis"].tolist() == [True, False, True]
     assert not bad["skewness"].any()  # its twin stood
@@ -145,24 +145,47 @@ def test_a_skewness_goes_with_the_kurtosis_whose_tails_the_runs_refute():
                          "kurtosis": np.array([[2.097], [2.580]])},
                      error=np.zeros(1), n=234, correction_half={})
     usable = np.array([True])
-    st, diag = _beam_stats(1036.3), {}
-    _withhold_unsupported(diag, "apce", "y", st, None, runs, usable, None)
-    assert np.isnan(st.skewness[0]) and np.isnan(st.kurtosis[0])
-    assert st.fallback["skewness"][0] == -0.221 and st.fallback["kurtosis"][0] == 2.338
+    bad, verdicts = check_own_by_runs("y", _beam_stats(1036.3), None, runs, usable, None)
+    assert bad["skewness"][0] and bad["kurtosis"][0]
+    given, _, verdict = fallback(runs, {k: ~usable | m for k, m in bad.items()})
+    assert given["skewness"][0] == -0.221 and given["kurtosis"][0] == 2.338
+    assert verdict is not None and verdict.state is State.FALLBACK
+    diag: dict = {}
+    for v in verdicts:
+        record(diag, "apce", "y", v)
     assert diag["skewness_with_kurtosis.y"] == 1 and diag["withheld.y"] == "kurtosis"
     # the same skewness beside a kurtosis the runs support is kept: the kurtosis decides
-    st, diag = _beam_stats(2.4), {}
-    _withhold_unsupported(diag, "apce", "y", st, None, runs, usable, None)
-    assert st.skewness[0] == -0.043 and not st.fallback
+    bad, verdicts = check_own_by_runs("y", _beam_stats(2.4), None, runs, usable, None)
+    assert not any(m.any() for m in bad.values()) and not verdicts
+    assert fallback(runs, {k: ~usable | m for k, m in bad.items()}) == ({}, {}, None)
 
 
-def test_a_control_variate_value_the_runs_refute_or_less_precise_than_them_is_dropped():
+def test_a_control_variate_value_the_runs_refute_or_less_precise_than_them_is_withheld():
     runs = _estimate(3.0, 1.0)
-    assert not refuted(_estimate(3.5, 0.5), runs, np.array([1.0]))["kurtosis"].any()
+    assert not corrections_to_withhold(_estimate(3.5, 0.5), runs, np.array([1.0]))["kurtosis"].any()
     # 4.8e5 [2.2e5, 7.4e5] against 3 +- 1 (issue 27's +cv kurtosis)
-    assert refuted(_estimate(4.8e5, 2.6e5), runs, np.array([1.0]))["kurtosis"].all()
+    assert corrections_to_withhold(_estimate(4.8e5, 2.6e5), runs, np.array([1.0]))["kurtosis"].all()
     # consistent, but a wider interval than the runs' own: worse than no control variate
-    assert refuted(_estimate(3.5, 2.0), runs, np.array([1.0]))["kurtosis"].all()
+    assert corrections_to_withhold(_estimate(3.5, 2.0), runs, np.array([1.0]))["kurtosis"].all()
+
+
+
+def test_the_old_names_of_the_withholding_rules_still_work_and_say_they_are_deprecated():
+    runs, cv = _estimate(3.0, 1.0), _estimate(4.8e5, 2.6e5)
+    with pytest.warns(DeprecationWarning, match="corrections_to_withhold"):
+        old = refuted(cv, runs, np.array([1.0]))
+    assert old == corrections_to_withhold(cv, runs, np.array([1.0]))
+    own = {k: np.array([30.0]) for k in ("mean", "std", "skewness", "kurtosis")}
+    twin = {"kurtosis": np.array([True])}
+    with pytest.warns(DeprecationWarning, match="twin_disagreed"):
+        old = unsupported(own, None, runs, twin_refuted=twin)
+    assert old == unsupported(own, None, runs, twin_disagreed=twin)
+    with pytest.raises(TypeError, match="twin_refutd"):
+        unsupported(own, None, runs, twin_refutd=twin)
+    st = _beam_stats(3.0)
+    with pytest.warns(DeprecationWarning, match="withhold_all"):
+        withdraw(st, np.array([False]))
+    assert np.isnan(st.mean[0]) and np.isnan(st.kurtosis[0])
 
 
 def test_the_runs_estimate_is_the_pooled_sample_and_its_mean_interval_covers():
@@ -294,7 +317,7 @@ def test_a_kurtosis_its_validation_runs_refute_is_withheld_with_the_reason(
     s = est.stats["x"]
     assert np.isnan(s.kurtosis[0]) and np.isnan(s.corrected["kurtosis"][0])
     assert "kurtosis" in est.diagnostics["withheld.x"]
-    assert "kurtosis" in est.diagnostics["cv_refuted.x"]
+    assert "kurtosis" in est.diagnostics["withheld_cv.x"]
     assert "kurtosis disagree with its own runs and are withheld" in caplog.text
     assert "hold" not in caplog.text.replace("withheld", "")
     lo, hi = s.fallback_ci["kurtosis"][:, 0]

@@ -129,7 +129,7 @@ def test_a_degree_one_pce_of_ishigami_is_not_usable_and_says_so(entry, caplog):
     s = run.estimate.stats["y"]
     assert not s.usable.any() and np.isnan(s.mean).all() and np.isnan(s.std).all()
     assert s.validation_error[0] > 0.1
-    assert "validation error" in run.estimate.diagnostics["unusable.y"]
+    assert "validation error" in run.estimate.diagnostics["no_usable_surrogate.y"]
     assert "no usable surrogate" in caplog.text
     for k in ("mean", "std", "skewness", "kurtosis"):
         assert np.isfinite(s.fallback[k][0]), k  # withheld: the runs' estimate is there
@@ -174,7 +174,7 @@ def test_a_constant_fit_reports_no_moments_instead_of_std_zero():
     s = next(iter(r.runs[0].estimate.stats.values()))
     assert d["loo_error"] > 0.5
     assert np.isnan(s.std).all() and not s.usable.any()
-    assert any(k.startswith("unusable.") for k in d)
+    assert any(k.startswith("no_usable_surrogate.") for k in d)
 
 
 def test_a_scalar_constant_on_every_fit_run_reports_no_moments():
@@ -194,7 +194,7 @@ def test_a_scalar_constant_on_every_fit_run_reports_no_moments():
     s = next(iter(r.runs[0].estimate.stats.values()))
     assert np.isnan(s.std).all() and np.isnan(s.mean).all() and not s.usable.any()
     assert "constant on all 60 fit runs" in next(v for k, v in d.items()
-                                                 if k.startswith("unusable."))
+                                                 if k.startswith("no_usable_surrogate."))
     assert (np.isfinite(s.corrected["mean"]) | np.isfinite(s.fallback["mean"])).all()
     assert "no usable surrogate" in render_text(r)
 
@@ -317,12 +317,12 @@ def test_late_approach_of_the_degree_one_pces_is_flagged_before_60_s(caplog):
     for run in r.runs:
         d = run.estimate.diagnostics
         assert 50.0 <= d["disagrees_from.omega_s"] <= 60.0, (run.label, d)
-        assert d["disagrees_from.omega_s"] < d["unusable_from.omega_s"]
+        assert d["disagrees_from.omega_s"] < d["no_usable_surrogate_from.omega_s"]
         # the refuted values are withheld, not printed beside a warning: the runs' own
         # estimate (+mc) stands in wherever the corrected one does not
         st = run.estimate.stats["omega_s"]
         t = np.asarray(r.time)
-        window = (t >= d["disagrees_from.omega_s"]) & (t < d["unusable_from.omega_s"])
+        window = (t >= d["disagrees_from.omega_s"]) & (t < d["no_usable_surrogate_from.omega_s"])
         own = np.column_stack([st.mean, st.std])[window]
         assert np.isnan(own).any(), run.label
         assert np.isfinite(np.asarray(st.fallback["std"])[window]).any(), run.label
@@ -331,19 +331,26 @@ def test_late_approach_of_the_degree_one_pces_is_flagged_before_60_s(caplog):
     assert "validation disagrees" in render_text(r)
 
 
-def test_the_withdrawn_outputs_print_in_one_order_whatever_the_diagnostics_order():
+def test_the_withheld_outputs_print_in_one_order_whatever_the_diagnostics_order():
     """ft_as_dispersion's cost table printed "delta_v ...; settle_r_e ..." from the run and
     "settle_r_e ...; delta_v ..." from its file: the text follows the output names."""
-    from uqguide.report.tables import disagreeing_outputs, unusable_outputs, withheld_outputs
+    from uqguide.report.tables import (disagreeing_outputs, no_surrogate_outputs, unusable_outputs,
+                                       withheld_outputs)
 
-    d = {"unusable.settle_r_e": "validation error 0.223 > 0.1", "withheld.zem": "kurtosis",
-         "unusable.delta_v": "validation error 1.08 > 0.1", "withheld.a": "skewness",
+    d = {"no_usable_surrogate.settle_r_e": "validation error 0.223 > 0.1",
+         "withheld.zem": "kurtosis",
+         "no_usable_surrogate.delta_v": "validation error 1.08 > 0.1", "withheld.a": "skewness",
          "withheld_steps.y": 19, "withheld_from.y": 5.3, "disagrees_from.w": 57.0,
          "disagrees.b": "std"}
     back = dict(reversed(list(d.items())))
-    for f in (unusable_outputs, withheld_outputs, disagreeing_outputs):
+    for f in (no_surrogate_outputs, withheld_outputs, disagreeing_outputs):
         assert f(d) == f(back)
-    assert unusable_outputs(back) == ["delta_v (validation error 1.08 > 0.1)",
-                                      "settle_r_e (validation error 0.223 > 0.1)"]
+    assert no_surrogate_outputs(back) == ["delta_v (validation error 1.08 > 0.1)",
+                                          "settle_r_e (validation error 0.223 > 0.1)"]
+    # a result written before the keys were renamed reads the same, by either name
+    old = {k.replace("no_usable_surrogate.", "unusable."): v for k, v in back.items()}
+    assert no_surrogate_outputs(old) == no_surrogate_outputs(back)
+    with pytest.warns(DeprecationWarning, match="no_surrogate_outputs"):
+        assert unusable_outputs(old) == no_surrogate_outputs(back)
     assert withheld_outputs(back) == ["a (skewness)", "zem (kurtosis)",
                                       "y at 19 steps from t = 5.3 s"]

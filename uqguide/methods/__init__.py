@@ -6,7 +6,7 @@
 - ``monte_carlo`` (a streaming method): its design, a chunk's sums where it ran, the driver's
   merge of them and the error budget;
 - ``pce_quadrature`` (``pce_tensor``, ``pce_smolyak``), ``pce_adaptive``, with
-  ``pce_validated`` (the PCEs' shared step: keep, validate, correct, withdraw);
+  ``pce_validated`` (the PCEs' shared step: keep, validate, correct, withhold);
 - ``subset_simulation``: a rare event's probability;
 - ``sobol_saltelli`` (a streaming method): first-order and total Sobol' indices of a
   pick-freeze design, Monte Carlo moments of its ``A`` and ``B`` rows;

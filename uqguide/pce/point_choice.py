@@ -29,7 +29,7 @@ def better_points(own: np.ndarray, corrected: np.ndarray, se: np.ndarray
     Parameters
     ----------
     own : ndarray, shape (...)
-        The PCE's own statistic (NaN where withheld or unusable).
+        The PCE's own statistic (NaN where withheld).
     corrected : ndarray, shape (...)
         The control-variate value (NaN where it is not reported).
     se : ndarray, shape (...)

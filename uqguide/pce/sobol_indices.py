@@ -236,7 +236,7 @@ def widen_by_truncation(st: OutputStats, eps: np.ndarray | float | None,
                         orthogonal: bool = True) -> None:
     """Widen (or, without intervals, set) ``st``'s index intervals by the truncation bound of a
     surrogate of relative error ``eps`` (per column ``(..., k)``, or one figure); where an
-    index is NaN (withdrawn: no usable surrogate) its interval is NaN too. ``eps`` None leaves
+    index is NaN (withheld: no usable surrogate) its interval is NaN too. ``eps`` None leaves
     the intervals as they are (NaN where none)."""
     for name in ("sobol_first", "sobol_total", "sobol_group_first", "sobol_group_total"):
         v = getattr(st, name)
@@ -287,7 +287,7 @@ def truncation_error_intervals(stats: Mapping[str, OutputStats],
     surrogate is validated: ``eps`` is an output's validation error (per column) where it has
     one, else its LOO error in ``loo``, else none (the intervals stay as they are: NaN for a
     projection; ``orthogonal``: which bound, module docstring). Group indices of the columns
-    whose indices were withdrawn (no usable surrogate) are withdrawn too.
+    whose indices were withheld (no usable surrogate) are withheld too.
     """
     for name, st in stats.items():
         if st.sobol_first is None or st.sobol_estimator != "pce":

@@ -5,7 +5,7 @@ A polynomial fitted to a few runs can put enormous values in tails no run looked
 kurtosis is withheld unless it agrees with every estimate its runs give (the control-variate
 value, and within :data:`RUNS_FACTOR` half-widths the runs' own Monte Carlo estimate); its mean
 and std likewise against the runs' estimate; a ``+cv`` value the runs refute, or less precise
-than they are, is dropped (:func:`refuted`, :func:`less_precise`); a skewness goes with its
+than they are, is withheld (:func:`corrections_to_withhold`); a skewness goes with its
 withheld kurtosis (:func:`with_the_kurtosis`). The report then gives the runs' own estimate.
 
 The rules, "agrees", the margins and the cases that set them:
@@ -14,6 +14,8 @@ docs/methods.md#agreeing-and-the-runs-own-estimate.
 """
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 
@@ -64,7 +66,8 @@ def _floor(name: str, std: np.ndarray) -> np.ndarray | float:
 def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
                 runs: Corrected | None, loo: float | None = None,
                 own_se: dict[str, np.ndarray] | None = None,
-                twin_refuted: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+                twin_disagreed: dict[str, np.ndarray] | None = None,
+                **deprecated: dict[str, np.ndarray] | None) -> dict[str, np.ndarray]:
     """Where the PCE's own moments are not supported by its runs.
 
     Parameters
@@ -82,13 +85,13 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
         Standard errors of PCE moments that were sampled (a derived output's, or where the
         exact moments came from the far tails, :mod:`uqguide.pce.far_tails`): a value whose
         95% half-width exceeds the runs' own is withheld, as a control-variate value is
-        (:func:`refuted`): the runs' estimate is then the better one.
-    twin_refuted : dict of str to ndarray of bool, optional
+        (:func:`corrections_to_withhold`): the runs' estimate is then the better one.
+    twin_disagreed : dict of str to ndarray of bool, optional
         Where the runs disagreed with the control-variate value of a statistic
         (:func:`disagrees_with_runs`, before it was dropped): the PCE's own skewness and
         kurtosis are judged there at one half-width where the runs bound them, and withheld
         where the runs cannot bound them (a stated floor): a user's pendulum at defaults
-        printed a kurtosis of 5.07 (model 4.19) beside a refuted ``+cv`` twin of 5.06
+        printed a kurtosis of 5.07 (model 4.19) beside a withheld ``+cv`` twin of 5.06
         [5.00, 5.11], the runs' kurtosis a floor.
 
     Returns
@@ -97,6 +100,7 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
         Per statistic of :data:`LOCATION_STATS` and :data:`SHAPE_STATS`: True where it is
         withheld.
     """
+    twin_disagreed = _renamed(deprecated, "twin_refuted", twin_disagreed)
     out = {}
     if loo is not None and loo <= EXACT_LOO:
         runs = None
@@ -115,13 +119,13 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
         if runs is not None:
             bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, runs.values[k],
                              RUNS_FACTOR * _half(runs, k), MATERIAL)
-            if twin_refuted is not None and k in twin_refuted:
+            if twin_disagreed is not None and k in twin_disagreed:
                 # the runs refuted the twin, which shares the surrogate's tails: where they
                 # bound the statistic, the PCE's value must lie within one half-width of
                 # theirs; where they cannot (a floor), nothing vouches for those tails
                 near = ~_disagree(np.asarray(own[k], dtype=float), 0.0, runs.values[k],
                                   _half(runs, k), MATERIAL)
-                bad |= (np.asarray(twin_refuted[k], dtype=bool)
+                bad |= (np.asarray(twin_disagreed[k], dtype=bool)
                         & ~(_bounded(runs, k) & near) & np.isfinite(own[k]))
         out[k] = bad
     if runs is not None and own_se:
@@ -148,7 +152,7 @@ def _bounded(runs: Corrected, name: str) -> np.ndarray:
 def disagrees_with_runs(corrected: Corrected, runs: Corrected | None, std: np.ndarray
                         ) -> dict[str, np.ndarray]:
     """Where a control-variate value and the runs' Monte Carlo estimate disagree (the first
-    half of :func:`refuted`; all False without ``runs``)."""
+    half of :func:`corrections_to_withhold`; all False without ``runs``)."""
     out = {}
     for k, v in corrected.values.items():
         if runs is None:
@@ -159,9 +163,10 @@ def disagrees_with_runs(corrected: Corrected, runs: Corrected | None, std: np.nd
     return out
 
 
-def refuted(corrected: Corrected, runs: Corrected | None, std: np.ndarray
-            ) -> dict[str, np.ndarray]:
-    """Where the control-variate estimates disagree with the runs' Monte Carlo estimate.
+def corrections_to_withhold(corrected: Corrected, runs: Corrected | None, std: np.ndarray
+                            ) -> dict[str, np.ndarray]:
+    """Where the control-variate estimates disagree with the runs' Monte Carlo estimate, or
+    are less precise than it: the ``+cv`` values withheld.
 
     Parameters
     ----------
@@ -173,15 +178,15 @@ def refuted(corrected: Corrected, runs: Corrected | None, std: np.ndarray
     Returns
     -------
     dict of str to ndarray of bool, shape (...)
-        Per moment: True where the ``+cv`` value is refuted or its interval is wider than the
-        runs' (all False without ``runs``).
+        Per moment: True where the ``+cv`` value disagrees with the runs' or its interval is
+        wider than theirs (all False without ``runs``).
     """
     return either(disagrees_with_runs(corrected, runs, std), less_precise(corrected, runs))
 
 
 def less_precise(corrected: Corrected, runs: Corrected | None) -> dict[str, np.ndarray]:
     """Where a control-variate value's interval is wider than the runs' own (the second half
-    of :func:`refuted`; all False without ``runs``)."""
+    of :func:`corrections_to_withhold`; all False without ``runs``)."""
     out = {}
     for k, v in corrected.values.items():
         if runs is None:
@@ -196,3 +201,24 @@ def less_precise(corrected: Corrected, runs: Corrected | None) -> dict[str, np.n
 def either(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """The union, per statistic, of two masks."""
     return {k: a[k] | b[k] for k in a}
+
+
+def refuted(corrected: Corrected, runs: Corrected | None, std: np.ndarray
+            ) -> dict[str, np.ndarray]:
+    """Deprecated name of :func:`corrections_to_withhold`."""
+    warnings.warn("uqguide.pce.support.refuted is deprecated: use corrections_to_withhold",
+                  DeprecationWarning, stacklevel=2)
+    return corrections_to_withhold(corrected, runs, std)
+
+
+def _renamed(given: dict[str, dict[str, np.ndarray] | None], old: str,
+             value: dict[str, np.ndarray] | None) -> dict[str, np.ndarray] | None:
+    """``value``, or the deprecated keyword ``old`` of it (with a warning)."""
+    unknown = set(given) - {old}
+    if unknown:
+        raise TypeError(f"unexpected keyword argument(s): {', '.join(sorted(unknown))}")
+    if old not in given:
+        return value
+    warnings.warn(f"the keyword {old} is deprecated: use twin_disagreed", DeprecationWarning,
+                  stacklevel=3)
+    return given[old] if value is None else value

@@ -6,8 +6,8 @@ the raw moments about the PCE mean corrected by the model-minus-surrogate differ
 runs, unbiased whatever the surrogate, with delta-method intervals, Satterthwaite degrees of
 freedom and Hall's skew correction (:func:`corrected_moments`, :func:`stratified_se`); the PCE's
 own values the runs refute (:func:`disagreeing`); and the columns whose error exceeds
-:data:`USABLE_ERROR`, where the PCE's own moments are withdrawn (:func:`usable_mask`,
-:func:`withdraw`). :data:`MATERIAL` is the immaterial difference.
+:data:`USABLE_ERROR`, where the PCE's own moments are withheld (:func:`usable_mask`,
+:func:`withhold_all`). :data:`MATERIAL` is the immaterial difference.
 
 Formulas, rules and measured coverage:
 docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate.
@@ -15,6 +15,7 @@ docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrog
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -470,7 +471,7 @@ def usable_mask(error: np.ndarray | None, loo: float | None, threshold: float,
     return ok
 
 
-def withdraw(stats: OutputStats, usable: np.ndarray) -> None:
+def withhold_all(stats: OutputStats, usable: np.ndarray) -> None:
     """NaN the PCE's own moments (and Sobol' indices, quantiles) where it is not usable."""
     bad = ~usable
     if not bad.any():
@@ -492,3 +493,10 @@ def withdraw(stats: OutputStats, usable: np.ndarray) -> None:
         q = np.array(stats.quantiles, dtype=float)
         q[:, bad] = np.nan
         stats.quantiles = q
+
+
+def withdraw(stats: OutputStats, usable: np.ndarray) -> None:
+    """Deprecated name of :func:`withhold_all`."""
+    warnings.warn("uqguide.pce.validation.withdraw is deprecated: use withhold_all",
+                  DeprecationWarning, stacklevel=2)
+    withhold_all(stats, usable)

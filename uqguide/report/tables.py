@@ -11,6 +11,7 @@ mean), so a reader sees whether a difference is larger than the reference's own 
 from __future__ import annotations
 
 from pathlib import Path
+import warnings
 from typing import Any
 
 import numpy as np
@@ -60,9 +61,9 @@ def cost_table(result: Result) -> pd.DataFrame:
             errs = [v for k, v in d.items() if k.startswith("validation_error.")]
             extra["val_error"] = max(errs) if errs else float("nan")
         extra.update(multifidelity_columns(d))
-        unusable = unusable_outputs(d)
-        if unusable:
-            extra["no usable surrogate"] = "; ".join(unusable)
+        no_surrogate = no_surrogate_outputs(d)
+        if no_surrogate:
+            extra["no usable surrogate"] = "; ".join(no_surrogate)
         disagree = disagreeing_outputs(d)
         if disagree:
             extra["validation disagrees"] = "; ".join(disagree)
@@ -115,19 +116,36 @@ def _rounded(value: object) -> float | int:
     return round(v) if np.isfinite(v) else float("nan")
 
 
-def unusable_outputs(diagnostics: dict) -> list[str]:
-    """``"output"`` or ``"output from t = 58 s"`` for every output (span) a PCE withdrew
-    its moments from (:mod:`uqguide.pce.validation`)."""
-    out = [f"{name} ({v})" for name, v in _by_output(diagnostics, "unusable.")]
-    out += [f"{name} from t = {v:g} s" for name, v in _by_output(diagnostics, "unusable_from.")]
+def no_surrogate_outputs(diagnostics: dict) -> list[str]:
+    """``"output (why)"`` or ``"output from t = 58 s"`` for every output (span) where a PCE
+    has no usable surrogate, its moments withheld
+    (:func:`uqguide.pce.credibility.no_usable_surrogate`; ``unusable.`` in an older
+    result file)."""
+    out = [f"{name} ({v})" for name, v in _by_output(diagnostics, "no_usable_surrogate.",
+                                                     "unusable.")]
+    out += [f"{name} from t = {v:g} s"
+            for name, v in _by_output(diagnostics, "no_usable_surrogate_from.",
+                                      "unusable_from.")]
     return out
 
 
-def _by_output(diagnostics: dict, prefix: str) -> list[tuple[str, Any]]:
-    """``(output, value)`` of the diagnostics ``prefix + output``, by output name: the order
-    of a dict read back from a result file is not the order the method wrote it in, and the
-    same result must print the same text."""
-    return sorted((k[len(prefix):], v) for k, v in diagnostics.items() if k.startswith(prefix))
+def unusable_outputs(diagnostics: dict) -> list[str]:
+    """Deprecated name of :func:`no_surrogate_outputs`."""
+    warnings.warn("uqguide.report.tables.unusable_outputs is deprecated: use "
+                  "no_surrogate_outputs", DeprecationWarning, stacklevel=2)
+    return no_surrogate_outputs(diagnostics)
+
+
+def _by_output(diagnostics: dict, *prefixes: str) -> list[tuple[str, Any]]:
+    """``(output, value)`` of the diagnostics ``prefix + output`` (the first of ``prefixes``
+    that names the output: the others are its older names), by output name: the order of a
+    dict read back from a result file is not the order the method wrote it in, and the same
+    result must print the same text."""
+    found: dict[str, Any] = {}
+    for prefix in reversed(prefixes):
+        found.update((k[len(prefix):], v) for k, v in diagnostics.items()
+                     if k.startswith(prefix))
+    return sorted(found.items())
 
 
 def withheld_outputs(diagnostics: dict) -> list[str]:
@@ -435,8 +453,9 @@ def series_agreement(result: Result) -> pd.DataFrame:
 
 
 # ---------------------------------------------------------------------------- text forms
-#: A control-variate value the runs refuted, or less precise than the runs' own estimate
-#: (:func:`uqguide.pce.support.refuted`), or undefined (no variance): the legend says which.
+#: A control-variate value the runs disagree with, or less precise than the runs' own estimate
+#: (:func:`uqguide.pce.support.corrections_to_withhold`), or undefined (no variance): the
+#: legend says which.
 NOT_REPORTED = "not reported"
 
 

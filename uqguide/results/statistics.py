@@ -134,7 +134,7 @@ class Statistic:
     sem : ndarray, shape (..., k), or None
         The standard error of a sample mean (the mean's interval when it has no other).
     usable : ndarray of bool, shape (..., k), or bool, or None
-        Where the value is usable (a PCE withdraws its own moments where its surrogate is not);
+        Where the value is usable (a PCE withholds its own moments where its surrogate is not);
         True: everywhere; None: not judged (quantiles).
     level : float or None
         A quantile's probability.
