@@ -511,7 +511,7 @@ class AdaptivePCE(Method):
     def _fit_loo(self, space: InputSpace, design: Design, outputs: ModelOutput,
                  fits: list[_OutputFit]) -> dict[str, np.ndarray]:
         """Each fitted output's leave-one-out values ``(n_ok, *shape)`` at the successful fit
-        runs (:mod:`uqguide.pce.loo_values`), and each derived output's: its map applied to
+        runs (:mod:`uqguide.pce.loo`), and each derived output's: its map applied to
         its carriers' leave-one-out values (the map is exact, only the carriers are fitted)."""
         germ = Germ.of(space)
         ok = np.flatnonzero(~outputs.failed)

@@ -143,7 +143,7 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         which the surrogate extrapolates (:func:`uqguide.pce.credibility.far_tails`).
     fit_loo_values : mapping of str to ndarray, shape (n_ok, ...), optional
         The surrogate's leave-one-out values at the fit's successful runs, per fitted output
-        (:mod:`uqguide.pce.loo_values`): they floor the ``+cv`` intervals' variance.
+        (:mod:`uqguide.pce.loo`): they floor the ``+cv`` intervals' variance.
     """
     estimate.surrogate = surrogate
     diag = estimate.diagnostics
