@@ -209,3 +209,21 @@ def test_the_retired_streaming_flag_is_refused_where_the_class_is_written():
                                         "uqguide.methods.base.StreamingMethod"):
         class Flagged(Method):
             reduces_chunks = True
+
+
+def test_outputs_come_back_in_the_declared_order_whatever_the_model_filled():
+    """A model looping over the set of wanted outputs fills its dicts in the order of string
+    hashes, which PYTHONHASHSEED changes per process; bootstrap seeds handed out by position
+    then moved ft_as_dispersion's Sobol' intervals between processes."""
+    class Reversed(_Toy):
+        def outputs(self):
+            return (OutputInfo("y", "scalar", "1", "y"), OutputInfo("z", "scalar", "1", "z"))
+
+        def _evaluate(self, values, n, outputs):
+            y = self._y(values)[:, None]
+            return ModelOutput(time=np.zeros(0), scalars={"z": -y, "y": y},
+                               failed=np.zeros(n, dtype=bool),
+                               reasons=np.full(n, "", dtype=object))
+
+    out = Reversed().evaluate(np.ones((2, 2)), ["a", "b"], ["z", "y"])
+    assert list(out.scalars) == ["y", "z"]

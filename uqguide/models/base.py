@@ -394,6 +394,12 @@ class Model(ABC):
             values[nm] = x[:, j]
         out = self._evaluate(apply_env(values), n, wanted)
         self._check_output(out, n, wanted)
+        # a model that loops over the set of wanted outputs fills its dicts in the order of
+        # Python's string hashes, which change per process: put them in the declared order, so
+        # that what follows (bootstrap seeds handed out by position) never depends on it
+        order = {o.name: i for i, o in enumerate(self.outputs())}
+        out.series = dict(sorted(out.series.items(), key=lambda kv: order.get(kv[0], -1)))
+        out.scalars = dict(sorted(out.scalars.items(), key=lambda kv: order.get(kv[0], -1)))
         return out
 
     def _check_output(self, out: ModelOutput, n: int, wanted: frozenset[str]) -> None:
