@@ -177,3 +177,19 @@ def test_replay_help_says_a_result_can_run_code():
     out = CliRunner().invoke(main, ["replay", "--help"]).output
     assert "--run-code" in out and "--config" in out
     assert "a result file someone sent you can run any code" in " ".join(out.split())
+
+
+def test_a_kept_surrogate_of_a_sent_result_imports_none_of_its_code(study):
+    """plot and report rebuild a PCE's surrogate from the stored config: its inputs, never its
+    model, when the model is code (a callable's module would run on import)."""
+    from uqguide.results.result import read_hdf5
+
+    cfg = study.path / "pce.yaml"
+    cfg.write_text(yaml.safe_dump(dict(study.raw, name="pce_study",
+                                       methods=[{"name": "pce_tensor", "label": "pce", "m": 2}])))
+    result = run(load_config(cfg))
+    result.config["model"]["function"] = f"{study.sent}:f"
+    h5 = write_hdf5(result, study.path / "sent_pce.h5")
+    surrogate = read_hdf5(h5).surrogate("pce")
+    assert surrogate.expansions
+    assert not study.marks.exists(), "the sent module was imported"

@@ -521,6 +521,10 @@ def stored_context(data: Mapping[str, Any]) -> tuple[InputSpace, dict[str, Any]]
     section = data.get("model")
     if data.get("data") is not None or not isinstance(section, Mapping):
         return stored_input_space(data), {}
+    if model_class(section.get("name"), "model.name").named_code(section):
+        # a callable, program or FMU: building it would import or check code a result file
+        # names (only `replay --run-code` runs that); such models derive no outputs
+        return stored_input_space(data), {}
     # config_dir "." as for any config not read from a file (a callable model's module)
     model = _build_model(dict(section), ".")
     return _build_space(_stored_inputs(data), model), dict(model.derived_outputs())
