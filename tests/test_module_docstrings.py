@@ -38,13 +38,6 @@ DOCS_LINK = re.compile(r"docs/([\w-]+\.md)(?:#([\w-]+))?")
 # passes (test_the_allow_list_only_holds_modules_that_still_need_it fails until it is
 # removed), and nothing is ever added to it.
 NOT_YET = frozenset({
-    # the execution engine and the application commands
-    "uqguide/commands/compile_kernels.py",
-    "uqguide/commands/replay.py",
-    "uqguide/driver/execution/__init__.py",
-    "uqguide/driver/execution/guard.py",
-    "uqguide/driver/execution/shared_rows.py",
-    "uqguide/driver/interrupts.py",
     # the methods as hooks
     "uqguide/methods/__init__.py",
     "uqguide/methods/base.py",
