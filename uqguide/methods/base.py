@@ -1,18 +1,17 @@
 """The method contract: how a propagation method turns model runs into statistics.
 
 The driver calls one hook, :meth:`Method.propagate`, with a :class:`Runner` that evaluates rows
-chunk by chunk (executors, checkpoints, progress). Its default is design, evaluate, refine until
-:meth:`Method.refine` returns ``None``, estimate; a :class:`StreamingMethod` (Monte Carlo) instead
-reduces each chunk where it ran and folds the summaries in chunk order, so time series never
-travel or stay; a multi-fidelity method runs its own phases over the model's levels. A method
-that cannot produce statistics raises :class:`~uqguide.errors.MethodError` (or a numerical
-failure, :data:`METHOD_FAILURES`): the run records it and completes the other methods.
+chunk by chunk. Its default is design, evaluate, refine until :meth:`Method.refine` returns
+``None``, estimate; a :class:`StreamingMethod` (Monte Carlo) instead reduces each chunk where it
+ran and folds the summaries in chunk order; a multi-fidelity method runs its own phases. A
+method that cannot produce statistics raises :class:`~uqguide.errors.MethodError` (or one of
+:data:`METHOD_FAILURES`): the run records it and completes the other methods.
 
 Methods never know which model they run: they see the :class:`~uqguide.core.inputs.InputSpace`,
-the :class:`~uqguide.core.types.ModelOutput`, the :class:`Runner` and the :class:`RunContext` they
-were built with. A new method is one module with a ``Settings`` class and a subclass of
-:class:`Method` (or :class:`StreamingMethod`), plus one line in :mod:`uqguide.config.registry`;
-:func:`uqguide.testing.check_method` then checks it with no test code.
+the :class:`~uqguide.core.types.ModelOutput`, the :class:`Runner` and the :class:`RunContext`. A
+new method is a module with a ``Settings`` class and a :class:`Method` subclass, plus one line in
+:mod:`uqguide.config.registry`; :func:`uqguide.testing.check_method` checks it
+(``docs/architecture.md``).
 """
 from __future__ import annotations
 
