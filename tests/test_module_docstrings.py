@@ -40,8 +40,6 @@ DOCS_LINK = re.compile(r"docs/([\w-]+\.md)(?:#([\w-]+))?")
 NOT_YET = frozenset({
     # outside simulators, data rows and their config
     "uqguide/config/data_source.py",
-    "uqguide/models/command/files.py",
-    "uqguide/models/command/model.py",
     "uqguide/models/data_rows/checks.py",
     "uqguide/models/data_rows/files.py",
     "uqguide/models/data_rows/suggest.py",
