@@ -603,13 +603,13 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
     result : Result
     baseline : Baseline
     sigmas : float
-        Monte Carlo tolerance in combined standard errors (module docstring).
+        Monte Carlo tolerance in combined standard errors.
     pce_rtol : float, optional
         Relative tolerance of PCE statistics; default the one stored in the baseline.
     source : str
         How to name the baseline in messages (its path).
     sensitivity : bool
-        Also compare the Sobol' indices (module docstring); ResultError when the baseline
+        Also compare the Sobol' indices; ResultError when the baseline
         holds none.
 
     Returns

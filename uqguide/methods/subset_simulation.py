@@ -171,13 +171,8 @@ class SubsetSimulation(Method):
             d["chain_rows"][:, d["step"]] = d["current"]
 
     def _end_level(self, d: dict[str, Any], g: np.ndarray) -> bool:
-        """Close a level in ``d``: the next threshold and the chains' seeds, or the end.
-
-        Returns
-        -------
-        bool
-            True when the run is done (the event level reached, or ``max_levels``).
-        """
+        """Close a level in ``d``: the next threshold and the chains' seeds; True at the end
+        (the event level reached, or ``max_levels``)."""
         N, nc, L = self.settings.n_per_level, self.n_seeds, self.chain_length
         rows = np.arange(N) if d["chain_rows"] is None else d["chain_rows"].ravel()
         gl = g[rows]
