@@ -76,7 +76,7 @@ class AdaptivePCESettings(MethodSettings):
         Hyperbolic truncation ``||alpha||_q <= p``; default: chosen per output among 0.5, 0.75
         and 1 by corrected LOO (the paper: 0.5; 1 is total degree).
     target_loo : float
-        Corrected LOO error (relative to the variance) at which enrichment stops (spec 4.4):
+        Corrected LOO error (relative to the variance) at which enrichment stops (paper 4.4):
         1e-5, the surrogate leaves 0.001% of the variance unexplained. Only a stopping rule: the
         fit always takes the expansion of least error the runs allow.
     max_runs : int, optional
