@@ -1,20 +1,12 @@
 """Compile the simulators' kernels once, up front: ``uqguide compile``.
 
 A compiled kernel is built on its first call and then loaded from numba's cache
-(:mod:`uqguide.models.kernels`). On a fresh install the four simulators cost about three
-CPU-minutes the first time they run (FT-AS and GMM-FTC about a minute each). Paying that on
-purpose, once, is what one wants
-
-- in a container or virtual-environment build, so that no job starts by compiling;
-- before a cluster job array, whose jobs would otherwise each compile the same kernels;
-- before timing anything, a test suite included (``.ci/run`` does it before the suite).
-
-How: each study's model runs once, on two samples at its nominal inputs, with the kernel its
-config chooses. Numba compiles one specialisation per argument types, and a study's parameters
-decide which of a simulator's loops run (FT-AS compares three controllers), so running the
-studies compiles what the studies use; a model met twice with the same parameters runs once.
-The statistics kernel (the streamed moment sums) is compiled too. A kernel already in the
-cache is loaded, which takes well under a second: running it twice is harmless.
+(:mod:`uqguide.models.kernels`). Paying that once on purpose suits a container build, a cluster
+job array and anything timed. Each study's model runs once, on two samples at its nominal
+inputs, with the kernel its config chooses (a model met twice with the same parameters runs
+once), and the statistics kernel is compiled too; a kernel already cached just loads, so a
+second call is harmless (:func:`compile_kernels`). What it costs, and why running the studies
+is what compiles their specialisations: ``docs/performance.md#the-first-run-compile``.
 """
 
 from __future__ import annotations

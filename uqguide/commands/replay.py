@@ -1,21 +1,13 @@
 """``uqguide replay``: one sample of a result run again, with its full time histories.
 
 The sample's inputs are read from the result (``samples/x``) and the model is rebuilt from the
-result's resolved config (same parameters), so the run is the one that produced the stored
-scalars. The model is deterministic per sample and vectorised sample by sample (no state is
-shared across a batch), so on the machine that wrote the result the replayed scalars equal the
-stored ones **bit for bit**. Another CPU may not: a compiled kernel's fused multiply-adds and
-vector widths, or another math library, move the last bits (the shipped FT-AS result's delta-v
-replayed 6e-12 relative off, FTCAPN's ZEM one unit in the last place, on an AMD EPYC against the
-machine that wrote them). So each scalar is judged one of three ways: ``equal`` (bit for bit),
-``round-off`` (at most :data:`ROUNDOFF` relative: the same computation with other last bits;
-exit 0, and the replay says so) or ``DIFFER`` (more: the code or a dependency changed since the
-result was written; exit 1). ``uqguide replay --exact`` makes any difference exit 1, the check
-for the machine that wrote the result.
-
-A sample is chosen by number (``--sample``), as the extreme of a scalar output
-(``--worst OUTPUT``: largest, or smallest with ``--lowest``), or as the first sample in one of
-the config's events (``--event NAME``); failed samples are never the worst or in an event.
+result's resolved config, so the run is the one that produced the stored scalars. Each scalar is
+judged ``equal`` (bit for bit), ``round-off`` (at most :data:`ROUNDOFF` relative: another CPU's
+last bits; exit 0) or ``DIFFER`` (more: the code or a dependency changed; exit 1); ``--exact``
+makes any difference exit 1. A sample is chosen by number (``--sample``), as the extreme of a
+scalar output (``--worst OUTPUT``, ``--lowest``) or as the first sample in one of the config's
+events (``--event NAME``); failed samples are never the worst or in an event. Why a replay may
+move the last bits, and when it runs code a result file names: ``docs/guide.md#replaying-one-run``.
 """
 
 from __future__ import annotations

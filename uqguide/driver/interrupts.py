@@ -2,25 +2,13 @@
 
 :func:`install` makes SIGINT and SIGTERM raise :class:`KeyboardInterrupt` in the main thread
 (SIGTERM as its subclass :class:`Terminated`), so a run stopped either way leaves the same
-resumable state and the command line exits 130 without a traceback. Inside :func:`deferred`
-(the writing of the result files) a signal is remembered instead and raised when the block
-ends: a file is then written whole, never abandoned half-way by an exception raised inside a
-C library (HDF5), which may swallow it.
-
-Python itself swallows an exception raised where it cannot propagate: in a weakref callback
-(the import system's module locks have one), a ``__del__`` or a garbage-collector callback.
-A signal that lands there would be printed as "Exception ignored ... Traceback" and lost, and
-the run would go on to exit 0. :func:`install` therefore routes such an interrupt to a flag
-instead of the printout, and :func:`raise_swallowed` (called after each chunk and when a
-deferred block closes) raises it where it can propagate.
-
-Code can also catch the interrupt and go on: a user's function with a bare ``except:`` that a
-SIGTERM lands in, a library's clean-up that catches everything. The run would then finish and
-exit 0 although the signal came before its result was written. So the handler also records
-every signal it receives, and :func:`raise_received` (called when a command ends) raises it
-again: a command that received a signal exits 130, whatever swallowed the exception on the
-way. A command exits 0 only when no signal reached it before its end, i.e. its result was
-fully written before any signal.
+resumable state. Inside :func:`deferred` (the writing of the result files) a signal is held
+and raised when the block ends, so a file is written whole. An interrupt Python would swallow
+(raised in a weakref callback, a ``__del__``, a garbage-collector callback) goes to a flag that
+:func:`raise_swallowed` raises after each chunk and when a deferred block closes; every signal
+received is also recorded, and :func:`raise_received` (when a command ends) raises it again, so
+a command that caught and went on still exits 130. Why each is needed:
+``docs/scale.md#checkpoints-and-resume``.
 """
 
 from __future__ import annotations

@@ -1,21 +1,14 @@
 """Baselines of the regression gate: what a result's statistics were, as a JSON file.
 
-A baseline is written from a result on purpose (``uqguide baseline RESULT -o B.json``). It holds,
-per method label, per output, per point (each report time and the last step of a series, the
-value of a scalar: :func:`uqguide.results.statistics.points`), per component: the mean, std,
-skewness and kurtosis, and for sample (Monte Carlo) estimates the standard error of each
-(:meth:`uqguide.results.statistics.OutputStatistics.standard_error`); the quantiles with their
-95% intervals (``q0.99: [value, low, high]``), the Sobol' indices with their 95% intervals
-(``"first:x1": [value, low, high]``; ``total:``, ``group_first:``, ``group_total:``) and, per
-method, the probability of each event with its interval and counts; plus the relative
-tolerance of PCE statistics, the resolved config, the library versions and the creation date.
-``null`` stands for NaN. It reads the result through the description of
-:mod:`uqguide.results.statistics`, as the report tables and the result file do.
-
-The file is JSON with every container of plain values on one line (one line per point), so a
-baseline that changes on purpose shows in a diff as the points that moved. Numbers are written
-with the shortest repr that reads back to the same double: a re-run of the same config and seed
-compares exactly.
+A baseline is written from a result on purpose (``uqguide baseline RESULT -o B.json``). Per
+method label, output, point (:func:`uqguide.results.statistics.points`) and component it holds
+the moments (with their standard errors for sample estimates), the quantiles and Sobol' indices
+with their 95% intervals (``[value, low, high]``) and each method's event probabilities, plus
+the PCE tolerance, the resolved config, the library versions and the creation date; ``null``
+stands for NaN. It reads the result through :mod:`uqguide.results.statistics`, as the report
+and the result file do, and refuses on reading what a hand edit could loosen (:class:`Baseline`'s
+checks). One line per point, numbers in the shortest repr that reads back to the same double:
+the file's format and rules are ``docs/regression-gate.md``.
 """
 
 from __future__ import annotations

@@ -1,73 +1,16 @@
 """Statistics as a regression gate: the comparison of a result with a baseline.
 
-A baseline (:mod:`uqguide.gate.baseline`, written on purpose by ``uqguide baseline RESULT -o
-B.json``) holds per method label, output, point (report times and last step of a series; a scalar's
-value) and component the mean, std, skewness and kurtosis, with the standard error of each for Monte
-Carlo estimates, plus the config and the versions it came from.
-
 ``uqguide check RESULT --baseline B.json`` compares every statistic of the result with the
-baseline's at the same points:
-
-- **Monte Carlo** (``moments_method == "sample"``): the two estimates are independent, so their
-  difference has standard error ``sqrt(se_a^2 + se_b^2)``; it fails beyond ``sigmas`` (default 4)
-  of these. The standard error of the mean is ``sem = std / sqrt(n)``; that of std, skewness and
-  kurtosis is the half-width of the result's 95% interval over 1.96 (the intervals of
-  :mod:`uqguide.stats.tail_intervals` by default); the baseline's std error is recomputed from
-  its own std, kurtosis and run count (delta method), its skewness and kurtosis errors are the
-  stored ones, and the run counts must lie within ``RUNS_RATIO``. Where a result has no
-  interval the normal-theory values ``std / sqrt(2n)``, ``sqrt(6/n)`` and ``sqrt(24/n)`` are
-  used. With 4 sigmas a single quantity of a reseeded rerun
-  fails with probability about 6e-5, so a check of a few hundred quantities stays green; a
-  shift of a mean by 5 or more combined standard errors fails nearly always.
-- **PCE** (``moments_method`` ``"exact"`` or ``"surrogate-sampling"``): the estimate is a
-  deterministic function of the design, so a statistical error bar does not apply; it fails when
-  it differs from the baseline by more than ``pce_rtol`` (default 2%, stored in the baseline) of
-  a scale: ``max(|mean|, std)`` for the mean (a mean near zero is judged on the output's
-  spread), ``std`` for the std, ``max(|skewness|, 1)`` for the skewness, ``kurtosis`` for the
-  kurtosis. It judges a rerun of the same design (same seed): a PCE with another seed is
-  another surrogate, whose skewness and kurtosis may differ far more (an adaptive PCE of
-  FTCAPN's miss distance from 150 runs gave skewness 0.9 to 25 over three seeds).
-  2% is far above the round-off of a re-run (same design, same numbers) and of a
-  library update that leaves the fitted basis unchanged, and below the few-per-cent shifts a
-  guidance-law change gives; an adaptive basis that selects different terms after a dependency
-  update may move skewness and kurtosis more, and should then be looked at.
-
-Every tolerance has a floor of ``ROUNDOFF_RTOL`` (1e-6) of the output component's magnitude (its
-peak ``|mean| + std`` over the baseline's points). It decides alone where there is no spread (a
-deterministic nominal run, a series step before any dispersion acts). It is not 1e-15: last-bit
-differences of a math library on another CPU are amplified by a chattering sliding-mode
-controller to its accuracy floor (FT-AS: attitude error ~1e-8 against a peak of 0.2, i.e. 5e-8
-of the peak), while a change of a gain or a law moves the statistics by far more. A statistic
-that is NaN in both (skewness of a zero-variance step) passes; NaN in one only fails. Skewness and
-kurtosis are skipped (with a note) where the std of either is below ``STD_ZERO_RTOL`` of the
-component's peak std: they are then ratios of round-off.
-
-**Quantiles** are checked like the moments: a Monte Carlo quantile against ``sigmas`` combined
-standard errors, the result's the half-width of its 95% order-statistic interval over 1.96, the
-baseline's that one scaled to the baseline's run count (its stored interval only where the
-result has none: an interval is a weak witness of itself, see :mod:`.baseline`); a PCE
-quantile (a fixed surrogate's draws) against ``pce_rtol`` of ``max(|quantile|, std)``. **Event
-probabilities** of a random estimate (a count of runs, subset simulation) against ``sigmas``
-combined standard errors from their 95% intervals (Clopper-Pearson for a count: not zero at
-zero events, so one event more than a baseline of none is judged, not absolute); those of a PCE's
-draws against ``pce_rtol`` of the probability, at least one draw (``1 / n_used``). A baseline of
-format 2 has neither; the report says so in a note.
-
-**Sobol' indices** (``uqguide check --sensitivity``; a baseline of format 4 holds them) are
-checked like the quantiles: a sampled index (Monte Carlo's given-data ones, a pick-freeze
-design's) against ``sigmas`` combined standard errors, each the half-width of its own 95%
-interval over 1.96; an index without a two-sided interval on either side is not checked (a
-note says so). Not the plain sum of the half-widths: that is about 2.8 combined standard
-errors, a false alarm in one index of 200 on a rerun with another seed, and a budget of 7
-inputs at 21 report times holds 300 of them. A PCE's index (a fixed design) against
-``pce_rtol`` as an absolute difference, indices being fractions of the variance. Without
-``--sensitivity`` the indices are not compared and a note counts them.
-
-A baseline that cannot be read, or does not match the result (other model, a method label or an
-output missing, other kind, unit or components), raises :class:`~uqguide.errors.ResultError`:
-the gate cannot judge, which ``uqguide check`` reports with exit code 2. A config that differs
-from the baseline's (a changed gain, another seed or sample count) is what the gate is for: it is
-listed in the notes and the statistics decide.
+baseline's (:mod:`uqguide.gate.baseline`) at the same points: a Monte Carlo (sample) estimate
+fails beyond ``sigmas`` (default 4) combined standard errors ``sqrt(se_a^2 + se_b^2)``; a PCE's
+(a deterministic function of its design) beyond ``pce_rtol`` (default 2%, stored in the
+baseline) of the statistic's scale; every tolerance has a floor of :data:`ROUNDOFF_RTOL` of the
+component's peak magnitude. Quantiles, event probabilities and, with ``--sensitivity``, Sobol'
+indices are judged the same two ways (:func:`check_result`). A baseline that cannot be read or
+does not match the result (another model, a label or output missing, other kind, unit or
+components) raises :class:`~uqguide.errors.ResultError` (exit 2); a config that differs is
+listed in the notes and the statistics decide. The standard errors used, and why each
+tolerance is what it is: ``docs/regression-gate.md#how-much-a-statistic-may-move``.
 """
 
 
@@ -660,13 +603,13 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
     result : Result
     baseline : Baseline
     sigmas : float
-        Monte Carlo tolerance in combined standard errors (module docstring).
+        Monte Carlo tolerance in combined standard errors.
     pce_rtol : float, optional
         Relative tolerance of PCE statistics; default the one stored in the baseline.
     source : str
         How to name the baseline in messages (its path).
     sensitivity : bool
-        Also compare the Sobol' indices (module docstring); ResultError when the baseline
+        Also compare the Sobol' indices; ResultError when the baseline
         holds none.
 
     Returns

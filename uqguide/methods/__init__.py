@@ -2,18 +2,15 @@
 
 - ``base``: the contract. A ``Method`` designs its runs and propagates them through the
   driver's runner (by default: evaluate, refine, estimate); a ``StreamingMethod`` is estimated
-  instead from chunks reduced where they ran and folded in chunk order;
-- ``monte_carlo`` (a streaming method): its design, a chunk's sums where it ran, the driver's
-  merge of them and the error budget;
+  from chunks reduced where they ran, folded in chunk order;
+- ``monte_carlo`` (streaming): its design, a chunk's sums, their merge and the error budget;
 - ``pce_quadrature`` (``pce_tensor``, ``pce_smolyak``), ``pce_adaptive``, with
   ``pce_validated`` (the PCEs' shared step: keep, validate, correct, withhold);
 - ``subset_simulation``: a rare event's probability;
-- ``sobol_saltelli`` (a streaming method): first-order and total Sobol' indices of a
-  pick-freeze design, Monte Carlo moments of its ``A`` and ``B`` rows;
-- ``mfmc``: multi-fidelity Monte Carlo over fidelity levels of one model (pilot, allocation,
-  main runs: its own ``propagate``).
+- ``sobol_saltelli`` (streaming): Sobol' indices of a pick-freeze design;
+- ``mfmc``: multi-fidelity Monte Carlo over a model's fidelity levels (its own ``propagate``).
 
-Each method is registered by name in ``uqguide.config.registry``.
+Each method is registered by name in ``uqguide.config.registry``; ``docs/methods.md``.
 """
 
 # The names a method's author needs (docs/architecture.md, "A plugin package"), imported on first

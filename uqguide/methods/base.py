@@ -1,18 +1,17 @@
 """The method contract: how a propagation method turns model runs into statistics.
 
 The driver calls one hook, :meth:`Method.propagate`, with a :class:`Runner` that evaluates rows
-chunk by chunk (executors, checkpoints, progress). Its default is design, evaluate, refine until
-:meth:`Method.refine` returns ``None``, estimate; a :class:`StreamingMethod` (Monte Carlo) instead
-reduces each chunk where it ran and folds the summaries in chunk order, so time series never
-travel or stay; a multi-fidelity method runs its own phases over the model's levels. A method
-that cannot produce statistics raises :class:`~uqguide.errors.MethodError` (or a numerical
-failure, :data:`METHOD_FAILURES`): the run records it and completes the other methods.
+chunk by chunk. Its default is design, evaluate, refine until :meth:`Method.refine` returns
+``None``, estimate; a :class:`StreamingMethod` (Monte Carlo) instead reduces each chunk where it
+ran and folds the summaries in chunk order; a multi-fidelity method runs its own phases. A
+method that cannot produce statistics raises :class:`~uqguide.errors.MethodError` (or one of
+:data:`METHOD_FAILURES`): the run records it and completes the other methods.
 
 Methods never know which model they run: they see the :class:`~uqguide.core.inputs.InputSpace`,
-the :class:`~uqguide.core.types.ModelOutput`, the :class:`Runner` and the :class:`RunContext` they
-were built with. A new method is one module with a ``Settings`` class and a subclass of
-:class:`Method` (or :class:`StreamingMethod`), plus one line in :mod:`uqguide.config.registry`;
-:func:`uqguide.testing.check_method` then checks it with no test code.
+the :class:`~uqguide.core.types.ModelOutput`, the :class:`Runner` and the :class:`RunContext`. A
+new method is a module with a ``Settings`` class and a :class:`Method` subclass, plus one line in
+:mod:`uqguide.config.registry`; :func:`uqguide.testing.check_method` checks it
+(``docs/architecture.md``).
 """
 from __future__ import annotations
 
@@ -71,16 +70,9 @@ class MethodSettings(StrictModel):
 
 @dataclass
 class Design:
-    """The runs a method asks for.
-
-    Attributes
-    ----------
-    x : ndarray or GeneratedRows, shape (n, d)
-        Inputs in physical units, columns in the order of ``InputSpace.names`` (generated per
-        chunk when the method can: :class:`GeneratedRows`).
-    data : dict
-        Whatever the method needs in ``estimate`` (unit-cube points, quadrature weights, ...).
-    """
+    """The runs a method asks for: ``x (n, d)`` in physical units, columns in
+    ``InputSpace.names`` order (generated per chunk when the method can: :class:`GeneratedRows`),
+    and ``data``, whatever ``estimate`` needs (unit-cube points, quadrature weights, ...)."""
 
     x: np.ndarray | GeneratedRows
     data: dict[str, Any] = field(default_factory=dict)
@@ -92,20 +84,10 @@ class Design:
 
 @dataclass(frozen=True)
 class RunPlan:
-    """A method's size before it runs.
-
-    Attributes
-    ----------
-    runs : int or None
-        Model runs (at most, for a sequential design); None when only the design knows.
-    chunk : int or None
-        Rows evaluated and held together (Monte Carlo: ``chunk_size``); None: the executor's
-        ``batch_size``.
-    terms : int
-        Basis terms of a surrogate fitted on all runs (0: none).
-    exact : bool
-        Whether ``runs`` and ``terms`` are exact (else upper bounds).
-    """
+    """A method's size before it runs: ``runs`` (at most, for a sequential design; None when
+    only the design knows), ``chunk`` (rows evaluated and held together; None: the executor's
+    ``batch_size``), ``terms`` (basis terms of a surrogate fitted on all runs) and ``exact``
+    (else ``runs`` and ``terms`` are upper bounds)."""
 
     runs: int | None
     chunk: int | None = None
@@ -120,15 +102,9 @@ class GivenRows:
     Compared by identity (two contexts hold the same rows only when they share this object),
     so that comparing contexts never compares arrays element by element.
 
-    Attributes
-    ----------
-    x : ndarray, shape (n, d)
-        The rows' inputs, SI units, columns in ``InputSpace.names`` order.
-    source : str
-        The file, for messages.
-    failed : ndarray of bool, shape (n,)
-        Rows whose outputs are NaN (failed runs): a method may leave them out of a
-        held-out set, not out of its counts.
+    ``x (n, d)`` holds the rows' inputs (SI units, ``InputSpace.names`` order), ``source`` the
+    file's name for messages, ``failed (n,)`` the rows whose outputs are NaN: a method may leave
+    them out of a held-out set, not out of its counts.
     """
 
     x: np.ndarray
@@ -141,32 +117,16 @@ class RunContext:
     """What a method is told about the run it is part of: given when it is built, never set on
     it afterwards (:meth:`Method.with_context` makes a new method for a new context).
 
-    Attributes
-    ----------
-    report_times : tuple of float, optional
-        The run's report times [s]: where a method that must economise (e.g. Monte Carlo
-        bootstrap intervals of long series) concentrates its effort.
-    failure_policy : {"fail", "regression"}
-        What a method whose design needs every run (a quadrature grid) does when runs
-        failed (the config's ``pce_failure_policy``): ``"fail"`` raises MethodError naming the
-        failed runs; ``"regression"`` fits by least squares on the surviving runs, logs a
-        warning and says so in the diagnostics.
-    quantile_levels : tuple of float, optional
-        The config's quantile levels (None: no quantiles).
-    events : tuple of EventSpec
-        The config's events.
-    components : mapping of str to tuple of str
-        Component names of every output the method may see (for events on multi-component
-        outputs).
-    outputs : tuple of str
-        The outputs the result reports (empty: whatever the runs hold).
-    derived : mapping of str to DerivedOutput
-        The model's derivations of reported outputs from smoother carriers; a method with
-        :attr:`Method.uses_derivations` fits the carriers and derives the output from their
-        surrogates, the others use the model's own values.
-    groups : tuple of (str, tuple of int)
-        Groups of inputs (name, input columns) that get a Sobol' index of their own: the
-        config's ``groups``, or by default each correlated group.
+    ``report_times`` [s] are where a method that must economise (Monte Carlo bootstrap
+    intervals of long series) concentrates its effort. ``failure_policy`` is the config's
+    ``pce_failure_policy`` for a design that needs every run (a quadrature grid): ``"fail"``
+    raises MethodError naming the failed runs, ``"regression"`` fits by least squares on the
+    survivors, with a warning and a diagnostics entry. ``quantile_levels`` (None: none),
+    ``events``, ``outputs`` (empty: whatever the runs hold) and ``groups`` (inputs with a Sobol'
+    index of their own: the config's, or each correlated group) are the config's;
+    ``components`` names every output's components (for events on them); ``derived`` holds the
+    model's derivations of outputs from smoother carriers, which a method with
+    :attr:`Method.uses_derivations` fits and derives from.
     """
 
     report_times: tuple[float, ...] | None = None
@@ -240,19 +200,10 @@ class Runner(Protocol):
 class Propagated:
     """What a method's propagation ends with (:meth:`Method.propagate`).
 
-    Attributes
-    ----------
-    estimate : Estimate
-        The statistics (none when the method failed).
-    x : ndarray or GeneratedRows, shape (n, d)
-        The inputs of the runs the result keeps.
-    outputs : ModelOutput or None
-        Their outputs (a streaming method's: scalars, failures and grid only); None when the
-        failure lost them (the result then keeps no runs).
-    fit_seconds : float
-        Seconds spent fitting (refinements and the estimate), outside the model.
-    failure : str
-        Why the method produced no statistics ("" when it did).
+    ``x (n, d)`` are the inputs of the runs the result keeps and ``outputs`` theirs (a
+    streaming method's: scalars, failures and grid only; None when a failure lost them, and the
+    result keeps no runs); ``fit_seconds`` is the time spent fitting outside the model;
+    ``failure`` says why the method produced no statistics ("" when it did).
     """
 
     estimate: Estimate
@@ -402,14 +353,8 @@ class Method(ABC):
 
     @abstractmethod
     def design(self, space: InputSpace, seed: int) -> Design:
-        """The initial runs to make.
-
-        Parameters
-        ----------
-        space : InputSpace
-        seed : int
-            Root seed of the run; the method derives its own streams from it.
-        """
+        """The initial runs to make; ``seed`` is the run's root seed, from which the method
+        derives its own streams."""
 
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         """An enlarged design after seeing ``outputs`` of ``design`` (default: none).

@@ -145,22 +145,9 @@ class MfmcSettings(MethodSettings):
 
 @dataclass
 class LevelPlan:
-    """What the pilot decided.
-
-    Attributes
-    ----------
-    levels : tuple of int
-        Config levels used, in estimator order (0 first).
-    sizes : ndarray of int
-        Runs of each used level (rows ``[0, m_i)``).
-    allocation : Allocation
-    costs : ndarray, shape (K,)
-        Seconds per run of every config level (measured or given).
-    measured : bool
-        Whether ``costs`` were measured.
-    note : str
-        Why plain MC, or what limited the sizes ("" when nothing to say).
-    """
+    """What the pilot decided: the config ``levels`` used, in estimator order (0 first), the
+    runs ``sizes`` of each (rows ``[0, m_i)``), the seconds per run ``costs (K,)`` of every config
+    level (``measured`` or given) and a ``note``: why plain MC, or what limited the sizes."""
 
     levels: tuple[int, ...]
     sizes: np.ndarray
@@ -341,15 +328,8 @@ class MultiFidelityMC(Method):
         return (steps[:, None] * k + np.arange(k)[None, :]).ravel()
 
     def allocate(self, pilot: list[ModelOutput], seconds_per_run: list[float]) -> LevelPlan:
-        """The levels and runs per level from the pilot (``docs/multifidelity.md``, step 2).
-
-        Parameters
-        ----------
-        pilot : list of ModelOutput
-            The pilot rows' outputs at every config level.
-        seconds_per_run : list of float
-            Measured model CPU seconds per run of every level.
-        """
+        """The levels and runs per level from the pilot's outputs and measured CPU seconds
+        per run at every config level (``docs/multifidelity.md``, step 2)."""
         s = self.settings
         measured = s.costs is None
         raw = np.asarray(seconds_per_run if measured else s.costs, dtype=float)
@@ -474,22 +454,10 @@ class MultiFidelityMC(Method):
     def estimate_levels(self, runs: list[ModelOutput], plan: LevelPlan, design: Design,
                         seconds: list[float], pilot_seconds: list[float],
                         surrogate_cpu_s: float = 0.0) -> Estimate:
-        """Statistics of every output from the used levels' runs (estimator order).
-
-        Parameters
-        ----------
-        runs : list of ModelOutput
-            Rows ``[0, m_i)`` of each used level.
-        plan : LevelPlan
-        design : Design
-        seconds : list of float
-            Model seconds of every config level (pilot and main runs).
-        pilot_seconds : list of float
-            Model seconds per run of every config level in the pilot.
-        surrogate_cpu_s : float
-            What the PCE methods of the surrogate levels spent (runs and fit), charged to the
-            saving.
-        """
+        """Statistics of every output from the used levels' runs (rows ``[0, m_i)`` of each,
+        estimator order). ``seconds`` are the model seconds of every config level (pilot and
+        main runs), ``pilot_seconds`` those per pilot run; ``surrogate_cpu_s`` (the surrogate
+        levels' PCE runs and fits) is charged to the saving."""
         sizes = plan.sizes
         ok = usable_rows([r.failed for r in runs], sizes)
         grid = runs[0].time
@@ -648,14 +616,9 @@ def _output_stats(full: Any, boot: Any, cols: np.ndarray, run0: ModelOutput, nam
 # ends), and the method says which levels were interpolated.
 
 def on_grid(series: np.ndarray, grid: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, str]:
-    """A series ``(n, T, k)`` on ``grid (T,)`` at the times ``target (T0,)``.
-
-    Returns
-    -------
-    values : ndarray, shape (n, T0, k)
-    how : {"same", "sampled", "interpolated"}
-        Same grid; the target times picked from the grid; linear interpolation.
-    """
+    """A series ``(n, T, k)`` on ``grid (T,)`` at the times ``target (T0,)``: ``(n, T0, k)``
+    and how: ``"same"`` grid, ``"sampled"`` (the target times picked from the grid) or
+    ``"interpolated"`` (linearly)."""
     if grid.shape == target.shape and np.array_equal(grid, target):
         return series, "same"
     tol = 1e-9 * max(float(np.max(np.abs(grid))) if grid.size else 1.0, 1.0)

@@ -723,21 +723,10 @@ def add_indices(stats: dict[str, OutputStats], space: InputSpace, x: np.ndarray 
     """Set ``sobol_first`` and ``sobol_first_ci`` of every output in ``stats`` (and the
     ``sobol_group_*`` of the groups of inputs, :mod:`uqguide.stats.sobol_groups`).
 
-    Parameters
-    ----------
-    stats : dict of str to OutputStats
-        Monte Carlo's statistics by output (changed in place).
-    space : InputSpace
-    x : ndarray or GeneratedRows, shape (n, d)
-        The design's inputs, every run.
-    runs : ModelOutput
-        The failure mask, the time grid and the per-run scalars.
-    lanes : dict of str to sequence of ndarray
-        Per series output, its kept per-run values in chunk order, lane-major ``(L, n_c)``
-        (a row per kept step and component), at every step or at :func:`ci_index`'s steps.
-    report_times : tuple of float, optional
-    groups : sequence of (str, tuple of int)
-        Groups of inputs with an index of their own (name, input columns).
+    ``stats`` is changed in place; ``x (n, d)`` holds every run's inputs, ``runs`` the failure
+    mask, time grid and per-run scalars; ``lanes`` per series output its kept per-run values in
+    chunk order, lane-major ``(L, n_c)`` (a row per kept step and component), at every step or
+    at :func:`ci_index`'s steps; ``groups`` the inputs' groups (name, columns).
     """
     # (imported here: a pool worker, which imports this module, never estimates them)
     from ..stats.sobol_given_data import MIN_RUNS, first_order_indices, n_bins, rank_bins

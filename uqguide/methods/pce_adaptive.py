@@ -1,60 +1,14 @@
-"""Adaptive sparse PCE (uq-methods.md section 4.4; paper section 4.4; Blatman & Sudret 2011).
+"""Adaptive sparse PCE (Blatman & Sudret 2011; Wang & Song 2019, section 4.4).
 
-Pipeline:
-
-1. **Design**: ``n_samples`` points of a scrambled Sobol' sequence (default) or a Latin
-   hypercube on the unit cube, mapped to the inputs by ``InputSpace.from_unit`` (and to the germ
-   of :mod:`uqguide.pce.germ` by the same inverse CDFs).
-2. **Fit** every output column: hybrid LARS with corrected leave-one-out selection over a grid
-   of hyperbolic candidate bases ``||alpha||_q <= p``, q in {0.5, 0.75, 1} and every degree
-   from ``degree_min`` up to what the runs support, the (q, degree, terms) of least error kept
-   (:mod:`uqguide.pce.sparse_regression`); ``degree_max`` and ``q_norm`` fix the grid's ends
-   when given. Time series are first
-   compressed to principal components (:mod:`uqguide.pce.pca`), each fitted as a scalar is, or
-   with many runs the first so and the others on shared least-angle paths
-   (:mod:`uqguide.pce.series_fit`), and as many kept as make the truncation
-   error of every moment at every step at most the surrogate's own (:mod:`uqguide.pce.pca_rank`;
-   ``n_components`` or ``variance_fraction`` fix the count instead); scalar outputs are fitted
-   component by component.
-3. **Enrich** (sequential design): while the worst output's LOO error is above ``target_loo``
-   (at the default plan: or the moments still move, below) and runs remain in the budget
-   ``max_runs``, add ``max(d + 1, n / 2)`` points (the next points
-   of the same Sobol' sequence, or a new Latin hypercube) and refit. Growing the design by half
-   each time keeps the number of refits logarithmic in the budget, and every refit sees a
-   design at least 1.5 times the last, enough to move the LOO error visibly.
-   ``target_loo`` is only this stopping rule: a fit that ends above it, because the budget is
-   spent, is reported with its LOO error in the diagnostics, not warned about.
-4. **Statistics** from the coefficients (:mod:`uqguide.pce.moments`): exact mean and covariance;
-   skewness and kurtosis exact (Gauss rule or linearisation of basis products), from
-   ``surrogate_draws`` surrogate samples only where both exact rules are too large (the result
-   says which).
-
-Design size. ``n_samples`` defaults to ``n0 = max(10 d, 2 P_min)`` (``P_min`` the size of the
-candidate basis at ``degree_min`` and the smallest q-norm tried), capped by ``max_runs``: ten
-runs per input is the usual minimum for a regression PCE to see every input's main effect, and
-twice the smallest basis lets its OLS refit be scored.
-
-- **Neither ``n_samples`` nor ``max_runs`` given (the default plan,**
-  :mod:`uqguide.pce.default_plan`): the design starts at ``n0`` and grows until the worst LOO
-  error is at most ``target_loo`` *and* every output's mean and std moved by at most ``2
-  sqrt(LOO) std`` since the previous fit, up to ``min(max(10 n0, 100), 1000)`` fit runs; then
-  ``max(20, ceil(n_fit / 4))`` validation runs check it (``validation:`` given, including
-  ``{n_samples: 0}``, wins). Issue 27: the old default, 20 runs and no enrichment for 2
-  inputs, printed a kurtosis of 1.3e6 where the model's is 3.06.
-- ``n_samples`` given, no ``max_runs``: exactly ``n_samples`` runs (no enrichment), no
-  validation unless asked: a config that states its run count keeps it (the paper studies).
-- ``max_runs`` given: enrichment up to it, stopped by ``target_loo`` alone, as in the paper.
-  For the paper's Table 4 case (9 inputs), ``max_runs: 300`` starts with 90 runs and grows 90
-  -> 135 -> 203 -> 300 while the LOO error stays above the target.
-
-LOO error of an output (diagnostics): the largest component's error for a scalar output; for a
-series, the error relative to the output's total (correlation-scaled) variance, i.e. the
-components' LOO errors weighted by their variances plus the variance fraction PCA left out.
-
-Failed runs are dropped (regression needs no particular nodes) and counted in the diagnostics;
-they count against the budget.
-
-Example config entry (paper Table 5)::
+A design of ``n_samples`` Sobol' (or Latin hypercube) points; every output column fitted by
+hybrid LARS with corrected leave-one-out selection over hyperbolic candidate bases
+(:mod:`uqguide.pce.sparse_regression`), a series through principal components
+(:mod:`uqguide.pce.pca`, :mod:`uqguide.pce.series_fit`, :mod:`uqguide.pce.pca_rank`); while the
+worst LOO error is above ``target_loo`` and ``max_runs`` allows, ``max(d + 1, n / 2)`` points
+more and a refit; statistics from the coefficients (:mod:`uqguide.pce.moments`). Without
+``n_samples`` and ``max_runs`` the default plan (:mod:`uqguide.pce.default_plan`) sizes design
+and validation; failed runs are dropped and count against the budget. Steps and reasons:
+``docs/methods.md#the-adaptive-pce-step-by-step``. Example config entry (paper Table 5)::
 
     - {name: pce_adaptive, label: apce, n_samples: 150, max_runs: 300}
 """
@@ -122,7 +76,7 @@ class AdaptivePCESettings(MethodSettings):
         Hyperbolic truncation ``||alpha||_q <= p``; default: chosen per output among 0.5, 0.75
         and 1 by corrected LOO (the paper: 0.5; 1 is total degree).
     target_loo : float
-        Corrected LOO error (relative to the variance) at which enrichment stops (spec 4.4):
+        Corrected LOO error (relative to the variance) at which enrichment stops (paper 4.4):
         1e-5, the surrogate leaves 0.001% of the variance unexplained. Only a stopping rule: the
         fit always takes the expansion of least error the runs allow.
     max_runs : int, optional

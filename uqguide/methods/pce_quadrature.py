@@ -1,18 +1,17 @@
-"""What the quadrature PCE methods share (full tensor, spec 4.2; Smolyak, spec 4.3).
+"""What the quadrature PCE methods share (full tensor and Smolyak).
 
 Both run the model once at each node of a quadrature grid on the germ (:mod:`uqguide.pce.germ`),
-project every output column on the orthonormal basis (one expansion per time step and
-component: the projection is linear, so all columns go at once) and take the statistics from
-the coefficients (:mod:`uqguide.pce.moments`). They make no sequential runs.
+project every output column on the orthonormal basis (the projection is linear, so all columns
+go at once) and take the statistics from the coefficients (:mod:`uqguide.pce.moments`). They
+make no sequential runs.
 
-Failed runs: a projection needs the output at every node. With the config's
-``pce_failure_policy: fail`` (default, the context's ``failure_policy``) a failed run is a
-:class:`~uqguide.errors.MethodError` naming the count and reasons. With ``regression`` the
-coefficients are fitted by least squares on the surviving nodes instead, on the grid's basis
-cut to the terms the surviving nodes can determine (:func:`identifiable_terms`: in graded order,
-each term kept if it is not a combination of the lower ones on those nodes, at most one term
-per node); a warning is logged and the diagnostics say ``coefficients: regression`` and how
-many terms were kept.
+Failed runs: a projection needs every node. With ``pce_failure_policy: fail`` (default) a
+failed run is a :class:`~uqguide.errors.MethodError` naming the count and reasons; with
+``regression`` the coefficients are fitted by least squares on the surviving nodes, on the
+grid's basis cut to the terms those nodes determine (:func:`identifiable_terms`: in graded
+order, each term kept if it is not a combination of the lower ones there, at most one per node),
+with a warning and ``coefficients: regression`` in the diagnostics
+(``docs/scale.md#failures``).
 """
 
 from __future__ import annotations

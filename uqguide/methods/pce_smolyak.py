@@ -1,29 +1,12 @@
-"""Smolyak sparse PCE (uq-methods.md section 4.3; paper section 4.3).
+"""Smolyak sparse PCE (Wang & Song 2019, section 4.3).
 
 The Smolyak combination of one-dimensional Gauss rules (the nodes of chaospy's
 ``generate_quadrature(order, dist, rule="gaussian", sparse=True)``, each node once), with
-coefficients by Smolyak pseudo-spectral projection (:mod:`uqguide.pce.projection`): each tensor
-rule of the combination projects on its own tensor basis and the projections are combined with
-the Smolyak coefficients, which is exact on the union of those bases (total degree ``order``
-for Gauss rules).
-
-Level convention. ``level`` is the paper's: the number of nodes of the finest one-dimensional
-rule used alone, so **paper level = chaospy order + 1**:
-
-=========  =============  ======================  =============================
-``level``  chaospy order  runs, 7 normal inputs   basis (Gauss rules)
-=========  =============  ======================  =============================
-1          0              1                       constant
-2          1              15 (the paper's SPCE)   total degree 1 (8 terms)
-3          2              113 (141 nested)        total degree 2 (36 terms)
-4          3              589 (995 nested)        total degree 3 (120 terms)
-=========  =============  ======================  =============================
-
-``nested: true`` uses nested rules where they exist: Genz-Keister for normal and lognormal
-inputs (1, 3, 9, 19, 43 nodes; chaospy's tables stop at level 5), Gauss-Patterson for uniform
-inputs (1, 3, 7, 15, 31 nodes); truncated normals keep their (non-nested) Gauss rule. Nested
-rules reuse nodes across levels and integrate to higher degree per node, so the basis is richer
-(e.g. ``x_j^2`` terms at level 2) for somewhat more runs.
+coefficients by Smolyak pseudo-spectral projection (:mod:`uqguide.pce.projection`), exact on the
+union of the tensor rules' bases. ``level`` is the paper's: **paper level = chaospy order + 1**
+(level 2 with 7 inputs: 15 runs, total degree 1). ``nested: true`` uses nested rules where they
+exist (Genz-Keister, Gauss-Patterson). The level table and what nesting buys:
+``docs/methods.md#full-tensor-and-smolyak-as-configured``.
 
 Example config entry::
 

@@ -1,20 +1,11 @@
-"""Full-tensor PCE (uq-methods.md section 4.2; paper section 4.2).
+"""Full-tensor PCE (Wang & Song 2019, section 4.2).
 
 ``m`` quadrature nodes per input, ``m^d`` model runs on the tensor grid, and the orthonormal
-basis of degree ``m - 1`` in each input (``m^d`` terms; a Gauss grid interpolates the output on
-it). Coefficients by pseudo-spectral projection (paper eq 23) in the germ variables of
-:mod:`uqguide.pce.germ`, statistics from the coefficients (eqs 21-22, spec 4.5).
-
-The paper's "TPCE level 2" is ``m = 2``: 128 runs for the 7 inputs of Table 3.
-
-Rules (``rule``):
-
-- ``"auto"`` (default) / ``"gauss"``: the Gauss rule of each input's germ measure: Gauss-Hermite
-  for normal and lognormal inputs, Gauss-Legendre for uniform ones, the truncated normal's own
-  Gauss rule for truncated normals. The projection degree is then ``m - 1``.
-- ``"clenshaw_curtis"``: Clenshaw-Curtis (nodes include the bounds), for uniform inputs only;
-  ``m`` nodes integrate only degree ``m - 1`` (``m`` for odd ``m``), so the basis degree per
-  input is about ``(m - 1) / 2``.
+basis of degree ``m - 1`` in each input; coefficients by pseudo-spectral projection in the germ
+variables of :mod:`uqguide.pce.germ`, statistics from the coefficients. ``rule`` is ``"auto"``
+/ ``"gauss"`` (each input's Gauss rule) or ``"clenshaw_curtis"`` (uniform inputs only, about
+half the basis degree). The paper's "TPCE level 2" is ``m = 2``. Rules, degrees and run counts:
+``docs/methods.md#full-tensor-and-smolyak-as-configured``.
 
 Example config entry::
 

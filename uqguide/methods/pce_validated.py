@@ -116,34 +116,15 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
     """Keep the surrogate in ``estimate``; validate, correct and judge every output in place
     (the steps of :mod:`uqguide.pce.credibility`).
 
-    Parameters
-    ----------
-    estimate : Estimate
-        The PCE's estimate (its own statistics of every fitted and derived output).
-    surrogate : Surrogate
-    space : InputSpace
-    validation : ModelOutput, optional
-        The validation runs' outputs (None: no validation set).
-    design : ValidationDesign, optional
-        Their inputs on the unit cube, weights and strata.
-    loo : mapping of str to float
-        The fit's relative LOO error per fitted output (empty for quadrature PCEs).
-    threshold : float
-        ``usable_error``.
-    seed : int
-        The run's seed (keys the draws that measure sampled moments' sampling error).
-    n_draws : int
-        Surrogate draws behind sampled moments (their sampling error joins the intervals).
-    fit : ModelOutput, optional
-        The fit's runs when they are a sample of the input distribution (a regression
-        design; not quadrature nodes): with the validation runs they give the Monte Carlo
-        estimate that judges the PCE's moments and stands in where one is withheld.
-    fit_u : ndarray, shape (n_fit, d), optional
-        The fit's runs on the unit cube: with the validation runs they give the range beyond
-        which the surrogate extrapolates (:func:`uqguide.pce.credibility.far_tails`).
-    fit_loo_values : mapping of str to ndarray, shape (n_ok, ...), optional
-        The surrogate's leave-one-out values at the fit's successful runs, per fitted output
-        (:mod:`uqguide.pce.loo`): they floor the ``+cv`` intervals' variance.
+    ``validation`` and ``design`` are the validation runs' outputs and their unit-cube
+    inputs, weights and strata (None: no validation set); ``loo`` the fit's relative LOO error
+    per fitted output (empty for quadrature PCEs); ``threshold`` is ``usable_error``; ``seed``
+    keys the draws that measure the sampling error of the ``n_draws`` behind sampled moments.
+    ``fit`` (the fit's runs when they sample the input distribution, not quadrature nodes) joins
+    the validation runs in the Monte Carlo estimate that judges the PCE's moments and stands in
+    where one is withheld; ``fit_u (n_fit, d)`` in the range beyond which the surrogate
+    extrapolates (:func:`uqguide.pce.credibility.far_tails`); ``fit_loo_values`` (per fitted
+    output, at the fit's successful runs, :mod:`uqguide.pce.loo`) floor the ``+cv`` variance.
     """
     estimate.surrogate = surrogate
     diag = estimate.diagnostics

@@ -1,37 +1,14 @@
 """Subset simulation (Au & Beck 2001) for the probability of one rare event.
 
-The event ``F = {g(x) > 0}`` (``g`` the event's severity: ``y - a`` for ``above: a``,
-``b - y`` for ``below: b``) is reached through nested events ``F_1 > F_2 > ... > F``,
-``F_i = {g > b_i}``, each with conditional probability about ``p0``:
-
-1. level 0: ``N`` independent samples of the inputs (in standard normal space ``z``, mapped to
-   the inputs through ``Phi`` and the inputs' inverse CDFs);
-2. the threshold ``b_1`` is the ``(1 - p0)`` quantile of ``g``; the ``N_c = p0 N`` samples above
-   it seed ``N_c`` Markov chains of length ``N / N_c`` (the seed counts), sampling the inputs
-   conditional on ``F_1`` by the component-wise (modified) Metropolis algorithm: each
-   coordinate proposes ``z_k + s N(0, 1)`` and keeps it with probability
-   ``min(1, phi(new) / phi(old))``; the candidate is run and accepted if ``g > b_1``;
-3. repeat until at least ``N_c`` samples of a level are in ``F``; then
-   ``P = p0^m n_F / N`` (``m`` MCMC levels).
-
-Cost: at most ``N + m (N - N_c)`` model runs: a chain whose proposal keeps no coordinate stays
-where it is without a run (its value is known), and the ``acceptance`` diagnostic is the share
-of chain steps that moved to a new point inside the level. All steps of all chains of one level
-advance together: step ``k`` is one batch of the candidates of the chains that moved, evaluated
-through the same model contract and chunked executors as any design (a sequential design:
-:meth:`SubsetSimulation.refine`), so the numbers depend on the seed and the label, never on the
-workers. Failed runs are outside every level (level 0) or rejected moves (chains), and counted.
-
-Uncertainty (Au & Beck 2001, eqs 17-29): level ``i`` contributes
-``delta_i^2 = (1 - P_i) / (N P_i) (1 + gamma_i)``, ``gamma_i`` from the chains' indicator
-correlation (``gamma_0 = 0``); the reported coefficient of variation assumes independent
-levels, ``delta^2 = sum delta_i^2`` (Au & Beck's usual figure); the levels are in fact
-positively correlated (each level's chains start from the previous level's samples), and on
-the analytic 1e-5 case (``benchmarks/rare_events.py``) that figure understated the spread of
-the estimates over 200 seeds (0.38 against 0.45: its interval covered 89.5%, not 95%). The
-95% interval therefore uses Au & Beck's upper bound for fully correlated levels,
-``delta_up = sum delta_i``: lognormal, ``P exp(+-1.96 sqrt(ln(1 + delta_up^2)))`` (the
-estimator is a product of level estimates, positive and right-skewed); it is conservative.
+The event ``F = {g(x) > 0}`` (``g`` the event's severity) is reached through nested events
+``F_i = {g > b_i}``, each of conditional probability about ``p0``: ``N`` independent samples in
+standard normal space, then per level ``p0 N`` Markov chains (component-wise Metropolis) seeded
+by the samples above the level's threshold, until ``p0 N`` samples lie in ``F``; then
+``P = p0^m n_F / N``. Every step of all chains of a level is one batch through the executors
+(:meth:`SubsetSimulation.refine`), so the numbers depend on the seed and the label, never on the
+workers. The 95% interval is lognormal on Au & Beck's upper bound for fully correlated levels,
+``delta_up = sum delta_i`` (conservative: the independent-levels figure under-covers). The
+algorithm, its cost and its measured coverage: ``docs/performance.md#rare-events``.
 """
 
 from __future__ import annotations
@@ -194,13 +171,8 @@ class SubsetSimulation(Method):
             d["chain_rows"][:, d["step"]] = d["current"]
 
     def _end_level(self, d: dict[str, Any], g: np.ndarray) -> bool:
-        """Close a level in ``d``: the next threshold and the chains' seeds, or the end.
-
-        Returns
-        -------
-        bool
-            True when the run is done (the event level reached, or ``max_levels``).
-        """
+        """Close a level in ``d``: the next threshold and the chains' seeds; True at the end
+        (the event level reached, or ``max_levels``)."""
         N, nc, L = self.settings.n_per_level, self.n_seeds, self.chain_length
         rows = np.arange(N) if d["chain_rows"] is None else d["chain_rows"].ravel()
         gl = g[rows]

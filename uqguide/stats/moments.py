@@ -1,32 +1,15 @@
-"""Statistics of an output (uq-methods.md section 3): the container and the sample estimators.
+"""Statistics of an output: the container and the sample estimators.
 
-Conventions, for an output ``y`` of k components at one time:
-
-- moments are the plain population (``1/n``) estimators of the paper's eq (17);
-- skewness ``E[(y-mu)^3]/sigma^3`` and kurtosis ``E[(y-mu)^4]/sigma^4`` are **non-excess**
-  (a Gaussian has kurtosis 3);
-- a component with zero variance has skewness and kurtosis NaN, silently;
-- a moment of fewer runs than it needs (:data:`~uqguide.core.types.RUNS_NEEDED`: a single run's
-  std is 0 whatever the output) is NaN, without an interval, unless no input is uncertain
-  (one run is then the output's whole distribution, and its std of 0 exact);
-- the standard error of the mean is ``sigma/sqrt(n)``; 95% intervals of mean, std, skewness and
-  kurtosis come from the tail-aware intervals (Hall's skew-corrected interval of the influence
-  function, one-sided where a few runs carry the variance, from the central moments up to the
-  16th: :mod:`uqguide.stats.tail_intervals`; the Monte Carlo default), the delta method
-  (:func:`delta_intervals`) or a percentile bootstrap with a fixed seed.
-
-Arrays of a time-series output carry the time axis first: ``mean (T, k)``, ``cov (T, k, k)``.
-A scalar output has no time axis: ``mean (k,)``, ``cov (k, k)``.
-
-Two forms of the same estimators:
-
-- in memory (:func:`sample_statistics`, :func:`bootstrap_intervals`): all samples at once,
-  multinomial bootstrap; used where the samples are at hand (PCE surrogate draws, tests);
-- streaming (:class:`MomentSums`, :func:`statistics_from_sums`): per-chunk sums merged in a
-  fixed chunk order (Chan et al. 1979, Pébay 2008) and a Poisson bootstrap whose resamples are
-  chunk-additive; Monte Carlo always uses this form, so a 1e6-sample run never holds its time
-  series and gives the same bits on any executor. Both agree to rounding on the moments; the
-  two bootstraps agree in distribution for large ``n``.
+Moments are the population (``1/n``) estimators; skewness and kurtosis are **non-excess** (a
+Gaussian has kurtosis 3) and NaN for a component of zero variance; a moment of fewer runs than
+:data:`~uqguide.core.types.RUNS_NEEDED` is NaN unless no input is uncertain. 95% intervals of
+mean, std, skewness and kurtosis come from the tail-aware intervals
+(:mod:`uqguide.stats.tail_intervals`, the Monte Carlo default), the delta method
+(:func:`delta_intervals`) or a percentile bootstrap with a fixed seed. A series' arrays carry
+time first (``mean (T, k)``, ``cov (T, k, k)``). Two forms of the same estimators: in memory
+(:func:`sample_statistics`, :func:`bootstrap_intervals`), and streaming (:class:`MomentSums`,
+:func:`statistics_from_sums`: per-chunk sums merged in chunk order, a Poisson bootstrap), which
+Monte Carlo always uses. Conventions and why two forms: ``docs/statistics.md#statistics``.
 """
 
 from __future__ import annotations

@@ -1,28 +1,15 @@
 """Model calls that cannot hang a run or take a process down with them.
 
-With ``timeout_s`` set, every model call runs in a **guard process**: a child of the process
-evaluating the chunk (the driver, or a pool worker), started once and reused. The caller waits
-at most ``timeout_s`` for the answer. A call that does not answer in time is killed with its
-process; a call whose process dies (segfault, ``os._exit``, out-of-memory kill) likewise. Either
-way the batch is split in halves and each half is tried again in a fresh guard, down to single
-samples: one hanging or crashing sample costs that sample (failed, with the reason), not its
-chunk, at ``log2(batch)`` extra calls and waits. A guard is ended by SIGTERM first: it kills
-the external programs it waits for (a ``command`` model's, which run in sessions of their own,
-:mod:`uqguide.core.process_groups`), then exits; SIGKILL follows a second later if it cannot.
-
-Without ``timeout_s`` the same guard contains a model that can crash its process: every
-``callable`` (and any model with ``isolate: true``) of a run without workers runs there by
-default, so one segfaulting sample costs that sample even serially. A guard is capped at the
-run's ``max_memory`` (:func:`~.processes.limit_memory`): a leak ends it like a crash.
-
-A guard does not re-import the script that started the run when the model does not need it
-(a function given as ``"module:function"``): an unguarded script then runs serially as it
-always did. A function defined in that script (``__main__``) needs the script: it is
-re-imported, as a pool worker does.
-
-Guard and pool processes die with their parent (``PR_SET_PDEATHSIG`` on Linux, and a watchdog
-thread that notices a new parent elsewhere): a driver killed by the out-of-memory killer leaves
-no process behind holding its pipes.
+A **guard process** is a child of the process evaluating the chunk (the driver or a pool
+worker), started once and reused. With ``timeout_s`` every model call runs in one; without it,
+a model that can crash its process (every ``callable``, any model with ``isolate: true``) of a
+run without workers does. A call that does not answer in time, or whose process dies, is killed
+with its process and its batch is bisected in fresh guards down to single samples: a hanging or
+crashing sample fails alone, with the reason. A guard ends by SIGTERM (killing the programs it
+waits for, :mod:`uqguide.core.process_groups`), then SIGKILL a second later; it is capped at
+``max_memory`` (:func:`~.processes.limit_memory`) and dies with its parent. A model given as
+``"module:function"`` does not re-import the run's script; one defined in ``__main__`` does.
+Costs, figures and the failure table: ``docs/scale.md#failures``.
 """
 
 from __future__ import annotations

@@ -1,23 +1,14 @@
 """Per-run values that pool workers write in place, in memory shared with the driver.
 
-A reduced chunk sends back sums and per-run values. For an 8192-run FTCAPN chunk the sums are
-15 kB and the per-run values (its scalar outputs and the series values kept for exact
-quantiles) 1.5 MB. Through the pool's pipe, those 1.5 MB cost each worker a blocking send and
-the driver a receiving thread that unpickles them: 0.3 CPU-s of a 1e6-run study, taken from the
-workers' cores, and a 2-process speed-up of 1.72 where the model alone would give 1.9.
-
-Here the driver lays out one array per value for the whole stage, from the first chunk that
-comes back, in files under ``/dev/shm``. Later chunks write their rows in place (a scalar's rows
+The driver lays out one array per value for the whole stage, from the first chunk that comes
+back, in files under ``/dev/shm``. Later chunks write their rows in place (a scalar's rows
 ``[start, stop)``; a per-run summary's columns ``[start, start + n)``, its ``n`` good runs) and
-send only the sums; the driver takes views. The arrays are the stage's own storage, so the
-driver copies nothing either. The numbers are the pipe's, bit for bit: only where the values
-travel changes.
-
-Only where the room is there: each file is reserved whole (``posix_fallocate``) before a worker
-writes to it, so a small ``/dev/shm`` (a container's 64 MB default) means the pipe, never a
-SIGBUS in a worker. Without ``/dev/shm`` (not Linux) the pipe it is too. The files are unlinked
-when the stage ends (mappings live on while the driver's views do); the files of a driver that
-was killed are removed by the next run's sweep.
+send only the sums through the pool's pipe; the driver takes views and copies nothing. The
+numbers are the pipe's, bit for bit: only where the values travel changes. Each file is
+reserved whole (``posix_fallocate``) before a worker writes to it, so a small ``/dev/shm``
+means the pipe, never a SIGBUS; without ``/dev/shm`` the pipe it is too. The files are unlinked
+when the stage ends; a killed driver's are removed by the next run's sweep. What the pipe cost
+before: ``docs/scale.md#memory``.
 """
 
 from __future__ import annotations

@@ -1,23 +1,15 @@
 """The files a ``command`` model exchanges with its program: the batch's inputs written, its
-outputs read back (formats in ``docs/your-simulator.md``).
+outputs read back.
 
-CSV (the default)
-    ``inputs.csv``: a header of the input names, one row per sample, values in ``repr``
-    precision (they read back as the same doubles). ``outputs.csv``: a header naming the scalar
-    outputs (``name``, or ``name[j]`` for component ``j`` of a multi-component output), optional
-    ``failed`` (0/1) and ``reason`` columns, then one row per sample in the inputs' order. A
-    series output is its own file ``outputs_<name>.csv`` (``outputs_<name>_<j>.csv`` per
-    component): the first row is the time grid [s], then one row per sample.
-HDF5
-    ``inputs.h5``: a dataset ``(n,)`` per input name. ``outputs.h5``: a dataset per output,
-    ``(n,)``/``(n, k)`` for a scalar, ``(n, T)``/``(n, T, k)`` for a series, ``time`` ``(T,)``
-    when there are series, optional ``failed`` ``(n,)`` 0/1 and ``reason`` ``(n,)`` strings.
-
-A file that breaks the format is a :class:`~uqguide.errors.ModelError` naming the file, the line
-(and the sample it holds) and the column: the program is wrong, not a sample, so the run stops
-rather than fail every sample the same way. A file that is not a regular file (a FIFO would
-block the reader for ever), or larger than the batch can need (:data:`CELL_BYTES`, derived in
-``docs/your-simulator.md``), fails the call like a crash, before it is read.
+CSV (the default): ``inputs.csv`` (a header of the input names, values in ``repr`` precision),
+``outputs.csv`` (scalar columns ``name`` or ``name[j]``, optional ``failed`` and ``reason``)
+and one ``outputs_<name>.csv`` per series (time grid first). HDF5: ``inputs.h5`` and
+``outputs.h5``, one dataset per input or output. A file that breaks the format is a
+:class:`~uqguide.errors.ModelError` naming the file, the line (and its sample) and the column:
+the program is wrong, not a sample, so the run stops. A file that is not a regular file, or is
+larger than the batch can need (:data:`CELL_BYTES`), fails the call like a crash, unread. The
+formats: ``docs/your-simulator.md#2-the-files``; the size bound:
+``docs/your-simulator.md#the-size-of-an-outputs-file``.
 """
 
 from __future__ import annotations

@@ -1,39 +1,16 @@
 """Any executable as a model: its parameters and the batch interface.
 
-Config::
-
-    model:
-      name: command
-      command: "./mysim {inputs} {outputs}"   # split like a shell would, run without one
-      inputs: [a, b]                 # the columns of the inputs file, in order
-      outputs: [y, {name: path, kind: series}]
-      timeout_s: 60                  # per call, reading included; then all it started dies
-      env: {OMP_NUM_THREADS: 1}
-      per_sample: false              # true: one process per sample
-
-Each call (a batch, or a sample with ``per_sample``) gets a fresh work folder under ``workdir``
-(default: ``<tmp>/uqguide-command-<uid>``), is the program's current folder, holds the inputs
-file, the outputs files and the program's ``stdout.txt``/``stderr.txt``, and is removed when
-the call succeeds. The file formats are in :mod:`.files`; running the program in :mod:`.process`.
-
-Failures, from the sample's to the program's:
-
-- a sample whose outputs are not finite, or whose ``failed`` column is 1, fails with its reason;
-- a non-zero exit (or a signal, or ``timeout_s``, or an outputs file that is not a regular
-  file or is larger than the batch can need) fails the call: it raises
-  :class:`~.process.CommandFailed`, and the engine splits the batch until the failing samples
-  are alone (with ``per_sample`` the sample just fails). The work folder is kept and named in
-  the reason;
-- an outputs file that breaks the format (missing, short, a repeated column, a cell that is not
-  a number) is a :class:`~uqguide.errors.ModelError` naming the file, line and column: the run
-  stops, the work folder is kept.
-
-No process the program started outlives its call (:mod:`uqguide.core.process_groups`).
-
-Trust: the command runs in the user's account with the user's rights, like a ``callable``
-model's function; uqguide adds no sandbox. What it does guarantee is that the run's data never
-reaches a shell: input names are plain names, values only go into files, and the paths a call
-fills in are arguments (or, with ``shell: true``, environment variables), never shell text.
+The config's ``model: {name: command, command: "./mysim {inputs} {outputs}", inputs: [...],
+outputs: [...]}`` (the template split like a shell would, run without one; ``timeout_s``,
+``env``, ``per_sample``, ``shell``, ``workdir``). Each call (a batch, or a sample with
+``per_sample``) gets a fresh work folder under ``workdir``, its current folder, holding the
+inputs and outputs files and ``stdout.txt``/``stderr.txt``, removed when the call succeeds. The
+file formats are in :mod:`.files`, running the program in :mod:`.process`. A sample with
+non-finite outputs or ``failed`` 1 fails; a failing call (exit status, signal, ``timeout_s``,
+an unusable outputs file) raises :class:`~.process.CommandFailed` and the engine splits the
+batch; a malformed outputs file is a :class:`~uqguide.errors.ModelError` and stops the run. No
+process the program started outlives its call, and the run's data never reaches a shell. The
+config, failures and trust: ``docs/your-simulator.md``.
 """
 
 from __future__ import annotations
