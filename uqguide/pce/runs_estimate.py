@@ -32,23 +32,10 @@ def runs_estimate(fit: np.ndarray | None, validation: np.ndarray | None,
                   design: ValidationDesign | None) -> Corrected | None:
     """Sample mean, std, skewness and kurtosis of a PCE's own model runs, with intervals.
 
-    Parameters
-    ----------
-    fit : ndarray, shape (n_fit, ...), optional
-        The output at the successful fit runs (None: not a random design, e.g. quadrature
-        nodes, or none).
-    validation : ndarray, shape (n_val, ...), optional
-        The output at the successful validation runs.
-    design : ValidationDesign, optional
-        The validation runs' design restricted to the successful runs
-        (:meth:`~uqguide.pce.validation_design.ValidationDesign.successful`); required with
-        ``validation``.
-
-    Returns
-    -------
-    Corrected or None
-        ``values`` and ``ci`` per statistic (shape ``(...)``, ``(2, ...)``), ``error`` zeros;
-        None with fewer than 3 runs (no spread, no interval).
+    ``fit (n_fit, ...)``: the output at the successful fit runs (None: not a random design, e.g.
+    quadrature nodes); ``validation (n_val, ...)`` with ``design`` restricted to the successful
+    runs (:meth:`~uqguide.pce.validation_design.ValidationDesign.successful`). Returns ``values``
+    and ``ci`` (``(...)``, ``(2, ...)``), ``error`` zeros; None with fewer than 3 runs.
     """
     parts, weights, strata, shares = [], [], [], []
     n_fit = 0 if fit is None else fit.shape[0]

@@ -73,26 +73,12 @@ def candidate_cap(n_runs: int) -> int:
 class ColumnsFit:
     """Sparse expansions of several columns on one shared multi-index set.
 
-    Attributes
-    ----------
-    alpha : ndarray of int, shape (P, d)
-        Union of the columns' retained terms, constant first.
-    core : ndarray, shape (P, r)
-        Coefficients per column (zero where a column does not use a term).
-    degree : ndarray of int, shape (r,)
-        Selected truncation degree per column.
-    q : ndarray, shape (r,)
-        Selected q-norm per column.
-    loo : ndarray, shape (r,)
-        Corrected leave-one-out error per column (relative to its variance; 0 for a constant).
-    n_terms : ndarray of int, shape (r,)
-        Retained terms per column (constant included).
-    n_candidates : int
-        Size of the evaluated candidate basis.
-    loo_resid : ndarray, shape (N, r), optional
-        Each column's leave-one-out residuals ``y_i - y_hat_(-i)`` of its selected expansion,
-        which the shared-path search keeps from its scoring (None from the column-by-column
-        search: :func:`uqguide.pce.loo.loo_residuals` computes them).
+    ``alpha (P, d)``: union of the columns' retained terms, constant first; ``core (P, r)``: zero
+    where a column does not use a term; per column ``(r,)``: selected ``degree``, ``q``-norm,
+    corrected ``loo`` error (relative to its variance; 0 for a constant) and ``n_terms``
+    (constant included); ``n_candidates``: size of the candidate basis; ``loo_resid (N, r)``:
+    LOO residuals ``y_i - y_hat_(-i)`` kept by the shared-path search (None from the
+    column-by-column search: :func:`uqguide.pce.loo.loo_residuals` computes them).
     """
 
     alpha: np.ndarray
@@ -385,26 +371,14 @@ def _joint_search(sb: _SharedBasis, y: np.ndarray, degree_min: int) -> dict[int,
 def fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1,
                 degree_max: int | None = None, q: float | None = None,
                 joint: bool = False) -> ColumnsFit:
-    """Sparse PCE of every column of ``y`` (module docstring).
+    """Sparse PCE of every column of ``y (N, r)`` at design points ``xi (N, d)`` (module
+    docstring).
 
-    Parameters
-    ----------
-    germ : Germ
-    xi : ndarray, shape (N, d)
-        Design points (germ coordinates).
-    y : ndarray, shape (N, r)
-        Output columns at the design points.
-    degree_min : int
-        Lowest truncation degree tried.
-    degree_max : int, optional
-        Highest truncation degree tried; None: the largest the runs support.
-    q : float, optional
-        q-norm of the hyperbolic truncation; None: the best of :data:`Q_GRID`.
-    joint : bool
-        One least-angle path per q-norm shared by all the columns, each degree's restriction
-        of it scored once for all (cheaper with many columns; each column still takes its own
-        q-norm, degree and terms, and the fit keeps its leave-one-out residuals). No column
-        may then be constant (principal-component scores are not).
+    ``degree_max`` None: the largest the runs support; ``q`` None: the best of :data:`Q_GRID`.
+    ``joint``: one least-angle path per q-norm shared by all columns, each degree's restriction
+    scored once for all (cheaper with many columns; each column still takes its own q-norm,
+    degree and terms, and the fit keeps its LOO residuals); no column may then be constant
+    (principal-component scores are not).
     """
     # One BLAS thread: the fit is matrix-vector work that threads do not speed up (on a
     # loaded machine they slowed it tenfold), and a threaded reduction's order, hence its
