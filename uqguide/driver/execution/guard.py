@@ -221,23 +221,9 @@ class Guard:
 
     def call(self, handle: Any, x: np.ndarray, names: Sequence[str],
              outputs: Collection[str]) -> tuple[str, Any]:
-        """One model call in the guard process, killed after ``timeout_s``.
-
-        Parameters
-        ----------
-        handle : ModelHandle
-            The model (rebuilt in the guard once).
-        x : ndarray, shape (n, d)
-            Inputs in SI units.
-        names : sequence of str, length d
-        outputs : collection of str
-
-        Returns
-        -------
-        tuple
-            ``("ok", ModelOutput)``, or ``("timeout" | "crashed" | "raised", reason)``; a
-            ModelError (the caller's mistake, not the sample's) is raised here.
-        """
+        """One model call in the guard process (the model rebuilt there once), killed after
+        ``timeout_s``: ``("ok", ModelOutput)``, or ``("timeout" | "crashed" | "raised", reason)``; a
+        ModelError (the caller's mistake, not the sample's) is raised here."""
         if self._proc is None or not self._proc.is_alive():
             self._stop()
             self._start(handle)
@@ -275,19 +261,8 @@ _GUARDS: dict[tuple[float | None, int | None], Guard] = {}
 
 
 def guard_for(timeout_s: float | None, memory_limit: int | None = None) -> Guard:
-    """This process's guard for ``timeout_s`` and ``memory_limit`` (one, reused).
-
-    Parameters
-    ----------
-    timeout_s : float or None
-        Seconds a call may take (None: no limit, crash isolation only).
-    memory_limit : int or None
-        Bytes of address space the guard process may use (None: no limit).
-
-    Returns
-    -------
-    Guard
-    """
+    """This process's guard (one, reused) for ``timeout_s`` (None: crash isolation only) and
+    ``memory_limit`` [bytes of address space] (None: no limit)."""
     g = _GUARDS.get((timeout_s, memory_limit))
     if g is None:
         g = _GUARDS[(timeout_s, memory_limit)] = Guard(timeout_s, memory_limit)
@@ -307,26 +282,8 @@ def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Col
     """``evaluate_batch`` in the guard process, bisected on a timeout or a crash (module
     docstring); the samples that time out or crash alone fail with the reason.
 
-    Parameters
-    ----------
-    handle : ModelHandle
-        The model.
-    x : ndarray, shape (n, d)
-        Inputs in SI units, column ``j`` for ``names[j]``.
-    names : sequence of str, length d
-    outputs : collection of str
-    timeout_s : float or None
-        Seconds one call may take.
-    memory_limit : int or None
-        Bytes of address space of the guard process.
-    on_isolated : callable, optional
-        Told ``(row, reason)`` for each row of ``x`` that failed alone by a crash or a
-        timeout (the driver records it, so that a resume does not run it again).
-
-    Returns
-    -------
-    ModelOutput
-        The ``n`` samples in order; those isolated fail with the reason.
+    ``x (n, d)``: SI units, column ``j`` for ``names[j]``; ``on_isolated(row, reason)``: told of
+    each row that failed alone (the driver records it, so that a resume does not run it again).
     """
     model = handle.model
     guard = guard_for(timeout_s, memory_limit)
