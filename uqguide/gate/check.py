@@ -445,14 +445,11 @@ def _baseline_moment_se(p: BaselinePoint, stat: str, n_used: int, moments_method
                         ) -> float:
     """The baseline's standard error of a sample moment.
 
-    The std's (plain runs) is recomputed from the point's own std, kurtosis and ``n_used``
-    (:func:`delta_std_se`), numbers the gate compares with the result's, so a ``std_se``
-    loosened by hand loosens nothing; a multi-fidelity std's comes from its estimator and is
-    the stored one. ``mean_se`` is validated with the file (std over ``sqrt(n_used)``, to the
-    round-off). Skewness and kurtosis keep their stored ones: those come from central moments
-    of order 8-16 (the tail-aware intervals) that a baseline does not hold, and another run's
-    estimate is no substitute (a lognormal output's kurtosis standard error varies 17x between
-    reseeded runs of 2000); only the keyed seal protects them from a deliberate edit.
+    A plain std's is recomputed from the point's std, kurtosis and ``n_used``
+    (:func:`delta_std_se`), so a ``std_se`` loosened by hand loosens nothing; a multi-fidelity
+    std's and the skewness and kurtosis ones are the stored ones (they need moments of order
+    8-16 a baseline does not hold, and another run's is no substitute: a lognormal kurtosis's
+    varies 17x between reseeded runs of 2000); only the keyed seal protects those.
     """
     stored = getattr(p, f"{stat}_se")
     stored = math.nan if stored is None else float(stored)
@@ -552,12 +549,9 @@ def _compare_events(label: str, events: dict[str, BaselineEvent],
 def _runs_ratio(label: str, name: str, bo: BaselineOutput, s: OutputStatistics,
                 source: str) -> str:
     """A note when the result has far fewer runs than the baseline; a ResultError (the gate
-    cannot judge) when the baseline has far fewer than the result, beyond :data:`RUNS_RATIO`.
-
-    A baseline's standard errors go as ``1 / sqrt(n_used)``: one of 10x fewer runs than the
-    result carries errors 3.2x the result's, so they alone set the tolerance (a baseline
-    re-sealed with a few runs loosens every check). Fewer runs in the result only make its own
-    errors, and so the check, wider: that is said, not refused."""
+    cannot judge) when the baseline has far fewer than the result, beyond :data:`RUNS_RATIO`:
+    its errors (as ``1 / sqrt(n_used)``) would alone set the tolerance, so a baseline re-sealed
+    with a few runs would loosen every check."""
     if bo.uncertainty != SAMPLE:
         return ""
     n_b, n_a = bo.n_used, s.n_used

@@ -194,10 +194,8 @@ class LarsPath:
 def _catch_up(u: np.ndarray, a: np.ndarray, c2: float) -> np.ndarray:
     """Per row, the root ``g`` in (0, 1] of ``||u - g a||^2 = (1 - g)^2 c2`` (inf if none).
 
-    ``f(g) = (a.a - c2) g^2 - 2 (u.a - c2) g + (u.u - c2)`` is negative at 0 (an inactive row
-    is below the active norm) and not negative at 1 (``u - a`` is the least-squares
-    correlation), so exactly one root lies in (0, 1]; it is taken from the numerically stable
-    pair ``q / aa``, ``cc / q``.
+    The quadratic is negative at 0 and not negative at 1, so exactly one root lies in (0, 1];
+    it is taken from the numerically stable pair ``q / aa``, ``cc / q``.
     """
     aa = np.einsum("ij,ij->i", a, a) - c2
     bb = np.einsum("ij,ij->i", u, a) - c2

@@ -76,16 +76,11 @@ LOWEST = {"std": 0.0, "kurtosis": 1.0}
 
 
 def _bound_tails(found: Corrected, y: np.ndarray, weight: np.ndarray) -> None:
-    """The interval to print (``found.shown_ci``): ``found``'s widened to the tail-aware one
-    of the pooled runs, the union of both where the runs bound the statistic, a stated floor
-    (an infinite end) where they do not (:func:`uqguide.stats.tail_intervals.tail_intervals`).
-    ``found.ci`` stays the delta-method interval, which :mod:`uqguide.pce.support` judges a
-    PCE's values by (a floor refutes no large value; that check is calibrated on it).
-
-    The pooled runs' moments are weighted as the estimate's (the validation runs over-sample
-    the tails and the input cube's faces, :mod:`uqguide.pce.validation_design`: unweighted,
-    they would inflate a kurtosis floor above the model's), with Kish's effective number of
-    runs ``(sum w)^2 / sum w^2`` in place of ``n``."""
+    """Set ``found.shown_ci``: ``found.ci`` (the delta-method interval :mod:`uqguide.pce.support`
+    is calibrated on, kept) united with the pooled runs' tail-aware one, a stated floor where the
+    runs cannot bound the statistic. The runs are weighted as the estimate (the validation runs
+    over-sample the tails: unweighted, they would inflate a kurtosis floor), with Kish's
+    ``n = (sum w)^2 / sum w^2``."""
     w = weight / weight.sum()
     mean = np.tensordot(w, y, axes=(0, 0))
     d = y - mean

@@ -291,15 +291,12 @@ class _QSearch:
         self.fits, self.lengths = fits, lengths
 
     def own_lars(self, least: float) -> None:
-        """A degree gets a LARS of its own, on its own set, where its error is within
-        :data:`CLOSE` of ``least`` and that is cheap (at most :data:`OWN_LARS_WORK`
-        multiply-adds: any degree at 100 runs), or where its error is within :data:`RIVAL`,
-        its path was cut short and its LARS is cheap or its set at most half the largest (near
-        the top the shared path serves as well). With few runs and
-        many candidates, LARS on the largest set spends its steps before a low degree's terms
-        are all in: on the G-function at 100 runs the shared path's error at degree 8 was
-        3.5e-2 where the degree's own LARS found 3.0e-2 (OpenTURNS' fit, term for term) and
-        a 3 times smaller moment error."""
+        """Give a degree a LARS of its own where its error is within :data:`CLOSE` of ``least`` and
+        that costs at most :data:`OWN_LARS_WORK`, or within :data:`RIVAL` with its path cut short
+        and its LARS cheap or its set at most half the largest. With few runs and many
+        candidates the shared path spends its steps before a low degree's terms are in
+        (G-function, 100 runs, degree 8: 3.5e-2 shared against 3.0e-2 own, OpenTURNS' fit,
+        and a 3x smaller moment error)."""
         def wanted(p: int) -> bool:
             c, loo = self.cs.count(p), self.fits[p].loo
             if c >= self.cs.cols.size or loo > RIVAL * least:
@@ -318,12 +315,9 @@ class _QSearch:
 
 
 def _column_scores(shared: list[_SharedBasis], y: np.ndarray, degree_min: int) -> list[Scored]:
-    """Every (q, degree) fit of one column the search scored, for :func:`select`.
-
-    Every q-norm's LARS first runs :data:`FIRST_PASS` steps (or fewer, where its best degree's
-    path is done); only the q-norms within a factor :data:`RIVAL` of the best error then go on
-    to the runs' limit.
-    """
+    """Every (q, degree) fit of one column the search scored, for :func:`select`: each
+    q-norm's LARS runs :data:`FIRST_PASS` steps, then only those within :data:`RIVAL` of the
+    best go on to the runs' limit."""
     searches = [_QSearch(sb, y, degree_min) for sb in shared]
     for qs in searches:
         qs.run(FIRST_PASS)

@@ -135,14 +135,10 @@ def _capped(ratios: np.ndarray, step: np.ndarray) -> np.ndarray:
 
 def _refine(start: Allocation, rho: np.ndarray, w: np.ndarray, step: np.ndarray
             ) -> Allocation:
-    """``start``'s levels with the ratios that minimise the worst variance ratio over the
-    quantities, within the caps ``step``; ``start`` itself when the search finds no better.
-
-    The ratios are ``r_i = r_{i-1} g_i``, ``g_i = 1 + e^{u_i}`` (no cap) or
-    ``1 + (step_i - 1) / (1 + e^{-u_i})`` (capped), so any ``u`` is a feasible, nested
-    allocation; Nelder-Mead from the start's ``u`` (deterministic: the same inputs give the
-    same allocation on any machine: its ratios are rounded to four digits).
-    """
+    """``start``'s levels with the ratios that minimise the worst variance ratio within the caps
+    ``step`` (``start`` when none is better): Nelder-Mead over ``u`` with
+    ``r_i = r_{i-1} g_i``, ``g_i = 1 + e^{u_i}`` or capped ``1 + (step_i - 1) / (1 + e^{-u_i})``
+    (any ``u`` is feasible and nested), ratios rounded to four digits so any machine agrees."""
     levels = list(start.levels)
     if len(levels) == 1:
         return start

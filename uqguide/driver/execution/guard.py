@@ -126,15 +126,9 @@ def _main_hidden() -> Iterator[None]:
 
 
 def _context(needs_main: bool) -> Any:
-    """Where a guard process comes from.
-
-    A model that does not need the main script comes from a **fork server**: one process,
-    started once, that has imported uqguide and forks each guard from itself, so that the
-    fresh guard after a crash costs a fork (milliseconds) and not a new interpreter importing
-    NumPy and uqguide (half a second: 40 of them to find 4 crashing samples among 1000). The
-    fork server is single-threaded, so forking it is safe, unlike forking the driver. A model
-    defined in the main script needs that script imported, which only ``spawn`` does.
-    """
+    """Where a guard process comes from: a single-threaded **fork server** (a fresh guard after
+    a crash costs a fork, not half a second of imports: 40 of them to find 4 crashing samples in
+    1000), or ``spawn`` for a model defined in the main script, which must be imported."""
     if needs_main or "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     ctx = multiprocessing.get_context("forkserver")
