@@ -20,25 +20,14 @@ if TYPE_CHECKING:
 
 
 def load_config(config: str | Path | Mapping[str, Any] | RunConfig) -> RunConfig:
-    """A validated run configuration.
+    """A validated run configuration: the model, input space, outputs and methods, every
+    default filled in.
 
-    Parameters
-    ----------
-    config : str, Path, mapping or RunConfig
-        A YAML config file, the name of a shipped study (``uqguide configs`` lists them), or
-        the same content as a mapping. In a mapping, a ``callable`` model's ``function`` may be
-        a Python function object instead of ``"module:function"``. A RunConfig is returned
-        as it is.
-
-    Returns
-    -------
-    RunConfig
-        The model, input space, outputs and methods, every default filled in.
-
-    Raises
-    ------
-    uqguide.errors.ConfigError
-        Naming the field, the value given and what is allowed.
+    ``config``: a YAML config file, the name of a shipped study (``uqguide configs`` lists
+    them), or the same content as a mapping, where a ``callable`` model's ``function`` may be a
+    Python function object instead of ``"module:function"``; a RunConfig is returned as it is.
+    Raises :class:`uqguide.errors.ConfigError` naming the field, the value given and what is
+    allowed.
 
     Examples
     --------
@@ -75,9 +64,7 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
         ``<name>`` is the config's ``name``, or a config file's stem. A mapping without a
         ``name`` is refused here (ConfigError, field ``name``) rather than written as
         ``run.h5``, where the next unnamed config would overwrite it (or find its run folder
-        and refuse to resume a different config); a name derived from the content would
-        avoid the clash but leave a file nobody chose or can find. Without ``out`` nothing is
-        written and no name is needed.
+        and refuse to resume a different config). Without ``out`` nothing is written.
     progress : bool
         Show progress on stderr.
     force : bool
@@ -89,11 +76,6 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     Result
         Statistics of every method; ``result.to_xarray()``, ``result.to_dataframe(output)``.
         Failed samples are counted in each method's ``n_failed`` and do not raise.
-
-    Raises
-    ------
-    uqguide.errors.ConfigError
-        An invalid config, or ``out`` given for a mapping config without a ``name``.
 
     Examples
     --------
@@ -165,7 +147,9 @@ def fit(x: Any, y: Any, *, inputs: Sequence[Mapping[str, Any]],
     The same as a config with ``data:`` (``docs/your-simulator.md``, "Your own samples"): the
     rows of ``x`` are the design, drawn from ``inputs``; the same rows, settings and seed give
     the same numbers bit for bit, from a file or from here. The rows are checked as a data
-    file's are (:mod:`uqguide.models.data_rows.checks`).
+    file's are (:mod:`uqguide.models.data_rows.checks`): ConfigError naming the row and the
+    column for bad data (missing column, input outside its support, repeated row, too few rows)
+    or settings.
 
     Parameters
     ----------
@@ -186,8 +170,6 @@ def fit(x: Any, y: Any, *, inputs: Sequence[Mapping[str, Any]],
         The outputs to report (and the names of a 2-D array ``y``'s columns).
     seed : int
         The run's seed (held-out rows, surrogate draws).
-    name : str, optional
-        The result's name.
     time : sequence of float, optional
         The series' time grid [s] (default: a Dataset's time coordinate, else 0, 1, ...).
     workers : int, optional
@@ -197,12 +179,6 @@ def fit(x: Any, y: Any, *, inputs: Sequence[Mapping[str, Any]],
     -------
     Result
         With the method's statistics; a PCE's surrogate is kept (``result.surrogate(label)``).
-
-    Raises
-    ------
-    uqguide.errors.ConfigError
-        Bad data (missing column, input outside its support, repeated row, too few rows) or
-        settings, naming the row and the column.
 
     Examples
     --------
@@ -233,23 +209,10 @@ def fit(x: Any, y: Any, *, inputs: Sequence[Mapping[str, Any]],
 
 
 def read_result(path: str | Path) -> Result:
-    """Read a result file (``uqguide run``'s ``<name>.h5``, any format version).
-
-    Parameters
-    ----------
-    path : str or Path
-        The HDF5 result file.
-
-    Returns
-    -------
-    Result
-        Every method's statistics, runs and failures, with the resolved config and provenance.
-
-    Raises
-    ------
-    uqguide.errors.ResultError
-        If the file is missing, not a uqguide result or incomplete.
-    """
+    """Read a result file (``uqguide run``'s ``<name>.h5``, any format version): every method's
+    statistics, runs and failures, with the resolved config and provenance.
+    :class:`uqguide.errors.ResultError` if the file is missing, not a uqguide result or
+    incomplete."""
     from .results.result import read_hdf5
 
     return read_hdf5(path)

@@ -38,21 +38,10 @@ class Compiled:
 def compile_kernels(configs: Sequence[str | Path] = ()) -> list[Compiled]:
     """Run each study's model once so that its compiled kernel is built and cached.
 
-    Parameters
-    ----------
-    configs : sequence of str or Path
-        Config files or shipped study names; empty: every shipped study.
-
-    Returns
-    -------
-    list of Compiled
-        One row per study whose model (with its parameters) was not met before, in order,
-        then one for the statistics kernel (study ``"-"``, model ``"moment sums"``).
-
-    Raises
-    ------
-    ConfigError
-        A config that cannot be loaded, or an unknown study name.
+    ``configs``: config files or shipped study names (empty: every shipped study). One row per
+    study whose model (with its parameters) was not met before, in order, then one for the
+    statistics kernel (study ``"-"``, model ``"moment sums"``). ConfigError for a config that
+    cannot be loaded, or an unknown study name.
     """
     paths = [resolve(c) for c in configs] if configs else [s.path for s in studies()]
     rows: list[Compiled] = []
@@ -99,16 +88,7 @@ def _statistics_kernel() -> Compiled:
 
 
 def format_compiled(rows: Sequence[Compiled]) -> str:
-    """The table ``uqguide compile`` prints: one line per study, then the total.
-
-    Parameters
-    ----------
-    rows : sequence of Compiled
-
-    Returns
-    -------
-    str
-    """
+    """The table ``uqguide compile`` prints: one line per study, then the total."""
     width = max([len(r.study) for r in rows] + [5])
     lines = [f"{'study':<{width}}  {'model':<14}  {'kernel':<6}  {'compile s':>9}  {'run s':>6}"]
     for r in rows:

@@ -55,12 +55,7 @@ class Replay:
     def differences(self) -> dict[str, float]:
         """The largest relative difference ``|a - b| / max(|a|, |b|)`` of each scalar output's
         replayed value from its stored one: 0 where they agree bit for bit (NaN equals NaN),
-        ``inf`` where one is NaN and the other not.
-
-        Returns
-        -------
-        dict of str to float
-        """
+        ``inf`` where one is NaN and the other not."""
         out = {}
         for name, v in self.stored.items():
             a = np.ascontiguousarray(v, dtype=float)
@@ -74,13 +69,7 @@ class Replay:
 
     def mismatches(self, rtol: float = 0.0) -> list[str]:
         """Scalar outputs whose replayed value differs from the stored one by more than
-        ``rtol`` relative (0: any bit; :data:`ROUNDOFF`: more than round-off).
-
-        Returns
-        -------
-        list of str
-            Output names (NaN equals NaN).
-        """
+        ``rtol`` relative (0: any bit; :data:`ROUNDOFF`: more than round-off; NaN equals NaN)."""
         return [name for name, d in self.differences().items() if d > rtol]
 
 
@@ -100,19 +89,9 @@ def _model_sections(config: Mapping[str, Any]) -> list[dict[str, Any]]:
 
 
 def named_code(config: Mapping[str, Any]) -> list[str]:
-    """What a stored config's model runs beyond uqguide's own code, read without running it.
-
-    Parameters
-    ----------
-    config : mapping
-        A result's stored (resolved) config.
-
-    Returns
-    -------
-    list of str
-        One line each (:meth:`uqguide.models.base.Model.named_code`); empty for a built-in
-        simulator or a data file. ConfigError for a model name uqguide does not know.
-    """
+    """What a result's stored config's model runs beyond uqguide's own code, read without
+    running it: one line each (:meth:`uqguide.models.base.Model.named_code`), empty for a
+    built-in simulator or a data file; ConfigError for a model name uqguide does not know."""
     found: list[str] = []
     for section in _model_sections(config):
         text = model_class(section.get("name"), "model.name").named_code(section)
@@ -133,37 +112,18 @@ def _difference(theirs: Mapping[str, Any], yours: Mapping[str, Any]) -> str:
 
 def allowed_code(result: Result, *, run_code: bool = False, own: RunConfig | None = None,
                  source: str | None = None) -> list[str]:
-    """The code a replay of ``result`` runs beyond uqguide's own, once it is allowed.
+    """The code a replay of ``result`` runs beyond uqguide's own, once it is allowed (one line
+    each; empty: uqguide's code only).
 
     A result file names its model, and a ``callable``, ``command`` or ``fmu`` model is code: a
-    file from someone else can run anything. Such code runs only when ``run_code`` allows it,
-    or when ``own`` (the user's config) names the same: every model section the file's config
-    builds (the model's, a multi-fidelity method's levels) is one of ``own``'s, compared
-    resolved (module or config folder included) and without the settings that only change how
-    the model runs (``isolate``). The code's content is not compared (a result does not record
-    it): what runs is what those files hold now, and a changed file shows as a replay that
-    differs.
-
-    Parameters
-    ----------
-    result : Result
-    run_code : bool
-        Run whatever the file names (``--run-code``).
-    own : RunConfig, optional
-        The user's config of the study (``--config``).
-    source : str, optional
-        The result's file, for the message (default its name).
-
-    Returns
-    -------
-    list of str
-        What will run, one line each (empty: uqguide's code only).
-
-    Raises
-    ------
-    ConfigError
-        The file names code and neither ``run_code`` nor ``own`` allows it: one line naming
-        the code and the flag.
+    file from someone else can run anything. Such code runs only when ``run_code``
+    (``--run-code``) allows it, or when ``own`` (the user's config, ``--config``) names the same:
+    every model section the file's config builds (the model's, a multi-fidelity method's levels)
+    is one of ``own``'s, compared resolved (module or config folder included) and without the
+    settings that only change how the model runs (``isolate``). The code's content is not
+    compared (a result does not record it): what runs is what those files hold now, and a
+    changed file shows as a replay that differs. Otherwise ConfigError, one line naming the code
+    and the flag; ``source``: the result's file for the message.
     """
     code = named_code(result.config)
     if not code or run_code:
@@ -182,45 +142,18 @@ def allowed_code(result: Result, *, run_code: bool = False, own: RunConfig | Non
 
 
 def config_of(result: Result) -> RunConfig:
-    """The validated config a result was produced with (its resolved form).
-
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    RunConfig
-    """
+    """The validated config a result was produced with (its resolved form)."""
     return validate_config(result.config, f"{result.name} (stored config)")
 
 
 def choose_sample(result: Result, cfg: RunConfig, run: MethodRun, *, sample: int | None,
                   worst: str | None, lowest: bool, event: str | None,
                   component: str | int | None = None) -> tuple[int, str]:
-    """The sample index and a sentence saying why it was chosen.
+    """The sample index of ``run`` and a sentence saying why it was chosen.
 
-    Parameters
-    ----------
-    result : Result
-    cfg : RunConfig
-        The result's config.
-    run : MethodRun
-        The method whose runs are searched.
-    sample : int, optional
-        A sample index (``--sample``).
-    worst : str, optional
-        An output whose largest (or, with ``lowest``, smallest) value picks the sample.
-    lowest : bool
-    event : str, optional
-        An event of the config: its first sample in the event.
-    component : str or int, optional
-        The component of ``worst``.
-
-    Returns
-    -------
-    (int, str)
-        ConfigError unless exactly one of ``sample``, ``worst``, ``event`` is given.
+    Exactly one of ``sample`` (``--sample``), ``worst`` (an output whose largest, or with
+    ``lowest`` smallest, value of ``component`` picks it) and ``event`` (its first sample in
+    that config event) is given; ConfigError otherwise.
     """
     given = [k for k, v in (("--sample", sample), ("--worst", worst), ("--event", event))
              if v is not None]
@@ -276,24 +209,13 @@ def _component(output: str, component: str | int | None, comps: tuple[str, ...])
 
 def replay(result: Result, label: str, *, run_code: bool = False,
            **choice: Any) -> tuple[Replay, RunConfig]:
-    """Rerun one sample of method ``label`` with every output of the model.
+    """Rerun one sample of method ``label`` with every output of the model; returns the replayed
+    sample beside its stored values, and the result's config.
 
-    Parameters
-    ----------
-    result : Result
-    label : str
-        The method's label.
-    run_code : bool
-        Run the code the result's model names (a callable's module, a command's program, an
-        FMU), which a result file from elsewhere can make anything; without it such a model is
-        refused (:func:`allowed_code`, which also takes the user's own config).
-    **choice
-        How to choose the sample (see :func:`choose_sample`).
-
-    Returns
-    -------
-    (Replay, RunConfig)
-        The replayed sample beside its stored values, and the result's config.
+    ``run_code``: run the code the result's model names (a callable's module, a command's
+    program, an FMU), which a result file from elsewhere can make anything; without it such a
+    model is refused (:func:`allowed_code`, which also takes the user's own config).
+    ``choice``: how to choose the sample (:func:`choose_sample`).
     """
     if not run_code:
         allowed_code(result)
@@ -317,17 +239,7 @@ def replay(result: Result, label: str, *, run_code: bool = False,
 
 def write_histories(rep: Replay, path: Path) -> Path:
     """Every series of the replayed sample as columns of one CSV (time first), written
-    whole or not at all.
-
-    Parameters
-    ----------
-    rep : Replay
-    path : Path
-
-    Returns
-    -------
-    Path
-    """
+    whole or not at all."""
     out = rep.replayed
     cols = {"time": out.time}
     for name, y in out.series.items():
@@ -346,19 +258,7 @@ def write_histories(rep: Replay, path: Path) -> Path:
 
 def history_figure(rep: Replay, result_name: str, path: Path) -> Path:
     """One panel per series output (every component) against time, as a PNG written whole or
-    not at all.
-
-    Parameters
-    ----------
-    rep : Replay
-    result_name : str
-        For the title.
-    path : Path
-
-    Returns
-    -------
-    Path
-    """
+    not at all; ``result_name`` goes in the title."""
     from ..report.figures import new_figure, save
 
     series = rep.replayed.series
@@ -380,21 +280,8 @@ def history_figure(rep: Replay, result_name: str, path: Path) -> Path:
 
 
 def write_replay(rep: Replay, cfg: RunConfig, result_name: str, out_dir: Path) -> list[Path]:
-    """Histories (CSV), the generic history figure and the paper scenario's trajectory figures.
-
-    Parameters
-    ----------
-    rep : Replay
-    cfg : RunConfig
-    result_name : str
-    out_dir : Path
-        Created when missing.
-
-    Returns
-    -------
-    list of Path
-        The files written.
-    """
+    """Histories (CSV), the generic history figure and the paper scenario's trajectory figures,
+    in ``out_dir`` (created when missing); returns the files written."""
     from ..papers import sample_figures
 
     atomic.make_folder(out_dir)
@@ -407,16 +294,7 @@ def write_replay(rep: Replay, cfg: RunConfig, result_name: str, out_dir: Path) -
 
 
 def render(rep: Replay) -> str:
-    """The console summary: which sample, its inputs, stored vs replayed scalars.
-
-    Parameters
-    ----------
-    rep : Replay
-
-    Returns
-    -------
-    str
-    """
+    """The console summary: which sample, its inputs, stored vs replayed scalars."""
     lines = [f"{rep.label} sample {rep.index}: {rep.why}"
              + (" (stored as FAILED)" if rep.stored_failed else "")]
     lines.append("inputs: " + ", ".join(f"{k} = {v:.17g}" for k, v in rep.inputs.items()))

@@ -39,16 +39,7 @@ class WriteInterrupted(KeyboardInterrupt):
 
 @dataclass(frozen=True)
 class Written:
-    """A finished run and the files it wrote.
-
-    Attributes
-    ----------
-    result : Result
-    h5 : Path
-        ``<out>/<name>.h5``.
-    tables : list of Path
-        The CSV and Markdown tables beside it.
-    """
+    """A finished run, its ``<out>/<name>.h5`` and the CSV and Markdown tables beside it."""
 
     result: Result
     h5: Path
@@ -58,16 +49,7 @@ class Written:
 def canonical_config(config: dict[str, Any]) -> str:
     """A resolved config (or a part of one) as one comparable text: without the settings that
     change only how the model runs, through YAML as the result file keeps it (so a config
-    read back compares equal), as JSON with sorted keys.
-
-    Parameters
-    ----------
-    config : dict
-
-    Returns
-    -------
-    str
-    """
+    read back compares equal), as JSON with sorted keys."""
     return json.dumps(yaml.safe_load(yaml.safe_dump(study_config(config))), sort_keys=True,
                       default=str)
 
@@ -77,20 +59,8 @@ def check_same_study(result_path: Path, config: RunConfig, force: bool = False) 
 
     A rerun of the same config (same numbers) may overwrite its result; a different config,
     seed included, under the same name would silently replace another study's statistics and
-    tables, so it is refused unless ``force``.
-
-    Parameters
-    ----------
-    result_path : Path
-        ``<out>/<name>.h5``.
-    config : RunConfig
-    force : bool
-        Replace whatever is there.
-
-    Raises
-    ------
-    ConfigError
-        Naming both configs' digests (field ``out``).
+    tables, so it is refused (ConfigError naming both configs' digests, field ``out``) unless
+    ``force``.
     """
     if force or not result_path.exists():
         return
@@ -115,16 +85,8 @@ def check_result_name(config: RunConfig) -> None:
     A mapping without ``name`` would be written as ``<out>/run.h5`` (and ``run.run``,
     ``run_*.csv``), so a second unnamed config would overwrite the first's files, or resume
     from its run folder and be refused as a changed config. A file's config is named after
-    the file, so only mappings are concerned.
-
-    Parameters
-    ----------
-    config : RunConfig
-
-    Raises
-    ------
-    ConfigError
-        Field ``name``, saying how to give one or how to run without writing.
+    the file, so only mappings are concerned. ConfigError (field ``name``) says how to give one
+    or how to run without writing.
     """
     if not config.raw.name and config.source == "<dict>":
         raise ConfigError(
@@ -139,41 +101,18 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
                   resume_hint: str = "", force: bool = False) -> Written:
     """Run every method of ``config`` and write ``<out_dir>/<name>.h5`` and its tables.
 
-    Parameters
-    ----------
-    config : RunConfig
-        A validated config (:func:`uqguide.load_config`).
-    out_dir : str or Path
-        Folder of the result; the run folder ``<out_dir>/<name>.run`` checkpoints finished
-        chunks meanwhile and is removed once every file is written.
-    executor : Executor, optional
-        Where chunks run (default: this process). Closed on return.
-    workers : int
-        Worker processes of ``executor``, for the memory budget.
-    resume : bool
-        Continue from the run folder of an interrupted run of the same config (refused when
-        the config changed), instead of refusing to touch it.
-    progress : Progress, optional
-        Where progress is shown (default: counted, not shown).
-    resume_hint : str
-        The command that resumes this run, named in the messages of an interrupted run.
-    force : bool
-        Replace a result of another config with the same name (refused otherwise:
-        :func:`check_same_study`).
+    The run folder ``<out_dir>/<name>.run`` checkpoints finished chunks meanwhile and is removed
+    once every file is written. ``executor`` (default this process) is closed on return;
+    ``workers``: its processes, for the memory budget; ``resume``: continue from the run folder
+    of an interrupted run of the same config (refused when the config changed) instead of
+    refusing to touch it; ``resume_hint``: the command named in an interrupted run's messages;
+    ``force``: replace a result of another config with the same name
+    (:func:`check_same_study`).
 
-    Returns
-    -------
-    Written
-
-    Raises
-    ------
-    ConfigError
-        A mapping config without a ``name`` (:func:`check_result_name`), report times off the
-        model's grid, or a memory budget over ``max_memory``: before any folder is made.
-    RunInterrupted
-        Ctrl-C or SIGTERM during the runs (chunks done so far are in the run folder).
-    WriteInterrupted
-        Ctrl-C or SIGTERM while writing the result files.
+    ConfigError before any folder is made for a mapping config without a ``name``
+    (:func:`check_result_name`), report times off the model's grid, or a memory budget over
+    ``max_memory``; RunInterrupted on Ctrl-C or SIGTERM during the runs (chunks done are in the
+    run folder); WriteInterrupted on one while writing the result files.
     """
     refuse_nested_run()  # before the lock: a worker re-running an unguarded script stops here
     out_dir = Path(out_dir)

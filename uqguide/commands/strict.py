@@ -22,18 +22,9 @@ SHOWN = 4
 
 
 def check_withheld(result: Result) -> None:
-    """Raise UqguideError (exit 1) when any method withholds a moment at a reported point.
-
-    Parameters
-    ----------
-    result : Result
-
-    Raises
-    ------
-    UqguideError
-        Naming the first :data:`SHOWN` withheld statistics (method, output, component,
-        time, moments) and their count.
-    """
+    """Raise UqguideError (exit 1) when any method withholds a moment at a reported point,
+    naming the first :data:`SHOWN` withheld statistics (method, output, component, time,
+    moments) and their count."""
     found = []
     for label, by_output in result_statistics(result).items():
         for v in by_output.values():

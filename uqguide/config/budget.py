@@ -68,12 +68,7 @@ class Budget:
         return kept + transient + BASE_BYTES
 
     def lines(self) -> list[str]:
-        """The budget for the console: one line per method, then the peak memory.
-
-        Returns
-        -------
-        list of str
-        """
+        """The budget for the console: one line per method, then the peak memory."""
         out = []
         for m in self.methods:
             runs = "runs unknown until the design is built" if m.runs is None \
@@ -97,21 +92,9 @@ MAX_SURROGATE_TERMS = 5e9
 
 
 def estimate(cfg: RunConfig, workers: int = 1, batch_size: int | None = None) -> Budget:
-    """The budget of ``cfg`` (module docstring), without building any design.
-
-    Parameters
-    ----------
-    cfg : RunConfig
-    workers : int
-        Worker processes (chunks in flight at once).
-    batch_size : int, optional
-        Samples per model call; default the config's.
-
-    Returns
-    -------
-    Budget
-        Per method: model runs, steps per run and the estimated memory [bytes] by part.
-    """
+    """The budget of ``cfg`` (module docstring), without building any design: per method, model
+    runs, steps per run and the estimated memory [bytes] by part; ``workers``: chunks in flight
+    at once; ``batch_size``: samples per model call (default the config's)."""
     model = cfg.model
     count = model.step_count()
     grid = count.grid if count is not None else 0.0
@@ -217,24 +200,14 @@ LOWER = {
 
 def check_budget(budget: Budget) -> None:
     """ConfigError (exit 2) when a run is over its budget: memory (:func:`check_memory`) or a
-    surrogate's draws (:func:`check_surrogate`).
-
-    Parameters
-    ----------
-    budget : Budget
-    """
+    surrogate's draws (:func:`check_surrogate`)."""
     check_memory(budget)  # first: a basis too large to hold is the more basic refusal
     check_surrogate(budget)
 
 
 def check_surrogate(budget: Budget) -> None:
     """ConfigError (exit 2) naming the first method whose surrogate draws exceed
-    :data:`MAX_SURROGATE_TERMS`, by how much, and the ``surrogate_draws`` that would fit.
-
-    Parameters
-    ----------
-    budget : Budget
-    """
+    :data:`MAX_SURROGATE_TERMS`, by how much, and the ``surrogate_draws`` that would fit."""
     for m in budget.methods:
         work = m.surrogate_work
         if work <= MAX_SURROGATE_TERMS:
@@ -251,12 +224,7 @@ def check_surrogate(budget: Budget) -> None:
 
 
 def check_memory(budget: Budget) -> None:
-    """ConfigError (exit 2) when the estimate exceeds ``max_memory``.
-
-    Parameters
-    ----------
-    budget : Budget
-    """
+    """ConfigError (exit 2) when the estimate exceeds ``max_memory``."""
     if budget.peak_bytes > budget.max_memory:
         worst = max((m for m in budget.methods if m.peak_bytes is not None),
                     key=lambda m: m.peak_bytes or 0.0, default=None)

@@ -36,13 +36,7 @@ def _folder() -> Path:
 
 
 def studies() -> list[Study]:
-    """Every shipped study, sorted by name.
-
-    Returns
-    -------
-    list of Study
-        Name, path and description of each.
-    """
+    """Every shipped study (name, path, description), sorted by name."""
     out = []
     for path in sorted(_folder().glob("*.yaml")):
         with path.open(encoding="utf-8") as f:
@@ -52,23 +46,8 @@ def studies() -> list[Study]:
 
 
 def study_path(name: str, field: str = "CONFIG") -> Path:
-    """The shipped config called ``name`` (with or without ``.yaml``).
-
-    Parameters
-    ----------
-    name : str
-    field : str
-        How to name the argument in messages.
-
-    Returns
-    -------
-    Path
-
-    Raises
-    ------
-    ConfigError
-        No such study; the message lists the near names.
-    """
+    """The shipped config called ``name`` (with or without ``.yaml``); ConfigError listing the
+    near names when there is none (``field`` names the argument)."""
     stem = name[:-5] if name.endswith(".yaml") else name
     names = [s.name for s in studies()]
     if stem not in names:
@@ -80,21 +59,11 @@ def study_path(name: str, field: str = "CONFIG") -> Path:
 
 
 def resolve(config: str | Path, field: str = "CONFIG") -> Path:
-    """A config argument as a path: the file if it exists, else the shipped study so named.
+    """A config argument as an existing path: the file if it exists, else the shipped study so
+    named; ConfigError otherwise.
 
     Only a bare name (no folder, no ``.yaml``) is looked up among the studies; a missing path
     is an error that names the study to run instead when its stem is one.
-
-    Parameters
-    ----------
-    config : str or Path
-    field : str
-        How to name the argument in messages.
-
-    Returns
-    -------
-    Path
-        An existing file; ConfigError otherwise.
     """
     path = Path(config)
     if path.is_file():
@@ -110,18 +79,8 @@ def resolve(config: str | Path, field: str = "CONFIG") -> Path:
 
 
 def copy_study(name: str, folder: Path) -> Path:
-    """Copy the shipped study ``name`` into ``folder`` (created); refuses to overwrite.
-
-    Parameters
-    ----------
-    name : str
-    folder : Path
-
-    Returns
-    -------
-    Path
-        The copy.
-    """
+    """Copy the shipped study ``name`` into ``folder`` (created) and return the copy; refuses to
+    overwrite."""
     src = study_path(name, "NAME")
     folder.mkdir(parents=True, exist_ok=True)
     dst = folder / src.name

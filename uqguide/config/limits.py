@@ -28,13 +28,7 @@ _UNITS = {"": 1, "b": 1, "k": 1e3, "kb": 1e3, "m": 1e6, "mb": 1e6, "g": 1e9, "gb
 
 
 def machine_memory() -> int:
-    """Physical memory of this machine.
-
-    Returns
-    -------
-    int
-        Bytes (8 GiB when it cannot be read).
-    """
+    """Physical memory of this machine in bytes (8 GiB when it cannot be read)."""
     try:
         return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
@@ -42,45 +36,20 @@ def machine_memory() -> int:
 
 
 def default_max_memory() -> int:
-    """The memory budget of a run when the config sets none.
-
-    Returns
-    -------
-    int
-        Bytes: :data:`DEFAULT_MEMORY_SHARE` of the machine's memory.
-    """
+    """The memory budget [bytes] of a run when the config sets none: :data:`DEFAULT_MEMORY_SHARE`
+    of the machine's memory."""
     return int(DEFAULT_MEMORY_SHARE * machine_memory())
 
 
 def memory_limit(value: Any) -> int:
-    """The ``max_memory`` a config's value stands for: :func:`parse_bytes` of it, or
-    :func:`default_max_memory` when the config sets none.
-
-    Parameters
-    ----------
-    value : int, float, str or None
-
-    Returns
-    -------
-    int
-        Bytes.
-    """
+    """The ``max_memory`` [bytes] a config's value stands for: :func:`parse_bytes` of it, or
+    :func:`default_max_memory` when the config sets none."""
     return default_max_memory() if value is None else parse_bytes(value)
 
 
 def parse_bytes(value: Any) -> int:
-    """``2e9``, ``"2 GB"``, ``"512MiB"`` -> bytes; ValueError naming what is allowed.
-
-    Parameters
-    ----------
-    value : int, float or str
-        A number of bytes, or a number with a unit (kB, MB, GB, TB, KiB, MiB, GiB, TiB).
-
-    Returns
-    -------
-    int
-        Bytes, at least 1e6.
-    """
+    """``2e9``, ``"2 GB"``, ``"512MiB"`` -> bytes, at least 1e6 (units kB, MB, GB, TB, KiB, MiB,
+    GiB, TiB); ValueError naming what is allowed."""
     if isinstance(value, bool):
         raise ValueError(f"must be a size in bytes or a string like '4 GB' (got {value!r})")
     if isinstance(value, (int, float)):
@@ -100,17 +69,7 @@ def parse_bytes(value: Any) -> int:
 
 
 def human(n: float) -> str:
-    """A size for messages, e.g. ``"4.29 GB"``.
-
-    Parameters
-    ----------
-    n : float
-        Bytes.
-
-    Returns
-    -------
-    str
-    """
+    """A size in bytes for messages, e.g. ``"4.29 GB"``."""
     for unit, f in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
         if n >= f:
             return f"{n / f:.3g} {unit}"
@@ -119,14 +78,7 @@ def human(n: float) -> str:
 
 def check_steps(model: Model, limit: float) -> None:
     """ConfigError when one run of ``model`` would take more than ``limit`` (the config's
-    ``max_steps``) integration steps or output grid points.
-
-    Parameters
-    ----------
-    model : Model
-    limit : float
-        Steps (and grid points) allowed per run.
-    """
+    ``max_steps``) integration steps or output grid points."""
     count = model.step_count()
     if count is None:
         return

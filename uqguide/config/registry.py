@@ -27,13 +27,8 @@ log = logging.getLogger(__name__)
 
 
 class Registry(Mapping[str, str]):
-    """Name -> ``"module:Class"`` of one entry-point group, read on first use.
-
-    Parameters
-    ----------
-    group : str
-        The entry-point group (``uqguide.models`` or ``uqguide.methods``).
-    """
+    """Name -> ``"module:Class"`` of one entry-point group (``uqguide.models`` or
+    ``uqguide.methods``), read on first use."""
 
     def __init__(self, group: str) -> None:
         self.group = group
@@ -86,18 +81,8 @@ def _load(target: str) -> type:
 
 
 def did_you_mean(name: str, choices: list[str]) -> str:
-    """A hint naming the closest of ``choices`` to a misspelt ``name``.
-
-    Parameters
-    ----------
-    name : str
-    choices : list of str
-
-    Returns
-    -------
-    str
-        ``" (did you mean 'x'?)"``, or ``""`` when nothing is close.
-    """
+    """A hint naming the closest of ``choices`` to a misspelt ``name``:
+    ``" (did you mean 'x'?)"``, or ``""`` when nothing is close."""
     close = difflib.get_close_matches(name, choices, n=1)
     return f" (did you mean '{close[0]}'?)" if close else ""
 
@@ -119,34 +104,10 @@ def _lookup(kind: str, table: Mapping[str, str], name: object, field: str) -> ty
 
 
 def model_class(name: object, field: str = "model.name") -> type[Model]:
-    """The model class registered as ``name``; ConfigError naming ``field`` otherwise.
-
-    Parameters
-    ----------
-    name : object
-        As the config gives it.
-    field : str
-        The config field, for the message.
-
-    Returns
-    -------
-    type of Model
-    """
+    """The model class registered as ``name``; ConfigError naming ``field`` otherwise."""
     return _lookup("model", MODELS, name, field)
 
 
 def method_class(name: object, field: str = "methods.name") -> type[Method]:
-    """The method class registered as ``name``; ConfigError naming ``field`` otherwise.
-
-    Parameters
-    ----------
-    name : object
-        As the config gives it.
-    field : str
-        The config field, for the message.
-
-    Returns
-    -------
-    type of Method
-    """
+    """The method class registered as ``name``; ConfigError naming ``field`` otherwise."""
     return _lookup("method", METHODS, name, field)

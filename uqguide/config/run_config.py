@@ -48,31 +48,12 @@ RUN_NAME_RULE = ("a plain file name of 1 to 200 letters, digits, '_', '.' or '-'
 
 
 def is_run_name(name: str) -> bool:
-    """Whether ``name`` is a plain file name a run may be called (:data:`RUN_NAME_RULE`).
-
-    Parameters
-    ----------
-    name : str
-
-    Returns
-    -------
-    bool
-    """
+    """Whether ``name`` is a plain file name a run may be called (:data:`RUN_NAME_RULE`)."""
     return bool(RUN_NAME.match(name)) and set(name) != {"."}
 
 
 def check_run_name(name: str) -> str:
-    """``name`` if it is a valid run name, else ConfigError (field ``name``).
-
-    Parameters
-    ----------
-    name : str
-
-    Returns
-    -------
-    str
-        ``name`` unchanged.
-    """
+    """``name`` unchanged if it is a valid run name, else ConfigError (field ``name``)."""
     if not isinstance(name, str) or not is_run_name(name):
         raise ConfigError(f"name: must be {RUN_NAME_RULE} (got {_short(name)})", field="name")
     return name
@@ -146,16 +127,8 @@ class RawConfig(StrictModel):
 class RunConfig:
     """A validated configuration, ready to run.
 
-    Attributes
-    ----------
-    model : Model
-    space : InputSpace
-    outputs : tuple of str
-    methods : list of Method
-    raw : RawConfig
-        The validated file content (its ``model_dump`` is the resolved config written to results).
-    source : str
-        Path of the config file, or ``"<dict>"``.
+    ``raw``: the validated file content (its ``model_dump`` is the resolved config written to
+    results); ``source``: path of the config file, or ``"<dict>"``.
     """
 
     model: Model
@@ -218,13 +191,8 @@ class RunConfig:
     def resolved(self) -> dict[str, Any]:
         """The config with every default filled in (what the run really used), made once per
         config: the run folder's identity, the same-study check and the result all read it.
-
-        Returns
-        -------
-        dict
-            JSON-ready; the model's and every method's settings in full, methods labelled.
-            Shared: not to be modified.
-        """
+        JSON-ready, the model's and every method's settings in full, methods labelled; shared: not
+        to be modified."""
         if self._resolved is None:
             self._resolved = self._resolve()
         return self._resolved
@@ -250,16 +218,7 @@ class RunConfig:
         return d
 
     def with_seed(self, seed: int) -> RunConfig:
-        """The same config with another seed (validated again).
-
-        Parameters
-        ----------
-        seed : int
-
-        Returns
-        -------
-        RunConfig
-        """
+        """The same config with another seed (validated again)."""
         return validate_config({**self.raw.model_dump(mode="python"), "seed": seed}, self.source)
 
 
@@ -342,19 +301,9 @@ def _fields(model: type[BaseModel]) -> list[str]:
 
 # ---------------------------------------------------------------------------- loading
 def load_yaml(path: str | Path) -> dict[str, Any]:
-    """Read a YAML config file into a mapping; ConfigError on I/O or syntax problems, and on
-    what :mod:`uqguide.core.safe_yaml` refuses (aliases, duplicate keys, deep nesting, a file
-    over 1 MB).
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Returns
-    -------
-    dict
-        The file's top-level mapping, not yet validated.
-    """
+    """Read a YAML config file into its top-level mapping, not yet validated; ConfigError on I/O
+    or syntax problems, and on what :mod:`uqguide.core.safe_yaml` refuses (aliases, duplicate
+    keys, deep nesting, a file over 1 MB)."""
     from ..core.safe_yaml import MAX_BYTES, safe_load
 
     p = Path(path)
@@ -388,17 +337,8 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
 
 def load_config(path: str | Path) -> RunConfig:
     """Read and validate a config file, or the shipped study of that name (``ftcapn_table3``;
-    see :mod:`uqguide.config.catalog`).
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Returns
-    -------
-    RunConfig
-        ConfigError naming the field, the value and what is allowed when it is invalid.
-    """
+    see :mod:`uqguide.config.catalog`); ConfigError naming the field, the value and what is
+    allowed when it is invalid."""
     from .catalog import resolve
 
     path = resolve(path)
@@ -406,20 +346,11 @@ def load_config(path: str | Path) -> RunConfig:
 
 
 def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfig:
-    """Validate a config mapping into a :class:`RunConfig` (model, inputs, methods resolved).
+    """Validate a config mapping into a :class:`RunConfig` (model, inputs, methods resolved);
+    ConfigError naming the field, the value and what is allowed when it is invalid.
 
-    Parameters
-    ----------
-    data : mapping
-        The config's content (as a YAML file holds it).
-    source : str
-        Where it came from: a file's path (its folder is where a callable model's module is
-        looked for first) or ``"<dict>"``.
-
-    Returns
-    -------
-    RunConfig
-        ConfigError naming the field, the value and what is allowed when it is invalid.
+    ``source``: a file's path (its folder is where a callable model's module is looked for
+    first) or ``"<dict>"``.
     """
     nan_at = _find_nan(data)
     nan_at = None if nan_at is None else _printable(nan_at)
@@ -504,20 +435,9 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
 
 def stored_context(data: Mapping[str, Any]) -> tuple[InputSpace, dict[str, Any]]:
     """The input space and the model's derived outputs of a stored (resolved) config, what a
-    surrogate read from a result file is rebuilt with, without validating a run of it.
-
-    Parameters
-    ----------
-    data : mapping
-        A result's resolved config.
-
-    Returns
-    -------
-    InputSpace
-    dict of str to DerivedOutput
-        Empty for a fit to a data file, which needs its inputs only, not the file (moved or
-        gone since, perhaps).
-    """
+    surrogate read from a result file is rebuilt with, without validating a run of it. No
+    derived outputs for a fit to a data file, which needs its inputs only, not the file (moved
+    or gone since, perhaps)."""
     section = data.get("model")
     if data.get("data") is not None or not isinstance(section, Mapping):
         return stored_input_space(data), {}
@@ -533,18 +453,7 @@ def stored_context(data: Mapping[str, Any]) -> tuple[InputSpace, dict[str, Any]]
 def stored_input_space(data: Mapping[str, Any]) -> InputSpace:
     """The input space of a config mapping alone: its ``inputs`` and ``correlations``,
     without building its model or reading its data (a stored config whose data file is not at
-    hand).
-
-    Parameters
-    ----------
-    data : mapping
-        A config's content.
-
-    Returns
-    -------
-    InputSpace
-        ConfigError when the inputs are invalid.
-    """
+    hand); ConfigError when the inputs are invalid."""
     return _build_space(_stored_inputs(data), None)
 
 

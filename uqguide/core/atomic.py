@@ -49,37 +49,16 @@ def _tag(name: str, pid: str, token: str) -> str:
 
 
 def temp_path(path: Path, pid: int | None = None) -> Path:
-    """A fresh temporary sibling of ``path`` for this process.
-
-    Parameters
-    ----------
-    path : Path
-    pid : int, optional
-        The writer's PID (default: this process).
-
-    Returns
-    -------
-    Path
-        ``.<name>.<pid>.<token><tag>.tmp`` in the same folder: a random token, and a tag
-        of name, PID, token and host that :func:`temp_owner` checks.
-    """
+    """A fresh temporary sibling of ``path`` for the writer ``pid`` (default this process):
+    ``.<name>.<pid>.<token><tag>.tmp``, a random token and a tag of name, PID, token and host
+    that :func:`temp_owner` checks."""
     pid_, token = str(os.getpid() if pid is None else pid), secrets.token_hex(4)
     return path.with_name(f".{path.name}.{pid_}.{token}{_tag(path.name, pid_, token)}.tmp")
 
 
 def temp_owner(name: str) -> int | None:
-    """The PID of the uqguide process that made the temporary file ``name`` on this host, or
-    None when ``name`` is not one (a user's ``.thesis.20240101.tmp``).
-
-    Parameters
-    ----------
-    name : str
-        A file name (no folder).
-
-    Returns
-    -------
-    int or None
-    """
+    """The PID of the uqguide process that made the temporary file ``name`` (no folder) on this
+    host, or None when ``name`` is not one (a user's ``.thesis.20240101.tmp``)."""
     m = _TEMP.match(name)
     if m is None or _tag(m["name"], m["pid"], m["token"]) != m["tag"]:
         return None
@@ -94,20 +73,9 @@ def temp_target(name: str) -> str | None:
 
 # ---------------------------------------------------------------------------- refusals
 def not_regular(path: str | Path, hard_links: bool = True) -> str:
-    """What is at ``path`` when it is not a regular file (of one name, with ``hard_links``):
-    '' when it is, or when nothing is there. Nothing is opened, links are not followed.
-
-    Parameters
-    ----------
-    path : str or Path
-    hard_links : bool
-        Count a file with a second name as not regular.
-
-    Returns
-    -------
-    str
-        E.g. "a FIFO (named pipe)", "a hard link (2 names)", "".
-    """
+    """What is at ``path`` when it is not a regular file (of one name, with ``hard_links``),
+    e.g. "a FIFO (named pipe)", "a hard link (2 names)"; '' when it is, or when nothing is
+    there. Nothing is opened, links are not followed."""
     path = Path(path)
     try:
         st = os.lstat(path)
@@ -138,22 +106,9 @@ def _what(st: os.stat_result, path: Path) -> str:
 
 
 def refusal(path: str | Path, what: str, field: str = "out", role: str = "") -> ConfigError:
-    """The one-line ConfigError for a name that holds ``what`` (:func:`not_regular`).
-
-    Parameters
-    ----------
-    path : str or Path
-    what : str
-        What is there.
-    field : str
-        The setting that chose the folder.
-    role : str
-        What uqguide puts there ("the run's manifest goes there"), said in the message.
-
-    Returns
-    -------
-    ConfigError
-    """
+    """The one-line ConfigError for a name that holds ``what`` (:func:`not_regular`); ``field``:
+    the setting that chose the folder; ``role``: what uqguide puts there ("the run's manifest
+    goes there")."""
     if what.startswith("a symbolic link"):
         why = "uqguide writes no file through a link and does not replace one"
     elif what == "a folder":
@@ -169,23 +124,11 @@ def refusal(path: str | Path, what: str, field: str = "out", role: str = "") -> 
 
 
 def refuse_unwritable(*paths: str | Path, field: str = "out") -> None:
-    """Raise ConfigError for the first of ``paths`` that exists and is not a regular file: a
-    symbolic link, a folder, a FIFO, a socket or a device. Nothing is opened (a FIFO's open
-    would block).
+    """Raise ConfigError (naming the path, nothing written) for the first of ``paths`` that
+    exists and is not a regular file: a symbolic link, a folder, a FIFO, a socket or a device.
+    Nothing is opened (a FIFO's open would block).
 
     A hard link is not refused here: a file replaced by a rename keeps its other name intact.
-
-    Parameters
-    ----------
-    *paths : str or Path
-        Where uqguide is about to create, replace or read a file.
-    field : str
-        The setting that chose the folder (named in the message).
-
-    Raises
-    ------
-    ConfigError
-        Naming the path and what it is; nothing has been written.
     """
     for p in map(Path, paths):
         try:
@@ -201,28 +144,11 @@ def open_writable(path: str | Path, flags: int, field: str = "out", mode: int = 
     """Open ``path`` for writing, only when it is (or is created as) a regular file of one
     name; the lock, the manifest and every temporary file are opened here.
 
-    Parameters
-    ----------
-    path : str or Path
-    flags : int
-        ``os.O_WRONLY`` or ``os.O_RDWR`` with ``O_CREAT``, ``O_EXCL``, ``O_APPEND`` as needed
-        (no ``O_TRUNC``: truncate after the checks, with ``os.ftruncate``).
-    field : str
-        The setting that chose the folder (named in a refusal).
-    mode : int
-        Permissions of a file created.
-
-    Returns
-    -------
-    int
-        A descriptor (blocking, close-on-exec) of the file.
-
-    Raises
-    ------
-    ConfigError
-        A symbolic link (never followed: O_NOFOLLOW), a folder, a FIFO or device (never
-        opened blocking: O_NONBLOCK), or a file with another name (a hard link would carry
-        the write outside the folder).
+    ``flags``: ``os.O_WRONLY`` or ``os.O_RDWR`` with ``O_CREAT``, ``O_EXCL``, ``O_APPEND`` as
+    needed (no ``O_TRUNC``: truncate after the checks, with ``os.ftruncate``). Returns a
+    blocking, close-on-exec descriptor. ConfigError for a symbolic link (never followed:
+    O_NOFOLLOW), a folder, a FIFO or device (never opened blocking: O_NONBLOCK), or a file with
+    another name (a hard link would carry the write outside the folder).
     """
     path = Path(path)
     if flags & os.O_TRUNC:
@@ -250,21 +176,8 @@ def open_writable(path: str | Path, flags: int, field: str = "out", mode: int = 
 def usable_folder(path: str | Path, field: str = "out") -> Path:
     """Check that files can be written in the folder ``path`` (made later when missing).
 
-    Parameters
-    ----------
-    path : str or Path
-    field : str
-        The setting that named it.
-
-    Returns
-    -------
-    Path
-
-    Raises
-    ------
-    ConfigError
-        A dangling symbolic link or a loop, something that is not a folder (a file,
-        ``/dev/null``), a path under a file, or a folder not writable by this user.
+    ConfigError for a dangling symbolic link or a loop, something that is not a folder (a file,
+    ``/dev/null``), a path under a file, or a folder not writable by this user.
     """
     path = Path(path)
     for p in [path, *path.parents]:
@@ -364,35 +277,15 @@ def _create_temp(path: Path, field: str) -> tuple[Path, int]:
 @contextmanager
 def atomic_file(path: str | Path, binary: bool = True, fsync: bool = True, clean: bool = True,
                 field: str = "out") -> Iterator[IO[Any]]:
-    """Yield an open file to write; on success it is renamed to ``path``.
+    """Yield an open file to write (through :func:`open_writable`); on success it is renamed to
+    ``path``, whose folder is made (:func:`make_folder`).
 
     On any exception (Ctrl-C included) the temporary file is removed and ``path`` is left as
-    it was; a full disk is :class:`DiskFull` naming ``path``.
-
-    Parameters
-    ----------
-    path : str or Path
-        The final file; its folder is made (:func:`make_folder`).
-    binary : bool
-        A binary file, else text (UTF-8, lines as written).
-    fsync : bool
-        Flush the file and the folder to disk before and after the rename.
-    clean : bool
-        First remove stale temporary files of dead uqguide writers in the folder.
-    field : str
-        The setting that chose the folder (named in a refusal).
-
-    Yields
-    ------
-    file object
-        The temporary file, opened through :func:`open_writable`.
-
-    Raises
-    ------
-    ConfigError
-        ``path`` is a symbolic link, a folder, a FIFO or a device; its folder is unusable.
-    DiskFull
-        The disk (or the file size limit) ran out; nothing was replaced.
+    it was; a full disk (or file size limit) is :class:`DiskFull` naming ``path``. ``binary``
+    False: text, UTF-8, lines as written; ``fsync``: flush the file and the folder to disk
+    before and after the rename; ``clean``: first remove stale temporary files of dead uqguide
+    writers. ConfigError when ``path`` is a symbolic link, a folder, a FIFO or a device, or its
+    folder is unusable.
     """
     path = Path(path)
     refuse_unwritable(path, field=field)
@@ -419,19 +312,7 @@ def atomic_file(path: str | Path, binary: bool = True, fsync: bool = True, clean
 
 
 def write_text(path: str | Path, text: str, field: str = "out") -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically.
-
-    Parameters
-    ----------
-    path : str or Path
-    text : str
-    field : str
-        The setting that chose the folder.
-
-    Returns
-    -------
-    Path
-    """
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
     path = Path(path)
     with atomic_file(path, binary=False, field=field) as f:
         f.write(text)
@@ -440,22 +321,8 @@ def write_text(path: str | Path, text: str, field: str = "out") -> Path:
 
 def write_with(path: str | Path, writer: Callable[[IO[Any]], object], binary: bool = False,
                field: str = "out") -> Path:
-    """Call ``writer(file)`` and rename its file to ``path`` atomically.
-
-    Parameters
-    ----------
-    path : str or Path
-    writer : callable
-        Writes a whole file to the open file it is given (``df.to_csv``, ``fig.savefig``).
-    binary : bool
-        A binary file (else text, UTF-8, lines as written).
-    field : str
-        The setting that chose the folder.
-
-    Returns
-    -------
-    Path
-    """
+    """Call ``writer(file)`` (writes a whole file: ``df.to_csv``, ``fig.savefig``) and rename
+    its file to ``path`` atomically."""
     path = Path(path)
     with atomic_file(path, binary=binary, field=field) as f:
         writer(f)
@@ -468,12 +335,8 @@ class HeldErrorFile(io.RawIOBase):
     :meth:`close` (or the ``with`` block's end) once the library is done with the file.
 
     After the error, writes of metadata size are kept in memory, so that the library reads
-    back what it wrote; larger ones are dropped (the file is deleted anyway).
-
-    Parameters
-    ----------
-    fd : int
-        An open descriptor of the file (left open).
+    back what it wrote; larger ones are dropped (the file is deleted anyway). ``fd`` is left
+    open.
     """
 
     _KEEP = 1 << 20  # a write kept after the error: HDF5's metadata blocks are far smaller
@@ -559,16 +422,7 @@ class HeldErrorFile(io.RawIOBase):
 
 # ---------------------------------------------------------------------------- clean-up
 def pid_alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists on this host (permission denied counts as alive).
-
-    Parameters
-    ----------
-    pid : int
-
-    Returns
-    -------
-    bool
-    """
+    """Whether a process ``pid`` exists on this host (permission denied counts as alive)."""
     if pid <= 0:
         return False
     try:
@@ -585,15 +439,6 @@ def clean_stale_temps(folder: str | Path) -> list[Path]:
 
     Only names :func:`temp_owner` recognises (made by uqguide on this host) whose process is
     gone, and only regular files, are removed: a user's ``.notes.20240101.tmp`` stays.
-
-    Parameters
-    ----------
-    folder : str or Path
-
-    Returns
-    -------
-    list of Path
-        The files removed.
     """
     removed: list[Path] = []
     try:

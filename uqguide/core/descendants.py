@@ -129,14 +129,8 @@ def subtree(pid: int) -> list[int]:
 
 
 def environ_value(pid: int, name: str) -> str | None:
-    """The value of the environment variable ``name`` the process ``pid`` was started with.
-
-    Returns
-    -------
-    str or None
-        None when it has no such variable, or its environment cannot be read (another
-        user's process, a zombie).
-    """
+    """The value of the environment variable ``name`` the process ``pid`` was started with;
+    None when it has none, or its environment cannot be read (another user's, a zombie)."""
     raw = _read(f"/proc/{pid}/environ")
     key = name.encode() + b"="
     for entry in (raw or b"").split(b"\0"):

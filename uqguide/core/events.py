@@ -38,72 +38,30 @@ class EventSpec(BaseModel):
         return self
 
     def describe(self) -> str:
-        """The event as text, e.g. ``"miss[1] > 5"``.
-
-        Returns
-        -------
-        str
-        """
+        """The event as text, e.g. ``"miss[1] > 5"``."""
         comp = f"[{self.component}]" if self.component is not None else ""
         op, thr = ("<", self.below) if self.below is not None else (">", self.above)
         return f"{self.output}{comp} {op} {thr:g}"
 
     def threshold(self) -> float:
-        """The event's threshold.
-
-        Returns
-        -------
-        float
-            ``a`` (``below``) or ``b`` (``above``), in the output's unit.
-        """
+        """The event's threshold: ``a`` (``below``) or ``b`` (``above``), in the output's unit."""
         value = self.below if self.below is not None else self.above
         assert value is not None, "validated: exactly one of below, above"
         return float(value)
 
     def severity(self, values: np.ndarray) -> np.ndarray:
-        """``g`` with the event ``g > 0`` (for level sets): ``y - a`` or ``b - y``.
-
-        Parameters
-        ----------
-        values : ndarray, shape (n,)
-            The component's values, in the output's unit.
-
-        Returns
-        -------
-        ndarray, shape (n,)
-            In the output's unit.
-        """
+        """``g`` with the event ``g > 0`` (for level sets): ``y - a`` or ``b - y``, ``(n,)`` in the
+        output's unit."""
         return values - self.threshold() if self.above is not None else self.threshold() - values
 
     def indicator(self, values: np.ndarray) -> np.ndarray:
-        """Whether each sample is in the event.
-
-        Parameters
-        ----------
-        values : ndarray, shape (n,)
-            The component's values, in the output's unit.
-
-        Returns
-        -------
-        ndarray of bool, shape (n,)
-        """
+        """Whether each sample's value ``(n,)`` is in the event."""
         return self.severity(values) > 0
 
 
 def component_index(spec: EventSpec, components: tuple[str, ...]) -> int:
-    """Column of the event's component (0 for a one-component output).
-
-    Parameters
-    ----------
-    spec : EventSpec
-    components : tuple of str
-        The output's component names.
-
-    Returns
-    -------
-    int
-        ValueError naming the allowed components when the event's is not one of them.
-    """
+    """Column of the event's component among the output's ``components`` (0 for a one-component
+    output); ValueError naming the allowed components when it is not one of them."""
     c = spec.component
     if c is None:
         if len(components) > 1:
@@ -124,21 +82,7 @@ def clopper_pearson(k: int, n: int, level: float = LEVEL) -> tuple[float, float]
     """Exact (Clopper-Pearson) two-sided interval of a binomial proportion ``k / n``.
 
     Coverage is at least ``level`` for every true probability (conservative); ``[0, upper]``
-    for ``k = 0`` and ``[lower, 1]`` for ``k = n``.
-
-    Parameters
-    ----------
-    k : int
-        Successes (runs in the event).
-    n : int
-        Trials.
-    level : float
-        Coverage.
-
-    Returns
-    -------
-    (float, float)
-        Lower and upper bound; NaN for ``n = 0``.
+    for ``k = 0`` and ``[lower, 1]`` for ``k = n``; NaN for ``n = 0``.
     """
     if n <= 0:
         return float("nan"), float("nan")
@@ -157,19 +101,10 @@ def clopper_pearson(k: int, n: int, level: float = LEVEL) -> tuple[float, float]
 class EventEstimate:
     """The probability of one event by one method.
 
-    Attributes
-    ----------
-    name, definition : str
-    probability : float
-    ci : (float, float)
-        95% interval (see ``interval``).
-    n_in, n_used : int
-        Runs (or draws) in the event, and behind the estimate.
-    estimator : str
-        ``"count"`` (model runs, Clopper-Pearson), ``"surrogate"`` (PCE draws, Clopper-Pearson
-        of the draws only) or ``"subset"`` (subset simulation; lognormal interval from its CoV).
-    cov : float
-        Coefficient of variation of the estimate (NaN where not estimated).
+    ``ci``: 95% interval; ``n_in``, ``n_used``: runs (or draws) in the event and behind the
+    estimate; ``estimator``: ``"count"`` (model runs, Clopper-Pearson), ``"surrogate"`` (PCE
+    draws, Clopper-Pearson of the draws only) or ``"subset"`` (subset simulation; lognormal
+    interval from its CoV); ``cov``: coefficient of variation (NaN where not estimated).
     """
 
     name: str
@@ -182,31 +117,14 @@ class EventEstimate:
     cov: float = float("nan")
 
     def as_dict(self) -> dict[str, object]:
-        """The fields but the name, flat (for storage); inverse of :meth:`from_dict`.
-
-        Returns
-        -------
-        dict of str to object
-        """
+        """The fields but the name, flat (for storage); inverse of :meth:`from_dict`."""
         return {"definition": self.definition, "probability": self.probability,
                 "ci_low": self.ci[0], "ci_high": self.ci[1], "n_in": self.n_in,
                 "n_used": self.n_used, "estimator": self.estimator, "cov": self.cov}
 
     @classmethod
     def from_dict(cls, name: str, d: dict) -> EventEstimate:
-        """The estimate stored by :meth:`as_dict`.
-
-        Parameters
-        ----------
-        name : str
-            The event's name.
-        d : dict
-            As :meth:`as_dict` returns it (``cov`` may be missing in older files).
-
-        Returns
-        -------
-        EventEstimate
-        """
+        """The estimate stored by :meth:`as_dict` (``cov`` may be missing in older files)."""
         return cls(name, str(d["definition"]), float(d["probability"]),
                    (float(d["ci_low"]), float(d["ci_high"])), int(d["n_in"]),
                    int(d["n_used"]), str(d["estimator"]), float(d.get("cov", float("nan"))))
@@ -215,25 +133,9 @@ class EventEstimate:
 def count_events(specs: list[EventSpec], scalars: dict[str, np.ndarray], ok: np.ndarray,
                  components: dict[str, tuple[str, ...]], estimator: str = "count"
                  ) -> dict[str, EventEstimate]:
-    """Events counted over the runs (or draws) ``ok`` of per-sample scalars.
-
-    Parameters
-    ----------
-    specs : list of EventSpec
-    scalars : dict of str to ndarray, shape (n, k)
-        Per-sample scalar outputs.
-    ok : ndarray of bool, shape (n,)
-        The samples to count over (those that did not fail).
-    components : dict of str to tuple of str
-        Each output's component names.
-    estimator : str
-        Recorded in each estimate (``"count"`` or ``"surrogate"``).
-
-    Returns
-    -------
-    dict of str to EventEstimate
-        By event name: ``k / n`` with its Clopper-Pearson interval.
-    """
+    """Events counted over the runs (or draws) ``ok (n,)`` of per-sample scalars ``(n, k)``: by
+    event name, ``k / n`` with its Clopper-Pearson interval; ``estimator`` (``"count"`` or
+    ``"surrogate"``) is recorded."""
     out = {}
     for s in specs:
         y = scalars[s.output][ok, component_index(s, components[s.output])]

@@ -42,72 +42,29 @@ class _Marginal(StrictModel):
         dist: str
 
     def to_chaospy(self) -> chaospy.Distribution:  # pragma: no cover - abstract
-        """The same distribution in chaospy.
-
-        Returns
-        -------
-        chaospy.Distribution
-        """
+        """The same distribution in chaospy."""
         raise NotImplementedError
 
     def ppf(self, u: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
-        """The inverse cumulative distribution function.
-
-        Parameters
-        ----------
-        u : ndarray, shape (n,)
-            Probabilities in ``(0, 1)``.
-
-        Returns
-        -------
-        ndarray, shape (n,)
-            Values in the input's SI unit.
-        """
+        """The inverse CDF: probabilities ``(n,)`` in ``(0, 1)`` to values in the SI unit."""
         raise NotImplementedError
 
     def cdf(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
-        """The cumulative distribution function (inverse of :meth:`ppf`).
-
-        Parameters
-        ----------
-        x : ndarray, shape (n,)
-            Values in the input's SI unit.
-
-        Returns
-        -------
-        ndarray, shape (n,)
-            Probabilities in ``[0, 1]``.
-        """
+        """The CDF (inverse of :meth:`ppf`): values in the input's SI unit to ``[0, 1]``."""
         raise NotImplementedError
 
     def support(self) -> tuple[float, float]:
-        """The closed interval holding every value the input can take (infinite ends allowed).
-
-        Returns
-        -------
-        low, high : float
-            In the input's SI unit.
-        """
+        """The closed interval holding every value the input can take (SI unit, infinite ends
+        allowed)."""
         return -np.inf, np.inf
 
     def describe(self) -> str:
-        """The distribution as the config writes it, e.g. ``uniform(low=0, high=2)``.
-
-        Returns
-        -------
-        str
-        """
+        """The distribution as the config writes it, e.g. ``uniform(low=0, high=2)``."""
         fields = {k: v for k, v in self.model_dump().items() if k not in ("name", "dist")}
         return f"{self.dist}({', '.join(f'{k}={v:g}' for k, v in fields.items())})"
 
     def moments(self) -> tuple[float, float]:  # pragma: no cover - abstract
-        """Mean and standard deviation.
-
-        Returns
-        -------
-        mean, std : float
-            In the input's SI unit.
-        """
+        """Mean and standard deviation, in the input's SI unit."""
         raise NotImplementedError
 
 
@@ -248,15 +205,8 @@ class CorrelatedGroup:
 
 
 class InputSpace:
-    """The uncertain inputs of a run, in config order.
-
-    Parameters
-    ----------
-    marginals : sequence of marginal specs
-        One per input; their ``name`` are the model's input names.
-    groups : sequence of CorrelatedGroup, optional
-        Correlated groups of normal inputs.
-    """
+    """The uncertain inputs of a run, in config order: one marginal per input (their ``name``
+    are the model's input names) and correlated groups of normal inputs."""
 
     def __init__(self, marginals: Sequence[_Marginal], groups: Sequence[CorrelatedGroup] = ()):
         self.marginals = tuple(marginals)
@@ -304,19 +254,8 @@ class InputSpace:
         return np.array([m.mean for m in normals]), np.array([m.std for m in normals])
 
     def from_unit(self, u: np.ndarray) -> np.ndarray:
-        """Map points of the unit hypercube to physical inputs (inverse CDFs; correlated
-        groups through their Cholesky factor).
-
-        Parameters
-        ----------
-        u : ndarray, shape (n, d)
-            Points in ``(0, 1)^d``, column ``j`` for input ``names[j]``.
-
-        Returns
-        -------
-        ndarray, shape (n, d)
-            Input values in their SI units.
-        """
+        """Map points ``u (n, d)`` of ``(0, 1)^d`` (column ``j`` for ``names[j]``) to physical
+        inputs in SI units (inverse CDFs; correlated groups through their Cholesky factor)."""
         from scipy import special
 
         u = np.asarray(u, dtype=float)
@@ -331,20 +270,9 @@ class InputSpace:
         return x
 
     def to_unit(self, x: np.ndarray) -> np.ndarray:
-        """The inverse of :meth:`from_unit`: physical inputs to points of the unit hypercube
-        (CDFs; a correlated group decorrelated through its Cholesky factor first).
-
-        Parameters
-        ----------
-        x : ndarray, shape (n, d)
-            Input values in their SI units, column ``j`` for input ``names[j]``.
-
-        Returns
-        -------
-        ndarray, shape (n, d)
-            Points in ``[0, 1]^d`` (independent uniform when ``x`` follows the inputs'
-            distribution).
-        """
+        """The inverse of :meth:`from_unit`: physical inputs ``(n, d)`` in SI units to points of
+        ``[0, 1]^d`` (CDFs; a correlated group decorrelated through its Cholesky factor first),
+        independent uniform when ``x`` follows the inputs' distribution."""
         from scipy import linalg, special
 
         x = np.asarray(x, dtype=float)

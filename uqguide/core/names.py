@@ -19,30 +19,12 @@ PLAIN_NAME_RULE = ("1 to 200 letters, digits, '_', '.' or '-', not only dots (it
 
 
 def is_plain_name(name: object) -> bool:
-    """Whether ``name`` may name a file, an HDF5 path component and a table column.
-
-    Parameters
-    ----------
-    name : object
-
-    Returns
-    -------
-    bool
-    """
+    """Whether ``name`` may name a file, an HDF5 path component and a table column."""
     return isinstance(name, str) and bool(PLAIN_NAME.match(name)) and set(name) != {"."}
 
 
 def check_plain_name(name: object) -> str:
-    """``name`` unchanged if :func:`is_plain_name`, else ValueError (for pydantic validators).
-
-    Parameters
-    ----------
-    name : object
-
-    Returns
-    -------
-    str
-    """
+    """``name`` unchanged if :func:`is_plain_name`, else ValueError (for pydantic validators)."""
     if not is_plain_name(name):
         raise ValueError(f"must be {PLAIN_NAME_RULE}")
     return name  # type: ignore[return-value]

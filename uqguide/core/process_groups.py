@@ -109,12 +109,7 @@ class ProgramCall:
 def program_call() -> Iterator[ProgramCall]:
     """The lifetime of one program call: start it inside, with the call's environment, and
     hand its pid to :meth:`ProgramCall.started` (under :func:`spawning`); on leaving,
-    whatever way, nothing it started runs any more.
-
-    Yields
-    ------
-    ProgramCall
-    """
+    whatever way, nothing it started runs any more."""
     call = ProgramCall()
     _adopt(True)
     restore = _handle_sigterm()

@@ -93,21 +93,8 @@ ConfigLoader.add_implicit_resolver(
 
 
 def safe_load(text: str, max_bytes: int = MAX_BYTES) -> Any:
-    """Parse one YAML document with :class:`ConfigLoader`; YamlLimitError / YAMLError if it
-    is refused or invalid.
-
-    Parameters
-    ----------
-    text : str
-        The document.
-    max_bytes : int
-        Largest size accepted (UTF-8 bytes).
-
-    Returns
-    -------
-    object
-        The document's value (a config is a mapping).
-    """
+    """Parse one YAML document of at most ``max_bytes`` UTF-8 bytes with :class:`ConfigLoader`;
+    YamlLimitError / YAMLError if it is refused or invalid."""
     size = len(text.encode("utf-8", "surrogatepass"))
     if size > max_bytes:
         raise YamlLimitError(f"{size} bytes, more than the {max_bytes} a config may have")

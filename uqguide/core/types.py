@@ -30,19 +30,10 @@ RUNS_NEEDED = {"mean": 1, "std": 2, "skewness": 3, "kurtosis": 4}
 class ModelOutput:
     """What a model returns for a batch of ``n`` samples.
 
-    Attributes
-    ----------
-    time : ndarray, shape (T,)
-        Time grid [s] shared by the whole batch (empty for models without time series).
-    series : dict of str to ndarray, shape (n, T, k)
-        Time-series outputs. A sample that stops early keeps its last value on the rest of
-        the grid.
-    scalars : dict of str to ndarray, shape (n, k)
-        Scalar outputs.
-    failed : ndarray of bool, shape (n,)
-        True where the sample's evaluation failed; its output values are not to be used.
-    reasons : ndarray of object, shape (n,)
-        Why each failed sample failed (``""`` where it did not).
+    ``time (T,)``: time grid [s] shared by the batch (empty for models without series);
+    ``series``: ``(n, T, k)`` per output, a sample that stops early keeping its last value on
+    the rest of the grid; ``scalars``: ``(n, k)``; ``failed (n,)``: the sample's evaluation
+    failed, its values are not to be used; ``reasons (n,)``: why (``""`` where it did not).
     """
 
     time: np.ndarray
@@ -56,18 +47,8 @@ class ModelOutput:
         return int(self.failed.shape[0])
 
     def subset(self, index: np.ndarray) -> ModelOutput:
-        """The outputs of some samples of the batch.
-
-        Parameters
-        ----------
-        index : ndarray, shape (n,) of bool, or (m,) of int
-            The samples to keep (a mask or their positions).
-
-        Returns
-        -------
-        ModelOutput
-            Same time grid; series ``(m, T, k)``, scalars ``(m, k)``, failures ``(m,)``.
-        """
+        """The outputs of some samples (a mask ``(n,)`` or positions ``(m,)``), on the same time
+        grid."""
         return ModelOutput(
             time=self.time,
             series={k: v[index] for k, v in self.series.items()},
@@ -78,19 +59,8 @@ class ModelOutput:
 
     @staticmethod
     def concatenate(parts: Sequence[ModelOutput]) -> ModelOutput:
-        """Join the outputs of consecutive chunks of one batch, in order (a single part is
-        returned as it is, not copied).
-
-        Parameters
-        ----------
-        parts : sequence of ModelOutput
-            Chunks of ``n_i`` samples each, on one time grid (ModelError otherwise).
-
-        Returns
-        -------
-        ModelOutput
-            ``sum(n_i)`` samples, in the order of ``parts``.
-        """
+        """Join the outputs of consecutive chunks of one batch, in order, on one time grid
+        (ModelError otherwise); a single part is returned as it is, not copied."""
         if not parts:
             raise ModelError("cannot concatenate an empty list of model outputs")
         first = parts[0]
@@ -119,15 +89,9 @@ class DerivedOutput:
     badly. A surrogate method may fit the carriers instead and apply ``function`` to draws of
     their surrogates (:mod:`uqguide.pce.derived`); sampling methods just use the model's value.
 
-    Attributes
-    ----------
-    carriers : tuple of str
-        The (smooth) outputs it is computed from; the model must offer them.
-    function : callable
-        ``function(carriers, inputs) -> y``: ``carriers`` maps each carrier's name to its values
-        ``(n, k_c)`` (scalar) or ``(n, T, k_c)`` (series), ``inputs`` maps each uncertain
-        input's name to its physical values ``(n,)``; ``y`` is ``(n, k)`` or ``(n, T, k)``.
-    kind : {"scalar", "series"}
+    ``function(carriers, inputs) -> y``: ``carriers`` maps each carrier's name to its values
+    ``(n, k_c)`` (scalar) or ``(n, T, k_c)`` (series), ``inputs`` each uncertain input's name to
+    its physical values ``(n,)``; ``y`` is ``(n, k)`` or ``(n, T, k)`` as ``kind``.
     """
 
     carriers: tuple[str, ...]
@@ -140,16 +104,8 @@ class GeneratedRows:
     number: a design that is never held whole (a 1e8-sample Monte Carlo design would be 5.6 GB).
 
     Slicing rows (``x[a:b]``) makes only the chunks that cover them; anything else (``np.asarray``,
-    fancy indexing) makes the whole array, for small designs and tests.
-
-    Parameters
-    ----------
-    n, d : int
-        Rows and columns.
-    chunk : int
-        Rows per chunk (the last may be shorter).
-    make : callable
-        ``make(i) -> ndarray (m_i, d)``, the rows ``[i chunk, i chunk + m_i)``.
+    fancy indexing) makes the whole array, for small designs and tests. ``make(i)`` returns the
+    rows ``[i chunk, i chunk + m_i)`` (the last chunk may be shorter).
     """
 
     dtype = np.dtype(float)
@@ -176,17 +132,7 @@ class GeneratedRows:
         return self.n
 
     def rows(self, start: int, stop: int) -> np.ndarray:
-        """Rows ``[start, stop)``, making only the chunks that cover them.
-
-        Parameters
-        ----------
-        start, stop : int
-            Row range, clipped to ``[0, n]``.
-
-        Returns
-        -------
-        ndarray, shape (stop - start, d)
-        """
+        """Rows ``[start, stop)`` (clipped to ``[0, n]``), making only the chunks covering them."""
         start, stop = max(0, start), min(self.n, stop)
         if stop <= start:
             return np.empty((0, self.d))
@@ -197,14 +143,7 @@ class GeneratedRows:
         return block[start - off:stop - off]
 
     def chunks(self) -> Iterator[tuple[int, np.ndarray]]:
-        """Every chunk in order, made one at a time.
-
-        Yields
-        ------
-        start : int
-            Index of the chunk's first row.
-        rows : ndarray, shape (m_i, d)
-        """
+        """Every chunk as (index of its first row, rows ``(m_i, d)``), made one at a time."""
         for i, start in enumerate(range(0, self.n, self.chunk)):
             yield start, self._make(i)
 
@@ -249,65 +188,35 @@ class RowRange:
 class OutputStats:
     """Statistics of one output, from samples or from a surrogate.
 
-    Attributes
-    ----------
-    mean, std, skewness, kurtosis : ndarray, shape (..., k)
-        ``...`` is ``(T,)`` for a time series and empty for a scalar output.
-    cov : ndarray, shape (..., k, k)
-    n_used : int
-        Samples the estimate used (runs that did not fail), or surrogate draws.
-    moments_method : str
-        ``"sample"`` (population estimators on model runs), ``"mfmc"`` (multi-fidelity Monte
-        Carlo over fidelity levels of the model), ``"exact"`` (from PCE
-        coefficients) or ``"surrogate-sampling"`` (sampling a PCE surrogate).
-    sem : ndarray, shape (..., k), optional
-        Standard error of the mean (sample estimates only).
-    ci : dict of str to ndarray, shape (2, ..., k)
-        95% interval (low, high) per statistic name, where known.
-    sobol_first, sobol_total : ndarray, shape (..., k, d), optional
-        Sobol' indices per input: a PCE's from its coefficients, Monte Carlo's first-order
-        ones from its runs (:mod:`uqguide.stats.sobol_given_data`; NaN at the steps of a series
-        where none was computed).
-    sobol_first_ci, sobol_total_ci : ndarray, shape (2, ..., k, d), optional
-        Their 95% intervals (low, high), where the method gives them.
-    sobol_estimator : str
-        How the indices were estimated (``""``: no indices; ``"pce"``, ``"given-data"``,
-        ``"saltelli"``).
-    sobol_groups : tuple of str
-        Names of the groups of inputs with indices (the config's ``groups``).
-    sobol_group_first : ndarray, shape (..., k, G), optional
-        First-order indices of those groups (given data; :mod:`uqguide.stats.sobol_groups`).
-    sobol_group_first_ci : ndarray, shape (2, ..., k, G), optional
-        Their 95% intervals.
-    sobol_group_total, sobol_group_total_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
-        Total indices of the groups and their 95% intervals (a PCE's, or a pick-freeze
-        design's, whose groups are frozen together: :mod:`uqguide.methods.sobol_saltelli`);
-        None from given data.
-    quantile_levels : tuple of float, optional
-        Probabilities of the quantiles (the config's ``quantiles``).
-    quantiles : ndarray, shape (q, ..., k), optional
-        Quantiles at those levels (NaN at time steps where none were computed).
-    ci_quantiles : ndarray, shape (2, q, ..., k), optional
-        Their 95% intervals (order statistics; ``-inf`` / ``inf``: unbounded end).
-    corrected : dict of str to ndarray, shape (..., k)
-        A validated PCE's control-variate estimates of mean, std, skewness and kurtosis
-        (:mod:`uqguide.pce.validation`); empty without a validation set.
-    corrected_ci : dict of str to ndarray, shape (2, ..., k)
-        Their 95% intervals (delta method over the validation runs).
-    validation_error : ndarray, shape (..., k), optional
-        The surrogate's out-of-sample relative error on the validation runs.
-    sampling_se : dict of str to ndarray, shape (..., k)
-        Standard errors of moments sampled from a surrogate (a derived output's replicate
-        spread, :mod:`uqguide.pce.derived`); empty where the moments are exact.
-    usable : ndarray of bool, shape (..., k), optional
-        Where the surrogate is usable (its error at most the method's ``usable_error``); its
-        own moments are NaN elsewhere. None: not judged (sampling methods).
-    fallback : dict of str to ndarray, shape (..., k)
-        Where a PCE withholds a moment (not usable, or not supported by its runs,
-        :mod:`uqguide.pce.support`): the Monte Carlo estimate of its own fit and validation
-        runs (:mod:`uqguide.pce.runs_estimate`); NaN where the PCE's own value is given.
-    fallback_ci : dict of str to ndarray, shape (2, ..., k)
-        Their 95% intervals.
+    Shapes: ``...`` is ``(T,)`` for a series and empty for a scalar; ``d`` inputs, ``G`` groups,
+    ``q`` quantile levels; intervals are 95% (low, high) on a leading axis of 2.
+
+    - ``mean``, ``std``, ``skewness``, ``kurtosis`` ``(..., k)``; ``cov`` ``(..., k, k)``.
+    - ``n_used``: runs that did not fail, or surrogate draws.
+    - ``moments_method``: ``"sample"`` (population estimators on runs), ``"mfmc"``
+      (multi-fidelity Monte Carlo), ``"exact"`` (PCE coefficients) or ``"surrogate-sampling"``.
+    - ``sem``: standard error of the mean (sample estimates only); ``ci``: per statistic name.
+    - ``sobol_first``, ``sobol_total`` ``(..., k, d)`` and their ``_ci``: a PCE's from its
+      coefficients, Monte Carlo's first-order ones from its runs
+      (:mod:`uqguide.stats.sobol_given_data`; NaN at steps where none was computed);
+      ``sobol_estimator``: ``""`` (none), ``"pce"``, ``"given-data"``, ``"saltelli"``.
+    - ``sobol_groups``: the config's ``groups``; ``sobol_group_first`` ``(..., k, G)`` and its
+      ``_ci`` (given data, :mod:`uqguide.stats.sobol_groups`); ``sobol_group_total`` and its
+      ``_ci``: a PCE's or a pick-freeze design's (:mod:`uqguide.methods.sobol_saltelli`), None
+      from given data.
+    - ``quantile_levels``: the config's ``quantiles``; ``quantiles`` ``(q, ..., k)`` (NaN at
+      steps where none were computed); ``ci_quantiles``: order statistics, ``-inf`` / ``inf``
+      an unbounded end.
+    - ``corrected`` and ``corrected_ci``: a validated PCE's control-variate estimates
+      (:mod:`uqguide.pce.validation`, delta method); empty without a validation set.
+    - ``validation_error``: the surrogate's out-of-sample relative error.
+    - ``sampling_se``: standard errors of moments sampled from a surrogate (a derived output's
+      replicate spread, :mod:`uqguide.pce.derived`); empty where the moments are exact.
+    - ``usable``: where the surrogate's error is at most ``usable_error`` (its own moments NaN
+      elsewhere); None: not judged (sampling methods).
+    - ``fallback`` and ``fallback_ci``: where a PCE withholds a moment (:mod:`uqguide.pce.support`),
+      the Monte Carlo estimate of its own runs (:mod:`uqguide.pce.runs_estimate`); NaN where the
+      PCE's own value is given.
     """
 
     mean: np.ndarray
@@ -341,32 +250,15 @@ class OutputStats:
     fallback_ci: dict[str, np.ndarray] = field(default_factory=dict)
 
     def stat(self, name: str) -> np.ndarray:
-        """One of the four moments by name.
-
-        Parameters
-        ----------
-        name : {"mean", "std", "skewness", "kurtosis"}
-
-        Returns
-        -------
-        ndarray, shape (..., k)
-            In the output's unit (skewness and kurtosis: dimensionless).
-        """
+        """One of the four moments by name, ``(..., k)``."""
         if name not in STAT_NAMES:
             raise KeyError(name)
         value: np.ndarray = getattr(self, name)
         return value
 
     def quantile_table(self) -> tuple[tuple[float, ...], np.ndarray, np.ndarray] | None:
-        """The quantiles with their levels and intervals, which are set together.
-
-        Returns
-        -------
-        tuple or None
-            ``(levels, quantiles, ci_quantiles)``: the probabilities ``(q,)``, the quantiles
-            ``(q, ..., k)`` and their 95% intervals ``(2, q, ..., k)``, in the output's unit;
-            None where no quantiles were computed.
-        """
+        """``(levels (q,), quantiles (q, ..., k), ci_quantiles (2, q, ..., k))``, which are set
+        together; None where no quantiles were computed."""
         if self.quantiles is None:
             return None
         if self.quantile_levels is None or self.ci_quantiles is None:
@@ -394,51 +286,18 @@ class ScalarIndex:
 
     @staticmethod
     def of(output: str, k: int) -> list[ScalarIndex]:
-        """The columns of a ``k``-component scalar output.
-
-        Parameters
-        ----------
-        output : str
-            The output's name.
-        k : int
-            Its number of components.
-
-        Returns
-        -------
-        list of ScalarIndex, length k
-        """
+        """The ``k`` columns of a ``k``-component scalar output."""
         return [ScalarIndex(output, j, k) for j in range(k)]
 
     @staticmethod
     def stacked(scalars: Iterable[tuple[str, int]]) -> list[ScalarIndex]:
-        """The columns of several scalar outputs stacked in order.
-
-        Parameters
-        ----------
-        scalars : iterable of (str, int)
-            Each output's name and number of components.
-
-        Returns
-        -------
-        list of ScalarIndex
-            One per column, ``sum(k)`` in all.
-        """
+        """The columns of several scalar outputs (name, components) stacked in order."""
         return [ix for name, k in scalars for ix in ScalarIndex.of(name, k)]
 
     @staticmethod
     def parse(names: Sequence[str]) -> list[ScalarIndex]:
-        """The columns named ``names`` (as stored in a result file).
-
-        Parameters
-        ----------
-        names : sequence of str
-            ``"output"`` or ``"output[j]"`` per column.
-
-        Returns
-        -------
-        list of ScalarIndex, same length
-            Each output's component count is that of its columns in ``names``.
-        """
+        """The columns named ``"output"`` or ``"output[j]"`` (as stored in a result file); each
+        output's component count is that of its columns in ``names``."""
         split = []
         for nm in names:
             base, _, rest = nm.partition("[")
@@ -453,27 +312,13 @@ class ScalarIndex:
 class Estimate:
     """The statistics a method produced, with its diagnostics.
 
-    Attributes
-    ----------
-    method : str
-        Registered method name.
-    label : str
-        The config's label of this method entry.
-    stats : dict of str to OutputStats
-        Per output name.
-    diagnostics : dict
-        Counters and quality figures: ``n_runs``, ``n_failed``, and method-specific ones
-        (``loo_error``, ``degree``, ``n_terms``, ``n_components``, ...). Values are numbers,
-        strings or small arrays.
-    scalar_index : list of ScalarIndex
-        The columns of the stacked scalar vector.
-    scalar_mean, scalar_cov : ndarray, shape (m,), (m, m)
-        Joint mean and covariance of all scalar outputs stacked (docs/statistics.md#statistics).
-    events : dict of str to EventEstimate
-        Probability of each of the config's events.
-    surrogate : object, optional
-        The fitted surrogate of a PCE method (:class:`uqguide.pce.surrogate.Surrogate`), kept
-        in the result file; None for sampling methods.
+    ``method``: registered name; ``label``: the config's label of this entry; ``stats``: per
+    output; ``diagnostics``: counters and quality figures (``n_runs``, ``n_failed``,
+    ``loo_error``, ``degree``, ...), numbers, strings or small arrays; ``scalar_index``: the
+    columns of the stacked scalar vector, with their joint ``scalar_mean (m,)`` and
+    ``scalar_cov (m, m)`` (docs/statistics.md#statistics); ``events``: per config event;
+    ``surrogate``: a PCE method's :class:`uqguide.pce.surrogate.Surrogate`, kept in the result
+    file (None for sampling methods).
     """
 
     method: str
@@ -493,14 +338,8 @@ class Estimate:
 
     def restrict(self, outputs: Collection[str]) -> None:
         """Keep only the statistics of ``outputs`` (a surrogate method also estimates the
-        carriers of derived outputs, which are not part of the result).
-
-        Parameters
-        ----------
-        outputs : collection of str
-            The outputs to keep; the stacked scalar mean and covariance shrink to their
-            columns.
-        """
+        carriers of derived outputs, which are not part of the result); the stacked scalar mean and
+        covariance shrink to their columns."""
         self.stats = {k: v for k, v in self.stats.items() if k in outputs}
         if not self.scalar_index or self.scalar_mean is None:
             return

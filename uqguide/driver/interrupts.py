@@ -90,13 +90,8 @@ def _raise(signum: int) -> None:
 
 def install() -> dict[int, Any]:
     """Route SIGINT and SIGTERM to :class:`KeyboardInterrupt` (main thread only; a signal the
-    process was started ignoring stays ignored).
-
-    Returns
-    -------
-    dict of int to handler
-        The handlers replaced, by signal number, for :func:`restore`.
-    """
+    process was started ignoring stays ignored); returns the handlers replaced, by signal number,
+    for :func:`restore`."""
     previous: dict[int, Any] = {}
     if threading.current_thread() is not threading.main_thread():
         return previous
@@ -112,13 +107,7 @@ def install() -> dict[int, Any]:
 
 
 def restore(previous: dict[int, Any]) -> None:
-    """Put back the handlers :func:`install` replaced.
-
-    Parameters
-    ----------
-    previous : dict of int to handler
-        As :func:`install` returned it.
-    """
+    """Put back the handlers :func:`install` replaced."""
     if threading.current_thread() is threading.main_thread():
         for sig, old in previous.items():
             signal.signal(sig, old if old is not None else signal.SIG_DFL)
@@ -135,12 +124,7 @@ def ignore_signals() -> None:
 
 @contextmanager
 def deferred() -> Iterator[None]:
-    """Hold SIGINT / SIGTERM until the block ends, then raise it (KeyboardInterrupt).
-
-    Yields
-    ------
-    None
-    """
+    """Hold SIGINT / SIGTERM until the block ends, then raise it (KeyboardInterrupt)."""
     _state.depth += 1
     try:
         yield

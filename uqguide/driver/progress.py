@@ -35,18 +35,10 @@ def hms(seconds: float) -> str:
 class MethodCount:
     """One method's share of a run.
 
-    Attributes
-    ----------
-    label : str
-        The method's label ("" for work planned before a method is named).
-    chunks_total, chunks_done, runs_total, runs_done, runs_failed : int
-        Its planned and finished chunks and runs (restored ones included).
-    runs_evaluated : int
-        Runs evaluated in this session (the ETA's speed).
-    started : float or None
-        ``time.monotonic()`` when the method started; None before.
-    in_phases : float
-        Seconds it spent in phases (compiling, fitting), left out of its speed.
+    ``label``: "" for work planned before a method is named; the chunk and run counts include
+    restored ones; ``runs_evaluated``: runs of this session (the ETA's speed); ``started``:
+    ``time.monotonic()`` at its start (None before); ``in_phases``: seconds spent in phases
+    (compiling, fitting), left out of its speed.
     """
 
     label: str
@@ -63,25 +55,10 @@ class MethodCount:
 class Progress:
     """Counters of a whole run and of each of its methods, optionally shown on ``stream``.
 
-    Parameters
-    ----------
-    stream : text stream, optional
-        Where to show progress (``None``: nowhere).
-    tty : bool, optional
-        Whether ``stream`` is a terminal (default: ``stream.isatty()``).
-    interval : float
-        Seconds between plain lines off a terminal.
-    refresh : float
-        Seconds between redraws on a terminal.
-
-    Attributes
-    ----------
-    chunks_total, chunks_done, runs_total, runs_done, runs_failed : int
-        The whole run's counts (all methods).
-    methods : list of MethodCount
-        Each method's counts, in the order they were planned.
-    phase_text : str
-        What the current method does besides chunks ("" while it runs them).
+    ``tty`` defaults to ``stream.isatty()``; ``interval``: seconds between plain lines off a
+    terminal; ``refresh``: seconds between redraws on one. ``methods``: each method's counts in
+    the order planned; ``phase_text``: what the current method does besides chunks ("" while it
+    runs them).
     """
 
     def __init__(self, stream: TextIO | None = None, tty: bool | None = None,
@@ -126,15 +103,8 @@ class Progress:
         return m
 
     def plan(self, n_chunks: int, n_runs: int, label: str | None = None) -> None:
-        """Add chunks / runs to do (a design or a refinement).
-
-        Parameters
-        ----------
-        n_chunks, n_runs : int
-        label : str, optional
-            The method they belong to; default the current one (a refinement), or, before any
-            method started, the next one to start.
-        """
+        """Add chunks / runs to do (a design or a refinement) to the method ``label``; default the
+        current one (a refinement), or, before any method started, the next one to start."""
         self.chunks_total += n_chunks
         self.runs_total += n_runs
         if label is None:
@@ -158,13 +128,8 @@ class Progress:
         self._show(force=self.tty)
 
     def phase(self, text: str) -> None:
-        """What the run does now besides evaluating chunks (empty: back to chunks).
-
-        Parameters
-        ----------
-        text : str
-            Shown as it is (``"compiling the ftcapn kernel"``, ``"fitting zem (2/7)"``).
-        """
+        """What the run does now besides evaluating chunks (``"fitting zem (2/7)"``; empty: back to
+        chunks)."""
         self._set_phase(text)
         self._show()
 
@@ -394,19 +359,8 @@ class BarProgress(Progress):
 
 
 def make_progress(stream: TextIO | None, quiet: bool = False) -> Progress:
-    """The display for ``stream``: a bar on a terminal, plain lines elsewhere, none if quiet.
-
-    Parameters
-    ----------
-    stream : text stream or None
-        Where progress goes (stderr); None shows nothing.
-    quiet : bool
-        Show nothing.
-
-    Returns
-    -------
-    Progress
-    """
+    """The display for ``stream`` (stderr): a bar on a terminal, plain lines elsewhere, none if
+    ``quiet`` or None."""
     if quiet or stream is None:
         return Progress(None)
     isatty = getattr(stream, "isatty", None)

@@ -42,33 +42,15 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
               design: Design | None = None, timeout_s: float | None = None,
               containment: Containment | None = None,
               earlier: Sequence[MethodRun] = ()) -> MethodRun:
-    """Run one method on one model.
+    """Run one method on one model; the MethodRun holds the estimate, the runs' inputs, scalar
+    outputs and failure mask, and the wall times.
 
-    Parameters
-    ----------
-    executor : Executor, optional
-        Where chunks run (default: this process).
-    batch_size : int, optional
-        Samples per model call when the executor does not set it (default 10000).
-    store : RunStore, optional
-        Checkpoint: finished chunks are saved there, and chunks found there are not re-run.
-    progress : Progress, optional
-        Counters (and display) of the whole run.
-    design : Design, optional
-        The method's initial design when already made (``run`` makes them all first, to
-        know the total work).
-    timeout_s : float, optional
-        Seconds a model call may take (:mod:`uqguide.guard`); default no limit.
-    containment : Containment, optional
-        Guard processes and memory limits for a model that may crash or leak (default: none).
-    earlier : sequence of MethodRun
-        The runs of the methods listed before this one (a multi-fidelity method's surrogate
-        levels are their PCEs).
-
-    Returns
-    -------
-    MethodRun
-        The estimate, the runs' inputs, scalar outputs and failure mask, and the wall times.
+    ``batch_size``: samples per model call when the executor does not set it (default 10000);
+    ``store``: finished chunks are saved there, and chunks found there are not re-run;
+    ``design``: the initial design when already made (``run`` makes them all first, to know the
+    total work); ``timeout_s``: seconds a model call may take (:mod:`uqguide.guard`);
+    ``containment``: guard processes and memory limits; ``earlier``: the runs of the methods
+    listed before (a multi-fidelity method's surrogate levels are their PCEs).
     """
     executor = executor or SerialExecutor()
     requested = outputs
@@ -119,19 +101,9 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
 
 
 def say_overflow(result: Result) -> list[str]:
-    """Log one warning per output whose moments overflowed double precision (outputs near
-    1e300: :func:`uqguide.stats.moments.overflowed`), naming the methods; the tables show
-    those moments as ``overflow``.
-
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    list of str
-        The lines logged.
-    """
+    """Log (and return) one warning per output whose moments overflowed double precision
+    (outputs near 1e300: :func:`uqguide.stats.moments.overflowed`), naming the methods; the
+    tables show those moments as ``overflow``."""
     by_output: dict[str, list[str]] = {}
     for label, described in result_statistics(result).items():
         for name, v in described.items():
@@ -166,30 +138,11 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         progress: Progress | None = None) -> Result:
     """Run every method of a validated config; the Result holds all their statistics.
 
-    Parameters
-    ----------
-    config : RunConfig
-    executor : Executor, optional
-        Default: this process, in calls of the config's ``batch_size``.
-    store : RunStore, optional
-        Checkpoint folder (see :mod:`uqguide.driver.run_folder`).
-    progress : Progress, optional
-        Where progress is shown (default: counted, not shown).
-
-    Returns
-    -------
-    Result
-        One MethodRun per method, in config order; a method that failed is recorded with its
-        runs and ``success=False`` (see :func:`check_methods`).
-
-    Raises
-    ------
-    RunInterrupted
-        On Ctrl-C (KeyboardInterrupt): chunks in flight are dropped; those done are in
-        ``store``.
-    ClusterLost
-        A Dask cluster without workers or scheduler, with the count of the chunks done (in
-        ``store``).
+    One MethodRun per method, in config order; a method that failed is recorded with its runs
+    and ``success=False`` (:func:`check_methods`). ``store``: the checkpoint folder
+    (:mod:`uqguide.driver.run_folder`). RunInterrupted on Ctrl-C (chunks in flight dropped,
+    those done in ``store``); ClusterLost for a Dask cluster without workers or scheduler, with
+    the count of chunks done.
     """
     executor = executor or SerialExecutor(config.raw.batch_size)
     progress = progress or Progress()
@@ -257,44 +210,23 @@ def _chunks_kept(store: RunStore | None, progress: Progress) -> int:
 
 def containment_of(config: RunConfig) -> Containment:
     """How a run of ``config`` contains its model: isolated when the model may crash (or the
-    config says ``model.isolate``), child processes capped at ``max_memory``.
-
-    Parameters
-    ----------
-    config : RunConfig
-
-    Returns
-    -------
-    Containment
-    """
+    config says ``model.isolate``), child processes capped at ``max_memory``."""
     return Containment(isolate=config.isolate, asked=config.isolate_asked,
                        memory_limit=config.max_memory)
 
 
 def check_methods(result: Result) -> None:
     """Raise UqguideError (exit 1) naming each method that produced no statistics (the others
-    are in the result and its tables).
-
-    Parameters
-    ----------
-    result : Result
-    """
+    are in the result and its tables)."""
     failed = [r.message for r in result.runs if not r.success]
     if failed:
         raise UqguideError("; ".join(failed))
 
 
 def check_failure_budget(result: Result, max_failed_fraction: float) -> None:
-    """Raise UqguideError (exit 1) when a method's share of failed runs exceeds the budget.
-
-    The message names each method over budget, its counts and its most common reasons.
-
-    Parameters
-    ----------
-    result : Result
-    max_failed_fraction : float
-        Largest share of failed runs allowed per method, in ``[0, 1]``.
-    """
+    """Raise UqguideError (exit 1) when a method's share of failed runs exceeds
+    ``max_failed_fraction`` (in ``[0, 1]``), naming each such method, its counts and its most
+    common reasons."""
     over = []
     for r in result.runs:
         if r.n_runs and r.n_failed / r.n_runs > max_failed_fraction:

@@ -46,13 +46,8 @@ log = logging.getLogger(__name__)
 
 # ---------------------------------------------------------------------------- the lock
 class RunLock:
-    """The exclusive lock of one run folder; a context manager.
-
-    Parameters
-    ----------
-    run_folder : path
-        The run folder ``<out>/<name>.run`` (it need not exist yet).
-    """
+    """The exclusive lock of one run folder ``<out>/<name>.run`` (need not exist yet); a context
+    manager."""
 
     def __init__(self, run_folder: str | Path) -> None:
         self.run_folder = Path(run_folder)
@@ -150,23 +145,13 @@ ChunkKey = tuple[str, int, int]
 
 # ---------------------------------------------------------------------------- identity
 def model_code_hash(model: Model) -> str:
-    """SHA-256 of the source that defines ``model``.
+    """SHA-256 hex digest of the version and the source that defines ``model``.
 
     The source of the module defining its class (the whole package folder for a simulator
     package such as ``uqguide.models.ftcapn``) and, for a ``callable`` model, the user
     function's module, for a ``command`` model its program's file, for an ``fmu`` model the
-    FMU file; a code change elsewhere (a shared helper module) is not seen.
-
-    Parameters
-    ----------
-    model : Model
-
-    Returns
-    -------
-    str
-        Hex digest of its version and source files (a callable model's module, a command
-        model's program file, an fmu model's FMU file included: a recompiled simulator is
-        another model).
+    FMU file (a recompiled simulator is another model); a code change elsewhere (a shared helper
+    module) is not seen.
     """
     files = _source_files(type(model))
     function = getattr(model.params, "function", None)
@@ -207,19 +192,8 @@ def _source_files(cls: type) -> list[Path]:
 
 
 def run_identity(resolved_config: dict[str, Any], model: Model) -> dict[str, Any]:
-    """What must not change between a run and its resumption, with its hash ``run_id``.
-
-    Parameters
-    ----------
-    resolved_config : dict
-        The config with every default filled in.
-    model : Model
-
-    Returns
-    -------
-    dict
-        ``config``, ``uqguide`` (version), ``model``, ``model_code`` (hash) and ``run_id``.
-    """
+    """What must not change between a run and its resumption: ``config`` (every default filled
+    in), ``uqguide`` (version), ``model``, ``model_code`` (hash) and its hash ``run_id``."""
     identity = {"config": study_config(resolved_config), "uqguide": __version__,
                 "model": model.name,
                 "model_code": model_code_hash(model)}
@@ -233,17 +207,8 @@ EXECUTION_ONLY = ("isolate",)
 
 def study_config(resolved_config: dict[str, Any]) -> dict[str, Any]:
     """The resolved config less the settings that change only how the model runs
-    (:data:`EXECUTION_ONLY`): what two runs must share to be the same study.
-
-    Parameters
-    ----------
-    resolved_config : dict
-
-    Returns
-    -------
-    dict
-        A copy without ``model.isolate``.
-    """
+    (:data:`EXECUTION_ONLY`, e.g. ``model.isolate``): what two runs must share to be the same
+    study."""
     model = resolved_config.get("model")
     if not isinstance(model, dict) or not any(k in model for k in EXECUTION_ONLY):
         return resolved_config
@@ -252,17 +217,7 @@ def study_config(resolved_config: dict[str, Any]) -> dict[str, Any]:
 
 
 def identity_hash(identity: dict[str, Any]) -> str:
-    """SHA-256 of a run identity (its canonical JSON, without a ``run_id`` key).
-
-    Parameters
-    ----------
-    identity : dict
-
-    Returns
-    -------
-    str
-        Hex digest.
-    """
+    """SHA-256 hex digest of a run identity (its canonical JSON, without a ``run_id`` key)."""
     core = {k: v for k, v in identity.items() if k != "run_id"}
     text = json.dumps(core, sort_keys=True, default=str, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
@@ -299,15 +254,7 @@ def _lookup(d: Any, path: str) -> Any:
 # ---------------------------------------------------------------------------- the manifest
 class RunManifest:
     """The manifest of the run folder ``folder`` for the run ``identity`` (as
-    :func:`run_identity` gives it, or without ``run_id``: it is then computed).
-
-    Parameters
-    ----------
-    folder : Path
-        The run folder.
-    identity : dict
-        The identity of this run.
-    """
+    :func:`run_identity` gives it, or without ``run_id``: it is then computed)."""
 
     def __init__(self, folder: Path, identity: dict[str, Any]) -> None:
         self.folder = folder
@@ -386,14 +333,8 @@ class RunManifest:
                 os.close(fd)
 
     def check_same_run(self, header: dict[str, Any]) -> None:
-        """ConfigError naming what differs when ``header`` is not this run's: the stored chunks
-        would mix two experiments.
-
-        Parameters
-        ----------
-        header : dict
-            The first line of the manifest on disk.
-        """
+        """ConfigError naming what differs when ``header`` (the manifest's first line on disk) is
+        not this run's: the stored chunks would mix two experiments."""
         where = f"cannot resume {self.folder}"
         tail = "; start over with another --out, or delete the folder"
         if header.get("format") != FORMAT:
@@ -421,14 +362,8 @@ class RunManifest:
         """ConfigError, before the folder is read, for a name the run reads or writes that holds
         something else than a regular file: a FIFO or a device (its open would block), a link,
         a folder at a chunk's name; a file named like one of this run's chunks that is not a
-        chunk file (the run would replace it); and on ``--resume`` a manifest with a second
-        name (a hard link: the lines appended would reach the other name too).
-
-        Parameters
-        ----------
-        resume : bool
-            The run continues the folder's (its manifest is appended to).
-        """
+        chunk file (the run would replace it); and on ``resume`` a manifest with a second
+        name (a hard link: the lines appended would reach the other name too)."""
         what = not_regular(self.file, hard_links=resume)
         if what:
             raise refusal(self.file, what, role="the run's manifest goes there")
@@ -455,21 +390,10 @@ class RunManifest:
     def clear(self, header: dict[str, Any] | None, known: bool = False) -> list[str]:
         """Before a fresh run: delete what uqguide left in the folder (the manifest, the chunk
         files it lists, uqguide's own temporary and chunk files) and leave anything else in
-        place, named in a warning. A folder no uqguide manifest identifies (``known``: its run's
-        files were just removed) is a run folder only when it holds nothing else (an empty or
-        torn manifest, uqguide's temporary files): else ConfigError, nothing deleted.
-
-        Parameters
-        ----------
-        header : dict or None
-            The header on disk (None: no readable manifest).
-        known : bool
-            The folder was identified as this run's, and its files removed, a moment ago.
-
-        Returns
-        -------
-        list of str
-            The names left in place.
+        place, named in a warning (the names are returned). A folder no uqguide manifest
+        identifies (``header`` None) is a run folder only when it holds nothing else (an empty
+        or torn manifest, uqguide's temporary files) or is ``known`` (identified as this run's
+        and its files removed a moment ago): else ConfigError, nothing deleted.
         """
         names = sorted(p.name for p in self.folder.iterdir())
         listed = {str(e.get("file")) for e in self.read()[1].values()}
@@ -529,12 +453,8 @@ class RunManifest:
         (after the result file is written: it holds everything). Only files the run wrote are
         deleted; anything else (a user's notes, a sub-folder) is left where it is, named in a
         warning, and never stops the run. The manifest goes last, and stays while anything of
-        the run's is left, so the folder still says whose it is.
-
-        Returns
-        -------
-        list of str
-            The names left in the folder (empty: the folder is gone).
+        the run's is left, so the folder still says whose it is. Returns the names left (empty: the
+        folder is gone).
         """
         if not self.folder.is_dir() or self.folder.is_symlink():
             return []
@@ -585,21 +505,9 @@ def _is_chunk_file(path: Path) -> bool:
 
 
 def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
-    """The header (the first one) and the chunk lines of a manifest. A second header of another
-    run makes the header ``{"run_id": "<mixed>"}``: such a folder is never resumed.
-
-    Parameters
-    ----------
-    path : Path
-        The manifest file.
-
-    Returns
-    -------
-    header : dict or None
-        None when there is no readable manifest.
-    entries : dict
-        Chunk lines by (label, stage, index); the last line of a chunk wins.
-    """
+    """The header (the first one; None without a readable manifest) and the chunk lines by
+    (label, stage, index), the last line of a chunk winning. A second header of another run
+    makes the header ``{"run_id": "<mixed>"}``: such a folder is never resumed."""
     if not path.is_file() or path.is_symlink():
         return None, {}
     header = None
@@ -633,17 +541,8 @@ def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dic
 
 # ---------------------------------------------------------------------------- the chunks
 class ChunkStore:
-    """The chunks of the run ``run_id`` listed in the folder ``folder``.
-
-    Parameters
-    ----------
-    folder : Path
-        The run folder.
-    run_id : str
-        This run's id: a stored chunk of another run is refused.
-    entries : dict, optional
-        The chunk lines already in the manifest, by (label, stage, index).
-    """
+    """The chunks of the run ``run_id`` listed in the folder ``folder`` (a stored chunk of
+    another run is refused); ``entries``: the manifest's chunk lines by (label, stage, index)."""
 
     def __init__(self, folder: Path, run_id: str,
                  entries: dict[ChunkKey, dict[str, Any]] | None = None) -> None:
@@ -655,20 +554,8 @@ class ChunkStore:
         return len(self._entries)
 
     def entry(self, label: str, stage: int, result: ChunkResult) -> dict[str, Any]:
-        """The manifest line of a chunk (its file is named after its label, stage and index).
-
-        Parameters
-        ----------
-        label : str
-            The method's label.
-        stage : int
-            Design stage (0: initial, then one per refinement).
-        result : ChunkResult
-
-        Returns
-        -------
-        dict
-        """
+        """The manifest line of a chunk (its file is named after its label, stage and index;
+        stage 0 is the initial design, then one per refinement)."""
         t = result.task
         return {"kind": "chunk", "run": self.run_id, "label": label, "stage": stage,
                 "index": t.index, "start": t.start, "stop": t.stop,
@@ -679,22 +566,8 @@ class ChunkStore:
         self._entries[(entry["label"], entry["stage"], entry["index"])] = entry
 
     def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
-        """The stored result of a chunk, or None when it is not (validly) stored.
-
-        Parameters
-        ----------
-        label : str
-            The method's label.
-        stage : int
-            Design stage (0: initial, then one per refinement).
-        task : Task
-            The chunk.
-
-        Returns
-        -------
-        ChunkResult or None
-            ConfigError when the stored chunk belongs to another run.
-        """
+        """The stored result of a chunk, or None when it is not (validly) stored; ConfigError when
+        the stored chunk belongs to another run."""
         e = self._entries.get((label, stage, task.index))
         if e is None:
             return None
@@ -742,16 +615,7 @@ class StoredChunk:
 
 
 def write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int) -> None:
-    """Write one chunk's file at ``path``, whole or not at all, fsynced with its folder.
-
-    Parameters
-    ----------
-    path : Path
-    r : ChunkResult
-    run_id : str
-    label : str
-    stage : int
-    """
+    """Write one chunk's file at ``path``, whole or not at all, fsynced with its folder."""
     # The scalars, series and summary go packed into one byte array with a JSON index: a
     # Monte Carlo chunk's summary is ~100 small arrays, and one zip entry each made the
     # checkpoints the driver's largest cost (2.5 s of a 1e6-run study, 20 ms a chunk).
@@ -776,25 +640,8 @@ def write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int)
 
 
 def read_chunk(path: Path, task: Task) -> StoredChunk:
-    """Read back the chunk file of ``task``.
-
-    Parameters
-    ----------
-    path : Path
-    task : Task
-        The chunk it must hold.
-
-    Returns
-    -------
-    StoredChunk
-
-    Raises
-    ------
-    ForeignChunk
-        The file carries no run id.
-    ValueError, KeyError, OSError
-        The file is not the chunk's, or not readable.
-    """
+    """Read back the chunk file of ``task``: ForeignChunk when it carries no run id; ValueError,
+    KeyError or OSError when it is not the chunk's or not readable."""
     with np.load(path, allow_pickle=False) as z:
         data = {k: z[k] for k in z.files}
     if "run_id" not in data:
@@ -851,14 +698,8 @@ class CheckpointWriter(Generic[Item]):
 
     The first error of ``write`` (a full disk) is raised by the next :meth:`put` or by
     :meth:`flush`; the items queued after it are dropped (their chunks re-run on resume).
-
-    Parameters
-    ----------
-    write : callable
-        Writes one item; runs on the writer's thread.
-    maxsize : int
-        Items queued at most: a writer slower than the workers holds back the driver, not its
-        memory.
+    ``maxsize`` items are queued at most: a writer slower than the workers holds back the
+    driver, not its memory.
     """
 
     def __init__(self, write: Callable[[Item], None], maxsize: int = 16) -> None:
@@ -934,35 +775,17 @@ class RunInterrupted(KeyboardInterrupt):
 
 
 def run_dir(out_dir: str | Path, name: str) -> Path:
-    """The run folder of the result ``<out_dir>/<name>.h5`` (ConfigError for a name that is
-    not a plain file name: the folder must lie inside ``out_dir``).
-
-    Parameters
-    ----------
-    out_dir : str or Path
-    name : str
-        The run's name.
-
-    Returns
-    -------
-    Path
-        ``<out_dir>/<name>.run``.
-    """
+    """The run folder ``<out_dir>/<name>.run`` of the result ``<out_dir>/<name>.h5``
+    (ConfigError for a name that is not a plain file name: the folder must lie inside
+    ``out_dir``)."""
     from ..config.run_config import check_run_name
 
     return Path(out_dir) / f"{check_run_name(name)}.run"
 
 
 class RunStore:
-    """A run folder (docs/scale.md). Only the driver process writes it.
-
-    Parameters
-    ----------
-    path : Path
-        The run folder.
-    identity : dict
-        The run's identity (:func:`run_identity`).
-    """
+    """A run folder with the run's identity (:func:`run_identity`; docs/scale.md). Only the
+    driver process writes it."""
 
     def __init__(self, path: Path, identity: dict[str, Any]) -> None:
         self.path = path
@@ -979,29 +802,12 @@ class RunStore:
     def open(cls, path: str | Path, identity: dict[str, Any], resume: bool,
              resume_hint: str = "uqguide run CONFIG --resume") -> RunStore:
         """Open the run folder ``path`` for a fresh run or (``resume``) to continue it. The
-        caller holds the folder's :class:`RunLock` (``uqguide run`` does).
+        caller holds the folder's :class:`RunLock` (``uqguide run`` does); ``resume_hint`` is the
+        command suggested in messages.
 
-        Parameters
-        ----------
-        path : str or Path
-            The run folder.
-        identity : dict
-            As :func:`run_identity` gives it.
-        resume : bool
-            Continue the run stored there.
-        resume_hint : str
-            The command to suggest in messages.
-
-        Returns
-        -------
-        RunStore
-
-        Raises
-        ------
-        ConfigError
-            ``resume`` and the folder belongs to another config / code version; or not
-            ``resume`` and the folder holds finished chunks (they are not thrown away silently);
-            or the path is something other than a uqguide run folder (it is not deleted).
+        ConfigError when resuming a folder of another config / code version; when not resuming a
+        folder holding finished chunks (they are not thrown away silently); or when the path is
+        something other than a uqguide run folder (it is not deleted).
         """
         path = Path(path)
         store = cls(path, identity)
@@ -1054,17 +860,8 @@ class RunStore:
         return dict(self.isolated.get((label, stage), {}))
 
     def record_isolated(self, label: str, stage: int, row: int, reason: str) -> None:
-        """List at once a sample that crashed or hung its process: a resume fails it with
-        ``reason`` instead of running it again.
-
-        Parameters
-        ----------
-        label : str
-        stage : int
-        row : int
-            Its row in the stage's design.
-        reason : str
-        """
+        """List at once a sample (its ``row`` in the stage's design) that crashed or hung its
+        process: a resume fails it with ``reason`` instead of running it again."""
         self.isolated.setdefault((label, stage), {})[row] = reason
         self.manifest.record_isolated(label, stage, row, reason)
 
@@ -1075,14 +872,7 @@ class RunStore:
     def save(self, label: str, stage: int, result: ChunkResult) -> None:
         """Queue one chunk: the writer thread writes it atomically, then lists it in the
         manifest, chunk after chunk in the order given; an error of the writer (a full disk)
-        is raised by the next ``save`` or by :meth:`flush`.
-
-        Parameters
-        ----------
-        label : str
-        stage : int
-        result : ChunkResult
-        """
+        is raised by the next ``save`` or by :meth:`flush`."""
         self.writer.put((label, stage, result))
 
     def flush(self) -> None:

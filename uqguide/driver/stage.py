@@ -110,15 +110,10 @@ class Stage:
 
     def _compile_here_first(self, job: ChunkJob, x: np.ndarray | GeneratedRows,
                             task: Task) -> None:
-        """Load the model's compiled kernel before a local pool's workers start.
-
-        One row of the design is evaluated here when the model runs a compiled kernel, so that
-        a kernel missing from the cache compiles once, in this process (its phase shown by this
-        progress display), and the workers load it from the cache instead of each compiling it
-        at the same time. Once per model and process; the row's outputs are dropped (a worker
-        evaluates it again with its chunk), its compile seconds kept. With a timeout the row
-        runs in a guard process like every call (its compile then is not timed here).
-        """
+        """Evaluate one design row here before a local pool starts, so that a kernel missing from
+        the cache compiles once, in this process, and the workers load it instead of each compiling
+        it (once per model and process; the row's outputs dropped, its compile seconds kept;
+        with a timeout it runs in a guard process and its compile is not timed here)."""
         model = self.model
         if model in _LOADED or model.kernel_choice() != "numba":
             return

@@ -34,20 +34,10 @@ from .execution import Timing, common_grid
 class SurrogateLevel:
     """The surrogate of the PCE method ``label`` as a level.
 
-    Attributes
-    ----------
-    label : str
-        The PCE method's label in the config.
-    surrogate : Surrogate
-    time : ndarray, shape (T,)
-        The grid of its series outputs (the PCE method's runs' grid).
-    fixed_cpu_s : float
-        What the PCE method spent: its model seconds and its fit seconds (the surrogate's
-        price, charged to the ``mfmc`` method's saving).
-    outputs : tuple of str
-        The outputs it predicts for the method.
-    timing : Timing
-        Its runs and CPU seconds so far.
+    ``time (T,)``: the grid of its series outputs (the PCE method's runs'); ``fixed_cpu_s``: what
+    the PCE method spent, model and fit seconds (the surrogate's price, charged to the ``mfmc``
+    method's saving); ``outputs``: those it predicts for the method; ``timing``: its runs and CPU
+    seconds so far.
     """
 
     label: str
@@ -115,13 +105,9 @@ class SurrogateLevel:
 
 def surrogate_level(earlier: Sequence[MethodRun], label: str,
                     outputs: Sequence[str]) -> SurrogateLevel:
-    """The surrogate of the method ``label`` among the runs of the methods listed before.
-
-    Raises
-    ------
-    MethodError
-        When that method did not run, failed, kept no surrogate, or has none of an output.
-    """
+    """The surrogate of the method ``label`` among the runs of the methods listed before;
+    MethodError when that method did not run, failed, kept no surrogate, or has none of an
+    output."""
     r = next((r for r in earlier if r.estimate.label == label), None)
     sg = None if r is None else r.estimate.surrogate
     if r is None or not r.success or sg is None:

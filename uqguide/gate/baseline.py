@@ -479,17 +479,9 @@ def _points(v: OutputStatistics, places: list[Point],
 
 def index_values(v: OutputStatistics, where: tuple[int, ...], inputs: tuple[str, ...]
                   ) -> list[tuple[str, float | None, tuple[float | None, float | None]]]:
-    """The Sobol' indices of one output at one point: ``(name, value, (low, high))`` with names
-    ``<kind>:<input or group>`` (:data:`INDEX_KINDS`), None for NaN, in a fixed order.
-
-    Parameters
-    ----------
-    v : OutputStatistics
-    where : tuple of int
-        The point: ``(step, component)`` of a series, ``(component,)`` of a scalar.
-    inputs : tuple of str
-        The result's input names (the indices' last axis).
-    """
+    """The Sobol' indices of one output at one point (``(step, component)`` of a series,
+    ``(component,)`` of a scalar): ``(name, value, (low, high))`` with names
+    ``<kind>:<input or group>`` (:data:`INDEX_KINDS`), None for NaN, in a fixed order."""
     out = []
     for kind, value, band, names in (
             ("first", v.sobol_first, v.sobol_first_ci, inputs),
@@ -508,22 +500,13 @@ def index_values(v: OutputStatistics, where: tuple[int, ...], inputs: tuple[str,
 
 def make_baseline(result: Result, pce_rtol: float = DEFAULT_PCE_RTOL,
                   roundoff: dict[StatKey, list[float | None]] | None = None) -> dict[str, Any]:
-    """The baseline of ``result`` as a JSON-ready mapping (see the module docstring).
+    """The baseline of ``result`` as a JSON-ready mapping (see the module docstring): format,
+    config, tolerances, and per method and output the values and standard errors at the report
+    points.
 
-    Parameters
-    ----------
-    result : Result
-    pce_rtol : float
-        Relative tolerance stored for PCE statistics, in ``(0, 1]``.
-    roundoff : dict, optional
-        Statistics chaotic under round-off, with their range over a round-off ensemble
-        (``scripts/update_golden.py`` measures it); they are recorded, not checked.
-
-    Returns
-    -------
-    dict
-        JSON-ready: format, config, tolerances, and per method and output the values and
-        standard errors at the report points.
+    ``pce_rtol``: relative tolerance stored for PCE statistics, in ``(0, 1]``; ``roundoff``:
+    statistics chaotic under round-off with their range over a round-off ensemble
+    (``scripts/update_golden.py`` measures it), recorded, not checked.
     """
     check_tolerance("--pce-rtol", pce_rtol)
     methods: dict[str, Any] = {}
@@ -617,18 +600,9 @@ def _json_text(obj: Any, level: int = 0) -> str:
 
 
 def to_jsonable(obj: Any) -> Any:
-    """``obj`` with arrays and NumPy scalars as lists and numbers, non-finite floats as None.
-
-    Parameters
-    ----------
-    obj : object
-        Nested dicts, lists, tuples, arrays and scalars.
-
-    Returns
-    -------
-    object
-        Accepted by ``json.dumps(..., allow_nan=False)``.
-    """
+    """``obj`` (nested dicts, lists, tuples, arrays, scalars) with arrays and NumPy scalars as
+    lists and numbers, non-finite floats as None: accepted by
+    ``json.dumps(..., allow_nan=False)``."""
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -643,22 +617,12 @@ def to_jsonable(obj: Any) -> Any:
 
 
 def baseline_digest(data: dict[str, Any]) -> str:
-    """SHA-256 of a baseline's content, everything but the ``digest`` itself.
+    """``"sha256:<hex>"`` of a baseline's JSON-ready content, everything but the ``digest``.
 
     The statistics, their standard errors, the tolerances and the config a baseline was made
     with are what the gate trusts; the digest makes an accidental change to them visible, so a
     baseline changes only by being written again from a result. Anyone can compute it again
     after an edit: against a deliberate one only the keyed seal (:func:`baseline_seal`) holds.
-
-    Parameters
-    ----------
-    data : dict
-        The baseline as JSON-ready values (:func:`to_jsonable`), with or without a digest.
-
-    Returns
-    -------
-    str
-        ``"sha256:<hex>"``.
     """
     body = {k: v for k, v in data.items() if k != "digest"}
     text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
@@ -677,20 +641,8 @@ def baseline_key() -> bytes | None:
 
 
 def baseline_seal(data: dict[str, Any], key: bytes) -> str:
-    """HMAC-SHA256 under ``key`` of a baseline's content, everything but ``digest`` and
-    ``seal``: only who holds the key can write a baseline that carries a valid one.
-
-    Parameters
-    ----------
-    data : dict
-        The baseline as JSON-ready values (:func:`to_jsonable`).
-    key : bytes
-
-    Returns
-    -------
-    str
-        ``"hmac-sha256:<hex>"``.
-    """
+    """``"hmac-sha256:<hex>"`` under ``key`` of a baseline's content, everything but ``digest``
+    and ``seal``: only who holds the key can write a baseline that carries a valid one."""
     body = {k: v for k, v in data.items() if k not in ("digest", "seal")}
     text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return SEAL_PREFIX + hmac.new(key, text.encode("utf-8"), hashlib.sha256).hexdigest()
@@ -715,17 +667,8 @@ def sealed(data: dict[str, Any], key: bytes | None = None) -> dict[str, Any]:
 
 def check_seal(data: dict[str, Any], source: str, require_key: bool = False) -> None:
     """ResultError unless ``data``'s keyed seal fits: a seal present and a key set must agree;
-    with ``require_key`` a key must be set and the baseline carry a seal made with it.
-
-    Parameters
-    ----------
-    data : dict
-        The decoded baseline.
-    source : str
-        How to name it in messages.
-    require_key : bool
-        ``uqguide check --require-key``: refuse a baseline without a valid seal.
-    """
+    with ``require_key`` (``uqguide check --require-key``) a key must be set and the baseline
+    carry a seal made with it."""
     key = baseline_key()
     seal = data.get("seal") or ""
     if require_key and key is None:
@@ -755,20 +698,8 @@ def seal_note(baseline: Baseline) -> str:
 
 def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_PCE_RTOL,
                    roundoff: dict[StatKey, list[float | None]] | None = None) -> Path:
-    """Write the baseline of ``result`` to ``path`` (temporary file, then an atomic rename).
-
-    Parameters
-    ----------
-    result : Result
-    path : str or Path
-    pce_rtol : float
-    roundoff : dict, optional
-        As for :func:`make_baseline`.
-
-    Returns
-    -------
-    Path
-    """
+    """Write the baseline of ``result`` to ``path`` (temporary file, then an atomic rename);
+    arguments as :func:`make_baseline`."""
     path = Path(path)
     text = _json_text(sealed(to_jsonable(make_baseline(result, pce_rtol, roundoff)),
                              baseline_key())) + "\n"
@@ -776,19 +707,7 @@ def write_baseline(result: Result, path: str | Path, pce_rtol: float = DEFAULT_P
 
 
 def parse_baseline(data: Any, source: str = "<baseline>") -> Baseline:
-    """Validate a decoded baseline mapping; ResultError naming the first problem.
-
-    Parameters
-    ----------
-    data : object
-        The decoded JSON.
-    source : str
-        How to name it in messages.
-
-    Returns
-    -------
-    Baseline
-    """
+    """Validate a decoded baseline mapping; ResultError naming the first problem."""
     if not isinstance(data, dict) or data.get("format") != BASELINE_FORMAT:
         raise ResultError(f"{source}: not a uqguide baseline (expected a JSON object with "
                           f"\"format\": \"{BASELINE_FORMAT}\"; write one with "
@@ -823,18 +742,8 @@ def _reject_constant(name: str) -> Any:
 def read_baseline(path: str | Path, require_key: bool = False) -> Baseline:
     """Read and validate a baseline file; ResultError if it is missing, corrupt, not one, or
     edited since it was written (its digest, :func:`baseline_digest`, and its keyed seal,
-    :func:`check_seal`).
-
-    Parameters
-    ----------
-    path : str or Path
-    require_key : bool
-        Refuse a baseline without a seal made with the key in :data:`KEY_ENV`.
-
-    Returns
-    -------
-    Baseline
-    """
+    :func:`check_seal`); ``require_key``: refuse one without a seal made with the key in
+    :data:`KEY_ENV`."""
     path = Path(path)
     try:
         st = path.stat()

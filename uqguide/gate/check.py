@@ -115,15 +115,9 @@ class CheckReport:
         return not self.failures
 
     def to_frame(self) -> pd.DataFrame:
-        """Every compared statistic, one row each.
-
-        Returns
-        -------
-        pandas.DataFrame
-            Columns ``quantity``, ``label``, ``output``, ``component``, ``time`` [s],
-            ``stat``, ``unit``, ``value``, ``baseline``, ``difference``, ``tolerance`` (in the
-            statistic's unit), ``basis``, ``passed``, ``note``.
-        """
+        """Every compared statistic, one row each: columns ``quantity``, ``label``, ``output``,
+        ``component``, ``time`` [s], ``stat``, ``unit``, ``value``, ``baseline``, ``difference``,
+        ``tolerance`` (in the statistic's unit), ``basis``, ``passed``, ``note``."""
         import pandas as pd  # here: `uqguide check` starts without it
 
         return pd.DataFrame([{
@@ -134,12 +128,7 @@ class CheckReport:
         } for r in self.rows])
 
     def summary(self) -> str:
-        """One line: PASS or REGRESSION, the counts and the tolerances used.
-
-        Returns
-        -------
-        str
-        """
+        """One line: PASS or REGRESSION, the counts and the tolerances used."""
         n_skip = sum(r.skipped for r in self.rows)
         n = len(self.rows) - n_skip
         labels = ", ".join(dict.fromkeys(r.label for r in self.rows))
@@ -156,17 +145,8 @@ class CheckReport:
                 f"from baseline {self.baseline_source} beyond tolerance ({how}){skipped}")
 
     def render(self, all_rows: bool = False) -> str:
-        """The console form: the summary line, the failing (or every) row, the notes.
-
-        Parameters
-        ----------
-        all_rows : bool
-            Every row, not only the failing ones.
-
-        Returns
-        -------
-        str
-        """
+        """The console form: the summary line, the failing (or with ``all_rows`` every) row, the
+        notes."""
         parts = [self.summary()]
         rows = self.rows if all_rows else self.failures
         if rows:
@@ -227,19 +207,9 @@ def _flatten(d: Any, prefix: str = "") -> dict[str, Any]:
 
 def config_differences(baseline_config: dict[str, Any],
                        config: dict[str, Any]) -> list[tuple[str, Any, Any]]:
-    """``(path, baseline value, value)`` for every leaf of two resolved configs that differs;
-    ``ABSENT`` stands for a key one of them does not have (a setting added to uqguide since).
-
-    Parameters
-    ----------
-    baseline_config, config : dict
-        Resolved configs (the baseline's, the result's).
-
-    Returns
-    -------
-    list of (str, object, object)
-        Dotted path, baseline value, value; empty when they agree.
-    """
+    """``(dotted path, baseline value, value)`` for every leaf of two resolved configs that
+    differs (empty when they agree); ``ABSENT`` stands for a key one of them does not have (a
+    setting added to uqguide since)."""
     a, b = _flatten(to_jsonable(baseline_config)), _flatten(to_jsonable(config))
     diffs = []
     for key in dict.fromkeys([*a, *b]):
@@ -250,31 +220,14 @@ def config_differences(baseline_config: dict[str, Any],
 
 
 def format_differences(diffs: list[tuple[str, Any, Any]]) -> str:
-    """The differences of :func:`config_differences` on one line.
-
-    Parameters
-    ----------
-    diffs : list of (str, object, object)
-
-    Returns
-    -------
-    str
-        ``"path: old -> new; ..."``.
-    """
+    """The differences of :func:`config_differences` on one line, ``"path: old -> new; ..."``."""
     return "; ".join(f"{k}: {va!r} -> {vb!r}" for k, va, vb in diffs)
 
 
 def check_compatible(baseline: Baseline, model: str, labels: dict[str, str],
                      outputs: dict[str, OutputInfo], source: str = "baseline") -> None:
-    """ResultError unless the baseline's model, method labels and outputs are all there.
-
-    Parameters
-    ----------
-    labels : dict of str to str
-        Method label -> registered method name, of the result (or config) to check.
-    outputs : dict of str to OutputInfo
-        The outputs the result reports.
-    """
+    """ResultError unless the baseline's model, method labels and outputs are all there;
+    ``labels``: method label -> registered method name of the result (or config) to check."""
     if baseline.model != model:
         raise ResultError(f"{source}: baseline is for model '{baseline.model}', the result is "
                           f"model '{model}'")
@@ -435,14 +388,11 @@ def _baseline_moment_se(p: BaselinePoint, stat: str, n_used: int, moments_method
                         ) -> float:
     """The baseline's standard error of a sample moment.
 
-    The std's (plain runs) is recomputed from the point's own std, kurtosis and ``n_used``
-    (:func:`delta_std_se`), numbers the gate compares with the result's, so a ``std_se``
-    loosened by hand loosens nothing; a multi-fidelity std's comes from its estimator and is
-    the stored one. ``mean_se`` is validated with the file (std over ``sqrt(n_used)``, to the
-    round-off). Skewness and kurtosis keep their stored ones: those come from central moments
-    of order 8-16 (the tail-aware intervals) that a baseline does not hold, and another run's
-    estimate is no substitute (a lognormal output's kurtosis standard error varies 17x between
-    reseeded runs of 2000); only the keyed seal protects them from a deliberate edit.
+    A plain std's is recomputed from the point's std, kurtosis and ``n_used``
+    (:func:`delta_std_se`), so a ``std_se`` loosened by hand loosens nothing; a multi-fidelity
+    std's and the skewness and kurtosis ones are the stored ones (they need moments of order
+    8-16 a baseline does not hold, and another run's is no substitute: a lognormal kurtosis's
+    varies 17x between reseeded runs of 2000); only the keyed seal protects those.
     """
     stored = getattr(p, f"{stat}_se")
     stored = math.nan if stored is None else float(stored)
@@ -542,12 +492,9 @@ def _compare_events(label: str, events: dict[str, BaselineEvent],
 def _runs_ratio(label: str, name: str, bo: BaselineOutput, s: OutputStatistics,
                 source: str) -> str:
     """A note when the result has far fewer runs than the baseline; a ResultError (the gate
-    cannot judge) when the baseline has far fewer than the result, beyond :data:`RUNS_RATIO`.
-
-    A baseline's standard errors go as ``1 / sqrt(n_used)``: one of 10x fewer runs than the
-    result carries errors 3.2x the result's, so they alone set the tolerance (a baseline
-    re-sealed with a few runs loosens every check). Fewer runs in the result only make its own
-    errors, and so the check, wider: that is said, not refused."""
+    cannot judge) when the baseline has far fewer than the result, beyond :data:`RUNS_RATIO`:
+    its errors (as ``1 / sqrt(n_used)``) would alone set the tolerance, so a baseline re-sealed
+    with a few runs would loosen every check."""
     if bo.uncertainty != SAMPLE:
         return ""
     n_b, n_a = bo.n_used, s.n_used
@@ -596,31 +543,13 @@ def check_sensitivity_possible(baseline: Baseline, source: str) -> int:
 def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIGMAS,
                  pce_rtol: float | None = None, source: str = "baseline",
                  sensitivity: bool = False) -> CheckReport:
-    """Compare every statistic of ``result`` with ``baseline`` at the baseline's points.
+    """Compare every statistic of ``result`` with ``baseline`` at the baseline's points: one
+    row per statistic, with its tolerance and verdict.
 
-    Parameters
-    ----------
-    result : Result
-    baseline : Baseline
-    sigmas : float
-        Monte Carlo tolerance in combined standard errors.
-    pce_rtol : float, optional
-        Relative tolerance of PCE statistics; default the one stored in the baseline.
-    source : str
-        How to name the baseline in messages (its path).
-    sensitivity : bool
-        Also compare the Sobol' indices; ResultError when the baseline
-        holds none.
-
-    Returns
-    -------
-    CheckReport
-        One row per statistic compared, with its tolerance and verdict.
-
-    Raises
-    ------
-    ResultError
-        When the result cannot be compared with this baseline (:func:`check_compatible`).
+    ``sigmas``: Monte Carlo tolerance in combined standard errors;
+    ``pce_rtol``: default the baseline's; ``source``: the baseline's name in messages (its
+    path); ``sensitivity``: also compare the Sobol' indices (ResultError when the baseline holds
+    none). ResultError when the result cannot be compared (:func:`check_compatible`).
     """
     check_tolerance("--sigmas", sigmas)
     rtol = baseline.tolerances.pce_rtol if pce_rtol is None else pce_rtol

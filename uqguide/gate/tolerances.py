@@ -32,20 +32,8 @@ LIMITS = {
 
 
 def tolerance_problem(option: str, value: Any) -> str | None:
-    """What is wrong with a tolerance, or None when it is allowed.
-
-    Parameters
-    ----------
-    option : str
-        ``"--sigmas"`` or ``"--pce-rtol"``.
-    value : object
-        What was given.
-
-    Returns
-    -------
-    str or None
-        A message naming the option, the value and the allowed range.
-    """
+    """What is wrong with the tolerance ``option`` (``"--sigmas"`` or ``"--pce-rtol"``): a
+    message naming the option, the value and the allowed range; None when it is allowed."""
     high, what = LIMITS[option]
     try:
         v = float(value)
@@ -58,18 +46,7 @@ def tolerance_problem(option: str, value: Any) -> str | None:
 
 
 def check_tolerance(option: str, value: Any) -> float:
-    """A gate tolerance within its limits, else ResultError (exit 2) naming the option.
-
-    Parameters
-    ----------
-    option : str
-        ``"--sigmas"`` or ``"--pce-rtol"``.
-    value : object
-
-    Returns
-    -------
-    float
-    """
+    """A gate tolerance within its limits, else ResultError (exit 2) naming the option."""
     problem = tolerance_problem(option, value)
     if problem:
         raise ResultError(problem)

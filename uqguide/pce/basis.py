@@ -28,20 +28,8 @@ def hyperbolic_indices(d: int, degree: int, q: float = 1.0) -> np.ndarray:
     ``q = 1`` is the total-degree set ``|alpha| <= degree`` of ``(degree + d)! / (degree! d!)``
     terms (paper eq 19); ``q < 1`` drops high-order interactions (the paper's truncation 0.5).
     The set equals chaospy's ``generate_expansion(degree, dist, cross_truncation=q)``.
-
-    Parameters
-    ----------
-    d : int
-        Number of germ variables.
-    degree : int
-        Truncation degree ``p >= 0``.
-    q : float in (0, 1]
-        q-norm of the hyperbolic truncation.
-
-    Returns
-    -------
-    ndarray of int, shape (P, d)
-        Graded order (by total degree, then as :func:`graded`); row 0 is the zero index.
+    Returns ``(P, d)`` ints in graded order (by total degree, then as :func:`graded`); row 0 is
+    the zero index.
     """
     if not 0.0 < q <= 1.0:
         raise ValueError(f"q must be in (0, 1], got {q}")
@@ -102,12 +90,8 @@ def recurrence(kind: tuple[str, float, float], degree: int) -> tuple[np.ndarray,
 
 
 def univariate(kind: tuple[str, float, float], xi: np.ndarray, degree: int) -> np.ndarray:
-    """Orthonormal polynomials ``phi_0..phi_degree`` of a germ variable at ``xi (n,)``.
-
-    Returns
-    -------
-    ndarray, shape (degree + 1, n)
-    """
+    """Orthonormal polynomials ``phi_0..phi_degree`` of a germ variable at ``xi (n,)``:
+    ``(degree + 1, n)``."""
     alpha, beta = recurrence(kind, degree)
     xi = np.asarray(xi, dtype=float)
     out = np.empty((degree + 1,) + xi.shape)
@@ -121,18 +105,7 @@ def univariate(kind: tuple[str, float, float], xi: np.ndarray, degree: int) -> n
 
 
 def evaluate(germ: Germ, alpha: np.ndarray, xi: np.ndarray) -> np.ndarray:
-    """The basis ``psi_alpha`` at germ points: ``Psi[i, a] = psi_alpha_a(xi_i)``.
-
-    Parameters
-    ----------
-    germ : Germ
-    alpha : ndarray of int, shape (P, d)
-    xi : ndarray, shape (n, d)
-
-    Returns
-    -------
-    ndarray, shape (n, P)
-    """
+    """The basis at germ points ``xi (n, d)``: ``Psi[i, a] = psi_alpha_a(xi_i)``, ``(n, P)``."""
     xi = np.atleast_2d(np.asarray(xi, dtype=float))
     n, P = xi.shape[0], alpha.shape[0]
     # Built term by term (rows) and transposed at the end: each variable multiplies only the

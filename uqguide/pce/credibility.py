@@ -45,20 +45,10 @@ class State(str, Enum):
 class Verdict:
     """One step's decision about one output.
 
-    Attributes
-    ----------
-    step : str
-        The step's name (:data:`STEPS`).
-    of : {"own", "+cv", "+mc"}
-        The value judged.
-    state : State
-        What stands where the step decided (``where``).
-    where : dict of str to ndarray of bool
-        Per statistic, the points decided (empty: the output as a whole).
-    reason : str
-        One line, logged as a warning when ``warn``.
-    record : dict
-        The diagnostics entries that keep the verdict in the result file.
+    ``step``: its name (:data:`STEPS`); ``of``: the value judged (``"own"``, ``"+cv"``, ``"+mc"``);
+    ``state``: what stands where the step decided; ``where``: per statistic, the points decided
+    (empty: the output as a whole); ``reason``: one line, logged as a warning when ``warn``;
+    ``record``: the diagnostics entries that keep the verdict in the result file.
     """
 
     step: str

@@ -43,17 +43,8 @@ def default_validation(n_fit: int) -> int:
 
 
 def mean_and_std(coef: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Mean and standard deviation of every column of an orthonormal expansion.
-
-    Parameters
-    ----------
-    coef : ndarray, shape (P, m)
-        Coefficients, row 0 the constant term.
-
-    Returns
-    -------
-    mean, std : ndarray, shape (m,)
-    """
+    """Mean and standard deviation ``(m,)`` of every column of an orthonormal expansion's
+    coefficients ``coef (P, m)`` (row 0 the constant term)."""
     return coef[0], np.sqrt(np.sum(coef[1:] ** 2, axis=0))
 
 
@@ -62,15 +53,9 @@ def settled(previous: dict[str, tuple[np.ndarray, np.ndarray]],
             target: float) -> bool:
     """Whether the design may stop growing (module docstring).
 
-    Parameters
-    ----------
-    previous, now : dict of str to (mean, std)
-        Per output, the previous and the current fit's mean and std, arrays of shape (m,).
-        ``previous`` empty: the first fit (no comparison).
-    loo : dict of str to float
-        The current fit's corrected LOO error per output (relative to the variance).
-    target : float
-        ``target_loo``.
+    ``previous``, ``now``: per output, the previous and current fit's mean and std, each
+    ``(m,)`` (``previous`` empty: the first fit); ``loo``: the current fit's corrected LOO error
+    per output, relative to the variance; ``target``: ``target_loo``.
     """
     if max(loo.values(), default=0.0) > target:
         return False

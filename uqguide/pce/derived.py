@@ -47,31 +47,12 @@ def derived_statistics(
 ) -> tuple[dict[str, OutputStats], tuple[np.ndarray, np.ndarray] | None, int]:
     """Statistics of the derived outputs by sampling their carriers' surrogates.
 
-    Parameters
-    ----------
-    germ : Germ
-    expansions : mapping of str to Expansion
-        The fitted outputs, carriers among them.
-    derived : mapping of str to DerivedOutput
-    scalar_order : list of str
-        Names of the scalar outputs (fitted or derived) in the order of the stacked vector;
-        when a derived output is among them, their joint mean and covariance are sampled too.
-    n_draws : int
-        Draws in all (split over :data:`REPLICATES` scrambled Sobol' sequences).
-    seed : int or SeedSequence
-        Keys the scramblings.
-    n_runs : int
-        Model runs behind the expansions (``n_used``).
-    sampling : str
-        Ignored: derived moments are always randomised quasi-Monte Carlo (module docstring).
-
-    Returns
-    -------
-    stats : dict of str to OutputStats
-    joint : (mean (s,), cov (s, s)) or None
-        The stacked scalars' joint moments, sampled, when ``scalar_order`` has a derived output.
-    n_invalid : int
-        Draws left out because a derived value was not finite.
+    ``scalar_order`` names the scalar outputs (fitted or derived) in the order of the stacked
+    vector; when a derived output is among them, their joint mean ``(s,)`` and covariance
+    ``(s, s)`` are sampled too (else None). ``n_draws`` are split over :data:`REPLICATES`
+    scrambled Sobol' sequences keyed by ``seed``; ``n_runs`` is ``n_used``; ``sampling`` is
+    ignored (derived moments are always randomised quasi-Monte Carlo). Also returns the number
+    of draws left out because a derived value was not finite.
     """
     d = germ.dim
     joint_wanted = any(nm in derived for nm in scalar_order)

@@ -55,7 +55,7 @@ def unit_design(d: int, start: int, stop: int, sampling: str, seed: int, label: 
 
 def surrogate_draws(d: int, n: int, seed: int | np.random.SeedSequence, chunk: int,
                     sampling: str = "random") -> Iterator[np.ndarray]:
-    """Points on the open unit cube, in chunks, for sampling a surrogate.
+    """Points ``(m, d)`` on the open unit cube, in chunks, for sampling a surrogate.
 
     - ``"random"``: ``n`` rows of one ``numpy`` Generator stream (the same rows whatever the
       chunking); the error of a sampled moment falls as ``1 / sqrt(n)``.
@@ -63,10 +63,6 @@ def surrogate_draws(d: int, n: int, seed: int | np.random.SeedSequence, chunk: i
       Sobol' set) and chunks of a power of two, so the points are those of one sequence
       whatever the chunking. For a polynomial surrogate the error of a sampled moment falls
       about as ``1 / n`` (randomised quasi-Monte Carlo).
-
-    Yields
-    ------
-    ndarray, shape (m, d)
     """
     rng = np.random.default_rng(seed)
     if sampling == "random":

@@ -21,16 +21,9 @@ from .germ import Germ
 class Expansion:
     """PCE of one output.
 
-    Attributes
-    ----------
-    germ : Germ
-    alpha : ndarray of int, shape (P, d)
-        Multi-indices; row 0 is the zero index (the constant).
-    core : ndarray, shape (P, r)
-    mix : ndarray, shape (r, m), optional
-        ``None`` means the identity (``r = m``).
-    shape : tuple of int
-        Shape of one sample of the output: ``(T, k)`` or ``(k,)``.
+    ``alpha (P, d)``: multi-indices, row 0 the zero index (the constant); ``core (P, r)``;
+    ``mix (r, m)`` or ``None`` for the identity (``r = m``); ``shape``: one sample of the output,
+    ``(T, k)`` or ``(k,)``.
     """
 
     germ: Germ

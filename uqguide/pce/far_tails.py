@@ -59,17 +59,8 @@ def _stats(v: np.ndarray) -> np.ndarray:
 def replace_far_tails(st: OutputStats, draws: np.ndarray) -> np.ndarray:
     """Replace, in place, the exact statistics the draws refute (module docstring).
 
-    Parameters
-    ----------
-    st : OutputStats
-        A fitted output's exact statistics (shape ``(...)`` per statistic).
-    draws : ndarray, shape (m, ...)
-        The surrogate at ``m`` random inputs (``m`` a multiple of :data:`BATCHES`).
-
-    Returns
-    -------
-    ndarray of bool, shape (...)
-        The columns replaced.
+    ``draws (m, ...)``: the surrogate at ``m`` random inputs (``m`` a multiple of
+    :data:`BATCHES`). Returns the columns replaced, bool ``(...)``.
     """
     shape = np.shape(st.mean)
     m = draws.shape[0]
@@ -117,30 +108,17 @@ def replace_far_tails(st: OutputStats, draws: np.ndarray) -> np.ndarray:
 def beyond_the_runs(draws: np.ndarray, clipped: np.ndarray) -> dict[str, np.ndarray]:
     """How much of each statistic the surrogate takes from beyond its runs.
 
-    Parameters
-    ----------
-    draws : ndarray, shape (m, ...)
-        The surrogate at random inputs.
-    clipped : ndarray, shape (m, ...)
-        The surrogate at the same inputs, each coordinate clipped to the range its runs
-        (fit and validation) cover: the surrogate continued as a constant beyond them.
+    ``draws (m, ...)``: the surrogate at random inputs; ``clipped``: at the same inputs, each
+    coordinate clipped to the range its runs (fit and validation) cover, i.e. the surrogate
+    continued as a constant. Returns per statistic ``|stat(draws) - stat(clipped)|`` (0 where
+    either is undefined).
 
-    Returns
-    -------
-    dict of str to ndarray, shape (...)
-        Per statistic, ``|stat(draws) - stat(clipped)|`` (0 where either is undefined).
-
-    Notes
-    -----
     No run says how the model continues beyond the runs' range; the polynomial's continuation
-    and a constant one are two readings of the same evidence. The control-variate interval
-    (``+cv``) is widened by their difference on either side
-    (:func:`uqguide.methods.pce_validated.finish`): its validation runs correct the surrogate
-    only where they are. The zoo's ramp at seed 3, t = 5 s: a PCE std of 0.2524 with a ``+cv``
-    interval of +-0.0007 against the model's 0.2501 (3.2 half-widths); the part beyond the
-    runs is 0.0026. A linear output of a normal input whose runs reach +-2.9 standard
-    deviations loses 0.35% of its std to the clipping: the widening is small where the
-    surrogate continues as the model does.
+    and a constant one are two readings of the same evidence, so the ``+cv`` interval is widened
+    by their difference on either side (:func:`uqguide.methods.pce_validated.finish`). The zoo's
+    ramp at seed 3, t = 5 s: a PCE std of 0.2524 with a ``+cv`` interval of +-0.0007 against the
+    model's 0.2501; the part beyond the runs is 0.0026. A linear output of a normal input whose
+    runs reach +-2.9 standard deviations loses 0.35% of its std to the clipping.
     """
     m = draws.shape[0]
     shape = draws.shape[1:]

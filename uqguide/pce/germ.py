@@ -30,12 +30,8 @@ NORMAL, UNIFORM, OTHER = "normal", "uniform", "other"
 class Germ:
     """Independent standardised variables of an :class:`InputSpace`, one per input.
 
-    Attributes
-    ----------
-    space : InputSpace
-    families : tuple of str
-        ``"normal"`` (standard normal germ), ``"uniform"`` (U(-1, 1)) or ``"other"`` (a
-        standardised truncated normal) per input.
+    ``families``: ``"normal"`` (standard normal germ), ``"uniform"`` (U(-1, 1)) or ``"other"``
+    (a standardised truncated normal) per input.
     """
 
     space: InputSpace

@@ -20,15 +20,9 @@ _REFRESH = 8  # LARS steps between exact recomputations of the correlations
 
 
 class LarsBasis:
-    """A candidate basis prepared for :class:`LarsPath`, shared by the paths of several output
-    columns (the principal components of a series): the transposed basis (contiguous, one pass
-    over memory per product with every candidate) and the columns' squared norms.
-
-    Parameters
-    ----------
-    psi : ndarray, shape (N, P)
-        Candidate basis at the design points.
-    """
+    """A candidate basis ``psi (N, P)`` prepared for :class:`LarsPath`, shared by the paths of
+    several output columns (a series' principal components): the transposed basis (contiguous,
+    one pass over memory per product) and the columns' squared norms."""
 
     def __init__(self, psi: np.ndarray) -> None:
         self.n = int(psi.shape[0])
@@ -44,30 +38,21 @@ class LarsBasis:
 class LarsPath:
     """Least-angle regression's order of entry, advanced on demand.
 
-    Least-angle regression on the basis columns as they are, the constant among them and none
-    rescaled, as OpenTURNS' LARS does: the columns of an orthonormal basis have about the same
-    norm on a design, so the order of entry follows the size of the PCE coefficients. The
-    correlations are recomputed from the residual every few steps, not only updated
-    (scikit-learn's ``lars_path`` only updates them, and drifts once the residual is 1e-5 of
-    the output). The active columns are kept orthonormalised (``Q``, by Gram-Schmidt, repeated
-    when a column is nearly in the span: "twice is enough"); a column (nearly) in the span of
-    the active ones is skipped. The path keeps its state, so asking for more steps continues
-    it rather than starting again.
+    On the basis columns as they are, the constant among them and none rescaled, as OpenTURNS'
+    LARS does: an orthonormal basis's columns have about the same norm on a design, so the order
+    of entry follows the size of the PCE coefficients. The correlations are recomputed from the
+    residual every few steps (scikit-learn's ``lars_path`` only updates them, and drifts once the
+    residual is 1e-5 of the output). The active columns are kept orthonormalised (``Q``,
+    Gram-Schmidt repeated when a column is nearly in the span: "twice is enough"); a column
+    (nearly) in the span is skipped. Asking for more steps continues the path.
 
-    ``y (N,)`` takes the "lar" step: the equiangular direction ``u = Q z / |z|``,
-    ``z = R^-T s`` (``s`` the signs of the active correlations), grown by one entry per step.
-    ``y (N, q)`` takes the multiresponse step: the fit moves from ``Y_hat`` toward the active
-    set's least-squares fit until an inactive row of ``C = psi^T (Y - Y_hat)`` catches up with
-    the active ones (:func:`_catch_up`). With one column both are the same path in exact
-    arithmetic, not in round-off: a single output is passed as ``(N,)``, and a ``(N, 1)`` ``y``
-    keeps the multiresponse step, so that neither kind of fit moves a bit.
-
-    Parameters
-    ----------
-    psi : ndarray, shape (N, P), or LarsBasis
-        Candidate basis at the design points.
-    y : ndarray, shape (N,) or (N, q)
-        Output column(s) at the design points.
+    ``y (N,)`` takes the "lar" step: ``u = Q z / |z|``, ``z = R^-T s`` (``s`` the signs of the
+    active correlations). ``y (N, q)`` takes the multiresponse step: the fit moves from ``Y_hat``
+    toward the active set's least-squares fit until an inactive row of ``C = psi^T (Y - Y_hat)``
+    catches up (:func:`_catch_up`). With one column both are the same path in exact arithmetic,
+    not in round-off: a single output is passed as ``(N,)`` and ``(N, 1)`` keeps the
+    multiresponse step, so that neither kind of fit moves a bit. ``psi (N, P)`` or a
+    :class:`LarsBasis`.
     """
 
     def __init__(self, psi: np.ndarray | LarsBasis, y: np.ndarray) -> None:
@@ -209,10 +194,8 @@ class LarsPath:
 def _catch_up(u: np.ndarray, a: np.ndarray, c2: float) -> np.ndarray:
     """Per row, the root ``g`` in (0, 1] of ``||u - g a||^2 = (1 - g)^2 c2`` (inf if none).
 
-    ``f(g) = (a.a - c2) g^2 - 2 (u.a - c2) g + (u.u - c2)`` is negative at 0 (an inactive row
-    is below the active norm) and not negative at 1 (``u - a`` is the least-squares
-    correlation), so exactly one root lies in (0, 1]; it is taken from the numerically stable
-    pair ``q / aa``, ``cc / q``.
+    The quadratic is negative at 0 and not negative at 1, so exactly one root lies in (0, 1];
+    it is taken from the numerically stable pair ``q / aa``, ``cc / q``.
     """
     aa = np.einsum("ij,ij->i", a, a) - c2
     bb = np.einsum("ij,ij->i", u, a) - c2

@@ -28,17 +28,10 @@ from .lars import _DEGENERATE, LarsPath
 class SparseFit:
     """The selected sparse expansion of one output column.
 
-    Attributes
-    ----------
-    terms : ndarray of int, shape (P,)
-        Columns of the candidate basis kept (0, the constant, first).
-    coef : ndarray, shape (P,)
-        Their OLS coefficients.
-    loo : float
-        Corrected leave-one-out error (relative to the output's variance).
-    loo_se : float
-        Its standard error: that of the mean of the squared leave-one-out residuals, times the
-        same factors (0 where unknown).
+    ``terms (P,)``: candidate columns kept (0, the constant, first); ``coef (P,)``: their OLS
+    coefficients; ``loo``: corrected leave-one-out error relative to the output's variance;
+    ``loo_se``: that of the mean of the squared LOO residuals times the same factors (0 where
+    unknown).
     """
 
     terms: np.ndarray
@@ -92,24 +85,16 @@ def grown_factor(r: np.ndarray, rinv: np.ndarray, frob: float, c: np.ndarray, rb
 
 class LooPath:
     """Corrected LOO errors of the nested sets of a growing path (column 0, the constant,
-    first) for ``y (N,)`` or ``y (N, q)``, its QR extended block by block as the path grows.
+    first) for ``y (N,)`` or ``y (N, q)`` (none constant), ``psi (N, P)``, its QR extended block
+    by block.
 
     A block of new columns is orthogonalised against the kept ones (classical Gram-Schmidt,
     twice) and factorised by Householder QR; the nested sets' OLS residuals (cumulative sums of
     ``Q`` columns times ``Q^T y``), hat diagonals (cumulative sums of ``Q^2``) and
-    ``trace((A^T A)^-1) = ||R^-1||_F^2`` (cumulative column norms of ``R^-1``, whose new
-    columns are ``[-R^-1 C Rb^-1; Rb^-1]``) follow in BLAS-3 work on the block only, so a path
-    scored again after LARS has gone on costs only its new part. A column (nearly) in the span
-    of the earlier ones is dropped. The factorisation, the hat diagonal and the factor
-    ``T(P, N)`` depend only on the columns: the ``q`` outputs of a series' principal components
-    share them, and only the residuals are per column.
-
-    Parameters
-    ----------
-    psi : ndarray, shape (N, P)
-        Candidate basis at the design points.
-    y : ndarray, shape (N,) or (N, q)
-        Output column(s) at the design points (for ``(N, q)``, none constant).
+    ``trace((A^T A)^-1) = ||R^-1||_F^2`` (new columns of ``R^-1`` are
+    ``[-R^-1 C Rb^-1; Rb^-1]``) follow in BLAS-3 work on the block only, so re-scoring a longer
+    path costs only its new part. A column (nearly) in the span is dropped. The factorisation,
+    hat diagonal and ``T(P, N)`` depend only on the columns: the ``q`` outputs share them.
     """
 
     def __init__(self, psi: np.ndarray, y: np.ndarray) -> None:
@@ -245,29 +230,16 @@ def score_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray | LarsPath,
                patience: int | None = None, hint: int = 0,
                state: LooPath | None = None) -> LooPath:
     """Score the nested sets ``{0} + order[:k]`` of ``y (N,)`` or ``(N, q)`` by corrected LOO
-    (:meth:`LooPath.fit` then gives each column's best).
+    (:meth:`LooPath.fit` then gives each column's best); ``psi (N, P_cand)``, column 0 constant.
 
-    Parameters
-    ----------
-    psi : ndarray, shape (N, P_cand)
-        Candidate basis at the design points; column 0 is the constant.
-    y : ndarray, shape (N,) or (N, q)
-    order : ndarray of int, or LarsPath
-        Candidate columns in order of entry; a :class:`LarsPath` is advanced only as far as
-        the scoring reads it (with ``patience``, the steps past ``2 P_best + patience`` are
-        never taken: on a kinked series' components, 150 runs, they were half of all LARS
-        steps). The scores are the same as for the path's whole order.
-    patience : int, optional
-        Score the path in growing blocks, and stop once it has been scored past
-        ``2 P_best + patience`` terms (``P_best`` the largest of the columns' best set sizes):
-        the error's factor ``N / (N - P)`` only grows from there, and scoring the long tail of
-        a path costs ``O(N P^2)``. None scores the whole path.
-    hint : int
-        A guess of the best set's size (a neighbouring degree's), so that the first block
-        is long enough.
-    state : LooPath, optional
-        The scores of a shorter path that ``order`` extends (same ``psi`` and ``y``): only
-        the new part is scored. It is advanced in place.
+    A :class:`LarsPath` ``order`` is advanced only as far as the scoring reads it: with
+    ``patience``, the path is scored in growing blocks and stops past ``2 P_best + patience``
+    terms (``P_best`` the largest best set size), since ``N / (N - P)`` only grows from there
+    and the tail costs ``O(N P^2)`` (on a kinked series' components, 150 runs, half of all LARS
+    steps); the scores are the same as for the whole order. None scores the whole path.
+    ``hint``: a guess of the best size (a neighbouring degree's) for the first block.
+    ``state``: the scores of a shorter path ``order`` extends (same ``psi``, ``y``), advanced in
+    place.
     """
     path = LooPath(psi, y) if state is None else state
     if not path.joint and path.var <= 0.0:
@@ -296,23 +268,12 @@ def score_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray | LarsPath,
 
 
 def loo_values(expansion: Expansion, xi: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    """Leave-one-out surrogate values ``(N, m)`` at the fit runs.
+    """Leave-one-out surrogate values ``(N, m)`` at the fit runs ``xi (N, d)``.
 
-    Parameters
-    ----------
-    expansion : Expansion
-        The fitted expansion; each column of its core is an OLS fit on its own non-zero terms.
-    xi : ndarray, shape (N, d)
-        The fit runs' germ points.
-    targets : ndarray, shape (N, r')
-        What the core's columns were fitted to (a scalar's components, a series' scores); a
-        core column beyond them (a series' mean row) is not fitted and has no residual.
-
-    Returns
-    -------
-    ndarray, shape (N, m)
-        ``expansion.evaluate(xi)`` with every fitted column's value replaced by its
-        leave-one-out prediction. A run of leverage 1 (its own term) keeps its fitted value.
+    Each column of the core is an OLS fit on its own non-zero terms; ``targets (N, r')`` is what
+    they were fitted to (a scalar's components, a series' scores); a core column beyond them (a
+    series' mean row) has no residual. ``expansion.evaluate(xi)`` with every fitted column
+    replaced by its LOO prediction; a run of leverage 1 keeps its fitted value.
     """
     psi = basis.evaluate(expansion.germ, expansion.alpha, xi)
     fitted = psi @ expansion.core
@@ -356,18 +317,10 @@ def _own_terms(psi: np.ndarray, core: np.ndarray, columns: int
 class FitRuns:
     """The fit runs as a second sample of the model-minus-surrogate differences.
 
-    Attributes
-    ----------
-    y : ndarray, shape (N, ...)
-        The model's values at the successful fit runs.
-    s_loo : ndarray, shape (N, ...)
-        The surrogate's leave-one-out values there (:func:`loo_values`).
-    stratum : ndarray of int, shape (N,)
-        Each run's stratum of the validation design.
-    ratio : ndarray, shape (N,)
-        Each run's importance ratio to the validation pool's density.
-    input_share : ndarray, shape (K,)
-        Each stratum's probability under the input distribution.
+    ``y (N, ...)``: the model at the successful fit runs; ``s_loo``: the surrogate's LOO values
+    there (:func:`loo_values`); ``stratum (N,)``: each run's validation-design stratum;
+    ``ratio (N,)``: importance ratio to the validation pool's density; ``input_share (K,)``: each
+    stratum's probability under the input distribution.
     """
 
     y: np.ndarray
@@ -381,16 +334,9 @@ class FitRuns:
 class FitFloor:
     """A statistic's per-run values at the fit runs (:func:`stratified_se`'s floor).
 
-    Attributes
-    ----------
-    influence : ndarray, shape (N, m)
-        The values, from the surrogate's leave-one-out predictions at the fit runs.
-    stratum : ndarray of int, shape (N,)
-        Each fit run's stratum of the validation design.
-    ratio : ndarray, shape (N,)
-        Each fit run's importance ratio ``1 / q(u)`` to the validation pool's density.
-    input_share : ndarray, shape (K,)
-        Each stratum's probability under the input distribution (the fit runs' own).
+    ``influence (N, m)``: from the surrogate's LOO predictions; ``stratum (N,)``; ``ratio (N,)``:
+    importance ratio ``1 / q(u)`` to the validation pool's density; ``input_share (K,)``: each
+    stratum's probability under the input distribution.
     """
 
     influence: np.ndarray

@@ -139,23 +139,11 @@ def output_statistics(
     seed: int | np.random.SeedSequence = 0, max_exact_points: int = 250_000,
     moments: str = "auto", sampling: str = "random",
 ) -> OutputStats:
-    """The :class:`OutputStats` of an expansion.
+    """The :class:`OutputStats` of an expansion fitted on ``n_runs`` (``n_used``).
 
-    Parameters
-    ----------
-    exp : Expansion
-    n_runs : int
-        Model runs the expansion was fitted on (``n_used``).
-    n_draws : int
-        Surrogate draws when the moments are sampled.
-    seed : int or SeedSequence
-        Seed of the surrogate draws.
-    max_exact_points : int
-        Largest exact Gauss grid (module docstring) before sampling is used instead.
-    moments : {"auto", "exact", "surrogate-sampling"}
-        ``"auto"``: exact where the grid is at most ``max_exact_points`` nodes.
-    sampling : {"random", "sobol"}
-        Surrogate draws when sampled (:func:`uqguide.pce.design.surrogate_draws`).
+    ``moments``: ``"auto"`` is exact where the Gauss grid is at most ``max_exact_points`` nodes,
+    else ``n_draws`` surrogate draws of kind ``sampling``
+    (:func:`uqguide.pce.design.surrogate_draws`).
     """
     mean, cov = mean_and_cov(exp)
     var = (exp.coef[1:] ** 2).sum(axis=0)

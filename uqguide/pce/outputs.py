@@ -97,28 +97,11 @@ def assemble(
            dict[str, object], dict[str, EventEstimate]]:
     """Statistics of every output, and the stacked scalars' joint moments.
 
-    Parameters
-    ----------
-    fitted : list of (OutputColumns, Expansion)
-        The outputs fitted directly.
-    derived : mapping of str to DerivedOutput
-        Outputs computed from fitted carriers (:mod:`uqguide.pce.derived`).
-    outputs : ModelOutput
-        The runs (for the order of the scalar outputs).
-    n_runs : int
-        Runs behind the fits.
-    n_draws, seed : int
-        Surrogate draws, where moments are sampled.
-    sampling : {"random", "sobol"}
-        Kind of surrogate draws (:func:`uqguide.pce.design.surrogate_draws`).
-    label : str
-        The method's label, for messages.
-    levels, events, components
-        Quantile levels and events, from surrogate draws (:mod:`uqguide.pce.tails`).
-
-    Returns
-    -------
-    stats, scalar_names, scalar_mean, scalar_cov, diagnostics, events
+    ``fitted``: the outputs fitted directly; ``derived``: computed from fitted carriers
+    (:mod:`uqguide.pce.derived`); ``outputs``: the runs (for the scalars' order); ``n_draws``,
+    ``seed``, ``sampling``: surrogate draws where moments are sampled; ``levels``, ``events``,
+    ``components``: quantiles and events from draws (:mod:`uqguide.pce.tails`). Returns stats,
+    scalar names, scalar mean, scalar covariance, diagnostics, events.
     """
     stats = {}
     expansions = {}

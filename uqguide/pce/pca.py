@@ -23,15 +23,9 @@ import numpy as np
 class Components:
     """Principal components of ``N`` runs of an output with ``m`` columns.
 
-    Attributes
-    ----------
-    scores : ndarray, shape (N, r)
-        Scores of the runs (zero-mean).
-    mix : ndarray, shape (r + 1, m)
-        Rows 0..r-1: the components in output units; row r: the sample mean. An expansion of the
-        scores extended by a constant-one column maps back through ``mix``.
-    explained : float
-        Fraction of the (scaled) variance the ``r`` components keep.
+    ``scores (N, r)``: zero-mean; ``mix (r + 1, m)``: rows 0..r-1 the components in output
+    units, row r the sample mean (scores extended by a constant-one column map back through
+    it); ``explained``: fraction of the scaled variance kept.
     """
 
     scores: np.ndarray
@@ -54,18 +48,9 @@ class Decomposition:
     """Every principal component of ``N`` runs of an output with ``m`` columns (correlation
     PCA); :meth:`components` keeps the first ``r``.
 
-    Attributes
-    ----------
-    scores : ndarray, shape (N, K)
-        Scores of every component, largest first.
-    axes : ndarray, shape (K, m)
-        The components in output units (zero on constant columns).
-    mean : ndarray, shape (m,)
-        The sample mean (a constant column's value).
-    energy : ndarray, shape (K,)
-        Squared singular values (the scaled variance each component holds, times ``N``).
-    varying : ndarray of bool, shape (m,)
-        Columns that are not constant.
+    ``scores (N, K)``: largest first; ``axes (K, m)``: in output units (zero on constant
+    columns); ``mean (m,)``; ``energy (K,)``: squared singular values (scaled variance times
+    ``N``); ``varying (m,)``: columns that are not constant.
     """
 
     scores: np.ndarray
@@ -117,17 +102,7 @@ def decompose(y: np.ndarray) -> Decomposition:
 
 
 def principal_components(y: np.ndarray, variance_fraction: float = 0.9999) -> Components:
-    """Correlation PCA of ``y (N, m)`` keeping ``variance_fraction`` of the variance.
-
-    Parameters
-    ----------
-    y : ndarray, shape (N, m)
-    variance_fraction : float in (0, 1]
-
-    Returns
-    -------
-    Components
-    """
+    """Correlation PCA of ``y (N, m)`` keeping ``variance_fraction`` in (0, 1] of the variance."""
     dec = decompose(y)
     if not dec.size:
         return dec.components(0)

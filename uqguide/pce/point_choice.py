@@ -26,21 +26,9 @@ def better_points(own: np.ndarray, corrected: np.ndarray, se: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:
     """The value of smaller estimated mean squared error at each point (module docstring).
 
-    Parameters
-    ----------
-    own : ndarray, shape (...)
-        The PCE's own statistic (NaN where withheld).
-    corrected : ndarray, shape (...)
-        The control-variate value (NaN where it is not reported).
-    se : ndarray, shape (...)
-        The correction's standard error.
-
-    Returns
-    -------
-    value : ndarray, shape (...)
-        The PCE's value where it is the better one, else the corrected value.
-    chose_own : ndarray of bool, shape (...)
-        Where the PCE's value was taken.
+    ``own``: the PCE's statistic (NaN where withheld); ``corrected``: the control-variate value
+    (NaN where not reported); ``se``: the correction's standard error. Returns the chosen values
+    and where the PCE's value was taken.
     """
     own = np.asarray(own, dtype=float)
     corrected = np.asarray(corrected, dtype=float)

@@ -23,20 +23,10 @@ from .quadrature import Grid, union_basis
 
 
 def project(germ: Germ, grid: Grid, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """PCE coefficients of ``y`` from its values at the grid's nodes.
+    """PCE coefficients of ``y (N, m)`` (values at ``grid.xi``, ``m`` = time steps x components).
 
-    Parameters
-    ----------
-    germ : Germ
-    grid : Grid
-    y : ndarray, shape (N, m)
-        Output values at ``grid.xi`` (rows), ``m`` output columns (time steps x components).
-
-    Returns
-    -------
-    alpha : ndarray of int, shape (P, d)
-        Multi-indices of the basis (union of the tensor terms' bases), zero index first.
-    coef : ndarray, shape (P, m)
+    Returns ``alpha (P, d)`` (union of the tensor terms' bases, zero index first) and
+    ``coef (P, m)``.
     """
     y = np.asarray(y, dtype=float)
     alpha = union_basis(grid)

@@ -36,15 +36,8 @@ _ORTHO_TOL = 1e-8
 
 @dataclass(frozen=True)
 class Rule1D:
-    """A one-dimensional rule on a germ variable.
-
-    Attributes
-    ----------
-    nodes, weights : ndarray, shape (n,)
-        Germ coordinates and weights (summing to 1: expectations under the germ measure).
-    degree : int
-        Projection degree (see module docstring).
-    """
+    """A one-dimensional rule on a germ variable: ``nodes``, ``weights (n,)`` (summing to 1)
+    and the projection ``degree`` (module docstring)."""
 
     nodes: np.ndarray
     weights: np.ndarray
@@ -113,17 +106,8 @@ def _rule_cached(kind: tuple[str, float, float], rule: str, level: int) -> Rule1
 
 @dataclass
 class TensorTerm:
-    """One tensor rule of a :class:`Grid`.
-
-    Attributes
-    ----------
-    coef : float
-        Combination coefficient (1 for a full tensor grid).
-    rules : list of Rule1D
-        One per germ variable.
-    rows : ndarray of int, shape (n_1, ..., n_d)
-        Row of each tensor node in ``Grid.xi``.
-    """
+    """One tensor rule of a :class:`Grid`: combination ``coef`` (1 for a full tensor grid), one
+    rule per germ variable, and ``rows (n_1, ..., n_d)``, each node's row in ``Grid.xi``."""
 
     coef: float
     rules: list[Rule1D]
@@ -136,14 +120,8 @@ class TensorTerm:
 
 @dataclass
 class Grid:
-    """Quadrature nodes on the germ and the tensor rules they combine.
-
-    Attributes
-    ----------
-    xi : ndarray, shape (N, d)
-        The distinct nodes (germ coordinates); the model runs are made at these.
-    terms : list of TensorTerm
-    """
+    """Quadrature nodes ``xi (N, d)`` on the germ (where the model runs) and the tensor rules
+    they combine."""
 
     xi: np.ndarray
     terms: list[TensorTerm] = field(default_factory=list)
@@ -170,16 +148,8 @@ def _outer(vectors: list[np.ndarray]) -> np.ndarray:
 
 def build_grid(germ: Germ, combos: list[tuple[float, tuple[int, ...]]],
                rules: list[str]) -> Grid:
-    """The union of the tensor grids of ``combos``.
-
-    Parameters
-    ----------
-    germ : Germ
-    combos : list of (coefficient, levels)
-        ``levels`` has one level per germ variable.
-    rules : list of str
-        One rule name per germ variable.
-    """
+    """The union of the tensor grids of ``combos`` ((coefficient, one level per germ variable)),
+    ``rules`` one rule name per germ variable."""
     d = germ.dim
     keys: dict[tuple[float, ...], int] = {}
     points: list[np.ndarray] = []

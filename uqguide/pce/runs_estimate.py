@@ -32,23 +32,10 @@ def runs_estimate(fit: np.ndarray | None, validation: np.ndarray | None,
                   design: ValidationDesign | None) -> Corrected | None:
     """Sample mean, std, skewness and kurtosis of a PCE's own model runs, with intervals.
 
-    Parameters
-    ----------
-    fit : ndarray, shape (n_fit, ...), optional
-        The output at the successful fit runs (None: not a random design, e.g. quadrature
-        nodes, or none).
-    validation : ndarray, shape (n_val, ...), optional
-        The output at the successful validation runs.
-    design : ValidationDesign, optional
-        The validation runs' design restricted to the successful runs
-        (:meth:`~uqguide.pce.validation_design.ValidationDesign.successful`); required with
-        ``validation``.
-
-    Returns
-    -------
-    Corrected or None
-        ``values`` and ``ci`` per statistic (shape ``(...)``, ``(2, ...)``), ``error`` zeros;
-        None with fewer than 3 runs (no spread, no interval).
+    ``fit (n_fit, ...)``: the output at the successful fit runs (None: not a random design, e.g.
+    quadrature nodes); ``validation (n_val, ...)`` with ``design`` restricted to the successful
+    runs (:meth:`~uqguide.pce.validation_design.ValidationDesign.successful`). Returns ``values``
+    and ``ci`` (``(...)``, ``(2, ...)``), ``error`` zeros; None with fewer than 3 runs.
     """
     parts, weights, strata, shares = [], [], [], []
     n_fit = 0 if fit is None else fit.shape[0]
@@ -89,16 +76,11 @@ LOWEST = {"std": 0.0, "kurtosis": 1.0}
 
 
 def _bound_tails(found: Corrected, y: np.ndarray, weight: np.ndarray) -> None:
-    """The interval to print (``found.shown_ci``): ``found``'s widened to the tail-aware one
-    of the pooled runs, the union of both where the runs bound the statistic, a stated floor
-    (an infinite end) where they do not (:func:`uqguide.stats.tail_intervals.tail_intervals`).
-    ``found.ci`` stays the delta-method interval, which :mod:`uqguide.pce.support` judges a
-    PCE's values by (a floor refutes no large value; that check is calibrated on it).
-
-    The pooled runs' moments are weighted as the estimate's (the validation runs over-sample
-    the tails and the input cube's faces, :mod:`uqguide.pce.validation_design`: unweighted,
-    they would inflate a kurtosis floor above the model's), with Kish's effective number of
-    runs ``(sum w)^2 / sum w^2`` in place of ``n``."""
+    """Set ``found.shown_ci``: ``found.ci`` (the delta-method interval :mod:`uqguide.pce.support`
+    is calibrated on, kept) united with the pooled runs' tail-aware one, a stated floor where the
+    runs cannot bound the statistic. The runs are weighted as the estimate (the validation runs
+    over-sample the tails: unweighted, they would inflate a kurtosis floor), with Kish's
+    ``n = (sum w)^2 / sum w^2``."""
     w = weight / weight.sum()
     mean = np.tensordot(w, y, axes=(0, 0))
     d = y - mean

@@ -42,16 +42,8 @@ COLUMNWISE_WORK = 1e11
 
 @dataclass
 class SeriesFit:
-    """The kept components and their expansions.
-
-    Attributes
-    ----------
-    components : Components
-    fit : ColumnsFit
-        Expansions of the kept components' scores (``r`` columns).
-    rule : str
-        How the count was chosen: ``"moments"``, ``"n_components"`` or ``"variance_fraction"``.
-    """
+    """The kept components and their expansions (``r`` columns); ``rule``: how the count was
+    chosen, ``"moments"``, ``"n_components"`` or ``"variance_fraction"``."""
 
     components: Components
     fit: ColumnsFit
@@ -131,14 +123,8 @@ def fit_series(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1
                ) -> SeriesFit:
     """Principal components of ``y (N, m)`` and their sparse PCEs (module docstring).
 
-    Parameters
-    ----------
-    germ, xi, degree_min, degree_max, q
-        As :func:`uqguide.pce.sparse_regression.fit_columns`.
-    variance_fraction : float in (0, 1], optional
-        Keep the fewest components that hold this fraction of the scaled variance.
-    n_components : int, optional
-        Keep this many components (at most all there are).
+    Other arguments as :func:`uqguide.pce.sparse_regression.fit_columns`; keep the fewest
+    components holding ``variance_fraction`` of the scaled variance, or ``n_components``.
     """
     # One BLAS thread for the whole fit, the decomposition included: a threaded SVD leaves
     # its threads spinning into the single-threaded searches that follow (a 2 CPU-s fit

@@ -37,14 +37,8 @@ _CHUNK_FLOATS = 2**22  # replicates x columns x index sets held at once (32 MB)
 
 @dataclass
 class PCEIndices:
-    """Indices of every column of an expansion.
-
-    Attributes
-    ----------
-    first, total : ndarray, shape (m, d)
-    group_first, group_total : ndarray, shape (m, G)
-        NaN where the column has no variance.
-    """
+    """Indices of every column of an expansion: ``first``, ``total (m, d)``, ``group_first``,
+    ``group_total (m, G)``; NaN where the column has no variance."""
 
     first: np.ndarray
     total: np.ndarray
@@ -55,14 +49,7 @@ class PCEIndices:
 def term_sets(alpha: np.ndarray, groups: Sequence[Sequence[int]] = ()) -> np.ndarray:
     """Which terms each index sums: ``(P, 2 d + 2 G)`` booleans, columns first-order of each
     input, total of each input, closed index of each group, total of each group (the constant
-    term in none).
-
-    Parameters
-    ----------
-    alpha : ndarray of int, shape (P, d)
-    groups : sequence of sequence of int
-        Each group's input columns.
-    """
+    term in none); ``groups``: each group's input columns."""
     support = np.asarray(alpha) > 0
     n_in = support.sum(axis=1)
     first = support & (n_in == 1)[:, None]
@@ -104,25 +91,12 @@ def expansion_indices(exp: Expansion, groups: Sequence[Sequence[int]] = ()) -> P
 def bootstrap_cores(exp: Expansion, psi: np.ndarray, targets: np.ndarray,
                     seed: np.random.SeedSequence | int, n_boot: int = N_BOOTSTRAP
                     ) -> np.ndarray:
-    """Refits of the expansion's selected terms to wild-bootstrap replicates of its runs.
+    """Refits of the expansion's selected terms to wild-bootstrap replicates of its runs:
+    ``(n_boot, P, r_core)``.
 
-    Parameters
-    ----------
-    exp : Expansion
-        The fitted expansion; its core's first ``r`` columns were fitted to ``targets`` by
-        least squares on their non-zero terms (the rest, e.g. a series' constant mean column,
-        are kept).
-    psi : ndarray, shape (n, P)
-        The basis ``exp.alpha`` at the fit's runs.
-    targets : ndarray, shape (n, r)
-        The fitted columns at the runs (a scalar's components, or a series' component scores).
-    seed : SeedSequence or int
-    n_boot : int
-
-    Returns
-    -------
-    ndarray, shape (n_boot, P, r_core)
-        The replicates' cores.
+    The core's first ``r`` columns were fitted to ``targets (n, r)`` by least squares on their
+    non-zero terms (the rest, e.g. a series' constant mean column, are kept); ``psi (n, P)`` is
+    ``exp.alpha`` at the runs.
     """
     core = exp.core
     n, r = targets.shape
@@ -260,15 +234,9 @@ def regression_intervals(stats: Mapping[str, OutputStats], fitted: Mapping[str, 
         seed: np.random.SeedSequence | int, n_boot: int = N_BOOTSTRAP) -> None:
     """Indices and bootstrap intervals of every fitted output of a regression PCE, in place.
 
-    Parameters
-    ----------
-    stats : mapping of str to OutputStats
-    fitted : mapping of str to (Expansion, psi (n, P), targets (n, r))
-        Each fitted output's expansion, its basis at the fit's runs and the columns fitted.
-    groups : sequence of (str, sequence of int)
-    seed : SeedSequence or int
-        Root of the bootstrap weights; each output draws its own from it (by position), so
-        the intervals do not depend on anything but the config and the seed.
+    ``fitted``: per output, its expansion, its basis ``psi (n, P)`` at the fit's runs and the
+    columns fitted ``targets (n, r)``. Each output draws its bootstrap weights from ``seed`` by
+    position, so the intervals depend only on the config and the seed.
     """
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     children = ss.spawn(len(fitted))

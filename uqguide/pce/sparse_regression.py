@@ -73,26 +73,12 @@ def candidate_cap(n_runs: int) -> int:
 class ColumnsFit:
     """Sparse expansions of several columns on one shared multi-index set.
 
-    Attributes
-    ----------
-    alpha : ndarray of int, shape (P, d)
-        Union of the columns' retained terms, constant first.
-    core : ndarray, shape (P, r)
-        Coefficients per column (zero where a column does not use a term).
-    degree : ndarray of int, shape (r,)
-        Selected truncation degree per column.
-    q : ndarray, shape (r,)
-        Selected q-norm per column.
-    loo : ndarray, shape (r,)
-        Corrected leave-one-out error per column (relative to its variance; 0 for a constant).
-    n_terms : ndarray of int, shape (r,)
-        Retained terms per column (constant included).
-    n_candidates : int
-        Size of the evaluated candidate basis.
-    loo_resid : ndarray, shape (N, r), optional
-        Each column's leave-one-out residuals ``y_i - y_hat_(-i)`` of its selected expansion,
-        which the shared-path search keeps from its scoring (None from the column-by-column
-        search: :func:`uqguide.pce.loo.loo_residuals` computes them).
+    ``alpha (P, d)``: union of the columns' retained terms, constant first; ``core (P, r)``: zero
+    where a column does not use a term; per column ``(r,)``: selected ``degree``, ``q``-norm,
+    corrected ``loo`` error (relative to its variance; 0 for a constant) and ``n_terms``
+    (constant included); ``n_candidates``: size of the candidate basis; ``loo_resid (N, r)``:
+    LOO residuals ``y_i - y_hat_(-i)`` kept by the shared-path search (None from the
+    column-by-column search: :func:`uqguide.pce.loo.loo_residuals` computes them).
     """
 
     alpha: np.ndarray
@@ -305,15 +291,12 @@ class _QSearch:
         self.fits, self.lengths = fits, lengths
 
     def own_lars(self, least: float) -> None:
-        """A degree gets a LARS of its own, on its own set, where its error is within
-        :data:`CLOSE` of ``least`` and that is cheap (at most :data:`OWN_LARS_WORK`
-        multiply-adds: any degree at 100 runs), or where its error is within :data:`RIVAL`,
-        its path was cut short and its LARS is cheap or its set at most half the largest (near
-        the top the shared path serves as well). With few runs and
-        many candidates, LARS on the largest set spends its steps before a low degree's terms
-        are all in: on the G-function at 100 runs the shared path's error at degree 8 was
-        3.5e-2 where the degree's own LARS found 3.0e-2 (OpenTURNS' fit, term for term) and
-        a 3 times smaller moment error."""
+        """Give a degree a LARS of its own where its error is within :data:`CLOSE` of ``least`` and
+        that costs at most :data:`OWN_LARS_WORK`, or within :data:`RIVAL` with its path cut short
+        and its LARS cheap or its set at most half the largest. With few runs and many
+        candidates the shared path spends its steps before a low degree's terms are in
+        (G-function, 100 runs, degree 8: 3.5e-2 shared against 3.0e-2 own, OpenTURNS' fit,
+        and a 3x smaller moment error)."""
         def wanted(p: int) -> bool:
             c, loo = self.cs.count(p), self.fits[p].loo
             if c >= self.cs.cols.size or loo > RIVAL * least:
@@ -332,12 +315,9 @@ class _QSearch:
 
 
 def _column_scores(shared: list[_SharedBasis], y: np.ndarray, degree_min: int) -> list[Scored]:
-    """Every (q, degree) fit of one column the search scored, for :func:`select`.
-
-    Every q-norm's LARS first runs :data:`FIRST_PASS` steps (or fewer, where its best degree's
-    path is done); only the q-norms within a factor :data:`RIVAL` of the best error then go on
-    to the runs' limit.
-    """
+    """Every (q, degree) fit of one column the search scored, for :func:`select`: each
+    q-norm's LARS runs :data:`FIRST_PASS` steps, then only those within :data:`RIVAL` of the
+    best go on to the runs' limit."""
     searches = [_QSearch(sb, y, degree_min) for sb in shared]
     for qs in searches:
         qs.run(FIRST_PASS)
@@ -385,26 +365,14 @@ def _joint_search(sb: _SharedBasis, y: np.ndarray, degree_min: int) -> dict[int,
 def fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1,
                 degree_max: int | None = None, q: float | None = None,
                 joint: bool = False) -> ColumnsFit:
-    """Sparse PCE of every column of ``y`` (module docstring).
+    """Sparse PCE of every column of ``y (N, r)`` at design points ``xi (N, d)`` (module
+    docstring).
 
-    Parameters
-    ----------
-    germ : Germ
-    xi : ndarray, shape (N, d)
-        Design points (germ coordinates).
-    y : ndarray, shape (N, r)
-        Output columns at the design points.
-    degree_min : int
-        Lowest truncation degree tried.
-    degree_max : int, optional
-        Highest truncation degree tried; None: the largest the runs support.
-    q : float, optional
-        q-norm of the hyperbolic truncation; None: the best of :data:`Q_GRID`.
-    joint : bool
-        One least-angle path per q-norm shared by all the columns, each degree's restriction
-        of it scored once for all (cheaper with many columns; each column still takes its own
-        q-norm, degree and terms, and the fit keeps its leave-one-out residuals). No column
-        may then be constant (principal-component scores are not).
+    ``degree_max`` None: the largest the runs support; ``q`` None: the best of :data:`Q_GRID`.
+    ``joint``: one least-angle path per q-norm shared by all columns, each degree's restriction
+    scored once for all (cheaper with many columns; each column still takes its own q-norm,
+    degree and terms, and the fit keeps its LOO residuals); no column may then be constant
+    (principal-component scores are not).
     """
     # One BLAS thread: the fit is matrix-vector work that threads do not speed up (on a
     # loaded machine they slowed it tenfold), and a threaded reduction's order, hence its

@@ -68,37 +68,20 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
                 own_se: dict[str, np.ndarray] | None = None,
                 twin_disagreed: dict[str, np.ndarray] | None = None,
                 **deprecated: dict[str, np.ndarray] | None) -> dict[str, np.ndarray]:
-    """Where the PCE's own moments are not supported by its runs.
+    """Where the PCE's own moments are not supported by its runs: per statistic of
+    :data:`LOCATION_STATS` and :data:`SHAPE_STATS`, True where withheld.
 
-    Parameters
-    ----------
-    own : dict of str to ndarray, shape (...)
-        The PCE's own ``std``, ``skewness`` and ``kurtosis``, and its ``mean`` (judged where
-        given).
-    corrected : Corrected, optional
-        The control-variate estimates (None without a validation set).
-    runs : Corrected, optional
-        The runs' Monte Carlo estimate (None when there are too few runs).
-    loo : float, optional
-        The fit's corrected LOO error; at most :data:`EXACT_LOO`, ``runs`` is not consulted.
-    own_se : dict of str to ndarray, optional
-        Standard errors of PCE moments that were sampled (a derived output's, or where the
-        exact moments came from the far tails, :mod:`uqguide.pce.far_tails`): a value whose
-        95% half-width exceeds the runs' own is withheld, as a control-variate value is
-        (:func:`corrections_to_withhold`): the runs' estimate is then the better one.
-    twin_disagreed : dict of str to ndarray of bool, optional
-        Where the runs disagreed with the control-variate value of a statistic
-        (:func:`disagrees_with_runs`, before it was dropped): the PCE's own skewness and
-        kurtosis are judged there at one half-width where the runs bound them, and withheld
-        where the runs cannot bound them (a stated floor): a user's pendulum at defaults
-        printed a kurtosis of 5.07 (model 4.19) beside a withheld ``+cv`` twin of 5.06
-        [5.00, 5.11], the runs' kurtosis a floor.
-
-    Returns
-    -------
-    dict of str to ndarray of bool, shape (...)
-        Per statistic of :data:`LOCATION_STATS` and :data:`SHAPE_STATS`: True where it is
-        withheld.
+    ``own``: the PCE's ``std``, ``skewness``, ``kurtosis`` (and ``mean``, judged where given);
+    ``corrected``: the control-variate estimates (None without a validation set); ``runs``: the
+    runs' Monte Carlo estimate (None with too few runs); ``loo`` at most :data:`EXACT_LOO`: the
+    runs are not consulted. ``own_se``: standard errors of sampled PCE moments (a derived
+    output's, or from the far tails, :mod:`uqguide.pce.far_tails`): a value whose 95% half-width
+    exceeds the runs' is withheld, as a control-variate value is
+    (:func:`corrections_to_withhold`). ``twin_disagreed``: where the runs disagreed with the
+    control-variate value (:func:`disagrees_with_runs`); the PCE's own skewness and kurtosis are
+    judged there at one half-width where the runs bound them, and withheld where they cannot (a
+    user's pendulum printed a kurtosis of 5.07, model 4.19, beside a withheld ``+cv`` twin of
+    5.06 [5.00, 5.11], the runs' kurtosis a floor).
     """
     twin_disagreed = _renamed(deprecated, "twin_refuted", twin_disagreed)
     out = {}
@@ -166,21 +149,8 @@ def disagrees_with_runs(corrected: Corrected, runs: Corrected | None, std: np.nd
 def corrections_to_withhold(corrected: Corrected, runs: Corrected | None, std: np.ndarray
                             ) -> dict[str, np.ndarray]:
     """Where the control-variate estimates disagree with the runs' Monte Carlo estimate, or
-    are less precise than it: the ``+cv`` values withheld.
-
-    Parameters
-    ----------
-    corrected : Corrected
-    runs : Corrected, optional
-    std : ndarray, shape (...)
-        A scale of the output (the runs' std) for the immaterial floor of mean and std.
-
-    Returns
-    -------
-    dict of str to ndarray of bool, shape (...)
-        Per moment: True where the ``+cv`` value disagrees with the runs' or its interval is
-        wider than theirs (all False without ``runs``).
-    """
+    have a wider interval than it: the ``+cv`` values withheld (all False without ``runs``).
+    ``std``: a scale of the output (the runs' std) for the immaterial floor of mean and std."""
     return either(disagrees_with_runs(corrected, runs, std), less_precise(corrected, runs))
 
 

@@ -32,16 +32,9 @@ from .germ import Germ
 class GermMap:
     """The input-to-germ map, input by input (module docstring).
 
-    Attributes
-    ----------
-    family : tuple of str
-        Germ family per input (``"normal"``, ``"uniform"``, ``"other"``).
-    shift, scale : ndarray, shape (d,)
-        ``xi = (g(x) - shift) / scale`` before decorrelation [input units, or log units].
-    log : ndarray of bool, shape (d,)
-        Whether ``g`` is ``log`` (lognormal inputs).
-    groups : tuple of (tuple of int, ndarray (g, g))
-        Correlated groups: input indices and the Cholesky factor ``L`` of their correlation.
+    ``family``: germ family per input; ``xi = (g(x) - shift) / scale`` before decorrelation
+    [input units, or log units], ``g`` is ``log`` where ``log`` (lognormal inputs); ``groups``:
+    correlated groups, input indices and the Cholesky factor ``L (g, g)`` of their correlation.
     """
 
     family: tuple[str, ...]
@@ -90,26 +83,10 @@ def summary(head: str, inputs: Sequence[str],
             full: str = ".expansions[name].alpha (terms, inputs), .coef (terms, columns)") -> str:
     """A few lines describing a surrogate, for ``repr`` (not its coefficients).
 
-    Parameters
-    ----------
-    head : str
-        What it is (``"Surrogate 'apce' (pce_adaptive)"``).
-    inputs : sequence of str
-        Input names, in order.
-    rows : sequence of (name, alpha, components, shape, kind, error)
-        Per fitted output: its multi-indices ``(P, d)``, its number of principal components
-        (None: not compressed), the shape of one sample, ``"series"`` or ``"scalar"``, and
-        its (error kind, value) if known.
-    derived : mapping of str to sequence of str
-        Derived outputs (not fitted) and their carriers.
-    full : str
-        Where the full expansion is, for the last line.
-
-    Returns
-    -------
-    str
-        A head line, the inputs, one line per output (at most :data:`SHOWN_OUTPUTS`) and a
-        last line saying where the full expansion is.
+    ``rows``: per fitted output, its multi-indices ``(P, d)``, number of principal components
+    (None: not compressed), shape of one sample, ``"series"`` or ``"scalar"``, and its (error
+    kind, value) if known; ``derived``: derived outputs and their carriers; ``full``: where the
+    full expansion is. At most :data:`SHOWN_OUTPUTS` output lines.
     """
     n_out = len(rows) + len(derived)
     names = ", ".join(inputs)
@@ -136,29 +113,14 @@ def summary(head: str, inputs: Sequence[str],
 class Surrogate:
     """Every output's PCE of one method, as a predictor of the physical inputs.
 
-    Attributes
-    ----------
-    germ : Germ
-    expansions : dict of str to Expansion
-        The fitted outputs (carriers of derived outputs included).
-    derived : mapping of str to DerivedOutput
-        Outputs computed from their carriers' surrogates.
-    kinds : dict of str to str
-        ``"series"`` or ``"scalar"`` per fitted output.
-    label, method : str
-        The config's label and the registered name of the method that fitted it ("" when
-        not known); shown by ``repr``.
-    errors : dict of str to (str, float)
-        Per fitted output, the kind of its relative error (``"validation"`` on held-out runs,
-        or ``"LOO"``) and the worst value over its columns, when the method measured one.
+    ``expansions``: the fitted outputs (carriers of derived outputs included); ``kinds``:
+    ``"series"`` or ``"scalar"``; ``label``, ``method``: the config's label and the method's
+    registered name ("" when not known); ``errors``: per fitted output, the kind of its relative
+    error (``"validation"`` or ``"LOO"``) and the worst value over its columns.
 
-    Notes
-    -----
-    ``repr`` is a summary of a few lines (method, inputs, and per output its degree, number of
-    terms and error), not the coefficients. The full expansion of an output is
-    ``expansions[name]``: ``.alpha`` the multi-indices ``(P, d)`` of the orthonormal basis in
-    the config's input order (row 0 the constant), ``.coef`` the coefficients ``(P, m)`` with
-    ``m`` the output's columns, time step slowest and component fastest.
+    The full expansion of an output is ``expansions[name]``: ``.alpha`` the multi-indices
+    ``(P, d)`` in the config's input order (row 0 the constant), ``.coef`` the coefficients
+    ``(P, m)``, time step slowest and component fastest.
     """
 
     germ: Germ
@@ -170,21 +132,9 @@ class Surrogate:
     errors: dict[str, tuple[str, float]] = field(default_factory=dict, compare=False)
 
     def fitted_by(self, label: str, method: str, diagnostics: Mapping[str, Any]) -> Surrogate:
-        """Record the method that fitted it and its errors from the method's ``diagnostics``
-        (``validation_error.<output>``, else ``loo_error.<output>``), for ``repr``.
-
-        Parameters
-        ----------
-        label, method : str
-            The method's label in the config and its registered name.
-        diagnostics : mapping
-            The method's :attr:`uqguide.core.types.Estimate.diagnostics`.
-
-        Returns
-        -------
-        Surrogate
-            Itself.
-        """
+        """Record (and return itself) the method's label, registered name and errors from its
+        ``diagnostics`` (``validation_error.<output>``, else ``loo_error.<output>``), for
+        ``repr``."""
         self.label, self.method = label, method
         self.errors = {}
         for name in self.expansions:
@@ -234,19 +184,8 @@ class Surrogate:
         return out
 
     def __call__(self, x: np.ndarray, names: list[str] | None = None) -> dict[str, np.ndarray]:
-        """Surrogate values of the outputs at physical inputs.
-
-        Parameters
-        ----------
-        x : ndarray, shape (n, d)
-            Physical inputs, columns in the config's input order, SI units.
-        names : list of str, optional
-            Outputs wanted (default: every fitted and derived output).
-
-        Returns
-        -------
-        dict of str to ndarray, shape (n, T, k) or (n, k)
-        """
+        """Surrogate values ``(n, T, k)`` or ``(n, k)`` of the outputs ``names`` (default all) at
+        physical inputs ``x (n, d)``, columns in the config's input order, SI units."""
         return self.at_germ(self.map.to_germ(x), names)
 
     def at_unit(self, u: np.ndarray, names: list[str] | None = None) -> dict[str, np.ndarray]:

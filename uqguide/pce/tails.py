@@ -126,22 +126,13 @@ def control_variate_events(
     With ``n_k`` successful validation runs in stratum ``k`` of probability ``W_k`` (one
     stratum, ``W = 1``, for random runs; :mod:`uqguide.pce.validation_design`), ``n+_k`` of
     them in the event by the model but not by the surrogate and ``n-_k`` the reverse, the
-    estimate is ``P = P_s + sum_k W_k (sum r+_k - sum r-_k) / n_k`` (unbiased for the model's
-    probability: ``P_s`` is the surrogate's, the correction the mean model-minus-surrogate
-    indicator, each run weighted by its importance ratio ``r``, 1 but for a non-uniform pool).
-    Its interval is distribution-free: the draws' and every stratum's two disagreement rates'
-    Clopper-Pearson intervals at ``1 - 0.05 / (1 + 2K)`` each (Bonferroni), each rate's ends
-    scaled by the least and the largest ratio of the stratum's pool points (the ratio-weighted
-    rate lies between them), combined end to end, so it holds at least 95% whatever the
-    surrogate; for random runs it is ``[0, ~3.7 / n]``-wide, never ``[0, 0]``, when no run
-    disagrees.
-
-    Parameters
-    ----------
-    ok : ndarray of bool, shape (n,)
-        The validation runs that succeeded.
-    design : ValidationDesign, optional
-        The runs' design (all of them, failed ones included); default: random.
+    estimate is ``P = P_s + sum_k W_k (sum r+_k - sum r-_k) / n_k`` (unbiased: each run weighted
+    by its importance ratio ``r``, 1 but for a non-uniform pool). Its interval is
+    distribution-free: the draws' and every stratum's two disagreement rates' Clopper-Pearson
+    intervals at ``1 - 0.05 / (1 + 2K)`` each (Bonferroni), each rate's ends scaled by the least
+    and largest ratio of the stratum's pool points, combined end to end, so it holds at least
+    95% whatever the surrogate; for random runs it is ``[0, ~3.7 / n]``-wide when no run
+    disagrees. ``ok (n,)``: the runs that succeeded; ``design``: of all runs (default random).
     """
     from ..core.events import clopper_pearson
 

@@ -38,21 +38,11 @@ def validation_unit_rows(seed: int, label: str, n: int, d: int) -> np.ndarray:
 
 def relative_error(y: np.ndarray, s: np.ndarray, weight: np.ndarray | None = None
                    ) -> np.ndarray:
-    """Out-of-sample relative error ``mean((y - s)^2) / var(y)`` per column.
+    """Out-of-sample relative error ``mean((y - s)^2) / var(y)`` per column of ``y, s (n, ...)``.
 
-    Parameters
-    ----------
-    y, s : ndarray, shape (n, ...)
-        Model and surrogate values at the same (successful) validation runs.
-    weight : ndarray, shape (n,), optional
-        The runs' weights in a stratified design (summing to 1); default ``1 / n``: means and
-        variance over the input distribution, not over the runs.
-
-    Returns
-    -------
-    ndarray, shape (...)
-        0 where the model does not vary and the surrogate agrees with it to round-off; ``inf``
-        where the model does not vary and the surrogate does.
+    ``weight (n,)``: stratified weights summing to 1 (default ``1 / n``): means over the input
+    distribution, not the runs. 0 where the model does not vary and the surrogate agrees to
+    round-off; ``inf`` where the model does not vary and the surrogate does.
     """
     if weight is None:
         weight = np.full(y.shape[0], 1.0 / max(y.shape[0], 1))
@@ -85,30 +75,15 @@ def _moments_from_raw(c: np.ndarray, m1: np.ndarray, m2: np.ndarray, m3: np.ndar
 class Corrected:
     """Control-variate estimates of one output (module docstring).
 
-    Attributes
-    ----------
-    values : dict of str to ndarray, shape (...)
-        mean, std, skewness, kurtosis.
-    ci : dict of str to ndarray, shape (2, ...)
-        Their 95% intervals (delta-method standard error, t quantile).
-    error : ndarray, shape (...)
-        Out-of-sample relative error.
-    n : int
-        Validation runs used (successful ones).
-    correction_half : dict of str to ndarray, shape (...)
-        The 95% half-width of the correction alone (without the PCE's own sampling error):
-        how far the PCE's value may sit from the corrected one by chance.
-    shown_ci : dict of str to ndarray, shape (2, ...), optional
-        The interval the report prints when it differs from ``ci`` (Welch's t, symmetric,
-        which the support checks of :mod:`uqguide.pce.support` judge by, calibrated on it):
-        the kurtosis-adjusted, skew-corrected interval of :func:`corrected_moments`, and for
-        the runs' Monte Carlo estimate its union with the tail-aware interval
-        (:func:`uqguide.pce.runs_estimate.runs_estimate`), one-sided where its runs cannot
-        bound the statistic.
-    se : dict of str to ndarray, shape (...), optional
-        The standard error of the correction alone (the delta-method one of
-        :func:`corrected_moments`): what :mod:`uqguide.pce.point_choice` weighs the PCE's
-        estimated bias against.
+    ``values``: mean, std, skewness, kurtosis, ``(...)``; ``ci``: their 95% intervals
+    ``(2, ...)`` (delta-method se, t quantile); ``error``: out-of-sample relative error; ``n``:
+    successful validation runs; ``correction_half``: the correction's own 95% half-width (how
+    far the PCE's value may sit from the corrected one by chance); ``shown_ci``: the interval
+    printed when it differs from ``ci`` (which :mod:`uqguide.pce.support` is calibrated on): the
+    kurtosis-adjusted, skew-corrected one of :func:`corrected_moments`, and for the runs' Monte
+    Carlo estimate its union with the tail-aware interval, one-sided where the runs cannot bound
+    the statistic; ``se``: the correction's delta-method standard error, which
+    :mod:`uqguide.pce.point_choice` weighs the PCE's estimated bias against.
     """
 
     values: dict[str, np.ndarray]
@@ -165,57 +140,27 @@ def _gradients(m1: np.ndarray, m2: np.ndarray, m3: np.ndarray, m4: np.ndarray
 def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray,
                   share: np.ndarray, pool: int = 0, kurtosis_adjusted: bool = True,
                   floor: FitFloor | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Standard error of a stratified weighted mean and its Welch-Satterthwaite degrees of
-    freedom.
+    """Standard error ``(m,)`` of a stratified weighted mean and its Welch-Satterthwaite degrees
+    of freedom.
 
-    Parameters
-    ----------
-    influence : ndarray, shape (n, m)
-        The values averaged (one column per statistic and output column).
-    weight : ndarray, shape (n,)
-        ``r W_k / n_k`` per run, ``r`` its importance ratio (1 but for a non-uniform pool,
-        :mod:`uqguide.pce.validation_design`): the stratum's values are ``r influence``.
-    stratum : ndarray of int, shape (n,)
-        Each run's stratum.
-    share : ndarray, shape (K,)
-        Each stratum's probability ``W_k``.
-    pool : int
-        Size of the pool the strata were cut from (0: none); its sampling adds
-        ``var / pool``.
-    kurtosis_adjusted : bool
-        Degrees of freedom adjusted for the values' kurtosis (below); False: Welch's, as if
-        the values were Gaussian.
-    floor : FitFloor, optional
-        The same values at the fit runs, from the surrogate's leave-one-out predictions: a
-        stratum's variance is the larger of the validation runs' and theirs (below).
+    ``influence (n, m)``: the values averaged; ``weight (n,)``: ``r W_k / n_k``, ``r`` the
+    importance ratio (1 but for a non-uniform pool); ``share (K,)``: ``W_k``; ``pool``: size of
+    the pool the strata were cut from (its sampling adds ``var / pool``; 0: none).
+    ``se = sqrt(sum_k W_k^2 s_k^2 / n_k (+ var / pool))``; ``df = 2 (sum a_k)^2 / sum a_k^2 v_k``,
+    ``a_k = W_k^2 s_k^2 / n_k``, ``v_k = (kappa_k - 3) / n_k + 2 / (n_k - 1)`` (Welch's with
+    ``kurtosis_adjusted`` False). A stratum with a single run borrows the largest variance (and
+    with fewer than four runs the largest kurtosis) of the others.
 
-    Returns
-    -------
-    se, df : ndarray, shape (m,)
-        ``sqrt(sum_k W_k^2 s_k^2 / n_k (+ var / pool))`` and the kurtosis-adjusted
-        Satterthwaite degrees of freedom ``2 (sum a_k)^2 / sum a_k^2 v_k``, ``a_k = W_k^2
-        s_k^2 / n_k``, ``v_k = (kappa_k - 3) / n_k + 2 / (n_k - 1)`` the relative variance of
-        ``s_k^2`` for values of kurtosis ``kappa_k`` (Welch's ``n_k - 1`` for Gaussian ones).
-        A stratum with a single run borrows the largest within-stratum variance (and fewer
-        than four runs the largest kurtosis) of the others (conservative).
-
-    Notes
-    -----
     Why the kurtosis: a variance read from heavy-tailed values (model-minus-surrogate
-    differences of a non-smooth output: most near zero, a few large) is itself far noisier
-    than a Gaussian sample's, and usually too small. Its degrees of freedom are ``2 /
-    Var(s^2 / sigma^2)`` (Satterthwaite 1946), which for values of kurtosis ``kappa`` is
-    ``2 n / (kappa - 1)`` rather than ``n - 1`` (e.g. Bonett 2006, Comput. Stat. Data Anal.
-    50, 775-782, for the variance's own interval): the t quantile widens the interval where
-    the differences are heavy-tailed and leaves it alone where they are Gaussian.
+    differences of a non-smooth output) is far noisier than a Gaussian sample's, and usually too
+    small; its degrees of freedom are ``2 / Var(s^2 / sigma^2)`` (Satterthwaite 1946), for
+    kurtosis ``kappa`` ``2 n / (kappa - 1)`` rather than ``n - 1`` (Bonett 2006, Comput. Stat.
+    Data Anal. 50, 775-782).
 
-    Why the floor: the few runs of an outer stratum (2-8) may all miss the place where the
-    surrogate errs (a corner of the cube, a kink), and their variance is then far too small.
-    The fit runs that fall in the stratum, each predicted without itself
-    (:func:`uqguide.pce.loo.loo_values`), are more draws of the same differences; the larger of the
-    two variances is kept (a leave-one-out error slightly overstates the full fit's, the safe
-    side). They only widen: the estimate is the validation runs' alone. The degrees of freedom
-    stay those of the validation runs (fewer, so the quantile is the larger).
+    Why the ``floor`` (the fit runs' LOO values, :func:`uqguide.pce.loo.loo_values`): the 2-8
+    runs of an outer stratum may all miss where the surrogate errs, and their variance is then
+    far too small; the larger of the two variances is kept. They only widen: the estimate and
+    the degrees of freedom stay the validation runs'.
     """
     m = influence.shape[1]
     ratio = importance_ratios(weight, stratum, share)
@@ -303,40 +248,18 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
                       fit_runs: FitRuns | None = None) -> Corrected:
     """Control-variate mean, std, skewness and kurtosis with 95% intervals.
 
-    Parameters
-    ----------
-    pce : OutputStats
-        The PCE's own statistics of the output (shape ``(...)`` per statistic).
-    y, s : ndarray, shape (n, ...)
-        Model and surrogate values at the successful validation runs.
-    weight, stratum, share, pool :
-        The validation design (:class:`~uqguide.pce.validation_design.ValidationDesign`,
-        restricted to the successful runs): per-run weights ``(n,)`` summing to 1, strata
-        ``(n,)``, stratum probabilities ``(K,)`` and pool size. Default: a random design
-        (weights ``1 / n``, one stratum, no pool).
-    pce_se : dict of str to ndarray, shape (...), optional
-        Standard errors of the PCE's own moments where they were sampled
-        (:func:`sampling_se`), added to the interval in quadrature.
-    fit_runs : FitRuns, optional
-        The fit runs with the surrogate's leave-one-out values there: their differences
-        floor each stratum's variance (:func:`stratified_se`).
+    ``pce``: the PCE's own statistics; ``y, s (n, ...)``: model and surrogate at the successful
+    validation runs; ``weight``, ``stratum``, ``share``, ``pool``: the validation design
+    restricted to them (default random: weights ``1 / n``, one stratum, no pool); ``pce_se``:
+    standard errors of sampled PCE moments (:func:`sampling_se`), added in quadrature;
+    ``fit_runs``: floor each stratum's variance (:func:`stratified_se`).
 
-    Returns
-    -------
-    Corrected
-
-    Notes
-    -----
     The interval is ``value +- t_{0.975, df} se``, its side toward the skew of the per-run
-    influence lengthened by Hall's transformation (:func:`stratified_skewness`; the other side
-    is kept, not shortened), with ``se`` the delta-method standard error:
-    each statistic is a smooth function of the four corrected raw moments, linearised at the
-    estimate, so its error is the weighted mean of the per-run influence
-    ``sum_p dstat/dM_p d_p`` (``d_p`` the run's model-minus-surrogate difference of the p-th
-    raw moment); ``se`` is that mean's stratified standard error and ``df`` its
-    Welch-Satterthwaite degrees of freedom (:func:`stratified_se`; ``n - 1`` for a random
-    design). The PCE's own moments are held fixed: they are exact for the surrogate (sampled
-    ones, of derived outputs, add their sampling error ``pce_se``).
+    influence lengthened by Hall's transformation (:func:`stratified_skewness`). ``se`` is the
+    delta-method standard error: each statistic is a smooth function of the four corrected raw
+    moments, linearised at the estimate, so its error is the weighted mean of the per-run
+    influence ``sum_p dstat/dM_p d_p`` (``d_p`` the run's model-minus-surrogate difference of
+    the p-th raw moment). The PCE's own moments are held fixed: exact for the surrogate.
     """
     n = y.shape[0]
     shape = y.shape[1:]

@@ -44,29 +44,14 @@ ARCSINE_INPUTS = 2
 class ValidationDesign:
     """The validation runs' inputs and how they were drawn.
 
-    Attributes
-    ----------
-    u : ndarray, shape (n, d)
-        Inputs on the open unit cube.
-    weight : ndarray, shape (n,)
-        ``W_k / n_k`` of each run's stratum: weighted sums over the runs estimate means over
-        the input distribution (they sum to 1).
-    stratum : ndarray of int, shape (n,)
-        Each run's stratum, 0 the bulk (all 0 for a random design).
-    share : ndarray, shape (K,)
-        ``W_k``, each stratum's probability.
-    pool : int
-        Size of the pool the strata were cut from (0 for a random design: no pool).
-    ratio : ndarray, shape (n,), optional
-        Each run's importance ratio ``r`` from the pool's density to the input distribution
-        (the weight is ``r W_k / n_k``); None: every ratio is 1 (a uniform pool, or none).
-    ratio_range : ndarray, shape (K, 2), optional
-        The least and largest ratio over each stratum's pool points, which bound the
-        ratio-weighted mean of a bounded quantity (the events' intervals,
-        :mod:`uqguide.pce.tails`); None: all 1.
-    sorter : StratumSorter, optional
-        How any point's stratum (and ratio) is found, for the fit runs' leave-one-out floor
-        on the intervals (:func:`uqguide.pce.loo.loo_values`); None for a random design.
+    ``u (n, d)``: inputs on the open unit cube; ``weight (n,)``: ``r W_k / n_k`` (summing to 1:
+    weighted sums estimate means over the input distribution); ``stratum (n,)``: 0 the bulk (all
+    0 for a random design); ``share (K,)``: ``W_k``; ``pool``: size of the pool the strata were
+    cut from (0: none); ``ratio (n,)``: importance ratio ``r`` from the pool's density to the
+    input distribution (None: all 1); ``ratio_range (K, 2)``: least and largest ratio over each
+    stratum's pool points, which bound the ratio-weighted mean of a bounded quantity
+    (:mod:`uqguide.pce.tails`; None: all 1); ``sorter``: finds any point's stratum, for the fit
+    runs' LOO floor (None for a random design).
     """
 
     u: np.ndarray
@@ -160,22 +145,14 @@ class ValidationDesign:
 
 @dataclass(frozen=True)
 class StratumSorter:
-    """Which stratum of a stratified design any point falls in, and its importance ratio:
-    what the fit runs need to join the validation runs' variance estimate
-    (:func:`uqguide.pce.validation.stratified_se`).
+    """Which stratum of a stratified design any point falls in, and its importance ratio (for
+    the fit runs in :func:`uqguide.pce.validation.stratified_se`).
 
-    Attributes
-    ----------
-    scale : dict of str to (ndarray, ndarray)
-        The tail score's column means and standard deviations per output (:func:`tail_score`).
-    edges : ndarray, shape (K - 1,)
-        The scores at the strata's upper rank edges in the pool: a point of score ``z`` is in
-        the first stratum whose edge is at least ``z`` (the last stratum beyond them all).
-    curved : ndarray of bool, shape (d,), optional
-        The inputs the pool leaned to the faces in (None: a uniform pool, every ratio 1).
-    input_share : ndarray, shape (K,)
-        Each stratum's probability under the input distribution, ``E_q[r 1_k]`` over the pool
-        (``share`` itself for a uniform pool).
+    ``scale``: the tail score's column means and stds per output (:func:`tail_score`);
+    ``edges (K - 1,)``: scores at the strata's upper rank edges in the pool (a point of score
+    ``z`` is in the first stratum whose edge is at least ``z``); ``curved (d,)``: inputs the pool
+    leaned to the faces in (None: uniform pool); ``input_share (K,)``: each stratum's
+    probability under the input distribution, ``E_q[r 1_k]`` over the pool.
     """
 
     scale: dict[str, tuple[np.ndarray, np.ndarray]]
@@ -238,20 +215,8 @@ def neyman_allocation(share: np.ndarray, spread: np.ndarray, n: int) -> np.ndarr
 
 def tail_score(values: dict[str, np.ndarray], scale: dict[str, tuple[np.ndarray, np.ndarray]]
                ) -> np.ndarray:
-    """``max_j |s_j - m_j| / sd_j`` over every column of every output.
-
-    Parameters
-    ----------
-    values : dict of str to ndarray, shape (m, ...)
-        Surrogate values per output.
-    scale : dict of str to (ndarray, ndarray), each of shape (...)
-        Column means and standard deviations per output (columns that do not vary are left
-        out).
-
-    Returns
-    -------
-    ndarray, shape (m,)
-    """
+    """``max_j |s_j - m_j| / sd_j`` ``(m,)`` over every column of every output's surrogate
+    values ``(m, ...)``; ``scale`` leaves out columns that do not vary."""
     score: np.ndarray | None = None
     for name, v in values.items():
         m, sd = scale[name]
@@ -273,28 +238,10 @@ def stratified_validation(surrogate: Callable[[np.ndarray], dict[str, np.ndarray
                           curved: np.ndarray | None = None) -> ValidationDesign:
     """``n`` validation points stratified by the surrogate's tail score (module docstring).
 
-    Parameters
-    ----------
-    surrogate : callable
-        ``f(u (m, d)) -> {output: values (m, ...)}`` on the unit cube: the fitted surrogate of
-        the outputs the method reports.
-    seed : int
-        The run's seed; with ``label`` it keys the validation stream.
-    label : str
-        The method's label.
-    n : int
-        Validation runs.
-    d : int
-        Input dimension.
-    chunk : int
-        Pool points evaluated at a time (bounds the memory of long series).
-    curved : ndarray of bool, shape (d,), optional
-        The inputs the pool's density leans to the faces in (:func:`curved_inputs`; default
-        all).
-
-    Returns
-    -------
-    ValidationDesign
+    ``surrogate``: ``f(u (m, d)) -> {output: values (m, ...)}`` on the unit cube; ``seed`` and
+    ``label`` key the validation stream; ``chunk``: pool points evaluated at a time (bounds the
+    memory of long series); ``curved (d,)``: inputs the pool leans to the faces in
+    (:func:`curved_inputs`; default all).
     """
     edges = strata_edges(n)
     if len(edges) == 1:

@@ -80,19 +80,8 @@ def _xarray():
 
 
 def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
-    """The statistics of one method as a Dataset (attrs: the method's cost and diagnostics).
-
-    Parameters
-    ----------
-    result : Result
-    run : MethodRun
-        One of ``result.runs``.
-
-    Returns
-    -------
-    xarray.Dataset
-        Variables of :func:`uqguide.results.labelled.method_variables`; ``time`` in s.
-    """
+    """The statistics of one method as a Dataset (attrs: the method's cost and diagnostics):
+    the variables of :func:`uqguide.results.labelled.method_variables`, ``time`` in s."""
     xr = _xarray()
     coords, variables = method_variables(
         method_statistics(run.label, run.estimate.stats, result.outputs), result.time,
@@ -110,22 +99,12 @@ def method_dataset(result: Result, run: MethodRun) -> xr.Dataset:
 
 
 def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
-    """The statistics of method ``label``, or of every method along a ``label`` dimension.
+    """The statistics of method ``label``, or of every method along a ``label`` dimension
+    (NaN where a method lacks a variable; ``method_name``, ``n_runs`` and ``n_failed`` along
+    ``label``): ``ds.sel(label="mc1000")``.
 
     The dimension is ``label``, not ``method``: ``Dataset.sel(method=...)`` is xarray's own
     keyword (the fill method), so a dimension of that name could not be selected by keyword.
-
-    Parameters
-    ----------
-    result : Result
-    label : str, optional
-        One method; default all, stacked (NaN where a method lacks a variable).
-
-    Returns
-    -------
-    xarray.Dataset
-        With every method: ``ds.sel(label="mc1000")``; ``method_name``, ``n_runs`` and
-        ``n_failed`` along ``label``.
     """
     xr = _xarray()
     if label is not None:
@@ -155,21 +134,11 @@ def to_xarray(result: Result, label: str | None = None) -> xr.Dataset:
 def to_dataframe(result: Result, output: str) -> pd.DataFrame:
     """Every statistic of ``output`` at every time step, one row per value.
 
-    Columns: ``label``, ``time`` (series only), ``component``, ``statistic`` (mean, std,
-    skewness, kurtosis, sem, q<level>), ``value``, ``ci_low``, ``ci_high`` (NaN where the
-    method gives no interval). A validated PCE's control-variate moments are rows of their
-    own, labelled ``<label>+cv``, and so is the Monte Carlo estimate of a PCE's own runs where
-    it withholds a moment, ``<label>+mc`` (only there; :mod:`uqguide.results.statistics`).
-
-    Parameters
-    ----------
-    result : Result
-    output : str
-
-    Returns
-    -------
-    pandas.DataFrame
-        Values in the output's unit, time in s.
+    Columns: ``label``, ``time`` [s] (series only), ``component``, ``statistic`` (mean, std,
+    skewness, kurtosis, sem, q<level>), ``value`` (output's unit), ``ci_low``, ``ci_high`` (NaN
+    where the method gives no interval). A validated PCE's control-variate moments are rows of
+    their own, labelled ``<label>+cv``, and so is the Monte Carlo estimate of a PCE's own runs
+    where it withholds a moment, ``<label>+mc`` (only there; :mod:`uqguide.results.statistics`).
     """
     import pandas as pd
 

@@ -40,18 +40,8 @@ class Variable:
 
 
 def component_dim(output: str, second: bool = False) -> str:
-    """Name of an output's component dimension (the second one of a covariance).
-
-    Parameters
-    ----------
-    output : str
-    second : bool
-
-    Returns
-    -------
-    str
-        ``"<output>_component"`` or ``"<output>_component2"``.
-    """
+    """Name of an output's component dimension, ``"<output>_component"``, or with ``second``
+    the covariance's second one, ``"<output>_component2"``."""
     return f"{output}_component2" if second else f"{output}_component"
 
 
@@ -59,22 +49,11 @@ def method_variables(stats: Mapping[str, OutputStatistics], time: np.ndarray,
                      input_names: Sequence[str]) -> tuple[dict[str, Variable], dict[str, Variable]]:
     """Coordinates and variables of one method's statistics.
 
-    Parameters
-    ----------
-    stats : mapping of str to OutputStatistics
-        The method's statistics by output name, in the outputs' order
-        (:func:`uqguide.results.statistics.method_statistics`).
-    time : ndarray, shape (T,)
-        Time grid [s].
-    input_names : sequence of str, length d
-
-    Returns
-    -------
-    coords : dict of str to Variable
-        The coordinate of each dimension (``time``, ``input``, ``statistic``, ``bound``,
-        components, ``quantile``), by its name.
-    variables : dict of str to Variable
-        Per output: moments, covariance, intervals, Sobol' indices, quantiles, with units.
+    ``stats``: by output name, in the outputs' order
+    (:func:`uqguide.results.statistics.method_statistics`); ``time (T,)`` [s]. Returns the
+    coordinate of each dimension by name (``time``, ``input``, ``statistic``, ``bound``,
+    components, ``quantile``) and per output its moments, covariance, intervals, Sobol' indices
+    and quantiles, with units.
     """
     coords: dict[str, Variable] = {
         "time": Variable(("time",), np.asarray(time, dtype=float),
@@ -180,23 +159,9 @@ def _ci(st: Statistic) -> np.ndarray:
 
 def stats_from_variables(get: Any, has: Any, attrs: Any, outputs: Sequence[OutputInfo]
                          ) -> dict[str, OutputStats]:
-    """The inverse of :func:`method_variables` (a file group or a Dataset alike).
-
-    Parameters
-    ----------
-    get : callable
-        ``get(name)``: the variable's array.
-    has : callable
-        ``has(name)``: whether it exists.
-    attrs : callable
-        ``attrs(name)``: its attributes.
-    outputs : sequence of OutputInfo
-
-    Returns
-    -------
-    dict of str to OutputStats
-        By output name, for the outputs that have statistics.
-    """
+    """The inverse of :func:`method_variables` (a file group or a Dataset alike), through
+    ``get(name)`` (the array), ``has(name)`` and ``attrs(name)``; by output name, for the outputs
+    that have statistics."""
     stats = {}
     for o in outputs:
         if not has(o.name):

@@ -33,17 +33,8 @@ UTF8 = h5py.string_dtype("utf-8")
 
 
 def h5_array(values: Any) -> np.ndarray:
-    """``values`` as HDF5 can store them: text as UTF-8 variable-length strings.
-
-    Parameters
-    ----------
-    values : array_like
-
-    Returns
-    -------
-    ndarray
-        Same shape; numbers unchanged.
-    """
+    """``values`` as HDF5 can store them: text as UTF-8 variable-length strings, numbers
+    unchanged."""
     a = np.asarray(values)
     if a.dtype.kind in "OUS":
         return np.array([str(v) for v in a.ravel()], dtype=UTF8).reshape(a.shape)
@@ -53,15 +44,7 @@ def h5_array(values: Any) -> np.ndarray:
 @dataclass
 class Blocks:
     """Values written a block at a time, never held whole (a million runs' inputs or failure
-    reasons).
-
-    Attributes
-    ----------
-    shape : tuple of int
-    dtype : numpy dtype or str
-    blocks : callable
-        ``blocks()``: an iterable of ``(index, values)``; ``dataset[index] = values`` for each.
-    """
+    reasons): ``blocks()`` yields ``(index, values)``, written as ``dataset[index] = values``."""
 
     shape: tuple[int, ...]
     dtype: Any
@@ -72,17 +55,10 @@ class Blocks:
 class Dataset:
     """A variable as the file stores it.
 
-    Attributes
-    ----------
-    data : ndarray or Blocks
-        Its values (text as str or object arrays, stored as UTF-8).
-    dims : tuple of str, optional
-        The dimension scale of each axis, by name: one of its group's scales or of a group
-        above (netCDF-4 scoping); None: no dimension scales.
-    attrs : dict
-        Attributes (a list is stored as an array of UTF-8 strings).
-    storage : dict
-        h5py's dataset-creation keywords (``compression``, ``chunks``, ``shuffle``...).
+    ``data``: values, text stored as UTF-8; ``dims``: the dimension scale of each axis by name,
+    one of its group's or of a group above (netCDF-4 scoping; None: none); ``attrs``: a list is
+    stored as an array of UTF-8 strings; ``storage``: h5py's dataset-creation keywords
+    (``compression``, ``chunks``, ``shuffle``...).
     """
 
     data: np.ndarray | Blocks
@@ -93,16 +69,7 @@ class Dataset:
     @classmethod
     def of(cls, v: Variable) -> Dataset:
         """A labelled variable (:mod:`uqguide.results.labelled`) as stored: with its
-        dimension scales, uncompressed (statistics are small).
-
-        Parameters
-        ----------
-        v : Variable
-
-        Returns
-        -------
-        Dataset
-        """
+        dimension scales, uncompressed (statistics are small)."""
         return cls(v.data, v.dims, dict(v.attrs))
 
 
@@ -110,18 +77,10 @@ class Dataset:
 class Group:
     """One group of the file, laid out whole before any of it is written.
 
-    Attributes
-    ----------
-    attrs : dict
-    scales : dict of str to Dataset
-        The group's dimensions: coordinate variables that are also the dimension scales of
-        their name, created before the variables that use them.
-    variables : dict of str to Dataset
-    groups : dict of str to Group
-        Subgroups, written after the variables, in this order.
-    fill : callable, optional
-        ``fill(h5py_group)``, called last: content another module writes itself (a kept
-        surrogate, :mod:`uqguide.results.surrogate`).
+    ``scales``: the group's dimensions, coordinate variables that are also the dimension scales
+    of their name, created before the variables; ``groups``: subgroups, written after the
+    variables, in order; ``fill(h5py_group)``, called last: content another module writes itself
+    (a kept surrogate, :mod:`uqguide.results.surrogate`).
     """
 
     attrs: dict[str, Any] = field(default_factory=dict)
@@ -133,22 +92,9 @@ class Group:
 
 def method_group(stats: Mapping[str, OutputStatistics], time: np.ndarray,
                  input_names: Sequence[str]) -> Group:
-    """The group of one method's statistics: the variables of
-    :func:`uqguide.results.labelled.method_variables` with their dimension scales.
-
-    Parameters
-    ----------
-    stats : mapping of str to OutputStatistics
-        The method's statistics by output name (:mod:`uqguide.results.statistics`).
-    time : ndarray, shape (T,)
-        Time grid [s].
-    input_names : sequence of str
-
-    Returns
-    -------
-    Group
-        Its scales and variables; add attributes and subgroups to it.
-    """
+    """The group of one method's statistics (:mod:`uqguide.results.statistics`, ``time (T,)``
+    [s]): the variables of :func:`uqguide.results.labelled.method_variables` with their
+    dimension scales; add attributes and subgroups to it."""
     coords, variables = method_variables(stats, time, input_names)
     return Group(scales={dim: Dataset.of(v) for dim, v in coords.items()},
                  variables={name: Dataset.of(v) for name, v in variables.items()})
@@ -156,16 +102,8 @@ def method_group(stats: Mapping[str, OutputStatistics], time: np.ndarray,
 
 def write_group(g: h5py.Group, layout: Group,
                 above: Mapping[str, h5py.Dataset] | None = None) -> None:
-    """Write ``layout`` into ``g``, its subgroups with it: the file's one writing pass.
-
-    Parameters
-    ----------
-    g : h5py.Group
-        An empty group (or a new file).
-    layout : Group
-    above : mapping of str to h5py.Dataset, optional
-        The dimension scales of the groups above, by name.
-    """
+    """Write ``layout`` into the empty group ``g``, its subgroups with it: the file's one
+    writing pass; ``above``: the dimension scales of the groups above, by name."""
     _set_attrs(g, layout.attrs)
     scales = dict(above or {})
     for dim, d in layout.scales.items():
@@ -201,18 +139,7 @@ def _write_dataset(g: h5py.Group, name: str, d: Dataset,
 
 
 def read_method_stats(g: h5py.Group, outputs: list[OutputInfo]) -> dict[str, OutputStats]:
-    """The statistics of a :func:`method_group` written into ``g``.
-
-    Parameters
-    ----------
-    g : h5py.Group
-    outputs : list of OutputInfo
-
-    Returns
-    -------
-    dict of str to OutputStats
-        By output name.
-    """
+    """The statistics of a :func:`method_group` written into ``g``, by output name."""
     def get(name: str) -> np.ndarray:
         return g[name][()]
 
@@ -224,16 +151,6 @@ def read_method_stats(g: h5py.Group, outputs: list[OutputInfo]) -> dict[str, Out
 
 
 def strings(values: Any) -> list[str]:
-    """UTF-8 (format 2) or fixed-length bytes (format 1) strings as str.
-
-    Parameters
-    ----------
-    values : array_like
-        Strings or bytes, any shape.
-
-    Returns
-    -------
-    list of str
-        Flattened.
-    """
+    """UTF-8 (format 2) or fixed-length bytes (format 1) strings of any shape as a flat list of
+    str."""
     return [v.decode() if isinstance(v, bytes) else str(v) for v in np.asarray(values).ravel()]

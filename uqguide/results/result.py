@@ -47,32 +47,13 @@ READABLE_FORMATS = (1, 2)
 class MethodRun:
     """One method's estimate with the runs behind it.
 
-    Attributes
-    ----------
-    estimate : Estimate
-    x : ndarray or GeneratedRows, shape (n, d)
-        Inputs of every model run (a Monte Carlo design is generated per chunk on demand:
-        slice it, or ``np.asarray`` it for the whole array).
-    scalars : dict of str to ndarray, shape (n, k)
-        Scalar outputs of every run (NaN or garbage where ``failed``).
-    failed : ndarray of bool, shape (n,)
-    reasons : ndarray of object, shape (n,)
-    time : ndarray, shape (T,)
-    n_runs : int
-    model_seconds : float
-        Seconds in the model, summed over chunks (worker-seconds), compiling excluded.
-    fit_seconds : float
-        Seconds the method spent outside the model: refinement fits and the estimate.
-    wall_seconds : float
-        Wall-clock seconds of the whole method, design included.
-    success : bool
-        Whether the method produced statistics; when not, ``estimate`` holds none and
-        ``message`` says why (the runs made are still here, with their failures).
-    message : str
-        Why the method failed ("" when it succeeded).
-    compile_seconds : float
-        Seconds spent compiling the model's kernel during this method (a first run on a fresh
-        install; 0 when it came from the cache, and in files written before it was kept).
+    ``x (n, d)``: inputs of every run (a Monte Carlo design is generated per chunk on demand:
+    slice it, or ``np.asarray`` it); ``scalars``: ``(n, k)`` per output (NaN or garbage where
+    ``failed``); ``model_seconds``: in the model, summed over chunks (worker-seconds), compiling
+    excluded; ``fit_seconds``: outside the model (refinement fits and the estimate);
+    ``wall_seconds``: the whole method, design included; ``success`` False: ``estimate`` holds
+    no statistics and ``message`` says why (the runs made are still here); ``compile_seconds``:
+    compiling the model's kernel during this method (0 from the cache, and in older files).
     """
 
     estimate: Estimate
@@ -154,18 +135,8 @@ class Result:
         return "\n".join(lines)
 
     def run(self, label: str) -> MethodRun:
-        """One method's estimate and runs.
-
-        Parameters
-        ----------
-        label : str
-            The method entry's label in the config.
-
-        Returns
-        -------
-        MethodRun
-            ResultError (listing the labels) when there is none of that label.
-        """
+        """One method's estimate and runs by its config label; ResultError (listing the labels)
+        when there is none."""
         for r in self.runs:
             if r.label == label:
                 return r
@@ -202,18 +173,7 @@ class Result:
         return s.fitted_by(est.label, est.method, est.diagnostics)
 
     def output(self, name: str) -> OutputInfo:
-        """The metadata of one output (kind, unit, components).
-
-        Parameters
-        ----------
-        name : str
-            An output of this result.
-
-        Returns
-        -------
-        OutputInfo
-            ResultError when the result has no such output.
-        """
+        """The metadata of one output (kind, unit, components); ResultError when there is none."""
         for o in self.outputs:
             if o.name == name:
                 return o
@@ -225,36 +185,18 @@ class Result:
         along a ``label`` dimension, ``ds.sel(label="mc1000")`` (see
         :mod:`uqguide.results.frames`; needs ``uqguide[xarray]``).
 
-        Parameters
-        ----------
-        label : str, optional
-            One method's label; default all methods.
-
-        Returns
-        -------
-        xarray.Dataset
-            Per output: ``<output>`` (dimensions ``statistic``, ``time`` for a series,
-            ``<output>_component``), its covariance, intervals, Sobol' indices and quantiles
-            where the method gives them; plus ``label`` when all methods are stacked.
+        Per output: ``<output>`` (dimensions ``statistic``, ``time`` for a series,
+        ``<output>_component``), its covariance, intervals, Sobol' indices and quantiles where the
+        method gives them.
         """
         from .frames import to_xarray
 
         return to_xarray(self, label)
 
     def to_dataframe(self, output: str | None = None) -> Any:
-        """Every statistic of ``output`` at every time step as a tidy table.
-
-        Parameters
-        ----------
-        output : str, optional
-            An output of this result; may be left out when the result has only one.
-
-        Returns
-        -------
-        pandas.DataFrame
-            One row per value: columns ``label``, ``time`` [s] (series only), ``component``,
-            ``statistic``, ``value`` (in the output's unit), ``ci_low``, ``ci_high``.
-        """
+        """Every statistic of ``output`` (optional when there is only one) at every time step as a
+        tidy table: one row per value, columns ``label``, ``time`` [s] (series only),
+        ``component``, ``statistic``, ``value`` (in the output's unit), ``ci_low``, ``ci_high``."""
         from .frames import to_dataframe
 
         if output is None:
@@ -267,14 +209,9 @@ class Result:
 
 
 def provenance() -> dict[str, Any]:
-    """Versions and host facts that explain where a result's numbers came from.
-
-    Returns
-    -------
-    dict
-        ``created_utc`` (ISO time), ``versions`` (uqguide, Python, NumPy, SciPy, chaospy,
-        h5py, numba) and ``platform``.
-    """
+    """Versions and host facts that explain where a result's numbers came from:
+    ``created_utc`` (ISO time), ``versions`` (uqguide, Python, NumPy, SciPy, chaospy, h5py,
+    numba) and ``platform``."""
     import scipy
     from importlib.metadata import PackageNotFoundError, version
 
@@ -314,19 +251,8 @@ def _json_default(obj: Any) -> Any:
 
 
 def write_hdf5(result: Result, path: str | Path) -> Path:
-    """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename).
-
-    Parameters
-    ----------
-    result : Result
-    path : str or Path
-        The HDF5 file to write; its folder is created.
-
-    Returns
-    -------
-    Path
-        ``path``, complete: an interrupted write leaves no file under this name.
-    """
+    """Write ``result`` to ``path`` atomically (temporary file in the same folder, then rename;
+    its folder is created): an interrupted write leaves no file under this name."""
     path = Path(path)
     layout = file_layout(result)
     with atomic.atomic_file(path) as tmp:
@@ -342,18 +268,8 @@ def write_hdf5(result: Result, path: str | Path) -> Path:
 
 
 def file_layout(result: Result) -> Group:
-    """The whole file of ``result``, laid out (module docstring), for one writing pass.
-
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    Group
-        The root group; large arrays (a generated design, the failure reasons) are written
-        block by block when it is written.
-    """
+    """The whole file of ``result``, laid out (module docstring), for one writing pass; large
+    arrays (a generated design, the failure reasons) are written block by block."""
     labels = [r.label for r in result.runs]
     attrs = {
         "format": FORMAT, "uqguide_version": __version__, "name": result.name,
@@ -499,18 +415,8 @@ def _read_stats(g: h5py.Group) -> OutputStats:
 
 
 def read_hdf5(path: str | Path) -> Result:
-    """Read a result file written by :func:`write_hdf5` (any format version).
-
-    Parameters
-    ----------
-    path : str or Path
-        The HDF5 result file.
-
-    Returns
-    -------
-    Result
-        ResultError when the file is missing, not a uqguide result or incomplete.
-    """
+    """Read a result file written by :func:`write_hdf5` (any format version); ResultError when
+    the file is missing, not a uqguide result or incomplete."""
     path = Path(path)
     if not path.is_file():  # (a FIFO's open would block)
         raise ResultError(f"{path}: " + ("not a regular file" if path.exists() else
@@ -585,21 +491,8 @@ def read_hdf5(path: str | Path) -> Result:
 
 
 def read_config(path: str | Path) -> dict[str, Any]:
-    """The resolved config a result file was made from, without reading its statistics.
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Returns
-    -------
-    dict
-
-    Raises
-    ------
-    ResultError
-        Not a readable uqguide result file.
-    """
+    """The resolved config a result file was made from, without reading its statistics;
+    ResultError when it is not a readable uqguide result file."""
     path = Path(path)
     if path.exists() and not path.is_file():  # (a FIFO's open would block)
         raise ResultError(f"{path}: not a regular file")

@@ -48,18 +48,9 @@ Kind = Literal["moment", "corrected", "fallback", "quantile"]
 class Point:
     """One place a statistic is reported at: a step of a series, or a scalar, and a component.
 
-    Attributes
-    ----------
-    at : {"report", "end", "scalar"}
-        A report time's step, the last step of the grid, or a scalar output's value.
-    time : float or None
-        The step's time [s]; None for a scalar.
-    step : int or None
-        The step's index on the time grid; None for a scalar.
-    component : int
-        The component's index.
-    name : str
-        The component's name (``""`` for a single component).
+    ``at``: ``"report"`` (a report time's step), ``"end"`` (the grid's last step) or
+    ``"scalar"``; ``time`` [s] and ``step`` None for a scalar; ``name``: the component's
+    (``""`` for a single component).
     """
 
     at: Literal["report", "end", "scalar"]
@@ -90,21 +81,9 @@ def report_indices(t: np.ndarray, report_times: Sequence[float] | None,
 
 def points(output: OutputInfo, time: np.ndarray,
            report_times: Sequence[float] | None) -> list[Point]:
-    """The points an output's statistics are reported at, step by step, component by component.
-
-    Parameters
-    ----------
-    output : OutputInfo
-    time : ndarray, shape (T,)
-        The time grid [s].
-    report_times : sequence of float or None
-        The config's report times [s] (their nearest steps, plus the last step;
-        :func:`report_indices`).
-
-    Returns
-    -------
-    list of Point
-    """
+    """The points an output's statistics are reported at, step by step, component by component:
+    the nearest steps of the config's ``report_times`` [s] plus the last step
+    (:func:`report_indices`)."""
     if output.kind == "scalar":
         return [Point("scalar", None, None, c, n) for c, n in enumerate(output.components)]
     last = time.size - 1
@@ -117,27 +96,14 @@ def points(output: OutputInfo, time: np.ndarray,
 class Statistic:
     """One statistic of one output by one method, at every step and component.
 
-    Attributes
-    ----------
-    label : str
-        The method's label; ``<label>+cv`` for a control-variate estimate.
-    name : str
-        ``mean``, ``std``, ``skewness``, ``kurtosis``, or a quantile's level name (``q0.99``).
-    kind : {"moment", "corrected", "fallback", "quantile"}
-        The method's own moment, a validated PCE's control-variate moment, the Monte Carlo
-        estimate of a PCE's own runs where it withholds its moment, or a quantile.
-    value : ndarray, shape (..., k)
-        In the output's unit (skewness and kurtosis: dimensionless); a quantile is NaN at the
-        steps where none was computed.
-    ci : ndarray, shape (2, ..., k), or None
-        The method's 95% interval (low, high); None where the method gives none.
-    sem : ndarray, shape (..., k), or None
-        The standard error of a sample mean (the mean's interval when it has no other).
-    usable : ndarray of bool, shape (..., k), or bool, or None
-        Where the value is usable (a PCE withholds its own moments where its surrogate is not);
-        True: everywhere; None: not judged (quantiles).
-    level : float or None
-        A quantile's probability.
+    ``label``: the method's, ``<label>+cv`` for a control-variate estimate; ``name``: ``mean``,
+    ``std``, ``skewness``, ``kurtosis`` or a quantile's level name (``q0.99``); ``kind``:
+    ``"moment"`` (the method's own), ``"corrected"`` (a validated PCE's control-variate),
+    ``"fallback"`` (the Monte Carlo estimate of a PCE's own runs where it withholds its moment)
+    or ``"quantile"``; ``value (..., k)``: in the output's unit (a quantile NaN at steps where
+    none was computed); ``ci (2, ..., k)``: None where the method gives none; ``sem``: of a
+    sample mean (the mean's interval when it has no other); ``usable``: where the value is
+    usable (True: everywhere; None: not judged, quantiles); ``level``: a quantile's probability.
     """
 
     label: str
@@ -152,30 +118,12 @@ class Statistic:
     def defined_at(self, where: tuple[int, ...]) -> bool:
         """Whether the statistic exists at ``where``: a quantile is NaN at the steps it was
         not computed at, a PCE's fallback where the PCE gives its own value; a moment exists
-        everywhere (a NaN moment is a value).
-
-        Parameters
-        ----------
-        where : tuple of int
-
-        Returns
-        -------
-        bool
-        """
+        everywhere (a NaN moment is a value)."""
         return self.kind not in ("quantile", "fallback") or not np.isnan(self.value[where])
 
     def interval(self, where: tuple[int, ...]) -> tuple[float, float]:
         """The 95% interval at ``where``: the method's; for a sample mean without one,
-        ``mean -+ 1.96 sem``; NaN where there is none.
-
-        Parameters
-        ----------
-        where : tuple of int
-
-        Returns
-        -------
-        (float, float)
-        """
+        ``mean -+ 1.96 sem``; NaN where there is none."""
         if self.ci is not None:
             return float(self.ci[0][where]), float(self.ci[1][where])
         if self.sem is not None:
@@ -184,16 +132,7 @@ class Statistic:
         return float("nan"), float("nan")
 
     def usable_at(self, where: tuple[int, ...]) -> bool | None:
-        """Whether the value at ``where`` is usable; None for a statistic that is not judged.
-
-        Parameters
-        ----------
-        where : tuple of int
-
-        Returns
-        -------
-        bool or None
-        """
+        """Whether the value at ``where`` is usable; None for a statistic that is not judged."""
         if self.usable is None or isinstance(self.usable, bool):
             return self.usable
         return bool(self.usable[where])
@@ -203,44 +142,18 @@ class Statistic:
 class OutputStatistics:
     """What one method estimated of one output: its statistics, and what they are judged by.
 
-    Attributes
-    ----------
-    label : str
-        The method's label.
-    output : OutputInfo
-    moments : tuple of Statistic
-        Its own mean, std, skewness and kurtosis, in that order.
-    corrected : tuple of Statistic
-        A validated PCE's control-variate moments (``<label>+cv``); empty otherwise.
-    quantiles : tuple of Statistic
-        By increasing level; empty when none were computed.
-    fallback : tuple of Statistic
-        Where a PCE withholds a moment, the Monte Carlo estimate of its own runs
-        (``<label>+mc``; NaN where the PCE's own value is given); empty otherwise.
-    n_used : int
-        Runs (or surrogate draws) the moments used.
-    moments_method : str
-        ``"sample"``, ``"exact"`` or ``"surrogate-sampling"``.
-    cov : ndarray, shape (..., k, k)
-        The covariance between components.
-    sobol_first, sobol_total : ndarray, shape (..., k, d), or None
-        Sobol' indices per input (a PCE's; Monte Carlo's first-order ones, NaN at the steps
-        where none was computed).
-    validation_error : ndarray, shape (..., k), or None
-        A validated PCE's out-of-sample relative error.
-    usable : ndarray of bool, shape (..., k), or None
-        Where a PCE's surrogate is usable; None: not judged (sampling methods).
-    sobol_first_ci, sobol_total_ci : ndarray, shape (2, ..., k, d), or None
-        The indices' 95% intervals, where the method gives them.
-    sobol_estimator : str
-        ``"pce"``, ``"given-data"`` or ``""`` (no indices).
-    sobol_groups : tuple of str
-        Names of the groups of inputs with first-order indices.
-    sobol_group_first, sobol_group_first_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
-        Their indices and 95% intervals, or None.
-    sobol_group_total, sobol_group_total_ci : ndarray, shape (..., k, G) / (2, ..., k, G)
-        The groups' total indices and their intervals (a PCE's or a pick-freeze design's),
-        or None.
+    ``moments``: its own mean, std, skewness, kurtosis in that order; ``corrected``: a
+    validated PCE's control-variate moments (``<label>+cv``); ``quantiles``: by increasing
+    level; ``fallback``: where a PCE withholds a moment, the Monte Carlo estimate of its own runs
+    (``<label>+mc``; NaN where the PCE's own value is given); these three empty otherwise.
+    ``n_used``: runs (or surrogate draws); ``moments_method``: ``"sample"``, ``"exact"`` or
+    ``"surrogate-sampling"``; ``cov (..., k, k)``; ``sobol_first``, ``sobol_total``
+    ``(..., k, d)`` and their ``_ci`` (a PCE's; Monte Carlo's first-order ones, NaN at steps
+    where none was computed); ``validation_error``: a validated PCE's out-of-sample relative
+    error; ``usable``: where a PCE's surrogate is usable (None: not judged);
+    ``sobol_estimator``: ``"pce"``, ``"given-data"`` or ``""``; ``sobol_groups`` with
+    ``sobol_group_first``, ``sobol_group_total`` ``(..., k, G)`` and their ``_ci`` (the total
+    ones a PCE's or a pick-freeze design's), or None.
     """
 
     label: str
@@ -267,20 +180,7 @@ class OutputStatistics:
 
     @classmethod
     def of(cls, label: str, output: OutputInfo, s: OutputStats) -> OutputStatistics:
-        """The description of one method's statistics of ``output``.
-
-        Parameters
-        ----------
-        label : str
-            The method's label.
-        output : OutputInfo
-        s : OutputStats
-            What the method estimated.
-
-        Returns
-        -------
-        OutputStatistics
-        """
+        """The description of one method's statistics ``s`` of ``output``."""
         usable = None if s.usable is None else np.asarray(s.usable, dtype=bool)
         moments = tuple(Statistic(label, n, "moment", s.stat(n), s.ci.get(n),
                                   s.sem if n == "mean" else None,
@@ -310,16 +210,7 @@ class OutputStatistics:
 
     def withheld_at(self, where: tuple[int, ...]) -> list[str]:
         """The moments a PCE withholds at ``where`` (not usable there, or not supported by
-        its runs: :mod:`uqguide.pce.support`); empty for sampling methods.
-
-        Parameters
-        ----------
-        where : tuple of int
-
-        Returns
-        -------
-        list of str
-        """
+        its runs: :mod:`uqguide.pce.support`); empty for sampling methods."""
         if not self.usable_at(where):
             return list(STAT_NAMES)
         return [f.name for f in self.fallback if np.isfinite(f.value[where])]
@@ -327,16 +218,7 @@ class OutputStatistics:
     def overflowed_at(self, where: tuple[int, ...]) -> list[str]:
         """The method's own moments at ``where`` that are not finite because their sums
         overflowed double precision (:func:`uqguide.stats.moments.overflowed`); none where a
-        PCE's surrogate is not usable (its moments are NaN for that reason).
-
-        Parameters
-        ----------
-        where : tuple of int
-
-        Returns
-        -------
-        list of str
-        """
+        PCE's surrogate is not usable (its moments are NaN for that reason)."""
         if not self.usable_at(where):
             return []
         mean, std, skew, kurt = (self.moment(n).value[where] for n in STAT_NAMES)
@@ -354,19 +236,9 @@ class OutputStatistics:
         return any(bool(np.any(m & usable)) for m in masks.values())
 
     def needs_runs(self, name: str) -> int | None:
-        """The runs the sample moment ``name`` needs when the method's were fewer
+        """The runs the sample moment (or quantile) ``name`` needs when the method's were fewer
         (:data:`~uqguide.core.types.RUNS_NEEDED`; its value is NaN unless no input is uncertain,
-        when one run is the whole distribution); None otherwise.
-
-        Parameters
-        ----------
-        name : str
-            A moment's or a quantile's name.
-
-        Returns
-        -------
-        int or None
-        """
+        when one run is the whole distribution); None otherwise."""
         need = RUNS_NEEDED.get(name)
         if need is None or self.moments_method != "sample" or self.n_used >= need:
             return None
@@ -388,63 +260,25 @@ class OutputStatistics:
         return tuple(float(q.level) for q in self.quantiles if q.level is not None)
 
     def moment(self, name: str) -> Statistic:
-        """The method's own moment ``name``.
-
-        Parameters
-        ----------
-        name : {"mean", "std", "skewness", "kurtosis"}
-
-        Returns
-        -------
-        Statistic
-        """
+        """The method's own moment ``name`` (mean, std, skewness or kurtosis)."""
         return self.moments[STAT_NAMES.index(name)]
 
     def own(self, name: str) -> Statistic | None:
-        """The method's own statistic of that name (a moment or a quantile), if it has one.
-
-        Parameters
-        ----------
-        name : str
-            ``mean``... or a quantile's level name.
-
-        Returns
-        -------
-        Statistic or None
-        """
+        """The method's own statistic of that name (a moment or a quantile's level name), if any."""
         return next((st for st in self.moments + self.quantiles if st.name == name), None)
 
     def usable_at(self, where: tuple[int, ...]) -> bool:
-        """Whether the method's own moments are usable at ``where`` (always, unless judged).
-
-        Parameters
-        ----------
-        where : tuple of int
-
-        Returns
-        -------
-        bool
-        """
+        """Whether the method's own moments are usable at ``where`` (always, unless judged)."""
         return True if self.usable is None else bool(self.usable[where])
 
     def standard_error(self, name: str, where: tuple[int, ...]) -> float:
-        """Standard error of the sample moment ``name`` at ``where``.
+        """Standard error of the sample moment ``name`` at ``where``, in the statistic's unit.
 
         The standard error of the mean where there is one; else the half-width of the
         method's 95% interval over :data:`Z95` (a bootstrap percentile interval of a
         near-normal estimator is ``-+1.96 se``), of its finite side for a one-sided interval
         (:mod:`uqguide.stats.tail_intervals`); else normal theory: ``std / sqrt(n)``,
         ``std / sqrt(2 n)``, ``sqrt(6 / n)``, ``sqrt(24 / n)``.
-
-        Parameters
-        ----------
-        name : {"mean", "std", "skewness", "kurtosis"}
-        where : tuple of int
-
-        Returns
-        -------
-        float
-            In the statistic's unit.
         """
         n = max(self.n_used, 1)
         st = self.moment(name)
@@ -467,22 +301,8 @@ class OutputStatistics:
 
 def method_statistics(label: str, stats: Mapping[str, OutputStats],
                       outputs: Sequence[OutputInfo]) -> dict[str, OutputStatistics]:
-    """The description of one method's statistics, output by output.
-
-    Parameters
-    ----------
-    label : str
-        The method's label.
-    stats : mapping of str to OutputStats
-        What the method estimated, by output name.
-    outputs : sequence of OutputInfo
-        The result's outputs, in their order.
-
-    Returns
-    -------
-    dict of str to OutputStatistics
-        In the outputs' order, for the outputs the method has statistics of.
-    """
+    """The description of one method's statistics, output by output, in the result's outputs'
+    order, for the outputs the method has statistics of."""
     return {o.name: OutputStatistics.of(label, o, stats[o.name])
             for o in outputs if o.name in stats}
 
@@ -507,17 +327,7 @@ class _Result(Protocol):
 
 
 def result_statistics(result: _Result) -> dict[str, dict[str, OutputStatistics]]:
-    """The description of every method's statistics of a result.
-
-    Parameters
-    ----------
-    result : Result
-        :class:`uqguide.results.result.Result` (or what has its ``runs`` and ``outputs``).
-
-    Returns
-    -------
-    dict of str to dict of str to OutputStatistics
-        By method label (the result's order), then by output name (the outputs' order).
-    """
+    """The description of every method's statistics of a result (or what has its ``runs`` and
+    ``outputs``): by method label (the result's order), then by output name."""
     return {r.label: method_statistics(r.label, r.estimate.stats, result.outputs)
             for r in result.runs}

@@ -21,14 +21,8 @@ if TYPE_CHECKING:  # the PCE package is imported only where a surrogate is used
 
 
 class StoredSurrogate:
-    """The arrays of a surrogate read from a result file, before the germ is rebuilt.
-
-    Attributes
-    ----------
-    inputs : list of str
-    outputs : dict of str to (alpha, core, mix or None, shape, kind)
-    derived : dict of str to (carriers, kind)
-    """
+    """The arrays of a surrogate read from a result file, before the germ is rebuilt: per output
+    ``(alpha, core, mix or None, shape, kind)``, per derived output ``(carriers, kind)``."""
 
     def __init__(self, inputs: list[str], outputs: dict[str, tuple[Any, ...]],
                  derived: dict[str, tuple[tuple[str, ...], str]]) -> None:

@@ -23,17 +23,9 @@ __all__ = ["Allocation", "mfmc_ratios", "ordering_holds", "select_allocation",
 
 @dataclass(frozen=True)
 class Allocation:
-    """The levels used and their run ratios.
-
-    Attributes
-    ----------
-    levels : tuple of int
-        Levels used, in estimator order; the first is always 0 (the highest fidelity).
-    ratios : ndarray, shape (len(levels),)
-        ``r_i = m_i / m_0``, non-decreasing, ``r_0 = 1``.
-    variance_ratio : float
-        Worst estimated ``Var(MFMC) / Var(MC)`` over the quantities, at equal cost (1: plain MC).
-    """
+    """The levels used (estimator order; the first is always 0, the highest fidelity), their run
+    ratios ``r_i = m_i / m_0`` (non-decreasing, ``r_0 = 1``) and the worst estimated
+    ``Var(MFMC) / Var(MC)`` over the quantities at equal cost (1: plain MC)."""
 
     levels: tuple[int, ...]
     ratios: np.ndarray
@@ -49,12 +41,8 @@ def ordering_holds(rho: np.ndarray, w: np.ndarray) -> bool:
     """PWG16 eq (3.8): ``|rho_0| > |rho_1| > ...`` and
     ``w_{i-1}/w_i > (rho_{i-1}^2 - rho_i^2) / (rho_i^2 - rho_{i+1}^2)`` for ``i >= 1``.
 
-    Parameters
-    ----------
-    rho : ndarray, shape (K,)
-        Correlations of each level with level 0 (``rho[0] = 1``).
-    w : ndarray, shape (K,)
-        Cost per run of each level (any unit, > 0).
+    ``rho (K,)``: correlations of each level with level 0 (``rho[0] = 1``); ``w (K,)``: cost per
+    run of each level (any unit, > 0).
     """
     r2 = np.append(np.asarray(rho, float) ** 2, 0.0)
     if np.any(np.diff(r2[:-1]) >= 0):
@@ -68,18 +56,9 @@ def ordering_holds(rho: np.ndarray, w: np.ndarray) -> bool:
 
 
 def mfmc_ratios(rho: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """The optimal ratios ``r_i = m_i/m_0`` (PWG16 eq 3.10):
-    ``r_i = sqrt(w_0 (rho_i^2 - rho_{i+1}^2) / (w_i (1 - rho_1^2)))``, ``rho_K = 0``.
-
-    Parameters
-    ----------
-    rho, w : ndarray, shape (K,)
-        As :func:`ordering_holds`, which must hold.
-
-    Returns
-    -------
-    ndarray, shape (K,)
-    """
+    """The optimal ratios ``r_i = m_i/m_0`` ``(K,)`` (PWG16 eq 3.10):
+    ``r_i = sqrt(w_0 (rho_i^2 - rho_{i+1}^2) / (w_i (1 - rho_1^2)))``, ``rho_K = 0``;
+    :func:`ordering_holds` must hold."""
     r2 = np.append(np.asarray(rho, float) ** 2, 0.0)
     w = np.asarray(w, float)
     if len(w) == 1:
@@ -90,17 +69,7 @@ def mfmc_ratios(rho: np.ndarray, w: np.ndarray) -> np.ndarray:
 def variance_factor(rho: np.ndarray, ratios: np.ndarray) -> np.ndarray:
     """``g`` in ``Var(MFMC mean) = sigma_0^2 g / m_0`` for a nested allocation with the
     optimal weights ``alpha_i = rho_i sigma_0 / sigma_i`` (PWG16 Lemma 3.3):
-    ``g = 1 - sum_{i>=1} (1/r_{i-1} - 1/r_i) rho_i^2``.
-
-    Parameters
-    ----------
-    rho : ndarray, shape (..., K)
-        Correlations of the used levels with level 0, in estimator order.
-    ratios : ndarray, shape (K,)
-
-    Returns
-    -------
-    ndarray, shape (...)
+    ``g = 1 - sum_{i>=1} (1/r_{i-1} - 1/r_i) rho_i^2``; ``rho (..., K)`` in estimator order.
     """
     rho = np.asarray(rho, float)
     inv = 1.0 / np.asarray(ratios, float)
@@ -120,24 +89,13 @@ def variance_ratio(rho: np.ndarray, w: np.ndarray, ratios: np.ndarray) -> np.nda
 def select_allocation(rho: np.ndarray, w: np.ndarray, min_gain: float = 1.0,
                       max_step: np.ndarray | None = None) -> Allocation:
     """The allocation with the smallest worst variance ratio over the quantities (module
-    docstring), or plain MC of level 0 when no candidate gains more than ``min_gain``.
+    docstring), or plain MC of level 0 when no candidate gains more than ``min_gain``
+    (``1/variance_ratio``).
 
-    Parameters
-    ----------
-    rho : ndarray, shape (Q, K)
-        Correlation of each quantity at each level with level 0 (column 0 is 1; NaN, e.g. a
-        constant quantity, counts as 0).
-    w : ndarray, shape (K,)
-        Cost per run of each level (> 0).
-    min_gain : float
-        Variance reduction (``1/variance_ratio``) below which plain MC is kept.
-    max_step : ndarray, shape (K,), optional
-        Largest ``m_i / m_prev`` of each level, ``m_prev`` the rows of the level before it in
-        estimator order (``inf``: no cap; the default for every level).
-
-    Returns
-    -------
-    Allocation
+    ``rho (Q, K)``: correlation of each quantity at each level with level 0 (column 0 is 1; NaN,
+    e.g. a constant quantity, counts as 0); ``w (K,)``: cost per run (> 0); ``max_step (K,)``:
+    largest ``m_i / m_prev`` of each level, ``m_prev`` the level before in estimator order
+    (default ``inf``: no cap).
     """
     rho = np.nan_to_num(np.atleast_2d(np.asarray(rho, float)))
     rho[:, 0] = 1.0
@@ -177,14 +135,10 @@ def _capped(ratios: np.ndarray, step: np.ndarray) -> np.ndarray:
 
 def _refine(start: Allocation, rho: np.ndarray, w: np.ndarray, step: np.ndarray
             ) -> Allocation:
-    """``start``'s levels with the ratios that minimise the worst variance ratio over the
-    quantities, within the caps ``step``; ``start`` itself when the search finds no better.
-
-    The ratios are ``r_i = r_{i-1} g_i``, ``g_i = 1 + e^{u_i}`` (no cap) or
-    ``1 + (step_i - 1) / (1 + e^{-u_i})`` (capped), so any ``u`` is a feasible, nested
-    allocation; Nelder-Mead from the start's ``u`` (deterministic: the same inputs give the
-    same allocation on any machine: its ratios are rounded to four digits).
-    """
+    """``start``'s levels with the ratios that minimise the worst variance ratio within the caps
+    ``step`` (``start`` when none is better): Nelder-Mead over ``u`` with
+    ``r_i = r_{i-1} g_i``, ``g_i = 1 + e^{u_i}`` or capped ``1 + (step_i - 1) / (1 + e^{-u_i})``
+    (any ``u`` is feasible and nested), ratios rounded to four digits so any machine agrees."""
     levels = list(start.levels)
     if len(levels) == 1:
         return start
@@ -223,23 +177,11 @@ def _refine(start: Allocation, rho: np.ndarray, w: np.ndarray, step: np.ndarray
 def sample_sizes(allocation: Allocation, w: np.ndarray, *, budget: float | None = None,
                  m0: float | None = None, at_least: int = 0) -> np.ndarray:
     """Runs per used level, ``m_i = floor(r_i m_0)`` (within a budget), nested, at least
-    ``max(at_least, 2)``.
+    ``max(at_least, 2)`` (the pilot's runs are part of the estimate).
 
-    Parameters
-    ----------
-    allocation : Allocation
-    w : ndarray, shape (K,)
-        Cost per run of every level (indexed by level, not by estimator order).
-    budget : float, optional
-        Total cost (unit of ``w``): ``m_0 = budget / sum_i w_i r_i`` (PWG16 eq 3.10).
-    m0 : float, optional
-        ``m_0`` itself (for a target standard error); exactly one of ``budget`` and ``m0``.
-    at_least : int
-        Lower bound of every ``m_i`` (the pilot's runs are part of the estimate).
-
-    Returns
-    -------
-    ndarray of int, shape (len(allocation.levels),)
+    ``w (K,)``: cost per run of every level (indexed by level, not estimator order); exactly one
+    of ``budget`` (total cost in ``w``'s unit: ``m_0 = budget / sum_i w_i r_i``, PWG16 eq 3.10)
+    and ``m0`` (for a target standard error).
     """
     if (budget is None) == (m0 is None):
         raise ValueError("give exactly one of budget and m0")

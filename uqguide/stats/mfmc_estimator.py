@@ -29,26 +29,13 @@ _POWERS = 4
 class MfmcStatistics:
     """The estimates of :func:`mfmc_statistics`, one column per quantity.
 
-    Attributes
-    ----------
-    mean, std, skewness, kurtosis, sem : ndarray, shape (Q,)
-    ci : dict of str to ndarray, shape (2, Q)
-        95% (or ``level``) intervals of mean, std, skewness and kurtosis.
-    alpha : ndarray, shape (K, 4, Q)
-        Weights per level and power (row 0 is 1).
-    rho : ndarray, shape (K, 2, Q)
-        Correlations with level 0 of ``z`` and ``z^2`` (the carriers of mean and variance).
-    equivalent_mc_runs : ndarray, shape (Q,)
-        Level-0 Monte Carlo runs with the same standard error of the mean:
-        ``sigma_0^2 / sem^2``.
-    se_std : ndarray, shape (Q,)
-        Standard error of the std by the same variance formula applied to the squares (the
-        carriers of the variance), ``se(var) / (2 std)``: a check on the bootstrap interval.
-    equivalent_mc_runs_std : ndarray, shape (Q,)
-        Level-0 Monte Carlo runs with the same standard error of the variance:
-        ``Var(z_0^2) / se(var)^2`` (no kurtosis estimate enters).
-    n_used : ndarray of int, shape (K,)
-        Surviving rows per level.
+    ``mean``, ``std``, ``skewness``, ``kurtosis``, ``sem (Q,)``; ``ci``: their ``level``
+    intervals ``(2, Q)``; ``alpha (K, 4, Q)``: weights per level and power (row 0 is 1);
+    ``rho (K, 2, Q)``: correlations with level 0 of ``z`` and ``z^2`` (carriers of mean and
+    variance); ``equivalent_mc_runs``: level-0 MC runs with the same sem, ``sigma_0^2 / sem^2``;
+    ``se_std``: ``se(var) / (2 std)`` by the same variance formula on the squares, a check on
+    the bootstrap interval; ``equivalent_mc_runs_std``: ``Var(z_0^2) / se(var)^2`` (no kurtosis
+    estimate enters); ``n_used (K,)``: surviving rows per level.
     """
 
     mean: np.ndarray
@@ -66,13 +53,8 @@ class MfmcStatistics:
 
 
 def group_bounds(sizes: np.ndarray) -> list[tuple[int, int]]:
-    """The independent groups ``[m_{g-1}, m_g)`` of rows (``m_{-1} = 0``).
-
-    Parameters
-    ----------
-    sizes : ndarray of int, shape (K,)
-        Runs per level, non-decreasing.
-    """
+    """The independent groups ``[m_{g-1}, m_g)`` of rows (``m_{-1} = 0``) for non-decreasing
+    ``sizes (K,)``."""
     edges = [0, *(int(m) for m in sizes)]
     return [(edges[g], edges[g + 1]) for g in range(len(sizes))]
 
@@ -166,29 +148,12 @@ def mfmc_statistics(levels_y: list[np.ndarray], sizes: np.ndarray, ok: np.ndarra
                     block: int = 25, estimator: str = "mfmc") -> MfmcStatistics:
     """MFMC estimates of mean, std, skewness, kurtosis per quantity, with intervals.
 
-    Parameters
-    ----------
-    levels_y : list of ndarray, shape (m_j, Q)
-        Each used level's values on rows ``[0, m_j)``, in estimator order (highest first).
-    sizes : ndarray of int, shape (K,)
-        ``m_j``, non-decreasing.
-    ok : ndarray of bool, shape (m_{K-1},), optional
-        Rows usable at every level they ran at (module docstring); default all.
-    n_resamples : int
-        Bootstrap resamples (0: no intervals but the mean's).
-    seed : int
-        Seed of the resampling stream.
-    level : float
-        Coverage of the intervals.
-    estimator : {"mfmc", "blue"}
-        PWG16's estimator or the best linear unbiased one of the same runs (module docstring).
-    block : int
-        Resamples drawn and summed together (memory ``block * m`` floats; fewer when a
-        group has over 80,000 rows).
-
-    Returns
-    -------
-    MfmcStatistics
+    ``levels_y``: each used level's values ``(m_j, Q)`` on rows ``[0, m_j)``, in estimator order
+    (highest first); ``sizes (K,)``: ``m_j``, non-decreasing; ``ok (m_{K-1},)``: rows usable at
+    every level they ran at (module docstring; default all); ``n_resamples``: bootstrap
+    resamples (0: only the mean's interval); ``estimator``: PWG16's (``"mfmc"``) or the best
+    linear unbiased one of the same runs (``"blue"``); ``block``: resamples summed together
+    (memory ``block * m`` floats; fewer when a group has over 80,000 rows).
     """
     sizes = np.asarray(sizes, dtype=np.int64)
     ok = np.ones(int(sizes[-1]), bool) if ok is None else np.asarray(ok, bool)

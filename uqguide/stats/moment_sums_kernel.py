@@ -21,21 +21,9 @@ from numba import njit
 
 @njit(cache=True, error_model="numpy")
 def column_sums(y: np.ndarray, high: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Mean and central sums of the columns of ``y``.
-
-    Parameters
-    ----------
-    y : ndarray, shape (n, c)
-        C-ordered samples (rows) of ``c`` columns; ``n >= 1``.
-    high : bool
-        Also the orders 5-16 (what the tail-aware intervals read).
-
-    Returns
-    -------
-    mean : ndarray, shape (c,)
-    sums : ndarray, shape (3, c) or (15, c)
-        Central sums of orders 2, 3, 4 (and 5-16).
-    """
+    """Mean ``(c,)`` and central sums ``(3, c)`` of orders 2-4 of the columns of C-ordered
+    ``y (n, c)``, ``n >= 1``; with ``high`` ``(15, c)``, orders 5-16 too (what the tail-aware
+    intervals read)."""
     n, c = y.shape
     acc = np.zeros(c)
     for i in range(n):
@@ -70,18 +58,8 @@ def column_sums(y: np.ndarray, high: bool) -> tuple[np.ndarray, np.ndarray]:
 
 @njit(cache=True, error_model="numpy")
 def comoment_sums(y: np.ndarray, mean: np.ndarray) -> np.ndarray:
-    """Comoment sums ``sum_i (y_i - mean)(y_i - mean)^T`` of every group of ``k`` components.
-
-    Parameters
-    ----------
-    y : ndarray, shape (n, P, k)
-        C-ordered samples.
-    mean : ndarray, shape (P, k)
-
-    Returns
-    -------
-    ndarray, shape (P, k, k)
-    """
+    """Comoment sums ``sum_i (y_i - mean)(y_i - mean)^T`` ``(P, k, k)`` of every group of ``k``
+    components of C-ordered ``y (n, P, k)``, ``mean (P, k)``."""
     n, P, k = y.shape
     cm = np.zeros((P, k, k))
     for i in range(n):

@@ -53,19 +53,8 @@ __all__ = ["STAT_NAMES", "MomentSums", "OutputStats", "bootstrap_intervals", "ce
 
 def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """std, skewness and kurtosis from central moments; NaN where the variance is zero.
-
-    Parameters
-    ----------
-    mean, mu2, mu3, mu4 : ndarray, shape (..., k)
-        Mean and central moments 2-4, in powers of the output's unit.
-
-    Returns
-    -------
-    std, skewness, kurtosis : ndarray, shape (..., k)
-        ``std`` in the output's unit; skewness and (non-excess) kurtosis dimensionless, NaN
-        where the variance is at round-off level relative to the mean.
-    """
+    """std (output unit), skewness and (non-excess) kurtosis ``(..., k)`` from the mean and
+    central moments 2-4; NaN where the variance is at round-off level relative to the mean."""
     std = np.sqrt(np.maximum(mu2, 0.0))
     # A variance at rounding level relative to the mean is zero for this purpose: samples that
     # all agree (before any dispersion acts) must give NaN, not a huge ratio of round-off.
@@ -88,23 +77,11 @@ def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
     (outputs near 1e300; a spread whose 4th power passes it, from about 1e77). Where the std
     overflowed, the skewness and kurtosis are ratios of overflowed sums (0 or NaN), marked too.
 
-    Parameters
-    ----------
-    mean, std, skewness, kurtosis : ndarray or float
-        Moments of one shape.
-    sample : bool
-        Sample moments of runs (``moments_method`` ``"sample"``). A PCE also withholds a
-        skewness or kurtosis as NaN (:mod:`uqguide.pce.support`), and a multi-fidelity estimate
-        gives NaN for a negative variance or an impossible shape
-        (:mod:`uqguide.stats.mfmc_estimator`): of theirs only the infinite ones are read so.
-    n_used : int, optional
-        Runs the sample moments are of: a moment NaN for want of runs
-        (:data:`~uqguide.core.types.RUNS_NEEDED`, :func:`founded`) did not overflow.
-
-    Returns
-    -------
-    dict of str to ndarray of bool
-        Per statistic name, where it overflowed.
+    ``sample`` False: a PCE withholds a skewness or kurtosis as NaN (:mod:`uqguide.pce.support`)
+    and a multi-fidelity estimate gives NaN for a negative variance
+    (:mod:`uqguide.stats.mfmc_estimator`): only the infinite ones are read so. ``n_used``: a
+    moment NaN for want of runs (:func:`founded`) did not overflow. Returns per statistic name
+    where it overflowed.
     """
     mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
     skew, kurt = np.asarray(skewness, dtype=float), np.asarray(kurtosis, dtype=float)
@@ -119,21 +96,8 @@ def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
 
 def founded(n: int, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
             ci: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """std, skewness and kurtosis of ``n`` runs, NaN (and ``ci`` without their intervals)
-    where ``n`` is below the runs each needs (:data:`~uqguide.core.types.RUNS_NEEDED`).
-
-    Parameters
-    ----------
-    n : int
-        Runs the moments are of.
-    std, skew, kurt : ndarray
-    ci : dict of str to ndarray
-        The intervals by statistic name; those of the moments set to NaN are removed.
-
-    Returns
-    -------
-    std, skewness, kurtosis : ndarray
-    """
+    """std, skewness and kurtosis of ``n`` runs, NaN (and their intervals removed from ``ci``)
+    where ``n`` is below the runs each needs (:data:`~uqguide.core.types.RUNS_NEEDED`)."""
     out = []
     for name, v in (("std", std), ("skewness", skew), ("kurtosis", kurt)):
         if n < RUNS_NEEDED[name]:
@@ -146,20 +110,8 @@ def founded(n: int, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
 @_quiet_overflow
 def central_moments(y: np.ndarray, axis: int = 0
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Mean and central moments 2-4 of ``y`` along ``axis`` (population estimators, two-pass).
-
-    Parameters
-    ----------
-    y : ndarray
-        Samples along ``axis``.
-    axis : int
-        The sample axis.
-
-    Returns
-    -------
-    mean, mu2, mu3, mu4 : ndarray
-        Shape of ``y`` without ``axis``; ``mu_p`` in the p-th power of ``y``'s unit.
-    """
+    """Mean and central moments 2-4 of ``y`` along ``axis`` (population estimators, two-pass);
+    ``mu_p`` in the p-th power of ``y``'s unit."""
     mean = y.mean(axis=axis)
     d = y - np.expand_dims(mean, axis)
     d2 = d * d
@@ -170,18 +122,8 @@ def central_moments(y: np.ndarray, axis: int = 0
 
 
 def covariance(y: np.ndarray) -> np.ndarray:
-    """Population covariance over the sample axis.
-
-    Parameters
-    ----------
-    y : ndarray, shape (n, ..., k)
-        Samples of a k-component output.
-
-    Returns
-    -------
-    ndarray, shape (..., k, k)
-        In the square of ``y``'s unit (divided by ``n``, not ``n - 1``).
-    """
+    """Population covariance ``(..., k, k)`` (divided by ``n``) of ``y (n, ..., k)``, in the
+    square of ``y``'s unit."""
     d = y - y.mean(axis=0)
     return np.einsum("n...i,n...j->...ij", d, d) / y.shape[0]
 
@@ -191,28 +133,14 @@ def bootstrap_intervals(
     y: np.ndarray, n_resamples: int = 200, seed: int = 0, level: float = 0.95,
     block: int = 25, max_bytes: int = 256 * 2**20,
 ) -> dict[str, np.ndarray]:
-    """Percentile-bootstrap intervals of mean, std, skewness and kurtosis.
+    """Percentile-bootstrap intervals ``(2, ...)`` of mean, std, skewness and kurtosis of
+    ``y (n, ...)``.
 
     Vectorised: a block of resamples is a matrix of multiplicities ``c (b, n)`` and the
     resampled power sums are matrix products ``c @ d**p`` of the data centred at the full-sample
-    mean (centring keeps the raw-to-central conversion well conditioned). Columns (time steps x
-    components) are processed in blocks so the powers of the data stay under ``max_bytes``; the
-    multiplicities of resample block ``j`` come from the stream ``(seed, j)``, so every column
-    sees the same resamples.
-
-    Parameters
-    ----------
-    y : ndarray, shape (n, ...)
-    n_resamples : int
-    seed : int
-        Seed of the resampling; fixed so the same data give the same intervals.
-    level : float
-        Coverage of the intervals.
-
-    Returns
-    -------
-    dict of str to ndarray, shape (2, ...)
-        ``(low, high)`` per statistic.
+    mean (centring keeps the raw-to-central conversion well conditioned). Columns are processed
+    in blocks so the powers of the data stay under ``max_bytes``; resample block ``j``'s
+    multiplicities come from the stream ``(seed, j)``, so every column sees the same resamples.
     """
     n = y.shape[0]
     shape = y.shape[1:]
@@ -275,20 +203,9 @@ def delta_standard_errors(
 
     and the estimator's variance is ``E[IF^2] / n`` (Serfling 1980, section 2.2.3; the
     skewness and kurtosis forms are eqs 2.2-2.3 of Wright & Herrington 2011 written for the
-    population estimators). ``E[IF^2]`` is a quadratic form of the coefficients in the
-    standardized moments up to ``r_8``.
-
-    Parameters
-    ----------
-    mu : tuple of ndarray
-        Population central moments ``(mu_2, ..., mu_8)``, each of shape ``(...)``.
-    n : float or ndarray
-        Sample count (per resample, broadcast against the moments, for a bootstrap's).
-
-    Returns
-    -------
-    dict of str to ndarray, shape (...)
-        Standard error per statistic; NaN where the variance is zero.
+    population estimators), a quadratic form in the standardized moments up to ``r_8``.
+    ``mu``: central moments ``(mu_2, ..., mu_8)``; ``n`` broadcasts against them (a bootstrap's
+    per resample). NaN where the variance is zero.
     """
     mu2 = mu[0]
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -320,24 +237,8 @@ def delta_intervals(
     mean: np.ndarray, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
     mu: tuple[np.ndarray, ...], n: float, level: float = 0.95,
 ) -> dict[str, np.ndarray]:
-    """Normal-theory intervals ``estimate +- z_(1+level)/2 SE`` with delta-method SEs.
-
-    Parameters
-    ----------
-    mean, std, skew, kurt : ndarray, shape (...)
-        The estimates.
-    mu : tuple of ndarray
-        Central moments ``(mu_2, ..., mu_8)`` of the same shape (:func:`delta_standard_errors`).
-    n : float
-        Sample count.
-    level : float
-        Coverage.
-
-    Returns
-    -------
-    dict of str to ndarray, shape (2, ...)
-        ``(low, high)`` per statistic.
-    """
+    """Normal-theory intervals ``estimate +- z_(1+level)/2 SE`` ``(2, ...)`` with delta-method
+    SEs from central moments ``(mu_2, ..., mu_8)`` (:func:`delta_standard_errors`)."""
     z = NormalDist().inv_cdf(0.5 + level / 2)
     se = delta_standard_errors(mu, n)
     est = {"mean": mean, "std": std, "skewness": skew, "kurtosis": kurt}
@@ -349,30 +250,16 @@ def sample_statistics(
     y: np.ndarray, *, bootstrap: int = 200, seed: int = 0, level: float = 0.95,
     ci_index: np.ndarray | None = None, intervals: str = "bootstrap",
 ) -> OutputStats:
-    """Statistics of samples ``y (n, ..., k)`` over the first axis.
+    """Statistics of samples ``y (n, T, k)`` or ``(n, k)`` over the first axis (failed runs
+    removed).
 
-    Parameters
-    ----------
-    y : ndarray, shape (n, T, k) or (n, k)
-        Samples of the output (failed runs already removed).
-    bootstrap : int
-        Number of bootstrap resamples for the intervals (0: no intervals).
-    seed : int
-        Seed of the bootstrap.
-    ci_index : ndarray of int, optional
-        For a time series, the time indices at which to bootstrap (the intervals are NaN at the
-        other steps); default all steps. The bootstrap costs ``2 * bootstrap * n`` flops per
-        power, column and resample, so a 1e5-sample series is bootstrapped where it is reported.
-    intervals : {"bootstrap", "delta", "tail"}
-        How the intervals are computed (``delta``: :func:`delta_intervals`; ``tail``:
-        :func:`uqguide.stats.tail_intervals.tail_intervals`; both at every step,
-        ``bootstrap`` then only switches them on when positive).
-
-    Returns
-    -------
-    OutputStats
-        Moments ``(..., k)``, covariance ``(..., k, k)``, the standard error of the mean and
-        the intervals ``ci[stat]`` ``(2, ..., k)``; ``moments_method="sample"``.
+    ``ci_index``: for a series, the time indices to bootstrap at (NaN intervals elsewhere;
+    default all): the bootstrap costs ``2 * bootstrap * n`` flops per power, column and
+    resample, so a 1e5-sample series is bootstrapped where it is reported. ``intervals``:
+    ``"delta"`` (:func:`delta_intervals`) or ``"tail"``
+    (:func:`uqguide.stats.tail_intervals.tail_intervals`) at every step, ``bootstrap`` then only
+    switching them on when positive. Moments ``(..., k)``, covariance ``(..., k, k)``, intervals
+    ``(2, ..., k)``; ``moments_method="sample"``.
     """
     y = np.asarray(y, dtype=float)
     n = y.shape[0]
@@ -420,21 +307,13 @@ class MomentSums:
     Two summaries of disjoint sample sets merge exactly (up to rounding) by the pairwise
     formulas of Chan, Golub & LeVeque (1979) and Pébay (2008, Sandia SAND2008-6212, eqs 3.1
     and 3.2, which hold for real weights), so statistics of any number of chunks come out of
-    one pass over the chunks without keeping the samples. The merge is not associative in
-    floating point: merging in a fixed (chunk) order makes the result independent of which
-    process reduced which chunk.
+    one pass without keeping the samples. The merge is not associative in floating point:
+    merging in a fixed (chunk) order makes the result independent of which process reduced
+    which chunk.
 
-    Attributes
-    ----------
-    n : float or ndarray, shape (B, 1)
-        Total weight (sample count); ``(B, 1)`` for ``B`` bootstrap resamples.
-    mean, m2, m3, m4 : ndarray, shape (..., k) or (B, c)
-    cm : ndarray, shape (..., k, k), optional
-    high : ndarray, shape (H, ..., k), optional
-        Central sums of orders 5 to ``4 + H``: 5-16 for plain samples (what the delta-method
-        and the tail-aware intervals of skewness and kurtosis need,
-        :func:`delta_standard_errors`, :func:`uqguide.stats.tail_intervals.tail_intervals`),
-        5-8 for a bootstrap's weighted sums.
+    ``n``: total weight, ``(B, 1)`` for ``B`` bootstrap resamples; fields ``(..., k)`` or
+    ``(B, c)``; ``cm (..., k, k)``; ``high (H, ..., k)``: central sums of orders 5 to ``4 + H``,
+    5-16 for plain samples (the delta-method and tail-aware intervals) and 5-8 for a bootstrap's.
     """
 
     n: float | np.ndarray
@@ -448,23 +327,9 @@ class MomentSums:
     @classmethod
     @_quiet_overflow
     def of(cls, y: np.ndarray, comoments: bool = True, high: bool = False) -> MomentSums:
-        """Sums of plain samples ``y (n, ..., k)`` over the first axis (two-pass).
-
-        Parameters
-        ----------
-        y : ndarray, shape (n, ..., k)
-            Samples (not modified; a view of a model's buffer is fine).
-        comoments : bool
-            Also the comoment sums ``(..., k, k)``.
-        high : bool
-            Also the central sums of orders 5-16 (:attr:`high`).
-
-        Returns
-        -------
-        MomentSums
-            Fields ``(..., k)``, ``cm`` ``(..., k, k)`` or None, ``high`` ``(12, ..., k)`` or
-            None.
-        """
+        """Sums of plain samples ``y (n, ..., k)`` (not modified; a view of a model's buffer is
+        fine) over the first axis (two-pass); ``cm (..., k, k)`` with ``comoments``,
+        ``high (12, ..., k)`` with ``high``."""
         y = np.asarray(y, dtype=float)
         n = y.shape[0]
         if n == 0:
@@ -526,26 +391,13 @@ class MomentSums:
     @classmethod
     @_quiet_overflow
     def weighted(cls, y: np.ndarray, w: np.ndarray, high: bool = False) -> MomentSums:
-        """Sums of ``y (n, c)`` under ``B`` weight vectors ``w (B, n)``: fields ``(B, c)``.
+        """Sums of ``y (n, c)`` under ``B`` weight vectors ``w (B, n)`` (bootstrap multiplicities):
+        ``n (B, 1)``, fields ``(B, c)``, no comoments.
 
         The weighted power sums are matrix products of the weights with the powers of ``y``
-        centred at its plain mean (centring keeps the conversion to central sums well
-        conditioned), converted to central sums about each resample's own weighted mean.
-
-        Parameters
-        ----------
-        y : ndarray, shape (n, c)
-            Samples of ``c`` columns.
-        w : ndarray, shape (B, n)
-            Non-negative weights (bootstrap multiplicities) per resample.
-        high : bool
-            Also the central sums of orders 5-8 per resample (``high (4, B, c)``): what each
-            resample's own delta-method standard error needs (the studentised bootstrap).
-
-        Returns
-        -------
-        MomentSums
-            ``n`` ``(B, 1)`` (total weights), fields ``(B, c)``, no comoments.
+        centred at its plain mean (well conditioned), converted to central sums about each
+        resample's own weighted mean. ``high``: orders 5-8, ``(4, B, c)``, which each resample's own
+        delta-method standard error needs (the studentised bootstrap).
         """
         y = np.asarray(y, dtype=float)
         B = w.shape[0]
@@ -578,22 +430,12 @@ class MomentSums:
     @_quiet_overflow
     def merge(self, other: MomentSums,
               outer: Callable[[np.ndarray], np.ndarray] | None = None) -> MomentSums:
-        """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2).
+        """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2); comoments only
+        where both sides have them.
 
-        Parameters
-        ----------
-        other : MomentSums
-            Sums of the other set, fields of the same shape.
-        outer : callable, optional
-            The outer products ``delta_i delta_j`` of the means' difference, shaped as ``cm``
-            (default ``einsum`` over the last axis;
-            :class:`uqguide.methods.monte_carlo.FoldedSums` gathers them by index for comoments
-            laid out flat).
-
-        Returns
-        -------
-        MomentSums
-            The union's sums (comoments only where both sides have them).
+        ``outer``: the outer products ``delta_i delta_j`` of the means' difference, shaped as ``cm``
+        (default ``einsum`` over the last axis; :class:`uqguide.methods.monte_carlo.FoldedSums`
+        gathers them by index for comoments laid out flat).
         """
         na, nb = self.n, other.n
         if np.ndim(na) == 0 and np.ndim(nb) == 0:
@@ -628,13 +470,8 @@ class MomentSums:
         return MomentSums(n, mean, m2, m3, m4, cm, high)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """The fields as named arrays (for storage); inverse of :meth:`from_arrays`.
-
-        Returns
-        -------
-        dict of str to ndarray
-            ``n``, ``mean``, ``m2``, ``m3``, ``m4`` and ``cm`` where present.
-        """
+        """The fields as named arrays for storage (``cm`` where present); inverse of
+        :meth:`from_arrays`."""
         d = {"n": np.asarray(self.n, dtype=float), "mean": self.mean, "m2": self.m2,
              "m3": self.m3, "m4": self.m4}
         if self.cm is not None:
@@ -645,30 +482,14 @@ class MomentSums:
 
     @classmethod
     def from_arrays(cls, d: dict[str, np.ndarray]) -> MomentSums:
-        """The sums stored by :meth:`arrays`.
-
-        Parameters
-        ----------
-        d : dict of str to ndarray
-            As :meth:`arrays` returns it.
-
-        Returns
-        -------
-        MomentSums
-        """
+        """The sums stored by :meth:`arrays`."""
         n = d["n"]
         return cls(float(n) if n.ndim == 0 else n, d["mean"], d["m2"], d["m3"], d["m4"],
                    d.get("cm"), d.get("high"))
 
     @_quiet_overflow
     def central_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0.
-
-        Returns
-        -------
-        mean, mu2, mu3, mu4 : ndarray
-            Shapes of the fields.
-        """
+        """Mean and population central moments 2-4 (``m_p / n``), NaN where ``n`` is 0."""
         with np.errstate(invalid="ignore", divide="ignore"):
             inv = np.where(np.asarray(self.n) > 0, 1.0 / np.asarray(self.n), np.nan)
         return self.mean, self.m2 * inv, self.m3 * inv, self.m4 * inv
@@ -723,35 +544,15 @@ def statistics_from_sums(
     uncertain: bool = True,
 ) -> OutputStats:
     """OutputStats from merged :class:`MomentSums` (the streaming form of
-    :func:`sample_statistics`).
+    :func:`sample_statistics`, the same to round-off).
 
-    Parameters
-    ----------
-    sums : MomentSums
-        Plain sums of the output, fields ``(..., k)``, comoments ``(..., k, k)``.
-    boot : MomentSums, optional
-        Poisson-bootstrap sums ``(B, c)`` of the columns the intervals are wanted at: every
-        column of the output flattened, or, for a time series, the time steps ``ci_index``
-        flattened ``(len(ci_index) * k)``. Intervals are NaN at the other steps.
-    ci_index : ndarray of int, optional
-        Time indices of the bootstrap columns of a series output.
-    level : float
-        Coverage of the intervals.
-    delta : MomentSums, optional
-        Plain sums with the orders 5-8 (:attr:`MomentSums.high`) of the interval columns
-        (laid out as ``boot``'s): delta-method intervals (:func:`delta_intervals`), used when
-        ``boot`` is None.
-    tail : bool
-        With ``delta`` (orders up to 16) and no ``boot``: the tail-aware intervals of
-        :func:`uqguide.stats.tail_intervals.tail_intervals` instead of the delta method's.
-    uncertain : bool
-        Whether the runs are draws of uncertain inputs: then a moment of fewer runs than it
-        needs is NaN (module docstring); without, one run is the whole distribution.
-
-    Returns
-    -------
-    OutputStats
-        As :func:`sample_statistics` gives for the same samples (to round-off).
+    ``sums``: plain sums, fields ``(..., k)``, comoments ``(..., k, k)``. ``boot``:
+    Poisson-bootstrap sums ``(B, c)`` of the interval columns: every column flattened, or for a
+    series the steps ``ci_index`` flattened ``(len(ci_index) * k)``; NaN intervals elsewhere.
+    ``delta``: plain sums with orders 5-8 of the interval columns (laid out as ``boot``'s), for
+    delta-method intervals when ``boot`` is None; with ``tail`` (orders up to 16) the tail-aware
+    intervals instead. ``uncertain``: the runs are draws of uncertain inputs, so a moment of
+    fewer runs than it needs is NaN; otherwise one run is the whole distribution.
     """
     n = int(round(float(sums.n)))
     shape = sums.mean.shape
@@ -811,7 +612,7 @@ def statistics_from_sums(
 @_quiet_overflow
 def studentized_intervals(sums: MomentSums, boot: MomentSums, level: float = 0.95
                           ) -> dict[str, np.ndarray]:
-    """Studentised (bootstrap-t) intervals of mean, std, skewness and kurtosis.
+    """Studentised (bootstrap-t) intervals ``(2, c)`` of mean, std, skewness and kurtosis.
 
     Each resample ``b`` gives its statistic ``T_b`` and its own delta-method standard error
     ``S_b`` (:func:`delta_standard_errors` from its central sums up to the 8th), so the pivot
@@ -819,23 +620,9 @@ def studentized_intervals(sums: MomentSums, boot: MomentSums, level: float = 0.9
     skew of the estimator's distribution and the correlation of a sample skewness or kurtosis
     with its own standard error (a sample that missed the tail has both too small). The interval
     is ``[T - t_(1-a/2) S, T - t_(a/2) S]`` (Efron & Tibshirani 1993, ch. 12; Hall 1992,
-    section 3.5: its coverage error is ``O(1/n)`` against the normal and percentile intervals'
-    ``O(1/sqrt(n))``).
-
-    Parameters
-    ----------
-    sums : MomentSums
-        Plain sums with the orders 5-8 of the interval columns, fields ``(c,)``.
-    boot : MomentSums
-        Poisson-bootstrap sums of the same columns with the orders 5-8, fields ``(B, c)``,
-        ``high (4, B, c)``.
-    level : float
-        Coverage.
-
-    Returns
-    -------
-    dict of str to ndarray, shape (2, c)
-        ``(low, high)`` per statistic; NaN where the variance is zero.
+    section 3.5: coverage error ``O(1/n)`` against the normal and percentile intervals'
+    ``O(1/sqrt(n))``). ``sums`` fields ``(c,)``, ``boot`` fields ``(B, c)``, both with orders
+    5-8. NaN where the variance is zero.
     """
     n = float(sums.n)
     mus = tuple(m / n for m in sums.central_sums())

@@ -20,23 +20,11 @@ from numba import njit
 @njit(cache=True, error_model="numpy")
 def binned_indices(lanes: np.ndarray, bins: np.ndarray, sizes: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """First-order indices and the variance of their influence functions.
+    """First-order indices ``V_i / D`` ``(C, d)`` (NaN without variance) and the sample variance
+    of their influence function ``psi`` over the runs ``(C, d)``.
 
-    Parameters
-    ----------
-    lanes : ndarray, shape (C, n)
-        Output columns, runs along each row.
-    bins : ndarray of int, shape (n, d)
-        The bin of every run for every input (``0 .. M - 1``).
-    sizes : ndarray of float, shape (M,)
-        Runs per bin (the same for every input: bins of equal counts), each at least 2.
-
-    Returns
-    -------
-    first : ndarray, shape (C, d)
-        ``V_i / D`` (NaN for a column without variance).
-    var_psi : ndarray, shape (C, d)
-        Sample variance of the influence function ``psi`` over the runs.
+    ``lanes (C, n)``: output columns, runs along each row; ``bins (n, d)``: every run's bin
+    ``0 .. M - 1`` per input; ``sizes (M,)``: runs per bin (equal counts), each at least 2.
     """
     c_all, n = lanes.shape
     d = bins.shape[1]

@@ -26,19 +26,8 @@ Z95 = 1.959963984540054
 
 @dataclass(frozen=True)
 class FirstOrderIndices:
-    """First-order indices of ``C`` output columns on ``d`` inputs.
-
-    Attributes
-    ----------
-    first : ndarray, shape (C, d)
-        The estimates (NaN for a column that does not vary).
-    se : ndarray, shape (C, d)
-        Their standard errors (influence function, module docstring).
-    n_bins : int
-        Bins per input.
-    n_runs : int
-        Runs used.
-    """
+    """First-order indices ``first (C, d)`` of ``C`` output columns on ``d`` inputs (NaN for a
+    column that does not vary) and their influence-function standard errors ``se (C, d)``."""
 
     first: np.ndarray
     se: np.ndarray
@@ -81,21 +70,10 @@ def rank_bins(x: np.ndarray, bins: int | None = None) -> RankBins:
 
 
 def bin_of_runs(x: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
-    """Equal-count bins of every input by rank.
+    """Equal-count bins of every input ``x (n, d)`` by rank, ``bins`` at most ``n / 2``.
 
-    Parameters
-    ----------
-    x : ndarray, shape (n, d)
-    bins : int
-        ``M``, at most ``n / 2``.
-
-    Returns
-    -------
-    bin_of : ndarray of int32, shape (n, d)
-        Run ``j``'s bin for input ``i`` (the order of tied values is NumPy's sort's, fixed by
-        the values and their order: the same numbers whatever the worker count).
-    sizes : ndarray of float, shape (M,)
-        Runs per bin (``floor`` or ``ceil`` of ``n / M``).
+    Returns each run's bin per input ``(n, d)`` (ties in NumPy's sort order, fixed by the values
+    and their order: the same whatever the worker count) and the runs per bin ``(M,)``.
     """
     n, d = x.shape
     starts = (np.arange(bins) * n) // bins
@@ -112,24 +90,11 @@ def first_order_indices(x: np.ndarray, lanes: np.ndarray, bins: int | None = Non
                         binned: RankBins | None = None) -> FirstOrderIndices:
     """Given-data first-order Sobol' indices of every output column on every input.
 
-    Parameters
-    ----------
-    x : ndarray, shape (n, d)
-        The runs' inputs (any units: only their ranks matter).
-    lanes : ndarray, shape (C, n)
-        Output columns, the runs along each row (lane-major, as Monte Carlo keeps its
-        per-run series values); failed runs left out, in the order of ``x``.
-    bins : int, optional
-        Bins per input (default :func:`n_bins`).
-    binned : RankBins, optional
-        The bins of ``x`` made already (:func:`rank_bins`): several outputs of one sample
-        sort the inputs once.
-
-    Returns
-    -------
-    FirstOrderIndices
-        ``first`` and ``se`` of shape ``(C, d)``; NaN for columns without variance, and
-        everywhere when ``n < MIN_RUNS``.
+    ``x (n, d)``: the runs' inputs (any units: only ranks matter); ``lanes (C, n)``: output
+    columns, runs along each row (lane-major), failed runs left out, in the order of ``x``;
+    ``bins`` default :func:`n_bins`; ``binned``: bins of ``x`` made already (:func:`rank_bins`,
+    so several outputs sort the inputs once). NaN for columns without variance, and everywhere
+    when ``n < MIN_RUNS``.
     """
     from .sobol_bins_kernel import binned_indices
 

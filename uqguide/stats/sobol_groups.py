@@ -22,24 +22,13 @@ NEIGHBOURS = 2
 
 def group_indices(x: np.ndarray, lanes: np.ndarray, groups: list[tuple[int, ...]]
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Given-data first-order indices of groups of inputs.
+    """Given-data first-order indices ``(C, G)`` of groups of inputs and their 95%
+    influence-function intervals ``(2, C, G)``.
 
-    Parameters
-    ----------
-    x : ndarray, shape (n, d)
-        The runs' inputs.
-    lanes : ndarray, shape (C, n)
-        Output columns, runs along each row (failed runs left out).
-    groups : list of tuple of int
-        Each group's input columns (at least two; a single input's index is
-        :func:`uqguide.stats.sobol_given_data.first_order_indices`).
-
-    Returns
-    -------
-    first : ndarray, shape (C, G)
-        The indices (NaN for a column without variance, or fewer than ``MIN_RUNS`` runs).
-    ci : ndarray, shape (2, C, G)
-        Their 95% intervals (influence function).
+    ``lanes (C, n)``: runs along each row (failed runs left out); ``groups``: each group's input
+    columns, at least two (a single input's is
+    :func:`uqguide.stats.sobol_given_data.first_order_indices`). NaN without variance or with
+    fewer than ``MIN_RUNS`` runs.
     """
     from scipy.spatial import cKDTree
     from scipy.special import ndtri

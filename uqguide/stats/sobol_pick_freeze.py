@@ -22,20 +22,11 @@ class PickFreezeSums:
     """Weighted sums of a pick-freeze design over some base rows, about a shift per lane.
 
     Row ``0`` of the leading axis is the sample itself (every weight 1); rows ``1..R`` are
-    bootstrap resamples.
-
-    Attributes
-    ----------
-    shift : ndarray, shape (L,)
-        ``c``: the value each lane's sums are taken about.
-    w : ndarray, shape (R + 1,)
-        Sum of the weights (base rows counted).
-    p1, p2 : ndarray, shape (R + 1, L)
-        ``sum w ((f_A - c) + (f_B - c))`` and ``sum w ((f_A - c)^2 + (f_B - c)^2)``.
-    d, x, j : ndarray, shape (R + 1, L, m)
-        Per frozen set: ``sum w D``, ``sum w (f_B - c) D`` and ``sum w (f_A - f_AB)^2``.
-    q : ndarray, shape (R + 1, L)
-        ``sum w sum_u (f_AB^u - c)``: with ``p1``, the mean of all runs.
+    bootstrap resamples. ``shift (L,)``: ``c``, each lane's centre; ``w (R + 1,)``: sum of the
+    weights; ``p1``, ``p2 (R + 1, L)``: ``sum w ((f_A - c) + (f_B - c))`` and
+    ``sum w ((f_A - c)^2 + (f_B - c)^2)``; ``d``, ``x``, ``j (R + 1, L, m)``: per frozen set
+    ``sum w D``, ``sum w (f_B - c) D``, ``sum w (f_A - f_AB)^2``; ``q (R + 1, L)``:
+    ``sum w sum_u (f_AB^u - c)``, with ``p1`` the mean of all runs.
     """
 
     shift: np.ndarray
@@ -52,21 +43,9 @@ class PickFreezeSums:
     @classmethod
     def of(cls, f_a: np.ndarray, f_b: np.ndarray, f_ab: np.ndarray,
            weights: np.ndarray) -> PickFreezeSums:
-        """The sums of one block of base rows.
-
-        Parameters
-        ----------
-        f_a, f_b : ndarray, shape (b, L)
-            The model's values on the rows of ``A`` and ``B`` (only good rows).
-        f_ab : ndarray, shape (m, b, L)
-            Its values on ``A_B^u`` of each frozen set ``u``.
-        weights : ndarray, shape (R + 1, b)
-            Row 0 all ones; rows 1.. the bootstrap counts of each base row.
-
-        Returns
-        -------
-        PickFreezeSums
-        """
+        """The sums of one block of base rows: ``f_a``, ``f_b (b, L)`` on the good rows of ``A`` and
+        ``B``, ``f_ab (m, b, L)`` on ``A_B^u`` of each frozen set, ``weights (R + 1, b)`` (row 0
+        ones, then bootstrap counts)."""
         b, n_lanes = f_a.shape
         m = f_ab.shape[0]
         c = 0.5 * (f_a.mean(axis=0) + f_b.mean(axis=0)) if b else np.zeros(n_lanes)
@@ -104,15 +83,9 @@ class PickFreezeSums:
         return cls(*(np.asarray(a[f]) for f in cls.FIELDS))
 
     def indices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """First-order and total indices of the sample and of every resample, and ``V``.
-
-        Returns
-        -------
-        first, total : ndarray, shape (R + 1, L, m)
-            NaN where the variance is zero or no base row is counted.
-        variance : ndarray, shape (R + 1, L)
-            The variance of ``f(A), f(B)`` (population, ``1 / 2N``).
-        """
+        """First-order and total indices ``(R + 1, L, m)`` of the sample and every resample (NaN
+        where the variance is zero or no base row is counted), and the population variance of
+        ``f(A), f(B)`` ``(R + 1, L)``."""
         with np.errstate(divide="ignore", invalid="ignore"):
             w = self.w[:, None]
             mu = self.p1 / (2 * w)                                   # mean of A, B - shift
@@ -139,19 +112,8 @@ def percentile_interval(resampled: np.ndarray, level: float = 0.95) -> np.ndarra
 
 def pick_freeze_indices(sums: PickFreezeSums, level: float = 0.95
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """First-order and total indices ``(L, m)`` and their percentile intervals ``(2, L, m)``.
-
-    Parameters
-    ----------
-    sums : PickFreezeSums
-        Merged over every base row (row 0 the sample, the others bootstrap resamples).
-    level : float
-        Interval probability.
-
-    Returns
-    -------
-    first, total, first_ci, total_ci : ndarray
-    """
+    """First-order and total indices ``(L, m)`` and their percentile intervals ``(2, L, m)``,
+    from sums merged over every base row."""
     first, total, _ = sums.indices()
     return (first[0], total[0], percentile_interval(first[1:], level),
             percentile_interval(total[1:], level))

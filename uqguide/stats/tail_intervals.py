@@ -34,20 +34,9 @@ _ORDER = {"mean": 2, "std": 4, "skewness": 6, "kurtosis": 8}
 
 
 def if_polynomial(name: str, r: list[np.ndarray]) -> list[np.ndarray]:
-    """Coefficients (in powers of ``z``) of a statistic's influence function, in its units of
-    ``sigma`` for mean and std (Serfling 1980, section 2.2.3; Wright & Herrington 2011).
-
-    Parameters
-    ----------
-    name : {"mean", "std", "skewness", "kurtosis"}
-    r : list of ndarray
-        Standardised moments ``r_0 .. r_p`` (``r_k = E z^k``), each of shape ``(...)``.
-
-    Returns
-    -------
-    list of ndarray
-        ``c_0 .. c_deg``.
-    """
+    """Coefficients ``c_0 .. c_deg`` (in powers of ``z``) of a statistic's influence function,
+    in units of ``sigma`` for mean and std (Serfling 1980, section 2.2.3; Wright & Herrington
+    2011), from standardised moments ``r_k = E z^k``."""
     one = np.ones_like(r[0])
     zero = np.zeros_like(r[0])
     g, k = r[3], r[4]
@@ -87,24 +76,10 @@ def tail_intervals(mean: np.ndarray, mus: tuple[np.ndarray, ...], n: float,
     """Skew-corrected intervals of mean, std, skewness and kurtosis, one-sided where the runs
     cannot bound the statistic (module docstring).
 
-    Parameters
-    ----------
-    mean : ndarray, shape (...)
-        Sample mean.
-    mus : tuple of ndarray
-        Population central moments ``(mu_2, ..., mu_16)``, each of shape ``(...)``.
-    n : float
-        Sample count.
-    level : float
-        Coverage (two-sided; a one-sided interval's finite end is the same bound).
-
-    Returns
-    -------
-    ci : dict of str to ndarray, shape (2, ...)
-        ``(low, high)`` per statistic; ``+inf`` (``-inf``) where the runs cannot bound it
-        above (below); NaN where the variance is zero.
-    n_eff : dict of str to ndarray, shape (...)
-        Effective number of runs carrying each statistic's variance.
+    ``mus``: central moments ``(mu_2, ..., mu_16)``; ``level``: two-sided coverage (a one-sided
+    interval's finite end is the same bound). Returns ``ci (2, ...)`` per statistic, ``+inf``
+    (``-inf``) where the runs cannot bound it above (below), NaN where the variance is zero; and
+    per statistic the effective number of runs carrying its variance.
     """
     if len(mus) < MAX_ORDER - 1:
         raise ValueError(f"tail_intervals needs the central moments up to order {MAX_ORDER} "
@@ -152,21 +127,10 @@ def hall_interval(value: np.ndarray, se: np.ndarray, q: np.ndarray | float,
                   skew: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Hall's (1992) skew-corrected interval ``[T - SE G^-1(q), T - SE G^-1(-q)]``.
 
-    Parameters
-    ----------
-    value, se : ndarray
-        The estimate ``T`` and its standard error.
-    q : float or ndarray
-        The quantile of the symmetric interval (1.96, or a t quantile).
-    skew : ndarray
-        The skewness of the estimator's own distribution (``g / sqrt(n)`` for a mean of
-        ``n`` values of skewness ``g``; for a stratified mean ``sum_k W_k^3 mu3_k / n_k^2`` over
-        its standard error cubed).
-
-    Returns
-    -------
-    low, high : ndarray
-        Equal to ``T -+ q SE`` where the skew is 0; the longer side toward a positive skew.
+    ``q``: the symmetric interval's quantile (1.96, or a t quantile); ``skew``: of the
+    estimator's own distribution (``g / sqrt(n)`` for a mean of ``n`` values of skewness ``g``;
+    for a stratified mean ``sum_k W_k^3 mu3_k / n_k^2`` over its se cubed). ``T -+ q SE`` where
+    the skew is 0; the longer side toward a positive skew.
     """
     a = np.asarray(skew, dtype=float) / 3.0
     return value - se * _hall_inverse(q, a), value - se * _hall_inverse(-q, a)

@@ -51,33 +51,17 @@ class Reducer(Protocol):
 
 @dataclass
 class ChunkResult:
-    """What comes back from one chunk.
+    """What comes back from one chunk of ``m`` runs.
 
-    Attributes
-    ----------
-    task : Task
-    failed : ndarray of bool, shape (m,)
-    reasons : ndarray of object, shape (m,)
-    time : ndarray, shape (T,)
-        The model's grid (may be empty when every sample of the chunk failed).
-    scalars : dict of str to ndarray, shape (m, k)
-    series : dict of str to ndarray, shape (m, T, k)
-        Empty when the chunk was reduced.
-    summary : dict of str to ndarray
-        The method's reduction of the chunk (empty when not reduced).
-    model_seconds : float
-        Wall seconds of the model calls of this chunk, less ``compile_seconds``.
-    compile_seconds : float
-        Seconds the chunk's process spent compiling a kernel during those calls (a first run
-        on a fresh install; :func:`uqguide.models.kernels.compile_seconds`).
-    cpu_seconds : float
-        CPU seconds of the chunk's process during those calls (``time.process_time``: all its
-        threads, so a model's own threads count), less ``compile_seconds``; unlike the wall
-        seconds, not inflated by other processes on a busy machine.
-    in_place : tuple of (part, key, n)
-        Per-run values the worker wrote into the driver's shared arrays instead of sending
-        them (:mod:`uqguide.driver.execution.shared_rows`): ``scalars`` or ``summary``, the key, the
-        number of runs.
+    ``time (T,)``: the model's grid (may be empty when every sample failed); ``scalars``
+    ``(m, k)``; ``series`` ``(m, T, k)``, empty when the chunk was reduced; ``summary``: the
+    method's reduction (empty when not reduced); ``model_seconds``: wall seconds of the model
+    calls less ``compile_seconds`` (compiling a kernel in those calls, a first run on a fresh
+    install: :func:`uqguide.models.kernels.compile_seconds`); ``cpu_seconds``: CPU seconds of
+    the chunk's process in those calls (``time.process_time``, all its threads) less
+    ``compile_seconds``, not inflated by other processes on a busy machine; ``in_place``: per-run
+    values the worker wrote into the driver's shared arrays instead of sending them
+    (:mod:`uqguide.driver.execution.shared_rows`), as ``(scalars or summary, key, n runs)``.
     """
 
     task: Task
@@ -97,13 +81,7 @@ class ChunkResult:
         return int(np.sum(self.failed))
 
     def output(self) -> ModelOutput:
-        """The chunk's runs as a model output (its series, if any were kept).
-
-        Returns
-        -------
-        ModelOutput
-            ``m`` samples: scalars ``(m, k)``, series ``(m, T, k)``, failures ``(m,)``.
-        """
+        """The chunk's runs as a model output (its series, if any were kept)."""
         return ModelOutput(time=self.time, series=self.series, scalars=self.scalars,
                            failed=self.failed, reasons=self.reasons)
 
@@ -112,17 +90,11 @@ class ChunkResult:
 class Containment:
     """How a run contains a model that may crash or leak.
 
-    Attributes
-    ----------
-    isolate : bool
-        Without workers, make the model calls in a guard process (a crash then costs the
-        samples that crash, found by bisection).
-    asked : bool
-        The config asked for it (``model.isolate: true``): a model that cannot be built in a
-        guard process stops the run. Otherwise (a callable's default) the run falls back to
-        evaluating in its own process, with a warning.
-    memory_limit : int or None
-        Bytes of address space of each child process (guard processes, pool workers).
+    ``isolate``: without workers, make the model calls in a guard process (a crash then costs
+    the samples that crash, found by bisection); ``asked``: the config asked for it
+    (``model.isolate: true``), so a model that cannot be built in a guard process stops the run,
+    where otherwise (a callable's default) the run falls back to its own process with a warning;
+    ``memory_limit``: bytes of address space of each child process (guards, pool workers).
     """
 
     isolate: bool = False

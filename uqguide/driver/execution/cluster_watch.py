@@ -26,17 +26,9 @@ class NoWorkerWatch:
     """Raises :class:`~uqguide.errors.ClusterLost` once a cluster has had no worker for
     ``timeout`` seconds in a row.
 
-    Parameters
-    ----------
-    count : callable () -> int or None
-        The number of workers the scheduler has now; None when the scheduler cannot be asked
-        (the connection is lost): the run stops at once.
-    timeout : float
-        Seconds without a worker before the run stops [s].
-    where : str
-        The cluster, for the message (its scheduler address).
-    clock : callable () -> float
-        Monotonic seconds (a test's fake clock).
+    ``count()``: the scheduler's number of workers now, None when it cannot be asked (the
+    connection is lost: the run stops at once); ``where``: the scheduler address, for the
+    message; ``clock``: monotonic seconds (a test's fake clock).
     """
 
     def __init__(self, count: Callable[[], int | None], timeout: float, where: str,
@@ -79,33 +71,14 @@ class NoWorkerWatch:
 
 
 def scheduler_lost(where: str) -> str:
-    """The message of a run whose scheduler connection closed (the scheduler died, or its
-    host or the network went).
-
-    Parameters
-    ----------
-    where : str
-        The scheduler's address.
-
-    Returns
-    -------
-    str
-    """
+    """The message of a run whose connection to the scheduler at ``where`` closed (the
+    scheduler died, or its host or the network went)."""
     return f"lost the connection to the Dask scheduler at {where}"
 
 
 def cancelled_reasons(exc: BaseException) -> set[str]:
     """Dask's reasons for cancelling the futures of ``exc`` (a ``FuturesCancelledError`` of
-    ``wait``, a ``FutureCancelledError`` of ``result``; empty for anything else).
-
-    Parameters
-    ----------
-    exc : BaseException
-
-    Returns
-    -------
-    set of str
-    """
+    ``wait``, a ``FutureCancelledError`` of ``result``; empty for anything else)."""
     groups = getattr(exc, "error_groups", None)
     if groups is not None:
         return {str(g.reason) for g in groups}
@@ -114,21 +87,8 @@ def cancelled_reasons(exc: BaseException) -> set[str]:
 
 
 def cancelled_message(exc: BaseException, where: str, connected: bool) -> str:
-    """Why the chunks in flight were cancelled, for :class:`~uqguide.errors.ClusterLost`.
-
-    Parameters
-    ----------
-    exc : BaseException
-        Dask's cancellation error.
-    where : str
-        The scheduler's address.
-    connected : bool
-        Whether the client is still connected to the scheduler.
-
-    Returns
-    -------
-    str
-    """
+    """Why the chunks in flight were cancelled (Dask's ``exc``), for
+    :class:`~uqguide.errors.ClusterLost`."""
     reasons = cancelled_reasons(exc)
     if not connected or SCHEDULER_LOST in reasons:
         return scheduler_lost(where)

@@ -41,22 +41,9 @@ class Executor(Protocol):
 
     def map_chunks(self, job: ChunkJob, tasks: Sequence[Task],
                    x: np.ndarray | GeneratedRows) -> Iterator[ChunkResult]:
-        """Evaluate the chunks of a design.
-
-        Parameters
-        ----------
-        job : ChunkJob
-            The model, input names, outputs and reducer every chunk shares.
-        tasks : sequence of Task
-            The chunks: rows ``[start, stop)`` of ``x``.
-        x : ndarray or GeneratedRows, shape (n, d)
-            The design, inputs in SI units; only the chunks' rows are read.
-
-        Yields
-        ------
-        ChunkResult
-            One per task, in the order they complete (the driver folds them by index).
-        """
+        """Evaluate the chunks ``tasks`` (rows ``[start, stop)`` of the design ``x (n, d)``, SI
+        units, only those rows read), yielding one ChunkResult per task in the order they complete
+        (the driver folds them by index)."""
         ...
 
     def abort(self) -> None: ...
@@ -66,14 +53,8 @@ class Executor(Protocol):
 
 class SerialExecutor:
     """Evaluates chunks one after another in this process (the model calls of a model that
-    can crash its process in a guard process: :mod:`.guard`).
-
-    Parameters
-    ----------
-    batch_size : int, optional
-        Samples per model call (memory / cache granularity; does not change the numbers);
-        default the config's ``batch_size``.
-    """
+    can crash its process in a guard process: :mod:`.guard`). ``batch_size``: samples per model
+    call (memory / cache granularity; does not change the numbers), default the config's."""
 
     shares_memory = False  # nothing to share: the values are in this process already
     #: A model call that crashes would take the driver with it: the driver isolates models
@@ -91,25 +72,9 @@ class SerialExecutor:
 
     def evaluate(self, model: Model, x: np.ndarray, names: Sequence[str],
                  outputs: Collection[str], timing: Timing | None = None) -> ModelOutput:
-        """Evaluate ``model`` batch by batch, samples that raise isolated.
-
-        Parameters
-        ----------
-        model : Model
-        x : ndarray, shape (n, d)
-            Inputs in SI units, column ``j`` for ``names[j]``.
-        names : sequence of str, length d
-            The uncertain inputs.
-        outputs : collection of str
-            Outputs to compute.
-        timing : Timing, optional
-            Incremented by the model seconds and the ``n`` runs.
-
-        Returns
-        -------
-        ModelOutput
-            The ``n`` samples joined in order.
-        """
+        """Evaluate ``model`` batch by batch on ``x (n, d)`` (SI units, column ``j`` for
+        ``names[j]``), samples that raise isolated; ``timing`` is incremented by the model seconds
+        and the ``n`` runs."""
         bs = self.batch_size or DEFAULT_BATCH_SIZE
         job = ChunkJob(ModelHandle(model), tuple(names), tuple(outputs), bs)
         n = x.shape[0]
@@ -173,17 +138,10 @@ class _WindowedExecutor:
 
 
 class ProcessExecutor(_WindowedExecutor):
-    """A local pool of worker processes (``concurrent.futures``, ``spawn`` start method).
+    """A local pool of ``workers`` processes (``concurrent.futures``, ``spawn`` start method).
 
     ``spawn`` (not ``fork``): a forked child of a process holding threads (numba, BLAS, a Dask
     client) can deadlock. Workers import uqguide and rebuild the model once each.
-
-    Parameters
-    ----------
-    workers : int
-        Number of worker processes (>= 1).
-    batch_size : int, optional
-        Samples per model call; default the config's.
     """
 
     shares_memory = True
@@ -287,7 +245,8 @@ class ProcessExecutor(_WindowedExecutor):
 
 
 class DaskExecutor(_WindowedExecutor):
-    """Chunks submitted to a ``dask.distributed`` cluster.
+    """Chunks submitted to a ``dask.distributed`` cluster (``address``, e.g.
+    ``tcp://10.0.0.5:8786``, a ``scheduler_file`` or an existing ``client``, not closed).
 
     Each chunk is one ``client.submit(run_chunk, ..., pure=False, retries=retries)``:
     ``pure=False`` because two chunks with equal inputs must still both run (and a resubmitted
@@ -299,19 +258,6 @@ class DaskExecutor(_WindowedExecutor):
     A cluster without any worker for ``no_workers_timeout`` seconds, or a lost scheduler,
     stops the run with :class:`~uqguide.errors.ClusterLost` (:mod:`.cluster_watch`), where
     Dask would wait for a worker forever.
-
-    Parameters
-    ----------
-    address : str, optional
-        Scheduler address, e.g. ``tcp://10.0.0.5:8786``.
-    scheduler_file : str, optional
-        A scheduler file written by ``dask scheduler --scheduler-file``.
-    client : distributed.Client, optional
-        An existing client (used as is, not closed).
-    batch_size : int, optional
-    retries : int
-    no_workers_timeout : float
-        Seconds the run waits while the cluster has no worker [s].
     """
 
     shares_memory = False  # workers may be on other machines
@@ -453,25 +399,8 @@ def _silenced(*names: str) -> Iterator[None]:
 def make_executor(workers: int | None = None, scheduler: str | None = None,
                   scheduler_file: str | None = None,
                   no_workers_timeout: float = NO_WORKERS_TIMEOUT) -> Executor:
-    """An executor: Dask if a scheduler (address or file) is given, a process pool of
-    ``workers`` processes when ``workers >= 1``, else this process.
-
-    Parameters
-    ----------
-    workers : int, optional
-        Local worker processes.
-    scheduler : str, optional
-        Address of a ``dask.distributed`` scheduler.
-    scheduler_file : str, optional
-        A Dask scheduler file.
-    no_workers_timeout : float
-        Seconds a Dask run waits while its cluster has no worker [s].
-
-    Returns
-    -------
-    Executor
-        To be closed by the caller (``close()``).
-    """
+    """An executor, to be closed by the caller: Dask if a scheduler (address or file) is given,
+    a process pool of ``workers`` processes when ``workers >= 1``, else this process."""
     if scheduler or scheduler_file:
         return DaskExecutor(address=scheduler, scheduler_file=scheduler_file,
                             no_workers_timeout=no_workers_timeout)

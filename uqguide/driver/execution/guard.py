@@ -113,15 +113,9 @@ def _main_hidden() -> Iterator[None]:
 
 
 def _context(needs_main: bool) -> Any:
-    """Where a guard process comes from.
-
-    A model that does not need the main script comes from a **fork server**: one process,
-    started once, that has imported uqguide and forks each guard from itself, so that the
-    fresh guard after a crash costs a fork (milliseconds) and not a new interpreter importing
-    NumPy and uqguide (half a second: 40 of them to find 4 crashing samples among 1000). The
-    fork server is single-threaded, so forking it is safe, unlike forking the driver. A model
-    defined in the main script needs that script imported, which only ``spawn`` does.
-    """
+    """Where a guard process comes from: a single-threaded **fork server** (a fresh guard after
+    a crash costs a fork, not half a second of imports: 40 of them to find 4 crashing samples in
+    1000), or ``spawn`` for a model defined in the main script, which must be imported."""
     if needs_main or "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     ctx = multiprocessing.get_context("forkserver")
@@ -208,23 +202,9 @@ class Guard:
 
     def call(self, handle: Any, x: np.ndarray, names: Sequence[str],
              outputs: Collection[str]) -> tuple[str, Any]:
-        """One model call in the guard process, killed after ``timeout_s``.
-
-        Parameters
-        ----------
-        handle : ModelHandle
-            The model (rebuilt in the guard once).
-        x : ndarray, shape (n, d)
-            Inputs in SI units.
-        names : sequence of str, length d
-        outputs : collection of str
-
-        Returns
-        -------
-        tuple
-            ``("ok", ModelOutput)``, or ``("timeout" | "crashed" | "raised", reason)``; a
-            ModelError (the caller's mistake, not the sample's) is raised here.
-        """
+        """One model call in the guard process (the model rebuilt there once), killed after
+        ``timeout_s``: ``("ok", ModelOutput)``, or ``("timeout" | "crashed" | "raised", reason)``; a
+        ModelError (the caller's mistake, not the sample's) is raised here."""
         if self._proc is None or not self._proc.is_alive():
             self._stop()
             self._start(handle)
@@ -262,19 +242,8 @@ _GUARDS: dict[tuple[float | None, int | None], Guard] = {}
 
 
 def guard_for(timeout_s: float | None, memory_limit: int | None = None) -> Guard:
-    """This process's guard for ``timeout_s`` and ``memory_limit`` (one, reused).
-
-    Parameters
-    ----------
-    timeout_s : float or None
-        Seconds a call may take (None: no limit, crash isolation only).
-    memory_limit : int or None
-        Bytes of address space the guard process may use (None: no limit).
-
-    Returns
-    -------
-    Guard
-    """
+    """This process's guard (one, reused) for ``timeout_s`` (None: crash isolation only) and
+    ``memory_limit`` [bytes of address space] (None: no limit)."""
     g = _GUARDS.get((timeout_s, memory_limit))
     if g is None:
         g = _GUARDS[(timeout_s, memory_limit)] = Guard(timeout_s, memory_limit)
@@ -294,26 +263,8 @@ def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Col
     """``evaluate_batch`` in the guard process, bisected on a timeout or a crash (module
     docstring); the samples that time out or crash alone fail with the reason.
 
-    Parameters
-    ----------
-    handle : ModelHandle
-        The model.
-    x : ndarray, shape (n, d)
-        Inputs in SI units, column ``j`` for ``names[j]``.
-    names : sequence of str, length d
-    outputs : collection of str
-    timeout_s : float or None
-        Seconds one call may take.
-    memory_limit : int or None
-        Bytes of address space of the guard process.
-    on_isolated : callable, optional
-        Told ``(row, reason)`` for each row of ``x`` that failed alone by a crash or a
-        timeout (the driver records it, so that a resume does not run it again).
-
-    Returns
-    -------
-    ModelOutput
-        The ``n`` samples in order; those isolated fail with the reason.
+    ``x (n, d)``: SI units, column ``j`` for ``names[j]``; ``on_isolated(row, reason)``: told of
+    each row that failed alone (the driver records it, so that a resume does not run it again).
     """
     model = handle.model
     guard = guard_for(timeout_s, memory_limit)

@@ -18,25 +18,12 @@ log = logging.getLogger(__name__)
 
 def evaluate_batch(model: Model, x: np.ndarray, names: Sequence[str],
                    outputs: Collection[str]) -> ModelOutput:
-    """``model.evaluate`` on ``x (n, d)``; samples whose evaluation raises fail alone.
+    """``model.evaluate`` on ``x (n, d)``; samples whose evaluation raises fail alone, with
+    ``"ExceptionType: message"``.
 
     When the call raises, the batch is split in halves recursively until the raising samples
-    are single (the others are evaluated normally; the model is deterministic per sample, so
-    their values do not depend on the split).
-
-    Parameters
-    ----------
-    model : Model
-    x : ndarray, shape (n, d)
-        Inputs in SI units, column ``j`` for ``names[j]``.
-    names : sequence of str, length d
-    outputs : collection of str
-
-    Returns
-    -------
-    ModelOutput
-        The ``n`` samples in order; a raising sample fails with ``"ExceptionType: message"``.
-        A ModelError (a contract violation, not a sample's failure) propagates.
+    are single (the model is deterministic per sample, so the others' values do not depend on
+    the split). A ModelError (a contract violation, not a sample's failure) propagates.
     """
     pieces: list[ModelOutput | tuple[int, str]] = []
     _bisect(model, x, names, outputs, pieces)
@@ -49,20 +36,8 @@ def evaluate_batch(model: Model, x: np.ndarray, names: Sequence[str],
 
 def assemble_pieces(model: Model, pieces: Sequence[ModelOutput | tuple[int, str]],
                     outputs: Collection[str]) -> ModelOutput:
-    """One batch's output from its evaluated pieces and its failed ones, in order; failed
-    pieces get the grid of an evaluated one (or of a probe run).
-
-    Parameters
-    ----------
-    model : Model
-    pieces : sequence of ModelOutput or (int, str)
-        Evaluated pieces, and failed ones as ``(n_samples, reason)``.
-    outputs : collection of str
-
-    Returns
-    -------
-    ModelOutput
-    """
+    """One batch's output from its evaluated pieces and its failed ones (``(n_samples,
+    reason)``), in order; failed pieces get the grid of an evaluated one (or of a probe run)."""
     grid = next((p.time for p in pieces if isinstance(p, ModelOutput)), None)
     if grid is None and any(model.output_info(o).kind == "series" for o in outputs):
         grid = _probe_grid(model, outputs)
@@ -98,27 +73,11 @@ def skipping_known(model: Model, x: np.ndarray, outputs: Collection[str],
                    evaluate: Callable[[np.ndarray, int], ModelOutput]) -> ModelOutput:
     """``evaluate(x)`` without the rows already known to crash or hang their process.
 
-    A row isolated by an earlier attempt of the run (its checkpoint lists it) fails again with
-    the reason recorded then, without being run: a resume never runs a known crasher again,
-    and its result equals the uninterrupted run's. The other rows are evaluated in the
-    stretches between them (the model is deterministic per sample, so the split does not
-    change their values).
-
-    Parameters
-    ----------
-    model : Model
-    x : ndarray, shape (n, d)
-    outputs : collection of str
-    known : mapping of int to str
-        Row of ``x`` -> the reason it failed with.
-    evaluate : callable
-        ``evaluate(rows, first)`` evaluates the stretch ``rows (m, d)`` that starts at row
-        ``first`` of ``x``.
-
-    Returns
-    -------
-    ModelOutput
-        The ``n`` samples in order.
+    A row isolated by an earlier attempt of the run (its checkpoint lists it in ``known`` with
+    its reason) fails again with that reason, without being run: a resume never runs a known
+    crasher again, and its result equals the uninterrupted run's. The other rows are evaluated
+    in the stretches between them, ``evaluate(rows (m, d), first row)`` (the model is
+    deterministic per sample, so the split does not change their values).
     """
     rows = sorted(r for r in known if 0 <= r < x.shape[0])
     if not rows:
@@ -146,17 +105,8 @@ def _probe_grid(model: Model, outputs: Collection[str]) -> np.ndarray | None:
 
 
 def common_grid(parts: list[ModelOutput]) -> list[ModelOutput]:
-    """Give all-failed parts without a grid the grid of the others, so they concatenate.
-
-    Parameters
-    ----------
-    parts : list of ModelOutput
-
-    Returns
-    -------
-    list of ModelOutput
-        Same parts; an all-failed one without a grid gets NaN series on the common grid.
-    """
+    """Give all-failed parts without a grid NaN series on the grid of the others, so they
+    concatenate."""
     grid = next((p.time for p in parts if p.time.size), None)
     if grid is None:
         return parts
@@ -172,25 +122,9 @@ def _regrid(p: ModelOutput, grid: np.ndarray) -> ModelOutput:
 
 def failed_output(model: Model, n: int, outputs: Collection[str], reason: str,
                   time_grid: np.ndarray | None = None) -> ModelOutput:
-    """An all-failed ModelOutput of the right shapes (NaN values) with one reason.
-
-    Parameters
-    ----------
-    model : Model
-    n : int
-        Samples.
-    outputs : collection of str
-    reason : str
-        Every sample's failure reason.
-    time_grid : ndarray, shape (T,), optional
-        Default: the grid of the model's nominal run when it has time series (an empty grid
-        if even that raises).
-
-    Returns
-    -------
-    ModelOutput
-        Series ``(n, T, k)`` and scalars ``(n, k)`` of NaN, every sample failed.
-    """
+    """An all-failed ModelOutput of ``n`` samples (NaN series ``(n, T, k)`` and scalars
+    ``(n, k)``) with one ``reason``; ``time_grid`` defaults to the grid of the model's nominal
+    run when it has series (empty if even that raises)."""
     infos = [model.output_info(o) for o in outputs]
     if time_grid is None:
         time_grid = np.zeros(0)

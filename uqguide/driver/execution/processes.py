@@ -26,7 +26,8 @@ _memory_limit: dict[str, int] = {}
 
 
 def limit_memory(n_bytes: int | None) -> None:
-    """Cap this process's address space (``RLIMIT_AS``, soft limit) at ``n_bytes``.
+    """Cap this process's address space (``RLIMIT_AS``, soft limit) at ``n_bytes`` (None:
+    unchanged).
 
     Called in the child processes a run starts (guard processes, pool workers), never in the
     driver: an allocation over the limit raises MemoryError there, the child ends with
@@ -34,11 +35,6 @@ def limit_memory(n_bytes: int | None) -> None:
     that leaks costs failed samples, not the machine. Address space, not resident memory, is
     what Linux can cap per process; it overcounts (thread stacks, mapped libraries), hence
     :data:`MIN_PROCESS_MEMORY`. A no-op where ``resource`` is missing.
-
-    Parameters
-    ----------
-    n_bytes : int or None
-        The limit in bytes (None: unchanged).
     """
     if n_bytes is None or _memory_limit.get("bytes") == n_bytes:
         return
@@ -97,18 +93,12 @@ def ignore_sigint() -> None:
 
 
 def init_worker(threads: int, started: Any = None) -> None:
-    """Worker start: ignore SIGINT and cap compiled kernels' threads at the worker's share of
-    the cores (N workers each running an all-core numba kernel would oversubscribe the machine).
-    Numba reads the variable when first imported, which in a spawned worker is after this.
-
-    Parameters
-    ----------
-    threads : int
-        Threads a compiled kernel may use in this worker (``NUMBA_NUM_THREADS``, unless set).
-    started : multiprocessing.Event, optional
-        Set once this worker has started: a pool that breaks before any worker set it died
-        starting up (see :func:`starting_worker`), not on a sample.
-    """
+    """Worker start: ignore SIGINT and cap compiled kernels' ``threads`` at the worker's share
+    of the cores (``NUMBA_NUM_THREADS``, unless set: N workers each running an all-core numba
+    kernel would oversubscribe the machine). Numba reads the variable when first imported,
+    which in a spawned worker is after this. ``started`` is set once this worker has started: a
+    pool that breaks before any worker set it died starting up (:func:`starting_worker`), not on
+    a sample."""
     ignore_sigint()
     die_with_parent()  # a driver killed (out of memory) must not leave workers holding its pipes
     os.environ.setdefault("NUMBA_NUM_THREADS", str(threads))

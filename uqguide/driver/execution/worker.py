@@ -43,23 +43,13 @@ def _evaluate(job: ChunkJob, rows: np.ndarray, first: int) -> ModelOutput:
 
 
 def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResult:
-    """Evaluate one chunk ``x (m, d)`` in model calls of ``job.batch_size`` samples, then reduce
-    it with ``job.reducer`` when there is one. Runs in whichever process the executor chose.
+    """Evaluate one chunk ``x (m, d)`` (SI units; a RowRange is made here) in model calls of
+    ``job.batch_size`` samples, then reduce it with ``job.reducer`` (given the chunk's index)
+    when there is one. Runs in whichever process the executor chose.
 
-    Parameters
-    ----------
-    job : ChunkJob
-    task : Task
-        Which chunk (its index is passed to the reducer).
-    x : ndarray or RowRange, shape (m, d)
-        The chunk's rows, inputs in SI units (a RowRange is made here).
-
-    Returns
-    -------
-    ChunkResult
-        Failures, reasons, grid and scalars ``(m, k)``; the series ``(m, T, k)`` when not
-        reduced, the reducer's summary when reduced; the seconds spent in the model and, apart,
-        those spent compiling its kernel.
+    The result holds failures, reasons, grid and scalars ``(m, k)``; the series ``(m, T, k)``
+    when not reduced, the reducer's summary when reduced; the seconds spent in the model and,
+    apart, those spent compiling its kernel.
     """
     model = job.model.model
     x = np.asarray(x)  # a RowRange: the rows are made here
@@ -94,18 +84,7 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
 def run_chunk_in_worker(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResult:
     """:func:`run_chunk` in a pool worker, capped at ``job.memory_limit``: a worker whose model
     goes over it ends (the pool re-runs its chunk alone, then in guard processes, like a
-    crash) instead of failing every later sample with the memory its model still holds.
-
-    Parameters
-    ----------
-    job : ChunkJob
-    task : Task
-    x : ndarray or RowRange, shape (m, d)
-
-    Returns
-    -------
-    ChunkResult
-    """
+    crash) instead of failing every later sample with the memory its model still holds."""
     limit_memory(job.memory_limit)
     try:
         return run_chunk(job, task, x)
@@ -114,21 +93,8 @@ def run_chunk_in_worker(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> 
 
 
 def isolate_crash(job: ChunkJob, task: Task, x: np.ndarray) -> ChunkResult:
-    """Re-run a chunk that killed its worker, in this process, its model calls in guard
-    processes bisected down to the samples that crash: they fail alone, with the reason.
-
-    Parameters
-    ----------
-    job : ChunkJob
-    task : Task
-    x : ndarray, shape (m, d)
-        The chunk's rows.
-
-    Returns
-    -------
-    ChunkResult
-        As :func:`run_chunk` gives.
-    """
+    """Re-run a chunk ``x (m, d)`` that killed its worker, in this process, its model calls in
+    guard processes bisected down to the samples that crash: they fail alone, with the reason."""
     return run_chunk(replace(job, guarded=True), task, x)
 
 
