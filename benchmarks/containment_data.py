@@ -1,39 +1,41 @@
-"""Hostile data files and FMUs: each built in a sandbox and given to uqguide; the table says how
-uqguide ended (exit code, traceback or not), its peak memory against ``max_memory`` where that
-is the point, and the unzipped FMU folders left in the temporary folder.
+"""Hostile data files and FMUs for the containment fuzz (``benchmarks/fuzz_containment.py``):
+each case builds its input in the sandbox, runs one uqguide command on it and is judged there
+(nothing of the user's touched, nothing written outside ``--out``: an unzipped FMU folder left
+in ``$TMPDIR`` is such a write, no traceback, nothing past 60 s, peak RSS under
+``max_memory``); :func:`main` prints this module's table besides (exit, traceback, peak RSS
+against uqguide's own read estimate and ``max_memory``, folders left).
 
-The cases (:func:`cases` yields them):
+The cases (:func:`cases`, in fuzz_containment's :class:`Case` form):
 
 - data files: a CSV with a byte-order mark (read), one in the middle of a name, a repeated,
-  unprintable or too long column name, a series step index of 10^11, a cell over its limit, a
-  line of 64 MiB, a 2 GB sparse CSV (``max_memory: 4 GB``), HDF5 datasets claiming 156 TB, an
-  ``.npz`` header claiming 8 TB, a pickled ``.npz`` member, an ``.npz`` zip bomb, a dense CSV
-  that is read (its peak against the estimate), a one-row file (its std "needs 2 runs"), a
-  DataFrame with a repeated column given to ``uqguide.fit``;
+  unprintable or too long column name, a name no output can have, a series step index of
+  10^11, a cell over its limit, a line of 64 MiB, a 2 GB sparse CSV, HDF5 datasets claiming
+  156 TB, an ``.npz`` header claiming 8 TB, a pickled ``.npz`` member, an ``.npz`` zip bomb, a
+  dense CSV that is read (its peak against the estimate), a one-row file (its std "needs 2
+  runs");
 - FMUs: members with an absolute, a climbing or a backslash path, a symbolic link, a FIFO, a
   device, a repeated name, a 1 GiB zip bomb, a member whose declared size lies, 10,001
-  members; a run of an FMU that crashes on 1 sample in 6 (a fresh guard per crash), a run
-  stopped by Ctrl-C, and a killed run followed by a ``validate``.
+  members; a run, a run of an FMU that crashes on 1 sample in 6 (a fresh guard per crash), a
+  run stopped by Ctrl-C, and a killed run followed by a ``validate`` that sweeps its folder.
 
 A case runs in this process (click's CliRunner) where only the exit and the message matter,
-and as a subprocess where its peak RSS is measured (``wait4``'s ``ru_maxrss`` of the child: the
-driver, not its guard processes) or a signal is sent; ``TMPDIR`` then points into the sandbox,
-so the unzipped folders left behind are counted. A subprocess is capped at ``--cap-gb`` of
-address space (``RLIMIT_AS``), so a checkout that reads everything fails there, not the machine.
+and as a child where its peak RSS is measured (``wait4``) or an FMU is unzipped (a folder
+lives as long as its process). The FMU cases need FMPy and a C compiler (the test FMU of
+``tests/fmu_decay.py``); without them they are not yielded.
 
 Usage::
 
-    python benchmarks/containment_data.py                  # every case (2 GB CSV, 1 GiB bomb)
-    python benchmarks/containment_data.py --quick          # 200 MB and 64 MiB stand-ins
-    python benchmarks/containment_data.py --tree /work/main --only csv_sparse  # another checkout
+    python benchmarks/containment_data.py            # every case (2 GB CSV, 1 GiB bombs)
+    python benchmarks/containment_data.py --quick    # 200 MB and 64 MiB stand-ins
+    python benchmarks/containment_data.py --only fmu_member,csv_bom
 """
 
 from __future__ import annotations
 
 import argparse
+import atexit
 import io
 import os
-import resource
 import shutil
 import signal
 import stat
@@ -41,96 +43,63 @@ import subprocess
 import sys
 import tempfile
 import time
-import traceback
 import zipfile
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # the test FMU's builder lives in tests/
-    sys.path.insert(0, str(ROOT))
-
-from click.testing import CliRunner  # noqa: E402
-
-from uqguide.cli import main as cli  # noqa: E402
+for _p in (ROOT, ROOT / "benchmarks"):  # the test FMU's builder lives in tests/
+    if str(_p) not in sys.path:
+        sys.path.insert(0, str(_p))
 
 INPUTS = [{"name": "a", "dist": "uniform", "low": 0.0, "high": 1.0},
           {"name": "b", "dist": "uniform", "low": 0.0, "high": 1.0}]
 MC = [{"name": "monte_carlo", "label": "mc"}]
 FMU_PREFIX = "uqguide-fmu-"
+#: The configs' max_memory (fuzz_containment's), unless a case sets its own.
+MAX_MEMORY = "2 GB"
 
 
 @dataclass(frozen=True)
-class Case:
+class Hostile:
     """One hostile input and what uqguide must do with it.
 
     Attributes
     ----------
     name : str
-    kind : {"data", "fmu"}
     build : callable
-        Sandbox folder -> the config to give uqguide (the input is written beside it).
+        Folder -> the config to give uqguide (its input written beside it).
     args : tuple of str
-        The command (the config's path appended): ``("validate",)``, ``("run", "-q")``...
+        The command before the config's path; ``--out`` is followed by the sandbox's.
     expect : int
         The exit code uqguide must end with.
     text : str
         What its output must hold (empty: anything).
-    subprocess : bool
-        Run as a subprocess (peak RSS measured, TMPDIR in the sandbox).
+    child : bool
+        Run as a child process (peak RSS measured; an unzipped FMU lives as long as it).
     signal : int
-        A signal sent once the run has written a chunk (0: none); ``SIGKILL`` is followed by a
-        ``validate`` of the same config, which must sweep the killed run's folder.
-    api : callable or None
-        In place of a command: called with the sandbox; a ConfigError is exit 2.
+        Sent to a run of the config once it has written a chunk (0: none), before the
+        command: SIGINT must leave nothing; after SIGKILL, the command (``validate``) must
+        sweep the killed run's folder.
     """
 
     name: str
-    kind: str
     build: Callable[[Path], Path]
     args: tuple[str, ...] = ("validate",)
     expect: int = 2
     text: str = ""
-    subprocess: bool = False
+    child: bool = False
     signal: int = 0
-    api: Callable[[Path], object] | None = None
-
-
-@dataclass
-class Outcome:
-    case: Case
-    exit_code: int
-    traceback: bool
-    message: str
-    rss: float = float("nan")  # peak RSS of the driver [bytes]
-    max_memory: float = float("nan")
-    estimate: float = float("nan")  # uqguide's estimate of reading a data file [bytes]
-    left: int = 0  # unzipped folders left in the temporary folder
-    seconds: float = 0.0
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def verdict(self) -> str:
-        if self.traceback:
-            return "TRACEBACK"
-        if self.exit_code != self.case.expect:
-            return f"EXIT {self.exit_code} (want {self.case.expect})"
-        if self.case.text and self.case.text not in self.message:
-            return "MESSAGE"
-        if self.rss > self.max_memory:
-            return "OVER max_memory"
-        if self.left:
-            return "LEFT FOLDERS"
-        return "ok"
 
 
 # ---------------------------------------------------------------------------- builders
 def _config(folder: Path, data: str, **more: object) -> Path:
-    cfg = {"data": data, "inputs": INPUTS, "methods": MC, **more}
+    cfg = {"data": data, "inputs": INPUTS, "methods": MC, "max_memory": MAX_MEMORY, **more}
     path = folder / "c.yaml"
     path.write_text(yaml.safe_dump(cfg))
     return path
@@ -152,23 +121,38 @@ def _csv(folder: Path, header: str, n: int = 40, edit: Callable[[list[str]], Non
     return _config(folder, "runs.csv")
 
 
+#: Where inputs of more than :data:`BIG_BYTES` are written: outside the case's box, whose
+#: snapshots read each file whole (a 2 GB input would be 2 GB of the fuzz's own memory).
+BIG_BYTES = 10**8
+_big: list[Path] = []
+
+
+def _big_folder() -> Path:
+    if not _big:
+        _big.append(Path(tempfile.mkdtemp(prefix="containment-data-big-")))
+        atexit.register(shutil.rmtree, _big[0], True)
+    return _big[0]
+
+
 def _stream_csv(folder: Path, header: str, line: bytes, total: int, dense: bool = False,
                 **more: object) -> Path:
     """A CSV of ``total`` bytes of ``line`` after its header (written a chunk at a time)."""
-    path = folder / "runs.csv"
-    with path.open("wb") as f:
-        f.write(header.encode() + b"\n")
-        if dense:
-            rows = max(1, total // 60)
-            for start in range(0, rows, 100_000):
-                block = _rows(min(100_000, rows - start), seed=start)
-                f.write(("\n".join(",".join(repr(v) for v in r) for r in block.tolist())
-                         + "\n").encode())
-        else:
-            chunk = line * (2**22 // len(line))
-            for _ in range(max(1, total // len(chunk))):
-                f.write(chunk)
-    return _config(folder, "runs.csv", **more)
+    where = _big_folder() if total > BIG_BYTES else folder
+    path = where / f"runs-{total}-{dense}.csv"
+    if not path.exists():  # a big one is written once per process
+        with path.open("wb") as f:
+            f.write(header.encode() + b"\n")
+            if dense:
+                rows = max(1, total // 60)
+                for start in range(0, rows, 100_000):
+                    block = _rows(min(100_000, rows - start), seed=start)
+                    f.write(("\n".join(",".join(repr(v) for v in r) for r in block.tolist())
+                             + "\n").encode())
+            else:
+                chunk = line * (2**22 // len(line))
+                for _ in range(max(1, total // len(chunk))):
+                    f.write(chunk)
+    return _config(folder, str(path) if where != folder else path.name, **more)
 
 
 def _huge_line(folder: Path) -> Path:
@@ -224,16 +208,6 @@ def _npz_bomb(gib: float) -> Callable[[Path], Path]:
     return build
 
 
-def _fit_repeated(folder: Path) -> object:
-    import pandas as pd
-
-    import uqguide
-
-    r = _rows(40)
-    return uqguide.fit(pd.DataFrame(r[:, [0, 1, 0]], columns=["a", "b", "a"]), r[:, 2],
-                       inputs=INPUTS, method="monte_carlo")
-
-
 # ---------------------------------------------------------------------------- FMU builders
 _FMU: dict[str, Path] = {}
 
@@ -245,6 +219,7 @@ def decay_fmu(crashing: bool = False) -> Path:
     key = "crash" if crashing else "decay"
     if key not in _FMU:
         folder = Path(tempfile.mkdtemp(prefix="containment-fmu-"))
+        atexit.register(shutil.rmtree, folder, True)
         _FMU[key] = build(folder, source=CRASHING if crashing else SOURCE)
     return _FMU[key]
 
@@ -254,7 +229,8 @@ def _fmu_config(folder: Path, fmu: Path, n: int = 100, **more: object) -> Path:
                      "outputs": ["x"], "stop_time": 2.0, "output_interval": 0.5},
            "inputs": [{"name": "x0", "dist": "normal", "mean": 1.0, "std": 0.2},
                       {"name": "rate", "dist": "uniform", "low": 0.2, "high": 0.8}],
-           "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": n}], **more}
+           "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": n}],
+           "max_memory": MAX_MEMORY, **more}
     path = folder / "c.yaml"
     path.write_text(yaml.safe_dump(cfg))
     return path
@@ -343,48 +319,51 @@ def _good_fmu(folder: Path) -> Path:
 
 
 # ---------------------------------------------------------------------------- the cases
-def cases(quick: bool = False) -> Iterator[Case]:
-    """Every case (module docstring); ``quick``: the 2 GB CSV and the 1 GiB bomb as 200 MB and
-    64 MiB stand-ins."""
+def hostile(quick: bool = False) -> Iterator[Hostile]:
+    """The inputs (module docstring); ``quick``: the 2 GB CSV and the 1 GiB bombs as 200 MB
+    and 64 MiB stand-ins."""
     big = 2 * 10**8 if quick else 2 * 10**9
     bomb = 1 / 16 if quick else 1.0
-    yield Case("csv_bom", "data", lambda f: _csv(f, "a,b,y", prefix=b"\xef\xbb\xbf"), expect=0,
-               text="OK")
-    yield Case("csv_bom_in_a_name", "data", lambda f: _csv(f, "a,\ufeffb,y"),
-               text="holds a byte-order mark U+FEFF")
-    yield Case("csv_repeated_name", "data", lambda f: _csv(f, "a,b,a"), text="appears twice")
-    yield Case("csv_control_in_name", "data", lambda f: _csv(f, "a,b,y\x07"),
-               text="holds a control character U+0007")
-    yield Case("csv_nul_in_name", "data", lambda f: _csv(f, "a,b,y\x00"),
-               text="holds a control character U+0000")
-    yield Case("csv_long_name", "data", lambda f: _csv(f, "a,b," + "y" * 300),
-               text="allowed at most 200")
-    yield Case("csv_non_plain_output_name", "data", lambda f: _csv(f, "a,b,T (K)"),
-               text="cannot name an output")
-    yield Case("csv_step_index_1e11", "data", lambda f: _csv(f, "a,b,y[99999999999]"),
-               text="column y[0] is missing", subprocess=True)
-    yield Case("csv_cell_65_chars", "data", lambda f: _csv(
+    yield Hostile("csv_bom", lambda f: _csv(f, "a,b,y", prefix=b"\xef\xbb\xbf"), expect=0,
+                  text="OK")
+    yield Hostile("csv_bom_in_a_name", lambda f: _csv(f, "a,\ufeffb,y"),
+                  text="holds a byte-order mark U+FEFF")
+    yield Hostile("csv_repeated_name", lambda f: _csv(f, "a,b,a"), text="appears twice")
+    yield Hostile("csv_control_in_name", lambda f: _csv(f, "a,b,y\x07"),
+                  text="holds a control character U+0007")
+    yield Hostile("csv_nul_in_name", lambda f: _csv(f, "a,b,y\x00"),
+                  text="holds a control character U+0000")
+    yield Hostile("csv_long_name", lambda f: _csv(f, "a,b," + "y" * 300),
+                  text="allowed at most 200")
+    yield Hostile("csv_non_plain_output_name", lambda f: _csv(f, "a,b,T (K)"),
+                  text="cannot name an output")
+    # an index this large once built range(10^11): 4.8 GB and a traceback
+    yield Hostile("csv_step_index_1e11", lambda f: _csv(f, "a,b,y[99999999999]"),
+                  text="column y[0] is missing", child=True)
+    yield Hostile("csv_cell_65_chars", lambda f: _csv(
         f, "a,b,y", edit=lambda L: L.__setitem__(3, L[3].rsplit(",", 1)[0] + "," + "1" * 65)),
         text="a cell of 65 characters; allowed at most 64")
-    yield Case("csv_line_64MiB", "data", _huge_line, text="is longer than", subprocess=True)
+    yield Hostile("csv_line_64MiB", _huge_line, text="is longer than", child=True)
     # the issue's case: read whole, a 2 GB sparse CSV took uqguide past 4 GB
-    yield Case(f"csv_sparse_{big / 1e9:g}GB", "data",
-               lambda f: _stream_csv(f, "a,b,y", b",,\n", big, max_memory="4 GB"),
-               text="more than max_memory", subprocess=True)
-    yield Case("csv_dense_read", "data",
-               lambda f: _stream_csv(f, "a,b,y", b"", 3 * 10**7, dense=True), expect=0,
-               text="OK", subprocess=True)
-    yield Case("h5_156TB_claimed", "data", _h5_terabytes, text="more than max_memory",
-               subprocess=True)
-    yield Case("npz_header_lies", "data", _npz_lying, text="its header claims shape "
-               "(1000000000000,) float64", subprocess=True)
-    yield Case("npz_pickled_member", "data", _npz_pickled, text="Python objects (pickled)")
-    yield Case(f"npz_zip_bomb_{bomb:g}GiB", "data", _npz_bomb(bomb), text="more than max_memory",
-               subprocess=True)
-    yield Case("one_row_std", "data", lambda f: _csv(f, "a,b,y", n=1), args=("run", "--out"),
-               expect=0, text="needs 2 runs")
-    yield Case("fit_repeated_column", "data", lambda f: f, api=_fit_repeated,
-               text="appears twice")
+    yield Hostile(f"csv_sparse_{big / 1e9:g}GB",
+                  lambda f: _stream_csv(f, "a,b,y", b",,\n", big),
+                  text="more than max_memory", child=True)
+    yield Hostile("csv_dense_read",
+                  lambda f: _stream_csv(f, "a,b,y", b"", 3 * 10**7, dense=True), expect=0,
+                  text="OK", child=True)
+    yield Hostile("h5_156TB_claimed", _h5_terabytes, text="more than max_memory", child=True)
+    yield Hostile("npz_header_lies", _npz_lying, text="its header claims shape "
+                  "(1000000000000,) float64", child=True)
+    yield Hostile("npz_pickled_member", _npz_pickled, text="Python objects (pickled)")
+    yield Hostile(f"npz_zip_bomb_{bomb:g}GiB", _npz_bomb(bomb), text="more than max_memory",
+                  child=True)
+    yield Hostile("one_row_std", lambda f: _csv(f, "a,b,y", n=1), args=("run", "--out"),
+                  expect=0, text="needs 2 runs")
+    try:
+        decay_fmu()
+    except Exception as exc:  # noqa: BLE001 - no FMPy, no C compiler
+        print(f"containment_data: no FMU cases ({type(exc).__name__}: {exc})", file=sys.stderr)
+        return
     for name, member, mode, text in (
             ("absolute", "/tmp/evil.so", 0, "an absolute path"),
             ("climbing", "resources/../../evil.so", 0, "a path out of the FMU's folder"),
@@ -393,98 +372,28 @@ def cases(quick: bool = False) -> Iterator[Case]:
             ("fifo", "resources/pipe", stat.S_IFIFO | 0o644, "a special file"),
             ("device", "resources/disk", stat.S_IFBLK | 0o644, "a special file"),
             ("duplicate", "sources/decay.c", 0, "a second member of that name")):
-        yield Case(f"fmu_member_{name}", "fmu", _bad_fmu(_member(member, mode)), text=text)
-    yield Case(f"fmu_zip_bomb_{bomb:g}GiB", "fmu", _bad_fmu(_bomb(bomb)),
-               text="a zip bomb's ratio", subprocess=True)
-    yield Case("fmu_size_lies", "fmu", _lying_fmu, text="cannot be unzipped")
-    yield Case("fmu_10001_members", "fmu", _bad_fmu(_many), text="an FMU may have at most")
-    yield Case("fmu_run", "fmu", _good_fmu, args=("run", "-q", "--out"), expect=0,
-               subprocess=True)
-    yield Case("fmu_crashing_run", "fmu", _crashing, args=("run", "-q", "--out"), expect=0,
-               subprocess=True)
-    yield Case("fmu_ctrl_c", "fmu", _long_fmu_run, args=("run", "-q", "--out"), expect=130,
-               subprocess=True, signal=signal.SIGINT)
-    yield Case("fmu_killed_then_validate", "fmu", _long_fmu_run, args=("run", "-q", "--out"),
-               expect=0, subprocess=True, signal=signal.SIGKILL)
+        yield Hostile(f"fmu_member_{name}", _bad_fmu(_member(member, mode)), text=text)
+    yield Hostile(f"fmu_zip_bomb_{bomb:g}GiB", _bad_fmu(_bomb(bomb)),
+                  text="a zip bomb's ratio", child=True)
+    yield Hostile("fmu_size_lies", _lying_fmu, text="cannot be unzipped")
+    yield Hostile("fmu_10001_members", _bad_fmu(_many), text="an FMU may have at most")
+    yield Hostile("fmu_run", _good_fmu, args=("run", "-q", "--out"), expect=0, child=True)
+    # a fresh guard per crash, each of which left its unzipped copy (51 in this run)
+    yield Hostile("fmu_crashing_run", _crashing, args=("run", "-q", "--out"), expect=0,
+                  child=True)
+    yield Hostile("fmu_ctrl_c", _long_fmu_run, expect=0, child=True, signal=signal.SIGINT)
+    yield Hostile("fmu_killed_then_validate", _long_fmu_run, expect=0, child=True,
+                  signal=signal.SIGKILL)
 
 
-# ---------------------------------------------------------------------------- running
-def _fmu_folders(tmpdir: Path) -> int:
-    return sum(1 for p in tmpdir.iterdir() if p.name.startswith(FMU_PREFIX))
+#: What the preparation of a case measured, by case name: uqguide's read estimate [bytes],
+#: and for a signalled run its exit and the folders it left.
+MEASURED: dict[str, dict[str, Any]] = {}
 
 
-def _max_memory(cfg: Path) -> float:
-    from uqguide.config.limits import memory_limit
-
-    try:
-        return float(memory_limit(yaml.safe_load(cfg.read_text()).get("max_memory")))
-    except (OSError, ValueError, AttributeError):
-        return float("nan")
-
-
-def _command(case: Case, cfg: Path, box: Path) -> list[str]:
-    args = list(case.args)
-    if args[-1] == "--out":
-        args.append(str(box / "out"))
-    return [*args, str(cfg)]
-
-
-def _in_process(case: Case, cfg: Path, box: Path) -> Outcome:
-    if case.api is not None:
-        from uqguide.errors import ConfigError
-
-        try:
-            case.api(box)
-        except ConfigError as exc:
-            return Outcome(case, 2, False, str(exc))
-        except Exception:  # noqa: BLE001 - what the table reports
-            return Outcome(case, 1, True, traceback.format_exc(limit=1))
-        return Outcome(case, 0, False, "")
-    tmpdir = box / "tmp"
-    tmpdir.mkdir()
-    old = tempfile.tempdir
-    tempfile.tempdir = str(tmpdir)
-    try:
-        res = CliRunner().invoke(cli, _command(case, cfg, box))
-    finally:
-        tempfile.tempdir = old
-    tb = res.exception is not None and not isinstance(res.exception, SystemExit)
-    # a refusal unzips nothing; an accepted FMU stays unzipped until this process exits
-    left = _fmu_folders(tmpdir) if case.expect else 0
-    return Outcome(case, res.exit_code, tb, res.output, left=left)
-
-
-def _spawn(command: list[str], box: Path, tree: Path, cap: float) -> subprocess.Popen:
-    env = {**os.environ, "TMPDIR": str(box / "tmp"), "PYTHONPATH": str(tree)}
-    env.pop("UQGUIDE_FMU_UNZIPPED", None)
-
-    def child() -> None:
-        signal.signal(signal.SIGINT, signal.SIG_DFL)  # a background job's SIGINT is ignored
-        resource.setrlimit(resource.RLIMIT_AS, (int(cap), int(cap)))
-
-    with (box / "output.txt").open("ab") as out:
-        return subprocess.Popen([sys.executable, "-m", "uqguide.cli", *command], env=env,
-                                stdout=out, stderr=subprocess.STDOUT, preexec_fn=child)
-
-
-def _reap(proc: subprocess.Popen, box: Path, timeout: float) -> tuple[int, float, str]:
-    """Exit code, peak RSS [bytes] and output of a child (killed after ``timeout`` s)."""
-    deadline = time.monotonic() + timeout
-    while True:
-        pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
-        if pid:
-            proc.returncode = os.waitstatus_to_exitcode(status)
-            text = (box / "output.txt").read_bytes()[-2**20:].decode(errors="replace")
-            (box / "output.txt").unlink()
-            return proc.returncode, usage.ru_maxrss * 1024.0, text
-        if time.monotonic() > deadline:
-            proc.kill()
-            deadline = float("inf")
-        time.sleep(0.02)
-
-
-def _estimate(cfg: Path) -> float:
-    """What uqguide estimates reading a data config's file takes [bytes] (NaN otherwise)."""
+def _read_estimate(cfg: Path) -> float:
+    """uqguide's estimate of reading a data config's file [bytes] (NaN when it is refused
+    before one is made, or not a data config)."""
     from uqguide.config.data_source import read_bytes
     from uqguide.errors import ConfigError
     from uqguide.models.data_rows.files import CLAIMS, SUFFIXES
@@ -500,84 +409,137 @@ def _estimate(cfg: Path) -> float:
     return read_bytes(claim, len(INPUTS))
 
 
-def _as_subprocess(case: Case, cfg: Path, box: Path, tree: Path, cap: float) -> Outcome:
-    (box / "tmp").mkdir()
-    proc = _spawn(_command(case, cfg, box), box, tree, cap)
-    notes = []
-    if case.signal:
-        deadline = time.monotonic() + 120
-        while not list((box / "out").glob("*.run/*.npz")) and time.monotonic() < deadline \
-                and proc.poll() is None:
-            time.sleep(0.05)
-        proc.send_signal(case.signal)
-    code, rss, text = _reap(proc, box, 1800)
-    if case.signal == signal.SIGKILL:
-        notes.append(f"killed: {_fmu_folders(box / 'tmp')} folder(s) left, then validate")
-        code, _, text = _reap(_spawn(["validate", str(cfg)], box, tree, cap), box, 600)
-    return Outcome(case, code, "Traceback (most recent call last)" in text, text, rss,
-                   _max_memory(cfg), left=_fmu_folders(box / "tmp"), notes=notes,
-                   estimate=_estimate(cfg) if case.kind == "data" else float("nan"))
+def _fmu_folders(tmp: Path) -> int:
+    return sum(1 for p in tmp.iterdir() if p.name.startswith(FMU_PREFIX)) if tmp.is_dir() else 0
 
 
-def run_case(case: Case, box: Path, tree: Path = ROOT, cap: float = 8 * 2**30) -> Outcome:
-    """Build ``case`` in the empty folder ``box`` and give it to uqguide."""
-    t0 = time.monotonic()
-    cfg = case.build(box)
-    built = time.monotonic()
-    o = _as_subprocess(case, cfg, box, tree, cap) if case.subprocess else \
-        _in_process(case, cfg, box)
-    o.seconds = time.monotonic() - built
-    o.notes.append(f"built in {built - t0:.1f} s")
-    return o
+def _child(args: Sequence[str | Path], box: Any) -> subprocess.Popen:
+    from uqguide.models.fmu.archive import ENV
+
+    env = {**os.environ, "TMPDIR": str(box.tmp), "PYTHONPATH": str(ROOT)}
+    env.pop(ENV, None)
+    return subprocess.Popen(
+        [sys.executable, "-m", "uqguide.cli", *map(str, args)], env=env,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        # a background job's SIGINT is ignored, and Python keeps that: the default, as on a
+        # terminal
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
+def _signalled(h: Hostile, cfg: Path, box: Any) -> None:
+    """A run of ``cfg`` sent ``h.signal`` once it has written a chunk: its exit and the
+    unzipped folders left right after, and after SIGKILL those left once a ``validate`` has
+    run, in :data:`MEASURED`. (The sweep happens here, before the case's snapshot: a folder
+    of uqguide's removed from ``$TMPDIR`` would count as a write outside ``--out``.)"""
+    out = Path(box.root) / "signalled"
+    proc = _child(["run", "-q", "--out", out, cfg], box)
+    deadline = time.monotonic() + 120
+    while not list(out.glob("*.run/*.npz")) and proc.poll() is None and \
+            time.monotonic() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(h.signal)
+    code = proc.wait(120)
+    time.sleep(1.0)  # a killed driver's guard ends on its parent's death (PR_SET_PDEATHSIG)
+    m = MEASURED.setdefault(h.name, {})
+    m.update(signalled_exit=code, left_after_signal=_fmu_folders(box.tmp))
+    if h.signal == signal.SIGKILL:
+        _child(["validate", cfg], box).wait(300)
+        m["left_after_validate"] = _fmu_folders(box.tmp)
+
+
+def _prepare(h: Hostile) -> Callable[[Any], list[str | Path]]:
+    def prepare(box: Any) -> list[str | Path]:
+        cfg = h.build(Path(box.inputs))
+        MEASURED[h.name] = {"estimate": _read_estimate(cfg)} if "data" in \
+            yaml.safe_load(cfg.read_text()) else {}
+        if h.signal:
+            _signalled(h, cfg, box)
+        args: list[str | Path] = list(h.args)
+        if args and args[-1] == "--out":
+            args.append(box.out)
+        return [*args, cfg]
+    return prepare
+
+
+def _check(h: Hostile) -> Callable[[Any, Any], list[str]]:
+    def check(box: Any, run: Any) -> list[str]:
+        problems = []
+        said = f"{run.stdout}\n{run.stderr}"
+        if h.text and h.text not in said:
+            problems.append(f"the output does not say {h.text!r}")
+        if h.expect == 2:
+            lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+            if len(lines) != 1 or not lines[0].startswith("error: "):
+                problems.append(f"not one error line: {lines[-3:]}")
+        m = MEASURED.get(h.name, {})
+        if h.signal == signal.SIGINT and (m.get("signalled_exit") != 130 or
+                                          m.get("left_after_signal")):
+            problems.append(f"Ctrl-C: exit {m.get('signalled_exit')}, "
+                            f"{m.get('left_after_signal')} folders left")
+        if h.signal == signal.SIGKILL and (m.get("signalled_exit") != -signal.SIGKILL or
+                                           not m.get("left_after_signal") or
+                                           m.get("left_after_validate")):
+            problems.append(f"killed: exit {m.get('signalled_exit')}, "
+                            f"{m.get('left_after_signal')} folders left, "
+                            f"{m.get('left_after_validate')} after a validate")
+        return problems
+    return check
+
+
+def cases(quick: bool = False) -> Iterator[dict[str, Any]]:
+    """The cases in fuzz_containment's :class:`Case` form (its fields, as a dict)."""
+    from uqguide.config.limits import parse_bytes
+
+    for h in hostile(quick):
+        group = "data file" if not h.name.startswith("fmu") else "fmu archive"
+        memory = parse_bytes("1 GB") if h.name.startswith("npz_zip_bomb") else \
+            parse_bytes(MAX_MEMORY)
+        yield {"name": f"{group}: {h.name}", "prepare": _prepare(h), "expect": (h.expect,),
+               "child": h.child, "max_memory": memory, "check": _check(h)}
+
+
+# ---------------------------------------------------------------------------- the table
 def _mb(v: float) -> str:
     return "" if v != v else f"{v / 1e6:,.0f} MB"
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    import fuzz_containment as fc
+
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="200 MB and 64 MiB stand-ins")
     ap.add_argument("--only", default="", help="cases whose name contains one of these "
                                                 "(comma-separated)")
-    ap.add_argument("--tree", type=Path, default=ROOT, help="checkout the subprocesses run")
-    ap.add_argument("--cap-gb", type=float, default=8.0, help="RLIMIT_AS of a subprocess")
     args = ap.parse_args(argv)
-    outcomes = []
     wanted = [w for w in args.only.split(",") if w] or [""]
-    for case in cases(args.quick):
-        if not any(w in case.name for w in wanted):
-            continue
-        box = Path(tempfile.mkdtemp(prefix="containment-data-"))
-        try:
-            o = run_case(case, box, args.tree, args.cap_gb * 2**30)
-        except Exception as exc:  # noqa: BLE001 - a case that cannot be built (no cc)
-            print(f"  {case.name}: not run ({type(exc).__name__}: {exc})")
-            continue
-        finally:
-            # a killed run's guard may still be ending: give it a moment before the removal
-            for _ in range(50):
-                shutil.rmtree(box, ignore_errors=True)
-                if not box.exists():
-                    break
-                time.sleep(0.1)
-        outcomes.append(o)
-        first = next((ln for ln in o.message.splitlines() if ln.startswith("error:")), "")
-        print(f"  {case.name}: {o.verdict}, exit {o.exit_code}, {o.seconds:.1f} s "
-              f"{first[:150]}", flush=True)
+    outcomes = []
+    left: dict[str, int] = {}
+    with tempfile.TemporaryDirectory(prefix="containment-data-") as t:
+        for case in cases(args.quick):
+            if not any(w in case["name"] for w in wanted):
+                continue
+            o = fc.try_case(fc._as_case(case), Path(t), {})
+            outcomes.append(o)
+            left[o.case] = _fmu_folders(Path(t) / "box" / "tmp")
+            print(f"  {o.case}: {'ok' if o.ok else 'BAD'}, exit {o.run.exit_code}, "
+                  f"{o.run.seconds:.1f} s{'; ' + '; '.join(o.problems) if o.problems else ''}"
+                  f"{'; outside ' + str(o.outside[:3]) if o.outside else ''}", flush=True)
     print("\n| case | exit | traceback | peak RSS | read estimate | max_memory | folders left "
-          "| verdict |")
-    print("|---|---|---|---|---|---|---|---|")
+          "| verdict |\n|---|---|---|---|---|---|---|---|")
     for o in outcomes:
-        print(f"| {o.case.name} | {o.exit_code} | {'yes' if o.traceback else 'no'} | "
-              f"{_mb(o.rss)} | {_mb(o.estimate)} | {_mb(o.max_memory)} | {o.left} | "
-              f"{o.verdict} |")
-    bad = [o for o in outcomes if o.verdict != "ok"]
-    print(f"\n{len(outcomes)} cases: {sum(o.traceback for o in outcomes)} tracebacks, "
-          f"{sum(o.rss > o.max_memory for o in outcomes)} over max_memory, "
-          f"{sum(o.left for o in outcomes)} unzipped folders left, "
-          f"{sum(o.exit_code != o.case.expect for o in outcomes)} unexpected exits")
-    return 1 if bad else 0
+        name = o.case.split(": ", 1)[1]
+        m = MEASURED.get(name, {})
+        print(f"| {name} | {o.run.exit_code} | {'yes' if o.run.traceback else 'no'} | "
+              f"{_mb(o.run.peak_rss)} | {_mb(m.get('estimate', float('nan')))} | "
+              f"{_mb(o.max_memory)} | {left[o.case]} | {'ok' if o.ok else 'BAD'} |")
+    for name, m in MEASURED.items():
+        if "signalled_exit" in m:
+            print(f"{name}: the signalled run ended with {m['signalled_exit']} and left "
+                  f"{m['left_after_signal']} unzipped folders"
+                  + (f", {m['left_after_validate']} after a validate"
+                     if "left_after_validate" in m else ""))
+    print(f"\n{len(outcomes)} cases: {fc.summary_line(outcomes)}")
+    return 0 if all(o.ok for o in outcomes) else 1
 
 
 if __name__ == "__main__":
