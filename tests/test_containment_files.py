@@ -513,3 +513,58 @@ def test_a_sample_of_the_containment_fuzz_is_clean():
     assert fuzz.summary_line(outcomes) == (
         "0 user files lost or changed, 0 writes outside --out, 0 runs past 60 s, 0 tracebacks, "
         "0 processes left behind, peak RSS under max_memory in every case")
+
+
+def _case_module(name: str):
+    _fuzz()  # the case modules import fuzz_containment's Case
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import importlib
+
+        return importlib.import_module(name)
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+
+
+def test_the_data_cases_run_in_the_one_campaign(tmp_path):
+    """benchmarks/containment_data.py's cases are fuzz_containment's: a CSV with a BOM read, a
+    repeated column refused with its line, the Python API's repeated column a ConfigError,
+    each judged by fuzz_containment's one harness (in this process, about 1 CPU-s)."""
+    fuzz, data = _fuzz(), _case_module("containment_data")
+    assert {"containment_command", "containment_data"} <= set(fuzz.CASE_MODULES)
+    cases = {c.name: c for c in data.cases(quick=True)}
+    assert all(isinstance(c, fuzz.Case) and c.group in ("data file", "data fmu")
+               for c in cases.values())
+    picked = ["data file: csv_bom", "data file: csv_repeated_name",
+              "data file: fit_repeated_column"]
+    outcomes = [fuzz.try_case(cases[n], tmp_path, {}) for n in picked]
+    assert [(o.case, o.run.exit_code, o.ok) for o in outcomes] == [
+        (picked[0], 0, True), (picked[1], 2, True), (picked[2], 2, True)], [
+        (o.problems, o.run.stderr) for o in outcomes]
+    wrong = fuzz.Case("data file: wrong message", cases[picked[1]].prepare,
+                      check=lambda box, run: ["a problem"])
+    assert not fuzz.try_case(wrong, tmp_path, {}).ok  # a check's problem is counted
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="daemons found through /proc")
+def test_command_and_data_cases_in_child_processes_are_clean(tmp_path):
+    """A FIFO as outputs, a setsid daemon, a quoted placeholder in a ``$(...)`` path, 64 MB of
+    extra rows, a repeated column (benchmarks/containment_command.py); a 200 MB sparse CSV, a
+    lying npz header and a killed FMU run then ``validate`` (containment_data.py, quick
+    sizes): about 40 s."""
+    fuzz = _fuzz()
+    command, data = _case_module("containment_command"), _case_module("containment_data")
+    wanted = ("command outputs: a fifo", "command daemon: setsid, exits",
+              "command shell: \"{inputs}\" in", "command oversized: 64 MB",
+              "command columns: y twice", "data file: csv_sparse", "data file: npz_header",
+              "data fmu: fmu_killed_then_validate")
+    cases = [c for c in [*command.cases(), *data.cases(quick=True)]
+             if c.name.startswith(wanted)]
+    assert len(cases) == len(wanted)
+    fuzz._subreaper()
+    outcomes = [fuzz.try_case(c, tmp_path, {}) for c in cases]
+    assert [o.case for o in outcomes if not o.ok] == [], [
+        (o.case, o.problems, o.lost, o.outside, o.left_behind, o.run.stderr[-300:])
+        for o in outcomes if not o.ok]
+    assert fuzz.summary_line(outcomes).startswith("0 user files lost or changed, 0 writes")
