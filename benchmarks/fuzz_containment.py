@@ -934,9 +934,11 @@ def main_(argv: list[str] | None = None) -> int:
         print(f"  BAD {o.case}: exit {o.run.exit_code}, {o.run.seconds:.1f} s, lost {o.lost}, "
               f"outside {o.outside}, left {o.left_behind}, tb {o.run.traceback}, "
               f"problems {o.problems}; {o.run.stderr.strip()[-300:]!r}")
-    peak = max((o.run.peak_rss for o in outcomes), default=0)
-    print(f"\n{len(outcomes)} cases in {time.monotonic() - t0:.0f} s; the largest peak RSS "
-          f"{peak / 2**20:.0f} MiB (max_memory {MAX_MEMORY / 1e9:.0f} GB); "
+    peak = max(outcomes, key=lambda o: o.run.peak_rss / o.max_memory, default=None)
+    closest = "" if peak is None else (
+        f"; the peak RSS closest to its case's max_memory {peak.run.peak_rss / 2**20:.0f} MiB "
+        f"of {peak.max_memory / 2**20:.0f} MiB ({peak.case})")
+    print(f"\n{len(outcomes)} cases in {time.monotonic() - t0:.0f} s{closest}; "
           f"{len(bad)} cases not clean, {sum(bool(o.problems) for o in outcomes)} with "
           f"another problem (exit code, message, --resume)")
     print(summary_line(outcomes))
