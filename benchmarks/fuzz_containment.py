@@ -669,9 +669,16 @@ _SHARED_NAMES: dict[str, Path] = {}
 
 
 # ---------------------------------------------------------------------------- --out unusable
+def _said(run: Run) -> list[str]:
+    """The lines of a command's stderr but a replay's notice of the code it runs (issue 44,
+    item 9: said before it runs, not an error line)."""
+    return [ln for ln in run.stderr.strip().splitlines()
+            if ln.strip() and not ln.startswith("replay runs ")]
+
+
 def _one_error_line(run: Run) -> list[str]:
     """One ``error:`` line (or click's usage error, whose last line is its one ``Error:``)."""
-    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    lines = _said(run)
     errors = [ln for ln in lines if ln.lower().startswith("error: ")]
     ours = len(lines) == 1 and errors == lines
     click = lines[:1] and lines[0].startswith("Usage: ") and errors == lines[-1:]
@@ -697,7 +704,7 @@ def unusable_out_cases() -> Iterator[Case]:
         "plot": lambda b, o, k: ["plot", b.shared["done"] / f"{NAME}.h5", "--out", o],
         "report": lambda b, o, k: ["report", b.shared["done"] / f"{NAME}.h5", "--out", o],
         "replay": lambda b, o, k: ["replay", b.shared["done"] / f"{NAME}.h5", "--label", "mc",
-                                   "--sample", "3", "--out", o],
+                                   "--sample", "3", "--out", o, *_own_code(b)],
         "baseline": lambda b, o, k: ["baseline", b.shared["done"] / f"{NAME}.h5", "-o",
                                      o if k in files else o / "b.json", "--force"],
     }
@@ -711,6 +718,12 @@ def unusable_out_cases() -> Iterator[Case]:
 
             yield Case(f"unusable out: {cname} --out {kname}", prepare, expect=(2,),
                        check=lambda box, run: _one_error_line(run))
+
+
+def _own_code(box: Box) -> list[str | Path]:
+    """A replay's leave to run the result's model: the user's own config of it (without it
+    every replay stops at that question, exit 2, before the case's point)."""
+    return ["--config", box.shared["config"]]
 
 
 def _link(path: Path, target: Path) -> Path:
@@ -747,7 +760,8 @@ def fifo_input_cases() -> Iterator[Case]:
             return {"check": ["--baseline", box.shared["baseline"]],
                     "baseline": ["-o", box.out / "b.json"], "plot": ["--out", box.out],
                     "report": ["--out", box.out],
-                    "replay": ["--label", "mc", "--sample", "3", "--out", box.out]}[cmd]
+                    "replay": ["--label", "mc", "--sample", "3", "--out", box.out,
+                               *_own_code(box)]}[cmd]
 
         yield Case(f"input {kind}: config", lambda b, s=special: [
             "run", s(b, "c.yaml"), "--out", b.out, "-q"], expect=(2,))
@@ -773,7 +787,7 @@ def _same_statistics(box: Box) -> list[str]:
 
 def _disk_full_then_resume(box: Box, run: Run) -> list[str]:
     problems = []
-    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    lines = _said(run)
     if run.exit_code == 1:
         want = "error: disk full writing "
         if len(lines) != 1 or not lines[0].startswith(want) or \
@@ -790,7 +804,7 @@ def _disk_full_then_resume(box: Box, run: Run) -> list[str]:
 
 
 def _disk_full_other(box: Box, run: Run) -> list[str]:
-    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    lines = _said(run)
     if run.exit_code == 1 and (len(lines) != 1 or not lines[0].startswith(
             "error: disk full writing ")):
         return [f"not the disk-full line: {lines[-3:]}"]
@@ -843,7 +857,8 @@ def disk_full_cases(shared: Mapping[str, Path]) -> Iterator[Case]:
             box.own.add("out/*/*")
             tail = {"plot": ["--out", box.out], "report": ["--out", box.out],
                     "baseline": ["-o", box.out / "b.json"],
-                    "replay": ["--label", "mc", "--sample", "3", "--out", box.out]}[cmd]
+                    "replay": ["--label", "mc", "--sample", "3", "--out", box.out,
+                               *_own_code(box)]}[cmd]
             return [cmd, result, *tail]
 
         yield Case(f"disk full: {cmd}, files over {limit} bytes", other, expect=(1,),
