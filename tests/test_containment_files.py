@@ -284,7 +284,7 @@ def test_every_file_plot_report_and_replay_write_is_opened_through_open_writable
     h5 = out / f"{NAME}.h5"
     names = _writes_inside(out, [
         ["plot", h5, "--out", out / "f"], ["report", h5, "--out", out / "r"],
-        ["replay", h5, "--label", "mc", "--sample", "3", "--out", out / "p"]])
+        ["replay", h5, "--label", "mc", "--sample", "3", "--out", out / "p", "--config", cfg]])
     assert len(names) > 3
     assert all(atomic.temp_owner(n) == os.getpid() for n in names), names
 
