@@ -3,9 +3,8 @@ nothing of the user's is lost or changed, nothing outside ``--out`` is written, 
 crashes or is left running, and the peak RSS stays under ``max_memory``.
 
 A :class:`Case` prepares a sandbox (:class:`Box`), runs one command (in this process, or as a
-child with ``RLIMIT_FSIZE``) and is judged on snapshots of the whole box, before and after;
-what was there before is the user's unless the case puts it in ``box.own``. The groups and
-their findings: docs/scale.md ("Checkpoints and --resume").
+child under limits) and is judged on snapshots of the whole box, before and after; what was
+there is the user's unless in ``box.own``. Findings: docs/scale.md ("Checkpoints and --resume").
 
 A module with a ``cases()`` generator of :class:`Case` (or of objects or dicts with its fields;
 ``from fuzz_containment import Box, Case``) plugs in with one line in :data:`CASE_MODULES`:
