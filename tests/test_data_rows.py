@@ -715,3 +715,61 @@ def test_the_run_budget_counts_the_data_table_and_its_copies_in_flight(tmp_path)
     assert (serial.data_bytes, serial.data_copies, pooled.data_copies) == (40 * 3 * 8, 1, 5)
     assert "  data table: 960 B" in serial.lines()
     assert pooled.peak_bytes - serial.peak_bytes >= 4 * 960
+
+
+#: Runs uqguide's command line and writes the process's peak RSS (VmHWM, in kB) to argv[1]:
+#: the figure of this program alone (wait4's ru_maxrss of a child also counts the RSS its
+#: parent had when it forked).
+_HWM = """import atexit, runpy, sys
+def _hwm(path=sys.argv[1]):
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            open(path, "w").write(line.split()[1])
+atexit.register(_hwm)
+sys.argv = ["uqguide"] + sys.argv[2:]
+runpy.run_module("uqguide.cli", run_name="__main__")
+"""
+
+
+def _peak_rss_of(args: list[str], cwd: Path) -> tuple[int, float, str]:
+    """Exit code, peak RSS [bytes] and stderr of ``uqguide <args>`` run as a child."""
+    import os
+    import subprocess
+    import sys
+
+    if not Path("/proc/self/status").is_file():
+        pytest.skip("the peak RSS of a process is read from /proc (Linux)")
+    root = Path(__file__).resolve().parents[1]
+    hwm = cwd / "hwm.txt"
+    proc = subprocess.run([sys.executable, "-c", _HWM, str(hwm), *args], cwd=cwd,
+                          env={**os.environ, "PYTHONPATH": str(root)}, capture_output=True,
+                          text=True)
+    return proc.returncode, float(hwm.read_text()) * 1024, proc.stderr
+
+
+@pytest.mark.slow
+def test_reading_stays_under_its_estimate_and_a_refusal_reads_nothing(tmp_path):
+    """A CSV of 200,000 rows is read at a peak under uqguide's own estimate of it (which
+    max_memory is checked against); a 200 MB sparse CSV over max_memory is refused at a peak
+    under the interpreter's share of the estimate (BASE_BYTES): none of it is held."""
+    from uqguide.config.data_source import read_bytes
+    from uqguide.config.limits import BASE_BYTES
+    from uqguide.models.data_rows.claims import csv_claim
+
+    rng = np.random.default_rng(29)
+    x = rng.uniform(-1, 1, (200_000, 2))
+    x[:, 1] = rng.standard_normal(200_000)
+    write_csv(tmp_path / "runs.csv", x, poly(x[:, 0], x[:, 1]))
+    cfg = config(tmp_path, methods=[{"name": "monte_carlo"}])
+    code, peak, err = _peak_rss_of(["validate", str(cfg)], tmp_path)
+    estimate = read_bytes(csv_claim(tmp_path / "runs.csv", "runs.csv"), 2)
+    assert code == 0, err
+    assert peak < estimate, (peak, estimate)
+    with (tmp_path / "sparse.csv").open("wb") as f:
+        f.write(b"a,b,y\n")
+        for _ in range(50):
+            f.write(b",,\n" * (2**22 // 3))
+    cfg = config(tmp_path, "sparse.csv", methods=[{"name": "monte_carlo"}], max_memory="1 GB")
+    code, peak, err = _peak_rss_of(["validate", str(cfg)], tmp_path)
+    assert code == 2 and "more than max_memory = 1 GB" in err, err
+    assert peak < BASE_BYTES, peak
