@@ -73,20 +73,23 @@ def _answer(conn: Any) -> None:
             os.environ.update(msg[2])
             try:
                 _ = msg[1].model  # the property builds the model
-                conn.send(("ready", None))
+                reply: tuple[str, Any] = ("ready", None)
             except Exception as exc:  # noqa: BLE001
-                conn.send(("raised", f"{type(exc).__name__}: {exc}"))
-            continue
-        _, handle, x, names, outputs = msg
+                reply = ("raised", f"{type(exc).__name__}: {exc}")
+        else:
+            _, handle, x, names, outputs = msg
+            try:
+                reply = ("ok", evaluate_batch(handle.model, x, names, outputs))
+            except ModelError as exc:
+                reply = ("model_error", str(exc))
+            except MemoryError:
+                raise
+            except Exception as exc:  # noqa: BLE001 - reported to the caller, which bisects
+                reply = ("raised", f"{type(exc).__name__}: {exc}")
         try:
-            out = evaluate_batch(handle.model, x, names, outputs)
-            conn.send(("ok", out))
-        except ModelError as exc:
-            conn.send(("model_error", str(exc)))
-        except MemoryError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - reported to the caller, which bisects
-            conn.send(("raised", f"{type(exc).__name__}: {exc}"))
+            conn.send(reply)
+        except (BrokenPipeError, ConnectionResetError, EOFError):
+            return  # the caller is gone (killed): nobody to answer, and nothing to print
 
 
 def _needs_main(handle: Any) -> bool:
