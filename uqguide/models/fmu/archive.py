@@ -27,6 +27,8 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+from ...core.atomic import pid_alive
+
 INSTALL_HINT = "the fmu model needs FMPy, which is not installed: pip install 'uqguide[fmu]'"
 
 #: FMI types a real-valued uqguide input can set (FMI 1.0/2.0 ``Real``, FMI 3.0 floats).
@@ -235,16 +237,6 @@ def _mark_of(folder: Path) -> dict[str, Any] | None:
     return found if ok else None
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def sweep() -> int:
     """Remove the unzipped folders whose process is gone (killed before it could): only
     folders uqguide marked, of this user, in the temporary folder.
@@ -268,7 +260,7 @@ def sweep() -> int:
         except OSError:
             continue
         mark = _mark_of(Path(entry.path))
-        if mark is None or mark["pid"] == os.getpid() or _alive(mark["pid"]):
+        if mark is None or mark["pid"] == os.getpid() or pid_alive(mark["pid"]):
             continue
         shutil.rmtree(entry.path, ignore_errors=True)
         removed += 1
