@@ -39,11 +39,6 @@ DOCS_LINK = re.compile(r"docs/([\w-]+\.md)(?:#([\w-]+))?")
 # removed), and nothing is ever added to it.
 NOT_YET = frozenset({
     # outside simulators, data rows and their config
-    "uqguide/config/data_source.py",
-    "uqguide/models/data_rows/checks.py",
-    "uqguide/models/data_rows/files.py",
-    "uqguide/models/data_rows/suggest.py",
-    "uqguide/models/fmu/model.py",
     "uqguide/models/fmu/simulate.py",
 })
 

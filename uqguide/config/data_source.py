@@ -1,33 +1,9 @@
 """``data:`` in place of ``model:``: a config whose runs are already made.
 
-Config::
-
-    data: runs.csv                 # or {path: runs.h5, time: [0, 0.5, 1.0]}
-    inputs:                        # the distribution the rows were drawn from
-      - {name: x1, dist: uniform, low: -3.14159, high: 3.14159}
-    outputs: [y]                   # optional: default every column that is not an input
-    methods:
-      - {name: pce_adaptive}       # or monte_carlo; the design is the file's rows
-
-The file's format is in :mod:`uqguide.models.data_rows.files`; the checks of its rows in
-:mod:`uqguide.models.data_rows.checks`. A relative path is relative to the config file's folder
-(the current folder for a config given as a mapping).
-
-The design is the file's rows, so only a method whose design may be any set of points takes
-``data:`` (those with an empty :attr:`~uqguide.methods.base.Method.own_design`: ``monte_carlo``
-and ``pce_adaptive``); the others are refused naming the method and why. A method's size is
-the file's: ``n_samples`` (and ``pce_adaptive``'s ``max_runs``) default to the number of rows,
-and any other value is refused rather than silently ignored. ``pce_adaptive``'s
-``validation: {n_samples: k}`` holds ``k`` rows out of the fit to validate it (no runs are
-made), and its fit must have at least :meth:`~uqguide.methods.pce_adaptive.AdaptivePCE.min_rows`
-rows whose outputs did not fail.
-
-The stored (resolved) config records ``data: {path, time, sha256}``: read back, it refuses a
-file whose content changed since the result was made.
-
-Before a value is read, what the file claims (its lines and header, its datasets' shapes:
-:mod:`uqguide.models.data_rows.claims`) is turned into the memory the reading and the checks
-of its rows will hold (:func:`read_bytes`), and a file over ``max_memory`` is refused.
+The config's ``data`` section, which methods take it (those with an empty
+:attr:`~uqguide.methods.base.Method.own_design`), the sizes it fixes, the recorded hash that
+refuses a changed file, and the memory check before reading: docs/config.md, "Data files
+(data:) in detail".
 """
 
 from __future__ import annotations

@@ -1,24 +1,9 @@
 """The rows of a data file against the config's inputs: what makes a file unusable is refused
-with one line naming the file, the row and the column; what only weakens the statistics is
-logged as a warning.
+with one line naming the file, the row and the column (exit 2); what only weakens the
+statistics is logged as a warning.
 
-Refused (:class:`~uqguide.errors.ConfigError`, exit 2):
-
-- an input or output column the config names and the file lacks;
-- an input that is NaN or infinite: a run whose inputs are unknown cannot be placed;
-- an input outside its distribution's support (a uniform's interval, a lognormal's
-  positive half-line, a truncated normal's bounds): the file was drawn from another
-  distribution than the config says, and a PCE would extrapolate its germ;
-- two rows with the same inputs: each row is one run of a deterministic model, so a repeat is
-  a copied row or a noisy simulator, and either would weigh that point twice.
-
-Warned (the run goes on):
-
-- rows whose outputs are NaN or infinite: failed runs, counted in every method's
-  ``n_failed`` (and against ``max_failed_fraction``), never dropped silently;
-- an input whose values do not look like draws from its declared marginal
-  (Kolmogorov-Smirnov, :func:`goodness_of_fit`): Monte Carlo's statistics and intervals
-  assume the rows are independent draws from ``inputs:``.
+The list of refusals and warnings, and why each: docs/config.md, "What a data file's rows must
+satisfy".
 """
 
 from __future__ import annotations

@@ -1,30 +1,10 @@
 """A file of runs read into named columns: one row per run, a column per input and per scalar
-output, a series as the columns ``name[0]``, ``name[1]``, ... (one per time step) or, in HDF5
-and ``.npz``, one dataset ``(n, T)``.
+output, a series as ``name[0]``, ``name[1]``, ... or one ``(n, T)`` dataset.
 
-Formats, chosen by the file's suffix:
-
-``.csv``
-    A header of column names, then one row per run; an empty cell or ``nan`` is NaN.
-``.parquet``
-    Read with pandas (needs ``pyarrow`` or ``fastparquet``: an optional dependency).
-``.h5`` / ``.hdf5``
-    A dataset per column at the file's top level: ``(n,)`` for an input or a scalar output,
-    ``(n, T)`` for a series.
-``.npz``
-    The same, as NumPy arrays (``numpy.savez``).
-
-A series' time grid [s] is the ``time`` dataset or array of an HDF5 or ``.npz`` file (a CSV
-holds runs only), else the config's ``data.time``, else the step numbers ``0, 1, ..., T-1``.
-
-A run that failed is a row of NaN (or empty) outputs after its inputs, or a row flagged in the
-optional ``failed`` column (0/1; empty is 0) with its ``reason`` (text; optional): the columns a
-``command`` model's outputs file has, so the batch runner a user already has can say why a run
-failed, and the failed-runs table shows it. Neither is an input or an output.
-
-Everything here reads and names; what the rows must satisfy against the config's inputs is
-:mod:`.checks`. A file that cannot be read is a :class:`~uqguide.errors.ConfigError` naming
-the file (and the line and column where a cell is not a number): it is the user's input.
+Formats (CSV, Parquet, HDF5, ``.npz``), the time grid, how a failed run is written, and the
+limits checked before reading: docs/config.md, "Data file formats". What the rows must satisfy
+against the config's inputs is :mod:`.checks`; a file that cannot be read is a ConfigError
+naming the file (and the line and column of a cell that is not a number).
 """
 
 from __future__ import annotations

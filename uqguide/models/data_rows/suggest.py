@@ -1,25 +1,8 @@
 """The next runs to make after a data file's rows: a space-filling extension of its design
-(``uqguide suggest``).
+(``uqguide suggest``), by greedy maximin over scrambled Sobol' candidates in the inputs'
+probability space.
 
-Rule: **greedy maximin over scrambled Sobol' candidates, in the inputs' probability space.**
-
-1. The existing rows are mapped to the unit hypercube by the inputs' CDFs
-   (:meth:`~uqguide.core.inputs.InputSpace.to_unit`; a correlated group decorrelated first),
-   where distance measures how far apart two runs are in probability: a normal input's tails
-   take no more room than their probability.
-2. Candidates are ``max(64 n, 4096)`` points (rounded up to a power of two) of a scrambled
-   Sobol' sequence seeded by the config's seed and the number of rows, so each round of the
-   loop (run, append, fit again) gets fresh candidates.
-3. ``n`` times: the candidate farthest from every row and every point already picked
-   (Euclidean distance to its nearest neighbour) is picked; ties go to the first candidate.
-4. The picks are mapped back to the inputs by :meth:`~uqguide.core.inputs.InputSpace.from_unit`.
-
-Maximin fills the largest holes of the existing design first, whatever design it was (iid,
-Sobol', a grid with gaps), which is what a regression PCE's next fit needs most; the Sobol'
-candidates keep the picks themselves spread, and 64 candidates per pick make the chosen
-points' nearest-neighbour distances within a few percent of the best possible greedy choice.
-The added points are not iid draws: Monte Carlo on the grown file is then a quasi-random
-design (its intervals an upper bound), a PCE fit is unaffected.
+The rule, step by step, and why maximin: docs/config.md, "The next runs: uqguide suggest".
 """
 
 from __future__ import annotations

@@ -1,37 +1,10 @@
 """An FMU as a model: the batch interface (the parameters are in :mod:`.params`).
 
-Config::
-
-    model:
-      name: fmu
-      path: decay.fmu                  # a relative path is taken from the config's folder
-      inputs: {x0: x0, rate: k}        # uqguide input name -> FMU variable (or a list: same names)
-      outputs:
-        - x                            # a scalar at stop_time, from the FMU variable x
-        - {name: path, kind: series, variable: x}          # x on the output_interval grid
-        - {name: pos, variable: [body.r[1], body.r[2]]}    # two components
-      start_time: 0.0                  # [s]
-      stop_time: 10.0                  # [s]
-      output_interval: 0.1             # [s]: the series' grid and the communication step
-                                       # (without it: the FMU's default step, fitted to the span)
-      start_values: {controller.k: 2}  # other FMU variables, the same for every sample
-      relative_tolerance: 1.0e-6       # passed to the FMU (and to CVode for model exchange)
-
-An input sets its FMU variable's start value before each simulation; it must be a real-valued
-parameter, input or variable with a start value (what FMI lets one set before initialising).
-An input the config does not make uncertain keeps the FMU's own start value (or ``nominal``).
-Outputs are read from any numeric FMU variable; their unit and description default to the
-FMU's. A scalar is the value at ``stop_time``; a series is the value at ``start_time + i
-output_interval`` up to ``stop_time``, which must be a whole number of intervals.
-
-Everything about the file is checked when the config is loaded: FMPy installed, the file an
-FMU with a binary for this machine, every variable named present and of the right kind. A
-failure is then a config error naming the field, the value and the FMU's variables; what goes
-wrong in a simulation fails that sample with its reason (see :mod:`.simulate`).
-
-Trust: an FMU's binary runs in uqguide's process with the user's rights, like a ``callable``
-model's function; a crash of the binary (a segmentation fault) ends that process. The config's
-``timeout_s`` runs each batch in a guard process, which contains both a crash and a hang.
+Everything about the file is checked when the config is loaded (FMPy, a binary for this
+machine, every variable named present and of the right kind); what goes wrong in a simulation
+fails that sample with its reason (:mod:`.simulate`). The config, what an input may set, how
+outputs are sampled, and the trust an FMU's binary needs: docs/your-simulator.md, "The fmu
+model's config in detail".
 """
 
 from __future__ import annotations
