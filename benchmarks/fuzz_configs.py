@@ -10,7 +10,7 @@ random character edits of the YAML text.
 
 Each mutation says what it must give: ``invalid`` (exit 2 with one ``error:`` line), ``valid``
 (exit 0) or ``either`` (a random edit that may or may not break the file: exit 0 or 2). Each
-runs in a forked child of this process (uqguide imported once) that is killed after 20 s.
+runs in a forked child of one spawned process (uqguide imported once) and is killed after 20 s.
 
 Tally: exit 2 / exit 0 per class, hangs (killed at 20 s), tracebacks, silent acceptances (exit
 0 for an invalid config), messages that are not one ``error:`` line.
@@ -398,12 +398,39 @@ def run_one(m: Mutation, folder: Path, i: int) -> Outcome:
     return Outcome(m, code, so, se, tb, time.monotonic() - t0)
 
 
-def run_all(ms: list[Mutation]) -> list[Outcome]:
+def _run_all_here(ms: list[Mutation], conn) -> None:
     import uqguide.cli  # noqa: F401 - imported once, before the forks
     import uqguide.config.run_config  # noqa: F401
 
     with tempfile.TemporaryDirectory(prefix="uq_cfgfuzz_") as tmp:
-        return [run_one(m, Path(tmp), i) for i, m in enumerate(ms)]
+        conn.send([run_one(m, Path(tmp), i) for i, m in enumerate(ms)])
+    conn.close()
+
+
+def run_all(ms: list[Mutation]) -> list[Outcome]:
+    """Run the mutations from a freshly spawned process that forks one child per mutation.
+
+    Not from this process: after a numba kernel has run here under GNU OpenMP (as the test
+    suite's own tests do), a forked child is not safe and numba SIGTERMs it on its first kernel.
+    """
+    ctx = multiprocessing.get_context("spawn")
+    parent, child = ctx.Pipe(duplex=False)
+    here = str(Path(__file__).resolve().parent)
+    added = here not in sys.path
+    if added:  # the spawned process imports this module by name
+        sys.path.insert(0, here)
+    try:
+        p = ctx.Process(target=_run_all_here, args=(ms, child))
+        p.start()
+    finally:
+        if added:
+            sys.path.remove(here)
+    child.close()
+    try:
+        outcomes: list[Outcome] = parent.recv()
+    finally:
+        p.join()
+    return outcomes
 
 
 def main() -> int:

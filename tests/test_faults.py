@@ -633,6 +633,19 @@ def test_workers_die_with_a_killed_driver(tmp_path):
 
 
 # ---------------------------------------------------------------------------- config fuzz
+def _run_a_parallel_kernel_here() -> None:
+    import numba
+
+    @numba.njit(parallel=True)
+    def total(n):
+        s = 0.0
+        for i in numba.prange(n):
+            s += i
+        return s
+
+    assert total(1000) == 499500.0
+
+
 @pytest.mark.slow
 def test_a_sample_of_the_config_fuzz_is_clean():
     """20 of benchmarks/fuzz_configs.py's 519 mutations (run whole: every invalid one a clean
@@ -651,6 +664,7 @@ def test_a_sample_of_the_config_fuzz_is_clean():
     sample = [m for m in ms if m.name.startswith(("alias bomb 9^9", "nested brackets 100000",
                                                   "file of 2 MB"))]
     sample += rng.sample(ms, 20 - len(sample))
+    _run_a_parallel_kernel_here()  # as the suite's earlier tests may have: a fork is unsafe now
     outcomes = fuzz_configs.run_all(sample)
     bad = [(o.m.name, o.verdict, o.stderr[-200:]) for o in outcomes if o.verdict != "ok"]
     assert not bad, bad
