@@ -1,12 +1,9 @@
 """Whether a PCE statistic may be shown: one pipeline of named steps per output.
 
-Each step (:data:`STEPS`, in order) takes the values it needs and returns them with its
-:class:`Verdict`: which value (``own`` PCE value, ``+cv`` correction, ``+mc`` runs' estimate) it
-judges, the :class:`State` it leaves at which points, why, and the diagnostics that keep it in
-the result file. :func:`uqguide.methods.pce_validated.finish` runs the steps; :func:`record`
-writes every verdict, so what was decided is in one place. The rules each step applies live in
-:mod:`uqguide.pce.validation`, :mod:`uqguide.pce.support`, :mod:`uqguide.pce.far_tails` and
-:mod:`uqguide.pce.point_choice`; docs/methods.md#pce-statistics explains them.
+Each step (:data:`STEPS`, in order, run by :func:`uqguide.methods.pce_validated.finish`) returns
+its :class:`Verdict`: the value it judged, the :class:`State` it leaves where, why, and the
+diagnostics that keep it in the result file (:func:`record`). The rules each step applies:
+docs/pce.md#what-a-pce-may-print.
 """
 
 from __future__ import annotations
@@ -23,7 +20,7 @@ from ..core.types import STAT_NAMES, OutputStats
 from .far_tails import beyond_the_runs, can_swing, replace_far_tails
 from .point_choice import better_points
 from .support import disagrees_with_runs, either, less_precise, unsupported, with_the_kurtosis
-from .validation import Corrected, disagreeing, sustained, usable_mask
+from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 
 log = logging.getLogger("uqguide.methods.pce_validated")
 
@@ -73,9 +70,7 @@ def blank(st: OutputStats, where: Mapping[str, np.ndarray]) -> None:
     """NaN, in place, the PCE's own statistics at ``where`` (per statistic)."""
     for k, m in where.items():
         if m.any():
-            v = np.array(getattr(st, k), dtype=float)
-            v[m] = np.nan
-            setattr(st, k, v)
+            setattr(st, k, nan_at(getattr(st, k), m))
 
 
 # ----------------------------------------------------------------------------- the steps
@@ -150,15 +145,9 @@ def check_correction(name: str, cv: Corrected, runs: Corrected | None
     if not names:
         return disagreed, None
     for k in names:
-        v = np.array(cv.values[k], dtype=float)
-        v[bad[k]] = np.nan
-        ci = np.array(cv.ci[k], dtype=float)
-        ci[:, bad[k]] = np.nan
-        cv.values[k], cv.ci[k] = v, ci
+        cv.values[k], cv.ci[k] = nan_at(cv.values[k], bad[k]), nan_at(cv.ci[k], bad[k], lead=1)
         if cv.shown_ci is not None:
-            shown = np.array(cv.shown_ci[k], dtype=float)
-            shown[:, bad[k]] = np.nan
-            cv.shown_ci[k] = shown
+            cv.shown_ci[k] = nan_at(cv.shown_ci[k], bad[k], lead=1)
     n_bad = int(np.sum(np.any([bad[k] for k in names], axis=0)))
     what = ", ".join(names)
     return disagreed, Verdict(

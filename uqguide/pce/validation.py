@@ -355,28 +355,26 @@ def usable_mask(error: np.ndarray | None, loo: float | None, threshold: float,
     return ok
 
 
+def nan_at(values: np.ndarray, where: np.ndarray, lead: int = 0) -> np.ndarray:
+    """A float copy of ``values`` with NaN where ``where`` is True, ``where`` indexing the axes
+    after the first ``lead`` ones."""
+    out = np.array(values, dtype=float)
+    out[(slice(None),) * lead + (where,)] = np.nan
+    return out
+
+
 def withhold_all(stats: OutputStats, usable: np.ndarray) -> None:
-    """NaN the PCE's own moments (and Sobol' indices, quantiles) where it is not usable."""
+    """NaN the PCE's own moments (and covariance rows, Sobol' indices, quantiles) where it is
+    not usable."""
     bad = ~usable
     if not bad.any():
         return
-    for name in ("mean", "std", "skewness", "kurtosis"):
-        v = np.array(getattr(stats, name), dtype=float)
-        v[bad] = np.nan
-        setattr(stats, name, v)
-    cov = np.array(stats.cov, dtype=float)
-    cov[bad] = np.nan  # the row of every unusable component
-    stats.cov = cov
-    for name in ("sobol_first", "sobol_total"):
+    for name in ("mean", "std", "skewness", "kurtosis", "cov", "sobol_first", "sobol_total"):
         v = getattr(stats, name)
         if v is not None:
-            v = np.array(v, dtype=float)
-            v[bad] = np.nan
-            setattr(stats, name, v)
+            setattr(stats, name, nan_at(v, bad))
     if stats.quantiles is not None:
-        q = np.array(stats.quantiles, dtype=float)
-        q[:, bad] = np.nan
-        stats.quantiles = q
+        stats.quantiles = nan_at(stats.quantiles, bad, lead=1)
 
 
 def withdraw(stats: OutputStats, usable: np.ndarray) -> None:
