@@ -73,7 +73,6 @@ def blank(st: OutputStats, where: Mapping[str, np.ndarray]) -> None:
             setattr(st, k, nan_at(getattr(st, k), m))
 
 
-# ----------------------------------------------------------------------------- the steps
 def far_tails(name: str, st: OutputStats, draws: np.ndarray, clipped: np.ndarray | None
               ) -> tuple[dict[str, np.ndarray] | None, Verdict | None]:
     """Where the exact moments come from inputs too rare for any run, take the surrogate

@@ -298,12 +298,11 @@ def _own_terms(psi: np.ndarray, core: np.ndarray, columns: int
 
 @dataclass(frozen=True)
 class FitRuns:
-    """The fit runs as a second sample of the model-minus-surrogate differences.
+    """The fit runs as a second sample of the model-minus-surrogate differences
+    (docs/pce.md#the-fit-runs-floor).
 
     ``y (N, ...)``: the model at the successful fit runs; ``s_loo``: the surrogate's LOO values
-    there (:func:`loo_values`); ``stratum (N,)``: each run's validation-design stratum;
-    ``ratio (N,)``: importance ratio to the validation pool's density; ``input_share (K,)``: each
-    stratum's probability under the input distribution.
+    there; ``stratum``, ``ratio``, ``input_share``: as :class:`FitFloor`'s.
     """
 
     y: np.ndarray

@@ -271,7 +271,6 @@ class _QSearch:
 
         for p in degree_grid(self.degree_min, cs.top):
             score(p)
-        # Refine between the coarse grid's neighbours of its best degree.
         coarse = sorted(fits)
         i = min(range(len(coarse)), key=lambda k: fits[coarse[k]].loo)
         for p in range(coarse[max(i - 1, 0)] + 1, coarse[min(i + 1, len(coarse) - 1)]):
