@@ -19,6 +19,7 @@ from ..stats.moments import shape_moments
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
+from .moments import central_from_raw
 
 _CHUNK_FLOATS = 2**22  # draws per chunk x values per draw: about 32 MB per array
 #: Independently scrambled Sobol' sequences behind a derived output's moments (their spread
@@ -145,9 +146,7 @@ def _stats(acc: _Sums, shape: tuple[int, ...], n_runs: int) -> OutputStats:
     n = max(acc.n, 1)
     s1, s2, s3, s4 = (s / n for s in acc.s)
     mean = acc.shift + s1
-    mu2 = s2 - s1**2
-    mu3 = s3 - 3 * s1 * s2 + 2 * s1**3
-    mu4 = s4 - 4 * s1 * s3 + 6 * s1**2 * s2 - 3 * s1**4
+    mu2, mu3, mu4 = central_from_raw(s1, s2, s3, s4)
     std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     cov = acc.cross / n - np.einsum("...i,...j->...ij", s1, s1)
     return OutputStats(mean=mean.reshape(shape), std=std.reshape(shape),

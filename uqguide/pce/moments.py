@@ -102,11 +102,14 @@ def central_moments_sampled(
     for u in surrogate_draws(d, n_draws, seed, _chunk_rows(exp), sampling):
         _accumulate(exp, exp.germ.from_unit(u), None, sums)
         n += u.shape[0]
-    s1, s2, s3, s4 = (s / n for s in sums)
-    mu2 = s2 - s1**2
-    mu3 = s3 - 3 * s1 * s2 + 2 * s1**3
-    mu4 = s4 - 4 * s1 * s3 + 6 * s1**2 * s2 - 3 * s1**4
-    return mu2, mu3, mu4
+    return central_from_raw(*(s / n for s in sums))
+
+
+def central_from_raw(m1: np.ndarray, m2: np.ndarray, m3: np.ndarray, m4: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Central moments 2-4 from the raw moments 1-4 about any centre."""
+    return (m2 - m1**2, m3 - 3 * m1 * m2 + 2 * m1**3,
+            m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4)
 
 
 def sobol_indices(exp: Expansion) -> tuple[np.ndarray, np.ndarray]:

@@ -118,14 +118,10 @@ def disagrees_with_runs(corrected: Corrected, runs: Corrected | None, std: np.nd
                         ) -> dict[str, np.ndarray]:
     """Where a control-variate value and the runs' Monte Carlo estimate disagree (the first
     half of :func:`corrections_to_withhold`; all False without ``runs``)."""
-    out = {}
-    for k, v in corrected.values.items():
-        if runs is None:
-            out[k] = np.zeros(np.shape(v), dtype=bool)
-            continue
-        out[k] = _disagree(v, _half(corrected, k), runs.values[k], _half(runs, k),
-                           _floor(k, std))
-    return out
+    if runs is None:
+        return _nowhere(corrected)
+    return {k: _disagree(v, _half(corrected, k), runs.values[k], _half(runs, k), _floor(k, std))
+            for k, v in corrected.values.items()}
 
 
 def corrections_to_withhold(corrected: Corrected, runs: Corrected | None, std: np.ndarray
@@ -139,15 +135,18 @@ def corrections_to_withhold(corrected: Corrected, runs: Corrected | None, std: n
 def less_precise(corrected: Corrected, runs: Corrected | None) -> dict[str, np.ndarray]:
     """Where a control-variate value's interval is wider than the runs' own (the second half
     of :func:`corrections_to_withhold`; all False without ``runs``)."""
+    if runs is None:
+        return _nowhere(corrected)
     out = {}
     for k, v in corrected.values.items():
-        if runs is None:
-            out[k] = np.zeros(np.shape(v), dtype=bool)
-            continue
         hc, hr = _half(corrected, k), _half(runs, k)
         with np.errstate(invalid="ignore"):
             out[k] = (hc > hr) & np.isfinite(hr) & np.isfinite(v)
     return out
+
+
+def _nowhere(corrected: Corrected) -> dict[str, np.ndarray]:
+    return {k: np.zeros(np.shape(v), dtype=bool) for k, v in corrected.values.items()}
 
 
 def either(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

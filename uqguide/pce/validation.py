@@ -19,6 +19,7 @@ import numpy as np
 from ..core.types import OutputStats
 from ..stats.tail_intervals import hall_interval
 from .loo import FitFloor, FitRuns
+from .moments import central_from_raw
 from .validation_design import random_validation
 
 #: Default usability threshold on the relative (LOO or validation) error.
@@ -56,9 +57,7 @@ def relative_error(y: np.ndarray, s: np.ndarray, weight: np.ndarray | None = Non
 def _moments_from_raw(c: np.ndarray, m1: np.ndarray, m2: np.ndarray, m3: np.ndarray,
                       m4: np.ndarray) -> dict[str, np.ndarray]:
     """mean, std, skewness and kurtosis from raw moments ``m_p`` about ``c``."""
-    var = m2 - m1**2
-    mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
-    mu4 = m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4
+    var, mu3, mu4 = central_from_raw(m1, m2, m3, m4)
     std = np.sqrt(np.maximum(var, 0.0))
     ok = std > 1e-12 * (np.abs(c + m1) + 1e-300)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -112,9 +111,7 @@ def _gradients(m1: np.ndarray, m2: np.ndarray, m3: np.ndarray, m4: np.ndarray
                ) -> dict[str, list[np.ndarray]]:
     """Derivatives of mean, std, skewness and kurtosis with respect to the raw moments
     ``M_1..M_4`` about a fixed centre (the delta method's linearisation)."""
-    var = m2 - m1**2
-    mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
-    mu4 = m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4
+    var, mu3, mu4 = central_from_raw(m1, m2, m3, m4)
     zero, one = np.zeros_like(m1), np.ones_like(m1)
     dvar = [-2 * m1, one, zero, zero]
     dmu3 = [-3 * m2 + 6 * m1**2, -3 * m1, one, zero]
