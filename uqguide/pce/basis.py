@@ -1,13 +1,8 @@
 """Orthonormal polynomial bases on the germ: multi-index sets and their evaluation.
 
 A basis is a set of multi-indices ``alpha (P, d)`` (row 0 the constant) and the polynomials
-``psi_alpha(xi) = prod_j phi_j,alpha_j(xi_j)``, each ``phi_j,n`` orthonormal for germ variable
-``j`` and evaluated by its three-term recurrence (:func:`recurrence`, :func:`univariate`). The
-q = 0.5 set of degree 4 in two inputs keeps ``(1, 1)`` (q-norm ``(1 + 1)^2 = 4``) but not
-``(2, 1)``:
-
->>> hyperbolic_indices(2, 4, 0.5).tolist()
-[[0, 0], [1, 0], [0, 1], [2, 0], [1, 1], [0, 2], [3, 0], [0, 3], [4, 0], [0, 4]]
+``psi_alpha(xi) = prod_j phi_j,alpha_j(xi_j)``, each ``phi_j,n`` evaluated by its three-term
+recurrence (:func:`recurrence`, :func:`univariate`).
 
 Why orthonormal and why recurrences: docs/methods.md#bases-and-quadrature.
 """
@@ -25,11 +20,8 @@ from .germ import Germ, kind_distribution
 def hyperbolic_indices(d: int, degree: int, q: float = 1.0) -> np.ndarray:
     """Multi-indices with ``||alpha||_q = (sum alpha_j^q)^(1/q) <= degree`` (Blatman & Sudret 2011).
 
-    ``q = 1`` is the total-degree set ``|alpha| <= degree`` of ``(degree + d)! / (degree! d!)``
-    terms (paper eq 19); ``q < 1`` drops high-order interactions (the paper's truncation 0.5).
-    The set equals chaospy's ``generate_expansion(degree, dist, cross_truncation=q)``.
-    Returns ``(P, d)`` ints in graded order (by total degree, then as :func:`graded`); row 0 is
-    the zero index.
+    ``q = 1`` is the total-degree set (paper eq 19); ``q < 1`` drops high-order interactions.
+    Returns ``(P, d)`` ints in :func:`graded` order; row 0 is the zero index.
     """
     if not 0.0 < q <= 1.0:
         raise ValueError(f"q must be in (0, 1], got {q}")
@@ -80,12 +72,8 @@ def _recurrence(kind: tuple[str, float, float], degree: int) -> tuple[np.ndarray
 
 def recurrence(kind: tuple[str, float, float], degree: int) -> tuple[np.ndarray, np.ndarray]:
     """Monic recurrence coefficients ``(alpha (degree+1,), beta (degree+1,))`` of a germ variable
-    of the given :meth:`Germ.kind`.
-
-    ``beta[0] = 1`` (a probability measure); the monic polynomials satisfy
-    ``pi_{k+1} = (x - alpha_k) pi_k - beta_k pi_{k-1}`` (analytical for normal and uniform germs,
-    discretised Stieltjes otherwise).
-    """
+    of the given :meth:`Germ.kind`: ``pi_{k+1} = (x - alpha_k) pi_k - beta_k pi_{k-1}``,
+    ``beta[0] = 1``."""
     return _recurrence(kind, degree)
 
 

@@ -1,12 +1,9 @@
 """Whether a PCE statistic may be shown: one pipeline of named steps per output.
 
-Each step (:data:`STEPS`, in order) takes the values it needs and returns them with its
-:class:`Verdict`: which value (``own`` PCE value, ``+cv`` correction, ``+mc`` runs' estimate) it
-judges, the :class:`State` it leaves at which points, why, and the diagnostics that keep it in
-the result file. :func:`uqguide.methods.pce_validated.finish` runs the steps; :func:`record`
-writes every verdict, so what was decided is in one place. The rules each step applies live in
-:mod:`uqguide.pce.validation`, :mod:`uqguide.pce.support`, :mod:`uqguide.pce.far_tails` and
-:mod:`uqguide.pce.point_choice`; docs/methods.md#pce-statistics explains them.
+Each step (:data:`STEPS`, in order, run by :func:`uqguide.methods.pce_validated.finish`) returns
+its :class:`Verdict`: the value it judged, the :class:`State` it leaves where, why, and the
+diagnostics that keep it in the result file (:func:`record`). The rules each step applies:
+docs/pce.md#what-a-pce-may-print.
 """
 
 from __future__ import annotations
@@ -23,7 +20,7 @@ from ..core.types import STAT_NAMES, OutputStats
 from .far_tails import beyond_the_runs, can_swing, replace_far_tails
 from .point_choice import better_points
 from .support import disagrees_with_runs, either, less_precise, unsupported, with_the_kurtosis
-from .validation import Corrected, disagreeing, sustained, usable_mask
+from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 
 log = logging.getLogger("uqguide.methods.pce_validated")
 
@@ -73,19 +70,14 @@ def blank(st: OutputStats, where: Mapping[str, np.ndarray]) -> None:
     """NaN, in place, the PCE's own statistics at ``where`` (per statistic)."""
     for k, m in where.items():
         if m.any():
-            v = np.array(getattr(st, k), dtype=float)
-            v[m] = np.nan
-            setattr(st, k, v)
+            setattr(st, k, nan_at(getattr(st, k), m))
 
 
-# ----------------------------------------------------------------------------- the steps
 def far_tails(name: str, st: OutputStats, draws: np.ndarray, clipped: np.ndarray | None
               ) -> tuple[dict[str, np.ndarray] | None, Verdict | None]:
     """Where the exact moments come from inputs too rare for any run, take the surrogate
-    draws' instead (in place, :func:`uqguide.pce.far_tails.replace_far_tails`).
-
-    Returns the part of each statistic the surrogate takes from beyond its runs (None without
-    ``clipped``, the draws clipped to the runs' range), which widens the ``+cv`` interval."""
+    draws' instead (in place). Returns the part of each statistic the surrogate takes from
+    beyond its runs (None without ``clipped``, the draws clipped to the runs' range)."""
     beyond = beyond_the_runs(draws, clipped) if clipped is not None else None
     cols = replace_far_tails(st, draws)
     if not cols.any():
@@ -107,8 +99,8 @@ def swings(st: OutputStats, expansion: Any) -> bool:
 
 def widen(cv: Corrected, beyond: Mapping[str, np.ndarray]) -> None:
     """Widen the control-variate intervals, in place, by the part of each statistic the
-    surrogate takes from beyond its runs, on either side (the check of the PCE's own value,
-    ``correction_half``, keeps the correction's own width: the extrapolation moves both)."""
+    surrogate takes from beyond its runs, on either side (``correction_half`` is kept: the
+    extrapolation moves the PCE's value and the corrected one alike)."""
     for k, extra in beyond.items():
         sides = np.array([-1.0, 1.0]).reshape((2,) + (1,) * extra.ndim) * extra
         cv.ci[k] = cv.ci[k] + sides
@@ -118,8 +110,7 @@ def widen(cv: Corrected, beyond: Mapping[str, np.ndarray]) -> None:
 
 def printed(cv: Corrected) -> dict[str, np.ndarray]:
     """The intervals the report prints: ``shown_ci`` (else ``ci``) with the std's lower end at
-    least 0 and the kurtosis' at least 1, as for Monte Carlo (a skew-corrected interval widened
-    beyond the runs' range printed a kurtosis down to -1058, which no distribution has)."""
+    least 0 and the kurtosis' at least 1, as for Monte Carlo."""
     ci = dict(cv.ci if cv.shown_ci is None else cv.shown_ci)
     for k, floor in (("std", 0.0), ("kurtosis", 1.0)):
         if k in ci:
@@ -143,10 +134,8 @@ def corrected(name: str, cv: Corrected) -> Verdict:
 def check_correction(name: str, cv: Corrected, runs: Corrected | None
                      ) -> tuple[dict[str, np.ndarray] | None, Verdict | None]:
     """Withhold, in ``cv`` (in place), the ``+cv`` values the runs' own Monte Carlo estimate
-    disagrees with or is more precise than (:mod:`uqguide.pce.support`).
-
-    Returns where the runs disagreed with them (None without runs: it judges the PCE's own
-    shape statistics in :func:`check_own_by_runs`) and the verdict."""
+    disagrees with or is more precise than. Returns where the runs disagreed with them (None
+    without runs) and the verdict."""
     if runs is None:
         return None, None
     disagreed = disagrees_with_runs(cv, runs, runs.values["std"])
@@ -155,15 +144,9 @@ def check_correction(name: str, cv: Corrected, runs: Corrected | None
     if not names:
         return disagreed, None
     for k in names:
-        v = np.array(cv.values[k], dtype=float)
-        v[bad[k]] = np.nan
-        ci = np.array(cv.ci[k], dtype=float)
-        ci[:, bad[k]] = np.nan
-        cv.values[k], cv.ci[k] = v, ci
+        cv.values[k], cv.ci[k] = nan_at(cv.values[k], bad[k]), nan_at(cv.ci[k], bad[k], lead=1)
         if cv.shown_ci is not None:
-            shown = np.array(cv.shown_ci[k], dtype=float)
-            shown[:, bad[k]] = np.nan
-            cv.shown_ci[k] = shown
+            cv.shown_ci[k] = nan_at(cv.shown_ci[k], bad[k], lead=1)
     n_bad = int(np.sum(np.any([bad[k] for k in names], axis=0)))
     what = ", ".join(names)
     return disagreed, Verdict(
@@ -177,9 +160,8 @@ def check_correction(name: str, cv: Corrected, runs: Corrected | None
 def usable(name: str, st: OutputStats, err: np.ndarray | None, fit_loo: float | None,
            threshold: float) -> tuple[np.ndarray, bool]:
     """Where the surrogate is usable (:func:`uqguide.pce.validation.usable_mask`), and whether
-    the output is a constant: a scalar every fit run gave the same value (a collision flag
-    that never fired) has an exactly constant expansion, whose std 0 says nothing about how
-    often it varies, so it is no result (the ``+cv`` moments, if any, remain)."""
+    the output is a constant: a scalar every fit run gave the same value (say, a collision flag
+    that never fired) is no result, since a PCE cannot tell a constant from a rare event."""
     ok = usable_mask(err, fit_loo, threshold, np.shape(st.mean))
     constant = np.ndim(st.mean) == 1 and bool(np.any(np.asarray(st.std) == 0.0))
     if constant:
@@ -190,11 +172,9 @@ def usable(name: str, st: OutputStats, err: np.ndarray | None, fit_loo: float | 
 def check_own(name: str, st: OutputStats, cv: Corrected, time: np.ndarray | None,
               ok: np.ndarray, cv_withheld: str = "") -> tuple[dict[str, np.ndarray],
                                                                Verdict | None]:
-    """Where the PCE's own statistics disagree with its validation runs
-    (:func:`uqguide.pce.validation.disagreeing`; a series' steps only within a sustained run,
-    :func:`uqguide.pce.validation.sustained`), among the usable points ``ok``: withheld (a
-    value its own evidence refutes is not a result; the ``+cv`` row stands there).
-    ``cv_withheld`` names the ``+cv`` statistics :func:`check_correction` withheld."""
+    """Where the PCE's own statistics disagree with its validation runs (a series' steps only
+    within a sustained run), among the usable points ``ok``: withheld. ``cv_withheld`` names
+    the ``+cv`` statistics :func:`check_correction` withheld."""
     own = {k: np.asarray(st.stat(k), dtype=float) for k in STAT_NAMES}
     series = own["mean"].ndim == 2 and time is not None and time.size == own["mean"].shape[0]
     masks = {k: m & ok for k, m in disagreeing(own, cv, series).items()}
@@ -229,12 +209,10 @@ def check_own_by_runs(name: str, st: OutputStats, cv: Corrected | None,
                       disagreed: Mapping[str, np.ndarray] | None = None,
                       cv_disagreed: Mapping[str, np.ndarray] | None = None
                       ) -> tuple[dict[str, np.ndarray], list[Verdict]]:
-    """Where the PCE's own moments are not supported by its runs
-    (:func:`uqguide.pce.support.unsupported`; a skewness goes with its withheld kurtosis,
-    :func:`uqguide.pce.support.with_the_kurtosis`), among the usable points ``ok``.
-    ``disagreed``: where :func:`check_own` withheld them; ``cv_disagreed``: where the runs
-    disagreed with the ``+cv`` twin (:func:`check_correction`). Returns the masks to withhold
-    and the verdicts."""
+    """Where the PCE's own moments are not supported by its runs (a skewness goes with its
+    withheld kurtosis), among the usable points ``ok``. ``disagreed``: where :func:`check_own`
+    withheld them; ``cv_disagreed``: where the runs disagreed with the ``+cv`` twin. Returns
+    the masks to withhold and the verdicts."""
     own = {k: np.asarray(st.stat(k), dtype=float) for k in STAT_NAMES}
     bad = unsupported(own, cv, runs, loo, st.sampling_se or None,
                       None if cv_disagreed is None else dict(cv_disagreed))
@@ -278,7 +256,7 @@ def check_own_by_runs(name: str, st: OutputStats, cv: Corrected | None,
 def fallback(runs: Corrected | None, withheld: Mapping[str, np.ndarray]
              ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], Verdict | None]:
     """The runs' Monte Carlo estimate (``+mc``) and its printed interval wherever an own
-    statistic is withheld (empty where none is: a PCE that gives every moment has no +mc)."""
+    statistic is withheld (empty where none is)."""
     if runs is None or not any(m.any() for m in withheld.values()):
         return {}, {}, None
     shown = runs.ci if runs.shown_ci is None else runs.shown_ci
@@ -289,9 +267,8 @@ def fallback(runs: Corrected | None, withheld: Mapping[str, np.ndarray]
 
 def choose_points(name: str, st: OutputStats, cv: Corrected, ok: np.ndarray
                   ) -> tuple[dict[str, np.ndarray] | None, Verdict | None]:
-    """The ``+cv`` row's point values: the PCE's own or the corrected one, whichever has the
-    smaller estimated mean squared error (:func:`uqguide.pce.point_choice.better_points`);
-    the interval stays the correction's. None without the correction's standard errors."""
+    """The ``+cv`` row's point values (:func:`uqguide.pce.point_choice.better_points`); None
+    without the correction's standard errors."""
     if cv.se is None:
         return None, None
     chosen, took, taken, total = {}, {}, 0, 0
@@ -309,8 +286,7 @@ def choose_points(name: str, st: OutputStats, cv: Corrected, ok: np.ndarray
 def no_usable_surrogate(name: str, st: OutputStats, ok: np.ndarray, constant: bool,
              err: np.ndarray | None, fit_loo: float | None, threshold: float,
              time: np.ndarray | None) -> Verdict | None:
-    """The verdict where the surrogate is not usable (all its own values are withheld there,
-    :func:`uqguide.pce.validation.withhold_all`); None where it is usable everywhere."""
+    """The verdict where the surrogate is not usable; None where it is usable everywhere."""
     if ok.all():
         return None
     where = {k: ~ok for k in STAT_NAMES}

@@ -2,11 +2,6 @@
 (:func:`default_budget`), when the fit's own evidence says to stop (:func:`settled`), and how
 many validation runs check it (:func:`default_validation`).
 
-A config that gives ``n_samples`` or ``max_runs`` keeps its own plan; these rules apply only
-when the method sizes the design itself. The numbers are :data:`BUDGET_FACTOR`,
-:data:`BUDGET_MIN`, :data:`BUDGET_MAX`, :data:`MOMENT_FACTOR`, :data:`VALIDATION_SHARE` and
-:data:`VALIDATION_MIN`.
-
 The rules, why these numbers and the bound behind the stopping rule:
 docs/methods.md#defaults-that-are-rules-not-numbers.
 """
@@ -32,13 +27,12 @@ MOMENT_FACTOR = 2.0
 
 
 def default_budget(n0: int) -> int:
-    """Fit runs the adaptive PCE may make at its defaults, for an initial design of ``n0``
-    runs (module docstring)."""
+    """Fit runs the adaptive PCE may make at its defaults, for an initial design of ``n0`` runs."""
     return max(n0, min(max(BUDGET_FACTOR * n0, BUDGET_MIN), BUDGET_MAX))
 
 
 def default_validation(n_fit: int) -> int:
-    """Validation runs after a default fit of ``n_fit`` runs (module docstring)."""
+    """Validation runs after a default fit of ``n_fit`` runs."""
     return max(VALIDATION_MIN, math.ceil(VALIDATION_SHARE * n_fit))
 
 
@@ -51,7 +45,7 @@ def mean_and_std(coef: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def settled(previous: dict[str, tuple[np.ndarray, np.ndarray]],
             now: dict[str, tuple[np.ndarray, np.ndarray]], loo: dict[str, float],
             target: float) -> bool:
-    """Whether the design may stop growing (module docstring).
+    """Whether the design may stop growing.
 
     ``previous``, ``now``: per output, the previous and current fit's mean and std, each
     ``(m,)`` (``previous`` empty: the first fit); ``loo``: the current fit's corrected LOO error

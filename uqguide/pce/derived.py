@@ -1,19 +1,15 @@
 """Derived outputs: non-smooth functions of smooth outputs, through the surrogate.
 
-A miss distance is the norm of a smooth miss vector; a polynomial chaos converges fast on the
-vector and slowly, with wild tails, on the norm. So the model names the smooth outputs an output
-is computed from (its carriers) and the map; a PCE method fits the carriers, draws their
-surrogates jointly and applies the map to every draw (:func:`derived_statistics`). The draws are
-randomised quasi-Monte Carlo, :data:`REPLICATES` scrambled Sobol' sequences whose spread gives
-the standard error (``OutputStats.sampling_se``). No Sobol' indices; non-finite draws are left
-out and counted.
+A PCE method fits the carriers, draws their surrogates jointly and applies the map to every draw
+(:func:`map_derived`, :func:`derived_statistics`): :data:`REPLICATES` scrambled Sobol' sequences,
+whose spread gives the standard error. No Sobol' indices; non-finite draws are left out.
 
 Why, and the measured gain of the replicates: docs/methods.md#derived-outputs.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +19,7 @@ from ..stats.moments import shape_moments
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
+from .moments import central_from_raw
 
 _CHUNK_FLOATS = 2**22  # draws per chunk x values per draw: about 32 MB per array
 #: Independently scrambled Sobol' sequences behind a derived output's moments (their spread
@@ -65,18 +62,11 @@ def derived_statistics(
     per = max(1, -(-n_draws // REPLICATES))
     for r, u in _replicate_draws(d, per, seed, chunk):
         xi = germ.from_unit(u)
-        x = germ.to_physical(xi)
-        inputs = {name: x[:, j] for j, name in enumerate(germ.space.names)}
-        values: dict[str, np.ndarray] = {}
         needed = {c for dv in derived.values() for c in dv.carriers}
         if joint_wanted:
             needed |= {nm for nm in scalar_order if nm not in derived}
-        for name in needed:
-            e = expansions[name]
-            values[name] = e.evaluate(xi).reshape((xi.shape[0],) + e.shape)
-        for name, dv in derived.items():
-            y = np.asarray(dv.function({c: values[c] for c in dv.carriers}, inputs), float)
-            values[name] = y if y.ndim > 1 else y[:, None]
+        values = {name: expansions[name].values(xi) for name in needed}
+        map_derived(germ, xi, derived, derived, values)
         ok = np.ones(xi.shape[0], dtype=bool)
         for name in derived:
             ok &= np.isfinite(values[name].reshape(xi.shape[0], -1)).all(axis=1)
@@ -103,6 +93,18 @@ def derived_statistics(
         dev = j.s[0] / j.n
         joint = (mean, j.cross / j.n - np.outer(dev, dev))
     return stats, joint, n_invalid
+
+
+def map_derived(germ: Germ, xi: np.ndarray, derived: Mapping[str, DerivedOutput],
+                names: Iterable[str], values: dict[str, np.ndarray]) -> None:
+    """Add to ``values`` (the carriers' values ``(n, ...)`` at germ points ``xi (n, d)``) the
+    derived outputs ``names``, each ``(n, ...)`` of at least two dimensions."""
+    x = germ.to_physical(xi)
+    inputs = {nm: x[:, j] for j, nm in enumerate(germ.space.names)}
+    for name in names:
+        dv = derived[name]
+        y = np.asarray(dv.function({c: values[c] for c in dv.carriers}, inputs), float)
+        values[name] = y if y.ndim > 1 else y[:, None]
 
 
 def _replicate_draws(d: int, per: int, seed: int | np.random.SeedSequence, chunk: int
@@ -144,9 +146,7 @@ def _stats(acc: _Sums, shape: tuple[int, ...], n_runs: int) -> OutputStats:
     n = max(acc.n, 1)
     s1, s2, s3, s4 = (s / n for s in acc.s)
     mean = acc.shift + s1
-    mu2 = s2 - s1**2
-    mu3 = s3 - 3 * s1 * s2 + 2 * s1**3
-    mu4 = s4 - 4 * s1 * s3 + 6 * s1**2 * s2 - 3 * s1**4
+    mu2, mu3, mu4 = central_from_raw(s1, s2, s3, s4)
     std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     cov = acc.cross / n - np.einsum("...i,...j->...ij", s1, s1)
     return OutputStats(mean=mean.reshape(shape), std=std.reshape(shape),

@@ -1,15 +1,6 @@
-"""Experimental designs on the unit cube for regression PCE, deterministic from the seed.
-
-- ``"sobol"``: one scrambled Sobol' sequence; the initial design is its first ``N`` points and
-  each enrichment takes the next ones, so the final design is a prefix of a single low-discrepancy
-  sequence whatever the enrichment history (drawn by ``random_base2`` and cut, which avoids
-  scipy's warning about non-power-of-two sizes).
-- ``"lhs"``: a Latin hypercube per batch (the initial design, then each enrichment batch from
-  its own stream); the union is not a Latin hypercube but every batch is stratified.
-
-Streams: ``SeedSequence([seed, crc32(label), stream, batch])``, the same root as the Monte Carlo
-method's (a run's seed and a stable hash of the method's label), so adding a method to a config
-does not change another's numbers.
+"""Experimental designs on the unit cube for regression PCE, and the surrogate's draws, all
+deterministic from the seed and keyed by the method's label (:func:`stream`), so adding a method
+to a config does not change another's numbers.
 """
 
 from __future__ import annotations
@@ -33,8 +24,8 @@ def unit_design(d: int, start: int, stop: int, sampling: str, seed: int, label: 
                 batch: int = 0) -> np.ndarray:
     """Rows ``start..stop-1`` of the method's design on the open unit cube, ``(stop-start, d)``.
 
-    For ``"sobol"`` the rows are those of the one scrambled sequence; for ``"lhs"`` the rows form
-    a new Latin hypercube drawn from stream ``batch``.
+    ``"sobol"``: rows of one scrambled sequence, so every enrichment extends a single
+    low-discrepancy set; ``"lhs"``: a new Latin hypercube drawn from stream ``batch``.
     """
     n = stop - start
     if n <= 0:
@@ -57,12 +48,8 @@ def surrogate_draws(d: int, n: int, seed: int | np.random.SeedSequence, chunk: i
                     sampling: str = "random") -> Iterator[np.ndarray]:
     """Points ``(m, d)`` on the open unit cube, in chunks, for sampling a surrogate.
 
-    - ``"random"``: ``n`` rows of one ``numpy`` Generator stream (the same rows whatever the
-      chunking); the error of a sampled moment falls as ``1 / sqrt(n)``.
-    - ``"sobol"``: scrambled Sobol' points, ``n`` rounded up to a power of two (the balance of a
-      Sobol' set) and chunks of a power of two, so the points are those of one sequence
-      whatever the chunking. For a polynomial surrogate the error of a sampled moment falls
-      about as ``1 / n`` (randomised quasi-Monte Carlo).
+    ``"random"``: ``n`` rows of one Generator stream; ``"sobol"``: scrambled Sobol' points, ``n``
+    rounded up to a power of two. Either gives the same points whatever the chunking.
     """
     rng = np.random.default_rng(seed)
     if sampling == "random":

@@ -1,10 +1,5 @@
-"""A fitted polynomial chaos expansion of one output (paper eq 18).
-
-``y(xi) = sum_alpha c_alpha psi_alpha(xi)``, for all the output's columns at once: a time series
-``(T, k)`` or a scalar ``(k,)`` output is flattened to ``m = T k`` columns (component fastest).
-The coefficients may be kept factored, ``c = core @ mix`` with ``core (P, r)`` and
-``mix (r, m)``, as principal-component expansions are (``r`` components mapped back to the
-``m`` columns); evaluating then costs ``P r + r m`` per point instead of ``P m``.
+"""A fitted polynomial chaos expansion of one output (paper eq 18), for all its ``m = T k``
+columns at once, its coefficients possibly factored as ``core @ mix`` (principal components).
 """
 
 from __future__ import annotations
@@ -52,6 +47,10 @@ class Expansion:
     def evaluate(self, xi: np.ndarray) -> np.ndarray:
         """Surrogate values ``(n, m)`` at germ points ``xi (n, d)``."""
         return self.mixed(basis.evaluate(self.germ, self.alpha, xi) @ self.core)
+
+    def values(self, xi: np.ndarray) -> np.ndarray:
+        """Surrogate values ``(n, *shape)`` at germ points ``xi (n, d)``."""
+        return self.evaluate(xi).reshape((xi.shape[0],) + self.shape)
 
     def trimmed(self) -> Expansion:
         """The same expansion without terms whose coefficients are all zero (constant kept)."""

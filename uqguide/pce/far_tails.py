@@ -1,12 +1,9 @@
 """Moments a PCE's polynomial takes from inputs too rare for any run: found and replaced.
 
-A high-degree fit can swing by hundreds far beyond its last run, and its exact moments integrate
-that. Per column, where the expansion can swing at all (:func:`can_swing`), the exact mean and
-std are compared with those of up to :data:`FAR_DRAWS` random draws of the surrogate
-(:func:`far_draws`); where either differs by more than :data:`FAR_FACTOR` of the draws' standard
-errors and by more than the immaterial amount, the column's four statistics become the draws'
-(:func:`replace_far_tails`). :func:`beyond_the_runs` measures the part of each statistic that
-comes from beyond the runs, which widens the ``+cv`` interval.
+Where the expansion can swing (:func:`can_swing`), its exact mean and std are compared with
+those of random draws of the surrogate; where either differs by more than :data:`FAR_FACTOR`
+of the draws' standard errors, the column's statistics become the draws'
+(:func:`replace_far_tails`). :func:`beyond_the_runs` measures the part from beyond the runs.
 
 The rule, why six standard errors and only the mean and std, and the measured cases:
 docs/methods.md#pce-statistics.
@@ -35,9 +32,7 @@ _STATS = ("mean", "std", "skewness", "kurtosis")
 
 def can_swing(exp: Expansion) -> bool:
     """Whether the expansion's polynomial can reach beyond its runs: a retained term of degree
-    2 or more in an unbounded (normal) germ variable. A polynomial in bounded germs has its
-    extremes on the box its runs and validation runs fill, and a linear term's tails are the
-    model's own: the draws are not needed there."""
+    2 or more in an unbounded (normal) germ variable (a linear term's tails are the model's)."""
     exp = exp.trimmed()
     normal = np.array([f == NORMAL for f in exp.germ.families], dtype=bool)
     return bool(normal.any() and exp.alpha[:, normal].max(initial=0) >= 2)
@@ -57,7 +52,7 @@ def _stats(v: np.ndarray) -> np.ndarray:
 
 
 def replace_far_tails(st: OutputStats, draws: np.ndarray) -> np.ndarray:
-    """Replace, in place, the exact statistics the draws refute (module docstring).
+    """Replace, in place, the exact statistics the draws refute.
 
     ``draws (m, ...)``: the surrogate at ``m`` random inputs (``m`` a multiple of
     :data:`BATCHES`). Returns the columns replaced, bool ``(...)``.
@@ -66,7 +61,6 @@ def replace_far_tails(st: OutputStats, draws: np.ndarray) -> np.ndarray:
     m = draws.shape[0]
     w = draws.reshape(m, -1).astype(float)
     full = _stats(w)
-    # batch means of the two statistics judged (mean and std)
     b = w.reshape(BATCHES, m // BATCHES, -1)
     b_mean = b.mean(axis=1)
     b_std = np.sqrt(np.mean((b - b_mean[:, None]) ** 2, axis=1))
@@ -79,13 +73,11 @@ def replace_far_tails(st: OutputStats, draws: np.ndarray) -> np.ndarray:
                       np.full_like(scale, MATERIAL), np.full_like(scale, MATERIAL)])
     with np.errstate(invalid="ignore"):
         off = (np.abs(exact - full) > np.maximum(FAR_FACTOR * se, floor)) & np.isfinite(exact)
-    # Judged on the mean and std only: a heavy-tailed output's exact skewness and kurtosis
-    # are carried by far tails that are the model's too (a lognormal's), and draws are no
-    # judge of them; a swing beyond the runs that matters shows in the variance first.
+    # Judged on the mean and std only: a heavy-tailed output's skewness and kurtosis are
+    # carried by far tails that are the model's too (docs/methods.md#pce-statistics).
     cols = off[:2].any(axis=0)
     if not cols.any():
         return cols.reshape(shape)
-    # the replaced columns' standard errors of all four statistics (batch means)
     sub = w[:, cols].reshape(BATCHES, m // BATCHES, -1)
     per = np.array([_stats(part) for part in sub])
     se = np.zeros_like(full)
@@ -112,13 +104,6 @@ def beyond_the_runs(draws: np.ndarray, clipped: np.ndarray) -> dict[str, np.ndar
     coordinate clipped to the range its runs (fit and validation) cover, i.e. the surrogate
     continued as a constant. Returns per statistic ``|stat(draws) - stat(clipped)|`` (0 where
     either is undefined).
-
-    No run says how the model continues beyond the runs' range; the polynomial's continuation
-    and a constant one are two readings of the same evidence, so the ``+cv`` interval is widened
-    by their difference on either side (:func:`uqguide.methods.pce_validated.finish`). The zoo's
-    ramp at seed 3, t = 5 s: a PCE std of 0.2524 with a ``+cv`` interval of +-0.0007 against the
-    model's 0.2501; the part beyond the runs is 0.0026. A linear output of a normal input whose
-    runs reach +-2.9 standard deviations loses 0.35% of its std to the clipping.
     """
     m = draws.shape[0]
     shape = draws.shape[1:]

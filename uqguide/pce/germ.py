@@ -1,11 +1,5 @@
-"""The germ: independent standardised variables the polynomial chaos is built on.
-
-A PCE of an output is a polynomial in a germ ``xi`` of independent standard variables, mapped to
-the physical inputs by an isoprobabilistic transform: N(0, 1) for normal and lognormal inputs
-and the members of a correlated normal group (whitened by the Cholesky factor), U(-1, 1) for
-uniform ones, a truncated standard normal for a truncated normal. :class:`Germ` holds the maps;
-they agree with :meth:`uqguide.core.inputs.InputSpace.from_unit` (a test checks it), so designs
-drawn on the unit cube and quadrature nodes drawn in the germ describe the same inputs.
+"""The germ: independent standardised variables the polynomial chaos is built on, and their
+maps to the unit cube and the physical inputs (:class:`Germ`).
 
 The table of germs and why standardised variables: docs/methods.md#the-germ.
 """

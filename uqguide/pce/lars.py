@@ -1,14 +1,11 @@
 """Least-angle regression's order of entry of the candidates (LARS), for ``y`` of shape (N, q).
 
-:class:`LarsPath` gives the order in which the candidate columns enter the least-angle path of
-``y (N,)`` (Efron et al.'s "lar" path) or ``y (N, q)`` (the multiresponse path, MRSR: Similä &
-Tikka 2007, a candidate's correlation measured by the norm of its row of the correlation
-matrix), advanced on demand. The columns are used as given (no rescaling) and the correlations
-recomputed every :data:`_REFRESH` steps so they do not drift. :class:`LarsBasis` lays the
-candidate basis out once for the paths of several columns.
+:class:`LarsPath` advances the "lar" path of ``y (N,)`` or the multiresponse path (MRSR) of
+``y (N, q)`` on demand; :class:`LarsBasis` lays a candidate basis out once for several paths.
 
-The steps, why they are cheap and why no rescaling:
-docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out.
+The steps and why they are cheap:
+docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out; why no rescaling
+and the refreshed correlations: docs/pce.md#lars-on-the-columns-as-they-are.
 """
 
 from __future__ import annotations
@@ -36,23 +33,10 @@ class LarsBasis:
 
 
 class LarsPath:
-    """Least-angle regression's order of entry, advanced on demand.
-
-    On the basis columns as they are, the constant among them and none rescaled, as OpenTURNS'
-    LARS does: an orthonormal basis's columns have about the same norm on a design, so the order
-    of entry follows the size of the PCE coefficients. The correlations are recomputed from the
-    residual every few steps (scikit-learn's ``lars_path`` only updates them, and drifts once the
-    residual is 1e-5 of the output). The active columns are kept orthonormalised (``Q``,
-    Gram-Schmidt repeated when a column is nearly in the span: "twice is enough"); a column
-    (nearly) in the span is skipped. Asking for more steps continues the path.
-
-    ``y (N,)`` takes the "lar" step: ``u = Q z / |z|``, ``z = R^-T s`` (``s`` the signs of the
-    active correlations). ``y (N, q)`` takes the multiresponse step: the fit moves from ``Y_hat``
-    toward the active set's least-squares fit until an inactive row of ``C = psi^T (Y - Y_hat)``
-    catches up (:func:`_catch_up`). With one column both are the same path in exact arithmetic,
-    not in round-off: a single output is passed as ``(N,)`` and ``(N, 1)`` keeps the
-    multiresponse step, so that neither kind of fit moves a bit. ``psi (N, P)`` or a
-    :class:`LarsBasis`.
+    """Least-angle regression's order of entry of the columns of ``psi (N, P)`` (or a
+    :class:`LarsBasis`) for ``y (N,)`` (the "lar" step) or ``y (N, q)`` (the multiresponse step,
+    even for ``q = 1``); asking for more steps continues the path. A column (nearly) in the span
+    of the active ones is skipped.
     """
 
     def __init__(self, psi: np.ndarray | LarsBasis, y: np.ndarray) -> None:
@@ -66,8 +50,7 @@ class LarsPath:
         self.excluded = lb.norms2 <= (_DEGENERATE**2) * n
         self.q = np.empty((size, n))  # the active columns, orthonormalised
         self.active: list[int] = []
-        # The active set as an index array and the free candidates as a mask, kept up to date
-        # step by step: rebuilt from the list each step, they cost a third of a step.
+        # Kept up to date step by step: rebuilt from the list each step, they cost a third of it.
         self._act = np.zeros(size, dtype=np.intp)
         self._free = ~self.excluded
         self.corr = lb.psi_t @ self.y  # psi^T (y - y_hat): (P,), or (P, q)
@@ -192,11 +175,8 @@ class LarsPath:
 
 
 def _catch_up(u: np.ndarray, a: np.ndarray, c2: float) -> np.ndarray:
-    """Per row, the root ``g`` in (0, 1] of ``||u - g a||^2 = (1 - g)^2 c2`` (inf if none).
-
-    The quadratic is negative at 0 and not negative at 1, so exactly one root lies in (0, 1];
-    it is taken from the numerically stable pair ``q / aa``, ``cc / q``.
-    """
+    """Per row, the root ``g`` in (0, 1] of ``||u - g a||^2 = (1 - g)^2 c2`` (inf if none),
+    from the numerically stable pair ``q / aa``, ``cc / q``."""
     aa = np.einsum("ij,ij->i", a, a) - c2
     bb = np.einsum("ij,ij->i", u, a) - c2
     cc = np.einsum("ij,ij->i", u, u) - c2

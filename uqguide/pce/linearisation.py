@@ -1,11 +1,6 @@
-"""Exact third and fourth moments of a sparse PCE by linearising products of its basis.
-
-With ``T[m, n, k] = E[phi_m phi_n phi_k]`` (:func:`triple_products`, one Gauss rule per germ
-kind and degree), the square of the centred surrogate has an exact expansion ``sum_g s_g psi_g``
-and ``E[z^3] = sum_g s_g c_g``, ``E[z^4] = sum_g s_g^2``
-(:func:`central_moments_linearised`). The cost follows the pairs of retained terms
-(:func:`product_terms`, usable up to :data:`MAX_PRODUCT_TERMS`), not a tensor grid over all
-inputs, and the rule holds for every germ family.
+"""Exact third and fourth moments of a sparse PCE by linearising products of its basis
+(:func:`central_moments_linearised`); its cost follows the pairs of retained terms
+(:func:`product_terms`).
 
 Derivation and cost: docs/methods.md#exact-skewness-and-kurtosis.
 """
@@ -52,18 +47,13 @@ def _supports(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return counts, offsets, ks
 
 
-def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
-    a, b = np.triu_indices(n)
-    return a, b
-
-
 def product_terms(exp: Expansion) -> int:
     """Number of (pair, g) entries the linearisation of ``exp``'s square builds."""
     exp = exp.trimmed()
     alpha = exp.alpha[1:]
     if alpha.shape[0] == 0:
         return 0
-    a, b = _pairs(alpha.shape[0])
+    a, b = np.triu_indices(alpha.shape[0])
     total = np.ones(a.size)
     for j in np.flatnonzero(alpha.max(axis=0)):
         p = int(alpha[:, j].max())
@@ -73,7 +63,7 @@ def product_terms(exp: Expansion) -> int:
 
 
 def central_moments_linearised(exp: Expansion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Central moments 2-4 ``(m,)`` of the surrogate, exactly (module docstring)."""
+    """Central moments 2-4 ``(m,)`` of the surrogate, exactly."""
     exp = exp.trimmed()
     alpha = exp.alpha[1:]
     coef = exp.coef[1:]  # (P - 1, m): the centred surrogate's coefficients
@@ -81,7 +71,7 @@ def central_moments_linearised(exp: Expansion) -> tuple[np.ndarray, np.ndarray, 
     if alpha.shape[0] == 0:
         z = np.zeros(m)
         return z, z.copy(), z.copy()
-    a, b = _pairs(alpha.shape[0])
+    a, b = np.triu_indices(alpha.shape[0])
     # Expand every pair dimension by dimension: entries (pair, partial g code, value).
     pair = np.arange(a.size)
     code = np.zeros(a.size, dtype=np.int64)

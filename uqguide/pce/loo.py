@@ -1,16 +1,11 @@
 """Corrected leave-one-out errors of least-squares fits: along a path, and at the fit runs.
 
-:class:`LooPath` scores the nested sets of a growing path (column 0, the constant, first) for
-``y (N,)`` or ``y (N, q)``, its QR extended block by block, so scoring a whole path costs about
-one QR of its largest set and the ``q`` columns share it; :func:`score_path` feeds it in growing
-blocks until the error can only rise, and :meth:`LooPath.fit` gives a column's best set.
-:func:`loo_values` and :func:`loo_residuals` are a fitted expansion's leave-one-out values and
-residuals at its own runs; the former floor the validation runs' variance (:class:`FitRuns`,
-:class:`FitFloor`).
+:class:`LooPath` scores the nested sets of a growing path for ``y (N,)`` or ``y (N, q)``;
+:func:`score_path` feeds it until the error can only rise. :func:`loo_values` and
+:func:`loo_residuals` are a fitted expansion's leave-one-out values and residuals at its own
+runs; :class:`FitRuns` and :class:`FitFloor` carry them to the validation.
 
-The error formula and its correction factor:
-docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out; the fit runs'
-values: docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate.
+The error formula: docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out.
 """
 from __future__ import annotations
 
@@ -30,8 +25,7 @@ class SparseFit:
 
     ``terms (P,)``: candidate columns kept (0, the constant, first); ``coef (P,)``: their OLS
     coefficients; ``loo``: corrected leave-one-out error relative to the output's variance;
-    ``loo_se``: that of the mean of the squared LOO residuals times the same factors (0 where
-    unknown).
+    ``loo_se``: its standard error (0 where unknown).
     """
 
     terms: np.ndarray
@@ -85,16 +79,10 @@ def grown_factor(r: np.ndarray, rinv: np.ndarray, frob: float, c: np.ndarray, rb
 
 class LooPath:
     """Corrected LOO errors of the nested sets of a growing path (column 0, the constant,
-    first) for ``y (N,)`` or ``y (N, q)`` (none constant), ``psi (N, P)``, its QR extended block
-    by block.
+    first) of columns of ``psi (N, P)``, for ``y (N,)`` or ``y (N, q)`` (none constant).
 
-    A block of new columns is orthogonalised against the kept ones (classical Gram-Schmidt,
-    twice) and factorised by Householder QR; the nested sets' OLS residuals (cumulative sums of
-    ``Q`` columns times ``Q^T y``), hat diagonals (cumulative sums of ``Q^2``) and
-    ``trace((A^T A)^-1) = ||R^-1||_F^2`` (new columns of ``R^-1`` are
-    ``[-R^-1 C Rb^-1; Rb^-1]``) follow in BLAS-3 work on the block only, so re-scoring a longer
-    path costs only its new part. A column (nearly) in the span is dropped. The factorisation,
-    hat diagonal and ``T(P, N)`` depend only on the columns: the ``q`` outputs share them.
+    The QR is extended block by block (docs/pce.md#the-leave-one-out-path), so a longer path
+    costs only its new part; a column (nearly) in the span is dropped.
     """
 
     def __init__(self, psi: np.ndarray, y: np.ndarray) -> None:
@@ -152,9 +140,8 @@ class LooPath:
         self.loo = np.concatenate([self.loo, loo])
         self.se = np.concatenate([self.se, se])
 
-    # The two scorings keep their own arithmetic (one output: a mean of squared ratios; several:
-    # a dot product of residuals times leverages); with one column they agree to round-off
-    # only, and merging them would move the last bits of one kind of fit.
+    # Two scorings: with one column they agree to round-off only, and merging them would move
+    # the last bits of one kind of fit.
 
     def _score_column(self, qb: np.ndarray, qty: np.ndarray, hat: np.ndarray, p: np.ndarray,
                       frob: np.ndarray, leverage: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -232,14 +219,11 @@ def score_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray | LarsPath,
     """Score the nested sets ``{0} + order[:k]`` of ``y (N,)`` or ``(N, q)`` by corrected LOO
     (:meth:`LooPath.fit` then gives each column's best); ``psi (N, P_cand)``, column 0 constant.
 
-    A :class:`LarsPath` ``order`` is advanced only as far as the scoring reads it: with
-    ``patience``, the path is scored in growing blocks and stops past ``2 P_best + patience``
-    terms (``P_best`` the largest best set size), since ``N / (N - P)`` only grows from there
-    and the tail costs ``O(N P^2)`` (on a kinked series' components, 150 runs, half of all LARS
-    steps); the scores are the same as for the whole order. None scores the whole path.
-    ``hint``: a guess of the best size (a neighbouring degree's) for the first block.
-    ``state``: the scores of a shorter path ``order`` extends (same ``psi``, ``y``), advanced in
-    place.
+    A :class:`LarsPath` ``order`` is advanced only as far as the scoring reads it. ``patience``:
+    stop past ``2 P_best + patience`` terms (``P_best`` the largest best set size;
+    docs/pce.md#the-leave-one-out-path); None scores the whole path. ``hint``: a guess of the
+    best size for the first block. ``state``: the scores of a shorter path ``order`` extends
+    (same ``psi``, ``y``), advanced in place.
     """
     path = LooPath(psi, y) if state is None else state
     if not path.joint and path.var <= 0.0:
@@ -270,10 +254,9 @@ def score_path(psi: np.ndarray, y: np.ndarray, order: np.ndarray | LarsPath,
 def loo_values(expansion: Expansion, xi: np.ndarray, targets: np.ndarray) -> np.ndarray:
     """Leave-one-out surrogate values ``(N, m)`` at the fit runs ``xi (N, d)``.
 
-    Each column of the core is an OLS fit on its own non-zero terms; ``targets (N, r')`` is what
-    they were fitted to (a scalar's components, a series' scores); a core column beyond them (a
-    series' mean row) has no residual. ``expansion.evaluate(xi)`` with every fitted column
-    replaced by its LOO prediction; a run of leverage 1 keeps its fitted value.
+    ``targets (N, r')``: what the core's columns were fitted to by OLS on their own non-zero
+    terms (a core column beyond them, a series' mean row, has no residual); a run of leverage 1
+    keeps its fitted value.
     """
     psi = basis.evaluate(expansion.germ, expansion.alpha, xi)
     fitted = psi @ expansion.core
@@ -315,12 +298,11 @@ def _own_terms(psi: np.ndarray, core: np.ndarray, columns: int
 
 @dataclass(frozen=True)
 class FitRuns:
-    """The fit runs as a second sample of the model-minus-surrogate differences.
+    """The fit runs as a second sample of the model-minus-surrogate differences
+    (docs/pce.md#the-fit-runs-floor).
 
     ``y (N, ...)``: the model at the successful fit runs; ``s_loo``: the surrogate's LOO values
-    there (:func:`loo_values`); ``stratum (N,)``: each run's validation-design stratum;
-    ``ratio (N,)``: importance ratio to the validation pool's density; ``input_share (K,)``: each
-    stratum's probability under the input distribution.
+    there; ``stratum``, ``ratio``, ``input_share``: as :class:`FitFloor`'s.
     """
 
     y: np.ndarray
@@ -346,11 +328,7 @@ class FitFloor:
 
     def variance(self, k: int, share: float) -> np.ndarray:
         """``Var_q(r f | k)`` from the fit runs in stratum ``k`` (``share``: its pool
-        probability ``Q_k``); 0 with fewer than two of them.
-
-        The fit runs are draws of the input distribution ``p``: with ``c = P_k / Q_k``,
-        ``E_q[r^2 f^2 | k] = c E_p[r f^2 | k]`` and ``E_q[r f | k] = c E_p[f | k]``.
-        """
+        probability ``Q_k``); 0 with fewer than two of them (docs/pce.md#the-fit-runs-floor)."""
         rows = self.stratum == k
         nk = int(rows.sum())
         if nk < 2 or share <= 0:

@@ -1,11 +1,6 @@
-"""Statistics of a PCE: mean and covariance from the coefficients (eqs 21-22), skewness and
-kurtosis exact where a rule is affordable, else from surrogate draws.
-
-``"exact"`` takes the cheaper of a tensor Gauss rule of ``2 p_j + 1`` nodes per germ variable
-(:func:`exact_rule`, up to ``max_exact_points``) and the linearisation of basis products
-(:mod:`uqguide.pce.linearisation`); ``"surrogate-sampling"`` the population moments of
-fixed-seed germ draws (:func:`central_moments_sampled`). Sobol' indices from the coefficients
-(:func:`sobol_indices`). A column of zero variance has NaN skewness, kurtosis and indices.
+"""Statistics of a PCE (:func:`output_statistics`): mean and covariance from the coefficients
+(eqs 21-22), skewness and kurtosis by the cheaper exact rule (:func:`exact_rule`) where one is
+affordable, else from surrogate draws; Sobol' indices from the coefficients.
 
 The rules and their costs: docs/methods.md#exact-skewness-and-kurtosis and
 docs/methods.md#pce-statistics.
@@ -57,11 +52,8 @@ def exact_grid_size(exp: Expansion) -> int:
 
 
 def exact_rule(exp: Expansion, max_exact_points: int = 250_000) -> str | None:
-    """The cheaper usable exact rule for ``exp`` (``"grid"`` or ``"linearisation"``), or None.
-
-    Costs are counted in multiply-adds: the grid evaluates the basis and the surrogate at every
-    node; the linearisation builds its product terms and multiplies them by every column.
-    """
+    """The cheaper usable exact rule for ``exp`` (``"grid"`` or ``"linearisation"``, costs in
+    multiply-adds), or None."""
     trimmed = exp.trimmed()
     nodes = exact_grid_size(trimmed)
     terms = linearisation.product_terms(trimmed)
@@ -76,7 +68,7 @@ def exact_rule(exp: Expansion, max_exact_points: int = 250_000) -> str | None:
 
 
 def central_moments_exact(exp: Expansion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Central moments 2-4 ``(m,)`` of the surrogate by an exact Gauss rule (module docstring)."""
+    """Central moments 2-4 ``(m,)`` of the surrogate by a tensor Gauss rule, exactly."""
     exp = exp.trimmed()
     d = exp.alpha.shape[1]
     degrees = exp.alpha.max(axis=0)
@@ -102,10 +94,7 @@ def central_moments_sampled(
     exp: Expansion, n_draws: int, seed: int | np.random.SeedSequence, sampling: str = "random"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Central moments 2-4 ``(m,)`` of the surrogate at ``n_draws`` fixed-seed germ draws
-    (``sampling``: ``"random"`` or scrambled ``"sobol"`` points, see
-    :func:`uqguide.pce.design.surrogate_draws`): population moments of the draws, the same
-    whatever the chunking.
-    """
+    (``sampling``: :func:`uqguide.pce.design.surrogate_draws`'s)."""
     exp = exp.trimmed()
     d = exp.alpha.shape[1]
     sums = [np.zeros(exp.n_columns) for _ in range(4)]
@@ -113,11 +102,14 @@ def central_moments_sampled(
     for u in surrogate_draws(d, n_draws, seed, _chunk_rows(exp), sampling):
         _accumulate(exp, exp.germ.from_unit(u), None, sums)
         n += u.shape[0]
-    s1, s2, s3, s4 = (s / n for s in sums)
-    mu2 = s2 - s1**2
-    mu3 = s3 - 3 * s1 * s2 + 2 * s1**3
-    mu4 = s4 - 4 * s1 * s3 + 6 * s1**2 * s2 - 3 * s1**4
-    return mu2, mu3, mu4
+    return central_from_raw(*(s / n for s in sums))
+
+
+def central_from_raw(m1: np.ndarray, m2: np.ndarray, m3: np.ndarray, m4: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Central moments 2-4 from the raw moments 1-4 about any centre."""
+    return (m2 - m1**2, m3 - 3 * m1 * m2 + 2 * m1**3,
+            m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4)
 
 
 def sobol_indices(exp: Expansion) -> tuple[np.ndarray, np.ndarray]:

@@ -1,10 +1,6 @@
-"""From model outputs to expansion columns, and from fitted expansions to an Estimate.
-
-Every output of the model contract is handled the same way by the PCE methods: a time series
-``(n, T, k)`` or a scalar ``(n, k)`` output is flattened to ``m = T k`` (or ``k``) columns,
-fitted, and its statistics are reshaped back to ``(T, k)`` or ``(k,)``. The scalar outputs'
-expansions are put on one shared basis so the joint covariance of all scalars stacked
-(docs/statistics.md#statistics) follows from the coefficients too.
+"""From model outputs to expansion columns (``(n, T, k)`` or ``(n, k)`` flattened to ``m``
+columns), and from fitted expansions to the statistics of every output (:func:`assemble`),
+with the joint covariance of all scalars stacked (docs/statistics.md#statistics).
 """
 
 from __future__ import annotations
@@ -53,18 +49,13 @@ def failure_summary(outputs: ModelOutput) -> str:
     return "; ".join(f"{r} ({c})" for r, c in reasons.most_common())
 
 
-def scalar_names(name: str, k: int) -> list[ScalarIndex]:
-    """A scalar output's columns in the stacked vector (as Monte Carlo stacks them)."""
-    return ScalarIndex.of(name, k)
-
-
 def joint_scalar_moments(
     expansions: list[tuple[str, Expansion]]
 ) -> tuple[list[ScalarIndex], np.ndarray | None, np.ndarray | None]:
     """Names, mean ``(s,)`` and covariance ``(s, s)`` of all scalar outputs stacked.
 
-    The expansions may use different multi-index sets (adaptive PCE): their coefficients are
-    scattered onto the union, where ``cov = sum_{alpha != 0} c_alpha c_alpha^T`` (eq 22).
+    The expansions' coefficients are scattered onto the union of their multi-index sets, where
+    ``cov = sum_{alpha != 0} c_alpha c_alpha^T`` (eq 22).
     """
     if not expansions:
         return [], None, None
@@ -79,7 +70,7 @@ def joint_scalar_moments(
         rows = [union[a] for a in map(tuple, e.alpha.tolist())]
         c[rows] = e.coef
         blocks.append(c)
-        names += scalar_names(name, e.n_columns)
+        names += ScalarIndex.of(name, e.n_columns)
     coef = np.concatenate(blocks, axis=1)
     r0 = union[(0,) * expansions[0][1].alpha.shape[1]]
     mean = coef[r0]
@@ -132,7 +123,7 @@ def assemble(
         n_draws=n_draws, seed=seed, n_runs=n_runs, sampling=sampling)
     stats.update(d_stats)
     if joint is not None:
-        names = [s for nm in order for s in scalar_names(nm, stats[nm].mean.shape[-1])]
+        names = [s for nm in order for s in ScalarIndex.of(nm, stats[nm].mean.shape[-1])]
         s_mean, s_cov = joint
         diag["scalar_moments"] = "surrogate-sampling"
     diag["derived"] = ", ".join(f"{nm} from {'+'.join(dv.carriers)}"

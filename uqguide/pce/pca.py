@@ -1,15 +1,8 @@
-"""Principal components of a time-series output (docs/methods.md#time-series-in-the-adaptive-pce).
+"""Principal components of a time-series output: a correlation PCA of its ``(N, T k)`` runs,
+whose scores are fitted and mapped back to the columns (``Expansion.mix``); constant columns
+keep their value and take no component.
 
-The ``(N, T k)`` runs of a series output are compressed to ``r`` principal-component scores, one
-adaptive PCE is fitted per score, and the scores' expansions are mapped back to the ``T k``
-columns (``Expansion.mix``).
-
-Each column is scaled by its sample standard deviation before the decomposition (a correlation
-PCA): the retained fraction of variance is then a fraction of every time step's variance on
-average, so early steps of small dispersion (where the LOS rate's skewness and kurtosis are
-largest) are represented as well as late steps of large dispersion. Columns whose runs all agree
-(e.g. ``t = 0`` with no initial dispersion) are constants: they keep their value, take no
-component, and get zero variance (NaN skewness and kurtosis).
+Why correlation scaling: docs/methods.md#time-series-in-the-adaptive-pce.
 """
 
 from __future__ import annotations
@@ -86,7 +79,7 @@ class Decomposition:
 
 
 def decompose(y: np.ndarray) -> Decomposition:
-    """Correlation PCA of ``y (N, m)``: every component (module docstring)."""
+    """Correlation PCA of ``y (N, m)``: every component."""
     n, m = y.shape
     mean = y.mean(axis=0)
     varying = ~constant_columns(y)

@@ -1,11 +1,6 @@
-"""How many principal components a series keeps: the moments' rule.
-
-On the fit's own runs, ``r`` is the smallest count at which the truncation error of the mean,
-std, skewness and kurtosis at every step (rebuilt from ``r`` components against the runs) is at
-most the surrogate's error (the components' leave-one-out predictions against the rebuilt runs,
-root mean square over the steps), :func:`choose`. At least the components that hold
-:data:`FLOOR_FRACTION` of the variance, at most :func:`candidates`; steps whose spread is
-round-off are left out (:func:`moment_steps`).
+"""How many principal components a series keeps: the moments' rule (:func:`choose`), the
+smallest count whose truncation error of the four moments at every step is at most the
+surrogate's own error.
 
 Why not a fraction of the variance, and how the errors are scaled:
 docs/methods.md#time-series-in-the-adaptive-pce.
@@ -50,8 +45,7 @@ def _moments(y: np.ndarray) -> np.ndarray:
 
 
 def _scaled(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Errors ``(4, m)`` of moments ``a`` against ``b`` on the rule's scale (module
-    docstring)."""
+    """Errors ``(4, m)`` of moments ``a`` against ``b`` on the rule's scale."""
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.array([np.abs(a[0] - b[0]) / b[1], np.abs(a[1] - b[1]) / b[1],
                          np.abs(a[2] - b[2]), np.abs(a[3] - b[3]) / b[3]])
@@ -83,8 +77,8 @@ def surrogate_errors(dec: Decomposition, loo_resid: np.ndarray, steps: np.ndarra
 
 
 def choose(dec: Decomposition, y: np.ndarray, loo_resid: np.ndarray) -> int:
-    """The number of components the rule keeps (module docstring), from the leave-one-out
-    residuals ``(N, R)`` of the ``R`` fitted candidates."""
+    """The number of components the rule keeps, from the leave-one-out residuals ``(N, R)``
+    of the ``R`` fitted candidates."""
     n_fit = loo_resid.shape[1]
     floor = min(dec.count_for_fraction(FLOOR_FRACTION), n_fit)
     steps = moment_steps(y)

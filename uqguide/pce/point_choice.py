@@ -1,14 +1,8 @@
 """Which point value a validated PCE's ``+cv`` row prints: the PCE's own or the corrected one,
 whichever has the smaller estimated mean squared error (:func:`better_points`).
 
-The correction ``d`` estimates the PCE's bias with standard error ``se``: the corrected value's
-squared error is ``se^2``, the PCE's own is estimated without bias by ``d^2 - se^2``, so the
-PCE's value is printed where ``|d| < sqrt(2) se`` (:data:`BIAS_FACTOR`). The interval stays the
-correction's, which holds either value.
-
 Derivation and the measured effect on Table 5's ZEM:
-docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate and
-docs/methods.md#agreeing-and-the-runs-own-estimate.
+docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate.
 """
 
 from __future__ import annotations
@@ -24,7 +18,7 @@ BIAS_FACTOR = math.sqrt(2.0)
 
 def better_points(own: np.ndarray, corrected: np.ndarray, se: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """The value of smaller estimated mean squared error at each point (module docstring).
+    """The value of smaller estimated mean squared error at each point.
 
     ``own``: the PCE's statistic (NaN where withheld); ``corrected``: the control-variate value
     (NaN where not reported); ``se``: the correction's standard error. Returns the chosen values

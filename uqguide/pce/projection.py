@@ -1,16 +1,7 @@
 """Pseudo-spectral projection: PCE coefficients from model runs at quadrature nodes.
 
-For one tensor rule with projection degrees ``p_j`` (see :mod:`uqguide.pce.quadrature`), the
-coefficient of ``psi_alpha`` (``alpha_j <= p_j``) is the paper's eq (23),
-
-    ``c_alpha = sum_i w_i y(xi_i) psi_alpha(xi_i)``,
-
-computed axis by axis (a tensor contraction with each variable's ``w_j phi_j(x_j)`` matrix, so a
-128-node grid costs 7 small matrix products, not a 128 x 128 basis matrix). A Smolyak grid
-combines its tensor projections with the Smolyak coefficients (Smolyak pseudo-spectral
-projection, Conrad & Marzouk 2013): unlike a single projection with the sparse grid's weights,
-it is exact for every polynomial in the union of the tensor bases, with no aliasing from the
-sparse grid's negative weights.
+Each tensor rule projects axis by axis; a Smolyak grid combines its tensor projections with the
+Smolyak coefficients (docs/pce.md#pseudo-spectral-projection).
 """
 
 from __future__ import annotations

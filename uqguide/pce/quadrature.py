@@ -1,12 +1,6 @@
-"""Quadrature on the germ: one-dimensional rules, tensor grids and Smolyak combinations.
-
-One-dimensional rules by level (:data:`RULES`: Gauss of the germ's own measure, nested
-Genz-Keister for normal germs, Gauss-Patterson and Clenshaw-Curtis for uniform ones;
-:func:`rule_1d`), each with its projection degree checked numerically
-(:func:`projection_degree`); a :class:`Grid` is a linear combination of tensor rules: one for the
-full-tensor PCE (:func:`tensor_grid`), Smolyak's combination for the sparse one
-(:func:`smolyak_grid`), whose nodes are chaospy's sparse grid with the repeated centre nodes
-merged. This is the only module that sees chaospy's ``(d, n)`` arrays.
+"""Quadrature on the germ: one-dimensional rules (:func:`rule_1d`), tensor grids
+(:func:`tensor_grid`) and Smolyak combinations (:func:`smolyak_grid`). This is the only module
+that sees chaospy's ``(d, n)`` arrays.
 
 The rules, the Smolyak formula and the chaospy details: docs/methods.md#bases-and-quadrature.
 """
@@ -37,7 +31,7 @@ _ORTHO_TOL = 1e-8
 @dataclass(frozen=True)
 class Rule1D:
     """A one-dimensional rule on a germ variable: ``nodes``, ``weights (n,)`` (summing to 1)
-    and the projection ``degree`` (module docstring)."""
+    and the projection ``degree`` (:func:`projection_degree`)."""
 
     nodes: np.ndarray
     weights: np.ndarray
@@ -70,7 +64,7 @@ def projection_degree(kind: tuple[str, float, float], nodes: np.ndarray,
 
 
 def rule_1d(germ: Germ, j: int, rule: str, level: int) -> Rule1D:
-    """The 1-D ``rule`` at ``level`` for germ variable ``j`` (see module docstring)."""
+    """The 1-D ``rule`` at ``level`` for germ variable ``j``."""
     kind = germ.kind(j)
     if kind[0] not in RULE_FAMILIES[rule]:
         raise ValueError(f"rule '{rule}' is not defined for a {kind[0]} germ variable")

@@ -1,12 +1,6 @@
-"""The Monte Carlo estimate of the model runs a PCE method already made (its ``+mc`` fallback).
-
-Where a PCE withholds a statistic, the report gives the sample moments of the method's fit and
-validation runs, mixed in proportion to their counts (the validation runs with their stratum
-weights), with a 95% interval: the union of the delta-method interval (as
-:func:`uqguide.pce.validation.corrected_moments` gives it for a constant surrogate) and the
-tail-aware one (:func:`uqguide.stats.tail_intervals.tail_intervals`), one-sided where a few runs
-carry the statistic. It treats the runs as independent draws (:data:`INTERVAL` says so), and is
-given only where the PCE withholds the statistic. No run is added.
+"""The Monte Carlo estimate of the model runs a PCE method already made (its ``+mc`` fallback):
+the sample moments of its fit and validation runs, with the union of the delta-method and the
+tail-aware interval (:data:`INTERVAL` says what it assumes).
 
 The mixture, its variance and why the union:
 docs/methods.md#agreeing-and-the-runs-own-estimate.
@@ -76,11 +70,8 @@ LOWEST = {"std": 0.0, "kurtosis": 1.0}
 
 
 def _bound_tails(found: Corrected, y: np.ndarray, weight: np.ndarray) -> None:
-    """Set ``found.shown_ci``: ``found.ci`` (the delta-method interval :mod:`uqguide.pce.support`
-    is calibrated on, kept) united with the pooled runs' tail-aware one, a stated floor where the
-    runs cannot bound the statistic. The runs are weighted as the estimate (the validation runs
-    over-sample the tails: unweighted, they would inflate a kurtosis floor), with Kish's
-    ``n = (sum w)^2 / sum w^2``."""
+    """Set ``found.shown_ci``: ``found.ci`` united with the tail-aware interval of the runs,
+    weighted as the estimate (Kish's ``n = (sum w)^2 / sum w^2``)."""
     w = weight / weight.sum()
     mean = np.tensordot(w, y, axes=(0, 0))
     d = y - mean
@@ -95,8 +86,6 @@ def _bound_tails(found: Corrected, y: np.ndarray, weight: np.ndarray) -> None:
         t = tail[name]
         lo = np.where(np.isnan(t[0]), q[0], np.fmin(q[0], t[0]))
         hi = np.where(np.isnan(t[1]), q[1], np.fmax(q[1], t[1]))
-        # the union inherits the delta interval's low end, which knows no bounds: no
-        # distribution has a kurtosis below 1 or a negative std (seen: kurtosis >= -3.6)
         lo = np.maximum(lo, LOWEST.get(name, -np.inf))
         shown[name] = np.stack([lo, hi])
     found.shown_ci = shown

@@ -1,12 +1,6 @@
-"""A series output's adaptive PCE: principal components, their sparse fits, the rank.
-
-``y (N, m)`` is decomposed (:func:`uqguide.pce.pca.decompose`), the candidate components are
-fitted, and the number kept is chosen afterwards by the moments' rule
-(:mod:`uqguide.pce.pca_rank`) unless ``n_components`` or ``variance_fraction`` fix it. Every
-component gets its own search (:func:`uqguide.pce.sparse_regression.fit_columns`) where that
-costs at most :data:`HYBRID_WORK` multiply-adds; above, the first :data:`LEAD` component(s) get it
-and the others share one path (``fit_columns(..., joint=True)``); past
-:data:`COLUMNWISE_WORK` all take the shared path.
+"""A series output's adaptive PCE (:func:`fit_series`): principal components, their sparse fits
+(each its own search up to :data:`HYBRID_WORK`, else a shared path for all but the first
+:data:`LEAD`), and the number kept (:mod:`uqguide.pce.pca_rank`).
 
 Why the hybrid, with the measurements that set it:
 docs/methods.md#time-series-in-the-adaptive-pce.
@@ -30,7 +24,7 @@ from .sparse_regression import ColumnsFit, candidate_sets, fit_columns
 log = logging.getLogger(__name__)
 
 #: One component's search work (multiply-adds) up to which every component is searched column
-#: by column (module docstring; the 500-run oscillator's is 4e8).
+#: by column (the 500-run oscillator's is 4e8).
 HYBRID_WORK = 2e8
 #: Components searched column by column above :data:`HYBRID_WORK`, the largest first (each
 #: costs about what the joint path for all the others does).
@@ -88,15 +82,14 @@ def _merge(a: ColumnsFit, b: ColumnsFit) -> ColumnsFit:
 def _fit_components(germ: Germ, xi: np.ndarray, scores: np.ndarray,
                     degree_min: int, degree_max: int | None, q: float | None,
                     loo: bool) -> tuple[ColumnsFit, np.ndarray | None]:
-    """Expansions of the components' ``scores (N, r)`` (module docstring: column by column where
-    cheap, else the hybrid or the joint path), and their leave-one-out residuals if ``loo``."""
+    """Expansions of the components' ``scores (N, r)`` (column by column where cheap, else the
+    hybrid or the joint path), and their leave-one-out residuals if ``loo``."""
     n, r = scores.shape
     one = _columnwise_work(germ.dim, n, 1, degree_min, degree_max, q)
     if one <= HYBRID_WORK:
         fit = fit_columns(germ, xi, scores, degree_min=degree_min, degree_max=degree_max,
                           q=q)
         return fit, (_loo_residuals(germ, xi, scores, fit) if loo else None)
-    # Even the leading components' search is skipped where it would take minutes.
     lead = min(LEAD, r) if LEAD * one <= COLUMNWISE_WORK else 0
     parts, resid = [], []
     if lead:
@@ -121,15 +114,12 @@ def fit_series(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1
                degree_max: int | None = None, q: float | None = None,
                variance_fraction: float | None = None, n_components: int | None = None
                ) -> SeriesFit:
-    """Principal components of ``y (N, m)`` and their sparse PCEs (module docstring).
+    """Principal components of ``y (N, m)`` and their sparse PCEs.
 
     Other arguments as :func:`uqguide.pce.sparse_regression.fit_columns`; keep the fewest
     components holding ``variance_fraction`` of the scaled variance, or ``n_components``.
     """
-    # One BLAS thread for the whole fit, the decomposition included: a threaded SVD leaves
-    # its threads spinning into the single-threaded searches that follow (a 2 CPU-s fit
-    # billed 83 CPU-s on a loaded 2-core machine), and its round-off would depend on the
-    # thread count.
+    # One BLAS thread for the whole fit, the SVD included (docs/pce.md#one-blas-thread).
     with threadpool_limits(limits=1, user_api="blas"):
         return _fit_series(germ, xi, y, degree_min, degree_max, q, variance_fraction,
                            n_components)

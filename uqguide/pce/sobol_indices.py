@@ -1,12 +1,7 @@
-"""Sobol' indices of a PCE, in closed form, with their 95% intervals (every PCE method's
-error budget).
-
-Each index is a sum of squared coefficients over a set of terms (:func:`term_sets`) divided by
-the variance (Sudret 2008); a series' indices come from its per-step coefficients, exact at every
-step. The interval of a regression PCE is a wild bootstrap of the regression with leave-one-out
-residuals (:func:`bootstrap_intervals`, :data:`N_BOOTSTRAP` replicates) widened by the
-truncation bound of the surrogate's error (:func:`truncation_bounds`); a quadrature PCE gets the
-general (non-orthogonal) bound where it has a validation set, and no interval otherwise.
+"""Sobol' indices of a PCE, in closed form (sums of squared coefficients over sets of terms,
+:func:`term_sets`), with their 95% intervals: a wild bootstrap of a regression
+(:func:`regression_intervals`) widened by the truncation bound of the surrogate's error
+(:func:`truncation_error_intervals`).
 
 Derivation of the bounds, why this bootstrap, cost and measured coverage:
 docs/error-budget.md#pce-indices.
@@ -22,6 +17,7 @@ from threadpoolctl import threadpool_limits
 
 from ..core.types import OutputStats
 from .expansion import Expansion
+from .validation import nan_at
 
 #: Bootstrap replicates behind a regression PCE's intervals (the 2.5% and 97.5% points of 200
 #: replicates are within about 0.1 standard deviation of those of infinitely many).
@@ -29,8 +25,7 @@ N_BOOTSTRAP = 200
 #: Stream of the bootstrap weights (``uqguide.pce.design.stream``; 0-2 are taken there).
 BOOTSTRAP_STREAM = 3
 #: The least half-width of a bootstrap interval: the round-off of indices from a least-squares
-#: fit (a model the expansion represents exactly has zero residuals and replicates equal to
-#: the fit, whose indices still carry the solve's round-off, about 1e-10 on Ishigami).
+#: fit (about 1e-10 on Ishigami, which the expansion represents exactly).
 ROUND_OFF = 1e-8
 _CHUNK_FLOATS = 2**22  # replicates x columns x index sets held at once (32 MB)
 
@@ -83,7 +78,7 @@ def _split(values: np.ndarray, d: int, n_groups: int) -> PCEIndices:
 
 
 def expansion_indices(exp: Expansion, groups: Sequence[Sequence[int]] = ()) -> PCEIndices:
-    """The indices of every column of ``exp`` (module docstring), ``(m, ...)``."""
+    """The indices of every column of ``exp``, ``(m, ...)``."""
     return _split(ratios(exp.coef, term_sets(exp.alpha, groups)), exp.alpha.shape[1],
                   len(groups))
 
@@ -92,11 +87,8 @@ def bootstrap_cores(exp: Expansion, psi: np.ndarray, targets: np.ndarray,
                     seed: np.random.SeedSequence | int, n_boot: int = N_BOOTSTRAP
                     ) -> np.ndarray:
     """Refits of the expansion's selected terms to wild-bootstrap replicates of its runs:
-    ``(n_boot, P, r_core)``.
-
-    The core's first ``r`` columns were fitted to ``targets (n, r)`` by least squares on their
-    non-zero terms (the rest, e.g. a series' constant mean column, are kept); ``psi (n, P)`` is
-    ``exp.alpha`` at the runs.
+    ``(n_boot, P, r_core)``. ``targets (n, r)``: what the core's first ``r`` columns were fitted
+    to (the rest are kept); ``psi (n, P)``: ``exp.alpha`` at the runs.
     """
     core = exp.core
     n, r = targets.shape
@@ -108,8 +100,7 @@ def bootstrap_cores(exp: Expansion, psi: np.ndarray, targets: np.ndarray,
     # errors at a run stay together, as the runs' would in a resample
     signs = np.random.default_rng(seed).choice([-1.0, 1.0], size=(n_boot, n))
     out = np.repeat(core[None], n_boot, axis=0)
-    # One BLAS thread, as the fit (uqguide.pce.sparse_regression): small products that threads
-    # slow down on a shared machine, and round-off independent of the thread count.
+    # One BLAS thread, as the fit (docs/pce.md#one-blas-thread).
     with threadpool_limits(limits=1, user_api="blas"):
         for sup, cols in supports.items():
             rows = list(sup)
@@ -128,12 +119,7 @@ def bootstrap_cores(exp: Expansion, psi: np.ndarray, targets: np.ndarray,
 def bootstrap_intervals(exp: Expansion, cores: np.ndarray, sets: np.ndarray) -> np.ndarray:
     """The basic bootstrap intervals of the indices, ``(2, m, S)``: ``2 S - q_975`` to
     ``2 S - q_025`` of the replicates' 2.5% and 97.5% points ``q``, within [0, 1], widened
-    by :data:`ROUND_OFF` either way.
-
-    Basic, not percentile: an index is a sum of squared coefficients, so every replicate's
-    noise adds to it and the replicates sit above the estimate (the fit's own noise did the
-    same to it); the basic interval reflects that shift back. With percentile intervals the
-    total index of the G-function's inert inputs (exact 1e-4) was held in 2% of 50 seeds.
+    by :data:`ROUND_OFF` either way (docs/pce.md#the-basic-bootstrap-interval).
     """
     m = exp.n_columns
     n_boot = cores.shape[0]
@@ -156,10 +142,9 @@ def bootstrap_intervals(exp: Expansion, cores: np.ndarray, sets: np.ndarray) -> 
 def truncation_bounds(values: np.ndarray, eps: np.ndarray, orthogonal: bool = True
                       ) -> np.ndarray:
     """``(2, ...)``: how far below and above an index ``S`` the model's may be for a surrogate
-    of relative error ``eps`` (broadcast to ``values``), module docstring:
-    ``[-eps S, eps (1 - S)]`` when the error is orthogonal to the expansion's terms, else
-    (any error) ``(sqrt(S) -+ rho)^2 / (1 +- rho)^2 - S`` with
-    ``rho = sqrt(eps) / (1 - sqrt(eps))``, within [0, 1]."""
+    of relative error ``eps`` (broadcast to ``values``): ``[-eps S, eps (1 - S)]`` when the error
+    is orthogonal to the expansion's terms, else (any error) ``(sqrt(S) -+ rho)^2 / (1 +- rho)^2
+    - S`` with ``rho = sqrt(eps) / (1 - sqrt(eps))``, within [0, 1]."""
     eps = np.clip(np.asarray(eps, dtype=float), 0.0, 1.0)
     if orthogonal:
         return np.stack([-eps * values, eps * (1.0 - values)])
@@ -253,9 +238,9 @@ def truncation_error_intervals(stats: Mapping[str, OutputStats],
                                orthogonal: bool = True) -> None:
     """Widen every PCE index interval in ``stats`` by its truncation bound, in place, once the
     surrogate is validated: ``eps`` is an output's validation error (per column) where it has
-    one, else its LOO error in ``loo``, else none (the intervals stay as they are: NaN for a
-    projection; ``orthogonal``: which bound, module docstring). Group indices of the columns
-    whose indices were withheld (no usable surrogate) are withheld too.
+    one, else its LOO error in ``loo``, else none (the intervals stay as they are);
+    ``orthogonal``: which bound (:func:`truncation_bounds`). Group indices of the columns whose
+    indices were withheld are withheld too.
     """
     for name, st in stats.items():
         if st.sobol_first is None or st.sobol_estimator != "pce":
@@ -264,9 +249,7 @@ def truncation_error_intervals(stats: Mapping[str, OutputStats],
         for g in ("sobol_group_first", "sobol_group_total"):
             v = getattr(st, g)
             if v is not None and gone.any():
-                v = np.array(v, dtype=float)
-                v[gone] = np.nan
-                setattr(st, g, v)
+                setattr(st, g, nan_at(v, gone))
         eps = st.validation_error if st.validation_error is not None else \
             (loo or {}).get(name)
         widen_by_truncation(st, eps, orthogonal)

@@ -1,16 +1,11 @@
 """Sparse regression of output columns on a candidate basis chosen from the data.
 
-For each output column (a scalar component or a principal component's scores) the expansion of
-least corrected leave-one-out error (:mod:`uqguide.pce.lars`, :mod:`uqguide.pce.loo`) is chosen
-over a grid of hyperbolic candidate sets ``||alpha||_q <= p``: the q-norms :data:`Q_GRID` (or the
-config's) and every degree whose set has at most :func:`candidate_cap` terms (up to
-:data:`MAX_DEGREE`), or ``degree_max``. Among the fits within 1% of the least error the smallest
-candidate set wins. :func:`fit_columns` runs one LARS per q-norm and column on its largest set
-(smaller degrees score that order restricted to their candidates), or with ``joint=True`` one
-per q-norm shared by all the columns (a series' components past the first where the search is
-expensive). Everything is deterministic.
+Per output column, the expansion of least corrected leave-one-out error over hyperbolic
+candidate sets ``||alpha||_q <= p`` (the q-norms :data:`Q_GRID` or the config's, every degree
+whose set has at most :func:`candidate_cap` terms, or up to ``degree_max``); :func:`select` is
+the rule. :func:`fit_columns` is the entry point; ``joint=True`` shares one path per q-norm.
 
-The grid, the selection rule and what was tried, how the search is kept cheap, the shared path:
+The grid, the rule and how the search stays cheap:
 docs/methods.md#sparse-regression-the-candidate-grid-lars-and-leave-one-out.
 """
 from __future__ import annotations
@@ -58,14 +53,7 @@ FULL_DEGREES = 5
 
 def candidate_cap(n_runs: int) -> int:
     """Largest candidate set for ``n_runs`` runs: ``5 n_runs`` terms, between 100 and
-    :data:`CANDIDATES_CAP`.
-
-    LARS selects at most ``n_runs - 2`` terms, from a set that may be much larger than the
-    design; five candidates per run let the degree reach the runs' resolution (degree 35 in
-    the three Ishigami inputs from 200 runs at q = 0.5, where three per run stopped at 29 and
-    a 1e-9 error), while one LARS step costs ``O(N P)``: the 3000-candidate ceiling keeps a
-    1000-run fit in 8 inputs to seconds.
-    """
+    :data:`CANDIDATES_CAP` (docs/pce.md#the-candidate-cap)."""
     return int(min(CANDIDATES_CAP, max(100, 5 * n_runs)))
 
 
@@ -283,7 +271,6 @@ class _QSearch:
 
         for p in degree_grid(self.degree_min, cs.top):
             score(p)
-        # Refine between the coarse grid's neighbours of its best degree.
         coarse = sorted(fits)
         i = min(range(len(coarse)), key=lambda k: fits[coarse[k]].loo)
         for p in range(coarse[max(i - 1, 0)] + 1, coarse[min(i + 1, len(coarse) - 1)]):
@@ -293,10 +280,7 @@ class _QSearch:
     def own_lars(self, least: float) -> None:
         """Give a degree a LARS of its own where its error is within :data:`CLOSE` of ``least`` and
         that costs at most :data:`OWN_LARS_WORK`, or within :data:`RIVAL` with its path cut short
-        and its LARS cheap or its set at most half the largest. With few runs and many
-        candidates the shared path spends its steps before a low degree's terms are in
-        (G-function, 100 runs, degree 8: 3.5e-2 shared against 3.0e-2 own, OpenTURNS' fit,
-        and a 3x smaller moment error)."""
+        and its LARS cheap or its set at most half the largest (docs/pce.md#a-degrees-own-lars)."""
         def wanted(p: int) -> bool:
             c, loo = self.cs.count(p), self.fits[p].loo
             if c >= self.cs.cols.size or loo > RIVAL * least:
@@ -365,18 +349,14 @@ def _joint_search(sb: _SharedBasis, y: np.ndarray, degree_min: int) -> dict[int,
 def fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1,
                 degree_max: int | None = None, q: float | None = None,
                 joint: bool = False) -> ColumnsFit:
-    """Sparse PCE of every column of ``y (N, r)`` at design points ``xi (N, d)`` (module
-    docstring).
+    """Sparse PCE of every column of ``y (N, r)`` at design points ``xi (N, d)``.
 
     ``degree_max`` None: the largest the runs support; ``q`` None: the best of :data:`Q_GRID`.
-    ``joint``: one least-angle path per q-norm shared by all columns, each degree's restriction
-    scored once for all (cheaper with many columns; each column still takes its own q-norm,
-    degree and terms, and the fit keeps its LOO residuals); no column may then be constant
-    (principal-component scores are not).
+    ``joint``: one least-angle path per q-norm shared by all columns (each still takes its own
+    q-norm, degree and terms; the fit keeps its LOO residuals); no column may then be constant.
     """
-    # One BLAS thread: the fit is matrix-vector work that threads do not speed up (on a
-    # loaded machine they slowed it tenfold), and a threaded reduction's order, hence its
-    # round-off, would depend on the thread count.
+    # One BLAS thread: threads do not speed up this matrix-vector work, and a threaded
+    # reduction's round-off would depend on the thread count (docs/pce.md#one-blas-thread).
     with threadpool_limits(limits=1, user_api="blas"):
         union, sets = candidate_sets(germ.dim, xi.shape[0], degree_min, degree_max, q)
         psi = basis.evaluate(germ, union, xi)

@@ -1,14 +1,9 @@
 """Whether a PCE's moments are supported by the model runs it made, or withheld.
 
-A polynomial fitted to a few runs can put enormous values in tails no run looked at, and the
-``+cv`` correction cannot see them either. Per statistic and column: the PCE's own skewness or
-kurtosis is withheld unless it agrees with every estimate its runs give (the control-variate
-value, and within :data:`RUNS_FACTOR` half-widths the runs' own Monte Carlo estimate); its mean
-and std likewise against the runs' estimate; a ``+cv`` value the runs refute, or less precise
-than they are, is withheld (:func:`corrections_to_withhold`); a skewness goes with its
-withheld kurtosis (:func:`with_the_kurtosis`). The report then gives the runs' own estimate.
+The PCE's own moments against its runs (:func:`unsupported`, :func:`with_the_kurtosis`) and the
+``+cv`` values against the runs' Monte Carlo estimate (:func:`corrections_to_withhold`).
 
-The rules, "agrees", the margins and the cases that set them:
+The rules, "agrees", the margins and the cases that set them: docs/pce.md#what-a-pce-may-print,
 docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate and
 docs/methods.md#agreeing-and-the-runs-own-estimate.
 """
@@ -23,19 +18,11 @@ from .validation import MATERIAL, Corrected
 
 #: Half-widths of the difference's 95% interval beyond which two estimates disagree.
 FACTOR = 1.0
-#: The same for a PCE value against the runs' plain Monte Carlo estimate: the delta-method
-#: interval of a sample skewness or kurtosis from a few dozen runs is too short (the sample
-#: underestimates the 8th moment that sets it; 65-85% coverage at n = 1000 on a lognormal, and
-#: less at n = 60), so one half-width would withhold correct values: a 60-run PCE's kurtosis
-#: 3.82 of a GMM approach whose 200-run Monte Carlo gives 3.88.
+#: The same for a PCE value against the runs' plain Monte Carlo estimate, whose delta-method
+#: interval is too short at a few dozen runs (docs/pce.md#two-half-widths-against-the-runs).
 RUNS_FACTOR = 2.0
-#: A fit whose corrected leave-one-out error (relative to the variance) is at most this
-#: reproduces every held-out run to 1e-4 of the output's std: the surrogate is the model
-#: wherever the runs are (a model that is a polynomial of the basis, e.g. ``a x1 + b x2^2``).
-#: The runs' plain Monte Carlo estimate, a sample skewness or kurtosis biased low at a few
-#: dozen runs, is then a worse judge of the tails than the fit itself and does not withhold
-#: its values (a 40-run fit of ``a x1 + b x2^2`` has the exact kurtosis 4.959; its 40 runs
-#: gave 2.51, interval [1.69, 3.34]). The control-variate check, when there is one, applies.
+#: A fit whose corrected leave-one-out error is at most this is the model wherever the runs
+#: are: its runs' estimate does not judge it (docs/pce.md#an-exact-fit).
 EXACT_LOO = 1e-8
 #: The PCE statistics judged against the control-variate value here (its mean and std are
 #: judged against it by :func:`uqguide.pce.validation.disagreeing`, and against the runs here).
@@ -74,14 +61,10 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
     ``own``: the PCE's ``std``, ``skewness``, ``kurtosis`` (and ``mean``, judged where given);
     ``corrected``: the control-variate estimates (None without a validation set); ``runs``: the
     runs' Monte Carlo estimate (None with too few runs); ``loo`` at most :data:`EXACT_LOO`: the
-    runs are not consulted. ``own_se``: standard errors of sampled PCE moments (a derived
-    output's, or from the far tails, :mod:`uqguide.pce.far_tails`): a value whose 95% half-width
-    exceeds the runs' is withheld, as a control-variate value is
-    (:func:`corrections_to_withhold`). ``twin_disagreed``: where the runs disagreed with the
-    control-variate value (:func:`disagrees_with_runs`); the PCE's own skewness and kurtosis are
-    judged there at one half-width where the runs bound them, and withheld where they cannot (a
-    user's pendulum printed a kurtosis of 5.07, model 4.19, beside a withheld ``+cv`` twin of
-    5.06 [5.00, 5.11], the runs' kurtosis a floor).
+    runs are not consulted. ``own_se``: standard errors of sampled PCE moments: a value whose
+    95% half-width exceeds the runs' is withheld. ``twin_disagreed``: where the runs disagreed
+    with the control-variate value (:func:`disagrees_with_runs`); the PCE's own skewness and
+    kurtosis are judged there at one half-width where the runs bound them, else withheld.
     """
     twin_disagreed = _renamed(deprecated, "twin_refuted", twin_disagreed)
     out = {}
@@ -95,17 +78,16 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
     for k in SHAPE_STATS:
         bad = np.zeros(np.shape(own[k]), dtype=bool)
         if corrected is not None:
-            # the correction alone: the PCE's value and the corrected one share the surrogate
-            # (its sampling error and its part beyond the runs' range, which widen ``ci``)
+            # the correction's own width: both values share the surrogate's sampling error and
+            # its part beyond the runs' range
             bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, corrected.values[k],
                              np.asarray(corrected.correction_half[k], dtype=float), MATERIAL)
         if runs is not None:
             bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, runs.values[k],
                              RUNS_FACTOR * _half(runs, k), MATERIAL)
             if twin_disagreed is not None and k in twin_disagreed:
-                # the runs refuted the twin, which shares the surrogate's tails: where they
-                # bound the statistic, the PCE's value must lie within one half-width of
-                # theirs; where they cannot (a floor), nothing vouches for those tails
+                # the twin shares the surrogate's tails: where the runs cannot bound the
+                # statistic (a floor), nothing vouches for them
                 near = ~_disagree(np.asarray(own[k], dtype=float), 0.0, runs.values[k],
                                   _half(runs, k), MATERIAL)
                 bad |= (np.asarray(twin_disagreed[k], dtype=bool)
@@ -136,14 +118,10 @@ def disagrees_with_runs(corrected: Corrected, runs: Corrected | None, std: np.nd
                         ) -> dict[str, np.ndarray]:
     """Where a control-variate value and the runs' Monte Carlo estimate disagree (the first
     half of :func:`corrections_to_withhold`; all False without ``runs``)."""
-    out = {}
-    for k, v in corrected.values.items():
-        if runs is None:
-            out[k] = np.zeros(np.shape(v), dtype=bool)
-            continue
-        out[k] = _disagree(v, _half(corrected, k), runs.values[k], _half(runs, k),
-                           _floor(k, std))
-    return out
+    if runs is None:
+        return _nowhere(corrected)
+    return {k: _disagree(v, _half(corrected, k), runs.values[k], _half(runs, k), _floor(k, std))
+            for k, v in corrected.values.items()}
 
 
 def corrections_to_withhold(corrected: Corrected, runs: Corrected | None, std: np.ndarray
@@ -157,15 +135,18 @@ def corrections_to_withhold(corrected: Corrected, runs: Corrected | None, std: n
 def less_precise(corrected: Corrected, runs: Corrected | None) -> dict[str, np.ndarray]:
     """Where a control-variate value's interval is wider than the runs' own (the second half
     of :func:`corrections_to_withhold`; all False without ``runs``)."""
+    if runs is None:
+        return _nowhere(corrected)
     out = {}
     for k, v in corrected.values.items():
-        if runs is None:
-            out[k] = np.zeros(np.shape(v), dtype=bool)
-            continue
         hc, hr = _half(corrected, k), _half(runs, k)
         with np.errstate(invalid="ignore"):
             out[k] = (hc > hr) & np.isfinite(hr) & np.isfinite(v)
     return out
+
+
+def _nowhere(corrected: Corrected) -> dict[str, np.ndarray]:
+    return {k: np.zeros(np.shape(v), dtype=bool) for k, v in corrected.values.items()}
 
 
 def either(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

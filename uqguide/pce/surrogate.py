@@ -1,15 +1,6 @@
-"""A fitted PCE kept whole: every output's expansion, the input-to-germ map and the derived
-outputs' carriers, evaluated as one vectorised predictor of the physical inputs.
-
-The statistics of a PCE are a function of its coefficients; keeping only the statistics throws
-away what the runs paid for (a density, a probability, a value at a new point). A
-:class:`Surrogate` is what a PCE method fitted, in the form the result file stores
-(:mod:`uqguide.results.surrogate`) and :meth:`uqguide.results.result.Result.surrogate` gives back.
-
-The input-to-germ map is the inverse of :meth:`uqguide.pce.germ.Germ.to_physical`, input by
-input (:func:`germ_map`): ``xi = (g(x) - shift) / scale`` with ``g`` the identity, or ``log`` for
-a lognormal input; a correlated normal group is then decorrelated by its Cholesky factor
-(``xi_group = L^-1 z``).
+"""A fitted PCE kept whole: every output's expansion, the input-to-germ map (:func:`germ_map`)
+and the derived outputs' carriers, evaluated as one vectorised predictor of the physical inputs
+(:class:`Surrogate`), in the form the result file stores (:mod:`uqguide.results.surrogate`).
 """
 
 from __future__ import annotations
@@ -24,17 +15,19 @@ import numpy as np
 from ..core.inputs import LogNormal, Normal, TruncNormal, Uniform
 from ..core.types import DerivedOutput, OutputStats
 from . import moments
+from .derived import map_derived
 from .expansion import Expansion
 from .germ import Germ
 
 
 @dataclass(frozen=True)
 class GermMap:
-    """The input-to-germ map, input by input (module docstring).
+    """The input-to-germ map, the inverse of :meth:`uqguide.pce.germ.Germ.to_physical`.
 
     ``family``: germ family per input; ``xi = (g(x) - shift) / scale`` before decorrelation
     [input units, or log units], ``g`` is ``log`` where ``log`` (lognormal inputs); ``groups``:
-    correlated groups, input indices and the Cholesky factor ``L (g, g)`` of their correlation.
+    correlated groups, input indices and the Cholesky factor ``L (g, g)`` of their correlation
+    (``xi_group = L^-1 z``).
     """
 
     family: tuple[str, ...]
@@ -113,14 +106,12 @@ def summary(head: str, inputs: Sequence[str],
 class Surrogate:
     """Every output's PCE of one method, as a predictor of the physical inputs.
 
-    ``expansions``: the fitted outputs (carriers of derived outputs included); ``kinds``:
-    ``"series"`` or ``"scalar"``; ``label``, ``method``: the config's label and the method's
-    registered name ("" when not known); ``errors``: per fitted output, the kind of its relative
-    error (``"validation"`` or ``"LOO"``) and the worst value over its columns.
-
-    The full expansion of an output is ``expansions[name]``: ``.alpha`` the multi-indices
-    ``(P, d)`` in the config's input order (row 0 the constant), ``.coef`` the coefficients
-    ``(P, m)``, time step slowest and component fastest.
+    ``expansions``: the fitted outputs (carriers of derived outputs included): ``.alpha`` the
+    multi-indices ``(P, d)`` in the config's input order (row 0 the constant), ``.coef`` the
+    coefficients ``(P, m)``, time step slowest and component fastest; ``kinds``: ``"series"``
+    or ``"scalar"``; ``label``, ``method``: the config's label and the method's registered name
+    ("" when not known); ``errors``: per fitted output, the kind of its relative error
+    (``"validation"`` or ``"LOO"``) and the worst value over its columns.
     """
 
     germ: Germ
@@ -167,20 +158,14 @@ class Surrogate:
         """Values ``(n, *shape)`` of the outputs ``names`` (default: all) at germ points
         ``xi (n, d)``; a derived output's map gets the physical inputs of those points."""
         names = self.names if names is None else names
-        n = xi.shape[0]
         need = {c for nm in names if nm in self.derived for c in self.derived[nm].carriers}
         need |= {nm for nm in names if nm in self.expansions}
-        values = {nm: self.expansions[nm].evaluate(xi).reshape((n,) + self.expansions[nm].shape)
-                  for nm in need}
+        values = {nm: self.expansions[nm].values(xi) for nm in need}
         out = {nm: values[nm] for nm in names if nm in values}
         wanted = [nm for nm in names if nm in self.derived and nm not in self.expansions]
         if wanted:
-            x = self.germ.to_physical(xi)
-            inputs = {nm: x[:, j] for j, nm in enumerate(self.germ.space.names)}
-            for nm in wanted:
-                dv = self.derived[nm]
-                y = np.asarray(dv.function({c: values[c] for c in dv.carriers}, inputs), float)
-                out[nm] = y if y.ndim > 1 else y[:, None]
+            map_derived(self.germ, xi, self.derived, wanted, values)
+            out.update({nm: values[nm] for nm in wanted})
         return out
 
     def __call__(self, x: np.ndarray, names: list[str] | None = None) -> dict[str, np.ndarray]:

@@ -1,17 +1,10 @@
-"""Quantiles and event probabilities of PCE surrogates, from surrogate draws.
+"""Quantiles and event probabilities of PCE surrogates, from surrogate draws
+(:func:`surrogate_tails`), and the events corrected by validation runs
+(:func:`control_variate_events`).
 
-Moments of a PCE come from its coefficients; its tails do not: the quantiles and the
-probability of an event are those of the surrogate's values at germ draws (the same seed and
-draws as the sampled moments, so a method's numbers are one fixed function of its design).
-
-- Scalar outputs (fitted or derived from carriers): every one of the ``n_draws`` draws.
-- Time series: at most :data:`SERIES_FLOATS` values are held (quantiles need the values, not
-  sums), so a series gets the first ``SERIES_FLOATS / (T k)`` draws (at least 2^12) when all
-  would not fit; the stored ``n_used`` of the quantile interval says how many.
-
-Intervals are the order-statistic (quantiles) and Clopper-Pearson (events) intervals of the
-draws: they measure how well the draws know the *surrogate's* tails, not how well the surrogate
-knows the model's (which only a validation set of model runs can tell).
+A series keeps at most :data:`SERIES_FLOATS` values (the first draws; ``n_used`` says how
+many). The draws' intervals measure how well they know the *surrogate's* tails, not how well
+the surrogate knows the model's: docs/pce.md#events-corrected-by-the-validation-runs.
 """
 
 from __future__ import annotations
@@ -23,6 +16,7 @@ import numpy as np
 from ..core.events import EventEstimate, EventSpec, component_index, count_events
 from ..core.types import DerivedOutput
 from ..stats.quantiles import order_statistic_quantiles
+from .derived import map_derived
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
@@ -55,20 +49,14 @@ def surrogate_tails(
     for u in surrogate_draws(germ.dim, n_draws, seed, chunk, sampling):
         xi = germ.from_unit(u)
         m = xi.shape[0]
-        values: dict[str, np.ndarray] = {}
         needed = {n for n in wanted if n in expansions}
         needed |= {c for n in wanted if n in derived for c in derived[n].carriers}
-        for name in needed:
-            e = expansions[name]
-            values[name] = e.evaluate(xi).reshape((m,) + e.shape)
+        values = {name: expansions[name].values(xi) for name in needed}
         ok = np.ones(m, dtype=bool)
-        if any(n in derived for n in wanted):
-            x = germ.to_physical(xi)
-            inputs = {name: x[:, j] for j, name in enumerate(germ.space.names)}
-            for name in (n for n in wanted if n in derived):
-                dv = derived[name]
-                y = np.asarray(dv.function({c: values[c] for c in dv.carriers}, inputs), float)
-                values[name] = y if y.ndim > 1 else y[:, None]
+        maps = [n for n in wanted if n in derived]
+        if maps:
+            map_derived(germ, xi, derived, maps, values)
+            for name in maps:
                 ok &= np.isfinite(values[name].reshape(m, -1)).all(axis=1)
         ok_all.append(ok)
         for name in wanted:
@@ -104,15 +92,10 @@ def surrogate_values(germ: Germ, expansions: Mapping[str, Expansion],
     points ``u (n, d)``."""
     xi = germ.from_unit(u)
     if name in expansions:
-        e = expansions[name]
-        return e.evaluate(xi).reshape((xi.shape[0],) + e.shape)
-    dv = derived[name]
-    x = germ.to_physical(xi)
-    inputs = {nm: x[:, j] for j, nm in enumerate(germ.space.names)}
-    carriers = {c: expansions[c].evaluate(xi).reshape((xi.shape[0],) + expansions[c].shape)
-                for c in dv.carriers}
-    y = np.asarray(dv.function(carriers, inputs), dtype=float)
-    return y if y.ndim > 1 else y[:, None]
+        return expansions[name].values(xi)
+    values = {c: expansions[c].values(xi) for c in derived[name].carriers}
+    map_derived(germ, xi, derived, [name], values)
+    return values[name]
 
 
 def control_variate_events(
@@ -121,18 +104,9 @@ def control_variate_events(
     surrogate_at_validation: Mapping[str, np.ndarray], ok: np.ndarray,
     design: ValidationDesign | None = None,
 ) -> dict[str, EventEstimate]:
-    """Events corrected by a validation set of model runs (the surrogate as control variate).
-
-    With ``n_k`` successful validation runs in stratum ``k`` of probability ``W_k`` (one
-    stratum, ``W = 1``, for random runs; :mod:`uqguide.pce.validation_design`), ``n+_k`` of
-    them in the event by the model but not by the surrogate and ``n-_k`` the reverse, the
-    estimate is ``P = P_s + sum_k W_k (sum r+_k - sum r-_k) / n_k`` (unbiased: each run weighted
-    by its importance ratio ``r``, 1 but for a non-uniform pool). Its interval is
-    distribution-free: the draws' and every stratum's two disagreement rates' Clopper-Pearson
-    intervals at ``1 - 0.05 / (1 + 2K)`` each (Bonferroni), each rate's ends scaled by the least
-    and largest ratio of the stratum's pool points, combined end to end, so it holds at least
-    95% whatever the surrogate; for random runs it is ``[0, ~3.7 / n]``-wide when no run
-    disagrees. ``ok (n,)``: the runs that succeeded; ``design``: of all runs (default random).
+    """Events corrected by a validation set of model runs (the surrogate as control variate),
+    with a distribution-free interval (docs/pce.md#events-corrected-by-the-validation-runs).
+    ``ok (n,)``: the runs that succeeded; ``design``: of all runs (default random).
     """
     from ..core.events import clopper_pearson
 

@@ -1,15 +1,11 @@
 """Validation of a PCE by independent model runs: its out-of-sample error, control-variate
 corrections of its moments with their intervals, and where it is not usable.
 
-Per output column: the out-of-sample error ``mean((y - s)^2) / var(y)`` (:func:`relative_error`);
-the raw moments about the PCE mean corrected by the model-minus-surrogate differences of the
-runs, unbiased whatever the surrogate, with delta-method intervals, Satterthwaite degrees of
-freedom and Hall's skew correction (:func:`corrected_moments`, :func:`stratified_se`); the PCE's
-own values the runs refute (:func:`disagreeing`); and the columns whose error exceeds
-:data:`USABLE_ERROR`, where the PCE's own moments are withheld (:func:`usable_mask`,
-:func:`withhold_all`). :data:`MATERIAL` is the immaterial difference.
+Per output column: :func:`relative_error`; :func:`corrected_moments` (with
+:func:`stratified_se`); the PCE's own values the runs refute (:func:`disagreeing`); where the
+surrogate is usable (:func:`usable_mask`, :func:`withhold_all`).
 
-Formulas, rules and measured coverage:
+Formulas, rules and measured coverage: docs/pce.md#validation and
 docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate.
 """
 
@@ -23,6 +19,7 @@ import numpy as np
 from ..core.types import OutputStats
 from ..stats.tail_intervals import hall_interval
 from .loo import FitFloor, FitRuns
+from .moments import central_from_raw
 from .validation_design import random_validation
 
 #: Default usability threshold on the relative (LOO or validation) error.
@@ -60,9 +57,7 @@ def relative_error(y: np.ndarray, s: np.ndarray, weight: np.ndarray | None = Non
 def _moments_from_raw(c: np.ndarray, m1: np.ndarray, m2: np.ndarray, m3: np.ndarray,
                       m4: np.ndarray) -> dict[str, np.ndarray]:
     """mean, std, skewness and kurtosis from raw moments ``m_p`` about ``c``."""
-    var = m2 - m1**2
-    mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
-    mu4 = m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4
+    var, mu3, mu4 = central_from_raw(m1, m2, m3, m4)
     std = np.sqrt(np.maximum(var, 0.0))
     ok = std > 1e-12 * (np.abs(c + m1) + 1e-300)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -73,17 +68,13 @@ def _moments_from_raw(c: np.ndarray, m1: np.ndarray, m2: np.ndarray, m3: np.ndar
 
 @dataclass
 class Corrected:
-    """Control-variate estimates of one output (module docstring).
+    """Control-variate estimates of one output.
 
     ``values``: mean, std, skewness, kurtosis, ``(...)``; ``ci``: their 95% intervals
-    ``(2, ...)`` (delta-method se, t quantile); ``error``: out-of-sample relative error; ``n``:
-    successful validation runs; ``correction_half``: the correction's own 95% half-width (how
-    far the PCE's value may sit from the corrected one by chance); ``shown_ci``: the interval
-    printed when it differs from ``ci`` (which :mod:`uqguide.pce.support` is calibrated on): the
-    kurtosis-adjusted, skew-corrected one of :func:`corrected_moments`, and for the runs' Monte
-    Carlo estimate its union with the tail-aware interval, one-sided where the runs cannot bound
-    the statistic; ``se``: the correction's delta-method standard error, which
-    :mod:`uqguide.pce.point_choice` weighs the PCE's estimated bias against.
+    ``(2, ...)`` (delta-method se, Welch's t quantile); ``error``: out-of-sample relative error;
+    ``n``: successful validation runs; ``correction_half``: the correction's own 95% half-width;
+    ``shown_ci``: the interval printed when it differs from ``ci``; ``se``: the correction's
+    delta-method standard error.
     """
 
     values: dict[str, np.ndarray]
@@ -120,9 +111,7 @@ def _gradients(m1: np.ndarray, m2: np.ndarray, m3: np.ndarray, m4: np.ndarray
                ) -> dict[str, list[np.ndarray]]:
     """Derivatives of mean, std, skewness and kurtosis with respect to the raw moments
     ``M_1..M_4`` about a fixed centre (the delta method's linearisation)."""
-    var = m2 - m1**2
-    mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
-    mu4 = m4 - 4 * m1 * m3 + 6 * m1**2 * m2 - 3 * m1**4
+    var, mu3, mu4 = central_from_raw(m1, m2, m3, m4)
     zero, one = np.zeros_like(m1), np.ones_like(m1)
     dvar = [-2 * m1, one, zero, zero]
     dmu3 = [-3 * m2 + 6 * m1**2, -3 * m1, one, zero]
@@ -144,23 +133,10 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
     of freedom.
 
     ``influence (n, m)``: the values averaged; ``weight (n,)``: ``r W_k / n_k``, ``r`` the
-    importance ratio (1 but for a non-uniform pool); ``share (K,)``: ``W_k``; ``pool``: size of
-    the pool the strata were cut from (its sampling adds ``var / pool``; 0: none).
-    ``se = sqrt(sum_k W_k^2 s_k^2 / n_k (+ var / pool))``; ``df = 2 (sum a_k)^2 / sum a_k^2 v_k``,
-    ``a_k = W_k^2 s_k^2 / n_k``, ``v_k = (kappa_k - 3) / n_k + 2 / (n_k - 1)`` (Welch's with
-    ``kurtosis_adjusted`` False). A stratum with a single run borrows the largest variance (and
-    with fewer than four runs the largest kurtosis) of the others.
-
-    Why the kurtosis: a variance read from heavy-tailed values (model-minus-surrogate
-    differences of a non-smooth output) is far noisier than a Gaussian sample's, and usually too
-    small; its degrees of freedom are ``2 / Var(s^2 / sigma^2)`` (Satterthwaite 1946), for
-    kurtosis ``kappa`` ``2 n / (kappa - 1)`` rather than ``n - 1`` (Bonett 2006, Comput. Stat.
-    Data Anal. 50, 775-782).
-
-    Why the ``floor`` (the fit runs' LOO values, :func:`uqguide.pce.loo.loo_values`): the 2-8
-    runs of an outer stratum may all miss where the surrogate errs, and their variance is then
-    far too small; the larger of the two variances is kept. They only widen: the estimate and
-    the degrees of freedom stay the validation runs'.
+    importance ratio; ``share (K,)``: ``W_k``; ``pool``: size of the pool the strata were cut
+    from (0: none); ``kurtosis_adjusted`` False: Welch's degrees of freedom; ``floor``: the fit
+    runs' values, whose variance a stratum's may not fall below. Formulas and why:
+    docs/pce.md#the-standard-error-of-a-stratified-mean.
     """
     m = influence.shape[1]
     ratio = importance_ratios(weight, stratum, share)
@@ -199,7 +175,6 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
         df = np.where(total > 0, total**2 / np.sum(dfs, axis=0), np.inf) if parts \
             else np.full(m, np.nan)
     if pool:
-        # the pool's own sampling: Var_q(r f) / P, the pool's strata weighting the runs
         mean = weight @ plain
         total = total + ((weight / ratio) @ (influence - mean) ** 2) / pool
     return np.sqrt(total), df
@@ -207,9 +182,8 @@ def stratified_se(influence: np.ndarray, weight: np.ndarray, stratum: np.ndarray
 
 def importance_ratios(weight: np.ndarray, stratum: np.ndarray, share: np.ndarray
                       ) -> np.ndarray:
-    """Each run's importance ratio ``r = weight n_k / W_k`` (its weight is ``r W_k / n_k``);
-    exactly 1 in a stratum whose ratios are all 1 to round-off (a uniform pool), so that such
-    a design's intervals are those of plain stratified sampling, bit for bit."""
+    """Each run's importance ratio ``r = weight n_k / W_k``; exactly 1 in a stratum whose ratios
+    are all 1 to round-off, so a uniform pool gives plain stratified sampling bit for bit."""
     counts = np.bincount(stratum, minlength=share.size)
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.where(share[stratum] > 0, weight * counts[stratum] / share[stratum], 1.0)
@@ -222,10 +196,8 @@ def importance_ratios(weight: np.ndarray, stratum: np.ndarray, share: np.ndarray
 
 def stratified_skewness(influence: np.ndarray, stratum: np.ndarray, share: np.ndarray,
                         se: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
-    """Skewness of a stratified weighted mean's own distribution: ``sum_k W_k^3 mu3_k /
-    n_k^2`` over its standard error cubed (``mu3_k`` the stratum's third central moment of
-    the ratio-weighted ``influence (n, m)``, :func:`stratified_se`); 0 where it is undefined.
-    What Hall's interval corrects for (:func:`uqguide.stats.tail_intervals.hall_interval`)."""
+    """Skewness of a stratified weighted mean's own distribution, ``sum_k W_k^3 mu3_k / n_k^2``
+    over ``se`` cubed (``mu3_k`` of the ratio-weighted ``influence (n, m)``); 0 where undefined."""
     if weight is not None:
         influence = influence * importance_ratios(weight, stratum, share)[:, None]
     third = np.zeros(influence.shape[1])
@@ -252,14 +224,8 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
     validation runs; ``weight``, ``stratum``, ``share``, ``pool``: the validation design
     restricted to them (default random: weights ``1 / n``, one stratum, no pool); ``pce_se``:
     standard errors of sampled PCE moments (:func:`sampling_se`), added in quadrature;
-    ``fit_runs``: floor each stratum's variance (:func:`stratified_se`).
-
-    The interval is ``value +- t_{0.975, df} se``, its side toward the skew of the per-run
-    influence lengthened by Hall's transformation (:func:`stratified_skewness`). ``se`` is the
-    delta-method standard error: each statistic is a smooth function of the four corrected raw
-    moments, linearised at the estimate, so its error is the weighted mean of the per-run
-    influence ``sum_p dstat/dM_p d_p`` (``d_p`` the run's model-minus-surrogate difference of
-    the p-th raw moment). The PCE's own moments are held fixed: exact for the surrogate.
+    ``fit_runs``: floor each stratum's variance (:func:`stratified_se`). The delta method and
+    the interval: docs/pce.md#the-corrected-moments.
     """
     n = y.shape[0]
     shape = y.shape[1:]
@@ -288,7 +254,6 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
     ci, own, shown, ses = {}, {}, {}, {}
     for k, g in grads.items():
         with np.errstate(invalid="ignore"):
-            # NaN where the statistic is undefined (zero variance): so is its interval
             influence = sum(gp * d for gp, d in zip(g, diffs))
         floor = None
         if fit_runs is not None and fit_diffs is not None:
@@ -303,7 +268,7 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
                               kurtosis_adjusted=False, floor=floor)[1]
         with np.errstate(invalid="ignore"):
             q = student.ppf((1 + LEVEL) / 2, np.maximum(df, 1.0))
-            # the support checks keep their calibration: Welch's t, symmetric
+            # the support checks are calibrated on Welch's t, symmetric
             half = student.ppf((1 + LEVEL) / 2, np.maximum(welch, 1.0)) * se
         own[k] = half.reshape(shape)
         ses[k] = np.asarray(se).reshape(shape)
@@ -316,11 +281,8 @@ def corrected_moments(pce: OutputStats, y: np.ndarray, s: np.ndarray, *,
                 q = np.where(se > 0, np.hypot(wide, extra) / np.where(se > 0, se, 1.0), q)
         ci[k] = np.stack([values[k] - half, values[k] + half])
         lo, hi = hall_interval(values[k], se, q, skew)
-        # Hall's correction may lengthen a side, never shorten one below the symmetric t
-        # interval: its skewness is read from a few runs per stratum (3-8 in the outer
-        # strata), too noisy to pull a side in (Table 5's ZEM std on one of the fresh design
-        # seeds 1001-1020, and the zoo's oscillator kurtosis at t = 10 s, seed 1: the reference
-        # lay on the side it had shortened).
+        # Hall's correction lengthens a side, never shortens one below the symmetric t interval
+        # (docs/pce.md#the-corrected-moments).
         with np.errstate(invalid="ignore"):
             lo, hi = np.minimum(lo, values[k] - q * se), np.maximum(hi, values[k] + q * se)
         shown[k] = np.stack([lo, hi])
@@ -345,9 +307,7 @@ SCALAR_FACTOR = 2.0
 #: is a guard against single-step chance, not a test at a computed level).
 SERIES_RUN = 3
 #: Differences below this share of the PCE's std (mean and std) or this absolute amount
-#: (skewness and kurtosis) are immaterial to a dispersion analysis, and a surrogate that is
-#: nearly exact has a correction half-width near zero: a bias of 0.3% of the std (a degree-1
-#: tensor PCE of the early LOS rate, seen by 100 runs) is real, and not worth a warning.
+#: (skewness and kurtosis) are immaterial to a dispersion analysis (docs/pce.md#immaterial).
 MATERIAL = 0.01
 
 
@@ -381,10 +341,8 @@ def sustained(mask: np.ndarray, run: int = SERIES_RUN) -> np.ndarray:
 def usable_mask(error: np.ndarray | None, loo: float | None, threshold: float,
                 shape: tuple[int, ...]) -> np.ndarray:
     """Where the surrogate is usable: the validation error (per column, when known) and the
-    fit's LOO error (one figure per output, when known) both at most ``threshold``.
-
-    A series with a validation set is judged step by step by it alone (its LOO error is one
-    figure over all steps, dominated by the worst); a scalar output by both.
+    fit's LOO error (one figure per output, when known) both at most ``threshold``; a series
+    with a validation set is judged by it alone (its LOO error is dominated by the worst step).
     """
     ok = np.ones(shape, dtype=bool)
     if error is not None:
@@ -394,28 +352,26 @@ def usable_mask(error: np.ndarray | None, loo: float | None, threshold: float,
     return ok
 
 
+def nan_at(values: np.ndarray, where: np.ndarray, lead: int = 0) -> np.ndarray:
+    """A float copy of ``values`` with NaN where ``where`` is True, ``where`` indexing the axes
+    after the first ``lead`` ones."""
+    out = np.array(values, dtype=float)
+    out[(slice(None),) * lead + (where,)] = np.nan
+    return out
+
+
 def withhold_all(stats: OutputStats, usable: np.ndarray) -> None:
-    """NaN the PCE's own moments (and Sobol' indices, quantiles) where it is not usable."""
+    """NaN the PCE's own moments (and covariance rows, Sobol' indices, quantiles) where it is
+    not usable."""
     bad = ~usable
     if not bad.any():
         return
-    for name in ("mean", "std", "skewness", "kurtosis"):
-        v = np.array(getattr(stats, name), dtype=float)
-        v[bad] = np.nan
-        setattr(stats, name, v)
-    cov = np.array(stats.cov, dtype=float)
-    cov[bad] = np.nan  # the row of every unusable component
-    stats.cov = cov
-    for name in ("sobol_first", "sobol_total"):
+    for name in ("mean", "std", "skewness", "kurtosis", "cov", "sobol_first", "sobol_total"):
         v = getattr(stats, name)
         if v is not None:
-            v = np.array(v, dtype=float)
-            v[bad] = np.nan
-            setattr(stats, name, v)
+            setattr(stats, name, nan_at(v, bad))
     if stats.quantiles is not None:
-        q = np.array(stats.quantiles, dtype=float)
-        q[:, bad] = np.nan
-        stats.quantiles = q
+        stats.quantiles = nan_at(stats.quantiles, bad, lead=1)
 
 
 def withdraw(stats: OutputStats, usable: np.ndarray) -> None:

@@ -1,12 +1,6 @@
-"""Where a PCE's validation runs go: plain random, or stratified by the surrogate's own value.
-
-The corrections of the third and fourth moments are carried by the runs where the output is
-extreme, which 100 random runs seldom visit. The stratified design draws a pool of points
-(:func:`pool_points`: arcsine-leaning in at most :data:`ARCSINE_INPUTS` inputs the surrogate is
-curved in, :func:`curved_inputs`, else uniform; each point carries its importance ratio), cuts it
-by the surrogate's tail score into :data:`STRATA` and gives each stratum runs by Neyman
-allocation (:func:`neyman_allocation`, at least :data:`MIN_PER_STRATUM`). Every run carries the
-weight ``ratio x share / runs`` of its stratum, so weighted means stay unbiased.
+"""Where a PCE's validation runs go: plain random (:func:`random_validation`), or stratified by
+the surrogate's own value (:func:`stratified_validation`), each run weighted by
+``ratio x share / runs`` of its stratum so that weighted means stay unbiased.
 
 The algorithm step by step: docs/methods.md#the-validation-design-step-by-step; why the pool
 leans to the faces, with the measured coverage:
@@ -23,7 +17,7 @@ import numpy as np
 
 from scipy.special import betaln
 
-from .design import VALIDATION_STREAM, stream
+from .design import _U_EPS, VALIDATION_STREAM, stream
 
 #: Upper edges of the strata as pool-rank fractions of the tail score (the last is 1).
 STRATA = (0.5, 0.8, 0.95, 0.99, 0.999, 1.0)
@@ -34,9 +28,8 @@ POOL_PER_RUN, POOL_MIN, POOL_MAX = 200, 20_000, 1_000_000
 #: Pool points whose surrogate values standardise the score (a fixed, deterministic choice:
 #: any score gives unbiased estimates; a good one gives short intervals).
 SCALE_POINTS = 10_000
-_U_EPS = 2.0**-53
 #: The most inputs the pool leans to the faces of (the arcsine density); with more curved
-#: inputs the pool is uniform (module docstring).
+#: inputs the pool is uniform.
 ARCSINE_INPUTS = 2
 
 
@@ -114,11 +107,8 @@ class ValidationDesign:
 
     def successful(self, ok: np.ndarray) -> ValidationDesign:
         """The design restricted to the runs that succeeded, weights renormalised within each
-        stratum (``W_k / n_k`` over the stratum's successful runs).
-
-        A stratum left with no successful run has no estimate of its own: its share joins the
-        next stratum towards the bulk (a bias only as large as the failed stratum's share).
-        """
+        stratum; a stratum left with no successful run gives its share to the next one towards
+        the bulk (a bias only as large as that share)."""
         ok = np.asarray(ok, dtype=bool)
         stratum = self.stratum[ok]
         share = self.share.copy()
@@ -128,7 +118,6 @@ class ValidationDesign:
                 share[k - 1] += share[k]
                 share[k] = 0.0
         if counts[0] == 0 and share.size > 1:
-            # The bulk lost every run: its share goes to the nearest stratum that has runs.
             k = int(np.flatnonzero(counts)[0]) if counts.any() else 0
             share[k] += share[0]
             share[0] = 0.0 if k else share[0]
@@ -236,7 +225,7 @@ def tail_score(values: dict[str, np.ndarray], scale: dict[str, tuple[np.ndarray,
 def stratified_validation(surrogate: Callable[[np.ndarray], dict[str, np.ndarray]], seed: int,
                           label: str, n: int, d: int, *, chunk: int = 10_000,
                           curved: np.ndarray | None = None) -> ValidationDesign:
-    """``n`` validation points stratified by the surrogate's tail score (module docstring).
+    """``n`` validation points stratified by the surrogate's tail score.
 
     ``surrogate``: ``f(u (m, d)) -> {output: values (m, ...)}`` on the unit cube; ``seed`` and
     ``label`` key the validation stream; ``chunk``: pool points evaluated at a time (bounds the
