@@ -94,3 +94,26 @@ def test_the_folder_a_process_has_is_kept(monkeypatch, tmp_path):
 
     monkeypatch.setitem(process.current_process()._config, "tempdir", str(tmp_path))
     assert temp_folders.multiprocessing_folder() == str(tmp_path)
+
+
+@pytest.mark.parametrize("command", ["validate", "run"])
+def test_run_and_validate_start_by_sweeping_a_killed_runs_folders(temp_folder, tmp_path,
+                                                                   command):
+    from click.testing import CliRunner
+
+    from uqguide.cli import main
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)
+    pid = int(dead.stdout)
+    left = []
+    for kind, name in ((temp_folders.FMU, f"uqguide-fmu-{pid}-abcdefgh"),
+                       (MULTIPROCESSING, "uqmp-abcdefgh")):
+        folder = temp_folder / name
+        folder.mkdir()
+        (folder / kind.mark).write_text(json.dumps({"pid": pid, "folder": name}))
+        left.append(folder)
+    # the sweep comes first: even a config that is not there finds them gone
+    res = CliRunner().invoke(main, [command, str(tmp_path / "absent.yaml")])
+    assert res.exit_code == 2, res.output
+    assert not any(p.exists() for p in left)
