@@ -103,9 +103,9 @@ def test_run_and_validate_start_by_sweeping_a_killed_runs_folders(temp_folder, t
 
     from uqguide.cli import main
 
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                          capture_output=True, text=True, check=True)
-    pid = int(dead.stdout)
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    pid = dead.pid
     left = []
     for kind, name in ((temp_folders.FMU, f"uqguide-fmu-{pid}-abcdefgh"),
                        (MULTIPROCESSING, "uqmp-abcdefgh")):
