@@ -577,10 +577,9 @@ def test_command_and_data_cases_in_child_processes_are_clean():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="a defect the campaign found: a driver killed (SIGKILL) "
-                   "mid-call leaves multiprocessing's pymp-* folder in TMPDIR (its guard's "
-                   "BrokenPipeError traceback is fixed)")
 def test_an_fmu_run_killed_then_validated_leaves_nothing():
-    """containment_data.py's killed FMU run, then ``validate`` (about 15 s)."""
+    """containment_data.py's killed FMU run, then ``validate`` (about 15 s): nothing of it in
+    TMPDIR, neither its unzipped FMU nor multiprocessing's folder (the fork server's socket),
+    which a killed run left as ``pymp-*`` before."""
     (o,) = _clean(("data fmu: fmu_killed_then_validate",))
     assert o.ok, (o.outside, o.run.stderr[-500:])

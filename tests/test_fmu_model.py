@@ -395,6 +395,7 @@ def test_a_member_that_inflates_past_its_declared_size_is_cut_there(decay_fmu, t
 
 
 def test_only_marked_folders_of_dead_processes_are_swept(tmp_path, temp_folder):
+    from uqguide.core import temp_folders
     from uqguide.models.fmu import archive
 
     dead = _dead_pid()
@@ -416,7 +417,7 @@ def test_only_marked_folders_of_dead_processes_are_swept(tmp_path, temp_folder):
     (copied / archive.MARK).write_text(json.dumps({"pid": dead, "folder": "elsewhere"}))
     link = temp_folder / f"{archive.PREFIX}{dead}-lnk"
     link.symlink_to(gone)
-    assert archive.sweep() == 1
+    assert temp_folders.sweep() == 1
     assert not gone.exists() and alive.is_dir() and copied.is_dir()
     assert (users / "thesis.txt").read_text() == "mine" and link.is_symlink()
 
@@ -435,12 +436,14 @@ def test_guards_use_the_folder_the_validating_process_unzipped(decay_fmu):
     the environment: no guard unzips its own copy (one per guard, never removed, before)."""
     import tempfile
 
+    from uqguide.core import temp_folders
     from uqguide.models.fmu import archive
 
     def marked_by_others() -> set[str]:
         root = Path(tempfile.gettempdir())
         return {p.name for p in root.glob(f"{archive.PREFIX}*")
-                if (archive._mark_of(p) or {}).get("pid", os.getpid()) != os.getpid()}
+                if (temp_folders.mark_of(p, temp_folders.FMU) or {}).get("pid", os.getpid())
+                != os.getpid()}
 
     before = marked_by_others()
     cfg = _doc_config(decay_fmu)

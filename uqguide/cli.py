@@ -48,6 +48,14 @@ def _handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     return wrapper
 
 
+def _sweep_temp_folders() -> None:
+    """Remove the temporary folders a killed uqguide left (its unzipped FMUs,
+    multiprocessing's folder): ``run`` and ``validate`` start with it."""
+    from .core.temp_folders import sweep
+
+    sweep()
+
+
 def _setup_logging(verbose: int) -> None:
     level = logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s",
@@ -194,6 +202,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .report.tables import render_text
     from .commands.run_and_write import WriteInterrupted, run_and_write
 
+    _sweep_temp_folders()
     _check_executor_flags(workers, scheduler, scheduler_file, no_workers_timeout)
     for flag, given in (("--check-sensitivity", check_sensitivity),
                         ("--check-require-key", check_require_key)):
@@ -280,6 +289,7 @@ def validate(config: Path) -> None:
     from .config.budget import check_budget, estimate
     from .config.run_config import load_config
 
+    _sweep_temp_folders()
     cfg = load_config(config)
     methods = ", ".join(f"{m.label} ({m.name})" for m in cfg.methods)
     source = f"model {cfg.model.name}" if cfg.data is None else \

@@ -6,6 +6,8 @@
 - ``failures``: failed runs tallied by reason;
 - ``strict``: booleans are not numbers in a config;
 - ``atomic``: files that are complete or absent;
+- ``temp_folders``: uqguide's marked folders in ``$TMPDIR`` (and multiprocessing's), swept when
+  their process was killed;
 - ``safe_yaml``: a YAML loader that cannot be made to explode (configs, stored configs);
 - ``process_groups``: external programs a process runs, and all they start, ended with them;
 - ``descendants``: this process's descendants in Linux's ``/proc``, and the subreaper switch.

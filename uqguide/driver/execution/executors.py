@@ -18,6 +18,7 @@ import numpy as np
 
 from ...errors import ClusterLost, ConfigError, WorkerStartError
 from ...models.base import Model
+from ...core.temp_folders import multiprocessing_folder
 from ...core.types import GeneratedRows, ModelOutput, RowRange
 from .cluster_watch import (NO_WORKERS_TIMEOUT, NoWorkerWatch, cancelled_message,
                             scheduler_lost)
@@ -153,6 +154,7 @@ class ProcessExecutor(_WindowedExecutor):
         self.workers = workers
         self.batch_size = batch_size
         self.window = 2 * workers
+        multiprocessing_folder()  # before the workers start: they inherit it
         self._ctx = multiprocessing.get_context(start_method)
         self._pool: ProcessPoolExecutor | None = None
         self._started = self._ctx.Event()

@@ -29,6 +29,7 @@ import numpy as np
 
 from ...errors import ModelError, WorkerStartError
 from ...core.process_groups import stop_on_sigterm
+from ...core.temp_folders import multiprocessing_folder
 from ...core.types import ModelOutput
 from .isolation import assemble_pieces, evaluate_batch
 from .processes import (NESTED_RUN_EXIT, OVER_MEMORY_EXIT, WORKERS_DID_NOT_START,
@@ -118,7 +119,10 @@ def _main_hidden() -> Iterator[None]:
 def _context(needs_main: bool) -> Any:
     """Where a guard process comes from: a single-threaded **fork server** (a fresh guard after
     a crash costs a fork, not half a second of imports: 40 of them to find 4 crashing samples in
-    1000), or ``spawn`` for a model defined in the main script, which must be imported."""
+    1000), or ``spawn`` for a model defined in the main script, which must be imported. Either
+    keeps its temporary files (the fork server's socket) in a marked folder, which the next
+    run sweeps if this one is killed."""
+    multiprocessing_folder()
     if needs_main or "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     ctx = multiprocessing.get_context("forkserver")

@@ -27,7 +27,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from ...core.atomic import pid_alive
+from ...core import temp_folders
 
 INSTALL_HINT = "the fmu model needs FMPy, which is not installed: pip install 'uqguide[fmu]'"
 
@@ -47,9 +47,9 @@ RATIO_FLOOR = 2**20
 #: Most members an FMU may have.
 MAX_MEMBERS = 10_000
 
-#: The unzipped folders' name prefix, the mark file in each and the environment variable that
-#: tells child processes where they are.
-PREFIX, MARK, ENV = "uqguide-fmu-", ".uqguide-fmu", "UQGUIDE_FMU_UNZIPPED"
+#: The unzipped folders' name prefix and the mark file in each (:mod:`uqguide.core.temp_folders`)
+#: and the environment variable that tells child processes where they are.
+PREFIX, MARK, ENV = temp_folders.FMU.prefix, temp_folders.FMU.mark, "UQGUIDE_FMU_UNZIPPED"
 _COPY_CHUNK = 2**20
 _READABLE = {zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED, zipfile.ZIP_BZIP2, zipfile.ZIP_LZMA}
 
@@ -221,52 +221,6 @@ def _copy_members(path: Path, folder: Path, infos: list[zipfile.ZipInfo]) -> Non
                     out.write(chunk)
 
 
-def _mark_of(folder: Path) -> dict[str, Any] | None:
-    """The mark uqguide wrote in an unzipped folder, or None when it is not one of uqguide's."""
-    try:
-        if folder.is_symlink() or not folder.is_dir():
-            return None
-        mark = folder / MARK
-        if mark.is_symlink():
-            return None
-        found = json.loads(mark.read_text())
-    except (OSError, ValueError):
-        return None
-    ok = isinstance(found, dict) and found.get("folder") == folder.name and \
-        isinstance(found.get("pid"), int)
-    return found if ok else None
-
-
-def sweep() -> int:
-    """Remove the unzipped folders whose process is gone (killed before it could): only
-    folders uqguide marked, of this user, in the temporary folder.
-
-    Returns
-    -------
-    int
-        Folders removed.
-    """
-    root = Path(tempfile.gettempdir())
-    removed = 0
-    try:
-        entries = list(os.scandir(root))
-    except OSError:
-        return 0
-    for entry in entries:
-        try:
-            if not entry.name.startswith(PREFIX) or \
-                    entry.stat(follow_symlinks=False).st_uid != os.getuid():
-                continue
-        except OSError:
-            continue
-        mark = _mark_of(Path(entry.path))
-        if mark is None or mark["pid"] == os.getpid() or pid_alive(mark["pid"]):
-            continue
-        shutil.rmtree(entry.path, ignore_errors=True)
-        removed += 1
-    return removed
-
-
 def _exported() -> dict[str, str]:
     """The folders this process and its parents unzipped, by FMU version (:data:`ENV`)."""
     try:
@@ -281,13 +235,8 @@ def _inherited(key: tuple[str, int, int]) -> str | None:
     folder = _exported().get(json.dumps(key))
     if not isinstance(folder, str):
         return None
-    mark = _mark_of(Path(folder))
+    mark = temp_folders.mark_of(Path(folder), temp_folders.FMU)
     return folder if mark is not None and mark.get("key") == list(key) else None
-
-
-def _remove(folder: str, owner: int) -> None:
-    if os.getpid() == owner:  # not in a forked child that inherited the exit handler
-        shutil.rmtree(folder, ignore_errors=True)
 
 
 def _sweep_at_exit() -> None:
@@ -295,7 +244,8 @@ def _sweep_at_exit() -> None:
     # processes are then gone): a negative priority runs after that
     if os.getpid() not in _exit_sweep:
         _exit_sweep.append(os.getpid())
-        mp_util.Finalize(None, sweep, exitpriority=-10)
+        mp_util.Finalize(None, temp_folders.sweep, args=((temp_folders.FMU,),),
+                         exitpriority=-10)
 
 
 def unzipped(path: Path) -> str:
@@ -321,19 +271,21 @@ def unzipped(path: Path) -> str:
     key = _key(path)
     with _lock:
         found = _unzipped.get(key) or _inherited(key)
-        if found is not None and _mark_of(Path(found)) is not None:
+        if found is not None and temp_folders.mark_of(Path(found), temp_folders.FMU) is not None:
             _unzipped[key] = found
             return found
         infos = check_archive(path)
         _sweep_at_exit()
-        sweep()
-        folder = Path(tempfile.mkdtemp(prefix=f"{PREFIX}{os.getpid()}-"))
+        temp_folders.sweep((temp_folders.FMU,))
+        try:
+            folder = temp_folders.make(temp_folders.FMU, key=list(key))
+        except OSError as exc:
+            raise ValueError(f"cannot be unzipped ({type(exc).__name__}: {exc})") from None
         # removed at exit, after this process's children (Finalize runs in multiprocessing's
         # children too, where atexit does not)
-        mp_util.Finalize(None, _remove, args=(str(folder), os.getpid()), exitpriority=-5)
+        mp_util.Finalize(None, temp_folders.remove, args=(str(folder), os.getpid()),
+                         exitpriority=-5)
         try:
-            (folder / MARK).write_text(json.dumps({"pid": os.getpid(), "folder": folder.name,
-                                                   "key": list(key)}))
             _copy_members(path, folder, infos)
         except (OSError, EOFError, RuntimeError, NotImplementedError, zipfile.BadZipFile,
                 ValueError) as exc:
