@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...core.atomic import pid_alive
 from .chunks import ChunkResult
 from .row_layout import RowsLayout, Slot
 
@@ -131,15 +132,5 @@ def _sweep() -> None:
             pid = int(p.name[len(_PREFIX):].split("-", 1)[0])
         except ValueError:
             continue
-        if pid != os.getpid() and not _alive(pid):
+        if pid != os.getpid() and not pid_alive(pid):
             p.unlink(missing_ok=True)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's process
-        return True
-    return True
