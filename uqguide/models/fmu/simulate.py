@@ -1,18 +1,12 @@
 """Simulating a batch of samples with one FMU instance.
 
-FMI has no batch call: an instance simulates one parameter set at a time. So a batch makes one
-instance (loading the binary and instantiating it once) and simulates its samples in turn,
-resetting the instance between them (``fmi2Reset``/``fmi3Reset``, back to the state just
-after instantiation). FMI 1.0 has no reset: there each sample gets a fresh instance. After a
-sample whose simulation raised, the instance is freed and a new one made, since an FMU that
-reported an error may no longer reset cleanly.
-
-Each sample runs through ``fmpy.simulate_fmu`` (co-simulation stepping, or FMPy's CVode for a
-model-exchange-only FMU), given the already parsed description, the unzipped folder and the
-instance, so that it only sets the start values, initialises, steps and records. What a sample
-gives is checked against the time grid: a simulation that ends before ``stop_time`` (an FMU
-that terminated early) fails the sample, as does one that raised (with the FMU's own error
-messages in the reason) or an output that is not finite.
+FMI has no batch call, so a batch makes one instance and simulates its samples in turn,
+resetting it between them (FMI 1.0 has no reset: a fresh instance per sample); after a sample
+that raised, the instance is replaced, since it may no longer reset cleanly. Each sample runs
+through ``fmpy.simulate_fmu`` with the already parsed description, folder and instance. A
+sample fails when it raised (the FMU's logged errors go into the reason), stopped before
+``stop_time`` or gave a non-finite output:
+docs/your-simulator.md#how-it-runs-and-when-a-sample-fails.
 """
 
 from __future__ import annotations
