@@ -143,18 +143,12 @@ def _attitudes(m, w, shared, t, C0, out):  # pragma: no cover - compiled
     """Attitude rows ``out (9, m)`` at time ``t``: computed once and copied to every lane when
     the spin is common (``shared``), else per lane; the same arithmetic either way, so a
     sample's bits do not depend on its batch."""
-    if shared:
-        R = _rotation(w[0, 0], w[1, 0], w[2, 0], t, C0)
-        for l in range(m):
-            out[0, l], out[1, l], out[2, l] = R[0], R[1], R[2]
-            out[3, l], out[4, l], out[5, l] = R[3], R[4], R[5]
-            out[6, l], out[7, l], out[8, l] = R[6], R[7], R[8]
-    else:
-        for l in range(m):
+    R = _rotation(w[0, 0], w[1, 0], w[2, 0], t, C0)
+    for l in range(m):
+        if l > 0 and not shared:
             R = _rotation(w[0, l], w[1, l], w[2, l], t, C0)
-            out[0, l], out[1, l], out[2, l] = R[0], R[1], R[2]
-            out[3, l], out[4, l], out[5, l] = R[3], R[4], R[5]
-            out[6, l], out[7, l], out[8, l] = R[6], R[7], R[8]
+        for q in range(9):
+            out[q, l] = R[q]
 
 
 @njit(cache=True, error_model="numpy")
@@ -228,15 +222,34 @@ def _weights(m, ck, arg, out):  # pragma: no cover - compiled
             out[l] = ck * math.exp(a)
 
 
+@njit(cache=True, inline="always")
+def _zero(acc, m):  # pragma: no cover - compiled
+    for a in range(acc.shape[0]):
+        for l in range(m):
+            acc[a, l] = 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _add_value_gradient(m, ex, th, acc):  # pragma: no cover - compiled
+    # one kernel's weight ``ex`` and ``-ex L (r - mu)`` (``th``) into the value and gradient rows;
+    # a weight that underflowed to 0 adds nothing, as the reference skips the kernel
+    for l in range(m):
+        e = ex[l]
+        live = e != 0.0
+        t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+        acc[A_V, l] += e if live else 0.0
+        acc[A_G, l] -= e * t0 if live else 0.0
+        acc[A_G + 1, l] -= e * t1 if live else 0.0
+        acc[A_G + 2, l] -= e * t2 if live else 0.0
+
+
 @njit(cache=True, error_model="numpy")
 def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
     """:func:`_potential` for kernels whose ``L`` has zero off-diagonal entries (axis-aligned
     covariances, as in [C] Table 2): the same numbers (the dropped terms are exact zeros,
     and ``t0 t1 = t1 t0`` makes the Hessian's mirror entries copies) for a third of the work.
     """
-    for a in range(N_ACC):
-        for l in range(m):
-            acc[a, l] = 0.0
+    _zero(acc, m)
     for k in range(mu.shape[0]):
         m0, m1, m2 = mu[k, 0], mu[k, 1], mu[k, 2]
         L00, L11, L22 = L[k, 0, 0], L[k, 1, 1], L[k, 2, 2]
@@ -247,14 +260,7 @@ def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover -
             th[0, l], th[1, l], th[2, l] = t0, t1, t2
             eta[l] = -0.5 * (d0 * t0 + d1 * t1 + d2 * t2)
         _weights(m, ck, eta, ex)
-        for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
-            acc[A_V, l] += e if live else 0.0
-            acc[A_G, l] -= e * t0 if live else 0.0
-            acc[A_G + 1, l] -= e * t1 if live else 0.0
-            acc[A_G + 2, l] -= e * t2 if live else 0.0
+        _add_value_gradient(m, ex, th, acc)
         for l in range(m):
             e = ex[l]
             live = e != 0.0
@@ -296,9 +302,7 @@ def _potential(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
     the exponentials, the accumulation (branch-free). A kernel whose weight underflows to 0
     adds nothing (as the reference skips it).
     """
-    for a in range(N_ACC):
-        for l in range(m):
-            acc[a, l] = 0.0
+    _zero(acc, m)
     for k in range(mu.shape[0]):
         m0, m1, m2 = mu[k, 0], mu[k, 1], mu[k, 2]
         L00, L01, L02 = L[k, 0, 0], L[k, 0, 1], L[k, 0, 2]
@@ -313,14 +317,7 @@ def _potential(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
             th[0, l], th[1, l], th[2, l] = t0, t1, t2
             eta[l] = -0.5 * (d0 * t0 + d1 * t1 + d2 * t2)
         _weights(m, ck, eta, ex)
-        for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
-            acc[A_V, l] += e if live else 0.0
-            acc[A_G, l] -= e * t0 if live else 0.0
-            acc[A_G + 1, l] -= e * t1 if live else 0.0
-            acc[A_G + 2, l] -= e * t2 if live else 0.0
+        _add_value_gradient(m, ex, th, acc)
         for l in range(m):
             e = ex[l]
             live = e != 0.0
