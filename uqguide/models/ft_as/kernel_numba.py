@@ -6,11 +6,8 @@ Blocks of samples advance in lockstep, one thread per block: what depends on tim
 evaluated once per block (:func:`_clock`), the controller per sample on local floats, the RK4
 stages on the whole block as structure of arrays (:func:`_rhs_block`). Every sample runs the
 same code whatever block it lands in, so its numbers are the same bits whatever the batch split
-and the thread count. The layout, and why: docs/performance.md#the-ft-as-kernel.
-
-Metrics are accumulated at every step, so they do not depend on the output grid: settling
-times (last time a norm exceeds each tolerance), final-window maxima, peaks of the applied and
-commanded inputs, and the integrals of ``|u_k|``.
+and the thread count. The layout, and why: docs/performance.md#the-ft-as-kernel; the metrics,
+accumulated at every step: docs/simulators.md#ft-as-what-the-kernel-accumulates.
 """
 
 from __future__ import annotations
@@ -198,8 +195,8 @@ def _rhs_block(ck, XT, KT, UT, m_off, inertia_err, a_f, a_tau, c, J0, J0i, W, nw
 
     ``XT``, ``KT`` (36, nw): states and derivatives, a row per component; ``UT`` (12, nw): the
     applied and the observed inputs; ``m_off`` ... ``a_tau`` (nw,): the lanes' dispersions;
-    ``W`` (16, nw): scratch. The arithmetic runs in loops over the lanes on 1-D row views, the
-    observer's gain (sqrt, log, exp) as a scalar pass between them.
+    ``W`` (16, nw): scratch. The observer's gain (sqrt, log, exp) is a scalar pass between the
+    loops over the lanes (docs/performance.md#the-ft-as-kernel).
     """
     nt, m0 = c[K_NT], c[K_M0]
     lam1, lam2, lam3, p = c[K_LAM1], c[K_LAM2], c[K_LAM3], c[K_OBS_P]
@@ -316,9 +313,8 @@ def _sliding(z, c, w):
 
     Writes ``s`` into ``w[0]`` and keeps for the law ``1/kappa`` (``w[1]``), ``|e1|^b``
     (``w[2]``), ``f = |e2|^(a-1)`` (``w[3]``) and ``kappa^-a`` (``w[4]``); ``w`` is (8, 6)
-    scratch. Each transcendental runs as its own pass over the channels: the six calls of a
-    pass are independent, so the core overlaps them instead of waiting on one channel's chain
-    ``log -> exp -> log -> exp``.
+    scratch. Each transcendental is a pass of its own over the channels, so that the core
+    overlaps their calls (docs/performance.md#the-ft-as-kernel).
     """
     a, b = c[K_A], c[K_B]
     nu1, eta1 = c[K_NU1], c[K_ETA1]
@@ -433,10 +429,8 @@ def _observed_disturbance(ck, x, tr, u, m_off, inertia_err, a_f, a_tau, c, J0, J
 
 
 def _c(values: object, dtype: type) -> np.ndarray:
-    # Contiguous, whatever the caller holds: an uncertain input arrives as a strided column of
-    # the design, a fixed one as a full array, and numba compiles one specialisation per
-    # memory layout. Copying a few n-vectors keeps every study on one compiled kernel (a fresh
-    # install compiled it up to four times, about 30 CPU-s each); the values are unchanged.
+    # contiguous, so that every study runs one compiled specialisation
+    # (docs/simulators.md#ft-as-what-the-kernel-accumulates)
     return np.ascontiguousarray(values, dtype=dtype)
 
 
@@ -477,38 +471,23 @@ def simulate(x0, mass_off, inertia_err, force_amp, torque_amp, ctrl, obs_applied
              peak_late, impulse, failed, block):  # fmt: skip
     """Integrate every sample of a batch and accumulate its metrics.
 
-    Parameters
-    ----------
-    x0 : ndarray, shape (n, 36)
-        Initial states. The per-sample arrays ``mass_off`` ... ``switch_input`` are those of
-        :class:`setup.Batch` (shape (n,)).
-    c : ndarray, shape (N_CONST,)
-        Constants packed by :func:`setup.pack_constants`.
-    J0, J0i : ndarray, shape (3, 3)
-        Nominal inertia [kg m^2] and its inverse.
-    P, Q : ndarray, shape (3,)
-        In-plane unit vectors of the reference orbit (ECI).
-    limits : ndarray, shape (6,)
-        Actuator limits [N, N m].
-    dt : float
-        Step [s]; ``n_steps`` steps are taken.
-    rec_every : int
-        Record every ``rec_every`` steps into ``rec`` (n, n_rec, n_channels), the groups of
-        ``layout.RECORD_GROUPS`` at column ``offsets[g]`` (-1: not recorded).
-    final_start, late_start : int
-        First step of the final-accuracy window and of the "late" peak window.
-    tols : ndarray, shape (7, n_tol)
-        Settling tolerances per ``layout.SETTLE_QUANTITIES`` row (entries <= 0 unused).
-    block : int
-        Samples per parallel block (:func:`block_size`); it changes the speed, not the numbers.
+    Inputs: the initial states ``x0 (n, 36)`` and the per-sample arrays ``mass_off`` ...
+    ``switch_input`` of :class:`setup.Batch`; the constants ``c`` of
+    :func:`setup.pack_constants`; the nominal inertia ``J0`` [kg m^2] and its inverse ``J0i``;
+    the reference orbit's in-plane unit vectors ``P``, ``Q`` (ECI); the actuator ``limits``
+    (6,) [N, N m]; ``n_steps`` steps of ``dt`` [s]; every ``rec_every`` steps a record into
+    ``rec (n, n_rec, n_channels)``, each group of ``layout.RECORD_GROUPS`` at column
+    ``offsets[g]`` (-1: not recorded); the first steps ``final_start`` of the final-accuracy
+    window and ``late_start`` of the "late" peak window; the settling tolerances ``tols (7,
+    n_tol)`` per ``layout.SETTLE_QUANTITIES`` row (<= 0: unused); ``block`` samples per
+    parallel block (:func:`block_size`: the speed, not the numbers).
 
-    Outputs (written in place, zero-initialised by the caller)
-    -----------------------------------------------------------
-    settle : (n, 7, n_tol) last time [s] each norm exceeded each tolerance.
-    final_max : (n, 4, 3) max |x_k| over the final window for r_e, v_e, sigma_e, omega_e.
-    peak_app, peak_cmd, peak_late : (n, 6) max |u_k| applied, commanded, applied after late_start.
-    impulse : (n, 6) integral of |u_applied,k| dt [N s, N m s].
-    failed : (n,) True where the state became non-finite (the sample stops there).
+    Outputs, in place (zeroed by the caller): ``settle (n, 7, n_tol)`` the last time [s] each
+    norm exceeded each tolerance; ``final_max (n, 4, 3)`` ``max |x_k|`` over the final window
+    of ``r_e, v_e, sigma_e, omega_e``; ``peak_app``, ``peak_cmd``, ``peak_late (n, 6)`` the
+    peaks of ``|u_k|`` applied, commanded, applied after ``late_start``; ``impulse (n, 6)``
+    ``integral |u_k| dt`` [N s, N m s]; ``failed (n,)`` where the state became non-finite (the
+    sample stops there).
     """
     n = x0.shape[0]
     n_blocks = (n + block - 1) // block
@@ -693,7 +672,7 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                     env[b, 6 + q] = -np.inf
         if last:
             break
-        # --- classical RK4 with held inputs (section 9 step 3), all lanes of the block at once
+        # --- classical RK4 with held inputs, all lanes of the block at once
         _stage(ck0, XT, K1, UT, DU, mo, ie, af, at, oc, c, J0, J0i, W, case2_lane, any_case2, X,
                nb)  # fmt: skip
         for q in range(36):
