@@ -85,14 +85,8 @@ def _first_long(inner: bytes, limit: int) -> int:
 
 def _count_lines(path: Path, limit: int) -> tuple[int, int]:
     """The file's lines (a last one without its newline counted), without decoding or holding
-    more than a chunk; stops at the first line longer than ``limit`` bytes.
-
-    Returns
-    -------
-    lines : int
-    too_long : int
-        The number of the first line over ``limit`` (counted from 1), 0 when none is.
-    """
+    more than a chunk; stops at the first line longer than ``limit`` bytes. Returns the count
+    and the number (from 1) of the first line over ``limit``, 0 when none is."""
     lines, run = 0, 0  # run: bytes of the line not yet ended
     with path.open("rb") as f:
         while chunk := f.read(_READ_CHUNK):
