@@ -46,19 +46,9 @@ class ModelParams(StrictModel):
 
 @dataclass(frozen=True)
 class InputInfo:
-    """An input a model accepts as uncertain.
-
-    Attributes
-    ----------
-    name : str
-        Name used in the config's ``inputs`` list.
-    unit : str
-        SI unit of the value (e.g. ``"m"``, ``"rad/s"``).
-    description : str
-        One line saying what the input is and how it enters the model.
-    nominal : float
-        Value used when the config does not make this input uncertain.
-    """
+    """An input a model accepts as uncertain: its config ``name``, SI ``unit`` (``"m"``,
+    ``"rad/s"``), a one-line ``description`` and the ``nominal`` value used when the config
+    does not make it uncertain."""
 
     name: str
     unit: str
@@ -68,23 +58,10 @@ class InputInfo:
 
 @dataclass(frozen=True)
 class OutputInfo:
-    """An output a model produces.
-
-    Attributes
-    ----------
-    name : str
-        Name used in the config's ``outputs`` list and in results.
-    kind : {"series", "scalar"}
-        ``"series"``: array ``(n, T, k)`` on the model's time grid; ``"scalar"``: ``(n, k)``.
-    unit : str
-        SI unit.
-    description : str
-        One line, with the paper's equation number where there is one.
-    components : tuple of str
-        Names of the k components (``("",)`` for a single component).
-    default : bool
-        Whether the output is reported when the config does not list outputs.
-    """
+    """An output a model produces: its config and result ``name``, ``kind`` (``"series"``:
+    ``(n, T, k)`` on the model's time grid; ``"scalar"``: ``(n, k)``), SI ``unit``, a one-line
+    ``description``, the names of its k ``components`` (``("",)`` for one) and whether it is
+    reported by ``default`` when the config lists no outputs."""
 
     name: str
     kind: OutputKind
@@ -100,20 +77,10 @@ class OutputInfo:
 
 @dataclass(frozen=True)
 class StepCount:
-    """How much one run of a time-stepping model computes, from its parameters alone (the
-    budgets of :mod:`uqguide.config.budget` are checked with it before anything runs).
-
-    Attributes
-    ----------
-    steps : float
-        Integration steps of one run (sub-steps included).
-    grid : float
-        Points of the output time grid of one run.
-    field : str
-        The parameter that sets the step (named in a refusal), e.g. ``"dt"``.
-    formula : str
-        How ``steps`` follows from the parameters, e.g. ``"t_max / dt"``.
-    """
+    """How much one run of a time-stepping model computes, from its parameters alone (checked
+    against the budgets of :mod:`uqguide.config.budget` before anything runs): integration
+    ``steps`` (sub-steps included), output ``grid`` points, the ``field`` that sets the step
+    (``"dt"``) and the ``formula`` of ``steps`` (``"t_max / dt"``)."""
 
     steps: float
     grid: float
@@ -150,22 +117,10 @@ class Model(ABC):
 
     @classmethod
     def named_code(cls, section: Mapping[str, Any]) -> str:
-        """The code a config's model section names for this model to run, beyond uqguide's own
-        (a Python function, a program, an FMU's binary), in words: a result file naming it is
-        code too (``uqguide replay --run-code``).
-
-        Parameters
-        ----------
-        section : mapping
-            The model section as stored (perhaps in a file from elsewhere): only read, never
-            validated or imported.
-
-        Returns
-        -------
-        str
-            One line (values shown with ``repr``); ``""`` when the model runs uqguide's code
-            only (the built-in simulators).
-        """
+        """The code the model ``section`` (as stored, perhaps from elsewhere: only read, never
+        validated or imported) names beyond uqguide's own (a Python function, a program, an
+        FMU's binary), in one line; ``""`` for uqguide's code only. A result file naming such
+        code is code too (``uqguide replay --run-code``)."""
         return ""
 
     def __init__(self, params: ModelParams | Mapping[str, object] | None = None) -> None:
@@ -176,22 +131,9 @@ class Model(ABC):
         self.params = params
 
     def at_fidelity(self, changes: Mapping[str, object]) -> Model:
-        """The same model with its fidelity parameters changed (validated like the config's).
-
-        Parameters
-        ----------
-        changes : mapping of str to value
-            Values of some of :attr:`fidelity_params`; empty: this model.
-
-        Returns
-        -------
-        Model
-
-        Raises
-        ------
-        ValueError
-            Naming a parameter that does not set the fidelity, or a value its field refuses.
-        """
+        """The same model with some of :attr:`fidelity_params` changed to ``changes``
+        (validated like the config's; empty: this model). ValueError for a parameter that does
+        not set the fidelity, or a value its field refuses."""
         if not changes:
             return self
         other = [k for k in changes if k not in self.fidelity_params]
@@ -206,116 +148,51 @@ class Model(ABC):
 
     @abstractmethod
     def inputs(self) -> tuple[InputInfo, ...]:
-        """The inputs this model accepts as uncertain.
-
-        Returns
-        -------
-        tuple of InputInfo
-            Name, SI unit, meaning and nominal value of each.
-        """
+        """The inputs this model accepts as uncertain."""
 
     @abstractmethod
     def outputs(self) -> tuple[OutputInfo, ...]:
-        """The outputs this model can produce.
-
-        Returns
-        -------
-        tuple of OutputInfo
-            Name, kind (series or scalar), SI unit, meaning and components of each.
-        """
+        """The outputs this model can produce."""
 
     @abstractmethod
     def _evaluate(
         self, values: Mapping[str, np.ndarray], n: int, outputs: frozenset[str]
     ) -> ModelOutput:
-        """Evaluate the batch.
-
-        Parameters
-        ----------
-        values : mapping of str to ndarray, shape (n,)
-            Every input of :meth:`inputs` by name, nominal where not uncertain.
-        n : int
-            Batch size.
-        outputs : frozenset of str
-            Names of the outputs asked for; others may be left out (saves memory and time).
-
-        Returns
-        -------
-        ModelOutput
-            Grid ``(T,)`` [s], series ``(n, T, k)``, scalars ``(n, k)``, failure mask and
-            reasons ``(n,)``; a sample that fails is flagged with its reason, never raised.
-        """
+        """Evaluate a batch of ``n``: ``values`` holds every input of :meth:`inputs` by name,
+        ``(n,)`` each (nominal where not uncertain); the ``outputs`` asked for must be returned
+        (others may be left out). Returns the grid ``(T,)`` [s], series ``(n, T, k)``, scalars
+        ``(n, k)``, failure mask and reasons ``(n,)``: a sample that fails is flagged with its
+        reason, never raised."""
 
     def derived_outputs(self) -> Mapping[str, DerivedOutput]:
-        """Outputs this model computes from smoother carrier outputs (default: none).
-
-        Returns
-        -------
-        mapping of str to DerivedOutput
-            By output name.
-        """
+        """Outputs this model computes from smoother carrier outputs, by name (default: none)."""
         return {}
 
     def full_values(self, x: np.ndarray, input_names: Sequence[str]) -> dict[str, float]:
-        """Every input's value for one sample (nominal where not given).
-
-        Parameters
-        ----------
-        x : ndarray, shape (d,)
-            The sample, SI units.
-        input_names : sequence of str, length d
-
-        Returns
-        -------
-        dict of str to float
-            Every input of :meth:`inputs`.
-        """
+        """Every input's value for one sample ``x (d,)`` [SI] of ``input_names`` (nominal where
+        not given)."""
         vals = {i.name: float(i.nominal) for i in self.inputs()}
         vals.update({nm: float(v) for nm, v in zip(input_names, x)})
         return vals
 
     # ------------------------------------------------------------------ public API
     def input_names(self) -> tuple[str, ...]:
-        """Names of :meth:`inputs`, in order.
-
-        Returns
-        -------
-        tuple of str
-        """
+        """Names of :meth:`inputs`, in order."""
         return tuple(i.name for i in self.inputs())
 
     def kernel_choice(self) -> Literal["numba"] | None:
-        """Whether the evaluations run a compiled kernel (a model with a ``kernel`` parameter).
-
-        Returns
-        -------
-        "numba" or None
-            None: nothing compiled for the driver to load before its timed runs.
-        """
+        """``"numba"`` when the evaluations run a compiled kernel (a model with a ``kernel``
+        parameter), else None (nothing for the driver to load before its timed runs)."""
         return None if getattr(self.params, "kernel", None) is None else "numba"
 
     def step_count(self) -> StepCount | None:
-        """Steps and output grid points of one run, from the parameters alone.
-
-        Returns
-        -------
-        StepCount or None
-            None: the model does not time-step.
-        """
+        """Steps and output grid points of one run, from the parameters alone (None: the model
+        does not time-step)."""
         return None
 
     def output_info(self, name: str) -> OutputInfo:
-        """The metadata of one output.
-
-        Parameters
-        ----------
-        name : str
-
-        Returns
-        -------
-        OutputInfo
-            ModelError, listing the outputs, when there is none of that name.
-        """
+        """The metadata of output ``name``; ModelError, listing the outputs, when there is
+        none."""
         for o in self.outputs():
             if o.name == name:
                 return o
@@ -325,28 +202,12 @@ class Model(ABC):
         )
 
     def nominal_values(self, n: int = 1) -> dict[str, np.ndarray]:
-        """Every input at its nominal value, arrays of length ``n`` (moved by round-off when
-        ``UQGUIDE_PERTURB`` asks, as :meth:`evaluate` does; see :mod:`.roundoff`).
-
-        Parameters
-        ----------
-        n : int
-            Length of each array.
-
-        Returns
-        -------
-        dict of str to ndarray, shape (n,)
-            Every input, SI units.
-        """
+        """Every input at its nominal value [SI], arrays of length ``n`` (moved by round-off
+        when ``UQGUIDE_PERTURB`` asks, as :meth:`evaluate` does; see :mod:`.roundoff`)."""
         return apply_env({i.name: np.full(n, i.nominal) for i in self.inputs()})
 
     def default_outputs(self) -> tuple[str, ...]:
-        """The outputs reported when the config lists none.
-
-        Returns
-        -------
-        tuple of str
-        """
+        """The outputs reported when the config lists none."""
         return tuple(o.name for o in self.outputs() if o.default)
 
     def evaluate(
@@ -355,23 +216,10 @@ class Model(ABC):
         input_names: Sequence[str],
         outputs: Collection[str] | None = None,
     ) -> ModelOutput:
-        """Evaluate the model on a batch.
-
-        Parameters
-        ----------
-        x : array_like, shape (n, d)
-            Input samples in SI units; column ``j`` is the input ``input_names[j]``.
-        input_names : sequence of str, length d
-            Names of the uncertain inputs, each one of :meth:`inputs`.
-        outputs : collection of str, optional
-            Outputs to compute (default: :meth:`default_outputs`).
-
-        Returns
-        -------
-        ModelOutput
-            Holds at least the requested outputs, with a failure mask; samples that fail are
-            flagged, never raised.
-        """
+        """Evaluate the model on a batch ``x (n, d)`` [SI] whose column ``j`` is the input
+        ``input_names[j]`` (each one of :meth:`inputs`), computing ``outputs`` (default:
+        :meth:`default_outputs`). The result holds at least those, with a failure mask: samples
+        that fail are flagged, never raised."""
         x = np.asarray(x, dtype=float)
         if x.ndim != 2 or x.shape[1] != len(input_names):
             raise ModelError(
@@ -421,17 +269,7 @@ class Model(ABC):
 
 
 def failure_reasons(failed: np.ndarray, reason: str) -> np.ndarray:
-    """An object array of reasons: ``reason`` where ``failed``, ``""`` elsewhere.
-
-    Parameters
-    ----------
-    failed : ndarray of bool, shape (n,)
-    reason : str
-
-    Returns
-    -------
-    ndarray of object, shape (n,)
-    """
+    """An object array ``(n,)`` of reasons: ``reason`` where ``failed (n,)``, ``""`` elsewhere."""
     out = np.full(failed.shape, "", dtype=object)
     out[failed] = reason
     return out

@@ -7,9 +7,10 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
-from pydantic import ValidationInfo, model_validator
+from pydantic import ValidationError, ValidationInfo, model_validator
+from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from .base import ModelParams
 
@@ -26,3 +27,11 @@ class ConfigDirParams(ModelParams):
             where = (info.context or {}).get("config_dir") or os.getcwd()
             data = {**data, "config_dir": str(Path(where).resolve())}
         return data
+
+    def _refuse(self, field: str, message: str, given: Any = None) -> NoReturn:
+        # A check across fields, reported at the field it is about (a plain ValueError here
+        # would be reported at "model", naming no field). A mapping as the input makes the
+        # message stand alone (no "(got ...)" after it): those messages name the value.
+        raise ValidationError.from_exception_data(type(self).__name__, [InitErrorDetails(
+            type=PydanticCustomError("value_error", "{message}", {"message": message}),
+            loc=(field,), input=getattr(self, field, None) if given is None else given)])

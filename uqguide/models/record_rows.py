@@ -1,15 +1,8 @@
 """Record writers the compiled kernels share: copy a run's recorded quantities into the outputs.
 
-Every kernel keeps its per-step work in one of two shapes and records into one of two:
-
-- work as structure of arrays (a row per quantity, the block's lanes along it, ``src[q, l]``)
-  or as one sample's vector (``src[q]``);
-- outputs per sample (``out[sample, grid_row, component]``: gmm, gmm_ftc, ft_as) or per series
-  (``buf[column, sample, grid_row]``: ftcapn).
-
-Each writer copies ``width`` consecutive quantities from row ``q0`` on; a negative output column
-means "not recorded" where the caller records a subset. Plain copies, no arithmetic: they cannot
-change a number. Imported by the ``kernel_numba`` modules only (it compiles on import).
+Plain copies, no arithmetic: they cannot change a number. The work and output shapes they
+serve: docs/simulators.md#the-compiled-kernels-records. Imported by the ``kernel_numba``
+modules only (it compiles on import).
 """
 
 from __future__ import annotations

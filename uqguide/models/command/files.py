@@ -73,35 +73,15 @@ class ReadOutputs:
 
 
 def scalar_columns(spec: OutputSpec) -> list[str]:
-    """CSV column names of a scalar output: ``name``, or ``name[j]`` per component.
-
-    Parameters
-    ----------
-    spec : OutputSpec
-
-    Returns
-    -------
-    list of str
-    """
+    """CSV column names of a scalar output: ``name``, or ``name[j]`` per component."""
     if spec.components == 1:
         return [spec.name]
     return [f"{spec.name}[{j}]" for j in range(spec.components)]
 
 
 def series_files(outputs: Path, spec: OutputSpec) -> list[Path]:
-    """The CSV files of a series output beside the outputs file ``outputs``.
-
-    Parameters
-    ----------
-    outputs : Path
-        The scalar outputs file (``.../outputs.csv``).
-    spec : OutputSpec
-
-    Returns
-    -------
-    list of Path
-        ``<stem>_<name>.csv``, or ``<stem>_<name>_<j>.csv`` for each component ``j``.
-    """
+    """The CSV files of a series output beside the scalar outputs file ``outputs``
+    (``.../outputs.csv``): ``<stem>_<name>.csv``, or ``<stem>_<name>_<j>.csv`` per component."""
     stem = outputs.with_suffix("").name
     if spec.components == 1:
         return [outputs.with_name(f"{stem}_{spec.name}.csv")]
@@ -110,18 +90,8 @@ def series_files(outputs: Path, spec: OutputSpec) -> list[Path]:
 
 # ---------------------------------------------------------------------------- inputs
 def write_inputs(path: Path, names: Sequence[str], x: np.ndarray, fmt: str) -> None:
-    """Write a batch's inputs.
-
-    Parameters
-    ----------
-    path : Path
-        ``inputs.csv`` or ``inputs.h5``.
-    names : sequence of str, length d
-        Input names (plain names: they cannot break the CSV).
-    x : ndarray, shape (n, d)
-        The samples, SI units.
-    fmt : {"csv", "hdf5"}
-    """
+    """Write a batch's samples ``x (n, d)`` [SI] of the inputs ``names`` (plain names: they
+    cannot break the CSV) to ``path`` (``inputs.csv`` or ``inputs.h5`` by ``fmt``)."""
     if fmt == "hdf5":
         import h5py
 
@@ -145,32 +115,13 @@ def inputs_csv(names: Sequence[str], x: np.ndarray) -> str:
 # ---------------------------------------------------------------------------- outputs
 def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str,
                  deadline: Deadline | None = None) -> ReadOutputs:
-    """Read a batch's outputs written by the program.
+    """Read the outputs ``specs`` of a batch of ``n`` samples the program wrote to ``path``
+    (``outputs.csv`` or ``outputs.h5`` by ``fmt``), by the ``deadline`` if given.
 
-    Parameters
-    ----------
-    path : Path
-        ``outputs.csv`` or ``outputs.h5``.
-    specs : sequence of OutputSpec
-        The outputs to read.
-    n : int
-        Samples of the batch.
-    fmt : {"csv", "hdf5"}
-    deadline : Deadline, optional
-        When the call must be over (reading included).
-
-    Returns
-    -------
-    ReadOutputs
-
-    Raises
-    ------
-    ModelError
-        A missing file, a short one, a missing or repeated column, a cell that is not a
-        number: naming the file, the line and the column.
-    CommandFailed
-        A file that is not a regular file, or larger than the batch can need, or not read by
-        the deadline: the call fails (and its batch is split) as if the program had crashed.
+    Raises ModelError for a missing or short file, a missing or repeated column, a cell that is
+    not a number (naming the file, the line and the column); CommandFailed for a file that is
+    not a regular file, is larger than the batch can need or is not read by the deadline (the
+    call fails, and its batch is split, as if the program had crashed).
     """
     got = _read_hdf5(path, specs, n) if fmt == "hdf5" else _read_csv(path, specs, n, deadline)
     if deadline is not None:

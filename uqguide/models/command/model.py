@@ -25,8 +25,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field, ValidationError, field_validator, model_validator
-from pydantic_core import InitErrorDetails, PydanticCustomError
+from pydantic import Field, field_validator, model_validator
 
 from ...core.names import PLAIN_NAME_RULE, is_plain_name
 from ...core.process_groups import MARK
@@ -168,22 +167,10 @@ class CommandParams(ConfigDirParams):
             self._refuse("command", f"program {program!r} is not on PATH (give its path, e.g. "
                                     f"'./{program}' for one in the config's folder)")
 
-    def _refuse(self, field: str, message: str) -> None:
-        # A check across fields, reported at the field it is about (a plain ValueError here
-        # would be reported at "model", naming no field).
-        raise ValidationError.from_exception_data(type(self).__name__, [InitErrorDetails(
-            type=PydanticCustomError("value_error", "{message}", {"message": message}),
-            loc=(field,), input=getattr(self, field))])
-
     def program_file(self) -> Path | None:
-        """The file of the program the command starts (what a resumed run checks unchanged).
-
-        Returns
-        -------
-        Path or None
-            None for a program named by a placeholder, one not found, or with ``shell: true``
-            one not given by its path.
-        """
+        """The file of the program the command starts (what a resumed run checks unchanged);
+        None for a program named by a placeholder, one not found, or with ``shell: true`` one
+        not given by its path."""
         if self.shell:
             word = process.shell_program(self.command)
             return None if word is None else Path(self.config_dir or ".", word)
@@ -196,21 +183,11 @@ class CommandParams(ConfigDirParams):
         return Path(found) if found else None
 
     def environment(self) -> dict[str, str]:
-        """The program's environment: uqguide's, with ``env`` set over it.
-
-        Returns
-        -------
-        dict of str to str
-        """
+        """The program's environment: uqguide's, with ``env`` set over it."""
         return {**os.environ, **{k: str(v) for k, v in self.env.items()}}
 
     def root(self) -> Path:
-        """The folder the work folders are made in.
-
-        Returns
-        -------
-        Path
-        """
+        """The folder the work folders are made in."""
         return Path(self.config_dir or ".", self.workdir or _default_root())
 
 

@@ -82,46 +82,18 @@ class Deadline:
 
 
 def unknown_placeholders(template: str) -> list[str]:
-    """The ``{name}`` placeholders of ``template`` that are not in :data:`PLACEHOLDERS`.
-
-    Parameters
-    ----------
-    template : str
-
-    Returns
-    -------
-    list of str
-    """
+    """The ``{name}`` placeholders of ``template`` that are not in :data:`PLACEHOLDERS`."""
     return [m for m in _PLACEHOLDER.findall(template) if m not in PLACEHOLDERS]
 
 
 def fill(template: str, values: Mapping[str, str]) -> str:
-    """``template`` with each known ``{name}`` replaced by ``values[name]``.
-
-    Parameters
-    ----------
-    template : str
-    values : mapping of str to str
-        A value for every name of :data:`PLACEHOLDERS`.
-
-    Returns
-    -------
-    str
-    """
+    """``template`` with each known ``{name}`` replaced by ``values[name]`` (``values`` holds
+    every name of :data:`PLACEHOLDERS`)."""
     return _PLACEHOLDER.sub(lambda m: values.get(m.group(1), m.group(0)), template)
 
 
 def environment(values: Mapping[str, str]) -> dict[str, str]:
-    """The placeholders' values as the environment variables :data:`ENV_NAMES`.
-
-    Parameters
-    ----------
-    values : mapping of str to str
-
-    Returns
-    -------
-    dict of str to str
-    """
+    """The placeholders' values as the environment variables :data:`ENV_NAMES`."""
     return {ENV_NAMES[k]: v for k, v in values.items() if k in ENV_NAMES}
 
 
@@ -141,22 +113,9 @@ def shell_script(template: str) -> str:
     quotes and in a here-document, and ``'"${UQ_INPUTS}"'`` inside single quotes (closed, the
     value, reopened). No value is spliced into the script, so a ``$(...)``, a backquote or a
     quote in a path is text. A relative first word (``./mysim``) is prefixed with the config's
-    folder, as without a shell.
-
-    Parameters
-    ----------
-    template : str
-        The config's ``command`` (balanced quotes: checked when the config is loaded).
-
-    Returns
-    -------
-    str
-
-    Raises
-    ------
-    ValueError
-        A placeholder in a here-document whose delimiter is quoted (``<<'EOF'``), where the
-        shell expands nothing.
+    folder, as without a shell. ``template`` (the config's ``command``) has balanced quotes
+    (checked when the config is loaded). ValueError for a placeholder in a here-document whose
+    delimiter is quoted (``<<'EOF'``), where the shell expands nothing.
     """
     program = shell_program(template)
     if program is not None and not program.startswith("/"):
@@ -240,21 +199,9 @@ def _heredoc_bodies(template: str, i: int, heredocs: list[tuple[bool, str, bool]
 
 
 def argv(template: str, values: Mapping[str, str], shell: bool) -> list[str] | str:
-    """The arguments of one call (or the shell script with ``shell``, :func:`shell_script`,
-    which reads the values from :func:`environment`).
-
-    Parameters
-    ----------
-    template : str
-        The config's ``command``.
-    values : mapping of str to str
-        The placeholders' values.
-    shell : bool
-
-    Returns
-    -------
-    list of str or str
-    """
+    """The arguments of one call of the config's ``command`` with the placeholders' ``values``
+    (with ``shell``: the script of :func:`shell_script`, which reads them from
+    :func:`environment`)."""
     if shell:
         return shell_script(template)
     args = [fill(token, values) for token in shlex.split(template)]
@@ -278,23 +225,11 @@ def run(args: Sequence[str] | str, workdir: Path, env: Mapping[str, str],
     """Run one call of the program in ``workdir`` and wait for it; whatever it started is
     killed when it ends (:func:`~uqguide.core.process_groups.program_call`).
 
-    Parameters
-    ----------
-    args : list of str, or str
-        From :func:`argv` (a str runs through ``/bin/sh -c``).
-    workdir : Path
-        Its current folder; receives ``stdout.txt`` and ``stderr.txt``.
-    env : mapping of str to str
-        Its whole environment.
-    deadline : Deadline, optional
-        When the call must be over; then its processes are killed.
-
-    Raises
-    ------
-    CommandFailed
-        A non-zero exit status, a signal or the deadline; the message names the work folder.
-    ModelError
-        The program cannot be started (not found, not executable).
+    ``args`` come from :func:`argv` (a str runs through ``/bin/sh -c``); ``workdir`` is its
+    current folder and receives ``stdout.txt`` and ``stderr.txt``; ``env`` its whole
+    environment; at the ``deadline`` its processes are killed. Raises CommandFailed (naming the
+    work folder) on a non-zero exit status, a signal or the deadline, ModelError when the
+    program cannot be started.
     """
     shell = isinstance(args, str)
     with open(workdir / "stdout.txt", "wb") as out, open(workdir / "stderr.txt", "wb") as err, \

@@ -62,23 +62,10 @@ def _columns(obj: Any, names: Sequence[str] | None, default: str, what: str
 def table_of(x: Any, y: Any, input_names: Sequence[str],
              outputs: Sequence[str] | None = None, time: Sequence[float] | None = None
              ) -> Table:
-    """The table of runs ``x`` (inputs) and ``y`` (outputs) held in Python (module docstring).
-
-    Parameters
-    ----------
-    x : array_like (n, d), DataFrame, Dataset or mapping
-    y : array_like (n,) or (n, m), DataFrame, Dataset or mapping
-    input_names : sequence of str
-        The inputs' names, in order (the columns of an array ``x``).
-    outputs : sequence of str, optional
-        Names of the columns of an array ``y``.
-    time : sequence of float, optional
-        The series' time grid [s] (replaces a Dataset's time coordinate).
-
-    Returns
-    -------
-    Table
-    """
+    """The table of runs ``x`` (inputs: an array ``(n, d)`` whose columns are ``input_names``,
+    a DataFrame, Dataset or mapping) and ``y`` (outputs: an array ``(n,)`` or ``(n, m)`` whose
+    columns are ``outputs``, or as ``x``) held in Python (module docstring); ``time`` [s]
+    replaces a Dataset's time coordinate."""
     xs = _columns(x, input_names, "x", "x")
     ys = _columns(y, outputs, "y", "y")
     both = sorted(set(xs) & set(ys) - {TIME})

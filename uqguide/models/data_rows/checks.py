@@ -2,8 +2,8 @@
 with one line naming the file, the row and the column (exit 2); what only weakens the
 statistics is logged as a warning.
 
-The list of refusals and warnings, and why each: docs/config.md, "What a data file's rows must
-satisfy".
+The list of refusals and warnings, and why each:
+docs/config.md#what-a-data-files-rows-must-satisfy.
 """
 
 from __future__ import annotations
@@ -29,17 +29,9 @@ GOF_LEVEL = 0.01
 
 @dataclass(frozen=True)
 class GoodnessOfFit:
-    """The Kolmogorov-Smirnov test of one input's column against its declared marginal.
-
-    Attributes
-    ----------
-    name : str
-    statistic : float
-        The KS distance ``sup |F_n - F|``.
-    p_value : float
-    rejected : bool
-        ``p_value`` below ``GOF_LEVEL / d``.
-    """
+    """The Kolmogorov-Smirnov test of one input's column against its declared marginal: the
+    distance ``statistic = sup |F_n - F|``, its ``p_value``, and whether it is ``rejected``
+    (``p_value`` below ``GOF_LEVEL / d``)."""
 
     name: str
     statistic: float
@@ -52,20 +44,9 @@ def _fail(table: Table, text: str) -> ConfigError:
 
 
 def input_rows(table: Table, space: InputSpace) -> np.ndarray:
-    """The design ``x (n, d)`` the file's rows give, columns in ``space.names`` order, after
-    every check on the inputs (module docstring).
-
-    Parameters
-    ----------
-    table : Table
-    space : InputSpace
-        The config's inputs.
-
-    Returns
-    -------
-    ndarray, shape (n, d)
-        SI units, as the file holds them.
-    """
+    """The design ``x (n, d)`` [SI, as the file holds them] the file's rows give, columns in
+    the order of the config's inputs ``space.names``, after every check on the inputs (module
+    docstring)."""
     columns = table.column_names()
     for i, name in enumerate(space.names):
         v = table.columns.get(name)
@@ -120,19 +101,7 @@ def _refuse_repeats(table: Table, x: np.ndarray, names: Sequence[str]) -> None:
 def output_names(table: Table, space: InputSpace, outputs: Sequence[str] | None
                  ) -> tuple[str, ...]:
     """The outputs to read: those the config names (each must be a column or a series of the
-    file), or by default every column that is not an input.
-
-    Parameters
-    ----------
-    table : Table
-    space : InputSpace
-    outputs : sequence of str, optional
-        The config's ``outputs``.
-
-    Returns
-    -------
-    tuple of str
-    """
+    file), or by default (``outputs`` None) every column that is not an input."""
     if outputs is None:
         found = tuple(k for k in table.columns if k not in space.names)
         if not found:
@@ -158,17 +127,7 @@ def output_names(table: Table, space: InputSpace, outputs: Sequence[str] | None
 
 def failed_rows(table: Table, outputs: Sequence[str]) -> np.ndarray:
     """The runs that failed: rows flagged in the ``failed`` column, and rows whose outputs
-    hold a NaN or an infinity.
-
-    Parameters
-    ----------
-    table : Table
-    outputs : sequence of str
-
-    Returns
-    -------
-    ndarray of bool, shape (n,)
-    """
+    hold a NaN or an infinity (a mask ``(n,)``)."""
     bad = np.zeros(table.n_rows, dtype=bool) if table.flagged is None else table.flagged.copy()
     for name in outputs:
         v = table.columns[name]
@@ -189,25 +148,10 @@ def warn_failed(table: Table, failed: np.ndarray) -> None:
 
 
 def goodness_of_fit(x: np.ndarray, space: InputSpace) -> list[GoodnessOfFit]:
-    """The Kolmogorov-Smirnov test of each input's values against its declared marginal.
-
-    A test per input, not of the joint law: it sees a column drawn from another distribution
-    (a wrong scale, a truncated range, a design crowded in one corner), not a dependence
-    between columns. Each is judged at ``GOF_LEVEL / d``. A space-filling design (Sobol',
-    LHS) is closer to its marginals than iid draws and passes: the test guards against the
-    wrong distribution, not against a better design.
-
-    Parameters
-    ----------
-    x : ndarray, shape (n, d)
-        The rows, SI units.
-    space : InputSpace
-
-    Returns
-    -------
-    list of GoodnessOfFit
-        One per input, in order (none with fewer than 2 rows).
-    """
+    """The Kolmogorov-Smirnov test of each input's values in the rows ``x (n, d)`` [SI]
+    against its declared marginal, judged at ``GOF_LEVEL / d``: one per input, in order (none
+    with fewer than 2 rows). Per input, not of the joint law; a space-filling design passes
+    (docs/your-simulator.md#bad-data)."""
     from scipy import stats
 
     if x.shape[0] < 2:

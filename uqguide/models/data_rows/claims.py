@@ -3,8 +3,8 @@ read: a CSV's header and its count of lines, an HDF5 file's dataset shapes and t
 ``.npz`` file's array headers, a Parquet file's metadata. A header that claims terabytes is
 then refused against ``max_memory`` (:mod:`uqguide.config.data_source`) before anything is
 allocated, and an ``.npz`` array whose header claims more bytes than its member holds is
-refused as damaged. The bytes a claim stands for, and the measured peaks, are in
-``docs/your-simulator.md`` ("Your own samples", "Limits").
+refused as damaged. The bytes a claim stands for, and the measured peaks:
+docs/your-simulator.md#limits-of-a-file.
 """
 
 from __future__ import annotations
@@ -41,24 +41,11 @@ _READ_CHUNK = 2**20
 
 @dataclass(frozen=True)
 class Claim:
-    """What a file holds by its size and headers.
-
-    Attributes
-    ----------
-    rows : int
-        Rows (runs); for a CSV an upper bound, its lines after the header.
-    cells : int
-        Numeric values once read (every column's, a series' steps each).
-    extra_bytes : float
-        Bytes the reading holds beside 8 a value: text cells, a conversion's copy in the
-        file's own type, a CSV's line and block of cells being converted.
-    what : str
-        The claim in words, for a refusal (``"2,000,001 lines x 8 columns"``).
-    columns : tuple of str
-        A CSV's column names (its header, read to count them); empty for the other formats.
-    line_bytes : int
-        Longest line of a CSV [bytes] (0 for the other formats).
-    """
+    """What a file holds by its size and headers: ``rows`` (runs; for a CSV an upper bound, its
+    lines after the header), numeric ``cells`` once read, ``extra_bytes`` the reading holds
+    beside 8 a value (text cells, a conversion's copy, a CSV's line and block being
+    converted), the claim in words for a refusal (``what``: ``"2,000,001 lines x 8
+    columns"``), and for a CSV its header's ``columns`` and longest line ``line_bytes``."""
 
     rows: int
     cells: int
@@ -98,14 +85,8 @@ def _first_long(inner: bytes, limit: int) -> int:
 
 def _count_lines(path: Path, limit: int) -> tuple[int, int]:
     """The file's lines (a last one without its newline counted), without decoding or holding
-    more than a chunk; stops at the first line longer than ``limit`` bytes.
-
-    Returns
-    -------
-    lines : int
-    too_long : int
-        The number of the first line over ``limit`` (counted from 1), 0 when none is.
-    """
+    more than a chunk; stops at the first line longer than ``limit`` bytes. Returns the count
+    and the number (from 1) of the first line over ``limit``, 0 when none is."""
     lines, run = 0, 0  # run: bytes of the line not yet ended
     with path.open("rb") as f:
         while chunk := f.read(_READ_CHUNK):

@@ -2,7 +2,7 @@
 output, a series as ``name[0]``, ``name[1]``, ... or one ``(n, T)`` dataset.
 
 Formats (CSV, Parquet, HDF5, ``.npz``), the time grid, how a failed run is written, and the
-limits checked before reading: docs/config.md, "Data file formats". What the rows must satisfy
+limits checked before reading: docs/config.md#data-file-formats. What the rows must satisfy
 against the config's inputs is :mod:`.checks`; a file that cannot be read is a ConfigError
 naming the file (and the line and column of a cell that is not a number).
 """
@@ -39,25 +39,14 @@ ARRAYS = "<arrays>"
 
 @dataclass(frozen=True, eq=False)
 class Table:
-    """The runs of a file, as named columns.
+    """The runs of a file, as named float64 ``columns`` (``(n,)`` per plain column, ``(n, T)``
+    per series).
 
-    Attributes
-    ----------
-    source : str
-        The file's path as the config gives it, or ``"<arrays>"`` for data from Python.
-    columns : dict of str to ndarray
-        ``(n,)`` per plain column, ``(n, T)`` per series; float64.
-    time : ndarray or None
-        The file's time grid ``(T,)`` [s], when it has one.
-    first_line : int
-        The file line of row 0 (2 for a CSV with its header; 0: the file has no lines and a
-        row is named by its number alone).
-    digest : str
-        SHA-256 of the columns' names and values (a run's identity: another file, another run).
-    flagged : ndarray of bool or None
-        ``(n,)``: the rows the ``failed`` column marks, when the file has one.
-    reasons : ndarray of str or None
-        ``(n,)``: the ``reason`` column ("" where empty), when the file has one.
+    ``source`` is the file's path as the config gives it (``"<arrays>"`` for data from
+    Python); ``time`` its grid ``(T,)`` [s], if any; ``first_line`` the file line of row 0 (2
+    for a CSV with its header; 0: rows are named by number alone); ``digest`` the SHA-256 of
+    the columns' names and values (a run's identity); ``flagged`` and ``reasons`` ``(n,)`` the
+    ``failed`` and ``reason`` columns ("" where empty), when the file has them.
     """
 
     source: str
@@ -305,24 +294,10 @@ def _read_npz(path: Path, source: str) -> dict[str, np.ndarray]:
 
 def read_table(path: str | Path, source: str | None = None,
                check: Callable[[Claim], None] | None = None) -> Table:
-    """Read a file of runs, once what it claims (:mod:`.claims`) passed ``check``.
-
-    Parameters
-    ----------
-    path : str or Path
-        The file; its suffix says the format (:data:`SUFFIXES`).
-    source : str, optional
-        How messages name the file (default: ``path`` as given).
-    check : callable, optional
-        Called with the file's :class:`~.claims.Claim` before any value is read; raises
-        ConfigError to refuse it (``max_memory``: :mod:`uqguide.config.data_source`).
-
-    Returns
-    -------
-    Table
-        ConfigError naming the file (line and column where a cell is bad) when it cannot be
-        read.
-    """
+    """Read the file of runs at ``path`` (its suffix says the format: :data:`SUFFIXES`), named
+    ``source`` in messages (default: ``path``), once ``check`` (which raises ConfigError to
+    refuse, as ``max_memory`` does) passed what it claims (:class:`~.claims.Claim`). ConfigError
+    naming the file (and the line and column of a bad cell) when it cannot be read."""
     p = Path(path)
     source = source or str(path)
     fmt = SUFFIXES.get(p.suffix.lower())
@@ -349,20 +324,9 @@ def read_table(path: str | Path, source: str | None = None,
 
 
 def table_from_arrays(columns: Mapping[str, Any], source: str = ARRAYS) -> Table:
-    """A table of columns already in memory (``uqguide.fit``).
-
-    Parameters
-    ----------
-    columns : mapping of str to array_like
-        ``(n,)`` per column, ``(n, T)`` per series (or its steps as ``name[j]`` columns),
-        ``time`` ``(T,)`` optional.
-    source : str
-        How messages name the data.
-
-    Returns
-    -------
-    Table
-    """
+    """A table of ``columns`` already in memory (``uqguide.fit``): ``(n,)`` per column, ``(n,
+    T)`` per series (or its steps as ``name[j]`` columns), ``time (T,)`` optional; messages name
+    it ``source``."""
     check_names([str(k) for k in columns], source, lambda j: f"column {j + 1}")
     return _table(_read_arrays(columns, source), source, 0, grid_in_file=True)
 

@@ -39,17 +39,9 @@ def _unprintable(name: str) -> str | None:
 
 def check_names(names: Sequence[str], source: str, where: Callable[[int], str]) -> None:
     """ConfigError when a column name is empty, unprintable, too long, repeated, or a series'
-    steps have a gap or a repeat (module docstring).
-
-    Parameters
-    ----------
-    names : sequence of str
-        The columns in the file's order (surrounding blanks already stripped).
-    source : str
-        The file, as messages name it.
-    where : callable
-        Column index -> where it is, for messages (``"line 1, column 3"``).
-    """
+    steps have a gap or a repeat (module docstring). ``names`` are the columns in the file's
+    order (blanks stripped), ``source`` the file as messages name it, ``where`` maps a column
+    index to its place (``"line 1, column 3"``)."""
     def fail(j: int, text: str) -> ConfigError:
         return ConfigError(f"data: {source}: {where(j)}: {text}", field="data")
 

@@ -18,24 +18,9 @@ _U_EPS = 2.0**-53
 
 
 def suggest_runs(space: InputSpace, x: np.ndarray, n: int, seed: int) -> np.ndarray:
-    """``n`` new runs that extend the design ``x`` (module docstring: the rule).
-
-    Parameters
-    ----------
-    space : InputSpace
-        The config's inputs.
-    x : ndarray, shape (N, d)
-        The existing rows (SI units, columns in ``space.names`` order); may be empty.
-    n : int
-        Runs to suggest, at least 1.
-    seed : int
-        The config's seed.
-
-    Returns
-    -------
-    ndarray, shape (n, d)
-        The new runs' inputs, SI units.
-    """
+    """The inputs ``(n, d)`` [SI] of ``n >= 1`` new runs that extend the design ``x (N, d)``
+    (maybe empty; columns in the order of the config's inputs ``space``), drawn with the
+    config's ``seed`` (module docstring: the rule)."""
     from scipy.spatial import cKDTree
     from scipy.stats import qmc
 

@@ -1,15 +1,10 @@
 """Relative motion in the body frame of a target spinning on an elliptical orbit ([C] eqs 1-9).
 
-The target spins relative to LVLH at the constant body rate ``w``, attitude ``C(t) = C0 exp(t
-[w x])`` (body to LVLH); substituting ``r_l = C r_b`` into the Tschauner-Hempel plant gives
 ``r_b'' = A21 r_b + A22 r_b' + u_b`` with the corrected [C 7] matrices
-(:func:`body_frame_matrices`; the printed form behind ``printed=True``, A20) and ``u_b = C^T u_l``.
-:func:`eq32_acceleration` is [C 32]'s "LVLH control", a diagnostic only (A24). The spin rate may
-differ per sample, so the matrices carry a leading axis of size 1 or ``n``; the true anomaly is
-the exact Kepler solution, evaluated once on the half-step grid RK4 needs
-(:class:`RotatingBodyFrame`, :func:`rk4_step`).
-
-The frames, the derivation and the corrections:
+(:func:`body_frame_matrices`; the printed form behind ``printed=True``, A20), a spin rate common
+or per sample (:class:`RotatingBodyFrame`), the exact Kepler true anomaly on the half-step grid
+RK4 needs (:func:`rk4_step`), and [C 32]'s "LVLH control" as a diagnostic only
+(:func:`eq32_acceleration`, A24). The frames, the derivation and the corrections:
 docs/papers.md#relative-motion-near-an-elliptical-orbit-and-a-spinning-target.
 """
 
@@ -72,8 +67,8 @@ def lvlh_matrices(
     orbit: ChiefOrbit, f: np.ndarray, printed_omega_dot: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Tschauner-Hempel ``A(f)`` [1/s^2], ``B(f)`` [1/s], each (T, 3, 3), at true anomalies ``f``
-    (T,) ([C 2-3], corrected as spec section 2); ``printed_omega_dot``: the printed ``dw/dt``
-    (wrong sign and exponent, spec A3)."""
+    (T,) ([C 2-3], corrected: A2); ``printed_omega_dot``: the printed ``dw/dt`` (wrong sign and
+    exponent, A3)."""
     f = np.atleast_1d(np.asarray(f, dtype=float))
     w = orbit.omega(f)
     wd = orbit.omega_dot(f, printed=printed_omega_dot)
@@ -117,8 +112,8 @@ def body_frame_matrices(
     w_dot: np.ndarray | None = None,
     printed: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``A21`` [1/s^2], ``A22`` [1/s], each (m, 3, 3), of the body-frame plant (spec section 3,
-    corrected [C 7]).
+    """``A21`` [1/s^2], ``A22`` [1/s], each (m, 3, 3), of the body-frame plant (the corrected
+    [C 7], A20).
 
     ``A``, ``B`` (3, 3): LVLH plant at the current true anomaly; ``C`` (m, 3, 3): body -> LVLH
     attitude; ``w`` (m, 3): body rate relative to LVLH, body components [rad/s]; ``w_dot``: its
@@ -182,7 +177,7 @@ def eq32_acceleration(w: np.ndarray, r_b: np.ndarray, v_b: np.ndarray, u_b: np.n
     """``u + 2 w x v_b + w x (w x r_b)`` of [C 32], body components [m/s^2].
 
     The difference between the relative accelerations seen in LVLH and in the body frame, not
-    a different thrust (spec section 3, A24): a diagnostic to compare with [C] Fig. 11 once
+    a different thrust (A24): a diagnostic to compare with [C] Fig. 11 once
     rotated to LVLH. The physical thrust in LVLH is ``C u_b``.
     """
     return u_b + 2.0 * np.cross(w, v_b) + np.cross(w, np.cross(w, r_b))
@@ -235,19 +230,10 @@ class LinearStage:
 
 @dataclass(frozen=True)
 class RotatingBodyFrame:
-    """Body-frame plant of a target spinning at a constant rate on an elliptical orbit.
-
-    Attributes
-    ----------
-    orbit : ChiefOrbit
-        Target orbit, common to the batch.
-    w : ndarray, shape (m, 3)
-        Spin rate(s) relative to LVLH, body components [rad/s]; ``m = 1`` (common) or ``n``.
-    printed : bool
-        Use the printed [C 7] form (:func:`body_frame_matrices`).
-    printed_omega_dot : bool
-        Use the printed ``dw/dt`` of the orbit (spec A3).
-    """
+    """Body-frame plant of a target spinning at a constant rate on an elliptical ``orbit``
+    (common to the batch): spin rate(s) ``w (m, 3)`` relative to LVLH, body components [rad/s]
+    (``m = 1``, common, or ``n``); initial attitude ``C0``; ``printed``: the printed [C 7] form
+    (:func:`body_frame_matrices`); ``printed_omega_dot``: the printed ``dw/dt`` (A3)."""
 
     orbit: ChiefOrbit
     w: np.ndarray

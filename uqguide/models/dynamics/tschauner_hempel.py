@@ -1,13 +1,9 @@
 """Tschauner-Hempel linearised relative motion about an elliptical chief orbit.
 
-In LVLH axes (x radial outward, y along-track, z orbit normal), ``r'' = A(f) r + B(f) r' + u``
-with the chief's true anomaly ``f`` (:class:`ChiefOrbit`, :class:`LVLHPlant`), corrected where
-both papers misprint ``A(1, 1)`` and ``dw/dt`` (A2, A3; the printed ``dw/dt`` behind
-``printed_omega_dot=True``). The chief orbit is common to a batch, so :func:`rk4_transition`
-applies RK4 to the linear plant once and returns the exact linear maps it realises: a batch then
-advances by one matrix product per sub-step, the same arithmetic as RK4 per sample.
-
-The equations and corrections:
+``r'' = A(f) r + B(f) r' + u`` in LVLH axes (:class:`ChiefOrbit`, :class:`LVLHPlant`), corrected
+where both papers misprint ``A(1, 1)`` and ``dw/dt`` (A2, A3); :func:`rk4_transition` gives the
+exact linear maps RK4 realises over a period, so a batch advances by one matrix product per
+sub-step. The equations and corrections:
 docs/papers.md#relative-motion-near-an-elliptical-orbit-and-a-spinning-target.
 """
 
@@ -25,7 +21,7 @@ MU_EARTH = 3.986e14
 @dataclass(frozen=True)
 class ChiefOrbit:
     """Keplerian orbit of the chief: semi-major axis ``a`` [m], eccentricity ``0 <= e < 1``,
-    true anomaly ``f0`` [rad] at ``t = 0`` ([W] does not publish it; spec A4: 0), ``mu``
+    true anomaly ``f0`` [rad] at ``t = 0`` ([W] does not publish it; A4: 0), ``mu``
     [m^3/s^2]."""
 
     a: float
@@ -55,7 +51,7 @@ class ChiefOrbit:
     def omega_dot(self, f: np.ndarray | float, printed: bool = False) -> np.ndarray:
         """Orbit angular acceleration [rad/s^2] at true anomaly ``f`` [rad].
 
-        ``-2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^3`` (spec A3). With ``printed=True`` the
+        ``-2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^3`` (A3). With ``printed=True`` the
         (wrong) form printed in [W 5] / [C 3], ``+2 n^2 e sin f (1 + e cos f)^3 / (1 - e^2)^{3/2}``.
         """
         n2 = self.mean_motion**2
@@ -68,8 +64,8 @@ class ChiefOrbit:
 class RelativePlant(Protocol):
     """A linear relative-motion plant ``r'' = A(t, f) r + B(t, f) r' + u`` on a shared orbit.
 
-    Implemented by :class:`LVLHPlant`; a body-frame plant of a spinning chief (spec section 3)
-    has the same interface with time-dependent matrices.
+    Implemented by :class:`LVLHPlant`; a body-frame plant of a spinning chief
+    (:mod:`.rotating_body_frame`) has the same interface with time-dependent matrices.
     """
 
     # Read-only, so that frozen dataclasses (LVLHPlant) satisfy the protocol.
@@ -84,7 +80,7 @@ class RelativePlant(Protocol):
 
 @dataclass(frozen=True)
 class LVLHPlant:
-    """Tschauner-Hempel plant in LVLH axes (spec section 2); ``printed_omega_dot``: the papers'
+    """Tschauner-Hempel plant in LVLH axes; ``printed_omega_dot``: the papers'
     printed ``dw/dt`` (wrong sign and exponent) instead of the correct one."""
 
     orbit: ChiefOrbit
@@ -112,16 +108,10 @@ def _augmented(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class StepMaps:
-    """Linear maps realised by RK4 over one control period with a held control.
-
-    Attributes
-    ----------
-    phi : ndarray, shape (n_sub, 6, 6)
-        ``x(t0 + (j+1) h) = phi[j] x(t0) + gam[j] u`` for sub-step ``j``, ``h = dt / n_sub``.
-    gam : ndarray, shape (n_sub, 6, 3)
-    f_end : float
-        Chief true anomaly at the end of the period [rad].
-    """
+    """Linear maps realised by RK4 over one control period with a held control:
+    ``x(t0 + (j+1) h) = phi[j] x(t0) + gam[j] u`` for sub-step ``j`` (``h = dt / n_sub``;
+    ``phi (n_sub, 6, 6)``, ``gam (n_sub, 6, 3)``), and the chief's true anomaly ``f_end`` [rad]
+    at the end of the period."""
 
     phi: np.ndarray
     gam: np.ndarray
@@ -134,7 +124,7 @@ def rk4_transition(plant: RelativePlant, t0: float, f0: float, dt: float, n_sub:
 
     The true anomaly is integrated by the same RK4 (``df/dt = w(f)``) and the plant matrices
     are evaluated at every stage time and stage anomaly, exactly as an RK4 of the coupled state
-    ``(r, v, f)`` would (spec section 8).
+    ``(r, v, f)`` would.
     """
     h = dt / n_sub
     orbit = plant.orbit

@@ -10,7 +10,7 @@ temporary folder marked as uqguide's; the processes that evaluate it (guards, po
 find it through the environment and unzip nothing. The folder is removed when its process
 exits, whether the run finished, failed or was interrupted; a folder whose process was
 killed is removed by the next one that unzips or exits. The limits and the ratios they come
-from are in ``docs/your-simulator.md`` ("An FMU").
+from: docs/your-simulator.md#the-archive.
 """
 
 from __future__ import annotations
@@ -64,17 +64,7 @@ class FmuUnavailable(ImportError):
 
 
 def fmpy() -> ModuleType:
-    """The ``fmpy`` module.
-
-    Returns
-    -------
-    module
-
-    Raises
-    ------
-    FmuUnavailable
-        FMPy is not installed; the message gives the ``pip install`` command.
-    """
+    """The ``fmpy`` module; FmuUnavailable (with the ``pip install`` command) without it."""
     try:
         import fmpy as module
     except ImportError:
@@ -89,26 +79,9 @@ def _key(path: Path) -> tuple[str, int, int]:
 
 
 def description(path: Path) -> Any:
-    """The parsed ``modelDescription.xml`` of the FMU at ``path``.
-
-    Parameters
-    ----------
-    path : Path
-        An ``.fmu`` file (or a folder holding an unzipped FMU).
-
-    Returns
-    -------
-    fmpy.model_description.ModelDescription
-
-    Raises
-    ------
-    FmuUnavailable
-        FMPy is not installed.
-    OSError
-        The file cannot be read.
-    ValueError
-        The file is not an FMU FMPy can read (the message says why).
-    """
+    """The parsed ``modelDescription.xml`` (an FMPy ModelDescription) of the ``.fmu`` file or
+    unzipped folder at ``path``. Raises FmuUnavailable without FMPy, OSError when the file
+    cannot be read, ValueError (saying why) when it is not an FMU FMPy can read."""
     key = _key(path)
     with _lock:
         if key in _descriptions:
@@ -155,22 +128,8 @@ def _member_problem(info: zipfile.ZipInfo) -> str | None:
 
 
 def check_archive(path: Path) -> list[zipfile.ZipInfo]:
-    """The FMU's members, each checked before anything is unzipped (module docstring).
-
-    Parameters
-    ----------
-    path : Path
-        The ``.fmu`` file.
-
-    Returns
-    -------
-    list of zipfile.ZipInfo
-
-    Raises
-    ------
-    ValueError
-        Naming the member and why it is refused, or the total over its limit.
-    """
+    """The members of the ``.fmu`` file ``path``, each checked before anything is unzipped
+    (module docstring); ValueError naming a refused member and why, or a total over its limit."""
     try:
         with zipfile.ZipFile(path) as z:
             infos = z.infolist()
@@ -249,23 +208,10 @@ def _sweep_at_exit() -> None:
 
 
 def unzipped(path: Path) -> str:
-    """The folder holding the FMU's files: this process's, a parent's, or unzipped now.
-
-    Parameters
-    ----------
-    path : Path
-        The ``.fmu`` file (a folder is used as it is).
-
-    Returns
-    -------
-    str
-        The folder (removed when the process that unzipped it exits).
-
-    Raises
-    ------
-    ValueError
-        The archive is refused (:func:`check_archive`) or cannot be unzipped.
-    """
+    """The folder holding the files of the ``.fmu`` at ``path`` (a folder is used as it is):
+    this process's, a parent's, or unzipped now (removed when the process that unzipped it
+    exits). ValueError when the archive is refused (:func:`check_archive`) or cannot be
+    unzipped."""
     if path.is_dir():
         return str(path)
     key = _key(path)
@@ -300,16 +246,7 @@ def unzipped(path: Path) -> str:
 
 
 def platform_problem(path: Path) -> str | None:
-    """Why this machine cannot run the FMU's binary, or None when it can.
-
-    Parameters
-    ----------
-    path : Path
-
-    Returns
-    -------
-    str or None
-    """
+    """Why this machine cannot run the FMU's binary, or None when it can."""
     module = fmpy()
     found = module.supported_platforms(str(path))
     if module.platform in found or module.platform_tuple in found:
@@ -319,47 +256,19 @@ def platform_problem(path: Path) -> str | None:
 
 
 def variables(md: Any) -> dict[str, Any]:
-    """The FMU's variables by name.
-
-    Parameters
-    ----------
-    md : ModelDescription
-
-    Returns
-    -------
-    dict of str to fmpy ScalarVariable
-    """
+    """The FMU's variables (FMPy ScalarVariable) of the ModelDescription ``md``, by name."""
     return {v.name: v for v in md.modelVariables}
 
 
 def settable(variable: Any) -> bool:
     """Whether a simulation can start from a value set for ``variable`` (a parameter, an
-    input, or a variable with an exact or approximate start value), as FMPy sets them.
-
-    Parameters
-    ----------
-    variable : fmpy ScalarVariable
-
-    Returns
-    -------
-    bool
-    """
+    input, or a variable with an exact or approximate start value), as FMPy sets them."""
     from fmpy.simulation import settable_in_initialization_mode, settable_in_instantiated
 
     return bool(settable_in_instantiated(variable) or settable_in_initialization_mode(variable))
 
 
 def listing(names: list[str], limit: int = 30) -> str:
-    """``names`` joined by commas, the first ``limit`` of them and how many more.
-
-    Parameters
-    ----------
-    names : list of str
-    limit : int
-
-    Returns
-    -------
-    str
-    """
+    """``names`` joined by commas, the first ``limit`` of them and how many more."""
     shown = ", ".join(names[:limit]) or "none"
     return shown if len(names) <= limit else f"{shown}, ... ({len(names)} in all)"

@@ -12,10 +12,9 @@ import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
-from pydantic import Field, ValidationError, field_validator, model_validator
-from pydantic_core import InitErrorDetails, PydanticCustomError
+from pydantic import Field, field_validator, model_validator
 
 from ...core.names import PLAIN_NAME_RULE, is_plain_name
 from ..config_dir import ConfigDirParams
@@ -50,12 +49,7 @@ class FmuOutput(CallableOutput):
         return self
 
     def variables(self) -> list[str]:
-        """The FMU variables of the components, in order.
-
-        Returns
-        -------
-        list of str
-        """
+        """The FMU variables of the components, in order."""
         if isinstance(self.variable, list):
             return list(self.variable)
         return [self.variable or self.name]
@@ -137,33 +131,17 @@ class FmuParams(ConfigDirParams):
 
     # ------------------------------------------------------------------ the FMU file
     def fmu_file(self) -> Path:
-        """The FMU's path, relative paths taken from the config's folder.
-
-        Returns
-        -------
-        Path
-        """
+        """The FMU's path, relative paths taken from the config's folder."""
         return Path(self.config_dir or ".", os.path.expanduser(self.path))
 
     def program_file(self) -> Path | None:
         """The FMU file, for the model's code hash: a rebuilt FMU is another model, so a run
-        is not resumed over it.
-
-        Returns
-        -------
-        Path or None
-            None when the path is a folder.
-        """
+        is not resumed over it (None when the path is a folder)."""
         f = self.fmu_file()
         return f if f.is_file() else None
 
     def description(self) -> Any:
-        """The FMU's parsed model description (cached per file version).
-
-        Returns
-        -------
-        fmpy ModelDescription
-        """
+        """The FMU's parsed model description (cached per file version)."""
         return archive.description(self.fmu_file())
 
     def interval(self) -> float:
@@ -173,10 +151,6 @@ class FmuParams(ConfigDirParams):
         of at most the FMU's default step (its ``DefaultExperiment`` ``stepSize``, else span /
         500): a co-simulation FMU that cannot take a shorter last step would otherwise stop
         short of ``stop_time``.
-
-        Returns
-        -------
-        float
         """
         if self.output_interval is not None:
             return self.output_interval
@@ -191,12 +165,7 @@ class FmuParams(ConfigDirParams):
         return span / max(1, math.ceil(span / step - 1e-9))
 
     def output_specs(self) -> list[FmuOutput]:
-        """The outputs, each as an :class:`FmuOutput`.
-
-        Returns
-        -------
-        list of FmuOutput
-        """
+        """The outputs, each as an :class:`FmuOutput`."""
         return [FmuOutput(name=o) if isinstance(o, str) else o for o in self.outputs]
 
     def _check_fmu(self) -> None:
@@ -267,11 +236,3 @@ class FmuParams(ConfigDirParams):
                                         f"{fmu}; its numeric variables: "
                                         f"{archive.listing(readable)}",
                              {"outputs": [s.name for s in self.output_specs()]})
-
-    def _refuse(self, field: str, message: str, given: Any = None) -> NoReturn:
-        # A check across fields, reported at the field it is about (a plain ValueError here
-        # would be reported at "model", naming no field). A mapping as the input makes the
-        # message stand alone (no "(got ...)" after it): those messages name the value.
-        raise ValidationError.from_exception_data(type(self).__name__, [InitErrorDetails(
-            type=PydanticCustomError("value_error", "{message}", {"message": message}),
-            loc=(field,), input=getattr(self, field, None) if given is None else given)])

@@ -1,18 +1,12 @@
 """Simulating a batch of samples with one FMU instance.
 
-FMI has no batch call: an instance simulates one parameter set at a time. So a batch makes one
-instance (loading the binary and instantiating it once) and simulates its samples in turn,
-resetting the instance between them (``fmi2Reset``/``fmi3Reset``, back to the state just
-after instantiation). FMI 1.0 has no reset: there each sample gets a fresh instance. After a
-sample whose simulation raised, the instance is freed and a new one made, since an FMU that
-reported an error may no longer reset cleanly.
-
-Each sample runs through ``fmpy.simulate_fmu`` (co-simulation stepping, or FMPy's CVode for a
-model-exchange-only FMU), given the already parsed description, the unzipped folder and the
-instance, so that it only sets the start values, initialises, steps and records. What a sample
-gives is checked against the time grid: a simulation that ends before ``stop_time`` (an FMU
-that terminated early) fails the sample, as does one that raised (with the FMU's own error
-messages in the reason) or an output that is not finite.
+FMI has no batch call, so a batch makes one instance and simulates its samples in turn,
+resetting it between them (FMI 1.0 has no reset: a fresh instance per sample); after a sample
+that raised, the instance is replaced, since it may no longer reset cleanly. Each sample runs
+through ``fmpy.simulate_fmu`` with the already parsed description, folder and instance. A
+sample fails when it raised (the FMU's logged errors go into the reason), stopped before
+``stop_time`` or gave a non-finite output:
+docs/your-simulator.md#how-it-runs-and-when-a-sample-fails.
 """
 
 from __future__ import annotations
@@ -33,23 +27,10 @@ _REASON_CHARS = 400
 
 @dataclass(frozen=True)
 class Setup:
-    """What every sample of a run shares.
-
-    Attributes
-    ----------
-    folder : str
-        The unzipped FMU.
-    md : fmpy ModelDescription
-    start_time, stop_time : float
-        [s].
-    output_interval : float
-        The communication step [s] (a whole number of them spans the simulation).
-    grid : ndarray, shape (T,)
-        Times the series are recorded at [s] (empty without series outputs).
-    relative_tolerance : float or None
-    fixed : mapping of str to object
-        Start values set for every sample (``start_values``).
-    """
+    """What every sample of a run shares: the unzipped FMU's ``folder`` and description
+    ``md``, ``start_time``, ``stop_time`` and the communication step ``output_interval`` [s] (a
+    whole number of them spans the simulation), the series' ``grid (T,)`` [s] (empty without
+    series outputs), and the start values ``fixed`` for every sample (``start_values``)."""
 
     folder: str
     md: Any
@@ -100,26 +81,10 @@ class Instance:
                 pass
 
     def run(self, values: Mapping[str, float], variables: Sequence[str]) -> Any:
-        """Simulate one sample.
-
-        Parameters
-        ----------
-        values : mapping of str to float
-            FMU variable name -> start value, the sample's inputs.
-        variables : sequence of str
-            FMU variables to record.
-
-        Returns
-        -------
-        numpy structured array or str
-            FMPy's recording (``time`` and a field per variable), or why the simulation failed.
-
-        Raises
-        ------
-        ModelError
-            The FMU cannot be instantiated (its binary does not load, or it refuses): not a
-            sample's failure, every sample would fail alike.
-        """
+        """Simulate one sample from the start ``values`` (FMU variable -> the sample's input),
+        recording ``variables``: FMPy's recording (a structured array, ``time`` and a field per
+        variable), or why the simulation failed. ModelError when the FMU cannot be
+        instantiated: not a sample's failure, every sample would fail alike."""
         s = self.setup
         self.messages.clear()
         fmu = self._ready()
@@ -151,24 +116,11 @@ class Instance:
 def pick(result: Any, setup: Setup, scalars: Mapping[str, Sequence[str]],
          series: Mapping[str, Sequence[str]]) -> tuple[dict[str, np.ndarray],
                                                        dict[str, np.ndarray], str]:
-    """One sample's outputs from its recording.
+    """One sample's outputs from FMPy's recording ``result`` (a ``time`` field and one per
+    variable); ``scalars`` and ``series`` map an output to its components' FMU variables.
 
-    Parameters
-    ----------
-    result : numpy structured array
-        FMPy's recording: a ``time`` field and one per variable.
-    setup : Setup
-    scalars, series : mapping of str to sequence of str
-        Output name -> its components' FMU variables.
-
-    Returns
-    -------
-    scalars : dict of str to ndarray, shape (k,)
-        At ``stop_time``.
-    series : dict of str to ndarray, shape (T, k)
-        On ``setup.grid``.
-    reason : str
-        Why the sample fails ("" when it does not); its arrays are then NaN.
+    Returns the scalars ``(k,)`` at ``stop_time``, the series ``(T, k)`` on ``setup.grid``,
+    and why the sample fails ("" when it does not; its arrays are then NaN).
     """
     t = np.asarray(result["time"], dtype=float)
     tol = 1e-9 * max(1.0, abs(setup.stop_time), abs(setup.start_time))

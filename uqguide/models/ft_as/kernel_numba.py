@@ -6,11 +6,8 @@ Blocks of samples advance in lockstep, one thread per block: what depends on tim
 evaluated once per block (:func:`_clock`), the controller per sample on local floats, the RK4
 stages on the whole block as structure of arrays (:func:`_rhs_block`). Every sample runs the
 same code whatever block it lands in, so its numbers are the same bits whatever the batch split
-and the thread count. The layout, and why: docs/performance.md#the-ft-as-kernel.
-
-Metrics are accumulated at every step, so they do not depend on the output grid: settling
-times (last time a norm exceeds each tolerance), final-window maxima, peaks of the applied and
-commanded inputs, and the integrals of ``|u_k|``.
+and the thread count. The layout, and why: docs/performance.md#the-ft-as-kernel; the metrics,
+accumulated at every step: docs/simulators.md#ft-as-what-the-kernel-accumulates.
 """
 
 from __future__ import annotations
@@ -77,15 +74,9 @@ def _clock(t, c, P, Q):
             rt0, rt1, rt2, rtn2, f)  # fmt: skip
 
 
-@njit(cache=True, error_model="numpy")
-def _terms(ck, x, nt, J0, J0i):
-    """Tracking model at state ``x`` (section 5) with the clock ``ck`` of its time.
-
-    Returns ``(h (6), sigma_dot (3), omega_e (3), G (9, row-major), k)`` with
-    ``G^-1 = k G^T`` (section 1.1).
-    """
-    s0, s1, s2 = x[6], x[7], x[8]
-    om0, om1, om2 = x[9], x[10], x[11]
+@njit(cache=True, error_model="numpy", inline="always")
+def _tracking(s0, s1, s2, om0, om1, om2, re0, re1, re2, nt, J0, J0i, ck):
+    """:func:`_terms` on scalars: MRP ``s``, rate ``om`` [rad/s], position error ``re`` [m]."""
     q = s0 * s0 + s1 * s1 + s2 * s2
     a = 0.25 * (1.0 - q)
     G00 = a + 0.5 * s0 * s0
@@ -136,7 +127,6 @@ def _terms(ck, x, nt, J0, J0i):
     # differential gravity without cancellation: (1 + q)^-1.5 - 1 = -q (2 + q + r) / (r (1 + r)
     # (1 + q)), r = sqrt(1 + q), exact algebra (the oracle's differential_gravity)
     rt0, rt1, rt2, rtn2, f = ck[4], ck[5], ck[6], ck[7], ck[8]
-    re0, re1, re2 = x[0], x[1], x[2]
     qg = (2.0 * (re0 * rt0 + re1 * rt1 + re2 * rt2) + re0 * re0 + re1 * re1 + re2 * re2) / rtn2
     r = math.sqrt(1.0 + qg)
     km1 = -qg * (2.0 + qg + r) / (r * (1.0 + r) * (1.0 + qg))
@@ -148,6 +138,16 @@ def _terms(ck, x, nt, J0, J0i):
 
 
 @njit(cache=True, error_model="numpy")
+def _terms(ck, x, nt, J0, J0i):
+    """Tracking model at state ``x`` (section 5) with the clock ``ck`` of its time.
+
+    Returns ``(h (6), sigma_dot (3), omega_e (3), G (9, row-major), k)`` with
+    ``G^-1 = k G^T`` (section 1.1).
+    """
+    return _tracking(x[6], x[7], x[8], x[9], x[10], x[11], x[0], x[1], x[2], nt, J0, J0i, ck)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _apply_M(tr, J0i, m0, u0, u1, u2, u3, u4, u5):
     """``M u = [u_f / m0 ; G J0^-1 u_tau]`` (section 5), G from the terms ``tr``."""
     b0 = J0i[0, 0] * u3 + J0i[0, 1] * u4 + J0i[0, 2] * u5
@@ -159,8 +159,8 @@ def _apply_M(tr, J0i, m0, u0, u1, u2, u3, u4, u5):
             tr[18] * b0 + tr[19] * b1 + tr[20] * b2)  # fmt: skip
 
 
-@njit(cache=True, error_model="numpy")
-def _true_body_acc(ck, x, tau0, tau1, tau2, J0, inertia_err, a_tau):
+@njit(cache=True, error_model="numpy", inline="always")
+def _true_body_acc(ck, om0, om1, om2, tau0, tau1, tau2, J0, inertia_err, a_tau):
     """``J(t)^-1 (-omega x J omega + tau + d_tau)`` (eq 2, [A6]), body [rad/s^2]."""
     s1t, s2t, s3t, c2t = ck[0], ck[1], ck[2], ck[3]
     kk = 1.0 + inertia_err
@@ -168,7 +168,6 @@ def _true_body_acc(ck, x, tau0, tau1, tau2, J0, inertia_err, a_tau):
     J11 = kk * J0[1, 1] + 0.1 + 0.01 * s2t
     J22 = kk * J0[2, 2] + 0.1 + 0.01 * s3t
     J01, J02, J12 = kk * J0[0, 1], kk * J0[0, 2], kk * J0[1, 2]
-    om0, om1, om2 = x[9], x[10], x[11]
     j0 = J00 * om0 + J01 * om1 + J02 * om2
     j1 = J01 * om0 + J11 * om1 + J12 * om2
     j2 = J02 * om0 + J12 * om1 + J22 * om2
@@ -192,25 +191,17 @@ def _true_body_acc(ck, x, tau0, tau1, tau2, J0, inertia_err, a_tau):
 def _rhs_block(ck, XT, KT, UT, m_off, inertia_err, a_f, a_tau, c, J0, J0i, W, nw):
     """``d/dt`` of the states of ``nw`` lanes of a block (sections 3.2, 6) with held inputs,
     rows 0-23: plant and FT-DO; rows 24-35 (Case 2's auxiliary system) are left to
-    :func:`_aux_block`. The tracking terms are those of :func:`_terms`, operation for operation.
+    :func:`_aux_block`. The tracking terms are :func:`_tracking`'s, as in :func:`_terms`.
 
     ``XT``, ``KT`` (36, nw): states and derivatives, a row per component; ``UT`` (12, nw): the
     applied and the observed inputs; ``m_off`` ... ``a_tau`` (nw,): the lanes' dispersions;
-    ``W`` (16, nw): scratch. The arithmetic runs in loops over the lanes on 1-D row views, the
-    observer's gain (sqrt, log, exp) as a scalar pass between them.
+    ``W`` (16, nw): scratch. The observer's gain (sqrt, log, exp) is a scalar pass between the
+    loops over the lanes (docs/performance.md#the-ft-as-kernel).
     """
     nt, m0 = c[K_NT], c[K_M0]
     lam1, lam2, lam3, p = c[K_LAM1], c[K_LAM2], c[K_LAM3], c[K_OBS_P]
     per_channel = c[K_OBS_PER_CHANNEL] > 0.0
     s1t, s3t, c2t = ck[0], ck[2], ck[3]
-    s2t = ck[1]
-    rt0, rt1, rt2, rtn2, f = ck[4], ck[5], ck[6], ck[7], ck[8]
-    A00, A01, A02 = J0[0, 0], J0[0, 1], J0[0, 2]
-    A10, A11, A12 = J0[1, 0], J0[1, 1], J0[1, 2]
-    A20, A21, A22 = J0[2, 0], J0[2, 1], J0[2, 2]
-    B00, B01, B02 = J0i[0, 0], J0i[0, 1], J0i[0, 2]
-    B10, B11, B12 = J0i[1, 0], J0i[1, 1], J0i[1, 2]
-    B20, B21, B22 = J0i[2, 0], J0i[2, 1], J0i[2, 2]
     x0r, x1r, x2r, x3r, x4r, x5r = XT[0], XT[1], XT[2], XT[3], XT[4], XT[5]
     x6r, x7r, x8r, x9r, x10r, x11r = XT[6], XT[7], XT[8], XT[9], XT[10], XT[11]
     x12r, x13r, x14r, x15r, x16r, x17r = XT[12], XT[13], XT[14], XT[15], XT[16], XT[17]
@@ -222,59 +213,11 @@ def _rhs_block(ck, XT, KT, UT, m_off, inertia_err, a_f, a_tau, c, J0, J0i, W, nw
     v0r, v1r, v2r, v3r, v4r, v5r = W[6], W[7], W[8], W[9], W[10], W[11]  # M u_obs + h
     ntr, nrr = W[12], W[13]
     for b in range(nw):
-        s0, s1, s2 = x6r[b], x7r[b], x8r[b]
         om0, om1, om2 = x9r[b], x10r[b], x11r[b]
-        q = s0 * s0 + s1 * s1 + s2 * s2
-        a = 0.25 * (1.0 - q)
-        G00 = a + 0.5 * s0 * s0
-        G01 = 0.5 * (-s2 + s0 * s1)
-        G02 = 0.5 * (s1 + s0 * s2)
-        G10 = 0.5 * (s2 + s1 * s0)
-        G11 = a + 0.5 * s1 * s1
-        G12 = 0.5 * (-s0 + s1 * s2)
-        G20 = 0.5 * (-s1 + s2 * s0)
-        G21 = 0.5 * (s0 + s2 * s1)
-        G22 = a + 0.5 * s2 * s2
-        d = 1.0 / (1.0 + q) ** 2
-        w = 4.0 * (1.0 - q)
-        C02 = d * (8.0 * (s0 * s2) - w * s1)
-        C12 = d * (8.0 * (s1 * s2) + w * s0)
-        C22 = 1.0 + d * (8.0 * (s2 * s2 - q))
-        wt0, wt1, wt2 = C02 * nt, C12 * nt, C22 * nt
-        w0 = om0 - wt0
-        w1 = om1 - wt1
-        w2 = om2 - wt2
-        sd0 = G00 * w0 + G01 * w1 + G02 * w2
-        sd1 = G10 * w0 + G11 * w1 + G12 * w2
-        sd2 = G20 * w0 + G21 * w1 + G22 * w2
-        ssd = s0 * sd0 + s1 * sd1 + s2 * sd2
-        swe = s0 * w0 + s1 * w1 + s2 * w2
-        sdwe = sd0 * w0 + sd1 * w1 + sd2 * w2
-        gd0 = 0.5 * (-ssd * w0 + (sd1 * w2 - sd2 * w1) + sd0 * swe + s0 * sdwe)
-        gd1 = 0.5 * (-ssd * w1 + (sd2 * w0 - sd0 * w2) + sd1 * swe + s1 * sdwe)
-        gd2 = 0.5 * (-ssd * w2 + (sd0 * w1 - sd1 * w0) + sd2 * swe + s2 * sdwe)
-        j0 = A00 * om0 + A01 * om1 + A02 * om2
-        j1 = A10 * om0 + A11 * om1 + A12 * om2
-        j2 = A20 * om0 + A21 * om1 + A22 * om2
-        g0 = -(om1 * j2 - om2 * j1)
-        g1 = -(om2 * j0 - om0 * j2)
-        g2 = -(om0 * j1 - om1 * j0)
-        a0 = B00 * g0 + B01 * g1 + B02 * g2
-        a1 = B10 * g0 + B11 * g1 + B12 * g2
-        a2 = B20 * g0 + B21 * g1 + B22 * g2
-        a0 += w1 * wt2 - w2 * wt1
-        a1 += w2 * wt0 - w0 * wt2
-        a2 += w0 * wt1 - w1 * wt0
-        h3 = gd0 + G00 * a0 + G01 * a1 + G02 * a2
-        h4 = gd1 + G10 * a0 + G11 * a1 + G12 * a2
-        h5 = gd2 + G20 * a0 + G21 * a1 + G22 * a2
-        re0, re1, re2 = x0r[b], x1r[b], x2r[b]
-        qg = (2.0 * (re0 * rt0 + re1 * rt1 + re2 * rt2) + re0 * re0 + re1 * re1 + re2 * re2) / rtn2
-        r = math.sqrt(1.0 + qg)
-        km1 = -qg * (2.0 + qg + r) / (r * (1.0 + r) * (1.0 + qg))
-        h0 = f * ((1.0 + km1) * re0 + km1 * rt0)
-        h1 = f * ((1.0 + km1) * re1 + km1 * rt1)
-        h2 = f * ((1.0 + km1) * re2 + km1 * rt2)
+        tr = _tracking(x6r[b], x7r[b], x8r[b], om0, om1, om2, x0r[b], x1r[b], x2r[b], nt, J0,
+                       J0i, ck)
+        h0, h1, h2, h3, h4, h5 = tr[0], tr[1], tr[2], tr[3], tr[4], tr[5]
+        sd0, sd1, sd2 = tr[6], tr[7], tr[8]
         # plant
         inv_m = 1.0 / (m0 + 1.0 + 0.1 * s1t + m_off[b])
         v_0, v_1, v_2 = x3r[b], x4r[b], x5r[b]
@@ -284,39 +227,12 @@ def _rhs_block(ck, XT, KT, UT, m_off, inertia_err, a_f, a_tau, c, J0, J0i, W, nw
         k4r[b] = h1 + (u1r[b] + af * c2t) * inv_m
         k5r[b] = h2 + (u2r[b] + af * s3t) * inv_m
         k6r[b], k7r[b], k8r[b] = sd0, sd1, sd2
-        kk = 1.0 + inertia_err[b]
-        J00 = kk * A00 + 0.1 + 0.01 * s1t
-        J11 = kk * A11 + 0.1 + 0.01 * s2t
-        J22 = kk * A22 + 0.1 + 0.01 * s3t
-        J01, J02, J12 = kk * A01, kk * A02, kk * A12
-        tj0 = J00 * om0 + J01 * om1 + J02 * om2
-        tj1 = J01 * om0 + J11 * om1 + J12 * om2
-        tj2 = J02 * om0 + J12 * om1 + J22 * om2
-        at2 = 2.0 * a_tau[b]
-        b0 = -(om1 * tj2 - om2 * tj1) + u3r[b] + at2 * s1t
-        b1 = -(om2 * tj0 - om0 * tj2) + u4r[b] + at2 * c2t
-        b2 = -(om0 * tj1 - om1 * tj0) + u5r[b] + at2 * s3t
-        c00 = J11 * J22 - J12 * J12
-        c01 = J02 * J12 - J01 * J22
-        c02 = J01 * J12 - J02 * J11
-        c11 = J00 * J22 - J02 * J02
-        c12 = J01 * J02 - J00 * J12
-        c22 = J00 * J11 - J01 * J01
-        inv_det = 1.0 / (J00 * c00 + J01 * c01 + J02 * c02)
-        k9r[b] = (c00 * b0 + c01 * b1 + c02 * b2) * inv_det
-        k10r[b] = (c01 * b0 + c11 * b1 + c12 * b2) * inv_det
-        k11r[b] = (c02 * b0 + c12 * b1 + c22 * b2) * inv_det
+        k9r[b], k10r[b], k11r[b] = _true_body_acc(ck, om0, om1, om2, u3r[b], u4r[b], u5r[b],
+                                                  J0, inertia_err[b], a_tau[b])
         # observer: M u_obs + h, eps1 and its norms
-        ob3, ob4, ob5 = o3r[b], o4r[b], o5r[b]
-        mb0 = B00 * ob3 + B01 * ob4 + B02 * ob5
-        mb1 = B10 * ob3 + B11 * ob4 + B12 * ob5
-        mb2 = B20 * ob3 + B21 * ob4 + B22 * ob5
-        v0r[b] = o0r[b] / m0 + h0
-        v1r[b] = o1r[b] / m0 + h1
-        v2r[b] = o2r[b] / m0 + h2
-        v3r[b] = (G00 * mb0 + G01 * mb1 + G02 * mb2) + h3
-        v4r[b] = (G10 * mb0 + G11 * mb1 + G12 * mb2) + h4
-        v5r[b] = (G20 * mb0 + G21 * mb1 + G22 * mb2) + h5
+        m_obs = _apply_M(tr, J0i, m0, o0r[b], o1r[b], o2r[b], o3r[b], o4r[b], o5r[b])
+        v0r[b], v1r[b], v2r[b] = m_obs[0] + h0, m_obs[1] + h1, m_obs[2] + h2
+        v3r[b], v4r[b], v5r[b] = m_obs[3] + h3, m_obs[4] + h4, m_obs[5] + h5
         e0 = x12r[b] - v_0
         e1 = x13r[b] - v_1
         e2 = x14r[b] - v_2
@@ -397,9 +313,8 @@ def _sliding(z, c, w):
 
     Writes ``s`` into ``w[0]`` and keeps for the law ``1/kappa`` (``w[1]``), ``|e1|^b``
     (``w[2]``), ``f = |e2|^(a-1)`` (``w[3]``) and ``kappa^-a`` (``w[4]``); ``w`` is (8, 6)
-    scratch. Each transcendental runs as its own pass over the channels: the six calls of a
-    pass are independent, so the core overlaps them instead of waiting on one channel's chain
-    ``log -> exp -> log -> exp``.
+    scratch. Each transcendental is a pass of its own over the channels, so that the core
+    overlaps their calls (docs/performance.md#the-ft-as-kernel).
     """
     a, b = c[K_A], c[K_B]
     nu1, eta1 = c[K_NU1], c[K_ETA1]
@@ -493,7 +408,7 @@ def _observed_disturbance(ck, x, tr, u, m_off, inertia_err, a_f, a_tau, c, J0, J
     d_f = (ck[0], ck[3], ck[2])
     for i in range(3):
         out[i] = (1.0 / m - 1.0 / m0) * u[i] + a_f * d_f[i] / m
-    acc = _true_body_acc(ck, x, u[3], u[4], u[5], J0, inertia_err, a_tau)
+    acc = _true_body_acc(ck, x[9], x[10], x[11], u[3], u[4], u[5], J0, inertia_err, a_tau)
     om0, om1, om2 = x[9], x[10], x[11]
     j0 = J0[0, 0] * om0 + J0[0, 1] * om1 + J0[0, 2] * om2
     j1 = J0[1, 0] * om0 + J0[1, 1] * om1 + J0[1, 2] * om2
@@ -514,10 +429,8 @@ def _observed_disturbance(ck, x, tr, u, m_off, inertia_err, a_f, a_tau, c, J0, J
 
 
 def _c(values: object, dtype: type) -> np.ndarray:
-    # Contiguous, whatever the caller holds: an uncertain input arrives as a strided column of
-    # the design, a fixed one as a full array, and numba compiles one specialisation per
-    # memory layout. Copying a few n-vectors keeps every study on one compiled kernel (a fresh
-    # install compiled it up to four times, about 30 CPU-s each); the values are unchanged.
+    # contiguous, so that every study runs one compiled specialisation
+    # (docs/simulators.md#ft-as-what-the-kernel-accumulates)
     return np.ascontiguousarray(values, dtype=dtype)
 
 
@@ -558,38 +471,23 @@ def simulate(x0, mass_off, inertia_err, force_amp, torque_amp, ctrl, obs_applied
              peak_late, impulse, failed, block):  # fmt: skip
     """Integrate every sample of a batch and accumulate its metrics.
 
-    Parameters
-    ----------
-    x0 : ndarray, shape (n, 36)
-        Initial states. The per-sample arrays ``mass_off`` ... ``switch_input`` are those of
-        :class:`setup.Batch` (shape (n,)).
-    c : ndarray, shape (N_CONST,)
-        Constants packed by :func:`setup.pack_constants`.
-    J0, J0i : ndarray, shape (3, 3)
-        Nominal inertia [kg m^2] and its inverse.
-    P, Q : ndarray, shape (3,)
-        In-plane unit vectors of the reference orbit (ECI).
-    limits : ndarray, shape (6,)
-        Actuator limits [N, N m].
-    dt : float
-        Step [s]; ``n_steps`` steps are taken.
-    rec_every : int
-        Record every ``rec_every`` steps into ``rec`` (n, n_rec, n_channels), the groups of
-        ``layout.RECORD_GROUPS`` at column ``offsets[g]`` (-1: not recorded).
-    final_start, late_start : int
-        First step of the final-accuracy window and of the "late" peak window.
-    tols : ndarray, shape (7, n_tol)
-        Settling tolerances per ``layout.SETTLE_QUANTITIES`` row (entries <= 0 unused).
-    block : int
-        Samples per parallel block (:func:`block_size`); it changes the speed, not the numbers.
+    Inputs: the initial states ``x0 (n, 36)`` and the per-sample arrays ``mass_off`` ...
+    ``switch_input`` of :class:`setup.Batch`; the constants ``c`` of
+    :func:`setup.pack_constants`; the nominal inertia ``J0`` [kg m^2] and its inverse ``J0i``;
+    the reference orbit's in-plane unit vectors ``P``, ``Q`` (ECI); the actuator ``limits``
+    (6,) [N, N m]; ``n_steps`` steps of ``dt`` [s]; every ``rec_every`` steps a record into
+    ``rec (n, n_rec, n_channels)``, each group of ``layout.RECORD_GROUPS`` at column
+    ``offsets[g]`` (-1: not recorded); the first steps ``final_start`` of the final-accuracy
+    window and ``late_start`` of the "late" peak window; the settling tolerances ``tols (7,
+    n_tol)`` per ``layout.SETTLE_QUANTITIES`` row (<= 0: unused); ``block`` samples per
+    parallel block (:func:`block_size`: the speed, not the numbers).
 
-    Outputs (written in place, zero-initialised by the caller)
-    -----------------------------------------------------------
-    settle : (n, 7, n_tol) last time [s] each norm exceeded each tolerance.
-    final_max : (n, 4, 3) max |x_k| over the final window for r_e, v_e, sigma_e, omega_e.
-    peak_app, peak_cmd, peak_late : (n, 6) max |u_k| applied, commanded, applied after late_start.
-    impulse : (n, 6) integral of |u_applied,k| dt [N s, N m s].
-    failed : (n,) True where the state became non-finite (the sample stops there).
+    Outputs, in place (zeroed by the caller): ``settle (n, 7, n_tol)`` the last time [s] each
+    norm exceeded each tolerance; ``final_max (n, 4, 3)`` ``max |x_k|`` over the final window
+    of ``r_e, v_e, sigma_e, omega_e``; ``peak_app``, ``peak_cmd``, ``peak_late (n, 6)`` the
+    peaks of ``|u_k|`` applied, commanded, applied after ``late_start``; ``impulse (n, 6)``
+    ``integral |u_k| dt`` [N s, N m s]; ``failed (n,)`` where the state became non-finite (the
+    sample stops there).
     """
     n = x0.shape[0]
     n_blocks = (n + block - 1) // block
@@ -774,7 +672,7 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                     env[b, 6 + q] = -np.inf
         if last:
             break
-        # --- classical RK4 with held inputs (section 9 step 3), all lanes of the block at once
+        # --- classical RK4 with held inputs, all lanes of the block at once
         _stage(ck0, XT, K1, UT, DU, mo, ie, af, at, oc, c, J0, J0i, W, case2_lane, any_case2, X,
                nb)  # fmt: skip
         for q in range(36):

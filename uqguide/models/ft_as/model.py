@@ -28,7 +28,8 @@ SIX = ("x", "y", "z", "sigma1", "sigma2", "sigma3")
 
 @dataclass(frozen=True)
 class Variant:
-    """One controller configuration of a batch (spec section 8 and profile R of 12)."""
+    """One controller configuration of a batch
+    (docs/papers.md#ft-as-conventions-variants-and-checks)."""
 
     label: str
     controller: str

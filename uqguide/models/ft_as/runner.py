@@ -29,8 +29,8 @@ def _compiled() -> Callable[..., None]:
 
 
 SETTLE_TOLERANCES: dict[str, tuple[float, ...]] = {
-    "r_e": (1.0, 1e-2, 5e-3, 1e-3, 2e-4),  # m, section 10
-    "v_e": (1e-3, 1e-4, 1e-5),  # m/s; the spec names only 1e-3 (claim C3), finer ones added
+    "r_e": (1.0, 1e-2, 5e-3, 1e-3, 2e-4),  # m
+    "v_e": (1e-3, 1e-4, 1e-5),  # m/s; 1e-3 is claim C3's, the finer ones added
     "sigma_e": (1e-2, 2e-3, 1e-3, 1e-4),
     "omega_e": (1e-3, 1e-4, 2e-5, 2e-7),  # rad/s
     "eps1": (1e-2, 1e-3, 1e-4),
@@ -70,23 +70,13 @@ class Timing:
 class RunResult:
     """Recorded histories and per-step metrics of a batch of ``n`` runs.
 
-    Attributes
-    ----------
-    time : ndarray, shape (T,)
-        Recorded grid [s].
-    records : dict of str to ndarray, shape (n, T, k)
-        Recorded groups of ``layout.RECORD_GROUPS`` that were asked for.
-    settle : dict of str to ndarray, shape (n, n_tol)
-        Last time [s] each norm exceeded each tolerance of ``SETTLE_TOLERANCES``; equal to the
-        horizon where not settled.
-    final_max : dict of str to ndarray, shape (n, 3)
-        ``max |x_k|`` over the final window, for ``r_e, v_e, sigma_e, omega_e``.
-    peak_applied, peak_command, peak_late : ndarray, shape (n, 6)
-        Peaks of ``|u_k|`` [N, N m]; ``peak_late`` only after ``late_time``.
-    impulse : ndarray, shape (n, 6)
-        ``integral |u_k| dt`` [N s, N m s].
-    wall_time : float
-        Seconds spent in the kernel (excluding compilation on first use).
+    ``records`` holds the asked-for groups of ``layout.RECORD_GROUPS`` ``(n, T, k)`` on the
+    grid ``time (T,)`` [s]; ``settle`` ``(n, n_tol)`` the last time [s] each norm exceeded each
+    tolerance of ``SETTLE_TOLERANCES`` (the horizon where not settled); ``final_max`` ``(n, 3)``
+    ``max |x_k|`` over the final window of ``r_e, v_e, sigma_e, omega_e``; ``peak_applied``,
+    ``peak_command``, ``peak_late`` (after ``late_time``) ``(n, 6)`` the peaks of ``|u_k|`` [N,
+    N m]; ``impulse (n, 6)`` ``integral |u_k| dt`` [N s, N m s]; ``wall_time`` the seconds in
+    the kernel (compilation excluded).
     """
 
     time: np.ndarray

@@ -95,27 +95,14 @@ class Plant:
 class Batch:
     """Per-sample arrays of one integration, all of leading length ``n``.
 
-    Attributes
-    ----------
-    x0 : ndarray, shape (n, 36)
-        Initial state ``(r_e, v_e, sigma_e, omega, psi1, psi2, chi1, chi2)``.
-    mass_offset : ndarray, shape (n,)
-        Constant added to the true mass [kg].
-    inertia_scale_error : ndarray, shape (n,)
-        ``J = J0 (1 + x) + Delta J(t)``.
-    force_amp, torque_amp : ndarray, shape (n,)
-        Disturbance amplitudes ``A_f`` [N], ``A_tau`` [N m].
-    controller : ndarray of int, shape (n,)
-        ``FT_AS``, ``CASE1`` or ``CASE2``.
-    observer_on_applied : ndarray of bool, shape (n,)
-        FT-AS only: the FT-DO sees ``sat(u_c)`` (FT-AS-A) instead of ``u_c`` (literal).
-    psi2_bound : ndarray, shape (n,)
-        Box ``|psi2_k| <= D`` applied after each step (FT-AS-P); ``inf`` for none.
-    omega_chi : ndarray, shape (n,)
-        Natural frequency of the Case 2 compensator [rad/s].
-    switch_input : ndarray of bool, shape (n,)
-        A10: the switching term ``gamma sign(s)`` is in input units (N, N m) where True,
-        in e2-acceleration units (the literal eq 29) where False.
+    ``x0 (n, 36)``: initial state ``(r_e, v_e, sigma_e, omega, psi1, psi2, chi1, chi2)``;
+    ``mass_offset`` [kg] added to the true mass; ``inertia_scale_error`` ``x`` in ``J = J0 (1 +
+    x) + Delta J(t)``; ``force_amp`` ``A_f`` [N], ``torque_amp`` ``A_tau`` [N m]; ``controller``
+    ``FT_AS``, ``CASE1`` or ``CASE2``; ``observer_on_applied`` (FT-AS only): the FT-DO sees
+    ``sat(u_c)`` (FT-AS-A) instead of ``u_c``; ``psi2_bound`` the box ``|psi2_k| <= D`` after
+    each step (FT-AS-P; ``inf``: none); ``omega_chi`` the Case 2 compensator's natural
+    frequency [rad/s]; ``switch_input``: the switching term ``gamma sign(s)`` in input units
+    (N, N m), else in e2-acceleration units (the literal eq 29).
     """
 
     x0: np.ndarray

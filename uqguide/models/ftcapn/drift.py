@@ -1,11 +1,8 @@
 """Zero-effort miss: the closest approach of the uncontrolled drift after the stop.
 
-Spec section 5: straight-line drift gives ``|r x v| / |v|`` (when closing); with a constant
-target acceleration ``a`` the relative motion is the parabola ``r + v t + a t^2 / 2`` and the
-miss is its minimum distance over ``t >= 0``. With ``gravity: hill`` the drift follows the CW
-equations (plus ``a``); its close pass is found by Newton from the gravity-free candidates.
-
-All functions take ``r, v, a`` of shape ``(m, 3)`` and return ``(miss (m,), t_miss (m,))``.
+Straight-line, parabolic (a constant target acceleration) and Hill drift:
+docs/simulators.md#ftcapn-the-zero-effort-miss. All functions take ``r, v, a`` of shape
+``(m, 3)`` and return ``(miss (m,), t_miss (m,))``.
 """
 
 from __future__ import annotations

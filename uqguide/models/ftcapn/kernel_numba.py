@@ -1,13 +1,8 @@
 """FTCAPN closed loop, compiled with Numba.
 
 Same algorithm and same arrays as its NumPy oracle ``tests/oracles/ftcapn.py`` (see it for the
-equations); the test suite checks that both give the same numbers to ~1e-9 relative. Blocks of
-64 samples run in parallel threads; within a block the samples advance in lockstep, which keeps
-the work of a block in the L1 cache. The state and the per-step work of a block are stored as
-structure of arrays (a row per quantity, the samples along it) and each step first runs a
-branch-free pass over every sample, which the compiler vectorises, then the events, records
-and stop tests as loops over every sample with selects, with a scalar loop only over the few
-samples whose step ends in a failure or near the stop (:func:`_simulate_block`).
+equations); the test suite holds both to ~1e-9 relative. The layout of blocks, lanes and passes
+(:func:`_simulate_block`), and why: docs/performance.md#the-ftcapn-kernel.
 """
 
 from __future__ import annotations
@@ -178,25 +173,14 @@ def simulate_numba(r0, v0, at, bR, bw, p, K, max_steps, col, buf, sc, status):
     """Run the FTCAPN closed loop for a batch, filling ``buf``, ``sc`` and ``status`` in place,
     in parallel blocks of ``BLOCK`` samples.
 
-    Parameters
-    ----------
-    r0, v0 : ndarray, shape (n, 3)
-        Initial line of sight ``r = target - chaser`` [m] and its rate [m/s].
-    at : ndarray, shape (n, 3)
-        Target acceleration [m/s^2]: a fixed vector, or (``P_ROTATING``) its components along
-        ``e_theta, e_r, e_w`` of each step's true LOS frame.
-    bR, bw : ndarray, shape (n,)
-        Range [m] and LOS-rate [rad/s] measurement biases.
-    p : ndarray, shape (N_PARAMS,)
-        Constants (indices ``P_*`` of :mod:`.layout`).
-    K, max_steps : int
-        Last grid index (grid ``k dt``, ``k = 0..K``); steps before a sample fails for
-        exceeding ``t_max``.
-    col : ndarray of int, shape (N_SERIES,)
-        First row of each series in ``buf`` (-1: not recorded).
-    buf : ndarray, shape (C, n, K+1)
-        Series columns: ``buf[col[S] + q, i, k]`` is component ``q`` of series ``S`` of
-        sample ``i`` at grid time ``k dt``; a stopped sample keeps its stop state's values.
+    ``r0``, ``v0 (n, 3)``: the initial line of sight ``r = target - chaser`` [m] and its rate
+    [m/s]; ``at (n, 3)``: the target acceleration [m/s^2], fixed, or (``P_ROTATING``) along
+    ``e_theta, e_r, e_w`` of each step's true LOS frame; ``bR``, ``bw (n,)``: range [m] and
+    LOS-rate [rad/s] measurement biases; ``p``: the constants (``P_*`` of :mod:`.layout`);
+    ``K``: the last grid index (grid ``k dt``); ``max_steps``: the steps before a sample fails
+    for exceeding ``t_max``; ``col (N_SERIES,)``: each series' first row in ``buf (C, n, K+1)``
+    (-1: not recorded), where ``buf[col[S] + q, i, k]`` is component ``q`` of series ``S`` of
+    sample ``i`` at ``k dt`` (a stopped sample keeps its stop state's values).
     """
     n = r0.shape[0]
     for b in prange((n + BLOCK - 1) // BLOCK):

@@ -1,15 +1,10 @@
 """FTCAPN: finite-time-convergence augmented proportional navigation (Wang & Song 2019).
 
-Closed-loop midrange rendezvous: sliding-mode control along the line of sight (eqs 4-14),
-proportional navigation across it (eq 3), zero-order hold at ``dt``, stop at ``r_stop``;
-uncertain initial state, measurement biases and target maneuver (Tables 3 and 4). The state is
-the line of sight ``r = r_target - r_chaser`` in the axes of the paper's Table 2, read as the
-target's LVLH frame. The closed loop runs in the compiled kernel (:func:`_compiled`); the
-maneuver's two readings are the parameter ``maneuver_frame``; ``zem`` and ``zem_eq15`` are
-derived from the stop state (:meth:`FTCAPN.derived_outputs`).
-
-Frames, equations and every choice the paper leaves open:
-docs/papers.md#ftcapn-frames-and-choices and docs/papers.md#ftcapn-beside-the-paper.
+Closed-loop midrange rendezvous along the line of sight ``r = r_target - r_chaser``, run in the
+compiled kernel (:func:`_compiled`); ``zem`` and ``zem_eq15`` are derived from the stop state
+(:meth:`FTCAPN.derived_outputs`). Frames, equations and every choice the paper leaves open (the
+maneuver's two readings are ``maneuver_frame``): docs/papers.md#ftcapn-frames-and-choices and
+docs/papers.md#ftcapn-beside-the-paper.
 """
 
 from __future__ import annotations

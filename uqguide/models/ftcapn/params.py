@@ -1,5 +1,6 @@
 """Parameters of the ``ftcapn`` model: the paper's nominal scenario (Wang & Song 2019, section
-2.2, Tables 1-2) with the spec's choices where the paper gives none; SI units."""
+2.2, Tables 1-2) with choices where the paper gives none (docs/papers.md#ftcapn-beside-the-paper);
+SI units."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ __all__ = ["FTCAPNParams"]
 
 class FTCAPNParams(ModelParams):
     """FTCAPN parameters (SI units); defaults are the paper's nominal scenario (section 2.2)
-    with the spec's choices for the settings the paper does not give (N, A_sat, delta)."""
+    with choices for the settings the paper does not give (N, A_sat, delta)."""
 
     c: float = Field(0.1, ge=0.0, description="sliding-surface slope [1/s] (eq 4)")
     eps: float = Field(5.0, ge=0.0, description="constant reaching gain [m/s^2] (eq 6)")

@@ -1,14 +1,7 @@
-"""Sliding-mode proximity controllers of [W]: APF-TSMC, GMM-TSMC, GMM-NTSMC.
-
-Every law cancels the modelled plant ``-A r - B r'`` at the sample time (A34) and imposes the
-reaching law ``S' = -lambda1 S - lambda2 sig^a(S)`` (:class:`ReachingLaw`, [W 12]) on a sliding
-variable built from the potential's gradient: :class:`TSMC` ([W 29-32]; APF-TSMC and GMM-TSMC
-differ only in the potential) and :class:`NTSMC` ([W 10-16]), whose factor ``|e'|^(1-p/q)``
-stalls an axis whose error rate is zero (A17) unless ``eps > 0`` floors it. Gains are diagonal
-3-vectors; all controllers are callables on batches, ``u = ctl.command(r, v, A, B)``.
-
-The laws in full: docs/papers.md#gmm-potentials-and-controllers; the labels:
-docs/papers.md#the-gmm-papers-ambiguities-as-settled.
+"""Sliding-mode proximity controllers of [W]: APF-TSMC, GMM-TSMC (:class:`TSMC`) and GMM-NTSMC
+(:class:`NTSMC`), with the reaching law :class:`ReachingLaw`; callables on batches,
+``u = ctl.command(r, v, A, B)``. The laws in full: docs/papers.md#gmm-potentials-and-controllers;
+the labels: docs/papers.md#the-gmm-papers-ambiguities-as-settled.
 """
 
 from __future__ import annotations
@@ -80,25 +73,11 @@ class TSMC:
 
 @dataclass(frozen=True)
 class NTSMC:
-    """Nonsingular terminal sliding-mode control with the GMM potential ([W 10-16]).
-
-    Attributes
-    ----------
-    r_f : ndarray, shape (3,)
-        Goal [m] (at rest).
-    k_s : ndarray, shape (3,)
-        Diagonal surface gain [1/s].
-    xi0 : float
-        Linear error gain [1/s] (``0 < xi0 < 1``).
-    xi1, xi2 : ndarray, shape (3,)
-        Gains of ``sig^tau(e)`` and ``sig^{p/q}(e')`` (``xi2`` invertible).
-    tau : float
-        ``tau > 1``.
-    p, q : int
-        Positive odd integers, ``p < q``.
-    eps : float
-        Floor [m/s] on ``|e'_i|`` in the factor ``|e'|^{1-p/q}`` (0: as published, A17).
-    """
+    """Nonsingular terminal sliding-mode control with the GMM potential ([W 10-16]): goal
+    ``r_f`` (3,) [m] at rest, diagonal surface gain ``k_s`` [1/s], linear error gain ``xi0``
+    [1/s] (``0 < xi0 < 1``), the gains ``xi1``, ``xi2`` (invertible) of ``sig^tau(e)`` and
+    ``sig^{p/q}(e')`` (``tau > 1``; ``p < q`` positive odd integers), and the floor ``eps``
+    [m/s] on ``|e'_i|`` in the factor ``|e'|^{1-p/q}`` (0: as published, A17)."""
 
     potential: AttractRepulsePotential
     r_f: np.ndarray

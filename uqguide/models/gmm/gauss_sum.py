@@ -1,13 +1,8 @@
-"""Sums of Gaussian kernels and their derivatives up to third order.
-
-Both repulsive terms of the GMM papers are Gaussian sums ``V(r) = sum_j c_j exp(-d_j^T L_j d_j /
-2)``, ``d_j = r - mu_j`` (:class:`GaussSum`): a GMM kernel has ``L_j = Sigma_j^-1``, a classical
-APF obstacle ``L = 2 N / sigma``. :class:`GaussSumDerivatives` holds ``V``, its gradient, Hessian
-and third-derivative contraction ``D3V[y, y]``. The published kernels' ``exp(-q/2)`` underflows
-to exactly 0 across thin parts, which is harmless: nothing here divides by it or evaluates
-``exp(+...)``. Parameters may carry a leading batch axis (one kernel set per sample).
-
-The formulas: docs/papers.md#gmm-potentials-and-controllers.
+"""Sums of Gaussian kernels ``V(r) = sum_j c_j exp(-d_j^T L_j d_j / 2)``, ``d_j = r - mu_j``, and
+their derivatives up to third order (:class:`GaussSum`, :class:`GaussSumDerivatives`): GMM
+kernels and classical APF obstacles, parameters optionally batched per sample. The formulas, and
+why ``exp(-q/2)`` underflowing across thin parts is harmless:
+docs/papers.md#gmm-potentials-and-controllers.
 """
 
 from __future__ import annotations

@@ -1,17 +1,10 @@
-"""Chief geometry as axis-aligned boxes, clearance and swept-segment collision checks.
-
-A chief is a set of parts in its own frame, each an axis-aligned box: a solid body, thin plates
-(solar panels, zero extent along one axis) and segments (antennas, zero extent along two axes).
-The deputy is a point (both papers).
-
-* **Clearance** is the distance to the zero-thickness skeleton of each part,
-  ``||max(lo - p, 0, p - hi)||`` (0 inside), so any thickness can be applied afterwards.
-* **Collision** (A8): a straight segment between consecutive recorded positions intersects a
-  part's *collision box*: thin parts inflated by their half-thickness plus the deputy radius; the
-  body shrunk by a penetration tolerance, because the [W] goal lies exactly on its -x face.
-
-All checks are vectorised over points / segments and parts. Placement and thicknesses (A7, A8):
-docs/papers.md#the-gmm-papers-ambiguities-as-settled.
+"""Chief geometry as axis-aligned boxes (a solid body, plates, segments), clearance and
+swept-segment collision checks, vectorised over points, segments and parts; the deputy is a
+point. Clearance is the distance to each part's zero-thickness skeleton (0 inside), so any
+thickness can be applied afterwards; a collision (A8) is a segment between consecutive positions
+meeting a part's collision box (thin parts inflated by their half-thickness plus the deputy's
+radius, the body shrunk by a penetration tolerance, because the [W] goal lies on its -x face).
+Placement and thicknesses (A7, A8): docs/papers.md#the-gmm-papers-ambiguities-as-settled.
 """
 
 from __future__ import annotations
@@ -26,20 +19,10 @@ PartKind = Literal["solid", "plate", "segment"]
 
 @dataclass(frozen=True)
 class Part:
-    """One axis-aligned part of the chief.
-
-    Attributes
-    ----------
-    name : str
-        E.g. ``"body"``, ``"panel-y"``, ``"antenna+x"``.
-    kind : {"solid", "plate", "segment"}
-        Solid box, plate (one zero-extent axis) or segment (two zero-extent axes).
-    lo, hi : tuple of 3 floats
-        Box corners [m] in the chief frame (``lo == hi`` on the zero-extent axes).
-    half_thickness : float
-        Half-thickness [m] of a plate, half-width of a segment's square section; unused for a
-        solid.
-    """
+    """One axis-aligned part of the chief (``name``: ``"body"``, ``"panel-y"``, ...): a
+    ``"solid"`` box, a ``"plate"`` (one zero-extent axis) or a ``"segment"`` (two), between the
+    corners ``lo``, ``hi`` [m] in the chief frame (equal on the zero-extent axes);
+    ``half_thickness`` [m] of a plate, or half-width of a segment's square section."""
 
     name: str
     kind: PartKind
@@ -161,11 +144,11 @@ def wang2022_chief(
     body_tolerance: float = 0.01,
     deputy_radius: float = 0.0,
 ) -> ChiefGeometry:
-    """The chief of [W] (Table 1; placement from the App. A4 GMM, spec 4.1).
+    """The chief of [W] (Table 1; placement from the App. A4 GMM, A7).
 
     Cube of side 10 m centred at the origin; solar panels 10 m x 5 m in the plane ``x = 0``,
     ``y`` in +-[5, 15], ``z`` in [-2.5, 2.5]; antennas 5 m long on the ``x`` axis,
-    ``x`` in +-[5, 10]. Thicknesses are not published (spec 4.2 defaults).
+    ``x`` in +-[5, 10]. Thicknesses are not published (A7).
     """
     return ChiefGeometry(
         parts=(
@@ -186,7 +169,7 @@ def chen2020_chief(
     body_tolerance: float = 0.01,
     deputy_radius: float = 0.0,
 ) -> ChiefGeometry:
-    """The chief of [C] (section 4.1; placement from its Table 2 GMM, spec 4.1).
+    """The chief of [C] (section 4.1; placement from its Table 2 GMM, A7).
 
     Cube of side 2 m (8 m^3); panels 6 m x 2 m in the plane ``y = 0``, ``x`` in +-[1, 7],
     ``z`` in [-1, 1]; antennas 2 m long on the ``y`` axis, ``y`` in +-[1, 3].

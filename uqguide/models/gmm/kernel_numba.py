@@ -1,14 +1,9 @@
 """Compiled GMM proximity closed loop, whole run (:mod:`.loop`: its RK4 maps and result).
 
-The sampled-data loop (GMM-NTSMC or TSMC command at ``t_k``, bad-command guard, saturation,
-thrust scale, the RK4 sub-step maps, per-sub-step clearance, penetration, range and swept
-collision tests, records and ZEM) runs for the whole run in one compiled function. The results
-agree with the NumPy oracle ``tests/oracles/gmm.py`` to round-off (``tests/test_gmm_kernel.py``).
-
-Blocks of :data:`BLOCK` samples run in parallel threads; inside a block the samples ("lanes")
-advance in lockstep, their per-step work stored as structure of arrays (rows ``W_*`` of ``W``),
-and a sample gives the same bits whatever the batch split and the thread count. The layout and
-where the time goes: docs/performance.md#the-gmm-proximity-kernel.
+One compiled function runs the sampled-data loop; it agrees with the NumPy oracle
+``tests/oracles/gmm.py`` to round-off (``tests/test_gmm_kernel.py``), and a sample gives the same
+bits whatever the batch split and the thread count. The layout and where the time goes:
+docs/performance.md#the-gmm-proximity-kernel.
 """
 
 from __future__ import annotations
@@ -75,25 +70,12 @@ def simulate_compiled(
 ) -> SampledRun:
     """Run the sampled-data closed loop for a batch (``u`` of the result is None).
 
-    Parameters
-    ----------
-    schedule : StepSchedule
-        Plant maps (:func:`.loop.build_schedule`).
-    x0 : ndarray, shape (n, 6)
-        Initial states ``[r (m), v (m/s)]``.
-    geometry : ChiefGeometry
-        Parts for clearance and collision checks (in the plant's axes).
-    a_max : float
-        Acceleration limit [m/s^2] (``inf``: none); ``per_axis_saturation`` clips each axis
-        instead of scaling the vector.
-    thrust_scale : ndarray, shape (n,), optional
-        Multiplicative thrust-magnitude error per run (applied after saturation: a mis-
-        calibrated thruster delivers ``scale`` times what is commanded).
-    record_every : int
-        Record states every this many periods (plus ``t = 0``; ``t_f`` is recorded when
-        ``n_steps`` is a multiple).
-    goal : ndarray, shape (3,), optional
-        If given, the ZEM to this goal is computed at the recording times.
+    ``schedule``: the plant maps (:func:`.loop.build_schedule`); ``x0 (n, 6)``: initial
+    ``[r (m), v (m/s)]``; ``geometry``: the parts, in the plant's axes; ``a_max`` [m/s^2]: the
+    acceleration limit (``inf``: none), which ``per_axis_saturation`` applies per axis instead
+    of to the vector; ``thrust_scale (n,)``: a thrust-magnitude factor per run, after
+    saturation; states are recorded every ``record_every`` periods (and at ``t = 0``), with the
+    ZEM to ``goal`` (3,) when it is given.
     """
     x0 = np.ascontiguousarray(x0, dtype=float)
     n = x0.shape[0]

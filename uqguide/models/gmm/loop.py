@@ -20,17 +20,10 @@ from ..time_grid import whole_steps
 
 @dataclass(frozen=True)
 class StepSchedule:
-    """Plant matrices at the sample times and RK4 maps of every control period.
-
-    Attributes
-    ----------
-    times, f : ndarray, shape (N + 1,)
-        Sample times ``k dt`` [s] and the chief true anomaly there [rad].
-    A, B : ndarray, shape (N, 3, 3)
-        Plant matrices at the sample times (what the controllers cancel).
-    phi, gam : ndarray, shape (N, n_sub, 6, 6) and (N, n_sub, 6, 3)
-        ``x(t_k + (j+1) h) = phi[k, j] x(t_k) + gam[k, j] u_k``.
-    """
+    """Plant matrices at the sample times and RK4 maps of every control period: sample
+    ``times (N + 1,)`` ``k dt`` [s] and the chief's true anomaly ``f`` there [rad]; ``A``,
+    ``B (N, 3, 3)`` the plant matrices the controllers cancel; ``phi (N, n_sub, 6, 6)``, ``gam
+    (N, n_sub, 6, 3)`` with ``x(t_k + (j+1) h) = phi[k, j] x(t_k) + gam[k, j] u_k``."""
 
     dt: float
     times: np.ndarray
@@ -81,32 +74,16 @@ def build_schedule(plant: RelativePlant, t_f: float, dt: float, n_sub: int) -> S
 class SampledRun:
     """What a closed-loop run returns for a batch of ``n`` runs (SI units).
 
-    Attributes
-    ----------
-    time : ndarray, shape (T,)
-        Recording times [s].
-    r, v : ndarray, shape (n, T, 3)
-        Relative position [m] and velocity [m/s] in the plant's axes.
-    zem : ndarray, shape (n, T) or None
-        Zero-effort miss to the goal at ``t_f`` [m], if asked for.
-    delta_v_history : ndarray, shape (n, T)
-        Accumulated ``delta_v`` at the recording times [m/s].
-    u : ndarray, shape (n, N, 3) or None
-        Applied control [m/s^2] per period, if asked for.
-    delta_v : ndarray, shape (n,)
-        Accumulated ``sum ||u_k|| dt`` [m/s] ([W 24], exact for a ZOH).
-    clearance : ndarray, shape (n, P)
-        Minimum distance [m] of the path (every sub-step) to each part's skeleton.
-    penetration : ndarray, shape (n,)
-        Maximum depth [m] inside the solid body.
-    hits : ndarray of bool, shape (n, P)
-        Swept-segment collision with each part's collision box (A8).
-    min_range : ndarray, shape (n,)
-        Minimum distance to the chief's centre [m].
-    n_saturated, n_nonfinite : ndarray of int, shape (n,)
-        Periods with a saturated command; non-finite commands replaced by 0.
-    failed : ndarray of bool, shape (n,)
-        A state became non-finite.
+    On the recording times ``time (T,)`` [s]: ``r``, ``v (n, T, 3)`` position [m] and velocity
+    [m/s] in the plant's axes, ``zem (n, T)`` the zero-effort miss to the goal at ``t_f`` [m]
+    and ``delta_v_history (n, T)`` [m/s]; ``u (n, N, 3)`` the applied control per period
+    [m/s^2] (``zem`` and ``u`` only if asked for). Per run: ``delta_v`` ``sum ||u_k|| dt``
+    [m/s] ([W 24], exact for a ZOH), ``clearance (n, P)`` the path's (every sub-step) least
+    distance to each part's skeleton [m], ``penetration`` the deepest point inside the solid
+    body [m], ``hits (n, P)`` swept-segment collisions with each part's collision box,
+    ``min_range`` the least distance to the chief's centre [m], ``n_saturated`` periods with a
+    saturated command, ``n_nonfinite`` non-finite commands replaced by 0, and ``failed``
+    where a state became non-finite.
     """
 
     time: np.ndarray

@@ -2,16 +2,7 @@
 
 A :class:`Mixture` holds ``(pi_j, mu_j, Sigma_j)``; it turns into the repulsive kernels of the
 potential with :meth:`Mixture.to_gauss_sum` (docs/papers.md#gmm-potentials-and-controllers).
-
-Fitting (both papers: k-means for the initial centres, then EM):
-
-1. ``KMeans(K, init=means0, n_init=1)`` run to a fixed point; weights, means and biased
-   covariances of its clusters;
-2. ``GaussianMixture(K, "full", reg_covar=1e-5)`` started from exactly those three (passing only
-   the means would let scikit-learn re-derive weights and covariances from its own k-means).
-
-``reg_covar = 1e-5`` reproduces the published 1e-5 m^2 variances across exactly planar /
-linear parts, whose empirical thickness is zero.
+The fitting recipe: docs/simulators.md#gmm-a-mixture-fitted-to-a-surface.
 """
 
 from __future__ import annotations
@@ -55,11 +46,8 @@ class Mixture:
         return int(self.weights.shape[0])
 
     def with_variance_floor(self, floor: float) -> Mixture:
-        """Covariances with eigenvalues raised to at least ``floor`` [m^2] (spec 6.3, A31).
-
-        An optional, documented deviation from the papers: it makes the repulsion act at a
-        distance of about ``sqrt(floor)`` instead of inside 3 mm sheets.
-        """
+        """Covariances with eigenvalues raised to at least ``floor`` [m^2] (A31, an optional
+        deviation from the papers: docs/simulators.md#gmm-a-mixture-fitted-to-a-surface)."""
         if floor <= 0:
             return self
         vals, vecs = np.linalg.eigh(self.covariances)
@@ -104,7 +92,7 @@ WANG2022_MEANS0 = np.array(
     ],
     dtype=float,
 )
-"""k-means initial centres of [W 22] [m] (row 2 taken from extraction 000, spec 5.2)."""
+"""k-means initial centres of [W 22] [m]."""
 
 WANG2022_PUBLISHED = Mixture(
     weights=np.array(

@@ -1,15 +1,9 @@
 """GMM-based close-range proximity to a complex-shaped chief (Wang et al. 2022, [W]).
 
-A deputy (point, 50 kg, 30 N) manoeuvres next to a chief made of a 10 m cube, two solar panels
-and two antennas, under APF-TSMC, GMM-TSMC or GMM-NTSMC; Tschauner-Hempel relative dynamics,
-control held over each 1 s period and saturated, collisions checked against the chief's boxes.
-The uncertain inputs (initial-state errors, a thrust scale the controller does not know, errors
-of the controller's GMM of the chief) and where the paper is silent:
-docs/papers.md#gmm-proximity-scenario-inputs-and-outputs; the laws and potentials:
-docs/papers.md#gmm-potentials-and-controllers.
-
 :class:`GMMProximity` builds the scenario's pieces (geometry, mixture, controller) from its
-parameters and runs the compiled closed loop (:mod:`.kernel_numba`); the paper's report and
+parameters and runs the compiled closed loop (:mod:`.kernel_numba`). The scenario, the uncertain
+inputs and where the paper is silent: docs/papers.md#gmm-proximity-scenario-inputs-and-outputs;
+the laws and potentials: docs/papers.md#gmm-potentials-and-controllers. The paper's report and
 figures are in :mod:`uqguide.papers.gmm_proximity`.
 """
 
@@ -141,7 +135,7 @@ class GMMProximity(Model):
 
     # ------------------------------------------------------------------ scenario pieces
     def geometry(self) -> ChiefGeometry:
-        """The [W] chief with this configuration's thicknesses (spec 4.1-4.2)."""
+        """The [W] chief with this configuration's thicknesses (A7)."""
         p = self.params
         return wang2022_chief(p.panel_half_thickness, p.antenna_half_width, p.body_tolerance,
                               p.deputy_radius)

@@ -19,7 +19,7 @@ ControllerName = Literal["gmm_ntsmc", "gmm_tsmc", "apf_tsmc"]
 
 
 class GMMProximityParams(ModelParams):
-    """The [W] scenario (spec 9.1); SI units. Defaults are the literal reading of the paper."""
+    """The [W] scenario; SI units. Defaults are the literal reading of the paper."""
 
     controller: ControllerName = Field("gmm_ntsmc", description="control law ([W] 3, App. A2, A3)")
     gmm_source: Literal["published", "fitted"] = Field(

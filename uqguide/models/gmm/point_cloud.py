@@ -1,14 +1,5 @@
-"""Surface point clouds of a box-built chief (counts: docs/papers.md, "GMM-FTC: target").
-
-Each part's surface is sampled: the six faces of a solid, a plate as one rectangle, a segment
-as a line. Two samplers:
-
-* :func:`grid_cloud`: regular grids including the edges (the [W] recipe: 200 x 200 per body
-  face, 283 x 141 per panel, 99,000 per antenna, ~515,000 points);
-* :func:`random_cloud`: uniform random points with given counts per face / plate / segment
-  (the [C] recipe), seeded.
-
-Points shared by two faces (cube edges and corners) are kept once.
+"""Surface point clouds of a box-built chief: :func:`grid_cloud` (the [W] recipe) and the seeded
+:func:`random_cloud` (the [C] recipe); docs/simulators.md#gmm-surface-point-clouds.
 """
 
 from __future__ import annotations
@@ -103,4 +94,4 @@ WANG2022_GRID_COUNTS: dict[str, tuple[int, ...]] = {
     "antenna+x": (99_000,),
     "antenna-x": (99_000,),
 }
-"""The [W] grid of spec 4.3: counts proportional to the App. A4 weights (antennas ~2.5x)."""
+"""The [W] grid (docs/simulators.md#gmm-surface-point-clouds)."""

@@ -1,13 +1,8 @@
 """Attract/repulse potential of the GMM papers and its derivatives.
 
-``phi(r; r_f) = e^T P e / 2 + q V(r) / 2`` with ``e = r - r_f``, ``q = e^T M e`` and ``V`` a
-Gaussian sum (:mod:`.gauss_sum`): [W 9] with the GMM kernels, [W 28] with the classical APF
-obstacle, [C 17-19]. :class:`AttractRepulsePotential` gives its gradient ``g``, Hessian ``H``,
-``H_f = d g / d r_f`` (the printed [W 27] corrected, A19) and the third-derivative contraction
-``Gamma(y) = D3 phi[y, y]`` (the printed [C 24] corrected, A23) that the fixed-time controller
-of [C] uses.
-
-The formulas: docs/papers.md#gmm-potentials-and-controllers.
+``phi(r; r_f) = e^T P e / 2 + q V(r) / 2`` (:class:`AttractRepulsePotential`) with its gradient,
+Hessian, ``H_f`` (A19) and ``Gamma(y) = D3 phi[y, y]`` (A23):
+docs/papers.md#gmm-potentials-and-controllers.
 """
 
 from __future__ import annotations

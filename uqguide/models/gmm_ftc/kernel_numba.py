@@ -1,14 +1,11 @@
 """Compiled GMM-FTC closed loop in blocks of samples (:mod:`.loop`: its settings and result).
 
-The sampled-data loop (GMM-FTC at ``t_k``, thrust factors and keyed noise, RK4 of the
-body-frame plant, per-sub-step geometry, the metrics) runs in one compiled function, which
-agrees with the NumPy oracle ``tests/oracles/gmm_ftc.py`` to rounding
-(``tests/test_gmm_ftc_kernel.py``). Blocks of :data:`BLOCK` samples run on parallel threads;
-within a block the samples advance in lockstep as structure of arrays, and a sample's numbers
-do not depend on its block, its lane, the thread count or the batch. The layout and why:
-docs/performance.md#the-gmm-ftc-kernel.
-
-Layout of the per-sample scalar results (columns of ``sc``) is :data:`SCALAR_COLUMNS`.
+One compiled function runs the sampled-data loop; it agrees with the NumPy oracle
+``tests/oracles/gmm_ftc.py`` to rounding (``tests/test_gmm_ftc_kernel.py``), and a sample's
+numbers do not depend on its block, its lane, the thread count or the batch. The layout and why:
+docs/performance.md#the-gmm-ftc-kernel; the potential's passes:
+docs/simulators.md#gmm-ftc-the-potential-in-the-kernel. The per-sample scalar results are the
+columns :data:`SCALAR_COLUMNS` of ``sc``.
 """
 
 from __future__ import annotations
@@ -67,18 +64,8 @@ POW_GENERAL, POW_HALF, POW_THREE_HALVES = 0, 1, 2
 
 @njit(cache=True)
 def pow_mode(a: float) -> int:
-    """The exact algebraic form of ``|x|^a`` where one exists (:data:`POW_HALF` for 0.5,
-    :data:`POW_THREE_HALVES` for 1.5), else :data:`POW_GENERAL` (a ``pow`` call).
-
-    Parameters
-    ----------
-    a : float
-        Exponent.
-
-    Returns
-    -------
-    int
-    """
+    """How ``|x|^a`` is evaluated: :data:`POW_HALF` for ``a = 0.5``, :data:`POW_THREE_HALVES`
+    for 1.5, else :data:`POW_GENERAL` (docs/simulators.md#gmm-ftc-the-potential-in-the-kernel)."""
     if a == 0.5:
         return POW_HALF
     if a == 1.5:
@@ -143,18 +130,12 @@ def _attitudes(m, w, shared, t, C0, out):  # pragma: no cover - compiled
     """Attitude rows ``out (9, m)`` at time ``t``: computed once and copied to every lane when
     the spin is common (``shared``), else per lane; the same arithmetic either way, so a
     sample's bits do not depend on its batch."""
-    if shared:
-        R = _rotation(w[0, 0], w[1, 0], w[2, 0], t, C0)
-        for l in range(m):
-            out[0, l], out[1, l], out[2, l] = R[0], R[1], R[2]
-            out[3, l], out[4, l], out[5, l] = R[3], R[4], R[5]
-            out[6, l], out[7, l], out[8, l] = R[6], R[7], R[8]
-    else:
-        for l in range(m):
+    R = _rotation(w[0, 0], w[1, 0], w[2, 0], t, C0)
+    for l in range(m):
+        if l > 0 and not shared:
             R = _rotation(w[0, l], w[1, l], w[2, l], t, C0)
-            out[0, l], out[1, l], out[2, l] = R[0], R[1], R[2]
-            out[3, l], out[4, l], out[5, l] = R[3], R[4], R[5]
-            out[6, l], out[7, l], out[8, l] = R[6], R[7], R[8]
+        for q in range(9):
+            out[q, l] = R[q]
 
 
 @njit(cache=True, error_model="numpy")
@@ -207,19 +188,13 @@ def _plant(m, A_st, B_st, j, C, w, printed, x, out):  # pragma: no cover - compi
 
 
 EXP_ZERO = -746.0
-"""``exp(x)`` is 0 in double precision for every ``x`` below this (``exp(-746) ~ 1e-324`` is
-under half the smallest subnormal), so it is not evaluated there."""
+"""``exp(x)`` is 0 in double precision below this: not evaluated there."""
 
 
 @njit(cache=True, error_model="numpy")
 def _weights(m, ck, arg, out):  # pragma: no cover - compiled
-    """``out = ck exp(arg)`` of every lane.
-
-    Most kernels are far from most samples (a 3 mm sheet puts ``arg`` near -1e4), and libm's
-    ``exp`` takes a slow path (~10 ns) when its result underflows. Those lanes get the 0 that
-    ``exp`` would return, without the call: the zero fill and the guarded call are separate
-    loops because in one select the compiler evaluates ``exp`` on every lane anyway.
-    """
+    """``out = ck exp(arg)`` of every lane; 0 without the call where ``exp`` underflows
+    (docs/simulators.md#gmm-ftc-the-potential-in-the-kernel)."""
     for l in range(m):
         out[l] = 0.0
     for l in range(m):
@@ -228,15 +203,32 @@ def _weights(m, ck, arg, out):  # pragma: no cover - compiled
             out[l] = ck * math.exp(a)
 
 
-@njit(cache=True, error_model="numpy")
-def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
-    """:func:`_potential` for kernels whose ``L`` has zero off-diagonal entries (axis-aligned
-    covariances, as in [C] Table 2): the same numbers (the dropped terms are exact zeros,
-    and ``t0 t1 = t1 t0`` makes the Hessian's mirror entries copies) for a third of the work.
-    """
-    for a in range(N_ACC):
+@njit(cache=True, inline="always")
+def _zero(acc, m):  # pragma: no cover - compiled
+    for a in range(acc.shape[0]):
         for l in range(m):
             acc[a, l] = 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _add_value_gradient(m, ex, th, acc):  # pragma: no cover - compiled
+    # one kernel's weight ``ex`` and ``-ex L (r - mu)`` (``th``) into the value and gradient rows;
+    # a weight that underflowed to 0 adds nothing, as the reference skips the kernel
+    for l in range(m):
+        e = ex[l]
+        live = e != 0.0
+        t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+        acc[A_V, l] += e if live else 0.0
+        acc[A_G, l] -= e * t0 if live else 0.0
+        acc[A_G + 1, l] -= e * t1 if live else 0.0
+        acc[A_G + 2, l] -= e * t2 if live else 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
+    """:func:`_potential` for kernels whose ``L`` has zero off-diagonal entries: the same
+    numbers for a third of the work (docs/simulators.md#gmm-ftc-the-potential-in-the-kernel)."""
+    _zero(acc, m)
     for k in range(mu.shape[0]):
         m0, m1, m2 = mu[k, 0], mu[k, 1], mu[k, 2]
         L00, L11, L22 = L[k, 0, 0], L[k, 1, 1], L[k, 2, 2]
@@ -247,14 +239,7 @@ def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover -
             th[0, l], th[1, l], th[2, l] = t0, t1, t2
             eta[l] = -0.5 * (d0 * t0 + d1 * t1 + d2 * t2)
         _weights(m, ck, eta, ex)
-        for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
-            acc[A_V, l] += e if live else 0.0
-            acc[A_G, l] -= e * t0 if live else 0.0
-            acc[A_G + 1, l] -= e * t1 if live else 0.0
-            acc[A_G + 2, l] -= e * t2 if live else 0.0
+        _add_value_gradient(m, ex, th, acc)
         for l in range(m):
             e = ex[l]
             live = e != 0.0
@@ -290,15 +275,9 @@ def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover -
 @njit(cache=True, error_model="numpy")
 def _potential(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
     """The GMM sum's value, gradient, Hessian and third derivative along ``v`` (twice) at every
-    lane's ``r`` into ``acc (N_ACC, m)``.
-
-    Kernel by kernel, three passes over the lanes: the quadratic form (branch-free, vectorised),
-    the exponentials, the accumulation (branch-free). A kernel whose weight underflows to 0
-    adds nothing (as the reference skips it).
-    """
-    for a in range(N_ACC):
-        for l in range(m):
-            acc[a, l] = 0.0
+    lane's ``r`` into ``acc (N_ACC, m)``, in passes over the lanes
+    (docs/simulators.md#gmm-ftc-the-potential-in-the-kernel)."""
+    _zero(acc, m)
     for k in range(mu.shape[0]):
         m0, m1, m2 = mu[k, 0], mu[k, 1], mu[k, 2]
         L00, L01, L02 = L[k, 0, 0], L[k, 0, 1], L[k, 0, 2]
@@ -313,14 +292,7 @@ def _potential(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
             th[0, l], th[1, l], th[2, l] = t0, t1, t2
             eta[l] = -0.5 * (d0 * t0 + d1 * t1 + d2 * t2)
         _weights(m, ck, eta, ex)
-        for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
-            acc[A_V, l] += e if live else 0.0
-            acc[A_G, l] -= e * t0 if live else 0.0
-            acc[A_G + 1, l] -= e * t1 if live else 0.0
-            acc[A_G + 2, l] -= e * t2 if live else 0.0
+        _add_value_gradient(m, ex, th, acc)
         for l in range(m):
             e = ex[l]
             live = e != 0.0
@@ -829,21 +801,12 @@ def run_closed_loop_numba(plant, controller_plant, law, geometry, x0, settings,
     """Simulate a batch of servicers under GMM-FTC; the result's ``scalars`` are
     :func:`.loop.scalar_results`.
 
-    Parameters
-    ----------
-    plant : RotatingBodyFrame
-        True body-frame dynamics; its spin rate is common (``m = 1``) or per sample.
-    controller_plant : RotatingBodyFrame or None
-        The dynamics the law cancels (``None``: the true plant).
-    law : GMMFTCLaw
-        One GMM for the whole batch.
-    x0 : ndarray, shape (n, 6)
-        Initial body-frame ``[r (m), r' (m/s)]``.
-    thrust_scale : ndarray, shape (n, 3), optional
-        Per-sample, per-axis thrust factor (1: exact).
-    noise_keys : ndarray of uint64, shape (n,), optional
-        Keys of the per-period thrust noise streams (:mod:`.noise`); needed when
-        ``settings.thrust_noise > 0``.
+    ``plant``: the true body-frame dynamics, its spin rate common (``m = 1``) or per sample;
+    ``controller_plant``: the dynamics the law cancels (None: the true plant); ``law``: one GMM
+    for the whole batch; ``x0 (n, 6)``: the initial body-frame ``[r (m), r' (m/s)]``;
+    ``thrust_scale (n, 3)``: per-axis thrust factors (1: exact); ``noise_keys (n,)``: the keys
+    of the per-period thrust noise streams (:mod:`.noise`), needed when
+    ``settings.thrust_noise > 0``.
     """
     st = settings
     x0 = np.ascontiguousarray(x0, dtype=float)

@@ -1,14 +1,8 @@
-"""GMM-based fixed-time control, GMM-FTC ([C] eqs 20-31).
+"""GMM-based fixed-time control, GMM-FTC ([C] eqs 20-31): :class:`GMMFTCLaw`, its gains
+:class:`FTCGains` and the [C 36] bound :func:`fixed_time_bound`.
 
-Body-frame errors ``y1 = r - r_f``, ``y2 = r'`` (a goal at rest), sliding variables
-``s1 = y1 + k_s g`` and ``s2 = y2 + alpha1 s1 + beta1 s1^3 + k_s H y2``, and the command that
-makes ``s2`` converge in fixed time while cancelling the body-frame plant (:class:`GMMFTCLaw`,
-gains in :class:`FTCGains`, the [C 36] bound :func:`fixed_time_bound`). Corrections to the printed
-equations are A21-A23; where ``I + k_s H`` is singular inside a thin GMM sheet
-(``|det| < det_guard``) the identity replaces it and the event is counted (A28). Gains are
-diagonal and stored as 3-vectors.
-
-The law in full and the corrections: docs/papers.md#gmm-potentials-and-controllers; the labels:
+The law in full and the corrections (A21-A23, the singular-Jacobian guard A28):
+docs/papers.md#gmm-potentials-and-controllers; the labels:
 docs/papers.md#the-gmm-papers-ambiguities-as-settled.
 """
 
@@ -25,20 +19,11 @@ from ..gmm.potential import AttractRepulsePotential
 
 @dataclass(frozen=True)
 class FTCGains:
-    """Gains of GMM-FTC ([C] Table 3 defaults are set by the model's parameters).
-
-    Attributes
-    ----------
-    alpha1, beta1 : ndarray, shape (3,)
-        ``s1`` dynamics: linear [1/s] and cubic [1/(m^2 s)] gains.
-    lambda1, lambda2 : ndarray, shape (3,)
-        Reaching-law gains of ``sig^zeta1`` and ``sig^zeta2``.
-    zeta1, zeta2 : float
-        Exponents, ``0 < zeta1 < 1 < zeta2``.
-    k_s : ndarray, shape (3,)
-        Weight of the potential gradient in ``s1`` [-] (``g`` is a length for dimensionless
-        ``P``, ``M``).
-    """
+    """Gains of GMM-FTC, diagonals as 3-vectors ([C] Table 3 defaults are set by the model's
+    parameters): the linear ``alpha1`` [1/s] and cubic ``beta1`` [1/(m^2 s)] gains of the
+    ``s1`` dynamics, the reaching-law gains ``lambda1``, ``lambda2`` of ``sig^zeta1``,
+    ``sig^zeta2`` (``0 < zeta1 < 1 < zeta2``), and the weight ``k_s`` [-] of the potential's
+    gradient in ``s1`` (``g`` is a length for dimensionless ``P``, ``M``)."""
 
     alpha1: np.ndarray
     beta1: np.ndarray
@@ -59,16 +44,8 @@ class FTCGains:
 
 def fixed_time_bound(lambda1: np.ndarray, lambda2: np.ndarray, zeta1: float, zeta2: float,
                      tight: bool = False) -> float:
-    """Bound [s] on the time for ``s2`` to reach 0 ([C 36]).
-
-    With ``V = 1/2 |s2|^2`` the paper's Lemma 2 gives
-    ``V' <= -sum lambda_i,min (2V)^((1+zeta_i)/2)`` and Corollary 1
-    ``T_max = 2 / (lambda1,min (1 - zeta1)) + 2 / (lambda2,min (zeta2 - 1))`` (500 s for Table 3).
-    Lemma 2 is invalid for ``zeta > 1`` in 3-D: by the power-mean inequality
-    ``sum |s_i|^(1+zeta2) >= 3^((1-zeta2)/2) |s|^(1+zeta2)``; keeping that factor and the
-    ``2^((1+zeta)/2)`` of ``(2V)^...`` in Corollary 1 gives the valid, tighter bound
-    (``tight=True``; about 279 s for Table 3).
-    """
+    """Bound [s] on the time for ``s2`` to reach 0: [C 36] as printed, or with ``tight`` the
+    valid, tighter bound (docs/simulators.md#gmm-ftc-the-fixed-time-bound)."""
     l1, l2 = float(np.min(lambda1)), float(np.min(lambda2))
     if not tight:
         return 2.0 / (l1 * (1 - zeta1)) + 2.0 / (l2 * (zeta2 - 1))

@@ -21,25 +21,12 @@ from ..time_grid import recording_stride, whole_steps
 class LoopSettings:
     """Timing, thrust error and claim thresholds of one closed-loop run (SI units).
 
-    Attributes
-    ----------
-    t_final : float
-        Duration [s], a multiple of ``dt``.
-    record_every : int
-        Record the series every this many periods (``t_final / dt`` must be a multiple).
-    thrust_noise : float
-        Half-width of the per-axis, per-period thrust factor ``1 + U(-w, w)`` (0: none).
-    converge_tol, velocity_tol : float
-        Position-error [m] and velocity [m/s] thresholds of the convergence times (1e-4, [C] 4.2).
-    settle_tol : float
-        Coarser position-error threshold [m] of a settling time that a steady offset (e.g. from
-        a thruster scale error) does not censor.
-    s2_tol : float
-        ``||s2||`` threshold of the reaching time [m/s] (claim C7: 1e-6).
-    t_check : float
-        Start of the "converged" window of the claims [s] (150 s, [C] 4.2).
-    u_max : float
-        Norm limit of the commanded acceleration [m/s^2] (``inf``: none, as in [C]).
+    ``t_final`` [s] is a multiple of ``dt``, and of ``record_every`` periods; ``thrust_noise``
+    is the half-width ``w`` of the per-axis, per-period thrust factor ``1 + U(-w, w)``;
+    ``converge_tol`` [m], ``velocity_tol`` [m/s] set the convergence times, the coarser
+    ``settle_tol`` [m] a settling time a steady offset does not censor, ``s2_tol`` [m/s] the
+    reaching time of ``||s2||``; ``t_check`` [s] starts the "converged" window of the claims;
+    ``u_max`` [m/s^2] limits the commanded acceleration's norm (``inf``: none, as in [C]).
     """
 
     dt: float = 0.1
@@ -66,30 +53,15 @@ class LoopSettings:
 
 @dataclass
 class LoopRun:
-    """Result of a closed-loop run of ``n`` samples (body frame unless said otherwise).
+    """Result of a closed-loop run of ``n`` samples on the recording times ``time (T,)`` [s].
 
-    Attributes
-    ----------
-    time : ndarray, shape (T,)
-        Recording times [s].
-    goal : ndarray, shape (3,)
-        The law's goal ``r_f`` [m].
-    r, v : ndarray, shape (n, T, 3)
-        Body-frame position [m] and velocity [m/s].
-    u : ndarray, shape (n, T, 3)
-        Applied thrust acceleration [m/s^2] held from each recording time (at ``t_final``: the
-        command computed there).
-    s2 : ndarray, shape (n, T)
-        ``||s2||`` [m/s].
-    r_l, v_l, u_l, u_eq32_l : ndarray, shape (n, T, 3)
-        LVLH position, velocity, physical thrust ``C u`` and the [C 32] diagnostic ``C (u + 2 w x v
-        + w x (w x r))``.
-    dv_cum : ndarray, shape (n, T)
-        Accumulated delta-v [m/s].
-    scalars : dict of str to ndarray, shape (n,) or (n, k)
-        See :func:`scalar_results`.
-    failed : ndarray of bool, shape (n,)
-        A state became non-finite.
+    ``goal`` is the law's ``r_f`` [m]; ``r``, ``v``, ``u`` ``(n, T, 3)`` the body-frame
+    position [m], velocity [m/s] and applied thrust acceleration [m/s^2] held from each
+    recording time (at ``t_final``: the command computed there); ``s2 (n, T)`` is ``||s2||``
+    [m/s]; ``r_l``, ``v_l``, ``u_l``, ``u_eq32_l`` their LVLH forms (``C u``, and the [C 32]
+    diagnostic ``C (u + 2 w x v + w x (w x r))``); ``dv_cum (n, T)`` the accumulated delta-v
+    [m/s]; ``scalars`` those of :func:`scalar_results`; ``failed (n,)`` where a state became
+    non-finite.
     """
 
     time: np.ndarray

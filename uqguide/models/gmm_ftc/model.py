@@ -1,15 +1,9 @@
 """GMM-FTC: safe proximity to a rotating, complex-shaped target (Chen et al. 2020, [C]).
 
-The servicer approaches a target spinning at ``w = (0, 0, 0.05) rad/s`` relative to LVLH on an
-``e = 0.01`` orbit, in the target's body frame (:mod:`..dynamics.rotating_body_frame`), under the
-GMM-based fixed-time controller (:mod:`.law`) whose potential encodes the target's shape by a
-12-component GMM (:mod:`.target`). Defaults are the paper's scenario (Tables 3-5, step 0.1 s,
-+-5 % thruster error). Uncertain inputs: hand-over errors of the initial state, spin-rate errors
-and thrust scale factors held over the run; the paper's per-period thruster error
-(``thrust_noise``) comes from streams keyed by each sample's inputs (:mod:`.noise`), which a PCE
-cannot represent.
-
-The inputs, outputs and choices, with the ambiguities they settle:
+The servicer approaches a spinning target in its body frame
+(:mod:`..dynamics.rotating_body_frame`) under the fixed-time law (:mod:`.law`) whose potential
+encodes the target's shape by a 12-component GMM (:mod:`.target`); defaults are the paper's
+scenario. The inputs, outputs and choices, with the ambiguities they settle:
 docs/papers.md#gmm-ftc-target-thruster-error-and-inputs.
 """
 
@@ -258,10 +252,8 @@ def to_model_output(run: LoopRun, outputs: frozenset[str]) -> ModelOutput:
     scalars = {k: np.array(f(), dtype=float) for k, f in scalar_src.items() if k in outputs}
     failed = run.failed.copy()
     reasons = np.where(failed, "non-finite state: the closed loop diverged", "").astype(object)
-    # A loop that diverges without an inf in its state (a step too coarse for the finite-time
-    # law: the state grows past 1e150 and its speed or delta-v overflows) has failed too: its
-    # outputs are no sample of the closed loop. Seen at dt = 1 s on the shipped dispersion,
-    # 37 of 300 runs, which reported NaN delta-v as if they had succeeded.
+    # a loop that diverges without an inf in its state has failed too
+    # (docs/simulators.md#gmm-ftc-a-run-that-diverges)
     overflow = ~failed & ~(np.isfinite(sc["delta_v"]) & np.isfinite(sc["speed_max"]))
     failed |= overflow
     reasons[overflow] = "the closed loop diverged (speed or delta-v overflowed; dt too coarse?)"

@@ -1,13 +1,8 @@
 """Thruster output error of [C] section 4.2 as a keyed, counter-based random stream.
 
-The paper's "+-5 %" is a factor ``1 + delta`` per body axis and control period, ``delta ~ U(-w,
-w)``, independent across axes, periods and runs (A25). So that a sample's outputs do not depend
-on its batch, each sample owns a SplitMix64 stream keyed by the noise seed and its input values
-rounded to single precision (:func:`sample_keys`), and the error of period ``k``, axis ``i`` is
-element ``3 k + i``, computed directly from its index (:func:`uniform`).
-
-Why single precision, and why a PCE cannot use it:
-docs/papers.md#gmm-ftc-target-thruster-error-and-inputs.
+A factor ``1 + U(-w, w)`` per body axis and control period (A25), from a SplitMix64 stream per
+sample keyed by its inputs (:func:`sample_keys`, :func:`uniform`), so that a sample's outputs do
+not depend on its batch: docs/papers.md#gmm-ftc-target-thruster-error-and-inputs.
 """
 
 from __future__ import annotations

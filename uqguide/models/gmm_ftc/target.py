@@ -79,8 +79,8 @@ TABLE2 = Mixture(
          (.9489, 1e-5, .3301), (.8751, 1e-5, .3300), (.8776, 1e-5, .3300)]
     ),
 )
-"""[C] Table 2, the published fit, with the spec 5.2 restorations (component order of the
-spec: faces +-x, +-y, +-z, antennas +-y, inner panel halves +-x, outer panel halves +-x)."""
+"""[C] Table 2, the published fit, restored (A10); components in the order faces +-x, +-y, +-z,
+antennas +-y, inner panel halves +-x, outer panel halves +-x."""
 
 PART_OF_COMPONENT: tuple[str, ...] = (
     "face+x", "face-x", "face+y", "face-y", "face+z", "face-z",
