@@ -36,56 +36,51 @@ from .monte_carlo import DesignChunks, ci_index, method_seed, stream_seed
 log = logging.getLogger(__name__)
 
 
+def _one_level() -> list[dict[str, float | int | str]]:
+    return [{}]
+
+
 class MfmcSettings(MethodSettings):
-    """Settings of ``mfmc`` (``docs/multifidelity.md``).
+    """Settings of ``mfmc`` (``docs/multifidelity.md``)."""
 
-    Attributes
-    ----------
-    fidelities : list of dict
-        The levels, highest fidelity first: each the model parameters it changes, or
-        ``{surrogate: LABEL}``, the PCE that the method LABEL, listed before this one, fitted.
-    n_pilot : int
-        Runs of every level in the pilot (and the least any used level gets).
-    budget_cpu_s : float, optional
-        Model CPU seconds for the whole method, pilot included.
-    target_se : dict of str to float, optional
-        Standard error of the mean wanted per output (its unit); exactly one of the two.
-    optimise_for : list of str
-        Outputs the allocation is optimised for (default: every output of the run).
-    costs : list of float, optional
-        Seconds per run of each level, instead of the pilot's measurement.
-    min_gain : float
-        Estimated variance reduction below which plain MC of the highest level is run.
-    chunk_size : int
-        Rows per random stream and per checkpointed chunk.
-    bootstrap : int
-        Group-bootstrap resamples for the intervals of std, skewness, kurtosis (0: none).
-    max_runs : int
-        Largest number of runs of any one level.
-    surrogate_ratio : float
-        A surrogate level runs at most this many times the rows of the level before it.
-    estimator : {"blue", "mfmc"}
-        How the runs are combined: the best linear unbiased estimator (MLBLUE; default) or
-        PWG16's MFMC estimator.
-    surrogate_values : float
-        Most values a surrogate level keeps in memory for the estimate (rows times every
-        output's columns); its rows are cut to fit after the allocation.
-    """
-
-    fidelities: list[dict[str, float | int | str]] = Field(default_factory=lambda: [{}],
-                                                           min_length=1, max_length=8)
-    n_pilot: int = Field(default=200, ge=10, le=1_000_000)
-    budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False)
-    target_se: dict[str, float] | None = None
-    optimise_for: list[str] = Field(default_factory=list)
-    costs: list[float] | None = None
-    min_gain: float = Field(default=1.1, ge=1.0, le=1e6)
-    chunk_size: int = Field(default=256, ge=1, le=1_000_000)
-    bootstrap: int = Field(default=200, ge=0, le=100_000)
-    max_runs: int = Field(default=10_000_000, ge=10, le=100_000_000)
-    surrogate_ratio: float = Field(default=100.0, ge=1.0, le=1e5, allow_inf_nan=False)
-    surrogate_values: float = Field(default=2e7, ge=1e3, le=1e10, allow_inf_nan=False)
-    estimator: Literal["mfmc", "blue"] = "blue"
+    fidelities: list[dict[str, float | int | str]] = Field(
+        default_factory=_one_level, min_length=1, max_length=8,
+        description="the levels, highest fidelity first: each the model parameters it changes, "
+                    "or {surrogate: LABEL}, the PCE that the method LABEL, listed before this "
+                    "one, fitted")
+    n_pilot: int = Field(default=200, ge=10, le=1_000_000,
+                         description="runs of every level in the pilot (and the least any used "
+                                     "level gets)")
+    budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False,
+                                       description="model CPU seconds for the whole method, "
+                                                   "pilot included")
+    target_se: dict[str, float] | None = Field(
+        default=None, description="standard error of the mean wanted per output (its unit); "
+                                  "exactly one of budget_cpu_s and target_se")
+    optimise_for: list[str] = Field(default_factory=list,
+                                    description="outputs the allocation is optimised for "
+                                                "(default: every output of the run)")
+    costs: list[float] | None = Field(default=None, description="seconds per run of each "
+                                                               "level, instead of the pilot's")
+    min_gain: float = Field(default=1.1, ge=1.0, le=1e6,
+                            description="estimated variance reduction below which plain MC "
+                                        "of the highest level is run")
+    chunk_size: int = Field(default=256, ge=1, le=1_000_000,
+                            description="rows per random stream and per checkpointed chunk")
+    bootstrap: int = Field(default=200, ge=0, le=100_000,
+                           description="group-bootstrap resamples for the intervals of std, "
+                                       "skewness, kurtosis (0: none)")
+    max_runs: int = Field(default=10_000_000, ge=10, le=100_000_000,
+                          description="largest number of runs of any one level")
+    surrogate_ratio: float = Field(default=100.0, ge=1.0, le=1e5, allow_inf_nan=False,
+                                   description="a surrogate level runs at most this many times "
+                                               "the rows of the level before it")
+    surrogate_values: float = Field(default=2e7, ge=1e3, le=1e10, allow_inf_nan=False,
+                                    description="most values a surrogate level keeps in memory "
+                                                "(rows times every output's columns)")
+    estimator: Literal["mfmc", "blue"] = Field(
+        default="blue", description="how the runs are combined: the best linear unbiased "
+                                    "estimator (MLBLUE), or PWG16's MFMC estimator")
 
     @model_validator(mode="after")
     def _one_goal(self) -> MfmcSettings:
@@ -312,14 +307,13 @@ class MultiFidelityMC(Method):
         step = np.array([s.surrogate_ratio if i in self.surrogate_levels else np.inf
                          for i in range(len(costs))])
         allocation = select_allocation(rho, costs, s.min_gain, max_step=step)
-        capped = _at_cap(allocation, step)
-        note = (f"surrogate rows capped at surrogate_ratio = {s.surrogate_ratio:g} times the "
-                f"level before") if capped else ""
+        notes = [f"surrogate rows capped at surrogate_ratio = {s.surrogate_ratio:g} times the "
+                 f"level before"] if _at_cap(allocation, step) else []
         if allocation.is_plain_mc and len(costs) > 1:
-            note = (f"the pilot found no gain above min_gain = {s.min_gain:g} from the cheaper "
-                    f"levels (correlations too low for their cost): plain Monte Carlo of the "
-                    f"highest level")
-            log.warning("%s: %s", self.label, note)
+            notes = [f"the pilot found no gain above min_gain = {s.min_gain:g} from the cheaper "
+                     f"levels (correlations too low for their cost): plain Monte Carlo of the "
+                     f"highest level"]
+            log.warning("%s: %s", self.label, notes[0])
         levels = allocation.levels
         unused = [i for i in range(len(costs)) if i not in levels]
         if s.budget_cpu_s is not None:
@@ -330,18 +324,17 @@ class MultiFidelityMC(Method):
             sizes = sample_sizes(allocation, costs, m0=self._m0_for_target(
                 var0, owner, rho, allocation), at_least=s.n_pilot)
         sizes, held = self._hold_surrogate_memory(sizes, levels, pilot[0])
-        if held:
-            note = (note + "; " if note else "") + held
+        notes += [held] if held else []
         if sizes[-1] > s.max_runs:
-            note = (note + "; " if note else "") + f"capped at max_runs = {s.max_runs}"
+            notes.append(f"capped at max_runs = {s.max_runs}")
             sizes = np.minimum(sizes, s.max_runs)
         if s.budget_cpu_s is not None and \
                 float(np.dot(costs[list(levels)], np.full(len(levels), s.n_pilot))) \
                 + sum(costs[i] for i in unused) * s.n_pilot > s.budget_cpu_s:
-            note = (note + "; " if note else "") + \
-                "the pilot alone exceeds budget_cpu_s: every used level keeps its pilot runs"
+            notes.append("the pilot alone exceeds budget_cpu_s: every used level keeps its "
+                         "pilot runs")
         return LevelPlan(levels=levels, sizes=sizes, allocation=allocation, costs=costs,
-                         measured=measured, note=note)
+                         measured=measured, note="; ".join(notes))
 
     def _hold_surrogate_memory(self, sizes: np.ndarray, levels: tuple[int, ...],
                                top: ModelOutput) -> tuple[np.ndarray, str]:

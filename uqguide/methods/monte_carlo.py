@@ -15,7 +15,6 @@ import math
 import os
 import time
 import zlib
-from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
@@ -42,38 +41,28 @@ U_EPS = 2.0**-53
 
 
 class MonteCarloSettings(MethodSettings):
-    """Settings of ``monte_carlo``.
+    """Settings of ``monte_carlo``."""
 
-    Attributes
-    ----------
-    n_samples : int
-        Number of model runs.
-    sampling : {"random", "lhs", "sobol"}
-        Design of the samples within each chunk.
-    chunk_size : int
-        Samples per random stream (changes the numbers; fixed so that the worker count does not).
-    intervals : {"tail", "delta", "bootstrap", "studentized"}
-        How the 95% intervals of mean, std, skewness and kurtosis are computed: tail-aware
-        (default), delta method, Poisson bootstrap or studentised Poisson bootstrap
-        (``docs/statistics.md``).
-    bootstrap : int
-        Bootstrap resamples of ``intervals: bootstrap`` (0: no intervals, whatever
-        ``intervals`` says).
-    bootstrap_times : {"report", "all"}
-        Where a time series gets intervals: at the config's report times and the final step
-        (default; cheap), or at every step.
-    sensitivity : {"auto", "on", "off"}
-        Given-data first-order Sobol' indices with 95% intervals (the error budget): ``auto``
-        when the inputs are at most 50 and the runs from 500 to 1e6.
-    """
-
-    n_samples: int = Field(ge=1, le=100_000_000)
-    sampling: Literal["random", "lhs", "sobol"] = "random"
-    chunk_size: int = Field(default=8192, ge=1, le=10_000_000)
-    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = "tail"
-    bootstrap: int = Field(default=200, ge=0, le=100_000)
-    bootstrap_times: Literal["report", "all"] = "report"
-    sensitivity: Literal["auto", "on", "off"] = "auto"
+    n_samples: int = Field(ge=1, le=100_000_000, description="number of model runs")
+    sampling: Literal["random", "lhs", "sobol"] = Field(
+        default="random", description="design of the samples within each chunk")
+    chunk_size: int = Field(default=8192, ge=1, le=10_000_000,
+                            description="samples per random stream (changes the numbers; fixed "
+                                        "so that the worker count does not)")
+    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = Field(
+        default="tail", description="how the 95% intervals of mean, std, skewness and kurtosis "
+                                    "are computed: tail-aware, delta method, Poisson bootstrap "
+                                    "or studentised Poisson bootstrap (docs/statistics.md)")
+    bootstrap: int = Field(default=200, ge=0, le=100_000,
+                           description="bootstrap resamples of intervals: bootstrap (0: no "
+                                       "intervals, whatever intervals says)")
+    bootstrap_times: Literal["report", "all"] = Field(
+        default="report", description="where a time series gets intervals: at the report "
+                                      "times and the final step, or at every step")
+    sensitivity: Literal["auto", "on", "off"] = Field(
+        default="auto", description="given-data first-order Sobol' indices with 95% intervals "
+                                    "(the error budget): auto when the inputs are at most 50 "
+                                    "and the runs from 500 to 1e6")
 
 
 def method_seed(seed: int, label: str) -> np.random.SeedSequence:
@@ -201,12 +190,13 @@ class MonteCarlo(StreamingMethod):
 
     def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
                          acc: dict[tuple[str, str], Any] | None) -> Estimate:
+        from ..pce.outputs import failure_summary  # (pool workers import this module)
+
         t0 = time.perf_counter()
         if acc is not None and _SUMS in acc:
             acc = {**acc[_SUMS].groups(), **{k: v for k, v in acc.items() if k != _SUMS}}
         n_failed = int(runs.failed.sum())
-        reasons = Counter(r for r in runs.reasons[runs.failed])
-        tally = "; ".join(f"{r} ({c})" for r, c in reasons.most_common())
+        tally = failure_summary(runs)
         if n_failed:
             log.warning("%s: %d of %d runs failed; statistics use the other %d",
                         self.label, n_failed, runs.n, runs.n - n_failed)
@@ -239,7 +229,8 @@ class MonteCarlo(StreamingMethod):
                         levels))
                 else:
                     y = runs.scalars[name]
-                    jobs[name] = (y.size, partial(_scalar_quantiles, y, ~runs.failed, levels))
+                    jobs[name] = (y.size, partial(order_statistic_quantiles, y[~runs.failed],
+                                                  levels))
         for name, (q, ci) in _run_jobs(jobs).items():
             _put_quantiles(stats[name], q, ci, levels or (), runs.time, self.context.report_times)
         sobol_seconds = 0.0
@@ -281,11 +272,6 @@ class MonteCarlo(StreamingMethod):
 #: Threads computing different outputs' quantiles at once (None: one per CPU); the selection
 #: is exact, so the numbers do not depend on it (``docs/methods.md#inside-monte-carlo``).
 QUANTILE_THREADS: int | None = None
-
-
-def _scalar_quantiles(y: np.ndarray, good: np.ndarray, levels: tuple[float, ...]
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    return order_statistic_quantiles(y[good], levels)
 
 
 def _run_jobs(jobs: dict[str, tuple[int, Callable[[], Any]]]) -> dict[str, Any]:

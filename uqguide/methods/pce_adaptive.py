@@ -44,8 +44,8 @@ from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign
 from .base import Design, Method, MethodSettings, RunPlan
 from .pce_validated import (
-    USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish, split_validation, surrogate_of,
-    with_validation,
+    SURROGATE_DRAWS_FIELD, SURROGATE_SAMPLING_FIELD, USABLE_FIELD, VALIDATION_FIELD,
+    ValidationSettings, finish, split_validation, surrogate_of, with_validation,
 )
 
 log = logging.getLogger(__name__)
@@ -54,64 +54,44 @@ _MIN_RUNS = 3  # a leave-one-out error needs at least three runs
 
 
 class AdaptivePCESettings(MethodSettings):
-    """Settings of ``pce_adaptive`` (the defaults' rules: :attr:`AdaptivePCE.default_rules`).
+    """Settings of ``pce_adaptive`` (the defaults' rules: :attr:`AdaptivePCE.default_rules`)."""
 
-    Attributes
-    ----------
-    n_samples : int, optional
-        Initial design size; default ``n0 = max(10 d, 2 P_min)``, capped by ``max_runs``.
-    sampling : {"sobol", "lhs"}
-        Design on the unit cube: scrambled Sobol' or Latin hypercube.
-    degree_min : int
-        Lowest truncation degree tried (default 1).
-    degree_max : int, optional
-        Highest truncation degree tried; default the largest whose candidate set has at most
-        five terms per run and 3000 in all, up to 40 (the paper: 6).
-    q_norm : float in (0, 1], optional
-        Hyperbolic truncation ``||alpha||_q <= p``; default: chosen per output among 0.5, 0.75
-        and 1 by corrected LOO (the paper: 0.5; 1 is total degree).
-    target_loo : float
-        Corrected LOO error (relative to the variance) at which enrichment stops (paper 4.4).
-    max_runs : int, optional
-        Budget of fit runs, enrichment included; default ``min(max(10 n0, 100), 1000)`` when
-        ``n_samples`` is not given either, else ``n_samples`` (no enrichment).
-    enrich : bool
-        Whether to add runs while the LOO error is above target and the budget allows.
-    variance_fraction : float in (0, 1], optional
-        Keep the principal components of a time series that hold this fraction of its
-        (correlation-scaled) variance; default: the rule of :mod:`uqguide.pce.pca_rank`.
-    n_components : int, optional
-        Keep this many principal components of a time series (instead of either rule).
-    surrogate_draws : int
-        Surrogate samples for skewness and kurtosis where the exact rule is too large, for
-        derived outputs, quantiles and events.
-    surrogate_sampling : {"random", "sobol"}
-        Those samples: pseudo-random, or scrambled Sobol' (``surrogate_draws`` rounded up to a
-        power of two).
-    validation_runs : int
-        Model runs at independent random inputs after the fit (0: none); the older form of
-        ``validation``.
-    validation : {n_samples: int}, optional
-        Independent validation runs after the fit (:mod:`uqguide.methods.pce_validated`;
-        the larger of this and ``validation_runs``); default ``max(20, ceil(n_fit / 4))``
-        stratified runs at the default plan, else none; ``{n_samples: 0}``: none.
-    usable_error : float
-        Relative LOO / validation error above which an output reports no PCE moments.
-    """
-
-    n_samples: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000)
-    sampling: Literal["sobol", "lhs"] = "sobol"
-    degree_min: int = Field(default=1, ge=1, le=30)
-    degree_max: int | None = Field(default=None, ge=1, le=30)
-    q_norm: float | None = Field(default=None, gt=0.0, le=1.0)
-    target_loo: float = Field(default=1e-5, gt=0.0, lt=1.0)
-    max_runs: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000)
-    enrich: bool = True
-    variance_fraction: float | None = Field(default=None, gt=0.0, le=1.0)
-    n_components: int | None = Field(default=None, ge=1, le=10_000)
-    surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
-    surrogate_sampling: Literal["random", "sobol"] = "random"
-    validation_runs: int = Field(default=0, ge=0, le=10_000_000)
+    n_samples: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000,
+                                  description="initial design size; default n0 = max(10 d, "
+                                              "2 P_min), capped by max_runs")
+    sampling: Literal["sobol", "lhs"] = Field(
+        default="sobol", description="design on the unit cube: scrambled Sobol' or Latin "
+                                     "hypercube")
+    degree_min: int = Field(default=1, ge=1, le=30,
+                            description="lowest truncation degree tried")
+    degree_max: int | None = Field(default=None, ge=1, le=30,
+                                   description="highest truncation degree tried; default the "
+                                               "largest whose candidate set has at most five "
+                                               "terms per run and 3000 in all, up to 40")
+    q_norm: float | None = Field(default=None, gt=0.0, le=1.0,
+                                 description="hyperbolic truncation ||alpha||_q <= p; default: "
+                                             "chosen per output among 0.5, 0.75 and 1")
+    target_loo: float = Field(default=1e-5, gt=0.0, lt=1.0,
+                              description="corrected LOO error (relative to the variance) at "
+                                          "which enrichment stops (paper 4.4)")
+    max_runs: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000,
+                                 description="budget of fit runs, enrichment included; default "
+                                             "min(max(10 n0, 100), 1000) when n_samples is not "
+                                             "given either, else n_samples (no enrichment)")
+    enrich: bool = Field(default=True, description="whether to add runs while the LOO error "
+                                                   "is above target and the budget allows")
+    variance_fraction: float | None = Field(
+        default=None, gt=0.0, le=1.0,
+        description="keep the principal components of a time series that hold this fraction of "
+                    "its variance; default: docs/methods.md#time-series-in-the-adaptive-pce")
+    n_components: int | None = Field(default=None, ge=1, le=10_000,
+                                     description="keep this many principal components of a "
+                                                 "time series (instead of either rule)")
+    surrogate_draws: int = SURROGATE_DRAWS_FIELD
+    surrogate_sampling: Literal["random", "sobol"] = SURROGATE_SAMPLING_FIELD
+    validation_runs: int = Field(default=0, ge=0, le=10_000_000,
+                                 description="model runs at independent random inputs after "
+                                             "the fit (0: none); the older form of validation")
     validation: ValidationSettings | None = VALIDATION_FIELD
     usable_error: float = USABLE_FIELD
 

@@ -16,7 +16,6 @@ from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field
 
 from ..errors import MethodError
 from ..core.inputs import InputSpace
@@ -33,8 +32,8 @@ from ..pce.quadrature import Grid, union_basis
 from ..pce.validation_design import ValidationDesign, random_validation
 from .base import Design, Method, MethodSettings
 from .pce_validated import (
-    USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish, split_validation, surrogate_of,
-    with_validation,
+    SURROGATE_DRAWS_FIELD, SURROGATE_SAMPLING_FIELD, USABLE_FIELD, VALIDATION_FIELD,
+    ValidationSettings, finish, split_validation, surrogate_of, with_validation,
 )
 
 log = logging.getLogger(__name__)
@@ -65,20 +64,10 @@ def identifiable_terms(psi: np.ndarray, tol: float = 1e-8) -> np.ndarray:
 
 
 class QuadratureSettings(MethodSettings):
-    """Settings shared by the quadrature PCE methods.
+    """Settings shared by the quadrature PCE methods."""
 
-    Attributes
-    ----------
-    surrogate_draws : int
-        Surrogate samples for skewness and kurtosis where the exact rule is too large, and for
-        derived outputs (:mod:`uqguide.pce.moments`).
-    surrogate_sampling : {"random", "sobol"}
-        Those samples: pseudo-random, or scrambled Sobol' (``surrogate_draws`` rounded up to a
-        power of two).
-    """
-
-    surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
-    surrogate_sampling: Literal["random", "sobol"] = "random"
+    surrogate_draws: int = SURROGATE_DRAWS_FIELD
+    surrogate_sampling: Literal["random", "sobol"] = SURROGATE_SAMPLING_FIELD
     validation: ValidationSettings | None = VALIDATION_FIELD
     usable_error: float = USABLE_FIELD
 

@@ -25,18 +25,13 @@ _NESTED = {NORMAL: "genz_keister", UNIFORM: "patterson"}
 
 
 class SmolyakPCESettings(QuadratureSettings):
-    """Settings of ``pce_smolyak``.
+    """Settings of ``pce_smolyak``."""
 
-    Attributes
-    ----------
-    level : int
-        The paper's sparse-grid level, chaospy order + 1 (level 2: 15 runs for 7 inputs).
-    nested : bool
-        Nested rules (Genz-Keister / Gauss-Patterson) instead of Gauss rules.
-    """
-
-    level: int = Field(default=2, ge=1, le=12)
-    nested: bool = False
+    level: int = Field(default=2, ge=1, le=12,
+                       description="the paper's sparse-grid level, chaospy order + 1 (level 2: "
+                                   "15 runs for 7 inputs)")
+    nested: bool = Field(default=False, description="nested rules (Genz-Keister / "
+                                                    "Gauss-Patterson) instead of Gauss rules")
 
 
 class SmolyakPCE(QuadraturePCE):

@@ -22,19 +22,15 @@ from .pce_quadrature import MAX_NODES, QuadraturePCE, QuadratureSettings
 
 
 class TensorPCESettings(QuadratureSettings):
-    """Settings of ``pce_tensor``.
+    """Settings of ``pce_tensor``."""
 
-    Attributes
-    ----------
-    m : int
-        Nodes per input (the paper's "level"): ``m^d`` runs, basis degree ``m - 1`` per input.
-    rule : {"auto", "gauss", "clenshaw_curtis"}
-        One-dimensional rule: ``auto`` and ``gauss`` take the Gauss rule of each input's germ,
-        ``clenshaw_curtis`` (uniform inputs only) carries about half the basis degree.
-    """
-
-    m: int = Field(default=2, ge=1, le=64)
-    rule: Literal["auto", "gauss", "clenshaw_curtis"] = "auto"
+    m: int = Field(default=2, ge=1, le=64,
+                   description="nodes per input (the paper's level): m^d runs, basis degree "
+                               "m - 1 per input")
+    rule: Literal["auto", "gauss", "clenshaw_curtis"] = Field(
+        default="auto", description="one-dimensional rule: auto and gauss take each input's "
+                                    "Gauss rule, clenshaw_curtis (uniform inputs only) about "
+                                    "half the basis degree")
 
 
 class TensorPCE(QuadraturePCE):

@@ -38,15 +38,7 @@ log = logging.getLogger(__name__)
 
 
 class ValidationSettings(StrictModel):
-    """``validation:`` of a PCE method.
-
-    Attributes
-    ----------
-    n_samples : int
-        Independent model runs after the fit; 0 (the opt-out of a default set) or 2 and more.
-    design : {"stratified", "random"}
-        Stratified by the fitted surrogate's value (default) or plain random.
-    """
+    """``validation:`` of a PCE method."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -101,7 +93,14 @@ def surrogate_of(germ: Germ, fitted: list[tuple[OutputColumns, Expansion]],
                      {c.name: c.kind for c, _ in fitted})
 
 
-#: Fields the PCE methods' settings add (annotations and defaults), one definition for all.
+#: Fields the PCE methods' settings share, one definition for all.
+SURROGATE_DRAWS_FIELD = Field(default=1_000_000, ge=1_000, le=100_000_000,
+                              description="surrogate samples for skewness and kurtosis where the "
+                                          "exact rule is too large, and for derived outputs, "
+                                          "quantiles and events")
+SURROGATE_SAMPLING_FIELD: Any = Field(
+    default="random", description="those samples: pseudo-random, or scrambled Sobol' "
+                                  "(surrogate_draws rounded up to a power of two)")
 VALIDATION_FIELD = Field(default=None, description="independent runs that validate the "
                                                     "surrogate and correct its moments")
 USABLE_FIELD = Field(default=USABLE_ERROR, gt=0.0, le=10.0,

@@ -35,31 +35,24 @@ _SUMS = "pick-freeze"
 
 
 class SaltelliSettings(MethodSettings):
-    """Settings of ``sobol_saltelli``.
+    """Settings of ``sobol_saltelli``."""
 
-    Attributes
-    ----------
-    n_base : int
-        ``N``, base rows: the design makes ``N (m + 2)`` runs, ``m`` the frozen sets (inputs
-        and groups).
-    sampling : {"sobol", "random", "lhs"}
-        Points of ``A`` and ``B`` within each chunk (default scrambled Sobol', as SALib's).
-    chunk_size : int
-        Base rows per chunk (each with its ``m + 2`` runs); a power of two keeps Sobol' points
-        balanced.
-    bootstrap : int
-        Poisson-bootstrap resamples of the indices' 95% intervals (0: none), and of the
-        moments' with ``intervals: bootstrap`` or ``studentized`` (0: none either).
-    intervals : {"tail", "delta", "bootstrap", "studentized"}
-        The intervals of the ``A`` and ``B`` rows' moments, as ``monte_carlo``'s (default
-        ``tail``, as there).
-    """
-
-    n_base: int = Field(ge=2, le=10_000_000)
-    sampling: Literal["sobol", "random", "lhs"] = "sobol"
-    chunk_size: int = Field(default=1024, ge=1, le=1_000_000)
-    bootstrap: int = Field(default=200, ge=0, le=10_000)
-    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = "tail"
+    n_base: int = Field(ge=2, le=10_000_000,
+                        description="N, base rows: the design makes N (m + 2) runs, m the "
+                                    "frozen sets (inputs and groups)")
+    sampling: Literal["sobol", "random", "lhs"] = Field(
+        default="sobol", description="points of A and B within each chunk (default scrambled "
+                                     "Sobol', as SALib's)")
+    chunk_size: int = Field(default=1024, ge=1, le=1_000_000,
+                            description="base rows per chunk (each with its m + 2 runs); a "
+                                        "power of two keeps Sobol' points balanced")
+    bootstrap: int = Field(default=200, ge=0, le=10_000,
+                           description="Poisson-bootstrap resamples of the indices' 95% "
+                                       "intervals, and of the moments' with intervals: "
+                                       "bootstrap or studentized (0: none)")
+    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = Field(
+        default="tail", description="the intervals of the A and B rows' moments, as "
+                                    "monte_carlo's")
 
 
 class SobolSaltelli(StreamingMethod):

@@ -27,27 +27,20 @@ from .monte_carlo import U_EPS
 log = logging.getLogger(__name__)
 
 class SubsetSimulationSettings(MethodSettings):
-    """Settings of ``subset_simulation``.
+    """Settings of ``subset_simulation``."""
 
-    Attributes
-    ----------
-    event : str
-        Name of one of the config's events.
-    n_per_level : int
-        Samples per level ``N``.
-    p0 : float
-        Conditional probability of each intermediate level (``p0 N`` and ``1 / p0`` integers).
-    proposal_std : float
-        Standard deviation of each coordinate's proposal in standard normal space.
-    max_levels : int
-        MCMC levels before the method stops (the estimate is then an upper bound, flagged).
-    """
-
-    event: str = Field(min_length=1)
-    n_per_level: int = Field(default=1000, ge=10, le=10_000_000)
-    p0: float = Field(default=0.1, gt=0.0, le=0.5)
-    proposal_std: float = Field(default=1.0, gt=0.0, le=10.0)
-    max_levels: int = Field(default=10, ge=1, le=10)
+    event: str = Field(min_length=1, description="name of one of the config's events")
+    n_per_level: int = Field(default=1000, ge=10, le=10_000_000,
+                             description="samples per level N")
+    p0: float = Field(default=0.1, gt=0.0, le=0.5,
+                      description="conditional probability of each intermediate level (p0 N "
+                                  "and 1 / p0 integers)")
+    proposal_std: float = Field(default=1.0, gt=0.0, le=10.0,
+                                description="standard deviation of each coordinate's proposal "
+                                            "in standard normal space")
+    max_levels: int = Field(default=10, ge=1, le=10,
+                            description="MCMC levels before the method stops (the estimate is "
+                                        "then an upper bound, flagged)")
 
     @model_validator(mode="after")
     def _integers(self) -> SubsetSimulationSettings:
