@@ -375,7 +375,6 @@ class MonteCarloReducer:
 
     def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:
         ok = ~out.failed
-        m = out.n
         summary: dict[str, np.ndarray] = {}
         if not ok.any():
             # an empty summary merges as the identity; an all-failed chunk may have no grid
@@ -383,30 +382,24 @@ class MonteCarloReducer:
         # a full slice is a view; a boolean mask would copy every series of the chunk
         keep: slice | np.ndarray = slice(None) if ok.all() else ok
         idx = ci_index(out.time, self.report_times, self.bootstrap_times)
-        if self.intervals in ("delta", "tail"):
-            for name, y in [*out.series.items(), *out.scalars.items()]:
-                y_ok = y[keep]
-                _put(summary, "m", name, MomentSums.of(y_ok))
-                cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
-                _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
-            self._scalars_and_quantiles(summary, out, ok, keep)
-            return summary
-        w = None
-        if self.bootstrap > 0:
-            # drawn for every run, failed ones then dropped: a run's weights do not depend on
-            # which others failed
-            rng = np.random.default_rng([self.boot_seed, index])
-            w = poisson1(rng, (self.bootstrap, m))[:, ok]
+        closed_form = self.intervals in ("delta", "tail")
         blocks, spans = [], []
         for name, y in [*out.series.items(), *out.scalars.items()]:
             y_ok = y[keep]
             _put(summary, "m", name, MomentSums.of(y_ok))
             cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
+            if closed_form:
+                _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
+                continue
             # explicit width: reshape(0, -1) is ambiguous for a chunk in which every run failed
             blocks.append(cols.reshape(cols.shape[0], int(np.prod(cols.shape[1:]))))
             spans.append((name, blocks[-1].shape[1]))
         student = self.intervals == "studentized"
-        if w is not None and blocks:
+        if self.bootstrap > 0 and blocks:
+            # weights drawn for every run, failed ones then dropped: a run's weights do not
+            # depend on which others failed
+            w = poisson1(np.random.default_rng([self.boot_seed, index]),
+                         (self.bootstrap, out.n))[:, ok]
             # every interval column side by side: a few large products, not one per output
             boot = MomentSums.weighted(np.concatenate(blocks, axis=1), w, high=student)
             c0 = 0

@@ -178,11 +178,6 @@ class QuadraturePCE(Method):
         grid = self._checked_grid(germ)
         n_total = outputs.n
         outputs, validation = split_validation(design.data, outputs)
-        n_fit = int(design.data.get("n_fit", design.n_runs))
-        if n_fit != grid.n_nodes:
-            raise MethodError(
-                f"{self.label}: the design ({design.n_runs} runs, {outputs.n} outputs) is not "
-                f"this method's {grid.n_nodes}-node grid")
         rows, fitted = self._project(germ, grid, design, outputs)
         alpha = fitted[0][1].alpha if fitted else union_basis(grid)
         seed = design.data.get("draw_seed", 0)

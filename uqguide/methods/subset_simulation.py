@@ -233,11 +233,9 @@ class SubsetSimulation(Method):
                         events={spec.name: ev})
 
 
-def _gamma(g: np.ndarray, chain_rows: np.ndarray, b: float | None) -> float:
+def _gamma(g: np.ndarray, chain_rows: np.ndarray, b: float) -> float:
     """Au & Beck's gamma of one level: the correlation factor of the indicators
-    ``I(g > b)`` along the chains (``chain_rows (N_c, L)``); 0 while ``b`` is unknown."""
-    if b is None:
-        return 0.0
+    ``I(g > b)`` along the chains (``chain_rows (N_c, L)``)."""
     ind = (g[chain_rows] > b).astype(float)
     nc, L = ind.shape
     p = ind.mean()
