@@ -43,6 +43,7 @@ from ..pce.sparse_regression import Q_GRID, ColumnsFit, fit_columns
 from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign
 from .base import Design, Method, MethodSettings, RunPlan
+from .monte_carlo import U_EPS
 from .pce_validated import (
     SURROGATE_DRAWS_FIELD, SURROGATE_SAMPLING_FIELD, USABLE_FIELD, VALIDATION_FIELD,
     ValidationSettings, finish, split_validation, surrogate_of, with_validation,
@@ -254,12 +255,15 @@ class AdaptivePCE(Method):
             return self._rows_design(space, seed)
         n = self.initial_size(space.dim)
         u = unit_design(space.dim, 0, n, self.settings.sampling, seed, self.label, batch=0)
-        draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
         log.info("%s: initial design of %d runs (budget %d)", self.label, n,
                  self.budget(space.dim))
-        return Design(x=space.from_unit(u), data={
-            "u": u, "seed": int(seed), "batches": 1, "draw_seed": draw_seed,
-            "fit_seconds": 0.0, "loo_history": np.zeros(0)})
+        return Design(x=space.from_unit(u), data={"u": u, **self._first_data(seed)})
+
+    def _first_data(self, seed: int) -> dict[str, Any]:
+        """The design data before any fit: the seeds and an empty history."""
+        draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
+        return {"seed": int(seed), "batches": 1, "draw_seed": draw_seed, "fit_seconds": 0.0,
+                "loo_history": np.zeros(0)}
 
     def _rows_design(self, space: InputSpace, seed: int) -> Design:
         """The data file's rows as the design (config ``data:``): no enrichment; the validation
@@ -272,16 +276,14 @@ class AdaptivePCE(Method):
         assert self.context.rows is not None
         x, failed = self.context.rows.x, self.context.rows.failed
         n, nv = x.shape[0], self._asked_validation()
-        draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
-        data: dict[str, Any] = {"seed": int(seed), "batches": 1, "draw_seed": draw_seed,
-                                "fit_seconds": 0.0, "loo_history": np.zeros(0)}
+        data = self._first_data(seed)
         n_fit = n
         if nv:
             rng = np.random.default_rng(stream(seed, self.label, VALIDATION_STREAM))
             held = np.sort(rng.choice(np.flatnonzero(~failed), nv, replace=False))
             order = np.concatenate([np.setdiff1d(np.arange(n), held), held])
             x, n_fit = x[order], n - nv
-            u_held = np.clip(space.to_unit(x[n_fit:]), 2.0**-53, 1 - 2.0**-53)
+            u_held = np.clip(space.to_unit(x[n_fit:]), U_EPS, 1 - U_EPS)
             data.update(n_fit=n_fit, **random_design_of(u_held).to_data())
             log.info("%s: %d of the %d rows held out for validation", self.label, nv, n)
         data["u"] = space.to_unit(x[:n_fit])
