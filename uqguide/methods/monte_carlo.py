@@ -229,8 +229,7 @@ class MonteCarlo(StreamingMethod):
                         levels))
                 else:
                     y = runs.scalars[name]
-                    jobs[name] = (y.size, partial(order_statistic_quantiles, y[~runs.failed],
-                                                  levels))
+                    jobs[name] = (y.size, partial(_scalar_quantiles, y, ~runs.failed, levels))
         for name, (q, ci) in _run_jobs(jobs).items():
             _put_quantiles(stats[name], q, ci, levels or (), runs.time, self.context.report_times)
         sobol_seconds = 0.0
@@ -272,6 +271,11 @@ class MonteCarlo(StreamingMethod):
 #: Threads computing different outputs' quantiles at once (None: one per CPU); the selection
 #: is exact, so the numbers do not depend on it (``docs/methods.md#inside-monte-carlo``).
 QUANTILE_THREADS: int | None = None
+
+
+def _scalar_quantiles(y: np.ndarray, good: np.ndarray, levels: tuple[float, ...]
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    return order_statistic_quantiles(y[good], levels)
 
 
 def _run_jobs(jobs: dict[str, tuple[int, Callable[[], Any]]]) -> dict[str, Any]:
