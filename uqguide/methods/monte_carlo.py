@@ -422,24 +422,21 @@ class MonteCarloReducer:
 
     def _scalars_and_quantiles(self, summary: dict[str, np.ndarray], out: ModelOutput,
                                ok: np.ndarray, keep: slice | np.ndarray) -> None:
-        """The joint sums of the stacked scalars and the series values kept for quantiles."""
+        """The joint sums of the stacked scalars and the series values kept per run."""
         stacked = stack_scalars(out.scalars, ok)
         _put(summary, "j", "", MomentSums.of(stacked))
-        if self.quantiles and out.series:
+        if not out.series or not (self.quantiles or self.sensitivity):
+            return
+        if self.quantiles:
             width = sum(y.shape[2] for y in out.series.values())
-            q_idx = quantile_index(out.time, self.report_times, self.n_total, width)
-            for name, y in out.series.items():
-                # lane-major copies: the driver selects order statistics along rows, and the
-                # chunk's buffer is released once the summary leaves the worker
-                kept = y[keep] if q_idx is None else y[keep][:, q_idx]
-                summary[f"q::{name}"] = np.ascontiguousarray(
-                    kept.reshape(kept.shape[0], -1).T)
-        elif self.sensitivity and out.series:
-            s_idx = ci_index(out.time, self.report_times, "report")
-            for name, y in out.series.items():
-                kept = y[keep][:, s_idx]
-                summary[f"s::{name}"] = np.ascontiguousarray(
-                    kept.reshape(kept.shape[0], -1).T)
+            kind, steps = "q", quantile_index(out.time, self.report_times, self.n_total, width)
+        else:
+            kind, steps = "s", ci_index(out.time, self.report_times, "report")
+        for name, y in out.series.items():
+            # lane-major copies: the driver selects order statistics along rows, and the
+            # chunk's buffer is released once the summary leaves the worker
+            kept = y[keep] if steps is None else y[keep][:, steps]
+            summary[f"{kind}::{name}"] = np.ascontiguousarray(kept.reshape(kept.shape[0], -1).T)
 
 
 #: Prefixes of the summary entries that hold per-run values (quantiles', sensitivity's).
