@@ -10,7 +10,7 @@
 - ``sobol_saltelli`` (streaming): Sobol' indices of a pick-freeze design;
 - ``mfmc``: multi-fidelity Monte Carlo over a model's fidelity levels (its own ``propagate``).
 
-Each method is registered by name in ``uqguide.config.registry``; ``docs/methods.md``.
+Each method is registered under the entry point group ``uqguide.methods``; ``docs/methods.md``.
 """
 
 # The names a method's author needs (docs/architecture.md, "A plugin package"), imported on first

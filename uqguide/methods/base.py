@@ -7,11 +7,10 @@ ran and folds the summaries in chunk order; a multi-fidelity method runs its own
 method that cannot produce statistics raises :class:`~uqguide.errors.MethodError` (or one of
 :data:`METHOD_FAILURES`): the run records it and completes the other methods.
 
-Methods never know which model they run: they see the :class:`~uqguide.core.inputs.InputSpace`,
-the :class:`~uqguide.core.types.ModelOutput`, the :class:`Runner` and the :class:`RunContext`. A
-new method is a module with a ``Settings`` class and a :class:`Method` subclass, plus one line in
-:mod:`uqguide.config.registry`; :func:`uqguide.testing.check_method` checks it
-(``docs/architecture.md``).
+Methods see the :class:`~uqguide.core.inputs.InputSpace`, the outputs, the :class:`Runner` and
+the :class:`RunContext`, never the model. A new method is a ``Settings`` class and a
+:class:`Method` subclass, registered under the entry point group ``uqguide.methods``;
+:func:`uqguide.testing.check_method` checks it (``docs/architecture.md``).
 """
 from __future__ import annotations
 
@@ -52,11 +51,8 @@ Chunks = Sequence[tuple[int, int]]
 
 
 class MethodSettings(StrictModel):
-    """Settings of a method from the config (``methods:`` list entry, less ``name``).
-
-    ``label`` names the method's row in tables and its group in the result file; it defaults to
-    the method's name and must be unique within a config.
-    """
+    """Settings of a method from the config (``methods:`` list entry, less ``name``); a
+    method's own settings subclass it."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -64,7 +60,7 @@ class MethodSettings(StrictModel):
                               description="name of the method's rows in the tables and of its "
                                           "group in the result file (default: the method's name)")
 
-    # a label names an HDF5 group and files: "." and ".." passed the old character pattern
+    # a label names an HDF5 group and files
     _plain_label = field_validator("label")(check_plain_name)
 
 
@@ -97,14 +93,12 @@ class RunPlan:
 
 @dataclass(frozen=True, eq=False)
 class GivenRows:
-    """A design the method does not choose: the rows of a data file (config ``data:``).
+    """A design the method does not choose: the rows of a data file (config ``data:``),
+    compared by identity (never element by element).
 
-    Compared by identity (two contexts hold the same rows only when they share this object),
-    so that comparing contexts never compares arrays element by element.
-
-    ``x (n, d)`` holds the rows' inputs (SI units, ``InputSpace.names`` order), ``source`` the
-    file's name for messages, ``failed (n,)`` the rows whose outputs are NaN: a method may leave
-    them out of a held-out set, not out of its counts.
+    ``x (n, d)``: the rows' inputs (SI units, ``InputSpace.names`` order); ``source``: the
+    file's name for messages; ``failed (n,)``: the rows whose outputs are NaN (a method may
+    leave them out of a held-out set, not out of its counts).
     """
 
     x: np.ndarray
@@ -114,19 +108,16 @@ class GivenRows:
 
 @dataclass(frozen=True)
 class RunContext:
-    """What a method is told about the run it is part of: given when it is built, never set on
-    it afterwards (:meth:`Method.with_context` makes a new method for a new context).
+    """What a method is told about the run it is part of, given when it is built
+    (:meth:`Method.with_context` makes a new method for a new context).
 
-    ``report_times`` [s] are where a method that must economise (Monte Carlo bootstrap
-    intervals of long series) concentrates its effort. ``failure_policy`` is the config's
-    ``pce_failure_policy`` for a design that needs every run (a quadrature grid): ``"fail"``
-    raises MethodError naming the failed runs, ``"regression"`` fits by least squares on the
-    survivors, with a warning and a diagnostics entry. ``quantile_levels`` (None: none),
-    ``events``, ``outputs`` (empty: whatever the runs hold) and ``groups`` (inputs with a Sobol'
-    index of their own: the config's, or each correlated group) are the config's;
-    ``components`` names every output's components (for events on them); ``derived`` holds the
-    model's derivations of outputs from smoother carriers, which a method with
-    :attr:`Method.uses_derivations` fits and derives from.
+    ``report_times`` [s]: where a method that must economise concentrates its effort;
+    ``failure_policy``: the config's ``pce_failure_policy`` for a design that needs every run
+    (``"fail"``: MethodError; ``"regression"``: fit the survivors); ``quantile_levels`` (None:
+    none), ``events``, ``outputs`` (empty: whatever the runs hold) and ``groups`` (inputs with a
+    Sobol' index of their own) are the config's; ``components`` names every output's
+    components; ``derived`` holds the model's derivations of outputs from carriers (for a
+    method with :attr:`Method.uses_derivations`).
     """
 
     report_times: tuple[float, ...] | None = None
@@ -138,8 +129,8 @@ class RunContext:
     outputs: tuple[str, ...] = ()
     derived: Mapping[str, DerivedOutput] = field(default_factory=lambda: MappingProxyType({}))
     groups: tuple[tuple[str, tuple[int, ...]], ...] = ()
-    #: The data file's rows when the config gives ``data:``: the method's design is then
-    #: these rows, not points it draws (only methods with an empty :attr:`Method.own_design`).
+    #: The data file's rows (config ``data:``): then the design (methods with an empty
+    #: :attr:`Method.own_design` only).
     rows: GivenRows | None = None
 
 
@@ -151,9 +142,8 @@ ChunkFold = Callable[[Any, dict[str, np.ndarray]], Any]
 
 
 class Runner(Protocol):
-    """How a method's :meth:`~Method.propagate` evaluates rows, lent by the driver
-    (:mod:`uqguide.driver.propagate`): chunks run on its executor, are checkpointed, and are
-    folded or joined in chunk order whatever order they finish in."""
+    """How a method's :meth:`~Method.propagate` evaluates rows, lent by the driver: chunks run
+    on its executor, are checkpointed, and are folded or joined in chunk order."""
 
     #: Rows per chunk for a method that does not cut its own (:meth:`Method.chunks`).
     batch_size: int
@@ -168,8 +158,7 @@ class Runner(Protocol):
 
     @property
     def fixed_cpu_s(self) -> float:
-        """CPU seconds this level cost before its first run: what the method that fitted a
-        surrogate level spent (0 for a model)."""
+        """CPU seconds spent before the first run (a surrogate level's fit; 0 for a model)."""
 
     def run(self, x: np.ndarray | GeneratedRows, stage: int, chunks: Chunks, *,
             reduce: tuple[ChunkReducer, ChunkFold] | None = None,
@@ -177,9 +166,8 @@ class Runner(Protocol):
         """Evaluate the rows ``chunks`` of ``x`` as checkpoint stage ``stage``.
 
         With ``reduce`` (reducer, fold) each chunk is reduced where it ran and folded in chunk
-        order: the outputs then hold the per-run scalars, failures and time grid only, and the
-        accumulator is returned beside them (else None). ``after``: the outputs of earlier rows,
-        joined in front of the new ones.
+        order: the outputs then hold the scalars, failures and grid only, and the accumulator
+        is returned beside them (else None). ``after``: earlier rows' outputs, joined in front.
         """
 
     def plan(self, chunks: Chunks) -> None:
@@ -200,10 +188,9 @@ class Runner(Protocol):
 class Propagated:
     """What a method's propagation ends with (:meth:`Method.propagate`).
 
-    ``x (n, d)`` are the inputs of the runs the result keeps and ``outputs`` theirs (a
-    streaming method's: scalars, failures and grid only; None when a failure lost them, and the
-    result keeps no runs); ``fit_seconds`` is the time spent fitting outside the model;
-    ``failure`` says why the method produced no statistics ("" when it did).
+    ``x (n, d)``: the inputs of the runs the result keeps, ``outputs`` theirs (None: lost to a
+    failure); ``fit_seconds``: the time spent outside the model; ``failure``: why the method
+    produced no statistics ("" when it did).
     """
 
     estimate: Estimate
@@ -246,18 +233,15 @@ class Method(ABC):
     #: The estimate keeps a fitted surrogate (``Estimate.surrogate``), which a multi-fidelity
     #: method may take as a level (``fidelities: [..., {surrogate: LABEL}]``).
     fits_surrogate: ClassVar[bool] = False
-    #: The design is drawn from the seed (another seed, another design); a quadrature grid is
-    #: not.
+    #: The design is drawn from the seed (a quadrature grid is not).
     random_design: ClassVar[bool] = True
     #: Why the method cannot take a data file's rows as its design (config ``data:``), named
     #: in the refusal; empty for a method whose :meth:`design` returns ``context.rows``.
     own_design: ClassVar[str] = "it chooses its own design points"
-    #: Every run's outputs stay in memory until the estimate (the default :meth:`propagate`);
-    #: False for a :class:`StreamingMethod`, whose chunks are reduced where they ran. The
-    #: memory budget and the conformance suite go by it.
+    #: Every run's outputs stay in memory until the estimate (False for a
+    #: :class:`StreamingMethod`); the memory budget and the conformance suite go by it.
     holds_runs: ClassVar[bool] = True
-    #: Settings of a small design that still exercises the method (several chunks): what the
-    #: conformance suite (:func:`uqguide.testing.check_method`) runs it with.
+    #: Settings of a small design of several chunks, for :func:`uqguide.testing.check_method`.
     example_settings: ClassVar[Mapping[str, Any]] = {}
     #: Settings whose default is a rule, not a number: ``(setting, rule and why)`` pairs that
     #: ``uqguide methods NAME`` prints (:meth:`default_sizes` gives the rule's numbers).
@@ -271,8 +255,7 @@ class Method(ABC):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        # The flag that used to ask for the streaming protocol would now be ignored, and the
-        # method estimated from whole runs: refuse it where the class is written.
+        # a plugin still setting the retired flag would be estimated from whole runs silently
         if cls.__dict__.get("reduces_chunks") and not issubclass(cls, StreamingMethod):
             raise TypeError(f"{cls.__name__}: 'reduces_chunks' is retired; subclass "
                             f"uqguide.methods.base.StreamingMethod instead")
@@ -303,8 +286,7 @@ class Method(ABC):
 
     @contextmanager
     def phases_to(self, listener: Callable[[str], None]) -> Iterator[None]:
-        """Within the block, tell ``listener`` what a long fit is doing ("fitting zem (2/7)"),
-        for the progress display."""
+        """Within the block, tell ``listener`` what a long fit is doing (:meth:`note`)."""
         self._listener = listener
         try:
             yield
@@ -312,17 +294,13 @@ class Method(ABC):
             self._listener = None
 
     def note(self, text: str) -> None:
-        """Say what the fit is doing now (see :meth:`phases_to`)."""
+        """Say what the fit is doing now ("fitting zem (2/7)"), for the progress display."""
         if self._listener is not None:
             self._listener(text)
 
     def check(self, index: int) -> None:
-        """Checks of the settings against the rest of the config (events, outputs), after
-        those are set; raise ConfigError naming ``methods[index].<field>``. Default: none.
-
-        A hook that methods override when they have such checks, not an abstract method: most
-        have none.
-        """
+        """Checks of the settings against the rest of the config (events, outputs); raise
+        ConfigError naming ``methods[index].<field>``. Default: none."""
         return None
 
     def check_model(self, model: Any, index: int) -> None:
@@ -341,14 +319,13 @@ class Method(ABC):
         return 1
 
     def sensitivity_for(self, space: InputSpace, n_runs: int) -> bool:
-        """Whether a run of ``n_runs`` estimates given-data Sobol' indices from its own runs,
-        keeping their inputs and series values at the report steps (the memory budget counts
-        them). Default: no."""
+        """Whether a run of ``n_runs`` estimates given-data Sobol' indices from its own runs
+        (the memory budget counts what they keep). Default: no."""
         return False
 
     def plan(self, space: InputSpace) -> RunPlan:
-        """What the method will ask for, known before any design is built (for the budgets
-        of :mod:`uqguide.config.budget`). Default: unknown until the design is built."""
+        """What the method will ask for, before any design is built (for the budgets).
+        Default: unknown."""
         return RunPlan(runs=None)
 
     @abstractmethod
@@ -359,9 +336,9 @@ class Method(ABC):
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         """An enlarged design after seeing ``outputs`` of ``design`` (default: none).
 
-        Returns ``None`` when no more runs are needed, or a new Design whose ``x`` starts with
-        the rows of ``design.x`` unchanged and appends the new runs; the driver evaluates only
-        the appended rows and calls ``refine`` again with the concatenated outputs.
+        Returns ``None`` when no more runs are needed, or a new Design whose ``x`` is
+        ``design.x`` with the new runs appended; the driver evaluates those and calls
+        ``refine`` again with all the outputs.
         """
         return None
 
@@ -370,30 +347,27 @@ class Method(ABC):
         """Statistics of every output in ``outputs`` from the runs of ``design``."""
 
     def chunks(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
-        """How ``n_runs`` rows of a design split into chunks ``[start, stop)``, consecutive and
-        covering ``[0, n_runs)`` (one empty chunk when ``n_runs`` is 0). Default: slices of
-        ``batch_size``; a streaming method cuts its own."""
+        """Consecutive chunks ``[start, stop)`` covering ``[0, n_runs)`` (one empty chunk when
+        ``n_runs`` is 0). Default: slices of ``batch_size``."""
         return [(s, min(n_runs, s + batch_size)) for s in range(0, max(n_runs, 1), batch_size)]
 
     def planned_chunks(self, design: Design, batch_size: int) -> list[tuple[int, int]] | None:
-        """The chunks of ``design`` known before it runs, which the progress display counts
-        from the start; None when the method plans its runs as it goes."""
+        """The chunks of ``design`` known before it runs (for the progress display); None when
+        the method plans its runs as it goes."""
         return self.chunks(design.n_runs, batch_size)
 
     def propagate(self, space: InputSpace, design: Design, runner: Runner) -> Propagated:
         """Run ``design`` through ``runner`` and estimate: the hook the driver calls.
 
-        Default: evaluate the design, then :meth:`refine` until it returns None (the appended
-        rows evaluated each time, at most :data:`MAX_REFINEMENTS` times), then
-        :meth:`estimate`. A failure of either (:data:`METHOD_FAILURES`) is returned with the
-        runs made, so the other methods of the run still complete.
+        Default: evaluate the design, :meth:`refine` until it returns None (at most
+        :data:`MAX_REFINEMENTS` times), :meth:`estimate`. A failure of either
+        (:data:`METHOD_FAILURES`) is returned with the runs made.
         """
         out, _ = runner.run(design.x, 0, self.chunks(design.n_runs, runner.batch_size))
         fit_seconds = 0.0
         for k in range(1, MAX_REFINEMENTS + 1):
             t0 = time.perf_counter()
-            # the runs so far are done, and no ETA paces what follows: say what the method
-            # does, until it says more itself ("fitting zem (2/7, 300 runs)")
+            # no ETA paces what follows: say what the method does until it says more itself
             runner.phase("refining the design")
             try:
                 with quiet_overflow():  # fits only: the model ran before
@@ -418,8 +392,7 @@ class Method(ABC):
 
     def estimated(self, estimate: Callable[[], Estimate], x: np.ndarray | GeneratedRows,
                   outputs: ModelOutput, runner: Runner, fit_seconds: float = 0.0) -> Propagated:
-        """The last step of a propagation: ``estimate()`` timed (added to ``fit_seconds``) and
-        its failure (:data:`METHOD_FAILURES`) recorded with the runs made."""
+        """``estimate()`` timed (added to ``fit_seconds``), its failure recorded with the runs."""
         t0 = time.perf_counter()
         runner.phase("estimating")
         failure = ""
@@ -433,12 +406,9 @@ class Method(ABC):
 
 
 class StreamingMethod(Method):
-    """A method estimated from chunks reduced where they ran, folded in chunk order: its
-    statistics depend on how the design splits into chunks, so the split is the method's
-    (:meth:`chunk_bounds`), never the executor's. It does not refine.
-
-    :meth:`estimate` is given: it reduces and folds in-memory outputs chunk by chunk exactly
-    as the driver does, so it gives the numbers of a streamed run bit for bit.
+    """A method estimated from chunks reduced where they ran, folded in chunk order: the split
+    is the method's (:meth:`chunk_bounds`), never the executor's. It does not refine.
+    :meth:`estimate` reduces and folds in-memory outputs as the driver does, bit for bit.
     """
 
     holds_runs = False
@@ -451,8 +421,7 @@ class StreamingMethod(Method):
 
     @abstractmethod
     def chunk_bounds(self, n_runs: int) -> list[tuple[int, int]]:
-        """How the ``n_runs`` rows of the design split into chunks ``[start, stop)``, the unit
-        of reduction, of the executors' work and of checkpoints."""
+        """The chunks ``[start, stop)`` of the design: the unit of reduction and checkpoints."""
 
     @abstractmethod
     def reducer(self, space: InputSpace, design: Design) -> ChunkReducer:
@@ -466,8 +435,7 @@ class StreamingMethod(Method):
     @abstractmethod
     def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
                          acc: Any) -> Estimate:
-        """Statistics from the folded summaries; ``runs`` has the per-sample scalars, the
-        failure mask and the time grid, but no series."""
+        """Statistics from the folded summaries; ``runs`` holds the scalars, failures and grid."""
 
     def chunks(self, n_runs: int, batch_size: int) -> list[tuple[int, int]]:
         """The method's own split (:meth:`chunk_bounds`): ``batch_size`` does not apply."""
@@ -475,7 +443,7 @@ class StreamingMethod(Method):
 
     def propagate(self, space: InputSpace, design: Design, runner: Runner) -> Propagated:
         """Each chunk reduced where it ran and folded in chunk order, then
-        :meth:`estimate_reduced` (a failure of it recorded with the runs made)."""
+        :meth:`estimate_reduced`."""
         out, acc = runner.run(design.x, 0, self.chunks(design.n_runs, runner.batch_size),
                               reduce=(self.reducer(space, design), self.fold))
         return self.estimated(lambda: self.estimate_reduced(space, design, out, acc),

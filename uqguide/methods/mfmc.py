@@ -2,23 +2,17 @@
 the same model (or a PCE method's surrogate) as control variates (Peherstorfer, Willcox &
 Gunzburger 2016).
 
-A level is the config's model with the parameters of one ``fidelities`` entry changed
-(:attr:`uqguide.models.base.Model.fidelity_params`), or ``{surrogate: LABEL}``. The method runs
-in phases: a **pilot** of ``n_pilot`` rows at every level measures costs and correlations,
-:meth:`MultiFidelityMC.allocate` chooses the levels and their runs
-(:func:`uqguide.stats.mfmc_allocation.select_allocation`), the **main** runs extend each kept
-level on the same input stream, and :meth:`MultiFidelityMC.estimate_levels` combines them
-(:mod:`uqguide.stats.mfmc_estimator`). Levels recording their series on other grids are compared
-on the highest level's grid (:func:`on_grid`). Every level evaluates rows of one stream drawn in
-chunks of ``chunk_size``, so a chunk's rows never depend on the workers. The config, the phases,
-the intervals and measured gains: ``docs/multifidelity.md``.
+A level is the model with one ``fidelities`` entry's parameters changed, or ``{surrogate:
+LABEL}``. A **pilot** at every level measures costs and correlations,
+:meth:`MultiFidelityMC.allocate` chooses the levels and their runs, the **main** runs extend
+each kept level on the same input stream and :meth:`MultiFidelityMC.estimate_levels` combines
+them. The config, the phases, the intervals and measured gains: ``docs/multifidelity.md``.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -37,7 +31,7 @@ from ..stats.moments import quiet_overflow
 from .base import (
     METHOD_FAILURES, Design, MethodSettings, Method, Propagated, Runner, RunPlan,
 )
-from .monte_carlo import DesignChunks, ci_index, method_seed
+from .monte_carlo import DesignChunks, ci_index, method_seed, stream_seed
 
 log = logging.getLogger(__name__)
 
@@ -47,72 +41,46 @@ def _one_level() -> list[dict[str, float | int | str]]:
 
 
 class MfmcSettings(MethodSettings):
-    """Settings of ``mfmc`` (``docs/multifidelity.md``).
+    """Settings of ``mfmc`` (``docs/multifidelity.md``)."""
 
-    Attributes
-    ----------
-    fidelities : list of dict
-        The levels, highest fidelity first: each the model parameters it changes, or
-        ``{surrogate: LABEL}``, the PCE that the method LABEL, listed before this one, fitted.
-    n_pilot : int
-        Runs of every level in the pilot (and the least any used level gets). Default 200,
-        the "few hundred" of the issue that asked for the method: the squares' correlations
-        rest on the tails, and a smaller pilot tunes the allocation to its noise. On FT-AS
-        Case 2 with a weaker PCE level (fitted by ``uqguide.fit`` on random rows) pilots
-        drawn from 1200 paired runs allocated at a median CPU saving of 5.2x from 100 runs
-        and 6.5x from 200 (7.6x at the paired runs' own correlations); with the
-        ``pce_adaptive`` level of ``benchmarks/multifidelity.py --case ft_as-paired`` both
-        sizes reach a median of about 18x. A used level's pilot runs are part of the
-        estimate, so only the dropped levels' pilots are spent for nothing.
-    budget_cpu_s : float, optional
-        Model CPU seconds for the whole method, pilot included.
-    target_se : dict of str to float, optional
-        Standard error of the mean wanted per output (its unit); exactly one of the two.
-    optimise_for : list of str
-        Outputs the allocation is optimised for (default: every output of the run).
-    costs : list of float, optional
-        Seconds per run of each level, instead of the pilot's measurement.
-    min_gain : float
-        Estimated variance reduction below which plain MC of the highest level is run.
-    chunk_size : int
-        Rows per random stream and per checkpointed chunk.
-    bootstrap : int
-        Group-bootstrap resamples for the intervals of std, skewness, kurtosis (0: none).
-    max_runs : int
-        Largest number of runs of any one level.
-    surrogate_ratio : float
-        A surrogate level runs at most this many times the rows of the level before it. It
-        removes ``rho^2 (1/m_prev - 1/m)`` of the variance: at a ratio of 20 it leaves
-        ``rho^2 / (20 m_prev)``, which is what limits the estimate when the surrogate follows
-        the model closely (FT-AS Case 2's delta-v: ``1 - rho^2 = 0.004``, so 20 left the
-        variance twelve times what the PCE's own error leaves). The allocation optimises the
-        other levels within this cap (:func:`~uqguide.stats.mfmc_allocation.select_allocation`).
-    estimator : {"blue", "mfmc"}
-        How the runs are combined: the best linear unbiased estimator of the highest level's
-        moments from them (MLBLUE, Schaden & Ullmann 2020; the default), or PWG16's MFMC
-        estimator with one weight per level (:mod:`uqguide.stats.mfmc_estimator`). Both are
-        unbiased for the highest level; the allocation is MFMC's either way, so the
-        predicted reduction is a lower bound for the BLUE (at the exact covariance).
-    surrogate_values : float
-        Most values a surrogate level keeps in memory for the estimate (rows times every
-        output's columns; 2e7 floats are 160 MB): its rows are cut to fit, after the
-        allocation, and the note says so. A series of ``T`` steps is ``T k`` columns.
-    """
-
-    fidelities: list[dict[str, float | int | str]] = Field(default_factory=_one_level,
-                                                           min_length=1, max_length=8)
-    n_pilot: int = Field(default=200, ge=10, le=1_000_000)
-    budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False)
-    target_se: dict[str, float] | None = None
-    optimise_for: list[str] = Field(default_factory=list)
-    costs: list[float] | None = None
-    min_gain: float = Field(default=1.1, ge=1.0, le=1e6)
-    chunk_size: int = Field(default=256, ge=1, le=1_000_000)
-    bootstrap: int = Field(default=200, ge=0, le=100_000)
-    max_runs: int = Field(default=10_000_000, ge=10, le=100_000_000)
-    surrogate_ratio: float = Field(default=100.0, ge=1.0, le=1e5, allow_inf_nan=False)
-    surrogate_values: float = Field(default=2e7, ge=1e3, le=1e10, allow_inf_nan=False)
-    estimator: Literal["mfmc", "blue"] = "blue"
+    fidelities: list[dict[str, float | int | str]] = Field(
+        default_factory=_one_level, min_length=1, max_length=8,
+        description="the levels, highest fidelity first: each the model parameters it changes, "
+                    "or {surrogate: LABEL}, the PCE that the method LABEL, listed before this "
+                    "one, fitted")
+    n_pilot: int = Field(default=200, ge=10, le=1_000_000,
+                         description="runs of every level in the pilot (and the least any used "
+                                     "level gets)")
+    budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False,
+                                       description="model CPU seconds for the whole method, "
+                                                   "pilot included")
+    target_se: dict[str, float] | None = Field(
+        default=None, description="standard error of the mean wanted per output (its unit); "
+                                  "exactly one of budget_cpu_s and target_se")
+    optimise_for: list[str] = Field(default_factory=list,
+                                    description="outputs the allocation is optimised for "
+                                                "(default: every output of the run)")
+    costs: list[float] | None = Field(default=None, description="seconds per run of each "
+                                                               "level, instead of the pilot's")
+    min_gain: float = Field(default=1.1, ge=1.0, le=1e6,
+                            description="estimated variance reduction below which plain MC "
+                                        "of the highest level is run")
+    chunk_size: int = Field(default=256, ge=1, le=1_000_000,
+                            description="rows per random stream and per checkpointed chunk")
+    bootstrap: int = Field(default=200, ge=0, le=100_000,
+                           description="group-bootstrap resamples for the intervals of std, "
+                                       "skewness, kurtosis (0: none)")
+    max_runs: int = Field(default=10_000_000, ge=10, le=100_000_000,
+                          description="largest number of runs of any one level")
+    surrogate_ratio: float = Field(default=100.0, ge=1.0, le=1e5, allow_inf_nan=False,
+                                   description="a surrogate level runs at most this many times "
+                                               "the rows of the level before it")
+    surrogate_values: float = Field(default=2e7, ge=1e3, le=1e10, allow_inf_nan=False,
+                                    description="most values a surrogate level keeps in memory "
+                                                "(rows times every output's columns)")
+    estimator: Literal["mfmc", "blue"] = Field(
+        default="blue", description="how the runs are combined: the best linear unbiased "
+                                    "estimator (MLBLUE), or PWG16's MFMC estimator")
 
     @model_validator(mode="after")
     def _one_goal(self) -> MfmcSettings:
@@ -168,7 +136,6 @@ class MultiFidelityMC(Method):
                         "budget_cpu_s": 0.3, "chunk_size": 64, "bootstrap": 50,
                         "max_runs": 1000}
 
-    # ---------------------------------------------------------------- config checks
     def check(self, index: int) -> None:
         """ConfigError for outputs the run does not report, and for quantiles and events."""
         where = f"methods[{index}]"
@@ -221,15 +188,13 @@ class MultiFidelityMC(Method):
                 raise ConfigError(f"methods[{index}].fidelities[{j}]: {dict(changes)}: {why}",
                                   field=f"methods[{index}].fidelities[{j}]") from None
 
-    # ---------------------------------------------------------------- design
     def plan(self, space: InputSpace) -> RunPlan:
         return RunPlan(runs=None, chunk=self.settings.chunk_size, exact=False)
 
     def design(self, space: InputSpace, seed: int) -> Design:
         """One stream of input rows shared by every level (rows made per chunk on demand)."""
         s = self.settings
-        boot_seed = int(np.random.SeedSequence([seed, zlib.crc32(self.label.encode()), 1])
-                        .generate_state(1)[0])
+        boot_seed = stream_seed(seed, self.label, 1)
         chunks = DesignChunks(space, s.max_runs, "random", s.chunk_size,
                               method_seed(seed, self.label))
         x = GeneratedRows(s.max_runs, space.dim, s.chunk_size, chunks, portable=True)
@@ -240,14 +205,12 @@ class MultiFidelityMC(Method):
         return None
 
     def propagate(self, space: InputSpace, design: Design, runner: Runner) -> Propagated:
-        """Pilot, allocation, main runs and estimate over the levels (module docstring).
+        """Pilot, allocation, main runs and estimate over the levels.
 
         Level ``i``'s pilot is checkpoint stage ``1 + 2 i`` (rows ``[0, n_pilot)``), its main
-        runs stage ``2 + 2 i`` (rows ``[n_pilot, m_i)``), chunks cut at multiples of
-        ``chunk_size``: a resumed run restores the pilot chunks with their measured seconds, so
-        it makes the same allocation and then restores the main chunks too. A failure
-        (:data:`~uqguide.methods.base.METHOD_FAILURES`) is recorded without runs: those made
-        before it are lost to the result, not to the checkpoint.
+        runs stage ``2 + 2 i``: a resumed run restores the pilot chunks with their measured
+        seconds, so it makes the same allocation. A failure is recorded without runs (they stay
+        in the checkpoint).
         """
         try:
             return self._propagate(design, runner)
@@ -282,7 +245,7 @@ class MultiFidelityMC(Method):
             out = run_rows(i, 1 + 2 * i, 0, s.n_pilot)
             assert out is not None  # (n_pilot >= 10)
             pilot.append(out)
-        # CPU, not wall seconds: on a shared machine the wall clock counts the neighbours' load
+        # CPU, not wall seconds: the wall clock counts the neighbours' load
         pilot_cost = [lv.cpu_seconds / max(lv.n_runs, 1) for lv in levels]
         with quiet_overflow():  # (as the fits of Method.propagate)
             plan = self.allocate(pilot, pilot_cost)
@@ -308,13 +271,11 @@ class MultiFidelityMC(Method):
         return Propagated(estimate, x, top, time.perf_counter() - t_fit)
 
     def row_chunks(self, start: int, stop: int) -> list[tuple[int, int]]:
-        """Rows ``[start, stop)`` split at the multiples of ``chunk_size`` (the checkpointed
-        unit; fixed by the config, never by the executor)."""
+        """Rows ``[start, stop)`` split at the multiples of ``chunk_size``."""
         c = self.settings.chunk_size
         cuts = [start, *range((start // c + 1) * c, stop, c), stop]
         return [(a, b) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
 
-    # ---------------------------------------------------------------- allocation
     def _targets(self) -> list[str]:
         return list(self.settings.optimise_for) or list(self.context.outputs)
 
@@ -328,8 +289,8 @@ class MultiFidelityMC(Method):
         return (steps[:, None] * k + np.arange(k)[None, :]).ravel()
 
     def allocate(self, pilot: list[ModelOutput], seconds_per_run: list[float]) -> LevelPlan:
-        """The levels and runs per level from the pilot's outputs and measured CPU seconds
-        per run at every config level (``docs/multifidelity.md``, step 2)."""
+        """The levels and runs per level from the pilot's outputs and CPU seconds per run at
+        every config level (``docs/multifidelity.md#what-it-does``, step 2)."""
         s = self.settings
         measured = s.costs is None
         raw = np.asarray(seconds_per_run if measured else s.costs, dtype=float)
@@ -346,14 +307,13 @@ class MultiFidelityMC(Method):
         step = np.array([s.surrogate_ratio if i in self.surrogate_levels else np.inf
                          for i in range(len(costs))])
         allocation = select_allocation(rho, costs, s.min_gain, max_step=step)
-        capped = _at_cap(allocation, step)
-        note = (f"surrogate rows capped at surrogate_ratio = {s.surrogate_ratio:g} times the "
-                f"level before") if capped else ""
+        notes = [f"surrogate rows capped at surrogate_ratio = {s.surrogate_ratio:g} times the "
+                 f"level before"] if _at_cap(allocation, step) else []
         if allocation.is_plain_mc and len(costs) > 1:
-            note = (f"the pilot found no gain above min_gain = {s.min_gain:g} from the cheaper "
-                    f"levels (correlations too low for their cost): plain Monte Carlo of the "
-                    f"highest level")
-            log.warning("%s: %s", self.label, note)
+            notes = [f"the pilot found no gain above min_gain = {s.min_gain:g} from the cheaper "
+                     f"levels (correlations too low for their cost): plain Monte Carlo of the "
+                     f"highest level"]
+            log.warning("%s: %s", self.label, notes[0])
         levels = allocation.levels
         unused = [i for i in range(len(costs)) if i not in levels]
         if s.budget_cpu_s is not None:
@@ -364,25 +324,22 @@ class MultiFidelityMC(Method):
             sizes = sample_sizes(allocation, costs, m0=self._m0_for_target(
                 var0, owner, rho, allocation), at_least=s.n_pilot)
         sizes, held = self._hold_surrogate_memory(sizes, levels, pilot[0])
-        if held:
-            note = (note + "; " if note else "") + held
+        notes += [held] if held else []
         if sizes[-1] > s.max_runs:
-            note = (note + "; " if note else "") + f"capped at max_runs = {s.max_runs}"
+            notes.append(f"capped at max_runs = {s.max_runs}")
             sizes = np.minimum(sizes, s.max_runs)
         if s.budget_cpu_s is not None and \
                 float(np.dot(costs[list(levels)], np.full(len(levels), s.n_pilot))) \
                 + sum(costs[i] for i in unused) * s.n_pilot > s.budget_cpu_s:
-            note = (note + "; " if note else "") + \
-                "the pilot alone exceeds budget_cpu_s: every used level keeps its pilot runs"
+            notes.append("the pilot alone exceeds budget_cpu_s: every used level keeps its "
+                         "pilot runs")
         return LevelPlan(levels=levels, sizes=sizes, allocation=allocation, costs=costs,
-                         measured=measured, note=note)
+                         measured=measured, note="; ".join(notes))
 
     def _hold_surrogate_memory(self, sizes: np.ndarray, levels: tuple[int, ...],
                                top: ModelOutput) -> tuple[np.ndarray, str]:
-        """``sizes`` with each surrogate level's rows cut so that its values (every output's
-        columns, on the highest level's grid) take at most ``surrogate_values`` floats: they
-        stay in memory for the estimate. The cut level keeps at least the rows of the level
-        before it; the note says so."""
+        """``sizes`` with each surrogate level's rows cut so that its values take at most
+        ``surrogate_values`` floats (at least the rows of the level before it), and a note."""
         s = self.settings
         cols = sum(int(np.prod(v.shape[1:])) for v in top.scalars.values()) + \
             sum(int(np.prod(v.shape[1:])) for v in top.series.values())
@@ -399,11 +356,9 @@ class MultiFidelityMC(Method):
 
     def _pilot_quantities(self, pilot: list[ModelOutput]
                           ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
-        """Per level, the pilot's values ``(n_ok, 2Q)`` of the quantities (each one, then each
-        one's centred square: the carrier of the variance) on the rows no level failed;
-        level 0's variances ``(Q,)`` and the output each quantity belongs to ``(Q,)``.
-        Constant quantities (zero variance at level 0, e.g. a series at t = 0) are left out:
-        they need no runs."""
+        """Per level, the pilot's values ``(n_ok, 2Q)`` of the quantities and their centred
+        squares on the rows no level failed; level 0's variances ``(Q,)`` and each quantity's
+        output ``(Q,)``. Constant quantities (zero variance at level 0) are left out."""
         n = self.settings.n_pilot
         ok = usable_rows([p.failed for p in pilot], np.full(len(pilot), n))
         if ok.sum() < 3:
@@ -446,7 +401,6 @@ class MultiFidelityMC(Method):
                 need = max(need, float(np.max(var0[mine] * g[mine])) / se**2)
         return need
 
-    # ---------------------------------------------------------------- estimate
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
         raise MethodError(f"{self.label}: mfmc runs its levels in phases (propagate), not "
                           f"on one model's runs")
@@ -454,10 +408,9 @@ class MultiFidelityMC(Method):
     def estimate_levels(self, runs: list[ModelOutput], plan: LevelPlan, design: Design,
                         seconds: list[float], pilot_seconds: list[float],
                         surrogate_cpu_s: float = 0.0) -> Estimate:
-        """Statistics of every output from the used levels' runs (rows ``[0, m_i)`` of each,
-        estimator order). ``seconds`` are the model seconds of every config level (pilot and
-        main runs), ``pilot_seconds`` those per pilot run; ``surrogate_cpu_s`` (the surrogate
-        levels' PCE runs and fits) is charged to the saving."""
+        """Statistics of every output from the used levels' runs (rows ``[0, m_i)`` of each).
+        ``seconds``: every config level's model seconds; ``pilot_seconds``: per pilot run;
+        ``surrogate_cpu_s``: the surrogate levels' PCE runs and fits, charged to the saving."""
         sizes = plan.sizes
         ok = usable_rows([r.failed for r in runs], sizes)
         grid = runs[0].time
@@ -507,7 +460,6 @@ class MultiFidelityMC(Method):
                                         if i in plan.levels else self.settings.n_pilot
                                         for i in range(len(self.settings.fidelities))]),
             "cpu_per_level": np.asarray(seconds, dtype=float),
-            # the surrogate levels' PCE methods: their runs and fit, in cpu_saving
             "surrogate_cpu_s": surrogate_cpu_s,
             "cost_per_run": np.asarray(plan.costs, dtype=float),
             "costs": "measured (pilot, 2 significant digits)" if plan.measured else "given",
@@ -515,26 +467,19 @@ class MultiFidelityMC(Method):
             "estimated_variance_reduction": 1.0 / plan.allocation.variance_ratio,
             "equivalent_mc_runs": eq,
             "equivalent_mc_cpu_s": eq * c0,
-            # the same for the variance (the estimator's formula on the squares)
             "equivalent_mc_runs_std": eq_std,
-            # CPU that plain MC of the highest level would need for the same standard errors
-            # of the worst optimised output's mean and variance, over the CPU this run took
-            # (with what its surrogate levels' PCE methods spent)
             "cpu_saving": min(eq, eq_std) * c0 / cpu if cpu > 0 else float("nan"),
             "plain_mc": bool(plan.allocation.is_plain_mc),
             "note": plan.note,
             "interpolated": ", ".join(f"level {i} {h}" for i, h in sorted(how)) or "none",
             "intervals": "mean: variance formula; std, skewness, kurtosis: group bootstrap",
-            # The cheap levels stand in for the highest one everywhere but on its own rows: a
-            # difference between them that shows in fewer runs than this fraction may be in
-            # none of those rows (95%, rule of three), and then neither the estimate nor its
-            # intervals see it (benchmarks/multifidelity.py --case jumps).
+            # a difference between the levels rarer than this may be in none of the highest
+            # level's rows (95%, rule of three), unseen by the estimate and its intervals
             "unseen_difference_rate": 3.0 / max(int(sizes[0]), 1),
             "bootstrap": self.settings.bootstrap,
-            # rows left out of one output's statistics for a non-finite value at some level
             "non_finite_rows": "; ".join(f"{k} ({v})" for k, v in nan_rows.items()) or "none",
         }
-        # per output (the fewest over its components and times): which one limits the saving
+        # per output: which one limits the saving
         for name in equivalent:
             diagnostics[f"equivalent_mc_runs.{name}"] = equivalent[name]
             diagnostics[f"equivalent_mc_runs_std.{name}"] = equivalent_std[name]
@@ -560,8 +505,7 @@ def _level_name(changes: dict[str, Any]) -> str:
 
 
 def _at_cap(allocation: Allocation, step: np.ndarray) -> bool:
-    """Whether a capped level (a surrogate) got its largest ratio over the level before it:
-    a nearly free level gets a ratio in the thousands from the closed form."""
+    """Whether a capped level (a surrogate) got its largest ratio over the level before it."""
     r = allocation.ratios
     return any(np.isfinite(step[i]) and r[j] >= step[i] * r[j - 1] * (1 - 1e-9)
                for j, i in enumerate(allocation.levels) if j > 0)
@@ -609,16 +553,12 @@ def _output_stats(full: Any, boot: Any, cols: np.ndarray, run0: ModelOutput, nam
                        sem=full.sem.reshape(shape), ci=ci)
 
 
-# -------------------- the levels' outputs side by side
-# Levels may record their series on different grids (another step, another stop time). Every
-# level's series is compared on the highest level's grid: taken at the same times when its own
-# grid holds them (to 1e-9 of the step), else linearly interpolated per sample (held at the
-# ends), and the method says which levels were interpolated.
+# -------------------- the levels' outputs side by side, on the highest level's grid
 
 def on_grid(series: np.ndarray, grid: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, str]:
     """A series ``(n, T, k)`` on ``grid (T,)`` at the times ``target (T0,)``: ``(n, T0, k)``
-    and how: ``"same"`` grid, ``"sampled"`` (the target times picked from the grid) or
-    ``"interpolated"`` (linearly)."""
+    and how: ``"same"`` grid, ``"sampled"`` (the target times picked from the grid, to 1e-9)
+    or ``"interpolated"`` (linearly, held at the ends)."""
     if grid.shape == target.shape and np.array_equal(grid, target):
         return series, "same"
     tol = 1e-9 * max(float(np.max(np.abs(grid))) if grid.size else 1.0, 1.0)
@@ -645,8 +585,7 @@ def values(out: ModelOutput, name: str, target: np.ndarray) -> tuple[np.ndarray,
 
 
 def usable_rows(failed: list[np.ndarray], sizes: np.ndarray) -> np.ndarray:
-    """Rows ``(m_last,)`` that failed at no level they ran at (a failed row is left out at
-    every level: :mod:`uqguide.stats.mfmc_estimator`)."""
+    """Rows ``(m_last,)`` that failed at no level they ran at."""
     ok = np.ones(int(sizes[-1]), dtype=bool)
     for f, m in zip(failed, sizes):
         ok[:int(m)] &= ~np.asarray(f[:int(m)], dtype=bool)

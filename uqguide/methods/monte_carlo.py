@@ -1,17 +1,11 @@
 """Monte Carlo propagation: the design, the chunk reduction, the fold and the error budget.
 
-Samples are drawn on the unit cube (pseudo-random, Latin hypercube or scrambled Sobol') in chunks
-of ``chunk_size``, chunk ``i`` from child ``i`` of one ``SeedSequence`` of the seed and the label,
-and mapped to the inputs by their inverse CDFs. Each chunk is reduced where it ran to mergeable
-sums (:class:`MonteCarloReducer`), merged in chunk order (:class:`FoldedSums`) and estimated by
-:meth:`MonteCarlo.estimate_reduced`, so the numbers depend on the seed, the label and
-``chunk_size``, never on the workers; ``sensitivity`` adds given-data first-order Sobol' indices
-from the same runs (:func:`add_indices`).
-
-Pool workers import this module (the design chunks and the reducer live here): keep its top-level
-imports light, import scipy's samplers and the sensitivity estimators where they are used.
-Intervals, quantiles and events: ``docs/statistics.md``; the error budget and when it is on:
-``docs/error-budget.md``.
+Chunk ``i`` of ``chunk_size`` unit-cube samples (random, Latin hypercube or scrambled Sobol')
+comes from child ``i`` of one ``SeedSequence`` of the seed and the label; each chunk is reduced
+where it ran (:class:`MonteCarloReducer`), merged in chunk order (:class:`FoldedSums`) and
+estimated by :meth:`MonteCarlo.estimate_reduced`, so the numbers never depend on the workers.
+Pool workers import this module: keep its top-level imports light. Intervals, quantiles and
+events: ``docs/statistics.md``; the error budget (:func:`add_indices`): ``docs/error-budget.md``.
 """
 
 from __future__ import annotations
@@ -21,7 +15,6 @@ import math
 import os
 import time
 import zlib
-from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
@@ -44,57 +37,44 @@ log = logging.getLogger(__name__)
 _SUMS = ("sums", "")
 
 # Keep inverse CDFs finite: a unit-cube coordinate of exactly 0 or 1 maps to +-inf for a normal.
-_U_EPS = 2.0**-53
+U_EPS = 2.0**-53
 
 
 class MonteCarloSettings(MethodSettings):
-    """Settings of ``monte_carlo``.
+    """Settings of ``monte_carlo``."""
 
-    Attributes
-    ----------
-    n_samples : int
-        Number of model runs.
-    sampling : {"random", "lhs", "sobol"}
-        Design of the samples within each chunk.
-    chunk_size : int
-        Samples per random stream (changes the numbers; fixed so that the worker count does not).
-    intervals : {"tail", "delta", "bootstrap", "studentized"}
-        How the 95% intervals of mean, std, skewness and kurtosis are computed: tail-aware
-        (default; Hall's skew-corrected interval of the influence function, one-sided where a
-        handful of runs carry the statistic's variance: :mod:`uqguide.stats.tail_intervals`;
-        cheap, from the central sums up to the 16th), delta method (influence functions,
-        symmetric; cheap), Poisson bootstrap (``bootstrap`` resamples,
-        percentile intervals) or studentised Poisson bootstrap (bootstrap-t: each resample's
-        statistic over its own delta-method standard error; the best coverage of the three on
-        skewed outputs, for twice the bootstrap's sums: :func:`~uqguide.stats.moments.
-        studentized_intervals`, ``benchmarks/interval_coverage.py``).
-        Both treat the runs as independent: for ``lhs`` and ``sobol`` they are the error of a
-        random design of the same size, an upper bound.
-    bootstrap : int
-        Bootstrap resamples of ``intervals: bootstrap`` (0: no intervals, whatever
-        ``intervals`` says).
-    bootstrap_times : {"report", "all"}
-        Where a time series gets intervals: at the config's report times and the final step
-        (default; cheap), or at every step.
-    sensitivity : {"auto", "on", "off"}
-        Given-data first-order Sobol' indices with 95% intervals (the error budget): ``auto``
-        when the inputs are at most 50 and the runs from 500 to 1e6
-        (:func:`add_indices`, :func:`wanted`).
-    """
-
-    n_samples: int = Field(ge=1, le=100_000_000)
-    sampling: Literal["random", "lhs", "sobol"] = "random"
-    chunk_size: int = Field(default=8192, ge=1, le=10_000_000)
-    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = "tail"
-    bootstrap: int = Field(default=200, ge=0, le=100_000)
-    bootstrap_times: Literal["report", "all"] = "report"
-    sensitivity: Literal["auto", "on", "off"] = "auto"
+    n_samples: int = Field(ge=1, le=100_000_000, description="number of model runs")
+    sampling: Literal["random", "lhs", "sobol"] = Field(
+        default="random", description="design of the samples within each chunk")
+    chunk_size: int = Field(default=8192, ge=1, le=10_000_000,
+                            description="samples per random stream (changes the numbers; fixed "
+                                        "so that the worker count does not)")
+    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = Field(
+        default="tail", description="how the 95% intervals of mean, std, skewness and kurtosis "
+                                    "are computed: tail-aware, delta method, Poisson bootstrap "
+                                    "or studentised Poisson bootstrap (docs/statistics.md)")
+    bootstrap: int = Field(default=200, ge=0, le=100_000,
+                           description="bootstrap resamples of intervals: bootstrap (0: no "
+                                       "intervals, whatever intervals says)")
+    bootstrap_times: Literal["report", "all"] = Field(
+        default="report", description="where a time series gets intervals: at the report "
+                                      "times and the final step, or at every step")
+    sensitivity: Literal["auto", "on", "off"] = Field(
+        default="auto", description="given-data first-order Sobol' indices with 95% intervals "
+                                    "(the error budget): auto when the inputs are at most 50 "
+                                    "and the runs from 500 to 1e6")
 
 
 def method_seed(seed: int, label: str) -> np.random.SeedSequence:
     """The SeedSequence of one method entry: the run's seed and a stable hash of the label, so
     that adding or reordering methods in a config does not change another method's numbers."""
     return np.random.SeedSequence([seed, zlib.crc32(label.encode())])
+
+
+def stream_seed(seed: int, label: str, k: int) -> int:
+    """An integer seed of the method's stream ``k`` (``k >= 1``: apart from the design's)."""
+    return int(np.random.SeedSequence([seed, zlib.crc32(label.encode()), k])
+               .generate_state(1)[0])
 
 
 def chunk_seed(seed: np.random.SeedSequence, i: int) -> np.random.SeedSequence:
@@ -122,7 +102,7 @@ def unit_chunk(d: int, n: int, sampling: str, chunk_size: int, seed: np.random.S
         # sequence, which avoids scipy's balance warning for non-powers of two.
         p = int(np.ceil(np.log2(max(m, 1))))
         u = qmc.Sobol(d=d, scramble=True, seed=rng).random_base2(p)[:m]
-    return np.clip(u, _U_EPS, 1 - _U_EPS)
+    return np.clip(u, U_EPS, 1 - U_EPS)
 
 
 def unit_samples(d: int, n: int, sampling: str, chunk_size: int,
@@ -165,9 +145,7 @@ class MonteCarlo(StreamingMethod):
 
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings
-        # The bootstrap stream is a fixed function of the same root, kept apart from the design.
-        boot_seed = int(np.random.SeedSequence([seed, zlib.crc32(self.label.encode()), 1])
-                        .generate_state(1)[0])
+        boot_seed = stream_seed(seed, self.label, 1)
         if self.context.rows is not None:
             return Design(x=self.context.rows.x, data={"boot_seed": boot_seed})
         ss = method_seed(seed, self.label)
@@ -180,7 +158,6 @@ class MonteCarlo(StreamingMethod):
         s = self.settings
         return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples))
 
-    # ------------------------------------------------------------------ streaming estimate
     def chunk_bounds(self, n_runs: int) -> list[tuple[int, int]]:
         """The random-stream chunks of ``chunk_size``: the split is part of the numbers."""
         c = self.settings.chunk_size
@@ -194,7 +171,6 @@ class MonteCarlo(StreamingMethod):
                                  sensitivity=self.sensitivity_for(space, design.n_runs))
 
     def sensitivity_for(self, space: InputSpace, n_runs: int) -> bool:
-        """Whether this run estimates the given-data Sobol' indices."""
         return wanted(self.settings.sensitivity, space.dim, n_runs)
 
     @property
@@ -203,9 +179,7 @@ class MonteCarlo(StreamingMethod):
         return self.settings.intervals if self.settings.bootstrap > 0 else "none"
 
     def fold(self, acc: dict | None, summary: dict[str, np.ndarray]) -> dict:
-        """Merge a chunk: moment sums by Chan's formulas (all outputs at once,
-        :class:`FoldedSums`), series values for the quantiles by concatenation
-        (both in chunk order)."""
+        """Merge a chunk: moment sums by :class:`FoldedSums`, per-run values by concatenation."""
         acc = {_SUMS: FoldedSums()} if acc is None else acc
         acc[_SUMS].add(split_summary(summary))
         for key, v in summary.items():
@@ -216,12 +190,13 @@ class MonteCarlo(StreamingMethod):
 
     def estimate_reduced(self, space: InputSpace, design: Design, runs: ModelOutput,
                          acc: dict[tuple[str, str], Any] | None) -> Estimate:
+        from ..pce.outputs import failure_summary  # (pool workers import this module)
+
         t0 = time.perf_counter()
         if acc is not None and _SUMS in acc:
             acc = {**acc[_SUMS].groups(), **{k: v for k, v in acc.items() if k != _SUMS}}
         n_failed = int(runs.failed.sum())
-        reasons = Counter(r for r in runs.reasons[runs.failed])
-        tally = "; ".join(f"{r} ({c})" for r, c in reasons.most_common())
+        tally = failure_summary(runs)
         if n_failed:
             log.warning("%s: %d of %d runs failed; statistics use the other %d",
                         self.label, n_failed, runs.n, runs.n - n_failed)
@@ -293,10 +268,8 @@ class MonteCarlo(StreamingMethod):
         )
 
 
-#: threads computing different outputs' quantiles at once (None: one per CPU). The selection
-#: is exact, so the numbers do not depend on it; numpy's compares and partitions release the
-#: GIL, and this tail runs in the driver after the workers are idle (7 outputs shaped like
-#: 1e6 FTCAPN runs': 0.051 s on 2 threads against 0.084 s on one).
+#: Threads computing different outputs' quantiles at once (None: one per CPU); the selection
+#: is exact, so the numbers do not depend on it (``docs/methods.md#inside-monte-carlo``).
 QUANTILE_THREADS: int | None = None
 
 
@@ -306,8 +279,7 @@ def _scalar_quantiles(y: np.ndarray, good: np.ndarray, levels: tuple[float, ...]
 
 
 def _run_jobs(jobs: dict[str, tuple[int, Callable[[], Any]]]) -> dict[str, Any]:
-    """Each job's result by name; ``(size, call)`` jobs run on up to
-    :data:`QUANTILE_THREADS` threads, the largest first so that the threads finish together."""
+    """Each ``(size, call)`` job's result by name, the largest started first."""
     threads = min(QUANTILE_THREADS or os.cpu_count() or 1, len(jobs))
     if threads <= 1:
         return {name: call() for name, (_, call) in jobs.items()}
@@ -339,9 +311,8 @@ _POISSON1_CDF = np.cumsum([math.exp(-1.0) / math.factorial(k) for k in range(20)
 
 
 def poisson1(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
-    """Poisson(1) counts as floats, by inverting the CDF of uniforms: ``k`` is the number of
-    CDF values ``<= u`` (exact up to the resolution of the uniforms; a few times faster than
-    ``rng.poisson`` for lambda = 1: one comparison pass per reachable ``k``)."""
+    """Poisson(1) counts as floats, by inverting the CDF of uniforms (a few times faster than
+    ``rng.poisson``)."""
     u = rng.random(shape)
     w = np.zeros(shape, dtype=np.uint8)
     top = u.max(initial=0.0)
@@ -372,9 +343,8 @@ QUANTILE_ALL_FLOATS = 2**25
 
 def quantile_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
                    n_total: int, width: int) -> np.ndarray | None:
-    """Time indices where series keep their values for quantiles (``None``: every step).
-
-    ``width`` is the number of components of all series outputs together."""
+    """Time indices where series keep their values for quantiles (``None``: every step);
+    ``width``: the components of all series outputs together."""
     if n_total * time_grid.size * max(width, 1) <= QUANTILE_ALL_FLOATS:
         return None
     return ci_index(time_grid, report_times, "report")
@@ -384,18 +354,12 @@ def quantile_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None
 class MonteCarloReducer:
     """Reduces one chunk of Monte Carlo runs to mergeable sums (runs in the worker).
 
-    Summary keys are ``"m:<field>:<output>"`` (plain sums with comoments),
-    ``"h:<field>:<output>"`` (plain sums with the orders 5-16 of the interval columns, for the
-    tail-aware, delta-method and studentised intervals, flattened as the bootstrap's columns under
-    ``studentized``), ``"b:<field>:<output>"`` (Poisson-bootstrap sums of the interval
-    columns, when ``intervals`` is ``bootstrap``, or ``studentized``: then with each resample's
-    orders 5-8) and
-    ``"j:<field>:"`` (all scalar outputs stacked, for their joint covariance) and, when
-    quantiles are asked for, ``"q::<output>"``: the good runs' values of each series at the
-    quantile steps (:func:`quantile_index`), merged by concatenation in chunk order. With
-    ``sensitivity`` and no quantiles, ``"s::<output>"`` keeps the same values at the report
-    times and the last step only, for the given-data Sobol' indices (with quantiles, those
-    read the quantiles' values: a series is kept once).
+    Summary keys: ``"m:<field>:<output>"`` (sums with comoments), ``"h:..."`` (sums with the
+    orders 5-16 of the interval columns), ``"b:..."`` (Poisson-bootstrap sums of the interval
+    columns), ``"j:<field>:"`` (the scalars stacked, for their joint covariance), and per-run
+    values in chunk order: ``"q::<output>"`` (a series at the quantile steps,
+    :func:`quantile_index`) or, for the Sobol' indices without quantiles, ``"s::<output>"``
+    (at the report steps). The layout: ``docs/methods.md#inside-monte-carlo``.
     """
 
     bootstrap: int
@@ -409,49 +373,38 @@ class MonteCarloReducer:
 
     @staticmethod
     def per_run(key: str) -> bool:
-        """Whether a summary entry holds per-run values (``q::`` or ``s::``, lane-major, a
-        column per good run) rather than sums: a process pool's workers write those in place
-        (:mod:`uqguide.driver.execution.shared_rows`)."""
+        """Whether a summary entry holds per-run values (lane-major, a column per good run),
+        which a process pool's workers write in place."""
         return key.startswith(PER_RUN_KINDS)
 
     def __call__(self, out: ModelOutput, index: int) -> dict[str, np.ndarray]:
         ok = ~out.failed
-        m = out.n
         summary: dict[str, np.ndarray] = {}
         if not ok.any():
-            # Nothing to sum: an empty summary merges as the identity (its failures are
-            # counted from the chunk's mask), and an all-failed chunk may carry no time grid.
+            # an empty summary merges as the identity; an all-failed chunk may have no grid
             return summary
-        # The model's arrays are reduced where they lie: a boolean mask would copy every
-        # series of the chunk, a full slice is a view.
+        # a full slice is a view; a boolean mask would copy every series of the chunk
         keep: slice | np.ndarray = slice(None) if ok.all() else ok
         idx = ci_index(out.time, self.report_times, self.bootstrap_times)
-        if self.intervals in ("delta", "tail"):
-            for name, y in [*out.series.items(), *out.scalars.items()]:
-                y_ok = y[keep]
-                _put(summary, "m", name, MomentSums.of(y_ok))
-                cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
-                _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
-            self._scalars_and_quantiles(summary, out, ok, keep)
-            return summary
-        w = None
-        if self.bootstrap > 0:
-            # Weights for every run of the chunk (failed ones then dropped), so a sample's
-            # weights do not depend on which other samples failed.
-            rng = np.random.default_rng([self.boot_seed, index])
-            w = poisson1(rng, (self.bootstrap, m))[:, ok]
+        closed_form = self.intervals in ("delta", "tail")
         blocks, spans = [], []
         for name, y in [*out.series.items(), *out.scalars.items()]:
             y_ok = y[keep]
             _put(summary, "m", name, MomentSums.of(y_ok))
             cols = y_ok[:, idx] if (y.ndim == 3 and idx is not None) else y_ok
+            if closed_form:
+                _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
+                continue
             # explicit width: reshape(0, -1) is ambiguous for a chunk in which every run failed
             blocks.append(cols.reshape(cols.shape[0], int(np.prod(cols.shape[1:]))))
             spans.append((name, blocks[-1].shape[1]))
         student = self.intervals == "studentized"
-        if w is not None and blocks:
-            # One weighted reduction of every interval column side by side: a few large
-            # matrix products instead of one small product per output and power.
+        if self.bootstrap > 0 and blocks:
+            # weights drawn for every run, failed ones then dropped: a run's weights do not
+            # depend on which others failed
+            w = poisson1(np.random.default_rng([self.boot_seed, index]),
+                         (self.bootstrap, out.n))[:, ok]
+            # every interval column side by side: a few large products, not one per output
             boot = MomentSums.weighted(np.concatenate(blocks, axis=1), w, high=student)
             c0 = 0
             for name, c in spans:
@@ -469,25 +422,21 @@ class MonteCarloReducer:
 
     def _scalars_and_quantiles(self, summary: dict[str, np.ndarray], out: ModelOutput,
                                ok: np.ndarray, keep: slice | np.ndarray) -> None:
-        """The joint sums of the stacked scalars and the series values kept for quantiles."""
+        """The joint sums of the stacked scalars and the series values kept per run."""
         stacked = stack_scalars(out.scalars, ok)
         _put(summary, "j", "", MomentSums.of(stacked))
-        if self.quantiles and out.series:
+        if not out.series or not (self.quantiles or self.sensitivity):
+            return
+        if self.quantiles:
             width = sum(y.shape[2] for y in out.series.values())
-            q_idx = quantile_index(out.time, self.report_times, self.n_total, width)
-            for name, y in out.series.items():
-                # lane-major (a row per step and component, the runs along it), a copy: the
-                # driver selects order statistics along rows without transposing, and the
-                # chunk's buffer is released once the summary leaves the worker
-                kept = y[keep] if q_idx is None else y[keep][:, q_idx]
-                summary[f"q::{name}"] = np.ascontiguousarray(
-                    kept.reshape(kept.shape[0], -1).T)
-        elif self.sensitivity and out.series:
-            s_idx = ci_index(out.time, self.report_times, "report")
-            for name, y in out.series.items():
-                kept = y[keep][:, s_idx]
-                summary[f"s::{name}"] = np.ascontiguousarray(
-                    kept.reshape(kept.shape[0], -1).T)
+            kind, steps = "q", quantile_index(out.time, self.report_times, self.n_total, width)
+        else:
+            kind, steps = "s", ci_index(out.time, self.report_times, "report")
+        for name, y in out.series.items():
+            # lane-major copies: the driver selects order statistics along rows, and the
+            # chunk's buffer is released once the summary leaves the worker
+            kept = y[keep] if steps is None else y[keep][:, steps]
+            summary[f"{kind}::{name}"] = np.ascontiguousarray(kept.reshape(kept.shape[0], -1).T)
 
 
 #: Prefixes of the summary entries that hold per-run values (quantiles', sensitivity's).
@@ -512,9 +461,8 @@ def split_summary(summary: dict[str, np.ndarray]) -> dict[tuple[str, str], Momen
 
 def append_columns(lanes: list[np.ndarray], v: np.ndarray) -> None:
     """Append the lane-major chunk ``v (L, n)`` to ``lanes``, joined with the last one when
-    both are column blocks of one array and ``v`` continues it (consecutive chunks written in
-    place by pool workers): the quantile selection then makes a few long passes instead of a
-    short pass a chunk."""
+    ``v`` continues it in one array (chunks written in place by pool workers): the quantile
+    selection then makes a few long passes instead of one per chunk."""
     if lanes:
         a, root = lanes[-1], lanes[-1].base
         if (isinstance(root, np.ndarray) and root is v.base and root.ndim == a.ndim == v.ndim
@@ -534,8 +482,7 @@ def scalar_names(scalars: dict[str, np.ndarray]) -> list[ScalarIndex]:
 
 
 def stack_scalars(scalars: dict[str, np.ndarray], ok: np.ndarray) -> np.ndarray:
-    """All scalar outputs of the good runs side by side ``(n_ok, m)``, in the column order of
-    :func:`scalar_names`."""
+    """All scalar outputs of the good runs side by side ``(n_ok, m)``, as :func:`scalar_names`."""
     cols = [y[ok] for y in scalars.values()]
     if not cols:
         return np.empty((int(ok.sum()), 0))
@@ -630,12 +577,8 @@ class FoldedSums:
     """The merged sums of the chunks so far, groups of the same fields merged as one.
 
     ``add`` merges a chunk's groups (in chunk order); ``groups`` gives every group's
-    :class:`MomentSums` in the order the groups first came, equal bit for bit to merging each
-    group on its own. The groups of one chunk share their run count and Chan's formulas are
-    elementwise, so groups of the same fields are laid side by side in flat arrays and merged by
-    one :meth:`MomentSums.merge` (the comoments' outer products gathered by index); sums with
-    per-resample counts (the Poisson bootstrap's) are merged group by group. Why: merging some
-    fifteen groups a chunk one by one cost the driver measurable time (``docs/statistics.md``).
+    :class:`MomentSums` in first-seen order, equal bit for bit to merging each group on its own
+    (``docs/methods.md#inside-monte-carlo``).
     """
 
     def __init__(self) -> None:
@@ -655,7 +598,7 @@ class FoldedSums:
         for kind, members in kinds.items():
             pack = self._packs.get(kind)
             if pack is not None and not pack.matches(members):
-                # a chunk laid out otherwise (not seen in practice): group by group from now on
+                # a chunk laid out otherwise: group by group from now on
                 self._apart.update(self._packs.pop(kind).groups())
                 self._unpacked.add(kind)
                 pack = None
@@ -678,12 +621,8 @@ class FoldedSums:
 
 
 # -------------------- the error budget: given-data first-order Sobol' indices
-# The estimator needs the good runs' (inputs, outputs) rows, with no second pass over the model:
-# the inputs are made again from the design (a pure function of the chunk number), a scalar's
-# values are kept anyway, a series' values at the report steps are the per-run lanes the chunks
-# send for quantiles (``q::``) or, without quantiles, for this alone (``s::``). Both are joined
-# in chunk order, so the rows line up with the design's and the indices do not depend on the
-# workers. When ``auto`` turns them on, and why: docs/error-budget.md.
+# from the good runs' inputs (made again from the design) and the per-run values the chunks
+# kept, joined in chunk order (docs/methods.md#inside-monte-carlo, docs/error-budget.md)
 
 #: ``sensitivity: auto`` gives indices up to this many inputs ...
 AUTO_MAX_INPUTS = 50
@@ -720,15 +659,14 @@ def add_indices(stats: dict[str, OutputStats], space: InputSpace, x: np.ndarray 
                 runs: ModelOutput, lanes: dict[str, Sequence[np.ndarray]],
                 report_times: tuple[float, ...] | None,
                 groups: Sequence[tuple[str, tuple[int, ...]]] = ()) -> None:
-    """Set ``sobol_first`` and ``sobol_first_ci`` of every output in ``stats`` (and the
-    ``sobol_group_*`` of the groups of inputs, :mod:`uqguide.stats.sobol_groups`).
+    """Set the given-data ``sobol_first*`` (and ``sobol_group_*``) of every output in
+    ``stats``, in place.
 
-    ``stats`` is changed in place; ``x (n, d)`` holds every run's inputs, ``runs`` the failure
-    mask, time grid and per-run scalars; ``lanes`` per series output its kept per-run values in
-    chunk order, lane-major ``(L, n_c)`` (a row per kept step and component), at every step or
-    at :func:`ci_index`'s steps; ``groups`` the inputs' groups (name, columns).
+    ``x (n, d)``: every run's inputs; ``runs``: the failure mask, grid and scalars; ``lanes``:
+    per series, its kept per-run values in chunk order, lane-major ``(L, n_c)``, at every step
+    or at :func:`ci_index`'s; ``groups``: the inputs' groups (name, columns).
     """
-    # (imported here: a pool worker, which imports this module, never estimates them)
+    # (imported here: pool workers import this module)
     from ..stats.sobol_given_data import MIN_RUNS, first_order_indices, n_bins, rank_bins
     from ..stats.sobol_groups import group_indices
 
@@ -737,8 +675,7 @@ def add_indices(stats: dict[str, OutputStats], space: InputSpace, x: np.ndarray 
     d = space.dim
     steps = ci_index(runs.time, report_times, "report") if runs.time.size else None
     n = x_ok.shape[0]
-    # the inputs sorted once for every output (a sort of each input costs what the bin sums
-    # of seven output columns do)
+    # the inputs sorted once for every output
     binned = rank_bins(x_ok) if n >= max(MIN_RUNS, 3 * n_bins(n)) else None
     for name, st in stats.items():
         if name in runs.scalars:
@@ -753,8 +690,8 @@ def add_indices(stats: dict[str, OutputStats], space: InputSpace, x: np.ndarray 
         elif name in lanes and steps is not None:
             k = st.mean.shape[-1]
             t_all = st.mean.shape[0]
-            # the report steps of each chunk's values, then joined: quantiles may keep every
-            # step (156 of FTCAPN's, 1.2 GB at 1e6 runs), the indices need 21
+            # the report steps of each chunk's values, then joined (quantiles may keep every
+            # step, far more than the indices need)
             parts = [p if p.shape[0] == steps.size * k else
                      p.reshape(p.shape[0] // k, k, -1)[steps].reshape(steps.size * k, -1)
                      for p in lanes[name]]

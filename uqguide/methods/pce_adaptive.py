@@ -1,13 +1,10 @@
 """Adaptive sparse PCE (Blatman & Sudret 2011; Wang & Song 2019, section 4.4).
 
-A design of ``n_samples`` Sobol' (or Latin hypercube) points; every output column fitted by
-hybrid LARS with corrected leave-one-out selection over hyperbolic candidate bases
-(:mod:`uqguide.pce.sparse_regression`), a series through principal components
-(:mod:`uqguide.pce.pca`, :mod:`uqguide.pce.series_fit`, :mod:`uqguide.pce.pca_rank`); while the
-worst LOO error is above ``target_loo`` and ``max_runs`` allows, ``max(d + 1, n / 2)`` points
-more and a refit; statistics from the coefficients (:mod:`uqguide.pce.moments`). Without
-``n_samples`` and ``max_runs`` the default plan (:mod:`uqguide.pce.default_plan`) sizes design
-and validation; failed runs are dropped and count against the budget. Steps and reasons:
+Every output column fitted by LARS with corrected leave-one-out selection
+(:mod:`uqguide.pce.sparse_regression`; a series through principal components,
+:mod:`uqguide.pce.series_fit`), the design enriched while the LOO error is above ``target_loo``
+and ``max_runs`` allows; without ``n_samples`` and ``max_runs`` :mod:`uqguide.pce.default_plan`
+sizes design and validation. Steps and reasons:
 ``docs/methods.md#the-adaptive-pce-step-by-step``. Example config entry (paper Table 5)::
 
     - {name: pce_adaptive, label: apce, n_samples: 150, max_runs: 300}
@@ -46,8 +43,10 @@ from ..pce.sparse_regression import Q_GRID, ColumnsFit, fit_columns
 from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign
 from .base import Design, Method, MethodSettings, RunPlan
+from .monte_carlo import U_EPS
 from .pce_validated import (
-    USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish, validation_design,
+    SURROGATE_DRAWS_FIELD, SURROGATE_SAMPLING_FIELD, USABLE_FIELD, VALIDATION_FIELD,
+    ValidationSettings, finish, split_validation, surrogate_of, with_validation,
 )
 
 log = logging.getLogger(__name__)
@@ -56,79 +55,44 @@ _MIN_RUNS = 3  # a leave-one-out error needs at least three runs
 
 
 class AdaptivePCESettings(MethodSettings):
-    """Settings of ``pce_adaptive``.
+    """Settings of ``pce_adaptive`` (the defaults' rules: :attr:`AdaptivePCE.default_rules`)."""
 
-    Attributes
-    ----------
-    n_samples : int, optional
-        Initial design size; default ``n0 = max(10 d, 2 P_min)`` runs for ``d`` inputs,
-        ``P_min`` the size of the candidate basis at ``degree_min`` and the smallest q-norm
-        tried, capped by ``max_runs``.
-    sampling : {"sobol", "lhs"}
-        Design on the unit cube: scrambled Sobol' or Latin hypercube.
-    degree_min : int
-        Lowest truncation degree tried (default 1).
-    degree_max : int, optional
-        Highest truncation degree tried; default the largest whose candidate set has at most
-        five terms per run and 3000 in all, up to 40 (the paper: 6). The cap:
-        :func:`uqguide.pce.sparse_regression.candidate_cap`.
-    q_norm : float in (0, 1], optional
-        Hyperbolic truncation ``||alpha||_q <= p``; default: chosen per output among 0.5, 0.75
-        and 1 by corrected LOO (the paper: 0.5; 1 is total degree).
-    target_loo : float
-        Corrected LOO error (relative to the variance) at which enrichment stops (paper 4.4):
-        1e-5, the surrogate leaves 0.001% of the variance unexplained. Only a stopping rule: the
-        fit always takes the expansion of least error the runs allow.
-    max_runs : int, optional
-        Budget of fit runs, enrichment included; default ``min(max(10 n0, 100), 1000)`` when
-        ``n_samples`` is not given either (grown until LOO and moments settle), else
-        ``n_samples`` (no enrichment).
-    enrich : bool
-        Whether to add runs while the LOO error is above target and the budget allows.
-    variance_fraction : float in (0, 1], optional
-        Keep the principal components of a time series that hold this fraction of its
-        (correlation-scaled) variance; default: as many as make the truncation error of the
-        mean, std, skewness and kurtosis at every step at most the surrogate's own
-        leave-one-out error, and at least those holding 0.9999 of the variance. The rule:
-        :mod:`uqguide.pce.pca_rank`.
-    n_components : int, optional
-        Keep this many principal components of a time series (instead of either rule).
-    surrogate_draws : int
-        Surrogate samples for skewness and kurtosis where the exact rule is too large, for
-        derived outputs, quantiles and events.
-    surrogate_sampling : {"random", "sobol"}
-        Those samples: pseudo-random, or scrambled Sobol' (error about ``1 / n`` instead of
-        ``1 / sqrt(n)`` on a polynomial; ``surrogate_draws`` rounded up to a power of two).
-        Derived outputs' moments always use 16 scrambled Sobol' replicates, whose spread is
-        their standard error (:mod:`uqguide.pce.derived`).
-    validation_runs : int
-        Model runs at independent random inputs after the fit (not used by it): the config's
-        events get the control-variate correction of the surrogate's probability
-        (:func:`uqguide.pce.tails.control_variate_events`) and the diagnostics the validation
-        error of each scalar output. 0: none.
-    validation : {n_samples: int}, optional
-        The same as ``validation_runs`` (the form every PCE method takes; the larger of the
-        two counts): validation errors per output and time step, control-variate moments
-        with intervals (:mod:`uqguide.methods.pce_validated`). Default: ``max(20, ceil(n_fit /
-        4))`` stratified runs when neither ``n_samples`` nor ``max_runs`` is given, else none;
-        ``{n_samples: 0}``: none.
-    usable_error : float
-        Relative LOO / validation error above which an output reports no PCE moments.
-    """
-
-    n_samples: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000)
-    sampling: Literal["sobol", "lhs"] = "sobol"
-    degree_min: int = Field(default=1, ge=1, le=30)
-    degree_max: int | None = Field(default=None, ge=1, le=30)
-    q_norm: float | None = Field(default=None, gt=0.0, le=1.0)
-    target_loo: float = Field(default=1e-5, gt=0.0, lt=1.0)
-    max_runs: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000)
-    enrich: bool = True
-    variance_fraction: float | None = Field(default=None, gt=0.0, le=1.0)
-    n_components: int | None = Field(default=None, ge=1, le=10_000)
-    surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
-    surrogate_sampling: Literal["random", "sobol"] = "random"
-    validation_runs: int = Field(default=0, ge=0, le=10_000_000)
+    n_samples: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000,
+                                  description="initial design size; default n0 = max(10 d, "
+                                              "2 P_min), capped by max_runs")
+    sampling: Literal["sobol", "lhs"] = Field(
+        default="sobol", description="design on the unit cube: scrambled Sobol' or Latin "
+                                     "hypercube")
+    degree_min: int = Field(default=1, ge=1, le=30,
+                            description="lowest truncation degree tried")
+    degree_max: int | None = Field(default=None, ge=1, le=30,
+                                   description="highest truncation degree tried; default the "
+                                               "largest whose candidate set has at most five "
+                                               "terms per run and 3000 in all, up to 40")
+    q_norm: float | None = Field(default=None, gt=0.0, le=1.0,
+                                 description="hyperbolic truncation ||alpha||_q <= p; default: "
+                                             "chosen per output among 0.5, 0.75 and 1")
+    target_loo: float = Field(default=1e-5, gt=0.0, lt=1.0,
+                              description="corrected LOO error (relative to the variance) at "
+                                          "which enrichment stops (paper 4.4)")
+    max_runs: int | None = Field(default=None, ge=_MIN_RUNS, le=10_000_000,
+                                 description="budget of fit runs, enrichment included; default "
+                                             "min(max(10 n0, 100), 1000) when n_samples is not "
+                                             "given either, else n_samples (no enrichment)")
+    enrich: bool = Field(default=True, description="whether to add runs while the LOO error "
+                                                   "is above target and the budget allows")
+    variance_fraction: float | None = Field(
+        default=None, gt=0.0, le=1.0,
+        description="keep the principal components of a time series that hold this fraction of "
+                    "its variance; default: docs/methods.md#time-series-in-the-adaptive-pce")
+    n_components: int | None = Field(default=None, ge=1, le=10_000,
+                                     description="keep this many principal components of a "
+                                                 "time series (instead of either rule)")
+    surrogate_draws: int = SURROGATE_DRAWS_FIELD
+    surrogate_sampling: Literal["random", "sobol"] = SURROGATE_SAMPLING_FIELD
+    validation_runs: int = Field(default=0, ge=0, le=10_000_000,
+                                 description="model runs at independent random inputs after "
+                                             "the fit (0: none); the older form of validation")
     validation: ValidationSettings | None = VALIDATION_FIELD
     usable_error: float = USABLE_FIELD
 
@@ -149,8 +113,7 @@ class AdaptivePCESettings(MethodSettings):
 
 
 def _runs_digest(space: InputSpace, design: Design, outputs: ModelOutput) -> bytes:
-    """A digest of the fit's inputs (design points, outputs, failures): equal digests, equal
-    fits."""
+    """A digest of the fit's inputs (design points, outputs, failures)."""
     h = hashlib.blake2b(digest_size=20)
     h.update(repr(space.names).encode())
     for a in ([np.asarray(design.data.get("u", design.x)), outputs.failed]
@@ -173,8 +136,7 @@ class _OutputFit:
     q: float
     n_terms: int
     n_components: int | None
-    #: The columns the expansion's core was fitted to at the fit's runs (a scalar's
-    #: components, or a series' component scores): what the indices' bootstrap refits.
+    #: The columns the core was fitted to (a scalar's components, a series' scores).
     targets: np.ndarray | None = None
 
 
@@ -190,7 +152,6 @@ class AdaptivePCE(Method):
     uses_derivations = True
     example_settings = {"n_samples": 40, "max_runs": 60, "degree_max": 3,
                         "surrogate_draws": 20_000}
-    #: Regression needs no particular points: a data file's rows are fitted as they are.
     own_design = ""
     default_rules = (
         ("n_samples", "n0 = max(10 d, 2 P_min), P_min the basis at degree_min and q-norm 0.5: "
@@ -217,8 +178,7 @@ class AdaptivePCE(Method):
 
     @classmethod
     def default_sizes(cls, d: int) -> dict[str, int]:
-        """Initial design, fit budget and largest validation set at the defaults for ``d``
-        inputs (the numbers of :attr:`default_rules`)."""
+        """The numbers of :attr:`default_rules` for ``d`` inputs."""
         m = cls()
         budget = m.budget(d)
         return {"n_samples": m.initial_size(d), "max_runs": budget,
@@ -229,24 +189,21 @@ class AdaptivePCE(Method):
         budget = self.budget(d)
         return budget + self.n_validation(budget)
 
-    # ------------------------------------------------------------------ design sizes
     @property
     def default_plan(self) -> bool:
-        """Whether the method sizes its own design (neither ``n_samples`` nor ``max_runs``
-        given, and runs to make rather than a data file's rows): the design grows until its
-        evidence settles and a validation set checks it (:mod:`uqguide.pce.default_plan`)."""
+        """Whether the method sizes its own design (:mod:`uqguide.pce.default_plan`): neither
+        ``n_samples`` nor ``max_runs`` given, and no data file's rows."""
         s = self.settings
         return s.n_samples is None and s.max_runs is None and self.context.rows is None
 
     def _n0(self, d: int) -> int:
-        """``max(10 d, 2 P_min)`` (module docstring)."""
+        """``max(10 d, 2 P_min)``, ``P_min`` the basis at ``degree_min`` and the least q."""
         s = self.settings
         q = s.q_norm if s.q_norm is not None else min(Q_GRID)
         p_min = hyperbolic_indices(d, s.degree_min, q).shape[0]
         return max(10 * d, 2 * p_min)
 
     def initial_size(self, d: int) -> int:
-        """Initial design size for ``d`` inputs (module docstring)."""
         s = self.settings
         if s.n_samples is not None:
             return s.n_samples
@@ -254,14 +211,11 @@ class AdaptivePCE(Method):
         return min(n, s.max_runs) if s.max_runs is not None else n
 
     def min_rows(self, d: int) -> int:
-        """The fewest successful rows a data file must give for ``d`` inputs: the default
-        initial design ``max(10 d, 2 P_min)`` (module docstring), plus the held-out rows."""
+        """The fewest successful rows of a data file: :meth:`_n0` plus the held-out rows."""
         return max(self._n0(d), _MIN_RUNS) + self._asked_validation()
 
     def n_validation(self, n_fit: int = 0) -> int:
-        """Validation runs after a fit of ``n_fit`` runs: ``validation.n_samples`` or
-        ``validation_runs`` when given; at the default plan, :func:`default_validation` of
-        ``n_fit``."""
+        """Validation runs after a fit of ``n_fit`` runs."""
         s = self.settings
         v = s.validation
         if v is None and s.validation_runs == 0 and self.default_plan:
@@ -270,7 +224,7 @@ class AdaptivePCE(Method):
 
     def _asked_validation(self) -> int:
         """The validation runs the config asks for (a data file's rows get no default set:
-        holding rows out would change the fit the user asked of them)."""
+        holding rows out would change the fit asked of them)."""
         v = self.settings.validation
         return max(v.n_samples if v is not None else 0, self.settings.validation_runs)
 
@@ -296,45 +250,40 @@ class AdaptivePCE(Method):
             terms = min(comb(space.dim + s.degree_max, space.dim), MAX_CANDIDATES)
         return RunPlan(runs=self.plan_runs(space.dim), terms=terms)
 
-    # ------------------------------------------------------------------ phases
     def design(self, space: InputSpace, seed: int) -> Design:
         if self.context.rows is not None:
             return self._rows_design(space, seed)
         n = self.initial_size(space.dim)
         u = unit_design(space.dim, 0, n, self.settings.sampling, seed, self.label, batch=0)
-        draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
         log.info("%s: initial design of %d runs (budget %d)", self.label, n,
                  self.budget(space.dim))
-        return Design(x=space.from_unit(u), data={
-            "u": u, "seed": int(seed), "batches": 1, "draw_seed": draw_seed,
-            "fit_seconds": 0.0, "loo_history": np.zeros(0)})
+        return Design(x=space.from_unit(u), data={"u": u, **self._first_data(seed)})
+
+    def _first_data(self, seed: int) -> dict[str, Any]:
+        """The design data before any fit: the seeds and an empty history."""
+        draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
+        return {"seed": int(seed), "batches": 1, "draw_seed": draw_seed, "fit_seconds": 0.0,
+                "loo_history": np.zeros(0)}
 
     def _rows_design(self, space: InputSpace, seed: int) -> Design:
-        """The data file's rows as the design (config ``data:``): no enrichment, and the
-        validation set, when asked for, held out of the file instead of run.
-
-        The held-out rows are drawn at random from the rows whose outputs did not fail, from
-        the method's validation stream (so the same config holds out the same rows), and
-        placed after the fit's rows, where validation runs go. The germ values are computed
-        from the rows in closed form (:meth:`Germ.from_physical`), not through the unit cube,
-        whose CDFs would round away normal tails.
-        """
+        """The data file's rows as the design (config ``data:``): no enrichment; the validation
+        set, when asked for, drawn from the rows that did not fail (the validation stream)
+        and placed last. The germ values come from :meth:`Germ.from_physical`, not the unit
+        cube, whose CDFs would round away normal tails."""
         from ..pce.design import VALIDATION_STREAM
         from ..pce.validation_design import random_design_of
 
         assert self.context.rows is not None
         x, failed = self.context.rows.x, self.context.rows.failed
         n, nv = x.shape[0], self._asked_validation()
-        draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
-        data: dict[str, Any] = {"seed": int(seed), "batches": 1, "draw_seed": draw_seed,
-                                "fit_seconds": 0.0, "loo_history": np.zeros(0)}
+        data = self._first_data(seed)
         n_fit = n
         if nv:
             rng = np.random.default_rng(stream(seed, self.label, VALIDATION_STREAM))
             held = np.sort(rng.choice(np.flatnonzero(~failed), nv, replace=False))
             order = np.concatenate([np.setdiff1d(np.arange(n), held), held])
             x, n_fit = x[order], n - nv
-            u_held = np.clip(space.to_unit(x[n_fit:]), 2.0**-53, 1 - 2.0**-53)
+            u_held = np.clip(space.to_unit(x[n_fit:]), U_EPS, 1 - U_EPS)
             data.update(n_fit=n_fit, **random_design_of(u_held).to_data())
             log.info("%s: %d of the %d rows held out for validation", self.label, nv, n)
         data["u"] = space.to_unit(x[:n_fit])
@@ -354,17 +303,12 @@ class AdaptivePCE(Method):
         asked = self.settings.validation
         if asked is None and self.settings.validation_runs == 0:  # the default set: stratified
             asked = ValidationSettings(n_samples=nv)
-        vd = validation_design(asked, nv, surrogate, self.context.outputs,
-                               seed=design.data["seed"], label=self.label, d=space.dim)
-        log.info("%s: %d validation runs (%s)", self.label, nv,
-                 "stratified" if vd.stratified else "random")
-        data = dict(design.data, n_fit=design.n_runs, **vd.to_data())
-        return Design(x=np.vstack([design.x, space.from_unit(vd.u)]), data=data)
+        return with_validation(design, asked, nv, surrogate, self.context.outputs, space,
+                               self.label)
 
     def _surrogate(self, space: InputSpace, fits: list[_OutputFit]) -> Surrogate:
-        return Surrogate(Germ.of(space), {f.columns.name: f.expansion for f in fits},
-                         dict(self.derived_outputs),
-                         {f.columns.name: f.columns.kind for f in fits})
+        return surrogate_of(Germ.of(space), [(f.columns, f.expansion) for f in fits],
+                            self.derived_outputs)
 
     def _enrich(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         s, d, n = self.settings, space.dim, design.n_runs
@@ -403,12 +347,9 @@ class AdaptivePCE(Method):
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
         t0 = time.perf_counter()
         s = self.settings
-        validation = None
-        if "n_fit" in design.data:
-            n_fit = int(design.data["n_fit"])
-            validation = outputs.subset(np.arange(n_fit, outputs.n))
-            outputs = outputs.subset(np.arange(n_fit))
-            design = Design(x=design.x[:n_fit], data=design.data)
+        outputs, validation = split_validation(design.data, outputs)
+        if validation is not None:
+            design = Design(x=design.x[:outputs.n], data=design.data)
         fits = self._fit(space, design, outputs)
         n_ok = int((~outputs.failed).sum())
         stats, names, s_mean, s_cov, extra, events = assemble(
@@ -432,7 +373,6 @@ class AdaptivePCE(Method):
             "max_runs": self.budget(space.dim),
             "n_enrichments": int(design.data.get("batches", 1)) - 1,
             "target_loo": s.target_loo,
-            # Summaries over outputs: the worst LOO error, the largest degree / basis / PCA.
             "loo_error": worst,
             "degree": max((f.degree for f in fits), default=0),
             "q_norm": max((f.q for f in fits), default=0.0),
@@ -465,8 +405,7 @@ class AdaptivePCE(Method):
     def _fit_loo(self, space: InputSpace, design: Design, outputs: ModelOutput,
                  fits: list[_OutputFit]) -> dict[str, np.ndarray]:
         """Each fitted output's leave-one-out values ``(n_ok, *shape)`` at the successful fit
-        runs (:mod:`uqguide.pce.loo`), and each derived output's: its map applied to
-        its carriers' leave-one-out values (the map is exact, only the carriers are fitted)."""
+        runs (:mod:`uqguide.pce.loo`), and each derived output's, from its carriers'."""
         germ = Germ.of(space)
         ok = np.flatnonzero(~outputs.failed)
         xi = self._fit_points(germ, design, ok)
@@ -483,8 +422,7 @@ class AdaptivePCE(Method):
 
     def _indices(self, space: InputSpace, design: Design, outputs: ModelOutput,
                  fits: list[_OutputFit], stats: dict[str, Any]) -> None:
-        """Sobol' indices (and groups') of every fitted output with bootstrap intervals
-        (:mod:`uqguide.pce.sobol_indices`)."""
+        """Sobol' indices of every fitted output with bootstrap intervals."""
         germ = Germ.of(space)
         xi = self._fit_points(germ, design, np.flatnonzero(~outputs.failed))
         fitted = {f.columns.name: (f.expansion, basis.evaluate(germ, f.expansion.alpha, xi),
@@ -505,11 +443,9 @@ class AdaptivePCE(Method):
                                     validation.scalars, sur, ~validation.failed, vd)
         return {**events, **cv}
 
-    # ------------------------------------------------------------------ fitting
     def _fit(self, space: InputSpace, design: Design, outputs: ModelOutput) -> list[_OutputFit]:
-        """The fit of every output, remembered for the same runs: the validation runs are
-        placed by the final fit (``refine``), which ``estimate`` then reuses instead of
-        fitting again (a pure cache: a resumed run that lacks it fits the same again)."""
+        """The fit of every output, cached for the same runs: ``refine`` places the validation
+        runs by the final fit, which ``estimate`` reuses."""
         key = _runs_digest(space, design, outputs)
         cached = getattr(self, "_last_fit", None)
         if cached is not None and cached[0] == key:

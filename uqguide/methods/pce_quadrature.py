@@ -1,16 +1,9 @@
 """What the quadrature PCE methods share (full tensor and Smolyak).
 
-Both run the model once at each node of a quadrature grid on the germ (:mod:`uqguide.pce.germ`),
-project every output column on the orthonormal basis (the projection is linear, so all columns
-go at once) and take the statistics from the coefficients (:mod:`uqguide.pce.moments`). They
-make no sequential runs.
-
-Failed runs: a projection needs every node. With ``pce_failure_policy: fail`` (default) a
-failed run is a :class:`~uqguide.errors.MethodError` naming the count and reasons; with
-``regression`` the coefficients are fitted by least squares on the surviving nodes, on the
-grid's basis cut to the terms those nodes determine (:func:`identifiable_terms`: in graded
-order, each term kept if it is not a combination of the lower ones there, at most one per node),
-with a warning and ``coefficients: regression`` in the diagnostics
+Both run the model once at each node of a quadrature grid on the germ, project every output
+column on the orthonormal basis and take the statistics from the coefficients. A projection
+needs every node: with ``pce_failure_policy: regression`` the coefficients of the terms the
+surviving nodes determine (:func:`identifiable_terms`) are fitted by least squares instead
 (``docs/scale.md#failures``).
 """
 
@@ -23,7 +16,6 @@ from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field
 
 from ..errors import MethodError
 from ..core.inputs import InputSpace
@@ -37,12 +29,11 @@ from ..pce.pca import constant_columns
 from ..pce.projection import project
 from ..pce.sobol_indices import set_indices, truncation_error_intervals
 from ..pce.quadrature import Grid, union_basis
-from ..pce.surrogate import Surrogate
 from ..pce.validation_design import ValidationDesign, random_validation
 from .base import Design, Method, MethodSettings
 from .pce_validated import (
-    USABLE_FIELD, VALIDATION_FIELD, ValidationSettings, finish, split_validation,
-    validation_design,
+    SURROGATE_DRAWS_FIELD, SURROGATE_SAMPLING_FIELD, USABLE_FIELD, VALIDATION_FIELD,
+    ValidationSettings, finish, split_validation, surrogate_of, with_validation,
 )
 
 log = logging.getLogger(__name__)
@@ -52,12 +43,9 @@ MAX_NODES = 2_000_000
 
 
 def identifiable_terms(psi: np.ndarray, tol: float = 1e-8) -> np.ndarray:
-    """Columns of ``psi (n, P)`` kept greedily in order while they add to the span.
-
-    A column is kept when its part orthogonal to the kept ones has a norm above ``tol`` times
-    its own; at most ``n`` columns are kept. Lost nodes can make terms indistinguishable (with
-    ``x1`` left at two values, ``x1^2`` is a combination of ``1`` and ``x1``): a least-squares
-    fit must not share a coefficient between them.
+    """Columns of ``psi (n, P)`` kept in order while their part orthogonal to the kept ones
+    has a norm above ``tol`` times their own (at most ``n``): lost nodes can make terms
+    indistinguishable (``x1`` left at two values: ``x1^2`` is a combination of ``1`` and ``x1``).
     """
     n = psi.shape[0]
     q = np.zeros((n, 0))
@@ -76,20 +64,10 @@ def identifiable_terms(psi: np.ndarray, tol: float = 1e-8) -> np.ndarray:
 
 
 class QuadratureSettings(MethodSettings):
-    """Settings shared by the quadrature PCE methods.
+    """Settings shared by the quadrature PCE methods."""
 
-    Attributes
-    ----------
-    surrogate_draws : int
-        Surrogate samples for skewness and kurtosis where the exact rule is too large, and for
-        derived outputs (:mod:`uqguide.pce.moments`).
-    surrogate_sampling : {"random", "sobol"}
-        Those samples: pseudo-random, or scrambled Sobol' (error about ``1 / n`` instead of
-        ``1 / sqrt(n)`` on a polynomial; ``surrogate_draws`` rounded up to a power of two).
-    """
-
-    surrogate_draws: int = Field(default=1_000_000, ge=1_000, le=100_000_000)
-    surrogate_sampling: Literal["random", "sobol"] = "random"
+    surrogate_draws: int = SURROGATE_DRAWS_FIELD
+    surrogate_sampling: Literal["random", "sobol"] = SURROGATE_SAMPLING_FIELD
     validation: ValidationSettings | None = VALIDATION_FIELD
     usable_error: float = USABLE_FIELD
 
@@ -128,8 +106,7 @@ class QuadraturePCE(Method):
         x = germ.to_physical(grid.xi)
         data: dict[str, Any] = {"xi": grid.xi, "draw_seed": draw_seed, "seed": int(seed)}
         v = self.settings.validation
-        if v is not None and v.n_samples and v.design == "random":
-            # Random validation runs do not need the fit: they go with the grid.
+        if v is not None and v.n_samples and v.design == "random":  # (no fit needed)
             vd = random_validation(seed, self.label, v.n_samples, space.dim)
             log.info("%s: %d validation runs (random)", self.label, vd.n)
             x = np.vstack([x, space.from_unit(vd.u)])
@@ -144,13 +121,9 @@ class QuadraturePCE(Method):
         germ = Germ.of(space)
         grid = self._checked_grid(germ)
         _, fitted = self._project(germ, grid, design, outputs)
-        surrogate = Surrogate(germ, {c.name: e for c, e in fitted}, dict(self.derived_outputs),
-                              {c.name: c.kind for c, _ in fitted})
-        vd = validation_design(v, v.n_samples, surrogate, self.context.outputs,
-                               seed=int(design.data["seed"]), label=self.label, d=space.dim)
-        log.info("%s: %d validation runs (stratified)", self.label, vd.n)
-        data = dict(design.data, n_fit=design.n_runs, **vd.to_data())
-        return Design(x=np.vstack([design.x, space.from_unit(vd.u)]), data=data)
+        return with_validation(design, v, v.n_samples,
+                               surrogate_of(germ, fitted, self.derived_outputs),
+                               self.context.outputs, space, self.label)
 
     def _project(self, germ: Germ, grid: Grid, design: Design, outputs: ModelOutput
                  ) -> tuple[np.ndarray, list[tuple[Any, Expansion]]]:
@@ -179,7 +152,7 @@ class QuadraturePCE(Method):
     def _fitter(self, germ: Germ, grid: Grid, outputs: ModelOutput
                 ) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
         """Rows used, basis ``alpha (P, d)`` and ``f(y (n_rows, m)) -> coef (P, m)`` under the
-        failure policy (module docstring)."""
+        failure policy."""
         n_failed = int(outputs.failed.sum())
         alpha = union_basis(grid)
         if not n_failed:
@@ -205,11 +178,6 @@ class QuadraturePCE(Method):
         grid = self._checked_grid(germ)
         n_total = outputs.n
         outputs, validation = split_validation(design.data, outputs)
-        n_fit = int(design.data.get("n_fit", design.n_runs))
-        if n_fit != grid.n_nodes:
-            raise MethodError(
-                f"{self.label}: the design ({design.n_runs} runs, {outputs.n} outputs) is not "
-                f"this method's {grid.n_nodes}-node grid")
         rows, fitted = self._project(germ, grid, design, outputs)
         alpha = fitted[0][1].alpha if fitted else union_basis(grid)
         seed = design.data.get("draw_seed", 0)
@@ -220,7 +188,7 @@ class QuadraturePCE(Method):
             levels=self.context.quantile_levels, events=self.context.events,
             components=self.context.components,
             note=self.note)
-        for col, exp in fitted:  # the groups' indices; intervals once validated (below)
+        for col, exp in fitted:
             set_indices(stats[col.name], exp, self.context.groups)
         diagnostics: dict[str, Any] = {
             "n_runs": n_total,
@@ -229,7 +197,6 @@ class QuadraturePCE(Method):
             "failure_reasons": failure_summary(outputs),
             "coefficients": "projection" if rows.size == outputs.n else "regression",
             **self._grid_diagnostics(grid),
-            # One basis serves every output and time step: its largest total degree and size.
             "degree": int(alpha.sum(axis=1).max()),
             "n_terms": int(alpha.shape[0]),
             "moments_method": ", ".join(sorted({s.moments_method for s in stats.values()})),
@@ -237,14 +204,11 @@ class QuadraturePCE(Method):
         }
         est = Estimate(method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
                        scalar_index=names, scalar_mean=s_mean, scalar_cov=s_cov, events=events)
-        surrogate = Surrogate(germ, {c.name: e for c, e in fitted}, dict(self.derived_outputs),
-                              {c.name: c.kind for c, _ in fitted})
-        finish(est, surrogate, space=space, validation=validation,
-               design=ValidationDesign.from_data(design.data), loo={},
+        finish(est, surrogate_of(germ, fitted, self.derived_outputs), space=space,
+               validation=validation, design=ValidationDesign.from_data(design.data), loo={},
                threshold=self.settings.usable_error, seed=int(design.data.get("seed", 0)),
                n_draws=self.settings.surrogate_draws)
-        # no regression to resample: the (general: aliased) truncation bound of the
-        # validation error, or none
+        # no regression to resample: the (aliased) truncation bound of the validation error
         truncation_error_intervals(est.stats, orthogonal=False)
         diagnostics["fit_seconds"] = time.perf_counter() - t0
         return est

@@ -1,12 +1,7 @@
-"""Smolyak sparse PCE (Wang & Song 2019, section 4.3).
-
-The Smolyak combination of one-dimensional Gauss rules (the nodes of chaospy's
-``generate_quadrature(order, dist, rule="gaussian", sparse=True)``, each node once), with
-coefficients by Smolyak pseudo-spectral projection (:mod:`uqguide.pce.projection`), exact on the
-union of the tensor rules' bases. ``level`` is the paper's: **paper level = chaospy order + 1**
-(level 2 with 7 inputs: 15 runs, total degree 1). ``nested: true`` uses nested rules where they
-exist (Genz-Keister, Gauss-Patterson). The level table and what nesting buys:
-``docs/methods.md#full-tensor-and-smolyak-as-configured``.
+"""Smolyak sparse PCE (Wang & Song 2019, section 4.3): the Smolyak combination of
+one-dimensional Gauss (or nested) rules, coefficients by Smolyak pseudo-spectral projection
+(:mod:`uqguide.pce.projection`). ``level`` is the paper's, chaospy's order + 1. The level table
+and what nesting buys: ``docs/methods.md#full-tensor-and-smolyak-as-configured``.
 
 Example config entry::
 
@@ -30,19 +25,13 @@ _NESTED = {NORMAL: "genz_keister", UNIFORM: "patterson"}
 
 
 class SmolyakPCESettings(QuadratureSettings):
-    """Settings of ``pce_smolyak``.
+    """Settings of ``pce_smolyak``."""
 
-    Attributes
-    ----------
-    level : int
-        The paper's sparse-grid level, chaospy order + 1: level 2 is 15 runs and total degree 1
-        for 7 normal inputs, level 3 is 113 runs and total degree 2.
-    nested : bool
-        Nested rules (Genz-Keister / Gauss-Patterson) instead of Gauss rules.
-    """
-
-    level: int = Field(default=2, ge=1, le=12)
-    nested: bool = False
+    level: int = Field(default=2, ge=1, le=12,
+                       description="the paper's sparse-grid level, chaospy order + 1 (level 2: "
+                                   "15 runs for 7 inputs)")
+    nested: bool = Field(default=False, description="nested rules (Genz-Keister / "
+                                                    "Gauss-Patterson) instead of Gauss rules")
 
 
 class SmolyakPCE(QuadraturePCE):
@@ -66,10 +55,8 @@ class SmolyakPCE(QuadraturePCE):
         return [_NESTED.get(f, "gauss") for f in germ.families]
 
     def plan(self, space: InputSpace) -> RunPlan:
-        """An upper bound of the runs, from the 1-D rule sizes alone (no grid is built): the
-        points of every tensor grid Smolyak combines, shared nodes counted in each. Refused
-        (ConfigError, field ``level``) above ``MAX_NODES``: building the grid would enumerate
-        them all."""
+        """An upper bound of the runs from the 1-D rule sizes alone (the points of every tensor
+        grid Smolyak combines); ConfigError (field ``level``) above ``MAX_NODES``."""
         from ..pce.quadrature import rule_1d
 
         germ = Germ.of(space)

@@ -1,11 +1,6 @@
-"""Full-tensor PCE (Wang & Song 2019, section 4.2).
-
-``m`` quadrature nodes per input, ``m^d`` model runs on the tensor grid, and the orthonormal
-basis of degree ``m - 1`` in each input; coefficients by pseudo-spectral projection in the germ
-variables of :mod:`uqguide.pce.germ`, statistics from the coefficients. ``rule`` is ``"auto"``
-/ ``"gauss"`` (each input's Gauss rule) or ``"clenshaw_curtis"`` (uniform inputs only, about
-half the basis degree). The paper's "TPCE level 2" is ``m = 2``. Rules, degrees and run counts:
-``docs/methods.md#full-tensor-and-smolyak-as-configured``.
+"""Full-tensor PCE (Wang & Song 2019, section 4.2): ``m^d`` runs on the tensor grid of ``m``
+nodes per input, coefficients by pseudo-spectral projection. The paper's "TPCE level 2" is
+``m = 2``. Rules, degrees and run counts: ``docs/methods.md#full-tensor-and-smolyak-as-configured``.
 
 Example config entry::
 
@@ -27,20 +22,15 @@ from .pce_quadrature import MAX_NODES, QuadraturePCE, QuadratureSettings
 
 
 class TensorPCESettings(QuadratureSettings):
-    """Settings of ``pce_tensor``.
+    """Settings of ``pce_tensor``."""
 
-    Attributes
-    ----------
-    m : int
-        Nodes per input (the paper's "level"): ``m^d`` runs, basis degree ``m - 1`` per input.
-    rule : {"auto", "gauss", "clenshaw_curtis"}
-        One-dimensional rule: ``auto`` and ``gauss`` take the Gauss rule of each input's germ
-        (Hermite, Legendre, truncated normal), ``clenshaw_curtis`` (uniform inputs only) the
-        Clenshaw-Curtis rule, whose ``m`` nodes carry a basis of degree about ``(m - 1) / 2``.
-    """
-
-    m: int = Field(default=2, ge=1, le=64)
-    rule: Literal["auto", "gauss", "clenshaw_curtis"] = "auto"
+    m: int = Field(default=2, ge=1, le=64,
+                   description="nodes per input (the paper's level): m^d runs, basis degree "
+                               "m - 1 per input")
+    rule: Literal["auto", "gauss", "clenshaw_curtis"] = Field(
+        default="auto", description="one-dimensional rule: auto and gauss take each input's "
+                                    "Gauss rule, clenshaw_curtis (uniform inputs only) about "
+                                    "half the basis degree")
 
 
 class TensorPCE(QuadraturePCE):
@@ -54,8 +44,7 @@ class TensorPCE(QuadraturePCE):
     settings: TensorPCESettings
 
     def plan(self, space: InputSpace) -> RunPlan:
-        """``m^d`` runs and terms; ConfigError (field ``m``) above ``MAX_NODES``, before any
-        grid is built."""
+        """``m^d`` runs and terms; ConfigError (field ``m``) above ``MAX_NODES``."""
         n = self.settings.m ** space.dim
         if n > MAX_NODES:
             raise ConfigError(

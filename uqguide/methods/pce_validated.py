@@ -2,16 +2,9 @@
 independent runs and decide, statistic by statistic, what may be shown (the pipeline of
 :mod:`uqguide.pce.credibility`: own, corrected ``+cv``, fallback ``+mc`` or withheld).
 
-Settings (every PCE method)::
-
-    validation: {n_samples: 100}   # independent model runs after the fit
-    validation: {n_samples: 0}     # none (the opt-out of pce_adaptive's default set)
-    validation: {n_samples: 100, design: random}   # plain random runs, not stratified
-    usable_error: 0.1              # LOO / validation error above which a PCE reports no moments
-
-The validation runs come from the method's own stream (keyed by its label), are chosen once the
-surrogate is fitted (stratified by its value, :mod:`uqguide.pce.validation_design`) and never
-reach the fit.
+Settings of every PCE method: ``validation: {n_samples: 100}`` (``design: random`` for plain
+random runs; ``n_samples: 0``: none) and ``usable_error``
+(``docs/methods.md#validation-corrected-moments-no-usable-surrogate-the-kept-surrogate``).
 """
 
 from __future__ import annotations
@@ -25,33 +18,27 @@ from pydantic import ConfigDict, Field, field_validator
 
 from ..core.inputs import InputSpace
 from ..core.strict import StrictModel
-from ..core.types import STAT_NAMES, Estimate, ModelOutput
+from ..core.types import STAT_NAMES, DerivedOutput, Estimate, ModelOutput
 from ..pce import credibility as cred
 from ..pce.far_tails import far_draws
 from ..pce.loo import FitRuns
 from ..pce.runs_estimate import INTERVAL, runs_estimate
+from ..pce.expansion import Expansion
+from ..pce.germ import Germ
+from ..pce.outputs import OutputColumns
 from ..pce.surrogate import Surrogate
 from ..pce.validation import (
     USABLE_ERROR, Corrected, corrected_moments, sampling_se, validation_unit_rows, withhold_all,
 )
 from ..pce.validation_design import (ValidationDesign, curved_inputs, random_validation,
                                      stratified_validation)
+from .base import Design
 
 log = logging.getLogger(__name__)
 
 
 class ValidationSettings(StrictModel):
-    """``validation:`` of a PCE method.
-
-    Attributes
-    ----------
-    n_samples : int
-        Independent model runs after the fit; 0 (or 2 and more): 0 is the explicit opt-out
-        of a method's default validation set (``pce_adaptive`` at its default design).
-    design : {"stratified", "random"}
-        Stratified by the fitted surrogate's value (default; the tails get runs of their own,
-        :mod:`uqguide.pce.validation_design`) or plain random.
-    """
+    """``validation:`` of a PCE method."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -75,8 +62,8 @@ def validation_design(settings: ValidationSettings | None, n: int, surrogate: Su
                       outputs: tuple[str, ...], *, seed: int, label: str, d: int
                       ) -> ValidationDesign:
     """The ``n`` validation runs of a fitted surrogate: stratified by the value of the
-    ``outputs`` it reports (all it predicts when none is named) unless ``settings`` asks for
-    random runs or there are none (the legacy ``validation_runs``)."""
+    ``outputs`` it reports (all it predicts when none is named), random when ``settings`` asks
+    for it or is None (``validation_runs``)."""
     if settings is None or settings.design == "random":
         return random_validation(seed, label, n, d)
     names = [o for o in outputs if o in surrogate.names] or surrogate.names
@@ -87,7 +74,33 @@ def validation_design(settings: ValidationSettings | None, n: int, surrogate: Su
                                  curved=curved_inputs(fitted, d))
 
 
-#: Fields the PCE methods' settings add (annotations and defaults), one definition for all.
+def with_validation(design: Design, settings: ValidationSettings | None, n: int,
+                    surrogate: Surrogate, outputs: tuple[str, ...], space: InputSpace,
+                    label: str) -> Design:
+    """``design`` (the fit's runs) with ``n`` validation runs of ``surrogate`` appended."""
+    vd = validation_design(settings, n, surrogate, outputs, seed=int(design.data["seed"]),
+                           label=label, d=space.dim)
+    log.info("%s: %d validation runs (%s)", label, vd.n,
+             "stratified" if vd.stratified else "random")
+    return Design(x=np.vstack([design.x, space.from_unit(vd.u)]),
+                  data=dict(design.data, n_fit=design.n_runs, **vd.to_data()))
+
+
+def surrogate_of(germ: Germ, fitted: list[tuple[OutputColumns, Expansion]],
+                 derived: Mapping[str, DerivedOutput]) -> Surrogate:
+    """The surrogate of the fitted outputs' expansions and the ``derived`` outputs."""
+    return Surrogate(germ, {c.name: e for c, e in fitted}, dict(derived),
+                     {c.name: c.kind for c, _ in fitted})
+
+
+#: Fields the PCE methods' settings share, one definition for all.
+SURROGATE_DRAWS_FIELD = Field(default=1_000_000, ge=1_000, le=100_000_000,
+                              description="surrogate samples for skewness and kurtosis where the "
+                                          "exact rule is too large, and for derived outputs, "
+                                          "quantiles and events")
+SURROGATE_SAMPLING_FIELD: Any = Field(
+    default="random", description="those samples: pseudo-random, or scrambled Sobol' "
+                                  "(surrogate_draws rounded up to a power of two)")
 VALIDATION_FIELD = Field(default=None, description="independent runs that validate the "
                                                     "surrogate and correct its moments")
 USABLE_FIELD = Field(default=USABLE_ERROR, gt=0.0, le=10.0,

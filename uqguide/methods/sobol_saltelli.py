@@ -1,24 +1,18 @@
 """``sobol_saltelli``: first-order and total Sobol' indices from a pick-freeze design, with the
 plain Monte Carlo statistics of its ``A`` and ``B`` rows.
 
-Design (Saltelli et al. 2010; estimators in :mod:`uqguide.stats.sobol_pick_freeze`): ``N (m + 2)``
-runs, ``A``, ``B`` and ``A_B^u`` for each of ``m`` frozen sets (each input outside a correlated
-group, and each group of the run context, frozen whole). ``A`` and ``B`` are the two halves of one
-``2d``-column chunk of Monte Carlo's design; a chunk is ``chunk_size`` base rows with all their
-runs, reduced where it ran (:class:`SaltelliReducer`) and merged in chunk order like Monte
-Carlo's, so the numbers do not depend on the workers. The ``A`` and ``B`` rows are reduced and
-estimated by Monte Carlo's own code. Intervals: Poisson bootstrap over the base rows.
-
-Indices are given at the report times and last step of every series and for every scalar. Why
-a method and not an option of ``monte_carlo``, the estimators and measured accuracy:
-``docs/error-budget.md`` (Totals: a pick-freeze design).
+``N (m + 2)`` runs (Saltelli et al. 2010; :mod:`uqguide.stats.sobol_pick_freeze`): ``A``, ``B``
+and ``A_B^u`` for each of ``m`` frozen sets (the inputs, and each group frozen whole), in chunks
+of ``chunk_size`` base rows with all their runs, reduced where they ran
+(:class:`SaltelliReducer`) and merged in chunk order; the ``A`` and ``B`` rows by Monte Carlo's
+own code. The estimators and their accuracy:
+``docs/error-budget.md#totals-a-pick-freeze-design``.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-import zlib
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -32,7 +26,7 @@ from ..stats.sobol_pick_freeze import PickFreezeSums, pick_freeze_indices
 from .base import Design, MethodSettings, RunPlan, StreamingMethod
 from .monte_carlo import (
     MonteCarlo, MonteCarloReducer, MonteCarloSettings, ci_index, method_seed, poisson1,
-    unit_chunk,
+    stream_seed, unit_chunk,
 )
 
 log = logging.getLogger(__name__)
@@ -41,32 +35,24 @@ _SUMS = "pick-freeze"
 
 
 class SaltelliSettings(MethodSettings):
-    """Settings of ``sobol_saltelli``.
+    """Settings of ``sobol_saltelli``."""
 
-    Attributes
-    ----------
-    n_base : int
-        ``N``, base rows: the design makes ``N (m + 2)`` runs, ``m`` the frozen sets (inputs
-        and groups).
-    sampling : {"sobol", "random", "lhs"}
-        Points of ``A`` and ``B`` within each chunk (default scrambled Sobol', as SALib's
-        Saltelli sampler: smaller errors than random points at the same runs).
-    chunk_size : int
-        Base rows per chunk (each with its ``m + 2`` runs); fixed so that the worker count
-        does not change the numbers. A power of two keeps Sobol' points balanced.
-    bootstrap : int
-        Poisson-bootstrap resamples of the indices' 95% intervals (0: none), and of the
-        moments' with ``intervals: bootstrap`` or ``studentized`` (0: none either).
-    intervals : {"tail", "delta", "bootstrap", "studentized"}
-        The intervals of the ``A`` and ``B`` rows' moments, as ``monte_carlo``'s (default
-        ``tail``, as there).
-    """
-
-    n_base: int = Field(ge=2, le=10_000_000)
-    sampling: Literal["sobol", "random", "lhs"] = "sobol"
-    chunk_size: int = Field(default=1024, ge=1, le=1_000_000)
-    bootstrap: int = Field(default=200, ge=0, le=10_000)
-    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = "tail"
+    n_base: int = Field(ge=2, le=10_000_000,
+                        description="N, base rows: the design makes N (m + 2) runs, m the "
+                                    "frozen sets (inputs and groups)")
+    sampling: Literal["sobol", "random", "lhs"] = Field(
+        default="sobol", description="points of A and B within each chunk (default scrambled "
+                                     "Sobol', as SALib's)")
+    chunk_size: int = Field(default=1024, ge=1, le=1_000_000,
+                            description="base rows per chunk (each with its m + 2 runs); a "
+                                        "power of two keeps Sobol' points balanced")
+    bootstrap: int = Field(default=200, ge=0, le=10_000,
+                           description="Poisson-bootstrap resamples of the indices' 95% "
+                                       "intervals, and of the moments' with intervals: "
+                                       "bootstrap or studentized (0: none)")
+    intervals: Literal["tail", "delta", "bootstrap", "studentized"] = Field(
+        default="tail", description="the intervals of the A and B rows' moments, as "
+                                    "monte_carlo's")
 
 
 class SobolSaltelli(StreamingMethod):
@@ -79,7 +65,6 @@ class SobolSaltelli(StreamingMethod):
     settings: SaltelliSettings
     example_settings = {"n_base": 256, "chunk_size": 64, "bootstrap": 50}
 
-    # ------------------------------------------------------------------ design
     def frozen_sets(self, space: InputSpace) -> list[tuple[str, int, tuple[int, ...]]]:
         """The frozen sets ``(kind, position, input columns)``: ``("input", j, (j,))`` for
         each input outside a correlated group, ``("group", g, cols)`` for each group."""
@@ -111,16 +96,14 @@ class SobolSaltelli(StreamingMethod):
             raise MethodError(f"{self.label}: no uncertain input, no index to estimate")
         sets = self.frozen_sets(space)
         m2 = len(sets) + 2
-        root = [seed, zlib.crc32(self.label.encode())]
-        boot = [int(np.random.SeedSequence(root + [k]).generate_state(1)[0]) for k in (1, 2)]
         rows = PickFreezeChunks(space, s.n_base, s.sampling, s.chunk_size,
                                 method_seed(seed, self.label), [c for _, _, c in sets])
         x = GeneratedRows(s.n_base * m2, space.dim, min(s.chunk_size, s.n_base) * m2, rows,
                           portable=True)
-        return Design(x=x, data={"boot_seed": boot[0], "sobol_boot_seed": boot[1],
+        return Design(x=x, data={"boot_seed": stream_seed(seed, self.label, 1),
+                                 "sobol_boot_seed": stream_seed(seed, self.label, 2),
                                  "n_sets": len(sets)})
 
-    # ------------------------------------------------------------------ streaming estimate
     def chunk_bounds(self, n_runs: int) -> list[tuple[int, int]]:
         """Blocks of ``chunk_size`` base rows with all their runs (the last may be shorter)."""
         s = self.settings
@@ -241,7 +224,7 @@ def _put_indices(st: OutputStats, sums: PickFreezeSums,
 
 class PickFreezeChunks:
     """``make(i)``: chunk ``i`` of the design in SI units, ``A``, ``B`` and every ``A_B^u``
-    of its base rows (:class:`SaltelliReducer` gives the layout); picklable."""
+    of its base rows; picklable."""
 
     def __init__(self, space: InputSpace, n_base: int, sampling: str, chunk_size: int,
                  seed: np.random.SeedSequence, sets: list[tuple[int, ...]]) -> None:
@@ -261,11 +244,8 @@ class PickFreezeChunks:
 
 
 # -------------------- the chunk reduction, run where the chunk ran (in pool workers)
-# A chunk is a block of ``b`` base rows with all of their runs, laid out block by block: ``A``
-# (``b`` rows), ``B`` (``b``), then ``A_B^u`` (``b``) for each of the ``m`` frozen sets. So a
-# chunk holds everything its base rows' estimates need, and the sums of chunks merge exactly
-# (:class:`~uqguide.stats.sobol_pick_freeze.PickFreezeSums`): the indices are the same whatever
-# the number of workers.
+# A chunk of ``b`` base rows is laid out block by block: ``A``, ``B``, then ``A_B^u`` for each
+# frozen set, all ``b`` rows: it holds everything its base rows' estimates need.
 
 #: Summary keys of the pick-freeze sums: ``"p:<field>:<output>"`` (the others are Monte
 #: Carlo's, of the ``A`` and ``B`` rows).
@@ -282,12 +262,9 @@ def lanes(y: np.ndarray, steps: np.ndarray | None) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SaltelliReducer:
-    """Reduces one chunk of a pick-freeze design (laid out as above) to mergeable sums.
-
-    Summary: Monte Carlo's sums of the ``A`` and ``B`` rows (``mc``, a valid ``2b``-run
-    sample) and, per output, ``"p:<field>:<output>"`` (:class:`PickFreezeSums`). A base row
-    counts only when none of its ``m + 2`` runs failed and every value is finite: the pairing
-    of ``A``, ``B`` and ``A_B^u`` is what the estimators rest on.
+    """Reduces one chunk of a pick-freeze design to Monte Carlo's sums of its ``A`` and ``B``
+    rows and, per output, ``"p:<field>:<output>"`` (:class:`PickFreezeSums`) of the base rows
+    none of whose ``m + 2`` runs failed or is non-finite (the estimators rest on the pairing).
     """
 
     n_sets: int
@@ -308,8 +285,7 @@ class SaltelliReducer:
                   for name, y in [*out.series.items(), *out.scalars.items()]}
         for v in values.values():
             good &= np.isfinite(v).all(axis=(0, 2))
-        # Weights for every base row (the bad ones then dropped), so a row's weights do not
-        # depend on which other rows failed; a stream apart from Monte Carlo's (same index).
+        # drawn for every base row, bad ones then dropped (as Monte Carlo's, its own stream)
         rng = np.random.default_rng([self.boot_seed, index])
         w = np.concatenate([np.ones((1, b)), poisson1(rng, (self.bootstrap, b))])[:, good]
         for name, v in values.items():

@@ -1,14 +1,10 @@
 """Subset simulation (Au & Beck 2001) for the probability of one rare event.
 
 The event ``F = {g(x) > 0}`` (``g`` the event's severity) is reached through nested events
-``F_i = {g > b_i}``, each of conditional probability about ``p0``: ``N`` independent samples in
-standard normal space, then per level ``p0 N`` Markov chains (component-wise Metropolis) seeded
-by the samples above the level's threshold, until ``p0 N`` samples lie in ``F``; then
-``P = p0^m n_F / N``. Every step of all chains of a level is one batch through the executors
-(:meth:`SubsetSimulation.refine`), so the numbers depend on the seed and the label, never on the
-workers. The 95% interval is lognormal on Au & Beck's upper bound for fully correlated levels,
-``delta_up = sum delta_i`` (conservative: the independent-levels figure under-covers). The
-algorithm, its cost and its measured coverage: ``docs/performance.md#rare-events``.
+``F_i = {g > b_i}`` of conditional probability ``p0``, each level's samples drawn by
+component-wise Metropolis chains in standard normal space; every step of a level's chains is
+one batch through the executors (:meth:`SubsetSimulation.refine`). The algorithm, its interval,
+cost and measured coverage: ``docs/performance.md#rare-events``.
 """
 
 from __future__ import annotations
@@ -26,34 +22,25 @@ from ..core.events import EventEstimate, EventSpec, component_index
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, ModelOutput
 from .base import Design, Method, MethodSettings
+from .monte_carlo import U_EPS
 
 log = logging.getLogger(__name__)
 
-_U_EPS = 2.0**-53
-
-
 class SubsetSimulationSettings(MethodSettings):
-    """Settings of ``subset_simulation``.
+    """Settings of ``subset_simulation``."""
 
-    Attributes
-    ----------
-    event : str
-        Name of one of the config's events.
-    n_per_level : int
-        Samples per level ``N``.
-    p0 : float
-        Conditional probability of each intermediate level (``p0 N`` and ``1 / p0`` integers).
-    proposal_std : float
-        Standard deviation of each coordinate's proposal in standard normal space.
-    max_levels : int
-        MCMC levels before the method stops (the estimate is then an upper bound, flagged).
-    """
-
-    event: str = Field(min_length=1)
-    n_per_level: int = Field(default=1000, ge=10, le=10_000_000)
-    p0: float = Field(default=0.1, gt=0.0, le=0.5)
-    proposal_std: float = Field(default=1.0, gt=0.0, le=10.0)
-    max_levels: int = Field(default=10, ge=1, le=10)
+    event: str = Field(min_length=1, description="name of one of the config's events")
+    n_per_level: int = Field(default=1000, ge=10, le=10_000_000,
+                             description="samples per level N")
+    p0: float = Field(default=0.1, gt=0.0, le=0.5,
+                      description="conditional probability of each intermediate level (p0 N "
+                                  "and 1 / p0 integers)")
+    proposal_std: float = Field(default=1.0, gt=0.0, le=10.0,
+                                description="standard deviation of each coordinate's proposal "
+                                            "in standard normal space")
+    max_levels: int = Field(default=10, ge=1, le=10,
+                            description="MCMC levels before the method stops (the estimate is "
+                                        "then an upper bound, flagged)")
 
     @model_validator(mode="after")
     def _integers(self) -> SubsetSimulationSettings:
@@ -75,7 +62,6 @@ class SubsetSimulation(Method):
     settings: SubsetSimulationSettings
     example_settings = {"event": "tail", "n_per_level": 500}
 
-    # ------------------------------------------------------------------ config
     def check(self, index: int) -> None:
         """ConfigError unless the method's event is one of the config's events."""
         names = [e.name for e in self.context.events]
@@ -105,9 +91,8 @@ class SubsetSimulation(Method):
     def _to_x(space: InputSpace, z: np.ndarray) -> np.ndarray:
         from scipy import special
 
-        return space.from_unit(np.clip(special.ndtr(z), _U_EPS, 1 - _U_EPS))
+        return space.from_unit(np.clip(special.ndtr(z), U_EPS, 1 - U_EPS))
 
-    # ------------------------------------------------------------------ design
     def design(self, space: InputSpace, seed: int) -> Design:
         z = self._rng(seed, 0, 0).standard_normal((self.settings.n_per_level, space.dim))
         return Design(x=self._to_x(space, z), data={
@@ -128,11 +113,8 @@ class SubsetSimulation(Method):
 
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         """Accept or reject the last candidates; at the end of a level set the next threshold
-        (or stop); then propose the next candidate of every chain.
-
-        A chain whose proposal is rejected in every coordinate stays where it is: its point is
-        not run again as a new row (the value is known), so a step runs only the chains that
-        moved, and a step where none moved runs nothing."""
+        (or stop); then propose the next candidate of every chain. Only the chains that moved
+        are run (a chain that stays keeps its known value)."""
         if design.data["done"]:
             return None
         d = dict(design.data)
@@ -212,7 +194,6 @@ class SubsetSimulation(Method):
         d["current"] = seeds
         return False
 
-    # ------------------------------------------------------------------ estimate
     def estimate(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Estimate:
         t0 = time.perf_counter()
         d = design.data
@@ -252,11 +233,9 @@ class SubsetSimulation(Method):
                         events={spec.name: ev})
 
 
-def _gamma(g: np.ndarray, chain_rows: np.ndarray, b: float | None) -> float:
+def _gamma(g: np.ndarray, chain_rows: np.ndarray, b: float) -> float:
     """Au & Beck's gamma of one level: the correlation factor of the indicators
-    ``I(g > b)`` along the chains (``chain_rows (N_c, L)``); 0 while ``b`` is unknown."""
-    if b is None:
-        return 0.0
+    ``I(g > b)`` along the chains (``chain_rows (N_c, L)``)."""
     ind = (g[chain_rows] > b).astype(float)
     nc, L = ind.shape
     p = ind.mean()
