@@ -60,11 +60,9 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     seed : int, optional
         Overrides the config's seed.
     out : str or Path, optional
-        Also write ``<out>/<name>.h5`` and the CSV / Markdown tables, as ``uqguide run`` does.
-        ``<name>`` is the config's ``name``, or a config file's stem. A mapping without a
-        ``name`` is refused here (ConfigError, field ``name``) rather than written as
-        ``run.h5``, where the next unnamed config would overwrite it (or find its run folder
-        and refuse to resume a different config). Without ``out`` nothing is written.
+        Also write ``<out>/<name>.h5`` and the CSV / Markdown tables, as ``uqguide run`` does
+        (``<name>``: the config's ``name`` or file stem; a mapping without one is refused,
+        ConfigError). Without ``out`` nothing is written.
     progress : bool
         Show progress on stderr.
     force : bool
@@ -94,7 +92,6 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
 
     Every method's statistics along ``label``, as an xarray Dataset:
 
-    >>> import uqguide
     >>> cfg = uqguide.load_config({
     ...     "model": {"name": "linear_gaussian"},
     ...     "inputs": [{"name": "x1", "dist": "normal", "std": 1.0},
@@ -144,12 +141,9 @@ def fit(x: Any, y: Any, *, inputs: Sequence[Mapping[str, Any]],
         workers: int | None = None) -> Result:
     """Statistics (and, for a PCE, the kept surrogate) of runs already made: ``x`` and ``y``.
 
-    The same as a config with ``data:`` (``docs/your-simulator.md``, "Your own samples"): the
-    rows of ``x`` are the design, drawn from ``inputs``; the same rows, settings and seed give
-    the same numbers bit for bit, from a file or from here. The rows are checked as a data
-    file's are (:mod:`uqguide.models.data_rows.checks`): ConfigError naming the row and the
-    column for bad data (missing column, input outside its support, repeated row, too few rows)
-    or settings.
+    The same as a config with ``data:`` (``docs/your-simulator.md``, "Your own samples"), bit for
+    bit: the rows of ``x`` are the design, drawn from ``inputs``, checked as a data file's are
+    (ConfigError naming the row and the column for bad data or settings).
 
     Parameters
     ----------

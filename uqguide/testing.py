@@ -52,21 +52,10 @@ def model_checks(cls: type[Model], params: Mapping[str, Any] | None = None, *, n
                  seed: int = 0) -> Iterator[tuple[str, Callable[[], None]]]:
     """The model contract's checks of ``cls``, one ``(rule, check)`` pair a rule.
 
-    Parameters
-    ----------
-    cls : subclass of Model
-    params : mapping, optional
-        Parameters to build it with (default: ``cls.example_params``).
-    n : int
-        Samples of the batch checked (at least 2, so that it can be split).
-    seed : int
-        Seed of the inputs drawn around the nominal values.
-
-    Yields
-    ------
-    (str, callable)
-        The rule's name and a function of no argument raising :class:`ConformanceError`
-        naming the model, the rule and what was seen.
+    ``params``: to build it with (default ``cls.example_params``); ``n``: samples of the batch
+    checked (at least 2, so that it can be split); ``seed``: of the inputs drawn around the
+    nominal values. Each check takes no argument and raises :class:`ConformanceError` naming
+    the model, the rule and what was seen.
     """
     params = dict(cls.example_params if params is None else params)
     who = f"model '{getattr(cls, 'name', cls.__name__)}'"
@@ -116,13 +105,8 @@ def model_checks(cls: type[Model], params: Mapping[str, Any] | None = None, *, n
 
 def check_model(cls: type[Model], params: Mapping[str, Any] | None = None, *, n: int = 6,
                 seed: int = 0) -> None:
-    """Run every check of :func:`model_checks` (same arguments); the first broken rule raises.
-
-    Raises
-    ------
-    ConformanceError
-        Naming the model, the rule and what was seen.
-    """
+    """Run every check of :func:`model_checks` (same arguments); the first broken rule raises
+    :class:`ConformanceError`."""
     for _, check in model_checks(cls, params, n=n, seed=seed):
         check()
 
@@ -255,23 +239,9 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
                   ) -> Iterator[tuple[str, Callable[[], None]]]:
     """The method contract's checks of ``cls``, one ``(rule, check)`` pair a rule.
 
-    The checks share the method's first run on the benchmark, made by whichever runs first.
-
-    Parameters
-    ----------
-    cls : subclass of Method
-    settings : mapping, optional
-        Its settings (default: ``cls.example_settings``).
-    seed : int
-        Root seed of the runs.
-    workers : bool
-        Also check a 2-process pool (starting the pool takes seconds).
-
-    Yields
-    ------
-    (str, callable)
-        The rule's name and a function of no argument raising :class:`ConformanceError`
-        naming the method, the rule and what was seen.
+    ``settings`` default to ``cls.example_settings``; ``seed``: root seed of the runs;
+    ``workers``: also check a 2-process pool (its start takes seconds). The checks share the
+    method's first run on the benchmark; each raises as :func:`model_checks`'s do.
     """
     settings = dict(cls.example_settings if settings is None else settings)
     who = f"method '{getattr(cls, 'name', cls.__name__)}'"
@@ -350,13 +320,8 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
 
 def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *,
                  seed: int = 5, workers: bool = True) -> None:
-    """Run every check of :func:`method_checks` (same arguments); the first broken rule raises.
-
-    Raises
-    ------
-    ConformanceError
-        Naming the method, the rule and what was seen.
-    """
+    """Run every check of :func:`method_checks` (same arguments); the first broken rule raises
+    :class:`ConformanceError`."""
     for _, check in method_checks(cls, settings, seed=seed, workers=workers):
         check()
 
@@ -373,32 +338,19 @@ def parametrize_with_checks(models: Sequence[type[Model] | tuple[type[Model], Ma
         def test_contract(check):
             check()
 
-    Parameters
-    ----------
-    models : sequence
-        Model classes, or ``(class, params)`` pairs.
-    methods : sequence
-        Method classes (checked with their ``example_settings``).
-    workers : bool
-        Include the methods' 2-process pool check (seconds a method).
-
-    Returns
-    -------
-    pytest.MarkDecorator
+    ``models``: classes or ``(class, params)`` pairs; ``methods``: classes (with their
+    ``example_settings``); ``workers``: include the 2-process pool check (seconds a method).
     """
     import pytest
 
-    cases, ids = [], []
+    named: list[tuple[type, Iterator[tuple[str, Callable[[], None]]]]] = []
     for entry in models:
         cls, params = entry if isinstance(entry, tuple) else (entry, None)
-        for rule, check in model_checks(cls, params):
-            cases.append(check)
-            ids.append(f"{getattr(cls, 'name', cls.__name__)}-{rule}")
-    for mcls in methods:
-        for rule, check in method_checks(mcls, workers=workers):
-            cases.append(check)
-            ids.append(f"{getattr(mcls, 'name', mcls.__name__)}-{rule}")
-    return pytest.mark.parametrize("check", cases, ids=ids)
+        named.append((cls, model_checks(cls, params)))
+    named += [(mcls, method_checks(mcls, workers=workers)) for mcls in methods]
+    cases = [(f"{getattr(c, 'name', c.__name__)}-{rule}", check)
+             for c, checks in named for rule, check in checks]
+    return pytest.mark.parametrize("check", [c for _, c in cases], ids=[i for i, _ in cases])
 
 
 def _check_given_rows(cls: type[Method], settings: Mapping[str, Any], context: RunContext,

@@ -39,18 +39,16 @@ log = logging.getLogger(__name__)
 #: Models whose compiled kernel this process has loaded (or compiled) for a process pool.
 _LOADED: weakref.WeakSet[Model] = weakref.WeakSet()
 
+
 class _Runs:
-    """The per-sample values of reduced chunks (scalars, failure flags, reasons), copied into
-    arrays allocated once for the whole stage: joining a list of chunk arrays at the end would
-    hold every value twice (1 GB at 1e7 samples). With a process pool the scalar arrays are
-    the stage's shared ones (:mod:`uqguide.driver.execution.shared_rows`), which the workers
-    fill."""
+    """The per-sample values of reduced chunks, copied into arrays allocated once for the
+    stage (joining chunk arrays at the end would hold every value twice); with a process pool
+    the scalar arrays are the shared ones the workers fill (:mod:`.execution.shared_rows`)."""
 
     def __init__(self, n: int) -> None:
         self.n = n
         self.failed = np.zeros(n, dtype=bool)
-        # a failure's reason is only kept for a failed run: copying a million empty strings
-        # chunk by chunk cost the driver 0.2 s of a 1e6-run study
+        # a reason is only copied for a failed run: copying empty strings chunk by chunk is slow
         self.reasons = np.full(n, "", dtype=object)
         self.scalars: dict[str, np.ndarray] = {}
         self.time: np.ndarray | None = None
@@ -93,9 +91,8 @@ class Stage:
         self.containment = containment or Containment()
 
     def _job(self, stage: int, reducer: Any) -> ChunkJob:
-        """What every chunk of ``stage`` shares: with the containment of the run (a guard
-        process for a model that can crash, when the chunks run in this process), the rows
-        already known to crash, and where to record new ones."""
+        """What every chunk of ``stage`` shares, with the run's containment, the rows known to
+        crash and where to record new ones."""
         c, store, label = self.containment, self.store, self.method.label
         guarded = c.isolate and getattr(self.executor, "in_process", False)
         on_isolated = None
@@ -111,9 +108,7 @@ class Stage:
     def _compile_here_first(self, job: ChunkJob, x: np.ndarray | GeneratedRows,
                             task: Task) -> None:
         """Evaluate one design row here before a local pool starts, so that a kernel missing from
-        the cache compiles once, in this process, and the workers load it instead of each compiling
-        it (once per model and process; the row's outputs dropped, its compile seconds kept;
-        with a timeout it runs in a guard process and its compile is not timed here)."""
+        the cache compiles once, here, and the workers load it (its outputs dropped)."""
         model = self.model
         if model in _LOADED or model.kernel_choice() != "numba":
             return

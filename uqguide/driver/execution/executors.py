@@ -52,13 +52,12 @@ class Executor(Protocol):
 
 
 class SerialExecutor:
-    """Evaluates chunks one after another in this process (the model calls of a model that
-    can crash its process in a guard process: :mod:`.guard`). ``batch_size``: samples per model
-    call (memory / cache granularity; does not change the numbers), default the config's."""
+    """Evaluates chunks one after another in this process. ``batch_size``: samples per model
+    call (memory only, never the numbers), default the config's."""
 
     shares_memory = False  # nothing to share: the values are in this process already
-    #: A model call that crashes would take the driver with it: the driver isolates models
-    #: that can crash (:attr:`uqguide.models.base.Model.may_crash`) in a guard process.
+    #: A crashing model call would take the driver with it: the driver puts the calls of a
+    #: model that may crash in a guard process (:mod:`.guard`).
     in_process = True
 
     def __init__(self, batch_size: int | None = None) -> None:
@@ -166,9 +165,8 @@ class ProcessExecutor(_WindowedExecutor):
         return self._pool
 
     def start(self) -> None:
-        """Start the worker processes now, so they import while the driver still checks the
-        config and opens the run folder (about a second of a short run's wall time). Each
-        imports uqguide and numba; nothing else is done until a chunk comes."""
+        """Start the worker processes now, so they import uqguide and numba while the driver
+        still checks the config and opens the run folder."""
         pool = self._get_pool()
         with sigint_ignored():
             for _ in range(self.workers):
@@ -248,16 +246,10 @@ class DaskExecutor(_WindowedExecutor):
     """Chunks submitted to a ``dask.distributed`` cluster (``address``, e.g.
     ``tcp://10.0.0.5:8786``, a ``scheduler_file`` or an existing ``client``, not closed).
 
-    Each chunk is one ``client.submit(run_chunk, ..., pure=False, retries=retries)``:
-    ``pure=False`` because two chunks with equal inputs must still both run (and a resubmitted
-    chunk must not be served from a stale key); ``retries`` re-runs a chunk whose task raised
-    (e.g. a lost connection). A chunk whose workers keep dying (Dask's ``KilledWorker`` after
-    ``distributed.scheduler.allowed-failures``) fails whole with the reason. Workers need
-    uqguide (and a callable model's module) importable; they never write files.
-
-    A cluster without any worker for ``no_workers_timeout`` seconds, or a lost scheduler,
-    stops the run with :class:`~uqguide.errors.ClusterLost` (:mod:`.cluster_watch`), where
-    Dask would wait for a worker forever.
+    Each chunk is one ``client.submit(..., pure=False, retries=retries)`` (``pure=False``: two
+    chunks with equal inputs must both run, a resubmitted one not be served from a stale key).
+    A cluster without a worker for ``no_workers_timeout`` seconds, or a lost scheduler, stops
+    the run with :class:`~uqguide.errors.ClusterLost`. How it behaves: ``docs/scale.md``.
     """
 
     shares_memory = False  # workers may be on other machines
