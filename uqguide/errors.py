@@ -39,23 +39,15 @@ class ResultError(UqguideError):
 
 
 class WorkerStartError(UqguideError):
-    """Worker processes died while starting, before they ran a single sample.
-
-    Not a sample's fault, so not recovered by re-running samples one by one: every new worker
-    would die the same way. The usual cause is a script that calls ``uqguide.run(..., workers=N)``
-    at its top level, without an ``if __name__ == "__main__":`` guard: each spawned worker
-    re-imports the script and would start the whole run again.
-    """
+    """Worker processes died while starting, before they ran a single sample (not a sample's
+    fault: new workers would die the same way). Usually a script that calls ``uqguide.run(...,
+    workers=N)`` at its top level, without an ``if __name__ == "__main__":`` guard."""
 
 
 class ClusterLost(UqguideError):
     """A Dask run lost its cluster: no worker for ``--no-workers-timeout`` seconds, or the
-    connection to its scheduler.
-
-    The chunks finished before are checkpointed, so the run resumes (``--resume``) once the
-    cluster is back, or anywhere else: ``n_done`` of ``n_total`` chunks, set by the driver
-    (None until it has counted them).
-    """
+    connection to its scheduler. ``n_done`` of ``n_total`` chunks are checkpointed for
+    ``--resume`` (None until the driver has counted them)."""
 
     def __init__(self, message: str, n_done: int | None = None,
                  n_total: int | None = None) -> None:
@@ -65,14 +57,9 @@ class ClusterLost(UqguideError):
 
 
 class DiskFull(UqguideError):
-    """A write found no room (ENOSPC, EFBIG past the file size limit, EDQUOT); every file is
-    whole (the old one or none), as :mod:`uqguide.core.atomic` writes them.
-
-    Parameters
-    ----------
-    path : Path
-        The file being written.
-    """
+    """A write of the file ``path`` found no room (ENOSPC, EFBIG past the file size limit,
+    EDQUOT); every file is whole (the old one or none), as :mod:`uqguide.core.atomic` writes
+    them."""
 
     def __init__(self, path: object) -> None:
         super().__init__(f"disk full writing {path}; no file was left half-written: free "

@@ -259,7 +259,7 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
 
     def run(executor: Executor) -> MethodRun:
         m = setup()
-        return _run(m["method"], m["model"], m["space"], m["outputs"], seed, executor)
+        return propagate(m["method"], m["model"], m["space"], m["outputs"], seed, executor)
 
     def first() -> MethodRun:
         m = setup()
@@ -367,15 +367,10 @@ def _check_given_rows(cls: type[Method], settings: Mapping[str, Any], context: R
         raise _fail(who, "given rows", f"its design of {x.shape[0]} given rows has shape "
                     f"{design.shape} and other rows; with data: the design is the rows, each "
                     f"once")
-    run = _run(given, model, space, outputs, seed, SerialExecutor(16))
+    run = propagate(given, model, space, outputs, seed, SerialExecutor(16))
     if run.n_runs != x.shape[0]:
         raise _fail(who, "given rows", f"made {run.n_runs} runs of {x.shape[0]} given rows")
     _check_closed_forms(run, mean, sd, p_tail, who)
-
-
-def _run(method: Method, model: Model, space: Any, outputs: tuple[str, ...], seed: int,
-         executor: Executor, store: RunStore | None = None) -> MethodRun:
-    return propagate(method, model, space, outputs, seed, executor, store=store)
 
 
 def _check_closed_forms(run: MethodRun, mean: np.ndarray, sd: np.ndarray, p_tail: float,
@@ -475,8 +470,8 @@ def _check_resume(method: Method, model: Model, space: Any, outputs: tuple[str, 
         folder = Path(tmp) / "run"
         store = RunStore.open(folder, identity, resume=False)
         try:
-            _run(method, model, space, outputs, seed, _StopAfterFirstChunk(SerialExecutor(16)),
-                 store)
+            propagate(method, model, space, outputs, seed,
+                      _StopAfterFirstChunk(SerialExecutor(16)), store=store)
         except KeyboardInterrupt:
             pass
         finally:
@@ -485,7 +480,8 @@ def _check_resume(method: Method, model: Model, space: Any, outputs: tuple[str, 
         if store.n_done < 1:
             raise _fail(who, "resume", "no chunk was kept by the interrupted run")
         try:
-            resumed = _run(method, model, space, outputs, seed, SerialExecutor(16), store)
+            resumed = propagate(method, model, space, outputs, seed, SerialExecutor(16),
+                                store=store)
         finally:
             store.close()
     _same_runs(whole, resumed, who, "resume",

@@ -129,11 +129,6 @@ def allowed_code(result: Result, *, run_code: bool = False, own: RunConfig | Non
                       field="run_code")
 
 
-def config_of(result: Result) -> RunConfig:
-    """The validated config a result was produced with (its resolved form)."""
-    return validate_config(result.config, f"{result.name} (stored config)")
-
-
 def choose_sample(result: Result, cfg: RunConfig, run: MethodRun, *, sample: int | None,
                   worst: str | None, lowest: bool, event: str | None,
                   component: str | int | None = None) -> tuple[int, str]:
@@ -200,7 +195,7 @@ def replay(result: Result, label: str, *, run_code: bool = False,
     """
     if not run_code:
         allowed_code(result)
-    cfg = config_of(result)
+    cfg = validate_config(result.config, f"{result.name} (stored config)")
     run = result.run(label)
     i, why = choose_sample(result, cfg, run, **choice)
     model = cfg.model

@@ -1,14 +1,10 @@
 """Per-run values that pool workers write in place, in memory shared with the driver.
 
 The driver lays out one array per value for the whole stage, from the first chunk that comes
-back, in files under ``/dev/shm``. Later chunks write their rows in place (a scalar's rows
-``[start, stop)``; a per-run summary's columns ``[start, start + n)``, its ``n`` good runs) and
-send only the sums through the pool's pipe; the driver takes views and copies nothing. The
-numbers are the pipe's, bit for bit: only where the values travel changes. Each file is
-reserved whole (``posix_fallocate``) before a worker writes to it, so a small ``/dev/shm``
-means the pipe, never a SIGBUS; without ``/dev/shm`` the pipe it is too. The files are unlinked
-when the stage ends; a killed driver's are removed by the next run's sweep. What the pipe cost
-before: ``docs/scale.md#memory``.
+back, in files under ``/dev/shm``; later chunks write their rows in place and send only the
+sums through the pool's pipe. Each file is reserved whole before a worker writes to it, so a
+small ``/dev/shm`` means the pipe, never a SIGBUS. The files are unlinked when the stage ends;
+a killed driver's by the next run's sweep. Why: ``docs/scale.md#memory``.
 """
 
 from __future__ import annotations
@@ -22,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...core.atomic import pid_alive
 from .chunks import ChunkResult
 from .row_layout import RowsLayout, Slot
 
@@ -131,15 +128,5 @@ def _sweep() -> None:
             pid = int(p.name[len(_PREFIX):].split("-", 1)[0])
         except ValueError:
             continue
-        if pid != os.getpid() and not _alive(pid):
+        if pid != os.getpid() and not pid_alive(pid):
             p.unlink(missing_ok=True)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's process
-        return True
-    return True
