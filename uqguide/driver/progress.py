@@ -208,13 +208,10 @@ class Progress:
         """End the display: a final line (terminal: the bar's line is kept)."""
         if self.stream is None or not self._shown:
             return
+        self._show(force=True)
         if self.tty:
-            self._last_show = 0.0
-            self._show(force=True)
             self.stream.write("\n")
-        else:
-            self.stream.write(f"progress: {self.status()}\n")
-        self.stream.flush()
+            self.stream.flush()
         self._shown = False
 
 

@@ -213,13 +213,12 @@ def identity_hash(identity: dict[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _first_difference(a: Any, b: Any, path: str = "") -> str | None:
+def _first_difference(a: Any, b: Any, path: str = "") -> tuple[str, Any, Any] | None:
+    """Where ``a`` and ``b`` first differ: the path and the two values there."""
     if isinstance(a, dict) and isinstance(b, dict):
         for k in list(a) + [k for k in b if k not in a]:
-            sub = f"{path}.{k}" if path else str(k)
-            if k not in a or k not in b:
-                return sub
-            d = _first_difference(a[k], b[k], sub)
+            d = _first_difference(a.get(k, "<absent>"), b.get(k, "<absent>"),
+                                  f"{path}.{k}" if path else str(k))
             if d:
                 return d
         return None
@@ -228,17 +227,8 @@ def _first_difference(a: Any, b: Any, path: str = "") -> str | None:
             d = _first_difference(x, y, f"{path}[{i}]")
             if d:
                 return d
-        return None if len(a) == len(b) else path
-    return None if a == b else path
-
-
-def _lookup(d: Any, path: str) -> Any:
-    for part in re.findall(r"[^.\[\]]+|\[\d+\]", path):
-        try:
-            d = d[int(part[1:-1])] if part.startswith("[") else d[part]
-        except (KeyError, IndexError, TypeError):
-            return "<absent>"
-    return d
+        return None if len(a) == len(b) else (path, a, b)
+    return None if a == b else (path, a, b)
 
 
 # ---------------------------------------------------------------------------- the manifest
@@ -329,12 +319,11 @@ class RunManifest:
         if header.get("format") != FORMAT:
             raise ConfigError(f"{where}: written by an incompatible uqguide (run folder "
                               f"format {header.get('format')!r}){tail}", field="resume")
-        old, new = header.get("config", {}), self.identity["config"]
-        diff = _first_difference(old, new)
+        diff = _first_difference(header.get("config", {}), self.identity["config"])
         if diff is not None:
-            raise ConfigError(
-                f"{where}: the config changed since the run started ({diff}: "
-                f"{_lookup(old, diff)!r} -> {_lookup(new, diff)!r}){tail}", field=diff)
+            path, old, new = diff
+            raise ConfigError(f"{where}: the config changed since the run started ({path}: "
+                              f"{old!r} -> {new!r}){tail}", field=path)
         if header.get("uqguide") != self.identity["uqguide"]:
             raise ConfigError(
                 f"{where}: it was started by uqguide {header.get('uqguide')}, this is "

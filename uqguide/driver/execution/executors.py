@@ -172,7 +172,7 @@ class ProcessExecutor(_WindowedExecutor):
             for _ in range(self.workers):
                 pool.submit(warm_up)
 
-    def _rebuild(self) -> None:
+    def _drop_pool(self) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
         self._pool = None
@@ -213,14 +213,14 @@ class ProcessExecutor(_WindowedExecutor):
                 suspects.append(t)
         log.warning("a worker process died; re-running the %d chunks in flight one by one",
                     len(suspects))
-        self._rebuild()
+        self._drop_pool()
         for t in sorted(suspects, key=lambda t: t.index):
             try:
                 yield self._submit(job, t, x[t.start:t.stop]).result()
             except BrokenProcessPool:
                 log.warning("chunk %d (%d samples) crashed its worker again; finding the "
                             "sample(s) by bisection in guard processes", t.index, t.n)
-                self._rebuild()
+                self._drop_pool()
                 yield isolate_crash(job, t, x[t.start:t.stop])
 
     def abort(self) -> None:
@@ -232,13 +232,10 @@ class ProcessExecutor(_WindowedExecutor):
             # Wait for the pool's manager thread to see its workers gone and release the
             # queues' semaphores; otherwise an exit right after leaves them to the resource
             # tracker, which warns on stderr after the interrupted run's last line.
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+            self._drop_pool()
 
     def close(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+        self._drop_pool()
         close_guards()
 
 
