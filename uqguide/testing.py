@@ -27,13 +27,12 @@ from .driver.run_folder import RunStore, run_identity
 from .config.run_config import validate_config
 from .errors import ModelError
 from .driver.execution import ChunkJob, ChunkResult, Executor, ProcessExecutor, SerialExecutor, Task
-from .core.types import Estimate
+from .core.types import Estimate, GeneratedRows, ModelOutput
 from .methods.base import GivenRows, Method, RunContext
 from .models.base import Model
 from .models.benchmarks import LinearGaussian
 from .driver.propagate import propagate
 from .results.result import MethodRun
-from .core.types import GeneratedRows, ModelOutput
 
 __all__ = ["ConformanceError", "check_method", "check_model", "method_checks", "model_checks",
            "parametrize_with_checks"]

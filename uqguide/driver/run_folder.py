@@ -584,9 +584,8 @@ class StoredChunk:
 
 def write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int) -> None:
     """Write one chunk's file at ``path``, whole or not at all, fsynced with its folder."""
-    # The scalars, series and summary go packed into one byte array with a JSON index: a
-    # Monte Carlo chunk's summary is ~100 small arrays, and one zip entry each made the
-    # checkpoints the driver's largest cost (2.5 s of a 1e6-run study, 20 ms a chunk).
+    # The scalars, series and summary go packed into one byte array with a JSON index: one zip
+    # entry per small array was the driver's largest cost (docs/scale.md).
     index, packed = _pack({**{f"scalar.{k}": v for k, v in r.scalars.items()},
                            **{f"series.{k}": v for k, v in r.series.items()},
                            **{f"summary.{k}": v for k, v in r.summary.items()}})
