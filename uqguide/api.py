@@ -107,6 +107,7 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     >>> list(ds["y"].dims)
     ['label', 'statistic', 'y_component']
     """
+    from .commands.run_and_write import check_result_name, run_and_write
     from .driver.execution import make_executor
     from .driver.execution.processes import refuse_nested_run
     from .driver.progress import make_progress
@@ -117,14 +118,10 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     if seed is not None:
         cfg = cfg.with_seed(seed)
     if out is not None:
-        from .commands.run_and_write import check_result_name
-
         check_result_name(cfg)  # before a worker pool is started for nothing
     executor = make_executor(workers) if workers else None
     shown = make_progress(sys.stderr, not progress)
     if out is not None:
-        from .commands.run_and_write import run_and_write
-
         return run_and_write(cfg, out, executor, workers=workers or 1, progress=shown,
                              force=force).result
     try:
