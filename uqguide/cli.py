@@ -154,17 +154,15 @@ def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
 @click.option("--resume", is_flag=True,
               help="Continue an interrupted run from its checkpoint (<out>/<name>.run).")
 @click.option("--force", is_flag=True,
-              help="Replace <out>/<name>.h5 even when another config made it (refused "
-                   "otherwise).")
+              help="Replace <out>/<name>.h5 even when another config made it.")
 @click.option("--check", "check_path", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Then check the statistics against this baseline JSON "
                                  "(exit 1 on a regression, 2 if it is unusable).")
 @click.option("--check-sensitivity", is_flag=True,
-              help="With --check, also compare the Sobol' indices within their combined "
-                   "intervals (as `uqguide check --sensitivity`; a format 4 baseline).")
+              help="With --check, also compare the Sobol' indices (as check --sensitivity).")
 @click.option("--check-require-key", is_flag=True,
-              help="With --check, refuse the baseline unless it carries a keyed seal made "
-                   "with the key in UQGUIDE_BASELINE_KEY (as `uqguide check --require-key`).")
+              help="With --check, refuse a baseline without a keyed seal (as check "
+                   "--require-key).")
 @click.option("-q", "--quiet", is_flag=True,
               help="No progress display (and no budget lines) on stderr.")
 @click.option("--strict", is_flag=True,

@@ -171,15 +171,12 @@ def _source_files(cls: type) -> list[Path]:
         path = Path(inspect.getfile(cls))
     except (TypeError, OSError):
         return []
-    module = cls.__module__
     # A simulator package (uqguide.models.<pkg>.<module>) is hashed whole; a module directly
     # in uqguide.models (the benchmarks) alone, so editing one model leaves the others' runs.
-    parts = module.split(".")
-    if len(parts) >= 4 and parts[:2] == ["uqguide", "models"] and path.parent.name == parts[2]:
-        return sorted(path.parent.glob("*.py"))
-    if path.name == "__init__.py":
-        return sorted(path.parent.glob("*.py"))
-    return [path]
+    parts = cls.__module__.split(".")
+    package = len(parts) >= 4 and parts[:2] == ["uqguide", "models"] and \
+        path.parent.name == parts[2]
+    return sorted(path.parent.glob("*.py")) if package or path.name == "__init__.py" else [path]
 
 
 def run_identity(resolved_config: dict[str, Any], model: Model) -> dict[str, Any]:
