@@ -12,10 +12,8 @@ class UqguideError(Exception):
 
 
 class ConfigError(UqguideError):
-    """The user's input (config file, command-line value) is invalid.
-
-    The message names the field path, the value given and what is allowed, on one line.
-    """
+    """The user's input (config file, command-line value) is invalid; the message names the
+    field path, the value given and what is allowed, on one line."""
 
     def __init__(self, message: str, *, field: str | None = None) -> None:
         super().__init__(message)
@@ -23,11 +21,8 @@ class ConfigError(UqguideError):
 
 
 class ModelError(UqguideError):
-    """A model was used against its contract (wrong input shape, unknown input or output name).
-
-    A sample whose integration fails is *not* a ModelError: it is flagged in
-    ``ModelOutput.failed`` with a reason.
-    """
+    """A model was used against its contract (wrong input shape, unknown input or output name);
+    a sample whose integration fails is *not* one: it is flagged in ``ModelOutput.failed``."""
 
 
 class MethodError(UqguideError):

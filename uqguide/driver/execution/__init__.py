@@ -4,7 +4,7 @@ A design's rows are split into chunks (:class:`Task`); :func:`run_chunk` evaluat
 wherever the executor puts it, optionally reduced there to mergeable summaries. The executors
 give bit-identical numbers; a failed sample, call or worker costs only its samples. Modules,
 bottom up: :mod:`.transport`, :mod:`.chunks`, :mod:`.isolation`, :mod:`.processes`,
-:mod:`.guard`, :mod:`.row_layout`, :mod:`.shared_rows`, :mod:`.worker`, :mod:`.cluster_watch`,
+:mod:`.guard`, :mod:`.shared_rows`, :mod:`.worker`, :mod:`.cluster_watch`,
 :mod:`.executors`. How each failure is contained: ``docs/scale.md#failures``.
 """
 

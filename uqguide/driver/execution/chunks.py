@@ -1,5 +1,5 @@
-"""The unit of work: a chunk of a design's rows, what every chunk of one design shares, and
-what comes back from one."""
+"""The unit of work: a chunk of a design's rows, what every chunk of one design shares (with
+where a worker writes per-run values in shared memory), and what comes back from one."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ from typing import Any, Protocol
 import numpy as np
 
 from ...core.types import ModelOutput
-from .row_layout import RowsLayout
 from .transport import ModelHandle
 
 #: Samples per model call when neither the config nor the executor says otherwise.
@@ -89,6 +88,30 @@ class Containment:
     isolate: bool = False
     asked: bool = False
     memory_limit: int | None = None
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One array in shared memory (:mod:`.shared_rows`): ``part`` (``scalars`` or ``summary``)
+    and ``key`` name the value in a :class:`ChunkResult`; ``runs_axis``: the axis along which
+    the runs lie (0: a row per run; 1: lane-major, a column per good run)."""
+
+    part: str
+    key: str
+    path: str
+    shape: tuple[int, ...]
+    dtype: str
+    runs_axis: int
+
+    def open(self) -> np.memmap:
+        return np.memmap(self.path, dtype=np.dtype(self.dtype), mode="r+", shape=self.shape)
+
+
+@dataclass(frozen=True)
+class RowsLayout:
+    """Where a chunk's per-run values go (picklable: it travels with every chunk)."""
+
+    slots: tuple[Slot, ...]
 
 
 @dataclass

@@ -19,8 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.atomic import pid_alive
-from .chunks import ChunkResult
-from .row_layout import RowsLayout, Slot
+from .chunks import ChunkResult, RowsLayout, Slot
 
 log = logging.getLogger(__name__)
 
