@@ -19,7 +19,6 @@ from dataclasses import dataclass
 from typing import Any, TextIO
 
 
-# ---------------------------------------------------------------------------- counting
 def hms(seconds: float) -> str:
     """``seconds`` as ``42s``, ``1m02s`` or ``2h05m``."""
     s = int(round(seconds))

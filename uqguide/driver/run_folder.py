@@ -130,7 +130,7 @@ def _read_owner(fd: int) -> str:
     return text or "owner unknown"
 
 
-# ------------------------------------------------------------------- the manifest: whose run
+# ---------------------------------------------------------------- the run's identity
 #: 2: a chunk's scalars, series and summary packed into one array (1: an npz entry each)
 FORMAT = 2
 MANIFEST = "manifest.jsonl"
@@ -139,7 +139,6 @@ MANIFEST = "manifest.jsonl"
 ChunkKey = tuple[str, int, int]
 
 
-# ---------------------------------------------------------------------------- identity
 def model_code_hash(model: Model) -> str:
     """SHA-256 hex digest of the version and the source that defines ``model``: its class's
     module (a simulator package's whole folder), a ``callable``'s module, a ``command``'s program
