@@ -104,8 +104,7 @@ def model_checks(cls: type[Model], params: Mapping[str, Any] | None = None, *, n
 
 def check_model(cls: type[Model], params: Mapping[str, Any] | None = None, *, n: int = 6,
                 seed: int = 0) -> None:
-    """Run every check of :func:`model_checks` (same arguments); the first broken rule raises
-    :class:`ConformanceError`."""
+    """Run every check of :func:`model_checks`: ConformanceError at the first broken rule."""
     for _, check in model_checks(cls, params, n=n, seed=seed):
         check()
 
@@ -319,8 +318,7 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
 
 def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *,
                  seed: int = 5, workers: bool = True) -> None:
-    """Run every check of :func:`method_checks` (same arguments); the first broken rule raises
-    :class:`ConformanceError`."""
+    """Run every check of :func:`method_checks`: ConformanceError at the first broken rule."""
     for _, check in method_checks(cls, settings, seed=seed, workers=workers):
         check()
 

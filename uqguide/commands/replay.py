@@ -214,8 +214,7 @@ def replay(result: Result, label: str, *, run_code: bool = False,
 
 
 def write_histories(rep: Replay, path: Path) -> Path:
-    """Every series of the replayed sample as columns of one CSV (time first), written
-    whole or not at all."""
+    """Each series of the replayed sample as a CSV column (time first), whole or not at all."""
     out = rep.replayed
     cols = {"time": out.time}
     for name, y in out.series.items():

@@ -344,8 +344,7 @@ class BarProgress(Progress):
 
 
 def make_progress(stream: TextIO | None, quiet: bool = False) -> Progress:
-    """The display for ``stream`` (stderr): a bar on a terminal, plain lines elsewhere, none if
-    ``quiet`` or None."""
+    """A bar on a terminal ``stream``, plain lines elsewhere, none if ``quiet`` or None."""
     if quiet or stream is None:
         return Progress(None)
     isatty = getattr(stream, "isatty", None)

@@ -96,8 +96,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
 
 
 def say_overflow(result: Result) -> list[str]:
-    """Log (and return) one warning per output whose moments overflowed double precision,
-    naming the methods."""
+    """Log (and return) one warning per output whose moments overflowed, naming the methods."""
     by_output: dict[str, list[str]] = {}
     for label, described in result_statistics(result).items():
         for name, v in described.items():
@@ -208,8 +207,7 @@ def containment_of(config: RunConfig) -> Containment:
 
 
 def check_methods(result: Result) -> None:
-    """Raise UqguideError (exit 1) naming each method that produced no statistics (the others
-    are in the result and its tables)."""
+    """Raise UqguideError (exit 1) naming each method that produced no statistics."""
     failed = [r.message for r in result.runs if not r.success]
     if failed:
         raise UqguideError("; ".join(failed))

@@ -46,8 +46,7 @@ log = logging.getLogger(__name__)
 
 # ---------------------------------------------------------------------------- the lock
 class RunLock:
-    """The exclusive lock of one run folder ``<out>/<name>.run`` (need not exist yet); a context
-    manager."""
+    """The exclusive lock of the run folder ``<out>/<name>.run``; a context manager."""
 
     def __init__(self, run_folder: str | Path) -> None:
         self.run_folder = Path(run_folder)
@@ -193,8 +192,7 @@ EXECUTION_ONLY = ("isolate",)
 
 
 def study_config(resolved_config: dict[str, Any]) -> dict[str, Any]:
-    """The resolved config less :data:`EXECUTION_ONLY`: what two runs must share to be the
-    same study."""
+    """The resolved config less :data:`EXECUTION_ONLY`: what two runs of one study share."""
     model = resolved_config.get("model")
     if not isinstance(model, dict) or not any(k in model for k in EXECUTION_ONLY):
         return resolved_config
@@ -744,8 +742,7 @@ def run_dir(out_dir: str | Path, name: str) -> Path:
 
 
 class RunStore:
-    """A run folder with the run's identity (:func:`run_identity`; docs/scale.md). Only the
-    driver process writes it."""
+    """A run folder with the run's identity (:func:`run_identity`); only the driver writes it."""
 
     def __init__(self, path: Path, identity: dict[str, Any]) -> None:
         self.path = path
