@@ -60,11 +60,9 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     seed : int, optional
         Overrides the config's seed.
     out : str or Path, optional
-        Also write ``<out>/<name>.h5`` and the CSV / Markdown tables, as ``uqguide run`` does.
-        ``<name>`` is the config's ``name``, or a config file's stem. A mapping without a
-        ``name`` is refused here (ConfigError, field ``name``) rather than written as
-        ``run.h5``, where the next unnamed config would overwrite it (or find its run folder
-        and refuse to resume a different config). Without ``out`` nothing is written.
+        Also write ``<out>/<name>.h5`` and the CSV / Markdown tables, as ``uqguide run`` does
+        (``<name>``: the config's ``name`` or file stem; a mapping without one is refused,
+        ConfigError). Without ``out`` nothing is written.
     progress : bool
         Show progress on stderr.
     force : bool
@@ -94,7 +92,6 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
 
     Every method's statistics along ``label``, as an xarray Dataset:
 
-    >>> import uqguide
     >>> cfg = uqguide.load_config({
     ...     "model": {"name": "linear_gaussian"},
     ...     "inputs": [{"name": "x1", "dist": "normal", "std": 1.0},
@@ -110,6 +107,7 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     >>> list(ds["y"].dims)
     ['label', 'statistic', 'y_component']
     """
+    from .commands.run_and_write import check_result_name, run_and_write
     from .driver.execution import make_executor
     from .driver.execution.processes import refuse_nested_run
     from .driver.progress import make_progress
@@ -120,14 +118,10 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     if seed is not None:
         cfg = cfg.with_seed(seed)
     if out is not None:
-        from .commands.run_and_write import check_result_name
-
         check_result_name(cfg)  # before a worker pool is started for nothing
     executor = make_executor(workers) if workers else None
     shown = make_progress(sys.stderr, not progress)
     if out is not None:
-        from .commands.run_and_write import run_and_write
-
         return run_and_write(cfg, out, executor, workers=workers or 1, progress=shown,
                              force=force).result
     try:
@@ -144,12 +138,9 @@ def fit(x: Any, y: Any, *, inputs: Sequence[Mapping[str, Any]],
         workers: int | None = None) -> Result:
     """Statistics (and, for a PCE, the kept surrogate) of runs already made: ``x`` and ``y``.
 
-    The same as a config with ``data:`` (``docs/your-simulator.md``, "Your own samples"): the
-    rows of ``x`` are the design, drawn from ``inputs``; the same rows, settings and seed give
-    the same numbers bit for bit, from a file or from here. The rows are checked as a data
-    file's are (:mod:`uqguide.models.data_rows.checks`): ConfigError naming the row and the
-    column for bad data (missing column, input outside its support, repeated row, too few rows)
-    or settings.
+    The same as a config with ``data:`` (``docs/your-simulator.md``, "Your own samples"), bit for
+    bit: the rows of ``x`` are the design, drawn from ``inputs``, checked as a data file's are
+    (ConfigError naming the row and the column for bad data or settings).
 
     Parameters
     ----------

@@ -20,20 +20,22 @@ import click
 
 from ._version import __version__
 from .errors import ConfigError, DiskFull, ResultError, UqguideError
-from .driver.interrupts import EXIT_INTERRUPTED, ignore_signals, install
+from .driver.interrupts import (EXIT_INTERRUPTED, Terminated, ignore_signals, install,
+                                 raise_received, restore)
 
 
-def _handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
+def _handle_errors(fn: Callable[..., Any], result_error: int = 1) -> Callable[..., Any]:
+    """One line and the exit code: 2 for a ConfigError, ``result_error`` for a ResultError, 1
+    for another UqguideError or a full disk."""
+
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
             return fn(*args, **kwargs)
-        except ConfigError as exc:
-            click.echo(f"error: {exc}", err=True)
-            sys.exit(2)
         except UqguideError as exc:
             click.echo(f"error: {exc}", err=True)
-            sys.exit(1)
+            sys.exit(2 if isinstance(exc, ConfigError) else
+                     result_error if isinstance(exc, ResultError) else 1)
         except OSError as exc:
             from .core.atomic import is_disk_full
 
@@ -63,8 +65,6 @@ def _setup_logging(verbose: int) -> None:
 
 
 def _interrupted(exc: KeyboardInterrupt) -> None:
-    from .driver.interrupts import Terminated
-
     what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
     try:
         click.echo(f"{what}; nothing was left half-written", err=True)
@@ -88,19 +88,14 @@ class _Group(click.Group):
     """The command group: a SIGINT or SIGTERM anywhere in a command is exit 130, one line."""
 
     def invoke(self, ctx: click.Context) -> Any:
-        from .driver.interrupts import EXIT_INTERRUPTED, raise_received
-
         try:
             result = super().invoke(ctx)
             # a signal whose exception was swallowed on the way (by Python, a library or the
             # user's code) still stops the command: exit 0 means no signal came before the end
             raise_received()
             return result
-        except KeyboardInterrupt as exc:
-            _interrupted(exc)
-            raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
-        except Exception as exc:
-            interrupt = _wrapped_interrupt(exc)
+        except (KeyboardInterrupt, Exception) as exc:
+            interrupt = exc if isinstance(exc, KeyboardInterrupt) else _wrapped_interrupt(exc)
             if interrupt is None:
                 raise
             _interrupted(interrupt)
@@ -108,8 +103,6 @@ class _Group(click.Group):
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
         # Also around click's own parsing and exit, where click would print "Aborted!", exit 1.
-        from .driver.interrupts import EXIT_INTERRUPTED, install, restore
-
         previous = install()
         try:
             return super().main(*args, **kwargs)
@@ -169,17 +162,15 @@ def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
 @click.option("--resume", is_flag=True,
               help="Continue an interrupted run from its checkpoint (<out>/<name>.run).")
 @click.option("--force", is_flag=True,
-              help="Replace <out>/<name>.h5 even when another config made it (refused "
-                   "otherwise).")
+              help="Replace <out>/<name>.h5 even when another config made it.")
 @click.option("--check", "check_path", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Then check the statistics against this baseline JSON "
                                  "(exit 1 on a regression, 2 if it is unusable).")
 @click.option("--check-sensitivity", is_flag=True,
-              help="With --check, also compare the Sobol' indices within their combined "
-                   "intervals (as `uqguide check --sensitivity`; a format 4 baseline).")
+              help="With --check, also compare the Sobol' indices (as check --sensitivity).")
 @click.option("--check-require-key", is_flag=True,
-              help="With --check, refuse the baseline unless it carries a keyed seal made "
-                   "with the key in UQGUIDE_BASELINE_KEY (as `uqguide check --require-key`).")
+              help="With --check, refuse a baseline without a keyed seal (as check "
+                   "--require-key).")
 @click.option("-q", "--quiet", is_flag=True,
               help="No progress display (and no budget lines) on stderr.")
 @click.option("--strict", is_flag=True,
@@ -418,16 +409,7 @@ def methods(name: str | None) -> None:
 # ---------------------------------------------------------------------------- regression gate
 def _unusable_input_is_2(fn: Callable[..., Any]) -> Callable[..., Any]:
     """A result or baseline that cannot be read or compared (ResultError): exit code 2."""
-
-    @functools.wraps(fn)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        try:
-            return fn(*args, **kwargs)
-        except ResultError as exc:
-            click.echo(f"error: {exc}", err=True)
-            sys.exit(2)
-
-    return wrapper
+    return _handle_errors(fn, result_error=2)
 
 
 @_unusable_input_is_2
@@ -503,7 +485,6 @@ _RESULT_ARG = click.argument("result_path", metavar="RESULT",
 @click.option("--require-key", is_flag=True,
               help="Refuse (exit 2) a baseline without a keyed seal made with the key in "
                    "UQGUIDE_BASELINE_KEY: its digest alone detects accidental edits only.")
-@_handle_errors
 @_unusable_input_is_2
 def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol: float | None,
           show_all: bool, sensitivity: bool, require_key: bool) -> None:
@@ -527,7 +508,6 @@ def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol
 @click.option("--pce-rtol", type=PCE_RTOL, default=0.02, show_default=True,
               help="Relative tolerance of PCE statistics, stored in it; at most 0.2.")
 @click.option("--force", is_flag=True, help="Replace an existing baseline (on purpose).")
-@_handle_errors
 @_unusable_input_is_2
 def baseline(result_path: Path, out_path: Path, pce_rtol: float, force: bool) -> None:
     """Write the baseline of RESULT: its statistics, their uncertainties, config and versions.
@@ -551,7 +531,6 @@ def baseline(result_path: Path, out_path: Path, pce_rtol: float, force: bool) ->
 @_RESULT_ARG
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="Folder of the PNG figures [default: RESULT's folder/figures].")
-@_handle_errors
 @_unusable_input_is_2
 def plot(result_path: Path, out_dir: Path | None) -> None:
     """PNG figures of RESULT: statistics over time, scalar histograms, the cost table."""
@@ -570,7 +549,6 @@ def plot(result_path: Path, out_dir: Path | None) -> None:
                                  "figures go into its figures/ subfolder.")
 @click.option("--baseline", "baseline_path", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Also include the regression check against this baseline.")
-@_handle_errors
 @_unusable_input_is_2
 def report(result_path: Path, out_dir: Path | None, baseline_path: Path | None) -> None:
     """A Markdown report of RESULT embedding its figures and tables."""
@@ -613,7 +591,6 @@ def report(result_path: Path, out_dir: Path | None, baseline_path: Path | None) 
               default=None, help="Your own config of RESULT's study: when its model "
                                  "section is RESULT's, that code is yours and runs without "
                                  "--run-code.")
-@_handle_errors
 @_unusable_input_is_2
 def replay(result_path: Path, label: str, sample: int | None, worst: str | None,
            lowest: bool, component: str | None, event: str | None,

@@ -12,10 +12,8 @@ class UqguideError(Exception):
 
 
 class ConfigError(UqguideError):
-    """The user's input (config file, command-line value) is invalid.
-
-    The message names the field path, the value given and what is allowed, on one line.
-    """
+    """The user's input (config file, command-line value) is invalid; the message names the
+    field path, the value given and what is allowed, on one line."""
 
     def __init__(self, message: str, *, field: str | None = None) -> None:
         super().__init__(message)
@@ -23,11 +21,8 @@ class ConfigError(UqguideError):
 
 
 class ModelError(UqguideError):
-    """A model was used against its contract (wrong input shape, unknown input or output name).
-
-    A sample whose integration fails is *not* a ModelError: it is flagged in
-    ``ModelOutput.failed`` with a reason.
-    """
+    """A model was used against its contract (wrong input shape, unknown input or output name);
+    a sample whose integration fails is *not* one: it is flagged in ``ModelOutput.failed``."""
 
 
 class MethodError(UqguideError):
@@ -39,23 +34,15 @@ class ResultError(UqguideError):
 
 
 class WorkerStartError(UqguideError):
-    """Worker processes died while starting, before they ran a single sample.
-
-    Not a sample's fault, so not recovered by re-running samples one by one: every new worker
-    would die the same way. The usual cause is a script that calls ``uqguide.run(..., workers=N)``
-    at its top level, without an ``if __name__ == "__main__":`` guard: each spawned worker
-    re-imports the script and would start the whole run again.
-    """
+    """Worker processes died while starting, before they ran a single sample (not a sample's
+    fault: new workers would die the same way). Usually a script that calls ``uqguide.run(...,
+    workers=N)`` at its top level, without an ``if __name__ == "__main__":`` guard."""
 
 
 class ClusterLost(UqguideError):
     """A Dask run lost its cluster: no worker for ``--no-workers-timeout`` seconds, or the
-    connection to its scheduler.
-
-    The chunks finished before are checkpointed, so the run resumes (``--resume``) once the
-    cluster is back, or anywhere else: ``n_done`` of ``n_total`` chunks, set by the driver
-    (None until it has counted them).
-    """
+    connection to its scheduler. ``n_done`` of ``n_total`` chunks are checkpointed for
+    ``--resume`` (None until the driver has counted them)."""
 
     def __init__(self, message: str, n_done: int | None = None,
                  n_total: int | None = None) -> None:
@@ -65,14 +52,9 @@ class ClusterLost(UqguideError):
 
 
 class DiskFull(UqguideError):
-    """A write found no room (ENOSPC, EFBIG past the file size limit, EDQUOT); every file is
-    whole (the old one or none), as :mod:`uqguide.core.atomic` writes them.
-
-    Parameters
-    ----------
-    path : Path
-        The file being written.
-    """
+    """A write of the file ``path`` found no room (ENOSPC, EFBIG past the file size limit,
+    EDQUOT); every file is whole (the old one or none), as :mod:`uqguide.core.atomic` writes
+    them."""
 
     def __init__(self, path: object) -> None:
         super().__init__(f"disk full writing {path}; no file was left half-written: free "

@@ -27,13 +27,12 @@ from .driver.run_folder import RunStore, run_identity
 from .config.run_config import validate_config
 from .errors import ModelError
 from .driver.execution import ChunkJob, ChunkResult, Executor, ProcessExecutor, SerialExecutor, Task
-from .core.types import Estimate
+from .core.types import Estimate, GeneratedRows, ModelOutput
 from .methods.base import GivenRows, Method, RunContext
 from .models.base import Model
 from .models.benchmarks import LinearGaussian
 from .driver.propagate import propagate
 from .results.result import MethodRun
-from .core.types import GeneratedRows, ModelOutput
 
 __all__ = ["ConformanceError", "check_method", "check_model", "method_checks", "model_checks",
            "parametrize_with_checks"]
@@ -52,21 +51,10 @@ def model_checks(cls: type[Model], params: Mapping[str, Any] | None = None, *, n
                  seed: int = 0) -> Iterator[tuple[str, Callable[[], None]]]:
     """The model contract's checks of ``cls``, one ``(rule, check)`` pair a rule.
 
-    Parameters
-    ----------
-    cls : subclass of Model
-    params : mapping, optional
-        Parameters to build it with (default: ``cls.example_params``).
-    n : int
-        Samples of the batch checked (at least 2, so that it can be split).
-    seed : int
-        Seed of the inputs drawn around the nominal values.
-
-    Yields
-    ------
-    (str, callable)
-        The rule's name and a function of no argument raising :class:`ConformanceError`
-        naming the model, the rule and what was seen.
+    ``params``: to build it with (default ``cls.example_params``); ``n``: samples of the batch
+    checked (at least 2, so that it can be split); ``seed``: of the inputs drawn around the
+    nominal values. Each check takes no argument and raises :class:`ConformanceError` naming
+    the model, the rule and what was seen.
     """
     params = dict(cls.example_params if params is None else params)
     who = f"model '{getattr(cls, 'name', cls.__name__)}'"
@@ -116,13 +104,7 @@ def model_checks(cls: type[Model], params: Mapping[str, Any] | None = None, *, n
 
 def check_model(cls: type[Model], params: Mapping[str, Any] | None = None, *, n: int = 6,
                 seed: int = 0) -> None:
-    """Run every check of :func:`model_checks` (same arguments); the first broken rule raises.
-
-    Raises
-    ------
-    ConformanceError
-        Naming the model, the rule and what was seen.
-    """
+    """Run every check of :func:`model_checks`: ConformanceError at the first broken rule."""
     for _, check in model_checks(cls, params, n=n, seed=seed):
         check()
 
@@ -255,23 +237,9 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
                   ) -> Iterator[tuple[str, Callable[[], None]]]:
     """The method contract's checks of ``cls``, one ``(rule, check)`` pair a rule.
 
-    The checks share the method's first run on the benchmark, made by whichever runs first.
-
-    Parameters
-    ----------
-    cls : subclass of Method
-    settings : mapping, optional
-        Its settings (default: ``cls.example_settings``).
-    seed : int
-        Root seed of the runs.
-    workers : bool
-        Also check a 2-process pool (starting the pool takes seconds).
-
-    Yields
-    ------
-    (str, callable)
-        The rule's name and a function of no argument raising :class:`ConformanceError`
-        naming the method, the rule and what was seen.
+    ``settings`` default to ``cls.example_settings``; ``seed``: root seed of the runs;
+    ``workers``: also check a 2-process pool (its start takes seconds). The checks share the
+    method's first run on the benchmark; each raises as :func:`model_checks`'s do.
     """
     settings = dict(cls.example_settings if settings is None else settings)
     who = f"method '{getattr(cls, 'name', cls.__name__)}'"
@@ -289,7 +257,7 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
 
     def run(executor: Executor) -> MethodRun:
         m = setup()
-        return _run(m["method"], m["model"], m["space"], m["outputs"], seed, executor)
+        return propagate(m["method"], m["model"], m["space"], m["outputs"], seed, executor)
 
     def first() -> MethodRun:
         m = setup()
@@ -350,13 +318,7 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
 
 def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *,
                  seed: int = 5, workers: bool = True) -> None:
-    """Run every check of :func:`method_checks` (same arguments); the first broken rule raises.
-
-    Raises
-    ------
-    ConformanceError
-        Naming the method, the rule and what was seen.
-    """
+    """Run every check of :func:`method_checks`: ConformanceError at the first broken rule."""
     for _, check in method_checks(cls, settings, seed=seed, workers=workers):
         check()
 
@@ -373,32 +335,19 @@ def parametrize_with_checks(models: Sequence[type[Model] | tuple[type[Model], Ma
         def test_contract(check):
             check()
 
-    Parameters
-    ----------
-    models : sequence
-        Model classes, or ``(class, params)`` pairs.
-    methods : sequence
-        Method classes (checked with their ``example_settings``).
-    workers : bool
-        Include the methods' 2-process pool check (seconds a method).
-
-    Returns
-    -------
-    pytest.MarkDecorator
+    ``models``: classes or ``(class, params)`` pairs; ``methods``: classes (with their
+    ``example_settings``); ``workers``: include the 2-process pool check (seconds a method).
     """
     import pytest
 
-    cases, ids = [], []
+    named: list[tuple[type, Iterator[tuple[str, Callable[[], None]]]]] = []
     for entry in models:
         cls, params = entry if isinstance(entry, tuple) else (entry, None)
-        for rule, check in model_checks(cls, params):
-            cases.append(check)
-            ids.append(f"{getattr(cls, 'name', cls.__name__)}-{rule}")
-    for mcls in methods:
-        for rule, check in method_checks(mcls, workers=workers):
-            cases.append(check)
-            ids.append(f"{getattr(mcls, 'name', mcls.__name__)}-{rule}")
-    return pytest.mark.parametrize("check", cases, ids=ids)
+        named.append((cls, model_checks(cls, params)))
+    named += [(mcls, method_checks(mcls, workers=workers)) for mcls in methods]
+    cases = [(f"{getattr(c, 'name', c.__name__)}-{rule}", check)
+             for c, checks in named for rule, check in checks]
+    return pytest.mark.parametrize("check", [c for _, c in cases], ids=[i for i, _ in cases])
 
 
 def _check_given_rows(cls: type[Method], settings: Mapping[str, Any], context: RunContext,
@@ -415,15 +364,10 @@ def _check_given_rows(cls: type[Method], settings: Mapping[str, Any], context: R
         raise _fail(who, "given rows", f"its design of {x.shape[0]} given rows has shape "
                     f"{design.shape} and other rows; with data: the design is the rows, each "
                     f"once")
-    run = _run(given, model, space, outputs, seed, SerialExecutor(16))
+    run = propagate(given, model, space, outputs, seed, SerialExecutor(16))
     if run.n_runs != x.shape[0]:
         raise _fail(who, "given rows", f"made {run.n_runs} runs of {x.shape[0]} given rows")
     _check_closed_forms(run, mean, sd, p_tail, who)
-
-
-def _run(method: Method, model: Model, space: Any, outputs: tuple[str, ...], seed: int,
-         executor: Executor, store: RunStore | None = None) -> MethodRun:
-    return propagate(method, model, space, outputs, seed, executor, store=store)
 
 
 def _check_closed_forms(run: MethodRun, mean: np.ndarray, sd: np.ndarray, p_tail: float,
@@ -523,8 +467,8 @@ def _check_resume(method: Method, model: Model, space: Any, outputs: tuple[str, 
         folder = Path(tmp) / "run"
         store = RunStore.open(folder, identity, resume=False)
         try:
-            _run(method, model, space, outputs, seed, _StopAfterFirstChunk(SerialExecutor(16)),
-                 store)
+            propagate(method, model, space, outputs, seed,
+                      _StopAfterFirstChunk(SerialExecutor(16)), store=store)
         except KeyboardInterrupt:
             pass
         finally:
@@ -533,7 +477,8 @@ def _check_resume(method: Method, model: Model, space: Any, outputs: tuple[str, 
         if store.n_done < 1:
             raise _fail(who, "resume", "no chunk was kept by the interrupted run")
         try:
-            resumed = _run(method, model, space, outputs, seed, SerialExecutor(16), store)
+            resumed = propagate(method, model, space, outputs, seed, SerialExecutor(16),
+                                store=store)
         finally:
             store.close()
     _same_runs(whole, resumed, who, "resume",

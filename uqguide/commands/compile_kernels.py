@@ -1,12 +1,10 @@
 """Compile the simulators' kernels once, up front: ``uqguide compile``.
 
-A compiled kernel is built on its first call and then loaded from numba's cache
-(:mod:`uqguide.models.kernels`). Paying that once on purpose suits a container build, a cluster
-job array and anything timed. Each study's model runs once, on two samples at its nominal
-inputs, with the kernel its config chooses (a model met twice with the same parameters runs
-once), and the statistics kernel is compiled too; a kernel already cached just loads, so a
-second call is harmless (:func:`compile_kernels`). What it costs, and why running the studies
-is what compiles their specialisations: ``docs/performance.md#the-first-run-compile``.
+A compiled kernel is built on its first call and then loaded from numba's cache; paying that
+once on purpose suits a container build, a cluster job array and anything timed. Each study's
+model runs once on two samples at its nominal inputs, and the statistics kernel is compiled
+too. What it costs, and why running the studies is what compiles their specialisations:
+``docs/performance.md#the-first-run-compile``.
 """
 
 from __future__ import annotations
@@ -39,9 +37,8 @@ def compile_kernels(configs: Sequence[str | Path] = ()) -> list[Compiled]:
     """Run each study's model once so that its compiled kernel is built and cached.
 
     ``configs``: config files or shipped study names (empty: every shipped study). One row per
-    study whose model (with its parameters) was not met before, in order, then one for the
-    statistics kernel (study ``"-"``, model ``"moment sums"``). ConfigError for a config that
-    cannot be loaded, or an unknown study name.
+    model (with its parameters) not met before, then one for the statistics kernel (study
+    ``"-"``); ConfigError for a config that cannot be loaded.
     """
     paths = [resolve(c) for c in configs] if configs else [s.path for s in studies()]
     rows: list[Compiled] = []

@@ -1,13 +1,9 @@
 """``uqguide replay``: one sample of a result run again, with its full time histories.
 
-The sample's inputs are read from the result (``samples/x``) and the model is rebuilt from the
-result's resolved config, so the run is the one that produced the stored scalars. Each scalar is
-judged ``equal`` (bit for bit), ``round-off`` (at most :data:`ROUNDOFF` relative: another CPU's
-last bits; exit 0) or ``DIFFER`` (more: the code or a dependency changed; exit 1); ``--exact``
-makes any difference exit 1. A sample is chosen by number (``--sample``), as the extreme of a
-scalar output (``--worst OUTPUT``, ``--lowest``) or as the first sample in one of the config's
-events (``--event NAME``); failed samples are never the worst or in an event. Why a replay may
-move the last bits, and when it runs code a result file names: ``docs/guide.md#replaying-one-run``.
+The sample's inputs are read from the result and the model is rebuilt from its resolved config.
+Each scalar is judged ``equal`` (bit for bit), ``round-off`` (at most :data:`ROUNDOFF` relative)
+or ``DIFFER`` (the code or a dependency changed). Why a replay may move the last bits, and when
+it runs code a result file names: ``docs/guide.md#replaying-one-run``.
 """
 
 from __future__ import annotations
@@ -31,12 +27,9 @@ from ..results.result import MethodRun, Result
 from .run_and_write import canonical_config
 
 
-#: The largest relative difference of a replayed scalar that is round-off, not a change: a
-#: simulator's conditioning amplifies the 1e-16 of one operation by at most 1e3-1e5 on the
-#: shipped models' outputs (the round-off check moves every input by 1e-12 and keeps them
-#: within 1e-2 relative, ``tests/test_roundoff_robustness.py``; the largest replay difference
-#: seen between two CPUs is 6e-12), so 1e-9 is far above it and far below any change of the
-#: code that matters (a changed gain or step moves the scalars by 1e-6 and more).
+#: The largest relative difference of a replayed scalar that is round-off, not a change: the
+#: shipped models amplify one operation's 1e-16 by at most 1e3-1e5 (the largest seen between
+#: two CPUs is 6e-12), and a change that matters (a gain, a step) moves them by 1e-6 and more.
 ROUNDOFF = 1e-9
 
 
@@ -69,7 +62,7 @@ class Replay:
 
     def mismatches(self, rtol: float = 0.0) -> list[str]:
         """Scalar outputs whose replayed value differs from the stored one by more than
-        ``rtol`` relative (0: any bit; :data:`ROUNDOFF`: more than round-off; NaN equals NaN)."""
+        ``rtol`` relative (0: any bit)."""
         return [name for name, d in self.differences().items() if d > rtol]
 
 
@@ -89,9 +82,8 @@ def _model_sections(config: Mapping[str, Any]) -> list[dict[str, Any]]:
 
 
 def named_code(config: Mapping[str, Any]) -> list[str]:
-    """What a result's stored config's model runs beyond uqguide's own code, read without
-    running it: one line each (:meth:`uqguide.models.base.Model.named_code`), empty for a
-    built-in simulator or a data file; ConfigError for a model name uqguide does not know."""
+    """What a stored config's model runs beyond uqguide's own code, one line each (empty for a
+    built-in simulator or a data file); ConfigError for a model name uqguide does not know."""
     found: list[str] = []
     for section in _model_sections(config):
         text = model_class(section.get("name"), "model.name").named_code(section)
@@ -115,15 +107,11 @@ def allowed_code(result: Result, *, run_code: bool = False, own: RunConfig | Non
     """The code a replay of ``result`` runs beyond uqguide's own, once it is allowed (one line
     each; empty: uqguide's code only).
 
-    A result file names its model, and a ``callable``, ``command`` or ``fmu`` model is code: a
-    file from someone else can run anything. Such code runs only when ``run_code``
-    (``--run-code``) allows it, or when ``own`` (the user's config, ``--config``) names the same:
-    every model section the file's config builds (the model's, a multi-fidelity method's levels)
-    is one of ``own``'s, compared resolved (module or config folder included) and without the
-    settings that only change how the model runs (``isolate``). The code's content is not
-    compared (a result does not record it): what runs is what those files hold now, and a
-    changed file shows as a replay that differs. Otherwise ConfigError, one line naming the code
-    and the flag; ``source``: the result's file for the message.
+    A ``callable``, ``command`` or ``fmu`` model is code that a result file from someone else
+    can name. It runs only with ``run_code`` (``--run-code``), or when every model section the
+    file's config builds is one of ``own``'s (the user's ``--config``; compared resolved, without
+    ``isolate``; the files' content is not compared). Otherwise ConfigError naming the code and
+    the flag; ``source``: the result's file for the message.
     """
     code = named_code(result.config)
     if not code or run_code:
@@ -141,20 +129,12 @@ def allowed_code(result: Result, *, run_code: bool = False, own: RunConfig | Non
                       field="run_code")
 
 
-def config_of(result: Result) -> RunConfig:
-    """The validated config a result was produced with (its resolved form)."""
-    return validate_config(result.config, f"{result.name} (stored config)")
-
-
 def choose_sample(result: Result, cfg: RunConfig, run: MethodRun, *, sample: int | None,
                   worst: str | None, lowest: bool, event: str | None,
                   component: str | int | None = None) -> tuple[int, str]:
-    """The sample index of ``run`` and a sentence saying why it was chosen.
-
-    Exactly one of ``sample`` (``--sample``), ``worst`` (an output whose largest, or with
-    ``lowest`` smallest, value of ``component`` picks it) and ``event`` (its first sample in
-    that config event) is given; ConfigError otherwise.
-    """
+    """The sample index of ``run`` and a sentence saying why it was chosen: by number
+    (``sample``), the largest (``lowest``: smallest) good value of ``worst``'s ``component``, or
+    the first good sample in ``event``; ConfigError unless exactly one of the three is given."""
     given = [k for k, v in (("--sample", sample), ("--worst", worst), ("--event", event))
              if v is not None]
     if len(given) != 1:
@@ -210,16 +190,12 @@ def _component(output: str, component: str | int | None, comps: tuple[str, ...])
 def replay(result: Result, label: str, *, run_code: bool = False,
            **choice: Any) -> tuple[Replay, RunConfig]:
     """Rerun one sample of method ``label`` with every output of the model; returns the replayed
-    sample beside its stored values, and the result's config.
-
-    ``run_code``: run the code the result's model names (a callable's module, a command's
-    program, an FMU), which a result file from elsewhere can make anything; without it such a
-    model is refused (:func:`allowed_code`, which also takes the user's own config).
-    ``choice``: how to choose the sample (:func:`choose_sample`).
+    sample beside its stored values, and the result's config. Without ``run_code`` a model that
+    is code is refused (:func:`allowed_code`); ``choice``: as :func:`choose_sample`.
     """
     if not run_code:
         allowed_code(result)
-    cfg = config_of(result)
+    cfg = validate_config(result.config, f"{result.name} (stored config)")
     run = result.run(label)
     i, why = choose_sample(result, cfg, run, **choice)
     model = cfg.model
@@ -238,8 +214,7 @@ def replay(result: Result, label: str, *, run_code: bool = False,
 
 
 def write_histories(rep: Replay, path: Path) -> Path:
-    """Every series of the replayed sample as columns of one CSV (time first), written
-    whole or not at all."""
+    """Each series of the replayed sample as a CSV column (time first), whole or not at all."""
     out = rep.replayed
     cols = {"time": out.time}
     for name, y in out.series.items():

@@ -1,10 +1,8 @@
-"""A whole run as the command line makes it, for the library and the scripts too: budget check,
-a locked and resumable run folder, every method, then the result file and the tables, each
-whole or absent.
+"""A whole run as the command line makes it: budget check, a locked and resumable run folder,
+every method, then the result file and the tables, each whole or absent.
 
 ``uqguide run`` is this plus printing; :func:`uqguide.run` with ``out=`` and
-``scripts/reproduce_results.py`` call it, so every way of running writes the same files the
-same way.
+``scripts/reproduce_results.py`` call it too, so every way of running writes the same files.
 """
 
 from __future__ import annotations
@@ -21,14 +19,13 @@ from ..config.budget import check_budget, estimate
 from ..core.atomic import refuse_unwritable, usable_folder
 from ..driver.run_folder import RunLock, RunStore, run_dir, run_identity, study_config
 from ..config.run_config import RUN_NAME_RULE, RunConfig
-from ..errors import ConfigError
+from ..errors import ConfigError, ResultError
 from ..driver.execution import Executor, SerialExecutor
 from ..driver.execution.processes import refuse_nested_run
 from ..driver.interrupts import deferred
 from ..driver.progress import Progress
 from ..driver.propagate import run
 from ..report.tables import write_tables
-from ..errors import ResultError
 from ..results.result import Result, read_config, write_hdf5
 
 
@@ -55,13 +52,8 @@ def canonical_config(config: dict[str, Any]) -> str:
 
 
 def check_same_study(result_path: Path, config: RunConfig, force: bool = False) -> None:
-    """Refuse to replace a result of another config that has the same name.
-
-    A rerun of the same config (same numbers) may overwrite its result; a different config,
-    seed included, under the same name would silently replace another study's statistics and
-    tables, so it is refused (ConfigError naming both configs' digests, field ``out``) unless
-    ``force``.
-    """
+    """Refuse (ConfigError naming both configs' digests) to replace, unless ``force``, a result
+    of another config, seed included, that has the same name; a rerun may overwrite its own."""
     if force or not result_path.exists():
         return
     new = canonical_config(config.resolved())
@@ -80,14 +72,8 @@ def check_same_study(result_path: Path, config: RunConfig, force: bool = False) 
 
 
 def check_result_name(config: RunConfig) -> None:
-    """Refuse to write the result of a config that has no name of its own.
-
-    A mapping without ``name`` would be written as ``<out>/run.h5`` (and ``run.run``,
-    ``run_*.csv``), so a second unnamed config would overwrite the first's files, or resume
-    from its run folder and be refused as a changed config. A file's config is named after
-    the file, so only mappings are concerned. ConfigError (field ``name``) says how to give one
-    or how to run without writing.
-    """
+    """ConfigError for a mapping config without a ``name`` (a file's is named after it): it
+    would be written as ``<out>/run.h5``, which the next unnamed config would overwrite."""
     if not config.raw.name and config.source == "<dict>":
         raise ConfigError(
             "name: a config given as a mapping needs a 'name' to be written to a folder (got "
@@ -103,16 +89,12 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
 
     The run folder ``<out_dir>/<name>.run`` checkpoints finished chunks meanwhile and is removed
     once every file is written. ``executor`` (default this process) is closed on return;
-    ``workers``: its processes, for the memory budget; ``resume``: continue from the run folder
-    of an interrupted run of the same config (refused when the config changed) instead of
-    refusing to touch it; ``resume_hint``: the command named in an interrupted run's messages;
-    ``force``: replace a result of another config with the same name
-    (:func:`check_same_study`).
+    ``workers``: its processes, for the memory budget; ``resume``: continue the run folder of an
+    interrupted run of the same config; ``resume_hint``: the command named in messages;
+    ``force``: as :func:`check_same_study`.
 
-    ConfigError before any folder is made for a mapping config without a ``name``
-    (:func:`check_result_name`), report times off the model's grid, or a memory budget over
-    ``max_memory``; RunInterrupted on Ctrl-C or SIGTERM during the runs (chunks done are in the
-    run folder); WriteInterrupted on one while writing the result files.
+    ConfigError before any folder is made (no name, a memory budget over ``max_memory``);
+    RunInterrupted on Ctrl-C or SIGTERM during the runs; WriteInterrupted while writing.
     """
     refuse_nested_run()  # before the lock: a worker re-running an unguarded script stops here
     out_dir = Path(out_dir)

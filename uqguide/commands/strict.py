@@ -1,14 +1,9 @@
 """``--strict`` (or the config's ``strict: true``): a withheld statistic is a failed run.
 
 A PCE withholds a moment where its surrogate is not usable or its own runs do not support the
-value (:mod:`uqguide.pce.support`); the report then gives the Monte Carlo estimate of those
-runs instead (``+mc``). That is an answer, but not the one the config asked for: a CI job that
-needs the PCE's own statistics runs with ``--strict`` and gets exit 1 (the result and the
-tables are still written, for inspection), as for a failure budget exceeded.
-
-Only the points a report shows count (the report times' steps and the last step of a series,
-every scalar): a series' unusable tail between report times is in the diagnostics, not a
-printed statistic.
+value; the report then gives the Monte Carlo estimate of those runs (``+mc``), not the answer
+the config asked for. With ``--strict`` that is exit 1 (the result and the tables are still
+written). Only the points a report shows count (report times, a series' last step, scalars).
 """
 
 from __future__ import annotations
@@ -23,8 +18,7 @@ SHOWN = 4
 
 def check_withheld(result: Result) -> None:
     """Raise UqguideError (exit 1) when any method withholds a moment at a reported point,
-    naming the first :data:`SHOWN` withheld statistics (method, output, component, time,
-    moments) and their count."""
+    naming the first :data:`SHOWN` and their count."""
     found = []
     for label, by_output in result_statistics(result).items():
         for v in by_output.values():

@@ -1,14 +1,10 @@
 """Ctrl-C and SIGTERM: one way to stop, at any moment, with exit code 130.
 
 :func:`install` makes SIGINT and SIGTERM raise :class:`KeyboardInterrupt` in the main thread
-(SIGTERM as its subclass :class:`Terminated`), so a run stopped either way leaves the same
-resumable state. Inside :func:`deferred` (the writing of the result files) a signal is held
-and raised when the block ends, so a file is written whole. An interrupt Python would swallow
-(raised in a weakref callback, a ``__del__``, a garbage-collector callback) goes to a flag that
-:func:`raise_swallowed` raises after each chunk and when a deferred block closes; every signal
-received is also recorded, and :func:`raise_received` (when a command ends) raises it again, so
-a command that caught and went on still exits 130. Why each is needed:
-``docs/scale.md#checkpoints-and-resume``.
+(SIGTERM as its subclass :class:`Terminated`). Inside :func:`deferred` a signal is held until
+the block ends, so a file is written whole. An interrupt Python would swallow goes to a flag
+that :func:`raise_swallowed` raises; :func:`raise_received` raises again, when a command ends,
+a signal that was caught on the way. Why each is needed: ``docs/scale.md#checkpoints-and-resume``.
 """
 
 from __future__ import annotations
@@ -73,9 +69,8 @@ def raise_swallowed() -> None:
 
 
 def raise_received() -> None:
-    """Raise the first signal received since :func:`install` (outside :func:`deferred`
-    blocks), even if its exception was caught and dropped on the way: call when a command has
-    done its work, so that it exits 130 and not 0."""
+    """Raise the first signal received since :func:`install`, even if its exception was caught
+    on the way (outside :func:`deferred` blocks): a command that got one exits 130, not 0."""
     signum = _state.received
     if signum is not None and _state.depth == 0:
         _state.received = _state.swallowed = None
@@ -89,9 +84,8 @@ def _raise(signum: int) -> None:
 
 
 def install() -> dict[int, Any]:
-    """Route SIGINT and SIGTERM to :class:`KeyboardInterrupt` (main thread only; a signal the
-    process was started ignoring stays ignored); returns the handlers replaced, by signal number,
-    for :func:`restore`."""
+    """Route SIGINT and SIGTERM to :class:`KeyboardInterrupt` (main thread only; a signal
+    ignored stays ignored); returns the handlers replaced, for :func:`restore`."""
     previous: dict[int, Any] = {}
     if threading.current_thread() is not threading.main_thread():
         return previous

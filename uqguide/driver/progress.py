@@ -19,8 +19,6 @@ from dataclasses import dataclass
 from typing import Any, TextIO
 
 
-
-# ---------------------------------------------------------------------------- counting
 def hms(seconds: float) -> str:
     """``seconds`` as ``42s``, ``1m02s`` or ``2h05m``."""
     s = int(round(seconds))
@@ -33,12 +31,10 @@ def hms(seconds: float) -> str:
 
 @dataclass
 class MethodCount:
-    """One method's share of a run.
+    """One method's share of a run (``label`` "" for work planned before a method is named).
 
-    ``label``: "" for work planned before a method is named; the chunk and run counts include
-    restored ones; ``runs_evaluated``: runs of this session (the ETA's speed); ``started``:
-    ``time.monotonic()`` at its start (None before); ``in_phases``: seconds spent in phases
-    (compiling, fitting), left out of its speed.
+    The counts include restored chunks; ``runs_evaluated`` (this session's) and the time
+    ``started`` less ``in_phases`` (compiling, fitting) give the ETA's speed.
     """
 
     label: str
@@ -56,9 +52,7 @@ class Progress:
     """Counters of a whole run and of each of its methods, optionally shown on ``stream``.
 
     ``tty`` defaults to ``stream.isatty()``; ``interval``: seconds between plain lines off a
-    terminal; ``refresh``: seconds between redraws on one. ``methods``: each method's counts in
-    the order planned; ``phase_text``: what the current method does besides chunks ("" while it
-    runs them).
+    terminal; ``refresh``: seconds between redraws on one.
     """
 
     def __init__(self, stream: TextIO | None = None, tty: bool | None = None,
@@ -74,7 +68,7 @@ class Progress:
         self.runs_failed = 0
         self.methods: list[MethodCount] = []
         self._current: MethodCount | None = None
-        #: What runs besides chunks (compiling a kernel, fitting a PCE), shown in the status.
+        #: What the current method does besides chunks (compiling, fitting); "" while it runs them.
         self.phase_text = ""
         self._phase_since: float | None = None
         self._t0 = time.monotonic()
@@ -90,10 +84,6 @@ class Progress:
             self._current = self._unlabelled()
         return self._current
 
-    @property
-    def label(self) -> str:
-        return self.current.label
-
     def _unlabelled(self) -> MethodCount:
         for m in self.methods:
             if not m.label and m.started is None:
@@ -103,8 +93,8 @@ class Progress:
         return m
 
     def plan(self, n_chunks: int, n_runs: int, label: str | None = None) -> None:
-        """Add chunks / runs to do (a design or a refinement) to the method ``label``; default the
-        current one (a refinement), or, before any method started, the next one to start."""
+        """Add chunks / runs to do to the method ``label`` (default: the current one, or before
+        any started, the next)."""
         self.chunks_total += n_chunks
         self.runs_total += n_runs
         if label is None:
@@ -128,8 +118,7 @@ class Progress:
         self._show(force=self.tty)
 
     def phase(self, text: str) -> None:
-        """What the run does now besides evaluating chunks (``"fitting zem (2/7)"``; empty: back to
-        chunks)."""
+        """What the run does now besides chunks (``"fitting zem (2/7)"``; "": back to chunks)."""
         self._set_phase(text)
         self._show()
 
@@ -180,8 +169,7 @@ class Progress:
         return time.monotonic() - (self._t0 if m.started is None else m.started)
 
     def title(self) -> str:
-        """The current method's label, with its place when the run has several
-        (``apce (2/3)``)."""
+        """The current method's label, with its place among several (``apce (2/3)``)."""
         m = self.current
         named = [c for c in self.methods if c.label or c.runs_total]
         if len(named) < 2 or m not in named:
@@ -219,13 +207,10 @@ class Progress:
         """End the display: a final line (terminal: the bar's line is kept)."""
         if self.stream is None or not self._shown:
             return
+        self._show(force=True)
         if self.tty:
-            self._last_show = 0.0
-            self._show(force=True)
             self.stream.write("\n")
-        else:
-            self.stream.write(f"progress: {self.status()}\n")
-        self.stream.flush()
+            self.stream.flush()
         self._shown = False
 
 
@@ -359,8 +344,7 @@ class BarProgress(Progress):
 
 
 def make_progress(stream: TextIO | None, quiet: bool = False) -> Progress:
-    """The display for ``stream`` (stderr): a bar on a terminal, plain lines elsewhere, none if
-    ``quiet`` or None."""
+    """A bar on a terminal ``stream``, plain lines elsewhere, none if ``quiet`` or None."""
     if quiet or stream is None:
         return Progress(None)
     isatty = getattr(stream, "isatty", None)

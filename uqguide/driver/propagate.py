@@ -1,13 +1,10 @@
 """The driver: every method of a config, each through its own :meth:`Method.propagate` hook.
 
 ``run(load_config(path))`` is the whole of ``uqguide run`` less the printing and the writing.
-A method's hook decides its phases (design, evaluate, refine, estimate by default; chunk
-reductions for a streaming method; levels for a multi-fidelity one); the driver lends it a
-:class:`~uqguide.driver.stage.StageRunner`, which evaluates chunks through an executor
-(:mod:`uqguide.driver.execution`), checkpoints them as they arrive when a
-:class:`~uqguide.driver.run_folder.RunStore` is given (and takes them from it on resume), and
-folds them **in chunk order** whatever order they finish in, so the numbers do not depend on
-the executor, the worker count or interruptions.
+A method's hook decides its phases; the driver lends it a :class:`~.stage.StageRunner`, which
+evaluates chunks through an executor, checkpoints them in a :class:`~.run_folder.RunStore`, and
+folds them **in chunk order**, so the numbers do not depend on the executor, the worker count
+or interruptions.
 """
 
 from __future__ import annotations
@@ -42,15 +39,13 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
               design: Design | None = None, timeout_s: float | None = None,
               containment: Containment | None = None,
               earlier: Sequence[MethodRun] = ()) -> MethodRun:
-    """Run one method on one model; the MethodRun holds the estimate, the runs' inputs, scalar
-    outputs and failure mask, and the wall times.
+    """Run one method on one model: its estimate, the runs' inputs, scalar outputs and failure
+    mask, and the wall times.
 
-    ``batch_size``: samples per model call when the executor does not set it (default 10000);
-    ``store``: finished chunks are saved there, and chunks found there are not re-run;
-    ``design``: the initial design when already made (``run`` makes them all first, to know the
-    total work); ``timeout_s``: seconds a model call may take (:mod:`uqguide.guard`);
-    ``containment``: guard processes and memory limits; ``earlier``: the runs of the methods
-    listed before (a multi-fidelity method's surrogate levels are their PCEs).
+    ``batch_size``: samples per model call when the executor does not set it; ``store``: where
+    finished chunks are saved and found; ``design``: the initial design when already made;
+    ``timeout_s``: seconds a model call may take; ``earlier``: the runs of the methods listed
+    before (a multi-fidelity method's surrogate levels).
     """
     executor = executor or SerialExecutor()
     requested = outputs
@@ -101,9 +96,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
 
 
 def say_overflow(result: Result) -> list[str]:
-    """Log (and return) one warning per output whose moments overflowed double precision
-    (outputs near 1e300: :func:`uqguide.stats.moments.overflowed`), naming the methods; the
-    tables show those moments as ``overflow``."""
+    """Log (and return) one warning per output whose moments overflowed, naming the methods."""
     by_output: dict[str, list[str]] = {}
     for label, described in result_statistics(result).items():
         for name, v in described.items():
@@ -138,11 +131,9 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         progress: Progress | None = None) -> Result:
     """Run every method of a validated config; the Result holds all their statistics.
 
-    One MethodRun per method, in config order; a method that failed is recorded with its runs
-    and ``success=False`` (:func:`check_methods`). ``store``: the checkpoint folder
-    (:mod:`uqguide.driver.run_folder`). RunInterrupted on Ctrl-C (chunks in flight dropped,
-    those done in ``store``); ClusterLost for a Dask cluster without workers or scheduler, with
-    the count of chunks done.
+    One MethodRun per method, in config order (a failed one with ``success=False``);
+    ``store``: the run folder. RunInterrupted on Ctrl-C, ClusterLost for a Dask cluster without
+    workers or scheduler, both with the count of chunks done.
     """
     executor = executor or SerialExecutor(config.raw.batch_size)
     progress = progress or Progress()
@@ -216,8 +207,7 @@ def containment_of(config: RunConfig) -> Containment:
 
 
 def check_methods(result: Result) -> None:
-    """Raise UqguideError (exit 1) naming each method that produced no statistics (the others
-    are in the result and its tables)."""
+    """Raise UqguideError (exit 1) naming each method that produced no statistics."""
     failed = [r.message for r in result.runs if not r.success]
     if failed:
         raise UqguideError("; ".join(failed))

@@ -46,17 +46,12 @@ log = logging.getLogger(__name__)
 
 # ---------------------------------------------------------------------------- the lock
 class RunLock:
-    """The exclusive lock of one run folder ``<out>/<name>.run`` (need not exist yet); a context
-    manager."""
+    """The exclusive lock of the run folder ``<out>/<name>.run``; a context manager."""
 
     def __init__(self, run_folder: str | Path) -> None:
         self.run_folder = Path(run_folder)
         self.path = self.run_folder.with_name(self.run_folder.name + ".lock")
         self._fd: int | None = None
-
-    @property
-    def held(self) -> bool:
-        return self._fd is not None
 
     def acquire(self) -> RunLock:
         """Take the lock or raise ConfigError naming its owner."""
@@ -134,7 +129,7 @@ def _read_owner(fd: int) -> str:
     return text or "owner unknown"
 
 
-# ------------------------------------------------------------------- the manifest: whose run
+# ---------------------------------------------------------------- the run's identity
 #: 2: a chunk's scalars, series and summary packed into one array (1: an npz entry each)
 FORMAT = 2
 MANIFEST = "manifest.jsonl"
@@ -143,16 +138,10 @@ MANIFEST = "manifest.jsonl"
 ChunkKey = tuple[str, int, int]
 
 
-# ---------------------------------------------------------------------------- identity
 def model_code_hash(model: Model) -> str:
-    """SHA-256 hex digest of the version and the source that defines ``model``.
-
-    The source of the module defining its class (the whole package folder for a simulator
-    package such as ``uqguide.models.ftcapn``) and, for a ``callable`` model, the user
-    function's module, for a ``command`` model its program's file, for an ``fmu`` model the
-    FMU file (a recompiled simulator is another model); a code change elsewhere (a shared helper
-    module) is not seen.
-    """
+    """SHA-256 hex digest of the version and the source that defines ``model``: its class's
+    module (a simulator package's whole folder), a ``callable``'s module, a ``command``'s program
+    or the ``fmu`` file. A change in a shared helper module elsewhere is not seen."""
     files = _source_files(type(model))
     function = getattr(model.params, "function", None)
     if model.name == "callable" and isinstance(function, str):
@@ -180,15 +169,12 @@ def _source_files(cls: type) -> list[Path]:
         path = Path(inspect.getfile(cls))
     except (TypeError, OSError):
         return []
-    module = cls.__module__
     # A simulator package (uqguide.models.<pkg>.<module>) is hashed whole; a module directly
     # in uqguide.models (the benchmarks) alone, so editing one model leaves the others' runs.
-    parts = module.split(".")
-    if len(parts) >= 4 and parts[:2] == ["uqguide", "models"] and path.parent.name == parts[2]:
-        return sorted(path.parent.glob("*.py"))
-    if path.name == "__init__.py":
-        return sorted(path.parent.glob("*.py"))
-    return [path]
+    parts = cls.__module__.split(".")
+    package = len(parts) >= 4 and parts[:2] == ["uqguide", "models"] and \
+        path.parent.name == parts[2]
+    return sorted(path.parent.glob("*.py")) if package or path.name == "__init__.py" else [path]
 
 
 def run_identity(resolved_config: dict[str, Any], model: Model) -> dict[str, Any]:
@@ -206,9 +192,7 @@ EXECUTION_ONLY = ("isolate",)
 
 
 def study_config(resolved_config: dict[str, Any]) -> dict[str, Any]:
-    """The resolved config less the settings that change only how the model runs
-    (:data:`EXECUTION_ONLY`, e.g. ``model.isolate``): what two runs must share to be the same
-    study."""
+    """The resolved config less :data:`EXECUTION_ONLY`: what two runs of one study share."""
     model = resolved_config.get("model")
     if not isinstance(model, dict) or not any(k in model for k in EXECUTION_ONLY):
         return resolved_config
@@ -223,13 +207,12 @@ def identity_hash(identity: dict[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _first_difference(a: Any, b: Any, path: str = "") -> str | None:
+def _first_difference(a: Any, b: Any, path: str = "") -> tuple[str, Any, Any] | None:
+    """Where ``a`` and ``b`` first differ: the path and the two values there."""
     if isinstance(a, dict) and isinstance(b, dict):
         for k in list(a) + [k for k in b if k not in a]:
-            sub = f"{path}.{k}" if path else str(k)
-            if k not in a or k not in b:
-                return sub
-            d = _first_difference(a[k], b[k], sub)
+            d = _first_difference(a.get(k, "<absent>"), b.get(k, "<absent>"),
+                                  f"{path}.{k}" if path else str(k))
             if d:
                 return d
         return None
@@ -238,17 +221,8 @@ def _first_difference(a: Any, b: Any, path: str = "") -> str | None:
             d = _first_difference(x, y, f"{path}[{i}]")
             if d:
                 return d
-        return None if len(a) == len(b) else path
-    return None if a == b else path
-
-
-def _lookup(d: Any, path: str) -> Any:
-    for part in re.findall(r"[^.\[\]]+|\[\d+\]", path):
-        try:
-            d = d[int(part[1:-1])] if part.startswith("[") else d[part]
-        except (KeyError, IndexError, TypeError):
-            return "<absent>"
-    return d
+        return None if len(a) == len(b) else (path, a, b)
+    return None if a == b else (path, a, b)
 
 
 # ---------------------------------------------------------------------------- the manifest
@@ -275,8 +249,7 @@ class RunManifest:
         return read_manifest(self.file)
 
     def isolated(self) -> dict[tuple[str, int], dict[int, str]]:
-        """The samples of this run found to crash or hang their process, by (label, stage):
-        design row -> reason."""
+        """This run's samples found to crash or hang, by (label, stage): row -> reason."""
         out: dict[tuple[str, int], dict[int, str]] = {}
         if not self.file.is_file() or self.file.is_symlink():
             return out
@@ -340,12 +313,11 @@ class RunManifest:
         if header.get("format") != FORMAT:
             raise ConfigError(f"{where}: written by an incompatible uqguide (run folder "
                               f"format {header.get('format')!r}){tail}", field="resume")
-        old, new = header.get("config", {}), self.identity["config"]
-        diff = _first_difference(old, new)
+        diff = _first_difference(header.get("config", {}), self.identity["config"])
         if diff is not None:
-            raise ConfigError(
-                f"{where}: the config changed since the run started ({diff}: "
-                f"{_lookup(old, diff)!r} -> {_lookup(new, diff)!r}){tail}", field=diff)
+            path, old, new = diff
+            raise ConfigError(f"{where}: the config changed since the run started ({path}: "
+                              f"{old!r} -> {new!r}){tail}", field=path)
         if header.get("uqguide") != self.identity["uqguide"]:
             raise ConfigError(
                 f"{where}: it was started by uqguide {header.get('uqguide')}, this is "
@@ -359,11 +331,10 @@ class RunManifest:
                               f"this run's ({self.run_id[:12]}){tail}", field="resume")
 
     def check_names(self, resume: bool) -> None:
-        """ConfigError, before the folder is read, for a name the run reads or writes that holds
-        something else than a regular file: a FIFO or a device (its open would block), a link,
-        a folder at a chunk's name; a file named like one of this run's chunks that is not a
-        chunk file (the run would replace it); and on ``resume`` a manifest with a second
-        name (a hard link: the lines appended would reach the other name too)."""
+        """ConfigError, before the folder is read, for a name the run uses that is not a regular
+        file (a FIFO or device would block, a link or folder be written through), a file named
+        like a chunk that is not one, and on ``resume`` a hard-linked manifest (the appended
+        lines would reach the other name too)."""
         what = not_regular(self.file, hard_links=resume)
         if what:
             raise refusal(self.file, what, role="the run's manifest goes there")
@@ -388,13 +359,10 @@ class RunManifest:
         return self._chunk_re.fullmatch(name) is not None
 
     def clear(self, header: dict[str, Any] | None, known: bool = False) -> list[str]:
-        """Before a fresh run: delete what uqguide left in the folder (the manifest, the chunk
-        files it lists, uqguide's own temporary and chunk files) and leave anything else in
-        place, named in a warning (the names are returned). A folder no uqguide manifest
-        identifies (``header`` None) is a run folder only when it holds nothing else (an empty
-        or torn manifest, uqguide's temporary files) or is ``known`` (identified as this run's
-        and its files removed a moment ago): else ConfigError, nothing deleted.
-        """
+        """Before a fresh run: delete what uqguide left in the folder (:meth:`_ours`), leave and
+        return the rest, named in a warning. A folder without a uqguide ``header`` is a run
+        folder only when it holds nothing else or is ``known`` (this run's, its files removed a
+        moment ago): else ConfigError, nothing deleted."""
         names = sorted(p.name for p in self.folder.iterdir())
         listed = {str(e.get("file")) for e in self.read()[1].values()}
         ours = [n for n in names if n != MANIFEST and self._ours(self.folder / n, listed)]
@@ -435,10 +403,9 @@ class RunManifest:
         self.append({"kind": "complete", "run": self.run_id})
 
     def _ours(self, path: Path, listed: set[str]) -> bool:
-        """Whether the file at ``path`` in the folder is uqguide's to delete: a regular file that
-        the manifest lists, a temporary file of a uqguide writer that is gone, or a chunk file
-        of this run's methods that says whose it is (a kill between the file and its manifest
-        line leaves it unlisted)."""
+        """Whether ``path`` is uqguide's to delete: a regular file the manifest lists, a
+        temporary file of a writer that is gone, or a chunk file of this run that says so inside
+        (a kill between the file and its manifest line leaves it unlisted)."""
         if not path.exists() or not_regular(path, hard_links=False):
             return False
         if path.name in listed:
@@ -449,13 +416,9 @@ class RunManifest:
         return self._chunk_name(path.name) and _is_chunk_file(path)
 
     def remove(self) -> list[str]:
-        """Delete this run's files and then the folder, when its manifest says it is this run's
-        (after the result file is written: it holds everything). Only files the run wrote are
-        deleted; anything else (a user's notes, a sub-folder) is left where it is, named in a
-        warning, and never stops the run. The manifest goes last, and stays while anything of
-        the run's is left, so the folder still says whose it is. Returns the names left (empty: the
-        folder is gone).
-        """
+        """Delete this run's files, then the folder, when its manifest says it is this run's;
+        anything else is left, named in a warning, and returned. The manifest goes last, and
+        stays while anything of the run's is left, so the folder still says whose it is."""
         if not self.folder.is_dir() or self.folder.is_symlink():
             return []
         header, entries = self.read()
@@ -505,9 +468,9 @@ def _is_chunk_file(path: Path) -> bool:
 
 
 def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
-    """The header (the first one; None without a readable manifest) and the chunk lines by
-    (label, stage, index), the last line of a chunk winning. A second header of another run
-    makes the header ``{"run_id": "<mixed>"}``: such a folder is never resumed."""
+    """The first header (None without one) and the chunk lines by (label, stage, index), the
+    last winning; a second header of another run makes the run id ``"<mixed>"`` (never
+    resumed)."""
     if not path.is_file() or path.is_symlink():
         return None, {}
     header = None
@@ -566,8 +529,7 @@ class ChunkStore:
         self._entries[(entry["label"], entry["stage"], entry["index"])] = entry
 
     def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
-        """The stored result of a chunk, or None when it is not (validly) stored; ConfigError when
-        the stored chunk belongs to another run."""
+        """The stored result of a chunk, or None; ConfigError for a chunk of another run."""
         e = self._entries.get((label, stage, task.index))
         if e is None:
             return None
@@ -616,9 +578,8 @@ class StoredChunk:
 
 def write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int) -> None:
     """Write one chunk's file at ``path``, whole or not at all, fsynced with its folder."""
-    # The scalars, series and summary go packed into one byte array with a JSON index: a
-    # Monte Carlo chunk's summary is ~100 small arrays, and one zip entry each made the
-    # checkpoints the driver's largest cost (2.5 s of a 1e6-run study, 20 ms a chunk).
+    # The scalars, series and summary go packed into one byte array with a JSON index: one zip
+    # entry per small array was the driver's largest cost (docs/scale.md).
     index, packed = _pack({**{f"scalar.{k}": v for k, v in r.scalars.items()},
                            **{f"series.{k}": v for k, v in r.series.items()},
                            **{f"summary.{k}": v for k, v in r.summary.items()}})
@@ -724,10 +685,9 @@ class CheckpointWriter(Generic[Item]):
         self._raise_error()
 
     def drain(self) -> None:
-        """Wait until the writer is done with every queued item, raising nothing of its own
-        (for a run that is stopping with an error or an interrupt). A Ctrl-C or SIGTERM while
-        it waits is held until the writer is done (a few chunk writes at most): the process
-        must not exit with the writer half-way through a file."""
+        """Wait until every queued item is written, raising nothing of the writer's (for a run
+        that is stopping); a signal meanwhile is held: the process must not exit half-way
+        through a file."""
         if self._thread is not None:
             with deferred():
                 self._queue.join()
@@ -764,9 +724,8 @@ class CheckpointWriter(Generic[Item]):
 
 # ---------------------------------------------------------------------------- the store
 class RunInterrupted(KeyboardInterrupt):
-    """The run was stopped (Ctrl-C) after ``n_done`` of ``n_total`` chunks; the chunks done are
-    checkpointed when the run has a run folder. A KeyboardInterrupt, so that nothing catching
-    ``Exception`` swallows it."""
+    """The run was stopped (Ctrl-C) after ``n_done`` of ``n_total`` chunks; a KeyboardInterrupt,
+    so that nothing catching ``Exception`` swallows it."""
 
     def __init__(self, n_done: int, n_total: int) -> None:
         super().__init__(f"interrupted: {n_done} of {n_total} chunks done")
@@ -775,17 +734,15 @@ class RunInterrupted(KeyboardInterrupt):
 
 
 def run_dir(out_dir: str | Path, name: str) -> Path:
-    """The run folder ``<out_dir>/<name>.run`` of the result ``<out_dir>/<name>.h5``
-    (ConfigError for a name that is not a plain file name: the folder must lie inside
-    ``out_dir``)."""
+    """The run folder ``<out_dir>/<name>.run`` of ``<out_dir>/<name>.h5`` (ConfigError for a
+    name that is not a plain file name)."""
     from ..config.run_config import check_run_name
 
     return Path(out_dir) / f"{check_run_name(name)}.run"
 
 
 class RunStore:
-    """A run folder with the run's identity (:func:`run_identity`; docs/scale.md). Only the
-    driver process writes it."""
+    """A run folder with the run's identity (:func:`run_identity`); only the driver writes it."""
 
     def __init__(self, path: Path, identity: dict[str, Any]) -> None:
         self.path = path
@@ -801,14 +758,10 @@ class RunStore:
     @classmethod
     def open(cls, path: str | Path, identity: dict[str, Any], resume: bool,
              resume_hint: str = "uqguide run CONFIG --resume") -> RunStore:
-        """Open the run folder ``path`` for a fresh run or (``resume``) to continue it. The
-        caller holds the folder's :class:`RunLock` (``uqguide run`` does); ``resume_hint`` is the
-        command suggested in messages.
-
-        ConfigError when resuming a folder of another config / code version; when not resuming a
-        folder holding finished chunks (they are not thrown away silently); or when the path is
-        something other than a uqguide run folder (it is not deleted).
-        """
+        """Open the run folder ``path`` (the caller holds its :class:`RunLock`) for a fresh run
+        or to ``resume`` it; ``resume_hint``: the command suggested in messages. ConfigError
+        for a folder of another run on resume, finished chunks without resume, or a path that
+        is not a uqguide run folder (it is not deleted)."""
         path = Path(path)
         store = cls(path, identity)
         if path.is_symlink() or (path.exists() and not path.is_dir()):
@@ -866,13 +819,11 @@ class RunStore:
         self.manifest.record_isolated(label, stage, row, reason)
 
     def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
-        """The stored result of a chunk, or None (see :meth:`ChunkStore.load`)."""
         return self.chunks.load(label, stage, task)
 
     def save(self, label: str, stage: int, result: ChunkResult) -> None:
-        """Queue one chunk: the writer thread writes it atomically, then lists it in the
-        manifest, chunk after chunk in the order given; an error of the writer (a full disk)
-        is raised by the next ``save`` or by :meth:`flush`."""
+        """Queue one chunk for the writer thread (:class:`CheckpointWriter`): its file, then its
+        manifest line."""
         self.writer.put((label, stage, result))
 
     def flush(self) -> None:
@@ -880,22 +831,17 @@ class RunStore:
         self.writer.flush()
 
     def drain(self) -> None:
-        """Wait until every queued chunk is written, raising nothing of the writer's (for a
-        run that is stopping with an error or an interrupt)."""
         self.writer.drain()
 
     def close(self) -> None:
-        """:meth:`flush`, then end the writer thread."""
         self.writer.close()
 
     def mark_complete(self) -> None:
-        """Every chunk is done (see :meth:`RunManifest.mark_complete`)."""
         self.close()
         self.manifest.mark_complete()
 
     def remove(self) -> list[str]:
-        """Delete the run's files and the folder (after the result file is written: it holds
-        everything); return what was left, not the run's (see :meth:`RunManifest.remove`)."""
+        """Delete the run's files and the folder once the result file holds everything."""
         self.close()
         return self.manifest.remove()
 

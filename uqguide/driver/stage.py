@@ -1,10 +1,9 @@
 """Evaluating one design stage of one model, chunk by chunk, folded in chunk order.
 
-A :class:`Stage` runs chunks restored from the checkpoint or evaluated by the executor, saves
-them as they arrive, and folds (or joins) them in chunk order whatever order they finish in.
-:class:`StageRunner` lends it to a method's :meth:`~uqguide.methods.base.Method.propagate` as its
-:class:`~uqguide.methods.base.Runner` (the driver, :mod:`uqguide.driver.propagate`, makes one
-per method).
+A :class:`StageRunner`, the :class:`~uqguide.methods.base.Runner` the driver lends a method's
+:meth:`~uqguide.methods.base.Method.propagate`, takes chunks restored from the checkpoint or
+evaluated by the executor, saves them as they arrive, and folds (or joins) them in chunk order
+whatever order they finish in.
 """
 
 from __future__ import annotations
@@ -39,18 +38,16 @@ log = logging.getLogger(__name__)
 #: Models whose compiled kernel this process has loaded (or compiled) for a process pool.
 _LOADED: weakref.WeakSet[Model] = weakref.WeakSet()
 
+
 class _Runs:
-    """The per-sample values of reduced chunks (scalars, failure flags, reasons), copied into
-    arrays allocated once for the whole stage: joining a list of chunk arrays at the end would
-    hold every value twice (1 GB at 1e7 samples). With a process pool the scalar arrays are
-    the stage's shared ones (:mod:`uqguide.driver.execution.shared_rows`), which the workers
-    fill."""
+    """The per-sample values of reduced chunks, copied into arrays allocated once for the
+    stage (joining chunk arrays at the end would hold every value twice); with a process pool
+    the scalar arrays are the shared ones the workers fill (:mod:`.execution.shared_rows`)."""
 
     def __init__(self, n: int) -> None:
         self.n = n
         self.failed = np.zeros(n, dtype=bool)
-        # a failure's reason is only kept for a failed run: copying a million empty strings
-        # chunk by chunk cost the driver 0.2 s of a 1e6-run study
+        # a reason is only copied for a failed run: copying empty strings chunk by chunk is slow
         self.reasons = np.full(n, "", dtype=object)
         self.scalars: dict[str, np.ndarray] = {}
         self.time: np.ndarray | None = None
@@ -80,22 +77,31 @@ class _Runs:
                            scalars=self.scalars, failed=self.failed, reasons=self.reasons)
 
 
-class Stage:
-    """Evaluates the rows of one design stage chunk by chunk and folds them in order."""
+class StageRunner:
+    """The :class:`~uqguide.methods.base.Runner` of one method on one model (or one of its
+    fidelity levels): each call of :meth:`run` evaluates a design stage chunk by chunk and folds
+    it in order. Every runner made from it (:meth:`at_fidelity`, :meth:`surrogate_of`) adds its
+    counts to ``timings``, which the driver sums into the method's."""
 
     def __init__(self, method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
                  executor: Executor, batch_size: int, store: RunStore | None,
-                 progress: Progress, timing: Timing, timeout_s: float | None = None,
-                 containment: Containment | None = None) -> None:
+                 progress: Progress, timeout_s: float | None = None,
+                 containment: Containment | None = None,
+                 earlier: Sequence[MethodRun] = (), timings: list[Timing] | None = None
+                 ) -> None:
         self.method, self.model, self.space, self.outputs = method, model, space, outputs
         self.executor, self.batch_size, self.store = executor, batch_size, store
-        self.progress, self.timing, self.timeout_s = progress, timing, timeout_s
+        self.progress, self.timeout_s = progress, timeout_s
         self.containment = containment or Containment()
+        #: The runs of the methods listed before this one (whose surrogates may be levels).
+        self.earlier = earlier
+        self.timing = Timing()
+        self.timings = timings if timings is not None else []
+        self.timings.append(self.timing)
 
     def _job(self, stage: int, reducer: Any) -> ChunkJob:
-        """What every chunk of ``stage`` shares: with the containment of the run (a guard
-        process for a model that can crash, when the chunks run in this process), the rows
-        already known to crash, and where to record new ones."""
+        """What every chunk of ``stage`` shares, with the run's containment, the rows known to
+        crash and where to record new ones."""
         c, store, label = self.containment, self.store, self.method.label
         guarded = c.isolate and getattr(self.executor, "in_process", False)
         on_isolated = None
@@ -111,9 +117,7 @@ class Stage:
     def _compile_here_first(self, job: ChunkJob, x: np.ndarray | GeneratedRows,
                             task: Task) -> None:
         """Evaluate one design row here before a local pool starts, so that a kernel missing from
-        the cache compiles once, in this process, and the workers load it instead of each compiling
-        it (once per model and process; the row's outputs dropped, its compile seconds kept;
-        with a timeout it runs in a guard process and its compile is not timed here)."""
+        the cache compiles once, here, and the workers load it (its outputs dropped)."""
         model = self.model
         if model in _LOADED or model.kernel_choice() != "numba":
             return
@@ -128,8 +132,8 @@ class Stage:
         _LOADED.add(model)
         self.timing.compile_seconds += kernels.compile_seconds() - before
 
-    def run(self, x: np.ndarray | GeneratedRows, stage: int, tasks: list[Task], reducer: Any,
-            fold: ChunkFold | None = None) -> tuple[ModelOutput, Any]:
+    def _evaluate(self, x: np.ndarray | GeneratedRows, stage: int, tasks: list[Task],
+                  reducer: Any, fold: ChunkFold | None = None) -> tuple[ModelOutput, Any]:
         """Outputs of the rows ``x`` (scalars only when reduced) and the summaries folded by
         ``fold`` (given with ``reducer``)."""
         label = self.method.label
@@ -213,30 +217,6 @@ class Stage:
             return kept.output(), acc
         return ModelOutput.concatenate(common_grid(parts)), acc
 
-
-class StageRunner:
-    """The :class:`~uqguide.methods.base.Runner` of one method on one model (or one of its
-    fidelity levels): each call of :meth:`run` evaluates a :class:`Stage`. Every runner made
-    from it (:meth:`at_fidelity`, :meth:`surrogate_of`) adds its counts to ``timings``, which
-    the driver sums into the method's."""
-
-    def __init__(self, method: Method, model: Model, space: InputSpace, outputs: tuple[str, ...],
-                 executor: Executor, batch_size: int, store: RunStore | None,
-                 progress: Progress, timeout_s: float | None = None,
-                 containment: Containment | None = None,
-                 earlier: Sequence[MethodRun] = (), timings: list[Timing] | None = None
-                 ) -> None:
-        self.method, self.model, self.space, self.outputs = method, model, space, outputs
-        self.executor, self.batch_size, self.store = executor, batch_size, store
-        self.progress, self.timeout_s, self.containment = progress, timeout_s, containment
-        #: The runs of the methods listed before this one (whose surrogates may be levels).
-        self.earlier = earlier
-        self.timing = Timing()
-        self.timings = timings if timings is not None else []
-        self.timings.append(self.timing)
-        self._stage = Stage(method, model, space, outputs, executor, batch_size, store,
-                            progress, self.timing, timeout_s, containment)
-
     @property
     def cpu_seconds(self) -> float:
         return self.timing.cpu_seconds
@@ -252,7 +232,7 @@ class StageRunner:
             after: ModelOutput | None = None) -> tuple[ModelOutput, Any]:
         tasks = [Task(i, a, b) for i, (a, b) in enumerate(chunks)]
         reducer, fold = reduce if reduce is not None else (None, None)
-        out, acc = self._stage.run(x, stage, tasks, reducer, fold)
+        out, acc = self._evaluate(x, stage, tasks, reducer, fold)
         if after is not None:
             out = ModelOutput.concatenate(common_grid([after, out]))
         return out, acc

@@ -1,16 +1,10 @@
 """A fitted PCE of the study as a fidelity level of :mod:`uqguide.methods.mfmc`
 (``fidelities: [..., {surrogate: apce}]``): a :class:`~uqguide.methods.base.Runner`.
 
-The surrogate is evaluated here, in the driver's process, on the same rows of the method's one
-input stream as every other level: it costs microseconds per run, so workers would add
-pickling and nothing else, and it is a deterministic function of the rows, so the numbers are
-the same on any executor. Its chunks are not checkpointed: a resumed run re-fits the PCE from
-the PCE method's own checkpoint (the same bits) and evaluates it again.
-
-Why this keeps the estimate unbiased: the PCE was fitted on its own method's runs, drawn from
-that method's seed stream, independent of the ``mfmc`` rows; on those rows it is a fixed
-function of the inputs like any cheaper model. How good it is decides only how much variance
-it removes (its correlation with the highest level, measured in the pilot).
+The surrogate is evaluated here, in the driver's process, on the same rows as every other
+level: it costs microseconds per run, so workers would add pickling and nothing else. Its
+chunks are not checkpointed: a resumed run re-fits the PCE from its own method's checkpoint
+(the same bits). Why the estimate stays unbiased: ``docs/multifidelity.md``.
 """
 
 from __future__ import annotations
@@ -32,13 +26,9 @@ from .execution import Timing, common_grid
 
 @dataclass
 class SurrogateLevel:
-    """The surrogate of the PCE method ``label`` as a level.
-
-    ``time (T,)``: the grid of its series outputs (the PCE method's runs'); ``fixed_cpu_s``: what
-    the PCE method spent, model and fit seconds (the surrogate's price, charged to the ``mfmc``
-    method's saving); ``outputs``: those it predicts for the method; ``timing``: its runs and CPU
-    seconds so far.
-    """
+    """The surrogate of the PCE method ``label`` as a level: ``time (T,)``, its series' grid;
+    ``fixed_cpu_s``: the PCE method's model and fit seconds (the surrogate's price);
+    ``outputs``: those it predicts; ``timing``: its runs and CPU seconds so far."""
 
     label: str
     surrogate: Surrogate
@@ -64,8 +54,7 @@ class SurrogateLevel:
     def run(self, x: np.ndarray | GeneratedRows, stage: int, chunks: Chunks, *,
             reduce: tuple[ChunkReducer, ChunkFold] | None = None,
             after: ModelOutput | None = None) -> tuple[ModelOutput, Any]:
-        """Its values at the rows ``chunks`` of ``x`` (one call; never checkpointed, so
-        ``stage`` is not used), joined after ``after``."""
+        """Its values at the rows ``chunks`` of ``x`` in one call, joined after ``after``."""
         if reduce is not None:
             raise MethodError(f"the surrogate of {self.label!r} is evaluated whole, not reduced")
         start, stop = chunks[0][0], chunks[-1][1]
@@ -105,9 +94,8 @@ class SurrogateLevel:
 
 def surrogate_level(earlier: Sequence[MethodRun], label: str,
                     outputs: Sequence[str]) -> SurrogateLevel:
-    """The surrogate of the method ``label`` among the runs of the methods listed before;
-    MethodError when that method did not run, failed, kept no surrogate, or has none of an
-    output."""
+    """The surrogate of the method ``label`` among the ``earlier`` runs; MethodError when there
+    is none, or none of an output."""
     r = next((r for r in earlier if r.estimate.label == label), None)
     sg = None if r is None else r.estimate.surrogate
     if r is None or not r.success or sg is None:

@@ -1,16 +1,11 @@
 """How model runs execute: chunks, in this process, in a local process pool, or on Dask.
 
-A design's rows are split into chunks (:class:`Task`: rows ``[start, stop)``, the split the
-method's); :func:`run_chunk` evaluates one wherever the executor puts it, in model calls of at
-most ``batch_size`` samples, optionally reduced there to mergeable summaries. The executors,
-:class:`SerialExecutor`, :class:`ProcessExecutor` and :class:`DaskExecutor`, give bit-identical
-numbers: a chunk's result does not depend on where it ran, and the driver folds chunks in index
-order. Only the driver writes files; a failed sample, call or worker costs only its samples,
-and a :class:`~uqguide.errors.ModelError` (a model breaking its contract) propagates.
-Modules, bottom up: :mod:`.transport`, :mod:`.chunks`, :mod:`.isolation` (raising samples),
-:mod:`.processes`, :mod:`.guard` (timeouts, crashes), :mod:`.row_layout` and
-:mod:`.shared_rows`, :mod:`.worker`, :mod:`.cluster_watch`, :mod:`.executors`. How each failure
-is contained: ``docs/scale.md#failures``; chunks and executors: ``docs/scale.md``.
+A design's rows are split into chunks (:class:`Task`); :func:`run_chunk` evaluates one
+wherever the executor puts it, optionally reduced there to mergeable summaries. The executors
+give bit-identical numbers; a failed sample, call or worker costs only its samples. Modules,
+bottom up: :mod:`.transport`, :mod:`.chunks`, :mod:`.isolation`, :mod:`.processes`,
+:mod:`.guard`, :mod:`.shared_rows`, :mod:`.worker`, :mod:`.cluster_watch`,
+:mod:`.executors`. How each failure is contained: ``docs/scale.md#failures``.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The unit of work: a chunk of a design's rows, what every chunk of one design shares, and
-what comes back from one."""
+"""The unit of work: a chunk of a design's rows, what every chunk of one design shares (with
+where a worker writes per-run values in shared memory), and what comes back from one."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ from typing import Any, Protocol
 import numpy as np
 
 from ...core.types import ModelOutput
-from .row_layout import RowsLayout
 from .transport import ModelHandle
 
 #: Samples per model call when neither the config nor the executor says otherwise.
@@ -19,10 +18,8 @@ DEFAULT_BATCH_SIZE = 10_000
 
 @dataclass
 class Timing:
-    """Seconds spent in the model, summed over chunks (worker-seconds: with ``w`` workers busy
-    this grows ``w`` times faster than the wall clock), seconds spent compiling its kernel
-    (never in ``model_seconds``), the number of runs, and the CPU seconds of the model calls
-    (``cpu_seconds``: what a multi-fidelity method's costs are measured in)."""
+    """Worker-seconds spent in the model and, apart, compiling its kernel, summed over chunks;
+    the number of runs; the CPU seconds of the model calls (a multi-fidelity method's costs)."""
 
     model_seconds: float = 0.0
     n_runs: int = 0
@@ -53,15 +50,10 @@ class Reducer(Protocol):
 class ChunkResult:
     """What comes back from one chunk of ``m`` runs.
 
-    ``time (T,)``: the model's grid (may be empty when every sample failed); ``scalars``
-    ``(m, k)``; ``series`` ``(m, T, k)``, empty when the chunk was reduced; ``summary``: the
-    method's reduction (empty when not reduced); ``model_seconds``: wall seconds of the model
-    calls less ``compile_seconds`` (compiling a kernel in those calls, a first run on a fresh
-    install: :func:`uqguide.models.kernels.compile_seconds`); ``cpu_seconds``: CPU seconds of
-    the chunk's process in those calls (``time.process_time``, all its threads) less
-    ``compile_seconds``, not inflated by other processes on a busy machine; ``in_place``: per-run
-    values the worker wrote into the driver's shared arrays instead of sending them
-    (:mod:`uqguide.driver.execution.shared_rows`), as ``(scalars or summary, key, n runs)``.
+    ``time (T,)`` (empty when every sample failed); ``scalars (m, k)``; ``series (m, T, k)`` or
+    the method's ``summary`` when reduced; the wall and CPU seconds of the model calls, each
+    less ``compile_seconds``; ``in_place``: per-run values the worker wrote into shared memory
+    instead (:mod:`.shared_rows`), as ``(scalars or summary, key, n runs)``.
     """
 
     task: Task
@@ -88,18 +80,38 @@ class ChunkResult:
 
 @dataclass(frozen=True)
 class Containment:
-    """How a run contains a model that may crash or leak.
-
-    ``isolate``: without workers, make the model calls in a guard process (a crash then costs
-    the samples that crash, found by bisection); ``asked``: the config asked for it
-    (``model.isolate: true``), so a model that cannot be built in a guard process stops the run,
-    where otherwise (a callable's default) the run falls back to its own process with a warning;
-    ``memory_limit``: bytes of address space of each child process (guards, pool workers).
-    """
+    """How a run contains a model that may crash or leak: ``isolate`` its calls in a guard
+    process when there are no workers; ``asked`` by the config (a model that cannot be built in a
+    guard then stops the run, else it runs here with a warning); ``memory_limit``: bytes of
+    address space of each child process."""
 
     isolate: bool = False
     asked: bool = False
     memory_limit: int | None = None
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One array in shared memory (:mod:`.shared_rows`): ``part`` (``scalars`` or ``summary``)
+    and ``key`` name the value in a :class:`ChunkResult`; ``runs_axis``: the axis along which
+    the runs lie (0: a row per run; 1: lane-major, a column per good run)."""
+
+    part: str
+    key: str
+    path: str
+    shape: tuple[int, ...]
+    dtype: str
+    runs_axis: int
+
+    def open(self) -> np.memmap:
+        return np.memmap(self.path, dtype=np.dtype(self.dtype), mode="r+", shape=self.shape)
+
+
+@dataclass(frozen=True)
+class RowsLayout:
+    """Where a chunk's per-run values go (picklable: it travels with every chunk)."""
+
+    slots: tuple[Slot, ...]
 
 
 @dataclass
@@ -111,26 +123,22 @@ class ChunkJob:
     outputs: tuple[str, ...]
     batch_size: int
     reducer: Reducer | None = None
-    #: Seconds a model call may take; set, every call runs in a guard process
-    #: (:mod:`uqguide.guard`) and a call that hangs or crashes fails only its samples.
+    #: Seconds a model call may take; set, every call runs in a guard process.
     timeout_s: float | None = None
     #: Run the calls in a guard process even without a timeout (crash isolation).
     guarded: bool = False
     #: When the guard cannot start or cannot build the model, evaluate in this process
     #: instead of stopping (the isolation a callable gets by default, not one asked for).
     guard_fallback: bool = False
-    #: Bytes of address space each child process may use (guard processes, pool workers):
-    #: the run's ``max_memory``; None: no limit.
+    #: Bytes of address space each child process may use (None: no limit).
     memory_limit: int | None = None
-    #: Rows of the stage (design row numbers) known to crash or hang their process, with the
-    #: reason recorded when they did: they fail again without being run.
+    #: Design rows known to crash or hang their process, with the reason: they fail unrun.
     known: Mapping[int, str] = field(default_factory=dict)
-    #: Told ``(design row, reason)`` for each row isolated by a crash or a timeout, in the
-    #: process that found it; never sent to a worker (the driver records the rows).
+    #: Told ``(design row, reason)`` for each row isolated by a crash or a timeout (the driver
+    #: records it; never sent to a worker).
     on_isolated: Callable[[int, str], None] | None = None
-    #: Where the worker writes the per-run values of a reduced chunk in place (shared memory,
-    #: :mod:`uqguide.driver.execution.shared_rows`); set by the driver once the first chunk back has
-    #: shown their shapes, so the chunks sent before it bring theirs through the pipe.
+    #: Where a worker writes a reduced chunk's per-run values in place, once the first chunk
+    #: back has shown their shapes (:mod:`.shared_rows`).
     shared: RowsLayout | None = None
 
     def __getstate__(self) -> dict[str, Any]:

@@ -24,12 +24,8 @@ SCHEDULER_LOST = "scheduler-connection-lost"
 
 class NoWorkerWatch:
     """Raises :class:`~uqguide.errors.ClusterLost` once a cluster has had no worker for
-    ``timeout`` seconds in a row.
-
-    ``count()``: the scheduler's number of workers now, None when it cannot be asked (the
-    connection is lost: the run stops at once); ``where``: the scheduler address, for the
-    message; ``clock``: monotonic seconds (a test's fake clock).
-    """
+    ``timeout`` seconds in a row, or at once when ``count()`` (the scheduler's workers now)
+    gives None (the connection is lost); ``where``: the scheduler's address."""
 
     def __init__(self, count: Callable[[], int | None], timeout: float, where: str,
                  clock: Callable[[], float] = time.monotonic) -> None:
@@ -42,8 +38,7 @@ class NoWorkerWatch:
 
     @property
     def poll_seconds(self) -> float:
-        """How often to look while no chunk comes back: a twentieth of the timeout, at most a
-        second (one small request to the scheduler each time)."""
+        """How often to look while no chunk comes back (one small request each time)."""
         return min(1.0, self.timeout / 20)
 
     def saw_worker(self) -> None:
@@ -71,25 +66,17 @@ class NoWorkerWatch:
 
 
 def scheduler_lost(where: str) -> str:
-    """The message of a run whose connection to the scheduler at ``where`` closed (the
-    scheduler died, or its host or the network went)."""
+    """The message of a run whose connection to the scheduler at ``where`` closed."""
     return f"lost the connection to the Dask scheduler at {where}"
 
 
-def cancelled_reasons(exc: BaseException) -> set[str]:
-    """Dask's reasons for cancelling the futures of ``exc`` (a ``FuturesCancelledError`` of
-    ``wait``, a ``FutureCancelledError`` of ``result``; empty for anything else)."""
-    groups = getattr(exc, "error_groups", None)
-    if groups is not None:
-        return {str(g.reason) for g in groups}
-    reason = getattr(exc, "reason", None)
-    return {str(reason)} if reason is not None else set()
-
-
 def cancelled_message(exc: BaseException, where: str, connected: bool) -> str:
-    """Why the chunks in flight were cancelled (Dask's ``exc``), for
-    :class:`~uqguide.errors.ClusterLost`."""
-    reasons = cancelled_reasons(exc)
+    """Why the chunks in flight were cancelled (Dask's ``FuturesCancelledError`` of ``wait`` or
+    ``FutureCancelledError`` of ``result``), for :class:`~uqguide.errors.ClusterLost`."""
+    groups = getattr(exc, "error_groups", None)
+    reason = getattr(exc, "reason", None)
+    reasons = ({str(g.reason) for g in groups} if groups is not None else
+               {str(reason)} if reason is not None else set())
     if not connected or SCHEDULER_LOST in reasons:
         return scheduler_lost(where)
     why = ", ".join(sorted(reasons)) or "no reason given"

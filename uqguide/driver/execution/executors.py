@@ -53,13 +53,12 @@ class Executor(Protocol):
 
 
 class SerialExecutor:
-    """Evaluates chunks one after another in this process (the model calls of a model that
-    can crash its process in a guard process: :mod:`.guard`). ``batch_size``: samples per model
-    call (memory / cache granularity; does not change the numbers), default the config's."""
+    """Evaluates chunks one after another in this process. ``batch_size``: samples per model
+    call (memory only, never the numbers), default the config's."""
 
     shares_memory = False  # nothing to share: the values are in this process already
-    #: A model call that crashes would take the driver with it: the driver isolates models
-    #: that can crash (:attr:`uqguide.models.base.Model.may_crash`) in a guard process.
+    #: A crashing model call would take the driver with it: the driver puts the calls of a
+    #: model that may crash in a guard process (:mod:`.guard`).
     in_process = True
 
     def __init__(self, batch_size: int | None = None) -> None:
@@ -168,15 +167,14 @@ class ProcessExecutor(_WindowedExecutor):
         return self._pool
 
     def start(self) -> None:
-        """Start the worker processes now, so they import while the driver still checks the
-        config and opens the run folder (about a second of a short run's wall time). Each
-        imports uqguide and numba; nothing else is done until a chunk comes."""
+        """Start the worker processes now, so they import uqguide and numba while the driver
+        still checks the config and opens the run folder."""
         pool = self._get_pool()
         with sigint_ignored():
             for _ in range(self.workers):
                 pool.submit(warm_up)
 
-    def _rebuild(self) -> None:
+    def _drop_pool(self) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
         self._pool = None
@@ -217,14 +215,14 @@ class ProcessExecutor(_WindowedExecutor):
                 suspects.append(t)
         log.warning("a worker process died; re-running the %d chunks in flight one by one",
                     len(suspects))
-        self._rebuild()
+        self._drop_pool()
         for t in sorted(suspects, key=lambda t: t.index):
             try:
                 yield self._submit(job, t, x[t.start:t.stop]).result()
             except BrokenProcessPool:
                 log.warning("chunk %d (%d samples) crashed its worker again; finding the "
                             "sample(s) by bisection in guard processes", t.index, t.n)
-                self._rebuild()
+                self._drop_pool()
                 yield isolate_crash(job, t, x[t.start:t.stop])
 
     def abort(self) -> None:
@@ -236,13 +234,10 @@ class ProcessExecutor(_WindowedExecutor):
             # Wait for the pool's manager thread to see its workers gone and release the
             # queues' semaphores; otherwise an exit right after leaves them to the resource
             # tracker, which warns on stderr after the interrupted run's last line.
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+            self._drop_pool()
 
     def close(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+        self._drop_pool()
         close_guards()
 
 
@@ -250,16 +245,10 @@ class DaskExecutor(_WindowedExecutor):
     """Chunks submitted to a ``dask.distributed`` cluster (``address``, e.g.
     ``tcp://10.0.0.5:8786``, a ``scheduler_file`` or an existing ``client``, not closed).
 
-    Each chunk is one ``client.submit(run_chunk, ..., pure=False, retries=retries)``:
-    ``pure=False`` because two chunks with equal inputs must still both run (and a resubmitted
-    chunk must not be served from a stale key); ``retries`` re-runs a chunk whose task raised
-    (e.g. a lost connection). A chunk whose workers keep dying (Dask's ``KilledWorker`` after
-    ``distributed.scheduler.allowed-failures``) fails whole with the reason. Workers need
-    uqguide (and a callable model's module) importable; they never write files.
-
-    A cluster without any worker for ``no_workers_timeout`` seconds, or a lost scheduler,
-    stops the run with :class:`~uqguide.errors.ClusterLost` (:mod:`.cluster_watch`), where
-    Dask would wait for a worker forever.
+    Each chunk is one ``client.submit(..., pure=False, retries=retries)`` (``pure=False``: two
+    chunks with equal inputs must both run, a resubmitted one not be served from a stale key).
+    A cluster without a worker for ``no_workers_timeout`` seconds, or a lost scheduler, stops
+    the run with :class:`~uqguide.errors.ClusterLost`. How it behaves: ``docs/scale.md``.
     """
 
     shares_memory = False  # workers may be on other machines

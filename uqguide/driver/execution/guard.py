@@ -1,15 +1,10 @@
 """Model calls that cannot hang a run or take a process down with them.
 
-A **guard process** is a child of the process evaluating the chunk (the driver or a pool
-worker), started once and reused. With ``timeout_s`` every model call runs in one; without it,
-a model that can crash its process (every ``callable``, any model with ``isolate: true``) of a
-run without workers does. A call that does not answer in time, or whose process dies, is killed
-with its process and its batch is bisected in fresh guards down to single samples: a hanging or
-crashing sample fails alone, with the reason. A guard ends by SIGTERM (killing the programs it
-waits for, :mod:`uqguide.core.process_groups`), then SIGKILL a second later; it is capped at
-``max_memory`` (:func:`~.processes.limit_memory`) and dies with its parent. A model given as
-``"module:function"`` does not re-import the run's script; one defined in ``__main__`` does.
-Costs, figures and the failure table: ``docs/scale.md#failures``.
+A **guard process** is a child of the process evaluating the chunk, started once and reused.
+With ``timeout_s`` every model call runs in one; without it, a model that can crash its process
+does in a run without workers. A call that does not answer in time, or whose process dies, is
+killed with its process and its batch bisected in fresh guards down to single samples: a
+hanging or crashing sample fails alone, with the reason. When and how: ``docs/scale.md#failures``.
 """
 
 from __future__ import annotations
@@ -117,11 +112,10 @@ def _main_hidden() -> Iterator[None]:
 
 
 def _context(needs_main: bool) -> Any:
-    """Where a guard process comes from: a single-threaded **fork server** (a fresh guard after
-    a crash costs a fork, not half a second of imports: 40 of them to find 4 crashing samples in
-    1000), or ``spawn`` for a model defined in the main script, which must be imported. Either
-    keeps its temporary files (the fork server's socket) in a marked folder, which the next
-    run sweeps if this one is killed."""
+    """Where a guard process comes from: a single-threaded fork server (a fresh guard after a
+    crash costs a fork, not the imports), or ``spawn`` for a model defined in the main script.
+    Either keeps its temporary files (the fork server's socket) in a marked folder, swept by the
+    next run if this one is killed."""
     multiprocessing_folder()
     if needs_main or "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
@@ -145,8 +139,6 @@ class Guard:
         self._conn: Any = None
         self._prepared: Any = None
         self._needs_main: dict[int, bool] = {}
-        #: Guard processes started (the first, and one after each crash or timeout).
-        self.n_started = 0
         #: Why the model cannot run here (a guard that could not start or build it): a run
         #: whose isolation is only the default then evaluates in its own process.
         self.unavailable = ""
@@ -165,7 +157,6 @@ class Guard:
             else:
                 with _main_hidden():
                     proc.start()
-        self.n_started += 1
         child.close()
         self._proc, self._conn = proc, parent
         self._prepared = None
@@ -267,12 +258,9 @@ def close_guards() -> None:
 def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Collection[str],
                   timeout_s: float | None, memory_limit: int | None = None,
                   on_isolated: OnIsolated | None = None) -> ModelOutput:
-    """``evaluate_batch`` in the guard process, bisected on a timeout or a crash (module
-    docstring); the samples that time out or crash alone fail with the reason.
-
-    ``x (n, d)``: SI units, column ``j`` for ``names[j]``; ``on_isolated(row, reason)``: told of
-    each row that failed alone (the driver records it, so that a resume does not run it again).
-    """
+    """``evaluate_batch`` in the guard process, bisected on a timeout or a crash down to the
+    samples that fail alone; ``x (n, d)``: SI units, column ``j`` for ``names[j]``;
+    ``on_isolated(row, reason)``: told of each (the driver records it for a resume)."""
     model = handle.model
     guard = guard_for(timeout_s, memory_limit)
     pieces: list[Any] = []

@@ -18,13 +18,9 @@ log = logging.getLogger(__name__)
 
 def evaluate_batch(model: Model, x: np.ndarray, names: Sequence[str],
                    outputs: Collection[str]) -> ModelOutput:
-    """``model.evaluate`` on ``x (n, d)``; samples whose evaluation raises fail alone, with
-    ``"ExceptionType: message"``.
-
-    When the call raises, the batch is split in halves recursively until the raising samples
-    are single (the model is deterministic per sample, so the others' values do not depend on
-    the split). A ModelError (a contract violation, not a sample's failure) propagates.
-    """
+    """``model.evaluate`` on ``x (n, d)``; a raising call is split in halves until the raising
+    samples fail alone, with ``"ExceptionType: message"`` (the model is deterministic per
+    sample, so the split does not change the others). A ModelError propagates."""
     pieces: list[ModelOutput | tuple[int, str]] = []
     _bisect(model, x, names, outputs, pieces)
     raised = [p[1] for p in pieces if not isinstance(p, ModelOutput)]
@@ -71,14 +67,9 @@ def _bisect(model: Model, x: np.ndarray, names: Sequence[str], outputs: Collecti
 def skipping_known(model: Model, x: np.ndarray, outputs: Collection[str],
                    known: Mapping[int, str],
                    evaluate: Callable[[np.ndarray, int], ModelOutput]) -> ModelOutput:
-    """``evaluate(x)`` without the rows already known to crash or hang their process.
-
-    A row isolated by an earlier attempt of the run (its checkpoint lists it in ``known`` with
-    its reason) fails again with that reason, without being run: a resume never runs a known
-    crasher again, and its result equals the uninterrupted run's. The other rows are evaluated
-    in the stretches between them, ``evaluate(rows (m, d), first row)`` (the model is
-    deterministic per sample, so the split does not change their values).
-    """
+    """``evaluate(x)`` without the rows ``known`` (from the checkpoint) to crash or hang their
+    process: they fail again with their reason, unrun; the others are evaluated in the
+    stretches between them, ``evaluate(rows (m, d), first row)``."""
     rows = sorted(r for r in known if 0 <= r < x.shape[0])
     if not rows:
         return evaluate(x, 0)
@@ -122,9 +113,8 @@ def _regrid(p: ModelOutput, grid: np.ndarray) -> ModelOutput:
 
 def failed_output(model: Model, n: int, outputs: Collection[str], reason: str,
                   time_grid: np.ndarray | None = None) -> ModelOutput:
-    """An all-failed ModelOutput of ``n`` samples (NaN series ``(n, T, k)`` and scalars
-    ``(n, k)``) with one ``reason``; ``time_grid`` defaults to the grid of the model's nominal
-    run when it has series (empty if even that raises)."""
+    """An all-failed ModelOutput of ``n`` samples (NaN values) with one ``reason``; ``time_grid``
+    defaults to the grid of the model's nominal run."""
     infos = [model.output_info(o) for o in outputs]
     if time_grid is None:
         time_grid = np.zeros(0)

@@ -18,24 +18,16 @@ from typing import Any
 OVER_MEMORY_EXIT = 75
 
 #: Smallest per-process limit applied: Python, NumPy, numba and uqguide take about half a GB
-#: of address space before any sample runs; a smaller ``max_memory`` would stop every child
-#: at its start, which says nothing about the model.
+#: of address space before any sample runs.
 MIN_PROCESS_MEMORY = 1 << 30
 
 _memory_limit: dict[str, int] = {}
 
 
 def limit_memory(n_bytes: int | None) -> None:
-    """Cap this process's address space (``RLIMIT_AS``, soft limit) at ``n_bytes`` (None:
-    unchanged).
-
-    Called in the child processes a run starts (guard processes, pool workers), never in the
-    driver: an allocation over the limit raises MemoryError there, the child ends with
-    :data:`OVER_MEMORY_EXIT` and the samples of its call are bisected like a crash, so a model
-    that leaks costs failed samples, not the machine. Address space, not resident memory, is
-    what Linux can cap per process; it overcounts (thread stacks, mapped libraries), hence
-    :data:`MIN_PROCESS_MEMORY`. A no-op where ``resource`` is missing.
-    """
+    """Cap this child process's address space (``RLIMIT_AS``: what Linux can cap per process)
+    at ``n_bytes`` (None: unchanged); an allocation over it ends the child with
+    :data:`OVER_MEMORY_EXIT`, and its call is bisected like a crash."""
     if n_bytes is None or _memory_limit.get("bytes") == n_bytes:
         return
     try:
@@ -56,10 +48,7 @@ def memory_limited() -> bool:
 
 
 def die_with_parent(sig: int = signal.SIGKILL) -> None:
-    """Make this process end when its parent does (call first thing in a child process).
-
-    ``sig`` is the signal the kernel sends it then: SIGTERM for a process whose handler has
-    something to clean up (a guard's external programs), SIGKILL otherwise."""
+    """Make this process end by ``sig`` when its parent does (call first thing in a child)."""
     parent = os.getppid()
     if sys.platform.startswith("linux"):
         try:
@@ -86,20 +75,13 @@ def die_with_parent(sig: int = signal.SIGKILL) -> None:
     threading.Thread(target=watch, name="uqguide-parent-watch", daemon=True).start()
 
 
-def ignore_sigint() -> None:
+def init_worker(threads: int, started: Any = None) -> None:
+    """Worker start: ignore SIGINT, cap compiled kernels' ``threads`` at the worker's share of
+    the cores (``NUMBA_NUM_THREADS``, unless set), and set ``started``: a pool that breaks
+    before any worker set it died starting up, not on a sample."""
     # Ctrl-C on a terminal reaches the whole process group: the driver handles it (stops and
     # leaves a resumable run); workers must not die printing tracebacks.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def init_worker(threads: int, started: Any = None) -> None:
-    """Worker start: ignore SIGINT and cap compiled kernels' ``threads`` at the worker's share
-    of the cores (``NUMBA_NUM_THREADS``, unless set: N workers each running an all-core numba
-    kernel would oversubscribe the machine). Numba reads the variable when first imported,
-    which in a spawned worker is after this. ``started`` is set once this worker has started: a
-    pool that breaks before any worker set it died starting up (:func:`starting_worker`), not on
-    a sample."""
-    ignore_sigint()
     die_with_parent()  # a driver killed (out of memory) must not leave workers holding its pipes
     os.environ.setdefault("NUMBA_NUM_THREADS", str(threads))
     if started is not None:
@@ -118,33 +100,20 @@ WORKERS_DID_NOT_START = (
     "`if __name__ == \"__main__\":`")
 
 
-def starting_worker() -> bool:
-    """Is this process a spawned worker still importing its parent's main script?
-
-    ``multiprocessing`` re-runs the parent's ``__main__`` in every ``spawn`` child before the
-    child does any work; code that starts a run from an unguarded script reaches the run again
-    there. Python marks that phase with ``current_process()._inheriting``, the flag its own
-    "before the current process has finished its bootstrapping phase" check reads.
-    """
-    return bool(getattr(multiprocessing.current_process(), "_inheriting", False))
-
-
 def refuse_nested_run() -> None:
-    """End a starting worker quietly instead of letting it start the whole run again.
-
-    The parent sees its pool break before any worker started and raises one
-    :class:`~uqguide.errors.WorkerStartError` that says how to fix the script; a traceback from
-    every worker would bury that line.
-    """
-    if starting_worker():
+    """End quietly a spawned worker still importing its parent's unguarded main script, which
+    would start the whole run again: the parent then raises one WorkerStartError saying how to
+    fix the script, where a traceback from every worker would bury that line."""
+    # Python marks that phase with current_process()._inheriting, the flag its own "before the
+    # current process has finished its bootstrapping phase" check reads.
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
         raise SystemExit(NESTED_RUN_EXIT)
 
 
 @contextmanager
 def sigint_ignored() -> Iterator[None]:
-    """Ignore SIGINT while worker processes are started, so they inherit the ignore from birth
-    (Python keeps an inherited SIG_IGN) and a Ctrl-C during their start-up cannot kill them
-    with a traceback."""
+    """Ignore SIGINT while child processes are started, so they inherit the ignore from birth
+    and a Ctrl-C during their start-up cannot kill them with a traceback."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return

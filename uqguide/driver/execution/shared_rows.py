@@ -1,14 +1,10 @@
 """Per-run values that pool workers write in place, in memory shared with the driver.
 
 The driver lays out one array per value for the whole stage, from the first chunk that comes
-back, in files under ``/dev/shm``. Later chunks write their rows in place (a scalar's rows
-``[start, stop)``; a per-run summary's columns ``[start, start + n)``, its ``n`` good runs) and
-send only the sums through the pool's pipe; the driver takes views and copies nothing. The
-numbers are the pipe's, bit for bit: only where the values travel changes. Each file is
-reserved whole (``posix_fallocate``) before a worker writes to it, so a small ``/dev/shm``
-means the pipe, never a SIGBUS; without ``/dev/shm`` the pipe it is too. The files are unlinked
-when the stage ends; a killed driver's are removed by the next run's sweep. What the pipe cost
-before: ``docs/scale.md#memory``.
+back, in files under ``/dev/shm``; later chunks write their rows in place and send only the
+sums through the pool's pipe. Each file is reserved whole before a worker writes to it, so a
+small ``/dev/shm`` means the pipe, never a SIGBUS. The files are unlinked when the stage ends;
+a killed driver's by the next run's sweep. Why: ``docs/scale.md#memory``.
 """
 
 from __future__ import annotations
@@ -23,8 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.atomic import pid_alive
-from .chunks import ChunkResult
-from .row_layout import RowsLayout, Slot
+from .chunks import ChunkResult, RowsLayout, Slot
 
 log = logging.getLogger(__name__)
 

@@ -11,12 +11,8 @@ _MODEL_CACHE: dict[tuple[str, str], Model] = {}
 
 
 class ModelHandle:
-    """A model that travels to worker processes as its registered name and parameters.
-
-    Rebuilding in the worker (once per process: cached) avoids pickling whatever a simulator
-    keeps (compiled kernels, caches); a model that is not the registered class of its name
-    (a test's own subclass) is pickled whole.
-    """
+    """A model that travels to worker processes as its registered name and parameters; one that
+    is not the registered class of its name (a test's own subclass) is pickled whole."""
 
     def __init__(self, model: Model) -> None:
         self.model = model

@@ -45,12 +45,7 @@ def _evaluate(job: ChunkJob, rows: np.ndarray, first: int) -> ModelOutput:
 def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResult:
     """Evaluate one chunk ``x (m, d)`` (SI units; a RowRange is made here) in model calls of
     ``job.batch_size`` samples, then reduce it with ``job.reducer`` (given the chunk's index)
-    when there is one. Runs in whichever process the executor chose.
-
-    The result holds failures, reasons, grid and scalars ``(m, k)``; the series ``(m, T, k)``
-    when not reduced, the reducer's summary when reduced; the seconds spent in the model and,
-    apart, those spent compiling its kernel.
-    """
+    when there is one, in whichever process the executor chose."""
     model = job.model.model
     x = np.asarray(x)  # a RowRange: the rows are made here
     m = x.shape[0]
@@ -82,9 +77,8 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
 
 
 def run_chunk_in_worker(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResult:
-    """:func:`run_chunk` in a pool worker, capped at ``job.memory_limit``: a worker whose model
-    goes over it ends (the pool re-runs its chunk alone, then in guard processes, like a
-    crash) instead of failing every later sample with the memory its model still holds."""
+    """:func:`run_chunk` in a pool worker capped at ``job.memory_limit``: over it, the worker
+    ends like a crash instead of failing every later sample with the memory still held."""
     limit_memory(job.memory_limit)
     try:
         return run_chunk(job, task, x)
