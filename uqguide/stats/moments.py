@@ -31,10 +31,8 @@ _R = TypeVar("_R")
 
 
 def quiet_overflow() -> np.errstate:
-    """A context without numpy's warnings of overflow (and of the NaN it makes), for fits and
-    statistics: outputs near 1e300 overflow their power sums, and the run says once which
-    output did (:func:`overflowed`) instead of a warning per line of arithmetic. The numbers
-    are the same."""
+    """A context without numpy's overflow warnings: the run says once which output overflowed
+    (:func:`overflowed`) instead of a warning per line of arithmetic."""
     return np.errstate(over="ignore", invalid="ignore")
 
 
@@ -69,19 +67,11 @@ def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.nd
 def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
                skewness: np.ndarray | float, kurtosis: np.ndarray | float,
                sample: bool = True, n_used: int | None = None) -> dict[str, np.ndarray]:
-    """Where moments of finite values are not finite: their sums overflowed double precision.
+    """Per statistic name, where moments of finite values overflowed double precision
+    (docs/statistics.md#overflow).
 
-    Finite values have finite moments, so a moment that is infinite, or (sample moments) a std
-    that is NaN beside a finite mean or a skewness or kurtosis that is NaN where the variance
-    is not zero (the test of :func:`shape_moments`), came from a power sum beyond 1.8e308
-    (outputs near 1e300; a spread whose 4th power passes it, from about 1e77). Where the std
-    overflowed, the skewness and kurtosis are ratios of overflowed sums (0 or NaN), marked too.
-
-    ``sample`` False: a PCE withholds a skewness or kurtosis as NaN (:mod:`uqguide.pce.support`)
-    and a multi-fidelity estimate gives NaN for a negative variance
-    (:mod:`uqguide.stats.mfmc_estimator`): only the infinite ones are read so. ``n_used``: a
-    moment NaN for want of runs (:func:`founded`) did not overflow. Returns per statistic name
-    where it overflowed.
+    ``sample`` False (PCE, multi-fidelity: their NaN means withheld): only infinite values count.
+    ``n_used``: a moment NaN for want of runs (:func:`founded`) did not overflow.
     """
     mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
     skew, kurt = np.asarray(skewness, dtype=float), np.asarray(kurtosis, dtype=float)
@@ -136,11 +126,8 @@ def bootstrap_intervals(
     """Percentile-bootstrap intervals ``(2, ...)`` of mean, std, skewness and kurtosis of
     ``y (n, ...)``.
 
-    Vectorised: a block of resamples is a matrix of multiplicities ``c (b, n)`` and the
-    resampled power sums are matrix products ``c @ d**p`` of the data centred at the full-sample
-    mean (centring keeps the raw-to-central conversion well conditioned). Columns are processed
-    in blocks so the powers of the data stay under ``max_bytes``; resample block ``j``'s
-    multiplicities come from the stream ``(seed, j)``, so every column sees the same resamples.
+    Resample block ``j`` draws from the stream ``(seed, j)``, so every column block (sized so
+    the data's powers stay under ``max_bytes``) sees the same resamples.
     """
     n = y.shape[0]
     shape = y.shape[1:]
@@ -191,19 +178,9 @@ def _nan_safe_percentile(v: np.ndarray, alpha: float) -> np.ndarray:
 def delta_standard_errors(
     mu: tuple[np.ndarray, ...], n: float | np.ndarray,
 ) -> dict[str, np.ndarray]:
-    """Delta-method (influence-function) standard errors of mean, std, skewness, kurtosis.
+    """Delta-method standard errors of mean, std, skewness, kurtosis
+    (docs/statistics.md#delta-method-standard-errors).
 
-    With ``z = (y - mean) / sigma`` and the standardized moments ``r_k = E z^k``, the influence
-    functions of the population estimators are polynomials in ``z``:
-
-    - mean: ``sigma z``;
-    - std: ``sigma (z^2 - 1) / 2``;
-    - skewness ``g = r_3``: ``z^3 - (3 g / 2) z^2 - 3 z + g / 2``;
-    - kurtosis ``k = r_4``: ``z^4 - 2 k z^2 - 4 g z + k``;
-
-    and the estimator's variance is ``E[IF^2] / n`` (Serfling 1980, section 2.2.3; the
-    skewness and kurtosis forms are eqs 2.2-2.3 of Wright & Herrington 2011 written for the
-    population estimators), a quadratic form in the standardized moments up to ``r_8``.
     ``mu``: central moments ``(mu_2, ..., mu_8)``; ``n`` broadcasts against them (a bootstrap's
     per resample). NaN where the variance is zero.
     """
@@ -251,15 +228,11 @@ def sample_statistics(
     ci_index: np.ndarray | None = None, intervals: str = "bootstrap",
 ) -> OutputStats:
     """Statistics of samples ``y (n, T, k)`` or ``(n, k)`` over the first axis (failed runs
-    removed).
+    removed): moments ``(..., k)``, covariance ``(..., k, k)``, intervals ``(2, ..., k)``.
 
     ``ci_index``: for a series, the time indices to bootstrap at (NaN intervals elsewhere;
-    default all): the bootstrap costs ``2 * bootstrap * n`` flops per power, column and
-    resample, so a 1e5-sample series is bootstrapped where it is reported. ``intervals``:
-    ``"delta"`` (:func:`delta_intervals`) or ``"tail"``
-    (:func:`uqguide.stats.tail_intervals.tail_intervals`) at every step, ``bootstrap`` then only
-    switching them on when positive. Moments ``(..., k)``, covariance ``(..., k, k)``, intervals
-    ``(2, ..., k)``; ``moments_method="sample"``.
+    default all). ``intervals``: ``"bootstrap"``, ``"delta"`` or ``"tail"`` (every step);
+    ``bootstrap`` 0 switches intervals off.
     """
     y = np.asarray(y, dtype=float)
     n = y.shape[0]
@@ -292,28 +265,14 @@ def sample_statistics(
     )
 
 
-# ---------------------------------------------------------------------------- streaming form
-# Monte Carlo at scale never holds every sample of a time series: each chunk of samples is
-# reduced to mergeable sums where it is evaluated, and the sums are merged in chunk order.
 @dataclass
 class MomentSums:
-    """Mergeable moment sums of (possibly weighted) samples: count, mean, central sums.
+    """Mergeable sums of (possibly weighted) samples: total weight ``n``, ``mean``, central sums
+    ``m2``-``m4``, comoments ``cm`` (docs/statistics.md#mergeable-moment-sums).
 
-    For samples ``y_i`` with weights ``w_i`` (1 for plain samples)::
-
-        n = sum w_i,  mean = sum w_i y_i / n,  m_p = sum w_i (y_i - mean)^p  (p = 2, 3, 4),
-        cm = sum w_i (y_i - mean)(y_i - mean)^T   (comoments, optional)
-
-    Two summaries of disjoint sample sets merge exactly (up to rounding) by the pairwise
-    formulas of Chan, Golub & LeVeque (1979) and Pébay (2008, Sandia SAND2008-6212, eqs 3.1
-    and 3.2, which hold for real weights), so statistics of any number of chunks come out of
-    one pass without keeping the samples. The merge is not associative in floating point:
-    merging in a fixed (chunk) order makes the result independent of which process reduced
-    which chunk.
-
-    ``n``: total weight, ``(B, 1)`` for ``B`` bootstrap resamples; fields ``(..., k)`` or
-    ``(B, c)``; ``cm (..., k, k)``; ``high (H, ..., k)``: central sums of orders 5 to ``4 + H``,
-    5-16 for plain samples (the delta-method and tail-aware intervals) and 5-8 for a bootstrap's.
+    ``n``: ``(B, 1)`` for ``B`` bootstrap resamples; fields ``(..., k)`` or ``(B, c)``;
+    ``cm (..., k, k)``; ``high (H, ..., k)``: central sums of orders 5 to ``4 + H`` (5-16 for
+    plain samples, 5-8 for a bootstrap's).
     """
 
     n: float | np.ndarray
@@ -392,13 +351,8 @@ class MomentSums:
     @_quiet_overflow
     def weighted(cls, y: np.ndarray, w: np.ndarray, high: bool = False) -> MomentSums:
         """Sums of ``y (n, c)`` under ``B`` weight vectors ``w (B, n)`` (bootstrap multiplicities):
-        ``n (B, 1)``, fields ``(B, c)``, no comoments.
-
-        The weighted power sums are matrix products of the weights with the powers of ``y``
-        centred at its plain mean (well conditioned), converted to central sums about each
-        resample's own weighted mean. ``high``: orders 5-8, ``(4, B, c)``, which each resample's own
-        delta-method standard error needs (the studentised bootstrap).
-        """
+        ``n (B, 1)``, fields ``(B, c)``, no comoments; ``high``: orders 5-8, ``(4, B, c)``
+        (the studentised bootstrap's per-resample standard errors)."""
         y = np.asarray(y, dtype=float)
         B = w.shape[0]
         if y.shape[0] == 0:
@@ -431,12 +385,8 @@ class MomentSums:
     def merge(self, other: MomentSums,
               outer: Callable[[np.ndarray], np.ndarray] | None = None) -> MomentSums:
         """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2); comoments only
-        where both sides have them.
-
-        ``outer``: the outer products ``delta_i delta_j`` of the means' difference, shaped as ``cm``
-        (default ``einsum`` over the last axis; :class:`uqguide.methods.monte_carlo.FoldedSums`
-        gathers them by index for comoments laid out flat).
-        """
+        where both sides have them. ``outer``: the outer products of the means' difference shaped
+        as ``cm`` (default ``einsum`` over the last axis)."""
         na, nb = self.n, other.n
         if np.ndim(na) == 0 and np.ndim(nb) == 0:
             # Whole-chunk sums: an empty side is the other side exactly.
@@ -546,13 +496,12 @@ def statistics_from_sums(
     """OutputStats from merged :class:`MomentSums` (the streaming form of
     :func:`sample_statistics`, the same to round-off).
 
-    ``sums``: plain sums, fields ``(..., k)``, comoments ``(..., k, k)``. ``boot``:
-    Poisson-bootstrap sums ``(B, c)`` of the interval columns: every column flattened, or for a
-    series the steps ``ci_index`` flattened ``(len(ci_index) * k)``; NaN intervals elsewhere.
-    ``delta``: plain sums with orders 5-8 of the interval columns (laid out as ``boot``'s), for
-    delta-method intervals when ``boot`` is None; with ``tail`` (orders up to 16) the tail-aware
-    intervals instead. ``uncertain``: the runs are draws of uncertain inputs, so a moment of
-    fewer runs than it needs is NaN; otherwise one run is the whole distribution.
+    ``sums``: plain sums. ``boot``: Poisson-bootstrap sums ``(B, c)`` of the interval columns
+    (all columns flattened, or the steps ``ci_index`` of a series): percentile intervals, or
+    studentised when ``boot`` and ``delta`` hold orders 5-8. ``delta``: plain sums with the
+    higher orders of those columns alone: delta-method intervals, tail-aware with ``tail``.
+    ``uncertain``: the runs are draws of uncertain inputs, so a moment of fewer runs than it
+    needs is NaN.
     """
     n = int(round(float(sums.n)))
     shape = sums.mean.shape
@@ -573,21 +522,11 @@ def statistics_from_sums(
         else:
             found = delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level)
         for name, q in found.items():
-            if ci_index is None:
-                ci[name] = q.reshape((2,) + shape)
-            else:
-                full = np.full((2,) + shape, np.nan)
-                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
-                ci[name] = full
+            ci[name] = _placed(q, shape, ci_index)
     if boot is not None and boot.high is not None and delta is not None and \
             delta.high is not None and n > 1:
         for name, q in studentized_intervals(delta, boot, level).items():
-            if ci_index is None:
-                ci[name] = q.reshape((2,) + shape)
-            else:
-                full = np.full((2,) + shape, np.nan)
-                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
-                ci[name] = full
+            ci[name] = _placed(q, shape, ci_index)
         boot = None
     if boot is not None and n > 1:
         bm, b2, b3, b4 = boot.central_moments()
@@ -595,34 +534,29 @@ def statistics_from_sums(
         alpha = (1.0 - level) / 2
         draws = {"mean": bm, "std": bstd, "skewness": bskew, "kurtosis": bkurt}
         for name, v in draws.items():
-            q = _nan_safe_percentile(v, alpha)
-            if ci_index is None:
-                ci[name] = q.reshape((2,) + shape)
-            else:
-                full = np.full((2,) + shape, np.nan)
-                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
-                ci[name] = full
+            ci[name] = _placed(_nan_safe_percentile(v, alpha), shape, ci_index)
     if uncertain:
         std, skew, kurt = founded(n, std, skew, kurt, ci)
     return OutputStats(mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=cov, n_used=n,
                        moments_method="sample", sem=std / np.sqrt(n), ci=ci)
 
 
+def _placed(q: np.ndarray, shape: tuple[int, ...], ci_index: np.ndarray | None) -> np.ndarray:
+    """Intervals ``q (2, c)`` of the interval columns laid out ``(2,) + shape``, NaN off the
+    steps ``ci_index`` (None: every column)."""
+    if ci_index is None:
+        return q.reshape((2,) + shape)
+    full = np.full((2,) + shape, np.nan)
+    full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
+    return full
+
 
 @_quiet_overflow
 def studentized_intervals(sums: MomentSums, boot: MomentSums, level: float = 0.95
                           ) -> dict[str, np.ndarray]:
-    """Studentised (bootstrap-t) intervals ``(2, c)`` of mean, std, skewness and kurtosis.
-
-    Each resample ``b`` gives its statistic ``T_b`` and its own delta-method standard error
-    ``S_b`` (:func:`delta_standard_errors` from its central sums up to the 8th), so the pivot
-    ``t_b = (T_b - T) / S_b`` carries what the normal interval ``T -+ 1.96 S`` leaves out: the
-    skew of the estimator's distribution and the correlation of a sample skewness or kurtosis
-    with its own standard error (a sample that missed the tail has both too small). The interval
-    is ``[T - t_(1-a/2) S, T - t_(a/2) S]`` (Efron & Tibshirani 1993, ch. 12; Hall 1992,
-    section 3.5: coverage error ``O(1/n)`` against the normal and percentile intervals'
-    ``O(1/sqrt(n))``). ``sums`` fields ``(c,)``, ``boot`` fields ``(B, c)``, both with orders
-    5-8. NaN where the variance is zero.
+    """Studentised (bootstrap-t) intervals ``(2, c)`` of mean, std, skewness and kurtosis
+    (docs/statistics.md#studentised-bootstrap). ``sums`` fields ``(c,)``, ``boot`` fields
+    ``(B, c)``, both with orders 5-8. NaN where the variance is zero.
     """
     n = float(sums.n)
     mus = tuple(m / n for m in sums.central_sums())
