@@ -26,7 +26,7 @@ from ..core.events import EventSpec, component_index
 from ..stats.quantiles import resolve_levels
 from ..core.strict import StrictModel
 from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
-from .limits import check_steps, memory_limit, parse_bytes
+from .limits import DEFAULT_MAX_STEPS, check_steps, memory_limit, parse_bytes
 from .report_times import check_report_times, model_time_grid
 from ..methods.base import Method, RunContext
 from ..models.base import Model
@@ -99,7 +99,7 @@ class RawConfig(StrictModel):
     #: estimate indices report; default (None): each correlated group, named by its inputs.
     groups: dict[str, list[str]] | None = None
     #: Integration steps one model run may take (a dt of 1e-9 s would run for ever).
-    max_steps: int = Field(default=10_000_000, ge=1, le=10**12)
+    max_steps: int = Field(default=DEFAULT_MAX_STEPS, ge=1, le=10**12)
     #: Largest estimated peak memory of a run ("8 GB", or bytes); default half the machine's
     #: memory, decided when the run starts (so a config means the same on every machine).
     max_memory: int | float | str | None = None

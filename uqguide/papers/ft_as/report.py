@@ -1,16 +1,11 @@
 """The paper's claims C1-C6 as report rows for ``uqguide simulate``.
 
-One batch runs the five controller configurations side by side at the model's step: FT-AS-A
-(the model default), FT-AS-P, the literal FT-AS, Case 1 and Case 2. Each claim becomes rows with
-the paper's figure, a tolerance (accuracy bounds x3, orderings with a 10 % margin, "~" within a
-factor 3) and a verdict, beside a prototype's reference values at :data:`REFERENCE_STEP`; C6 is
-also evaluated at :data:`C6_STEP`. The final-window maxima of the chattering loops, the late
-input peaks and the literal FT-AS's diverged state are chaotic under round-off: those rows show
-the median over :data:`ROUNDOFF_MEMBERS` + 1 perturbed runs with the range, checked over the
-whole ensemble (``Verdict``).
-
-The checks and reference values: docs/papers.md#ft-as-conventions-variants-and-checks; chaotic
-rows: docs/papers.md#reproducible-and-chaotic-figures.
+One batch runs the five controller configurations (FT-AS-A, the model default; FT-AS-P; the
+literal FT-AS; Case 1; Case 2) at the model's step; each claim becomes rows with the paper's
+figure, a tolerance and a verdict, beside a prototype's reference values at
+:data:`REFERENCE_STEP` (docs/papers.md#ft-as-conventions-variants-and-checks). Chaotic rows show
+the median of :data:`ROUNDOFF_MEMBERS` + 1 perturbed runs with the range, checked over the whole
+ensemble (docs/papers.md#reproducible-and-chaotic-figures).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The [W] nominal scenario beside the paper (``uqguide simulate``; claims W1-W10 of spec 10.1).
+"""The [W] nominal scenario beside the paper (``uqguide simulate``; claims W1-W10).
 
 The three controllers run from the configured initial state; per controller the report gives
 collision, clearances, delta-v (and its ratio to APF-TSMC's), final error, beside the paper's
@@ -52,7 +52,7 @@ def nominal_outcomes(model: GMMProximity,
 
 def nominal_report(model: GMMProximity) -> list[ReportRow]:
     """Per controller: collision, clearances, delta-v (and its ratio to APF-TSMC's), final
-    error, beside the paper's statements; then claims W1-W10 (spec 10.1) with verdicts."""
+    error, beside the paper's statements; then claims W1-W10 with verdicts."""
     out = nominal_outcomes(model)
     p = model.params
     rows: list[ReportRow] = []
