@@ -44,10 +44,8 @@ def ranks(n: int, p: float, level: float = LEVEL) -> tuple[int, int, int]:
 
 
 def binomial_ppf(q: float, n: int, p: float) -> int:
-    """The smallest ``k`` with ``P(Bin(n, p) <= k) >= q`` (``scipy.stats.binom.ppf``; the
-    tests check that they agree at the points of 90-99% intervals), from
-    ``scipy.special.bdtr``: importing ``scipy.stats`` for it cost a Monte Carlo run 0.8 s at
-    its end."""
+    """The smallest ``k`` with ``P(Bin(n, p) <= k) >= q``, as ``scipy.stats.binom.ppf`` (whose
+    import cost a Monte Carlo run 0.8 s)."""
     from scipy.special import bdtr
 
     if q <= 0.0:
@@ -191,13 +189,10 @@ def select_lanes(lanes: Sequence[np.ndarray], positions: list[int]) -> np.ndarra
     return out
 
 
-#: columns compared at once: the runs are cut (or joined) into blocks this wide, whatever
-#: the chunking, so every bracket's compares reuse a block from cache and the calls stay few
-#: (9 lanes of 1e6 runs: 0.032 s in 65536-column blocks, 0.038 s in the 8192-run chunks as
-#: they come). With many lanes a block narrows to ``_BLOCK_VALUES`` values, but to no fewer
-#: than ``_MIN_COLUMNS`` columns (the calls per lane would add up: 3000 lanes of 11000 runs
-#: took 0.94 s in 349-column blocks, 0.63 s in 8192-column ones), and then chunks are only
-#: cut, never joined, so that no buffer grows with the lanes.
+#: columns compared at once, whatever the chunking, so a bracket's compares reuse a block from
+#: cache; with many lanes fewer (``_BLOCK_VALUES`` values, at least ``_MIN_COLUMNS`` columns),
+#: chunks then only cut, never joined, so no buffer grows with the lanes. Measured:
+#: docs/statistics.md#order-statistics-and-their-ranks.
 _BLOCK_COLUMNS = 65536
 _BLOCK_VALUES = 1 << 20
 _MIN_COLUMNS = 8192
