@@ -1,15 +1,11 @@
 """Time and memory budgets, checked before anything runs.
 
-``uqguide validate`` and ``uqguide run`` print, per method, the model runs, the steps of one run
-and an estimate of the driver's peak memory (:func:`estimate`); ``run`` refuses (ConfigError,
-exit 2) an estimate above the config's ``max_memory`` before allocating anything
-(:func:`check_memory`), the config is refused when one run would take more than ``max_steps``
-steps (:func:`check_budget`), and a PCE whose surrogate draws would cost more than
-:data:`MAX_SURROGATE_TERMS` term evaluations (:data:`DRAW_OVERHEAD_TERMS` per draw besides its
-terms) is refused with the largest ``surrogate_draws`` that fits (:func:`check_surrogate`). The
-estimate is a bound for planning; ``benchmarks/scale.py`` measures.
-
-What the estimate counts: docs/scale.md#what-the-memory-estimate-counts.
+Per method the model runs, the steps of one run and an estimate of the driver's peak memory
+(:func:`estimate`, printed by ``validate`` and ``run``). Refused before anything is allocated
+(ConfigError, exit 2): an estimate above ``max_memory`` (:func:`check_memory`), a run over
+``max_steps`` steps (:func:`check_budget`), surrogate draws over :data:`MAX_SURROGATE_TERMS`
+term evaluations (:func:`check_surrogate`). What the estimate counts:
+docs/scale.md#what-the-memory-estimate-counts.
 """
 
 from __future__ import annotations

@@ -1,14 +1,10 @@
 """The multi-fidelity Monte Carlo estimator of mean, std, skewness and kurtosis, with intervals.
 
-Peherstorfer, Willcox & Gunzburger (2016, PWG16): level ``j`` (0 = highest fidelity) ran on the
-first ``m_j`` rows of one input stream, and ``M_0(0) + sum_j alpha_j (M_j(j) - M_j(j-1))`` is
-unbiased for level 0 whatever the weights. The powers 1-4 of each level, centred at its own mean,
-get their own weights; ``estimator="blue"`` combines the same runs by their best linear unbiased
-estimator (Schaden & Ullmann 2020). Intervals: a bootstrap within the independent groups of rows
-(:func:`group_bounds`); a failed row is dropped at every level.
-
-Formulas, the design decisions and what they changed on FT-AS:
-docs/multifidelity.md#the-estimator-and-the-allocation-in-detail.
+Peherstorfer, Willcox & Gunzburger (2016, PWG16), level ``j`` (0 = highest fidelity) on the
+first ``m_j`` rows of one input stream, each power 1-4 with its own weights; or (``"blue"``) the
+best linear unbiased estimator of the same runs. Intervals: a bootstrap within the independent
+groups of rows (:func:`group_bounds`); a failed row is dropped at every level. Formulas and
+design decisions: docs/multifidelity.md#the-estimator-and-the-allocation-in-detail.
 """
 
 from __future__ import annotations

@@ -1,15 +1,10 @@
 """Statistics of an output: the container and the sample estimators.
 
-Moments are the population (``1/n``) estimators; skewness and kurtosis are **non-excess** (a
-Gaussian has kurtosis 3) and NaN for a component of zero variance; a moment of fewer runs than
-:data:`~uqguide.core.types.RUNS_NEEDED` is NaN unless no input is uncertain. 95% intervals of
-mean, std, skewness and kurtosis come from the tail-aware intervals
-(:mod:`uqguide.stats.tail_intervals`, the Monte Carlo default), the delta method
-(:func:`delta_intervals`) or a percentile bootstrap with a fixed seed. A series' arrays carry
-time first (``mean (T, k)``, ``cov (T, k, k)``). Two forms of the same estimators: in memory
-(:func:`sample_statistics`, :func:`bootstrap_intervals`), and streaming (:class:`MomentSums`,
-:func:`statistics_from_sums`: per-chunk sums merged in chunk order, a Poisson bootstrap), which
-Monte Carlo always uses. Conventions and why two forms: ``docs/statistics.md#statistics``.
+Population (``1/n``) estimators, **non-excess** kurtosis; intervals tail-aware
+(:mod:`uqguide.stats.tail_intervals`), delta-method, bootstrap or studentised. Two forms of the
+same estimators: in memory (:func:`sample_statistics`) and streaming (:class:`MomentSums`,
+:func:`statistics_from_sums`), which Monte Carlo uses. Conventions and why two forms:
+docs/statistics.md#statistics; the formulas: docs/statistics.md#mergeable-moment-sums.
 """
 
 from __future__ import annotations

@@ -1,13 +1,9 @@
 """Quantiles from order statistics, with distribution-free intervals.
 
-The ``p``-quantile of ``n`` independent draws is ``Y_(ceil(n p))``; its 95% interval
-``[Y_(l), Y_(u)]`` takes its ranks from ``Bin(n, p)`` (:func:`ranks`, :func:`coverage`), so it
-covers at least 95% for any continuous output, and an end too few draws can bound is ``-inf`` /
-``+inf``. Monte Carlo selects the order statistics of every chunk's kept values at the end
-(:func:`select_lanes`) without sorting them, so the quantiles are exact and independent of the
-chunking and the workers.
-
-Derivation and the selection: docs/statistics.md#order-statistics-and-their-ranks.
+The interval's ranks come from ``Bin(n, p)`` (:func:`ranks`, :func:`coverage`); Monte Carlo
+selects the order statistics of every chunk's kept values at the end without sorting them
+(:func:`select_lanes`). Derivation and the selection:
+docs/statistics.md#order-statistics-and-their-ranks.
 """
 
 from __future__ import annotations
