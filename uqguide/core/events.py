@@ -39,7 +39,7 @@ class EventSpec(BaseModel):
         return f"{self.output}{comp} {op} {thr:g}"
 
     def threshold(self) -> float:
-        """The event's threshold: ``a`` (``below``) or ``b`` (``above``), in the output's unit."""
+        """The event's threshold: ``b`` (``below``) or ``a`` (``above``), in the output's unit."""
         value = self.below if self.below is not None else self.above
         assert value is not None, "validated: exactly one of below, above"
         return float(value)
