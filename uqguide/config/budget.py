@@ -35,7 +35,8 @@ class MethodBudget:
 
     @property
     def surrogate_work(self) -> float:
-        """Basis-term evaluations of the surrogate's draws (module docstring)."""
+        """Basis-term evaluations of the surrogate's draws (its terms and
+        :data:`DRAW_OVERHEAD_TERMS` a draw)."""
         return float(self.surrogate_draws) * (self.surrogate_terms + DRAW_OVERHEAD_TERMS)
 
 
@@ -83,7 +84,7 @@ class Budget:
 
 #: What one surrogate draw costs beside its basis terms, in term evaluations.
 DRAW_OVERHEAD_TERMS = 50
-#: Largest surrogate work of one method, in term evaluations (module docstring).
+#: Largest surrogate work of one method, in term evaluations (:func:`check_surrogate`).
 MAX_SURROGATE_TERMS = 5e9
 
 

@@ -25,8 +25,9 @@ from ..rows import ReportRow
 if TYPE_CHECKING:
     from ...models.ft_as.model import FTAS
 
-# Spec section 12.2, profile R at h = 0.01 s: final max|r_e,k| [m], max|sigma_e,k|,
-# max|omega_e,k| [rad/s], T(|r_e| <= 2e-4 m), T(|sigma_e| <= 1e-4), T(|eps1| <= 1e-3) [s], dv [m/s].
+# An independent prototype's reference values at h = 0.01 s ("spec 12.2" rows): final
+# max|r_e,k| [m], max|sigma_e,k|, max|omega_e,k| [rad/s], T(|r_e| <= 2e-4 m), T(|sigma_e| <= 1e-4),
+# T(|eps1| <= 1e-3) [s], dv [m/s].
 SPEC_12_2 = {
     "FT-AS": (1.2e-7, 2.2e-7, 7.1e-6, 1746.0, 135.0, 2.4, 11.1),
     "FT-AS-P": (1.3e-6, 2.3e-8, 6.1e-6, 1757.0, 181.0, 1254.0, 11.6),
@@ -43,8 +44,8 @@ PAPER_BOUNDS = {
 TABLE_1_R_E0 = (275.683, 374.962, -182.762)  # m, printed to 1 mm
 TABLE_1_V_E0 = (0.1858, -0.1769, -0.0827)  # m/s, printed to 0.1 mm/s
 ROUNDOFF_MEMBERS = 6  # perturbed runs beside the unperturbed one for the chaotic rows
-REFERENCE_STEP = 0.01  # s, step of the spec's section 12.2 values
-C6_STEP = 0.05  # s, step at which the spec measured claim C6
+REFERENCE_STEP = 0.01  # s, step of the prototype's reference values
+C6_STEP = 0.05  # s, step at which the prototype measured claim C6
 
 
 def report_variants() -> list[Variant]:
@@ -113,7 +114,7 @@ class ChaoticFigures:
 
 
 # How a chaotic row is judged: a one-sided claim must hold for every run of the ensemble (the
-# worst case over round-off); a reference figure, itself one draw of the spec's prototype, must
+# worst case over round-off); a reference figure, itself one draw of the prototype, must
 # lie within the factor of the ensemble's range. Either fails on another CPU only if every
 # member falls on the wrong side: for FT-AS-P's final max|sigma_e,k| (a quarter of 40 runs lie
 # above 3 x 2.3e-8) that is 0.25^7 ~ 6e-5 with 7 members.
@@ -154,12 +155,12 @@ def _within(value: float, ref: float, rel: float) -> bool:
 
 
 def nominal_report(model: FTAS) -> list[ReportRow]:
-    """Rows for claims C1-C6 and the spec's 12.2 reference values (see module docstring)."""
+    """Rows for claims C1-C6 and the prototype's reference values (module docstring)."""
     p = model.params
     variants, res = nominal_runs(model)
     chaos = ChaoticFigures([res, *roundoff_runs(model)])
     rows = report_rows(model, res, chaos)
-    # C6: sliding-variable convergence at the spec's h = 0.05 s as well
+    # C6: sliding-variable convergence at the prototype's h = 0.05 s as well
     idx = {v.label: i for i, v in enumerate(variants)}
     if abs(p.step - C6_STEP) > 1e-12:
         c6_variants = [variants[idx[lab]] for lab in ("FT-AS", "Case 1", "Case 2")]

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from ...models.gmm_ftc.model import GMMFTC
 
 N_NOISE_SEEDS = 16
-"""Noise realisations of the nominal report (as in spec section 11)."""
+"""Noise realisations of the nominal report."""
 
 
 @per_model
