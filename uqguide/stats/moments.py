@@ -19,7 +19,7 @@ from typing import ParamSpec, TypeVar
 import numpy as np
 
 from ..core.types import RUNS_NEEDED, STAT_NAMES, OutputStats
-from .tail_intervals import tail_intervals
+from .tail_intervals import if_polynomial, tail_intervals
 
 _P = ParamSpec("_P")
 _R = TypeVar("_R")
@@ -185,17 +185,9 @@ def delta_standard_errors(
         inv = np.where(sigma > 0, 1.0 / np.where(sigma > 0, sigma, 1.0), np.nan)
         r = [np.ones_like(mu2), np.zeros_like(mu2), np.ones_like(mu2)]
         r += [mu[k - 2] * inv**k for k in range(3, 9)]
-        g, k4 = r[3], r[4]
-        zero = np.zeros_like(mu2)
-        one = np.ones_like(mu2)
-        polys = {
-            "mean": [zero, one],
-            "std": [-0.5 * one, zero, 0.5 * one],
-            "skewness": [0.5 * g, -3.0 * one, -1.5 * g, one],
-            "kurtosis": [k4, -4.0 * g, -2.0 * k4, zero, one],
-        }
         out: dict[str, np.ndarray] = {}
-        for name, c in polys.items():
+        for name in STAT_NAMES:
+            c = if_polynomial(name, r)
             var = np.zeros_like(mu2)
             for i, ci in enumerate(c):
                 for j, cj in enumerate(c):
