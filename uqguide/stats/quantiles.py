@@ -8,7 +8,7 @@ docs/statistics.md#order-statistics-and-their-ranks.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 
@@ -97,12 +97,7 @@ def lane_quantiles(lanes: Sequence[np.ndarray], shape: tuple[int, ...],
     row ``l`` holds the runs of the flattened value ``l`` of ``shape`` (``L = prod(shape)``);
     how Monte Carlo workers hand over the series values they keep for the quantiles."""
     n = sum(c.shape[1] for c in lanes)
-    return _quantiles_from(lambda wanted: select_lanes(lanes, wanted).reshape(
-        (len(wanted),) + tuple(shape)), n, tuple(shape), levels, level)
-
-
-def _quantiles_from(pick: Callable[[list[int]], np.ndarray], n: int, shape: tuple[int, ...],
-                    levels: tuple[float, ...], level: float) -> tuple[np.ndarray, np.ndarray]:
+    shape = tuple(shape)
     q = len(levels)
     vals = np.full((q,) + shape, np.nan)
     ci = np.full((2, q) + shape, np.nan)
@@ -110,7 +105,8 @@ def _quantiles_from(pick: Callable[[list[int]], np.ndarray], n: int, shape: tupl
         return vals, ci
     rk = [ranks(n, p, level) for p in levels]
     wanted = sorted({k - 1 for r in rk for k in r if 1 <= k <= n})
-    picked = dict(zip(wanted, pick(wanted), strict=True))
+    values = select_lanes(lanes, wanted).reshape((len(wanted),) + shape)
+    picked = dict(zip(wanted, values, strict=True))
     for i, (r, lo, hi) in enumerate(rk):
         vals[i] = picked[r - 1]
         ci[0, i] = picked[lo - 1] if lo >= 1 else -np.inf
