@@ -283,10 +283,9 @@ class MomentSums:
             cm = np.zeros(y.shape[1:] + y.shape[-1:]) if comoments else None
             hi = np.zeros((HIGH_ORDER - 4,) + y.shape[1:]) if high else None
             return cls(0.0, z, z.copy(), z.copy(), z.copy(), cm, hi)
-        kernel = _compiled_sums()
-        if kernel is None:
-            return cls._of_numpy(y, comoments, high)
-        column_sums, comoment_sums = kernel
+        # imported here: commands that compute no statistics do not load numba
+        from .moment_sums_kernel import column_sums, comoment_sums
+
         shape = y.shape[1:]
         # explicit width: reshape(n, -1) is ambiguous for zero columns (no scalar outputs)
         flat = np.ascontiguousarray(y).reshape(n, int(np.prod(shape)))
@@ -305,27 +304,6 @@ class MomentSums:
                                    ).reshape(shape + (k,))
         hi = sums[3:].reshape((HIGH_ORDER - 4,) + shape) if high else None
         return cls(float(n), mean, m2, m3, m4, cm, hi)
-
-    @classmethod
-    def _of_numpy(cls, y: np.ndarray, comoments: bool, high: bool) -> MomentSums:
-        """:meth:`of` in NumPy (where numba is not importable; the compiled form's reference)."""
-        n = y.shape[0]
-        mean = y.mean(axis=0)
-        d = y - mean
-        cm = np.einsum("n...i,n...j->...ij", d, d) if comoments else None
-        # powers built in two reused buffers (d^4 as d^2 d^2, the rounding of the merged sums
-        # the baselines were recorded with)
-        d2 = d * d
-        pw = d2 * d
-        sums = [d2.sum(axis=0), pw.sum(axis=0)]
-        np.multiply(d2, d2, out=pw)
-        sums.append(pw.sum(axis=0))
-        if high:
-            for _ in range(HIGH_ORDER - 4):
-                pw *= d
-                sums.append(pw.sum(axis=0))
-        hi = np.stack(sums[3:]) if high else None
-        return cls(float(n), mean, sums[0], sums[1], sums[2], cm, hi)
 
     def central_sums(self) -> list[np.ndarray]:
         """``[m_2, ..., m_p]``: the fields and, when kept, the orders 5 and up."""
@@ -435,22 +413,6 @@ class MomentSums:
 #: The highest central sum :meth:`MomentSums.of` keeps with ``high`` (the tail-aware
 #: intervals' kurtosis diagnostic reads the 16th, :mod:`uqguide.stats.tail_intervals`).
 HIGH_ORDER = 16
-
-_KERNEL: list = []
-
-
-def _compiled_sums():
-    """The compiled column sums (:mod:`uqguide.stats.moment_sums_kernel`), imported on first use so
-    that commands computing no statistics do not load numba; None without numba."""
-    if not _KERNEL:
-        try:
-            from .moment_sums_kernel import column_sums, comoment_sums
-        except ImportError:
-            _KERNEL.append(None)
-        else:
-            _KERNEL.append((column_sums, comoment_sums))
-    return _KERNEL[0]
-
 
 def _merge_order(p: int, a: list[np.ndarray], b: list[np.ndarray], na: float | np.ndarray,
                  nb: float | np.ndarray,
