@@ -222,7 +222,6 @@ class RunConfig:
         return validate_config({**self.raw.model_dump(mode="python"), "seed": seed}, self.source)
 
 
-# ---------------------------------------------------------------------------- error messages
 def _path(prefix: str, loc: tuple[Any, ...]) -> str:
     out = prefix
     for part in loc:
@@ -299,7 +298,6 @@ def _fields(model: type[BaseModel]) -> list[str]:
     return list(model.model_fields)
 
 
-# ---------------------------------------------------------------------------- loading
 def load_yaml(path: str | Path) -> dict[str, Any]:
     """Read a YAML config file into its top-level mapping, not yet validated; ConfigError on I/O
     or syntax problems, and on what :mod:`uqguide.core.safe_yaml` refuses (aliases, duplicate

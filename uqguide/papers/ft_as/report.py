@@ -278,7 +278,7 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
     # C6: sliding-variable convergence at the model's step (h = 0.05 s: nominal_report)
     rows += _c6_rows(res, idx, f"h = {h:g} s")
 
-    # Section 12.2 reference values (prototype, h = 0.01 s)
+    # the prototype's reference values (h = 0.01 s)
     for lab, ref in SPEC_12_2.items():
         i = idx[lab]
 
