@@ -13,7 +13,8 @@ import numpy as np
 
 from ..rows import ReportRow
 from .claims import (
-    APF, CONTROLLER_LABEL, GNT, GTS, WANG2022_DV_RATIO, Outcome, evaluate_wang2022_claims,
+    APF, CONTROLLER_LABEL, DV_RATIO_TOLERANCE, GNT, GTS, WANG2022_DV_RATIO, Outcome,
+    evaluate_wang2022_claims,
 )
 
 if TYPE_CHECKING:
@@ -78,7 +79,8 @@ def nominal_report(model: GMMProximity) -> list[ReportRow]:
             ratio = o.delta_v / out[APF].delta_v
             target = WANG2022_DV_RATIO[label]
             rows.append(ReportRow(f"{label}: delta-v / APF-TSMC delta-v", "", ratio, target,
-                                  "+-0.05", abs(ratio - target) <= 0.05,
+                                  f"+-{DV_RATIO_TOLERANCE}",
+                                  abs(ratio - target) <= DV_RATIO_TOLERANCE,
                                   '"reduce by" reading (A15)'))
         rows.append(ReportRow(f"{label}: final position error", "m", o.final_error,
                               "goal reached", f"< {p.reach_tolerance} m",
