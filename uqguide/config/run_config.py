@@ -79,13 +79,10 @@ class RawConfig(StrictModel):
     seed: int = Field(default=0, ge=0, lt=2**63)
     batch_size: int = Field(default=10_000, ge=1, le=10_000_000)
     #: Largest share of a method's runs that may fail before ``uqguide run`` exits 1 (the
-    #: result is still written, for inspection). 1%: statistics of the survivors are biased
-    #: wherever failures correlate with the inputs (they always do), most of all the tails
-    #: (kurtosis); above 1% a GNC campaign should look at why before trusting them.
+    #: result is still written); why 1%: docs/config.md#failed-runs.
     max_failed_fraction: float = Field(default=0.01, ge=0.0, le=1.0)
-    #: Whether a statistic a PCE withholds (no usable surrogate, or not supported by its own
-    #: runs) makes ``uqguide run`` exit 1 (the result is still written); ``--strict`` does
-    #: the same. Off by default: the report then gives the runs' own Monte Carlo estimate.
+    #: Whether a statistic a PCE withholds makes ``uqguide run`` exit 1 (as ``--strict``); off,
+    #: the report gives the runs' own Monte Carlo estimate in its place.
     strict: bool = False
     #: A quadrature PCE (tensor, Smolyak) needs every node: ``fail`` (default) stops the method
     #: with the failed nodes named; ``regression`` fits the coefficients by least squares on
