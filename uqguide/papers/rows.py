@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-__all__ = ["ReportRow", "format_report"]
+__all__ = ["ReportRow", "format_report", "within"]
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,11 @@ class ReportRow:
     note: str = ""
     kind: Literal["reproducible", "chaotic", "timing"] = "reproducible"
     statistic: str = ""
+
+
+def within(value: float, paper: float, rel: float) -> bool:
+    """Whether ``value`` is within the relative tolerance ``rel`` of the paper's figure."""
+    return bool(abs(value - paper) <= rel * abs(paper))
 
 
 def cell_text(v: object) -> str:

@@ -20,7 +20,7 @@ from ...models.ft_as.model import Variant
 from ...models.ft_as.runner import RunResult
 from ...models.roundoff import ROUNDOFF, Spread, perturb
 from ..cache import per_model
-from ..rows import ReportRow
+from ..rows import ReportRow, within
 
 if TYPE_CHECKING:
     from ...models.ft_as.model import FTAS
@@ -150,10 +150,6 @@ def _angular_impulse(r: RunResult, i: int) -> float:
     return float(r.impulse[i, 3:].sum())
 
 
-def _within(value: float, ref: float, rel: float) -> bool:
-    return abs(value - ref) <= rel * ref
-
-
 def nominal_report(model: FTAS) -> list[ReportRow]:
     """Rows for claims C1-C6 and the prototype's reference values (module docstring)."""
     p = model.params
@@ -258,9 +254,9 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
         i = idx[lab]
         for part, sl, unit in (("force", slice(0, 3), "N"), ("torque", slice(3, 6), "N m")):
             pk = float(res.peak_applied[i, sl].max())
-            within = bool(np.all(res.peak_applied[i] <= lim))
+            bounded = bool(np.all(res.peak_applied[i] <= lim))
             rows.append(ReportRow(f"{lab}: C5 peak applied {part}", unit, pk, float(lim[sl][0]),
-                                  "<= limit", within))  # fmt: skip
+                                  "<= limit", bounded))  # fmt: skip
     i1 = idx["Case 1"]
     pk_f = float(res.peak_applied[i1, :3].max())
     rows.append(ReportRow("Case 1: C5 peak force (exceeds initially)", "N", pk_f, "> 2", "> limit",
@@ -297,7 +293,7 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
             if not at_ref or isinstance(val, str):
                 ok = None if not at_ref else False
             else:
-                ok = _within(val, r, 0.10)
+                ok = within(val, r, 0.10)
             rows.append(ReportRow(f"{lab}: spec 12.2 {name}", unit, val, r, "10%", ok, ref_note))
         rows.append(chaos.row(  # the integral of a chattering torque: moves ~2 % (FT-AS-P)
             f"{lab}: angular impulse", "N m s", functools.partial(_angular_impulse, i=i),
