@@ -26,6 +26,7 @@ from ..core.events import EventSpec, component_index
 from ..stats.quantiles import resolve_levels
 from ..core.strict import StrictModel
 from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
+from ..core.names import PLAIN_NAME_RULE, is_plain_name
 from .limits import DEFAULT_MAX_STEPS, check_steps, memory_limit, parse_bytes
 from .report_times import check_report_times, model_time_grid
 from ..methods.base import Method, RunContext
@@ -40,21 +41,15 @@ class CorrelationSpec(BaseModel):
     matrix: list[list[float]]
 
 
-#: What a run name may be: it names files inside ``--out`` (result, tables, run folder), so
-#: never a path, never ``.`` or ``..``.
-RUN_NAME = re.compile(r"^[A-Za-z0-9_.\-]{1,200}$")
+#: What a run name may be (:func:`~uqguide.core.names.is_plain_name`): it names files inside
+#: ``--out`` (result, tables, run folder), so never a path, never ``.`` or ``..``.
 RUN_NAME_RULE = ("a plain file name of 1 to 200 letters, digits, '_', '.' or '-' (no path "
                  "separators, not '.' or '..')")
 
 
-def is_run_name(name: str) -> bool:
-    """Whether ``name`` is a plain file name a run may be called (:data:`RUN_NAME_RULE`)."""
-    return bool(RUN_NAME.match(name)) and set(name) != {"."}
-
-
 def check_run_name(name: str) -> str:
     """``name`` unchanged if it is a valid run name, else ConfigError (field ``name``)."""
-    if not isinstance(name, str) or not is_run_name(name):
+    if not is_plain_name(name):
         raise ConfigError(f"name: must be {RUN_NAME_RULE} (got {_short(name)})", field="name")
     return name
 
@@ -115,7 +110,7 @@ class RawConfig(StrictModel):
     @field_validator("name")
     @classmethod
     def _plain_name(cls, v: str | None) -> str | None:
-        if v is not None and not is_run_name(v):
+        if v is not None and not is_plain_name(v):
             raise ValueError(f"must be {RUN_NAME_RULE}")
         return v
 
@@ -183,7 +178,7 @@ class RunConfig:
             return "run"
         # The file's stem, made a plain name (a name must never leave --out).
         stem = re.sub(r"[^A-Za-z0-9_.\-]", "_", Path(self.source).stem)[:200]
-        return stem if is_run_name(stem) else "run"
+        return stem if is_plain_name(stem) else "run"
 
     def resolved(self) -> dict[str, Any]:
         """The config with every default filled in (what the run really used), made once per
@@ -590,8 +585,6 @@ def _build_space(raw: RawConfig, model: Model | None) -> InputSpace:
     seen: dict[str, int] = {}
     for i, m in enumerate(raw.inputs):
         if model is None:
-            from ..core.names import PLAIN_NAME_RULE, is_plain_name
-
             if not is_plain_name(m.name):
                 raise ConfigError(f"inputs[{i}].name: {m.name!r} must be {PLAIN_NAME_RULE}",
                                   field=f"inputs[{i}].name")
