@@ -14,7 +14,7 @@ from statistics import NormalDist
 
 import numpy as np
 
-from .moments import _nan_safe_percentile, shape_moments
+from .moments import _nan_safe_percentile, resample_counts, shape_moments
 
 __all__ = ["MfmcStatistics", "mfmc_statistics", "group_bounds"]
 
@@ -259,11 +259,7 @@ def _bootstrap(z: list[np.ndarray], bounds: list[tuple[int, int]], ok: np.ndarra
     for blk, r0 in enumerate(range(0, n_resamples, block)):
         b = min(block, n_resamples - r0)
         rng = np.random.default_rng([seed, blk])
-        counts = []
-        for n_g in sizes:
-            idx = rng.integers(0, max(n_g, 1), size=(b, n_g)) + (np.arange(b) * n_g)[:, None]
-            counts.append(np.bincount(idx.ravel(), minlength=b * n_g).reshape(b, n_g)
-                          .astype(float))
+        counts = [resample_counts(rng, b, n_g) for n_g in sizes]
         s, n = _group_sums(z, bounds, ok, counts)
         raw = _combine(s, n, alpha) if weights is None else _combine_blue(s, weights)
         _, std, skew, kurt = _central(raw, shift)

@@ -140,9 +140,7 @@ def bootstrap_intervals(
         draws = {k: np.empty((n_resamples, d.shape[1])) for k in STAT_NAMES}
         for j, r0 in enumerate(range(0, n_resamples, block)):
             b = min(block, n_resamples - r0)
-            rng = np.random.default_rng([seed, j])
-            idx = rng.integers(0, n, size=(b, n)) + (np.arange(b) * n)[:, None]
-            counts = np.bincount(idx.ravel(), minlength=b * n).reshape(b, n).astype(float)
+            counts = resample_counts(np.random.default_rng([seed, j]), b, n)
             m1, m2, m3, m4 = (counts @ p / n for p in powers)
             mu2 = m2 - m1**2
             mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
@@ -155,6 +153,12 @@ def bootstrap_intervals(
         for k, v in draws.items():
             res[k][:, sl_c] = _nan_safe_percentile(v, alpha)
     return {k: v.reshape((2,) + shape) for k, v in res.items()}
+
+
+def resample_counts(rng: np.random.Generator, b: int, n: int) -> np.ndarray:
+    """Multiplicities ``(b, n)`` of ``b`` bootstrap resamples (with replacement) of ``n`` rows."""
+    idx = rng.integers(0, max(n, 1), size=(b, n)) + (np.arange(b) * n)[:, None]
+    return np.bincount(idx.ravel(), minlength=b * n).reshape(b, n).astype(float)
 
 
 def _nan_safe_percentile(v: np.ndarray, alpha: float) -> np.ndarray:
