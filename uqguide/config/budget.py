@@ -2,9 +2,9 @@
 
 Per method the model runs, the steps of one run and an estimate of the driver's peak memory
 (:func:`estimate`, printed by ``validate`` and ``run``). Refused before anything is allocated
-(ConfigError, exit 2): an estimate above ``max_memory`` (:func:`check_memory`), a run over
-``max_steps`` steps (:func:`check_budget`), surrogate draws over :data:`MAX_SURROGATE_TERMS`
-term evaluations (:func:`check_surrogate`). What the estimate counts:
+(ConfigError, exit 2): an estimate above ``max_memory`` (:func:`check_memory`), surrogate draws
+over :data:`MAX_SURROGATE_TERMS` term evaluations (:func:`check_surrogate`); a run over
+``max_steps`` steps is refused by :func:`uqguide.config.limits.check_steps`. What it counts:
 docs/scale.md#what-the-memory-estimate-counts.
 """
 
