@@ -4,8 +4,8 @@ Per method the model runs, the steps of one run and an estimate of the driver's 
 (:func:`estimate`, printed by ``validate`` and ``run``). Refused before anything is allocated
 (ConfigError, exit 2): an estimate above ``max_memory`` (:func:`check_memory`), surrogate draws
 over :data:`MAX_SURROGATE_TERMS` term evaluations (:func:`check_surrogate`); a run over
-``max_steps`` steps is refused by :func:`uqguide.config.limits.check_steps`. What it counts:
-docs/scale.md#what-the-memory-estimate-counts.
+``max_steps`` steps is refused by :func:`uqguide.config.limits.check_steps`. What the estimate
+counts: docs/scale.md#what-the-memory-estimate-counts.
 """
 
 from __future__ import annotations
