@@ -1,15 +1,11 @@
 """Time and memory budgets, checked before anything runs.
 
-``uqguide validate`` and ``uqguide run`` print, per method, the model runs, the steps of one run
-and an estimate of the driver's peak memory (:func:`estimate`); ``run`` refuses (ConfigError,
-exit 2) an estimate above the config's ``max_memory`` before allocating anything
-(:func:`check_memory`), the config is refused when one run would take more than ``max_steps``
-steps (:func:`check_budget`), and a PCE whose surrogate draws would cost more than
-:data:`MAX_SURROGATE_TERMS` term evaluations (:data:`DRAW_OVERHEAD_TERMS` per draw besides its
-terms) is refused with the largest ``surrogate_draws`` that fits (:func:`check_surrogate`). The
-estimate is a bound for planning; ``benchmarks/scale.py`` measures.
-
-What the estimate counts: docs/scale.md#what-the-memory-estimate-counts.
+Per method the model runs, the steps of one run and an estimate of the driver's peak memory
+(:func:`estimate`, printed by ``validate`` and ``run``). Refused before anything is allocated
+(ConfigError, exit 2): an estimate above ``max_memory`` (:func:`check_memory`), surrogate draws
+over :data:`MAX_SURROGATE_TERMS` term evaluations (:func:`check_surrogate`); a run over
+``max_steps`` steps is refused by :func:`uqguide.config.limits.check_steps`. What the estimate
+counts: docs/scale.md#what-the-memory-estimate-counts.
 """
 
 from __future__ import annotations
@@ -39,7 +35,8 @@ class MethodBudget:
 
     @property
     def surrogate_work(self) -> float:
-        """Basis-term evaluations of the surrogate's draws (module docstring)."""
+        """Basis-term evaluations of the surrogate's draws (its terms and
+        :data:`DRAW_OVERHEAD_TERMS` a draw)."""
         return float(self.surrogate_draws) * (self.surrogate_terms + DRAW_OVERHEAD_TERMS)
 
 
@@ -87,7 +84,7 @@ class Budget:
 
 #: What one surrogate draw costs beside its basis terms, in term evaluations.
 DRAW_OVERHEAD_TERMS = 50
-#: Largest surrogate work of one method, in term evaluations (module docstring).
+#: Largest surrogate work of one method, in term evaluations (:func:`check_surrogate`).
 MAX_SURROGATE_TERMS = 5e9
 
 

@@ -55,16 +55,8 @@ class DataSource:
 
 
 def parse_spec(value: Any) -> DataSpec | Table:
-    """``data:`` as given: a path, a mapping, or (from Python) a table already in memory.
-
-    Parameters
-    ----------
-    value : str, mapping or Table
-
-    Returns
-    -------
-    DataSpec or Table
-    """
+    """``data:`` as given (a path, a mapping, or from Python a :class:`Table` in memory) as a
+    :class:`DataSpec`, or the table itself."""
     if isinstance(value, Table):
         return value
     if isinstance(value, (str, Path)):
@@ -81,25 +73,11 @@ def parse_spec(value: Any) -> DataSpec | Table:
 
 
 def read_bytes(claim: Claim, n_inputs: int) -> float:
-    """Peak memory of reading a file and checking its rows [bytes], from what it claims.
-
-    The columns take 8 bytes a value, and as much again while a CSV's step columns are
-    stacked into a series (the steps are alive until the table is made); the claim's extra
-    bytes (text, a conversion's copy, a CSV's block being converted); the rows' inputs
-    ``(n, d)`` four times over (the design, and the sorted copy, unique rows and merge-sort
-    buffer of the repeated-rows check) and 40 bytes a row of indices; and
-    :data:`~uqguide.config.limits.BASE_BYTES` for the interpreter and its libraries.
-
-    Parameters
-    ----------
-    claim : Claim
-    n_inputs : int
-        The config's inputs.
-
-    Returns
-    -------
-    float
-    """
+    """Peak memory [bytes] of reading a file that makes ``claim`` and checking its rows of
+    ``n_inputs`` inputs."""
+    # 8 bytes a value, twice while a CSV's steps are stacked into a series; the claim's extra
+    # bytes (text, copies); the inputs (n, d) four times (the design, and the repeated-rows
+    # check's sorted copy, unique rows and merge-sort buffer) and 40 bytes a row of indices
     return (BASE_BYTES + 16.0 * claim.cells + claim.extra_bytes
             + 8.0 * claim.rows * (4 * n_inputs + 5))
 
@@ -117,25 +95,11 @@ def _within(source: str, n_inputs: int, max_memory: int) -> Callable[[Claim], No
 
 def load_source(value: Any, space: InputSpace, outputs: list[str] | None,
                 config_dir: str | None, max_memory: int | None = None) -> DataSource:
-    """Read and check the data of a config (module docstring).
+    """Read and check a config's ``data`` (docs/config.md#data-files-data-in-detail).
 
-    Parameters
-    ----------
-    value : str, mapping or Table
-        The config's ``data``.
-    space : InputSpace
-        The config's inputs.
-    outputs : list of str, optional
-        The config's outputs (default: every column that is not an input).
-    config_dir : str, optional
-        The config file's folder (relative paths start there).
-    max_memory : int, optional
-        The config's ``max_memory`` [bytes]: a file whose reading would need more is refused
-        before it is read (None: not checked).
-
-    Returns
-    -------
-    DataSource
+    ``outputs``: default every column that is not an input; ``config_dir``: where relative
+    paths start; ``max_memory`` [bytes]: a file whose reading would need more is refused before
+    it is read (None: not checked).
     """
     spec = parse_spec(value)
     if isinstance(spec, Table):
@@ -181,21 +145,8 @@ def load_source(value: Any, space: InputSpace, outputs: list[str] | None,
 
 def method_entries(entries: list[dict[str, Any]], n_rows: int, source: str
                    ) -> list[dict[str, Any]]:
-    """The config's method entries for a design of ``n_rows`` given rows: methods that need
-    their own design refused, sizes filled in (module docstring).
-
-    Parameters
-    ----------
-    entries : list of dict
-        The config's ``methods``.
-    n_rows : int
-    source : str
-        The data file, for messages.
-
-    Returns
-    -------
-    list of dict
-    """
+    """The config's ``methods`` entries for a design of the ``n_rows`` rows of the file
+    ``source``: methods that need their own design refused, sizes filled in."""
     out = []
     for i, entry in enumerate(entries):
         name = entry.get("name")
@@ -222,15 +173,8 @@ def method_entries(entries: list[dict[str, Any]], n_rows: int, source: str
 
 
 def check_rows_enough(methods: list[Any], rows: GivenRows, dim: int) -> None:
-    """ConfigError when a method's fit has fewer successful rows than it needs.
-
-    Parameters
-    ----------
-    methods : list of Method
-    rows : GivenRows
-    dim : int
-        Number of inputs.
-    """
+    """ConfigError when a method's fit has fewer successful ``rows`` than it needs for
+    ``dim`` inputs."""
     n_ok = int((~rows.failed).sum())
     for i, m in enumerate(methods):
         need = m.min_rows(dim)
@@ -246,23 +190,8 @@ def check_rows_enough(methods: list[Any], rows: GivenRows, dim: int) -> None:
 def write_suggestion(config: Any, n: int, out: str | Path, force: bool = False) -> Path:
     """Write the ``n`` next runs that extend the design of a ``data:`` config
     (:func:`uqguide.models.data_rows.suggest.suggest_runs`): a CSV of the inputs, the input
-    names as header, values in ``repr`` precision.
-
-    Parameters
-    ----------
-    config : RunConfig
-        A config with ``data:``.
-    n : int
-        Runs to suggest.
-    out : str or Path
-        The CSV to write.
-    force : bool
-        Replace an existing ``out`` (refused otherwise: it may hold runs already made).
-
-    Returns
-    -------
-    Path
-        ``out``.
+    names as header, values in ``repr`` precision; returns ``out``. ``force``: replace an
+    existing ``out`` (refused otherwise: it may hold runs already made).
     """
     from ..core.atomic import refuse_unwritable, write_text
     from ..models.command.files import inputs_csv

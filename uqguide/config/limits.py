@@ -35,16 +35,12 @@ def machine_memory() -> int:
         return 8 * 2**30
 
 
-def default_max_memory() -> int:
-    """The memory budget [bytes] of a run when the config sets none: :data:`DEFAULT_MEMORY_SHARE`
-    of the machine's memory."""
-    return int(DEFAULT_MEMORY_SHARE * machine_memory())
-
-
 def memory_limit(value: Any) -> int:
     """The ``max_memory`` [bytes] a config's value stands for: :func:`parse_bytes` of it, or
-    :func:`default_max_memory` when the config sets none."""
-    return default_max_memory() if value is None else parse_bytes(value)
+    :data:`DEFAULT_MEMORY_SHARE` of the machine's memory when the config sets none."""
+    if value is None:
+        return int(DEFAULT_MEMORY_SHARE * machine_memory())
+    return parse_bytes(value)
 
 
 def parse_bytes(value: Any) -> int:

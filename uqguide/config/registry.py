@@ -1,11 +1,9 @@
 """Name -> class for the models and methods uqguide can run, from the package entry points.
 
-A model is registered in the entry-point group ``uqguide.models``, a method in
-``uqguide.methods`` (``name = "module:Class"``): uqguide's own are declared in its
-``pyproject.toml``, a third party's in its own package, with no fork (docs/architecture.md,
-"A plugin package"). Entries are imported on first use, so ``uqguide models`` and config
-validation do not pay for importing every simulator. A third-party name that shadows a
-built-in one is ignored with a warning.
+Entry-point groups ``uqguide.models`` and ``uqguide.methods`` (``name = "module:Class"``):
+uqguide's own in its ``pyproject.toml``, a third party's in its own package
+(docs/architecture.md#a-plugin-package). Entries are imported on first use; a third-party
+name that shadows a built-in one is ignored with a warning.
 """
 
 from __future__ import annotations

@@ -26,7 +26,8 @@ from ..core.events import EventSpec, component_index
 from ..stats.quantiles import resolve_levels
 from ..core.strict import StrictModel
 from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
-from .limits import check_steps, memory_limit, parse_bytes
+from ..core.names import PLAIN_NAME_RULE, is_plain_name
+from .limits import DEFAULT_MAX_STEPS, check_steps, memory_limit, parse_bytes
 from .report_times import check_report_times, model_time_grid
 from ..methods.base import Method, RunContext
 from ..models.base import Model
@@ -40,21 +41,15 @@ class CorrelationSpec(BaseModel):
     matrix: list[list[float]]
 
 
-#: What a run name may be: it names files inside ``--out`` (result, tables, run folder), so
-#: never a path, never ``.`` or ``..``.
-RUN_NAME = re.compile(r"^[A-Za-z0-9_.\-]{1,200}$")
+#: What a run name may be (:func:`~uqguide.core.names.is_plain_name`): it names files inside
+#: ``--out`` (result, tables, run folder), so never a path, never ``.`` or ``..``.
 RUN_NAME_RULE = ("a plain file name of 1 to 200 letters, digits, '_', '.' or '-' (no path "
                  "separators, not '.' or '..')")
 
 
-def is_run_name(name: str) -> bool:
-    """Whether ``name`` is a plain file name a run may be called (:data:`RUN_NAME_RULE`)."""
-    return bool(RUN_NAME.match(name)) and set(name) != {"."}
-
-
 def check_run_name(name: str) -> str:
     """``name`` unchanged if it is a valid run name, else ConfigError (field ``name``)."""
-    if not isinstance(name, str) or not is_run_name(name):
+    if not is_plain_name(name):
         raise ConfigError(f"name: must be {RUN_NAME_RULE} (got {_short(name)})", field="name")
     return name
 
@@ -79,13 +74,10 @@ class RawConfig(StrictModel):
     seed: int = Field(default=0, ge=0, lt=2**63)
     batch_size: int = Field(default=10_000, ge=1, le=10_000_000)
     #: Largest share of a method's runs that may fail before ``uqguide run`` exits 1 (the
-    #: result is still written, for inspection). 1%: statistics of the survivors are biased
-    #: wherever failures correlate with the inputs (they always do), most of all the tails
-    #: (kurtosis); above 1% a GNC campaign should look at why before trusting them.
+    #: result is still written); why 1%: docs/config.md#failed-runs.
     max_failed_fraction: float = Field(default=0.01, ge=0.0, le=1.0)
-    #: Whether a statistic a PCE withholds (no usable surrogate, or not supported by its own
-    #: runs) makes ``uqguide run`` exit 1 (the result is still written); ``--strict`` does
-    #: the same. Off by default: the report then gives the runs' own Monte Carlo estimate.
+    #: Whether a statistic a PCE withholds makes ``uqguide run`` exit 1 (as ``--strict``); off,
+    #: the report gives the runs' own Monte Carlo estimate in its place.
     strict: bool = False
     #: A quadrature PCE (tensor, Smolyak) needs every node: ``fail`` (default) stops the method
     #: with the failed nodes named; ``regression`` fits the coefficients by least squares on
@@ -99,7 +91,7 @@ class RawConfig(StrictModel):
     #: estimate indices report; default (None): each correlated group, named by its inputs.
     groups: dict[str, list[str]] | None = None
     #: Integration steps one model run may take (a dt of 1e-9 s would run for ever).
-    max_steps: int = Field(default=10_000_000, ge=1, le=10**12)
+    max_steps: int = Field(default=DEFAULT_MAX_STEPS, ge=1, le=10**12)
     #: Largest estimated peak memory of a run ("8 GB", or bytes); default half the machine's
     #: memory, decided when the run starts (so a config means the same on every machine).
     max_memory: int | float | str | None = None
@@ -118,7 +110,7 @@ class RawConfig(StrictModel):
     @field_validator("name")
     @classmethod
     def _plain_name(cls, v: str | None) -> str | None:
-        if v is not None and not is_run_name(v):
+        if v is not None and not is_plain_name(v):
             raise ValueError(f"must be {RUN_NAME_RULE}")
         return v
 
@@ -186,7 +178,7 @@ class RunConfig:
             return "run"
         # The file's stem, made a plain name (a name must never leave --out).
         stem = re.sub(r"[^A-Za-z0-9_.\-]", "_", Path(self.source).stem)[:200]
-        return stem if is_run_name(stem) else "run"
+        return stem if is_plain_name(stem) else "run"
 
     def resolved(self) -> dict[str, Any]:
         """The config with every default filled in (what the run really used), made once per
@@ -222,7 +214,6 @@ class RunConfig:
         return validate_config({**self.raw.model_dump(mode="python"), "seed": seed}, self.source)
 
 
-# ---------------------------------------------------------------------------- error messages
 def _path(prefix: str, loc: tuple[Any, ...]) -> str:
     out = prefix
     for part in loc:
@@ -299,7 +290,6 @@ def _fields(model: type[BaseModel]) -> list[str]:
     return list(model.model_fields)
 
 
-# ---------------------------------------------------------------------------- loading
 def load_yaml(path: str | Path) -> dict[str, Any]:
     """Read a YAML config file into its top-level mapping, not yet validated; ConfigError on I/O
     or syntax problems, and on what :mod:`uqguide.core.safe_yaml` refuses (aliases, duplicate
@@ -595,8 +585,6 @@ def _build_space(raw: RawConfig, model: Model | None) -> InputSpace:
     seen: dict[str, int] = {}
     for i, m in enumerate(raw.inputs):
         if model is None:
-            from ..core.names import PLAIN_NAME_RULE, is_plain_name
-
             if not is_plain_name(m.name):
                 raise ConfigError(f"inputs[{i}].name: {m.name!r} must be {PLAIN_NAME_RULE}",
                                   field=f"inputs[{i}].name")

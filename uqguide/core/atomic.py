@@ -40,7 +40,6 @@ _TEMP = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.(?P<token>[0-9a-f]{8})(?P<ta
                    r"\.tmp$")
 
 
-# ---------------------------------------------------------------------------- temporary names
 def _tag(name: str, pid: str, token: str) -> str:
     # The host is in the tag: a temporary file of another host sharing the folder is not ours
     # to judge (its PID means nothing here), so it never verifies and is left alone.
@@ -71,7 +70,6 @@ def temp_target(name: str) -> str | None:
     return m["name"] if m is not None and temp_owner(name) is not None else None
 
 
-# ---------------------------------------------------------------------------- refusals
 def not_regular(path: str | Path, hard_links: bool = True) -> str:
     """What is at ``path`` when it is not a regular file (of one name, with ``hard_links``),
     e.g. "a FIFO (named pipe)", "a hard link (2 names)"; '' when it is, or when nothing is
@@ -172,7 +170,6 @@ def open_writable(path: str | Path, flags: int, field: str = "out", mode: int = 
     return fd
 
 
-# ---------------------------------------------------------------------------- folders
 def usable_folder(path: str | Path, field: str = "out") -> Path:
     """Check that files can be written in the folder ``path`` (made later when missing).
 
@@ -221,7 +218,6 @@ def make_folder(path: str | Path, field: str = "out") -> Path:
     return path
 
 
-# ---------------------------------------------------------------------------- a full disk
 def is_disk_full(exc: BaseException | None) -> bool:
     """Whether ``exc``, or an exception it was raised from, is a write that found no room."""
     seen = 0
@@ -245,7 +241,6 @@ def disk_full_as_error(path: str | Path) -> Iterator[None]:
         raise
 
 
-# ---------------------------------------------------------------------------- writing
 def _fsync_dir(folder: Path) -> None:
     try:
         fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
@@ -420,7 +415,6 @@ class HeldErrorFile(io.RawIOBase):
             raise self.error
 
 
-# ---------------------------------------------------------------------------- clean-up
 def pid_alive(pid: int) -> bool:
     """Whether a process ``pid`` exists on this host (permission denied counts as alive)."""
     if pid <= 0:

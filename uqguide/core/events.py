@@ -1,12 +1,7 @@
 """Events (``collision: min_clearance below 0``) and their probabilities with intervals.
 
-A config declares events on scalar outputs: ``below: b`` is ``y < b``, ``above: a`` is
-``y > a``, both strict; a multi-component output names its ``component``. Failed runs are left
-out of both counts. Monte Carlo reports ``k`` of ``n`` with the Clopper-Pearson 95% interval
-(never ``[0, 0]``); a PCE its surrogate's probability over its draws, whose interval covers only
-the draws' sampling error.
-
-What is reported and how: docs/statistics.md#events.
+``below: b`` is ``y < b``, ``above: a`` is ``y > a``, both strict. Monte Carlo reports ``k`` of
+``n`` with the Clopper-Pearson 95% interval; what is reported and how: docs/statistics.md#events.
 """
 
 from __future__ import annotations
@@ -44,7 +39,7 @@ class EventSpec(BaseModel):
         return f"{self.output}{comp} {op} {thr:g}"
 
     def threshold(self) -> float:
-        """The event's threshold: ``a`` (``below``) or ``b`` (``above``), in the output's unit."""
+        """The event's threshold: ``b`` (``below``) or ``a`` (``above``), in the output's unit."""
         value = self.below if self.below is not None else self.above
         assert value is not None, "validated: exactly one of below, above"
         return float(value)

@@ -48,6 +48,15 @@ def kill_group(pgid: int) -> None:
         pass
 
 
+def _kill_subtree(pid: int) -> None:
+    """SIGKILL ``pid`` and every process below it; one already gone is not an error."""
+    for p in descendants.subtree(pid):
+        try:
+            os.kill(p, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+
+
 class ProgramCall:
     """One call of an external program (made by :func:`program_call`)."""
 
@@ -80,11 +89,7 @@ class ProgramCall:
         if self.pgid is None:
             return
         if not self._exited:  # unreaped: the pid still names the program
-            for pid in descendants.subtree(self.pgid):
-                try:
-                    os.kill(pid, signal.SIGKILL)
-                except (ProcessLookupError, PermissionError):
-                    pass
+            _kill_subtree(self.pgid)
         kill_group(self.pgid)
         deadline = time.monotonic() + REAP_S
         while not self._exited and time.monotonic() < deadline:
@@ -187,11 +192,7 @@ def _kill_left(marks: set[str], before: set[int]) -> int:
         with _lock:
             roots = _left_roots(marks, before)
             for root in roots:
-                for pid in descendants.subtree(root):
-                    try:
-                        os.kill(pid, signal.SIGKILL)
-                    except (ProcessLookupError, PermissionError):
-                        pass
+                _kill_subtree(root)
             for root in roots:
                 _reap(root, deadline)
         if not roots:

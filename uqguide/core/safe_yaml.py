@@ -1,16 +1,11 @@
 """A YAML loader for configs that cannot be made to explode.
 
-PyYAML's ``safe_load`` builds no Python objects, but it still expands aliases without limit (a
-"billion laughs" document of 9 nested aliases runs for ever), accepts a second ``model:`` key
-that silently replaces the first, and recurses once per nesting level (100k brackets are a
-RecursionError). A config needs none of that, so this loader
-
-- refuses aliases and anchors (``&a`` / ``*a``): write the value out;
-- refuses a key given twice in one mapping, naming both lines;
-- refuses nesting deeper than ``MAX_DEPTH`` levels;
-- refuses a text larger than ``MAX_BYTES`` (before parsing) and NUL characters.
-
-Every refusal is :class:`YamlLimitError` (a ``yaml.YAMLError``) with the line and column.
+PyYAML's ``safe_load`` still expands aliases without limit (a "billion laughs" document runs for
+ever), lets a second ``model:`` key silently replace the first, and recurses once per nesting
+level (100k brackets are a RecursionError). A config needs none of that, so this loader refuses
+aliases and anchors, a key given twice in one mapping (naming both lines), nesting deeper than
+``MAX_DEPTH``, a text over ``MAX_BYTES`` (before parsing) and NUL characters, each as a
+:class:`YamlLimitError` (a ``yaml.YAMLError``) with the line and column.
 """
 
 from __future__ import annotations

@@ -6,37 +6,21 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-__all__ = ["ReportRow", "format_report"]
+__all__ = ["ReportRow", "format_report", "within"]
 
 
 @dataclass(frozen=True)
 class ReportRow:
-    """One line of a nominal run's report: the model's figure beside the paper's.
+    """One line of a nominal run's report: the model's figure ``value`` (a string for yes/no
+    outcomes) beside the paper's (None where it gives none).
 
-    Attributes
-    ----------
-    quantity : str
-        What is reported, e.g. ``"time to 50 m"`` (prefix a group such as a controller name
-        with ``"GMM-NTSMC: "`` where one model reports several cases).
-    value : float or str
-        The model's figure (a string for yes/no or categorical outcomes).
-    paper : float or str or None
-        The paper's figure, where it gives one.
-    tolerance : str
-        The acceptance tolerance from the spec (``"1%"``, ``"15 s"``, ``"not asserted"``...).
-    ok : bool or None
-        Whether ``value`` is within ``tolerance`` of ``paper`` (None: not checked).
-    note : str
-        Why a figure is not reproduced, or how it was computed.
-    kind : {"reproducible", "chaotic", "timing"}
-        *reproducible*: the figure moves by less than its tolerance when the inputs move by
-        round-off. *chaotic*: it does not (a final-window maximum of a chattering loop, a
-        diverged state), so ``value`` is a robust statistic named in ``statistic``, and ``ok``
-        judges that statistic (:mod:`uqguide.models.roundoff`). *timing*: a measurement of the
-        machine (wall time), never checked.
-    statistic : str
-        For a chaotic row, what ``value`` is, e.g. ``"median of 5 runs under 1e-12 input
-        perturbations; range [a, b]"``.
+    ``quantity``: e.g. ``"time to 50 m"`` (``"GMM-NTSMC: ..."`` where a model reports several
+    cases); ``tolerance``: the acceptance tolerance (``"1%"``, ``"not asserted"``); ``ok``:
+    whether ``value`` is within it (None: not checked); ``note``: why a figure is not
+    reproduced, or how it was computed. ``kind``: *reproducible* (moves by less than its
+    tolerance when the inputs move by round-off), *chaotic* (it does not: ``value`` is the
+    robust statistic ``statistic`` describes, :mod:`uqguide.models.roundoff`) or *timing* (wall
+    time, never checked); docs/papers.md#reproducible-and-chaotic-figures.
     """
 
     quantity: str
@@ -48,6 +32,11 @@ class ReportRow:
     note: str = ""
     kind: Literal["reproducible", "chaotic", "timing"] = "reproducible"
     statistic: str = ""
+
+
+def within(value: float, paper: float, rel: float) -> bool:
+    """Whether ``value`` is within the relative tolerance ``rel`` of the paper's figure."""
+    return bool(abs(value - paper) <= rel * abs(paper))
 
 
 def cell_text(v: object) -> str:

@@ -1,12 +1,9 @@
 """Multi-fidelity Monte Carlo: which levels to use and how many runs of each.
 
-PWG16's closed-form optimum (Thm 3.4) for every candidate subset of levels that meets its
-ordering condition (:func:`ordering_holds`, :func:`mfmc_ratios`), refined numerically for the
-worst of several quantities within the caps, scored against plain Monte Carlo of the highest
-level at equal cost (:func:`select_allocation`); a gain below ``min_gain`` falls back to plain
-Monte Carlo. :func:`sample_sizes` turns the ratios into runs for a budget or a target error.
-
-Design decisions and measured effects:
+PWG16's closed-form optimum for every candidate subset of levels that meets its ordering
+condition, refined numerically for the worst of several quantities within the caps, and scored
+against plain Monte Carlo at equal cost (:func:`select_allocation`); :func:`sample_sizes` turns
+the ratios into runs. Design decisions and measured effects:
 docs/multifidelity.md#the-estimator-and-the-allocation-in-detail.
 """
 

@@ -1,14 +1,10 @@
 """The multi-fidelity Monte Carlo estimator of mean, std, skewness and kurtosis, with intervals.
 
-Peherstorfer, Willcox & Gunzburger (2016, PWG16): level ``j`` (0 = highest fidelity) ran on the
-first ``m_j`` rows of one input stream, and ``M_0(0) + sum_j alpha_j (M_j(j) - M_j(j-1))`` is
-unbiased for level 0 whatever the weights. The powers 1-4 of each level, centred at its own mean,
-get their own weights; ``estimator="blue"`` combines the same runs by their best linear unbiased
-estimator (Schaden & Ullmann 2020). Intervals: a bootstrap within the independent groups of rows
-(:func:`group_bounds`); a failed row is dropped at every level.
-
-Formulas, the design decisions and what they changed on FT-AS:
-docs/multifidelity.md#the-estimator-and-the-allocation-in-detail.
+Peherstorfer, Willcox & Gunzburger (2016, PWG16), level ``j`` (0 = highest fidelity) on the
+first ``m_j`` rows of one input stream, each power 1-4 with its own weights; or (``"blue"``) the
+best linear unbiased estimator of the same runs. Intervals: a bootstrap within the independent
+groups of rows (:func:`group_bounds`); a failed row is dropped at every level. Formulas and
+design decisions: docs/multifidelity.md#the-estimator-and-the-allocation-in-detail.
 """
 
 from __future__ import annotations
@@ -18,7 +14,7 @@ from statistics import NormalDist
 
 import numpy as np
 
-from .moments import _nan_safe_percentile, shape_moments
+from .moments import _nan_safe_percentile, resample_counts, shape_moments
 
 __all__ = ["MfmcStatistics", "mfmc_statistics", "group_bounds"]
 
@@ -263,11 +259,7 @@ def _bootstrap(z: list[np.ndarray], bounds: list[tuple[int, int]], ok: np.ndarra
     for blk, r0 in enumerate(range(0, n_resamples, block)):
         b = min(block, n_resamples - r0)
         rng = np.random.default_rng([seed, blk])
-        counts = []
-        for n_g in sizes:
-            idx = rng.integers(0, max(n_g, 1), size=(b, n_g)) + (np.arange(b) * n_g)[:, None]
-            counts.append(np.bincount(idx.ravel(), minlength=b * n_g).reshape(b, n_g)
-                          .astype(float))
+        counts = [resample_counts(rng, b, n_g) for n_g in sizes]
         s, n = _group_sums(z, bounds, ok, counts)
         raw = _combine(s, n, alpha) if weights is None else _combine_blue(s, weights)
         _, std, skew, kurt = _central(raw, shift)

@@ -1,15 +1,10 @@
 """Compiled central sums of a chunk of samples (the hot part of :meth:`.stats.MomentSums.of`).
 
-NumPy's form of the same sums makes a temporary of the data's size for every power and reads it
-back (about ten passes over a chunk's series, each a fresh allocation the kernel must zero);
-these loops read the data twice (mean, then the powers) and keep the sums per column. The
-loop over the samples is the outer one and each column's sum is accumulated in sample order,
-which is the order of NumPy's ``sum(axis=0)`` on a C-ordered array, so both forms give the
-same sums up to the rounding of the powers (the tests compare them).
-
-``numba.njit`` directly, not :func:`uqguide.models.kernels.njit`: statistics sit below the
-models in the import layers. numba itself falls back to a user-wide cache folder where the
-package's ``__pycache__`` cannot be written.
+Two passes over the data instead of NumPy's temporary per power. Each column's sum is
+accumulated in sample order, the order of NumPy's ``sum(axis=0)`` on a C-ordered array, so both
+forms agree up to the rounding of the powers (the tests compare them). ``numba.njit`` directly,
+not :func:`uqguide.models.kernels.njit`: statistics sit below the models in the import layers
+(``cache=True`` is safe read-only: numba then caches in a user-wide folder).
 """
 
 from __future__ import annotations
@@ -33,26 +28,17 @@ def column_sums(y: np.ndarray, high: bool) -> tuple[np.ndarray, np.ndarray]:
     rows = 15 if high else 3
     s = np.zeros((rows, c))
     s2, s3, s4 = s[0], s[1], s[2]
-    if high:
-        for i in range(n):
-            for j in range(c):
-                d = y[i, j] - mean[j]
-                d2 = d * d
-                s2[j] += d2
-                s3[j] += d2 * d
-                p = d2 * d2
-                s4[j] += p
-                for r in range(3, rows):
-                    p = p * d
-                    s[r, j] += p
-    else:
-        for i in range(n):
-            for j in range(c):
-                d = y[i, j] - mean[j]
-                d2 = d * d
-                s2[j] += d2
-                s3[j] += d2 * d
-                s4[j] += d2 * d2
+    for i in range(n):
+        for j in range(c):
+            d = y[i, j] - mean[j]
+            d2 = d * d
+            s2[j] += d2
+            s3[j] += d2 * d
+            p = d2 * d2
+            s4[j] += p
+            for r in range(3, rows):
+                p = p * d
+                s[r, j] += p
     return mean, s
 
 

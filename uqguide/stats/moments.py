@@ -1,15 +1,10 @@
 """Statistics of an output: the container and the sample estimators.
 
-Moments are the population (``1/n``) estimators; skewness and kurtosis are **non-excess** (a
-Gaussian has kurtosis 3) and NaN for a component of zero variance; a moment of fewer runs than
-:data:`~uqguide.core.types.RUNS_NEEDED` is NaN unless no input is uncertain. 95% intervals of
-mean, std, skewness and kurtosis come from the tail-aware intervals
-(:mod:`uqguide.stats.tail_intervals`, the Monte Carlo default), the delta method
-(:func:`delta_intervals`) or a percentile bootstrap with a fixed seed. A series' arrays carry
-time first (``mean (T, k)``, ``cov (T, k, k)``). Two forms of the same estimators: in memory
-(:func:`sample_statistics`, :func:`bootstrap_intervals`), and streaming (:class:`MomentSums`,
-:func:`statistics_from_sums`: per-chunk sums merged in chunk order, a Poisson bootstrap), which
-Monte Carlo always uses. Conventions and why two forms: ``docs/statistics.md#statistics``.
+Population (``1/n``) estimators, **non-excess** kurtosis; intervals tail-aware
+(:mod:`uqguide.stats.tail_intervals`), delta-method, bootstrap or studentised. Two forms of the
+same estimators: in memory (:func:`sample_statistics`) and streaming (:class:`MomentSums`,
+:func:`statistics_from_sums`), which Monte Carlo uses. Conventions and why two forms:
+docs/statistics.md#statistics; the formulas: docs/statistics.md#mergeable-moment-sums.
 """
 
 from __future__ import annotations
@@ -24,17 +19,15 @@ from typing import ParamSpec, TypeVar
 import numpy as np
 
 from ..core.types import RUNS_NEEDED, STAT_NAMES, OutputStats
-from .tail_intervals import tail_intervals
+from .tail_intervals import if_polynomial, tail_intervals
 
 _P = ParamSpec("_P")
 _R = TypeVar("_R")
 
 
 def quiet_overflow() -> np.errstate:
-    """A context without numpy's warnings of overflow (and of the NaN it makes), for fits and
-    statistics: outputs near 1e300 overflow their power sums, and the run says once which
-    output did (:func:`overflowed`) instead of a warning per line of arithmetic. The numbers
-    are the same."""
+    """A context without numpy's overflow warnings: the run says once which output overflowed
+    (:func:`overflowed`) instead of a warning per line of arithmetic."""
     return np.errstate(over="ignore", invalid="ignore")
 
 
@@ -69,19 +62,11 @@ def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.nd
 def overflowed(mean: np.ndarray | float, std: np.ndarray | float,
                skewness: np.ndarray | float, kurtosis: np.ndarray | float,
                sample: bool = True, n_used: int | None = None) -> dict[str, np.ndarray]:
-    """Where moments of finite values are not finite: their sums overflowed double precision.
+    """Per statistic name, where moments of finite values overflowed double precision
+    (docs/statistics.md#overflow).
 
-    Finite values have finite moments, so a moment that is infinite, or (sample moments) a std
-    that is NaN beside a finite mean or a skewness or kurtosis that is NaN where the variance
-    is not zero (the test of :func:`shape_moments`), came from a power sum beyond 1.8e308
-    (outputs near 1e300; a spread whose 4th power passes it, from about 1e77). Where the std
-    overflowed, the skewness and kurtosis are ratios of overflowed sums (0 or NaN), marked too.
-
-    ``sample`` False: a PCE withholds a skewness or kurtosis as NaN (:mod:`uqguide.pce.support`)
-    and a multi-fidelity estimate gives NaN for a negative variance
-    (:mod:`uqguide.stats.mfmc_estimator`): only the infinite ones are read so. ``n_used``: a
-    moment NaN for want of runs (:func:`founded`) did not overflow. Returns per statistic name
-    where it overflowed.
+    ``sample`` False (PCE, multi-fidelity: their NaN means withheld): only infinite values count.
+    ``n_used``: a moment NaN for want of runs (:func:`founded`) did not overflow.
     """
     mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
     skew, kurt = np.asarray(skewness, dtype=float), np.asarray(kurtosis, dtype=float)
@@ -136,11 +121,8 @@ def bootstrap_intervals(
     """Percentile-bootstrap intervals ``(2, ...)`` of mean, std, skewness and kurtosis of
     ``y (n, ...)``.
 
-    Vectorised: a block of resamples is a matrix of multiplicities ``c (b, n)`` and the
-    resampled power sums are matrix products ``c @ d**p`` of the data centred at the full-sample
-    mean (centring keeps the raw-to-central conversion well conditioned). Columns are processed
-    in blocks so the powers of the data stay under ``max_bytes``; resample block ``j``'s
-    multiplicities come from the stream ``(seed, j)``, so every column sees the same resamples.
+    Resample block ``j`` draws from the stream ``(seed, j)``, so every column block (sized so
+    the data's powers stay under ``max_bytes``) sees the same resamples.
     """
     n = y.shape[0]
     shape = y.shape[1:]
@@ -158,9 +140,7 @@ def bootstrap_intervals(
         draws = {k: np.empty((n_resamples, d.shape[1])) for k in STAT_NAMES}
         for j, r0 in enumerate(range(0, n_resamples, block)):
             b = min(block, n_resamples - r0)
-            rng = np.random.default_rng([seed, j])
-            idx = rng.integers(0, n, size=(b, n)) + (np.arange(b) * n)[:, None]
-            counts = np.bincount(idx.ravel(), minlength=b * n).reshape(b, n).astype(float)
+            counts = resample_counts(np.random.default_rng([seed, j]), b, n)
             m1, m2, m3, m4 = (counts @ p / n for p in powers)
             mu2 = m2 - m1**2
             mu3 = m3 - 3 * m1 * m2 + 2 * m1**3
@@ -173,6 +153,12 @@ def bootstrap_intervals(
         for k, v in draws.items():
             res[k][:, sl_c] = _nan_safe_percentile(v, alpha)
     return {k: v.reshape((2,) + shape) for k, v in res.items()}
+
+
+def resample_counts(rng: np.random.Generator, b: int, n: int) -> np.ndarray:
+    """Multiplicities ``(b, n)`` of ``b`` bootstrap resamples (with replacement) of ``n`` rows."""
+    idx = rng.integers(0, max(n, 1), size=(b, n)) + (np.arange(b) * n)[:, None]
+    return np.bincount(idx.ravel(), minlength=b * n).reshape(b, n).astype(float)
 
 
 def _nan_safe_percentile(v: np.ndarray, alpha: float) -> np.ndarray:
@@ -191,19 +177,9 @@ def _nan_safe_percentile(v: np.ndarray, alpha: float) -> np.ndarray:
 def delta_standard_errors(
     mu: tuple[np.ndarray, ...], n: float | np.ndarray,
 ) -> dict[str, np.ndarray]:
-    """Delta-method (influence-function) standard errors of mean, std, skewness, kurtosis.
+    """Delta-method standard errors of mean, std, skewness, kurtosis
+    (docs/statistics.md#delta-method-standard-errors).
 
-    With ``z = (y - mean) / sigma`` and the standardized moments ``r_k = E z^k``, the influence
-    functions of the population estimators are polynomials in ``z``:
-
-    - mean: ``sigma z``;
-    - std: ``sigma (z^2 - 1) / 2``;
-    - skewness ``g = r_3``: ``z^3 - (3 g / 2) z^2 - 3 z + g / 2``;
-    - kurtosis ``k = r_4``: ``z^4 - 2 k z^2 - 4 g z + k``;
-
-    and the estimator's variance is ``E[IF^2] / n`` (Serfling 1980, section 2.2.3; the
-    skewness and kurtosis forms are eqs 2.2-2.3 of Wright & Herrington 2011 written for the
-    population estimators), a quadratic form in the standardized moments up to ``r_8``.
     ``mu``: central moments ``(mu_2, ..., mu_8)``; ``n`` broadcasts against them (a bootstrap's
     per resample). NaN where the variance is zero.
     """
@@ -213,17 +189,9 @@ def delta_standard_errors(
         inv = np.where(sigma > 0, 1.0 / np.where(sigma > 0, sigma, 1.0), np.nan)
         r = [np.ones_like(mu2), np.zeros_like(mu2), np.ones_like(mu2)]
         r += [mu[k - 2] * inv**k for k in range(3, 9)]
-        g, k4 = r[3], r[4]
-        zero = np.zeros_like(mu2)
-        one = np.ones_like(mu2)
-        polys = {
-            "mean": [zero, one],
-            "std": [-0.5 * one, zero, 0.5 * one],
-            "skewness": [0.5 * g, -3.0 * one, -1.5 * g, one],
-            "kurtosis": [k4, -4.0 * g, -2.0 * k4, zero, one],
-        }
         out: dict[str, np.ndarray] = {}
-        for name, c in polys.items():
+        for name in STAT_NAMES:
+            c = if_polynomial(name, r)
             var = np.zeros_like(mu2)
             for i, ci in enumerate(c):
                 for j, cj in enumerate(c):
@@ -251,15 +219,11 @@ def sample_statistics(
     ci_index: np.ndarray | None = None, intervals: str = "bootstrap",
 ) -> OutputStats:
     """Statistics of samples ``y (n, T, k)`` or ``(n, k)`` over the first axis (failed runs
-    removed).
+    removed): moments ``(..., k)``, covariance ``(..., k, k)``, intervals ``(2, ..., k)``.
 
     ``ci_index``: for a series, the time indices to bootstrap at (NaN intervals elsewhere;
-    default all): the bootstrap costs ``2 * bootstrap * n`` flops per power, column and
-    resample, so a 1e5-sample series is bootstrapped where it is reported. ``intervals``:
-    ``"delta"`` (:func:`delta_intervals`) or ``"tail"``
-    (:func:`uqguide.stats.tail_intervals.tail_intervals`) at every step, ``bootstrap`` then only
-    switching them on when positive. Moments ``(..., k)``, covariance ``(..., k, k)``, intervals
-    ``(2, ..., k)``; ``moments_method="sample"``.
+    default all). ``intervals``: ``"bootstrap"``, ``"delta"`` or ``"tail"`` (every step);
+    ``bootstrap`` 0 switches intervals off.
     """
     y = np.asarray(y, dtype=float)
     n = y.shape[0]
@@ -292,28 +256,14 @@ def sample_statistics(
     )
 
 
-# ---------------------------------------------------------------------------- streaming form
-# Monte Carlo at scale never holds every sample of a time series: each chunk of samples is
-# reduced to mergeable sums where it is evaluated, and the sums are merged in chunk order.
 @dataclass
 class MomentSums:
-    """Mergeable moment sums of (possibly weighted) samples: count, mean, central sums.
+    """Mergeable sums of (possibly weighted) samples: total weight ``n``, ``mean``, central sums
+    ``m2``-``m4``, comoments ``cm`` (docs/statistics.md#mergeable-moment-sums).
 
-    For samples ``y_i`` with weights ``w_i`` (1 for plain samples)::
-
-        n = sum w_i,  mean = sum w_i y_i / n,  m_p = sum w_i (y_i - mean)^p  (p = 2, 3, 4),
-        cm = sum w_i (y_i - mean)(y_i - mean)^T   (comoments, optional)
-
-    Two summaries of disjoint sample sets merge exactly (up to rounding) by the pairwise
-    formulas of Chan, Golub & LeVeque (1979) and Pébay (2008, Sandia SAND2008-6212, eqs 3.1
-    and 3.2, which hold for real weights), so statistics of any number of chunks come out of
-    one pass without keeping the samples. The merge is not associative in floating point:
-    merging in a fixed (chunk) order makes the result independent of which process reduced
-    which chunk.
-
-    ``n``: total weight, ``(B, 1)`` for ``B`` bootstrap resamples; fields ``(..., k)`` or
-    ``(B, c)``; ``cm (..., k, k)``; ``high (H, ..., k)``: central sums of orders 5 to ``4 + H``,
-    5-16 for plain samples (the delta-method and tail-aware intervals) and 5-8 for a bootstrap's.
+    ``n``: ``(B, 1)`` for ``B`` bootstrap resamples; fields ``(..., k)`` or ``(B, c)``;
+    ``cm (..., k, k)``; ``high (H, ..., k)``: central sums of orders 5 to ``4 + H`` (5-16 for
+    plain samples, 5-8 for a bootstrap's).
     """
 
     n: float | np.ndarray
@@ -337,10 +287,9 @@ class MomentSums:
             cm = np.zeros(y.shape[1:] + y.shape[-1:]) if comoments else None
             hi = np.zeros((HIGH_ORDER - 4,) + y.shape[1:]) if high else None
             return cls(0.0, z, z.copy(), z.copy(), z.copy(), cm, hi)
-        kernel = _compiled_sums()
-        if kernel is None:
-            return cls._of_numpy(y, comoments, high)
-        column_sums, comoment_sums = kernel
+        # imported here: commands that compute no statistics do not load numba
+        from .moment_sums_kernel import column_sums, comoment_sums
+
         shape = y.shape[1:]
         # explicit width: reshape(n, -1) is ambiguous for zero columns (no scalar outputs)
         flat = np.ascontiguousarray(y).reshape(n, int(np.prod(shape)))
@@ -360,27 +309,6 @@ class MomentSums:
         hi = sums[3:].reshape((HIGH_ORDER - 4,) + shape) if high else None
         return cls(float(n), mean, m2, m3, m4, cm, hi)
 
-    @classmethod
-    def _of_numpy(cls, y: np.ndarray, comoments: bool, high: bool) -> MomentSums:
-        """:meth:`of` in NumPy (where numba is not importable; the compiled form's reference)."""
-        n = y.shape[0]
-        mean = y.mean(axis=0)
-        d = y - mean
-        cm = np.einsum("n...i,n...j->...ij", d, d) if comoments else None
-        # powers built in two reused buffers (d^4 as d^2 d^2, the rounding of the merged sums
-        # the baselines were recorded with)
-        d2 = d * d
-        pw = d2 * d
-        sums = [d2.sum(axis=0), pw.sum(axis=0)]
-        np.multiply(d2, d2, out=pw)
-        sums.append(pw.sum(axis=0))
-        if high:
-            for _ in range(HIGH_ORDER - 4):
-                pw *= d
-                sums.append(pw.sum(axis=0))
-        hi = np.stack(sums[3:]) if high else None
-        return cls(float(n), mean, sums[0], sums[1], sums[2], cm, hi)
-
     def central_sums(self) -> list[np.ndarray]:
         """``[m_2, ..., m_p]``: the fields and, when kept, the orders 5 and up."""
         out = [self.m2, self.m3, self.m4]
@@ -392,13 +320,8 @@ class MomentSums:
     @_quiet_overflow
     def weighted(cls, y: np.ndarray, w: np.ndarray, high: bool = False) -> MomentSums:
         """Sums of ``y (n, c)`` under ``B`` weight vectors ``w (B, n)`` (bootstrap multiplicities):
-        ``n (B, 1)``, fields ``(B, c)``, no comoments.
-
-        The weighted power sums are matrix products of the weights with the powers of ``y``
-        centred at its plain mean (well conditioned), converted to central sums about each
-        resample's own weighted mean. ``high``: orders 5-8, ``(4, B, c)``, which each resample's own
-        delta-method standard error needs (the studentised bootstrap).
-        """
+        ``n (B, 1)``, fields ``(B, c)``, no comoments; ``high``: orders 5-8, ``(4, B, c)``
+        (the studentised bootstrap's per-resample standard errors)."""
         y = np.asarray(y, dtype=float)
         B = w.shape[0]
         if y.shape[0] == 0:
@@ -431,12 +354,8 @@ class MomentSums:
     def merge(self, other: MomentSums,
               outer: Callable[[np.ndarray], np.ndarray] | None = None) -> MomentSums:
         """Sums of the union of two disjoint sample sets (Pébay 2008, eqs 3.1-3.2); comoments only
-        where both sides have them.
-
-        ``outer``: the outer products ``delta_i delta_j`` of the means' difference, shaped as ``cm``
-        (default ``einsum`` over the last axis; :class:`uqguide.methods.monte_carlo.FoldedSums`
-        gathers them by index for comoments laid out flat).
-        """
+        where both sides have them. ``outer``: the outer products of the means' difference shaped
+        as ``cm`` (default ``einsum`` over the last axis)."""
         na, nb = self.n, other.n
         if np.ndim(na) == 0 and np.ndim(nb) == 0:
             # Whole-chunk sums: an empty side is the other side exactly.
@@ -499,22 +418,6 @@ class MomentSums:
 #: intervals' kurtosis diagnostic reads the 16th, :mod:`uqguide.stats.tail_intervals`).
 HIGH_ORDER = 16
 
-_KERNEL: list = []
-
-
-def _compiled_sums():
-    """The compiled column sums (:mod:`uqguide.stats.moment_sums_kernel`), imported on first use so
-    that commands computing no statistics do not load numba; None without numba."""
-    if not _KERNEL:
-        try:
-            from .moment_sums_kernel import column_sums, comoment_sums
-        except ImportError:
-            _KERNEL.append(None)
-        else:
-            _KERNEL.append((column_sums, comoment_sums))
-    return _KERNEL[0]
-
-
 def _merge_order(p: int, a: list[np.ndarray], b: list[np.ndarray], na: float | np.ndarray,
                  nb: float | np.ndarray,
                  delta: np.ndarray) -> np.ndarray:
@@ -546,13 +449,12 @@ def statistics_from_sums(
     """OutputStats from merged :class:`MomentSums` (the streaming form of
     :func:`sample_statistics`, the same to round-off).
 
-    ``sums``: plain sums, fields ``(..., k)``, comoments ``(..., k, k)``. ``boot``:
-    Poisson-bootstrap sums ``(B, c)`` of the interval columns: every column flattened, or for a
-    series the steps ``ci_index`` flattened ``(len(ci_index) * k)``; NaN intervals elsewhere.
-    ``delta``: plain sums with orders 5-8 of the interval columns (laid out as ``boot``'s), for
-    delta-method intervals when ``boot`` is None; with ``tail`` (orders up to 16) the tail-aware
-    intervals instead. ``uncertain``: the runs are draws of uncertain inputs, so a moment of
-    fewer runs than it needs is NaN; otherwise one run is the whole distribution.
+    ``sums``: plain sums. ``boot``: Poisson-bootstrap sums ``(B, c)`` of the interval columns
+    (all columns flattened, or the steps ``ci_index`` of a series): percentile intervals, or
+    studentised when ``boot`` and ``delta`` hold orders 5-8. ``delta``: plain sums with the
+    higher orders of those columns alone: delta-method intervals, tail-aware with ``tail``.
+    ``uncertain``: the runs are draws of uncertain inputs, so a moment of fewer runs than it
+    needs is NaN.
     """
     n = int(round(float(sums.n)))
     shape = sums.mean.shape
@@ -573,21 +475,11 @@ def statistics_from_sums(
         else:
             found = delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level)
         for name, q in found.items():
-            if ci_index is None:
-                ci[name] = q.reshape((2,) + shape)
-            else:
-                full = np.full((2,) + shape, np.nan)
-                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
-                ci[name] = full
+            ci[name] = _placed(q, shape, ci_index)
     if boot is not None and boot.high is not None and delta is not None and \
             delta.high is not None and n > 1:
         for name, q in studentized_intervals(delta, boot, level).items():
-            if ci_index is None:
-                ci[name] = q.reshape((2,) + shape)
-            else:
-                full = np.full((2,) + shape, np.nan)
-                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
-                ci[name] = full
+            ci[name] = _placed(q, shape, ci_index)
         boot = None
     if boot is not None and n > 1:
         bm, b2, b3, b4 = boot.central_moments()
@@ -595,34 +487,29 @@ def statistics_from_sums(
         alpha = (1.0 - level) / 2
         draws = {"mean": bm, "std": bstd, "skewness": bskew, "kurtosis": bkurt}
         for name, v in draws.items():
-            q = _nan_safe_percentile(v, alpha)
-            if ci_index is None:
-                ci[name] = q.reshape((2,) + shape)
-            else:
-                full = np.full((2,) + shape, np.nan)
-                full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
-                ci[name] = full
+            ci[name] = _placed(_nan_safe_percentile(v, alpha), shape, ci_index)
     if uncertain:
         std, skew, kurt = founded(n, std, skew, kurt, ci)
     return OutputStats(mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=cov, n_used=n,
                        moments_method="sample", sem=std / np.sqrt(n), ci=ci)
 
 
+def _placed(q: np.ndarray, shape: tuple[int, ...], ci_index: np.ndarray | None) -> np.ndarray:
+    """Intervals ``q (2, c)`` of the interval columns laid out ``(2,) + shape``, NaN off the
+    steps ``ci_index`` (None: every column)."""
+    if ci_index is None:
+        return q.reshape((2,) + shape)
+    full = np.full((2,) + shape, np.nan)
+    full[:, ci_index] = q.reshape((2, len(ci_index)) + shape[1:])
+    return full
+
 
 @_quiet_overflow
 def studentized_intervals(sums: MomentSums, boot: MomentSums, level: float = 0.95
                           ) -> dict[str, np.ndarray]:
-    """Studentised (bootstrap-t) intervals ``(2, c)`` of mean, std, skewness and kurtosis.
-
-    Each resample ``b`` gives its statistic ``T_b`` and its own delta-method standard error
-    ``S_b`` (:func:`delta_standard_errors` from its central sums up to the 8th), so the pivot
-    ``t_b = (T_b - T) / S_b`` carries what the normal interval ``T -+ 1.96 S`` leaves out: the
-    skew of the estimator's distribution and the correlation of a sample skewness or kurtosis
-    with its own standard error (a sample that missed the tail has both too small). The interval
-    is ``[T - t_(1-a/2) S, T - t_(a/2) S]`` (Efron & Tibshirani 1993, ch. 12; Hall 1992,
-    section 3.5: coverage error ``O(1/n)`` against the normal and percentile intervals'
-    ``O(1/sqrt(n))``). ``sums`` fields ``(c,)``, ``boot`` fields ``(B, c)``, both with orders
-    5-8. NaN where the variance is zero.
+    """Studentised (bootstrap-t) intervals ``(2, c)`` of mean, std, skewness and kurtosis
+    (docs/statistics.md#studentised-bootstrap). ``sums`` fields ``(c,)``, ``boot`` fields
+    ``(B, c)``, both with orders 5-8. NaN where the variance is zero.
     """
     n = float(sums.n)
     mus = tuple(m / n for m in sums.central_sums())

@@ -1,18 +1,14 @@
 """Quantiles from order statistics, with distribution-free intervals.
 
-The ``p``-quantile of ``n`` independent draws is ``Y_(ceil(n p))``; its 95% interval
-``[Y_(l), Y_(u)]`` takes its ranks from ``Bin(n, p)`` (:func:`ranks`, :func:`coverage`), so it
-covers at least 95% for any continuous output, and an end too few draws can bound is ``-inf`` /
-``+inf``. Monte Carlo selects the order statistics of every chunk's kept values at the end
-(:func:`select_lanes`) without sorting them, so the quantiles are exact and independent of the
-chunking and the workers.
-
-Derivation and the selection: docs/statistics.md#order-statistics-and-their-ranks.
+The interval's ranks come from ``Bin(n, p)`` (:func:`ranks`, :func:`coverage`); Monte Carlo
+selects the order statistics of every chunk's kept values at the end without sorting them
+(:func:`select_lanes`). Derivation and the selection:
+docs/statistics.md#order-statistics-and-their-ranks.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 
@@ -44,10 +40,8 @@ def ranks(n: int, p: float, level: float = LEVEL) -> tuple[int, int, int]:
 
 
 def binomial_ppf(q: float, n: int, p: float) -> int:
-    """The smallest ``k`` with ``P(Bin(n, p) <= k) >= q`` (``scipy.stats.binom.ppf``; the
-    tests check that they agree at the points of 90-99% intervals), from
-    ``scipy.special.bdtr``: importing ``scipy.stats`` for it cost a Monte Carlo run 0.8 s at
-    its end."""
+    """The smallest ``k`` with ``P(Bin(n, p) <= k) >= q``, as ``scipy.stats.binom.ppf`` (whose
+    import cost a Monte Carlo run 0.8 s)."""
     from scipy.special import bdtr
 
     if q <= 0.0:
@@ -103,12 +97,7 @@ def lane_quantiles(lanes: Sequence[np.ndarray], shape: tuple[int, ...],
     row ``l`` holds the runs of the flattened value ``l`` of ``shape`` (``L = prod(shape)``);
     how Monte Carlo workers hand over the series values they keep for the quantiles."""
     n = sum(c.shape[1] for c in lanes)
-    return _quantiles_from(lambda wanted: select_lanes(lanes, wanted).reshape(
-        (len(wanted),) + tuple(shape)), n, tuple(shape), levels, level)
-
-
-def _quantiles_from(pick: Callable[[list[int]], np.ndarray], n: int, shape: tuple[int, ...],
-                    levels: tuple[float, ...], level: float) -> tuple[np.ndarray, np.ndarray]:
+    shape = tuple(shape)
     q = len(levels)
     vals = np.full((q,) + shape, np.nan)
     ci = np.full((2, q) + shape, np.nan)
@@ -116,7 +105,8 @@ def _quantiles_from(pick: Callable[[list[int]], np.ndarray], n: int, shape: tupl
         return vals, ci
     rk = [ranks(n, p, level) for p in levels]
     wanted = sorted({k - 1 for r in rk for k in r if 1 <= k <= n})
-    picked = dict(zip(wanted, pick(wanted), strict=True))
+    values = select_lanes(lanes, wanted).reshape((len(wanted),) + shape)
+    picked = dict(zip(wanted, values, strict=True))
     for i, (r, lo, hi) in enumerate(rk):
         vals[i] = picked[r - 1]
         ci[0, i] = picked[lo - 1] if lo >= 1 else -np.inf
@@ -191,13 +181,10 @@ def select_lanes(lanes: Sequence[np.ndarray], positions: list[int]) -> np.ndarra
     return out
 
 
-#: columns compared at once: the runs are cut (or joined) into blocks this wide, whatever
-#: the chunking, so every bracket's compares reuse a block from cache and the calls stay few
-#: (9 lanes of 1e6 runs: 0.032 s in 65536-column blocks, 0.038 s in the 8192-run chunks as
-#: they come). With many lanes a block narrows to ``_BLOCK_VALUES`` values, but to no fewer
-#: than ``_MIN_COLUMNS`` columns (the calls per lane would add up: 3000 lanes of 11000 runs
-#: took 0.94 s in 349-column blocks, 0.63 s in 8192-column ones), and then chunks are only
-#: cut, never joined, so that no buffer grows with the lanes.
+#: columns compared at once, whatever the chunking, so a bracket's compares reuse a block from
+#: cache; with many lanes fewer (``_BLOCK_VALUES`` values, at least ``_MIN_COLUMNS`` columns),
+#: chunks then only cut, never joined, so no buffer grows with the lanes. Measured:
+#: docs/statistics.md#order-statistics-and-their-ranks.
 _BLOCK_COLUMNS = 65536
 _BLOCK_VALUES = 1 << 20
 _MIN_COLUMNS = 8192

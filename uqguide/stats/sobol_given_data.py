@@ -1,13 +1,8 @@
 """First-order Sobol' indices from a plain Monte Carlo sample ("given data": no special design).
 
-For input ``i`` the runs are sorted by ``x_i`` and cut into :func:`n_bins` (about ``sqrt(n)``)
-bins of equal counts; every pair of runs within a bin is a pick-freeze pair, and the index is the
-U-statistic of those pairs' products, ``V_i / D``. Its standard error comes from the efficient
-influence function (Da Veiga & Gamboa 2013), evaluated with leave-one-out bin means, so the 95%
-interval ``S_i -+ 1.96 se`` is slightly conservative. The per-bin power sums are computed by
-:mod:`uqguide.stats.sobol_bins_kernel`.
-
-The estimator, its bias and variance, the comparison with the rank-neighbour estimator and
+Per input the runs are cut by rank into :func:`n_bins` bins of equal counts, each pair within a
+bin a pick-freeze pair; the interval is ``S_i -+ 1.96 se`` from the influence function, the bin
+sums come from :mod:`uqguide.stats.sobol_bins_kernel`. The estimator, its bias, variance and
 measured accuracy: docs/error-budget.md#the-given-data-estimator-in-detail.
 """
 

@@ -1,13 +1,9 @@
 """First-order and total Sobol' indices of a pick-freeze (Saltelli) design, from mergeable sums.
 
-Samples ``A`` and ``B`` of ``N`` base rows and, per frozen set ``u``, ``A_B^u``: first order by
-Saltelli 2010, ``mean(f(B) (f(A_B^u) - f(A))) / V`` (centred on the mean of all runs, as SALib),
-total by Jansen, ``mean((f(A) - f(A_B^u))^2) / (2 V)``. A chunk of base rows reduces to
+First order by Saltelli 2010, total by Jansen; a chunk of base rows reduces to
 :class:`PickFreezeSums`, which merge exactly; intervals are a Poisson bootstrap over the base
-rows (:func:`percentile_interval`).
-
-The sums, the centring, the choice of the bootstrap and the comparison with SALib and
-OpenTURNS: docs/error-budget.md#totals-a-pick-freeze-design.
+rows (:func:`percentile_interval`). The estimators, the centring, the bootstrap and the
+comparison with SALib and OpenTURNS: docs/error-budget.md#totals-a-pick-freeze-design.
 """
 
 from __future__ import annotations

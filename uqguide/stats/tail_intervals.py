@@ -1,13 +1,9 @@
 """Moment intervals that account for the estimator's skew and for tails the sample cannot bound.
 
 Monte Carlo's default intervals (``intervals: tail``): Hall's (1992) skew-corrected interval of
-each statistic's influence function (:func:`if_polynomial`, :func:`hall_interval`), one-sided (a
-stated floor, "kurtosis >= L; the runs cannot bound it above") where fewer than
-:data:`MIN_EFFECTIVE_RUNS` effective runs carry the statistic's variance. Everything is read from
-the sample's central moments up to order :data:`MAX_ORDER`, which merge across chunks like the
-lower ones, so the interval does not depend on the chunking or the workers.
-
-The threshold is :data:`MIN_EFFECTIVE_RUNS`. Derivation, design decisions and measured coverage:
+each statistic's influence function (:func:`hall_interval`), one-sided where fewer than
+:data:`MIN_EFFECTIVE_RUNS` effective runs carry its variance, read from the central moments up
+to order :data:`MAX_ORDER`. Derivation, design decisions and measured coverage:
 docs/statistics.md#how-the-tail-aware-interval-is-built.
 """
 

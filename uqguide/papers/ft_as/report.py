@@ -1,16 +1,11 @@
 """The paper's claims C1-C6 as report rows for ``uqguide simulate``.
 
-One batch runs the five controller configurations side by side at the model's step: FT-AS-A
-(the model default), FT-AS-P, the literal FT-AS, Case 1 and Case 2. Each claim becomes rows with
-the paper's figure, a tolerance (accuracy bounds x3, orderings with a 10 % margin, "~" within a
-factor 3) and a verdict, beside a prototype's reference values at :data:`REFERENCE_STEP`; C6 is
-also evaluated at :data:`C6_STEP`. The final-window maxima of the chattering loops, the late
-input peaks and the literal FT-AS's diverged state are chaotic under round-off: those rows show
-the median over :data:`ROUNDOFF_MEMBERS` + 1 perturbed runs with the range, checked over the
-whole ensemble (``Verdict``).
-
-The checks and reference values: docs/papers.md#ft-as-conventions-variants-and-checks; chaotic
-rows: docs/papers.md#reproducible-and-chaotic-figures.
+One batch runs the five controller configurations (FT-AS-A, the model default; FT-AS-P; the
+literal FT-AS; Case 1; Case 2) at the model's step; each claim becomes rows with the paper's
+figure, a tolerance and a verdict, beside a prototype's reference values at
+:data:`REFERENCE_STEP` (docs/papers.md#ft-as-conventions-variants-and-checks). Chaotic rows show
+the median of :data:`ROUNDOFF_MEMBERS` + 1 perturbed runs with the range, checked over the whole
+ensemble (docs/papers.md#reproducible-and-chaotic-figures).
 """
 
 from __future__ import annotations
@@ -25,13 +20,14 @@ from ...models.ft_as.model import Variant
 from ...models.ft_as.runner import RunResult
 from ...models.roundoff import ROUNDOFF, Spread, perturb
 from ..cache import per_model
-from ..rows import ReportRow
+from ..rows import ReportRow, within
 
 if TYPE_CHECKING:
     from ...models.ft_as.model import FTAS
 
-# Spec section 12.2, profile R at h = 0.01 s: final max|r_e,k| [m], max|sigma_e,k|,
-# max|omega_e,k| [rad/s], T(|r_e| <= 2e-4 m), T(|sigma_e| <= 1e-4), T(|eps1| <= 1e-3) [s], dv [m/s].
+# An independent prototype's reference values at h = 0.01 s ("spec 12.2" rows): final
+# max|r_e,k| [m], max|sigma_e,k|, max|omega_e,k| [rad/s], T(|r_e| <= 2e-4 m), T(|sigma_e| <= 1e-4),
+# T(|eps1| <= 1e-3) [s], dv [m/s].
 SPEC_12_2 = {
     "FT-AS": (1.2e-7, 2.2e-7, 7.1e-6, 1746.0, 135.0, 2.4, 11.1),
     "FT-AS-P": (1.3e-6, 2.3e-8, 6.1e-6, 1757.0, 181.0, 1254.0, 11.6),
@@ -48,8 +44,8 @@ PAPER_BOUNDS = {
 TABLE_1_R_E0 = (275.683, 374.962, -182.762)  # m, printed to 1 mm
 TABLE_1_V_E0 = (0.1858, -0.1769, -0.0827)  # m/s, printed to 0.1 mm/s
 ROUNDOFF_MEMBERS = 6  # perturbed runs beside the unperturbed one for the chaotic rows
-REFERENCE_STEP = 0.01  # s, step of the spec's section 12.2 values
-C6_STEP = 0.05  # s, step at which the spec measured claim C6
+REFERENCE_STEP = 0.01  # s, step of the prototype's reference values
+C6_STEP = 0.05  # s, step at which the prototype measured claim C6
 
 
 def report_variants() -> list[Variant]:
@@ -118,7 +114,7 @@ class ChaoticFigures:
 
 
 # How a chaotic row is judged: a one-sided claim must hold for every run of the ensemble (the
-# worst case over round-off); a reference figure, itself one draw of the spec's prototype, must
+# worst case over round-off); a reference figure, itself one draw of the prototype, must
 # lie within the factor of the ensemble's range. Either fails on another CPU only if every
 # member falls on the wrong side: for FT-AS-P's final max|sigma_e,k| (a quarter of 40 runs lie
 # above 3 x 2.3e-8) that is 0.25^7 ~ 6e-5 with 7 members.
@@ -154,17 +150,13 @@ def _angular_impulse(r: RunResult, i: int) -> float:
     return float(r.impulse[i, 3:].sum())
 
 
-def _within(value: float, ref: float, rel: float) -> bool:
-    return abs(value - ref) <= rel * ref
-
-
 def nominal_report(model: FTAS) -> list[ReportRow]:
-    """Rows for claims C1-C6 and the spec's 12.2 reference values (see module docstring)."""
+    """Rows for claims C1-C6 and the prototype's reference values (module docstring)."""
     p = model.params
     variants, res = nominal_runs(model)
     chaos = ChaoticFigures([res, *roundoff_runs(model)])
     rows = report_rows(model, res, chaos)
-    # C6: sliding-variable convergence at the spec's h = 0.05 s as well
+    # C6: sliding-variable convergence at the prototype's h = 0.05 s as well
     idx = {v.label: i for i, v in enumerate(variants)}
     if abs(p.step - C6_STEP) > 1e-12:
         c6_variants = [variants[idx[lab]] for lab in ("FT-AS", "Case 1", "Case 2")]
@@ -262,9 +254,9 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
         i = idx[lab]
         for part, sl, unit in (("force", slice(0, 3), "N"), ("torque", slice(3, 6), "N m")):
             pk = float(res.peak_applied[i, sl].max())
-            within = bool(np.all(res.peak_applied[i] <= lim))
+            bounded = bool(np.all(res.peak_applied[i] <= lim))
             rows.append(ReportRow(f"{lab}: C5 peak applied {part}", unit, pk, float(lim[sl][0]),
-                                  "<= limit", within))  # fmt: skip
+                                  "<= limit", bounded))  # fmt: skip
     i1 = idx["Case 1"]
     pk_f = float(res.peak_applied[i1, :3].max())
     rows.append(ReportRow("Case 1: C5 peak force (exceeds initially)", "N", pk_f, "> 2", "> limit",
@@ -282,7 +274,7 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
     # C6: sliding-variable convergence at the model's step (h = 0.05 s: nominal_report)
     rows += _c6_rows(res, idx, f"h = {h:g} s")
 
-    # Section 12.2 reference values (prototype, h = 0.01 s)
+    # the prototype's reference values (h = 0.01 s)
     for lab, ref in SPEC_12_2.items():
         i = idx[lab]
 
@@ -301,7 +293,7 @@ def report_rows(model: FTAS, res: RunResult, chaos: ChaoticFigures) -> list[Repo
             if not at_ref or isinstance(val, str):
                 ok = None if not at_ref else False
             else:
-                ok = _within(val, r, 0.10)
+                ok = within(val, r, 0.10)
             rows.append(ReportRow(f"{lab}: spec 12.2 {name}", unit, val, r, "10%", ok, ref_note))
         rows.append(chaos.row(  # the integral of a chattering torque: moves ~2 % (FT-AS-P)
             f"{lab}: angular impulse", "N m s", functools.partial(_angular_impulse, i=i),

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..rows import ReportRow
+from ..rows import ReportRow, within
 
 if TYPE_CHECKING:
     from ...models.ftcapn.model import FTCAPN
@@ -20,10 +20,6 @@ PAPER = {
     "R0": 5.4e3, "v0": 69.5, "omega0": 1.23e-3, "t_stable": 60.0, "t_stop": 85.0,
     "speed_stop": 5.0, "dv": 98.5, "zem_eq15": 0.003767, "t_reach": 105.0,
 }
-
-
-def _rel_ok(value: float, paper: float, tol: float) -> bool:
-    return bool(abs(value - paper) <= tol * abs(paper))
 
 
 def reach_time_bound(s0: float, beta: float, eta: float) -> float:
@@ -57,20 +53,20 @@ def nominal_report(model: FTCAPN) -> list[ReportRow]:
     t_set = sc["t_los_settle"]
     zem15 = sc["zem_eq15"]
     return [
-        ReportRow("initial range R0", "m", R0, PAPER["R0"], "1%", _rel_ok(R0, PAPER["R0"], 0.01),
+        ReportRow("initial range R0", "m", R0, PAPER["R0"], "1%", within(R0, PAPER["R0"], 0.01),
                   "paper gives 5.4 km; Table 2 gives 5.441 km"),
         ReportRow("initial relative speed |v0|", "m/s", v0, PAPER["v0"], "1%",
-                  _rel_ok(v0, PAPER["v0"], 0.01)),
+                  within(v0, PAPER["v0"], 0.01)),
         ReportRow("initial LOS rate omega_s0", "rad/s", om0, PAPER["omega0"], "1%",
-                  _rel_ok(om0, PAPER["omega0"], 0.01)),
+                  within(om0, PAPER["omega0"], 0.01)),
         ReportRow(f"LOS rate stable (below {frac:.0%} of omega_s0)", "s", t_set,
                   PAPER["t_stable"], "15 s",
                   bool(np.isfinite(t_set) and abs(t_set - PAPER["t_stable"]) <= 15.0),
                   "time after which omega_s stays below the threshold"),
         ReportRow(f"time to {p.r_stop:g} m", "s", sc["t_stop"], PAPER["t_stop"], "15%",
-                  _rel_ok(sc["t_stop"], PAPER["t_stop"], 0.15)),
+                  within(sc["t_stop"], PAPER["t_stop"], 0.15)),
         ReportRow("relative speed at stop", "m/s", sc["speed_stop"], PAPER["speed_stop"], "10%",
-                  _rel_ok(sc["speed_stop"], PAPER["speed_stop"], 0.10),
+                  within(sc["speed_stop"], PAPER["speed_stop"], 0.10),
                   f"on the surface Rdot = -c R = {-p.c * p.r_stop:g} m/s"),
         ReportRow("total delta-v", "m/s", sc["dv_total"], PAPER["dv"], "not asserted", None,
                   f"integral |a_c| dt, {dv_los:.1f} m/s of it along the LOS; spec section 6: "

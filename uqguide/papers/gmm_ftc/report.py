@@ -1,17 +1,12 @@
-"""The nominal [C] scenario beside the paper (``uqguide simulate``; claims C1-C7 of spec 10.2).
+"""The nominal [C] scenario beside the paper (``uqguide simulate``; claims C1-C7).
 
-Two runs of the configured scenario:
-
-* noise-free (the deterministic reference of spec section 11), recorded at every control step
-  for the figures;
-* with the configured per-period thruster error (``thrust_noise``, the paper's +-5 %), for
-  ``N_NOISE_SEEDS`` keyed noise streams in one batch: claim C1 must hold for every seed.
-
-Paper figures come from [C] section 4.2 (all stated as bounds: convergence "in 150 s",
-position error < 1e-4 m, velocity precision 1e-4 m/s, velocity amplitude < 0.15 m/s, control
-amplitude < 0.06 m/s^2, no collision). The spec (section 11) finds the amplitude claims C3/C4
-hold only after the initial transient (``s2(0) ~ 13 m/s`` in x drives ``|s2'(0)| ~ 0.7 m/s^2``);
-the report shows the full-run maxima as misses, with the time after which they hold.
+Two runs of the configured scenario: noise-free (the deterministic reference, recorded at every
+control step for the figures), and with the configured per-period thruster error
+(``thrust_noise``) for ``N_NOISE_SEEDS`` keyed noise streams in one batch, for every one of
+which claim C1 must hold. The paper's figures are [C] section 4.2's bounds; the amplitude claims
+C3/C4 hold only after the initial transient, so the report shows the full-run maxima as misses
+with the time after which they hold
+(docs/papers.md#gmm-controllers-what-reproduces-and-what-does-not).
 """
 
 from __future__ import annotations
@@ -32,7 +27,7 @@ if TYPE_CHECKING:
     from ...models.gmm_ftc.model import GMMFTC
 
 N_NOISE_SEEDS = 16
-"""Noise realisations of the nominal report (as in spec section 11)."""
+"""Noise realisations of the nominal report."""
 
 
 @per_model
@@ -59,7 +54,7 @@ def _collisions(run: LoopRun, names: tuple[str, ...]) -> str:
 
 
 def nominal_report(model: GMMFTC) -> list[ReportRow]:
-    """Claims C1-C7 (spec 10.2), the eq (36) bound and delta-v beside the paper's figures."""
+    """Claims C1-C7, the eq (36) bound and delta-v beside the paper's figures."""
     p = model.params
     clean, noisy = nominal_runs(model)
     sc = {k: np.asarray(v)[0] for k, v in clean.scalars.items()}

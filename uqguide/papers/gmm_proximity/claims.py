@@ -22,26 +22,14 @@ WANG2022_DV_RATIO = {GTS: 0.44, GNT: 0.4553}
 """Delta-v of each GMM controller over APF-TSMC's ([W] 4.2, "reduce by 56 % / 54.47 %", A15)."""
 
 DV_RATIO_TOLERANCE = 0.05
-"""Absolute tolerance on those ratios (spec W5, W6)."""
+"""Absolute tolerance on those ratios (claims W5, W6)."""
 
 
 @dataclass(frozen=True)
 class Outcome:
-    """A nominal run of one controller.
-
-    Attributes
-    ----------
-    hit_parts : tuple of str
-        Parts whose collision box the path crossed (spec 4.2).
-    clearance : dict of str to float
-        Minimum clearance [m] of the path to each part's skeleton.
-    penetration : float
-        Maximum depth inside the body [m].
-    delta_v : float
-        ``sum ||u_k|| dt`` [m/s] ([W 24]).
-    final_error : float
-        ``||r(t_f) - r_f||`` [m].
-    """
+    """A nominal run of one controller: the parts whose collision box the path crossed, the
+    least clearance [m] to each part's skeleton, the deepest ``penetration`` of the body [m],
+    ``delta_v = sum ||u_k|| dt`` [m/s] and ``final_error = ||r(t_f) - r_f||`` [m]."""
 
     hit_parts: tuple[str, ...]
     clearance: dict[str, float]
@@ -70,13 +58,9 @@ class Claim:
 
 
 def evaluate_wang2022_claims(out: dict[str, Outcome], reach_tolerance: float = 0.05) -> list[Claim]:
-    """Claims W1-W10 of spec 10.1 for the outcomes ``out`` keyed by :data:`APF`, :data:`GTS`,
-    :data:`GNT`.
-
+    """Claims W1-W10 for the outcomes ``out`` keyed by :data:`APF`, :data:`GTS`, :data:`GNT`.
     ``reach_tolerance``: final position error [m] below which the goal counts as reached (W10;
-    0.05 m allows the ~1 cm offset of the GMM controllers' spurious minimum next to the goal,
-    spec 6.3).
-    """
+    0.05 m allows the ~1 cm offset of the GMM controllers' spurious minimum next to the goal)."""
     a, t, n = out[APF], out[GTS], out[GNT]
 
     def no_collision(o: Outcome) -> bool:
