@@ -23,14 +23,14 @@ def test_methods_list_allowed_values_defaults_and_meanings():
     # a default made by a factory is shown, not pydantic's placeholder for it
     assert "PydanticUndefined" not in out
     assert "  fidelities: list; default [{}] — " in out
-    assert ("  sampling: one of random | lhs | sobol; default random — Design of the samples "
-            "within each chunk.") in out
-    assert "  n_samples: integer >= 1, <= 1e8; required — Number of model runs." in out
+    assert ("  sampling: one of random | lhs | sobol; default random — design of the samples "
+            "within each chunk") in out
+    assert "  n_samples: integer >= 1, <= 1e8; required — number of model runs" in out
     # rules, not pointers to the source: the adaptive PCE's design size and its budget
     assert "module docstring" not in out
-    assert "Initial design size; default n0 = max(10 d, 2 P_min) runs for d inputs" in out
-    assert ("default min(max(10 n0, 100), 1000) when n_samples is not given either (grown until "
-            "LOO and moments settle), else n_samples (no enrichment)") in out
+    assert "initial design size; default n0 = max(10 d, 2 P_min), capped by max_runs" in out
+    assert ("default min(max(10 n0, 100), 1000) when n_samples is not given either, else "
+            "n_samples (no enrichment)") in out
     # every setting has a one-line meaning
     settings = [ln for ln in out.splitlines() if ln.startswith("  ")]
     assert settings and all(" — " in ln for ln in settings), [
