@@ -9,3 +9,11 @@
 - ``statistics``: a run's statistics described for the report tables and the gate (which there
   are, their names, labels, points, intervals, standard errors and control-variate rows).
 """
+
+from collections.abc import Callable
+from typing import Any
+
+#: A stored config's input space and its model's derived outputs by name, what a surrogate read
+#: from a file is rebuilt with: :func:`uqguide.config.run_config.stored_context`, which this
+#: layer does not import; set by ``uqguide/__init__.py``, run before any of the package.
+stored_context: Callable[[Any], tuple[Any, dict[str, Any]]] | None = None

@@ -158,10 +158,11 @@ class Result:
             raise ResultError(f"method {label!r} ({est.method}) kept no surrogate; only PCE "
                               f"methods do (and result files written before surrogates were kept)")
         if isinstance(s, StoredSurrogate):
-            # (the one call of results into config: a stored config's inputs and model)
-            from ..config.run_config import stored_context
             from ..pce.germ import Germ
+            from . import stored_context
 
+            if stored_context is None:  # pragma: no cover - set whenever uqguide is imported
+                raise ResultError("uqguide.results.stored_context is not set")
             space, derived = stored_context(self.config)
             if list(space.names) != list(s.inputs):
                 raise ResultError(f"{label}: the surrogate's inputs {s.inputs} are not the "
