@@ -14,7 +14,7 @@ The variables, their dimensions and coordinates: docs/result-file.md#a-methods-v
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -51,22 +51,41 @@ def component_dim(output: str, second: bool = False) -> str:
     return f"{output}_component2" if second else f"{output}_component"
 
 
-def stats_dataset(stats: Mapping[str, OutputStats], outputs: Sequence[OutputInfo],
-                  time: np.ndarray, input_names: Sequence[str]) -> xr.Dataset:
-    """The Dataset of one method's statistics ``stats`` (by output name; the outputs without
-    statistics are left out) on the grid ``time (T,)`` [s]: the variables of the module
-    docstring with units, and the coordinates they use (``time`` always)."""
-    coords: dict[str, tuple[Any, ...]] = {
-        "time": ("time", np.asarray(time, dtype=float), {"units": "s", "long_name": "time"}),
-        "input": ("input", np.array(input_names, dtype=object)),
-        "statistic": ("statistic", np.array(STAT_NAMES, dtype=object)),
-        "bound": ("bound", np.array(BOUNDS, dtype=object)),
+class Variable(NamedTuple):
+    """One variable of the Dataset before xarray holds it: what the statistics' readers that
+    need no xarray (the report tables, the gate) read, as they read an ``xarray.Variable``."""
+
+    dims: tuple[str, ...]
+    values: Any
+    attrs: dict[str, Any]
+
+
+def layout(stats: Mapping[str, OutputStats], outputs: Sequence[OutputInfo],
+           time: np.ndarray, input_names: Sequence[str]
+           ) -> tuple[dict[str, Variable], dict[str, Variable]]:
+    """The coordinates and variables of one method's statistics ``stats`` (by output name; the
+    outputs without statistics are left out) on the grid ``time (T,)`` [s]: the variables of
+    the module docstring with units, and the coordinates of every dimension they may use."""
+    coords = {
+        "time": Variable(("time",), np.asarray(time, dtype=float),
+                         {"units": "s", "long_name": "time"}),
+        "input": Variable(("input",), np.array(input_names, dtype=object), {}),
+        "statistic": Variable(("statistic",), np.array(STAT_NAMES, dtype=object), {}),
+        "bound": Variable(("bound",), np.array(BOUNDS, dtype=object), {}),
     }
-    variables: dict[str, tuple[Any, ...]] = {}
+    variables: dict[str, Variable] = {}
     for o in outputs:
         if o.name in stats:
             variables.update(_output_variables(o, stats[o.name], coords))
-    used = {d for v in variables.values() for d in v[0]}
+    return coords, variables
+
+
+def stats_dataset(stats: Mapping[str, OutputStats], outputs: Sequence[OutputInfo],
+                  time: np.ndarray, input_names: Sequence[str]) -> xr.Dataset:
+    """The Dataset of :func:`layout`, with the coordinates its variables use (``time``
+    always)."""
+    coords, variables = layout(stats, outputs, time, input_names)
+    used = {d for v in variables.values() for d in v.dims}
     return _xarray().Dataset(variables, coords={d: c for d, c in coords.items()
                                                 if d in used or d == "time"})
 
@@ -80,101 +99,100 @@ def _bands(bands: Mapping[str, np.ndarray]) -> np.ndarray:
 
 
 def _output_variables(o: OutputInfo, s: OutputStats,
-                      coords: dict[str, tuple[Any, ...]]) -> dict[str, tuple[Any, ...]]:
+                      coords: dict[str, Variable]) -> dict[str, Variable]:
     """The variables of one output's statistics; adds the coordinates they need to ``coords``."""
     base = (*(("time",) if o.kind == "series" else ()), component_dim(o.name))
     names = np.array(o.components, dtype=object)
     for second in (False, True):
-        coords[component_dim(o.name, second)] = (component_dim(o.name, second), names)
-    out: dict[str, tuple[Any, ...]] = {
-        o.name: (("statistic", *base), _moments({n: s.stat(n) for n in STAT_NAMES}),
-                 {"units": o.unit, "long_name": o.description, "kind": o.kind,
-                  "n_used": int(s.n_used), "moments_method": s.moments_method,
-                  "source": "own"}),
-        f"{o.name}_cov": ((*base, component_dim(o.name, True)), s.cov,
-                          {"units": f"({o.unit})^2"}),
+        dim = component_dim(o.name, second)
+        coords[dim] = Variable((dim,), names, {})
+    out = {
+        o.name: Variable(("statistic", *base), _moments({n: s.stat(n) for n in STAT_NAMES}),
+                         {"units": o.unit, "long_name": o.description, "kind": o.kind,
+                          "n_used": int(s.n_used), "moments_method": s.moments_method,
+                          "source": "own"}),
+        f"{o.name}_cov": Variable((*base, component_dim(o.name, True)), s.cov,
+                                  {"units": f"({o.unit})^2"}),
     }
     if s.sem is not None:
-        out[f"{o.name}_sem"] = (base, s.sem, {"units": o.unit})
+        out[f"{o.name}_sem"] = Variable(base, s.sem, {"units": o.unit})
     given = [n for n in STAT_NAMES if n in s.ci]
     if given:
         ci = np.full((2, len(STAT_NAMES), *s.mean.shape), np.nan)
         for j, n in enumerate(STAT_NAMES):
             if n in s.ci:
                 ci[:, j] = s.ci[n]
-        out[f"{o.name}_ci"] = (("bound", "statistic", *base), ci,
-                               {"description": "95% interval", "statistics": given})
+        out[f"{o.name}_ci"] = Variable(("bound", "statistic", *base), ci,
+                                       {"description": "95% interval", "statistics": given})
     band = {"units": "1", "description": "95% interval"}
     for kind in ("first", "total"):
         sobol, sobol_ci = getattr(s, f"sobol_{kind}"), getattr(s, f"sobol_{kind}_ci")
         if sobol is not None:
-            out[f"{o.name}_sobol_{kind}"] = ((*base, "input"), sobol,
-                                            {"units": "1",
-                                             "estimator": s.sobol_estimator or "pce"})
+            out[f"{o.name}_sobol_{kind}"] = Variable(
+                (*base, "input"), sobol, {"units": "1", "estimator": s.sobol_estimator or "pce"})
             if sobol_ci is not None:
-                out[f"{o.name}_sobol_{kind}_ci"] = (("bound", *base, "input"), sobol_ci, band)
+                out[f"{o.name}_sobol_{kind}_ci"] = Variable(("bound", *base, "input"), sobol_ci,
+                                                            band)
     if s.sobol_group_first is not None and s.sobol_groups:
-        coords["group"] = ("group", np.array(s.sobol_groups, dtype=object))
+        coords["group"] = Variable(("group",), np.array(s.sobol_groups, dtype=object), {})
         estimator = s.sobol_estimator or ("pce" if s.sobol_first is not None else "given-data")
         for kind in ("first", "total"):
             sobol, sobol_ci = (getattr(s, f"sobol_group_{kind}"),
                                getattr(s, f"sobol_group_{kind}_ci"))
             if sobol is None:
                 continue
-            out[f"{o.name}_sobol_group_{kind}"] = ((*base, "group"), sobol,
-                                                  {"units": "1", "estimator": estimator})
+            out[f"{o.name}_sobol_group_{kind}"] = Variable(
+                (*base, "group"), sobol, {"units": "1", "estimator": estimator})
             if sobol_ci is not None:
-                out[f"{o.name}_sobol_group_{kind}_ci"] = (("bound", *base, "group"), sobol_ci,
-                                                         band)
+                out[f"{o.name}_sobol_group_{kind}_ci"] = Variable(
+                    ("bound", *base, "group"), sobol_ci, band)
     table = s.quantile_table()
     if table is not None:
         levels = np.asarray(table[0], dtype=float)
-        if "quantile" in coords and not np.array_equal(coords["quantile"][1], levels):
+        if "quantile" in coords and not np.array_equal(coords["quantile"].values, levels):
             raise ValueError(f"output {o.name!r} has quantile levels {levels.tolist()}, "
-                             f"another output {coords['quantile'][1].tolist()}")
-        coords["quantile"] = ("quantile", levels)
-        out[f"{o.name}_quantile"] = (("quantile", *base), table[1], {"units": o.unit})
-        out[f"{o.name}_ci_quantile"] = (("bound", "quantile", *base), table[2],
-                                        {"units": o.unit})
+                             f"another output {coords['quantile'].values.tolist()}")
+        coords["quantile"] = Variable(("quantile",), levels, {})
+        out[f"{o.name}_quantile"] = Variable(("quantile", *base), table[1], {"units": o.unit})
+        out[f"{o.name}_ci_quantile"] = Variable(("bound", "quantile", *base), table[2],
+                                                {"units": o.unit})
     if s.corrected:
-        out[f"{o.name}_corrected"] = (
+        out[f"{o.name}_corrected"] = Variable(
             ("statistic", *base), _moments(s.corrected),
             {"units": o.unit, "source": "cv",
              "description": "control-variate estimates (PCE + mean model-minus-surrogate on "
                             "validation runs)"})
-        out[f"{o.name}_corrected_ci"] = (
+        out[f"{o.name}_corrected_ci"] = Variable(
             ("bound", "statistic", *base), _bands(s.corrected_ci),
             {"description": "95% interval from the validation runs (delta method, stratified)"})
     if s.fallback:
-        out[f"{o.name}_fallback"] = (
+        out[f"{o.name}_fallback"] = Variable(
             ("statistic", *base), _moments(s.fallback),
             {"units": o.unit, "source": "mc",
              "description": "where the PCE withholds a moment: the Monte Carlo estimate of its "
                             "own fit and validation runs"})
-        out[f"{o.name}_fallback_ci"] = (
+        out[f"{o.name}_fallback_ci"] = Variable(
             ("bound", "statistic", *base), _bands(s.fallback_ci),
             {"description": "95% interval, the runs treated as independent draws"})
     if s.validation_error is not None:
-        out[f"{o.name}_validation_error"] = (
+        out[f"{o.name}_validation_error"] = Variable(
             base, np.asarray(s.validation_error, dtype=float),
             {"units": "1", "description": "mean squared model-minus-surrogate difference over "
                                           "the model's variance, validation runs"})
     if s.usable is not None:
-        out[f"{o.name}_usable"] = (base, np.asarray(s.usable, dtype=np.uint8),
-                                   {"units": "1", "description": "0 where the own moments are "
-                                                                 "withheld (NaN)"})
+        out[f"{o.name}_usable"] = Variable(
+            base, np.asarray(s.usable, dtype=np.uint8),
+            {"units": "1", "description": "0 where the own moments are withheld (NaN)"})
     return out
 
 
 def read_stats(g: Any, outputs: Sequence[OutputInfo]) -> dict[str, OutputStats]:
-    """The inverse of :func:`stats_dataset`, from its Dataset or a result file's method group
-    (h5py) alike: by output name, for the outputs that have statistics."""
-    if hasattr(g, "data_vars"):
-        def get(name: str) -> Any:
-            return g[name].values
-    else:
-        def get(name: str) -> Any:
-            return g[name][()]
+    """The inverse of :func:`layout`, from its variables (a Dataset, or a mapping of
+    :class:`Variable`) or a result file's method group (h5py) alike: by output name, for the
+    outputs that have statistics."""
+    def get(name: str) -> Any:
+        v = g[name]
+        return v.values if hasattr(v, "values") else v[()]
 
     def attrs(name: str) -> dict[str, Any]:
         # h5py gives a list attribute back as an array of str
