@@ -156,24 +156,20 @@ def _output_variables(o: OutputInfo, s: OutputStats,
         out[f"{o.name}_quantile"] = Variable(("quantile", *base), table[1], {"units": o.unit})
         out[f"{o.name}_ci_quantile"] = Variable(("bound", "quantile", *base), table[2],
                                                 {"units": o.unit})
-    if s.corrected:
-        out[f"{o.name}_corrected"] = Variable(
-            ("statistic", *base), _moments(s.corrected),
-            {"units": o.unit, "source": "cv",
-             "description": "control-variate estimates (PCE + mean model-minus-surrogate on "
-                            "validation runs)"})
-        out[f"{o.name}_corrected_ci"] = Variable(
-            ("bound", "statistic", *base), _bands(s.corrected_ci),
-            {"description": "95% interval from the validation runs (delta method, stratified)"})
-    if s.fallback:
-        out[f"{o.name}_fallback"] = Variable(
-            ("statistic", *base), _moments(s.fallback),
-            {"units": o.unit, "source": "mc",
-             "description": "where the PCE withholds a moment: the Monte Carlo estimate of its "
-                            "own fit and validation runs"})
-        out[f"{o.name}_fallback_ci"] = Variable(
-            ("bound", "statistic", *base), _bands(s.fallback_ci),
-            {"description": "95% interval, the runs treated as independent draws"})
+    for field, source, what, band_what in (
+            ("corrected", "cv", "control-variate estimates (PCE + mean model-minus-surrogate on "
+                                "validation runs)",
+             "95% interval from the validation runs (delta method, stratified)"),
+            ("fallback", "mc", "where the PCE withholds a moment: the Monte Carlo estimate of "
+                               "its own fit and validation runs",
+             "95% interval, the runs treated as independent draws")):
+        if getattr(s, field):
+            out[f"{o.name}_{field}"] = Variable(
+                ("statistic", *base), _moments(getattr(s, field)),
+                {"units": o.unit, "source": source, "description": what})
+            out[f"{o.name}_{field}_ci"] = Variable(
+                ("bound", "statistic", *base), _bands(getattr(s, f"{field}_ci")),
+                {"description": band_what})
     if s.validation_error is not None:
         out[f"{o.name}_validation_error"] = Variable(
             base, np.asarray(s.validation_error, dtype=float),

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, Protocol
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -28,6 +28,7 @@ from .dataset import SOURCES, layout
 
 if TYPE_CHECKING:
     from ..models.base import OutputInfo
+    from .result import Result
 
 #: How the label of a control-variate estimate ends, and a PCE's fallback's (the Monte Carlo
 #: estimate of its own runs).
@@ -327,27 +328,8 @@ def method_statistics(label: str, stats: Mapping[str, OutputStats],
             for o in outputs if o.name in stats}
 
 
-class _Estimate(Protocol):
-    @property
-    def stats(self) -> dict[str, OutputStats]: ...
-
-
-class _Run(Protocol):
-    @property
-    def label(self) -> str: ...
-    @property
-    def estimate(self) -> _Estimate: ...
-
-
-class _Result(Protocol):
-    @property
-    def runs(self) -> Sequence[_Run]: ...
-    @property
-    def outputs(self) -> Sequence[OutputInfo]: ...
-
-
-def result_statistics(result: _Result) -> dict[str, dict[str, OutputStatistics]]:
-    """The description of every method's statistics of a result (or what has its ``runs`` and
-    ``outputs``): by method label (the result's order), then by output name."""
+def result_statistics(result: Result) -> dict[str, dict[str, OutputStatistics]]:
+    """The description of every method's statistics of a result: by method label (the
+    result's order), then by output name."""
     return {r.label: method_statistics(r.label, r.estimate.stats, result.outputs)
             for r in result.runs}
