@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from ..core.types import RUNS_NEEDED, STAT_NAMES, OutputStats
+from ..errors import ResultError
 from ..stats.moments import overflowed
 from ..stats.quantiles import level_name
 from .dataset import SOURCES, layout
@@ -183,7 +184,11 @@ class OutputStatistics:
     def of(cls, label: str, output: OutputInfo, s: OutputStats) -> OutputStatistics:
         """The description of one method's statistics ``s`` of ``output``, read from their
         variables (:func:`uqguide.results.dataset.layout`)."""
-        coords, variables = layout({output.name: s}, [output], np.zeros(0), ())
+        try:
+            coords, variables = layout({output.name: s}, [output], np.zeros(0), ())
+        except ValueError as exc:  # moments or intervals of different shapes (a method's bug)
+            raise ResultError(f"{label}/{output.name}: statistics of inconsistent shapes "
+                              f"({exc})") from None
         return cls.read(label, output, coords | variables)
 
     @classmethod
