@@ -22,7 +22,8 @@ from ..core.failures import COLUMNS as FAILURE_COLUMNS, reason_rows
 from ..models.base import OutputInfo
 from ..results.result import Result
 from .budget import budget_tables, budget_text
-from ..results.statistics import CORRECTED_SUFFIX, Point, Statistic, points, result_statistics
+from ..results.dataset import SOURCES
+from ..results.statistics import Point, Statistic, points, result_statistics
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
 #: below this fraction of its peak: a ratio to a value that crosses zero means nothing.
@@ -440,7 +441,7 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
             if s.get("overflow") == "interval":
                 row[s["stat"]] = f"{_fmt(s['value'])} [no interval: overflow]"
                 continue
-            if str(s["label"]).endswith(CORRECTED_SUFFIX) and np.isnan(s["value"]) \
+            if str(s["label"]).endswith(SOURCES["cv"]) and np.isnan(s["value"]) \
                     and np.isnan(s["ci_low"]):
                 row[s["stat"]] = NOT_REPORTED
                 continue

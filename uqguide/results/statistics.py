@@ -31,9 +31,6 @@ if TYPE_CHECKING:
     from ..models.base import OutputInfo
     from .result import Result
 
-#: How the label of a control-variate estimate ends, and a PCE's fallback's (the Monte Carlo
-#: estimate of its own runs).
-CORRECTED_SUFFIX, FALLBACK_SUFFIX = SOURCES["cv"], SOURCES["mc"]
 #: Half-width of a 95% normal interval in standard errors.
 Z95 = 1.959963984540054
 #: How an output's statistics are judged: by standard errors (sample estimates) or by a relative
