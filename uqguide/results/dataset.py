@@ -182,6 +182,23 @@ def _output_variables(o: OutputInfo, s: OutputStats,
     return out
 
 
+def misshapen(s: OutputStats, o: OutputInfo, n_steps: int, where: str) -> str | None:
+    """What is wrong with the shapes of one output's moments, sem and intervals on a grid of
+    ``n_steps`` steps, if anything (what the Dataset cannot hold)."""
+    want = (n_steps, o.k) if o.kind == "series" else (o.k,)
+    for name in STAT_NAMES:
+        arr = np.asarray(s.stat(name))
+        if arr.shape != want or arr.dtype.kind not in "fiu":
+            return (f"{where}: {name} has shape {arr.shape} and type {arr.dtype}, "
+                    f"expected {want} numbers")
+    if s.sem is not None and np.shape(s.sem) != want:
+        return f"{where}: sem has shape {np.shape(s.sem)}, expected {want}"
+    for name in STAT_NAMES:
+        if name in s.ci and np.shape(s.ci[name]) != (2, *want):
+            return f"{where}: ci_{name} has shape {np.shape(s.ci[name])}"
+    return None
+
+
 def read_stats(g: Any, outputs: Sequence[OutputInfo]) -> dict[str, OutputStats]:
     """The inverse of :func:`layout`, from its variables (a Dataset, or a mapping of
     :class:`Variable`) or a result file's method group (h5py) alike: by output name, for the

@@ -30,10 +30,10 @@ from ..core import atomic
 from .._version import __version__
 from ..errors import ResultError
 from ..core.events import EventEstimate
-from ..core.types import STAT_NAMES, Estimate, GeneratedRows, OutputStats, ScalarIndex
+from ..core.types import Estimate, GeneratedRows, OutputStats, ScalarIndex
 from ..models.base import OutputInfo
 from .surrogate import StoredSurrogate, read_surrogate, write_surrogate
-from .dataset import LABEL, frames, read_stats, stack, stats_dataset
+from .dataset import LABEL, frames, misshapen, read_stats, stack, stats_dataset
 from .netcdf_file import UTF8, Blocks, Dataset, Group, dataset_group, strings, write_group
 
 FORMAT = 2
@@ -562,23 +562,7 @@ def _check_result(r: Result, path: Path) -> None:
                    f"the file")
         for o in r.outputs:
             if not bad and o.name in run.estimate.stats:
-                bad = _misshapen(run.estimate.stats[o.name], o, r.time.size,
-                                 f"{run.label}/{o.name}")
+                bad = misshapen(run.estimate.stats[o.name], o, r.time.size,
+                                f"{run.label}/{o.name}")
     if bad:
         raise ResultError(f"{path}: inconsistent result file ({bad})")
-
-
-def _misshapen(s: OutputStats, o: OutputInfo, n_steps: int, where: str) -> str | None:
-    """What is wrong with the shapes of one output's moments, sem and intervals, if anything."""
-    want = (n_steps, o.k) if o.kind == "series" else (o.k,)
-    for name in STAT_NAMES:
-        arr = np.asarray(s.stat(name))
-        if arr.shape != want or arr.dtype.kind not in "fiu":
-            return (f"{where}: {name} has shape {arr.shape} and type {arr.dtype}, "
-                    f"expected {want} numbers")
-    if s.sem is not None and np.shape(s.sem) != want:
-        return f"{where}: sem has shape {np.shape(s.sem)}, expected {want}"
-    for name in STAT_NAMES:
-        if name in s.ci and np.shape(s.ci[name]) != (2, *want):
-            return f"{where}: ci_{name} has shape {np.shape(s.ci[name])}"
-    return None
