@@ -118,3 +118,22 @@ def test_a_control_variate_row_is_compared_with_the_reference_s_own_moment(name)
     row = table[(table.label == "pce+cv") & (table.stat == name)].iloc[0]
     ref = result.run("mc").estimate.stats["r"].stat(name)[int(row.time), 0]
     assert row.ref_value == ref and row.abs_diff == 2.0 - ref
+
+
+def test_the_description_reads_a_method_s_xarray_dataset_as_its_statistics():
+    """The one data model: the description read from ``Result.to_xarray(label)`` is the one
+    read from the method's statistics, value for value, with the sources' labels."""
+    result = _result()
+    for r in result.runs:
+        a = OutputStatistics.of(r.label, SERIES, r.estimate.stats["r"])
+        b = OutputStatistics.read(r.label, SERIES, result.to_xarray(r.label))
+        assert [(st.label, st.name, st.kind) for st in a.statistics] == \
+            [(st.label, st.name, st.kind) for st in b.statistics]
+        for x, y in zip(a.statistics, b.statistics):
+            np.testing.assert_array_equal(x.value, y.value)
+            assert (x.ci is None) == (y.ci is None)
+            if x.ci is not None:
+                np.testing.assert_array_equal(x.ci, y.ci)
+        np.testing.assert_array_equal(a.cov, b.cov)
+        assert (a.usable is None) == (b.usable is None) and a.n_used == b.n_used
+    assert [st.label for st in b.corrected] == ["pce+cv"] * len(STAT_NAMES)

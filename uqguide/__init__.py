@@ -19,6 +19,7 @@ from __future__ import annotations
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
+from . import results
 from ._version import __version__
 
 if TYPE_CHECKING:  # what the lazy names below resolve to, for type checkers and IDEs
@@ -43,6 +44,16 @@ _LAZY = {
 
 __all__ = ["Method", "Model", "Result", "RunConfig", "__version__", "fit", "load_config",
            "read_result", "run"]
+
+
+def _stored_context(config: Any) -> Any:
+    from .config.run_config import stored_context
+
+    return stored_context(config)
+
+
+# results reads a stored surrogate's config through config, a layer it does not import
+results.stored_context = _stored_context
 
 
 def __getattr__(name: str) -> Any:

@@ -190,11 +190,8 @@ class BaselineOutput(_Strict):
 
 
 #: How far a stored ``mean_se`` may lie from ``std / sqrt(n_used)`` recomputed here, in units
-#: in the last place of that value. The result computes it the same way (``std / np.sqrt(n)``,
-#: :func:`uqguide.stats.moments.statistics_from_sums`): two correctly rounded operations on the
-#: same doubles, which the file keeps exactly (shortest repr), so it is equal on every point of
-#: the shipped golden baselines. 2 ulps leave room for a path that multiplies by
-#: ``1 / sqrt(n)`` (three roundings instead of two) and for no error bar a hand could loosen.
+#: in the last place: room for a path that multiplies by ``1 / sqrt(n)`` (three roundings, not
+#: two), none for an error bar a hand loosened (docs/regression-gate.md).
 MEAN_SE_ULPS = 2.0
 
 
@@ -277,10 +274,8 @@ def _check_quantile_intervals(p: BaselinePoint, n_used: int, where: str) -> None
 
 
 #: How far a sample std's standard error may lie from the delta method's
-#: ``std sqrt((kurtosis - 1) / (4 n))`` on the baseline's own numbers. Bootstrap and delta method
-#: agree to 0.73-1.11 on all 232 such points of the shipped golden baselines; a factor 3 either
-#: way leaves room for small samples and heavy tails and still refuses error bars loosened by
-#: hand (every standard error set to 1e300 passed 79 of 90 statistics of a real regression).
+#: ``std sqrt((kurtosis - 1) / (4 n))`` on the baseline's own numbers, either way: room for small
+#: samples and heavy tails, none for error bars loosened by hand (docs/regression-gate.md).
 STD_SE_FACTOR = 3.0
 
 

@@ -30,6 +30,7 @@ from ..core.events import EventEstimate
 from .tolerances import DEFAULT_PCE_RTOL, DEFAULT_SIGMAS, check_tolerance
 from ..errors import ResultError
 from ..models.base import OutputInfo
+from ..results.dataset import misshapen
 from ..results.result import Result
 from ..results.statistics import SAMPLE, OutputStatistics, result_statistics
 
@@ -511,16 +512,6 @@ def _runs_ratio(label: str, name: str, bo: BaselineOutput, s: OutputStatistics,
     return ""
 
 
-def _check_shapes(s: OutputStatistics, time: np.ndarray, where: str) -> None:
-    o = s.output
-    want = (time.size, o.k) if o.kind == "series" else (o.k,)
-    for m in s.moments:
-        got = np.shape(m.value)
-        if got != want:
-            raise ResultError(f"result {where}: {m.name} has shape {got}, expected {want} "
-                              f"({o.kind} output with {o.k} component(s))")
-
-
 def baseline_indices(baseline: Baseline) -> int:
     """How many Sobol' indices ``baseline`` holds (0 before format 4)."""
     return sum(len(p.indices) for m in baseline.methods.values()
@@ -573,7 +564,10 @@ def check_result(result: Result, baseline: Baseline, sigmas: float = DEFAULT_SIG
             if s is None:
                 raise ResultError(f"{source}: method '{label}' of the result has no statistics "
                                   f"of output '{name}'")
-            _check_shapes(s, result.time, f"{label}/{name}")
+            problem = misshapen(run.estimate.stats[name], s.output, result.time.size,
+                                f"{label}/{name}")
+            if problem:
+                raise ResultError(f"result {problem}")
             note = _runs_ratio(label, name, bo, s, source)
             if note and note not in report.notes:
                 report.notes.append(note)

@@ -29,7 +29,7 @@ from .figures import Figure, new_figure, save
 from ..models.base import OutputInfo
 from .tables import cost_table
 from ..results.result import MethodRun, Result
-from ..results.statistics import FROM_RUNS
+from ..results.statistics import FROM_RUNS, OutputStatistics, result_statistics
 from ..stats.moments import overflowed
 
 log = logging.getLogger(__name__)
@@ -63,9 +63,13 @@ def method_label(r: MethodRun) -> str:
     return f"{r.label} ({short}, {r.n_runs} run{'' if r.n_runs == 1 else 's'})"
 
 
-def _is_sample(r: MethodRun, output: str) -> bool:
-    s = r.estimate.stats.get(output)
-    return s is not None and s.moments_method in FROM_RUNS
+def _of(result: Result, output: str) -> dict[str, OutputStatistics]:
+    """The statistics of ``output`` by method label, of the methods that have them."""
+    return {label: d[output] for label, d in result_statistics(result).items() if output in d}
+
+
+def _is_sample(v: OutputStatistics | None) -> bool:
+    return v is not None and v.moments_method in FROM_RUNS
 
 
 def _styles(result: Result) -> dict[str, dict]:
@@ -99,28 +103,28 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
     handles, labels = [], []
     span = float(t[-1] - t[0]) if t.size > 1 else 1.0
     n_ci = 0
+    described = _of(result, output)
     for r in result.runs:
-        s = r.estimate.stats.get(output)
+        s = described.get(r.label)
         if s is None:
             continue
         st = styles[r.label]
         dodge = 0.006 * span * n_ci
-        n_ci += bool(s.ci)
-        mean, std = s.mean[:, component], s.std[:, component]
+        n_ci += any(m.ci is not None for m in s.moments)
+        mean, std = s.moment("mean").value[:, component], s.moment("std").value[:, component]
         # Light fills overlap into grey where methods agree; thin edges keep each band visible.
         ax_m.fill_between(t, mean - std, mean + std, color=st["color"], alpha=0.07, lw=0)
         for edge in (mean - std, mean + std):
             ax_m.plot(t, edge, color=st["color"], lw=0.7, ls=st["ls"], alpha=0.7)
         (h,) = ax_m.plot(t, mean, **st)
         ax_s.plot(t, std, **st)
-        ax_g.plot(t, s.skewness[:, component], **st)
-        ax_k.plot(t, s.kurtosis[:, component], **st)
-        for ax, stat in ((ax_m, "mean"), (ax_s, "std"), (ax_g, "skewness"), (ax_k, "kurtosis")):
-            ci = s.ci.get(stat)
-            if ci is None:
+        ax_g.plot(t, s.moment("skewness").value[:, component], **st)
+        ax_k.plot(t, s.moment("kurtosis").value[:, component], **st)
+        for ax, m in zip((ax_m, ax_s, ax_g, ax_k), s.moments):
+            if m.ci is None:
                 continue
-            lo, hi = ci[0][:, component], ci[1][:, component]
-            val = s.stat(stat)[:, component]
+            lo, hi = m.ci[0][:, component], m.ci[1][:, component]
+            val = m.value[:, component]
             ok = np.isfinite(lo) & np.isfinite(hi) & np.isfinite(val)
             if ok.any():
                 # Bars of several methods at one report time are dodged sideways to stay apart.
@@ -153,8 +157,7 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
 
 def has_quantiles(result: Result, output: str) -> bool:
     """Whether any method of ``result`` computed quantiles of ``output``."""
-    return any(r.estimate.stats.get(output) is not None
-               and r.estimate.stats[output].quantiles is not None for r in result.runs)
+    return any(v.quantiles for v in _of(result, output).values())
 
 
 def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
@@ -173,16 +176,15 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
     ax = fig.add_subplot()
     styles = _styles(result)
     title_levels = ""
+    described = _of(result, output)
     for r in result.runs:
-        s = r.estimate.stats.get(output)
-        table = s.quantile_table() if s is not None else None
-        if s is None or table is None:
+        s = described.get(r.label)
+        if s is None or not s.quantiles:
             continue
         st = styles[r.label]
-        lv, quantiles, ci_quantiles = table
+        lv = s.quantile_levels
         lo_i, hi_i, mid_i = 0, len(lv) - 1, int(np.argmin(np.abs(np.asarray(lv) - 0.5)))
-        q = quantiles[:, :, component]
-        ci = ci_quantiles[:, :, :, component]
+        q = [qs.value[:, component] for qs in s.quantiles]
         ok = np.isfinite(q[lo_i]) & np.isfinite(q[hi_i])
         dense = ok.sum() > 2 and ok.all()
         mark: dict[str, Any] = {} if dense else {"marker": "o", "ms": 4}
@@ -191,7 +193,7 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
         for i in (lo_i, hi_i):
             ax.plot(t[ok], q[i][ok], color=st["color"], lw=1.1, ls=st["ls"], **mark)
             for end in (0, 1):
-                e = ci[end, i]
+                e = np.asarray(s.quantiles[i].ci)[end, :, component]
                 fine = ok & np.isfinite(e)
                 if fine.any():
                     ax.plot(t[fine], e[fine], color=st["color"], lw=0.6, ls=":")
@@ -200,7 +202,7 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
                 **mark)
         if lv[lo_i] < 0.5 < lv[hi_i]:
             k = float(sps.norm.isf(lv[lo_i]))
-            m, sd = s.mean[:, component], s.std[:, component]
+            m, sd = s.moment("mean").value[:, component], s.moment("std").value[:, component]
             ax.plot(t, m - k * sd, color=st["color"], lw=0.8, ls="--", alpha=0.7)
             ax.plot(t, m + k * sd, color=st["color"], lw=0.8, ls="--", alpha=0.7,
                     label=f"{r.label}: mean $\\pm$ {k:.3g} std (Gaussian reading)")
@@ -303,18 +305,19 @@ def _probability_panel(ax, result: Result, output: str, c: int,
     from ..core.events import clopper_pearson
 
     labels, p, lo, hi, colours = [], [], [], [], []
+    described = _of(result, output)
     for r in result.runs:
-        s = r.estimate.stats.get(output)
+        s = described.get(r.label)
         if r.label in samples:
             y = samples[r.label]
             k = int(y.sum())
             a, b = clopper_pearson(k, y.size)
             val = k / y.size
         elif s is not None:
-            val = float(s.mean[c])
+            val = float(s.moment("mean").value[c])
             if s.corrected:
-                val = float(s.corrected["mean"][c]) if not np.isfinite(val) else val
-                a, b = (float(v) for v in s.corrected_ci["mean"][:, c])
+                val = float(s.corrected[0].value[c]) if not np.isfinite(val) else val
+                a, b = s.corrected[0].interval((c,))
             else:
                 a = b = val
         else:
@@ -360,12 +363,13 @@ def scalar_figure(result: Result, output: str) -> Figure:
     styles = _styles(result)
     u = unit_label(o.unit)
     notes = set()
+    described = _of(result, output)
     for c in range(k):
         ax = axes[c]
         name = f"{o.name}{_comp_suffix(o, c)}"
         samples = {}
         for r in result.runs:
-            if _is_sample(r, output) and output in r.scalars:
+            if _is_sample(described.get(r.label)) and output in r.scalars:
                 y = np.asarray(r.scalars[output])[~np.asarray(r.failed, bool), c]
                 y = y[np.isfinite(y)]
                 if y.size:
@@ -377,18 +381,19 @@ def scalar_figure(result: Result, output: str) -> Figure:
         draws = {}
         for r in result.runs:
             extra = getattr(r, "surrogate_scalars", None) or {}
-            if not _is_sample(r, output) and output in extra:
+            if not _is_sample(described.get(r.label)) and output in extra:
                 draws[r.label] = np.asarray(extra[output])[:, c]
-            elif not _is_sample(r, output):
+            elif not _is_sample(described.get(r.label)):
                 got = _surrogate_draws(result, r, output)
                 if got is not None and got.shape[0] > 1 and np.ptp(got[:, c]) > 0:
                     draws[r.label] = got[:, c]
         densities = {}
         for r in result.runs:
-            s = r.estimate.stats.get(output)
-            if s is None or _is_sample(r, output) or r.label in draws:
+            s = described.get(r.label)
+            if s is None or _is_sample(s) or r.label in draws:
                 continue
-            dist = _moment_density(float(s.mean[c]), float(s.std[c]), float(s.skewness[c]))
+            mean, std, skew, _ = (float(m.value[c]) for m in s.moments)
+            dist = _moment_density(mean, std, skew)
             if dist is not None:
                 densities[r.label] = dist
         pooled = list(samples.values()) + list(draws.values())
@@ -401,13 +406,12 @@ def scalar_figure(result: Result, output: str) -> Figure:
             max(samples, key=lambda lab: samples[lab].size, default=None)
         xs = np.linspace(lo, hi, 400)
         for r in result.runs:
-            s = r.estimate.stats.get(output)
+            s = described.get(r.label)
             if s is None:
                 continue
             st = styles[r.label]
-            text = _stats_text(float(s.mean[c]), float(s.std[c]), float(s.skewness[c]),
-                               float(s.kurtosis[c]), s.moments_method == "sample",
-                               int(s.n_used))
+            mean, std, skew, kurt = (float(m.value[c]) for m in s.moments)
+            text = _stats_text(mean, std, skew, kurt, s.moments_method == "sample", s.n_used)
             if r.label in samples and np.ptp(samples[r.label]) == 0:
                 # One run, or runs that all agree: a histogram of one value says nothing.
                 ax.axvline(samples[r.label][0], color=st["color"], lw=st["lw"], ls=st["ls"],
@@ -528,7 +532,7 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
     stem = _safe(result.name)
     files = []
     for o in result.outputs:
-        if not any(o.name in r.estimate.stats for r in result.runs):
+        if not _of(result, o.name):
             continue
         if o.kind == "series" and result.time.size:
             for c, comp in enumerate(o.components):

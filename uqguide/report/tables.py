@@ -22,7 +22,8 @@ from ..core.failures import COLUMNS as FAILURE_COLUMNS, reason_rows
 from ..models.base import OutputInfo
 from ..results.result import Result
 from .budget import budget_tables, budget_text
-from ..results.statistics import CORRECTED_SUFFIX, Point, Statistic, points, result_statistics
+from ..results.dataset import SOURCES
+from ..results.statistics import Point, Statistic, points, result_statistics
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
 #: below this fraction of its peak: a ratio to a value that crosses zero means nothing.
@@ -32,19 +33,11 @@ REL_FLOOR = 1e-3
 def cost_table(result: Result) -> pd.DataFrame:
     """One row per method: runs, failures, wall times and method diagnostics.
 
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``label``, ``method``, ``runs``, ``failed``, ``model_s``, ``compile_s`` (only
-        when a method's runs compiled the model's kernel: the first run of a fresh install,
-        never counted in ``model_s``), ``fit_s`` [s],
-        the diagnostics a method has (``degree``, ``n_terms``, ``loo_error``...), each rare
-        event's ``P(name)`` and ``cov(name)``, ``reference``, and ``status`` when a method
-        failed.
+    Columns ``label``, ``method``, ``runs``, ``failed``, ``model_s``, ``compile_s`` (only when a
+    method's runs compiled the model's kernel: the first run of a fresh install, never counted
+    in ``model_s``), ``fit_s`` [s], the diagnostics a method has (``degree``, ``n_terms``,
+    ``loo_error``...), each rare event's ``P(name)`` and ``cov(name)``, ``reference``, and
+    ``status`` when a method failed.
     """
     rows = []
     # a rare-event method's event is shown for every method that estimates it: the cost of
@@ -226,17 +219,9 @@ def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) ->
     consistent 1000-run Monte Carlo "out" of a 1e5-run reference whenever its own error is the
     larger one.
 
-    Parameters
-    ----------
-    v, lo, hi : float
-        One estimate and its 95% interval (NaN: none).
-    rv, rlo, rhi : float
-        The other (the reference) and its interval, in the same unit.
-
-    Returns
-    -------
-    bool or None
-        None when neither estimate has an interval or either value is not finite.
+    ``v, lo, hi``: one estimate and its 95% interval (NaN: none); ``rv, rlo, rhi``: the other
+    (the reference) and its interval, in the same unit. None when neither estimate has an
+    interval or either value is not finite.
     """
     def half(x: float, a: float, b: float, towards: float) -> float:
         w = (b - x) if towards > x else (x - a)
@@ -253,17 +238,9 @@ def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) ->
 
 
 def failure_table(result: Result) -> pd.DataFrame:
-    """One row per method and failure reason: label, runs, failed, share, reason, count.
-
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns of :data:`uqguide.core.failures.COLUMNS`; no rows when no run failed.
-    """
+    """One row per method and failure reason: the columns of
+    :data:`uqguide.core.failures.COLUMNS` (label, runs, failed, share, reason, count); no rows
+    when no run failed."""
     rows = [row for r in result.runs if r.n_failed
             for row in reason_rows(r.label, r.n_runs, r.reasons[r.failed])]
     return pd.DataFrame(rows, columns=FAILURE_COLUMNS)
@@ -272,20 +249,13 @@ def failure_table(result: Result) -> pd.DataFrame:
 def statistics_table(result: Result) -> pd.DataFrame:
     """Long-form statistics at the report times (series) and for every scalar output.
 
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    pandas.DataFrame
-        One row per output, component, time [s] (NaN for scalars), method and statistic
-        (:mod:`uqguide.results.statistics`: the method's moments, a validated PCE's
-        control-variate moments as ``<label>+cv``, the quantiles): ``value``, ``ci_low``,
-        ``ci_high`` in the output's ``unit``, ``usable`` (moments); against the reference also
-        ``ref_value``, ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`); where
-        an output's moments overflowed double precision, ``overflow`` (``"value"``: the
-        moment, ``"interval"``: its interval; :func:`uqguide.stats.moments.overflowed`).
+    One row per output, component, time [s] (NaN for scalars), method and statistic
+    (:mod:`uqguide.results.statistics`: the method's moments, a validated PCE's control-variate
+    moments as ``<label>+cv``, the quantiles): ``value``, ``ci_low``, ``ci_high`` in the
+    output's ``unit``, ``usable`` (moments); against the reference also ``ref_value``,
+    ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`); where an output's moments
+    overflowed double precision, ``overflow`` (``"value"``: the moment, ``"interval"``: its
+    interval; :func:`uqguide.stats.moments.overflowed`).
     """
     described = result_statistics(result)
     # result.run: a ResultError naming the labels when the reference is none of them
@@ -361,18 +331,9 @@ def _against(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float
 
 
 def events_table(result: Result) -> pd.DataFrame:
-    """One row per method and event: probability, 95% interval, counts and estimator.
-
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``event``, ``definition``, ``label``, ``probability``, ``ci_low``,
-        ``ci_high``, ``n_in``, ``n_used``, ``cov``, ``estimator``.
-    """
+    """One row per method and event: columns ``event``, ``definition``, ``label``,
+    ``probability``, ``ci_low``, ``ci_high`` (95% interval), ``n_in``, ``n_used``, ``cov``,
+    ``estimator``."""
     rows = []
     for r in result.runs:
         for name, ev in r.estimate.events.items():
@@ -384,19 +345,9 @@ def events_table(result: Result) -> pd.DataFrame:
 
 
 def events_text(df: pd.DataFrame) -> pd.DataFrame:
-    """The events table for reading: probability and interval in one column.
-
-    Parameters
-    ----------
-    df : pandas.DataFrame
-        As :func:`events_table` returns it.
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``event``, ``definition``, ``label``, ``probability [95% interval]``,
-        ``in / used``, ``cov``, ``estimator`` (text).
-    """
+    """The events table ``df`` (:func:`events_table`) for reading, as text: columns ``event``,
+    ``definition``, ``label``, ``probability [95% interval]``, ``in / used``, ``cov``,
+    ``estimator``."""
     out = df[["event", "definition", "label"]].copy()
     out["probability [95% interval]"] = [
         f"{_fmt(p)} [{_fmt(lo)}, {_fmt(hi)}]"
@@ -411,17 +362,9 @@ def series_agreement(result: Result) -> pd.DataFrame:
     """Per series output and method: the largest relative difference of mean and std over time.
 
     The relative difference at a step is ``|value - ref| / |ref|``, over the steps where
-    ``|ref|`` is at least ``REL_FLOOR`` of its peak over time.
-
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``output``, ``label``, ``max_rel_mean``, ``at_t_mean`` [s], ``max_rel_std``,
-        ``at_t_std`` [s]; empty without a reference.
+    ``|ref|`` is at least ``REL_FLOOR`` of its peak over time. Columns ``output``, ``label``,
+    ``max_rel_mean``, ``at_t_mean`` [s], ``max_rel_std``, ``at_t_std`` [s]; empty without a
+    reference.
     """
     if not result.reference:
         return pd.DataFrame()
@@ -469,20 +412,12 @@ def _fmt(v: float) -> str:
 
 
 def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
-    """One row per (time, component, label); a column per statistic with its interval.
+    """One row per (time, component, label); a column per statistic with its interval, as
+    text; the ``time`` and ``component`` columns only where they vary.
 
-    Parameters
-    ----------
-    stats : pandas.DataFrame
-        Rows of :func:`statistics_table` (one output); ``stats.attrs["reference"]`` names
-        the reference method.
-    with_ref : bool
-        Add the difference from the reference and its verdict to each cell.
-
-    Returns
-    -------
-    pandas.DataFrame
-        Text cells; the ``time`` and ``component`` columns only where they vary.
+    ``stats``: rows of :func:`statistics_table` (one output), ``stats.attrs["reference"]``
+    naming the reference method; ``with_ref``: add the difference from the reference and its
+    verdict to each cell.
     """
     rows = []
     keys = ["time", "component", "label"]
@@ -506,7 +441,7 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
             if s.get("overflow") == "interval":
                 row[s["stat"]] = f"{_fmt(s['value'])} [no interval: overflow]"
                 continue
-            if str(s["label"]).endswith(CORRECTED_SUFFIX) and np.isnan(s["value"]) \
+            if str(s["label"]).endswith(SOURCES["cv"]) and np.isnan(s["value"]) \
                     and np.isnan(s["ci_low"]):
                 row[s["stat"]] = NOT_REPORTED
                 continue
@@ -540,18 +475,9 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
 
 
 def render_text(result: Result) -> str:
-    """The console form: the cost table, then each output's statistics at the report times.
-
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    str
-        Cost, statistics, events, series agreement, the error budget of each scalar output
-        (:mod:`uqguide.report.budget`), legend and failures, as plain text.
-    """
+    """The console form, plain text: cost, each output's statistics at the report times,
+    events, series agreement, the error budget of each scalar output
+    (:mod:`uqguide.report.budget`), legend and failures."""
     parts = ["Cost", cost_table(result).to_string(index=False, na_rep="")]
     val = validation_table(result)
     if not val.empty:
@@ -595,19 +521,9 @@ def render_text(result: Result) -> str:
 
 
 def interval_legend(with_reference: bool, needs_runs: bool = False) -> str:
-    """What the brackets and flags of the statistics tables mean (printed with every table).
-
-    Parameters
-    ----------
-    with_reference : bool
-        Also explain the difference and its in / OUT verdict.
-    needs_runs : bool
-        Also explain "needs n runs" (a table shows it).
-
-    Returns
-    -------
-    str
-    """
+    """What the brackets and flags of the statistics tables mean (printed with every table);
+    ``with_reference``: also the difference and its in / OUT verdict; ``needs_runs``: also
+    "needs n runs" (a table shows it)."""
     text = ("Values: estimate [95% interval]: Monte Carlo moments by skew-corrected "
             "(Hall) influence-function intervals, printed as a floor '[>= L]' (or ceiling) "
             "where a handful of runs carry the statistic's variance and the runs cannot bound "
@@ -642,17 +558,8 @@ def interval_legend(with_reference: bool, needs_runs: bool = False) -> str:
 
 
 def to_markdown(df: pd.DataFrame) -> str:
-    """A GitHub-flavoured Markdown table (no extra dependency).
-
-    Parameters
-    ----------
-    df : pandas.DataFrame
-
-    Returns
-    -------
-    str
-        Header, separator and one line per row; floats to 4 significant digits.
-    """
+    """``df`` as a GitHub-flavoured Markdown table (no extra dependency): header, separator
+    and one line per row; floats to 4 significant digits."""
     cols = [str(c) for c in df.columns]
     lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
     for _, row in df.iterrows():
@@ -663,16 +570,7 @@ def to_markdown(df: pd.DataFrame) -> str:
 
 def render_markdown(result: Result) -> str:
     """The Markdown summary (``<name>_summary.md``): cost, statistics, events and series
-    agreement tables.
-
-    Parameters
-    ----------
-    result : Result
-
-    Returns
-    -------
-    str
-    """
+    agreement tables."""
     stats = statistics_table(result)
     stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
@@ -701,20 +599,8 @@ def render_markdown(result: Result) -> str:
 
 def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
     """Write ``<stem>_stats.csv``, ``<stem>_cost.csv`` and ``<stem>_summary.md`` (and
-    ``<stem>_events.csv`` when the config has events), each whole or absent.
-
-    Parameters
-    ----------
-    result : Result
-    out_dir : Path
-        Created when missing.
-    stem : str
-        File name prefix (the run's name).
-
-    Returns
-    -------
-    list of Path
-        The files written.
+    ``<stem>_events.csv`` when the config has events), each whole or absent; ``out_dir`` is
+    made when missing, ``stem`` is the run's name. Returns the files written.
     """
     atomic.make_folder(out_dir)
     paths = [out_dir / f"{stem}_stats.csv", out_dir / f"{stem}_cost.csv",

@@ -1,33 +1,27 @@
 """The netCDF-4 form of a result file's groups (format 2), written and read with h5py.
 
-Each ``methods/<label>`` group is a self-contained netCDF-4 group: the variables of
-:mod:`uqguide.results.labelled` with HDF5 dimension scales for every dimension (``time``, ``input``,
-``statistic``, ``bound``, ``quantile``, ``<output>_component``...), strings as UTF-8. So
-``xarray.open_dataset(path, group="methods/mc1000", engine="h5netcdf")`` gives named
-dimensions and the time coordinate, and plain h5py reads the same arrays by name.
+Each ``methods/<label>`` group is a self-contained netCDF-4 group: the variables of the
+method's Dataset (:mod:`uqguide.results.dataset`) with HDF5 dimension scales for every dimension,
+strings as UTF-8. So ``xarray.open_dataset(path, group="methods/mc1000", engine="h5netcdf")``
+gives named dimensions and the time coordinate, and plain h5py reads the same arrays by name.
 
-A file is laid out whole first, as a tree of :class:`Group` (attributes, dimension scales,
-variables, subgroups), and then written by one call of :func:`write_group`: the caller
-(:mod:`uqguide.results.result`) says what goes where, this module how it is stored. Arrays too
-large to hold twice (a generated design, the failure reasons) are :class:`Blocks`, converted
-and written a block at a time during that call.
+A file is laid out whole first, as a tree of :class:`Group`, and then written by one call of
+:func:`write_group`: the caller (:mod:`uqguide.results.result`) says what goes where, this module
+how it is stored. Arrays too large to hold twice (a generated design, the failure reasons) are
+:class:`Blocks`, converted and written a block at a time during that call.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import h5py
 import numpy as np
 
-from .labelled import Variable, method_variables, stats_from_variables
-
 if TYPE_CHECKING:
-    from ..core.types import OutputStats
-    from ..models.base import OutputInfo
-    from .statistics import OutputStatistics
+    import xarray as xr
 
 UTF8 = h5py.string_dtype("utf-8")
 
@@ -66,12 +60,6 @@ class Dataset:
     attrs: dict[str, Any] = field(default_factory=dict)
     storage: dict[str, Any] = field(default_factory=dict)
 
-    @classmethod
-    def of(cls, v: Variable) -> Dataset:
-        """A labelled variable (:mod:`uqguide.results.labelled`) as stored: with its
-        dimension scales, uncompressed (statistics are small)."""
-        return cls(v.data, v.dims, dict(v.attrs))
-
 
 @dataclass
 class Group:
@@ -90,14 +78,13 @@ class Group:
     fill: Callable[[h5py.Group], None] | None = None
 
 
-def method_group(stats: Mapping[str, OutputStatistics], time: np.ndarray,
-                 input_names: Sequence[str]) -> Group:
-    """The group of one method's statistics (:mod:`uqguide.results.statistics`, ``time (T,)``
-    [s]): the variables of :func:`uqguide.results.labelled.method_variables` with their
-    dimension scales; add attributes and subgroups to it."""
-    coords, variables = method_variables(stats, time, input_names)
-    return Group(scales={dim: Dataset.of(v) for dim, v in coords.items()},
-                 variables={name: Dataset.of(v) for name, v in variables.items()})
+def dataset_group(ds: xr.Dataset) -> Group:
+    """The group of a Dataset (a method's statistics): its coordinates as dimension scales, its
+    variables with them, uncompressed (statistics are small); add attributes and subgroups."""
+    return Group(scales={str(d): Dataset(c.values, attrs=dict(c.attrs))
+                         for d, c in ds.coords.items()},
+                 variables={str(name): Dataset(v.values, tuple(map(str, v.dims)), dict(v.attrs))
+                            for name, v in ds.data_vars.items()})
 
 
 def write_group(g: h5py.Group, layout: Group,
@@ -136,18 +123,6 @@ def _write_dataset(g: h5py.Group, name: str, d: Dataset,
             ds.dims[axis].attach_scale(scales[dim])
     _set_attrs(ds, d.attrs)
     return ds
-
-
-def read_method_stats(g: h5py.Group, outputs: list[OutputInfo]) -> dict[str, OutputStats]:
-    """The statistics of a :func:`method_group` written into ``g``, by output name."""
-    def get(name: str) -> np.ndarray:
-        return g[name][()]
-
-    def attrs(name: str) -> dict[str, Any]:
-        return {k: (strings(v) if isinstance(v, np.ndarray) and v.dtype.kind == "O" else v)
-                for k, v in g[name].attrs.items()}
-
-    return stats_from_variables(get, lambda name: name in g, attrs, outputs)
 
 
 def strings(values: Any) -> list[str]:

@@ -4,8 +4,8 @@
 (:class:`MethodRun`); :func:`write_hdf5` writes it as a result file of format :data:`FORMAT`
 (netCDF-4 conventions, so xarray / h5netcdf read it with named dimensions; every array SI), laid
 out by :func:`file_layout`, and :func:`read_hdf5` reads back every format in
-:data:`READABLE_FORMATS`. A method's statistics are the variables of
-:mod:`uqguide.results.labelled`; a PCE's surrogate is :mod:`uqguide.results.surrogate`'s. The file
+:data:`READABLE_FORMATS`. A method's statistics are its Dataset
+(:mod:`uqguide.results.dataset`); a PCE's surrogate is :mod:`uqguide.results.surrogate`'s. The file
 is written to a temporary name in the same folder and renamed into place, so a file with the
 final name is always complete.
 
@@ -33,10 +33,8 @@ from ..core.events import EventEstimate
 from ..core.types import Estimate, GeneratedRows, OutputStats, ScalarIndex
 from ..models.base import OutputInfo
 from .surrogate import StoredSurrogate, read_surrogate, write_surrogate
-from .netcdf_file import (
-    UTF8, Blocks, Dataset, Group, method_group, read_method_stats, strings, write_group,
-)
-from .statistics import OutputStatistics, method_statistics
+from .dataset import LABEL, frames, misshapen, read_stats, stack, stats_dataset
+from .netcdf_file import UTF8, Blocks, Dataset, Group, dataset_group, strings, write_group
 
 FORMAT = 2
 #: Format versions :func:`read_hdf5` reads.
@@ -160,10 +158,11 @@ class Result:
             raise ResultError(f"method {label!r} ({est.method}) kept no surrogate; only PCE "
                               f"methods do (and result files written before surrogates were kept)")
         if isinstance(s, StoredSurrogate):
-            # (the one call of results into config: a stored config's inputs and model)
-            from ..config.run_config import stored_context
             from ..pce.germ import Germ
+            from . import stored_context
 
+            if stored_context is None:  # pragma: no cover - set whenever uqguide is imported
+                raise ResultError("uqguide.results.stored_context is not set")
             space, derived = stored_context(self.config)
             if list(space.names) != list(s.inputs):
                 raise ResultError(f"{label}: the surrogate's inputs {s.inputs} are not the "
@@ -181,23 +180,40 @@ class Result:
                           f"{', '.join(o.name for o in self.outputs)})")
 
     def to_xarray(self, label: str | None = None) -> Any:
-        """The statistics as an ``xarray.Dataset``: of method ``label``, or of every method
-        along a ``label`` dimension, ``ds.sel(label="mc1000")`` (see
-        :mod:`uqguide.results.frames`; needs ``uqguide[xarray]``).
+        """The statistics as an ``xarray.Dataset``: of method ``label`` (with its cost and
+        counts as attributes), or of every method along a ``label`` dimension,
+        ``ds.sel(label="mc1000")`` (NaN where a method lacks a variable; ``method_name``,
+        ``n_runs`` and ``n_failed`` along ``label``).
 
         Per output: ``<output>`` (dimensions ``statistic``, ``time`` for a series,
         ``<output>_component``), its covariance, intervals, Sobol' indices and quantiles where the
-        method gives them.
+        method gives them (:mod:`uqguide.results.dataset`).
         """
-        from .frames import to_xarray
-
-        return to_xarray(self, label)
+        if label is not None:
+            r = self.run(label)
+            ds = stats_dataset(r.estimate.stats, self.outputs, self.time, self.input_names)
+            ds.attrs.update(name=self.name, model=self.model, label=r.label,
+                            method=r.estimate.method, n_runs=r.n_runs, n_failed=r.n_failed,
+                            model_seconds=r.model_seconds, fit_seconds=r.fit_seconds)
+            return ds
+        if not self.runs:
+            raise ResultError("this result has no methods")
+        ds = stack([self.to_xarray(r.label) for r in self.runs], [r.label for r in self.runs])
+        ds["method_name"] = (LABEL, np.array([r.estimate.method for r in self.runs],
+                                             dtype=object))
+        ds["n_runs"] = (LABEL, np.array([r.n_runs for r in self.runs]))
+        ds["n_failed"] = (LABEL, np.array([r.n_failed for r in self.runs]))
+        ds.attrs.update(name=self.name, model=self.model, reference=self.reference or "")
+        return ds
 
     def to_dataframe(self, output: str | None = None) -> Any:
         """Every statistic of ``output`` (optional when there is only one) at every time step as a
         tidy table: one row per value, columns ``label``, ``time`` [s] (series only),
-        ``component``, ``statistic``, ``value`` (in the output's unit), ``ci_low``, ``ci_high``."""
-        from .frames import to_dataframe
+        ``component``, ``statistic`` (mean, std, skewness, kurtosis, sem, q<level>), ``value``
+        (in the output's unit), ``ci_low``, ``ci_high`` (NaN where the method gives no
+        interval); a validated PCE's control-variate moments are rows labelled ``<label>+cv``,
+        and where a PCE withholds a moment the Monte Carlo estimate of its runs ``<label>+mc``."""
+        import pandas as pd
 
         if output is None:
             if len(self.outputs) != 1:
@@ -205,7 +221,13 @@ class Result:
                                   f"{len(self.outputs)} outputs: "
                                   f"{', '.join(o.name for o in self.outputs)}")
             output = self.outputs[0].name
-        return to_dataframe(self, output)
+        info = self.output(output)
+        rows = [f for r in self.runs if output in r.estimate.stats
+                for f in frames(stats_dataset({output: r.estimate.stats[output]}, [info],
+                                              self.time, self.input_names), info, r.label)]
+        if not rows:
+            raise ResultError(f"no method of this result has statistics of {output!r}")
+        return pd.concat(rows, ignore_index=True)
 
 
 def provenance() -> dict[str, Any]:
@@ -321,8 +343,7 @@ def file_layout(result: Result) -> Group:
 def _method_layout(r: MethodRun, result: Result) -> Group:
     """The group ``methods/<label>``: the method's statistics and the runs behind them."""
     e = r.estimate
-    stats = method_statistics(r.label, e.stats, result.outputs)
-    g = method_group(stats, result.time, result.input_names)
+    g = dataset_group(stats_dataset(e.stats, result.outputs, result.time, result.input_names))
     g.attrs.update(method=e.method, n_runs=r.n_runs, n_failed=r.n_failed,
                    model_seconds=r.model_seconds, fit_seconds=r.fit_seconds,
                    wall_seconds=r.wall_seconds, compile_seconds=r.compile_seconds,
@@ -442,7 +463,7 @@ def read_hdf5(path: str | Path) -> Result:
                 if fmt == 1:
                     stats = {name: _read_stats(sg) for name, sg in g.get("stats", {}).items()}
                 else:
-                    stats = read_method_stats(g, outputs)
+                    stats = read_stats(g, outputs)
                 joint = g.get("scalar_joint")
                 est = Estimate(
                     method=str(g.attrs["method"]), label=label, stats=stats,
@@ -539,25 +560,9 @@ def _check_result(r: Result, path: Path) -> None:
         if not bad and unknown:
             bad = (f"{run.label}: statistics of '{unknown[0]}', which is not an output of "
                    f"the file")
-        for name, v in method_statistics(run.label, run.estimate.stats, r.outputs).items():
-            if not bad:
-                bad = _misshapen(v, r.time.size, f"{run.label}/{name}")
+        for o in r.outputs:
+            if not bad and o.name in run.estimate.stats:
+                bad = misshapen(run.estimate.stats[o.name], o, r.time.size,
+                                f"{run.label}/{o.name}")
     if bad:
         raise ResultError(f"{path}: inconsistent result file ({bad})")
-
-
-def _misshapen(v: OutputStatistics, n_steps: int, where: str) -> str | None:
-    """What is wrong with the shapes of one output's moments, sem and intervals, if anything."""
-    o = v.output
-    want = (n_steps, o.k) if o.kind == "series" else (o.k,)
-    for m in v.moments:
-        arr = np.asarray(m.value)
-        if arr.shape != want or arr.dtype.kind not in "fiu":
-            return (f"{where}: {m.name} has shape {arr.shape} and type {arr.dtype}, "
-                    f"expected {want} numbers")
-    if v.sem is not None and np.shape(v.sem) != want:
-        return f"{where}: sem has shape {np.shape(v.sem)}, expected {want}"
-    for m in v.moments:
-        if m.ci is not None and np.shape(m.ci) != (2, *want):
-            return f"{where}: ci_{m.name} has shape {np.shape(m.ci)}"
-    return None

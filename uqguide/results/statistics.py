@@ -1,13 +1,13 @@
-"""A run's statistics, described once: which there are, how they are named and labelled, where
-they are read, their intervals and standard errors.
+"""A run's statistics, described for their readers: which there are, how they are named and
+labelled, where they are read, their intervals and standard errors.
 
-Every reader of a result's statistics (the result file and the xarray / pandas views, the report
-tables, the regression gate) goes through this description rather than through
-:class:`~uqguide.core.types.OutputStats`. What one method estimated of one output is an
-:class:`OutputStatistics`, whose :class:`Statistic` entries are the method's own moments, a
-validated PCE's ``+cv`` moments (:data:`CORRECTED_SUFFIX`), the ``+mc`` estimate of its own runs
-where it withholds one (:data:`FALLBACK_SUFFIX`) and the quantiles; each holds its values,
-intervals and where it is usable. The places a statistic is reported at are :func:`points`.
+The report tables, the regression gate and the run's checks read a method's statistics through
+this description, which reads them from the method's Dataset (:mod:`uqguide.results.dataset`).
+What one method estimated of one output is an :class:`OutputStatistics`, whose
+:class:`Statistic` entries are the method's own moments, a validated PCE's ``+cv`` moments, the
+``+mc`` estimate of its own runs where it withholds one, and the quantiles; each holds its
+values, intervals and where it is usable. The places a statistic is reported at are
+:func:`points`.
 
 How the statistics are read: docs/architecture.md#a-results-statistics.
 """
@@ -17,21 +17,20 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, Protocol
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from ..core.types import RUNS_NEEDED, STAT_NAMES, OutputStats
+from ..errors import ResultError
 from ..stats.moments import overflowed
 from ..stats.quantiles import level_name
+from .dataset import SOURCES, layout
 
 if TYPE_CHECKING:
     from ..models.base import OutputInfo
+    from .result import Result
 
-#: How the label of a control-variate estimate ends.
-CORRECTED_SUFFIX = "+cv"
-#: How the label of a PCE's fallback (the Monte Carlo estimate of its own runs) ends.
-FALLBACK_SUFFIX = "+mc"
 #: Half-width of a 95% normal interval in standard errors.
 Z95 = 1.959963984540054
 #: How an output's statistics are judged: by standard errors (sample estimates) or by a relative
@@ -180,27 +179,51 @@ class OutputStatistics:
 
     @classmethod
     def of(cls, label: str, output: OutputInfo, s: OutputStats) -> OutputStatistics:
-        """The description of one method's statistics ``s`` of ``output``."""
-        usable = None if s.usable is None else np.asarray(s.usable, dtype=bool)
-        moments = tuple(Statistic(label, n, "moment", s.stat(n), s.ci.get(n),
-                                  s.sem if n == "mean" else None,
-                                  True if usable is None else usable) for n in STAT_NAMES)
-        corrected = tuple(Statistic(label + CORRECTED_SUFFIX, n, "corrected", s.corrected[n],
-                                    s.corrected_ci[n]) for n in STAT_NAMES) \
-            if s.corrected else ()
-        fallback = tuple(Statistic(label + FALLBACK_SUFFIX, n, "fallback", s.fallback[n],
-                                   s.fallback_ci[n]) for n in STAT_NAMES) \
-            if s.fallback else ()
-        table = s.quantile_table()
-        quantiles = () if table is None else tuple(
-            Statistic(label, level_name(p), "quantile", table[1][j], table[2][:, j],
-                      usable=None, level=float(p)) for j, p in enumerate(table[0]))
-        return cls(label, output, moments, corrected, quantiles, int(s.n_used),
-                   s.moments_method, s.cov, s.sobol_first, s.sobol_total,
-                   s.validation_error, usable, fallback, s.sobol_first_ci, s.sobol_total_ci,
-                   s.sobol_estimator or ("pce" if s.sobol_first is not None else ""),
-                   tuple(s.sobol_groups), s.sobol_group_first, s.sobol_group_first_ci,
-                   s.sobol_group_total, s.sobol_group_total_ci)
+        """The description of one method's statistics ``s`` of ``output``, read from their
+        variables (:func:`uqguide.results.dataset.layout`)."""
+        try:
+            coords, variables = layout({output.name: s}, [output], np.zeros(0), ())
+        except ValueError as exc:  # moments or intervals of different shapes (a method's bug)
+            raise ResultError(f"{label}/{output.name}: statistics of inconsistent shapes "
+                              f"({exc})") from None
+        return cls.read(label, output, coords | variables)
+
+    @classmethod
+    def read(cls, label: str, output: OutputInfo, ds: Mapping[str, Any]) -> OutputStatistics:
+        """The description of the statistics of ``output`` in one method's Dataset ``ds`` (an
+        ``xarray.Dataset`` or a mapping of :class:`~uqguide.results.dataset.Variable`)."""
+        o = output.name
+
+        def get(name: str) -> Any:
+            return ds[f"{o}_{name}"].values if f"{o}_{name}" in ds else None
+
+        usable = None if get("usable") is None else np.asarray(get("usable"), dtype=bool)
+        ci, given = get("ci"), ds[f"{o}_ci"].attrs["statistics"] if f"{o}_ci" in ds else ()
+        moments = tuple(Statistic(label, n, "moment", ds[o].values[j],
+                                  ci[:, j] if n in given else None,
+                                  get("sem") if n == "mean" else None,
+                                  True if usable is None else usable)
+                        for j, n in enumerate(STAT_NAMES))
+        other = {kind: tuple(Statistic(label + SOURCES[ds[f"{o}_{kind}"].attrs["source"]], n,
+                                       kind, ds[f"{o}_{kind}"].values[j],
+                                       get(f"{kind}_ci")[:, j])
+                             for j, n in enumerate(STAT_NAMES)) if f"{o}_{kind}" in ds else ()
+                 for kind in ("corrected", "fallback")}
+        quantiles = () if get("quantile") is None else tuple(
+            Statistic(label, level_name(float(p)), "quantile", get("quantile")[j],
+                      get("ci_quantile")[:, j], usable=None, level=float(p))
+            for j, p in enumerate(ds["quantile"].values))
+        estimator = next((str(ds[f"{o}_sobol_{kind}"].attrs["estimator"])
+                          for kind in ("first", "total", "group_first", "group_total")
+                          if f"{o}_sobol_{kind}" in ds), "")
+        groups = tuple(str(g) for g in ds["group"].values) \
+            if f"{o}_sobol_group_first" in ds else ()
+        return cls(label, output, moments, other["corrected"], quantiles,
+                   int(ds[o].attrs["n_used"]), str(ds[o].attrs["moments_method"]), get("cov"),
+                   get("sobol_first"), get("sobol_total"), get("validation_error"), usable,
+                   other["fallback"], get("sobol_first_ci"), get("sobol_total_ci"), estimator,
+                   groups, get("sobol_group_first"), get("sobol_group_first_ci"),
+                   get("sobol_group_total"), get("sobol_group_total_ci"))
 
     @property
     def statistics(self) -> tuple[Statistic, ...]:
@@ -307,27 +330,8 @@ def method_statistics(label: str, stats: Mapping[str, OutputStats],
             for o in outputs if o.name in stats}
 
 
-class _Estimate(Protocol):
-    @property
-    def stats(self) -> dict[str, OutputStats]: ...
-
-
-class _Run(Protocol):
-    @property
-    def label(self) -> str: ...
-    @property
-    def estimate(self) -> _Estimate: ...
-
-
-class _Result(Protocol):
-    @property
-    def runs(self) -> Sequence[_Run]: ...
-    @property
-    def outputs(self) -> Sequence[OutputInfo]: ...
-
-
-def result_statistics(result: _Result) -> dict[str, dict[str, OutputStatistics]]:
-    """The description of every method's statistics of a result (or what has its ``runs`` and
-    ``outputs``): by method label (the result's order), then by output name."""
+def result_statistics(result: Result) -> dict[str, dict[str, OutputStatistics]]:
+    """The description of every method's statistics of a result: by method label (the
+    result's order), then by output name."""
     return {r.label: method_statistics(r.label, r.estimate.stats, result.outputs)
             for r in result.runs}
