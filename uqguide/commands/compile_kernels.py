@@ -76,10 +76,8 @@ def _statistics_kernel() -> Compiled:
     started = time.perf_counter()
     MomentSums.of(np.zeros((2, 2)), comoments=True, high=True)
     took = time.perf_counter() - started
-    try:
-        from ..stats.moment_sums_kernel import column_sums, comoment_sums
-    except ImportError:  # no numba: the NumPy sums need no compile
-        return Compiled("-", "moment sums", "numpy", 0.0, took)
+    from ..stats.moment_sums_kernel import column_sums, comoment_sums
+
     missed = sum(len(k.stats.cache_misses) for k in (column_sums, comoment_sums))
     return Compiled("-", "moment sums", "numba", took if missed else 0.0, took)
 

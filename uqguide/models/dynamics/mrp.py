@@ -16,18 +16,14 @@ import numpy as np
 
 
 def skew(x: np.ndarray) -> np.ndarray:
-    """Skew-symmetric matrix ``S(x)`` with ``S(x) y = x cross y`` (the paper's psi(x))."""
+    """Skew-symmetric matrix ``S(x)`` (..., 3, 3) of ``x`` (..., 3): ``S(x) y = x cross y`` (the
+    paper's psi(x))."""
     x = np.asarray(x, dtype=float)
-    z = np.zeros(x.shape[:-1])
-    x1, x2, x3 = x[..., 0], x[..., 1], x[..., 2]
-    return np.stack(
-        [
-            np.stack([z, -x3, x2], axis=-1),
-            np.stack([x3, z, -x1], axis=-1),
-            np.stack([-x2, x1, z], axis=-1),
-        ],
-        axis=-2,
-    )
+    S = np.zeros(x.shape[:-1] + (3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -x[..., 2], x[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = x[..., 2], -x[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -x[..., 1], x[..., 0]
+    return S
 
 
 def _outer(a: np.ndarray, b: np.ndarray) -> np.ndarray:

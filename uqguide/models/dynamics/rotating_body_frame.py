@@ -15,17 +15,8 @@ from typing import Protocol
 
 import numpy as np
 
+from .mrp import skew
 from .tschauner_hempel import ChiefOrbit
-
-
-def skew(x: np.ndarray) -> np.ndarray:
-    """The cross-product matrix ``[x x]`` (..., 3, 3) of ``x`` (..., 3): ``[x x] y = x cross y``."""
-    x = np.asarray(x, dtype=float)
-    S = np.zeros(x.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -x[..., 2], x[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = x[..., 2], -x[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -x[..., 1], x[..., 0]
-    return S
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
