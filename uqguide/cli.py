@@ -19,7 +19,7 @@ from typing import Any
 import click
 
 from ._version import __version__
-from .errors import ConfigError, DiskFull, ResultError, UqguideError
+from .errors import ConfigError, DiskFull, MethodsFailed, ResultError, UqguideError
 from .driver.interrupts import (EXIT_INTERRUPTED, Terminated, ignore_signals, install,
                                  raise_received, restore)
 
@@ -136,6 +136,16 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
                           "or --scheduler-file)", field="no_workers_timeout")
 
 
+def _echo_written(written: Any) -> None:
+    """The report of a written run and the files it wrote."""
+    from .report.tables import render_text
+
+    click.echo(render_text(written.result))
+    click.echo("")
+    for p in (written.h5, *written.tables):
+        click.echo(f"wrote {p}")
+
+
 def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
     """How far a stopped run got and the command that continues it."""
     done = f"{n_done} of {n_total} chunks done; " if n_done is not None else ""
@@ -190,8 +200,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .errors import ClusterLost
     from .driver.progress import make_progress
     from .driver.propagate import check_failure_budget, check_methods
-    from .report.tables import render_text
-    from .commands.run_and_write import WriteInterrupted, run_and_write
+    from .commands.run_and_write import WriteInterrupted, Written, run_and_write
 
     _sweep_temp_folders()
     _check_executor_flags(workers, scheduler, scheduler_file, no_workers_timeout)
@@ -244,6 +253,12 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     except WriteInterrupted:
         click.echo(f"interrupted while writing the result; resume with `{again}`", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except MethodsFailed as exc:
+        assert isinstance(exc.written, Written)
+        _echo_written(exc.written)
+        click.echo(f"no statistics; the runs are kept in the result file and in the run "
+                   f"folder: `{again}` fits again without re-running the model", err=True)
+        raise
     except (DiskFull, OSError) as exc:
         from .core.atomic import is_disk_full
 
@@ -253,12 +268,8 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         click.echo(f"error: disk full writing {full}; the run folder is intact; free space "
                    f"and --resume: `{again}`", err=True)
         sys.exit(1)
-    result, h5, tables = written.result, written.h5, written.tables
-    click.echo(render_text(result))
-    click.echo("")
-    click.echo(f"wrote {h5}")
-    for p in tables:
-        click.echo(f"wrote {p}")
+    result = written.result
+    _echo_written(written)
     check_methods(result)
     check_failure_budget(result, cfg.raw.max_failed_fraction)
     if strict or cfg.raw.strict:
