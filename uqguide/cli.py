@@ -256,8 +256,9 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     except MethodsFailed as exc:
         assert isinstance(exc.written, Written)
         _echo_written(exc.written)
-        click.echo(f"no statistics; the runs are kept in the result file and in the run "
-                   f"folder: `{again}` fits again without re-running the model", err=True)
+        click.echo(f"no statistics; the runs made are kept: in {exc.written.h5} (inputs, "
+                   f"scalar outputs) and {exc.written.h5.with_suffix('.run')} (every output; "
+                   f"`{again}` fits them again without re-running the model)", err=True)
         raise
     except (DiskFull, OSError) as exc:
         from .core.atomic import is_disk_full
