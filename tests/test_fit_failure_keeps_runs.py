@@ -48,6 +48,7 @@ def test_a_fit_raising_after_its_runs_writes_them_and_resumes(tmp_path, monkeypa
     assert "Traceback" not in res.output
     assert res.stderr.strip().splitlines()[-1] == (
         "error: apce: ValueError: dimensions are too large (run with -vv for the traceback)")
+    assert f"and {out / 'fits.run'} (every output; `uqguide run {cfg} --resume" in res.stderr
     n_calls = calls["n"]
     assert n_calls > 0
     kept = read_hdf5(out / "fits.h5").run("apce")
@@ -84,3 +85,24 @@ def test_a_method_refusing_its_runs_keeps_them(tmp_path, calls):
     r = exc.value.result.run("t")
     assert r.n_runs == 25 and r.n_failed == 10 and not r.success
     assert isinstance(exc.value, MethodError)  # what a caller of uqguide.run catches
+
+
+def test_beside_a_method_that_completed(tmp_path, calls):
+    """Monte Carlo completes, pce_tensor fails after its runs: the result holds both, the run
+    folder stays for the failed one, and the exit is 1 with its reason."""
+    cfg = _config(tmp_path, {"name": "pce_tensor", "label": "t", "m": 5})
+    raw = yaml.safe_load(cfg.read_text())
+    raw["model"]["function"] = "tests.failing_models:flaky"
+    raw["model"]["outputs"] = ["y"]
+    raw["methods"].insert(0, {"name": "monte_carlo", "label": "mc", "n_samples": 40})
+    cfg.write_text(yaml.safe_dump(raw))
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out)])
+    assert res.exit_code == 1, (res.output, res.exception)
+    assert res.stderr.strip().splitlines()[-1].startswith(
+        "error: t: 10 of 25 quadrature runs failed")
+    assert "t: no statistics; the runs made are kept" in res.stderr
+    result = read_hdf5(out / "fits.h5")
+    assert result.run("mc").success and not result.run("t").success
+    assert result.run("t").n_runs == 25
+    assert (out / "fits.run").is_dir()

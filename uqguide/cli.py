@@ -136,14 +136,20 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
                           "or --scheduler-file)", field="no_workers_timeout")
 
 
-def _echo_written(written: Any) -> None:
-    """The report of a written run and the files it wrote."""
+def _echo_written(written: Any, again: str) -> None:
+    """The report of a written run, the files it wrote, and where the runs of a method that
+    failed after them are kept (``again``: the command that resumes)."""
     from .report.tables import render_text
 
     click.echo(render_text(written.result))
     click.echo("")
     for p in (written.h5, *written.tables):
         click.echo(f"wrote {p}")
+    lost = [r.label for r in written.result.runs if not r.success and r.n_runs]
+    if lost:
+        click.echo(f"{', '.join(lost)}: no statistics; the runs made are kept: in {written.h5} "
+                   f"(inputs, scalar outputs) and {written.h5.with_suffix('.run')} (every "
+                   f"output; `{again}` fits them again without re-running the model)", err=True)
 
 
 def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
@@ -255,10 +261,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         sys.exit(EXIT_INTERRUPTED)
     except MethodsFailed as exc:
         assert isinstance(exc.written, Written)
-        _echo_written(exc.written)
-        click.echo(f"no statistics; the runs made are kept: in {exc.written.h5} (inputs, "
-                   f"scalar outputs) and {exc.written.h5.with_suffix('.run')} (every output; "
-                   f"`{again}` fits them again without re-running the model)", err=True)
+        _echo_written(exc.written, again)
         raise
     except (DiskFull, OSError) as exc:
         from .core.atomic import is_disk_full
@@ -270,7 +273,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
                    f"and --resume: `{again}`", err=True)
         sys.exit(1)
     result = written.result
-    _echo_written(written)
+    _echo_written(written, again)
     check_methods(result)
     check_failure_budget(result, cfg.raw.max_failed_fraction)
     if strict or cfg.raw.strict:
