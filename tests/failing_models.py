@@ -167,3 +167,9 @@ def huge(x):
     t = np.linspace(0.0, 1.0, 3)
     return {"time": t, "y": y, "big": 1e300 * y, "mid": 1e100 * y,
             "path": 1e300 * a[:, None] * t[None, :]}
+
+
+def counted_clean(x):
+    """:func:`clean`, counting its calls in ``_calls``."""
+    _calls["n"] += 1
+    return clean(x)

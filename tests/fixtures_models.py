@@ -55,3 +55,14 @@ def decaying_cosine_at_7s(x):
     """:func:`decaying_cosine` at t = 7 s only, a scalar (a cheap case of the same fit)."""
     omega, zeta = x[:, 0], x[:, 1]
     return np.exp(-zeta * omega * 7.0) * np.cos(omega * np.sqrt(1.0 - zeta**2) * 7.0)
+
+
+#: The exponent of :func:`sum_of_exponentials`.
+EXP_RATE = 0.5
+
+
+def sum_of_exponentials(x):
+    """``y = sum_i exp(0.5 x_i) / sqrt(i)``: smooth, not a polynomial, with closed-form moments
+    for independent standard normal ``x_i`` (each term lognormal)."""
+    w = 1.0 / np.sqrt(np.arange(1, x.shape[1] + 1))
+    return {"y": (w * np.exp(EXP_RATE * x)).sum(axis=1)}

@@ -300,3 +300,20 @@ def test_registered():
     assert method_class("pce_tensor") is TensorPCE
     assert method_class("pce_smolyak") is SmolyakPCE
     assert method_class("pce_adaptive") is AdaptivePCE
+
+
+def test_smolyak_beyond_32_inputs_and_the_quadrature_input_limit():
+    """A Smolyak grid of 40 inputs (past the 32 arrays NumPy's meshgrid takes) is exact for a
+    linear model at level 2 (2 d + 1 = 81 runs); past 63 inputs (one array axis per input) a
+    quadrature PCE is refused before any run, naming pce_adaptive."""
+    rng = np.random.default_rng(46)
+    a = rng.normal(size=(1, 40))
+    model = LinearGaussian({"coefficients": a.tolist()})
+    est, out = run_method(SmolyakPCE({"level": 2}), model, normal_space(40), outputs=("y",))
+    assert out.n == 81
+    mu, cov = model.exact_mean_cov(np.zeros(40), np.eye(40))
+    np.testing.assert_allclose(est.stats["y"].mean, mu, atol=1e-12)
+    np.testing.assert_allclose(est.stats["y"].std ** 2, np.diag(cov), rtol=1e-12)
+    for method in (SmolyakPCE({"level": 1}), TensorPCE({"m": 1})):
+        with pytest.raises(ConfigError, match="takes at most 63 .*use pce_adaptive"):
+            method.design(normal_space(64), 0)

@@ -220,3 +220,42 @@ def test_sampled_moments_do_not_depend_on_chunking(monkeypatch, sampling):
     monkeypatch.setattr(moments, "_CHUNK_FLOATS", 3000)
     b = moments.central_moments_sampled(exp, 5000, seed=4, sampling=sampling)
     np.testing.assert_allclose(a, b, rtol=1e-12)
+
+
+def test_linearisation_of_many_active_inputs_is_exact():
+    """40 inputs, each in ``a_j xi_j + b_j He_2(xi_j)/sqrt(2)``: the product of ``(2p + 1) = 5``
+    over them (9e27) is past any integer code, so the codes are ranked as they grow
+    (``linearisation._ranked``). Cumulants of independent terms add; each term's come from a
+    10-node Gauss-Hermite rule (exact to degree 19 >= 8). Tolerance: round-off of sums of
+    ~1e3 terms."""
+    d = 40
+    rng = np.random.default_rng(46)
+    a, b = rng.normal(size=d), 0.3 * rng.normal(size=d)
+    alpha = np.zeros((2 * d + 1, d), dtype=int)
+    alpha[1 + np.arange(d), np.arange(d)] = 1
+    alpha[1 + d + np.arange(d), np.arange(d)] = 2
+    exp = _expansion(normal_space(d), alpha, np.concatenate([[0.5], a, b]))
+    assert math.prod([5] * d) > 2**63
+    x, w = np.polynomial.hermite_e.hermegauss(10)
+    w = w / w.sum()
+    z = a[:, None] * x + b[:, None] * (x**2 - 1) / np.sqrt(2.0)  # (d, nodes), each mean 0
+    m2, m3, m4 = ((z**k) @ w for k in (2, 3, 4))
+    k2, k3, k4 = m2.sum(), m3.sum(), (m4 - 3 * m2**2).sum()
+    np.testing.assert_allclose(np.ravel(linearisation.central_moments_linearised(exp)),
+                               [k2, k3, k4 + 3 * k2**2], rtol=1e-12)
+
+
+def test_ranked_codes_give_the_same_bits(monkeypatch):
+    """Ranking the partial codes keeps their order, so forcing it at every input changes no
+    bit of the moments (a sparse degree-4 expansion in five normal and uniform inputs)."""
+    space = InputSpace([*normal_space(3).marginals,
+                        *[Uniform(name=f"u{i}", dist="uniform", low=0, high=1) for i in (1, 2)]])
+    rng = np.random.default_rng(7)
+    alpha = basis.hyperbolic_indices(5, 4, 0.75)
+    keep = np.concatenate([[0], 1 + np.flatnonzero(rng.random(alpha.shape[0] - 1) < 0.6)])
+    exp = _expansion(space, alpha[keep], rng.normal(size=(keep.size, 2)), (2,))
+    plain = linearisation.central_moments_linearised(exp)
+    monkeypatch.setattr(linearisation, "_CODE_LIMIT", 1)
+    ranked = linearisation.central_moments_linearised(exp)
+    for p, r in zip(plain, ranked):
+        assert np.array_equal(p, r)

@@ -19,7 +19,7 @@ from typing import Any
 import click
 
 from ._version import __version__
-from .errors import ConfigError, DiskFull, ResultError, UqguideError
+from .errors import ConfigError, DiskFull, MethodsFailed, ResultError, UqguideError
 from .driver.interrupts import (EXIT_INTERRUPTED, Terminated, ignore_signals, install,
                                  raise_received, restore)
 
@@ -136,6 +136,22 @@ def _check_executor_flags(workers: int | None, scheduler: str | None,
                           "or --scheduler-file)", field="no_workers_timeout")
 
 
+def _echo_written(written: Any, again: str) -> None:
+    """The report of a written run, the files it wrote, and where the runs of a method that
+    failed after them are kept (``again``: the command that resumes)."""
+    from .report.tables import render_text
+
+    click.echo(render_text(written.result))
+    click.echo("")
+    for p in (written.h5, *written.tables):
+        click.echo(f"wrote {p}")
+    lost = [r.label for r in written.result.runs if not r.success and r.n_runs]
+    if lost:
+        click.echo(f"{', '.join(lost)}: no statistics; the runs made are kept: in {written.h5} "
+                   f"(inputs, scalar outputs) and {written.h5.with_suffix('.run')} (every "
+                   f"output; `{again}` fits them again without re-running the model)", err=True)
+
+
 def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
     """How far a stopped run got and the command that continues it."""
     done = f"{n_done} of {n_total} chunks done; " if n_done is not None else ""
@@ -190,8 +206,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .errors import ClusterLost
     from .driver.progress import make_progress
     from .driver.propagate import check_failure_budget, check_methods
-    from .report.tables import render_text
-    from .commands.run_and_write import WriteInterrupted, run_and_write
+    from .commands.run_and_write import WriteInterrupted, Written, run_and_write
 
     _sweep_temp_folders()
     _check_executor_flags(workers, scheduler, scheduler_file, no_workers_timeout)
@@ -244,6 +259,10 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     except WriteInterrupted:
         click.echo(f"interrupted while writing the result; resume with `{again}`", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except MethodsFailed as exc:
+        assert isinstance(exc.written, Written)
+        _echo_written(exc.written, again)
+        raise
     except (DiskFull, OSError) as exc:
         from .core.atomic import is_disk_full
 
@@ -253,12 +272,8 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         click.echo(f"error: disk full writing {full}; the run folder is intact; free space "
                    f"and --resume: `{again}`", err=True)
         sys.exit(1)
-    result, h5, tables = written.result, written.h5, written.tables
-    click.echo(render_text(result))
-    click.echo("")
-    click.echo(f"wrote {h5}")
-    for p in tables:
-        click.echo(f"wrote {p}")
+    result = written.result
+    _echo_written(written, again)
     check_methods(result)
     check_failure_budget(result, cfg.raw.max_failed_fraction)
     if strict or cfg.raw.strict:

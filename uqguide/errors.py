@@ -29,6 +29,17 @@ class MethodError(UqguideError):
     """A propagation method cannot produce statistics (e.g. too many failed runs for a PCE)."""
 
 
+class MethodsFailed(MethodError):
+    """No method produced statistics, but runs of theirs succeeded: ``result`` (a
+    :class:`~uqguide.results.result.Result`) holds those runs and each method's reason;
+    ``written``: the files :func:`~uqguide.commands.run_and_write.run_and_write` wrote of it."""
+
+    def __init__(self, message: str, result: object) -> None:
+        super().__init__(message)
+        self.result = result
+        self.written: object = None
+
+
 class ResultError(UqguideError):
     """A result file or baseline is missing, corrupt, or does not match what was asked of it."""
 

@@ -19,7 +19,7 @@ from ..config.budget import check_budget, estimate
 from ..core.atomic import refuse_unwritable, usable_folder
 from ..driver.run_folder import RunLock, RunStore, run_dir, run_identity, study_config
 from ..config.run_config import RUN_NAME_RULE, RunConfig
-from ..errors import ConfigError, ResultError
+from ..errors import ConfigError, MethodsFailed, ResultError
 from ..driver.execution import Executor, SerialExecutor
 from ..driver.execution.processes import refuse_nested_run
 from ..driver.interrupts import deferred
@@ -88,7 +88,10 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
     """Run every method of ``config`` and write ``<out_dir>/<name>.h5`` and its tables.
 
     The run folder ``<out_dir>/<name>.run`` checkpoints finished chunks meanwhile and is removed
-    once every file is written. ``executor`` (default this process) is closed on return;
+    once every file is written, unless a method that made runs failed: it then stays, so
+    ``--resume`` fits again without re-running a model. When no method produced statistics
+    but runs succeeded, the files of those runs are written and MethodsFailed raised.
+    ``executor`` (default this process) is closed on return;
     ``workers``: its processes, for the memory budget; ``resume``: continue the run folder of an
     interrupted run of the same config; ``resume_hint``: the command named in messages;
     ``force``: as :func:`check_same_study`.
@@ -117,11 +120,17 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
             check_same_study(out_dir / f"{config.name}.h5", config, force)
             store = RunStore.open(folder, run_identity(config.resolved(), config.model), resume,
                                   resume_hint)
+            failed: MethodsFailed | None = None
             try:
                 result = run(config, executor, store=store, progress=progress)
+            except MethodsFailed as exc:  # no statistics, but runs: written, folder kept
+                assert isinstance(exc.result, Result)
+                result, failed = exc.result, exc
             finally:
                 store.close()  # every chunk saved is on disk, whatever stopped the run
-            store.mark_complete()
+            kept = failed is not None or any(not r.success and r.n_runs for r in result.runs)
+            if not kept:
+                store.mark_complete()
             try:
                 # Each file whole or absent; a signal here stops the run after the file being
                 # written, and the run folder stays until every file is written (resumable).
@@ -131,11 +140,16 @@ def run_and_write(config: RunConfig, out_dir: str | Path, executor: Executor | N
                     tables = write_tables(result, out_dir, config.name)
             except KeyboardInterrupt:
                 raise WriteInterrupted() from None
-            with deferred():
-                store.remove()  # the result file holds everything the chunks did
+            written = Written(result, h5, list(tables))
+            if failed is not None:
+                failed.written = written
+                raise failed
+            if not kept:
+                with deferred():
+                    store.remove()  # the result file holds everything the chunks did
     finally:
         executor.close()
-    return Written(result, h5, list(tables))
+    return written
 
 
 __all__ = ["WriteInterrupted", "Written", "canonical_config", "check_result_name",

@@ -21,7 +21,7 @@ import numpy as np
 from .run_folder import RunInterrupted, RunStore
 from .stage import StageRunner
 from ..config.run_config import RunConfig
-from ..errors import ClusterLost, MethodError, UqguideError
+from ..errors import ClusterLost, MethodError, MethodsFailed, UqguideError
 from .execution import DEFAULT_BATCH_SIZE, Containment, Executor, SerialExecutor
 from ..core.inputs import InputSpace
 from ..methods.base import Design, Method
@@ -133,7 +133,9 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
 
     One MethodRun per method, in config order (a failed one with ``success=False``);
     ``store``: the run folder. RunInterrupted on Ctrl-C, ClusterLost for a Dask cluster without
-    workers or scheduler, both with the count of chunks done.
+    workers or scheduler, both with the count of chunks done. When no method produced
+    statistics: MethodsFailed holding the Result of their runs when some succeeded, else
+    MethodError.
     """
     executor = executor or SerialExecutor(config.raw.batch_size)
     progress = progress or Progress()
@@ -167,7 +169,8 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
                           progress.chunks_total) from None
     finally:
         progress.close()
-    if runs and not any(r.success for r in runs):
+    failed = bool(runs) and not any(r.success for r in runs)
+    if failed and not any(r.n_runs > r.n_failed for r in runs):
         # nothing to report: no result file, the reasons instead
         raise MethodError("\n".join(r.message for r in runs))
     time_grid = next((r.time for r in runs if r.time.size), np.zeros(0))
@@ -183,6 +186,8 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         config=config.resolved(),
         provenance={**provenance(), "wall_seconds": time.perf_counter() - t0},
     )
+    if failed:  # a fit that failed after its runs: the runs are kept in the result
+        raise MethodsFailed("\n".join(r.message for r in runs), result)
     say_overflow(result)
     return result
 

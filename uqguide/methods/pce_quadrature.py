@@ -17,7 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..errors import MethodError
+from ..errors import ConfigError, MethodError
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, ModelOutput
 from ..pce import basis
@@ -40,6 +40,9 @@ log = logging.getLogger(__name__)
 
 #: Largest grid a quadrature method builds (runs); beyond it the settings are surely a mistake.
 MAX_NODES = 2_000_000
+#: Most inputs of a quadrature PCE: its projection holds a tensor rule's values in an array of
+#: one axis per input and one for the outputs, and NumPy allows 64 axes.
+MAX_INPUTS = 63
 
 
 def identifiable_terms(psi: np.ndarray, tol: float = 1e-8) -> np.ndarray:
@@ -88,6 +91,13 @@ class QuadraturePCE(Method):
     @abstractmethod
     def _grid_diagnostics(self, grid: Grid) -> dict[str, Any]:
         """What the grid is (rule, level, ...), for the diagnostics."""
+
+    def refuse_many_inputs(self, d: int) -> None:
+        """ConfigError for more than ``MAX_INPUTS`` inputs."""
+        if d > MAX_INPUTS:
+            raise ConfigError(f"name: {self.label} on {d} inputs: a quadrature PCE takes at "
+                              f"most {MAX_INPUTS} (one array axis per input); use pce_adaptive",
+                              field="name")
 
     def _checked_grid(self, germ: Germ) -> Grid:
         grid = self._grid(germ)

@@ -56,12 +56,14 @@ class SmolyakPCE(QuadraturePCE):
 
     def plan(self, space: InputSpace) -> RunPlan:
         """An upper bound of the runs from the 1-D rule sizes alone (the points of every tensor
-        grid Smolyak combines); ConfigError (field ``level``) above ``MAX_NODES``."""
+        grid Smolyak combines); ConfigError (field ``level``) above ``MAX_NODES``, and above
+        ``MAX_INPUTS`` inputs."""
         from ..pce.quadrature import rule_1d
 
         germ = Germ.of(space)
         rules = self._rules(germ)
         q, d = self.order, germ.dim
+        self.refuse_many_inputs(d)
         try:
             sizes = [[rule_1d(germ, j, rules[j], lv).nodes.size for lv in range(q + 1)]
                      for j in range(d)]
@@ -81,6 +83,7 @@ class SmolyakPCE(QuadraturePCE):
         return RunPlan(runs=bound + self.n_validation(), terms=bound, exact=False)
 
     def _grid(self, germ: Germ) -> Grid:
+        self.plan(germ.space)  # refused before the grid is built
         try:
             return smolyak_grid(germ, self.order, self._rules(germ))
         except ValueError as exc:

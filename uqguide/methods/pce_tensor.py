@@ -44,7 +44,9 @@ class TensorPCE(QuadraturePCE):
     settings: TensorPCESettings
 
     def plan(self, space: InputSpace) -> RunPlan:
-        """``m^d`` runs and terms; ConfigError (field ``m``) above ``MAX_NODES``."""
+        """``m^d`` runs and terms; ConfigError (field ``m``) above ``MAX_NODES``, and above
+        ``MAX_INPUTS`` inputs."""
+        self.refuse_many_inputs(space.dim)
         n = self.settings.m ** space.dim
         if n > MAX_NODES:
             raise ConfigError(

@@ -291,7 +291,8 @@ def no_usable_surrogate(name: str, st: OutputStats, ok: np.ndarray, constant: bo
         return None
     where = {k: ~ok for k in STAT_NAMES}
     why = (f"validation error {float(np.max(err)):.3g}" if err is not None
-           else f"LOO error {fit_loo:.3g}")
+           else f"LOO error {fit_loo:.3g}" if fit_loo is not None
+           else "error not estimated")  # (a single run: one-node quadrature)
     if constant:
         return Verdict(
             "no_usable_surrogate", "own", State.WITHHELD, where,

@@ -19,6 +19,9 @@ from .quadrature import gauss_rule
 MAX_PRODUCT_TERMS = 20_000_000
 _CHUNK_FLOATS = 2**22
 _ZERO = 1e-13  # |T| below this is a structural zero (parity), not a coefficient
+#: Largest code of one product's digits kept as one integer; past it the partial codes are
+#: replaced by their ranks, which keep their order and so the result, bit for bit.
+_CODE_LIMIT = 2**62
 
 
 @lru_cache(maxsize=64)
@@ -45,6 +48,17 @@ def _supports(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
     ks = np.nonzero(nz)[1]
     return counts, offsets, ks
+
+
+def _ranked(code: np.ndarray, own: np.ndarray, own_ok: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The partial codes replaced by their ranks among the distinct ones (order kept, so the
+    digits still to come append as before); a term of the surrogate whose partial code is
+    absent can never be a product's and is marked so."""
+    uniq, rank = np.unique(code, return_inverse=True)
+    at = np.minimum(np.searchsorted(uniq, own), uniq.size - 1)
+    found = own_ok & (uniq[at] == own)
+    return rank.ravel().astype(np.int64), np.where(found, at, 0).astype(np.int64), found
 
 
 def product_terms(exp: Expansion) -> int:
@@ -77,7 +91,9 @@ def central_moments_linearised(exp: Expansion) -> tuple[np.ndarray, np.ndarray, 
     code = np.zeros(a.size, dtype=np.int64)
     val = np.where(a == b, 1.0, 2.0)  # the (a, b) and (b, a) products together
     active = np.flatnonzero(alpha.max(axis=0))
-    bases = []
+    # The surrogate's own terms coded the same way (for E[z^3] = sum s_g c_g).
+    own = np.zeros(alpha.shape[0], dtype=np.int64)
+    own_ok = np.ones(alpha.shape[0], dtype=bool)
     for j in active:
         p = int(alpha[:, j].max())
         t = triple_products(exp.germ.kind(int(j)), p)
@@ -90,24 +106,15 @@ def central_moments_linearised(exp: Expansion) -> tuple[np.ndarray, np.ndarray, 
         pair = np.repeat(pair, rep)
         key = np.repeat(key, rep)
         val = np.repeat(val, rep) * t.reshape((p + 1) ** 2, -1)[key, k]
+        if (int(code.max(initial=0)) + 1) * (2 * p + 1) > _CODE_LIMIT:
+            code, own, own_ok = _ranked(code, own, own_ok)
         code = np.repeat(code, rep) * (2 * p + 1) + k
-        bases.append(2 * p + 1)
-    if np.prod(np.array(bases, dtype=float)) >= 2.0**62:
-        # Too many digits for one integer code: fall back to unique rows of digits.
-        digits = np.stack(np.unravel_index(code, bases), axis=1)  # pragma: no cover
-        _, g = np.unique(digits, axis=0, return_inverse=True)  # pragma: no cover
-    else:
-        _, g = np.unique(code, return_inverse=True)
+        own = own * (2 * p + 1) + alpha[:, j]
+    codes_sorted, g = np.unique(code, return_inverse=True)
     g = g.ravel()
-    n_g = int(g.max()) + 1
-    # The surrogate's own coefficients on the same codes (for E[z^3] = sum s_g c_g).
-    own = np.zeros(alpha.shape[0], dtype=np.int64)
-    for j, base in zip(active, bases):
-        own = own * base + alpha[:, j]
-    codes_sorted = np.unique(code)
+    n_g = codes_sorted.size
     pos = np.searchsorted(codes_sorted, own)
-    present = (pos < codes_sorted.size) & (codes_sorted[np.minimum(pos, codes_sorted.size - 1)]
-                                            == own)
+    present = own_ok & (pos < n_g) & (codes_sorted[np.minimum(pos, n_g - 1)] == own)
     from scipy import sparse  # here: `uqguide validate` starts without it
 
     lin = sparse.csr_matrix((val, (g, pair)), shape=(n_g, a.size))  # duplicates summed

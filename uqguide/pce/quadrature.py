@@ -140,6 +140,15 @@ def _outer(vectors: list[np.ndarray]) -> np.ndarray:
     return out
 
 
+def _cartesian(vectors: list[np.ndarray]) -> np.ndarray:
+    """Every combination of one entry per vector, ``(prod(sizes), len(vectors))``, the last
+    varying fastest (``meshgrid(indexing="ij")`` order, which takes at most 32 vectors)."""
+    out = np.zeros((1, 0))
+    for v in vectors:
+        out = np.hstack([np.repeat(out, v.size, axis=0), np.tile(v, out.shape[0])[:, None]])
+    return out
+
+
 def build_grid(germ: Germ, combos: list[tuple[float, tuple[int, ...]]],
                rules: list[str]) -> Grid:
     """The union of the tensor grids of ``combos`` ((coefficient, one level per germ variable)),
@@ -150,8 +159,7 @@ def build_grid(germ: Germ, combos: list[tuple[float, tuple[int, ...]]],
     terms = []
     for coef, levels in combos:
         rs = [rule_1d(germ, j, rules[j], levels[j]) for j in range(d)]
-        mesh = np.stack(np.meshgrid(*[r.nodes for r in rs], indexing="ij"), axis=-1)
-        flat = mesh.reshape(-1, d)
+        flat = _cartesian([r.nodes for r in rs])
         rows = np.empty(flat.shape[0], dtype=int)
         # Nodes shared by several tensor grids (nested rules, the centre of odd Gauss rules)
         # are run once: identify them to 1e-10 in germ units.
@@ -161,7 +169,7 @@ def build_grid(germ: Germ, combos: list[tuple[float, tuple[int, ...]]],
                 r = keys[key] = len(points)
                 points.append(flat[i])
             rows[i] = r
-        terms.append(TensorTerm(coef, rs, rows.reshape(mesh.shape[:-1])))
+        terms.append(TensorTerm(coef, rs, rows.reshape([r.nodes.size for r in rs])))
     xi = np.array(points).reshape(-1, d)
     return Grid(xi, terms)
 

@@ -490,7 +490,7 @@ def render_text(result: Result) -> str:
     stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
     for o in result.outputs:
-        sub = stats[stats["output"] == o.name]
+        sub = stats[stats["output"] == o.name] if not stats.empty else stats
         if sub.empty:
             continue
         kind = "at report times" if o.kind == "series" else "(scalar)"
@@ -509,15 +509,23 @@ def render_text(result: Result) -> str:
         parts += ["", budget_text(b)]
     if any(result_statistics(result).values()):
         parts += ["", interval_legend(with_ref, "needs_runs" in stats)]
-    broken = [r for r in result.runs if not r.success]
-    if broken:
-        parts += ["", "Methods without statistics (the others completed):"]
-        parts += [f"  {r.label}: {r.message}" for r in broken]
+    parts += _without_statistics(result)
     failures = failure_table(result)
     if not failures.empty:
         parts += ["", "Failed runs (excluded from the statistics)",
                   failures.to_string(index=False)]
     return "\n".join(parts)
+
+
+def _without_statistics(result: Result) -> list[str]:
+    """The lines naming each method that produced no statistics, and why."""
+    broken = [r for r in result.runs if not r.success]
+    if not broken:
+        return []
+    others = "the others completed" if len(broken) < len(result.runs) else \
+        "their runs are kept"
+    return ["", f"Methods without statistics ({others}):",
+            *[f"  {r.label}: {r.message}" for r in broken]]
 
 
 def interval_legend(with_reference: bool, needs_runs: bool = False) -> str:
@@ -580,7 +588,7 @@ def render_markdown(result: Result) -> str:
     if not val.empty:
         parts += ["", "## PCE validation", "", to_markdown(validation_text(val))]
     for o in result.outputs:
-        sub = stats[stats["output"] == o.name]
+        sub = stats[stats["output"] == o.name] if not stats.empty else stats
         if not sub.empty:
             parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
                       to_markdown(wide_table(sub, with_ref))]
@@ -591,6 +599,7 @@ def render_markdown(result: Result) -> str:
     events = events_table(result)
     if not events.empty:
         parts += ["", "## Events", "", to_markdown(events_text(events))]
+    parts += _without_statistics(result)
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", "## Series agreement with the reference", "", to_markdown(agree)]
