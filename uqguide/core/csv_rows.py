@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
-from typing import TextIO
+from typing import TextIO, cast
 
 import numpy as np
 
@@ -46,7 +46,8 @@ def row_blocks(records: Iterable[list[str]], width: int, most: int, block: int,
     """The rows of ``records`` (parsed CSV lines after line 1, so the first is line 2), each of
     ``width`` cells, at most ``most``, in blocks of at most ``block`` rows with the index of
     each block's first. ``blank`` says which records are blank lines: those at the end are
-    dropped, any other is refused. ``check(row, line)`` raises to refuse a row."""
+    dropped, any other is refused. ``check(row, line)`` raises to refuse a row. A block is
+    emptied when the next is asked for."""
     rows: list[list[str]] = []
     taken, gap = 0, 0  # gap: the line of the first blank line since the last row
     records = iter(records)
@@ -69,24 +70,27 @@ def row_blocks(records: Iterable[list[str]], width: int, most: int, block: int,
         taken += 1
         if len(rows) == block or taken == most:  # a full block is read before what follows
             yield taken - len(rows), rows
-            rows = []
+            rows.clear()  # its strings freed before the next block's are read
     if rows:
         yield taken - len(rows), rows
     if taken < most and faults.short is not None:
         raise faults.short(taken)
 
 
-def floats(cells: list[str], bad: Callable[[int, str], Exception],
+def floats(cells: list[str] | list[list[str]], bad: Callable[[int, str], Exception],
            empty: Callable[[int], bool] | None = None) -> np.ndarray:
-    """``cells`` as float64, each read as Python's ``float`` does (blanks around it ignored);
-    an empty cell is NaN where ``empty(i)`` holds, and ``bad(i, cell)`` is raised for the
-    first other cell that is not a number (``cell`` stripped)."""
+    """``cells`` (or rows of them) as float64, each read as Python's ``float`` does (blanks
+    around it ignored); an empty cell is NaN where ``empty(i)`` holds, and ``bad(i, cell)`` is
+    raised for the first other cell that is not a number (``i`` counts the cells row by row,
+    ``cell`` stripped)."""
     try:
         return np.array(cells, dtype=float)  # one conversion, in C
     except ValueError:
         pass
-    out = np.empty(len(cells))
-    for i, c in enumerate(cells):
+    rows = bool(cells) and isinstance(cells[0], list)
+    flat = [c for r in cells for c in r] if rows else cast("list[str]", cells)
+    out = np.empty(len(flat))
+    for i, c in enumerate(flat):
         cell = c.strip()
         if not cell and empty is not None and empty(i):
             out[i] = np.nan
@@ -95,4 +99,4 @@ def floats(cells: list[str], bad: Callable[[int, str], Exception],
             out[i] = float(cell)
         except ValueError:
             raise bad(i, cell) from None
-    return out
+    return out.reshape(len(cells), -1) if rows else out

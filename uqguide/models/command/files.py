@@ -274,6 +274,7 @@ class _OutputsFile:
                            lambda more: count(more, f"line {n + 2} is one too many"),
                            lambda i: count(i, f"line {i + 2} (sample {i}) is missing"))
         reader = csv.reader(lines())
+        del text, lines  # the reader's StringIO holds a copy: the text is not held twice
         try:
             yield from row_blocks(reader, width, n, block, faults)
         except csv.Error as exc:
@@ -331,8 +332,8 @@ def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int,
                      ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     with _OutputsFile(path, deadline) as f:
         header = _header(path, f, specs)
-        blocks = list(f.rows(n, len(header), "a header", "the header", max(1, n)))  # one block
-        body = blocks[0][1] if blocks else []
+        body = [r for _, rows in f.rows(n, len(header), "a header", "the header", max(1, n))
+                for r in rows]  # one block
     where = {h: j for j, h in enumerate(header)}
     flagged = np.zeros(n, dtype=bool)
     reasons = np.full(n, "", dtype=object)
@@ -385,8 +386,7 @@ def _series_rows(rows: list[list[str]], first: int, t: np.ndarray, flagged: np.n
         i, j = divmod(k, t.size)
         return _not_a_number(path, first + i + 2, first + i, j + 1, f"t={t[j]:g}", cell)
 
-    return floats([c for row in rows for c in row], bad,
-                  lambda k: flagged[first + k // t.size]).reshape(len(rows), t.size)
+    return floats(rows, bad, lambda k: flagged[first + k // t.size]).reshape(len(rows), t.size)
 
 
 def _read_series_csv(path: Path, n: int, flagged: np.ndarray, deadline: Deadline | None

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import csv
 import hashlib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ...core.csv_rows import RowFaults, bounded_lines, floats, row_blocks
 from ...errors import ConfigError
 from .claims import (BLOCK_CELLS, MAX_NUMBER_CHARS, MAX_TEXT_CHARS, Claim, csv_claim, hdf5_claim,
                      npz_claim, parquet_claim)
@@ -128,21 +129,6 @@ def _group_series(flat: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return plain
 
 
-def _bounded_lines(f: Any, source: str, limit: int) -> Iterator[str]:
-    """The file's lines, each read only up to ``limit`` characters: a line longer than that
-    (a file changed since it was measured) is refused before it is held."""
-    line = 1
-    while True:
-        text = f.readline(limit + 1)
-        if not text:
-            return
-        line += 1
-        if len(text) > limit and not text.endswith("\n"):
-            raise ConfigError(f"data: {source}: line {line}: longer than {limit:,} "
-                              f"characters; the file changed while it was read")
-        yield text
-
-
 def _read_csv(path: Path, source: str, claim: Claim) -> tuple[dict[str, np.ndarray], int]:
     """The columns of a CSV whose header and size :func:`.claims.csv_claim` measured, read a
     block of rows at a time into columns allocated once (never the whole file as text)."""
@@ -150,49 +136,38 @@ def _read_csv(path: Path, source: str, claim: Claim) -> tuple[dict[str, np.ndarr
     numeric = [j for j, name in enumerate(header) if name != REASON]
     values = np.empty((len(numeric), claim.rows))
     texts: list[str] | None = [] if REASON in header else None
-    per_block = max(1, BLOCK_CELLS // max(len(header), 1))
-    block: list[list[str]] = []
+
+    def fail(text: str) -> ConfigError:
+        return ConfigError(f"data: {source}: {text}")
+
+    def not_a_number(first: int, j: int) -> Callable[[int, str], ConfigError]:
+        return lambda k, cell: fail(f"row {first + k + 1} (line {first + k + 2}), column "
+                                    f"{header[j]!r}: {cell!r} is not a number")
+
+    faults = RowFaults(
+        lambda line, r: fail(f"line {line}: {len(r)} cells, the header names {len(header)} "
+                             f"columns"),
+        lambda line: fail(f"line {line}: blank line inside the data (a run's outputs that "
+                          f"failed are a row of NaN or empty cells after its inputs)"),
+        lambda _: fail(f"more rows than its {claim.rows:,} lines; the file changed while it was "
+                       f"read"))
     n = 0
-
-    def convert() -> None:
-        first = n - len(block)
-        for i, j in enumerate(numeric):
-            cells = [r[j].strip() or "nan" for r in block]
-            try:
-                values[i, first:n] = np.array(cells, dtype=float)
-            except ValueError:
-                k = next(k for k, c in enumerate(cells) if not _is_number(c))
-                raise ConfigError(f"data: {source}: row {first + k + 1} (line {first + k + 2}), "
-                                  f"column {header[j]!r}: {cells[k]!r} is not a number") from None
-        if texts is not None:
-            texts.extend(r[header.index(REASON)] for r in block)
-        block.clear()
-
-    blank = 0  # the first blank line after the last row (trailing blank lines are allowed)
     try:
         with path.open(newline="", encoding="utf-8-sig") as f:
-            records = csv.reader(_bounded_lines(f, source, claim.line_bytes))
+            records = csv.reader(bounded_lines(f, claim.line_bytes + 1, lambda line: fail(
+                f"line {line}: longer than {claim.line_bytes:,} characters; the file changed "
+                f"while it was read")))
             next(records, None)  # the header, read by the claim
-            for line, r in enumerate(records, start=2):
-                if not any(cell.strip() for cell in r):
-                    blank = blank or line
-                    continue
-                if blank:
-                    raise ConfigError(f"data: {source}: line {blank}: blank line inside the data "
-                                      f"(a run's outputs that failed are a row of NaN or empty "
-                                      f"cells after its inputs)")
-                if len(r) != len(header):
-                    raise ConfigError(f"data: {source}: line {line}: {len(r)} cells, the header "
-                                      f"names {len(header)} columns")
-                _check_cells(r, header, source, line)
-                if n == claim.rows:
-                    raise ConfigError(f"data: {source}: more rows than its {claim.rows:,} lines; "
-                                      f"the file changed while it was read")
-                block.append(r)
-                n += 1
-                if len(block) == per_block:
-                    convert()
-            convert()
+            for first, block in row_blocks(records, len(header), claim.rows,
+                                           max(1, BLOCK_CELLS // max(len(header), 1)), faults,
+                                           lambda r: not any(cell.strip() for cell in r),
+                                           lambda r, line: _check_cells(r, header, source, line)):
+                n = first + len(block)
+                for i, j in enumerate(numeric):
+                    values[i, first:n] = floats([r[j].strip() or "nan" for r in block],
+                                                not_a_number(first, j))
+                if texts is not None:
+                    texts.extend(r[header.index(REASON)] for r in block)
     except UnicodeDecodeError as exc:
         raise ConfigError(f"data: {source}: not a text CSV file ({exc.reason})") from None
     except csv.Error as exc:
