@@ -1,8 +1,8 @@
-"""The one reader of a CSV file's rows: a line at a time within a bound (a line longer than its
-cells can be is refused before it is held whole), rows of a fixed width taken a block at a
-time, each block's cells converted to float64 as Python's ``float`` reads them. The callers
-(the ``command`` model's outputs files, ``data:`` files) say in their own words what is
-refused (:class:`RowFaults`): what each refuses is the same, the messages and errors are not.
+"""The one reader of a CSV file's rows, for the ``command`` model's outputs files and for
+``data:`` files: lines read within a bound (:func:`bounded_lines`), rows of a fixed width taken
+a block at a time, blank lines and too few or too many rows refused (:func:`row_blocks`), cells
+converted to float64 as Python's ``float`` reads them (:func:`floats`). Each caller words the
+refusals its own way (:class:`RowFaults`).
 """
 
 from __future__ import annotations
