@@ -386,7 +386,7 @@ def _series_rows(rows: list[list[str]], first: int, t: np.ndarray, flagged: np.n
         i, j = divmod(k, t.size)
         return _not_a_number(path, first + i + 2, first + i, j + 1, f"t={t[j]:g}", cell)
 
-    return floats(rows, bad, lambda k: flagged[first + k // t.size]).reshape(len(rows), t.size)
+    return floats(rows, bad, lambda k: flagged[first + k // t.size])
 
 
 def _read_series_csv(path: Path, n: int, flagged: np.ndarray, deadline: Deadline | None
