@@ -6,6 +6,7 @@
 - ``failures``: failed runs tallied by reason;
 - ``strict``: booleans are not numbers in a config;
 - ``atomic``: files that are complete or absent;
+- ``csv_rows``: a CSV file's rows read within bounds, a block at a time, with their errors;
 - ``temp_folders``: uqguide's marked folders in ``$TMPDIR`` (and multiprocessing's), swept when
   their process was killed;
 - ``safe_yaml``: a YAML loader that cannot be made to explode (configs, stored configs);

@@ -22,12 +22,13 @@ import stat
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import partial
-from itertools import islice, repeat
+from itertools import repeat
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ...core.csv_rows import RowFaults, floats, row_blocks
 from ...errors import ModelError
 from .process import CommandFailed, Deadline
 
@@ -193,9 +194,9 @@ def _too_large(path: Path, size: int, limit: int, why: str) -> CommandFailed:
 
 class _OutputsFile:
     """One outputs CSV file of the program, opened without blocking and refused unless it is a
-    regular file; its first line read with a bound, then the rest, once the first line has
-    said how wide the rows are and the file's size has been checked against what they can
-    need (:meth:`rows`)."""
+    regular file; its first line read with a bound, then its rows, once the first line has
+    said how wide they are and the file's size has been checked against what they can need
+    (:meth:`rows`)."""
 
     def __init__(self, path: Path, deadline: Deadline | None) -> None:
         self.path, self.deadline = path, deadline
@@ -228,10 +229,14 @@ class _OutputsFile:
         self._first = max(1, len(text))
         return text
 
-    def rows(self, n: int, width: int, first: str) -> Iterator[list[str]]:
-        """The CSV rows after line 1, which is ``first`` and says that ``n`` rows of ``width``
-        cells follow: the file may not be larger than they can take (refused unread), a line
-        not longer, and no line may hold many more cells (refused before it is parsed)."""
+    def rows(self, n: int, width: int, first: str, what: str, block: int
+             ) -> Iterator[tuple[int, list[list[str]]]]:
+        """The ``n`` sample rows after line 1, which is ``first`` and says that they have
+        ``width`` cells (``what`` has that many), in blocks of at most ``block`` rows (with the
+        index of each block's first): the file may not be larger than they can take (refused
+        unread), a line not longer, and no line may hold many more cells (refused before any
+        is parsed). Empty trailing lines are dropped, a line of empty cells is a row (a failed
+        sample's)."""
         line = width * CELL_BYTES + ROW_BYTES
         limit = self._first + n * line
         if self.size > limit:
@@ -254,86 +259,33 @@ class _OutputsFile:
                                      f"more, line 1 has {width}")
         if self.deadline is not None:
             self.deadline.check(f"reading {self.path.name}")
-        return csv.reader(lines())
+        path = self.path
 
-
-def _number(cell: str, path: Path, line: int, sample: int, col: int, name: str) -> float:
-    try:
-        return float(cell)
-    except ValueError:
-        raise ModelError(f"{path}: line {line} (sample {sample}), column {col} '{name}': "
-                         f"{cell!r} is not a number") from None
-
-
-def _take(reader: Any, k: int, path: Path) -> list[list[str]]:
-    """The next ``k`` rows of the CSV ``reader`` (fewer at its end), parsed in C."""
-    try:
-        return list(islice(reader, k))
-    except csv.Error as exc:
-        raise ModelError(f"{path}: line {reader.line_num + 1}: cannot be read as CSV "
-                         f"({exc})") from None
-
-
-def _next_row(reader: Any, path: Path) -> tuple[int, list[str] | None]:
-    """The next row that is not an empty line, and how many empty lines came before it."""
-    blank = 0
-    while row := _take(reader, 1, path):
-        if row[0]:
-            return blank, row[0]
-        blank += 1
-    return blank, None
-
-
-def _sample_rows(reader: Any, path: Path, n: int, width: int, what: str, block: int
-                 ) -> Iterator[tuple[int, list[list[str]]]]:
-    """The ``n`` sample rows after line 1 of the CSV ``reader``, each of ``width`` cells
-    (``what`` has that many), in blocks of at most ``block`` rows (with the index of each
-    block's first); empty trailing lines are dropped, a line of empty cells is a row (a failed
-    sample's). A row too many stops the reading: the rest is only counted."""
-    i = 0
-    while i < n:
-        rows = _take(reader, min(block, n - i), path)
-        for j, r in enumerate(rows if set(map(len, rows)) - {width} else ()):
-            if len(r) == width:
-                continue
-            if not r and not any(rows[j:]) and _next_row(reader, path)[1] is None:
-                rows = rows[:j]  # empty lines to the end: the file is short
-                break
+        def cells(k: int, r: list[str]) -> ModelError:
             missing = f": column {len(r) + 1} is missing" if len(r) < width else ""
-            raise ModelError(f"{path}: line {i + j + 2} (sample {i + j}): {len(r)} cells, "
-                             f"{what} has {width}{missing}")
-        if rows:
-            yield i, rows
-        if not rows or i + len(rows) < min(i + block, n):
-            i += len(rows)
-            raise ModelError(f"{path}: {i} sample rows, expected {n} (one per sample, in "
-                             f"order): line {i + 2} (sample {i}) is missing")
-        i += len(rows)
-    blank, extra = _next_row(reader, path)
-    if extra is not None:
-        more = n + blank + 1
-        while extra is not None:
-            blank, extra = _next_row(reader, path)
-            more += (blank + 1) if extra is not None else 0
-        raise ModelError(f"{path}: {more} sample rows, expected {n} (one per sample, in "
-                         f"order): line {n + 2} is one too many")
+            return ModelError(f"{path}: line {k} (sample {k - 2}): {len(r)} cells, {what} has "
+                              f"{width}{missing}")
+
+        def count(got: int, why: str) -> ModelError:
+            return ModelError(f"{path}: {got} sample rows, expected {n} (one per sample, in "
+                              f"order): {why}")
+
+        faults = RowFaults(cells, lambda k: cells(k, []),
+                           lambda more: count(more, f"line {n + 2} is one too many"),
+                           lambda i: count(i, f"line {i + 2} (sample {i}) is missing"))
+        reader = csv.reader(lines())
+        del text, lines  # the reader's StringIO holds a copy: the text is not held twice
+        try:
+            yield from row_blocks(reader, width, n, block, faults)
+        except csv.Error as exc:
+            raise ModelError(f"{path}: line {reader.line_num + 1}: cannot be read as CSV "
+                             f"({exc})") from None
 
 
-def _column(body: list[list[str]], j: int, flagged: np.ndarray, path: Path, name: str
-            ) -> np.ndarray:
-    """Column ``j`` of the sample rows as floats; a flagged sample's empty cell is NaN."""
-    cells = [row[j] for row in body]
-    try:
-        # one conversion for the whole column (Python's correctly rounded parser, in C)
-        return np.array(cells, dtype=float)
-    except ValueError:
-        pass
-    out = np.empty(len(cells))
-    for i, c in enumerate(cells):
-        cell = c.strip()
-        out[i] = (np.nan if flagged[i] and not cell else
-                  _number(cell, path, i + 2, i, j + 1, name))
-    return out
+def _not_a_number(path: Path, line: int, sample: int, col: int, name: str, cell: str
+                  ) -> ModelError:
+    return ModelError(f"{path}: line {line} (sample {sample}), column {col} '{name}': "
+                      f"{cell!r} is not a number")
 
 
 def _declared(columns: Iterable[str]) -> list[str]:
@@ -380,9 +332,8 @@ def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int,
                      ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     with _OutputsFile(path, deadline) as f:
         header = _header(path, f, specs)
-        blocks = list(_sample_rows(f.rows(n, len(header), "a header"), path, n, len(header),
-                                   "the header", max(1, n)))  # one block: all n rows
-        body = blocks[0][1] if blocks else []
+        body = [r for _, rows in f.rows(n, len(header), "a header", "the header", max(1, n))
+                for r in rows]  # one block
     where = {h: j for j, h in enumerate(header)}
     flagged = np.zeros(n, dtype=bool)
     reasons = np.full(n, "", dtype=object)
@@ -402,6 +353,14 @@ def _read_scalar_csv(path: Path, specs: Sequence[OutputSpec], n: int,
     return table, flagged, reasons
 
 
+def _column(body: list[list[str]], j: int, flagged: np.ndarray, path: Path, name: str
+            ) -> np.ndarray:
+    """Column ``j`` of the sample rows as floats; a flagged sample's empty cell is NaN."""
+    return floats([row[j] for row in body],
+                  lambda i, cell: _not_a_number(path, i + 2, i, j + 1, name, cell),
+                  flagged.__getitem__)
+
+
 def _grid(path: Path, f: _OutputsFile) -> np.ndarray:
     """The time grid on line 1 of a series file: finite, non-decreasing, at most
     :data:`GRID_POINTS`."""
@@ -412,8 +371,8 @@ def _grid(path: Path, f: _OutputsFile) -> np.ndarray:
     if text.count(",") >= GRID_POINTS:
         raise CommandFailed(f"{path}: line 1: a time grid of {text.count(',') + 1:,} points, "
                             f"more than the {GRID_POINTS:,} a series may have; refused")
-    cells = next(csv.reader([text]))
-    t = np.array([_number(c.strip(), path, 1, -1, j + 1, "time") for j, c in enumerate(cells)])
+    t = floats(next(csv.reader([text])),
+               lambda j, cell: _not_a_number(path, 1, -1, j + 1, "time", cell))
     if t.size > 1 and not (np.all(np.isfinite(t)) and np.all(np.diff(t) >= 0)):
         raise ModelError(f"{path}: line 1: the time grid must be finite and non-decreasing")
     return t
@@ -423,14 +382,11 @@ def _series_rows(rows: list[list[str]], first: int, t: np.ndarray, flagged: np.n
                  path: Path) -> np.ndarray:
     """Rows ``first, first + 1, ...`` of a series file as floats; a flagged sample's empty
     cell is NaN."""
-    try:
-        return np.array(rows, dtype=float).reshape(len(rows), t.size)
-    except ValueError:
-        pass
-    return np.array([[np.nan if flagged[i] and not c.strip() else
-                      _number(c.strip(), path, i + 2, i, j + 1, f"t={t[j]:g}")
-                      for j, c in enumerate(row)]
-                     for i, row in enumerate(rows, start=first)]).reshape(len(rows), t.size)
+    def bad(k: int, cell: str) -> ModelError:
+        i, j = divmod(k, t.size)
+        return _not_a_number(path, first + i + 2, first + i, j + 1, f"t={t[j]:g}", cell)
+
+    return floats(rows, bad, lambda k: flagged[first + k // t.size])
 
 
 def _read_series_csv(path: Path, n: int, flagged: np.ndarray, deadline: Deadline | None
@@ -440,8 +396,7 @@ def _read_series_csv(path: Path, n: int, flagged: np.ndarray, deadline: Deadline
         values = np.empty((n, t.size))
         # blocks of about a million cells: the rows' text is never held whole as strings
         block = max(1, (1 << 20) // max(1, t.size))
-        for i, rows in _sample_rows(f.rows(n, t.size, "a time grid"), path, n, t.size,
-                                    "the time grid on line 1", block):
+        for i, rows in f.rows(n, t.size, "a time grid", "the time grid on line 1", block):
             values[i:i + len(rows)] = _series_rows(rows, i, t, flagged, path)
     return t, values
 

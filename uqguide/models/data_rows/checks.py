@@ -18,6 +18,7 @@ from ...core.inputs import InputSpace
 from ...core.names import PLAIN_NAME_RULE, is_plain_name
 from ...errors import ConfigError
 from .files import Table
+from .names import data_error
 
 log = logging.getLogger(__name__)
 
@@ -40,7 +41,7 @@ class GoodnessOfFit:
 
 
 def _fail(table: Table, text: str) -> ConfigError:
-    return ConfigError(f"data: {table.source}: {text}", field="data")
+    return data_error(table.source, text)
 
 
 def input_rows(table: Table, space: InputSpace) -> np.ndarray:

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import ConfigError
 from .names import REASON, check_names
+from .names import data_error as _fail
 
 #: Longest cell of a number: a float64's shortest text is at most 24 characters
 #: (``-2.2250738585072014e-308``); the rest is room for blanks and quotes.
@@ -53,10 +53,6 @@ class Claim:
     what: str
     columns: tuple[str, ...] = ()
     line_bytes: int = 0
-
-
-def _fail(source: str, text: str) -> ConfigError:
-    return ConfigError(f"data: {source}: {text}", field="data")
 
 
 # ---------------------------------------------------------------------------- CSV

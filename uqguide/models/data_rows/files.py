@@ -11,17 +11,18 @@ from __future__ import annotations
 
 import csv
 import hashlib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ...core.csv_rows import RowFaults, bounded_lines, floats, row_blocks
 from ...errors import ConfigError
 from .claims import (BLOCK_CELLS, MAX_NUMBER_CHARS, MAX_TEXT_CHARS, Claim, csv_claim, hdf5_claim,
                      npz_claim, parquet_claim)
-from .names import FAILED, REASON, STEP, TIME, check_names
+from .names import FAILED, REASON, STEP, TIME, check_names, data_error
 
 #: The file suffixes read, by format.
 SUFFIXES = {".csv": "csv", ".parquet": "parquet", ".h5": "hdf5", ".hdf5": "hdf5",
@@ -98,8 +99,8 @@ def _flags(raw: np.ndarray, source: str, first_line: int) -> np.ndarray:
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         line = f" (line {i + first_line})" if first_line else ""
-        raise ConfigError(f"data: {source}: row {i + 1}{line}, column 'failed': {raw[i]:g} is "
-                          f"not 0 or 1 (1 marks a run that failed; 0 or empty, one that ran)")
+        raise data_error(source, f"row {i + 1}{line}, column 'failed': {raw[i]:g} is "
+                         f"not 0 or 1 (1 marks a run that failed; 0 or empty, one that ran)")
     return raw == 1
 
 
@@ -128,21 +129,6 @@ def _group_series(flat: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return plain
 
 
-def _bounded_lines(f: Any, source: str, limit: int) -> Iterator[str]:
-    """The file's lines, each read only up to ``limit`` characters: a line longer than that
-    (a file changed since it was measured) is refused before it is held."""
-    line = 1
-    while True:
-        text = f.readline(limit + 1)
-        if not text:
-            return
-        line += 1
-        if len(text) > limit and not text.endswith("\n"):
-            raise ConfigError(f"data: {source}: line {line}: longer than {limit:,} "
-                              f"characters; the file changed while it was read")
-        yield text
-
-
 def _read_csv(path: Path, source: str, claim: Claim) -> tuple[dict[str, np.ndarray], int]:
     """The columns of a CSV whose header and size :func:`.claims.csv_claim` measured, read a
     block of rows at a time into columns allocated once (never the whole file as text)."""
@@ -150,53 +136,40 @@ def _read_csv(path: Path, source: str, claim: Claim) -> tuple[dict[str, np.ndarr
     numeric = [j for j, name in enumerate(header) if name != REASON]
     values = np.empty((len(numeric), claim.rows))
     texts: list[str] | None = [] if REASON in header else None
-    per_block = max(1, BLOCK_CELLS // max(len(header), 1))
-    block: list[list[str]] = []
+
+    def not_a_number(first: int, j: int) -> Callable[[int, str], ConfigError]:
+        return lambda k, cell: data_error(source, f"row {first + k + 1} (line {first + k + 2}), "
+                                                  f"column {header[j]!r}: {cell!r} is not a number")
+
+    faults = RowFaults(
+        lambda line, r: data_error(source, f"line {line}: {len(r)} cells, the header names "
+                                           f"{len(header)} columns"),
+        lambda line: data_error(source, f"line {line}: blank line inside the data (a run's "
+                                        f"outputs that failed are a row of NaN or empty cells "
+                                        f"after its inputs)"),
+        lambda _: data_error(source, f"more rows than its {claim.rows:,} lines; the file changed "
+                                     f"while it was read"))
     n = 0
-
-    def convert() -> None:
-        first = n - len(block)
-        for i, j in enumerate(numeric):
-            cells = [r[j].strip() or "nan" for r in block]
-            try:
-                values[i, first:n] = np.array(cells, dtype=float)
-            except ValueError:
-                k = next(k for k, c in enumerate(cells) if not _is_number(c))
-                raise ConfigError(f"data: {source}: row {first + k + 1} (line {first + k + 2}), "
-                                  f"column {header[j]!r}: {cells[k]!r} is not a number") from None
-        if texts is not None:
-            texts.extend(r[header.index(REASON)] for r in block)
-        block.clear()
-
-    blank = 0  # the first blank line after the last row (trailing blank lines are allowed)
     try:
         with path.open(newline="", encoding="utf-8-sig") as f:
-            records = csv.reader(_bounded_lines(f, source, claim.line_bytes))
+            records = csv.reader(bounded_lines(f, claim.line_bytes + 1, lambda line: data_error(
+                source, f"line {line}: longer than {claim.line_bytes:,} characters; the file "
+                f"changed while it was read")))
             next(records, None)  # the header, read by the claim
-            for line, r in enumerate(records, start=2):
-                if not any(cell.strip() for cell in r):
-                    blank = blank or line
-                    continue
-                if blank:
-                    raise ConfigError(f"data: {source}: line {blank}: blank line inside the data "
-                                      f"(a run's outputs that failed are a row of NaN or empty "
-                                      f"cells after its inputs)")
-                if len(r) != len(header):
-                    raise ConfigError(f"data: {source}: line {line}: {len(r)} cells, the header "
-                                      f"names {len(header)} columns")
-                _check_cells(r, header, source, line)
-                if n == claim.rows:
-                    raise ConfigError(f"data: {source}: more rows than its {claim.rows:,} lines; "
-                                      f"the file changed while it was read")
-                block.append(r)
-                n += 1
-                if len(block) == per_block:
-                    convert()
-            convert()
+            for first, block in row_blocks(records, len(header), claim.rows,
+                                           max(1, BLOCK_CELLS // max(len(header), 1)), faults,
+                                           lambda r: not any(cell.strip() for cell in r),
+                                           lambda r, line: _check_cells(r, header, source, line)):
+                n = first + len(block)
+                for i, j in enumerate(numeric):
+                    values[i, first:n] = floats([r[j].strip() or "nan" for r in block],
+                                                not_a_number(first, j))
+                if texts is not None:
+                    texts.extend(r[header.index(REASON)] for r in block)
     except UnicodeDecodeError as exc:
-        raise ConfigError(f"data: {source}: not a text CSV file ({exc.reason})") from None
+        raise data_error(source, f"not a text CSV file ({exc.reason})") from None
     except csv.Error as exc:
-        raise ConfigError(f"data: {source}: not a CSV file ({exc})") from None
+        raise data_error(source, f"not a CSV file ({exc})") from None
     flat: dict[str, np.ndarray] = {}
     for i, j in enumerate(numeric):
         flat[header[j]] = values[i, :n]  # a view: the rows are contiguous, no copy
@@ -212,9 +185,9 @@ def _check_cells(r: list[str], header: list[str], source: str, line: int) -> Non
     for j, cell in enumerate(r):
         limit = MAX_TEXT_CHARS if header[j] == REASON else MAX_NUMBER_CHARS
         if len(cell) > limit:
-            raise ConfigError(f"data: {source}: line {line}, column {header[j]!r}: a cell of "
-                              f"{len(cell):,} characters; allowed at most {limit:,} "
-                              f"({'a reason' if limit == MAX_TEXT_CHARS else 'a number'})")
+            raise data_error(source, f"line {line}, column {header[j]!r}: a cell of "
+                             f"{len(cell):,} characters; allowed at most {limit:,} "
+                             f"({'a reason' if limit == MAX_TEXT_CHARS else 'a number'})")
 
 
 def _is_number(cell: str) -> bool:
@@ -231,9 +204,9 @@ def _read_parquet(path: Path, source: str) -> dict[str, np.ndarray]:
     try:
         frame = pd.read_parquet(path)
     except ImportError as exc:
-        raise ConfigError(f"data: {source}: reading Parquet needs pyarrow or fastparquet, "
-                          f"which are not installed ({exc}); pip install pyarrow, or save the "
-                          f"runs as CSV, HDF5 or .npz") from None
+        raise data_error(source, f"reading Parquet needs pyarrow or fastparquet, "
+                         f"which are not installed ({exc}); pip install pyarrow, or save the "
+                         f"runs as CSV, HDF5 or .npz") from None
     return _numeric_frame(frame, source)
 
 
@@ -250,8 +223,8 @@ def _numeric_frame(frame: Any, source: str) -> dict[str, np.ndarray]:
         except (TypeError, ValueError):
             col = frame[name]
             bad = next(i for i, v in enumerate(col) if not _is_number(str(v)))
-            raise ConfigError(f"data: {source}: row {bad + 1}, column {str(name)!r}: "
-                              f"{col.iloc[bad]!r} is not a number") from None
+            raise data_error(source, f"row {bad + 1}, column {str(name)!r}: "
+                             f"{col.iloc[bad]!r} is not a number") from None
     return flat
 
 
@@ -264,10 +237,10 @@ def _read_arrays(items: Mapping[str, Any], source: str) -> dict[str, np.ndarray]
         try:
             arr = np.asarray(a, dtype=float)
         except (TypeError, ValueError):
-            raise ConfigError(f"data: {source}: column {name!r} is not numeric") from None
+            raise data_error(source, f"column {name!r} is not numeric") from None
         if arr.ndim not in (1, 2) and not (name == TIME and arr.ndim == 1):
-            raise ConfigError(f"data: {source}: column {name!r} has shape {arr.shape}; allowed "
-                              f"(n,) for an input or scalar output, (n, T) for a series")
+            raise data_error(source, f"column {name!r} has shape {arr.shape}; allowed "
+                             f"(n,) for an input or scalar output, (n, T) for a series")
         out[str(name)] = arr
     return out
 
@@ -279,7 +252,7 @@ def _read_hdf5(path: Path, source: str) -> dict[str, np.ndarray]:
         with h5py.File(path, "r") as f:
             items = {k: f[k][()] for k in f if isinstance(f.get(k), h5py.Dataset)}
     except (OSError, KeyError) as exc:
-        raise ConfigError(f"data: {source}: not a readable HDF5 file ({exc})") from None
+        raise data_error(source, f"not a readable HDF5 file ({exc})") from None
     return _read_arrays(items, source)
 
 
@@ -288,7 +261,7 @@ def _read_npz(path: Path, source: str) -> dict[str, np.ndarray]:
         with np.load(path, allow_pickle=False) as z:
             items = {k: z[k] for k in z.files}
     except (OSError, ValueError) as exc:
-        raise ConfigError(f"data: {source}: not a readable .npz file ({exc})") from None
+        raise data_error(source, f"not a readable .npz file ({exc})") from None
     return _read_arrays(items, source)
 
 
@@ -302,12 +275,12 @@ def read_table(path: str | Path, source: str | None = None,
     source = source or str(path)
     fmt = SUFFIXES.get(p.suffix.lower())
     if fmt is None:
-        raise ConfigError(f"data: {source}: unknown file type {p.suffix!r}; allowed: "
-                          f"{', '.join(SUFFIXES)}", field="data")
+        raise data_error(source, f"unknown file type {p.suffix!r}; allowed: "
+                         f"{', '.join(SUFFIXES)}")
     if not p.is_file():
-        raise ConfigError(f"data: {source}: file not found"
-                          + (" (a path is relative to the config file's folder)"
-                             if not Path(source).is_absolute() else ""), field="data")
+        raise data_error(source, "file not found"
+                         + (" (a path is relative to the config file's folder)"
+                            if not Path(source).is_absolute() else ""))
     claim = CLAIMS[fmt](p, source)
     if check is not None:
         check(claim)
@@ -338,22 +311,22 @@ def _table(flat: dict[str, np.ndarray], source: str, first_line: int, *,
     reasons = flat.pop(REASON, None)
     raw = flat.pop(FAILED, None)
     if raw is not None and raw.ndim != 1:
-        raise ConfigError(f"data: {source}: column 'failed' has shape {raw.shape}; allowed "
-                          f"(n,), 0 or 1 per run")
+        raise data_error(source, f"column 'failed' has shape {raw.shape}; allowed "
+                         f"(n,), 0 or 1 per run")
     flagged = None if raw is None else _flags(raw, source, first_line)
     columns = _group_series(flat)
     if not columns:
-        raise ConfigError(f"data: {source}: no columns")
+        raise data_error(source, "no columns")
     lengths = {k: v.shape[0] for k, v in columns.items()}
     if len(set(lengths.values())) > 1:
         k0 = next(iter(lengths))
         k = next(k for k, v in lengths.items() if v != lengths[k0])
-        raise ConfigError(f"data: {source}: column {k!r} has {lengths[k]} rows, column {k0!r} "
-                          f"{lengths[k0]}; every column holds one value per run")
+        raise data_error(source, f"column {k!r} has {lengths[k]} rows, column {k0!r} "
+                         f"{lengths[k0]}; every column holds one value per run")
     n = next(iter(lengths.values()))
     for name, col in ((FAILED, flagged), (REASON, reasons)):
         if col is not None and col.shape[0] != n:
-            raise ConfigError(f"data: {source}: column {name!r} has {col.shape[0]} rows, the "
-                              f"others {n}; every column holds one value per run")
+            raise data_error(source, f"column {name!r} has {col.shape[0]} rows, the "
+                             f"others {n}; every column holds one value per run")
     return Table(source, columns, time, first_line, _digest(columns, time, flagged, reasons),
                  flagged, reasons)

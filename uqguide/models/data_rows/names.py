@@ -37,13 +37,18 @@ def _unprintable(name: str) -> str | None:
     return None
 
 
+def data_error(source: str, text: str) -> ConfigError:
+    """The error of the data file ``source`` (as messages name it): ``data: <source>: <text>``."""
+    return ConfigError(f"data: {source}: {text}", field="data")
+
+
 def check_names(names: Sequence[str], source: str, where: Callable[[int], str]) -> None:
     """ConfigError when a column name is empty, unprintable, too long, repeated, or a series'
     steps have a gap or a repeat (module docstring). ``names`` are the columns in the file's
     order (blanks stripped), ``source`` the file as messages name it, ``where`` maps a column
     index to its place (``"line 1, column 3"``)."""
     def fail(j: int, text: str) -> ConfigError:
-        return ConfigError(f"data: {source}: {where(j)}: {text}", field="data")
+        return data_error(source, f"{where(j)}: {text}")
 
     seen: dict[str, int] = {}
     steps: dict[str, dict[int, int]] = {}
@@ -72,12 +77,12 @@ def check_names(names: Sequence[str], source: str, where: Callable[[int], str]) 
             steps[base][step] = j
     for base, by_step in steps.items():
         if base in seen:
-            raise ConfigError(f"data: {source}: column {base!r} and columns {base}[0], ... both "
-                              f"present; a name is either a scalar or a series", field="data")
+            raise data_error(source, f"column {base!r} and columns {base}[0], ... both present; "
+                                     f"a name is either a scalar or a series")
         if len(by_step) != max(by_step) + 1:
             # the first absent step, found without building range(max + 1): an index such as
             # y[99999999999] must not allocate
             missing = next(k for k, s in enumerate(sorted(by_step)) if s != k)
-            raise ConfigError(f"data: {source}: column {base}[{missing}] is missing (series "
-                              f"{base!r} has steps up to {base}[{max(by_step)}]; its columns "
-                              f"must be {base}[0], {base}[1], ... without gaps)", field="data")
+            raise data_error(source, f"column {base}[{missing}] is missing (series {base!r} has "
+                                     f"steps up to {base}[{max(by_step)}]; its columns must be "
+                                     f"{base}[0], {base}[1], ... without gaps)")
