@@ -55,3 +55,22 @@ def decaying_cosine_at_7s(x):
     """:func:`decaying_cosine` at t = 7 s only, a scalar (a cheap case of the same fit)."""
     omega, zeta = x[:, 0], x[:, 1]
     return np.exp(-zeta * omega * 7.0) * np.cos(omega * np.sqrt(1.0 - zeta**2) * 7.0)
+
+
+#: CPU seconds :func:`burn_cpu` spends per row
+BURN_S = 2e-3
+
+
+def burn_cpu(x):
+    """``y = x1``, after spending ``BURN_S`` CPU seconds per row in this process."""
+    import time
+
+    until = time.process_time() + BURN_S * x.shape[0]
+    while time.process_time() < until:
+        pass
+    return x[:, 0]
+
+
+def no_cpu(x):
+    """``y = x1`` at once (the guard's own costs, beside :func:`burn_cpu`)."""
+    return x[:, 0]
