@@ -421,6 +421,7 @@ class MultiFidelityMC(Method):
         """Statistics of every output from the used levels' runs (rows ``[0, m_i)`` of each).
         ``seconds``: every config level's model seconds; ``pilot_seconds``: per pilot run;
         ``surrogate_cpu_s``: the surrogate levels' PCE runs and fits, charged to the saving."""
+        t_cpu = time.process_time()
         sizes = plan.sizes
         ok = usable_rows([r.failed for r in runs], sizes)
         grid = runs[0].time
@@ -459,8 +460,14 @@ class MultiFidelityMC(Method):
         targets = [t for t in self._targets() if t in equivalent]
         eq = min((equivalent[t] for t in targets), default=float("nan"))
         eq_std = min((equivalent_std[t] for t in targets), default=float("nan"))
-        cpu = float(sum(seconds)) + surrogate_cpu_s
         c0 = float(plan.costs[0])
+        # the saving at the prices the runs paid: the highest level's cost per run over all
+        # its runs (the pilot's small calls may cost a vectorised model more per run), and the
+        # estimate's own CPU (its bootstrap costs microseconds per row, as a cheap run does)
+        m0 = int(sizes[0])
+        c0_paid = float(seconds[plan.levels[0]]) / m0 if plan.measured and m0 else c0
+        estimate_cpu_s = time.process_time() - t_cpu
+        cpu = float(sum(seconds)) + surrogate_cpu_s + estimate_cpu_s
         diagnostics: dict[str, Any] = {
             "n_runs": int(sum(r.n for r in runs)) + self._unused_pilot_runs(plan),
             "n_failed": n_failed,
@@ -478,7 +485,8 @@ class MultiFidelityMC(Method):
             "equivalent_mc_runs": eq,
             "equivalent_mc_cpu_s": eq * c0,
             "equivalent_mc_runs_std": eq_std,
-            "cpu_saving": self._cpu_saving(plan, min(eq, eq_std) * c0, seconds, cpu),
+            "estimate_cpu_s": estimate_cpu_s,
+            "cpu_saving": self._cpu_saving(plan, min(eq, eq_std) * c0_paid, seconds, cpu),
             "plain_mc": bool(plan.allocation.is_plain_mc),
             "note": plan.note,
             "interpolated": ", ".join(f"level {i} {h}" for i, h in sorted(how)) or "none",

@@ -202,8 +202,9 @@ class Guard:
     def call(self, handle: Any, x: np.ndarray, names: Sequence[str],
              outputs: Collection[str]) -> tuple[str, Any]:
         """One model call in the guard process (the model rebuilt there once), killed after
-        ``timeout_s``: ``("ok", (ModelOutput, Spent there))``, or ``("timeout" | "crashed" | "raised", reason)``; a
-        ModelError (the caller's mistake, not the sample's) is raised here."""
+        ``timeout_s``: ``("ok", (ModelOutput, Spent there))``, or ``("timeout" | "crashed" |
+        "raised", reason)``; a ModelError (the caller's mistake, not the sample's) is raised
+        here."""
         if self._proc is None or not self._proc.is_alive():
             self._stop()
             self._start(handle)
