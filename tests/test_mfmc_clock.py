@@ -91,8 +91,9 @@ def test_a_fallback_to_plain_mc_saves_nothing():
     d = est.diagnostics
     assert d["plain_mc"]
     assert d["cpu_saving"] <= 1.0
-    # the share of the CPU the highest level's runs took
-    assert d["cpu_saving"] == pytest.approx(m0 * 1e-3 / 3 / (m0 * 1e-3 / 3 + 1e-5 * 200))
+    # the share of the CPU (the estimate's own included) the highest level's runs took
+    top = m0 * 1e-3 / 3
+    assert d["cpu_saving"] == pytest.approx(top / (top + 1e-5 * 200 + d["estimate_cpu_s"]))
 
 
 @pytest.mark.parametrize("chunk_size", [256, 1000, 10_000])
@@ -104,3 +105,38 @@ def test_the_model_is_called_on_blocks_of_monte_carlos_chunk(chunk_size):
     sizes = [b - a for a, b in blocks[1:-1]]
     assert min(sizes) >= CHUNK_ROWS and all(s % chunk_size == 0 for s in sizes)
     assert method.block_rows - chunk_size < CHUNK_ROWS <= method.block_rows
+
+
+#: a program that spends ``sys.argv[3]`` CPU seconds, then writes ``y = a`` for each row
+_BURN = ("import csv, sys, time\n"
+         "until = time.process_time() + float(sys.argv[3])\n"
+         "while time.process_time() < until: pass\n"
+         "rows = list(csv.reader(open(sys.argv[1])))[1:]\n"
+         "open(sys.argv[2], 'w').write('y\\n' + ''.join(r[0] + '\\n' for r in rows))\n")
+
+
+def test_a_command_declares_its_levels_and_its_programs_cpu_is_counted(tmp_path):
+    """A ``command`` model's levels are other command lines; the CPU its program spends (a
+    child process, waited for) is the level's cost."""
+    import shlex
+    import sys
+
+    def line(burn: float) -> str:
+        return f"{shlex.quote(sys.executable)} -c {shlex.quote(_BURN)} {{inputs}} {{outputs}} " \
+               f"{burn}"
+
+    cfg = validate_config({
+        "model": {"name": "command", "command": line(0.1), "inputs": ["a"], "outputs": ["y"],
+                  "workdir": str(tmp_path)},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0}],
+        "methods": [{"name": "mfmc", "fidelities": [{}, {"command": line(0.0)}],
+                     "n_pilot": 20, "budget_cpu_s": 1e-3, "bootstrap": 0}],
+        "seed": 1})
+    d = run(cfg).runs[0].estimate.diagnostics
+    # one call per level (the pilot alone exceeds the budget): the program's 0.1 s counted
+    assert list(d["runs_per_level"]) == [20, 20]
+    assert d["cpu_per_level"][0] >= 0.1
+    assert d["cpu_per_level"][0] - d["cpu_per_level"][1] >= 0.1 - 4 * TICK
+    with pytest.raises(Exception, match="fidelities\\[1\\].*inputs"):
+        validate_config({**cfg.raw.model_dump(), "methods": [{
+            "name": "mfmc", "fidelities": [{}, {"inputs": "b"}], "budget_cpu_s": 1.0}]})
