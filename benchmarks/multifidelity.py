@@ -458,6 +458,16 @@ def pendulum(seeds: int, budget: float, first_seed: int = 0) -> None:
     print(f"  monte_carlo at its defaults: {rate:.0f} runs per CPU-s of the process tree "
           f"(3 runs of {int(budget / 60e-6)}: {', '.join(f'{v:.0f}' for v in rates)})",
           flush=True)
+    # a fallback to plain MC: its CPU per highest-level run against monte_carlo's
+    fallback = {"name": "mfmc", "budget_cpu_s": budget,
+                "fidelities": [{}, {"function": "pendulum_levels:pendulum_unrelated"}]}
+    r, cpu = _measured_run(_pendulum_config(fallback, 0))
+    d = r.runs[0].estimate.diagnostics
+    m0 = int(d["runs_per_level"][0])
+    print(f"  a level uncorrelated with it: plain MC {bool(d['plain_mc'])}, {m0} runs of the "
+          f"highest level, {m0 / cpu:.0f} per CPU-s of the tree (monte_carlo {rate:.0f}), "
+          f"tree CPU {cpu / budget:.2f} x budget, cpu_saving {d['cpu_saving']:.3f}",
+          flush=True)
     tree, err_mean, err_std, hit_mean, hit_std, plain, saving = [], [], [], 0, 0, 0, []
     for s in range(first_seed, first_seed + seeds):
         r, cpu = _measured_run(_pendulum_config(mf, s))

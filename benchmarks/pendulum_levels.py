@@ -34,3 +34,9 @@ def pendulum_mid(x: np.ndarray) -> np.ndarray:
 def pendulum_coarse(x: np.ndarray) -> np.ndarray:
     """dt = 16 ms."""
     return _pendulum(x, PENDULUM_STEPS[2])
+
+
+def pendulum_unrelated(x: np.ndarray) -> np.ndarray:
+    """A cheap level uncorrelated with the pendulum (a fast-oscillating function of the inputs):
+    ``mfmc`` falls back to plain Monte Carlo of the highest level."""
+    return np.sin(1e4 * x[:, 0] * x[:, 1])
