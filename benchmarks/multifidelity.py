@@ -12,6 +12,12 @@ Cases (``--case``):
   (pinned costs), coverage of the highest level's exact mean over seeds; with ``--pce 1`` the
   levels are dt = 0.01 and a PCE of dt = 0.1 (``pce_tensor``, 25 runs; its cost pinned at
   1e-7 s per run, its fit outside the budget);
+- ``pendulum``: the ``mfmc`` method at its defaults on a three-level explicit-Euler pendulum
+  ``callable`` (``benchmarks/pendulum_levels.py``, its calls in a guard process) for
+  ``--budget`` CPU-s (default 4) over ``--seeds`` seeds from ``--seed`` (default 0): the process
+  tree's CPU against the budget (psutil over every process below this one), the MSE of mean
+  and std against ``monte_carlo``'s at the same measured CPU (a bootstrap interval over the
+  seeds), the coverage of the exact mean and std (Gauss-Legendre quadrature);
 - ``ftcapn``, ``gmm_ftc``, ``ft_as``: a pilot of ``--pilot`` runs at each step of the model's
   dispersion config: measured CPU seconds per run (``time.process_time``, one thread), the
   correlation of each level with the highest per output, the allocation the ``mfmc`` method
@@ -34,6 +40,7 @@ optimisers (ACV-MF, ACV-IS, GRD-MR) for the same costs and covariance.
 Every figure is printed in a table; nothing is asserted (the tests do that on small cases).
 
     python benchmarks/multifidelity.py --case analytic [--seeds 50]
+    python benchmarks/multifidelity.py --case pendulum [--seeds 50] [--budget 4]
     python benchmarks/multifidelity.py --case ft_as --pilot 60
     python benchmarks/multifidelity.py --case analytic --peer-python /tmp/mx/bin/python
 """
@@ -49,6 +56,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pendulum_levels import PENDULUM_STEPS, PENDULUM_T, pendulum_fine
 
 from uqguide.config.run_config import load_yaml, validate_config
 from uqguide.stats.mfmc_allocation import (
@@ -361,6 +369,151 @@ def euler(seeds: int, budget: float, pce: bool = False, estimator: str = "blue")
               f"(95% Wilson [{lo:.2f}, {hi:.2f}])")
 
 
+# ---------------------------------------------------------------------------------- pendulum
+PENDULUM_INPUTS = [{"name": "theta0", "dist": "uniform", "low": 0.3, "high": 1.2},
+                   {"name": "length", "dist": "uniform", "low": 0.8, "high": 1.2},
+                   {"name": "damping", "dist": "uniform", "low": 0.1, "high": 0.3}]
+
+
+def _pendulum_config(method: dict[str, Any], seed: int) -> dict[str, Any]:
+    """The pendulum as a ``callable`` at its defaults (a guard process), with ``method``."""
+    return {"model": {"name": "callable", "function": "pendulum_levels:pendulum_fine",
+                      "inputs": ["theta0", "length", "damping"], "outputs": ["theta"],
+                      "module_dir": str(Path(__file__).resolve().parent)},
+            "inputs": PENDULUM_INPUTS, "methods": [method], "seed": seed}
+
+
+def _pendulum_exact(nodes: int) -> tuple[float, float, float]:
+    """Mean, std and 4th central moment of the highest level by Gauss-Legendre quadrature over
+    the three uniform inputs, ``nodes`` per input (the angle is smooth in each)."""
+    g, w = np.polynomial.legendre.leggauss(nodes)
+    lows = np.array([i["low"] for i in PENDULUM_INPUTS])
+    highs = np.array([i["high"] for i in PENDULUM_INPUTS])
+    grid = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    weight = np.einsum("i,j,k->ijk", w, w, w).reshape(-1) / 8.0
+    y = pendulum_fine(lows + (highs - lows) * (grid + 1) / 2)
+    mean = float(weight @ y)
+    d = y - mean
+    return mean, float(np.sqrt(weight @ d**2)), float(weight @ d**4)
+
+
+def _tree_cpu() -> dict[int, float]:
+    """CPU seconds so far of this process and of every live process below it, each with the
+    children it has reaped (a guard's, reaped by the fork server, counts there)."""
+    import psutil
+
+    me = psutil.Process()
+    out = {}
+    for p in [me, *me.children(recursive=True)]:
+        try:
+            t = p.cpu_times()
+            out[p.pid] = t.user + t.system + t.children_user + t.children_system
+        except psutil.NoSuchProcess:
+            pass
+    return out
+
+
+def _tree_spent(before: dict[int, float]) -> float:
+    """CPU seconds the process tree spent since ``before`` (:func:`_tree_cpu`)."""
+    return sum(v - before.get(pid, 0.0) for pid, v in _tree_cpu().items())
+
+
+def _measured_run(cfg: dict[str, Any]) -> tuple[Any, float]:
+    """``uqguide.run`` of ``cfg`` as a user's script makes it, its guard stopped after, and the
+    process tree's CPU seconds for it."""
+    import uqguide
+    from uqguide.driver.execution.guard import close_guards
+
+    before = _tree_cpu()
+    try:
+        result = uqguide.run(cfg)
+    finally:
+        close_guards()
+    return result, _tree_spent(before)
+
+
+def pendulum(seeds: int, budget: float, first_seed: int = 0) -> None:
+    """``mfmc`` at its defaults on the three-level pendulum ``callable`` for ``budget`` CPU-s
+    over seeds: the process tree's CPU against the budget, the MSE of mean and std against
+    ``monte_carlo``'s at the same measured CPU (its runs per CPU-s measured here, its MSE
+    ``sigma^2 / n`` from the exact moments), and the coverage of the intervals."""
+    t0 = time.process_time()
+    mean, std, mu4 = _pendulum_exact(32)
+    coarse = _pendulum_exact(24)
+    print(f"pendulum: theta at {PENDULUM_T:g} s, explicit Euler with {PENDULUM_STEPS} steps; "
+          f"exact highest level (Gauss-Legendre 32^3; 24^3 differs by "
+          f"{abs(coarse[0] - mean):.1e} in the mean, {abs(coarse[1] - std):.1e} in the std): "
+          f"mean {mean:.6f}, std {std:.6f} ({time.process_time() - t0:.1f} CPU-s)", flush=True)
+    levels = [{}, {"function": "pendulum_levels:pendulum_mid"},
+              {"function": "pendulum_levels:pendulum_coarse"}]
+    mf = {"name": "mfmc", "fidelities": levels, "budget_cpu_s": budget}
+    # monte_carlo's runs per CPU-s of its process tree, at about the budget's size
+    rates = []
+    for s in range(3):
+        n_mc = int(budget / 60e-6)
+        r, cpu = _measured_run(_pendulum_config(
+            {"name": "monte_carlo", "n_samples": n_mc}, 10_000 + s))
+        rates.append(n_mc / cpu)
+    rate = float(np.median(rates))
+    print(f"  monte_carlo at its defaults: {rate:.0f} runs per CPU-s of the process tree "
+          f"(3 runs of {int(budget / 60e-6)}: {', '.join(f'{v:.0f}' for v in rates)})",
+          flush=True)
+    # a fallback to plain MC: its CPU per highest-level run against monte_carlo's
+    fallback = {"name": "mfmc", "budget_cpu_s": budget,
+                "fidelities": [{}, {"function": "pendulum_levels:pendulum_unrelated"}]}
+    r, cpu = _measured_run(_pendulum_config(fallback, 0))
+    d = r.runs[0].estimate.diagnostics
+    m0 = int(d["runs_per_level"][0])
+    print(f"  a level uncorrelated with it: plain MC {bool(d['plain_mc'])}, {m0} runs of the "
+          f"highest level, {m0 / cpu:.0f} per CPU-s of the tree (monte_carlo {rate:.0f}), "
+          f"tree CPU {cpu / budget:.2f} x budget, cpu_saving {d['cpu_saving']:.3f}",
+          flush=True)
+    tree, err_mean, err_std, hit_mean, hit_std, plain, saving = [], [], [], 0, 0, 0, []
+    for s in range(first_seed, first_seed + seeds):
+        r, cpu = _measured_run(_pendulum_config(mf, s))
+        run = r.runs[0]
+        st, d = run.estimate.stats["theta"], run.estimate.diagnostics
+        tree.append(cpu / budget)
+        err_mean.append(float(st.mean[0]) - mean)
+        err_std.append(float(st.std[0]) - std)
+        hit_mean += bool(st.ci["mean"][0, 0] <= mean <= st.ci["mean"][1, 0])
+        hit_std += bool(st.ci["std"][0, 0] <= std <= st.ci["std"][1, 0])
+        plain += bool(d["plain_mc"])
+        saving.append(float(d["cpu_saving"]))
+        print(f"  seed {s}: tree CPU {cpu:.2f} s ({cpu / budget:.2f} x budget), runs "
+              f"{[int(v) for v in d['runs_per_level']]}, levels used {d['levels_used']}, "
+              f"cpu_saving {d['cpu_saving']:.2f}, error of the mean {err_mean[-1]:+.2e}; "
+              f"CPU per level {np.round(d['cpu_per_level'], 2).tolist()}, pilot s/run "
+              f"{np.round(d['pilot_seconds_per_run'] * 1e6, 1).tolist()} us, all runs "
+              f"{np.round(d['cpu_per_level'] / d['runs_per_level'] * 1e6, 1).tolist()} us",
+              flush=True)
+    n = len(tree)
+    t = np.array(tree)
+    # monte_carlo at each seed's measured CPU: sigma^2 / n and, for the std, (mu4 - sigma^4) /
+    # (4 sigma^2 n) (the delta method), n its runs in that CPU
+    n_mc = rate * t * budget
+    mse_mc = np.array([std**2 / n_mc, (mu4 - std**4) / (4 * std**2 * n_mc)])
+    err = np.array([err_mean, err_std]) ** 2
+    ratio = mse_mc.mean(axis=1) / err.mean(axis=1)
+    rng = np.random.default_rng(0)
+    boot = []
+    for _ in range(2000):
+        i = rng.integers(0, n, n)
+        boot.append(mse_mc[:, i].mean(axis=1) / err[:, i].mean(axis=1))
+    lo, hi = np.quantile(np.array(boot), [0.025, 0.975], axis=0)
+    print(f"\n  {'seeds':>5} {'tree CPU / budget: min':>24} {'median':>7} {'max':>6} "
+          f"{'MSE ratio vs MC, mean [95%]':>30} {'std [95%]':>20} {'coverage mean':>14} "
+          f"{'std':>6}")
+    print(f"  {n:>5} {t.min():24.2f} {np.median(t):7.2f} {t.max():6.2f} "
+          f"{ratio[0]:>12.2f} [{lo[0]:.2f}, {hi[0]:.2f}]{'':>6} {ratio[1]:>8.2f} "
+          f"[{lo[1]:.2f}, {hi[1]:.2f}] {hit_mean:>8}/{n:<5} {hit_std:>3}/{n}")
+    print(f"  plain-MC fallbacks {plain}/{n}; cpu_saving min {min(saving):.2f}, median "
+          f"{np.median(saving):.2f}, max {max(saving):.2f}; coverage 95% Wilson: mean "
+          f"[{_wilson(hit_mean, n)[0]:.2f}, {_wilson(hit_mean, n)[1]:.2f}], std "
+          f"[{_wilson(hit_std, n)[0]:.2f}, {_wilson(hit_std, n)[1]:.2f}]; "
+          f"{time.process_time() - t0:.0f} CPU-s in this process")
+
+
 # ---------------------------------------------------------------------------------- useless
 def fine(x: np.ndarray) -> np.ndarray:
     """The expensive level of the ``uncorrelated`` case: ``x1 + 0.2 x1^2``."""
@@ -641,12 +794,14 @@ def method_run(case: str, budget: float, n_pilot: int, workers: int, pce: int = 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--case", default="analytic",
-                    choices=["analytic", "jumps", "euler", "uncorrelated", "ft_as-paired", *PILOTS,
+                    choices=["analytic", "jumps", "euler", "uncorrelated", "pendulum",
+                             "ft_as-paired", *PILOTS,
                              *(f"{c}-run" for c in PILOTS)])
     ap.add_argument("--seeds", type=int, default=50)
     ap.add_argument("--pilot", type=int, default=200)
-    ap.add_argument("--budget", type=float, default=100.0,
-                    help="cost units (analytic), CPU seconds (euler, *-run)")
+    ap.add_argument("--budget", type=float, default=None, dest="budget_given",
+                    help="cost units (analytic), CPU seconds (euler, *-run; default 100; "
+                         "pendulum: default 4)")
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--pce", type=int, default=0,
                     help="*-run: add a PCE level fitted on this many runs (0: none); "
@@ -666,6 +821,7 @@ def main() -> None:
     ap.add_argument("--peer-python", default=None,
                     help="an interpreter with MXMCPy: its allocations beside uqguide's")
     a = ap.parse_args()
+    a.budget = 100.0 if a.budget_given is None else a.budget_given
     if a.case == "analytic":
         analytic(a.seeds, a.budget, a.peer_python)
     elif a.case == "ft_as-paired":
@@ -676,6 +832,8 @@ def main() -> None:
         uncorrelated(a.seeds, a.budget)
     elif a.case == "euler":
         euler(a.seeds, a.budget, bool(a.pce), a.estimator)
+    elif a.case == "pendulum":
+        pendulum(a.seeds, 4.0 if a.budget_given is None else a.budget_given, a.seed or 0)
     elif a.case in PILOTS:
         pilot(a.case, a.pilot, peer_python=a.peer_python)
     else:

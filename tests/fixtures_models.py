@@ -66,3 +66,22 @@ def sum_of_exponentials(x):
     for independent standard normal ``x_i`` (each term lognormal)."""
     w = 1.0 / np.sqrt(np.arange(1, x.shape[1] + 1))
     return {"y": (w * np.exp(EXP_RATE * x)).sum(axis=1)}
+
+
+#: CPU seconds :func:`burn_cpu` spends per row
+BURN_S = 2e-3
+
+
+def burn_cpu(x):
+    """``y = x1``, after spending ``BURN_S`` CPU seconds per row in this process."""
+    import time
+
+    until = time.process_time() + BURN_S * x.shape[0]
+    while time.process_time() < until:
+        pass
+    return x[:, 0]
+
+
+def no_cpu(x):
+    """``y = x1`` at once (the guard's own costs, beside :func:`burn_cpu`)."""
+    return x[:, 0]

@@ -40,13 +40,18 @@ _SUMS = ("sums", "")
 U_EPS = 2.0**-53
 
 
+#: Rows per chunk of ``monte_carlo`` by default: what a vectorised model is called with (and
+#: the least ``mfmc`` calls it with, so that both pay the same per run).
+CHUNK_ROWS = 8192
+
+
 class MonteCarloSettings(MethodSettings):
     """Settings of ``monte_carlo``."""
 
     n_samples: int = Field(ge=1, le=100_000_000, description="number of model runs")
     sampling: Literal["random", "lhs", "sobol"] = Field(
         default="random", description="design of the samples within each chunk")
-    chunk_size: int = Field(default=8192, ge=1, le=10_000_000,
+    chunk_size: int = Field(default=CHUNK_ROWS, ge=1, le=10_000_000,
                             description="samples per random stream (changes the numbers; fixed "
                                         "so that the worker count does not)")
     intervals: Literal["tail", "delta", "bootstrap", "studentized"] = Field(

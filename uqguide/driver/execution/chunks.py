@@ -52,8 +52,9 @@ class ChunkResult:
 
     ``time (T,)`` (empty when every sample failed); ``scalars (m, k)``; ``series (m, T, k)`` or
     the method's ``summary`` when reduced; the wall and CPU seconds of the model calls, each
-    less ``compile_seconds``; ``in_place``: per-run values the worker wrote into shared memory
-    instead (:mod:`.shared_rows`), as ``(scalars or summary, key, n runs)``.
+    less ``compile_seconds`` (the CPU measured in the process that made the calls:
+    :func:`.isolation.timed_batch`); ``in_place``: per-run values the worker wrote into shared
+    memory instead (:mod:`.shared_rows`), as ``(scalars or summary, key, n runs)``.
     """
 
     task: Task

@@ -26,7 +26,7 @@ from ...errors import ModelError, WorkerStartError
 from ...core.process_groups import stop_on_sigterm
 from ...core.temp_folders import multiprocessing_folder
 from ...core.types import ModelOutput
-from .isolation import assemble_pieces, evaluate_batch
+from .isolation import Spent, assemble_pieces, timed_batch
 from .processes import (NESTED_RUN_EXIT, OVER_MEMORY_EXIT, WORKERS_DID_NOT_START,
                         die_with_parent, limit_memory, sigint_ignored)
 
@@ -75,7 +75,8 @@ def _answer(conn: Any) -> None:
         else:
             _, handle, x, names, outputs = msg
             try:
-                reply = ("ok", evaluate_batch(handle.model, x, names, outputs))
+                # timed here: the driver's clock would see only the pipe
+                reply = ("ok", timed_batch(handle.model, x, names, outputs))
             except ModelError as exc:
                 reply = ("model_error", str(exc))
             except MemoryError:
@@ -201,8 +202,9 @@ class Guard:
     def call(self, handle: Any, x: np.ndarray, names: Sequence[str],
              outputs: Collection[str]) -> tuple[str, Any]:
         """One model call in the guard process (the model rebuilt there once), killed after
-        ``timeout_s``: ``("ok", ModelOutput)``, or ``("timeout" | "crashed" | "raised", reason)``; a
-        ModelError (the caller's mistake, not the sample's) is raised here."""
+        ``timeout_s``: ``("ok", (ModelOutput, Spent there))``, or ``("timeout" | "crashed" |
+        "raised", reason)``; a ModelError (the caller's mistake, not the sample's) is raised
+        here."""
         if self._proc is None or not self._proc.is_alive():
             self._stop()
             self._start(handle)
@@ -257,10 +259,12 @@ def close_guards() -> None:
 
 def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Collection[str],
                   timeout_s: float | None, memory_limit: int | None = None,
-                  on_isolated: OnIsolated | None = None) -> ModelOutput:
+                  on_isolated: OnIsolated | None = None, spent: Spent | None = None
+                  ) -> ModelOutput:
     """``evaluate_batch`` in the guard process, bisected on a timeout or a crash down to the
     samples that fail alone; ``x (n, d)``: SI units, column ``j`` for ``names[j]``;
-    ``on_isolated(row, reason)``: told of each (the driver records it for a resume)."""
+    ``on_isolated(row, reason)``: told of each (the driver records it for a resume);
+    ``spent``: incremented by the CPU the calls that answered took in the guard."""
     model = handle.model
     guard = guard_for(timeout_s, memory_limit)
     pieces: list[Any] = []
@@ -268,7 +272,10 @@ def guarded_batch(handle: Any, x: np.ndarray, names: Sequence[str], outputs: Col
     def bisect(rows: np.ndarray, first: int) -> None:
         status, value = guard.call(handle, rows, names, outputs)
         if status == "ok":
-            pieces.append(value)
+            out, there = value
+            pieces.append(out)
+            if spent is not None:
+                spent.add(there)
             return
         if rows.shape[0] <= 1:
             pieces.append((rows.shape[0], value))

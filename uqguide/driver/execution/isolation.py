@@ -4,16 +4,50 @@ raising samples fail alone, with the reason; the others keep their values."""
 from __future__ import annotations
 
 import logging
+import resource
+import time
 from collections.abc import Callable, Collection, Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from ...errors import ModelError
+from ...models import kernels
 from ...models.base import Model
 from ...core.types import ModelOutput
 from .processes import memory_limited
 
 log = logging.getLogger(__name__)
+
+
+@dataclass
+class Spent:
+    """CPU seconds of model calls, measured in the process that made them (a guard process, a
+    pool or Dask worker, the driver), with the programs it waited for (a ``command``'s), less
+    ``compile_seconds`` spent compiling a kernel there."""
+
+    cpu_seconds: float = 0.0
+    compile_seconds: float = 0.0
+
+    def add(self, other: Spent) -> None:
+        self.cpu_seconds += other.cpu_seconds
+        self.compile_seconds += other.compile_seconds
+
+
+def _cpu_here() -> float:
+    """CPU seconds of this process and of the child processes it has waited for."""
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + kids.ru_utime + kids.ru_stime
+
+
+def timed_batch(model: Model, x: np.ndarray, names: Sequence[str],
+                outputs: Collection[str]) -> tuple[ModelOutput, Spent]:
+    """:func:`evaluate_batch` and the CPU it took here: the one place a model call's CPU is
+    measured (the driver only adds up what the processes that ran the calls report)."""
+    compiled, c0 = kernels.compile_seconds(), _cpu_here()
+    out = evaluate_batch(model, x, names, outputs)
+    compiled = kernels.compile_seconds() - compiled
+    return out, Spent(max(_cpu_here() - c0 - compiled, 0.0), compiled)
 
 
 def evaluate_batch(model: Model, x: np.ndarray, names: Sequence[str],

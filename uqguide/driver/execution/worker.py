@@ -12,19 +12,19 @@ import numpy as np
 
 from ...core.types import ModelOutput, RowRange
 from ...errors import WorkerStartError
-from ...models import kernels
 from .chunks import ChunkJob, ChunkResult, Task
 from .guard import GuardUnavailable, guard_for, guarded_batch
-from .isolation import common_grid, evaluate_batch, skipping_known
+from .isolation import Spent, common_grid, skipping_known, timed_batch
 from .processes import OVER_MEMORY_EXIT, limit_memory
 from .shared_rows import write_in_place
 
 log = logging.getLogger(__name__)
 
 
-def _evaluate(job: ChunkJob, rows: np.ndarray, first: int) -> ModelOutput:
+def _evaluate(job: ChunkJob, rows: np.ndarray, first: int, spent: Spent) -> ModelOutput:
     """One model call on ``rows``, the stretch of the design starting at row ``first``: in a
-    guard process when the job asks for one, else here."""
+    guard process when the job asks for one, else here; ``spent`` incremented by its CPU
+    where it ran."""
     if job.timeout_s is not None or job.guarded:
         guard = guard_for(job.timeout_s, job.memory_limit)
         if not (job.guard_fallback and guard.unavailable):
@@ -32,14 +32,16 @@ def _evaluate(job: ChunkJob, rows: np.ndarray, first: int) -> ModelOutput:
             told = None if tell is None else (lambda r, why: tell(first + r, why))
             try:
                 return guarded_batch(job.model, rows, job.names, job.outputs, job.timeout_s,
-                                     job.memory_limit, told)
+                                     job.memory_limit, told, spent)
             except (GuardUnavailable, WorkerStartError) as exc:
                 if not job.guard_fallback:
                     raise
                 guard.unavailable = str(exc)
                 log.warning("model '%s' runs in this process: %s. A sample that crashes its "
                             "process ends the run (resumable)", job.model.model.name, exc)
-    return evaluate_batch(job.model.model, rows, job.names, job.outputs)
+    out, here = timed_batch(job.model.model, rows, job.names, job.outputs)
+    spent.add(here)
+    return out
 
 
 def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResult:
@@ -49,23 +51,22 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
     model = job.model.model
     x = np.asarray(x)  # a RowRange: the rows are made here
     m = x.shape[0]
-    compiled_before = kernels.compile_seconds()
+    spent = Spent()
     t0 = time.perf_counter()
-    c0 = time.process_time()
     known = {r - task.start: why for r, why in job.known.items() if task.start <= r < task.stop}
     parts = []
     for s in range(0, max(m, 1), job.batch_size):
         here = {r - s: why for r, why in known.items() if s <= r < s + job.batch_size}
 
         def call(rows: np.ndarray, at: int, first: int = task.start + s) -> ModelOutput:
-            return _evaluate(job, rows, first + at)
+            return _evaluate(job, rows, first + at, spent)
 
         parts.append(skipping_known(model, x[s:s + job.batch_size], job.outputs, here, call))
     out = ModelOutput.concatenate(common_grid(parts))
     # a first call that compiles the kernel is timed as compiling, not as running the model
-    compiled = kernels.compile_seconds() - compiled_before
+    compiled = spent.compile_seconds
     seconds = max(time.perf_counter() - t0 - compiled, 0.0)
-    cpu = max(time.process_time() - c0 - compiled, 0.0)
+    cpu = spent.cpu_seconds
     if job.reducer is None:
         return ChunkResult(task, out.failed, out.reasons, out.time, out.scalars, out.series,
                            model_seconds=seconds, compile_seconds=compiled, cpu_seconds=cpu)

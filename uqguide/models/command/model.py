@@ -199,6 +199,9 @@ class CommandModel(DeclaredModel):
     Params = CommandParams
     declares_inputs = True
     params: CommandParams
+    #: Fidelity levels of a program are other command lines with the same inputs and outputs
+    #: (``fidelities: [{}, {command: "./sim --dt 0.1 {inputs} {outputs}"}]``).
+    fidelity_params = ("command",)
     example_params = {
         "command": f"{shlex.quote(sys.executable)} -c {shlex.quote(_EXAMPLE)} "
                    "{inputs} {outputs}",

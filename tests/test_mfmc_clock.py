@@ -1,0 +1,142 @@
+"""mfmc's clock: the pilot's costs are the CPU of the process that ran the model (a guard
+process for a ``callable``), a fallback to plain MC saves nothing, and the model is called
+on blocks as large as ``monte_carlo``'s chunks."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import psutil
+import pytest
+
+from uqguide.config.run_config import validate_config
+from uqguide.driver.execution.guard import _GUARDS, close_guards
+from uqguide.driver.propagate import run
+from uqguide.methods.base import RunContext
+from uqguide.methods.mfmc import MultiFidelityMC
+from uqguide.methods.monte_carlo import CHUNK_ROWS
+
+from .fixtures_models import BURN_S
+
+N_PILOT = 100
+#: psutil reads a process's CPU in clock ticks (user and system apart)
+TICK = 1.0 / os.sysconf("SC_CLK_TCK")
+
+
+def _guarded(function: str) -> dict:
+    """One level of a ``callable`` at its defaults (its calls in a guard process); the pilot
+    alone exceeds the budget, so the level runs its pilot's rows only."""
+    return validate_config({
+        "model": {"name": "callable", "function": f"tests.fixtures_models:{function}",
+                  "inputs": ["x1"], "outputs": ["y"]},
+        "inputs": [{"name": "x1", "dist": "normal", "std": 1.0}],
+        "methods": [{"name": "mfmc", "fidelities": [{}], "n_pilot": N_PILOT,
+                     "budget_cpu_s": 1e-3, "bootstrap": 0}],
+        "seed": 3})
+
+
+def _guard_cpu() -> float:
+    (guard,) = _GUARDS.values()
+    t = psutil.Process(guard._proc.pid).cpu_times()
+    return t.user + t.system
+
+
+def test_the_pilot_times_the_model_in_the_guard_process():
+    close_guards()
+    try:
+        run(_guarded("no_cpu"))  # the guard started and warm
+        c0 = _guard_cpu()
+        idle = run(_guarded("no_cpu")).runs[0].estimate.diagnostics
+        c1 = _guard_cpu()
+        busy = run(_guarded("burn_cpu")).runs[0].estimate.diagnostics
+        c2 = _guard_cpu()
+    finally:
+        close_guards()
+    spent, overhead = c2 - c1, c1 - c0
+    measured = float(busy["cpu_per_level"][0])
+    assert busy["runs_per_level"][0] == N_PILOT
+    assert float(busy["pilot_seconds_per_run"][0]) * N_PILOT == pytest.approx(measured)
+    # the model's own CPU, which the guard spent on top of what it spends on an idle model
+    # (unpickling the rows, the replies), each psutil reading good to a tick of user and system
+    assert spent - overhead - 4 * TICK <= measured <= spent + 4 * TICK
+    assert measured >= BURN_S * N_PILOT
+    assert float(idle["cpu_per_level"][0]) <= overhead + 4 * TICK
+
+
+def _pilot(y: np.ndarray):
+    from uqguide.core.types import ModelOutput
+
+    n = y.shape[0]
+    return ModelOutput(time=np.zeros(0), scalars={"y": y[:, None]},
+                       failed=np.zeros(n, bool), reasons=np.full(n, "", dtype=object))
+
+
+def test_a_fallback_to_plain_mc_saves_nothing():
+    """Plain MC of the highest level is plain MC: its saving is at most 1 whatever the pilot's
+    costs said (a dear pilot in small calls and cheaper main runs once read 1.9)."""
+    method = MultiFidelityMC({"fidelities": [{}, {"function": "x"}], "n_pilot": 200,
+                              "budget_cpu_s": 1.0}, RunContext(outputs=("y",)))
+    rng = np.random.default_rng(0)
+    pilot = [_pilot(rng.standard_normal(200)), _pilot(rng.standard_normal(200))]
+    # the main runs cost a third per run of what the pilot's (in small calls) did
+    plan = method.allocate(pilot, [1e-3, 1e-5])
+    assert plan.allocation.is_plain_mc
+    m0 = int(plan.sizes[0])
+    runs = [_pilot(rng.standard_normal(m0))]
+    from uqguide.methods.base import Design
+
+    est = method.estimate_levels(runs, plan, Design(x=np.zeros((m0, 1))),
+                                 [m0 * 1e-3 / 3, 1e-5 * 200], [1e-3, 1e-5])
+    d = est.diagnostics
+    assert d["plain_mc"]
+    assert d["cpu_saving"] <= 1.0
+    # the share of the CPU (the estimate's own included) the highest level's runs took
+    top = m0 * 1e-3 / 3
+    assert d["cpu_saving"] == pytest.approx(top / (top + 1e-5 * 200 + d["estimate_cpu_s"]))
+
+
+@pytest.mark.parametrize("chunk_size", [256, 1000, 10_000])
+def test_the_model_is_called_on_blocks_of_monte_carlos_chunk(chunk_size):
+    method = MultiFidelityMC({"fidelities": [{}], "budget_cpu_s": 1.0,
+                              "chunk_size": chunk_size})
+    blocks = method.row_chunks(200, 50_000)
+    assert blocks[0] == (200, method.block_rows)
+    sizes = [b - a for a, b in blocks[1:-1]]
+    assert min(sizes) >= CHUNK_ROWS and all(s % chunk_size == 0 for s in sizes)
+    assert method.block_rows - chunk_size < CHUNK_ROWS <= method.block_rows
+
+
+#: a program that spends ``sys.argv[3]`` CPU seconds, then writes ``y = a`` for each row
+_BURN = ("import csv, sys, time\n"
+         "until = time.process_time() + float(sys.argv[3])\n"
+         "while time.process_time() < until: pass\n"
+         "rows = list(csv.reader(open(sys.argv[1])))[1:]\n"
+         "open(sys.argv[2], 'w').write('y\\n' + ''.join(r[0] + '\\n' for r in rows))\n")
+
+
+def test_a_command_declares_its_levels_and_its_programs_cpu_is_counted(tmp_path):
+    """A ``command`` model's levels are other command lines; the CPU its program spends (a
+    child process, waited for) is the level's cost."""
+    import shlex
+    import sys
+
+    def line(burn: float) -> str:
+        return f"{shlex.quote(sys.executable)} -c {shlex.quote(_BURN)} {{inputs}} {{outputs}} " \
+               f"{burn}"
+
+    cfg = validate_config({
+        "model": {"name": "command", "command": line(0.1), "inputs": ["a"], "outputs": ["y"],
+                  "workdir": str(tmp_path)},
+        "inputs": [{"name": "a", "dist": "normal", "std": 1.0}],
+        "methods": [{"name": "mfmc", "fidelities": [{}, {"command": line(0.0)}],
+                     "n_pilot": 20, "budget_cpu_s": 1e-3, "bootstrap": 0}],
+        "seed": 1})
+    d = run(cfg).runs[0].estimate.diagnostics
+    # one call per level (the pilot alone exceeds the budget): the program's 0.1 s counted
+    assert list(d["runs_per_level"]) == [20, 20]
+    assert d["cpu_per_level"][0] >= 0.1
+    assert d["cpu_per_level"][0] - d["cpu_per_level"][1] >= 0.1 - 4 * TICK
+    with pytest.raises(Exception, match="fidelities\\[1\\].*inputs"):
+        validate_config({**cfg.raw.model_dump(), "methods": [{
+            "name": "mfmc", "fidelities": [{}, {"inputs": "b"}], "budget_cpu_s": 1.0}]})
