@@ -204,6 +204,18 @@ class CorrelatedGroup:
     matrix: np.ndarray  # (g, g), symmetric positive definite, unit diagonal
 
 
+def split_groups(correlated: Sequence[Sequence[int]], cols: Sequence[int]
+                 ) -> list[tuple[int, ...]]:
+    """The correlated groups (input indices) that ``cols`` holds part of but not whole.
+
+    A Sobol' index of such a set is not one of the inputs alone: a pick-freeze design cannot
+    freeze it, and a PCE's index of it depends on the order of the group's decorrelated germ
+    (docs/error-budget.md#correlated-inputs)."""
+    inside = set(cols)
+    return [tuple(c) for c in correlated
+            if len(c) > 1 and inside & set(c) and not set(c) <= inside]
+
+
 class InputSpace:
     """The uncertain inputs of a run, in config order: one marginal per input (their ``name``
     are the model's input names) and correlated groups of normal inputs."""
