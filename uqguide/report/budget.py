@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from ..core.inputs import split_groups
 from ..results.result import Result
 from ..results.statistics import OutputStatistics, result_statistics
 
@@ -193,7 +194,7 @@ def budget_notes(df: pd.DataFrame, output: str, estimator: str,
                          f"the group {'+'.join(c)}'s index holds them")
     if estimator == "pce":
         for name, cols in (members or {}).items():
-            split = [c for c in correlated if set(c) & set(cols) and not set(c) <= set(cols)]
+            split = split_groups(correlated, cols)
             if split and f"group {name}" in first:
                 notes.append(f"group {name}: no index (holds part of the correlated group "
                              f"{'+'.join(split[0])}; {NOT_ALONE['pce']})")
