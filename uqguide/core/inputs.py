@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Annotated, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Literal, TypeVar, Union
 
 import numpy as np
 from pydantic import ConfigDict, Field, PositiveFloat, model_validator
@@ -196,12 +196,27 @@ Marginal = Annotated[Union[Normal, Uniform, LogNormal, TruncNormal], Field(discr
 DISTRIBUTIONS = ("normal", "uniform", "lognormal", "truncnormal")
 
 
+_Input = TypeVar("_Input", int, str)
+
+
 @dataclass(frozen=True)
 class CorrelatedGroup:
     """Normal inputs (by index into the space) with a correlation matrix."""
 
     index: tuple[int, ...]
     matrix: np.ndarray  # (g, g), symmetric positive definite, unit diagonal
+
+
+def split_groups(correlated: Sequence[Sequence[_Input]], cols: Sequence[_Input]
+                 ) -> list[tuple[_Input, ...]]:
+    """The correlated groups (input indices, or names) that ``cols`` holds part of but not whole.
+
+    A Sobol' index of such a set is not one of the inputs alone: a pick-freeze design cannot
+    freeze it, and a PCE's index of it depends on the order of the group's decorrelated germ
+    (docs/error-budget.md#correlated-inputs)."""
+    inside = set(cols)
+    return [tuple(c) for c in correlated
+            if len(c) > 1 and inside & set(c) and not set(c) <= inside]
 
 
 class InputSpace:

@@ -19,7 +19,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from ..core.inputs import InputSpace
+from ..core.inputs import InputSpace, split_groups
 from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats
 from ..errors import ConfigError, MethodError
 from ..stats.sobol_pick_freeze import PickFreezeSums, pick_freeze_indices
@@ -73,10 +73,10 @@ class SobolSaltelli(StreamingMethod):
         sets: list[tuple[str, int, tuple[int, ...]]] = [
             ("input", j, (j,)) for j in range(space.dim) if j not in inside]
         for g, (name, cols) in enumerate(self.context.groups):
-            split_groups = [c for c in correlated if c & set(cols) and not c <= set(cols)]
-            if split_groups:
+            split = split_groups([c.index for c in space.groups], cols)
+            if split:
                 # a config error, found when the budget plans the runs (exit 2, nothing run)
-                whole = ", ".join(space.names[i] for i in sorted(split_groups[0]))
+                whole = ", ".join(space.names[i] for i in sorted(split[0]))
                 raise ConfigError(
                     f"groups.{name}: holds part of the correlated group ({whole}); "
                     f"{self.name} (method '{self.label}') can freeze a correlated group only "

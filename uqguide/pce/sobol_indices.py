@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from ..core.inputs import InputSpace, split_groups
 from ..core.types import OutputStats
 from .expansion import Expansion
-from .validation import nan_at
 
 #: Bootstrap replicates behind a regression PCE's intervals (the 2.5% and 97.5% points of 200
 #: replicates are within about 0.1 standard deviation of those of infinitely many).
@@ -78,9 +78,10 @@ def _split(values: np.ndarray, d: int, n_groups: int) -> PCEIndices:
 
 
 def expansion_indices(exp: Expansion, groups: Sequence[Sequence[int]] = ()) -> PCEIndices:
-    """The indices of every column of ``exp``, ``(m, ...)``."""
-    return _split(ratios(exp.coef, term_sets(exp.alpha, groups)), exp.alpha.shape[1],
-                  len(groups))
+    """The indices of every column of ``exp``, ``(m, ...)``; NaN for :func:`refused_sets`."""
+    values = ratios(exp.coef, term_sets(exp.alpha, groups))
+    return _split(np.where(refused_sets(exp.germ.space, groups), np.nan, values),
+                  exp.alpha.shape[1], len(groups))
 
 
 def bootstrap_cores(exp: Expansion, psi: np.ndarray, targets: np.ndarray,
@@ -159,17 +160,45 @@ def truncation_bounds(values: np.ndarray, eps: np.ndarray, orthogonal: bool = Tr
     return np.stack([np.minimum(low, 1.0) - values, np.minimum(high, 1.0) - values])
 
 
+def refused_sets(space: InputSpace, groups: Sequence[Sequence[int]] = ()) -> np.ndarray:
+    """Which of the indices (:func:`term_sets`' columns: each input's first-order and total,
+    each group's) a PCE does not give: those of a set holding part of a correlated group. The
+    germ of a group is its members decorrelated in order, so one member's terms are an
+    order-dependent mix of the group's inputs, not an index of that input
+    (docs/error-budget.md#correlated-inputs)."""
+    corr = [g.index for g in space.groups]
+    alone = [bool(split_groups(corr, (j,))) for j in range(space.dim)]
+    split = [bool(split_groups(corr, cols)) for cols in groups]
+    return np.array(alone * 2 + split * 2, dtype=bool)
+
+
+def _with_indices(st: OutputStats, free: np.ndarray, n_columns: int) -> np.ndarray:
+    """Which of ``st``'s columns have indices (not of zero variance, not withheld): read from
+    the inputs' indices the PCE gives (``free``), else (every input in a correlated group)
+    from the std, by :func:`uqguide.stats.moments.shape_moments`' round-off test."""
+    if st.sobol_first is None:
+        return np.ones(n_columns, dtype=bool)
+    first = np.asarray(st.sobol_first, dtype=float).reshape(n_columns, -1)
+    if free.any():
+        return np.isfinite(first[:, free]).all(axis=1)
+    mean = np.asarray(st.mean, dtype=float).reshape(-1)
+    std = np.asarray(st.std, dtype=float).reshape(-1)
+    with np.errstate(invalid="ignore"):
+        return std > (np.abs(mean) + 1e-300) * 1e-12
+
+
 def set_indices(st: OutputStats, exp: Expansion, groups: Sequence[tuple[str, Sequence[int]]],
                 band: np.ndarray | None = None) -> None:
     """Store the expansion's indices (and the ``(2, m, S)`` ``band``, if any) in ``st``, shaped
     like the output: ``(..., k, d)`` and ``(..., k, G)``; NaN where ``st`` has no indices (a
-    column of zero variance)."""
+    column of zero variance) and for the sets :func:`refused_sets` names."""
     d, n_g = exp.alpha.shape[1], len(groups)
+    refused = refused_sets(exp.germ.space, [cols for _, cols in groups])
     est = expansion_indices(exp, [cols for _, cols in groups])
+    if band is not None:
+        band = np.where(refused, np.nan, band)
     shape = exp.shape
-    keep = np.ones(exp.n_columns, dtype=bool)
-    if st.sobol_first is not None:
-        keep = np.isfinite(np.asarray(st.sobol_first).reshape(-1, d)).all(axis=1)
+    keep = _with_indices(st, ~refused[:d], exp.n_columns)
 
     def shaped(v: np.ndarray, width: int, lead: tuple[int, ...] = ()) -> np.ndarray:
         v = np.where(keep[:, None], v, np.nan)
@@ -239,17 +268,12 @@ def truncation_error_intervals(stats: Mapping[str, OutputStats],
     """Widen every PCE index interval in ``stats`` by its truncation bound, in place, once the
     surrogate is validated: ``eps`` is an output's validation error (per column) where it has
     one, else its LOO error in ``loo``, else none (the intervals stay as they are);
-    ``orthogonal``: which bound (:func:`truncation_bounds`). Group indices of the columns whose
-    indices were withheld are withheld too.
+    ``orthogonal``: which bound (:func:`truncation_bounds`). Withheld indices (NaN, groups'
+    too: :func:`uqguide.pce.validation.withhold_all`) get no interval.
     """
     for name, st in stats.items():
         if st.sobol_first is None or st.sobol_estimator != "pce":
             continue
-        gone = ~np.isfinite(np.asarray(st.sobol_first, dtype=float)).any(axis=-1)
-        for g in ("sobol_group_first", "sobol_group_total"):
-            v = getattr(st, g)
-            if v is not None and gone.any():
-                setattr(st, g, nan_at(v, gone))
         eps = st.validation_error if st.validation_error is not None else \
             (loo or {}).get(name)
         widen_by_truncation(st, eps, orthogonal)

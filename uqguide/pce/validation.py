@@ -361,12 +361,13 @@ def nan_at(values: np.ndarray, where: np.ndarray, lead: int = 0) -> np.ndarray:
 
 
 def withhold_all(stats: OutputStats, usable: np.ndarray) -> None:
-    """NaN the PCE's own moments (and covariance rows, Sobol' indices, quantiles) where it is
-    not usable."""
+    """NaN the PCE's own moments (and covariance rows, Sobol' indices of inputs and groups,
+    quantiles) where it is not usable."""
     bad = ~usable
     if not bad.any():
         return
-    for name in ("mean", "std", "skewness", "kurtosis", "cov", "sobol_first", "sobol_total"):
+    for name in ("mean", "std", "skewness", "kurtosis", "cov", "sobol_first", "sobol_total",
+                 "sobol_group_first", "sobol_group_total"):
         v = getattr(stats, name)
         if v is not None:
             setattr(stats, name, nan_at(v, bad))

@@ -6,19 +6,22 @@ report; its course over time is a figure, :mod:`uqguide.report.budget_plot`): a 
 ordered by first-order index, with its 95% interval where the method gives one, the total index
 and its interval where the method has them (PCE: :mod:`uqguide.pce.sobol_indices`; a Saltelli
 pick-freeze design), the groups of inputs (the config's ``groups``, or each correlated group)
-after the inputs, and the input's **share**: its first-order index over the sum of the positive
-first-order indices, the part of the first-order budget it carries. The sum of the first-order
-indices is stated under the table: ``1 - sum`` is the variance that only interactions explain
-(for independent inputs).
+after the inputs, and the **share**: the percent of the output's variance an input alone
+explains (its first-order index, 0 if negative), given to each input outside a correlated group
+and to each correlated group's own row (its inputs' indices overlap: each carries what it
+shares with the others). Under the table: what the shares leave (interactions, or what a
+correlated group without an index explains) and which indices the estimator does not give.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
+from ..core.inputs import split_groups
 from ..results.result import Result
 from ..results.statistics import OutputStatistics, result_statistics
 
@@ -53,6 +56,8 @@ class BudgetTable:
     estimator: str
     table: pd.DataFrame
     first_sum: float
+    #: Lines under the table: what the shares leave, the indices not given and why.
+    notes: tuple[str, ...] = ()
 
     @property
     def title(self) -> str:
@@ -61,11 +66,26 @@ class BudgetTable:
         return f"Error budget of {self.output}{at}, {self.label}: Sobol' indices {how}"
 
 
+def correlated_groups(config: Mapping) -> tuple[list[tuple[str, ...]],
+                                                dict[str, tuple[str, ...]]]:
+    """A resolved config's correlated groups (input names, two or more) and its index groups
+    (name -> input names: ``groups:``, else each correlated group named by its inputs)."""
+    correlated = [tuple(c["inputs"]) for c in config.get("correlations") or []
+                  if len(c["inputs"]) > 1]
+    groups = config.get("groups")
+    if groups is None:
+        return correlated, {"+".join(c): c for c in correlated}
+    return correlated, {name: tuple(m) for name, m in groups.items()}
+
+
 def budget_table(s: OutputStatistics, inputs: list[str], component: int,
-                 step: int | None = None) -> pd.DataFrame | None:
+                 step: int | None = None, correlated: Sequence[Sequence[str]] = (),
+                 members: Mapping[str, Sequence[str]] | None = None) -> pd.DataFrame | None:
     """The budget of one component of one output (at ``step`` of a series), ordered.
 
-    Returns None where the method gave no index there (a step between report times).
+    ``correlated``: the correlated groups' input names; ``members``: each index group's (a
+    group's row holds a share where it is a whole correlated group). Returns None where the
+    method gave no index there (a step between report times).
     """
     if s.sobol_first is None:
         return None
@@ -79,8 +99,9 @@ def budget_table(s: OutputStatistics, inputs: list[str], component: int,
     total = np.asarray(s.sobol_total)[pick] if s.sobol_total is not None else nan
     tci = np.asarray(s.sobol_total_ci)[(slice(None),) + pick] \
         if s.sobol_total_ci is not None else np.stack([nan, nan])
-    positive = np.clip(np.nan_to_num(first), 0.0, None)
-    share = 100.0 * positive / positive.sum() if positive.sum() > 0 else nan
+    grouped = {name for c in correlated for name in c}
+    share = np.where([name in grouped for name in inputs], np.nan,
+                     100.0 * np.clip(first, 0.0, None))
     df = pd.DataFrame({"input": inputs, "first_order": first, "ci_low": ci[0],
                        "ci_high": ci[1], "total": total, "total_low": tci[0],
                        "total_high": tci[1], "share_%": share})
@@ -97,11 +118,15 @@ def budget_table(s: OutputStatistics, inputs: list[str], component: int,
 
         gci, gt, gtci = (at(s.sobol_group_first_ci, True), at(s.sobol_group_total, False),
                          at(s.sobol_group_total_ci, True))
-        # a group overlaps its inputs' rows: listed after them, without a share
+        # a group overlaps its inputs' rows: listed after them, with a share only where its
+        # inputs' rows have none (a whole correlated group)
+        whole = {frozenset(c) for c in correlated}
+        own = [frozenset((members or {}).get(g, ())) in whole for g in s.sobol_groups]
         groups = pd.DataFrame({"input": [f"group {g}" for g in s.sobol_groups],
                                "first_order": gf, "ci_low": gci[0], "ci_high": gci[1],
                                "total": gt, "total_low": gtci[0], "total_high": gtci[1],
-                               "share_%": np.nan})
+                               "share_%": np.where(own, 100.0 * np.clip(gf, 0.0, None),
+                                                   np.nan)})
         df = pd.concat([df, groups], ignore_index=True)
     return df
 
@@ -112,6 +137,7 @@ def budget_tables(result: Result, series_at_end: bool = False) -> list[BudgetTab
     tables = []
     described = result_statistics(result)
     inputs = list(result.input_names)
+    correlated, members = correlated_groups(result.config)
     for r in result.runs:
         for o in result.outputs:
             s = described[r.label].get(o.name)
@@ -122,14 +148,57 @@ def budget_tables(result: Result, series_at_end: bool = False) -> list[BudgetTab
             step = result.time.size - 1 if o.kind == "series" else None
             at = f"at t = {result.time[-1]:g} s" if step is not None else ""
             for c, comp in enumerate(o.components):
-                df = budget_table(s, inputs, c, step)
+                df = budget_table(s, inputs, c, step, correlated, members)
                 if df is None:
                     continue
                 name = f"{o.name}[{comp}]" if comp else o.name
                 one = ~df["input"].str.startswith("group ")
-                tables.append(BudgetTable(r.label, name, at, s.sobol_estimator or "pce", df,
-                                          float(np.nansum(df["first_order"][one]))))
+                estimator = s.sobol_estimator or "pce"
+                tables.append(BudgetTable(
+                    r.label, name, at, estimator, df, float(np.nansum(df["first_order"][one])),
+                    budget_notes(df, name, estimator, correlated, members)))
     return tables
+
+
+#: Why an estimator gives no index of one input of a correlated group.
+NOT_ALONE = {
+    "pce": "a PCE's terms in one input of a correlated group are an order-dependent part of it",
+    "saltelli": "a pick-freeze design freezes a correlated group only whole",
+}
+
+
+def budget_notes(df: pd.DataFrame, output: str, estimator: str,
+                 correlated: Sequence[Sequence[str]] = (),
+                 members: Mapping[str, Sequence[str]] | None = None) -> tuple[str, ...]:
+    """The lines under a budget: the shares' sum and what they leave, and the indices of a
+    correlated group's inputs the estimator does not give (and why)."""
+    share = df["share_%"].to_numpy(dtype=float)
+    total = float(np.nansum(share))
+    with_share = {frozenset((members or {}).get(row[len("group "):], ()))
+                  for row, v in zip(df["input"], share)
+                  if row.startswith("group ") and np.isfinite(v)}
+    missing = ["+".join(c) for c in correlated if frozenset(c) not in with_share]
+    rest = round(100.0 - total, 1) + 0.0  # no "-0.0"
+    left = "interactions" if not missing else \
+        (f"the joint part of correlated {', '.join(missing)} (no group index here) and "
+         f"interactions")
+    if rest < 0:
+        left += " (below 0: the indices' estimation error)"
+    notes = [f"shares sum to {total:.1f}% of the variance of {output}; the rest, {rest:.1f}%: "
+             f"{left}"]
+    first = dict(zip(df["input"], df["first_order"]))
+    for c in correlated:
+        none = [name for name in c if not np.isfinite(first.get(name, np.nan))]
+        if none and estimator in NOT_ALONE:
+            notes.append(f"{', '.join(none)}: no index alone ({NOT_ALONE[estimator]}); "
+                         f"the group {'+'.join(c)}'s index holds them")
+    if estimator == "pce":
+        for name, cols in (members or {}).items():
+            split = split_groups(correlated, cols)
+            if split and f"group {name}" in first:
+                notes.append(f"group {name}: no index (holds part of the correlated group "
+                             f"{'+'.join(split[0])}; {NOT_ALONE['pce']})")
+    return tuple(notes)
 
 
 def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
@@ -155,8 +224,7 @@ def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
     if rest > 0:
         lines.append(f"  ... {rest} more inputs, first-order indices summing to "
                      f"{np.nansum(df['first_order'].iloc[max_rows:]):.3f}")
-    lines.append(f"  sum of first-order indices {b.first_sum:.3f} (1 - sum: variance from "
-                 f"interactions, for independent inputs)")
+    lines += [f"  {n}" for n in b.notes]
     return "\n".join(lines)
 
 

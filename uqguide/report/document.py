@@ -129,15 +129,16 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
         parts += ["", "## Error budget (Sobol' indices)", "",
                   "First-order index of each input: the fraction of the output's variance its "
                   "uncertainty alone explains, with its 95% interval where the method gives "
-                  "one; share: its part of the sum of the positive first-order indices; total "
-                  "(PCE): with all its interactions."]
+                  "one; share: that fraction in percent, for each input outside a correlated "
+                  "group and each correlated group (whose inputs' indices overlap); total "
+                  "(PCE, Saltelli): with all its interactions."]
         for f in figures:
             if f.kind == "budget":
                 alt = f"error budget of {f.output} {f.component}".strip()
                 parts += ["", _img(f.path, base, alt)]
         for b in budgets:
-            parts += ["", f"{b.title}:", "", to_markdown(budget_markdown(b)), "",
-                      f"Sum of the first-order indices: {b.first_sum:.3f}."]
+            parts += ["", f"{b.title}:", "", to_markdown(budget_markdown(b)), ""]
+            parts += [f"{n[0].upper()}{n[1:]}." for n in b.notes]
     if check is not None:
         parts += ["", "## Regression check", "", check.summary()]
         rows = check.failures
