@@ -182,3 +182,46 @@ def test_one_failing_method_is_recorded_while_the_others_complete(write_config, 
     table = cost_table(result).set_index("label")
     assert table.loc["pt", "status"] == "FAILED: no statistics"
     assert table.loc["mc", "status"] == "ok"
+
+
+def _region_config(**top) -> dict:
+    """The issue's model that fails on 2% of its input space (a + b > 2.9), through a small
+    adaptive PCE and a Monte Carlo."""
+    return {
+        "model": {"name": "callable", "function": "tests.failing_models:failing_region",
+                  "inputs": ["a", "b", "c"], "outputs": ["y"]},
+        "inputs": [{"name": n, "dist": "normal", "std": 1.0} for n in "abc"],
+        "methods": [{"name": "pce_adaptive", "label": "pa", "n_samples": 60,
+                     "validation": {"n_samples": 100}},
+                    {"name": "monte_carlo", "label": "mc", "n_samples": 2000}],
+        "max_failed_fraction": 0.5, "seed": 4, **top,
+    }
+
+
+def test_every_methods_failed_runs_are_said_once_with_their_interval(caplog):
+    # The API warned only about Monte Carlo's failed runs: a PCE's are said too, one line per
+    # method, with the share's Clopper-Pearson interval and what the statistics then are.
+    import uqguide
+    from uqguide.core.events import clopper_pearson
+
+    with caplog.at_level("WARNING"):
+        result = uqguide.run(_region_config())
+    said = [rec.getMessage() for rec in caplog.records if "runs failed (" in rec.getMessage()]
+    assert [s.split(":")[0] for s in said] == ["pa", "mc"]
+    for line, label in zip(said, ["pa", "mc"]):
+        r = result.run(label)
+        assert r.n_failed > 0
+        lo, hi = clopper_pearson(r.n_failed, r.n_runs)
+        assert line == (f"{label}: {r.n_failed:,} of {r.n_runs:,} runs failed "
+                        f"({100 * r.n_failed / r.n_runs:.3g}%, 95% interval "
+                        f"{100 * lo:.3g}-{100 * hi:.3g}%); its statistics are conditional on "
+                        f"success (the runs that failed are left out)")
+
+
+def test_the_cli_summary_says_each_methods_failed_runs(write_config, tmp_path):
+    res = CliRunner().invoke(main, ["run", str(write_config(_region_config(), "fr.yaml")),
+                                    "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    after = res.stdout.split("Failed runs (excluded from the statistics)")[1].splitlines()
+    assert [s.split(":")[0] for s in after[1:3]] == ["pa", "mc"]
+    assert all("runs failed (" in s and "conditional on success" in s for s in after[1:3])

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from ..core import atomic
-from ..core.failures import COLUMNS as FAILURE_COLUMNS, reason_rows
+from ..core.failures import COLUMNS as FAILURE_COLUMNS, failed_runs_line, reason_rows
 from ..models.base import OutputInfo
 from ..results.result import Result
 from .budget import budget_tables, budget_text
@@ -513,6 +513,8 @@ def render_text(result: Result) -> str:
     failures = failure_table(result)
     if not failures.empty:
         parts += ["", "Failed runs (excluded from the statistics)",
+                  *[failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
+                    for r in result.runs if r.success and r.n_failed],
                   failures.to_string(index=False)]
     return "\n".join(parts)
 
