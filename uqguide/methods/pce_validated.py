@@ -167,6 +167,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
     for mask in (fit_failed, None if validation is None else validation.failed):
         if mask is not None:
             n_failed, n_runs = n_failed + int(np.sum(mask)), n_runs + int(np.size(mask))
+    if n_failed:  # the joint moments of the scalars are the polynomial's too
+        estimate.scalar_mean, estimate.scalar_cov = None, None
     for name, st in estimate.stats.items():
         def keep(verdict: cred.Verdict | None, name: str = name) -> None:
             cred.record(diag, label, name, verdict)
