@@ -174,6 +174,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             cred.record(diag, label, name, verdict)
 
         if n_failed:
+            st.usable, _ = cred.usable(name, st, None, _fit_loo(name, loo, surrogate),
+                                       threshold)
             _withhold_for_failed_runs(name, st, n_failed, n_runs, fit, validation, ok,
                                       design, keep)
             if st.fallback:
@@ -246,14 +248,15 @@ def _withhold_for_failed_runs(name: str, st: Any, n_failed: int, n_runs: int,
                               keep: Callable[[cred.Verdict | None], None]) -> None:
     """The step :func:`uqguide.pce.credibility.runs_failed`: the own and ``+cv`` values
     withheld, the Monte Carlo estimate of the successful fit and validation runs, weighted
-    to be conditional on success (:meth:`ValidationDesign.conditional`), given instead."""
+    to be conditional on success (:meth:`ValidationDesign.conditional`), given instead
+    (``st.usable`` stays what the fit's error says: the values are withheld for another
+    reason)."""
     cond = design.conditional(ok) if design is not None and ok is not None and ok.any() \
         else None
     runs = _runs_estimate(name, fit, validation, ok, cond)
     verdict = cred.runs_failed(name, st, n_failed, n_runs, runs)
     assert verdict is not None
-    st.usable = np.zeros(np.shape(st.mean), dtype=bool)
-    withhold_all(st, st.usable)
+    withhold_all(st, np.zeros(np.shape(st.mean), dtype=bool))
     st.corrected, st.corrected_ci = {}, {}
     values, cis, given = cred.fallback(runs, verdict.where)
     st.fallback.update(values)
