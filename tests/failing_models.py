@@ -173,3 +173,11 @@ def counted_clean(x):
     """:func:`clean`, counting its calls in ``_calls``."""
     _calls["n"] += 1
     return clean(x)
+
+
+def failing_region(x):
+    """``y = 2 + a + 0.5 b^2 + 0.3 a c``, NaN where ``a + b > 2.9`` (2.0% of standard normal
+    inputs): a model that fails on a region of its input space (issue 46, item 1)."""
+    a, b, c = x[:, 0], x[:, 1], x[:, 2]
+    y = 2.0 + a + 0.5 * b**2 + 0.3 * a * c
+    return {"y": np.where(a + b > 2.9, np.nan, y)}

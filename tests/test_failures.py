@@ -14,6 +14,8 @@ from uqguide.driver.propagate import run
 from uqguide.results.result import read_hdf5
 from uqguide.stats.moments import sample_statistics
 
+from tests.failing_models import failing_region
+
 N = 4000
 
 
@@ -119,7 +121,8 @@ def test_pce_failure_policy_is_checked(write_config):
 def test_pce_failure_policy_end_to_end(write_config, tmp_path):
     # 3 x 3 Gauss-Hermite nodes; the 3 with a = sqrt(3) raise. Default: the method fails
     # (exit 1) naming the failed runs. regression: a least-squares fit on the 6 others, exact
-    # for this linear model (mean 0, std sqrt(1 + 4)).
+    # for this linear model (y = a + 2 b); its moments would be those over the whole space,
+    # failure region included, so they are withheld (no runs sample the inputs: no +mc).
     cfg = {
         "model": {"name": "callable", "function": "tests.failing_models:linear_raises_above",
                   "inputs": ["a", "b"], "outputs": ["y"]},
@@ -141,7 +144,11 @@ def test_pce_failure_policy_end_to_end(write_config, tmp_path):
     r = read_hdf5(tmp_path / "r.h5").run("pt")
     assert r.n_failed == 3
     s = r.estimate.stats["y"]
-    np.testing.assert_allclose([s.mean[0], s.std[0]], [0.0, np.sqrt(5.0)], atol=1e-10)
+    assert np.isnan([s.mean[0], s.std[0]]).all() and not s.fallback
+    assert r.estimate.diagnostics["runs_failed.y"] == "3 of 9 runs failed"
+    x = np.array([[2.0, -1.0], [0.5, 0.25]])
+    np.testing.assert_allclose(read_hdf5(tmp_path / "r.h5").surrogate("pt")(x)["y"].ravel(),
+                               x[:, 0] + 2 * x[:, 1], atol=1e-10)
 
 
 def test_one_failing_method_is_recorded_while_the_others_complete(write_config, tmp_path):
@@ -182,3 +189,87 @@ def test_one_failing_method_is_recorded_while_the_others_complete(write_config, 
     table = cost_table(result).set_index("label")
     assert table.loc["pt", "status"] == "FAILED: no statistics"
     assert table.loc["mc", "status"] == "ok"
+
+
+def _region_config(**top) -> dict:
+    """The issue's model that fails on 2% of its input space (a + b > 2.9), through a small
+    adaptive PCE and a Monte Carlo."""
+    return {
+        "model": {"name": "callable", "function": "tests.failing_models:failing_region",
+                  "inputs": ["a", "b", "c"], "outputs": ["y"]},
+        "inputs": [{"name": n, "dist": "normal", "std": 1.0} for n in "abc"],
+        "methods": [{"name": "pce_adaptive", "label": "pa", "n_samples": 60,
+                     "validation": {"n_samples": 100}},
+                    {"name": "monte_carlo", "label": "mc", "n_samples": 2000}],
+        "max_failed_fraction": 0.5, "seed": 4, **top,
+    }
+
+
+def test_every_methods_failed_runs_are_said_once_with_their_interval(caplog):
+    # The API warned only about Monte Carlo's failed runs: a PCE's are said too, one line per
+    # method, with the share's Clopper-Pearson interval and what the statistics then are.
+    import uqguide
+    from uqguide.core.events import clopper_pearson
+
+    with caplog.at_level("WARNING"):
+        result = uqguide.run(_region_config())
+    said = [rec.getMessage() for rec in caplog.records if "runs failed (" in rec.getMessage()]
+    assert [s.split(":")[0] for s in said] == ["pa", "mc"]
+    for line, label in zip(said, ["pa", "mc"]):
+        r = result.run(label)
+        assert r.n_failed > 0
+        lo, hi = clopper_pearson(r.n_failed, r.n_runs)
+        assert line == (f"{label}: {r.n_failed:,} of {r.n_runs:,} runs failed "
+                        f"({100 * r.n_failed / r.n_runs:.3g}%, 95% interval "
+                        f"{100 * lo:.3g}-{100 * hi:.3g}%); its statistics are conditional on "
+                        f"success (the runs that failed are left out)")
+
+
+def test_the_cli_summary_says_each_methods_failed_runs(write_config, tmp_path):
+    res = CliRunner().invoke(main, ["run", str(write_config(_region_config(), "fr.yaml")),
+                                    "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    after = res.stdout.split("Failed runs (excluded from the statistics)")[1].splitlines()
+    assert [s.split(":")[0] for s in after[1:3]] == ["pa", "mc"]
+    assert all("runs failed (" in s and "conditional on success" in s for s in after[1:3])
+    own = [line for line in res.stdout.splitlines() if line.split()[:1] == ["pa"]]
+    assert own[1].split()[1:] == ["withheld:", "runs", "failed"] * 4  # (own[0]: the cost row)
+
+
+def test_a_pce_whose_runs_failed_gives_the_mc_estimate_of_its_successful_runs():
+    # Fitted on the runs that succeeded, the polynomial would be integrated over the failure
+    # region too (the issue's 2.5 against the conditional 2.439): its own and +cv values are
+    # withheld, with the reason, and the +mc estimate of its successful runs stands instead.
+    import uqguide
+
+    result = uqguide.run(_region_config())
+    r = result.run("pa")
+    assert r.n_failed > 0
+    df = result.to_dataframe("y").set_index(["label", "statistic"])
+    assert np.isnan(df.loc[("pa", "mean"), "value"])
+    assert ("pa+cv", "mean") not in df.index
+    row = df.loc[("pa+mc", "mean")]
+    assert r.estimate.diagnostics["runs_failed.y"] == f"{r.n_failed} of {r.n_runs} runs failed"
+    # the conditional mean by 1e6 inputs (its own standard error 0.0012, negligible)
+    x = np.random.default_rng(0).standard_normal((1_000_000, 3))
+    y = failing_region(x)["y"]
+    truth = float(np.nanmean(y))
+    se = (row.ci_high - row.ci_low) / (2 * 1.96)  # the 95% interval's standard error
+    assert row.ci_low <= truth <= row.ci_high
+    assert abs(row.value - truth) <= 4 * se
+
+
+def test_a_stratified_design_conditional_on_success_shrinks_the_failing_stratum():
+    # 10 runs in a stratum of share 0.9, 10 in one of share 0.1 of which 5 failed: conditional
+    # on success the second holds 0.05 / 0.95 of the mass (successful() keeps its 0.1).
+    from uqguide.pce.validation_design import ValidationDesign
+
+    stratum = np.repeat([0, 1], 10)
+    share = np.array([0.9, 0.1])
+    design = ValidationDesign(u=np.full((20, 1), 0.5), weight=share[stratum] / 10,
+                              stratum=stratum, share=share)
+    ok = np.ones(20, dtype=bool)
+    ok[15:] = False
+    np.testing.assert_allclose(design.conditional(ok).share, [0.9 / 0.95, 0.05 / 0.95])
+    np.testing.assert_allclose(design.conditional(ok).weight.sum(), 1.0)
+    np.testing.assert_allclose(design.successful(ok).share, share)

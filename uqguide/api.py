@@ -73,7 +73,9 @@ def run(config: str | Path | Mapping[str, Any] | RunConfig, *, workers: int | No
     -------
     Result
         Statistics of every method; ``result.to_xarray()``, ``result.to_dataframe(output)``.
-        Failed samples are counted in each method's ``n_failed`` and do not raise.
+        Failed samples are counted in each method's ``n_failed`` and do not raise; each
+        method whose runs failed logs one warning with their share and its 95% interval
+        (its statistics are those conditional on success: docs/config.md#failed-runs).
 
     Examples
     --------

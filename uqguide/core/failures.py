@@ -66,3 +66,19 @@ def render_reasons(label: str, n_runs: int, reasons: Iterable[object]) -> str:
 
     return pd.DataFrame(reason_rows(label, n_runs, reasons), columns=COLUMNS).to_string(
         index=False)
+
+
+def failed_runs_line(label: str, method: str, n_runs: int, n_failed: int) -> str:
+    """The one line that says a method's failed runs: their count, their share with its 95%
+    Clopper-Pearson interval (the chance that a run of this model fails), and what the
+    method's statistics then are. ``method``: its registered name (subset simulation counts a
+    failed run outside its event; every other method's statistics are those of the runs that
+    succeeded)."""
+    from .events import clopper_pearson
+
+    lo, hi = clopper_pearson(n_failed, n_runs)
+    share = f"{100 * n_failed / n_runs:.3g}%, 95% interval {100 * lo:.3g}-{100 * hi:.3g}%"
+    meaning = ("its probability counts them outside the event (not conditional on success)"
+               if method == "subset_simulation" else
+               "its statistics are conditional on success (the runs that failed are left out)")
+    return f"{label}: {n_failed:,} of {n_runs:,} runs failed ({share}); {meaning}"

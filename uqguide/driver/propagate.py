@@ -95,6 +95,19 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     )
 
 
+def say_failures(result: Result) -> list[str]:
+    """Log (and return) one warning per method with statistics whose runs failed: the line of
+    :func:`uqguide.core.failures.failed_runs_line` (a method without statistics says its
+    failures in its message)."""
+    from ..core.failures import failed_runs_line
+
+    lines = [failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
+             for r in result.runs if r.success and r.n_failed]
+    for line in lines:
+        log.warning("%s", line)
+    return lines
+
+
 def say_overflow(result: Result) -> list[str]:
     """Log (and return) one warning per output whose moments overflowed, naming the methods."""
     by_output: dict[str, list[str]] = {}
@@ -186,6 +199,7 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         config=config.resolved(),
         provenance={**provenance(), "wall_seconds": time.perf_counter() - t0},
     )
+    say_failures(result)
     if failed:  # a fit that failed after its runs: the runs are kept in the result
         raise MethodsFailed("\n".join(r.message for r in runs), result)
     say_overflow(result)

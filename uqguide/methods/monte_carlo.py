@@ -10,7 +10,6 @@ events: ``docs/statistics.md``; the error budget (:func:`add_indices`): ``docs/e
 
 from __future__ import annotations
 
-import logging
 import math
 import os
 import time
@@ -31,7 +30,6 @@ from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
 from ..stats.moments import MomentSums, statistics_from_sums
 from .base import Design, MethodSettings, RunPlan, StreamingMethod
 
-log = logging.getLogger(__name__)
 
 #: Where ``fold`` keeps the merged sums in its accumulator (the rest: quantile values by output).
 _SUMS = ("sums", "")
@@ -202,9 +200,6 @@ class MonteCarlo(StreamingMethod):
             acc = {**acc[_SUMS].groups(), **{k: v for k, v in acc.items() if k != _SUMS}}
         n_failed = int(runs.failed.sum())
         tally = failure_summary(runs)
-        if n_failed:
-            log.warning("%s: %d of %d runs failed; statistics use the other %d",
-                        self.label, n_failed, runs.n, runs.n - n_failed)
         if not acc:
             from ..core.failures import render_reasons
 

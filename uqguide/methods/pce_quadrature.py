@@ -217,7 +217,7 @@ class QuadraturePCE(Method):
         finish(est, surrogate_of(germ, fitted, self.derived_outputs), space=space,
                validation=validation, design=ValidationDesign.from_data(design.data), loo={},
                threshold=self.settings.usable_error, seed=int(design.data.get("seed", 0)),
-               n_draws=self.settings.surrogate_draws)
+               n_draws=self.settings.surrogate_draws, failed_fit=outputs.failed)
         # no regression to resample: the (aliased) truncation bound of the validation error
         truncation_error_intervals(est.stats, orthogonal=False)
         diagnostics["fit_seconds"] = time.perf_counter() - t0

@@ -10,7 +10,7 @@ random runs; ``n_samples: 0``: none) and ``usable_error``
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, Literal
 
 import numpy as np
@@ -125,7 +125,8 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
            loo: Mapping[str, float], threshold: float, seed: int,
            n_draws: int = 1_000_000, fit: ModelOutput | None = None,
            fit_u: np.ndarray | None = None,
-           fit_loo_values: Mapping[str, np.ndarray] | None = None) -> None:
+           fit_loo_values: Mapping[str, np.ndarray] | None = None,
+           failed_fit: np.ndarray | None = None) -> None:
     """Keep the surrogate in ``estimate``; validate, correct and judge every output in place
     (the steps of :mod:`uqguide.pce.credibility`).
 
@@ -137,7 +138,10 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
     the validation runs in the Monte Carlo estimate that judges the PCE's moments and stands in
     where one is withheld; ``fit_u (n_fit, d)`` in the range beyond which the surrogate
     extrapolates (:func:`uqguide.pce.credibility.far_tails`); ``fit_loo_values`` (per fitted
-    output, at the fit's successful runs, :mod:`uqguide.pce.loo`) floor the ``+cv`` variance.
+    output, at the fit's successful runs, :mod:`uqguide.pce.loo`) floor the ``+cv`` variance;
+    ``failed_fit``: the fit runs' failure mask where ``fit`` is not given (quadrature nodes).
+    Where any fit or validation run failed, every output is judged by
+    :func:`uqguide.pce.credibility.runs_failed` alone.
     """
     estimate.surrogate = surrogate
     diag = estimate.diagnostics
@@ -158,9 +162,25 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         time = fit.time
     box = _runs_box(fit_u, fit, used)
     label = estimate.label
+    fit_failed = fit.failed if fit is not None else failed_fit
+    n_failed, n_runs = 0, 0
+    for mask in (fit_failed, None if validation is None else validation.failed):
+        if mask is not None:
+            n_failed, n_runs = n_failed + int(np.sum(mask)), n_runs + int(np.size(mask))
+    if n_failed:  # the joint moments of the scalars are the polynomial's too
+        estimate.scalar_mean, estimate.scalar_cov = None, None
     for name, st in estimate.stats.items():
         def keep(verdict: cred.Verdict | None, name: str = name) -> None:
             cred.record(diag, label, name, verdict)
+
+        if n_failed:
+            st.usable, _ = cred.usable(name, st, None, _fit_loo(name, loo, surrogate),
+                                       threshold)
+            _withhold_for_failed_runs(name, st, n_failed, n_runs, fit, validation, ok,
+                                      design, keep)
+            if st.fallback:
+                diag["fallback_interval"] = INTERVAL
+            continue
 
         beyond = None
         exp = surrogate.expansions.get(name)
@@ -220,6 +240,29 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         if verdict is not None:
             withhold_all(st, usable)
             keep(verdict)
+
+
+def _withhold_for_failed_runs(name: str, st: Any, n_failed: int, n_runs: int,
+                              fit: ModelOutput | None, validation: ModelOutput | None,
+                              ok: np.ndarray | None, design: ValidationDesign | None,
+                              keep: Callable[[cred.Verdict | None], None]) -> None:
+    """The step :func:`uqguide.pce.credibility.runs_failed`: the own and ``+cv`` values
+    withheld, the Monte Carlo estimate of the successful fit and validation runs, weighted
+    to be conditional on success (:meth:`ValidationDesign.conditional`), given instead
+    (``st.usable`` stays what the fit's error says: the values are withheld for another
+    reason)."""
+    cond = design.conditional(ok) if design is not None and ok is not None and ok.any() \
+        else None
+    runs = _runs_estimate(name, fit, validation, ok, cond)
+    verdict = cred.runs_failed(name, st, n_failed, n_runs, runs)
+    assert verdict is not None
+    withhold_all(st, np.zeros(np.shape(st.mean), dtype=bool))
+    st.corrected, st.corrected_ci = {}, {}
+    values, cis, given = cred.fallback(runs, verdict.where)
+    st.fallback.update(values)
+    st.fallback_ci.update(cis)
+    keep(verdict)
+    keep(given)
 
 
 def _fit_loo(name: str, loo: Mapping[str, float], surrogate: Surrogate) -> float | None:

@@ -25,7 +25,7 @@ from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 log = logging.getLogger("uqguide.methods.pce_validated")
 
 #: The steps of :func:`uqguide.methods.pce_validated.finish`, in the order they run.
-STEPS = ("far_tails", "correct", "check_correction", "usable", "check_own",
+STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable", "check_own",
          "check_own_by_runs", "fallback", "choose_points", "no_usable_surrogate")
 
 
@@ -71,6 +71,25 @@ def blank(st: OutputStats, where: Mapping[str, np.ndarray]) -> None:
     for k, m in where.items():
         if m.any():
             setattr(st, k, nan_at(getattr(st, k), m))
+
+
+def runs_failed(name: str, st: OutputStats, n_failed: int, n_runs: int,
+                runs: Corrected | None) -> Verdict | None:
+    """Where some of the method's runs failed, withhold the PCE's own and ``+cv`` values of
+    every statistic: its polynomial, fitted on the runs that succeeded, is integrated over the
+    failure region too, so they are not the statistics conditional on success that every
+    method reports; ``runs`` (their Monte Carlo estimate, None: none) stands instead."""
+    if not n_failed:
+        return None
+    where = {k: np.ones(np.shape(st.stat(k)), dtype=bool) for k in STAT_NAMES}
+    instead = ("the Monte Carlo estimate of its successful runs (+mc) is given" if runs is not None
+               else "no estimate of its own runs is at hand")
+    return Verdict(
+        "runs_failed", "own", State.WITHHELD, where,
+        f"{n_failed} of its {n_runs} runs failed: its polynomial, fitted on the others, would "
+        f"be integrated over the failure region too, so its own and corrected (+cv) "
+        f"statistics are withheld; {instead}",
+        {f"runs_failed.{name}": f"{n_failed} of {n_runs} runs failed"})
 
 
 def far_tails(name: str, st: OutputStats, draws: np.ndarray, clipped: np.ndarray | None

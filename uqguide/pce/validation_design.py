@@ -131,6 +131,21 @@ class ValidationDesign:
                                 pool=self.pool, ratio=ratio, ratio_range=self.ratio_range,
                                 sorter=None if (share != self.share).any() else self.sorter)
 
+    def conditional(self, ok: np.ndarray) -> ValidationDesign:
+        """The design restricted to the runs that succeeded, weighted to estimate means
+        conditional on success: each run keeps its weight, renormalised over all the
+        successful runs, so a stratum's share shrinks with its failed runs (where
+        :meth:`successful` keeps every stratum's share, the mean over the whole input space
+        of each stratum's successful runs)."""
+        ok = np.asarray(ok, dtype=bool)
+        stratum = self.stratum[ok]
+        w = self.weight[ok] / np.sum(self.weight[ok])
+        share = np.bincount(stratum, weights=w, minlength=self.share.size)
+        return ValidationDesign(u=self.u[ok], weight=w, stratum=stratum, share=share,
+                                pool=self.pool,
+                                ratio=None if self.ratio is None else self.ratio[ok],
+                                ratio_range=self.ratio_range, sorter=None)
+
 
 @dataclass(frozen=True)
 class StratumSorter:

@@ -22,6 +22,7 @@ import pandas as pd
 import yaml
 
 from ..core import atomic
+from ..core.failures import failed_runs_line
 from .budget import budget_markdown, budget_tables
 from .plots import FigureFile, write_figures
 from .tables import (
@@ -85,11 +86,11 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
     for f in figures:
         if f.kind == "cost":
             parts += ["", _img(f.path, base, "cost of each method")]
-    failed = [r for r in result.runs if r.n_failed]
-    for r in failed:
-        parts += ["", f"`{r.label}`: {r.n_failed} of {r.n_runs} runs failed "
-                  f"({r.estimate.diagnostics.get('failure_reasons', '')}); statistics use the "
-                  f"others."]
+    for r in result.runs:
+        if r.success and r.n_failed:
+            why = r.estimate.diagnostics.get("failure_reasons")
+            parts += ["", failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
+                      + (f" ({why})." if why else ".")]
     stats = statistics_table(result)
     stats.attrs["reference"] = result.reference
     parts += ["", "## Outputs", "",

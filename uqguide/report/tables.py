@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from ..core import atomic
-from ..core.failures import COLUMNS as FAILURE_COLUMNS, reason_rows
+from ..core.failures import COLUMNS as FAILURE_COLUMNS, failed_runs_line, reason_rows
 from ..models.base import OutputInfo
 from ..results.result import Result
 from .budget import budget_tables, budget_text
@@ -145,6 +145,7 @@ def withheld_outputs(diagnostics: dict) -> list[str]:
     """``"zem (kurtosis)"`` or ``"x at 19 steps from t = 5.3 s"`` for every output whose PCE
     skewness or kurtosis its runs do not support (:mod:`uqguide.pce.support`)."""
     out = [f"{name} ({v})" for name, v in _by_output(diagnostics, "withheld.")]
+    out += [f"{name} (every moment: {v})" for name, v in _by_output(diagnostics, "runs_failed.")]
     out += [f"{name} at {v} steps from t = "
             f"{diagnostics.get('withheld_from.' + name, float('nan')):g} s"
             for name, v in _by_output(diagnostics, "withheld_steps.")]
@@ -277,7 +278,12 @@ def statistics_table(result: Result) -> pd.DataFrame:
                     if row and st.kind == "moment" and over:
                         row[0]["overflow"] = _overflow_kind(st, p.where, over)
                     rows += row
-    return pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
+    # the PCEs that withhold their moments because runs failed (the text says why)
+    table.attrs["runs_failed"] = sorted(
+        r.label for r in result.runs
+        if any(k.startswith("runs_failed.") for k in r.estimate.diagnostics))
+    return table
 
 
 def _overflow_kind(st: Statistic, where: tuple[int, ...], over: list[str]) -> str:
@@ -429,7 +435,9 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
                 row[s["stat"]] = "no usable surrogate"
                 continue
             if s.get("withheld") is True:
-                row[s["stat"]] = "withheld: its runs disagree (see +mc)"
+                row[s["stat"]] = ("withheld: runs failed"
+                                  if s["label"] in stats.attrs.get("runs_failed", ())
+                                  else "withheld: its runs disagree (see +mc)")
                 continue
             if s.get("overflow") == "value":
                 row[s["stat"]] = "overflow"
@@ -513,6 +521,8 @@ def render_text(result: Result) -> str:
     failures = failure_table(result)
     if not failures.empty:
         parts += ["", "Failed runs (excluded from the statistics)",
+                  *[failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
+                    for r in result.runs if r.success and r.n_failed],
                   failures.to_string(index=False)]
     return "\n".join(parts)
 
