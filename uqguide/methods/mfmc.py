@@ -15,7 +15,7 @@ import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -36,15 +36,15 @@ from .monte_carlo import CHUNK_ROWS, DesignChunks, ci_index, method_seed, stream
 log = logging.getLogger(__name__)
 
 
-def _one_level() -> list[dict[str, float | int | str]]:
-    return [{}]
+#: A positive finite number (a standard error, seconds per run).
+_Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 
 
 class MfmcSettings(MethodSettings):
     """Settings of ``mfmc`` (``docs/multifidelity.md``)."""
 
     fidelities: list[dict[str, float | int | str]] = Field(
-        default_factory=_one_level, min_length=1, max_length=8,
+        default_factory=lambda: [{}], min_length=1, max_length=8,
         description="the levels, highest fidelity first: each the model parameters it changes, "
                     "or {surrogate: LABEL}, the PCE that the method LABEL, listed before this "
                     "one, fitted")
@@ -54,13 +54,13 @@ class MfmcSettings(MethodSettings):
     budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False,
                                        description="model CPU seconds for the whole method, "
                                                    "pilot included")
-    target_se: dict[str, float] | None = Field(
+    target_se: dict[str, _Positive] | None = Field(
         default=None, description="standard error of the mean wanted per output (its unit); "
                                   "exactly one of budget_cpu_s and target_se")
     optimise_for: list[str] = Field(default_factory=list,
                                     description="outputs the allocation is optimised for "
                                                 "(default: every output of the run)")
-    costs: list[float] | None = Field(default=None, description="seconds per run of each "
+    costs: list[_Positive] | None = Field(default=None, description="seconds per run of each "
                                                                "level, instead of the pilot's")
     min_gain: float = Field(default=1.1, ge=1.0, le=1e6,
                             description="estimated variance reduction below which plain MC "
@@ -89,15 +89,9 @@ class MfmcSettings(MethodSettings):
         if (self.budget_cpu_s is None) == (self.target_se is None):
             raise ValueError("give exactly one of budget_cpu_s (model CPU seconds) and "
                              "target_se (standard error of the mean per output)")
-        for k, v in (self.target_se or {}).items():
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"target_se.{k} must be a standard error > 0, got {v}")
-        if self.costs is not None:
-            if len(self.costs) != len(self.fidelities):
-                raise ValueError(f"costs has {len(self.costs)} values for "
-                                 f"{len(self.fidelities)} fidelities; give one per level")
-            if not all(np.isfinite(c) and c > 0 for c in self.costs):
-                raise ValueError(f"costs must be seconds per run > 0, got {self.costs}")
+        if self.costs is not None and len(self.costs) != len(self.fidelities):
+            raise ValueError(f"costs has {len(self.costs)} values for "
+                             f"{len(self.fidelities)} fidelities; give one per level")
         for j, level in enumerate(self.fidelities):
             if "surrogate" not in level:
                 continue

@@ -68,16 +68,16 @@ class MonteCarloSettings(MethodSettings):
                                     "and the runs from 500 to 1e6")
 
 
-def method_seed(seed: int, label: str) -> np.random.SeedSequence:
-    """The SeedSequence of one method entry: the run's seed and a stable hash of the label, so
-    that adding or reordering methods in a config does not change another method's numbers."""
-    return np.random.SeedSequence([seed, zlib.crc32(label.encode())])
+def method_seed(seed: int, label: str, *keys: int) -> np.random.SeedSequence:
+    """The SeedSequence of one method entry (of its stream ``keys`` when given): the run's seed
+    and a stable hash of the label, so that adding or reordering methods in a config does not
+    change another method's numbers."""
+    return np.random.SeedSequence([seed, zlib.crc32(label.encode()), *keys])
 
 
 def stream_seed(seed: int, label: str, k: int) -> int:
     """An integer seed of the method's stream ``k`` (``k >= 1``: apart from the design's)."""
-    return int(np.random.SeedSequence([seed, zlib.crc32(label.encode()), k])
-               .generate_state(1)[0])
+    return int(method_seed(seed, label, k).generate_state(1)[0])
 
 
 def chunk_seed(seed: np.random.SeedSequence, i: int) -> np.random.SeedSequence:

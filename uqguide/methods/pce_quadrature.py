@@ -86,7 +86,8 @@ class QuadraturePCE(Method):
 
     @abstractmethod
     def _grid(self, germ: Germ) -> Grid:
-        """The quadrature grid for these settings (raises ConfigError on impossible ones)."""
+        """The quadrature grid for these settings (raises ConfigError on impossible ones);
+        :meth:`_checked_grid` calls it."""
 
     @abstractmethod
     def _grid_diagnostics(self, grid: Grid) -> dict[str, Any]:
@@ -100,12 +101,10 @@ class QuadraturePCE(Method):
                               field="name")
 
     def _checked_grid(self, germ: Germ) -> Grid:
-        grid = self._grid(germ)
-        if grid.n_nodes > MAX_NODES:
-            raise MethodError(
-                f"{self.label}: the grid has {grid.n_nodes} nodes (more than {MAX_NODES}); "
-                f"lower the number of nodes or the level")
-        return grid
+        """The grid, once :meth:`plan` has refused a size above ``MAX_NODES`` (before it is
+        built: it would not fit)."""
+        self.plan(germ.space)
+        return self._grid(germ)
 
     def design(self, space: InputSpace, seed: int) -> Design:
         germ = Germ.of(space)

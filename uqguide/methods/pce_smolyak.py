@@ -83,7 +83,6 @@ class SmolyakPCE(QuadraturePCE):
         return RunPlan(runs=bound + self.n_validation(), terms=bound, exact=False)
 
     def _grid(self, germ: Germ) -> Grid:
-        self.plan(germ.space)  # refused before the grid is built
         try:
             return smolyak_grid(germ, self.order, self._rules(germ))
         except ValueError as exc:
