@@ -244,8 +244,8 @@ class MonteCarlo(StreamingMethod):
                               dict(self.context.components)) \
             if self.context.events else {}
         names = scalar_names(runs.scalars)  # (stacking them would copy every value)
-        joint = acc.get(("j", ""))
         n_ok = runs.n - n_failed
+        joint = acc.get(("j", "")) if names and n_ok else None
         diagnostics = {
             "n_runs": runs.n,
             "n_failed": n_failed,
@@ -260,10 +260,8 @@ class MonteCarlo(StreamingMethod):
         return Estimate(
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
             scalar_index=names,
-            scalar_mean=joint.mean if (names and joint is not None and n_ok) else None,
-            scalar_cov=(np.asarray(joint.cm) / n_ok
-                        if (names and joint is not None and joint.cm is not None and n_ok)
-                        else None),
+            scalar_mean=None if joint is None else joint.mean,
+            scalar_cov=None if joint is None or joint.cm is None else np.asarray(joint.cm) / n_ok,
             events=events,
         )
 

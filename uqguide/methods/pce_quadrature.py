@@ -29,7 +29,7 @@ from ..pce.pca import constant_columns
 from ..pce.projection import project
 from ..pce.sobol_indices import set_indices, truncation_error_intervals
 from ..pce.quadrature import Grid, union_basis
-from ..pce.validation_design import ValidationDesign, random_validation
+from ..pce.validation_design import ValidationDesign
 from .base import Design, Method, MethodSettings
 from .pce_validated import (
     SURROGATE_DRAWS_FIELD, SURROGATE_SAMPLING_FIELD, USABLE_FIELD, VALIDATION_FIELD,
@@ -112,15 +112,13 @@ class QuadraturePCE(Method):
         draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
         log.info("%s: %d model runs (%s)", self.label, grid.n_nodes,
                  ", ".join(f"{k}={v}" for k, v in self._grid_diagnostics(grid).items()))
-        x = germ.to_physical(grid.xi)
-        data: dict[str, Any] = {"xi": grid.xi, "draw_seed": draw_seed, "seed": int(seed)}
+        design = Design(x=germ.to_physical(grid.xi),
+                        data={"xi": grid.xi, "draw_seed": draw_seed, "seed": int(seed)})
         v = self.settings.validation
         if v is not None and v.n_samples and v.design == "random":  # (no fit needed)
-            vd = random_validation(seed, self.label, v.n_samples, space.dim)
-            log.info("%s: %d validation runs (random)", self.label, vd.n)
-            x = np.vstack([x, space.from_unit(vd.u)])
-            data.update(n_fit=grid.n_nodes, **vd.to_data())
-        return Design(x=x, data=data)
+            return with_validation(design, v, v.n_samples, None, self.context.outputs, space,
+                                   self.label)
+        return design
 
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         """Stratified validation runs, placed by the projection of the grid's runs (once)."""
