@@ -40,11 +40,15 @@ log = logging.getLogger(__name__)
 _Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 
 
+def _one_level() -> list[dict[str, float | int | str]]:
+    return [{}]
+
+
 class MfmcSettings(MethodSettings):
     """Settings of ``mfmc`` (``docs/multifidelity.md``)."""
 
     fidelities: list[dict[str, float | int | str]] = Field(
-        default_factory=lambda: [{}], min_length=1, max_length=8,
+        default_factory=_one_level, min_length=1, max_length=8,
         description="the levels, highest fidelity first: each the model parameters it changes, "
                     "or {surrogate: LABEL}, the PCE that the method LABEL, listed before this "
                     "one, fitted")
