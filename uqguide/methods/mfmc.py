@@ -467,7 +467,9 @@ class MultiFidelityMC(Method):
         estimate_cpu_s = time.process_time() - t_cpu
         cpu = float(sum(seconds)) + surrogate_cpu_s + estimate_cpu_s
         diagnostics: dict[str, Any] = {
-            "n_runs": int(sum(r.n for r in runs)) + self._unused_pilot_runs(plan),
+            # (a level left out of the estimate still ran its pilot)
+            "n_runs": int(sum(r.n for r in runs))
+            + (len(self.settings.fidelities) - len(plan.levels)) * self.settings.n_pilot,
             "n_failed": n_failed,
             "levels": "; ".join(_level_name(f) for f in self.settings.fidelities),
             "levels_used": ",".join(str(i) for i in plan.levels),
@@ -512,10 +514,6 @@ class MultiFidelityMC(Method):
         if plan.allocation.is_plain_mc:
             return min(float(seconds[plan.levels[0]]) / cpu, 1.0)
         return mc_cpu / cpu
-
-    def _unused_pilot_runs(self, plan: LevelPlan) -> int:
-        unused = len(self.settings.fidelities) - len(plan.levels)
-        return unused * self.settings.n_pilot
 
 
 def _least(equivalent: np.ndarray | None) -> float:
