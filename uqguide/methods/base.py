@@ -203,12 +203,8 @@ class Propagated:
     def failed(cls, method: Method, exc: Exception, x: np.ndarray | GeneratedRows,
                outputs: ModelOutput | None, fit_seconds: float = 0.0) -> Propagated:
         """A method failure (:data:`METHOD_FAILURES`) recorded with the runs made."""
-        return cls(no_estimate(method), x, outputs, fit_seconds, why_failed(method, exc))
-
-
-def no_estimate(method: Method) -> Estimate:
-    """The estimate of a method that produced no statistics."""
-    return Estimate(method=method.name, label=method.label, stats={})
+        return cls(Estimate(method=method.name, label=method.label, stats={}), x, outputs,
+                   fit_seconds, why_failed(method, exc))
 
 
 def why_failed(method: Method, exc: Exception) -> str:
@@ -395,14 +391,14 @@ class Method(ABC):
         """``estimate()`` timed (added to ``fit_seconds``), its failure recorded with the runs."""
         t0 = time.perf_counter()
         runner.phase("estimating")
-        failure = ""
         try:
             with quiet_overflow():  # statistics only (driver.propagate.say_overflow)
-                est = estimate()
+                done = Propagated(estimate(), x, outputs)
         except METHOD_FAILURES as exc:
-            est, failure = no_estimate(self), why_failed(self, exc)
+            done = Propagated.failed(self, exc, x, outputs)
         runner.phase("")
-        return Propagated(est, x, outputs, fit_seconds + time.perf_counter() - t0, failure)
+        done.fit_seconds = fit_seconds + time.perf_counter() - t0
+        return done
 
 
 class StreamingMethod(Method):

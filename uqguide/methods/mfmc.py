@@ -15,7 +15,7 @@ import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -36,6 +36,10 @@ from .monte_carlo import CHUNK_ROWS, DesignChunks, ci_index, method_seed, stream
 log = logging.getLogger(__name__)
 
 
+#: A positive finite number (a standard error, seconds per run).
+_Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+
+
 def _one_level() -> list[dict[str, float | int | str]]:
     return [{}]
 
@@ -54,13 +58,13 @@ class MfmcSettings(MethodSettings):
     budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False,
                                        description="model CPU seconds for the whole method, "
                                                    "pilot included")
-    target_se: dict[str, float] | None = Field(
+    target_se: dict[str, _Positive] | None = Field(
         default=None, description="standard error of the mean wanted per output (its unit); "
                                   "exactly one of budget_cpu_s and target_se")
     optimise_for: list[str] = Field(default_factory=list,
                                     description="outputs the allocation is optimised for "
                                                 "(default: every output of the run)")
-    costs: list[float] | None = Field(default=None, description="seconds per run of each "
+    costs: list[_Positive] | None = Field(default=None, description="seconds per run of each "
                                                                "level, instead of the pilot's")
     min_gain: float = Field(default=1.1, ge=1.0, le=1e6,
                             description="estimated variance reduction below which plain MC "
@@ -89,15 +93,9 @@ class MfmcSettings(MethodSettings):
         if (self.budget_cpu_s is None) == (self.target_se is None):
             raise ValueError("give exactly one of budget_cpu_s (model CPU seconds) and "
                              "target_se (standard error of the mean per output)")
-        for k, v in (self.target_se or {}).items():
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"target_se.{k} must be a standard error > 0, got {v}")
-        if self.costs is not None:
-            if len(self.costs) != len(self.fidelities):
-                raise ValueError(f"costs has {len(self.costs)} values for "
-                                 f"{len(self.fidelities)} fidelities; give one per level")
-            if not all(np.isfinite(c) and c > 0 for c in self.costs):
-                raise ValueError(f"costs must be seconds per run > 0, got {self.costs}")
+        if self.costs is not None and len(self.costs) != len(self.fidelities):
+            raise ValueError(f"costs has {len(self.costs)} values for "
+                             f"{len(self.fidelities)} fidelities; give one per level")
         for j, level in enumerate(self.fidelities):
             if "surrogate" not in level:
                 continue
@@ -469,7 +467,9 @@ class MultiFidelityMC(Method):
         estimate_cpu_s = time.process_time() - t_cpu
         cpu = float(sum(seconds)) + surrogate_cpu_s + estimate_cpu_s
         diagnostics: dict[str, Any] = {
-            "n_runs": int(sum(r.n for r in runs)) + self._unused_pilot_runs(plan),
+            # (a level left out of the estimate still ran its pilot)
+            "n_runs": int(sum(r.n for r in runs))
+            + (len(self.settings.fidelities) - len(plan.levels)) * self.settings.n_pilot,
             "n_failed": n_failed,
             "levels": "; ".join(_level_name(f) for f in self.settings.fidelities),
             "levels_used": ",".join(str(i) for i in plan.levels),
@@ -514,10 +514,6 @@ class MultiFidelityMC(Method):
         if plan.allocation.is_plain_mc:
             return min(float(seconds[plan.levels[0]]) / cpu, 1.0)
         return mc_cpu / cpu
-
-    def _unused_pilot_runs(self, plan: LevelPlan) -> int:
-        unused = len(self.settings.fidelities) - len(plan.levels)
-        return unused * self.settings.n_pilot
 
 
 def _least(equivalent: np.ndarray | None) -> float:

@@ -68,16 +68,16 @@ class MonteCarloSettings(MethodSettings):
                                     "and the runs from 500 to 1e6")
 
 
-def method_seed(seed: int, label: str) -> np.random.SeedSequence:
-    """The SeedSequence of one method entry: the run's seed and a stable hash of the label, so
-    that adding or reordering methods in a config does not change another method's numbers."""
-    return np.random.SeedSequence([seed, zlib.crc32(label.encode())])
+def method_seed(seed: int, label: str, *keys: int) -> np.random.SeedSequence:
+    """The SeedSequence of one method entry (of its stream ``keys`` when given): the run's seed
+    and a stable hash of the label, so that adding or reordering methods in a config does not
+    change another method's numbers."""
+    return np.random.SeedSequence([seed, zlib.crc32(label.encode()), *keys])
 
 
 def stream_seed(seed: int, label: str, k: int) -> int:
     """An integer seed of the method's stream ``k`` (``k >= 1``: apart from the design's)."""
-    return int(np.random.SeedSequence([seed, zlib.crc32(label.encode()), k])
-               .generate_state(1)[0])
+    return int(method_seed(seed, label, k).generate_state(1)[0])
 
 
 def chunk_seed(seed: np.random.SeedSequence, i: int) -> np.random.SeedSequence:
@@ -244,8 +244,8 @@ class MonteCarlo(StreamingMethod):
                               dict(self.context.components)) \
             if self.context.events else {}
         names = scalar_names(runs.scalars)  # (stacking them would copy every value)
-        joint = acc.get(("j", ""))
         n_ok = runs.n - n_failed
+        joint = acc.get(("j", "")) if names and n_ok else None
         diagnostics = {
             "n_runs": runs.n,
             "n_failed": n_failed,
@@ -260,10 +260,8 @@ class MonteCarlo(StreamingMethod):
         return Estimate(
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
             scalar_index=names,
-            scalar_mean=joint.mean if (names and joint is not None and n_ok) else None,
-            scalar_cov=(np.asarray(joint.cm) / n_ok
-                        if (names and joint is not None and joint.cm is not None and n_ok)
-                        else None),
+            scalar_mean=None if joint is None else joint.mean,
+            scalar_cov=None if joint is None or joint.cm is None else np.asarray(joint.cm) / n_ok,
             events=events,
         )
 
@@ -296,12 +294,20 @@ def _put_quantiles(st: OutputStats, q: np.ndarray, ci: np.ndarray, levels: tuple
     """Quantiles ``q (levels, ...)`` and intervals ``ci (2, levels, ...)`` of a scalar, or of
     a series at every step or at the quantile steps, into ``st``, NaN at the steps not kept."""
     if q.ndim == 3 and q.shape[1] != time_grid.size:
-        full_q = np.full((len(levels), time_grid.size, q.shape[2]), np.nan)
-        full_ci = np.full((2,) + full_q.shape, np.nan)
         idx = ci_index(time_grid, report_times, "report")
-        full_q[:, idx], full_ci[:, :, idx] = q, ci
-        q, ci = full_q, full_ci
+        q, ci = at_steps(q, idx, time_grid.size, 1), at_steps(ci, idx, time_grid.size, 2)
     st.quantile_levels, st.quantiles, st.ci_quantiles = tuple(levels), q, ci
+
+
+def at_steps(values: np.ndarray, steps: np.ndarray | None, n_steps: int, axis: int = 0
+             ) -> np.ndarray:
+    """``values`` whose axis ``axis`` holds the time steps ``steps``, spread over ``n_steps``
+    steps with NaN at the others (``steps`` None: ``values`` as they are)."""
+    if steps is None:
+        return values
+    out = np.full(values.shape[:axis] + (n_steps,) + values.shape[axis + 1:], np.nan)
+    out[(slice(None),) * axis + (steps,)] = values
+    return out
 
 
 # -------------------- the chunk reduction, run where the chunk ran (in pool workers)
@@ -679,39 +685,28 @@ def add_indices(stats: dict[str, OutputStats], space: InputSpace, x: np.ndarray 
     binned = rank_bins(x_ok) if n >= max(MIN_RUNS, 3 * n_bins(n)) else None
     for name, st in stats.items():
         if name in runs.scalars:
-            y = runs.scalars[name][good]
-            est = first_order_indices(x_ok, y.T, binned=binned)
-            k = y.shape[1]
-            st.sobol_first = est.first.reshape(k, d)
-            st.sobol_first_ci = est.ci.reshape(2, k, d)
-            if groups:
-                gf, gci = group_indices(x_ok, y.T, [cols for _, cols in groups])
-                st.sobol_group_first, st.sobol_group_first_ci = gf, gci
-        elif name in lanes and steps is not None:
+            rows, at = runs.scalars[name][good].T, None
+        elif name in lanes and steps is not None and lanes[name]:
             k = st.mean.shape[-1]
-            t_all = st.mean.shape[0]
             # the report steps of each chunk's values, then joined (quantiles may keep every
             # step, far more than the indices need)
             parts = [p if p.shape[0] == steps.size * k else
                      p.reshape(p.shape[0] // k, k, -1)[steps].reshape(steps.size * k, -1)
                      for p in lanes[name]]
-            if not parts:
-                continue
             rows = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)
-            est = first_order_indices(x_ok, rows, binned=binned)
-            first = np.full((t_all, k, d), np.nan)
-            ci = np.full((2, t_all, k, d), np.nan)
-            first[steps] = est.first.reshape(steps.size, k, d)
-            ci[:, steps] = est.ci.reshape(2, steps.size, k, d)
-            st.sobol_first, st.sobol_first_ci = first, ci
-            if groups:
-                n_g = len(groups)
-                gf, gci = group_indices(x_ok, rows, [cols for _, cols in groups])
-                st.sobol_group_first = np.full((t_all, k, n_g), np.nan)
-                st.sobol_group_first_ci = np.full((2, t_all, k, n_g), np.nan)
-                st.sobol_group_first[steps] = gf.reshape(steps.size, k, n_g)
-                st.sobol_group_first_ci[:, steps] = gci.reshape(2, steps.size, k, n_g)
+            at = steps
         else:
             continue
+        # a scalar's (k,) lanes, or a series' (steps, k) spread over its (T, k)
+        shape = st.mean.shape if at is None else (at.size, st.mean.shape[-1])
+        t_all = st.mean.shape[0]
+        est = first_order_indices(x_ok, rows, binned=binned)
+        st.sobol_first = at_steps(est.first.reshape(*shape, d), at, t_all)
+        st.sobol_first_ci = at_steps(est.ci.reshape(2, *shape, d), at, t_all, 1)
+        if groups:
+            g = len(groups)
+            gf, gci = group_indices(x_ok, rows, [cols for _, cols in groups])
+            st.sobol_group_first = at_steps(gf.reshape(*shape, g), at, t_all)
+            st.sobol_group_first_ci = at_steps(gci.reshape(2, *shape, g), at, t_all, 1)
         st.sobol_estimator = "given-data"
         st.sobol_groups = tuple(name for name, _ in groups) if groups else ()

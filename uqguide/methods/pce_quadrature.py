@@ -29,7 +29,7 @@ from ..pce.pca import constant_columns
 from ..pce.projection import project
 from ..pce.sobol_indices import set_indices, truncation_error_intervals
 from ..pce.quadrature import Grid, union_basis
-from ..pce.validation_design import ValidationDesign, random_validation
+from ..pce.validation_design import ValidationDesign
 from .base import Design, Method, MethodSettings
 from .pce_validated import (
     SURROGATE_DRAWS_FIELD, SURROGATE_SAMPLING_FIELD, USABLE_FIELD, VALIDATION_FIELD,
@@ -86,7 +86,8 @@ class QuadraturePCE(Method):
 
     @abstractmethod
     def _grid(self, germ: Germ) -> Grid:
-        """The quadrature grid for these settings (raises ConfigError on impossible ones)."""
+        """The quadrature grid for these settings (raises ConfigError on impossible ones);
+        :meth:`_checked_grid` calls it."""
 
     @abstractmethod
     def _grid_diagnostics(self, grid: Grid) -> dict[str, Any]:
@@ -100,12 +101,10 @@ class QuadraturePCE(Method):
                               field="name")
 
     def _checked_grid(self, germ: Germ) -> Grid:
-        grid = self._grid(germ)
-        if grid.n_nodes > MAX_NODES:
-            raise MethodError(
-                f"{self.label}: the grid has {grid.n_nodes} nodes (more than {MAX_NODES}); "
-                f"lower the number of nodes or the level")
-        return grid
+        """The grid, once :meth:`plan` has refused a size above ``MAX_NODES`` (before it is
+        built: it would not fit)."""
+        self.plan(germ.space)
+        return self._grid(germ)
 
     def design(self, space: InputSpace, seed: int) -> Design:
         germ = Germ.of(space)
@@ -113,15 +112,13 @@ class QuadraturePCE(Method):
         draw_seed = int(stream(seed, self.label, SURROGATE_STREAM).generate_state(1)[0])
         log.info("%s: %d model runs (%s)", self.label, grid.n_nodes,
                  ", ".join(f"{k}={v}" for k, v in self._grid_diagnostics(grid).items()))
-        x = germ.to_physical(grid.xi)
-        data: dict[str, Any] = {"xi": grid.xi, "draw_seed": draw_seed, "seed": int(seed)}
+        design = Design(x=germ.to_physical(grid.xi),
+                        data={"xi": grid.xi, "draw_seed": draw_seed, "seed": int(seed)})
         v = self.settings.validation
         if v is not None and v.n_samples and v.design == "random":  # (no fit needed)
-            vd = random_validation(seed, self.label, v.n_samples, space.dim)
-            log.info("%s: %d validation runs (random)", self.label, vd.n)
-            x = np.vstack([x, space.from_unit(vd.u)])
-            data.update(n_fit=grid.n_nodes, **vd.to_data())
-        return Design(x=x, data=data)
+            return with_validation(design, v, v.n_samples, None, self.context.outputs, space,
+                                   self.label)
+        return design
 
     def refine(self, space: InputSpace, design: Design, outputs: ModelOutput) -> Design | None:
         """Stratified validation runs, placed by the projection of the grid's runs (once)."""

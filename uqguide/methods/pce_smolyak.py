@@ -83,12 +83,8 @@ class SmolyakPCE(QuadraturePCE):
         return RunPlan(runs=bound + self.n_validation(), terms=bound, exact=False)
 
     def _grid(self, germ: Germ) -> Grid:
-        self.plan(germ.space)  # refused before the grid is built
-        try:
-            return smolyak_grid(germ, self.order, self._rules(germ))
-        except ValueError as exc:
-            raise ConfigError(f"methods.level: {self.label}: {exc}; use a lower level or "
-                              f"nested: false", field="methods.level") from exc
+        # (plan, run first, refused a rule that has no such level)
+        return smolyak_grid(germ, self.order, self._rules(germ))
 
     def _grid_diagnostics(self, grid: Grid) -> dict[str, Any]:
         return {"level": self.settings.level, "chaospy_order": self.order,

@@ -58,13 +58,13 @@ class ValidationSettings(StrictModel):
         return v
 
 
-def validation_design(settings: ValidationSettings | None, n: int, surrogate: Surrogate,
-                      outputs: tuple[str, ...], *, seed: int, label: str, d: int
-                      ) -> ValidationDesign:
+def validation_design(settings: ValidationSettings | None, n: int,
+                      surrogate: Surrogate | None, outputs: tuple[str, ...], *, seed: int,
+                      label: str, d: int) -> ValidationDesign:
     """The ``n`` validation runs of a fitted surrogate: stratified by the value of the
     ``outputs`` it reports (all it predicts when none is named), random when ``settings`` asks
-    for it or is None (``validation_runs``)."""
-    if settings is None or settings.design == "random":
+    for it or is None (``validation_runs``), or without a surrogate."""
+    if settings is None or settings.design == "random" or surrogate is None:
         return random_validation(seed, label, n, d)
     names = [o for o in outputs if o in surrogate.names] or surrogate.names
     fitted = [surrogate.expansions[o].trimmed().alpha for o in names
@@ -75,7 +75,7 @@ def validation_design(settings: ValidationSettings | None, n: int, surrogate: Su
 
 
 def with_validation(design: Design, settings: ValidationSettings | None, n: int,
-                    surrogate: Surrogate, outputs: tuple[str, ...], space: InputSpace,
+                    surrogate: Surrogate | None, outputs: tuple[str, ...], space: InputSpace,
                     label: str) -> Design:
     """``design`` (the fit's runs) with ``n`` validation runs of ``surrogate`` appended."""
     vd = validation_design(settings, n, surrogate, outputs, seed=int(design.data["seed"]),

@@ -25,8 +25,8 @@ from ..errors import ConfigError, MethodError
 from ..stats.sobol_pick_freeze import PickFreezeSums, pick_freeze_indices
 from .base import Design, MethodSettings, RunPlan, StreamingMethod
 from .monte_carlo import (
-    MonteCarlo, MonteCarloReducer, MonteCarloSettings, ci_index, method_seed, poisson1,
-    stream_seed, unit_chunk,
+    MonteCarlo, MonteCarloReducer, MonteCarloSettings, at_steps, ci_index, method_seed,
+    poisson1, stream_seed, unit_chunk,
 )
 
 log = logging.getLogger(__name__)
@@ -187,25 +187,16 @@ def _put_indices(st: OutputStats, sums: PickFreezeSums,
     the report steps' components of a series, NaN at the other steps)."""
     first, total, first_ci, total_ci = pick_freeze_indices(sums)          # (L, m), (2, L, m)
     k = st.mean.shape[-1]
-    lead: tuple[int, ...] = ()
-    steps = None
-    if st.mean.ndim == 2:
-        steps = ci_index(time_grid, report_times, "report")
-        lead = (time_grid.size,)
+    steps = ci_index(time_grid, report_times, "report") if st.mean.ndim == 2 else None
+    rows = () if steps is None else (steps.size,)
 
     def place(values: np.ndarray, idx: list[int], pos: list[int], width: int) -> np.ndarray:
         """``values (..., L, m)``'s sets ``idx`` at positions ``pos`` of ``(..., [T,] k,
         width)``."""
         pre = values.shape[:-2]
-        out = np.full(pre + lead + (k, width), np.nan)
-        v = values[..., idx]
-        if steps is None:
-            out[..., pos] = v.reshape(pre + (k, len(idx)))
-            return out
-        at_steps = np.full(pre + (steps.size, k, width), np.nan)
-        at_steps[..., pos] = v.reshape(pre + (steps.size, k, len(idx)))
-        out[..., steps, :, :] = at_steps
-        return out
+        out = np.full(pre + rows + (k, width), np.nan)
+        out[..., pos] = values[..., idx].reshape(pre + rows + (k, len(idx)))
+        return at_steps(out, steps, time_grid.size, len(pre))
 
     inputs = [i for i, (kind, _, _) in enumerate(sets) if kind == "input"]
     groups = [i for i, (kind, _, _) in enumerate(sets) if kind == "group"]

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import logging
 import time
-import zlib
 from typing import Any
 
 import numpy as np
@@ -22,7 +21,7 @@ from ..core.events import EventEstimate, EventSpec, component_index
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, ModelOutput
 from .base import Design, Method, MethodSettings
-from .monte_carlo import U_EPS
+from .monte_carlo import U_EPS, method_seed
 
 log = logging.getLogger(__name__)
 
@@ -84,8 +83,7 @@ class SubsetSimulation(Method):
         return int(round(1.0 / self.settings.p0))
 
     def _rng(self, seed: int, level: int, step: int) -> np.random.Generator:
-        return np.random.default_rng(
-            np.random.SeedSequence([seed, zlib.crc32(self.label.encode()), level, step]))
+        return np.random.default_rng(method_seed(seed, self.label, level, step))
 
     @staticmethod
     def _to_x(space: InputSpace, z: np.ndarray) -> np.ndarray:
