@@ -202,7 +202,8 @@ class StageRunner:
                 raise_swallowed()
         except BaseException:
             if self.store is not None:
-                self.store.drain()  # what was saved before the stop is on disk when it is seen
+                # what was saved before the stop is on disk when it is seen
+                self.store.writer.drain()
             raise
         finally:
             close = getattr(results, "close", None)
@@ -212,7 +213,7 @@ class StageRunner:
                 kept.shared.close()  # the files go; the views stay valid
         fold_ready()
         if self.store is not None:
-            self.store.flush()  # the stage's chunks on disk before the method goes on
+            self.store.writer.flush()  # the stage's chunks on disk before the method goes on
         if kept is not None:
             return kept.output(), acc
         return ModelOutput.concatenate(common_grid(parts)), acc
