@@ -795,13 +795,13 @@ class RunStore:
 
     def _save_now(self, item: tuple[str, int, ChunkResult]) -> None:
         # The file first, then its line: a chunk listed in the manifest is whole on disk.
-        # A chunk's file is named after its label, stage (0: the initial design, then one per
-        # refinement) and index.
         label, stage, result = item
         t = result.task
+        # named after its label, stage (0: the initial design, then one per refinement), index
+        file = f"{label}.s{stage}.c{t.index:06d}.npz"
         entry = {"kind": "chunk", "run": self.run_id, "label": label, "stage": stage,
-                 "index": t.index, "start": t.start, "stop": t.stop,
-                 "file": f"{label}.s{stage}.c{t.index:06d}.npz", "n_failed": result.n_failed}
-        write_chunk(self.path / entry["file"], result, self.run_id, label, stage)
+                 "index": t.index, "start": t.start, "stop": t.stop, "file": file,
+                 "n_failed": result.n_failed}
+        write_chunk(self.path / file, result, self.run_id, label, stage)
         self.manifest.append(entry)
         self.entries[(label, stage, t.index)] = entry

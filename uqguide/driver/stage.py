@@ -30,7 +30,7 @@ from ..models import kernels
 from ..models.base import Model
 from ..core.types import GeneratedRows, ModelOutput
 from .progress import Progress
-from .surrogate_level import SurrogateLevel, surrogate_level
+from .surrogate_level import Counted, SurrogateLevel, surrogate_level
 from ..results.result import MethodRun
 
 log = logging.getLogger(__name__)
@@ -77,7 +77,7 @@ class _Runs:
                            scalars=self.scalars, failed=self.failed, reasons=self.reasons)
 
 
-class StageRunner:
+class StageRunner(Counted):
     """The :class:`~uqguide.methods.base.Runner` of one method on one model (or one of its
     fidelity levels): each call of :meth:`run` evaluates a design stage chunk by chunk and folds
     it in order. Every runner made from it (:meth:`at_fidelity`, :meth:`surrogate_of`) adds its
@@ -217,14 +217,6 @@ class StageRunner:
         if kept is not None:
             return kept.output(), acc
         return ModelOutput.concatenate(common_grid(parts)), acc
-
-    @property
-    def cpu_seconds(self) -> float:
-        return self.timing.cpu_seconds
-
-    @property
-    def n_runs(self) -> int:
-        return self.timing.n_runs
 
     fixed_cpu_s = 0.0
 

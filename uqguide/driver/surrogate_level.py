@@ -24,8 +24,22 @@ from ..results.result import MethodRun
 from .execution import Timing, common_grid
 
 
+class Counted:
+    """A :class:`~uqguide.methods.base.Runner`'s counts, those of its ``timing``."""
+
+    timing: Timing
+
+    @property
+    def cpu_seconds(self) -> float:
+        return self.timing.cpu_seconds
+
+    @property
+    def n_runs(self) -> int:
+        return self.timing.n_runs
+
+
 @dataclass
-class SurrogateLevel:
+class SurrogateLevel(Counted):
     """The surrogate of the PCE method ``label`` as a level: ``time (T,)``, its series' grid;
     ``fixed_cpu_s``: the PCE method's model and fit seconds (the surrogate's price);
     ``outputs``: those it predicts; ``timing``: its runs and CPU seconds so far."""
@@ -38,14 +52,6 @@ class SurrogateLevel:
     timing: Timing = field(default_factory=Timing)
     #: (a Runner's; the surrogate evaluates whatever rows it is given in one call)
     batch_size: int = 0
-
-    @property
-    def cpu_seconds(self) -> float:
-        return self.timing.cpu_seconds
-
-    @property
-    def n_runs(self) -> int:
-        return self.timing.n_runs
 
     def missing(self, outputs: Sequence[str]) -> list[str]:
         """The outputs it cannot predict (no expansion kept for them)."""
