@@ -12,6 +12,7 @@ The rules, and why each holds: docs/architecture.md, "Checking the contracts".
 
 from __future__ import annotations
 
+import functools
 import random
 import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -58,15 +59,12 @@ def model_checks(cls: type[Model], params: Mapping[str, Any] | None = None, *, n
     """
     params = dict(cls.example_params if params is None else params)
     who = f"model '{getattr(cls, 'name', cls.__name__)}'"
-    made: dict[str, Any] = {}
 
+    @functools.cache
     def batch() -> tuple[Model, np.ndarray, list[str], list[str]]:
-        if not made:
-            model = cls(params)
-            made.update(model=model, x=_inputs_near_nominal(model, n, seed),
-                        names=list(model.input_names()),
-                        outputs=[o.name for o in model.outputs()])
-        return made["model"], made["x"], made["names"], made["outputs"]
+        model = cls(params)
+        return (model, _inputs_near_nominal(model, n, seed), list(model.input_names()),
+                [o.name for o in model.outputs()])
 
     def metadata() -> None:
         _check_metadata(batch()[0], who)
@@ -228,17 +226,15 @@ class _Bench:
     mean: np.ndarray
     sd: np.ndarray
     p_tail: float
-    _first: MethodRun | None = None
 
     def run(self, executor: Executor, method: Method | None = None, **kwargs: Any) -> MethodRun:
         return propagate(method or self.method, self.model, self.space, self.outputs, self.seed,
                          executor, **kwargs)
 
+    @functools.cached_property
     def first(self) -> MethodRun:
         """The method's first run (in this process), which the checks share."""
-        if self._first is None:
-            self._first = self.run(SerialExecutor(16))
-        return self._first
+        return self.run(SerialExecutor(16))
 
 
 def _benchmark(cls: type[Method], settings: dict[str, Any], seed: int, who: str) -> _Bench:
@@ -273,16 +269,14 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
     """
     settings = dict(cls.example_settings if settings is None else settings)
     who = f"method '{getattr(cls, 'name', cls.__name__)}'"
-    made: list[_Bench] = []
 
+    @functools.cache
     def bench() -> _Bench:
-        if not made:
-            made.append(_benchmark(cls, settings, seed, who))
-        return made[0]
+        return _benchmark(cls, settings, seed, who)
 
     def seeds() -> None:
         b = bench()
-        _same_runs(b.first(), b.run(SerialExecutor(16)), who, "seeds",
+        _same_runs(b.first, b.run(SerialExecutor(16)), who, "seeds",
                    "the same seed gave other numbers")
         if cls.random_design:
             x0 = np.asarray(b.method.design(b.space, seed).x)
@@ -294,18 +288,18 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
 
     def batch_size() -> None:
         b = bench()
-        _same_runs(b.first(), b.run(SerialExecutor(5)), who, "batch size",
+        _same_runs(b.first, b.run(SerialExecutor(5)), who, "batch size",
                    "another batch size gave other numbers")
 
     def pool() -> None:
         b, executor = bench(), ProcessExecutor(2, batch_size=16)
         try:
-            _same_runs(b.first(), b.run(executor), who, "workers",
+            _same_runs(b.first, b.run(executor), who, "workers",
                        "a 2-process pool gave other numbers than this process")
         finally:
             executor.close()
 
-    yield "closed forms", lambda: _check_closed_forms(bench().first(), bench())
+    yield "closed forms", lambda: _check_closed_forms(bench().first, bench())
     yield from (("seeds", seeds), ("batch size", batch_size))
     if workers:
         yield "workers", pool
@@ -352,7 +346,7 @@ def parametrize_with_checks(models: Sequence[type[Model] | tuple[type[Model], Ma
 
 def _check_given_rows(b: _Bench, cls: type[Method], settings: Mapping[str, Any]) -> None:
     """The method on the rows of its own first run, given as a data file's."""
-    x = np.asarray(b.first().x, dtype=float)
+    x = np.asarray(b.first.x, dtype=float)
     rows = GivenRows(x, "<conformance>", np.zeros(x.shape[0], dtype=bool))
     given = cls(dict(settings), replace(b.context, rows=rows))
     design = np.asarray(given.design(b.space, b.seed).x, dtype=float)
@@ -430,7 +424,7 @@ def _check_streaming(b: _Bench) -> None:
     except Exception as exc:  # noqa: BLE001 - whatever it is, the rule is broken
         raise _fail(b.who, "streaming", f"estimate of outputs in memory raised "
                     f"{type(exc).__name__}: {exc}") from None
-    _same_estimates(b.first().estimate, estimate, b.who, "streaming",
+    _same_estimates(b.first.estimate, estimate, b.who, "streaming",
                     "the estimate of outputs in memory differs from the streamed one")
 
 
@@ -474,5 +468,5 @@ def _check_resume(b: _Bench) -> None:
             resumed = b.run(SerialExecutor(16), store=store)
         finally:
             store.close()
-    _same_runs(b.first(), resumed, b.who, "resume",
+    _same_runs(b.first, resumed, b.who, "resume",
                "a run interrupted after its first chunk and resumed gave other numbers")
