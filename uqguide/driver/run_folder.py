@@ -244,8 +244,26 @@ class RunManifest:
         return self.folder / MANIFEST
 
     def read(self) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
-        """The header and the chunk lines on disk (see :func:`read_manifest`)."""
-        return read_manifest(self.file)
+        """The first header on disk (None without one) and the chunk lines by (label, stage,
+        index), the last winning; a second header of another run makes the run id
+        ``"<mixed>"`` (never resumed)."""
+        header = None
+        entries: dict[ChunkKey, dict[str, Any]] = {}
+        for obj in _manifest_objects(self.file):
+            if obj.get("kind") == "header":
+                if header is None:
+                    header = obj
+                elif obj.get("run_id") != header.get("run_id"):
+                    header = {**header, "run_id": "<mixed>", "format": header.get("format")}
+            elif obj.get("kind") == "complete":
+                if header is not None and obj.get("run") == header.get("run_id"):
+                    header = {**header, "complete": True}
+            elif obj.get("kind") == "chunk":
+                try:
+                    entries[(str(obj["label"]), int(obj["stage"]), int(obj["index"]))] = obj
+                except (KeyError, TypeError, ValueError):
+                    continue
+        return header, entries
 
     def isolated(self) -> dict[tuple[str, int], dict[int, str]]:
         """This run's samples found to crash or hang, by (label, stage): row -> reason."""
@@ -384,11 +402,6 @@ class RunManifest:
             return False
         return _HEADER_START.startswith(head)
 
-    def mark_complete(self) -> None:
-        """Say that every chunk of the run is done: a folder left by an interrupt in the final
-        write is then recognised as a finished run, not an unfinished one."""
-        self.append({"kind": "complete", "run": self.run_id})
-
     def _ours(self, path: Path, listed: set[str]) -> bool:
         """Whether ``path`` is uqguide's to delete: a regular file the manifest lists, a
         temporary file of a writer that is gone, or a chunk file of this run that says so inside
@@ -452,29 +465,6 @@ def _is_chunk_file(path: Path) -> bool:
             return {"run_id.npy", "packed.npy", "index.npy"} <= set(z.namelist())
     except (OSError, zipfile.BadZipFile, ValueError):
         return False
-
-
-def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
-    """The first header (None without one) and the chunk lines by (label, stage, index), the
-    last winning; a second header of another run makes the run id ``"<mixed>"`` (never
-    resumed)."""
-    header = None
-    entries: dict[ChunkKey, dict[str, Any]] = {}
-    for obj in _manifest_objects(path):
-        if obj.get("kind") == "header":
-            if header is None:
-                header = obj
-            elif obj.get("run_id") != header.get("run_id"):
-                header = {**header, "run_id": "<mixed>", "format": header.get("format")}
-        elif obj.get("kind") == "complete":
-            if header is not None and obj.get("run") == header.get("run_id"):
-                header = {**header, "complete": True}
-        elif obj.get("kind") == "chunk":
-            try:
-                entries[(str(obj["label"]), int(obj["stage"]), int(obj["index"]))] = obj
-            except (KeyError, TypeError, ValueError):
-                continue
-    return header, entries
 
 
 def _manifest_objects(path: Path) -> Iterator[dict[str, Any]]:
@@ -785,8 +775,10 @@ class RunStore:
         self.writer.close()
 
     def mark_complete(self) -> None:
+        """Say that every chunk of the run is done: a folder left by an interrupt in the final
+        write is then recognised as a finished run, not an unfinished one."""
         self.close()
-        self.manifest.mark_complete()
+        self.manifest.append({"kind": "complete", "run": self.run_id})
 
     def remove(self) -> list[str]:
         """Delete the run's files and the folder once the result file holds everything."""
