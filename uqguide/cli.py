@@ -50,14 +50,6 @@ def _handle_errors(fn: Callable[..., Any], result_error: int = 1) -> Callable[..
     return wrapper
 
 
-def _sweep_temp_folders() -> None:
-    """Remove the temporary folders a killed uqguide left (its unzipped FMUs,
-    multiprocessing's folder): ``run`` and ``validate`` start with it."""
-    from .core.temp_folders import sweep
-
-    sweep()
-
-
 def _setup_logging(verbose: int) -> None:
     level = logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s",
@@ -158,8 +150,11 @@ def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
     return f"{done}resume with `{again}`"
 
 
+_CONFIG_ARG = click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+
+
 @main.command()
-@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+@_CONFIG_ARG
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               default=Path("results/runs"), show_default=True,
               help="Folder for the HDF5 result and the CSV / Markdown tables.")
@@ -207,8 +202,9 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
     from .driver.progress import make_progress
     from .driver.propagate import check_failure_budget, check_methods
     from .commands.run_and_write import WriteInterrupted, Written, run_and_write
+    from .core.temp_folders import sweep
 
-    _sweep_temp_folders()
+    sweep()  # the temporary folders a killed uqguide left (unzipped FMUs, multiprocessing's)
     _check_executor_flags(workers, scheduler, scheduler_file, no_workers_timeout)
     for flag, given in (("--check-sensitivity", check_sensitivity),
                         ("--check-require-key", check_require_key)):
@@ -285,7 +281,7 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
 
 
 @main.command()
-@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+@_CONFIG_ARG
 @_handle_errors
 def validate(config: Path) -> None:
     """Check CONFIG without running anything; print its runs and estimated peak memory.
@@ -294,8 +290,9 @@ def validate(config: Path) -> None:
     """
     from .config.budget import check_budget, estimate
     from .config.run_config import load_config
+    from .core.temp_folders import sweep
 
-    _sweep_temp_folders()
+    sweep()
     cfg = load_config(config)
     methods = ", ".join(f"{m.label} ({m.name})" for m in cfg.methods)
     source = f"model {cfg.model.name}" if cfg.data is None else \
@@ -311,7 +308,7 @@ def validate(config: Path) -> None:
 
 
 @main.command()
-@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+@_CONFIG_ARG
 @click.option("--figures", "fig_dir", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="Also write the nominal run's figures (PNG) into this folder.")
 @_handle_errors
@@ -332,7 +329,7 @@ def simulate(config: Path, fig_dir: Path | None) -> None:
 
 
 @main.command()
-@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+@_CONFIG_ARG
 @click.option("--n", "n_runs", type=click.IntRange(1, 1_000_000), required=True,
               help="How many runs to suggest.")
 @click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path),
@@ -392,12 +389,7 @@ def models(name: str | None) -> None:
     from .config.registry import MODELS, model_class
     from .report.describe import describe_model
 
-    names = [name] if name else list(MODELS)
-    for i, n in enumerate(names):
-        cls = model_class(n, "NAME")
-        if i:
-            click.echo("")
-        click.echo(describe_model(cls))
+    _echo_each([name] if name else list(MODELS), lambda n: describe_model(model_class(n, "NAME")))
 
 
 @main.command()
@@ -409,22 +401,26 @@ def methods(name: str | None) -> None:
     from .config.registry import METHODS, method_class
     from .report.describe import describe_defaults, describe_settings
 
-    names = [name] if name else list(METHODS)
-    for i, n in enumerate(names):
+    def describe(n: str) -> str:
         cls = method_class(n, "NAME")
+        rules = describe_defaults(cls) if name else ""
+        return "\n".join([f"{n}: {cls.summary}", describe_settings(cls.Settings)]
+                         + ([rules] if rules else []))
+
+    _echo_each([name] if name else list(METHODS), describe)
+
+
+def _echo_each(names: list[str], describe: Callable[[str], str]) -> None:
+    """The description of each name, a blank line between two."""
+    for i, n in enumerate(names):
         if i:
             click.echo("")
-        click.echo(f"{n}: {cls.summary}")
-        click.echo(describe_settings(cls.Settings))
-        rules = describe_defaults(cls) if name else ""
-        if rules:
-            click.echo(rules)
+        click.echo(describe(n))
 
 
 # ---------------------------------------------------------------------------- regression gate
-def _unusable_input_is_2(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """A result or baseline that cannot be read or compared (ResultError): exit code 2."""
-    return _handle_errors(fn, result_error=2)
+#: A result or baseline that cannot be read or compared (ResultError): exit code 2.
+_unusable_input_is_2 = functools.partial(_handle_errors, result_error=2)
 
 
 @_unusable_input_is_2

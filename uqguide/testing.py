@@ -12,10 +12,11 @@ The rules, and why each holds: docs/architecture.md, "Checking the contracts".
 
 from __future__ import annotations
 
+import functools
 import random
 import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -58,15 +59,12 @@ def model_checks(cls: type[Model], params: Mapping[str, Any] | None = None, *, n
     """
     params = dict(cls.example_params if params is None else params)
     who = f"model '{getattr(cls, 'name', cls.__name__)}'"
-    made: dict[str, Any] = {}
 
+    @functools.cache
     def batch() -> tuple[Model, np.ndarray, list[str], list[str]]:
-        if not made:
-            model = cls(params)
-            made.update(model=model, x=_inputs_near_nominal(model, n, seed),
-                        names=list(model.input_names()),
-                        outputs=[o.name for o in model.outputs()])
-        return made["model"], made["x"], made["names"], made["outputs"]
+        model = cls(params)
+        return (model, _inputs_near_nominal(model, n, seed), list(model.input_names()),
+                [o.name for o in model.outputs()])
 
     def metadata() -> None:
         _check_metadata(batch()[0], who)
@@ -213,23 +211,51 @@ _STDS = (1.0, 0.5, 2.0)
 _TAIL_SIGMAS = 2.5
 
 
-def _benchmark() -> tuple[LinearGaussian, dict[str, Any], np.ndarray, np.ndarray, float, float]:
+@dataclass
+class _Bench:
+    """The method checked on the benchmark, with its exact values; ``who`` names the method in
+    messages."""
+
+    method: Method
+    context: RunContext
+    model: LinearGaussian
+    space: Any
+    outputs: tuple[str, ...]
+    seed: int
+    who: str
+    mean: np.ndarray
+    sd: np.ndarray
+    p_tail: float
+
+    def run(self, executor: Executor, method: Method | None = None, **kwargs: Any) -> MethodRun:
+        return propagate(method or self.method, self.model, self.space, self.outputs, self.seed,
+                         executor, **kwargs)
+
+    @functools.cached_property
+    def first(self) -> MethodRun:
+        """The method's first run (in this process), which the checks share."""
+        return self.run(SerialExecutor(16))
+
+
+def _benchmark(cls: type[Method], settings: dict[str, Any], seed: int, who: str) -> _Bench:
     model = LinearGaussian()
     mean, cov = model.exact_mean_cov(np.array(_MEANS), np.diag(np.square(_STDS)))
     sd = np.sqrt(np.diag(cov))
-    threshold = float(mean[0] + _TAIL_SIGMAS * sd[0])
     from scipy.stats import norm
 
-    p_tail = float(norm.sf(_TAIL_SIGMAS))
-    cfg = {
+    cfg = validate_config({
         "model": {"name": "linear_gaussian"},
         "inputs": [{"name": f"x{i + 1}", "dist": "normal", "mean": m, "std": s}
                    for i, (m, s) in enumerate(zip(_MEANS, _STDS))],
         "outputs": ["y", "ramp"],
-        "events": [{"name": "tail", "output": "y", "component": "y1", "above": threshold}],
+        "events": [{"name": "tail", "output": "y", "component": "y1",
+                    "above": float(mean[0] + _TAIL_SIGMAS * sd[0])}],
         "methods": [{"name": "monte_carlo", "n_samples": 10}],  # (replaced by the method checked)
-    }
-    return model, cfg, mean, sd, threshold, p_tail
+    })
+    context = RunContext(events=tuple(cfg.raw.events), components=MappingProxyType(
+        {o: tuple(model.output_info(o).components) for o in cfg.outputs}))
+    return _Bench(cls(settings, context), context, model, cfg.space, cfg.outputs, seed, who,
+                  mean, sd, float(norm.sf(_TAIL_SIGMAS)))
 
 
 def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, *,
@@ -243,77 +269,45 @@ def method_checks(cls: type[Method], settings: Mapping[str, Any] | None = None, 
     """
     settings = dict(cls.example_settings if settings is None else settings)
     who = f"method '{getattr(cls, 'name', cls.__name__)}'"
-    made: dict[str, Any] = {}
 
-    def setup() -> dict[str, Any]:
-        if not made:
-            model, cfg_dict, mean, sd, _, p_tail = _benchmark()
-            cfg = validate_config(cfg_dict)
-            context = RunContext(events=tuple(cfg.raw.events), components=MappingProxyType(
-                {o: tuple(model.output_info(o).components) for o in cfg.outputs}))
-            made.update(model=model, mean=mean, sd=sd, p_tail=p_tail, context=context,
-                        method=cls(settings, context), space=cfg.space, outputs=cfg.outputs)
-        return made
-
-    def run(executor: Executor) -> MethodRun:
-        m = setup()
-        return propagate(m["method"], m["model"], m["space"], m["outputs"], seed, executor)
-
-    def first() -> MethodRun:
-        m = setup()
-        if "first" not in m:
-            m["first"] = run(SerialExecutor(16))
-        return m["first"]
-
-    def closed_forms() -> None:
-        m = setup()
-        _check_closed_forms(first(), m["mean"], m["sd"], m["p_tail"], who)
+    @functools.cache
+    def bench() -> _Bench:
+        return _benchmark(cls, settings, seed, who)
 
     def seeds() -> None:
-        _same_runs(first(), run(SerialExecutor(16)), who, "seeds",
+        b = bench()
+        _same_runs(b.first, b.run(SerialExecutor(16)), who, "seeds",
                    "the same seed gave other numbers")
         if cls.random_design:
-            m = setup()
-            a = np.asarray(m["method"].design(m["space"], seed).x)
-            b = np.asarray(m["method"].design(m["space"], seed + 1).x)
-            if a.shape == b.shape and np.array_equal(a, b):
+            x0 = np.asarray(b.method.design(b.space, seed).x)
+            x1 = np.asarray(b.method.design(b.space, seed + 1).x)
+            if x0.shape == x1.shape and np.array_equal(x0, x1):
                 raise _fail(who, "seeds", f"seeds {seed} and {seed + 1} give the same design; "
                             f"a method with a random design must derive it from the seed (or "
                             f"declare random_design = False)")
 
     def batch_size() -> None:
-        _same_runs(first(), run(SerialExecutor(5)), who, "batch size",
+        b = bench()
+        _same_runs(b.first, b.run(SerialExecutor(5)), who, "batch size",
                    "another batch size gave other numbers")
 
     def pool() -> None:
-        executor = ProcessExecutor(2, batch_size=16)
+        b, executor = bench(), ProcessExecutor(2, batch_size=16)
         try:
-            _same_runs(first(), run(executor), who, "workers",
+            _same_runs(b.first, b.run(executor), who, "workers",
                        "a 2-process pool gave other numbers than this process")
         finally:
             executor.close()
 
-    def streaming() -> None:
-        m = setup()
-        _check_streaming(m["method"], m["model"], m["space"], m["outputs"], seed, first(), who)
-
-    def resume() -> None:
-        m = setup()
-        _check_resume(m["method"], m["model"], m["space"], m["outputs"], seed, first(), who)
-
-    def given_rows() -> None:
-        m = setup()
-        _check_given_rows(cls, settings, m["context"], m["model"], m["space"], m["outputs"],
-                          seed, first(), who, m["mean"], m["sd"], m["p_tail"])
-
-    yield from (("closed forms", closed_forms), ("seeds", seeds), ("batch size", batch_size))
+    yield "closed forms", lambda: _check_closed_forms(bench().first, bench())
+    yield from (("seeds", seeds), ("batch size", batch_size))
     if workers:
         yield "workers", pool
     if not cls.holds_runs:
-        yield "streaming", streaming
-    yield "resume", resume
+        yield "streaming", lambda: _check_streaming(bench())
+    yield "resume", lambda: _check_resume(bench())
     if not cls.own_design:
-        yield "given rows", given_rows
+        yield "given rows", lambda: _check_given_rows(bench(), cls, settings)
 
 
 def check_method(cls: type[Method], settings: Mapping[str, Any] | None = None, *,
@@ -350,28 +344,25 @@ def parametrize_with_checks(models: Sequence[type[Model] | tuple[type[Model], Ma
     return pytest.mark.parametrize("check", [c for _, c in cases], ids=[i for i, _ in cases])
 
 
-def _check_given_rows(cls: type[Method], settings: Mapping[str, Any], context: RunContext,
-                      model: Model, space: Any, outputs: tuple[str, ...], seed: int,
-                      first: MethodRun, who: str, mean: np.ndarray, sd: np.ndarray,
-                      p_tail: float) -> None:
+def _check_given_rows(b: _Bench, cls: type[Method], settings: Mapping[str, Any]) -> None:
     """The method on the rows of its own first run, given as a data file's."""
-    x = np.asarray(first.x, dtype=float)
+    x = np.asarray(b.first.x, dtype=float)
     rows = GivenRows(x, "<conformance>", np.zeros(x.shape[0], dtype=bool))
-    given = cls(dict(settings), replace(context, rows=rows))
-    design = np.asarray(given.design(space, seed).x, dtype=float)
+    given = cls(dict(settings), replace(b.context, rows=rows))
+    design = np.asarray(given.design(b.space, b.seed).x, dtype=float)
     if design.shape != x.shape or not np.array_equal(np.unique(design, axis=0),
                                                      np.unique(x, axis=0)):
-        raise _fail(who, "given rows", f"its design of {x.shape[0]} given rows has shape "
+        raise _fail(b.who, "given rows", f"its design of {x.shape[0]} given rows has shape "
                     f"{design.shape} and other rows; with data: the design is the rows, each "
                     f"once")
-    run = propagate(given, model, space, outputs, seed, SerialExecutor(16))
+    run = b.run(SerialExecutor(16), given)
     if run.n_runs != x.shape[0]:
-        raise _fail(who, "given rows", f"made {run.n_runs} runs of {x.shape[0]} given rows")
-    _check_closed_forms(run, mean, sd, p_tail, who)
+        raise _fail(b.who, "given rows", f"made {run.n_runs} runs of {x.shape[0]} given rows")
+    _check_closed_forms(run, b)
 
 
-def _check_closed_forms(run: MethodRun, mean: np.ndarray, sd: np.ndarray, p_tail: float,
-                        who: str) -> None:
+def _check_closed_forms(run: MethodRun, b: _Bench) -> None:
+    mean, sd, p_tail, who = b.mean, b.sd, b.p_tail, b.who
     if not run.success:
         raise _fail(who, "closed forms", f"no statistics on the linear benchmark: "
                     f"{run.message}")
@@ -425,16 +416,15 @@ def _same_estimates(a: Estimate, b: Estimate, who: str, rule: str, what: str) ->
             raise _fail(who, rule, f"{what}: event '{name}'")
 
 
-def _check_streaming(method: Method, model: Model, space: Any,
-                     outputs: tuple[str, ...], seed: int, streamed: MethodRun, who: str) -> None:
-    design = method.design(space, seed)
-    held = SerialExecutor(16).evaluate(model, np.asarray(design.x), space.names, outputs)
+def _check_streaming(b: _Bench) -> None:
+    design = b.method.design(b.space, b.seed)
+    held = SerialExecutor(16).evaluate(b.model, np.asarray(design.x), b.space.names, b.outputs)
     try:
-        estimate = method.estimate(space, design, held)
+        estimate = b.method.estimate(b.space, design, held)
     except Exception as exc:  # noqa: BLE001 - whatever it is, the rule is broken
-        raise _fail(who, "streaming", f"estimate of outputs in memory raised "
+        raise _fail(b.who, "streaming", f"estimate of outputs in memory raised "
                     f"{type(exc).__name__}: {exc}") from None
-    _same_estimates(streamed.estimate, estimate, who, "streaming",
+    _same_estimates(b.first.estimate, estimate, b.who, "streaming",
                     "the estimate of outputs in memory differs from the streamed one")
 
 
@@ -459,27 +449,24 @@ class _StopAfterFirstChunk:
         self.inner.close()
 
 
-def _check_resume(method: Method, model: Model, space: Any, outputs: tuple[str, ...],
-                  seed: int, whole: MethodRun, who: str) -> None:
-    identity = run_identity({"check": "resume", "method": method.name,
-                             "settings": method.settings.model_dump(mode="json")}, model)
+def _check_resume(b: _Bench) -> None:
+    identity = run_identity({"check": "resume", "method": b.method.name,
+                             "settings": b.method.settings.model_dump(mode="json")}, b.model)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / "run"
         store = RunStore.open(folder, identity, resume=False)
         try:
-            propagate(method, model, space, outputs, seed,
-                      _StopAfterFirstChunk(SerialExecutor(16)), store=store)
+            b.run(_StopAfterFirstChunk(SerialExecutor(16)), store=store)
         except KeyboardInterrupt:
             pass
         finally:
             store.close()
         store = RunStore.open(folder, identity, resume=True)
         if store.n_done < 1:
-            raise _fail(who, "resume", "no chunk was kept by the interrupted run")
+            raise _fail(b.who, "resume", "no chunk was kept by the interrupted run")
         try:
-            resumed = propagate(method, model, space, outputs, seed, SerialExecutor(16),
-                                store=store)
+            resumed = b.run(SerialExecutor(16), store=store)
         finally:
             store.close()
-    _same_runs(whole, resumed, who, "resume",
+    _same_runs(b.first, resumed, b.who, "resume",
                "a run interrupted after its first chunk and resumed gave other numbers")

@@ -3,8 +3,8 @@
 ``<out>/<name>.run/`` holds ``manifest.jsonl`` (append-only and fsynced: the run's identity,
 then one line per finished chunk or isolated sample) and one ``.npz`` per finished chunk,
 written whole and renamed before its manifest line; ``<out>/<name>.run.lock`` gives the folder
-one owner. :class:`RunStore` is what the driver holds: the :class:`RunManifest` (whose run the
-folder is, resume checks, refusals), the :class:`ChunkStore` (the chunks' files) and the
+one owner. :class:`RunStore` is what the driver holds: the chunks' files, the
+:class:`RunManifest` (whose run the folder is, resume checks, refusals) and the
 :class:`CheckpointWriter` (the background thread that writes them). :class:`RunLock` is taken
 by the command before the folder is read.
 
@@ -26,8 +26,7 @@ import re
 import socket
 import threading
 import zipfile
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, Generic, TypeVar
 
@@ -245,38 +244,44 @@ class RunManifest:
         return self.folder / MANIFEST
 
     def read(self) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
-        """The header and the chunk lines on disk (see :func:`read_manifest`)."""
-        return read_manifest(self.file)
+        """The first header on disk (None without one) and the chunk lines by (label, stage,
+        index), the last winning; a second header of another run makes the run id
+        ``"<mixed>"`` (never resumed)."""
+        header = None
+        entries: dict[ChunkKey, dict[str, Any]] = {}
+        for obj in _manifest_objects(self.file):
+            if obj.get("kind") == "header":
+                if header is None:
+                    header = obj
+                elif obj.get("run_id") != header.get("run_id"):
+                    header = {**header, "run_id": "<mixed>", "format": header.get("format")}
+            elif obj.get("kind") == "complete":
+                if header is not None and obj.get("run") == header.get("run_id"):
+                    header = {**header, "complete": True}
+            elif obj.get("kind") == "chunk":
+                try:
+                    entries[(str(obj["label"]), int(obj["stage"]), int(obj["index"]))] = obj
+                except (KeyError, TypeError, ValueError):
+                    continue
+        return header, entries
 
     def isolated(self) -> dict[tuple[str, int], dict[int, str]]:
         """This run's samples found to crash or hang, by (label, stage): row -> reason."""
         out: dict[tuple[str, int], dict[int, str]] = {}
-        if not self.file.is_file() or self.file.is_symlink():
-            return out
-        try:
-            text = self.file.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError):
-            return out
-        for line in text.splitlines():
+        for obj in _manifest_objects(self.file):
+            if obj.get("kind") != "isolated" or obj.get("run") != self.run_id:
+                continue
             try:
-                obj = json.loads(line)
-                if not isinstance(obj, dict) or obj.get("kind") != "isolated" or \
-                        obj.get("run") != self.run_id:
-                    continue
                 key = (str(obj["label"]), int(obj["stage"]))
                 out.setdefault(key, {})[int(obj["row"])] = str(obj["reason"])
-            except (json.JSONDecodeError, KeyError, TypeError, ValueError):
-                continue  # a torn line: that sample runs again, isolated again
+            except (KeyError, TypeError, ValueError):
+                continue  # a malformed line: that sample runs again, isolated again
         return out
 
     def record_isolated(self, label: str, stage: int, row: int, reason: str) -> None:
         """List a sample that crashed or hung its process, with its design row and reason."""
         self.append({"kind": "isolated", "run": self.run_id, "label": label, "stage": stage,
                      "row": row, "reason": reason})
-
-    def n_chunks(self) -> int:
-        """Chunk lines on disk: what a resume will find."""
-        return len(self.read()[1])
 
     def start(self) -> None:
         """Write the header of a fresh run (the folder exists and is empty)."""
@@ -397,11 +402,6 @@ class RunManifest:
             return False
         return _HEADER_START.startswith(head)
 
-    def mark_complete(self) -> None:
-        """Say that every chunk of the run is done: a folder left by an interrupt in the final
-        write is then recognised as a finished run, not an unfinished one."""
-        self.append({"kind": "complete", "run": self.run_id})
-
     def _ours(self, path: Path, listed: set[str]) -> bool:
         """Whether ``path`` is uqguide's to delete: a regular file the manifest lists, a
         temporary file of a writer that is gone, or a chunk file of this run that says so inside
@@ -467,113 +467,27 @@ def _is_chunk_file(path: Path) -> bool:
         return False
 
 
-def read_manifest(path: Path) -> tuple[dict[str, Any] | None, dict[ChunkKey, dict[str, Any]]]:
-    """The first header (None without one) and the chunk lines by (label, stage, index), the
-    last winning; a second header of another run makes the run id ``"<mixed>"`` (never
-    resumed)."""
+def _manifest_objects(path: Path) -> Iterator[dict[str, Any]]:
+    """The manifest's lines that are JSON objects, none from a file that cannot be read; a line
+    torn by a kill while it was appended is skipped (what it listed runs again)."""
     if not path.is_file() or path.is_symlink():
-        return None, {}
-    header = None
-    entries: dict[ChunkKey, dict[str, Any]] = {}
+        return
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
-        return None, {}
+        return
     for line in text.splitlines():
         try:
             obj = json.loads(line)
         except json.JSONDecodeError:
-            continue  # a line torn by a kill while it was appended: its chunk is re-run
-        if not isinstance(obj, dict):
             continue
-        if obj.get("kind") == "header":
-            if header is None:
-                header = obj
-            elif obj.get("run_id") != header.get("run_id"):
-                header = {**header, "run_id": "<mixed>", "format": header.get("format")}
-        elif obj.get("kind") == "complete":
-            if header is not None and obj.get("run") == header.get("run_id"):
-                header = {**header, "complete": True}
-        elif obj.get("kind") == "chunk":
-            try:
-                entries[(str(obj["label"]), int(obj["stage"]), int(obj["index"]))] = obj
-            except (KeyError, TypeError, ValueError):
-                continue
-    return header, entries
-
-
-# ---------------------------------------------------------------------------- the chunks
-class ChunkStore:
-    """The chunks of the run ``run_id`` listed in the folder ``folder`` (a stored chunk of
-    another run is refused); ``entries``: the manifest's chunk lines by (label, stage, index)."""
-
-    def __init__(self, folder: Path, run_id: str,
-                 entries: dict[ChunkKey, dict[str, Any]] | None = None) -> None:
-        self.folder = folder
-        self.run_id = run_id
-        self._entries: dict[ChunkKey, dict[str, Any]] = dict(entries or {})
-
-    def __len__(self) -> int:
-        return len(self._entries)
-
-    def entry(self, label: str, stage: int, result: ChunkResult) -> dict[str, Any]:
-        """The manifest line of a chunk (its file is named after its label, stage and index;
-        stage 0 is the initial design, then one per refinement)."""
-        t = result.task
-        return {"kind": "chunk", "run": self.run_id, "label": label, "stage": stage,
-                "index": t.index, "start": t.start, "stop": t.stop,
-                "file": f"{label}.s{stage}.c{t.index:06d}.npz", "n_failed": result.n_failed}
-
-    def add(self, entry: dict[str, Any]) -> None:
-        """List a chunk whose file is on disk and whose line is in the manifest."""
-        self._entries[(entry["label"], entry["stage"], entry["index"])] = entry
-
-    def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
-        """The stored result of a chunk, or None; ConfigError for a chunk of another run."""
-        e = self._entries.get((label, stage, task.index))
-        if e is None:
-            return None
-        if e.get("run") != self.run_id:
-            raise ConfigError(
-                f"cannot resume {self.folder}: chunk {task.index} of {label} ({e.get('file')}) "
-                f"belongs to another run (run id {str(e.get('run'))[:12]}, this run "
-                f"{self.run_id[:12]}); delete the folder to start over", field="resume")
-        if (e["start"], e["stop"]) != (task.start, task.stop):
-            log.warning("%s: chunk %d of %s has other bounds than stored; re-running it",
-                        self.folder, task.index, label)
-            return None
-        try:
-            r = read_chunk(self.folder / e["file"], task)
-        except ForeignChunk as exc:
-            raise ConfigError(f"cannot resume {self.folder}: {e['file']} {exc} (this run "
-                              f"{self.run_id[:12]}, {label} stage {stage}); delete the "
-                              f"folder to start over", field="resume") from None
-        except (OSError, ValueError, KeyError) as exc:
-            log.warning("%s: cannot read %s (%s); re-running the chunk", self.folder, e["file"],
-                        exc)
-            return None
-        if r.run_id != self.run_id or r.label != label or r.stage != stage:
-            raise ConfigError(
-                f"cannot resume {self.folder}: {e['file']} belongs to another run or method "
-                f"(run id {r.run_id[:12]}, {r.label} stage {r.stage}; this run "
-                f"{self.run_id[:12]}, {label} stage {stage}); delete the folder to start over",
-                field="resume")
-        return r.result
+        if isinstance(obj, dict):
+            yield obj
 
 
 # ---------------------------------------------------------------------------- chunk files
 class ForeignChunk(ValueError):
     """A chunk file written by another run."""
-
-
-@dataclass
-class StoredChunk:
-    """A chunk file read back: its result and whose it says it is."""
-
-    result: ChunkResult
-    run_id: str
-    label: str
-    stage: int
 
 
 def write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int) -> None:
@@ -600,9 +514,10 @@ def write_chunk(path: Path, r: ChunkResult, run_id: str, label: str, stage: int)
         np.savez(f, **arrays)
 
 
-def read_chunk(path: Path, task: Task) -> StoredChunk:
-    """Read back the chunk file of ``task``: ForeignChunk when it carries no run id; ValueError,
-    KeyError or OSError when it is not the chunk's or not readable."""
+def read_chunk(path: Path, task: Task) -> tuple[tuple[str, str, int], ChunkResult]:
+    """Read back the chunk file of ``task``: whose it says it is (run id, label, stage) and its
+    result. ForeignChunk when it carries no run id; ValueError, KeyError or OSError when it is
+    not the chunk's or not readable."""
     with np.load(path, allow_pickle=False) as z:
         data = {k: z[k] for k in z.files}
     if "run_id" not in data:
@@ -612,14 +527,14 @@ def read_chunk(path: Path, task: Task) -> StoredChunk:
     arrays = _unpack(str(data["index"]), data["packed"])
     pick = {p: {k[len(p) + 1:]: v for k, v in arrays.items() if k.startswith(p + ".")}
             for p in ("scalar", "series", "summary")}
-    return StoredChunk(run_id=str(data["run_id"]), label=str(data["label"]),
-                       stage=int(data["stage"]), result=ChunkResult(
+    whose = (str(data["run_id"]), str(data["label"]), int(data["stage"]))
+    return whose, ChunkResult(
         task=task, failed=data["failed"].astype(bool),
         reasons=np.array(data["reasons"].tolist(), dtype=object).reshape(-1),
         time=data["time"], scalars=pick["scalar"], series=pick["series"],
         summary=pick["summary"], model_seconds=float(data["model_seconds"]),
         # (a chunk written before CPU seconds were kept: 0)
-        cpu_seconds=float(data.get("cpu_seconds", 0.0))))
+        cpu_seconds=float(data.get("cpu_seconds", 0.0)))
 
 
 def _pack(arrays: dict[str, np.ndarray]) -> tuple[str, np.ndarray]:
@@ -742,14 +657,15 @@ def run_dir(out_dir: str | Path, name: str) -> Path:
 
 
 class RunStore:
-    """A run folder with the run's identity (:func:`run_identity`); only the driver writes it."""
+    """A run folder with the run's identity (:func:`run_identity`); only the driver writes it.
+    A stored chunk of another run is refused."""
 
     def __init__(self, path: Path, identity: dict[str, Any]) -> None:
         self.path = path
         self.manifest = RunManifest(path, identity)
-        self.identity = self.manifest.identity
         self.run_id = self.manifest.run_id
-        self.chunks = ChunkStore(path, self.run_id)
+        #: The manifest's chunk lines by (label, stage, index).
+        self.entries: dict[ChunkKey, dict[str, Any]] = {}
         self.writer: CheckpointWriter[tuple[str, int, ChunkResult]] = \
             CheckpointWriter(self._save_now)
         #: Samples found to crash or hang their process, by (label, stage): row -> reason.
@@ -773,7 +689,7 @@ class RunStore:
         header, entries = store.manifest.read()
         if header is not None and resume:
             store.manifest.check_same_run(header)
-            store.chunks = ChunkStore(path, store.run_id, entries)
+            store.entries = dict(entries)
             store.isolated = store.manifest.isolated()
             clean_stale_temps(path)
             log.info("resuming %s: %d chunks already done", path, len(entries))
@@ -806,7 +722,7 @@ class RunStore:
         """Chunks listed in the manifest on disk: what a resume will find. Read from the file,
         not the in-memory list, because an interrupt can land between a chunk's manifest line
         and its bookkeeping here."""
-        return self.manifest.n_chunks()
+        return len(self.manifest.read()[1])
 
     def known_isolated(self, label: str, stage: int) -> dict[int, str]:
         """Design rows of a stage known to crash or hang their process, with the reason."""
@@ -819,26 +735,50 @@ class RunStore:
         self.manifest.record_isolated(label, stage, row, reason)
 
     def load(self, label: str, stage: int, task: Task) -> ChunkResult | None:
-        return self.chunks.load(label, stage, task)
+        """The stored result of a chunk, or None; ConfigError for a chunk of another run."""
+        e = self.entries.get((label, stage, task.index))
+        if e is None:
+            return None
+        if e.get("run") != self.run_id:
+            raise ConfigError(
+                f"cannot resume {self.path}: chunk {task.index} of {label} ({e.get('file')}) "
+                f"belongs to another run (run id {str(e.get('run'))[:12]}, this run "
+                f"{self.run_id[:12]}); delete the folder to start over", field="resume")
+        if (e["start"], e["stop"]) != (task.start, task.stop):
+            log.warning("%s: chunk %d of %s has other bounds than stored; re-running it",
+                        self.path, task.index, label)
+            return None
+        try:
+            (run_id, stored_label, stored_stage), r = read_chunk(self.path / e["file"], task)
+        except ForeignChunk as exc:
+            raise ConfigError(f"cannot resume {self.path}: {e['file']} {exc} (this run "
+                              f"{self.run_id[:12]}, {label} stage {stage}); delete the "
+                              f"folder to start over", field="resume") from None
+        except (OSError, ValueError, KeyError) as exc:
+            log.warning("%s: cannot read %s (%s); re-running the chunk", self.path, e["file"],
+                        exc)
+            return None
+        if (run_id, stored_label, stored_stage) != (self.run_id, label, stage):
+            raise ConfigError(
+                f"cannot resume {self.path}: {e['file']} belongs to another run or method "
+                f"(run id {run_id[:12]}, {stored_label} stage {stored_stage}; this run "
+                f"{self.run_id[:12]}, {label} stage {stage}); delete the folder to start over",
+                field="resume")
+        return r
 
     def save(self, label: str, stage: int, result: ChunkResult) -> None:
         """Queue one chunk for the writer thread (:class:`CheckpointWriter`): its file, then its
         manifest line."""
         self.writer.put((label, stage, result))
 
-    def flush(self) -> None:
-        """Wait until every queued chunk is on disk and listed; raise the writer's error."""
-        self.writer.flush()
-
-    def drain(self) -> None:
-        self.writer.drain()
-
     def close(self) -> None:
         self.writer.close()
 
     def mark_complete(self) -> None:
+        """Say that every chunk of the run is done: a folder left by an interrupt in the final
+        write is then recognised as a finished run, not an unfinished one."""
         self.close()
-        self.manifest.mark_complete()
+        self.manifest.append({"kind": "complete", "run": self.run_id})
 
     def remove(self) -> list[str]:
         """Delete the run's files and the folder once the result file holds everything."""
@@ -848,7 +788,12 @@ class RunStore:
     def _save_now(self, item: tuple[str, int, ChunkResult]) -> None:
         # The file first, then its line: a chunk listed in the manifest is whole on disk.
         label, stage, result = item
-        entry = self.chunks.entry(label, stage, result)
-        write_chunk(self.path / entry["file"], result, self.run_id, label, stage)
+        t = result.task
+        # named after its label, stage (0: the initial design, then one per refinement), index
+        file = f"{label}.s{stage}.c{t.index:06d}.npz"
+        entry = {"kind": "chunk", "run": self.run_id, "label": label, "stage": stage,
+                 "index": t.index, "start": t.start, "stop": t.stop, "file": file,
+                 "n_failed": result.n_failed}
+        write_chunk(self.path / file, result, self.run_id, label, stage)
         self.manifest.append(entry)
-        self.chunks.add(entry)
+        self.entries[(label, stage, t.index)] = entry

@@ -108,11 +108,8 @@ class Slot:
         return np.memmap(self.path, dtype=np.dtype(self.dtype), mode="r+", shape=self.shape)
 
 
-@dataclass(frozen=True)
-class RowsLayout:
-    """Where a chunk's per-run values go (picklable: it travels with every chunk)."""
-
-    slots: tuple[Slot, ...]
+#: Where a chunk's per-run values go (picklable: it travels with every chunk).
+RowsLayout = tuple[Slot, ...]
 
 
 @dataclass

@@ -44,7 +44,7 @@ class GuardUnavailable(ModelError):
 
 
 def _serve(conn: Any, memory_limit: int | None = None) -> None:
-    # SIGTERM, not SIGKILL, from a dying parent and from _stop: the guard's handler kills the
+    # SIGTERM, not SIGKILL, from a dying parent and from close: the guard's handler kills the
     # external programs it waits for (core.process_groups) before it goes
     die_with_parent(signal.SIGTERM)
     stop_on_sigterm()
@@ -185,7 +185,8 @@ class Guard:
             raise GuardUnavailable(f"cannot build the model in the guard process: {value}")
         self._prepared = key
 
-    def _stop(self) -> None:
+    def close(self) -> None:
+        """Stop the guard process (a later call starts a fresh one)."""
         if self._proc is not None:
             if self._proc.is_alive():
                 # SIGTERM lets a guard waiting on a command's program kill that program's
@@ -206,7 +207,7 @@ class Guard:
         "raised", reason)``; a ModelError (the caller's mistake, not the sample's) is raised
         here."""
         if self._proc is None or not self._proc.is_alive():
-            self._stop()
+            self.close()
             self._start(handle)
         try:
             self._prepare(handle)  # the start of a fresh guard is not the model's time
@@ -215,17 +216,17 @@ class Guard:
             if ready:
                 status, value = self._conn.recv()
             else:
-                self._stop()
+                self.close()
                 return "timeout", (f"model call did not finish within timeout_s = "
                                    f"{self.timeout_s:g} s (killed)")
         except KeyboardInterrupt:
-            self._stop()  # a call cut short leaves a guard in an unknown state
+            self.close()  # a call cut short leaves a guard in an unknown state
             raise
         except (EOFError, OSError, BrokenPipeError):
             if self._proc is not None:
                 self._proc.join(5)  # its exit code says why it ended
             code = self._proc.exitcode if self._proc is not None else None
-            self._stop()
+            self.close()
             if code == OVER_MEMORY_EXIT and self.memory_limit is not None:
                 return "crashed", (f"model process went over its memory limit (max_memory = "
                                    f"{self.memory_limit / 2**20:.0f} MiB per process)")
@@ -233,9 +234,6 @@ class Guard:
         if status == "model_error":
             raise ModelError(value)
         return status, value
-
-    def close(self) -> None:
-        self._stop()
 
 
 _GUARDS: dict[tuple[float | None, int | None], Guard] = {}

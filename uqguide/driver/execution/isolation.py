@@ -69,9 +69,8 @@ def assemble_pieces(model: Model, pieces: Sequence[ModelOutput | tuple[int, str]
     """One batch's output from its evaluated pieces and its failed ones (``(n_samples,
     reason)``), in order; failed pieces get the grid of an evaluated one (or of a probe run)."""
     grid = next((p.time for p in pieces if isinstance(p, ModelOutput)), None)
-    if grid is None and any(model.output_info(o).kind == "series" for o in outputs):
+    if grid is None:
         grid = _probe_grid(model, outputs)
-    grid = np.zeros(0) if grid is None else grid
     parts = [p if isinstance(p, ModelOutput) else failed_output(model, p[0], outputs, p[1], grid)
              for p in pieces]
     return ModelOutput.concatenate(parts)
@@ -119,14 +118,17 @@ def skipping_known(model: Model, x: np.ndarray, outputs: Collection[str],
     return assemble_pieces(model, pieces, outputs)
 
 
-def _probe_grid(model: Model, outputs: Collection[str]) -> np.ndarray | None:
-    """The time grid of the model's nominal run (for a batch in which every sample raised)."""
+def _probe_grid(model: Model, outputs: Collection[str]) -> np.ndarray:
+    """The time grid of the model's nominal run (for a batch in which every sample raised);
+    empty without a series output."""
+    if not any(model.output_info(o).kind == "series" for o in outputs):
+        return np.zeros(0)
     try:
         return model.evaluate(np.zeros((1, 0)), [], outputs).time
     except ModelError:
         raise
     except Exception:  # noqa: BLE001 - no grid to be had: the failed chunk carries none
-        return None
+        return np.zeros(0)
 
 
 def common_grid(parts: list[ModelOutput]) -> list[ModelOutput]:
@@ -151,10 +153,7 @@ def failed_output(model: Model, n: int, outputs: Collection[str], reason: str,
     defaults to the grid of the model's nominal run."""
     infos = [model.output_info(o) for o in outputs]
     if time_grid is None:
-        time_grid = np.zeros(0)
-        if any(i.kind == "series" for i in infos):
-            probe = _probe_grid(model, outputs)
-            time_grid = probe if probe is not None else time_grid
+        time_grid = _probe_grid(model, outputs)
     T = time_grid.shape[0]
     return ModelOutput(
         time=time_grid,

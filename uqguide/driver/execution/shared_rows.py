@@ -13,7 +13,7 @@ import logging
 import os
 import secrets
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +33,7 @@ def write_in_place(layout: RowsLayout, r: ChunkResult) -> ChunkResult:
     cannot be written (its file gone) stays in the result and travels by the pipe."""
     scalars, summary = dict(r.scalars), dict(r.summary)
     done = []
-    for s in layout.slots:
+    for s in layout:
         src = scalars if s.part == "scalars" else summary
         v = src.get(s.key)
         if v is None or v.ndim != len(s.shape) or v.dtype != np.dtype(s.dtype):
@@ -53,12 +53,12 @@ def write_in_place(layout: RowsLayout, r: ChunkResult) -> ChunkResult:
     return replace(r, scalars=scalars, summary=summary, in_place=tuple(done))
 
 
+@dataclass
 class SharedRows:
     """The driver's side: the stage's shared arrays, views of them for each result."""
 
-    def __init__(self, layout: RowsLayout, arrays: dict[tuple[str, str], np.ndarray]) -> None:
-        self.layout = layout
-        self.arrays = arrays
+    layout: RowsLayout
+    arrays: dict[tuple[str, str], np.ndarray]
 
     @classmethod
     def for_result(cls, first: ChunkResult, n_runs: int,
@@ -94,7 +94,7 @@ class SharedRows:
             for p in SHM_DIR.glob(f"{tag}-*"):
                 p.unlink(missing_ok=True)
             return None
-        return cls(RowsLayout(tuple(slots)), arrays)
+        return cls(tuple(slots), arrays)
 
     def scalar_array(self, key: str) -> np.ndarray | None:
         """The stage's array of a scalar output, ``(n_runs, ...)``, if it is shared."""
@@ -116,7 +116,7 @@ class SharedRows:
 
     def close(self) -> None:
         """Unlink the files (the driver's views stay valid until they are dropped)."""
-        for s in self.layout.slots:
+        for s in self.layout:
             Path(s.path).unlink(missing_ok=True)
 
 

@@ -65,15 +65,12 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
     out = ModelOutput.concatenate(common_grid(parts))
     # a first call that compiles the kernel is timed as compiling, not as running the model
     compiled = spent.compile_seconds
-    seconds = max(time.perf_counter() - t0 - compiled, 0.0)
-    cpu = spent.cpu_seconds
+    result = ChunkResult(task, out.failed, out.reasons, out.time, out.scalars, out.series,
+                         model_seconds=max(time.perf_counter() - t0 - compiled, 0.0),
+                         compile_seconds=compiled, cpu_seconds=spent.cpu_seconds)
     if job.reducer is None:
-        return ChunkResult(task, out.failed, out.reasons, out.time, out.scalars, out.series,
-                           model_seconds=seconds, compile_seconds=compiled, cpu_seconds=cpu)
-    summary = job.reducer(out, task.index)
-    result = ChunkResult(task, out.failed, out.reasons, out.time, out.scalars,
-                         summary=summary, model_seconds=seconds, compile_seconds=compiled,
-                         cpu_seconds=cpu)
+        return result
+    result = replace(result, series={}, summary=job.reducer(out, task.index))
     return write_in_place(job.shared, result) if job.shared is not None else result
 
 
