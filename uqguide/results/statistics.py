@@ -244,19 +244,19 @@ class OutputStatistics:
         PCE's surrogate is not usable (its moments are NaN for that reason)."""
         if not self.usable_at(where):
             return []
-        mean, std, skew, kurt = (self.moment(n).value[where] for n in STAT_NAMES)
-        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample",
-                           n_used=self.n_used)
+        masks = self._overflow_masks(where)
         return [n for n in STAT_NAMES if bool(masks[n])]
 
     @property
     def overflows(self) -> bool:
         """Whether any of the method's own moments overflowed, anywhere (:meth:`overflowed_at`)."""
-        mean, std, skew, kurt = (m.value for m in self.moments)
-        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample",
-                           n_used=self.n_used)
         usable = True if self.usable is None else self.usable
-        return any(bool(np.any(m & usable)) for m in masks.values())
+        return any(bool(np.any(m & usable)) for m in self._overflow_masks(...).values())
+
+    def _overflow_masks(self, where: Any) -> dict[str, np.ndarray]:
+        mean, std, skew, kurt = (m.value[where] for m in self.moments)
+        return overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample",
+                          n_used=self.n_used)
 
     def needs_runs(self, name: str) -> int | None:
         """The runs the sample moment (or quantile) ``name`` needs when the method's were fewer
