@@ -322,16 +322,10 @@ class OutputStatistics:
         return normal_theory[name]
 
 
-def method_statistics(label: str, stats: Mapping[str, OutputStats],
-                      outputs: Sequence[OutputInfo]) -> dict[str, OutputStatistics]:
-    """The description of one method's statistics, output by output, in the result's outputs'
-    order, for the outputs the method has statistics of."""
-    return {o.name: OutputStatistics.of(label, o, stats[o.name])
-            for o in outputs if o.name in stats}
-
-
 def result_statistics(result: Result) -> dict[str, dict[str, OutputStatistics]]:
     """The description of every method's statistics of a result: by method label (the
-    result's order), then by output name."""
-    return {r.label: method_statistics(r.label, r.estimate.stats, result.outputs)
+    result's order), then by output name (the result's order; the outputs the method has
+    statistics of)."""
+    return {r.label: {o.name: OutputStatistics.of(r.label, o, r.estimate.stats[o.name])
+                      for o in result.outputs if o.name in r.estimate.stats}
             for r in result.runs}
