@@ -230,8 +230,9 @@ def read_stats(g: Any, outputs: Sequence[OutputInfo]) -> dict[str, OutputStats]:
         if f"{name}_quantile" in g:
             s.quantile_levels = tuple(float(p) for p in get("quantile"))
             s.quantiles, s.ci_quantiles = get(f"{name}_quantile"), get(f"{name}_ci_quantile")
-        if f"{name}_sobol_first" in g:
-            s.sobol_estimator = str(attrs(f"{name}_sobol_first").get("estimator", "pce"))
+        s.sobol_estimator = next((str(attrs(f"{name}_sobol_{kind}").get("estimator", "pce"))
+                                  for kind in ("first", "total", "group_first", "group_total")
+                                  if f"{name}_sobol_{kind}" in g), "")
         if f"{name}_sobol_group_first" in g:
             s.sobol_groups = tuple(v.decode() if isinstance(v, bytes) else str(v)
                                    for v in get("group"))

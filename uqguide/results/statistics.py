@@ -25,7 +25,7 @@ from ..core.types import RUNS_NEEDED, STAT_NAMES, OutputStats
 from ..errors import ResultError
 from ..stats.moments import overflowed
 from ..stats.quantiles import level_name
-from .dataset import SOURCES, layout
+from .dataset import SOURCES, layout, read_stats
 
 if TYPE_CHECKING:
     from ..models.base import OutputInfo
@@ -192,38 +192,25 @@ class OutputStatistics:
     def read(cls, label: str, output: OutputInfo, ds: Mapping[str, Any]) -> OutputStatistics:
         """The description of the statistics of ``output`` in one method's Dataset ``ds`` (an
         ``xarray.Dataset`` or a mapping of :class:`~uqguide.results.dataset.Variable`)."""
-        o = output.name
-
-        def get(name: str) -> Any:
-            return ds[f"{o}_{name}"].values if f"{o}_{name}" in ds else None
-
-        usable = None if get("usable") is None else np.asarray(get("usable"), dtype=bool)
-        ci, given = get("ci"), ds[f"{o}_ci"].attrs["statistics"] if f"{o}_ci" in ds else ()
-        moments = tuple(Statistic(label, n, "moment", ds[o].values[j],
-                                  ci[:, j] if n in given else None,
-                                  get("sem") if n == "mean" else None,
-                                  True if usable is None else usable)
-                        for j, n in enumerate(STAT_NAMES))
-        other = {kind: tuple(Statistic(label + SOURCES[ds[f"{o}_{kind}"].attrs["source"]], n,
-                                       kind, ds[f"{o}_{kind}"].values[j],
-                                       get(f"{kind}_ci")[:, j])
-                             for j, n in enumerate(STAT_NAMES)) if f"{o}_{kind}" in ds else ()
+        s = read_stats(ds, [output])[output.name]
+        moments = tuple(Statistic(label, n, "moment", s.stat(n), s.ci.get(n),
+                                  s.sem if n == "mean" else None,
+                                  True if s.usable is None else s.usable)
+                        for n in STAT_NAMES)
+        other = {kind: tuple(Statistic(label + SOURCES[ds[f"{output.name}_{kind}"].attrs["source"]],
+                                       n, kind, getattr(s, kind)[n], getattr(s, f"{kind}_ci")[n])
+                             for n in STAT_NAMES) if getattr(s, kind) else ()
                  for kind in ("corrected", "fallback")}
-        quantiles = () if get("quantile") is None else tuple(
-            Statistic(label, level_name(float(p)), "quantile", get("quantile")[j],
-                      get("ci_quantile")[:, j], usable=None, level=float(p))
-            for j, p in enumerate(ds["quantile"].values))
-        estimator = next((str(ds[f"{o}_sobol_{kind}"].attrs["estimator"])
-                          for kind in ("first", "total", "group_first", "group_total")
-                          if f"{o}_sobol_{kind}" in ds), "")
-        groups = tuple(str(g) for g in ds["group"].values) \
-            if f"{o}_sobol_group_first" in ds else ()
-        return cls(label, output, moments, other["corrected"], quantiles,
-                   int(ds[o].attrs["n_used"]), str(ds[o].attrs["moments_method"]), get("cov"),
-                   get("sobol_first"), get("sobol_total"), get("validation_error"), usable,
-                   other["fallback"], get("sobol_first_ci"), get("sobol_total_ci"), estimator,
-                   groups, get("sobol_group_first"), get("sobol_group_first_ci"),
-                   get("sobol_group_total"), get("sobol_group_total_ci"))
+        table = s.quantile_table()
+        quantiles = () if table is None else tuple(
+            Statistic(label, level_name(p), "quantile", table[1][j], table[2][:, j],
+                      usable=None, level=p)
+            for j, p in enumerate(table[0]))
+        return cls(label, output, moments, other["corrected"], quantiles, s.n_used,
+                   s.moments_method, s.cov, s.sobol_first, s.sobol_total, s.validation_error,
+                   s.usable, other["fallback"], s.sobol_first_ci, s.sobol_total_ci,
+                   s.sobol_estimator, s.sobol_groups, s.sobol_group_first,
+                   s.sobol_group_first_ci, s.sobol_group_total, s.sobol_group_total_ci)
 
     @property
     def statistics(self) -> tuple[Statistic, ...]:
