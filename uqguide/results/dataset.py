@@ -90,14 +90,6 @@ def stats_dataset(stats: Mapping[str, OutputStats], outputs: Sequence[OutputInfo
                                                 if d in used or d == "time"})
 
 
-def _moments(values: Mapping[str, np.ndarray]) -> np.ndarray:
-    return np.stack([values[n] for n in STAT_NAMES])
-
-
-def _bands(bands: Mapping[str, np.ndarray]) -> np.ndarray:
-    return np.stack([bands[n] for n in STAT_NAMES], axis=1)
-
-
 def _output_variables(o: OutputInfo, s: OutputStats,
                       coords: dict[str, Variable]) -> dict[str, Variable]:
     """The variables of one output's statistics; adds the coordinates they need to ``coords``."""
@@ -107,7 +99,7 @@ def _output_variables(o: OutputInfo, s: OutputStats,
         dim = component_dim(o.name, second)
         coords[dim] = Variable((dim,), names, {})
     out = {
-        o.name: Variable(("statistic", *base), _moments({n: s.stat(n) for n in STAT_NAMES}),
+        o.name: Variable(("statistic", *base), np.stack([s.stat(n) for n in STAT_NAMES]),
                          {"units": o.unit, "long_name": o.description, "kind": o.kind,
                           "n_used": int(s.n_used), "moments_method": s.moments_method,
                           "source": "own"}),
@@ -157,12 +149,13 @@ def _output_variables(o: OutputInfo, s: OutputStats,
             ("fallback", "mc", "where the PCE withholds a moment: the Monte Carlo estimate of "
                                "its own fit and validation runs",
              "95% interval, the runs treated as independent draws")):
-        if getattr(s, field):
+        values, bands = getattr(s, field), getattr(s, f"{field}_ci")
+        if values:
             out[f"{o.name}_{field}"] = Variable(
-                ("statistic", *base), _moments(getattr(s, field)),
+                ("statistic", *base), np.stack([values[n] for n in STAT_NAMES]),
                 {"units": o.unit, "source": source, "description": what})
             out[f"{o.name}_{field}_ci"] = Variable(
-                ("bound", "statistic", *base), _bands(getattr(s, f"{field}_ci")),
+                ("bound", "statistic", *base), np.stack([bands[n] for n in STAT_NAMES], axis=1),
                 {"description": band_what})
     if s.validation_error is not None:
         out[f"{o.name}_validation_error"] = Variable(
