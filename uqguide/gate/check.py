@@ -151,27 +151,25 @@ class CheckReport:
         parts = [self.summary()]
         rows = self.rows if all_rows else self.failures
         if rows:
-            import pandas as pd
-
-            df = pd.DataFrame([{
+            noted = any(r.note for r in rows)
+            table = [{
                 "quantity": r.quantity, "unit": r.unit if r.stat in ("mean", "std") else "1",
                 "value": _fmt(r.value), "baseline": _fmt(r.baseline),
                 "difference": _fmt(r.difference), "tolerance": _fmt(r.tolerance),
                 "basis": r.basis, **({"ok": "yes" if r.passed else "NO"} if all_rows else {}),
-                "note": r.note,
-            } for r in rows])
-            if not df["note"].astype(bool).any():
-                df = df.drop(columns="note")
-            parts += ["", _text_table(df, left=("quantity", "basis", "note"))]
+                **({"note": r.note} if noted else {}),
+            } for r in rows]
+            parts += ["", _text_table(table, left=("quantity", "basis", "note"))]
         if self.notes:
             parts += ["", "Notes:"] + [f"- {n}" for n in self.notes]
         return "\n".join(parts)
 
 
-def _text_table(df: pd.DataFrame, left: tuple[str, ...]) -> str:
-    """Fixed-width text table: the ``left`` columns left-aligned, the others right-aligned."""
-    cols = [str(c) for c in df.columns]
-    cells = [[str(v) for v in row] for row in df.itertuples(index=False)]
+def _text_table(table: list[dict[str, str]], left: tuple[str, ...]) -> str:
+    """Fixed-width text table of rows of the same columns: the ``left`` columns left-aligned,
+    the others right-aligned."""
+    cols = list(table[0])
+    cells = [list(row.values()) for row in table]
     widths = [max([len(c)] + [len(r[j]) for r in cells]) for j, c in enumerate(cols)]
 
     def line(values: list[str]) -> str:
