@@ -187,17 +187,14 @@ def _fmt(v: float) -> str:
 
 
 def _flatten(d: Any, prefix: str = "") -> dict[str, Any]:
+    """The leaves of nested dicts and lists by dotted path (an empty list is a leaf)."""
     if isinstance(d, dict):
-        out: dict[str, Any] = {}
-        for k, v in d.items():
-            out.update(_flatten(v, f"{prefix}.{k}" if prefix else str(k)))
-        return out
-    if isinstance(d, list):
-        out = {}
-        for i, v in enumerate(d):
-            out.update(_flatten(v, f"{prefix}[{i}]"))
-        return out or {prefix: []}
-    return {prefix: d}
+        children = [(f"{prefix}.{k}" if prefix else str(k), v) for k, v in d.items()]
+    elif isinstance(d, list) and d:
+        children = [(f"{prefix}[{i}]", v) for i, v in enumerate(d)]
+    else:
+        return {prefix: d}
+    return {path: leaf for at, v in children for path, leaf in _flatten(v, at).items()}
 
 
 def config_differences(baseline_config: dict[str, Any],
