@@ -47,10 +47,6 @@ READ_VERSIONS = (2, 3, 4)
 #: The kinds of index a baseline point holds, ``<kind>:<input or group>``.
 INDEX_KINDS = ("first", "total", "group_first", "group_total")
 
-#: z of a two-sided 95% interval (a quantile's or an event's standard error is the half-width
-#: of its interval over this).
-Z95 = 1.959963984540054
-
 
 # ---------------------------------------------------------------------------- file schema
 class _Strict(BaseModel):
@@ -217,8 +213,7 @@ MFMC_SE_FACTOR = 1.5
 def _check_multifidelity_se(p: BaselinePoint, n_used: int, where: str) -> None:
     """A multi-fidelity point's standard errors: present, and the mean's no larger than
     plain MC's over its highest-level runs (``n_used``) would be (a bar loosened by hand)."""
-    if p.std is None:
-        return
+    assert p.std is not None
     if p.mean_se is None or not p.mean_se > 0:
         raise ValueError(f"{where}.mean_se must be a standard error > 0 for a multi-fidelity "
                          f"statistic (got {p.mean_se!r})")

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .baseline import (
-    SAMPLE_EVENTS, Z95, Baseline, BaselineEvent, BaselineOutput, BaselinePoint, delta_std_se,
+    SAMPLE_EVENTS, Baseline, BaselineEvent, BaselineOutput, BaselinePoint, delta_std_se,
     index_values, seal_note, to_jsonable, read_baseline, write_baseline,
 )
 from ..core.events import EventEstimate
@@ -32,7 +32,7 @@ from ..errors import ResultError
 from ..models.base import OutputInfo
 from ..results.dataset import misshapen
 from ..results.result import Result
-from ..results.statistics import SAMPLE, OutputStatistics, result_statistics
+from ..results.statistics import SAMPLE, Z95, OutputStatistics, result_statistics
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -151,27 +151,25 @@ class CheckReport:
         parts = [self.summary()]
         rows = self.rows if all_rows else self.failures
         if rows:
-            import pandas as pd
-
-            df = pd.DataFrame([{
-                "quantity": r.quantity, "unit": _stat_unit(r),
+            noted = any(r.note for r in rows)
+            table = [{
+                "quantity": r.quantity, "unit": r.unit if r.stat in ("mean", "std") else "1",
                 "value": _fmt(r.value), "baseline": _fmt(r.baseline),
                 "difference": _fmt(r.difference), "tolerance": _fmt(r.tolerance),
                 "basis": r.basis, **({"ok": "yes" if r.passed else "NO"} if all_rows else {}),
-                "note": r.note,
-            } for r in rows])
-            if not df["note"].astype(bool).any():
-                df = df.drop(columns="note")
-            parts += ["", _text_table(df, left=("quantity", "basis", "note"))]
+                **({"note": r.note} if noted else {}),
+            } for r in rows]
+            parts += ["", _text_table(table, left=("quantity", "basis", "note"))]
         if self.notes:
             parts += ["", "Notes:"] + [f"- {n}" for n in self.notes]
         return "\n".join(parts)
 
 
-def _text_table(df: pd.DataFrame, left: tuple[str, ...]) -> str:
-    """Fixed-width text table: the ``left`` columns left-aligned, the others right-aligned."""
-    cols = [str(c) for c in df.columns]
-    cells = [[str(v) for v in row] for row in df.itertuples(index=False)]
+def _text_table(table: list[dict[str, str]], left: tuple[str, ...]) -> str:
+    """Fixed-width text table of rows of the same columns: the ``left`` columns left-aligned,
+    the others right-aligned."""
+    cols = list(table[0])
+    cells = [list(row.values()) for row in table]
     widths = [max([len(c)] + [len(r[j]) for r in cells]) for j, c in enumerate(cols)]
 
     def line(values: list[str]) -> str:
@@ -179,10 +177,6 @@ def _text_table(df: pd.DataFrame, left: tuple[str, ...]) -> str:
                          for v, w, c in zip(values, widths, cols)).rstrip()
 
     return "\n".join([line(cols)] + [line(r) for r in cells])
-
-
-def _stat_unit(r: CheckRow) -> str:
-    return r.unit if r.stat in ("mean", "std") else "1"
 
 
 def _fmt(v: float) -> str:
@@ -193,17 +187,14 @@ def _fmt(v: float) -> str:
 
 
 def _flatten(d: Any, prefix: str = "") -> dict[str, Any]:
+    """The leaves of nested dicts and lists by dotted path (an empty list is a leaf)."""
     if isinstance(d, dict):
-        out: dict[str, Any] = {}
-        for k, v in d.items():
-            out.update(_flatten(v, f"{prefix}.{k}" if prefix else str(k)))
-        return out
-    if isinstance(d, list):
-        out = {}
-        for i, v in enumerate(d):
-            out.update(_flatten(v, f"{prefix}[{i}]"))
-        return out or {prefix: []}
-    return {prefix: d}
+        children = [(f"{prefix}.{k}" if prefix else str(k), v) for k, v in d.items()]
+    elif isinstance(d, list) and d:
+        children = [(f"{prefix}[{i}]", v) for i, v in enumerate(d)]
+    else:
+        return {prefix: d}
+    return {path: leaf for at, v in children for path, leaf in _flatten(v, at).items()}
 
 
 def config_differences(baseline_config: dict[str, Any],
@@ -318,17 +309,11 @@ def _compare_output(label: str, name: str, unit: str, bo: BaselineOutput, s: Out
             if sample:
                 se_a = s.standard_error(stat, where)
                 se_b = _baseline_moment_se(p, stat, bo.n_used, bo.moments_method)
-                comb = math.hypot(se_a, se_b)  # no overflow of the squares
-                row.tolerance = max(sigmas * comb, floor) if math.isfinite(comb) else floor
-                row.basis = f"{sigmas:g} x combined SE {_fmt(comb)}" \
-                    if row.tolerance > floor else "round-off floor (no spread)"
+                spread = math.hypot(se_a, se_b)  # no overflow of the squares
             else:
-                scale = {"mean": max(abs(b), abs(std_b)), "std": abs(b),
-                         "skewness": max(abs(b), 1.0), "kurtosis": abs(b)}[stat]
-                row.tolerance = max(pce_rtol * scale, floor) if math.isfinite(scale) else floor
-                row.basis = f"{100 * pce_rtol:g}% of {_fmt(scale)}" \
-                    if row.tolerance > floor else "round-off floor (no spread)"
-            _verdict(row, a, b)
+                spread = {"mean": max(abs(b), abs(std_b)), "std": abs(b),
+                          "skewness": max(abs(b), 1.0), "kurtosis": abs(b)}[stat]
+            _judge(row, a, b, spread, sample, sigmas, pce_rtol, floor)
         if where is not None:
             rows += _compare_quantiles(label, name, unit, p, s, where, sample, sigmas,
                                        pce_rtol, floor, bo.n_used)
@@ -371,6 +356,19 @@ def _compare_indices(label: str, name: str, p: BaselinePoint,
             row.basis = f"{pce_rtol:g} absolute (a PCE's index)"
         _verdict(row, a, b)
     return rows
+
+
+def _judge(row: CheckRow, a: float, b: float, spread: float, sample: bool, sigmas: float,
+           pce_rtol: float, floor: float) -> None:
+    """The verdict on ``a`` against the baseline's ``b`` within ``sigmas`` combined standard
+    errors ``spread`` (``sample``), else ``pce_rtol`` of the scale ``spread``: at least the
+    round-off ``floor``, and the floor alone where ``spread`` is not finite."""
+    k = sigmas if sample else pce_rtol
+    row.tolerance = max(k * spread, floor) if math.isfinite(spread) else floor
+    basis = f"{sigmas:g} x combined SE {_fmt(spread)}" if sample \
+        else f"{100 * pce_rtol:g}% of {_fmt(spread)}"
+    row.basis = basis if row.tolerance > floor else "round-off floor (no spread)"
+    _verdict(row, a, b)
 
 
 def _verdict(row: CheckRow, a: float, b: float) -> None:
@@ -443,8 +441,8 @@ def _compare_quantiles(label: str, name: str, unit: str, p: BaselinePoint, s: Ou
             # result has no interval here (an extreme level of few runs).
             se_a = _half_width_se(*q.interval(where))
             se_b = _baseline_se(se_a, s.n_used, n_used_b, _half_width_se(lo_b, hi_b))
-            comb = math.hypot(se_a, se_b)
-            if not math.isfinite(comb):
+            spread = math.hypot(se_a, se_b)
+            if not math.isfinite(spread):
                 # An extreme level of few runs (q0.00135 of 1000) has no two-sided
                 # order-statistic interval in either run: nothing the runs know bounds its
                 # sampling spread (it is about the sample's minimum), so it cannot be gated.
@@ -452,15 +450,9 @@ def _compare_quantiles(label: str, name: str, unit: str, p: BaselinePoint, s: Ou
                 row.basis = "not checked"
                 row.note = "no two-sided interval at these run counts (an extreme level)"
                 continue
-            row.tolerance = max(sigmas * comb, floor)
-            row.basis = f"{sigmas:g} x combined SE {_fmt(comb)}" \
-                if row.tolerance > floor else "round-off floor (no spread)"
         else:
-            scale = max(abs(b), abs(std_b)) if math.isfinite(std_b) else abs(b)
-            row.tolerance = max(pce_rtol * scale, floor)
-            row.basis = f"{100 * pce_rtol:g}% of {_fmt(scale)}" \
-                if row.tolerance > floor else "round-off floor (no spread)"
-        _verdict(row, a, b)
+            spread = max(abs(b), abs(std_b)) if math.isfinite(std_b) else abs(b)
+        _judge(row, a, b, spread, sample, sigmas, pce_rtol, floor)
     return rows
 
 

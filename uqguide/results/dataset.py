@@ -90,14 +90,6 @@ def stats_dataset(stats: Mapping[str, OutputStats], outputs: Sequence[OutputInfo
                                                 if d in used or d == "time"})
 
 
-def _moments(values: Mapping[str, np.ndarray]) -> np.ndarray:
-    return np.stack([values[n] for n in STAT_NAMES])
-
-
-def _bands(bands: Mapping[str, np.ndarray]) -> np.ndarray:
-    return np.stack([bands[n] for n in STAT_NAMES], axis=1)
-
-
 def _output_variables(o: OutputInfo, s: OutputStats,
                       coords: dict[str, Variable]) -> dict[str, Variable]:
     """The variables of one output's statistics; adds the coordinates they need to ``coords``."""
@@ -107,7 +99,7 @@ def _output_variables(o: OutputInfo, s: OutputStats,
         dim = component_dim(o.name, second)
         coords[dim] = Variable((dim,), names, {})
     out = {
-        o.name: Variable(("statistic", *base), _moments({n: s.stat(n) for n in STAT_NAMES}),
+        o.name: Variable(("statistic", *base), np.stack([s.stat(n) for n in STAT_NAMES]),
                          {"units": o.unit, "long_name": o.description, "kind": o.kind,
                           "n_used": int(s.n_used), "moments_method": s.moments_method,
                           "source": "own"}),
@@ -124,28 +116,22 @@ def _output_variables(o: OutputInfo, s: OutputStats,
                 ci[:, j] = s.ci[n]
         out[f"{o.name}_ci"] = Variable(("bound", "statistic", *base), ci,
                                        {"description": "95% interval", "statistics": given})
-    band = {"units": "1", "description": "95% interval"}
-    for kind in ("first", "total"):
-        sobol, sobol_ci = getattr(s, f"sobol_{kind}"), getattr(s, f"sobol_{kind}_ci")
-        if sobol is not None:
-            out[f"{o.name}_sobol_{kind}"] = Variable(
-                (*base, "input"), sobol, {"units": "1", "estimator": s.sobol_estimator or "pce"})
-            if sobol_ci is not None:
-                out[f"{o.name}_sobol_{kind}_ci"] = Variable(("bound", *base, "input"), sobol_ci,
-                                                            band)
-    if s.sobol_group_first is not None and s.sobol_groups:
+    groups = s.sobol_group_first is not None and bool(s.sobol_groups)
+    if groups:
         coords["group"] = Variable(("group",), np.array(s.sobol_groups, dtype=object), {})
-        estimator = s.sobol_estimator or ("pce" if s.sobol_first is not None else "given-data")
-        for kind in ("first", "total"):
-            sobol, sobol_ci = (getattr(s, f"sobol_group_{kind}"),
-                               getattr(s, f"sobol_group_{kind}_ci"))
-            if sobol is None:
-                continue
-            out[f"{o.name}_sobol_group_{kind}"] = Variable(
-                (*base, "group"), sobol, {"units": "1", "estimator": estimator})
-            if sobol_ci is not None:
-                out[f"{o.name}_sobol_group_{kind}_ci"] = Variable(
-                    ("bound", *base, "group"), sobol_ci, band)
+    group_estimator = s.sobol_estimator or ("pce" if s.sobol_first is not None else "given-data")
+    for kind, dim, estimator in (("first", "input", s.sobol_estimator or "pce"),
+                                 ("total", "input", s.sobol_estimator or "pce"),
+                                 ("group_first", "group", group_estimator),
+                                 ("group_total", "group", group_estimator)):
+        sobol, sobol_ci = getattr(s, f"sobol_{kind}"), getattr(s, f"sobol_{kind}_ci")
+        if sobol is None or (dim == "group" and not groups):
+            continue
+        out[f"{o.name}_sobol_{kind}"] = Variable((*base, dim), sobol,
+                                                 {"units": "1", "estimator": estimator})
+        if sobol_ci is not None:
+            out[f"{o.name}_sobol_{kind}_ci"] = Variable(
+                ("bound", *base, dim), sobol_ci, {"units": "1", "description": "95% interval"})
     table = s.quantile_table()
     if table is not None:
         levels = np.asarray(table[0], dtype=float)
@@ -163,12 +149,13 @@ def _output_variables(o: OutputInfo, s: OutputStats,
             ("fallback", "mc", "where the PCE withholds a moment: the Monte Carlo estimate of "
                                "its own fit and validation runs",
              "95% interval, the runs treated as independent draws")):
-        if getattr(s, field):
+        values, bands = getattr(s, field), getattr(s, f"{field}_ci")
+        if values:
             out[f"{o.name}_{field}"] = Variable(
-                ("statistic", *base), _moments(getattr(s, field)),
+                ("statistic", *base), np.stack([values[n] for n in STAT_NAMES]),
                 {"units": o.unit, "source": source, "description": what})
             out[f"{o.name}_{field}_ci"] = Variable(
-                ("bound", "statistic", *base), _bands(getattr(s, f"{field}_ci")),
+                ("bound", "statistic", *base), np.stack([bands[n] for n in STAT_NAMES], axis=1),
                 {"description": band_what})
     if s.validation_error is not None:
         out[f"{o.name}_validation_error"] = Variable(
@@ -199,6 +186,12 @@ def misshapen(s: OutputStats, o: OutputInfo, n_steps: int, where: str) -> str | 
     return None
 
 
+#: The arrays of :class:`OutputStats` a variable ``<output>_<field>`` holds as they are.
+_AS_THEY_ARE = ("sem", "sobol_first", "sobol_total", "sobol_first_ci", "sobol_total_ci",
+                "sobol_group_first", "sobol_group_first_ci", "sobol_group_total",
+                "sobol_group_total_ci", "validation_error")
+
+
 def read_stats(g: Any, outputs: Sequence[OutputInfo]) -> dict[str, OutputStats]:
     """The inverse of :func:`layout`, from its variables (a Dataset, or a mapping of
     :class:`Variable`) or a result file's method group (h5py) alike: by output name, for the
@@ -214,51 +207,36 @@ def read_stats(g: Any, outputs: Sequence[OutputInfo]) -> dict[str, OutputStats]:
 
     stats = {}
     for o in outputs:
-        if o.name not in g:
+        name = o.name
+        if name not in g:
             continue
-        stats[o.name] = s = _read_output(o.name, g, get, attrs)
-        if f"{o.name}_sobol_first" in g:
-            s.sobol_estimator = str(attrs(f"{o.name}_sobol_first").get("estimator", "pce"))
-            for kind in ("first_ci", "total_ci"):
-                if f"{o.name}_sobol_{kind}" in g:
-                    setattr(s, f"sobol_{kind}", get(f"{o.name}_sobol_{kind}"))
-        if f"{o.name}_sobol_group_first" in g and "group" in g:
+        m, a = get(name), attrs(name)
+        stats[name] = s = OutputStats(mean=m[0], std=m[1], skewness=m[2], kurtosis=m[3],
+                                      cov=get(f"{name}_cov"), n_used=int(a["n_used"]),
+                                      moments_method=str(a["moments_method"]))
+        for field in _AS_THEY_ARE:
+            if f"{name}_{field}" in g:
+                setattr(s, field, get(f"{name}_{field}"))
+        if f"{name}_ci" in g:
+            arr, known = get(f"{name}_ci"), list(attrs(f"{name}_ci")["statistics"])
+            s.ci = {n: arr[:, j] for j, n in enumerate(STAT_NAMES) if n in known}
+        if f"{name}_quantile" in g:
+            s.quantile_levels = tuple(float(p) for p in get("quantile"))
+            s.quantiles, s.ci_quantiles = get(f"{name}_quantile"), get(f"{name}_ci_quantile")
+        s.sobol_estimator = next((str(attrs(f"{name}_sobol_{kind}").get("estimator", "pce"))
+                                  for kind in ("first", "total", "group_first", "group_total")
+                                  if f"{name}_sobol_{kind}" in g), "")
+        if f"{name}_sobol_group_first" in g:
             s.sobol_groups = tuple(v.decode() if isinstance(v, bytes) else str(v)
                                    for v in get("group"))
-            for kind in ("first", "total", "first_ci", "total_ci"):
-                if f"{o.name}_sobol_group_{kind}" in g:
-                    setattr(s, f"sobol_group_{kind}", get(f"{o.name}_sobol_group_{kind}"))
         for field in ("corrected", "fallback"):
-            if f"{o.name}_{field}" in g:
-                values, bands = get(f"{o.name}_{field}"), get(f"{o.name}_{field}_ci")
+            if f"{name}_{field}" in g:
+                values, bands = get(f"{name}_{field}"), get(f"{name}_{field}_ci")
                 setattr(s, field, {n: values[j] for j, n in enumerate(STAT_NAMES)})
                 setattr(s, f"{field}_ci", {n: bands[:, j] for j, n in enumerate(STAT_NAMES)})
-        if f"{o.name}_validation_error" in g:
-            s.validation_error = get(f"{o.name}_validation_error")
-        if f"{o.name}_usable" in g:
-            s.usable = np.asarray(get(f"{o.name}_usable")).astype(bool)
+        if f"{name}_usable" in g:
+            s.usable = np.asarray(get(f"{name}_usable")).astype(bool)
     return stats
-
-
-def _read_output(name: str, g: Any, get: Any, attrs: Any) -> OutputStats:
-    """One output's moments, covariance, intervals, first Sobol' indices and quantiles."""
-    m, a = get(name), attrs(name)
-    ci = {}
-    if f"{name}_ci" in g:
-        arr, known = get(f"{name}_ci"), list(attrs(f"{name}_ci")["statistics"])
-        ci = {n: arr[:, j] for j, n in enumerate(STAT_NAMES) if n in known}
-    q = f"{name}_quantile" in g
-
-    def maybe(key: str) -> Any:
-        return get(key) if key in g else None
-
-    return OutputStats(
-        mean=m[0], std=m[1], skewness=m[2], kurtosis=m[3], cov=get(f"{name}_cov"),
-        n_used=int(a["n_used"]), moments_method=str(a["moments_method"]),
-        sem=maybe(f"{name}_sem"), ci=ci, sobol_first=maybe(f"{name}_sobol_first"),
-        sobol_total=maybe(f"{name}_sobol_total"),
-        quantile_levels=tuple(float(p) for p in get("quantile")) if q else None,
-        quantiles=maybe(f"{name}_quantile"), ci_quantiles=maybe(f"{name}_ci_quantile"))
 
 
 def stack(parts: list[xr.Dataset], labels: list[str]) -> xr.Dataset:

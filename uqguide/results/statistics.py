@@ -25,7 +25,7 @@ from ..core.types import RUNS_NEEDED, STAT_NAMES, OutputStats
 from ..errors import ResultError
 from ..stats.moments import overflowed
 from ..stats.quantiles import level_name
-from .dataset import SOURCES, layout
+from .dataset import SOURCES, layout, read_stats
 
 if TYPE_CHECKING:
     from ..models.base import OutputInfo
@@ -192,38 +192,25 @@ class OutputStatistics:
     def read(cls, label: str, output: OutputInfo, ds: Mapping[str, Any]) -> OutputStatistics:
         """The description of the statistics of ``output`` in one method's Dataset ``ds`` (an
         ``xarray.Dataset`` or a mapping of :class:`~uqguide.results.dataset.Variable`)."""
-        o = output.name
-
-        def get(name: str) -> Any:
-            return ds[f"{o}_{name}"].values if f"{o}_{name}" in ds else None
-
-        usable = None if get("usable") is None else np.asarray(get("usable"), dtype=bool)
-        ci, given = get("ci"), ds[f"{o}_ci"].attrs["statistics"] if f"{o}_ci" in ds else ()
-        moments = tuple(Statistic(label, n, "moment", ds[o].values[j],
-                                  ci[:, j] if n in given else None,
-                                  get("sem") if n == "mean" else None,
-                                  True if usable is None else usable)
-                        for j, n in enumerate(STAT_NAMES))
-        other = {kind: tuple(Statistic(label + SOURCES[ds[f"{o}_{kind}"].attrs["source"]], n,
-                                       kind, ds[f"{o}_{kind}"].values[j],
-                                       get(f"{kind}_ci")[:, j])
-                             for j, n in enumerate(STAT_NAMES)) if f"{o}_{kind}" in ds else ()
+        s = read_stats(ds, [output])[output.name]
+        moments = tuple(Statistic(label, n, "moment", s.stat(n), s.ci.get(n),
+                                  s.sem if n == "mean" else None,
+                                  True if s.usable is None else s.usable)
+                        for n in STAT_NAMES)
+        other = {kind: tuple(Statistic(label + SOURCES[ds[f"{output.name}_{kind}"].attrs["source"]],
+                                       n, kind, getattr(s, kind)[n], getattr(s, f"{kind}_ci")[n])
+                             for n in STAT_NAMES) if getattr(s, kind) else ()
                  for kind in ("corrected", "fallback")}
-        quantiles = () if get("quantile") is None else tuple(
-            Statistic(label, level_name(float(p)), "quantile", get("quantile")[j],
-                      get("ci_quantile")[:, j], usable=None, level=float(p))
-            for j, p in enumerate(ds["quantile"].values))
-        estimator = next((str(ds[f"{o}_sobol_{kind}"].attrs["estimator"])
-                          for kind in ("first", "total", "group_first", "group_total")
-                          if f"{o}_sobol_{kind}" in ds), "")
-        groups = tuple(str(g) for g in ds["group"].values) \
-            if f"{o}_sobol_group_first" in ds else ()
-        return cls(label, output, moments, other["corrected"], quantiles,
-                   int(ds[o].attrs["n_used"]), str(ds[o].attrs["moments_method"]), get("cov"),
-                   get("sobol_first"), get("sobol_total"), get("validation_error"), usable,
-                   other["fallback"], get("sobol_first_ci"), get("sobol_total_ci"), estimator,
-                   groups, get("sobol_group_first"), get("sobol_group_first_ci"),
-                   get("sobol_group_total"), get("sobol_group_total_ci"))
+        table = s.quantile_table()
+        quantiles = () if table is None else tuple(
+            Statistic(label, level_name(p), "quantile", table[1][j], table[2][:, j],
+                      usable=None, level=p)
+            for j, p in enumerate(table[0]))
+        return cls(label, output, moments, other["corrected"], quantiles, s.n_used,
+                   s.moments_method, s.cov, s.sobol_first, s.sobol_total, s.validation_error,
+                   s.usable, other["fallback"], s.sobol_first_ci, s.sobol_total_ci,
+                   s.sobol_estimator, s.sobol_groups, s.sobol_group_first,
+                   s.sobol_group_first_ci, s.sobol_group_total, s.sobol_group_total_ci)
 
     @property
     def statistics(self) -> tuple[Statistic, ...]:
@@ -244,19 +231,19 @@ class OutputStatistics:
         PCE's surrogate is not usable (its moments are NaN for that reason)."""
         if not self.usable_at(where):
             return []
-        mean, std, skew, kurt = (self.moment(n).value[where] for n in STAT_NAMES)
-        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample",
-                           n_used=self.n_used)
+        masks = self._overflow_masks(where)
         return [n for n in STAT_NAMES if bool(masks[n])]
 
     @property
     def overflows(self) -> bool:
         """Whether any of the method's own moments overflowed, anywhere (:meth:`overflowed_at`)."""
-        mean, std, skew, kurt = (m.value for m in self.moments)
-        masks = overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample",
-                           n_used=self.n_used)
         usable = True if self.usable is None else self.usable
-        return any(bool(np.any(m & usable)) for m in masks.values())
+        return any(bool(np.any(m & usable)) for m in self._overflow_masks(...).values())
+
+    def _overflow_masks(self, where: Any) -> dict[str, np.ndarray]:
+        mean, std, skew, kurt = (m.value[where] for m in self.moments)
+        return overflowed(mean, std, skew, kurt, sample=self.moments_method == "sample",
+                          n_used=self.n_used)
 
     def needs_runs(self, name: str) -> int | None:
         """The runs the sample moment (or quantile) ``name`` needs when the method's were fewer
@@ -322,16 +309,10 @@ class OutputStatistics:
         return normal_theory[name]
 
 
-def method_statistics(label: str, stats: Mapping[str, OutputStats],
-                      outputs: Sequence[OutputInfo]) -> dict[str, OutputStatistics]:
-    """The description of one method's statistics, output by output, in the result's outputs'
-    order, for the outputs the method has statistics of."""
-    return {o.name: OutputStatistics.of(label, o, stats[o.name])
-            for o in outputs if o.name in stats}
-
-
 def result_statistics(result: Result) -> dict[str, dict[str, OutputStatistics]]:
     """The description of every method's statistics of a result: by method label (the
-    result's order), then by output name."""
-    return {r.label: method_statistics(r.label, r.estimate.stats, result.outputs)
+    result's order), then by output name (the result's order; the outputs the method has
+    statistics of)."""
+    return {r.label: {o.name: OutputStatistics.of(r.label, o, r.estimate.stats[o.name])
+                      for o in result.outputs if o.name in r.estimate.stats}
             for r in result.runs}
