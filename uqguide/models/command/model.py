@@ -16,6 +16,7 @@ config, failures and trust: ``docs/your-simulator.md``.
 from __future__ import annotations
 
 import os
+import re
 import shlex
 import shutil
 import sys
@@ -32,7 +33,8 @@ from ...core.process_groups import MARK
 from ...errors import ModelError
 from ...core.types import ModelOutput
 from ..config_dir import ConfigDirParams
-from ..callable import CallableOutput, DeclaredModel, check_output_names
+from ..callable import (CallableOutput, DeclaredModel, DeclaredParams, check_output_names,
+                        non_finite)
 from . import process
 from .files import NON_FINITE, OutputSpec, read_outputs, write_inputs
 from .process import PLACEHOLDERS, CommandFailed, Deadline
@@ -60,7 +62,7 @@ def _default_root() -> str:
     return str(Path(tempfile.gettempdir()) / f"uqguide-command-{os.getuid()}")
 
 
-class CommandParams(ConfigDirParams):
+class CommandParams(ConfigDirParams, DeclaredParams):
     command: str = Field(min_length=1, description=(
         "the program and its arguments, split like a shell would but run without one; "
         f"placeholders: {', '.join('{' + p + '}' for p in PLACEHOLDERS)}"))
@@ -132,8 +134,7 @@ class CommandParams(ConfigDirParams):
     @classmethod
     def _env_names(cls, v: dict[str, Any]) -> dict[str, Any]:
         for k in v:
-            if not (k and (k[0].isalpha() or k[0] == "_") and
-                    all(c.isalnum() or c == "_" for c in k) and k.isascii()):
+            if not re.fullmatch(r"[A-Za-z_]\w*", k, re.ASCII):
                 raise ValueError(f"environment variable name {k!r} must be {_ENV_NAME}")
             if k in _RESERVED_ENV:
                 raise ValueError(f"environment variable {k} is set by uqguide for each call "
@@ -142,8 +143,6 @@ class CommandParams(ConfigDirParams):
 
     @model_validator(mode="after")
     def _consistent(self) -> CommandParams:
-        if self.nominal is not None and len(self.nominal) != len(self.inputs):
-            raise ValueError(f"nominal must have {len(self.inputs)} values, one per input")
         if self.shell:
             try:
                 process.shell_script(self.command)
@@ -261,19 +260,16 @@ class CommandModel(DeclaredModel):
                   "config_dir": p.config_dir or os.getcwd()}
         deadline = Deadline.start(p.timeout_s)  # for the program and the reading of its files
         process.run(process.argv(p.command, filled, p.shell), folder,
-                    {**p.environment(), **process.environment(filled)}, deadline)
+                    {**p.environment(), **{process.ENV_NAMES[k]: v for k, v in filled.items()}},
+                    deadline)
         try:
             got = read_outputs(outputs, specs, x.shape[0], p.output_format, deadline)
         except ModelError as exc:
             raise ModelError(f"{exc} (work folder kept: {folder})") from None
         except CommandFailed as exc:
             raise CommandFailed(f"{exc}; work folder kept: {folder}") from None
-        bad = got.flagged.copy()
+        bad = got.flagged | non_finite([*got.scalars.values(), *got.series.values()], x.shape[0])
         reasons = got.reasons.copy()
-        for a in got.scalars.values():
-            bad |= ~np.isfinite(a).all(axis=1)
-        for a in got.series.values():
-            bad |= ~np.isfinite(a).all(axis=(1, 2))
         reasons[bad & ~got.flagged] = NON_FINITE
         return ModelOutput(time=got.time, series=got.series, scalars=got.scalars, failed=bad,
                            reasons=reasons)
