@@ -115,8 +115,10 @@ class DeclaredParams(ModelParams):
     """The rules of every model whose config declares its ``inputs`` (names, in column order),
     their ``nominal`` values (one per input, or None) and its ``outputs``."""
 
-    _plain_output_names = field_validator("outputs", mode="before",
-                                          check_fields=False)(check_output_names)
+    @field_validator("outputs", mode="before", check_fields=False)
+    @classmethod
+    def _plain_output_names(cls, v: Any) -> Any:
+        return check_output_names(v)
 
     @model_validator(mode="after")
     def _one_nominal_per_input(self) -> DeclaredParams:

@@ -137,8 +137,7 @@ def _read_csv(path: Path, specs: Sequence[OutputSpec], n: int, deadline: Deadlin
     reasons = np.full(n, "", dtype=object)
     scalars: dict[str, np.ndarray] = {}
     if scalar_specs or os.path.lexists(path):
-        table, flagged, reasons = _read_scalar_csv(path, scalar_specs, n, deadline)
-        scalars = {s.name: table[s.name] for s in scalar_specs}
+        scalars, flagged, reasons = _read_scalar_csv(path, scalar_specs, n, deadline)
     series: dict[str, np.ndarray] = {}
     time: np.ndarray | None = None
     grid_file: Path | None = None
@@ -159,15 +158,6 @@ def _read_csv(path: Path, specs: Sequence[OutputSpec], n: int, deadline: Deadlin
                        series=series, flagged=flagged, reasons=reasons)
 
 
-def _refuse_special(path: Path, mode: int) -> None:
-    if not stat.S_ISREG(mode):
-        kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a folder" if
-                stat.S_ISDIR(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
-                if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "not a regular file")
-        raise CommandFailed(f"{path}: the program left {kind} here, not a regular file of its "
-                            f"outputs (refused unread: it could block for ever or never end)")
-
-
 def _open_regular(path: Path) -> int:
     """A descriptor of the program's file ``path``, opened without blocking (a FIFO's open
     waits for a writer) and refused unless it is a regular file."""
@@ -180,7 +170,14 @@ def _open_regular(path: Path) -> int:
     except OSError as exc:
         raise ModelError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     try:
-        _refuse_special(path, os.fstat(fd).st_mode)
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a folder" if
+                    stat.S_ISDIR(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+                    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "not a regular file")
+            raise CommandFailed(f"{path}: the program left {kind} here, not a regular file of "
+                                f"its outputs (refused unread: it could block for ever or never "
+                                f"end)")
     except BaseException:
         os.close(fd)
         raise

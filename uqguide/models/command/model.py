@@ -57,11 +57,6 @@ with open(sys.argv[2][:-4] + '_path.csv', 'w') as f:
 """
 
 
-def _default_root() -> str:
-    # one per user: another account's folder of the same name would not be writable
-    return str(Path(tempfile.gettempdir()) / f"uqguide-command-{os.getuid()}")
-
-
 class CommandParams(ConfigDirParams, DeclaredParams):
     command: str = Field(min_length=1, description=(
         "the program and its arguments, split like a shell would but run without one; "
@@ -170,11 +165,9 @@ class CommandParams(ConfigDirParams, DeclaredParams):
         """The file of the program the command starts (what a resumed run checks unchanged);
         None for a program named by a placeholder, one not found, or with ``shell: true`` one
         not given by its path."""
-        if self.shell:
-            word = process.shell_program(self.command)
-            return None if word is None else Path(self.config_dir or ".", word)
-        program = os.path.expanduser(shlex.split(self.command)[0])
-        if "{" in program:
+        program = process.shell_program(self.command) if self.shell else \
+            os.path.expanduser(shlex.split(self.command)[0])
+        if program is None or "{" in program:
             return None
         if "/" in program:
             return Path(self.config_dir or ".", program)
@@ -187,7 +180,9 @@ class CommandParams(ConfigDirParams, DeclaredParams):
 
     def root(self) -> Path:
         """The folder the work folders are made in."""
-        return Path(self.config_dir or ".", self.workdir or _default_root())
+        # one per user: another account's folder of the same name would not be writable
+        return Path(self.config_dir or ".", self.workdir or
+                    Path(tempfile.gettempdir(), f"uqguide-command-{os.getuid()}"))
 
 
 class CommandModel(DeclaredModel):
