@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ...core.csv_rows import RowFaults, floats, row_blocks
+from ...core.types import ModelOutput
 from ...errors import ModelError
 from .process import CommandFailed, Deadline
 
@@ -59,18 +60,6 @@ class OutputSpec:
     name: str
     kind: str
     components: int
-
-
-@dataclass
-class ReadOutputs:
-    """The outputs of a batch as read: grid ``(T,)``, scalars ``(n, k)``, series ``(n, T, k)``,
-    and the samples the program flagged (``flagged`` ``(n,)``, ``reasons`` ``(n,)``)."""
-
-    time: np.ndarray
-    scalars: dict[str, np.ndarray]
-    series: dict[str, np.ndarray]
-    flagged: np.ndarray
-    reasons: np.ndarray
 
 
 def scalar_columns(spec: OutputSpec) -> list[str]:
@@ -115,9 +104,10 @@ def inputs_csv(names: Sequence[str], x: np.ndarray) -> str:
 
 # ---------------------------------------------------------------------------- outputs
 def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str,
-                 deadline: Deadline | None = None) -> ReadOutputs:
+                 deadline: Deadline | None = None) -> ModelOutput:
     """Read the outputs ``specs`` of a batch of ``n`` samples the program wrote to ``path``
-    (``outputs.csv`` or ``outputs.h5`` by ``fmt``), by the ``deadline`` if given.
+    (``outputs.csv`` or ``outputs.h5`` by ``fmt``), by the ``deadline`` if given; ``failed``
+    holds the samples the program flagged, ``reasons`` why.
 
     Raises ModelError for a missing or short file, a missing or repeated column, a cell that is
     not a number (naming the file, the line and the column); CommandFailed for a file that is
@@ -131,7 +121,7 @@ def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str,
 
 
 def _read_csv(path: Path, specs: Sequence[OutputSpec], n: int, deadline: Deadline | None
-              ) -> ReadOutputs:
+              ) -> ModelOutput:
     scalar_specs = [s for s in specs if s.kind == "scalar"]
     flagged = np.zeros(n, dtype=bool)
     reasons = np.full(n, "", dtype=object)
@@ -154,8 +144,8 @@ def _read_csv(path: Path, specs: Sequence[OutputSpec], n: int, deadline: Deadlin
                                  f"(every series of a batch shares one grid)")
             parts.append(values)
         series[s.name] = np.stack(parts, axis=-1)
-    return ReadOutputs(time=np.zeros(0) if time is None else time, scalars=scalars,
-                       series=series, flagged=flagged, reasons=reasons)
+    return ModelOutput(time=np.zeros(0) if time is None else time, scalars=scalars,
+                       series=series, failed=flagged, reasons=reasons)
 
 
 def _open_regular(path: Path) -> int:
@@ -439,7 +429,7 @@ def _claims(path: Path, f: Any, specs: Sequence[OutputSpec], n: int) -> int:
     return T
 
 
-def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ReadOutputs:
+def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ModelOutput:
     import h5py
 
     os.close(_open_regular(path))
@@ -475,5 +465,5 @@ def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ReadOutputs:
             a = np.asarray(f[s.name][()]).astype(float)
             shape = (n, T, s.components) if s.kind == "series" else (n, s.components)
             (series if s.kind == "series" else scalars)[s.name] = a.reshape(shape)
-    return ReadOutputs(time=time, scalars=scalars, series=series, flagged=flagged,
+    return ModelOutput(time=time, scalars=scalars, series=series, failed=flagged,
                        reasons=reasons)

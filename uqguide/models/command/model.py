@@ -263,11 +263,10 @@ class CommandModel(DeclaredModel):
             raise ModelError(f"{exc} (work folder kept: {folder})") from None
         except CommandFailed as exc:
             raise CommandFailed(f"{exc}; work folder kept: {folder}") from None
-        bad = got.flagged | non_finite([*got.scalars.values(), *got.series.values()], x.shape[0])
-        reasons = got.reasons.copy()
-        reasons[bad & ~got.flagged] = NON_FINITE
-        return ModelOutput(time=got.time, series=got.series, scalars=got.scalars, failed=bad,
-                           reasons=reasons)
+        bad = got.failed | non_finite([*got.scalars.values(), *got.series.values()], x.shape[0])
+        got.reasons[bad & ~got.failed] = NON_FINITE
+        got.failed = bad
+        return got
 
     def _per_sample(self, folder: Path, x: np.ndarray, specs: list[OutputSpec]
                     ) -> tuple[ModelOutput, bool]:
