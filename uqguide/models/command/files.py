@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 import re
 import stat
@@ -400,10 +401,12 @@ def _dataset(f: Any, name: str, path: Path) -> Any:
     return ds
 
 
-def _claims(path: Path, f: Any, specs: Sequence[OutputSpec], n: int) -> int:
+def _claims(path: Path, f: Any, specs: Sequence[OutputSpec], n: int
+            ) -> tuple[int, dict[str, tuple[int, ...]]]:
     """Check every dataset that will be read against the shape the batch needs, before any
     is read (a chunked dataset can claim terabytes in a file of kilobytes); returns the
-    number of time points."""
+    number of time points and the shape each output is read in."""
+    shapes: dict[str, tuple[int, ...]] = {}
     T = 0
     if any(s.kind == "series" for s in specs):
         T = _dataset(f, "time", path).size
@@ -426,7 +429,8 @@ def _claims(path: Path, f: Any, specs: Sequence[OutputSpec], n: int) -> int:
         if ds.shape != shape and not (ds.shape == shape[:drop] and s.components == 1):
             raise ModelError(f"{path}: dataset '{s.name}' has shape {ds.shape}, expected "
                              f"{shape} (samples{', time' if drop == 2 else ''}, components)")
-    return T
+        shapes[s.name] = shape
+    return T, shapes
 
 
 def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ModelOutput:
@@ -438,16 +442,13 @@ def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ModelOutput:
     except OSError as exc:
         raise ModelError(f"{path}: cannot be read as HDF5 ({exc})") from None
     with f:
-        T = _claims(path, f, specs, n)
-        values = sum(n * (T if s.kind == "series" else 1) * s.components for s in specs) + T
+        T, shapes = _claims(path, f, specs, n)
+        values = sum(math.prod(shape) for shape in shapes.values()) + T
         limit = HDF5_BYTES + values * CELL_BYTES + n * ROW_BYTES
         size = os.path.getsize(path)
         if size > limit:
             raise _too_large(path, size, limit, f"{values:,} values at {CELL_BYTES} bytes, "
                              f"{ROW_BYTES} a row and {HDF5_BYTES:,} for the file's own records")
-        time = np.zeros(0)
-        if T:
-            time = np.asarray(f["time"][()], dtype=float).reshape(-1)
         flagged = np.zeros(n, dtype=bool)
         reasons = np.full(n, "", dtype=object)
         if "failed" in f:
@@ -459,11 +460,9 @@ def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ModelOutput:
                       for r in np.asarray(f["reason"][()]).reshape(-1)] if "reason" in f
                      else [""] * n)
             reasons[flagged] = [given[i].strip() or FLAGGED for i in np.flatnonzero(flagged)]
-        scalars: dict[str, np.ndarray] = {}
-        series: dict[str, np.ndarray] = {}
-        for s in specs:
-            a = np.asarray(f[s.name][()]).astype(float)
-            shape = (n, T, s.components) if s.kind == "series" else (n, s.components)
-            (series if s.kind == "series" else scalars)[s.name] = a.reshape(shape)
-    return ModelOutput(time=time, scalars=scalars, series=series, failed=flagged,
-                       reasons=reasons)
+        got = {name: np.asarray(f[name][()]).astype(float).reshape(shape)
+               for name, shape in shapes.items()}
+        time = np.asarray(f["time"][()], dtype=float).reshape(-1) if T else np.zeros(0)
+    return ModelOutput(time=time, failed=flagged, reasons=reasons,
+                       scalars={s.name: got[s.name] for s in specs if s.kind == "scalar"},
+                       series={s.name: got[s.name] for s in specs if s.kind == "series"})
