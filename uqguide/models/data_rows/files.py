@@ -170,9 +170,8 @@ def _read_csv(path: Path, source: str, claim: Claim) -> dict[str, np.ndarray]:
         raise data_error(source, f"not a text CSV file ({exc.reason})") from None
     except csv.Error as exc:
         raise data_error(source, f"not a CSV file ({exc})") from None
-    flat: dict[str, np.ndarray] = {}
-    for i, j in enumerate(numeric):
-        flat[header[j]] = values[i, :n]  # a view: the rows are contiguous, no copy
+    # views: the rows are contiguous, no copy
+    flat = {header[j]: values[i, :n] for i, j in enumerate(numeric)}
     if texts is not None:
         flat[REASON] = _text(texts)
     return {name: flat[name] for name in header}
