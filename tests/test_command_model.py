@@ -441,7 +441,7 @@ def test_a_flagged_sample_may_leave_its_cells_empty_and_a_series_row_too(tmp_pat
     np.testing.assert_array_equal(got.scalars["y"], [[1, 2], [np.nan, np.nan]])
     np.testing.assert_array_equal(got.series["p"][:, :, 0], [[5, 6], [np.nan, np.nan]])
     np.testing.assert_array_equal(got.time, [0, 1])
-    assert list(got.flagged) == [False, True] and list(got.reasons) == ["", "a, b"]
+    assert list(got.failed) == [False, True] and list(got.reasons) == ["", "a, b"]
     (tmp_path / "out_p.csv").write_text("0,1\n5,6\n7,x\n")
     with pytest.raises(ModelError, match=r"out_p\.csv: line 3 \(sample 1\), column 2 't=1': "
                                          r"'x' is not a number"):

@@ -18,8 +18,11 @@ from .base import InputInfo, Model, ModelParams, OutputInfo
 from ..core.types import ModelOutput
 
 
-def _no_failures(n: int) -> tuple[np.ndarray, np.ndarray]:
-    return np.zeros(n, dtype=bool), np.full(n, "", dtype=object)
+def clean_output(n: int, time: np.ndarray, scalars: dict[str, np.ndarray],
+                 series: dict[str, np.ndarray] | None = None) -> ModelOutput:
+    """The outputs of a batch of ``n`` samples none of which can fail."""
+    return ModelOutput(time=time, series=series or {}, scalars=scalars,
+                       failed=np.zeros(n, dtype=bool), reasons=np.full(n, "", dtype=object))
 
 
 def _x_inputs(d: int) -> tuple[InputInfo, ...]:
@@ -87,14 +90,8 @@ class LinearGaussian(Model):
         X = np.column_stack([values[i.name] for i in self.inputs()])
         y = self._b() + X @ self._A().T
         t = np.linspace(0.0, 1.0, self.params.n_times)
-        failed, reasons = _no_failures(n)
-        return ModelOutput(
-            time=t,
-            series={"ramp": t[None, :, None] * y[:, None, :]} if "ramp" in outputs else {},
-            scalars={"y": y},
-            failed=failed,
-            reasons=reasons,
-        )
+        return clean_output(n, t, {"y": y},
+                            {"ramp": t[None, :, None] * y[:, None, :]} if "ramp" in outputs else {})
 
 
 class LognormalParams(ModelParams):
@@ -129,11 +126,8 @@ class Lognormal(Model):
     def _evaluate(self, values: Mapping[str, np.ndarray], n: int,
                   outputs: frozenset[str]) -> ModelOutput:
         X = np.column_stack([values[i.name] for i in self.inputs()])
-        failed, reasons = _no_failures(n)
-        return ModelOutput(
-            time=np.zeros(0), scalars={"y": np.exp(X @ np.asarray(self.params.a))[:, None]},
-            failed=failed, reasons=reasons,
-        )
+        return clean_output(n, np.zeros(0),
+                            {"y": np.exp(X @ np.asarray(self.params.a))[:, None]})
 
 
 class IshigamiParams(ModelParams):
@@ -175,9 +169,7 @@ class Ishigami(Model):
         x1, x2, x3 = values["x1"], values["x2"], values["x3"]
         a, b = self.params.a, self.params.b
         y = np.sin(x1) + a * np.sin(x2) ** 2 + b * x3**4 * np.sin(x1)
-        failed, reasons = _no_failures(n)
-        return ModelOutput(time=np.zeros(0), scalars={"y": y[:, None]}, failed=failed,
-                           reasons=reasons)
+        return clean_output(n, np.zeros(0), {"y": y[:, None]})
 
 
 class Borehole(Model):

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import importlib
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any, Literal
 
@@ -26,7 +26,7 @@ from pydantic import (BaseModel, ConfigDict, Field, ValidationInfo, field_serial
 
 from ..core.names import PLAIN_NAME_RULE, check_plain_name, is_plain_name
 from ..errors import ModelError
-from .base import InputInfo, Model, ModelParams, OutputInfo
+from .base import InputInfo, Model, ModelParams, OutputInfo, failure_reasons
 from ..core.types import ModelOutput
 
 
@@ -111,7 +111,26 @@ def import_function(spec: str, module_dir: str | None = None) -> Callable[[np.nd
     return obj
 
 
-class CallableParams(ModelParams):
+class DeclaredParams(ModelParams):
+    """The rules of every model whose config declares its ``inputs`` (names, in column order),
+    their ``nominal`` values (one per input, or None) and its ``outputs``."""
+
+    @field_validator("outputs", mode="before", check_fields=False)
+    @classmethod
+    def _plain_output_names(cls, v: Any) -> Any:
+        return check_output_names(v)
+
+    @model_validator(mode="after")
+    def _one_nominal_per_input(self) -> DeclaredParams:
+        inputs, nominal = self.inputs, self.nominal  # type: ignore[attr-defined]
+        if len(set(inputs)) != len(inputs):
+            raise ValueError(f"inputs must be unique names, got {inputs}")
+        if nominal is not None and len(nominal) != len(inputs):
+            raise ValueError(f"nominal must have {len(inputs)} values, one per input")
+        return self
+
+
+class CallableParams(DeclaredParams):
     module_dir: str | None = Field(
         default=None, description="folder the module was found in (set by uqguide: the "
                                   "config's folder or the current folder)")
@@ -157,18 +176,13 @@ class CallableParams(ModelParams):
             import_function(v, info.data.get("module_dir"))
         return v
 
-    @field_validator("outputs", mode="before")
-    @classmethod
-    def _plain_output_names(cls, v: Any) -> Any:
-        return check_output_names(v)
 
-    @model_validator(mode="after")
-    def _consistent(self) -> CallableParams:
-        if len(set(self.inputs)) != len(self.inputs):
-            raise ValueError(f"inputs must be unique names, got {self.inputs}")
-        if self.nominal is not None and len(self.nominal) != len(self.inputs):
-            raise ValueError(f"nominal must have {len(self.inputs)} values, one per input")
-        return self
+def non_finite(arrays: Iterable[np.ndarray], n: int) -> np.ndarray:
+    """The samples ``(n,)`` with a NaN or an infinity in any of ``arrays`` (each ``(n, ...)``)."""
+    bad = np.zeros(n, dtype=bool)
+    for a in arrays:
+        bad |= ~np.isfinite(a).all(axis=tuple(range(1, a.ndim)))
+    return bad
 
 
 def _example(x: np.ndarray) -> np.ndarray:
@@ -254,23 +268,18 @@ class CallableModel(DeclaredModel):
             splits = np.split(arr, np.cumsum(widths)[:-1], axis=1)
             data = {s.name: a for s, a in zip(specs, splits)}
         time_grid = np.asarray(data.get("time", np.zeros(0)), dtype=float)
-        series, scalars = {}, {}
-        bad = np.zeros(n, dtype=bool)
+        got = {}
         for s in specs:
             if s.name not in data:
                 raise ModelError(self._missing(s.name, data, n, time_grid.shape[0]))
-            a = np.asarray(data[s.name], dtype=float)
-            if s.kind == "series":
-                a = a.reshape(n, time_grid.shape[0], s.components)
-                series[s.name] = a
-                bad |= ~np.isfinite(a).all(axis=(1, 2))
-            else:
-                a = a.reshape(n, s.components)
-                scalars[s.name] = a
-                bad |= ~np.isfinite(a).all(axis=1)
-        reasons = np.where(bad, "non-finite output value", "").astype(object)
-        return ModelOutput(time=time_grid, series=series, scalars=scalars, failed=bad,
-                           reasons=reasons)
+            shape = (n, time_grid.shape[0], s.components) if s.kind == "series" else \
+                (n, s.components)
+            got[s.name] = np.asarray(data[s.name], dtype=float).reshape(shape)
+        bad = non_finite(got.values(), n)
+        return ModelOutput(time=time_grid, failed=bad,
+                           series={s.name: got[s.name] for s in specs if s.kind == "series"},
+                           scalars={s.name: got[s.name] for s in specs if s.kind == "scalar"},
+                           reasons=failure_reasons(bad, "non-finite output value"))
 
     def _missing(self, name: str, data: Mapping[str, object], n: int, steps: int) -> str:
         """What a function that returns other outputs than its config lists is told: what it

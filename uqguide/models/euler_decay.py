@@ -15,6 +15,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from .base import InputInfo, Model, ModelParams, OutputInfo
+from .benchmarks import clean_output
 from ..core.types import ModelOutput
 
 
@@ -70,6 +71,5 @@ class EulerDecay(Model):
                 j += 1
             if step < n_steps:
                 y = y - p.dt * k * y
-        return ModelOutput(time=grid, series={"y": series} if "y" in outputs else {},
-                           scalars={"y_end": y[:, None]}, failed=np.zeros(n, bool),
-                           reasons=np.full(n, "", dtype=object))
+        return clean_output(n, grid, {"y_end": y[:, None]},
+                            {"y": series} if "y" in outputs else {})

@@ -196,39 +196,28 @@ def compile_seconds() -> float:
 _configured = False
 
 
-def _configure_numba() -> None:
-    global _configured
-    if _configured:
-        return
-    import numba
-    from numba.core import event
-
-    where = cache_dir()
-    if where is not None:
-        # numba fills its config module at run time: no declaration for a type checker to see
-        config: Any = numba.config
-        config.CACHE_DIR = str(where)
-    event.register("numba:compile", _listener_class()())
-    _configured = True
-
-
 def njit(*args: Any, **kwargs: Any) -> Callable[..., Any]:
     """``numba.njit`` with uqguide's cache location and compile notice (module docstring): the
     compiled function, or a decorator when called with options only."""
-    _configure_numba()
+    global _configured
     import numba
 
+    if not _configured:
+        from numba.core import event
+
+        where = cache_dir()
+        if where is not None:
+            # numba fills its config module at run time: no declaration for a type checker to see
+            config: Any = numba.config
+            config.CACHE_DIR = str(where)
+
+        class CompileListener(event.Listener):
+            def on_start(self, ev: Any) -> None:
+                _clock.start(ev)
+
+            def on_end(self, ev: Any) -> None:
+                _clock.end(ev)
+
+        event.register("numba:compile", CompileListener())
+        _configured = True
     return numba.njit(*args, **kwargs)
-
-
-def _listener_class() -> type:
-    from numba.core import event
-
-    class CompileListener(event.Listener):
-        def on_start(self, ev: Any) -> None:
-            _clock.start(ev)
-
-        def on_end(self, ev: Any) -> None:
-            _clock.end(ev)
-
-    return CompileListener

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 import re
 import stat
@@ -29,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ...core.csv_rows import RowFaults, floats, row_blocks
+from ...core.types import ModelOutput
 from ...errors import ModelError
 from .process import CommandFailed, Deadline
 
@@ -59,18 +61,6 @@ class OutputSpec:
     name: str
     kind: str
     components: int
-
-
-@dataclass
-class ReadOutputs:
-    """The outputs of a batch as read: grid ``(T,)``, scalars ``(n, k)``, series ``(n, T, k)``,
-    and the samples the program flagged (``flagged`` ``(n,)``, ``reasons`` ``(n,)``)."""
-
-    time: np.ndarray
-    scalars: dict[str, np.ndarray]
-    series: dict[str, np.ndarray]
-    flagged: np.ndarray
-    reasons: np.ndarray
 
 
 def scalar_columns(spec: OutputSpec) -> list[str]:
@@ -115,9 +105,10 @@ def inputs_csv(names: Sequence[str], x: np.ndarray) -> str:
 
 # ---------------------------------------------------------------------------- outputs
 def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str,
-                 deadline: Deadline | None = None) -> ReadOutputs:
+                 deadline: Deadline | None = None) -> ModelOutput:
     """Read the outputs ``specs`` of a batch of ``n`` samples the program wrote to ``path``
-    (``outputs.csv`` or ``outputs.h5`` by ``fmt``), by the ``deadline`` if given.
+    (``outputs.csv`` or ``outputs.h5`` by ``fmt``), by the ``deadline`` if given; ``failed``
+    holds the samples the program flagged, ``reasons`` why.
 
     Raises ModelError for a missing or short file, a missing or repeated column, a cell that is
     not a number (naming the file, the line and the column); CommandFailed for a file that is
@@ -131,14 +122,13 @@ def read_outputs(path: Path, specs: Sequence[OutputSpec], n: int, fmt: str,
 
 
 def _read_csv(path: Path, specs: Sequence[OutputSpec], n: int, deadline: Deadline | None
-              ) -> ReadOutputs:
+              ) -> ModelOutput:
     scalar_specs = [s for s in specs if s.kind == "scalar"]
     flagged = np.zeros(n, dtype=bool)
     reasons = np.full(n, "", dtype=object)
     scalars: dict[str, np.ndarray] = {}
     if scalar_specs or os.path.lexists(path):
-        table, flagged, reasons = _read_scalar_csv(path, scalar_specs, n, deadline)
-        scalars = {s.name: table[s.name] for s in scalar_specs}
+        scalars, flagged, reasons = _read_scalar_csv(path, scalar_specs, n, deadline)
     series: dict[str, np.ndarray] = {}
     time: np.ndarray | None = None
     grid_file: Path | None = None
@@ -155,17 +145,8 @@ def _read_csv(path: Path, specs: Sequence[OutputSpec], n: int, deadline: Deadlin
                                  f"(every series of a batch shares one grid)")
             parts.append(values)
         series[s.name] = np.stack(parts, axis=-1)
-    return ReadOutputs(time=np.zeros(0) if time is None else time, scalars=scalars,
-                       series=series, flagged=flagged, reasons=reasons)
-
-
-def _refuse_special(path: Path, mode: int) -> None:
-    if not stat.S_ISREG(mode):
-        kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a folder" if
-                stat.S_ISDIR(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
-                if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "not a regular file")
-        raise CommandFailed(f"{path}: the program left {kind} here, not a regular file of its "
-                            f"outputs (refused unread: it could block for ever or never end)")
+    return ModelOutput(time=np.zeros(0) if time is None else time, scalars=scalars,
+                       series=series, failed=flagged, reasons=reasons)
 
 
 def _open_regular(path: Path) -> int:
@@ -180,7 +161,14 @@ def _open_regular(path: Path) -> int:
     except OSError as exc:
         raise ModelError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     try:
-        _refuse_special(path, os.fstat(fd).st_mode)
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a folder" if
+                    stat.S_ISDIR(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+                    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "not a regular file")
+            raise CommandFailed(f"{path}: the program left {kind} here, not a regular file of "
+                                f"its outputs (refused unread: it could block for ever or never "
+                                f"end)")
     except BaseException:
         os.close(fd)
         raise
@@ -413,10 +401,12 @@ def _dataset(f: Any, name: str, path: Path) -> Any:
     return ds
 
 
-def _claims(path: Path, f: Any, specs: Sequence[OutputSpec], n: int) -> int:
+def _claims(path: Path, f: Any, specs: Sequence[OutputSpec], n: int
+            ) -> tuple[int, dict[str, tuple[int, ...]]]:
     """Check every dataset that will be read against the shape the batch needs, before any
     is read (a chunked dataset can claim terabytes in a file of kilobytes); returns the
-    number of time points."""
+    number of time points and the shape each output is read in."""
+    shapes: dict[str, tuple[int, ...]] = {}
     T = 0
     if any(s.kind == "series" for s in specs):
         T = _dataset(f, "time", path).size
@@ -439,10 +429,11 @@ def _claims(path: Path, f: Any, specs: Sequence[OutputSpec], n: int) -> int:
         if ds.shape != shape and not (ds.shape == shape[:drop] and s.components == 1):
             raise ModelError(f"{path}: dataset '{s.name}' has shape {ds.shape}, expected "
                              f"{shape} (samples{', time' if drop == 2 else ''}, components)")
-    return T
+        shapes[s.name] = shape
+    return T, shapes
 
 
-def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ReadOutputs:
+def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ModelOutput:
     import h5py
 
     os.close(_open_regular(path))
@@ -451,16 +442,13 @@ def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ReadOutputs:
     except OSError as exc:
         raise ModelError(f"{path}: cannot be read as HDF5 ({exc})") from None
     with f:
-        T = _claims(path, f, specs, n)
-        values = sum(n * (T if s.kind == "series" else 1) * s.components for s in specs) + T
+        T, shapes = _claims(path, f, specs, n)
+        values = sum(math.prod(shape) for shape in shapes.values()) + T
         limit = HDF5_BYTES + values * CELL_BYTES + n * ROW_BYTES
         size = os.path.getsize(path)
         if size > limit:
             raise _too_large(path, size, limit, f"{values:,} values at {CELL_BYTES} bytes, "
                              f"{ROW_BYTES} a row and {HDF5_BYTES:,} for the file's own records")
-        time = np.zeros(0)
-        if T:
-            time = np.asarray(f["time"][()], dtype=float).reshape(-1)
         flagged = np.zeros(n, dtype=bool)
         reasons = np.full(n, "", dtype=object)
         if "failed" in f:
@@ -472,11 +460,9 @@ def _read_hdf5(path: Path, specs: Sequence[OutputSpec], n: int) -> ReadOutputs:
                       for r in np.asarray(f["reason"][()]).reshape(-1)] if "reason" in f
                      else [""] * n)
             reasons[flagged] = [given[i].strip() or FLAGGED for i in np.flatnonzero(flagged)]
-        scalars: dict[str, np.ndarray] = {}
-        series: dict[str, np.ndarray] = {}
-        for s in specs:
-            a = np.asarray(f[s.name][()]).astype(float)
-            shape = (n, T, s.components) if s.kind == "series" else (n, s.components)
-            (series if s.kind == "series" else scalars)[s.name] = a.reshape(shape)
-    return ReadOutputs(time=time, scalars=scalars, series=series, flagged=flagged,
-                       reasons=reasons)
+        got = {name: np.asarray(f[name][()]).astype(float).reshape(shape)
+               for name, shape in shapes.items()}
+        time = np.asarray(f["time"][()], dtype=float).reshape(-1) if T else np.zeros(0)
+    return ModelOutput(time=time, failed=flagged, reasons=reasons,
+                       scalars={s.name: got[s.name] for s in specs if s.kind == "scalar"},
+                       series={s.name: got[s.name] for s in specs if s.kind == "series"})

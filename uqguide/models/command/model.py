@@ -16,6 +16,7 @@ config, failures and trust: ``docs/your-simulator.md``.
 from __future__ import annotations
 
 import os
+import re
 import shlex
 import shutil
 import sys
@@ -32,7 +33,8 @@ from ...core.process_groups import MARK
 from ...errors import ModelError
 from ...core.types import ModelOutput
 from ..config_dir import ConfigDirParams
-from ..callable import CallableOutput, DeclaredModel, check_output_names
+from ..callable import (CallableOutput, DeclaredModel, DeclaredParams, check_output_names,
+                        non_finite)
 from . import process
 from .files import NON_FINITE, OutputSpec, read_outputs, write_inputs
 from .process import PLACEHOLDERS, CommandFailed, Deadline
@@ -55,12 +57,7 @@ with open(sys.argv[2][:-4] + '_path.csv', 'w') as f:
 """
 
 
-def _default_root() -> str:
-    # one per user: another account's folder of the same name would not be writable
-    return str(Path(tempfile.gettempdir()) / f"uqguide-command-{os.getuid()}")
-
-
-class CommandParams(ConfigDirParams):
+class CommandParams(ConfigDirParams, DeclaredParams):
     command: str = Field(min_length=1, description=(
         "the program and its arguments, split like a shell would but run without one; "
         f"placeholders: {', '.join('{' + p + '}' for p in PLACEHOLDERS)}"))
@@ -132,8 +129,7 @@ class CommandParams(ConfigDirParams):
     @classmethod
     def _env_names(cls, v: dict[str, Any]) -> dict[str, Any]:
         for k in v:
-            if not (k and (k[0].isalpha() or k[0] == "_") and
-                    all(c.isalnum() or c == "_" for c in k) and k.isascii()):
+            if not re.fullmatch(r"[A-Za-z_]\w*", k, re.ASCII):
                 raise ValueError(f"environment variable name {k!r} must be {_ENV_NAME}")
             if k in _RESERVED_ENV:
                 raise ValueError(f"environment variable {k} is set by uqguide for each call "
@@ -142,8 +138,6 @@ class CommandParams(ConfigDirParams):
 
     @model_validator(mode="after")
     def _consistent(self) -> CommandParams:
-        if self.nominal is not None and len(self.nominal) != len(self.inputs):
-            raise ValueError(f"nominal must have {len(self.inputs)} values, one per input")
         if self.shell:
             try:
                 process.shell_script(self.command)
@@ -171,11 +165,9 @@ class CommandParams(ConfigDirParams):
         """The file of the program the command starts (what a resumed run checks unchanged);
         None for a program named by a placeholder, one not found, or with ``shell: true`` one
         not given by its path."""
-        if self.shell:
-            word = process.shell_program(self.command)
-            return None if word is None else Path(self.config_dir or ".", word)
-        program = os.path.expanduser(shlex.split(self.command)[0])
-        if "{" in program:
+        program = process.shell_program(self.command) if self.shell else \
+            os.path.expanduser(shlex.split(self.command)[0])
+        if program is None or "{" in program:
             return None
         if "/" in program:
             return Path(self.config_dir or ".", program)
@@ -188,7 +180,9 @@ class CommandParams(ConfigDirParams):
 
     def root(self) -> Path:
         """The folder the work folders are made in."""
-        return Path(self.config_dir or ".", self.workdir or _default_root())
+        # one per user: another account's folder of the same name would not be writable
+        return Path(self.config_dir or ".", self.workdir or
+                    Path(tempfile.gettempdir(), f"uqguide-command-{os.getuid()}"))
 
 
 class CommandModel(DeclaredModel):
@@ -261,22 +255,18 @@ class CommandModel(DeclaredModel):
                   "config_dir": p.config_dir or os.getcwd()}
         deadline = Deadline.start(p.timeout_s)  # for the program and the reading of its files
         process.run(process.argv(p.command, filled, p.shell), folder,
-                    {**p.environment(), **process.environment(filled)}, deadline)
+                    {**p.environment(), **{process.ENV_NAMES[k]: v for k, v in filled.items()}},
+                    deadline)
         try:
             got = read_outputs(outputs, specs, x.shape[0], p.output_format, deadline)
         except ModelError as exc:
             raise ModelError(f"{exc} (work folder kept: {folder})") from None
         except CommandFailed as exc:
             raise CommandFailed(f"{exc}; work folder kept: {folder}") from None
-        bad = got.flagged.copy()
-        reasons = got.reasons.copy()
-        for a in got.scalars.values():
-            bad |= ~np.isfinite(a).all(axis=1)
-        for a in got.series.values():
-            bad |= ~np.isfinite(a).all(axis=(1, 2))
-        reasons[bad & ~got.flagged] = NON_FINITE
-        return ModelOutput(time=got.time, series=got.series, scalars=got.scalars, failed=bad,
-                           reasons=reasons)
+        bad = got.failed | non_finite([*got.scalars.values(), *got.series.values()], x.shape[0])
+        got.reasons[bad & ~got.failed] = NON_FINITE
+        got.failed = bad
+        return got
 
     def _per_sample(self, folder: Path, x: np.ndarray, specs: list[OutputSpec]
                     ) -> tuple[ModelOutput, bool]:

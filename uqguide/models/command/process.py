@@ -86,17 +86,6 @@ def unknown_placeholders(template: str) -> list[str]:
     return [m for m in _PLACEHOLDER.findall(template) if m not in PLACEHOLDERS]
 
 
-def fill(template: str, values: Mapping[str, str]) -> str:
-    """``template`` with each known ``{name}`` replaced by ``values[name]`` (``values`` holds
-    every name of :data:`PLACEHOLDERS`)."""
-    return _PLACEHOLDER.sub(lambda m: values.get(m.group(1), m.group(0)), template)
-
-
-def environment(values: Mapping[str, str]) -> dict[str, str]:
-    """The placeholders' values as the environment variables :data:`ENV_NAMES`."""
-    return {ENV_NAMES[k]: v for k, v in values.items() if k in ENV_NAMES}
-
-
 def shell_program(template: str) -> str | None:
     """The program of a ``shell: true`` template when its first word is a path (``./mysim``,
     ``/opt/mysim``): what is checked and resolved as without a shell; None otherwise (a
@@ -200,11 +189,12 @@ def _heredoc_bodies(template: str, i: int, heredocs: list[tuple[bool, str, bool]
 
 def argv(template: str, values: Mapping[str, str], shell: bool) -> list[str] | str:
     """The arguments of one call of the config's ``command`` with the placeholders' ``values``
-    (with ``shell``: the script of :func:`shell_script`, which reads them from
-    :func:`environment`)."""
+    (each name of :data:`PLACEHOLDERS`; with ``shell``: the script of :func:`shell_script`,
+    which reads them from the environment variables :data:`ENV_NAMES`)."""
     if shell:
         return shell_script(template)
-    args = [fill(token, values) for token in shlex.split(template)]
+    args = [_PLACEHOLDER.sub(lambda m: values.get(m.group(1), m.group(0)), token)
+            for token in shlex.split(template)]
     program = args[0] = os.path.expanduser(args[0])  # no shell to expand ~ as users expect
     if "/" in program and not os.path.isabs(program):
         # the program runs in its work folder: a relative program path means the config's

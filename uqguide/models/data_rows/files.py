@@ -129,7 +129,7 @@ def _group_series(flat: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return plain
 
 
-def _read_csv(path: Path, source: str, claim: Claim) -> tuple[dict[str, np.ndarray], int]:
+def _read_csv(path: Path, source: str, claim: Claim) -> dict[str, np.ndarray]:
     """The columns of a CSV whose header and size :func:`.claims.csv_claim` measured, read a
     block of rows at a time into columns allocated once (never the whole file as text)."""
     header = list(claim.columns)
@@ -170,12 +170,11 @@ def _read_csv(path: Path, source: str, claim: Claim) -> tuple[dict[str, np.ndarr
         raise data_error(source, f"not a text CSV file ({exc.reason})") from None
     except csv.Error as exc:
         raise data_error(source, f"not a CSV file ({exc})") from None
-    flat: dict[str, np.ndarray] = {}
-    for i, j in enumerate(numeric):
-        flat[header[j]] = values[i, :n]  # a view: the rows are contiguous, no copy
+    # views: the rows are contiguous, no copy
+    flat = {header[j]: values[i, :n] for i, j in enumerate(numeric)}
     if texts is not None:
         flat[REASON] = _text(texts)
-    return {name: flat[name] for name in header}, 2
+    return {name: flat[name] for name in header}
 
 
 def _check_cells(r: list[str], header: list[str], source: str, line: int) -> None:
@@ -207,10 +206,6 @@ def _read_parquet(path: Path, source: str) -> dict[str, np.ndarray]:
         raise data_error(source, f"reading Parquet needs pyarrow or fastparquet, "
                          f"which are not installed ({exc}); pip install pyarrow, or save the "
                          f"runs as CSV, HDF5 or .npz") from None
-    return _numeric_frame(frame, source)
-
-
-def _numeric_frame(frame: Any, source: str) -> dict[str, np.ndarray]:
     check_names([str(c).strip() for c in frame.columns], source,
                 lambda j: f"column {j + 1}")
     flat = {}
@@ -284,16 +279,10 @@ def read_table(path: str | Path, source: str | None = None,
     claim = CLAIMS[fmt](p, source)
     if check is not None:
         check(claim)
-    first_line = 0
     if fmt == "csv":
-        flat, first_line = _read_csv(p, source, claim)
-    elif fmt == "parquet":
-        flat = _read_parquet(p, source)
-    elif fmt == "hdf5":
-        flat = _read_hdf5(p, source)
-    else:
-        flat = _read_npz(p, source)
-    return _table(flat, source, first_line, grid_in_file=fmt != "csv")
+        return _table(_read_csv(p, source, claim), source, 2, grid_in_file=False)
+    readers = {"parquet": _read_parquet, "hdf5": _read_hdf5, "npz": _read_npz}
+    return _table(readers[fmt](p, source), source, 0, grid_in_file=True)
 
 
 def table_from_arrays(columns: Mapping[str, Any], source: str = ARRAYS) -> Table:

@@ -11,21 +11,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ...errors import ModelError
-from ..base import InputInfo, OutputInfo, StepCount
+from ..base import InputInfo, Model, OutputInfo, StepCount
 from ...core.types import ModelOutput
-from ..callable import CallableOutput, DeclaredModel
 from . import archive
 from .params import FmuParams
 from .simulate import Instance, Setup, pick
 
 
-class FmuModel(DeclaredModel):
+class FmuModel(Model):
     """An FMU (FMI 1.0, 2.0 or 3.0; co-simulation, or model exchange with FMPy's solver),
     simulated by FMPy, as a uqguide model."""
 
@@ -42,12 +40,6 @@ class FmuModel(DeclaredModel):
     def named_code(cls, section: Mapping[str, Any]) -> str:
         return (f"the compiled model of the FMU {section.get('path')!r} (relative to "
                 f"{section.get('config_dir')!r})")
-
-    def _specs(self) -> list[CallableOutput]:
-        return list(self.params.output_specs())
-
-    def _source(self) -> str:
-        return Path(self.params.path).name
 
     def inputs(self) -> tuple[InputInfo, ...]:
         known = archive.variables(self.params.description())

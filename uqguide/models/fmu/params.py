@@ -103,10 +103,7 @@ class FmuParams(ConfigDirParams):
             raise ValueError(f"FMU variable {twice[0]!r} is set by more than one input")
         return v
 
-    @field_validator("outputs", mode="before")
-    @classmethod
-    def _plain_output_names(cls, v: Any) -> Any:
-        return check_output_names(v)
+    _plain_output_names = field_validator("outputs", mode="before")(check_output_names)
 
     @model_validator(mode="after")
     def _consistent(self) -> FmuParams:

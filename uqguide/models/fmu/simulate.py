@@ -141,7 +141,6 @@ def pick(result: Any, setup: Setup, scalars: Mapping[str, Sequence[str]],
     se = {name: np.column_stack([np.asarray(result[v], dtype=float)[rows] for v in vs])
           if not reason else np.full((setup.grid.size, len(vs)), np.nan)
           for name, vs in series.items()}
-    if not reason and not (all(np.isfinite(a).all() for a in sc.values()) and
-                           all(np.isfinite(a).all() for a in se.values())):
+    if not reason and not all(np.isfinite(a).all() for a in [*sc.values(), *se.values()]):
         reason = "non-finite output value"
     return sc, se, reason
