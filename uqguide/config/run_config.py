@@ -229,41 +229,33 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str] | None = None,
-                     source: str = "") -> ConfigError:
+def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str]) -> ConfigError:
     """One ConfigError line from pydantic's first error: path, value, what is allowed."""
     errors = err.errors(include_url=False)
-    e = errors[0]
-    where = f"{source}: " if source else ""
-    misspelt = _misspelt_required(errors)
-    if misspelt is not None:
-        # A misspelt required key is both "missing" and "unknown": name the key typed.
-        e, close = misspelt
-        path = _printable(_path(prefix, tuple(e["loc"])))
-        allowed = (f"; allowed keys: {', '.join(allowed_keys)}"
-                   if allowed_keys and len(e["loc"]) == 1 else "")
-        return ConfigError(f"{where}{path}: unknown key (did you mean '{close}'?){allowed}",
-                           field=path)
+    # A misspelt required key is both "missing" and "unknown": name the key typed.
+    e, close = _misspelt_required(errors) or (errors[0], "")
     path = _printable(_path(prefix, tuple(e["loc"])))
     if e["type"] == "extra_forbidden":
-        key = str(e["loc"][-1])
-        hint = did_you_mean(key, allowed_keys) if allowed_keys else ""
-        allowed = f"; allowed keys: {', '.join(allowed_keys)}" if allowed_keys else ""
-        return ConfigError(f"{where}{path}: unknown key{hint}{allowed}", field=path)
+        hint = f" (did you mean '{close}'?)" if close else \
+            did_you_mean(str(e["loc"][-1]), allowed_keys)
+        # allowed_keys are the top level's: not listed for a misspelt key below it
+        listed = not close or len(e["loc"]) == 1
+        allowed = f"; allowed keys: {', '.join(allowed_keys)}" if listed else ""
+        return ConfigError(f"{path}: unknown key{hint}{allowed}", field=path)
     if e["type"] == "missing":
-        return ConfigError(f"{where}{path}: required field is missing", field=path)
+        return ConfigError(f"{path}: required field is missing", field=path)
     if e["type"] in ("union_tag_invalid", "union_tag_not_found"):
         tag = e.get("input", {}).get("dist") if isinstance(e.get("input"), dict) else None
         hint = did_you_mean(tag, list(DISTRIBUTIONS)) if isinstance(tag, str) else ""
         got = f"got {tag!r}" if tag is not None else "missing"
         return ConfigError(
-            f"{where}{path}.dist: unknown distribution ({got}){hint}; allowed: "
+            f"{path}.dist: unknown distribution ({got}){hint}; allowed: "
             f"{', '.join(DISTRIBUTIONS)}", field=f"{path}.dist")
     msg = e["msg"].replace("Value error, ", "")
     if isinstance(e.get("input"), dict):
         # A check across several fields: its message names the values itself.
-        return ConfigError(f"{where}{path}: {msg}", field=path)
-    return ConfigError(f"{where}{path}: {msg} (got {_short(e.get('input'))})", field=path)
+        return ConfigError(f"{path}: {msg}", field=path)
+    return ConfigError(f"{path}: {msg} (got {_short(e.get('input'))})", field=path)
 
 
 def _misspelt_required(errors: list[Any]) -> tuple[Any, str] | None:
