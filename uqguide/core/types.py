@@ -8,6 +8,7 @@ methods, a PCE reads a :class:`ModelOutput` without importing the models.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -298,14 +299,10 @@ class ScalarIndex:
     def parse(names: Sequence[str]) -> list[ScalarIndex]:
         """The columns named ``"output"`` or ``"output[j]"`` (as stored in a result file); each
         output's component count is that of its columns in ``names``."""
-        split = []
-        for nm in names:
-            base, _, rest = nm.partition("[")
-            split.append((base, int(rest.rstrip("]")) if rest else 0))
-        counts: dict[str, int] = {}
-        for base, _ in split:
-            counts[base] = counts.get(base, 0) + 1
-        return [ScalarIndex(base, j, counts[base]) for base, j in split]
+        split = [nm.partition("[") for nm in names]
+        counts = Counter(base for base, _, _ in split)
+        return [ScalarIndex(base, int(rest.rstrip("]")) if rest else 0, counts[base])
+                for base, _, rest in split]
 
 
 @dataclass
