@@ -163,8 +163,7 @@ class RowRange:
     """Rows ``[start, stop)`` of a :class:`GeneratedRows`, made where they are used.
 
     A pool worker that gets one makes its chunk's inputs itself: the driver neither draws nor
-    pickles them (for a 1e6-run FTCAPN study, 1.2 s of the driver's time and 56 MB through
-    the pipes). The rows are the same bits wherever they are made: the maker is a pure
+    pickles them. The rows are the same bits wherever they are made: the maker is a pure
     function of the chunk number.
     """
 
