@@ -19,7 +19,7 @@ from typing import Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator)
+from pydantic import Field, ValidationError, field_validator
 
 from ..errors import ConfigError
 from ..core.events import EventSpec, component_index
@@ -34,9 +34,7 @@ from ..models.base import Model
 from .registry import did_you_mean, method_class, model_class
 
 
-class CorrelationSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
+class CorrelationSpec(StrictModel):
     inputs: list[str] = Field(min_length=2)
     matrix: list[list[float]]
 
@@ -56,8 +54,6 @@ def check_run_name(name: str) -> str:
 
 class RawConfig(StrictModel):
     """The config file's top level, before model- and method-specific validation."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     name: str | None = None
     description: str | None = None

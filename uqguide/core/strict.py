@@ -12,7 +12,7 @@ import typing
 from collections.abc import Callable
 from typing import Any
 
-from pydantic import BaseModel, model_validator
+from pydantic import BaseModel, ConfigDict, model_validator
 
 
 def _any_leaf(annotation: Any, leaf: Callable[[Any], bool]) -> bool:
@@ -44,7 +44,10 @@ def no_bool_numbers(cls: Any, data: Any) -> Any:
 
 
 class StrictModel(BaseModel):
-    """A pydantic model whose plain-number fields refuse booleans (YAML's ``yes`` is not 1)."""
+    """A pydantic model of config settings: frozen, unknown keys refused, and plain-number
+    fields refuse booleans (YAML's ``yes`` is not 1)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
     @model_validator(mode="before")
     @classmethod
