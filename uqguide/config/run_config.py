@@ -327,9 +327,9 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     for bad, rule in ((lambda v: isinstance(v, float) and v != v, "must be a number, not NaN"),
                       (lambda v: isinstance(v, str) and "\x00" in v,
                        "must not contain a NUL character")):
-        found = _first_path(data, bad)
-        if found is not None:
-            raise ConfigError(f"{found[0]}: {rule}", field=found[0])
+        at = _first_path(data, bad)
+        if at is not None:
+            raise ConfigError(f"{at[0]}: {rule}", field=at[0])
     try:
         raw = RawConfig.model_validate(dict(data))
     except ValidationError as err:
