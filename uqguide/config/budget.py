@@ -54,13 +54,9 @@ class Budget:
     @property
     def peak_bytes(self) -> float:
         """Kept data adds up over methods (the result holds them all); transients do not."""
-        kept = sum(m.parts.get("kept", 0.0) + m.parts.get("series kept", 0.0)
-                   + m.parts.get("quantiles kept", 0.0) + m.parts.get("bootstrap sums", 0.0)
-                   + m.parts.get("sensitivity kept", 0.0)
-                   for m in self.methods) + self.data_bytes * self.data_copies
-        transient = max((m.parts.get("per chunk", 0.0) + m.parts.get("basis", 0.0)
-                         + m.parts.get("bootstrap per chunk", 0.0)
-                         + m.parts.get("sensitivity", 0.0)
+        kept = sum(sum(m.parts.get(p, 0.0) for p in KEPT_PARTS) for m in self.methods) + \
+            self.data_bytes * self.data_copies
+        transient = max((sum(m.parts.get(p, 0.0) for p in TRANSIENT_PARTS)
                          for m in self.methods), default=0.0)
         return kept + transient + BASE_BYTES
 
@@ -82,6 +78,9 @@ class Budget:
         return out
 
 
+#: The parts of a method's estimate held until the run ends, and those alive for one chunk.
+KEPT_PARTS = ("kept", "series kept", "quantiles kept", "bootstrap sums", "sensitivity kept")
+TRANSIENT_PARTS = ("per chunk", "basis", "bootstrap per chunk", "sensitivity")
 #: What one surrogate draw costs beside its basis terms, in term evaluations.
 DRAW_OVERHEAD_TERMS = 50
 #: Largest surrogate work of one method, in term evaluations (:func:`check_surrogate`).

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import ConfigDict, Field, ValidationError
+from pydantic import Field, ValidationError
 
 from ..core.inputs import InputSpace
 from ..core.strict import StrictModel
@@ -35,8 +35,6 @@ log = logging.getLogger(__name__)
 
 class DataSpec(StrictModel):
     """``data:`` as a mapping (a plain string is its ``path``)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     path: str = Field(min_length=1, description="the file of runs (.csv, .parquet, .h5, .npz)")
     time: list[float] | None = Field(default=None, description="time grid of the series [s]")

@@ -46,9 +46,7 @@ def memory_limit(value: Any) -> int:
 def parse_bytes(value: Any) -> int:
     """``2e9``, ``"2 GB"``, ``"512MiB"`` -> bytes, at least 1e6 (units kB, MB, GB, TB, KiB, MiB,
     GiB, TiB); ValueError naming what is allowed."""
-    if isinstance(value, bool):
-        raise ValueError(f"must be a size in bytes or a string like '4 GB' (got {value!r})")
-    if isinstance(value, (int, float)):
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
         v = float(value)
     elif isinstance(value, str):
         m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([A-Za-z]*)\s*", value)

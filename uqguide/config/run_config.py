@@ -19,7 +19,7 @@ from typing import Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator)
+from pydantic import Field, ValidationError, field_validator
 
 from ..errors import ConfigError
 from ..core.events import EventSpec, component_index
@@ -34,9 +34,7 @@ from ..models.base import Model
 from .registry import did_you_mean, method_class, model_class
 
 
-class CorrelationSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
+class CorrelationSpec(StrictModel):
     inputs: list[str] = Field(min_length=2)
     matrix: list[list[float]]
 
@@ -56,8 +54,6 @@ def check_run_name(name: str) -> str:
 
 class RawConfig(StrictModel):
     """The config file's top level, before model- and method-specific validation."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     name: str | None = None
     description: str | None = None
@@ -193,8 +189,7 @@ class RunConfig:
         # the raw model section may hold a function object (callable model from Python): the
         # model's own params serialise it
         rest = self.raw.model_dump(mode="json", exclude={"model", "data"})
-        d: dict[str, Any] = {k: rest.get(k) for k in RawConfig.model_fields
-                             if k in rest or k in ("model", "data")}
+        d: dict[str, Any] = {k: rest.get(k) for k in RawConfig.model_fields}  # in field order
         if self.data is not None:  # the data's model is the file: data: says which
             d["model"], d["data"] = None, dict(self.data)
         else:
@@ -203,10 +198,8 @@ class RunConfig:
             if self._model_section.get("isolate") is not None:  # only when given: results
                 d["model"]["isolate"] = self._model_section["isolate"]  # made before compare
         d["outputs"] = list(self.outputs)
-        d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json")}
+        d["methods"] = [{"name": m.name, **m.settings.model_dump(mode="json"), "label": m.label}
                         for m in self.methods]
-        for m, entry in zip(self.methods, d["methods"]):
-            entry["label"] = m.label
         return d
 
     def with_seed(self, seed: int) -> RunConfig:
@@ -232,41 +225,33 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str] | None = None,
-                     source: str = "") -> ConfigError:
+def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str]) -> ConfigError:
     """One ConfigError line from pydantic's first error: path, value, what is allowed."""
     errors = err.errors(include_url=False)
-    e = errors[0]
-    where = f"{source}: " if source else ""
-    misspelt = _misspelt_required(errors)
-    if misspelt is not None:
-        # A misspelt required key is both "missing" and "unknown": name the key typed.
-        e, close = misspelt
-        path = _printable(_path(prefix, tuple(e["loc"])))
-        allowed = (f"; allowed keys: {', '.join(allowed_keys)}"
-                   if allowed_keys and len(e["loc"]) == 1 else "")
-        return ConfigError(f"{where}{path}: unknown key (did you mean '{close}'?){allowed}",
-                           field=path)
+    # A misspelt required key is both "missing" and "unknown": name the key typed.
+    e, close = _misspelt_required(errors) or (errors[0], "")
     path = _printable(_path(prefix, tuple(e["loc"])))
     if e["type"] == "extra_forbidden":
-        key = str(e["loc"][-1])
-        hint = did_you_mean(key, allowed_keys) if allowed_keys else ""
-        allowed = f"; allowed keys: {', '.join(allowed_keys)}" if allowed_keys else ""
-        return ConfigError(f"{where}{path}: unknown key{hint}{allowed}", field=path)
+        hint = f" (did you mean '{close}'?)" if close else \
+            did_you_mean(str(e["loc"][-1]), allowed_keys)
+        # allowed_keys are the top level's: not listed for a misspelt key below it
+        listed = not close or len(e["loc"]) == 1
+        allowed = f"; allowed keys: {', '.join(allowed_keys)}" if listed else ""
+        return ConfigError(f"{path}: unknown key{hint}{allowed}", field=path)
     if e["type"] == "missing":
-        return ConfigError(f"{where}{path}: required field is missing", field=path)
+        return ConfigError(f"{path}: required field is missing", field=path)
     if e["type"] in ("union_tag_invalid", "union_tag_not_found"):
         tag = e.get("input", {}).get("dist") if isinstance(e.get("input"), dict) else None
         hint = did_you_mean(tag, list(DISTRIBUTIONS)) if isinstance(tag, str) else ""
         got = f"got {tag!r}" if tag is not None else "missing"
         return ConfigError(
-            f"{where}{path}.dist: unknown distribution ({got}){hint}; allowed: "
+            f"{path}.dist: unknown distribution ({got}){hint}; allowed: "
             f"{', '.join(DISTRIBUTIONS)}", field=f"{path}.dist")
     msg = e["msg"].replace("Value error, ", "")
     if isinstance(e.get("input"), dict):
         # A check across several fields: its message names the values itself.
-        return ConfigError(f"{where}{path}: {msg}", field=path)
-    return ConfigError(f"{where}{path}: {msg} (got {_short(e.get('input'))})", field=path)
+        return ConfigError(f"{path}: {msg}", field=path)
+    return ConfigError(f"{path}: {msg} (got {_short(e.get('input'))})", field=path)
 
 
 def _misspelt_required(errors: list[Any]) -> tuple[Any, str] | None:
@@ -284,10 +269,6 @@ def _misspelt_required(errors: list[Any]) -> tuple[Any, str] | None:
         if close:
             return x, close[0]
     return None
-
-
-def _fields(model: type[BaseModel]) -> list[str]:
-    return list(model.model_fields)
 
 
 def load_yaml(path: str | Path) -> dict[str, Any]:
@@ -342,17 +323,17 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     ``source``: a file's path (its folder is where a callable model's module is looked for
     first) or ``"<dict>"``.
     """
-    nan_at = _find_nan(data)
-    nan_at = None if nan_at is None else _printable(nan_at)
-    if nan_at is not None:
-        raise ConfigError(f"{nan_at}: must be a number, not NaN", field=nan_at)
-    nul_at = _find_nul(data)
-    if nul_at is not None:
-        raise ConfigError(f"{nul_at}: must not contain a NUL character", field=nul_at)
+    # A NaN is never a meaningful setting (YAML spells it .nan); a NUL ends a C string.
+    for bad, rule in ((lambda v: isinstance(v, float) and v != v, "must be a number, not NaN"),
+                      (lambda v: isinstance(v, str) and "\x00" in v,
+                       "must not contain a NUL character")):
+        at = _first_path(data, bad)
+        if at is not None:
+            raise ConfigError(f"{at[0]}: {rule}", field=at[0])
     try:
         raw = RawConfig.model_validate(dict(data))
     except ValidationError as err:
-        raise _from_validation(err, "", _fields(RawConfig)) from None
+        raise _from_validation(err, "", list(RawConfig.model_fields)) from None
 
     config_dir = str(Path(source).parent) if source != "<dict>" else None
     if (raw.model is None) == (raw.data is None):
@@ -453,7 +434,7 @@ def _stored_inputs(data: Mapping[str, Any]) -> RawConfig:
         return RawConfig.model_validate({k: v for k, v in data.items()
                                          if k in ("inputs", "correlations")} | {"methods": [{}]})
     except ValidationError as err:
-        raise _from_validation(err, "", _fields(RawConfig)) from None
+        raise _from_validation(err, "", list(RawConfig.model_fields)) from None
 
 
 def _check_quantiles(raw: RawConfig) -> None:
@@ -497,18 +478,18 @@ def _check_events(raw: RawConfig, model: Model, outputs: tuple[str, ...]) -> Non
                               field=f"events[{i}]")
 
 
-def _first_path(node: Any, bad: Callable[[Any], bool], path: str = "") -> str | None:
-    """Path of the first value or key of the config for which ``bad`` holds (depth first, a
-    key before its value)."""
+def _first_path(node: Any, bad: Callable[[Any], bool], path: str = "") -> tuple[str, Any] | None:
+    """Path (printable) and value of the first value or key of the config for which ``bad``
+    holds (depth first, a key before its value)."""
     if bad(node):
-        return path or "<top>"
+        return _printable(path or "<top>"), node
     if isinstance(node, Mapping):
         for k, v in node.items():
             sub = f"{path}.{k}" if path else str(k)
-            found = sub if bad(k) else _first_path(v, bad, sub)
+            found = (_printable(sub), k) if bad(k) else _first_path(v, bad, sub)
             if found:
                 return found
-    elif isinstance(node, list):
+    elif isinstance(node, (list, tuple)):
         for i, v in enumerate(node):
             found = _first_path(v, bad, f"{path}[{i}]")
             if found:
@@ -516,20 +497,9 @@ def _first_path(node: Any, bad: Callable[[Any], bool], path: str = "") -> str | 
     return None
 
 
-def _find_nan(node: Any) -> str | None:
-    """Path of the first NaN in the config (never a meaningful setting; YAML spells it .nan)."""
-    return _first_path(node, lambda v: isinstance(v, float) and v != v)
-
-
 def _printable(text: str) -> str:
     """``text`` with control characters escaped (a message stays one line)."""
     return text if text.isprintable() else repr(text)[1:-1]
-
-
-def _find_nul(node: Any) -> str | None:
-    """Path of the first string (value or key) holding a NUL character (printable)."""
-    found = _first_path(node, lambda v: isinstance(v, str) and "\x00" in v)
-    return None if found is None else _printable(found)
 
 
 def _check_finite_parameters(raw: RawConfig) -> None:
@@ -558,24 +528,14 @@ def _build_model(section: dict[str, Any], config_dir: str | None = None) -> Mode
         # config_dir: where a callable model's module is looked for first
         validated = cls.Params.model_validate(params, context={"config_dir": config_dir})
     except ValidationError as err:
-        raise _from_validation(err, "model", ["name", "isolate", *_fields(cls.Params)]) from None
-    bad = _find_infinite(validated.model_dump(), "model")
+        raise _from_validation(err, "model",
+                               ["name", "isolate", *cls.Params.model_fields]) from None
+    # no model takes an infinite number
+    bad = _first_path(validated.model_dump(),
+                      lambda v: isinstance(v, float) and not np.isfinite(v), "model")
     if bad is not None:
         raise ConfigError(f"{bad[0]}: must be a finite number (got {bad[1]!r})", field=bad[0])
     return cls(validated)
-
-
-def _find_infinite(node: Any, path: str) -> tuple[str, float] | None:
-    """The first infinite number among a model's parameters (no model takes one)."""
-    if isinstance(node, float) and not np.isfinite(node):
-        return path, node
-    items = node.items() if isinstance(node, dict) else enumerate(node) \
-        if isinstance(node, (list, tuple)) else ()
-    for k, v in items:
-        found = _find_infinite(v, f"{path}[{k}]" if isinstance(k, int) else f"{path}.{k}")
-        if found:
-            return found
-    return None
 
 
 def _build_space(raw: RawConfig, model: Model | None) -> InputSpace:
@@ -708,7 +668,8 @@ def _build_methods(entries: list[dict[str, Any]], context: RunContext) -> list[M
         try:
             method = cls(cls.Settings.model_validate(settings), context)
         except ValidationError as err:
-            raise _from_validation(err, f"methods[{i}]", ["name", *_fields(cls.Settings)]) from None
+            raise _from_validation(err, f"methods[{i}]",
+                                   ["name", *cls.Settings.model_fields]) from None
         methods.append(method)
     return methods
 

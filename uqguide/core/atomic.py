@@ -25,7 +25,7 @@ import secrets
 import socket
 import stat
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import IO, Any
 
@@ -242,16 +242,12 @@ def disk_full_as_error(path: str | Path) -> Iterator[None]:
 
 
 def _fsync_dir(folder: Path) -> None:
-    try:
+    with suppress(OSError):  # a platform without directory fds
         fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
-    except OSError:  # pragma: no cover - a platform without directory fds
-        return
-    try:
-        os.fsync(fd)
-    except OSError:  # pragma: no cover
-        pass
-    finally:
-        os.close(fd)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
 
 
 def _create_temp(path: Path, field: str) -> tuple[Path, int]:
@@ -308,10 +304,7 @@ def atomic_file(path: str | Path, binary: bool = True, fsync: bool = True, clean
 
 def write_text(path: str | Path, text: str, field: str = "out") -> Path:
     """Write ``text`` (UTF-8) to ``path`` atomically."""
-    path = Path(path)
-    with atomic_file(path, binary=False, field=field) as f:
-        f.write(text)
-    return path
+    return write_with(path, lambda f: f.write(text), field=field)
 
 
 def write_with(path: str | Path, writer: Callable[[IO[Any]], object], binary: bool = False,
@@ -354,9 +347,6 @@ class HeldErrorFile(io.RawIOBase):
 
     def seekable(self) -> bool:
         return True
-
-    def tell(self) -> int:
-        return self._pos
 
     def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
         base = {io.SEEK_SET: 0, io.SEEK_CUR: self._pos, io.SEEK_END: self._size}[whence]
@@ -443,12 +433,10 @@ def clean_stale_temps(folder: str | Path) -> list[Path]:
         pid = temp_owner(e.name)
         if pid is None or pid == os.getpid() or pid_alive(pid):
             continue
-        try:
+        with suppress(OSError):
             if e.is_file(follow_symlinks=False):
                 os.unlink(e.path)
                 removed.append(Path(e.path))
-        except OSError:
-            continue
     if removed:
         log.info("removed %d stale temporary file(s) in %s", len(removed), folder)
     return removed

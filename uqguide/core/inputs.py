@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Annotated, Literal, TypeVar, Union
 
 import numpy as np
-from pydantic import ConfigDict, Field, PositiveFloat, model_validator
+from pydantic import Field, PositiveFloat, model_validator
 
 from .strict import StrictModel
 
@@ -33,8 +33,6 @@ def _chaospy():
 
 
 class _Marginal(StrictModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
     name: str = Field(min_length=1)
     if TYPE_CHECKING:
         # The discriminator tag: each concrete marginal declares it as its Literal field.

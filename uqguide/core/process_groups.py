@@ -20,7 +20,7 @@ import signal
 import threading
 import time
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from typing import Any
 
 from . import descendants
@@ -42,19 +42,15 @@ _warned = {"left": False}
 
 def kill_group(pgid: int) -> None:
     """SIGKILL the process group ``pgid``; a group already gone is not an error."""
-    try:
+    with suppress(ProcessLookupError, PermissionError):
         os.killpg(pgid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        pass
 
 
 def _kill_subtree(pid: int) -> None:
     """SIGKILL ``pid`` and every process below it; one already gone is not an error."""
     for p in descendants.subtree(pid):
-        try:
+        with suppress(ProcessLookupError, PermissionError):
             os.kill(p, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
-            pass
 
 
 class ProgramCall:

@@ -43,13 +43,8 @@ KINDS = (FMU, MULTIPROCESSING)
 
 
 def make(kind: Kind, **extra: Any) -> Path:
-    """A fresh marked folder of ``kind`` for this process, ``extra`` written in its mark.
-
-    Raises
-    ------
-    OSError
-        The folder or its mark cannot be written (nothing is left).
-    """
+    """A fresh marked folder of ``kind`` for this process, ``extra`` written in its mark;
+    OSError when the folder or its mark cannot be written (nothing is left)."""
     pid = f"{os.getpid()}-" if kind.with_pid else ""
     folder = Path(tempfile.mkdtemp(prefix=f"{kind.prefix}{pid}"))
     try:
@@ -78,13 +73,8 @@ def mark_of(folder: Path, kind: Kind) -> dict[str, Any] | None:
 
 
 def sweep(kinds: tuple[Kind, ...] = KINDS) -> int:
-    """Remove the marked folders of ``kinds`` whose process is gone (module docstring).
-
-    Returns
-    -------
-    int
-        Folders removed.
-    """
+    """Remove the marked folders of ``kinds`` whose process is gone (module docstring); returns
+    how many."""
     removed = 0
     try:
         entries = list(os.scandir(tempfile.gettempdir()))
@@ -118,12 +108,8 @@ def multiprocessing_folder() -> str | None:
     The folder this process has (made here before, inherited from the parent that started it,
     or multiprocessing's own) is kept. Otherwise the dead processes' folders are swept and a
     marked one is made and given to multiprocessing (``pymp-*`` otherwise), removed at exit
-    after this process's children, as multiprocessing removes its own.
-
-    Returns
-    -------
-    str or None
-        The folder multiprocessing uses, None when it has none yet.
+    after this process's children, as multiprocessing removes its own. Returns the folder
+    multiprocessing uses, None when it has none yet.
     """
     from multiprocessing import util
 
