@@ -20,6 +20,7 @@ from .derived import map_derived
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
+from .surrogate import Surrogate
 from .validation_design import ValidationDesign, random_design_of
 
 SERIES_FLOATS = 2**24
@@ -90,12 +91,7 @@ def surrogate_values(germ: Germ, expansions: Mapping[str, Expansion],
                      u: np.ndarray) -> np.ndarray:
     """The surrogate's values ``(n, *shape)`` of output ``name`` (fitted or derived) at unit-cube
     points ``u (n, d)``."""
-    xi = germ.from_unit(u)
-    if name in expansions:
-        return expansions[name].values(xi)
-    values = {c: expansions[c].values(xi) for c in derived[name].carriers}
-    map_derived(germ, xi, derived, [name], values)
-    return values[name]
+    return Surrogate(germ, dict(expansions), derived).at_unit(u, [name])[name]
 
 
 def control_variate_events(
