@@ -34,12 +34,10 @@ def output_columns(outputs: ModelOutput,
                    rows: np.ndarray | slice = slice(None)) -> list[OutputColumns]:
     """Series then scalar outputs of the selected runs, flattened to columns."""
     cols = []
-    for name, y in outputs.series.items():
-        y = np.asarray(y[rows], dtype=float)
-        cols.append(OutputColumns(name, "series", y.reshape(y.shape[0], -1), y.shape[1:]))
-    for name, y in outputs.scalars.items():
-        y = np.asarray(y[rows], dtype=float)
-        cols.append(OutputColumns(name, "scalar", y, y.shape[1:]))
+    for kind, group in (("series", outputs.series), ("scalar", outputs.scalars)):
+        for name, y in group.items():
+            y = np.asarray(y[rows], dtype=float)
+            cols.append(OutputColumns(name, kind, y.reshape(y.shape[0], -1), y.shape[1:]))
     return cols
 
 
