@@ -57,7 +57,10 @@ def graded(alpha: np.ndarray) -> np.ndarray:
 
 
 @lru_cache(maxsize=64)
-def _recurrence(kind: tuple[str, float, float], degree: int) -> tuple[np.ndarray, np.ndarray]:
+def recurrence(kind: tuple[str, float, float], degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Monic recurrence coefficients ``(alpha (degree+1,), beta (degree+1,))`` of a germ variable
+    of the given :meth:`Germ.kind`: ``pi_{k+1} = (x - alpha_k) pi_k - beta_k pi_{k-1}``,
+    ``beta[0] = 1``."""
     fam, a, b = kind
     if fam == "normal":
         return np.zeros(degree + 1), np.concatenate([[1.0], np.arange(1.0, degree + 1)])
@@ -68,13 +71,6 @@ def _recurrence(kind: tuple[str, float, float], degree: int) -> tuple[np.ndarray
 
     coeffs, _, _ = chaospy.stieltjes(degree, kind_distribution(kind))
     return np.asarray(coeffs[0, 0], float), np.asarray(coeffs[1, 0], float)
-
-
-def recurrence(kind: tuple[str, float, float], degree: int) -> tuple[np.ndarray, np.ndarray]:
-    """Monic recurrence coefficients ``(alpha (degree+1,), beta (degree+1,))`` of a germ variable
-    of the given :meth:`Germ.kind`: ``pi_{k+1} = (x - alpha_k) pi_k - beta_k pi_{k-1}``,
-    ``beta[0] = 1``."""
-    return _recurrence(kind, degree)
 
 
 def univariate(kind: tuple[str, float, float], xi: np.ndarray, degree: int) -> np.ndarray:

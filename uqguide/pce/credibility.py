@@ -19,6 +19,7 @@ import numpy as np
 from ..core.types import STAT_NAMES, OutputStats
 from .far_tails import beyond_the_runs, can_swing, replace_far_tails
 from .point_choice import better_points
+from .runs_estimate import LOWEST
 from .support import disagrees_with_runs, either, less_precise, unsupported, with_the_kurtosis
 from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 
@@ -131,11 +132,10 @@ def printed(cv: Corrected) -> dict[str, np.ndarray]:
     """The intervals the report prints: ``shown_ci`` (else ``ci``) with the std's lower end at
     least 0 and the kurtosis' at least 1, as for Monte Carlo."""
     ci = dict(cv.ci if cv.shown_ci is None else cv.shown_ci)
-    for k, floor in (("std", 0.0), ("kurtosis", 1.0)):
+    for k, floor in LOWEST.items():
         if k in ci:
             v = np.array(ci[k], dtype=float)
-            with np.errstate(invalid="ignore"):
-                v[0] = np.where(np.isnan(v[0]), np.nan, np.maximum(v[0], floor))
+            v[0] = np.maximum(v[0], floor)  # NaN stays NaN
             ci[k] = v
     return ci
 

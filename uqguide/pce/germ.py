@@ -84,13 +84,11 @@ class Germ:
         xi = np.asarray(xi, dtype=float)
         x = np.empty_like(xi)
         for j, m in enumerate(self.space.marginals):
-            if isinstance(m, Normal):
-                x[:, j] = m.mean + m.std * xi[:, j]
-            elif isinstance(m, Uniform):
+            if isinstance(m, Uniform):
                 x[:, j] = 0.5 * (m.low + m.high) + 0.5 * (m.high - m.low) * xi[:, j]
             elif isinstance(m, LogNormal):
                 x[:, j] = np.exp(m.mu + m.sigma * xi[:, j])
-            else:
+            else:  # normal and truncated normal
                 x[:, j] = m.mean + m.std * xi[:, j]  # type: ignore[attr-defined]
         for g in self.space.groups:
             L = np.linalg.cholesky(g.matrix)
@@ -100,7 +98,6 @@ class Germ:
             std = np.array([m.std for m in ms])  # type: ignore[attr-defined]
             x[:, idx] = mean + std * (xi[:, idx] @ L.T)
         return x
-
 
     def from_physical(self, x: np.ndarray) -> np.ndarray:
         """Germ values ``xi (n, d)`` of physical inputs ``x (n, d)``: the inverse of

@@ -16,7 +16,7 @@ from . import basis, linearisation
 from .design import surrogate_draws
 from .expansion import Expansion
 from .quadrature import gauss_rule
-from .sobol_indices import refused_sets
+from .sobol_indices import ratios, refused_sets, term_sets
 
 _CHUNK_FLOATS = 2**22  # rows per chunk x (terms + columns) stay near 32 MB
 
@@ -116,19 +116,13 @@ def central_from_raw(m1: np.ndarray, m2: np.ndarray, m3: np.ndarray, m4: np.ndar
 def sobol_indices(exp: Expansion) -> tuple[np.ndarray, np.ndarray]:
     """First-order and total Sobol' indices, shape ``shape + (d,)``; NaN where the variance is 0
     and for an input of a correlated group (:func:`uqguide.pce.sobol_indices.refused_sets`)."""
-    c2 = exp.coef[1:] ** 2  # (P-1, m)
-    alpha = exp.alpha[1:] > 0  # (P-1, d)
-    only = alpha & (alpha.sum(axis=1, keepdims=True) == 1)
-    var = c2.sum(axis=0)
-    ok = var > 0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        first = np.where(ok[:, None], (c2.T @ only) / np.where(ok, var, 1.0)[:, None], np.nan)
-        total = np.where(ok[:, None], (c2.T @ alpha) / np.where(ok, var, 1.0)[:, None], np.nan)
     d = exp.alpha.shape[1]
+    sets = term_sets(exp.alpha)
     alone = refused_sets(exp.germ.space)[:d]
-    if alone.any():  # a member of a correlated group has no index of its own
-        first[:, alone], total[:, alone] = np.nan, np.nan
-    return first.reshape(exp.shape + (d,)), total.reshape(exp.shape + (d,))
+    # First-order and total each their own product: one product of both rounds otherwise.
+    first, total = (np.where(alone, np.nan, ratios(exp.coef, s)).reshape(exp.shape + (d,))
+                    for s in (sets[:, :d], sets[:, d:]))
+    return first, total
 
 
 def output_statistics(

@@ -34,12 +34,10 @@ def output_columns(outputs: ModelOutput,
                    rows: np.ndarray | slice = slice(None)) -> list[OutputColumns]:
     """Series then scalar outputs of the selected runs, flattened to columns."""
     cols = []
-    for name, y in outputs.series.items():
-        y = np.asarray(y[rows], dtype=float)
-        cols.append(OutputColumns(name, "series", y.reshape(y.shape[0], -1), y.shape[1:]))
-    for name, y in outputs.scalars.items():
-        y = np.asarray(y[rows], dtype=float)
-        cols.append(OutputColumns(name, "scalar", y, y.shape[1:]))
+    for kind, group in (("series", outputs.series), ("scalar", outputs.scalars)):
+        for name, y in group.items():
+            y = np.asarray(y[rows], dtype=float)
+            cols.append(OutputColumns(name, kind, y.reshape(y.shape[0], -1), y.shape[1:]))
     return cols
 
 
@@ -107,28 +105,26 @@ def assemble(
             scalars.append((col.name, exp))
     names, s_mean, s_cov = joint_scalar_moments(scalars)
     diag: dict[str, object] = {}
-    if not derived:
-        return stats, names, s_mean, s_cov, diag, _tails(
-            stats, expansions, derived, levels, events, components, n_draws, seed, sampling)
-    for name, dv in derived.items():
-        missing = [c for c in dv.carriers if c not in expansions]
-        if missing:
-            raise MethodError(f"{label}: output '{name}' is derived from "
-                              f"{', '.join(dv.carriers)}, but the runs have no "
-                              f"{', '.join(missing)}")
-    order = [nm for nm in outputs.scalars if nm in expansions or nm in derived]
-    order += [nm for nm, dv in derived.items() if dv.kind == "scalar" and nm not in order]
-    d_stats, joint, n_invalid = derived_statistics(
-        next(iter(expansions.values())).germ, expansions, derived, scalar_order=order,
-        n_draws=n_draws, seed=seed, n_runs=n_runs, sampling=sampling)
-    stats.update(d_stats)
-    if joint is not None:
-        names = [s for nm in order for s in ScalarIndex.of(nm, stats[nm].mean.shape[-1])]
-        s_mean, s_cov = joint
-        diag["scalar_moments"] = "surrogate-sampling"
-    diag["derived"] = ", ".join(f"{nm} from {'+'.join(dv.carriers)}"
-                                for nm, dv in derived.items())
-    diag["derived_invalid_draws"] = n_invalid
+    if derived:
+        for name, dv in derived.items():
+            missing = [c for c in dv.carriers if c not in expansions]
+            if missing:
+                raise MethodError(f"{label}: output '{name}' is derived from "
+                                  f"{', '.join(dv.carriers)}, but the runs have no "
+                                  f"{', '.join(missing)}")
+        order = [nm for nm in outputs.scalars if nm in expansions or nm in derived]
+        order += [nm for nm, dv in derived.items() if dv.kind == "scalar" and nm not in order]
+        d_stats, joint, n_invalid = derived_statistics(
+            next(iter(expansions.values())).germ, expansions, derived, scalar_order=order,
+            n_draws=n_draws, seed=seed, n_runs=n_runs, sampling=sampling)
+        stats.update(d_stats)
+        if joint is not None:
+            names = [s for nm in order for s in ScalarIndex.of(nm, stats[nm].mean.shape[-1])]
+            s_mean, s_cov = joint
+            diag["scalar_moments"] = "surrogate-sampling"
+        diag["derived"] = ", ".join(f"{nm} from {'+'.join(dv.carriers)}"
+                                    for nm, dv in derived.items())
+        diag["derived_invalid_draws"] = n_invalid
     return stats, names, s_mean, s_cov, diag, _tails(
         stats, expansions, derived, levels, events, components, n_draws, seed, sampling)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, reduce
 from math import comb
 
 import numpy as np
@@ -128,16 +128,9 @@ class Grid:
         """Combined quadrature weights ``(N,)`` of the nodes (they may be negative for Smolyak)."""
         w = np.zeros(self.n_nodes)
         for t in self.terms:
-            wt = t.coef * _outer([r.weights for r in t.rules])
+            wt = t.coef * reduce(np.multiply.outer, [r.weights for r in t.rules], np.ones(()))
             np.add.at(w, t.rows.ravel(), wt.ravel())
         return w
-
-
-def _outer(vectors: list[np.ndarray]) -> np.ndarray:
-    out = np.ones(())
-    for v in vectors:
-        out = np.multiply.outer(out, v)
-    return out
 
 
 def _cartesian(vectors: list[np.ndarray]) -> np.ndarray:

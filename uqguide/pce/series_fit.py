@@ -1,6 +1,6 @@
 """A series output's adaptive PCE (:func:`fit_series`): principal components, their sparse fits
 (each its own search up to :data:`HYBRID_WORK`, else a shared path for all but the first
-:data:`LEAD`), and the number kept (:mod:`uqguide.pce.pca_rank`).
+:data:`LEAD`), and the number kept (:func:`uqguide.pce.pca.choose`).
 
 Why the hybrid, with the measurements that set it:
 docs/methods.md#time-series-in-the-adaptive-pce.
@@ -14,11 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from . import pca_rank
-from .germ import Germ
 from . import basis
+from .germ import Germ
 from .loo import loo_residuals
-from .pca import Components, decompose
+from .pca import Components, candidates, choose, decompose
 from .sparse_regression import ColumnsFit, candidate_sets, fit_columns
 
 log = logging.getLogger(__name__)
@@ -121,30 +120,23 @@ def fit_series(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 1
     """
     # One BLAS thread for the whole fit, the SVD included (docs/pce.md#one-blas-thread).
     with threadpool_limits(limits=1, user_api="blas"):
-        return _fit_series(germ, xi, y, degree_min, degree_max, q, variance_fraction,
-                           n_components)
-
-
-def _fit_series(germ: Germ, xi: np.ndarray, y: np.ndarray, degree_min: int,
-                degree_max: int | None, q: float | None, variance_fraction: float | None,
-                n_components: int | None) -> SeriesFit:
-    dec = decompose(y)
-    if n_components is not None:
-        r, rule = min(n_components, dec.size), "n_components"
-    elif variance_fraction is not None:
-        r, rule = dec.count_for_fraction(variance_fraction), "variance_fraction"
-    else:
-        r, rule = pca_rank.candidates(dec, y.shape[0]), "moments"
-    comps = dec.components(r)
-    if r == 0:
-        empty = ColumnsFit(np.zeros((1, germ.dim), dtype=int), np.zeros((1, 0)),
-                           np.zeros(0, dtype=int), np.zeros(0), np.zeros(0),
-                           np.zeros(0, dtype=int))
-        return SeriesFit(comps, empty, rule)
-    fit, loo_resid = _fit_components(germ, xi, comps.scores, degree_min, degree_max, q,
-                                     loo=rule == "moments")
-    if loo_resid is None:
-        return SeriesFit(comps, fit, rule)
-    kept = pca_rank.choose(dec, y, loo_resid)
-    log.debug("series: %d of %d candidate components kept by the moments' rule", kept, r)
-    return SeriesFit(dec.components(kept), _keep(fit, kept), rule)
+        dec = decompose(y)
+        if n_components is not None:
+            r, rule = min(n_components, dec.size), "n_components"
+        elif variance_fraction is not None:
+            r, rule = dec.count_for_fraction(variance_fraction), "variance_fraction"
+        else:
+            r, rule = candidates(dec, y.shape[0]), "moments"
+        comps = dec.components(r)
+        if r == 0:
+            empty = ColumnsFit(np.zeros((1, germ.dim), dtype=int), np.zeros((1, 0)),
+                               np.zeros(0, dtype=int), np.zeros(0), np.zeros(0),
+                               np.zeros(0, dtype=int))
+            return SeriesFit(comps, empty, rule)
+        fit, loo_resid = _fit_components(germ, xi, comps.scores, degree_min, degree_max, q,
+                                         loo=rule == "moments")
+        if loo_resid is None:
+            return SeriesFit(comps, fit, rule)
+        kept = choose(dec, y, loo_resid)
+        log.debug("series: %d of %d candidate components kept by the moments' rule", kept, r)
+        return SeriesFit(dec.components(kept), _keep(fit, kept), rule)

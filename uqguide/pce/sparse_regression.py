@@ -385,7 +385,7 @@ def fit_columns(germ: Germ, xi: np.ndarray, y: np.ndarray, *, degree_min: int = 
 def _chosen_fit(union: np.ndarray, chosen: Sequence[Scored | None], y: np.ndarray
                 ) -> ColumnsFit:
     """The columns' chosen fits (None: all the column's runs agree, the constant exactly) on
-    the union of the terms they use."""
+    the union of the terms they use (rows of ``union``), constant first."""
     r = len(chosen)
     fits, degree, qs, loo = [], np.zeros(r, dtype=int), np.zeros(r), np.zeros(r)
     for c, pick in enumerate(chosen):
@@ -394,13 +394,6 @@ def _chosen_fit(union: np.ndarray, chosen: Sequence[Scored | None], y: np.ndarra
             continue
         fits.append(pick.fit)
         qs[c], degree[c], loo[c] = pick.q, pick.degree, pick.fit.loo
-    return columns_fit(union, fits, degree, qs, loo)
-
-
-def columns_fit(union: np.ndarray, fits: list[SparseFit], degree: np.ndarray, qs: np.ndarray,
-                loo: np.ndarray) -> ColumnsFit:
-    """The columns' fits (terms as rows of ``union``) on the union of the terms they use,
-    constant first."""
     used = np.unique(np.concatenate([[0]] + [f.terms for f in fits]))
     pos = {t: i for i, t in enumerate(used)}
     core = np.zeros((used.size, len(fits)))

@@ -53,8 +53,8 @@ def _floor(name: str, std: np.ndarray) -> np.ndarray | float:
 def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
                 runs: Corrected | None, loo: float | None = None,
                 own_se: dict[str, np.ndarray] | None = None,
-                twin_disagreed: dict[str, np.ndarray] | None = None,
-                **deprecated: dict[str, np.ndarray] | None) -> dict[str, np.ndarray]:
+                twin_disagreed: dict[str, np.ndarray] | None = None, *,
+                twin_refuted: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Where the PCE's own moments are not supported by its runs: per statistic of
     :data:`LOCATION_STATS` and :data:`SHAPE_STATS`, True where withheld.
 
@@ -65,8 +65,12 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
     95% half-width exceeds the runs' is withheld. ``twin_disagreed``: where the runs disagreed
     with the control-variate value (:func:`disagrees_with_runs`); the PCE's own skewness and
     kurtosis are judged there at one half-width where the runs bound them, else withheld.
+    ``twin_refuted``: deprecated name of ``twin_disagreed``.
     """
-    twin_disagreed = _renamed(deprecated, "twin_refuted", twin_disagreed)
+    if twin_refuted is not None:
+        warnings.warn("the keyword twin_refuted is deprecated: use twin_disagreed",
+                      DeprecationWarning, stacklevel=2)
+        twin_disagreed = twin_refuted if twin_disagreed is None else twin_disagreed
     out = {}
     if loo is not None and loo <= EXACT_LOO:
         runs = None
@@ -160,16 +164,3 @@ def refuted(corrected: Corrected, runs: Corrected | None, std: np.ndarray
     warnings.warn("uqguide.pce.support.refuted is deprecated: use corrections_to_withhold",
                   DeprecationWarning, stacklevel=2)
     return corrections_to_withhold(corrected, runs, std)
-
-
-def _renamed(given: dict[str, dict[str, np.ndarray] | None], old: str,
-             value: dict[str, np.ndarray] | None) -> dict[str, np.ndarray] | None:
-    """``value``, or the deprecated keyword ``old`` of it (with a warning)."""
-    unknown = set(given) - {old}
-    if unknown:
-        raise TypeError(f"unexpected keyword argument(s): {', '.join(sorted(unknown))}")
-    if old not in given:
-        return value
-    warnings.warn(f"the keyword {old} is deprecated: use twin_disagreed", DeprecationWarning,
-                  stacklevel=3)
-    return given[old] if value is None else value

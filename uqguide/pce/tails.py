@@ -16,10 +16,10 @@ import numpy as np
 from ..core.events import EventEstimate, EventSpec, component_index, count_events
 from ..core.types import DerivedOutput
 from ..stats.quantiles import order_statistic_quantiles
-from .derived import map_derived
 from .design import surrogate_draws
 from .expansion import Expansion
 from .germ import Germ
+from .surrogate import Surrogate
 from .validation_design import ValidationDesign, random_design_of
 
 SERIES_FLOATS = 2**24
@@ -46,18 +46,13 @@ def surrogate_tails(
     kept: dict[str, list[np.ndarray]] = {n: [] for n in wanted}
     ok_all: list[np.ndarray] = []
     seen = 0
+    sur = Surrogate(germ, dict(expansions), derived)
     for u in surrogate_draws(germ.dim, n_draws, seed, chunk, sampling):
-        xi = germ.from_unit(u)
-        m = xi.shape[0]
-        needed = {n for n in wanted if n in expansions}
-        needed |= {c for n in wanted if n in derived for c in derived[n].carriers}
-        values = {name: expansions[name].values(xi) for name in needed}
+        values = sur.at_unit(u, list(wanted))
+        m = u.shape[0]
         ok = np.ones(m, dtype=bool)
-        maps = [n for n in wanted if n in derived]
-        if maps:
-            map_derived(germ, xi, derived, maps, values)
-            for name in maps:
-                ok &= np.isfinite(values[name].reshape(m, -1)).all(axis=1)
+        for name in wanted - expansions.keys():  # a derived value may be undefined
+            ok &= np.isfinite(values[name].reshape(m, -1)).all(axis=1)
         ok_all.append(ok)
         for name in wanted:
             v = values[name]
@@ -90,12 +85,7 @@ def surrogate_values(germ: Germ, expansions: Mapping[str, Expansion],
                      u: np.ndarray) -> np.ndarray:
     """The surrogate's values ``(n, *shape)`` of output ``name`` (fitted or derived) at unit-cube
     points ``u (n, d)``."""
-    xi = germ.from_unit(u)
-    if name in expansions:
-        return expansions[name].values(xi)
-    values = {c: expansions[c].values(xi) for c in derived[name].carriers}
-    map_derived(germ, xi, derived, [name], values)
-    return values[name]
+    return Surrogate(germ, dict(expansions), derived).at_unit(u, [name])[name]
 
 
 def control_variate_events(

@@ -86,13 +86,6 @@ class Corrected:
     se: dict[str, np.ndarray] | None = None
 
 
-def _moments_of(w: np.ndarray, counts: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
-    """Moments of weighted resamples: ``counts (b, n)`` weights (rows summing to 1)."""
-    z = w - c
-    raw = [counts @ z**p for p in range(1, 5)]
-    return _moments_from_raw(c, *raw)
-
-
 def sampling_se(draws: np.ndarray, n_draws: int, *, n_boot: int = 200,
                 seed: int = 0) -> dict[str, np.ndarray]:
     """Standard errors of the four moments of ``n_draws`` surrogate draws, from ``m``
@@ -102,7 +95,8 @@ def sampling_se(draws: np.ndarray, n_draws: int, *, n_boot: int = 200,
     w = draws.reshape(m, -1)
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x5e]))
     counts = rng.multinomial(m, np.full(m, 1.0 / m), size=n_boot).astype(float) / m
-    bv = _moments_of(w, counts, w.mean(axis=0))
+    c = w.mean(axis=0)
+    bv = _moments_from_raw(c, *[counts @ (w - c) ** p for p in range(1, 5)])
     scale = np.sqrt(m / max(n_draws, 1))
     return {k: (np.sqrt(np.nanvar(v, axis=0)) * scale).reshape(shape) for k, v in bv.items()}
 
