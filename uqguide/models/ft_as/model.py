@@ -243,7 +243,6 @@ class FTAS(Model):
 
     def _to_output(self, res: RunResult, outputs: frozenset[str]) -> ModelOutput:
         series: dict[str, np.ndarray] = {}
-        scalars: dict[str, np.ndarray] = {}
         m0 = self.params.mass
         for name in outputs:
             if name in _SERIES:
@@ -264,20 +263,14 @@ class FTAS(Model):
             "delta_v": res.impulse[:, :3].sum(axis=1, keepdims=True) / m0,
             "angular_impulse": res.impulse[:, 3:].sum(axis=1, keepdims=True),
             "settle_s": np.column_stack([res.settle["s_trans"], res.settle["s_rot"]]),
-            "peak_force": res.peak_applied[:, :3],
-            "peak_torque": res.peak_applied[:, 3:],
-            "peak_force_command": res.peak_command[:, :3],
-            "peak_torque_command": res.peak_command[:, 3:],
-            "peak_force_late": res.peak_late[:, :3],
-            "peak_torque_late": res.peak_late[:, 3:],
         }
-        for q in ("r_e", "v_e", "sigma_e", "omega_e", "eps1"):
-            scalar_values[f"settle_{q}"] = res.settle[q]
-        for q in ("r_e", "v_e", "sigma_e", "omega_e"):
-            scalar_values[f"final_{q}"] = res.final_max[q]
-        for name in outputs:
-            if name in scalar_values:
-                scalars[name] = scalar_values[name]
+        for kind, sl in (("force", slice(0, 3)), ("torque", slice(3, 6))):
+            scalar_values[f"peak_{kind}"] = res.peak_applied[:, sl]
+            scalar_values[f"peak_{kind}_command"] = res.peak_command[:, sl]
+            scalar_values[f"peak_{kind}_late"] = res.peak_late[:, sl]
+        scalar_values |= {f"settle_{q}": v for q, v in res.settle.items()}
+        scalar_values |= {f"final_{q}": v for q, v in res.final_max.items()}
+        scalars = {name: scalar_values[name] for name in outputs if name in scalar_values}
         return ModelOutput(
             time=res.time,
             series=series,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -80,8 +81,15 @@ class Mixture:
         with np.load(path) as data:
             return cls(data["weights"], data["means"], data["covariances"])
 
+    @classmethod
+    def packaged(cls, filename: str) -> Mixture:
+        """A mixture shipped as package data in ``uqguide/data``."""
+        with resources.as_file(resources.files("uqguide") / "data" / filename) as path:
+            return cls.load(path)
 
-def _diag(rows: list[tuple[float, float, float]]) -> np.ndarray:
+
+def diagonals(rows: list[tuple[float, float, float]]) -> np.ndarray:
+    """Diagonal matrices (K, 3, 3) from their diagonals (K rows of 3)."""
     return np.array([np.diag(r) for r in rows], dtype=float)
 
 
@@ -106,7 +114,7 @@ WANG2022_PUBLISHED = Mixture(
         ],
         dtype=float,
     ),
-    covariances=_diag(
+    covariances=diagonals(
         [
             (1e-5, 8.4169, 8.4169), (1e-5, 8.4169, 8.4169),
             (8.3907, 1e-5, 8.3971), (8.3907, 1e-5, 8.3971),
