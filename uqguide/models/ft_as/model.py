@@ -94,12 +94,11 @@ class FTAS(Model):
                 "common factor on all Table 1 initial errors (r_e, v_e, sigma_e, omega_e)", 1.0,
             ),
         ]  # fmt: skip
-        ins += [InputInfo(f"dr0_{a}", "m", f"offset of r_e(0), ECI {a}", 0.0) for a in XYZ]
-        ins += [InputInfo(f"dv0_{a}", "m/s", f"offset of v_e(0), ECI {a}", 0.0) for a in XYZ]
-        ins += [InputInfo(f"dsigma0_{a}", "1", f"offset of sigma_e(0), {a}", 0.0) for a in MRP3]
-        ins += [
-            InputInfo(f"domega0_{a}", "rad/s", f"offset of omega_e(0), body {a}", 0.0) for a in XYZ
-        ]
+        for prefix, unit, of, axes in (("dr0", "m", "r_e(0), ECI", XYZ),
+                                       ("dv0", "m/s", "v_e(0), ECI", XYZ),
+                                       ("dsigma0", "1", "sigma_e(0),", MRP3),
+                                       ("domega0", "rad/s", "omega_e(0), body", XYZ)):
+            ins += [InputInfo(f"{prefix}_{a}", unit, f"offset of {of} {a}", 0.0) for a in axes]
         ins += [
             InputInfo("mass_offset", "kg", "constant true-mass error beyond Delta m(t)", 0.0),
             InputInfo(
