@@ -134,32 +134,19 @@ class FTAS(Model):
                 "angular_impulse", "scalar", "N m s", "integral sum_k |tau_k| dt", ("",), True
             ),
         ]
-        settle_desc = {
-            "r_e": ("m", True), "v_e": ("m/s", False), "sigma_e": ("1", True),
-            "omega_e": ("rad/s", False), "eps1": ("mixed", True),
-        }  # fmt: skip
-        for q, (unit, default) in settle_desc.items():
-            outs.append(
-                OutputInfo(
-                    f"settle_{q}", "scalar", "s",
-                    f"last time |{q}| > tol (components: tol in {unit}); = duration if not settled",
-                    _settle_components(q), default,
-                )
-            )  # fmt: skip
-        outs.append(
-            OutputInfo(
-                "settle_s", "scalar", "s", "last time |s_1..3|, |s_4..6| > 1e-3 (claim C6)",
-                ("translation", "rotation"), False,
-            )
-        )  # fmt: skip
-        for q, unit, comps, default in (
-            ("r_e", "m", XYZ, True), ("v_e", "m/s", XYZ, False),
-            ("sigma_e", "1", MRP3, True), ("omega_e", "rad/s", XYZ, False),
-        ):  # fmt: skip
-            outs.append(
-                OutputInfo(f"final_{q}", "scalar", unit, f"max |{q},k| over the final window",
-                           comps, default)
-            )  # fmt: skip
+        # the tracking errors: their settling times and their largest values at the end
+        errors = (("r_e", "m", XYZ, True), ("v_e", "m/s", XYZ, False),
+                  ("sigma_e", "1", MRP3, True), ("omega_e", "rad/s", XYZ, False))
+        for q, unit, _, default in errors + (("eps1", "mixed", SIX, True),):
+            outs.append(OutputInfo(
+                f"settle_{q}", "scalar", "s",
+                f"last time |{q}| > tol (components: tol in {unit}); = duration if not settled",
+                _settle_components(q), default))
+        outs.append(OutputInfo("settle_s", "scalar", "s",
+                               "last time |s_1..3|, |s_4..6| > 1e-3 (claim C6)",
+                               ("translation", "rotation"), False))
+        outs += [OutputInfo(f"final_{q}", "scalar", unit, f"max |{q},k| over the final window",
+                            comps, default) for q, unit, comps, default in errors]
         for kind, unit, sl in (("force", "N", "applied"), ("torque", "N m", "applied")):
             outs += [
                 OutputInfo(f"peak_{kind}", "scalar", unit, f"max |{kind}_k| {sl}", XYZ, True),
