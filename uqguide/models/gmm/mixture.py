@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .gauss_sum import GaussSum
+from .gauss_sum import GaussSum, float_fields
 
 log = logging.getLogger(__name__)
 
@@ -29,18 +29,13 @@ class Mixture:
     covariances: np.ndarray
 
     def __post_init__(self) -> None:
-        w = np.asarray(self.weights, dtype=float)
-        m = np.asarray(self.means, dtype=float)
-        S = np.asarray(self.covariances, dtype=float)
+        w, m, S = float_fields(self, "weights", "means", "covariances")
         K = w.shape[0]
         if w.shape != (K,) or m.shape != (K, 3) or S.shape != (K, 3, 3):
             raise ValueError(
                 f"a mixture needs weights (K,), means (K, 3), covariances (K, 3, 3); "
                 f"got {w.shape}, {m.shape}, {S.shape}"
             )
-        object.__setattr__(self, "weights", w)
-        object.__setattr__(self, "means", m)
-        object.__setattr__(self, "covariances", S)
 
     @property
     def n_components(self) -> int:

@@ -237,6 +237,19 @@ def _add_hessian(m, Lk, ex, th, acc):  # pragma: no cover - compiled
                 acc[A_H + 3 * a + b, l] += e * (ta * th[b, l] - Lk[a, b]) if live else 0.0
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _add_third(acc, l, e, th, y0, y1, y2, Ly0, Ly1, Ly2):  # pragma: no cover - compiled
+    # one kernel's D3V[y, y] at lane l into the third-derivative rows (``Ly = L y``)
+    t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+    yLy = y0 * Ly0 + y1 * Ly1 + y2 * Ly2
+    ty = t0 * y0 + t1 * y1 + t2 * y2
+    b = yLy - ty * ty
+    live = e != 0.0
+    acc[A_T, l] += e * (b * t0 + 2.0 * ty * Ly0) if live else 0.0
+    acc[A_T + 1, l] += e * (b * t1 + 2.0 * ty * Ly1) if live else 0.0
+    acc[A_T + 2, l] += e * (b * t2 + 2.0 * ty * Ly2) if live else 0.0
+
+
 @njit(cache=True, error_model="numpy")
 def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
     """:func:`_potential` for kernels whose ``L`` has zero off-diagonal entries: the same
@@ -255,17 +268,8 @@ def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover -
         _add_value_gradient(m, ex, th, acc)
         _add_hessian(m, L[k], ex, th, acc)
         for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
             y0, y1, y2 = x[3, l], x[4, l], x[5, l]
-            Ly0, Ly1, Ly2 = L00 * y0, L11 * y1, L22 * y2
-            yLy = y0 * Ly0 + y1 * Ly1 + y2 * Ly2
-            ty = t0 * y0 + t1 * y1 + t2 * y2
-            b = yLy - ty * ty
-            acc[A_T, l] += e * (b * t0 + 2.0 * ty * Ly0) if live else 0.0
-            acc[A_T + 1, l] += e * (b * t1 + 2.0 * ty * Ly1) if live else 0.0
-            acc[A_T + 2, l] += e * (b * t2 + 2.0 * ty * Ly2) if live else 0.0
+            _add_third(acc, l, ex[l], th, y0, y1, y2, L00 * y0, L11 * y1, L22 * y2)
 
 
 @njit(cache=True, error_model="numpy")
@@ -291,19 +295,9 @@ def _potential(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
         _add_value_gradient(m, ex, th, acc)
         _add_hessian(m, L[k], ex, th, acc)
         for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
             y0, y1, y2 = x[3, l], x[4, l], x[5, l]
-            Ly0 = L00 * y0 + L01 * y1 + L02 * y2
-            Ly1 = L10 * y0 + L11 * y1 + L12 * y2
-            Ly2 = L20 * y0 + L21 * y1 + L22 * y2
-            yLy = y0 * Ly0 + y1 * Ly1 + y2 * Ly2
-            ty = t0 * y0 + t1 * y1 + t2 * y2
-            b = yLy - ty * ty
-            acc[A_T, l] += e * (b * t0 + 2.0 * ty * Ly0) if live else 0.0
-            acc[A_T + 1, l] += e * (b * t1 + 2.0 * ty * Ly1) if live else 0.0
-            acc[A_T + 2, l] += e * (b * t2 + 2.0 * ty * Ly2) if live else 0.0
+            _add_third(acc, l, ex[l], th, y0, y1, y2, L00 * y0 + L01 * y1 + L02 * y2,
+                       L10 * y0 + L11 * y1 + L12 * y2, L20 * y0 + L21 * y1 + L22 * y2)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
