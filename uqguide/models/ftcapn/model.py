@@ -283,13 +283,10 @@ class FTCAPN(Model):
                 "speed_stop": np.linalg.norm(v, axis=1), "omega_s_stop": omega,
                 "dv_total": sc[:, L.K_DV], "zem_eq15": omega * R * R / np.abs(Rdot),
                 "t_surface": sc[:, L.K_TSURF], "t_los_settle": sc[:, L.K_TSETTLE],
-                "ac_max": sc[:, L.K_ACMAX],
+                "ac_max": sc[:, L.K_ACMAX], "r_at_stop": r, "v_at_stop": v,
             }
-        out = {k: v_[:, None].copy() for k, v_ in direct.items() if k in outputs}
-        if "r_at_stop" in outputs:
-            out["r_at_stop"] = r.copy()
-        if "v_at_stop" in outputs:
-            out["v_at_stop"] = v.copy()
+        out = {k: (v_ if v_.ndim == 2 else v_[:, None]).copy() for k, v_ in direct.items()
+               if k in outputs}
         if {"zem", "t_zem"} & outputs:
             ok = np.isfinite(r).all(axis=1) & np.isfinite(v).all(axis=1)
             miss = np.full(r.shape[0], np.nan)

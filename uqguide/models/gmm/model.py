@@ -219,21 +219,16 @@ class GMMProximity(Model):
         r, v = run.r, run.v
         r_f = np.asarray(self.params.r_f)
         rng = np.linalg.norm(r, axis=2)
-        series: dict[str, np.ndarray] = {}
-        if "range" in outputs:
-            series["range"] = rng[..., None]
-        if "position" in outputs:
-            series["position"] = r
-        if "velocity" in outputs:
-            series["velocity"] = v
-        if "los_rate" in outputs:
-            series["los_rate"] = (np.linalg.norm(np.cross(r, v), axis=2) / rng**2)[..., None]
-        if "position_error" in outputs:
-            series["position_error"] = np.linalg.norm(r - r_f, axis=2)[..., None]
-        if run.zem is not None:  # computed exactly when "zem" is requested (run(zem=...))
-            series["zem"] = run.zem[..., None]
-        if "delta_v_history" in outputs:
-            series["delta_v_history"] = run.delta_v_history[..., None]
+        series_src = {
+            "range": lambda: rng[..., None],
+            "position": lambda: r,
+            "velocity": lambda: v,
+            "los_rate": lambda: (np.linalg.norm(np.cross(r, v), axis=2) / rng**2)[..., None],
+            "position_error": lambda: np.linalg.norm(r - r_f, axis=2)[..., None],
+            "zem": lambda: np.asarray(run.zem)[..., None],  # run(zem=True) computed it
+            "delta_v_history": lambda: run.delta_v_history[..., None],
+        }
+        series = {k: f() for k, f in series_src.items() if k in outputs}
         scalars = {
             "min_clearance": run.clearance[:, self._appendages()].min(axis=1)[:, None],
             "collided": run.collided.astype(float)[:, None],
