@@ -55,7 +55,6 @@ class BudgetTable:
     at: str
     estimator: str
     table: pd.DataFrame
-    first_sum: float
     #: Lines under the table: what the shares leave, the indices not given and why.
     notes: tuple[str, ...] = ()
 
@@ -93,12 +92,16 @@ def budget_table(s: OutputStatistics, inputs: list[str], component: int,
     first = np.asarray(s.sobol_first)[pick]
     if not np.isfinite(first).any():
         return None
-    nan = np.full(first.shape, np.nan)
-    ci = np.asarray(s.sobol_first_ci)[(slice(None),) + pick] \
-        if s.sobol_first_ci is not None else np.stack([nan, nan])
-    total = np.asarray(s.sobol_total)[pick] if s.sobol_total is not None else nan
-    tci = np.asarray(s.sobol_total_ci)[(slice(None),) + pick] \
-        if s.sobol_total_ci is not None else np.stack([nan, nan])
+
+    def at(a: np.ndarray | None, bounds: bool, size: int) -> np.ndarray:
+        """``a`` at the component (and step), its bounds ``(2, size)`` with ``bounds``; NaN
+        where the method has none."""
+        if a is None:
+            return np.full((2, size) if bounds else size, np.nan)
+        return np.asarray(a)[(slice(None),) + pick] if bounds else np.asarray(a)[pick]
+
+    ci, total, tci = (at(s.sobol_first_ci, True, first.size),
+                      at(s.sobol_total, False, first.size), at(s.sobol_total_ci, True, first.size))
     grouped = {name for c in correlated for name in c}
     share = np.where([name in grouped for name in inputs], np.nan,
                      100.0 * np.clip(first, 0.0, None))
@@ -109,15 +112,9 @@ def budget_table(s: OutputStatistics, inputs: list[str], component: int,
                         na_position="last").reset_index(drop=True)
     if s.sobol_group_first is not None and s.sobol_groups:
         gf = np.asarray(s.sobol_group_first)[pick]
-        none = np.full((2, gf.size), np.nan)
-
-        def at(a: np.ndarray | None, bounds: bool) -> np.ndarray:
-            if a is None:
-                return none if bounds else none[0]
-            return np.asarray(a)[(slice(None),) + pick] if bounds else np.asarray(a)[pick]
-
-        gci, gt, gtci = (at(s.sobol_group_first_ci, True), at(s.sobol_group_total, False),
-                         at(s.sobol_group_total_ci, True))
+        gci, gt, gtci = (at(s.sobol_group_first_ci, True, gf.size),
+                         at(s.sobol_group_total, False, gf.size),
+                         at(s.sobol_group_total_ci, True, gf.size))
         # a group overlaps its inputs' rows: listed after them, with a share only where its
         # inputs' rows have none (a whole correlated group)
         whole = {frozenset(c) for c in correlated}
@@ -152,11 +149,9 @@ def budget_tables(result: Result, series_at_end: bool = False) -> list[BudgetTab
                 if df is None:
                     continue
                 name = f"{o.name}[{comp}]" if comp else o.name
-                one = ~df["input"].str.startswith("group ")
                 estimator = s.sobol_estimator or "pce"
-                tables.append(BudgetTable(
-                    r.label, name, at, estimator, df, float(np.nansum(df["first_order"][one])),
-                    budget_notes(df, name, estimator, correlated, members)))
+                tables.append(BudgetTable(r.label, name, at, estimator, df,
+                                          budget_notes(df, name, estimator, correlated, members)))
     return tables
 
 
@@ -231,11 +226,12 @@ def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
 def budget_markdown(b: BudgetTable) -> pd.DataFrame:
     """The Markdown report's form of one budget (every input)."""
     df = b.table
-    out = pd.DataFrame({"input": df["input"], "first-order": df["first_order"].map(_fmt4)})
+    out = pd.DataFrame({"input": df["input"],
+                        "first-order": df["first_order"].map(lambda v: _fmt(v, 4))})
     if np.isfinite(df["ci_low"]).any():
         out["95% interval"] = [_interval(lo, hi) for lo, hi in zip(df["ci_low"], df["ci_high"])]
     if np.isfinite(df["total"]).any():
-        out["total"] = df["total"].map(_fmt4)
+        out["total"] = df["total"].map(lambda v: _fmt(v, 4))
     if np.isfinite(df["total_low"]).any():
         out["total 95% interval"] = [_interval(lo, hi) for lo, hi in
                                      zip(df["total_low"], df["total_high"])]
@@ -243,12 +239,8 @@ def budget_markdown(b: BudgetTable) -> pd.DataFrame:
     return out
 
 
-def _fmt(v: float) -> str:
-    return f"{v:.3f}" if np.isfinite(v) else ""
-
-
-def _fmt4(v: float) -> str:
-    return f"{v:.4f}" if np.isfinite(v) else ""
+def _fmt(v: float, digits: int = 3) -> str:
+    return f"{v:.{digits}f}" if np.isfinite(v) else ""
 
 
 def _interval(lo: float, hi: float) -> str:

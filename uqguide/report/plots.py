@@ -17,6 +17,7 @@ import logging
 import re
 import textwrap
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -378,24 +379,22 @@ def scalar_figure(result: Result, output: str) -> Figure:
             _probability_panel(ax, result, output, c, samples, styles)
             ax.set_title(name if k > 1 else None)
             continue
-        draws = {}
-        for r in result.runs:
-            extra = getattr(r, "surrogate_scalars", None) or {}
-            if not _is_sample(described.get(r.label)) and output in extra:
-                draws[r.label] = np.asarray(extra[output])[:, c]
-            elif not _is_sample(described.get(r.label)):
-                got = _surrogate_draws(result, r, output)
-                if got is not None and got.shape[0] > 1 and np.ptp(got[:, c]) > 0:
-                    draws[r.label] = got[:, c]
-        densities = {}
+        draws, densities = {}, {}
         for r in result.runs:
             s = described.get(r.label)
-            if s is None or _is_sample(s) or r.label in draws:
+            if _is_sample(s):
                 continue
-            mean, std, skew, _ = (float(m.value[c]) for m in s.moments)
-            dist = _moment_density(mean, std, skew)
-            if dist is not None:
-                densities[r.label] = dist
+            extra = getattr(r, "surrogate_scalars", None) or {}
+            got = None if output in extra else _surrogate_draws(result, r, output)
+            if output in extra:
+                draws[r.label] = np.asarray(extra[output])[:, c]
+            elif got is not None and got.shape[0] > 1 and np.ptp(got[:, c]) > 0:
+                draws[r.label] = got[:, c]
+            elif s is not None:
+                mean, std, skew, _ = (float(m.value[c]) for m in s.moments)
+                dist = _moment_density(mean, std, skew)
+                if dist is not None:
+                    densities[r.label] = dist
         pooled = list(samples.values()) + list(draws.values())
         if pooled:
             lo, hi, outside = _plot_range(pooled)
@@ -514,10 +513,6 @@ def _safe(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
 
 
-def _save(fig: Figure, path: Path, dpi: int) -> None:
-    save(fig, path, dpi=dpi)
-
-
 def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[FigureFile]:
     """Write every figure of ``result`` as PNG into ``out_dir``.
 
@@ -531,30 +526,27 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
     atomic.make_folder(out)
     stem = _safe(result.name)
     files = []
+    # per series component: (file suffix, kind, whether the result has it, the figure)
+    per_step = (("", "series", lambda name: True, series_figure),
+                ("_envelope", "envelope", partial(has_quantiles, result), envelope_figure),
+                ("_budget", "budget", partial(has_budget, result), budget_figure))
     for o in result.outputs:
         if not _of(result, o.name):
             continue
         if o.kind == "series" and result.time.size:
             for c, comp in enumerate(o.components):
-                path = out / f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}.png"
-                _save(series_figure(result, o.name, c), path, dpi)
-                files.append(FigureFile(path, "series", o.name, comp))
-                if has_quantiles(result, o.name):
-                    path = out / (f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
-                                  f"_envelope.png")
-                    _save(envelope_figure(result, o.name, c), path, dpi)
-                    files.append(FigureFile(path, "envelope", o.name, comp))
-                if has_budget(result, o.name):
-                    path = out / (f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
-                                  f"_budget.png")
-                    _save(budget_figure(result, o.name, c), path, dpi)
-                    files.append(FigureFile(path, "budget", o.name, comp))
+                base = f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
+                for suffix, kind, shown, figure in per_step:
+                    if shown(o.name):
+                        path = out / f"{base}{suffix}.png"
+                        save(figure(result, o.name, c), path, dpi=dpi)
+                        files.append(FigureFile(path, kind, o.name, comp))
         elif o.kind == "scalar":
             path = out / f"{stem}_{_safe(o.name)}_hist.png"
-            _save(scalar_figure(result, o.name), path, dpi)
+            save(scalar_figure(result, o.name), path, dpi=dpi)
             files.append(FigureFile(path, "scalar", o.name))
     path = out / f"{stem}_cost.png"
-    _save(cost_figure(result), path, dpi)
+    save(cost_figure(result), path, dpi=dpi)
     files.append(FigureFile(path, "cost"))
     log.info("wrote %d figures into %s", len(files), out)
     return files

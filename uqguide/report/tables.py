@@ -54,15 +54,11 @@ def cost_table(result: Result) -> pd.DataFrame:
             errs = [v for k, v in d.items() if k.startswith("validation_error.")]
             extra["val_error"] = max(errs) if errs else float("nan")
         extra.update(multifidelity_columns(d))
-        no_surrogate = no_surrogate_outputs(d)
-        if no_surrogate:
-            extra["no usable surrogate"] = "; ".join(no_surrogate)
-        disagree = disagreeing_outputs(d)
-        if disagree:
-            extra["validation disagrees"] = "; ".join(disagree)
-        withheld = withheld_outputs(d)
-        if withheld:
-            extra["withheld (+mc given)"] = "; ".join(withheld)
+        for column, listed in (("no usable surrogate", no_surrogate_outputs(d)),
+                               ("validation disagrees", disagreeing_outputs(d)),
+                               ("withheld (+mc given)", withheld_outputs(d))):
+            if listed:
+                extra[column] = "; ".join(listed)
         for name in rare:
             ev = r.estimate.events.get(name)
             extra[f"P({name})"] = ev.probability if ev else float("nan")
@@ -202,11 +198,17 @@ def validation_text(df: pd.DataFrame) -> pd.DataFrame:
                               zip(df["corrected"], df["ci_low"], df["ci_high"])]
     out["val_error"] = df["val_error"].map(_fmt)
     out["runs (fit+validation)"] = df["runs"]
-    if out["time"].isna().all():
-        out = out.drop(columns="time")
-    if (out["component"] == "").all():
-        out = out.drop(columns="component")
-    return out
+    return _without_constant_columns(out)
+
+
+def _without_constant_columns(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` without its ``time`` column where every time is NaN (scalars) and without its
+    ``component`` column where no point names one."""
+    if df["time"].isna().all():
+        df = df.drop(columns="time")
+    if (df["component"] == "").all():
+        df = df.drop(columns="component")
+    return df
 
 
 def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) -> bool | None:
@@ -472,13 +474,9 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
                     cell += f" ({ad:+.2g}, {flag})"
             row[s["stat"]] = cell
         rows.append(row)
-    df = pd.DataFrame(rows)
-    if df["time"].isna().all():
-        df = df.drop(columns="time")
-    else:
+    df = _without_constant_columns(pd.DataFrame(rows))
+    if "time" in df:
         df["time"] = df["time"].map(lambda t: f"{t:g}")
-    if (df["component"] == "").all():
-        df = df.drop(columns="component")
     return df
 
 

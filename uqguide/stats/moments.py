@@ -245,10 +245,7 @@ def sample_statistics(
         else:
             idx = np.unique(np.asarray(ci_index, dtype=int))
             part = bootstrap_intervals(y[:, idx], bootstrap, seed, level)
-            for k, v in part.items():
-                full = np.full((2,) + y.shape[1:], np.nan)
-                full[:, idx] = v
-                ci[k] = full
+            ci = {k: _placed(v, y.shape[1:], idx) for k, v in part.items()}
     std, skew, kurt = founded(n, std, skew, kurt, ci)
     return OutputStats(
         mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=covariance(y), n_used=n,
