@@ -55,6 +55,7 @@ class BudgetTable:
     at: str
     estimator: str
     table: pd.DataFrame
+    first_sum: float
     #: Lines under the table: what the shares leave, the indices not given and why.
     notes: tuple[str, ...] = ()
 
@@ -149,9 +150,11 @@ def budget_tables(result: Result, series_at_end: bool = False) -> list[BudgetTab
                 if df is None:
                     continue
                 name = f"{o.name}[{comp}]" if comp else o.name
+                one = ~df["input"].str.startswith("group ")
                 estimator = s.sobol_estimator or "pce"
-                tables.append(BudgetTable(r.label, name, at, estimator, df,
-                                          budget_notes(df, name, estimator, correlated, members)))
+                tables.append(BudgetTable(
+                    r.label, name, at, estimator, df, float(np.nansum(df["first_order"][one])),
+                    budget_notes(df, name, estimator, correlated, members)))
     return tables
 
 

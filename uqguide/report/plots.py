@@ -147,7 +147,7 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
     for ax in (ax_m, ax_s, ax_g, ax_k):
         ax.grid(True, alpha=0.3)
         ax.set_xlim(t[0] - 0.01 * span, t[-1] + 0.03 * span)
-    fig.suptitle(f"{result.name}: {name} {u} over time\n{_wrap(o.description, 110)}",
+    fig.suptitle(f"{result.name}: {name} {u} over time\n{textwrap.fill(o.description, 110)}",
                  fontsize=12)
     fig.legend(handles + [g0], labels + ["Gaussian (skewness 0, kurtosis 3)"],
                loc="outside lower center", ncol=min(3, len(handles) + 1), fontsize=9,
@@ -239,10 +239,6 @@ def _bins(y: np.ndarray, lo: float, hi: float) -> np.ndarray:
     if inside.size > 1:
         n = np.histogram_bin_edges(inside, bins="fd", range=(lo, hi)).size - 1
     return np.linspace(lo, hi, int(np.clip(n, 10, 70)) + 1)
-
-
-def _wrap(text: str, width: float) -> str:
-    return textwrap.fill(text, width=int(width))
 
 
 def _moment_density(mean: float, std: float, skew: float) -> sps.rv_continuous | None:
@@ -446,7 +442,7 @@ def scalar_figure(result: Result, output: str) -> Figure:
         ax.set_visible(False)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.suptitle(f"{result.name}: distribution of {o.name} {u}\n"
-                 f"{_wrap(o.description, 10 * width)}", fontsize=12)
+                 f"{textwrap.fill(o.description, int(10 * width))}", fontsize=12)
     if handles:
         fig.legend(handles, labels, loc="outside lower center", ncol=1, fontsize=9,
                    title="; ".join(sorted(notes)) or None, title_fontsize=8)

@@ -461,30 +461,26 @@ def statistics_from_sums(
     mean, mu2, mu3, mu4 = sums.central_moments()
     std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     cov = sums.cm / n if sums.cm is not None else np.full(shape + shape[-1:], np.nan)
-    ci: dict[str, np.ndarray] = {}
-    if (boot is None or boot.high is not None) and delta is not None and \
-            delta.high is not None and n > 1:
+    found: dict[str, np.ndarray] = {}
+    if delta is None or delta.high is None or n < 2:
+        delta = None  # no delta-method interval: sums without orders 5-8, or a single run
+    if delta is not None and boot is not None and boot.high is not None:
+        found = studentized_intervals(delta, boot, level)
+    elif delta is not None and boot is None:
         inv = 1.0 / float(delta.n)
         mus = tuple(m * inv for m in delta.central_sums())
         dstd, dskew, dkurt = shape_moments(delta.mean, mus[0], mus[1], mus[2])
-        if boot is None and tail and len(mus) >= HIGH_ORDER - 1:
+        if tail and len(mus) >= HIGH_ORDER - 1:
             found = tail_intervals(delta.mean, mus, n, level)[0]
         else:
             found = delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level)
-        for name, q in found.items():
-            ci[name] = _placed(q, shape, ci_index)
-    if boot is not None and boot.high is not None and delta is not None and \
-            delta.high is not None and n > 1:
-        for name, q in studentized_intervals(delta, boot, level).items():
-            ci[name] = _placed(q, shape, ci_index)
-        boot = None
-    if boot is not None and n > 1:
+    elif boot is not None and n > 1:
         bm, b2, b3, b4 = boot.central_moments()
         bstd, bskew, bkurt = shape_moments(bm, b2, b3, b4)
         alpha = (1.0 - level) / 2
         draws = {"mean": bm, "std": bstd, "skewness": bskew, "kurtosis": bkurt}
-        for name, v in draws.items():
-            ci[name] = _placed(_nan_safe_percentile(v, alpha), shape, ci_index)
+        found = {name: _nan_safe_percentile(v, alpha) for name, v in draws.items()}
+    ci = {name: _placed(q, shape, ci_index) for name, q in found.items()}
     if uncertain:
         std, skew, kurt = founded(n, std, skew, kurt, ci)
     return OutputStats(mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=cov, n_used=n,
