@@ -69,6 +69,15 @@ def _of(result: Result, output: str) -> dict[str, OutputStatistics]:
     return {label: d[output] for label, d in result_statistics(result).items() if output in d}
 
 
+def _described_runs(result: Result, output: str
+                    ) -> list[tuple[MethodRun, OutputStatistics, dict]]:
+    """``(run, its statistics of output, its line style)`` of each method that has them, in the
+    result's order."""
+    styles, described = _styles(result), _of(result, output)
+    return [(r, described[r.label], styles[r.label]) for r in result.runs
+            if r.label in described]
+
+
 def _is_sample(v: OutputStatistics | None) -> bool:
     return v is not None and v.moments_method in FROM_RUNS
 
@@ -100,16 +109,10 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
     t = result.time
     fig = new_figure((11.0, 7.8), layout="constrained")
     (ax_m, ax_s), (ax_g, ax_k) = fig.subplots(2, 2, sharex=True)
-    styles = _styles(result)
     handles, labels = [], []
     span = float(t[-1] - t[0]) if t.size > 1 else 1.0
     n_ci = 0
-    described = _of(result, output)
-    for r in result.runs:
-        s = described.get(r.label)
-        if s is None:
-            continue
-        st = styles[r.label]
+    for r, s, st in _described_runs(result, output):
         dodge = 0.006 * span * n_ci
         n_ci += any(m.ci is not None for m in s.moments)
         mean, std = s.moment("mean").value[:, component], s.moment("std").value[:, component]
@@ -175,14 +178,10 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
     t = result.time
     fig = new_figure((10.0, 5.6), layout="constrained")
     ax = fig.add_subplot()
-    styles = _styles(result)
     title_levels = ""
-    described = _of(result, output)
-    for r in result.runs:
-        s = described.get(r.label)
-        if s is None or not s.quantiles:
+    for r, s, st in _described_runs(result, output):
+        if not s.quantiles:
             continue
-        st = styles[r.label]
         lv = s.quantile_levels
         lo_i, hi_i, mid_i = 0, len(lv) - 1, int(np.argmin(np.abs(np.asarray(lv) - 0.5)))
         q = [qs.value[:, component] for qs in s.quantiles]
@@ -400,11 +399,7 @@ def scalar_figure(result: Result, output: str) -> Figure:
         ref = result.reference if result.reference in samples else \
             max(samples, key=lambda lab: samples[lab].size, default=None)
         xs = np.linspace(lo, hi, 400)
-        for r in result.runs:
-            s = described.get(r.label)
-            if s is None:
-                continue
-            st = styles[r.label]
+        for r, s, st in _described_runs(result, output):
             mean, std, skew, kurt = (float(m.value[c]) for m in s.moments)
             text = _stats_text(mean, std, skew, kurt, s.moments_method == "sample", s.n_used)
             if r.label in samples and np.ptp(samples[r.label]) == 0:
@@ -470,13 +465,11 @@ def cost_figure(result: Result) -> Figure:
     model_s = df["model_s"].to_numpy(dtype=float)
     fit_s = df["fit_s"].to_numpy(dtype=float)
     h = 0.38
-    ax_time.barh(ypos + h / 2, np.maximum(model_s, 1e-4), height=h, color="#4c72b0",
-                 label="model runs")
-    ax_time.barh(ypos - h / 2, np.maximum(fit_s, 1e-4), height=h, color="#dd8452",
-                 label="fitting / statistics")
-    for y, a, b in zip(ypos, model_s, fit_s):
-        ax_time.text(max(a, 1e-4), y + h / 2, f" {a:.3g}", va="center", fontsize=8)
-        ax_time.text(max(b, 1e-4), y - h / 2, f" {b:.3g}", va="center", fontsize=8)
+    for seconds, shift, colour, what in ((model_s, h / 2, "#4c72b0", "model runs"),
+                                         (fit_s, -h / 2, "#dd8452", "fitting / statistics")):
+        ax_time.barh(ypos + shift, np.maximum(seconds, 1e-4), height=h, color=colour, label=what)
+        for y, v in zip(ypos, seconds):
+            ax_time.text(max(v, 1e-4), y + shift, f" {v:.3g}", va="center", fontsize=8)
     top = max(float(np.max(model_s)), float(np.max(fit_s)), 1e-3)
     ax_time.set(xscale="log", xlabel="wall time [s]", title="Wall time", yticks=ypos,
                 yticklabels=[r.label for r in result.runs], xlim=(1e-4, top * 20))

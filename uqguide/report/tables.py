@@ -432,52 +432,51 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
     for key, g in stats.groupby(keys, sort=False, dropna=False):
         row = dict(zip(keys, key))
         for _, s in g.iterrows():
-            u = s.get("usable")
-            if isinstance(u, (bool, np.bool_)) and not u:
-                row[s["stat"]] = "no usable surrogate"
-                continue
-            if s.get("withheld") is True:
-                row[s["stat"]] = ("withheld: runs failed"
-                                  if s["label"] in stats.attrs.get("runs_failed", ())
-                                  else "withheld: its runs disagree (see +mc)")
-                continue
-            if s.get("overflow") == "value":
-                row[s["stat"]] = "overflow"
-                continue
-            need = s.get("needs_runs")
-            if need is not None and need == need:  # pandas fills a missing one with NaN
-                row[s["stat"]] = f"needs {int(need)} runs"
-                continue
-            if s.get("overflow") == "interval":
-                row[s["stat"]] = f"{_fmt(s['value'])} [no interval: overflow]"
-                continue
-            if str(s["label"]).endswith(SOURCES["cv"]) and np.isnan(s["value"]) \
-                    and np.isnan(s["ci_low"]):
-                row[s["stat"]] = NOT_REPORTED
-                continue
-            cell = _fmt(s["value"])
-            if np.isinf(s["ci_high"]) and np.isfinite(s["ci_low"]):
-                # a stated floor (uqguide.stats.tail_intervals): no upper bound from the runs
-                cell += f" [>= {_fmt(s['ci_low'])}; the runs cannot bound it above]"
-            elif np.isinf(s["ci_low"]) and np.isfinite(s["ci_high"]):
-                cell += f" [<= {_fmt(s['ci_high'])}; the runs cannot bound it below]"
-            elif not np.isnan(s["ci_low"]):
-                cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
-            if with_ref and s["label"] != stats.attrs.get("reference"):
-                rd, ad = s.get("rel_diff"), s.get("abs_diff")
-                inside = s.get("agrees")
-                # pandas stores a missing verdict (no reference interval) as None or NaN
-                flag = "?" if inside is None or inside != inside else ("in" if inside else "OUT")
-                if rd is not None and np.isfinite(rd):
-                    cell += f" ({100 * rd:+.1f}%, {flag})"
-                elif ad is not None and np.isfinite(ad):
-                    cell += f" ({ad:+.2g}, {flag})"
-            row[s["stat"]] = cell
+            row[s["stat"]] = _cell_text(s, stats.attrs, with_ref)
         rows.append(row)
     df = _without_constant_columns(pd.DataFrame(rows))
     if "time" in df:
         df["time"] = df["time"].map(lambda t: f"{t:g}")
     return df
+
+
+def _cell_text(s: pd.Series, attrs: dict, with_ref: bool) -> str:
+    """One statistic's cell of :func:`wide_table`: its value and interval (and difference from
+    the reference ``attrs["reference"]``), or why it has none."""
+    u = s.get("usable")
+    if isinstance(u, (bool, np.bool_)) and not u:
+        return "no usable surrogate"
+    if s.get("withheld") is True:
+        return ("withheld: runs failed" if s["label"] in attrs.get("runs_failed", ())
+                else "withheld: its runs disagree (see +mc)")
+    if s.get("overflow") == "value":
+        return "overflow"
+    need = s.get("needs_runs")
+    if need is not None and need == need:  # pandas fills a missing one with NaN
+        return f"needs {int(need)} runs"
+    if s.get("overflow") == "interval":
+        return f"{_fmt(s['value'])} [no interval: overflow]"
+    if str(s["label"]).endswith(SOURCES["cv"]) and np.isnan(s["value"]) \
+            and np.isnan(s["ci_low"]):
+        return NOT_REPORTED
+    cell = _fmt(s["value"])
+    if np.isinf(s["ci_high"]) and np.isfinite(s["ci_low"]):
+        # a stated floor (uqguide.stats.tail_intervals): no upper bound from the runs
+        cell += f" [>= {_fmt(s['ci_low'])}; the runs cannot bound it above]"
+    elif np.isinf(s["ci_low"]) and np.isfinite(s["ci_high"]):
+        cell += f" [<= {_fmt(s['ci_high'])}; the runs cannot bound it below]"
+    elif not np.isnan(s["ci_low"]):
+        cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
+    if with_ref and s["label"] != attrs.get("reference"):
+        rd, ad = s.get("rel_diff"), s.get("abs_diff")
+        inside = s.get("agrees")
+        # pandas stores a missing verdict (no reference interval) as None or NaN
+        flag = "?" if inside is None or inside != inside else ("in" if inside else "OUT")
+        if rd is not None and np.isfinite(rd):
+            cell += f" ({100 * rd:+.1f}%, {flag})"
+        elif ad is not None and np.isfinite(ad):
+            cell += f" ({ad:+.2g}, {flag})"
+    return cell
 
 
 def render_text(result: Result) -> str:
