@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -205,18 +206,10 @@ def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
     groups = df[df["input"].str.startswith("group ")]
     df = df[~df["input"].str.startswith("group ")]
     shown = pd.concat([df.head(max_rows), groups], ignore_index=True)
-    cols = {"input": shown["input"],
-            "first-order": shown["first_order"].map(_fmt),
-            "95% interval": [_interval(lo, hi) for lo, hi in zip(shown["ci_low"],
-                                                                 shown["ci_high"])],
-            "share": shown["share_%"].map(lambda v: f"{v:.1f}%" if np.isfinite(v) else "")}
-    if np.isfinite(df["total"]).any():
-        cols["total"] = shown["total"].map(_fmt)
-    if np.isfinite(df["total_low"]).any():
-        cols["total 95% interval"] = [_interval(lo, hi) for lo, hi in
-                                      zip(shown["total_low"], shown["total_high"])]
-    if not np.isfinite(df["ci_low"]).any():
-        del cols["95% interval"]
+    cols = _columns(shown, df, 3)
+    for late in ("total", "total 95% interval"):  # (the console puts the totals last)
+        if late in cols:
+            cols[late] = cols.pop(late)
     lines = [b.title, pd.DataFrame(cols).to_string(index=False)]
     rest = len(df) - min(len(df), max_rows)
     if rest > 0:
@@ -228,21 +221,28 @@ def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
 
 def budget_markdown(b: BudgetTable) -> pd.DataFrame:
     """The Markdown report's form of one budget (every input)."""
-    df = b.table
-    out = pd.DataFrame({"input": df["input"],
-                        "first-order": df["first_order"].map(lambda v: _fmt(v, 4))})
+    return pd.DataFrame(_columns(b.table, b.table, 4))
+
+
+def _columns(shown: pd.DataFrame, df: pd.DataFrame, digits: int) -> dict[str, Any]:
+    """The text columns of a budget's rows ``shown``: input, first-order index (``digits``
+    decimals) and its interval, total index and its interval, share; an index's columns only
+    where the rows ``df`` have it."""
+    cols: dict[str, Any] = {"input": shown["input"],
+                            "first-order": shown["first_order"].map(lambda v: _fmt(v, digits))}
     if np.isfinite(df["ci_low"]).any():
-        out["95% interval"] = [_interval(lo, hi) for lo, hi in zip(df["ci_low"], df["ci_high"])]
+        cols["95% interval"] = [_interval(lo, hi)
+                                for lo, hi in zip(shown["ci_low"], shown["ci_high"])]
     if np.isfinite(df["total"]).any():
-        out["total"] = df["total"].map(lambda v: _fmt(v, 4))
+        cols["total"] = shown["total"].map(lambda v: _fmt(v, digits))
     if np.isfinite(df["total_low"]).any():
-        out["total 95% interval"] = [_interval(lo, hi) for lo, hi in
-                                     zip(df["total_low"], df["total_high"])]
-    out["share"] = df["share_%"].map(lambda v: f"{v:.1f}%" if np.isfinite(v) else "")
-    return out
+        cols["total 95% interval"] = [_interval(lo, hi)
+                                      for lo, hi in zip(shown["total_low"], shown["total_high"])]
+    cols["share"] = shown["share_%"].map(lambda v: f"{v:.1f}%" if np.isfinite(v) else "")
+    return cols
 
 
-def _fmt(v: float, digits: int = 3) -> str:
+def _fmt(v: float, digits: int) -> str:
     return f"{v:.{digits}f}" if np.isfinite(v) else ""
 
 
