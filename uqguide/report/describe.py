@@ -26,35 +26,26 @@ def _docstring_attributes(cls: type) -> dict[str, str]:
     found: dict[str, str] = {}
     for klass in reversed(cls.__mro__):
         lines = (inspect.getdoc(klass) or "").splitlines()
-        names: list[str] = []
-        text: list[str] = []
-        in_section = False
-        for i, line in enumerate(lines):
-            underline = i + 1 < len(lines) and set(lines[i + 1].strip()) == {"-"}
-            if underline:
-                _record_entry(found, names, text)
-                names, text = [], []
-                in_section = line.strip() in ("Attributes", "Parameters")
+        section = ""
+        # (names, text lines) per entry; a section opens with a nameless one, so text before
+        # its first entry belongs to none
+        entries: list[tuple[list[str], list[str]]] = []
+        for line, after in zip(lines, lines[1:] + [""]):
+            if set(after.strip()) == {"-"}:  # a section's title, underlined
+                section = line.strip()
+                entries.append(([], []))
+            elif section not in ("Attributes", "Parameters") or set(line.strip()) == {"-"}:
                 continue
-            if not in_section or set(line.strip()) == {"-"}:
-                continue
-            if line and not line.startswith(" "):
-                _record_entry(found, names, text)
+            elif line and not line.startswith(" "):
                 names = [n.strip() for n in line.split(" : ")[0].split(",")]
-                names = [n for n in names if n.isidentifier()]
-                text = []
+                entries.append(([n for n in names if n.isidentifier()], []))
             elif line.strip():
-                text.append(line.strip())
-        _record_entry(found, names, text)
+                entries[-1][1].append(line.strip())
+        for names, text in entries:
+            if text:
+                sentence = re.split(r"(?<=\.)\s", " ".join(text), maxsplit=1)[0]
+                found.update((n, sentence.replace("``", "")) for n in names)
     return found
-
-
-def _record_entry(found: dict[str, str], names: list[str], text: list[str]) -> None:
-    """Store the first sentence of one docstring entry's ``text`` under each of its ``names``."""
-    if names and text:
-        sentence = re.split(r"(?<=\.)\s", " ".join(text), maxsplit=1)[0]
-        for n in names:
-            found[n] = sentence.replace("``", "")
 
 
 def _num(v: float) -> str:
