@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from math import comb
 from statistics import NormalDist
 from typing import ParamSpec, TypeVar
@@ -388,13 +388,9 @@ class MomentSums:
     def arrays(self) -> dict[str, np.ndarray]:
         """The fields as named arrays for storage (``cm`` where present); inverse of
         :meth:`from_arrays`."""
-        d = {"n": np.asarray(self.n, dtype=float), "mean": self.mean, "m2": self.m2,
-             "m3": self.m3, "m4": self.m4}
-        if self.cm is not None:
-            d["cm"] = self.cm
-        if self.high is not None:
-            d["high"] = self.high
-        return d
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        return {**{k: v for k, v in d.items() if v is not None},
+                "n": np.asarray(self.n, dtype=float)}
 
     @classmethod
     def from_arrays(cls, d: dict[str, np.ndarray]) -> MomentSums:
