@@ -201,15 +201,14 @@ def delta_standard_errors(
     return out
 
 
-def delta_intervals(
-    mean: np.ndarray, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
-    mu: tuple[np.ndarray, ...], n: float, level: float = 0.95,
-) -> dict[str, np.ndarray]:
-    """Normal-theory intervals ``estimate +- z_(1+level)/2 SE`` ``(2, ...)`` with delta-method
-    SEs from central moments ``(mu_2, ..., mu_8)`` (:func:`delta_standard_errors`)."""
+def delta_intervals(mean: np.ndarray, mu: tuple[np.ndarray, ...], n: float, level: float = 0.95
+                    ) -> dict[str, np.ndarray]:
+    """Normal-theory intervals ``estimate +- z_(1+level)/2 SE`` ``(2, ...)`` of the statistics of
+    ``mean`` and the central moments ``(mu_2, ..., mu_8)``, with delta-method SEs
+    (:func:`delta_standard_errors`)."""
     z = NormalDist().inv_cdf(0.5 + level / 2)
     se = delta_standard_errors(mu, n)
-    est = {"mean": mean, "std": std, "skewness": skew, "kurtosis": kurt}
+    est = dict(zip(STAT_NAMES, (mean, *shape_moments(mean, mu[0], mu[1], mu[2]))))
     return {k: np.stack([est[k] - z * se[k], est[k] + z * se[k]]) for k in STAT_NAMES}
 
 
@@ -237,8 +236,8 @@ def sample_statistics(
         d = y - mean
         top = HIGH_ORDER if intervals == "tail" else 8
         mus = [mu2, mu3, mu4] + [np.mean(d**k, axis=0) for k in range(5, top + 1)]
-        ci = delta_intervals(mean, std, skew, kurt, tuple(mus), n, level) \
-            if intervals == "delta" else tail_intervals(mean, tuple(mus), n, level)[0]
+        ci = delta_intervals(mean, tuple(mus), n, level) if intervals == "delta" \
+            else tail_intervals(mean, tuple(mus), n, level)[0]
     elif bootstrap > 0 and n > 1:
         if ci_index is None or y.ndim != 3:
             ci = bootstrap_intervals(y, bootstrap, seed, level)
@@ -465,11 +464,10 @@ def statistics_from_sums(
     elif delta is not None and boot is None:
         inv = 1.0 / float(delta.n)
         mus = tuple(m * inv for m in delta.central_sums())
-        dstd, dskew, dkurt = shape_moments(delta.mean, mus[0], mus[1], mus[2])
         if tail and len(mus) >= HIGH_ORDER - 1:
             found = tail_intervals(delta.mean, mus, n, level)[0]
         else:
-            found = delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level)
+            found = delta_intervals(delta.mean, mus, n, level)
     elif boot is not None and n > 1:
         bm, b2, b3, b4 = boot.central_moments()
         bstd, bskew, bkurt = shape_moments(bm, b2, b3, b4)
