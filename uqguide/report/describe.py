@@ -67,12 +67,9 @@ def _allowed(annotation: Any, metadata: list[Any]) -> str:
         return "true | false"
     if annotation in (int, float):
         kind = "integer" if annotation is int else "number"
-        bounds = []
-        for m in metadata:
-            for attr, op in (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<")):
-                v = getattr(m, attr, None)
-                if v is not None:
-                    bounds.append(f"{op} {_num(v)}")
+        bounds = [f"{op} {_num(v)}" for m in metadata
+                  for attr, op in (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<"))
+                  if (v := getattr(m, attr, None)) is not None]
         return f"{kind} {', '.join(bounds)}" if bounds else kind
     if annotation is str:
         return "text"
@@ -82,8 +79,7 @@ def _allowed(annotation: Any, metadata: list[Any]) -> str:
         if origin is tuple and members and len(members) > 1 and len(set(members)) == 1:
             return f"list of {len(members)} {_allowed(members[0], []).split()[0]}s"
         return "list"
-    text = getattr(annotation, "__name__", None) or str(annotation).replace("typing.", "")
-    return text
+    return getattr(annotation, "__name__", None) or str(annotation).replace("typing.", "")
 
 
 def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
@@ -94,8 +90,7 @@ def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
     for fname, f in settings.model_fields.items():
         default = "required" if f.is_required() else \
             f"default {_value(f.get_default(call_default_factory=True))}"
-        meaning = f.description or from_doc.get(fname, "")
-        meaning = _clean(meaning)
+        meaning = _clean(f.description or from_doc.get(fname, ""))
         unit = _UNIT.search(meaning)
         unit_text = f", unit {unit.group(1)}" if unit else ""
         lines.append(f"{indent}{fname}: {_allowed(f.annotation, f.metadata)}; {default}"
