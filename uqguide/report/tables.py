@@ -258,7 +258,8 @@ def statistics_table(result: Result) -> pd.DataFrame:
     output's ``unit``, ``usable`` (moments); against the reference also ``ref_value``,
     ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`); where an output's moments
     overflowed double precision, ``overflow`` (``"value"``: the moment, ``"interval"``: its
-    interval; :func:`uqguide.stats.moments.overflowed`).
+    interval; :func:`uqguide.stats.moments.overflowed`). ``attrs["reference"]``: the
+    reference's label (None without one).
     """
     described = result_statistics(result)
     # result.run: a ResultError naming the labels when the reference is none of them
@@ -281,6 +282,7 @@ def statistics_table(result: Result) -> pd.DataFrame:
                         row[0]["overflow"] = _overflow_kind(st, p.where, over)
                     rows += row
     table = pd.DataFrame(rows)
+    table.attrs["reference"] = result.reference
     # the PCEs that withhold their moments because runs failed (the text says why)
     table.attrs["runs_failed"] = sorted(
         r.label for r in result.runs
@@ -492,7 +494,6 @@ def render_text(result: Result) -> str:
                   "method; val_error: out-of-sample error / variance)",
                   validation_text(val).to_string(index=False)]
     stats = statistics_table(result)
-    stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
     for o in result.outputs:
         sub = stats[stats["output"] == o.name] if not stats.empty else stats
@@ -587,7 +588,6 @@ def render_markdown(result: Result) -> str:
     """The Markdown summary (``<name>_summary.md``): cost, statistics, events and series
     agreement tables."""
     stats = statistics_table(result)
-    stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
     parts = [f"# {result.name}: model `{result.model}`", "", "## Cost", "",
              to_markdown(cost_table(result))]
