@@ -217,8 +217,11 @@ def _locate(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[list[Any], Any
     ann: Any = root
     for part in loc:
         options = leaves(ann)
-        models = [a for a in options if isinstance(a, type) and issubclass(a, BaseModel)]
-        owner = next((m for m in models if isinstance(part, str) and part in m.model_fields), None)
+        if isinstance(part, str) and len(options) > 1:  # in a union: the branch's label
+            ann = next((a for a in options if _is_branch(a, part)), Any)
+            continue
+        owner = next((m for m in _models(ann) if isinstance(part, str) and part in m.model_fields),
+                     None)
         maps = [a for a in options if typing.get_origin(a) is dict]
         if isinstance(part, int):
             seqs = [typing.get_args(a) for a in options if typing.get_origin(a) in (list, tuple)]
@@ -227,13 +230,15 @@ def _locate(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[list[Any], Any
             ann = owner.model_fields[part].annotation
         elif maps:
             ann = typing.get_args(maps[0])[1]
-        elif len(options) > 1:
-            ann = next((a for a in options if _is_branch(a, part)), Any)
-            continue
         else:
             ann = Any
         keys.append(part)
     return keys, ann
+
+
+def _models(annotation: Any) -> list[type[BaseModel]]:
+    """The pydantic models among the types ``annotation`` allows."""
+    return [a for a in leaves(annotation) if isinstance(a, type) and issubclass(a, BaseModel)]
 
 
 def _is_branch(option: Any, label: str) -> bool:
@@ -262,8 +267,7 @@ def _keys_allowed(root: type[BaseModel], parent: tuple[Any, ...],
     ``root``'s own mapping holds besides its fields (``name``); None when not known."""
     if not parent:
         return [*also, *root.model_fields]
-    models = [a for a in leaves(_locate(root, parent)[1])
-              if isinstance(a, type) and issubclass(a, BaseModel)]
+    models = _models(_locate(root, parent)[1])
     return list(models[0].model_fields) if len(models) == 1 else None
 
 
@@ -280,7 +284,8 @@ def _from_validation(err: ValidationError, prefix: str, root: type[BaseModel],
     # An unknown key beside a missing required one is the likelier mistake (a misspelling)
     e, missing = _unknown_beside_missing(errors) or (errors[0], [])
     loc = tuple(e["loc"])
-    path = _path(prefix, _locate(root, loc)[0])
+    keys, at = _locate(root, loc)
+    path = _path(prefix, keys)
     if e["type"] == "extra_forbidden":
         key = str(loc[-1])
         allowed_keys = _keys_allowed(root, loc[:-1], also) or []
@@ -299,7 +304,7 @@ def _from_validation(err: ValidationError, prefix: str, root: type[BaseModel],
             f"{path}.dist: unknown distribution ({got}){hint}; allowed: "
             f"{', '.join(DISTRIBUTIONS)}", field=f"{path}.dist")
     msg = e["msg"].replace("Value error, ", "")
-    if e["type"] == "value_error" and isinstance(e.get("input"), dict):
+    if e["type"] == "value_error" and _models(at):
         # A check across several fields: its message names the values itself.
         return ConfigError(f"{path}: {msg}", field=path)
     return ConfigError(f"{path}: {msg} (got {_short(e.get('input'))})", field=path)
