@@ -94,6 +94,9 @@ CASES = [
     ("memory_list", ("seed: 1", "seed: 1\nmax_memory: [1]"),
      "max_memory: must be a number of bytes or a size like '4 GB' (units: B, kB, MB, GB, TB, "
      "KiB, MiB, GiB, TiB) (got [1])"),
+    ("memory_mapping", ("seed: 1", "seed: 1\nmax_memory: {gb: 4}"),
+     "max_memory: must be a number of bytes or a size like '4 GB' (units: B, kB, MB, GB, TB, "
+     "KiB, MiB, GiB, TiB) (got {{'gb': 4}})"),  # (braces doubled: format)
     # the keys allowed are the input's, for its dist (were the top level's)
     ("unknown_input_key", ("std: 1.0}\n  - {name: x2", "std: 1.0, foo: 1}\n  - {name: x2"),
      "inputs[0].foo: unknown key; allowed keys: name, dist, mean, std"),
