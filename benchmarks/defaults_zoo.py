@@ -679,10 +679,10 @@ def main(argv: list[str] | None = None) -> int:
                   + ("  <-" if bad else ""))
     print(f"{fails} rows below 93% coverage (Wilson lower bound 85%) or over {WORST_HW:g} "
           "half-widths off")
-    kinds = print_kinds(table)
+    print_kinds(table)
     if args.misses:
         print_misses(table)
-    print_verdict(table, kinds, lost)
+    print_verdict(table, lost)
     return 0
 
 
@@ -692,11 +692,16 @@ WORST_HW = 5.0
 FALSE_WITHHOLDING = 0.10
 
 
-def print_verdict(table: dict, kind_fails: int, lost: list[tuple[str, int, str]]) -> bool:
-    """Issue 46's verdict, one line: every interval kind at 93% (:func:`print_kinds`), no
-    printed value more than :data:`WORST_HW` half-widths off, no value printed without an
-    interval, false withholding at most :data:`FALSE_WITHHOLDING` per statistic pooled over
-    the problems, and no run or method lost; the failures named after it. True: it passes."""
+def print_verdict(table: dict, lost: list[tuple[str, int, str]]) -> bool:
+    """Issue 46's verdict, one line: every interval kind (:func:`pooled_kinds`) at 93%
+    coverage (the issue's words: no Wilson bound, which 20 intervals cannot pass even when
+    all hold), no printed value more than :data:`WORST_HW` half-widths off, no value printed
+    without an interval, false withholding at most :data:`FALSE_WITHHOLDING` per statistic
+    pooled over the problems, and no run or method lost; the failures named after it. True:
+    it passes."""
+    low = [(kind, stat, cov, n) for (kind, stat), (cov, n, _, _) in
+           sorted(pooled_kinds(table).items()) if n and cov / n < 0.93]
+    kind_fails = len(low)
     far = [(sc.worst_hw, name, label, stat) for (name, label), per in table.items()
            for stat, sc in per.items() if sc.worst_hw > WORST_HW]
     bare = [(sc.no_ci, name, label, stat) for (name, label), per in table.items()
@@ -714,6 +719,8 @@ def print_verdict(table: dict, kind_fails: int, lost: list[tuple[str, int, str]]
           "false withholding " + ", ".join(
               f"{st} {f}/{r}" + (f" ({f / r:.0%})" if r else "") for st, f, r in rates)
           + f" (at most {FALSE_WITHHOLDING:.0%}); {len(lost)} methods or runs lost")
+    for kind, stat, cov, n in low:
+        print(f"  below 93%: {kind} {stat}: {cov} of {n} ({cov / n:.1%})")
     for worst, name, label, stat in sorted(far, reverse=True):
         print(f"  over {WORST_HW:g} half-widths: {name} {label} {stat} {worst:.1f}")
     for n, name, label, stat in bare:
@@ -751,11 +758,9 @@ def interval_kind(label: str) -> str:
     return "pce" if label.startswith("apce") else "mc"
 
 
-def print_kinds(table: dict) -> int:
-    """Coverage per interval kind and statistic, pooled over the problems, seeds and report
-    times: the acceptance's "every interval kind" (one row per problem and statistic holds 50
-    intervals, too few to tell 93% from 95%: a correct 95% interval shows 47 or more hits in
-    76% of such rows). Returns the number of kinds that fail."""
+def pooled_kinds(table: dict) -> dict[tuple[str, str], list]:
+    """Per interval kind and statistic: intervals that held, intervals, the worst error in
+    half-widths and the moments left without an answer, pooled over the problems."""
     pooled: dict = {}
     for (_, label), per in table.items():
         for stat, sc in per.items():
@@ -764,6 +769,15 @@ def print_kinds(table: dict) -> int:
             agg[1] += sc.with_ci
             agg[2] = max(agg[2], sc.worst_hw)
             agg[3] += sc.unanswered
+    return pooled
+
+
+def print_kinds(table: dict) -> int:
+    """Coverage per interval kind and statistic, pooled over the problems, seeds and report
+    times: the acceptance's "every interval kind" (one row per problem and statistic holds 50
+    intervals, too few to tell 93% from 95%: a correct 95% interval shows 47 or more hits in
+    76% of such rows). Returns the number of kinds that fail."""
+    pooled = pooled_kinds(table)
     print(f"\n{'kind':<5} {'stat':<9} {'intervals':>9} {'cover':>6} {'lo':>5} {'worst':>6} "
           f"{'no-answer':>9}")
     fails = 0
