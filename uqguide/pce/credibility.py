@@ -19,7 +19,7 @@ import numpy as np
 from ..core.types import STAT_NAMES, OutputStats
 from .far_tails import beyond_the_runs, can_swing, replace_far_tails
 from .point_choice import better_points
-from .runs_estimate import LOWEST
+from .runs_estimate import LOWEST, unresolved
 from .support import disagrees_with_runs, either, less_precise, unsupported, with_the_kurtosis
 from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 
@@ -27,7 +27,8 @@ log = logging.getLogger("uqguide.methods.pce_validated")
 
 #: The steps of :func:`uqguide.methods.pce_validated.finish`, in the order they run.
 STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable", "check_own",
-         "check_own_by_runs", "fallback", "choose_points", "no_usable_surrogate")
+         "check_own_by_runs", "bound_own", "fallback", "not_resolved", "choose_points",
+         "no_usable_surrogate")
 
 
 class State(str, Enum):
@@ -270,6 +271,73 @@ def check_own_by_runs(name: str, st: OutputStats, cv: Corrected | None,
             f"the PCE's {what} disagree with its own runs and are withheld; {instead}",
             {f"withheld.{name}": what}))
     return bad, verdicts
+
+
+def bound_own(name: str, st: OutputStats, cv: Corrected | None, runs: Corrected | None,
+              ok: np.ndarray) -> tuple[dict[str, np.ndarray], Verdict | None]:
+    """Give each of the PCE's own values shown its 95% interval (``st.ci``, in place): the
+    smallest holding the value and the printed ``+cv`` interval, whose validation runs measure
+    the surrogate's error; where the ``+cv`` value is withheld, the smallest holding the value
+    and the runs' printed interval. Where neither bounds it (the runs' interval says nothing,
+    :func:`uqguide.pce.runs_estimate.unresolved`, or is narrower than the correction's), among
+    the usable points ``ok``, the value is to be withheld: the masks returned. Without a
+    validation set (``cv`` None) nothing changes."""
+    if cv is None:
+        return {}, None
+    shown = printed(cv)
+    out: dict[str, np.ndarray] = {}
+    for k in STAT_NAMES:
+        own = np.asarray(st.stat(k), dtype=float)
+        lo_cv, hi_cv = shown[k]
+        by_cv = np.isfinite(cv.values[k]) & np.isfinite(lo_cv) & np.isfinite(hi_cv)
+        lo, hi = np.fmin(own, lo_cv), np.fmax(own, hi_cv)
+        by_runs = np.zeros(own.shape, dtype=bool)
+        if runs is not None:
+            r_lo, r_hi = runs.ci[k] if runs.shown_ci is None else runs.shown_ci[k]
+            # the own value's error is at least the correction's half-width: where that is
+            # wider than the runs' own interval, their estimate (+mc) is the better answer
+            with np.errstate(invalid="ignore"):
+                worse = cv.correction_half[k] > 0.5 * (runs.ci[k][1] - runs.ci[k][0])
+            by_runs = (~by_cv & ~unresolved(runs, k) & np.isfinite(runs.values[k])
+                       & ~worse)
+            lo = np.where(by_runs, np.fmin(own, r_lo), lo)
+            hi = np.where(by_runs, np.fmax(own, r_hi), hi)
+        bounded = by_cv | by_runs
+        st.ci[k] = np.stack([np.where(bounded, lo, np.nan), np.where(bounded, hi, np.nan)])
+        out[k] = np.isfinite(own) & ~bounded & ok
+    names = [k for k, m in out.items() if m.any()]
+    if not names:
+        return out, None
+    n_bad = int(np.sum(np.any([out[k] for k in names], axis=0)))
+    what = " and ".join(names)
+    return out, Verdict(
+        "bound_own", "own", State.WITHHELD, {k: out[k] for k in names},
+        f"the PCE's {what} would carry no interval at {n_bad} point(s): the corrected (+cv) "
+        f"values are withheld there, and the method's own runs do not bound them or are more "
+        f"precise than the correction; not printed",
+        {f"unbounded.{name}": what})
+
+
+def not_resolved(name: str, runs: Corrected | None, values: dict[str, np.ndarray],
+                 cis: dict[str, np.ndarray]) -> Verdict | None:
+    """Where a ``+mc`` value's interval says nothing (a kurtosis ``>= 1``,
+    :func:`uqguide.pce.runs_estimate.unresolved`), NaN it and its interval (in place): it is
+    not resolved by the runs, not an estimate."""
+    if runs is None or not values:
+        return None
+    where = {k: unresolved(runs, k) & np.isfinite(v) for k, v in values.items()}
+    names = [k for k, m in where.items() if m.any()]
+    if not names:
+        return None
+    for k in names:
+        values[k] = nan_at(values[k], where[k])
+        cis[k] = nan_at(cis[k], where[k], lead=1)
+    what = " and ".join(names)
+    return Verdict(
+        "not_resolved", "+mc", State.WITHHELD, {k: where[k] for k in names},
+        f"its {what} not resolved by {runs.n} runs (their 95% interval has one end infinite and "
+        f"says no more than any distribution's bound); not printed",
+        {f"not_resolved.{name}": f"{what} by {runs.n} runs"})
 
 
 def fallback(runs: Corrected | None, withheld: Mapping[str, np.ndarray]
