@@ -20,7 +20,8 @@ from ..core.types import STAT_NAMES, OutputStats
 from .far_tails import beyond_the_runs, can_swing, replace_far_tails
 from .point_choice import better_points
 from .runs_estimate import LOWEST, unresolved
-from .support import disagrees_with_runs, either, less_precise, unsupported, with_the_kurtosis
+from .support import (disagrees_with_runs, either, less_precise, near_the_runs, unsupported,
+                      with_the_kurtosis)
 from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 
 log = logging.getLogger("uqguide.methods.pce_validated")
@@ -277,29 +278,34 @@ def bound_own(name: str, st: OutputStats, cv: Corrected | None, runs: Corrected 
               ok: np.ndarray) -> tuple[dict[str, np.ndarray], Verdict | None]:
     """Give each of the PCE's own values shown its 95% interval (``st.ci``, in place): the
     smallest holding the value and the printed ``+cv`` interval, whose validation runs measure
-    the surrogate's error; where the ``+cv`` value is withheld, the smallest holding the value
-    and the runs' printed interval. Where neither bounds it (the runs' interval says nothing,
-    :func:`uqguide.pce.runs_estimate.unresolved`, or is narrower than the correction's), among
-    the usable points ``ok``, the value is to be withheld: the masks returned. Without a
-    validation set (``cv`` None) nothing changes."""
-    if cv is None:
+    the surrogate's error; where there is no ``+cv`` value, the smallest holding the value and
+    the runs' printed interval, if the value lies near the runs' estimate
+    (:func:`uqguide.pce.support.near_the_runs`), their interval says something
+    (:func:`uqguide.pce.runs_estimate.unresolved`) and it is not narrower than the
+    correction's. Elsewhere, among the usable points ``ok``, nothing bounds the value: the
+    masks returned, to withhold. Without validation or runs nothing changes."""
+    if cv is None and runs is None:
         return {}, None
-    shown = printed(cv)
+    shown = printed(cv) if cv is not None else None
+    std = np.asarray(st.std, dtype=float)
     out: dict[str, np.ndarray] = {}
     for k in STAT_NAMES:
         own = np.asarray(st.stat(k), dtype=float)
-        lo_cv, hi_cv = shown[k]
-        by_cv = np.isfinite(cv.values[k]) & np.isfinite(lo_cv) & np.isfinite(hi_cv)
-        lo, hi = np.fmin(own, lo_cv), np.fmax(own, hi_cv)
+        lo = hi = np.full(own.shape, np.nan)
+        by_cv = np.zeros(own.shape, dtype=bool)
+        if cv is not None and shown is not None:
+            lo_cv, hi_cv = shown[k]
+            by_cv = np.isfinite(cv.values[k]) & np.isfinite(lo_cv) & np.isfinite(hi_cv)
+            lo, hi = np.fmin(own, lo_cv), np.fmax(own, hi_cv)
         by_runs = np.zeros(own.shape, dtype=bool)
         if runs is not None:
             r_lo, r_hi = runs.ci[k] if runs.shown_ci is None else runs.shown_ci[k]
-            # the own value's error is at least the correction's half-width: where that is
-            # wider than the runs' own interval, their estimate (+mc) is the better answer
-            with np.errstate(invalid="ignore"):
-                worse = cv.correction_half[k] > 0.5 * (runs.ci[k][1] - runs.ci[k][0])
-            by_runs = (~by_cv & ~unresolved(runs, k) & np.isfinite(runs.values[k])
-                       & ~worse)
+            by_runs = ~by_cv & ~unresolved(runs, k) & near_the_runs(own, runs, k, std)
+            if cv is not None:
+                # the own value's error is at least the correction's half-width: where that
+                # is wider than the runs' own interval, their estimate (+mc) is the better one
+                with np.errstate(invalid="ignore"):
+                    by_runs &= ~(cv.correction_half[k] > 0.5 * (runs.ci[k][1] - runs.ci[k][0]))
             lo = np.where(by_runs, np.fmin(own, r_lo), lo)
             hi = np.where(by_runs, np.fmax(own, r_hi), hi)
         bounded = by_cv | by_runs
@@ -310,11 +316,13 @@ def bound_own(name: str, st: OutputStats, cv: Corrected | None, runs: Corrected 
         return out, None
     n_bad = int(np.sum(np.any([out[k] for k in names], axis=0)))
     what = " and ".join(names)
+    instead = ("the Monte Carlo estimate of its own runs (+mc) is given" if runs is not None
+               else "no estimate of its own runs is at hand")
     return out, Verdict(
         "bound_own", "own", State.WITHHELD, {k: out[k] for k in names},
-        f"the PCE's {what} would carry no interval at {n_bad} point(s): the corrected (+cv) "
-        f"values are withheld there, and the method's own runs do not bound them or are more "
-        f"precise than the correction; not printed",
+        f"the PCE's {what} are withheld at {n_bad} point(s): nothing bounds their error there "
+        f"(no corrected +cv value, and the method's own runs disagree with them, say nothing "
+        f"or are more precise than the correction); {instead}",
         {f"unbounded.{name}": what})
 
 

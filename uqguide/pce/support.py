@@ -125,6 +125,17 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
     return out
 
 
+def near_the_runs(value: np.ndarray, runs: Corrected, name: str, std: np.ndarray
+                  ) -> np.ndarray:
+    """Where ``value`` of statistic ``name`` lies within :data:`RUNS_FACTOR` delta-method
+    half-widths of the runs' estimate (or an immaterial amount, ``std`` its scale): where the
+    runs' interval may stand as its bound (:func:`uqguide.pce.credibility.bound_own`)."""
+    value = np.asarray(value, dtype=float)
+    far = _disagree(value, 0.0, runs.values[name], RUNS_FACTOR * _half(runs, name),
+                    _floor(name, std))
+    return ~far & np.isfinite(value) & np.isfinite(runs.values[name])
+
+
 def with_the_kurtosis(kurtosis_withheld: np.ndarray, skewness: np.ndarray) -> np.ndarray:
     """Where the PCE's skewness goes with its withheld kurtosis (see the module's rule): True
     where the kurtosis is withheld and the skewness is a value (NaN is none to withhold)."""
