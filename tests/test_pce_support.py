@@ -82,10 +82,16 @@ def test_a_pce_shape_statistic_whose_cv_twin_the_runs_refuted_is_judged_at_one_h
     runs.shown_ci["kurtosis"][1, 2] = np.inf  # the third column: the runs give a floor only
     twin = {"kurtosis": np.array([True, True, True]), "skewness": np.zeros(3, dtype=bool)}
     assert not unsupported(own, None, runs)["kurtosis"].any()  # 3.58 < 2.69 + 2 x 0.56
-    bad = unsupported(own, None, runs, twin_disagreed=twin)
+    # the +cv twin (its value withheld: NaN) and its validation runs, which bound the own value
+    twin_cv = _estimate(np.nan, 0.01)
+    bad = unsupported(own, twin_cv, runs, twin_disagreed=twin)
     # 3.58 is 1.6 half-widths off: withheld; 3.0 is within one; above a floor: kept
     assert bad["kurtosis"].tolist() == [True, False, False]
     own["kurtosis"][2] = 2.0  # below the floor 2.13: refuted
+    assert unsupported(own, twin_cv, runs, twin_disagreed=twin)["kurtosis"].tolist() == [
+        True, False, True]
+    # without validation runs, the delta-method test alone: a floor is no bound
+    own["kurtosis"][2] = 3.58
     assert unsupported(own, None, runs, twin_disagreed=twin)["kurtosis"].tolist() == [
         True, False, True]
     assert not bad["skewness"].any()  # its twin stood
@@ -172,19 +178,23 @@ def test_a_heavy_tails_exact_moments_are_not_refuted_by_its_runs_at_more_than_th
     times: the exact skewness and kurtosis, standing as a PCE's own values, were refuted by
     the runs' two delta-method half-widths in most replicates (their sample kurtosis sits far
     below 103). Refuted only outside the runs' tail-aware interval too, each statistic is
-    refuted at most at the acceptance's 10% (the interval's level is 95%)."""
+    refuted at most at the acceptance's 10% (the interval's level is 95%). (Without validation
+    runs the delta-method test alone decides: nothing else would bound the value.)"""
     s2 = 0.97
     w = np.exp(s2)
     exact = {"mean": np.array([np.exp(s2 / 2)]), "std": np.array([np.sqrt((w - 1) * w)]),
              "skewness": np.array([(w + 2) * np.sqrt(w - 1)]),
              "kurtosis": np.array([w**4 + 2 * w**3 + 3 * w**2 - 3])}
+    # a PCE with validation runs whose correction agrees with it (exact to its surrogate)
+    cv = Corrected(values=dict(exact), ci={k: np.stack([v, v]) for k, v in exact.items()},
+                   error=np.zeros(1), n=50, correction_half={k: np.zeros(1) for k in exact})
     rng = np.random.default_rng(46)
     count = dict.fromkeys(exact, 0)
     reps = 100
     for _ in range(reps):
         runs = runs_estimate(np.exp(np.sqrt(s2) * rng.standard_normal((100, 1))), None, None)
         assert runs is not None
-        for k, m in unsupported(exact, None, runs).items():
+        for k, m in unsupported(exact, cv, runs).items():
             count[k] += int(m[0])
     assert max(count.values()) <= 0.10 * reps, count
 
@@ -204,10 +214,10 @@ def test_a_floor_that_says_nothing_is_not_resolved():
     runs.shown_ci = {"mean": np.array([[1.35], [np.inf]]), "std": np.array([[0.0], [np.inf]]),
                      "skewness": np.array([[-21.8], [np.inf]]),
                      "kurtosis": np.array([[1.0], [np.inf]])}
-    assert [unresolved(runs, k)[0] for k in STAT_NAMES] == [False, True, True, True]
-    runs.shown_ci["skewness"] = np.array([[1.82], [np.inf]])  # its sign, at least
+    # a skewness has no least value: a floor of one says something
+    assert [unresolved(runs, k)[0] for k in STAT_NAMES] == [False, True, False, True]
     runs.shown_ci["kurtosis"] = np.array([[2.2], [np.inf]])
-    assert not unresolved(runs, "skewness")[0] and not unresolved(runs, "kurtosis")[0]
+    assert not unresolved(runs, "kurtosis")[0]
     runs.shown_ci["std"] = np.array([[0.0], [4.0]])  # two finite ends: an interval
     assert not unresolved(runs, "std")[0]
 

@@ -224,13 +224,16 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         withheld = {k: ~usable | bad.get(k, none) | disagreed.get(k, none)
                     | unbounded.get(k, none) for k in STAT_NAMES}
         values, cis, given = cred.fallback(runs, withheld)
-        keep(cred.not_resolved(name, runs, values, cis))
         st.fallback.update(values)
         st.fallback_ci.update(cis)
         keep(given)
-        keep(bounded)
+        keep(cred.not_resolved(name, runs, values))
         for verdict in verdicts:
             keep(verdict)
+        prior = diag.get(f"withheld.{name}")
+        keep(bounded)
+        if bounded is not None and prior:  # one entry per output, both reasons
+            diag[f"withheld.{name}"] = f"{prior}; {diag[f'withheld.{name}']}"
         if cv is not None:
             chosen, verdict = cred.choose_points(name, st, cv, usable)
             if chosen is not None:
@@ -263,7 +266,7 @@ def _withhold_for_failed_runs(name: str, st: Any, n_failed: int, n_runs: int,
     withhold_all(st, np.zeros(np.shape(st.mean), dtype=bool))
     st.corrected, st.corrected_ci = {}, {}
     values, cis, given = cred.fallback(runs, verdict.where)
-    unresolved = cred.not_resolved(name, runs, values, cis)
+    unresolved = cred.not_resolved(name, runs, values)
     st.fallback.update(values)
     st.fallback_ci.update(cis)
     keep(verdict)

@@ -283,7 +283,8 @@ def bound_own(name: str, st: OutputStats, cv: Corrected | None, runs: Corrected 
     (:func:`uqguide.pce.support.near_the_runs`), their interval says something
     (:func:`uqguide.pce.runs_estimate.unresolved`) and it is not narrower than the
     correction's. Elsewhere, among the usable points ``ok``, nothing bounds the value: the
-    masks returned, to withhold. Without validation or runs nothing changes."""
+    masks returned, to withhold (with validation runs only: without, the runs' check decides
+    alone and a value it keeps may stay without interval)."""
     if cv is None and runs is None:
         return {}, None
     shown = printed(cv) if cv is not None else None
@@ -310,7 +311,8 @@ def bound_own(name: str, st: OutputStats, cv: Corrected | None, runs: Corrected 
             hi = np.where(by_runs, np.fmax(own, r_hi), hi)
         bounded = by_cv | by_runs
         st.ci[k] = np.stack([np.where(bounded, lo, np.nan), np.where(bounded, hi, np.nan)])
-        out[k] = np.isfinite(own) & ~bounded & ok
+        # without validation runs the runs' check alone decides (check_own_by_runs)
+        out[k] = np.isfinite(own) & ~bounded & ok & (cv is not None)
     names = [k for k, m in out.items() if m.any()]
     if not names:
         return out, None
@@ -323,29 +325,26 @@ def bound_own(name: str, st: OutputStats, cv: Corrected | None, runs: Corrected 
         f"the PCE's {what} are withheld at {n_bad} point(s): nothing bounds their error there "
         f"(no corrected +cv value, and the method's own runs disagree with them, say nothing "
         f"or are more precise than the correction); {instead}",
-        {f"unbounded.{name}": what})
+        {f"withheld.{name}": f"{what} (unbounded)"})
 
 
-def not_resolved(name: str, runs: Corrected | None, values: dict[str, np.ndarray],
-                 cis: dict[str, np.ndarray]) -> Verdict | None:
-    """Where a ``+mc`` value's interval says nothing (a kurtosis ``>= 1``,
-    :func:`uqguide.pce.runs_estimate.unresolved`), NaN it and its interval (in place): it is
-    not resolved by the runs, not an estimate."""
+def not_resolved(name: str, runs: Corrected | None, values: Mapping[str, np.ndarray]
+                 ) -> Verdict | None:
+    """Where a ``+mc`` value given (``values``) has an interval that says nothing (a kurtosis
+    ``>= 1``, :func:`uqguide.pce.runs_estimate.unresolved`): not resolved by the runs, not an
+    estimate; the diagnostics say so (``not_resolved.<output>``)."""
     if runs is None or not values:
         return None
     where = {k: unresolved(runs, k) & np.isfinite(v) for k, v in values.items()}
     names = [k for k, m in where.items() if m.any()]
     if not names:
         return None
-    for k in names:
-        values[k] = nan_at(values[k], where[k])
-        cis[k] = nan_at(cis[k], where[k], lead=1)
     what = " and ".join(names)
     return Verdict(
-        "not_resolved", "+mc", State.WITHHELD, {k: where[k] for k in names},
-        f"its {what} not resolved by {runs.n} runs (their 95% interval has one end infinite and "
-        f"says no more than any distribution's bound); not printed",
-        {f"not_resolved.{name}": f"{what} by {runs.n} runs"})
+        "not_resolved", "+mc", State.FALLBACK, {k: where[k] for k in names},
+        f"its {what} not resolved by {runs.n} runs (their 95% interval has one end infinite "
+        f"and says no more than any distribution's bound)",
+        {f"not_resolved.{name}": f"{what} by {runs.n} runs"}, warn=False)
 
 
 def fallback(runs: Corrected | None, withheld: Mapping[str, np.ndarray]

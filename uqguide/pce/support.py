@@ -47,17 +47,18 @@ def _disagree(a: np.ndarray, ha: np.ndarray | float, b: np.ndarray, hb: np.ndarr
 
 
 def _refute(value: np.ndarray, half: np.ndarray | float, runs: Corrected, name: str,
-            factor: float, floor: np.ndarray | float) -> np.ndarray:
+            factor: float, floor: np.ndarray | float, tails: bool = True) -> np.ndarray:
     """Where the runs' Monte Carlo estimate refutes ``value`` (of 95% half-width ``half``):
     it lies more than ``factor`` half-widths of the difference from the runs' value (and more
     than ``floor``) and outside their printed, tail-aware interval widened by ``half``. On a
     heavy tail the delta-method interval of a few dozen runs is far too short and their sample
     skewness and kurtosis sit low; the tail-aware interval, one-sided there, is what they can
-    refute (docs/pce.md#refuted-by-the-runs). False where either value is NaN."""
+    refute (docs/pce.md#refuted-by-the-runs). ``tails`` False: the delta-method test alone.
+    False where either value is NaN."""
     value = np.asarray(value, dtype=float)
     out = _disagree(value, factor * np.asarray(half, dtype=float), runs.values[name],
                     factor * _half(runs, name), floor)
-    if runs.shown_ci is None or name not in runs.shown_ci:
+    if not tails or runs.shown_ci is None or name not in runs.shown_ci:
         return out
     lo, hi = runs.shown_ci[name]
     h = np.nan_to_num(np.asarray(half, dtype=float))
@@ -94,11 +95,15 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
     out = {}
     if loo is not None and loo <= EXACT_LOO:
         runs = None
+    # a value the runs cannot refute (their tail-aware interval holds it) stands only where a
+    # validation set bounds its error (credibility.bound_own); without one, the delta-method
+    # test alone decides, as it must catch values off by orders of magnitude (issue 27)
+    tails = corrected is not None
     for k in [k for k in LOCATION_STATS if k in own]:
         out[k] = np.zeros(np.shape(own[k]), dtype=bool)
         if runs is not None:
             out[k] = _refute(np.asarray(own[k], dtype=float), 0.0, runs, k, RUNS_FACTOR,
-                             _floor(k, own["std"]))
+                             _floor(k, own["std"]), tails)
     for k in SHAPE_STATS:
         bad = np.zeros(np.shape(own[k]), dtype=bool)
         if corrected is not None:
@@ -108,13 +113,13 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
                              np.asarray(corrected.correction_half[k], dtype=float), MATERIAL)
         if runs is not None:
             bad |= _refute(np.asarray(own[k], dtype=float), 0.0, runs, k, RUNS_FACTOR,
-                           MATERIAL)
+                           MATERIAL, tails)
             if twin_disagreed is not None and k in twin_disagreed:
                 # the twin shares the surrogate's tails: where the runs refuted it, the own
                 # value is judged at one half-width (a floor refutes only what lies below it)
                 bad |= (np.asarray(twin_disagreed[k], dtype=bool)
                         & _refute(np.asarray(own[k], dtype=float), 0.0, runs, k, FACTOR,
-                                  MATERIAL))
+                                  MATERIAL, tails))
         out[k] = bad
     if runs is not None and own_se:
         for k in out:
