@@ -117,7 +117,7 @@ def test_an_own_value_carries_the_correction_s_interval_or_the_runs_bound_or_is_
     assert out["kurtosis"].tolist() == [False, False, True, True]
     assert np.isnan(lo[2:]).all()
     assert verdict is not None and verdict.state is State.WITHHELD
-    assert dict(verdict.record) == {"unbounded.y": "kurtosis"}
+    assert dict(verdict.record) == {"withheld.y": "kurtosis (unbounded)"}
     # no validation set: the runs bound a value near their estimate; one far from it is
     # judged by check_own_by_runs alone (issue 27's 20-run kurtosis 21.5 against 2.4)
     st = _stats([1.0, 1.0], [1.0, 1.0], kurtosis=4.5)
