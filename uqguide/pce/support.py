@@ -24,9 +24,6 @@ RUNS_FACTOR = 2.0
 #: A fit whose corrected leave-one-out error is at most this is the model wherever the runs
 #: are: its runs' estimate does not judge it (docs/pce.md#an-exact-fit).
 EXACT_LOO = 1e-8
-#: Half-widths of the correction beyond which a PCE skewness or kurtosis disagrees with its
-#: control-variate value (docs/pce.md#refuted-by-the-runs).
-CV_FACTOR = 2.0
 #: The PCE statistics judged against the control-variate value here (its mean and std are
 #: judged against it by :func:`uqguide.pce.validation.disagreeing`, and against the runs here).
 SHAPE_STATS = ("skewness", "kurtosis")
@@ -111,13 +108,9 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
         bad = np.zeros(np.shape(own[k]), dtype=bool)
         if corrected is not None:
             # the correction's own width: both values share the surrogate's sampling error and
-            # its part beyond the runs' range; two of them, as check_own: on a heavy tail the
-            # delta-method half-width is short (a lognormal's exact kurtosis 102.3 withheld
-            # 1.1 half-widths from its correction 102.5 +- 0.19), and a value kept carries
-            # the correction's interval (credibility.bound_own)
+            # its part beyond the runs' range
             bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, corrected.values[k],
-                             CV_FACTOR * np.asarray(corrected.correction_half[k], dtype=float),
-                             MATERIAL)
+                             np.asarray(corrected.correction_half[k], dtype=float), MATERIAL)
         if runs is not None:
             bad |= _refute(np.asarray(own[k], dtype=float), 0.0, runs, k, RUNS_FACTOR,
                            MATERIAL, tails)
