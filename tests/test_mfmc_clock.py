@@ -140,3 +140,47 @@ def test_a_command_declares_its_levels_and_its_programs_cpu_is_counted(tmp_path)
     with pytest.raises(Exception, match="fidelities\\[1\\].*inputs"):
         validate_config({**cfg.raw.model_dump(), "methods": [{
             "name": "mfmc", "fidelities": [{}, {"inputs": "b"}], "budget_cpu_s": 1.0}]})
+
+
+#: :func:`burn_per_call`'s CPU seconds per call and per row: a vectorised model's call costs
+#: as much as 2,000 of its rows, so a pilot's call of ``N_SMALL`` rows costs it 100 times more
+#: per run than a block of ``monte_carlo``'s chunk
+CALL_S, ROW_S, N_SMALL = 0.02, 1e-5, 20
+
+
+def burn_per_call(x):
+    """``y = x1`` after ``CALL_S + ROW_S n`` CPU seconds for a call of ``n`` rows."""
+    import time
+
+    until = time.process_time() + CALL_S + ROW_S * x.shape[0]
+    while time.process_time() < until:
+        pass
+    return x[:, 0]
+
+
+def test_the_budget_is_spent_at_the_prices_the_runs_pay():
+    """The runs are priced at what the latest round paid, not at the pilot's one small call.
+    At the pilot's price (1 ms a run) a budget of 0.3 CPU-s bought 300 runs for 0.043 CPU-s.
+    The rounds pay 1 ms, then 164 us (a call of 128 rows), then about 24 us a run (1,400
+    rows), and the last round's two calls cost about 0.13 CPU-s: 0.21 in all."""
+    from uqguide.driver.execution import SerialExecutor
+    from uqguide.driver.propagate import propagate
+
+    budget = 0.3
+    cfg = validate_config({
+        "model": {"name": "callable", "function": "tests.test_mfmc_clock:burn_per_call",
+                  "isolate": False, "inputs": ["x1"], "outputs": ["y"]},
+        "inputs": [{"name": "x1", "dist": "normal", "std": 1.0}],
+        "methods": [{"name": "mfmc", "fidelities": [{}], "n_pilot": N_SMALL,
+                     "budget_cpu_s": budget, "bootstrap": 0}],
+        "seed": 3})
+    r = propagate(cfg.methods[0], cfg.model, cfg.space, cfg.outputs, cfg.seed,
+                  SerialExecutor(100_000))
+    d = r.estimate.diagnostics
+    spent = float(np.sum(d["cpu_per_level"])) + d["estimate_cpu_s"]
+    # what is left unspent is the last round's per-call part, which a price per run of the
+    # round before (1,400 rows in one call) spreads over its rows: at most CALL_S a call of
+    # the last round and the round before's CALL_S / 1,400 a run, well within half the budget;
+    # never more than the budget and a run's rounding and the timer's tick
+    assert budget / 2 <= spent <= budget + ROW_S + TICK
+    assert d["rounds"] == 3 and d["costs"].startswith("measured (the runs of the round")
