@@ -5,8 +5,10 @@ Gunzburger 2016).
 A level is the model with one ``fidelities`` entry's parameters changed, or ``{surrogate:
 LABEL}``. A **pilot** at every level measures costs and correlations,
 :meth:`MultiFidelityMC.allocate` chooses the levels and their runs, the **main** runs extend
-each kept level on the same input stream and :meth:`MultiFidelityMC.estimate_levels` combines
-them. The config, the phases, the intervals and measured gains: ``docs/multifidelity.md``.
+each kept level on the same input stream (with a budget at measured costs in rounds, each
+priced at what the one before paid: :meth:`MultiFidelityMC.top_up`) and
+:meth:`MultiFidelityMC.estimate_levels` combines them. The config, the phases, the
+intervals and measured gains: ``docs/multifidelity.md``.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ log = logging.getLogger(__name__)
 
 #: Share of ``budget_cpu_s`` the first round of main runs is planned for, at the pilot's
 #: prices: a vectorised model's pilot (one small call) overprices its runs, and the estimate's
-#: CPU is not known yet; the second round spends the rest at the prices the first one paid.
+#: CPU is not known yet; the later rounds spend the rest at the prices the one before paid.
 FIRST_ROUND = 0.5
 #: Rounds of main runs with a budget at measured costs: the first at the pilot's prices, each
 #: later one at those the round before paid.
@@ -78,8 +80,10 @@ class MfmcSettings(MethodSettings):
                          description="runs of every level in the pilot (and the least any used "
                                      "level gets)")
     budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False,
-                                       description="model CPU seconds for the whole method, "
-                                                   "pilot included")
+                                       description="CPU seconds for the whole method: the "
+                                                   "model's runs, pilot included, and (costs "
+                                                   "measured) the method's own, its estimate's "
+                                                   "included")
     target_se: dict[str, _Positive] | None = Field(
         default=None, description="standard error of the mean wanted per output (its unit); "
                                   "exactly one of budget_cpu_s and target_se")
