@@ -177,10 +177,44 @@ def test_the_budget_is_spent_at_the_prices_the_runs_pay():
     r = propagate(cfg.methods[0], cfg.model, cfg.space, cfg.outputs, cfg.seed,
                   SerialExecutor(100_000))
     d = r.estimate.diagnostics
-    spent = float(np.sum(d["cpu_per_level"])) + d["estimate_cpu_s"]
+    # the method's whole CPU: the models', the estimate's and the rest (its pricing, the
+    # allocations, the driver's part of the runs beyond the model's)
+    spent = float(np.sum(d["cpu_per_level"])) + d["estimate_cpu_s"] + d["overhead_cpu_s"]
     # what is left unspent is the last round's per-call part, which a price per run of the
     # round before (1,400 rows in one call) spreads over its rows: at most CALL_S a call of
     # the last round and the round before's CALL_S / 1,400 a run, well within half the budget;
     # never more than the budget and a run's rounding and the timer's tick
     assert budget / 2 <= spent <= budget + ROW_S + TICK
     assert d["rounds"] == 3 and d["costs"].startswith("measured (the runs of the round")
+
+
+def test_a_level_the_first_round_ran_is_never_dropped():
+    """At the first round's prices a dearer estimate (its bootstrap costs per row, as a cheap
+    run does) may make the cheapest level not worth its rows: the rows it ran stay in, and
+    the second round keeps it, where it once dropped it (the CPU of its runs lost)."""
+    method = MultiFidelityMC({"fidelities": [{}, {"function": "x"}, {"function": "z"}],
+                              "n_pilot": 200, "budget_cpu_s": 1.0},
+                             RunContext(outputs=("y",)))
+    rng = np.random.default_rng(0)
+    y = rng.standard_normal(200)
+    pilot = [_pilot(y + e * rng.standard_normal(200)) for e in (0.0, 0.05, 0.3)]
+    cheap = [1e-3, 1e-5, 1e-6]
+    plan = method.allocate(pilot, cheap, share=0.5)
+    assert plan.levels == (0, 1, 2)
+    done = {i: int(plan.sizes[plan.levels.index(i)]) for i in range(3)}
+    # the estimate at 2e-5 a row: at that price alone the cheapest level gains nothing
+    alone = method.top_up(pilot, plan, np.array(cheap), (0.0, 2e-5), 0.5,
+                          {i: 200 for i in range(3)})
+    assert 2 not in alone.levels
+    kept = method.top_up(pilot, plan, np.array(cheap), (0.0, 2e-5), 0.5, done)
+    assert kept.levels == (0, 1, 2)
+    assert all(kept.sizes[j] >= done[i] for j, i in enumerate(kept.levels))
+
+
+def test_the_rows_moving_between_processes_are_counted():
+    from uqguide.methods.mfmc import _moving_cpu
+
+    # a model in the driver's process: its CPU is in the driver's, the excess is the moving
+    assert _moving_cpu(1.25, 1.0) == pytest.approx(0.25)
+    # a model in a guard: the driver's CPU is all moving, and the guard's side as much again
+    assert _moving_cpu(0.1, 1.0) == pytest.approx(0.2)

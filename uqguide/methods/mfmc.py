@@ -286,31 +286,41 @@ class MultiFidelityMC(Method):
                  plan.levels, list(plan.sizes), 1.0 / plan.allocation.variance_ratio)
         have = dict(enumerate(pilot))
         prices = np.asarray(pilot_cost, dtype=float)
-        fixed = per_row = 0.0
-        for r in range(ROUNDS if self._tops_up else 1):
+        fixed = per_row = moved = 0.0
+        last = ROUNDS - 1 if self._tops_up else 0
+        for r in range(last + 1):
             if r:
                 t_own = time.process_time()
                 with quiet_overflow(), _one_blas_thread():
-                    if r == 1:
+                    if r == 1 or r == last:
+                        # priced again before the last round on the rows run so far, near
+                        # the final count: its CPU per row grows with the groups' size
                         fixed, per_row = self._estimate_price(
-                            pilot, [have[i] for i in plan.levels], plan, design)
-                    spent = sum(lv.cpu_seconds for lv in levels) + own + \
+                            pilot, [have[i] for i in plan.levels], plan, design,
+                            fixed=fixed if r > 1 else None)
+                    spent = sum(lv.cpu_seconds for lv in levels) + own + moved + \
                         time.process_time() - t_own
                     plan = self.top_up(pilot, plan, prices, (fixed, per_row), spent,
                                        {i: out.n for i, out in have.items()},
                                        reselect=r == 1)
                 own += time.process_time() - t_own
             before = [(lv.cpu_seconds, have[i].n) for i, lv in enumerate(levels)]
+            moving = np.zeros(len(levels))
             for j, i in enumerate(plan.levels):
                 runner.phase("")
+                c_model, c_here = levels[i].cpu_seconds, time.process_time()
                 out = run_rows(i, 2 + 2 * i if r == 0 else TOP_UP_STAGE + 8 * (r - 1) + i,
                                have[i].n, int(plan.sizes[j]), after=have[i])
                 assert out is not None  # (the pilot's rows at least)
+                moving[i] = _moving_cpu(time.process_time() - c_here,
+                                        levels[i].cpu_seconds - c_model)
                 have[i] = out
+            moved += float(moving.sum())
             # each level's price: CPU per run of its latest round (a larger call is cheaper
-            # per run for a vectorised model, so a later round is priced better)
-            prices = np.array([(lv.cpu_seconds - c) / (have[i].n - n) if have[i].n > n
-                               else prices[i] for i, (lv, (c, n)) in
+            # per run for a vectorised model, so a later round is priced better), the rows'
+            # moving between the processes included
+            prices = np.array([(lv.cpu_seconds - c + moving[i]) / (have[i].n - n)
+                               if have[i].n > n else prices[i] for i, (lv, (c, n)) in
                                enumerate(zip(levels, before))])
         runs = [have[i] for i in plan.levels]
         t_fit = time.perf_counter()
@@ -319,7 +329,7 @@ class MultiFidelityMC(Method):
             estimate = self.estimate_levels(
                 runs, plan, design, [lv.cpu_seconds for lv in levels], pilot_cost,
                 surrogate_cpu_s=sum(lv.fixed_cpu_s for lv, f in zip(levels, s.fidelities)
-                                    if "surrogate" in f))
+                                    if "surrogate" in f), overhead_cpu_s=own + moved)
         runner.phase("")
         top = runs[0]
         x = np.asarray(design.x.rows(0, top.n)) if isinstance(design.x, GeneratedRows) \
@@ -332,11 +342,12 @@ class MultiFidelityMC(Method):
         return self.settings.budget_cpu_s is not None and self.settings.costs is None
 
     def _estimate_price(self, pilot: list[ModelOutput], runs: list[ModelOutput],
-                        plan: LevelPlan, design: Design) -> tuple[float, float]:
+                        plan: LevelPlan, design: Design, fixed: float | None = None
+                        ) -> tuple[float, float]:
         """The CPU seconds :meth:`estimate_levels` will take, as a fixed part and a part per
         run of a used level beyond its pilot (its work grows with each level's rows): its cost
-        on the pilots and on the runs so far, each without resamples and with a few,
-        extrapolated to ``bootstrap`` resamples."""
+        on the pilots (unless ``fixed`` is known) and on the runs so far, each without
+        resamples and with a few, extrapolated to ``bootstrap`` resamples."""
         b = self.settings.bootstrap
         k = len(self.settings.fidelities)
         probe = min(PROBE_RESAMPLES, b)
@@ -352,8 +363,9 @@ class MultiFidelityMC(Method):
             return (t1 - t0) + b * max(t2 - t1 - (t1 - t0), 0.0) / max(probe, 1)
 
         n_p = self.settings.n_pilot
-        fixed = cost([pilot[i] for i in plan.levels],
-                     replace(plan, sizes=np.full(len(plan.levels), n_p)))
+        if fixed is None:
+            fixed = cost([pilot[i] for i in plan.levels],
+                         replace(plan, sizes=np.full(len(plan.levels), n_p)))
         grown = float(np.sum(plan.sizes)) - n_p * len(plan.levels)
         if grown <= 0:
             return fixed, 0.0
@@ -450,6 +462,11 @@ class MultiFidelityMC(Method):
             step = np.array([s.surrogate_ratio if i in self.surrogate_levels else np.inf
                              for i in range(len(prices))])
             allocation = select_allocation(rho, prices + per_row, s.min_gain, max_step=step)
+            if not {i for i in plan.levels if done[i] > s.n_pilot} <= set(allocation.levels):
+                # a level the round before ran beyond its pilot stays: its CPU is spent, and
+                # dropping it would waste it (the allocation among the same levels at the
+                # new prices is the old one's ratios, near enough for one more round)
+                allocation = plan.allocation
         levels = allocation.levels
         floor = np.array([done[i] for i in levels])
 
@@ -563,12 +580,14 @@ class MultiFidelityMC(Method):
 
     def estimate_levels(self, runs: list[ModelOutput], plan: LevelPlan, design: Design,
                         seconds: list[float], pilot_seconds: list[float],
-                        surrogate_cpu_s: float = 0.0, n_resamples: int | None = None
-                        ) -> Estimate:
+                        surrogate_cpu_s: float = 0.0, n_resamples: int | None = None,
+                        overhead_cpu_s: float = 0.0) -> Estimate:
         """Statistics of every output from the used levels' runs (rows ``[0, m_i)`` of each).
         ``seconds``: every config level's model seconds; ``pilot_seconds``: per pilot run;
         ``surrogate_cpu_s``: the surrogate levels' PCE runs and fits, charged to the saving;
-        ``n_resamples``: the bootstrap's (default ``bootstrap``)."""
+        ``n_resamples``: the bootstrap's (default ``bootstrap``); ``overhead_cpu_s``: the
+        method's CPU beyond the models and the estimate (allocation, the estimate's pricing,
+        moving rows between processes), charged to the saving."""
         resamples = self.settings.bootstrap if n_resamples is None else n_resamples
         t_cpu = time.process_time()
         sizes = plan.sizes
@@ -615,7 +634,7 @@ class MultiFidelityMC(Method):
         m0 = int(sizes[0])
         c0_paid = float(seconds[plan.levels[0]]) / m0 if plan.measured and m0 else c0
         estimate_cpu_s = time.process_time() - t_cpu
-        cpu = float(sum(seconds)) + surrogate_cpu_s + estimate_cpu_s
+        cpu = float(sum(seconds)) + surrogate_cpu_s + estimate_cpu_s + overhead_cpu_s
         diagnostics: dict[str, Any] = {
             # (a level left out of the estimate still ran its pilot)
             "n_runs": int(sum(r.n for r in runs))
@@ -640,6 +659,7 @@ class MultiFidelityMC(Method):
             "equivalent_mc_cpu_s": eq * c0,
             "equivalent_mc_runs_std": eq_std,
             "estimate_cpu_s": estimate_cpu_s,
+            "overhead_cpu_s": overhead_cpu_s,
             "cpu_saving": self._cpu_saving(plan, min(eq, eq_std) * c0_paid, seconds, cpu),
             "plain_mc": bool(plan.allocation.is_plain_mc),
             "note": plan.note,
@@ -668,6 +688,17 @@ class MultiFidelityMC(Method):
         if plan.allocation.is_plain_mc:
             return min(float(seconds[plan.levels[0]]) / cpu, 1.0)
         return mc_cpu / cpu
+
+
+def _moving_cpu(driver_cpu: float, model_cpu: float) -> float:
+    """The CPU seconds a level's round spent beyond its model's, moving rows between the
+    processes, from the driver's CPU in that round and the model's: a model in the driver's
+    process is in both, so the driver's excess is the moving; a model in another process (a
+    guard, workers) is not in the driver's, whose CPU is then all moving, and the other side
+    spends as much again (it serialises what the driver deserialises, and back)."""
+    if driver_cpu >= model_cpu:
+        return driver_cpu - model_cpu
+    return 2.0 * driver_cpu
 
 
 def _least(equivalent: np.ndarray | None) -> float:
