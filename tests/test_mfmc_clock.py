@@ -218,3 +218,15 @@ def test_the_rows_moving_between_processes_are_counted():
     assert _moving_cpu(1.25, 1.0) == pytest.approx(0.25)
     # a model in a guard: the driver's CPU is all moving, and the guard's side as much again
     assert _moving_cpu(0.1, 1.0) == pytest.approx(0.2)
+
+
+def test_the_last_round_keeps_a_reserve_for_the_prices_moving():
+    from uqguide.methods.mfmc import _price_drift
+
+    prices = np.array([60e-6, 15e-6, 4e-6])
+    # the pilot's prices are no drift (a small call is dearer per run)
+    assert _price_drift(prices, np.full(3, np.nan), (0, 1, 2)) == 0.0
+    # the largest move of a used level between the two rounds before: level 2's 25%, level
+    # 1 unused
+    earlier = np.array([50e-6, 30e-6, 3.2e-6])
+    assert _price_drift(prices, earlier, (0, 2)) == pytest.approx(0.25)

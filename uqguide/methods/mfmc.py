@@ -286,6 +286,7 @@ class MultiFidelityMC(Method):
                  plan.levels, list(plan.sizes), 1.0 / plan.allocation.variance_ratio)
         have = dict(enumerate(pilot))
         prices = np.asarray(pilot_cost, dtype=float)
+        earlier = np.full(len(levels), np.nan)  # the prices of the round before (not yet)
         fixed = per_row = moved = 0.0
         last = ROUNDS - 1 if self._tops_up else 0
         for r in range(last + 1):
@@ -300,7 +301,12 @@ class MultiFidelityMC(Method):
                             fixed=fixed if r > 1 else None)
                     spent = sum(lv.cpu_seconds for lv in levels) + own + moved + \
                         time.process_time() - t_own
-                    plan = self.top_up(pilot, plan, prices, (fixed, per_row), spent,
+                    # the last round is planned at prices raised by as much as a used
+                    # level's price moved between the two rounds before (the machine's
+                    # load and caches move it): a reserve for a move as large again
+                    drift = _price_drift(prices, earlier, plan.levels) if r == last else 0.0
+                    plan = self.top_up(pilot, plan, prices * (1.0 + drift),
+                                       (fixed, per_row * (1.0 + drift)), spent,
                                        {i: out.n for i, out in have.items()},
                                        reselect=r == 1)
                 own += time.process_time() - t_own
@@ -319,6 +325,7 @@ class MultiFidelityMC(Method):
             # each level's price: CPU per run of its latest round (a larger call is cheaper
             # per run for a vectorised model, so a later round is priced better), the rows'
             # moving between the processes included
+            earlier = prices if r else earlier
             prices = np.array([(lv.cpu_seconds - c + moving[i]) / (have[i].n - n)
                                if have[i].n > n else prices[i] for i, (lv, (c, n)) in
                                enumerate(zip(levels, before))])
@@ -688,6 +695,17 @@ class MultiFidelityMC(Method):
         if plan.allocation.is_plain_mc:
             return min(float(seconds[plan.levels[0]]) / cpu, 1.0)
         return mc_cpu / cpu
+
+
+def _price_drift(prices: np.ndarray, earlier: np.ndarray, used: tuple[int, ...]) -> float:
+    """The largest relative change of a used level's price per run from the round before
+    (``earlier``, NaN: the pilot's, which a small call makes dearer, not a drift) to the
+    latest (``prices``); 0 where no level has two main rounds' prices."""
+    i = list(used)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        change = np.abs(prices[i] / earlier[i] - 1.0)
+    change = change[np.isfinite(change)]
+    return float(change.max()) if change.size else 0.0
 
 
 def _moving_cpu(driver_cpu: float, model_cpu: float) -> float:
