@@ -29,7 +29,7 @@ from ..stats.quantiles import resolve_levels
 from ..core.strict import StrictModel, leaves
 from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
 from ..core.names import PLAIN_NAME_RULE, is_plain_name
-from .limits import DEFAULT_MAX_STEPS, check_steps, memory_limit, parse_bytes
+from .limits import SIZE_RULE, DEFAULT_MAX_STEPS, check_steps, memory_limit, parse_bytes
 from .report_times import check_report_times, model_time_grid
 from ..methods.base import Method, RunContext
 from ..models.base import Model
@@ -101,6 +101,8 @@ class RawConfig(StrictModel):
     @field_validator("max_memory", mode="before")  # before: one message for every wrong type
     @classmethod
     def _memory(cls, v: Any) -> Any:
+        if isinstance(v, dict):  # a mapping's check names its value (_from_validation)
+            raise ValueError(f"{SIZE_RULE} (got {_short(v)})")
         if v is not None:
             parse_bytes(v)
         return v
@@ -304,8 +306,9 @@ def _from_validation(err: ValidationError, prefix: str, root: type[BaseModel],
             f"{path}.dist: unknown distribution ({got}){hint}; allowed: "
             f"{', '.join(DISTRIBUTIONS)}", field=f"{path}.dist")
     msg = e["msg"].replace("Value error, ", "")
-    if e["type"] == "value_error" and _models(at):
-        # A check across several fields: its message names the values itself.
+    if e["type"] == "value_error" and (_models(at) or isinstance(e.get("input"), dict)):
+        # A check across several fields, or of a mapping's entries (an FMU's inputs): its
+        # message names the values itself.
         return ConfigError(f"{path}: {msg}", field=path)
     return ConfigError(f"{path}: {msg} (got {_short(e.get('input'))})", field=path)
 
