@@ -48,7 +48,7 @@ CASES = [
                                "name: sobol_saltelli, label: mc, n_base: 1"),
      "methods[0].n_base: Input should be greater than or equal to 2 (got 1)"),
     ("unknown_sampling", ("n_samples: 100", "n_samples: 100, sampling: halton"),
-     "methods[0].sampling: Input should be 'random', 'lhs' or 'sobol' (got 'halton')"),
+     "methods[0].sampling: unknown value 'halton'; allowed: random, lhs, sobol"),
     ("unknown_distribution", ("dist: normal, mean: 0.0, std: 1.0}\n  - {name: x2",
                               "dist: gauss, mean: 0.0, std: 1.0}\n  - {name: x2"),
      "inputs[0].dist: unknown distribution (got 'gauss'); allowed: normal, uniform, lognormal, "
@@ -199,3 +199,16 @@ def test_the_python_api_names_the_same_field(edit, field):
     with pytest.raises(ConfigError) as e:
         load_config(cfg)
     assert e.value.field == field and str(e.value).startswith(f"{field}: ")
+
+
+def test_a_mapping_in_a_union_is_judged_by_its_own_fields(write_config):
+    """``outputs: [{name: y, kind: serie}]`` (a string or a mapping) names the mapping's bad
+    value and its near choice, not the string branch ("Input should be a valid string")."""
+    text = ("model: {name: callable, function: 'tests.failing_models:clean_sum', inputs: [a, b], "
+            "outputs: [{name: y, kind: serie}]}\n"
+            "inputs: [{name: a, dist: normal, mean: 0, std: 1}]\n"
+            "methods: [{name: monte_carlo, n_samples: 10}]\n")
+    result = CliRunner().invoke(main, ["validate", str(write_config(text))])
+    assert result.exit_code == 2, result.output
+    assert result.stderr.strip() == ("error: model.outputs[0].kind: unknown value 'serie' (did "
+                                     "you mean 'series'?); allowed: scalar, series")

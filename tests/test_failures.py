@@ -114,8 +114,8 @@ def test_pce_failure_policy_is_checked(write_config):
     text = yaml.safe_dump(_config("tests.failing_models:clean", pce_failure_policy="refit"))
     res = CliRunner().invoke(main, ["validate", str(write_config(text))])
     assert res.exit_code == 2
-    assert res.stderr.strip() == ("error: pce_failure_policy: Input should be 'fail' or "
-                                  "'regression' (got 'refit')")
+    assert res.stderr.strip() == ("error: pce_failure_policy: unknown value 'refit'; allowed: "
+                                  "fail, regression")
 
 
 def test_pce_failure_policy_end_to_end(write_config, tmp_path):

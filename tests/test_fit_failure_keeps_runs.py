@@ -47,7 +47,7 @@ def test_a_fit_raising_after_its_runs_writes_them_and_resumes(tmp_path, monkeypa
     assert res.exit_code == 1, (res.output, res.exception)
     assert "Traceback" not in res.output
     assert res.stderr.strip().splitlines()[-1] == (
-        "error: apce: ValueError: dimensions are too large (run with -vv for the traceback)")
+        "error: apce: ValueError: dimensions are too large (the traceback: uqguide -vv run CONFIG)")
     assert f"and {out / 'fits.run'} (every output; `uqguide run {cfg} --resume" in res.stderr
     n_calls = calls["n"]
     assert n_calls > 0

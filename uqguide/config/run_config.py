@@ -284,7 +284,7 @@ def _from_validation(err: ValidationError, prefix: str, root: type[BaseModel],
     of the file, whose mapping holds the keys ``also`` besides): path, value, what is allowed."""
     errors = err.errors(include_url=False)
     # An unknown key beside a missing required one is the likelier mistake (a misspelling)
-    e, missing = _unknown_beside_missing(errors) or (errors[0], [])
+    e, missing = _unknown_beside_missing(errors) or (_mapping_branch(errors), [])
     loc = tuple(e["loc"])
     keys, at = _locate(root, loc)
     path = _path(prefix, keys)
@@ -306,11 +306,30 @@ def _from_validation(err: ValidationError, prefix: str, root: type[BaseModel],
             f"{path}.dist: unknown distribution ({got}){hint}; allowed: "
             f"{', '.join(DISTRIBUTIONS)}", field=f"{path}.dist")
     msg = e["msg"].replace("Value error, ", "")
+    if e["type"] == "literal_error" and isinstance(e.get("input"), str):
+        # pydantic's own list of the allowed values ("'scalar' or 'series'"), as the type
+        # is not always found through a validator-wrapped model's branch label
+        choices = re.findall(r"'([^']*)'", str(e.get("ctx", {}).get("expected", "")))
+        return ConfigError(f"{path}: unknown value {e['input']!r}"
+                           f"{did_you_mean(e['input'], choices)}; allowed: {', '.join(choices)}",
+                           field=path)
     if e["type"] == "value_error" and (_models(at) or isinstance(e.get("input"), dict)):
         # A check across several fields, or of a mapping's entries (an FMU's inputs): its
         # message names the values itself.
         return ConfigError(f"{path}: {msg}", field=path)
     return ConfigError(f"{path}: {msg} (got {_short(e.get('input'))})", field=path)
+
+
+def _mapping_branch(errors: list[Any]) -> Any:
+    """The error to report: pydantic's first, unless that is a union's plain-type branch
+    refusing a mapping (``str | CallableOutput`` given ``{kind: serie}``), whose "Input should
+    be a valid string" hides what is wrong in the mapping: then the mapping branch's error."""
+    first = errors[0]
+    if not (first["type"].endswith("_type") and isinstance(first.get("input"), dict)):
+        return first
+    stem = tuple(first["loc"][:-1])
+    return next((x for x in errors[1:] if tuple(x["loc"][:len(stem)]) == stem
+                 and len(x["loc"]) > len(stem) + 1), first)
 
 
 def _unknown_beside_missing(errors: list[Any]) -> tuple[Any, list[str]] | None:

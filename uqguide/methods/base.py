@@ -212,7 +212,7 @@ def why_failed(method: Method, exc: Exception) -> str:
     if isinstance(exc, MethodError):
         return str(exc)
     log.debug("%s failed", method.label, exc_info=exc)
-    return f"{method.label}: {type(exc).__name__}: {exc} (run with -vv for the traceback)"
+    return f"{method.label}: {type(exc).__name__}: {exc} (the traceback: uqguide -vv run CONFIG)"
 
 
 class Method(ABC):
