@@ -103,6 +103,21 @@ def test_to_dataframe_is_tidy_over_every_time_step(result):
     assert "time" not in scalar.columns and set(scalar.component) == {"y1", "y2"}
 
 
+def test_to_dataframe_still_answers_the_renamed_method_column(result):
+    """Scripts written against the column ``method`` (now ``label``) keep working, warned."""
+    df = result.to_dataframe("y")
+    with pytest.warns(DeprecationWarning, match="'method' is now 'label'"):
+        by_method = df["method"]
+    assert by_method.equals(df["label"])
+    with pytest.warns(DeprecationWarning):
+        mc = df[df.method == "mc"]
+    with pytest.warns(DeprecationWarning):  # a filtered frame keeps the old name
+        assert set(mc["method"]) == {"mc"}
+    with pytest.warns(DeprecationWarning):
+        sizes = df.groupby("method").size()
+    assert sizes.to_dict() == df.groupby("label").size().to_dict()
+
+
 def test_to_dataframe_has_the_control_variate_rows(result):
     """A validated PCE's control-variate moments are rows labelled ``<label>+cv``, with their
     intervals, as in the statistics table."""

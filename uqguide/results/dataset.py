@@ -13,6 +13,8 @@ The variables, their dimensions and coordinates: docs/result-file.md#a-methods-v
 
 from __future__ import annotations
 
+import functools
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -281,6 +283,44 @@ def frames(ds: xr.Dataset, output: OutputInfo, label: str) -> list[pd.DataFrame]
                 continue
         out.append(frame)
     return out
+
+
+#: Columns of :meth:`~uqguide.results.result.Result.to_dataframe` renamed, still answered with
+#: a DeprecationWarning until the version named (CHANGELOG.md).
+RENAMED_COLUMNS = {"method": (LABEL, "0.3")}
+
+
+@functools.cache
+def tidy_frame_class() -> type:
+    """The DataFrame of :meth:`~uqguide.results.result.Result.to_dataframe`: a pandas DataFrame
+    that still answers a renamed column (``df["method"]``, ``df.method``, ``groupby("method")``)
+    by its new name, with a DeprecationWarning."""
+    import pandas as pd
+
+    def new_name(frame: pd.DataFrame, key: Any) -> Any:
+        if isinstance(key, str) and key in RENAMED_COLUMNS and key not in frame.columns:
+            name, until = RENAMED_COLUMNS[key]
+            warnings.warn(f"to_dataframe(): the column {key!r} is now {name!r}; {key!r} goes "
+                          f"in uqguide {until}", DeprecationWarning, stacklevel=3)
+            return name
+        return key
+
+    class TidyFrame(pd.DataFrame):
+        @property
+        def _constructor(self) -> type:  # a filtered or sorted frame keeps the old names
+            return TidyFrame
+
+        def __getitem__(self, key: Any) -> Any:
+            return super().__getitem__(new_name(self, key))
+
+        def __getattr__(self, name: str) -> Any:
+            return super().__getattr__(new_name(self, name))
+
+        def groupby(self, by: Any = None, *args: Any, **kwargs: Any) -> Any:
+            keys = [new_name(self, k) for k in by] if isinstance(by, list) else new_name(self, by)
+            return super().groupby(keys, *args, **kwargs)
+
+    return TidyFrame
 
 
 def _rows(ds: xr.Dataset, o: str, label: str) -> list[tuple[str, str, Any, Any, bool]]:

@@ -33,7 +33,8 @@ from ..core.events import EventEstimate
 from ..core.types import Estimate, GeneratedRows, OutputStats, ScalarIndex
 from ..models.base import OutputInfo
 from .surrogate import StoredSurrogate, read_surrogate, write_surrogate
-from .dataset import LABEL, frames, misshapen, read_stats, stack, stats_dataset
+from .dataset import (LABEL, frames, misshapen, read_stats, stack, stats_dataset,
+                      tidy_frame_class)
 from .netcdf_file import UTF8, Blocks, Dataset, Group, dataset_group, strings, write_group
 
 FORMAT = 2
@@ -212,7 +213,8 @@ class Result:
         ``component``, ``statistic`` (mean, std, skewness, kurtosis, sem, q<level>), ``value``
         (in the output's unit), ``ci_low``, ``ci_high`` (NaN where the method gives no
         interval); a validated PCE's control-variate moments are rows labelled ``<label>+cv``,
-        and where a PCE withholds a moment the Monte Carlo estimate of its runs ``<label>+mc``."""
+        and where a PCE withholds a moment the Monte Carlo estimate of its runs ``<label>+mc``.
+        The column ``method`` (now ``label``) still answers, with a DeprecationWarning."""
         import pandas as pd
 
         if output is None:
@@ -227,7 +229,7 @@ class Result:
                                               self.time, self.input_names), info, r.label)]
         if not rows:
             raise ResultError(f"no method of this result has statistics of {output!r}")
-        return pd.concat(rows, ignore_index=True)
+        return tidy_frame_class()(pd.concat(rows, ignore_index=True))
 
 
 def provenance() -> dict[str, Any]:
