@@ -20,7 +20,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 import uqguide
 from uqguide.errors import ConfigError, ModelError
@@ -381,15 +380,25 @@ def _square_config(command: str, work: Path) -> dict:
 
 
 def test_the_documented_c_program_is_the_model_it_says(program, tmp_path):
+    """Section 1's config and section 3's program as a reader copies them, nothing edited:
+    the run makes every declared output (the series too) and each is the formula."""
     (tmp_path / "mysim.c").write_text(_doc_block("c"))
     subprocess.run(["cc", "-O2", "-o", str(tmp_path / "mysim"), str(tmp_path / "mysim.c")],
                    check=True, capture_output=True, timeout=120)
     path = tmp_path / "sim.yaml"
-    path.write_text(yaml.safe_dump(_square_config("./mysim {inputs} {outputs}",
-                                                  tmp_path / "work")))
-    run = uqguide.run(uqguide.load_config(path)).run("mc")
+    path.write_text(_doc_block("yaml"))
+    result = uqguide.run(uqguide.load_config(path))
+    run = result.run("mc")
+    assert run.n_failed == 0 and run.n_runs == 2000
     x = np.asarray(run.x)
     np.testing.assert_array_equal(run.scalars["y"][:, 0], x[:, 0] + x[:, 1] ** 2)
+    np.testing.assert_array_equal(result.time, [0.0, 0.5, 1.0, 2.0])
+    # path(t) = a t + b: its mean 1.0 t + 0.5 lies in the interval where one is given (the
+    # report times: here the last step)
+    low, high = (v[:, 0] for v in run.estimate.stats["path"].ci["mean"])
+    truth = 1.0 * result.time + 0.5
+    given = ~np.isnan(low)
+    assert given.any() and np.all((low <= truth) & (truth <= high) | ~given), (low, high)
 
 
 def test_the_documented_octave_function_is_the_model_it_says(tmp_path):
