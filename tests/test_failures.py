@@ -222,7 +222,8 @@ def test_every_methods_failed_runs_are_said_once_with_their_interval(caplog):
         assert line == (f"{label}: {r.n_failed:,} of {r.n_runs:,} runs failed "
                         f"({100 * r.n_failed / r.n_runs:.3g}%, 95% interval "
                         f"{100 * lo:.3g}-{100 * hi:.3g}%); its statistics are conditional on "
-                        f"success (the runs that failed are left out)")
+                        f"success (the runs that failed are left out); reasons: non-finite "
+                        f"output value ({r.n_failed})")
 
 
 def test_the_cli_summary_says_each_methods_failed_runs(write_config, tmp_path):

@@ -60,6 +60,18 @@ def reason_rows(label: str, n_runs: int, reasons: Iterable[object]) -> list[dict
     return rows
 
 
+def reason_summary(reasons: Iterable[object], limit: int = MAX_REASONS) -> str:
+    """The failed runs' reasons on one line, tallied as the table tallies them (a ``command``
+    model's 67 aborts in 67 kept work folders are one reason of count 67): ``"reason (count);
+    ..."``, the ``limit`` most frequent, then ``"N other reasons (count)"``."""
+    tally = _tally(reasons)
+    shown = [f"{reason} ({count:,})" for reason, count in tally[:limit]]
+    rest = tally[limit:]
+    if rest:
+        shown.append(f"{len(rest)} other reasons ({sum(c for _, c in rest):,})")
+    return "; ".join(shown)
+
+
 def render_reasons(label: str, n_runs: int, reasons: Iterable[object]) -> str:
     """The table of :func:`reason_rows` as text (for a method whose every run failed)."""
     import pandas as pd

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import logging
 import time
-from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
 from types import MappingProxyType
@@ -24,6 +23,7 @@ from ..config.run_config import RunConfig
 from ..errors import ClusterLost, MethodError, MethodsFailed, UqguideError
 from .execution import DEFAULT_BATCH_SIZE, Containment, Executor, SerialExecutor
 from ..core.inputs import InputSpace
+from ..core.failures import reason_summary
 from ..methods.base import Design, Method
 from ..models.base import Model
 from .progress import Progress
@@ -102,6 +102,7 @@ def say_failures(result: Result) -> list[str]:
     from ..core.failures import failed_runs_line
 
     lines = [failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
+             + f"; reasons: {reason_summary(r.reasons[r.failed], limit=3)}"
              for r in result.runs if r.success and r.n_failed]
     for line in lines:
         log.warning("%s", line)
@@ -239,8 +240,7 @@ def check_failure_budget(result: Result, max_failed_fraction: float) -> None:
     over = []
     for r in result.runs:
         if r.n_runs and r.n_failed / r.n_runs > max_failed_fraction:
-            reasons = Counter(str(v) for v in r.reasons[r.failed]).most_common(2)
-            why = "; ".join(f"{k} ({c})" for k, c in reasons)
+            why = reason_summary(r.reasons[r.failed], limit=2)
             over.append(f"{r.label}: {r.n_failed} of {r.n_runs} runs failed "
                         f"({100 * r.n_failed / r.n_runs:.3g}%: {why})")
     if over:

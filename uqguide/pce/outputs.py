@@ -5,13 +5,13 @@ with the joint covariance of all scalars stacked (docs/statistics.md#statistics)
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import MethodError
+from ..core.failures import reason_summary
 from ..core.types import DerivedOutput, ModelOutput, OutputStats, ScalarIndex
 from . import moments
 from .derived import derived_statistics
@@ -42,9 +42,9 @@ def output_columns(outputs: ModelOutput,
 
 
 def failure_summary(outputs: ModelOutput) -> str:
-    """``"reason (count); ..."`` of the failed runs, most frequent first."""
-    reasons = Counter(str(r) for r in outputs.reasons[outputs.failed])
-    return "; ".join(f"{r} ({c})" for r, c in reasons.most_common())
+    """``"reason (count); ..."`` of the failed runs, most frequent first
+    (:func:`uqguide.core.failures.reason_summary`)."""
+    return reason_summary(outputs.reasons[outputs.failed])
 
 
 def joint_scalar_moments(
