@@ -193,6 +193,51 @@ def test_a_crashing_batch_is_split_until_exactly_the_crashing_samples_fail(progr
     assert not np.isnan(run.scalars["y"][~bad]).any()
 
 
+def test_failed_calls_keep_at_most_keep_failed_work_folders(program, tmp_path, monkeypatch):
+    """A batch split down to its crashing samples kept a folder per failed call (89 failures
+    left 386 folders): past the bound the folder goes and the reason says so."""
+    from uqguide.models.command import model
+
+    monkeypatch.setattr(model, "KEEP_FAILED", 3)
+    run = uqguide.run(_config(program, tmp_path, mode="abort", thresh=1.0)).run("mc")
+    assert run.failed.sum() > 3  # each crashing sample's last call failed alone
+    folders = list(tmp_path.glob("batch-*"))
+    assert len(folders) == 3
+    reasons = [str(r) for r in run.reasons[run.failed]]
+    assert any(r.endswith("work folder removed (3 kept already)") for r in reasons)
+    for r in reasons:
+        if "work folder kept: " in r:
+            assert Path(r.split("work folder kept: ")[1].split(";")[0]) in folders
+
+
+def test_clean_removes_only_the_work_folders_uqguide_left(tmp_path):
+    from click.testing import CliRunner
+
+    from uqguide.cli import main
+
+    gone = 99_999_999  # above Linux's pid_max: no process has it
+    left = tmp_path / f"batch-{gone}-abcdefgh"
+    (left / "sample-0").mkdir(parents=True)
+    (left / "sample-0" / "inputs.csv").write_text("a\n1\n")
+    running = tmp_path / f"batch-{os.getpid()}-abcdefgh"  # a call still running
+    no_inputs = tmp_path / f"batch-{gone}-zzzzzzzz"  # not a call's folder
+    user = tmp_path / "batch-notes"
+    for d in (running, no_inputs, user):
+        d.mkdir()
+    (running / "inputs.csv").write_text("a\n")
+    (user / "inputs.csv").write_text("a\n")
+    link = tmp_path / f"batch-{gone}-linklink"
+    link.symlink_to(running)
+    res = CliRunner().invoke(main, ["clean", str(tmp_path), "--dry-run"])
+    assert res.exit_code == 0 and left.exists(), res.output
+    assert res.output.splitlines()[0] == f"would remove {left}"
+    res = CliRunner().invoke(main, ["clean", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    assert not left.exists()
+    assert all(p.exists() for p in (running, no_inputs, user, link))
+    assert res.output.splitlines()[-1].startswith(f"1 work folders (0.00 MB) in {tmp_path}")
+
+
 def _alive(pid: int) -> bool:
     """Whether ``pid`` runs (a zombie waiting for a reaper does not)."""
     try:

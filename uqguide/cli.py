@@ -308,6 +308,38 @@ def validate(config: Path) -> None:
 
 
 @main.command()
+@click.argument("where", type=click.Path(exists=True, path_type=Path))
+@click.option("--dry-run", is_flag=True, help="List the folders without removing them.")
+@_handle_errors
+def clean(where: Path, dry_run: bool) -> None:
+    """Remove the work folders a `command` model's runs left (failed or killed calls).
+
+    WHERE is a config (its model's workdir) or the folder they are in. Only folders uqguide
+    made are touched: named batch-<pid>-<8 letters>, holding a call's inputs file, of a process
+    that is gone.
+    """
+    from .models.command.leftovers import leftovers, remove
+
+    root = where
+    if where.is_file():
+        from .config.run_config import load_config
+
+        cfg = load_config(where)
+        if cfg.model.name != "command":
+            raise ConfigError(f"model.name: {cfg.model.name!r} leaves no work folders; "
+                              f"`uqguide clean` is for a command model", field="model.name")
+        root = cfg.model.params.root()  # type: ignore[attr-defined]
+    found = leftovers(root)
+    size = sum(f.size for f in found)
+    for f in found:
+        click.echo(f"{'would remove' if dry_run else 'removed'} {f.path}")
+    if not dry_run:
+        remove(found)
+    click.echo(f"{len(found)} work folders ({size / 1e6:.2f} MB) in {root}"
+               f"{' (nothing removed: --dry-run)' if dry_run else ' removed'}")
+
+
+@main.command()
 @_CONFIG_ARG
 @click.option("--figures", "fig_dir", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="Also write the nominal run's figures (PNG) into this folder.")

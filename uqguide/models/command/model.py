@@ -57,6 +57,11 @@ with open(sys.argv[2][:-4] + '_path.csv', 'w') as f:
 """
 
 
+#: Failed calls' work folders kept per process; later ones are removed, their reason says so.
+KEEP_FAILED = 20
+_KEPT = re.compile(r"work folder kept: \S+?(?=[;)]|$)")
+
+
 class CommandParams(ConfigDirParams, DeclaredParams):
     command: str = Field(min_length=1, description=(
         "the program and its arguments, split like a shell would but run without one; "
@@ -233,14 +238,33 @@ class CommandModel(DeclaredModel):
                 out, crashed = self._per_sample(folder, x, specs)
             else:
                 out, crashed = self._call(folder, folder.name, x, specs), False
-        except (CommandFailed, ModelError):
-            raise  # the work folder is kept for inspection: the message names it
+        except ModelError:
+            raise  # it stops the run: its work folder is kept, the message names it
+        except CommandFailed as exc:
+            # A failed call of several samples is split by the engine and its halves run
+            # again: their folders, down to the failing samples', say the same thing.
+            if n == 1 and self._keep():
+                raise  # the work folder is kept for inspection: the message names it
+            shutil.rmtree(folder, ignore_errors=True)
+            why = "the batch is split" if n > 1 else f"{KEEP_FAILED} kept already"
+            raise CommandFailed(_KEPT.sub(f"work folder removed ({why})", str(exc))) from None
         except BaseException:
             shutil.rmtree(folder, ignore_errors=True)
             raise
-        if not crashed:  # a crashed sample's reason names its folder: kept
+        if crashed and not self._keep():  # a crashed sample's reason names its folder
+            shutil.rmtree(folder, ignore_errors=True)
+            out.reasons[out.failed] = [
+                _KEPT.sub(f"work folder removed ({KEEP_FAILED} kept already)", str(r))
+                for r in out.reasons[out.failed]]
+        elif not crashed:
             shutil.rmtree(folder, ignore_errors=True)
         return out
+
+    def _keep(self) -> bool:
+        """Whether a failed call's work folder may be kept: at most :data:`KEEP_FAILED` in
+        this process (89 failing samples left 386 folders)."""
+        self._kept = getattr(self, "_kept", 0) + 1
+        return self._kept <= KEEP_FAILED
 
     def _call(self, folder: Path, batch: str, x: np.ndarray, specs: list[OutputSpec]
               ) -> ModelOutput:
