@@ -44,10 +44,30 @@ def test_models_lists_every_registered_model():
         assert f"\n{name}: " in "\n" + res.output
 
 
-def test_simulate_without_a_paper_scenario_is_exit_2(write_config, lognormal_config):
+def test_simulate_runs_a_model_without_a_paper_scenario_at_the_inputs_means(
+        write_config, lognormal_config, tmp_path):
+    """``uqguide simulate`` refused any model without a paper scenario: it now runs it at the
+    uncertain inputs' means (y = exp(sum a_i x_i) is 1 at x = 0) and plots each series."""
     res = CliRunner().invoke(main, ["simulate", str(write_config(lognormal_config))])
-    assert res.exit_code == 2
-    assert "model 'lognormal' has no nominal scenario" in res.stderr
+    assert res.exit_code == 0, res.output
+    assert res.output.splitlines() == ["inputs (uncertain ones at their mean): x1 = 0, x2 = 0, "
+                                       "x3 = 0", "y = 1"]
+    cfg = {"name": "sim", "model": {"name": "callable",
+                                    "function": "tests.fixtures_models:series_and_scalar",
+                                    "inputs": ["a", "b"], "outputs": [
+                                        {"name": "path", "kind": "series", "unit": "m"}, "total"]},
+           "inputs": [{"name": "a", "dist": "uniform", "low": 1.0, "high": 3.0},
+                      {"name": "b", "dist": "normal", "mean": 0.5, "std": 2.0}],
+           "methods": [{"name": "monte_carlo", "n_samples": 10}]}
+    res = CliRunner().invoke(main, ["simulate", str(write_config(cfg)), "--figures",
+                                    str(tmp_path / "figs")])
+    assert res.exit_code == 0, res.output
+    lines = res.output.splitlines()
+    assert lines[1] == "total = 2.5"  # a = 2 (the uniform's mean), b = 0.5
+    assert lines[2] == "series over 5 steps, t = 0 .. 1 s:"
+    assert lines[4].split() == ["path", "[m]", "0", "2", "0", "2"]  # path = a t
+    assert lines[-1] == f"wrote {tmp_path / 'figs' / 'sim_nominal.png'}"
+    assert (tmp_path / "figs" / "sim_nominal.png").stat().st_size > 0
 
 
 def test_callable_model_with_series_runs_through_the_cli(write_config, tmp_path):

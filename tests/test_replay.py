@@ -44,7 +44,7 @@ def no_figures(monkeypatch):
     import uqguide.papers
     from uqguide.commands import replay
 
-    monkeypatch.setattr(replay, "history_figure", lambda rep, name, path: path)
+    monkeypatch.setattr(replay, "history_figure", lambda out, title, path: path)
     monkeypatch.setattr(uqguide.papers, "sample_figures", lambda *args: [])
 
 

@@ -345,19 +345,26 @@ def clean(where: Path, dry_run: bool) -> None:
               default=None, help="Also write the nominal run's figures (PNG) into this folder.")
 @_handle_errors
 def simulate(config: Path, fig_dir: Path | None) -> None:
-    """Run CONFIG's model once at its nominal inputs; print its figures beside the paper's."""
+    """Run CONFIG's model once at its nominal inputs and print its outputs: a paper's model
+    its scenario's figures beside the paper's, any other model its scalars and series at the
+    uncertain inputs' means (each series plotted with --figures)."""
     from .config.run_config import load_config
-    from .papers import NoPaperScenario, format_report, nominal_figures, nominal_report
+    from .papers import has_scenario, format_report, nominal_figures, nominal_report
 
     cfg = load_config(config)
-    try:
-        rows = nominal_report(cfg.model)
-    except NoPaperScenario as exc:
-        raise ConfigError(f"model.name: {exc}; `uqguide simulate` needs a paper scenario") from None
-    click.echo(format_report(cfg.model.name, rows))
-    if fig_dir is not None:
-        for p in nominal_figures(cfg.model, fig_dir):
-            click.echo(f"wrote {p}")
+    if cfg.data is not None:
+        raise ConfigError("data: a config of given runs has no model to simulate", field="data")
+    if has_scenario(cfg.model):
+        click.echo(format_report(cfg.model.name, nominal_report(cfg.model)))
+        written = nominal_figures(cfg.model, fig_dir) if fig_dir is not None else []
+    else:
+        from .commands.nominal import centre_run, render, write_figures
+
+        values, out = centre_run(cfg)
+        click.echo(render(values, out, list(cfg.model.outputs())))
+        written = write_figures(out, cfg.name, fig_dir) if fig_dir is not None else []
+    for p in written:
+        click.echo(f"wrote {p}")
 
 
 @main.command()

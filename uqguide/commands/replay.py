@@ -231,17 +231,17 @@ def write_histories(rep: Replay, path: Path) -> Path:
     return atomic.write_with(path, write)
 
 
-def history_figure(rep: Replay, result_name: str, path: Path) -> Path:
-    """One panel per series output (every component) against time, as a PNG written whole or
-    not at all; ``result_name`` goes in the title."""
+def history_figure(out: ModelOutput, title: str, path: Path) -> Path:
+    """One panel per series output of the one sample ``out`` (every component) against time,
+    as a PNG written whole or not at all."""
     from ..report.figures import new_figure, save
 
-    series = rep.replayed.series
+    series = out.series
     n = max(len(series), 1)
     cols = 3 if n > 4 else 2 if n > 1 else 1
     rows = -(-n // cols)
     fig = new_figure((4.2 * cols, 2.8 * rows + 0.8), layout="constrained")
-    t = rep.replayed.time
+    t = out.time
     for k, (name, y) in enumerate(series.items()):
         ax = fig.add_subplot(rows, cols, k + 1)
         for c in range(y.shape[2]):
@@ -250,7 +250,7 @@ def history_figure(rep: Replay, result_name: str, path: Path) -> Path:
         ax.grid(True, alpha=0.3)
         if y.shape[2] > 1:
             ax.legend(fontsize=7)
-    fig.suptitle(f"{result_name}: {rep.label} sample {rep.index} ({rep.why})", fontsize=10)
+    fig.suptitle(title, fontsize=10)
     return save(fig, path, dpi=100)
 
 
@@ -263,7 +263,9 @@ def write_replay(rep: Replay, cfg: RunConfig, result_name: str, out_dir: Path) -
     stem = f"{result_name}_{rep.label}_{rep.index}"
     paths = [write_histories(rep, out_dir / f"{stem}_history.csv")]
     if rep.replayed.series:
-        paths.append(history_figure(rep, result_name, out_dir / f"{stem}_history.png"))
+        paths.append(history_figure(
+            rep.replayed, f"{result_name}: {rep.label} sample {rep.index} ({rep.why})",
+            out_dir / f"{stem}_history.png"))
     paths += sample_figures(cfg.model, rep.replayed, rep.inputs, out_dir, stem)
     return paths
 
