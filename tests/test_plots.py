@@ -118,6 +118,70 @@ def test_cost_figure_shows_every_method(result):
     assert "wall time [s]" in [a.get_xlabel() for a in fig.axes]
 
 
+def _overflow(fig) -> float:
+    """How far [in] anything drawn reaches past the figure's edges (0 when nothing does)."""
+    fig.canvas.draw()
+    box = fig.get_tightbbox(fig.canvas.get_renderer())
+    w, h = fig.get_size_inches()
+    return max(0.0, -box.x0, -box.y0, box.x1 - w, box.y1 - h)
+
+
+def test_the_cost_table_and_the_histogram_legend_fit_their_figure(result):
+    """The cost figure's table (with a method's list of outputs as a column) ran 10 inches past
+    the right edge, a histogram's legend line half an inch."""
+    run = result.run("apce")
+    diagnostics = run.estimate.diagnostics
+    try:
+        diagnostics["validation_error.ramp"] = 0.5  # listed as "no usable surrogate: ramp ..."
+        diagnostics.update({f"validation_error.out{i}": 0.3 for i in range(12)})
+        assert _overflow(cost_figure(result)) <= 0.02
+    finally:
+        for k in [k for k in diagnostics if k.startswith("validation_error.")]:
+            del diagnostics[k]
+    assert _overflow(scalar_figure(result, "y")) <= 0.02
+
+
+def test_save_writes_the_format_its_suffix_names(tmp_path):
+    from uqguide.report.figures import new_figure, save
+
+    fig = new_figure((2.0, 1.5))
+    fig.add_subplot().plot([0, 1], [0, 1])
+    heads = {fmt: save(fig, tmp_path / f"f.{fmt}").read_bytes()[:5]
+             for fmt in ("png", "svg", "pdf")}
+    assert heads == {"png": b"\x89PNG\r", "svg": b"<?xml", "pdf": b"%PDF-"}
+
+
+@pytest.mark.slow
+def test_plot_writes_vector_formats(result, tmp_path):
+    from uqguide.results.result import write_hdf5
+
+    path = write_hdf5(result, tmp_path / "r.h5")
+    res = CliRunner().invoke(main, ["plot", str(path), "--format", "svg", "--out",
+                                    str(tmp_path / "f")])
+    assert res.exit_code == 0, res.output
+    svgs = sorted(tmp_path.joinpath("f").glob("*.svg"))
+    assert [p.name for p in svgs] and not list(tmp_path.joinpath("f").glob("*.png"))
+    assert all(p.read_text().lstrip().startswith("<?xml") for p in svgs)
+
+
+@pytest.mark.slow
+def test_every_shipped_results_figures_fit_their_canvas(monkeypatch, tmp_path):
+    """Issue 47's figures test: nothing of any figure of the results in results/ drawn past
+    the figure's edges."""
+    import uqguide.report.plots as plots
+    from uqguide.results.result import read_hdf5
+
+    reach: dict[str, float] = {}
+    monkeypatch.setattr(plots, "save", lambda fig, path, **kw: reach.setdefault(
+        Path(path).name, _overflow(fig)) and Path(path))
+    shipped = sorted(Path(__file__).resolve().parents[1].glob("results/*/*.h5"))
+    assert len(shipped) >= 10
+    for h5 in shipped:
+        plots.write_figures(read_hdf5(h5), tmp_path)
+    assert len(reach) >= 100
+    assert {k: v for k, v in reach.items() if v > 0.02} == {}
+
+
 @pytest.mark.slow
 def test_write_figures_and_report_files(result, tmp_path):
     files = write_figures(result, tmp_path / "fig")

@@ -580,15 +580,17 @@ def baseline(result_path: Path, out_path: Path, pce_rtol: float, force: bool) ->
 @main.command()
 @_RESULT_ARG
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
-              default=None, help="Folder of the PNG figures [default: RESULT's folder/figures].")
+              default=None, help="Folder of the figures [default: RESULT's folder/figures].")
+@click.option("--format", "fmt", type=click.Choice(["png", "svg", "pdf"]), default="png",
+              show_default=True, help="File format (svg, pdf: vector, for a review deck).")
 @_unusable_input_is_2
-def plot(result_path: Path, out_dir: Path | None) -> None:
-    """PNG figures of RESULT: statistics over time, scalar histograms, the cost table."""
+def plot(result_path: Path, out_dir: Path | None, fmt: str) -> None:
+    """Figures of RESULT: statistics over time, scalar histograms, the cost table."""
     from .report.plots import write_figures
     from .results.result import read_hdf5
 
     result = read_hdf5(result_path)
-    for f in write_figures(result, out_dir or result_path.parent / "figures"):
+    for f in write_figures(result, out_dir or result_path.parent / "figures", fmt=fmt):
         click.echo(f"wrote {f.path}")
 
 

@@ -3,9 +3,10 @@ one panel per method, the 95% interval as a band.
 
 Lines rather than stacked areas: the indices of a correlated input need not sum to at most 1,
 a given-data index near 0 may be slightly negative, and an interval band cannot stack. Monte
-Carlo has indices at the report times and the last step only (markers joined by lines); a PCE
-at every step. Only the inputs whose index reaches :data:`MIN_SHOWN` somewhere are drawn (at
-most :data:`MAX_LINES`, the largest first); the legend names how many others there are.
+Carlo has indices at the report times and the last step only (markers with error bars, no line
+between); a PCE at every step (lines and bands). Each input keeps one colour in every panel.
+Only the inputs whose index reaches :data:`MIN_SHOWN` somewhere are drawn (at most
+:data:`MAX_LINES`, the largest first); the legend names how many others there are.
 """
 
 from __future__ import annotations
@@ -13,14 +14,12 @@ from __future__ import annotations
 import numpy as np
 
 from .budget import ESTIMATORS
-from .figures import Figure, new_figure
+from .figures import Figure, input_colour, new_figure
 from ..results.result import Result
 from ..results.statistics import result_statistics
 
 MIN_SHOWN = 0.02
 MAX_LINES = 10
-_COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
-            "#bcbd22", "#17becf", "#7f7f7f"]
 
 
 def has_budget(result: Result, output: str) -> bool:
@@ -51,12 +50,17 @@ def budget_figure(result: Result, output: str, component: int = 0) -> Figure:
         peak = np.nanmax(np.where(np.isfinite(first[at]), first[at], -np.inf), axis=0)
         order = [i for i in np.argsort(-peak, kind="stable") if peak[i] >= MIN_SHOWN]
         shown = order[:MAX_LINES]
-        # (sampled indices are estimated at the report times only)
-        marker = "o" if s.sobol_estimator in ("given-data", "saltelli") else None
-        for j, i in enumerate(shown):
-            colour = _COLOURS[j % len(_COLOURS)]
-            ax.plot(t[at], first[at, i], color=colour, marker=marker, ms=3, lw=1.4,
-                    label=names[i])
+        # Sampled indices are known at the report times only: markers with their intervals,
+        # no line drawn through the steps between, where nothing was estimated.
+        sampled = s.sobol_estimator in ("given-data", "saltelli")
+        for i in shown:
+            colour = input_colour(i)  # the input's own, in every panel and figure
+            if sampled:
+                err = None if ci is None else np.abs(ci[:, at, i] - first[at, i])
+                ax.errorbar(t[at], first[at, i], yerr=err, color=colour, marker="o", ms=4,
+                            ls="none", elinewidth=1.0, capsize=3, label=names[i])
+                continue
+            ax.plot(t[at], first[at, i], color=colour, lw=1.4, label=names[i])
             if ci is not None:
                 ax.fill_between(t[at], ci[0, at, i], ci[1, at, i], color=colour, alpha=0.18,
                                 lw=0)

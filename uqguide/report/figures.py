@@ -18,7 +18,14 @@ from matplotlib.figure import Figure
 
 from ..core import atomic
 
-__all__ = ["Figure", "colormap", "new_figure", "save"]
+__all__ = ["Figure", "colormap", "input_colour", "new_figure", "save", "FORMATS"]
+
+#: The file formats :func:`save` writes (``uqguide plot --format``).
+FORMATS = ("png", "svg", "pdf")
+#: One colour per input, by its place in the config (tab10, then tab20's light shades).
+_INPUT_COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+                  "#bcbd22", "#17becf", "#7f7f7f", "#aec7e8", "#ff9896", "#98df8a", "#ffbb78",
+                  "#c5b0d5", "#c49c94", "#f7b6d2", "#dbdb8d", "#9edae5", "#c7c7c7"]
 
 
 def new_figure(figsize: tuple[float, float], *,
@@ -33,12 +40,20 @@ def new_figure(figsize: tuple[float, float], *,
 
 
 def save(fig: Figure, path: str | Path, dpi: float = 100, **kwargs: Any) -> Path:
-    """Write ``fig`` as a PNG at ``path`` atomically, making its folder; return ``path``.
+    """Write ``fig`` at ``path`` atomically, making its folder; return ``path``. The format is
+    the file's suffix (one of :data:`FORMATS`, else PNG).
 
     ``kwargs`` go to :meth:`Figure.savefig` (e.g. ``bbox_inches="tight"``).
     """
-    return atomic.write_with(path, lambda f: fig.savefig(f, dpi=dpi, format="png", **kwargs),
+    fmt = Path(path).suffix.lstrip(".").lower()
+    fmt = fmt if fmt in FORMATS else "png"
+    return atomic.write_with(path, lambda f: fig.savefig(f, dpi=dpi, format=fmt, **kwargs),
                              binary=True)
+
+
+def input_colour(i: int) -> str:
+    """The colour of input ``i`` (its place among the config's inputs) in every figure."""
+    return _INPUT_COLOURS[i % len(_INPUT_COLOURS)]
 
 
 def colormap(name: str) -> Colormap:

@@ -439,8 +439,12 @@ def scalar_figure(result: Result, output: str) -> Figure:
     fig.suptitle(f"{result.name}: distribution of {o.name} {u}\n"
                  f"{textwrap.fill(o.description, int(10 * width))}", fontsize=12)
     if handles:
-        fig.legend(handles, labels, loc="outside lower center", ncol=1, fontsize=9,
-                   title="; ".join(sorted(notes)) or None, title_fontsize=8)
+        # wrapped to the figure's width: one line per method ran past its right edge
+        chars = int(12 * width)
+        fig.legend(handles, [textwrap.fill(x, chars) for x in labels],
+                   loc="outside lower center", ncol=1, fontsize=9,
+                   title=textwrap.fill("; ".join(sorted(notes)), int(1.2 * chars)) or None,
+                   title_fontsize=8)
     return fig
 
 
@@ -479,13 +483,23 @@ def cost_figure(result: Result) -> Figure:
     for ax in (ax_runs, ax_time):
         ax.grid(True, axis="x", alpha=0.3)
     ax_tab.axis("off")
+    # The lists of outputs (no usable surrogate, withheld...) are the console's and the
+    # report's: as table cells they ran the figure 10 inches past its right edge.
+    from pandas.api.types import is_numeric_dtype
+
+    df = df[[c for c in df.columns if is_numeric_dtype(df[c])
+             or c in ("label", "method", "reference")]]
     cells = [[_cell(v) for v in row] for row in df.itertuples(index=False)]
     tab = ax_tab.table(cellText=cells, colLabels=[str(c) for c in df.columns], loc="center",
                        cellLoc="center")
     tab.auto_set_font_size(False)
-    tab.set_fontsize(9)
-    tab.auto_set_column_width(list(range(len(df.columns))))
     tab.scale(1.0, 1.4)
+    for size in (9, 8, 7, 6):  # the largest font at which the table fits the figure's width
+        tab.set_fontsize(size)
+        tab.auto_set_column_width(list(range(len(df.columns))))
+        fig.canvas.draw()
+        if tab.get_window_extent().width <= 0.98 * fig.bbox.width:
+            break
     fig.suptitle(f"{result.name}: cost of each method (model {result.model}; model_s, fit_s: "
                  f"wall seconds)", fontsize=12)
     return fig
@@ -502,8 +516,10 @@ def _safe(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
 
 
-def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[FigureFile]:
-    """Write every figure of ``result`` as PNG into ``out_dir``.
+def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI,
+                  fmt: str = "png") -> list[FigureFile]:
+    """Write every figure of ``result`` into ``out_dir`` as ``fmt`` (``png``, ``svg``, ``pdf``;
+    the names below end in it).
 
     Files: ``<name>_<output>[_<component>].png`` per series output component,
     ``<name>_<output>_hist.png`` per scalar output, ``<name>_cost.png``; with quantiles also
@@ -527,14 +543,14 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
                 base = f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
                 for suffix, kind, shown, figure in per_step:
                     if shown(o.name):
-                        path = out / f"{base}{suffix}.png"
+                        path = out / f"{base}{suffix}.{fmt}"
                         save(figure(result, o.name, c), path, dpi=dpi)
                         files.append(FigureFile(path, kind, o.name, comp))
         elif o.kind == "scalar":
-            path = out / f"{stem}_{_safe(o.name)}_hist.png"
+            path = out / f"{stem}_{_safe(o.name)}_hist.{fmt}"
             save(scalar_figure(result, o.name), path, dpi=dpi)
             files.append(FigureFile(path, "scalar", o.name))
-    path = out / f"{stem}_cost.png"
+    path = out / f"{stem}_cost.{fmt}"
     save(cost_figure(result), path, dpi=dpi)
     files.append(FigureFile(path, "cost"))
     log.info("wrote %d figures into %s", len(files), out)
