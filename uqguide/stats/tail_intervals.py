@@ -2,9 +2,10 @@
 
 Monte Carlo's default intervals (``intervals: tail``): Hall's (1992) skew-corrected interval of
 each statistic's influence function (:func:`hall_interval`), one-sided where fewer than
-:data:`MIN_EFFECTIVE_RUNS` effective runs carry its variance, read from the central moments up
-to order :data:`MAX_ORDER`. Derivation, design decisions and measured coverage:
-docs/statistics.md#how-the-tail-aware-interval-is-built.
+:data:`MIN_EFFECTIVE_RUNS` effective runs carry its variance, its side toward the tail on
+Student's t with the effective runs beyond that threshold as degrees of freedom (continuous
+from the floor), read from the central moments up to order :data:`MAX_ORDER`. Derivation,
+design decisions and measured coverage: docs/statistics.md#how-the-tail-aware-interval-is-built.
 """
 
 from __future__ import annotations
@@ -104,6 +105,14 @@ def tail_intervals(mean: np.ndarray, mus: tuple[np.ndarray, ...], n: float,
             # higher moments) is not estimated either: the floor is the plain delta one.
             g = np.where(np.isfinite(g) & bounded, g, 0.0)
             low, high = hall_interval(est[name], se, z, g / np.sqrt(n))
+            # the side toward IF's tail: Student's t on the effective runs beyond the floor's
+            # threshold, so it closes continuously from the floor as the runs grow
+            # (docs/statistics.md#how-the-tail-aware-interval-is-built)
+            q_tail = _tail_quantile(np.where(bounded, ne, np.nan), level)
+            t_low, t_high = hall_interval(est[name], se, q_tail, g / np.sqrt(n))
+            with np.errstate(invalid="ignore"):
+                high = np.where(bounded & (g >= 0), t_high, high)
+                low = np.where(bounded & (g < 0), t_low, low)
             # unbounded on the side of IF's heavy tail: right-skewed IF, truth above
             high = np.where(bounded | (g < 0), high, np.inf)
             low = np.where(bounded | (g >= 0), low, -np.inf)
@@ -117,6 +126,17 @@ def tail_intervals(mean: np.ndarray, mus: tuple[np.ndarray, ...], n: float,
             ci[name] = np.stack([np.where(nan, np.nan, low), np.where(nan, np.nan, high)])
             n_eff[name] = np.where(ok, ne, np.nan)
     return ci, n_eff
+
+
+def _tail_quantile(n_eff: np.ndarray, level: float) -> np.ndarray:
+    """Student's ``t`` quantile of two-sided ``level`` on ``n_eff - MIN_EFFECTIVE_RUNS``
+    degrees of freedom; ``inf`` at or below the threshold (and where ``n_eff`` is NaN)."""
+    from scipy.special import stdtrit  # slow to import: only a run's statistics need it
+
+    nu = np.asarray(n_eff, dtype=float) - MIN_EFFECTIVE_RUNS
+    usable = np.isfinite(nu) & (nu > 0)
+    q = stdtrit(np.where(usable, nu, 1.0), 0.5 + level / 2)
+    return np.where(usable, q, np.inf)
 
 
 def hall_interval(value: np.ndarray, se: np.ndarray, q: np.ndarray | float,
