@@ -7,6 +7,7 @@ from __future__ import annotations
 import logging
 
 import numpy as np
+import pandas as pd
 import pytest
 from click.testing import CliRunner
 
@@ -220,6 +221,43 @@ def test_a_floor_that_says_nothing_is_not_resolved():
     assert not unresolved(runs, "kurtosis")[0]
     runs.shown_ci["std"] = np.array([[0.0], [4.0]])  # two finite ends: an interval
     assert not unresolved(runs, "std")[0]
+
+
+def test_a_floor_that_says_nothing_is_printed_as_not_resolved_by_its_runs(write_config,
+                                                                          tmp_path):
+    """Issue 46 item 3: a kurtosis whose runs bound it only by 1 (the least of any
+    distribution) is printed as "not resolved by N runs" in the console and the Markdown
+    tables, with N the runs behind it (a PCE's 40 fit and 20 validation runs for its +mc; a
+    Monte Carlo's 30), and the legend says what that means; the result files keep the value
+    and its interval. (A lognormal output, sigma 1.24: at this seed the PCE's kurtosis is
+    withheld and the runs' is such a floor.)"""
+    cfg = {"name": "nr", "model": {"name": "lognormal", "a": [1.2, 0.3]},
+           "inputs": [{"name": f"x{i}", "dist": "normal", "mean": 0.0, "std": 1.0}
+                      for i in (1, 2)],
+           "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": 30},
+                       {"name": "pce_adaptive", "label": "apce", "n_samples": 40,
+                        "validation": {"n_samples": 20}}],
+           "seed": 2}
+    res = CliRunner().invoke(main, ["run", str(write_config(cfg)), "--out", str(tmp_path),
+                                    "-q"])
+    assert res.exit_code == 0, res.output
+    rows = {line.split()[0]: line for line in res.output.splitlines()
+            if line.strip().startswith(("mc ", "apce+mc "))}
+    assert rows["apce+mc"].rstrip().endswith("not resolved by 60 runs"), rows
+    assert rows["mc"].rstrip().endswith("not resolved by 30 runs"), rows
+    assert "[>= 1;" not in res.output
+    assert "'not resolved by N runs': a std or kurtosis of N runs" in res.output
+    summary = (tmp_path / "nr_summary.md").read_text()
+    assert "| apce+mc | nan | nan |" in summary and "| not resolved by 60 runs |" in summary
+    stats = read_hdf5(tmp_path / "nr.h5").run("apce")
+    assert stats.estimate.diagnostics["not_resolved.y"] == "kurtosis by 60 runs"
+    s = stats.estimate.stats["y"]
+    assert np.isfinite(s.fallback["kurtosis"][0])
+    assert s.fallback_ci["kurtosis"][:, 0].tolist() == [1.0, np.inf]
+    table = pd.read_csv(tmp_path / "nr_stats.csv").set_index(["label", "stat"])
+    assert table.loc[("mc", "kurtosis"), "ci_low"] == 1.0
+    assert np.isinf(table.loc[("apce+mc", "kurtosis"), "ci_high"])
+    assert np.isfinite(table.loc[("apce+mc", "kurtosis"), "value"])
 
 
 def test_a_control_variate_value_the_runs_refute_or_less_precise_than_them_is_withheld():

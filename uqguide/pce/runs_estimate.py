@@ -93,14 +93,20 @@ def _bound_tails(found: Corrected, y: np.ndarray, weight: np.ndarray) -> None:
 
 def unresolved(found: Corrected, name: str) -> np.ndarray:
     """Where the runs' printed interval of statistic ``name`` says nothing its definition does
-    not: one end infinite and the other at the least value any distribution takes (a std
-    ``>= 0``, a kurtosis ``>= 1``). Such a floor is "not resolved by N runs", not an estimate
+    not (:func:`says_nothing`). Such a floor is "not resolved by N runs", not an estimate
     (docs/pce.md#not-resolved-by-the-runs)."""
     lo, hi = (found.ci if found.shown_ci is None else found.shown_ci)[name]
+    return says_nothing(name, lo, hi) & np.isfinite(np.asarray(found.values[name], dtype=float))
+
+
+def says_nothing(name: str, lo: np.ndarray | float, hi: np.ndarray | float) -> np.ndarray:
+    """Where the interval ``[lo, hi]`` of statistic ``name`` has one end infinite and the other
+    at the least value any distribution takes (a std ``>= 0``, a kurtosis ``>= 1``): it bounds
+    the statistic no more than its definition does (the report prints "not resolved by N
+    runs"). A skewness has no least value: never."""
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     if name not in LOWEST:
-        return np.zeros(lo.shape, dtype=bool)
+        return np.zeros(np.broadcast(lo, hi).shape, dtype=bool)
     with np.errstate(invalid="ignore"):
         trivial = lo <= LOWEST[name]
-    one_sided = np.isinf(lo) | np.isinf(hi)
-    return one_sided & trivial & np.isfinite(np.asarray(found.values[name], dtype=float))
+    return (np.isinf(lo) | np.isinf(hi)) & trivial

@@ -11,6 +11,7 @@ mean), so a reader sees whether a difference is larger than the reference's own 
 from __future__ import annotations
 
 from pathlib import Path
+import re
 import warnings
 from typing import Any
 
@@ -20,10 +21,13 @@ import pandas as pd
 from ..core import atomic
 from ..core.failures import COLUMNS as FAILURE_COLUMNS, failed_runs_line, reason_rows
 from ..models.base import OutputInfo
+from ..pce.runs_estimate import says_nothing
 from ..results.result import Result
 from .budget import budget_tables, budget_text
 from ..results.dataset import SOURCES
-from ..results.statistics import Point, Statistic, points, result_statistics
+from ..results.statistics import (
+    FROM_RUNS, OutputStatistics, Point, Statistic, points, result_statistics,
+)
 
 #: Relative differences of a series over time ignore steps where the reference's magnitude is
 #: below this fraction of its peak: a ratio to a value that crosses zero means nothing.
@@ -287,7 +291,29 @@ def statistics_table(result: Result) -> pd.DataFrame:
     table.attrs["runs_failed"] = sorted(
         r.label for r in result.runs
         if any(k.startswith("runs_failed.") for k in r.estimate.diagnostics))
+    table.attrs["runs_behind"] = {
+        (label, o.name): n for r in result.runs for o in result.outputs
+        for label, n in _runs_behind(r.label, r.estimate.diagnostics,
+                                     described[r.label].get(o.name)).items()}
     return table
+
+
+#: The run count in a ``not_resolved.<output>`` diagnostic ("kurtosis by 60 runs", written by
+#: :func:`uqguide.pce.credibility.not_resolved`).
+_BY_RUNS = re.compile(r"by (\d+) runs$")
+
+
+def _runs_behind(label: str, diagnostics: dict, v: OutputStatistics | None) -> dict[str, int]:
+    """The runs behind each sample estimate of one output, by its label: a sampling method's
+    own moments (its runs), a PCE's ``+mc`` (its fit and validation runs that succeeded, as
+    its diagnostics say where they found a value not resolved by them)."""
+    if v is None:
+        return {}
+    out = {label: v.n_used} if v.moments_method in FROM_RUNS else {}
+    m = _BY_RUNS.search(str(diagnostics.get(f"not_resolved.{v.output.name}", "")))
+    if m and v.fallback:
+        out[v.fallback[0].label] = int(m.group(1))
+    return out
 
 
 def _overflow_kind(st: Statistic, where: tuple[int, ...], over: list[str]) -> str:
@@ -410,6 +436,10 @@ def series_agreement(result: Result) -> pd.DataFrame:
 #: (:func:`uqguide.pce.support.corrections_to_withhold`), or undefined (no variance): the
 #: legend says which.
 NOT_REPORTED = "not reported"
+#: A sample std or kurtosis whose interval bounds it no more than its definition does
+#: (:func:`uqguide.pce.runs_estimate.says_nothing`): no estimate; its value stays in the
+#: result file.
+NOT_RESOLVED = "not resolved by {runs}"
 
 
 def _fmt(v: float) -> str:
@@ -461,6 +491,9 @@ def _cell_text(s: pd.Series, attrs: dict, with_ref: bool) -> str:
     if str(s["label"]).endswith(SOURCES["cv"]) and np.isnan(s["value"]) \
             and np.isnan(s["ci_low"]):
         return NOT_REPORTED
+    if bool(says_nothing(str(s["stat"]), s["ci_low"], s["ci_high"])):
+        n = attrs.get("runs_behind", {}).get((s["label"], s["output"]))
+        return NOT_RESOLVED.format(runs=f"{n} runs" if n is not None else "its runs")
     cell = _fmt(s["value"])
     if np.isinf(s["ci_high"]) and np.isfinite(s["ci_low"]):
         # a stated floor (uqguide.stats.tail_intervals): no upper bound from the runs
@@ -514,7 +547,7 @@ def render_text(result: Result) -> str:
     for b in budget_tables(result):
         parts += ["", budget_text(b)]
     if any(result_statistics(result).values()):
-        parts += ["", interval_legend(with_ref, "needs_runs" in stats)]
+        parts += ["", interval_legend(with_ref, "needs_runs" in stats, _has_not_resolved(stats))]
     parts += _without_statistics(result)
     failures = failure_table(result)
     if not failures.empty:
@@ -523,6 +556,14 @@ def render_text(result: Result) -> str:
                     for r in result.runs if r.success and r.n_failed],
                   failures.to_string(index=False)]
     return "\n".join(parts)
+
+
+def _has_not_resolved(stats: pd.DataFrame) -> bool:
+    """Whether any row of the statistics table ``stats`` prints "not resolved by N runs"."""
+    if stats.empty:
+        return False
+    return any(bool(says_nothing(str(k), lo, hi)) for k, lo, hi in
+               zip(stats["stat"], stats["ci_low"], stats["ci_high"]))
 
 
 def _without_statistics(result: Result) -> list[str]:
@@ -536,10 +577,11 @@ def _without_statistics(result: Result) -> list[str]:
             *[f"  {r.label}: {r.message}" for r in broken]]
 
 
-def interval_legend(with_reference: bool, needs_runs: bool = False) -> str:
+def interval_legend(with_reference: bool, needs_runs: bool = False,
+                    not_resolved: bool = False) -> str:
     """What the brackets and flags of the statistics tables mean (printed with every table);
     ``with_reference``: also the difference and its in / OUT verdict; ``needs_runs``: also
-    "needs n runs" (a table shows it)."""
+    "needs n runs", ``not_resolved``: also "not resolved by N runs" (a table shows it)."""
     text = ("Values: estimate [95% interval]: Monte Carlo moments by skew-corrected "
             "(Hall) influence-function intervals, printed as a floor '[>= L]' (or ceiling) "
             "where a handful of runs carry the statistic's variance and the runs cannot bound "
@@ -570,6 +612,11 @@ def interval_legend(with_reference: bool, needs_runs: bool = False) -> str:
         text += (" 'needs n runs': a sample statistic of fewer runs than it takes to say "
                  "anything of the output (whatever the output, one run's std is 0, two runs' "
                  "skewness 0 and kurtosis 1, three runs' kurtosis 1.5).")
+    if not_resolved:
+        text += (" 'not resolved by N runs': a std or kurtosis of N runs whose 95% interval "
+                 "bounds it no more than its definition does (a floor at 0 or at 1, nothing "
+                 "above): the runs cannot estimate it; its value and interval stay in the "
+                 "result file.")
     if with_reference:
         text += (" (difference from the reference; in: within the 95% interval of the "
                  "difference, both estimates' errors combined; OUT: beyond it).")
@@ -605,7 +652,7 @@ def render_markdown(result: Result) -> str:
     for b in budget_tables(result):
         parts += ["", budget_text(b)]
     if any(result_statistics(result).values()):
-        parts += ["", interval_legend(with_ref, "needs_runs" in stats)]
+        parts += ["", interval_legend(with_ref, "needs_runs" in stats, _has_not_resolved(stats))]
     events = events_table(result)
     if not events.empty:
         parts += ["", "## Events", "", to_markdown(events_text(events))]

@@ -2,8 +2,10 @@
 
 Monte Carlo's default intervals (``intervals: tail``): Hall's (1992) skew-corrected interval of
 each statistic's influence function (:func:`hall_interval`), one-sided where fewer than
-:data:`MIN_EFFECTIVE_RUNS` effective runs carry its variance, read from the central moments up
-to order :data:`MAX_ORDER`. Derivation, design decisions and measured coverage:
+:data:`MIN_EFFECTIVE_RUNS` effective runs carry its variance, a skewness's or kurtosis' side
+toward the tail on Student's t with the effective runs beyond that threshold as degrees of
+freedom (continuous from the floor), read from the central moments up to order
+:data:`MAX_ORDER`. Derivation, design decisions and measured coverage:
 docs/statistics.md#how-the-tail-aware-interval-is-built.
 """
 
@@ -15,12 +17,16 @@ import numpy as np
 
 from ..core.types import STAT_NAMES
 
-__all__ = ["MIN_EFFECTIVE_RUNS", "hall_interval", "if_moments", "if_polynomial",
+__all__ = ["MIN_EFFECTIVE_RUNS", "STUDENT_TAIL", "hall_interval", "if_moments", "if_polynomial",
            "tail_intervals"]
 
 #: Below this many effective runs carrying a statistic's variance (Kish), its interval is
 #: one-sided (module docstring).
 MIN_EFFECTIVE_RUNS = 10.0
+
+#: The statistics whose side toward the tail takes Student's t (module docstring): the mean's
+#: and the std's intervals, measured within noise of 95% with the normal quantile, keep it.
+STUDENT_TAIL = ("skewness", "kurtosis")
 
 #: The highest central moment the intervals read (the kurtosis' ``E[IF^4]``).
 MAX_ORDER = 16
@@ -104,6 +110,15 @@ def tail_intervals(mean: np.ndarray, mus: tuple[np.ndarray, ...], n: float,
             # higher moments) is not estimated either: the floor is the plain delta one.
             g = np.where(np.isfinite(g) & bounded, g, 0.0)
             low, high = hall_interval(est[name], se, z, g / np.sqrt(n))
+            if name in STUDENT_TAIL:
+                # the side toward IF's tail: Student's t on the effective runs beyond the
+                # floor's threshold, so it closes continuously from the floor as the runs grow
+                # (docs/statistics.md#how-the-tail-aware-interval-is-built)
+                q_tail = _tail_quantile(np.where(bounded, ne, np.nan), level)
+                t_low, t_high = hall_interval(est[name], se, q_tail, g / np.sqrt(n))
+                with np.errstate(invalid="ignore"):
+                    high = np.where(bounded & (g >= 0), t_high, high)
+                    low = np.where(bounded & (g < 0), t_low, low)
             # unbounded on the side of IF's heavy tail: right-skewed IF, truth above
             high = np.where(bounded | (g < 0), high, np.inf)
             low = np.where(bounded | (g >= 0), low, -np.inf)
@@ -117,6 +132,17 @@ def tail_intervals(mean: np.ndarray, mus: tuple[np.ndarray, ...], n: float,
             ci[name] = np.stack([np.where(nan, np.nan, low), np.where(nan, np.nan, high)])
             n_eff[name] = np.where(ok, ne, np.nan)
     return ci, n_eff
+
+
+def _tail_quantile(n_eff: np.ndarray, level: float) -> np.ndarray:
+    """Student's ``t`` quantile of two-sided ``level`` on ``n_eff - MIN_EFFECTIVE_RUNS``
+    degrees of freedom; ``inf`` at or below the threshold (and where ``n_eff`` is NaN)."""
+    from scipy.special import stdtrit  # slow to import: only a run's statistics need it
+
+    nu = np.asarray(n_eff, dtype=float) - MIN_EFFECTIVE_RUNS
+    usable = np.isfinite(nu) & (nu > 0)
+    q = stdtrit(np.where(usable, nu, 1.0), 0.5 + level / 2)
+    return np.where(usable, q, np.inf)
 
 
 def hall_interval(value: np.ndarray, se: np.ndarray, q: np.ndarray | float,
