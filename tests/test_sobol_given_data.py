@@ -14,24 +14,39 @@ from uqguide.models.benchmarks import Ishigami
 from uqguide.stats.sobol_given_data import first_order_indices, n_bins
 
 
+def _lines(xs, zs, starts):
+    """Per run: its residual from its bin's least-squares line and its leverage; and the pooled
+    residual variance, each squared residual weighted runs / residual degrees of freedom."""
+    n = zs.size
+    sizes = np.diff(np.append(starts, n))
+    label = np.repeat(np.arange(sizes.size), sizes)
+    dx = xs - (np.add.reduceat(xs, starts) / sizes)[label]
+    sxx = np.add.reduceat(dx * dx, starts)
+    slope = np.add.reduceat(zs * dx, starts) / sxx
+    e = zs - (np.add.reduceat(zs, starts) / sizes)[label] - slope[label] * dx
+    t = np.sum(e * e * (sizes / (sizes - 2))[label]) / n
+    return e, 1 / sizes[label] + dx * dx / sxx[label], t
+
+
 def _per_run_form(x, y, m):
-    """The estimator written run by run in NumPy (docs/error-budget.md): sorted, binned, U-statistic
-    per bin, influence function with leave-one-out bin means."""
+    """The estimator written run by run in NumPy (docs/error-budget.md): sorted, binned, a line
+    per bin, one minus the pooled residual variance; the influence function with leave-one-out
+    residuals; the bias bound from the coarse bins (pairs)."""
     n = y.size
     z = (y - y.mean()) / y.std(ddof=1)
     starts = (np.arange(m) * n) // m
-    sizes = np.diff(np.append(starts, n))
-    first, se = [], []
+    first, se, bias = [], [], []
     for i in range(x.shape[1]):
-        zs = z[np.argsort(x[:, i], kind="stable")]
-        s_b = np.add.reduceat(zs, starts)
-        q_b = np.add.reduceat(zs * zs, starts)
-        s = ((s_b**2 - q_b) / (sizes - 1)).sum() / n + 1.0 / n
-        g = (np.repeat(s_b, sizes) - zs) / np.repeat(sizes - 1, sizes)
-        psi = 2 * zs * g - g * g - s * zs * zs
+        order = np.argsort(x[:, i], kind="stable")
+        xs, zs = x[order, i], z[order]
+        e, lev, t = _lines(xs, zs, starts)
+        *_, t_coarse = _lines(xs, zs, starts[::2][:max(1, m // 2)])
+        s = 1 - t
+        psi = t * zs * zs - (e / (1 - lev)) ** 2
         first.append(s)
         se.append(np.sqrt(psi.var() / n))
-    return np.array(first), np.array(se)
+        bias.append(max(t_coarse - t, 0.0))
+    return np.array(first), np.array(se), np.array(bias)
 
 
 def test_compiled_bin_sums_equal_the_per_run_form():
@@ -39,11 +54,15 @@ def test_compiled_bin_sums_equal_the_per_run_form():
     x = rng.normal(size=(611, 3))
     y = np.stack([x[:, 0] + x[:, 1] ** 2, np.exp(x[:, 2]) * x[:, 0], 5.0 + 1e-3 * x[:, 1]])
     est = first_order_indices(x, y)
-    assert est.n_bins == n_bins(611) == 25
+    assert est.n_bins == n_bins(611) == 12
     for c in range(3):
-        first, se = _per_run_form(x, y[c], est.n_bins)
+        first, se, bias = _per_run_form(x, y[c], est.n_bins)
         np.testing.assert_allclose(est.first[c], first, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(est.se[c], se, rtol=1e-7, atol=1e-12)
+        np.testing.assert_allclose(est.bias[c], bias, rtol=1e-7, atol=1e-12)
+    odd = first_order_indices(x, y, bins=13)  # the last coarse bin takes three bins
+    first, se, bias = _per_run_form(x, y[0], 13)
+    np.testing.assert_allclose(odd.bias[0], bias, rtol=1e-7, atol=1e-12)
 
 
 @pytest.mark.parametrize("seed", range(6))
