@@ -2,11 +2,11 @@
 :mod:`uqguide.stats.sobol_given_data`).
 
 Per output column two passes over its runs, every input at once: the first sums each bin's
-``z`` and ``z dx`` (``z`` the standardised value, ``dx`` the input's offset from its bin's mean),
-which fix the bin's least-squares line; the second sums the squared residuals from the lines of
-the bins and of the coarse bins (pairs of bins), and the powers of ``z`` and of the leave-one-out
-residual that give the influence function's variance in closed form
-(docs/error-budget.md#the-given-data-estimator-in-detail).
+``z``, ``z dx`` and ``z^2`` (``z`` the standardised value, ``dx`` the input's offset from its
+bin's mean), which fix the bin's least-squares line and the coarse bins' (pairs of bins)
+residual sums; the second sums the squared residuals from the bins' lines and the powers of
+``z`` and of the leave-one-out residual that give the influence function's variance in closed
+form (docs/error-budget.md#the-given-data-estimator-in-detail).
 """
 
 from __future__ import annotations
@@ -87,10 +87,17 @@ def binned_indices(lanes: np.ndarray, x: np.ndarray, bins: np.ndarray, sizes: np
     for k in range(m):
         csizes[coarse[k]] += sizes[k]
     z = np.empty(n)
-    acc = np.zeros((d, m, 2))
-    line = np.zeros((d, m, 2))  # intercept, slope
-    cline = np.zeros((d, mc, 2))
-    sums = np.zeros((d, 5))  # T, coarse T, sum e^2, sum e^4, sum z^2 e^2 (e leave-one-out)
+    acc = np.zeros((d, m, 3))  # sums of z, z dx, z^2
+    # per bin: its mean x, the line's intercept and slope, the residual weight, 1 / Sxx, 1 / n_b
+    par = np.zeros((d, m, 6))
+    for i in range(d):
+        for k in range(m):
+            par[i, k, 0] = xbar[i, k]
+            par[i, k, 3] = weight[i, k]
+            par[i, k, 4] = inv_sxx[i, k]
+            par[i, k, 5] = 1.0 / sizes[k]
+    csum = np.zeros((mc, 3))
+    sums = np.zeros((d, 4))  # T, sum e^2, sum e^4, sum z^2 e^2 (e leave-one-out)
     for c in range(c_all):
         row = lanes[c]
         mu = 0.0
@@ -114,20 +121,26 @@ def binned_indices(lanes: np.ndarray, x: np.ndarray, bins: np.ndarray, sizes: np
             for i in range(d):
                 k = bins[j, i]
                 acc[i, k, 0] += v
-                acc[i, k, 1] += v * (x[j, i] - xbar[i, k])
-        cline[:] = 0.0
+                acc[i, k, 1] += v * (x[j, i] - par[i, k, 0])
+                acc[i, k, 2] += v * v
         for i in range(d):
+            # the coarse bins' residual sums of squares from their bins' sums (the bias bound
+            # only: rounding there moves no index); sum z (x - cbar) adds sum z (xbar - cbar)
+            csum[:] = 0.0
             for k in range(m):
-                line[i, k, 0] = acc[i, k, 0] / sizes[k]
-                line[i, k, 1] = acc[i, k, 1] * inv_sxx[i, k]
-                # the coarse bin's sums from its bins': sum z (x - cbar) adds sum z (xbar - cbar)
+                par[i, k, 1] = acc[i, k, 0] * par[i, k, 5]
+                par[i, k, 2] = acc[i, k, 1] * par[i, k, 4]
                 kc = coarse[k]
-                cline[i, kc, 0] += acc[i, k, 0]
-                cline[i, kc, 1] += acc[i, k, 1] + (xbar[i, k] - cbar[i, kc]) * acc[i, k, 0]
-        for i in range(d):
+                csum[kc, 0] += acc[i, k, 0]
+                csum[kc, 1] += acc[i, k, 1] + (xbar[i, k] - cbar[i, kc]) * acc[i, k, 0]
+                csum[kc, 2] += acc[i, k, 2]
+            t_coarse = 0.0
             for k in range(mc):
-                cline[i, k, 0] /= csizes[k]
-                cline[i, k, 1] *= inv_csxx[i, k]
+                rss = (csum[k, 2] - csum[k, 0] * csum[k, 0] / csizes[k]
+                       - csum[k, 1] * csum[k, 1] * inv_csxx[i, k])
+                t_coarse += max(rss, 0.0) * cweight[i, k]
+            first_coarse[c, i] = 1.0 - t_coarse / n
+        # the bins' residuals run by run: exact where the output is a line in the input
         sums[:] = 0.0
         z2 = 0.0
         z4 = 0.0
@@ -138,26 +151,21 @@ def binned_indices(lanes: np.ndarray, x: np.ndarray, bins: np.ndarray, sizes: np
             z4 += v2 * v2
             for i in range(d):
                 k = bins[j, i]
-                kc = coarse[k]
-                dx = x[j, i] - xbar[i, k]
-                e = v - line[i, k, 0] - line[i, k, 1] * dx
-                sums[i, 0] += e * e * weight[i, k]
-                dxc = x[j, i] - cbar[i, kc]
-                ec = v - cline[i, kc, 0] - cline[i, kc, 1] * dxc
-                sums[i, 1] += ec * ec * cweight[i, kc]
+                dx = x[j, i] - par[i, k, 0]
+                e = v - par[i, k, 1] - par[i, k, 2] * dx
+                e2 = e * e
+                sums[i, 0] += e2 * par[i, k, 3]
                 # leave-one-out residual: e / (1 - leverage)
-                el = e / (1.0 - 1.0 / sizes[k] - dx * dx * inv_sxx[i, k])
-                el2 = el * el
-                sums[i, 2] += el2
-                sums[i, 3] += el2 * el2
-                sums[i, 4] += v2 * el2
+                r = 1.0 / (1.0 - par[i, k, 5] - dx * dx * par[i, k, 4])
+                el2 = e2 * r * r
+                sums[i, 1] += el2
+                sums[i, 2] += el2 * el2
+                sums[i, 3] += v2 * el2
         for i in range(d):
             t = sums[i, 0] / n
-            s = 1.0 - t
-            # psi = (1 - S) z^2 - e^2: its mean and mean square from the sums
-            mean_psi = (t * z2 - sums[i, 2]) / n
-            mean_sq = (t * t * z4 - 2.0 * t * sums[i, 4] + sums[i, 3]) / n
-            first[c, i] = s
+            # psi = (1 - S) z^2 - e^2 = t z^2 - e^2: its mean and mean square from the sums
+            mean_psi = (t * z2 - sums[i, 1]) / n
+            mean_sq = (t * t * z4 - 2.0 * t * sums[i, 3] + sums[i, 2]) / n
+            first[c, i] = 1.0 - t
             var_psi[c, i] = max(mean_sq - mean_psi * mean_psi, 0.0)
-            first_coarse[c, i] = 1.0 - sums[i, 1] / n
     return first, var_psi, first_coarse
