@@ -63,10 +63,11 @@ width, and whether the PCE refused ``x1`` and ``x2`` alone (NaN) at every seed.
 ``--study given-data-edges`` (#46, item 6): uqguide's given-data indices where their bias is
 largest, ``--runs`` (default 2000) plain Monte Carlo runs a seed: the borehole function (its usual
 inputs, as ``--study saltelli``'s; reference indices by quadrature: Gauss nodes in each input,
-scrambled Sobol' points over the others) and two series of standard normal ``x1, x2`` whose
-dominant input turns over time, ``rotation`` ``y(t) = cos t x1 + sin t x2`` and
-``rotation-quadratic`` ``y(t) = cos t q(x1) + sin t q(x2)``, ``q(x) = x + (x^2 - 1) / 2``, both
-with ``S_1 = cos^2 t`` and ``S_2 = sin^2 t`` exactly (1 at t = 0, 0.877 at 0.36, then 0.5, 0.099,
+scrambled Sobol' points over the others) and three series of standard normal ``x1, x2`` whose
+dominant input turns over time, ``rotation`` ``y(t) = cos t x1 + sin t x2``,
+``rotation-quadratic`` ``y(t) = cos t q(x1) + sin t q(x2)``, ``q(x) = x + (x^2 - 1) / 2``, and
+``rotation-step`` ``y(t) = cos t sign(x1) + sin t x2`` (a jump in ``E[y | x1]``), all with
+``S_1 = cos^2 t`` and ``S_2 = sin^2 t`` exactly (1 at t = 0, 0.877 at 0.36, then 0.5, 0.099,
 0). Per case, index and time: exact, bias, sd, coverage of the 95% interval and its median
 width; the verdict line: every index at least 90%.
 
@@ -219,9 +220,12 @@ def correlated_study(seeds: int, pce_runs: int, runs: int, n_base: int) -> None:
 ROTATION_TIMES = (0.0, 0.36, np.pi / 4, 1.25, np.pi / 2)
 
 
-def rotation(x: np.ndarray, quadratic: bool) -> np.ndarray:
-    """The rotation series' lanes ``(times, n)``: ``cos t q(x1) + sin t q(x2)``."""
-    q = x + (x * x - 1) / 2 if quadratic else x
+def rotation(x: np.ndarray, shape: str) -> np.ndarray:
+    """The rotation series' lanes ``(times, n)``: ``cos t q1(x1) + sin t q2(x2)`` (module
+    docstring), ``shape`` ``linear``, ``quadratic`` or ``step``."""
+    q = x + (x * x - 1) / 2 if shape == "quadratic" else x.copy()
+    if shape == "step":
+        q[:, 0] = np.sign(x[:, 0])
     t = np.asarray(ROTATION_TIMES)[:, None]
     return np.cos(t) * q[:, 0] + np.sin(t) * q[:, 1]
 
@@ -280,10 +284,11 @@ def edges_study(seeds: int, runs: int) -> bool:
         ("borehole", list(space.names), ["-"], borehole_first_order()[None, :], borehole)]
     times = [f"{t:.2f}" for t in ROTATION_TIMES]
     exact = np.stack([np.cos(ROTATION_TIMES) ** 2, np.sin(ROTATION_TIMES) ** 2], axis=1)
-    for name, quadratic in (("rotation", False), ("rotation-quadratic", True)):
-        def series(seed: int, quadratic: bool = quadratic) -> tuple[np.ndarray, np.ndarray]:
+    for name, shape in (("rotation", "linear"), ("rotation-quadratic", "quadratic"),
+                        ("rotation-step", "step")):
+        def series(seed: int, shape: str = shape) -> tuple[np.ndarray, np.ndarray]:
             x = np.random.default_rng(seed).normal(size=(runs, 2))
-            return x, rotation(x, quadratic)
+            return x, rotation(x, shape)
         cases.append((name, ["x1", "x2"], times, exact, series))
     print(f"given-data first-order indices at the edges: {runs} runs, {seeds} seeds")
     head = (f"{'case':18s} {'index':>5s} {'t':>5s} {'exact':>7s} {'bias':>8s} {'sd':>7s} "

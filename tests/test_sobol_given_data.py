@@ -45,7 +45,7 @@ def _per_run_form(x, y, m):
         psi = t * zs * zs - (e / (1 - lev)) ** 2
         first.append(s)
         se.append(np.sqrt(psi.var() / n))
-        bias.append(max(t_coarse - t, 0.0))
+        bias.append(2 * max(t_coarse - t, 0.0))
     return np.array(first), np.array(se), np.array(bias)
 
 
