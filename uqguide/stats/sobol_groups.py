@@ -1,9 +1,10 @@
 """First-order Sobol' indices of groups of inputs from a plain Monte Carlo sample (given data).
 
-A group's index ``Var(E[y | x_G]) / Var(y)``: :mod:`uqguide.stats.sobol_given_data`'s estimator
-with the bin replaced by each run's :data:`NEIGHBOURS` nearest neighbours in the group's normal
-scores. The interval covers the estimator's noise, not the neighbourhood's bias. Formulas and
-measured bias: docs/error-budget.md#groups-of-inputs.
+A group's index ``Var(E[y | x_G]) / Var(y)``: the bin-mean form of
+:mod:`uqguide.stats.sobol_given_data`'s estimator with the bin replaced by each run's
+:data:`NEIGHBOURS` nearest neighbours in the group's normal scores. The interval covers the
+estimator's noise, not the neighbourhood's bias. Formulas and measured bias:
+docs/error-budget.md#groups-of-inputs.
 """
 
 from __future__ import annotations
