@@ -31,8 +31,9 @@ from uqguide.core.types import ModelOutput
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import Germ
 from uqguide.pce.sobol_indices import (
-    ROUND_OFF, expansion_indices, term_sets, truncation_bounds,
+    ROUND_OFF, RegressionFit, bootstrap_cores, expansion_indices, term_sets, truncation_bounds,
 )
+from uqguide.pce.sparse_regression import fit_columns
 
 from .test_pce_helpers import normal_space, run_method
 
@@ -263,3 +264,26 @@ def test_a_validated_projection_gets_the_general_truncation_bound():
         # the orthogonal bound, which the projection's aliasing breaks, would miss it
         e = float(s.validation_error[0])
         assert not (s1 <= s.sobol_first[0, 0] + e * (1 - s.sobol_first[0, 0]))
+
+
+def test_the_bootstrap_chooses_the_terms_again():
+    """Each replicate's terms are chosen again among the column's candidates (the fit's
+    selection error enters the interval), so some replicate's support differs from the fit's;
+    a constant column (q-norm 0: nothing selected) keeps the fit's coefficients."""
+    space = InputSpace([Uniform(name=f"x{i + 1}", dist="uniform", low=-1.0, high=1.0)
+                        for i in range(2)])
+    germ = Germ.of(space)
+    xi = germ.from_unit(np.random.default_rng(0).random((40, 2)))
+    x = germ.to_physical(xi)
+    y = np.c_[x[:, 0] + 0.5 * x[:, 1] ** 2 + 0.3 * np.abs(x[:, 0]), np.full(40, 2.0)]
+    fit = fit_columns(germ, xi, y, degree_max=4, q=1.0)
+    assert fit.q[1] == 0.0  # the constant column
+    exp = Expansion(germ, fit.alpha, fit.core, (2,))
+    alpha, cores = bootstrap_cores(RegressionFit(exp, xi, y, fit.q, fit.degree), 7, 50)
+    assert alpha.shape[0] == 15  # the degree-4 total-degree set of two inputs
+    rows = [int(np.flatnonzero((alpha == a).all(axis=1))[0]) for a in fit.alpha]
+    own = np.zeros(alpha.shape[0], dtype=bool)
+    own[rows] = fit.core[:, 0] != 0.0
+    chosen = cores[:, :, 0] != 0.0
+    assert (chosen != own).any(axis=1).any()
+    assert np.array_equal(cores[:, rows, 1], np.broadcast_to(fit.core[:, 1], (50, len(rows))))

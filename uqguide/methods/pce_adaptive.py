@@ -25,7 +25,6 @@ from pydantic import Field, model_validator
 from ..errors import MethodError
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, ModelOutput
-from ..pce import basis
 from ..pce.basis import hyperbolic_indices
 from ..core.events import EventEstimate
 from ..pce.tails import control_variate_events, surrogate_values
@@ -37,7 +36,7 @@ from ..pce.loo import loo_values
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.series_fit import fit_series
 from ..pce.sobol_indices import (
-    BOOTSTRAP_STREAM, regression_intervals, truncation_error_intervals,
+    BOOTSTRAP_STREAM, RegressionFit, regression_intervals, truncation_error_intervals,
 )
 from ..pce.sparse_regression import Q_GRID, ColumnsFit, fit_columns
 from ..pce.surrogate import Surrogate
@@ -138,6 +137,9 @@ class _OutputFit:
     n_components: int | None
     #: The columns the core was fitted to (a scalar's components, a series' scores).
     targets: np.ndarray | None = None
+    #: Each target column's chosen q-norm and degree (0: constant), for the indices' bootstrap.
+    column_q: np.ndarray | None = None
+    column_degree: np.ndarray | None = None
 
 
 class AdaptivePCE(Method):
@@ -425,8 +427,10 @@ class AdaptivePCE(Method):
         """Sobol' indices of every fitted output with bootstrap intervals."""
         germ = Germ.of(space)
         xi = self._fit_points(germ, design, np.flatnonzero(~outputs.failed))
-        fitted = {f.columns.name: (f.expansion, basis.evaluate(germ, f.expansion.alpha, xi),
-                                   f.targets) for f in fits if f.targets is not None}
+        fitted = {f.columns.name: RegressionFit(f.expansion, xi, f.targets, f.column_q,
+                                                f.column_degree)
+                  for f in fits if f.targets is not None and f.column_q is not None
+                  and f.column_degree is not None}
         seed = stream(int(design.data.get("seed", 0)), self.label, BOOTSTRAP_STREAM)
         regression_intervals(stats, fitted, self.context.groups, seed)
 
@@ -491,7 +495,8 @@ class AdaptivePCE(Method):
             fit = fit_of(col.y)
             exp = Expansion(germ, fit.alpha, fit.core, col.shape)
             return _OutputFit(col, exp, float(fit.loo.max()), int(fit.degree.max()),
-                              float(fit.q.max()), int(fit.alpha.shape[0]), None, col.y)
+                              float(fit.q.max()), int(fit.alpha.shape[0]), None, col.y,
+                              fit.q, fit.degree)
         series = fit_series(germ, xi, col.y, degree_min=s.degree_min, degree_max=s.degree_max,
                             q=s.q_norm, variance_fraction=s.variance_fraction,
                             n_components=s.n_components)
@@ -506,7 +511,7 @@ class AdaptivePCE(Method):
         loo = float((lam @ fit.loo + (total - lam.sum())) / total) if r else 0.0
         return _OutputFit(col, exp, loo, int(fit.degree.max(initial=0)),
                           float(fit.q.max(initial=0.0)), int(fit.alpha.shape[0]), r,
-                          comps.scores)
+                          comps.scores, fit.q, fit.degree)
 
 
 def _fit_u(design: Design, n_fit: int) -> np.ndarray | None:
