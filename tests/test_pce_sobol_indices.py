@@ -279,11 +279,11 @@ def test_the_bootstrap_chooses_the_terms_again():
     fit = fit_columns(germ, xi, y, degree_max=4, q=1.0)
     assert fit.q[1] == 0.0  # the constant column
     exp = Expansion(germ, fit.alpha, fit.core, (2,))
-    alpha, cores = bootstrap_cores(RegressionFit(exp, xi, y, fit.q, fit.degree), 7, 50)
+    alpha, cores = bootstrap_cores(RegressionFit(exp, xi, y, fit.q, fit.degree), 7, 20)
     assert alpha.shape[0] == 15  # the degree-4 total-degree set of two inputs
     rows = [int(np.flatnonzero((alpha == a).all(axis=1))[0]) for a in fit.alpha]
     own = np.zeros(alpha.shape[0], dtype=bool)
     own[rows] = fit.core[:, 0] != 0.0
     chosen = cores[:, :, 0] != 0.0
     assert (chosen != own).any(axis=1).any()
-    assert np.array_equal(cores[:, rows, 1], np.broadcast_to(fit.core[:, 1], (50, len(rows))))
+    assert np.array_equal(cores[:, rows, 1], np.broadcast_to(fit.core[:, 1], (20, len(rows))))
