@@ -470,6 +470,7 @@ def pendulum(seeds: int, budget: float, first_seed: int = 0) -> None:
           flush=True)
     tree, err_mean, err_std, hit_mean, hit_std, plain, saving = [], [], [], 0, 0, 0, []
     for s in range(first_seed, first_seed + seeds):
+        hits = (hit_mean, hit_std)
         r, cpu = _measured_run(_pendulum_config(mf, s))
         run = r.runs[0]
         st, d = run.estimate.stats["theta"], run.estimate.diagnostics
@@ -482,7 +483,9 @@ def pendulum(seeds: int, budget: float, first_seed: int = 0) -> None:
         saving.append(float(d["cpu_saving"]))
         print(f"  seed {s}: tree CPU {cpu:.2f} s ({cpu / budget:.2f} x budget), runs "
               f"{[int(v) for v in d['runs_per_level']]}, levels used {d['levels_used']}, "
-              f"cpu_saving {d['cpu_saving']:.2f}, error of the mean {err_mean[-1]:+.2e}; "
+              f"cpu_saving {d['cpu_saving']:.2f}, error of the mean {err_mean[-1]:+.2e} "
+              f"(held {hit_mean - hits[0]}), of the std {err_std[-1]:+.2e} (held "
+              f"{hit_std - hits[1]}), estimate {d['estimate_cpu_s']:.2f} CPU-s; "
               f"CPU per level {np.round(d['cpu_per_level'], 2).tolist()}, pilot s/run "
               f"{np.round(d['pilot_seconds_per_run'] * 1e6, 1).tolist()} us, all runs "
               f"{np.round(d['cpu_per_level'] / d['runs_per_level'] * 1e6, 1).tolist()} us",

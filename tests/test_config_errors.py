@@ -78,6 +78,41 @@ CASES = [
     ("correlation_not_pd", ("seed: 1", "seed: 1\ncorrelations:\n  - {inputs: [x1, x2], "
                             "matrix: [[1, 2], [2, 1]]}"),
      "correlations[0].matrix: must be positive definite"),
+    # a boolean in a number field is named at that field (was ": seed must be ...")
+    ("seed_boolean", ("seed: 1", "seed: true"),
+     "seed: must be a number, not a boolean (got True)"),
+    ("input_parameter_boolean", ("mean: 0.0, std: 1.0}\n  - {name: x2",
+                                 "mean: yes, std: 1.0}\n  - {name: x2"),
+     "inputs[0].mean: must be a number, not a boolean (got True)"),
+    ("event_threshold_boolean", ("seed: 1", "seed: 1\nevents: [{name: e, output: y, below: on}]"),
+     "events[0].below: must be a number, not a boolean (got True)"),
+    # the value once, with the units allowed
+    ("memory_unknown_unit", ("seed: 1", "seed: 1\nmax_memory: 4 XB"),
+     "max_memory: must be a number of bytes or a size like '4 GB' (units: B, kB, MB, GB, TB, "
+     "KiB, MiB, GiB, TiB) (got '4 XB')"),
+    # one message for every wrong type, at the key (was max_memory.int)
+    ("memory_list", ("seed: 1", "seed: 1\nmax_memory: [1]"),
+     "max_memory: must be a number of bytes or a size like '4 GB' (units: B, kB, MB, GB, TB, "
+     "KiB, MiB, GiB, TiB) (got [1])"),
+    ("memory_mapping", ("seed: 1", "seed: 1\nmax_memory: {gb: 4}"),
+     "max_memory: must be a number of bytes or a size like '4 GB' (units: B, kB, MB, GB, TB, "
+     "KiB, MiB, GiB, TiB) (got {{'gb': 4}})"),  # (braces doubled: format)
+    # the keys allowed are the input's, for its dist (were the top level's)
+    ("unknown_input_key", ("std: 1.0}\n  - {name: x2", "std: 1.0, foo: 1}\n  - {name: x2"),
+     "inputs[0].foo: unknown key; allowed keys: name, dist, mean, std"),
+    ("key_of_another_dist", ("dist: normal, mean: 0.0, std: 1.0}\n  - {name: x2",
+                             "dist: uniform, low: 0, high: 1, std: 1.0}\n  - {name: x2"),
+     "inputs[0].std: unknown key; allowed keys: name, dist, low, high"),
+    ("unknown_event_key", ("seed: 1", "seed: 1\nevents: [{name: e, output: y, below: 1, "
+                                      "when: 2}]"),
+     "events[0].when: unknown key; allowed keys: name, output, component, below, above"),
+    # an unknown key beside a missing required one is named, not the missing one
+    ("misspelt_required_method_key", ("label: mc, n_samples: 100", "n_sampels: 100"),
+     "methods[0].n_sampels: unknown key (did you mean 'n_samples'?); allowed keys: name, label, "
+     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity"),
+    ("unknown_key_for_required_one", ("label: mc, n_samples: 100", "runs: 100"),
+     "methods[0].runs: unknown key; required key missing: n_samples; allowed keys: name, label, "
+     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity"),
 ]
 
 
@@ -148,3 +183,19 @@ def test_a_method_label_that_cannot_name_a_group_or_file_is_refused(label):
     with pytest.raises(ConfigError) as e:
         load_config(cfg)
     assert e.value.field == "methods[0].label" and "not only dots" in str(e.value)
+
+
+@pytest.mark.parametrize("edit,field", [
+    ({"seed": True}, "seed"),
+    ({"max_memory": [1]}, "max_memory"),
+    ({"inputs": [{"name": "x1", "dist": "normal", "std": 1.0, "foo": 1}]}, "inputs[0].foo"),
+    ({"methods": [{"name": "monte_carlo", "runs": 100}]}, "methods[0].runs"),
+], ids=["bool", "union", "input-key", "unknown-beside-missing"])
+def test_the_python_api_names_the_same_field(edit, field):
+    """``load_config`` of a mapping raises the ConfigError the CLI prints, its field the path."""
+    cfg = {"model": {"name": "lognormal", "a": [0.3]},
+           "inputs": [{"name": "x1", "dist": "normal", "std": 1.0}],
+           "methods": [{"name": "monte_carlo", "n_samples": 10}]} | edit
+    with pytest.raises(ConfigError) as e:
+        load_config(cfg)
+    assert e.value.field == field and str(e.value).startswith(f"{field}: ")

@@ -140,3 +140,93 @@ def test_a_command_declares_its_levels_and_its_programs_cpu_is_counted(tmp_path)
     with pytest.raises(Exception, match="fidelities\\[1\\].*inputs"):
         validate_config({**cfg.raw.model_dump(), "methods": [{
             "name": "mfmc", "fidelities": [{}, {"inputs": "b"}], "budget_cpu_s": 1.0}]})
+
+
+#: :func:`burn_per_call`'s CPU seconds per call and per row: a vectorised model's call costs
+#: as much as 2,000 of its rows, so a pilot's call of ``N_SMALL`` rows costs it 100 times more
+#: per run than a block of ``monte_carlo``'s chunk
+CALL_S, ROW_S, N_SMALL = 0.02, 1e-5, 20
+
+
+def burn_per_call(x):
+    """``y = x1`` after ``CALL_S + ROW_S n`` CPU seconds for a call of ``n`` rows."""
+    import time
+
+    until = time.process_time() + CALL_S + ROW_S * x.shape[0]
+    while time.process_time() < until:
+        pass
+    return x[:, 0]
+
+
+def test_the_budget_is_spent_at_the_prices_the_runs_pay():
+    """The runs are priced at what the latest round paid, not at the pilot's one small call.
+    At the pilot's price (1 ms a run) a budget of 0.3 CPU-s bought 300 runs for 0.043 CPU-s.
+    The rounds pay 1 ms, then 164 us (a call of 128 rows), then about 24 us a run (1,400
+    rows), and the last round's two calls cost about 0.13 CPU-s: 0.21 in all."""
+    from uqguide.driver.execution import SerialExecutor
+    from uqguide.driver.propagate import propagate
+
+    budget = 0.3
+    cfg = validate_config({
+        "model": {"name": "callable", "function": "tests.test_mfmc_clock:burn_per_call",
+                  "isolate": False, "inputs": ["x1"], "outputs": ["y"]},
+        "inputs": [{"name": "x1", "dist": "normal", "std": 1.0}],
+        "methods": [{"name": "mfmc", "fidelities": [{}], "n_pilot": N_SMALL,
+                     "budget_cpu_s": budget, "bootstrap": 0}],
+        "seed": 3})
+    r = propagate(cfg.methods[0], cfg.model, cfg.space, cfg.outputs, cfg.seed,
+                  SerialExecutor(100_000))
+    d = r.estimate.diagnostics
+    # the method's whole CPU: the models', the estimate's and the rest (its pricing, the
+    # allocations, the driver's part of the runs beyond the model's)
+    spent = float(np.sum(d["cpu_per_level"])) + d["estimate_cpu_s"] + d["overhead_cpu_s"]
+    # what is left unspent is the last round's per-call part, which a price per run of the
+    # round before (1,400 rows in one call) spreads over its rows: at most CALL_S a call of
+    # the last round and the round before's CALL_S / 1,400 a run, well within half the budget;
+    # never more than the budget and a run's rounding and the timer's tick
+    assert budget / 2 <= spent <= budget + ROW_S + TICK
+    assert d["rounds"] == 3 and d["costs"].startswith("measured (the runs of the round")
+
+
+def test_a_level_the_first_round_ran_is_never_dropped():
+    """At the first round's prices a dearer estimate (its bootstrap costs per row, as a cheap
+    run does) may make the cheapest level not worth its rows: the rows it ran stay in, and
+    the second round keeps it, where it once dropped it (the CPU of its runs lost)."""
+    method = MultiFidelityMC({"fidelities": [{}, {"function": "x"}, {"function": "z"}],
+                              "n_pilot": 200, "budget_cpu_s": 1.0},
+                             RunContext(outputs=("y",)))
+    rng = np.random.default_rng(0)
+    y = rng.standard_normal(200)
+    pilot = [_pilot(y + e * rng.standard_normal(200)) for e in (0.0, 0.05, 0.3)]
+    cheap = [1e-3, 1e-5, 1e-6]
+    plan = method.allocate(pilot, cheap, share=0.5)
+    assert plan.levels == (0, 1, 2)
+    done = {i: int(plan.sizes[plan.levels.index(i)]) for i in range(3)}
+    # the estimate at 2e-5 a row: at that price alone the cheapest level gains nothing
+    alone = method.top_up(pilot, plan, np.array(cheap), (0.0, 2e-5), 0.5,
+                          {i: 200 for i in range(3)})
+    assert 2 not in alone.levels
+    kept = method.top_up(pilot, plan, np.array(cheap), (0.0, 2e-5), 0.5, done)
+    assert kept.levels == (0, 1, 2)
+    assert all(kept.sizes[j] >= done[i] for j, i in enumerate(kept.levels))
+
+
+def test_the_rows_moving_between_processes_are_counted():
+    from uqguide.methods.mfmc import _moving_cpu
+
+    # a model in the driver's process: its CPU is in the driver's, the excess is the moving
+    assert _moving_cpu(1.25, 1.0) == pytest.approx(0.25)
+    # a model in a guard: the driver's CPU is all moving, and the guard's side as much again
+    assert _moving_cpu(0.1, 1.0) == pytest.approx(0.2)
+
+
+def test_the_last_round_keeps_a_reserve_for_the_prices_moving():
+    from uqguide.methods.mfmc import _price_drift
+
+    prices = np.array([60e-6, 15e-6, 4e-6])
+    # the pilot's prices are no drift (a small call is dearer per run)
+    assert _price_drift(prices, np.full(3, np.nan), (0, 1, 2)) == 0.0
+    # the largest move of a used level between the two rounds before: level 2's 25%, level
+    # 1 unused
+    earlier = np.array([50e-6, 30e-6, 3.2e-6])
+    assert _price_drift(prices, earlier, (0, 2)) == pytest.approx(0.25)

@@ -11,7 +11,8 @@ import numpy as np
 import uqguide.pce
 from uqguide.core.types import STAT_NAMES, OutputStats
 from uqguide.pce.credibility import (
-    STEPS, State, check_correction, check_own, no_usable_surrogate, record, usable,
+    STEPS, State, bound_own, check_correction, check_own, fallback, no_usable_surrogate,
+    not_resolved, record, usable,
 )
 from uqguide.pce.validation import Corrected
 
@@ -93,3 +94,53 @@ def test_an_unusable_output_is_withheld_with_its_reason_and_a_constant_says_why(
     verdict = no_usable_surrogate("y", flat, ok, constant, None, 0.0, 0.1, None)
     assert constant and verdict is not None and "constant on all 30" in verdict.reason
     assert no_usable_surrogate("y", st, np.array([True]), False, None, 0.0, 0.1, None) is None
+
+
+def test_an_own_value_carries_the_correction_s_interval_or_the_runs_bound_or_is_withheld():
+    """Issue 46 item 4: a PCE value shown carries the smallest interval holding it and its
+    printed +cv interval; where the +cv value is withheld, the runs' interval; where that says
+    nothing (a kurtosis >= 1) or is narrower than the correction, the value is withheld."""
+    st = _stats([1.0] * 4, [1.0] * 4, kurtosis=5.0)
+    cv = _estimate({"mean": 1.02, "std": 1.0, "kurtosis": 5.1}, 0.1, n=4)
+    for k in ("kurtosis",):  # withheld by check_correction at points 1..3
+        cv.values[k][1:] = np.nan
+    cv.correction_half["kurtosis"][3] = 3.0  # less precise than the runs' 1.0
+    runs = _estimate({"mean": 1.0, "std": 1.0, "kurtosis": 4.0}, 1.0, n=4)
+    runs.shown_ci = {k: v.copy() for k, v in runs.ci.items()}
+    runs.shown_ci["kurtosis"] = np.array([[3.0, 2.0, 1.0, 2.0], [5.0, np.inf, np.inf, np.inf]])
+    ok = np.ones(4, dtype=bool)
+    out, verdict = bound_own("y", st, cv, runs, ok)
+    assert np.allclose(st.ci["mean"][:, 0], [0.92, 1.12])  # holds 1.0 and 1.02 +- 0.1
+    lo, hi = st.ci["kurtosis"]
+    assert lo[0] == 5.0 and np.isclose(hi[0], 5.2)  # the value itself at the low end
+    assert (lo[1], hi[1]) == (2.0, np.inf)  # the runs' floor
+    assert out["kurtosis"].tolist() == [False, False, True, True]
+    assert np.isnan(lo[2:]).all()
+    assert verdict is not None and verdict.state is State.WITHHELD
+    assert dict(verdict.record) == {"withheld.y": "kurtosis (unbounded)"}
+    # no validation set: the runs bound a value near their estimate; one far from it is
+    # judged by check_own_by_runs alone (issue 27's 20-run kurtosis 21.5 against 2.4)
+    st = _stats([1.0, 1.0], [1.0, 1.0], kurtosis=4.5)
+    st.kurtosis[1] = 21.5
+    runs = _estimate({"mean": 1.0, "std": 1.0, "kurtosis": 4.0}, 1.0, n=2)
+    out, verdict = bound_own("y", st, None, runs, np.ones(2, dtype=bool))
+    assert st.ci["kurtosis"][:, 0].tolist() == [3.0, 5.0]
+    assert np.isnan(st.ci["kurtosis"][:, 1]).all()
+    assert not out["kurtosis"].any() and verdict is None
+    # neither validation nor runs (quadrature nodes): the own values stay as they were
+    st = _stats([1.0], [1.0])
+    assert bound_own("y", st, None, None, np.ones(1, dtype=bool)) == ({}, None)
+    assert st.ci == {}
+
+
+def test_a_runs_answer_that_says_nothing_is_not_resolved_by_its_runs():
+    runs = _estimate({"kurtosis": 30.3, "skewness": 4.2}, 12.0)
+    runs.shown_ci = {k: v.copy() for k, v in runs.ci.items()}
+    runs.shown_ci["kurtosis"] = np.array([[1.0], [np.inf]])
+    runs.shown_ci["skewness"] = np.array([[-21.8], [np.inf]])
+    values, _, _ = fallback(runs, {k: np.ones(1, dtype=bool) for k in STAT_NAMES})
+    verdict = not_resolved("y", runs, values)
+    assert verdict is not None and dict(verdict.record) == {"not_resolved.y": "kurtosis by 50 runs"}
+    assert "not resolved by 50 runs" in verdict.reason
+    runs.shown_ci["kurtosis"] = np.array([[2.2], [np.inf]])  # a floor that says something
+    assert not_resolved("y", runs, values) is None

@@ -26,6 +26,10 @@ BASE_BYTES = 250e6
 _UNITS = {"": 1, "b": 1, "k": 1e3, "kb": 1e3, "m": 1e6, "mb": 1e6, "g": 1e9, "gb": 1e9,
           "t": 1e12, "tb": 1e12, "kib": 2**10, "mib": 2**20, "gib": 2**30, "tib": 2**40}
 
+#: What a size may be (the units as :data:`_UNITS` reads them, any case).
+SIZE_RULE = ("must be a number of bytes or a size like '4 GB' (units: B, kB, MB, GB, TB, KiB, "
+             "MiB, GiB, TiB)")
+
 
 def machine_memory() -> int:
     """Physical memory of this machine in bytes (8 GiB when it cannot be read)."""
@@ -45,20 +49,20 @@ def memory_limit(value: Any) -> int:
 
 def parse_bytes(value: Any) -> int:
     """``2e9``, ``"2 GB"``, ``"512MiB"`` -> bytes, at least 1e6 (units kB, MB, GB, TB, KiB, MiB,
-    GiB, TiB); ValueError naming what is allowed."""
+    GiB, TiB); ValueError naming what is allowed (the caller names the value: a config's
+    message says it once)."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         v = float(value)
     elif isinstance(value, str):
         m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([A-Za-z]*)\s*", value)
         unit = m.group(2).lower() if m else None
         if not m or unit not in _UNITS:
-            raise ValueError(f"must be a size like '4 GB', '512 MiB' or a number of bytes "
-                             f"(got {value!r})")
+            raise ValueError(SIZE_RULE)
         v = float(m.group(1)) * _UNITS[unit]
     else:
-        raise ValueError(f"must be a size in bytes or a string like '4 GB' (got {value!r})")
+        raise ValueError(SIZE_RULE)
     if not (math.isfinite(v) and v >= 1e6):
-        raise ValueError(f"must be a finite size of at least 1 MB (got {value!r})")
+        raise ValueError("must be a finite size of at least 1 MB")
     return int(v)
 
 

@@ -9,7 +9,9 @@ budgets), all SI, are documented with their defaults in docs/config.md.
 
 from __future__ import annotations
 
+import difflib
 import re
+import typing
 from dataclasses import replace
 from types import MappingProxyType
 from collections.abc import Callable, Mapping
@@ -19,15 +21,15 @@ from typing import Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import Field, ValidationError, field_validator
+from pydantic import BaseModel, Field, ValidationError, field_validator
 
 from ..errors import ConfigError
 from ..core.events import EventSpec, component_index
 from ..stats.quantiles import resolve_levels
-from ..core.strict import StrictModel
+from ..core.strict import StrictModel, leaves
 from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
 from ..core.names import PLAIN_NAME_RULE, is_plain_name
-from .limits import DEFAULT_MAX_STEPS, check_steps, memory_limit, parse_bytes
+from .limits import SIZE_RULE, DEFAULT_MAX_STEPS, check_steps, memory_limit, parse_bytes
 from .report_times import check_report_times, model_time_grid
 from ..methods.base import Method, RunContext
 from ..models.base import Model
@@ -96,9 +98,11 @@ class RawConfig(StrictModel):
     #: A call is ``batch_size`` samples (chunk rows at most): size it for that.
     timeout_s: float | None = Field(default=None, gt=0.0, le=1e6)
 
-    @field_validator("max_memory")
+    @field_validator("max_memory", mode="before")  # before: one message for every wrong type
     @classmethod
     def _memory(cls, v: Any) -> Any:
+        if isinstance(v, dict):  # a mapping's check names its value (_from_validation)
+            raise ValueError(f"{SIZE_RULE} (got {_short(v)})")
         if v is not None:
             parse_bytes(v)
         return v
@@ -207,17 +211,66 @@ class RunConfig:
         return validate_config({**self.raw.model_dump(mode="python"), "seed": seed}, self.source)
 
 
-def _path(prefix: str, loc: tuple[Any, ...]) -> str:
-    out = prefix
+def _locate(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[list[Any], Any]:
+    """pydantic's error location ``loc`` in ``root`` as the file's keys and indices (the label
+    pydantic gives the union branch it tried is no key of the file: dropped), and the type at
+    its end (``Any`` past what the annotations say)."""
+    keys: list[Any] = []
+    ann: Any = root
     for part in loc:
+        options = leaves(ann)
+        if isinstance(part, str) and len(options) > 1:  # in a union: the branch's label
+            ann = next((a for a in options if _is_branch(a, part)), Any)
+            continue
+        owner = next((m for m in _models(ann) if isinstance(part, str) and part in m.model_fields),
+                     None)
+        maps = [a for a in options if typing.get_origin(a) is dict]
+        if isinstance(part, int):
+            seqs = [typing.get_args(a) for a in options if typing.get_origin(a) in (list, tuple)]
+            ann = seqs[0][0] if seqs and seqs[0] else Any
+        elif owner is not None:
+            ann = owner.model_fields[part].annotation
+        elif maps:
+            ann = typing.get_args(maps[0])[1]
+        else:
+            ann = Any
+        keys.append(part)
+    return keys, ann
+
+
+def _models(annotation: Any) -> list[type[BaseModel]]:
+    """The pydantic models among the types ``annotation`` allows."""
+    return [a for a in leaves(annotation) if isinstance(a, type) and issubclass(a, BaseModel)]
+
+
+def _is_branch(option: Any, label: str) -> bool:
+    """Whether ``label`` is pydantic's name of the union branch ``option``: a discriminated
+    model's tag (``normal``) or the type's name (``int``, ``list[float]``)."""
+    if isinstance(option, type) and issubclass(option, BaseModel):
+        return any(label in typing.get_args(f.annotation) for f in option.model_fields.values()
+                   if typing.get_origin(f.annotation) is Literal)
+    name = getattr(typing.get_origin(option) or option, "__name__", None)
+    return label.split("[")[0] == name
+
+
+def _path(prefix: str, keys: list[Any]) -> str:
+    out = prefix
+    for part in keys:
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in DISTRIBUTIONS or part in ("function-after", "function-before", "str") \
-                or str(part).startswith("list["):
-            continue  # pydantic's discriminated-union branch names are not fields of the file
         else:
             out += f".{part}" if out else str(part)
-    return out
+    return _printable(out)
+
+
+def _keys_allowed(root: type[BaseModel], parent: tuple[Any, ...],
+                  also: tuple[str, ...]) -> list[str] | None:
+    """The keys the mapping at ``parent`` (pydantic's location) may hold; ``also``: the keys
+    ``root``'s own mapping holds besides its fields (``name``); None when not known."""
+    if not parent:
+        return [*also, *root.model_fields]
+    models = _models(_locate(root, parent)[1])
+    return list(models[0].model_fields) if len(models) == 1 else None
 
 
 def _short(value: Any) -> str:
@@ -225,19 +278,24 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str]) -> ConfigError:
-    """One ConfigError line from pydantic's first error: path, value, what is allowed."""
+def _from_validation(err: ValidationError, prefix: str, root: type[BaseModel],
+                     also: tuple[str, ...] = ()) -> ConfigError:
+    """One ConfigError line from pydantic's first error in validating ``root`` (at ``prefix``
+    of the file, whose mapping holds the keys ``also`` besides): path, value, what is allowed."""
     errors = err.errors(include_url=False)
-    # A misspelt required key is both "missing" and "unknown": name the key typed.
-    e, close = _misspelt_required(errors) or (errors[0], "")
-    path = _printable(_path(prefix, tuple(e["loc"])))
+    # An unknown key beside a missing required one is the likelier mistake (a misspelling)
+    e, missing = _unknown_beside_missing(errors) or (errors[0], [])
+    loc = tuple(e["loc"])
+    keys, at = _locate(root, loc)
+    path = _path(prefix, keys)
     if e["type"] == "extra_forbidden":
-        hint = f" (did you mean '{close}'?)" if close else \
-            did_you_mean(str(e["loc"][-1]), allowed_keys)
-        # allowed_keys are the top level's: not listed for a misspelt key below it
-        listed = not close or len(e["loc"]) == 1
-        allowed = f"; allowed keys: {', '.join(allowed_keys)}" if listed else ""
-        return ConfigError(f"{path}: unknown key{hint}{allowed}", field=path)
+        key = str(loc[-1])
+        allowed_keys = _keys_allowed(root, loc[:-1], also) or []
+        close = difflib.get_close_matches(key, missing, n=1)
+        hint = f" (did you mean '{close[0]}'?)" if close else did_you_mean(key, allowed_keys)
+        absent = f"; required key missing: {', '.join(missing)}" if missing and not close else ""
+        allowed = f"; allowed keys: {', '.join(allowed_keys)}" if allowed_keys else ""
+        return ConfigError(f"{path}: unknown key{hint}{absent}{allowed}", field=path)
     if e["type"] == "missing":
         return ConfigError(f"{path}: required field is missing", field=path)
     if e["type"] in ("union_tag_invalid", "union_tag_not_found"):
@@ -248,26 +306,23 @@ def _from_validation(err: ValidationError, prefix: str, allowed_keys: list[str])
             f"{path}.dist: unknown distribution ({got}){hint}; allowed: "
             f"{', '.join(DISTRIBUTIONS)}", field=f"{path}.dist")
     msg = e["msg"].replace("Value error, ", "")
-    if isinstance(e.get("input"), dict):
-        # A check across several fields: its message names the values itself.
+    if e["type"] == "value_error" and (_models(at) or isinstance(e.get("input"), dict)):
+        # A check across several fields, or of a mapping's entries (an FMU's inputs): its
+        # message names the values itself.
         return ConfigError(f"{path}: {msg}", field=path)
     return ConfigError(f"{path}: {msg} (got {_short(e.get('input'))})", field=path)
 
 
-def _misspelt_required(errors: list[Any]) -> tuple[Any, str] | None:
-    """The unknown-key error whose key is close to a missing required field beside it, with
-    that field's name."""
-    import difflib
-
+def _unknown_beside_missing(errors: list[Any]) -> tuple[Any, list[str]] | None:
+    """The first unknown-key error with required keys missing beside it, and their names."""
     for x in errors:
         if x["type"] != "extra_forbidden":
             continue
         parent = tuple(x["loc"][:-1])
         missing = [str(m["loc"][-1]) for m in errors
                    if m["type"] == "missing" and tuple(m["loc"][:-1]) == parent]
-        close = difflib.get_close_matches(str(x["loc"][-1]), missing, n=1)
-        if close:
-            return x, close[0]
+        if missing:
+            return x, missing
     return None
 
 
@@ -333,7 +388,7 @@ def validate_config(data: Mapping[str, Any], source: str = "<dict>") -> RunConfi
     try:
         raw = RawConfig.model_validate(dict(data))
     except ValidationError as err:
-        raise _from_validation(err, "", list(RawConfig.model_fields)) from None
+        raise _from_validation(err, "", RawConfig) from None
 
     config_dir = str(Path(source).parent) if source != "<dict>" else None
     if (raw.model is None) == (raw.data is None):
@@ -434,7 +489,7 @@ def _stored_inputs(data: Mapping[str, Any]) -> RawConfig:
         return RawConfig.model_validate({k: v for k, v in data.items()
                                          if k in ("inputs", "correlations")} | {"methods": [{}]})
     except ValidationError as err:
-        raise _from_validation(err, "", list(RawConfig.model_fields)) from None
+        raise _from_validation(err, "", RawConfig) from None
 
 
 def _check_quantiles(raw: RawConfig) -> None:
@@ -528,8 +583,7 @@ def _build_model(section: dict[str, Any], config_dir: str | None = None) -> Mode
         # config_dir: where a callable model's module is looked for first
         validated = cls.Params.model_validate(params, context={"config_dir": config_dir})
     except ValidationError as err:
-        raise _from_validation(err, "model",
-                               ["name", "isolate", *cls.Params.model_fields]) from None
+        raise _from_validation(err, "model", cls.Params, ("name", "isolate")) from None
     # no model takes an infinite number
     bad = _first_path(validated.model_dump(),
                       lambda v: isinstance(v, float) and not np.isfinite(v), "model")
@@ -668,8 +722,7 @@ def _build_methods(entries: list[dict[str, Any]], context: RunContext) -> list[M
         try:
             method = cls(cls.Settings.model_validate(settings), context)
         except ValidationError as err:
-            raise _from_validation(err, f"methods[{i}]",
-                                   ["name", *cls.Settings.model_fields]) from None
+            raise _from_validation(err, f"methods[{i}]", cls.Settings, ("name",)) from None
         methods.append(method)
     return methods
 

@@ -9,15 +9,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
+
+from .strict import StrictModel
 
 LEVEL = 0.95
 
 
-class EventSpec(BaseModel):
-    """One event of the config's ``events`` list."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
+class EventSpec(StrictModel):
+    """One event of the config's ``events`` list (``below: true`` is refused, not 1.0)."""
 
     name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")
     output: str

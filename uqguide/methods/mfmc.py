@@ -5,8 +5,10 @@ Gunzburger 2016).
 A level is the model with one ``fidelities`` entry's parameters changed, or ``{surrogate:
 LABEL}``. A **pilot** at every level measures costs and correlations,
 :meth:`MultiFidelityMC.allocate` chooses the levels and their runs, the **main** runs extend
-each kept level on the same input stream and :meth:`MultiFidelityMC.estimate_levels` combines
-them. The config, the phases, the intervals and measured gains: ``docs/multifidelity.md``.
+each kept level on the same input stream (with a budget at measured costs in rounds, each
+priced at what the one before paid: :meth:`MultiFidelityMC.top_up`) and
+:meth:`MultiFidelityMC.estimate_levels` combines them. The config, the phases, the
+intervals and measured gains: ``docs/multifidelity.md``.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -34,6 +36,28 @@ from .base import (
 from .monte_carlo import CHUNK_ROWS, DesignChunks, ci_index, method_seed, stream_seed
 
 log = logging.getLogger(__name__)
+
+#: Share of ``budget_cpu_s`` the first round of main runs is planned for, at the pilot's
+#: prices: a vectorised model's pilot (one small call) overprices its runs, and the estimate's
+#: CPU is not known yet; the later rounds spend the rest at the prices the one before paid.
+FIRST_ROUND = 0.5
+#: Rounds of main runs with a budget at measured costs: the first at the pilot's prices, each
+#: later one at those the round before paid.
+ROUNDS = 3
+#: Checkpoint stage of level ``i``'s round ``r >= 1``: ``TOP_UP_STAGE + 8 (r - 1) + i`` (the
+#: pilots and the first round take stages 1 to 16).
+TOP_UP_STAGE = 17
+#: Resamples of the bootstrap that prices the estimate's CPU before the second round.
+PROBE_RESAMPLES = 25
+
+
+def _one_blas_thread() -> Any:
+    """One BLAS thread for the estimate: its products are matrix-vector ones that threads do
+    not speed up, and on a loaded machine threads spinning for work made its CPU 4 times
+    larger (``docs/multifidelity.md``, as ``docs/pce.md#one-blas-thread``)."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 #: A positive finite number (a standard error, seconds per run).
@@ -56,8 +80,10 @@ class MfmcSettings(MethodSettings):
                          description="runs of every level in the pilot (and the least any used "
                                      "level gets)")
     budget_cpu_s: float | None = Field(default=None, gt=0.0, allow_inf_nan=False,
-                                       description="model CPU seconds for the whole method, "
-                                                   "pilot included")
+                                       description="CPU seconds for the whole method: the "
+                                                   "model's runs, pilot included, and (costs "
+                                                   "measured) the method's own, its estimate's "
+                                                   "included")
     target_se: dict[str, _Positive] | None = Field(
         default=None, description="standard error of the mean wanted per output (its unit); "
                                   "exactly one of budget_cpu_s and target_se")
@@ -123,6 +149,10 @@ class LevelPlan:
     costs: np.ndarray
     measured: bool
     note: str = ""
+    #: the estimate's CPU seconds per run of a used level beyond its pilot (0: not priced)
+    estimate_per_run: float = 0.0
+    #: rounds of main runs planned so far (later ones at the prices the one before paid)
+    rounds: int = 1
 
 
 class MultiFidelityMC(Method):
@@ -247,28 +277,106 @@ class MultiFidelityMC(Method):
             pilot.append(out)
         # CPU, not wall seconds: the wall clock counts the neighbours' load
         pilot_cost = [lv.cpu_seconds / max(lv.n_runs, 1) for lv in levels]
-        with quiet_overflow():  # (as the fits of Method.propagate)
-            plan = self.allocate(pilot, pilot_cost)
+        own = time.process_time()  # the method's own CPU here, the allocation and probes
+        with quiet_overflow(), _one_blas_thread():  # (as the fits of Method.propagate)
+            plan = self.allocate(pilot, pilot_cost,
+                                 share=FIRST_ROUND if self._tops_up else 1.0)
+        own = time.process_time() - own
         log.info("%s: levels %s, runs %s (estimated variance reduction %.3g)", self.label,
                  plan.levels, list(plan.sizes), 1.0 / plan.allocation.variance_ratio)
-        runs = []
-        for j, i in enumerate(plan.levels):
-            runner.phase("")
-            main = run_rows(i, 2 + 2 * i, s.n_pilot, int(plan.sizes[j]), after=pilot[i])
-            assert main is not None  # (the pilot's rows at least)
-            runs.append(main)
+        have = dict(enumerate(pilot))
+        prices = np.asarray(pilot_cost, dtype=float)
+        earlier = np.full(len(levels), np.nan)  # the prices of the round before (not yet)
+        fixed = per_row = moved = 0.0
+        last = ROUNDS - 1 if self._tops_up else 0
+        for r in range(last + 1):
+            if r:
+                t_own = time.process_time()
+                with quiet_overflow(), _one_blas_thread():
+                    if r == 1 or r == last:
+                        # priced again before the last round on the rows run so far, near
+                        # the final count: its CPU per row grows with the groups' size
+                        fixed, per_row = self._estimate_price(
+                            pilot, [have[i] for i in plan.levels], plan, design,
+                            fixed=fixed if r > 1 else None)
+                    spent = sum(lv.cpu_seconds for lv in levels) + own + moved + \
+                        time.process_time() - t_own
+                    # the last round is planned at prices raised by as much as a used
+                    # level's price moved between the two rounds before (the machine's
+                    # load and caches move it): a reserve for a move as large again
+                    drift = _price_drift(prices, earlier, plan.levels) if r == last else 0.0
+                    plan = self.top_up(pilot, plan, prices * (1.0 + drift),
+                                       (fixed, per_row * (1.0 + drift)), spent,
+                                       {i: out.n for i, out in have.items()},
+                                       reselect=r == 1)
+                own += time.process_time() - t_own
+            before = [(lv.cpu_seconds, have[i].n) for i, lv in enumerate(levels)]
+            moving = np.zeros(len(levels))
+            for j, i in enumerate(plan.levels):
+                runner.phase("")
+                c_model, c_here = levels[i].cpu_seconds, time.process_time()
+                out = run_rows(i, 2 + 2 * i if r == 0 else TOP_UP_STAGE + 8 * (r - 1) + i,
+                               have[i].n, int(plan.sizes[j]), after=have[i])
+                assert out is not None  # (the pilot's rows at least)
+                moving[i] = _moving_cpu(time.process_time() - c_here,
+                                        levels[i].cpu_seconds - c_model)
+                have[i] = out
+            moved += float(moving.sum())
+            # each level's price: CPU per run of its latest round (a larger call is cheaper
+            # per run for a vectorised model, so a later round is priced better), the rows'
+            # moving between the processes included
+            earlier = prices if r else earlier
+            prices = np.array([(lv.cpu_seconds - c + moving[i]) / (have[i].n - n)
+                               if have[i].n > n else prices[i] for i, (lv, (c, n)) in
+                               enumerate(zip(levels, before))])
+        runs = [have[i] for i in plan.levels]
         t_fit = time.perf_counter()
         runner.phase("estimating")
-        with quiet_overflow():
+        with quiet_overflow(), _one_blas_thread():
             estimate = self.estimate_levels(
                 runs, plan, design, [lv.cpu_seconds for lv in levels], pilot_cost,
                 surrogate_cpu_s=sum(lv.fixed_cpu_s for lv, f in zip(levels, s.fidelities)
-                                    if "surrogate" in f))
+                                    if "surrogate" in f), overhead_cpu_s=own + moved)
         runner.phase("")
         top = runs[0]
         x = np.asarray(design.x.rows(0, top.n)) if isinstance(design.x, GeneratedRows) \
             else np.asarray(design.x)[:top.n]
         return Propagated(estimate, x, top, time.perf_counter() - t_fit)
+
+    @property
+    def _tops_up(self) -> bool:
+        """Whether the main runs come in two rounds: a budget at measured costs."""
+        return self.settings.budget_cpu_s is not None and self.settings.costs is None
+
+    def _estimate_price(self, pilot: list[ModelOutput], runs: list[ModelOutput],
+                        plan: LevelPlan, design: Design, fixed: float | None = None
+                        ) -> tuple[float, float]:
+        """The CPU seconds :meth:`estimate_levels` will take, as a fixed part and a part per
+        run of a used level beyond its pilot (its work grows with each level's rows): its cost
+        on the pilots (unless ``fixed`` is known) and on the runs so far, each without
+        resamples and with a few, extrapolated to ``bootstrap`` resamples."""
+        b = self.settings.bootstrap
+        k = len(self.settings.fidelities)
+        probe = min(PROBE_RESAMPLES, b)
+
+        def cost(outs: list[ModelOutput], sized: LevelPlan) -> float:
+            t0 = time.process_time()
+            self.estimate_levels(outs, sized, design, [0.0] * k, [0.0] * k, n_resamples=0)
+            t1 = time.process_time()
+            if probe:
+                self.estimate_levels(outs, sized, design, [0.0] * k, [0.0] * k,
+                                     n_resamples=probe)
+            t2 = time.process_time()
+            return (t1 - t0) + b * max(t2 - t1 - (t1 - t0), 0.0) / max(probe, 1)
+
+        n_p = self.settings.n_pilot
+        if fixed is None:
+            fixed = cost([pilot[i] for i in plan.levels],
+                         replace(plan, sizes=np.full(len(plan.levels), n_p)))
+        grown = float(np.sum(plan.sizes)) - n_p * len(plan.levels)
+        if grown <= 0:
+            return fixed, 0.0
+        return fixed, max(cost(runs, plan) - fixed, 0.0) / grown
 
     @property
     def block_rows(self) -> int:
@@ -296,9 +404,11 @@ class MultiFidelityMC(Method):
         steps = np.arange(out.time.size) if idx is None else idx
         return (steps[:, None] * k + np.arange(k)[None, :]).ravel()
 
-    def allocate(self, pilot: list[ModelOutput], seconds_per_run: list[float]) -> LevelPlan:
+    def allocate(self, pilot: list[ModelOutput], seconds_per_run: list[float],
+                 share: float = 1.0) -> LevelPlan:
         """The levels and runs per level from the pilot's outputs and CPU seconds per run at
-        every config level (``docs/multifidelity.md#what-it-does``, step 2)."""
+        every config level (``docs/multifidelity.md#what-it-does``, step 2), for ``share``
+        of ``budget_cpu_s``."""
         s = self.settings
         measured = s.costs is None
         raw = np.asarray(seconds_per_run if measured else s.costs, dtype=float)
@@ -326,16 +436,13 @@ class MultiFidelityMC(Method):
         unused = [i for i in range(len(costs)) if i not in levels]
         if s.budget_cpu_s is not None:
             spent_unused = float(sum(costs[i] for i in unused)) * s.n_pilot
-            sizes = sample_sizes(allocation, costs, budget=max(s.budget_cpu_s - spent_unused,
-                                                                0.0), at_least=s.n_pilot)
+            sizes = sample_sizes(allocation, costs, budget=max(
+                share * s.budget_cpu_s - spent_unused, 0.0), at_least=s.n_pilot)
         else:
             sizes = sample_sizes(allocation, costs, m0=self._m0_for_target(
                 var0, owner, rho, allocation), at_least=s.n_pilot)
-        sizes, held = self._hold_surrogate_memory(sizes, levels, pilot[0])
-        notes += [held] if held else []
-        if sizes[-1] > s.max_runs:
-            notes.append(f"capped at max_runs = {s.max_runs}")
-            sizes = np.minimum(sizes, s.max_runs)
+        sizes, held = self._bounded(sizes, levels, pilot[0])
+        notes += held
         if s.budget_cpu_s is not None and \
                 float(np.dot(costs[list(levels)], np.full(len(levels), s.n_pilot))) \
                 + sum(costs[i] for i in unused) * s.n_pilot > s.budget_cpu_s:
@@ -343,6 +450,71 @@ class MultiFidelityMC(Method):
                          "pilot runs")
         return LevelPlan(levels=levels, sizes=sizes, allocation=allocation, costs=costs,
                          measured=measured, note="; ".join(notes))
+
+    def top_up(self, pilot: list[ModelOutput], plan: LevelPlan, prices: np.ndarray,
+               estimate: tuple[float, float], spent: float, done: dict[int, int],
+               reselect: bool = True) -> LevelPlan:
+        """A further round: the allocation (``plan``'s unless ``reselect``) at the prices the
+        latest round paid (``prices (K,)``, each config level's CPU seconds per run) and the
+        estimate's (``(fixed, per run of a used level beyond its pilot)``), with the most runs
+        whose CPU, with the ``spent`` so far, stays within ``budget_cpu_s``; ``done``: the
+        rows each level has run (never fewer)."""
+        s = self.settings
+        assert s.budget_cpu_s is not None
+        prices = np.asarray(prices, dtype=float)
+        fixed, per_row = estimate
+        allocation = plan.allocation
+        if reselect:
+            rho = _correlations(self._pilot_quantities(pilot)[0])
+            step = np.array([s.surrogate_ratio if i in self.surrogate_levels else np.inf
+                             for i in range(len(prices))])
+            allocation = select_allocation(rho, prices + per_row, s.min_gain, max_step=step)
+            if not {i for i in plan.levels if done[i] > s.n_pilot} <= set(allocation.levels):
+                # a level the round before ran beyond its pilot stays: its CPU is spent, and
+                # dropping it would waste it (the allocation among the same levels at the
+                # new prices is the old one's ratios, near enough for one more round)
+                allocation = plan.allocation
+        levels = allocation.levels
+        floor = np.array([done[i] for i in levels])
+
+        def sized(m0: float) -> tuple[np.ndarray, list[str]]:
+            m = np.maximum(np.floor(allocation.ratios * m0 + 1e-9).astype(np.int64), floor)
+            m, notes = self._bounded(np.maximum.accumulate(m), levels, pilot[0])
+            # (rows already run stay in: a surrogate held below them keeps them)
+            return np.maximum.accumulate(np.maximum(m, floor)), notes
+
+        def cost(m0: float) -> float:
+            m = sized(m0)[0]
+            return float(np.dot(prices[list(levels)], m - floor) + fixed +
+                         per_row * (m.sum() - s.n_pilot * m.size))
+
+        left = s.budget_cpu_s - spent
+        lo, hi = 0.0, float(s.max_runs)
+        if cost(hi) <= left:
+            lo = hi
+        while hi - lo > 0.5:  # (a monotone cost: the largest m_0 within what is left)
+            mid = (lo + hi) / 2
+            lo, hi = (mid, hi) if cost(mid) <= left else (lo, mid)
+        sizes, notes = sized(lo)
+        notes = [n for n in plan.note.split("; ") if n] + \
+            [n for n in notes if n not in plan.note]
+        if allocation.is_plain_mc and not plan.allocation.is_plain_mc:
+            notes.append("at the first round's prices no cheaper level gains above "
+                         f"min_gain = {s.min_gain:g}: the second round is plain Monte Carlo")
+        return LevelPlan(levels=levels, sizes=sizes, allocation=allocation,
+                         costs=prices, measured=True,
+                         note="; ".join(notes), estimate_per_run=per_row,
+                         rounds=plan.rounds + 1)
+
+    def _bounded(self, sizes: np.ndarray, levels: tuple[int, ...], top: ModelOutput
+                 ) -> tuple[np.ndarray, list[str]]:
+        """``sizes`` held within a surrogate's memory and ``max_runs``, with notes saying so."""
+        sizes, held = self._hold_surrogate_memory(sizes, levels, top)
+        notes = [held] if held else []
+        if sizes[-1] > self.settings.max_runs:
+            notes.append(f"capped at max_runs = {self.settings.max_runs}")
+            sizes = np.minimum(sizes, self.settings.max_runs)
+        return sizes, notes
 
     def _hold_surrogate_memory(self, sizes: np.ndarray, levels: tuple[int, ...],
                                top: ModelOutput) -> tuple[np.ndarray, str]:
@@ -415,10 +587,15 @@ class MultiFidelityMC(Method):
 
     def estimate_levels(self, runs: list[ModelOutput], plan: LevelPlan, design: Design,
                         seconds: list[float], pilot_seconds: list[float],
-                        surrogate_cpu_s: float = 0.0) -> Estimate:
+                        surrogate_cpu_s: float = 0.0, n_resamples: int | None = None,
+                        overhead_cpu_s: float = 0.0) -> Estimate:
         """Statistics of every output from the used levels' runs (rows ``[0, m_i)`` of each).
         ``seconds``: every config level's model seconds; ``pilot_seconds``: per pilot run;
-        ``surrogate_cpu_s``: the surrogate levels' PCE runs and fits, charged to the saving."""
+        ``surrogate_cpu_s``: the surrogate levels' PCE runs and fits, charged to the saving;
+        ``n_resamples``: the bootstrap's (default ``bootstrap``); ``overhead_cpu_s``: the
+        method's CPU beyond the models and the estimate (allocation, the estimate's pricing,
+        moving rows between processes), charged to the saving."""
+        resamples = self.settings.bootstrap if n_resamples is None else n_resamples
         t_cpu = time.process_time()
         sizes = plan.sizes
         ok = usable_rows([r.failed for r in runs], sizes)
@@ -448,9 +625,8 @@ class MultiFidelityMC(Method):
                 raise MethodError(f"{self.label}: {name}: {exc}") from None
             cols = self._report_columns(runs[0], name)
             boot = mfmc_statistics([v[:, cols] for v in lv], sizes, finite,
-                                   n_resamples=self.settings.bootstrap, seed=boot_seed,
-                                   estimator=self.settings.estimator) \
-                if self.settings.bootstrap else None
+                                   n_resamples=resamples, seed=boot_seed,
+                                   estimator=self.settings.estimator) if resamples else None
             stats[name] = _output_stats(full, boot, cols, runs[0], name, finite[:sizes[0]])
             equivalent[name] = _least(full.equivalent_mc_runs)
             equivalent_std[name] = _least(full.equivalent_mc_runs_std)
@@ -465,7 +641,7 @@ class MultiFidelityMC(Method):
         m0 = int(sizes[0])
         c0_paid = float(seconds[plan.levels[0]]) / m0 if plan.measured and m0 else c0
         estimate_cpu_s = time.process_time() - t_cpu
-        cpu = float(sum(seconds)) + surrogate_cpu_s + estimate_cpu_s
+        cpu = float(sum(seconds)) + surrogate_cpu_s + estimate_cpu_s + overhead_cpu_s
         diagnostics: dict[str, Any] = {
             # (a level left out of the estimate still ran its pilot)
             "n_runs": int(sum(r.n for r in runs))
@@ -479,13 +655,18 @@ class MultiFidelityMC(Method):
             "cpu_per_level": np.asarray(seconds, dtype=float),
             "surrogate_cpu_s": surrogate_cpu_s,
             "cost_per_run": np.asarray(plan.costs, dtype=float),
-            "costs": "measured (pilot, 2 significant digits)" if plan.measured else "given",
+            "costs": ("measured (the runs of the round before the last)" if plan.rounds > 1
+                      else "measured (pilot, 2 significant digits)") if plan.measured
+            else "given",
+            "rounds": plan.rounds,
+            "estimate_cpu_per_run": plan.estimate_per_run,
             "pilot_seconds_per_run": np.asarray(pilot_seconds, dtype=float),
             "estimated_variance_reduction": 1.0 / plan.allocation.variance_ratio,
             "equivalent_mc_runs": eq,
             "equivalent_mc_cpu_s": eq * c0,
             "equivalent_mc_runs_std": eq_std,
             "estimate_cpu_s": estimate_cpu_s,
+            "overhead_cpu_s": overhead_cpu_s,
             "cpu_saving": self._cpu_saving(plan, min(eq, eq_std) * c0_paid, seconds, cpu),
             "plain_mc": bool(plan.allocation.is_plain_mc),
             "note": plan.note,
@@ -514,6 +695,28 @@ class MultiFidelityMC(Method):
         if plan.allocation.is_plain_mc:
             return min(float(seconds[plan.levels[0]]) / cpu, 1.0)
         return mc_cpu / cpu
+
+
+def _price_drift(prices: np.ndarray, earlier: np.ndarray, used: tuple[int, ...]) -> float:
+    """The largest relative change of a used level's price per run from the round before
+    (``earlier``, NaN: the pilot's, which a small call makes dearer, not a drift) to the
+    latest (``prices``); 0 where no level has two main rounds' prices."""
+    i = list(used)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        change = np.abs(prices[i] / earlier[i] - 1.0)
+    change = change[np.isfinite(change)]
+    return float(change.max()) if change.size else 0.0
+
+
+def _moving_cpu(driver_cpu: float, model_cpu: float) -> float:
+    """The CPU seconds a level's round spent beyond its model's, moving rows between the
+    processes, from the driver's CPU in that round and the model's: a model in the driver's
+    process is in both, so the driver's excess is the moving; a model in another process (a
+    guard, workers) is not in the driver's, whose CPU is then all moving, and the other side
+    spends as much again (it serialises what the driver deserialises, and back)."""
+    if driver_cpu >= model_cpu:
+        return driver_cpu - model_cpu
+    return 2.0 * driver_cpu
 
 
 def _least(equivalent: np.ndarray | None) -> float:

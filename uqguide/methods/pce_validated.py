@@ -218,15 +218,22 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         bad, verdicts = cred.check_own_by_runs(name, st, cv, runs, usable, time, fit_loo,
                                                disagreed, cv_disagreed)
         cred.blank(st, bad)
+        unbounded, bounded = cred.bound_own(name, st, cv, runs, usable)
+        cred.blank(st, unbounded)
         none = np.zeros_like(usable)
         withheld = {k: ~usable | bad.get(k, none) | disagreed.get(k, none)
-                    for k in STAT_NAMES}
+                    | unbounded.get(k, none) for k in STAT_NAMES}
         values, cis, given = cred.fallback(runs, withheld)
         st.fallback.update(values)
         st.fallback_ci.update(cis)
         keep(given)
+        keep(cred.not_resolved(name, runs, values))
         for verdict in verdicts:
             keep(verdict)
+        prior = diag.get(f"withheld.{name}")
+        keep(bounded)
+        if bounded is not None and prior:  # one entry per output, both reasons
+            diag[f"withheld.{name}"] = f"{prior}; {diag[f'withheld.{name}']}"
         if cv is not None:
             chosen, verdict = cred.choose_points(name, st, cv, usable)
             if chosen is not None:
@@ -259,10 +266,12 @@ def _withhold_for_failed_runs(name: str, st: Any, n_failed: int, n_runs: int,
     withhold_all(st, np.zeros(np.shape(st.mean), dtype=bool))
     st.corrected, st.corrected_ci = {}, {}
     values, cis, given = cred.fallback(runs, verdict.where)
+    unresolved = cred.not_resolved(name, runs, values)
     st.fallback.update(values)
     st.fallback_ci.update(cis)
     keep(verdict)
     keep(given)
+    keep(unresolved)
 
 
 def _fit_loo(name: str, loo: Mapping[str, float], surrogate: Surrogate) -> float | None:

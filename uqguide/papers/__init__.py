@@ -17,6 +17,7 @@ import importlib
 from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
+from typing import cast
 
 from ..models.base import Model
 from ..core.types import ModelOutput
@@ -54,15 +55,13 @@ def _scenario(model: Model, part: str) -> ModuleType:
 def nominal_report(model: Model) -> list[ReportRow]:
     """Run the model's nominal scenario and report its headline figures beside the paper's,
     in the order the report prints them; :class:`NoPaperScenario` without a scenario."""
-    rows: list[ReportRow] = _scenario(model, "report").nominal_report(model)
-    return rows
+    return cast(list[ReportRow], _scenario(model, "report").nominal_report(model))
 
 
 def nominal_figures(model: Model, out_dir: str | Path) -> list[Path]:
     """Write the paper's figures of the nominal scenario (PNG) into ``out_dir`` (made if
     missing); return the files written. :class:`NoPaperScenario` without a scenario."""
-    paths: list[Path] = _scenario(model, "figures").nominal_figures(model, Path(out_dir))
-    return paths
+    return cast(list[Path], _scenario(model, "figures").nominal_figures(model, Path(out_dir)))
 
 
 def sample_figures(model: Model, out: ModelOutput, values: Mapping[str, float],
@@ -79,5 +78,4 @@ def sample_figures(model: Model, out: ModelOutput, values: Mapping[str, float],
     figures = _scenario(model, "figures")
     if not hasattr(figures, "sample_figures"):
         return []
-    paths: list[Path] = figures.sample_figures(model, out, values, Path(out_dir), stem)
-    return paths
+    return cast(list[Path], figures.sample_figures(model, out, values, Path(out_dir), stem))

@@ -23,10 +23,8 @@ def per_model(fn: Callable[[Any], R]) -> Callable[[Any], R]:
 
     @functools.wraps(fn)
     def cached(model: Any) -> R:
-        try:
-            return memo[model]
-        except KeyError:
-            value = memo[model] = fn(model)
-            return value
+        if model not in memo:
+            memo[model] = fn(model)
+        return memo[model]
 
     return cached

@@ -19,15 +19,17 @@ import numpy as np
 from ..core.types import STAT_NAMES, OutputStats
 from .far_tails import beyond_the_runs, can_swing, replace_far_tails
 from .point_choice import better_points
-from .runs_estimate import LOWEST
-from .support import disagrees_with_runs, either, less_precise, unsupported, with_the_kurtosis
+from .runs_estimate import LOWEST, unresolved
+from .support import (disagrees_with_runs, either, less_precise, near_the_runs, unsupported,
+                      with_the_kurtosis)
 from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 
 log = logging.getLogger("uqguide.methods.pce_validated")
 
 #: The steps of :func:`uqguide.methods.pce_validated.finish`, in the order they run.
 STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable", "check_own",
-         "check_own_by_runs", "fallback", "choose_points", "no_usable_surrogate")
+         "check_own_by_runs", "bound_own", "fallback", "not_resolved", "choose_points",
+         "no_usable_surrogate")
 
 
 class State(str, Enum):
@@ -270,6 +272,79 @@ def check_own_by_runs(name: str, st: OutputStats, cv: Corrected | None,
             f"the PCE's {what} disagree with its own runs and are withheld; {instead}",
             {f"withheld.{name}": what}))
     return bad, verdicts
+
+
+def bound_own(name: str, st: OutputStats, cv: Corrected | None, runs: Corrected | None,
+              ok: np.ndarray) -> tuple[dict[str, np.ndarray], Verdict | None]:
+    """Give each of the PCE's own values shown its 95% interval (``st.ci``, in place): the
+    smallest holding the value and the printed ``+cv`` interval, whose validation runs measure
+    the surrogate's error; where there is no ``+cv`` value, the smallest holding the value and
+    the runs' printed interval, if the value lies near the runs' estimate
+    (:func:`uqguide.pce.support.near_the_runs`), their interval says something
+    (:func:`uqguide.pce.runs_estimate.unresolved`) and it is not narrower than the
+    correction's. Elsewhere, among the usable points ``ok``, nothing bounds the value: the
+    masks returned, to withhold (with validation runs only: without, the runs' check decides
+    alone and a value it keeps may stay without interval)."""
+    if cv is None and runs is None:
+        return {}, None
+    shown = printed(cv) if cv is not None else None
+    std = np.asarray(st.std, dtype=float)
+    out: dict[str, np.ndarray] = {}
+    for k in STAT_NAMES:
+        own = np.asarray(st.stat(k), dtype=float)
+        lo = hi = np.full(own.shape, np.nan)
+        by_cv = np.zeros(own.shape, dtype=bool)
+        if cv is not None and shown is not None:
+            lo_cv, hi_cv = shown[k]
+            by_cv = np.isfinite(cv.values[k]) & np.isfinite(lo_cv) & np.isfinite(hi_cv)
+            lo, hi = np.fmin(own, lo_cv), np.fmax(own, hi_cv)
+        by_runs = np.zeros(own.shape, dtype=bool)
+        if runs is not None:
+            r_lo, r_hi = runs.ci[k] if runs.shown_ci is None else runs.shown_ci[k]
+            by_runs = ~by_cv & ~unresolved(runs, k) & near_the_runs(own, runs, k, std)
+            if cv is not None:
+                # the own value's error is at least the correction's half-width: where that
+                # is wider than the runs' own interval, their estimate (+mc) is the better one
+                with np.errstate(invalid="ignore"):
+                    by_runs &= ~(cv.correction_half[k] > 0.5 * (runs.ci[k][1] - runs.ci[k][0]))
+            lo = np.where(by_runs, np.fmin(own, r_lo), lo)
+            hi = np.where(by_runs, np.fmax(own, r_hi), hi)
+        bounded = by_cv | by_runs
+        st.ci[k] = np.stack([np.where(bounded, lo, np.nan), np.where(bounded, hi, np.nan)])
+        # without validation runs the runs' check alone decides (check_own_by_runs)
+        out[k] = np.isfinite(own) & ~bounded & ok & (cv is not None)
+    names = [k for k, m in out.items() if m.any()]
+    if not names:
+        return out, None
+    n_bad = int(np.sum(np.any([out[k] for k in names], axis=0)))
+    what = " and ".join(names)
+    instead = ("the Monte Carlo estimate of its own runs (+mc) is given" if runs is not None
+               else "no estimate of its own runs is at hand")
+    return out, Verdict(
+        "bound_own", "own", State.WITHHELD, {k: out[k] for k in names},
+        f"the PCE's {what} are withheld at {n_bad} point(s): nothing bounds their error there "
+        f"(no corrected +cv value, and the method's own runs disagree with them, say nothing "
+        f"or are more precise than the correction); {instead}",
+        {f"withheld.{name}": f"{what} (unbounded)"})
+
+
+def not_resolved(name: str, runs: Corrected | None, values: Mapping[str, np.ndarray]
+                 ) -> Verdict | None:
+    """Where a ``+mc`` value given (``values``) has an interval that says nothing (a kurtosis
+    ``>= 1``, :func:`uqguide.pce.runs_estimate.unresolved`): not resolved by the runs, not an
+    estimate; the diagnostics say so (``not_resolved.<output>``)."""
+    if runs is None or not values:
+        return None
+    where = {k: unresolved(runs, k) & np.isfinite(v) for k, v in values.items()}
+    names = [k for k, m in where.items() if m.any()]
+    if not names:
+        return None
+    what = " and ".join(names)
+    return Verdict(
+        "not_resolved", "+mc", State.FALLBACK, {k: where[k] for k in names},
+        f"its {what} not resolved by {runs.n} runs (their 95% interval has one end infinite "
+        f"and says no more than any distribution's bound)",
+        {f"not_resolved.{name}": f"{what} by {runs.n} runs"}, warn=False)
 
 
 def fallback(runs: Corrected | None, withheld: Mapping[str, np.ndarray]

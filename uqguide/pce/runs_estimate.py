@@ -89,3 +89,18 @@ def _bound_tails(found: Corrected, y: np.ndarray, weight: np.ndarray) -> None:
         lo = np.maximum(lo, LOWEST.get(name, -np.inf))
         shown[name] = np.stack([lo, hi])
     found.shown_ci = shown
+
+
+def unresolved(found: Corrected, name: str) -> np.ndarray:
+    """Where the runs' printed interval of statistic ``name`` says nothing its definition does
+    not: one end infinite and the other at the least value any distribution takes (a std
+    ``>= 0``, a kurtosis ``>= 1``). Such a floor is "not resolved by N runs", not an estimate
+    (docs/pce.md#not-resolved-by-the-runs)."""
+    lo, hi = (found.ci if found.shown_ci is None else found.shown_ci)[name]
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    if name not in LOWEST:
+        return np.zeros(lo.shape, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        trivial = lo <= LOWEST[name]
+    one_sided = np.isinf(lo) | np.isinf(hi)
+    return one_sided & trivial & np.isfinite(np.asarray(found.values[name], dtype=float))

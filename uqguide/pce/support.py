@@ -46,6 +46,27 @@ def _disagree(a: np.ndarray, ha: np.ndarray | float, b: np.ndarray, hb: np.ndarr
     return out & np.isfinite(a) & np.isfinite(b)
 
 
+def _refute(value: np.ndarray, half: np.ndarray | float, runs: Corrected, name: str,
+            factor: float, floor: np.ndarray | float, tails: bool = True) -> np.ndarray:
+    """Where the runs' Monte Carlo estimate refutes ``value`` (of 95% half-width ``half``):
+    it lies more than ``factor`` half-widths of the difference from the runs' value (and more
+    than ``floor``) and outside their printed, tail-aware interval widened by ``half``. On a
+    heavy tail the delta-method interval of a few dozen runs is far too short and their sample
+    skewness and kurtosis sit low; the tail-aware interval, one-sided there, is what they can
+    refute (docs/pce.md#refuted-by-the-runs). ``tails`` False: the delta-method test alone.
+    False where either value is NaN."""
+    value = np.asarray(value, dtype=float)
+    out = _disagree(value, factor * np.asarray(half, dtype=float), runs.values[name],
+                    factor * _half(runs, name), floor)
+    if not tails or runs.shown_ci is None or name not in runs.shown_ci:
+        return out
+    lo, hi = runs.shown_ci[name]
+    h = np.nan_to_num(np.asarray(half, dtype=float))
+    with np.errstate(invalid="ignore"):
+        inside = (value + h >= lo) & (value - h <= hi)
+    return out & ~inside
+
+
 def _floor(name: str, std: np.ndarray) -> np.ndarray | float:
     return MATERIAL * np.nan_to_num(np.abs(std)) if name in ("mean", "std") else MATERIAL
 
@@ -74,11 +95,16 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
     out = {}
     if loo is not None and loo <= EXACT_LOO:
         runs = None
+    # a value the runs cannot refute (their tail-aware interval holds it) stands only where a
+    # validation set bounds its error (credibility.bound_own); without one, the delta-method
+    # test alone decides, as it must catch values off by orders of magnitude
+    # (docs/pce.md#refuted-by-the-runs: a 20-run kurtosis 21.5 against 2.4)
+    tails = corrected is not None
     for k in [k for k in LOCATION_STATS if k in own]:
         out[k] = np.zeros(np.shape(own[k]), dtype=bool)
         if runs is not None:
-            out[k] = _disagree(np.asarray(own[k], dtype=float), 0.0, runs.values[k],
-                               RUNS_FACTOR * _half(runs, k), _floor(k, own["std"]))
+            out[k] = _refute(np.asarray(own[k], dtype=float), 0.0, runs, k, RUNS_FACTOR,
+                             _floor(k, own["std"]), tails)
     for k in SHAPE_STATS:
         bad = np.zeros(np.shape(own[k]), dtype=bool)
         if corrected is not None:
@@ -87,15 +113,14 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
             bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, corrected.values[k],
                              np.asarray(corrected.correction_half[k], dtype=float), MATERIAL)
         if runs is not None:
-            bad |= _disagree(np.asarray(own[k], dtype=float), 0.0, runs.values[k],
-                             RUNS_FACTOR * _half(runs, k), MATERIAL)
+            bad |= _refute(np.asarray(own[k], dtype=float), 0.0, runs, k, RUNS_FACTOR,
+                           MATERIAL, tails)
             if twin_disagreed is not None and k in twin_disagreed:
-                # the twin shares the surrogate's tails: where the runs cannot bound the
-                # statistic (a floor), nothing vouches for them
-                near = ~_disagree(np.asarray(own[k], dtype=float), 0.0, runs.values[k],
-                                  _half(runs, k), MATERIAL)
+                # the twin shares the surrogate's tails: where the runs refuted it, the own
+                # value is judged at one half-width (a floor refutes only what lies below it)
                 bad |= (np.asarray(twin_disagreed[k], dtype=bool)
-                        & ~(_bounded(runs, k) & near) & np.isfinite(own[k]))
+                        & _refute(np.asarray(own[k], dtype=float), 0.0, runs, k, FACTOR,
+                                  MATERIAL, tails))
         out[k] = bad
     if runs is not None and own_se:
         for k in out:
@@ -106,16 +131,21 @@ def unsupported(own: dict[str, np.ndarray], corrected: Corrected | None,
     return out
 
 
+def near_the_runs(value: np.ndarray, runs: Corrected, name: str, std: np.ndarray
+                  ) -> np.ndarray:
+    """Where ``value`` of statistic ``name`` lies within :data:`RUNS_FACTOR` delta-method
+    half-widths of the runs' estimate (or an immaterial amount, ``std`` its scale): where the
+    runs' interval may stand as its bound (:func:`uqguide.pce.credibility.bound_own`)."""
+    value = np.asarray(value, dtype=float)
+    far = _disagree(value, 0.0, runs.values[name], RUNS_FACTOR * _half(runs, name),
+                    _floor(name, std))
+    return ~far & np.isfinite(value) & np.isfinite(runs.values[name])
+
+
 def with_the_kurtosis(kurtosis_withheld: np.ndarray, skewness: np.ndarray) -> np.ndarray:
     """Where the PCE's skewness goes with its withheld kurtosis (see the module's rule): True
     where the kurtosis is withheld and the skewness is a value (NaN is none to withhold)."""
     return np.asarray(kurtosis_withheld, dtype=bool) & np.isfinite(skewness)
-
-
-def _bounded(runs: Corrected, name: str) -> np.ndarray:
-    """Where the runs' printed (tail-aware) interval of a statistic has two finite ends."""
-    lo, hi = (runs.ci if runs.shown_ci is None else runs.shown_ci)[name]
-    return np.isfinite(lo) & np.isfinite(hi)
 
 
 def disagrees_with_runs(corrected: Corrected, runs: Corrected | None, std: np.ndarray
@@ -124,7 +154,7 @@ def disagrees_with_runs(corrected: Corrected, runs: Corrected | None, std: np.nd
     half of :func:`corrections_to_withhold`; all False without ``runs``)."""
     if runs is None:
         return _nowhere(corrected)
-    return {k: _disagree(v, _half(corrected, k), runs.values[k], _half(runs, k), _floor(k, std))
+    return {k: _refute(v, _half(corrected, k), runs, k, FACTOR, _floor(k, std))
             for k, v in corrected.values.items()}
 
 

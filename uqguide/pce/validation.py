@@ -367,6 +367,7 @@ def withhold_all(stats: OutputStats, usable: np.ndarray) -> None:
             setattr(stats, name, nan_at(v, bad))
     if stats.quantiles is not None:
         stats.quantiles = nan_at(stats.quantiles, bad, lead=1)
+    stats.ci = {k: nan_at(v, bad, lead=1) for k, v in stats.ci.items()}
 
 
 def withdraw(stats: OutputStats, usable: np.ndarray) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -93,12 +94,16 @@ def budget_table(s: OutputStatistics, inputs: list[str], component: int,
     first = np.asarray(s.sobol_first)[pick]
     if not np.isfinite(first).any():
         return None
-    nan = np.full(first.shape, np.nan)
-    ci = np.asarray(s.sobol_first_ci)[(slice(None),) + pick] \
-        if s.sobol_first_ci is not None else np.stack([nan, nan])
-    total = np.asarray(s.sobol_total)[pick] if s.sobol_total is not None else nan
-    tci = np.asarray(s.sobol_total_ci)[(slice(None),) + pick] \
-        if s.sobol_total_ci is not None else np.stack([nan, nan])
+
+    def at(a: np.ndarray | None, bounds: bool, size: int) -> np.ndarray:
+        """``a`` at the component (and step), its bounds ``(2, size)`` with ``bounds``; NaN
+        where the method has none."""
+        if a is None:
+            return np.full((2, size) if bounds else size, np.nan)
+        return np.asarray(a)[(slice(None),) + pick] if bounds else np.asarray(a)[pick]
+
+    ci, total, tci = (at(s.sobol_first_ci, True, first.size),
+                      at(s.sobol_total, False, first.size), at(s.sobol_total_ci, True, first.size))
     grouped = {name for c in correlated for name in c}
     share = np.where([name in grouped for name in inputs], np.nan,
                      100.0 * np.clip(first, 0.0, None))
@@ -109,15 +114,9 @@ def budget_table(s: OutputStatistics, inputs: list[str], component: int,
                         na_position="last").reset_index(drop=True)
     if s.sobol_group_first is not None and s.sobol_groups:
         gf = np.asarray(s.sobol_group_first)[pick]
-        none = np.full((2, gf.size), np.nan)
-
-        def at(a: np.ndarray | None, bounds: bool) -> np.ndarray:
-            if a is None:
-                return none if bounds else none[0]
-            return np.asarray(a)[(slice(None),) + pick] if bounds else np.asarray(a)[pick]
-
-        gci, gt, gtci = (at(s.sobol_group_first_ci, True), at(s.sobol_group_total, False),
-                         at(s.sobol_group_total_ci, True))
+        gci, gt, gtci = (at(s.sobol_group_first_ci, True, gf.size),
+                         at(s.sobol_group_total, False, gf.size),
+                         at(s.sobol_group_total_ci, True, gf.size))
         # a group overlaps its inputs' rows: listed after them, with a share only where its
         # inputs' rows have none (a whole correlated group)
         whole = {frozenset(c) for c in correlated}
@@ -207,18 +206,10 @@ def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
     groups = df[df["input"].str.startswith("group ")]
     df = df[~df["input"].str.startswith("group ")]
     shown = pd.concat([df.head(max_rows), groups], ignore_index=True)
-    cols = {"input": shown["input"],
-            "first-order": shown["first_order"].map(_fmt),
-            "95% interval": [_interval(lo, hi) for lo, hi in zip(shown["ci_low"],
-                                                                 shown["ci_high"])],
-            "share": shown["share_%"].map(lambda v: f"{v:.1f}%" if np.isfinite(v) else "")}
-    if np.isfinite(df["total"]).any():
-        cols["total"] = shown["total"].map(_fmt)
-    if np.isfinite(df["total_low"]).any():
-        cols["total 95% interval"] = [_interval(lo, hi) for lo, hi in
-                                      zip(shown["total_low"], shown["total_high"])]
-    if not np.isfinite(df["ci_low"]).any():
-        del cols["95% interval"]
+    cols = _columns(shown, df, 3)
+    for late in ("total", "total 95% interval"):  # (the console puts the totals last)
+        if late in cols:
+            cols[late] = cols.pop(late)
     lines = [b.title, pd.DataFrame(cols).to_string(index=False)]
     rest = len(df) - min(len(df), max_rows)
     if rest > 0:
@@ -230,25 +221,29 @@ def budget_text(b: BudgetTable, max_rows: int = MAX_ROWS) -> str:
 
 def budget_markdown(b: BudgetTable) -> pd.DataFrame:
     """The Markdown report's form of one budget (every input)."""
-    df = b.table
-    out = pd.DataFrame({"input": df["input"], "first-order": df["first_order"].map(_fmt4)})
+    return pd.DataFrame(_columns(b.table, b.table, 4))
+
+
+def _columns(shown: pd.DataFrame, df: pd.DataFrame, digits: int) -> dict[str, Any]:
+    """The text columns of a budget's rows ``shown``: input, first-order index (``digits``
+    decimals) and its interval, total index and its interval, share; an index's columns only
+    where the rows ``df`` have it."""
+    cols: dict[str, Any] = {"input": shown["input"],
+                            "first-order": shown["first_order"].map(lambda v: _fmt(v, digits))}
     if np.isfinite(df["ci_low"]).any():
-        out["95% interval"] = [_interval(lo, hi) for lo, hi in zip(df["ci_low"], df["ci_high"])]
+        cols["95% interval"] = [_interval(lo, hi)
+                                for lo, hi in zip(shown["ci_low"], shown["ci_high"])]
     if np.isfinite(df["total"]).any():
-        out["total"] = df["total"].map(_fmt4)
+        cols["total"] = shown["total"].map(lambda v: _fmt(v, digits))
     if np.isfinite(df["total_low"]).any():
-        out["total 95% interval"] = [_interval(lo, hi) for lo, hi in
-                                     zip(df["total_low"], df["total_high"])]
-    out["share"] = df["share_%"].map(lambda v: f"{v:.1f}%" if np.isfinite(v) else "")
-    return out
+        cols["total 95% interval"] = [_interval(lo, hi)
+                                      for lo, hi in zip(shown["total_low"], shown["total_high"])]
+    cols["share"] = shown["share_%"].map(lambda v: f"{v:.1f}%" if np.isfinite(v) else "")
+    return cols
 
 
-def _fmt(v: float) -> str:
-    return f"{v:.3f}" if np.isfinite(v) else ""
-
-
-def _fmt4(v: float) -> str:
-    return f"{v:.4f}" if np.isfinite(v) else ""
+def _fmt(v: float, digits: int) -> str:
+    return f"{v:.{digits}f}" if np.isfinite(v) else ""
 
 
 def _interval(lo: float, hi: float) -> str:

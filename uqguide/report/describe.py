@@ -26,35 +26,26 @@ def _docstring_attributes(cls: type) -> dict[str, str]:
     found: dict[str, str] = {}
     for klass in reversed(cls.__mro__):
         lines = (inspect.getdoc(klass) or "").splitlines()
-        names: list[str] = []
-        text: list[str] = []
-        in_section = False
-        for i, line in enumerate(lines):
-            underline = i + 1 < len(lines) and set(lines[i + 1].strip()) == {"-"}
-            if underline:
-                _record_entry(found, names, text)
-                names, text = [], []
-                in_section = line.strip() in ("Attributes", "Parameters")
+        section = ""
+        # (names, text lines) per entry; a section opens with a nameless one, so text before
+        # its first entry belongs to none
+        entries: list[tuple[list[str], list[str]]] = []
+        for line, after in zip(lines, lines[1:] + [""]):
+            if set(after.strip()) == {"-"}:  # a section's title, underlined
+                section = line.strip()
+                entries.append(([], []))
+            elif section not in ("Attributes", "Parameters") or set(line.strip()) == {"-"}:
                 continue
-            if not in_section or set(line.strip()) == {"-"}:
-                continue
-            if line and not line.startswith(" "):
-                _record_entry(found, names, text)
+            elif line and not line.startswith(" "):
                 names = [n.strip() for n in line.split(" : ")[0].split(",")]
-                names = [n for n in names if n.isidentifier()]
-                text = []
+                entries.append(([n for n in names if n.isidentifier()], []))
             elif line.strip():
-                text.append(line.strip())
-        _record_entry(found, names, text)
+                entries[-1][1].append(line.strip())
+        for names, text in entries:
+            if text:
+                sentence = re.split(r"(?<=\.)\s", " ".join(text), maxsplit=1)[0]
+                found.update((n, sentence.replace("``", "")) for n in names)
     return found
-
-
-def _record_entry(found: dict[str, str], names: list[str], text: list[str]) -> None:
-    """Store the first sentence of one docstring entry's ``text`` under each of its ``names``."""
-    if names and text:
-        sentence = re.split(r"(?<=\.)\s", " ".join(text), maxsplit=1)[0]
-        for n in names:
-            found[n] = sentence.replace("``", "")
 
 
 def _num(v: float) -> str:
@@ -76,12 +67,9 @@ def _allowed(annotation: Any, metadata: list[Any]) -> str:
         return "true | false"
     if annotation in (int, float):
         kind = "integer" if annotation is int else "number"
-        bounds = []
-        for m in metadata:
-            for attr, op in (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<")):
-                v = getattr(m, attr, None)
-                if v is not None:
-                    bounds.append(f"{op} {_num(v)}")
+        bounds = [f"{op} {_num(v)}" for m in metadata
+                  for attr, op in (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<"))
+                  if (v := getattr(m, attr, None)) is not None]
         return f"{kind} {', '.join(bounds)}" if bounds else kind
     if annotation is str:
         return "text"
@@ -91,8 +79,7 @@ def _allowed(annotation: Any, metadata: list[Any]) -> str:
         if origin is tuple and members and len(members) > 1 and len(set(members)) == 1:
             return f"list of {len(members)} {_allowed(members[0], []).split()[0]}s"
         return "list"
-    text = getattr(annotation, "__name__", None) or str(annotation).replace("typing.", "")
-    return text
+    return getattr(annotation, "__name__", None) or str(annotation).replace("typing.", "")
 
 
 def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
@@ -103,8 +90,7 @@ def describe_settings(settings: type[BaseModel], indent: str = "  ") -> str:
     for fname, f in settings.model_fields.items():
         default = "required" if f.is_required() else \
             f"default {_value(f.get_default(call_default_factory=True))}"
-        meaning = f.description or from_doc.get(fname, "")
-        meaning = _clean(meaning)
+        meaning = _clean(f.description or from_doc.get(fname, ""))
         unit = _UNIT.search(meaning)
         unit_text = f", unit {unit.group(1)}" if unit else ""
         lines.append(f"{indent}{fname}: {_allowed(f.annotation, f.metadata)}; {default}"

@@ -92,7 +92,6 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
             parts += ["", failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
                       + (f" ({why})." if why else ".")]
     stats = statistics_table(result)
-    stats.attrs["reference"] = result.reference
     parts += ["", "## Outputs", "",
               "Statistics are the population (1/n) moments; kurtosis is non-excess (a Gaussian "
               "has 3). Table cells: estimate [95% interval]"

@@ -17,6 +17,7 @@ import logging
 import re
 import textwrap
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -68,6 +69,15 @@ def _of(result: Result, output: str) -> dict[str, OutputStatistics]:
     return {label: d[output] for label, d in result_statistics(result).items() if output in d}
 
 
+def _described_runs(result: Result, output: str
+                    ) -> list[tuple[MethodRun, OutputStatistics, dict]]:
+    """``(run, its statistics of output, its line style)`` of each method that has them, in the
+    result's order."""
+    styles, described = _styles(result), _of(result, output)
+    return [(r, described[r.label], styles[r.label]) for r in result.runs
+            if r.label in described]
+
+
 def _is_sample(v: OutputStatistics | None) -> bool:
     return v is not None and v.moments_method in FROM_RUNS
 
@@ -99,16 +109,10 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
     t = result.time
     fig = new_figure((11.0, 7.8), layout="constrained")
     (ax_m, ax_s), (ax_g, ax_k) = fig.subplots(2, 2, sharex=True)
-    styles = _styles(result)
     handles, labels = [], []
     span = float(t[-1] - t[0]) if t.size > 1 else 1.0
     n_ci = 0
-    described = _of(result, output)
-    for r in result.runs:
-        s = described.get(r.label)
-        if s is None:
-            continue
-        st = styles[r.label]
+    for r, s, st in _described_runs(result, output):
         dodge = 0.006 * span * n_ci
         n_ci += any(m.ci is not None for m in s.moments)
         mean, std = s.moment("mean").value[:, component], s.moment("std").value[:, component]
@@ -146,7 +150,7 @@ def series_figure(result: Result, output: str, component: int = 0) -> Figure:
     for ax in (ax_m, ax_s, ax_g, ax_k):
         ax.grid(True, alpha=0.3)
         ax.set_xlim(t[0] - 0.01 * span, t[-1] + 0.03 * span)
-    fig.suptitle(f"{result.name}: {name} {u} over time\n{_wrap(o.description, 110)}",
+    fig.suptitle(f"{result.name}: {name} {u} over time\n{textwrap.fill(o.description, 110)}",
                  fontsize=12)
     fig.legend(handles + [g0], labels + ["Gaussian (skewness 0, kurtosis 3)"],
                loc="outside lower center", ncol=min(3, len(handles) + 1), fontsize=9,
@@ -174,14 +178,10 @@ def envelope_figure(result: Result, output: str, component: int = 0) -> Figure:
     t = result.time
     fig = new_figure((10.0, 5.6), layout="constrained")
     ax = fig.add_subplot()
-    styles = _styles(result)
     title_levels = ""
-    described = _of(result, output)
-    for r in result.runs:
-        s = described.get(r.label)
-        if s is None or not s.quantiles:
+    for r, s, st in _described_runs(result, output):
+        if not s.quantiles:
             continue
-        st = styles[r.label]
         lv = s.quantile_levels
         lo_i, hi_i, mid_i = 0, len(lv) - 1, int(np.argmin(np.abs(np.asarray(lv) - 0.5)))
         q = [qs.value[:, component] for qs in s.quantiles]
@@ -238,10 +238,6 @@ def _bins(y: np.ndarray, lo: float, hi: float) -> np.ndarray:
     if inside.size > 1:
         n = np.histogram_bin_edges(inside, bins="fd", range=(lo, hi)).size - 1
     return np.linspace(lo, hi, int(np.clip(n, 10, 70)) + 1)
-
-
-def _wrap(text: str, width: float) -> str:
-    return textwrap.fill(text, width=int(width))
 
 
 def _moment_density(mean: float, std: float, skew: float) -> sps.rv_continuous | None:
@@ -378,24 +374,22 @@ def scalar_figure(result: Result, output: str) -> Figure:
             _probability_panel(ax, result, output, c, samples, styles)
             ax.set_title(name if k > 1 else None)
             continue
-        draws = {}
-        for r in result.runs:
-            extra = getattr(r, "surrogate_scalars", None) or {}
-            if not _is_sample(described.get(r.label)) and output in extra:
-                draws[r.label] = np.asarray(extra[output])[:, c]
-            elif not _is_sample(described.get(r.label)):
-                got = _surrogate_draws(result, r, output)
-                if got is not None and got.shape[0] > 1 and np.ptp(got[:, c]) > 0:
-                    draws[r.label] = got[:, c]
-        densities = {}
+        draws, densities = {}, {}
         for r in result.runs:
             s = described.get(r.label)
-            if s is None or _is_sample(s) or r.label in draws:
+            if _is_sample(s):
                 continue
-            mean, std, skew, _ = (float(m.value[c]) for m in s.moments)
-            dist = _moment_density(mean, std, skew)
-            if dist is not None:
-                densities[r.label] = dist
+            extra = getattr(r, "surrogate_scalars", None) or {}
+            got = None if output in extra else _surrogate_draws(result, r, output)
+            if output in extra:
+                draws[r.label] = np.asarray(extra[output])[:, c]
+            elif got is not None and got.shape[0] > 1 and np.ptp(got[:, c]) > 0:
+                draws[r.label] = got[:, c]
+            elif s is not None:
+                mean, std, skew, _ = (float(m.value[c]) for m in s.moments)
+                dist = _moment_density(mean, std, skew)
+                if dist is not None:
+                    densities[r.label] = dist
         pooled = list(samples.values()) + list(draws.values())
         if pooled:
             lo, hi, outside = _plot_range(pooled)
@@ -405,11 +399,7 @@ def scalar_figure(result: Result, output: str) -> Figure:
         ref = result.reference if result.reference in samples else \
             max(samples, key=lambda lab: samples[lab].size, default=None)
         xs = np.linspace(lo, hi, 400)
-        for r in result.runs:
-            s = described.get(r.label)
-            if s is None:
-                continue
-            st = styles[r.label]
+        for r, s, st in _described_runs(result, output):
             mean, std, skew, kurt = (float(m.value[c]) for m in s.moments)
             text = _stats_text(mean, std, skew, kurt, s.moments_method == "sample", s.n_used)
             if r.label in samples and np.ptp(samples[r.label]) == 0:
@@ -447,7 +437,7 @@ def scalar_figure(result: Result, output: str) -> Figure:
         ax.set_visible(False)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.suptitle(f"{result.name}: distribution of {o.name} {u}\n"
-                 f"{_wrap(o.description, 10 * width)}", fontsize=12)
+                 f"{textwrap.fill(o.description, int(10 * width))}", fontsize=12)
     if handles:
         fig.legend(handles, labels, loc="outside lower center", ncol=1, fontsize=9,
                    title="; ".join(sorted(notes)) or None, title_fontsize=8)
@@ -475,13 +465,11 @@ def cost_figure(result: Result) -> Figure:
     model_s = df["model_s"].to_numpy(dtype=float)
     fit_s = df["fit_s"].to_numpy(dtype=float)
     h = 0.38
-    ax_time.barh(ypos + h / 2, np.maximum(model_s, 1e-4), height=h, color="#4c72b0",
-                 label="model runs")
-    ax_time.barh(ypos - h / 2, np.maximum(fit_s, 1e-4), height=h, color="#dd8452",
-                 label="fitting / statistics")
-    for y, a, b in zip(ypos, model_s, fit_s):
-        ax_time.text(max(a, 1e-4), y + h / 2, f" {a:.3g}", va="center", fontsize=8)
-        ax_time.text(max(b, 1e-4), y - h / 2, f" {b:.3g}", va="center", fontsize=8)
+    for seconds, shift, colour, what in ((model_s, h / 2, "#4c72b0", "model runs"),
+                                         (fit_s, -h / 2, "#dd8452", "fitting / statistics")):
+        ax_time.barh(ypos + shift, np.maximum(seconds, 1e-4), height=h, color=colour, label=what)
+        for y, v in zip(ypos, seconds):
+            ax_time.text(max(v, 1e-4), y + shift, f" {v:.3g}", va="center", fontsize=8)
     top = max(float(np.max(model_s)), float(np.max(fit_s)), 1e-3)
     ax_time.set(xscale="log", xlabel="wall time [s]", title="Wall time", yticks=ypos,
                 yticklabels=[r.label for r in result.runs], xlim=(1e-4, top * 20))
@@ -514,10 +502,6 @@ def _safe(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
 
 
-def _save(fig: Figure, path: Path, dpi: int) -> None:
-    save(fig, path, dpi=dpi)
-
-
 def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[FigureFile]:
     """Write every figure of ``result`` as PNG into ``out_dir``.
 
@@ -531,30 +515,27 @@ def write_figures(result: Result, out_dir: str | Path, dpi: int = DPI) -> list[F
     atomic.make_folder(out)
     stem = _safe(result.name)
     files = []
+    # per series component: (file suffix, kind, whether the result has it, the figure)
+    per_step = (("", "series", lambda name: True, series_figure),
+                ("_envelope", "envelope", partial(has_quantiles, result), envelope_figure),
+                ("_budget", "budget", partial(has_budget, result), budget_figure))
     for o in result.outputs:
         if not _of(result, o.name):
             continue
         if o.kind == "series" and result.time.size:
             for c, comp in enumerate(o.components):
-                path = out / f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}.png"
-                _save(series_figure(result, o.name, c), path, dpi)
-                files.append(FigureFile(path, "series", o.name, comp))
-                if has_quantiles(result, o.name):
-                    path = out / (f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
-                                  f"_envelope.png")
-                    _save(envelope_figure(result, o.name, c), path, dpi)
-                    files.append(FigureFile(path, "envelope", o.name, comp))
-                if has_budget(result, o.name):
-                    path = out / (f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
-                                  f"_budget.png")
-                    _save(budget_figure(result, o.name, c), path, dpi)
-                    files.append(FigureFile(path, "budget", o.name, comp))
+                base = f"{stem}_{_safe(o.name)}{'_' + _safe(comp) if comp else ''}"
+                for suffix, kind, shown, figure in per_step:
+                    if shown(o.name):
+                        path = out / f"{base}{suffix}.png"
+                        save(figure(result, o.name, c), path, dpi=dpi)
+                        files.append(FigureFile(path, kind, o.name, comp))
         elif o.kind == "scalar":
             path = out / f"{stem}_{_safe(o.name)}_hist.png"
-            _save(scalar_figure(result, o.name), path, dpi)
+            save(scalar_figure(result, o.name), path, dpi=dpi)
             files.append(FigureFile(path, "scalar", o.name))
     path = out / f"{stem}_cost.png"
-    _save(cost_figure(result), path, dpi)
+    save(cost_figure(result), path, dpi=dpi)
     files.append(FigureFile(path, "cost"))
     log.info("wrote %d figures into %s", len(files), out)
     return files

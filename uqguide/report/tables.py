@@ -54,15 +54,11 @@ def cost_table(result: Result) -> pd.DataFrame:
             errs = [v for k, v in d.items() if k.startswith("validation_error.")]
             extra["val_error"] = max(errs) if errs else float("nan")
         extra.update(multifidelity_columns(d))
-        no_surrogate = no_surrogate_outputs(d)
-        if no_surrogate:
-            extra["no usable surrogate"] = "; ".join(no_surrogate)
-        disagree = disagreeing_outputs(d)
-        if disagree:
-            extra["validation disagrees"] = "; ".join(disagree)
-        withheld = withheld_outputs(d)
-        if withheld:
-            extra["withheld (+mc given)"] = "; ".join(withheld)
+        for column, listed in (("no usable surrogate", no_surrogate_outputs(d)),
+                               ("validation disagrees", disagreeing_outputs(d)),
+                               ("withheld (+mc given)", withheld_outputs(d))):
+            if listed:
+                extra[column] = "; ".join(listed)
         for name in rare:
             ev = r.estimate.events.get(name)
             extra[f"P({name})"] = ev.probability if ev else float("nan")
@@ -202,11 +198,17 @@ def validation_text(df: pd.DataFrame) -> pd.DataFrame:
                               zip(df["corrected"], df["ci_low"], df["ci_high"])]
     out["val_error"] = df["val_error"].map(_fmt)
     out["runs (fit+validation)"] = df["runs"]
-    if out["time"].isna().all():
-        out = out.drop(columns="time")
-    if (out["component"] == "").all():
-        out = out.drop(columns="component")
-    return out
+    return _without_constant_columns(out)
+
+
+def _without_constant_columns(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` without its ``time`` column where every time is NaN (scalars) and without its
+    ``component`` column where no point names one."""
+    if df["time"].isna().all():
+        df = df.drop(columns="time")
+    if (df["component"] == "").all():
+        df = df.drop(columns="component")
+    return df
 
 
 def agrees(v: float, lo: float, hi: float, rv: float, rlo: float, rhi: float) -> bool | None:
@@ -256,7 +258,8 @@ def statistics_table(result: Result) -> pd.DataFrame:
     output's ``unit``, ``usable`` (moments); against the reference also ``ref_value``,
     ``abs_diff``, ``rel_diff`` and ``agrees`` (see :func:`agrees`); where an output's moments
     overflowed double precision, ``overflow`` (``"value"``: the moment, ``"interval"``: its
-    interval; :func:`uqguide.stats.moments.overflowed`).
+    interval; :func:`uqguide.stats.moments.overflowed`). ``attrs["reference"]``: the
+    reference's label (None without one).
     """
     described = result_statistics(result)
     # result.run: a ResultError naming the labels when the reference is none of them
@@ -279,6 +282,7 @@ def statistics_table(result: Result) -> pd.DataFrame:
                         row[0]["overflow"] = _overflow_kind(st, p.where, over)
                     rows += row
     table = pd.DataFrame(rows)
+    table.attrs["reference"] = result.reference
     # the PCEs that withhold their moments because runs failed (the text says why)
     table.attrs["runs_failed"] = sorted(
         r.label for r in result.runs
@@ -430,56 +434,51 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
     for key, g in stats.groupby(keys, sort=False, dropna=False):
         row = dict(zip(keys, key))
         for _, s in g.iterrows():
-            u = s.get("usable")
-            if isinstance(u, (bool, np.bool_)) and not u:
-                row[s["stat"]] = "no usable surrogate"
-                continue
-            if s.get("withheld") is True:
-                row[s["stat"]] = ("withheld: runs failed"
-                                  if s["label"] in stats.attrs.get("runs_failed", ())
-                                  else "withheld: its runs disagree (see +mc)")
-                continue
-            if s.get("overflow") == "value":
-                row[s["stat"]] = "overflow"
-                continue
-            need = s.get("needs_runs")
-            if need is not None and need == need:  # pandas fills a missing one with NaN
-                row[s["stat"]] = f"needs {int(need)} runs"
-                continue
-            if s.get("overflow") == "interval":
-                row[s["stat"]] = f"{_fmt(s['value'])} [no interval: overflow]"
-                continue
-            if str(s["label"]).endswith(SOURCES["cv"]) and np.isnan(s["value"]) \
-                    and np.isnan(s["ci_low"]):
-                row[s["stat"]] = NOT_REPORTED
-                continue
-            cell = _fmt(s["value"])
-            if np.isinf(s["ci_high"]) and np.isfinite(s["ci_low"]):
-                # a stated floor (uqguide.stats.tail_intervals): no upper bound from the runs
-                cell += f" [>= {_fmt(s['ci_low'])}; the runs cannot bound it above]"
-            elif np.isinf(s["ci_low"]) and np.isfinite(s["ci_high"]):
-                cell += f" [<= {_fmt(s['ci_high'])}; the runs cannot bound it below]"
-            elif not np.isnan(s["ci_low"]):
-                cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
-            if with_ref and s["label"] != stats.attrs.get("reference"):
-                rd, ad = s.get("rel_diff"), s.get("abs_diff")
-                inside = s.get("agrees")
-                # pandas stores a missing verdict (no reference interval) as None or NaN
-                flag = "?" if inside is None or inside != inside else ("in" if inside else "OUT")
-                if rd is not None and np.isfinite(rd):
-                    cell += f" ({100 * rd:+.1f}%, {flag})"
-                elif ad is not None and np.isfinite(ad):
-                    cell += f" ({ad:+.2g}, {flag})"
-            row[s["stat"]] = cell
+            row[s["stat"]] = _cell_text(s, stats.attrs, with_ref)
         rows.append(row)
-    df = pd.DataFrame(rows)
-    if df["time"].isna().all():
-        df = df.drop(columns="time")
-    else:
+    df = _without_constant_columns(pd.DataFrame(rows))
+    if "time" in df:
         df["time"] = df["time"].map(lambda t: f"{t:g}")
-    if (df["component"] == "").all():
-        df = df.drop(columns="component")
     return df
+
+
+def _cell_text(s: pd.Series, attrs: dict, with_ref: bool) -> str:
+    """One statistic's cell of :func:`wide_table`: its value and interval (and difference from
+    the reference ``attrs["reference"]``), or why it has none."""
+    u = s.get("usable")
+    if isinstance(u, (bool, np.bool_)) and not u:
+        return "no usable surrogate"
+    if s.get("withheld") is True:
+        return ("withheld: runs failed" if s["label"] in attrs.get("runs_failed", ())
+                else "withheld: its runs disagree (see +mc)")
+    if s.get("overflow") == "value":
+        return "overflow"
+    need = s.get("needs_runs")
+    if need is not None and need == need:  # pandas fills a missing one with NaN
+        return f"needs {int(need)} runs"
+    if s.get("overflow") == "interval":
+        return f"{_fmt(s['value'])} [no interval: overflow]"
+    if str(s["label"]).endswith(SOURCES["cv"]) and np.isnan(s["value"]) \
+            and np.isnan(s["ci_low"]):
+        return NOT_REPORTED
+    cell = _fmt(s["value"])
+    if np.isinf(s["ci_high"]) and np.isfinite(s["ci_low"]):
+        # a stated floor (uqguide.stats.tail_intervals): no upper bound from the runs
+        cell += f" [>= {_fmt(s['ci_low'])}; the runs cannot bound it above]"
+    elif np.isinf(s["ci_low"]) and np.isfinite(s["ci_high"]):
+        cell += f" [<= {_fmt(s['ci_high'])}; the runs cannot bound it below]"
+    elif not np.isnan(s["ci_low"]):
+        cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
+    if with_ref and s["label"] != attrs.get("reference"):
+        rd, ad = s.get("rel_diff"), s.get("abs_diff")
+        inside = s.get("agrees")
+        # pandas stores a missing verdict (no reference interval) as None or NaN
+        flag = "?" if inside is None or inside != inside else ("in" if inside else "OUT")
+        if rd is not None and np.isfinite(rd):
+            cell += f" ({100 * rd:+.1f}%, {flag})"
+        elif ad is not None and np.isfinite(ad):
+            cell += f" ({ad:+.2g}, {flag})"
+    return cell
 
 
 def render_text(result: Result) -> str:
@@ -495,7 +494,6 @@ def render_text(result: Result) -> str:
                   "method; val_error: out-of-sample error / variance)",
                   validation_text(val).to_string(index=False)]
     stats = statistics_table(result)
-    stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
     for o in result.outputs:
         sub = stats[stats["output"] == o.name] if not stats.empty else stats
@@ -551,16 +549,19 @@ def interval_legend(with_reference: bool, needs_runs: bool = False) -> str:
             "Poisson bootstrap); sobol_saltelli: the same, of its 2N base rows; mfmc: the "
             "highest fidelity's statistics, the mean's interval from the estimator's "
             "variance, the others' by bootstrap over its independent groups; "
-            "quantiles by order statistics; PCE values carry none (their error is "
-            "the surrogate's, see loo_error); "
+            "quantiles by order statistics; a PCE's own values: the hull of the value and its "
+            "+cv interval, else of its runs' interval where the value lies near their "
+            "estimate; without validation runs, and for a quadrature PCE, none (their error "
+            "is the surrogate's, see loo_error); "
             "label+cv: a validated PCE's control-variate estimate, delta-method interval from "
             "its (stratified) validation runs (not shown where the runs' own estimate "
             "refutes it or is more precise); its value is the PCE's own where that lies "
             "within sqrt(2) standard errors of the corrected one (the smaller estimated "
             "mean squared error, cv_point in the diagnostics); 'no usable surrogate': LOO "
             "or validation error above the method's usable_error; 'withheld': a PCE "
-            "skewness or kurtosis outside the interval of its validation or Monte Carlo run "
-            "estimate; label+mc: where a PCE "
+            "skewness or kurtosis its validation or Monte Carlo runs refute (beyond their "
+            "delta-method half-widths and outside their tail-aware interval), or a value "
+            "nothing bounds; label+mc: where a PCE "
             "moment is withheld, the Monte Carlo estimate of the method's own fit and "
             "validation runs (no extra runs), delta-method interval treating them as "
             "independent draws; 'overflow': the sums of the output's powers overflow double "
@@ -590,7 +591,6 @@ def render_markdown(result: Result) -> str:
     """The Markdown summary (``<name>_summary.md``): cost, statistics, events and series
     agreement tables."""
     stats = statistics_table(result)
-    stats.attrs["reference"] = result.reference
     with_ref = result.reference is not None and len(result.runs) > 1
     parts = [f"# {result.name}: model `{result.model}`", "", "## Cost", "",
              to_markdown(cost_table(result))]

@@ -109,9 +109,8 @@ def _central(raw: np.ndarray, shift: np.ndarray) -> tuple[np.ndarray, ...]:
     mean = shift + m1
     with np.errstate(invalid="ignore"):
         std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
-    std = np.where(mu2 < 0, np.nan, std)
-    with np.errstate(invalid="ignore"):
         impossible = kurt < 1.0 + skew**2
+    std = np.where(mu2 < 0, np.nan, std)
     skew = np.where(impossible, np.nan, skew)
     kurt = np.where(impossible, np.nan, kurt)
     return mean, std, skew, kurt

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from math import comb
 from statistics import NormalDist
 from typing import ParamSpec, TypeVar
@@ -201,15 +201,14 @@ def delta_standard_errors(
     return out
 
 
-def delta_intervals(
-    mean: np.ndarray, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
-    mu: tuple[np.ndarray, ...], n: float, level: float = 0.95,
-) -> dict[str, np.ndarray]:
-    """Normal-theory intervals ``estimate +- z_(1+level)/2 SE`` ``(2, ...)`` with delta-method
-    SEs from central moments ``(mu_2, ..., mu_8)`` (:func:`delta_standard_errors`)."""
+def delta_intervals(mean: np.ndarray, mu: tuple[np.ndarray, ...], n: float, level: float = 0.95
+                    ) -> dict[str, np.ndarray]:
+    """Normal-theory intervals ``estimate +- z_(1+level)/2 SE`` ``(2, ...)`` of the statistics of
+    ``mean`` and the central moments ``(mu_2, ..., mu_8)``, with delta-method SEs
+    (:func:`delta_standard_errors`)."""
     z = NormalDist().inv_cdf(0.5 + level / 2)
     se = delta_standard_errors(mu, n)
-    est = {"mean": mean, "std": std, "skewness": skew, "kurtosis": kurt}
+    est = dict(zip(STAT_NAMES, (mean, *shape_moments(mean, mu[0], mu[1], mu[2]))))
     return {k: np.stack([est[k] - z * se[k], est[k] + z * se[k]]) for k in STAT_NAMES}
 
 
@@ -237,18 +236,15 @@ def sample_statistics(
         d = y - mean
         top = HIGH_ORDER if intervals == "tail" else 8
         mus = [mu2, mu3, mu4] + [np.mean(d**k, axis=0) for k in range(5, top + 1)]
-        ci = delta_intervals(mean, std, skew, kurt, tuple(mus), n, level) \
-            if intervals == "delta" else tail_intervals(mean, tuple(mus), n, level)[0]
+        ci = delta_intervals(mean, tuple(mus), n, level) if intervals == "delta" \
+            else tail_intervals(mean, tuple(mus), n, level)[0]
     elif bootstrap > 0 and n > 1:
         if ci_index is None or y.ndim != 3:
             ci = bootstrap_intervals(y, bootstrap, seed, level)
         else:
             idx = np.unique(np.asarray(ci_index, dtype=int))
             part = bootstrap_intervals(y[:, idx], bootstrap, seed, level)
-            for k, v in part.items():
-                full = np.full((2,) + y.shape[1:], np.nan)
-                full[:, idx] = v
-                ci[k] = full
+            ci = {k: _placed(v, y.shape[1:], idx) for k, v in part.items()}
     std, skew, kurt = founded(n, std, skew, kurt, ci)
     return OutputStats(
         mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=covariance(y), n_used=n,
@@ -391,13 +387,9 @@ class MomentSums:
     def arrays(self) -> dict[str, np.ndarray]:
         """The fields as named arrays for storage (``cm`` where present); inverse of
         :meth:`from_arrays`."""
-        d = {"n": np.asarray(self.n, dtype=float), "mean": self.mean, "m2": self.m2,
-             "m3": self.m3, "m4": self.m4}
-        if self.cm is not None:
-            d["cm"] = self.cm
-        if self.high is not None:
-            d["high"] = self.high
-        return d
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        return {**{k: v for k, v in d.items() if v is not None},
+                "n": np.asarray(self.n, dtype=float)}
 
     @classmethod
     def from_arrays(cls, d: dict[str, np.ndarray]) -> MomentSums:
@@ -464,30 +456,25 @@ def statistics_from_sums(
     mean, mu2, mu3, mu4 = sums.central_moments()
     std, skew, kurt = shape_moments(mean, mu2, mu3, mu4)
     cov = sums.cm / n if sums.cm is not None else np.full(shape + shape[-1:], np.nan)
-    ci: dict[str, np.ndarray] = {}
-    if (boot is None or boot.high is not None) and delta is not None and \
-            delta.high is not None and n > 1:
+    found: dict[str, np.ndarray] = {}
+    if delta is None or delta.high is None or n < 2:
+        delta = None  # no delta-method interval: sums without orders 5-8, or a single run
+    if delta is not None and boot is not None and boot.high is not None:
+        found = studentized_intervals(delta, boot, level)
+    elif delta is not None and boot is None:
         inv = 1.0 / float(delta.n)
         mus = tuple(m * inv for m in delta.central_sums())
-        dstd, dskew, dkurt = shape_moments(delta.mean, mus[0], mus[1], mus[2])
-        if boot is None and tail and len(mus) >= HIGH_ORDER - 1:
+        if tail and len(mus) >= HIGH_ORDER - 1:
             found = tail_intervals(delta.mean, mus, n, level)[0]
         else:
-            found = delta_intervals(delta.mean, dstd, dskew, dkurt, mus, n, level)
-        for name, q in found.items():
-            ci[name] = _placed(q, shape, ci_index)
-    if boot is not None and boot.high is not None and delta is not None and \
-            delta.high is not None and n > 1:
-        for name, q in studentized_intervals(delta, boot, level).items():
-            ci[name] = _placed(q, shape, ci_index)
-        boot = None
-    if boot is not None and n > 1:
+            found = delta_intervals(delta.mean, mus, n, level)
+    elif boot is not None and n > 1:
         bm, b2, b3, b4 = boot.central_moments()
         bstd, bskew, bkurt = shape_moments(bm, b2, b3, b4)
         alpha = (1.0 - level) / 2
         draws = {"mean": bm, "std": bstd, "skewness": bskew, "kurtosis": bkurt}
-        for name, v in draws.items():
-            ci[name] = _placed(_nan_safe_percentile(v, alpha), shape, ci_index)
+        found = {name: _nan_safe_percentile(v, alpha) for name, v in draws.items()}
+    ci = {name: _placed(q, shape, ci_index) for name, q in found.items()}
     if uncertain:
         std, skew, kurt = founded(n, std, skew, kurt, ci)
     return OutputStats(mean=mean, std=std, skewness=skew, kurtosis=kurt, cov=cov, n_used=n,

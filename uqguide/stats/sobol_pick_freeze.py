@@ -8,7 +8,7 @@ comparison with SALib and OpenTURNS: docs/error-budget.md#totals-a-pick-freeze-d
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -33,8 +33,6 @@ class PickFreezeSums:
     x: np.ndarray
     j: np.ndarray
     q: np.ndarray
-
-    FIELDS = ("shift", "w", "p1", "p2", "d", "x", "j", "q")
 
     @classmethod
     def of(cls, f_a: np.ndarray, f_b: np.ndarray, f_ab: np.ndarray,
@@ -72,11 +70,11 @@ class PickFreezeSums:
                               self.d + o.d, self.x + o.x, self.j + o.j, self.q + o.q)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        return {f: getattr(self, f) for f in self.FIELDS}
+        return {f.name: getattr(self, f.name) for f in fields(self)}
 
     @classmethod
     def from_arrays(cls, a: dict[str, np.ndarray]) -> PickFreezeSums:
-        return cls(*(np.asarray(a[f]) for f in cls.FIELDS))
+        return cls(*(np.asarray(a[f.name]) for f in fields(cls)))
 
     def indices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """First-order and total indices ``(R + 1, L, m)`` of the sample and every resample (NaN

@@ -13,6 +13,7 @@ accumulated at every step: docs/simulators.md#ft-as-what-the-kernel-accumulates.
 from __future__ import annotations
 
 import math
+from dataclasses import fields
 
 import numpy as np
 from numba import prange
@@ -428,12 +429,6 @@ def _observed_disturbance(ck, x, tr, u, m_off, inertia_err, a_f, a_tau, c, J0, J
         out[i] += dm[i]
 
 
-def _c(values: object, dtype: type) -> np.ndarray:
-    # contiguous, so that every study runs one compiled specialisation
-    # (docs/simulators.md#ft-as-what-the-kernel-accumulates)
-    return np.ascontiguousarray(values, dtype=dtype)
-
-
 def simulate_numba(batch: Batch, plant: Plant, gains: Gains, dt: float, n_steps: int,
                    rec_every: int, final_start: int, late_start: int, tols: np.ndarray,
                    rec: np.ndarray, offsets: np.ndarray, settle: np.ndarray,
@@ -444,17 +439,14 @@ def simulate_numba(batch: Batch, plant: Plant, gains: Gains, dt: float, n_steps:
     import numba
 
     P, Q = plant.reference.basis()
+    # the batch's arrays in field order, contiguous, so that every study runs one compiled
+    # specialisation (docs/simulators.md#ft-as-what-the-kernel-accumulates)
+    kinds = {"controller": np.int64, "observer_on_applied": np.bool_, "switch_input": np.bool_}
+    per_sample: list[np.ndarray] = [
+        np.ascontiguousarray(getattr(batch, f.name), dtype=kinds.get(f.name, float))
+        for f in fields(Batch)]
     simulate(
-        np.ascontiguousarray(batch.x0, dtype=float),
-        _c(batch.mass_offset, float),
-        _c(batch.inertia_scale_error, float),
-        _c(batch.force_amp, float),
-        _c(batch.torque_amp, float),
-        _c(batch.controller, np.int64),
-        _c(batch.observer_on_applied, np.bool_),
-        _c(batch.psi2_bound, float),
-        _c(batch.omega_chi, float),
-        _c(batch.switch_input, np.bool_),
+        *per_sample,
         pack_constants(plant, gains),
         np.ascontiguousarray(plant.J0, dtype=float),
         np.ascontiguousarray(plant.J0_inv),
@@ -561,25 +553,24 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
             ci = ctrl[i]
             case2 = ci == CASE2
             sw_in = switch_input[i]
-            # --- controller at t (zero-order hold over the step)
+            # --- controller at t (zero-order hold over the step); z: the true errors (e1, e2)
             tr = _terms(ck0, X, nt, J0, J0i)
             e2_3, e2_4, e2_5 = tr[6], tr[7], tr[8]
-            if case2:
+            for q in range(3):
+                z[q], z[3 + q] = X[q], X[6 + q]
+                z[6 + q], z[9 + q] = X[3 + q], tr[6 + q]
+            for q in range(6):
+                hd[q] = tr[q]
+                hd[6 + q] = X[18 + q]
+            if case2:  # s on the true errors (metric of claim C6); the law sees them minus chi
+                _sliding(z, c, wlaw)
+                for q in range(6):
+                    s_true[q] = wlaw[0, q]
                 kc1, kc2 = omega_chi[i] ** 2, 2.0 * omega_chi[i]
                 for q in range(6):
-                    e1q = X[q] if q < 3 else X[3 + q]
-                    e2q = X[3 + q] if q < 3 else tr[3 + q]
-                    z[q] = e1q - X[24 + q]
-                    z[6 + q] = e2q - X[30 + q]
-                    hd[q] = tr[q] + kc1 * X[24 + q] + kc2 * X[30 + q]
-                    hd[6 + q] = X[18 + q]
-            else:
-                for q in range(3):
-                    z[q], z[3 + q] = X[q], X[6 + q]
-                    z[6 + q], z[9 + q] = X[3 + q], tr[6 + q]
-                for q in range(6):
-                    hd[q] = tr[q]
-                    hd[6 + q] = X[18 + q]
+                    z[q] = z[q] - X[24 + q]
+                    z[6 + q] = z[6 + q] - X[30 + q]
+                    hd[q] = hd[q] + kc1 * X[24 + q] + kc2 * X[30 + q]
             _law(z, hd, tr, J0, m0, sw_in, c, law, wlaw)
             for q in range(6):
                 uc = law[q]
@@ -595,14 +586,7 @@ def _simulate_block(lo, hi, x0, mass_off, inertia_err, force_amp, torque_amp, ct
                 UT[q, b] = ua
                 UT[6 + q, b] = uo
                 DU[q, b] = u[12 + q]
-            if case2:  # s on the true errors (metric of claim C6)
-                for q in range(3):
-                    z[q], z[3 + q] = X[q], X[6 + q]
-                    z[6 + q], z[9 + q] = X[3 + q], tr[6 + q]
-                _sliding(z, c, wlaw)
-                for q in range(6):
-                    s_true[q] = wlaw[0, q]
-            else:
+            if not case2:
                 for q in range(6):
                     s_true[q] = law[6 + q]
             # --- metrics at t

@@ -94,12 +94,11 @@ class FTAS(Model):
                 "common factor on all Table 1 initial errors (r_e, v_e, sigma_e, omega_e)", 1.0,
             ),
         ]  # fmt: skip
-        ins += [InputInfo(f"dr0_{a}", "m", f"offset of r_e(0), ECI {a}", 0.0) for a in XYZ]
-        ins += [InputInfo(f"dv0_{a}", "m/s", f"offset of v_e(0), ECI {a}", 0.0) for a in XYZ]
-        ins += [InputInfo(f"dsigma0_{a}", "1", f"offset of sigma_e(0), {a}", 0.0) for a in MRP3]
-        ins += [
-            InputInfo(f"domega0_{a}", "rad/s", f"offset of omega_e(0), body {a}", 0.0) for a in XYZ
-        ]
+        for prefix, unit, of, axes in (("dr0", "m", "r_e(0), ECI", XYZ),
+                                       ("dv0", "m/s", "v_e(0), ECI", XYZ),
+                                       ("dsigma0", "1", "sigma_e(0),", MRP3),
+                                       ("domega0", "rad/s", "omega_e(0), body", XYZ)):
+            ins += [InputInfo(f"{prefix}_{a}", unit, f"offset of {of} {a}", 0.0) for a in axes]
         ins += [
             InputInfo("mass_offset", "kg", "constant true-mass error beyond Delta m(t)", 0.0),
             InputInfo(
@@ -135,32 +134,19 @@ class FTAS(Model):
                 "angular_impulse", "scalar", "N m s", "integral sum_k |tau_k| dt", ("",), True
             ),
         ]
-        settle_desc = {
-            "r_e": ("m", True), "v_e": ("m/s", False), "sigma_e": ("1", True),
-            "omega_e": ("rad/s", False), "eps1": ("mixed", True),
-        }  # fmt: skip
-        for q, (unit, default) in settle_desc.items():
-            outs.append(
-                OutputInfo(
-                    f"settle_{q}", "scalar", "s",
-                    f"last time |{q}| > tol (components: tol in {unit}); = duration if not settled",
-                    _settle_components(q), default,
-                )
-            )  # fmt: skip
-        outs.append(
-            OutputInfo(
-                "settle_s", "scalar", "s", "last time |s_1..3|, |s_4..6| > 1e-3 (claim C6)",
-                ("translation", "rotation"), False,
-            )
-        )  # fmt: skip
-        for q, unit, comps, default in (
-            ("r_e", "m", XYZ, True), ("v_e", "m/s", XYZ, False),
-            ("sigma_e", "1", MRP3, True), ("omega_e", "rad/s", XYZ, False),
-        ):  # fmt: skip
-            outs.append(
-                OutputInfo(f"final_{q}", "scalar", unit, f"max |{q},k| over the final window",
-                           comps, default)
-            )  # fmt: skip
+        # the tracking errors: their settling times and their largest values at the end
+        errors = (("r_e", "m", XYZ, True), ("v_e", "m/s", XYZ, False),
+                  ("sigma_e", "1", MRP3, True), ("omega_e", "rad/s", XYZ, False))
+        for q, unit, _, default in errors + (("eps1", "mixed", SIX, True),):
+            outs.append(OutputInfo(
+                f"settle_{q}", "scalar", "s",
+                f"last time |{q}| > tol (components: tol in {unit}); = duration if not settled",
+                _settle_components(q), default))
+        outs.append(OutputInfo("settle_s", "scalar", "s",
+                               "last time |s_1..3|, |s_4..6| > 1e-3 (claim C6)",
+                               ("translation", "rotation"), False))
+        outs += [OutputInfo(f"final_{q}", "scalar", unit, f"max |{q},k| over the final window",
+                            comps, default) for q, unit, comps, default in errors]
         for kind, unit, sl in (("force", "N", "applied"), ("torque", "N m", "applied")):
             outs += [
                 OutputInfo(f"peak_{kind}", "scalar", unit, f"max |{kind}_k| {sl}", XYZ, True),
@@ -243,7 +229,6 @@ class FTAS(Model):
 
     def _to_output(self, res: RunResult, outputs: frozenset[str]) -> ModelOutput:
         series: dict[str, np.ndarray] = {}
-        scalars: dict[str, np.ndarray] = {}
         m0 = self.params.mass
         for name in outputs:
             if name in _SERIES:
@@ -264,20 +249,14 @@ class FTAS(Model):
             "delta_v": res.impulse[:, :3].sum(axis=1, keepdims=True) / m0,
             "angular_impulse": res.impulse[:, 3:].sum(axis=1, keepdims=True),
             "settle_s": np.column_stack([res.settle["s_trans"], res.settle["s_rot"]]),
-            "peak_force": res.peak_applied[:, :3],
-            "peak_torque": res.peak_applied[:, 3:],
-            "peak_force_command": res.peak_command[:, :3],
-            "peak_torque_command": res.peak_command[:, 3:],
-            "peak_force_late": res.peak_late[:, :3],
-            "peak_torque_late": res.peak_late[:, 3:],
         }
-        for q in ("r_e", "v_e", "sigma_e", "omega_e", "eps1"):
-            scalar_values[f"settle_{q}"] = res.settle[q]
-        for q in ("r_e", "v_e", "sigma_e", "omega_e"):
-            scalar_values[f"final_{q}"] = res.final_max[q]
-        for name in outputs:
-            if name in scalar_values:
-                scalars[name] = scalar_values[name]
+        for kind, sl in (("force", slice(0, 3)), ("torque", slice(3, 6))):
+            scalar_values[f"peak_{kind}"] = res.peak_applied[:, sl]
+            scalar_values[f"peak_{kind}_command"] = res.peak_command[:, sl]
+            scalar_values[f"peak_{kind}_late"] = res.peak_late[:, sl]
+        scalar_values |= {f"settle_{q}": v for q, v in res.settle.items()}
+        scalar_values |= {f"final_{q}": v for q, v in res.final_max.items()}
+        scalars = {name: scalar_values[name] for name in outputs if name in scalar_values}
         return ModelOutput(
             time=res.time,
             series=series,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import fields
 from typing import Literal
 
 import numpy as np
@@ -124,9 +125,4 @@ class FTASParams(ModelParams):
         )  # fmt: skip
 
     def timing(self, **override: float) -> Timing:
-        kw = dict(
-            step=self.step, duration=self.duration, output_interval=self.output_interval,
-            final_window=self.final_window, late_time=self.late_time,
-        )  # fmt: skip
-        kw.update(override)
-        return Timing(**kw)
+        return Timing(**{f.name: getattr(self, f.name) for f in fields(Timing)} | override)

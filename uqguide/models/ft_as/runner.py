@@ -10,7 +10,8 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -94,20 +95,11 @@ class RunResult:
 
     def take(self, index: slice | np.ndarray) -> RunResult:
         """The runs selected by ``index`` (a slice or an index array over the batch)."""
-        return RunResult(
-            time=self.time,
-            records={k: v[index] for k, v in self.records.items()},
-            settle={k: v[index] for k, v in self.settle.items()},
-            final_max={k: v[index] for k, v in self.final_max.items()},
-            peak_applied=self.peak_applied[index],
-            peak_command=self.peak_command[index],
-            peak_late=self.peak_late[index],
-            impulse=self.impulse[index],
-            failed=self.failed[index],
-            timing=self.timing,
-            wall_time=self.wall_time,
-            extra=self.extra,
-        )
+        per_run = ("peak_applied", "peak_command", "peak_late", "impulse", "failed")
+        picked: dict[str, Any] = {f: getattr(self, f)[index] for f in per_run}
+        for f in ("records", "settle", "final_max"):
+            picked[f] = {k: v[index] for k, v in getattr(self, f).items()}
+        return replace(self, **picked)
 
     def settled(self, quantity: str) -> np.ndarray:
         """(n, n_tol) True where the norm ended below the tolerance before the horizon."""

@@ -159,20 +159,22 @@ class FTCAPN(Model):
         return (comps[:, 0, None] * F[:, 0] + comps[:, 1, None] * F[:, 1]) \
             + comps[:, 2, None] * F[:, 2]
 
+    def _miss(self, r: np.ndarray, v: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Closest approach [m] and its time [s] of the drift after the stop from ``r, v`` with
+        the target acceleration ``at`` (each (n, 3)), with the CW terms under ``gravity: hill``."""
+        if self.params.gravity == "hill":
+            return miss_hill(r, v, at, self.mean_motion)
+        return miss_parabola(r, v, at)
+
     def derived_outputs(self) -> dict[str, DerivedOutput]:
         """``zem`` and ``zem_eq15`` from the stop state ``r_at_stop, v_at_stop`` (and the target
         maneuver inputs): both are non-smooth functions (a norm, an absolute value) of a smooth
         state, so a surrogate method fits the state and applies these maps to its draws."""
-        gravity, n_mean = self.params.gravity, self.mean_motion
-
         def zem(carriers: Mapping[str, np.ndarray], inputs: Mapping[str, np.ndarray]):
             r, v = carriers["r_at_stop"], carriers["v_at_stop"]
             comps = np.stack([np.broadcast_to(inputs.get(k, 0.0), (r.shape[0],))
                               for k in ("at_theta", "at_r", "at_w")], axis=1)
-            at = self.drift_maneuver(comps, r, v)
-            miss = miss_hill(r, v, at, n_mean)[0] if gravity == "hill" \
-                else miss_parabola(r, v, at)[0]
-            return miss[:, None]
+            return self._miss(r, v, self.drift_maneuver(comps, r, v))[0][:, None]
 
         def zem_eq15(carriers: Mapping[str, np.ndarray], inputs: Mapping[str, np.ndarray]):
             r, v = carriers["r_at_stop"], carriers["v_at_stop"]
@@ -281,24 +283,17 @@ class FTCAPN(Model):
                 "speed_stop": np.linalg.norm(v, axis=1), "omega_s_stop": omega,
                 "dv_total": sc[:, L.K_DV], "zem_eq15": omega * R * R / np.abs(Rdot),
                 "t_surface": sc[:, L.K_TSURF], "t_los_settle": sc[:, L.K_TSETTLE],
-                "ac_max": sc[:, L.K_ACMAX],
+                "ac_max": sc[:, L.K_ACMAX], "r_at_stop": r, "v_at_stop": v,
             }
-        out = {k: v_[:, None].copy() for k, v_ in direct.items() if k in outputs}
-        if "r_at_stop" in outputs:
-            out["r_at_stop"] = r.copy()
-        if "v_at_stop" in outputs:
-            out["v_at_stop"] = v.copy()
+        out = {k: (v_ if v_.ndim == 2 else v_[:, None]).copy() for k, v_ in direct.items()
+               if k in outputs}
         if {"zem", "t_zem"} & outputs:
             ok = np.isfinite(r).all(axis=1) & np.isfinite(v).all(axis=1)
             miss = np.full(r.shape[0], np.nan)
             t_miss = np.full(r.shape[0], np.nan)
             if ok.any():
                 at = self.drift_maneuver(comps[ok], r[ok], v[ok])
-                if self.params.gravity == "hill":
-                    m, t = miss_hill(r[ok], v[ok], at, self.mean_motion)
-                else:
-                    m, t = miss_parabola(r[ok], v[ok], at)
-                miss[ok], t_miss[ok] = m, t
+                miss[ok], t_miss[ok] = self._miss(r[ok], v[ok], at)
             if "zem" in outputs:
                 out["zem"] = miss[:, None]
             if "t_zem" in outputs:

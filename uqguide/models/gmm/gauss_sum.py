@@ -15,6 +15,14 @@ from numpy.typing import ArrayLike
 from ..kernels import njit
 
 
+def float_fields(obj: object, *names: str) -> tuple[np.ndarray, ...]:
+    """Store the named fields of the frozen dataclass ``obj`` as float arrays; returns them."""
+    arrays = tuple(np.asarray(getattr(obj, name), dtype=float) for name in names)
+    for name, array in zip(names, arrays):
+        object.__setattr__(obj, name, array)
+    return arrays
+
+
 @dataclass(frozen=True)
 class GaussSumDerivatives:
     """Value (n,), gradient (n, 3), Hessian (n, 3, 3) of a Gaussian sum at a batch of points,
@@ -39,15 +47,12 @@ class GaussSum:
     L: np.ndarray
 
     def __post_init__(self) -> None:
-        c, mu, L = (np.asarray(a, dtype=float) for a in (self.c, self.mu, self.L))
+        c, mu, L = float_fields(self, "c", "mu", "L")
         if mu.shape[-1] != 3 or L.shape[-2:] != (3, 3) or c.shape[-1] != mu.shape[-2]:
             raise ValueError(
                 f"a Gaussian sum needs c (..., K), mu (..., K, 3), L (..., K, 3, 3); "
                 f"got {c.shape}, {mu.shape}, {L.shape}"
             )
-        object.__setattr__(self, "c", c)
-        object.__setattr__(self, "mu", mu)
-        object.__setattr__(self, "L", L)
 
     @property
     def n_kernels(self) -> int:

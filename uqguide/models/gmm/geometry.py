@@ -162,26 +162,3 @@ def wang2022_chief(
         deputy_radius=deputy_radius,
     )
 
-
-def chen2020_chief(
-    panel_half_thickness: float = 0.02,
-    antenna_half_width: float = 0.05,
-    body_tolerance: float = 0.01,
-    deputy_radius: float = 0.0,
-) -> ChiefGeometry:
-    """The chief of [C] (section 4.1; placement from its Table 2 GMM, A7).
-
-    Cube of side 2 m (8 m^3); panels 6 m x 2 m in the plane ``y = 0``, ``x`` in +-[1, 7],
-    ``z`` in [-1, 1]; antennas 2 m long on the ``y`` axis, ``y`` in +-[1, 3].
-    """
-    return ChiefGeometry(
-        parts=(
-            Part("body", "solid", (-1.0, -1.0, -1.0), (1.0, 1.0, 1.0)),
-            Part("panel+x", "plate", (1.0, 0.0, -1.0), (7.0, 0.0, 1.0), panel_half_thickness),
-            Part("panel-x", "plate", (-7.0, 0.0, -1.0), (-1.0, 0.0, 1.0), panel_half_thickness),
-            Part("antenna+y", "segment", (0.0, 1.0, 0.0), (0.0, 3.0, 0.0), antenna_half_width),
-            Part("antenna-y", "segment", (0.0, -3.0, 0.0), (0.0, -1.0, 0.0), antenna_half_width),
-        ),
-        body_tolerance=body_tolerance,
-        deputy_radius=deputy_radius,
-    )

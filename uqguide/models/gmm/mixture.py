@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-from .gauss_sum import GaussSum
+from .gauss_sum import GaussSum, float_fields
 
 log = logging.getLogger(__name__)
 
@@ -28,18 +29,13 @@ class Mixture:
     covariances: np.ndarray
 
     def __post_init__(self) -> None:
-        w = np.asarray(self.weights, dtype=float)
-        m = np.asarray(self.means, dtype=float)
-        S = np.asarray(self.covariances, dtype=float)
+        w, m, S = float_fields(self, "weights", "means", "covariances")
         K = w.shape[0]
         if w.shape != (K,) or m.shape != (K, 3) or S.shape != (K, 3, 3):
             raise ValueError(
                 f"a mixture needs weights (K,), means (K, 3), covariances (K, 3, 3); "
                 f"got {w.shape}, {m.shape}, {S.shape}"
             )
-        object.__setattr__(self, "weights", w)
-        object.__setattr__(self, "means", m)
-        object.__setattr__(self, "covariances", S)
 
     @property
     def n_components(self) -> int:
@@ -80,8 +76,15 @@ class Mixture:
         with np.load(path) as data:
             return cls(data["weights"], data["means"], data["covariances"])
 
+    @classmethod
+    def packaged(cls, filename: str) -> Mixture:
+        """A mixture shipped as package data in ``uqguide/data``."""
+        with resources.as_file(resources.files("uqguide") / "data" / filename) as path:
+            return cls.load(path)
 
-def _diag(rows: list[tuple[float, float, float]]) -> np.ndarray:
+
+def diagonals(rows: list[tuple[float, float, float]]) -> np.ndarray:
+    """Diagonal matrices (K, 3, 3) from their diagonals (K rows of 3)."""
     return np.array([np.diag(r) for r in rows], dtype=float)
 
 
@@ -106,7 +109,7 @@ WANG2022_PUBLISHED = Mixture(
         ],
         dtype=float,
     ),
-    covariances=_diag(
+    covariances=diagonals(
         [
             (1e-5, 8.4169, 8.4169), (1e-5, 8.4169, 8.4169),
             (8.3907, 1e-5, 8.3971), (8.3907, 1e-5, 8.3971),

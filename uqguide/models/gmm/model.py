@@ -12,7 +12,6 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Mapping
 from functools import lru_cache
-from importlib import resources
 
 import numpy as np
 
@@ -49,8 +48,7 @@ def _schedule(a: float, e: float, f0: float, mu: float, printed: bool, t_f: floa
 def fitted_mixture() -> Mixture:
     """The k-means + EM fit of the [W] chief shipped as package data
     (scripts/fit_gmm_wang2022.py)."""
-    with resources.as_file(resources.files("uqguide") / "data" / FITTED_FILE) as path:
-        return Mixture.load(path)
+    return Mixture.packaged(FITTED_FILE)
 
 
 def _compiled() -> Callable[..., SampledRun]:
@@ -61,6 +59,7 @@ def _compiled() -> Callable[..., SampledRun]:
 
 
 _PERTURBATION = ("gmm_shift_x", "gmm_shift_y", "gmm_shift_z", "gmm_mean_scale", "gmm_cov_scale")
+_NOMINAL = (0.0, 0.0, 0.0, 1.0, 1.0)
 
 
 class GMMProximity(Model):
@@ -158,19 +157,17 @@ class GMMProximity(Model):
                   n: int = 1) -> GaussSum:
         """The repulsive kernels of ``controller``, per sample when the GMM is perturbed."""
         p = self.params
-        if controller == "apf_tsmc":
+        apf = controller == "apf_tsmc"
+        if apf:  # only the shift applies to the APF obstacle
             gs = GaussSum.from_apf([p.apf_psi], [p.apf_center], [np.diag(p.apf_n)], [p.apf_sigma])
-            if values is None:
-                return gs
-            shift = _gmm_shift(values)
-            if not shift.any():
-                return gs
-            return GaussSum(gs.c, gs.mu[None] + shift[:, None, :], gs.L)
-        gs = self.mixture().to_gauss_sum(p.gmm_norm)
+        else:
+            gs = self.mixture().to_gauss_sum(p.gmm_norm)
         if values is None or all(np.all(values[k] == n_) for k, n_ in
-                                 zip(_PERTURBATION, (0.0, 0.0, 0.0, 1.0, 1.0))):
+                                 zip(_PERTURBATION, (0.0, 0.0, 0.0) if apf else _NOMINAL)):
             return gs
         shift = _gmm_shift(values)
+        if apf:
+            return GaussSum(gs.c, gs.mu[None] + shift[:, None, :], gs.L)
         s_mu = values["gmm_mean_scale"][:, None, None]
         s_cov = values["gmm_cov_scale"]
         return GaussSum(
@@ -222,21 +219,16 @@ class GMMProximity(Model):
         r, v = run.r, run.v
         r_f = np.asarray(self.params.r_f)
         rng = np.linalg.norm(r, axis=2)
-        series: dict[str, np.ndarray] = {}
-        if "range" in outputs:
-            series["range"] = rng[..., None]
-        if "position" in outputs:
-            series["position"] = r
-        if "velocity" in outputs:
-            series["velocity"] = v
-        if "los_rate" in outputs:
-            series["los_rate"] = (np.linalg.norm(np.cross(r, v), axis=2) / rng**2)[..., None]
-        if "position_error" in outputs:
-            series["position_error"] = np.linalg.norm(r - r_f, axis=2)[..., None]
-        if run.zem is not None:  # computed exactly when "zem" is requested (run(zem=...))
-            series["zem"] = run.zem[..., None]
-        if "delta_v_history" in outputs:
-            series["delta_v_history"] = run.delta_v_history[..., None]
+        series_src = {
+            "range": lambda: rng[..., None],
+            "position": lambda: r,
+            "velocity": lambda: v,
+            "los_rate": lambda: (np.linalg.norm(np.cross(r, v), axis=2) / rng**2)[..., None],
+            "position_error": lambda: np.linalg.norm(r - r_f, axis=2)[..., None],
+            "zem": lambda: np.asarray(run.zem)[..., None],  # run(zem=True) computed it
+            "delta_v_history": lambda: run.delta_v_history[..., None],
+        }
+        series = {k: f() for k, f in series_src.items() if k in outputs}
         scalars = {
             "min_clearance": run.clearance[:, self._appendages()].min(axis=1)[:, None],
             "collided": run.collided.astype(float)[:, None],

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gauss_sum import GaussSum
+from .gauss_sum import GaussSum, float_fields
 
 
 def matvec(M: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -50,13 +50,9 @@ class AttractRepulsePotential:
     V: GaussSum
 
     def __post_init__(self) -> None:
-        P = np.asarray(self.P, dtype=float)
-        M = np.asarray(self.M, dtype=float)
-        for name, A in (("P", P), ("M", M)):
+        for name, A in zip("PM", float_fields(self, "P", "M")):
             if A.shape != (3, 3) or not np.allclose(A, A.T):
                 raise ValueError(f"the gain {name} must be a symmetric 3x3 matrix")
-        object.__setattr__(self, "P", P)
-        object.__setattr__(self, "M", M)
 
     def phi(self, r: np.ndarray, r_f: np.ndarray) -> np.ndarray:
         """``phi(r; r_f)``, shape (n,), for ``r`` (n, 3) and ``r_f`` (3,) or (n, 3) [m]."""

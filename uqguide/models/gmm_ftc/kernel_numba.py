@@ -224,6 +224,32 @@ def _add_value_gradient(m, ex, th, acc):  # pragma: no cover - compiled
         acc[A_G + 2, l] -= e * t2 if live else 0.0
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _add_hessian(m, Lk, ex, th, acc):  # pragma: no cover - compiled
+    # one kernel's ``e (th th^T - L)`` into the Hessian rows, a pass per row of H. A zero entry
+    # of L subtracts nothing: x - 0 is x, and the sums start at +0, so even a zero's sign is kept
+    for a in range(3):
+        for l in range(m):
+            e = ex[l]
+            live = e != 0.0
+            ta = th[a, l]
+            for b in range(3):
+                acc[A_H + 3 * a + b, l] += e * (ta * th[b, l] - Lk[a, b]) if live else 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _add_third(acc, l, e, th, y0, y1, y2, Ly0, Ly1, Ly2):  # pragma: no cover - compiled
+    # one kernel's D3V[y, y] at lane l into the third-derivative rows (``Ly = L y``)
+    t0, t1, t2 = th[0, l], th[1, l], th[2, l]
+    yLy = y0 * Ly0 + y1 * Ly1 + y2 * Ly2
+    ty = t0 * y0 + t1 * y1 + t2 * y2
+    b = yLy - ty * ty
+    live = e != 0.0
+    acc[A_T, l] += e * (b * t0 + 2.0 * ty * Ly0) if live else 0.0
+    acc[A_T + 1, l] += e * (b * t1 + 2.0 * ty * Ly1) if live else 0.0
+    acc[A_T + 2, l] += e * (b * t2 + 2.0 * ty * Ly2) if live else 0.0
+
+
 @njit(cache=True, error_model="numpy")
 def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
     """:func:`_potential` for kernels whose ``L`` has zero off-diagonal entries: the same
@@ -240,36 +266,10 @@ def _potential_diagonal(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover -
             eta[l] = -0.5 * (d0 * t0 + d1 * t1 + d2 * t2)
         _weights(m, ck, eta, ex)
         _add_value_gradient(m, ex, th, acc)
+        _add_hessian(m, L[k], ex, th, acc)
         for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
-            acc[A_H, l] += e * (t0 * t0 - L00) if live else 0.0
-            acc[A_H + 4, l] += e * (t1 * t1 - L11) if live else 0.0
-            acc[A_H + 8, l] += e * (t2 * t2 - L22) if live else 0.0
-        for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
-            acc[A_H + 1, l] += e * (t0 * t1) if live else 0.0
-            acc[A_H + 2, l] += e * (t0 * t2) if live else 0.0
-            acc[A_H + 5, l] += e * (t1 * t2) if live else 0.0
-        for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
             y0, y1, y2 = x[3, l], x[4, l], x[5, l]
-            Ly0, Ly1, Ly2 = L00 * y0, L11 * y1, L22 * y2
-            yLy = y0 * Ly0 + y1 * Ly1 + y2 * Ly2
-            ty = t0 * y0 + t1 * y1 + t2 * y2
-            b = yLy - ty * ty
-            acc[A_T, l] += e * (b * t0 + 2.0 * ty * Ly0) if live else 0.0
-            acc[A_T + 1, l] += e * (b * t1 + 2.0 * ty * Ly1) if live else 0.0
-            acc[A_T + 2, l] += e * (b * t2 + 2.0 * ty * Ly2) if live else 0.0
-    for l in range(m):
-        acc[A_H + 3, l] = acc[A_H + 1, l]
-        acc[A_H + 6, l] = acc[A_H + 2, l]
-        acc[A_H + 7, l] = acc[A_H + 5, l]
+            _add_third(acc, l, ex[l], th, y0, y1, y2, L00 * y0, L11 * y1, L22 * y2)
 
 
 @njit(cache=True, error_model="numpy")
@@ -293,37 +293,11 @@ def _potential(m, x, c, mu, L, acc, th, eta, ex):  # pragma: no cover - compiled
             eta[l] = -0.5 * (d0 * t0 + d1 * t1 + d2 * t2)
         _weights(m, ck, eta, ex)
         _add_value_gradient(m, ex, th, acc)
+        _add_hessian(m, L[k], ex, th, acc)
         for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
-            acc[A_H, l] += e * (t0 * t0 - L00) if live else 0.0
-            acc[A_H + 1, l] += e * (t0 * t1 - L01) if live else 0.0
-            acc[A_H + 2, l] += e * (t0 * t2 - L02) if live else 0.0
-            acc[A_H + 3, l] += e * (t1 * t0 - L10) if live else 0.0
-            acc[A_H + 4, l] += e * (t1 * t1 - L11) if live else 0.0
-        for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
-            acc[A_H + 5, l] += e * (t1 * t2 - L12) if live else 0.0
-            acc[A_H + 6, l] += e * (t2 * t0 - L20) if live else 0.0
-            acc[A_H + 7, l] += e * (t2 * t1 - L21) if live else 0.0
-            acc[A_H + 8, l] += e * (t2 * t2 - L22) if live else 0.0
-        for l in range(m):
-            e = ex[l]
-            live = e != 0.0
-            t0, t1, t2 = th[0, l], th[1, l], th[2, l]
             y0, y1, y2 = x[3, l], x[4, l], x[5, l]
-            Ly0 = L00 * y0 + L01 * y1 + L02 * y2
-            Ly1 = L10 * y0 + L11 * y1 + L12 * y2
-            Ly2 = L20 * y0 + L21 * y1 + L22 * y2
-            yLy = y0 * Ly0 + y1 * Ly1 + y2 * Ly2
-            ty = t0 * y0 + t1 * y1 + t2 * y2
-            b = yLy - ty * ty
-            acc[A_T, l] += e * (b * t0 + 2.0 * ty * Ly0) if live else 0.0
-            acc[A_T + 1, l] += e * (b * t1 + 2.0 * ty * Ly1) if live else 0.0
-            acc[A_T + 2, l] += e * (b * t2 + 2.0 * ty * Ly2) if live else 0.0
+            _add_third(acc, l, ex[l], th, y0, y1, y2, L00 * y0 + L01 * y1 + L02 * y2,
+                       L10 * y0 + L11 * y1 + L12 * y2, L20 * y0 + L21 * y1 + L22 * y2)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -712,22 +686,17 @@ def _metrics(m, k, x, u, s2, r_f, converge_tol, settle_tol, velocity_tol, s2_tol
         mt[8, l] = max(mt[8, l], speed)
         mt[12, l] = max(mt[12, l], un)
         mt[13, l] = max(mt[13, l], un) if e_norm < converge_tol else 0.0
-    for l in range(m):
-        mt[9, l] = max(mt[9, l], abs(x[3, l]))
-        mt[10, l] = max(mt[10, l], abs(x[4, l]))
-        mt[11, l] = max(mt[11, l], abs(x[5, l]))
+    for a in range(3):
+        for l in range(m):
+            mt[9 + a, l] = max(mt[9 + a, l], abs(x[3 + a, l]))
     if k >= k_check:
         for l in range(m):
             mt[6, l] = max(mt[6, l], nrm[0, l])
             mt[7, l] = max(mt[7, l], nrm[1, l])
-        for l in range(m):
-            mt[14, l] = min(mt[14, l], u[0, l])
-            mt[15, l] = min(mt[15, l], u[1, l])
-            mt[16, l] = min(mt[16, l], u[2, l])
-        for l in range(m):
-            mt[17, l] = max(mt[17, l], u[0, l])
-            mt[18, l] = max(mt[18, l], u[1, l])
-            mt[19, l] = max(mt[19, l], u[2, l])
+        for a in range(3):
+            for l in range(m):
+                mt[14 + a, l] = min(mt[14 + a, l], u[a, l])
+                mt[17 + a, l] = max(mt[17 + a, l], u[a, l])
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -227,29 +227,15 @@ def to_model_output(run: LoopRun, outputs: frozenset[str]) -> ModelOutput:
         "s2_norm": lambda: run.s2[..., None],
         "dv_cum": lambda: run.dv_cum[..., None],
     }
-    scalar_src = {
-        "collided": lambda: sc["collided"][:, None],
-        "min_clearance": lambda: sc["min_clearance"][:, None],
-        "clearance_parts": lambda: sc["clearance_parts"],
-        "t_converge": lambda: sc["t_converge"][:, None],
-        "converged": lambda: sc["converged"][:, None],
-        "t_settle": lambda: sc["t_settle"][:, None],
-        "t_converge_vel": lambda: sc["t_converge_vel"][:, None],
-        "t_reach_s2": lambda: sc["t_reach_s2"][:, None],
-        "pos_error_final": lambda: sc["pos_error_final"][:, None],
-        "speed_final": lambda: sc["speed_final"][:, None],
-        "speed_max": lambda: sc["speed_max"][:, None],
-        "speed_max_axes": lambda: sc["speed_max_axes"],
-        "u_max": lambda: sc["u_max"][:, None],
-        "u_max_converged": lambda: sc["u_max_converged"][:, None],
-        "u_final": lambda: sc["u_final"][:, None],
-        "delta_v": lambda: sc["delta_v"][:, None],
-        "range_min": lambda: sc["range_min"][:, None],
-        "los_rate_max": lambda: los_rate(run.r_l, run.v_l).max(axis=1)[:, None],
-    }
     series = {k: np.ascontiguousarray(f(), dtype=float) for k, f in series_src.items()
               if k in outputs}
-    scalars = {k: np.array(f(), dtype=float) for k, f in scalar_src.items() if k in outputs}
+    scalars: dict[str, np.ndarray] = {}
+    for info in SCALAR_INFO:
+        if info.name in outputs:
+            value = (los_rate(run.r_l, run.v_l).max(axis=1) if info.name == "los_rate_max"
+                     else sc[info.name])
+            scalars[info.name] = np.array(value if value.ndim == 2 else value[:, None],
+                                          dtype=float)
     failed = run.failed.copy()
     reasons = np.where(failed, "non-finite state: the closed loop diverged", "").astype(object)
     # a loop that diverges without an inf in its state has failed too

@@ -13,12 +13,10 @@ docs/papers.md#gmm-ftc-target-thruster-error-and-inputs.
 
 from __future__ import annotations
 
-from importlib import resources
-
 import numpy as np
 
-from ..gmm.geometry import ChiefGeometry, chen2020_chief
-from ..gmm.mixture import FitInfo, Mixture, fit_mixture
+from ..gmm.geometry import ChiefGeometry, Part
+from ..gmm.mixture import FitInfo, Mixture, diagonals, fit_mixture
 from ..gmm.point_cloud import random_cloud
 
 CLOUD_COUNTS: dict[str, int] = {
@@ -40,10 +38,6 @@ REG_COVAR = 1e-5
 """Covariance regularisation [m^2]: the published thickness of planar / linear parts."""
 
 
-def _diag(rows: list[tuple[float, float, float]]) -> np.ndarray:
-    return np.array([np.diag(r) for r in rows], dtype=float)
-
-
 TABLE1 = Mixture(
     weights=np.array([8.302e-2] * 6 + [4.193e-4] * 2 + [1.256e-1, 1.252e-1, 1.252e-1, 1.252e-1]),
     means=np.array(
@@ -51,7 +45,7 @@ TABLE1 = Mixture(
          [0, 2, 0], [0, -2, 0], [2.5, 0, 0], [-2.5, 0, 0], [5.5, 0, 0], [-5.5, 0, 0]],
         dtype=float,
     ),
-    covariances=_diag(
+    covariances=diagonals(
         [(0, .3301, .3301), (0, .3302, .3301), (.33, 0, .3302), (.3301, 0, .3299),
          (.3301, .33, 0), (.33, .33, 0), (0, .335, 0), (0, .335, 0),
          (.755, 0, .33), (.75, 0, .33), (.75, 0, .33), (.75, 0, .33)]
@@ -72,7 +66,7 @@ TABLE2 = Mixture(
          [5.4843, 0, 0], [-5.4811, 0, 0]],
         dtype=float,
     ),
-    covariances=_diag(
+    covariances=diagonals(
         [(1e-5, .3303, .3300), (1e-5, .3303, .3300), (.3300, 1e-5, .3300),
          (.3301, 1e-5, .3300), (.3299, .3301, 1e-5), (.3300, .3301, 1e-5),
          (1e-5, .3382, 1e-5), (1e-5, .3382, 1e-5), (.9601, 1e-5, .3301),
@@ -91,8 +85,21 @@ PART_OF_COMPONENT: tuple[str, ...] = (
 
 def target_geometry(panel_half_thickness: float = 0.02, antenna_half_width: float = 0.05,
                     body_tolerance: float = 0.01) -> ChiefGeometry:
-    """The [C] target's parts with the default thicknesses [m] (A7)."""
-    return chen2020_chief(panel_half_thickness, antenna_half_width, body_tolerance)
+    """The [C] target's parts (section 4.1; placement from its Table 2 GMM, thicknesses [m]: A7).
+
+    Cube of side 2 m (8 m^3); panels 6 m x 2 m in the plane ``y = 0``, ``x`` in +-[1, 7],
+    ``z`` in [-1, 1]; antennas 2 m long on the ``y`` axis, ``y`` in +-[1, 3].
+    """
+    return ChiefGeometry(
+        parts=(
+            Part("body", "solid", (-1.0, -1.0, -1.0), (1.0, 1.0, 1.0)),
+            Part("panel+x", "plate", (1.0, 0.0, -1.0), (7.0, 0.0, 1.0), panel_half_thickness),
+            Part("panel-x", "plate", (-7.0, 0.0, -1.0), (-1.0, 0.0, 1.0), panel_half_thickness),
+            Part("antenna+y", "segment", (0.0, 1.0, 0.0), (0.0, 3.0, 0.0), antenna_half_width),
+            Part("antenna-y", "segment", (0.0, -3.0, 0.0), (0.0, -1.0, 0.0), antenna_half_width),
+        ),
+        body_tolerance=body_tolerance,
+    )
 
 
 def surface_cloud(seed: int = CLOUD_SEED) -> np.ndarray:
@@ -123,8 +130,7 @@ def fit_target_mixture(points: np.ndarray, init: Mixture = TABLE1, max_iter: int
 
 def fitted_mixture() -> Mixture:
     """The shipped EM fit (``uqguide/data/gmm_ftc_fitted.npz``)."""
-    with resources.as_file(resources.files("uqguide") / "data" / FITTED_DATA) as path:
-        return Mixture.load(path)
+    return Mixture.packaged(FITTED_DATA)
 
 
 def target_mixture(source: str = "published") -> Mixture:

@@ -39,13 +39,8 @@ def nominal_figures(model: FTCAPN, out_dir: Path) -> list[Path]:
 
 def sample_figures(model: FTCAPN, out: ModelOutput, values: Mapping[str, float], out_dir: Path,
                    stem: str) -> list[Path]:
-    """The chaser's path relative to the target (``-r``, Table-2 axes) for one replayed sample."""
-    return [sample_trajectory_figure(model, out, out_dir, stem)]
-
-
-def sample_trajectory_figure(model: FTCAPN, out: ModelOutput, out_dir: Path, stem: str) -> Path:
-    """One replayed sample: the chaser's path relative to the target (3-D and two planes),
-    and its range and LOS rate against time, with the stop marked."""
+    """One replayed sample: the chaser's path relative to the target (``-r``, Table-2 axes; 3-D
+    and two planes), and its range and LOS rate against time, with the stop marked."""
     r = -out.series["r"][0]  # chaser relative to target
     t = out.time
     t_stop = float(out.scalars["t_stop"][0, 0])
@@ -75,4 +70,4 @@ def sample_trajectory_figure(model: FTCAPN, out: ModelOutput, out_dir: Path, ste
     zem = float(out.scalars["zem"][0, 0])
     fig.suptitle(f"FTCAPN sample {stem}: zem {zem:.4g} m, maneuver frame "
                  f"{getattr(model.params, 'maneuver_frame', 'initial')}")
-    return save(fig, out_dir / f"{stem}_trajectory.png", dpi=100)
+    return [save(fig, out_dir / f"{stem}_trajectory.png", dpi=100)]

@@ -60,9 +60,8 @@ def nominal_report(model: GMMFTC) -> list[ReportRow]:
     sc = {k: np.asarray(v)[0] for k, v in clean.scalars.items()}
     names = target_geometry().names
     t_chk = f"t >= {p.t_check:g} s"
-    bound = fixed_time_bound(np.asarray(p.lambda1), np.asarray(p.lambda2), p.zeta1, p.zeta2)
-    tight = fixed_time_bound(np.asarray(p.lambda1), np.asarray(p.lambda2), p.zeta1, p.zeta2,
-                             tight=True)
+    bound, tight = (fixed_time_bound(np.asarray(p.lambda1), np.asarray(p.lambda2), p.zeta1,
+                                     p.zeta2, tight=t) for t in (False, True))
     w = np.asarray(p.spin_rate)
     rf = np.asarray(p.r_f)
     rf_perp = np.linalg.norm(rf - np.dot(rf, w) * w / max(np.dot(w, w), 1e-300))
