@@ -25,6 +25,7 @@ from pydantic import Field, model_validator
 from ..errors import MethodError
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, ModelOutput
+from ..pce import basis
 from ..pce.basis import hyperbolic_indices
 from ..core.events import EventEstimate
 from ..pce.tails import control_variate_events, surrogate_values
@@ -32,11 +33,12 @@ from ..pce.default_plan import default_budget, default_validation, mean_and_std,
 from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
+from ..pce.index_check import ValidationRuns, cross_term_band
 from ..pce.loo import loo_values
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.series_fit import fit_series
 from ..pce.sobol_indices import (
-    BOOTSTRAP_STREAM, RegressionFit, regression_intervals, truncation_error_intervals,
+    BOOTSTRAP_STREAM, regression_intervals, truncation_error_intervals,
 )
 from ..pce.sparse_regression import Q_GRID, ColumnsFit, fit_columns
 from ..pce.surrogate import Surrogate
@@ -45,7 +47,7 @@ from .base import Design, Method, MethodSettings, RunPlan
 from .monte_carlo import U_EPS
 from .pce_validated import (
     SURROGATE_DRAWS_FIELD, SURROGATE_SAMPLING_FIELD, USABLE_FIELD, VALIDATION_FIELD,
-    ValidationSettings, finish, split_validation, surrogate_of, with_validation,
+    ValidationSettings, finish, output_values, split_validation, surrogate_of, with_validation,
 )
 
 log = logging.getLogger(__name__)
@@ -137,9 +139,6 @@ class _OutputFit:
     n_components: int | None
     #: The columns the core was fitted to (a scalar's components, a series' scores).
     targets: np.ndarray | None = None
-    #: Each target column's chosen q-norm and degree (0: constant), for the indices' bootstrap.
-    column_q: np.ndarray | None = None
-    column_degree: np.ndarray | None = None
 
 
 class AdaptivePCE(Method):
@@ -361,8 +360,8 @@ class AdaptivePCE(Method):
             levels=self.context.quantile_levels, events=self.context.events,
             components=self.context.components,
             note=self.note)
-        self._indices(space, design, outputs, fits, stats)
         val_design = ValidationDesign.from_data(design.data)
+        self._indices(space, design, outputs, fits, stats, validation, val_design)
         if validation is not None and val_design is not None:
             events = self._validate(space, fits, val_design, validation, events)
         worst = max((f.loo for f in fits), default=0.0)
@@ -423,16 +422,28 @@ class AdaptivePCE(Method):
         return loo
 
     def _indices(self, space: InputSpace, design: Design, outputs: ModelOutput,
-                 fits: list[_OutputFit], stats: dict[str, Any]) -> None:
-        """Sobol' indices of every fitted output with bootstrap intervals."""
+                 fits: list[_OutputFit], stats: dict[str, Any],
+                 validation: ModelOutput | None, val_design: ValidationDesign | None) -> None:
+        """Sobol' indices of every fitted output with bootstrap intervals, joined with the
+        cross term the successful validation runs measure (if any)."""
         germ = Germ.of(space)
         xi = self._fit_points(germ, design, np.flatnonzero(~outputs.failed))
-        fitted = {f.columns.name: RegressionFit(f.expansion, xi, f.targets, f.column_q,
-                                                f.column_degree)
-                  for f in fits if f.targets is not None and f.column_q is not None
-                  and f.column_degree is not None}
+        fitted = {f.columns.name: (f.expansion, basis.evaluate(germ, f.expansion.alpha, xi),
+                                   f.targets) for f in fits if f.targets is not None}
+        groups = [c for _, c in self.context.groups]
+        cross: dict[str, np.ndarray] = {}
+        ok = None if validation is None else ~validation.failed
+        if validation is not None and val_design is not None and ok is not None \
+                and int(ok.sum()) >= 2:
+            used = val_design.successful(ok)
+            xi_val = germ.from_unit(used.u)
+            for name, (exp, _, _) in fitted.items():
+                y = output_values(validation, name)
+                if y is not None:
+                    runs = ValidationRuns(xi_val, y[ok].reshape(int(ok.sum()), -1), used)
+                    cross[name] = cross_term_band(exp, runs, groups)
         seed = stream(int(design.data.get("seed", 0)), self.label, BOOTSTRAP_STREAM)
-        regression_intervals(stats, fitted, self.context.groups, seed)
+        regression_intervals(stats, fitted, self.context.groups, seed, joined=cross)
 
     def _validate(self, space: InputSpace, fits: list[_OutputFit], vd: ValidationDesign,
                   validation: ModelOutput, events: dict[str, EventEstimate]
@@ -495,8 +506,7 @@ class AdaptivePCE(Method):
             fit = fit_of(col.y)
             exp = Expansion(germ, fit.alpha, fit.core, col.shape)
             return _OutputFit(col, exp, float(fit.loo.max()), int(fit.degree.max()),
-                              float(fit.q.max()), int(fit.alpha.shape[0]), None, col.y,
-                              fit.q, fit.degree)
+                              float(fit.q.max()), int(fit.alpha.shape[0]), None, col.y)
         series = fit_series(germ, xi, col.y, degree_min=s.degree_min, degree_max=s.degree_max,
                             q=s.q_norm, variance_fraction=s.variance_fraction,
                             n_components=s.n_components)
@@ -511,7 +521,7 @@ class AdaptivePCE(Method):
         loo = float((lam @ fit.loo + (total - lam.sum())) / total) if r else 0.0
         return _OutputFit(col, exp, loo, int(fit.degree.max(initial=0)),
                           float(fit.q.max(initial=0.0)), int(fit.alpha.shape[0]), r,
-                          comps.scores, fit.q, fit.degree)
+                          comps.scores)
 
 
 def _fit_u(design: Design, n_fit: int) -> np.ndarray | None:

@@ -1,10 +1,11 @@
 """Sobol' indices of a PCE, in closed form (sums of squared coefficients over sets of terms,
 :func:`term_sets`), with their 95% intervals: a wild bootstrap of a regression
-(:func:`regression_intervals`) widened by the truncation bound of the surrogate's error
-(:func:`truncation_error_intervals`).
+(:func:`regression_intervals`), joined with the first-order term of the surrogate's error
+measured on runs it did not fit (:func:`uqguide.pce.index_check.cross_term_band`), widened by
+the bound of the error's own share (:func:`truncation_error_intervals`).
 
 Derivation of the bounds, why this bootstrap, cost and measured coverage:
-docs/error-budget.md#pce-indices.
+docs/error-budget.md#pce-indices and docs/pce.md#the-index-error-identity.
 """
 
 from __future__ import annotations
@@ -17,15 +18,11 @@ from threadpoolctl import threadpool_limits
 
 from ..core.inputs import InputSpace, split_groups
 from ..core.types import OutputStats
-from . import basis
 from .expansion import Expansion
-from .lars import LarsBasis, LarsPath
-from .loo import score_path
-from .sparse_regression import PATIENCE
 
 #: Bootstrap replicates behind a regression PCE's intervals (the 2.5% and 97.5% points of 200
 #: replicates are within about 0.1 standard deviation of those of infinitely many).
-N_BOOTSTRAP = 100
+N_BOOTSTRAP = 200
 #: Stream of the bootstrap weights (``uqguide.pce.design.stream``; 0-2 are taken there).
 BOOTSTRAP_STREAM = 3
 #: The least half-width of a bootstrap interval: the round-off of indices from a least-squares
@@ -88,95 +85,49 @@ def expansion_indices(exp: Expansion, groups: Sequence[Sequence[int]] = ()) -> P
                   exp.alpha.shape[1], len(groups))
 
 
-@dataclass
-class RegressionFit:
-    """What the bootstrap of a regression PCE's indices needs of one output: its expansion,
-    the germ points ``xi (n, d)`` of its runs, the columns its core was fitted to
-    ``targets (n, r)`` (the core's first ``r`` columns; the rest are kept) and each column's
-    candidate set, the q-norm ``q (r,)`` and degree ``degree (r,)`` its search chose (0: a
-    constant column, nothing selected)."""
-
-    exp: Expansion
-    xi: np.ndarray
-    targets: np.ndarray
-    q: np.ndarray
-    degree: np.ndarray
-
-
-def _wild_parts(psi: np.ndarray, core: np.ndarray, targets: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """Each column's fitted values and leave-one-out residuals ``e_i / (1 - h_i)`` on its own
-    terms, ``(n, r)`` each: the wild bootstrap's centre and spread."""
+def bootstrap_cores(exp: Expansion, psi: np.ndarray, targets: np.ndarray,
+                    seed: np.random.SeedSequence | int, n_boot: int = N_BOOTSTRAP
+                    ) -> np.ndarray:
+    """Refits of the expansion's selected terms to wild-bootstrap replicates of its runs:
+    ``(n_boot, P, r_core)``. ``targets (n, r)``: what the core's first ``r`` columns were fitted
+    to (the rest are kept); ``psi (n, P)``: ``exp.alpha`` at the runs.
+    """
+    core = exp.core
     n, r = targets.shape
-    fitted, loo = np.zeros((n, r)), np.zeros((n, r))
     supports: dict[tuple[int, ...], list[int]] = {}
     for c in range(r):
         s = np.flatnonzero(core[:, c])
         supports.setdefault(tuple(np.union1d([0], s).tolist()), []).append(c)
-    for sup, cols in supports.items():
-        q, _ = np.linalg.qr(psi[:, list(sup)])
-        lev = np.einsum("ij,ij->i", q, q)                        # leverages h_i
-        y = targets[:, cols]
-        fitted[:, cols] = q @ (q.T @ y)
-        loo[:, cols] = (y - fitted[:, cols]) / np.clip(1.0 - lev, 1e-3, None)[:, None]
-    return fitted, loo
-
-
-def bootstrap_cores(fit: RegressionFit, seed: np.random.SeedSequence | int,
-                    n_boot: int = N_BOOTSTRAP) -> tuple[np.ndarray, np.ndarray]:
-    """Wild-bootstrap replicates of the fit with its terms chosen again: ``(alpha, cores)``,
-    ``cores (n_boot, P, r_core)`` on the multi-indices ``alpha (P, d)`` (the expansion's and
-    every column's candidate set). Each replicate's column is the fitted values plus each run's
-    leave-one-out residual times a random sign, and LARS with the corrected leave-one-out
-    choice selects its terms among the column's candidates again
-    (docs/pce.md#the-basic-bootstrap-interval).
-    """
-    exp, xi = fit.exp, fit.xi
-    core = exp.core
-    n, r = fit.targets.shape
-    d = exp.alpha.shape[1]
-    live = [c for c in range(r) if fit.q[c] > 0 and fit.degree[c] > 0]
-    cands = {(float(fit.q[c]), int(fit.degree[c])) for c in live}
-    sets = {k: basis.hyperbolic_indices(d, k[1], k[0]) for k in sorted(cands)}
-    alpha = basis.graded(np.unique(np.concatenate([exp.alpha, *sets.values()]), axis=0))
-    lookup = basis.index_lookup(alpha)
-
-    def rows(al: np.ndarray) -> np.ndarray:
-        return np.array([lookup[tuple(int(v) for v in a)] for a in al], dtype=int)
-
-    out = np.zeros((n_boot, alpha.shape[0], core.shape[1]))
-    out[:, rows(exp.alpha)] = core
     # one Rademacher sign per run and replicate, shared by every column: the columns'
     # errors at a run stay together, as the runs' would in a resample
     signs = np.random.default_rng(seed).choice([-1.0, 1.0], size=(n_boot, n))
+    out = np.repeat(core[None], n_boot, axis=0)
     # One BLAS thread, as the fit (docs/pce.md#one-blas-thread).
     with threadpool_limits(limits=1, user_api="blas"):
-        fitted, loo = _wild_parts(basis.evaluate(exp.germ, exp.alpha, xi), core, fit.targets)
-        for key, cand in sets.items():
-            lb = LarsBasis(basis.evaluate(exp.germ, cand, xi))
-            pos = rows(cand)
-            for c in [c for c in live if (float(fit.q[c]), int(fit.degree[c])) == key]:
-                out[:, :, c] = 0.0
-                for b in range(n_boot):
-                    y = fitted[:, c] + signs[b] * loo[:, c]
-                    chosen = score_path(lb.psi, y, LarsPath(lb, y), patience=PATIENCE).fit()
-                    out[b, pos[chosen.terms], c] = chosen.coef
-    return alpha, out
+        for sup, cols in supports.items():
+            rows = list(sup)
+            q, rr = np.linalg.qr(psi[:, rows])
+            lev = np.einsum("ij,ij->i", q, q)                    # leverages h_i
+            y = targets[:, cols]
+            fitted = q @ (q.T @ y)
+            loo = (y - fitted) / np.clip(1.0 - lev, 1e-3, None)[:, None]
+            solve = np.linalg.solve(rr, q.T)                     # (s, n): y -> coefficients
+            base = solve @ fitted                                # (s, c)
+            for b in range(n_boot):
+                out[b][np.ix_(rows, cols)] = base + solve @ (signs[b][:, None] * loo)
+    return out
 
 
-def bootstrap_intervals(exp: Expansion, alpha: np.ndarray, cores: np.ndarray,
-                        groups: Sequence[Sequence[int]] = ()) -> np.ndarray:
+def bootstrap_intervals(exp: Expansion, cores: np.ndarray, sets: np.ndarray) -> np.ndarray:
     """The basic bootstrap intervals of the indices, ``(2, m, S)``: ``2 S - q_975`` to
-    ``2 S - q_025`` of the replicates' (``cores`` on ``alpha``: :func:`bootstrap_cores`)
-    2.5% and 97.5% points ``q``, within [0, 1], widened by :data:`ROUND_OFF` either way
-    (docs/pce.md#the-basic-bootstrap-interval).
+    ``2 S - q_025`` of the replicates' 2.5% and 97.5% points ``q``, within [0, 1], widened
+    by :data:`ROUND_OFF` either way (docs/pce.md#the-basic-bootstrap-interval).
     """
     m = exp.n_columns
     n_boot = cores.shape[0]
-    sets = term_sets(alpha, groups)
     out = np.full((2, m, sets.shape[1]), np.nan)
     step = max(1, _CHUNK_FLOATS // max(1, n_boot * sets.shape[1]))
-    point = ratios(exp.coef, term_sets(exp.alpha, groups))  # (m, S)
+    point = ratios(exp.coef, sets)                          # (m, S)
     for a in range(0, m, step):
         cols = slice(a, min(m, a + step))
         coef = cores if exp.mix is None else cores @ exp.mix[:, cols]
@@ -190,15 +141,22 @@ def bootstrap_intervals(exp: Expansion, alpha: np.ndarray, cores: np.ndarray,
     return out
 
 
-def truncation_bounds(values: np.ndarray, eps: np.ndarray, orthogonal: bool = True
-                      ) -> np.ndarray:
+def truncation_bounds(values: np.ndarray, eps: np.ndarray, orthogonal: bool = True,
+                      cross: bool = False) -> np.ndarray:
     """``(2, ...)``: how far below and above an index ``S`` the model's may be for a surrogate
     of relative error ``eps`` (broadcast to ``values``): ``[-eps S, eps (1 - S)]`` when the error
-    is orthogonal to the expansion's terms, else (any error) ``(sqrt(S) -+ rho)^2 / (1 +- rho)^2
-    - S`` with ``rho = sqrt(eps) / (1 - sqrt(eps))``, within [0, 1]."""
+    is orthogonal to the expansion's terms or its cross term was measured apart, widened by
+    ``2 sqrt(S (1 - S) eps) (1 + sqrt(eps))`` either way when ``cross`` (the cross term bounded,
+    not measured: docs/pce.md#the-index-error-identity); else (any error, ``orthogonal``
+    False) ``(sqrt(S) -+ rho)^2 / (1 +- rho)^2 - S`` with ``rho = sqrt(eps) / (1 - sqrt(eps))``,
+    within [0, 1]."""
     eps = np.clip(np.asarray(eps, dtype=float), 0.0, 1.0)
     if orthogonal:
-        return np.stack([-eps * values, eps * (1.0 - values)])
+        reach = 0.0
+        if cross:
+            s = np.clip(values, 0.0, 1.0)
+            reach = 2.0 * np.sqrt(s * (1.0 - s) * eps) * (1.0 + np.sqrt(eps))
+        return np.stack([-eps * values - reach, eps * (1.0 - values) + reach])
     root = np.sqrt(eps)
     rho = root / np.maximum(1.0 - root, 1e-300)
     s = np.sqrt(np.clip(values, 0.0, None))
@@ -271,7 +229,7 @@ def set_indices(st: OutputStats, exp: Expansion, groups: Sequence[tuple[str, Seq
 
 
 def widen_by_truncation(st: OutputStats, eps: np.ndarray | float | None,
-                        orthogonal: bool = True) -> None:
+                        orthogonal: bool = True, cross: bool = False) -> None:
     """Widen (or, without intervals, set) ``st``'s index intervals by the truncation bound of a
     surrogate of relative error ``eps`` (per column ``(..., k)``, or one figure); where an
     index is NaN (withheld: no usable surrogate) its interval is NaN too. ``eps`` None leaves
@@ -288,27 +246,37 @@ def widen_by_truncation(st: OutputStats, eps: np.ndarray | float | None,
             e = np.asarray(eps, dtype=float)
             e = e[..., None] if e.ndim else e  # per column: broadcast over inputs
             # the model's index is in [0, 1] too
-            ci = np.clip(ci + truncation_bounds(v, e, orthogonal), 0.0, 1.0)
+            ci = np.clip(ci + truncation_bounds(v, e, orthogonal, cross), 0.0, 1.0)
         ci[:, ~np.isfinite(v)] = np.nan
         setattr(st, f"{name}_ci", ci)
 
 
-def regression_intervals(stats: Mapping[str, OutputStats], fitted: Mapping[str, RegressionFit],
-                         groups: Sequence[tuple[str, Sequence[int]]],
-                         seed: np.random.SeedSequence | int, n_boot: int = N_BOOTSTRAP) -> None:
-    """Indices and bootstrap intervals of every fitted output of a regression PCE, in place.
+def regression_intervals(stats: Mapping[str, OutputStats], fitted: Mapping[str, tuple[
+        Expansion, np.ndarray, np.ndarray]], groups: Sequence[tuple[str, Sequence[int]]],
+        seed: np.random.SeedSequence | int, n_boot: int = N_BOOTSTRAP,
+        joined: Mapping[str, np.ndarray] | None = None) -> None:
+    """Indices and intervals of every fitted output of a regression PCE, in place: the
+    bootstrap's, joined (the hull of the two) with the output's band ``(2, m, S)`` in
+    ``joined``, if any (:func:`uqguide.pce.index_check.cross_term_band`).
 
-    ``fitted``: per output, its fit (:class:`RegressionFit`). Each output draws its bootstrap
-    weights from ``seed`` by position, so the intervals depend only on the config and the seed.
+    ``fitted``: per output, its expansion, its basis ``psi (n, P)`` at the fit's runs and the
+    columns fitted ``targets (n, r)``. Each output draws its bootstrap weights from ``seed`` by
+    position, so the intervals depend only on the config and the seed.
     """
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     children = ss.spawn(len(fitted))
-    for (name, fit), child in zip(fitted.items(), children):
+    cols = [c for _, c in groups]
+    for (name, (exp, psi, targets)), child in zip(fitted.items(), children):
         if name not in stats:
             continue
-        alpha, cores = bootstrap_cores(fit, child, n_boot)
-        band = bootstrap_intervals(fit.exp, alpha, cores, [cols for _, cols in groups])
-        set_indices(stats[name], fit.exp, groups, band)
+        cores = bootstrap_cores(exp, psi, targets, child, n_boot)
+        band = bootstrap_intervals(exp, cores, term_sets(exp.alpha, cols))
+        cross = (joined or {}).get(name)
+        if cross is not None:
+            # either interval holds under its own assumptions; their hull holds when one does
+            band = np.stack([np.fmin(band[0], cross[0]), np.fmax(band[1], cross[1])])
+            band = np.where(np.isfinite(band), np.clip(band, 0.0, 1.0), np.nan)
+        set_indices(stats[name], exp, groups, band)
 
 
 def truncation_error_intervals(stats: Mapping[str, OutputStats],
@@ -316,13 +284,16 @@ def truncation_error_intervals(stats: Mapping[str, OutputStats],
                                orthogonal: bool = True) -> None:
     """Widen every PCE index interval in ``stats`` by its truncation bound, in place, once the
     surrogate is validated: ``eps`` is an output's validation error (per column) where it has
-    one, else its LOO error in ``loo``, else none (the intervals stay as they are);
-    ``orthogonal``: which bound (:func:`truncation_bounds`). Withheld indices (NaN, groups'
-    too: :func:`uqguide.pce.validation.withhold_all`) get no interval.
+    one (whose runs measured the cross term: :func:`uqguide.pce.index_check.cross_term_band`),
+    else its LOO error in ``loo`` with the cross term bounded (``cross``), else none (the
+    intervals stay as they are); ``orthogonal``: which bound (:func:`truncation_bounds`).
+    Withheld indices (NaN, groups' too: :func:`uqguide.pce.validation.withhold_all`) get no
+    interval.
     """
     for name, st in stats.items():
         if st.sobol_first is None or st.sobol_estimator != "pce":
             continue
-        eps = st.validation_error if st.validation_error is not None else \
-            (loo or {}).get(name)
-        widen_by_truncation(st, eps, orthogonal)
+        if st.validation_error is not None:
+            widen_by_truncation(st, st.validation_error, orthogonal)
+        else:
+            widen_by_truncation(st, (loo or {}).get(name), orthogonal, cross=True)
