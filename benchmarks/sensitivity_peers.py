@@ -62,8 +62,10 @@ width, and whether the PCE refused ``x1`` and ``x2`` alone (NaN) at every seed.
 
 ``--study pce-borehole`` (#46, item 6): the borehole function (``pick_freeze_peers``' config
 and reference indices) through ``pce_adaptive`` at its defaults, per seed; per index ``S`` and
-``ST`` of every input: the reference, bias, sd over the seeds, coverage of the 95% interval,
-its median width, and the median CPU seconds of a run and of its indices' bootstrap.
+``ST`` of every input: the reference, bias, sd and root mean square error over the seeds,
+coverage of the 95% interval, its median width, and the median CPU seconds of a run and of
+its indices' intervals (bootstrap and cross term). The G-function's and Ishigami's coverage:
+``benchmarks/pce_sensitivity.py``.
 
     python benchmarks/sensitivity_peers.py [--runs 2000] [--seeds 50] [--methods ...]
     python benchmarks/sensitivity_peers.py --study saltelli [--n-base 1000] [--seeds 50]
