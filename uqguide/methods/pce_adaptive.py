@@ -33,6 +33,7 @@ from ..pce.default_plan import default_budget, default_validation, mean_and_std,
 from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
+from ..pce.index_check import ValidationRuns, cross_term_band
 from ..pce.loo import loo_values
 from ..pce.outputs import OutputColumns, assemble, failure_summary, output_columns
 from ..pce.series_fit import fit_series
@@ -46,7 +47,7 @@ from .base import Design, Method, MethodSettings, RunPlan
 from .monte_carlo import U_EPS
 from .pce_validated import (
     SURROGATE_DRAWS_FIELD, SURROGATE_SAMPLING_FIELD, USABLE_FIELD, VALIDATION_FIELD,
-    ValidationSettings, finish, split_validation, surrogate_of, with_validation,
+    ValidationSettings, finish, output_values, split_validation, surrogate_of, with_validation,
 )
 
 log = logging.getLogger(__name__)
@@ -359,8 +360,8 @@ class AdaptivePCE(Method):
             levels=self.context.quantile_levels, events=self.context.events,
             components=self.context.components,
             note=self.note)
-        self._indices(space, design, outputs, fits, stats)
         val_design = ValidationDesign.from_data(design.data)
+        self._indices(space, design, outputs, fits, stats, validation, val_design)
         if validation is not None and val_design is not None:
             events = self._validate(space, fits, val_design, validation, events)
         worst = max((f.loo for f in fits), default=0.0)
@@ -421,14 +422,28 @@ class AdaptivePCE(Method):
         return loo
 
     def _indices(self, space: InputSpace, design: Design, outputs: ModelOutput,
-                 fits: list[_OutputFit], stats: dict[str, Any]) -> None:
-        """Sobol' indices of every fitted output with bootstrap intervals."""
+                 fits: list[_OutputFit], stats: dict[str, Any],
+                 validation: ModelOutput | None, val_design: ValidationDesign | None) -> None:
+        """Sobol' indices of every fitted output with bootstrap intervals, joined with the
+        cross term the successful validation runs measure (if any)."""
         germ = Germ.of(space)
         xi = self._fit_points(germ, design, np.flatnonzero(~outputs.failed))
         fitted = {f.columns.name: (f.expansion, basis.evaluate(germ, f.expansion.alpha, xi),
                                    f.targets) for f in fits if f.targets is not None}
+        groups = [c for _, c in self.context.groups]
+        cross: dict[str, np.ndarray] = {}
+        ok = None if validation is None else ~validation.failed
+        if validation is not None and val_design is not None and ok is not None \
+                and int(ok.sum()) >= 2:
+            used = val_design.successful(ok)
+            xi_val = germ.from_unit(used.u)
+            for name, (exp, _, _) in fitted.items():
+                y = output_values(validation, name)
+                if y is not None:
+                    runs = ValidationRuns(xi_val, y[ok].reshape(int(ok.sum()), -1), used)
+                    cross[name] = cross_term_band(exp, runs, groups)
         seed = stream(int(design.data.get("seed", 0)), self.label, BOOTSTRAP_STREAM)
-        regression_intervals(stats, fitted, self.context.groups, seed)
+        regression_intervals(stats, fitted, self.context.groups, seed, joined=cross)
 
     def _validate(self, space: InputSpace, fits: list[_OutputFit], vd: ValidationDesign,
                   validation: ModelOutput, events: dict[str, EventEstimate]

@@ -112,7 +112,8 @@ USABLE_FIELD = Field(default=USABLE_ERROR, gt=0.0, le=10.0,
 SE_DRAWS = 20_000
 
 
-def _values(out: ModelOutput, name: str) -> np.ndarray | None:
+def output_values(out: ModelOutput, name: str) -> np.ndarray | None:
+    """``name``'s values in ``out`` (series or scalar), None where it has none."""
     if name in out.series:
         return np.asarray(out.series[name], dtype=float)
     if name in out.scalars:
@@ -189,7 +190,7 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             beyond, verdict = cred.far_tails(name, st, draws, clipped)
             keep(verdict)
         cv = None
-        y = _values(validation, name) if validation is not None else None
+        y = output_values(validation, name) if validation is not None else None
         if y is not None and ok is not None and used is not None and int(ok.sum()) >= 2:
             cv = _correct(name, st, y[ok], surrogate, space, used, seed, label, n_draws,
                           _fit_runs(name, surrogate, used, fit, fit_u, fit_loo_values))
@@ -331,7 +332,7 @@ def _fit_runs(name: str, surrogate: Surrogate, used: ValidationDesign,
             or name not in fit_loo or fit_u.shape[0] != fit.n):
         return None
     ok = ~fit.failed
-    y = _values(fit, name)
+    y = output_values(fit, name)
     if y is None or int(ok.sum()) != fit_loo[name].shape[0]:
         return None
     u = np.asarray(fit_u, dtype=float)[ok]
@@ -360,10 +361,10 @@ def _runs_estimate(name: str, fit: ModelOutput | None, validation: ModelOutput |
                    ok: np.ndarray | None, used: ValidationDesign | None) -> Corrected | None:
     """The Monte Carlo estimate of the output's fit and validation runs (None: no runs of
     it, e.g. a derived output, or fewer than three)."""
-    yf = _values(fit, name) if fit is not None else None
+    yf = output_values(fit, name) if fit is not None else None
     if yf is not None and fit is not None:
         yf = yf[~fit.failed]
-    yv = _values(validation, name) if validation is not None else None
+    yv = output_values(validation, name) if validation is not None else None
     if yv is not None and ok is not None and used is not None:
         yv = yv[ok]
     else:

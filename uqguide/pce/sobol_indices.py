@@ -1,10 +1,11 @@
 """Sobol' indices of a PCE, in closed form (sums of squared coefficients over sets of terms,
 :func:`term_sets`), with their 95% intervals: a wild bootstrap of a regression
-(:func:`regression_intervals`) widened by the truncation bound of the surrogate's error
-(:func:`truncation_error_intervals`).
+(:func:`regression_intervals`), joined with the first-order term of the surrogate's error
+measured on runs it did not fit (:func:`uqguide.pce.index_check.cross_term_band`), widened by
+the bound of the error's own share (:func:`truncation_error_intervals`).
 
 Derivation of the bounds, why this bootstrap, cost and measured coverage:
-docs/error-budget.md#pce-indices.
+docs/error-budget.md#pce-indices and docs/pce.md#the-index-error-identity.
 """
 
 from __future__ import annotations
@@ -140,15 +141,22 @@ def bootstrap_intervals(exp: Expansion, cores: np.ndarray, sets: np.ndarray) -> 
     return out
 
 
-def truncation_bounds(values: np.ndarray, eps: np.ndarray, orthogonal: bool = True
-                      ) -> np.ndarray:
+def truncation_bounds(values: np.ndarray, eps: np.ndarray, orthogonal: bool = True,
+                      cross: bool = False) -> np.ndarray:
     """``(2, ...)``: how far below and above an index ``S`` the model's may be for a surrogate
     of relative error ``eps`` (broadcast to ``values``): ``[-eps S, eps (1 - S)]`` when the error
-    is orthogonal to the expansion's terms, else (any error) ``(sqrt(S) -+ rho)^2 / (1 +- rho)^2
-    - S`` with ``rho = sqrt(eps) / (1 - sqrt(eps))``, within [0, 1]."""
+    is orthogonal to the expansion's terms or its cross term was measured apart, widened by
+    ``2 sqrt(S (1 - S) eps) (1 + sqrt(eps))`` either way when ``cross`` (the cross term bounded,
+    not measured: docs/pce.md#the-index-error-identity); else (any error, ``orthogonal``
+    False) ``(sqrt(S) -+ rho)^2 / (1 +- rho)^2 - S`` with ``rho = sqrt(eps) / (1 - sqrt(eps))``,
+    within [0, 1]."""
     eps = np.clip(np.asarray(eps, dtype=float), 0.0, 1.0)
     if orthogonal:
-        return np.stack([-eps * values, eps * (1.0 - values)])
+        reach = 0.0
+        if cross:
+            s = np.clip(values, 0.0, 1.0)
+            reach = 2.0 * np.sqrt(s * (1.0 - s) * eps) * (1.0 + np.sqrt(eps))
+        return np.stack([-eps * values - reach, eps * (1.0 - values) + reach])
     root = np.sqrt(eps)
     rho = root / np.maximum(1.0 - root, 1e-300)
     s = np.sqrt(np.clip(values, 0.0, None))
@@ -221,7 +229,7 @@ def set_indices(st: OutputStats, exp: Expansion, groups: Sequence[tuple[str, Seq
 
 
 def widen_by_truncation(st: OutputStats, eps: np.ndarray | float | None,
-                        orthogonal: bool = True) -> None:
+                        orthogonal: bool = True, cross: bool = False) -> None:
     """Widen (or, without intervals, set) ``st``'s index intervals by the truncation bound of a
     surrogate of relative error ``eps`` (per column ``(..., k)``, or one figure); where an
     index is NaN (withheld: no usable surrogate) its interval is NaN too. ``eps`` None leaves
@@ -238,15 +246,18 @@ def widen_by_truncation(st: OutputStats, eps: np.ndarray | float | None,
             e = np.asarray(eps, dtype=float)
             e = e[..., None] if e.ndim else e  # per column: broadcast over inputs
             # the model's index is in [0, 1] too
-            ci = np.clip(ci + truncation_bounds(v, e, orthogonal), 0.0, 1.0)
+            ci = np.clip(ci + truncation_bounds(v, e, orthogonal, cross), 0.0, 1.0)
         ci[:, ~np.isfinite(v)] = np.nan
         setattr(st, f"{name}_ci", ci)
 
 
 def regression_intervals(stats: Mapping[str, OutputStats], fitted: Mapping[str, tuple[
         Expansion, np.ndarray, np.ndarray]], groups: Sequence[tuple[str, Sequence[int]]],
-        seed: np.random.SeedSequence | int, n_boot: int = N_BOOTSTRAP) -> None:
-    """Indices and bootstrap intervals of every fitted output of a regression PCE, in place.
+        seed: np.random.SeedSequence | int, n_boot: int = N_BOOTSTRAP,
+        joined: Mapping[str, np.ndarray] | None = None) -> None:
+    """Indices and intervals of every fitted output of a regression PCE, in place: the
+    bootstrap's, joined (the hull of the two) with the output's band ``(2, m, S)`` in
+    ``joined``, if any (:func:`uqguide.pce.index_check.cross_term_band`).
 
     ``fitted``: per output, its expansion, its basis ``psi (n, P)`` at the fit's runs and the
     columns fitted ``targets (n, r)``. Each output draws its bootstrap weights from ``seed`` by
@@ -254,12 +265,18 @@ def regression_intervals(stats: Mapping[str, OutputStats], fitted: Mapping[str, 
     """
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     children = ss.spawn(len(fitted))
+    cols = [c for _, c in groups]
     for (name, (exp, psi, targets)), child in zip(fitted.items(), children):
         if name not in stats:
             continue
         cores = bootstrap_cores(exp, psi, targets, child, n_boot)
-        sets = term_sets(exp.alpha, [cols for _, cols in groups])
-        set_indices(stats[name], exp, groups, bootstrap_intervals(exp, cores, sets))
+        band = bootstrap_intervals(exp, cores, term_sets(exp.alpha, cols))
+        cross = (joined or {}).get(name)
+        if cross is not None:
+            # either interval holds under its own assumptions; their hull holds when one does
+            band = np.stack([np.fmin(band[0], cross[0]), np.fmax(band[1], cross[1])])
+            band = np.where(np.isfinite(band), np.clip(band, 0.0, 1.0), np.nan)
+        set_indices(stats[name], exp, groups, band)
 
 
 def truncation_error_intervals(stats: Mapping[str, OutputStats],
@@ -267,13 +284,16 @@ def truncation_error_intervals(stats: Mapping[str, OutputStats],
                                orthogonal: bool = True) -> None:
     """Widen every PCE index interval in ``stats`` by its truncation bound, in place, once the
     surrogate is validated: ``eps`` is an output's validation error (per column) where it has
-    one, else its LOO error in ``loo``, else none (the intervals stay as they are);
-    ``orthogonal``: which bound (:func:`truncation_bounds`). Withheld indices (NaN, groups'
-    too: :func:`uqguide.pce.validation.withhold_all`) get no interval.
+    one (whose runs measured the cross term: :func:`uqguide.pce.index_check.cross_term_band`),
+    else its LOO error in ``loo`` with the cross term bounded (``cross``), else none (the
+    intervals stay as they are); ``orthogonal``: which bound (:func:`truncation_bounds`).
+    Withheld indices (NaN, groups' too: :func:`uqguide.pce.validation.withhold_all`) get no
+    interval.
     """
     for name, st in stats.items():
         if st.sobol_first is None or st.sobol_estimator != "pce":
             continue
-        eps = st.validation_error if st.validation_error is not None else \
-            (loo or {}).get(name)
-        widen_by_truncation(st, eps, orthogonal)
+        if st.validation_error is not None:
+            widen_by_truncation(st, st.validation_error, orthogonal)
+        else:
+            widen_by_truncation(st, (loo or {}).get(name), orthogonal, cross=True)
