@@ -1,8 +1,8 @@
 """The cross term of a regression PCE's index error, measured on runs it did not fit: an
 index moves with the surrogate's error ``e`` by ``-2 E[g e] / V`` to first order (``g`` the
-index's direction), which the validation runs (or, without them, the fit runs' leave-one-out
-errors) estimate with a stratified mean's Student interval. The derivation and the measured
-coverage: docs/pce.md#the-index-error-identity.
+index's direction), which the validation runs estimate with a stratified mean's Student
+interval (without them :func:`uqguide.pce.sobol_indices.widen_by_truncation` bounds it from the
+LOO error). The derivation and the measured coverage: docs/pce.md#the-index-error-identity.
 """
 
 from __future__ import annotations
