@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 import re
+import textwrap
 import warnings
 from typing import Any
 
@@ -463,13 +464,33 @@ def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
     keys = ["time", "component", "label"]
     for key, g in stats.groupby(keys, sort=False, dropna=False):
         row = dict(zip(keys, key))
+        constant = _constant(g)
         for _, s in g.iterrows():
-            row[s["stat"]] = _cell_text(s, stats.attrs, with_ref)
+            row[s["stat"]] = (_constant_cell(s) if constant and not np.isnan(s["value"])
+                              else "-" if constant else _cell_text(s, stats.attrs, with_ref))
         rows.append(row)
     df = _without_constant_columns(pd.DataFrame(rows))
     if "time" in df:
         df["time"] = df["time"].map(lambda t: f"{t:g}")
     return df
+
+
+#: A std this small against the mean is round-off: every run gave the same value.
+CONSTANT_RTOL = 1e-12
+
+
+def _constant(g: pd.DataFrame) -> bool:
+    """Whether one method's statistics ``g`` at one point are those of a constant output (its
+    skewness and kurtosis are then undefined, its intervals round-off)."""
+    by = dict(zip(g["stat"], g["value"]))
+    mean, std = by.get("mean", np.nan), by.get("std", np.nan)
+    return bool(np.isfinite(mean) and np.isfinite(std)
+                and std <= CONSTANT_RTOL * max(abs(mean), np.finfo(float).tiny))
+
+
+def _constant_cell(s: pd.Series) -> str:
+    """The cell of a constant output's statistic: its value, no interval."""
+    return "0 (constant)" if s["stat"] == "std" else f"{_fmt(s['value'])} (constant)"
 
 
 def _cell_text(s: pd.Series, attrs: dict, with_ref: bool) -> str:
@@ -497,9 +518,9 @@ def _cell_text(s: pd.Series, attrs: dict, with_ref: bool) -> str:
     cell = _fmt(s["value"])
     if np.isinf(s["ci_high"]) and np.isfinite(s["ci_low"]):
         # a stated floor (uqguide.stats.tail_intervals): no upper bound from the runs
-        cell += f" [>= {_fmt(s['ci_low'])}; the runs cannot bound it above]"
+        cell += f" [>= {_fmt(s['ci_low'])}]"
     elif np.isinf(s["ci_low"]) and np.isfinite(s["ci_high"]):
-        cell += f" [<= {_fmt(s['ci_high'])}; the runs cannot bound it below]"
+        cell += f" [<= {_fmt(s['ci_high'])}]"
     elif not np.isnan(s["ci_low"]):
         cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
     if with_ref and s["label"] != attrs.get("reference"):
@@ -515,55 +536,56 @@ def _cell_text(s: pd.Series, attrs: dict, with_ref: bool) -> str:
 
 
 def render_text(result: Result) -> str:
-    """The console form, plain text: cost, each output's statistics at the report times,
-    events, series agreement, the error budget of each scalar output
-    (:mod:`uqguide.report.budget`), legend and failures."""
-    parts = ["Cost", cost_table(result).to_string(index=False, na_rep="")]
+    """The console form, plain text no wider than :data:`CONSOLE_WIDTH` where it can be: cost,
+    each output's statistics at the report times, events, series agreement, the error budget
+    of each scalar output (:mod:`uqguide.report.budget`), the key and failures."""
+    parts = ["Cost", fit_columns(cost_table(result), ["label"], na_rep="")]
     val = validation_table(result)
     if not val.empty:
-        parts += ["", "PCE validation (PCE value; the +cv row: the PCE's own value where it lies "
-                  "within sqrt(2) standard errors of the control-variate value, else that value, "
-                  "with the control variate's 95% interval from the validation runs, delta "
-                  "method; val_error: out-of-sample error / variance)",
-                  validation_text(val).to_string(index=False)]
+        parts += ["", _prose("PCE validation (PCE value; the +cv row: the PCE's own value where "
+                             "it lies within sqrt(2) standard errors of the control-variate "
+                             "value, else that value, with the control variate's 95% interval "
+                             "from the validation runs, delta method; val_error: out-of-sample "
+                             "error / variance)"),
+                  fit_columns(validation_text(val), ["label", "output", "stat"])]
     stats = statistics_table(result)
     with_ref = result.reference is not None and len(result.runs) > 1
+    shown = []
     for o in result.outputs:
         sub = stats[stats["output"] == o.name] if not stats.empty else stats
         if sub.empty:
             continue
         kind = "at report times" if o.kind == "series" else "(scalar)"
-        parts += ["", f"{o.name} [{o.unit}] {kind}: {o.description}",
-                  wide_table(sub, with_ref).to_string(index=False)]
+        shown.append(wide_table(sub, with_ref))
+        parts += ["", _prose(f"{o.name} [{o.unit}] {kind}: {o.description}"),
+                  fit_columns(shown[-1], ["time", "component", "label"])]
     events = events_table(result)
     if not events.empty:
-        parts += ["", "Events (95% intervals: Clopper-Pearson over model runs; surrogate: over its "
-                  "draws only; subset: lognormal from its CoV upper bound, in = final level)",
-                  events_text(events).to_string(index=False)]
+        parts += ["", _prose("Events (95% intervals: Clopper-Pearson over model runs; "
+                             "surrogate: over its draws only; subset: lognormal from its CoV "
+                             "upper bound, in = final level)"),
+                  fit_columns(events_text(events), ["event", "label"])]
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
-                  f"(max relative difference)", agree.to_string(index=False, float_format=_fmt)]
+                  f"(max relative difference)",
+                  fit_columns(agree, ["output", "label"], float_format=_fmt)]
     for b in budget_tables(result):
         parts += ["", budget_text(b)]
-    if any(result_statistics(result).values()):
-        parts += ["", interval_legend(with_ref, "needs_runs" in stats, _has_not_resolved(stats))]
+    if shown:
+        parts += ["", interval_legend(result, shown, with_ref)]
     parts += _without_statistics(result)
     failures = failure_table(result)
     if not failures.empty:
+        # the whole reason of each run is in the result file (RunResult.reasons)
+        failures["reason"] = failures["reason"].map(
+            lambda r: r if len(r) <= _PROSE_WIDTH else r[:_PROSE_WIDTH - 3] + "...")
         parts += ["", "Failed runs (excluded from the statistics)",
-                  *[failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
+                  *[textwrap.fill(failed_runs_line(r.label, r.estimate.method, r.n_runs,
+                                                   r.n_failed), CONSOLE_WIDTH)
                     for r in result.runs if r.success and r.n_failed],
-                  failures.to_string(index=False)]
+                  fit_columns(failures, ["label"])]
     return "\n".join(parts)
-
-
-def _has_not_resolved(stats: pd.DataFrame) -> bool:
-    """Whether any row of the statistics table ``stats`` prints "not resolved by N runs"."""
-    if stats.empty:
-        return False
-    return any(bool(says_nothing(str(k), lo, hi)) for k, lo, hi in
-               zip(stats["stat"], stats["ci_low"], stats["ci_high"]))
 
 
 def _without_statistics(result: Result) -> list[str]:
@@ -577,50 +599,80 @@ def _without_statistics(result: Result) -> list[str]:
             *[f"  {r.label}: {r.message}" for r in broken]]
 
 
-def interval_legend(with_reference: bool, needs_runs: bool = False,
-                    not_resolved: bool = False) -> str:
-    """What the brackets and flags of the statistics tables mean (printed with every table);
-    ``with_reference``: also the difference and its in / OUT verdict; ``needs_runs``: also
-    "needs n runs", ``not_resolved``: also "not resolved by N runs" (a table shows it)."""
-    text = ("Values: estimate [95% interval]: Monte Carlo moments by skew-corrected "
-            "(Hall) influence-function intervals, printed as a floor '[>= L]' (or ceiling) "
-            "where a handful of runs carry the statistic's variance and the runs cannot bound "
-            "it on that side (the default, intervals: tail; intervals: delta: +-1.96 "
-            "influence-function standard errors; bootstrap: Poisson bootstrap, the mean by "
-            "+-1.96 standard errors where it has no bootstrap; studentized: studentised "
-            "Poisson bootstrap); sobol_saltelli: the same, of its 2N base rows; mfmc: the "
-            "highest fidelity's statistics, the mean's interval from the estimator's "
-            "variance, the others' by bootstrap over its independent groups; "
-            "quantiles by order statistics; a PCE's own values: the hull of the value and its "
-            "+cv interval, else of its runs' interval where the value lies near their "
-            "estimate; without validation runs, and for a quadrature PCE, none (their error "
-            "is the surrogate's, see loo_error); "
-            "label+cv: a validated PCE's control-variate estimate, delta-method interval from "
-            "its (stratified) validation runs (not shown where the runs' own estimate "
-            "refutes it or is more precise); its value is the PCE's own where that lies "
-            "within sqrt(2) standard errors of the corrected one (the smaller estimated "
-            "mean squared error, cv_point in the diagnostics); 'no usable surrogate': LOO "
-            "or validation error above the method's usable_error; 'withheld': a PCE "
-            "skewness or kurtosis its validation or Monte Carlo runs refute (beyond their "
-            "delta-method half-widths and outside their tail-aware interval), or a value "
-            "nothing bounds; label+mc: where a PCE "
-            "moment is withheld, the Monte Carlo estimate of the method's own fit and "
-            "validation runs (no extra runs), delta-method interval treating them as "
-            "independent draws; 'overflow': the sums of the output's powers overflow double "
-            "precision (values near 1e300), the run names the output.")
-    if needs_runs:
-        text += (" 'needs n runs': a sample statistic of fewer runs than it takes to say "
-                 "anything of the output (whatever the output, one run's std is 0, two runs' "
-                 "skewness 0 and kurtosis 1, three runs' kurtosis 1.5).")
-    if not_resolved:
-        text += (" 'not resolved by N runs': a std or kurtosis of N runs whose 95% interval "
-                 "bounds it no more than its definition does (a floor at 0 or at 1, nothing "
-                 "above): the runs cannot estimate it; its value and interval stay in the "
-                 "result file.")
-    if with_reference:
-        text += (" (difference from the reference; in: within the 95% interval of the "
-                 "difference, both estimates' errors combined; OUT: beyond it).")
-    return text
+#: The console's widest line: wider tables are split into blocks of columns, prose is wrapped.
+CONSOLE_WIDTH = 160
+_PROSE_WIDTH = 100
+
+
+def interval_legend(result: Result, tables: list[pd.DataFrame], with_reference: bool) -> str:
+    """The key of the symbols the statistics ``tables`` (of :func:`wide_table`) print, one
+    line each, with a pointer to the page that explains them all."""
+    cells = " | ".join(str(v) for df in tables for v in df.to_numpy().ravel())
+    labels = {str(v) for df in tables if "label" in df for v in df["label"]}
+    pce = {r.label for r in result.runs if r.estimate.method.startswith("pce_")}
+    entries = [
+        ("[a, b]", "95% interval (Monte Carlo: skew-corrected influence-function intervals by "
+                   "default, intervals: in the method's settings)", True),
+        ("[>= L], [<= U]", "a floor (ceiling): a few runs carry the statistic's variance and "
+                           "cannot bound it on the other side", "[>= " in cells or "[<= " in cells),
+        ("PCE value [a, b]", "the hull of the value and its +cv interval, else of its runs' "
+                             "interval; none without validation runs (see loo_error)",
+         bool(pce & labels)),
+        ("label+cv", "a validated PCE's control-variate estimate, its interval from the "
+                     "validation runs", any(x.endswith(SOURCES["cv"]) for x in labels)),
+        ("label+mc", "where a PCE moment is withheld: the Monte Carlo estimate of the PCE's own "
+                     "runs", any(x.endswith(SOURCES["mc"]) for x in labels)),
+        ("withheld", "a PCE value its validation or Monte Carlo runs refute, or one nothing "
+                     "bounds", "withheld" in cells),
+        ("no usable surrogate", "the PCE's LOO or validation error is above its usable_error",
+         "no usable surrogate" in cells),
+        ("needs n runs", "fewer runs than the statistic takes to say anything (one run's std "
+                         "is 0, two runs' kurtosis 1)", "needs " in cells),
+        ("not resolved by N runs", "a std or kurtosis whose interval bounds it no more than its "
+                                   "definition (>= 0, >= 1); kept in the result file",
+         "not resolved by" in cells),
+        ("overflow", "the sums of the output's powers overflow double precision",
+         "overflow" in cells),
+        ("(constant)", "every run gave the same value (a std below 1e-12 of the mean); "
+                       "'-': undefined", "(constant)" in cells),
+        ("(+1.2%, in | OUT)", "difference from the reference; in: within the 95% interval of "
+                              "the difference", with_reference),
+    ]
+    shown = [(k, v) for k, v, used in entries if used]
+    pad = max(len(k) for k, _ in shown) + 2
+    lines = ["Key (all of it: docs/statistics.md):"]
+    for key, text in shown:
+        lines += textwrap.wrap(text, _PROSE_WIDTH, initial_indent=f"  {key:<{pad}}",
+                               subsequent_indent=" " * (pad + 2))
+    return "\n".join(lines)
+
+
+def fit_columns(df: pd.DataFrame, keys: list[str], width: int = CONSOLE_WIDTH,
+                **kwargs: Any) -> str:
+    """``df`` as text no wider than ``width`` where it can be: whole when it fits, else in
+    blocks of its other columns, each with the ``keys`` columns (``time``, ``label``...) on
+    the left; ``kwargs`` go to :meth:`pandas.DataFrame.to_string`."""
+    def text(cols: list[str]) -> str:
+        return df[cols].to_string(index=False, **kwargs)
+
+    def wide(s: str) -> int:
+        return max((len(x) for x in s.splitlines()), default=0)
+
+    keys = [k for k in keys if k in df.columns]
+    whole = text(list(df.columns))
+    if wide(whole) <= width:
+        return whole
+    blocks: list[list[str]] = [[]]
+    for c in (c for c in df.columns if c not in keys):
+        if blocks[-1] and wide(text(keys + blocks[-1] + [c])) > width:
+            blocks.append([])
+        blocks[-1].append(c)
+    return "\n\n".join(text(keys + b) for b in blocks)
+
+
+def _prose(text: str) -> str:
+    """A sentence over the tables, wrapped to the console."""
+    return textwrap.fill(text, _PROSE_WIDTH)
 
 
 def to_markdown(df: pd.DataFrame) -> str:
@@ -644,15 +696,17 @@ def render_markdown(result: Result) -> str:
     val = validation_table(result)
     if not val.empty:
         parts += ["", "## PCE validation", "", to_markdown(validation_text(val))]
+    shown = []
     for o in result.outputs:
         sub = stats[stats["output"] == o.name] if not stats.empty else stats
         if not sub.empty:
+            shown.append(wide_table(sub, with_ref))
             parts += ["", f"## {o.name} [{o.unit}]", "", o.description, "",
-                      to_markdown(wide_table(sub, with_ref))]
+                      to_markdown(shown[-1])]
     for b in budget_tables(result):
         parts += ["", budget_text(b)]
-    if any(result_statistics(result).values()):
-        parts += ["", interval_legend(with_ref, "needs_runs" in stats, _has_not_resolved(stats))]
+    if shown:
+        parts += ["", "```text", interval_legend(result, shown, with_ref), "```"]
     events = events_table(result)
     if not events.empty:
         parts += ["", "## Events", "", to_markdown(events_text(events))]
