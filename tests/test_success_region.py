@@ -46,8 +46,9 @@ def test_failures_with_no_region_fail_the_check():
 def test_the_failed_share_of_equal_weights_is_clopper_pearson():
     failed = np.zeros(50, dtype=bool)
     failed[:4] = True
-    np.testing.assert_allclose(failed_share(failed, np.full(50, 1 / 50)),
-                               clopper_pearson(4, 50), rtol=1e-12)
+    p, lo, hi = failed_share(failed, np.full(50, 1 / 50))
+    assert p == 4 / 50
+    np.testing.assert_allclose((lo, hi), clopper_pearson(4, 50), rtol=1e-12)
 
 
 def test_the_spread_covers_the_true_region_where_few_runs_failed():
@@ -64,7 +65,7 @@ def test_the_spread_covers_the_true_region_where_few_runs_failed():
     region = fit_region(xi, failed)
     at = conditional_moments(values, region.succeeds(draws))["mean"]
     truth = conditional_moments(values, draws[:, 0] + draws[:, 1] <= 2.9)["mean"]
-    share = failed_share(failed, np.full(60, 1 / 60))
+    share = failed_share(failed, np.full(60, 1 / 60))[1:]
     spread = region_spread(xi, failed, draws, values, share, seed=0)["mean"]
     assert abs(at - truth) <= spread
     # every turned boundary still separates the runs

@@ -16,6 +16,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import ConfigDict, Field, field_validator
 
+from ..core.failures import FAILED_SHARE
 from ..core.inputs import InputSpace
 from ..core.strict import StrictModel
 from ..core.types import STAT_NAMES, DerivedOutput, Estimate, ModelOutput
@@ -174,6 +175,11 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         estimate.scalar_mean, estimate.scalar_cov = None, None
     region: RegionCheck | None = None
     spreads: dict[str, dict[str, np.ndarray]] = {}
+    if n_failed and fit is not None and validation is not None and design is not None:
+        # the validation runs lean to the tails: their raw count of failures is no share
+        every = np.concatenate([fit.failed, validation.failed]).astype(bool)
+        for key, v in zip(FAILED_SHARE, _failed_share(every, design)):
+            diag[key] = v
     if n_failed:
         region = _success_region(surrogate, fit, fit_u, validation, design)
         if region is not None:
@@ -304,6 +310,15 @@ def _region_runs(surrogate: Surrogate, fit: ModelOutput | None, fit_u: np.ndarra
     return surrogate.germ.from_unit(u), failed, np.arange(fit.n, fit.n + validation.n)
 
 
+def _failed_share(failed: np.ndarray, design: ValidationDesign) -> tuple[float, float, float]:
+    """The chance that a run fails and its 95% interval from the fit runs (the rows before
+    the validation runs, a sample of the input distribution) and the validation runs at their
+    weights, each set counted by its size (:func:`uqguide.pce.success_region.failed_share`)."""
+    n_all = failed.size
+    return failed_share(failed, np.concatenate([np.full(n_all - design.n, 1.0 / n_all),
+                                                design.weight * design.n / n_all]))
+
+
 def _success_region(surrogate: Surrogate, fit: ModelOutput | None, fit_u: np.ndarray | None,
                     validation: ModelOutput | None, design: ValidationDesign | None
                     ) -> RegionCheck | None:
@@ -330,9 +345,7 @@ def _conditional_on_success(estimate: Estimate, surrogate: Surrogate, space: Inp
     assert runs is not None
     xi, failed, _ = runs
     region = fit_region(xi, failed)
-    n_fit, n_all = xi.shape[0] - design.n, xi.shape[0]
-    share = failed_share(failed, np.concatenate([np.full(n_fit, 1.0 / n_all),
-                                                 design.weight * design.n / n_all]))
+    share = _failed_share(failed, design)
     spreads: dict[str, dict[str, np.ndarray]] = {}
     if region is None:
         return spreads
@@ -356,7 +369,7 @@ def _conditional_on_success(estimate: Estimate, surrogate: Surrogate, space: Inp
         st.n_used = int(inside.sum())
         st.sampling_se = sampling_se(values[inside][:SE_DRAWS], int(inside.sum()), seed=seed)
         b = BOOTSTRAP_DRAWS
-        spreads[name] = region_spread(xi, failed, xi_draws[:b], values[:b], share, seed)
+        spreads[name] = region_spread(xi, failed, xi_draws[:b], values[:b], share[1:], seed)
     return spreads
 
 

@@ -153,15 +153,16 @@ def turned_regions(region: SuccessRegion, xi: np.ndarray, failed: np.ndarray,
     return [m for m in out if m.any()]
 
 
-def failed_share(failed: np.ndarray, weight: np.ndarray) -> tuple[float, float]:
-    """The 95% interval of the chance that a run fails, from runs ``failed`` weighted to the
+def failed_share(failed: np.ndarray, weight: np.ndarray) -> tuple[float, float, float]:
+    """The chance that a run fails and its 95% interval, from runs ``failed`` weighted to the
     input distribution (``weight`` summing to 1): Clopper-Pearson at the weights' effective
     count (Kish's ``1 / sum w^2``)."""
     from ..core.events import clopper_pearson
 
     w = np.asarray(weight, dtype=float)
     n = 1.0 / float(np.sum(w**2))
-    return clopper_pearson(n * float(np.sum(w[np.asarray(failed, bool)])), n)
+    p = float(np.sum(w[np.asarray(failed, bool)]))
+    return (p, *clopper_pearson(n * p, n))
 
 
 def region_spread(xi: np.ndarray, failed: np.ndarray, xi_draws: np.ndarray,

@@ -519,7 +519,8 @@ def render_text(result: Result) -> str:
     failures = failure_table(result)
     if not failures.empty:
         parts += ["", "Failed runs (excluded from the statistics)",
-                  *[failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
+                  *[failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed,
+                                     r.estimate.diagnostics)
                     for r in result.runs if r.success and r.n_failed],
                   failures.to_string(index=False)]
     return "\n".join(parts)
