@@ -181,3 +181,18 @@ def failing_region(x):
     a, b, c = x[:, 0], x[:, 1], x[:, 2]
     y = 2.0 + a + 0.5 * b**2 + 0.3 * a * c
     return {"y": np.where(a + b > 2.9, np.nan, y)}
+
+
+def sum_nan_above(x):
+    """``y = a + b``, NaN where ``a > 1.5`` (6.7% of standard normal inputs): a model failing on
+    a half-space, whose mean conditional on success is ``-phi(1.5) / Phi(1.5)``."""
+    a, b = x[:, 0], x[:, 1]
+    return {"y": np.where(a > 1.5, np.nan, a + b)}
+
+
+def sum_fails_at_random(x):
+    """``y = a + b``, NaN at about 10% of the inputs, scattered with no region (the digits of
+    ``a``): nothing a classifier of the success region could learn."""
+    a, b = x[:, 0], x[:, 1]
+    scattered = np.modf(np.abs(a) * 1e4)[0] < 0.1
+    return {"y": np.where(scattered, np.nan, a + b)}

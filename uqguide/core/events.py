@@ -73,8 +73,9 @@ def component_index(spec: EventSpec, components: tuple[str, ...]) -> int:
     return components.index(c)
 
 
-def clopper_pearson(k: int, n: int, level: float = LEVEL) -> tuple[float, float]:
-    """Exact (Clopper-Pearson) two-sided interval of a binomial proportion ``k / n``.
+def clopper_pearson(k: float, n: float, level: float = LEVEL) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) two-sided interval of a binomial proportion ``k / n`` (counts
+    may be effective, non-integer ones).
 
     Coverage is at least ``level`` for every true probability (conservative); ``[0, upper]``
     for ``k = 0`` and ``[lower, 1]`` for ``k = n``; NaN for ``n = 0``.

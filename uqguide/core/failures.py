@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import re
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
+from typing import Any
 
 #: Reasons listed per method; the rest are summed into one "other reasons" row.
 MAX_REASONS = 5
@@ -80,16 +81,31 @@ def render_reasons(label: str, n_runs: int, reasons: Iterable[object]) -> str:
         index=False)
 
 
-def failed_runs_line(label: str, method: str, n_runs: int, n_failed: int) -> str:
+#: A method's diagnostics that hold the chance that a run fails and its 95% interval where
+#: its runs are not a plain sample of the inputs (a PCE's stratified validation runs).
+FAILED_SHARE = ("failed_share", "failed_share_low", "failed_share_high")
+
+
+def failed_runs_line(label: str, method: str, n_runs: int, n_failed: int,
+                     diagnostics: Mapping[str, Any] | None = None) -> str:
     """The one line that says a method's failed runs: their count, their share with its 95%
-    Clopper-Pearson interval (the chance that a run of this model fails), and what the
-    method's statistics then are. ``method``: its registered name (subset simulation counts a
-    failed run outside its event; every other method's statistics are those of the runs that
-    succeeded)."""
+    Clopper-Pearson interval (the chance that a run of this model fails; from the
+    ``diagnostics``' :data:`FAILED_SHARE` where they hold it, the runs weighted to the input
+    distribution), and what the method's statistics then are. ``method``: its registered
+    name (subset simulation counts a failed run outside its event; every other method's
+    statistics are those of the runs that succeeded)."""
     from .events import clopper_pearson
 
-    lo, hi = clopper_pearson(n_failed, n_runs)
-    share = f"{100 * n_failed / n_runs:.3g}%, 95% interval {100 * lo:.3g}-{100 * hi:.3g}%"
+    if diagnostics is not None and all(k in diagnostics for k in FAILED_SHARE):
+        p, lo, hi = (float(diagnostics[k]) for k in FAILED_SHARE)
+        # a handful of weighted runs puts the lower end at any small number: below 0.001%
+        # its digits say nothing
+        low = f"{100 * lo:.3g}" if 100 * lo >= 1e-3 else "<0.001"
+        share = (f"{100 * p:.3g}% weighted to the input distribution, 95% interval "
+                 f"{low}-{100 * hi:.3g}%")
+    else:
+        lo, hi = clopper_pearson(n_failed, n_runs)
+        share = f"{100 * n_failed / n_runs:.3g}%, 95% interval {100 * lo:.3g}-{100 * hi:.3g}%"
     meaning = ("its probability counts them outside the event (not conditional on success)"
                if method == "subset_simulation" else
                "its statistics are conditional on success (the runs that failed are left out)")

@@ -101,7 +101,8 @@ def say_failures(result: Result) -> list[str]:
     failures in its message)."""
     from ..core.failures import failed_runs_line
 
-    lines = [failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
+    lines = [failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed,
+                              r.estimate.diagnostics)
              + f"; reasons: {reason_summary(r.reasons[r.failed], limit=3)}"
              for r in result.runs if r.success and r.n_failed]
     for line in lines:

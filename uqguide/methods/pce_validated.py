@@ -16,6 +16,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import ConfigDict, Field, field_validator
 
+from ..core.failures import FAILED_SHARE
 from ..core.inputs import InputSpace
 from ..core.strict import StrictModel
 from ..core.types import STAT_NAMES, DerivedOutput, Estimate, ModelOutput
@@ -23,6 +24,9 @@ from ..pce import credibility as cred
 from ..pce.far_tails import far_draws
 from ..pce.loo import FitRuns
 from ..pce.runs_estimate import INTERVAL, runs_estimate
+from ..pce.success_region import (BOOTSTRAP_DRAWS, RegionCheck, check_region,
+                                  conditional_moments, failed_share, fit_region,
+                                  region_spread)
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
 from ..pce.outputs import OutputColumns
@@ -170,22 +174,39 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
             n_failed, n_runs = n_failed + int(np.sum(mask)), n_runs + int(np.size(mask))
     if n_failed:  # the joint moments of the scalars are the polynomial's too
         estimate.scalar_mean, estimate.scalar_cov = None, None
+    region: RegionCheck | None = None
+    spreads: dict[str, dict[str, np.ndarray]] = {}
+    if n_failed and fit is not None and validation is not None and design is not None:
+        # the validation runs lean to the tails: their raw count of failures is no share
+        every = np.concatenate([fit.failed, validation.failed]).astype(bool)
+        for key, v in zip(FAILED_SHARE, _failed_share(every, design)):
+            diag[key] = v
+    if n_failed:
+        region = _success_region(surrogate, fit, fit_u, validation, design)
+        if region is not None:
+            diag["success_region"] = region.line()
+            if region.passed and ok is not None and design is not None:
+                spreads = _conditional_on_success(estimate, surrogate, space, fit, fit_u,
+                                                  validation, design, seed, label, n_draws)
+                used = design.conditional(ok)
     for name, st in estimate.stats.items():
         def keep(verdict: cred.Verdict | None, name: str = name) -> None:
             cred.record(diag, label, name, verdict)
 
-        if n_failed:
+        if n_failed and name not in spreads:
             st.usable, _ = cred.usable(name, st, None, _fit_loo(name, loo, surrogate),
                                        threshold)
             _withhold_for_failed_runs(name, st, n_failed, n_runs, fit, validation, ok,
-                                      design, keep)
+                                      design, keep, region)
             if st.fallback:
                 diag["fallback_interval"] = INTERVAL
             continue
 
-        beyond = None
+        beyond = spreads.get(name)
         exp = surrogate.expansions.get(name)
-        if cred.swings(st, exp):
+        if n_failed:
+            keep(cred.success_region(name, n_failed, n_runs, region))
+        elif cred.swings(st, exp):
             draws, clipped = _far_draws(name, st, surrogate, space, seed, label, box)
             beyond, verdict = cred.far_tails(name, st, draws, clipped)
             keep(verdict)
@@ -253,16 +274,17 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
 def _withhold_for_failed_runs(name: str, st: Any, n_failed: int, n_runs: int,
                               fit: ModelOutput | None, validation: ModelOutput | None,
                               ok: np.ndarray | None, design: ValidationDesign | None,
-                              keep: Callable[[cred.Verdict | None], None]) -> None:
+                              keep: Callable[[cred.Verdict | None], None],
+                              region: RegionCheck | None) -> None:
     """The step :func:`uqguide.pce.credibility.runs_failed`: the own and ``+cv`` values
     withheld, the Monte Carlo estimate of the successful fit and validation runs, weighted
     to be conditional on success (:meth:`ValidationDesign.conditional`), given instead
     (``st.usable`` stays what the fit's error says: the values are withheld for another
-    reason)."""
+    reason); ``region``: the success region's check, where one was fitted and failed it."""
     cond = design.conditional(ok) if design is not None and ok is not None and ok.any() \
         else None
     runs = _runs_estimate(name, fit, validation, ok, cond)
-    verdict = cred.runs_failed(name, st, n_failed, n_runs, runs)
+    verdict = cred.runs_failed(name, st, n_failed, n_runs, runs, region)
     assert verdict is not None
     withhold_all(st, np.zeros(np.shape(st.mean), dtype=bool))
     st.corrected, st.corrected_ci = {}, {}
@@ -273,6 +295,83 @@ def _withhold_for_failed_runs(name: str, st: Any, n_failed: int, n_runs: int,
     keep(verdict)
     keep(given)
     keep(unresolved)
+
+
+def _region_runs(surrogate: Surrogate, fit: ModelOutput | None, fit_u: np.ndarray | None,
+                 validation: ModelOutput | None, design: ValidationDesign | None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The germ points and failure mask of the fit and validation runs, and the validation
+    runs' rows among them; None where either set's points are missing (quadrature nodes, no
+    validation runs)."""
+    if (fit is None or fit_u is None or validation is None or design is None
+            or fit_u.shape[0] != fit.n or design.n != validation.n):
+        return None
+    u = np.vstack([np.asarray(fit_u, dtype=float), np.asarray(design.u, dtype=float)])
+    failed = np.concatenate([fit.failed, validation.failed]).astype(bool)
+    return surrogate.germ.from_unit(u), failed, np.arange(fit.n, fit.n + validation.n)
+
+
+def _failed_share(failed: np.ndarray, design: ValidationDesign) -> tuple[float, float, float]:
+    """The chance that a run fails and its 95% interval from the fit runs (the rows before
+    the validation runs, a sample of the input distribution) and the validation runs at their
+    weights, each set counted by its size (:func:`uqguide.pce.success_region.failed_share`)."""
+    n_all = failed.size
+    return failed_share(failed, np.concatenate([np.full(n_all - design.n, 1.0 / n_all),
+                                                design.weight * design.n / n_all]))
+
+
+def _success_region(surrogate: Surrogate, fit: ModelOutput | None, fit_u: np.ndarray | None,
+                    validation: ModelOutput | None, design: ValidationDesign | None
+                    ) -> RegionCheck | None:
+    """The success region's leave-one-out check on the validation runs (None: no region can
+    be learnt, :func:`_region_runs`)."""
+    runs = _region_runs(surrogate, fit, fit_u, validation, design)
+    if runs is None:
+        return None
+    xi, failed, held = runs
+    return check_region(xi, failed, held)
+
+
+def _conditional_on_success(estimate: Estimate, surrogate: Surrogate, space: InputSpace,
+                            fit: ModelOutput | None, fit_u: np.ndarray | None,
+                            validation: ModelOutput | None, design: ValidationDesign,
+                            seed: int, label: str, n_draws: int
+                            ) -> dict[str, dict[str, np.ndarray]]:
+    """Replace, in place, every output's own moments by those of surrogate draws inside the
+    success region fitted on all the runs (:mod:`uqguide.pce.success_region`), with their
+    sampling error (its other statistics withheld); returns per output how far each
+    statistic moves with the region (:func:`uqguide.pce.success_region.region_spread`), which
+    widens its ``+cv`` intervals."""
+    runs = _region_runs(surrogate, fit, fit_u, validation, design)
+    assert runs is not None
+    xi, failed, _ = runs
+    region = fit_region(xi, failed)
+    share = _failed_share(failed, design)
+    spreads: dict[str, dict[str, np.ndarray]] = {}
+    if region is None:
+        return spreads
+    for name, st in estimate.stats.items():
+        shape = np.shape(st.mean)
+        cols = int(np.prod(shape))
+        m = min(n_draws, max(BOOTSTRAP_DRAWS, 2_000_000 // max(cols, 1)))
+        u = validation_unit_rows(seed, f"{label}/success", m, space.dim)
+        xi_draws = surrogate.germ.from_unit(u)
+        inside = region.succeeds(xi_draws)
+        if not inside.any():
+            continue
+        values = surrogate.at_unit(u, [name])[name].reshape((m,) + shape)
+        moments = conditional_moments(values, inside)
+        # the covariance, Sobol' indices and quantiles stay the polynomial's over the whole
+        # input space: withheld with everything, then the moments given back
+        withhold_all(st, np.zeros(shape, dtype=bool))
+        for k, v in moments.items():
+            setattr(st, k, np.asarray(v, dtype=float).reshape(shape))
+        st.moments_method = "surrogate-sampling"
+        st.n_used = int(inside.sum())
+        st.sampling_se = sampling_se(values[inside][:SE_DRAWS], int(inside.sum()), seed=seed)
+        b = BOOTSTRAP_DRAWS
+        spreads[name] = region_spread(xi, failed, xi_draws[:b], values[:b], share[1:], seed)
+    return spreads
 
 
 def _fit_loo(name: str, loo: Mapping[str, float], surrogate: Surrogate) -> float | None:

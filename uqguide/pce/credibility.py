@@ -20,6 +20,7 @@ from ..core.types import STAT_NAMES, OutputStats
 from .far_tails import beyond_the_runs, can_swing, replace_far_tails
 from .point_choice import better_points
 from .runs_estimate import LOWEST, unresolved
+from .success_region import RegionCheck
 from .support import (disagrees_with_runs, either, less_precise, near_the_runs, unsupported,
                       with_the_kurtosis)
 from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
@@ -27,9 +28,9 @@ from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 log = logging.getLogger("uqguide.methods.pce_validated")
 
 #: The steps of :func:`uqguide.methods.pce_validated.finish`, in the order they run.
-STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable", "check_own",
-         "check_own_by_runs", "bound_own", "fallback", "not_resolved", "choose_points",
-         "no_usable_surrogate")
+STEPS = ("runs_failed", "success_region", "far_tails", "correct", "check_correction", "usable",
+         "check_own", "check_own_by_runs", "bound_own", "fallback", "not_resolved",
+         "choose_points", "no_usable_surrogate")
 
 
 class State(str, Enum):
@@ -77,22 +78,45 @@ def blank(st: OutputStats, where: Mapping[str, np.ndarray]) -> None:
 
 
 def runs_failed(name: str, st: OutputStats, n_failed: int, n_runs: int,
-                runs: Corrected | None) -> Verdict | None:
-    """Where some of the method's runs failed, withhold the PCE's own and ``+cv`` values of
-    every statistic: its polynomial, fitted on the runs that succeeded, is integrated over the
-    failure region too, so they are not the statistics conditional on success that every
-    method reports; ``runs`` (their Monte Carlo estimate, None: none) stands instead."""
+                runs: Corrected | None, region: RegionCheck | None = None) -> Verdict | None:
+    """Where some of the method's runs failed and no success region passed its check
+    (:func:`success_region`), withhold the PCE's own and ``+cv`` values of every statistic:
+    its polynomial, fitted on the runs that succeeded, is integrated over the failure region
+    too, so they are not the statistics conditional on success that every method reports;
+    ``runs`` (their Monte Carlo estimate, None: none) stands instead. ``region``: the success
+    region's check (None: none could be learnt)."""
     if not n_failed:
         return None
     where = {k: np.ones(np.shape(st.stat(k)), dtype=bool) for k in STAT_NAMES}
     instead = ("the Monte Carlo estimate of its successful runs (+mc) is given" if runs is not None
                else "no estimate of its own runs is at hand")
+    why = ("no classifier of the success region could be checked on validation runs"
+           if region is None else
+           f"the classifier of the success region {region.line()}, no better than "
+           f"predicting success everywhere" if not region.passed else
+           "the success region holds none of the surrogate's draws")
     return Verdict(
         "runs_failed", "own", State.WITHHELD, where,
-        f"{n_failed} of its {n_runs} runs failed: its polynomial, fitted on the others, would "
-        f"be integrated over the failure region too, so its own and corrected (+cv) "
-        f"statistics are withheld; {instead}",
+        f"{n_failed} of its {n_runs} runs failed and {why}: its polynomial, fitted on the "
+        f"others, would be integrated over the failure region too, so its own and corrected "
+        f"(+cv) statistics are withheld; {instead}",
         {f"runs_failed.{name}": f"{n_failed} of {n_runs} runs failed"})
+
+
+def success_region(name: str, n_failed: int, n_runs: int, region: RegionCheck | None
+                   ) -> Verdict | None:
+    """Where some runs failed and a classifier of the success region passed its check on the
+    validation runs: the PCE's statistics are those of its surrogate's draws inside that
+    region, conditional on success as every method's are, with the region's bootstrap spread
+    in their ``+cv`` intervals (:mod:`uqguide.pce.success_region`)."""
+    if not n_failed or region is None:
+        return None
+    return Verdict(
+        "success_region", "own", State.OWN, {},
+        f"{n_failed} of its {n_runs} runs failed: its statistics are those of its surrogate "
+        f"inside a classifier of the success region ({region.line()}), conditional on "
+        f"success; their +cv intervals include the region's bootstrap spread",
+        {f"success_region.{name}": region.line()}, warn=False)
 
 
 def far_tails(name: str, st: OutputStats, draws: np.ndarray, clipped: np.ndarray | None

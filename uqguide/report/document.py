@@ -89,7 +89,8 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
     for r in result.runs:
         if r.success and r.n_failed:
             why = r.estimate.diagnostics.get("failure_reasons")
-            parts += ["", failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed)
+            parts += ["", failed_runs_line(r.label, r.estimate.method, r.n_runs, r.n_failed,
+                                           r.estimate.diagnostics)
                       + (f" ({why})." if why else ".")]
     stats = statistics_table(result)
     parts += ["", "## Outputs", "",

@@ -582,7 +582,8 @@ def render_text(result: Result) -> str:
             lambda r: r if len(r) <= _PROSE_WIDTH else r[:_PROSE_WIDTH - 3] + "...")
         parts += ["", "Failed runs (excluded from the statistics)",
                   *[textwrap.fill(failed_runs_line(r.label, r.estimate.method, r.n_runs,
-                                                   r.n_failed), CONSOLE_WIDTH)
+                                                   r.n_failed, r.estimate.diagnostics),
+                                  CONSOLE_WIDTH)
                     for r in result.runs if r.success and r.n_failed],
                   fit_columns(failures, ["label"])]
     return "\n".join(parts)
