@@ -583,7 +583,7 @@ def render_text(result: Result) -> str:
         parts += ["", "Failed runs (excluded from the statistics)",
                   *[textwrap.fill(failed_runs_line(r.label, r.estimate.method, r.n_runs,
                                                    r.n_failed, r.estimate.diagnostics),
-                                  CONSOLE_WIDTH)
+                                  CONSOLE_WIDTH, subsequent_indent="  ")
                     for r in result.runs if r.success and r.n_failed],
                   fit_columns(failures, ["label"])]
     return "\n".join(parts)
