@@ -98,10 +98,12 @@ def test_a_report_time_past_the_grid_is_an_error_naming_it(write_config, tmp_pat
 def test_a_single_method_run_says_what_its_intervals_are(write_config, tmp_path):
     r = _invoke("run", str(write_config(_linear([0.5]))), "--out", str(tmp_path), "-q")
     assert r.exit_code == 0, r.output
-    # the default interval method (tail: Hall's, with floors), the others named as options
-    assert "[95% interval]: Monte Carlo moments by skew-corrected (Hall)" in r.output
-    assert "(the default, intervals: tail;" in r.output
-    assert (tmp_path / "config_summary.md").read_text().count("by skew-corrected (Hall)") == 1
+    # the key names the default interval method (Hall's) and where the others are chosen
+    key = " ".join(r.output.split("Key (all of it: docs/statistics.md):")[1].split())
+    assert "95% interval; Monte Carlo's are skew-corrected (Hall) influence-function " \
+        "intervals by default (a method's intervals: setting names the others)" in key
+    summary = " ".join((tmp_path / "config_summary.md").read_text().split())
+    assert summary.count("skew-corrected (Hall)") == 1
 
 
 def test_the_listing_is_also_right_for_a_callable_model():

@@ -612,8 +612,8 @@ def interval_legend(result: Result, tables: list[pd.DataFrame], with_reference: 
     labels = {str(v) for df in tables if "label" in df for v in df["label"]}
     pce = {r.label for r in result.runs if r.estimate.method.startswith("pce_")}
     entries = [
-        ("[a, b]", "95% interval (Monte Carlo: skew-corrected influence-function intervals by "
-                   "default, intervals: in the method's settings)", True),
+        ("[a, b]", "95% interval; Monte Carlo's are skew-corrected (Hall) influence-function "
+                   "intervals by default (a method's intervals: setting names the others)", True),
         ("[>= L], [<= U]", "a floor (ceiling): a few runs carry the statistic's variance and "
                            "cannot bound it on the other side", "[>= " in cells or "[<= " in cells),
         ("PCE value [a, b]", "the hull of the value and its +cv interval, else of its runs' "
