@@ -12,7 +12,7 @@ import uqguide.pce
 from uqguide.core.types import STAT_NAMES, OutputStats
 from uqguide.pce.credibility import (
     STEPS, State, bound_own, check_correction, check_own, fallback, no_usable_surrogate,
-    not_resolved, record, usable,
+    not_resolved, record, refused_tails, usable,
 )
 from uqguide.pce.validation import Corrected
 
@@ -144,3 +144,23 @@ def test_a_runs_answer_that_says_nothing_is_not_resolved_by_its_runs():
     assert "not resolved by 50 runs" in verdict.reason
     runs.shown_ci["kurtosis"] = np.array([[2.2], [np.inf]])  # a floor that says something
     assert not_resolved("y", runs, values) is None
+
+
+def test_where_the_surrogate_is_refused_its_cv_mean_and_std_stay_and_its_tails_go():
+    """Issue 46 item 5: where the validation error is above usable_error the +cv mean and std
+    are still reported (their intervals held at every step of the 50-period oscillator), the
+    +cv skewness and kurtosis not (they correct the refused polynomial's tails: 59-92%
+    there); a constant surrogate has no tails, so its +cv moments (the validation runs' own)
+    stay."""
+    st = _stats([1.0, 1.0, 1.0], [1.0, 1.0, 0.0])
+    cv = _estimate({"mean": 1.0, "std": 1.0, "skewness": 0.2, "kurtosis": 3.0}, 0.1, n=3)
+    cv.error = np.array([0.05, 2.3, 2.3])
+    verdict = refused_tails("x", st, cv, 0.1)
+    assert verdict is not None and verdict.step in STEPS and verdict.state is State.WITHHELD
+    for k in ("mean", "std"):
+        assert np.isfinite(cv.values[k]).all() and np.isfinite(cv.ci[k]).all()
+    for k in ("skewness", "kurtosis"):
+        assert np.isfinite(cv.values[k]).tolist() == [True, False, True]
+        assert np.isfinite(cv.ci[k]).all(axis=0).tolist() == [True, False, True]
+    assert verdict.record == {"refused_tails.x": 1}
+    assert refused_tails("x", st, cv, 0.1) is None  # nothing left to withhold

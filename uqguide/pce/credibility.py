@@ -27,7 +27,8 @@ from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 log = logging.getLogger("uqguide.methods.pce_validated")
 
 #: The steps of :func:`uqguide.methods.pce_validated.finish`, in the order they run.
-STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable", "check_own",
+STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable", "refused_tails",
+         "check_own",
          "check_own_by_runs", "bound_own", "fallback", "not_resolved", "choose_points",
          "no_usable_surrogate")
 
@@ -188,6 +189,38 @@ def usable(name: str, st: OutputStats, err: np.ndarray | None, fit_loo: float | 
     if constant:
         ok = ok & (np.asarray(st.std) != 0.0)
     return ok, constant
+
+
+#: The ``+cv`` statistics built on the surrogate's third and fourth powers.
+TAIL_STATS = ("skewness", "kurtosis")
+
+
+def refused_tails(name: str, st: OutputStats, cv: Corrected, threshold: float
+                  ) -> Verdict | None:
+    """Withhold, in ``cv`` (in place), the ``+cv`` skewness and kurtosis where the validation
+    error is above ``threshold`` and the surrogate varies: they correct its exact third and
+    fourth moments, which a polynomial that fails its validation draws from swings beyond
+    every run, so their intervals miss (issue 46's 50-period oscillator: 59-92% at every
+    step). The mean and std stay, and a constant surrogate's (the validation runs' own
+    moments): docs/pce.md#where-the-surrogate-is-refused."""
+    with np.errstate(invalid="ignore"):
+        bad = (np.asarray(cv.error) > threshold) & (np.asarray(st.std, dtype=float) > 0)
+    where = {k: bad & np.isfinite(cv.values[k]) for k in TAIL_STATS}
+    names = [k for k, m in where.items() if m.any()]
+    if not names:
+        return None
+    for k in names:
+        cv.values[k] = nan_at(cv.values[k], where[k])
+        cv.ci[k] = nan_at(cv.ci[k], where[k], lead=1)
+        if cv.shown_ci is not None:
+            cv.shown_ci[k] = nan_at(cv.shown_ci[k], where[k], lead=1)
+    n_bad = int(np.sum(np.any([where[k] for k in names], axis=0)))
+    what = " and ".join(names)
+    return Verdict(
+        "refused_tails", "+cv", State.WITHHELD, {k: where[k] for k in names},
+        f"the corrected (+cv) {what} are not reported at {n_bad} point(s) where the "
+        f"validation error is above {threshold:g}: they rest on the tails of a surrogate its "
+        f"validation runs refuse", {f"refused_tails.{name}": n_bad}, warn=False)
 
 
 def check_own(name: str, st: OutputStats, cv: Corrected, time: np.ndarray | None,
