@@ -191,18 +191,18 @@ def usable(name: str, st: OutputStats, err: np.ndarray | None, fit_loo: float | 
     return ok, constant
 
 
-#: The ``+cv`` statistics built on the surrogate's third and fourth powers.
-TAIL_STATS = ("skewness", "kurtosis")
+#: The ``+cv`` statistics that correct the surrogate's second to fourth powers.
+TAIL_STATS = ("std", "skewness", "kurtosis")
 
 
 def refused_tails(name: str, st: OutputStats, cv: Corrected, threshold: float
                   ) -> Verdict | None:
-    """Withhold, in ``cv`` (in place), the ``+cv`` skewness and kurtosis where the validation
-    error is above ``threshold`` and the surrogate varies: they correct its exact third and
-    fourth moments, which a polynomial that fails its validation draws from swings beyond
-    every run, so their intervals miss (issue 46's 50-period oscillator: 59-92% at every
-    step). The mean and std stay, and a constant surrogate's (the validation runs' own
-    moments): docs/pce.md#where-the-surrogate-is-refused."""
+    """Withhold, in ``cv`` (in place), the ``+cv`` std, skewness and kurtosis where the
+    validation error is above ``threshold`` and the surrogate varies: they correct its exact
+    second to fourth moments, which a polynomial that fails its validation draws from where
+    it swings beyond every run, so their intervals miss there. The mean stays, and a constant
+    surrogate's moments (the validation runs' own): docs/pce.md#where-the-surrogate-is-refused.
+    """
     with np.errstate(invalid="ignore"):
         bad = (np.asarray(cv.error) > threshold) & (np.asarray(st.std, dtype=float) > 0)
     where = {k: bad & np.isfinite(cv.values[k]) for k in TAIL_STATS}
@@ -219,7 +219,7 @@ def refused_tails(name: str, st: OutputStats, cv: Corrected, threshold: float
     return Verdict(
         "refused_tails", "+cv", State.WITHHELD, {k: where[k] for k in names},
         f"the corrected (+cv) {what} are not reported at {n_bad} point(s) where the "
-        f"validation error is above {threshold:g}: they rest on the tails of a surrogate its "
+        f"validation error is above {threshold:g}: they correct the moments of a surrogate its "
         f"validation runs refuse", {f"refused_tails.{name}": n_bad}, warn=False)
 
 
