@@ -211,7 +211,7 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         usable, constant = cred.usable(name, st, err, fit_loo, threshold)
         st.usable = usable
         if cv is not None:
-            verdict = cred.refused_tails(name, st, cv, threshold)
+            verdict = cred.refused_correction(name, st, cv, threshold)
             if verdict is not None:
                 st.corrected, st.corrected_ci = cv.values, cred.printed(cv)
             keep(verdict)

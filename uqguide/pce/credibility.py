@@ -27,7 +27,7 @@ from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 log = logging.getLogger("uqguide.methods.pce_validated")
 
 #: The steps of :func:`uqguide.methods.pce_validated.finish`, in the order they run.
-STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable", "refused_tails",
+STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable", "refused_correction",
          "check_own",
          "check_own_by_runs", "bound_own", "fallback", "not_resolved", "choose_points",
          "no_usable_surrogate")
@@ -191,21 +191,18 @@ def usable(name: str, st: OutputStats, err: np.ndarray | None, fit_loo: float | 
     return ok, constant
 
 
-#: The ``+cv`` statistics that correct the surrogate's second to fourth powers.
-TAIL_STATS = ("std", "skewness", "kurtosis")
-
-
-def refused_tails(name: str, st: OutputStats, cv: Corrected, threshold: float
-                  ) -> Verdict | None:
-    """Withhold, in ``cv`` (in place), the ``+cv`` std, skewness and kurtosis where the
-    validation error is above ``threshold`` and the surrogate varies: they correct its exact
-    second to fourth moments, which a polynomial that fails its validation draws from where
-    it swings beyond every run, so their intervals miss there. The mean stays, and a constant
-    surrogate's moments (the validation runs' own): docs/pce.md#where-the-surrogate-is-refused.
-    """
+def refused_correction(name: str, st: OutputStats, cv: Corrected, threshold: float
+                       ) -> Verdict | None:
+    """Withhold, in ``cv`` (in place), the ``+cv`` values where the validation error is above
+    ``threshold`` and the surrogate varies: the residuals of a polynomial its validation
+    refuses are heavy-tailed (it swings beyond the runs), so the spread of a few dozen of them
+    understates the correction's error, and a ``+cv`` value chosen over the runs' for its
+    narrower interval is chosen for that understatement. The runs' estimate (``+mc``) answers
+    there. A constant surrogate's ``+cv`` values (the validation runs' own moments) stay.
+    Measured: docs/pce.md#where-the-surrogate-is-refused."""
     with np.errstate(invalid="ignore"):
         bad = (np.asarray(cv.error) > threshold) & (np.asarray(st.std, dtype=float) > 0)
-    where = {k: bad & np.isfinite(cv.values[k]) for k in TAIL_STATS}
+    where = {k: bad & np.isfinite(cv.values[k]) for k in STAT_NAMES}
     names = [k for k, m in where.items() if m.any()]
     if not names:
         return None
@@ -215,12 +212,12 @@ def refused_tails(name: str, st: OutputStats, cv: Corrected, threshold: float
         if cv.shown_ci is not None:
             cv.shown_ci[k] = nan_at(cv.shown_ci[k], where[k], lead=1)
     n_bad = int(np.sum(np.any([where[k] for k in names], axis=0)))
-    what = " and ".join(names)
     return Verdict(
-        "refused_tails", "+cv", State.WITHHELD, {k: where[k] for k in names},
-        f"the corrected (+cv) {what} are not reported at {n_bad} point(s) where the "
-        f"validation error is above {threshold:g}: they correct the moments of a surrogate its "
-        f"validation runs refuse", {f"refused_tails.{name}": n_bad}, warn=False)
+        "refused_correction", "+cv", State.WITHHELD, {k: where[k] for k in names},
+        f"the corrected (+cv) {', '.join(names)} are not reported at {n_bad} point(s) where "
+        f"the validation error is above {threshold:g}: the residuals of a surrogate its "
+        f"validation refuses do not measure the correction's error",
+        {f"refused_correction.{name}": n_bad}, warn=False)
 
 
 def check_own(name: str, st: OutputStats, cv: Corrected, time: np.ndarray | None,
