@@ -27,10 +27,9 @@ from .validation import Corrected, disagreeing, nan_at, sustained, usable_mask
 log = logging.getLogger("uqguide.methods.pce_validated")
 
 #: The steps of :func:`uqguide.methods.pce_validated.finish`, in the order they run.
-STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable", "refused_correction",
-         "check_own",
-         "check_own_by_runs", "bound_own", "fallback", "not_resolved", "choose_points",
-         "no_usable_surrogate")
+STEPS = ("runs_failed", "far_tails", "correct", "check_correction", "usable",
+         "refused_correction", "check_own", "check_own_by_runs", "bound_own", "fallback",
+         "not_resolved", "choose_points", "no_usable_surrogate")
 
 
 class State(str, Enum):
