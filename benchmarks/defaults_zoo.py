@@ -37,7 +37,9 @@ intervals (``apce+cv``) and the runs' Monte Carlo estimate where a PCE value is 
 - ``right``: a PCE's own values (printed, or withheld: then its surrogate's exact statistic)
   within :func:`tolerance` of the reference, half the standard error of a Monte Carlo estimate
   from the method's own runs; ``false-w``: those of them withheld (false withholding; its
-  rate is ``false-w / right``). Values withheld because some runs failed do not count.
+  rate is ``false-w / right``). Values withheld because some runs failed do not count, nor
+  those withheld where the surrogate is not usable (its validation error above
+  ``usable_error`` refutes the surrogate, not the value): the verdict lists those apart.
 
 Issue 46's cases (``--problems issue46``): ``failing`` (NaN on 2% of the space; its reference
 is conditional on success, as every method's estimate is), ``smooth30``/``smooth40`` (closed
@@ -460,6 +462,9 @@ class Score:
     right: int = 0
     false_withheld: int = 0
     own_unknown: int = 0
+    # right values withheld where the surrogate is not usable (its validation error above
+    # usable_error): the surrogate is refuted there, not the value; counted apart
+    unusable_right: int = 0
     runs: list[int] = field(default_factory=list)
     # the intervals that missed: (seed, time, value, reference, low, high), for --misses
     misses: list[tuple] = field(default_factory=list)
@@ -467,7 +472,8 @@ class Score:
     def merge(self, other: Score) -> None:
         """Add ``other``'s counts (the same problem and row, other seeds)."""
         for name in ("printed", "with_ci", "covered", "no_ci", "withheld", "unanswered",
-                     "one_sided", "right", "false_withheld", "own_unknown"):
+                     "one_sided", "right", "false_withheld", "own_unknown",
+                     "unusable_right"):
             setattr(self, name, getattr(self, name, 0) + getattr(other, name, 0))
         self.worst_hw = max(self.worst_hw, other.worst_hw)
         # scores pickled before misses were kept have none
@@ -522,9 +528,13 @@ def score_run(p: Problem, result, ref: dict[str, np.ndarray], table: dict,
                         else:
                             e = run_se[o["name"]][k] if t is None else run_se[o["name"]][k][j]
                             tol = tolerance(float(np.ravel(e)[0]), runs)
-                            if abs(own - exact) <= tol:
+                            if abs(own - exact) <= tol and np.isfinite(value):
                                 sc.right += 1
-                                sc.false_withheld += int(not np.isfinite(value))
+                            elif abs(own - exact) <= tol:
+                                usable = _usable(method, o["name"], times, t)
+                                sc.unusable_right += int(not usable)
+                                sc.right += int(usable)
+                                sc.false_withheld += int(usable)
                     if not np.isfinite(value):
                         # a fallback row (label+mc) is empty where its method printed: only a
                         # method's own gap counts, and whether some row of it filled the gap
@@ -581,6 +591,18 @@ def _own_value(result, label: str, name: str, stat: str, times: np.ndarray | Non
         v = v[int(np.argmin(np.abs(times - t)))]
     v = float(np.ravel(v)[0])
     return v if np.isfinite(v) else None
+
+
+def _usable(method, name: str, times: np.ndarray | None, t: float | None) -> bool:
+    """Whether ``method``'s surrogate of ``name`` is usable at report time ``t`` of the grid
+    ``times`` (every component; True where it is not judged)."""
+    u = method.estimate.stats[name].usable
+    if u is None:
+        return True
+    u = np.asarray(u, dtype=bool)
+    if t is not None and times is not None and u.ndim >= 2:
+        u = u[int(np.argmin(np.abs(times - t)))]
+    return bool(np.all(u))
 
 
 def _answered(df, label: str, stat: str, t: float | None) -> bool:
@@ -730,6 +752,10 @@ def print_verdict(table: dict, lost: list[tuple[str, int, str]]) -> bool:
             if getattr(sc, "false_withheld", 0):
                 print(f"  false withholding: {name} {label} {stat}: {sc.false_withheld} of "
                       f"{sc.right} right values withheld")
+            if getattr(sc, "unusable_right", 0):
+                print(f"  not counted: {name} {label} {stat}: {sc.unusable_right} right values "
+                      f"withheld where the surrogate is not usable (its validation error above "
+                      f"usable_error refutes the surrogate there, not the value)")
     for name, seed, why in lost:
         print(f"  lost: {name} seed {seed}: {why}")
     return ok

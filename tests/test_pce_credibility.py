@@ -12,7 +12,7 @@ import uqguide.pce
 from uqguide.core.types import STAT_NAMES, OutputStats
 from uqguide.pce.credibility import (
     STEPS, State, bound_own, check_correction, check_own, fallback, no_usable_surrogate,
-    not_resolved, record, usable,
+    not_resolved, record, refused_correction, usable,
 )
 from uqguide.pce.validation import Corrected
 
@@ -144,3 +144,21 @@ def test_a_runs_answer_that_says_nothing_is_not_resolved_by_its_runs():
     assert "not resolved by 50 runs" in verdict.reason
     runs.shown_ci["kurtosis"] = np.array([[2.2], [np.inf]])  # a floor that says something
     assert not_resolved("y", runs, values) is None
+
+
+def test_where_the_surrogate_is_refused_its_cv_values_go_but_a_constant_one_s_stay():
+    """Issue 46 item 5: where the validation error is above usable_error the +cv values are
+    not reported (the refused polynomial's residuals understate the correction's error: on the
+    50-period oscillator the +cv means printed there, for an interval narrower than the
+    runs', held at 89% of the steps, docs/pce.md#where-the-surrogate-is-refused); a constant
+    surrogate does not swing, so its +cv moments (the validation runs' own) stay."""
+    st = _stats([1.0, 1.0, 1.0], [1.0, 1.0, 0.0])
+    cv = _estimate({"mean": 1.0, "std": 1.0, "skewness": 0.2, "kurtosis": 3.0}, 0.1, n=3)
+    cv.error = np.array([0.05, 2.3, 2.3])
+    verdict = refused_correction("x", st, cv, 0.1)
+    assert verdict is not None and verdict.step in STEPS and verdict.state is State.WITHHELD
+    for k in STAT_NAMES:
+        assert np.isfinite(cv.values[k]).tolist() == [True, False, True]
+        assert np.isfinite(cv.ci[k]).all(axis=0).tolist() == [True, False, True]
+    assert verdict.record == {"refused_correction.x": 1}
+    assert refused_correction("x", st, cv, 0.1) is None  # nothing left to withhold

@@ -16,7 +16,8 @@ from uqguide.cli import main
 from uqguide.config.run_config import validate_config
 from uqguide.errors import ConfigError
 from uqguide.methods.pce_adaptive import AdaptivePCE
-from uqguide.pce.default_plan import default_budget, default_validation, mean_and_std, settled
+from uqguide.pce.default_plan import (default_budget, default_validation, mean_and_std, settled,
+                                       stalled)
 
 
 # ---------------------------------------------------------------------------- the rules
@@ -124,3 +125,54 @@ def test_the_default_plan_grows_the_design_validates_it_and_stays_within_its_bud
     f = r.run("fixed")
     assert f.n_runs == 20 and "n_validation" not in f.estimate.diagnostics
     assert f.estimate.diagnostics["n_enrichments"] == 0
+
+
+# ---------------------------------------------------------------------------- a stalled design
+def test_a_design_stalls_only_on_three_fits_above_the_usable_error_without_halving():
+    assert stalled(np.array([0.68, 0.73, 0.72]), 0.1)           # drift3's first fits, seed 1
+    assert stalled(np.array([1e-3, 0.9, 0.6, 0.46]), 0.1)      # the last three count
+    assert not stalled(np.array([0.68, 0.73]), 0.1)             # two fits: too early to tell
+    assert not stalled(np.array([0.8, 0.6, 0.39]), 0.1)         # halved: still converging
+    assert not stalled(np.array([0.5, 0.5, 0.09]), 0.1)         # usable now
+    assert not stalled(np.array([0.5, 0.5, 0.5]), 0.6)          # usable all along
+
+
+def _teeth(x):
+    """A sawtooth of 10^4 teeth on [0, 1]: no polynomial the budget affords resolves it."""
+    return {"y": np.modf(1e4 * x[:, 0])[0]}
+
+
+#: The default plan (no run count given) on :func:`_teeth`; ``surrogate_draws`` only keeps it
+#: cheap.
+TEETH = {"model": {"name": "callable", "function": _teeth, "inputs": ["x"], "nominal": [0.5],
+                   "outputs": [{"name": "y"}], "isolate": False},
+         "inputs": [{"name": "x", "dist": "uniform", "low": 0.0, "high": 1.0}],
+         "methods": [{"name": "pce_adaptive", "label": "apce", "q_norm": 1.0,
+                      "surrogate_draws": 20_000}], "seed": 1}
+
+
+def test_a_stalled_design_adds_the_rest_of_its_budget_at_once(caplog):
+    """Issue 46 item 5's cost: a default plan whose LOO error stays above usable_error stops
+    refitting on the way to its budget (10 -> 15 -> 23 -> 35 -> 100 fit runs, where it made
+    10 -> 15 -> 23 -> 35 -> 53 -> 80 -> 100), and still makes every run of it."""
+    with caplog.at_level(logging.INFO, logger="uqguide.methods.pce_adaptive"):
+        r = uqguide.run(TEETH).run("apce")
+    assert "adding the rest of the budget (65) at once" in caplog.text
+    assert r.estimate.diagnostics["n_enrichments"] == 4
+    assert r.n_runs == 100 + 25
+
+
+@pytest.mark.slow
+def test_a_stalled_design_gives_the_stepwise_statistics_bit_for_bit(monkeypatch):
+    """The Sobol' points added at once are those the steps would add: every statistic is the
+    stepwise design's, bit for bit."""
+    fast = uqguide.run(TEETH).run("apce")
+    monkeypatch.setattr("uqguide.methods.pce_adaptive.stalled", lambda *a: False)
+    slow = uqguide.run(TEETH).run("apce")
+    assert slow.estimate.diagnostics["n_enrichments"] == 6
+    assert fast.n_runs == slow.n_runs == 125
+    a, b = fast.estimate.stats["y"], slow.estimate.stats["y"]
+    for k in ("mean", "std", "skewness", "kurtosis"):
+        for got, want in ((a.stat(k), b.stat(k)), (a.corrected.get(k), b.corrected.get(k)),
+                          (a.fallback.get(k), b.fallback.get(k))):
+            np.testing.assert_array_equal(got, want)

@@ -29,7 +29,8 @@ from ..pce import basis
 from ..pce.basis import hyperbolic_indices
 from ..core.events import EventEstimate
 from ..pce.tails import control_variate_events, surrogate_values
-from ..pce.default_plan import default_budget, default_validation, mean_and_std, settled
+from ..pce.default_plan import (STALL_FITS, default_budget, default_validation, mean_and_std,
+                                settled, stalled)
 from ..pce.design import SURROGATE_STREAM, stream, unit_design
 from ..pce.expansion import Expansion
 from ..pce.germ import Germ
@@ -331,16 +332,23 @@ class AdaptivePCE(Method):
             design.data.update(fit_seconds=fit_seconds, loo_history=history)
             return None
         add = min(budget - n, max(d + 1, math.ceil(n / 2)))
-        batch = int(design.data.get("batches", 1))
-        u_new = unit_design(d, n, n + add, s.sampling, design.data["seed"], self.label,
-                            batch=batch)
-        if worst > s.target_loo:
+        if self.default_plan and stalled(history, s.usable_error):
+            # a design that will not settle ends at its budget anyway: its runs are added at
+            # once (with Sobol' points the very ones the steps would add), without the refits
+            add = budget - n
+            log.info("%s: LOO error %.2e with %d runs, above usable_error %g at the last %d "
+                     "fits and not halved over them: adding the rest of the budget (%d) at "
+                     "once", self.label, worst, n, s.usable_error, STALL_FITS, add)
+        elif worst > s.target_loo:
             log.info("%s: LOO error %.2e above target %.0e with %d runs: adding %d (budget %d)",
                      self.label, worst, s.target_loo, n, add, budget)
         else:
             log.info("%s: LOO error %.2e below target, but the mean or std moved by more than "
                      "2 sqrt(LOO) std since the last fit, with %d runs: adding %d (budget %d)",
                      self.label, worst, n, add, budget)
+        batch = int(design.data.get("batches", 1))
+        u_new = unit_design(d, n, n + add, s.sampling, design.data["seed"], self.label,
+                            batch=batch)
         data = dict(design.data, u=np.vstack([design.data["u"], u_new]), batches=batch + 1,
                     fit_seconds=fit_seconds, loo_history=history, moments=moments)
         return Design(x=np.vstack([design.x, space.from_unit(u_new)]), data=data)

@@ -232,6 +232,11 @@ def finish(estimate: Estimate, surrogate: Surrogate, *, space: InputSpace,
         err = None if cv is None else cv.error
         usable, constant = cred.usable(name, st, err, fit_loo, threshold)
         st.usable = usable
+        if cv is not None:
+            verdict = cred.refused_correction(name, st, cv, threshold)
+            if verdict is not None:
+                st.corrected, st.corrected_ci = cv.values, cred.printed(cv)
+            keep(verdict)
         disagreed: dict[str, np.ndarray] = {}
         if cv is not None:
             disagreed, verdict = cred.check_own(name, st, cv, time, usable, cv_withheld)

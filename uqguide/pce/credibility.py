@@ -29,8 +29,8 @@ log = logging.getLogger("uqguide.methods.pce_validated")
 
 #: The steps of :func:`uqguide.methods.pce_validated.finish`, in the order they run.
 STEPS = ("runs_failed", "success_region", "far_tails", "correct", "check_correction", "usable",
-         "check_own", "check_own_by_runs", "bound_own", "fallback", "not_resolved",
-         "choose_points", "no_usable_surrogate")
+         "refused_correction", "check_own", "check_own_by_runs", "bound_own", "fallback",
+         "not_resolved", "choose_points", "no_usable_surrogate")
 
 
 class State(str, Enum):
@@ -212,6 +212,35 @@ def usable(name: str, st: OutputStats, err: np.ndarray | None, fit_loo: float | 
     if constant:
         ok = ok & (np.asarray(st.std) != 0.0)
     return ok, constant
+
+
+def refused_correction(name: str, st: OutputStats, cv: Corrected, threshold: float
+                       ) -> Verdict | None:
+    """Withhold, in ``cv`` (in place), the ``+cv`` values where the validation error is above
+    ``threshold`` and the surrogate varies: the residuals of a polynomial its validation
+    refuses are heavy-tailed (it swings beyond the runs), so the spread of a few dozen of them
+    understates the correction's error, and a ``+cv`` value chosen over the runs' for its
+    narrower interval is chosen for that understatement. The runs' estimate (``+mc``) answers
+    there. A constant surrogate's ``+cv`` values (the validation runs' own moments) stay.
+    Measured: docs/pce.md#where-the-surrogate-is-refused."""
+    with np.errstate(invalid="ignore"):
+        bad = (np.asarray(cv.error) > threshold) & (np.asarray(st.std, dtype=float) > 0)
+    where = {k: bad & np.isfinite(cv.values[k]) for k in STAT_NAMES}
+    names = [k for k, m in where.items() if m.any()]
+    if not names:
+        return None
+    for k in names:
+        cv.values[k] = nan_at(cv.values[k], where[k])
+        cv.ci[k] = nan_at(cv.ci[k], where[k], lead=1)
+        if cv.shown_ci is not None:
+            cv.shown_ci[k] = nan_at(cv.shown_ci[k], where[k], lead=1)
+    n_bad = int(np.sum(np.any([where[k] for k in names], axis=0)))
+    return Verdict(
+        "refused_correction", "+cv", State.WITHHELD, {k: where[k] for k in names},
+        f"the corrected (+cv) {', '.join(names)} are not reported at {n_bad} point(s) where "
+        f"the validation error is above {threshold:g}: the residuals of a surrogate its "
+        f"validation refuses do not measure the correction's error",
+        {f"refused_correction.{name}": n_bad}, warn=False)
 
 
 def check_own(name: str, st: OutputStats, cv: Corrected, time: np.ndarray | None,

@@ -1,6 +1,7 @@
 """The adaptive PCE's plan when the config gives no run counts: how far the design may grow
-(:func:`default_budget`), when the fit's own evidence says to stop (:func:`settled`), and how
-many validation runs check it (:func:`default_validation`).
+(:func:`default_budget`), when the fit's own evidence says to stop (:func:`settled`) or that
+refitting on the way is wasted (:func:`stalled`), and how many validation runs check it
+(:func:`default_validation`).
 
 The rules, why these numbers and the bound behind the stopping rule:
 docs/methods.md#defaults-that-are-rules-not-numbers.
@@ -24,6 +25,10 @@ VALIDATION_SHARE = 0.25
 VALIDATION_MIN = 20
 #: Two fits of LOO error ``e`` may differ in mean and std by ``MOMENT_FACTOR sqrt(e) std``.
 MOMENT_FACTOR = 2.0
+#: A design stalls when this many fits in a row (two enrichments, a 2.25-fold growth) ...
+STALL_FITS = 3
+#: ... have a LOO error above the usable error, the last not below this share of the first.
+STALL_SHARE = 0.5
 
 
 def default_budget(n0: int) -> int:
@@ -64,3 +69,14 @@ def settled(previous: dict[str, tuple[np.ndarray, np.ndarray]],
         if np.any(np.abs(mean - mean0) > tol) or np.any(np.abs(std - std0) > tol):
             return False
     return True
+
+
+def stalled(history: np.ndarray, usable_error: float) -> bool:
+    """Whether the fits so far say the design will not settle before its budget: the worst
+    corrected LOO error ``history`` (one per fit, the last the current) above ``usable_error``
+    at each of the last :data:`STALL_FITS` fits, and the last not below :data:`STALL_SHARE`
+    of the first of them. The runs still matter (they are the Monte Carlo estimate that
+    stands in where the surrogate is refused); the refits between them do not."""
+    last = np.asarray(history, dtype=float)[-STALL_FITS:]
+    return bool(last.size == STALL_FITS and np.all(last > usable_error)
+                and last[-1] >= STALL_SHARE * last[0])
