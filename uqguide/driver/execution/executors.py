@@ -265,6 +265,11 @@ class DaskExecutor(_WindowedExecutor):
             raise ConfigError("--scheduler: Dask is not installed; pip install "
                               "'uqguide[dask]'", field="scheduler") from None
         self._own = client is None
+        if not logging.getLogger().isEnabledFor(logging.INFO):
+            # Dask's own handler logs at INFO (a lost scheduler's "Batched Comm Closed" with
+            # its traceback, before the run's one line): at uqguide's default verbosity only
+            # its warnings pass; -v shows the rest.
+            logging.getLogger("distributed").setLevel(logging.WARNING)
         if client is None:
             try:
                 client = Client(address=address, scheduler_file=scheduler_file, timeout="30s")
