@@ -193,6 +193,7 @@ def test_a_crashing_batch_is_split_until_exactly_the_crashing_samples_fail(progr
     assert not np.isnan(run.scalars["y"][~bad]).any()
 
 
+@pytest.mark.slow  # a few hundred program calls
 def test_failed_calls_keep_at_most_keep_failed_work_folders(program, tmp_path, monkeypatch):
     """A batch split down to its crashing samples kept a folder per failed call (89 failures
     left 386 folders): past the bound the folder goes and the reason says so."""

@@ -126,6 +126,7 @@ def _overflow(fig) -> float:
     return max(0.0, -box.x0, -box.y0, box.x1 - w, box.y1 - h)
 
 
+@pytest.mark.slow  # draws each figure twice; the shipped results' figures are checked too
 def test_the_cost_table_and_the_histogram_legend_fit_their_figure(result):
     """The cost figure's table (with a method's list of outputs as a column) ran 10 inches past
     the right edge, a histogram's legend line half an inch."""
