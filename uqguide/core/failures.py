@@ -17,13 +17,13 @@ COLUMNS = ["label", "runs", "failed", "share", "reason", "count"]
 #: A detail of one run inside its reason (a ``command`` model's kept work folder): the runs are
 #: tallied with it masked, or 20 samples failing alike would fill the table with 20 reasons of
 #: count 1. The per-run reason keeps it (``RunResult.reasons``), where the user looks it up.
-_PER_RUN = re.compile(r"(work folder kept: )(\S+?)(?=[;)]|$)")
+KEPT_FOLDER = re.compile(r"(work folder kept: )(\S+?)(?=[;)]|$)")
 MASK = "one per run"
 
 
 def reason_kind(reason: str) -> str:
     """``reason`` with its per-run details masked: the key failures are tallied by."""
-    return _PER_RUN.sub(lambda m: m.group(1) + MASK, reason)
+    return KEPT_FOLDER.sub(lambda m: m.group(1) + MASK, reason)
 
 
 def _tally(reasons: Iterable[object]) -> list[tuple[str, int]]:
@@ -36,7 +36,7 @@ def _tally(reasons: Iterable[object]) -> list[tuple[str, int]]:
         first.setdefault(kind, text)
     rows = []
     for kind, count in kinds.most_common():
-        detail = _PER_RUN.search(first[kind])
+        detail = KEPT_FOLDER.search(first[kind])
         # a reason met once is shown as it is; one met often, masked, with its first run's
         rows.append((first[kind] if count == 1 or detail is None
                      else f"{kind} (first: {detail.group(2)})", count))

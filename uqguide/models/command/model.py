@@ -29,6 +29,7 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from ...core.names import PLAIN_NAME_RULE, is_plain_name
+from ...core.failures import KEPT_FOLDER
 from ...core.process_groups import MARK
 from ...errors import ModelError
 from ...core.types import ModelOutput
@@ -59,7 +60,6 @@ with open(sys.argv[2][:-4] + '_path.csv', 'w') as f:
 
 #: Failed calls' work folders kept per process; later ones are removed, their reason says so.
 KEEP_FAILED = 20
-_KEPT = re.compile(r"work folder kept: \S+?(?=[;)]|$)")
 
 
 class CommandParams(ConfigDirParams, DeclaredParams):
@@ -247,14 +247,14 @@ class CommandModel(DeclaredModel):
                 raise  # the work folder is kept for inspection: the message names it
             shutil.rmtree(folder, ignore_errors=True)
             why = "the batch is split" if n > 1 else f"{KEEP_FAILED} kept already"
-            raise CommandFailed(_KEPT.sub(f"work folder removed ({why})", str(exc))) from None
+            raise CommandFailed(KEPT_FOLDER.sub(f"work folder removed ({why})", str(exc))) from None
         except BaseException:
             shutil.rmtree(folder, ignore_errors=True)
             raise
         if crashed and not self._keep():  # a crashed sample's reason names its folder
             shutil.rmtree(folder, ignore_errors=True)
             out.reasons[out.failed] = [
-                _KEPT.sub(f"work folder removed ({KEEP_FAILED} kept already)", str(r))
+                KEPT_FOLDER.sub(f"work folder removed ({KEEP_FAILED} kept already)", str(r))
                 for r in out.reasons[out.failed]]
         elif not crashed:
             shutil.rmtree(folder, ignore_errors=True)
