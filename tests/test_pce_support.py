@@ -47,15 +47,19 @@ def test_a_pce_value_inside_every_interval_is_kept_and_one_outside_is_withheld()
                    error=np.zeros(4), n=50,
                    correction_half={"skewness": np.full(4, 0.5), "kurtosis": np.full(4, 0.5)})
     bad = unsupported(own, cv, None)
-    # skewness 0.9 is outside the +cv interval [-0.5, 0.5]; NaN (zero variance) is no value
-    assert bad["skewness"].tolist() == [False, True, False, False]
+    # skewness 0.9 is 1.8 half-widths of the correction (0.5) from its +cv value: kept (two,
+    # as check_own); 1.2 is 2.4: withheld; NaN (zero variance) is no value
+    assert bad["skewness"].tolist() == [False, False, False, False]
     assert bad["kurtosis"].tolist() == [False, False, False, True]
+    own["skewness"][1] = 1.2
+    assert unsupported(own, cv, None)["skewness"].tolist() == [False, True, False, False]
     # the +cv interval widened by the surrogate's part beyond the runs' range (far_tails) is
     # shared by the PCE's own value: the check stays on the correction's half-width alone
     cv.ci = {k: np.array([[-5.0] * 4, [5.0] * 4]) for k in own} | {
         "kurtosis": np.array([[-1.9] * 4, [8.1] * 4]), "mean": np.zeros((2, 4))}
     assert unsupported(own, cv, None)["skewness"].tolist() == [False, True, False, False]
     assert unsupported(own, cv, None)["kurtosis"].tolist() == [False, False, False, True]
+    own["skewness"][1] = 0.9
     # against the runs' plain estimate the margin is two half-widths: 0.9 vs 0 +- 0.5 is kept
     runs = _estimate(0.0, 0.5)
     runs.values["kurtosis"] = np.array([3.0])
