@@ -64,7 +64,7 @@ def test_the_pages_name_their_files_and_the_examples_the_issue_names():
         assert name in used or name.rsplit(".", 1)[0] in used, \
             f"docs/{page}: no command of the page uses {name}"
     shown = [s for p in RUN_PAGES for s in steps(p) if s.shown]
-    assert len(shown) >= 4, [s.command.where for s in shown]
+    assert len(shown) >= 6, [s.command.where for s in shown]
 
 
 @pytest.mark.parametrize("shown,printed,same", [
