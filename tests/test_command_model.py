@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 import uqguide
+from tests.doc_pages import blocks
 from uqguide.errors import ConfigError, ModelError
 
 A, B = 2.0, 0.5
@@ -412,7 +413,7 @@ DOC = Path(__file__).resolve().parents[1] / "docs" / "your-simulator.md"
 
 
 def _doc_block(lang: str) -> str:
-    return re.findall(rf"```{lang}\n(.*?)```", DOC.read_text(), re.S)[0]
+    return next(b.body for b in blocks(DOC) if b.lang == lang)
 
 
 def _square_config(command: str, work: Path) -> dict:

@@ -445,13 +445,14 @@ def test_ishigami_500_iid_rows_give_the_four_moments_within_1e_6(tmp_path, seed)
 def test_the_documented_example_gives_the_documented_numbers(tmp_path, monkeypatch):
     """docs/your-simulator.md, "Your own samples": its script and config, run in this process
     (the page's blocks run as subprocesses only in the slow suite)."""
-    import re
     import runpy
 
-    page = (Path(__file__).resolve().parents[1] / "docs" / "your-simulator.md").read_text()
+    from tests.doc_pages import ROOT, blocks
+
+    files = {b.file_name: b.body for b in blocks(ROOT / "docs" / "your-simulator.md")}
     for name in ("make_runs.py", "samples.yaml"):
-        body = re.search(rf"```\w+\n# file: {re.escape(name)}\n(.*?)```", page, re.S).group(1)
-        (tmp_path / name).write_text(body)
+        (tmp_path / name).write_text(files[name])
+    page = (ROOT / "docs" / "your-simulator.md").read_text()
     monkeypatch.chdir(tmp_path)
     runpy.run_path("make_runs.py")
     result = uqguide.run("samples.yaml")

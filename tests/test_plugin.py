@@ -14,7 +14,7 @@ import pytest
 from scipy.integrate import quad
 from click.testing import CliRunner
 
-from tests.test_doc_examples import ROOT, blocks
+from tests.doc_pages import ROOT, blocks
 from uqguide import run
 from uqguide.cli import main
 from uqguide.config.registry import METHODS, MODELS, method_class
