@@ -593,9 +593,8 @@ def render_text(result: Result) -> str:
         failures["reason"] = failures["reason"].map(
             lambda r: r if len(r) <= _PROSE_WIDTH else r[:_PROSE_WIDTH - 3] + "...")
         parts += ["", "Failed runs (excluded from the statistics)",
-                  *[textwrap.fill(failed_runs_line(r.label, r.estimate.method, r.n_runs,
-                                                   r.n_failed, r.estimate.diagnostics),
-                                  CONSOLE_WIDTH, subsequent_indent="  ")
+                  *[console_line(failed_runs_line(r.label, r.estimate.method, r.n_runs,
+                                                  r.n_failed, r.estimate.diagnostics))
                     for r in result.runs if r.success and r.n_failed],
                   fit_columns(failures, ["label"])]
     return "\n".join(parts)
@@ -681,6 +680,12 @@ def fit_columns(df: pd.DataFrame, keys: list[str], width: int = CONSOLE_WIDTH,
             blocks.append([])
         blocks[-1].append(c)
     return "\n\n".join(text(keys + b) for b in blocks)
+
+
+def console_line(text: str) -> str:
+    """A line of the console output wrapped to :data:`CONSOLE_WIDTH`, its continuation lines
+    indented (a footnote, a failure summary)."""
+    return textwrap.fill(text, CONSOLE_WIDTH, subsequent_indent="  ")
 
 
 def _prose(text: str) -> str:
