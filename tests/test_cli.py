@@ -19,8 +19,11 @@ def test_run_prints_tables_and_writes_files(write_config, lognormal_config, tmp_
     res = CliRunner().invoke(main, ["run", str(path), "--out", str(out)])
     assert res.exit_code == 0, res.output
     assert "Cost" in res.output and "y [1] (scalar)" in res.output
+    # the cost table's times say which clock (their column names, API, only say seconds)
+    assert "Cost (model_s, fit_s: s wall, model_s summed over the workers)" in res.output
     for f in ("logn.h5", "logn_stats.csv", "logn_cost.csv", "logn_summary.md"):
         assert (out / f).is_file()
+    assert "model_s, fit_s: s wall" in (out / "logn_summary.md").read_text()
     assert f"wrote {out / 'logn.h5'}" in res.output
 
 

@@ -3,12 +3,14 @@ up front and on purpose; a kernel already in the cache is only loaded."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 import yaml
 from click.testing import CliRunner
 
 from uqguide.cli import main
-from uqguide.commands.compile_kernels import compile_kernels
+from uqguide.commands.compile_kernels import compile_kernels, format_compiled
 from uqguide.models import kernels
 
 
@@ -29,6 +31,11 @@ def test_each_distinct_model_runs_once_then_the_statistics_kernel(tmp_path):
     assert rows[0].kernel == "numba"
     assert rows[1].kernel == ""             # no kernel to choose: nothing is compiled
     assert all(0.0 <= r.compile_s <= r.total_s for r in rows)
+    # what it prints is CPU (the docs' CPU-s), labelled so, with the compile's wall time last
+    assert all(0.0 <= r.compile_cpu_s <= r.total_cpu_s for r in rows)
+    text = format_compiled(rows).splitlines()
+    assert text[0].split()[-4:] == ["compile", "CPU-s", "run", "CPU-s"]
+    assert re.match(r"compiled in \d+\.\d CPU-s \(\d+\.\d s wall\); ", text[-1]), text[-1]
     # a second call finds everything in this process or the cache: no compile at all
     assert sum(r.compile_s for r in compile_kernels(["ftcapn_nominal"])) == 0.0
 

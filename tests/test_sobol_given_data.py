@@ -209,6 +209,31 @@ def test_an_output_linear_in_one_input_has_index_1_and_its_interval_holds_1():
         assert lo <= 1.0 <= hi
 
 
+@pytest.mark.parametrize("seed", range(8))
+@pytest.mark.parametrize("scale, offset", [(1.0, 0.0), (3.0, 5.0), (1.0, 3e4)])
+def test_an_index_of_exactly_1_keeps_an_interval_wider_than_the_rounding(seed, scale, offset):
+    # y = offset + scale x1 (benchmarks/sensitivity_peers.py's rotation at t = 0): no residual
+    # about any bin's line, so the influence function is 0 and so is se; the interval was as
+    # narrow as the rounding (8.9e-16 wide at 2000 runs), which a gate, whose tolerance is the
+    # width, would fail on another machine's last bits. It keeps n eps each side, the worst
+    # rounding of the index's n-term sums, with the exact 1 well inside (the offset moves the
+    # standardised values' last bits: 3e4 costs 15 bits)
+    x, y = _rotation(seed, 0.0, quadratic=False)
+    n = x.shape[0]
+    floor = n * np.finfo(float).eps
+    est = first_order_indices(x, offset + scale * y)
+    lo, hi = est.ci[:, 0, 0]
+    assert est.se[0, 0] < 1e-20 and abs(est.first[0, 0] - 1.0) < floor / 2
+    assert lo <= 1.0 - floor / 2 and 1.0 + floor / 2 <= hi
+    # another machine's last bits: every value moved by up to 2 ulps; each interval holds the
+    # other's index
+    moved = (offset + scale * y) * (1 + np.finfo(float).eps
+                                    * np.random.default_rng(99).uniform(-2, 2, n))
+    other = first_order_indices(x, moved)
+    o_lo, o_hi = other.ci[:, 0, 0]
+    assert lo <= other.first[0, 0] <= hi and o_lo <= est.first[0, 0] <= o_hi
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_a_curved_dominant_input_at_index_1_is_held_by_the_bias_bound(seed):
     # y = q(x1): each bin's line leaves the curvature's residual (0.0006 of the variance); the

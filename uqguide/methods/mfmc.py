@@ -416,7 +416,7 @@ class MultiFidelityMC(Method):
         if measured:
             if not np.all(np.isfinite(raw) & (raw > 0)):
                 raise MethodError(f"{self.label}: the pilot measured no model time at some "
-                                  f"level ({list(raw)} s per run); give costs")
+                                  f"level ({list(raw)} CPU-s per run); give costs")
             rel = raw / raw[0]
             rounded = np.array([float(f"{r:.2g}") for r in rel])
             costs = rounded * float(f"{raw[0]:.2g}")

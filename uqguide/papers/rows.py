@@ -51,24 +51,25 @@ def cell_text(v: object) -> str:
 
 def format_report(model_name: str, rows: list[ReportRow]) -> str:
     """The nominal run's figures beside the paper's, as an aligned text table, then the robust
-    statistics of chaotic rows and the rows' notes."""
+    statistics of chaotic rows and the rows' notes, wrapped to the console."""
+    from ..report.tables import console_line  # pandas and the results: only when printing
+
     header = ("quantity", "unit", "model", "paper", "tolerance", "check", "kind")
     body = [(r.quantity, r.unit, cell_text(r.value), cell_text(r.paper), r.tolerance,
              {True: "ok", False: "MISS", None: "—"}[r.ok], r.kind) for r in rows]
     widths = [max(len(h), *(len(b[i]) for b in body)) if body else len(h)
               for i, h in enumerate(header)]
     fmt = "  ".join(f"{{:<{w}}}" for w in widths)
-    lines = [f"Nominal run of model '{model_name}' beside the paper", fmt.format(*header),
-             fmt.format(*("-" * w for w in widths))]
-    lines += [fmt.format(*b) for b in body]
+    lines = [f"Nominal run of model '{model_name}' beside the paper",
+             *(fmt.format(*b).rstrip() for b in [header, ["-" * w for w in widths], *body])]
     chaotic = [(r.quantity, r.statistic) for r in rows if r.statistic]
     if chaotic:
         lines.append("")
         lines.append("chaotic rows (they move by more than their tolerance when the inputs move "
                      "by round-off) show a robust statistic:")
-        lines += [f"robust — {q}: {s}" for q, s in chaotic]
+        lines += [console_line(f"robust — {q}: {s}") for q, s in chaotic]
     notes = [(r.quantity, r.note) for r in rows if r.note]
     if notes:
         lines.append("")
-        lines += [f"note — {q}: {n}" for q, n in notes]
+        lines += [console_line(f"note — {q}: {n}") for q, n in notes]
     return "\n".join(lines)

@@ -26,8 +26,8 @@ from ..core.failures import failed_runs_line
 from .budget import budget_markdown, budget_tables
 from .plots import FigureFile, write_figures
 from .tables import (
-    cost_table, events_table, events_text, series_agreement, statistics_table, to_markdown,
-    wide_table,
+    cost_table, cost_units, events_table, events_text, series_agreement, statistics_table,
+    to_markdown, wide_table,
 )
 from ..results.result import Result
 
@@ -82,7 +82,8 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
     inputs = _inputs_table(result)
     if not inputs.empty:
         parts += ["", "## Uncertain inputs", "", to_markdown(inputs)]
-    parts += ["", "## Methods and cost", "", to_markdown(cost_table(result))]
+    cost = cost_table(result)
+    parts += ["", "## Methods and cost", "", cost_units(cost) + ".", "", to_markdown(cost)]
     for f in figures:
         if f.kind == "cost":
             parts += ["", _img(f.path, base, "cost of each method")]
@@ -153,8 +154,8 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
     parts += ["", "## Provenance", "",
               to_markdown(pd.DataFrame([{"package": k, "version": v}
                                         for k, v in versions.items()])),
-              "", f"Wall time of the whole run: "
-              f"{float(result.provenance.get('wall_seconds', np.nan)):.3g} s.",
+              "", f"The whole run took "
+              f"{float(result.provenance.get('wall_seconds', np.nan)):.3g} s wall.",
               "", "Resolved config (every default filled in):", "", "```yaml",
               yaml.safe_dump(result.config, sort_keys=False).rstrip(), "```"]
     return "\n".join(parts) + "\n"

@@ -83,6 +83,17 @@ def cost_table(result: Result) -> pd.DataFrame:
     return df
 
 
+def cost_units(df: pd.DataFrame) -> str:
+    """The units of the time columns of :func:`cost_table`'s ``df``, as a line under it: the
+    column names are API, so their ``_s`` says seconds and this says which clock."""
+    wall = [c for c in ("model_s", "compile_s", "fit_s") if c in df]
+    summed = [c for c in ("model_s", "compile_s") if c in df]
+    parts = [f"{', '.join(wall)}: s wall, {' and '.join(summed)} summed over the workers"]
+    if "CPU s per level" in df:
+        parts.append("CPU s per level: CPU-s")
+    return "; ".join(parts)
+
+
 def multifidelity_columns(diagnostics: dict) -> dict[str, Any]:
     """A multi-fidelity method's cost (:mod:`uqguide.methods.mfmc`): runs and model CPU
     seconds per level (``/``-separated, highest fidelity first; a level left out after the
@@ -539,7 +550,8 @@ def render_text(result: Result) -> str:
     """The console form, plain text no wider than :data:`CONSOLE_WIDTH` where it can be: cost,
     each output's statistics at the report times, events, series agreement, the error budget
     of each scalar output (:mod:`uqguide.report.budget`), the key and failures."""
-    parts = ["Cost", fit_columns(cost_table(result), ["label"], na_rep="")]
+    cost = cost_table(result)
+    parts = [f"Cost ({cost_units(cost)})", fit_columns(cost, ["label"], na_rep="")]
     val = validation_table(result)
     if not val.empty:
         parts += ["", _prose("PCE validation (PCE value; the +cv row: the PCE's own value where "
@@ -581,9 +593,8 @@ def render_text(result: Result) -> str:
         failures["reason"] = failures["reason"].map(
             lambda r: r if len(r) <= _PROSE_WIDTH else r[:_PROSE_WIDTH - 3] + "...")
         parts += ["", "Failed runs (excluded from the statistics)",
-                  *[textwrap.fill(failed_runs_line(r.label, r.estimate.method, r.n_runs,
-                                                   r.n_failed, r.estimate.diagnostics),
-                                  CONSOLE_WIDTH, subsequent_indent="  ")
+                  *[console_line(failed_runs_line(r.label, r.estimate.method, r.n_runs,
+                                                  r.n_failed, r.estimate.diagnostics))
                     for r in result.runs if r.success and r.n_failed],
                   fit_columns(failures, ["label"])]
     return "\n".join(parts)
@@ -671,6 +682,12 @@ def fit_columns(df: pd.DataFrame, keys: list[str], width: int = CONSOLE_WIDTH,
     return "\n\n".join(text(keys + b) for b in blocks)
 
 
+def console_line(text: str) -> str:
+    """A line of the console output wrapped to :data:`CONSOLE_WIDTH`, its continuation lines
+    indented (a footnote, a failure summary)."""
+    return textwrap.fill(text, CONSOLE_WIDTH, subsequent_indent="  ")
+
+
 def _prose(text: str) -> str:
     """A sentence over the tables, wrapped to the console."""
     return textwrap.fill(text, _PROSE_WIDTH)
@@ -692,8 +709,9 @@ def render_markdown(result: Result) -> str:
     agreement tables."""
     stats = statistics_table(result)
     with_ref = result.reference is not None and len(result.runs) > 1
-    parts = [f"# {result.name}: model `{result.model}`", "", "## Cost", "",
-             to_markdown(cost_table(result))]
+    cost = cost_table(result)
+    parts = [f"# {result.name}: model `{result.model}`", "", "## Cost", "", cost_units(cost) + ".",
+             "", to_markdown(cost)]
     val = validation_table(result)
     if not val.empty:
         parts += ["", "## PCE validation", "", to_markdown(validation_text(val))]

@@ -92,6 +92,30 @@ def stats_dataset(stats: Mapping[str, OutputStats], outputs: Sequence[OutputInfo
                                                 if d in used or d == "time"})
 
 
+def without_single_components(ds: xr.Dataset, outputs: Sequence[OutputInfo]) -> xr.Dataset:
+    """``ds`` without the size-1 component dimensions of its one-component outputs, so that a
+    one-component series is ``(statistic, time)`` and plots as it is; each stays a scalar
+    coordinate naming the component. The result file keeps them (:func:`layout`)."""
+    dims = [component_dim(o.name, second) for o in outputs if o.k == 1
+            for second in (False, True)]
+    return ds.squeeze([d for d in dims if d in ds.dims])
+
+
+#: The dimensions :func:`layout` puts before an output's component dimension.
+_LEADING = ("bound", "statistic", "quantile", "time")
+
+
+def _with_components(v: xr.DataArray, output: str, second: bool) -> xr.DataArray:
+    """``v`` with the component dimensions :func:`without_single_components` took away, where
+    :func:`layout` has them (after the leading dimensions; the covariance's second next)."""
+    at = sum(d in _LEADING for d in v.dims)
+    for dim in [component_dim(output)] + ([component_dim(output, True)] if second else []):
+        if dim not in v.dims and dim in v.coords:
+            v = v.expand_dims(dim, axis=at)
+        at += 1
+    return v
+
+
 def _output_variables(o: OutputInfo, s: OutputStats,
                       coords: dict[str, Variable]) -> dict[str, Variable]:
     """The variables of one output's statistics; adds the coordinates they need to ``coords``."""
@@ -195,11 +219,13 @@ _AS_THEY_ARE = ("sem", "sobol_first", "sobol_total", "sobol_first_ci", "sobol_to
 
 
 def read_stats(g: Any, outputs: Sequence[OutputInfo]) -> dict[str, OutputStats]:
-    """The inverse of :func:`layout`, from its variables (a Dataset, or a mapping of
-    :class:`Variable`) or a result file's method group (h5py) alike: by output name, for the
-    outputs that have statistics."""
-    def get(name: str) -> Any:
+    """The inverse of :func:`layout`, from its variables (a Dataset, also one of
+    :func:`without_single_components`, or a mapping of :class:`Variable`) or a result file's
+    method group (h5py) alike: by output name, for the outputs that have statistics."""
+    def get(name: str, output: str | None = None) -> Any:
         v = g[name]
+        if output is not None and hasattr(v, "expand_dims"):  # xarray's, maybe squeezed
+            v = _with_components(v, output, name == f"{output}_cov")
         return v.values if hasattr(v, "values") else v[()]
 
     def attrs(name: str) -> dict[str, Any]:
@@ -212,19 +238,20 @@ def read_stats(g: Any, outputs: Sequence[OutputInfo]) -> dict[str, OutputStats]:
         name = o.name
         if name not in g:
             continue
-        m, a = get(name), attrs(name)
+        m, a = get(name, name), attrs(name)
         stats[name] = s = OutputStats(mean=m[0], std=m[1], skewness=m[2], kurtosis=m[3],
-                                      cov=get(f"{name}_cov"), n_used=int(a["n_used"]),
+                                      cov=get(f"{name}_cov", name), n_used=int(a["n_used"]),
                                       moments_method=str(a["moments_method"]))
         for field in _AS_THEY_ARE:
             if f"{name}_{field}" in g:
-                setattr(s, field, get(f"{name}_{field}"))
+                setattr(s, field, get(f"{name}_{field}", name))
         if f"{name}_ci" in g:
-            arr, known = get(f"{name}_ci"), list(attrs(f"{name}_ci")["statistics"])
+            arr, known = get(f"{name}_ci", name), list(attrs(f"{name}_ci")["statistics"])
             s.ci = {n: arr[:, j] for j, n in enumerate(STAT_NAMES) if n in known}
         if f"{name}_quantile" in g:
             s.quantile_levels = tuple(float(p) for p in get("quantile"))
-            s.quantiles, s.ci_quantiles = get(f"{name}_quantile"), get(f"{name}_ci_quantile")
+            s.quantiles = get(f"{name}_quantile", name)
+            s.ci_quantiles = get(f"{name}_ci_quantile", name)
         s.sobol_estimator = next((str(attrs(f"{name}_sobol_{kind}").get("estimator", "pce"))
                                   for kind in ("first", "total", "group_first", "group_total")
                                   if f"{name}_sobol_{kind}" in g), "")
@@ -233,11 +260,11 @@ def read_stats(g: Any, outputs: Sequence[OutputInfo]) -> dict[str, OutputStats]:
                                    for v in get("group"))
         for field in ("corrected", "fallback"):
             if f"{name}_{field}" in g:
-                values, bands = get(f"{name}_{field}"), get(f"{name}_{field}_ci")
+                values, bands = get(f"{name}_{field}", name), get(f"{name}_{field}_ci", name)
                 setattr(s, field, {n: values[j] for j, n in enumerate(STAT_NAMES)})
                 setattr(s, f"{field}_ci", {n: bands[:, j] for j, n in enumerate(STAT_NAMES)})
         if f"{name}_usable" in g:
-            s.usable = np.asarray(get(f"{name}_usable")).astype(bool)
+            s.usable = np.asarray(get(f"{name}_usable", name)).astype(bool)
     return stats
 
 

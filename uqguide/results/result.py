@@ -34,7 +34,7 @@ from ..core.types import Estimate, GeneratedRows, OutputStats, ScalarIndex
 from ..models.base import OutputInfo
 from .surrogate import StoredSurrogate, read_surrogate, write_surrogate
 from .dataset import (LABEL, frames, misshapen, read_stats, stack, stats_dataset,
-                      tidy_frame_class)
+                      tidy_frame_class, without_single_components)
 from .netcdf_file import UTF8, Blocks, Dataset, Group, dataset_group, strings, write_group
 
 FORMAT = 2
@@ -187,12 +187,15 @@ class Result:
         ``n_runs`` and ``n_failed`` along ``label``).
 
         Per output: ``<output>`` (dimensions ``statistic``, ``time`` for a series,
-        ``<output>_component``), its covariance, intervals, Sobol' indices and quantiles where the
-        method gives them (:mod:`uqguide.results.dataset`).
+        ``<output>_component`` for an output of several components; of one, a scalar coordinate
+        naming it), its covariance, intervals, Sobol' indices and quantiles where the method
+        gives them (:mod:`uqguide.results.dataset`).
         """
         if label is not None:
             r = self.run(label)
-            ds = stats_dataset(r.estimate.stats, self.outputs, self.time, self.input_names)
+            ds = without_single_components(
+                stats_dataset(r.estimate.stats, self.outputs, self.time, self.input_names),
+                self.outputs)
             ds.attrs.update(name=self.name, model=self.model, label=r.label,
                             method=r.estimate.method, n_runs=r.n_runs, n_failed=r.n_failed,
                             model_seconds=r.model_seconds, fit_seconds=r.fit_seconds)

@@ -3,8 +3,9 @@
 Per input the runs are cut by rank into :func:`n_bins` bins of equal counts; within each bin the
 output's least-squares line in the input leaves a residual, and the index is one minus the pooled
 residual variance over the output's variance. The interval is ``S_i -+ 1.96 se`` from the
-influence function, its upper end raised by a bound on the bias (twice what the index from bins
-twice as wide reads lower); the sums come from :mod:`uqguide.stats.sobol_bins_kernel`.
+influence function (at least the rounding's width), its upper end raised by a bound on the bias
+(twice what the index from bins twice as wide reads lower); the sums come from
+:mod:`uqguide.stats.sobol_bins_kernel`.
 Derivation and measured coverage: docs/error-budget.md#the-given-data-estimator-in-detail.
 """
 
@@ -27,6 +28,15 @@ Z95 = 1.959963984540054
 BIAS_MARGIN = 2.0
 
 
+def half_width(se: np.ndarray, n: int) -> np.ndarray:
+    """The half-width of a 95% interval of an index from ``n`` runs, ``1.96 se``, and at least
+    ``n`` machine epsilons: the worst-case rounding of the ``n``-term sums the index is made
+    of. Where the influence function vanishes (an output that is a line in one input: ``S =
+    1`` and no residual) ``se`` is 0 and the interval would be as narrow as the rounding, so
+    that another machine's last bits could fall outside it (a gate's tolerance is its width)."""
+    return np.maximum(Z95 * se, n * np.finfo(float).eps)
+
+
 @dataclass(frozen=True)
 class FirstOrderIndices:
     """First-order indices ``first (C, d)`` of ``C`` output columns on ``d`` inputs (NaN for a
@@ -42,9 +52,10 @@ class FirstOrderIndices:
 
     @property
     def ci(self) -> np.ndarray:
-        """95% intervals ``(2, C, d)`` (low, high): ``first - 1.96 se``, ``first + 1.96 se +
-        bias``."""
-        return np.stack([self.first - Z95 * self.se, self.first + Z95 * self.se + self.bias])
+        """95% intervals ``(2, C, d)`` (low, high): ``first - h``, ``first + h + bias``, ``h``
+        the :func:`half_width` of ``se``."""
+        h = half_width(self.se, self.n_runs)
+        return np.stack([self.first - h, self.first + h + self.bias])
 
 
 def n_bins(n: int) -> int:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sobol_given_data import MIN_RUNS, Z95, first_order_indices
+from .sobol_given_data import MIN_RUNS, first_order_indices, half_width
 
 
 #: Neighbours per run (module docstring).
@@ -62,4 +62,5 @@ def group_indices(x: np.ndarray, lanes: np.ndarray, groups: list[tuple[int, ...]
             psi = g * (2.0 * zr - g) - s * (zr * zr)
             first[r, gi] = s
             se[r, gi] = np.sqrt(psi.var() / n)
-    return first, np.stack([first - Z95 * se, first + Z95 * se])
+    h = half_width(se, n)
+    return first, np.stack([first - h, first + h])
