@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import uqguide
-from tests.test_doc_examples import ROOT, blocks
+from tests.doc_pages import ROOT, blocks
 from uqguide.results.result import read_hdf5, write_hdf5
 from uqguide.results.statistics import OutputStatistics
 
