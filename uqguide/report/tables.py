@@ -10,6 +10,8 @@ mean), so a reader sees whether a difference is larger than the reference's own 
 
 from __future__ import annotations
 
+import math
+
 from pathlib import Path
 import re
 import textwrap
@@ -463,6 +465,35 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}" if (a == 0 or 1e-3 <= a < 1e5) else f"{v:.3e}"
 
 
+def _decimals(half: float) -> int | None:
+    """Decimal places that show two significant digits of an interval's half-width ``half``
+    (the digits the interval supports); None where it gives none (zero, NaN, inf)."""
+    if not (np.isfinite(half) and half > 0):
+        return None
+    return 1 - math.floor(math.log10(half))
+
+
+def _supported(v: float, places: int | None) -> str:
+    """``v`` to ``places`` decimal places where that shows fewer digits than :func:`_fmt`'s four
+    significant ones (never more), else :func:`_fmt`'s form."""
+    a = abs(v) if np.isfinite(v) else 0.0
+    if places is None or not np.isfinite(v) or not (a == 0 or 1e-3 <= a < 1e5):
+        return _fmt(v)
+    digits = (math.floor(math.log10(a)) + 1 if a else 1) + places
+    if digits >= 4:
+        return _fmt(v)
+    return f"{round(v, places):.{max(places, 0)}f}"
+
+
+def _end(v: float, places: int | None, up: bool) -> str:
+    """An interval's end at ``places`` decimals (None: :func:`_fmt`'s form), rounded outward so
+    the printed interval holds the computed one."""
+    if places is None or not np.isfinite(v) or _supported(v, places) == _fmt(v):
+        return _fmt(v)
+    step = 10.0 ** -places
+    return _supported((math.ceil(v / step) if up else math.floor(v / step)) * step, places)
+
+
 def wide_table(stats: pd.DataFrame, with_ref: bool) -> pd.DataFrame:
     """One row per (time, component, label); a column per statistic with its interval, as
     text; the ``time`` and ``component`` columns only where they vary.
@@ -526,14 +557,24 @@ def _cell_text(s: pd.Series, attrs: dict, with_ref: bool) -> str:
     if bool(says_nothing(str(s["stat"]), s["ci_low"], s["ci_high"])):
         n = attrs.get("runs_behind", {}).get((s["label"], s["output"]))
         return NOT_RESOLVED.format(runs=f"{n} runs" if n is not None else "its runs")
-    cell = _fmt(s["value"])
-    if np.isinf(s["ci_high"]) and np.isfinite(s["ci_low"]):
+    # the value and its interval to the digits the interval supports (two significant digits
+    # of its half-width, or of the distance to a stated floor), the ends rounded outward
+    v, lo, hi = (float(s[k]) for k in ("value", "ci_low", "ci_high"))
+    if np.isinf(hi) and np.isfinite(lo):
         # a stated floor (uqguide.stats.tail_intervals): no upper bound from the runs
-        cell += f" [>= {_fmt(s['ci_low'])}]"
-    elif np.isinf(s["ci_low"]) and np.isfinite(s["ci_high"]):
-        cell += f" [<= {_fmt(s['ci_high'])}]"
-    elif not np.isnan(s["ci_low"]):
-        cell += f" [{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
+        places = _decimals(abs(v - lo))
+        cell = f"{_supported(v, places)} [>= {_end(lo, places, up=False)}]"
+    elif np.isinf(lo) and np.isfinite(hi):
+        places = _decimals(abs(hi - v))
+        cell = f"{_supported(v, places)} [<= {_end(hi, places, up=True)}]"
+    elif not np.isnan(lo):
+        places = _decimals(0.5 * (hi - lo))
+        if _supported(v, places) == _fmt(v):
+            places = None  # the value keeps four digits: so do its ends
+        cell = (f"{_supported(v, places)} [{_end(lo, places, up=False)}, "
+                f"{_end(hi, places, up=True)}]")
+    else:
+        cell = _fmt(v)
     if with_ref and s["label"] != attrs.get("reference"):
         rd, ad = s.get("rel_diff"), s.get("abs_diff")
         inside = s.get("agrees")
