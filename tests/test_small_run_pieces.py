@@ -72,11 +72,15 @@ def test_progress_moves_with_each_model_call_of_a_single_chunk_and_the_numbers_s
 
 
 def test_a_fast_model_runs_the_rest_of_its_chunk_in_calls_of_the_batch_size():
-    """After the first piece, pieces of PIECE_SECONDS at its speed: the flaky model runs
-    1,500 samples in well under 2 s, so the rest goes in calls of batch_size (300)."""
+    """After two pieces, pieces of PIECE_SECONDS at the second one's speed (the first may
+    include starting the guard process): the flaky model runs 1,500 samples in well under 2 s,
+    so the rest goes in calls of batch_size (300, cut at its multiples), and a second method's
+    chunk of the same model goes so from its first call."""
+    two = {**SMALL, "methods": [SMALL["methods"][0], {**SMALL["methods"][0], "label": "mc2"}]}
     p = _Counted()
-    run(validate_config(SMALL), progress=p)
-    assert np.diff([0] + [runs for runs, _ in p.seen]).tolist() == [94, 206, 300, 300, 300, 300]
+    run(validate_config(two), progress=p)
+    steps = np.diff([0] + [runs for runs, _ in p.seen]).tolist()
+    assert steps == [94, 94, 112, 300, 300, 300, 300] + [300] * 5
 
 
 def test_pieces_left_to_run_are_the_gaps_between_those_kept():

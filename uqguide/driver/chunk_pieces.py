@@ -4,15 +4,16 @@ come back, are counted and checkpointed one by one, then are joined and reduced 
 A chunk (a Monte Carlo one: 8,192 runs by default) is the unit of a random stream and of the
 reduction, so it cannot shrink without changing the numbers; the model calls inside it can. A
 stage with no more chunks than the executor runs at once would show no progress and keep
-nothing on Ctrl-C until its chunks end; its chunks go out in pieces instead: first one
-:data:`PIECES_PER_CHUNK`-th of a chunk per worker, then pieces of about :data:`PIECE_SECONDS`
-at the speed those showed (a fast model's chunk in two calls, not sixteen small ones). The rows
-joined are those the chunk's own calls give, so the numbers are the same.
-What a user sees and what is kept: docs/scale.md, "Checkpoints and --resume".
+nothing on Ctrl-C until its chunks end; its chunks go out in pieces instead: first two
+:data:`PIECES_PER_CHUNK`-ths of a chunk per worker (the second one's speed is without a
+start-up), then pieces of about :data:`PIECE_SECONDS` at the latest one's speed (a fast model's
+chunk in three calls, not sixteen). The rows joined are those the chunk's own calls give, so
+the numbers are the same. What a user sees and what is kept: docs/scale.md, "Small runs in
+pieces".
 """
-
 from __future__ import annotations
 
+import math
 import time
 
 from .execution import ChunkResult, Task
@@ -48,16 +49,17 @@ def goes_in_pieces(n_chunks: int, executor: object) -> bool:
 class Pieces:
     """The pieces of the chunks ``tasks`` (each piece a Task of its chunk's index and its own
     rows), restored or evaluated, until each chunk is whole; ``batch_size``: rows per model
-    call."""
+    call; ``speed``: ``[model seconds per run]`` of the model's latest piece (``inf``: none yet;
+    shared by the stages of one model, and updated)."""
 
-    def __init__(self, tasks: list[Task], batch_size: int) -> None:
+    def __init__(self, tasks: list[Task], batch_size: int,
+                 speed: list[float] | None = None) -> None:
         self.chunks = {t.index: t for t in tasks}
         self.batch_size = batch_size
         self._got: dict[int, list[ChunkResult]] = {t.index: [] for t in tasks}
         self._unsaved: list[ChunkResult] = []
         self._t0 = time.monotonic()
-        #: model seconds and runs of the pieces evaluated in this session
-        self._spent = [0.0, 0]
+        self._speed = speed if speed is not None else [math.inf]
 
     def restore(self, r: ChunkResult) -> bool:
         """Take a stored piece unless it overlaps one taken (a split of another session);
@@ -82,15 +84,16 @@ class Pieces:
         return out
 
     def step(self, chunk_rows: int) -> int:
-        """Rows per piece of a chunk of ``chunk_rows``: :func:`piece_rows` until pieces were
-        evaluated, then :data:`PIECE_SECONDS` at their speed (at most the batch size)."""
+        """Rows per piece of a chunk of ``chunk_rows``: :func:`piece_rows` until a piece was
+        evaluated, then :data:`PIECE_SECONDS` at the latest one's speed (at most the batch
+        size)."""
         first = piece_rows(chunk_rows, self.batch_size)
-        seconds, runs = self._spent
-        if not runs:
+        per_run = self._speed[0]
+        if per_run == math.inf:
             return first
-        if seconds <= 0:
+        if per_run <= 0:
             return self.batch_size
-        return max(first, min(self.batch_size, int(PIECE_SECONDS * runs / seconds)))
+        return max(first, min(self.batch_size, int(PIECE_SECONDS / per_run)))
 
     def whole(self, index: int) -> list[ChunkResult] | None:
         """The pieces of chunk ``index`` in row order when they cover it (then forgotten)."""
@@ -104,8 +107,8 @@ class Pieces:
     def add(self, r: ChunkResult) -> list[ChunkResult] | None:
         """An evaluated piece; its chunk's pieces when the chunk is whole with it."""
         self._got[r.task.index].append(r)
-        self._spent[0] += r.model_seconds
-        self._spent[1] += r.task.n
+        if r.task.n:
+            self._speed[0] = r.model_seconds / r.task.n
         self._unsaved.append(r)
         return self.whole(r.task.index)
 

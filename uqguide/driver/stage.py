@@ -10,6 +10,7 @@ they arrive, and folds (or joins) them in chunk order whatever order they finish
 from __future__ import annotations
 
 import logging
+import math
 import time
 import weakref
 from collections.abc import Mapping, Sequence
@@ -41,6 +42,9 @@ log = logging.getLogger(__name__)
 
 #: Models whose compiled kernel this process has loaded (or compiled) for a process pool.
 _LOADED: weakref.WeakSet[Model] = weakref.WeakSet()
+#: Each model's model seconds per run of its latest piece (:class:`Pieces`): a later stage of a
+#: model known to be fast goes in calls of the batch size at once.
+_SPEED: weakref.WeakKeyDictionary[Model, list[float]] = weakref.WeakKeyDictionary()
 
 
 class Counted:
@@ -260,10 +264,10 @@ class StageRunner(Counted):
 
     def _in_pieces(self, job: ChunkJob, pieces: Pieces, x: np.ndarray | GeneratedRows
                    ) -> Any:
-        """The pieces' results: first one per worker, then the rest sized at their speed
+        """The pieces' results: first two per worker, then the rest sized at their speed
         (:meth:`Pieces.step`). A piece comes back unreduced: its chunk is reduced here."""
         job = replace(job, reducer=None, shared=None)
-        first = pieces.todo()[:at_once(self.executor)]
+        first = pieces.todo()[:2 * at_once(self.executor)]
         yield from self.executor.map_chunks(job, first, x)
         rest = pieces.todo()
         if rest:
@@ -278,7 +282,7 @@ class StageRunner(Counted):
         if any(t.n == 0 for t in todo) or not self.method.runs_in_pieces or \
                 not kept and not goes_in_pieces(len(todo), self.executor):
             return None
-        pieces = Pieces(todo, self.batch_size)
+        pieces = Pieces(todo, self.batch_size, _SPEED.setdefault(self.model, [math.inf]))
         taken = [r for r in kept if pieces.restore(r)]
         for r in taken:
             self.progress.restored(r.task.n, r.n_failed, chunks=0)
