@@ -144,9 +144,13 @@ def _echo_written(written: Any, again: str) -> None:
                    f"output; `{again}` fits them again without re-running the model)", err=True)
 
 
-def _resume_line(n_done: int | None, n_total: int | None, again: str) -> str:
-    """How far a stopped run got and the command that continues it."""
-    done = f"{n_done} of {n_total} chunks done; " if n_done is not None else ""
+def _resume_line(n_done: int | None, n_total: int | None, again: str,
+                 in_pieces: int = 0) -> str:
+    """How far a stopped run got (``in_pieces``: runs of unfinished chunks kept) and the
+    command that continues it."""
+    from .driver.run_folder import kept_text
+
+    done = f"{kept_text(n_done, n_total, in_pieces)}; " if n_done is not None else ""
     return f"{done}resume with `{again}`"
 
 
@@ -243,7 +247,8 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
                                 progress=make_progress(sys.stderr, quiet), resume_hint=again,
                                 force=force)
     except RunInterrupted as exc:
-        click.echo(f"interrupted: {_resume_line(exc.n_done, exc.n_total, again)}", err=True)
+        click.echo(f"interrupted: {_resume_line(exc.n_done, exc.n_total, again, exc.in_pieces)}",
+                   err=True)
         sys.exit(EXIT_INTERRUPTED)
     except ClusterLost as exc:
         # on the same cluster once it is back (or on any other executor: the same numbers)

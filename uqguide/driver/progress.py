@@ -132,23 +132,24 @@ class Progress:
             self._phase_since = None
         self.phase_text = text
 
-    def restored(self, n_runs: int, n_failed: int) -> None:
-        """One chunk taken from the checkpoint."""
-        self._count(n_runs, n_failed)
+    def restored(self, n_runs: int, n_failed: int, chunks: int = 1) -> None:
+        """Runs taken from the checkpoint: a chunk (``chunks=0``: a piece of one)."""
+        self._count(n_runs, n_failed, chunks)
 
-    def advance(self, n_runs: int, n_failed: int) -> None:
-        """One chunk evaluated."""
-        self._set_phase("")  # a chunk came back: whatever preceded it (a compile) is over
-        self._count(n_runs, n_failed)
+    def advance(self, n_runs: int, n_failed: int, chunks: int = 1) -> None:
+        """Runs evaluated: a chunk, or a model call's piece of one that completes ``chunks``
+        (0 or 1) chunks."""
+        self._set_phase("")  # runs came back: whatever preceded them (a compile) is over
+        self._count(n_runs, n_failed, chunks)
         self.current.runs_evaluated += n_runs
         self._show()
 
-    def _count(self, n_runs: int, n_failed: int) -> None:
+    def _count(self, n_runs: int, n_failed: int, chunks: int) -> None:
         m = self.current
-        m.chunks_done += 1
+        m.chunks_done += chunks
         m.runs_done += n_runs
         m.runs_failed += n_failed
-        self.chunks_done += 1
+        self.chunks_done += chunks
         self.runs_done += n_runs
         self.runs_failed += n_failed
 
@@ -195,7 +196,7 @@ class Progress:
         self._last_show = now
         if self.tty:
             m = self.current
-            frac = m.chunks_done / m.chunks_total if m.chunks_total else 0.0
+            frac = min(m.runs_done / m.runs_total, 1.0) if m.runs_total else 0.0
             bar = "#" * int(20 * frac) + "-" * (20 - int(20 * frac))
             self.stream.write(f"\r[{bar}] {self.status()}\x1b[K")
         else:
@@ -242,7 +243,7 @@ class PlainProgress(Progress):
 
 
 class BarProgress(Progress):
-    """On a terminal: a tqdm bar of the chunks with the current method and phase."""
+    """On a terminal: a tqdm bar of the runs with the current method and phase."""
 
     def __init__(self, stream: TextIO, refresh: float = 0.5) -> None:
         super().__init__(stream, tty=True, refresh=refresh)
@@ -264,13 +265,12 @@ class BarProgress(Progress):
             sized = False
         self._bar_of = self.current
         # desc from the start: tqdm draws the bar once as it is made
-        return tqdm(total=self.current.chunks_total or None, desc=self.title(),
-                    file=self.stream, unit="chunk",
+        return tqdm(total=self.current.runs_total or None, desc=self.title(),
+                    file=self.stream, unit="run",
                     dynamic_ncols=sized, ncols=None if sized else 100,
                     nrows=None if sized else 24, leave=True,
-                    mininterval=0,
-                    bar_format="{desc} |{bar}| {n_fmt}/{total_fmt} chunks "
-                               "[{elapsed}{postfix}]")
+                    mininterval=0, postfix=self._counts_text(),
+                    bar_format="{desc} |{bar}| [{elapsed}{postfix}]")
 
     def _open(self) -> None:
         from ..models import kernels
@@ -307,16 +307,18 @@ class BarProgress(Progress):
                 b.close()
                 self._bar = b = self._new_bar()
             m = self.current
-            b.total = m.chunks_total or None
-            b.n = m.chunks_done
+            b.total = m.runs_total or None
+            b.n = m.runs_done
             desc = self.title() + (f": {self.phase_text}" if self.phase_text else "")
             b.set_description_str(desc, refresh=False)
-            eta = self.eta_seconds()
-            b.set_postfix_str(f"{m.runs_done:,}/{m.runs_total:,} runs, "
-                              f"{m.runs_failed:,} failed"
-                              + (f", ETA {hms(eta)}" if eta is not None else ""),
-                              refresh=False)
+            b.set_postfix_str(self._counts_text(), refresh=False)
             b.refresh()
+
+    def _counts_text(self) -> str:
+        m, eta = self.current, self.eta_seconds()
+        return (f"{m.runs_done:,}/{m.runs_total:,} runs, {m.runs_failed:,} failed, "
+                f"{m.chunks_done}/{m.chunks_total} chunks"
+                + (f", ETA {hms(eta)}" if eta is not None else ""))
 
     def _show(self, force: bool = False) -> None:
         if self._bar is None:

@@ -177,7 +177,8 @@ def run(config: RunConfig, executor: Executor | None = None, *, store: RunStore 
         executor.abort()
         if isinstance(exc, RunInterrupted):
             raise
-        raise RunInterrupted(_chunks_kept(store, progress), progress.chunks_total) from None
+        raise RunInterrupted(_chunks_kept(store, progress), progress.chunks_total,
+                             store.n_in_pieces if store is not None else 0) from None
     except ClusterLost as exc:
         # stopped like an interrupt, with its reason: the chunks done are kept for --resume
         raise ClusterLost(str(exc), _chunks_kept(store, progress),

@@ -1,9 +1,10 @@
 """The run folder: a run that survives a crash, a kill or Ctrl-C, and ``--resume``.
 
 ``<out>/<name>.run/`` holds ``manifest.jsonl`` (append-only and fsynced: the run's identity,
-then one line per finished chunk or isolated sample) and one ``.npz`` per finished chunk,
-written whole and renamed before its manifest line; ``<out>/<name>.run.lock`` gives the folder
-one owner. :class:`RunStore` is what the driver holds: the chunks' files, the
+then one line per finished chunk, piece of an unfinished chunk or isolated sample) and one
+``.npz`` per finished chunk or piece, written whole and renamed before its manifest line;
+``<out>/<name>.run.lock`` gives the folder one owner. :class:`RunStore` is what the driver
+holds: the chunks' files, the
 :class:`RunManifest` (whose run the folder is, resume checks, refusals) and the
 :class:`CheckpointWriter` (the background thread that writes them). :class:`RunLock` is taken
 by the command before the folder is read.
@@ -135,6 +136,8 @@ MANIFEST = "manifest.jsonl"
 
 #: A chunk line's key: the method's label, the design stage and the chunk index.
 ChunkKey = tuple[str, int, int]
+#: The lines of the pieces of a chunk (:mod:`uqguide.driver.chunk_pieces`) by their first row.
+PieceLines = dict[int, dict[str, Any]]
 
 
 def model_code_hash(model: Model) -> str:
@@ -265,6 +268,27 @@ class RunManifest:
                     continue
         return header, entries
 
+    def pieces(self) -> dict[ChunkKey, PieceLines]:
+        """This run's pieces of chunks by (label, stage, chunk index), the last line of a piece
+        winning (those of chunks since finished included)."""
+        out: dict[ChunkKey, PieceLines] = {}
+        for obj in _manifest_objects(self.file):
+            if obj.get("kind") != "piece" or obj.get("run") != self.run_id:
+                continue
+            try:
+                key = (str(obj["label"]), int(obj["stage"]), int(obj["index"]))
+                start, stop = int(obj["start"]), int(obj["stop"])
+            except (KeyError, TypeError, ValueError):
+                continue  # a malformed line: its rows run again
+            if start < stop:
+                out.setdefault(key, {})[start] = obj
+        return out
+
+    def listed_files(self) -> set[str]:
+        """The files the manifest lists: chunks' and pieces'."""
+        return {str(e.get("file")) for e in self.read()[1].values()} | \
+            {str(e.get("file")) for lines in self.pieces().values() for e in lines.values()}
+
     def isolated(self) -> dict[tuple[str, int], dict[int, str]]:
         """This run's samples found to crash or hang, by (label, stage): row -> reason."""
         out: dict[tuple[str, int], dict[int, str]] = {}
@@ -343,7 +367,7 @@ class RunManifest:
         what = not_regular(self.file, hard_links=resume)
         if what:
             raise refusal(self.file, what, role="the run's manifest goes there")
-        listed = {str(e.get("file")) for e in self.read()[1].values()}
+        listed = self.listed_files()
         for name in sorted(os.listdir(self.folder)):
             if name not in listed and not self._chunk_name(name):
                 continue
@@ -360,7 +384,8 @@ class RunManifest:
             labels = [m.get("label") for m in self.identity.get("config", {}).get("methods", [])
                       if isinstance(m, dict) and isinstance(m.get("label"), str)]
             self._chunk_re = re.compile("|".join(
-                rf"{re.escape(str(lab))}\.s\d+\.c\d{{6,}}\.npz" for lab in labels) or "(?!)")
+                rf"{re.escape(str(lab))}\.s\d+\.c\d{{6,}}(\.r\d+)?\.npz" for lab in labels)
+                or "(?!)")
         return self._chunk_re.fullmatch(name) is not None
 
     def clear(self, header: dict[str, Any] | None, known: bool = False) -> list[str]:
@@ -369,7 +394,7 @@ class RunManifest:
         folder only when it holds nothing else or is ``known`` (this run's, its files removed a
         moment ago): else ConfigError, nothing deleted."""
         names = sorted(p.name for p in self.folder.iterdir())
-        listed = {str(e.get("file")) for e in self.read()[1].values()}
+        listed = self.listed_files()
         ours = [n for n in names if n != MANIFEST and self._ours(self.folder / n, listed)]
         left = [n for n in names if n != MANIFEST and n not in ours]
         identified = known or (header is not None and "format" in header)
@@ -424,7 +449,7 @@ class RunManifest:
         header, entries = self.read()
         if header is None or header.get("run_id") != self.run_id:
             return []
-        listed = {str(e.get("file")) for e in entries.values()}
+        listed = self.listed_files()
         left: list[str] = []
         ours_left = False
         for p in sorted(self.folder.iterdir()):
@@ -639,13 +664,30 @@ class CheckpointWriter(Generic[Item]):
 
 # ---------------------------------------------------------------------------- the store
 class RunInterrupted(KeyboardInterrupt):
-    """The run was stopped (Ctrl-C) after ``n_done`` of ``n_total`` chunks; a KeyboardInterrupt,
-    so that nothing catching ``Exception`` swallows it."""
+    """The run was stopped (Ctrl-C) after ``n_done`` of ``n_total`` chunks, ``in_pieces`` runs
+    of unfinished chunks kept besides; a KeyboardInterrupt, so that nothing catching
+    ``Exception`` swallows it."""
 
-    def __init__(self, n_done: int, n_total: int) -> None:
-        super().__init__(f"interrupted: {n_done} of {n_total} chunks done")
+    def __init__(self, n_done: int, n_total: int, in_pieces: int = 0) -> None:
+        super().__init__(f"interrupted: {kept_text(n_done, n_total, in_pieces)}")
         self.n_done = n_done
         self.n_total = n_total
+        self.in_pieces = in_pieces
+
+
+def kept_text(n_done: int, n_total: int | None, in_pieces: int = 0) -> str:
+    """``2 of 10 chunks done``, with ``and 500 runs of unfinished chunks`` when pieces of
+    chunks are kept too."""
+    of = f" of {n_total}" if n_total is not None else ""
+    more = f" and {in_pieces:,} runs of unfinished chunks" if in_pieces else ""
+    return f"{n_done}{of} chunks done{more}"
+
+
+def _runs_in_pieces(pieces: dict[ChunkKey, PieceLines],
+                    chunks: dict[ChunkKey, dict[str, Any]]) -> int:
+    """Runs held by the pieces of chunks not listed as done."""
+    return sum(int(e["stop"]) - int(e["start"]) for key, lines in pieces.items()
+               if key not in chunks for e in lines.values())
 
 
 def run_dir(out_dir: str | Path, name: str) -> Path:
@@ -666,10 +708,12 @@ class RunStore:
         self.run_id = self.manifest.run_id
         #: The manifest's chunk lines by (label, stage, index).
         self.entries: dict[ChunkKey, dict[str, Any]] = {}
-        self.writer: CheckpointWriter[tuple[str, int, ChunkResult]] = \
+        self.writer: CheckpointWriter[tuple[str, int, ChunkResult, bool]] = \
             CheckpointWriter(self._save_now)
         #: Samples found to crash or hang their process, by (label, stage): row -> reason.
         self.isolated: dict[tuple[str, int], dict[int, str]] = {}
+        #: The manifest's piece lines of chunks not listed as done.
+        self.pieces: dict[ChunkKey, PieceLines] = {}
 
     @classmethod
     def open(cls, path: str | Path, identity: dict[str, Any], resume: bool,
@@ -690,6 +734,8 @@ class RunStore:
         if header is not None and resume:
             store.manifest.check_same_run(header)
             store.entries = dict(entries)
+            store.pieces = {k: v for k, v in store.manifest.pieces().items()
+                            if k not in entries}
             store.isolated = store.manifest.isolated()
             clean_stale_temps(path)
             log.info("resuming %s: %d chunks already done", path, len(entries))
@@ -705,9 +751,11 @@ class RunStore:
             header, entries = store.manifest.read()
         else:
             known = False
-        if entries and not resume:
+        in_pieces = _runs_in_pieces(store.manifest.pieces(), entries) if header else 0
+        if (entries or in_pieces) and not resume:
             raise ConfigError(
-                f"{path} holds an unfinished run ({len(entries)} chunks done); continue it "
+                f"{path} holds an unfinished run ({kept_text(len(entries), None, in_pieces)}); "
+                f"continue it "
                 f"with `{resume_hint}`, or delete the folder to start over", field="resume")
         if resume:
             log.info("nothing to resume at %s: starting a fresh run", path)
@@ -723,6 +771,11 @@ class RunStore:
         not the in-memory list, because an interrupt can land between a chunk's manifest line
         and its bookkeeping here."""
         return len(self.manifest.read()[1])
+
+    @property
+    def n_in_pieces(self) -> int:
+        """Runs of unfinished chunks listed in the manifest on disk (as :attr:`n_done`)."""
+        return _runs_in_pieces(self.manifest.pieces(), self.manifest.read()[1])
 
     def known_isolated(self, label: str, stage: int) -> dict[int, str]:
         """Design rows of a stage known to crash or hang their process, with the reason."""
@@ -748,6 +801,11 @@ class RunStore:
             log.warning("%s: chunk %d of %s has other bounds than stored; re-running it",
                         self.path, task.index, label)
             return None
+        return self._read(label, stage, task, e)
+
+    def _read(self, label: str, stage: int, task: Task, e: dict[str, Any]
+              ) -> ChunkResult | None:
+        """The chunk or piece file of the manifest line ``e``, or None when unreadable."""
         try:
             (run_id, stored_label, stored_stage), r = read_chunk(self.path / e["file"], task)
         except ForeignChunk as exc:
@@ -755,7 +813,7 @@ class RunStore:
                               f"{self.run_id[:12]}, {label} stage {stage}); delete the "
                               f"folder to start over", field="resume") from None
         except (OSError, ValueError, KeyError) as exc:
-            log.warning("%s: cannot read %s (%s); re-running the chunk", self.path, e["file"],
+            log.warning("%s: cannot read %s (%s); re-running its runs", self.path, e["file"],
                         exc)
             return None
         if (run_id, stored_label, stored_stage) != (self.run_id, label, stage):
@@ -766,10 +824,24 @@ class RunStore:
                 field="resume")
         return r
 
-    def save(self, label: str, stage: int, result: ChunkResult) -> None:
-        """Queue one chunk for the writer thread (:class:`CheckpointWriter`): its file, then its
-        manifest line."""
-        self.writer.put((label, stage, result))
+    def load_pieces(self, label: str, stage: int, task: Task) -> list[ChunkResult]:
+        """The stored pieces of the unfinished chunk ``task`` (those readable, in row order);
+        ConfigError for a piece of another run."""
+        out = []
+        for start, e in sorted(self.pieces.get((label, stage, task.index), {}).items()):
+            piece = Task(task.index, start, int(e["stop"]))
+            if not task.start <= piece.start < piece.stop <= task.stop:
+                continue  # (bounds of another split: those rows run again)
+            r = self._read(label, stage, piece, e)
+            if r is not None:
+                out.append(r)
+        return out
+
+    def save(self, label: str, stage: int, result: ChunkResult, piece: bool = False) -> None:
+        """Queue one chunk (or ``piece`` of one) for the writer thread
+        (:class:`CheckpointWriter`): its file, then its manifest line; a chunk's pieces are
+        deleted once it is listed."""
+        self.writer.put((label, stage, result, piece))
 
     def close(self) -> None:
         self.writer.close()
@@ -785,15 +857,25 @@ class RunStore:
         self.close()
         return self.manifest.remove()
 
-    def _save_now(self, item: tuple[str, int, ChunkResult]) -> None:
+    def _save_now(self, item: tuple[str, int, ChunkResult, bool]) -> None:
         # The file first, then its line: a chunk listed in the manifest is whole on disk.
-        label, stage, result = item
+        label, stage, result, piece = item
         t = result.task
+        key = (label, stage, t.index)
         # named after its label, stage (0: the initial design, then one per refinement), index
-        file = f"{label}.s{stage}.c{t.index:06d}.npz"
-        entry = {"kind": "chunk", "run": self.run_id, "label": label, "stage": stage,
-                 "index": t.index, "start": t.start, "stop": t.stop, "file": file,
-                 "n_failed": result.n_failed}
+        # (and a piece after its first row)
+        file = f"{label}.s{stage}.c{t.index:06d}" + (f".r{t.start:09d}" if piece else "") + \
+            ".npz"
+        entry = {"kind": "piece" if piece else "chunk", "run": self.run_id, "label": label,
+                 "stage": stage, "index": t.index, "start": t.start, "stop": t.stop,
+                 "file": file, "n_failed": result.n_failed}
         write_chunk(self.path / file, result, self.run_id, label, stage)
         self.manifest.append(entry)
-        self.entries[(label, stage, t.index)] = entry
+        if piece:
+            self.pieces.setdefault(key, {})[t.start] = entry
+            return
+        self.entries[key] = entry
+        # its pieces are not needed any more (a kill before this leaves them listed: a resume
+        # takes the chunk, the cleanup deletes them)
+        for e in self.pieces.pop(key, {}).values():
+            (self.path / str(e["file"])).unlink(missing_ok=True)

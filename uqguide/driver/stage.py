@@ -2,27 +2,29 @@
 
 A :class:`StageRunner`, the :class:`~uqguide.methods.base.Runner` the driver lends a method's
 :meth:`~uqguide.methods.base.Method.propagate`, takes chunks restored from the checkpoint or
-evaluated by the executor, saves them as they arrive, and folds (or joins) them in chunk order
-whatever order they finish in. A :class:`SurrogateLevel` is the Runner of a fitted PCE used as
-a multi-fidelity method's level.
+evaluated by the executor (a small stage's in pieces: :mod:`.chunk_pieces`), saves them as
+they arrive, and folds (or joins) them in chunk order whatever order they finish in. A
+:class:`SurrogateLevel` is the Runner of a fitted PCE used as a multi-fidelity method's level.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import time
 import weakref
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from .run_folder import RunStore
 from ..errors import MethodError, ModelError
+from .chunk_pieces import Pieces, at_once, goes_in_pieces
 from .execution import (
     ChunkJob, ChunkResult, Containment, Executor, ModelHandle, Task, Timing, common_grid,
-    evaluate_batch,
+    evaluate_batch, join_pieces,
 )
 from .execution.guard import guarded_batch
 from .execution.shared_rows import SharedRows
@@ -40,6 +42,9 @@ log = logging.getLogger(__name__)
 
 #: Models whose compiled kernel this process has loaded (or compiled) for a process pool.
 _LOADED: weakref.WeakSet[Model] = weakref.WeakSet()
+#: Each model's model seconds per run of its latest piece (:class:`Pieces`): a later stage of a
+#: model known to be fast goes in calls of the batch size at once.
+_SPEED: weakref.WeakKeyDictionary[Model, list[float]] = weakref.WeakKeyDictionary()
 
 
 class Counted:
@@ -193,6 +198,13 @@ class StageRunner(Counted):
                     parts.append(r.output())
                 nxt += 1
 
+        def done(r: ChunkResult) -> None:
+            r = arrived(r)
+            if self.store is not None:
+                self.store.save(label, stage, r)
+            pending[r.task.index] = r
+            fold_ready()
+
         results: Any = iter(())
         try:
             for t in tasks:
@@ -205,17 +217,32 @@ class StageRunner(Counted):
                 log.info("%s: %d of %d chunks restored from the checkpoint", label,
                          len(pending), len(tasks))
             fold_ready()
+            pieces = self._pieces(stage, todo)
+            if pieces is not None:
+                share = False  # (the workers send pieces whole, never write in place)
+                for t in todo:  # a chunk whose every piece was kept
+                    whole = pieces.whole(t.index)
+                    if whole is not None:
+                        self.progress.restored(0, 0)
+                        done(join_pieces(job, t, whole))
+                todo = pieces.todo()
             if todo and getattr(self.executor, "shares_memory", False):
                 self._compile_here_first(job, x, todo[0])
             if todo:
-                results = self.executor.map_chunks(job, todo, x)
+                results = self.executor.map_chunks(job, todo, x) if pieces is None else \
+                    self._in_pieces(job, pieces, x)
             for r in results:
-                r = arrived(r)
-                if self.store is not None:
-                    self.store.save(label, stage, r)
-                self.progress.advance(r.task.n, r.n_failed)
-                pending[r.task.index] = r
-                fold_ready()
+                if pieces is None:
+                    self.progress.advance(r.task.n, r.n_failed)
+                    done(r)
+                else:
+                    whole = pieces.add(r)
+                    if self.store is not None:
+                        for p in pieces.due():
+                            self.store.save(label, stage, p, piece=True)
+                    self.progress.advance(r.task.n, r.n_failed, int(whole is not None))
+                    if whole is not None:
+                        done(join_pieces(job, pieces.chunks[r.task.index], whole))
                 raise_swallowed()
         except BaseException:
             if self.store is not None:
@@ -234,6 +261,35 @@ class StageRunner(Counted):
         if kept is not None:
             return kept.output(), acc
         return ModelOutput.concatenate(common_grid(parts)), acc
+
+    def _in_pieces(self, job: ChunkJob, pieces: Pieces, x: np.ndarray | GeneratedRows
+                   ) -> Any:
+        """The pieces' results: first two per worker, then the rest sized at their speed
+        (:meth:`Pieces.step`). A piece comes back unreduced: its chunk is reduced here."""
+        job = replace(job, reducer=None, shared=None)
+        first = pieces.todo()[:2 * at_once(self.executor)]
+        yield from self.executor.map_chunks(job, first, x)
+        rest = pieces.todo()
+        if rest:
+            yield from self.executor.map_chunks(job, rest, x)
+
+    def _pieces(self, stage: int, todo: list[Task]) -> Pieces | None:
+        """The pieces of the chunks ``todo`` (those kept restored and counted) when the stage
+        is small or kept pieces of them; None: the chunks go whole."""
+        label, store = self.method.label, self.store
+        kept = [r for t in todo for r in store.load_pieces(label, stage, t)] \
+            if store is not None else []
+        if any(t.n == 0 for t in todo) or not self.method.runs_in_pieces or \
+                not kept and not goes_in_pieces(len(todo), self.executor):
+            return None
+        pieces = Pieces(todo, self.batch_size, _SPEED.setdefault(self.model, [math.inf]))
+        taken = [r for r in kept if pieces.restore(r)]
+        for r in taken:
+            self.progress.restored(r.task.n, r.n_failed, chunks=0)
+        if taken:
+            log.info("%s: %d runs of unfinished chunks restored from the checkpoint", label,
+                     sum(r.task.n for r in taken))
+        return pieces
 
     fixed_cpu_s = 0.0
 

@@ -226,6 +226,9 @@ class Method(ABC):
     #: Derived outputs are computed from surrogates of their carriers (``context.derived``),
     #: so the carriers are evaluated too.
     uses_derivations: ClassVar[bool] = False
+    #: A small stage may run in pieces (:mod:`uqguide.driver.chunk_pieces`): model calls
+    #: smaller than its chunks, the same numbers.
+    runs_in_pieces: ClassVar[bool] = True
     #: The estimate keeps a fitted surrogate (``Estimate.surrogate``), which a multi-fidelity
     #: method may take as a level (``fidelities: [..., {surrogate: LABEL}]``).
     fits_surrogate: ClassVar[bool] = False

@@ -160,6 +160,9 @@ class MultiFidelityMC(Method):
 
     name = "mfmc"
     summary = "multi-fidelity Monte Carlo: cheaper fidelity levels as control variates"
+    #: It prices each level by the CPU of its calls, which smaller calls would raise (its
+    #: chunks are :attr:`block_rows`, whole calls, for that).
+    runs_in_pieces = False
     Settings = MfmcSettings
     settings: MfmcSettings
     example_settings = {"fidelities": [{}], "n_pilot": 40, "costs": [1e-3],

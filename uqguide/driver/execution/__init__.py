@@ -15,11 +15,11 @@ from .chunks import (DEFAULT_BATCH_SIZE, ChunkJob, ChunkResult, Containment, Red
 from .executors import DaskExecutor, Executor, ProcessExecutor, SerialExecutor, make_executor
 from .isolation import assemble_pieces, common_grid, evaluate_batch, failed_output
 from .transport import ModelHandle
-from .worker import isolate_crash, run_chunk
+from .worker import isolate_crash, join_pieces, run_chunk
 
 __all__ = [
     "DEFAULT_BATCH_SIZE", "ChunkJob", "ChunkResult", "Containment", "DaskExecutor", "Executor",
     "ModelHandle", "ProcessExecutor", "Reducer", "SerialExecutor", "Task", "Timing",
     "assemble_pieces", "common_grid", "evaluate_batch", "failed_output", "isolate_crash",
-    "make_executor", "run_chunk",
+    "join_pieces", "make_executor", "run_chunk",
 ]

@@ -62,12 +62,28 @@ def run_chunk(job: ChunkJob, task: Task, x: np.ndarray | RowRange) -> ChunkResul
             return _evaluate(job, rows, first + at, spent)
 
         parts.append(skipping_known(model, x[s:s + job.batch_size], job.outputs, here, call))
-    out = ModelOutput.concatenate(common_grid(parts))
     # a first call that compiles the kernel is timed as compiling, not as running the model
     compiled = spent.compile_seconds
+    return _finish(job, task, parts, max(time.perf_counter() - t0 - compiled, 0.0), compiled,
+                   spent.cpu_seconds)
+
+
+def join_pieces(job: ChunkJob, task: Task, pieces: list[ChunkResult]) -> ChunkResult:
+    """The chunk ``task`` from the unreduced results of model calls that cover its rows in
+    order (its pieces, :mod:`uqguide.driver.pieces`), reduced as :func:`run_chunk` reduces
+    it: the same rows joined, so the same numbers."""
+    return _finish(job, task, [p.output() for p in pieces],
+                   sum(p.model_seconds for p in pieces), sum(p.compile_seconds for p in pieces),
+                   sum(p.cpu_seconds for p in pieces))
+
+
+def _finish(job: ChunkJob, task: Task, parts: list[ModelOutput], model_seconds: float,
+            compile_seconds: float, cpu_seconds: float) -> ChunkResult:
+    """The chunk's result from the outputs of its model calls, reduced when the job says."""
+    out = ModelOutput.concatenate(common_grid(parts))
     result = ChunkResult(task, out.failed, out.reasons, out.time, out.scalars, out.series,
-                         model_seconds=max(time.perf_counter() - t0 - compiled, 0.0),
-                         compile_seconds=compiled, cpu_seconds=spent.cpu_seconds)
+                         model_seconds=model_seconds, compile_seconds=compile_seconds,
+                         cpu_seconds=cpu_seconds)
     if job.reducer is None:
         return result
     result = replace(result, series={}, summary=job.reducer(out, task.index))
