@@ -29,9 +29,10 @@ from .failing_models import mc_config
 from .test_execution import FLAKY, _arrays, _assert_identical
 from .test_resume import _assert_same, _stats
 
-#: One chunk (the default chunk_size, 8,192), model calls of 300 samples when whole: its pieces
-#: are calls of ceil(1500 / 16) = 94 samples.
-SMALL = {**FLAKY, "methods": [{**FLAKY["methods"][0], "n_samples": 1500, "chunk_size": 8192}]}
+#: One chunk (the default chunk_size, 8,192) and the default batch size (above the chunk): its
+#: pieces are calls of ceil(1500 / 16) = 94 samples.
+SMALL = {**FLAKY, "batch_size": 10_000,
+         "methods": [{**FLAKY["methods"][0], "n_samples": 1500, "chunk_size": 8192}]}
 
 
 class _Counted(Progress):
@@ -71,16 +72,24 @@ def test_progress_moves_with_each_model_call_of_a_single_chunk_and_the_numbers_s
     _assert_identical(_arrays(whole), _arrays(in_pieces))
 
 
-def test_a_fast_model_runs_the_rest_of_its_chunk_in_calls_of_the_batch_size():
+def test_a_fast_model_runs_the_rest_of_its_chunk_in_one_call():
     """After two pieces, pieces of PIECE_SECONDS at the second one's speed (the first may
     include starting the guard process): the flaky model runs 1,500 samples in well under 2 s,
-    so the rest goes in calls of batch_size (300, cut at its multiples), and a second method's
-    chunk of the same model goes so from its first call."""
+    so the rest goes in one call, and a second method's chunk of the same model goes so from
+    its first call."""
     two = {**SMALL, "methods": [SMALL["methods"][0], {**SMALL["methods"][0], "label": "mc2"}]}
     p = _Counted()
     run(validate_config(two), progress=p)
     steps = np.diff([0] + [runs for runs, _ in p.seen]).tolist()
-    assert steps == [94, 94, 112, 300, 300, 300, 300] + [300] * 5
+    assert steps == [94, 94, 1312, 1500]
+
+
+def test_a_batch_size_a_user_chose_below_the_chunk_is_the_call_size(slow_model):
+    """A command program's start-up or a licence per call: the user's batch_size (300) sets
+    the pieces, as it sets a whole chunk's calls, however slow the model."""
+    p = _Counted()
+    run(validate_config({**SMALL, "batch_size": 300}), progress=p)
+    assert np.diff([0] + [runs for runs, _ in p.seen]).tolist() == [300] * 5
 
 
 def test_pieces_left_to_run_are_the_gaps_between_those_kept():

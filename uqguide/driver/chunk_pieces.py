@@ -84,9 +84,12 @@ class Pieces:
         return out
 
     def step(self, chunk_rows: int) -> int:
-        """Rows per piece of a chunk of ``chunk_rows``: :func:`piece_rows` until a piece was
-        evaluated, then :data:`PIECE_SECONDS` at the latest one's speed (at most the batch
-        size)."""
+        """Rows per piece of a chunk of ``chunk_rows``: a batch no larger than the chunk is the
+        call size a user chose (a ``command`` program's start-up, a licence per call): its
+        calls, as a whole chunk's. Else :func:`piece_rows` until a piece was evaluated, then
+        :data:`PIECE_SECONDS` at the latest one's speed (at most the batch size)."""
+        if self.batch_size <= chunk_rows:
+            return self.batch_size
         first = piece_rows(chunk_rows, self.batch_size)
         per_run = self._speed[0]
         if per_run == math.inf:
