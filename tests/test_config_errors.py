@@ -25,8 +25,8 @@ CASES = [
     ("unknown_top_key", ("seed: 1", "seed: 1\nsede: 2"),
      "sede: unknown key (did you mean 'seed'?); allowed keys: name, description, model, data, "
      "inputs, correlations, outputs, report_times, methods, reference, seed, batch_size, "
-     "max_failed_fraction, strict, pce_failure_policy, quantiles, events, groups, max_steps, "
-     "max_memory, "
+     "max_failed_fraction, strict, pce_failure_policy, quantiles, events, requirements, groups, "
+     "max_steps, max_memory, "
      "timeout_s"),
     ("seed_wrong_type", ("seed: 1", "seed: abc"),
      "seed: Input should be a valid integer, unable to parse string as an integer (got 'abc')"),

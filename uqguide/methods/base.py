@@ -30,6 +30,7 @@ from ..core.names import check_plain_name
 from ..core.strict import StrictModel
 
 from ..core.events import EventSpec
+from ..core.requirements import RequirementSpec
 from ..core.inputs import InputSpace
 from ..core.types import DerivedOutput, Estimate, GeneratedRows, ModelOutput
 from ..errors import MethodError
@@ -114,16 +115,18 @@ class RunContext:
     ``report_times`` [s]: where a method that must economise concentrates its effort;
     ``failure_policy``: the config's ``pce_failure_policy`` for a design that needs every run
     (``"fail"``: MethodError; ``"regression"``: fit the survivors); ``quantile_levels`` (None:
-    none), ``events``, ``outputs`` (empty: whatever the runs hold) and ``groups`` (inputs with a
-    Sobol' index of their own) are the config's; ``components`` names every output's
-    components; ``derived`` holds the model's derivations of outputs from carriers (for a
-    method with :attr:`Method.uses_derivations`).
+    none), ``events``, ``requirements``, ``outputs`` (empty: whatever the runs hold) and
+    ``groups`` (inputs with a Sobol' index of their own) are the config's; ``components``
+    names every output's components; ``derived`` holds the model's derivations of outputs
+    from carriers (for a method with :attr:`Method.uses_derivations`).
     """
 
     report_times: tuple[float, ...] | None = None
     failure_policy: Literal["fail", "regression"] = "fail"
     quantile_levels: tuple[float, ...] | None = None
     events: tuple[EventSpec, ...] = ()
+    #: The config's requirements (their success events are among ``events``).
+    requirements: tuple[RequirementSpec, ...] = ()
     components: Mapping[str, tuple[str, ...]] = field(
         default_factory=lambda: MappingProxyType({}))
     outputs: tuple[str, ...] = ()

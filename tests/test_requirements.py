@@ -1,0 +1,243 @@
+"""Requirements: config entries, verdicts per method (exact, approximate, validated PCE), the
+plan, the table and the file."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from uqguide.config.run_config import validate_config
+from uqguide.core.events import EventEstimate, EventSpec
+from uqguide.core.requirements import RequirementSpec
+from uqguide.driver.propagate import run
+from uqguide.errors import ConfigError
+from uqguide.report.tables import REQUIREMENT_COLUMNS, render_text, write_tables
+from uqguide.results.result import read_hdf5, write_hdf5
+from uqguide.stats.verdicts import (count_verdict, method_verdicts, one_sided_bounds,
+                                    runs_to_decide, runs_to_pass, wilks_rank)
+
+LINEAR = {"model": {"name": "linear_gaussian", "coefficients": [[1.0, 2.0, -0.5]]},
+          "inputs": [{"name": f"x{i}", "dist": "normal", "mean": 0.0, "std": 1.0}
+                     for i in (1, 2, 3)]}
+SIGMA = float(np.sqrt(1 + 4 + 0.25))
+REQ = {"name": "r", "output": "y", "below": 3.0, "probability": 0.99, "confidence": 0.9}
+
+
+def _config(requirements, methods=None, **extra):
+    methods = methods or [{"name": "monte_carlo", "label": "mc", "n_samples": 2000,
+                           "bootstrap": 0, "sensitivity": "off"}]
+    return validate_config({**LINEAR, "methods": methods, "requirements": requirements,
+                            **extra})
+
+
+@pytest.mark.parametrize("entry, message", [
+    ({**REQ, "probabilty": 0.99},
+     "requirements[0].probabilty: unknown key (did you mean 'probability'?)"),
+    ({**REQ, "probability": 1.5},
+     "requirements[0].probability: Input should be less than 1 (got 1.5)"),
+    ({**REQ, "confidence": 0.3},
+     "requirements[0].confidence: Input should be greater than or equal to 0.5 (got 0.3)"),
+    ({k: v for k, v in REQ.items() if k != "confidence"},
+     "requirements[0].confidence: required field is missing"),
+    ({**REQ, "quantile": 0.9},
+     "requirements[0]: requirement 'r': give exactly one of probability, quantile "
+     "(got probability=0.99, quantile=0.9)"),
+    ({**REQ, "above": 1.0},
+     "requirements[0]: requirement 'r': give exactly one of below, above"),
+    ({**REQ, "output": "z"},
+     "requirements[0].output: 'z' is not among the config's outputs; allowed: y"),
+])
+def test_a_bad_requirement_names_its_field_value_and_what_is_allowed(entry, message):
+    with pytest.raises(ConfigError) as exc:
+        _config([entry])
+    assert str(exc.value).startswith(message)
+
+
+def test_a_requirement_named_as_an_event_or_twice_is_refused():
+    with pytest.raises(ConfigError, match=r"requirements\[0\]\.name: 'r' is also an event's"):
+        _config([REQ], events=[{"name": "r", "output": "y", "above": 1.0}])
+    with pytest.raises(ConfigError, match=r"requirements\[1\]\.name: 'r' is used twice"):
+        _config([REQ, REQ])
+
+
+def test_the_quantile_form_targets_the_success_probability():
+    below = RequirementSpec(name="a", output="y", quantile=0.999, below=2.0, confidence=0.9)
+    above = RequirementSpec(name="b", output="y", quantile=0.01, above=2.0, confidence=0.9)
+    assert below.target == 0.999
+    assert above.target == pytest.approx(0.99)  # x_0.01 > a when P(y > a) > 0.99
+    assert below.describe() == "q0.999(y) < 2 at 90%"
+    assert RequirementSpec(**REQ).describe() == "P(y < 3) >= 0.99 at 90%"
+
+
+def test_one_sided_bounds_are_the_exact_beta_quantiles():
+    k, n, c = 987, 1000, 0.9
+    lo, hi = one_sided_bounds(k, n, c)
+    assert lo == pytest.approx(stats.beta.ppf(1 - c, k, n - k + 1), rel=1e-12)
+    assert hi == pytest.approx(stats.beta.ppf(c, k + 1, n - k), rel=1e-12)
+
+
+def test_verdicts_pass_fail_and_undecided_at_counts():
+    assert count_verdict("r", "mc", 852, 852, 0.9973, 0.9).verdict == "pass"
+    assert count_verdict("r", "mc", 851, 851, 0.9973, 0.9).verdict == "undecided"
+    assert count_verdict("r", "mc", 800, 852, 0.9973, 0.9).verdict == "fail"
+
+
+def test_runs_to_decide_decides_there_and_not_one_run_before():
+    """An undecided count, run on at its estimate: decided after the further runs given, not
+    one run earlier."""
+    for k, n, target, c in [(850, 852, 0.9973, 0.9), (2998, 3000, 0.999, 0.95),
+                            (96, 100, 0.95, 0.9)]:
+        v = count_verdict("r", "mc", k, n, target, c)
+        assert v.verdict == "undecided"
+        m = n + int(v.runs_to_decide)
+        p = k / n
+        assert count_verdict("r", "mc", p * m, m, target, c).verdict != "undecided"
+        assert count_verdict("r", "mc", p * (m - 1), m - 1, target, c).verdict == "undecided"
+    assert runs_to_decide(0.95, 0.95, 0.9, 100) == math.inf
+
+
+@pytest.mark.parametrize("target, confidence", [(0.9973, 0.9), (0.95, 0.95), (0.99, 0.99),
+                                                (0.999, 0.5)])
+def test_the_plan_equals_the_closed_forms(target, confidence):
+    """Zero failures: n = ceil(ln(1 - c) / ln p); one and two: the least n whose binomial
+    probability of at most f failures, written out, is at most 1 - c."""
+    n0 = runs_to_pass(target, confidence, 0)
+    assert n0 == math.ceil(math.log(1 - confidence) / math.log(target))
+    q = 1 - target
+
+    def at_most(f, n):
+        return sum(math.comb(n, j) * q**j * target ** (n - j) for j in range(f + 1))
+
+    for f in (1, 2):
+        n = runs_to_pass(target, confidence, f)
+        assert at_most(f, n) <= 1 - confidence < at_most(f, n - 1)
+        # and the exact lower bound of n - f successes of n reaches the target just there
+        assert count_verdict("r", "mc", n - f, n, target, confidence).verdict == "pass"
+        assert count_verdict("r", "mc", n - 1 - f, n - 1, target, confidence).verdict != "pass"
+    assert runs_to_pass(0.9973, 0.9) == 852 and runs_to_pass(0.95, 0.95) == 59
+
+
+def test_the_quantile_form_is_wilks_order_statistic():
+    """``y_(r) < b`` (r the Wilks rank) exactly when the count verdict passes, for every count."""
+    for n, q, c in [(59, 0.95, 0.95), (500, 0.99, 0.9), (1000, 0.5, 0.99)]:
+        r = wilks_rank(n, q, c)
+        assert r is not None
+        for k in range(n + 1):
+            assert (k >= r) == (count_verdict("r", "mc", k, n, q, c).verdict == "pass")
+    assert wilks_rank(58, 0.95, 0.95) is None  # fewer than the zero-failure plan's 59
+
+
+def _event(name, p, ci, n_in, n, estimator, cov=float("nan")):
+    return EventEstimate(name, "", p, ci, n_in, n, estimator, cov)
+
+
+def test_subset_simulation_gives_an_approximate_verdict_on_the_complement():
+    req = RequirementSpec(**{**REQ, "below": 5.0, "probability": 0.9999})
+    fail = EventSpec(name="far", output="y", above=5.0)
+    p, s = 1e-6, 0.3
+    ev = _event("far", p, (p * math.exp(-1.96 * s), p * math.exp(1.96 * s)), 90, 1000,
+                "subset", 0.3)
+    v = method_verdicts("ss", [req], {"far": ev}, [fail, req.event()])["r"]
+    z = stats.norm.ppf(0.9)
+    assert v.verdict == "pass" and v.basis.startswith("approximate")
+    assert v.lower == pytest.approx(1 - p * math.exp(z * s), rel=1e-12)
+    # another threshold is not the complement: no verdict
+    other = EventSpec(name="far", output="y", above=4.0)
+    assert method_verdicts("ss", [req], {"far": ev}, [other, req.event()])["r"].verdict \
+        == "undecided"
+
+
+def test_a_pce_decides_only_with_validation_bounds_at_the_confidence_asked():
+    cv = _event("r", 0.999, (0.995, 1.0), 400, 400, "surrogate+cv")
+    req90 = RequirementSpec(**REQ)
+    req99 = RequirementSpec(**{**REQ, "confidence": 0.99})
+    v = method_verdicts("pce", [req90, ], {"r": cv}, [req90.event()])["r"]
+    assert (v.verdict, v.lower) == ("pass", 0.995)
+    v = method_verdicts("pce", [req99], {"r": cv}, [req99.event()])["r"]
+    assert v.verdict == "undecided" and "97.5%" in v.basis and math.isnan(v.lower)
+    draws = _event("r", 0.999, (0.998, 1.0), 999_000, 1_000_000, "surrogate")
+    v = method_verdicts("pce", [req90], {"r": draws}, [req90.event()])["r"]
+    assert v.verdict == "undecided" and "validation_runs" in v.basis
+
+
+def test_a_monte_carlo_run_gives_verdicts_stored_printed_and_written(tmp_path):
+    """P(y < 3 sigma) = 0.99865: 2000 runs (about 3 beyond) pass 0.99 and fail 0.9999; the
+    median at its true value 0 is undecided (this seed; either way with 2% chance)."""
+    cfg = _config([{**REQ, "below": 3 * SIGMA},
+                   {**REQ, "name": "tight", "below": 3 * SIGMA, "probability": 0.9999},
+                   {"name": "q", "output": "y", "quantile": 0.5, "below": 0.0,
+                    "confidence": 0.99}])
+    res = run(cfg)
+    got = {name: v.verdict for name, v in res.runs[0].verdicts.items()}
+    assert got["r"] == "pass" and got["tight"] == "fail"
+    assert got["q"] == "undecided"  # the median is 0: no count decides it
+    assert res.runs[0].verdicts["q"].runs_to_decide > 0
+    path = write_hdf5(res, tmp_path / "r.h5")
+    back = read_hdf5(path)
+    assert back.runs[0].verdicts == res.runs[0].verdicts
+    write_tables(back, tmp_path, "r")
+    df = pd.read_csv(tmp_path / "r_requirements.csv")
+    assert list(df.columns) == REQUIREMENT_COLUMNS
+    assert list(df["requirement"]) == ["r", "tight", "q"]  # the config's order
+    text = render_text(back)
+    assert "Requirements (one-sided bounds" in text
+    assert max(len(line) for line in text.splitlines()) <= 160
+
+
+def _cli_config(write_config, requirements, n=2000):
+    return write_config({**LINEAR, "name": "req", "seed": 0, "requirements": requirements,
+                         "methods": [{"name": "monte_carlo", "label": "mc", "n_samples": n,
+                                      "bootstrap": 0, "sensitivity": "off"}]})
+
+
+def test_validate_prints_the_plan(write_config):
+    from click.testing import CliRunner
+
+    from uqguide.cli import main
+
+    path = _cli_config(write_config, [
+        {**REQ, "name": "three_sigma", "probability": 0.9973},
+        {"name": "q95", "output": "y", "quantile": 0.95, "below": 3.0, "confidence": 0.95}])
+    res = CliRunner().invoke(main, ["validate", str(path)])
+    assert res.exit_code == 0, res.output
+    assert "  three_sigma: P(y < 3) >= 0.9973 at 90%: 852 / 1,440 / 1,970\n" in res.output
+    assert "  q95: q0.95(y) < 3 at 95%: 59 / 93 / 124\n" in res.output
+
+
+def test_the_requirements_gate_exits_by_the_verdicts(write_config, tmp_path):
+    """A passing, a failing and an undecided requirement (3 sigma = 6.87 with P 0.99865):
+    check --requirements exits 1 on the fail, or on the undecided one unless --undecided
+    pass; run --check-requirements does the same at the end of the run."""
+    from click.testing import CliRunner
+
+    from uqguide.cli import main
+
+    runner = CliRunner()
+    ok = {**REQ, "name": "ok", "below": 3 * SIGMA}
+    bad = {**REQ, "name": "bad", "below": 3 * SIGMA, "probability": 0.9999}
+    open_ = {"name": "open", "output": "y", "quantile": 0.5, "below": 0.0, "confidence": 0.99}
+    path = _cli_config(write_config, [ok, open_])
+    out = tmp_path / "out"
+    res = runner.invoke(main, ["run", str(path), "--out", str(out), "-q",
+                               "--check-requirements"])
+    assert res.exit_code == 1, res.output
+    assert "mc: open UNDECIDED" in res.output
+    assert "requirements: 1 of 2 verdicts pass the gate" in res.output
+    h5 = str(out / "req.h5")
+    res = runner.invoke(main, ["check", h5, "--requirements", "--undecided", "pass"])
+    assert res.exit_code == 0 and "2 of 2 verdicts pass the gate - OK" in res.output
+    assert runner.invoke(main, ["check", h5, "--requirements"]).exit_code == 1
+    path = _cli_config(write_config, [ok, bad])
+    res = runner.invoke(main, ["run", str(path), "--out", str(out), "-q", "--force",
+                               "--check-requirements", "--undecided", "pass"])
+    assert res.exit_code == 1 and "mc: bad FAIL" in res.output
+    path = _cli_config(write_config, [ok])
+    res = runner.invoke(main, ["run", str(path), "--out", str(out), "-q", "--force",
+                               "--check-requirements"])
+    assert res.exit_code == 0 and "1 of 1 verdicts pass the gate - OK" in res.output
+    res = runner.invoke(main, ["check", h5, "--baseline", "b.json", "--undecided", "fail"])
+    assert res.exit_code == 2 and "give it with --requirements" in res.output
