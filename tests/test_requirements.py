@@ -241,3 +241,79 @@ def test_the_requirements_gate_exits_by_the_verdicts(write_config, tmp_path):
     assert res.exit_code == 0 and "1 of 1 verdicts pass the gate - OK" in res.output
     res = runner.invoke(main, ["check", h5, "--baseline", "b.json", "--undecided", "fail"])
     assert res.exit_code == 2 and "give it with --requirements" in res.output
+
+
+def _sequential(below_sigmas, probability, cap=20_000, chunk=128, stop="decided", **method):
+    m = {"name": "monte_carlo", "label": "mc", "n_samples": cap, "chunk_size": chunk,
+         "bootstrap": 0, "sensitivity": "off", **method}
+    if stop:
+        m["stop_when"] = stop
+    return _config([{**REQ, "below": below_sigmas * SIGMA, "probability": probability}], [m])
+
+
+def test_stop_when_decided_needs_requirements():
+    with pytest.raises(ConfigError, match=r"^methods\[0\]\.stop_when: 'decided' stops when "
+                                          r"every requirement is decided"):
+        validate_config({**LINEAR, "methods": [{"name": "monte_carlo", "n_samples": 100,
+                                                "stop_when": "decided"}]})
+
+
+def test_a_clearly_failing_requirement_stops_before_its_cap():
+    """P(y < 2 sigma) = 0.977 against 0.9973: the sequence rules it out long before 20,000."""
+    r = run(_sequential(2.0, 0.9973)).runs[0]
+    assert r.verdicts["r"].verdict == "fail" and r.n_runs < 20_000
+    assert r.verdicts["r"].basis.startswith("confidence sequence")
+    assert r.n_runs % 128 == 0 and r.estimate.diagnostics["n_samples_cap"] == 20_000
+
+
+def test_a_clearly_passing_requirement_stops_at_the_sequence_zero_failure_point():
+    """P(y < 10 sigma) = 1 - 7.6e-24: no run fails, so the run stops at the first chunk after
+    the least n with M_n(p) = a / (a + n) / p^n >= 1 / (1 - c) (prior Beta(a, 1), a = p / (1 -
+    p)): n ln(1/p) >= ln(1/(1-c)) + ln(1 + n/a), i.e. n / n_plan <= 1 + ln(1 + n/a) / ln(1/(1-c))
+    over the fixed plan's 852 (1.69 here)."""
+    p, c = 0.9973, 0.9
+    a = p / (1 - p)
+    n_seq = next(n for n in range(1, 10**5)
+                 if n * math.log(1 / p) >= math.log(1 / (1 - c)) + math.log(1 + n / a))
+    plan = runs_to_pass(p, c)
+    assert n_seq / plan <= 1 + math.log(1 + n_seq / a) / math.log(1 / (1 - c)) + 1 / plan
+    assert n_seq / plan < 1.7
+    r = run(_sequential(10.0, p)).runs[0]
+    assert r.verdicts["r"].verdict == "pass"
+    assert r.n_runs == 128 * math.ceil(n_seq / 128)  # 1536
+
+
+def test_a_stopped_run_has_the_numbers_of_a_fixed_run_of_its_size(tmp_path):
+    """The same rows and folds: every statistic and count of the run stopped at m equals the
+    fixed run's with n_samples = m; resumed from its run folder it stops at the same chunk."""
+    from uqguide.driver.run_folder import RunStore, run_identity
+
+    cfg = _sequential(2.0, 0.9973)
+    store = RunStore.open(tmp_path / "r.run", run_identity(cfg.resolved(), cfg.model),
+                          resume=False)
+    stopped = run(cfg, store=store).runs[0]
+    m = stopped.n_runs
+    fixed = run(_sequential(2.0, 0.9973, cap=m, stop=None)).runs[0]
+    for name in ("mean", "std", "skewness", "kurtosis"):
+        assert np.array_equal(getattr(stopped.estimate.stats["y"], name),
+                              getattr(fixed.estimate.stats["y"], name))
+    assert stopped.estimate.events == fixed.estimate.events
+    assert np.array_equal(np.asarray(stopped.x), np.asarray(fixed.x))
+    store = RunStore.open(tmp_path / "r.run", run_identity(cfg.resolved(), cfg.model),
+                          resume=True)
+    again = run(cfg, store=store).runs[0]
+    assert again.n_runs == m and again.verdicts == stopped.verdicts
+
+
+@pytest.mark.slow
+def test_a_pool_stops_at_the_same_chunk_with_the_same_numbers():
+    """Chunks in flight after the deciding one are dropped: two worker processes give the
+    serial run's stopping point and statistics."""
+    import uqguide
+
+    cfg = _sequential(2.0, 0.9973)
+    serial = run(cfg).runs[0]
+    pooled = uqguide.run(cfg, workers=2).runs[0]
+    assert pooled.n_runs == serial.n_runs < 20_000
+    assert np.array_equal(pooled.estimate.stats["y"].mean, serial.estimate.stats["y"].mean)
+    assert pooled.verdicts == serial.verdicts

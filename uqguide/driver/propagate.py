@@ -94,7 +94,8 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         wall_seconds=time.perf_counter() - t_start,
         success=not done.failure,
         message=done.failure,
-        verdicts=method_verdicts(method.label, ctx.requirements, estimate.events, ctx.events),
+        verdicts=method_verdicts(method.label, ctx.requirements, estimate.events, ctx.events,
+                                 estimate.diagnostics.get("stop_when") == "decided"),
     )
 
 

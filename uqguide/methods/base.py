@@ -165,12 +165,15 @@ class Runner(Protocol):
 
     def run(self, x: np.ndarray | GeneratedRows, stage: int, chunks: Chunks, *,
             reduce: tuple[ChunkReducer, ChunkFold] | None = None,
-            after: ModelOutput | None = None) -> tuple[ModelOutput, Any]:
+            after: ModelOutput | None = None,
+            stop: Callable[[ModelOutput], bool] | None = None) -> tuple[ModelOutput, Any]:
         """Evaluate the rows ``chunks`` of ``x`` as checkpoint stage ``stage``.
 
         With ``reduce`` (reducer, fold) each chunk is reduced where it ran and folded in chunk
         order: the outputs then hold the scalars, failures and grid only, and the accumulator
         is returned beside them (else None). ``after``: earlier rows' outputs, joined in front.
+        ``stop`` (with ``reduce``): asked after each fold with the outputs folded so far; True
+        ends the stage there, its outputs cut to those rows (the chunks after are dropped).
         """
 
     def plan(self, chunks: Chunks) -> None:

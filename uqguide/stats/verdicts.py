@@ -3,10 +3,11 @@ probability reaches the requirement's, ``fail`` when the upper bound is below it
 ``undecided`` with the further runs that would decide it at the current estimate.
 
 Model runs: exact one-sided Clopper-Pearson bounds (the quantile form is the same verdict as
-Wilks' order statistic, :func:`wilks_rank`); subset simulation: its lognormal interval
-(approximate); a PCE: its validation runs' distribution-free bounds where they hold at the
-confidence asked, else ``undecided``. The plan (:func:`runs_to_pass`) and the derivations:
-docs/requirements.md.
+Wilks' order statistic, :func:`wilks_rank`); a run that stopped when decided: a confidence
+sequence valid under optional stopping (:func:`sequence_bounds`); subset simulation: its
+lognormal interval (approximate); a PCE: its validation runs' distribution-free bounds where
+they hold at the confidence asked, else ``undecided``. The plan (:func:`runs_to_pass`) and the
+derivations: docs/requirements.md.
 """
 
 from __future__ import annotations
@@ -19,8 +20,12 @@ from statistics import NormalDist
 from ..core.events import EventEstimate, EventSpec, clopper_pearson
 from ..core.requirements import RequirementSpec
 
-__all__ = ["CV_ONE_SIDED", "Verdict", "count_verdict", "decide", "method_verdicts",
-           "one_sided_bounds", "runs_to_decide", "runs_to_pass", "wilks_rank"]
+__all__ = ["CV_ONE_SIDED", "Verdict", "count_verdict", "decide", "log_mixture",
+           "method_verdicts", "mixture_prior", "one_sided_bounds", "runs_to_decide",
+           "runs_to_pass", "sequence_bounds", "sequence_decided", "wilks_rank"]
+
+#: How the bounds of counted runs are made: fixed ``n``, or a run stopped when decided.
+EXACT, SEQUENTIAL = "exact (Clopper-Pearson)", "confidence sequence (beta-binomial mixture)"
 
 #: One-sided coverage of each end of a validated PCE's event interval: its pieces' two-sided
 #: levels are Bonferroni-split from 95%, so each end misses with at most 2.5%
@@ -38,6 +43,53 @@ def one_sided_bounds(k: float, n: float, confidence: float) -> tuple[float, floa
     """Exact one-sided lower and upper Clopper-Pearson bounds of a binomial probability, each
     holding with probability at least ``confidence`` (>= 0.5), from ``k`` successes of ``n``."""
     return clopper_pearson(k, n, 2.0 * confidence - 1.0)
+
+
+def mixture_prior(target: float) -> tuple[float, float]:
+    """The mixing ``Beta(a, b)`` of :func:`log_mixture`: mean ``target``, the smaller of ``a``,
+    ``b`` equal to 1 (fixed by the requirement, before any run)."""
+    return (max(1.0, target / (1.0 - target)), max(1.0, (1.0 - target) / target))
+
+
+def log_mixture(k: float, n: float, p: float, prior: tuple[float, float]) -> float:
+    """``ln M_n(p)``, Robbins' (1970) beta-binomial mixture martingale of ``k`` successes in
+    ``n`` runs against the success probability ``p``: ``B(a + k, b + n - k) / B(a, b) /
+    (p^k (1 - p)^(n - k))``. Under ``p`` it exceeds ``1 / alpha`` at any run with probability
+    at most ``alpha`` (Ville's inequality), however the stopping depends on the runs."""
+    from scipy.special import betaln, xlog1py, xlogy
+
+    a, b = prior
+    return float(betaln(a + k, b + n - k) - betaln(a, b) - xlogy(k, p) - xlog1py(n - k, -p))
+
+
+def sequence_bounds(k: float, n: float, confidence: float, target: float
+                    ) -> tuple[float, float]:
+    """The ends of the confidence sequence ``{p: M_n(p) < 1 / (1 - confidence)}`` (an interval
+    around ``k / n``; :func:`log_mixture` with :func:`mixture_prior` of ``target``): the success
+    probability lies within it at every ``n`` at once with probability ``confidence``."""
+    from scipy.optimize import brentq
+
+    if n <= 0:
+        return 0.0, 1.0
+    prior, level = mixture_prior(target), math.log(1.0 / (1.0 - confidence))
+    p_hat = k / n
+
+    def excess(p: float) -> float:
+        return log_mixture(k, n, p, prior) - level
+
+    if excess(p_hat) >= 0:  # the sequence is empty here (probability < 1 - confidence)
+        return p_hat, p_hat
+    lo = 0.0 if k <= 0 else brentq(excess, 1e-300, p_hat, xtol=1e-15, rtol=1e-14)
+    hi = 1.0 if k >= n else brentq(excess, p_hat, 1.0 - 1e-16, xtol=1e-15, rtol=1e-14)
+    return float(lo), float(hi)
+
+
+def sequence_decided(k: float, n: float, confidence: float, target: float) -> bool:
+    """Whether the confidence sequence excludes ``target`` (a ``pass`` or ``fail`` that stays
+    right with probability ``confidence`` however the runs were stopped): ``M_n(target) >=
+    1 / (1 - confidence)``."""
+    return n > 0 and k != n * target and log_mixture(
+        k, n, target, mixture_prior(target)) >= math.log(1.0 / (1.0 - confidence))
 
 
 def decide(lower: float, upper: float, target: float) -> str:
@@ -65,14 +117,17 @@ def _first(ok: Callable[[int], bool], start: int) -> int | None:
     return hi
 
 
-def runs_to_decide(estimate: float, target: float, confidence: float, n: int) -> float:
+def runs_to_decide(estimate: float, target: float, confidence: float, n: int,
+                   sequential: bool = False) -> float:
     """Further runs (beyond ``n``) after which the bounds at the current ``estimate`` of the
-    success probability decide against ``target``: 0 when decided, ``inf`` when the estimate
-    is the target (no count decides it)."""
+    success probability decide against ``target`` (``sequential``: the confidence sequence's):
+    0 when decided, ``inf`` when the estimate is the target (no count decides it)."""
     if not 0.0 <= estimate <= 1.0 or estimate == target:
         return math.inf if estimate == target else math.nan
 
     def decided(m: int) -> bool:
+        if sequential:
+            return sequence_decided(estimate * m, m, confidence, target)
         lo, hi = one_sided_bounds(estimate * m, m, confidence)
         return decide(lo, hi, target) != "undecided"
 
@@ -141,16 +196,25 @@ class Verdict:
                    num("upper"), int(num("runs")), num("runs_to_decide"), str(d["basis"]))
 
 
-def count_verdict(name: str, label: str, k: int, n: int, target: float, confidence: float
-                  ) -> Verdict:
-    """The verdict from ``k`` successes of ``n`` runs (exact, distribution-free)."""
+def count_verdict(name: str, label: str, k: int, n: int, target: float, confidence: float,
+                  sequential: bool = False) -> Verdict:
+    """The verdict from ``k`` successes of ``n`` runs (exact, distribution-free); of a run that
+    stopped when decided (``sequential``), by its confidence sequence."""
     if n <= 0:
         return Verdict(name, label, "undecided", math.nan, math.nan, math.nan, 0, math.nan,
                        "no successful runs")
-    lo, hi = one_sided_bounds(k, n, confidence)
-    v = decide(lo, hi, target)
-    further = 0.0 if v != "undecided" else runs_to_decide(k / n, target, confidence, n)
-    return Verdict(name, label, v, k / n, lo, hi, n, further, "exact (Clopper-Pearson)")
+    if sequential:
+        lo, hi = sequence_bounds(k, n, confidence, target)
+        # (decided by the martingale itself: the roots' last digits must not flip it)
+        v = decide(lo, hi, target) if sequence_decided(k, n, confidence, target) \
+            else "undecided"
+    else:
+        lo, hi = one_sided_bounds(k, n, confidence)
+        v = decide(lo, hi, target)
+    further = 0.0 if v != "undecided" else runs_to_decide(k / n, target, confidence, n,
+                                                          sequential)
+    return Verdict(name, label, v, k / n, lo, hi, n, further,
+                   SEQUENTIAL if sequential else EXACT)
 
 
 def _subset_verdict(req: RequirementSpec, label: str, ev: EventEstimate) -> Verdict:
@@ -176,10 +240,11 @@ def _complement(a: EventSpec, b: EventSpec) -> bool:
 
 
 def method_verdicts(label: str, requirements: Sequence[RequirementSpec],
-                    events: Mapping[str, EventEstimate], specs: Sequence[EventSpec]
-                    ) -> dict[str, Verdict]:
+                    events: Mapping[str, EventEstimate], specs: Sequence[EventSpec],
+                    sequential: bool = False) -> dict[str, Verdict]:
     """Every requirement's verdict by one method, from its event estimates ``events`` (by
-    name) of the config's events ``specs`` (the requirements' own among them)."""
+    name) of the config's events ``specs`` (the requirements' own among them); ``sequential``:
+    the method stopped its runs when the requirements were decided."""
     by_name = {s.name: s for s in specs}
     out = {}
     for req in requirements:
@@ -194,7 +259,7 @@ def method_verdicts(label: str, requirements: Sequence[RequirementSpec],
                                     "no estimate of this event")
         elif ev.estimator == "count":
             out[req.name] = count_verdict(req.name, label, ev.n_in, ev.n_used, req.target,
-                                          req.confidence)
+                                          req.confidence, sequential)
         elif ev.estimator == "surrogate+cv" and req.confidence <= CV_ONE_SIDED:
             lo, hi = ev.ci
             out[req.name] = Verdict(req.name, label, decide(lo, hi, req.target),
