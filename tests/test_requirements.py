@@ -186,6 +186,11 @@ def test_a_monte_carlo_run_gives_verdicts_stored_printed_and_written(tmp_path):
     text = render_text(back)
     assert "Requirements (one-sided bounds" in text
     assert max(len(line) for line in text.splitlines()) <= 160
+    from uqguide.report.document import render_report
+    from uqguide.report.tables import render_markdown
+
+    for md in (render_markdown(back), render_report(back, [], tmp_path)):
+        assert "## Requirements" in md and "| tight |" in md
 
 
 def _cli_config(write_config, requirements, n=2000):
