@@ -200,7 +200,8 @@ class MonteCarlo(StreamingMethod):
 
     def plan(self, space: InputSpace) -> RunPlan:
         s = self.settings
-        return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples))
+        return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples),
+                       exact=s.stop_when is None)  # (n_samples is the cap)
 
     def chunk_bounds(self, n_runs: int) -> list[tuple[int, int]]:
         """The random-stream chunks of ``chunk_size``: the split is part of the numbers."""
