@@ -268,7 +268,7 @@ def method_verdicts(label: str, requirements: Sequence[RequirementSpec],
         else:
             why = (f"validation runs bound at {100 * CV_ONE_SIDED:g}% one-sided, not "
                    f"{100 * req.confidence:g}%" if ev.estimator == "surrogate+cv" else
-                   "surrogate draws only (no validation_runs)")
+                   "surrogate draws only (pce_adaptive's validation_runs bound it)")
             out[req.name] = Verdict(req.name, label, "undecided", ev.probability, nan, nan,
                                     ev.n_used, nan, why)
     return out
