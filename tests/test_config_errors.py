@@ -109,10 +109,12 @@ CASES = [
     # an unknown key beside a missing required one is named, not the missing one
     ("misspelt_required_method_key", ("label: mc, n_samples: 100", "n_sampels: 100"),
      "methods[0].n_sampels: unknown key (did you mean 'n_samples'?); allowed keys: name, label, "
-     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity"),
+     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity, "
+     "stop_when"),
     ("unknown_key_for_required_one", ("label: mc, n_samples: 100", "runs: 100"),
      "methods[0].runs: unknown key; required key missing: n_samples; allowed keys: name, label, "
-     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity"),
+     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity, "
+     "stop_when"),
 ]
 
 
