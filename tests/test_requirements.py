@@ -322,3 +322,20 @@ def test_a_pool_stops_at_the_same_chunk_with_the_same_numbers():
     assert pooled.n_runs == serial.n_runs < 20_000
     assert np.array_equal(pooled.estimate.stats["y"].mean, serial.estimate.stats["y"].mean)
     assert pooled.verdicts == serial.verdicts
+
+
+def test_the_gate_refuses_a_config_or_result_without_requirements(write_config, tmp_path):
+    from click.testing import CliRunner
+
+    from uqguide.cli import main
+
+    runner = CliRunner()
+    res = runner.invoke(main, ["run", str(_cli_config(write_config, [], n=100)), "--out",
+                               str(tmp_path), "--check-requirements"])
+    assert res.exit_code == 2 and "lists no requirements" in res.output
+    assert not (tmp_path / "req.h5").exists()  # refused before running
+    h5 = write_hdf5(run(_config([], [{"name": "monte_carlo", "n_samples": 100}])),
+                    tmp_path / "plain.h5")
+    res = runner.invoke(main, ["check", str(h5), "--requirements"])
+    assert res.exit_code == 2
+    assert "error: the result holds no requirement verdicts" in res.output
