@@ -25,8 +25,8 @@ CASES = [
     ("unknown_top_key", ("seed: 1", "seed: 1\nsede: 2"),
      "sede: unknown key (did you mean 'seed'?); allowed keys: name, description, model, data, "
      "inputs, correlations, outputs, report_times, methods, reference, seed, batch_size, "
-     "max_failed_fraction, strict, pce_failure_policy, quantiles, events, groups, max_steps, "
-     "max_memory, "
+     "max_failed_fraction, strict, pce_failure_policy, quantiles, events, requirements, groups, "
+     "max_steps, max_memory, "
      "timeout_s"),
     ("seed_wrong_type", ("seed: 1", "seed: abc"),
      "seed: Input should be a valid integer, unable to parse string as an integer (got 'abc')"),
@@ -109,10 +109,12 @@ CASES = [
     # an unknown key beside a missing required one is named, not the missing one
     ("misspelt_required_method_key", ("label: mc, n_samples: 100", "n_sampels: 100"),
      "methods[0].n_sampels: unknown key (did you mean 'n_samples'?); allowed keys: name, label, "
-     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity"),
+     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity, "
+     "stop_when"),
     ("unknown_key_for_required_one", ("label: mc, n_samples: 100", "runs: 100"),
      "methods[0].runs: unknown key; required key missing: n_samples; allowed keys: name, label, "
-     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity"),
+     "n_samples, sampling, chunk_size, intervals, bootstrap, bootstrap_times, sensitivity, "
+     "stop_when"),
 ]
 
 

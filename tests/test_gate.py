@@ -305,7 +305,8 @@ def test_baseline_command_writes_and_refuses_to_overwrite(base_result, tmp_path)
 
 def test_check_without_baseline_option_is_usage_error(tmp_path):
     res = CliRunner().invoke(main, ["check", str(tmp_path / "r.h5")])
-    assert res.exit_code == 2 and "Missing option '--baseline'" in res.output
+    assert res.exit_code == 2
+    assert "give --baseline BASELINE.json, --requirements, or both" in res.output
 
 
 def test_yaml_config_round_trip_keeps_baseline_config(base_result, tmp_path):

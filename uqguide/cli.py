@@ -157,6 +157,11 @@ def _resume_line(n_done: int | None, n_total: int | None, again: str,
 _CONFIG_ARG = click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
 
 
+_UNDECIDED = click.option(
+    "--undecided", type=click.Choice(["pass", "fail"]), default=None,
+    help="With the requirements gate: what an undecided verdict counts as  [default: fail].")
+
+
 @main.command()
 @_CONFIG_ARG
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
@@ -186,6 +191,10 @@ _CONFIG_ARG = click.argument("config", type=click.Path(dir_okay=False, path_type
 @click.option("--check-require-key", is_flag=True,
               help="With --check, refuse a baseline without a keyed seal (as check "
                    "--require-key).")
+@click.option("--check-requirements", is_flag=True,
+              help="Then gate on the requirement verdicts (as check --requirements: exit 1 "
+                   "on any fail).")
+@_UNDECIDED
 @click.option("-q", "--quiet", is_flag=True,
               help="No progress display (and no budget lines) on stderr.")
 @click.option("--strict", is_flag=True,
@@ -195,7 +204,8 @@ _CONFIG_ARG = click.argument("config", type=click.Path(dir_okay=False, path_type
 def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         scheduler: str | None, scheduler_file: Path | None, no_workers_timeout: int | None,
         resume: bool, force: bool, check_path: Path | None, check_sensitivity: bool,
-        check_require_key: bool, quiet: bool, strict: bool) -> None:
+        check_require_key: bool, check_requirements: bool, undecided: str | None, quiet: bool,
+        strict: bool) -> None:
     """Propagate the uncertainty of CONFIG with every method it lists."""
     from .config.budget import estimate
     from .driver.run_folder import RunInterrupted
@@ -215,6 +225,9 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         if given and not check_path:
             raise click.UsageError(f"{flag} compares with a baseline: give it with "
                                    f"--check BASELINE.json")
+    if undecided is not None and not check_requirements:
+        raise click.UsageError("--undecided says how the requirements gate counts an "
+                               "undecided verdict: give it with --check-requirements")
     executor: Executor | None = None
     if workers and not (scheduler or scheduler_file):
         # local workers start importing now, while the config is read and checked
@@ -227,6 +240,9 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
             cfg = cfg.with_seed(seed)
         baseline = (_gate_preflight(check_path, cfg, check_sensitivity, check_require_key)
                     if check_path else None)
+        if check_requirements and not cfg.raw.requirements:
+            raise click.UsageError(f"--check-requirements gates on requirement verdicts: "
+                                   f"{config} lists no requirements")
         if not quiet:
             click.echo("budget:", err=True)
             for line in estimate(cfg, workers or 1).lines():
@@ -281,8 +297,8 @@ def run(config: Path, out_dir: Path, seed: int | None, workers: int | None,
         from .commands.strict import check_withheld
 
         check_withheld(result)
-    if check_path:
-        _gate_verdict(result, baseline, check_path, sensitivity=check_sensitivity)
+    _gates(result, baseline, check_path, check_requirements, undecided,
+           sensitivity=check_sensitivity)
 
 
 @main.command()
@@ -309,6 +325,11 @@ def validate(config: Path) -> None:
     click.echo("budget (serial run):")
     for line in budget.lines():
         click.echo(line)
+    if cfg.raw.requirements:
+        from .report.tables import plan_lines
+
+        for line in plan_lines(cfg.raw.requirements):
+            click.echo(line)
     check_budget(budget)
 
 
@@ -523,9 +544,13 @@ _RESULT_ARG = click.argument("result_path", metavar="RESULT",
 
 @main.command()
 @_RESULT_ARG
-@click.option("--baseline", "baseline_path", required=True,
+@click.option("--baseline", "baseline_path", default=None,
               type=click.Path(dir_okay=False, path_type=Path),
               help="Baseline JSON written by `uqguide baseline`.")
+@click.option("--requirements", "requirements", is_flag=True,
+              help="Gate on the result's requirement verdicts: exit 1 on any fail, 0 when "
+                   "all pass (undecided as --undecided says).")
+@_UNDECIDED
 @click.option("--sigmas", type=SIGMAS, default=None,
               help="Monte Carlo tolerance in combined standard errors, at most 10 "
                    "[default: 4].")
@@ -541,19 +566,57 @@ _RESULT_ARG = click.argument("result_path", metavar="RESULT",
               help="Refuse (exit 2) a baseline without a keyed seal made with the key in "
                    "UQGUIDE_BASELINE_KEY: its digest alone detects accidental edits only.")
 @_unusable_input_is_2
-def check(result_path: Path, baseline_path: Path, sigmas: float | None, pce_rtol: float | None,
+def check(result_path: Path, baseline_path: Path | None, requirements: bool,
+          undecided: str | None, sigmas: float | None, pce_rtol: float | None,
           show_all: bool, sensitivity: bool, require_key: bool) -> None:
-    """Compare the statistics of RESULT with a baseline.
+    """Compare the statistics of RESULT with a baseline (--baseline), or gate on its
+    requirement verdicts (--requirements), or both.
 
-    Exit 0 when every statistic is within tolerance, 1 on a regression (the failing quantities
-    are listed with value, baseline and tolerance), 2 when RESULT or the baseline is unusable.
+    Exit 0 when every statistic is within tolerance and every verdict passes, 1 on a
+    regression (the failing quantities are listed with value, baseline and tolerance) or a
+    failing verdict, 2 when RESULT or the baseline is unusable.
     """
     from .gate.check import read_baseline
     from .results.result import read_hdf5
 
-    baseline = read_baseline(baseline_path, require_key)
-    _gate_verdict(read_hdf5(result_path), baseline, baseline_path, sigmas, pce_rtol, show_all,
-                  sensitivity)
+    if baseline_path is None and not requirements:
+        raise click.UsageError("give --baseline BASELINE.json, --requirements, or both")
+    if undecided is not None and not requirements:
+        raise click.UsageError("--undecided says how the requirements gate counts an "
+                               "undecided verdict: give it with --requirements")
+    baseline = read_baseline(baseline_path, require_key) if baseline_path else None
+    _gates(read_hdf5(result_path), baseline, baseline_path, requirements, undecided,
+           sigmas=sigmas, pce_rtol=pce_rtol, show_all=show_all, sensitivity=sensitivity)
+
+
+def _gates(result: Any, baseline: Any, baseline_path: Path | None, requirements: bool,
+           undecided: str | None, **tolerances: Any) -> None:
+    """The baseline gate (with a baseline), then the requirements gate (when asked); exit 1
+    when either fails, after both have printed."""
+    regression = False
+    if baseline_path is not None:
+        try:
+            _gate_verdict(result, baseline, baseline_path, **tolerances)
+        except SystemExit as exc:
+            if exc.code != 1 or not requirements:
+                raise
+            regression = True
+    if requirements:
+        _requirements_verdict(result, undecided or "fail")
+    if regression:
+        sys.exit(1)
+
+
+@_unusable_input_is_2
+def _requirements_verdict(result: Any, undecided: str) -> None:
+    """Print the requirements gate of ``result``; exit 1 when a verdict blocks it."""
+    from .gate.requirements import blocking_verdicts, gate_lines
+
+    blocking = blocking_verdicts(result, "pass" if undecided == "pass" else "fail")
+    for line in gate_lines(blocking, sum(len(r.verdicts) for r in result.runs)):
+        click.echo(line)
+    if blocking:
+        sys.exit(1)
 
 
 @main.command()

@@ -14,7 +14,7 @@ import re
 import typing
 from dataclasses import replace
 from types import MappingProxyType
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -25,6 +25,7 @@ from pydantic import BaseModel, Field, ValidationError, field_validator
 
 from ..errors import ConfigError
 from ..core.events import EventSpec, component_index
+from ..core.requirements import RequirementSpec
 from ..stats.quantiles import resolve_levels
 from ..core.strict import StrictModel, leaves
 from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
@@ -85,6 +86,9 @@ class RawConfig(StrictModel):
     quantiles: list[float] | str | None = None
     #: Events on scalar outputs whose probabilities every method reports.
     events: list[EventSpec] = Field(default_factory=list)
+    #: Requirements on scalar outputs that every method gives a verdict on
+    #: (docs/requirements.md); each is counted as the event of its name.
+    requirements: list[RequirementSpec] = Field(default_factory=list)
     #: Groups of inputs (name -> inputs) whose joint first-order Sobol' index the methods that
     #: estimate indices report; default (None): each correlated group, named by its inputs.
     groups: dict[str, list[str]] | None = None
@@ -526,30 +530,45 @@ def _check_quantiles(raw: RawConfig) -> None:
 
 
 def _check_events(raw: RawConfig, model: Model, outputs: tuple[str, ...]) -> None:
+    _check_event_specs("events", raw.events, model, outputs)
+    _check_event_specs("requirements", raw.requirements, model, outputs)
+    names = {e.name for e in raw.events}
+    for i, r in enumerate(raw.requirements):
+        if r.name in names:
+            raise ConfigError(f"requirements[{i}].name: {r.name!r} is also an event's name; a "
+                              f"requirement is counted as the event of its name, give it "
+                              f"another", field=f"requirements[{i}].name")
+
+
+def _check_event_specs(key: str, entries: Sequence[EventSpec | RequirementSpec], model: Model,
+                       outputs: tuple[str, ...]) -> None:
+    """The ``key`` list's names unique, each on a scalar output's component, thresholds
+    finite."""
     seen: set[str] = set()
-    for i, e in enumerate(raw.events):
+    for i, e in enumerate(entries):
+        at = f"{key}[{i}]"
         if e.name in seen:
-            raise ConfigError(f"events[{i}].name: {e.name!r} is used twice; give each event a "
-                              f"unique name", field=f"events[{i}].name")
+            raise ConfigError(f"{at}.name: {e.name!r} is used twice; give each "
+                              f"{key[:-1]} a unique name", field=f"{at}.name")
         seen.add(e.name)
         if e.output not in outputs:
             raise ConfigError(
-                f"events[{i}].output: {e.output!r} is not among the config's outputs"
+                f"{at}.output: {e.output!r} is not among the config's outputs"
                 f"{did_you_mean(e.output, list(outputs))}; allowed: {', '.join(outputs)}",
-                field=f"events[{i}].output")
+                field=f"{at}.output")
         info = model.output_info(e.output)
         if info.kind != "scalar":
-            raise ConfigError(f"events[{i}].output: {e.output!r} is a time series; an event is "
-                              f"defined on a scalar output", field=f"events[{i}].output")
+            what = "an event" if key == "events" else "a requirement"
+            raise ConfigError(f"{at}.output: {e.output!r} is a time series; {what} is defined "
+                              f"on a scalar output", field=f"{at}.output")
+        spec = e if isinstance(e, EventSpec) else e.event()
         try:
-            component_index(e, tuple(info.components))
+            component_index(spec, tuple(info.components))
         except ValueError as exc:
-            raise ConfigError(f"events[{i}].component: {exc}",
-                              field=f"events[{i}].component") from None
-        thr = e.threshold()
+            raise ConfigError(f"{at}.component: {exc}", field=f"{at}.component") from None
+        thr = spec.threshold()
         if not np.isfinite(thr):
-            raise ConfigError(f"events[{i}]: the threshold must be finite (got {thr!r})",
-                              field=f"events[{i}]")
+            raise ConfigError(f"{at}: the threshold must be finite (got {thr!r})", field=at)
 
 
 def _first_path(node: Any, bad: Callable[[Any], bool], path: str = "") -> tuple[str, Any] | None:
@@ -721,7 +740,8 @@ def _run_context(raw: RawConfig, model: Model, outputs: tuple[str, ...],
         report_times=tuple(raw.report_times) if raw.report_times else None,
         failure_policy=raw.pce_failure_policy,
         quantile_levels=resolve_levels(raw.quantiles),
-        events=tuple(raw.events),
+        events=tuple(raw.events) + tuple(r.event() for r in raw.requirements),
+        requirements=tuple(raw.requirements),
         components=MappingProxyType({o: tuple(model.output_info(o).components)
                                      for o in outputs}),
         outputs=outputs,

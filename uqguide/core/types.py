@@ -143,6 +143,10 @@ class GeneratedRows:
         off = first * self.chunk
         return block[start - off:stop - off]
 
+    def prefix(self, n: int) -> GeneratedRows:
+        """The first ``n`` rows (the same bits, made by the same chunks), not made yet."""
+        return GeneratedRows(min(n, self.n), self.d, self.chunk, self._make, self.portable)
+
     def chunks(self) -> Iterator[tuple[int, np.ndarray]]:
         """Every chunk as (index of its first row, rows ``(m_i, d)``), made one at a time."""
         for i, start in enumerate(range(0, self.n, self.chunk)):

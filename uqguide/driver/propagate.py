@@ -29,6 +29,7 @@ from ..models.base import Model
 from .progress import Progress
 from ..results.result import MethodRun, Result, provenance
 from ..results.statistics import result_statistics
+from ..stats.verdicts import method_verdicts
 
 log = logging.getLogger(__name__)
 
@@ -78,6 +79,7 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
     # carriers evaluated only for a derivation are not part of the result
     estimate.restrict(requested)
     out, timings = done.outputs, runner.timings
+    ctx = method.context
     return MethodRun(
         estimate=estimate,
         x=done.x,
@@ -92,6 +94,8 @@ def propagate(method: Method, model: Model, space: InputSpace, outputs: tuple[st
         wall_seconds=time.perf_counter() - t_start,
         success=not done.failure,
         message=done.failure,
+        verdicts=method_verdicts(method.label, ctx.requirements, estimate.events, ctx.events,
+                                 estimate.diagnostics.get("stop_when") == "decided"),
     )
 
 

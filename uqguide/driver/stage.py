@@ -13,7 +13,7 @@ import logging
 import math
 import time
 import weakref
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -94,9 +94,12 @@ class _Runs:
             elif r.time.shape != self.time.shape or not np.array_equal(r.time, self.time):
                 raise ModelError("chunks of one run must share the time grid")
 
-    def output(self) -> ModelOutput:
+    def output(self, n: int | None = None) -> ModelOutput:
+        """The runs' outputs, of the first ``n`` rows only when given (views, not copies)."""
+        rows = slice(None if n is None else n)
         return ModelOutput(time=self.time if self.time is not None else np.zeros(0),
-                           scalars=self.scalars, failed=self.failed, reasons=self.reasons)
+                           scalars={k: v[rows] for k, v in self.scalars.items()},
+                           failed=self.failed[rows], reasons=self.reasons[rows])
 
 
 class StageRunner(Counted):
@@ -155,9 +158,11 @@ class StageRunner(Counted):
         self.timing.compile_seconds += kernels.compile_seconds() - before
 
     def _evaluate(self, x: np.ndarray | GeneratedRows, stage: int, tasks: list[Task],
-                  reducer: Any, fold: ChunkFold | None = None) -> tuple[ModelOutput, Any]:
+                  reducer: Any, fold: ChunkFold | None = None,
+                  stop: Callable[[ModelOutput], bool] | None = None
+                  ) -> tuple[ModelOutput, Any]:
         """Outputs of the rows ``x`` (scalars only when reduced) and the summaries folded by
-        ``fold`` (given with ``reducer``)."""
+        ``fold`` (given with ``reducer``), up to the fold after which ``stop`` said so."""
         label = self.method.label
         job = self._job(stage, reducer)
         parts: list[ModelOutput] = []
@@ -168,6 +173,7 @@ class StageRunner(Counted):
         pending: dict[int, ChunkResult] = {}
         acc = None
         nxt = 0
+        stopped_at: int | None = None  # the rows folded when ``stop`` said so
 
         def arrived(r: ChunkResult) -> ChunkResult:
             # The first result back (restored or evaluated) shapes the shared arrays; the
@@ -183,8 +189,8 @@ class StageRunner(Counted):
             return kept.shared.adopt(r) if kept.shared is not None else r
 
         def fold_ready() -> None:
-            nonlocal nxt, acc
-            while nxt in pending:
+            nonlocal nxt, acc, stopped_at
+            while nxt in pending and stopped_at is None:
                 r = pending.pop(nxt)
                 self.timing.model_seconds += r.model_seconds
                 self.timing.compile_seconds += r.compile_seconds
@@ -194,6 +200,8 @@ class StageRunner(Counted):
                     assert fold is not None  # (a reducer comes with its fold)
                     acc = fold(acc, r.summary)
                     kept.add(r)
+                    if stop is not None and stop(kept.output(r.task.stop)):
+                        stopped_at = r.task.stop
                 else:
                     parts.append(r.output())
                 nxt += 1
@@ -217,6 +225,8 @@ class StageRunner(Counted):
                 log.info("%s: %d of %d chunks restored from the checkpoint", label,
                          len(pending), len(tasks))
             fold_ready()
+            if stopped_at is not None:
+                todo = []
             pieces = self._pieces(stage, todo)
             if pieces is not None:
                 share = False  # (the workers send pieces whole, never write in place)
@@ -244,6 +254,10 @@ class StageRunner(Counted):
                     if whole is not None:
                         done(join_pieces(job, pieces.chunks[r.task.index], whole))
                 raise_swallowed()
+                if stopped_at is not None:
+                    log.info("%s: stopped after %d runs (%s)", label, stopped_at,
+                             "every requirement decided")
+                    break
         except BaseException:
             if self.store is not None:
                 # what was saved before the stop is on disk when it is seen
@@ -259,7 +273,7 @@ class StageRunner(Counted):
         if self.store is not None:
             self.store.writer.flush()  # the stage's chunks on disk before the method goes on
         if kept is not None:
-            return kept.output(), acc
+            return kept.output(stopped_at), acc
         return ModelOutput.concatenate(common_grid(parts)), acc
 
     def _in_pieces(self, job: ChunkJob, pieces: Pieces, x: np.ndarray | GeneratedRows
@@ -295,10 +309,11 @@ class StageRunner(Counted):
 
     def run(self, x: np.ndarray | GeneratedRows, stage: int, chunks: Chunks, *,
             reduce: tuple[ChunkReducer, ChunkFold] | None = None,
-            after: ModelOutput | None = None) -> tuple[ModelOutput, Any]:
+            after: ModelOutput | None = None,
+            stop: Callable[[ModelOutput], bool] | None = None) -> tuple[ModelOutput, Any]:
         tasks = [Task(i, a, b) for i, (a, b) in enumerate(chunks)]
         reducer, fold = reduce if reduce is not None else (None, None)
-        out, acc = self._evaluate(x, stage, tasks, reducer, fold)
+        out, acc = self._evaluate(x, stage, tasks, reducer, fold, stop)
         if after is not None:
             out = ModelOutput.concatenate(common_grid([after, out]))
         return out, acc
@@ -349,12 +364,13 @@ class SurrogateLevel(Counted):
 
     def run(self, x: np.ndarray | GeneratedRows, stage: int, chunks: Chunks, *,
             reduce: tuple[ChunkReducer, ChunkFold] | None = None,
-            after: ModelOutput | None = None) -> tuple[ModelOutput, Any]:
+            after: ModelOutput | None = None,
+            stop: Callable[[ModelOutput], bool] | None = None) -> tuple[ModelOutput, Any]:
         """Its values at the rows ``chunks`` of ``x`` in one call, joined after ``after``."""
-        if reduce is not None:
+        if reduce is not None or stop is not None:
             raise MethodError(f"the surrogate of {self.label!r} is evaluated whole, not reduced")
-        start, stop = chunks[0][0], chunks[-1][1]
-        rows = x.rows(start, stop) if isinstance(x, GeneratedRows) else np.asarray(x)[start:stop]
+        start, end = chunks[0][0], chunks[-1][1]
+        rows = x.rows(start, end) if isinstance(x, GeneratedRows) else np.asarray(x)[start:end]
         out = self.evaluate(np.asarray(rows))
         if after is not None:
             out = ModelOutput.concatenate(common_grid([after, out]))

@@ -30,6 +30,7 @@ from ..core.names import check_plain_name
 from ..core.strict import StrictModel
 
 from ..core.events import EventSpec
+from ..core.requirements import RequirementSpec
 from ..core.inputs import InputSpace
 from ..core.types import DerivedOutput, Estimate, GeneratedRows, ModelOutput
 from ..errors import MethodError
@@ -114,16 +115,18 @@ class RunContext:
     ``report_times`` [s]: where a method that must economise concentrates its effort;
     ``failure_policy``: the config's ``pce_failure_policy`` for a design that needs every run
     (``"fail"``: MethodError; ``"regression"``: fit the survivors); ``quantile_levels`` (None:
-    none), ``events``, ``outputs`` (empty: whatever the runs hold) and ``groups`` (inputs with a
-    Sobol' index of their own) are the config's; ``components`` names every output's
-    components; ``derived`` holds the model's derivations of outputs from carriers (for a
-    method with :attr:`Method.uses_derivations`).
+    none), ``events``, ``requirements``, ``outputs`` (empty: whatever the runs hold) and
+    ``groups`` (inputs with a Sobol' index of their own) are the config's; ``components``
+    names every output's components; ``derived`` holds the model's derivations of outputs
+    from carriers (for a method with :attr:`Method.uses_derivations`).
     """
 
     report_times: tuple[float, ...] | None = None
     failure_policy: Literal["fail", "regression"] = "fail"
     quantile_levels: tuple[float, ...] | None = None
     events: tuple[EventSpec, ...] = ()
+    #: The config's requirements (their success events are among ``events``).
+    requirements: tuple[RequirementSpec, ...] = ()
     components: Mapping[str, tuple[str, ...]] = field(
         default_factory=lambda: MappingProxyType({}))
     outputs: tuple[str, ...] = ()
@@ -162,12 +165,15 @@ class Runner(Protocol):
 
     def run(self, x: np.ndarray | GeneratedRows, stage: int, chunks: Chunks, *,
             reduce: tuple[ChunkReducer, ChunkFold] | None = None,
-            after: ModelOutput | None = None) -> tuple[ModelOutput, Any]:
+            after: ModelOutput | None = None,
+            stop: Callable[[ModelOutput], bool] | None = None) -> tuple[ModelOutput, Any]:
         """Evaluate the rows ``chunks`` of ``x`` as checkpoint stage ``stage``.
 
         With ``reduce`` (reducer, fold) each chunk is reduced where it ran and folded in chunk
         order: the outputs then hold the scalars, failures and grid only, and the accumulator
         is returned beside them (else None). ``after``: earlier rows' outputs, joined in front.
+        ``stop`` (with ``reduce``): asked after each fold with the outputs folded so far; True
+        ends the stage there, its outputs cut to those rows (the chunks after are dropped).
         """
 
     def plan(self, chunks: Chunks) -> None:

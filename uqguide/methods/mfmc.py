@@ -180,9 +180,9 @@ class MultiFidelityMC(Method):
                     raise ConfigError(f"{where}.{key}: {name!r} is not an output of the run; "
                                       f"allowed: {', '.join(known)}", field=f"{where}.{key}")
         if self.context.quantile_levels is not None or self.context.events:
-            raise ConfigError(f"{where}: mfmc estimates moments only; remove quantiles and "
-                              f"events from the config or run them with monte_carlo",
-                              field=where)
+            raise ConfigError(f"{where}: mfmc estimates moments only; remove quantiles, "
+                              f"events and requirements from the config or run them with "
+                              f"monte_carlo", field=where)
 
     @property
     def surrogate_levels(self) -> dict[int, str]:

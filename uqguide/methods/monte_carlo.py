@@ -22,13 +22,14 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from ..errors import MethodError
+from ..errors import ConfigError, MethodError
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats, ScalarIndex
 from ..core.events import count_events
 from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
 from ..stats.moments import MomentSums, statistics_from_sums
-from .base import Design, MethodSettings, RunPlan, StreamingMethod
+from ..stats.verdicts import sequence_decided
+from .base import Design, MethodSettings, Propagated, Runner, RunPlan, StreamingMethod
 
 
 #: Where ``fold`` keeps the merged sums in its accumulator (the rest: quantile values by output).
@@ -66,6 +67,10 @@ class MonteCarloSettings(MethodSettings):
         default="auto", description="given-data first-order Sobol' indices with 95% intervals "
                                     "(the error budget): auto when the inputs are at most 50 "
                                     "and the runs from 500 to 1e6")
+    stop_when: Literal["decided"] | None = Field(
+        default=None, description="decided: stop after the first chunk at which every "
+                                  "requirement of the config is decided by its confidence "
+                                  "sequence (n_samples is the cap; docs/requirements.md)")
 
 
 def method_seed(seed: int, label: str, *keys: int) -> np.random.SeedSequence:
@@ -146,6 +151,42 @@ class MonteCarlo(StreamingMethod):
     #: (the config checks each column's fit and warns): the statistics are the same sums.
     own_design = ""
 
+    def check(self, index: int) -> None:
+        """ConfigError for ``stop_when: decided`` without requirements to decide."""
+        if self.settings.stop_when is not None and not self.context.requirements:
+            where = f"methods[{index}].stop_when"
+            raise ConfigError(f"{where}: 'decided' stops when every requirement is decided, "
+                              f"and the config lists no requirements; add requirements: or "
+                              f"remove stop_when", field=where)
+
+    def propagate(self, space: InputSpace, design: Design, runner: Runner) -> Propagated:
+        """As every streaming method's; with ``stop_when: decided``, the stage ends after the
+        first chunk at which every requirement is decided, and the estimate is of the runs
+        folded until then (the first chunks of the design: the same rows and numbers)."""
+        if self.settings.stop_when is None:
+            return super().propagate(space, design, runner)
+        out, acc = runner.run(design.x, 0, self.chunks(design.n_runs, runner.batch_size),
+                              reduce=(self.reducer(space, design), self.fold),
+                              stop=self._decided)
+        short = design
+        if out.n < design.n_runs:
+            x = design.x
+            rows = x.prefix(out.n) if isinstance(x, GeneratedRows) else x[:out.n]
+            # the reducer ran with the cap's choice of sensitivity: the estimate keeps it
+            short = Design(x=rows, data={**design.data, "sensitivity": self.sensitivity_for(
+                space, design.n_runs)})
+        return self.estimated(lambda: self.estimate_reduced(space, short, out, acc),
+                              short.x, out, runner)
+
+    def _decided(self, out: ModelOutput) -> bool:
+        """Whether the confidence sequence of every requirement excludes its target over the
+        runs ``out`` folded so far."""
+        reqs = self.context.requirements
+        counts = count_events([r.event() for r in reqs], out.scalars, ~out.failed,
+                              dict(self.context.components))
+        return all(sequence_decided(counts[r.name].n_in, counts[r.name].n_used, r.confidence,
+                                    r.target) for r in reqs)
+
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings
         boot_seed = stream_seed(seed, self.label, 1)
@@ -159,7 +200,8 @@ class MonteCarlo(StreamingMethod):
 
     def plan(self, space: InputSpace) -> RunPlan:
         s = self.settings
-        return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples))
+        return RunPlan(runs=s.n_samples, chunk=min(s.chunk_size, s.n_samples),
+                       exact=s.stop_when is None)  # (n_samples is the cap)
 
     def chunk_bounds(self, n_runs: int) -> list[tuple[int, int]]:
         """The random-stream chunks of ``chunk_size``: the split is part of the numbers."""
@@ -233,7 +275,7 @@ class MonteCarlo(StreamingMethod):
         for name, (q, ci) in _run_jobs(jobs).items():
             _put_quantiles(stats[name], q, ci, levels or (), runs.time, self.context.report_times)
         sobol_seconds = 0.0
-        if self.sensitivity_for(space, design.n_runs):
+        if design.data.get("sensitivity", self.sensitivity_for(space, design.n_runs)):
             t_sobol = time.thread_time()  # (this thread: the estimator runs on it alone)
             lanes = {name: acc.get(("q", name)) or acc.get(("s", name)) or []
                      for name in stats}
@@ -257,6 +299,9 @@ class MonteCarlo(StreamingMethod):
             "fit_seconds": time.perf_counter() - t0,
             "sensitivity_cpu_seconds": sobol_seconds,
         }
+        if self.settings.stop_when is not None:
+            diagnostics.update(stop_when=self.settings.stop_when,
+                               n_samples_cap=self.settings.n_samples)
         return Estimate(
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
             scalar_index=names,

@@ -26,8 +26,8 @@ from ..core.failures import failed_runs_line
 from .budget import budget_markdown, budget_tables
 from .plots import FigureFile, write_figures
 from .tables import (
-    cost_table, cost_units, events_table, events_text, series_agreement, statistics_table,
-    to_markdown, wide_table,
+    cost_table, cost_units, events_table, events_text, requirements_table, requirements_text,
+    series_agreement, statistics_table, to_markdown, wide_table,
 )
 from ..results.result import Result
 
@@ -120,6 +120,13 @@ def render_report(result: Result, figures: list[FigureFile], base: Path,
                   "the surrogate's own error is not in it; subset simulation: lognormal from "
                   "its CoV upper bound, in / used = its final level).", "",
                   to_markdown(events_text(events))]
+    verdicts = requirements_table(result)
+    if not verdicts.empty:
+        parts += ["", "## Requirements", "", "Each requirement's verdict by each method: pass "
+                  "when the one-sided lower bound of the success probability at its confidence "
+                  "reaches the requirement, fail when the upper bound is below it "
+                  "(docs/requirements.md).",
+                  "", to_markdown(requirements_text(verdicts, result))]
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", f"## Series over the whole grid against `{result.reference}`", "",

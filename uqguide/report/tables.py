@@ -408,6 +408,60 @@ def events_text(df: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+#: Columns of ``<name>_requirements.csv`` (:func:`requirements_table`).
+REQUIREMENT_COLUMNS = ["requirement", "label", "verdict", "estimate", "lower", "upper", "runs",
+                       "runs_to_decide"]
+
+
+def requirements_table(result: Result) -> pd.DataFrame:
+    """One row per requirement and method: :data:`REQUIREMENT_COLUMNS` (the success probability,
+    its one-sided bounds at the requirement's confidence, the runs behind them, the further
+    runs that would decide an undecided one) and ``basis`` (how the bounds were made, or why
+    there are none)."""
+    order = [str(q.get("name")) for q in result.config.get("requirements") or []]
+    rows = [{"requirement": v.requirement, "label": r.label, "verdict": v.verdict,
+             "estimate": v.estimate, "lower": v.lower, "upper": v.upper, "runs": v.runs,
+             "runs_to_decide": v.runs_to_decide, "basis": v.basis}
+            for r in result.runs
+            for v in sorted(r.verdicts.values(), key=lambda v: (
+                order.index(v.requirement) if v.requirement in order else len(order),
+                v.requirement))]
+    return pd.DataFrame(rows, columns=[*REQUIREMENT_COLUMNS, "basis"])
+
+
+def requirements_text(df: pd.DataFrame, result: Result) -> pd.DataFrame:
+    """The requirements table ``df`` (:func:`requirements_table`) for reading: columns
+    ``requirement``, ``definition``, ``label``, ``verdict``, ``estimate [lower, upper]``,
+    ``runs``, ``to decide``, ``basis``."""
+    from ..core.requirements import RequirementSpec
+
+    defs = {r["name"]: RequirementSpec.model_validate(r).describe()
+            for r in result.config.get("requirements") or []}
+    out = df[["requirement"]].copy()
+    out["definition"] = [defs.get(n, "") for n in df["requirement"]]
+    out["label"], out["verdict"] = df["label"], df["verdict"]
+    out["estimate [lower, upper]"] = [
+        f"{_fmt(p)} [{_fmt(lo)}, {_fmt(hi)}]"
+        for p, lo, hi in zip(df["estimate"], df["lower"], df["upper"])]
+    out["runs"] = df["runs"]
+    out["to decide"] = ["" if v == 0 else "never" if v == np.inf else "n/a" if np.isnan(v)
+                        else f"{int(v):,}" for v in df["runs_to_decide"]]
+    out["basis"] = df["basis"]
+    return out
+
+
+def plan_lines(requirements: list[Any]) -> list[str]:
+    """Per requirement (:class:`~uqguide.core.requirements.RequirementSpec`), the runs that pass
+    it with 0, 1 and 2 of them outside its success event (``uqguide validate``)."""
+    from ..stats.verdicts import runs_to_pass
+
+    lines = ["requirements (runs to pass with 0 / 1 / 2 runs outside the success event):"]
+    for r in requirements:
+        n = [runs_to_pass(r.target, r.confidence, f) for f in (0, 1, 2)]
+        lines.append(f"  {r.name}: {r.describe()}: {n[0]:,} / {n[1]:,} / {n[2]:,}")
+    return lines
+
+
 def series_agreement(result: Result) -> pd.DataFrame:
     """Per series output and method: the largest relative difference of mean and std over time.
 
@@ -618,6 +672,12 @@ def render_text(result: Result) -> str:
                              "surrogate: over its draws only; subset: lognormal from its CoV "
                              "upper bound, in = final level)"),
                   fit_columns(events_text(events), ["event", "label"])]
+    verdicts = requirements_table(result)
+    if not verdicts.empty:
+        parts += ["", _prose("Requirements (one-sided bounds of the success probability at "
+                             "each requirement's confidence; to decide: further runs at the "
+                             "current estimate)"),
+                  fit_columns(requirements_text(verdicts, result), ["requirement", "label"])]
     agree = series_agreement(result)
     if not agree.empty:
         parts += ["", f"Series over the whole time grid vs reference '{result.reference}' "
@@ -770,6 +830,10 @@ def render_markdown(result: Result) -> str:
     events = events_table(result)
     if not events.empty:
         parts += ["", "## Events", "", to_markdown(events_text(events))]
+    verdicts = requirements_table(result)
+    if not verdicts.empty:
+        parts += ["", "## Requirements", "",
+                  to_markdown(requirements_text(verdicts, result))]
     parts += _without_statistics(result)
     agree = series_agreement(result)
     if not agree.empty:
@@ -779,7 +843,8 @@ def render_markdown(result: Result) -> str:
 
 def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
     """Write ``<stem>_stats.csv``, ``<stem>_cost.csv`` and ``<stem>_summary.md`` (and
-    ``<stem>_events.csv`` when the config has events), each whole or absent; ``out_dir`` is
+    ``<stem>_events.csv`` when the config has events, ``<stem>_requirements.csv`` when it has
+    requirements), each whole or absent; ``out_dir`` is
     made when missing, ``stem`` is the run's name. Returns the files written.
     """
     atomic.make_folder(out_dir)
@@ -791,6 +856,11 @@ def write_tables(result: Result, out_dir: Path, stem: str) -> list[Path]:
     if not events.empty:
         paths.append(out_dir / f"{stem}_events.csv")
         atomic.write_with(paths[-1], lambda p: events.to_csv(p, index=False))
+    verdicts = requirements_table(result)
+    if not verdicts.empty:
+        paths.append(out_dir / f"{stem}_requirements.csv")
+        atomic.write_with(paths[-1], lambda p: verdicts[REQUIREMENT_COLUMNS].to_csv(
+            p, index=False))
     atomic.write_with(paths[1], lambda p: cost_table(result).to_csv(p, index=False))
     atomic.write_text(paths[2], render_markdown(result))
     return paths

@@ -30,6 +30,7 @@ from ..core import atomic
 from .._version import __version__
 from ..errors import ResultError
 from ..core.events import EventEstimate
+from ..stats.verdicts import Verdict
 from ..core.types import Estimate, GeneratedRows, OutputStats, ScalarIndex
 from ..models.base import OutputInfo
 from .surrogate import StoredSurrogate, read_surrogate, write_surrogate
@@ -52,7 +53,8 @@ class MethodRun:
     excluded; ``fit_seconds``: outside the model (refinement fits and the estimate);
     ``wall_seconds``: the whole method, design included; ``success`` False: ``estimate`` holds
     no statistics and ``message`` says why (the runs made are still here); ``compile_seconds``:
-    compiling the model's kernel during this method (0 from the cache, and in older files).
+    compiling the model's kernel during this method (0 from the cache, and in older files);
+    ``verdicts``: on each of the config's requirements, by name.
     """
 
     estimate: Estimate
@@ -68,6 +70,7 @@ class MethodRun:
     success: bool = True
     message: str = ""
     compile_seconds: float = 0.0
+    verdicts: dict[str, Verdict] = field(default_factory=dict)
 
     @property
     def label(self) -> str:
@@ -365,6 +368,9 @@ def _method_layout(r: MethodRun, result: Result) -> Group:
     if e.events:
         g.groups["events"] = Group(groups={name: Group(attrs=ev.as_dict())
                                            for name, ev in e.events.items()})
+    if r.verdicts:
+        g.groups["requirements"] = Group(groups={name: Group(attrs=v.as_dict())
+                                                 for name, v in r.verdicts.items()})
     g.groups["samples"] = _samples_layout(r, g.scales, result)
     return g
 
@@ -493,6 +499,8 @@ def read_hdf5(path: str | Path) -> Result:
                     compile_seconds=float(g.attrs.get("compile_seconds", 0.0)),
                     success=bool(g.attrs.get("success", True)),
                     message=str(g.attrs.get("message", "")),
+                    verdicts={name: Verdict.from_dict(name, label, dict(vg.attrs))
+                              for name, vg in g.get("requirements", {}).items()},
                 ))
             config = _config_from_yaml(f.attrs["config_yaml"], path)
             result = Result(
