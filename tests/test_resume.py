@@ -92,11 +92,10 @@ def test_sigkill_mid_run_then_resume_equals_an_uninterrupted_run(tmp_path):
     _assert_same(_stats(tmp_path / "ref" / "slow_ref.h5"), _stats(out / "slow.h5"))
 
 
-@pytest.fixture
-def interrupted(tmp_path, monkeypatch):
-    """A run stopped by Ctrl-C on its third model call (2 of 10 chunks done)."""
+def run_to_ctrl_c(raw: dict, tmp_path, monkeypatch):
+    """``uqguide run`` of ``raw`` (a ``ctrl_c_on_third_call`` model) into ``tmp_path/out``,
+    stopped by the Ctrl-C the model stands for on its third call: (config, out, result)."""
     cfg = tmp_path / "cc.yaml"
-    raw = _config("tests.failing_models:ctrl_c_on_third_call", 1000)
     # the model's KeyboardInterrupt stands for a Ctrl-C of the driver: it must run there, not
     # in the guard process a callable runs in by default (whose death would be a crash)
     raw["model"]["isolate"] = False
@@ -109,6 +108,13 @@ def interrupted(tmp_path, monkeypatch):
     res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out)])
     monkeypatch.setenv("UQGUIDE_TEST_ARM_CTRL_C", "0")
     return cfg, out, res
+
+
+@pytest.fixture
+def interrupted(tmp_path, monkeypatch):
+    """A run stopped by Ctrl-C on its third model call (2 of 10 chunks done)."""
+    return run_to_ctrl_c(_config("tests.failing_models:ctrl_c_on_third_call", 1000), tmp_path,
+                         monkeypatch)
 
 
 def test_ctrl_c_leaves_a_resumable_run_with_a_clear_message(interrupted, tmp_path):

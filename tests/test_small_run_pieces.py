@@ -27,7 +27,7 @@ from uqguide.driver.run_folder import RunInterrupted, RunStore, run_identity
 from . import failing_models
 from .failing_models import mc_config
 from .test_execution import FLAKY, _arrays, _assert_identical
-from .test_resume import _assert_same, _stats
+from .test_resume import _assert_same, _stats, run_to_ctrl_c
 
 #: One chunk (the default chunk_size, 8,192) and the default batch size (above the chunk): its
 #: pieces are calls of ceil(1500 / 16) = 94 samples.
@@ -119,16 +119,7 @@ def ctrl_c_small(tmp_path, monkeypatch, slow_model):
     """A 1,000-run Monte Carlo (one chunk, pieces of 63 runs) stopped by Ctrl-C on its third
     model call."""
     raw = mc_config("tests.failing_models:ctrl_c_on_third_call", 1000, 8192, bootstrap=40)
-    # the model's KeyboardInterrupt stands for a Ctrl-C of the driver: it must run there
-    raw["model"]["isolate"] = False
-    cfg = tmp_path / "cc.yaml"
-    cfg.write_text(yaml.safe_dump(raw))
-    monkeypatch.setenv("UQGUIDE_TEST_ARM_CTRL_C", "1")
-    monkeypatch.setitem(failing_models._calls, "n", 0)
-    out = tmp_path / "out"
-    res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(out)])
-    monkeypatch.setenv("UQGUIDE_TEST_ARM_CTRL_C", "0")
-    return cfg, out, res
+    return run_to_ctrl_c(raw, tmp_path, monkeypatch)
 
 
 def test_ctrl_c_in_a_single_chunk_keeps_its_pieces_and_resume_gives_the_same_numbers(
