@@ -326,7 +326,7 @@ def validate(config: Path) -> None:
     for line in budget.lines():
         click.echo(line)
     if cfg.raw.requirements:
-        from .report.tables import plan_lines
+        from .stats.verdicts import plan_lines  # not report.tables: pandas is slow to import
 
         for line in plan_lines(cfg.raw.requirements):
             click.echo(line)

@@ -450,18 +450,6 @@ def requirements_text(df: pd.DataFrame, result: Result) -> pd.DataFrame:
     return out
 
 
-def plan_lines(requirements: list[Any]) -> list[str]:
-    """Per requirement (:class:`~uqguide.core.requirements.RequirementSpec`), the runs that pass
-    it with 0, 1 and 2 of them outside its success event (``uqguide validate``)."""
-    from ..stats.verdicts import runs_to_pass
-
-    lines = ["requirements (runs to pass with 0 / 1 / 2 runs outside the success event):"]
-    for r in requirements:
-        n = [runs_to_pass(r.target, r.confidence, f) for f in (0, 1, 2)]
-        lines.append(f"  {r.name}: {r.describe()}: {n[0]:,} / {n[1]:,} / {n[2]:,}")
-    return lines
-
-
 def series_agreement(result: Result) -> pd.DataFrame:
     """Per series output and method: the largest relative difference of mean and std over time.
 

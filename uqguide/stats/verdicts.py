@@ -21,7 +21,7 @@ from ..core.events import EventEstimate, EventSpec, clopper_pearson
 from ..core.requirements import RequirementSpec
 
 __all__ = ["CV_ONE_SIDED", "Verdict", "count_verdict", "decide", "log_mixture",
-           "method_verdicts", "mixture_prior", "one_sided_bounds", "runs_to_decide",
+           "method_verdicts", "mixture_prior", "one_sided_bounds", "plan_lines", "runs_to_decide",
            "runs_to_pass", "sequence_bounds", "sequence_decided", "wilks_rank"]
 
 #: How the bounds of counted runs are made: fixed ``n``, or a run stopped when decided.
@@ -272,3 +272,13 @@ def method_verdicts(label: str, requirements: Sequence[RequirementSpec],
             out[req.name] = Verdict(req.name, label, "undecided", ev.probability, nan, nan,
                                     ev.n_used, nan, why)
     return out
+
+
+def plan_lines(requirements: Sequence[RequirementSpec]) -> list[str]:
+    """Per requirement (:class:`~uqguide.core.requirements.RequirementSpec`), the runs that pass
+    it with 0, 1 and 2 of them outside its success event (``uqguide validate``)."""
+    lines = ["requirements (runs to pass with 0 / 1 / 2 runs outside the success event):"]
+    for r in requirements:
+        n = [runs_to_pass(r.target, r.confidence, f) for f in (0, 1, 2)]
+        lines.append(f"  {r.name}: {r.describe()}: {n[0]:,} / {n[1]:,} / {n[2]:,}")
+    return lines
