@@ -249,10 +249,11 @@ def _models(annotation: Any) -> list[type[BaseModel]]:
 
 def _is_branch(option: Any, label: str) -> bool:
     """Whether ``label`` is pydantic's name of the union branch ``option``: a discriminated
-    model's tag (``normal``) or the type's name (``int``, ``list[float]``)."""
+    model's tag (``normal``) or the type's name (``int``, ``list[float]``, a model's)."""
     if isinstance(option, type) and issubclass(option, BaseModel):
-        return any(label in typing.get_args(f.annotation) for f in option.model_fields.values()
-                   if typing.get_origin(f.annotation) is Literal)
+        return label == option.__name__ or any(
+            label in typing.get_args(f.annotation) for f in option.model_fields.values()
+            if typing.get_origin(f.annotation) is Literal)
     name = getattr(typing.get_origin(option) or option, "__name__", None)
     return label.split("[")[0] == name
 

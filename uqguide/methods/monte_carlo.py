@@ -17,17 +17,18 @@ import zlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-from pydantic import Field
+from pydantic import Discriminator, Field, Tag
 
 from ..errors import ConfigError, MethodError
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats, ScalarIndex
-from ..core.events import count_events
+from ..core.events import EventSpec, component_index, count_events
+from ..core.strict import StrictModel
 from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
-from ..stats.moments import MomentSums, statistics_from_sums
+from ..stats.moments import MomentSums, delta_standard_errors, statistics_from_sums
 from ..stats.verdicts import sequence_decided
 from .base import Design, MethodSettings, Propagated, Runner, RunPlan, StreamingMethod
 
@@ -42,6 +43,33 @@ U_EPS = 2.0**-53
 #: Rows per chunk of ``monte_carlo`` by default: what a vectorised model is called with (and
 #: the least ``mfmc`` calls it with, so that both pay the same per run).
 CHUNK_ROWS = 8192
+
+
+class PrecisionTarget(StrictModel):
+    """``stop_when: {target_rel_se, statistic, output}``: stop once the statistic of a scalar
+    output is known to this relative standard error (delta method, :func:`relative_se`)."""
+
+    target_rel_se: float = Field(gt=0.0, lt=1.0, description="the relative standard error "
+                                                             "to reach")
+    statistic: Literal["mean", "std", "skewness", "kurtosis"] = "std"
+    output: str
+    #: a multi-component output: one of its components (None: every component must reach it)
+    component: int | str | None = None
+
+    def describe(self) -> str:
+        """E.g. ``"rel. SE of std(zem) <= 0.01"`` (stored in the diagnostics)."""
+        comp = f"[{self.component}]" if self.component is not None else ""
+        return f"rel. SE of {self.statistic}({self.output}{comp}) <= {self.target_rel_se:g}"
+
+
+def _stop_kind(v: Any) -> str:
+    return "PrecisionTarget" if isinstance(v, (dict, PrecisionTarget)) else "decided"
+
+
+#: A mapping is a precision target (its errors name its keys), anything else the word.
+StopWhen = Annotated[Union[Annotated[Literal["decided"], Tag("decided")],
+                           Annotated[PrecisionTarget, Tag("PrecisionTarget")]],
+                     Discriminator(_stop_kind)]
 
 
 class MonteCarloSettings(MethodSettings):
@@ -67,10 +95,13 @@ class MonteCarloSettings(MethodSettings):
         default="auto", description="given-data first-order Sobol' indices with 95% intervals "
                                     "(the error budget): auto when the inputs are at most 50 "
                                     "and the runs from 500 to 1e6")
-    stop_when: Literal["decided"] | None = Field(
+    stop_when: StopWhen | None = Field(
         default=None, description="decided: stop after the first chunk at which every "
                                   "requirement of the config is decided by its confidence "
-                                  "sequence (n_samples is the cap; docs/requirements.md)")
+                                  "sequence; or a precision target {target_rel_se, statistic, "
+                                  "output}: stop after the first chunk at which the statistic's "
+                                  "relative standard error is at most the target (n_samples is "
+                                  "the cap; docs/requirements.md)")
 
 
 def method_seed(seed: int, label: str, *keys: int) -> np.random.SeedSequence:
@@ -153,7 +184,8 @@ class MonteCarlo(StreamingMethod):
 
     def check(self, index: int) -> None:
         """ConfigError for ``stop_when: decided`` without requirements to decide."""
-        if self.settings.stop_when is not None and not self.context.requirements:
+        target = self.settings.stop_when
+        if target == "decided" and not self.context.requirements:
             where = f"methods[{index}].stop_when"
             raise ConfigError(f"{where}: 'decided' stops when every requirement is decided, "
                               f"and the config lists no requirements; add requirements: or "
@@ -167,7 +199,7 @@ class MonteCarlo(StreamingMethod):
             return super().propagate(space, design, runner)
         out, acc = runner.run(design.x, 0, self.chunks(design.n_runs, runner.batch_size),
                               reduce=(self.reducer(space, design), self.fold),
-                              stop=self._decided)
+                              stop=self._stop)
         short = design
         if out.n < design.n_runs:
             x = design.x
@@ -177,6 +209,46 @@ class MonteCarlo(StreamingMethod):
                 space, design.n_runs)})
         return self.estimated(lambda: self.estimate_reduced(space, short, out, acc),
                               short.x, out, runner)
+
+    def check_model(self, model: Any, index: int) -> None:
+        """ConfigError for a precision target on an output the runs do not report as a
+        scalar, or on a component it does not have."""
+        target = self.settings.stop_when
+        if not isinstance(target, PrecisionTarget):
+            return
+        where = f"methods[{index}].stop_when"
+        known = self.context.outputs
+        scalars = [o for o in known if model.output_info(o).kind == "scalar"]
+        if target.output not in scalars:
+            what = "a time series" if target.output in known else "not an output of the run"
+            raise ConfigError(f"{where}.output: {target.output!r} is {what}; a precision "
+                              f"target is on a scalar output; allowed: "
+                              f"{', '.join(scalars) or 'none'}", field=f"{where}.output")
+        if target.component is not None:
+            try:
+                component_index(self._target_event(target),
+                                tuple(self.context.components[target.output]))
+            except ValueError as exc:
+                raise ConfigError(f"{where}.component: {exc}", field=f"{where}.component") \
+                    from None
+
+    @staticmethod
+    def _target_event(target: PrecisionTarget) -> EventSpec:
+        """An event on the target's output and component (to pick its column as events do)."""
+        return EventSpec(name="target", output=target.output, component=target.component,
+                         below=0.0)
+
+    def _stop(self, out: ModelOutput) -> bool:
+        """Whether the run may stop after the runs ``out`` folded so far (``stop_when``)."""
+        target = self.settings.stop_when
+        if not isinstance(target, PrecisionTarget):
+            return self._decided(out)
+        y = out.scalars[target.output][~out.failed]
+        if target.component is not None:
+            comps = tuple(self.context.components[target.output])
+            col = component_index(self._target_event(target), comps)
+            y = y[:, col:col + 1]
+        return bool(np.all(relative_se(y, target.statistic) <= target.target_rel_se))
 
     def _decided(self, out: ModelOutput) -> bool:
         """Whether the confidence sequence of every requirement excludes its target over the
@@ -300,7 +372,9 @@ class MonteCarlo(StreamingMethod):
             "sensitivity_cpu_seconds": sobol_seconds,
         }
         if self.settings.stop_when is not None:
-            diagnostics.update(stop_when=self.settings.stop_when,
+            target = self.settings.stop_when
+            diagnostics.update(stop_when=target if isinstance(target, str) else
+                               target.describe(),
                                n_samples_cap=self.settings.n_samples)
         return Estimate(
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
@@ -372,6 +446,22 @@ def poisson1(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
             break
         w += u >= c
     return w.astype(float)
+
+
+def relative_se(y: np.ndarray, statistic: str) -> np.ndarray:
+    """The delta-method standard error of a statistic of the runs ``y (n, k)`` over its
+    magnitude, by column (the SE the ``delta`` and ``tail`` intervals stand on; inf for fewer
+    than two runs or a statistic of zero, so that no target is met)."""
+    n = y.shape[0]
+    if n < 2:
+        return np.full(y.shape[1:], np.inf)
+    sums = MomentSums.of(y, comoments=False, high=True)
+    mus = tuple(m / n for m in sums.central_sums())
+    est = statistics_from_sums(sums, uncertain=False)
+    se = delta_standard_errors(mus, n)[statistic]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = se / np.abs(getattr(est, statistic))
+    return np.where(np.isfinite(rel), rel, np.inf)
 
 
 def ci_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
