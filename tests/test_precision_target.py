@@ -140,3 +140,13 @@ def test_a_stopping_run_resumes_after_ctrl_c_to_the_same_numbers(tmp_path, monke
     res = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "fx")])
     assert res.exit_code == 0
     _assert_same(_stats(tmp_path / "fx" / "fixed.h5"), got)
+
+
+def test_uqguide_methods_lists_both_forms():
+    from uqguide.methods.monte_carlo import MonteCarloSettings
+    from uqguide.report.describe import describe_settings
+
+    line = next(t for t in describe_settings(MonteCarloSettings).splitlines()
+                if t.strip().startswith("stop_when:"))
+    assert line.strip().startswith("stop_when: one of decided | {target_rel_se, statistic, "
+                                   "output, component}, or null; default null")
