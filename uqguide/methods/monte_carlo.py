@@ -25,7 +25,7 @@ from pydantic import Discriminator, Field, Tag
 from ..errors import ConfigError, MethodError
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats, ScalarIndex
-from ..core.events import EventSpec, component_index, count_events
+from ..core.events import EventEstimate, EventSpec, component_index, count_events
 from ..core.strict import StrictModel
 from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
 from ..stats.moments import MomentSums, delta_standard_errors, statistics_from_sums
@@ -197,9 +197,15 @@ class MonteCarlo(StreamingMethod):
         folded until then (the first chunks of the design: the same rows and numbers)."""
         if self.settings.stop_when is None:
             return super().propagate(space, design, runner)
+        latest: dict[str, Any] = {}
+
+        def fold(acc: dict | None, summary: dict[str, np.ndarray]) -> dict:
+            latest["acc"] = self.fold(acc, summary)  # (what the stop rule reads)
+            return latest["acc"]
+
         out, acc = runner.run(design.x, 0, self.chunks(design.n_runs, runner.batch_size),
-                              reduce=(self.reducer(space, design), self.fold),
-                              stop=self._stop)
+                              reduce=(self.reducer(space, design), fold),
+                              stop=lambda runs: self._stop(runs, latest.get("acc")))
         short = design
         if out.n < design.n_runs:
             x = design.x
@@ -238,11 +244,12 @@ class MonteCarlo(StreamingMethod):
         return EventSpec(name="target", output=target.output, component=target.component,
                          below=0.0)
 
-    def _stop(self, out: ModelOutput) -> bool:
-        """Whether the run may stop after the runs ``out`` folded so far (``stop_when``)."""
+    def _stop(self, out: ModelOutput, acc: dict | None) -> bool:
+        """Whether the run may stop after the runs ``out`` (and their sums ``acc``) folded so
+        far (``stop_when``)."""
         target = self.settings.stop_when
         if not isinstance(target, PrecisionTarget):
-            return self._decided(out)
+            return self._decided(out, acc)
         y = out.scalars[target.output][~out.failed]
         if target.component is not None:
             comps = tuple(self.context.components[target.output])
@@ -250,14 +257,29 @@ class MonteCarlo(StreamingMethod):
             y = y[:, col:col + 1]
         return bool(np.all(relative_se(y, target.statistic) <= target.target_rel_se))
 
-    def _decided(self, out: ModelOutput) -> bool:
+    def _decided(self, out: ModelOutput, acc: dict | None) -> bool:
         """Whether the confidence sequence of every requirement excludes its target over the
-        runs ``out`` folded so far."""
+        runs ``out`` (and their sums ``acc``) folded so far."""
         reqs = self.context.requirements
-        counts = count_events([r.event() for r in reqs], out.scalars, ~out.failed,
-                              dict(self.context.components))
+        counts = count_events([r.event() for r in reqs if r.time is None], out.scalars,
+                              ~out.failed, dict(self.context.components))
+        counts.update(self._timed_events(acc))
         return all(sequence_decided(counts[r.name].n_in, counts[r.name].n_used, r.confidence,
                                     r.target) for r in reqs)
+
+    def _timed_events(self, acc: dict | None) -> dict[str, EventEstimate]:
+        """The requirements at a time (``time:``) counted over the per-run values of their
+        series at its nearest step, as the reducer kept them (``t::`` entries)."""
+        out = {}
+        for r in self.context.requirements:
+            if r.time is None:
+                continue
+            comps = tuple(self.context.components[r.output])
+            lanes = (acc or {}).get(("t", r.at)) or [np.empty((len(comps), 0))]
+            y = np.concatenate(lanes, axis=1).T
+            out.update(count_events([r.event()], {r.at: y}, np.ones(y.shape[0], dtype=bool),
+                                    {r.at: comps}))
+        return out
 
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings
@@ -285,7 +307,10 @@ class MonteCarlo(StreamingMethod):
                                  self.context.report_times, self.settings.bootstrap_times,
                                  quantiles=self.context.quantile_levels is not None,
                                  n_total=design.n_runs, intervals=self.interval_kind,
-                                 sensitivity=self.sensitivity_for(space, design.n_runs))
+                                 sensitivity=self.sensitivity_for(space, design.n_runs),
+                                 at_times=tuple((r.output, r.time)
+                                                for r in self.context.requirements
+                                                if r.time is not None))
 
     def sensitivity_for(self, space: InputSpace, n_runs: int) -> bool:
         return wanted(self.settings.sensitivity, space.dim, n_runs)
@@ -357,6 +382,7 @@ class MonteCarlo(StreamingMethod):
         events = count_events(list(self.context.events), runs.scalars, ~runs.failed,
                               dict(self.context.components)) \
             if self.context.events else {}
+        events.update(self._timed_events(acc))
         names = scalar_names(runs.scalars)  # (stacking them would copy every value)
         n_ok = runs.n - n_failed
         joint = acc.get(("j", "")) if names and n_ok else None
@@ -464,13 +490,19 @@ def relative_se(y: np.ndarray, statistic: str) -> np.ndarray:
     return np.where(np.isfinite(rel), rel, np.inf)
 
 
+def nearest_step(time_grid: np.ndarray, t: float) -> int:
+    """The step of ``time_grid`` nearest ``t`` (the earlier of two as near): where a report
+    time and a requirement's ``time`` are read."""
+    return int(np.argmin(np.abs(time_grid - t)))
+
+
 def ci_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
              bootstrap_times: str) -> np.ndarray | None:
     """Time indices where a series gets bootstrap intervals: the steps nearest the report
     times and the last step (``None``: every step)."""
     if bootstrap_times == "all" or time_grid.size == 0:
         return None
-    idx = [int(np.argmin(np.abs(time_grid - t))) for t in (report_times or ())]
+    idx = [nearest_step(time_grid, t) for t in (report_times or ())]
     idx.append(time_grid.size - 1)
     return np.unique(idx)
 
@@ -500,7 +532,8 @@ class MonteCarloReducer:
     columns), ``"j:<field>:"`` (the scalars stacked, for their joint covariance), and per-run
     values in chunk order: ``"q::<output>"`` (a series at the quantile steps,
     :func:`quantile_index`) or, for the Sobol' indices without quantiles, ``"s::<output>"``
-    (at the report steps). The layout: ``docs/methods.md#inside-monte-carlo``.
+    (at the report steps), ``"t::<output>@<time>"`` (a series at a requirement's time). The
+    layout: ``docs/methods.md#inside-monte-carlo``.
     """
 
     bootstrap: int
@@ -511,6 +544,8 @@ class MonteCarloReducer:
     n_total: int = 0
     intervals: str = "tail"
     sensitivity: bool = False
+    #: ``(output, time)`` of the requirements at a time: the series' values at the nearest step
+    at_times: tuple[tuple[str, float], ...] = ()
 
     @staticmethod
     def per_run(key: str) -> bool:
@@ -559,6 +594,9 @@ class MonteCarloReducer:
             for (name, _), cols in zip(spans, blocks):
                 _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
         self._scalars_and_quantiles(summary, out, ok, keep)
+        for name, t in self.at_times:
+            y = out.series[name][keep][:, nearest_step(out.time, t)]
+            summary[f"t::{name}@{t:g}"] = np.ascontiguousarray(y.T)
         return summary
 
     def _scalars_and_quantiles(self, summary: dict[str, np.ndarray], out: ModelOutput,
@@ -580,8 +618,9 @@ class MonteCarloReducer:
             summary[f"{kind}::{name}"] = np.ascontiguousarray(kept.reshape(kept.shape[0], -1).T)
 
 
-#: Prefixes of the summary entries that hold per-run values (quantiles', sensitivity's).
-PER_RUN_KINDS = ("q::", "s::")
+#: Prefixes of the summary entries that hold per-run values (quantiles', sensitivity's, the
+#: requirements at a time').
+PER_RUN_KINDS = ("q::", "s::", "t::")
 
 
 def _put(summary: dict[str, np.ndarray], kind: str, name: str, sums: MomentSums) -> None:
