@@ -22,7 +22,7 @@ def ramp(x):
     return {"time": GRID, "y": y, "pair": np.stack([y, -y], axis=2), "gain": a}
 
 
-def _config(requirements, n=2000, **method):
+def _config(requirements, n=2000, methods=None, **method):
     m = {"name": "monte_carlo", "label": "mc", "n_samples": n, "chunk_size": 250,
          "bootstrap": 0, "sensitivity": "off", **method}
     return validate_config({
@@ -32,7 +32,7 @@ def _config(requirements, n=2000, **method):
                                                {"name": "pair", "kind": "series",
                                                 "components": 2}, "gain"]},
         "inputs": [{"name": "a", "dist": "normal", "mean": 1.0, "std": 1.0}],
-        "methods": [m], "requirements": requirements, "seed": 5})
+        "methods": methods or [m], "requirements": requirements, "seed": 5})
 
 
 def _req(name, probability, time=4.0, below=10.0, **extra):
@@ -111,3 +111,27 @@ def test_bad_times_name_the_field_the_value_and_what_is_allowed(change, message)
     with pytest.raises(ConfigError) as err:
         _config([{**_req("r", 0.9), **change}])
     assert str(err.value) == message
+
+
+def test_a_stopped_run_resumes_from_its_folder_to_the_same_verdict(tmp_path):
+    """The kept values travel in the chunks' summaries: a run folder restores them, and the
+    resumed run stops at the same chunk with the same verdict."""
+    from uqguide.driver.run_folder import RunStore, run_identity
+
+    cfg = _config([_req("at5", 0.9, time=5.0)], n=20_000, stop_when="decided")
+
+    def store(resume):
+        return RunStore.open(tmp_path / "r.run", run_identity(cfg.resolved(), cfg.model),
+                             resume=resume)
+
+    first = run(cfg, store=store(False)).runs[0]
+    again = run(cfg, store=store(True)).runs[0]
+    assert first.verdicts["at5"].verdict == "fail" and first.n_runs > 250
+    assert again.n_runs == first.n_runs and again.verdicts == first.verdicts
+
+
+def test_other_methods_state_it_undecided():
+    r = run(_config([_req("ok", 0.9)], methods=[{"name": "pce_tensor", "label": "pt",
+                                                  "surrogate_draws": 1000}])).runs[0]
+    assert (r.verdicts["ok"].verdict, r.verdicts["ok"].basis) == ("undecided",
+                                                                "no estimate of this event")
