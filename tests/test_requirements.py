@@ -339,3 +339,25 @@ def test_the_gate_refuses_a_config_or_result_without_requirements(write_config, 
     res = runner.invoke(main, ["check", str(h5), "--requirements"])
     assert res.exit_code == 2
     assert "error: the result holds no requirement verdicts" in res.output
+
+
+@pytest.mark.parametrize("stop", [None, "decided"])
+def test_a_requirement_on_one_component_of_a_multi_component_output(stop):
+    """y = (x, 2 x), x ~ N(0, 1): on component 1, P(y[1] < 3) = Phi(1.5) = 0.9332, clear of
+    0.9 (pass) and 0.97 (fail) by 6 of its standard errors at 2,000 runs (0.0056); the other
+    component's P(y[0] < 3) = 0.9987 would pass both. The estimate is the runs' own fraction."""
+    model = {"model": {"name": "linear_gaussian", "coefficients": [[1.0], [2.0]]},
+             "inputs": [{"name": "x1", "dist": "normal", "mean": 0.0, "std": 1.0}]}
+    reqs = [{"name": n, "output": "y", "component": 1, "below": 3.0, "probability": p,
+             "confidence": 0.9} for n, p in (("ok", 0.9), ("bad", 0.97))]
+    method = {"name": "monte_carlo", "label": "mc", "n_samples": 2000, "chunk_size": 250,
+              "bootstrap": 0, "sensitivity": "off"}
+    if stop:
+        method["stop_when"] = stop
+    r = run(validate_config({**model, "methods": [method], "requirements": reqs})).runs[0]
+    assert stats.norm.cdf(1.5) == pytest.approx(0.9332, abs=1e-4)
+    assert (r.verdicts["ok"].verdict, r.verdicts["bad"].verdict) == ("pass", "fail")
+    y = r.scalars["y"][~r.failed]
+    for name in ("ok", "bad"):
+        assert r.verdicts[name].estimate == np.count_nonzero(y[:, 1] < 3.0) / len(y)
+        assert r.verdicts[name].runs == len(y)

@@ -14,15 +14,24 @@ def check_report_times(report_times: list[float] | tuple[float, ...] | None,
     (more than half a step beyond either end): it would silently show the nearest step."""
     from ..errors import ConfigError
 
-    if not report_times or grid.size == 0:
+    if not report_times:
         return
-    half = 0.5 * float(np.min(np.diff(grid))) if grid.size > 1 else 0.0
-    lo, hi = float(grid[0]), float(grid[-1])
     for i, t in enumerate(report_times):
-        if t < lo - half or t > hi + half:
+        if (span := outside_grid(t, grid)) is not None:
+            lo, hi = span
             raise ConfigError(
                 f"report_times[{i}]: {t:g} s is outside the model's time grid "
                 f"[{lo:g}, {hi:g}] s; give times within it", field=f"report_times[{i}]")
+
+
+def outside_grid(t: float, grid: np.ndarray) -> tuple[float, float] | None:
+    """The grid's span ``(first, last)`` when ``t`` lies more than half a step beyond either
+    end (the nearest step would silently stand for it), else None (also for no grid)."""
+    if grid.size == 0:
+        return None
+    half = 0.5 * float(np.min(np.diff(grid))) if grid.size > 1 else 0.0
+    lo, hi = float(grid[0]), float(grid[-1])
+    return (lo, hi) if t < lo - half or t > hi + half else None
 
 
 def model_time_grid(model: Any, outputs: tuple[str, ...]) -> np.ndarray:

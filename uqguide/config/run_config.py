@@ -31,7 +31,7 @@ from ..core.strict import StrictModel, leaves
 from ..core.inputs import DISTRIBUTIONS, CorrelatedGroup, InputSpace, Marginal, Normal
 from ..core.names import PLAIN_NAME_RULE, is_plain_name
 from .limits import SIZE_RULE, DEFAULT_MAX_STEPS, check_steps, memory_limit, parse_bytes
-from .report_times import check_report_times, model_time_grid
+from .report_times import check_report_times, model_time_grid, outside_grid
 from ..methods.base import Method, RunContext
 from ..models.base import Model
 from .registry import did_you_mean, method_class, model_class
@@ -249,10 +249,11 @@ def _models(annotation: Any) -> list[type[BaseModel]]:
 
 def _is_branch(option: Any, label: str) -> bool:
     """Whether ``label`` is pydantic's name of the union branch ``option``: a discriminated
-    model's tag (``normal``) or the type's name (``int``, ``list[float]``)."""
+    model's tag (``normal``) or the type's name (``int``, ``list[float]``, a model's)."""
     if isinstance(option, type) and issubclass(option, BaseModel):
-        return any(label in typing.get_args(f.annotation) for f in option.model_fields.values()
-                   if typing.get_origin(f.annotation) is Literal)
+        return label == option.__name__ or any(
+            label in typing.get_args(f.annotation) for f in option.model_fields.values()
+            if typing.get_origin(f.annotation) is Literal)
     name = getattr(typing.get_origin(option) or option, "__name__", None)
     return label.split("[")[0] == name
 
@@ -557,10 +558,15 @@ def _check_event_specs(key: str, entries: Sequence[EventSpec | RequirementSpec],
                 f"{did_you_mean(e.output, list(outputs))}; allowed: {', '.join(outputs)}",
                 field=f"{at}.output")
         info = model.output_info(e.output)
-        if info.kind != "scalar":
-            what = "an event" if key == "events" else "a requirement"
-            raise ConfigError(f"{at}.output: {e.output!r} is a time series; {what} is defined "
-                              f"on a scalar output", field=f"{at}.output")
+        time = getattr(e, "time", None)
+        if info.kind != "scalar" and time is None:
+            what = ("an event is defined on a scalar output" if key == "events" else
+                    "give a requirement on it a time: (its value at the nearest step)")
+            raise ConfigError(f"{at}.output: {e.output!r} is a time series; {what}",
+                              field=f"{at}.output")
+        if time is not None:
+            _check_requirement_time(f"{at}.time", time, e.output, info.kind,
+                                    model_time_grid(model, (e.output,)))
         spec = e if isinstance(e, EventSpec) else e.event()
         try:
             component_index(spec, tuple(info.components))
@@ -569,6 +575,21 @@ def _check_event_specs(key: str, entries: Sequence[EventSpec | RequirementSpec],
         thr = spec.threshold()
         if not np.isfinite(thr):
             raise ConfigError(f"{at}: the threshold must be finite (got {thr!r})", field=at)
+
+
+def _check_requirement_time(where: str, time: float, output: str, kind: str,
+                            grid: np.ndarray) -> None:
+    """ConfigError naming ``where`` for a time on a scalar output or outside the series' time
+    grid (more than half a step beyond either end, as report times)."""
+    if kind == "scalar":
+        raise ConfigError(f"{where}: {time:g} s on {output!r}, a scalar output; time: is "
+                          f"allowed on a time series output only, remove it", field=where)
+    if not np.isfinite(time):
+        raise ConfigError(f"{where}: must be a finite time (got {time!r})", field=where)
+    if (span := outside_grid(time, grid)) is not None:
+        lo, hi = span
+        raise ConfigError(f"{where}: {time:g} s is outside the time grid of {output!r} "
+                          f"[{lo:g}, {hi:g}] s; give a time within it", field=where)
 
 
 def _first_path(node: Any, bad: Callable[[Any], bool], path: str = "") -> tuple[str, Any] | None:
@@ -740,7 +761,9 @@ def _run_context(raw: RawConfig, model: Model, outputs: tuple[str, ...],
         report_times=tuple(raw.report_times) if raw.report_times else None,
         failure_policy=raw.pce_failure_policy,
         quantile_levels=resolve_levels(raw.quantiles),
-        events=tuple(raw.events) + tuple(r.event() for r in raw.requirements),
+        # (a requirement at a time is counted by the methods that keep series values per run)
+        events=tuple(raw.events) + tuple(r.event() for r in raw.requirements
+                                         if r.time is None),
         requirements=tuple(raw.requirements),
         components=MappingProxyType({o: tuple(model.output_info(o).components)
                                      for o in outputs}),

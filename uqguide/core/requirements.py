@@ -27,6 +27,8 @@ class RequirementSpec(StrictModel):
     quantile: float | None = Field(default=None, gt=0.0, lt=1.0)
     #: at least one half: a lower confidence bound below the estimate
     confidence: float = Field(ge=0.5, lt=1.0)
+    #: [s] a series output: judged on its value at the step nearest this time
+    time: float | None = None
 
     @model_validator(mode="after")
     def _one_each(self) -> RequirementSpec:
@@ -49,9 +51,15 @@ class RequirementSpec(StrictModel):
         assert self.quantile is not None, "validated: exactly one of probability, quantile"
         return float(self.quantile) if self.below is not None else 1.0 - float(self.quantile)
 
+    @property
+    def at(self) -> str:
+        """The output the event is counted on: ``output``, or ``output@time`` (the series'
+        value at the step nearest ``time``, one value per run)."""
+        return self.output if self.time is None else f"{self.output}@{self.time:g}"
+
     def event(self) -> EventSpec:
         """The success event, named as the requirement."""
-        return EventSpec(name=self.name, output=self.output, component=self.component,
+        return EventSpec(name=self.name, output=self.at, component=self.component,
                          below=self.below, above=self.above)
 
     def describe(self) -> str:
@@ -59,6 +67,6 @@ class RequirementSpec(StrictModel):
         if self.quantile is not None:
             comp = f"[{self.component}]" if self.component is not None else ""
             op, thr = ("<", self.below) if self.below is not None else (">", self.above)
-            return (f"q{self.quantile:g}({self.output}{comp}) {op} {thr:g} "
+            return (f"q{self.quantile:g}({self.at}{comp}) {op} {thr:g} "
                     f"at {100 * self.confidence:g}%")
         return f"P({self.event().describe()}) >= {self.target:g} at {100 * self.confidence:g}%"

@@ -17,17 +17,18 @@ import zlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-from pydantic import Field
+from pydantic import Discriminator, Field, Tag
 
 from ..errors import ConfigError, MethodError
 from ..core.inputs import InputSpace
 from ..core.types import Estimate, GeneratedRows, ModelOutput, OutputStats, ScalarIndex
-from ..core.events import count_events
+from ..core.events import EventEstimate, EventSpec, component_index, count_events
+from ..core.strict import StrictModel
 from ..stats.quantiles import lane_quantiles, order_statistic_quantiles
-from ..stats.moments import MomentSums, statistics_from_sums
+from ..stats.moments import MomentSums, delta_standard_errors, statistics_from_sums
 from ..stats.verdicts import sequence_decided
 from .base import Design, MethodSettings, Propagated, Runner, RunPlan, StreamingMethod
 
@@ -42,6 +43,33 @@ U_EPS = 2.0**-53
 #: Rows per chunk of ``monte_carlo`` by default: what a vectorised model is called with (and
 #: the least ``mfmc`` calls it with, so that both pay the same per run).
 CHUNK_ROWS = 8192
+
+
+class PrecisionTarget(StrictModel):
+    """``stop_when: {target_rel_se, statistic, output}``: stop once the statistic of a scalar
+    output is known to this relative standard error (delta method, :func:`relative_se`)."""
+
+    target_rel_se: float = Field(gt=0.0, lt=1.0, description="the relative standard error "
+                                                             "to reach")
+    statistic: Literal["mean", "std", "skewness", "kurtosis"] = "std"
+    output: str
+    #: a multi-component output: one of its components (None: every component must reach it)
+    component: int | str | None = None
+
+    def describe(self) -> str:
+        """E.g. ``"rel. SE of std(zem) <= 0.01"`` (stored in the diagnostics)."""
+        comp = f"[{self.component}]" if self.component is not None else ""
+        return f"rel. SE of {self.statistic}({self.output}{comp}) <= {self.target_rel_se:g}"
+
+
+def _stop_kind(v: Any) -> str:
+    return "PrecisionTarget" if isinstance(v, (dict, PrecisionTarget)) else "decided"
+
+
+#: A mapping is a precision target (its errors name its keys), anything else the word.
+StopWhen = Annotated[Union[Annotated[Literal["decided"], Tag("decided")],
+                           Annotated[PrecisionTarget, Tag("PrecisionTarget")]],
+                     Discriminator(_stop_kind)]
 
 
 class MonteCarloSettings(MethodSettings):
@@ -67,10 +95,13 @@ class MonteCarloSettings(MethodSettings):
         default="auto", description="given-data first-order Sobol' indices with 95% intervals "
                                     "(the error budget): auto when the inputs are at most 50 "
                                     "and the runs from 500 to 1e6")
-    stop_when: Literal["decided"] | None = Field(
+    stop_when: StopWhen | None = Field(
         default=None, description="decided: stop after the first chunk at which every "
                                   "requirement of the config is decided by its confidence "
-                                  "sequence (n_samples is the cap; docs/requirements.md)")
+                                  "sequence; or a precision target {target_rel_se, statistic, "
+                                  "output}: stop after the first chunk at which the statistic's "
+                                  "relative standard error is at most the target (n_samples is "
+                                  "the cap; docs/requirements.md)")
 
 
 def method_seed(seed: int, label: str, *keys: int) -> np.random.SeedSequence:
@@ -153,7 +184,8 @@ class MonteCarlo(StreamingMethod):
 
     def check(self, index: int) -> None:
         """ConfigError for ``stop_when: decided`` without requirements to decide."""
-        if self.settings.stop_when is not None and not self.context.requirements:
+        target = self.settings.stop_when
+        if target == "decided" and not self.context.requirements:
             where = f"methods[{index}].stop_when"
             raise ConfigError(f"{where}: 'decided' stops when every requirement is decided, "
                               f"and the config lists no requirements; add requirements: or "
@@ -165,9 +197,15 @@ class MonteCarlo(StreamingMethod):
         folded until then (the first chunks of the design: the same rows and numbers)."""
         if self.settings.stop_when is None:
             return super().propagate(space, design, runner)
+        latest: dict[str, Any] = {}
+
+        def fold(acc: dict | None, summary: dict[str, np.ndarray]) -> dict:
+            latest["acc"] = self.fold(acc, summary)  # (what the stop rule reads)
+            return latest["acc"]
+
         out, acc = runner.run(design.x, 0, self.chunks(design.n_runs, runner.batch_size),
-                              reduce=(self.reducer(space, design), self.fold),
-                              stop=self._decided)
+                              reduce=(self.reducer(space, design), fold),
+                              stop=lambda runs: self._stop(runs, latest.get("acc")))
         short = design
         if out.n < design.n_runs:
             x = design.x
@@ -178,14 +216,70 @@ class MonteCarlo(StreamingMethod):
         return self.estimated(lambda: self.estimate_reduced(space, short, out, acc),
                               short.x, out, runner)
 
-    def _decided(self, out: ModelOutput) -> bool:
+    def check_model(self, model: Any, index: int) -> None:
+        """ConfigError for a precision target on an output the runs do not report as a
+        scalar, or on a component it does not have."""
+        target = self.settings.stop_when
+        if not isinstance(target, PrecisionTarget):
+            return
+        where = f"methods[{index}].stop_when"
+        known = self.context.outputs
+        scalars = [o for o in known if model.output_info(o).kind == "scalar"]
+        if target.output not in scalars:
+            what = "a time series" if target.output in known else "not an output of the run"
+            raise ConfigError(f"{where}.output: {target.output!r} is {what}; a precision "
+                              f"target is on a scalar output; allowed: "
+                              f"{', '.join(scalars) or 'none'}", field=f"{where}.output")
+        if target.component is not None:
+            try:
+                component_index(self._target_event(target),
+                                tuple(self.context.components[target.output]))
+            except ValueError as exc:
+                raise ConfigError(f"{where}.component: {exc}", field=f"{where}.component") \
+                    from None
+
+    @staticmethod
+    def _target_event(target: PrecisionTarget) -> EventSpec:
+        """An event on the target's output and component (to pick its column as events do)."""
+        return EventSpec(name="target", output=target.output, component=target.component,
+                         below=0.0)
+
+    def _stop(self, out: ModelOutput, acc: dict | None) -> bool:
+        """Whether the run may stop after the runs ``out`` (and their sums ``acc``) folded so
+        far (``stop_when``)."""
+        target = self.settings.stop_when
+        if not isinstance(target, PrecisionTarget):
+            return self._decided(out, acc)
+        y = out.scalars[target.output][~out.failed]
+        if target.component is not None:
+            comps = tuple(self.context.components[target.output])
+            col = component_index(self._target_event(target), comps)
+            y = y[:, col:col + 1]
+        return bool(np.all(relative_se(y, target.statistic) <= target.target_rel_se))
+
+    def _decided(self, out: ModelOutput, acc: dict | None) -> bool:
         """Whether the confidence sequence of every requirement excludes its target over the
-        runs ``out`` folded so far."""
+        runs ``out`` (and their sums ``acc``) folded so far."""
         reqs = self.context.requirements
-        counts = count_events([r.event() for r in reqs], out.scalars, ~out.failed,
-                              dict(self.context.components))
+        counts = count_events([r.event() for r in reqs if r.time is None], out.scalars,
+                              ~out.failed, dict(self.context.components))
+        counts.update(self._timed_events(acc))
         return all(sequence_decided(counts[r.name].n_in, counts[r.name].n_used, r.confidence,
                                     r.target) for r in reqs)
+
+    def _timed_events(self, acc: dict | None) -> dict[str, EventEstimate]:
+        """The requirements at a time (``time:``) counted over the per-run values of their
+        series at its nearest step, as the reducer kept them (``t::`` entries)."""
+        out = {}
+        for r in self.context.requirements:
+            if r.time is None:
+                continue
+            comps = tuple(self.context.components[r.output])
+            lanes = (acc or {}).get(("t", r.at)) or [np.empty((len(comps), 0))]
+            y = np.concatenate(lanes, axis=1).T
+            out.update(count_events([r.event()], {r.at: y}, np.ones(y.shape[0], dtype=bool),
+                                    {r.at: comps}))
+        return out
 
     def design(self, space: InputSpace, seed: int) -> Design:
         s = self.settings
@@ -213,7 +307,10 @@ class MonteCarlo(StreamingMethod):
                                  self.context.report_times, self.settings.bootstrap_times,
                                  quantiles=self.context.quantile_levels is not None,
                                  n_total=design.n_runs, intervals=self.interval_kind,
-                                 sensitivity=self.sensitivity_for(space, design.n_runs))
+                                 sensitivity=self.sensitivity_for(space, design.n_runs),
+                                 at_times=tuple((r.output, r.time)
+                                                for r in self.context.requirements
+                                                if r.time is not None))
 
     def sensitivity_for(self, space: InputSpace, n_runs: int) -> bool:
         return wanted(self.settings.sensitivity, space.dim, n_runs)
@@ -285,6 +382,7 @@ class MonteCarlo(StreamingMethod):
         events = count_events(list(self.context.events), runs.scalars, ~runs.failed,
                               dict(self.context.components)) \
             if self.context.events else {}
+        events.update(self._timed_events(acc))
         names = scalar_names(runs.scalars)  # (stacking them would copy every value)
         n_ok = runs.n - n_failed
         joint = acc.get(("j", "")) if names and n_ok else None
@@ -300,7 +398,9 @@ class MonteCarlo(StreamingMethod):
             "sensitivity_cpu_seconds": sobol_seconds,
         }
         if self.settings.stop_when is not None:
-            diagnostics.update(stop_when=self.settings.stop_when,
+            target = self.settings.stop_when
+            diagnostics.update(stop_when=target if isinstance(target, str) else
+                               target.describe(),
                                n_samples_cap=self.settings.n_samples)
         return Estimate(
             method=self.name, label=self.label, stats=stats, diagnostics=diagnostics,
@@ -374,13 +474,35 @@ def poisson1(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
     return w.astype(float)
 
 
+def relative_se(y: np.ndarray, statistic: str) -> np.ndarray:
+    """The delta-method standard error of a statistic of the runs ``y (n, k)`` over its
+    magnitude, by column (the SE the ``delta`` and ``tail`` intervals stand on; inf for fewer
+    than two runs or a statistic of zero, so that no target is met)."""
+    n = y.shape[0]
+    if n < 2:
+        return np.full(y.shape[1:], np.inf)
+    sums = MomentSums.of(y, comoments=False, high=True)
+    mus = tuple(m / n for m in sums.central_sums())
+    est = statistics_from_sums(sums, uncertain=False)
+    se = delta_standard_errors(mus, n)[statistic]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = se / np.abs(getattr(est, statistic))
+    return np.where(np.isfinite(rel), rel, np.inf)
+
+
+def nearest_step(time_grid: np.ndarray, t: float) -> int:
+    """The step of ``time_grid`` nearest ``t`` (the earlier of two as near): where a report
+    time and a requirement's ``time`` are read."""
+    return int(np.argmin(np.abs(time_grid - t)))
+
+
 def ci_index(time_grid: np.ndarray, report_times: tuple[float, ...] | None,
              bootstrap_times: str) -> np.ndarray | None:
     """Time indices where a series gets bootstrap intervals: the steps nearest the report
     times and the last step (``None``: every step)."""
     if bootstrap_times == "all" or time_grid.size == 0:
         return None
-    idx = [int(np.argmin(np.abs(time_grid - t))) for t in (report_times or ())]
+    idx = [nearest_step(time_grid, t) for t in (report_times or ())]
     idx.append(time_grid.size - 1)
     return np.unique(idx)
 
@@ -410,7 +532,8 @@ class MonteCarloReducer:
     columns), ``"j:<field>:"`` (the scalars stacked, for their joint covariance), and per-run
     values in chunk order: ``"q::<output>"`` (a series at the quantile steps,
     :func:`quantile_index`) or, for the Sobol' indices without quantiles, ``"s::<output>"``
-    (at the report steps). The layout: ``docs/methods.md#inside-monte-carlo``.
+    (at the report steps), ``"t::<output>@<time>"`` (a series at a requirement's time). The
+    layout: ``docs/methods.md#inside-monte-carlo``.
     """
 
     bootstrap: int
@@ -421,6 +544,8 @@ class MonteCarloReducer:
     n_total: int = 0
     intervals: str = "tail"
     sensitivity: bool = False
+    #: ``(output, time)`` of the requirements at a time: the series' values at the nearest step
+    at_times: tuple[tuple[str, float], ...] = ()
 
     @staticmethod
     def per_run(key: str) -> bool:
@@ -469,6 +594,9 @@ class MonteCarloReducer:
             for (name, _), cols in zip(spans, blocks):
                 _put(summary, "h", name, MomentSums.of(cols, comoments=False, high=True))
         self._scalars_and_quantiles(summary, out, ok, keep)
+        for name, t in self.at_times:
+            y = out.series[name][keep][:, nearest_step(out.time, t)]
+            summary[f"t::{name}@{t:g}"] = np.ascontiguousarray(y.T)
         return summary
 
     def _scalars_and_quantiles(self, summary: dict[str, np.ndarray], out: ModelOutput,
@@ -490,8 +618,9 @@ class MonteCarloReducer:
             summary[f"{kind}::{name}"] = np.ascontiguousarray(kept.reshape(kept.shape[0], -1).T)
 
 
-#: Prefixes of the summary entries that hold per-run values (quantiles', sensitivity's).
-PER_RUN_KINDS = ("q::", "s::")
+#: Prefixes of the summary entries that hold per-run values (quantiles', sensitivity's, the
+#: requirements at a time').
+PER_RUN_KINDS = ("q::", "s::", "t::")
 
 
 def _put(summary: dict[str, np.ndarray], kind: str, name: str, sums: MomentSums) -> None:

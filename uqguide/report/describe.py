@@ -5,7 +5,7 @@ from __future__ import annotations
 import inspect
 import re
 from types import UnionType
-from typing import Any, Literal, Union, get_args, get_origin
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
@@ -58,10 +58,18 @@ def _allowed(annotation: Any, metadata: list[Any]) -> str:
     """The values a field accepts, in the config's words."""
     args = [a for a in get_args(annotation) if a is not type(None)]
     optional = type(None) in get_args(annotation)
+    if get_origin(annotation) is Annotated:  # (a tagged union's branch, or the union)
+        return _allowed(get_args(annotation)[0], metadata)
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return "{" + ", ".join(annotation.model_fields) + "}"
     if get_origin(annotation) is Literal:
         return "one of " + " | ".join(str(a) for a in get_args(annotation))
     if args and get_origin(annotation) in (Union, UnionType) and len(args) == 1:
         inner = _allowed(args[0], metadata)
+        return f"{inner}, or null" if optional else inner
+    if args and get_origin(annotation) in (Union, UnionType) and any(
+            get_origin(a) is Annotated for a in args):  # a tagged union: each branch's values
+        inner = " | ".join(_allowed(a, metadata) for a in args)
         return f"{inner}, or null" if optional else inner
     if annotation is bool:
         return "true | false"
