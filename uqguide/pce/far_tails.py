@@ -28,9 +28,9 @@ BATCHES = 32
 #: Standard errors of the draws' estimate beyond which the exact value is not the draws'.
 FAR_FACTOR = 6.0
 _STATS = ("mean", "std", "skewness", "kurtosis")
-#: Draws x columns of a block the statistics' temporaries span (32 MB each), so that a long
+#: Draws x columns of a block the statistics' temporaries span (8 MB each), so that a long
 #: series' peak memory is the draws themselves (docs/performance.md#series-memory).
-_CHUNK_FLOATS = 2**22
+_CHUNK_FLOATS = 2**20
 
 
 def can_swing(exp: Expansion) -> bool:
