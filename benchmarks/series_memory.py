@@ -103,7 +103,8 @@ def main() -> None:
     if args.one:
         print(json.dumps(measure(args.steps[0])))
         return
-    print(f"{'T':>5} {'runs':>5} {'fit CPU-s':>10} {'wall s':>7} {'peak MiB':>9} {'load':>5}  stats")
+    print(f"{'T':>5} {'runs':>5} {'fit CPU-s':>10} {'wall s':>7} {'peak MiB':>9} {'load':>5}"
+          "  stats")
     for steps in args.steps:
         r = _spawn(steps)
         print(f"{r['T']:>5} {r['runs']:>5} {r['cpu_s']:>10.1f} {r['wall_s']:>7.1f} "

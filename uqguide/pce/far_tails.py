@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.types import OutputStats
-from ..stats.moments import central_moments, shape_moments
+from ..stats.moments import central_moments, column_blocks, shape_moments
 from .expansion import Expansion
 from .germ import NORMAL
 from .validation import MATERIAL
@@ -49,14 +49,8 @@ def far_draws(columns: int) -> int:
 
 
 def _blocks(rows: int, cols: int) -> list[slice]:
-    """Column blocks of about :data:`_CHUNK_FLOATS` values; none of one column unless there is
-    one (NumPy sums a lone column pairwise, a wider block row by row: each column's arithmetic
-    stays that of the whole array)."""
-    step = max(2, _CHUNK_FLOATS // max(rows, 1))
-    starts = list(range(0, cols, step))
-    if len(starts) > 1 and cols - starts[-1] == 1:
-        starts.pop()
-    return [slice(a, b) for a, b in zip(starts, starts[1:] + [cols])]
+    """Column blocks of about :data:`_CHUNK_FLOATS` values of ``rows`` draws."""
+    return column_blocks(cols, _CHUNK_FLOATS // max(rows, 1))
 
 
 def _stats(v: np.ndarray) -> np.ndarray:

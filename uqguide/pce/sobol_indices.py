@@ -18,6 +18,7 @@ from threadpoolctl import threadpool_limits
 
 from ..core.inputs import InputSpace, split_groups
 from ..core.types import OutputStats
+from ..stats.moments import column_blocks
 from .expansion import Expansion
 
 #: Bootstrap replicates behind a regression PCE's intervals (the 2.5% and 97.5% points of 200
@@ -129,8 +130,7 @@ def bootstrap_intervals(exp: Expansion, cores: np.ndarray, sets: np.ndarray) -> 
     # the replicates' coefficients (B, P, columns) are the largest array, not the indices
     step = max(1, _CHUNK_FLOATS // max(1, n_boot * max(sets.shape[1], cores.shape[1])))
     point = ratios(exp.coef, sets)                          # (m, S)
-    for a in range(0, m, step):
-        cols = slice(a, min(m, a + step))
+    for cols in column_blocks(m, step):
         coef = cores if exp.mix is None else cores @ exp.mix[:, cols]
         if exp.mix is None:
             coef = coef[:, :, cols]
