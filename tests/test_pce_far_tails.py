@@ -9,6 +9,7 @@ from scipy import stats
 
 import uqguide
 from uqguide.core.types import OutputStats
+from uqguide.pce import far_tails
 from uqguide.pce.credibility import printed, widen
 from uqguide.pce.far_tails import (BATCHES, FAR_FACTOR, beyond_the_runs, far_draws,
                                   replace_far_tails)
@@ -167,3 +168,19 @@ def test_the_kinked_ramp_prints_no_std_its_far_tails_carry(seed):
                 continue
             lo, hi = ci[:, i, 0]
             assert abs(value[i, 0] - exact) <= (hi - lo), (t, value[i, 0], lo, hi, exact)
+
+
+def test_the_draws_statistics_do_not_depend_on_the_column_blocks(monkeypatch):
+    """A long series' draws are reduced a block of columns at a time (the peak memory is the
+    draws'): blocks of 3 and 4 columns give the bits of the whole array, a lone last column
+    (NumPy sums one column pairwise) never appears."""
+    from uqguide.stats.moments import central_moments, column_blocks, shape_moments
+    assert column_blocks(7, 3) == [slice(0, 3), slice(3, 7)]
+    assert column_blocks(1, 3) == [slice(0, 1)]
+    assert column_blocks(6, 1) == [slice(0, 2), slice(2, 4), slice(4, 6)]
+    v = np.random.default_rng(2).standard_t(4, size=(64, 7))
+    mean, mu2, mu3, mu4 = central_moments(v)
+    whole = np.array([mean, *shape_moments(mean, mu2, mu3, mu4)])
+    monkeypatch.setattr(far_tails, "_CHUNK_FLOATS", 64 * 3)
+    assert far_tails._blocks(64, 7) == [slice(0, 3), slice(3, 7)]
+    assert np.array_equal(far_tails._stats(v), whole)

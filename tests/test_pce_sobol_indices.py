@@ -30,8 +30,9 @@ from uqguide.models.base import InputInfo, Model, ModelParams, OutputInfo
 from uqguide.core.types import ModelOutput, OutputStats
 from uqguide.pce.expansion import Expansion
 from uqguide.pce.germ import Germ
+from uqguide.pce import sobol_indices
 from uqguide.pce.sobol_indices import (
-    ROUND_OFF, expansion_indices, term_sets, truncation_bounds,
+    ROUND_OFF, bootstrap_intervals, expansion_indices, term_sets, truncation_bounds,
 )
 
 from .test_pce_helpers import normal_space, run_method
@@ -332,3 +333,19 @@ def test_validation_runs_carry_the_selection_error_into_the_intervals():
         misses += int(np.sum(~((f_ci[0] <= first) & (first <= f_ci[1]))))
         misses += int(np.sum(~((t_ci[0] <= total) & (total <= t_ci[1]))))
     assert misses <= 4, misses
+
+
+def test_the_bootstrap_intervals_do_not_depend_on_the_column_blocks(monkeypatch):
+    """A series' replicates are mixed and reduced a block of columns at a time (the peak
+    memory stays linear in T): blocks of 2-3 columns give the bits of one block of all 7."""
+    rng = np.random.default_rng(5)
+    alpha = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [2, 0, 0],
+                      [0, 1, 2], [1, 1, 1]])
+    exp = Expansion(Germ.of(normal_space(3)), alpha, rng.normal(size=(8, 3)), (7,),
+                    rng.normal(size=(3, 7)))
+    cores = exp.core[None] + 0.1 * rng.normal(size=(40, 8, 3))
+    sets = term_sets(alpha)
+    whole = bootstrap_intervals(exp, cores, sets)
+    # 40 replicates x 8 terms: 3 columns a block, the last one 4 rather than a lone column
+    monkeypatch.setattr(sobol_indices, "_CHUNK_FLOATS", 40 * 8 * 3)
+    assert np.array_equal(bootstrap_intervals(exp, cores, sets), whole, equal_nan=True)

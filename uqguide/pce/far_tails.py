@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.types import OutputStats
-from ..stats.moments import central_moments, shape_moments
+from ..stats.moments import central_moments, column_blocks, shape_moments
 from .expansion import Expansion
 from .germ import NORMAL
 from .validation import MATERIAL
@@ -28,6 +28,9 @@ BATCHES = 32
 #: Standard errors of the draws' estimate beyond which the exact value is not the draws'.
 FAR_FACTOR = 6.0
 _STATS = ("mean", "std", "skewness", "kurtosis")
+#: Draws x columns of a block the statistics' temporaries span (8 MB each), so that a long
+#: series' peak memory is the draws themselves (docs/performance.md#series-memory).
+_CHUNK_FLOATS = 2**20
 
 
 def can_swing(exp: Expansion) -> bool:
@@ -45,10 +48,18 @@ def far_draws(columns: int) -> int:
     return m - m % BATCHES
 
 
+def _blocks(rows: int, cols: int) -> list[slice]:
+    """Column blocks of about :data:`_CHUNK_FLOATS` values of ``rows`` draws."""
+    return column_blocks(cols, _CHUNK_FLOATS // max(rows, 1))
+
+
 def _stats(v: np.ndarray) -> np.ndarray:
     """Mean, std, skewness, kurtosis ``(4, cols)`` of draws ``(n, cols)``."""
-    mean, mu2, mu3, mu4 = central_moments(v)
-    return np.array([mean, *shape_moments(mean, mu2, mu3, mu4)])
+    out = np.empty((4, v.shape[1]))
+    for cols in _blocks(*v.shape):
+        mean, mu2, mu3, mu4 = central_moments(v[:, cols])
+        out[:, cols] = [mean, *shape_moments(mean, mu2, mu3, mu4)]
+    return out
 
 
 def replace_far_tails(st: OutputStats, draws: np.ndarray) -> np.ndarray:
@@ -59,11 +70,13 @@ def replace_far_tails(st: OutputStats, draws: np.ndarray) -> np.ndarray:
     """
     shape = np.shape(st.mean)
     m = draws.shape[0]
-    w = draws.reshape(m, -1).astype(float)
+    w = np.asarray(draws.reshape(m, -1), dtype=float)
     full = _stats(w)
     b = w.reshape(BATCHES, m // BATCHES, -1)
     b_mean = b.mean(axis=1)
-    b_std = np.sqrt(np.mean((b - b_mean[:, None]) ** 2, axis=1))
+    b_std = np.empty_like(b_mean)
+    for c in _blocks(m, w.shape[1]):
+        b_std[:, c] = np.sqrt(np.mean((b[:, :, c] - b_mean[:, None, c]) ** 2, axis=1))
     se = np.full(full.shape, np.nan)
     se[0] = b_mean.std(axis=0, ddof=1) / np.sqrt(BATCHES)
     se[1] = b_std.std(axis=0, ddof=1) / np.sqrt(BATCHES)
@@ -107,7 +120,7 @@ def beyond_the_runs(draws: np.ndarray, clipped: np.ndarray) -> dict[str, np.ndar
     """
     m = draws.shape[0]
     shape = draws.shape[1:]
-    a = _stats(draws.reshape(m, -1).astype(float))
-    b = _stats(clipped.reshape(m, -1).astype(float))
+    a = _stats(np.asarray(draws.reshape(m, -1), dtype=float))
+    b = _stats(np.asarray(clipped.reshape(m, -1), dtype=float))
     diff = np.nan_to_num(np.abs(a - b))
     return {k: diff[i].reshape(shape) for i, k in enumerate(_STATS)}

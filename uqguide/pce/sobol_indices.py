@@ -18,6 +18,7 @@ from threadpoolctl import threadpool_limits
 
 from ..core.inputs import InputSpace, split_groups
 from ..core.types import OutputStats
+from ..stats.moments import column_blocks
 from .expansion import Expansion
 
 #: Bootstrap replicates behind a regression PCE's intervals (the 2.5% and 97.5% points of 200
@@ -28,7 +29,7 @@ BOOTSTRAP_STREAM = 3
 #: The least half-width of a bootstrap interval: the round-off of indices from a least-squares
 #: fit (about 1e-10 on Ishigami, which the expansion represents exactly).
 ROUND_OFF = 1e-8
-_CHUNK_FLOATS = 2**22  # replicates x columns x index sets held at once (32 MB)
+_CHUNK_FLOATS = 2**22  # replicates x columns x (terms or index sets) held at once (32 MB)
 
 
 @dataclass
@@ -126,10 +127,10 @@ def bootstrap_intervals(exp: Expansion, cores: np.ndarray, sets: np.ndarray) -> 
     m = exp.n_columns
     n_boot = cores.shape[0]
     out = np.full((2, m, sets.shape[1]), np.nan)
-    step = max(1, _CHUNK_FLOATS // max(1, n_boot * sets.shape[1]))
+    # the replicates' coefficients (B, P, columns) are the largest array, not the indices
+    step = max(1, _CHUNK_FLOATS // max(1, n_boot * max(sets.shape[1], cores.shape[1])))
     point = ratios(exp.coef, sets)                          # (m, S)
-    for a in range(0, m, step):
-        cols = slice(a, min(m, a + step))
+    for cols in column_blocks(m, step):
         coef = cores if exp.mix is None else cores @ exp.mix[:, cols]
         if exp.mix is None:
             coef = coef[:, :, cols]

@@ -40,8 +40,8 @@ def _quiet_overflow(f: Callable[_P, _R]) -> Callable[_P, _R]:
     return quiet
 
 __all__ = ["STAT_NAMES", "MomentSums", "OutputStats", "bootstrap_intervals", "central_moments",
-           "covariance", "overflowed", "quiet_overflow", "sample_statistics", "shape_moments",
-           "statistics_from_sums"]
+           "column_blocks", "covariance", "overflowed", "quiet_overflow", "sample_statistics",
+           "shape_moments", "statistics_from_sums"]
 
 
 def shape_moments(mean: np.ndarray, mu2: np.ndarray, mu3: np.ndarray, mu4: np.ndarray
@@ -93,6 +93,16 @@ def founded(n: int, std: np.ndarray, skew: np.ndarray, kurt: np.ndarray,
 
 
 @_quiet_overflow
+def column_blocks(cols: int, step: int) -> list[slice]:
+    """``cols`` columns in blocks of ``step`` (at least 2), the last one wider rather than a
+    lone column: NumPy reduces a lone column pairwise, a wider block row by row, so each
+    column's arithmetic is that of the whole array in every block."""
+    starts = list(range(0, cols, max(2, step)))
+    if len(starts) > 1 and cols - starts[-1] == 1:
+        starts.pop()
+    return [slice(a, b) for a, b in zip(starts, starts[1:] + [cols])]
+
+
 def central_moments(y: np.ndarray, axis: int = 0
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Mean and central moments 2-4 of ``y`` along ``axis`` (population estimators, two-pass);
